@@ -1,0 +1,47 @@
+# Set-up and checks. `make demo` and `make test` are all a fresh clone needs.
+# The ROS wheels exist for Python 3.10-3.12: take python3 if it is one of those, else the first
+# of python3.12/3.11/3.10 that runs (version managers install shims that may not).
+PYTHON ?= $(shell for p in python3 python3.12 python3.11 python3.10; do \
+	$$p -c 'import sys; sys.exit(not (3, 10) <= sys.version_info[:2] <= (3, 12))' >/dev/null 2>&1 \
+	&& echo $$p && break; done)
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: install test lint typecheck unit demo bench generate check-generated clean
+
+$(STAMP): pyproject.toml
+	@test -n "$(PYTHON)" || { echo "need python3.10, 3.11 or 3.12 (the ROS 2 Jazzy wheels)"; exit 1; }
+	$(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e '.[ros,dev]'
+	touch $(STAMP)
+
+install: $(STAMP)
+
+lint: install
+	$(BIN)/ruff check src codegen tests bench examples
+	$(BIN)/ruff format --check src codegen
+
+typecheck: install
+	$(BIN)/mypy
+
+unit: install
+	$(BIN)/pytest -q
+
+test: lint typecheck unit
+
+demo: install
+	$(BIN)/python -m examples.demo
+
+bench: install
+	$(BIN)/python -m bench
+
+generate: install
+	$(BIN)/codecgen build
+
+check-generated: install
+	$(BIN)/codecgen check
+
+clean:
+	rm -rf $(VENV) .mypy_cache .pytest_cache .ruff_cache

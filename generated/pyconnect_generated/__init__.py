@@ -1,0 +1,1 @@
+"""Generated codec modules (codecgen output). Never edited by hand: run `codecgen build`."""

@@ -1,0 +1,81 @@
+"""Codecs between ROS messages and natural Python values, found through a registry.
+
+``lookup`` a codec by class or name, or use the module-level shortcuts that act on the
+``default_registry``. This package imports without rclpy; only message classes are needed to
+build messages, and the wire codecs (``pyconnect.codecs.wire``) need none.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import TYPE_CHECKING, Any
+
+from pyconnect.codecs.base import ActionCodec, Codec, DictCodec, ServiceCodec
+from pyconnect.codecs.registry import AnyCodec, Registry, default_registry
+from pyconnect.codecs.stamped import Stamped
+
+if TYPE_CHECKING:
+    from pyconnect.codecs import wire as wire
+
+__all__ = [
+    "ActionCodec",
+    "AnyCodec",
+    "Codec",
+    "DictCodec",
+    "Registry",
+    "ServiceCodec",
+    "Stamped",
+    "decode",
+    "default_registry",
+    "encode",
+    "from_dict",
+    "lookup",
+    "register",
+    "to_dict",
+    "unregister",
+    "wire",
+]
+
+
+def lookup(type_ref: object) -> AnyCodec:
+    """The codec of a class, ``"pkg/msg/Name"`` or ``"pkg/Name"`` in the default registry."""
+    return default_registry.lookup(type_ref)
+
+
+def decode(msg: Any, *, stamped: bool = False) -> Any:
+    """Decode a ROS message to its natural value (``stamped=True`` gives a ``Stamped``)."""
+    return default_registry.decode(msg, stamped=stamped)
+
+
+def encode(value: Any, type_ref: object) -> Any:
+    """Encode a natural value (or a ``Stamped``) to a new message of ``type_ref``."""
+    return default_registry.encode(value, type_ref)
+
+
+def to_dict(msg: Any) -> dict[str, Any]:
+    """The lossless plain dict of any message."""
+    return default_registry.to_dict(msg)
+
+
+def from_dict(data: Mapping[str, Any], type_ref: object) -> Any:
+    """A new message of ``type_ref`` from a plain dict; missing keys take the defaults."""
+    return default_registry.from_dict(data, type_ref)
+
+
+def register(type_ref: object, codec: Codec, *, override: bool = False) -> None:
+    """Register a user codec in the default registry; user codecs win over built-in ones."""
+    default_registry.register(type_ref, codec, override=override)
+
+
+def unregister(type_ref: object) -> None:
+    """Remove a user codec from the default registry."""
+    default_registry.unregister(type_ref)
+
+
+def __getattr__(name: str) -> Any:
+    # `codecs.wire` is imported on first use so that plain lookups stay light.
+    if name == "wire":
+        import importlib
+
+        return importlib.import_module("pyconnect.codecs.wire")
+    raise AttributeError(f"module 'pyconnect.codecs' has no attribute {name!r}")

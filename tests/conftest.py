@@ -1,0 +1,11 @@
+"""Test-wide set-up: every ROS test runs in its own DDS domain, on localhost only."""
+
+from __future__ import annotations
+
+import os
+
+# Set before rclpy is imported anywhere, so no test joins another run's graph. A caller may pin
+# the domain (parallel suites); otherwise the process id spreads concurrent runs apart.
+os.environ.setdefault("ROS_DOMAIN_ID", str(100 + os.getpid() % 100))
+os.environ["ROS_AUTOMATIC_DISCOVERY_RANGE"] = "LOCALHOST"
+os.environ.setdefault("RCUTILS_LOGGING_BUFFERED_STREAM", "1")
