@@ -1,0 +1,298 @@
+"""``MessageLogger``: write logged values to files on a background thread, never blocking callers.
+
+One daemon thread per process serves every logger. Each logger has a bounded number of pending
+values; ``log()`` returns False and counts a drop when that bound is reached, so a slow disk
+never stalls a ROS callback and nothing is lost silently. Files appear atomically: bytes go to a
+hidden temporary file in the same directory, then ``os.replace`` gives it its final name.
+
+File formats (the extension says which):
+
+- dict, list, tuple, str, int, float, bool, None, numpy scalars and ROS messages -> ``.json``
+  (tuples become lists, nested arrays become lists, nested bytes become base64 strings,
+  NaN/inf are written as Python's ``json`` writes them);
+- ``uint8``/``uint16`` arrays of shape (H, W), (H, W, 1), (H, W, 3) or (H, W, 4) -> ``.png``
+  (channels in OpenCV's BGR(A) order, as ``cv2.imwrite`` takes them);
+- every other ndarray, structured arrays included -> ``.npy``;
+- top-level bytes, bytearray or memoryview -> ``.bin`` (the raw bytes).
+
+Names are ``<sequence:08d>_<stamp_ns>.<ext>``: the sequence keeps the logging order, the stamp is
+the ``stamp_ns`` argument, else a ``Stamped`` value's stamp, else the time of ``log()``. A
+``Stamped`` value's ``frame_id`` is not written. Values are encoded on the writer thread, so do
+not mutate a value after logging it.
+"""
+
+from __future__ import annotations
+
+import atexit
+import base64
+import contextlib
+import dataclasses
+import io
+import json
+import logging
+import os
+import queue
+import tempfile
+import threading
+import time
+import weakref
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from pyconnect.codecs.stamped import Stamped
+from pyconnect.errors import EncodeError, type_name_of
+
+__all__ = ["FileWriter", "MessageLogger", "atomic_write_bytes", "encode_log_value"]
+
+_log = logging.getLogger("pyconnect.record")
+
+FileWriter = Callable[[Path, bytes], None]
+_IMAGE_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16))
+
+
+def atomic_write_bytes(path: Path, data: bytes) -> None:
+    """Write ``data`` to ``path`` so readers see either no file or the whole file."""
+    fd, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+        os.replace(temporary, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(temporary)
+        raise
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, bytes | bytearray | memoryview):
+        return base64.b64encode(bytes(value)).decode("ascii")
+    if isinstance(value, Stamped):
+        return {"value": value.value, "stamp_ns": value.stamp_ns, "frame_id": value.frame_id}
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return dataclasses.asdict(value)
+    if hasattr(value, "get_fields_and_field_types"):
+        from pyconnect import codecs
+
+        return codecs.to_dict(value)
+    if isinstance(value, set | frozenset):
+        return sorted(value, key=repr)
+    raise TypeError(f"expected a JSON-compatible value, got {type_name_of(value)}")
+
+
+def _is_image(array: np.ndarray) -> bool:
+    if array.dtype not in _IMAGE_DTYPES or array.size == 0:
+        return False
+    return array.ndim == 2 or (array.ndim == 3 and array.shape[2] in (1, 3, 4))
+
+
+def encode_log_value(value: object) -> tuple[str, bytes]:
+    """The file extension and bytes a logged value is written as (see the module docstring).
+
+    Raises ``EncodeError`` for values with no file form.
+    """
+    if isinstance(value, Stamped):
+        value = value.value
+    if isinstance(value, np.ndarray):
+        if _is_image(value):
+            import cv2
+
+            ok, encoded = cv2.imencode(".png", np.ascontiguousarray(value))
+            if not ok:
+                raise EncodeError(f"log value: cv2 could not encode a {value.shape} PNG")
+            return "png", encoded.tobytes()
+        buffer = io.BytesIO()
+        np.save(buffer, value, allow_pickle=False)
+        return "npy", buffer.getvalue()
+    if isinstance(value, bytes | bytearray | memoryview):
+        return "bin", bytes(value)
+    try:
+        text = json.dumps(value, default=_json_default, ensure_ascii=False)
+    except (TypeError, ValueError) as error:
+        raise EncodeError(f"log value: {error}") from None
+    return "json", text.encode("utf-8")
+
+
+class _WriterThread:
+    """The process-wide thread that encodes and writes queued values, in logging order."""
+
+    def __init__(self) -> None:
+        self._jobs: queue.SimpleQueue[tuple[MessageLogger, int, int, object]] = queue.SimpleQueue()
+        self._lock = threading.Lock()
+        self._thread: threading.Thread | None = None
+        self._pid = os.getpid()
+
+    def submit(self, logger: MessageLogger, sequence: int, stamp_ns: int, value: object) -> None:
+        self._ensure_running()
+        self._jobs.put((logger, sequence, stamp_ns, value))
+
+    def _ensure_running(self) -> None:
+        thread = self._thread
+        if thread is not None and thread.is_alive() and self._pid == os.getpid():
+            return
+        with self._lock:
+            if self._pid != os.getpid():  # after fork: the parent's queue and thread are gone
+                self._jobs = queue.SimpleQueue()
+                self._pid = os.getpid()
+                self._thread = None
+            if self._thread is None or not self._thread.is_alive():
+                self._thread = threading.Thread(
+                    target=self._run, name="pyconnect-log-writer", daemon=True
+                )
+                self._thread.start()
+
+    def _run(self) -> None:
+        while True:
+            logger, sequence, stamp_ns, value = self._jobs.get()
+            logger._write(sequence, stamp_ns, value)
+
+
+_writer = _WriterThread()
+_open_loggers: weakref.WeakSet[MessageLogger] = weakref.WeakSet()
+
+
+class MessageLogger:
+    """Log values of one agent (or topic) as files in ``directory``.
+
+    ``log()`` never blocks: it queues the value and returns True, or returns False and counts a
+    drop when ``queue_size`` values are already waiting (or the logger is closed). ``flush()``
+    waits until everything queued is on disk; ``close()`` flushes, reports drops and stops.
+    ``write_file`` replaces the atomic file writer (tests inject a slow one).
+    """
+
+    def __init__(
+        self,
+        directory: str | Path,
+        *,
+        queue_size: int = 256,
+        write_file: FileWriter = atomic_write_bytes,
+    ) -> None:
+        if queue_size < 1:
+            raise ValueError(f"queue_size: expected an int >= 1, got {queue_size!r}")
+        self.directory = Path(directory)
+        self.directory.mkdir(parents=True, exist_ok=True)
+        self.queue_size = queue_size
+        self._write_file = write_file
+        self._condition = threading.Condition()
+        self._pending = 0
+        self._sequence = 0
+        self._dropped = 0
+        self._written = 0
+        self._failed = 0
+        self._closed = False
+        self._drop_reported = False
+        _open_loggers.add(self)
+
+    @property
+    def dropped(self) -> int:
+        """Values refused because the queue was full or the logger closed."""
+        return self._dropped
+
+    @property
+    def written(self) -> int:
+        """Files written."""
+        return self._written
+
+    @property
+    def failed(self) -> int:
+        """Values that could not be encoded or written (each one is logged as an error)."""
+        return self._failed
+
+    @property
+    def pending(self) -> int:
+        """Values queued and not yet written."""
+        return self._pending
+
+    def log(self, value: object, *, stamp_ns: int | None = None) -> bool:
+        """Queue ``value`` for writing; False (and one more drop) when it cannot be queued."""
+        if stamp_ns is None:
+            stamp_ns = value.stamp_ns if isinstance(value, Stamped) else time.time_ns()
+        with self._condition:
+            accepted = not self._closed and self._pending < self.queue_size
+            if accepted:
+                self._pending += 1
+                self._sequence += 1
+                sequence = self._sequence
+            else:
+                self._dropped += 1
+                first_drop = not self._drop_reported
+                self._drop_reported = True
+        if accepted:
+            _writer.submit(self, sequence, stamp_ns, value)
+        elif first_drop:
+            reason = "closed" if self._closed else f"queue full ({self.queue_size} pending)"
+            _log.warning("%s: dropping logged values: %s", self.directory, reason)
+        return accepted
+
+    def flush(self, timeout: float | None = None) -> bool:
+        """Wait until every queued value is written (or failed); False if ``timeout`` passed."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        with self._condition:
+            while self._pending:
+                remaining = None if deadline is None else deadline - time.monotonic()
+                if remaining is not None and remaining <= 0:
+                    return False
+                self._condition.wait(remaining)
+        return True
+
+    def close(self, timeout: float | None = None) -> None:
+        """Stop taking values, write what is queued, and report drops; idempotent."""
+        with self._condition:
+            already = self._closed
+            self._closed = True
+        if already:
+            return
+        self.flush(timeout)
+        _open_loggers.discard(self)
+        if self._dropped or self._failed:
+            _log.warning(
+                "%s: %d written, %d dropped (queue full or closed), %d failed",
+                self.directory,
+                self._written,
+                self._dropped,
+                self._failed,
+            )
+
+    def __enter__(self) -> MessageLogger:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return (
+            f"MessageLogger({str(self.directory)!r}, written={self._written}, "
+            f"dropped={self._dropped}, pending={self._pending})"
+        )
+
+    # -- the writer thread's half -------------------------------------------------------------
+    def _write(self, sequence: int, stamp_ns: int, value: object) -> None:
+        try:
+            extension, data = encode_log_value(value)
+            self._write_file(self.directory / f"{sequence:08d}_{stamp_ns}.{extension}", data)
+        except Exception as error:  # a bad value or a full disk must not kill the writer
+            with self._condition:
+                self._failed += 1
+            _log.error("%s: value %d not written: %s", self.directory, sequence, error)
+        else:
+            with self._condition:
+                self._written += 1
+        finally:
+            with self._condition:
+                self._pending -= 1
+                self._condition.notify_all()
+
+
+def _flush_open_loggers_at_exit(timeout: float = 5.0) -> None:
+    deadline = time.monotonic() + timeout
+    for logger in list(_open_loggers):
+        logger.close(max(0.0, deadline - time.monotonic()))
+
+
+atexit.register(_flush_open_loggers_at_exit)
