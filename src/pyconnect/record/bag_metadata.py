@@ -1,0 +1,125 @@
+"""rosbag2 ``metadata.yaml``: read every version (4-9) and write the one we record (8)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import yaml
+
+from pyconnect.record.bag_errors import BagError
+
+__all__ = ["METADATA_FILE", "BagMetadata", "TopicMetadata", "read_metadata", "write_metadata"]
+
+METADATA_FILE = "metadata.yaml"
+WRITTEN_VERSION = 8
+
+
+@dataclass(frozen=True)
+class TopicMetadata:
+    """One topic as metadata.yaml lists it."""
+
+    name: str
+    msg_type: str
+    serialization_format: str = "cdr"
+    offered_qos_profiles: str = ""
+    type_description_hash: str = ""
+    message_count: int = 0
+
+
+@dataclass(frozen=True)
+class BagMetadata:
+    """The parts of metadata.yaml that reading needs, and that recording writes."""
+
+    storage_identifier: str
+    relative_file_paths: tuple[str, ...]
+    topics: tuple[TopicMetadata, ...] = ()
+    starting_time_ns: int = 0
+    duration_ns: int = 0
+    message_count: int = 0
+    compression_format: str = ""
+    compression_mode: str = ""
+    version: int = WRITTEN_VERSION
+    files: tuple[dict[str, Any], ...] = field(default=())
+
+
+def _qos_text(value: object) -> str:
+    # Up to v8 the profiles are one YAML string; v9 writers may store a list instead.
+    if value is None:
+        return ""
+    if isinstance(value, str):
+        return value
+    return yaml.safe_dump(value, sort_keys=False) if value else ""
+
+
+def _topic(entry: dict[str, Any]) -> TopicMetadata:
+    topic = entry["topic_metadata"]
+    return TopicMetadata(
+        name=str(topic["name"]),
+        msg_type=str(topic["type"]),
+        serialization_format=str(topic.get("serialization_format", "")),
+        offered_qos_profiles=_qos_text(topic.get("offered_qos_profiles")),
+        type_description_hash=str(topic.get("type_description_hash", "") or ""),
+        message_count=int(entry.get("message_count", 0) or 0),
+    )
+
+
+def read_metadata(path: Path) -> BagMetadata:
+    """Parse a metadata.yaml; ``BagError`` names the file and what is wrong."""
+    try:
+        document = yaml.safe_load(path.read_text(encoding="utf-8"))
+        info = document["rosbag2_bagfile_information"]
+        files = tuple(info.get("files") or ())
+        relative = info.get("relative_file_paths") or [entry["path"] for entry in files]
+        starting = info.get("starting_time") or {}
+        duration = info.get("duration") or {}
+        return BagMetadata(
+            storage_identifier=str(info.get("storage_identifier", "") or ""),
+            relative_file_paths=tuple(str(p) for p in relative),
+            topics=tuple(_topic(entry) for entry in info.get("topics_with_message_count") or ()),
+            starting_time_ns=int(starting.get("nanoseconds_since_epoch", 0)),
+            duration_ns=int(duration.get("nanoseconds", 0)),
+            message_count=int(info.get("message_count", 0) or 0),
+            compression_format=str(info.get("compression_format", "") or ""),
+            compression_mode=str(info.get("compression_mode", "") or ""),
+            version=int(info.get("version", 0) or 0),
+            files=files,
+        )
+    except (OSError, yaml.YAMLError, KeyError, TypeError, ValueError, AttributeError) as error:
+        kind = type(error).__name__
+        raise BagError(f"{path}: not a rosbag2 metadata file ({kind}: {error})") from None
+
+
+def write_metadata(path: Path, metadata: BagMetadata) -> None:
+    """Write ``metadata`` as a version-8 metadata.yaml (``ros2 bag`` and rosbags read it)."""
+    info: dict[str, Any] = {
+        "version": WRITTEN_VERSION,
+        "storage_identifier": metadata.storage_identifier,
+        "duration": {"nanoseconds": metadata.duration_ns},
+        "starting_time": {"nanoseconds_since_epoch": metadata.starting_time_ns},
+        "message_count": metadata.message_count,
+        "topics_with_message_count": [
+            {
+                "topic_metadata": {
+                    "name": topic.name,
+                    "type": topic.msg_type,
+                    "serialization_format": topic.serialization_format,
+                    "offered_qos_profiles": topic.offered_qos_profiles,
+                    "type_description_hash": topic.type_description_hash,
+                },
+                "message_count": topic.message_count,
+            }
+            for topic in metadata.topics
+        ],
+        "compression_format": metadata.compression_format,
+        "compression_mode": metadata.compression_mode,
+        "relative_file_paths": list(metadata.relative_file_paths),
+        "files": [dict(entry) for entry in metadata.files],
+        "custom_data": {},
+        "ros_distro": "jazzy",
+    }
+    text = yaml.safe_dump({"rosbag2_bagfile_information": info}, sort_keys=False)
+    from pyconnect.record.log_writer import atomic_write_bytes
+
+    atomic_write_bytes(path, text.encode("utf-8"))

@@ -1,0 +1,199 @@
+"""``McapRecorder``: write raw CDR messages to an MCAP file with ros2msg schemas (rosbag2 layout).
+
+``McapRecorder("run1")`` writes the directory ``run1/`` holding ``run1_0.mcap`` and, on
+``close()``, ``metadata.yaml`` (version 8), as ``ros2 bag record -s mcap`` does.
+``McapRecorder("run1.mcap")`` writes that one file and no metadata (``ros2 bag``, rosbags and
+Foxglove read bare MCAP files). The container is the ``mcap`` package's writer with the "ros2"
+profile, "ros2msg" schemas, "cdr" messages and zstd (or lz4, or no) chunk compression.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import BinaryIO
+
+from mcap.writer import CompressionType, Writer
+
+from pyconnect.codecs.type_names import full_type_name
+from pyconnect.record.bag_errors import BagError
+from pyconnect.record.bag_metadata import METADATA_FILE, BagMetadata, TopicMetadata, write_metadata
+
+__all__ = ["McapRecorder"]
+
+_COMPRESSION = {
+    "zstd": CompressionType.ZSTD,
+    "lz4": CompressionType.LZ4,
+    "none": CompressionType.NONE,
+    "": CompressionType.NONE,
+}
+
+
+@dataclass
+class _Topic:
+    name: str
+    msg_type: str
+    channel_id: int
+    offered_qos_profiles: str
+    count: int = 0
+
+
+class McapRecorder:
+    """Record CDR messages of any number of topics; ``write`` is thread-safe.
+
+    Call ``add_topic`` once per topic before writing it; ``definition`` is the ros2msg text
+    (built from the installed interface files when None). ``close()`` finishes the file and
+    writes metadata.yaml; it is idempotent and also runs on leaving a ``with`` block.
+    """
+
+    def __init__(self, path: str | Path, *, compression: str = "zstd") -> None:
+        if compression not in _COMPRESSION:
+            choices = ", ".join(repr(c) for c in _COMPRESSION if c)
+            raise ValueError(f"compression: expected one of {choices}, got {compression!r}")
+        target = Path(path)
+        if target.suffix == ".mcap":
+            self.bag_dir: Path | None = None
+            self.file_path = target
+            target.parent.mkdir(parents=True, exist_ok=True)
+        else:
+            if target.exists() and (not target.is_dir() or any(target.iterdir())):
+                raise BagError(f"{target}: already exists; a new recording needs a new directory")
+            target.mkdir(parents=True, exist_ok=True)
+            self.bag_dir = target
+            self.file_path = target / f"{target.name}_0.mcap"
+        if self.file_path.exists():
+            raise BagError(f"{self.file_path}: already exists; not overwriting a recording")
+        self._lock = threading.Lock()
+        self._stream: BinaryIO = open(self.file_path, "wb")  # noqa: SIM115 - closed by close()
+        self._writer = Writer(self._stream, compression=_COMPRESSION[compression])
+        self._writer.start(profile="ros2", library="pyconnect")
+        self._schemas: dict[tuple[str, str], int] = {}
+        self._topics: dict[str, _Topic] = {}
+        self._first_ns: int | None = None
+        self._last_ns: int | None = None
+        self._closed = False
+        self.messages_written = 0
+
+    @property
+    def topics(self) -> dict[str, str]:
+        """Topic name -> type of every added topic."""
+        return {name: topic.msg_type for name, topic in self._topics.items()}
+
+    def add_topic(
+        self,
+        topic: str,
+        msg_type: str,
+        *,
+        definition: str | None = None,
+        offered_qos_profiles: str = "",
+    ) -> None:
+        """Declare a topic; adding it again with the same type does nothing, another type raises."""
+        full_type = full_type_name(msg_type)
+        with self._lock:
+            self._check_open()
+            known = self._topics.get(topic)
+            if known is not None:
+                if known.msg_type != full_type:
+                    raise BagError(
+                        f"{topic}: already recorded as {known.msg_type}, cannot add it as "
+                        f"{full_type}"
+                    )
+                return
+            if definition is None:
+                from pyconnect.record.definitions import installed_definition
+
+                definition = installed_definition(full_type)
+            key = (full_type, definition)
+            schema_id = self._schemas.get(key)
+            if schema_id is None:
+                schema_id = self._writer.register_schema(
+                    name=full_type, encoding="ros2msg", data=definition.encode("utf-8")
+                )
+                self._schemas[key] = schema_id
+            channel_id = self._writer.register_channel(
+                topic=topic,
+                message_encoding="cdr",
+                schema_id=schema_id,
+                metadata={"offered_qos_profiles": offered_qos_profiles},
+            )
+            self._topics[topic] = _Topic(topic, full_type, channel_id, offered_qos_profiles)
+
+    def write(
+        self, topic: str, cdr: bytes, *, log_time_ns: int, publish_time_ns: int | None = None
+    ) -> None:
+        """Append one serialised message (with its 4-byte CDR header) of an added topic."""
+        with self._lock:
+            self._check_open()
+            known = self._topics.get(topic)
+            if known is None:
+                raise BagError(f"{topic}: not added to this recording; call add_topic first")
+            self._writer.add_message(
+                channel_id=known.channel_id,
+                log_time=log_time_ns,
+                data=bytes(cdr),
+                publish_time=log_time_ns if publish_time_ns is None else publish_time_ns,
+                sequence=known.count,
+            )
+            known.count += 1
+            self.messages_written += 1
+            if self._first_ns is None or log_time_ns < self._first_ns:
+                self._first_ns = log_time_ns
+            if self._last_ns is None or log_time_ns > self._last_ns:
+                self._last_ns = log_time_ns
+
+    def close(self) -> None:
+        """Finish the MCAP file and write metadata.yaml (for a bag directory); idempotent."""
+        with self._lock:
+            if self._closed:
+                return
+            self._closed = True
+            try:
+                self._writer.finish()  # type: ignore[no-untyped-call]
+            finally:
+                self._stream.close()
+            if self.bag_dir is not None:
+                write_metadata(self.bag_dir / METADATA_FILE, self._metadata())
+
+    def _metadata(self) -> BagMetadata:
+        start = self._first_ns or 0
+        duration = (self._last_ns - start) if self._last_ns is not None else 0
+        relative = self.file_path.name
+        return BagMetadata(
+            storage_identifier="mcap",
+            relative_file_paths=(relative,),
+            topics=tuple(
+                TopicMetadata(
+                    name=topic.name,
+                    msg_type=topic.msg_type,
+                    offered_qos_profiles=topic.offered_qos_profiles,
+                    message_count=topic.count,
+                )
+                for topic in self._topics.values()
+            ),
+            starting_time_ns=start,
+            duration_ns=duration,
+            message_count=self.messages_written,
+            files=(
+                {
+                    "path": relative,
+                    "starting_time": {"nanoseconds_since_epoch": start},
+                    "duration": {"nanoseconds": duration},
+                    "message_count": self.messages_written,
+                },
+            ),
+        )
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise BagError(f"{self.file_path}: recording is closed")
+
+    def __enter__(self) -> McapRecorder:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        state = "closed" if self._closed else "open"
+        return f"McapRecorder({str(self.file_path)!r}, {state}, {self.messages_written} messages)"

@@ -1,0 +1,193 @@
+"""McapRecorder: files that mcap-ros2-support and rosbags read back to the values written."""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+
+import pytest
+import yaml
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+from rclpy.serialization import deserialize_message, serialize_message
+from rosbags.highlevel import AnyReader
+from rosbags.typesys import Stores, get_typestore
+from sensor_msgs.msg import Image
+from std_msgs.msg import String
+from test_msgs.msg import BasicTypes, Empty
+
+from pyconnect.record.bag_errors import BagError
+from pyconnect.record.definitions import installed_definition
+from pyconnect.record.mcap_recorder import McapRecorder
+
+
+def read_ros2_messages(path: Path) -> list[tuple[str, object]]:
+    """(topic, decoded message) of every message, decoded by mcap-ros2-support."""
+    with path.open("rb") as stream:
+        reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+        decoded = []
+        for schema, channel, _, msg in reader.iter_decoded_messages():
+            assert schema is not None
+            assert schema.encoding == "ros2msg"
+            assert channel.message_encoding == "cdr"
+            decoded.append((channel.topic, msg))
+        return decoded
+
+
+def basic(i: int) -> BasicTypes:
+    return BasicTypes(
+        bool_value=bool(i % 2),
+        int32_value=-i,
+        uint64_value=2**64 - 1 - i,
+        float64_value=i / 3,
+    )
+
+
+def image(i: int) -> Image:
+    msg = Image(height=2, width=3, encoding="mono8", step=3)
+    msg.header.frame_id = "cam"
+    msg.header.stamp.sec = i
+    msg.data.frombytes(bytes(range(i, i + 6)))
+    return msg
+
+
+def record_sample(path: Path, *, compression: str = "zstd") -> dict[str, list[object]]:
+    written: dict[str, list[object]] = {"/basic": [], "/chatter": [], "/image": [], "/empty": []}
+    with McapRecorder(path, compression=compression) as recorder:
+        recorder.add_topic("/basic", "test_msgs/msg/BasicTypes")
+        recorder.add_topic("/chatter", "std_msgs/String")
+        recorder.add_topic("/image", "sensor_msgs/msg/Image", offered_qos_profiles="")
+        recorder.add_topic("/empty", "test_msgs/msg/Empty")
+        for i in range(10):
+            for topic, msg in (("/basic", basic(i)), ("/chatter", String(data=f"hello {i}"))):
+                recorder.write(topic, serialize_message(msg), log_time_ns=1_000 + i)
+                written[topic].append(msg)
+            if i % 3 == 0:
+                recorder.write("/image", serialize_message(image(i)), log_time_ns=1_000 + i)
+                written["/image"].append(image(i))
+        recorder.write("/empty", serialize_message(Empty()), log_time_ns=2_000)
+        written["/empty"].append(Empty())
+    assert recorder.messages_written == 25
+    return written
+
+
+def test_bag_directory_layout_and_metadata(tmp_path: Path) -> None:
+    record_sample(tmp_path / "run1")
+    assert sorted(p.name for p in (tmp_path / "run1").iterdir()) == ["metadata.yaml", "run1_0.mcap"]
+    info = yaml.safe_load((tmp_path / "run1" / "metadata.yaml").read_text())
+    info = info["rosbag2_bagfile_information"]
+    assert info["storage_identifier"] == "mcap"
+    assert info["relative_file_paths"] == ["run1_0.mcap"]
+    assert info["message_count"] == 25
+    assert info["starting_time"] == {"nanoseconds_since_epoch": 1_000}
+    assert info["duration"] == {"nanoseconds": 1_000}
+    counts = {
+        t["topic_metadata"]["name"]: t["message_count"] for t in info["topics_with_message_count"]
+    }
+    assert counts == {"/basic": 10, "/chatter": 10, "/image": 4, "/empty": 1}
+    types = {
+        t["topic_metadata"]["name"]: t["topic_metadata"]["type"]
+        for t in info["topics_with_message_count"]
+    }
+    assert types["/chatter"] == "std_msgs/msg/String"
+
+
+@pytest.mark.parametrize("compression", ["zstd", "lz4", "none"])
+def test_rosbags_reads_what_was_written(tmp_path: Path, compression: str) -> None:
+    written = record_sample(tmp_path / "bag", compression=compression)
+    # An empty typestore makes rosbags decode with the definitions stored in the file.
+    typestore = get_typestore(Stores.EMPTY)
+    read: dict[str, list[bytes]] = {topic: [] for topic in written}
+    with AnyReader([tmp_path / "bag"], default_typestore=typestore) as reader:
+        assert reader.message_count == 25
+        for connection, _, raw in reader.messages():
+            value = reader.deserialize(raw, connection.msgtype)
+            if connection.topic == "/basic":
+                expected = written["/basic"][len(read["/basic"])]
+                assert isinstance(expected, BasicTypes)
+                assert value.int32_value == expected.int32_value
+                assert value.uint64_value == expected.uint64_value
+                assert value.float64_value == expected.float64_value
+            if connection.topic == "/image":
+                assert value.data.tobytes() == bytes(written["/image"][len(read["/image"])].data)
+            read[connection.topic].append(raw)
+    for topic, messages in written.items():
+        decoded = [deserialize_message(raw, type(messages[0])) for raw in read[topic]]
+        assert decoded == messages
+
+
+def test_mcap_ros2_reads_what_was_written(tmp_path: Path) -> None:
+    written = record_sample(tmp_path / "bag.mcap")
+    assert not (tmp_path / "metadata.yaml").exists()
+    got: dict[str, list[object]] = {topic: [] for topic in written}
+    for topic, msg in read_ros2_messages(tmp_path / "bag.mcap"):
+        got[topic].append(msg)
+    assert [m.data for m in got["/chatter"]] == [f"hello {i}" for i in range(10)]
+    assert [m.int32_value for m in got["/basic"]] == [-i for i in range(10)]
+    assert [m.uint64_value for m in got["/basic"]] == [2**64 - 1 - i for i in range(10)]
+    assert [bytes(m.data) for m in got["/image"]] == [bytes(m.data) for m in written["/image"]]
+    assert [m.header.frame_id for m in got["/image"]] == ["cam"] * 4
+    assert len(got["/empty"]) == 1
+
+
+def test_write_is_thread_safe(tmp_path: Path) -> None:
+    recorder = McapRecorder(tmp_path / "threads.mcap")
+    recorder.add_topic("/chatter", "std_msgs/msg/String")
+    start = threading.Barrier(4)
+
+    def produce(k: int) -> None:
+        start.wait()
+        for i in range(200):
+            recorder.write("/chatter", serialize_message(String(data=f"{k}:{i}")), log_time_ns=i)
+
+    threads = [threading.Thread(target=produce, args=(k,)) for k in range(4)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    recorder.close()
+    texts = sorted(m.data for _, m in read_ros2_messages(tmp_path / "threads.mcap"))
+    assert texts == sorted(f"{k}:{i}" for k in range(4) for i in range(200))
+    assert recorder.messages_written == 800
+
+
+def test_definition_layout_matches_rosbag2() -> None:
+    text = installed_definition("geometry_msgs/msg/Twist")
+    separator = "=" * 80
+    assert f"\n{separator}\nMSG: geometry_msgs/Vector3\n" in text
+    assert text.count("MSG: ") == 1
+    assert installed_definition("test_msgs/srv/BasicTypes_Event").count("\n---\n") == 1
+    odometry = installed_definition("nav_msgs/msg/Odometry")
+    headers = [line for line in odometry.splitlines() if line.startswith("MSG: ")]
+    assert len(headers) == len(set(headers))
+    assert "MSG: builtin_interfaces/Time" in headers
+
+
+def test_errors(tmp_path: Path) -> None:
+    recorder = McapRecorder(tmp_path / "bag")
+    recorder.add_topic("/a", "std_msgs/msg/String")
+    recorder.add_topic("/a", "std_msgs/String")
+    with pytest.raises(BagError) as caught:
+        recorder.add_topic("/a", "std_msgs/msg/Bool")
+    assert (
+        str(caught.value)
+        == "/a: already recorded as std_msgs/msg/String, cannot add it as std_msgs/msg/Bool"
+    )
+    with pytest.raises(BagError) as caught:
+        recorder.write("/b", b"", log_time_ns=0)
+    assert str(caught.value) == "/b: not added to this recording; call add_topic first"
+    recorder.close()
+    recorder.close()
+    with pytest.raises(BagError) as caught:
+        recorder.write("/a", b"", log_time_ns=0)
+    assert str(caught.value) == f"{tmp_path / 'bag' / 'bag_0.mcap'}: recording is closed"
+    with pytest.raises(BagError) as caught:
+        McapRecorder(tmp_path / "bag")
+    assert (
+        str(caught.value)
+        == f"{tmp_path / 'bag'}: already exists; a new recording needs a new directory"
+    )
+    with pytest.raises(
+        ValueError, match=r"^compression: expected one of 'zstd', 'lz4', 'none', got 'gzip'$"
+    ):
+        McapRecorder(tmp_path / "x", compression="gzip")
