@@ -109,7 +109,8 @@ def _idl_from_interface_text(package: str, path: Path, text: str) -> str:
             spec = adapter.parse_action_string(package, stem, text)
             key, template = "action", "action.idl.em"
     except Exception as error:
-        raise DefinitionError(_one_line(error), path=path, line=_failing_line(package, path, text))
+        line = _failing_line(package, path, text)
+        raise DefinitionError(_one_line(error), path=path, line=line) from None
     data = {"pkg_name": package, "relative_input_file": relative, key: spec}
     content: str = evaluate_template(template, data)
     return content

@@ -1,4 +1,4 @@
-"""What a codec is: the protocol every codec follows, and the composite codecs for services and actions."""
+"""What a codec is: the protocol every codec follows; composite codecs of services and actions."""
 
 from __future__ import annotations
 

@@ -30,7 +30,8 @@ def _generated_dict_codec(full_name: str) -> DictCodec | None:
     try:
         module = importlib.import_module(f"pyconnect_generated.{package}.dict_codecs")
     except ModuleNotFoundError as error:
-        if error.name is not None and error.name.startswith("pyconnect_generated"):
+        # No generated module, or the ROS package it was generated from is not installed here.
+        if error.name is not None and error.name.split(".")[0] in ("pyconnect_generated", package):
             return None
         raise
     entry = module.DICT_CODECS.get(full_name)
@@ -92,7 +93,7 @@ class Registry:
 
     # -- lookup -------------------------------------------------------------------------------
     def resolve(self, type_ref: object) -> str:
-        """The full ``pkg/ns/Name`` of a type reference; ``pkg/Name`` is found among msg/srv/action."""
+        """The full ``pkg/ns/Name`` of a type reference; ``pkg/Name`` tries msg, srv, action."""
         parsed = parse_type_name(type_ref)
         if parsed.namespace is not None:
             return parsed.full()

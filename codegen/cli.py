@@ -1,0 +1,83 @@
+"""The ``codecgen`` command: build, list and check generated codec modules."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from codegen.build import DEFAULT_PACKAGES, default_out_dir, render_tree, stale_files, write_tree
+from codegen.introspect import DefinitionError, ament_prefixes, installed_packages
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="codecgen", description="Generate pyconnect codec modules from ROS interfaces."
+    )
+    commands = parser.add_subparsers(dest="command", required=True)
+    build = commands.add_parser("build", help="generate codec modules")
+    build.add_argument("packages", nargs="*", help="installed interface packages")
+    build.add_argument(
+        "--from", dest="folders", action="append", default=[], type=Path,
+        help="a bare folder of .msg/.srv/.action files (repeatable)",
+    )  # fmt: skip
+    build.add_argument("--out", type=Path, default=None, help="output folder (default generated/)")
+    commands.add_parser("list", help="show the interface packages codecgen can see")
+    check = commands.add_parser("check", help="exit 1 when generated/ is stale")
+    check.add_argument("--out", type=Path, default=None)
+    return parser
+
+
+def _build(args: argparse.Namespace) -> int:
+    packages = args.packages or ([] if args.folders else list(DEFAULT_PACKAGES))
+    files = render_tree(packages, args.folders)
+    written = write_tree(files, args.out or default_out_dir())
+    print(
+        f"codecgen: {len(files)} files, {len(written)} written to {args.out or default_out_dir()}"
+    )
+    return 0
+
+
+def _list() -> int:
+    packages = installed_packages()
+    for name, package in sorted(packages.items()):
+        print(f"{name:32} {len(package.idl_files):4} interfaces  {package.share}")
+    if not packages:
+        print("codecgen: no ament index found (install ROS 2 wheels or source a ROS install)")
+    else:
+        print(f"{len(packages)} packages from {', '.join(str(p) for p in ament_prefixes())}")
+    return 0
+
+
+def _check(args: argparse.Namespace) -> int:
+    out = args.out or default_out_dir()
+    stale = stale_files(render_tree(DEFAULT_PACKAGES), out)
+    if stale:
+        print(
+            f"codecgen: {len(stale)} stale files in {out} (run `codecgen build`):", file=sys.stderr
+        )
+        for relative in stale[:20]:
+            print(f"  {relative}", file=sys.stderr)
+        return 1
+    print(f"codecgen: {out} is up to date")
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "build":
+            return _build(args)
+        if args.command == "list":
+            return _list()
+        return _check(args)
+    except DefinitionError as error:
+        print(f"codecgen: {error}", file=sys.stderr)
+        return 2
+    except OSError as error:
+        print(f"codecgen: {error}", file=sys.stderr)
+        return 2
+
+
+def main_entry() -> None:
+    sys.exit(main())

@@ -1,0 +1,464 @@
+"""Render IR into Python modules with jinja2: one module of each output kind per package.
+
+The templates only loop and branch; what they print (expressions, literals, symbols) is computed
+here from the IR, so every output kind is rendered the same way for ``codecgen build`` and for
+codecs generated on the fly.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from functools import cache
+from pathlib import Path
+from typing import Any
+
+import jinja2
+
+from codegen import FORMAT_VERSION
+from codegen.ir import (
+    INTEGER_RANGES,
+    NUMPY_DTYPES,
+    STRUCT_CODES,
+    Field,
+    FieldType,
+    MessageDef,
+    PackageDef,
+    TypeSet,
+)
+
+TEMPLATES = Path(__file__).parent / "templates"
+
+
+@cache
+def environment() -> jinja2.Environment:
+    return jinja2.Environment(
+        loader=jinja2.FileSystemLoader(str(TEMPLATES)),
+        undefined=jinja2.StrictUndefined,
+        trim_blocks=True,
+        lstrip_blocks=True,
+        keep_trailing_newline=True,
+        autoescape=False,
+    )
+
+
+def snake_case(name: str) -> str:
+    """``JointState`` -> ``joint_state``; ``SetBool_Request`` -> ``set_bool_request`` (rosidl's)."""
+    value = re.sub(r"(.)([A-Z][a-z]+)", r"\1_\2", name)
+    value = re.sub(r"([a-z0-9])([A-Z])", r"\1_\2", value)
+    return re.sub(r"_+", "_", value).lower()
+
+
+def py_literal(value: object) -> str:
+    """A Python literal for an IR default or constant, double-quoted like ruff-formatted code."""
+    if isinstance(value, bool) or value is None:
+        return repr(value)
+    if isinstance(value, float):
+        if math.isnan(value):
+            return 'float("nan")'
+        if math.isinf(value):
+            return 'float("inf")' if value > 0 else '-float("inf")'
+        return repr(value)
+    if isinstance(value, int):
+        return repr(value)
+    if isinstance(value, str):
+        text = repr(value)
+        if text.startswith("'") and '"' not in value:
+            text = '"' + text[1:-1].replace("\\'", "'") + '"'
+        return text
+    if isinstance(value, bytes):
+        return repr(value)
+    if isinstance(value, tuple):
+        inner = ", ".join(py_literal(v) for v in value)
+        return f"({inner},)" if len(value) == 1 else f"({inner})"
+    raise TypeError(f"no literal for {value!r}")
+
+
+# -- the rosidl field-type strings (get_fields_and_field_types), pinned per type ------------------
+_ROSIDL_PRIMITIVE_NAMES = {
+    "bool": "boolean",
+    "byte": "octet",
+    "float32": "float",
+    "float64": "double",
+}
+
+
+def rosidl_type_string(ftype: FieldType) -> str:
+    element = ftype.element
+    if element.kind == "message":
+        package, _, name = element.name.split("/")
+        inner = f"{package}/{name}"
+    elif element.kind in ("string", "wstring"):
+        inner = element.name + (f"<{element.string_bound}>" if element.string_bound else "")
+    else:
+        inner = _ROSIDL_PRIMITIVE_NAMES.get(element.name, element.name)
+    if ftype.container == "array":
+        return f"{inner}[{ftype.size}]"
+    if ftype.container == "bounded_sequence":
+        return f"sequence<{inner}, {ftype.size}>"
+    if ftype.container == "sequence":
+        return f"sequence<{inner}>"
+    return inner
+
+
+# -- symbols -------------------------------------------------------------------------------------
+@dataclass(frozen=True)
+class Symbols:
+    """How a rendered module names the functions, classes and TypedDicts of each type.
+
+    In a package module, the package's own types use short names and other packages' types are
+    imported under qualified aliases; a self-contained (on-the-fly) module qualifies everything.
+    """
+
+    local_package: str | None
+
+    def _qualified(self, msg_full_name: str) -> bool:
+        package = msg_full_name.split("/", maxsplit=1)[0]
+        return self.local_package is None or package != self.local_package
+
+    def function(self, full_name: str) -> str:
+        package, _, name = full_name.split("/")
+        base = snake_case(name)
+        return f"{package}__{base}" if self._qualified(full_name) else base
+
+    def cls(self, full_name: str) -> str:
+        package, namespace, name = full_name.split("/")
+        return f"{package}__{namespace}__{name}" if self._qualified(full_name) else name
+
+    def typed_dict(self, full_name: str) -> str:
+        package, _, name = full_name.split("/")
+        base = name.replace("_", "") + "Dict"
+        return f"{package}__{base}" if self._qualified(full_name) else base
+
+
+# -- to_dict: one inline expression per type ------------------------------------------------------
+def _to_dict_value(ftype: FieldType, access: str, types: TypeSet, depth: int, indent: str) -> str:
+    element = ftype.element
+    if ftype.is_single:
+        if element.kind == "message":
+            return _message_dict_literal(types.get(element.name), access, types, depth, indent)
+        return f"{access}[0]" if element.name == "byte" else access
+    if element.kind == "primitive":
+        if element.name == "byte":
+            return f'b"".join({access})'
+        if element.is_bytes_like:
+            return f"{access}.tobytes()"
+        return f"list({access})" if element.name == "bool" else f"{access}.tolist()"
+    if element.kind in ("string", "wstring"):
+        return f"list({access})"
+    item = f"e{depth}"
+    inner_indent = indent + "    "
+    body = _message_dict_literal(types.get(element.name), item, types, depth + 1, inner_indent)
+    return f"[\n{inner_indent}{body}\n{inner_indent}for {item} in {access}\n{indent}]"
+
+
+def _message_dict_literal(
+    msg: MessageDef, access: str, types: TypeSet, depth: int, indent: str
+) -> str:
+    if not msg.fields:
+        return "{}"
+    inner = indent + "    "
+    items = [
+        f'{inner}"{f.name}": {_to_dict_value(f.type, f"{access}._{f.name}", types, depth, inner)},'
+        for f in msg.fields
+    ]
+    return "{\n" + "\n".join(items) + f"\n{indent}}}"
+
+
+# -- from_dict: one descriptor per field ----------------------------------------------------------
+@dataclass(frozen=True)
+class FromDictField:
+    """What the template prints for one field of a ``from_dict`` function.
+
+    ``kind`` is ``scalar`` (get with a default, check inline, convert on the slow path),
+    ``message`` (call the nested function) or ``container`` (default or convert helper).
+    """
+
+    name: str
+    kind: str
+    default: str = ""
+    fast_check: str = ""
+    slow_check: str = ""
+    convert: str = ""
+    store: str = "value"
+
+
+def _scalar_field(fld: Field) -> FromDictField:
+    element = fld.type.element
+    segment = f'".{fld.name}"'
+    name = element.name
+    zero: bool | int | float | str
+    if element.kind in ("string", "wstring"):
+        bound = element.string_bound
+        fast = "type(value) is not str" + (f" or len(value) > {bound}" if bound else "")
+        slow, zero = f"check_str(value, {bound}, {segment})", ""
+    elif name == "bool":
+        fast, slow, zero = "type(value) is not bool", f"check_bool(value, {segment})", False
+    elif name == "float64":
+        fast, slow, zero = "type(value) is not float", f"check_float(value, {segment})", 0.0
+    elif name == "float32":
+        fast = "type(value) is not float or not -FLOAT32_MAX <= value <= FLOAT32_MAX"
+        slow, zero = f"check_float32(value, {segment})", 0.0
+    else:
+        low, high = INTEGER_RANGES[name]
+        fast = f"type(value) is not int or not {low} <= value <= {high}"
+        slow, zero = f'check_int(value, {low}, {high}, "{name}", {segment})', 0
+    default = py_literal(fld.default if fld.default is not None else zero)
+    if name == "byte":
+        slow = f"check_octet(value, {segment})"
+        return FromDictField(fld.name, "scalar", default, fast, slow, store="BYTE_VALUES[value]")
+    return FromDictField(fld.name, "scalar", default, fast, slow)
+
+
+def _container_field(fld: Field, symbols: Symbols) -> FromDictField:
+    ftype, element = fld.type, fld.type.element
+    segment = f'".{fld.name}"'
+    fixed = ftype.is_array
+    size = ftype.size
+    defaults: tuple[Any, ...] = fld.default if isinstance(fld.default, tuple) else ()
+    if element.kind == "message":
+        nested = symbols.function(element.name) + "_from_dict"
+        convert = f"message_list(value, {nested}, {size}, {fixed}, {segment})"
+        default = f"[{nested}(EMPTY) for _ in range({size})]" if fixed else "[]"
+        return FromDictField(fld.name, "container", default, convert=convert)
+    if element.kind in ("string", "wstring"):
+        bound = element.string_bound
+        convert = f"str_list(value, {bound}, {size}, {fixed}, {segment})"
+        return FromDictField(
+            fld.name, "container", _list_default(defaults, '""', fixed, size), convert=convert
+        )
+    name = element.name
+    if name == "bool":
+        convert = f"bool_list(value, {size}, {fixed}, {segment})"
+        return FromDictField(
+            fld.name, "container", _list_default(defaults, "False", fixed, size), convert=convert
+        )
+    if name == "byte":
+        convert = f"octet_list(value, {size}, {fixed}, {segment})"
+        values = tuple(f"BYTE_VALUES[{int(v)}]" for v in defaults)
+        default = _list_default(values, "BYTE_VALUES[0]", fixed, size, literal=False)
+        return FromDictField(fld.name, "container", default, convert=convert)
+    code = STRUCT_CODES[name]
+    dtype = NUMPY_DTYPES[name]
+    if element.is_bytes_like:
+        if fixed:
+            convert = f"uint8_array(value, {size}, {segment})"
+            default = _numpy_default(defaults, dtype, size)
+        else:
+            convert = f"uint8_sequence(value, {size}, {segment})"
+            default = (
+                f'array("B", {py_literal(bytes(int(v) for v in defaults))})'
+                if defaults
+                else 'array("B")'
+            )
+        return FromDictField(fld.name, "container", default, convert=convert)
+    if fixed:
+        convert = f'numeric_array(value, "{code}", "{dtype}", "{name}", {size}, {segment})'
+        return FromDictField(
+            fld.name, "container", _numpy_default(defaults, dtype, size), convert=convert
+        )
+    convert = f'numeric_sequence(value, "{code}", "{name}", {size}, {segment})'
+    default = f'array("{code}", {py_literal(defaults)})' if defaults else f'array("{code}")'
+    return FromDictField(fld.name, "container", default, convert=convert)
+
+
+def _list_default(
+    values: tuple[Any, ...], zero: str, fixed: bool, size: int | None, *, literal: bool = True
+) -> str:
+    if values:
+        return "[" + ", ".join(py_literal(v) if literal else str(v) for v in values) + "]"
+    return f"[{zero}] * {size}" if fixed else "[]"
+
+
+def _numpy_default(values: tuple[Any, ...], dtype: str, size: int | None) -> str:
+    if values:
+        return f"np.array({py_literal(values)}, dtype=np.{dtype})"
+    return f"np.zeros({size}, dtype=np.{dtype})"
+
+
+def from_dict_fields(msg: MessageDef, symbols: Symbols) -> list[FromDictField]:
+    result = []
+    for fld in msg.fields:
+        if fld.type.is_single and fld.type.element.kind == "message":
+            nested = symbols.function(fld.type.element.name) + "_from_dict"
+            result.append(FromDictField(fld.name, "message", convert=nested))
+        elif fld.type.is_single:
+            result.append(_scalar_field(fld))
+        else:
+            result.append(_container_field(fld, symbols))
+    return result
+
+
+# -- TypedDicts -----------------------------------------------------------------------------------
+def typed_dict_annotation(ftype: FieldType, symbols: Symbols) -> str:
+    element = ftype.element
+    if element.kind == "message":
+        inner = symbols.typed_dict(element.name)
+    elif element.kind in ("string", "wstring"):
+        inner = "str"
+    elif element.name == "bool":
+        inner = "bool"
+    elif element.is_float:
+        inner = "float"
+    else:
+        inner = "int"
+    if ftype.is_single:
+        return inner
+    if element.kind == "primitive" and (element.is_bytes_like or element.name == "byte"):
+        return "bytes"
+    return f"list[{inner}]"
+
+
+# -- module rendering -----------------------------------------------------------------------------
+@dataclass(frozen=True)
+class TypeEntry:
+    """Everything the templates print for one message type."""
+
+    msg: MessageDef
+    short: str
+    function: str
+    cls: str
+    typed_dict: str
+    to_dict_literal: str
+    from_dict_fields: list[FromDictField]
+    keys: str
+    rosidl_field_types: str
+    typed_fields: list[tuple[str, str]] = field(default_factory=list)
+
+
+def type_entry(msg: MessageDef, types: TypeSet, symbols: Symbols) -> TypeEntry:
+    keys = py_literal(tuple(f.name for f in msg.fields))
+    field_types = ", ".join(f'"{f.name}": "{rosidl_type_string(f.type)}"' for f in msg.fields)
+    return TypeEntry(
+        msg=msg,
+        short=msg.name,
+        function=symbols.function(msg.full_name),
+        cls=symbols.cls(msg.full_name),
+        typed_dict=symbols.typed_dict(msg.full_name),
+        to_dict_literal=_message_dict_literal(msg, "msg", types, 0, "    "),
+        from_dict_fields=from_dict_fields(msg, symbols),
+        keys=f"frozenset({keys})" if msg.fields else "frozenset()",
+        rosidl_field_types="{" + field_types + "}",
+        typed_fields=[(f.name, typed_dict_annotation(f.type, symbols)) for f in msg.fields],
+    )
+
+
+@dataclass(frozen=True)
+class ClassImport:
+    """``from <module> import <top> as <alias>``, then ``<symbol> = <alias>.<rest>`` if nested."""
+
+    module: str
+    top: str
+    alias: str
+    symbol: str
+    attribute_path: str
+    first: bool
+
+
+def class_imports(messages: Iterable[MessageDef], symbols: Symbols) -> list[ClassImport]:
+    result = []
+    imported: set[str] = set()
+    for msg in messages:
+        top, _, rest = msg.python_class.partition(".")
+        symbol = symbols.cls(msg.full_name)
+        alias = symbol if not rest else f"_{msg.package}__{msg.namespace}__{top}"
+        result.append(
+            ClassImport(msg.python_module, top, alias, symbol, rest, alias not in imported)
+        )
+        imported.add(alias)
+    return result
+
+
+def _external_types(messages: Iterable[MessageDef], local: set[str]) -> list[str]:
+    external: set[str] = set()
+    for msg in messages:
+        external.update(n for n in msg.nested_types if n not in local)
+    return sorted(external)
+
+
+def header(source: str, messages: Iterable[MessageDef]) -> str:
+    lines = [f"# @generated by codecgen {FORMAT_VERSION} from {source}. DO NOT EDIT."]
+    lines.append("# Regenerate with `codecgen build`; the types and their RIHS01 hashes:")
+    lines += [f"#   {m.full_name} ({m.type_hash or 'hash unknown'})" for m in messages]
+    return "\n".join(lines)
+
+
+def _context(
+    package: PackageDef | None, messages: list[MessageDef], types: TypeSet
+) -> dict[str, Any]:
+    symbols = Symbols(package.name if package is not None else None)
+    local = {m.full_name for m in messages}
+    external = _external_types(messages, local) if package is not None else []
+    source = f"package {package.name}" if package is not None else "installed classes"
+    interfaces = [(m.full_name, m.type_hash) for m in messages]
+    if package is not None:
+        interfaces += [(s.full_name, s.type_hash) for s in package.services]
+        interfaces += [(a.full_name, a.type_hash) for a in package.actions]
+    return {
+        "header": header(source, messages),
+        "interfaces": sorted(interfaces),
+        "package": package.name if package is not None else "",
+        "entries": [type_entry(m, types, symbols) for m in messages],
+        "class_imports": class_imports(messages, symbols),
+        "external": [
+            {
+                "package": name.split("/")[0],
+                "function": snake_case(name.split("/")[2]),
+                "alias": symbols.function(name),
+                "typed_dict": name.split("/")[2].replace("_", "") + "Dict",
+                "typed_alias": symbols.typed_dict(name),
+            }
+            for name in external
+        ],
+    }
+
+
+def render_template(template: str, context: dict[str, Any]) -> str:
+    return environment().get_template(template).render(**context)
+
+
+def render_index(package: PackageDef, types: TypeSet) -> str:
+    return render_template("index.py.j2", _context(package, list(package.all_messages), types))
+
+
+def render_typed_dicts(package: PackageDef, types: TypeSet) -> str:
+    return render_template(
+        "typed_dicts.py.j2", _context(package, list(package.all_messages), types)
+    )
+
+
+def render_dict_codecs(package: PackageDef, types: TypeSet) -> str:
+    return render_template(
+        "dict_codecs.py.j2", _context(package, list(package.all_messages), types)
+    )
+
+
+def render_self_contained_dict_codecs(messages: list[MessageDef], types: TypeSet) -> str:
+    """One module with the dict codecs of ``messages`` (deps first) and nothing imported."""
+    return render_template("dict_codecs.py.j2", _context(None, messages, types))
+
+
+# Output kinds: module name inside generated/pyconnect_generated/<pkg>/ -> renderer.
+OUTPUT_KINDS: dict[str, Callable[[PackageDef, TypeSet], str]] = {
+    "index": render_index,
+    "typed_dicts": render_typed_dicts,
+    "dict_codecs": render_dict_codecs,
+}
+
+
+def render_package(package: PackageDef, types: TypeSet) -> dict[str, str]:
+    """Relative path -> file text for every output kind of one package."""
+    files = {
+        f"{package.name}/__init__.py": render_template(
+            "package_init.py.j2",
+            {
+                "header": header(f"package {package.name}", package.all_messages),
+                "package": package.name,
+            },
+        )
+    }
+    for kind, renderer in OUTPUT_KINDS.items():
+        files[f"{package.name}/{kind}.py"] = renderer(package, types)
+    return files

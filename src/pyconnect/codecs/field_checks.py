@@ -1,0 +1,307 @@
+"""Checks and conversions the generated ``from_dict`` code calls when its fast path does not fit.
+
+Generated code tests the common case inline (``type(v) is float``) and calls these only for
+anything else: numpy scalars and arrays are converted, everything wrong raises ``FieldError``
+with the field path, the expected and the actual type.
+"""
+
+from __future__ import annotations
+
+import math
+from array import array
+from collections.abc import Callable, Mapping, Sequence
+from typing import Any, NoReturn
+
+import numpy as np
+
+from pyconnect.errors import EncodeError
+
+FLOAT32_MAX = 3.4028234663852886e38
+# rosidl stores `byte` fields as one-byte `bytes`; dicts carry them as ints 0..255.
+BYTE_VALUES = tuple(bytes((i,)) for i in range(256))
+_NUMERIC = (int, float, np.integer, np.floating)
+
+
+class FieldError(EncodeError):
+    """An ``EncodeError`` that collects its field path while it travels up the generated code."""
+
+    def __init__(self, segment: str, detail: str) -> None:
+        super().__init__(detail)
+        self.segments = [segment]
+        self.detail = detail
+        self.root = ""
+
+    def within(self, segment: str) -> FieldError:
+        """Prefix the path with the field (``.header``) or index (``[3]``) it was raised in."""
+        self.segments.append(segment)
+        return self
+
+    @property
+    def path(self) -> str:
+        return self.root + "".join(reversed(self.segments))
+
+    def __str__(self) -> str:
+        return f"{self.path}: {self.detail}"
+
+
+def describe(value: object) -> str:
+    """The actual type as error messages name it: ``str``, ``numpy.float32``, ``NoneType``."""
+    cls = type(value)
+    module = cls.__module__
+    return cls.__name__ if module == "builtins" else f"{module.split('.')[0]}.{cls.__name__}"
+
+
+def fail(segment: str, expected: str, value: object) -> NoReturn:
+    raise FieldError(segment, f"expected {expected}, got {describe(value)}")
+
+
+# -- mappings ------------------------------------------------------------------------------------
+def check_mapping(value: object) -> Mapping[str, Any]:
+    if isinstance(value, Mapping):
+        return value
+    fail("", "dict", value)
+
+
+def unknown_keys(data: Mapping[str, Any], known: frozenset[str]) -> FieldError:
+    extra = sorted(str(k) for k in data if k not in known)
+    names = ", ".join(repr(k) for k in extra)
+    fields = ", ".join(sorted(known)) or "none"
+    return FieldError(
+        "", f"unknown field{'s' if len(extra) > 1 else ''} {names} (fields: {fields})"
+    )
+
+
+# -- scalars -------------------------------------------------------------------------------------
+def check_bool(value: object, segment: str) -> bool:
+    if isinstance(value, bool | np.bool_):
+        return bool(value)
+    fail(segment, "bool", value)
+
+
+def check_float(value: object, segment: str) -> float:
+    if isinstance(value, _NUMERIC) and not isinstance(value, bool):
+        return float(value)
+    fail(segment, "float", value)
+
+
+def check_float32(value: object, segment: str) -> float:
+    number = check_float(value, segment)
+    if math.isfinite(number) and abs(number) > FLOAT32_MAX:
+        raise FieldError(segment, f"expected float32 (|x| <= {FLOAT32_MAX:.8g}), got {number!r}")
+    return number
+
+
+def check_int(value: object, low: int, high: int, kind: str, segment: str) -> int:
+    if isinstance(value, int | np.integer) and not isinstance(value, bool):
+        number = int(value)
+        if low <= number <= high:
+            return number
+        raise FieldError(segment, f"expected {kind} in [{low}, {high}], got {number}")
+    fail(segment, f"int ({kind})", value)
+
+
+def check_octet(value: object, segment: str) -> int:
+    """A ``byte`` field: an int 0..255 in dicts; a one-byte ``bytes`` is accepted too."""
+    if isinstance(value, bytes | bytearray) and len(value) == 1:
+        return value[0]
+    return check_int(value, 0, 255, "byte", segment)
+
+
+def check_str(value: object, bound: int | None, segment: str) -> str:
+    if not isinstance(value, str):
+        fail(segment, "str", value)
+    if bound is not None and len(value) > bound:
+        raise FieldError(segment, f"expected at most {bound} characters, got {len(value)}")
+    return value
+
+
+# -- containers ----------------------------------------------------------------------------------
+def check_length(value: Any, size: int | None, fixed: bool, segment: str) -> None:
+    if size is None:
+        return
+    length = len(value)
+    if fixed and length != size:
+        raise FieldError(segment, f"expected exactly {size} elements, got {length}")
+    if not fixed and length > size:
+        raise FieldError(segment, f"expected at most {size} elements, got {length}")
+
+
+def _check_sequence(value: object, segment: str) -> Sequence[Any] | np.ndarray:
+    if isinstance(value, np.ndarray):
+        if value.ndim != 1:
+            fail(segment, "a one-dimensional sequence", value)
+        return value
+    if isinstance(value, str | bytes | bytearray | Mapping) or not isinstance(value, Sequence):
+        if isinstance(value, array | memoryview):
+            return value  # type: ignore[return-value]
+        fail(segment, "list", value)
+    return value
+
+
+def _element_error(values: Any, check: Callable[[object, str], object], segment: str) -> NoReturn:
+    # Only reached when the fast conversion failed: find the element that made it fail.
+    for index, element in enumerate(values):
+        try:
+            check(element, "")
+        except FieldError as error:
+            raise error.within(f"[{index}]").within(segment) from None
+    raise FieldError(segment, "could not convert the sequence")
+
+
+def _scalar_check(kind: str) -> Callable[[object, str], object]:
+    from codegen.ir import INTEGER_RANGES
+
+    if kind == "float64":
+        return check_float
+    if kind == "float32":
+        return check_float32
+    if kind == "bool":
+        return check_bool
+    low, high = INTEGER_RANGES[kind]
+    return lambda value, segment: check_int(value, low, high, kind, segment)
+
+
+def _to_array(
+    values: Sequence[Any] | np.ndarray, typecode: str, kind: str, segment: str
+) -> array[Any]:
+    """Convert checked values to ``array(typecode)``, naming the first element that does not fit."""
+    if isinstance(values, np.ndarray):
+        if values.dtype.kind not in "iuf":
+            raise FieldError(segment, f"expected an array of {kind}, got dtype {values.dtype}")
+        cast = values.astype(np.dtype(typecode), copy=False)
+        if (values.dtype.kind in "iu" and not np.array_equal(cast, values)) or (
+            kind in _INTEGER_KINDS and values.dtype.kind == "f"
+        ):
+            _element_error(values.tolist(), _scalar_check(kind), segment)
+        converted = array(typecode)
+        converted.frombytes(np.ascontiguousarray(cast).tobytes())
+    else:
+        try:
+            converted = array(typecode, values)
+        except (TypeError, OverflowError, ValueError):
+            _element_error(values, _scalar_check(kind), segment)
+    if (
+        kind == "float32"
+        and converted
+        and not np.isfinite(np.frombuffer(converted, np.float32)).all()
+    ):
+        # array('f') silently turns out-of-range doubles into inf; rosidl rejects them.
+        _element_error(values, check_float32, segment)
+    return converted
+
+
+_INTEGER_KINDS = frozenset(
+    ("byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64")
+)
+
+
+def numeric_sequence(
+    value: object, typecode: str, kind: str, size: int | None, segment: str
+) -> array[Any]:
+    """An ``array.array`` for a numeric ``sequence<...>`` field (the rosidl storage)."""
+    values = _check_sequence(value, segment)
+    check_length(values, size, False, segment)
+    return _to_array(values, typecode, kind, segment)
+
+
+def numeric_array(  # noqa: PLR0917 - called positionally by generated code
+    value: object, typecode: str, dtype: str, kind: str, size: int, segment: str
+) -> np.ndarray:
+    """A fresh numpy array of exactly ``size`` elements for a fixed-size numeric array field."""
+    values = _check_sequence(value, segment)
+    check_length(values, size, True, segment)
+    converted = _to_array(values, typecode, kind, segment)
+    return np.array(np.frombuffer(converted, dtype=dtype))
+
+
+def bool_list(value: object, size: int | None, fixed: bool, segment: str) -> list[bool]:
+    values = _check_sequence(value, segment)
+    check_length(values, size, fixed, segment)
+    result = []
+    for index, element in enumerate(values):
+        if type(element) is bool:
+            result.append(element)
+            continue
+        try:
+            result.append(check_bool(element, ""))
+        except FieldError as error:
+            raise error.within(f"[{index}]").within(segment) from None
+    return result
+
+
+def str_list(
+    value: object, bound: int | None, size: int | None, fixed: bool, segment: str
+) -> list[str]:
+    values = _check_sequence(value, segment)
+    check_length(values, size, fixed, segment)
+    for index, element in enumerate(values):
+        if type(element) is not str or (bound is not None and len(element) > bound):
+            try:
+                check_str(element, bound, "")
+            except FieldError as error:
+                raise error.within(f"[{index}]").within(segment) from None
+    return list(values)
+
+
+def _as_byte_buffer(value: object, segment: str) -> bytes | bytearray | memoryview | np.ndarray:
+    if isinstance(value, bytes | bytearray):
+        return value
+    if isinstance(value, memoryview):
+        return value.cast("B") if value.format != "B" or value.ndim != 1 else value
+    if isinstance(value, np.ndarray):
+        if value.dtype != np.uint8:
+            out_of_range = value.size > 0 and (value.min() < 0 or value.max() > 255)
+            if value.dtype.kind not in "iu" or out_of_range:
+                raise FieldError(
+                    segment, f"expected bytes or uint8 values, got dtype {value.dtype}"
+                )
+            value = value.astype(np.uint8)
+        return np.ascontiguousarray(value).reshape(-1)
+    if isinstance(value, array) and value.typecode == "B":
+        return memoryview(value)
+    if isinstance(value, Sequence) and not isinstance(value, str):
+        try:
+            return bytes(value)
+        except (TypeError, ValueError):
+            _element_error(value, _scalar_check("uint8"), segment)
+    fail(segment, "bytes", value)
+
+
+def uint8_sequence(value: object, size: int | None, segment: str) -> array[int]:
+    """An ``array('B')`` for ``uint8[]``/``char[]``: one copy from bytes or a uint8 ndarray."""
+    buffer = _as_byte_buffer(value, segment)
+    check_length(buffer, size, False, segment)
+    result = array("B")
+    result.frombytes(buffer)  # type: ignore[arg-type]  # ndarray is a buffer
+    return result
+
+
+def uint8_array(value: object, size: int, segment: str) -> np.ndarray:
+    buffer = _as_byte_buffer(value, segment)
+    check_length(buffer, size, True, segment)
+    return np.array(np.frombuffer(buffer, dtype=np.uint8))
+
+
+def octet_list(value: object, size: int | None, fixed: bool, segment: str) -> list[bytes]:
+    """``byte[]``: rosidl keeps a list of one-byte ``bytes``."""
+    buffer = bytes(_as_byte_buffer(value, segment))
+    check_length(buffer, size, fixed, segment)
+    return [BYTE_VALUES[b] for b in buffer]
+
+
+def message_list(
+    value: object,
+    convert: Callable[[Mapping[str, Any]], Any],
+    size: int | None,
+    fixed: bool,
+    segment: str,
+) -> list[Any]:
+    values = _check_sequence(value, segment)
+    check_length(values, size, fixed, segment)
+    result = []
+    for index, element in enumerate(values):
+        try:
+            result.append(convert(element))
+        except FieldError as error:
+            raise error.within(f"[{index}]").within(segment) from None
+    return result
