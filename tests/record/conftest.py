@@ -7,11 +7,10 @@ message. The warning is about a third-party import, not about our code.
 
 from __future__ import annotations
 
+import contextlib
 import warnings
 
-with warnings.catch_warnings():
+# A sourced ROS install may not have lark at all: then there is nothing to mute.
+with warnings.catch_warnings(), contextlib.suppress(ImportError):
     warnings.filterwarnings("ignore", message="module 'sre_.*' is deprecated")
-    try:
-        import lark  # noqa: F401
-    except ImportError:  # a sourced ROS install may not have it
-        pass
+    import lark  # noqa: F401
