@@ -1,4 +1,9 @@
-"""``Stamped``: a decoded value with the stamp and frame of its message's ``std_msgs/Header``."""
+"""``Stamped``: a decoded value with the stamp and frame of its message's ``std_msgs/Header``.
+
+The header is found by duck typing, so rclpy messages and the wire codecs' views both work: the
+``header`` field, else the first field whose declared type is ``std_msgs/Header``, else the
+message itself when it is a Header (it has ``stamp`` and ``frame_id``).
+"""
 
 from __future__ import annotations
 
@@ -10,6 +15,8 @@ from pyconnect.errors import DecodeError, EncodeError
 
 T = TypeVar("T")
 
+_HEADER_FIELD: dict[type, str | None] = {}
+
 
 @dataclass(frozen=True)
 class Stamped(Generic[T]):
@@ -20,16 +27,46 @@ class Stamped(Generic[T]):
     frame_id: str = ""
 
 
-def _header_of(msg: Any) -> Any:
+def _is_header(candidate: Any) -> bool:
+    stamp = getattr(candidate, "stamp", None)
+    return (
+        stamp is not None
+        and hasattr(stamp, "sec")
+        and hasattr(stamp, "nanosec")
+        and hasattr(candidate, "frame_id")
+    )
+
+
+def _header_field(cls: type) -> str | None:
+    if cls in _HEADER_FIELD:
+        return _HEADER_FIELD[cls]
+    found: str | None = None
+    field_types = getattr(cls, "get_fields_and_field_types", None)
+    if callable(field_types):
+        for name, type_name in field_types().items():
+            if type_name in ("std_msgs/Header", "std_msgs/msg/Header"):
+                found = name
+                break
+    _HEADER_FIELD[cls] = found
+    return found
+
+
+def header_of(msg: Any) -> Any:
+    """The ``std_msgs/Header`` of ``msg``, or None when it has none."""
     header = getattr(msg, "header", None)
-    if header is None or type(header).__name__ != "Header":
-        return None
-    return header
+    if header is not None and _is_header(header):
+        return header
+    name = _header_field(type(msg))
+    if name is not None:
+        return getattr(msg, name)
+    if _is_header(msg):
+        return msg
+    return None
 
 
 def decode_stamped(codec: Codec, msg: Any) -> Stamped[Any]:
     """Decode ``msg`` and keep its header; types without a header raise ``DecodeError``."""
-    header = _header_of(msg)
+    header = header_of(msg)
     if header is None:
         raise DecodeError(f"{codec.msg_type}: has no std_msgs/Header, so it cannot be Stamped")
     stamp = header.stamp
@@ -39,7 +76,7 @@ def decode_stamped(codec: Codec, msg: Any) -> Stamped[Any]:
 def encode_stamped(codec: Codec, stamped: Stamped[Any]) -> Any:
     """Encode ``stamped.value`` and write its stamp and frame into the message header."""
     msg = codec.encode(stamped.value)
-    header = _header_of(msg)
+    header = header_of(msg)
     if header is None:
         raise EncodeError(f"{codec.msg_type}: has no std_msgs/Header, so it cannot take a Stamped")
     sec, nanosec = divmod(stamped.stamp_ns, 1_000_000_000)

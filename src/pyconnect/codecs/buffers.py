@@ -1,0 +1,86 @@
+"""Zero-copy numpy views of message arrays, and one-copy filling of rclpy's ``array.array`` fields.
+
+rclpy gives numeric sequences as ``array.array`` and ``uint8[]`` as ``array('B')``; the CDR wire
+codecs give numpy arrays (often read-only views); ``byte[]`` comes as a list of 1-byte ``bytes``.
+Every reader here accepts all of them and copies nothing when the buffer protocol allows it.
+"""
+
+from __future__ import annotations
+
+import array
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from pyconnect.errors import EncodeError, type_name_of
+
+# numpy dtype -> array.array typecode of the same size, for rclpy's sequence fields.
+ARRAY_TYPECODES: dict[str, str] = {
+    "int8": "b",
+    "uint8": "B",
+    "int16": "h",
+    "uint16": "H",
+    "int32": "i",
+    "uint32": "I",
+    "int64": "q",
+    "uint64": "Q",
+    "float32": "f",
+    "float64": "d",
+}
+
+
+def numeric_view(values: Any, dtype: npt.DTypeLike) -> npt.NDArray[Any]:
+    """A 1-D array of ``dtype`` over ``values``, without a copy when it is a matching buffer."""
+    wanted = np.dtype(dtype)
+    if isinstance(values, np.ndarray):
+        if values.dtype == wanted:
+            return values.reshape(-1) if values.ndim != 1 else values
+        if values.dtype.itemsize == wanted.itemsize and values.dtype.kind == wanted.kind:
+            return values.reshape(-1).view(wanted)
+        return np.asarray(values, dtype=wanted).reshape(-1)
+    if isinstance(values, array.array) and values.itemsize == wanted.itemsize:
+        return np.frombuffer(values, dtype=wanted)
+    if isinstance(values, bytes | bytearray | memoryview) and wanted.itemsize == 1:
+        return np.frombuffer(values, dtype=wanted)
+    if isinstance(values, list) and values and isinstance(values[0], bytes):
+        return np.frombuffer(b"".join(values), dtype=wanted)
+    return np.asarray(values, dtype=wanted).reshape(-1)
+
+
+def byte_view(data: Any) -> npt.NDArray[np.uint8]:
+    """The bytes of a ``uint8[]``/``byte[]`` field as a 1-D uint8 array (zero-copy if possible)."""
+    if isinstance(data, np.ndarray) and data.dtype == np.uint8 and data.ndim == 1:
+        return data
+    return numeric_view(data, np.uint8)
+
+
+def contiguous_bytes(values: npt.NDArray[Any]) -> memoryview:
+    """A flat byte memoryview of ``values``; copies only when it is not C-contiguous."""
+    if not values.flags.c_contiguous:
+        values = np.ascontiguousarray(values)
+    return (values if values.ndim else values.reshape(1)).data.cast("B")
+
+
+def filled_array(values: Any, dtype: npt.DTypeLike, path: str) -> array.array[Any]:
+    """A new ``array.array`` for an rclpy sequence field holding ``values`` (one copy).
+
+    Assigning an ndarray to an rclpy sequence field checks it element by element; assigning an
+    ``array.array`` of the right typecode is O(1), so building one with ``frombytes`` is the
+    fast path.
+    """
+    wanted = np.dtype(dtype)
+    if isinstance(values, np.ndarray) and values.dtype == wanted:
+        source = values
+    else:
+        try:
+            source = np.asarray(values, dtype=wanted)
+        except (TypeError, ValueError) as error:
+            raise EncodeError(
+                f"{path}: expected a sequence of {wanted.name}, got {type_name_of(values)}"
+            ) from error
+    if source.ndim != 1:
+        raise EncodeError(f"{path}: expected a 1-D sequence, got shape {source.shape}")
+    result = array.array(ARRAY_TYPECODES[wanted.name])
+    result.frombytes(contiguous_bytes(source))
+    return result

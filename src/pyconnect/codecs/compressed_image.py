@@ -1,0 +1,143 @@
+"""sensor_msgs/CompressedImage ↔ ``numpy.ndarray`` decoded with OpenCV (BGR channel order).
+
+Decode reads jpeg, png (16-bit png stays uint16, alpha is kept) and image_transport's
+``compressedDepth`` (a 12-byte header, then a png; ``32FC1`` depth is de-quantised to float32
+metres, 0 → NaN). A corrupt or empty payload gets a ``DecodeError``, never a crash.
+Encode: ``CompressedImageCodec(format="jpeg", quality=95)`` or ``format="png"`` (lossless pixels,
+``png_level`` 0-9), writing image_transport's format string (``"bgr8; jpeg compressed bgr8"``).
+
+``lossless`` is False: jpeg loses pixels, and the header and format string are dropped.
+"""
+
+from __future__ import annotations
+
+import struct
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from pyconnect.codecs.buffers import byte_view
+from pyconnect.errors import DecodeError, EncodeError, type_name_of
+
+_FORMATS = ("jpeg", "png")
+_ENCODING_NAMES = {
+    ("u1", 1): "mono8",
+    ("u1", 3): "bgr8",
+    ("u1", 4): "bgra8",
+    ("u2", 1): "mono16",
+    ("u2", 3): "bgr16",
+    ("u2", 4): "bgra16",
+}
+
+
+def _imdecode(payload: npt.NDArray[np.uint8], what: str) -> npt.NDArray[Any]:
+    import cv2
+
+    image: npt.NDArray[Any] | None
+    try:
+        image = cv2.imdecode(payload, cv2.IMREAD_UNCHANGED) if len(payload) else None
+    except cv2.error:
+        image = None
+    if image is None:
+        raise DecodeError(f"CompressedImage.data: cannot decode {len(payload)} bytes as {what}")
+    return image
+
+
+def decode_compressed_image(msg: Any) -> npt.NDArray[Any]:
+    """The pixels of a CompressedImage (jpeg, png or compressedDepth png)."""
+    data = byte_view(msg.data)
+    form = str(msg.format)
+    if "compressedDepth" in form:
+        return _decode_depth(data, form)
+    what = "png" if "png" in form.lower() else "jpeg" if "jp" in form.lower() else repr(form)
+    return _imdecode(data, what)
+
+
+def _decode_depth(data: npt.NDArray[np.uint8], form: str) -> npt.NDArray[Any]:
+    if "rvl" in form:
+        raise DecodeError(f"CompressedImage.format: {form!r} (rvl) is not supported")
+    if len(data) < 12:
+        raise DecodeError(
+            f"CompressedImage.data: compressedDepth needs a 12-byte header, got {len(data)} bytes"
+        )
+    quant_a, quant_b = struct.unpack_from("<ff", data[:12].tobytes(), 4)
+    inverse = _imdecode(data[12:], "compressedDepth png")
+    if not form.startswith("32FC1"):
+        return inverse
+    with np.errstate(divide="ignore"):
+        depth: npt.NDArray[np.float32] = (
+            quant_a / (inverse.astype(np.float32) - np.float32(quant_b))
+        ).astype(np.float32)
+    depth[inverse == 0] = np.nan
+    return depth
+
+
+def compressed_fields(
+    value: Any, *, format: str = "jpeg", quality: int = 95, png_level: int = 3
+) -> dict[str, Any]:
+    """``format`` and ``data`` (bytes) of a CompressedImage holding ``value``."""
+    import cv2
+
+    if not isinstance(value, np.ndarray):
+        raise EncodeError(f"CompressedImage: expected numpy.ndarray, got {type_name_of(value)}")
+    channels = 1 if value.ndim == 2 else value.shape[2] if value.ndim == 3 else 0
+    name = _ENCODING_NAMES.get((value.dtype.str[1:], channels))
+    if name is None or (format == "jpeg" and (value.dtype != np.uint8 or channels == 4)):
+        wanted = (
+            "uint8 (H, W) or (H, W, 3)"
+            if format == "jpeg"
+            else "uint8 or uint16 (H, W), (H, W, 3) or (H, W, 4)"
+        )
+        raise EncodeError(
+            f"CompressedImage: {format} expects {wanted}, got {value.dtype.name} of shape "
+            f"{value.shape}"
+        )
+    if not value.dtype.isnative:
+        value = value.astype(value.dtype.newbyteorder("="))
+    if format == "jpeg":
+        ok, encoded = cv2.imencode(".jpg", value, [cv2.IMWRITE_JPEG_QUALITY, quality])
+    else:
+        ok, encoded = cv2.imencode(".png", value, [cv2.IMWRITE_PNG_COMPRESSION, png_level])
+    if not ok:
+        raise EncodeError(f"CompressedImage: OpenCV could not encode {value.shape} as {format}")
+    return {"format": f"{name}; {format} compressed {name}", "data": encoded.tobytes()}
+
+
+class CompressedImageCodec:
+    """CompressedImage ↔ ndarray; ``format`` is ``"jpeg"`` (with ``quality``) or ``"png"``."""
+
+    msg_type = "sensor_msgs/msg/CompressedImage"
+    lossless = False
+
+    decode = staticmethod(decode_compressed_image)
+
+    def __init__(self, *, format: str = "jpeg", quality: int = 95, png_level: int = 3) -> None:
+        if format not in _FORMATS:
+            raise EncodeError(f"CompressedImageCodec: format must be jpeg or png, got {format!r}")
+        if not 0 <= quality <= 100:
+            raise EncodeError(f"CompressedImageCodec: quality must be 0-100, got {quality}")
+        if not 0 <= png_level <= 9:
+            raise EncodeError(f"CompressedImageCodec: png_level must be 0-9, got {png_level}")
+        self.format = format
+        self.quality = quality
+        self.png_level = png_level
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        return compressed_fields(
+            value, format=self.format, quality=self.quality, png_level=self.png_level
+        )
+
+    def encode(self, value: Any) -> Any:
+        from sensor_msgs.msg import CompressedImage
+
+        fields = self.to_fields(value)
+        msg = CompressedImage(format=fields["format"])
+        msg.data.frombytes(fields["data"])
+        return msg
+
+    def __repr__(self) -> str:
+        return (
+            f"CompressedImageCodec(format={self.format!r}, quality={self.quality}, "
+            f"png_level={self.png_level})"
+        )

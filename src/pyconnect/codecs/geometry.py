@@ -1,0 +1,452 @@
+"""geometry_msgs ↔ tuples: vectors ``(x, y, z)``, poses ``((x, y, z), (qx, qy, qz, qw))``.
+
+- Vector3, Point, Point32 → ``(x, y, z)``; Quaternion → ``(x, y, z, w)``; Pose2D → ``(x, y, theta)``
+- Pose, Transform → ``((x, y, z), (qx, qy, qz, qw))``
+- Twist, Accel, Wrench → ``((x, y, z), (x, y, z))``; encode also takes the planar ``(v, w)``,
+  meaning ``((v, 0, 0), (0, 0, w))``
+- Polygon → float32 (N, 3) array; PoseArray and nav_msgs/Path → list of pose tuples
+- the ``*Stamped`` variants → the inner value.
+
+The plain types are lossless. The stamped ones drop the header (use ``stamped=True`` to keep
+stamp and frame); TransformStamped also drops ``child_frame_id``; Path drops the header of
+every pose. Their ``lossless`` is False.
+"""
+
+from __future__ import annotations
+
+import numbers
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from pyconnect.codecs.checks import check_float, check_float32, check_sequence
+from pyconnect.errors import EncodeError, type_name_of
+
+Triple = tuple[float, float, float]
+Quad = tuple[float, float, float, float]
+PoseValue = tuple[Triple, Quad]
+
+
+def _msg(module: str, name: str) -> Any:
+    import importlib
+
+    return getattr(importlib.import_module(f"{module}.msg"), name)
+
+
+def _triple(value: Any, path: str) -> Triple:
+    if type(value) is tuple and len(value) == 3:
+        x, y, z = value
+        if type(x) is float and type(y) is float and type(z) is float:
+            return value  # type: ignore[return-value]
+    else:
+        x, y, z = check_sequence(value, 3, path, "(x, y, z)")
+    return (check_float(x, f"{path}.x"), check_float(y, f"{path}.y"), check_float(z, f"{path}.z"))
+
+
+def _triple32(value: Any, path: str) -> Triple:
+    x, y, z = check_sequence(value, 3, path, "(x, y, z)")
+    return (
+        check_float32(x, f"{path}.x"),
+        check_float32(y, f"{path}.y"),
+        check_float32(z, f"{path}.z"),
+    )
+
+
+def _quad(value: Any, path: str) -> Quad:
+    x, y, z, w = check_sequence(value, 4, path, "(x, y, z, w)")
+    return (
+        check_float(x, f"{path}.x"),
+        check_float(y, f"{path}.y"),
+        check_float(z, f"{path}.z"),
+        check_float(w, f"{path}.w"),
+    )
+
+
+def _xyz(msg: Any) -> Triple:
+    return (msg.x, msg.y, msg.z)
+
+
+def _xyzw(msg: Any) -> Quad:
+    return (msg.x, msg.y, msg.z, msg.w)
+
+
+def _xyz_fields(value: Triple) -> dict[str, float]:
+    return {"x": value[0], "y": value[1], "z": value[2]}
+
+
+def _xyzw_fields(value: Quad) -> dict[str, float]:
+    return {"x": value[0], "y": value[1], "z": value[2], "w": value[3]}
+
+
+class _Base:
+    """Shared plumbing: the message class is imported on first encode."""
+
+    msg_type = ""
+    lossless = True
+    _module = "geometry_msgs"
+    _name = ""
+    _class: Any = None
+
+    def _cls(self) -> Any:
+        cls = type(self)._class
+        if cls is None:
+            cls = type(self)._class = _msg(self._module, self._name)
+        return cls
+
+
+class Vector3Codec(_Base):
+    """geometry_msgs/Vector3 ↔ ``(x, y, z)``."""
+
+    msg_type = "geometry_msgs/msg/Vector3"
+    _name = "Vector3"
+
+    def decode(self, msg: Any) -> Triple:
+        return (msg.x, msg.y, msg.z)
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        return _xyz_fields(_triple(value, self._name))
+
+    def encode(self, value: Any) -> Any:
+        x, y, z = _triple(value, self._name)
+        return self._cls()(x=x, y=y, z=z)
+
+
+class PointCodec(Vector3Codec):
+    """geometry_msgs/Point ↔ ``(x, y, z)``."""
+
+    msg_type = "geometry_msgs/msg/Point"
+    _name = "Point"
+    _class = None
+
+
+class Point32Codec(Vector3Codec):
+    """geometry_msgs/Point32 ↔ ``(x, y, z)`` (float32 range checked)."""
+
+    msg_type = "geometry_msgs/msg/Point32"
+    _name = "Point32"
+    _class = None
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        return _xyz_fields(_triple32(value, self._name))
+
+    def encode(self, value: Any) -> Any:
+        x, y, z = _triple32(value, self._name)
+        return self._cls()(x=x, y=y, z=z)
+
+
+class QuaternionCodec(_Base):
+    """geometry_msgs/Quaternion ↔ ``(x, y, z, w)``."""
+
+    msg_type = "geometry_msgs/msg/Quaternion"
+    _name = "Quaternion"
+
+    def decode(self, msg: Any) -> Quad:
+        return (msg.x, msg.y, msg.z, msg.w)
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        return _xyzw_fields(_quad(value, self._name))
+
+    def encode(self, value: Any) -> Any:
+        x, y, z, w = _quad(value, self._name)
+        return self._cls()(x=x, y=y, z=z, w=w)
+
+
+class Pose2DCodec(_Base):
+    """geometry_msgs/Pose2D ↔ ``(x, y, theta)``."""
+
+    msg_type = "geometry_msgs/msg/Pose2D"
+    _name = "Pose2D"
+
+    def decode(self, msg: Any) -> Triple:
+        return (msg.x, msg.y, msg.theta)
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        x, y, theta = check_sequence(value, 3, "Pose2D", "(x, y, theta)")
+        return {
+            "x": check_float(x, "Pose2D.x"),
+            "y": check_float(y, "Pose2D.y"),
+            "theta": check_float(theta, "Pose2D.theta"),
+        }
+
+    def encode(self, value: Any) -> Any:
+        return self._cls()(**self.to_fields(value))
+
+
+def _pose_parts(value: Any, path: str, first: str, second: str) -> tuple[Triple, Quad]:
+    position, orientation = check_sequence(value, 2, path, "((x, y, z), (qx, qy, qz, qw))")
+    return _triple(position, f"{path}.{first}"), _quad(orientation, f"{path}.{second}")
+
+
+class PoseCodec(_Base):
+    """geometry_msgs/Pose ↔ ``((x, y, z), (qx, qy, qz, qw))``."""
+
+    msg_type = "geometry_msgs/msg/Pose"
+    _name = "Pose"
+    _first, _second = "position", "orientation"
+    _first_class, _second_class = "Point", "Quaternion"
+
+    def decode(self, msg: Any) -> PoseValue:
+        p = getattr(msg, self._first)
+        q = getattr(msg, self._second)
+        return ((p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        p, q = _pose_parts(value, self._name, self._first, self._second)
+        return {self._first: _xyz_fields(p), self._second: _xyzw_fields(q)}
+
+    def encode(self, value: Any) -> Any:
+        (x, y, z), (qx, qy, qz, qw) = _pose_parts(value, self._name, self._first, self._second)
+        first = _msg("geometry_msgs", self._first_class)(x=x, y=y, z=z)
+        second = _msg("geometry_msgs", self._second_class)(x=qx, y=qy, z=qz, w=qw)
+        return self._cls()(**{self._first: first, self._second: second})
+
+
+class TransformCodec(PoseCodec):
+    """geometry_msgs/Transform ↔ ``((x, y, z), (qx, qy, qz, qw))``."""
+
+    msg_type = "geometry_msgs/msg/Transform"
+    _name = "Transform"
+    _class = None
+    _first, _second = "translation", "rotation"
+    _first_class, _second_class = "Vector3", "Quaternion"
+
+
+def _pair_of_triples(value: Any, path: str, first: str, second: str) -> tuple[Triple, Triple]:
+    if type(value) is tuple and len(value) == 2:
+        a, b = value
+    else:
+        a, b = check_sequence(value, 2, path, "((x, y, z), (x, y, z)) or (v, w)")
+    if isinstance(a, numbers.Real):
+        # The planar shorthand (v, w): forward speed and yaw rate.
+        return (
+            (check_float(a, f"{path}.{first}.x"), 0.0, 0.0),
+            (0.0, 0.0, check_float(b, f"{path}.{second}.z")),
+        )
+    return _triple(a, f"{path}.{first}"), _triple(b, f"{path}.{second}")
+
+
+class TwistCodec(_Base):
+    """geometry_msgs/Twist ↔ ``((vx, vy, vz), (wx, wy, wz))``; encode also takes ``(v, w)``."""
+
+    msg_type = "geometry_msgs/msg/Twist"
+    _name = "Twist"
+    _first, _second = "linear", "angular"
+    _vector: Any = None
+
+    def decode(self, msg: Any) -> tuple[Triple, Triple]:
+        a = getattr(msg, self._first)
+        b = getattr(msg, self._second)
+        return ((a.x, a.y, a.z), (b.x, b.y, b.z))
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        a, b = _pair_of_triples(value, self._name, self._first, self._second)
+        return {self._first: _xyz_fields(a), self._second: _xyz_fields(b)}
+
+    def encode(self, value: Any) -> Any:
+        (ax, ay, az), (bx, by, bz) = _pair_of_triples(value, self._name, self._first, self._second)
+        vector = TwistCodec._vector
+        if vector is None:
+            vector = TwistCodec._vector = _msg("geometry_msgs", "Vector3")
+        return self._cls()(
+            **{self._first: vector(x=ax, y=ay, z=az), self._second: vector(x=bx, y=by, z=bz)}
+        )
+
+
+class AccelCodec(TwistCodec):
+    """geometry_msgs/Accel ↔ ``((ax, ay, az), (alpha_x, alpha_y, alpha_z))``."""
+
+    msg_type = "geometry_msgs/msg/Accel"
+    _name = "Accel"
+    _class = None
+
+
+class WrenchCodec(TwistCodec):
+    """geometry_msgs/Wrench ↔ ``((fx, fy, fz), (tx, ty, tz))``."""
+
+    msg_type = "geometry_msgs/msg/Wrench"
+    _name = "Wrench"
+    _class = None
+    _first, _second = "force", "torque"
+
+
+class PolygonCodec(_Base):
+    """geometry_msgs/Polygon ↔ float32 (N, 3) array of its points."""
+
+    msg_type = "geometry_msgs/msg/Polygon"
+    _name = "Polygon"
+
+    def decode(self, msg: Any) -> npt.NDArray[np.float32]:
+        points = msg.points
+        result = np.empty((len(points), 3), np.float32)
+        for index, point in enumerate(points):
+            result[index] = (point.x, point.y, point.z)
+        return result
+
+    def _checked(self, value: Any) -> npt.NDArray[np.float32]:
+        if isinstance(value, list | tuple) and not value:
+            return np.empty((0, 3), np.float32)
+        try:
+            array = np.asarray(value)
+        except (TypeError, ValueError) as error:  # ragged input
+            raise EncodeError(
+                f"{self._name}.points: expected an (N, 3) array, got {type_name_of(value)}"
+            ) from error
+        if array.ndim != 2 or array.shape[1] != 3 or array.dtype.kind not in "iuf":
+            raise EncodeError(
+                f"{self._name}.points: expected an (N, 3) array of floats, got "
+                f"{type_name_of(value)} of shape {array.shape} and dtype {array.dtype}"
+            )
+        if array.dtype.kind == "f" and array.dtype.itemsize > 4:
+            finite = array[np.isfinite(array)]
+            if finite.size and np.abs(finite).max() > np.finfo(np.float32).max:
+                raise EncodeError(f"{self._name}.points: values exceed the float32 range")
+        return array.astype(np.float32, copy=False)
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        array = self._checked(value)
+        return {"points": [{"x": x, "y": y, "z": z} for x, y, z in array.tolist()]}
+
+    def encode(self, value: Any) -> Any:
+        array = self._checked(value)
+        point = _msg("geometry_msgs", "Point32")
+        points = [point(x=x, y=y, z=z) for x, y, z in array.tolist()]
+        return self._cls()(points=points)
+
+
+class PoseArrayCodec(_Base):
+    """geometry_msgs/PoseArray ↔ list of pose tuples (drops the header)."""
+
+    msg_type = "geometry_msgs/msg/PoseArray"
+    _name = "PoseArray"
+    lossless = False
+    _pose = PoseCodec()
+
+    def decode(self, msg: Any) -> list[PoseValue]:
+        decode = self._pose.decode
+        return [decode(pose) for pose in msg.poses]
+
+    def _list(self, value: Any) -> list[Any]:
+        if not isinstance(value, list | tuple):
+            raise EncodeError(
+                f"{self._name}.poses: expected a list of poses, got {type_name_of(value)}"
+            )
+        return list(value)
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        return {
+            "poses": [
+                _pose_fields(pose, f"{self._name}.poses[{i}]")
+                for i, pose in enumerate(self._list(value))
+            ]
+        }
+
+    def encode(self, value: Any) -> Any:
+        poses = [
+            _pose_message(pose, f"{self._name}.poses[{i}]")
+            for i, pose in enumerate(self._list(value))
+        ]
+        return self._cls()(poses=poses)
+
+
+def _pose_fields(value: Any, path: str) -> dict[str, Any]:
+    p, q = _pose_parts(value, path, "position", "orientation")
+    return {"position": _xyz_fields(p), "orientation": _xyzw_fields(q)}
+
+
+def _pose_message(value: Any, path: str) -> Any:
+    (x, y, z), (qx, qy, qz, qw) = _pose_parts(value, path, "position", "orientation")
+    return _msg("geometry_msgs", "Pose")(
+        position=_msg("geometry_msgs", "Point")(x=x, y=y, z=z),
+        orientation=_msg("geometry_msgs", "Quaternion")(x=qx, y=qy, z=qz, w=qw),
+    )
+
+
+class PathCodec(PoseArrayCodec):
+    """nav_msgs/Path ↔ list of pose tuples (drops its header and every pose's header)."""
+
+    msg_type = "nav_msgs/msg/Path"
+    _module = "nav_msgs"
+    _name = "Path"
+    _class = None
+
+    def decode(self, msg: Any) -> list[PoseValue]:
+        decode = self._pose.decode
+        return [decode(stamped.pose) for stamped in msg.poses]
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        return {
+            "poses": [
+                {"pose": _pose_fields(pose, f"Path.poses[{i}]")}
+                for i, pose in enumerate(self._list(value))
+            ]
+        }
+
+    def encode(self, value: Any) -> Any:
+        stamped = _msg("geometry_msgs", "PoseStamped")
+        poses = [
+            stamped(pose=_pose_message(pose, f"Path.poses[{i}]"))
+            for i, pose in enumerate(self._list(value))
+        ]
+        return self._cls()(poses=poses)
+
+
+class StampedCodec:
+    """A ``*Stamped`` message ↔ the natural value of its inner field (the header is dropped)."""
+
+    lossless = False
+
+    def __init__(self, name: str, field: str, inner: Any) -> None:
+        self.name = name
+        self.msg_type = f"geometry_msgs/msg/{name}"
+        self.field = field
+        self.inner = inner
+        self._class: Any = None
+
+    def decode(self, msg: Any) -> Any:
+        return self.inner.decode(getattr(msg, self.field))
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        return {self.field: self.inner.to_fields(value)}
+
+    def encode(self, value: Any) -> Any:
+        cls = self._class
+        if cls is None:
+            cls = self._class = _msg("geometry_msgs", self.name)
+        return cls(**{self.field: self.inner.encode(value)})
+
+
+def point_stamped_codec() -> StampedCodec:
+    return StampedCodec("PointStamped", "point", PointCodec())
+
+
+def vector3_stamped_codec() -> StampedCodec:
+    return StampedCodec("Vector3Stamped", "vector", Vector3Codec())
+
+
+def quaternion_stamped_codec() -> StampedCodec:
+    return StampedCodec("QuaternionStamped", "quaternion", QuaternionCodec())
+
+
+def pose_stamped_codec() -> StampedCodec:
+    return StampedCodec("PoseStamped", "pose", PoseCodec())
+
+
+def transform_stamped_codec() -> StampedCodec:
+    return StampedCodec("TransformStamped", "transform", TransformCodec())
+
+
+def twist_stamped_codec() -> StampedCodec:
+    return StampedCodec("TwistStamped", "twist", TwistCodec())
+
+
+def accel_stamped_codec() -> StampedCodec:
+    return StampedCodec("AccelStamped", "accel", AccelCodec())
+
+
+def wrench_stamped_codec() -> StampedCodec:
+    return StampedCodec("WrenchStamped", "wrench", WrenchCodec())
+
+
+def polygon_stamped_codec() -> StampedCodec:
+    return StampedCodec("PolygonStamped", "polygon", PolygonCodec())

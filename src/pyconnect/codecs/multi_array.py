@@ -1,0 +1,133 @@
+"""std_msgs/*MultiArray ↔ ``numpy.ndarray`` shaped by the message's layout.
+
+Decode reads ``layout.dim`` (sizes and strides, outermost first) and ``data_offset`` and returns
+a zero-copy strided view; with no dimensions the data is 1-D. Encode writes a C-ordered layout
+with one dimension per axis. Dimension labels and any padding between rows are dropped, so
+``lossless`` is False. ByteMultiArray's elements are uint8.
+"""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from pyconnect.codecs.buffers import ARRAY_TYPECODES, contiguous_bytes, numeric_view
+from pyconnect.errors import DecodeError, EncodeError, type_name_of
+
+DTYPES: dict[str, str] = {
+    "ByteMultiArray": "uint8",
+    "Int8MultiArray": "int8",
+    "UInt8MultiArray": "uint8",
+    "Int16MultiArray": "int16",
+    "UInt16MultiArray": "uint16",
+    "Int32MultiArray": "int32",
+    "UInt32MultiArray": "uint32",
+    "Int64MultiArray": "int64",
+    "UInt64MultiArray": "uint64",
+    "Float32MultiArray": "float32",
+    "Float64MultiArray": "float64",
+}
+
+
+class MultiArrayCodec:
+    """One std_msgs ``*MultiArray`` type ↔ ndarray."""
+
+    lossless = False
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.msg_type = f"std_msgs/msg/{name}"
+        self.dtype = np.dtype(DTYPES[name])
+
+    def decode(self, msg: Any) -> npt.NDArray[Any]:
+        data = numeric_view(msg.data, self.dtype)
+        layout = msg.layout
+        dims = list(layout.dim)
+        offset = layout.data_offset
+        if not dims:
+            return data[offset:]
+        shape = tuple(int(d.size) for d in dims)
+        element_strides = [int(d.stride) for d in dims[1:]] + [1]
+        if 0 in shape:
+            return np.empty(shape, self.dtype)
+        last = offset + sum((n - 1) * s for n, s in zip(shape, element_strides, strict=True))
+        if last >= len(data):
+            raise DecodeError(
+                f"{self.name}.data: layout {shape} with strides "
+                f"{tuple(element_strides)} and offset {offset} reads element {last}, "
+                f"got {len(data)} elements"
+            )
+        itemsize = self.dtype.itemsize
+        view: npt.NDArray[Any] = np.lib.stride_tricks.as_strided(
+            data[offset:],
+            shape=shape,
+            strides=tuple(s * itemsize for s in element_strides),
+            writeable=data.flags.writeable,
+        )
+        return view
+
+    def _checked(self, value: Any) -> npt.NDArray[Any]:
+        if not isinstance(value, np.ndarray):
+            raise EncodeError(f"{self.name}: expected numpy.ndarray, got {type_name_of(value)}")
+        if not np.can_cast(value.dtype, self.dtype, casting="same_kind") or (
+            value.dtype.kind in "iu"
+            and self.dtype.kind in "iu"
+            and not np.can_cast(value.dtype, self.dtype, casting="safe")
+        ):
+            raise EncodeError(
+                f"{self.name}.data: expected {self.dtype.name} values, got {value.dtype.name}"
+            )
+        return value.astype(self.dtype, copy=False)
+
+    def _layout(self, array: npt.NDArray[Any]) -> dict[str, Any]:
+        # ROS strides count elements of this and all inner dimensions: C order, no padding.
+        dims: list[dict[str, Any]] = []
+        stride = 1
+        for size in reversed(array.shape):
+            stride *= size
+            dims.insert(0, {"label": "", "size": int(size), "stride": int(stride)})
+        return {"dim": dims, "data_offset": 0}
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        array = self._checked(value)
+        data: Any = np.ascontiguousarray(array).reshape(-1)
+        if self.name == "ByteMultiArray":
+            data = data.tobytes()
+        return {"layout": self._layout(array), "data": data}
+
+    def encode(self, value: Any) -> Any:
+        import array as array_module
+
+        import std_msgs.msg
+
+        values = self._checked(value)
+        layout = self._layout(values)
+        msg = getattr(std_msgs.msg, self.name)()
+        msg.layout = std_msgs.msg.MultiArrayLayout(
+            dim=[std_msgs.msg.MultiArrayDimension(**d) for d in layout["dim"]], data_offset=0
+        )
+        if self.name == "ByteMultiArray":
+            # rclpy holds byte[] as a list of 1-byte bytes objects.
+            flat = np.ascontiguousarray(values).reshape(-1).tobytes()
+            msg.data = [flat[i : i + 1] for i in range(len(flat))]
+        else:
+            data = array_module.array(ARRAY_TYPECODES[self.dtype.name])
+            data.frombytes(contiguous_bytes(values))
+            msg.data = data
+        return msg
+
+
+byte_multi_array_codec = partial(MultiArrayCodec, "ByteMultiArray")
+int8_multi_array_codec = partial(MultiArrayCodec, "Int8MultiArray")
+uint8_multi_array_codec = partial(MultiArrayCodec, "UInt8MultiArray")
+int16_multi_array_codec = partial(MultiArrayCodec, "Int16MultiArray")
+uint16_multi_array_codec = partial(MultiArrayCodec, "UInt16MultiArray")
+int32_multi_array_codec = partial(MultiArrayCodec, "Int32MultiArray")
+uint32_multi_array_codec = partial(MultiArrayCodec, "UInt32MultiArray")
+int64_multi_array_codec = partial(MultiArrayCodec, "Int64MultiArray")
+uint64_multi_array_codec = partial(MultiArrayCodec, "UInt64MultiArray")
+float32_multi_array_codec = partial(MultiArrayCodec, "Float32MultiArray")
+float64_multi_array_codec = partial(MultiArrayCodec, "Float64MultiArray")

@@ -1,0 +1,216 @@
+"""sensor_msgs/PointCloud2 ↔ numpy structured array, one field per PointField (zero-copy decode).
+
+The dtype reproduces the PointField table exactly: each field at its ``offset``, ``count > 1``
+as a subarray field, ``itemsize = point_step`` (so padding such as Ouster's 48-byte points is
+skipped, not copied), unsorted offsets as they are, and big-endian byte order when
+``is_bigendian`` is set. Unorganised clouds (``height == 1``) decode to shape (width,),
+organised ones to (height, width); ``row_step`` padding is honoured through strides. A packed
+``rgb``/``rgba`` float32 field stays float32: ``unpack_rgb`` and ``pack_rgb`` convert it.
+
+Encode takes a structured array (fields in dtype order; offsets, padding and byte order kept) or
+an (N, 3) float array as x, y, z. ``is_dense`` is computed on encode (True when no x/y/z is
+NaN or inf) and dropped on decode, as are the header and row padding, so ``lossless`` is False.
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from pyconnect.codecs.buffers import byte_view, contiguous_bytes
+from pyconnect.errors import DecodeError, EncodeError, type_name_of
+
+# PointField datatype codes (sensor_msgs/PointField constants).
+DATATYPES: dict[int, str] = {
+    1: "i1",
+    2: "u1",
+    3: "i2",
+    4: "u2",
+    5: "i4",
+    6: "u4",
+    7: "f4",
+    8: "f8",
+}
+_CODES = {kind: code for code, kind in DATATYPES.items()}
+_NATIVE_BIG = sys.byteorder == "big"
+
+_Field = tuple[str, int, int, int]  # name, offset, datatype, count
+_DTYPES: dict[tuple[tuple[_Field, ...], int, bool], np.dtype[Any]] = {}
+
+
+def cloud_dtype(fields: Any, point_step: int, *, big_endian: bool = False) -> np.dtype[Any]:
+    """The structured dtype of a PointField table (objects with name/offset/datatype/count)."""
+    table = tuple((f.name, f.offset, f.datatype, f.count) for f in fields)
+    key = (table, point_step, big_endian)
+    cached = _DTYPES.get(key)
+    if cached is not None:
+        return cached
+    order = ">" if big_endian else "<"
+    names, formats, offsets = [], [], []
+    for name, offset, datatype, count in table:
+        kind = DATATYPES.get(datatype)
+        if kind is None:
+            raise DecodeError(
+                f"PointCloud2.fields[{name!r}].datatype: expected 1-8 (INT8..FLOAT64), got "
+                f"{datatype}"
+            )
+        size = int(kind[1]) * max(count, 1)
+        if offset + size > point_step:
+            raise DecodeError(
+                f"PointCloud2.fields[{name!r}]: bytes {offset}..{offset + size} do not fit in "
+                f"point_step {point_step}"
+            )
+        if name in names:
+            raise DecodeError(f"PointCloud2.fields: field {name!r} appears more than once")
+        names.append(name)
+        formats.append(f"{order}{kind}" if count <= 1 else (f"{order}{kind}", (count,)))
+        offsets.append(offset)
+    dtype = np.dtype(
+        {"names": names, "formats": formats, "offsets": offsets, "itemsize": point_step}
+    )
+    _DTYPES[key] = dtype
+    return dtype
+
+
+def decode_point_cloud(msg: Any) -> npt.NDArray[Any]:
+    """A zero-copy structured view of a PointCloud2's points (reads attributes only)."""
+    height, width = msg.height, msg.width
+    point_step, row_step = msg.point_step, msg.row_step
+    dtype = cloud_dtype(msg.fields, point_step, big_endian=bool(msg.is_bigendian))
+    data = byte_view(msg.data)
+    if height and width and row_step < width * point_step:
+        raise DecodeError(
+            f"PointCloud2.row_step: expected at least {width * point_step} (width {width} * "
+            f"point_step {point_step}), got {row_step}"
+        )
+    if len(data) < row_step * height:
+        raise DecodeError(
+            f"PointCloud2.data: expected at least {row_step * height} bytes (row_step "
+            f"{row_step} * height {height}), got {len(data)}"
+        )
+    if height <= 1:
+        shape: tuple[int, ...] = (width if height else 0,)
+        strides: tuple[int, ...] = (point_step,)
+    else:
+        shape = (height, width)
+        strides = (row_step, point_step)
+    if point_step == 0:
+        return np.zeros(shape, dtype)
+    view: npt.NDArray[Any] = np.ndarray(shape, dtype, buffer=data, strides=strides)
+    return view
+
+
+def _as_structured(value: Any) -> npt.NDArray[Any]:
+    if not isinstance(value, np.ndarray):
+        raise EncodeError(
+            f"PointCloud2: expected a structured ndarray or an (N, 3) float array, got "
+            f"{type_name_of(value)}"
+        )
+    if value.dtype.names is not None:
+        if value.ndim not in (1, 2):
+            raise EncodeError(
+                f"PointCloud2: expected a structured array of shape (N,) or (H, W), got "
+                f"{value.shape}"
+            )
+        return value
+    if value.ndim == 2 and value.shape[1] == 3 and value.dtype.kind == "f":
+        kind = value.dtype.newbyteorder("=")
+        xyz = np.dtype([("x", kind), ("y", kind), ("z", kind)])
+        return np.ascontiguousarray(value).view(xyz).reshape(-1)
+    raise EncodeError(
+        f"PointCloud2: expected a structured ndarray or an (N, 3) float array, got "
+        f"{value.dtype} array of shape {value.shape}"
+    )
+
+
+def _field_table(dtype: np.dtype[Any]) -> tuple[list[dict[str, Any]], bool]:
+    fields = []
+    orders = set()
+    for name, spec in (dtype.fields or {}).items():
+        field_dtype, offset = spec[0], spec[1]
+        base = field_dtype.base if field_dtype.subdtype else field_dtype
+        count = int(np.prod(field_dtype.shape)) if field_dtype.subdtype else 1
+        code = _CODES.get(base.str[1:])
+        if code is None:
+            raise EncodeError(
+                f"PointCloud2.fields[{name!r}]: expected int8, uint8, int16, uint16, int32, "
+                f"uint32, float32 or float64, got {base.name}"
+            )
+        if base.itemsize > 1:
+            orders.add(base.byteorder == ">" or (base.byteorder == "=" and _NATIVE_BIG))
+        fields.append({"name": name, "offset": offset, "datatype": code, "count": count})
+    if len(orders) > 1:
+        raise EncodeError("PointCloud2.fields: mixed byte orders (all big or all little endian)")
+    return fields, bool(orders and orders.pop())
+
+
+def _is_dense(points: npt.NDArray[Any]) -> bool:
+    names = points.dtype.names or ()
+    for axis in ("x", "y", "z"):
+        if axis in names and points.dtype[axis].kind == "f" and not np.isfinite(points[axis]).all():
+            return False
+    return True
+
+
+def point_cloud_fields(value: Any) -> dict[str, Any]:
+    """The PointCloud2 fields of a structured (or (N, 3)) array; ``data`` is a byte memoryview."""
+    points = _as_structured(value)
+    fields, big_endian = _field_table(points.dtype)
+    height, width = (1, points.shape[0]) if points.ndim == 1 else points.shape
+    point_step = points.dtype.itemsize
+    return {
+        "height": height,
+        "width": width,
+        "fields": fields,
+        "is_bigendian": big_endian,
+        "point_step": point_step,
+        "row_step": point_step * width,
+        "data": contiguous_bytes(points),
+        "is_dense": _is_dense(points),
+    }
+
+
+class PointCloudCodec:
+    """sensor_msgs/PointCloud2 ↔ numpy structured array."""
+
+    msg_type = "sensor_msgs/msg/PointCloud2"
+    lossless = False
+
+    decode = staticmethod(decode_point_cloud)
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        return point_cloud_fields(value)
+
+    def encode(self, value: Any) -> Any:
+        from sensor_msgs.msg import PointCloud2, PointField
+
+        fields = point_cloud_fields(value)
+        msg = PointCloud2(
+            height=fields["height"],
+            width=fields["width"],
+            fields=[PointField(**f) for f in fields["fields"]],
+            is_bigendian=fields["is_bigendian"],
+            point_step=fields["point_step"],
+            row_step=fields["row_step"],
+            is_dense=fields["is_dense"],
+        )
+        msg.data.frombytes(fields["data"])
+        return msg
+
+
+def unpack_rgb(packed: npt.NDArray[Any]) -> npt.NDArray[np.uint8]:
+    """(…, 3) uint8 r, g, b of a packed float32 ``rgb`` field (PCL's 0x00RRGGBB layout)."""
+    bits = np.ascontiguousarray(packed, dtype=np.float32).view(np.uint32)
+    return np.stack(((bits >> 16) & 0xFF, (bits >> 8) & 0xFF, bits & 0xFF), axis=-1).astype(
+        np.uint8
+    )
+
+
+def pack_rgb(rgb: npt.NDArray[Any]) -> npt.NDArray[np.float32]:
+    """The packed float32 ``rgb`` of (…, 3) uint8 colours (inverse of ``unpack_rgb``)."""
+    colours = np.asarray(rgb, dtype=np.uint32)
+    bits = (colours[..., 0] << 16) | (colours[..., 1] << 8) | colours[..., 2]
+    return np.ascontiguousarray(bits, dtype=np.uint32).view(np.float32)

@@ -1,0 +1,213 @@
+"""std_msgs scalars ↔ Python scalars; String ↔ ``str``; Empty ↔ ``None``; ColorRGBA ↔ 4-tuple.
+
+All of these are lossless: the messages hold nothing but the value. Encode checks the range of
+the ROS type (``Int8.data: expected int8 in [-128, 127], got 300``) and rejects bools for
+numbers (and numbers for bools). ``std_msgs/Byte`` is an int in [0, 255] (rclpy holds it as a
+1-byte ``bytes``); ``std_msgs/Char`` is an int in [0, 255] as in rclpy.
+"""
+
+from __future__ import annotations
+
+from functools import partial
+from typing import Any
+
+from pyconnect.codecs.checks import (
+    check_float,
+    check_float32,
+    check_int,
+    check_sequence,
+    check_str,
+)
+from pyconnect.errors import EncodeError, type_name_of
+
+__all__ = [
+    "BoolCodec",
+    "ByteCodec",
+    "ColorRGBACodec",
+    "EmptyCodec",
+    "FloatCodec",
+    "IntCodec",
+    "StringCodec",
+]
+
+_INT_TYPES = {
+    "Int8": "int8",
+    "Int16": "int16",
+    "Int32": "int32",
+    "Int64": "int64",
+    "UInt8": "uint8",
+    "UInt16": "uint16",
+    "UInt32": "uint32",
+    "UInt64": "uint64",
+    "Char": "char",
+}
+
+
+def _message_class(name: str) -> Any:
+    import std_msgs.msg
+
+    return getattr(std_msgs.msg, name)
+
+
+class IntCodec:
+    """std_msgs Int*/UInt*/Char ↔ ``int`` with a range check."""
+
+    lossless = True
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.kind = _INT_TYPES[name]
+        self.msg_type = f"std_msgs/msg/{name}"
+        self._class: Any = None
+
+    def decode(self, msg: Any) -> int:
+        return int(msg.data)
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        return {"data": check_int(value, self.kind, f"{self.name}.data")}
+
+    def encode(self, value: Any) -> Any:
+        cls = self._class or self._load()
+        return cls(data=check_int(value, self.kind, f"{self.name}.data"))
+
+    def _load(self) -> Any:
+        self._class = _message_class(self.name)
+        return self._class
+
+
+class FloatCodec:
+    """std_msgs Float32/Float64 ↔ ``float`` (Float32 checks the float32 range)."""
+
+    lossless = True
+
+    def __init__(self, name: str) -> None:
+        self.name = name
+        self.msg_type = f"std_msgs/msg/{name}"
+        self._check = check_float32 if name == "Float32" else check_float
+        self._class: Any = None
+
+    def decode(self, msg: Any) -> float:
+        return float(msg.data)
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        return {"data": self._check(value, f"{self.name}.data")}
+
+    def encode(self, value: Any) -> Any:
+        cls = self._class or self._load()
+        return cls(data=self._check(value, f"{self.name}.data"))
+
+    def _load(self) -> Any:
+        self._class = _message_class(self.name)
+        return self._class
+
+
+def _check_bool(value: Any) -> bool:
+    if isinstance(value, bool) or type(value).__name__ == "bool_":
+        return bool(value)
+    raise EncodeError(f"Bool.data: expected bool, got {type_name_of(value)}")
+
+
+class BoolCodec:
+    """std_msgs/Bool ↔ ``bool``."""
+
+    msg_type = "std_msgs/msg/Bool"
+    lossless = True
+
+    def decode(self, msg: Any) -> bool:
+        return bool(msg.data)
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        return {"data": _check_bool(value)}
+
+    def encode(self, value: Any) -> Any:
+        return _message_class("Bool")(data=_check_bool(value))
+
+
+class ByteCodec:
+    """std_msgs/Byte ↔ ``int`` in [0, 255] (rclpy's 1-byte ``bytes`` is converted)."""
+
+    msg_type = "std_msgs/msg/Byte"
+    lossless = True
+
+    def decode(self, msg: Any) -> int:
+        data = msg.data
+        if isinstance(data, bytes | bytearray):
+            return data[0]
+        return int(data)
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        return {"data": check_int(value, "byte", "Byte.data")}
+
+    def encode(self, value: Any) -> Any:
+        return _message_class("Byte")(data=bytes((check_int(value, "byte", "Byte.data"),)))
+
+
+class StringCodec:
+    """std_msgs/String ↔ ``str``."""
+
+    msg_type = "std_msgs/msg/String"
+    lossless = True
+
+    def decode(self, msg: Any) -> str:
+        return str(msg.data)
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        return {"data": check_str(value, "String.data")}
+
+    def encode(self, value: Any) -> Any:
+        return _message_class("String")(data=check_str(value, "String.data"))
+
+
+class EmptyCodec:
+    """std_msgs/Empty ↔ ``None``."""
+
+    msg_type = "std_msgs/msg/Empty"
+    lossless = True
+
+    def decode(self, msg: Any) -> None:
+        return None
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        if value is not None:
+            raise EncodeError(f"Empty: expected None, got {type_name_of(value)}")
+        return {}
+
+    def encode(self, value: Any) -> Any:
+        self.to_fields(value)
+        return _message_class("Empty")()
+
+
+class ColorRGBACodec:
+    """std_msgs/ColorRGBA ↔ ``(r, g, b, a)`` floats."""
+
+    msg_type = "std_msgs/msg/ColorRGBA"
+    lossless = True
+
+    def decode(self, msg: Any) -> tuple[float, float, float, float]:
+        return (msg.r, msg.g, msg.b, msg.a)
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        r, g, b, a = check_sequence(value, 4, "ColorRGBA", "(r, g, b, a)")
+        return {
+            "r": check_float32(r, "ColorRGBA.r"),
+            "g": check_float32(g, "ColorRGBA.g"),
+            "b": check_float32(b, "ColorRGBA.b"),
+            "a": check_float32(a, "ColorRGBA.a"),
+        }
+
+    def encode(self, value: Any) -> Any:
+        return _message_class("ColorRGBA")(**self.to_fields(value))
+
+
+# Factories for the natural-codec table (it calls them with no arguments).
+int8_codec = partial(IntCodec, "Int8")
+int16_codec = partial(IntCodec, "Int16")
+int32_codec = partial(IntCodec, "Int32")
+int64_codec = partial(IntCodec, "Int64")
+uint8_codec = partial(IntCodec, "UInt8")
+uint16_codec = partial(IntCodec, "UInt16")
+uint32_codec = partial(IntCodec, "UInt32")
+uint64_codec = partial(IntCodec, "UInt64")
+char_codec = partial(IntCodec, "Char")
+float32_codec = partial(FloatCodec, "Float32")
+float64_codec = partial(FloatCodec, "Float64")
