@@ -1,0 +1,89 @@
+"""Find the storage files of a bag path: a rosbag2 directory, a bare file, or a split bag."""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from pyconnect.record.bag_errors import BagError
+from pyconnect.record.bag_metadata import METADATA_FILE, BagMetadata, read_metadata
+from pyconnect.record.bag_storage import StorageFile
+
+__all__ = ["BagFiles", "locate_bag_files", "open_storage"]
+
+_MCAP_MAGIC = b"\x89MCAP0\r\n"
+_SQLITE_MAGIC = b"SQLite format 3\x00"
+_STORAGE_SUFFIXES = (".mcap", ".db3")
+
+
+@dataclass(frozen=True)
+class BagFiles:
+    """The storage files of a bag, in reading order, and its metadata.yaml when it has one."""
+
+    path: Path
+    files: tuple[Path, ...]
+    metadata: BagMetadata | None
+
+
+def _natural_key(path: Path) -> tuple[object, ...]:
+    # multiple_files_10.mcap after multiple_files_9.mcap
+    return tuple(int(part) if part.isdigit() else part for part in re.split(r"(\d+)", path.name))
+
+
+def _listed_file(directory: Path, relative: str) -> Path:
+    candidate = directory / relative
+    if candidate.is_file():
+        return candidate
+    # rosbag2 before Foxy listed "bagname/bagname_0.db3", relative to the bag's parent.
+    by_name = directory / Path(relative).name
+    if by_name.is_file():
+        return by_name
+    raise BagError(f"{directory}: metadata.yaml lists {relative!r}, which is not in the bag")
+
+
+def locate_bag_files(path: str | Path) -> BagFiles:
+    """Resolve ``path`` to storage files; ``BagError`` when it is not a bag."""
+    target = Path(path)
+    if target.is_file() and target.name == METADATA_FILE:
+        target = target.parent
+    if target.is_file():
+        return BagFiles(target, (target,), None)
+    if not target.is_dir():
+        raise BagError(f"{target}: no such bag file or directory")
+    metadata_path = target / METADATA_FILE
+    if metadata_path.is_file():
+        metadata = read_metadata(metadata_path)
+        if metadata.compression_mode.lower() == "file":
+            raise BagError(
+                f"{target}: files compressed whole ({metadata.compression_format}) are not "
+                "supported; decompress them with `ros2 bag convert` first"
+            )
+        files = tuple(_listed_file(target, p) for p in metadata.relative_file_paths)
+        return BagFiles(target, files, metadata)
+    # No metadata.yaml (a bag before `ros2 bag reindex`): every storage file, in split order.
+    found = sorted(
+        (p for p in target.iterdir() if p.suffix in _STORAGE_SUFFIXES and p.is_file()),
+        key=_natural_key,
+    )
+    if not found:
+        raise BagError(f"{target}: no metadata.yaml and no .mcap or .db3 files")
+    return BagFiles(target, tuple(found), None)
+
+
+def open_storage(path: Path) -> StorageFile:
+    """Open one storage file, recognised by its first bytes (the suffix may be anything)."""
+    try:
+        with path.open("rb") as stream:
+            head = stream.read(16)
+    except OSError as error:
+        raise BagError(f"{path}: cannot read ({error.strerror})") from None
+    if head.startswith(_MCAP_MAGIC):
+        from pyconnect.record.mcap_storage import McapFile
+
+        return McapFile(path)
+    if head.startswith(_SQLITE_MAGIC):
+        from pyconnect.record.sqlite_storage import SqliteFile
+
+        return SqliteFile(path)
+    raise BagError(f"{path}: neither an MCAP nor a sqlite3 bag file")
