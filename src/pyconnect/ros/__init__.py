@@ -1,0 +1,1 @@
+"""ROS 2 agents: ``CustomNode`` and one module per agent kind (DESIGN.md §3)."""

@@ -1,0 +1,228 @@
+"""``action_client`` agents: ``send(goal)`` returns the decoded result, ``cancel()`` stops goals.
+
+``send(goal, timeout=None, feedback_func=None)`` blocks until the result and returns it through
+``reform_response``: a dict result gets ``'isdone': True``; an aborted, canceled or rejected
+goal, a timeout or a missing server gives ``{'isdone': False, 'error': ...}`` (plus the result's
+fields when it is a dict). The abort text comes from the result's ``message``/``error`` field
+when the server put one there (a pyconnect server does). ``block=False`` returns a
+``concurrent.futures.Future``. A timeout cancels the goal. ``feedback_func(value)`` gets each
+decoded feedback; the latest is also in ``last_feedback``.
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import concurrent.futures
+import threading
+from typing import TYPE_CHECKING, Any
+
+from action_msgs.msg import GoalStatus
+from rclpy.action import ActionClient
+from rclpy.callback_groups import CallbackGroup
+from rclpy.task import Future as RosFuture
+
+from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
+from pyconnect.ros.error_fields import error_text_of
+from pyconnect.ros.interfaces import interface_class
+from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.waiting import wait_until
+
+if TYPE_CHECKING:
+    from pyconnect.ros.custom_node import CustomNode
+
+
+class ActionClientAgent(NodeAgent):
+    """Sends goals to the action ``conn_name``."""
+
+    conn_type = "action_client"
+
+    def __init__(
+        self,
+        node: CustomNode,
+        *,
+        conn_name: str,
+        agent_name: str | None = None,
+        data_interface: object,
+        encode_func: EncodeFunc | None = None,
+        decode_func: DecodeFunc | None = None,
+        response_func: ResponseFunc | None = None,
+        do_log_msg: bool = False,
+        timeout: float | None = None,
+        callback_group: CallbackGroup | None = None,
+    ) -> None:
+        action_class = interface_class(data_interface, kind="action")
+        super().__init__(
+            node,
+            conn_name=conn_name,
+            agent_name=agent_name,
+            data_interface=action_class,
+            response_func=response_func,
+            do_log_msg=do_log_msg,
+            callback_group=callback_group,
+        )
+        self.timeout = timeout
+        registry = node.registry
+        self.goal_conversion = MessageConversion(
+            describe=self.describe,
+            msg_class=action_class.Goal,
+            codec_of=lambda: registry.lookup_message(action_class.Goal),
+            encode_func=encode_func,
+        )
+        self.result_conversion = MessageConversion(
+            describe=self.describe,
+            msg_class=action_class.Result,
+            codec_of=lambda: registry.lookup_message(action_class.Result),
+            decode_func=decode_func,
+        )
+        self.feedback_conversion = MessageConversion(
+            describe=self.describe,
+            msg_class=action_class.Feedback,
+            codec_of=lambda: registry.lookup_message(action_class.Feedback),
+        )
+        if encode_func is None:
+            _ = self.goal_conversion.codec
+        if decode_func is None:
+            _ = self.result_conversion.codec
+        self.last_feedback: Any = None
+        self._in_flight: dict[bytes, Any] = {}
+        self._lock = threading.Lock()
+        self.client = ActionClient(
+            node.ros_node, action_class, conn_name, callback_group=self.callback_group
+        )
+
+    def is_connected(self) -> bool:
+        ready: bool = self.client.server_is_ready()
+        return ready
+
+    def send(
+        self,
+        data: Any = None,
+        *,
+        timeout: float | None = None,
+        feedback_func: ResponseFunc | None = None,
+        block: bool = True,
+    ) -> Any:
+        """Send a goal; the decoded result (or a future of it) through ``reform_response``."""
+        timeout = self.timeout if timeout is None else timeout
+        goal, _stamped = self.goal_conversion.encode(data)
+        if self.do_log_msg:
+            self.log_msg(data)
+        result: concurrent.futures.Future[Any] = concurrent.futures.Future()
+        done = threading.Event()
+        result.add_done_callback(lambda _future: done.set())
+        if not block:
+            if self.client.server_is_ready():
+                self._send_goal(goal, result, feedback_func)
+            else:
+                threading.Thread(
+                    target=self._send_when_ready,
+                    args=(goal, result, feedback_func, timeout),
+                    name=f"pyconnect-{self.name}-wait",
+                    daemon=True,
+                ).start()
+            return result
+        if not wait_until(self.client.server_is_ready, timeout, stop=self.node._stopped):
+            return self._failed(f"no action server for {self.conn_name} within {timeout} s")
+        goal_handles = self._send_goal(goal, result, feedback_func)
+        if not self.node.executor.wait_for(done, timeout):
+            for handle in goal_handles:
+                handle.cancel_goal_async()
+            return self._failed(f"no result within {timeout} s (goal canceled)")
+        return result.result()
+
+    def cancel(self) -> int:
+        """Ask the server to cancel every goal of this agent in flight; how many were asked."""
+        with self._lock:
+            handles = list(self._in_flight.values())
+        for handle in handles:
+            handle.cancel_goal_async()
+        return len(handles)
+
+    # -- goal life cycle ---------------------------------------------------------------------
+    def _failed(self, text: str, partial: Any = None) -> Any:
+        value = self.reform_response(partial, error=f"{self.describe}: {text}")
+        self._latest = value
+        return value
+
+    def _send_when_ready(
+        self,
+        goal: Any,
+        result: concurrent.futures.Future[Any],
+        feedback_func: ResponseFunc | None,
+        timeout: float | None,
+    ) -> None:
+        if wait_until(self.client.server_is_ready, timeout, stop=self.node._stopped):
+            self._send_goal(goal, result, feedback_func)
+        else:
+            result.set_result(
+                self._failed(f"no action server for {self.conn_name} within {timeout} s")
+            )
+
+    def _send_goal(
+        self,
+        goal: Any,
+        result: concurrent.futures.Future[Any],
+        feedback_func: ResponseFunc | None,
+    ) -> list[Any]:
+        """Send ``goal``; ``result`` gets the outcome. Returns a list the goal handle joins."""
+        handles: list[Any] = []
+
+        def on_feedback(feedback_msg: Any) -> None:
+            try:
+                value = self.feedback_conversion.decode_checked(feedback_msg.feedback)
+                self.last_feedback = value
+                if feedback_func is not None:
+                    feedback_func(value)
+            except Exception as error:
+                self.report_exception("feedback_func", error)
+
+        def on_goal_response(goal_future: RosFuture) -> None:
+            handle = goal_future.result()
+            if handle is None or not handle.accepted:
+                result.set_result(self._failed("goal rejected by the server"))
+                return
+            handles.append(handle)
+            with self._lock:
+                self._in_flight[bytes(handle.goal_id.uuid)] = handle
+            handle.get_result_async().add_done_callback(
+                lambda result_future: on_result(handle, result_future)
+            )
+
+        def on_result(handle: Any, result_future: RosFuture) -> None:
+            with self._lock:
+                self._in_flight.pop(bytes(handle.goal_id.uuid), None)
+            try:
+                result.set_result(self._outcome(result_future.result()))
+            except Exception as error:
+                result.set_exception(error)
+
+        self.client.send_goal_async(goal, feedback_callback=on_feedback).add_done_callback(
+            on_goal_response
+        )
+        return handles
+
+    def _outcome(self, response: Any) -> Any:
+        status = response.status
+        if status == GoalStatus.STATUS_SUCCEEDED:
+            value = self.reform_response(self.result_conversion.decode_checked(response.result))
+            self._latest = value
+            return value
+        try:
+            partial = self.result_conversion.decode(response.result)
+        except Exception:
+            partial = None
+        if status == GoalStatus.STATUS_CANCELED:
+            return self._failed("goal canceled", partial)
+        if status == GoalStatus.STATUS_ABORTED:
+            text = error_text_of(response.result)
+            return self._failed(
+                f"goal aborted by the server: {text}" if text else "goal aborted by the server",
+                partial,
+            )
+        return self._failed(f"goal ended with status {status}", partial)
+
+    def close(self) -> None:
+        self.client.destroy()
+        super().close()

@@ -1,0 +1,380 @@
+"""``CustomNode``: one ROS node holding a robot program's agents, with one API to run and stop it.
+
+A ``CustomNode`` owns an rclpy node, an ``ElasticExecutor`` (pyconnect.ros.executor) and the
+agents made by ``add_agent``. ``spin(run_thread=True)`` spins in a daemon thread; ``spin()``
+(or ``listen()``) blocks until shutdown. Shutdown — ``shutdown()``, leaving ``with``, Ctrl-C,
+SIGTERM or interpreter exit — runs ``stop_func`` once while the agents still work, stops the
+executor, joins its threads, destroys the node and shuts rclpy down if this node started it
+(pyconnect.ros.shutdown).
+
+Names resolve like rclpy names: ``conn_name`` is relative to the node's namespace unless it
+starts with ``/`` or ``~``; ``--ros-args -r chatter:=talk`` and ``-p name:=value`` from
+``sys.argv`` (or ``args=``; ``cli_args=`` for this node only) apply.
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import datetime
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterable, Mapping
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import rclpy
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.context import Context
+from rclpy.node import Node
+from rclpy.signals import SignalHandlerOptions
+
+from pyconnect.codecs.registry import Registry, default_registry
+from pyconnect.errors import ConnectionTimeout, PyconnectError
+from pyconnect.ros.agent_factory import make_agent
+from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER, ElasticExecutor
+from pyconnect.ros.node_agent import NodeAgent
+from pyconnect.ros.recording import Recording
+from pyconnect.ros.shutdown import ShutdownHooks
+from pyconnect.ros.subscriber_agent import SubscriberAgent
+
+StopFunc = Callable[..., Any]
+
+
+class CustomNode:
+    """A ROS 2 node whose connections are agents: ``node.agents[name].send/get``."""
+
+    def __init__(
+        self,
+        name: str,
+        *,
+        namespace: str | None = None,
+        args: list[str] | None = None,
+        cli_args: list[str] | None = None,
+        context: Context | None = None,
+        log_dir: str | Path | None = None,
+        stop_func: StopFunc | None = None,
+        registry: Registry | None = None,
+        handle_signals: bool = True,
+        handoff_after: float = DEFAULT_HANDOFF_AFTER,
+    ) -> None:
+        self.name = name
+        self.registry = registry or default_registry
+        self.stop_func = stop_func
+        self.agents: dict[str, NodeAgent] = {}
+        self._log_root = Path(log_dir) if log_dir is not None else None
+        self._log_session: datetime.datetime | None = None
+        self._lock = threading.RLock()
+        self._stopped = threading.Event()
+        self._shutdown_lock = threading.Lock()
+        self._shutdown_thread: threading.Thread | None = None
+        self._spin_thread: threading.Thread | None = None
+        self._main_waiting = False
+        self._log_subs_timer: Any = None
+        self._log_subs_recording: Recording | None = None
+        self._recordings: list[Recording] = []
+
+        self.context = context if context is not None else rclpy.get_default_context()
+        self._owns_context = not self.context.ok()
+        if self._owns_context:
+            rclpy.init(
+                args=sys.argv if args is None else args,
+                context=self.context,
+                signal_handler_options=SignalHandlerOptions.NO,
+            )
+        self.ros_node = Node(
+            name,
+            namespace=namespace,
+            context=self.context,
+            cli_args=cli_args,
+            allow_undeclared_parameters=True,
+            automatically_declare_parameters_from_overrides=True,
+        )
+        self.executor = ElasticExecutor(
+            context=self.context, handoff_after=handoff_after, on_error=self._on_executor_error
+        )
+        self.executor.add_node(self.ros_node)
+        self._hooks = ShutdownHooks(
+            begin_shutdown=self._shutdown_in_background,
+            main_is_waiting=lambda: self._main_waiting,
+            handle_signals=handle_signals,
+        )
+        self._hooks.register_atexit(self.shutdown)
+
+    # -- agents --------------------------------------------------------------------------------
+    def add_agent(
+        self, *, conn_name: str, conn_type: str, agent_name: str | None = None, **options: Any
+    ) -> NodeAgent:
+        """Create an agent (options per kind: see the agent classes) and return it.
+
+        It is ``node.agents[agent_name or conn_name]``.
+        """
+        key = agent_name or conn_name
+        with self._lock:
+            if self._stopped.is_set():
+                raise PyconnectError(f"node {self.name!r} is shut down; cannot add {key!r}")
+            if key in self.agents:
+                raise PyconnectError(
+                    f"agent {key!r}: node {self.name!r} already has an agent of that name; "
+                    "give one of them agent_name="
+                )
+            agent = make_agent(
+                self, conn_name=conn_name, conn_type=conn_type, agent_name=agent_name, **options
+            )
+            self.agents[key] = agent
+            return agent
+
+    def add_agents(
+        self, configs: Iterable[Mapping[str, Any]], **shared_options: Any
+    ) -> list[NodeAgent]:
+        """``add_agent`` per config; ``shared_options`` apply unless a config overrides them."""
+        return [self.add_agent(**{**shared_options, **config}) for config in configs]
+
+    # -- running -------------------------------------------------------------------------------
+    def spin(self, run_thread: bool = False) -> None:
+        """Run the agents: in a daemon thread (``run_thread=True``) or here until shutdown."""
+        with self._lock:
+            if self._stopped.is_set():
+                raise PyconnectError(f"node {self.name!r} is shut down")
+            if self._spin_thread is None:
+                self._spin_thread = threading.Thread(
+                    target=self._spin_forever, name=f"pyconnect-spin-{self.name}", daemon=True
+                )
+                self._spin_thread.start()
+        if not run_thread:
+            self.wait_for_shutdown()
+
+    def listen(self) -> None:
+        """``spin()``: block until shutdown."""
+        self.spin()
+
+    def wait_for_shutdown(self, timeout: float | None = None) -> bool:
+        """Block until the node is shut down (Ctrl-C, ``shutdown()``); False on timeout."""
+        is_main = threading.current_thread() is threading.main_thread()
+        if is_main:
+            self._main_waiting = True
+        try:
+            deadline = None if timeout is None else time.monotonic() + timeout
+            # Short waits keep the main thread responsive to signals.
+            while not self._stopped.wait(_wait_step(deadline)):
+                if deadline is not None and time.monotonic() >= deadline:
+                    return False
+        finally:
+            if is_main:
+                self._main_waiting = False
+        thread = self._shutdown_thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join()
+        return True
+
+    def ok(self) -> bool:
+        """True until the node is shut down."""
+        return not self._stopped.is_set() and self.context.ok()
+
+    @property
+    def is_spinning(self) -> bool:
+        return self._spin_thread is not None and self._spin_thread.is_alive()
+
+    def wait_until_connected(self, timeout: float | None = None) -> None:
+        """Return when every sub has a message and every client sees its server.
+
+        Raises ``ConnectionTimeout`` naming the agents still waiting.
+        """
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            waiting = [agent for agent in list(self.agents.values()) if not agent.is_connected()]
+            if not waiting:
+                return
+            if self._stopped.is_set():
+                raise PyconnectError(f"node {self.name!r} was shut down while waiting")
+            remaining = None if deadline is None else deadline - time.monotonic()
+            if remaining is not None and remaining <= 0:
+                names = ", ".join(f"{agent.describe} ({_waiting_for(agent)})" for agent in waiting)
+                raise ConnectionTimeout(
+                    f"node {self.name!r}: still waiting after {timeout} s for {names}"
+                )
+            step = 0.02 if remaining is None else min(0.02, remaining)
+            if self.executor.is_spinning:
+                self._stopped.wait(step)
+            else:
+                self.executor.spin_once(timeout_sec=step)
+
+    # -- parameters and logging ------------------------------------------------------------------
+    def get_logger(self) -> Any:
+        return self.ros_node.get_logger()
+
+    def get_param(self, name: str, default: Any = None) -> Any:
+        """A parameter's value (``--ros-args -p name:=value``), or ``default`` when unset."""
+        if not self.ros_node.has_parameter(name):
+            return default
+        value = self.ros_node.get_parameter(name).value
+        return default if value is None else value
+
+    @property
+    def log_dir(self) -> Path:
+        """The root under which ``<node>/<session>/<agent>/`` log directories are made."""
+        if self._log_root is None:
+            from pyconnect.record.log_dirs import DEFAULT_LOG_ROOT
+
+            self._log_root = Path(DEFAULT_LOG_ROOT)
+        return self._log_root
+
+    def make_log_dirs(self) -> dict[str, Path]:
+        """Create this session's log directory of every agent; {agent name: directory}."""
+        return {name: agent.make_log_dirs() for name, agent in list(self.agents.items())}
+
+    def _agent_log_dir(self, agent_name: str) -> Path:
+        from pyconnect.record.log_dirs import make_log_dirs
+
+        with self._lock:
+            if self._log_session is None:
+                self._log_session = datetime.datetime.now()
+            session = self._log_session
+        directories: dict[str, Path] = make_log_dirs(
+            self.log_dir, self.name, [agent_name], now=session
+        )
+        return directories[agent_name]
+
+    @property
+    def is_logging_subs(self) -> bool:
+        return self._log_subs_timer is not None
+
+    def start_log_subs(self, fps: float = 10, record: str | Path | None = None) -> None:
+        """Log the latest value of every sub ``fps`` times a second (new values only).
+
+        ``record=path`` also records the raw messages of the subscribed topics to MCAP.
+        """
+        if fps <= 0:
+            raise PyconnectError(f"start_log_subs: fps must be > 0, got {fps!r}")
+        with self._lock:
+            if self._log_subs_timer is not None:
+                raise PyconnectError(f"node {self.name!r} already logs its subs")
+            seen: dict[str, int] = {}
+
+            def log_latest() -> None:
+                for agent in list(self.agents.values()):
+                    if not isinstance(agent, SubscriberAgent):
+                        continue
+                    count = agent.message_count
+                    if count == 0 or seen.get(agent.name) == count:
+                        continue
+                    seen[agent.name] = count
+                    try:
+                        agent.log_msg(agent.get())
+                    except Exception as error:
+                        agent.report_exception("start_log_subs", error)
+
+            self._log_subs_recording = self.record(record) if record is not None else None
+            self._log_subs_timer = self.ros_node.create_timer(
+                1.0 / fps, log_latest, callback_group=MutuallyExclusiveCallbackGroup()
+            )
+
+    def stop_log_subs(self, timeout: float | None = 10.0) -> None:
+        """Stop ``start_log_subs`` and flush what it logged."""
+        with self._lock:
+            timer, self._log_subs_timer = self._log_subs_timer, None
+            recording, self._log_subs_recording = self._log_subs_recording, None
+        if timer is not None:
+            self.ros_node.destroy_timer(timer)
+        if recording is not None:
+            recording.stop()
+        for agent in list(self.agents.values()):
+            agent.flush_log(timeout)
+
+    def record(self, path: str | Path, topics: Iterable[str] | None = None) -> Recording:
+        """Record raw messages of ``topics`` (default: every sub's topic) to an MCAP file."""
+        recording = Recording(self, Path(path), None if topics is None else list(topics))
+        with self._lock:
+            self._recordings.append(recording)
+        return recording
+
+    # -- shutdown ------------------------------------------------------------------------------
+    def shutdown(self) -> None:
+        """Stop everything once: ``stop_func``, executor, threads, node, rclpy (if ours)."""
+        with self._shutdown_lock:
+            if self._stopped.is_set():
+                return
+            try:
+                self._shut_down()
+            finally:
+                self._stopped.set()
+
+    def _shut_down(self) -> None:
+        try:
+            self.stop_log_subs()
+        except Exception as error:
+            self._log_error(f"stop_log_subs failed: {error!r}")
+        for recording in list(self._recordings):
+            recording.stop()
+        if self.stop_func is not None:
+            try:
+                self.stop_func()
+            except Exception as error:
+                self._log_error(f"stop_func raised {type(error).__name__}: {error}")
+        self.executor.stop()
+        spin_thread = self._spin_thread
+        if spin_thread is not None and spin_thread is not threading.current_thread():
+            spin_thread.join(10.0)
+        self.executor.join(10.0)
+        for agent in list(self.agents.values()):
+            try:
+                agent.close()
+            except Exception as error:
+                self._log_error(f"{agent.describe}: close failed: {error!r}")
+        self.executor.remove_node(self.ros_node)
+        self.ros_node.destroy_node()
+        self.executor.shutdown(timeout_sec=1.0)
+        if self._owns_context:
+            rclpy.try_shutdown(context=self.context)
+        self._hooks.restore()
+
+    def _shutdown_in_background(self) -> None:
+        if self._shutdown_thread is not None:
+            return
+        # Not a daemon: the interpreter waits for it before exiting.
+        self._shutdown_thread = threading.Thread(
+            target=self.shutdown, name=f"pyconnect-shutdown-{self.name}"
+        )
+        self._shutdown_thread.start()
+
+    def __enter__(self) -> CustomNode:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.shutdown()
+
+    # -- internals -----------------------------------------------------------------------------
+    def _spin_forever(self) -> None:
+        try:
+            self.executor.spin()
+        except Exception as error:
+            self._log_error(f"executor stopped: {type(error).__name__}: {error}")
+
+    def _on_executor_error(self, error: BaseException) -> None:
+        self._log_error(f"callback raised {type(error).__name__}: {error}")
+
+    def _log_error(self, text: str) -> None:
+        try:
+            self.ros_node.get_logger().error(text)
+        except Exception:
+            print(f"[pyconnect] {self.name}: {text}", file=sys.stderr)
+
+
+def _wait_step(deadline: float | None) -> float:
+    if deadline is None:
+        return 0.5
+    return max(0.0, min(0.5, deadline - time.monotonic()))
+
+
+def _waiting_for(agent: NodeAgent) -> str:
+    if isinstance(agent, SubscriberAgent):
+        return "no message yet"
+    return "no server yet"

@@ -1,0 +1,270 @@
+"""The elastic executor: callbacks run inline on one thread that hands spinning on if one blocks.
+
+Why not the stock executors (ROS-FACTS.md): ``MultiThreadedExecutor`` hands every callback to a
+pool (3.5x slower than single-threaded, tails of tens of ms); ``SingleThreadedExecutor`` is fast
+but a callback that blocks (a ``response_func`` calling another agent's blocking ``send()``, a
+long image computation, an action running for seconds) stops every other agent, and a blocking
+service call inside a callback deadlocks (rclpy#1398, #1313). ``EventsExecutor`` runs its loop
+in C++, so a callback cannot hand the loop to another thread.
+
+This executor keeps the single-threaded fast path and adds one idea, the *turn*: exactly one
+thread at a time (the owner) waits for work and runs the callback it got, inline. When the
+owner's callback blocks (``wait_for`` called from it, i.e. a blocking ``send()``) or runs longer
+than ``handoff_after`` seconds (seen by a monitor thread that ticks at that period), the turn
+passes to a standby thread, started on demand, which keeps spinning while the old owner finishes
+its callback and then becomes a standby itself. Callback groups keep their rclpy meaning: the
+agents put each of their entities in their own mutually exclusive group, so one agent's
+callbacks never overlap (messages stay in order) while different agents run side by side when
+one of them is slow. On the fast path the cost over ``SingleThreadedExecutor`` is two
+uncontended lock round trips per callback.
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import contextlib
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+from rclpy.context import Context
+from rclpy.executors import (
+    ConditionReachedException,
+    Executor,
+    ExternalShutdownException,
+    ShutdownException,
+    TimeoutException,
+)
+from rclpy.task import Future
+
+DEFAULT_HANDOFF_AFTER = 0.02
+"""Seconds a callback may hold the turn before another thread takes over spinning."""
+
+_STANDBY_LIMIT = 1
+"""Idle helper threads kept beyond the spinning ones; extra helpers end when they go idle."""
+
+
+class ElasticExecutor(Executor):  # type: ignore[misc]
+    """A single-threaded executor that never lets one blocking callback stop the others.
+
+    ``spin()`` loops in the calling thread until ``stop()`` or shutdown; ``wait_for(event)``
+    waits for something a callback will do, from any thread, without deadlocking.
+    """
+
+    def __init__(
+        self,
+        *,
+        context: Context | None = None,
+        handoff_after: float = DEFAULT_HANDOFF_AFTER,
+        on_error: Callable[[BaseException], None] | None = None,
+    ) -> None:
+        super().__init__(context=context)
+        self._handoff_after = handoff_after
+        self._on_error = on_error
+        self._turn = threading.Condition()
+        self._owner: int | None = None
+        self._busy_since: float | None = None
+        self._idle = 0
+        self._spinners = 0
+        self._stopping = False
+        self._helpers: list[threading.Thread] = []
+        self._monitor: threading.Thread | None = None
+        self._monitor_stop = threading.Event()
+
+    # -- public --------------------------------------------------------------------------------
+    @property
+    def is_spinning(self) -> bool:
+        """True while some thread runs ``spin()``."""
+        return self._spinners > 0 and not self._stopping
+
+    def spin(self) -> None:
+        """Run callbacks in this thread (and helpers, when one blocks) until ``stop()``."""
+        with self._turn:
+            self._spinners += 1
+        self._start_monitor()
+        try:
+            while not self._stopping and self._take_turn(helper=False):
+                pass
+        finally:
+            with self._turn:
+                self._spinners -= 1
+
+    def spin_once(self, timeout_sec: float | None = None) -> None:
+        """Run at most one callback in this thread (rclpy's executor API)."""
+        self._take_turn(helper=False, timeout_sec=timeout_sec)
+
+    def spin_until_future_complete(self, future: Future, timeout_sec: float | None = None) -> None:
+        """Spin, or wait for the spinning thread, until ``future`` is done (rclpy's API)."""
+        done = threading.Event()
+        future.add_done_callback(lambda _future: done.set())
+        if future.done():
+            return
+        self.wait_for(done, timeout_sec, poll=future.done)
+
+    def wait_for(
+        self,
+        event: threading.Event,
+        timeout_sec: float | None,
+        *,
+        poll: Callable[[], bool] | None = None,
+    ) -> bool:
+        """Wait until ``event`` is set by a callback; True if it was, False on timeout.
+
+        When a ``spin()`` runs, this thread only waits; if this thread holds the turn (we are
+        inside a callback) it passes the turn first, so the callback that sets ``event`` can
+        run. When nothing spins, this thread spins until ``event`` is set.
+        """
+        finished = poll if poll is not None else event.is_set
+        deadline = None if timeout_sec is None else time.monotonic() + timeout_sec
+        me = threading.get_ident()
+        while not event.is_set() and not finished():
+            remaining = None if deadline is None else deadline - time.monotonic()
+            if remaining is not None and remaining <= 0:
+                return False
+            if self.is_spinning or self._owner == me:
+                # Inside a callback, or a spin() runs elsewhere: pass the turn and just wait.
+                self._hand_off(me)
+                # Wake up now and then only to notice that the spinning thread went away.
+                event.wait(0.25 if remaining is None else min(remaining, 0.25))
+            elif self._stopping or self._is_shutdown:
+                return event.is_set() or finished()
+            else:
+                self._take_turn(
+                    helper=False,
+                    timeout_sec=0.05 if remaining is None else min(remaining, 0.05),
+                    condition=finished,
+                )
+        return True
+
+    def stop(self) -> None:
+        """Make every ``spin()`` return; callbacks in progress finish on their own threads."""
+        with self._turn:
+            self._stopping = True
+            self._turn.notify_all()
+        self._monitor_stop.set()
+        # The guard condition may already be destroyed.
+        with contextlib.suppress(Exception):
+            self.wake()
+
+    def join(self, timeout_sec: float | None = None) -> None:
+        """Wait for helper threads and the monitor to end (after ``stop()``)."""
+        current = threading.current_thread()
+        for thread in [*list(self._helpers), self._monitor]:
+            if thread is not None and thread is not current and thread.is_alive():
+                thread.join(timeout_sec)
+
+    def shutdown(self, timeout_sec: float | None = None) -> bool:
+        self.stop()
+        self.join(timeout_sec)
+        result: bool = super().shutdown(timeout_sec)
+        return result
+
+    # -- the turn ------------------------------------------------------------------------------
+    def _stop_requested(self) -> bool:
+        return self._stopping
+
+    def _take_turn(
+        self,
+        *,
+        helper: bool,
+        timeout_sec: float | None = None,
+        condition: Callable[[], bool] | None = None,
+    ) -> bool:
+        """Wait for the turn, then for one callback, and run it. False when spinning must end."""
+        me = threading.get_ident()
+        with self._turn:
+            while self._owner is not None and not self._stopping:
+                if helper and self._idle >= _STANDBY_LIMIT:
+                    return False
+                self._idle += 1
+                self._turn.wait()
+                self._idle -= 1
+            if self._stopping:
+                return False
+            self._owner = me
+        try:
+            try:
+                ready: tuple[Any, Any, Any]
+                if condition is None:
+                    # Constant arguments let rclpy reuse its generator of ready callbacks.
+                    ready = self.wait_for_ready_callbacks(None, None, self._stop_requested)
+                else:
+                    ready = self.wait_for_ready_callbacks(timeout_sec, None, condition)
+                handler = ready[0]
+            except (TimeoutException, ConditionReachedException):
+                return not self._stopping
+            except (ShutdownException, ExternalShutdownException):
+                self._stopping = True
+                return False
+            with self._turn:
+                self._busy_since = time.monotonic()
+            handler()
+            error = handler.exception()
+            if error is not None:
+                self._report(error)
+            return not self._stopping
+        finally:
+            with self._turn:
+                if self._owner == me:
+                    self._owner = None
+                    self._busy_since = None
+                    self._turn.notify()
+
+    def _hand_off(self, owner: int) -> None:
+        """Pass the turn away from ``owner`` if it holds it; start a helper if none is idle."""
+        with self._turn:
+            if self._owner != owner or self._stopping:
+                return
+            self._owner = None
+            self._busy_since = None
+            if self._idle == 0:
+                helper = threading.Thread(
+                    target=self._helper_loop, name="pyconnect-executor-helper", daemon=True
+                )
+                self._helpers = [thread for thread in self._helpers if thread.is_alive()]
+                self._helpers.append(helper)
+                helper.start()
+            self._turn.notify()
+
+    def _helper_loop(self) -> None:
+        while not self._stopping and self._take_turn(helper=True):
+            pass
+
+    def _start_monitor(self) -> None:
+        with self._turn:
+            if self._monitor is not None and self._monitor.is_alive():
+                return
+            self._monitor = threading.Thread(
+                target=self._monitor_loop, name="pyconnect-executor-monitor", daemon=True
+            )
+            self._monitor.start()
+
+    def _monitor_loop(self) -> None:
+        """Hand the turn off when the owner's callback has run for longer than ``handoff_after``."""
+        while not self._monitor_stop.wait(self._handoff_after):
+            with self._turn:
+                owner, since = self._owner, self._busy_since
+            if (
+                owner is not None
+                and since is not None
+                and time.monotonic() - since >= self._handoff_after
+            ):
+                self._hand_off(owner)
+
+    def _report(self, error: BaseException) -> None:
+        if self._on_error is not None:
+            self._on_error(error)
+        else:
+            import traceback
+
+            traceback.print_exception(error)
+
+
+def run_with_turn_released(executor: Any, function: Callable[[], Any]) -> Any:
+    """Call ``function`` after passing the turn on, when the caller is inside a callback."""
+    if isinstance(executor, ElasticExecutor) and executor.is_spinning:
+        executor._hand_off(threading.get_ident())
+    return function()

@@ -1,0 +1,178 @@
+"""``NodeAgent``: the base of every agent kind (one ROS entity plus its codec, callbacks and log).
+
+An agent kind subclasses it, sets ``conn_type`` and registers in ``AGENT_CLASS_DICT``
+(``pyconnect.ros.agent_factory``). The base gives every kind the same ``get``/``send``/
+``log_msg``/``reform_response``/``make_log_dirs`` and one rule for user code: whatever a
+``response_func``, codec or user function raises is logged with the agent's name and the
+traceback, kept in ``last_error``, and the executor goes on with the next message.
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import threading
+import traceback
+from collections.abc import Callable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, ClassVar
+
+from rclpy.callback_groups import CallbackGroup, MutuallyExclusiveCallbackGroup
+
+from pyconnect.errors import PyconnectError
+from pyconnect.ros.interfaces import interface_name
+
+if TYPE_CHECKING:
+    from pyconnect.ros.custom_node import CustomNode
+
+ResponseFunc = Callable[..., Any]
+
+
+class NodeAgent:
+    """One connection of a ``CustomNode``: a publisher, subscriber, service, action or timer."""
+
+    conn_type: ClassVar[str] = ""
+    """The ``conn_type`` string that makes this kind (``'pub'``, ``'sub'``, ...)."""
+
+    def __init__(
+        self,
+        node: CustomNode,
+        *,
+        conn_name: str,
+        agent_name: str | None = None,
+        data_interface: object = None,
+        response_func: ResponseFunc | None = None,
+        do_log_msg: bool = False,
+        callback_group: CallbackGroup | None = None,
+    ) -> None:
+        self.node = node
+        self.name = agent_name or conn_name
+        """The key in ``node.agents``: ``agent_name`` when given (two agents on one topic)."""
+        self.conn_name = conn_name
+        self.data_interface = data_interface
+        self.response_func = response_func
+        self.do_log_msg = do_log_msg
+        self.callback_group: CallbackGroup = callback_group or MutuallyExclusiveCallbackGroup()
+        self.last_error: str | None = None
+        """The last error a callback of this agent raised, with its traceback."""
+        self.error_count = 0
+        self._latest: Any = None
+        self._log_dir: Path | None = None
+        self._message_logger: Any = None
+        self._log_lock = threading.Lock()
+
+    # -- identity ------------------------------------------------------------------------------
+    @property
+    def type_name(self) -> str:
+        """``pkg/ns/Name`` of the agent's interface (empty for timers)."""
+        if self.data_interface is None:
+            return ""
+        return interface_name(self.data_interface)
+
+    @property
+    def describe(self) -> str:
+        """How errors name the agent: ``agent 'cmd_vel' (pub geometry_msgs/msg/Twist)``."""
+        kind = f"{self.conn_type} {self.type_name}".strip()
+        return f"agent {self.name!r} ({kind})"
+
+    def error(self, text: str) -> PyconnectError:
+        """A ``PyconnectError`` whose message starts with this agent's name."""
+        return PyconnectError(f"{self.describe}: {text}")
+
+    # -- the common API ------------------------------------------------------------------------
+    def get(self, show_info: bool = False) -> Any:
+        """The latest value this agent handled (received, sent or returned); None before any."""
+        if show_info:
+            self.node.get_logger().info(self.info_text())
+        return self._latest
+
+    def send(self, data: Any = None) -> Any:
+        """Send ``data`` (publish, call, send a goal); kinds that cannot send raise."""
+        raise self.error(f"send() is not available on a {self.conn_type!r} agent")
+
+    def info_text(self) -> str:
+        """A one-line summary of the agent and its latest value, for ``get(show_info=True)``."""
+        return f"{self.describe}: latest {_summary(self._latest)}"
+
+    def is_connected(self) -> bool:
+        """Whether the agent has what ``wait_until_connected`` waits for."""
+        return True
+
+    @staticmethod
+    def reform_response(data: Any, *, error: str | None = None) -> Any:
+        """The design's response contract: dicts carry ``'isdone'``, failures an ``'error'`` text.
+
+        Success: a dict gets ``'isdone': True`` (a copy; other values are returned as they
+        are). Failure (timeout, abort, cancel, rejection): ``{'isdone': False, 'error': error}``,
+        plus the fields of ``data`` when it is a dict (an aborted action's partial result).
+        """
+        if error is not None:
+            base = dict(data) if isinstance(data, dict) else {}
+            base.update(isdone=False, error=error)
+            return base
+        if isinstance(data, dict):
+            return {**data, "isdone": True}
+        return data
+
+    # -- logging -------------------------------------------------------------------------------
+    def make_log_dirs(self) -> Path:
+        """This agent's log directory (``<root>/<node>/<session>/<agent>/``), created once."""
+        with self._log_lock:
+            if self._log_dir is None:
+                self._log_dir = self.node._agent_log_dir(self.name)
+            return self._log_dir
+
+    def log_msg(self, data: Any, *, stamp_ns: int | None = None) -> bool:
+        """Write ``data`` to this agent's log (never blocks; False when the queue is full)."""
+        logger = self._message_logger
+        if logger is None:
+            with self._log_lock:
+                if self._message_logger is None:
+                    from pyconnect.record.log_writer import MessageLogger
+
+                    directory = self._log_dir or self.node._agent_log_dir(self.name)
+                    self._log_dir = directory
+                    self._message_logger = MessageLogger(directory)
+                logger = self._message_logger
+        ok: bool = logger.log(data, stamp_ns=stamp_ns)
+        return ok
+
+    def flush_log(self, timeout: float | None = None) -> bool:
+        """Wait until the logged messages are on disk."""
+        logger = self._message_logger
+        if logger is None:
+            return True
+        flushed: bool = logger.flush(timeout=timeout)
+        return flushed
+
+    # -- user code -----------------------------------------------------------------------------
+    def report_exception(self, where: str, error: BaseException) -> None:
+        """Log an exception raised by user code or a codec, with the agent name and traceback."""
+        text = "".join(traceback.format_exception(type(error), error, error.__traceback__))
+        self.last_error = f"{self.describe}: {where} raised {type(error).__name__}: {error}"
+        self.error_count += 1
+        self.node.get_logger().error(f"{self.last_error}\n{text.rstrip()}")
+
+    def _check_no_options(self, **options: object) -> None:
+        """Raise for options given to a kind they do not apply to."""
+        for name, value in options.items():
+            if value is not None and value is not False:
+                raise self.error(f"option {name!r} does not apply to a {self.conn_type!r} agent")
+
+    # -- life cycle ----------------------------------------------------------------------------
+    def close(self) -> None:
+        """Destroy the ROS entities and close the log (the node calls this on shutdown)."""
+        logger = self._message_logger
+        if logger is not None:
+            logger.close()
+
+
+def _summary(value: Any) -> str:
+    if value is None:
+        return "None (nothing yet)"
+    shape = getattr(value, "shape", None)
+    if shape is not None:
+        return f"{type(value).__name__} shape={tuple(shape)} dtype={getattr(value, 'dtype', '?')}"
+    text = repr(value)
+    return text if len(text) <= 200 else text[:197] + "..."

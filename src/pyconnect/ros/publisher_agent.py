@@ -1,0 +1,130 @@
+"""``pub`` agents: ``send(value)`` encodes and publishes; ``time_period`` republishes on a timer.
+
+Outgoing headers: a message with a ``std_msgs/Header`` whose stamp is still zero gets the node
+clock's time, and an empty ``frame_id`` gets the agent's ``frame_id`` option; a ``Stamped``
+value (or a stamp the encode function set) is left as it is. ``only_if_subscribed=True``
+skips the periodic ``response_func``, the encoding and the publishing while nobody listens.
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Any
+
+from rclpy.callback_groups import CallbackGroup
+from rclpy.qos import QoSProfile
+
+from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
+from pyconnect.ros.interfaces import interface_class
+from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.qos import resolve_qos
+
+if TYPE_CHECKING:
+    from pyconnect.ros.custom_node import CustomNode
+
+
+class PublisherAgent(NodeAgent):
+    """Publishes values of ``data_interface`` on ``conn_name``."""
+
+    conn_type = "pub"
+
+    def __init__(
+        self,
+        node: CustomNode,
+        *,
+        conn_name: str,
+        agent_name: str | None = None,
+        data_interface: object,
+        encode_func: EncodeFunc | None = None,
+        decode_func: DecodeFunc | None = None,
+        response_func: ResponseFunc | None = None,
+        do_log_msg: bool = False,
+        qos: QoSProfile | str | int | None = None,
+        time_period: float | None = None,
+        frame_id: str = "",
+        only_if_subscribed: bool = False,
+        callback_group: CallbackGroup | None = None,
+    ) -> None:
+        msg_class = interface_class(data_interface, kind="msg")
+        super().__init__(
+            node,
+            conn_name=conn_name,
+            agent_name=agent_name,
+            data_interface=msg_class,
+            response_func=response_func,
+            do_log_msg=do_log_msg,
+            callback_group=callback_group,
+        )
+        if response_func is not None and time_period is None:
+            raise self.error("response_func on a 'pub' agent needs time_period (it is polled)")
+        if time_period is not None and time_period <= 0:
+            raise self.error(f"time_period must be > 0 seconds, got {time_period!r}")
+        self.conversion = MessageConversion(
+            describe=self.describe,
+            msg_class=msg_class,
+            codec_of=lambda: node.registry.lookup_message(msg_class),
+            encode_func=encode_func,
+            decode_func=decode_func,
+        )
+        if encode_func is None:
+            _ = self.conversion.codec
+        self.frame_id = frame_id
+        self.only_if_subscribed = only_if_subscribed
+        self.time_period = time_period
+        self.sent_count = 0
+        ros_node = node.ros_node
+        self.publisher = ros_node.create_publisher(
+            msg_class,
+            conn_name,
+            resolve_qos(qos, msg_type=self.type_name, publisher=True),
+            callback_group=self.callback_group,
+        )
+        self.topic = self.publisher.topic_name
+        self.timer = (
+            ros_node.create_timer(time_period, self._on_period, callback_group=self.callback_group)
+            if time_period is not None
+            else None
+        )
+
+    @property
+    def subscriber_count(self) -> int:
+        """How many subscriptions match this publisher now."""
+        count: int = self.publisher.get_subscription_count()
+        return count
+
+    def send(self, data: Any = None) -> bool:
+        """Encode and publish ``data``; False when skipped (``only_if_subscribed``, no reader)."""
+        if self.only_if_subscribed and self.publisher.get_subscription_count() == 0:
+            return False
+        conversion = self.conversion
+        msg, stamped = conversion.encode(data)
+        if conversion.has_header and not stamped:
+            header = msg.header
+            if header.stamp.sec == 0 and header.stamp.nanosec == 0:
+                header.stamp = self.node.ros_node.get_clock().now().to_msg()
+            if self.frame_id and not header.frame_id:
+                header.frame_id = self.frame_id
+        self.publisher.publish(msg)
+        self._latest = data
+        self.sent_count += 1
+        if self.do_log_msg:
+            self.log_msg(data)
+        return True
+
+    def _on_period(self) -> None:
+        if self.only_if_subscribed and self.publisher.get_subscription_count() == 0:
+            return
+        try:
+            value = self.response_func() if self.response_func is not None else self._latest
+            if value is not None:
+                self.send(value)
+        except Exception as error:
+            self.report_exception("periodic send", error)
+
+    def close(self) -> None:
+        if self.timer is not None:
+            self.node.ros_node.destroy_timer(self.timer)
+        self.node.ros_node.destroy_publisher(self.publisher)
+        super().close()

@@ -1,0 +1,98 @@
+"""QoS profiles by name, and the defaults agents pick for sensor streams.
+
+``qos=`` on an agent takes a ``QoSProfile``, ``'default'`` (reliable, volatile, keep last 10),
+``'sensor_data'`` (best effort, volatile, keep last 5) or ``'latched'`` (reliable,
+transient local, keep last 1: late subscribers get the last message).
+
+Sensor streams (``SENSOR_TYPES``: images, point clouds, scans, IMU, ...) default to a profile
+that connects to the common camera and lidar drivers whatever they chose: a *subscriber* is
+best effort, because a best-effort reader matches both reliable and best-effort writers (a
+reliable reader never matches a best-effort writer, the usual "no images arrive" surprise);
+a *publisher* is reliable with a short queue, because a reliable writer matches both kinds of
+reader (rviz and ``ros2 topic echo`` subscribe reliably by default).
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+from rclpy.qos import (
+    DurabilityPolicy,
+    HistoryPolicy,
+    QoSProfile,
+    ReliabilityPolicy,
+    qos_profile_sensor_data,
+)
+
+from pyconnect.errors import PyconnectError
+
+SENSOR_TYPES = frozenset(
+    {
+        "sensor_msgs/msg/Image",
+        "sensor_msgs/msg/CompressedImage",
+        "sensor_msgs/msg/PointCloud2",
+        "sensor_msgs/msg/PointCloud",
+        "sensor_msgs/msg/LaserScan",
+        "sensor_msgs/msg/MultiEchoLaserScan",
+        "sensor_msgs/msg/Imu",
+        "sensor_msgs/msg/CameraInfo",
+        "sensor_msgs/msg/Range",
+        "sensor_msgs/msg/MagneticField",
+        "sensor_msgs/msg/NavSatFix",
+    }
+)
+
+DEFAULT = QoSProfile(
+    depth=10,
+    history=HistoryPolicy.KEEP_LAST,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+SENSOR_DATA: QoSProfile = qos_profile_sensor_data
+LATCHED = QoSProfile(
+    depth=1,
+    history=HistoryPolicy.KEEP_LAST,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.TRANSIENT_LOCAL,
+)
+SENSOR_PUBLISHER = QoSProfile(
+    depth=5,
+    history=HistoryPolicy.KEEP_LAST,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+
+NAMED_PROFILES: dict[str, QoSProfile] = {
+    "default": DEFAULT,
+    "sensor_data": SENSOR_DATA,
+    "latched": LATCHED,
+}
+
+
+def resolve_qos(
+    qos: QoSProfile | str | int | None, *, msg_type: str, publisher: bool
+) -> QoSProfile:
+    """The profile an agent uses: an explicit one, a named one, or the default for its type.
+
+    An int is a queue depth with the default policies, as rclpy accepts.
+    """
+    if isinstance(qos, QoSProfile):
+        return qos
+    if isinstance(qos, bool):
+        raise PyconnectError(f"qos: expected a QoSProfile, a name or a depth, got {qos!r}")
+    if isinstance(qos, int):
+        return QoSProfile(depth=qos)
+    if isinstance(qos, str):
+        profile = NAMED_PROFILES.get(qos)
+        if profile is None:
+            raise PyconnectError(
+                f"qos: unknown profile {qos!r}; expected a QoSProfile or one of "
+                f"{', '.join(repr(name) for name in NAMED_PROFILES)}"
+            )
+        return profile
+    if qos is None:
+        if msg_type in SENSOR_TYPES:
+            return SENSOR_PUBLISHER if publisher else SENSOR_DATA
+        return DEFAULT
+    raise PyconnectError(f"qos: expected a QoSProfile, a name or a depth, got {type(qos).__name__}")

@@ -1,0 +1,113 @@
+"""``node.record(path)``: raw (CDR) subscriptions written to an MCAP file as they arrive."""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import contextlib
+import threading
+import time
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+
+from pyconnect.errors import PyconnectError
+from pyconnect.ros.interfaces import interface_class, interface_name
+from pyconnect.ros.qos import SENSOR_DATA
+
+if TYPE_CHECKING:
+    from pyconnect.ros.custom_node import CustomNode
+
+
+class Recording:
+    """A running MCAP recording; ``stop()`` ends it and closes the file."""
+
+    def __init__(self, node: CustomNode, path: Path, topics: list[str] | None) -> None:
+        from pyconnect.record.mcap_recorder import McapRecorder
+
+        self.node = node
+        self.path = path
+        self._lock = threading.Lock()
+        self._stopped = False
+        chosen = self._choose_topics(topics)
+        self.recorder = McapRecorder(path)
+        self._subscriptions: list[Any] = []
+        group = MutuallyExclusiveCallbackGroup()
+        for topic, msg_class in chosen:
+            self.recorder.add_topic(topic, interface_name(msg_class))
+            # Best effort matches every publisher, reliable or not (pyconnect.ros.qos).
+            self._subscriptions.append(
+                node.ros_node.create_subscription(
+                    msg_class,
+                    topic,
+                    self._writer_for(topic),
+                    SENSOR_DATA,
+                    callback_group=group,
+                    raw=True,
+                )
+            )
+        self.topics = [topic for topic, _ in chosen]
+
+    def _choose_topics(self, topics: list[str] | None) -> list[tuple[str, type]]:
+        from pyconnect.ros.subscriber_agent import SubscriberAgent
+
+        known: dict[str, type] = {}
+        for agent in self.node.agents.values():
+            topic = getattr(agent, "topic", None)
+            if topic is not None and agent.data_interface is not None:
+                known[topic] = agent.data_interface  # type: ignore[assignment]
+                known[agent.name] = agent.data_interface  # type: ignore[assignment]
+        if topics is None:
+            return [
+                (agent.topic, agent.data_interface)  # type: ignore[misc]
+                for agent in self.node.agents.values()
+                if isinstance(agent, SubscriberAgent)
+            ]
+        graph = dict(self.node.ros_node.get_topic_names_and_types())
+        chosen: list[tuple[str, type]] = []
+        for topic in topics:
+            if topic in known:
+                resolved = next(
+                    (
+                        getattr(agent, "topic", topic)
+                        for agent in self.node.agents.values()
+                        if agent.name == topic
+                    ),
+                    topic,
+                )
+                chosen.append((resolved, known[topic]))
+            elif graph.get(topic):
+                chosen.append((topic, interface_class(graph[topic][0], kind="msg")))
+            else:
+                raise PyconnectError(
+                    f"record: topic {topic!r} has no agent and is not in the graph"
+                )
+        return chosen
+
+    def _writer_for(self, topic: str) -> Any:
+        recorder = self.recorder
+
+        def write(cdr: bytes) -> None:
+            if not self._stopped:
+                recorder.write(topic, cdr, log_time_ns=time.time_ns())
+
+        return write
+
+    @property
+    def messages_written(self) -> int:
+        count: int = self.recorder.messages_written
+        return count
+
+    def stop(self) -> None:
+        """Stop recording and close the file (idempotent)."""
+        with self._lock:
+            if self._stopped:
+                return
+            self._stopped = True
+        for subscription in self._subscriptions:
+            # The node may be destroyed already.
+            with contextlib.suppress(Exception):
+                self.node.ros_node.destroy_subscription(subscription)
+        self.recorder.close()

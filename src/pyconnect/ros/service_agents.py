@@ -1,0 +1,234 @@
+"""``service_server`` and ``service_client`` agents.
+
+Server: ``response_func(request_value) -> response_value``. A handler (or codec) that raises
+still answers: a response type with ``success``/``message`` fields gets ``success=False`` and
+the error text, any other the default response; the error is logged with the agent's name.
+
+Client: ``send(data, timeout=None)`` blocks and returns the decoded response through
+``reform_response`` (dicts get ``'isdone': True``); on timeout, or when no server appears in
+time, it returns ``{'isdone': False, 'error': ...}``. ``block=False`` returns a
+``concurrent.futures.Future`` of the same value. Blocking is safe inside another agent's
+callback: the executor passes its turn on while this thread waits (pyconnect.ros.executor).
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import concurrent.futures
+import threading
+from typing import TYPE_CHECKING, Any
+
+from rclpy.callback_groups import CallbackGroup
+from rclpy.task import Future as RosFuture
+
+from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
+from pyconnect.ros.error_fields import error_message
+from pyconnect.ros.interfaces import interface_class
+from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.waiting import wait_until
+
+if TYPE_CHECKING:
+    from pyconnect.ros.custom_node import CustomNode
+
+
+class ServiceServerAgent(NodeAgent):
+    """Answers requests on ``conn_name`` with ``response_func``."""
+
+    conn_type = "service_server"
+
+    def __init__(
+        self,
+        node: CustomNode,
+        *,
+        conn_name: str,
+        agent_name: str | None = None,
+        data_interface: object,
+        encode_func: EncodeFunc | None = None,
+        decode_func: DecodeFunc | None = None,
+        response_func: ResponseFunc | None = None,
+        do_log_msg: bool = False,
+        callback_group: CallbackGroup | None = None,
+    ) -> None:
+        srv_class = interface_class(data_interface, kind="srv")
+        super().__init__(
+            node,
+            conn_name=conn_name,
+            agent_name=agent_name,
+            data_interface=srv_class,
+            response_func=response_func,
+            do_log_msg=do_log_msg,
+            callback_group=callback_group,
+        )
+        if response_func is None:
+            raise self.error("a 'service_server' agent needs a response_func")
+        self._handler: ResponseFunc = response_func
+        self.request_conversion = MessageConversion(
+            describe=self.describe,
+            msg_class=srv_class.Request,
+            codec_of=lambda: node.registry.lookup_message(srv_class.Request),
+            decode_func=decode_func,
+        )
+        self.response_conversion = MessageConversion(
+            describe=self.describe,
+            msg_class=srv_class.Response,
+            codec_of=lambda: node.registry.lookup_message(srv_class.Response),
+            encode_func=encode_func,
+        )
+        if decode_func is None:
+            _ = self.request_conversion.codec
+        if encode_func is None:
+            _ = self.response_conversion.codec
+        self.request_count = 0
+        self.service = node.ros_node.create_service(
+            srv_class, conn_name, self._on_request, callback_group=self.callback_group
+        )
+        self.service_name = self.service.service_name
+
+    def _on_request(self, request: Any, response: Any) -> Any:
+        self.request_count += 1
+        where = "decode"
+        try:
+            data = self.request_conversion.decode_checked(request)
+            self._latest = data
+            if self.do_log_msg:
+                self.log_msg(data)
+            where = "response_func"
+            value = self._handler(data)
+            where = "encode"
+            if value is None:
+                return response
+            msg, _stamped = self.response_conversion.encode(value)
+            return msg
+        except Exception as error:
+            self.report_exception(where, error)
+            return error_message(type(response), f"{type(error).__name__}: {error}")
+
+    def close(self) -> None:
+        self.node.ros_node.destroy_service(self.service)
+        super().close()
+
+
+class ServiceClientAgent(NodeAgent):
+    """Calls the service ``conn_name``; ``send``/``get`` return the decoded response."""
+
+    conn_type = "service_client"
+
+    def __init__(
+        self,
+        node: CustomNode,
+        *,
+        conn_name: str,
+        agent_name: str | None = None,
+        data_interface: object,
+        encode_func: EncodeFunc | None = None,
+        decode_func: DecodeFunc | None = None,
+        do_log_msg: bool = False,
+        timeout: float | None = None,
+        callback_group: CallbackGroup | None = None,
+    ) -> None:
+        srv_class = interface_class(data_interface, kind="srv")
+        super().__init__(
+            node,
+            conn_name=conn_name,
+            agent_name=agent_name,
+            data_interface=srv_class,
+            do_log_msg=do_log_msg,
+            callback_group=callback_group,
+        )
+        self.timeout = timeout
+        self.request_conversion = MessageConversion(
+            describe=self.describe,
+            msg_class=srv_class.Request,
+            codec_of=lambda: node.registry.lookup_message(srv_class.Request),
+            encode_func=encode_func,
+        )
+        self.response_conversion = MessageConversion(
+            describe=self.describe,
+            msg_class=srv_class.Response,
+            codec_of=lambda: node.registry.lookup_message(srv_class.Response),
+            decode_func=decode_func,
+        )
+        if encode_func is None:
+            _ = self.request_conversion.codec
+        if decode_func is None:
+            _ = self.response_conversion.codec
+        self.client = node.ros_node.create_client(
+            srv_class, conn_name, callback_group=self.callback_group
+        )
+        self.service_name = self.client.service_name
+
+    def is_connected(self) -> bool:
+        ready: bool = self.client.service_is_ready()
+        return ready
+
+    def get(self, data: Any = None, show_info: bool = False) -> Any:  # type: ignore[override]
+        """``get(data)`` is ``send(data)``: a service's latest value is the answer to a request."""
+        if show_info:
+            self.node.get_logger().info(self.info_text())
+        return self.send(data)
+
+    def send(self, data: Any = None, *, timeout: float | None = None, block: bool = True) -> Any:
+        """Call the service with ``data``; the decoded response, or a future of it."""
+        timeout = self.timeout if timeout is None else timeout
+        request, _stamped = self.request_conversion.encode(data)
+        if self.do_log_msg:
+            self.log_msg(data)
+        if not block:
+            result: concurrent.futures.Future[Any] = concurrent.futures.Future()
+            if self.client.service_is_ready():
+                self._call(request, result)
+            else:
+                threading.Thread(
+                    target=self._call_when_ready,
+                    args=(request, result, timeout),
+                    name=f"pyconnect-{self.name}-wait",
+                    daemon=True,
+                ).start()
+            return result
+        if not wait_until(self.client.service_is_ready, timeout, stop=self.node._stopped):
+            return self._failed(f"no server for {self.service_name} within {timeout} s")
+        ros_future = self.client.call_async(request)
+        done = threading.Event()
+        ros_future.add_done_callback(lambda _future: done.set())
+        if not self.node.executor.wait_for(done, timeout, poll=ros_future.done):
+            self.client.remove_pending_request(ros_future)
+            return self._failed(f"no response from {self.service_name} within {timeout} s")
+        return self._value_of(ros_future)
+
+    def _failed(self, text: str) -> Any:
+        value = self.reform_response(None, error=f"{self.describe}: {text}")
+        self._latest = value
+        return value
+
+    def _value_of(self, ros_future: RosFuture) -> Any:
+        response = ros_future.result()
+        if response is None:
+            return self._failed("the call was cancelled")
+        value = self.reform_response(self.response_conversion.decode_checked(response))
+        self._latest = value
+        return value
+
+    def _call(self, request: Any, result: concurrent.futures.Future[Any]) -> None:
+        ros_future = self.client.call_async(request)
+
+        def finish(done: RosFuture) -> None:
+            try:
+                result.set_result(self._value_of(done))
+            except Exception as error:
+                result.set_exception(error)
+
+        ros_future.add_done_callback(finish)
+
+    def _call_when_ready(
+        self, request: Any, result: concurrent.futures.Future[Any], timeout: float | None
+    ) -> None:
+        if wait_until(self.client.service_is_ready, timeout, stop=self.node._stopped):
+            self._call(request, result)
+        else:
+            result.set_result(self._failed(f"no server for {self.service_name} within {timeout} s"))
+
+    def close(self) -> None:
+        self.node.ros_node.destroy_client(self.client)
+        super().close()

@@ -1,0 +1,135 @@
+"""``sub`` agents: every message is decoded, kept for ``get()`` and passed to ``response_func``.
+
+The callback is the hot path of the package (thousands of messages per second): it decodes,
+stores, counts and calls the user function, nothing else. A message the codec rejects, or a
+``response_func`` that raises, is reported (agent name and traceback) and the next one is
+handled; ``get()`` keeps the last good value.
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import threading
+import time
+from typing import TYPE_CHECKING, Any
+
+from rclpy.callback_groups import CallbackGroup
+from rclpy.qos import QoSProfile
+
+from pyconnect.errors import DecodeError
+from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
+from pyconnect.ros.interfaces import interface_class
+from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.qos import resolve_qos
+
+if TYPE_CHECKING:
+    from pyconnect.ros.custom_node import CustomNode
+
+
+class SubscriberAgent(NodeAgent):
+    """Subscribes to ``conn_name`` and decodes each message to its natural value.
+
+    ``stamped=True`` delivers ``codecs.Stamped(value, stamp_ns, frame_id)`` for types with a
+    header.
+    """
+
+    conn_type = "sub"
+
+    def __init__(
+        self,
+        node: CustomNode,
+        *,
+        conn_name: str,
+        agent_name: str | None = None,
+        data_interface: object,
+        encode_func: EncodeFunc | None = None,
+        decode_func: DecodeFunc | None = None,
+        response_func: ResponseFunc | None = None,
+        do_log_msg: bool = False,
+        qos: QoSProfile | str | int | None = None,
+        stamped: bool = False,
+        callback_group: CallbackGroup | None = None,
+    ) -> None:
+        msg_class = interface_class(data_interface, kind="msg")
+        super().__init__(
+            node,
+            conn_name=conn_name,
+            agent_name=agent_name,
+            data_interface=msg_class,
+            response_func=response_func,
+            do_log_msg=do_log_msg,
+            callback_group=callback_group,
+        )
+        self.conversion = MessageConversion(
+            describe=self.describe,
+            msg_class=msg_class,
+            codec_of=lambda: node.registry.lookup_message(msg_class),
+            encode_func=encode_func,
+            decode_func=decode_func,
+        )
+        if decode_func is None:
+            codec = self.conversion.codec
+            if stamped:
+                from pyconnect.codecs.stamped import decode_stamped
+
+                self._decode = lambda msg: decode_stamped(codec, msg)
+            else:
+                self._decode = codec.decode
+        else:
+            self._decode = decode_func
+        self.message_count = 0
+        self.last_received_ns = 0
+        self._first_message = threading.Event()
+        self.subscription = node.ros_node.create_subscription(
+            msg_class,
+            conn_name,
+            self._on_message,
+            resolve_qos(qos, msg_type=self.type_name, publisher=False),
+            callback_group=self.callback_group,
+        )
+        self.topic = self.subscription.topic_name
+
+    def _on_message(self, msg: Any) -> None:
+        try:
+            value = self._decode(msg)
+        except Exception as error:
+            if not isinstance(error, DecodeError):
+                error = DecodeError(f"{type(error).__name__}: {error}")
+            self.report_exception("decode", error)
+            return
+        self._latest = value
+        self.message_count += 1
+        self.last_received_ns = time.time_ns()
+        if not self._first_message.is_set():
+            self._first_message.set()
+        if self.do_log_msg:
+            try:
+                self.log_msg(value)
+            except Exception as error:
+                self.report_exception("log_msg", error)
+        if self.response_func is not None:
+            try:
+                self.response_func(value)
+            except Exception as error:
+                self.report_exception("response_func", error)
+
+    def wait_for_message(self, timeout: float | None = None) -> bool:
+        """Wait until the first message arrived; False on timeout."""
+        return self._first_message.wait(timeout)
+
+    def is_connected(self) -> bool:
+        return self.message_count > 0
+
+    def info_text(self) -> str:
+        age = (
+            f", {(time.time_ns() - self.last_received_ns) / 1e9:.3f} s ago"
+            if self.last_received_ns
+            else ""
+        )
+        return f"{super().info_text()} ({self.message_count} messages on {self.topic}{age})"
+
+    def close(self) -> None:
+        self.node.ros_node.destroy_subscription(self.subscription)
+        super().close()

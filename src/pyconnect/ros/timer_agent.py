@@ -1,0 +1,58 @@
+"""``timer`` agents: ``response_func()`` every ``time_period`` s; ``get()`` is its last return."""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING
+
+from rclpy.callback_groups import CallbackGroup
+
+from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+
+if TYPE_CHECKING:
+    from pyconnect.ros.custom_node import CustomNode
+
+
+class TimerAgent(NodeAgent):
+    """Calls ``response_func`` periodically on the node's clock."""
+
+    conn_type = "timer"
+
+    def __init__(
+        self,
+        node: CustomNode,
+        *,
+        conn_name: str,
+        agent_name: str | None = None,
+        time_period: float,
+        response_func: ResponseFunc,
+        callback_group: CallbackGroup | None = None,
+    ) -> None:
+        super().__init__(
+            node,
+            conn_name=conn_name,
+            agent_name=agent_name,
+            response_func=response_func,
+            callback_group=callback_group,
+        )
+        if time_period is None or time_period <= 0:
+            raise self.error(f"time_period must be > 0 seconds, got {time_period!r}")
+        self._handler: ResponseFunc = response_func
+        self.time_period = time_period
+        self.tick_count = 0
+        self.timer = node.ros_node.create_timer(
+            time_period, self._on_tick, callback_group=self.callback_group
+        )
+
+    def _on_tick(self) -> None:
+        self.tick_count += 1
+        try:
+            self._latest = self._handler()
+        except Exception as error:
+            self.report_exception("response_func", error)
+
+    def close(self) -> None:
+        self.node.ros_node.destroy_timer(self.timer)
+        super().close()

@@ -1,0 +1,29 @@
+"""Waiting in user threads for what the executor does: a server to appear, a response to arrive."""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable
+
+
+def wait_until(
+    ready: Callable[[], bool], timeout: float | None, *, stop: threading.Event | None = None
+) -> bool:
+    """Poll ``ready`` (a cheap graph query) until it is true; False on timeout or ``stop``.
+
+    rclpy has no event for "a server appeared" (rclpy#58), so this polls like its own
+    ``wait_for_service``, but at 20 ms, and ends early when ``stop`` is set.
+    """
+    deadline = None if timeout is None else time.monotonic() + timeout
+    idle = stop or threading.Event()
+    while not ready():
+        remaining = None if deadline is None else deadline - time.monotonic()
+        if remaining is not None and remaining <= 0:
+            return False
+        if idle.wait(0.02 if remaining is None else min(remaining, 0.02)):
+            return ready()
+    return True
