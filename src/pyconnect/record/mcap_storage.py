@@ -128,8 +128,12 @@ class McapFile:
         return connections
 
     def _unindexed_records(self) -> Iterator[McapRecord]:
+        """Every record up to the end, or up to where a recording cut short stops making sense."""
         self._stream.seek(0)
-        yield from StreamReader(self._stream, skip_magic=False).records
+        try:
+            yield from StreamReader(self._stream, skip_magic=False).records
+        except (McapError, EOFError, struct.error, ValueError):
+            return  # keep what was readable, as `ros2 bag reindex` does
 
     def connections(self) -> Sequence[Connection]:
         return self._connections
@@ -212,14 +216,11 @@ class McapFile:
 
     def _streamed_messages(self, wanted: set[int], start: int, end: int) -> Iterator[RawMessage]:
         found: list[RawMessage] = []
-        try:
-            for record in self._unindexed_records():
-                if not isinstance(record, Message):
-                    continue
-                if record.channel_id in wanted and start <= record.log_time < end:
-                    found.append((record.channel_id, record.log_time, record.data))
-        except (McapError, EOFError, struct.error):
-            pass  # a recording cut short: keep what was readable, as ros2 bag reindex does
+        for record in self._unindexed_records():
+            if not isinstance(record, Message):
+                continue
+            if record.channel_id in wanted and start <= record.log_time < end:
+                found.append((record.channel_id, record.log_time, record.data))
         yield from sorted(found, key=_log_time)
 
     def close(self) -> None:

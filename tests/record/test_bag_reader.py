@@ -1,0 +1,205 @@
+"""open_bag/bag_info on bags written here: layouts, storages, filters, and every error message."""
+
+from __future__ import annotations
+
+import shutil
+import sqlite3
+from pathlib import Path
+
+import pytest
+from rclpy.serialization import serialize_message
+from std_msgs.msg import String
+from test_msgs.msg import BasicTypes
+
+from pyconnect.record.bag_errors import BagError
+from pyconnect.record.bag_reader import BagMessage, bag_info, open_bag
+from pyconnect.record.mcap_recorder import McapRecorder
+
+
+def chatter(i: int) -> bytes:
+    return bytes(serialize_message(String(data=f"hello {i}")))
+
+
+def write_bag(path: Path, *, count: int = 10, start: int = 1_000) -> Path:
+    with McapRecorder(path) as recorder:
+        recorder.add_topic("/chatter", "std_msgs/msg/String")
+        recorder.add_topic("/basic", "test_msgs/msg/BasicTypes")
+        recorder.add_topic("/silent", "std_msgs/msg/String")
+        for i in range(count):
+            recorder.write("/chatter", chatter(i), log_time_ns=start + 10 * i)
+            basic = BasicTypes(int32_value=i, float64_value=i / 2)
+            recorder.write(
+                "/basic", bytes(serialize_message(basic)), log_time_ns=start + 10 * i + 5
+            )
+    return path
+
+
+def write_db3(path: Path, *, schema: str = "foxy", count: int = 4) -> Path:
+    """A sqlite3 bag with the tables of an old rosbag2 (``schema``: dashing or foxy)."""
+    db = sqlite3.connect(path)
+    qos = "" if schema == "dashing" else ", offered_qos_profiles TEXT NOT NULL"
+    db.execute(
+        "CREATE TABLE topics(id INTEGER PRIMARY KEY, name TEXT NOT NULL, type TEXT NOT NULL, "
+        f"serialization_format TEXT NOT NULL{qos})"
+    )
+    db.execute(
+        "CREATE TABLE messages(id INTEGER PRIMARY KEY, topic_id INTEGER NOT NULL, "
+        "timestamp INTEGER NOT NULL, data BLOB NOT NULL)"
+    )
+    values = (1, "/chatter", "std_msgs/msg/String", "cdr") + (() if schema == "dashing" else ("",))
+    db.execute(f"INSERT INTO topics VALUES ({','.join('?' * len(values))})", values)
+    # Stored out of time order on purpose: reading sorts by time.
+    for i in reversed(range(count)):
+        db.execute("INSERT INTO messages VALUES (NULL, 1, ?, ?)", (100 + i, chatter(i)))
+    db.commit()
+    db.close()
+    return path
+
+
+def test_round_trip_through_a_recorded_bag(tmp_path: Path) -> None:
+    write_bag(tmp_path / "bag")
+    with open_bag(tmp_path / "bag") as bag:
+        messages = list(bag)
+    assert len(messages) == 20
+    topic, stamp, value = messages[0]
+    assert (topic, stamp, value) == ("/chatter", 1_000, "hello 0")
+    assert messages[0].msg_type == "std_msgs/msg/String"
+    assert [m.log_time_ns for m in messages] == sorted(m.log_time_ns for m in messages)
+    assert [m.value["int32_value"] for m in messages if m.topic == "/basic"] == list(range(10))
+    assert bag.errors == []
+
+
+def test_bag_message_unpacks_as_three() -> None:
+    message = BagMessage("/t", 5, {"a": 1}, "pkg/msg/T")
+    topic, stamp, value = message
+    assert (topic, stamp, value) == ("/t", 5, {"a": 1})
+    assert (
+        repr(message)
+        == "BagMessage(topic='/t', log_time_ns=5, msg_type='pkg/msg/T', value={'a': 1})"
+    )
+
+
+def test_topic_and_time_filters(tmp_path: Path) -> None:
+    write_bag(tmp_path / "bag")
+    with open_bag(tmp_path / "bag", topics=["/chatter"], start_ns=1_020, end_ns=1_050) as bag:
+        assert [(m.topic, m.log_time_ns, m.value) for m in bag] == [
+            ("/chatter", 1_020, "hello 2"),
+            ("/chatter", 1_030, "hello 3"),
+            ("/chatter", 1_040, "hello 4"),
+        ]
+    with open_bag(tmp_path / "bag", natural=False, topics="/chatter", end_ns=1_001) as bag:
+        assert [m.value for m in bag] == [{"data": "hello 0"}]
+
+
+def test_bag_info(tmp_path: Path) -> None:
+    write_bag(tmp_path / "bag")
+    info = bag_info(tmp_path / "bag" / "metadata.yaml")
+    assert info.storage == "mcap"
+    assert info.files == (tmp_path / "bag" / "bag_0.mcap",)
+    assert [(t.name, t.msg_type, t.message_count) for t in info.topics] == [
+        ("/basic", "test_msgs/msg/BasicTypes", 10),
+        ("/chatter", "std_msgs/msg/String", 10),
+        ("/silent", "std_msgs/msg/String", 0),
+    ]
+    assert (info.start_ns, info.end_ns, info.duration_ns, info.message_count) == (
+        1_000,
+        1_095,
+        95,
+        20,
+    )
+
+
+def test_split_bag_without_metadata(tmp_path: Path) -> None:
+    # Files sort naturally: part_10 after part_9.
+    bag = tmp_path / "split"
+    bag.mkdir()
+    for part in (0, 9, 10):
+        write_bag(tmp_path / f"p{part}.mcap", count=2, start=1_000 * (part + 1))
+        shutil.move(tmp_path / f"p{part}.mcap", bag / f"part_{part}.mcap")
+    info = bag_info(bag)
+    assert [p.name for p in info.files] == ["part_0.mcap", "part_9.mcap", "part_10.mcap"]
+    with open_bag(bag, topics=["/chatter"]) as reader:
+        assert [m.log_time_ns for m in reader] == [1_000, 1_010, 10_000, 10_010, 11_000, 11_010]
+
+
+def test_old_sqlite_schemas_are_read_only(tmp_path: Path) -> None:
+    for schema in ("dashing", "foxy"):
+        path = write_db3(tmp_path / f"{schema}.db3", schema=schema)
+        before = sorted(p.name for p in tmp_path.iterdir())
+        with open_bag(path) as bag:
+            assert [(m.log_time_ns, m.value) for m in bag] == [
+                (100 + i, f"hello {i}") for i in range(4)
+            ]
+        assert sorted(p.name for p in tmp_path.iterdir()) == before
+        assert bag_info(path).storage == "sqlite3"
+
+
+def test_unfinished_mcap_is_read_without_its_summary(tmp_path: Path) -> None:
+    write_bag(tmp_path / "bag.mcap")
+    data = (tmp_path / "bag.mcap").read_bytes()
+    # Cut the file inside its summary section, as a crash while recording would.
+    (tmp_path / "cut.mcap").write_bytes(data[: len(data) - 200])
+    with open_bag(tmp_path / "cut.mcap", topics=["/chatter"]) as bag:
+        assert [m.value for m in bag] == [f"hello {i}" for i in range(10)]
+    assert {t.name: t.message_count for t in bag_info(tmp_path / "cut.mcap").topics} == {
+        "/basic": 10,
+        "/chatter": 10,
+        "/silent": 0,
+    }
+
+
+def test_errors(tmp_path: Path) -> None:
+    write_bag(tmp_path / "bag")
+    cases = {
+        tmp_path / "missing": f"{tmp_path / 'missing'}: no such bag file or directory",
+        tmp_path / "empty": f"{tmp_path / 'empty'}: no metadata.yaml and no .mcap or .db3 files",
+        tmp_path / "text.mcap": f"{tmp_path / 'text.mcap'}: neither an MCAP nor a sqlite3 bag file",
+    }
+    (tmp_path / "empty").mkdir()
+    (tmp_path / "text.mcap").write_text("hello")
+    for path, message in cases.items():
+        with pytest.raises(BagError) as caught:
+            open_bag(path)
+        assert str(caught.value) == message
+    with pytest.raises(BagError) as caught:
+        open_bag(tmp_path / "bag", topics=["/nope"])
+    assert str(caught.value) == (
+        f"{tmp_path / 'bag'}: no topic /nope in this bag (topics: /basic, /chatter, /silent)"
+    )
+    with pytest.raises(ValueError, match=r"^on_error: expected 'report' or 'raise', got 'skip'$"):
+        open_bag(tmp_path / "bag", on_error="skip")  # type: ignore[arg-type]
+
+
+def test_metadata_errors(tmp_path: Path) -> None:
+    write_bag(tmp_path / "bag")
+    metadata = tmp_path / "bag" / "metadata.yaml"
+    text = metadata.read_text()
+    metadata.write_text(text.replace("bag_0.mcap", "gone_0.mcap"))
+    with pytest.raises(BagError) as caught:
+        open_bag(tmp_path / "bag")
+    assert str(caught.value) == (
+        f"{tmp_path / 'bag'}: metadata.yaml lists 'gone_0.mcap', which is not in the bag"
+    )
+    metadata.write_text(text.replace("compression_mode: ''", "compression_mode: FILE"))
+    with pytest.raises(BagError) as caught:
+        open_bag(tmp_path / "bag")
+    assert "files compressed whole" in str(caught.value)
+    metadata.write_text("just: text\n")
+    with pytest.raises(BagError) as caught:
+        open_bag(tmp_path / "bag")
+    assert str(caught.value) == (
+        f"{metadata}: not a rosbag2 metadata file (KeyError: 'rosbag2_bagfile_information')"
+    )
+
+
+def test_undecodable_definition_is_reported_per_message(tmp_path: Path) -> None:
+    with McapRecorder(tmp_path / "bag.mcap") as recorder:
+        recorder.add_topic("/odd", "my_pkg/msg/Odd", definition="not a definition at all !!!")
+        recorder.add_topic("/chatter", "std_msgs/msg/String")
+        for i in range(3):
+            recorder.write("/odd", b"\x00\x01\x00\x00", log_time_ns=i)
+            recorder.write("/chatter", chatter(i), log_time_ns=i)
+    with open_bag(tmp_path / "bag.mcap") as bag:
+        assert [m.value for m in bag] == ["hello 0", "hello 1", "hello 2"]
+    assert [(p.topic, p.index) for p in bag.errors] == [("/odd", 0), ("/odd", 1), ("/odd", 2)]
+    assert bag.errors[0].reason.startswith("cannot build a decoder for my_pkg/msg/Odd: ")
