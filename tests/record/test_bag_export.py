@@ -1,0 +1,76 @@
+"""export_topic: PNG for images, NPY for arrays, JSON Lines for the rest; progress reported."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Any
+
+import cv2
+import numpy as np
+from rclpy.serialization import serialize_message
+from sensor_msgs.msg import Image
+from std_msgs.msg import Float64MultiArray
+from test_msgs.msg import BasicTypes
+
+from pyconnect.record.bag_export import export_topic
+from pyconnect.record.mcap_recorder import McapRecorder
+
+
+class CountingBar:
+    def __init__(self, total: int, description: str) -> None:
+        self.total, self.description, self.count, self.closed = total, description, 0, False
+
+    def update(self, n: int) -> None:
+        self.count += n
+
+    def close(self) -> None:
+        self.closed = True
+
+
+def test_export_formats(tmp_path: Path) -> None:
+    with McapRecorder(tmp_path / "bag") as recorder:
+        recorder.add_topic("/image", "sensor_msgs/msg/Image")
+        recorder.add_topic("/basic", "test_msgs/msg/BasicTypes")
+        for i in range(3):
+            image = Image(height=2, width=2, encoding="mono16", step=4)
+            image.data.frombytes(np.full((2, 2), 1000 * i, dtype="<u2").tobytes())
+            recorder.write("/image", bytes(serialize_message(image)), log_time_ns=10 + i)
+            basic = BasicTypes(int64_value=-i, float32_value=0.5)
+            recorder.write("/basic", bytes(serialize_message(basic)), log_time_ns=20 + i)
+    bars: list[CountingBar] = []
+
+    def progress(total: int, description: str) -> Any:
+        bars.append(CountingBar(total, description))
+        return bars[-1]
+
+    result = export_topic(tmp_path / "bag", "/image", tmp_path / "images", progress=progress)
+    assert dict(result.files) == {"png": 3}
+    assert [(b.total, b.description, b.count, b.closed) for b in bars] == [(3, "/image", 3, True)]
+    names = sorted(p.name for p in (tmp_path / "images").iterdir())
+    assert names == ["000000_10.png", "000001_11.png", "000002_12.png"]
+    pixels = cv2.imread(str(tmp_path / "images" / "000002_12.png"), cv2.IMREAD_UNCHANGED)
+    np.testing.assert_array_equal(pixels, np.full((2, 2), 2000, dtype=np.uint16))
+
+    result = export_topic(tmp_path / "bag", "/basic", tmp_path / "basic", progress=progress)
+    assert dict(result.files) == {"jsonl": 3}
+    lines = (tmp_path / "basic" / "messages.jsonl").read_text().splitlines()
+    rows = [json.loads(line) for line in lines]
+    assert [(row["log_time_ns"], row["value"]["int64_value"]) for row in rows] == [
+        (20, 0),
+        (21, -1),
+        (22, -2),
+    ]
+    assert sorted(p.name for p in (tmp_path / "basic").iterdir()) == ["messages.jsonl"]
+
+
+def test_export_arrays_as_npy(tmp_path: Path) -> None:
+    with McapRecorder(tmp_path / "bag.mcap") as recorder:
+        recorder.add_topic("/array", "std_msgs/msg/Float64MultiArray")
+        message = Float64MultiArray(data=[1.0, 2.5, -3.0])
+        recorder.write("/array", bytes(serialize_message(message)), log_time_ns=7)
+    result = export_topic(tmp_path / "bag.mcap", "/array", tmp_path / "out", progress=CountingBar)
+    if result.files.get("npy"):
+        np.testing.assert_array_equal(np.load(tmp_path / "out" / "000000_7.npy"), [1.0, 2.5, -3.0])
+    else:  # a natural value that is not an array is a JSON line
+        assert dict(result.files) == {"jsonl": 1}
