@@ -86,7 +86,7 @@ class ActionClientAgent(NodeAgent):
         if decode_func is None:
             _ = self.result_conversion.codec
         self.last_feedback: Any = None
-        self._in_flight: dict[bytes, Any] = {}
+        self._in_flight: dict[int, _GoalInFlight] = {}
         self._lock = threading.Lock()
         self.client = ActionClient(
             node.ros_node, action_class, conn_name, callback_group=self.callback_group
@@ -125,20 +125,19 @@ class ActionClientAgent(NodeAgent):
             return result
         if not wait_until(self.client.server_is_ready, timeout, stop=self.node._stopped):
             return self._failed(f"no action server for {self.conn_name} within {timeout} s")
-        goal_handles = self._send_goal(goal, result, feedback_func)
+        in_flight = self._send_goal(goal, result, feedback_func)
         if not self.node.executor.wait_for(done, timeout):
-            for handle in goal_handles:
-                handle.cancel_goal_async()
+            in_flight.cancel()
             return self._failed(f"no result within {timeout} s (goal canceled)")
         return result.result()
 
     def cancel(self) -> int:
-        """Ask the server to cancel every goal of this agent in flight; how many were asked."""
+        """Cancel every goal of this agent in flight (accepted or not yet); how many."""
         with self._lock:
-            handles = list(self._in_flight.values())
-        for handle in handles:
-            handle.cancel_goal_async()
-        return len(handles)
+            goals = list(self._in_flight.values())
+        for goal in goals:
+            goal.cancel()
+        return len(goals)
 
     # -- goal life cycle ---------------------------------------------------------------------
     def _failed(self, text: str, partial: Any = None) -> Any:
@@ -165,9 +164,12 @@ class ActionClientAgent(NodeAgent):
         goal: Any,
         result: concurrent.futures.Future[Any],
         feedback_func: ResponseFunc | None,
-    ) -> list[Any]:
-        """Send ``goal``; ``result`` gets the outcome. Returns a list the goal handle joins."""
-        handles: list[Any] = []
+    ) -> _GoalInFlight:
+        """Send ``goal``; ``result`` gets the outcome."""
+        in_flight = _GoalInFlight()
+        key = id(in_flight)
+        with self._lock:
+            self._in_flight[key] = in_flight
 
         def on_feedback(feedback_msg: Any) -> None:
             try:
@@ -181,18 +183,16 @@ class ActionClientAgent(NodeAgent):
         def on_goal_response(goal_future: RosFuture) -> None:
             handle = goal_future.result()
             if handle is None or not handle.accepted:
+                with self._lock:
+                    self._in_flight.pop(key, None)
                 result.set_result(self._failed("goal rejected by the server"))
                 return
-            handles.append(handle)
-            with self._lock:
-                self._in_flight[bytes(handle.goal_id.uuid)] = handle
-            handle.get_result_async().add_done_callback(
-                lambda result_future: on_result(handle, result_future)
-            )
+            in_flight.accepted(handle)
+            handle.get_result_async().add_done_callback(on_result)
 
-        def on_result(handle: Any, result_future: RosFuture) -> None:
+        def on_result(result_future: RosFuture) -> None:
             with self._lock:
-                self._in_flight.pop(bytes(handle.goal_id.uuid), None)
+                self._in_flight.pop(key, None)
             try:
                 result.set_result(self._outcome(result_future.result()))
             except Exception as error:
@@ -201,7 +201,7 @@ class ActionClientAgent(NodeAgent):
         self.client.send_goal_async(goal, feedback_callback=on_feedback).add_done_callback(
             on_goal_response
         )
-        return handles
+        return in_flight
 
     def _outcome(self, response: Any) -> Any:
         status = response.status
@@ -226,3 +226,26 @@ class ActionClientAgent(NodeAgent):
     def close(self) -> None:
         self.client.destroy()
         super().close()
+
+
+class _GoalInFlight:
+    """A sent goal: its handle once accepted, and whether a cancel was asked before that."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._handle: Any = None
+        self._cancel_asked = False
+
+    def accepted(self, handle: Any) -> None:
+        with self._lock:
+            self._handle = handle
+            cancel = self._cancel_asked
+        if cancel:
+            handle.cancel_goal_async()
+
+    def cancel(self) -> None:
+        with self._lock:
+            handle = self._handle
+            self._cancel_asked = True
+        if handle is not None:
+            handle.cancel_goal_async()

@@ -1,0 +1,231 @@
+"""CustomNode: the agent factory, names, QoS, waiting for connections, timers, add_agents."""
+
+from __future__ import annotations
+
+import threading
+from typing import Any
+
+import pytest
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import Image, LaserScan
+from std_msgs.msg import String
+from std_srvs.srv import Trigger
+
+from pyconnect.errors import ConnectionTimeout, PyconnectError
+from pyconnect.ros.agent_factory import AGENT_CLASS_DICT, make_agent
+from pyconnect.ros.node_agent import NodeAgent
+from pyconnect.ros.qos import resolve_qos
+
+from .conftest import EVENT_TIMEOUT, repeat_until
+
+
+def test_unknown_conn_type_is_a_clear_error(make_node: Any) -> None:
+    node = make_node()
+    with pytest.raises(PyconnectError) as caught:
+        node.add_agent(conn_name="cam", conn_type="subscriber", data_interface=Image)
+    assert str(caught.value) == (
+        "agent 'cam': unknown conn_type 'subscriber'; expected one of 'sub', 'pub', "
+        "'service_client', 'service_server', 'action_client', 'action_server', 'timer'"
+    )
+
+
+def test_unknown_option_is_a_clear_error(make_node: Any) -> None:
+    node = make_node()
+    with pytest.raises(PyconnectError) as caught:
+        node.add_agent(conn_name="cam", conn_type="sub", data_interface=Image, fps=3)
+    assert str(caught.value) == "agent 'cam' (sub): unknown option 'fps' for this kind"
+
+
+def test_wrong_interface_kind_is_a_clear_error(make_node: Any) -> None:
+    node = make_node()
+    with pytest.raises(PyconnectError) as caught:
+        node.add_agent(conn_name="x", conn_type="pub", data_interface=Trigger)
+    assert str(caught.value) == (
+        "agent 'x' (pub): std_srvs/srv/Trigger: expected a message type, got a service type"
+    )
+
+
+def test_duplicate_agent_name(make_node: Any) -> None:
+    node = make_node()
+    node.add_agent(conn_name="chatter", conn_type="pub", data_interface=String)
+    with pytest.raises(PyconnectError) as caught:
+        node.add_agent(conn_name="chatter", conn_type="sub", data_interface=String)
+    assert str(caught.value) == (
+        "agent 'chatter': node 'test_node' already has an agent of that name; "
+        "give one of them agent_name="
+    )
+
+
+def test_interface_by_name_and_add_agents_shared_options(make_node: Any) -> None:
+    node = make_node()
+    agents = node.add_agents(
+        [{"conn_name": "a"}, {"conn_name": "b", "qos": "sensor_data"}],
+        conn_type="pub",
+        data_interface="std_msgs/String",
+    )
+    assert [agent.name for agent in agents] == ["a", "b"]
+    assert node.agents["a"].type_name == "std_msgs/msg/String"
+    assert node.agents["b"].publisher.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+
+
+def test_names_resolve_in_the_namespace_and_remap(make_node: Any) -> None:
+    node = make_node("robot", namespace="/ns", cli_args=["--ros-args", "-r", "chatter:=talk"])
+    relative = node.add_agent(conn_name="chatter", conn_type="pub", data_interface=String)
+    absolute = node.add_agent(conn_name="/status", conn_type="pub", data_interface=String)
+    private = node.add_agent(conn_name="~/debug", conn_type="pub", data_interface=String)
+    assert relative.topic == "/ns/talk"
+    assert absolute.topic == "/status"
+    assert private.topic == "/ns/robot/debug"
+
+
+def test_parameters_from_the_command_line(make_node: Any) -> None:
+    node = make_node(cli_args=["--ros-args", "-p", "speed:=0.5"])
+    assert node.get_param("speed") == 0.5
+    assert node.get_param("missing", 3) == 3
+
+
+def test_qos_names_and_sensor_defaults() -> None:
+    assert resolve_qos("latched", msg_type="std_msgs/msg/String", publisher=True).durability == (
+        DurabilityPolicy.TRANSIENT_LOCAL
+    )
+    sensor_sub = resolve_qos(None, msg_type="sensor_msgs/msg/LaserScan", publisher=False)
+    sensor_pub = resolve_qos(None, msg_type="sensor_msgs/msg/Image", publisher=True)
+    assert sensor_sub.reliability == ReliabilityPolicy.BEST_EFFORT
+    assert sensor_pub.reliability == ReliabilityPolicy.RELIABLE
+    profile = QoSProfile(depth=3)
+    assert resolve_qos(profile, msg_type="x/msg/Y", publisher=True) is profile
+    with pytest.raises(PyconnectError) as caught:
+        resolve_qos("fast", msg_type="x/msg/Y", publisher=True)
+    assert str(caught.value) == (
+        "qos: unknown profile 'fast'; expected a QoSProfile or one of 'default', "
+        "'sensor_data', 'latched'"
+    )
+
+
+def test_best_effort_sensor_sub_hears_a_reliable_driver(make_node: Any) -> None:
+    node = make_node()
+    arrived = threading.Event()
+    node.add_agent(
+        conn_name="scan",
+        conn_type="sub",
+        data_interface=LaserScan,
+        decode_func=lambda msg: msg,
+        response_func=lambda _msg: arrived.set(),
+    )
+    driver = node.ros_node.create_publisher(LaserScan, "scan", 10)  # reliable, as drivers do
+    node.spin(run_thread=True)
+    assert repeat_until(arrived, lambda: driver.publish(LaserScan()))
+
+
+def test_wait_until_connected_names_the_agents_still_waiting(make_node: Any) -> None:
+    node = make_node()
+    node.add_agent(conn_name="camera", conn_type="sub", data_interface=Image)
+    node.add_agent(conn_name="get_map", conn_type="service_client", data_interface=Trigger)
+    node.spin(run_thread=True)
+    with pytest.raises(ConnectionTimeout) as caught:
+        node.wait_until_connected(timeout=0.1)
+    assert str(caught.value) == (
+        "node 'test_node': still waiting after 0.1 s for agent 'camera' (sub "
+        "sensor_msgs/msg/Image) (no message yet), agent 'get_map' (service_client "
+        "std_srvs/srv/Trigger) (no server yet)"
+    )
+
+
+def test_wait_until_connected_returns_when_everything_is_there(make_node: Any) -> None:
+    node = make_node()
+    node.add_agent(conn_name="status", conn_type="sub", data_interface=String, qos="latched")
+    node.add_agent(
+        conn_name="status", agent_name="out", conn_type="pub", data_interface=String, qos="latched"
+    )
+    node.add_agent(
+        conn_name="ping",
+        conn_type="service_server",
+        data_interface=Trigger,
+        response_func=lambda _request: {"success": True},
+    )
+    node.add_agent(
+        conn_name="ping",
+        agent_name="ping_client",
+        conn_type="service_client",
+        data_interface=Trigger,
+    )
+    node.agents["out"].send("ready")
+    node.spin(run_thread=True)
+    node.wait_until_connected(timeout=EVENT_TIMEOUT)
+    assert node.agents["status"].get() == "ready"
+
+
+def test_timer_calls_response_func_and_survives_errors(make_node: Any) -> None:
+    node = make_node()
+    ticks: list[int] = []
+    three = threading.Event()
+
+    def tick() -> int:
+        ticks.append(1)
+        if len(ticks) == 1:
+            raise RuntimeError("first tick fails")
+        if len(ticks) >= 3:
+            three.set()
+        return len(ticks)
+
+    timer = node.add_agent(
+        conn_name="heartbeat", conn_type="timer", time_period=0.01, response_func=tick
+    )
+    node.spin(run_thread=True)
+    assert three.wait(EVENT_TIMEOUT)
+    assert timer.error_count == 1
+    assert (
+        timer.last_error
+        == "agent 'heartbeat' (timer): response_func raised RuntimeError: first tick fails"
+    )
+    assert timer.get() >= 2
+    with pytest.raises(PyconnectError) as caught:
+        timer.send(1)
+    assert (
+        str(caught.value) == "agent 'heartbeat' (timer): send() is not available on a 'timer' agent"
+    )
+
+
+def test_reform_response_contract() -> None:
+    assert NodeAgent.reform_response({"a": 1}) == {"a": 1, "isdone": True}
+    assert NodeAgent.reform_response(5) == 5
+    assert NodeAgent.reform_response(None, error="timed out") == {
+        "isdone": False,
+        "error": "timed out",
+    }
+    assert NodeAgent.reform_response({"a": 1}, error="aborted") == {
+        "a": 1,
+        "isdone": False,
+        "error": "aborted",
+    }
+
+
+def test_new_agent_kinds_plug_into_the_factory(make_node: Any) -> None:
+    class EchoAgent(NodeAgent):
+        conn_type = "echo"
+
+        def send(self, data: Any = None) -> Any:
+            self._latest = data
+            return data
+
+    AGENT_CLASS_DICT["echo"] = EchoAgent
+    try:
+        node = make_node()
+        agent = make_agent(node, conn_name="e", conn_type="echo")
+        assert agent.send(3) == 3
+        assert agent.get() == 3
+        assert agent.describe == "agent 'e' (echo)"
+    finally:
+        del AGENT_CLASS_DICT["echo"]
+
+
+def test_stop_func_runs_once_on_shutdown(make_node: Any) -> None:
+    calls: list[int] = []
+    node = make_node(stop_func=lambda: calls.append(1))
+    node.spin(run_thread=True)
+    node.shutdown()
+    node.shutdown()
+    assert calls == [1]
+    assert not node.ok()
+    with pytest.raises(PyconnectError):
+        node.add_agent(conn_name="late", conn_type="pub", data_interface=String)

@@ -1,0 +1,271 @@
+"""pub and sub agents: registry codecs, user functions, headers, periods, gating, errors."""
+
+from __future__ import annotations
+
+import threading
+from typing import Any
+
+import pytest
+from geometry_msgs.msg import Twist
+from sensor_msgs.msg import Image
+from std_msgs.msg import Header, String
+
+from pyconnect.codecs import Stamped
+from pyconnect.errors import EncodeError, PyconnectError
+from pyconnect.utils import dict2str, str2dict
+
+from .conftest import EVENT_TIMEOUT, repeat_until
+
+
+def test_string_round_trip_with_registry_codec(make_node: Any) -> None:
+    node = make_node()
+    got: list[str] = []
+    arrived = threading.Event()
+    sub = node.add_agent(
+        conn_name="chatter",
+        conn_type="sub",
+        data_interface=String,
+        response_func=lambda value: (got.append(value), arrived.set()),
+    )
+    pub = node.add_agent(
+        conn_name="chatter", agent_name="chatter_out", conn_type="pub", data_interface=String
+    )
+    assert sub.get() is None
+    node.spin(run_thread=True)
+    assert repeat_until(arrived, lambda: pub.send("hello"))
+    assert got[0] == "hello"
+    assert sub.get() == "hello"
+    assert pub.get() == "hello"
+    assert sub.message_count >= 1
+
+
+def test_seed_functions_keep_their_signatures(make_node: Any) -> None:
+    node = make_node()
+    arrived = threading.Event()
+    seen: list[Any] = []
+
+    def encode(data: dict[str, Any], msg: String) -> String:
+        msg.data = dict2str(data)
+        return msg
+
+    def decode(msg: String) -> dict[str, Any]:
+        return str2dict(msg.data)  # type: ignore[no-any-return]
+
+    node.add_agent(
+        conn_name="command",
+        conn_type="sub",
+        data_interface=String,
+        decode_func=decode,
+        response_func=lambda value: (seen.append(value), arrived.set()),
+    )
+    pub = node.add_agent(
+        conn_name="command",
+        agent_name="command_out",
+        conn_type="pub",
+        data_interface=String,
+        encode_func=encode,
+    )
+    node.spin(run_thread=True)
+    assert repeat_until(arrived, lambda: pub.send({"cmd": "forward", "speed": 0.5}))
+    assert seen[0] == {"cmd": "forward", "speed": 0.5}
+
+
+def test_twist_natural_value(make_node: Any) -> None:
+    node = make_node()
+    arrived = threading.Event()
+    sub = node.add_agent(
+        conn_name="cmd_vel",
+        conn_type="sub",
+        data_interface=Twist,
+        response_func=lambda _value: arrived.set(),
+    )
+    pub = node.add_agent(
+        conn_name="cmd_vel", agent_name="cmd_out", conn_type="pub", data_interface=Twist
+    )
+    node.spin(run_thread=True)
+    assert repeat_until(arrived, lambda: pub.send(((0.2, 0.0, 0.0), (0.0, 0.0, 0.5))))
+    assert sub.get() == ((0.2, 0.0, 0.0), (0.0, 0.0, 0.5))
+
+
+def test_periodic_pub_repeats_last_value_or_polls_response_func(make_node: Any) -> None:
+    node = make_node()
+    values: list[str] = []
+    three = threading.Event()
+
+    def on_value(value: str) -> None:
+        values.append(value)
+        if len(values) >= 3:
+            three.set()
+
+    node.add_agent(conn_name="beat", conn_type="sub", data_interface=String, response_func=on_value)
+    counter = iter(range(1000))
+    node.add_agent(
+        conn_name="beat",
+        agent_name="beat_out",
+        conn_type="pub",
+        data_interface=String,
+        time_period=0.02,
+        response_func=lambda: f"tick {next(counter)}",
+    )
+    node.spin(run_thread=True)
+    assert three.wait(EVENT_TIMEOUT)
+    numbers = [int(value.split()[1]) for value in values]
+    assert numbers == sorted(numbers)
+
+
+def test_header_gets_node_stamp_and_frame_id_unless_stamped(make_node: Any) -> None:
+    node = make_node()
+    received: list[Image] = []
+    arrived = threading.Event()
+    node.add_agent(
+        conn_name="camera",
+        conn_type="sub",
+        data_interface=Image,
+        decode_func=lambda msg: msg,
+        response_func=lambda msg: (received.append(msg), arrived.set()),
+    )
+    pub = node.add_agent(
+        conn_name="camera",
+        agent_name="camera_out",
+        conn_type="pub",
+        data_interface=Image,
+        frame_id="camera_link",
+    )
+    node.spin(run_thread=True)
+    frame = __import__("numpy").zeros((2, 3), dtype="uint8")
+    assert repeat_until(arrived, lambda: pub.send(frame))
+    header = received[0].header
+    assert header.frame_id == "camera_link"
+    assert header.stamp.sec > 0
+    arrived.clear()
+    received.clear()
+    assert repeat_until(arrived, lambda: pub.send(Stamped(frame, 1_500_000_000, "other")))
+    header = received[-1].header
+    assert (header.stamp.sec, header.stamp.nanosec, header.frame_id) == (1, 500_000_000, "other")
+
+
+def test_only_if_subscribed_skips_work_while_nobody_listens(make_node: Any) -> None:
+    node = make_node()
+    calls: list[int] = []
+    pub = node.add_agent(
+        conn_name="lonely",
+        conn_type="pub",
+        data_interface=String,
+        only_if_subscribed=True,
+        time_period=0.01,
+        response_func=lambda: calls.append(1) or "frame",
+    )
+    assert pub.subscriber_count == 0
+    assert pub.send("x") is False
+    assert pub.sent_count == 0
+    arrived = threading.Event()
+    node.add_agent(
+        conn_name="lonely",
+        agent_name="listener",
+        conn_type="sub",
+        data_interface=String,
+        response_func=lambda _value: arrived.set(),
+    )
+    before = len(calls)
+    assert before == 0
+    node.spin(run_thread=True)
+    assert arrived.wait(EVENT_TIMEOUT)
+    assert pub.subscriber_count == 1
+    assert len(calls) >= 1
+
+
+def test_send_rejected_value_names_the_agent(make_node: Any) -> None:
+    node = make_node()
+    pub = node.add_agent(conn_name="cmd_vel", conn_type="pub", data_interface=Twist)
+    with pytest.raises(EncodeError) as caught:
+        pub.send("fast")
+    assert str(caught.value).startswith("agent 'cmd_vel' (pub geometry_msgs/msg/Twist): ")
+
+
+def test_encode_func_raising_names_the_agent(make_node: Any) -> None:
+    node = make_node()
+
+    def broken(_data: object, _msg: String) -> String:
+        raise KeyError("speed")
+
+    pub = node.add_agent(
+        conn_name="command", conn_type="pub", data_interface=String, encode_func=broken
+    )
+    with pytest.raises(EncodeError) as caught:
+        pub.send({"cmd": "go"})
+    assert str(caught.value) == (
+        "agent 'command' (pub std_msgs/msg/String): encode_func raised KeyError for "
+        "{'cmd': 'go'}: 'speed'"
+    )
+
+
+def test_send_on_a_sub_is_an_error(make_node: Any) -> None:
+    node = make_node()
+    sub = node.add_agent(conn_name="chatter", conn_type="sub", data_interface=String)
+    with pytest.raises(PyconnectError) as caught:
+        sub.send("x")
+    assert str(caught.value) == (
+        "agent 'chatter' (sub std_msgs/msg/String): send() is not available on a 'sub' agent"
+    )
+
+
+def test_bad_message_and_raising_response_func_do_not_stop_the_executor(make_node: Any) -> None:
+    node = make_node()
+    good = threading.Event()
+    handled: list[str] = []
+
+    def decode(msg: String) -> str:
+        if msg.data == "bad":
+            raise ValueError("cannot read 'bad'")
+        return str(msg.data)
+
+    def respond(value: str) -> None:
+        handled.append(value)
+        if value == "boom":
+            raise RuntimeError("response failed")
+        if value == "good":
+            good.set()
+
+    sub = node.add_agent(
+        conn_name="mixed",
+        conn_type="sub",
+        data_interface=String,
+        decode_func=decode,
+        response_func=respond,
+        qos="default",
+    )
+    pub = node.add_agent(
+        conn_name="mixed", agent_name="out", conn_type="pub", data_interface=String, qos=10
+    )
+    node.spin(run_thread=True)
+    assert repeat_until(good, lambda: (pub.send("bad"), pub.send("boom"), pub.send("good")))
+    assert sub.get() == "good"
+    assert sub.error_count >= 2
+    assert "boom" in handled
+    assert sub.last_error is not None
+
+
+def test_decode_error_is_reported_with_agent_name(make_node: Any) -> None:
+    node = make_node()
+    failed = threading.Event()
+
+    def decode(_msg: String) -> str:
+        failed.set()
+        raise ValueError("unreadable")
+
+    sub = node.add_agent(
+        conn_name="bad", conn_type="sub", data_interface=String, decode_func=decode
+    )
+    pub = node.add_agent(conn_name="bad", agent_name="out", conn_type="pub", data_interface=String)
+    node.spin(run_thread=True)
+    assert repeat_until(failed, lambda: pub.send("x"))
+    assert sub.get() is None
+    assert sub.last_error == (
+        "agent 'bad' (sub std_msgs/msg/String): decode raised DecodeError: ValueError: unreadable"
+    )
+
+
+def test_header_message_passes_through_as_message(make_node: Any) -> None:
+    node = make_node()
+    pub = node.add_agent(conn_name="h", conn_type="pub", data_interface=Header)
+    assert pub.send(Header(frame_id="map")) is True

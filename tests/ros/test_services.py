@@ -1,0 +1,136 @@
+"""service_server and service_client agents."""
+
+from __future__ import annotations
+
+import concurrent.futures
+from typing import Any
+
+import pytest
+from std_srvs.srv import SetBool, Trigger
+from test_msgs.srv import BasicTypes
+
+from pyconnect.errors import PyconnectError
+
+from .conftest import EVENT_TIMEOUT
+
+
+def _set_bool_pair(node: Any, handler: Any) -> Any:
+    node.add_agent(
+        conn_name="enable",
+        conn_type="service_server",
+        data_interface=SetBool,
+        response_func=handler,
+    )
+    client = node.add_agent(
+        conn_name="enable",
+        agent_name="enable_client",
+        conn_type="service_client",
+        data_interface=SetBool,
+        timeout=EVENT_TIMEOUT,
+    )
+    node.spin(run_thread=True)
+    return client
+
+
+def test_blocking_call_returns_reformed_response(make_node: Any) -> None:
+    node = make_node()
+    client = _set_bool_pair(
+        node, lambda request: {"success": request["data"], "message": "as asked"}
+    )
+    assert client.send({"data": True}) == {"success": True, "message": "as asked", "isdone": True}
+    assert client.get({"data": False}) == {
+        "success": False,
+        "message": "as asked",
+        "isdone": True,
+    }
+
+
+def test_non_blocking_call_returns_a_future(make_node: Any) -> None:
+    node = make_node()
+    client = _set_bool_pair(node, lambda request: {"success": True, "message": "later"})
+    future = client.send({"data": True}, block=False)
+    assert isinstance(future, concurrent.futures.Future)
+    assert future.result(EVENT_TIMEOUT) == {"success": True, "message": "later", "isdone": True}
+
+
+def test_raising_handler_still_answers_with_the_error(make_node: Any) -> None:
+    node = make_node()
+
+    def handler(_request: dict[str, Any]) -> dict[str, Any]:
+        raise RuntimeError("motor driver offline")
+
+    client = _set_bool_pair(node, handler)
+    assert client.send({"data": True}) == {
+        "success": False,
+        "message": "RuntimeError: motor driver offline",
+        "isdone": True,
+    }
+    server = node.agents["enable"]
+    assert server.last_error == (
+        "agent 'enable' (service_server std_srvs/srv/SetBool): response_func raised "
+        "RuntimeError: motor driver offline"
+    )
+    # The server keeps answering.
+    assert client.send({"data": False})["message"] == "RuntimeError: motor driver offline"
+
+
+def test_raising_handler_without_message_field_answers_default(make_node: Any) -> None:
+    node = make_node()
+
+    def handler(_request: dict[str, Any]) -> dict[str, Any]:
+        raise ValueError("no")
+
+    node.add_agent(
+        conn_name="basic",
+        conn_type="service_server",
+        data_interface=BasicTypes,
+        response_func=handler,
+    )
+    client = node.add_agent(
+        conn_name="basic", agent_name="c", conn_type="service_client", data_interface=BasicTypes
+    )
+    node.spin(run_thread=True)
+    response = client.send({"int32_value": 3}, timeout=EVENT_TIMEOUT)
+    assert response["isdone"] is True
+    assert response["int32_value"] == 0
+    assert response["string_value"] == ""
+
+
+def test_no_server_times_out_with_isdone_false(make_node: Any) -> None:
+    node = make_node()
+    client = node.add_agent(conn_name="nobody", conn_type="service_client", data_interface=Trigger)
+    node.spin(run_thread=True)
+    assert client.send({}, timeout=0.2) == {
+        "isdone": False,
+        "error": "agent 'nobody' (service_client std_srvs/srv/Trigger): no server for /nobody "
+        "within 0.2 s",
+    }
+
+
+def test_blocking_send_without_spin_thread(make_node: Any) -> None:
+    node = make_node()
+    node.add_agent(
+        conn_name="ping",
+        conn_type="service_server",
+        data_interface=Trigger,
+        response_func=lambda _request: {"success": True, "message": "pong"},
+    )
+    client = node.add_agent(
+        conn_name="ping", agent_name="c", conn_type="service_client", data_interface=Trigger
+    )
+    # Nobody spins: the caller's thread spins until the response is there.
+    assert client.send({}, timeout=EVENT_TIMEOUT) == {
+        "success": True,
+        "message": "pong",
+        "isdone": True,
+    }
+
+
+def test_server_needs_response_func(make_node: Any) -> None:
+    node = make_node()
+    with pytest.raises(PyconnectError) as caught:
+        node.add_agent(conn_name="x", conn_type="service_server", data_interface=Trigger)
+    assert str(caught.value) == (
+        "agent 'x' (service_server std_srvs/srv/Trigger): a 'service_server' agent needs a "
+        "response_func"
+    )
