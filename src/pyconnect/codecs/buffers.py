@@ -59,7 +59,9 @@ def contiguous_bytes(values: npt.NDArray[Any]) -> memoryview:
     """A flat byte memoryview of ``values``; copies only when it is not C-contiguous."""
     if not values.flags.c_contiguous:
         values = np.ascontiguousarray(values)
-    return (values if values.ndim else values.reshape(1)).data.cast("B")
+    if not values.size:
+        return memoryview(b"")
+    return values.reshape(-1).view(np.uint8).data
 
 
 def filled_array(values: Any, dtype: npt.DTypeLike, path: str) -> array.array[Any]:

@@ -102,7 +102,8 @@ class FloatCodec:
 
 
 def _check_bool(value: Any) -> bool:
-    if isinstance(value, bool) or type(value).__name__ == "bool_":
+    # numpy.bool_ (named "bool" in numpy 2) is not a bool subclass.
+    if isinstance(value, bool) or type(value).__name__ in ("bool_", "bool"):
         return bool(value)
     raise EncodeError(f"Bool.data: expected bool, got {type_name_of(value)}")
 

@@ -1,0 +1,165 @@
+"""LaserScan, OccupancyGrid and the std_msgs MultiArrays ↔ ndarray-centred values."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from hypothesis.extra import numpy as hnp
+
+from pyconnect import codecs
+from pyconnect.codecs.builtin_time import RosTime
+from pyconnect.codecs.laser_scan import LaserScanValue, scan_points
+from pyconnect.codecs.multi_array import DTYPES
+from pyconnect.codecs.occupancy_grid import OccupancyGridValue
+from pyconnect.errors import DecodeError, EncodeError
+from tests.codecs.natural.helpers import EXAMPLES, same, wire_view
+
+std_msgs = pytest.importorskip("std_msgs.msg")
+f32 = st.floats(width=32)
+
+
+@st.composite
+def scans(draw: st.DrawFn) -> LaserScanValue:
+    n = draw(st.integers(0, 20))
+    return LaserScanValue(
+        draw(hnp.arrays(np.float32, n, elements=f32)),
+        draw(hnp.arrays(np.float32, draw(st.sampled_from([0, n])), elements=f32)),
+        *(draw(f32) for _ in range(7)),
+    )
+
+
+@EXAMPLES
+@given(scans())
+def test_laser_scan_round_trip(scan: LaserScanValue) -> None:
+    codec = codecs.lookup("sensor_msgs/LaserScan")
+    msg = codec.encode(scan)
+    decoded = codec.decode(msg)
+    assert same(decoded, scan)
+    assert np.shares_memory(decoded.ranges, np.frombuffer(msg.ranges, np.float32)) or not len(
+        msg.ranges
+    )
+    assert same(codec.decode(wire_view(msg)), scan)
+    assert same(
+        codec.decode(codecs.from_dict(codec.to_fields(scan), "sensor_msgs/LaserScan")), scan
+    )
+
+
+def test_scan_points() -> None:
+    scan = LaserScanValue(
+        np.array([1.0, 2.0, np.inf, 0.05], np.float32),
+        angle_min=0.0,
+        angle_increment=np.pi / 2,
+        range_min=0.1,
+        range_max=10.0,
+    )
+    points = scan_points(scan)
+    assert np.allclose(points, [[1.0, 0.0], [0.0, 2.0]], atol=1e-12)
+    assert scan_points(scan, keep_invalid=True).shape == (4, 2)
+
+
+def test_laser_scan_errors() -> None:
+    with pytest.raises(EncodeError) as error:
+        codecs.encode({"ranges": []}, "sensor_msgs/LaserScan")
+    assert str(error.value) == "LaserScan: expected LaserScanValue, got dict"
+    with pytest.raises(EncodeError) as bad:
+        codecs.encode(LaserScanValue(ranges=["a"]), "sensor_msgs/LaserScan")  # type: ignore[arg-type]
+    assert str(bad.value) == "LaserScan.ranges: expected a sequence of float32, got list"
+
+
+@st.composite
+def grids(draw: st.DrawFn) -> OccupancyGridValue:
+    shape = (draw(st.integers(0, 5)), draw(st.integers(0, 6)))
+    return OccupancyGridValue(
+        draw(hnp.arrays(np.int8, shape)),
+        draw(f32),
+        (
+            (draw(st.floats()), draw(st.floats()), draw(st.floats())),
+            (draw(st.floats()), draw(st.floats()), draw(st.floats()), draw(st.floats())),
+        ),
+        RosTime(draw(st.integers(-(2**31), 2**31 - 1)), draw(st.integers(0, 2**32 - 1))),
+    )
+
+
+@EXAMPLES
+@given(grids())
+def test_occupancy_grid_round_trip(grid: OccupancyGridValue) -> None:
+    codec = codecs.lookup("nav_msgs/OccupancyGrid")
+    msg = codec.encode(grid)
+    assert (msg.info.height, msg.info.width) == grid.cells.shape
+    assert same(codec.decode(msg), grid)
+    assert same(codec.decode(wire_view(msg)), grid)
+    assert same(
+        codec.decode(codecs.from_dict(codec.to_fields(grid), "nav_msgs/OccupancyGrid")), grid
+    )
+
+
+def test_occupancy_grid_errors() -> None:
+    msg = codecs.encode(OccupancyGridValue(np.zeros((2, 3), np.int8)), "nav_msgs/OccupancyGrid")
+    msg.info.width = 4
+    with pytest.raises(DecodeError) as error:
+        codecs.decode(msg)
+    assert str(error.value) == ("OccupancyGrid.data: expected 8 cells (height 2 * width 4), got 6")
+    with pytest.raises(EncodeError) as bad:
+        codecs.encode(OccupancyGridValue(np.zeros((2, 3), np.uint8)), "nav_msgs/OccupancyGrid")  # type: ignore[arg-type]
+    assert str(bad.value) == (
+        "OccupancyGrid.data: expected an int8 (H, W) array, got uint8 of shape (2, 3)"
+    )
+
+
+@st.composite
+def multi_arrays(draw: st.DrawFn) -> tuple[str, np.ndarray]:
+    name = draw(st.sampled_from(sorted(DTYPES)))
+    shape = draw(hnp.array_shapes(min_dims=1, max_dims=3, min_side=0, max_side=4))
+    return name, draw(hnp.arrays(np.dtype(DTYPES[name]), shape))
+
+
+@EXAMPLES
+@given(multi_arrays())
+def test_multi_array_round_trip(case: tuple[str, np.ndarray]) -> None:
+    name, array = case
+    codec = codecs.lookup(f"std_msgs/{name}")
+    msg = codec.encode(array)
+    assert same(codec.decode(msg), array)
+    assert same(codec.decode(wire_view(msg)), array)
+    assert same(codec.decode(codecs.from_dict(codec.to_fields(array), f"std_msgs/{name}")), array)
+
+
+def test_multi_array_layout_with_offset_and_padding() -> None:
+    # 2 x 3 matrix stored with rows padded to 4 elements, after a 1-element offset.
+    msg = std_msgs.Float32MultiArray(
+        layout=std_msgs.MultiArrayLayout(
+            dim=[
+                std_msgs.MultiArrayDimension(label="rows", size=2, stride=8),
+                std_msgs.MultiArrayDimension(label="cols", size=3, stride=4),
+            ],
+            data_offset=1,
+        ),
+        data=[-1.0, 0.0, 1.0, 2.0, -1.0, 3.0, 4.0, 5.0, -1.0],
+    )
+    decoded = codecs.decode(msg)
+    assert decoded.tolist() == [[0.0, 1.0, 2.0], [3.0, 4.0, 5.0]]
+    assert np.shares_memory(decoded, np.frombuffer(msg.data, np.float32))
+    assert codecs.decode(std_msgs.Int32MultiArray(data=[1, 2, 3])).tolist() == [1, 2, 3]
+    msg.data = msg.data[:7]
+    with pytest.raises(DecodeError) as error:
+        codecs.decode(msg)
+    assert str(error.value) == (
+        "Float32MultiArray.data: layout (2, 3) with strides (4, 1) and offset 1 reads element "
+        "7, got 7 elements"
+    )
+
+
+def test_multi_array_dtype_errors() -> None:
+    with pytest.raises(EncodeError) as error:
+        codecs.encode(np.zeros(3, np.float64), "std_msgs/Int32MultiArray")
+    assert str(error.value) == "Int32MultiArray.data: expected int32 values, got float64"
+    with pytest.raises(EncodeError) as narrowing:
+        codecs.encode(np.zeros(3, np.int64), "std_msgs/Int32MultiArray")
+    assert str(narrowing.value) == "Int32MultiArray.data: expected int32 values, got int64"
+    with pytest.raises(EncodeError) as not_array:
+        codecs.encode([1, 2], "std_msgs/Int32MultiArray")
+    assert str(not_array.value) == "Int32MultiArray: expected numpy.ndarray, got list"
+    widened = codecs.decode(codecs.encode(np.array([1, 2], np.int16), "std_msgs/Int32MultiArray"))
+    assert widened.dtype == np.int32 and widened.tolist() == [1, 2]

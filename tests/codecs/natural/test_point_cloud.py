@@ -1,0 +1,197 @@
+"""PointCloud2 ↔ structured arrays, checked against a per-point struct.unpack reader."""
+
+from __future__ import annotations
+
+import struct
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+
+from pyconnect.codecs.point_cloud import (
+    PointCloudCodec,
+    decode_point_cloud,
+    pack_rgb,
+    point_cloud_fields,
+    unpack_rgb,
+)
+from pyconnect.errors import DecodeError, EncodeError
+from tests.codecs.natural.helpers import EXAMPLES, same, wire_view
+
+msgs = pytest.importorskip("sensor_msgs.msg")
+PointCloud2, PointField = msgs.PointCloud2, msgs.PointField
+
+STRUCT = {1: "b", 2: "B", 3: "h", 4: "H", 5: "i", 6: "I", 7: "f", 8: "d"}
+SIZES = {1: 1, 2: 1, 3: 2, 4: 2, 5: 4, 6: 4, 7: 4, 8: 8}
+
+
+def read_points_struct(msg: Any) -> list[list[dict[str, tuple[Any, ...]]]]:
+    """Independent reader: every point of every row, every field unpacked with struct."""
+    order = ">" if msg.is_bigendian else "<"
+    data = bytes(msg.data)
+    rows = []
+    for row in range(msg.height):
+        points = []
+        for col in range(msg.width):
+            base = row * msg.row_step + col * msg.point_step
+            point = {}
+            for field in msg.fields:
+                fmt = f"{order}{field.count}{STRUCT[field.datatype]}"
+                point[field.name] = struct.unpack_from(fmt, data, base + field.offset)
+            points.append(point)
+        rows.append(points)
+    return rows
+
+
+def agrees(decoded: np.ndarray, msg: Any) -> bool:
+    expected = read_points_struct(msg)
+    grid = decoded.reshape(msg.height, msg.width) if msg.height and msg.width else decoded
+    for row, points in enumerate(expected):
+        for col, point in enumerate(points):
+            for name, values in point.items():
+                ours = np.atleast_1d(grid[row, col][name]).tolist()
+                if any(
+                    struct.pack("<d", float(a)) != struct.pack("<d", float(b))
+                    for a, b in zip(ours, values, strict=True)
+                ):
+                    return False
+    return True
+
+
+@st.composite
+def clouds(draw: st.DrawFn) -> Any:
+    count = draw(st.integers(1, 4))
+    fields = []
+    offset = 0
+    names = ["x", "y", "z", "intensity", "ring", "t", "rgb", "normal"][:count]
+    for name in names:
+        datatype = draw(st.integers(1, 8))
+        field_count = draw(st.sampled_from([1, 1, 2, 3]))
+        offset += draw(st.sampled_from([0, 0, 1, 4]))  # gaps between fields
+        fields.append((name, offset, datatype, field_count))
+        offset += SIZES[datatype] * field_count
+    point_step = offset + draw(st.sampled_from([0, 0, 3, 16]))  # trailing padding
+    if draw(st.booleans()):
+        fields = draw(st.permutations(fields))  # unsorted offsets
+    height = draw(st.sampled_from([1, 1, 2, 3]))
+    width = draw(st.integers(0, 5))
+    row_step = width * point_step + draw(st.sampled_from([0, 0, 5]))
+    big = draw(st.booleans())
+    data = draw(st.binary(min_size=row_step * height, max_size=row_step * height))
+    msg = PointCloud2(
+        height=height,
+        width=width,
+        is_bigendian=big,
+        point_step=point_step,
+        row_step=row_step,
+        fields=[PointField(name=n, offset=o, datatype=d, count=c) for n, o, d, c in fields],
+    )
+    msg.data.frombytes(data)
+    return msg
+
+
+@EXAMPLES
+@given(clouds())
+def test_decode_agrees_with_a_struct_reader(msg: Any) -> None:
+    decoded = decode_point_cloud(msg)
+    assert decoded.shape == ((msg.width,) if msg.height == 1 else (msg.height, msg.width))
+    assert agrees(decoded, msg)
+    assert agrees(decode_point_cloud(wire_view(msg)), msg)
+    if decoded.size:
+        assert np.shares_memory(decoded, np.frombuffer(msg.data, np.uint8))
+
+
+@EXAMPLES
+@given(clouds())
+def test_round_trip_keeps_fields_offsets_padding_and_byte_order(msg: Any) -> None:
+    codec = PointCloudCodec()
+    decoded = codec.decode(msg)
+    again = codec.encode(decoded)
+    assert [(f.name, f.offset, f.datatype, f.count) for f in again.fields] == [
+        (f.name, f.offset, f.datatype, f.count) for f in msg.fields
+    ]
+    assert (again.point_step, again.height, again.width) == (
+        msg.point_step,
+        msg.height,
+        msg.width,
+    )
+    if any(SIZES[f.datatype] > 1 for f in msg.fields):  # one-byte fields have no byte order
+        assert again.is_bigendian == msg.is_bigendian
+    assert same(codec.decode(again), decoded)
+    assert agrees(codec.decode(again), again)
+
+
+def test_xyz_array_encodes_as_float_fields() -> None:
+    xyz = np.array([[1.0, 2.0, 3.0], [4.0, np.nan, 6.0]], np.float32)
+    msg = PointCloudCodec().encode(xyz)
+    assert [(f.name, f.offset, f.datatype, f.count) for f in msg.fields] == [
+        ("x", 0, 7, 1),
+        ("y", 4, 7, 1),
+        ("z", 8, 7, 1),
+    ]
+    assert (msg.point_step, msg.row_step, msg.height, msg.width) == (12, 24, 1, 2)
+    assert msg.is_dense is False
+    decoded = decode_point_cloud(msg)
+    assert decoded["x"].tolist() == [1.0, 4.0] and np.isnan(decoded["y"][1])
+    dense = PointCloudCodec().encode(np.zeros((3, 3)))
+    assert dense.is_dense is True and dense.fields[0].datatype == 8
+
+
+def test_ouster_like_padding_and_rgb() -> None:
+    dtype = np.dtype(
+        {
+            "names": ["x", "y", "z", "intensity", "rgb", "ring"],
+            "formats": ["<f4", "<f4", "<f4", "<f4", "<f4", "<u2"],
+            "offsets": [0, 4, 8, 16, 20, 24],
+            "itemsize": 48,
+        }
+    )
+    points = np.zeros(4, dtype)
+    points["x"] = [1, 2, 3, 4]
+    colours = np.array([[255, 0, 0], [0, 255, 0], [0, 0, 255], [1, 2, 3]], np.uint8)
+    points["rgb"] = pack_rgb(colours)
+    msg = PointCloudCodec().encode(points)
+    assert msg.point_step == 48 and len(msg.data) == 192
+    decoded = decode_point_cloud(msg)
+    assert decoded.dtype == dtype
+    assert unpack_rgb(decoded["rgb"]).tolist() == colours.tolist()
+    assert agrees(decoded, msg)
+
+
+def test_errors_name_the_field() -> None:
+    msg = PointCloud2(
+        height=1,
+        width=2,
+        point_step=4,
+        row_step=8,
+        fields=[PointField(name="x", offset=0, datatype=7, count=1)],
+    )
+    msg.data.frombytes(bytes(5))
+    with pytest.raises(DecodeError) as short:
+        decode_point_cloud(msg)
+    assert str(short.value) == (
+        "PointCloud2.data: expected at least 8 bytes (row_step 8 * height 1), got 5"
+    )
+    msg.fields = [PointField(name="x", offset=2, datatype=7, count=1)]
+    with pytest.raises(DecodeError) as overflow:
+        decode_point_cloud(msg)
+    assert str(overflow.value) == ("PointCloud2.fields['x']: bytes 2..6 do not fit in point_step 4")
+    msg.fields = [PointField(name="x", offset=0, datatype=9, count=1)]
+    with pytest.raises(DecodeError) as datatype:
+        decode_point_cloud(msg)
+    assert str(datatype.value) == (
+        "PointCloud2.fields['x'].datatype: expected 1-8 (INT8..FLOAT64), got 9"
+    )
+    with pytest.raises(EncodeError) as not_array:
+        point_cloud_fields([[1.0, 2.0, 3.0]])
+    assert str(not_array.value) == (
+        "PointCloud2: expected a structured ndarray or an (N, 3) float array, got list"
+    )
+    with pytest.raises(EncodeError) as bad_dtype:
+        point_cloud_fields(np.zeros(2, [("x", "<f2")]))
+    assert str(bad_dtype.value) == (
+        "PointCloud2.fields['x']: expected int8, uint8, int16, uint16, int32, uint32, float32 "
+        "or float64, got float16"
+    )
