@@ -1,0 +1,140 @@
+"""Every way a program ends is clean: stop_func once, threads joined, exit code 0 (subprocesses)."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+from .conftest import EVENT_TIMEOUT
+
+PRELUDE = """
+import sys, threading, time
+from std_msgs.msg import String
+from pyconnect.ros.custom_node import CustomNode
+
+def make():
+    node = CustomNode("shutdown_child", stop_func=lambda: print("STOP", flush=True))
+    heard = threading.Event()
+    node.add_agent(conn_name="beat", conn_type="sub", data_interface=String,
+                   response_func=lambda _v: heard.set())
+    node.add_agent(conn_name="beat", agent_name="beat_out", conn_type="pub",
+                   data_interface=String, time_period=0.01, response_func=lambda: "tick")
+    return node, heard
+
+def ready(heard):
+    if not heard.wait(60):
+        print("NO TRAFFIC", flush=True)
+    print("READY", flush=True)
+"""
+
+ENDINGS = {
+    "sigint_blocking_spin": """
+node, heard = make()
+threading.Thread(target=ready, args=(heard,), daemon=True).start()
+node.spin()
+print("AFTER SPIN", flush=True)
+""",
+    "sigint_thread_wait_for_shutdown": """
+node, heard = make()
+node.spin(run_thread=True)
+ready(heard)
+node.wait_for_shutdown()
+print("AFTER WAIT", flush=True)
+""",
+    "sigint_thread_user_loop": """
+node, heard = make()
+node.spin(run_thread=True)
+ready(heard)
+while True:
+    time.sleep(0.05)
+""",
+    "sigterm_thread_user_loop": """
+node, heard = make()
+node.spin(run_thread=True)
+ready(heard)
+while True:
+    time.sleep(0.05)
+""",
+    "shutdown_call": """
+node, heard = make()
+node.spin(run_thread=True)
+ready(heard)
+node.shutdown()
+node.shutdown()
+print("AFTER SHUTDOWN", flush=True)
+""",
+    "with_block": """
+with make()[0] as node:
+    node.spin(run_thread=True)
+    heard = threading.Event()
+    node.add_agent(conn_name="beat", agent_name="probe", conn_type="sub", data_interface=String,
+                   response_func=lambda _v: heard.set())
+    ready(heard)
+print("AFTER WITH", flush=True)
+""",
+    "interpreter_exit": """
+node, heard = make()
+node.spin(run_thread=True)
+ready(heard)
+print("END OF SCRIPT", flush=True)
+""",
+}
+
+SIGNALS = {
+    "sigint_blocking_spin": signal.SIGINT,
+    "sigint_thread_wait_for_shutdown": signal.SIGINT,
+    "sigint_thread_user_loop": signal.SIGINT,
+    "sigterm_thread_user_loop": signal.SIGTERM,
+}
+
+LAST_LINE = {
+    "sigint_blocking_spin": "AFTER SPIN",
+    "sigint_thread_wait_for_shutdown": "AFTER WAIT",
+    "shutdown_call": "AFTER SHUTDOWN",
+    "with_block": "AFTER WITH",
+}
+
+
+@pytest.mark.parametrize("ending", sorted(ENDINGS))
+def test_program_ends_cleanly(ending: str, tmp_path: Path) -> None:
+    script = tmp_path / "child.py"
+    script.write_text(textwrap.dedent(PRELUDE) + textwrap.dedent(ENDINGS[ending]))
+    err_path = tmp_path / "stderr.txt"
+    with err_path.open("w") as err_file:
+        child = subprocess.Popen(
+            [sys.executable, str(script)],
+            stdout=subprocess.PIPE,
+            stderr=err_file,
+            text=True,
+            env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        )
+        try:
+            assert child.stdout is not None
+            first = child.stdout.readline().strip()
+            assert first == "READY"
+            if ending in SIGNALS:
+                child.send_signal(SIGNALS[ending])
+            # Reads through the same buffered file as readline (communicate() would skip
+            # what readline buffered already).
+            out = child.stdout.read()
+            child.wait(EVENT_TIMEOUT * 2)
+        finally:
+            if child.poll() is None:
+                child.kill()
+                child.wait()
+            if child.stdout is not None:
+                child.stdout.close()
+    err = err_path.read_text()
+    lines = out.split()
+    assert child.returncode == 0, err
+    assert lines.count("STOP") == 1, (out, err)
+    assert "terminate called" not in err
+    assert "Traceback" not in err, err
+    if ending in LAST_LINE:
+        assert out.strip().splitlines()[-1] == LAST_LINE[ending]
