@@ -1,0 +1,88 @@
+"""Agents' logs: do_log_msg, log_msg, start_log_subs/stop_log_subs and MCAP recording."""
+
+from __future__ import annotations
+
+import json
+import threading
+from pathlib import Path
+from typing import Any
+
+from std_msgs.msg import String
+
+from pyconnect.record.bag_reader import open_bag
+
+from .conftest import EVENT_TIMEOUT, repeat_until
+
+
+def _json_values(directory: Path) -> list[Any]:
+    return [json.loads(path.read_text()) for path in sorted(directory.glob("*.json"))]
+
+
+def test_do_log_msg_writes_every_decoded_message(make_node: Any, tmp_path: Path) -> None:
+    node = make_node("logger_node", log_dir=tmp_path)
+    arrived = threading.Event()
+    sub = node.add_agent(
+        conn_name="chatter",
+        conn_type="sub",
+        data_interface=String,
+        do_log_msg=True,
+        response_func=lambda _value: arrived.set(),
+    )
+    pub = node.add_agent(
+        conn_name="chatter", agent_name="out", conn_type="pub", data_interface=String
+    )
+    node.spin(run_thread=True)
+    assert repeat_until(arrived, lambda: pub.send("logged"))
+    assert sub.flush_log(EVENT_TIMEOUT)
+    directory = sub.make_log_dirs()
+    assert directory.parent.parent == tmp_path / "logger_node"
+    assert directory.name == "chatter"
+    assert set(_json_values(directory)) == {"logged"}
+
+
+def test_log_msg_and_make_log_dirs(make_node: Any, tmp_path: Path) -> None:
+    node = make_node("n", log_dir=tmp_path)
+    node.add_agent(conn_name="a", conn_type="pub", data_interface=String)
+    node.add_agent(conn_name="b", conn_type="pub", data_interface=String)
+    directories = node.make_log_dirs()
+    assert sorted(directories) == ["a", "b"]
+    assert directories["a"].parent == directories["b"].parent
+    agent = node.agents["a"]
+    assert agent.log_msg({"cmd": "forward"}) is True
+    assert agent.flush_log(EVENT_TIMEOUT)
+    assert _json_values(directories["a"]) == [{"cmd": "forward"}]
+
+
+def test_start_log_subs_logs_latest_values_and_records(make_node: Any, tmp_path: Path) -> None:
+    node = make_node("periodic", log_dir=tmp_path / "logs")
+    arrived = threading.Event()
+    sub = node.add_agent(
+        conn_name="status",
+        conn_type="sub",
+        data_interface=String,
+        response_func=lambda _value: arrived.set(),
+    )
+    pub = node.add_agent(
+        conn_name="status", agent_name="out", conn_type="pub", data_interface=String
+    )
+    bag = tmp_path / "subs.mcap"
+    node.start_log_subs(fps=50, record=bag)
+    assert node.is_logging_subs
+    node.spin(run_thread=True)
+    assert repeat_until(arrived, lambda: pub.send("fine"))
+    logged = threading.Event()
+
+    def check_logged() -> None:
+        sub.flush_log(EVENT_TIMEOUT)
+        if any(sub.make_log_dirs().glob("*.json")):
+            logged.set()
+
+    # The timer logs a value on its next tick after a new message.
+    assert repeat_until(logged, check_logged)
+    node.stop_log_subs()
+    assert not node.is_logging_subs
+    assert set(_json_values(sub.make_log_dirs())) == {"fine"}
+    with open_bag(bag) as reader:
+        recorded = [(topic, value) for topic, _stamp, value in reader]
+    assert recorded
+    assert set(recorded) == {("/status", "fine")}
