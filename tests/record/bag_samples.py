@@ -45,6 +45,9 @@ def reference_decoded(topic: dict[str, Any]) -> bool:
     return False
 
 
+_EMPTY_MEMBER = "structure_needs_at_least_one_member"  # rosbags' stand-in field of empty types
+
+
 def plain(value: Any) -> Any:
     """A comparable form of a decoded value: dicts, lists, ints, floats (NaN equal to NaN), str.
 
@@ -52,7 +55,12 @@ def plain(value: Any) -> Any:
     fields and lists or arrays for other sequences: all become lists of Python scalars.
     """
     if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: plain(getattr(value, f.name)) for f in dataclasses.fields(value)}
+        return {
+            f.name: plain(getattr(value, f.name))
+            for f in dataclasses.fields(value)
+            # rosbags lists constants (UPPER_CASE; ROS 2 field names are lower case) as fields
+            if not f.name.startswith("__") and f.name != _EMPTY_MEMBER and not f.name.isupper()
+        }
     if isinstance(value, dict):
         return {key: plain(item) for key, item in value.items()}
     if isinstance(value, np.ndarray):
@@ -68,3 +76,17 @@ def plain(value: Any) -> Any:
     if isinstance(value, bool):
         return int(value)
     return value
+
+
+def same_as_rosbags(ours: Any, theirs: Any) -> bool:
+    """``plain`` values equal, except that rosbags reads ROS 2 ``byte`` (an unsigned octet, as
+    rclpy reads it) as int8: there, ours == theirs + 256."""
+    if isinstance(ours, dict) and isinstance(theirs, dict):
+        return ours.keys() == theirs.keys() and all(
+            same_as_rosbags(ours[key], theirs[key]) for key in ours
+        )
+    if isinstance(ours, list) and isinstance(theirs, list):
+        return len(ours) == len(theirs) and all(map(same_as_rosbags, ours, theirs))
+    if type(ours) is int and type(theirs) is int and -128 <= theirs < 0:
+        return ours in (theirs, theirs + 256)
+    return bool(ours == theirs)

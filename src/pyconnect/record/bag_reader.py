@@ -27,11 +27,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from pyconnect.codecs.type_names import full_type_name
-from pyconnect.errors import CodecError, DecodeError, PyconnectError
+from pyconnect.errors import DecodeError
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_files import BagFiles, locate_bag_files, open_storage
 from pyconnect.record.bag_storage import Connection, StorageFile
+from pyconnect.record.topic_decoder import TopicDecoder, normalise_type_name, one_line
 
 __all__ = [
     "BagInfo",
@@ -114,51 +114,6 @@ class BagInfo:
         if self.start_ns is None or self.end_ns is None:
             return 0
         return self.end_ns - self.start_ns
-
-
-def normalise_type_name(msg_type: str) -> str:
-    """``pkg/Name`` -> ``pkg/msg/Name``; names that do not parse are kept as they are."""
-    try:
-        return full_type_name(msg_type)
-    except CodecError:
-        return msg_type
-
-
-def _build_decoder(connection: Connection, natural: bool) -> Decoder:
-    """The function that turns this connection's CDR bytes into values."""
-    from pyconnect.codecs import wire
-
-    msg_type = normalise_type_name(connection.msg_type)
-    if not hasattr(wire, "wire_codec"):  # TEMPORARY until pyconnect.codecs.wire lands
-        return _rclpy_decoder(msg_type, natural)
-    if connection.definition is not None:
-        codec = wire.wire_codec(
-            msg_type, definition=connection.definition, encoding=connection.definition_encoding
-        )
-    else:
-        codec = wire.wire_codec(msg_type)
-    if natural:
-        decode: Decoder = codec.decode
-        return decode
-    to_dict: Decoder = codec.to_dict
-    return to_dict
-
-
-def _rclpy_decoder(msg_type: str, natural: bool) -> Decoder:  # TEMPORARY, see _build_decoder
-    import importlib
-
-    from rclpy.serialization import deserialize_message
-
-    from pyconnect import codecs
-
-    package, namespace, name = msg_type.split("/")
-    cls = getattr(importlib.import_module(f"{package}.{namespace}"), name)
-    convert = codecs.decode if natural else codecs.to_dict
-
-    def decode(data: Any) -> Any:
-        return convert(deserialize_message(bytes(data), cls))
-
-    return decode
 
 
 def _storage_name(files: Iterable[StorageFile]) -> str:
@@ -250,7 +205,7 @@ class BagReader:
         except BaseException:
             self.close()
             raise
-        self._decoders: dict[tuple[str, str | None, str], Decoder | Exception] = {}
+        self._decoders: dict[tuple[str, str | None, str], TopicDecoder] = {}
         self._counts: dict[str, int] = {}
 
     def _select(self, topics: Iterable[str] | None) -> dict[str, TopicInfo]:
@@ -283,45 +238,42 @@ class BagReader:
             self._report()
 
     def _read(self, storage: StorageFile) -> Iterator[BagMessage]:
-        plans: dict[int, tuple[str, str, Decoder | Exception]] = {}
+        plans: dict[int, tuple[str, TopicDecoder]] = {}
         for connection in storage.connections():
             if connection.topic in self.topics:
-                plans[connection.id] = (
-                    connection.topic,
-                    normalise_type_name(connection.msg_type),
-                    self._decoder(connection),
-                )
+                plans[connection.id] = (connection.topic, self._decoder(connection))
         counts = self._counts
         for connection_id, log_time, data in storage.messages(
             set(plans), self.start_ns, self.end_ns
         ):
-            topic, msg_type, decode = plans[connection_id]
+            topic, decoder = plans[connection_id]
             index = counts.get(topic, 0)
             counts[topic] = index + 1
             try:
-                if isinstance(decode, Exception):
-                    raise decode
-                value = decode(data)
+                value = decoder.decode(data)
             except Exception as error:  # any codec failure is one message's problem
-                self._problem(topic, index, log_time, error)
-                continue
-            yield BagMessage(topic, log_time, value, msg_type)
+                try:
+                    value = decoder.recover(data, error)
+                except Exception as final:
+                    self._problem(topic, index, log_time, final)
+                    continue
+            yield BagMessage(topic, log_time, value, decoder.msg_type)
 
-    def _decoder(self, connection: Connection) -> Decoder | Exception:
+    def _decoder(self, connection: Connection) -> TopicDecoder:
         key = (connection.msg_type, connection.definition, connection.definition_encoding)
         decoder = self._decoders.get(key)
         if decoder is None:
-            try:
-                decoder = _build_decoder(connection, self.natural)
-            except Exception as error:  # reported per message, like any decode failure
-                decoder = DecodeError(
-                    f"cannot build a decoder for {connection.msg_type}: {_one_line(error)}"
-                )
+            decoder = TopicDecoder(
+                connection.msg_type,
+                connection.definition,
+                connection.definition_encoding,
+                natural=self.natural,
+            )
             self._decoders[key] = decoder
         return decoder
 
     def _problem(self, topic: str, index: int, log_time: int, error: Exception) -> None:
-        reason = _one_line(error)
+        reason = one_line(error)
         if self.on_error == "raise":
             raise DecodeError(f"{self.path}: {topic}[{index}]: {reason}") from error
         self.errors.append(DecodeProblem(topic, index, log_time, reason))
@@ -356,13 +308,6 @@ class BagReader:
 
     def __repr__(self) -> str:
         return f"BagReader({str(self.path)!r}, topics={len(self.topics)})"
-
-
-def _one_line(error: BaseException) -> str:
-    text = " ".join(str(error).split())
-    if isinstance(error, PyconnectError):
-        return text or type(error).__name__
-    return f"{type(error).__name__}: {text}" if text else type(error).__name__
 
 
 def open_bag(

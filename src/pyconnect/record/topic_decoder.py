@@ -1,0 +1,103 @@
+"""Decode one bag topic's CDR messages with the definition stored in the bag, else the installed.
+
+A bag's stored definition wins, because it describes the bytes as recorded (a Foxy
+``sensor_msgs/Range`` has no ``variance``). Some bags store definitions that are wrong
+(hand-written rosbag2 test fixtures hold ``uint8 level`` for ``rcl_interfaces/msg/Log``) or that
+do not compile: when the stored definition fails on a message and the installed type decodes
+it, the installed type is used from then on for that topic. Decoding goes through the wire
+codecs (``pyconnect.codecs.wire``); no rclpy is needed.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any
+
+from pyconnect.codecs.type_names import full_type_name
+from pyconnect.errors import CodecError, DecodeError, PyconnectError
+
+__all__ = ["TopicDecoder", "normalise_type_name", "one_line"]
+
+Decode = Callable[[Any], Any]
+
+
+def normalise_type_name(msg_type: str) -> str:
+    """``pkg/Name`` -> ``pkg/msg/Name``; names that do not parse are kept as they are."""
+    try:
+        return full_type_name(msg_type)
+    except CodecError:
+        return msg_type
+
+
+def one_line(error: BaseException) -> str:
+    """An exception as one line; our own errors without their class name."""
+    text = " ".join(str(error).split())
+    if isinstance(error, PyconnectError):
+        return text or type(error).__name__
+    return f"{type(error).__name__}: {text}" if text else type(error).__name__
+
+
+def _function(msg_type: str, definition: str | None, encoding: str, natural: bool) -> Decode:
+    from pyconnect.codecs import wire
+
+    if definition is None:
+        codec = wire.wire_codec(msg_type)
+    else:
+        codec = wire.wire_codec(msg_type, definition=definition, encoding=encoding)
+    if natural:
+        decode: Decode = codec.decode
+        return decode
+    to_dict: Decode = codec.to_dict
+    return to_dict
+
+
+class TopicDecoder:
+    """``decode(data)`` -> value or raises; ``recover(data, error)`` tries the installed type."""
+
+    __slots__ = ("_fallback", "_fallback_tried", "decode", "msg_type", "natural")
+
+    def __init__(
+        self, msg_type: str, definition: str | None, encoding: str, *, natural: bool
+    ) -> None:
+        self.msg_type = normalise_type_name(msg_type)
+        self.natural = natural
+        self._fallback: Decode | None = None
+        self._fallback_tried = False
+        if definition is None:
+            self.decode = self._installed_or_raise()
+            self._fallback_tried = True
+            return
+        try:
+            self.decode = _function(self.msg_type, definition, encoding, natural)
+        except Exception as error:  # a definition that does not compile: try the installed type
+            self.decode = self._installed_or_raise(error)
+            self._fallback_tried = True
+
+    def _installed_or_raise(self, stored_error: Exception | None = None) -> Decode:
+        try:
+            return _function(self.msg_type, None, "ros2msg", self.natural)
+        except Exception as error:
+            reason = one_line(stored_error if stored_error is not None else error)
+            failure = DecodeError(f"cannot build a decoder for {self.msg_type}: {reason}")
+
+            def unavailable(data: Any) -> Any:
+                raise failure
+
+            return unavailable
+
+    def recover(self, data: Any, error: Exception) -> Any:
+        """Decode with the installed type after the stored definition failed, or re-raise."""
+        if not self._fallback_tried:
+            self._fallback_tried = True
+            try:
+                self._fallback = _function(self.msg_type, None, "ros2msg", self.natural)
+            except Exception:
+                self._fallback = None
+        if self._fallback is None or self._fallback is self.decode:
+            raise error
+        try:
+            value = self._fallback(data)
+        except Exception:
+            raise error from None
+        self.decode = self._fallback  # the stored definition does not describe these bytes
+        return value
