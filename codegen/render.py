@@ -28,6 +28,7 @@ from codegen.ir import (
     PackageDef,
     TypeSet,
 )
+from codegen.wire_render import render_wire_codecs
 
 TEMPLATES = Path(__file__).parent / "templates"
 
@@ -445,6 +446,7 @@ OUTPUT_KINDS: dict[str, Callable[[PackageDef, TypeSet], str]] = {
     "index": render_index,
     "typed_dicts": render_typed_dicts,
     "dict_codecs": render_dict_codecs,
+    "wire_codecs": render_wire_codecs,
 }
 
 
