@@ -12,12 +12,14 @@ log-time order within each file (split files in order). A ``BagMessage`` has ``.
 
 Values come from the wire codecs (``pyconnect.codecs.wire``): natural values by default, the
 lossless dict with ``natural=False`` (the codec registry is asked once per topic, when its first
-message is read, so a codec registered later applies to the next read). Each topic is decoded with the definition stored in the bag
-when there is one (so a Foxy ``sensor_msgs/Range`` without ``variance`` decodes), else with the
-installed type. A message that cannot be decoded is skipped and recorded in ``reader.errors``
-(topic, index within the topic, reason; a summary goes to the ``pyconnect.record`` logger) and
-the read goes on; ``on_error="raise"`` raises ``DecodeError`` instead. Only CDR-serialised topics
-can be read: selecting another (``wrong_format``) raises ``BagError`` when the bag is opened.
+message is read, so a codec registered later applies to the next read). Each topic is decoded
+with the definition stored in the bag when there is one (so a Foxy ``sensor_msgs/Range``
+without ``variance`` decodes), else with the installed type; a stored definition that does not
+fit the bytes gives way to the installed type. A message that cannot be decoded is skipped and
+recorded in ``reader.errors`` (topic, index within the topic, reason; a summary goes to the
+``pyconnect.record`` logger) and the read goes on; ``on_error="raise"`` raises ``DecodeError``
+instead. Only CDR-serialised topics can be read: selecting another (``wrong_format``) raises
+``BagError`` when the bag is opened.
 """
 
 from __future__ import annotations
