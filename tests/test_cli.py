@@ -11,7 +11,7 @@ from rclpy.serialization import serialize_message
 from sensor_msgs.msg import Image
 from std_msgs.msg import String
 
-from pyconnect.cli import format_value, main
+from pyconnect.cli import format_value, main, main_entry
 from pyconnect.record.mcap_recorder import McapRecorder
 
 
@@ -135,3 +135,16 @@ def test_undecodable_messages_give_status_1(
     assert out == "/chatter 0.000000002 'ok'\n"
     assert err.startswith("pyconnect: 1 message(s) not decoded; first: /chatter[0]: ")
     assert err.count("\n") == 1
+
+
+def test_main_entry_exits_with_the_status(
+    bag: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setattr("sys.argv", ["pyconnect", "bag", "info", str(bag / "nope")])
+    with pytest.raises(SystemExit) as caught:
+        main_entry()
+    assert caught.value.code == 2
+    assert (
+        capsys.readouterr().err
+        == f"pyconnect: error: {bag / 'nope'}: no such bag file or directory\n"
+    )

@@ -7,6 +7,8 @@ import sqlite3
 from pathlib import Path
 
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from rclpy.serialization import serialize_message
 from std_msgs.msg import String
 from test_msgs.msg import BasicTypes
@@ -203,3 +205,43 @@ def test_undecodable_definition_is_reported_per_message(tmp_path: Path) -> None:
         assert [m.value for m in bag] == ["hello 0", "hello 1", "hello 2"]
     assert [(p.topic, p.index) for p in bag.errors] == [("/odd", 0), ("/odd", 1), ("/odd", 2)]
     assert bag.errors[0].reason.startswith("cannot build a decoder for my_pkg/msg/Odd: ")
+
+
+@pytest.mark.parametrize("compression", ["zstd", "lz4", "none"])
+def test_every_chunk_compression_reads_back(tmp_path: Path, compression: str) -> None:
+    with McapRecorder(tmp_path / "bag.mcap", compression=compression, chunk_size=256) as recorder:
+        recorder.add_topic("/chatter", "std_msgs/msg/String")
+        for i in range(50):
+            recorder.write("/chatter", chatter(i), log_time_ns=i)
+    with open_bag(tmp_path / "bag.mcap") as bag:
+        assert [m.value for m in bag] == [f"hello {i}" for i in range(50)]
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    stamps=st.lists(st.integers(0, 10_000), min_size=0, max_size=60),
+    chunk_size=st.sampled_from([64, 300, 1 << 20]),
+    window=st.tuples(st.integers(0, 10_000), st.integers(0, 10_000)),
+)
+def test_written_messages_come_back_in_time_order(
+    tmp_path_factory: pytest.TempPathFactory,
+    stamps: list[int],
+    chunk_size: int,
+    window: tuple[int, int],
+) -> None:
+    # Writes out of time order make chunks whose time ranges overlap: reading merges them.
+    path = tmp_path_factory.mktemp("bags") / "bag.mcap"
+    with McapRecorder(path, chunk_size=chunk_size) as recorder:
+        recorder.add_topic("/chatter", "std_msgs/msg/String")
+        for i, stamp in enumerate(stamps):
+            recorder.write("/chatter", chatter(i), log_time_ns=stamp)
+    written = [(stamp, f"hello {i}") for i, stamp in enumerate(stamps)]
+    with open_bag(path) as bag:
+        read = [(m.log_time_ns, m.value) for m in bag]
+    assert [stamp for stamp, _ in read] == sorted(stamps)
+    assert sorted(read) == sorted(written)
+    start, end = min(window), max(window)
+    with open_bag(path, start_ns=start, end_ns=end) as bag:
+        assert sorted((m.log_time_ns, m.value) for m in bag) == sorted(
+            (stamp, value) for stamp, value in written if start <= stamp < end
+        )

@@ -43,11 +43,14 @@ class McapRecorder:
     """Record CDR messages of any number of topics; ``write`` is thread-safe.
 
     Call ``add_topic`` once per topic before writing it; ``definition`` is the ros2msg text
-    (built from the installed interface files when None). ``close()`` finishes the file and
+    (built from the installed interface files when None). ``chunk_size`` is the uncompressed
+    size at which a chunk is closed and compressed. ``close()`` finishes the file and
     writes metadata.yaml; it is idempotent and also runs on leaving a ``with`` block.
     """
 
-    def __init__(self, path: str | Path, *, compression: str = "zstd") -> None:
+    def __init__(
+        self, path: str | Path, *, compression: str = "zstd", chunk_size: int = 1024 * 1024
+    ) -> None:
         if compression not in _COMPRESSION:
             choices = ", ".join(repr(c) for c in _COMPRESSION if c)
             raise ValueError(f"compression: expected one of {choices}, got {compression!r}")
@@ -66,7 +69,9 @@ class McapRecorder:
             raise BagError(f"{self.file_path}: already exists; not overwriting a recording")
         self._lock = threading.Lock()
         self._stream: BinaryIO = open(self.file_path, "wb")  # noqa: SIM115 - closed by close()
-        self._writer = Writer(self._stream, compression=_COMPRESSION[compression])
+        self._writer = Writer(
+            self._stream, compression=_COMPRESSION[compression], chunk_size=chunk_size
+        )
         self._writer.start(profile="ros2", library="pyconnect")
         self._schemas: dict[tuple[str, str], int] = {}
         self._topics: dict[str, _Topic] = {}
