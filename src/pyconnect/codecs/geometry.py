@@ -15,12 +15,14 @@ every pose. Their ``lossless`` is False.
 from __future__ import annotations
 
 import numbers
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from pyconnect.codecs.checks import check_float, check_float32, check_sequence
+from pyconnect.codecs.message_slots import CHECK_FIELDS, has_slot_layout
 from pyconnect.errors import EncodeError, type_name_of
 
 Triple = tuple[float, float, float]
@@ -32,6 +34,55 @@ def _msg(module: str, name: str) -> Any:
     import importlib
 
     return getattr(importlib.import_module(f"{module}.msg"), name)
+
+
+def _xyz_builder(cls: Any) -> Callable[..., Any]:
+    """``build(x, y, z)`` for a Vector3-like class: slot writes when the layout allows."""
+    if not has_slot_layout(cls):
+        return lambda x, y, z: cls(x=x, y=y, z=z)
+
+    def build(x: float, y: float, z: float) -> Any:
+        msg = cls.__new__(cls)
+        msg._check_fields = CHECK_FIELDS
+        msg._x = x
+        msg._y = y
+        msg._z = z
+        return msg
+
+    return build
+
+
+def _xyzw_builder(cls: Any) -> Callable[..., Any]:
+    """``build(x, y, z, w)`` for Quaternion."""
+    if not has_slot_layout(cls):
+        return lambda x, y, z, w: cls(x=x, y=y, z=z, w=w)
+
+    def build(x: float, y: float, z: float, w: float) -> Any:
+        msg = cls.__new__(cls)
+        msg._check_fields = CHECK_FIELDS
+        msg._x = x
+        msg._y = y
+        msg._z = z
+        msg._w = w
+        return msg
+
+    return build
+
+
+def _pair_builder(cls: Any, first: str, second: str) -> Callable[[Any, Any], Any]:
+    """``build(a, b)`` setting two message fields (Twist's linear/angular, Pose's …)."""
+    if not has_slot_layout(cls):
+        return lambda a, b: cls(**{first: a, second: b})
+    first_slot, second_slot = f"_{first}", f"_{second}"
+
+    def build(a: Any, b: Any) -> Any:
+        msg = cls.__new__(cls)
+        msg._check_fields = CHECK_FIELDS
+        setattr(msg, first_slot, a)
+        setattr(msg, second_slot, b)
+        return msg
+
+    return build
 
 
 def _triple(value: Any, path: str) -> Triple:
@@ -87,6 +138,7 @@ class _Base:
     _module = "geometry_msgs"
     _name = ""
     _class: Any = None
+    _build: Any = None
 
     def _cls(self) -> Any:
         cls = type(self)._class
@@ -109,7 +161,10 @@ class Vector3Codec(_Base):
 
     def encode(self, value: Any) -> Any:
         x, y, z = _triple(value, self._name)
-        return self._cls()(x=x, y=y, z=z)
+        build = type(self)._build
+        if build is None:
+            build = type(self)._build = _xyz_builder(self._cls())
+        return build(x, y, z)
 
 
 class PointCodec(Vector3Codec):
@@ -117,7 +172,8 @@ class PointCodec(Vector3Codec):
 
     msg_type = "geometry_msgs/msg/Point"
     _name = "Point"
-    _class = None
+    _class: Any = None
+    _build: Any = None
 
 
 class Point32Codec(Vector3Codec):
@@ -125,14 +181,18 @@ class Point32Codec(Vector3Codec):
 
     msg_type = "geometry_msgs/msg/Point32"
     _name = "Point32"
-    _class = None
+    _class: Any = None
+    _build: Any = None
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         return _xyz_fields(_triple32(value, self._name))
 
     def encode(self, value: Any) -> Any:
         x, y, z = _triple32(value, self._name)
-        return self._cls()(x=x, y=y, z=z)
+        build = type(self)._build
+        if build is None:
+            build = type(self)._build = _xyz_builder(self._cls())
+        return build(x, y, z)
 
 
 class QuaternionCodec(_Base):
@@ -149,7 +209,10 @@ class QuaternionCodec(_Base):
 
     def encode(self, value: Any) -> Any:
         x, y, z, w = _quad(value, self._name)
-        return self._cls()(x=x, y=y, z=z, w=w)
+        build = type(self)._build
+        if build is None:
+            build = type(self)._build = _xyzw_builder(self._cls())
+        return build(x, y, z, w)
 
 
 class Pose2DCodec(_Base):
@@ -197,9 +260,15 @@ class PoseCodec(_Base):
 
     def encode(self, value: Any) -> Any:
         (x, y, z), (qx, qy, qz, qw) = _pose_parts(value, self._name, self._first, self._second)
-        first = _msg("geometry_msgs", self._first_class)(x=x, y=y, z=z)
-        second = _msg("geometry_msgs", self._second_class)(x=qx, y=qy, z=qz, w=qw)
-        return self._cls()(**{self._first: first, self._second: second})
+        builders = type(self)._build
+        if builders is None:
+            builders = type(self)._build = (
+                _pair_builder(self._cls(), self._first, self._second),
+                _xyz_builder(_msg("geometry_msgs", self._first_class)),
+                _xyzw_builder(_msg("geometry_msgs", self._second_class)),
+            )
+        pair, xyz, xyzw = builders
+        return pair(xyz(x, y, z), xyzw(qx, qy, qz, qw))
 
 
 class TransformCodec(PoseCodec):
@@ -207,7 +276,8 @@ class TransformCodec(PoseCodec):
 
     msg_type = "geometry_msgs/msg/Transform"
     _name = "Transform"
-    _class = None
+    _class: Any = None
+    _build: Any = None
     _first, _second = "translation", "rotation"
     _first_class, _second_class = "Vector3", "Quaternion"
 
@@ -217,7 +287,9 @@ def _pair_of_triples(value: Any, path: str, first: str, second: str) -> tuple[Tr
         a, b = value
     else:
         a, b = check_sequence(value, 2, path, "((x, y, z), (x, y, z)) or (v, w)")
-    if isinstance(a, numbers.Real):
+    if type(a) is tuple and type(b) is tuple:
+        return _triple(a, f"{path}.{first}"), _triple(b, f"{path}.{second}")
+    if isinstance(a, numbers.Real) and not hasattr(a, "__len__"):
         # The planar shorthand (v, w): forward speed and yaw rate.
         return (
             (check_float(a, f"{path}.{first}.x"), 0.0, 0.0),
@@ -232,7 +304,6 @@ class TwistCodec(_Base):
     msg_type = "geometry_msgs/msg/Twist"
     _name = "Twist"
     _first, _second = "linear", "angular"
-    _vector: Any = None
 
     def decode(self, msg: Any) -> tuple[Triple, Triple]:
         a = getattr(msg, self._first)
@@ -245,12 +316,14 @@ class TwistCodec(_Base):
 
     def encode(self, value: Any) -> Any:
         (ax, ay, az), (bx, by, bz) = _pair_of_triples(value, self._name, self._first, self._second)
-        vector = TwistCodec._vector
-        if vector is None:
-            vector = TwistCodec._vector = _msg("geometry_msgs", "Vector3")
-        return self._cls()(
-            **{self._first: vector(x=ax, y=ay, z=az), self._second: vector(x=bx, y=by, z=bz)}
-        )
+        builders = type(self)._build
+        if builders is None:
+            builders = type(self)._build = (
+                _pair_builder(self._cls(), self._first, self._second),
+                _xyz_builder(_msg("geometry_msgs", "Vector3")),
+            )
+        pair, vector = builders
+        return pair(vector(ax, ay, az), vector(bx, by, bz))
 
 
 class AccelCodec(TwistCodec):
@@ -258,7 +331,8 @@ class AccelCodec(TwistCodec):
 
     msg_type = "geometry_msgs/msg/Accel"
     _name = "Accel"
-    _class = None
+    _class: Any = None
+    _build: Any = None
 
 
 class WrenchCodec(TwistCodec):
@@ -266,7 +340,8 @@ class WrenchCodec(TwistCodec):
 
     msg_type = "geometry_msgs/msg/Wrench"
     _name = "Wrench"
-    _class = None
+    _class: Any = None
+    _build: Any = None
     _first, _second = "force", "torque"
 
 
@@ -368,7 +443,7 @@ class PathCodec(PoseArrayCodec):
     msg_type = "nav_msgs/msg/Path"
     _module = "nav_msgs"
     _name = "Path"
-    _class = None
+    _class: Any = None
 
     def decode(self, msg: Any) -> list[PoseValue]:
         decode = self._pose.decode

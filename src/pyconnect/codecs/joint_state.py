@@ -10,39 +10,50 @@ from __future__ import annotations
 
 import array
 import numbers
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from pyconnect.codecs.checks import check_float
+from pyconnect.codecs.message_slots import blank, field_reader, has_slot_layout, zero_header
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
 
 _ARRAYS = ("position", "velocity", "effort")
+_KEY_SET = frozenset(_ARRAYS)
 
 
 def _floats(values: Any) -> list[float]:
     return values.tolist() if hasattr(values, "tolist") else [float(v) for v in values]
 
 
+_FIELDS = ("name", "position", "velocity", "effort")
+_READERS: dict[type, Callable[[Any], Any]] = {}
+
+
 def decode_joint_state(msg: Any) -> dict[str, dict[str, float]]:
     """The joints of a JointState message as a dict keyed by name."""
-    names = msg.name
+    cls = type(msg)
+    reader = _READERS.get(cls)
+    if reader is None:
+        reader = _READERS[cls] = field_reader(cls, _FIELDS)
+    names, position, velocity, effort = reader(msg)
     count = len(names)
-    columns: list[tuple[str, list[float]]] = []
-    for key in _ARRAYS:
-        values = getattr(msg, key)
-        if len(values):
-            if len(values) != count:
-                raise DecodeError(
-                    f"JointState.{key}: has {len(values)} values but JointState.name has {count}"
-                )
-            columns.append((key, _floats(values)))
-    if len(columns) == 3:
-        (k1, c1), (k2, c2), (k3, c3) = columns
-        joints = {n: {k1: a, k2: b, k3: c} for n, a, b, c in zip(names, c1, c2, c3, strict=True)}
-    elif len(columns) == 1:
-        (k1, c1) = columns[0]
-        joints = {n: {k1: a} for n, a in zip(names, c1, strict=True)}
+    if len(position) == count and len(velocity) == count and len(effort) == count and count:
+        joints = {
+            n: {"position": p, "velocity": v, "effort": e}
+            for n, p, v, e in zip(
+                names, _floats(position), _floats(velocity), _floats(effort), strict=False
+            )
+        }
     else:
+        columns: list[tuple[str, list[float]]] = []
+        for key, values in zip(_ARRAYS, (position, velocity, effort), strict=True):
+            if len(values):
+                if len(values) != count:
+                    raise DecodeError(
+                        f"JointState.{key}: has {len(values)} values but JointState.name has "
+                        f"{count}"
+                    )
+                columns.append((key, _floats(values)))
         joints = {n: {} for n in names}
         for key, column in columns:
             for n, v in zip(names, column, strict=True):
@@ -52,6 +63,34 @@ def decode_joint_state(msg: Any) -> dict[str, dict[str, float]]:
         twice = next(n for n in names if n in seen or seen.add(n))  # type: ignore[func-returns-value]
         raise DecodeError(f"JointState.name: joint {twice!r} appears more than once")
     return joints
+
+
+def _fast_columns(value: Any) -> tuple[list[str], dict[str, array.array[float]]] | None:
+    """Names and float columns of a well-formed joints dict, or None to take the checked path.
+
+    array('d') converts ints and floats in C and raises TypeError for anything else, which
+    sends the value to ``joint_state_fields`` for an error naming the joint.
+    """
+    if type(value) is not dict or not value:
+        return None
+    names = list(value)
+    joints = list(value.values())
+    first = joints[0]
+    try:
+        if type(first) is dict:
+            keys = first.keys()
+            if not keys <= _KEY_SET or not all(
+                type(j) is dict and j.keys() == keys for j in joints
+            ):
+                return None
+            columns = {k: array.array("d", [j[k] for j in joints]) for k in _ARRAYS if k in keys}
+        else:
+            columns = {"position": array.array("d", joints)}
+    except TypeError:
+        return None
+    if not all(type(n) is str for n in names):
+        return None
+    return names, columns
 
 
 def joint_state_fields(value: Any) -> dict[str, Any]:
@@ -99,7 +138,7 @@ class JointStateCodec:
 
     msg_type = "sensor_msgs/msg/JointState"
     lossless = False
-    _class: Any = None
+    _classes: Any = None
 
     decode = staticmethod(decode_joint_state)
 
@@ -107,16 +146,33 @@ class JointStateCodec:
         return joint_state_fields(value)
 
     def encode(self, value: Any) -> Any:
-        cls = JointStateCodec._class
-        if cls is None:
+        classes = JointStateCodec._classes
+        if classes is None:
+            from builtin_interfaces.msg import Time
             from sensor_msgs.msg import JointState
+            from std_msgs.msg import Header
 
-            cls = JointStateCodec._class = JointState
-        fields = joint_state_fields(value)
-        msg = cls()
-        msg.name = fields["name"]
-        # array('d') is taken as is by the rclpy setter; a list is checked element by element.
-        msg.position = array.array("d", fields["position"])
-        msg.velocity = array.array("d", fields["velocity"])
-        msg.effort = array.array("d", fields["effort"])
+            classes = JointStateCodec._classes = (
+                JointState,
+                Header,
+                Time,
+                has_slot_layout(JointState, Header, Time),
+            )
+        cls, header_class, time_class, slotted = classes
+        fast = _fast_columns(value)
+        if fast is None:
+            fields = joint_state_fields(value)
+            names = fields["name"]
+            columns = {k: array.array("d", fields[k]) for k in _ARRAYS if fields[k]}
+        else:
+            names, columns = fast
+        if not slotted:
+            return cls(name=names, **columns)
+        # Validated above: write the slots (array('d') is what the setters would store).
+        msg = blank(cls)
+        msg._header = zero_header(header_class, time_class)
+        msg._name = names
+        msg._position = columns.get("position") or array.array("d")
+        msg._velocity = columns.get("velocity") or array.array("d")
+        msg._effort = columns.get("effort") or array.array("d")
         return msg
