@@ -189,3 +189,21 @@ def test_values_equal_rosbags(key: str) -> None:
             )
             compared += 1
     assert compared >= min(limit, 1) * len(reference) // limit
+
+
+def test_offline_reading_needs_no_rclpy() -> None:
+    import subprocess
+    import sys
+
+    script = (
+        "import sys\n"
+        "sys.modules['rclpy'] = None  # any import of rclpy now fails\n"
+        "from pyconnect.record import open_bag\n"
+        f"with open_bag({str(BAGS / 'rosbags_rs/test_bag_mcap')!r}) as bag:\n"
+        "    count = sum(1 for _ in bag)\n"
+        "print(count, len(bag.errors), sys.modules['rclpy'] is not None)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, timeout=120, check=False
+    )
+    assert (done.returncode, done.stdout) == (0, "184 4 False\n"), done.stderr
