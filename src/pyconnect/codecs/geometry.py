@@ -22,7 +22,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pyconnect.codecs.checks import check_float, check_float32, check_sequence
-from pyconnect.codecs.message_slots import CHECK_FIELDS, has_slot_layout
+from pyconnect.codecs.message_slots import CHECK_FIELDS, has_slot_layout, path_reader
 from pyconnect.errors import EncodeError, type_name_of
 
 Triple = tuple[float, float, float]
@@ -140,6 +140,14 @@ class _Base:
     _class: Any = None
     _build: Any = None
 
+    def __init__(self) -> None:
+        # Per message class (rclpy's, a wire view's, rosbags'): how to read the fields.
+        self._readers: dict[type, Callable[[Any], Any]] = {}
+
+    def _reader(self, msg: Any, paths: tuple[str, ...]) -> Callable[[Any], Any]:
+        reader = self._readers[type(msg)] = path_reader(msg, paths)
+        return reader
+
     def _cls(self) -> Any:
         cls = type(self)._class
         if cls is None:
@@ -154,7 +162,9 @@ class Vector3Codec(_Base):
     _name = "Vector3"
 
     def decode(self, msg: Any) -> Triple:
-        return (msg.x, msg.y, msg.z)
+        reader = self._readers.get(type(msg)) or self._reader(msg, ("x", "y", "z"))
+        result: Triple = reader(msg)
+        return result
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         return _xyz_fields(_triple(value, self._name))
@@ -202,7 +212,9 @@ class QuaternionCodec(_Base):
     _name = "Quaternion"
 
     def decode(self, msg: Any) -> Quad:
-        return (msg.x, msg.y, msg.z, msg.w)
+        reader = self._readers.get(type(msg)) or self._reader(msg, ("x", "y", "z", "w"))
+        result: Quad = reader(msg)
+        return result
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         return _xyzw_fields(_quad(value, self._name))
@@ -250,9 +262,13 @@ class PoseCodec(_Base):
     _first_class, _second_class = "Point", "Quaternion"
 
     def decode(self, msg: Any) -> PoseValue:
-        p = getattr(msg, self._first)
-        q = getattr(msg, self._second)
-        return ((p.x, p.y, p.z), (q.x, q.y, q.z, q.w))
+        reader = self._readers.get(type(msg)) or self._reader(
+            msg,
+            tuple(f"{self._first}.{a}" for a in "xyz")
+            + tuple(f"{self._second}.{a}" for a in "xyzw"),
+        )
+        x, y, z, qx, qy, qz, qw = reader(msg)
+        return ((x, y, z), (qx, qy, qz, qw))
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         p, q = _pose_parts(value, self._name, self._first, self._second)
@@ -306,9 +322,13 @@ class TwistCodec(_Base):
     _first, _second = "linear", "angular"
 
     def decode(self, msg: Any) -> tuple[Triple, Triple]:
-        a = getattr(msg, self._first)
-        b = getattr(msg, self._second)
-        return ((a.x, a.y, a.z), (b.x, b.y, b.z))
+        reader = self._readers.get(type(msg)) or self._reader(
+            msg,
+            tuple(f"{self._first}.{a}" for a in "xyz")
+            + tuple(f"{self._second}.{a}" for a in "xyz"),
+        )
+        ax, ay, az, bx, by, bz = reader(msg)
+        return ((ax, ay, az), (bx, by, bz))
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         a, b = _pair_of_triples(value, self._name, self._first, self._second)

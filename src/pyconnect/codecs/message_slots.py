@@ -74,3 +74,33 @@ def field_reader(cls: type, names: tuple[str, ...]) -> Callable[[Any], Any]:
         reader = getter if len(names) > 1 else (lambda msg: (getter(msg),))
         _READERS[key] = reader
     return reader
+
+
+_PATH_READERS: dict[tuple[type, tuple[str, ...]], Callable[[Any], tuple[Any, ...]]] = {}
+
+
+def path_reader(msg: Any, paths: tuple[str, ...]) -> Callable[[Any], tuple[Any, ...]]:
+    """``reader(m)`` giving the dotted ``paths`` (``"linear.x"``) of messages like ``msg``.
+
+    Slots are read when every class along every path has the rosidl layout (checked on
+    ``msg``, the first message of its class); otherwise the field names are.
+    """
+    key = (type(msg), paths)
+    reader = _PATH_READERS.get(key)
+    if reader is None:
+        slotted = all(_path_is_slotted(msg, path) for path in paths)
+        attributes = [
+            ".".join(f"_{part}" for part in path.split(".")) if slotted else path for path in paths
+        ]
+        reader = operator.attrgetter(*attributes)
+        _PATH_READERS[key] = reader
+    return reader
+
+
+def _path_is_slotted(msg: Any, path: str) -> bool:
+    current = msg
+    for part in path.split("."):
+        if not has_slot_layout(type(current)):
+            return False
+        current = getattr(current, part)
+    return True
