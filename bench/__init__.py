@@ -1,0 +1,1 @@
+"""Benchmarks: scripts that print ratios against anchors measured side by side."""
