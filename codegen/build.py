@@ -7,6 +7,7 @@ from pathlib import Path
 
 from codegen import FORMAT_VERSION
 from codegen.introspect import load_packages
+from codegen.ir import PackageDef, TypeSet
 from codegen.render import render_package
 
 GENERATED_PACKAGE = "pyconnect_generated"
@@ -33,8 +34,13 @@ def default_out_dir() -> Path:
 def render_tree(packages: Iterable[str] = (), folders: Iterable[Path] = ()) -> dict[str, str]:
     """Relative path (under the output folder) -> text of every file a build writes."""
     requested, types = load_packages(packages, folders)
+    return render_loaded(requested.values(), types)
+
+
+def render_loaded(requested: Iterable[PackageDef], types: TypeSet) -> dict[str, str]:
+    """``render_tree`` for packages already loaded."""
     files = {f"{GENERATED_PACKAGE}/__init__.py": _ROOT_INIT, f"{GENERATED_PACKAGE}/py.typed": ""}
-    for package in requested.values():
+    for package in requested:
         for relative, text in render_package(package, types).items():
             files[f"{GENERATED_PACKAGE}/{relative}"] = text
     return files

@@ -8,6 +8,9 @@ computes RIHS01 hashes with ``rosidl_generator_type_description``.
 from __future__ import annotations
 
 import ast
+import contextlib
+import functools
+import io
 import os
 import re
 import sys
@@ -91,27 +94,34 @@ def installed_packages() -> dict[str, InstalledPackage]:
 
 
 # -- parsing ----------------------------------------------------------------------------------
+_ADAPTER_TEMPLATES = {".msg": ("msg", "msg.idl.em"), ".srv": ("srv", "srv.idl.em"),
+                      ".action": ("action", "action.idl.em")}  # fmt: skip
+
+
+def _parse_with_adapter(package: str, path: Path, text: str) -> Any:
+    from rosidl_adapter import parser as adapter
+
+    parse = {
+        ".msg": adapter.parse_message_string,
+        ".srv": adapter.parse_service_string,
+        ".action": adapter.parse_action_string,
+    }[path.suffix]
+    # rosidl_adapter prints its own multi-line report; ours is the one-line DefinitionError.
+    with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
+        return parse(package, path.stem, text)
+
+
 def _idl_from_interface_text(package: str, path: Path, text: str) -> str:
     """Convert .msg/.srv/.action text to IDL text with rosidl_adapter (as rosidl's build does)."""
-    from rosidl_adapter import parser as adapter
     from rosidl_adapter.resource import evaluate_template
 
-    stem, suffix = path.stem, path.suffix
-    relative = f"{suffix[1:]}/{path.name}"
     try:
-        if suffix == ".msg":
-            spec: Any = adapter.parse_message_string(package, stem, text)
-            key, template = "msg", "msg.idl.em"
-        elif suffix == ".srv":
-            spec = adapter.parse_service_string(package, stem, text)
-            key, template = "srv", "srv.idl.em"
-        else:
-            spec = adapter.parse_action_string(package, stem, text)
-            key, template = "action", "action.idl.em"
+        spec = _parse_with_adapter(package, path, text)
     except Exception as error:
         line = _failing_line(package, path, text)
         raise DefinitionError(_one_line(error), path=path, line=line) from None
-    data = {"pkg_name": package, "relative_input_file": relative, key: spec}
+    key, template = _ADAPTER_TEMPLATES[path.suffix]
+    data = {"pkg_name": package, "relative_input_file": f"{key}/{path.name}", key: spec}
     content: str = evaluate_template(template, data)
     return content
 
@@ -123,14 +133,12 @@ def _one_line(error: BaseException) -> str:
 
 def _failing_line(package: str, path: Path, text: str) -> int | None:
     """The first line whose addition makes the definition unparsable (rosidl does not say)."""
-    from rosidl_adapter import parser as adapter
-
     if path.suffix != ".msg":
         return None
     lines = text.splitlines()
     for end in range(1, len(lines) + 1):
         try:
-            adapter.parse_message_string(package, path.stem, "\n".join(lines[:end]))
+            _parse_with_adapter(package, path, "\n".join(lines[:end]))
         except Exception:
             return end
     return None
@@ -298,7 +306,6 @@ def parse_interface_text(package: str, path: Path, text: str, into: ParsedInterf
     else:
         raise DefinitionError("not an interface file (.msg, .srv, .action or .idl)", path=path)
     content = _parse_idl(idl_text, path)
-    module_name = f"{package}.{path.parent.name if path.suffix == '.idl' else path.suffix[1:]}"
     for element in content.elements:
         if isinstance(element, d.Message):
             namespace = element.structure.namespaced_type.namespaces[1]
@@ -320,13 +327,26 @@ def parse_interface_text(package: str, path: Path, text: str, into: ParsedInterf
         else:
             continue
         into.rosidl_elements.append(element)
-    del module_name
 
 
 def parse_installed_package(package: InstalledPackage, into: ParsedInterfaces) -> None:
+    parsed = _parse_installed(package)
+    into.messages += parsed.messages
+    into.services += parsed.services
+    into.actions += parsed.actions
+    into.rosidl_elements += parsed.rosidl_elements
+    into.origins.update(parsed.origins)
+
+
+@functools.cache
+def _parse_installed(package: InstalledPackage) -> ParsedInterfaces:
+    # Parsing IDL with lark is slow (tens of ms a file) and installed files do not change
+    # while a process runs, so each package is parsed once.
+    parsed = ParsedInterfaces()
     for relative in package.idl_files:
         path = package.share / relative
-        parse_interface_text(package.name, path, path.read_text(encoding="utf-8"), into)
+        parse_interface_text(package.name, path, path.read_text(encoding="utf-8"), parsed)
+    return parsed
 
 
 _PACKAGE_NAME = re.compile(r"<name>\s*([A-Za-z][A-Za-z0-9_]*)\s*</name>")

@@ -180,13 +180,13 @@ def _to_array(
             converted = array(typecode, values)
         except (TypeError, OverflowError, ValueError):
             _element_error(values, _scalar_check(kind), segment)
-    if (
-        kind == "float32"
-        and converted
-        and not np.isfinite(np.frombuffer(converted, np.float32)).all()
-    ):
+    if kind == "float32" and converted:
         # array('f') silently turns out-of-range doubles into inf; rosidl rejects them.
-        _element_error(values, check_float32, segment)
+        for index in np.flatnonzero(np.isinf(np.frombuffer(converted, np.float32))).tolist():
+            try:
+                check_float32(values[index], "")
+            except FieldError as error:
+                raise error.within(f"[{index}]").within(segment) from None
     return converted
 
 

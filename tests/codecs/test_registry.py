@@ -1,0 +1,174 @@
+"""The registry: lookup by class and by name, parts of services and actions, user codecs."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+from typing import Any
+
+import pytest
+
+from pyconnect import codecs
+from pyconnect.codecs import ActionCodec, DictCodec, Registry, ServiceCodec
+from pyconnect.errors import CodecNotFoundError, PyconnectError
+
+
+class UpperStringCodec:
+    msg_type = "std_msgs/msg/String"
+    lossless = True
+
+    def encode(self, value: Any) -> Any:
+        from std_msgs.msg import String
+
+        return String(data=str(value).upper())
+
+    def decode(self, msg: Any) -> Any:
+        return msg.data.lower()
+
+
+@pytest.mark.parametrize(
+    "type_ref", ["geometry_msgs/msg/Polygon", "geometry_msgs/Polygon", "geometry_msgs.msg.Polygon"]
+)
+def test_lookup_by_name_and_class(type_ref: str) -> None:
+    from geometry_msgs.msg import Polygon
+
+    registry = Registry(natural=False)
+    ref: object = Polygon if "." in type_ref else type_ref
+    codec = registry.lookup(ref)
+    assert isinstance(codec, DictCodec)
+    assert codec.msg_type == "geometry_msgs/msg/Polygon"
+    assert registry.lookup(Polygon()) is codec
+
+
+def test_service_and_action_types_give_their_parts() -> None:
+    from std_srvs.srv import SetBool
+    from test_msgs.action import Fibonacci
+
+    registry = Registry(natural=False)
+    service = registry.lookup(SetBool)
+    assert isinstance(service, ServiceCodec)
+    assert registry.lookup("std_srvs/SetBool") is service
+    assert service.request.msg_type == "std_srvs/srv/SetBool_Request"
+    assert service.response.encode({"success": True, "message": "ok"}) == SetBool.Response(
+        success=True, message="ok"
+    )
+    assert set(service.parts) == {"Request", "Response", "Event"}
+    action = registry.lookup(Fibonacci)
+    assert isinstance(action, ActionCodec)
+    assert action.goal.encode({"order": 5}) == Fibonacci.Goal(order=5)
+    assert action.feedback.decode(Fibonacci.Feedback(sequence=[1, 1])) == {"sequence": [1, 1]}
+    assert registry.lookup(Fibonacci.Result).msg_type == "test_msgs/action/Fibonacci_Result"
+    with pytest.raises(CodecNotFoundError, match="is a service or action"):
+        registry.lookup_message(SetBool)
+
+
+def test_user_codec_wins_and_conflicts_need_override() -> None:
+    from std_msgs.msg import String
+
+    registry = Registry()
+    before = registry.lookup(String)
+    registry.register(String, UpperStringCodec())
+    assert isinstance(registry.lookup("std_msgs/String"), UpperStringCodec)
+    assert registry.lookup(String) is not before
+    assert registry.encode("hi", String).data == "HI"
+    with pytest.raises(PyconnectError) as raised:
+        registry.register("std_msgs/msg/String", UpperStringCodec())
+    assert str(raised.value) == (
+        "std_msgs/msg/String already has a user codec (UpperStringCodec); "
+        "pass override=True to replace it"
+    )
+    replacement = UpperStringCodec()
+    registry.register(String, replacement, override=True)
+    assert registry.lookup(String) is replacement
+    registry.unregister(String)
+    assert not isinstance(registry.lookup(String), UpperStringCodec)
+
+
+def test_registering_a_non_codec_is_refused() -> None:
+    with pytest.raises(PyconnectError, match="expected a codec with msg_type"):
+        Registry().register("std_msgs/msg/String", object())  # type: ignore[arg-type]
+
+
+def test_registries_are_isolated() -> None:
+    from std_msgs.msg import String
+
+    isolated = Registry()
+    isolated.register(String, UpperStringCodec())
+    assert not isinstance(codecs.default_registry.lookup(String), UpperStringCodec)
+    assert not isinstance(Registry().lookup(String), UpperStringCodec)
+
+
+def test_unknown_types_and_bad_names() -> None:
+    with pytest.raises(CodecNotFoundError) as raised:
+        Registry().lookup("no_such_pkg/msg/Thing")
+    assert str(raised.value).startswith("no_such_pkg/msg/Thing: no generated codec")
+    with pytest.raises(CodecNotFoundError) as bad:
+        Registry().lookup("not a type")
+    assert (
+        str(bad.value)
+        == "'not a type' is not a ROS type name: expected 'pkg/msg/Name' or 'pkg/Name'"
+    )
+
+
+def test_on_the_fly_codec_for_a_type_generated_lacks() -> None:
+    # rosgraph_msgs is generated, so hide its generated module to force the on-the-fly path.
+    from rosgraph_msgs.msg import Clock
+
+    from codegen.onthefly import compile_dict_codec
+
+    msg_class, to_dict, from_dict = compile_dict_codec("rosgraph_msgs/msg/Clock")
+    assert msg_class is Clock
+    assert to_dict(from_dict({"clock": {"sec": 3}})) == {"clock": {"sec": 3, "nanosec": 0}}
+    with pytest.raises(Exception) as raised:
+        from_dict({"clock": {"sec": "x"}})
+    assert str(raised.value) == "Clock.clock.sec: expected int (int32), got str"
+    # Tracebacks through on-the-fly code show its source lines.
+    import linecache
+
+    filename = from_dict.__code__.co_filename
+    assert "def rosgraph_msgs__clock_from_dict" in "".join(linecache.getlines(filename))
+
+
+def _run_hidden(code: str, hidden: str) -> subprocess.CompletedProcess[str]:
+    blocker = textwrap.dedent(
+        f"""
+        import sys
+        class Block:
+            def find_spec(self, name, path=None, target=None):
+                if name.split('.')[0] in {hidden!r}:
+                    raise ImportError('hidden: ' + name)
+        sys.meta_path.insert(0, Block())
+        """
+    )
+    return subprocess.run(
+        [sys.executable, "-c", blocker + textwrap.dedent(code)],
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+
+
+def test_codecs_import_without_rclpy() -> None:
+    result = _run_hidden(
+        """
+        import pyconnect.codecs as codecs
+        assert 'rclpy' not in sys.modules
+        codecs.Registry()
+        print('ok')
+        """,
+        "('rclpy', 'sensor_msgs', 'std_msgs', 'rosidl_parser')",
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "ok"
+
+
+def test_import_registers_nothing() -> None:
+    # No codec is registered as a side effect of importing pyconnect modules.
+    result = _run_hidden(
+        """
+        import pyconnect.codecs as codecs
+        import pyconnect.codecs.field_checks, pyconnect.codecs.stamped
+        print(len(codecs.default_registry._user))
+        """,
+        "()",
+    )
+    assert result.stdout.strip() == "0", result.stderr
