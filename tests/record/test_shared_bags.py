@@ -207,3 +207,20 @@ def test_offline_reading_needs_no_rclpy() -> None:
         [sys.executable, "-c", script], capture_output=True, text=True, timeout=120, check=False
     )
     assert (done.returncode, done.stdout) == (0, "184 4 False\n"), done.stderr
+
+
+@pytest.mark.parametrize("storage", ["mcap", "sqlite3"])
+def test_split_bag_without_metadata_reads_as_one(storage: str) -> None:
+    directory = (
+        f"ros2_rosbag2_jazzy/rosbag2_py/test/resources/{storage}/reindex_test_bags/multiple_files"
+    )
+    files = [key for key in EXPECTED if key.startswith(directory + "/")]
+    expected = sum(EXPECTED[key]["topics"]["/chatter"]["count"] for key in files)
+    info = bag_info(BAGS / directory)
+    assert [p.name for p in info.files] == sorted(Path(key).name for key in files)
+    assert info.message_count == expected == 3177
+    with open_bag(BAGS / directory) as bag:
+        stamps = [m.log_time_ns for m in bag]
+    assert len(stamps) == expected
+    assert stamps == sorted(stamps)
+    assert bag.errors == []
