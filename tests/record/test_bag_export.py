@@ -74,3 +74,27 @@ def test_export_arrays_as_npy(tmp_path: Path) -> None:
         np.testing.assert_array_equal(np.load(tmp_path / "out" / "000000_7.npy"), [1.0, 2.5, -3.0])
     else:  # a natural value that is not an array is a JSON line
         assert dict(result.files) == {"jsonl": 1}
+
+
+def test_rgb_images_keep_their_colours(tmp_path: Path) -> None:
+    rgb = np.zeros((2, 3, 3), dtype=np.uint8)
+    rgb[..., 0] = 200  # red
+    rgb[0, 0] = (1, 2, 3)
+    with McapRecorder(tmp_path / "bag") as recorder:
+        recorder.add_topic("/rgb", "sensor_msgs/msg/Image")
+        recorder.add_topic("/short", "sensor_msgs/msg/Image")
+        image = Image(height=2, width=3, encoding="rgb8", step=9)
+        image.data.frombytes(rgb.tobytes())
+        recorder.write("/rgb", bytes(serialize_message(image)), log_time_ns=1)
+        short = Image(height=2, width=3, encoding="rgb8", step=9)
+        short.data.frombytes(b"\x00" * 4)
+        recorder.write("/short", bytes(serialize_message(short)), log_time_ns=2)
+        recorder.write("/short", bytes(serialize_message(image)), log_time_ns=3)
+    result = export_topic(tmp_path / "bag", "/rgb", tmp_path / "out", progress=CountingBar)
+    assert dict(result.files) == {"png": 1}
+    bgr = cv2.imread(str(tmp_path / "out" / "000000_1.png"), cv2.IMREAD_UNCHANGED)
+    np.testing.assert_array_equal(bgr[..., ::-1], rgb)
+    result = export_topic(tmp_path / "bag", "/short", tmp_path / "short", progress=CountingBar)
+    assert dict(result.files) == {"png": 1}
+    assert [(p.topic, p.index, p.log_time_ns) for p in result.errors] == [("/short", 0, 2)]
+    assert result.errors[0].reason.startswith("Image.data: expected at least 18 bytes")

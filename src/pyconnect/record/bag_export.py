@@ -3,7 +3,9 @@
 Each image or array message becomes ``<index:06d>_<log_time_ns>.png`` / ``.npy`` (raw byte
 values ``.bin``); every other message becomes one line ``{"log_time_ns": ..., "value": ...}`` of
 ``messages.jsonl``. The formats are the logger's (``pyconnect.record.log_writer``), so exported
-bags and live logs look alike. Every file appears atomically.
+bags and live logs look alike. ``sensor_msgs/Image`` pixels in RGB(A) order (``rgb8``, ...) go
+to PNG in the BGR(A) order OpenCV's PNG writer expects, so colours survive. Every file appears
+atomically.
 """
 
 from __future__ import annotations
@@ -15,14 +17,17 @@ from collections import Counter
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
+from pyconnect.errors import DecodeError
 from pyconnect.record.bag_reader import DecodeProblem, open_bag
 from pyconnect.record.log_writer import atomic_write_bytes, encode_log_value
 
 __all__ = ["ExportResult", "export_topic"]
 
 JSONL_NAME = "messages.jsonl"
+IMAGE_TYPE = "sensor_msgs/msg/Image"
 ProgressFactory = Callable[[int, str], Any]
 
 
@@ -68,13 +73,24 @@ def export_topic(
     directory = Path(to)
     directory.mkdir(parents=True, exist_ok=True)
     result = ExportResult(directory)
-    with open_bag(path, topics=[topic], natural=natural) as bag:
+    with open_bag(path, topics=[topic], natural=natural) as probe:
+        is_image = natural and probe.topics[topic].msg_type == IMAGE_TYPE
+    # Images are read as dicts so that their encoding (the channel order) is known.
+    with open_bag(path, topics=[topic], natural=natural and not is_image) as bag:
         bar = progress(bag.topics[topic].message_count, topic)
         fd, temporary = tempfile.mkstemp(dir=directory, prefix=f".{JSONL_NAME}.", suffix=".tmp")
         try:
             with os.fdopen(fd, "wb") as lines:
                 for index, message in enumerate(bag):
-                    extension, data = encode_log_value(message.value)
+                    value = message.value
+                    if is_image:
+                        try:
+                            value = image_for_png(value)
+                        except DecodeError as error:
+                            problem = DecodeProblem(topic, index, message.log_time_ns, str(error))
+                            result.errors.append(problem)
+                            continue
+                    extension, data = encode_log_value(value)
                     if extension == "json":
                         lines.write(b'{"log_time_ns": %d, "value": ' % message.log_time_ns)
                         lines.write(data)
@@ -95,5 +111,18 @@ def export_topic(
             raise
         finally:
             bar.close()
-        result.errors = list(bag.errors)
+        result.errors[:0] = bag.errors
     return result
+
+
+def image_for_png(fields: dict[str, Any]) -> Any:
+    """The pixels of an Image dict as an ndarray, with RGB(A) encodings turned to BGR(A)."""
+    from pyconnect.codecs.image import decode_image
+
+    pixels = decode_image(SimpleNamespace(**fields))
+    encoding = str(fields.get("encoding", "")).lower()
+    if encoding.startswith("rgba") and pixels.ndim == 3 and pixels.shape[2] == 4:
+        return pixels[..., [2, 1, 0, 3]]
+    if encoding.startswith("rgb") and pixels.ndim == 3 and pixels.shape[2] == 3:
+        return pixels[..., ::-1]
+    return pixels
