@@ -7,7 +7,9 @@
 - Polygon → float32 (N, 3) array; PoseArray and nav_msgs/Path → list of pose tuples
 - the ``*Stamped`` variants → the inner value.
 
-The plain types are lossless. The stamped ones drop the header (use ``stamped=True`` to keep
+The plain types are lossless (Polygon and Point32 for received messages, whose values are
+float32; an in-process Point32 built from a double keeps it until serialised, and the float32
+array rounds it). The stamped ones drop the header (use ``stamped=True`` to keep
 stamp and frame); TransformStamped also drops ``child_frame_id``; Path drops the header of
 every pose. Their ``lossless`` is False.
 """
