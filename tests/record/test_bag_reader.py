@@ -245,3 +245,16 @@ def test_written_messages_come_back_in_time_order(
         assert sorted((m.log_time_ns, m.value) for m in bag) == sorted(
             (stamp, value) for stamp, value in written if start <= stamp < end
         )
+
+
+def test_reading_again_starts_afresh(tmp_path: Path) -> None:
+    with McapRecorder(tmp_path / "bag.mcap") as recorder:
+        recorder.add_topic("/chatter", "std_msgs/msg/String")
+        recorder.write("/chatter", b"\x00\x01\x00\x00\xff\xff\xff\x7f", log_time_ns=1)
+        recorder.write("/chatter", chatter(1), log_time_ns=2)
+    with open_bag(tmp_path / "bag.mcap") as bag:
+        first = [m.value for m in bag]
+        assert [(p.topic, p.index) for p in bag.errors] == [("/chatter", 0)]
+        second = [m.value for m in bag]
+        assert [(p.topic, p.index) for p in bag.errors] == [("/chatter", 0)]
+    assert first == second == ["hello 1"]

@@ -210,6 +210,7 @@ class BagReader:
             raise
         self._decoders: dict[tuple[str, str | None, str], TopicDecoder] = {}
         self._counts: dict[str, int] = {}
+        self._reported = 0
 
     def _select(self, topics: Iterable[str] | None) -> dict[str, TopicInfo]:
         known = {topic.name: topic for topic in self.info.topics}
@@ -234,6 +235,10 @@ class BagReader:
 
     # -- reading ------------------------------------------------------------------------------
     def __iter__(self) -> Iterator[BagMessage]:
+        """Read the bag (again): indices and ``errors`` start afresh with every iteration."""
+        self.errors = []
+        self._counts = {}
+        self._reported = 0
         try:
             for storage in self._storages:
                 yield from self._read(storage)
@@ -282,7 +287,7 @@ class BagReader:
         self.errors.append(DecodeProblem(topic, index, log_time, reason))
 
     def _report(self) -> None:
-        if not self.errors or getattr(self, "_reported", 0) == len(self.errors):
+        if not self.errors or self._reported == len(self.errors):
             return
         self._reported = len(self.errors)
         by_topic: dict[str, int] = {}
