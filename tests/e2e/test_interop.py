@@ -42,7 +42,11 @@ def peer(mode: str) -> Iterator[subprocess.Popen[str]]:
     finally:
         if child.poll() is None:
             child.terminate()
-        child.wait(TIMEOUT)
+        try:
+            child.wait(TIMEOUT)
+        except subprocess.TimeoutExpired:
+            child.kill()
+            child.wait()
         if child.stdout is not None:
             child.stdout.close()
 
