@@ -258,3 +258,47 @@ def test_reading_again_starts_afresh(tmp_path: Path) -> None:
         second = [m.value for m in bag]
         assert [(p.topic, p.index) for p in bag.errors] == [("/chatter", 0)]
     assert first == second == ["hello 1"]
+
+
+# rosbag2 writes ros2idl schemas as blocks, each under a separator and an "IDL: " line.
+THING_IDL = (
+    "=" * 80
+    + "\nIDL: my_pkg/msg/Thing\n"
+    + """module my_pkg {
+  module msg {
+    struct Thing {
+      double x;
+      string name;
+      sequence<int32> counts;
+    };
+  };
+};
+"""
+)
+
+
+def test_ros2idl_schema_of_a_type_not_installed(tmp_path: Path) -> None:
+    from mcap.writer import Writer
+
+    from pyconnect.codecs import wire
+
+    codec = wire.wire_codec("my_pkg/msg/Thing", definition=THING_IDL, encoding="ros2idl")
+    with (tmp_path / "idl.mcap").open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2", library="test")
+        schema = writer.register_schema(
+            name="my_pkg/msg/Thing", encoding="ros2idl", data=THING_IDL.encode()
+        )
+        channel = writer.register_channel(topic="/thing", message_encoding="cdr", schema_id=schema)
+        for i in range(3):
+            data = codec.from_dict({"x": i / 2, "name": f"t{i}", "counts": list(range(i))})
+            writer.add_message(channel, log_time=i, data=data, publish_time=i)
+        writer.finish()
+    with open_bag(tmp_path / "idl.mcap") as bag:
+        values = [m.value for m in bag]
+    assert bag.errors == []
+    assert [(v["x"], v["name"], list(v["counts"])) for v in values] == [
+        (0.0, "t0", []),
+        (0.5, "t1", [0]),
+        (1.0, "t2", [0, 1]),
+    ]

@@ -10,6 +10,7 @@ codecs (``pyconnect.codecs.wire``); no rclpy is needed.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Callable
 from typing import Any
 
@@ -19,6 +20,7 @@ from pyconnect.errors import CodecError, DecodeError, PyconnectError
 __all__ = ["TopicDecoder", "normalise_type_name", "one_line"]
 
 Decode = Callable[[Any], Any]
+_log = logging.getLogger("pyconnect.record")
 
 
 def normalise_type_name(msg_type: str) -> str:
@@ -78,6 +80,9 @@ class TopicDecoder:
         try:
             self.decode = _function(self.msg_type, definition, encoding, natural)
         except Exception as error:  # a definition that does not compile: try the installed type
+            _log.info(
+                "%s: stored definition unusable (%s); using the installed type", msg_type, error
+            )
             self.decode = self._installed_or_raise(error)
             self._fallback_tried = True
 
@@ -107,5 +112,10 @@ class TopicDecoder:
             value = self._fallback(data)
         except Exception:
             raise error from None
+        _log.info(
+            "%s: stored definition does not fit (%s); using the installed type",
+            self.msg_type,
+            error,
+        )
         self.decode = self._fallback  # the stored definition does not describe these bytes
         return value
