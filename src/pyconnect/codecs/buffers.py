@@ -64,6 +64,22 @@ def contiguous_bytes(values: npt.NDArray[Any]) -> memoryview:
     return values.reshape(-1).view(np.uint8).data
 
 
+def byte_array(values: npt.NDArray[Any]) -> array.array[int]:
+    """A new ``array('B')`` holding the bytes of ``values`` in C order: one copy of the data.
+
+    Contiguous input is one ``memcpy`` (``frombytes``); a strided view (a slice, a transpose)
+    is copied once, straight into the new buffer, instead of through a contiguous temporary.
+    """
+    result = array.array("B")
+    if values.flags.c_contiguous or not values.size:
+        result.frombytes(contiguous_bytes(values))
+        return result
+    result = array.array("B", b"\0") * values.nbytes
+    target = np.frombuffer(result, values.dtype).reshape(values.shape)
+    np.copyto(target, values)
+    return result
+
+
 def filled_array(values: Any, dtype: npt.DTypeLike, path: str) -> array.array[Any]:
     """A new ``array.array`` for an rclpy sequence field holding ``values`` (one copy).
 
