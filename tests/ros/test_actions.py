@@ -145,3 +145,39 @@ def test_nested_message_action_round_trip(make_node: Any) -> None:
     assert result["isdone"] is True
     assert result["nested_field"]["int8_value"] == 3
     assert result["nested_field"]["bool_value"] is True
+
+
+def test_expired_goal_result_is_still_answered(make_node: Any) -> None:
+    from rclpy.action import ActionClient
+
+    node = make_node()
+    server = node.add_agent(
+        conn_name="quick",
+        conn_type="action_server",
+        data_interface=Fibonacci,
+        response_func=lambda goal: {"sequence": [goal["order"], 42]},
+        result_timeout=0.01,
+    )
+    node.spin(run_thread=True)
+    client = ActionClient(node.ros_node, Fibonacci, "quick")
+    assert client.wait_for_server(timeout_sec=EVENT_TIMEOUT)
+    accepted = threading.Event()
+    goal_future = client.send_goal_async(Fibonacci.Goal(order=9))
+    goal_future.add_done_callback(lambda _future: accepted.set())
+    assert accepted.wait(EVENT_TIMEOUT)
+    expired = threading.Event()
+    # The goal finishes and leaves the server's goal list; its result must stay available.
+    for _ in range(int(EVENT_TIMEOUT / 0.01)):
+        if server.goal_count == 1 and not server.server._goal_handles:
+            expired.set()
+            break
+        expired.wait(0.01)
+    assert expired.is_set()
+    answered = threading.Event()
+    result_future = goal_future.result().get_result_async()
+    result_future.add_done_callback(lambda _future: answered.set())
+    assert answered.wait(EVENT_TIMEOUT)
+    response = result_future.result()
+    assert response.status == 4  # STATUS_SUCCEEDED
+    assert list(response.result.sequence) == [9, 42]
+    client.destroy()

@@ -13,10 +13,12 @@ exception and sends a default result (rclpy#1020), so this agent catches it, abo
 client reports ``{'isdone': False, 'error': "... goal aborted by the server"}``; the text is
 in the server's log.
 
-Finished goals are kept ``result_timeout`` seconds (default 10 s instead of rclpy's 900 s):
-rclpy publishes every kept goal in each status message and walks them per goal, so goal
-latency grows with the number kept (ROS-FACTS.md: 1.5 -> 13 ms over 500 goals). A client asks
-for the result right after acceptance, so 10 s is ample.
+Finished goals leave the server's goal list after ``result_timeout`` seconds (default 0.2 s
+instead of rclpy's 900 s): every status message lists every goal kept and every client
+converts that list to Python objects several times per goal, so latency grows with the number
+kept (ROS-FACTS.md: 1.5 -> 13 ms over 500 goals). Their results stay available
+``result_cache_seconds`` (60 s) for late ``get_result`` requests
+(pyconnect.ros.retaining_action_server).
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -27,18 +29,23 @@ from __future__ import annotations
 import inspect
 from typing import TYPE_CHECKING, Any
 
-from rclpy.action import ActionServer, CancelResponse, GoalResponse
+from rclpy.action import CancelResponse, GoalResponse
 from rclpy.callback_groups import CallbackGroup, ReentrantCallbackGroup
 
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
 from pyconnect.ros.error_fields import error_message
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.retaining_action_server import RetainingActionServer
 
 if TYPE_CHECKING:
     from pyconnect.ros.custom_node import CustomNode
 
-DEFAULT_RESULT_TIMEOUT = 10.0
+DEFAULT_RESULT_TIMEOUT = 0.2
+"""Seconds a finished goal stays in the server's goal list (and every status message)."""
+
+DEFAULT_RESULT_CACHE_SECONDS = 60.0
+"""Seconds a late ``get_result`` request is still answered (retaining_action_server)."""
 
 
 class ActionServerAgent(NodeAgent):
@@ -58,6 +65,7 @@ class ActionServerAgent(NodeAgent):
         response_func: ResponseFunc | None = None,
         do_log_msg: bool = False,
         result_timeout: float = DEFAULT_RESULT_TIMEOUT,
+        result_cache_seconds: float = DEFAULT_RESULT_CACHE_SECONDS,
         callback_group: CallbackGroup | None = None,
     ) -> None:
         action_class = interface_class(data_interface, kind="action")
@@ -98,7 +106,7 @@ class ActionServerAgent(NodeAgent):
         if encode_func is None:
             _ = self.result_conversion.codec
         self.goal_count = 0
-        self.server = ActionServer(
+        self.server = RetainingActionServer(
             node.ros_node,
             action_class,
             conn_name,
@@ -107,6 +115,7 @@ class ActionServerAgent(NodeAgent):
             cancel_callback=lambda _request: CancelResponse.ACCEPT,
             callback_group=self.callback_group,
             result_timeout=result_timeout,
+            result_cache_seconds=result_cache_seconds,
         )
 
     def _execute(self, goal_handle: Any) -> Any:
