@@ -18,7 +18,8 @@ from pyconnect.codecs.message_slots import blank, field_reader, has_slot_layout,
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
 
 _ARRAYS = ("position", "velocity", "effort")
-_KEY_SET = frozenset(_ARRAYS)
+_STR_ONLY = {str}
+_DICT_ONLY = {dict}
 
 
 def _floats(values: Any) -> list[float]:
@@ -68,27 +69,31 @@ def decode_joint_state(msg: Any) -> dict[str, dict[str, float]]:
 def _fast_columns(value: Any) -> tuple[list[str], dict[str, array.array[float]]] | None:
     """Names and float columns of a well-formed joints dict, or None to take the checked path.
 
-    array('d') converts ints and floats in C and raises TypeError for anything else, which
-    sends the value to ``joint_state_fields`` for an error naming the joint.
+    The checks run in C (``map``/``set``): every joint a dict with the first joint's keys (a
+    missing key raises KeyError, an extra one changes the total length), every name a str.
+    array('d') converts ints and floats and raises TypeError for anything else. Whatever
+    fails goes to ``joint_state_fields`` for an error naming the joint.
     """
     if type(value) is not dict or not value:
         return None
     names = list(value)
+    if set(map(type, names)) != _STR_ONLY:
+        return None
     joints = list(value.values())
     first = joints[0]
     try:
         if type(first) is dict:
-            keys = first.keys()
-            if not keys <= _KEY_SET or not all(
-                type(j) is dict and j.keys() == keys for j in joints
+            keys = [k for k in _ARRAYS if k in first]
+            if (
+                set(map(type, joints)) != _DICT_ONLY
+                or len(keys) != len(first)
+                or sum(map(len, joints)) != len(keys) * len(joints)
             ):
                 return None
-            columns = {k: array.array("d", [j[k] for j in joints]) for k in _ARRAYS if k in keys}
+            columns = {k: array.array("d", [j[k] for j in joints]) for k in keys}
         else:
             columns = {"position": array.array("d", joints)}
-    except TypeError:
-        return None
-    if not all(type(n) is str for n in names):
+    except (TypeError, KeyError):
         return None
     return names, columns
 
