@@ -116,14 +116,6 @@ def _quad(value: Any, path: str) -> Quad:
     )
 
 
-def _xyz(msg: Any) -> Triple:
-    return (msg.x, msg.y, msg.z)
-
-
-def _xyzw(msg: Any) -> Quad:
-    return (msg.x, msg.y, msg.z, msg.w)
-
-
 def _xyz_fields(value: Triple) -> dict[str, float]:
     return {"x": value[0], "y": value[1], "z": value[2]}
 
