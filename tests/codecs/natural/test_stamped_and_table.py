@@ -114,3 +114,22 @@ def test_stamped_without_a_header() -> None:
     assert str(encode_error.value) == (
         "geometry_msgs/msg/Point: has no std_msgs/Header, so it cannot take a Stamped"
     )
+
+
+def test_every_natural_codec_has_a_hypothesis_round_trip() -> None:
+    from tests.codecs.natural import test_geometry, test_std_scalars
+    from tests.codecs.natural.test_arrays import DTYPES
+
+    covered = set(test_geometry.VALUES) | set(test_std_scalars.VALUES)
+    covered |= {f"std_msgs/msg/{name}" for name in DTYPES}
+    covered |= {  # their own hypothesis tests: test_image, test_compressed_image (png), …
+        "sensor_msgs/msg/Image",
+        "sensor_msgs/msg/CompressedImage",
+        "sensor_msgs/msg/PointCloud2",
+        "sensor_msgs/msg/LaserScan",
+        "sensor_msgs/msg/JointState",
+        "nav_msgs/msg/OccupancyGrid",
+        "geometry_msgs/msg/Polygon",
+        "geometry_msgs/msg/PolygonStamped",
+    }
+    assert set(NATURAL_CODECS) <= covered, sorted(set(NATURAL_CODECS) - covered)
