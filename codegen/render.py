@@ -184,6 +184,10 @@ class FromDictField:
     slow_check: str = ""
     convert: str = ""
     store: str = "value"
+    # containers: when a plain list passes ``list_check``, ``list_convert`` builds the value and
+    # raises TypeError/OverflowError/ValueError on a bad element; ``convert`` then names it.
+    list_check: str = ""
+    list_convert: str = ""
 
 
 def _scalar_field(fld: Field) -> FromDictField:
@@ -227,9 +231,14 @@ def _container_field(fld: Field, symbols: Symbols) -> FromDictField:
     if element.kind in ("string", "wstring"):
         bound = element.string_bound
         convert = f"str_list(value, {bound}, {size}, {fixed}, {segment})"
-        return FromDictField(
-            fld.name, "container", _list_default(defaults, '""', fixed, size), convert=convert
-        )
+        default = _list_default(defaults, '""', fixed, size)
+        if bound is None and not fixed and size is None:
+            # "".join() checks every element is a str in C, much faster than a Python loop.
+            return FromDictField(
+                fld.name, "container", default, convert=convert,
+                list_check="type(value) is list", list_convert="(STR_JOIN(value), value.copy())[1]",
+            )  # fmt: skip
+        return FromDictField(fld.name, "container", default, convert=convert)
     name = element.name
     if name == "bool":
         convert = f"bool_list(value, {size}, {fixed}, {segment})"
@@ -257,12 +266,24 @@ def _container_field(fld: Field, symbols: Symbols) -> FromDictField:
         return FromDictField(fld.name, "container", default, convert=convert)
     if fixed:
         convert = f'numeric_array(value, "{code}", "{dtype}", "{name}", {size}, {segment})'
+        default = _numpy_default(defaults, dtype, size)
+        if name == "float32":
+            return FromDictField(fld.name, "container", default, convert=convert)
         return FromDictField(
-            fld.name, "container", _numpy_default(defaults, dtype, size), convert=convert
-        )
+            fld.name, "container", default, convert=convert,
+            list_check=f"type(value) is list and len(value) == {size}",
+            list_convert=f'np.array(array("{code}", value), dtype=np.{dtype})',
+        )  # fmt: skip
     convert = f'numeric_sequence(value, "{code}", "{name}", {size}, {segment})'
     default = f'array("{code}", {py_literal(defaults)})' if defaults else f'array("{code}")'
-    return FromDictField(fld.name, "container", default, convert=convert)
+    if name == "float32":
+        # array("f") turns out-of-range doubles into inf silently: always take the checked path.
+        return FromDictField(fld.name, "container", default, convert=convert)
+    bounded = f" and len(value) <= {size}" if size is not None else ""
+    return FromDictField(
+        fld.name, "container", default, convert=convert,
+        list_check=f"type(value) is list{bounded}", list_convert=f'array("{code}", value)',
+    )  # fmt: skip
 
 
 def _list_default(

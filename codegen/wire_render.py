@@ -26,10 +26,9 @@ from codegen.ir import (
     TypeSet,
 )
 
-# Decoding a bool with "?" gives True for any non-zero byte (as rclpy does); encoding packs it
-# with "B", so that only ints and bools pass the fast path and anything else is checked.
+# Decoding a bool with "?" gives True for any non-zero byte (as rclpy does).
 _DECODE_CODES = dict(STRUCT_CODES)
-_ENCODE_CODES = {**STRUCT_CODES, "bool": "B"}
+_ENCODE_CODES = dict(STRUCT_CODES)
 
 
 def symbol(full_name: str) -> str:
@@ -254,6 +253,13 @@ class Planner:
 
     def primitive(self, kind: str, segment: str, source: str) -> str:
         size = PRIMITIVE_SIZES[kind]
+        if kind == "bool":
+            # struct's "?" packs any object by its truth: only real bools pass unchecked.
+            held = self.local("t")
+            source = (
+                f"({held} if ({held} := {source}).__class__ is bool "
+                f'else check_bool({held}, "{segment}"))'
+            )
         self.align(size)
         target = self.local("v")
         self.item(RunItem(segment, kind, size, target, source))

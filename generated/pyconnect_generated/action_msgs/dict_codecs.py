@@ -63,6 +63,7 @@ CancelGoal_Response = _action_msgs__srv__CancelGoal.Response
 CancelGoal_Event = _action_msgs__srv__CancelGoal.Event
 
 EMPTY: Mapping[str, Any] = {}
+STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"

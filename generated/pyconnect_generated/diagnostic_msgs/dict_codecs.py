@@ -72,6 +72,7 @@ SelfTest_Response = _diagnostic_msgs__srv__SelfTest.Response
 SelfTest_Event = _diagnostic_msgs__srv__SelfTest.Event
 
 EMPTY: Mapping[str, Any] = {}
+STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"

@@ -45,7 +45,7 @@ from pyconnect.codecs.cdr_runtime import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import FieldError, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import FieldError, check_bool, check_mapping, unknown_keys
 
 _new = object.__new__
 _frombuffer = np.frombuffer
@@ -804,43 +804,43 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R9
-            v1, = _S4.unpack_from(mv, pos)
+            v2, = _S4.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R10
-            v3, = _S2.unpack_from(mv, pos)
+            v4, = _S2.unpack_from(mv, pos)
             pos += 4
             f = ".message"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
-            pos += v3
+            if v4 > lim - pos:
+                raise too_long(v4, 1, lim - pos)
+            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"success": v1, "message": v4}, pos
+        return {"success": v2, "message": v5}, pos
 
     def decode_view_diagnostic_msgs__srv__AddDiagnostics_Response(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R9
-            v1, = _S4.unpack_from(mv, pos)
+            v2, = _S4.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R10
-            v3, = _S2.unpack_from(mv, pos)
+            v4, = _S2.unpack_from(mv, pos)
             pos += 4
             f = ".message"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
-            pos += v3
+            if v4 > lim - pos:
+                raise too_long(v4, 1, lim - pos)
+            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_diagnostic_msgs__srv__AddDiagnostics_Response(v1, v4), pos
+        return make_diagnostic_msgs__srv__AddDiagnostics_Response(v2, v5), pos
 
     def encode_diagnostic_msgs__srv__AddDiagnostics_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -848,12 +848,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             if d.__class__ is not dict or not _K_diagnostic_msgs__srv__AddDiagnostics_Response.issuperset(d):
                 d = _submap(d, _K_diagnostic_msgs__srv__AddDiagnostics_Response)
             f = ".message"
-            b2 = utf8z(d.get("message", ""), None)
+            b3 = utf8z(d.get("message", ""), None)
             f = ""
             try:
-                out.append(_S3.pack(d.get("success", False)))
+                out.append(_S4.pack((t1 if (t1 := d.get("success", False)).__class__ is bool else check_bool(t1, ".success"))))
             except Exception:
-                out.append(slow_pack(_S3, _R9, (d.get("success", False),)))
+                out.append(slow_pack(_S4, _R9, ((t1 if (t1 := d.get("success", False)).__class__ is bool else check_bool(t1, ".success")),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -861,12 +861,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S2.pack(len(b2)))
+                out.append(_S2.pack(len(b3)))
             except Exception:
-                out.append(slow_pack(_S2, _R10, (len(b2),)))
+                out.append(slow_pack(_S2, _R10, (len(b3),)))
             pos += 4
-            out.append(b2)
-            pos += len(b2)
+            out.append(b3)
+            pos += len(b3)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:

@@ -138,6 +138,7 @@ from geometry_msgs.msg import WrenchStamped
 
 
 EMPTY: Mapping[str, Any] = {}
+STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -272,7 +273,15 @@ def accel_with_covariance_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".accel") from None
         value = data.get("covariance", MISSING)
-        msg._covariance = np.zeros(36, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 36, ".covariance")
+        if value is MISSING:
+            msg._covariance = np.zeros(36, dtype=np.float64)
+        elif type(value) is list and len(value) == 36:
+            try:
+                msg._covariance = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._covariance = numeric_array(value, "d", "float64", "float64", 36, ".covariance")
+        else:
+            msg._covariance = numeric_array(value, "d", "float64", "float64", 36, ".covariance")
     except FieldError as error:
         error.root = "AccelWithCovariance"
         raise
@@ -978,7 +987,15 @@ def pose_with_covariance_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".pose") from None
         value = data.get("covariance", MISSING)
-        msg._covariance = np.zeros(36, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 36, ".covariance")
+        if value is MISSING:
+            msg._covariance = np.zeros(36, dtype=np.float64)
+        elif type(value) is list and len(value) == 36:
+            try:
+                msg._covariance = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._covariance = numeric_array(value, "d", "float64", "float64", 36, ".covariance")
+        else:
+            msg._covariance = numeric_array(value, "d", "float64", "float64", 36, ".covariance")
     except FieldError as error:
         error.root = "PoseWithCovariance"
         raise
@@ -1358,7 +1375,15 @@ def twist_with_covariance_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".twist") from None
         value = data.get("covariance", MISSING)
-        msg._covariance = np.zeros(36, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 36, ".covariance")
+        if value is MISSING:
+            msg._covariance = np.zeros(36, dtype=np.float64)
+        elif type(value) is list and len(value) == 36:
+            try:
+                msg._covariance = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._covariance = numeric_array(value, "d", "float64", "float64", 36, ".covariance")
+        else:
+            msg._covariance = numeric_array(value, "d", "float64", "float64", 36, ".covariance")
     except FieldError as error:
         error.root = "TwistWithCovariance"
         raise

@@ -68,7 +68,7 @@ from pyconnect.codecs.cdr_runtime import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import FieldError, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import FieldError, check_bool, check_mapping, unknown_keys
 
 _new = object.__new__
 _frombuffer = np.frombuffer

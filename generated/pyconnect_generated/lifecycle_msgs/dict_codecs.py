@@ -94,6 +94,7 @@ GetState_Response = _lifecycle_msgs__srv__GetState.Response
 GetState_Event = _lifecycle_msgs__srv__GetState.Event
 
 EMPTY: Mapping[str, Any] = {}
+STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"

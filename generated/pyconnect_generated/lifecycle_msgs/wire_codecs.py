@@ -52,7 +52,7 @@ from pyconnect.codecs.cdr_runtime import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import FieldError, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import FieldError, check_bool, check_mapping, unknown_keys
 
 _new = object.__new__
 _frombuffer = np.frombuffer
@@ -762,25 +762,25 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R5
-            v1, = _S3.unpack_from(mv, pos)
+            v2, = _S3.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"success": v1}, pos
+        return {"success": v2}, pos
 
     def decode_view_lifecycle_msgs__srv__ChangeState_Response(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R5
-            v1, = _S3.unpack_from(mv, pos)
+            v2, = _S3.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__srv__ChangeState_Response(v1), pos
+        return make_lifecycle_msgs__srv__ChangeState_Response(v2), pos
 
     def encode_lifecycle_msgs__srv__ChangeState_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -789,9 +789,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_lifecycle_msgs__srv__ChangeState_Response)
             f = ""
             try:
-                out.append(_S0.pack(d.get("success", False)))
+                out.append(_S3.pack((t1 if (t1 := d.get("success", False)).__class__ is bool else check_bool(t1, ".success"))))
             except Exception:
-                out.append(slow_pack(_S0, _R5, (d.get("success", False),)))
+                out.append(slow_pack(_S3, _R5, ((t1 if (t1 := d.get("success", False)).__class__ is bool else check_bool(t1, ".success")),)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None

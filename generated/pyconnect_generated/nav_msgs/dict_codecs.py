@@ -108,6 +108,7 @@ SetMap_Response = _nav_msgs__srv__SetMap.Response
 SetMap_Event = _nav_msgs__srv__SetMap.Event
 
 EMPTY: Mapping[str, Any] = {}
+STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -351,7 +352,15 @@ def occupancy_grid_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".info") from None
         value = data.get("data", MISSING)
-        msg._data = array("b") if value is MISSING else numeric_sequence(value, "b", "int8", None, ".data")
+        if value is MISSING:
+            msg._data = array("b")
+        elif type(value) is list:
+            try:
+                msg._data = array("b", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._data = numeric_sequence(value, "b", "int8", None, ".data")
+        else:
+            msg._data = numeric_sequence(value, "b", "int8", None, ".data")
     except FieldError as error:
         error.root = "OccupancyGrid"
         raise

@@ -54,7 +54,7 @@ from pyconnect.codecs.cdr_runtime import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import FieldError, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import FieldError, check_bool, check_mapping, unknown_keys
 
 _new = object.__new__
 _frombuffer = np.frombuffer
@@ -2664,25 +2664,25 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R35
-            v1, = _S14.unpack_from(mv, pos)
+            v2, = _S14.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"success": v1}, pos
+        return {"success": v2}, pos
 
     def decode_view_nav_msgs__srv__SetMap_Response(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R35
-            v1, = _S14.unpack_from(mv, pos)
+            v2, = _S14.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__srv__SetMap_Response(v1), pos
+        return make_nav_msgs__srv__SetMap_Response(v2), pos
 
     def encode_nav_msgs__srv__SetMap_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2691,9 +2691,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_nav_msgs__srv__SetMap_Response)
             f = ""
             try:
-                out.append(_S11.pack(d.get("success", False)))
+                out.append(_S14.pack((t1 if (t1 := d.get("success", False)).__class__ is bool else check_bool(t1, ".success"))))
             except Exception:
-                out.append(slow_pack(_S11, _R35, (d.get("success", False),)))
+                out.append(slow_pack(_S14, _R35, ((t1 if (t1 := d.get("success", False)).__class__ is bool else check_bool(t1, ".success")),)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None

@@ -162,6 +162,7 @@ SetParametersAtomically_Response = _rcl_interfaces__srv__SetParametersAtomically
 SetParametersAtomically_Event = _rcl_interfaces__srv__SetParametersAtomically.Event
 
 EMPTY: Mapping[str, Any] = {}
+STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -266,9 +267,25 @@ def list_parameters_result_from_dict(data: Mapping[str, Any]) -> Any:
         msg = ListParametersResult.__new__(ListParametersResult)
         msg._check_fields = CHECK_FIELDS
         value = data.get("names", MISSING)
-        msg._names = [] if value is MISSING else str_list(value, None, None, False, ".names")
+        if value is MISSING:
+            msg._names = []
+        elif type(value) is list:
+            try:
+                msg._names = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._names = str_list(value, None, None, False, ".names")
+        else:
+            msg._names = str_list(value, None, None, False, ".names")
         value = data.get("prefixes", MISSING)
-        msg._prefixes = [] if value is MISSING else str_list(value, None, None, False, ".prefixes")
+        if value is MISSING:
+            msg._prefixes = []
+        elif type(value) is list:
+            try:
+                msg._prefixes = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._prefixes = str_list(value, None, None, False, ".prefixes")
+        else:
+            msg._prefixes = str_list(value, None, None, False, ".prefixes")
     except FieldError as error:
         error.root = "ListParametersResult"
         raise
@@ -774,11 +791,35 @@ def parameter_value_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("bool_array_value", MISSING)
         msg._bool_array_value = [] if value is MISSING else bool_list(value, None, False, ".bool_array_value")
         value = data.get("integer_array_value", MISSING)
-        msg._integer_array_value = array("q") if value is MISSING else numeric_sequence(value, "q", "int64", None, ".integer_array_value")
+        if value is MISSING:
+            msg._integer_array_value = array("q")
+        elif type(value) is list:
+            try:
+                msg._integer_array_value = array("q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._integer_array_value = numeric_sequence(value, "q", "int64", None, ".integer_array_value")
+        else:
+            msg._integer_array_value = numeric_sequence(value, "q", "int64", None, ".integer_array_value")
         value = data.get("double_array_value", MISSING)
-        msg._double_array_value = array("d") if value is MISSING else numeric_sequence(value, "d", "float64", None, ".double_array_value")
+        if value is MISSING:
+            msg._double_array_value = array("d")
+        elif type(value) is list:
+            try:
+                msg._double_array_value = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._double_array_value = numeric_sequence(value, "d", "float64", None, ".double_array_value")
+        else:
+            msg._double_array_value = numeric_sequence(value, "d", "float64", None, ".double_array_value")
         value = data.get("string_array_value", MISSING)
-        msg._string_array_value = [] if value is MISSING else str_list(value, None, None, False, ".string_array_value")
+        if value is MISSING:
+            msg._string_array_value = []
+        elif type(value) is list:
+            try:
+                msg._string_array_value = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._string_array_value = str_list(value, None, None, False, ".string_array_value")
+        else:
+            msg._string_array_value = str_list(value, None, None, False, ".string_array_value")
     except FieldError as error:
         error.root = "ParameterValue"
         raise
@@ -873,7 +914,15 @@ def describe_parameters_request_from_dict(data: Mapping[str, Any]) -> Any:
         msg = DescribeParameters_Request.__new__(DescribeParameters_Request)
         msg._check_fields = CHECK_FIELDS
         value = data.get("names", MISSING)
-        msg._names = [] if value is MISSING else str_list(value, None, None, False, ".names")
+        if value is MISSING:
+            msg._names = []
+        elif type(value) is list:
+            try:
+                msg._names = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._names = str_list(value, None, None, False, ".names")
+        else:
+            msg._names = str_list(value, None, None, False, ".names")
     except FieldError as error:
         error.root = "DescribeParameters_Request"
         raise
@@ -1032,7 +1081,15 @@ def get_logger_levels_request_from_dict(data: Mapping[str, Any]) -> Any:
         msg = GetLoggerLevels_Request.__new__(GetLoggerLevels_Request)
         msg._check_fields = CHECK_FIELDS
         value = data.get("names", MISSING)
-        msg._names = [] if value is MISSING else str_list(value, None, None, False, ".names")
+        if value is MISSING:
+            msg._names = []
+        elif type(value) is list:
+            try:
+                msg._names = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._names = str_list(value, None, None, False, ".names")
+        else:
+            msg._names = str_list(value, None, None, False, ".names")
     except FieldError as error:
         error.root = "GetLoggerLevels_Request"
         raise
@@ -1151,7 +1208,15 @@ def get_parameter_types_request_from_dict(data: Mapping[str, Any]) -> Any:
         msg = GetParameterTypes_Request.__new__(GetParameterTypes_Request)
         msg._check_fields = CHECK_FIELDS
         value = data.get("names", MISSING)
-        msg._names = [] if value is MISSING else str_list(value, None, None, False, ".names")
+        if value is MISSING:
+            msg._names = []
+        elif type(value) is list:
+            try:
+                msg._names = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._names = str_list(value, None, None, False, ".names")
+        else:
+            msg._names = str_list(value, None, None, False, ".names")
     except FieldError as error:
         error.root = "GetParameterTypes_Request"
         raise
@@ -1258,7 +1323,15 @@ def get_parameters_request_from_dict(data: Mapping[str, Any]) -> Any:
         msg = GetParameters_Request.__new__(GetParameters_Request)
         msg._check_fields = CHECK_FIELDS
         value = data.get("names", MISSING)
-        msg._names = [] if value is MISSING else str_list(value, None, None, False, ".names")
+        if value is MISSING:
+            msg._names = []
+        elif type(value) is list:
+            try:
+                msg._names = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._names = str_list(value, None, None, False, ".names")
+        else:
+            msg._names = str_list(value, None, None, False, ".names")
     except FieldError as error:
         error.root = "GetParameters_Request"
         raise
@@ -1394,7 +1467,15 @@ def list_parameters_request_from_dict(data: Mapping[str, Any]) -> Any:
         msg = ListParameters_Request.__new__(ListParameters_Request)
         msg._check_fields = CHECK_FIELDS
         value = data.get("prefixes", MISSING)
-        msg._prefixes = [] if value is MISSING else str_list(value, None, None, False, ".prefixes")
+        if value is MISSING:
+            msg._prefixes = []
+        elif type(value) is list:
+            try:
+                msg._prefixes = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._prefixes = str_list(value, None, None, False, ".prefixes")
+        else:
+            msg._prefixes = str_list(value, None, None, False, ".prefixes")
         value = data.get("depth", 0)
         if type(value) is not int or not 0 <= value <= 18446744073709551615:
             value = check_int(value, 0, 18446744073709551615, "uint64", ".depth")

@@ -73,7 +73,7 @@ from pyconnect.codecs.cdr_runtime import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import FieldError, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import FieldError, check_bool, check_mapping, unknown_keys
 
 _new = object.__new__
 _frombuffer = np.frombuffer
@@ -955,15 +955,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _S3 = Struct(E + "iIB3xI")
     _S4 = Struct(E + "I")
     _S5 = Struct(E + "B?")
-    _S6 = Struct(E + "2B")
-    _S7 = Struct(E + "qdI")
-    _S8 = Struct(E + "B")
-    _S9 = Struct(E + "2?")
-    _S10 = Struct(E + "i2I")
-    _S11 = Struct(E + "1x")
-    _S12 = Struct(E + "?")
-    _S13 = Struct(E + "q")
-    _S14 = Struct(E + "Q")
+    _S6 = Struct(E + "qdI")
+    _S7 = Struct(E + "B")
+    _S8 = Struct(E + "2?")
+    _S9 = Struct(E + "i2I")
+    _S10 = Struct(E + "1x")
+    _S11 = Struct(E + "?")
+    _S12 = Struct(E + "q")
+    _S13 = Struct(E + "Q")
     _D_bool = np.dtype("bool").newbyteorder(E)
     _D_float64 = np.dtype("float64").newbyteorder(E)
     _D_int64 = np.dtype("int64").newbyteorder(E)
@@ -1421,129 +1420,129 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R10
-            v1, v2 = _S5.unpack_from(mv, pos)
+            v1, v3 = _S5.unpack_from(mv, pos)
             pos += 2
             pos = (pos + 7) & -8
             f = _R11
-            v3, v4, v6 = _S7.unpack_from(mv, pos)
+            v4, v5, v7 = _S6.unpack_from(mv, pos)
             pos += 20
             f = ".string_value"
-            if v6 > lim - pos:
-                raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
-            pos += v6
+            if v7 > lim - pos:
+                raise too_long(v7, 1, lim - pos)
+            v8 = str(mv[pos : pos + v7 - 1], "utf-8")
+            pos += v7
             pos = (pos + 3) & -4
             f = _R12
-            v10, = _S4.unpack_from(mv, pos)
+            v11, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".byte_array_value"
-            if v10 * 1 > lim - pos:
-                raise too_long(v10, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, v10, pos)
-            pos += v10 * 1
+            if v11 * 1 > lim - pos:
+                raise too_long(v11, 1, lim - pos)
+            v12 = _frombuffer(mv, _D_uint8, v11, pos)
+            pos += v11 * 1
             pos = (pos + 3) & -4
             f = _R13
-            v14, = _S4.unpack_from(mv, pos)
+            v15, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".bool_array_value"
-            if v14 * 1 > lim - pos:
-                raise too_long(v14, 1, lim - pos)
-            v15 = read_bools(mv, pos, v14)
-            pos += v14 * 1
+            if v15 * 1 > lim - pos:
+                raise too_long(v15, 1, lim - pos)
+            v16 = read_bools(mv, pos, v15)
+            pos += v15 * 1
             pos = (pos + 3) & -4
             f = _R14
-            v18, = _S4.unpack_from(mv, pos)
+            v19, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".integer_array_value"
-            if v18:
+            if v19:
                 pos = (pos + 7) & -8
-            if v18 * 8 > lim - pos:
-                raise too_long(v18, 8, lim - pos)
-            v19 = _frombuffer(mv, _D_int64, v18, pos)
-            pos += v18 * 8
+            if v19 * 8 > lim - pos:
+                raise too_long(v19, 8, lim - pos)
+            v20 = _frombuffer(mv, _D_int64, v19, pos)
+            pos += v19 * 8
             f = _R15
-            v22, = _S4.unpack_from(mv, pos)
+            v23, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".double_array_value"
-            if v22:
+            if v23:
                 pos = (pos + 7) & -8
-            if v22 * 8 > lim - pos:
-                raise too_long(v22, 8, lim - pos)
-            v23 = _frombuffer(mv, _D_float64, v22, pos)
-            pos += v22 * 8
+            if v23 * 8 > lim - pos:
+                raise too_long(v23, 8, lim - pos)
+            v24 = _frombuffer(mv, _D_float64, v23, pos)
+            pos += v23 * 8
             f = ".string_array_value"
-            v24, pos = read_strings(
+            v25, pos = read_strings(
                 mv, pos, lim, _U32, None, None, None, False
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"type": v1, "bool_value": v2, "integer_value": v3, "double_value": v4, "string_value": v7, "byte_array_value": v11, "bool_array_value": v15, "integer_array_value": v19, "double_array_value": v23, "string_array_value": v24}, pos
+        return {"type": v1, "bool_value": v3, "integer_value": v4, "double_value": v5, "string_value": v8, "byte_array_value": v12, "bool_array_value": v16, "integer_array_value": v20, "double_array_value": v24, "string_array_value": v25}, pos
 
     def decode_view_rcl_interfaces__msg__ParameterValue(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R10
-            v1, v2 = _S5.unpack_from(mv, pos)
+            v1, v3 = _S5.unpack_from(mv, pos)
             pos += 2
             pos = (pos + 7) & -8
             f = _R11
-            v3, v4, v6 = _S7.unpack_from(mv, pos)
+            v4, v5, v7 = _S6.unpack_from(mv, pos)
             pos += 20
             f = ".string_value"
-            if v6 > lim - pos:
-                raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
-            pos += v6
+            if v7 > lim - pos:
+                raise too_long(v7, 1, lim - pos)
+            v8 = str(mv[pos : pos + v7 - 1], "utf-8")
+            pos += v7
             pos = (pos + 3) & -4
             f = _R12
-            v10, = _S4.unpack_from(mv, pos)
+            v11, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".byte_array_value"
-            if v10 * 1 > lim - pos:
-                raise too_long(v10, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, v10, pos)
-            pos += v10 * 1
+            if v11 * 1 > lim - pos:
+                raise too_long(v11, 1, lim - pos)
+            v12 = _frombuffer(mv, _D_uint8, v11, pos)
+            pos += v11 * 1
             pos = (pos + 3) & -4
             f = _R13
-            v14, = _S4.unpack_from(mv, pos)
+            v15, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".bool_array_value"
-            if v14 * 1 > lim - pos:
-                raise too_long(v14, 1, lim - pos)
-            v15 = read_bools(mv, pos, v14)
-            pos += v14 * 1
+            if v15 * 1 > lim - pos:
+                raise too_long(v15, 1, lim - pos)
+            v16 = read_bools(mv, pos, v15)
+            pos += v15 * 1
             pos = (pos + 3) & -4
             f = _R14
-            v18, = _S4.unpack_from(mv, pos)
+            v19, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".integer_array_value"
-            if v18:
+            if v19:
                 pos = (pos + 7) & -8
-            if v18 * 8 > lim - pos:
-                raise too_long(v18, 8, lim - pos)
-            v19 = _frombuffer(mv, _D_int64, v18, pos)
-            pos += v18 * 8
+            if v19 * 8 > lim - pos:
+                raise too_long(v19, 8, lim - pos)
+            v20 = _frombuffer(mv, _D_int64, v19, pos)
+            pos += v19 * 8
             f = _R15
-            v22, = _S4.unpack_from(mv, pos)
+            v23, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".double_array_value"
-            if v22:
+            if v23:
                 pos = (pos + 7) & -8
-            if v22 * 8 > lim - pos:
-                raise too_long(v22, 8, lim - pos)
-            v23 = _frombuffer(mv, _D_float64, v22, pos)
-            pos += v22 * 8
+            if v23 * 8 > lim - pos:
+                raise too_long(v23, 8, lim - pos)
+            v24 = _frombuffer(mv, _D_float64, v23, pos)
+            pos += v23 * 8
             f = ".string_array_value"
-            v24, pos = read_strings(
+            v25, pos = read_strings(
                 mv, pos, lim, _U32, None, None, None, False
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__ParameterValue(v1, v2, v3, v4, v7, v11, v15, v19, v23, v24), pos
+        return make_rcl_interfaces__msg__ParameterValue(v1, v3, v4, v5, v8, v12, v16, v20, v24, v25), pos
 
     def encode_rcl_interfaces__msg__ParameterValue(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1552,86 +1551,86 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_rcl_interfaces__msg__ParameterValue)
             f = ""
             try:
-                out.append(_S6.pack(d.get("type", 0), d.get("bool_value", False)))
+                out.append(_S5.pack(d.get("type", 0), (t2 if (t2 := d.get("bool_value", False)).__class__ is bool else check_bool(t2, ".bool_value"))))
             except Exception:
-                out.append(slow_pack(_S6, _R10, (d.get("type", 0), d.get("bool_value", False),)))
+                out.append(slow_pack(_S5, _R10, (d.get("type", 0), (t2 if (t2 := d.get("bool_value", False)).__class__ is bool else check_bool(t2, ".bool_value")),)))
             pos += 2
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".string_value"
-            b5 = utf8z(d.get("string_value", ""), None)
+            b6 = utf8z(d.get("string_value", ""), None)
             f = ""
             try:
-                out.append(_S7.pack(d.get("integer_value", 0), d.get("double_value", 0.0), len(b5)))
+                out.append(_S6.pack(d.get("integer_value", 0), d.get("double_value", 0.0), len(b6)))
             except Exception:
-                out.append(slow_pack(_S7, _R11, (d.get("integer_value", 0), d.get("double_value", 0.0), len(b5),)))
+                out.append(slow_pack(_S6, _R11, (d.get("integer_value", 0), d.get("double_value", 0.0), len(b6),)))
             pos += 20
-            out.append(b5)
-            pos += len(b5)
+            out.append(b6)
+            pos += len(b6)
             f = ".byte_array_value"
-            b8, c9 = encode_array(d.get("byte_array_value", ()), _D_uint8, "byte", None, False)
+            b9, c10 = encode_array(d.get("byte_array_value", ()), _D_uint8, "byte", None, False)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(c9))
+                out.append(_S4.pack(c10))
             except Exception:
-                out.append(slow_pack(_S4, _R12, (c9,)))
+                out.append(slow_pack(_S4, _R12, (c10,)))
             pos += 4
-            out.append(b8)
-            pos += c9 * 1
+            out.append(b9)
+            pos += c10 * 1
             f = ".bool_array_value"
-            b12, c13 = encode_bools(d.get("bool_array_value", ()), _D_bool, "bool", None, False)
+            b13, c14 = encode_bools(d.get("bool_array_value", ()), _D_bool, "bool", None, False)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(c13))
+                out.append(_S4.pack(c14))
             except Exception:
-                out.append(slow_pack(_S4, _R13, (c13,)))
+                out.append(slow_pack(_S4, _R13, (c14,)))
             pos += 4
-            out.append(b12)
-            pos += c13 * 1
+            out.append(b13)
+            pos += c14 * 1
             f = ".integer_array_value"
-            b16, c17 = encode_array(d.get("integer_array_value", ()), _D_int64, "int64", None, False)
+            b17, c18 = encode_array(d.get("integer_array_value", ()), _D_int64, "int64", None, False)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(c17))
+                out.append(_S4.pack(c18))
             except Exception:
-                out.append(slow_pack(_S4, _R14, (c17,)))
+                out.append(slow_pack(_S4, _R14, (c18,)))
             pos += 4
-            if c17:
+            if c18:
                 p = -pos & 7
                 if p:
                     out.append(ZEROS[p])
                     pos += p
-            out.append(b16)
-            pos += c17 * 8
+            out.append(b17)
+            pos += c18 * 8
             f = ".double_array_value"
-            b20, c21 = encode_array(d.get("double_array_value", ()), _D_float64, "float64", None, False)
+            b21, c22 = encode_array(d.get("double_array_value", ()), _D_float64, "float64", None, False)
             f = ""
             try:
-                out.append(_S4.pack(c21))
+                out.append(_S4.pack(c22))
             except Exception:
-                out.append(slow_pack(_S4, _R15, (c21,)))
+                out.append(slow_pack(_S4, _R15, (c22,)))
             pos += 4
-            if c21:
+            if c22:
                 p = -pos & 7
                 if p:
                     out.append(ZEROS[p])
                     pos += p
-            out.append(b20)
-            pos += c21 * 8
+            out.append(b21)
+            pos += c22 * 8
             f = ".string_array_value"
             pos = write_strings(d.get("string_array_value", ()), out, pos, _U32, None, False, None, False)
         except FieldError as error:
@@ -1720,7 +1719,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v3 = str(mv[pos : pos + v2 - 1], "utf-8")
             pos += v2
             f = _R18
-            v4, = _S8.unpack_from(mv, pos)
+            v4, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R19
@@ -1741,21 +1740,21 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v10 = str(mv[pos : pos + v9 - 1], "utf-8")
             pos += v9
             f = _R21
-            v11, v12 = _S9.unpack_from(mv, pos)
+            v12, v14 = _S8.unpack_from(mv, pos)
             pos += 2
             f = ".floating_point_range"
-            v13, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, decode_dict_rcl_interfaces__msg__FloatingPointRange, None, 1, 24
             )
             f = ".integer_range"
-            v14, pos = read_messages(
+            v16, pos = read_messages(
                 mv, pos, lim, _U32, decode_dict_rcl_interfaces__msg__IntegerRange, None, 1, 24
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"name": v3, "type": v4, "description": v7, "additional_constraints": v10, "read_only": v11, "dynamic_typing": v12, "floating_point_range": v13, "integer_range": v14}, pos
+        return {"name": v3, "type": v4, "description": v7, "additional_constraints": v10, "read_only": v12, "dynamic_typing": v14, "floating_point_range": v15, "integer_range": v16}, pos
 
     def decode_view_rcl_interfaces__msg__ParameterDescriptor(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
@@ -1770,7 +1769,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v3 = str(mv[pos : pos + v2 - 1], "utf-8")
             pos += v2
             f = _R18
-            v4, = _S8.unpack_from(mv, pos)
+            v4, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R19
@@ -1791,21 +1790,21 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v10 = str(mv[pos : pos + v9 - 1], "utf-8")
             pos += v9
             f = _R21
-            v11, v12 = _S9.unpack_from(mv, pos)
+            v12, v14 = _S8.unpack_from(mv, pos)
             pos += 2
             f = ".floating_point_range"
-            v13, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, decode_view_rcl_interfaces__msg__FloatingPointRange, None, 1, 24
             )
             f = ".integer_range"
-            v14, pos = read_messages(
+            v16, pos = read_messages(
                 mv, pos, lim, _U32, decode_view_rcl_interfaces__msg__IntegerRange, None, 1, 24
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__ParameterDescriptor(v3, v4, v7, v10, v11, v12, v13, v14), pos
+        return make_rcl_interfaces__msg__ParameterDescriptor(v3, v4, v7, v10, v12, v14, v15, v16), pos
 
     def encode_rcl_interfaces__msg__ParameterDescriptor(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1830,9 +1829,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b5 = utf8z(d.get("description", ""), None)
             f = ""
             try:
-                out.append(_S8.pack(d.get("type", 0)))
+                out.append(_S7.pack(d.get("type", 0)))
             except Exception:
-                out.append(slow_pack(_S8, _R18, (d.get("type", 0),)))
+                out.append(slow_pack(_S7, _R18, (d.get("type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -1862,9 +1861,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += len(b8)
             f = ""
             try:
-                out.append(_S6.pack(d.get("read_only", False), d.get("dynamic_typing", False)))
+                out.append(_S8.pack((t11 if (t11 := d.get("read_only", False)).__class__ is bool else check_bool(t11, ".read_only")), (t13 if (t13 := d.get("dynamic_typing", False)).__class__ is bool else check_bool(t13, ".dynamic_typing"))))
             except Exception:
-                out.append(slow_pack(_S6, _R21, (d.get("read_only", False), d.get("dynamic_typing", False),)))
+                out.append(slow_pack(_S8, _R21, ((t11 if (t11 := d.get("read_only", False)).__class__ is bool else check_bool(t11, ".read_only")), (t13 if (t13 := d.get("dynamic_typing", False)).__class__ is bool else check_bool(t13, ".dynamic_typing")),)))
             pos += 2
             f = ".floating_point_range"
             pos = write_messages(d.get("floating_point_range", ()), out, pos, _U32, encode_rcl_interfaces__msg__FloatingPointRange, 1, False)
@@ -1881,7 +1880,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R22
-            v2, v3, v5 = _S10.unpack_from(mv, pos)
+            v2, v3, v5 = _S9.unpack_from(mv, pos)
             pos += 12
             f = ".node"
             if v5 > lim - pos:
@@ -1911,7 +1910,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R22
-            v2, v3, v5 = _S10.unpack_from(mv, pos)
+            v2, v3, v5 = _S9.unpack_from(mv, pos)
             pos += 12
             f = ".node"
             if v5 > lim - pos:
@@ -1953,9 +1952,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b4 = utf8z(d.get("node", ""), None)
             f = ""
             try:
-                out.append(_S10.pack(m1.get("sec", 0), m1.get("nanosec", 0), len(b4)))
+                out.append(_S9.pack(m1.get("sec", 0), m1.get("nanosec", 0), len(b4)))
             except Exception:
-                out.append(slow_pack(_S10, _R22, (m1.get("sec", 0), m1.get("nanosec", 0), len(b4),)))
+                out.append(slow_pack(_S9, _R22, (m1.get("sec", 0), m1.get("nanosec", 0), len(b4),)))
             pos += 12
             out.append(b4)
             pos += len(b4)
@@ -2034,7 +2033,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R23
-            _S11.unpack_from(mv, pos)
+            _S10.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2046,7 +2045,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R23
-            _S11.unpack_from(mv, pos)
+            _S10.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2061,9 +2060,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_rcl_interfaces__msg__ParameterType)
             f = ""
             try:
-                out.append(_S11.pack())
+                out.append(_S10.pack())
             except Exception:
-                out.append(slow_pack(_S11, _R23, ()))
+                out.append(slow_pack(_S10, _R23, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -2075,43 +2074,43 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R24
-            v1, = _S12.unpack_from(mv, pos)
+            v2, = _S11.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R25
-            v3, = _S4.unpack_from(mv, pos)
+            v4, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".reason"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
-            pos += v3
+            if v4 > lim - pos:
+                raise too_long(v4, 1, lim - pos)
+            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"successful": v1, "reason": v4}, pos
+        return {"successful": v2, "reason": v5}, pos
 
     def decode_view_rcl_interfaces__msg__SetLoggerLevelsResult(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R24
-            v1, = _S12.unpack_from(mv, pos)
+            v2, = _S11.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R25
-            v3, = _S4.unpack_from(mv, pos)
+            v4, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".reason"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
-            pos += v3
+            if v4 > lim - pos:
+                raise too_long(v4, 1, lim - pos)
+            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__SetLoggerLevelsResult(v1, v4), pos
+        return make_rcl_interfaces__msg__SetLoggerLevelsResult(v2, v5), pos
 
     def encode_rcl_interfaces__msg__SetLoggerLevelsResult(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2119,12 +2118,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             if d.__class__ is not dict or not _K_rcl_interfaces__msg__SetLoggerLevelsResult.issuperset(d):
                 d = _submap(d, _K_rcl_interfaces__msg__SetLoggerLevelsResult)
             f = ".reason"
-            b2 = utf8z(d.get("reason", ""), None)
+            b3 = utf8z(d.get("reason", ""), None)
             f = ""
             try:
-                out.append(_S8.pack(d.get("successful", False)))
+                out.append(_S11.pack((t1 if (t1 := d.get("successful", False)).__class__ is bool else check_bool(t1, ".successful"))))
             except Exception:
-                out.append(slow_pack(_S8, _R24, (d.get("successful", False),)))
+                out.append(slow_pack(_S11, _R24, ((t1 if (t1 := d.get("successful", False)).__class__ is bool else check_bool(t1, ".successful")),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -2132,12 +2131,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(len(b2)))
+                out.append(_S4.pack(len(b3)))
             except Exception:
-                out.append(slow_pack(_S4, _R25, (len(b2),)))
+                out.append(slow_pack(_S4, _R25, (len(b3),)))
             pos += 4
-            out.append(b2)
-            pos += len(b2)
+            out.append(b3)
+            pos += len(b3)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2148,43 +2147,43 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R26
-            v1, = _S12.unpack_from(mv, pos)
+            v2, = _S11.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R27
-            v3, = _S4.unpack_from(mv, pos)
+            v4, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".reason"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
-            pos += v3
+            if v4 > lim - pos:
+                raise too_long(v4, 1, lim - pos)
+            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"successful": v1, "reason": v4}, pos
+        return {"successful": v2, "reason": v5}, pos
 
     def decode_view_rcl_interfaces__msg__SetParametersResult(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R26
-            v1, = _S12.unpack_from(mv, pos)
+            v2, = _S11.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R27
-            v3, = _S4.unpack_from(mv, pos)
+            v4, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".reason"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
-            pos += v3
+            if v4 > lim - pos:
+                raise too_long(v4, 1, lim - pos)
+            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__SetParametersResult(v1, v4), pos
+        return make_rcl_interfaces__msg__SetParametersResult(v2, v5), pos
 
     def encode_rcl_interfaces__msg__SetParametersResult(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2192,12 +2191,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             if d.__class__ is not dict or not _K_rcl_interfaces__msg__SetParametersResult.issuperset(d):
                 d = _submap(d, _K_rcl_interfaces__msg__SetParametersResult)
             f = ".reason"
-            b2 = utf8z(d.get("reason", ""), None)
+            b3 = utf8z(d.get("reason", ""), None)
             f = ""
             try:
-                out.append(_S8.pack(d.get("successful", False)))
+                out.append(_S11.pack((t1 if (t1 := d.get("successful", False)).__class__ is bool else check_bool(t1, ".successful"))))
             except Exception:
-                out.append(slow_pack(_S8, _R26, (d.get("successful", False),)))
+                out.append(slow_pack(_S11, _R26, ((t1 if (t1 := d.get("successful", False)).__class__ is bool else check_bool(t1, ".successful")),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -2205,12 +2204,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(len(b2)))
+                out.append(_S4.pack(len(b3)))
             except Exception:
-                out.append(slow_pack(_S4, _R27, (len(b2),)))
+                out.append(slow_pack(_S4, _R27, (len(b3),)))
             pos += 4
-            out.append(b2)
-            pos += len(b2)
+            out.append(b3)
+            pos += len(b3)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2299,7 +2298,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R28
-            v1, = _S8.unpack_from(mv, pos)
+            v1, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R29
@@ -2312,7 +2311,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R30
-            v8, = _S13.unpack_from(mv, pos)
+            v8, = _S12.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2324,7 +2323,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R28
-            v1, = _S8.unpack_from(mv, pos)
+            v1, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R29
@@ -2337,7 +2336,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R30
-            v8, = _S13.unpack_from(mv, pos)
+            v8, = _S12.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2356,9 +2355,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S8.pack(d.get("event_type", 0)))
+                out.append(_S7.pack(d.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S8, _R28, (d.get("event_type", 0),)))
+                out.append(slow_pack(_S7, _R28, (d.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -2380,9 +2379,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S13.pack(d.get("sequence_number", 0)))
+                out.append(_S12.pack(d.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S13, _R30, (d.get("sequence_number", 0),)))
+                out.append(slow_pack(_S12, _R30, (d.get("sequence_number", 0),)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -2394,7 +2393,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R31
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R32
@@ -2407,7 +2406,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R33
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -2427,7 +2426,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R31
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R32
@@ -2440,7 +2439,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R33
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -2471,9 +2470,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S8.pack(m1.get("event_type", 0)))
+                out.append(_S7.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S8, _R31, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S7, _R31, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -2495,9 +2494,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S13.pack(m1.get("sequence_number", 0)))
+                out.append(_S12.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S13, _R33, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S12, _R33, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_rcl_interfaces__srv__DescribeParameters_Request, 1, False)
@@ -2591,7 +2590,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R34
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R35
@@ -2604,7 +2603,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R36
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -2624,7 +2623,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R34
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R35
@@ -2637,7 +2636,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R36
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -2668,9 +2667,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S8.pack(m1.get("event_type", 0)))
+                out.append(_S7.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S8, _R34, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S7, _R34, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -2692,9 +2691,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S13.pack(m1.get("sequence_number", 0)))
+                out.append(_S12.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S13, _R36, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S12, _R36, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_rcl_interfaces__srv__GetLoggerLevels_Request, 1, False)
@@ -2810,7 +2809,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R38
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R39
@@ -2823,7 +2822,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R40
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -2843,7 +2842,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R38
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R39
@@ -2856,7 +2855,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R40
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -2887,9 +2886,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S8.pack(m1.get("event_type", 0)))
+                out.append(_S7.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S8, _R38, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S7, _R38, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -2911,9 +2910,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S13.pack(m1.get("sequence_number", 0)))
+                out.append(_S12.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S13, _R40, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S12, _R40, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_rcl_interfaces__srv__GetParameterTypes_Request, 1, False)
@@ -3007,7 +3006,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R41
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R42
@@ -3020,7 +3019,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R43
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -3040,7 +3039,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R41
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R42
@@ -3053,7 +3052,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R43
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -3084,9 +3083,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S8.pack(m1.get("event_type", 0)))
+                out.append(_S7.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S8, _R41, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S7, _R41, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -3108,9 +3107,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S13.pack(m1.get("sequence_number", 0)))
+                out.append(_S12.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S13, _R43, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S12, _R43, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_rcl_interfaces__srv__GetParameters_Request, 1, False)
@@ -3131,7 +3130,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 7) & -8
             f = _R44
-            v2, = _S14.unpack_from(mv, pos)
+            v2, = _S13.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3148,7 +3147,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 7) & -8
             f = _R44
-            v2, = _S14.unpack_from(mv, pos)
+            v2, = _S13.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3169,9 +3168,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S14.pack(d.get("depth", 0)))
+                out.append(_S13.pack(d.get("depth", 0)))
             except Exception:
-                out.append(slow_pack(_S14, _R44, (d.get("depth", 0),)))
+                out.append(slow_pack(_S13, _R44, (d.get("depth", 0),)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -3218,7 +3217,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R45
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R46
@@ -3231,7 +3230,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R47
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -3251,7 +3250,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R45
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R46
@@ -3264,7 +3263,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R47
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -3295,9 +3294,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S8.pack(m1.get("event_type", 0)))
+                out.append(_S7.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S8, _R45, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S7, _R45, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -3319,9 +3318,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S13.pack(m1.get("sequence_number", 0)))
+                out.append(_S12.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S13, _R47, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S12, _R47, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_rcl_interfaces__srv__ListParameters_Request, 1, False)
@@ -3415,7 +3414,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R48
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R49
@@ -3428,7 +3427,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R50
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -3448,7 +3447,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R48
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R49
@@ -3461,7 +3460,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R50
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -3492,9 +3491,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S8.pack(m1.get("event_type", 0)))
+                out.append(_S7.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S8, _R48, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S7, _R48, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -3516,9 +3515,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S13.pack(m1.get("sequence_number", 0)))
+                out.append(_S12.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S13, _R50, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S12, _R50, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_rcl_interfaces__srv__SetLoggerLevels_Request, 1, False)
@@ -3612,7 +3611,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R51
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R52
@@ -3625,7 +3624,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R53
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -3645,7 +3644,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R51
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R52
@@ -3658,7 +3657,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R53
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -3689,9 +3688,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S8.pack(m1.get("event_type", 0)))
+                out.append(_S7.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S8, _R51, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S7, _R51, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -3713,9 +3712,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S13.pack(m1.get("sequence_number", 0)))
+                out.append(_S12.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S13, _R53, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S12, _R53, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_rcl_interfaces__srv__SetParameters_Request, 1, False)
@@ -3805,7 +3804,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R54
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R55
@@ -3818,7 +3817,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R56
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -3838,7 +3837,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R54
-            v2, = _S8.unpack_from(mv, pos)
+            v2, = _S7.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R55
@@ -3851,7 +3850,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R56
-            v9, = _S13.unpack_from(mv, pos)
+            v9, = _S12.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -3882,9 +3881,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S8.pack(m1.get("event_type", 0)))
+                out.append(_S7.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S8, _R54, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S7, _R54, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -3906,9 +3905,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S13.pack(m1.get("sequence_number", 0)))
+                out.append(_S12.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S13, _R56, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S12, _R56, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_rcl_interfaces__srv__SetParametersAtomically_Request, 1, False)

@@ -141,6 +141,7 @@ SetCameraInfo_Response = _sensor_msgs__srv__SetCameraInfo.Response
 SetCameraInfo_Event = _sensor_msgs__srv__SetCameraInfo.Event
 
 EMPTY: Mapping[str, Any] = {}
+STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -310,13 +311,45 @@ def camera_info_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_str(value, None, ".distortion_model")
         msg._distortion_model = value
         value = data.get("d", MISSING)
-        msg._d = array("d") if value is MISSING else numeric_sequence(value, "d", "float64", None, ".d")
+        if value is MISSING:
+            msg._d = array("d")
+        elif type(value) is list:
+            try:
+                msg._d = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._d = numeric_sequence(value, "d", "float64", None, ".d")
+        else:
+            msg._d = numeric_sequence(value, "d", "float64", None, ".d")
         value = data.get("k", MISSING)
-        msg._k = np.zeros(9, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 9, ".k")
+        if value is MISSING:
+            msg._k = np.zeros(9, dtype=np.float64)
+        elif type(value) is list and len(value) == 9:
+            try:
+                msg._k = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._k = numeric_array(value, "d", "float64", "float64", 9, ".k")
+        else:
+            msg._k = numeric_array(value, "d", "float64", "float64", 9, ".k")
         value = data.get("r", MISSING)
-        msg._r = np.zeros(9, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 9, ".r")
+        if value is MISSING:
+            msg._r = np.zeros(9, dtype=np.float64)
+        elif type(value) is list and len(value) == 9:
+            try:
+                msg._r = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._r = numeric_array(value, "d", "float64", "float64", 9, ".r")
+        else:
+            msg._r = numeric_array(value, "d", "float64", "float64", 9, ".r")
         value = data.get("p", MISSING)
-        msg._p = np.zeros(12, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 12, ".p")
+        if value is MISSING:
+            msg._p = np.zeros(12, dtype=np.float64)
+        elif type(value) is list and len(value) == 12:
+            try:
+                msg._p = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._p = numeric_array(value, "d", "float64", "float64", 12, ".p")
+        else:
+            msg._p = numeric_array(value, "d", "float64", "float64", 12, ".p")
         value = data.get("binning_x", 0)
         if type(value) is not int or not 0 <= value <= 4294967295:
             value = check_int(value, 0, 4294967295, "uint32", ".binning_x")
@@ -616,19 +649,43 @@ def imu_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".orientation") from None
         value = data.get("orientation_covariance", MISSING)
-        msg._orientation_covariance = np.zeros(9, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 9, ".orientation_covariance")
+        if value is MISSING:
+            msg._orientation_covariance = np.zeros(9, dtype=np.float64)
+        elif type(value) is list and len(value) == 9:
+            try:
+                msg._orientation_covariance = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._orientation_covariance = numeric_array(value, "d", "float64", "float64", 9, ".orientation_covariance")
+        else:
+            msg._orientation_covariance = numeric_array(value, "d", "float64", "float64", 9, ".orientation_covariance")
         try:
             msg._angular_velocity = geometry_msgs__vector3_from_dict(data.get("angular_velocity", EMPTY))
         except FieldError as error:
             raise error.within(".angular_velocity") from None
         value = data.get("angular_velocity_covariance", MISSING)
-        msg._angular_velocity_covariance = np.zeros(9, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 9, ".angular_velocity_covariance")
+        if value is MISSING:
+            msg._angular_velocity_covariance = np.zeros(9, dtype=np.float64)
+        elif type(value) is list and len(value) == 9:
+            try:
+                msg._angular_velocity_covariance = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._angular_velocity_covariance = numeric_array(value, "d", "float64", "float64", 9, ".angular_velocity_covariance")
+        else:
+            msg._angular_velocity_covariance = numeric_array(value, "d", "float64", "float64", 9, ".angular_velocity_covariance")
         try:
             msg._linear_acceleration = geometry_msgs__vector3_from_dict(data.get("linear_acceleration", EMPTY))
         except FieldError as error:
             raise error.within(".linear_acceleration") from None
         value = data.get("linear_acceleration_covariance", MISSING)
-        msg._linear_acceleration_covariance = np.zeros(9, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 9, ".linear_acceleration_covariance")
+        if value is MISSING:
+            msg._linear_acceleration_covariance = np.zeros(9, dtype=np.float64)
+        elif type(value) is list and len(value) == 9:
+            try:
+                msg._linear_acceleration_covariance = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._linear_acceleration_covariance = numeric_array(value, "d", "float64", "float64", 9, ".linear_acceleration_covariance")
+        else:
+            msg._linear_acceleration_covariance = numeric_array(value, "d", "float64", "float64", 9, ".linear_acceleration_covariance")
     except FieldError as error:
         error.root = "Imu"
         raise
@@ -669,13 +726,45 @@ def joint_state_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".header") from None
         value = data.get("name", MISSING)
-        msg._name = [] if value is MISSING else str_list(value, None, None, False, ".name")
+        if value is MISSING:
+            msg._name = []
+        elif type(value) is list:
+            try:
+                msg._name = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._name = str_list(value, None, None, False, ".name")
+        else:
+            msg._name = str_list(value, None, None, False, ".name")
         value = data.get("position", MISSING)
-        msg._position = array("d") if value is MISSING else numeric_sequence(value, "d", "float64", None, ".position")
+        if value is MISSING:
+            msg._position = array("d")
+        elif type(value) is list:
+            try:
+                msg._position = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._position = numeric_sequence(value, "d", "float64", None, ".position")
+        else:
+            msg._position = numeric_sequence(value, "d", "float64", None, ".position")
         value = data.get("velocity", MISSING)
-        msg._velocity = array("d") if value is MISSING else numeric_sequence(value, "d", "float64", None, ".velocity")
+        if value is MISSING:
+            msg._velocity = array("d")
+        elif type(value) is list:
+            try:
+                msg._velocity = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._velocity = numeric_sequence(value, "d", "float64", None, ".velocity")
+        else:
+            msg._velocity = numeric_sequence(value, "d", "float64", None, ".velocity")
         value = data.get("effort", MISSING)
-        msg._effort = array("d") if value is MISSING else numeric_sequence(value, "d", "float64", None, ".effort")
+        if value is MISSING:
+            msg._effort = array("d")
+        elif type(value) is list:
+            try:
+                msg._effort = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._effort = numeric_sequence(value, "d", "float64", None, ".effort")
+        else:
+            msg._effort = numeric_sequence(value, "d", "float64", None, ".effort")
     except FieldError as error:
         error.root = "JointState"
         raise
@@ -716,7 +805,15 @@ def joy_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("axes", MISSING)
         msg._axes = array("f") if value is MISSING else numeric_sequence(value, "f", "float32", None, ".axes")
         value = data.get("buttons", MISSING)
-        msg._buttons = array("i") if value is MISSING else numeric_sequence(value, "i", "int32", None, ".buttons")
+        if value is MISSING:
+            msg._buttons = array("i")
+        elif type(value) is list:
+            try:
+                msg._buttons = array("i", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._buttons = numeric_sequence(value, "i", "int32", None, ".buttons")
+        else:
+            msg._buttons = numeric_sequence(value, "i", "int32", None, ".buttons")
     except FieldError as error:
         error.root = "Joy"
         raise
@@ -939,7 +1036,15 @@ def magnetic_field_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".magnetic_field") from None
         value = data.get("magnetic_field_covariance", MISSING)
-        msg._magnetic_field_covariance = np.zeros(9, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 9, ".magnetic_field_covariance")
+        if value is MISSING:
+            msg._magnetic_field_covariance = np.zeros(9, dtype=np.float64)
+        elif type(value) is list and len(value) == 9:
+            try:
+                msg._magnetic_field_covariance = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._magnetic_field_covariance = numeric_array(value, "d", "float64", "float64", 9, ".magnetic_field_covariance")
+        else:
+            msg._magnetic_field_covariance = numeric_array(value, "d", "float64", "float64", 9, ".magnetic_field_covariance")
     except FieldError as error:
         error.root = "MagneticField"
         raise
@@ -1023,7 +1128,15 @@ def multi_dof_joint_state_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".header") from None
         value = data.get("joint_names", MISSING)
-        msg._joint_names = [] if value is MISSING else str_list(value, None, None, False, ".joint_names")
+        if value is MISSING:
+            msg._joint_names = []
+        elif type(value) is list:
+            try:
+                msg._joint_names = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._joint_names = str_list(value, None, None, False, ".joint_names")
+        else:
+            msg._joint_names = str_list(value, None, None, False, ".joint_names")
         value = data.get("transforms", MISSING)
         msg._transforms = [] if value is MISSING else message_list(value, geometry_msgs__transform_from_dict, None, False, ".transforms")
         value = data.get("twist", MISSING)
@@ -1177,7 +1290,15 @@ def nav_sat_fix_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_float(value, ".altitude")
         msg._altitude = value
         value = data.get("position_covariance", MISSING)
-        msg._position_covariance = np.zeros(9, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 9, ".position_covariance")
+        if value is MISSING:
+            msg._position_covariance = np.zeros(9, dtype=np.float64)
+        elif type(value) is list and len(value) == 9:
+            try:
+                msg._position_covariance = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._position_covariance = numeric_array(value, "d", "float64", "float64", 9, ".position_covariance")
+        else:
+            msg._position_covariance = numeric_array(value, "d", "float64", "float64", 9, ".position_covariance")
         value = data.get("position_covariance_type", 0)
         if type(value) is not int or not 0 <= value <= 255:
             value = check_int(value, 0, 255, "uint8", ".position_covariance_type")

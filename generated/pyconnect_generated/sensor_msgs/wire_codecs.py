@@ -66,7 +66,7 @@ from pyconnect.codecs.cdr_runtime import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import FieldError, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import FieldError, check_bool, check_mapping, unknown_keys
 
 _new = object.__new__
 _frombuffer = np.frombuffer
@@ -1019,31 +1019,28 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _S0 = Struct(E + "iI")
     _S1 = Struct(E + "i2I")
     _S2 = Struct(E + "7f3B?I")
-    _S3 = Struct(E + "7f4BI")
-    _S4 = Struct(E + "I")
-    _S5 = Struct(E + "4I?")
-    _S6 = Struct(E + "4IB")
-    _S7 = Struct(E + "3I")
-    _S8 = Struct(E + "6I?")
-    _S9 = Struct(E + "6IB")
-    _S10 = Struct(E + "2d")
-    _S11 = Struct(E + "B")
-    _S12 = Struct(E + "2I")
-    _S13 = Struct(E + "4d")
-    _S14 = Struct(E + "3d")
-    _S15 = Struct(E + "2B")
-    _S16 = Struct(E + "f")
-    _S17 = Struct(E + "7fI")
-    _S18 = Struct(E + "7d")
-    _S19 = Struct(E + "6d")
-    _S20 = Struct(E + "7f")
-    _S21 = Struct(E + "b")
-    _S22 = Struct(E + "H")
-    _S23 = Struct(E + "3f")
-    _S24 = Struct(E + "IB3xI")
-    _S25 = Struct(E + "?")
-    _S26 = Struct(E + "5f")
-    _S27 = Struct(E + "q")
+    _S3 = Struct(E + "I")
+    _S4 = Struct(E + "4I?")
+    _S5 = Struct(E + "3I")
+    _S6 = Struct(E + "6I?")
+    _S7 = Struct(E + "2d")
+    _S8 = Struct(E + "B")
+    _S9 = Struct(E + "2I")
+    _S10 = Struct(E + "4d")
+    _S11 = Struct(E + "3d")
+    _S12 = Struct(E + "2B")
+    _S13 = Struct(E + "f")
+    _S14 = Struct(E + "7fI")
+    _S15 = Struct(E + "7d")
+    _S16 = Struct(E + "6d")
+    _S17 = Struct(E + "7f")
+    _S18 = Struct(E + "b")
+    _S19 = Struct(E + "H")
+    _S20 = Struct(E + "3f")
+    _S21 = Struct(E + "IB3xI")
+    _S22 = Struct(E + "?")
+    _S23 = Struct(E + "5f")
+    _S24 = Struct(E + "q")
     _D_float32 = np.dtype("float32").newbyteorder(E)
     _D_float64 = np.dtype("float64").newbyteorder(E)
     _D_int32 = np.dtype("int32").newbyteorder(E)
@@ -1168,43 +1165,43 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R2
-            v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v15 = _S2.unpack_from(mv, pos)
+            v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v13, v16 = _S2.unpack_from(mv, pos)
             pos += 36
             f = ".cell_voltage"
-            if v15 * 4 > lim - pos:
-                raise too_long(v15, 4, lim - pos)
-            v16 = _frombuffer(mv, _D_float32, v15, pos)
-            pos += v15 * 4
+            if v16 * 4 > lim - pos:
+                raise too_long(v16, 4, lim - pos)
+            v17 = _frombuffer(mv, _D_float32, v16, pos)
+            pos += v16 * 4
             f = _R3
-            v19, = _S4.unpack_from(mv, pos)
+            v20, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".cell_temperature"
-            if v19 * 4 > lim - pos:
-                raise too_long(v19, 4, lim - pos)
-            v20 = _frombuffer(mv, _D_float32, v19, pos)
-            pos += v19 * 4
+            if v20 * 4 > lim - pos:
+                raise too_long(v20, 4, lim - pos)
+            v21 = _frombuffer(mv, _D_float32, v20, pos)
+            pos += v20 * 4
             f = _R4
-            v22, = _S4.unpack_from(mv, pos)
+            v23, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".location"
-            if v22 > lim - pos:
-                raise too_long(v22, 1, lim - pos)
-            v23 = str(mv[pos : pos + v22 - 1], "utf-8")
-            pos += v22
+            if v23 > lim - pos:
+                raise too_long(v23, 1, lim - pos)
+            v24 = str(mv[pos : pos + v23 - 1], "utf-8")
+            pos += v23
             pos = (pos + 3) & -4
             f = _R5
-            v25, = _S4.unpack_from(mv, pos)
+            v26, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".serial_number"
-            if v25 > lim - pos:
-                raise too_long(v25, 1, lim - pos)
-            v26 = str(mv[pos : pos + v25 - 1], "utf-8")
-            pos += v25
+            if v26 > lim - pos:
+                raise too_long(v26, 1, lim - pos)
+            v27 = str(mv[pos : pos + v26 - 1], "utf-8")
+            pos += v26
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"header": v1, "voltage": v2, "temperature": v3, "current": v4, "charge": v5, "capacity": v6, "design_capacity": v7, "percentage": v8, "power_supply_status": v9, "power_supply_health": v10, "power_supply_technology": v11, "present": v12, "cell_voltage": v16, "cell_temperature": v20, "location": v23, "serial_number": v26}, pos
+        return {"header": v1, "voltage": v2, "temperature": v3, "current": v4, "charge": v5, "capacity": v6, "design_capacity": v7, "percentage": v8, "power_supply_status": v9, "power_supply_health": v10, "power_supply_technology": v11, "present": v13, "cell_voltage": v17, "cell_temperature": v21, "location": v24, "serial_number": v27}, pos
 
     def decode_view_sensor_msgs__msg__BatteryState(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
@@ -1213,43 +1210,43 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R2
-            v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v15 = _S2.unpack_from(mv, pos)
+            v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v13, v16 = _S2.unpack_from(mv, pos)
             pos += 36
             f = ".cell_voltage"
-            if v15 * 4 > lim - pos:
-                raise too_long(v15, 4, lim - pos)
-            v16 = _frombuffer(mv, _D_float32, v15, pos)
-            pos += v15 * 4
+            if v16 * 4 > lim - pos:
+                raise too_long(v16, 4, lim - pos)
+            v17 = _frombuffer(mv, _D_float32, v16, pos)
+            pos += v16 * 4
             f = _R3
-            v19, = _S4.unpack_from(mv, pos)
+            v20, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".cell_temperature"
-            if v19 * 4 > lim - pos:
-                raise too_long(v19, 4, lim - pos)
-            v20 = _frombuffer(mv, _D_float32, v19, pos)
-            pos += v19 * 4
+            if v20 * 4 > lim - pos:
+                raise too_long(v20, 4, lim - pos)
+            v21 = _frombuffer(mv, _D_float32, v20, pos)
+            pos += v20 * 4
             f = _R4
-            v22, = _S4.unpack_from(mv, pos)
+            v23, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".location"
-            if v22 > lim - pos:
-                raise too_long(v22, 1, lim - pos)
-            v23 = str(mv[pos : pos + v22 - 1], "utf-8")
-            pos += v22
+            if v23 > lim - pos:
+                raise too_long(v23, 1, lim - pos)
+            v24 = str(mv[pos : pos + v23 - 1], "utf-8")
+            pos += v23
             pos = (pos + 3) & -4
             f = _R5
-            v25, = _S4.unpack_from(mv, pos)
+            v26, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".serial_number"
-            if v25 > lim - pos:
-                raise too_long(v25, 1, lim - pos)
-            v26 = str(mv[pos : pos + v25 - 1], "utf-8")
-            pos += v25
+            if v26 > lim - pos:
+                raise too_long(v26, 1, lim - pos)
+            v27 = str(mv[pos : pos + v26 - 1], "utf-8")
+            pos += v26
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__BatteryState(v1, v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v16, v20, v23, v26), pos
+        return make_sensor_msgs__msg__BatteryState(v1, v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v13, v17, v21, v24, v27), pos
 
     def encode_sensor_msgs__msg__BatteryState(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1263,49 +1260,49 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".cell_voltage"
-            b13, c14 = encode_array(d.get("cell_voltage", ()), _D_float32, "float32", None, False)
+            b14, c15 = encode_array(d.get("cell_voltage", ()), _D_float32, "float32", None, False)
             f = ""
             try:
-                out.append(_S3.pack(d.get("voltage", 0.0), d.get("temperature", 0.0), d.get("current", 0.0), d.get("charge", 0.0), d.get("capacity", 0.0), d.get("design_capacity", 0.0), d.get("percentage", 0.0), d.get("power_supply_status", 0), d.get("power_supply_health", 0), d.get("power_supply_technology", 0), d.get("present", False), c14))
+                out.append(_S2.pack(d.get("voltage", 0.0), d.get("temperature", 0.0), d.get("current", 0.0), d.get("charge", 0.0), d.get("capacity", 0.0), d.get("design_capacity", 0.0), d.get("percentage", 0.0), d.get("power_supply_status", 0), d.get("power_supply_health", 0), d.get("power_supply_technology", 0), (t12 if (t12 := d.get("present", False)).__class__ is bool else check_bool(t12, ".present")), c15))
             except Exception:
-                out.append(slow_pack(_S3, _R2, (d.get("voltage", 0.0), d.get("temperature", 0.0), d.get("current", 0.0), d.get("charge", 0.0), d.get("capacity", 0.0), d.get("design_capacity", 0.0), d.get("percentage", 0.0), d.get("power_supply_status", 0), d.get("power_supply_health", 0), d.get("power_supply_technology", 0), d.get("present", False), c14,)))
+                out.append(slow_pack(_S2, _R2, (d.get("voltage", 0.0), d.get("temperature", 0.0), d.get("current", 0.0), d.get("charge", 0.0), d.get("capacity", 0.0), d.get("design_capacity", 0.0), d.get("percentage", 0.0), d.get("power_supply_status", 0), d.get("power_supply_health", 0), d.get("power_supply_technology", 0), (t12 if (t12 := d.get("present", False)).__class__ is bool else check_bool(t12, ".present")), c15,)))
             pos += 36
-            out.append(b13)
-            pos += c14 * 4
+            out.append(b14)
+            pos += c15 * 4
             f = ".cell_temperature"
-            b17, c18 = encode_array(d.get("cell_temperature", ()), _D_float32, "float32", None, False)
+            b18, c19 = encode_array(d.get("cell_temperature", ()), _D_float32, "float32", None, False)
             f = ""
             try:
-                out.append(_S4.pack(c18))
+                out.append(_S3.pack(c19))
             except Exception:
-                out.append(slow_pack(_S4, _R3, (c18,)))
+                out.append(slow_pack(_S3, _R3, (c19,)))
             pos += 4
-            out.append(b17)
-            pos += c18 * 4
+            out.append(b18)
+            pos += c19 * 4
             f = ".location"
-            b21 = utf8z(d.get("location", ""), None)
+            b22 = utf8z(d.get("location", ""), None)
             f = ""
             try:
-                out.append(_S4.pack(len(b21)))
+                out.append(_S3.pack(len(b22)))
             except Exception:
-                out.append(slow_pack(_S4, _R4, (len(b21),)))
+                out.append(slow_pack(_S3, _R4, (len(b22),)))
             pos += 4
-            out.append(b21)
-            pos += len(b21)
+            out.append(b22)
+            pos += len(b22)
             f = ".serial_number"
-            b24 = utf8z(d.get("serial_number", ""), None)
+            b25 = utf8z(d.get("serial_number", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(len(b24)))
+                out.append(_S3.pack(len(b25)))
             except Exception:
-                out.append(slow_pack(_S4, _R5, (len(b24),)))
+                out.append(slow_pack(_S3, _R5, (len(b25),)))
             pos += 4
-            out.append(b24)
-            pos += len(b24)
+            out.append(b25)
+            pos += len(b25)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -1317,26 +1314,26 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R6
-            v1, v2, v3, v4, v5 = _S5.unpack_from(mv, pos)
+            v1, v2, v3, v4, v6 = _S4.unpack_from(mv, pos)
             pos += 17
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"x_offset": v1, "y_offset": v2, "height": v3, "width": v4, "do_rectify": v5}, pos
+        return {"x_offset": v1, "y_offset": v2, "height": v3, "width": v4, "do_rectify": v6}, pos
 
     def decode_view_sensor_msgs__msg__RegionOfInterest(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
             f = _R6
-            v1, v2, v3, v4, v5 = _S5.unpack_from(mv, pos)
+            v1, v2, v3, v4, v6 = _S4.unpack_from(mv, pos)
             pos += 17
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__RegionOfInterest(v1, v2, v3, v4, v5), pos
+        return make_sensor_msgs__msg__RegionOfInterest(v1, v2, v3, v4, v6), pos
 
     def encode_sensor_msgs__msg__RegionOfInterest(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1349,9 +1346,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(d.get("x_offset", 0), d.get("y_offset", 0), d.get("height", 0), d.get("width", 0), d.get("do_rectify", False)))
+                out.append(_S4.pack(d.get("x_offset", 0), d.get("y_offset", 0), d.get("height", 0), d.get("width", 0), (t5 if (t5 := d.get("do_rectify", False)).__class__ is bool else check_bool(t5, ".do_rectify"))))
             except Exception:
-                out.append(slow_pack(_S6, _R6, (d.get("x_offset", 0), d.get("y_offset", 0), d.get("height", 0), d.get("width", 0), d.get("do_rectify", False),)))
+                out.append(slow_pack(_S4, _R6, (d.get("x_offset", 0), d.get("y_offset", 0), d.get("height", 0), d.get("width", 0), (t5 if (t5 := d.get("do_rectify", False)).__class__ is bool else check_bool(t5, ".do_rectify")),)))
             pos += 17
         except FieldError as error:
             raise error.within(f) from None
@@ -1366,7 +1363,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R7
-            v2, v3, v5 = _S7.unpack_from(mv, pos)
+            v2, v3, v5 = _S5.unpack_from(mv, pos)
             pos += 12
             f = ".distortion_model"
             if v5 > lim - pos:
@@ -1375,7 +1372,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v5
             pos = (pos + 3) & -4
             f = _R8
-            v9, = _S4.unpack_from(mv, pos)
+            v9, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".d"
             if v9:
@@ -1401,13 +1398,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v19 = _frombuffer(mv, _D_float64, 12, pos)
             pos += 12 * 8
             f = _R9
-            v20, v21, v23, v24, v25, v26, v27 = _S8.unpack_from(mv, pos)
+            v20, v21, v23, v24, v25, v26, v28 = _S6.unpack_from(mv, pos)
             pos += 25
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"header": v1, "height": v2, "width": v3, "distortion_model": v6, "d": v10, "k": v13, "r": v16, "p": v19, "binning_x": v20, "binning_y": v21, "roi": {"x_offset": v23, "y_offset": v24, "height": v25, "width": v26, "do_rectify": v27}}, pos
+        return {"header": v1, "height": v2, "width": v3, "distortion_model": v6, "d": v10, "k": v13, "r": v16, "p": v19, "binning_x": v20, "binning_y": v21, "roi": {"x_offset": v23, "y_offset": v24, "height": v25, "width": v26, "do_rectify": v28}}, pos
 
     def decode_view_sensor_msgs__msg__CameraInfo(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
@@ -1416,7 +1413,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R7
-            v2, v3, v5 = _S7.unpack_from(mv, pos)
+            v2, v3, v5 = _S5.unpack_from(mv, pos)
             pos += 12
             f = ".distortion_model"
             if v5 > lim - pos:
@@ -1425,7 +1422,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v5
             pos = (pos + 3) & -4
             f = _R8
-            v9, = _S4.unpack_from(mv, pos)
+            v9, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".d"
             if v9:
@@ -1451,13 +1448,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v19 = _frombuffer(mv, _D_float64, 12, pos)
             pos += 12 * 8
             f = _R9
-            v20, v21, v23, v24, v25, v26, v27 = _S8.unpack_from(mv, pos)
+            v20, v21, v23, v24, v25, v26, v28 = _S6.unpack_from(mv, pos)
             pos += 25
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__CameraInfo(v1, v2, v3, v6, v10, v13, v16, v19, v20, v21, make_sensor_msgs__msg__RegionOfInterest(v23, v24, v25, v26, v27)), pos
+        return make_sensor_msgs__msg__CameraInfo(v1, v2, v3, v6, v10, v13, v16, v19, v20, v21, make_sensor_msgs__msg__RegionOfInterest(v23, v24, v25, v26, v28)), pos
 
     def encode_sensor_msgs__msg__CameraInfo(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1474,9 +1471,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b4 = utf8z(d.get("distortion_model", ""), None)
             f = ""
             try:
-                out.append(_S7.pack(d.get("height", 0), d.get("width", 0), len(b4)))
+                out.append(_S5.pack(d.get("height", 0), d.get("width", 0), len(b4)))
             except Exception:
-                out.append(slow_pack(_S7, _R7, (d.get("height", 0), d.get("width", 0), len(b4),)))
+                out.append(slow_pack(_S5, _R7, (d.get("height", 0), d.get("width", 0), len(b4),)))
             pos += 12
             out.append(b4)
             pos += len(b4)
@@ -1488,9 +1485,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(c8))
+                out.append(_S3.pack(c8))
             except Exception:
-                out.append(slow_pack(_S4, _R8, (c8,)))
+                out.append(slow_pack(_S3, _R8, (c8,)))
             pos += 4
             if c8:
                 p = -pos & 7
@@ -1521,9 +1518,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m22 = _submap(m22, _K_sensor_msgs__msg__RegionOfInterest)
             f = ""
             try:
-                out.append(_S9.pack(d.get("binning_x", 0), d.get("binning_y", 0), m22.get("x_offset", 0), m22.get("y_offset", 0), m22.get("height", 0), m22.get("width", 0), m22.get("do_rectify", False)))
+                out.append(_S6.pack(d.get("binning_x", 0), d.get("binning_y", 0), m22.get("x_offset", 0), m22.get("y_offset", 0), m22.get("height", 0), m22.get("width", 0), (t27 if (t27 := m22.get("do_rectify", False)).__class__ is bool else check_bool(t27, ".roi.do_rectify"))))
             except Exception:
-                out.append(slow_pack(_S9, _R9, (d.get("binning_x", 0), d.get("binning_y", 0), m22.get("x_offset", 0), m22.get("y_offset", 0), m22.get("height", 0), m22.get("width", 0), m22.get("do_rectify", False),)))
+                out.append(slow_pack(_S6, _R9, (d.get("binning_x", 0), d.get("binning_y", 0), m22.get("x_offset", 0), m22.get("y_offset", 0), m22.get("height", 0), m22.get("width", 0), (t27 if (t27 := m22.get("do_rectify", False)).__class__ is bool else check_bool(t27, ".roi.do_rectify")),)))
             pos += 25
         except FieldError as error:
             raise error.within(f) from None
@@ -1536,7 +1533,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R10
-            v2, = _S4.unpack_from(mv, pos)
+            v2, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".name"
             if v2 > lim - pos:
@@ -1545,7 +1542,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v2
             pos = (pos + 3) & -4
             f = _R11
-            v6, = _S4.unpack_from(mv, pos)
+            v6, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".values"
             if v6 * 4 > lim - pos:
@@ -1563,7 +1560,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R10
-            v2, = _S4.unpack_from(mv, pos)
+            v2, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".name"
             if v2 > lim - pos:
@@ -1572,7 +1569,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v2
             pos = (pos + 3) & -4
             f = _R11
-            v6, = _S4.unpack_from(mv, pos)
+            v6, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".values"
             if v6 * 4 > lim - pos:
@@ -1598,9 +1595,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(len(b1)))
+                out.append(_S3.pack(len(b1)))
             except Exception:
-                out.append(slow_pack(_S4, _R10, (len(b1),)))
+                out.append(slow_pack(_S3, _R10, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -1612,9 +1609,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(c5))
+                out.append(_S3.pack(c5))
             except Exception:
-                out.append(slow_pack(_S4, _R11, (c5,)))
+                out.append(slow_pack(_S3, _R11, (c5,)))
             pos += 4
             out.append(b4)
             pos += c5 * 4
@@ -1631,7 +1628,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R12
-            v3, = _S4.unpack_from(mv, pos)
+            v3, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".format"
             if v3 > lim - pos:
@@ -1640,7 +1637,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v3
             pos = (pos + 3) & -4
             f = _R13
-            v7, = _S4.unpack_from(mv, pos)
+            v7, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".data"
             if v7 * 1 > lim - pos:
@@ -1660,7 +1657,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R12
-            v3, = _S4.unpack_from(mv, pos)
+            v3, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".format"
             if v3 > lim - pos:
@@ -1669,7 +1666,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v3
             pos = (pos + 3) & -4
             f = _R13
-            v7, = _S4.unpack_from(mv, pos)
+            v7, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".data"
             if v7 * 1 > lim - pos:
@@ -1697,9 +1694,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(len(b2)))
+                out.append(_S3.pack(len(b2)))
             except Exception:
-                out.append(slow_pack(_S4, _R12, (len(b2),)))
+                out.append(slow_pack(_S3, _R12, (len(b2),)))
             pos += 4
             out.append(b2)
             pos += len(b2)
@@ -1711,9 +1708,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(c6))
+                out.append(_S3.pack(c6))
             except Exception:
-                out.append(slow_pack(_S4, _R13, (c6,)))
+                out.append(slow_pack(_S3, _R13, (c6,)))
             pos += 4
             out.append(b5)
             pos += c6 * 1
@@ -1730,7 +1727,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R14
-            v2, v3 = _S10.unpack_from(mv, pos)
+            v2, v3 = _S7.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1745,7 +1742,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R14
-            v2, v3 = _S10.unpack_from(mv, pos)
+            v2, v3 = _S7.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1766,9 +1763,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S10.pack(d.get("fluid_pressure", 0.0), d.get("variance", 0.0)))
+                out.append(_S7.pack(d.get("fluid_pressure", 0.0), d.get("variance", 0.0)))
             except Exception:
-                out.append(slow_pack(_S10, _R14, (d.get("fluid_pressure", 0.0), d.get("variance", 0.0),)))
+                out.append(slow_pack(_S7, _R14, (d.get("fluid_pressure", 0.0), d.get("variance", 0.0),)))
             pos += 16
         except FieldError as error:
             raise error.within(f) from None
@@ -1783,7 +1780,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R15
-            v2, v3 = _S10.unpack_from(mv, pos)
+            v2, v3 = _S7.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1798,7 +1795,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R15
-            v2, v3 = _S10.unpack_from(mv, pos)
+            v2, v3 = _S7.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1819,9 +1816,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S10.pack(d.get("illuminance", 0.0), d.get("variance", 0.0)))
+                out.append(_S7.pack(d.get("illuminance", 0.0), d.get("variance", 0.0)))
             except Exception:
-                out.append(slow_pack(_S10, _R15, (d.get("illuminance", 0.0), d.get("variance", 0.0),)))
+                out.append(slow_pack(_S7, _R15, (d.get("illuminance", 0.0), d.get("variance", 0.0),)))
             pos += 16
         except FieldError as error:
             raise error.within(f) from None
@@ -1836,7 +1833,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R16
-            v2, v3, v5 = _S7.unpack_from(mv, pos)
+            v2, v3, v5 = _S5.unpack_from(mv, pos)
             pos += 12
             f = ".encoding"
             if v5 > lim - pos:
@@ -1844,11 +1841,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v6 = str(mv[pos : pos + v5 - 1], "utf-8")
             pos += v5
             f = _R17
-            v7, = _S11.unpack_from(mv, pos)
+            v7, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R18
-            v8, v11 = _S12.unpack_from(mv, pos)
+            v8, v11 = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".data"
             if v11 * 1 > lim - pos:
@@ -1868,7 +1865,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R16
-            v2, v3, v5 = _S7.unpack_from(mv, pos)
+            v2, v3, v5 = _S5.unpack_from(mv, pos)
             pos += 12
             f = ".encoding"
             if v5 > lim - pos:
@@ -1876,11 +1873,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v6 = str(mv[pos : pos + v5 - 1], "utf-8")
             pos += v5
             f = _R17
-            v7, = _S11.unpack_from(mv, pos)
+            v7, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R18
-            v8, v11 = _S12.unpack_from(mv, pos)
+            v8, v11 = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".data"
             if v11 * 1 > lim - pos:
@@ -1908,17 +1905,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b4 = utf8z(d.get("encoding", ""), None)
             f = ""
             try:
-                out.append(_S7.pack(d.get("height", 0), d.get("width", 0), len(b4)))
+                out.append(_S5.pack(d.get("height", 0), d.get("width", 0), len(b4)))
             except Exception:
-                out.append(slow_pack(_S7, _R16, (d.get("height", 0), d.get("width", 0), len(b4),)))
+                out.append(slow_pack(_S5, _R16, (d.get("height", 0), d.get("width", 0), len(b4),)))
             pos += 12
             out.append(b4)
             pos += len(b4)
             f = ""
             try:
-                out.append(_S11.pack(d.get("is_bigendian", 0)))
+                out.append(_S8.pack(d.get("is_bigendian", 0)))
             except Exception:
-                out.append(slow_pack(_S11, _R17, (d.get("is_bigendian", 0),)))
+                out.append(slow_pack(_S8, _R17, (d.get("is_bigendian", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -1928,9 +1925,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b9, c10 = encode_array(d.get("data", ()), _D_uint8, "uint8", None, False)
             f = ""
             try:
-                out.append(_S12.pack(d.get("step", 0), c10))
+                out.append(_S9.pack(d.get("step", 0), c10))
             except Exception:
-                out.append(slow_pack(_S12, _R18, (d.get("step", 0), c10,)))
+                out.append(slow_pack(_S9, _R18, (d.get("step", 0), c10,)))
             pos += 8
             out.append(b9)
             pos += c10 * 1
@@ -1945,7 +1942,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 7) & -8
             f = _R19
-            v1, v2, v3, v4 = _S13.unpack_from(mv, pos)
+            v1, v2, v3, v4 = _S10.unpack_from(mv, pos)
             pos += 32
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1958,7 +1955,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 7) & -8
             f = _R19
-            v1, v2, v3, v4 = _S13.unpack_from(mv, pos)
+            v1, v2, v3, v4 = _S10.unpack_from(mv, pos)
             pos += 32
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1977,9 +1974,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S13.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0), d.get("w", 1.0)))
+                out.append(_S10.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0), d.get("w", 1.0)))
             except Exception:
-                out.append(slow_pack(_S13, _R19, (d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0), d.get("w", 1.0),)))
+                out.append(slow_pack(_S10, _R19, (d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0), d.get("w", 1.0),)))
             pos += 32
         except FieldError as error:
             raise error.within(f) from None
@@ -1992,7 +1989,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 7) & -8
             f = _R20
-            v1, v2, v3 = _S14.unpack_from(mv, pos)
+            v1, v2, v3 = _S11.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2005,7 +2002,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 7) & -8
             f = _R20
-            v1, v2, v3 = _S14.unpack_from(mv, pos)
+            v1, v2, v3 = _S11.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2024,9 +2021,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S14.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
+                out.append(_S11.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
             except Exception:
-                out.append(slow_pack(_S14, _R20, (d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0),)))
+                out.append(slow_pack(_S11, _R20, (d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0),)))
             pos += 24
         except FieldError as error:
             raise error.within(f) from None
@@ -2041,7 +2038,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R21
-            v3, v4, v5, v6 = _S13.unpack_from(mv, pos)
+            v3, v4, v5, v6 = _S10.unpack_from(mv, pos)
             pos += 32
             f = ".orientation_covariance"
             if 9 * 8 > lim - pos:
@@ -2049,7 +2046,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v9 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
             f = _R22
-            v11, v12, v13 = _S14.unpack_from(mv, pos)
+            v11, v12, v13 = _S11.unpack_from(mv, pos)
             pos += 24
             f = ".angular_velocity_covariance"
             if 9 * 8 > lim - pos:
@@ -2057,7 +2054,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v16 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
             f = _R23
-            v18, v19, v20 = _S14.unpack_from(mv, pos)
+            v18, v19, v20 = _S11.unpack_from(mv, pos)
             pos += 24
             f = ".linear_acceleration_covariance"
             if 9 * 8 > lim - pos:
@@ -2077,7 +2074,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R21
-            v3, v4, v5, v6 = _S13.unpack_from(mv, pos)
+            v3, v4, v5, v6 = _S10.unpack_from(mv, pos)
             pos += 32
             f = ".orientation_covariance"
             if 9 * 8 > lim - pos:
@@ -2085,7 +2082,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v9 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
             f = _R22
-            v11, v12, v13 = _S14.unpack_from(mv, pos)
+            v11, v12, v13 = _S11.unpack_from(mv, pos)
             pos += 24
             f = ".angular_velocity_covariance"
             if 9 * 8 > lim - pos:
@@ -2093,7 +2090,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v16 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
             f = _R23
-            v18, v19, v20 = _S14.unpack_from(mv, pos)
+            v18, v19, v20 = _S11.unpack_from(mv, pos)
             pos += 24
             f = ".linear_acceleration_covariance"
             if 9 * 8 > lim - pos:
@@ -2125,9 +2122,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b7, c8 = encode_array(d.get("orientation_covariance", (0,) * 9), _D_float64, "float64", 9, True)
             f = ""
             try:
-                out.append(_S13.pack(m2.get("x", 0.0), m2.get("y", 0.0), m2.get("z", 0.0), m2.get("w", 1.0)))
+                out.append(_S10.pack(m2.get("x", 0.0), m2.get("y", 0.0), m2.get("z", 0.0), m2.get("w", 1.0)))
             except Exception:
-                out.append(slow_pack(_S13, _R21, (m2.get("x", 0.0), m2.get("y", 0.0), m2.get("z", 0.0), m2.get("w", 1.0),)))
+                out.append(slow_pack(_S10, _R21, (m2.get("x", 0.0), m2.get("y", 0.0), m2.get("z", 0.0), m2.get("w", 1.0),)))
             pos += 32
             out.append(b7)
             pos += c8 * 8
@@ -2139,9 +2136,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b14, c15 = encode_array(d.get("angular_velocity_covariance", (0,) * 9), _D_float64, "float64", 9, True)
             f = ""
             try:
-                out.append(_S14.pack(m10.get("x", 0.0), m10.get("y", 0.0), m10.get("z", 0.0)))
+                out.append(_S11.pack(m10.get("x", 0.0), m10.get("y", 0.0), m10.get("z", 0.0)))
             except Exception:
-                out.append(slow_pack(_S14, _R22, (m10.get("x", 0.0), m10.get("y", 0.0), m10.get("z", 0.0),)))
+                out.append(slow_pack(_S11, _R22, (m10.get("x", 0.0), m10.get("y", 0.0), m10.get("z", 0.0),)))
             pos += 24
             out.append(b14)
             pos += c15 * 8
@@ -2153,9 +2150,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b21, c22 = encode_array(d.get("linear_acceleration_covariance", (0,) * 9), _D_float64, "float64", 9, True)
             f = ""
             try:
-                out.append(_S14.pack(m17.get("x", 0.0), m17.get("y", 0.0), m17.get("z", 0.0)))
+                out.append(_S11.pack(m17.get("x", 0.0), m17.get("y", 0.0), m17.get("z", 0.0)))
             except Exception:
-                out.append(slow_pack(_S14, _R23, (m17.get("x", 0.0), m17.get("y", 0.0), m17.get("z", 0.0),)))
+                out.append(slow_pack(_S11, _R23, (m17.get("x", 0.0), m17.get("y", 0.0), m17.get("z", 0.0),)))
             pos += 24
             out.append(b21)
             pos += c22 * 8
@@ -2176,7 +2173,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 3) & -4
             f = _R24
-            v5, = _S4.unpack_from(mv, pos)
+            v5, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".position"
             if v5:
@@ -2186,7 +2183,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v6 = _frombuffer(mv, _D_float64, v5, pos)
             pos += v5 * 8
             f = _R25
-            v9, = _S4.unpack_from(mv, pos)
+            v9, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".velocity"
             if v9:
@@ -2196,7 +2193,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v10 = _frombuffer(mv, _D_float64, v9, pos)
             pos += v9 * 8
             f = _R26
-            v13, = _S4.unpack_from(mv, pos)
+            v13, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".effort"
             if v13:
@@ -2222,7 +2219,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 3) & -4
             f = _R24
-            v5, = _S4.unpack_from(mv, pos)
+            v5, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".position"
             if v5:
@@ -2232,7 +2229,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v6 = _frombuffer(mv, _D_float64, v5, pos)
             pos += v5 * 8
             f = _R25
-            v9, = _S4.unpack_from(mv, pos)
+            v9, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".velocity"
             if v9:
@@ -2242,7 +2239,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v10 = _frombuffer(mv, _D_float64, v9, pos)
             pos += v9 * 8
             f = _R26
-            v13, = _S4.unpack_from(mv, pos)
+            v13, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".effort"
             if v13:
@@ -2274,9 +2271,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(c4))
+                out.append(_S3.pack(c4))
             except Exception:
-                out.append(slow_pack(_S4, _R24, (c4,)))
+                out.append(slow_pack(_S3, _R24, (c4,)))
             pos += 4
             if c4:
                 p = -pos & 7
@@ -2289,9 +2286,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b7, c8 = encode_array(d.get("velocity", ()), _D_float64, "float64", None, False)
             f = ""
             try:
-                out.append(_S4.pack(c8))
+                out.append(_S3.pack(c8))
             except Exception:
-                out.append(slow_pack(_S4, _R25, (c8,)))
+                out.append(slow_pack(_S3, _R25, (c8,)))
             pos += 4
             if c8:
                 p = -pos & 7
@@ -2304,9 +2301,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b11, c12 = encode_array(d.get("effort", ()), _D_float64, "float64", None, False)
             f = ""
             try:
-                out.append(_S4.pack(c12))
+                out.append(_S3.pack(c12))
             except Exception:
-                out.append(slow_pack(_S4, _R26, (c12,)))
+                out.append(slow_pack(_S3, _R26, (c12,)))
             pos += 4
             if c12:
                 p = -pos & 7
@@ -2328,7 +2325,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R27
-            v4, = _S4.unpack_from(mv, pos)
+            v4, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".axes"
             if v4 * 4 > lim - pos:
@@ -2336,7 +2333,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v5 = _frombuffer(mv, _D_float32, v4, pos)
             pos += v4 * 4
             f = _R28
-            v8, = _S4.unpack_from(mv, pos)
+            v8, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".buttons"
             if v8 * 4 > lim - pos:
@@ -2356,7 +2353,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R27
-            v4, = _S4.unpack_from(mv, pos)
+            v4, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".axes"
             if v4 * 4 > lim - pos:
@@ -2364,7 +2361,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v5 = _frombuffer(mv, _D_float32, v4, pos)
             pos += v4 * 4
             f = _R28
-            v8, = _S4.unpack_from(mv, pos)
+            v8, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".buttons"
             if v8 * 4 > lim - pos:
@@ -2392,9 +2389,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(c3))
+                out.append(_S3.pack(c3))
             except Exception:
-                out.append(slow_pack(_S4, _R27, (c3,)))
+                out.append(slow_pack(_S3, _R27, (c3,)))
             pos += 4
             out.append(b2)
             pos += c3 * 4
@@ -2402,9 +2399,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b6, c7 = encode_array(d.get("buttons", ()), _D_int32, "int32", None, False)
             f = ""
             try:
-                out.append(_S4.pack(c7))
+                out.append(_S3.pack(c7))
             except Exception:
-                out.append(slow_pack(_S4, _R28, (c7,)))
+                out.append(slow_pack(_S3, _R28, (c7,)))
             pos += 4
             out.append(b6)
             pos += c7 * 4
@@ -2418,11 +2415,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R29
-            v1, v2 = _S15.unpack_from(mv, pos)
+            v1, v2 = _S12.unpack_from(mv, pos)
             pos += 2
             pos = (pos + 3) & -4
             f = _R30
-            v3, = _S16.unpack_from(mv, pos)
+            v3, = _S13.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2434,11 +2431,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R29
-            v1, v2 = _S15.unpack_from(mv, pos)
+            v1, v2 = _S12.unpack_from(mv, pos)
             pos += 2
             pos = (pos + 3) & -4
             f = _R30
-            v3, = _S16.unpack_from(mv, pos)
+            v3, = _S13.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2453,9 +2450,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_sensor_msgs__msg__JoyFeedback)
             f = ""
             try:
-                out.append(_S15.pack(d.get("type", 0), d.get("id", 0)))
+                out.append(_S12.pack(d.get("type", 0), d.get("id", 0)))
             except Exception:
-                out.append(slow_pack(_S15, _R29, (d.get("type", 0), d.get("id", 0),)))
+                out.append(slow_pack(_S12, _R29, (d.get("type", 0), d.get("id", 0),)))
             pos += 2
             p = -pos & 3
             if p:
@@ -2463,9 +2460,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S16.pack(d.get("intensity", 0.0)))
+                out.append(_S13.pack(d.get("intensity", 0.0)))
             except Exception:
-                out.append(slow_pack(_S16, _R30, (d.get("intensity", 0.0),)))
+                out.append(slow_pack(_S13, _R30, (d.get("intensity", 0.0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -2517,7 +2514,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R31
-            v3, = _S4.unpack_from(mv, pos)
+            v3, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".echoes"
             if v3 * 4 > lim - pos:
@@ -2535,7 +2532,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R31
-            v3, = _S4.unpack_from(mv, pos)
+            v3, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".echoes"
             if v3 * 4 > lim - pos:
@@ -2561,9 +2558,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(c2))
+                out.append(_S3.pack(c2))
             except Exception:
-                out.append(slow_pack(_S4, _R31, (c2,)))
+                out.append(slow_pack(_S3, _R31, (c2,)))
             pos += 4
             out.append(b1)
             pos += c2 * 4
@@ -2580,7 +2577,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R32
-            v2, v3, v4, v5, v6, v7, v8, v11 = _S17.unpack_from(mv, pos)
+            v2, v3, v4, v5, v6, v7, v8, v11 = _S14.unpack_from(mv, pos)
             pos += 32
             f = ".ranges"
             if v11 * 4 > lim - pos:
@@ -2588,7 +2585,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v12 = _frombuffer(mv, _D_float32, v11, pos)
             pos += v11 * 4
             f = _R33
-            v15, = _S4.unpack_from(mv, pos)
+            v15, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".intensities"
             if v15 * 4 > lim - pos:
@@ -2608,7 +2605,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R32
-            v2, v3, v4, v5, v6, v7, v8, v11 = _S17.unpack_from(mv, pos)
+            v2, v3, v4, v5, v6, v7, v8, v11 = _S14.unpack_from(mv, pos)
             pos += 32
             f = ".ranges"
             if v11 * 4 > lim - pos:
@@ -2616,7 +2613,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v12 = _frombuffer(mv, _D_float32, v11, pos)
             pos += v11 * 4
             f = _R33
-            v15, = _S4.unpack_from(mv, pos)
+            v15, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".intensities"
             if v15 * 4 > lim - pos:
@@ -2644,9 +2641,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b9, c10 = encode_array(d.get("ranges", ()), _D_float32, "float32", None, False)
             f = ""
             try:
-                out.append(_S17.pack(d.get("angle_min", 0.0), d.get("angle_max", 0.0), d.get("angle_increment", 0.0), d.get("time_increment", 0.0), d.get("scan_time", 0.0), d.get("range_min", 0.0), d.get("range_max", 0.0), c10))
+                out.append(_S14.pack(d.get("angle_min", 0.0), d.get("angle_max", 0.0), d.get("angle_increment", 0.0), d.get("time_increment", 0.0), d.get("scan_time", 0.0), d.get("range_min", 0.0), d.get("range_max", 0.0), c10))
             except Exception:
-                out.append(slow_pack(_S17, _R32, (d.get("angle_min", 0.0), d.get("angle_max", 0.0), d.get("angle_increment", 0.0), d.get("time_increment", 0.0), d.get("scan_time", 0.0), d.get("range_min", 0.0), d.get("range_max", 0.0), c10,)))
+                out.append(slow_pack(_S14, _R32, (d.get("angle_min", 0.0), d.get("angle_max", 0.0), d.get("angle_increment", 0.0), d.get("time_increment", 0.0), d.get("scan_time", 0.0), d.get("range_min", 0.0), d.get("range_max", 0.0), c10,)))
             pos += 32
             out.append(b9)
             pos += c10 * 4
@@ -2654,9 +2651,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b13, c14 = encode_array(d.get("intensities", ()), _D_float32, "float32", None, False)
             f = ""
             try:
-                out.append(_S4.pack(c14))
+                out.append(_S3.pack(c14))
             except Exception:
-                out.append(slow_pack(_S4, _R33, (c14,)))
+                out.append(slow_pack(_S3, _R33, (c14,)))
             pos += 4
             out.append(b13)
             pos += c14 * 4
@@ -2673,7 +2670,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R34
-            v3, v4, v5 = _S14.unpack_from(mv, pos)
+            v3, v4, v5 = _S11.unpack_from(mv, pos)
             pos += 24
             f = ".magnetic_field_covariance"
             if 9 * 8 > lim - pos:
@@ -2693,7 +2690,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R34
-            v3, v4, v5 = _S14.unpack_from(mv, pos)
+            v3, v4, v5 = _S11.unpack_from(mv, pos)
             pos += 24
             f = ".magnetic_field_covariance"
             if 9 * 8 > lim - pos:
@@ -2725,9 +2722,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b6, c7 = encode_array(d.get("magnetic_field_covariance", (0,) * 9), _D_float64, "float64", 9, True)
             f = ""
             try:
-                out.append(_S14.pack(m2.get("x", 0.0), m2.get("y", 0.0), m2.get("z", 0.0)))
+                out.append(_S11.pack(m2.get("x", 0.0), m2.get("y", 0.0), m2.get("z", 0.0)))
             except Exception:
-                out.append(slow_pack(_S14, _R34, (m2.get("x", 0.0), m2.get("y", 0.0), m2.get("z", 0.0),)))
+                out.append(slow_pack(_S11, _R34, (m2.get("x", 0.0), m2.get("y", 0.0), m2.get("z", 0.0),)))
             pos += 24
             out.append(b6)
             pos += c7 * 8
@@ -2742,7 +2739,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 7) & -8
             f = _R35
-            v2, v3, v4, v6, v7, v8, v9 = _S18.unpack_from(mv, pos)
+            v2, v3, v4, v6, v7, v8, v9 = _S15.unpack_from(mv, pos)
             pos += 56
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2755,7 +2752,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 7) & -8
             f = _R35
-            v2, v3, v4, v6, v7, v8, v9 = _S18.unpack_from(mv, pos)
+            v2, v3, v4, v6, v7, v8, v9 = _S15.unpack_from(mv, pos)
             pos += 56
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2782,9 +2779,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m5 = _submap(m5, _K_geometry_msgs__msg__Quaternion)
             f = ""
             try:
-                out.append(_S18.pack(m1.get("x", 0.0), m1.get("y", 0.0), m1.get("z", 0.0), m5.get("x", 0.0), m5.get("y", 0.0), m5.get("z", 0.0), m5.get("w", 1.0)))
+                out.append(_S15.pack(m1.get("x", 0.0), m1.get("y", 0.0), m1.get("z", 0.0), m5.get("x", 0.0), m5.get("y", 0.0), m5.get("z", 0.0), m5.get("w", 1.0)))
             except Exception:
-                out.append(slow_pack(_S18, _R35, (m1.get("x", 0.0), m1.get("y", 0.0), m1.get("z", 0.0), m5.get("x", 0.0), m5.get("y", 0.0), m5.get("z", 0.0), m5.get("w", 1.0),)))
+                out.append(slow_pack(_S15, _R35, (m1.get("x", 0.0), m1.get("y", 0.0), m1.get("z", 0.0), m5.get("x", 0.0), m5.get("y", 0.0), m5.get("z", 0.0), m5.get("w", 1.0),)))
             pos += 56
         except FieldError as error:
             raise error.within(f) from None
@@ -2797,7 +2794,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 7) & -8
             f = _R36
-            v2, v3, v4, v6, v7, v8 = _S19.unpack_from(mv, pos)
+            v2, v3, v4, v6, v7, v8 = _S16.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2810,7 +2807,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 7) & -8
             f = _R36
-            v2, v3, v4, v6, v7, v8 = _S19.unpack_from(mv, pos)
+            v2, v3, v4, v6, v7, v8 = _S16.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2837,9 +2834,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m5 = _submap(m5, _K_geometry_msgs__msg__Vector3)
             f = ""
             try:
-                out.append(_S19.pack(m1.get("x", 0.0), m1.get("y", 0.0), m1.get("z", 0.0), m5.get("x", 0.0), m5.get("y", 0.0), m5.get("z", 0.0)))
+                out.append(_S16.pack(m1.get("x", 0.0), m1.get("y", 0.0), m1.get("z", 0.0), m5.get("x", 0.0), m5.get("y", 0.0), m5.get("z", 0.0)))
             except Exception:
-                out.append(slow_pack(_S19, _R36, (m1.get("x", 0.0), m1.get("y", 0.0), m1.get("z", 0.0), m5.get("x", 0.0), m5.get("y", 0.0), m5.get("z", 0.0),)))
+                out.append(slow_pack(_S16, _R36, (m1.get("x", 0.0), m1.get("y", 0.0), m1.get("z", 0.0), m5.get("x", 0.0), m5.get("y", 0.0), m5.get("z", 0.0),)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None
@@ -2852,7 +2849,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 7) & -8
             f = _R37
-            v2, v3, v4, v6, v7, v8 = _S19.unpack_from(mv, pos)
+            v2, v3, v4, v6, v7, v8 = _S16.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2865,7 +2862,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 7) & -8
             f = _R37
-            v2, v3, v4, v6, v7, v8 = _S19.unpack_from(mv, pos)
+            v2, v3, v4, v6, v7, v8 = _S16.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2892,9 +2889,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m5 = _submap(m5, _K_geometry_msgs__msg__Vector3)
             f = ""
             try:
-                out.append(_S19.pack(m1.get("x", 0.0), m1.get("y", 0.0), m1.get("z", 0.0), m5.get("x", 0.0), m5.get("y", 0.0), m5.get("z", 0.0)))
+                out.append(_S16.pack(m1.get("x", 0.0), m1.get("y", 0.0), m1.get("z", 0.0), m5.get("x", 0.0), m5.get("y", 0.0), m5.get("z", 0.0)))
             except Exception:
-                out.append(slow_pack(_S19, _R37, (m1.get("x", 0.0), m1.get("y", 0.0), m1.get("z", 0.0), m5.get("x", 0.0), m5.get("y", 0.0), m5.get("z", 0.0),)))
+                out.append(slow_pack(_S16, _R37, (m1.get("x", 0.0), m1.get("y", 0.0), m1.get("z", 0.0), m5.get("x", 0.0), m5.get("y", 0.0), m5.get("z", 0.0),)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None
@@ -2984,7 +2981,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R38
-            v2, v3, v4, v5, v6, v7, v8 = _S20.unpack_from(mv, pos)
+            v2, v3, v4, v5, v6, v7, v8 = _S17.unpack_from(mv, pos)
             pos += 28
             f = ".ranges"
             v9, pos = read_messages(
@@ -3007,7 +3004,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R38
-            v2, v3, v4, v5, v6, v7, v8 = _S20.unpack_from(mv, pos)
+            v2, v3, v4, v5, v6, v7, v8 = _S17.unpack_from(mv, pos)
             pos += 28
             f = ".ranges"
             v9, pos = read_messages(
@@ -3036,9 +3033,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S20.pack(d.get("angle_min", 0.0), d.get("angle_max", 0.0), d.get("angle_increment", 0.0), d.get("time_increment", 0.0), d.get("scan_time", 0.0), d.get("range_min", 0.0), d.get("range_max", 0.0)))
+                out.append(_S17.pack(d.get("angle_min", 0.0), d.get("angle_max", 0.0), d.get("angle_increment", 0.0), d.get("time_increment", 0.0), d.get("scan_time", 0.0), d.get("range_min", 0.0), d.get("range_max", 0.0)))
             except Exception:
-                out.append(slow_pack(_S20, _R38, (d.get("angle_min", 0.0), d.get("angle_max", 0.0), d.get("angle_increment", 0.0), d.get("time_increment", 0.0), d.get("scan_time", 0.0), d.get("range_min", 0.0), d.get("range_max", 0.0),)))
+                out.append(slow_pack(_S17, _R38, (d.get("angle_min", 0.0), d.get("angle_max", 0.0), d.get("angle_increment", 0.0), d.get("time_increment", 0.0), d.get("scan_time", 0.0), d.get("range_min", 0.0), d.get("range_max", 0.0),)))
             pos += 28
             f = ".ranges"
             pos = write_messages(d.get("ranges", ()), out, pos, _U32, encode_sensor_msgs__msg__LaserEcho, None, False)
@@ -3054,11 +3051,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R39
-            v1, = _S21.unpack_from(mv, pos)
+            v1, = _S18.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 1) & -2
             f = _R40
-            v2, = _S22.unpack_from(mv, pos)
+            v2, = _S19.unpack_from(mv, pos)
             pos += 2
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3070,11 +3067,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R39
-            v1, = _S21.unpack_from(mv, pos)
+            v1, = _S18.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 1) & -2
             f = _R40
-            v2, = _S22.unpack_from(mv, pos)
+            v2, = _S19.unpack_from(mv, pos)
             pos += 2
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3089,9 +3086,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_sensor_msgs__msg__NavSatStatus)
             f = ""
             try:
-                out.append(_S21.pack(d.get("status", -2)))
+                out.append(_S18.pack(d.get("status", -2)))
             except Exception:
-                out.append(slow_pack(_S21, _R39, (d.get("status", -2),)))
+                out.append(slow_pack(_S18, _R39, (d.get("status", -2),)))
             pos += 1
             p = -pos & 1
             if p:
@@ -3099,9 +3096,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S22.pack(d.get("service", 0)))
+                out.append(_S19.pack(d.get("service", 0)))
             except Exception:
-                out.append(slow_pack(_S22, _R40, (d.get("service", 0),)))
+                out.append(slow_pack(_S19, _R40, (d.get("service", 0),)))
             pos += 2
         except FieldError as error:
             raise error.within(f) from None
@@ -3115,15 +3112,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".header"
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             f = _R41
-            v3, = _S21.unpack_from(mv, pos)
+            v3, = _S18.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 1) & -2
             f = _R42
-            v4, = _S22.unpack_from(mv, pos)
+            v4, = _S19.unpack_from(mv, pos)
             pos += 2
             pos = (pos + 7) & -8
             f = _R43
-            v5, v6, v7 = _S14.unpack_from(mv, pos)
+            v5, v6, v7 = _S11.unpack_from(mv, pos)
             pos += 24
             f = ".position_covariance"
             if 9 * 8 > lim - pos:
@@ -3131,7 +3128,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v10 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
             f = _R44
-            v11, = _S11.unpack_from(mv, pos)
+            v11, = _S8.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3145,15 +3142,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".header"
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             f = _R41
-            v3, = _S21.unpack_from(mv, pos)
+            v3, = _S18.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 1) & -2
             f = _R42
-            v4, = _S22.unpack_from(mv, pos)
+            v4, = _S19.unpack_from(mv, pos)
             pos += 2
             pos = (pos + 7) & -8
             f = _R43
-            v5, v6, v7 = _S14.unpack_from(mv, pos)
+            v5, v6, v7 = _S11.unpack_from(mv, pos)
             pos += 24
             f = ".position_covariance"
             if 9 * 8 > lim - pos:
@@ -3161,7 +3158,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v10 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
             f = _R44
-            v11, = _S11.unpack_from(mv, pos)
+            v11, = _S8.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3182,9 +3179,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m2 = _submap(m2, _K_sensor_msgs__msg__NavSatStatus)
             f = ""
             try:
-                out.append(_S21.pack(m2.get("status", -2)))
+                out.append(_S18.pack(m2.get("status", -2)))
             except Exception:
-                out.append(slow_pack(_S21, _R41, (m2.get("status", -2),)))
+                out.append(slow_pack(_S18, _R41, (m2.get("status", -2),)))
             pos += 1
             p = -pos & 1
             if p:
@@ -3192,9 +3189,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S22.pack(m2.get("service", 0)))
+                out.append(_S19.pack(m2.get("service", 0)))
             except Exception:
-                out.append(slow_pack(_S22, _R42, (m2.get("service", 0),)))
+                out.append(slow_pack(_S19, _R42, (m2.get("service", 0),)))
             pos += 2
             p = -pos & 7
             if p:
@@ -3204,17 +3201,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b8, c9 = encode_array(d.get("position_covariance", (0,) * 9), _D_float64, "float64", 9, True)
             f = ""
             try:
-                out.append(_S14.pack(d.get("latitude", 0.0), d.get("longitude", 0.0), d.get("altitude", 0.0)))
+                out.append(_S11.pack(d.get("latitude", 0.0), d.get("longitude", 0.0), d.get("altitude", 0.0)))
             except Exception:
-                out.append(slow_pack(_S14, _R43, (d.get("latitude", 0.0), d.get("longitude", 0.0), d.get("altitude", 0.0),)))
+                out.append(slow_pack(_S11, _R43, (d.get("latitude", 0.0), d.get("longitude", 0.0), d.get("altitude", 0.0),)))
             pos += 24
             out.append(b8)
             pos += c9 * 8
             f = ""
             try:
-                out.append(_S11.pack(d.get("position_covariance_type", 0)))
+                out.append(_S8.pack(d.get("position_covariance_type", 0)))
             except Exception:
-                out.append(slow_pack(_S11, _R44, (d.get("position_covariance_type", 0),)))
+                out.append(slow_pack(_S8, _R44, (d.get("position_covariance_type", 0),)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -3227,7 +3224,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R45
-            v1, v2, v3 = _S23.unpack_from(mv, pos)
+            v1, v2, v3 = _S20.unpack_from(mv, pos)
             pos += 12
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3240,7 +3237,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R45
-            v1, v2, v3 = _S23.unpack_from(mv, pos)
+            v1, v2, v3 = _S20.unpack_from(mv, pos)
             pos += 12
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3259,9 +3256,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S23.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
+                out.append(_S20.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
             except Exception:
-                out.append(slow_pack(_S23, _R45, (d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0),)))
+                out.append(slow_pack(_S20, _R45, (d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0),)))
             pos += 12
         except FieldError as error:
             raise error.within(f) from None
@@ -3329,7 +3326,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R46
-            v2, = _S4.unpack_from(mv, pos)
+            v2, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".name"
             if v2 > lim - pos:
@@ -3338,7 +3335,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v2
             pos = (pos + 3) & -4
             f = _R47
-            v4, v5, v6 = _S24.unpack_from(mv, pos)
+            v4, v5, v6 = _S21.unpack_from(mv, pos)
             pos += 12
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3351,7 +3348,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R46
-            v2, = _S4.unpack_from(mv, pos)
+            v2, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".name"
             if v2 > lim - pos:
@@ -3360,7 +3357,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v2
             pos = (pos + 3) & -4
             f = _R47
-            v4, v5, v6 = _S24.unpack_from(mv, pos)
+            v4, v5, v6 = _S21.unpack_from(mv, pos)
             pos += 12
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3381,9 +3378,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(len(b1)))
+                out.append(_S3.pack(len(b1)))
             except Exception:
-                out.append(slow_pack(_S4, _R46, (len(b1),)))
+                out.append(slow_pack(_S3, _R46, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -3393,9 +3390,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S24.pack(d.get("offset", 0), d.get("datatype", 0), d.get("count", 0)))
+                out.append(_S21.pack(d.get("offset", 0), d.get("datatype", 0), d.get("count", 0)))
             except Exception:
-                out.append(slow_pack(_S24, _R47, (d.get("offset", 0), d.get("datatype", 0), d.get("count", 0),)))
+                out.append(slow_pack(_S21, _R47, (d.get("offset", 0), d.get("datatype", 0), d.get("count", 0),)))
             pos += 12
         except FieldError as error:
             raise error.within(f) from None
@@ -3410,32 +3407,32 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R48
-            v2, v3 = _S12.unpack_from(mv, pos)
+            v2, v3 = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".fields"
             v4, pos = read_messages(
                 mv, pos, lim, _U32, decode_dict_sensor_msgs__msg__PointField, None, None, 13
             )
             f = _R49
-            v5, = _S25.unpack_from(mv, pos)
+            v6, = _S22.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R50
-            v6, v7, v10 = _S7.unpack_from(mv, pos)
+            v7, v8, v11 = _S5.unpack_from(mv, pos)
             pos += 12
             f = ".data"
-            if v10 * 1 > lim - pos:
-                raise too_long(v10, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, v10, pos)
-            pos += v10 * 1
+            if v11 * 1 > lim - pos:
+                raise too_long(v11, 1, lim - pos)
+            v12 = _frombuffer(mv, _D_uint8, v11, pos)
+            pos += v11 * 1
             f = _R51
-            v12, = _S25.unpack_from(mv, pos)
+            v14, = _S22.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"header": v1, "height": v2, "width": v3, "fields": v4, "is_bigendian": v5, "point_step": v6, "row_step": v7, "data": v11, "is_dense": v12}, pos
+        return {"header": v1, "height": v2, "width": v3, "fields": v4, "is_bigendian": v6, "point_step": v7, "row_step": v8, "data": v12, "is_dense": v14}, pos
 
     def decode_view_sensor_msgs__msg__PointCloud2(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
@@ -3444,32 +3441,32 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R48
-            v2, v3 = _S12.unpack_from(mv, pos)
+            v2, v3 = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".fields"
             v4, pos = read_messages(
                 mv, pos, lim, _U32, decode_view_sensor_msgs__msg__PointField, None, None, 13
             )
             f = _R49
-            v5, = _S25.unpack_from(mv, pos)
+            v6, = _S22.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R50
-            v6, v7, v10 = _S7.unpack_from(mv, pos)
+            v7, v8, v11 = _S5.unpack_from(mv, pos)
             pos += 12
             f = ".data"
-            if v10 * 1 > lim - pos:
-                raise too_long(v10, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, v10, pos)
-            pos += v10 * 1
+            if v11 * 1 > lim - pos:
+                raise too_long(v11, 1, lim - pos)
+            v12 = _frombuffer(mv, _D_uint8, v11, pos)
+            pos += v11 * 1
             f = _R51
-            v12, = _S25.unpack_from(mv, pos)
+            v14, = _S22.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__PointCloud2(v1, v2, v3, v4, v5, v6, v7, v11, v12), pos
+        return make_sensor_msgs__msg__PointCloud2(v1, v2, v3, v4, v6, v7, v8, v12, v14), pos
 
     def encode_sensor_msgs__msg__PointCloud2(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3484,37 +3481,37 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S12.pack(d.get("height", 0), d.get("width", 0)))
+                out.append(_S9.pack(d.get("height", 0), d.get("width", 0)))
             except Exception:
-                out.append(slow_pack(_S12, _R48, (d.get("height", 0), d.get("width", 0),)))
+                out.append(slow_pack(_S9, _R48, (d.get("height", 0), d.get("width", 0),)))
             pos += 8
             f = ".fields"
             pos = write_messages(d.get("fields", ()), out, pos, _U32, encode_sensor_msgs__msg__PointField, None, False)
             f = ""
             try:
-                out.append(_S11.pack(d.get("is_bigendian", False)))
+                out.append(_S22.pack((t5 if (t5 := d.get("is_bigendian", False)).__class__ is bool else check_bool(t5, ".is_bigendian"))))
             except Exception:
-                out.append(slow_pack(_S11, _R49, (d.get("is_bigendian", False),)))
+                out.append(slow_pack(_S22, _R49, ((t5 if (t5 := d.get("is_bigendian", False)).__class__ is bool else check_bool(t5, ".is_bigendian")),)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".data"
-            b8, c9 = encode_array(d.get("data", ()), _D_uint8, "uint8", None, False)
+            b9, c10 = encode_array(d.get("data", ()), _D_uint8, "uint8", None, False)
             f = ""
             try:
-                out.append(_S7.pack(d.get("point_step", 0), d.get("row_step", 0), c9))
+                out.append(_S5.pack(d.get("point_step", 0), d.get("row_step", 0), c10))
             except Exception:
-                out.append(slow_pack(_S7, _R50, (d.get("point_step", 0), d.get("row_step", 0), c9,)))
+                out.append(slow_pack(_S5, _R50, (d.get("point_step", 0), d.get("row_step", 0), c10,)))
             pos += 12
-            out.append(b8)
-            pos += c9 * 1
+            out.append(b9)
+            pos += c10 * 1
             f = ""
             try:
-                out.append(_S11.pack(d.get("is_dense", False)))
+                out.append(_S22.pack((t13 if (t13 := d.get("is_dense", False)).__class__ is bool else check_bool(t13, ".is_dense"))))
             except Exception:
-                out.append(slow_pack(_S11, _R51, (d.get("is_dense", False),)))
+                out.append(slow_pack(_S22, _R51, ((t13 if (t13 := d.get("is_dense", False)).__class__ is bool else check_bool(t13, ".is_dense")),)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -3528,11 +3525,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".header"
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             f = _R52
-            v2, = _S11.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R53
-            v3, v4, v5, v6, v7 = _S26.unpack_from(mv, pos)
+            v3, v4, v5, v6, v7 = _S23.unpack_from(mv, pos)
             pos += 20
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3546,11 +3543,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".header"
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             f = _R52
-            v2, = _S11.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R53
-            v3, v4, v5, v6, v7 = _S26.unpack_from(mv, pos)
+            v3, v4, v5, v6, v7 = _S23.unpack_from(mv, pos)
             pos += 20
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3567,9 +3564,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
             f = ""
             try:
-                out.append(_S11.pack(d.get("radiation_type", 0)))
+                out.append(_S8.pack(d.get("radiation_type", 0)))
             except Exception:
-                out.append(slow_pack(_S11, _R52, (d.get("radiation_type", 0),)))
+                out.append(slow_pack(_S8, _R52, (d.get("radiation_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -3577,9 +3574,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S26.pack(d.get("field_of_view", 0.0), d.get("min_range", 0.0), d.get("max_range", 0.0), d.get("range", 0.0), d.get("variance", 0.0)))
+                out.append(_S23.pack(d.get("field_of_view", 0.0), d.get("min_range", 0.0), d.get("max_range", 0.0), d.get("range", 0.0), d.get("variance", 0.0)))
             except Exception:
-                out.append(slow_pack(_S26, _R53, (d.get("field_of_view", 0.0), d.get("min_range", 0.0), d.get("max_range", 0.0), d.get("range", 0.0), d.get("variance", 0.0),)))
+                out.append(slow_pack(_S23, _R53, (d.get("field_of_view", 0.0), d.get("min_range", 0.0), d.get("max_range", 0.0), d.get("range", 0.0), d.get("variance", 0.0),)))
             pos += 20
         except FieldError as error:
             raise error.within(f) from None
@@ -3594,7 +3591,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R54
-            v2, v3 = _S10.unpack_from(mv, pos)
+            v2, v3 = _S7.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3609,7 +3606,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R54
-            v2, v3 = _S10.unpack_from(mv, pos)
+            v2, v3 = _S7.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3630,9 +3627,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S10.pack(d.get("relative_humidity", 0.0), d.get("variance", 0.0)))
+                out.append(_S7.pack(d.get("relative_humidity", 0.0), d.get("variance", 0.0)))
             except Exception:
-                out.append(slow_pack(_S10, _R54, (d.get("relative_humidity", 0.0), d.get("variance", 0.0),)))
+                out.append(slow_pack(_S7, _R54, (d.get("relative_humidity", 0.0), d.get("variance", 0.0),)))
             pos += 16
         except FieldError as error:
             raise error.within(f) from None
@@ -3647,7 +3644,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R55
-            v2, v3 = _S10.unpack_from(mv, pos)
+            v2, v3 = _S7.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3662,7 +3659,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R55
-            v2, v3 = _S10.unpack_from(mv, pos)
+            v2, v3 = _S7.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3683,9 +3680,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S10.pack(d.get("temperature", 0.0), d.get("variance", 0.0)))
+                out.append(_S7.pack(d.get("temperature", 0.0), d.get("variance", 0.0)))
             except Exception:
-                out.append(slow_pack(_S10, _R55, (d.get("temperature", 0.0), d.get("variance", 0.0),)))
+                out.append(slow_pack(_S7, _R55, (d.get("temperature", 0.0), d.get("variance", 0.0),)))
             pos += 16
         except FieldError as error:
             raise error.within(f) from None
@@ -3803,43 +3800,43 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R57
-            v1, = _S25.unpack_from(mv, pos)
+            v2, = _S22.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R58
-            v3, = _S4.unpack_from(mv, pos)
+            v4, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".status_message"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
-            pos += v3
+            if v4 > lim - pos:
+                raise too_long(v4, 1, lim - pos)
+            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"success": v1, "status_message": v4}, pos
+        return {"success": v2, "status_message": v5}, pos
 
     def decode_view_sensor_msgs__srv__SetCameraInfo_Response(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R57
-            v1, = _S25.unpack_from(mv, pos)
+            v2, = _S22.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R58
-            v3, = _S4.unpack_from(mv, pos)
+            v4, = _S3.unpack_from(mv, pos)
             pos += 4
             f = ".status_message"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
-            pos += v3
+            if v4 > lim - pos:
+                raise too_long(v4, 1, lim - pos)
+            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__srv__SetCameraInfo_Response(v1, v4), pos
+        return make_sensor_msgs__srv__SetCameraInfo_Response(v2, v5), pos
 
     def encode_sensor_msgs__srv__SetCameraInfo_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3847,12 +3844,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             if d.__class__ is not dict or not _K_sensor_msgs__srv__SetCameraInfo_Response.issuperset(d):
                 d = _submap(d, _K_sensor_msgs__srv__SetCameraInfo_Response)
             f = ".status_message"
-            b2 = utf8z(d.get("status_message", ""), None)
+            b3 = utf8z(d.get("status_message", ""), None)
             f = ""
             try:
-                out.append(_S11.pack(d.get("success", False)))
+                out.append(_S22.pack((t1 if (t1 := d.get("success", False)).__class__ is bool else check_bool(t1, ".success"))))
             except Exception:
-                out.append(slow_pack(_S11, _R57, (d.get("success", False),)))
+                out.append(slow_pack(_S22, _R57, ((t1 if (t1 := d.get("success", False)).__class__ is bool else check_bool(t1, ".success")),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -3860,12 +3857,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(len(b2)))
+                out.append(_S3.pack(len(b3)))
             except Exception:
-                out.append(slow_pack(_S4, _R58, (len(b2),)))
+                out.append(slow_pack(_S3, _R58, (len(b3),)))
             pos += 4
-            out.append(b2)
-            pos += len(b2)
+            out.append(b3)
+            pos += len(b3)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -3876,7 +3873,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R59
-            v1, = _S11.unpack_from(mv, pos)
+            v1, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R60
@@ -3889,7 +3886,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R61
-            v8, = _S27.unpack_from(mv, pos)
+            v8, = _S24.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3901,7 +3898,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R59
-            v1, = _S11.unpack_from(mv, pos)
+            v1, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R60
@@ -3914,7 +3911,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R61
-            v8, = _S27.unpack_from(mv, pos)
+            v8, = _S24.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3933,9 +3930,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S11.pack(d.get("event_type", 0)))
+                out.append(_S8.pack(d.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S11, _R59, (d.get("event_type", 0),)))
+                out.append(slow_pack(_S8, _R59, (d.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -3957,9 +3954,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S27.pack(d.get("sequence_number", 0)))
+                out.append(_S24.pack(d.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S27, _R61, (d.get("sequence_number", 0),)))
+                out.append(slow_pack(_S24, _R61, (d.get("sequence_number", 0),)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -3971,7 +3968,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R62
-            v2, = _S11.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R63
@@ -3984,7 +3981,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R64
-            v9, = _S27.unpack_from(mv, pos)
+            v9, = _S24.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -4004,7 +4001,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R62
-            v2, = _S11.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R63
@@ -4017,7 +4014,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R64
-            v9, = _S27.unpack_from(mv, pos)
+            v9, = _S24.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -4048,9 +4045,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S11.pack(m1.get("event_type", 0)))
+                out.append(_S8.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S11, _R62, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S8, _R62, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -4072,9 +4069,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S27.pack(m1.get("sequence_number", 0)))
+                out.append(_S24.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S27, _R64, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S24, _R64, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_sensor_msgs__srv__SetCameraInfo_Request, 1, False)

@@ -55,6 +55,7 @@ from shape_msgs.msg import SolidPrimitive
 
 
 EMPTY: Mapping[str, Any] = {}
+STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -122,7 +123,15 @@ def mesh_triangle_from_dict(data: Mapping[str, Any]) -> Any:
         msg = MeshTriangle.__new__(MeshTriangle)
         msg._check_fields = CHECK_FIELDS
         value = data.get("vertex_indices", MISSING)
-        msg._vertex_indices = np.zeros(3, dtype=np.uint32) if value is MISSING else numeric_array(value, "I", "uint32", "uint32", 3, ".vertex_indices")
+        if value is MISSING:
+            msg._vertex_indices = np.zeros(3, dtype=np.uint32)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._vertex_indices = np.array(array("I", value), dtype=np.uint32)
+            except (TypeError, OverflowError, ValueError):
+                msg._vertex_indices = numeric_array(value, "I", "uint32", "uint32", 3, ".vertex_indices")
+        else:
+            msg._vertex_indices = numeric_array(value, "I", "uint32", "uint32", 3, ".vertex_indices")
     except FieldError as error:
         error.root = "MeshTriangle"
         raise
@@ -149,7 +158,15 @@ def plane_from_dict(data: Mapping[str, Any]) -> Any:
         msg = Plane.__new__(Plane)
         msg._check_fields = CHECK_FIELDS
         value = data.get("coef", MISSING)
-        msg._coef = np.zeros(4, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 4, ".coef")
+        if value is MISSING:
+            msg._coef = np.zeros(4, dtype=np.float64)
+        elif type(value) is list and len(value) == 4:
+            try:
+                msg._coef = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._coef = numeric_array(value, "d", "float64", "float64", 4, ".coef")
+        else:
+            msg._coef = numeric_array(value, "d", "float64", "float64", 4, ".coef")
     except FieldError as error:
         error.root = "Plane"
         raise
@@ -191,7 +208,15 @@ def solid_primitive_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 255, "uint8", ".type")
         msg._type = value
         value = data.get("dimensions", MISSING)
-        msg._dimensions = array("d") if value is MISSING else numeric_sequence(value, "d", "float64", 3, ".dimensions")
+        if value is MISSING:
+            msg._dimensions = array("d")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._dimensions = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._dimensions = numeric_sequence(value, "d", "float64", 3, ".dimensions")
+        else:
+            msg._dimensions = numeric_sequence(value, "d", "float64", 3, ".dimensions")
         try:
             msg._polygon = geometry_msgs__polygon_from_dict(data.get("polygon", EMPTY))
         except FieldError as error:

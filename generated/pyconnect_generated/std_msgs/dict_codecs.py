@@ -132,6 +132,7 @@ from std_msgs.msg import UInt8MultiArray
 
 
 EMPTY: Mapping[str, Any] = {}
+STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -468,7 +469,15 @@ def float64_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".layout") from None
         value = data.get("data", MISSING)
-        msg._data = array("d") if value is MISSING else numeric_sequence(value, "d", "float64", None, ".data")
+        if value is MISSING:
+            msg._data = array("d")
+        elif type(value) is list:
+            try:
+                msg._data = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._data = numeric_sequence(value, "d", "float64", None, ".data")
+        else:
+            msg._data = numeric_sequence(value, "d", "float64", None, ".data")
     except FieldError as error:
         error.root = "Float64MultiArray"
         raise
@@ -576,7 +585,15 @@ def int16_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".layout") from None
         value = data.get("data", MISSING)
-        msg._data = array("h") if value is MISSING else numeric_sequence(value, "h", "int16", None, ".data")
+        if value is MISSING:
+            msg._data = array("h")
+        elif type(value) is list:
+            try:
+                msg._data = array("h", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._data = numeric_sequence(value, "h", "int16", None, ".data")
+        else:
+            msg._data = numeric_sequence(value, "h", "int16", None, ".data")
     except FieldError as error:
         error.root = "Int16MultiArray"
         raise
@@ -647,7 +664,15 @@ def int32_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".layout") from None
         value = data.get("data", MISSING)
-        msg._data = array("i") if value is MISSING else numeric_sequence(value, "i", "int32", None, ".data")
+        if value is MISSING:
+            msg._data = array("i")
+        elif type(value) is list:
+            try:
+                msg._data = array("i", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._data = numeric_sequence(value, "i", "int32", None, ".data")
+        else:
+            msg._data = numeric_sequence(value, "i", "int32", None, ".data")
     except FieldError as error:
         error.root = "Int32MultiArray"
         raise
@@ -718,7 +743,15 @@ def int64_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".layout") from None
         value = data.get("data", MISSING)
-        msg._data = array("q") if value is MISSING else numeric_sequence(value, "q", "int64", None, ".data")
+        if value is MISSING:
+            msg._data = array("q")
+        elif type(value) is list:
+            try:
+                msg._data = array("q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._data = numeric_sequence(value, "q", "int64", None, ".data")
+        else:
+            msg._data = numeric_sequence(value, "q", "int64", None, ".data")
     except FieldError as error:
         error.root = "Int64MultiArray"
         raise
@@ -789,7 +822,15 @@ def int8_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".layout") from None
         value = data.get("data", MISSING)
-        msg._data = array("b") if value is MISSING else numeric_sequence(value, "b", "int8", None, ".data")
+        if value is MISSING:
+            msg._data = array("b")
+        elif type(value) is list:
+            try:
+                msg._data = array("b", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._data = numeric_sequence(value, "b", "int8", None, ".data")
+        else:
+            msg._data = numeric_sequence(value, "b", "int8", None, ".data")
     except FieldError as error:
         error.root = "Int8MultiArray"
         raise
@@ -967,7 +1008,15 @@ def u_int16_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".layout") from None
         value = data.get("data", MISSING)
-        msg._data = array("H") if value is MISSING else numeric_sequence(value, "H", "uint16", None, ".data")
+        if value is MISSING:
+            msg._data = array("H")
+        elif type(value) is list:
+            try:
+                msg._data = array("H", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._data = numeric_sequence(value, "H", "uint16", None, ".data")
+        else:
+            msg._data = numeric_sequence(value, "H", "uint16", None, ".data")
     except FieldError as error:
         error.root = "UInt16MultiArray"
         raise
@@ -1038,7 +1087,15 @@ def u_int32_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".layout") from None
         value = data.get("data", MISSING)
-        msg._data = array("I") if value is MISSING else numeric_sequence(value, "I", "uint32", None, ".data")
+        if value is MISSING:
+            msg._data = array("I")
+        elif type(value) is list:
+            try:
+                msg._data = array("I", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._data = numeric_sequence(value, "I", "uint32", None, ".data")
+        else:
+            msg._data = numeric_sequence(value, "I", "uint32", None, ".data")
     except FieldError as error:
         error.root = "UInt32MultiArray"
         raise
@@ -1109,7 +1166,15 @@ def u_int64_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".layout") from None
         value = data.get("data", MISSING)
-        msg._data = array("Q") if value is MISSING else numeric_sequence(value, "Q", "uint64", None, ".data")
+        if value is MISSING:
+            msg._data = array("Q")
+        elif type(value) is list:
+            try:
+                msg._data = array("Q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._data = numeric_sequence(value, "Q", "uint64", None, ".data")
+        else:
+            msg._data = numeric_sequence(value, "Q", "uint64", None, ".data")
     except FieldError as error:
         error.root = "UInt64MultiArray"
         raise

@@ -66,7 +66,7 @@ from pyconnect.codecs.cdr_runtime import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import FieldError, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import FieldError, check_bool, check_mapping, unknown_keys
 
 _new = object.__new__
 _frombuffer = np.frombuffer
@@ -758,25 +758,25 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R0
-            v1, = _S0.unpack_from(mv, pos)
+            v2, = _S0.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"data": v1}, pos
+        return {"data": v2}, pos
 
     def decode_view_std_msgs__msg__Bool(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R0
-            v1, = _S0.unpack_from(mv, pos)
+            v2, = _S0.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Bool(v1), pos
+        return make_std_msgs__msg__Bool(v2), pos
 
     def encode_std_msgs__msg__Bool(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -785,9 +785,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_std_msgs__msg__Bool)
             f = ""
             try:
-                out.append(_S1.pack(d.get("data", False)))
+                out.append(_S0.pack((t1 if (t1 := d.get("data", False)).__class__ is bool else check_bool(t1, ".data"))))
             except Exception:
-                out.append(slow_pack(_S1, _R0, (d.get("data", False),)))
+                out.append(slow_pack(_S0, _R0, ((t1 if (t1 := d.get("data", False)).__class__ is bool else check_bool(t1, ".data")),)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None

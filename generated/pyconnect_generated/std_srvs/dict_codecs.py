@@ -72,6 +72,7 @@ Trigger_Response = _std_srvs__srv__Trigger.Response
 Trigger_Event = _std_srvs__srv__Trigger.Event
 
 EMPTY: Mapping[str, Any] = {}
+STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"

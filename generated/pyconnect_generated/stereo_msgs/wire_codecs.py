@@ -37,7 +37,7 @@ from pyconnect.codecs.cdr_runtime import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import FieldError, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import FieldError, check_bool, check_mapping, unknown_keys
 
 _new = object.__new__
 _frombuffer = np.frombuffer
@@ -183,9 +183,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _S3 = Struct(E + "B")
     _S4 = Struct(E + "2I")
     _S5 = Struct(E + "4I?")
-    _S6 = Struct(E + "4IB")
-    _S7 = Struct(E + "2f4I?3x3f")
-    _S8 = Struct(E + "2f4IB3x3f")
+    _S6 = Struct(E + "2f4I?3x3f")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
     def decode_dict_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
@@ -416,26 +414,26 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R5
-            v1, v2, v3, v4, v5 = _S5.unpack_from(mv, pos)
+            v1, v2, v3, v4, v6 = _S5.unpack_from(mv, pos)
             pos += 17
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"x_offset": v1, "y_offset": v2, "height": v3, "width": v4, "do_rectify": v5}, pos
+        return {"x_offset": v1, "y_offset": v2, "height": v3, "width": v4, "do_rectify": v6}, pos
 
     def decode_view_sensor_msgs__msg__RegionOfInterest(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
             f = _R5
-            v1, v2, v3, v4, v5 = _S5.unpack_from(mv, pos)
+            v1, v2, v3, v4, v6 = _S5.unpack_from(mv, pos)
             pos += 17
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__RegionOfInterest(v1, v2, v3, v4, v5), pos
+        return make_sensor_msgs__msg__RegionOfInterest(v1, v2, v3, v4, v6), pos
 
     def encode_sensor_msgs__msg__RegionOfInterest(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -448,9 +446,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(d.get("x_offset", 0), d.get("y_offset", 0), d.get("height", 0), d.get("width", 0), d.get("do_rectify", False)))
+                out.append(_S5.pack(d.get("x_offset", 0), d.get("y_offset", 0), d.get("height", 0), d.get("width", 0), (t5 if (t5 := d.get("do_rectify", False)).__class__ is bool else check_bool(t5, ".do_rectify"))))
             except Exception:
-                out.append(slow_pack(_S6, _R5, (d.get("x_offset", 0), d.get("y_offset", 0), d.get("height", 0), d.get("width", 0), d.get("do_rectify", False),)))
+                out.append(slow_pack(_S5, _R5, (d.get("x_offset", 0), d.get("y_offset", 0), d.get("height", 0), d.get("width", 0), (t5 if (t5 := d.get("do_rectify", False)).__class__ is bool else check_bool(t5, ".do_rectify")),)))
             pos += 17
         except FieldError as error:
             raise error.within(f) from None
@@ -467,13 +465,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v2, pos = decode_dict_sensor_msgs__msg__Image(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R6
-            v3, v4, v6, v7, v8, v9, v10, v11, v12, v13 = _S7.unpack_from(mv, pos)
+            v3, v4, v6, v7, v8, v9, v11, v12, v13, v14 = _S6.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"header": v1, "image": v2, "f": v3, "t": v4, "valid_window": {"x_offset": v6, "y_offset": v7, "height": v8, "width": v9, "do_rectify": v10}, "min_disparity": v11, "max_disparity": v12, "delta_d": v13}, pos
+        return {"header": v1, "image": v2, "f": v3, "t": v4, "valid_window": {"x_offset": v6, "y_offset": v7, "height": v8, "width": v9, "do_rectify": v11}, "min_disparity": v12, "max_disparity": v13, "delta_d": v14}, pos
 
     def decode_view_stereo_msgs__msg__DisparityImage(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
@@ -484,13 +482,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v2, pos = decode_view_sensor_msgs__msg__Image(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R6
-            v3, v4, v6, v7, v8, v9, v10, v11, v12, v13 = _S7.unpack_from(mv, pos)
+            v3, v4, v6, v7, v8, v9, v11, v12, v13, v14 = _S6.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_stereo_msgs__msg__DisparityImage(v1, v2, v3, v4, make_sensor_msgs__msg__RegionOfInterest(v6, v7, v8, v9, v10), v11, v12, v13), pos
+        return make_stereo_msgs__msg__DisparityImage(v1, v2, v3, v4, make_sensor_msgs__msg__RegionOfInterest(v6, v7, v8, v9, v11), v12, v13, v14), pos
 
     def encode_stereo_msgs__msg__DisparityImage(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -511,9 +509,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m5 = _submap(m5, _K_sensor_msgs__msg__RegionOfInterest)
             f = ""
             try:
-                out.append(_S8.pack(d.get("f", 0.0), d.get("t", 0.0), m5.get("x_offset", 0), m5.get("y_offset", 0), m5.get("height", 0), m5.get("width", 0), m5.get("do_rectify", False), d.get("min_disparity", 0.0), d.get("max_disparity", 0.0), d.get("delta_d", 0.0)))
+                out.append(_S6.pack(d.get("f", 0.0), d.get("t", 0.0), m5.get("x_offset", 0), m5.get("y_offset", 0), m5.get("height", 0), m5.get("width", 0), (t10 if (t10 := m5.get("do_rectify", False)).__class__ is bool else check_bool(t10, ".valid_window.do_rectify")), d.get("min_disparity", 0.0), d.get("max_disparity", 0.0), d.get("delta_d", 0.0)))
             except Exception:
-                out.append(slow_pack(_S8, _R6, (d.get("f", 0.0), d.get("t", 0.0), m5.get("x_offset", 0), m5.get("y_offset", 0), m5.get("height", 0), m5.get("width", 0), m5.get("do_rectify", False), d.get("min_disparity", 0.0), d.get("max_disparity", 0.0), d.get("delta_d", 0.0),)))
+                out.append(slow_pack(_S6, _R6, (d.get("f", 0.0), d.get("t", 0.0), m5.get("x_offset", 0), m5.get("y_offset", 0), m5.get("height", 0), m5.get("width", 0), (t10 if (t10 := m5.get("do_rectify", False)).__class__ is bool else check_bool(t10, ".valid_window.do_rectify")), d.get("min_disparity", 0.0), d.get("max_disparity", 0.0), d.get("delta_d", 0.0),)))
             pos += 40
         except FieldError as error:
             raise error.within(f) from None

@@ -176,6 +176,7 @@ NestedMessage_GetResult_Event = _test_msgs__action__NestedMessage.Impl.GetResult
 NestedMessage_FeedbackMessage = _test_msgs__action__NestedMessage.Impl.FeedbackMessage
 
 EMPTY: Mapping[str, Any] = {}
+STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -277,23 +278,87 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float32_values", MISSING)
         msg._float32_values = np.zeros(3, dtype=np.float32) if value is MISSING else numeric_array(value, "f", "float32", "float32", 3, ".float32_values")
         value = data.get("float64_values", MISSING)
-        msg._float64_values = np.zeros(3, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 3, ".float64_values")
+        if value is MISSING:
+            msg._float64_values = np.zeros(3, dtype=np.float64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._float64_values = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._float64_values = numeric_array(value, "d", "float64", "float64", 3, ".float64_values")
+        else:
+            msg._float64_values = numeric_array(value, "d", "float64", "float64", 3, ".float64_values")
         value = data.get("int8_values", MISSING)
-        msg._int8_values = np.zeros(3, dtype=np.int8) if value is MISSING else numeric_array(value, "b", "int8", "int8", 3, ".int8_values")
+        if value is MISSING:
+            msg._int8_values = np.zeros(3, dtype=np.int8)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int8_values = np.array(array("b", value), dtype=np.int8)
+            except (TypeError, OverflowError, ValueError):
+                msg._int8_values = numeric_array(value, "b", "int8", "int8", 3, ".int8_values")
+        else:
+            msg._int8_values = numeric_array(value, "b", "int8", "int8", 3, ".int8_values")
         value = data.get("uint8_values", MISSING)
         msg._uint8_values = np.zeros(3, dtype=np.uint8) if value is MISSING else uint8_array(value, 3, ".uint8_values")
         value = data.get("int16_values", MISSING)
-        msg._int16_values = np.zeros(3, dtype=np.int16) if value is MISSING else numeric_array(value, "h", "int16", "int16", 3, ".int16_values")
+        if value is MISSING:
+            msg._int16_values = np.zeros(3, dtype=np.int16)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int16_values = np.array(array("h", value), dtype=np.int16)
+            except (TypeError, OverflowError, ValueError):
+                msg._int16_values = numeric_array(value, "h", "int16", "int16", 3, ".int16_values")
+        else:
+            msg._int16_values = numeric_array(value, "h", "int16", "int16", 3, ".int16_values")
         value = data.get("uint16_values", MISSING)
-        msg._uint16_values = np.zeros(3, dtype=np.uint16) if value is MISSING else numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values")
+        if value is MISSING:
+            msg._uint16_values = np.zeros(3, dtype=np.uint16)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint16_values = np.array(array("H", value), dtype=np.uint16)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint16_values = numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values")
+        else:
+            msg._uint16_values = numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values")
         value = data.get("int32_values", MISSING)
-        msg._int32_values = np.zeros(3, dtype=np.int32) if value is MISSING else numeric_array(value, "i", "int32", "int32", 3, ".int32_values")
+        if value is MISSING:
+            msg._int32_values = np.zeros(3, dtype=np.int32)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int32_values = np.array(array("i", value), dtype=np.int32)
+            except (TypeError, OverflowError, ValueError):
+                msg._int32_values = numeric_array(value, "i", "int32", "int32", 3, ".int32_values")
+        else:
+            msg._int32_values = numeric_array(value, "i", "int32", "int32", 3, ".int32_values")
         value = data.get("uint32_values", MISSING)
-        msg._uint32_values = np.zeros(3, dtype=np.uint32) if value is MISSING else numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values")
+        if value is MISSING:
+            msg._uint32_values = np.zeros(3, dtype=np.uint32)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint32_values = np.array(array("I", value), dtype=np.uint32)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint32_values = numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values")
+        else:
+            msg._uint32_values = numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values")
         value = data.get("int64_values", MISSING)
-        msg._int64_values = np.zeros(3, dtype=np.int64) if value is MISSING else numeric_array(value, "q", "int64", "int64", 3, ".int64_values")
+        if value is MISSING:
+            msg._int64_values = np.zeros(3, dtype=np.int64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int64_values = np.array(array("q", value), dtype=np.int64)
+            except (TypeError, OverflowError, ValueError):
+                msg._int64_values = numeric_array(value, "q", "int64", "int64", 3, ".int64_values")
+        else:
+            msg._int64_values = numeric_array(value, "q", "int64", "int64", 3, ".int64_values")
         value = data.get("uint64_values", MISSING)
-        msg._uint64_values = np.zeros(3, dtype=np.uint64) if value is MISSING else numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values")
+        if value is MISSING:
+            msg._uint64_values = np.zeros(3, dtype=np.uint64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint64_values = np.array(array("Q", value), dtype=np.uint64)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint64_values = numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values")
+        else:
+            msg._uint64_values = numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values")
         value = data.get("string_values", MISSING)
         msg._string_values = [""] * 3 if value is MISSING else str_list(value, None, 3, True, ".string_values")
         value = data.get("basic_types_values", MISSING)
@@ -311,23 +376,87 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float32_values_default", MISSING)
         msg._float32_values_default = np.array((1.125, 0.0, -1.125), dtype=np.float32) if value is MISSING else numeric_array(value, "f", "float32", "float32", 3, ".float32_values_default")
         value = data.get("float64_values_default", MISSING)
-        msg._float64_values_default = np.array((3.1415, 0.0, -3.1415), dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 3, ".float64_values_default")
+        if value is MISSING:
+            msg._float64_values_default = np.array((3.1415, 0.0, -3.1415), dtype=np.float64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._float64_values_default = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._float64_values_default = numeric_array(value, "d", "float64", "float64", 3, ".float64_values_default")
+        else:
+            msg._float64_values_default = numeric_array(value, "d", "float64", "float64", 3, ".float64_values_default")
         value = data.get("int8_values_default", MISSING)
-        msg._int8_values_default = np.array((0, 127, -128), dtype=np.int8) if value is MISSING else numeric_array(value, "b", "int8", "int8", 3, ".int8_values_default")
+        if value is MISSING:
+            msg._int8_values_default = np.array((0, 127, -128), dtype=np.int8)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int8_values_default = np.array(array("b", value), dtype=np.int8)
+            except (TypeError, OverflowError, ValueError):
+                msg._int8_values_default = numeric_array(value, "b", "int8", "int8", 3, ".int8_values_default")
+        else:
+            msg._int8_values_default = numeric_array(value, "b", "int8", "int8", 3, ".int8_values_default")
         value = data.get("uint8_values_default", MISSING)
         msg._uint8_values_default = np.array((0, 1, 255), dtype=np.uint8) if value is MISSING else uint8_array(value, 3, ".uint8_values_default")
         value = data.get("int16_values_default", MISSING)
-        msg._int16_values_default = np.array((0, 32767, -32768), dtype=np.int16) if value is MISSING else numeric_array(value, "h", "int16", "int16", 3, ".int16_values_default")
+        if value is MISSING:
+            msg._int16_values_default = np.array((0, 32767, -32768), dtype=np.int16)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int16_values_default = np.array(array("h", value), dtype=np.int16)
+            except (TypeError, OverflowError, ValueError):
+                msg._int16_values_default = numeric_array(value, "h", "int16", "int16", 3, ".int16_values_default")
+        else:
+            msg._int16_values_default = numeric_array(value, "h", "int16", "int16", 3, ".int16_values_default")
         value = data.get("uint16_values_default", MISSING)
-        msg._uint16_values_default = np.array((0, 1, 65535), dtype=np.uint16) if value is MISSING else numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values_default")
+        if value is MISSING:
+            msg._uint16_values_default = np.array((0, 1, 65535), dtype=np.uint16)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint16_values_default = np.array(array("H", value), dtype=np.uint16)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint16_values_default = numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values_default")
+        else:
+            msg._uint16_values_default = numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values_default")
         value = data.get("int32_values_default", MISSING)
-        msg._int32_values_default = np.array((0, 2147483647, -2147483648), dtype=np.int32) if value is MISSING else numeric_array(value, "i", "int32", "int32", 3, ".int32_values_default")
+        if value is MISSING:
+            msg._int32_values_default = np.array((0, 2147483647, -2147483648), dtype=np.int32)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int32_values_default = np.array(array("i", value), dtype=np.int32)
+            except (TypeError, OverflowError, ValueError):
+                msg._int32_values_default = numeric_array(value, "i", "int32", "int32", 3, ".int32_values_default")
+        else:
+            msg._int32_values_default = numeric_array(value, "i", "int32", "int32", 3, ".int32_values_default")
         value = data.get("uint32_values_default", MISSING)
-        msg._uint32_values_default = np.array((0, 1, 4294967295), dtype=np.uint32) if value is MISSING else numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values_default")
+        if value is MISSING:
+            msg._uint32_values_default = np.array((0, 1, 4294967295), dtype=np.uint32)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint32_values_default = np.array(array("I", value), dtype=np.uint32)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint32_values_default = numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values_default")
+        else:
+            msg._uint32_values_default = numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values_default")
         value = data.get("int64_values_default", MISSING)
-        msg._int64_values_default = np.array((0, 9223372036854775807, -9223372036854775808), dtype=np.int64) if value is MISSING else numeric_array(value, "q", "int64", "int64", 3, ".int64_values_default")
+        if value is MISSING:
+            msg._int64_values_default = np.array((0, 9223372036854775807, -9223372036854775808), dtype=np.int64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int64_values_default = np.array(array("q", value), dtype=np.int64)
+            except (TypeError, OverflowError, ValueError):
+                msg._int64_values_default = numeric_array(value, "q", "int64", "int64", 3, ".int64_values_default")
+        else:
+            msg._int64_values_default = numeric_array(value, "q", "int64", "int64", 3, ".int64_values_default")
         value = data.get("uint64_values_default", MISSING)
-        msg._uint64_values_default = np.array((0, 1, 18446744073709551615), dtype=np.uint64) if value is MISSING else numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values_default")
+        if value is MISSING:
+            msg._uint64_values_default = np.array((0, 1, 18446744073709551615), dtype=np.uint64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint64_values_default = np.array(array("Q", value), dtype=np.uint64)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint64_values_default = numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values_default")
+        else:
+            msg._uint64_values_default = numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values_default")
         value = data.get("string_values_default", MISSING)
         msg._string_values_default = ["", "max value", "min value"] if value is MISSING else str_list(value, None, 3, True, ".string_values_default")
         value = data.get("alignment_check", 0)
@@ -523,23 +652,87 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float32_values", MISSING)
         msg._float32_values = array("f") if value is MISSING else numeric_sequence(value, "f", "float32", 3, ".float32_values")
         value = data.get("float64_values", MISSING)
-        msg._float64_values = array("d") if value is MISSING else numeric_sequence(value, "d", "float64", 3, ".float64_values")
+        if value is MISSING:
+            msg._float64_values = array("d")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._float64_values = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._float64_values = numeric_sequence(value, "d", "float64", 3, ".float64_values")
+        else:
+            msg._float64_values = numeric_sequence(value, "d", "float64", 3, ".float64_values")
         value = data.get("int8_values", MISSING)
-        msg._int8_values = array("b") if value is MISSING else numeric_sequence(value, "b", "int8", 3, ".int8_values")
+        if value is MISSING:
+            msg._int8_values = array("b")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int8_values = array("b", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int8_values = numeric_sequence(value, "b", "int8", 3, ".int8_values")
+        else:
+            msg._int8_values = numeric_sequence(value, "b", "int8", 3, ".int8_values")
         value = data.get("uint8_values", MISSING)
         msg._uint8_values = array("B") if value is MISSING else uint8_sequence(value, 3, ".uint8_values")
         value = data.get("int16_values", MISSING)
-        msg._int16_values = array("h") if value is MISSING else numeric_sequence(value, "h", "int16", 3, ".int16_values")
+        if value is MISSING:
+            msg._int16_values = array("h")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int16_values = array("h", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int16_values = numeric_sequence(value, "h", "int16", 3, ".int16_values")
+        else:
+            msg._int16_values = numeric_sequence(value, "h", "int16", 3, ".int16_values")
         value = data.get("uint16_values", MISSING)
-        msg._uint16_values = array("H") if value is MISSING else numeric_sequence(value, "H", "uint16", 3, ".uint16_values")
+        if value is MISSING:
+            msg._uint16_values = array("H")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._uint16_values = array("H", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint16_values = numeric_sequence(value, "H", "uint16", 3, ".uint16_values")
+        else:
+            msg._uint16_values = numeric_sequence(value, "H", "uint16", 3, ".uint16_values")
         value = data.get("int32_values", MISSING)
-        msg._int32_values = array("i") if value is MISSING else numeric_sequence(value, "i", "int32", 3, ".int32_values")
+        if value is MISSING:
+            msg._int32_values = array("i")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int32_values = array("i", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int32_values = numeric_sequence(value, "i", "int32", 3, ".int32_values")
+        else:
+            msg._int32_values = numeric_sequence(value, "i", "int32", 3, ".int32_values")
         value = data.get("uint32_values", MISSING)
-        msg._uint32_values = array("I") if value is MISSING else numeric_sequence(value, "I", "uint32", 3, ".uint32_values")
+        if value is MISSING:
+            msg._uint32_values = array("I")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._uint32_values = array("I", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint32_values = numeric_sequence(value, "I", "uint32", 3, ".uint32_values")
+        else:
+            msg._uint32_values = numeric_sequence(value, "I", "uint32", 3, ".uint32_values")
         value = data.get("int64_values", MISSING)
-        msg._int64_values = array("q") if value is MISSING else numeric_sequence(value, "q", "int64", 3, ".int64_values")
+        if value is MISSING:
+            msg._int64_values = array("q")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int64_values = array("q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int64_values = numeric_sequence(value, "q", "int64", 3, ".int64_values")
+        else:
+            msg._int64_values = numeric_sequence(value, "q", "int64", 3, ".int64_values")
         value = data.get("uint64_values", MISSING)
-        msg._uint64_values = array("Q") if value is MISSING else numeric_sequence(value, "Q", "uint64", 3, ".uint64_values")
+        if value is MISSING:
+            msg._uint64_values = array("Q")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._uint64_values = array("Q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint64_values = numeric_sequence(value, "Q", "uint64", 3, ".uint64_values")
+        else:
+            msg._uint64_values = numeric_sequence(value, "Q", "uint64", 3, ".uint64_values")
         value = data.get("basic_types_values", MISSING)
         msg._basic_types_values = [] if value is MISSING else message_list(value, basic_types_from_dict, 3, False, ".basic_types_values")
         value = data.get("constants_values", MISSING)
@@ -555,23 +748,87 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float32_values_default", MISSING)
         msg._float32_values_default = array("f", (1.125, 0.0, -1.125)) if value is MISSING else numeric_sequence(value, "f", "float32", 3, ".float32_values_default")
         value = data.get("float64_values_default", MISSING)
-        msg._float64_values_default = array("d", (3.1415, 0.0, -3.1415)) if value is MISSING else numeric_sequence(value, "d", "float64", 3, ".float64_values_default")
+        if value is MISSING:
+            msg._float64_values_default = array("d", (3.1415, 0.0, -3.1415))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._float64_values_default = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._float64_values_default = numeric_sequence(value, "d", "float64", 3, ".float64_values_default")
+        else:
+            msg._float64_values_default = numeric_sequence(value, "d", "float64", 3, ".float64_values_default")
         value = data.get("int8_values_default", MISSING)
-        msg._int8_values_default = array("b", (0, 127, -128)) if value is MISSING else numeric_sequence(value, "b", "int8", 3, ".int8_values_default")
+        if value is MISSING:
+            msg._int8_values_default = array("b", (0, 127, -128))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int8_values_default = array("b", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int8_values_default = numeric_sequence(value, "b", "int8", 3, ".int8_values_default")
+        else:
+            msg._int8_values_default = numeric_sequence(value, "b", "int8", 3, ".int8_values_default")
         value = data.get("uint8_values_default", MISSING)
         msg._uint8_values_default = array("B", b'\x00\x01\xff') if value is MISSING else uint8_sequence(value, 3, ".uint8_values_default")
         value = data.get("int16_values_default", MISSING)
-        msg._int16_values_default = array("h", (0, 32767, -32768)) if value is MISSING else numeric_sequence(value, "h", "int16", 3, ".int16_values_default")
+        if value is MISSING:
+            msg._int16_values_default = array("h", (0, 32767, -32768))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int16_values_default = array("h", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int16_values_default = numeric_sequence(value, "h", "int16", 3, ".int16_values_default")
+        else:
+            msg._int16_values_default = numeric_sequence(value, "h", "int16", 3, ".int16_values_default")
         value = data.get("uint16_values_default", MISSING)
-        msg._uint16_values_default = array("H", (0, 1, 65535)) if value is MISSING else numeric_sequence(value, "H", "uint16", 3, ".uint16_values_default")
+        if value is MISSING:
+            msg._uint16_values_default = array("H", (0, 1, 65535))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._uint16_values_default = array("H", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint16_values_default = numeric_sequence(value, "H", "uint16", 3, ".uint16_values_default")
+        else:
+            msg._uint16_values_default = numeric_sequence(value, "H", "uint16", 3, ".uint16_values_default")
         value = data.get("int32_values_default", MISSING)
-        msg._int32_values_default = array("i", (0, 2147483647, -2147483648)) if value is MISSING else numeric_sequence(value, "i", "int32", 3, ".int32_values_default")
+        if value is MISSING:
+            msg._int32_values_default = array("i", (0, 2147483647, -2147483648))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int32_values_default = array("i", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int32_values_default = numeric_sequence(value, "i", "int32", 3, ".int32_values_default")
+        else:
+            msg._int32_values_default = numeric_sequence(value, "i", "int32", 3, ".int32_values_default")
         value = data.get("uint32_values_default", MISSING)
-        msg._uint32_values_default = array("I", (0, 1, 4294967295)) if value is MISSING else numeric_sequence(value, "I", "uint32", 3, ".uint32_values_default")
+        if value is MISSING:
+            msg._uint32_values_default = array("I", (0, 1, 4294967295))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._uint32_values_default = array("I", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint32_values_default = numeric_sequence(value, "I", "uint32", 3, ".uint32_values_default")
+        else:
+            msg._uint32_values_default = numeric_sequence(value, "I", "uint32", 3, ".uint32_values_default")
         value = data.get("int64_values_default", MISSING)
-        msg._int64_values_default = array("q", (0, 9223372036854775807, -9223372036854775808)) if value is MISSING else numeric_sequence(value, "q", "int64", 3, ".int64_values_default")
+        if value is MISSING:
+            msg._int64_values_default = array("q", (0, 9223372036854775807, -9223372036854775808))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int64_values_default = array("q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int64_values_default = numeric_sequence(value, "q", "int64", 3, ".int64_values_default")
+        else:
+            msg._int64_values_default = numeric_sequence(value, "q", "int64", 3, ".int64_values_default")
         value = data.get("uint64_values_default", MISSING)
-        msg._uint64_values_default = array("Q", (0, 1, 18446744073709551615)) if value is MISSING else numeric_sequence(value, "Q", "uint64", 3, ".uint64_values_default")
+        if value is MISSING:
+            msg._uint64_values_default = array("Q", (0, 1, 18446744073709551615))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._uint64_values_default = array("Q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint64_values_default = numeric_sequence(value, "Q", "uint64", 3, ".uint64_values_default")
+        else:
+            msg._uint64_values_default = numeric_sequence(value, "Q", "uint64", 3, ".uint64_values_default")
         value = data.get("alignment_check", 0)
         if type(value) is not int or not -2147483648 <= value <= 2147483647:
             value = check_int(value, -2147483648, 2147483647, "int32", ".alignment_check")
@@ -678,23 +935,87 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float32_values", MISSING)
         msg._float32_values = array("f") if value is MISSING else numeric_sequence(value, "f", "float32", 3, ".float32_values")
         value = data.get("float64_values", MISSING)
-        msg._float64_values = array("d") if value is MISSING else numeric_sequence(value, "d", "float64", 3, ".float64_values")
+        if value is MISSING:
+            msg._float64_values = array("d")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._float64_values = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._float64_values = numeric_sequence(value, "d", "float64", 3, ".float64_values")
+        else:
+            msg._float64_values = numeric_sequence(value, "d", "float64", 3, ".float64_values")
         value = data.get("int8_values", MISSING)
-        msg._int8_values = array("b") if value is MISSING else numeric_sequence(value, "b", "int8", 3, ".int8_values")
+        if value is MISSING:
+            msg._int8_values = array("b")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int8_values = array("b", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int8_values = numeric_sequence(value, "b", "int8", 3, ".int8_values")
+        else:
+            msg._int8_values = numeric_sequence(value, "b", "int8", 3, ".int8_values")
         value = data.get("uint8_values", MISSING)
         msg._uint8_values = array("B") if value is MISSING else uint8_sequence(value, 3, ".uint8_values")
         value = data.get("int16_values", MISSING)
-        msg._int16_values = array("h") if value is MISSING else numeric_sequence(value, "h", "int16", 3, ".int16_values")
+        if value is MISSING:
+            msg._int16_values = array("h")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int16_values = array("h", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int16_values = numeric_sequence(value, "h", "int16", 3, ".int16_values")
+        else:
+            msg._int16_values = numeric_sequence(value, "h", "int16", 3, ".int16_values")
         value = data.get("uint16_values", MISSING)
-        msg._uint16_values = array("H") if value is MISSING else numeric_sequence(value, "H", "uint16", 3, ".uint16_values")
+        if value is MISSING:
+            msg._uint16_values = array("H")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._uint16_values = array("H", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint16_values = numeric_sequence(value, "H", "uint16", 3, ".uint16_values")
+        else:
+            msg._uint16_values = numeric_sequence(value, "H", "uint16", 3, ".uint16_values")
         value = data.get("int32_values", MISSING)
-        msg._int32_values = array("i") if value is MISSING else numeric_sequence(value, "i", "int32", 3, ".int32_values")
+        if value is MISSING:
+            msg._int32_values = array("i")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int32_values = array("i", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int32_values = numeric_sequence(value, "i", "int32", 3, ".int32_values")
+        else:
+            msg._int32_values = numeric_sequence(value, "i", "int32", 3, ".int32_values")
         value = data.get("uint32_values", MISSING)
-        msg._uint32_values = array("I") if value is MISSING else numeric_sequence(value, "I", "uint32", 3, ".uint32_values")
+        if value is MISSING:
+            msg._uint32_values = array("I")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._uint32_values = array("I", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint32_values = numeric_sequence(value, "I", "uint32", 3, ".uint32_values")
+        else:
+            msg._uint32_values = numeric_sequence(value, "I", "uint32", 3, ".uint32_values")
         value = data.get("int64_values", MISSING)
-        msg._int64_values = array("q") if value is MISSING else numeric_sequence(value, "q", "int64", 3, ".int64_values")
+        if value is MISSING:
+            msg._int64_values = array("q")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int64_values = array("q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int64_values = numeric_sequence(value, "q", "int64", 3, ".int64_values")
+        else:
+            msg._int64_values = numeric_sequence(value, "q", "int64", 3, ".int64_values")
         value = data.get("uint64_values", MISSING)
-        msg._uint64_values = array("Q") if value is MISSING else numeric_sequence(value, "Q", "uint64", 3, ".uint64_values")
+        if value is MISSING:
+            msg._uint64_values = array("Q")
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._uint64_values = array("Q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint64_values = numeric_sequence(value, "Q", "uint64", 3, ".uint64_values")
+        else:
+            msg._uint64_values = numeric_sequence(value, "Q", "uint64", 3, ".uint64_values")
         value = data.get("string_values", MISSING)
         msg._string_values = [] if value is MISSING else str_list(value, None, 3, False, ".string_values")
         value = data.get("basic_types_values", MISSING)
@@ -712,23 +1033,87 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float32_values_default", MISSING)
         msg._float32_values_default = array("f", (1.125, 0.0, -1.125)) if value is MISSING else numeric_sequence(value, "f", "float32", 3, ".float32_values_default")
         value = data.get("float64_values_default", MISSING)
-        msg._float64_values_default = array("d", (3.1415, 0.0, -3.1415)) if value is MISSING else numeric_sequence(value, "d", "float64", 3, ".float64_values_default")
+        if value is MISSING:
+            msg._float64_values_default = array("d", (3.1415, 0.0, -3.1415))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._float64_values_default = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._float64_values_default = numeric_sequence(value, "d", "float64", 3, ".float64_values_default")
+        else:
+            msg._float64_values_default = numeric_sequence(value, "d", "float64", 3, ".float64_values_default")
         value = data.get("int8_values_default", MISSING)
-        msg._int8_values_default = array("b", (0, 127, -128)) if value is MISSING else numeric_sequence(value, "b", "int8", 3, ".int8_values_default")
+        if value is MISSING:
+            msg._int8_values_default = array("b", (0, 127, -128))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int8_values_default = array("b", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int8_values_default = numeric_sequence(value, "b", "int8", 3, ".int8_values_default")
+        else:
+            msg._int8_values_default = numeric_sequence(value, "b", "int8", 3, ".int8_values_default")
         value = data.get("uint8_values_default", MISSING)
         msg._uint8_values_default = array("B", b'\x00\x01\xff') if value is MISSING else uint8_sequence(value, 3, ".uint8_values_default")
         value = data.get("int16_values_default", MISSING)
-        msg._int16_values_default = array("h", (0, 32767, -32768)) if value is MISSING else numeric_sequence(value, "h", "int16", 3, ".int16_values_default")
+        if value is MISSING:
+            msg._int16_values_default = array("h", (0, 32767, -32768))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int16_values_default = array("h", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int16_values_default = numeric_sequence(value, "h", "int16", 3, ".int16_values_default")
+        else:
+            msg._int16_values_default = numeric_sequence(value, "h", "int16", 3, ".int16_values_default")
         value = data.get("uint16_values_default", MISSING)
-        msg._uint16_values_default = array("H", (0, 1, 65535)) if value is MISSING else numeric_sequence(value, "H", "uint16", 3, ".uint16_values_default")
+        if value is MISSING:
+            msg._uint16_values_default = array("H", (0, 1, 65535))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._uint16_values_default = array("H", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint16_values_default = numeric_sequence(value, "H", "uint16", 3, ".uint16_values_default")
+        else:
+            msg._uint16_values_default = numeric_sequence(value, "H", "uint16", 3, ".uint16_values_default")
         value = data.get("int32_values_default", MISSING)
-        msg._int32_values_default = array("i", (0, 2147483647, -2147483648)) if value is MISSING else numeric_sequence(value, "i", "int32", 3, ".int32_values_default")
+        if value is MISSING:
+            msg._int32_values_default = array("i", (0, 2147483647, -2147483648))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int32_values_default = array("i", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int32_values_default = numeric_sequence(value, "i", "int32", 3, ".int32_values_default")
+        else:
+            msg._int32_values_default = numeric_sequence(value, "i", "int32", 3, ".int32_values_default")
         value = data.get("uint32_values_default", MISSING)
-        msg._uint32_values_default = array("I", (0, 1, 4294967295)) if value is MISSING else numeric_sequence(value, "I", "uint32", 3, ".uint32_values_default")
+        if value is MISSING:
+            msg._uint32_values_default = array("I", (0, 1, 4294967295))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._uint32_values_default = array("I", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint32_values_default = numeric_sequence(value, "I", "uint32", 3, ".uint32_values_default")
+        else:
+            msg._uint32_values_default = numeric_sequence(value, "I", "uint32", 3, ".uint32_values_default")
         value = data.get("int64_values_default", MISSING)
-        msg._int64_values_default = array("q", (0, 9223372036854775807, -9223372036854775808)) if value is MISSING else numeric_sequence(value, "q", "int64", 3, ".int64_values_default")
+        if value is MISSING:
+            msg._int64_values_default = array("q", (0, 9223372036854775807, -9223372036854775808))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._int64_values_default = array("q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int64_values_default = numeric_sequence(value, "q", "int64", 3, ".int64_values_default")
+        else:
+            msg._int64_values_default = numeric_sequence(value, "q", "int64", 3, ".int64_values_default")
         value = data.get("uint64_values_default", MISSING)
-        msg._uint64_values_default = array("Q", (0, 1, 18446744073709551615)) if value is MISSING else numeric_sequence(value, "Q", "uint64", 3, ".uint64_values_default")
+        if value is MISSING:
+            msg._uint64_values_default = array("Q", (0, 1, 18446744073709551615))
+        elif type(value) is list and len(value) <= 3:
+            try:
+                msg._uint64_values_default = array("Q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint64_values_default = numeric_sequence(value, "Q", "uint64", 3, ".uint64_values_default")
+        else:
+            msg._uint64_values_default = numeric_sequence(value, "Q", "uint64", 3, ".uint64_values_default")
         value = data.get("string_values_default", MISSING)
         msg._string_values_default = ["", "max value", "min value"] if value is MISSING else str_list(value, None, 3, False, ".string_values_default")
         value = data.get("alignment_check", 0)
@@ -1847,25 +2232,97 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float32_values", MISSING)
         msg._float32_values = array("f") if value is MISSING else numeric_sequence(value, "f", "float32", None, ".float32_values")
         value = data.get("float64_values", MISSING)
-        msg._float64_values = array("d") if value is MISSING else numeric_sequence(value, "d", "float64", None, ".float64_values")
+        if value is MISSING:
+            msg._float64_values = array("d")
+        elif type(value) is list:
+            try:
+                msg._float64_values = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._float64_values = numeric_sequence(value, "d", "float64", None, ".float64_values")
+        else:
+            msg._float64_values = numeric_sequence(value, "d", "float64", None, ".float64_values")
         value = data.get("int8_values", MISSING)
-        msg._int8_values = array("b") if value is MISSING else numeric_sequence(value, "b", "int8", None, ".int8_values")
+        if value is MISSING:
+            msg._int8_values = array("b")
+        elif type(value) is list:
+            try:
+                msg._int8_values = array("b", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int8_values = numeric_sequence(value, "b", "int8", None, ".int8_values")
+        else:
+            msg._int8_values = numeric_sequence(value, "b", "int8", None, ".int8_values")
         value = data.get("uint8_values", MISSING)
         msg._uint8_values = array("B") if value is MISSING else uint8_sequence(value, None, ".uint8_values")
         value = data.get("int16_values", MISSING)
-        msg._int16_values = array("h") if value is MISSING else numeric_sequence(value, "h", "int16", None, ".int16_values")
+        if value is MISSING:
+            msg._int16_values = array("h")
+        elif type(value) is list:
+            try:
+                msg._int16_values = array("h", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int16_values = numeric_sequence(value, "h", "int16", None, ".int16_values")
+        else:
+            msg._int16_values = numeric_sequence(value, "h", "int16", None, ".int16_values")
         value = data.get("uint16_values", MISSING)
-        msg._uint16_values = array("H") if value is MISSING else numeric_sequence(value, "H", "uint16", None, ".uint16_values")
+        if value is MISSING:
+            msg._uint16_values = array("H")
+        elif type(value) is list:
+            try:
+                msg._uint16_values = array("H", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint16_values = numeric_sequence(value, "H", "uint16", None, ".uint16_values")
+        else:
+            msg._uint16_values = numeric_sequence(value, "H", "uint16", None, ".uint16_values")
         value = data.get("int32_values", MISSING)
-        msg._int32_values = array("i") if value is MISSING else numeric_sequence(value, "i", "int32", None, ".int32_values")
+        if value is MISSING:
+            msg._int32_values = array("i")
+        elif type(value) is list:
+            try:
+                msg._int32_values = array("i", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int32_values = numeric_sequence(value, "i", "int32", None, ".int32_values")
+        else:
+            msg._int32_values = numeric_sequence(value, "i", "int32", None, ".int32_values")
         value = data.get("uint32_values", MISSING)
-        msg._uint32_values = array("I") if value is MISSING else numeric_sequence(value, "I", "uint32", None, ".uint32_values")
+        if value is MISSING:
+            msg._uint32_values = array("I")
+        elif type(value) is list:
+            try:
+                msg._uint32_values = array("I", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint32_values = numeric_sequence(value, "I", "uint32", None, ".uint32_values")
+        else:
+            msg._uint32_values = numeric_sequence(value, "I", "uint32", None, ".uint32_values")
         value = data.get("int64_values", MISSING)
-        msg._int64_values = array("q") if value is MISSING else numeric_sequence(value, "q", "int64", None, ".int64_values")
+        if value is MISSING:
+            msg._int64_values = array("q")
+        elif type(value) is list:
+            try:
+                msg._int64_values = array("q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int64_values = numeric_sequence(value, "q", "int64", None, ".int64_values")
+        else:
+            msg._int64_values = numeric_sequence(value, "q", "int64", None, ".int64_values")
         value = data.get("uint64_values", MISSING)
-        msg._uint64_values = array("Q") if value is MISSING else numeric_sequence(value, "Q", "uint64", None, ".uint64_values")
+        if value is MISSING:
+            msg._uint64_values = array("Q")
+        elif type(value) is list:
+            try:
+                msg._uint64_values = array("Q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint64_values = numeric_sequence(value, "Q", "uint64", None, ".uint64_values")
+        else:
+            msg._uint64_values = numeric_sequence(value, "Q", "uint64", None, ".uint64_values")
         value = data.get("string_values", MISSING)
-        msg._string_values = [] if value is MISSING else str_list(value, None, None, False, ".string_values")
+        if value is MISSING:
+            msg._string_values = []
+        elif type(value) is list:
+            try:
+                msg._string_values = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._string_values = str_list(value, None, None, False, ".string_values")
+        else:
+            msg._string_values = str_list(value, None, None, False, ".string_values")
         value = data.get("basic_types_values", MISSING)
         msg._basic_types_values = [] if value is MISSING else message_list(value, basic_types_from_dict, None, False, ".basic_types_values")
         value = data.get("constants_values", MISSING)
@@ -1881,25 +2338,97 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float32_values_default", MISSING)
         msg._float32_values_default = array("f", (1.125, 0.0, -1.125)) if value is MISSING else numeric_sequence(value, "f", "float32", None, ".float32_values_default")
         value = data.get("float64_values_default", MISSING)
-        msg._float64_values_default = array("d", (3.1415, 0.0, -3.1415)) if value is MISSING else numeric_sequence(value, "d", "float64", None, ".float64_values_default")
+        if value is MISSING:
+            msg._float64_values_default = array("d", (3.1415, 0.0, -3.1415))
+        elif type(value) is list:
+            try:
+                msg._float64_values_default = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._float64_values_default = numeric_sequence(value, "d", "float64", None, ".float64_values_default")
+        else:
+            msg._float64_values_default = numeric_sequence(value, "d", "float64", None, ".float64_values_default")
         value = data.get("int8_values_default", MISSING)
-        msg._int8_values_default = array("b", (0, 127, -128)) if value is MISSING else numeric_sequence(value, "b", "int8", None, ".int8_values_default")
+        if value is MISSING:
+            msg._int8_values_default = array("b", (0, 127, -128))
+        elif type(value) is list:
+            try:
+                msg._int8_values_default = array("b", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int8_values_default = numeric_sequence(value, "b", "int8", None, ".int8_values_default")
+        else:
+            msg._int8_values_default = numeric_sequence(value, "b", "int8", None, ".int8_values_default")
         value = data.get("uint8_values_default", MISSING)
         msg._uint8_values_default = array("B", b'\x00\x01\xff') if value is MISSING else uint8_sequence(value, None, ".uint8_values_default")
         value = data.get("int16_values_default", MISSING)
-        msg._int16_values_default = array("h", (0, 32767, -32768)) if value is MISSING else numeric_sequence(value, "h", "int16", None, ".int16_values_default")
+        if value is MISSING:
+            msg._int16_values_default = array("h", (0, 32767, -32768))
+        elif type(value) is list:
+            try:
+                msg._int16_values_default = array("h", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int16_values_default = numeric_sequence(value, "h", "int16", None, ".int16_values_default")
+        else:
+            msg._int16_values_default = numeric_sequence(value, "h", "int16", None, ".int16_values_default")
         value = data.get("uint16_values_default", MISSING)
-        msg._uint16_values_default = array("H", (0, 1, 65535)) if value is MISSING else numeric_sequence(value, "H", "uint16", None, ".uint16_values_default")
+        if value is MISSING:
+            msg._uint16_values_default = array("H", (0, 1, 65535))
+        elif type(value) is list:
+            try:
+                msg._uint16_values_default = array("H", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint16_values_default = numeric_sequence(value, "H", "uint16", None, ".uint16_values_default")
+        else:
+            msg._uint16_values_default = numeric_sequence(value, "H", "uint16", None, ".uint16_values_default")
         value = data.get("int32_values_default", MISSING)
-        msg._int32_values_default = array("i", (0, 2147483647, -2147483648)) if value is MISSING else numeric_sequence(value, "i", "int32", None, ".int32_values_default")
+        if value is MISSING:
+            msg._int32_values_default = array("i", (0, 2147483647, -2147483648))
+        elif type(value) is list:
+            try:
+                msg._int32_values_default = array("i", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int32_values_default = numeric_sequence(value, "i", "int32", None, ".int32_values_default")
+        else:
+            msg._int32_values_default = numeric_sequence(value, "i", "int32", None, ".int32_values_default")
         value = data.get("uint32_values_default", MISSING)
-        msg._uint32_values_default = array("I", (0, 1, 4294967295)) if value is MISSING else numeric_sequence(value, "I", "uint32", None, ".uint32_values_default")
+        if value is MISSING:
+            msg._uint32_values_default = array("I", (0, 1, 4294967295))
+        elif type(value) is list:
+            try:
+                msg._uint32_values_default = array("I", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint32_values_default = numeric_sequence(value, "I", "uint32", None, ".uint32_values_default")
+        else:
+            msg._uint32_values_default = numeric_sequence(value, "I", "uint32", None, ".uint32_values_default")
         value = data.get("int64_values_default", MISSING)
-        msg._int64_values_default = array("q", (0, 9223372036854775807, -9223372036854775808)) if value is MISSING else numeric_sequence(value, "q", "int64", None, ".int64_values_default")
+        if value is MISSING:
+            msg._int64_values_default = array("q", (0, 9223372036854775807, -9223372036854775808))
+        elif type(value) is list:
+            try:
+                msg._int64_values_default = array("q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._int64_values_default = numeric_sequence(value, "q", "int64", None, ".int64_values_default")
+        else:
+            msg._int64_values_default = numeric_sequence(value, "q", "int64", None, ".int64_values_default")
         value = data.get("uint64_values_default", MISSING)
-        msg._uint64_values_default = array("Q", (0, 1, 18446744073709551615)) if value is MISSING else numeric_sequence(value, "Q", "uint64", None, ".uint64_values_default")
+        if value is MISSING:
+            msg._uint64_values_default = array("Q", (0, 1, 18446744073709551615))
+        elif type(value) is list:
+            try:
+                msg._uint64_values_default = array("Q", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint64_values_default = numeric_sequence(value, "Q", "uint64", None, ".uint64_values_default")
+        else:
+            msg._uint64_values_default = numeric_sequence(value, "Q", "uint64", None, ".uint64_values_default")
         value = data.get("string_values_default", MISSING)
-        msg._string_values_default = ["", "max value", "min value"] if value is MISSING else str_list(value, None, None, False, ".string_values_default")
+        if value is MISSING:
+            msg._string_values_default = ["", "max value", "min value"]
+        elif type(value) is list:
+            try:
+                msg._string_values_default = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._string_values_default = str_list(value, None, None, False, ".string_values_default")
+        else:
+            msg._string_values_default = str_list(value, None, None, False, ".string_values_default")
         value = data.get("alignment_check", 0)
         if type(value) is not int or not -2147483648 <= value <= 2147483647:
             value = check_int(value, -2147483648, 2147483647, "int32", ".alignment_check")
@@ -1956,7 +2485,15 @@ def w_strings_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("bounded_sequence_of_wstrings", MISSING)
         msg._bounded_sequence_of_wstrings = [] if value is MISSING else str_list(value, None, 3, False, ".bounded_sequence_of_wstrings")
         value = data.get("unbounded_sequence_of_wstrings", MISSING)
-        msg._unbounded_sequence_of_wstrings = [] if value is MISSING else str_list(value, None, None, False, ".unbounded_sequence_of_wstrings")
+        if value is MISSING:
+            msg._unbounded_sequence_of_wstrings = []
+        elif type(value) is list:
+            try:
+                msg._unbounded_sequence_of_wstrings = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._unbounded_sequence_of_wstrings = str_list(value, None, None, False, ".unbounded_sequence_of_wstrings")
+        else:
+            msg._unbounded_sequence_of_wstrings = str_list(value, None, None, False, ".unbounded_sequence_of_wstrings")
     except FieldError as error:
         error.root = "WStrings"
         raise
@@ -2058,23 +2595,87 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float32_values", MISSING)
         msg._float32_values = np.zeros(3, dtype=np.float32) if value is MISSING else numeric_array(value, "f", "float32", "float32", 3, ".float32_values")
         value = data.get("float64_values", MISSING)
-        msg._float64_values = np.zeros(3, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 3, ".float64_values")
+        if value is MISSING:
+            msg._float64_values = np.zeros(3, dtype=np.float64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._float64_values = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._float64_values = numeric_array(value, "d", "float64", "float64", 3, ".float64_values")
+        else:
+            msg._float64_values = numeric_array(value, "d", "float64", "float64", 3, ".float64_values")
         value = data.get("int8_values", MISSING)
-        msg._int8_values = np.zeros(3, dtype=np.int8) if value is MISSING else numeric_array(value, "b", "int8", "int8", 3, ".int8_values")
+        if value is MISSING:
+            msg._int8_values = np.zeros(3, dtype=np.int8)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int8_values = np.array(array("b", value), dtype=np.int8)
+            except (TypeError, OverflowError, ValueError):
+                msg._int8_values = numeric_array(value, "b", "int8", "int8", 3, ".int8_values")
+        else:
+            msg._int8_values = numeric_array(value, "b", "int8", "int8", 3, ".int8_values")
         value = data.get("uint8_values", MISSING)
         msg._uint8_values = np.zeros(3, dtype=np.uint8) if value is MISSING else uint8_array(value, 3, ".uint8_values")
         value = data.get("int16_values", MISSING)
-        msg._int16_values = np.zeros(3, dtype=np.int16) if value is MISSING else numeric_array(value, "h", "int16", "int16", 3, ".int16_values")
+        if value is MISSING:
+            msg._int16_values = np.zeros(3, dtype=np.int16)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int16_values = np.array(array("h", value), dtype=np.int16)
+            except (TypeError, OverflowError, ValueError):
+                msg._int16_values = numeric_array(value, "h", "int16", "int16", 3, ".int16_values")
+        else:
+            msg._int16_values = numeric_array(value, "h", "int16", "int16", 3, ".int16_values")
         value = data.get("uint16_values", MISSING)
-        msg._uint16_values = np.zeros(3, dtype=np.uint16) if value is MISSING else numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values")
+        if value is MISSING:
+            msg._uint16_values = np.zeros(3, dtype=np.uint16)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint16_values = np.array(array("H", value), dtype=np.uint16)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint16_values = numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values")
+        else:
+            msg._uint16_values = numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values")
         value = data.get("int32_values", MISSING)
-        msg._int32_values = np.zeros(3, dtype=np.int32) if value is MISSING else numeric_array(value, "i", "int32", "int32", 3, ".int32_values")
+        if value is MISSING:
+            msg._int32_values = np.zeros(3, dtype=np.int32)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int32_values = np.array(array("i", value), dtype=np.int32)
+            except (TypeError, OverflowError, ValueError):
+                msg._int32_values = numeric_array(value, "i", "int32", "int32", 3, ".int32_values")
+        else:
+            msg._int32_values = numeric_array(value, "i", "int32", "int32", 3, ".int32_values")
         value = data.get("uint32_values", MISSING)
-        msg._uint32_values = np.zeros(3, dtype=np.uint32) if value is MISSING else numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values")
+        if value is MISSING:
+            msg._uint32_values = np.zeros(3, dtype=np.uint32)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint32_values = np.array(array("I", value), dtype=np.uint32)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint32_values = numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values")
+        else:
+            msg._uint32_values = numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values")
         value = data.get("int64_values", MISSING)
-        msg._int64_values = np.zeros(3, dtype=np.int64) if value is MISSING else numeric_array(value, "q", "int64", "int64", 3, ".int64_values")
+        if value is MISSING:
+            msg._int64_values = np.zeros(3, dtype=np.int64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int64_values = np.array(array("q", value), dtype=np.int64)
+            except (TypeError, OverflowError, ValueError):
+                msg._int64_values = numeric_array(value, "q", "int64", "int64", 3, ".int64_values")
+        else:
+            msg._int64_values = numeric_array(value, "q", "int64", "int64", 3, ".int64_values")
         value = data.get("uint64_values", MISSING)
-        msg._uint64_values = np.zeros(3, dtype=np.uint64) if value is MISSING else numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values")
+        if value is MISSING:
+            msg._uint64_values = np.zeros(3, dtype=np.uint64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint64_values = np.array(array("Q", value), dtype=np.uint64)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint64_values = numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values")
+        else:
+            msg._uint64_values = numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values")
         value = data.get("string_values", MISSING)
         msg._string_values = [""] * 3 if value is MISSING else str_list(value, None, 3, True, ".string_values")
         value = data.get("basic_types_values", MISSING)
@@ -2092,23 +2693,87 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float32_values_default", MISSING)
         msg._float32_values_default = np.array((1.125, 0.0, -1.125), dtype=np.float32) if value is MISSING else numeric_array(value, "f", "float32", "float32", 3, ".float32_values_default")
         value = data.get("float64_values_default", MISSING)
-        msg._float64_values_default = np.array((3.1415, 0.0, -3.1415), dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 3, ".float64_values_default")
+        if value is MISSING:
+            msg._float64_values_default = np.array((3.1415, 0.0, -3.1415), dtype=np.float64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._float64_values_default = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._float64_values_default = numeric_array(value, "d", "float64", "float64", 3, ".float64_values_default")
+        else:
+            msg._float64_values_default = numeric_array(value, "d", "float64", "float64", 3, ".float64_values_default")
         value = data.get("int8_values_default", MISSING)
-        msg._int8_values_default = np.array((0, 127, -128), dtype=np.int8) if value is MISSING else numeric_array(value, "b", "int8", "int8", 3, ".int8_values_default")
+        if value is MISSING:
+            msg._int8_values_default = np.array((0, 127, -128), dtype=np.int8)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int8_values_default = np.array(array("b", value), dtype=np.int8)
+            except (TypeError, OverflowError, ValueError):
+                msg._int8_values_default = numeric_array(value, "b", "int8", "int8", 3, ".int8_values_default")
+        else:
+            msg._int8_values_default = numeric_array(value, "b", "int8", "int8", 3, ".int8_values_default")
         value = data.get("uint8_values_default", MISSING)
         msg._uint8_values_default = np.array((0, 1, 255), dtype=np.uint8) if value is MISSING else uint8_array(value, 3, ".uint8_values_default")
         value = data.get("int16_values_default", MISSING)
-        msg._int16_values_default = np.array((0, 32767, -32768), dtype=np.int16) if value is MISSING else numeric_array(value, "h", "int16", "int16", 3, ".int16_values_default")
+        if value is MISSING:
+            msg._int16_values_default = np.array((0, 32767, -32768), dtype=np.int16)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int16_values_default = np.array(array("h", value), dtype=np.int16)
+            except (TypeError, OverflowError, ValueError):
+                msg._int16_values_default = numeric_array(value, "h", "int16", "int16", 3, ".int16_values_default")
+        else:
+            msg._int16_values_default = numeric_array(value, "h", "int16", "int16", 3, ".int16_values_default")
         value = data.get("uint16_values_default", MISSING)
-        msg._uint16_values_default = np.array((0, 1, 65535), dtype=np.uint16) if value is MISSING else numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values_default")
+        if value is MISSING:
+            msg._uint16_values_default = np.array((0, 1, 65535), dtype=np.uint16)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint16_values_default = np.array(array("H", value), dtype=np.uint16)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint16_values_default = numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values_default")
+        else:
+            msg._uint16_values_default = numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values_default")
         value = data.get("int32_values_default", MISSING)
-        msg._int32_values_default = np.array((0, 2147483647, -2147483648), dtype=np.int32) if value is MISSING else numeric_array(value, "i", "int32", "int32", 3, ".int32_values_default")
+        if value is MISSING:
+            msg._int32_values_default = np.array((0, 2147483647, -2147483648), dtype=np.int32)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int32_values_default = np.array(array("i", value), dtype=np.int32)
+            except (TypeError, OverflowError, ValueError):
+                msg._int32_values_default = numeric_array(value, "i", "int32", "int32", 3, ".int32_values_default")
+        else:
+            msg._int32_values_default = numeric_array(value, "i", "int32", "int32", 3, ".int32_values_default")
         value = data.get("uint32_values_default", MISSING)
-        msg._uint32_values_default = np.array((0, 1, 4294967295), dtype=np.uint32) if value is MISSING else numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values_default")
+        if value is MISSING:
+            msg._uint32_values_default = np.array((0, 1, 4294967295), dtype=np.uint32)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint32_values_default = np.array(array("I", value), dtype=np.uint32)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint32_values_default = numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values_default")
+        else:
+            msg._uint32_values_default = numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values_default")
         value = data.get("int64_values_default", MISSING)
-        msg._int64_values_default = np.array((0, 9223372036854775807, -9223372036854775808), dtype=np.int64) if value is MISSING else numeric_array(value, "q", "int64", "int64", 3, ".int64_values_default")
+        if value is MISSING:
+            msg._int64_values_default = np.array((0, 9223372036854775807, -9223372036854775808), dtype=np.int64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int64_values_default = np.array(array("q", value), dtype=np.int64)
+            except (TypeError, OverflowError, ValueError):
+                msg._int64_values_default = numeric_array(value, "q", "int64", "int64", 3, ".int64_values_default")
+        else:
+            msg._int64_values_default = numeric_array(value, "q", "int64", "int64", 3, ".int64_values_default")
         value = data.get("uint64_values_default", MISSING)
-        msg._uint64_values_default = np.array((0, 1, 18446744073709551615), dtype=np.uint64) if value is MISSING else numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values_default")
+        if value is MISSING:
+            msg._uint64_values_default = np.array((0, 1, 18446744073709551615), dtype=np.uint64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint64_values_default = np.array(array("Q", value), dtype=np.uint64)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint64_values_default = numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values_default")
+        else:
+            msg._uint64_values_default = numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values_default")
         value = data.get("string_values_default", MISSING)
         msg._string_values_default = ["", "max value", "min value"] if value is MISSING else str_list(value, None, 3, True, ".string_values_default")
     except FieldError as error:
@@ -2212,23 +2877,87 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float32_values", MISSING)
         msg._float32_values = np.zeros(3, dtype=np.float32) if value is MISSING else numeric_array(value, "f", "float32", "float32", 3, ".float32_values")
         value = data.get("float64_values", MISSING)
-        msg._float64_values = np.zeros(3, dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 3, ".float64_values")
+        if value is MISSING:
+            msg._float64_values = np.zeros(3, dtype=np.float64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._float64_values = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._float64_values = numeric_array(value, "d", "float64", "float64", 3, ".float64_values")
+        else:
+            msg._float64_values = numeric_array(value, "d", "float64", "float64", 3, ".float64_values")
         value = data.get("int8_values", MISSING)
-        msg._int8_values = np.zeros(3, dtype=np.int8) if value is MISSING else numeric_array(value, "b", "int8", "int8", 3, ".int8_values")
+        if value is MISSING:
+            msg._int8_values = np.zeros(3, dtype=np.int8)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int8_values = np.array(array("b", value), dtype=np.int8)
+            except (TypeError, OverflowError, ValueError):
+                msg._int8_values = numeric_array(value, "b", "int8", "int8", 3, ".int8_values")
+        else:
+            msg._int8_values = numeric_array(value, "b", "int8", "int8", 3, ".int8_values")
         value = data.get("uint8_values", MISSING)
         msg._uint8_values = np.zeros(3, dtype=np.uint8) if value is MISSING else uint8_array(value, 3, ".uint8_values")
         value = data.get("int16_values", MISSING)
-        msg._int16_values = np.zeros(3, dtype=np.int16) if value is MISSING else numeric_array(value, "h", "int16", "int16", 3, ".int16_values")
+        if value is MISSING:
+            msg._int16_values = np.zeros(3, dtype=np.int16)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int16_values = np.array(array("h", value), dtype=np.int16)
+            except (TypeError, OverflowError, ValueError):
+                msg._int16_values = numeric_array(value, "h", "int16", "int16", 3, ".int16_values")
+        else:
+            msg._int16_values = numeric_array(value, "h", "int16", "int16", 3, ".int16_values")
         value = data.get("uint16_values", MISSING)
-        msg._uint16_values = np.zeros(3, dtype=np.uint16) if value is MISSING else numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values")
+        if value is MISSING:
+            msg._uint16_values = np.zeros(3, dtype=np.uint16)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint16_values = np.array(array("H", value), dtype=np.uint16)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint16_values = numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values")
+        else:
+            msg._uint16_values = numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values")
         value = data.get("int32_values", MISSING)
-        msg._int32_values = np.zeros(3, dtype=np.int32) if value is MISSING else numeric_array(value, "i", "int32", "int32", 3, ".int32_values")
+        if value is MISSING:
+            msg._int32_values = np.zeros(3, dtype=np.int32)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int32_values = np.array(array("i", value), dtype=np.int32)
+            except (TypeError, OverflowError, ValueError):
+                msg._int32_values = numeric_array(value, "i", "int32", "int32", 3, ".int32_values")
+        else:
+            msg._int32_values = numeric_array(value, "i", "int32", "int32", 3, ".int32_values")
         value = data.get("uint32_values", MISSING)
-        msg._uint32_values = np.zeros(3, dtype=np.uint32) if value is MISSING else numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values")
+        if value is MISSING:
+            msg._uint32_values = np.zeros(3, dtype=np.uint32)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint32_values = np.array(array("I", value), dtype=np.uint32)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint32_values = numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values")
+        else:
+            msg._uint32_values = numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values")
         value = data.get("int64_values", MISSING)
-        msg._int64_values = np.zeros(3, dtype=np.int64) if value is MISSING else numeric_array(value, "q", "int64", "int64", 3, ".int64_values")
+        if value is MISSING:
+            msg._int64_values = np.zeros(3, dtype=np.int64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int64_values = np.array(array("q", value), dtype=np.int64)
+            except (TypeError, OverflowError, ValueError):
+                msg._int64_values = numeric_array(value, "q", "int64", "int64", 3, ".int64_values")
+        else:
+            msg._int64_values = numeric_array(value, "q", "int64", "int64", 3, ".int64_values")
         value = data.get("uint64_values", MISSING)
-        msg._uint64_values = np.zeros(3, dtype=np.uint64) if value is MISSING else numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values")
+        if value is MISSING:
+            msg._uint64_values = np.zeros(3, dtype=np.uint64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint64_values = np.array(array("Q", value), dtype=np.uint64)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint64_values = numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values")
+        else:
+            msg._uint64_values = numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values")
         value = data.get("string_values", MISSING)
         msg._string_values = [""] * 3 if value is MISSING else str_list(value, None, 3, True, ".string_values")
         value = data.get("basic_types_values", MISSING)
@@ -2246,23 +2975,87 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float32_values_default", MISSING)
         msg._float32_values_default = np.array((1.125, 0.0, -1.125), dtype=np.float32) if value is MISSING else numeric_array(value, "f", "float32", "float32", 3, ".float32_values_default")
         value = data.get("float64_values_default", MISSING)
-        msg._float64_values_default = np.array((3.1415, 0.0, -3.1415), dtype=np.float64) if value is MISSING else numeric_array(value, "d", "float64", "float64", 3, ".float64_values_default")
+        if value is MISSING:
+            msg._float64_values_default = np.array((3.1415, 0.0, -3.1415), dtype=np.float64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._float64_values_default = np.array(array("d", value), dtype=np.float64)
+            except (TypeError, OverflowError, ValueError):
+                msg._float64_values_default = numeric_array(value, "d", "float64", "float64", 3, ".float64_values_default")
+        else:
+            msg._float64_values_default = numeric_array(value, "d", "float64", "float64", 3, ".float64_values_default")
         value = data.get("int8_values_default", MISSING)
-        msg._int8_values_default = np.array((0, 127, -128), dtype=np.int8) if value is MISSING else numeric_array(value, "b", "int8", "int8", 3, ".int8_values_default")
+        if value is MISSING:
+            msg._int8_values_default = np.array((0, 127, -128), dtype=np.int8)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int8_values_default = np.array(array("b", value), dtype=np.int8)
+            except (TypeError, OverflowError, ValueError):
+                msg._int8_values_default = numeric_array(value, "b", "int8", "int8", 3, ".int8_values_default")
+        else:
+            msg._int8_values_default = numeric_array(value, "b", "int8", "int8", 3, ".int8_values_default")
         value = data.get("uint8_values_default", MISSING)
         msg._uint8_values_default = np.array((0, 1, 255), dtype=np.uint8) if value is MISSING else uint8_array(value, 3, ".uint8_values_default")
         value = data.get("int16_values_default", MISSING)
-        msg._int16_values_default = np.array((0, 32767, -32768), dtype=np.int16) if value is MISSING else numeric_array(value, "h", "int16", "int16", 3, ".int16_values_default")
+        if value is MISSING:
+            msg._int16_values_default = np.array((0, 32767, -32768), dtype=np.int16)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int16_values_default = np.array(array("h", value), dtype=np.int16)
+            except (TypeError, OverflowError, ValueError):
+                msg._int16_values_default = numeric_array(value, "h", "int16", "int16", 3, ".int16_values_default")
+        else:
+            msg._int16_values_default = numeric_array(value, "h", "int16", "int16", 3, ".int16_values_default")
         value = data.get("uint16_values_default", MISSING)
-        msg._uint16_values_default = np.array((0, 1, 65535), dtype=np.uint16) if value is MISSING else numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values_default")
+        if value is MISSING:
+            msg._uint16_values_default = np.array((0, 1, 65535), dtype=np.uint16)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint16_values_default = np.array(array("H", value), dtype=np.uint16)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint16_values_default = numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values_default")
+        else:
+            msg._uint16_values_default = numeric_array(value, "H", "uint16", "uint16", 3, ".uint16_values_default")
         value = data.get("int32_values_default", MISSING)
-        msg._int32_values_default = np.array((0, 2147483647, -2147483648), dtype=np.int32) if value is MISSING else numeric_array(value, "i", "int32", "int32", 3, ".int32_values_default")
+        if value is MISSING:
+            msg._int32_values_default = np.array((0, 2147483647, -2147483648), dtype=np.int32)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int32_values_default = np.array(array("i", value), dtype=np.int32)
+            except (TypeError, OverflowError, ValueError):
+                msg._int32_values_default = numeric_array(value, "i", "int32", "int32", 3, ".int32_values_default")
+        else:
+            msg._int32_values_default = numeric_array(value, "i", "int32", "int32", 3, ".int32_values_default")
         value = data.get("uint32_values_default", MISSING)
-        msg._uint32_values_default = np.array((0, 1, 4294967295), dtype=np.uint32) if value is MISSING else numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values_default")
+        if value is MISSING:
+            msg._uint32_values_default = np.array((0, 1, 4294967295), dtype=np.uint32)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint32_values_default = np.array(array("I", value), dtype=np.uint32)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint32_values_default = numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values_default")
+        else:
+            msg._uint32_values_default = numeric_array(value, "I", "uint32", "uint32", 3, ".uint32_values_default")
         value = data.get("int64_values_default", MISSING)
-        msg._int64_values_default = np.array((0, 9223372036854775807, -9223372036854775808), dtype=np.int64) if value is MISSING else numeric_array(value, "q", "int64", "int64", 3, ".int64_values_default")
+        if value is MISSING:
+            msg._int64_values_default = np.array((0, 9223372036854775807, -9223372036854775808), dtype=np.int64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._int64_values_default = np.array(array("q", value), dtype=np.int64)
+            except (TypeError, OverflowError, ValueError):
+                msg._int64_values_default = numeric_array(value, "q", "int64", "int64", 3, ".int64_values_default")
+        else:
+            msg._int64_values_default = numeric_array(value, "q", "int64", "int64", 3, ".int64_values_default")
         value = data.get("uint64_values_default", MISSING)
-        msg._uint64_values_default = np.array((0, 1, 18446744073709551615), dtype=np.uint64) if value is MISSING else numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values_default")
+        if value is MISSING:
+            msg._uint64_values_default = np.array((0, 1, 18446744073709551615), dtype=np.uint64)
+        elif type(value) is list and len(value) == 3:
+            try:
+                msg._uint64_values_default = np.array(array("Q", value), dtype=np.uint64)
+            except (TypeError, OverflowError, ValueError):
+                msg._uint64_values_default = numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values_default")
+        else:
+            msg._uint64_values_default = numeric_array(value, "Q", "uint64", "uint64", 3, ".uint64_values_default")
         value = data.get("string_values_default", MISSING)
         msg._string_values_default = ["", "max value", "min value"] if value is MISSING else str_list(value, None, 3, True, ".string_values_default")
     except FieldError as error:
@@ -2869,7 +3662,15 @@ def fibonacci_result_from_dict(data: Mapping[str, Any]) -> Any:
         msg = Fibonacci_Result.__new__(Fibonacci_Result)
         msg._check_fields = CHECK_FIELDS
         value = data.get("sequence", MISSING)
-        msg._sequence = array("i") if value is MISSING else numeric_sequence(value, "i", "int32", None, ".sequence")
+        if value is MISSING:
+            msg._sequence = array("i")
+        elif type(value) is list:
+            try:
+                msg._sequence = array("i", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._sequence = numeric_sequence(value, "i", "int32", None, ".sequence")
+        else:
+            msg._sequence = numeric_sequence(value, "i", "int32", None, ".sequence")
     except FieldError as error:
         error.root = "Fibonacci_Result"
         raise
@@ -2896,7 +3697,15 @@ def fibonacci_feedback_from_dict(data: Mapping[str, Any]) -> Any:
         msg = Fibonacci_Feedback.__new__(Fibonacci_Feedback)
         msg._check_fields = CHECK_FIELDS
         value = data.get("sequence", MISSING)
-        msg._sequence = array("i") if value is MISSING else numeric_sequence(value, "i", "int32", None, ".sequence")
+        if value is MISSING:
+            msg._sequence = array("i")
+        elif type(value) is list:
+            try:
+                msg._sequence = array("i", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._sequence = numeric_sequence(value, "i", "int32", None, ".sequence")
+        else:
+            msg._sequence = numeric_sequence(value, "i", "int32", None, ".sequence")
     except FieldError as error:
         error.root = "Fibonacci_Feedback"
         raise

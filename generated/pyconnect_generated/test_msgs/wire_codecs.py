@@ -78,7 +78,7 @@ from pyconnect.codecs.cdr_runtime import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import FieldError, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import FieldError, check_bool, check_mapping, unknown_keys
 
 _new = object.__new__
 _frombuffer = np.frombuffer
@@ -1421,22 +1421,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
     _U32 = Struct(E + "I")
     _S0 = Struct(E + "?2B")
-    _S1 = Struct(E + "3B")
-    _S2 = Struct(E + "f")
-    _S3 = Struct(E + "dbBhH2xiIqQ")
-    _S4 = Struct(E + "1x")
-    _S5 = Struct(E + "i")
-    _S6 = Struct(E + "I")
-    _S7 = Struct(E + "iI")
-    _S8 = Struct(E + "iIiI")
-    _S9 = Struct(E + "B")
-    _S10 = Struct(E + "q")
-    _S11 = Struct(E + "dbBhH2xiIqQI")
-    _S12 = Struct(E + "?")
-    _S13 = Struct(E + "b")
-    _S14 = Struct(E + "iIiI?2B1xf")
-    _S15 = Struct(E + "iIiI3B1xf")
-    _S16 = Struct(E + "dbBhH2xiIqQiI")
+    _S1 = Struct(E + "f")
+    _S2 = Struct(E + "dbBhH2xiIqQ")
+    _S3 = Struct(E + "1x")
+    _S4 = Struct(E + "i")
+    _S5 = Struct(E + "I")
+    _S6 = Struct(E + "iI")
+    _S7 = Struct(E + "iIiI")
+    _S8 = Struct(E + "B")
+    _S9 = Struct(E + "q")
+    _S10 = Struct(E + "dbBhH2xiIqQI")
+    _S11 = Struct(E + "?")
+    _S12 = Struct(E + "b")
+    _S13 = Struct(E + "iIiI?2B1xf")
+    _S14 = Struct(E + "dbBhH2xiIqQiI")
     _D_bool = np.dtype("bool").newbyteorder(E)
     _D_float32 = np.dtype("float32").newbyteorder(E)
     _D_float64 = np.dtype("float64").newbyteorder(E)
@@ -1453,41 +1451,41 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R0
-            v1, v2, v3 = _S0.unpack_from(mv, pos)
+            v2, v3, v4 = _S0.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = _R1
-            v4, = _S2.unpack_from(mv, pos)
+            v5, = _S1.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = _R2
-            v5, v6, v7, v8, v9, v10, v11, v12, v13 = _S3.unpack_from(mv, pos)
+            v6, v7, v8, v9, v10, v11, v12, v13, v14 = _S2.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"bool_value": v1, "byte_value": v2, "char_value": v3, "float32_value": v4, "float64_value": v5, "int8_value": v6, "uint8_value": v7, "int16_value": v8, "uint16_value": v9, "int32_value": v10, "uint32_value": v11, "int64_value": v12, "uint64_value": v13}, pos
+        return {"bool_value": v2, "byte_value": v3, "char_value": v4, "float32_value": v5, "float64_value": v6, "int8_value": v7, "uint8_value": v8, "int16_value": v9, "uint16_value": v10, "int32_value": v11, "uint32_value": v12, "int64_value": v13, "uint64_value": v14}, pos
 
     def decode_view_test_msgs__msg__BasicTypes(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R0
-            v1, v2, v3 = _S0.unpack_from(mv, pos)
+            v2, v3, v4 = _S0.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = _R1
-            v4, = _S2.unpack_from(mv, pos)
+            v5, = _S1.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = _R2
-            v5, v6, v7, v8, v9, v10, v11, v12, v13 = _S3.unpack_from(mv, pos)
+            v6, v7, v8, v9, v10, v11, v12, v13, v14 = _S2.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__BasicTypes(v1, v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13), pos
+        return make_test_msgs__msg__BasicTypes(v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14), pos
 
     def encode_test_msgs__msg__BasicTypes(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1496,9 +1494,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_test_msgs__msg__BasicTypes)
             f = ""
             try:
-                out.append(_S1.pack(d.get("bool_value", False), d.get("byte_value", 0), d.get("char_value", 0)))
+                out.append(_S0.pack((t1 if (t1 := d.get("bool_value", False)).__class__ is bool else check_bool(t1, ".bool_value")), d.get("byte_value", 0), d.get("char_value", 0)))
             except Exception:
-                out.append(slow_pack(_S1, _R0, (d.get("bool_value", False), d.get("byte_value", 0), d.get("char_value", 0),)))
+                out.append(slow_pack(_S0, _R0, ((t1 if (t1 := d.get("bool_value", False)).__class__ is bool else check_bool(t1, ".bool_value")), d.get("byte_value", 0), d.get("char_value", 0),)))
             pos += 3
             p = -pos & 3
             if p:
@@ -1506,9 +1504,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S2.pack(d.get("float32_value", 0.0)))
+                out.append(_S1.pack(d.get("float32_value", 0.0)))
             except Exception:
-                out.append(slow_pack(_S2, _R1, (d.get("float32_value", 0.0),)))
+                out.append(slow_pack(_S1, _R1, (d.get("float32_value", 0.0),)))
             pos += 4
             p = -pos & 7
             if p:
@@ -1516,9 +1514,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S3.pack(d.get("float64_value", 0.0), d.get("int8_value", 0), d.get("uint8_value", 0), d.get("int16_value", 0), d.get("uint16_value", 0), d.get("int32_value", 0), d.get("uint32_value", 0), d.get("int64_value", 0), d.get("uint64_value", 0)))
+                out.append(_S2.pack(d.get("float64_value", 0.0), d.get("int8_value", 0), d.get("uint8_value", 0), d.get("int16_value", 0), d.get("uint16_value", 0), d.get("int32_value", 0), d.get("uint32_value", 0), d.get("int64_value", 0), d.get("uint64_value", 0)))
             except Exception:
-                out.append(slow_pack(_S3, _R2, (d.get("float64_value", 0.0), d.get("int8_value", 0), d.get("uint8_value", 0), d.get("int16_value", 0), d.get("uint16_value", 0), d.get("int32_value", 0), d.get("uint32_value", 0), d.get("int64_value", 0), d.get("uint64_value", 0),)))
+                out.append(slow_pack(_S2, _R2, (d.get("float64_value", 0.0), d.get("int8_value", 0), d.get("uint8_value", 0), d.get("int16_value", 0), d.get("uint16_value", 0), d.get("int32_value", 0), d.get("uint32_value", 0), d.get("int64_value", 0), d.get("uint64_value", 0),)))
             pos += 40
         except FieldError as error:
             raise error.within(f) from None
@@ -1530,7 +1528,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R3
-            _S4.unpack_from(mv, pos)
+            _S3.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1542,7 +1540,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R3
-            _S4.unpack_from(mv, pos)
+            _S3.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1557,9 +1555,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_test_msgs__msg__Constants)
             f = ""
             try:
-                out.append(_S4.pack())
+                out.append(_S3.pack())
             except Exception:
-                out.append(slow_pack(_S4, _R3, ()))
+                out.append(slow_pack(_S3, _R3, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1571,41 +1569,41 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R4
-            v1, v2, v3 = _S0.unpack_from(mv, pos)
+            v2, v3, v4 = _S0.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = _R5
-            v4, = _S2.unpack_from(mv, pos)
+            v5, = _S1.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = _R6
-            v5, v6, v7, v8, v9, v10, v11, v12, v13 = _S3.unpack_from(mv, pos)
+            v6, v7, v8, v9, v10, v11, v12, v13, v14 = _S2.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"bool_value": v1, "byte_value": v2, "char_value": v3, "float32_value": v4, "float64_value": v5, "int8_value": v6, "uint8_value": v7, "int16_value": v8, "uint16_value": v9, "int32_value": v10, "uint32_value": v11, "int64_value": v12, "uint64_value": v13}, pos
+        return {"bool_value": v2, "byte_value": v3, "char_value": v4, "float32_value": v5, "float64_value": v6, "int8_value": v7, "uint8_value": v8, "int16_value": v9, "uint16_value": v10, "int32_value": v11, "uint32_value": v12, "int64_value": v13, "uint64_value": v14}, pos
 
     def decode_view_test_msgs__msg__Defaults(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R4
-            v1, v2, v3 = _S0.unpack_from(mv, pos)
+            v2, v3, v4 = _S0.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = _R5
-            v4, = _S2.unpack_from(mv, pos)
+            v5, = _S1.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = _R6
-            v5, v6, v7, v8, v9, v10, v11, v12, v13 = _S3.unpack_from(mv, pos)
+            v6, v7, v8, v9, v10, v11, v12, v13, v14 = _S2.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__Defaults(v1, v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13), pos
+        return make_test_msgs__msg__Defaults(v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14), pos
 
     def encode_test_msgs__msg__Defaults(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1614,9 +1612,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_test_msgs__msg__Defaults)
             f = ""
             try:
-                out.append(_S1.pack(d.get("bool_value", True), d.get("byte_value", 50), d.get("char_value", 100)))
+                out.append(_S0.pack((t1 if (t1 := d.get("bool_value", True)).__class__ is bool else check_bool(t1, ".bool_value")), d.get("byte_value", 50), d.get("char_value", 100)))
             except Exception:
-                out.append(slow_pack(_S1, _R4, (d.get("bool_value", True), d.get("byte_value", 50), d.get("char_value", 100),)))
+                out.append(slow_pack(_S0, _R4, ((t1 if (t1 := d.get("bool_value", True)).__class__ is bool else check_bool(t1, ".bool_value")), d.get("byte_value", 50), d.get("char_value", 100),)))
             pos += 3
             p = -pos & 3
             if p:
@@ -1624,9 +1622,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S2.pack(d.get("float32_value", 1.125)))
+                out.append(_S1.pack(d.get("float32_value", 1.125)))
             except Exception:
-                out.append(slow_pack(_S2, _R5, (d.get("float32_value", 1.125),)))
+                out.append(slow_pack(_S1, _R5, (d.get("float32_value", 1.125),)))
             pos += 4
             p = -pos & 7
             if p:
@@ -1634,9 +1632,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S3.pack(d.get("float64_value", 1.125), d.get("int8_value", -50), d.get("uint8_value", 200), d.get("int16_value", -1000), d.get("uint16_value", 2000), d.get("int32_value", -30000), d.get("uint32_value", 60000), d.get("int64_value", -40000000), d.get("uint64_value", 50000000)))
+                out.append(_S2.pack(d.get("float64_value", 1.125), d.get("int8_value", -50), d.get("uint8_value", 200), d.get("int16_value", -1000), d.get("uint16_value", 2000), d.get("int32_value", -30000), d.get("uint32_value", 60000), d.get("int64_value", -40000000), d.get("uint64_value", 50000000)))
             except Exception:
-                out.append(slow_pack(_S3, _R6, (d.get("float64_value", 1.125), d.get("int8_value", -50), d.get("uint8_value", 200), d.get("int16_value", -1000), d.get("uint16_value", 2000), d.get("int32_value", -30000), d.get("uint32_value", 60000), d.get("int64_value", -40000000), d.get("uint64_value", 50000000),)))
+                out.append(slow_pack(_S2, _R6, (d.get("float64_value", 1.125), d.get("int8_value", -50), d.get("uint8_value", 200), d.get("int16_value", -1000), d.get("uint16_value", 2000), d.get("int32_value", -30000), d.get("uint32_value", 60000), d.get("int64_value", -40000000), d.get("uint64_value", 50000000),)))
             pos += 40
         except FieldError as error:
             raise error.within(f) from None
@@ -1807,7 +1805,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 3) & -4
             f = _R7
-            v84, = _S5.unpack_from(mv, pos)
+            v84, = _S4.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1978,7 +1976,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 3) & -4
             f = _R7
-            v84, = _S5.unpack_from(mv, pos)
+            v84, = _S4.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2135,9 +2133,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S5.pack(d.get("alignment_check", 0)))
+                out.append(_S4.pack(d.get("alignment_check", 0)))
             except Exception:
-                out.append(slow_pack(_S5, _R7, (d.get("alignment_check", 0),)))
+                out.append(slow_pack(_S4, _R7, (d.get("alignment_check", 0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -2150,7 +2148,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R8
-            v3, = _S6.unpack_from(mv, pos)
+            v3, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values"
             if v3 > 3:
@@ -2161,7 +2159,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v3 * 1
             pos = (pos + 3) & -4
             f = _R9
-            v7, = _S6.unpack_from(mv, pos)
+            v7, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values"
             if v7 > 3:
@@ -2172,7 +2170,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v7 * 1
             pos = (pos + 3) & -4
             f = _R10
-            v11, = _S6.unpack_from(mv, pos)
+            v11, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".char_values"
             if v11 > 3:
@@ -2183,7 +2181,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v11 * 1
             pos = (pos + 3) & -4
             f = _R11
-            v15, = _S6.unpack_from(mv, pos)
+            v15, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values"
             if v15 > 3:
@@ -2193,7 +2191,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v16 = _frombuffer(mv, _D_float32, v15, pos)
             pos += v15 * 4
             f = _R12
-            v19, = _S6.unpack_from(mv, pos)
+            v19, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values"
             if v19 > 3:
@@ -2205,7 +2203,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v20 = _frombuffer(mv, _D_float64, v19, pos)
             pos += v19 * 8
             f = _R13
-            v23, = _S6.unpack_from(mv, pos)
+            v23, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values"
             if v23 > 3:
@@ -2216,7 +2214,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v23 * 1
             pos = (pos + 3) & -4
             f = _R14
-            v27, = _S6.unpack_from(mv, pos)
+            v27, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values"
             if v27 > 3:
@@ -2227,7 +2225,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v27 * 1
             pos = (pos + 3) & -4
             f = _R15
-            v31, = _S6.unpack_from(mv, pos)
+            v31, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values"
             if v31 > 3:
@@ -2238,7 +2236,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v31 * 2
             pos = (pos + 3) & -4
             f = _R16
-            v35, = _S6.unpack_from(mv, pos)
+            v35, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values"
             if v35 > 3:
@@ -2249,7 +2247,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v35 * 2
             pos = (pos + 3) & -4
             f = _R17
-            v39, = _S6.unpack_from(mv, pos)
+            v39, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values"
             if v39 > 3:
@@ -2259,7 +2257,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v40 = _frombuffer(mv, _D_int32, v39, pos)
             pos += v39 * 4
             f = _R18
-            v43, = _S6.unpack_from(mv, pos)
+            v43, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values"
             if v43 > 3:
@@ -2269,7 +2267,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v44 = _frombuffer(mv, _D_uint32, v43, pos)
             pos += v43 * 4
             f = _R19
-            v47, = _S6.unpack_from(mv, pos)
+            v47, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values"
             if v47 > 3:
@@ -2281,7 +2279,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v48 = _frombuffer(mv, _D_int64, v47, pos)
             pos += v47 * 8
             f = _R20
-            v51, = _S6.unpack_from(mv, pos)
+            v51, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values"
             if v51 > 3:
@@ -2306,7 +2304,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 3) & -4
             f = _R21
-            v58, = _S6.unpack_from(mv, pos)
+            v58, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values_default"
             if v58 > 3:
@@ -2317,7 +2315,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v58 * 1
             pos = (pos + 3) & -4
             f = _R22
-            v62, = _S6.unpack_from(mv, pos)
+            v62, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values_default"
             if v62 > 3:
@@ -2328,7 +2326,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v62 * 1
             pos = (pos + 3) & -4
             f = _R23
-            v66, = _S6.unpack_from(mv, pos)
+            v66, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".char_values_default"
             if v66 > 3:
@@ -2339,7 +2337,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v66 * 1
             pos = (pos + 3) & -4
             f = _R24
-            v70, = _S6.unpack_from(mv, pos)
+            v70, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values_default"
             if v70 > 3:
@@ -2349,7 +2347,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v71 = _frombuffer(mv, _D_float32, v70, pos)
             pos += v70 * 4
             f = _R25
-            v74, = _S6.unpack_from(mv, pos)
+            v74, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values_default"
             if v74 > 3:
@@ -2361,7 +2359,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v75 = _frombuffer(mv, _D_float64, v74, pos)
             pos += v74 * 8
             f = _R26
-            v78, = _S6.unpack_from(mv, pos)
+            v78, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values_default"
             if v78 > 3:
@@ -2372,7 +2370,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v78 * 1
             pos = (pos + 3) & -4
             f = _R27
-            v82, = _S6.unpack_from(mv, pos)
+            v82, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values_default"
             if v82 > 3:
@@ -2383,7 +2381,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v82 * 1
             pos = (pos + 3) & -4
             f = _R28
-            v86, = _S6.unpack_from(mv, pos)
+            v86, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values_default"
             if v86 > 3:
@@ -2394,7 +2392,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v86 * 2
             pos = (pos + 3) & -4
             f = _R29
-            v90, = _S6.unpack_from(mv, pos)
+            v90, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values_default"
             if v90 > 3:
@@ -2405,7 +2403,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v90 * 2
             pos = (pos + 3) & -4
             f = _R30
-            v94, = _S6.unpack_from(mv, pos)
+            v94, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values_default"
             if v94 > 3:
@@ -2415,7 +2413,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v95 = _frombuffer(mv, _D_int32, v94, pos)
             pos += v94 * 4
             f = _R31
-            v98, = _S6.unpack_from(mv, pos)
+            v98, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values_default"
             if v98 > 3:
@@ -2425,7 +2423,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v99 = _frombuffer(mv, _D_uint32, v98, pos)
             pos += v98 * 4
             f = _R32
-            v102, = _S6.unpack_from(mv, pos)
+            v102, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values_default"
             if v102 > 3:
@@ -2437,7 +2435,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v103 = _frombuffer(mv, _D_int64, v102, pos)
             pos += v102 * 8
             f = _R33
-            v106, = _S6.unpack_from(mv, pos)
+            v106, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values_default"
             if v106 > 3:
@@ -2449,7 +2447,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v107 = _frombuffer(mv, _D_uint64, v106, pos)
             pos += v106 * 8
             f = _R34
-            v108, = _S5.unpack_from(mv, pos)
+            v108, = _S4.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2462,7 +2460,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R8
-            v3, = _S6.unpack_from(mv, pos)
+            v3, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values"
             if v3 > 3:
@@ -2473,7 +2471,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v3 * 1
             pos = (pos + 3) & -4
             f = _R9
-            v7, = _S6.unpack_from(mv, pos)
+            v7, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values"
             if v7 > 3:
@@ -2484,7 +2482,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v7 * 1
             pos = (pos + 3) & -4
             f = _R10
-            v11, = _S6.unpack_from(mv, pos)
+            v11, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".char_values"
             if v11 > 3:
@@ -2495,7 +2493,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v11 * 1
             pos = (pos + 3) & -4
             f = _R11
-            v15, = _S6.unpack_from(mv, pos)
+            v15, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values"
             if v15 > 3:
@@ -2505,7 +2503,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v16 = _frombuffer(mv, _D_float32, v15, pos)
             pos += v15 * 4
             f = _R12
-            v19, = _S6.unpack_from(mv, pos)
+            v19, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values"
             if v19 > 3:
@@ -2517,7 +2515,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v20 = _frombuffer(mv, _D_float64, v19, pos)
             pos += v19 * 8
             f = _R13
-            v23, = _S6.unpack_from(mv, pos)
+            v23, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values"
             if v23 > 3:
@@ -2528,7 +2526,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v23 * 1
             pos = (pos + 3) & -4
             f = _R14
-            v27, = _S6.unpack_from(mv, pos)
+            v27, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values"
             if v27 > 3:
@@ -2539,7 +2537,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v27 * 1
             pos = (pos + 3) & -4
             f = _R15
-            v31, = _S6.unpack_from(mv, pos)
+            v31, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values"
             if v31 > 3:
@@ -2550,7 +2548,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v31 * 2
             pos = (pos + 3) & -4
             f = _R16
-            v35, = _S6.unpack_from(mv, pos)
+            v35, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values"
             if v35 > 3:
@@ -2561,7 +2559,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v35 * 2
             pos = (pos + 3) & -4
             f = _R17
-            v39, = _S6.unpack_from(mv, pos)
+            v39, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values"
             if v39 > 3:
@@ -2571,7 +2569,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v40 = _frombuffer(mv, _D_int32, v39, pos)
             pos += v39 * 4
             f = _R18
-            v43, = _S6.unpack_from(mv, pos)
+            v43, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values"
             if v43 > 3:
@@ -2581,7 +2579,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v44 = _frombuffer(mv, _D_uint32, v43, pos)
             pos += v43 * 4
             f = _R19
-            v47, = _S6.unpack_from(mv, pos)
+            v47, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values"
             if v47 > 3:
@@ -2593,7 +2591,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v48 = _frombuffer(mv, _D_int64, v47, pos)
             pos += v47 * 8
             f = _R20
-            v51, = _S6.unpack_from(mv, pos)
+            v51, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values"
             if v51 > 3:
@@ -2618,7 +2616,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 3) & -4
             f = _R21
-            v58, = _S6.unpack_from(mv, pos)
+            v58, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values_default"
             if v58 > 3:
@@ -2629,7 +2627,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v58 * 1
             pos = (pos + 3) & -4
             f = _R22
-            v62, = _S6.unpack_from(mv, pos)
+            v62, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values_default"
             if v62 > 3:
@@ -2640,7 +2638,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v62 * 1
             pos = (pos + 3) & -4
             f = _R23
-            v66, = _S6.unpack_from(mv, pos)
+            v66, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".char_values_default"
             if v66 > 3:
@@ -2651,7 +2649,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v66 * 1
             pos = (pos + 3) & -4
             f = _R24
-            v70, = _S6.unpack_from(mv, pos)
+            v70, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values_default"
             if v70 > 3:
@@ -2661,7 +2659,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v71 = _frombuffer(mv, _D_float32, v70, pos)
             pos += v70 * 4
             f = _R25
-            v74, = _S6.unpack_from(mv, pos)
+            v74, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values_default"
             if v74 > 3:
@@ -2673,7 +2671,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v75 = _frombuffer(mv, _D_float64, v74, pos)
             pos += v74 * 8
             f = _R26
-            v78, = _S6.unpack_from(mv, pos)
+            v78, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values_default"
             if v78 > 3:
@@ -2684,7 +2682,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v78 * 1
             pos = (pos + 3) & -4
             f = _R27
-            v82, = _S6.unpack_from(mv, pos)
+            v82, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values_default"
             if v82 > 3:
@@ -2695,7 +2693,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v82 * 1
             pos = (pos + 3) & -4
             f = _R28
-            v86, = _S6.unpack_from(mv, pos)
+            v86, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values_default"
             if v86 > 3:
@@ -2706,7 +2704,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v86 * 2
             pos = (pos + 3) & -4
             f = _R29
-            v90, = _S6.unpack_from(mv, pos)
+            v90, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values_default"
             if v90 > 3:
@@ -2717,7 +2715,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v90 * 2
             pos = (pos + 3) & -4
             f = _R30
-            v94, = _S6.unpack_from(mv, pos)
+            v94, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values_default"
             if v94 > 3:
@@ -2727,7 +2725,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v95 = _frombuffer(mv, _D_int32, v94, pos)
             pos += v94 * 4
             f = _R31
-            v98, = _S6.unpack_from(mv, pos)
+            v98, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values_default"
             if v98 > 3:
@@ -2737,7 +2735,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v99 = _frombuffer(mv, _D_uint32, v98, pos)
             pos += v98 * 4
             f = _R32
-            v102, = _S6.unpack_from(mv, pos)
+            v102, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values_default"
             if v102 > 3:
@@ -2749,7 +2747,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v103 = _frombuffer(mv, _D_int64, v102, pos)
             pos += v102 * 8
             f = _R33
-            v106, = _S6.unpack_from(mv, pos)
+            v106, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values_default"
             if v106 > 3:
@@ -2761,7 +2759,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v107 = _frombuffer(mv, _D_uint64, v106, pos)
             pos += v106 * 8
             f = _R34
-            v108, = _S5.unpack_from(mv, pos)
+            v108, = _S4.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2782,9 +2780,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c2))
+                out.append(_S5.pack(c2))
             except Exception:
-                out.append(slow_pack(_S6, _R8, (c2,)))
+                out.append(slow_pack(_S5, _R8, (c2,)))
             pos += 4
             out.append(b1)
             pos += c2 * 1
@@ -2796,9 +2794,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c6))
+                out.append(_S5.pack(c6))
             except Exception:
-                out.append(slow_pack(_S6, _R9, (c6,)))
+                out.append(slow_pack(_S5, _R9, (c6,)))
             pos += 4
             out.append(b5)
             pos += c6 * 1
@@ -2810,9 +2808,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c10))
+                out.append(_S5.pack(c10))
             except Exception:
-                out.append(slow_pack(_S6, _R10, (c10,)))
+                out.append(slow_pack(_S5, _R10, (c10,)))
             pos += 4
             out.append(b9)
             pos += c10 * 1
@@ -2824,9 +2822,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c14))
+                out.append(_S5.pack(c14))
             except Exception:
-                out.append(slow_pack(_S6, _R11, (c14,)))
+                out.append(slow_pack(_S5, _R11, (c14,)))
             pos += 4
             out.append(b13)
             pos += c14 * 4
@@ -2834,9 +2832,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b17, c18 = encode_array(d.get("float64_values", ()), _D_float64, "float64", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c18))
+                out.append(_S5.pack(c18))
             except Exception:
-                out.append(slow_pack(_S6, _R12, (c18,)))
+                out.append(slow_pack(_S5, _R12, (c18,)))
             pos += 4
             if c18:
                 p = -pos & 7
@@ -2849,9 +2847,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b21, c22 = encode_array(d.get("int8_values", ()), _D_int8, "int8", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c22))
+                out.append(_S5.pack(c22))
             except Exception:
-                out.append(slow_pack(_S6, _R13, (c22,)))
+                out.append(slow_pack(_S5, _R13, (c22,)))
             pos += 4
             out.append(b21)
             pos += c22 * 1
@@ -2863,9 +2861,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c26))
+                out.append(_S5.pack(c26))
             except Exception:
-                out.append(slow_pack(_S6, _R14, (c26,)))
+                out.append(slow_pack(_S5, _R14, (c26,)))
             pos += 4
             out.append(b25)
             pos += c26 * 1
@@ -2877,9 +2875,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c30))
+                out.append(_S5.pack(c30))
             except Exception:
-                out.append(slow_pack(_S6, _R15, (c30,)))
+                out.append(slow_pack(_S5, _R15, (c30,)))
             pos += 4
             out.append(b29)
             pos += c30 * 2
@@ -2891,9 +2889,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c34))
+                out.append(_S5.pack(c34))
             except Exception:
-                out.append(slow_pack(_S6, _R16, (c34,)))
+                out.append(slow_pack(_S5, _R16, (c34,)))
             pos += 4
             out.append(b33)
             pos += c34 * 2
@@ -2905,9 +2903,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c38))
+                out.append(_S5.pack(c38))
             except Exception:
-                out.append(slow_pack(_S6, _R17, (c38,)))
+                out.append(slow_pack(_S5, _R17, (c38,)))
             pos += 4
             out.append(b37)
             pos += c38 * 4
@@ -2915,9 +2913,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b41, c42 = encode_array(d.get("uint32_values", ()), _D_uint32, "uint32", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c42))
+                out.append(_S5.pack(c42))
             except Exception:
-                out.append(slow_pack(_S6, _R18, (c42,)))
+                out.append(slow_pack(_S5, _R18, (c42,)))
             pos += 4
             out.append(b41)
             pos += c42 * 4
@@ -2925,9 +2923,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b45, c46 = encode_array(d.get("int64_values", ()), _D_int64, "int64", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c46))
+                out.append(_S5.pack(c46))
             except Exception:
-                out.append(slow_pack(_S6, _R19, (c46,)))
+                out.append(slow_pack(_S5, _R19, (c46,)))
             pos += 4
             if c46:
                 p = -pos & 7
@@ -2940,9 +2938,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b49, c50 = encode_array(d.get("uint64_values", ()), _D_uint64, "uint64", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c50))
+                out.append(_S5.pack(c50))
             except Exception:
-                out.append(slow_pack(_S6, _R20, (c50,)))
+                out.append(slow_pack(_S5, _R20, (c50,)))
             pos += 4
             if c50:
                 p = -pos & 7
@@ -2965,9 +2963,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c57))
+                out.append(_S5.pack(c57))
             except Exception:
-                out.append(slow_pack(_S6, _R21, (c57,)))
+                out.append(slow_pack(_S5, _R21, (c57,)))
             pos += 4
             out.append(b56)
             pos += c57 * 1
@@ -2979,9 +2977,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c61))
+                out.append(_S5.pack(c61))
             except Exception:
-                out.append(slow_pack(_S6, _R22, (c61,)))
+                out.append(slow_pack(_S5, _R22, (c61,)))
             pos += 4
             out.append(b60)
             pos += c61 * 1
@@ -2993,9 +2991,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c65))
+                out.append(_S5.pack(c65))
             except Exception:
-                out.append(slow_pack(_S6, _R23, (c65,)))
+                out.append(slow_pack(_S5, _R23, (c65,)))
             pos += 4
             out.append(b64)
             pos += c65 * 1
@@ -3007,9 +3005,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c69))
+                out.append(_S5.pack(c69))
             except Exception:
-                out.append(slow_pack(_S6, _R24, (c69,)))
+                out.append(slow_pack(_S5, _R24, (c69,)))
             pos += 4
             out.append(b68)
             pos += c69 * 4
@@ -3017,9 +3015,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b72, c73 = encode_array(d.get("float64_values_default", (3.1415, 0.0, -3.1415)), _D_float64, "float64", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c73))
+                out.append(_S5.pack(c73))
             except Exception:
-                out.append(slow_pack(_S6, _R25, (c73,)))
+                out.append(slow_pack(_S5, _R25, (c73,)))
             pos += 4
             if c73:
                 p = -pos & 7
@@ -3032,9 +3030,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b76, c77 = encode_array(d.get("int8_values_default", (0, 127, -128)), _D_int8, "int8", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c77))
+                out.append(_S5.pack(c77))
             except Exception:
-                out.append(slow_pack(_S6, _R26, (c77,)))
+                out.append(slow_pack(_S5, _R26, (c77,)))
             pos += 4
             out.append(b76)
             pos += c77 * 1
@@ -3046,9 +3044,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c81))
+                out.append(_S5.pack(c81))
             except Exception:
-                out.append(slow_pack(_S6, _R27, (c81,)))
+                out.append(slow_pack(_S5, _R27, (c81,)))
             pos += 4
             out.append(b80)
             pos += c81 * 1
@@ -3060,9 +3058,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c85))
+                out.append(_S5.pack(c85))
             except Exception:
-                out.append(slow_pack(_S6, _R28, (c85,)))
+                out.append(slow_pack(_S5, _R28, (c85,)))
             pos += 4
             out.append(b84)
             pos += c85 * 2
@@ -3074,9 +3072,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c89))
+                out.append(_S5.pack(c89))
             except Exception:
-                out.append(slow_pack(_S6, _R29, (c89,)))
+                out.append(slow_pack(_S5, _R29, (c89,)))
             pos += 4
             out.append(b88)
             pos += c89 * 2
@@ -3088,9 +3086,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c93))
+                out.append(_S5.pack(c93))
             except Exception:
-                out.append(slow_pack(_S6, _R30, (c93,)))
+                out.append(slow_pack(_S5, _R30, (c93,)))
             pos += 4
             out.append(b92)
             pos += c93 * 4
@@ -3098,9 +3096,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b96, c97 = encode_array(d.get("uint32_values_default", (0, 1, 4294967295)), _D_uint32, "uint32", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c97))
+                out.append(_S5.pack(c97))
             except Exception:
-                out.append(slow_pack(_S6, _R31, (c97,)))
+                out.append(slow_pack(_S5, _R31, (c97,)))
             pos += 4
             out.append(b96)
             pos += c97 * 4
@@ -3108,9 +3106,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b100, c101 = encode_array(d.get("int64_values_default", (0, 9223372036854775807, -9223372036854775808)), _D_int64, "int64", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c101))
+                out.append(_S5.pack(c101))
             except Exception:
-                out.append(slow_pack(_S6, _R32, (c101,)))
+                out.append(slow_pack(_S5, _R32, (c101,)))
             pos += 4
             if c101:
                 p = -pos & 7
@@ -3123,9 +3121,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b104, c105 = encode_array(d.get("uint64_values_default", (0, 1, 18446744073709551615)), _D_uint64, "uint64", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c105))
+                out.append(_S5.pack(c105))
             except Exception:
-                out.append(slow_pack(_S6, _R33, (c105,)))
+                out.append(slow_pack(_S5, _R33, (c105,)))
             pos += 4
             if c105:
                 p = -pos & 7
@@ -3136,9 +3134,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += c105 * 8
             f = ""
             try:
-                out.append(_S5.pack(d.get("alignment_check", 0)))
+                out.append(_S4.pack(d.get("alignment_check", 0)))
             except Exception:
-                out.append(slow_pack(_S5, _R34, (d.get("alignment_check", 0),)))
+                out.append(slow_pack(_S4, _R34, (d.get("alignment_check", 0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -3151,7 +3149,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R35
-            v3, = _S6.unpack_from(mv, pos)
+            v3, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values"
             if v3 > 3:
@@ -3162,7 +3160,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v3 * 1
             pos = (pos + 3) & -4
             f = _R36
-            v7, = _S6.unpack_from(mv, pos)
+            v7, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values"
             if v7 > 3:
@@ -3173,7 +3171,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v7 * 1
             pos = (pos + 3) & -4
             f = _R37
-            v11, = _S6.unpack_from(mv, pos)
+            v11, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".char_values"
             if v11 > 3:
@@ -3184,7 +3182,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v11 * 1
             pos = (pos + 3) & -4
             f = _R38
-            v15, = _S6.unpack_from(mv, pos)
+            v15, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values"
             if v15 > 3:
@@ -3194,7 +3192,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v16 = _frombuffer(mv, _D_float32, v15, pos)
             pos += v15 * 4
             f = _R39
-            v19, = _S6.unpack_from(mv, pos)
+            v19, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values"
             if v19 > 3:
@@ -3206,7 +3204,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v20 = _frombuffer(mv, _D_float64, v19, pos)
             pos += v19 * 8
             f = _R40
-            v23, = _S6.unpack_from(mv, pos)
+            v23, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values"
             if v23 > 3:
@@ -3217,7 +3215,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v23 * 1
             pos = (pos + 3) & -4
             f = _R41
-            v27, = _S6.unpack_from(mv, pos)
+            v27, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values"
             if v27 > 3:
@@ -3228,7 +3226,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v27 * 1
             pos = (pos + 3) & -4
             f = _R42
-            v31, = _S6.unpack_from(mv, pos)
+            v31, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values"
             if v31 > 3:
@@ -3239,7 +3237,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v31 * 2
             pos = (pos + 3) & -4
             f = _R43
-            v35, = _S6.unpack_from(mv, pos)
+            v35, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values"
             if v35 > 3:
@@ -3250,7 +3248,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v35 * 2
             pos = (pos + 3) & -4
             f = _R44
-            v39, = _S6.unpack_from(mv, pos)
+            v39, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values"
             if v39 > 3:
@@ -3260,7 +3258,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v40 = _frombuffer(mv, _D_int32, v39, pos)
             pos += v39 * 4
             f = _R45
-            v43, = _S6.unpack_from(mv, pos)
+            v43, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values"
             if v43 > 3:
@@ -3270,7 +3268,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v44 = _frombuffer(mv, _D_uint32, v43, pos)
             pos += v43 * 4
             f = _R46
-            v47, = _S6.unpack_from(mv, pos)
+            v47, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values"
             if v47 > 3:
@@ -3282,7 +3280,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v48 = _frombuffer(mv, _D_int64, v47, pos)
             pos += v47 * 8
             f = _R47
-            v51, = _S6.unpack_from(mv, pos)
+            v51, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values"
             if v51 > 3:
@@ -3311,7 +3309,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 3) & -4
             f = _R48
-            v59, = _S6.unpack_from(mv, pos)
+            v59, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values_default"
             if v59 > 3:
@@ -3322,7 +3320,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v59 * 1
             pos = (pos + 3) & -4
             f = _R49
-            v63, = _S6.unpack_from(mv, pos)
+            v63, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values_default"
             if v63 > 3:
@@ -3333,7 +3331,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v63 * 1
             pos = (pos + 3) & -4
             f = _R50
-            v67, = _S6.unpack_from(mv, pos)
+            v67, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".char_values_default"
             if v67 > 3:
@@ -3344,7 +3342,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v67 * 1
             pos = (pos + 3) & -4
             f = _R51
-            v71, = _S6.unpack_from(mv, pos)
+            v71, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values_default"
             if v71 > 3:
@@ -3354,7 +3352,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v72 = _frombuffer(mv, _D_float32, v71, pos)
             pos += v71 * 4
             f = _R52
-            v75, = _S6.unpack_from(mv, pos)
+            v75, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values_default"
             if v75 > 3:
@@ -3366,7 +3364,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v76 = _frombuffer(mv, _D_float64, v75, pos)
             pos += v75 * 8
             f = _R53
-            v79, = _S6.unpack_from(mv, pos)
+            v79, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values_default"
             if v79 > 3:
@@ -3377,7 +3375,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v79 * 1
             pos = (pos + 3) & -4
             f = _R54
-            v83, = _S6.unpack_from(mv, pos)
+            v83, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values_default"
             if v83 > 3:
@@ -3388,7 +3386,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v83 * 1
             pos = (pos + 3) & -4
             f = _R55
-            v87, = _S6.unpack_from(mv, pos)
+            v87, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values_default"
             if v87 > 3:
@@ -3399,7 +3397,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v87 * 2
             pos = (pos + 3) & -4
             f = _R56
-            v91, = _S6.unpack_from(mv, pos)
+            v91, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values_default"
             if v91 > 3:
@@ -3410,7 +3408,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v91 * 2
             pos = (pos + 3) & -4
             f = _R57
-            v95, = _S6.unpack_from(mv, pos)
+            v95, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values_default"
             if v95 > 3:
@@ -3420,7 +3418,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v96 = _frombuffer(mv, _D_int32, v95, pos)
             pos += v95 * 4
             f = _R58
-            v99, = _S6.unpack_from(mv, pos)
+            v99, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values_default"
             if v99 > 3:
@@ -3430,7 +3428,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v100 = _frombuffer(mv, _D_uint32, v99, pos)
             pos += v99 * 4
             f = _R59
-            v103, = _S6.unpack_from(mv, pos)
+            v103, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values_default"
             if v103 > 3:
@@ -3442,7 +3440,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v104 = _frombuffer(mv, _D_int64, v103, pos)
             pos += v103 * 8
             f = _R60
-            v107, = _S6.unpack_from(mv, pos)
+            v107, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values_default"
             if v107 > 3:
@@ -3459,7 +3457,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 3) & -4
             f = _R61
-            v110, = _S5.unpack_from(mv, pos)
+            v110, = _S4.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3472,7 +3470,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R35
-            v3, = _S6.unpack_from(mv, pos)
+            v3, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values"
             if v3 > 3:
@@ -3483,7 +3481,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v3 * 1
             pos = (pos + 3) & -4
             f = _R36
-            v7, = _S6.unpack_from(mv, pos)
+            v7, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values"
             if v7 > 3:
@@ -3494,7 +3492,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v7 * 1
             pos = (pos + 3) & -4
             f = _R37
-            v11, = _S6.unpack_from(mv, pos)
+            v11, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".char_values"
             if v11 > 3:
@@ -3505,7 +3503,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v11 * 1
             pos = (pos + 3) & -4
             f = _R38
-            v15, = _S6.unpack_from(mv, pos)
+            v15, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values"
             if v15 > 3:
@@ -3515,7 +3513,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v16 = _frombuffer(mv, _D_float32, v15, pos)
             pos += v15 * 4
             f = _R39
-            v19, = _S6.unpack_from(mv, pos)
+            v19, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values"
             if v19 > 3:
@@ -3527,7 +3525,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v20 = _frombuffer(mv, _D_float64, v19, pos)
             pos += v19 * 8
             f = _R40
-            v23, = _S6.unpack_from(mv, pos)
+            v23, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values"
             if v23 > 3:
@@ -3538,7 +3536,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v23 * 1
             pos = (pos + 3) & -4
             f = _R41
-            v27, = _S6.unpack_from(mv, pos)
+            v27, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values"
             if v27 > 3:
@@ -3549,7 +3547,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v27 * 1
             pos = (pos + 3) & -4
             f = _R42
-            v31, = _S6.unpack_from(mv, pos)
+            v31, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values"
             if v31 > 3:
@@ -3560,7 +3558,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v31 * 2
             pos = (pos + 3) & -4
             f = _R43
-            v35, = _S6.unpack_from(mv, pos)
+            v35, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values"
             if v35 > 3:
@@ -3571,7 +3569,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v35 * 2
             pos = (pos + 3) & -4
             f = _R44
-            v39, = _S6.unpack_from(mv, pos)
+            v39, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values"
             if v39 > 3:
@@ -3581,7 +3579,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v40 = _frombuffer(mv, _D_int32, v39, pos)
             pos += v39 * 4
             f = _R45
-            v43, = _S6.unpack_from(mv, pos)
+            v43, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values"
             if v43 > 3:
@@ -3591,7 +3589,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v44 = _frombuffer(mv, _D_uint32, v43, pos)
             pos += v43 * 4
             f = _R46
-            v47, = _S6.unpack_from(mv, pos)
+            v47, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values"
             if v47 > 3:
@@ -3603,7 +3601,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v48 = _frombuffer(mv, _D_int64, v47, pos)
             pos += v47 * 8
             f = _R47
-            v51, = _S6.unpack_from(mv, pos)
+            v51, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values"
             if v51 > 3:
@@ -3632,7 +3630,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 3) & -4
             f = _R48
-            v59, = _S6.unpack_from(mv, pos)
+            v59, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values_default"
             if v59 > 3:
@@ -3643,7 +3641,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v59 * 1
             pos = (pos + 3) & -4
             f = _R49
-            v63, = _S6.unpack_from(mv, pos)
+            v63, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values_default"
             if v63 > 3:
@@ -3654,7 +3652,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v63 * 1
             pos = (pos + 3) & -4
             f = _R50
-            v67, = _S6.unpack_from(mv, pos)
+            v67, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".char_values_default"
             if v67 > 3:
@@ -3665,7 +3663,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v67 * 1
             pos = (pos + 3) & -4
             f = _R51
-            v71, = _S6.unpack_from(mv, pos)
+            v71, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values_default"
             if v71 > 3:
@@ -3675,7 +3673,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v72 = _frombuffer(mv, _D_float32, v71, pos)
             pos += v71 * 4
             f = _R52
-            v75, = _S6.unpack_from(mv, pos)
+            v75, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values_default"
             if v75 > 3:
@@ -3687,7 +3685,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v76 = _frombuffer(mv, _D_float64, v75, pos)
             pos += v75 * 8
             f = _R53
-            v79, = _S6.unpack_from(mv, pos)
+            v79, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values_default"
             if v79 > 3:
@@ -3698,7 +3696,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v79 * 1
             pos = (pos + 3) & -4
             f = _R54
-            v83, = _S6.unpack_from(mv, pos)
+            v83, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values_default"
             if v83 > 3:
@@ -3709,7 +3707,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v83 * 1
             pos = (pos + 3) & -4
             f = _R55
-            v87, = _S6.unpack_from(mv, pos)
+            v87, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values_default"
             if v87 > 3:
@@ -3720,7 +3718,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v87 * 2
             pos = (pos + 3) & -4
             f = _R56
-            v91, = _S6.unpack_from(mv, pos)
+            v91, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values_default"
             if v91 > 3:
@@ -3731,7 +3729,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v91 * 2
             pos = (pos + 3) & -4
             f = _R57
-            v95, = _S6.unpack_from(mv, pos)
+            v95, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values_default"
             if v95 > 3:
@@ -3741,7 +3739,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v96 = _frombuffer(mv, _D_int32, v95, pos)
             pos += v95 * 4
             f = _R58
-            v99, = _S6.unpack_from(mv, pos)
+            v99, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values_default"
             if v99 > 3:
@@ -3751,7 +3749,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v100 = _frombuffer(mv, _D_uint32, v99, pos)
             pos += v99 * 4
             f = _R59
-            v103, = _S6.unpack_from(mv, pos)
+            v103, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values_default"
             if v103 > 3:
@@ -3763,7 +3761,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v104 = _frombuffer(mv, _D_int64, v103, pos)
             pos += v103 * 8
             f = _R60
-            v107, = _S6.unpack_from(mv, pos)
+            v107, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values_default"
             if v107 > 3:
@@ -3780,7 +3778,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 3) & -4
             f = _R61
-            v110, = _S5.unpack_from(mv, pos)
+            v110, = _S4.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3801,9 +3799,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c2))
+                out.append(_S5.pack(c2))
             except Exception:
-                out.append(slow_pack(_S6, _R35, (c2,)))
+                out.append(slow_pack(_S5, _R35, (c2,)))
             pos += 4
             out.append(b1)
             pos += c2 * 1
@@ -3815,9 +3813,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c6))
+                out.append(_S5.pack(c6))
             except Exception:
-                out.append(slow_pack(_S6, _R36, (c6,)))
+                out.append(slow_pack(_S5, _R36, (c6,)))
             pos += 4
             out.append(b5)
             pos += c6 * 1
@@ -3829,9 +3827,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c10))
+                out.append(_S5.pack(c10))
             except Exception:
-                out.append(slow_pack(_S6, _R37, (c10,)))
+                out.append(slow_pack(_S5, _R37, (c10,)))
             pos += 4
             out.append(b9)
             pos += c10 * 1
@@ -3843,9 +3841,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c14))
+                out.append(_S5.pack(c14))
             except Exception:
-                out.append(slow_pack(_S6, _R38, (c14,)))
+                out.append(slow_pack(_S5, _R38, (c14,)))
             pos += 4
             out.append(b13)
             pos += c14 * 4
@@ -3853,9 +3851,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b17, c18 = encode_array(d.get("float64_values", ()), _D_float64, "float64", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c18))
+                out.append(_S5.pack(c18))
             except Exception:
-                out.append(slow_pack(_S6, _R39, (c18,)))
+                out.append(slow_pack(_S5, _R39, (c18,)))
             pos += 4
             if c18:
                 p = -pos & 7
@@ -3868,9 +3866,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b21, c22 = encode_array(d.get("int8_values", ()), _D_int8, "int8", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c22))
+                out.append(_S5.pack(c22))
             except Exception:
-                out.append(slow_pack(_S6, _R40, (c22,)))
+                out.append(slow_pack(_S5, _R40, (c22,)))
             pos += 4
             out.append(b21)
             pos += c22 * 1
@@ -3882,9 +3880,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c26))
+                out.append(_S5.pack(c26))
             except Exception:
-                out.append(slow_pack(_S6, _R41, (c26,)))
+                out.append(slow_pack(_S5, _R41, (c26,)))
             pos += 4
             out.append(b25)
             pos += c26 * 1
@@ -3896,9 +3894,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c30))
+                out.append(_S5.pack(c30))
             except Exception:
-                out.append(slow_pack(_S6, _R42, (c30,)))
+                out.append(slow_pack(_S5, _R42, (c30,)))
             pos += 4
             out.append(b29)
             pos += c30 * 2
@@ -3910,9 +3908,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c34))
+                out.append(_S5.pack(c34))
             except Exception:
-                out.append(slow_pack(_S6, _R43, (c34,)))
+                out.append(slow_pack(_S5, _R43, (c34,)))
             pos += 4
             out.append(b33)
             pos += c34 * 2
@@ -3924,9 +3922,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c38))
+                out.append(_S5.pack(c38))
             except Exception:
-                out.append(slow_pack(_S6, _R44, (c38,)))
+                out.append(slow_pack(_S5, _R44, (c38,)))
             pos += 4
             out.append(b37)
             pos += c38 * 4
@@ -3934,9 +3932,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b41, c42 = encode_array(d.get("uint32_values", ()), _D_uint32, "uint32", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c42))
+                out.append(_S5.pack(c42))
             except Exception:
-                out.append(slow_pack(_S6, _R45, (c42,)))
+                out.append(slow_pack(_S5, _R45, (c42,)))
             pos += 4
             out.append(b41)
             pos += c42 * 4
@@ -3944,9 +3942,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b45, c46 = encode_array(d.get("int64_values", ()), _D_int64, "int64", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c46))
+                out.append(_S5.pack(c46))
             except Exception:
-                out.append(slow_pack(_S6, _R46, (c46,)))
+                out.append(slow_pack(_S5, _R46, (c46,)))
             pos += 4
             if c46:
                 p = -pos & 7
@@ -3959,9 +3957,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b49, c50 = encode_array(d.get("uint64_values", ()), _D_uint64, "uint64", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c50))
+                out.append(_S5.pack(c50))
             except Exception:
-                out.append(slow_pack(_S6, _R47, (c50,)))
+                out.append(slow_pack(_S5, _R47, (c50,)))
             pos += 4
             if c50:
                 p = -pos & 7
@@ -3986,9 +3984,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c58))
+                out.append(_S5.pack(c58))
             except Exception:
-                out.append(slow_pack(_S6, _R48, (c58,)))
+                out.append(slow_pack(_S5, _R48, (c58,)))
             pos += 4
             out.append(b57)
             pos += c58 * 1
@@ -4000,9 +3998,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c62))
+                out.append(_S5.pack(c62))
             except Exception:
-                out.append(slow_pack(_S6, _R49, (c62,)))
+                out.append(slow_pack(_S5, _R49, (c62,)))
             pos += 4
             out.append(b61)
             pos += c62 * 1
@@ -4014,9 +4012,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c66))
+                out.append(_S5.pack(c66))
             except Exception:
-                out.append(slow_pack(_S6, _R50, (c66,)))
+                out.append(slow_pack(_S5, _R50, (c66,)))
             pos += 4
             out.append(b65)
             pos += c66 * 1
@@ -4028,9 +4026,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c70))
+                out.append(_S5.pack(c70))
             except Exception:
-                out.append(slow_pack(_S6, _R51, (c70,)))
+                out.append(slow_pack(_S5, _R51, (c70,)))
             pos += 4
             out.append(b69)
             pos += c70 * 4
@@ -4038,9 +4036,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b73, c74 = encode_array(d.get("float64_values_default", (3.1415, 0.0, -3.1415)), _D_float64, "float64", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c74))
+                out.append(_S5.pack(c74))
             except Exception:
-                out.append(slow_pack(_S6, _R52, (c74,)))
+                out.append(slow_pack(_S5, _R52, (c74,)))
             pos += 4
             if c74:
                 p = -pos & 7
@@ -4053,9 +4051,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b77, c78 = encode_array(d.get("int8_values_default", (0, 127, -128)), _D_int8, "int8", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c78))
+                out.append(_S5.pack(c78))
             except Exception:
-                out.append(slow_pack(_S6, _R53, (c78,)))
+                out.append(slow_pack(_S5, _R53, (c78,)))
             pos += 4
             out.append(b77)
             pos += c78 * 1
@@ -4067,9 +4065,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c82))
+                out.append(_S5.pack(c82))
             except Exception:
-                out.append(slow_pack(_S6, _R54, (c82,)))
+                out.append(slow_pack(_S5, _R54, (c82,)))
             pos += 4
             out.append(b81)
             pos += c82 * 1
@@ -4081,9 +4079,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c86))
+                out.append(_S5.pack(c86))
             except Exception:
-                out.append(slow_pack(_S6, _R55, (c86,)))
+                out.append(slow_pack(_S5, _R55, (c86,)))
             pos += 4
             out.append(b85)
             pos += c86 * 2
@@ -4095,9 +4093,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c90))
+                out.append(_S5.pack(c90))
             except Exception:
-                out.append(slow_pack(_S6, _R56, (c90,)))
+                out.append(slow_pack(_S5, _R56, (c90,)))
             pos += 4
             out.append(b89)
             pos += c90 * 2
@@ -4109,9 +4107,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c94))
+                out.append(_S5.pack(c94))
             except Exception:
-                out.append(slow_pack(_S6, _R57, (c94,)))
+                out.append(slow_pack(_S5, _R57, (c94,)))
             pos += 4
             out.append(b93)
             pos += c94 * 4
@@ -4119,9 +4117,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b97, c98 = encode_array(d.get("uint32_values_default", (0, 1, 4294967295)), _D_uint32, "uint32", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c98))
+                out.append(_S5.pack(c98))
             except Exception:
-                out.append(slow_pack(_S6, _R58, (c98,)))
+                out.append(slow_pack(_S5, _R58, (c98,)))
             pos += 4
             out.append(b97)
             pos += c98 * 4
@@ -4129,9 +4127,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b101, c102 = encode_array(d.get("int64_values_default", (0, 9223372036854775807, -9223372036854775808)), _D_int64, "int64", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c102))
+                out.append(_S5.pack(c102))
             except Exception:
-                out.append(slow_pack(_S6, _R59, (c102,)))
+                out.append(slow_pack(_S5, _R59, (c102,)))
             pos += 4
             if c102:
                 p = -pos & 7
@@ -4144,9 +4142,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b105, c106 = encode_array(d.get("uint64_values_default", (0, 1, 18446744073709551615)), _D_uint64, "uint64", 3, False)
             f = ""
             try:
-                out.append(_S6.pack(c106))
+                out.append(_S5.pack(c106))
             except Exception:
-                out.append(slow_pack(_S6, _R60, (c106,)))
+                out.append(slow_pack(_S5, _R60, (c106,)))
             pos += 4
             if c106:
                 p = -pos & 7
@@ -4163,9 +4161,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S5.pack(d.get("alignment_check", 0)))
+                out.append(_S4.pack(d.get("alignment_check", 0)))
             except Exception:
-                out.append(slow_pack(_S5, _R61, (d.get("alignment_check", 0),)))
+                out.append(slow_pack(_S4, _R61, (d.get("alignment_check", 0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -4178,7 +4176,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R62
-            v1, v2 = _S7.unpack_from(mv, pos)
+            v1, v2 = _S6.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -4191,7 +4189,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R62
-            v1, v2 = _S7.unpack_from(mv, pos)
+            v1, v2 = _S6.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -4210,9 +4208,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S7.pack(d.get("sec", 0), d.get("nanosec", 0)))
+                out.append(_S6.pack(d.get("sec", 0), d.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S7, _R62, (d.get("sec", 0), d.get("nanosec", 0),)))
+                out.append(slow_pack(_S6, _R62, (d.get("sec", 0), d.get("nanosec", 0),)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -4225,7 +4223,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R63
-            v1, v2 = _S7.unpack_from(mv, pos)
+            v1, v2 = _S6.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -4238,7 +4236,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R63
-            v1, v2 = _S7.unpack_from(mv, pos)
+            v1, v2 = _S6.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -4257,9 +4255,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S7.pack(d.get("sec", 0), d.get("nanosec", 0)))
+                out.append(_S6.pack(d.get("sec", 0), d.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S7, _R63, (d.get("sec", 0), d.get("nanosec", 0),)))
+                out.append(slow_pack(_S6, _R63, (d.get("sec", 0), d.get("nanosec", 0),)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -4272,7 +4270,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R64
-            v2, v3, v5, v6 = _S8.unpack_from(mv, pos)
+            v2, v3, v5, v6 = _S7.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -4285,7 +4283,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R64
-            v2, v3, v5, v6 = _S8.unpack_from(mv, pos)
+            v2, v3, v5, v6 = _S7.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -4312,9 +4310,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m4 = _submap(m4, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S8.pack(m1.get("sec", 0), m1.get("nanosec", 0), m4.get("sec", 0), m4.get("nanosec", 0)))
+                out.append(_S7.pack(m1.get("sec", 0), m1.get("nanosec", 0), m4.get("sec", 0), m4.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S8, _R64, (m1.get("sec", 0), m1.get("nanosec", 0), m4.get("sec", 0), m4.get("nanosec", 0),)))
+                out.append(slow_pack(_S7, _R64, (m1.get("sec", 0), m1.get("nanosec", 0), m4.get("sec", 0), m4.get("nanosec", 0),)))
             pos += 16
         except FieldError as error:
             raise error.within(f) from None
@@ -4326,7 +4324,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R65
-            _S4.unpack_from(mv, pos)
+            _S3.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -4338,7 +4336,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R65
-            _S4.unpack_from(mv, pos)
+            _S3.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -4353,9 +4351,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_test_msgs__msg__Empty)
             f = ""
             try:
-                out.append(_S4.pack())
+                out.append(_S3.pack())
             except Exception:
-                out.append(slow_pack(_S4, _R65, ()))
+                out.append(slow_pack(_S3, _R65, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -4368,7 +4366,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R66
-            v3, = _S6.unpack_from(mv, pos)
+            v3, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values"
             if v3 * 1 > lim - pos:
@@ -4377,7 +4375,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v3 * 1
             pos = (pos + 3) & -4
             f = _R67
-            v7, = _S6.unpack_from(mv, pos)
+            v7, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values"
             if v7 * 1 > lim - pos:
@@ -4386,7 +4384,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v7 * 1
             pos = (pos + 3) & -4
             f = _R68
-            v11, = _S6.unpack_from(mv, pos)
+            v11, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".char_values"
             if v11 * 1 > lim - pos:
@@ -4395,7 +4393,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v11 * 1
             pos = (pos + 3) & -4
             f = _R69
-            v15, = _S6.unpack_from(mv, pos)
+            v15, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values"
             if v15 * 4 > lim - pos:
@@ -4403,7 +4401,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v16 = _frombuffer(mv, _D_float32, v15, pos)
             pos += v15 * 4
             f = _R70
-            v19, = _S6.unpack_from(mv, pos)
+            v19, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values"
             if v19:
@@ -4413,7 +4411,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v20 = _frombuffer(mv, _D_float64, v19, pos)
             pos += v19 * 8
             f = _R71
-            v23, = _S6.unpack_from(mv, pos)
+            v23, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values"
             if v23 * 1 > lim - pos:
@@ -4422,7 +4420,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v23 * 1
             pos = (pos + 3) & -4
             f = _R72
-            v27, = _S6.unpack_from(mv, pos)
+            v27, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values"
             if v27 * 1 > lim - pos:
@@ -4431,7 +4429,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v27 * 1
             pos = (pos + 3) & -4
             f = _R73
-            v31, = _S6.unpack_from(mv, pos)
+            v31, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values"
             if v31 * 2 > lim - pos:
@@ -4440,7 +4438,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v31 * 2
             pos = (pos + 3) & -4
             f = _R74
-            v35, = _S6.unpack_from(mv, pos)
+            v35, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values"
             if v35 * 2 > lim - pos:
@@ -4449,7 +4447,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v35 * 2
             pos = (pos + 3) & -4
             f = _R75
-            v39, = _S6.unpack_from(mv, pos)
+            v39, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values"
             if v39 * 4 > lim - pos:
@@ -4457,7 +4455,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v40 = _frombuffer(mv, _D_int32, v39, pos)
             pos += v39 * 4
             f = _R76
-            v43, = _S6.unpack_from(mv, pos)
+            v43, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values"
             if v43 * 4 > lim - pos:
@@ -4465,7 +4463,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v44 = _frombuffer(mv, _D_uint32, v43, pos)
             pos += v43 * 4
             f = _R77
-            v47, = _S6.unpack_from(mv, pos)
+            v47, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values"
             if v47:
@@ -4475,7 +4473,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v48 = _frombuffer(mv, _D_int64, v47, pos)
             pos += v47 * 8
             f = _R78
-            v51, = _S6.unpack_from(mv, pos)
+            v51, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values"
             if v51:
@@ -4502,7 +4500,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 3) & -4
             f = _R79
-            v59, = _S6.unpack_from(mv, pos)
+            v59, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values_default"
             if v59 * 1 > lim - pos:
@@ -4511,7 +4509,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v59 * 1
             pos = (pos + 3) & -4
             f = _R80
-            v63, = _S6.unpack_from(mv, pos)
+            v63, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values_default"
             if v63 * 1 > lim - pos:
@@ -4520,7 +4518,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v63 * 1
             pos = (pos + 3) & -4
             f = _R81
-            v67, = _S6.unpack_from(mv, pos)
+            v67, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".char_values_default"
             if v67 * 1 > lim - pos:
@@ -4529,7 +4527,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v67 * 1
             pos = (pos + 3) & -4
             f = _R82
-            v71, = _S6.unpack_from(mv, pos)
+            v71, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values_default"
             if v71 * 4 > lim - pos:
@@ -4537,7 +4535,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v72 = _frombuffer(mv, _D_float32, v71, pos)
             pos += v71 * 4
             f = _R83
-            v75, = _S6.unpack_from(mv, pos)
+            v75, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values_default"
             if v75:
@@ -4547,7 +4545,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v76 = _frombuffer(mv, _D_float64, v75, pos)
             pos += v75 * 8
             f = _R84
-            v79, = _S6.unpack_from(mv, pos)
+            v79, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values_default"
             if v79 * 1 > lim - pos:
@@ -4556,7 +4554,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v79 * 1
             pos = (pos + 3) & -4
             f = _R85
-            v83, = _S6.unpack_from(mv, pos)
+            v83, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values_default"
             if v83 * 1 > lim - pos:
@@ -4565,7 +4563,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v83 * 1
             pos = (pos + 3) & -4
             f = _R86
-            v87, = _S6.unpack_from(mv, pos)
+            v87, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values_default"
             if v87 * 2 > lim - pos:
@@ -4574,7 +4572,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v87 * 2
             pos = (pos + 3) & -4
             f = _R87
-            v91, = _S6.unpack_from(mv, pos)
+            v91, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values_default"
             if v91 * 2 > lim - pos:
@@ -4583,7 +4581,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v91 * 2
             pos = (pos + 3) & -4
             f = _R88
-            v95, = _S6.unpack_from(mv, pos)
+            v95, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values_default"
             if v95 * 4 > lim - pos:
@@ -4591,7 +4589,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v96 = _frombuffer(mv, _D_int32, v95, pos)
             pos += v95 * 4
             f = _R89
-            v99, = _S6.unpack_from(mv, pos)
+            v99, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values_default"
             if v99 * 4 > lim - pos:
@@ -4599,7 +4597,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v100 = _frombuffer(mv, _D_uint32, v99, pos)
             pos += v99 * 4
             f = _R90
-            v103, = _S6.unpack_from(mv, pos)
+            v103, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values_default"
             if v103:
@@ -4609,7 +4607,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v104 = _frombuffer(mv, _D_int64, v103, pos)
             pos += v103 * 8
             f = _R91
-            v107, = _S6.unpack_from(mv, pos)
+            v107, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values_default"
             if v107:
@@ -4624,7 +4622,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 3) & -4
             f = _R92
-            v110, = _S5.unpack_from(mv, pos)
+            v110, = _S4.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -4637,7 +4635,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R66
-            v3, = _S6.unpack_from(mv, pos)
+            v3, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values"
             if v3 * 1 > lim - pos:
@@ -4646,7 +4644,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v3 * 1
             pos = (pos + 3) & -4
             f = _R67
-            v7, = _S6.unpack_from(mv, pos)
+            v7, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values"
             if v7 * 1 > lim - pos:
@@ -4655,7 +4653,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v7 * 1
             pos = (pos + 3) & -4
             f = _R68
-            v11, = _S6.unpack_from(mv, pos)
+            v11, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".char_values"
             if v11 * 1 > lim - pos:
@@ -4664,7 +4662,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v11 * 1
             pos = (pos + 3) & -4
             f = _R69
-            v15, = _S6.unpack_from(mv, pos)
+            v15, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values"
             if v15 * 4 > lim - pos:
@@ -4672,7 +4670,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v16 = _frombuffer(mv, _D_float32, v15, pos)
             pos += v15 * 4
             f = _R70
-            v19, = _S6.unpack_from(mv, pos)
+            v19, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values"
             if v19:
@@ -4682,7 +4680,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v20 = _frombuffer(mv, _D_float64, v19, pos)
             pos += v19 * 8
             f = _R71
-            v23, = _S6.unpack_from(mv, pos)
+            v23, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values"
             if v23 * 1 > lim - pos:
@@ -4691,7 +4689,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v23 * 1
             pos = (pos + 3) & -4
             f = _R72
-            v27, = _S6.unpack_from(mv, pos)
+            v27, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values"
             if v27 * 1 > lim - pos:
@@ -4700,7 +4698,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v27 * 1
             pos = (pos + 3) & -4
             f = _R73
-            v31, = _S6.unpack_from(mv, pos)
+            v31, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values"
             if v31 * 2 > lim - pos:
@@ -4709,7 +4707,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v31 * 2
             pos = (pos + 3) & -4
             f = _R74
-            v35, = _S6.unpack_from(mv, pos)
+            v35, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values"
             if v35 * 2 > lim - pos:
@@ -4718,7 +4716,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v35 * 2
             pos = (pos + 3) & -4
             f = _R75
-            v39, = _S6.unpack_from(mv, pos)
+            v39, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values"
             if v39 * 4 > lim - pos:
@@ -4726,7 +4724,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v40 = _frombuffer(mv, _D_int32, v39, pos)
             pos += v39 * 4
             f = _R76
-            v43, = _S6.unpack_from(mv, pos)
+            v43, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values"
             if v43 * 4 > lim - pos:
@@ -4734,7 +4732,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v44 = _frombuffer(mv, _D_uint32, v43, pos)
             pos += v43 * 4
             f = _R77
-            v47, = _S6.unpack_from(mv, pos)
+            v47, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values"
             if v47:
@@ -4744,7 +4742,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v48 = _frombuffer(mv, _D_int64, v47, pos)
             pos += v47 * 8
             f = _R78
-            v51, = _S6.unpack_from(mv, pos)
+            v51, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values"
             if v51:
@@ -4771,7 +4769,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 3) & -4
             f = _R79
-            v59, = _S6.unpack_from(mv, pos)
+            v59, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values_default"
             if v59 * 1 > lim - pos:
@@ -4780,7 +4778,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v59 * 1
             pos = (pos + 3) & -4
             f = _R80
-            v63, = _S6.unpack_from(mv, pos)
+            v63, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values_default"
             if v63 * 1 > lim - pos:
@@ -4789,7 +4787,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v63 * 1
             pos = (pos + 3) & -4
             f = _R81
-            v67, = _S6.unpack_from(mv, pos)
+            v67, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".char_values_default"
             if v67 * 1 > lim - pos:
@@ -4798,7 +4796,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v67 * 1
             pos = (pos + 3) & -4
             f = _R82
-            v71, = _S6.unpack_from(mv, pos)
+            v71, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values_default"
             if v71 * 4 > lim - pos:
@@ -4806,7 +4804,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v72 = _frombuffer(mv, _D_float32, v71, pos)
             pos += v71 * 4
             f = _R83
-            v75, = _S6.unpack_from(mv, pos)
+            v75, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values_default"
             if v75:
@@ -4816,7 +4814,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v76 = _frombuffer(mv, _D_float64, v75, pos)
             pos += v75 * 8
             f = _R84
-            v79, = _S6.unpack_from(mv, pos)
+            v79, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values_default"
             if v79 * 1 > lim - pos:
@@ -4825,7 +4823,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v79 * 1
             pos = (pos + 3) & -4
             f = _R85
-            v83, = _S6.unpack_from(mv, pos)
+            v83, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values_default"
             if v83 * 1 > lim - pos:
@@ -4834,7 +4832,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v83 * 1
             pos = (pos + 3) & -4
             f = _R86
-            v87, = _S6.unpack_from(mv, pos)
+            v87, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values_default"
             if v87 * 2 > lim - pos:
@@ -4843,7 +4841,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v87 * 2
             pos = (pos + 3) & -4
             f = _R87
-            v91, = _S6.unpack_from(mv, pos)
+            v91, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values_default"
             if v91 * 2 > lim - pos:
@@ -4852,7 +4850,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v91 * 2
             pos = (pos + 3) & -4
             f = _R88
-            v95, = _S6.unpack_from(mv, pos)
+            v95, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values_default"
             if v95 * 4 > lim - pos:
@@ -4860,7 +4858,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v96 = _frombuffer(mv, _D_int32, v95, pos)
             pos += v95 * 4
             f = _R89
-            v99, = _S6.unpack_from(mv, pos)
+            v99, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values_default"
             if v99 * 4 > lim - pos:
@@ -4868,7 +4866,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v100 = _frombuffer(mv, _D_uint32, v99, pos)
             pos += v99 * 4
             f = _R90
-            v103, = _S6.unpack_from(mv, pos)
+            v103, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values_default"
             if v103:
@@ -4878,7 +4876,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v104 = _frombuffer(mv, _D_int64, v103, pos)
             pos += v103 * 8
             f = _R91
-            v107, = _S6.unpack_from(mv, pos)
+            v107, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values_default"
             if v107:
@@ -4893,7 +4891,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             )
             pos = (pos + 3) & -4
             f = _R92
-            v110, = _S5.unpack_from(mv, pos)
+            v110, = _S4.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -4914,9 +4912,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c2))
+                out.append(_S5.pack(c2))
             except Exception:
-                out.append(slow_pack(_S6, _R66, (c2,)))
+                out.append(slow_pack(_S5, _R66, (c2,)))
             pos += 4
             out.append(b1)
             pos += c2 * 1
@@ -4928,9 +4926,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c6))
+                out.append(_S5.pack(c6))
             except Exception:
-                out.append(slow_pack(_S6, _R67, (c6,)))
+                out.append(slow_pack(_S5, _R67, (c6,)))
             pos += 4
             out.append(b5)
             pos += c6 * 1
@@ -4942,9 +4940,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c10))
+                out.append(_S5.pack(c10))
             except Exception:
-                out.append(slow_pack(_S6, _R68, (c10,)))
+                out.append(slow_pack(_S5, _R68, (c10,)))
             pos += 4
             out.append(b9)
             pos += c10 * 1
@@ -4956,9 +4954,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c14))
+                out.append(_S5.pack(c14))
             except Exception:
-                out.append(slow_pack(_S6, _R69, (c14,)))
+                out.append(slow_pack(_S5, _R69, (c14,)))
             pos += 4
             out.append(b13)
             pos += c14 * 4
@@ -4966,9 +4964,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b17, c18 = encode_array(d.get("float64_values", ()), _D_float64, "float64", None, False)
             f = ""
             try:
-                out.append(_S6.pack(c18))
+                out.append(_S5.pack(c18))
             except Exception:
-                out.append(slow_pack(_S6, _R70, (c18,)))
+                out.append(slow_pack(_S5, _R70, (c18,)))
             pos += 4
             if c18:
                 p = -pos & 7
@@ -4981,9 +4979,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b21, c22 = encode_array(d.get("int8_values", ()), _D_int8, "int8", None, False)
             f = ""
             try:
-                out.append(_S6.pack(c22))
+                out.append(_S5.pack(c22))
             except Exception:
-                out.append(slow_pack(_S6, _R71, (c22,)))
+                out.append(slow_pack(_S5, _R71, (c22,)))
             pos += 4
             out.append(b21)
             pos += c22 * 1
@@ -4995,9 +4993,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c26))
+                out.append(_S5.pack(c26))
             except Exception:
-                out.append(slow_pack(_S6, _R72, (c26,)))
+                out.append(slow_pack(_S5, _R72, (c26,)))
             pos += 4
             out.append(b25)
             pos += c26 * 1
@@ -5009,9 +5007,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c30))
+                out.append(_S5.pack(c30))
             except Exception:
-                out.append(slow_pack(_S6, _R73, (c30,)))
+                out.append(slow_pack(_S5, _R73, (c30,)))
             pos += 4
             out.append(b29)
             pos += c30 * 2
@@ -5023,9 +5021,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c34))
+                out.append(_S5.pack(c34))
             except Exception:
-                out.append(slow_pack(_S6, _R74, (c34,)))
+                out.append(slow_pack(_S5, _R74, (c34,)))
             pos += 4
             out.append(b33)
             pos += c34 * 2
@@ -5037,9 +5035,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c38))
+                out.append(_S5.pack(c38))
             except Exception:
-                out.append(slow_pack(_S6, _R75, (c38,)))
+                out.append(slow_pack(_S5, _R75, (c38,)))
             pos += 4
             out.append(b37)
             pos += c38 * 4
@@ -5047,9 +5045,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b41, c42 = encode_array(d.get("uint32_values", ()), _D_uint32, "uint32", None, False)
             f = ""
             try:
-                out.append(_S6.pack(c42))
+                out.append(_S5.pack(c42))
             except Exception:
-                out.append(slow_pack(_S6, _R76, (c42,)))
+                out.append(slow_pack(_S5, _R76, (c42,)))
             pos += 4
             out.append(b41)
             pos += c42 * 4
@@ -5057,9 +5055,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b45, c46 = encode_array(d.get("int64_values", ()), _D_int64, "int64", None, False)
             f = ""
             try:
-                out.append(_S6.pack(c46))
+                out.append(_S5.pack(c46))
             except Exception:
-                out.append(slow_pack(_S6, _R77, (c46,)))
+                out.append(slow_pack(_S5, _R77, (c46,)))
             pos += 4
             if c46:
                 p = -pos & 7
@@ -5072,9 +5070,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b49, c50 = encode_array(d.get("uint64_values", ()), _D_uint64, "uint64", None, False)
             f = ""
             try:
-                out.append(_S6.pack(c50))
+                out.append(_S5.pack(c50))
             except Exception:
-                out.append(slow_pack(_S6, _R78, (c50,)))
+                out.append(slow_pack(_S5, _R78, (c50,)))
             pos += 4
             if c50:
                 p = -pos & 7
@@ -5099,9 +5097,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c58))
+                out.append(_S5.pack(c58))
             except Exception:
-                out.append(slow_pack(_S6, _R79, (c58,)))
+                out.append(slow_pack(_S5, _R79, (c58,)))
             pos += 4
             out.append(b57)
             pos += c58 * 1
@@ -5113,9 +5111,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c62))
+                out.append(_S5.pack(c62))
             except Exception:
-                out.append(slow_pack(_S6, _R80, (c62,)))
+                out.append(slow_pack(_S5, _R80, (c62,)))
             pos += 4
             out.append(b61)
             pos += c62 * 1
@@ -5127,9 +5125,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c66))
+                out.append(_S5.pack(c66))
             except Exception:
-                out.append(slow_pack(_S6, _R81, (c66,)))
+                out.append(slow_pack(_S5, _R81, (c66,)))
             pos += 4
             out.append(b65)
             pos += c66 * 1
@@ -5141,9 +5139,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c70))
+                out.append(_S5.pack(c70))
             except Exception:
-                out.append(slow_pack(_S6, _R82, (c70,)))
+                out.append(slow_pack(_S5, _R82, (c70,)))
             pos += 4
             out.append(b69)
             pos += c70 * 4
@@ -5151,9 +5149,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b73, c74 = encode_array(d.get("float64_values_default", (3.1415, 0.0, -3.1415)), _D_float64, "float64", None, False)
             f = ""
             try:
-                out.append(_S6.pack(c74))
+                out.append(_S5.pack(c74))
             except Exception:
-                out.append(slow_pack(_S6, _R83, (c74,)))
+                out.append(slow_pack(_S5, _R83, (c74,)))
             pos += 4
             if c74:
                 p = -pos & 7
@@ -5166,9 +5164,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b77, c78 = encode_array(d.get("int8_values_default", (0, 127, -128)), _D_int8, "int8", None, False)
             f = ""
             try:
-                out.append(_S6.pack(c78))
+                out.append(_S5.pack(c78))
             except Exception:
-                out.append(slow_pack(_S6, _R84, (c78,)))
+                out.append(slow_pack(_S5, _R84, (c78,)))
             pos += 4
             out.append(b77)
             pos += c78 * 1
@@ -5180,9 +5178,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c82))
+                out.append(_S5.pack(c82))
             except Exception:
-                out.append(slow_pack(_S6, _R85, (c82,)))
+                out.append(slow_pack(_S5, _R85, (c82,)))
             pos += 4
             out.append(b81)
             pos += c82 * 1
@@ -5194,9 +5192,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c86))
+                out.append(_S5.pack(c86))
             except Exception:
-                out.append(slow_pack(_S6, _R86, (c86,)))
+                out.append(slow_pack(_S5, _R86, (c86,)))
             pos += 4
             out.append(b85)
             pos += c86 * 2
@@ -5208,9 +5206,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c90))
+                out.append(_S5.pack(c90))
             except Exception:
-                out.append(slow_pack(_S6, _R87, (c90,)))
+                out.append(slow_pack(_S5, _R87, (c90,)))
             pos += 4
             out.append(b89)
             pos += c90 * 2
@@ -5222,9 +5220,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c94))
+                out.append(_S5.pack(c94))
             except Exception:
-                out.append(slow_pack(_S6, _R88, (c94,)))
+                out.append(slow_pack(_S5, _R88, (c94,)))
             pos += 4
             out.append(b93)
             pos += c94 * 4
@@ -5232,9 +5230,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b97, c98 = encode_array(d.get("uint32_values_default", (0, 1, 4294967295)), _D_uint32, "uint32", None, False)
             f = ""
             try:
-                out.append(_S6.pack(c98))
+                out.append(_S5.pack(c98))
             except Exception:
-                out.append(slow_pack(_S6, _R89, (c98,)))
+                out.append(slow_pack(_S5, _R89, (c98,)))
             pos += 4
             out.append(b97)
             pos += c98 * 4
@@ -5242,9 +5240,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b101, c102 = encode_array(d.get("int64_values_default", (0, 9223372036854775807, -9223372036854775808)), _D_int64, "int64", None, False)
             f = ""
             try:
-                out.append(_S6.pack(c102))
+                out.append(_S5.pack(c102))
             except Exception:
-                out.append(slow_pack(_S6, _R90, (c102,)))
+                out.append(slow_pack(_S5, _R90, (c102,)))
             pos += 4
             if c102:
                 p = -pos & 7
@@ -5257,9 +5255,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b105, c106 = encode_array(d.get("uint64_values_default", (0, 1, 18446744073709551615)), _D_uint64, "uint64", None, False)
             f = ""
             try:
-                out.append(_S6.pack(c106))
+                out.append(_S5.pack(c106))
             except Exception:
-                out.append(slow_pack(_S6, _R91, (c106,)))
+                out.append(slow_pack(_S5, _R91, (c106,)))
             pos += 4
             if c106:
                 p = -pos & 7
@@ -5276,9 +5274,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S5.pack(d.get("alignment_check", 0)))
+                out.append(_S4.pack(d.get("alignment_check", 0)))
             except Exception:
-                out.append(slow_pack(_S5, _R92, (d.get("alignment_check", 0),)))
+                out.append(slow_pack(_S4, _R92, (d.get("alignment_check", 0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -5409,41 +5407,41 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R93
-            v2, v3, v4 = _S0.unpack_from(mv, pos)
+            v3, v4, v5 = _S0.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = _R94
-            v5, = _S2.unpack_from(mv, pos)
+            v6, = _S1.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = _R95
-            v6, v7, v8, v9, v10, v11, v12, v13, v14 = _S3.unpack_from(mv, pos)
+            v7, v8, v9, v10, v11, v12, v13, v14, v15 = _S2.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"basic_types_value": {"bool_value": v2, "byte_value": v3, "char_value": v4, "float32_value": v5, "float64_value": v6, "int8_value": v7, "uint8_value": v8, "int16_value": v9, "uint16_value": v10, "int32_value": v11, "uint32_value": v12, "int64_value": v13, "uint64_value": v14}}, pos
+        return {"basic_types_value": {"bool_value": v3, "byte_value": v4, "char_value": v5, "float32_value": v6, "float64_value": v7, "int8_value": v8, "uint8_value": v9, "int16_value": v10, "uint16_value": v11, "int32_value": v12, "uint32_value": v13, "int64_value": v14, "uint64_value": v15}}, pos
 
     def decode_view_test_msgs__msg__Nested(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R93
-            v2, v3, v4 = _S0.unpack_from(mv, pos)
+            v3, v4, v5 = _S0.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = _R94
-            v5, = _S2.unpack_from(mv, pos)
+            v6, = _S1.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = _R95
-            v6, v7, v8, v9, v10, v11, v12, v13, v14 = _S3.unpack_from(mv, pos)
+            v7, v8, v9, v10, v11, v12, v13, v14, v15 = _S2.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__Nested(make_test_msgs__msg__BasicTypes(v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14)), pos
+        return make_test_msgs__msg__Nested(make_test_msgs__msg__BasicTypes(v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v15)), pos
 
     def encode_test_msgs__msg__Nested(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5456,9 +5454,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m1 = _submap(m1, _K_test_msgs__msg__BasicTypes)
             f = ""
             try:
-                out.append(_S1.pack(m1.get("bool_value", False), m1.get("byte_value", 0), m1.get("char_value", 0)))
+                out.append(_S0.pack((t2 if (t2 := m1.get("bool_value", False)).__class__ is bool else check_bool(t2, ".basic_types_value.bool_value")), m1.get("byte_value", 0), m1.get("char_value", 0)))
             except Exception:
-                out.append(slow_pack(_S1, _R93, (m1.get("bool_value", False), m1.get("byte_value", 0), m1.get("char_value", 0),)))
+                out.append(slow_pack(_S0, _R93, ((t2 if (t2 := m1.get("bool_value", False)).__class__ is bool else check_bool(t2, ".basic_types_value.bool_value")), m1.get("byte_value", 0), m1.get("char_value", 0),)))
             pos += 3
             p = -pos & 3
             if p:
@@ -5466,9 +5464,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S2.pack(m1.get("float32_value", 0.0)))
+                out.append(_S1.pack(m1.get("float32_value", 0.0)))
             except Exception:
-                out.append(slow_pack(_S2, _R94, (m1.get("float32_value", 0.0),)))
+                out.append(slow_pack(_S1, _R94, (m1.get("float32_value", 0.0),)))
             pos += 4
             p = -pos & 7
             if p:
@@ -5476,9 +5474,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S3.pack(m1.get("float64_value", 0.0), m1.get("int8_value", 0), m1.get("uint8_value", 0), m1.get("int16_value", 0), m1.get("uint16_value", 0), m1.get("int32_value", 0), m1.get("uint32_value", 0), m1.get("int64_value", 0), m1.get("uint64_value", 0)))
+                out.append(_S2.pack(m1.get("float64_value", 0.0), m1.get("int8_value", 0), m1.get("uint8_value", 0), m1.get("int16_value", 0), m1.get("uint16_value", 0), m1.get("int32_value", 0), m1.get("uint32_value", 0), m1.get("int64_value", 0), m1.get("uint64_value", 0)))
             except Exception:
-                out.append(slow_pack(_S3, _R95, (m1.get("float64_value", 0.0), m1.get("int8_value", 0), m1.get("uint8_value", 0), m1.get("int16_value", 0), m1.get("uint16_value", 0), m1.get("int32_value", 0), m1.get("uint32_value", 0), m1.get("int64_value", 0), m1.get("uint64_value", 0),)))
+                out.append(slow_pack(_S2, _R95, (m1.get("float64_value", 0.0), m1.get("int8_value", 0), m1.get("uint8_value", 0), m1.get("int16_value", 0), m1.get("uint16_value", 0), m1.get("int32_value", 0), m1.get("uint32_value", 0), m1.get("int64_value", 0), m1.get("uint64_value", 0),)))
             pos += 40
         except FieldError as error:
             raise error.within(f) from None
@@ -5491,7 +5489,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R96
-            v2, = _S6.unpack_from(mv, pos)
+            v2, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".string_value"
             if v2 > lim - pos:
@@ -5500,7 +5498,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v2
             pos = (pos + 3) & -4
             f = _R97
-            v5, = _S6.unpack_from(mv, pos)
+            v5, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default1"
             if v5 > lim - pos:
@@ -5509,7 +5507,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v5
             pos = (pos + 3) & -4
             f = _R98
-            v8, = _S6.unpack_from(mv, pos)
+            v8, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default2"
             if v8 > lim - pos:
@@ -5518,7 +5516,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v8
             pos = (pos + 3) & -4
             f = _R99
-            v11, = _S6.unpack_from(mv, pos)
+            v11, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default3"
             if v11 > lim - pos:
@@ -5527,7 +5525,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v11
             pos = (pos + 3) & -4
             f = _R100
-            v14, = _S6.unpack_from(mv, pos)
+            v14, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default4"
             if v14 > lim - pos:
@@ -5536,7 +5534,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v14
             pos = (pos + 3) & -4
             f = _R101
-            v17, = _S6.unpack_from(mv, pos)
+            v17, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default5"
             if v17 > lim - pos:
@@ -5545,7 +5543,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v17
             pos = (pos + 3) & -4
             f = _R102
-            v20, = _S6.unpack_from(mv, pos)
+            v20, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value"
             if v20 > lim - pos:
@@ -5556,7 +5554,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 raise over_bound(len(v21), 22)
             pos = (pos + 3) & -4
             f = _R103
-            v23, = _S6.unpack_from(mv, pos)
+            v23, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default1"
             if v23 > lim - pos:
@@ -5567,7 +5565,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 raise over_bound(len(v24), 22)
             pos = (pos + 3) & -4
             f = _R104
-            v26, = _S6.unpack_from(mv, pos)
+            v26, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default2"
             if v26 > lim - pos:
@@ -5578,7 +5576,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 raise over_bound(len(v27), 22)
             pos = (pos + 3) & -4
             f = _R105
-            v29, = _S6.unpack_from(mv, pos)
+            v29, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default3"
             if v29 > lim - pos:
@@ -5589,7 +5587,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 raise over_bound(len(v30), 22)
             pos = (pos + 3) & -4
             f = _R106
-            v32, = _S6.unpack_from(mv, pos)
+            v32, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default4"
             if v32 > lim - pos:
@@ -5600,7 +5598,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 raise over_bound(len(v33), 22)
             pos = (pos + 3) & -4
             f = _R107
-            v35, = _S6.unpack_from(mv, pos)
+            v35, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default5"
             if v35 > lim - pos:
@@ -5620,7 +5618,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R96
-            v2, = _S6.unpack_from(mv, pos)
+            v2, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".string_value"
             if v2 > lim - pos:
@@ -5629,7 +5627,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v2
             pos = (pos + 3) & -4
             f = _R97
-            v5, = _S6.unpack_from(mv, pos)
+            v5, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default1"
             if v5 > lim - pos:
@@ -5638,7 +5636,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v5
             pos = (pos + 3) & -4
             f = _R98
-            v8, = _S6.unpack_from(mv, pos)
+            v8, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default2"
             if v8 > lim - pos:
@@ -5647,7 +5645,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v8
             pos = (pos + 3) & -4
             f = _R99
-            v11, = _S6.unpack_from(mv, pos)
+            v11, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default3"
             if v11 > lim - pos:
@@ -5656,7 +5654,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v11
             pos = (pos + 3) & -4
             f = _R100
-            v14, = _S6.unpack_from(mv, pos)
+            v14, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default4"
             if v14 > lim - pos:
@@ -5665,7 +5663,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v14
             pos = (pos + 3) & -4
             f = _R101
-            v17, = _S6.unpack_from(mv, pos)
+            v17, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default5"
             if v17 > lim - pos:
@@ -5674,7 +5672,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v17
             pos = (pos + 3) & -4
             f = _R102
-            v20, = _S6.unpack_from(mv, pos)
+            v20, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value"
             if v20 > lim - pos:
@@ -5685,7 +5683,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 raise over_bound(len(v21), 22)
             pos = (pos + 3) & -4
             f = _R103
-            v23, = _S6.unpack_from(mv, pos)
+            v23, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default1"
             if v23 > lim - pos:
@@ -5696,7 +5694,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 raise over_bound(len(v24), 22)
             pos = (pos + 3) & -4
             f = _R104
-            v26, = _S6.unpack_from(mv, pos)
+            v26, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default2"
             if v26 > lim - pos:
@@ -5707,7 +5705,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 raise over_bound(len(v27), 22)
             pos = (pos + 3) & -4
             f = _R105
-            v29, = _S6.unpack_from(mv, pos)
+            v29, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default3"
             if v29 > lim - pos:
@@ -5718,7 +5716,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 raise over_bound(len(v30), 22)
             pos = (pos + 3) & -4
             f = _R106
-            v32, = _S6.unpack_from(mv, pos)
+            v32, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default4"
             if v32 > lim - pos:
@@ -5729,7 +5727,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 raise over_bound(len(v33), 22)
             pos = (pos + 3) & -4
             f = _R107
-            v35, = _S6.unpack_from(mv, pos)
+            v35, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default5"
             if v35 > lim - pos:
@@ -5757,9 +5755,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(len(b1)))
+                out.append(_S5.pack(len(b1)))
             except Exception:
-                out.append(slow_pack(_S6, _R96, (len(b1),)))
+                out.append(slow_pack(_S5, _R96, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -5771,9 +5769,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(len(b4)))
+                out.append(_S5.pack(len(b4)))
             except Exception:
-                out.append(slow_pack(_S6, _R97, (len(b4),)))
+                out.append(slow_pack(_S5, _R97, (len(b4),)))
             pos += 4
             out.append(b4)
             pos += len(b4)
@@ -5785,9 +5783,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(len(b7)))
+                out.append(_S5.pack(len(b7)))
             except Exception:
-                out.append(slow_pack(_S6, _R98, (len(b7),)))
+                out.append(slow_pack(_S5, _R98, (len(b7),)))
             pos += 4
             out.append(b7)
             pos += len(b7)
@@ -5799,9 +5797,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(len(b10)))
+                out.append(_S5.pack(len(b10)))
             except Exception:
-                out.append(slow_pack(_S6, _R99, (len(b10),)))
+                out.append(slow_pack(_S5, _R99, (len(b10),)))
             pos += 4
             out.append(b10)
             pos += len(b10)
@@ -5813,9 +5811,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(len(b13)))
+                out.append(_S5.pack(len(b13)))
             except Exception:
-                out.append(slow_pack(_S6, _R100, (len(b13),)))
+                out.append(slow_pack(_S5, _R100, (len(b13),)))
             pos += 4
             out.append(b13)
             pos += len(b13)
@@ -5827,9 +5825,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(len(b16)))
+                out.append(_S5.pack(len(b16)))
             except Exception:
-                out.append(slow_pack(_S6, _R101, (len(b16),)))
+                out.append(slow_pack(_S5, _R101, (len(b16),)))
             pos += 4
             out.append(b16)
             pos += len(b16)
@@ -5841,9 +5839,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(len(b19)))
+                out.append(_S5.pack(len(b19)))
             except Exception:
-                out.append(slow_pack(_S6, _R102, (len(b19),)))
+                out.append(slow_pack(_S5, _R102, (len(b19),)))
             pos += 4
             out.append(b19)
             pos += len(b19)
@@ -5855,9 +5853,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(len(b22)))
+                out.append(_S5.pack(len(b22)))
             except Exception:
-                out.append(slow_pack(_S6, _R103, (len(b22),)))
+                out.append(slow_pack(_S5, _R103, (len(b22),)))
             pos += 4
             out.append(b22)
             pos += len(b22)
@@ -5869,9 +5867,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(len(b25)))
+                out.append(_S5.pack(len(b25)))
             except Exception:
-                out.append(slow_pack(_S6, _R104, (len(b25),)))
+                out.append(slow_pack(_S5, _R104, (len(b25),)))
             pos += 4
             out.append(b25)
             pos += len(b25)
@@ -5883,9 +5881,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(len(b28)))
+                out.append(_S5.pack(len(b28)))
             except Exception:
-                out.append(slow_pack(_S6, _R105, (len(b28),)))
+                out.append(slow_pack(_S5, _R105, (len(b28),)))
             pos += 4
             out.append(b28)
             pos += len(b28)
@@ -5897,9 +5895,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(len(b31)))
+                out.append(_S5.pack(len(b31)))
             except Exception:
-                out.append(slow_pack(_S6, _R106, (len(b31),)))
+                out.append(slow_pack(_S5, _R106, (len(b31),)))
             pos += 4
             out.append(b31)
             pos += len(b31)
@@ -5911,9 +5909,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(len(b34)))
+                out.append(_S5.pack(len(b34)))
             except Exception:
-                out.append(slow_pack(_S6, _R107, (len(b34),)))
+                out.append(slow_pack(_S5, _R107, (len(b34),)))
             pos += 4
             out.append(b34)
             pos += len(b34)
@@ -6976,11 +6974,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R108
-            v1, = _S9.unpack_from(mv, pos)
+            v1, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R109
-            v3, v4 = _S7.unpack_from(mv, pos)
+            v3, v4 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".client_gid"
             if 16 * 1 > lim - pos:
@@ -6989,7 +6987,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R110
-            v8, = _S10.unpack_from(mv, pos)
+            v8, = _S9.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -7001,11 +6999,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R108
-            v1, = _S9.unpack_from(mv, pos)
+            v1, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R109
-            v3, v4 = _S7.unpack_from(mv, pos)
+            v3, v4 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".client_gid"
             if 16 * 1 > lim - pos:
@@ -7014,7 +7012,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R110
-            v8, = _S10.unpack_from(mv, pos)
+            v8, = _S9.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -7033,9 +7031,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S9.pack(d.get("event_type", 0)))
+                out.append(_S8.pack(d.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S9, _R108, (d.get("event_type", 0),)))
+                out.append(slow_pack(_S8, _R108, (d.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -7045,9 +7043,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b5, c6 = encode_array(d.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
             try:
-                out.append(_S7.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
+                out.append(_S6.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S7, _R109, (m2.get("sec", 0), m2.get("nanosec", 0),)))
+                out.append(slow_pack(_S6, _R109, (m2.get("sec", 0), m2.get("nanosec", 0),)))
             pos += 8
             out.append(b5)
             pos += c6 * 1
@@ -7057,9 +7055,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S10.pack(d.get("sequence_number", 0)))
+                out.append(_S9.pack(d.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S10, _R110, (d.get("sequence_number", 0),)))
+                out.append(slow_pack(_S9, _R110, (d.get("sequence_number", 0),)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -7071,11 +7069,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R111
-            v2, = _S9.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R112
-            v4, v5 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
@@ -7084,7 +7082,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R113
-            v9, = _S10.unpack_from(mv, pos)
+            v9, = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -7104,11 +7102,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R111
-            v2, = _S9.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R112
-            v4, v5 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
@@ -7117,7 +7115,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R113
-            v9, = _S10.unpack_from(mv, pos)
+            v9, = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -7148,9 +7146,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S9.pack(m1.get("event_type", 0)))
+                out.append(_S8.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S9, _R111, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S8, _R111, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -7160,9 +7158,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
             try:
-                out.append(_S7.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S6.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S7, _R112, (m3.get("sec", 0), m3.get("nanosec", 0),)))
+                out.append(slow_pack(_S6, _R112, (m3.get("sec", 0), m3.get("nanosec", 0),)))
             pos += 8
             out.append(b6)
             pos += c7 * 1
@@ -7172,9 +7170,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S10.pack(m1.get("sequence_number", 0)))
+                out.append(_S9.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S10, _R113, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S9, _R113, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_test_msgs__srv__Arrays_Request, 1, False)
@@ -7190,51 +7188,51 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R114
-            v1, v2, v3 = _S0.unpack_from(mv, pos)
+            v2, v3, v4 = _S0.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = _R115
-            v4, = _S2.unpack_from(mv, pos)
+            v5, = _S1.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = _R116
-            v5, v6, v7, v8, v9, v10, v11, v12, v13, v15 = _S11.unpack_from(mv, pos)
+            v6, v7, v8, v9, v10, v11, v12, v13, v14, v16 = _S10.unpack_from(mv, pos)
             pos += 44
             f = ".string_value"
-            if v15 > lim - pos:
-                raise too_long(v15, 1, lim - pos)
-            v16 = str(mv[pos : pos + v15 - 1], "utf-8")
-            pos += v15
+            if v16 > lim - pos:
+                raise too_long(v16, 1, lim - pos)
+            v17 = str(mv[pos : pos + v16 - 1], "utf-8")
+            pos += v16
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"bool_value": v1, "byte_value": v2, "char_value": v3, "float32_value": v4, "float64_value": v5, "int8_value": v6, "uint8_value": v7, "int16_value": v8, "uint16_value": v9, "int32_value": v10, "uint32_value": v11, "int64_value": v12, "uint64_value": v13, "string_value": v16}, pos
+        return {"bool_value": v2, "byte_value": v3, "char_value": v4, "float32_value": v5, "float64_value": v6, "int8_value": v7, "uint8_value": v8, "int16_value": v9, "uint16_value": v10, "int32_value": v11, "uint32_value": v12, "int64_value": v13, "uint64_value": v14, "string_value": v17}, pos
 
     def decode_view_test_msgs__srv__BasicTypes_Request(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R114
-            v1, v2, v3 = _S0.unpack_from(mv, pos)
+            v2, v3, v4 = _S0.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = _R115
-            v4, = _S2.unpack_from(mv, pos)
+            v5, = _S1.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = _R116
-            v5, v6, v7, v8, v9, v10, v11, v12, v13, v15 = _S11.unpack_from(mv, pos)
+            v6, v7, v8, v9, v10, v11, v12, v13, v14, v16 = _S10.unpack_from(mv, pos)
             pos += 44
             f = ".string_value"
-            if v15 > lim - pos:
-                raise too_long(v15, 1, lim - pos)
-            v16 = str(mv[pos : pos + v15 - 1], "utf-8")
-            pos += v15
+            if v16 > lim - pos:
+                raise too_long(v16, 1, lim - pos)
+            v17 = str(mv[pos : pos + v16 - 1], "utf-8")
+            pos += v16
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__srv__BasicTypes_Request(v1, v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v16), pos
+        return make_test_msgs__srv__BasicTypes_Request(v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v17), pos
 
     def encode_test_msgs__srv__BasicTypes_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -7243,9 +7241,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_test_msgs__srv__BasicTypes_Request)
             f = ""
             try:
-                out.append(_S1.pack(d.get("bool_value", False), d.get("byte_value", 0), d.get("char_value", 0)))
+                out.append(_S0.pack((t1 if (t1 := d.get("bool_value", False)).__class__ is bool else check_bool(t1, ".bool_value")), d.get("byte_value", 0), d.get("char_value", 0)))
             except Exception:
-                out.append(slow_pack(_S1, _R114, (d.get("bool_value", False), d.get("byte_value", 0), d.get("char_value", 0),)))
+                out.append(slow_pack(_S0, _R114, ((t1 if (t1 := d.get("bool_value", False)).__class__ is bool else check_bool(t1, ".bool_value")), d.get("byte_value", 0), d.get("char_value", 0),)))
             pos += 3
             p = -pos & 3
             if p:
@@ -7253,24 +7251,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S2.pack(d.get("float32_value", 0.0)))
+                out.append(_S1.pack(d.get("float32_value", 0.0)))
             except Exception:
-                out.append(slow_pack(_S2, _R115, (d.get("float32_value", 0.0),)))
+                out.append(slow_pack(_S1, _R115, (d.get("float32_value", 0.0),)))
             pos += 4
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".string_value"
-            b14 = utf8z(d.get("string_value", ""), None)
+            b15 = utf8z(d.get("string_value", ""), None)
             f = ""
             try:
-                out.append(_S11.pack(d.get("float64_value", 0.0), d.get("int8_value", 0), d.get("uint8_value", 0), d.get("int16_value", 0), d.get("uint16_value", 0), d.get("int32_value", 0), d.get("uint32_value", 0), d.get("int64_value", 0), d.get("uint64_value", 0), len(b14)))
+                out.append(_S10.pack(d.get("float64_value", 0.0), d.get("int8_value", 0), d.get("uint8_value", 0), d.get("int16_value", 0), d.get("uint16_value", 0), d.get("int32_value", 0), d.get("uint32_value", 0), d.get("int64_value", 0), d.get("uint64_value", 0), len(b15)))
             except Exception:
-                out.append(slow_pack(_S11, _R116, (d.get("float64_value", 0.0), d.get("int8_value", 0), d.get("uint8_value", 0), d.get("int16_value", 0), d.get("uint16_value", 0), d.get("int32_value", 0), d.get("uint32_value", 0), d.get("int64_value", 0), d.get("uint64_value", 0), len(b14),)))
+                out.append(slow_pack(_S10, _R116, (d.get("float64_value", 0.0), d.get("int8_value", 0), d.get("uint8_value", 0), d.get("int16_value", 0), d.get("uint16_value", 0), d.get("int32_value", 0), d.get("uint32_value", 0), d.get("int64_value", 0), d.get("uint64_value", 0), len(b15),)))
             pos += 44
-            out.append(b14)
-            pos += len(b14)
+            out.append(b15)
+            pos += len(b15)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -7281,51 +7279,51 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R117
-            v1, v2, v3 = _S0.unpack_from(mv, pos)
+            v2, v3, v4 = _S0.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = _R118
-            v4, = _S2.unpack_from(mv, pos)
+            v5, = _S1.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = _R119
-            v5, v6, v7, v8, v9, v10, v11, v12, v13, v15 = _S11.unpack_from(mv, pos)
+            v6, v7, v8, v9, v10, v11, v12, v13, v14, v16 = _S10.unpack_from(mv, pos)
             pos += 44
             f = ".string_value"
-            if v15 > lim - pos:
-                raise too_long(v15, 1, lim - pos)
-            v16 = str(mv[pos : pos + v15 - 1], "utf-8")
-            pos += v15
+            if v16 > lim - pos:
+                raise too_long(v16, 1, lim - pos)
+            v17 = str(mv[pos : pos + v16 - 1], "utf-8")
+            pos += v16
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"bool_value": v1, "byte_value": v2, "char_value": v3, "float32_value": v4, "float64_value": v5, "int8_value": v6, "uint8_value": v7, "int16_value": v8, "uint16_value": v9, "int32_value": v10, "uint32_value": v11, "int64_value": v12, "uint64_value": v13, "string_value": v16}, pos
+        return {"bool_value": v2, "byte_value": v3, "char_value": v4, "float32_value": v5, "float64_value": v6, "int8_value": v7, "uint8_value": v8, "int16_value": v9, "uint16_value": v10, "int32_value": v11, "uint32_value": v12, "int64_value": v13, "uint64_value": v14, "string_value": v17}, pos
 
     def decode_view_test_msgs__srv__BasicTypes_Response(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R117
-            v1, v2, v3 = _S0.unpack_from(mv, pos)
+            v2, v3, v4 = _S0.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = _R118
-            v4, = _S2.unpack_from(mv, pos)
+            v5, = _S1.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = _R119
-            v5, v6, v7, v8, v9, v10, v11, v12, v13, v15 = _S11.unpack_from(mv, pos)
+            v6, v7, v8, v9, v10, v11, v12, v13, v14, v16 = _S10.unpack_from(mv, pos)
             pos += 44
             f = ".string_value"
-            if v15 > lim - pos:
-                raise too_long(v15, 1, lim - pos)
-            v16 = str(mv[pos : pos + v15 - 1], "utf-8")
-            pos += v15
+            if v16 > lim - pos:
+                raise too_long(v16, 1, lim - pos)
+            v17 = str(mv[pos : pos + v16 - 1], "utf-8")
+            pos += v16
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__srv__BasicTypes_Response(v1, v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v16), pos
+        return make_test_msgs__srv__BasicTypes_Response(v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v17), pos
 
     def encode_test_msgs__srv__BasicTypes_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -7334,9 +7332,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_test_msgs__srv__BasicTypes_Response)
             f = ""
             try:
-                out.append(_S1.pack(d.get("bool_value", False), d.get("byte_value", 0), d.get("char_value", 0)))
+                out.append(_S0.pack((t1 if (t1 := d.get("bool_value", False)).__class__ is bool else check_bool(t1, ".bool_value")), d.get("byte_value", 0), d.get("char_value", 0)))
             except Exception:
-                out.append(slow_pack(_S1, _R117, (d.get("bool_value", False), d.get("byte_value", 0), d.get("char_value", 0),)))
+                out.append(slow_pack(_S0, _R117, ((t1 if (t1 := d.get("bool_value", False)).__class__ is bool else check_bool(t1, ".bool_value")), d.get("byte_value", 0), d.get("char_value", 0),)))
             pos += 3
             p = -pos & 3
             if p:
@@ -7344,24 +7342,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S2.pack(d.get("float32_value", 0.0)))
+                out.append(_S1.pack(d.get("float32_value", 0.0)))
             except Exception:
-                out.append(slow_pack(_S2, _R118, (d.get("float32_value", 0.0),)))
+                out.append(slow_pack(_S1, _R118, (d.get("float32_value", 0.0),)))
             pos += 4
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".string_value"
-            b14 = utf8z(d.get("string_value", ""), None)
+            b15 = utf8z(d.get("string_value", ""), None)
             f = ""
             try:
-                out.append(_S11.pack(d.get("float64_value", 0.0), d.get("int8_value", 0), d.get("uint8_value", 0), d.get("int16_value", 0), d.get("uint16_value", 0), d.get("int32_value", 0), d.get("uint32_value", 0), d.get("int64_value", 0), d.get("uint64_value", 0), len(b14)))
+                out.append(_S10.pack(d.get("float64_value", 0.0), d.get("int8_value", 0), d.get("uint8_value", 0), d.get("int16_value", 0), d.get("uint16_value", 0), d.get("int32_value", 0), d.get("uint32_value", 0), d.get("int64_value", 0), d.get("uint64_value", 0), len(b15)))
             except Exception:
-                out.append(slow_pack(_S11, _R119, (d.get("float64_value", 0.0), d.get("int8_value", 0), d.get("uint8_value", 0), d.get("int16_value", 0), d.get("uint16_value", 0), d.get("int32_value", 0), d.get("uint32_value", 0), d.get("int64_value", 0), d.get("uint64_value", 0), len(b14),)))
+                out.append(slow_pack(_S10, _R119, (d.get("float64_value", 0.0), d.get("int8_value", 0), d.get("uint8_value", 0), d.get("int16_value", 0), d.get("uint16_value", 0), d.get("int32_value", 0), d.get("uint32_value", 0), d.get("int64_value", 0), d.get("uint64_value", 0), len(b15),)))
             pos += 44
-            out.append(b14)
-            pos += len(b14)
+            out.append(b15)
+            pos += len(b15)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -7372,11 +7370,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R120
-            v2, = _S9.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R121
-            v4, v5 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
@@ -7385,7 +7383,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R122
-            v9, = _S10.unpack_from(mv, pos)
+            v9, = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -7405,11 +7403,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R120
-            v2, = _S9.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R121
-            v4, v5 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
@@ -7418,7 +7416,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R122
-            v9, = _S10.unpack_from(mv, pos)
+            v9, = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -7449,9 +7447,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S9.pack(m1.get("event_type", 0)))
+                out.append(_S8.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S9, _R120, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S8, _R120, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -7461,9 +7459,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
             try:
-                out.append(_S7.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S6.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S7, _R121, (m3.get("sec", 0), m3.get("nanosec", 0),)))
+                out.append(slow_pack(_S6, _R121, (m3.get("sec", 0), m3.get("nanosec", 0),)))
             pos += 8
             out.append(b6)
             pos += c7 * 1
@@ -7473,9 +7471,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S10.pack(m1.get("sequence_number", 0)))
+                out.append(_S9.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S10, _R122, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S9, _R122, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_test_msgs__srv__BasicTypes_Request, 1, False)
@@ -7491,7 +7489,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R123
-            _S4.unpack_from(mv, pos)
+            _S3.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -7503,7 +7501,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R123
-            _S4.unpack_from(mv, pos)
+            _S3.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -7518,9 +7516,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_test_msgs__srv__Empty_Request)
             f = ""
             try:
-                out.append(_S4.pack())
+                out.append(_S3.pack())
             except Exception:
-                out.append(slow_pack(_S4, _R123, ()))
+                out.append(slow_pack(_S3, _R123, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -7532,7 +7530,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R124
-            _S4.unpack_from(mv, pos)
+            _S3.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -7544,7 +7542,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R124
-            _S4.unpack_from(mv, pos)
+            _S3.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -7559,9 +7557,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_test_msgs__srv__Empty_Response)
             f = ""
             try:
-                out.append(_S4.pack())
+                out.append(_S3.pack())
             except Exception:
-                out.append(slow_pack(_S4, _R124, ()))
+                out.append(slow_pack(_S3, _R124, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -7573,11 +7571,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R125
-            v2, = _S9.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R126
-            v4, v5 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
@@ -7586,7 +7584,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R127
-            v9, = _S10.unpack_from(mv, pos)
+            v9, = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -7606,11 +7604,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R125
-            v2, = _S9.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R126
-            v4, v5 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
@@ -7619,7 +7617,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R127
-            v9, = _S10.unpack_from(mv, pos)
+            v9, = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -7650,9 +7648,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S9.pack(m1.get("event_type", 0)))
+                out.append(_S8.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S9, _R125, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S8, _R125, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -7662,9 +7660,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
             try:
-                out.append(_S7.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S6.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S7, _R126, (m3.get("sec", 0), m3.get("nanosec", 0),)))
+                out.append(slow_pack(_S6, _R126, (m3.get("sec", 0), m3.get("nanosec", 0),)))
             pos += 8
             out.append(b6)
             pos += c7 * 1
@@ -7674,9 +7672,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S10.pack(m1.get("sequence_number", 0)))
+                out.append(_S9.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S10, _R127, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S9, _R127, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_test_msgs__srv__Empty_Request, 1, False)
@@ -7693,7 +7691,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R128
-            v1, = _S5.unpack_from(mv, pos)
+            v1, = _S4.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -7706,7 +7704,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R128
-            v1, = _S5.unpack_from(mv, pos)
+            v1, = _S4.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -7725,9 +7723,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S5.pack(d.get("order", 0)))
+                out.append(_S4.pack(d.get("order", 0)))
             except Exception:
-                out.append(slow_pack(_S5, _R128, (d.get("order", 0),)))
+                out.append(slow_pack(_S4, _R128, (d.get("order", 0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -7740,7 +7738,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R129
-            v3, = _S6.unpack_from(mv, pos)
+            v3, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".sequence"
             if v3 * 4 > lim - pos:
@@ -7758,7 +7756,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R129
-            v3, = _S6.unpack_from(mv, pos)
+            v3, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".sequence"
             if v3 * 4 > lim - pos:
@@ -7784,9 +7782,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c2))
+                out.append(_S5.pack(c2))
             except Exception:
-                out.append(slow_pack(_S6, _R129, (c2,)))
+                out.append(slow_pack(_S5, _R129, (c2,)))
             pos += 4
             out.append(b1)
             pos += c2 * 4
@@ -7801,7 +7799,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R130
-            v3, = _S6.unpack_from(mv, pos)
+            v3, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".sequence"
             if v3 * 4 > lim - pos:
@@ -7819,7 +7817,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R130
-            v3, = _S6.unpack_from(mv, pos)
+            v3, = _S5.unpack_from(mv, pos)
             pos += 4
             f = ".sequence"
             if v3 * 4 > lim - pos:
@@ -7845,9 +7843,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S6.pack(c2))
+                out.append(_S5.pack(c2))
             except Exception:
-                out.append(slow_pack(_S6, _R130, (c2,)))
+                out.append(slow_pack(_S5, _R130, (c2,)))
             pos += 4
             out.append(b1)
             pos += c2 * 4
@@ -7910,7 +7908,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = _R131
-            v6, = _S5.unpack_from(mv, pos)
+            v6, = _S4.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -7928,7 +7926,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = _R131
-            v6, = _S5.unpack_from(mv, pos)
+            v6, = _S4.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -7959,9 +7957,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S5.pack(m5.get("order", 0)))
+                out.append(_S4.pack(m5.get("order", 0)))
             except Exception:
-                out.append(slow_pack(_S5, _R131, (m5.get("order", 0),)))
+                out.append(slow_pack(_S4, _R131, (m5.get("order", 0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -7973,33 +7971,33 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R132
-            v1, = _S12.unpack_from(mv, pos)
+            v2, = _S11.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R133
-            v3, v4 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"accepted": v1, "stamp": {"sec": v3, "nanosec": v4}}, pos
+        return {"accepted": v2, "stamp": {"sec": v4, "nanosec": v5}}, pos
 
     def decode_view_test_msgs__action__Fibonacci_SendGoal_Response(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R132
-            v1, = _S12.unpack_from(mv, pos)
+            v2, = _S11.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R133
-            v3, v4 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__Fibonacci_SendGoal_Response(v1, make_builtin_interfaces__msg__Time(v3, v4)), pos
+        return make_test_msgs__action__Fibonacci_SendGoal_Response(v2, make_builtin_interfaces__msg__Time(v4, v5)), pos
 
     def encode_test_msgs__action__Fibonacci_SendGoal_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -8007,14 +8005,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             if d.__class__ is not dict or not _K_test_msgs__action__Fibonacci_SendGoal_Response.issuperset(d):
                 d = _submap(d, _K_test_msgs__action__Fibonacci_SendGoal_Response)
             f = ".stamp"
-            m2 = d.get("stamp", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
+            m3 = d.get("stamp", EMPTY)
+            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
+                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S9.pack(d.get("accepted", False)))
+                out.append(_S11.pack((t1 if (t1 := d.get("accepted", False)).__class__ is bool else check_bool(t1, ".accepted"))))
             except Exception:
-                out.append(slow_pack(_S9, _R132, (d.get("accepted", False),)))
+                out.append(slow_pack(_S11, _R132, ((t1 if (t1 := d.get("accepted", False)).__class__ is bool else check_bool(t1, ".accepted")),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -8022,9 +8020,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S7.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
+                out.append(_S6.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S7, _R133, (m2.get("sec", 0), m2.get("nanosec", 0),)))
+                out.append(slow_pack(_S6, _R133, (m3.get("sec", 0), m3.get("nanosec", 0),)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -8036,11 +8034,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R134
-            v2, = _S9.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R135
-            v4, v5 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
@@ -8049,7 +8047,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R136
-            v9, = _S10.unpack_from(mv, pos)
+            v9, = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -8069,11 +8067,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R134
-            v2, = _S9.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R135
-            v4, v5 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
@@ -8082,7 +8080,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R136
-            v9, = _S10.unpack_from(mv, pos)
+            v9, = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -8113,9 +8111,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S9.pack(m1.get("event_type", 0)))
+                out.append(_S8.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S9, _R134, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S8, _R134, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -8125,9 +8123,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
             try:
-                out.append(_S7.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S6.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S7, _R135, (m3.get("sec", 0), m3.get("nanosec", 0),)))
+                out.append(slow_pack(_S6, _R135, (m3.get("sec", 0), m3.get("nanosec", 0),)))
             pos += 8
             out.append(b6)
             pos += c7 * 1
@@ -8137,9 +8135,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S10.pack(m1.get("sequence_number", 0)))
+                out.append(_S9.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S10, _R136, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S9, _R136, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_test_msgs__action__Fibonacci_SendGoal_Request, 1, False)
@@ -8202,7 +8200,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R137
-            v1, = _S13.unpack_from(mv, pos)
+            v1, = _S12.unpack_from(mv, pos)
             pos += 1
             f = ".result"
             v2, pos = decode_dict_test_msgs__action__Fibonacci_Result(mv, pos, lim)
@@ -8216,7 +8214,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R137
-            v1, = _S13.unpack_from(mv, pos)
+            v1, = _S12.unpack_from(mv, pos)
             pos += 1
             f = ".result"
             v2, pos = decode_view_test_msgs__action__Fibonacci_Result(mv, pos, lim)
@@ -8233,9 +8231,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_test_msgs__action__Fibonacci_GetResult_Response)
             f = ""
             try:
-                out.append(_S13.pack(d.get("status", 0)))
+                out.append(_S12.pack(d.get("status", 0)))
             except Exception:
-                out.append(slow_pack(_S13, _R137, (d.get("status", 0),)))
+                out.append(slow_pack(_S12, _R137, (d.get("status", 0),)))
             pos += 1
             f = ".result"
             pos = encode_test_msgs__action__Fibonacci_Result(d.get("result", EMPTY), out, pos)
@@ -8249,11 +8247,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R138
-            v2, = _S9.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R139
-            v4, v5 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
@@ -8262,7 +8260,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R140
-            v9, = _S10.unpack_from(mv, pos)
+            v9, = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -8282,11 +8280,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R138
-            v2, = _S9.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R139
-            v4, v5 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
@@ -8295,7 +8293,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R140
-            v9, = _S10.unpack_from(mv, pos)
+            v9, = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -8326,9 +8324,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S9.pack(m1.get("event_type", 0)))
+                out.append(_S8.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S9, _R138, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S8, _R138, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -8338,9 +8336,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
             try:
-                out.append(_S7.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S6.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S7, _R139, (m3.get("sec", 0), m3.get("nanosec", 0),)))
+                out.append(slow_pack(_S6, _R139, (m3.get("sec", 0), m3.get("nanosec", 0),)))
             pos += 8
             out.append(b6)
             pos += c7 * 1
@@ -8350,9 +8348,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S10.pack(m1.get("sequence_number", 0)))
+                out.append(_S9.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S10, _R140, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S9, _R140, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_test_msgs__action__Fibonacci_GetResult_Request, 1, False)
@@ -8422,34 +8420,34 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R141
-            v3, v4, v6, v7, v9, v10, v11, v12 = _S14.unpack_from(mv, pos)
+            v3, v4, v6, v7, v10, v11, v12, v13 = _S13.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = _R142
-            v13, v14, v15, v16, v17, v18, v19, v20, v21, v23, v24 = _S16.unpack_from(mv, pos)
+            v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S14.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"nested_field_no_pkg": {"duration_value": {"sec": v3, "nanosec": v4}, "time_value": {"sec": v6, "nanosec": v7}}, "nested_field": {"bool_value": v9, "byte_value": v10, "char_value": v11, "float32_value": v12, "float64_value": v13, "int8_value": v14, "uint8_value": v15, "int16_value": v16, "uint16_value": v17, "int32_value": v18, "uint32_value": v19, "int64_value": v20, "uint64_value": v21}, "nested_different_pkg": {"sec": v23, "nanosec": v24}}, pos
+        return {"nested_field_no_pkg": {"duration_value": {"sec": v3, "nanosec": v4}, "time_value": {"sec": v6, "nanosec": v7}}, "nested_field": {"bool_value": v10, "byte_value": v11, "char_value": v12, "float32_value": v13, "float64_value": v14, "int8_value": v15, "uint8_value": v16, "int16_value": v17, "uint16_value": v18, "int32_value": v19, "uint32_value": v20, "int64_value": v21, "uint64_value": v22}, "nested_different_pkg": {"sec": v24, "nanosec": v25}}, pos
 
     def decode_view_test_msgs__action__NestedMessage_Goal(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
             f = _R141
-            v3, v4, v6, v7, v9, v10, v11, v12 = _S14.unpack_from(mv, pos)
+            v3, v4, v6, v7, v10, v11, v12, v13 = _S13.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = _R142
-            v13, v14, v15, v16, v17, v18, v19, v20, v21, v23, v24 = _S16.unpack_from(mv, pos)
+            v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S14.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_Goal(make_test_msgs__msg__Builtins(make_builtin_interfaces__msg__Duration(v3, v4), make_builtin_interfaces__msg__Time(v6, v7)), make_test_msgs__msg__BasicTypes(v9, v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21), make_builtin_interfaces__msg__Time(v23, v24)), pos
+        return make_test_msgs__action__NestedMessage_Goal(make_test_msgs__msg__Builtins(make_builtin_interfaces__msg__Duration(v3, v4), make_builtin_interfaces__msg__Time(v6, v7)), make_test_msgs__msg__BasicTypes(v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22), make_builtin_interfaces__msg__Time(v24, v25)), pos
 
     def encode_test_msgs__action__NestedMessage_Goal(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -8478,23 +8476,23 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m8 = _submap(m8, _K_test_msgs__msg__BasicTypes)
             f = ""
             try:
-                out.append(_S15.pack(m2.get("sec", 0), m2.get("nanosec", 0), m5.get("sec", 0), m5.get("nanosec", 0), m8.get("bool_value", False), m8.get("byte_value", 0), m8.get("char_value", 0), m8.get("float32_value", 0.0)))
+                out.append(_S13.pack(m2.get("sec", 0), m2.get("nanosec", 0), m5.get("sec", 0), m5.get("nanosec", 0), (t9 if (t9 := m8.get("bool_value", False)).__class__ is bool else check_bool(t9, ".nested_field.bool_value")), m8.get("byte_value", 0), m8.get("char_value", 0), m8.get("float32_value", 0.0)))
             except Exception:
-                out.append(slow_pack(_S15, _R141, (m2.get("sec", 0), m2.get("nanosec", 0), m5.get("sec", 0), m5.get("nanosec", 0), m8.get("bool_value", False), m8.get("byte_value", 0), m8.get("char_value", 0), m8.get("float32_value", 0.0),)))
+                out.append(slow_pack(_S13, _R141, (m2.get("sec", 0), m2.get("nanosec", 0), m5.get("sec", 0), m5.get("nanosec", 0), (t9 if (t9 := m8.get("bool_value", False)).__class__ is bool else check_bool(t9, ".nested_field.bool_value")), m8.get("byte_value", 0), m8.get("char_value", 0), m8.get("float32_value", 0.0),)))
             pos += 24
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".nested_different_pkg"
-            m22 = d.get("nested_different_pkg", EMPTY)
-            if m22.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m22):
-                m22 = _submap(m22, _K_builtin_interfaces__msg__Time)
+            m23 = d.get("nested_different_pkg", EMPTY)
+            if m23.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m23):
+                m23 = _submap(m23, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S16.pack(m8.get("float64_value", 0.0), m8.get("int8_value", 0), m8.get("uint8_value", 0), m8.get("int16_value", 0), m8.get("uint16_value", 0), m8.get("int32_value", 0), m8.get("uint32_value", 0), m8.get("int64_value", 0), m8.get("uint64_value", 0), m22.get("sec", 0), m22.get("nanosec", 0)))
+                out.append(_S14.pack(m8.get("float64_value", 0.0), m8.get("int8_value", 0), m8.get("uint8_value", 0), m8.get("int16_value", 0), m8.get("uint16_value", 0), m8.get("int32_value", 0), m8.get("uint32_value", 0), m8.get("int64_value", 0), m8.get("uint64_value", 0), m23.get("sec", 0), m23.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S16, _R142, (m8.get("float64_value", 0.0), m8.get("int8_value", 0), m8.get("uint8_value", 0), m8.get("int16_value", 0), m8.get("uint16_value", 0), m8.get("int32_value", 0), m8.get("uint32_value", 0), m8.get("int64_value", 0), m8.get("uint64_value", 0), m22.get("sec", 0), m22.get("nanosec", 0),)))
+                out.append(slow_pack(_S14, _R142, (m8.get("float64_value", 0.0), m8.get("int8_value", 0), m8.get("uint8_value", 0), m8.get("int16_value", 0), m8.get("uint16_value", 0), m8.get("int32_value", 0), m8.get("uint32_value", 0), m8.get("int64_value", 0), m8.get("uint64_value", 0), m23.get("sec", 0), m23.get("nanosec", 0),)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None
@@ -8507,34 +8505,34 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R143
-            v3, v4, v6, v7, v9, v10, v11, v12 = _S14.unpack_from(mv, pos)
+            v3, v4, v6, v7, v10, v11, v12, v13 = _S13.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = _R144
-            v13, v14, v15, v16, v17, v18, v19, v20, v21, v23, v24 = _S16.unpack_from(mv, pos)
+            v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S14.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"nested_field_no_pkg": {"duration_value": {"sec": v3, "nanosec": v4}, "time_value": {"sec": v6, "nanosec": v7}}, "nested_field": {"bool_value": v9, "byte_value": v10, "char_value": v11, "float32_value": v12, "float64_value": v13, "int8_value": v14, "uint8_value": v15, "int16_value": v16, "uint16_value": v17, "int32_value": v18, "uint32_value": v19, "int64_value": v20, "uint64_value": v21}, "nested_different_pkg": {"sec": v23, "nanosec": v24}}, pos
+        return {"nested_field_no_pkg": {"duration_value": {"sec": v3, "nanosec": v4}, "time_value": {"sec": v6, "nanosec": v7}}, "nested_field": {"bool_value": v10, "byte_value": v11, "char_value": v12, "float32_value": v13, "float64_value": v14, "int8_value": v15, "uint8_value": v16, "int16_value": v17, "uint16_value": v18, "int32_value": v19, "uint32_value": v20, "int64_value": v21, "uint64_value": v22}, "nested_different_pkg": {"sec": v24, "nanosec": v25}}, pos
 
     def decode_view_test_msgs__action__NestedMessage_Result(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
             f = _R143
-            v3, v4, v6, v7, v9, v10, v11, v12 = _S14.unpack_from(mv, pos)
+            v3, v4, v6, v7, v10, v11, v12, v13 = _S13.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = _R144
-            v13, v14, v15, v16, v17, v18, v19, v20, v21, v23, v24 = _S16.unpack_from(mv, pos)
+            v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S14.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_Result(make_test_msgs__msg__Builtins(make_builtin_interfaces__msg__Duration(v3, v4), make_builtin_interfaces__msg__Time(v6, v7)), make_test_msgs__msg__BasicTypes(v9, v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21), make_builtin_interfaces__msg__Time(v23, v24)), pos
+        return make_test_msgs__action__NestedMessage_Result(make_test_msgs__msg__Builtins(make_builtin_interfaces__msg__Duration(v3, v4), make_builtin_interfaces__msg__Time(v6, v7)), make_test_msgs__msg__BasicTypes(v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22), make_builtin_interfaces__msg__Time(v24, v25)), pos
 
     def encode_test_msgs__action__NestedMessage_Result(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -8563,23 +8561,23 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m8 = _submap(m8, _K_test_msgs__msg__BasicTypes)
             f = ""
             try:
-                out.append(_S15.pack(m2.get("sec", 0), m2.get("nanosec", 0), m5.get("sec", 0), m5.get("nanosec", 0), m8.get("bool_value", False), m8.get("byte_value", 0), m8.get("char_value", 0), m8.get("float32_value", 0.0)))
+                out.append(_S13.pack(m2.get("sec", 0), m2.get("nanosec", 0), m5.get("sec", 0), m5.get("nanosec", 0), (t9 if (t9 := m8.get("bool_value", False)).__class__ is bool else check_bool(t9, ".nested_field.bool_value")), m8.get("byte_value", 0), m8.get("char_value", 0), m8.get("float32_value", 0.0)))
             except Exception:
-                out.append(slow_pack(_S15, _R143, (m2.get("sec", 0), m2.get("nanosec", 0), m5.get("sec", 0), m5.get("nanosec", 0), m8.get("bool_value", False), m8.get("byte_value", 0), m8.get("char_value", 0), m8.get("float32_value", 0.0),)))
+                out.append(slow_pack(_S13, _R143, (m2.get("sec", 0), m2.get("nanosec", 0), m5.get("sec", 0), m5.get("nanosec", 0), (t9 if (t9 := m8.get("bool_value", False)).__class__ is bool else check_bool(t9, ".nested_field.bool_value")), m8.get("byte_value", 0), m8.get("char_value", 0), m8.get("float32_value", 0.0),)))
             pos += 24
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".nested_different_pkg"
-            m22 = d.get("nested_different_pkg", EMPTY)
-            if m22.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m22):
-                m22 = _submap(m22, _K_builtin_interfaces__msg__Time)
+            m23 = d.get("nested_different_pkg", EMPTY)
+            if m23.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m23):
+                m23 = _submap(m23, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S16.pack(m8.get("float64_value", 0.0), m8.get("int8_value", 0), m8.get("uint8_value", 0), m8.get("int16_value", 0), m8.get("uint16_value", 0), m8.get("int32_value", 0), m8.get("uint32_value", 0), m8.get("int64_value", 0), m8.get("uint64_value", 0), m22.get("sec", 0), m22.get("nanosec", 0)))
+                out.append(_S14.pack(m8.get("float64_value", 0.0), m8.get("int8_value", 0), m8.get("uint8_value", 0), m8.get("int16_value", 0), m8.get("uint16_value", 0), m8.get("int32_value", 0), m8.get("uint32_value", 0), m8.get("int64_value", 0), m8.get("uint64_value", 0), m23.get("sec", 0), m23.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S16, _R144, (m8.get("float64_value", 0.0), m8.get("int8_value", 0), m8.get("uint8_value", 0), m8.get("int16_value", 0), m8.get("uint16_value", 0), m8.get("int32_value", 0), m8.get("uint32_value", 0), m8.get("int64_value", 0), m8.get("uint64_value", 0), m22.get("sec", 0), m22.get("nanosec", 0),)))
+                out.append(slow_pack(_S14, _R144, (m8.get("float64_value", 0.0), m8.get("int8_value", 0), m8.get("uint8_value", 0), m8.get("int16_value", 0), m8.get("uint16_value", 0), m8.get("int32_value", 0), m8.get("uint32_value", 0), m8.get("int64_value", 0), m8.get("uint64_value", 0), m23.get("sec", 0), m23.get("nanosec", 0),)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None
@@ -8592,34 +8590,34 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 3) & -4
             f = _R145
-            v3, v4, v6, v7, v9, v10, v11, v12 = _S14.unpack_from(mv, pos)
+            v3, v4, v6, v7, v10, v11, v12, v13 = _S13.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = _R146
-            v13, v14, v15, v16, v17, v18, v19, v20, v21, v23, v24 = _S16.unpack_from(mv, pos)
+            v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S14.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"nested_field_no_pkg": {"duration_value": {"sec": v3, "nanosec": v4}, "time_value": {"sec": v6, "nanosec": v7}}, "nested_field": {"bool_value": v9, "byte_value": v10, "char_value": v11, "float32_value": v12, "float64_value": v13, "int8_value": v14, "uint8_value": v15, "int16_value": v16, "uint16_value": v17, "int32_value": v18, "uint32_value": v19, "int64_value": v20, "uint64_value": v21}, "nested_different_pkg": {"sec": v23, "nanosec": v24}}, pos
+        return {"nested_field_no_pkg": {"duration_value": {"sec": v3, "nanosec": v4}, "time_value": {"sec": v6, "nanosec": v7}}, "nested_field": {"bool_value": v10, "byte_value": v11, "char_value": v12, "float32_value": v13, "float64_value": v14, "int8_value": v15, "uint8_value": v16, "int16_value": v17, "uint16_value": v18, "int32_value": v19, "uint32_value": v20, "int64_value": v21, "uint64_value": v22}, "nested_different_pkg": {"sec": v24, "nanosec": v25}}, pos
 
     def decode_view_test_msgs__action__NestedMessage_Feedback(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
             f = _R145
-            v3, v4, v6, v7, v9, v10, v11, v12 = _S14.unpack_from(mv, pos)
+            v3, v4, v6, v7, v10, v11, v12, v13 = _S13.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = _R146
-            v13, v14, v15, v16, v17, v18, v19, v20, v21, v23, v24 = _S16.unpack_from(mv, pos)
+            v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S14.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_Feedback(make_test_msgs__msg__Builtins(make_builtin_interfaces__msg__Duration(v3, v4), make_builtin_interfaces__msg__Time(v6, v7)), make_test_msgs__msg__BasicTypes(v9, v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21), make_builtin_interfaces__msg__Time(v23, v24)), pos
+        return make_test_msgs__action__NestedMessage_Feedback(make_test_msgs__msg__Builtins(make_builtin_interfaces__msg__Duration(v3, v4), make_builtin_interfaces__msg__Time(v6, v7)), make_test_msgs__msg__BasicTypes(v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22), make_builtin_interfaces__msg__Time(v24, v25)), pos
 
     def encode_test_msgs__action__NestedMessage_Feedback(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -8648,23 +8646,23 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m8 = _submap(m8, _K_test_msgs__msg__BasicTypes)
             f = ""
             try:
-                out.append(_S15.pack(m2.get("sec", 0), m2.get("nanosec", 0), m5.get("sec", 0), m5.get("nanosec", 0), m8.get("bool_value", False), m8.get("byte_value", 0), m8.get("char_value", 0), m8.get("float32_value", 0.0)))
+                out.append(_S13.pack(m2.get("sec", 0), m2.get("nanosec", 0), m5.get("sec", 0), m5.get("nanosec", 0), (t9 if (t9 := m8.get("bool_value", False)).__class__ is bool else check_bool(t9, ".nested_field.bool_value")), m8.get("byte_value", 0), m8.get("char_value", 0), m8.get("float32_value", 0.0)))
             except Exception:
-                out.append(slow_pack(_S15, _R145, (m2.get("sec", 0), m2.get("nanosec", 0), m5.get("sec", 0), m5.get("nanosec", 0), m8.get("bool_value", False), m8.get("byte_value", 0), m8.get("char_value", 0), m8.get("float32_value", 0.0),)))
+                out.append(slow_pack(_S13, _R145, (m2.get("sec", 0), m2.get("nanosec", 0), m5.get("sec", 0), m5.get("nanosec", 0), (t9 if (t9 := m8.get("bool_value", False)).__class__ is bool else check_bool(t9, ".nested_field.bool_value")), m8.get("byte_value", 0), m8.get("char_value", 0), m8.get("float32_value", 0.0),)))
             pos += 24
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".nested_different_pkg"
-            m22 = d.get("nested_different_pkg", EMPTY)
-            if m22.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m22):
-                m22 = _submap(m22, _K_builtin_interfaces__msg__Time)
+            m23 = d.get("nested_different_pkg", EMPTY)
+            if m23.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m23):
+                m23 = _submap(m23, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S16.pack(m8.get("float64_value", 0.0), m8.get("int8_value", 0), m8.get("uint8_value", 0), m8.get("int16_value", 0), m8.get("uint16_value", 0), m8.get("int32_value", 0), m8.get("uint32_value", 0), m8.get("int64_value", 0), m8.get("uint64_value", 0), m22.get("sec", 0), m22.get("nanosec", 0)))
+                out.append(_S14.pack(m8.get("float64_value", 0.0), m8.get("int8_value", 0), m8.get("uint8_value", 0), m8.get("int16_value", 0), m8.get("uint16_value", 0), m8.get("int32_value", 0), m8.get("uint32_value", 0), m8.get("int64_value", 0), m8.get("uint64_value", 0), m23.get("sec", 0), m23.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S16, _R146, (m8.get("float64_value", 0.0), m8.get("int8_value", 0), m8.get("uint8_value", 0), m8.get("int16_value", 0), m8.get("uint16_value", 0), m8.get("int32_value", 0), m8.get("uint32_value", 0), m8.get("int64_value", 0), m8.get("uint64_value", 0), m22.get("sec", 0), m22.get("nanosec", 0),)))
+                out.append(slow_pack(_S14, _R146, (m8.get("float64_value", 0.0), m8.get("int8_value", 0), m8.get("uint8_value", 0), m8.get("int16_value", 0), m8.get("uint16_value", 0), m8.get("int32_value", 0), m8.get("uint32_value", 0), m8.get("int64_value", 0), m8.get("uint64_value", 0), m23.get("sec", 0), m23.get("nanosec", 0),)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None
@@ -8682,17 +8680,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = _R147
-            v8, v9, v11, v12, v14, v15, v16, v17 = _S14.unpack_from(mv, pos)
+            v8, v9, v11, v12, v15, v16, v17, v18 = _S13.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = _R148
-            v18, v19, v20, v21, v22, v23, v24, v25, v26, v28, v29 = _S16.unpack_from(mv, pos)
+            v19, v20, v21, v22, v23, v24, v25, v26, v27, v29, v30 = _S14.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"goal_id": {"uuid": v4}, "goal": {"nested_field_no_pkg": {"duration_value": {"sec": v8, "nanosec": v9}, "time_value": {"sec": v11, "nanosec": v12}}, "nested_field": {"bool_value": v14, "byte_value": v15, "char_value": v16, "float32_value": v17, "float64_value": v18, "int8_value": v19, "uint8_value": v20, "int16_value": v21, "uint16_value": v22, "int32_value": v23, "uint32_value": v24, "int64_value": v25, "uint64_value": v26}, "nested_different_pkg": {"sec": v28, "nanosec": v29}}}, pos
+        return {"goal_id": {"uuid": v4}, "goal": {"nested_field_no_pkg": {"duration_value": {"sec": v8, "nanosec": v9}, "time_value": {"sec": v11, "nanosec": v12}}, "nested_field": {"bool_value": v15, "byte_value": v16, "char_value": v17, "float32_value": v18, "float64_value": v19, "int8_value": v20, "uint8_value": v21, "int16_value": v22, "uint16_value": v23, "int32_value": v24, "uint32_value": v25, "int64_value": v26, "uint64_value": v27}, "nested_different_pkg": {"sec": v29, "nanosec": v30}}}, pos
 
     def decode_view_test_msgs__action__NestedMessage_SendGoal_Request(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
@@ -8704,17 +8702,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = _R147
-            v8, v9, v11, v12, v14, v15, v16, v17 = _S14.unpack_from(mv, pos)
+            v8, v9, v11, v12, v15, v16, v17, v18 = _S13.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = _R148
-            v18, v19, v20, v21, v22, v23, v24, v25, v26, v28, v29 = _S16.unpack_from(mv, pos)
+            v19, v20, v21, v22, v23, v24, v25, v26, v27, v29, v30 = _S14.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_SendGoal_Request(make_unique_identifier_msgs__msg__UUID(v4), make_test_msgs__action__NestedMessage_Goal(make_test_msgs__msg__Builtins(make_builtin_interfaces__msg__Duration(v8, v9), make_builtin_interfaces__msg__Time(v11, v12)), make_test_msgs__msg__BasicTypes(v14, v15, v16, v17, v18, v19, v20, v21, v22, v23, v24, v25, v26), make_builtin_interfaces__msg__Time(v28, v29))), pos
+        return make_test_msgs__action__NestedMessage_SendGoal_Request(make_unique_identifier_msgs__msg__UUID(v4), make_test_msgs__action__NestedMessage_Goal(make_test_msgs__msg__Builtins(make_builtin_interfaces__msg__Duration(v8, v9), make_builtin_interfaces__msg__Time(v11, v12)), make_test_msgs__msg__BasicTypes(v15, v16, v17, v18, v19, v20, v21, v22, v23, v24, v25, v26, v27), make_builtin_interfaces__msg__Time(v29, v30))), pos
 
     def encode_test_msgs__action__NestedMessage_SendGoal_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -8755,23 +8753,23 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m13 = _submap(m13, _K_test_msgs__msg__BasicTypes)
             f = ""
             try:
-                out.append(_S15.pack(m7.get("sec", 0), m7.get("nanosec", 0), m10.get("sec", 0), m10.get("nanosec", 0), m13.get("bool_value", False), m13.get("byte_value", 0), m13.get("char_value", 0), m13.get("float32_value", 0.0)))
+                out.append(_S13.pack(m7.get("sec", 0), m7.get("nanosec", 0), m10.get("sec", 0), m10.get("nanosec", 0), (t14 if (t14 := m13.get("bool_value", False)).__class__ is bool else check_bool(t14, ".goal.nested_field.bool_value")), m13.get("byte_value", 0), m13.get("char_value", 0), m13.get("float32_value", 0.0)))
             except Exception:
-                out.append(slow_pack(_S15, _R147, (m7.get("sec", 0), m7.get("nanosec", 0), m10.get("sec", 0), m10.get("nanosec", 0), m13.get("bool_value", False), m13.get("byte_value", 0), m13.get("char_value", 0), m13.get("float32_value", 0.0),)))
+                out.append(slow_pack(_S13, _R147, (m7.get("sec", 0), m7.get("nanosec", 0), m10.get("sec", 0), m10.get("nanosec", 0), (t14 if (t14 := m13.get("bool_value", False)).__class__ is bool else check_bool(t14, ".goal.nested_field.bool_value")), m13.get("byte_value", 0), m13.get("char_value", 0), m13.get("float32_value", 0.0),)))
             pos += 24
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".goal.nested_different_pkg"
-            m27 = m5.get("nested_different_pkg", EMPTY)
-            if m27.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m27):
-                m27 = _submap(m27, _K_builtin_interfaces__msg__Time)
+            m28 = m5.get("nested_different_pkg", EMPTY)
+            if m28.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m28):
+                m28 = _submap(m28, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S16.pack(m13.get("float64_value", 0.0), m13.get("int8_value", 0), m13.get("uint8_value", 0), m13.get("int16_value", 0), m13.get("uint16_value", 0), m13.get("int32_value", 0), m13.get("uint32_value", 0), m13.get("int64_value", 0), m13.get("uint64_value", 0), m27.get("sec", 0), m27.get("nanosec", 0)))
+                out.append(_S14.pack(m13.get("float64_value", 0.0), m13.get("int8_value", 0), m13.get("uint8_value", 0), m13.get("int16_value", 0), m13.get("uint16_value", 0), m13.get("int32_value", 0), m13.get("uint32_value", 0), m13.get("int64_value", 0), m13.get("uint64_value", 0), m28.get("sec", 0), m28.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S16, _R148, (m13.get("float64_value", 0.0), m13.get("int8_value", 0), m13.get("uint8_value", 0), m13.get("int16_value", 0), m13.get("uint16_value", 0), m13.get("int32_value", 0), m13.get("uint32_value", 0), m13.get("int64_value", 0), m13.get("uint64_value", 0), m27.get("sec", 0), m27.get("nanosec", 0),)))
+                out.append(slow_pack(_S14, _R148, (m13.get("float64_value", 0.0), m13.get("int8_value", 0), m13.get("uint8_value", 0), m13.get("int16_value", 0), m13.get("uint16_value", 0), m13.get("int32_value", 0), m13.get("uint32_value", 0), m13.get("int64_value", 0), m13.get("uint64_value", 0), m28.get("sec", 0), m28.get("nanosec", 0),)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None
@@ -8783,33 +8781,33 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R149
-            v1, = _S12.unpack_from(mv, pos)
+            v2, = _S11.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R150
-            v3, v4 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"accepted": v1, "stamp": {"sec": v3, "nanosec": v4}}, pos
+        return {"accepted": v2, "stamp": {"sec": v4, "nanosec": v5}}, pos
 
     def decode_view_test_msgs__action__NestedMessage_SendGoal_Response(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R149
-            v1, = _S12.unpack_from(mv, pos)
+            v2, = _S11.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R150
-            v3, v4 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_SendGoal_Response(v1, make_builtin_interfaces__msg__Time(v3, v4)), pos
+        return make_test_msgs__action__NestedMessage_SendGoal_Response(v2, make_builtin_interfaces__msg__Time(v4, v5)), pos
 
     def encode_test_msgs__action__NestedMessage_SendGoal_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -8817,14 +8815,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             if d.__class__ is not dict or not _K_test_msgs__action__NestedMessage_SendGoal_Response.issuperset(d):
                 d = _submap(d, _K_test_msgs__action__NestedMessage_SendGoal_Response)
             f = ".stamp"
-            m2 = d.get("stamp", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
+            m3 = d.get("stamp", EMPTY)
+            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
+                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S9.pack(d.get("accepted", False)))
+                out.append(_S11.pack((t1 if (t1 := d.get("accepted", False)).__class__ is bool else check_bool(t1, ".accepted"))))
             except Exception:
-                out.append(slow_pack(_S9, _R149, (d.get("accepted", False),)))
+                out.append(slow_pack(_S11, _R149, ((t1 if (t1 := d.get("accepted", False)).__class__ is bool else check_bool(t1, ".accepted")),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -8832,9 +8830,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S7.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
+                out.append(_S6.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S7, _R150, (m2.get("sec", 0), m2.get("nanosec", 0),)))
+                out.append(slow_pack(_S6, _R150, (m3.get("sec", 0), m3.get("nanosec", 0),)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -8846,11 +8844,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R151
-            v2, = _S9.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R152
-            v4, v5 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
@@ -8859,7 +8857,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R153
-            v9, = _S10.unpack_from(mv, pos)
+            v9, = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -8879,11 +8877,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R151
-            v2, = _S9.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R152
-            v4, v5 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
@@ -8892,7 +8890,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R153
-            v9, = _S10.unpack_from(mv, pos)
+            v9, = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -8923,9 +8921,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S9.pack(m1.get("event_type", 0)))
+                out.append(_S8.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S9, _R151, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S8, _R151, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -8935,9 +8933,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
             try:
-                out.append(_S7.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S6.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S7, _R152, (m3.get("sec", 0), m3.get("nanosec", 0),)))
+                out.append(slow_pack(_S6, _R152, (m3.get("sec", 0), m3.get("nanosec", 0),)))
             pos += 8
             out.append(b6)
             pos += c7 * 1
@@ -8947,9 +8945,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S10.pack(m1.get("sequence_number", 0)))
+                out.append(_S9.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S10, _R153, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S9, _R153, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_test_msgs__action__NestedMessage_SendGoal_Request, 1, False)
@@ -9012,41 +9010,41 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R154
-            v1, = _S13.unpack_from(mv, pos)
+            v1, = _S12.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R155
-            v5, v6, v8, v9, v11, v12, v13, v14 = _S14.unpack_from(mv, pos)
+            v5, v6, v8, v9, v12, v13, v14, v15 = _S13.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = _R156
-            v15, v16, v17, v18, v19, v20, v21, v22, v23, v25, v26 = _S16.unpack_from(mv, pos)
+            v16, v17, v18, v19, v20, v21, v22, v23, v24, v26, v27 = _S14.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"status": v1, "result": {"nested_field_no_pkg": {"duration_value": {"sec": v5, "nanosec": v6}, "time_value": {"sec": v8, "nanosec": v9}}, "nested_field": {"bool_value": v11, "byte_value": v12, "char_value": v13, "float32_value": v14, "float64_value": v15, "int8_value": v16, "uint8_value": v17, "int16_value": v18, "uint16_value": v19, "int32_value": v20, "uint32_value": v21, "int64_value": v22, "uint64_value": v23}, "nested_different_pkg": {"sec": v25, "nanosec": v26}}}, pos
+        return {"status": v1, "result": {"nested_field_no_pkg": {"duration_value": {"sec": v5, "nanosec": v6}, "time_value": {"sec": v8, "nanosec": v9}}, "nested_field": {"bool_value": v12, "byte_value": v13, "char_value": v14, "float32_value": v15, "float64_value": v16, "int8_value": v17, "uint8_value": v18, "int16_value": v19, "uint16_value": v20, "int32_value": v21, "uint32_value": v22, "int64_value": v23, "uint64_value": v24}, "nested_different_pkg": {"sec": v26, "nanosec": v27}}}, pos
 
     def decode_view_test_msgs__action__NestedMessage_GetResult_Response(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R154
-            v1, = _S13.unpack_from(mv, pos)
+            v1, = _S12.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R155
-            v5, v6, v8, v9, v11, v12, v13, v14 = _S14.unpack_from(mv, pos)
+            v5, v6, v8, v9, v12, v13, v14, v15 = _S13.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = _R156
-            v15, v16, v17, v18, v19, v20, v21, v22, v23, v25, v26 = _S16.unpack_from(mv, pos)
+            v16, v17, v18, v19, v20, v21, v22, v23, v24, v26, v27 = _S14.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_GetResult_Response(v1, make_test_msgs__action__NestedMessage_Result(make_test_msgs__msg__Builtins(make_builtin_interfaces__msg__Duration(v5, v6), make_builtin_interfaces__msg__Time(v8, v9)), make_test_msgs__msg__BasicTypes(v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22, v23), make_builtin_interfaces__msg__Time(v25, v26))), pos
+        return make_test_msgs__action__NestedMessage_GetResult_Response(v1, make_test_msgs__action__NestedMessage_Result(make_test_msgs__msg__Builtins(make_builtin_interfaces__msg__Duration(v5, v6), make_builtin_interfaces__msg__Time(v8, v9)), make_test_msgs__msg__BasicTypes(v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22, v23, v24), make_builtin_interfaces__msg__Time(v26, v27))), pos
 
     def encode_test_msgs__action__NestedMessage_GetResult_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -9067,9 +9065,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m4 = _submap(m4, _K_builtin_interfaces__msg__Duration)
             f = ""
             try:
-                out.append(_S13.pack(d.get("status", 0)))
+                out.append(_S12.pack(d.get("status", 0)))
             except Exception:
-                out.append(slow_pack(_S13, _R154, (d.get("status", 0),)))
+                out.append(slow_pack(_S12, _R154, (d.get("status", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -9085,23 +9083,23 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m10 = _submap(m10, _K_test_msgs__msg__BasicTypes)
             f = ""
             try:
-                out.append(_S15.pack(m4.get("sec", 0), m4.get("nanosec", 0), m7.get("sec", 0), m7.get("nanosec", 0), m10.get("bool_value", False), m10.get("byte_value", 0), m10.get("char_value", 0), m10.get("float32_value", 0.0)))
+                out.append(_S13.pack(m4.get("sec", 0), m4.get("nanosec", 0), m7.get("sec", 0), m7.get("nanosec", 0), (t11 if (t11 := m10.get("bool_value", False)).__class__ is bool else check_bool(t11, ".result.nested_field.bool_value")), m10.get("byte_value", 0), m10.get("char_value", 0), m10.get("float32_value", 0.0)))
             except Exception:
-                out.append(slow_pack(_S15, _R155, (m4.get("sec", 0), m4.get("nanosec", 0), m7.get("sec", 0), m7.get("nanosec", 0), m10.get("bool_value", False), m10.get("byte_value", 0), m10.get("char_value", 0), m10.get("float32_value", 0.0),)))
+                out.append(slow_pack(_S13, _R155, (m4.get("sec", 0), m4.get("nanosec", 0), m7.get("sec", 0), m7.get("nanosec", 0), (t11 if (t11 := m10.get("bool_value", False)).__class__ is bool else check_bool(t11, ".result.nested_field.bool_value")), m10.get("byte_value", 0), m10.get("char_value", 0), m10.get("float32_value", 0.0),)))
             pos += 24
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".result.nested_different_pkg"
-            m24 = m2.get("nested_different_pkg", EMPTY)
-            if m24.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m24):
-                m24 = _submap(m24, _K_builtin_interfaces__msg__Time)
+            m25 = m2.get("nested_different_pkg", EMPTY)
+            if m25.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m25):
+                m25 = _submap(m25, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S16.pack(m10.get("float64_value", 0.0), m10.get("int8_value", 0), m10.get("uint8_value", 0), m10.get("int16_value", 0), m10.get("uint16_value", 0), m10.get("int32_value", 0), m10.get("uint32_value", 0), m10.get("int64_value", 0), m10.get("uint64_value", 0), m24.get("sec", 0), m24.get("nanosec", 0)))
+                out.append(_S14.pack(m10.get("float64_value", 0.0), m10.get("int8_value", 0), m10.get("uint8_value", 0), m10.get("int16_value", 0), m10.get("uint16_value", 0), m10.get("int32_value", 0), m10.get("uint32_value", 0), m10.get("int64_value", 0), m10.get("uint64_value", 0), m25.get("sec", 0), m25.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S16, _R156, (m10.get("float64_value", 0.0), m10.get("int8_value", 0), m10.get("uint8_value", 0), m10.get("int16_value", 0), m10.get("uint16_value", 0), m10.get("int32_value", 0), m10.get("uint32_value", 0), m10.get("int64_value", 0), m10.get("uint64_value", 0), m24.get("sec", 0), m24.get("nanosec", 0),)))
+                out.append(slow_pack(_S14, _R156, (m10.get("float64_value", 0.0), m10.get("int8_value", 0), m10.get("uint8_value", 0), m10.get("int16_value", 0), m10.get("uint16_value", 0), m10.get("int32_value", 0), m10.get("uint32_value", 0), m10.get("int64_value", 0), m10.get("uint64_value", 0), m25.get("sec", 0), m25.get("nanosec", 0),)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None
@@ -9113,11 +9111,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R157
-            v2, = _S9.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R158
-            v4, v5 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
@@ -9126,7 +9124,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R159
-            v9, = _S10.unpack_from(mv, pos)
+            v9, = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -9146,11 +9144,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R157
-            v2, = _S9.unpack_from(mv, pos)
+            v2, = _S8.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R158
-            v4, v5 = _S7.unpack_from(mv, pos)
+            v4, v5 = _S6.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
@@ -9159,7 +9157,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R159
-            v9, = _S10.unpack_from(mv, pos)
+            v9, = _S9.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -9190,9 +9188,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S9.pack(m1.get("event_type", 0)))
+                out.append(_S8.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(slow_pack(_S9, _R157, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S8, _R157, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -9202,9 +9200,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
             try:
-                out.append(_S7.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S6.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S7, _R158, (m3.get("sec", 0), m3.get("nanosec", 0),)))
+                out.append(slow_pack(_S6, _R158, (m3.get("sec", 0), m3.get("nanosec", 0),)))
             pos += 8
             out.append(b6)
             pos += c7 * 1
@@ -9214,9 +9212,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S10.pack(m1.get("sequence_number", 0)))
+                out.append(_S9.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S10, _R159, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S9, _R159, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_test_msgs__action__NestedMessage_GetResult_Request, 1, False)
@@ -9238,17 +9236,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = _R160
-            v8, v9, v11, v12, v14, v15, v16, v17 = _S14.unpack_from(mv, pos)
+            v8, v9, v11, v12, v15, v16, v17, v18 = _S13.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = _R161
-            v18, v19, v20, v21, v22, v23, v24, v25, v26, v28, v29 = _S16.unpack_from(mv, pos)
+            v19, v20, v21, v22, v23, v24, v25, v26, v27, v29, v30 = _S14.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"goal_id": {"uuid": v4}, "feedback": {"nested_field_no_pkg": {"duration_value": {"sec": v8, "nanosec": v9}, "time_value": {"sec": v11, "nanosec": v12}}, "nested_field": {"bool_value": v14, "byte_value": v15, "char_value": v16, "float32_value": v17, "float64_value": v18, "int8_value": v19, "uint8_value": v20, "int16_value": v21, "uint16_value": v22, "int32_value": v23, "uint32_value": v24, "int64_value": v25, "uint64_value": v26}, "nested_different_pkg": {"sec": v28, "nanosec": v29}}}, pos
+        return {"goal_id": {"uuid": v4}, "feedback": {"nested_field_no_pkg": {"duration_value": {"sec": v8, "nanosec": v9}, "time_value": {"sec": v11, "nanosec": v12}}, "nested_field": {"bool_value": v15, "byte_value": v16, "char_value": v17, "float32_value": v18, "float64_value": v19, "int8_value": v20, "uint8_value": v21, "int16_value": v22, "uint16_value": v23, "int32_value": v24, "uint32_value": v25, "int64_value": v26, "uint64_value": v27}, "nested_different_pkg": {"sec": v29, "nanosec": v30}}}, pos
 
     def decode_view_test_msgs__action__NestedMessage_FeedbackMessage(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
@@ -9260,17 +9258,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = _R160
-            v8, v9, v11, v12, v14, v15, v16, v17 = _S14.unpack_from(mv, pos)
+            v8, v9, v11, v12, v15, v16, v17, v18 = _S13.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = _R161
-            v18, v19, v20, v21, v22, v23, v24, v25, v26, v28, v29 = _S16.unpack_from(mv, pos)
+            v19, v20, v21, v22, v23, v24, v25, v26, v27, v29, v30 = _S14.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_FeedbackMessage(make_unique_identifier_msgs__msg__UUID(v4), make_test_msgs__action__NestedMessage_Feedback(make_test_msgs__msg__Builtins(make_builtin_interfaces__msg__Duration(v8, v9), make_builtin_interfaces__msg__Time(v11, v12)), make_test_msgs__msg__BasicTypes(v14, v15, v16, v17, v18, v19, v20, v21, v22, v23, v24, v25, v26), make_builtin_interfaces__msg__Time(v28, v29))), pos
+        return make_test_msgs__action__NestedMessage_FeedbackMessage(make_unique_identifier_msgs__msg__UUID(v4), make_test_msgs__action__NestedMessage_Feedback(make_test_msgs__msg__Builtins(make_builtin_interfaces__msg__Duration(v8, v9), make_builtin_interfaces__msg__Time(v11, v12)), make_test_msgs__msg__BasicTypes(v15, v16, v17, v18, v19, v20, v21, v22, v23, v24, v25, v26, v27), make_builtin_interfaces__msg__Time(v29, v30))), pos
 
     def encode_test_msgs__action__NestedMessage_FeedbackMessage(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -9311,23 +9309,23 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m13 = _submap(m13, _K_test_msgs__msg__BasicTypes)
             f = ""
             try:
-                out.append(_S15.pack(m7.get("sec", 0), m7.get("nanosec", 0), m10.get("sec", 0), m10.get("nanosec", 0), m13.get("bool_value", False), m13.get("byte_value", 0), m13.get("char_value", 0), m13.get("float32_value", 0.0)))
+                out.append(_S13.pack(m7.get("sec", 0), m7.get("nanosec", 0), m10.get("sec", 0), m10.get("nanosec", 0), (t14 if (t14 := m13.get("bool_value", False)).__class__ is bool else check_bool(t14, ".feedback.nested_field.bool_value")), m13.get("byte_value", 0), m13.get("char_value", 0), m13.get("float32_value", 0.0)))
             except Exception:
-                out.append(slow_pack(_S15, _R160, (m7.get("sec", 0), m7.get("nanosec", 0), m10.get("sec", 0), m10.get("nanosec", 0), m13.get("bool_value", False), m13.get("byte_value", 0), m13.get("char_value", 0), m13.get("float32_value", 0.0),)))
+                out.append(slow_pack(_S13, _R160, (m7.get("sec", 0), m7.get("nanosec", 0), m10.get("sec", 0), m10.get("nanosec", 0), (t14 if (t14 := m13.get("bool_value", False)).__class__ is bool else check_bool(t14, ".feedback.nested_field.bool_value")), m13.get("byte_value", 0), m13.get("char_value", 0), m13.get("float32_value", 0.0),)))
             pos += 24
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".feedback.nested_different_pkg"
-            m27 = m5.get("nested_different_pkg", EMPTY)
-            if m27.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m27):
-                m27 = _submap(m27, _K_builtin_interfaces__msg__Time)
+            m28 = m5.get("nested_different_pkg", EMPTY)
+            if m28.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m28):
+                m28 = _submap(m28, _K_builtin_interfaces__msg__Time)
             f = ""
             try:
-                out.append(_S16.pack(m13.get("float64_value", 0.0), m13.get("int8_value", 0), m13.get("uint8_value", 0), m13.get("int16_value", 0), m13.get("uint16_value", 0), m13.get("int32_value", 0), m13.get("uint32_value", 0), m13.get("int64_value", 0), m13.get("uint64_value", 0), m27.get("sec", 0), m27.get("nanosec", 0)))
+                out.append(_S14.pack(m13.get("float64_value", 0.0), m13.get("int8_value", 0), m13.get("uint8_value", 0), m13.get("int16_value", 0), m13.get("uint16_value", 0), m13.get("int32_value", 0), m13.get("uint32_value", 0), m13.get("int64_value", 0), m13.get("uint64_value", 0), m28.get("sec", 0), m28.get("nanosec", 0)))
             except Exception:
-                out.append(slow_pack(_S16, _R161, (m13.get("float64_value", 0.0), m13.get("int8_value", 0), m13.get("uint8_value", 0), m13.get("int16_value", 0), m13.get("uint16_value", 0), m13.get("int32_value", 0), m13.get("uint32_value", 0), m13.get("int64_value", 0), m13.get("uint64_value", 0), m27.get("sec", 0), m27.get("nanosec", 0),)))
+                out.append(slow_pack(_S14, _R161, (m13.get("float64_value", 0.0), m13.get("int8_value", 0), m13.get("uint8_value", 0), m13.get("int16_value", 0), m13.get("uint16_value", 0), m13.get("int32_value", 0), m13.get("uint32_value", 0), m13.get("int64_value", 0), m13.get("uint64_value", 0), m28.get("sec", 0), m28.get("nanosec", 0),)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None

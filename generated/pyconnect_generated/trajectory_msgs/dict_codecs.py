@@ -57,6 +57,7 @@ from trajectory_msgs.msg import MultiDOFJointTrajectoryPoint
 
 
 EMPTY: Mapping[str, Any] = {}
+STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -106,7 +107,15 @@ def joint_trajectory_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".header") from None
         value = data.get("joint_names", MISSING)
-        msg._joint_names = [] if value is MISSING else str_list(value, None, None, False, ".joint_names")
+        if value is MISSING:
+            msg._joint_names = []
+        elif type(value) is list:
+            try:
+                msg._joint_names = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._joint_names = str_list(value, None, None, False, ".joint_names")
+        else:
+            msg._joint_names = str_list(value, None, None, False, ".joint_names")
         value = data.get("points", MISSING)
         msg._points = [] if value is MISSING else message_list(value, joint_trajectory_point_from_dict, None, False, ".points")
     except FieldError as error:
@@ -142,13 +151,45 @@ def joint_trajectory_point_from_dict(data: Mapping[str, Any]) -> Any:
         msg = JointTrajectoryPoint.__new__(JointTrajectoryPoint)
         msg._check_fields = CHECK_FIELDS
         value = data.get("positions", MISSING)
-        msg._positions = array("d") if value is MISSING else numeric_sequence(value, "d", "float64", None, ".positions")
+        if value is MISSING:
+            msg._positions = array("d")
+        elif type(value) is list:
+            try:
+                msg._positions = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._positions = numeric_sequence(value, "d", "float64", None, ".positions")
+        else:
+            msg._positions = numeric_sequence(value, "d", "float64", None, ".positions")
         value = data.get("velocities", MISSING)
-        msg._velocities = array("d") if value is MISSING else numeric_sequence(value, "d", "float64", None, ".velocities")
+        if value is MISSING:
+            msg._velocities = array("d")
+        elif type(value) is list:
+            try:
+                msg._velocities = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._velocities = numeric_sequence(value, "d", "float64", None, ".velocities")
+        else:
+            msg._velocities = numeric_sequence(value, "d", "float64", None, ".velocities")
         value = data.get("accelerations", MISSING)
-        msg._accelerations = array("d") if value is MISSING else numeric_sequence(value, "d", "float64", None, ".accelerations")
+        if value is MISSING:
+            msg._accelerations = array("d")
+        elif type(value) is list:
+            try:
+                msg._accelerations = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._accelerations = numeric_sequence(value, "d", "float64", None, ".accelerations")
+        else:
+            msg._accelerations = numeric_sequence(value, "d", "float64", None, ".accelerations")
         value = data.get("effort", MISSING)
-        msg._effort = array("d") if value is MISSING else numeric_sequence(value, "d", "float64", None, ".effort")
+        if value is MISSING:
+            msg._effort = array("d")
+        elif type(value) is list:
+            try:
+                msg._effort = array("d", value)
+            except (TypeError, OverflowError, ValueError):
+                msg._effort = numeric_sequence(value, "d", "float64", None, ".effort")
+        else:
+            msg._effort = numeric_sequence(value, "d", "float64", None, ".effort")
         try:
             msg._time_from_start = builtin_interfaces__duration_from_dict(data.get("time_from_start", EMPTY))
         except FieldError as error:
@@ -245,7 +286,15 @@ def multi_dof_joint_trajectory_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".header") from None
         value = data.get("joint_names", MISSING)
-        msg._joint_names = [] if value is MISSING else str_list(value, None, None, False, ".joint_names")
+        if value is MISSING:
+            msg._joint_names = []
+        elif type(value) is list:
+            try:
+                msg._joint_names = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._joint_names = str_list(value, None, None, False, ".joint_names")
+        else:
+            msg._joint_names = str_list(value, None, None, False, ".joint_names")
         value = data.get("points", MISSING)
         msg._points = [] if value is MISSING else message_list(value, multi_dof_joint_trajectory_point_from_dict, None, False, ".points")
     except FieldError as error:

@@ -70,6 +70,7 @@ GetTypeDescription_Response = _type_description_interfaces__srv__GetTypeDescript
 GetTypeDescription_Event = _type_description_interfaces__srv__GetTypeDescription.Event
 
 EMPTY: Mapping[str, Any] = {}
+STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"

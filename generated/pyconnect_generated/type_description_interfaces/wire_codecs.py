@@ -45,7 +45,7 @@ from pyconnect.codecs.cdr_runtime import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import FieldError, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import FieldError, check_bool, check_mapping, unknown_keys
 
 _new = object.__new__
 _frombuffer = np.frombuffer
@@ -863,13 +863,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v6 = str(mv[pos : pos + v5 - 1], "utf-8")
             pos += v5
             f = _R12
-            v7, = _S3.unpack_from(mv, pos)
+            v8, = _S3.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"type_name": v3, "type_hash": v6, "include_type_sources": v7}, pos
+        return {"type_name": v3, "type_hash": v6, "include_type_sources": v8}, pos
 
     def decode_view_type_description_interfaces__srv__GetTypeDescription_Request(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
@@ -893,13 +893,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v6 = str(mv[pos : pos + v5 - 1], "utf-8")
             pos += v5
             f = _R12
-            v7, = _S3.unpack_from(mv, pos)
+            v8, = _S3.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_type_description_interfaces__srv__GetTypeDescription_Request(v3, v6, v7), pos
+        return make_type_description_interfaces__srv__GetTypeDescription_Request(v3, v6, v8), pos
 
     def encode_type_description_interfaces__srv__GetTypeDescription_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -936,9 +936,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += len(b4)
             f = ""
             try:
-                out.append(_S0.pack(d.get("include_type_sources", True)))
+                out.append(_S3.pack((t7 if (t7 := d.get("include_type_sources", True)).__class__ is bool else check_bool(t7, ".include_type_sources"))))
             except Exception:
-                out.append(slow_pack(_S0, _R12, (d.get("include_type_sources", True),)))
+                out.append(slow_pack(_S3, _R12, ((t7 if (t7 := d.get("include_type_sources", True)).__class__ is bool else check_bool(t7, ".include_type_sources")),)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -950,63 +950,63 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R13
-            v1, = _S3.unpack_from(mv, pos)
+            v2, = _S3.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R14
-            v3, = _S2.unpack_from(mv, pos)
+            v4, = _S2.unpack_from(mv, pos)
             pos += 4
             f = ".failure_reason"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
-            pos += v3
+            if v4 > lim - pos:
+                raise too_long(v4, 1, lim - pos)
+            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            pos += v4
             f = ".type_description"
-            v5, pos = decode_dict_type_description_interfaces__msg__TypeDescription(mv, pos, lim)
+            v6, pos = decode_dict_type_description_interfaces__msg__TypeDescription(mv, pos, lim)
             f = ".type_sources"
-            v6, pos = read_messages(
+            v7, pos = read_messages(
                 mv, pos, lim, _U32, decode_dict_type_description_interfaces__msg__TypeSource, None, None, 12
             )
             f = ".extra_information"
-            v7, pos = read_messages(
+            v8, pos = read_messages(
                 mv, pos, lim, _U32, decode_dict_type_description_interfaces__msg__KeyValue, None, None, 8
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"successful": v1, "failure_reason": v4, "type_description": v5, "type_sources": v6, "extra_information": v7}, pos
+        return {"successful": v2, "failure_reason": v5, "type_description": v6, "type_sources": v7, "extra_information": v8}, pos
 
     def decode_view_type_description_interfaces__srv__GetTypeDescription_Response(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R13
-            v1, = _S3.unpack_from(mv, pos)
+            v2, = _S3.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R14
-            v3, = _S2.unpack_from(mv, pos)
+            v4, = _S2.unpack_from(mv, pos)
             pos += 4
             f = ".failure_reason"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
-            pos += v3
+            if v4 > lim - pos:
+                raise too_long(v4, 1, lim - pos)
+            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            pos += v4
             f = ".type_description"
-            v5, pos = decode_view_type_description_interfaces__msg__TypeDescription(mv, pos, lim)
+            v6, pos = decode_view_type_description_interfaces__msg__TypeDescription(mv, pos, lim)
             f = ".type_sources"
-            v6, pos = read_messages(
+            v7, pos = read_messages(
                 mv, pos, lim, _U32, decode_view_type_description_interfaces__msg__TypeSource, None, None, 12
             )
             f = ".extra_information"
-            v7, pos = read_messages(
+            v8, pos = read_messages(
                 mv, pos, lim, _U32, decode_view_type_description_interfaces__msg__KeyValue, None, None, 8
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_type_description_interfaces__srv__GetTypeDescription_Response(v1, v4, v5, v6, v7), pos
+        return make_type_description_interfaces__srv__GetTypeDescription_Response(v2, v5, v6, v7, v8), pos
 
     def encode_type_description_interfaces__srv__GetTypeDescription_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1014,12 +1014,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             if d.__class__ is not dict or not _K_type_description_interfaces__srv__GetTypeDescription_Response.issuperset(d):
                 d = _submap(d, _K_type_description_interfaces__srv__GetTypeDescription_Response)
             f = ".failure_reason"
-            b2 = utf8z(d.get("failure_reason", ""), None)
+            b3 = utf8z(d.get("failure_reason", ""), None)
             f = ""
             try:
-                out.append(_S0.pack(d.get("successful", False)))
+                out.append(_S3.pack((t1 if (t1 := d.get("successful", False)).__class__ is bool else check_bool(t1, ".successful"))))
             except Exception:
-                out.append(slow_pack(_S0, _R13, (d.get("successful", False),)))
+                out.append(slow_pack(_S3, _R13, ((t1 if (t1 := d.get("successful", False)).__class__ is bool else check_bool(t1, ".successful")),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -1027,12 +1027,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S2.pack(len(b2)))
+                out.append(_S2.pack(len(b3)))
             except Exception:
-                out.append(slow_pack(_S2, _R14, (len(b2),)))
+                out.append(slow_pack(_S2, _R14, (len(b3),)))
             pos += 4
-            out.append(b2)
-            pos += len(b2)
+            out.append(b3)
+            pos += len(b3)
             f = ".type_description"
             pos = encode_type_description_interfaces__msg__TypeDescription(d.get("type_description", EMPTY), out, pos)
             f = ".type_sources"

@@ -96,6 +96,7 @@ GetInteractiveMarkers_Response = _visualization_msgs__srv__GetInteractiveMarkers
 GetInteractiveMarkers_Event = _visualization_msgs__srv__GetInteractiveMarkers.Event
 
 EMPTY: Mapping[str, Any] = {}
+STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -1099,7 +1100,15 @@ def interactive_marker_update_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("poses", MISSING)
         msg._poses = [] if value is MISSING else message_list(value, interactive_marker_pose_from_dict, None, False, ".poses")
         value = data.get("erases", MISSING)
-        msg._erases = [] if value is MISSING else str_list(value, None, None, False, ".erases")
+        if value is MISSING:
+            msg._erases = []
+        elif type(value) is list:
+            try:
+                msg._erases = (STR_JOIN(value), value.copy())[1]
+            except (TypeError, OverflowError, ValueError):
+                msg._erases = str_list(value, None, None, False, ".erases")
+        else:
+            msg._erases = str_list(value, None, None, False, ".erases")
     except FieldError as error:
         error.root = "InteractiveMarkerUpdate"
         raise

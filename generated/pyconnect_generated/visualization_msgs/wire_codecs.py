@@ -51,7 +51,7 @@ from pyconnect.codecs.cdr_runtime import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import FieldError, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import FieldError, check_bool, check_mapping, unknown_keys
 
 _new = object.__new__
 _frombuffer = np.frombuffer
@@ -690,18 +690,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _S10 = Struct(E + "B")
     _S11 = Struct(E + "2f")
     _S12 = Struct(E + "10d4fiI?")
-    _S13 = Struct(E + "10d4fiIB")
-    _S14 = Struct(E + "?")
-    _S15 = Struct(E + "4d2B?")
-    _S16 = Struct(E + "4d3B")
-    _S17 = Struct(E + "7dI")
-    _S18 = Struct(E + "f")
-    _S19 = Struct(E + "7dI4x3d?")
-    _S20 = Struct(E + "7dI4x3dB")
-    _S21 = Struct(E + "Q")
-    _S22 = Struct(E + "QB")
-    _S23 = Struct(E + "1x")
-    _S24 = Struct(E + "q")
+    _S13 = Struct(E + "?")
+    _S14 = Struct(E + "4d2B?")
+    _S15 = Struct(E + "7dI")
+    _S16 = Struct(E + "f")
+    _S17 = Struct(E + "7dI4x3d?")
+    _S18 = Struct(E + "Q")
+    _S19 = Struct(E + "QB")
+    _S20 = Struct(E + "1x")
+    _S21 = Struct(E + "q")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
     def decode_dict_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
@@ -1609,59 +1606,59 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 12
             pos = (pos + 7) & -8
             f = _R21
-            v10, v11, v12, v14, v15, v16, v17, v19, v20, v21, v23, v24, v25, v26, v28, v29, v30 = _S12.unpack_from(mv, pos)
+            v10, v11, v12, v14, v15, v16, v17, v19, v20, v21, v23, v24, v25, v26, v28, v29, v31 = _S12.unpack_from(mv, pos)
             pos += 105
             f = ".points"
-            v31, pos = read_messages(
+            v32, pos = read_messages(
                 mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Point, None, None, 24
             )
             f = ".colors"
-            v32, pos = read_messages(
+            v33, pos = read_messages(
                 mv, pos, lim, _U32, decode_dict_std_msgs__msg__ColorRGBA, None, None, 16
             )
             pos = (pos + 3) & -4
             f = _R22
-            v34, = _S4.unpack_from(mv, pos)
+            v35, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".texture_resource"
-            if v34 > lim - pos:
-                raise too_long(v34, 1, lim - pos)
-            v35 = str(mv[pos : pos + v34 - 1], "utf-8")
-            pos += v34
+            if v35 > lim - pos:
+                raise too_long(v35, 1, lim - pos)
+            v36 = str(mv[pos : pos + v35 - 1], "utf-8")
+            pos += v35
             f = ".texture"
-            v36, pos = decode_dict_sensor_msgs__msg__CompressedImage(mv, pos, lim)
+            v37, pos = decode_dict_sensor_msgs__msg__CompressedImage(mv, pos, lim)
             f = ".uv_coordinates"
-            v37, pos = read_messages(
+            v38, pos = read_messages(
                 mv, pos, lim, _U32, decode_dict_visualization_msgs__msg__UVCoordinate, None, None, 8
             )
             pos = (pos + 3) & -4
             f = _R23
-            v39, = _S4.unpack_from(mv, pos)
+            v40, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".text"
-            if v39 > lim - pos:
-                raise too_long(v39, 1, lim - pos)
-            v40 = str(mv[pos : pos + v39 - 1], "utf-8")
-            pos += v39
+            if v40 > lim - pos:
+                raise too_long(v40, 1, lim - pos)
+            v41 = str(mv[pos : pos + v40 - 1], "utf-8")
+            pos += v40
             pos = (pos + 3) & -4
             f = _R24
-            v42, = _S4.unpack_from(mv, pos)
+            v43, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".mesh_resource"
-            if v42 > lim - pos:
-                raise too_long(v42, 1, lim - pos)
-            v43 = str(mv[pos : pos + v42 - 1], "utf-8")
-            pos += v42
+            if v43 > lim - pos:
+                raise too_long(v43, 1, lim - pos)
+            v44 = str(mv[pos : pos + v43 - 1], "utf-8")
+            pos += v43
             f = ".mesh_file"
-            v44, pos = decode_dict_visualization_msgs__msg__MeshFile(mv, pos, lim)
+            v45, pos = decode_dict_visualization_msgs__msg__MeshFile(mv, pos, lim)
             f = _R25
-            v45, = _S14.unpack_from(mv, pos)
+            v47, = _S13.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"header": v1, "ns": v4, "id": v5, "type": v6, "action": v7, "pose": {"position": {"x": v10, "y": v11, "z": v12}, "orientation": {"x": v14, "y": v15, "z": v16, "w": v17}}, "scale": {"x": v19, "y": v20, "z": v21}, "color": {"r": v23, "g": v24, "b": v25, "a": v26}, "lifetime": {"sec": v28, "nanosec": v29}, "frame_locked": v30, "points": v31, "colors": v32, "texture_resource": v35, "texture": v36, "uv_coordinates": v37, "text": v40, "mesh_resource": v43, "mesh_file": v44, "mesh_use_embedded_materials": v45}, pos
+        return {"header": v1, "ns": v4, "id": v5, "type": v6, "action": v7, "pose": {"position": {"x": v10, "y": v11, "z": v12}, "orientation": {"x": v14, "y": v15, "z": v16, "w": v17}}, "scale": {"x": v19, "y": v20, "z": v21}, "color": {"r": v23, "g": v24, "b": v25, "a": v26}, "lifetime": {"sec": v28, "nanosec": v29}, "frame_locked": v31, "points": v32, "colors": v33, "texture_resource": v36, "texture": v37, "uv_coordinates": v38, "text": v41, "mesh_resource": v44, "mesh_file": v45, "mesh_use_embedded_materials": v47}, pos
 
     def decode_view_visualization_msgs__msg__Marker(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
@@ -1683,59 +1680,59 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 12
             pos = (pos + 7) & -8
             f = _R21
-            v10, v11, v12, v14, v15, v16, v17, v19, v20, v21, v23, v24, v25, v26, v28, v29, v30 = _S12.unpack_from(mv, pos)
+            v10, v11, v12, v14, v15, v16, v17, v19, v20, v21, v23, v24, v25, v26, v28, v29, v31 = _S12.unpack_from(mv, pos)
             pos += 105
             f = ".points"
-            v31, pos = read_messages(
+            v32, pos = read_messages(
                 mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Point, None, None, 24
             )
             f = ".colors"
-            v32, pos = read_messages(
+            v33, pos = read_messages(
                 mv, pos, lim, _U32, decode_view_std_msgs__msg__ColorRGBA, None, None, 16
             )
             pos = (pos + 3) & -4
             f = _R22
-            v34, = _S4.unpack_from(mv, pos)
+            v35, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".texture_resource"
-            if v34 > lim - pos:
-                raise too_long(v34, 1, lim - pos)
-            v35 = str(mv[pos : pos + v34 - 1], "utf-8")
-            pos += v34
+            if v35 > lim - pos:
+                raise too_long(v35, 1, lim - pos)
+            v36 = str(mv[pos : pos + v35 - 1], "utf-8")
+            pos += v35
             f = ".texture"
-            v36, pos = decode_view_sensor_msgs__msg__CompressedImage(mv, pos, lim)
+            v37, pos = decode_view_sensor_msgs__msg__CompressedImage(mv, pos, lim)
             f = ".uv_coordinates"
-            v37, pos = read_messages(
+            v38, pos = read_messages(
                 mv, pos, lim, _U32, decode_view_visualization_msgs__msg__UVCoordinate, None, None, 8
             )
             pos = (pos + 3) & -4
             f = _R23
-            v39, = _S4.unpack_from(mv, pos)
+            v40, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".text"
-            if v39 > lim - pos:
-                raise too_long(v39, 1, lim - pos)
-            v40 = str(mv[pos : pos + v39 - 1], "utf-8")
-            pos += v39
+            if v40 > lim - pos:
+                raise too_long(v40, 1, lim - pos)
+            v41 = str(mv[pos : pos + v40 - 1], "utf-8")
+            pos += v40
             pos = (pos + 3) & -4
             f = _R24
-            v42, = _S4.unpack_from(mv, pos)
+            v43, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".mesh_resource"
-            if v42 > lim - pos:
-                raise too_long(v42, 1, lim - pos)
-            v43 = str(mv[pos : pos + v42 - 1], "utf-8")
-            pos += v42
+            if v43 > lim - pos:
+                raise too_long(v43, 1, lim - pos)
+            v44 = str(mv[pos : pos + v43 - 1], "utf-8")
+            pos += v43
             f = ".mesh_file"
-            v44, pos = decode_view_visualization_msgs__msg__MeshFile(mv, pos, lim)
+            v45, pos = decode_view_visualization_msgs__msg__MeshFile(mv, pos, lim)
             f = _R25
-            v45, = _S14.unpack_from(mv, pos)
+            v47, = _S13.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__Marker(v1, v4, v5, v6, v7, make_geometry_msgs__msg__Pose(make_geometry_msgs__msg__Point(v10, v11, v12), make_geometry_msgs__msg__Quaternion(v14, v15, v16, v17)), make_geometry_msgs__msg__Vector3(v19, v20, v21), make_std_msgs__msg__ColorRGBA(v23, v24, v25, v26), make_builtin_interfaces__msg__Duration(v28, v29), v30, v31, v32, v35, v36, v37, v40, v43, v44, v45), pos
+        return make_visualization_msgs__msg__Marker(v1, v4, v5, v6, v7, make_geometry_msgs__msg__Pose(make_geometry_msgs__msg__Point(v10, v11, v12), make_geometry_msgs__msg__Quaternion(v14, v15, v16, v17)), make_geometry_msgs__msg__Vector3(v19, v20, v21), make_std_msgs__msg__ColorRGBA(v23, v24, v25, v26), make_builtin_interfaces__msg__Duration(v28, v29), v31, v32, v33, v36, v37, v38, v41, v44, v45, v47), pos
 
     def encode_visualization_msgs__msg__Marker(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1798,67 +1795,67 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m27 = _submap(m27, _K_builtin_interfaces__msg__Duration)
             f = ""
             try:
-                out.append(_S13.pack(m9.get("x", 0.0), m9.get("y", 0.0), m9.get("z", 0.0), m13.get("x", 0.0), m13.get("y", 0.0), m13.get("z", 0.0), m13.get("w", 1.0), m18.get("x", 0.0), m18.get("y", 0.0), m18.get("z", 0.0), m22.get("r", 0.0), m22.get("g", 0.0), m22.get("b", 0.0), m22.get("a", 0.0), m27.get("sec", 0), m27.get("nanosec", 0), d.get("frame_locked", False)))
+                out.append(_S12.pack(m9.get("x", 0.0), m9.get("y", 0.0), m9.get("z", 0.0), m13.get("x", 0.0), m13.get("y", 0.0), m13.get("z", 0.0), m13.get("w", 1.0), m18.get("x", 0.0), m18.get("y", 0.0), m18.get("z", 0.0), m22.get("r", 0.0), m22.get("g", 0.0), m22.get("b", 0.0), m22.get("a", 0.0), m27.get("sec", 0), m27.get("nanosec", 0), (t30 if (t30 := d.get("frame_locked", False)).__class__ is bool else check_bool(t30, ".frame_locked"))))
             except Exception:
-                out.append(slow_pack(_S13, _R21, (m9.get("x", 0.0), m9.get("y", 0.0), m9.get("z", 0.0), m13.get("x", 0.0), m13.get("y", 0.0), m13.get("z", 0.0), m13.get("w", 1.0), m18.get("x", 0.0), m18.get("y", 0.0), m18.get("z", 0.0), m22.get("r", 0.0), m22.get("g", 0.0), m22.get("b", 0.0), m22.get("a", 0.0), m27.get("sec", 0), m27.get("nanosec", 0), d.get("frame_locked", False),)))
+                out.append(slow_pack(_S12, _R21, (m9.get("x", 0.0), m9.get("y", 0.0), m9.get("z", 0.0), m13.get("x", 0.0), m13.get("y", 0.0), m13.get("z", 0.0), m13.get("w", 1.0), m18.get("x", 0.0), m18.get("y", 0.0), m18.get("z", 0.0), m22.get("r", 0.0), m22.get("g", 0.0), m22.get("b", 0.0), m22.get("a", 0.0), m27.get("sec", 0), m27.get("nanosec", 0), (t30 if (t30 := d.get("frame_locked", False)).__class__ is bool else check_bool(t30, ".frame_locked")),)))
             pos += 105
             f = ".points"
             pos = write_messages(d.get("points", ()), out, pos, _U32, encode_geometry_msgs__msg__Point, None, False)
             f = ".colors"
             pos = write_messages(d.get("colors", ()), out, pos, _U32, encode_std_msgs__msg__ColorRGBA, None, False)
             f = ".texture_resource"
-            b33 = utf8z(d.get("texture_resource", ""), None)
+            b34 = utf8z(d.get("texture_resource", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(len(b33)))
+                out.append(_S4.pack(len(b34)))
             except Exception:
-                out.append(slow_pack(_S4, _R22, (len(b33),)))
+                out.append(slow_pack(_S4, _R22, (len(b34),)))
             pos += 4
-            out.append(b33)
-            pos += len(b33)
+            out.append(b34)
+            pos += len(b34)
             f = ".texture"
             pos = encode_sensor_msgs__msg__CompressedImage(d.get("texture", EMPTY), out, pos)
             f = ".uv_coordinates"
             pos = write_messages(d.get("uv_coordinates", ()), out, pos, _U32, encode_visualization_msgs__msg__UVCoordinate, None, False)
             f = ".text"
-            b38 = utf8z(d.get("text", ""), None)
+            b39 = utf8z(d.get("text", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(len(b38)))
+                out.append(_S4.pack(len(b39)))
             except Exception:
-                out.append(slow_pack(_S4, _R23, (len(b38),)))
+                out.append(slow_pack(_S4, _R23, (len(b39),)))
             pos += 4
-            out.append(b38)
-            pos += len(b38)
+            out.append(b39)
+            pos += len(b39)
             f = ".mesh_resource"
-            b41 = utf8z(d.get("mesh_resource", ""), None)
+            b42 = utf8z(d.get("mesh_resource", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(len(b41)))
+                out.append(_S4.pack(len(b42)))
             except Exception:
-                out.append(slow_pack(_S4, _R24, (len(b41),)))
+                out.append(slow_pack(_S4, _R24, (len(b42),)))
             pos += 4
-            out.append(b41)
-            pos += len(b41)
+            out.append(b42)
+            pos += len(b42)
             f = ".mesh_file"
             pos = encode_visualization_msgs__msg__MeshFile(d.get("mesh_file", EMPTY), out, pos)
             f = ""
             try:
-                out.append(_S10.pack(d.get("mesh_use_embedded_materials", False)))
+                out.append(_S13.pack((t46 if (t46 := d.get("mesh_use_embedded_materials", False)).__class__ is bool else check_bool(t46, ".mesh_use_embedded_materials"))))
             except Exception:
-                out.append(slow_pack(_S10, _R25, (d.get("mesh_use_embedded_materials", False),)))
+                out.append(slow_pack(_S13, _R25, ((t46 if (t46 := d.get("mesh_use_embedded_materials", False)).__class__ is bool else check_bool(t46, ".mesh_use_embedded_materials")),)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1880,29 +1877,29 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v2
             pos = (pos + 7) & -8
             f = _R27
-            v5, v6, v7, v8, v9, v10, v11 = _S15.unpack_from(mv, pos)
+            v5, v6, v7, v8, v9, v10, v12 = _S14.unpack_from(mv, pos)
             pos += 35
             f = ".markers"
-            v12, pos = read_messages(
+            v13, pos = read_messages(
                 mv, pos, lim, _U32, decode_dict_visualization_msgs__msg__Marker, None, None, 186
             )
             f = _R28
-            v13, = _S14.unpack_from(mv, pos)
+            v15, = _S13.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R29
-            v15, = _S4.unpack_from(mv, pos)
+            v17, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".description"
-            if v15 > lim - pos:
-                raise too_long(v15, 1, lim - pos)
-            v16 = str(mv[pos : pos + v15 - 1], "utf-8")
-            pos += v15
+            if v17 > lim - pos:
+                raise too_long(v17, 1, lim - pos)
+            v18 = str(mv[pos : pos + v17 - 1], "utf-8")
+            pos += v17
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"name": v3, "orientation": {"x": v5, "y": v6, "z": v7, "w": v8}, "orientation_mode": v9, "interaction_mode": v10, "always_visible": v11, "markers": v12, "independent_marker_orientation": v13, "description": v16}, pos
+        return {"name": v3, "orientation": {"x": v5, "y": v6, "z": v7, "w": v8}, "orientation_mode": v9, "interaction_mode": v10, "always_visible": v12, "markers": v13, "independent_marker_orientation": v15, "description": v18}, pos
 
     def decode_view_visualization_msgs__msg__InteractiveMarkerControl(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
@@ -1918,29 +1915,29 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v2
             pos = (pos + 7) & -8
             f = _R27
-            v5, v6, v7, v8, v9, v10, v11 = _S15.unpack_from(mv, pos)
+            v5, v6, v7, v8, v9, v10, v12 = _S14.unpack_from(mv, pos)
             pos += 35
             f = ".markers"
-            v12, pos = read_messages(
+            v13, pos = read_messages(
                 mv, pos, lim, _U32, decode_view_visualization_msgs__msg__Marker, None, None, 186
             )
             f = _R28
-            v13, = _S14.unpack_from(mv, pos)
+            v15, = _S13.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = _R29
-            v15, = _S4.unpack_from(mv, pos)
+            v17, = _S4.unpack_from(mv, pos)
             pos += 4
             f = ".description"
-            if v15 > lim - pos:
-                raise too_long(v15, 1, lim - pos)
-            v16 = str(mv[pos : pos + v15 - 1], "utf-8")
-            pos += v15
+            if v17 > lim - pos:
+                raise too_long(v17, 1, lim - pos)
+            v18 = str(mv[pos : pos + v17 - 1], "utf-8")
+            pos += v17
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__InteractiveMarkerControl(v3, make_geometry_msgs__msg__Quaternion(v5, v6, v7, v8), v9, v10, v11, v12, v13, v16), pos
+        return make_visualization_msgs__msg__InteractiveMarkerControl(v3, make_geometry_msgs__msg__Quaternion(v5, v6, v7, v8), v9, v10, v12, v13, v15, v18), pos
 
     def encode_visualization_msgs__msg__InteractiveMarkerControl(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1971,19 +1968,19 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S16.pack(m4.get("x", 0.0), m4.get("y", 0.0), m4.get("z", 0.0), m4.get("w", 1.0), d.get("orientation_mode", 0), d.get("interaction_mode", 0), d.get("always_visible", False)))
+                out.append(_S14.pack(m4.get("x", 0.0), m4.get("y", 0.0), m4.get("z", 0.0), m4.get("w", 1.0), d.get("orientation_mode", 0), d.get("interaction_mode", 0), (t11 if (t11 := d.get("always_visible", False)).__class__ is bool else check_bool(t11, ".always_visible"))))
             except Exception:
-                out.append(slow_pack(_S16, _R27, (m4.get("x", 0.0), m4.get("y", 0.0), m4.get("z", 0.0), m4.get("w", 1.0), d.get("orientation_mode", 0), d.get("interaction_mode", 0), d.get("always_visible", False),)))
+                out.append(slow_pack(_S14, _R27, (m4.get("x", 0.0), m4.get("y", 0.0), m4.get("z", 0.0), m4.get("w", 1.0), d.get("orientation_mode", 0), d.get("interaction_mode", 0), (t11 if (t11 := d.get("always_visible", False)).__class__ is bool else check_bool(t11, ".always_visible")),)))
             pos += 35
             f = ".markers"
             pos = write_messages(d.get("markers", ()), out, pos, _U32, encode_visualization_msgs__msg__Marker, None, False)
             f = ".description"
-            b14 = utf8z(d.get("description", ""), None)
+            b16 = utf8z(d.get("description", ""), None)
             f = ""
             try:
-                out.append(_S10.pack(d.get("independent_marker_orientation", False)))
+                out.append(_S13.pack((t14 if (t14 := d.get("independent_marker_orientation", False)).__class__ is bool else check_bool(t14, ".independent_marker_orientation"))))
             except Exception:
-                out.append(slow_pack(_S10, _R28, (d.get("independent_marker_orientation", False),)))
+                out.append(slow_pack(_S13, _R28, ((t14 if (t14 := d.get("independent_marker_orientation", False)).__class__ is bool else check_bool(t14, ".independent_marker_orientation")),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -1991,12 +1988,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S4.pack(len(b14)))
+                out.append(_S4.pack(len(b16)))
             except Exception:
-                out.append(slow_pack(_S4, _R29, (len(b14),)))
+                out.append(slow_pack(_S4, _R29, (len(b16),)))
             pos += 4
-            out.append(b14)
-            pos += len(b14)
+            out.append(b16)
+            pos += len(b16)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2010,7 +2007,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R30
-            v4, v5, v6, v8, v9, v10, v11, v13 = _S17.unpack_from(mv, pos)
+            v4, v5, v6, v8, v9, v10, v11, v13 = _S15.unpack_from(mv, pos)
             pos += 60
             f = ".name"
             if v13 > lim - pos:
@@ -2028,7 +2025,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v16
             pos = (pos + 3) & -4
             f = _R32
-            v18, = _S18.unpack_from(mv, pos)
+            v18, = _S16.unpack_from(mv, pos)
             pos += 4
             f = ".menu_entries"
             v19, pos = read_messages(
@@ -2051,7 +2048,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R30
-            v4, v5, v6, v8, v9, v10, v11, v13 = _S17.unpack_from(mv, pos)
+            v4, v5, v6, v8, v9, v10, v11, v13 = _S15.unpack_from(mv, pos)
             pos += 60
             f = ".name"
             if v13 > lim - pos:
@@ -2069,7 +2066,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v16
             pos = (pos + 3) & -4
             f = _R32
-            v18, = _S18.unpack_from(mv, pos)
+            v18, = _S16.unpack_from(mv, pos)
             pos += 4
             f = ".menu_entries"
             v19, pos = read_messages(
@@ -2112,9 +2109,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b12 = utf8z(d.get("name", ""), None)
             f = ""
             try:
-                out.append(_S17.pack(m3.get("x", 0.0), m3.get("y", 0.0), m3.get("z", 0.0), m7.get("x", 0.0), m7.get("y", 0.0), m7.get("z", 0.0), m7.get("w", 1.0), len(b12)))
+                out.append(_S15.pack(m3.get("x", 0.0), m3.get("y", 0.0), m3.get("z", 0.0), m7.get("x", 0.0), m7.get("y", 0.0), m7.get("z", 0.0), m7.get("w", 1.0), len(b12)))
             except Exception:
-                out.append(slow_pack(_S17, _R30, (m3.get("x", 0.0), m3.get("y", 0.0), m3.get("z", 0.0), m7.get("x", 0.0), m7.get("y", 0.0), m7.get("z", 0.0), m7.get("w", 1.0), len(b12),)))
+                out.append(slow_pack(_S15, _R30, (m3.get("x", 0.0), m3.get("y", 0.0), m3.get("z", 0.0), m7.get("x", 0.0), m7.get("y", 0.0), m7.get("z", 0.0), m7.get("w", 1.0), len(b12),)))
             pos += 60
             out.append(b12)
             pos += len(b12)
@@ -2138,9 +2135,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S18.pack(d.get("scale", 0.0)))
+                out.append(_S16.pack(d.get("scale", 0.0)))
             except Exception:
-                out.append(slow_pack(_S18, _R32, (d.get("scale", 0.0),)))
+                out.append(slow_pack(_S16, _R32, (d.get("scale", 0.0),)))
             pos += 4
             f = ".menu_entries"
             pos = write_messages(d.get("menu_entries", ()), out, pos, _U32, encode_visualization_msgs__msg__MenuEntry, None, False)
@@ -2189,13 +2186,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 1
             pos = (pos + 7) & -8
             f = _R37
-            v14, v15, v16, v18, v19, v20, v21, v22, v24, v25, v26, v27 = _S19.unpack_from(mv, pos)
+            v14, v15, v16, v18, v19, v20, v21, v22, v24, v25, v26, v28 = _S17.unpack_from(mv, pos)
             pos += 89
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return {"header": v1, "client_id": v4, "marker_name": v7, "control_name": v10, "event_type": v11, "pose": {"position": {"x": v14, "y": v15, "z": v16}, "orientation": {"x": v18, "y": v19, "z": v20, "w": v21}}, "menu_entry_id": v22, "mouse_point": {"x": v24, "y": v25, "z": v26}, "mouse_point_valid": v27}, pos
+        return {"header": v1, "client_id": v4, "marker_name": v7, "control_name": v10, "event_type": v11, "pose": {"position": {"x": v14, "y": v15, "z": v16}, "orientation": {"x": v18, "y": v19, "z": v20, "w": v21}}, "menu_entry_id": v22, "mouse_point": {"x": v24, "y": v25, "z": v26}, "mouse_point_valid": v28}, pos
 
     def decode_view_visualization_msgs__msg__InteractiveMarkerFeedback(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
@@ -2234,13 +2231,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 1
             pos = (pos + 7) & -8
             f = _R37
-            v14, v15, v16, v18, v19, v20, v21, v22, v24, v25, v26, v27 = _S19.unpack_from(mv, pos)
+            v14, v15, v16, v18, v19, v20, v21, v22, v24, v25, v26, v28 = _S17.unpack_from(mv, pos)
             pos += 89
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__InteractiveMarkerFeedback(v1, v4, v7, v10, v11, make_geometry_msgs__msg__Pose(make_geometry_msgs__msg__Point(v14, v15, v16), make_geometry_msgs__msg__Quaternion(v18, v19, v20, v21)), v22, make_geometry_msgs__msg__Point(v24, v25, v26), v27), pos
+        return make_visualization_msgs__msg__InteractiveMarkerFeedback(v1, v4, v7, v10, v11, make_geometry_msgs__msg__Pose(make_geometry_msgs__msg__Point(v14, v15, v16), make_geometry_msgs__msg__Quaternion(v18, v19, v20, v21)), v22, make_geometry_msgs__msg__Point(v24, v25, v26), v28), pos
 
     def encode_visualization_msgs__msg__InteractiveMarkerFeedback(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2319,9 +2316,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 m23 = _submap(m23, _K_geometry_msgs__msg__Point)
             f = ""
             try:
-                out.append(_S20.pack(m13.get("x", 0.0), m13.get("y", 0.0), m13.get("z", 0.0), m17.get("x", 0.0), m17.get("y", 0.0), m17.get("z", 0.0), m17.get("w", 1.0), d.get("menu_entry_id", 0), m23.get("x", 0.0), m23.get("y", 0.0), m23.get("z", 0.0), d.get("mouse_point_valid", False)))
+                out.append(_S17.pack(m13.get("x", 0.0), m13.get("y", 0.0), m13.get("z", 0.0), m17.get("x", 0.0), m17.get("y", 0.0), m17.get("z", 0.0), m17.get("w", 1.0), d.get("menu_entry_id", 0), m23.get("x", 0.0), m23.get("y", 0.0), m23.get("z", 0.0), (t27 if (t27 := d.get("mouse_point_valid", False)).__class__ is bool else check_bool(t27, ".mouse_point_valid"))))
             except Exception:
-                out.append(slow_pack(_S20, _R37, (m13.get("x", 0.0), m13.get("y", 0.0), m13.get("z", 0.0), m17.get("x", 0.0), m17.get("y", 0.0), m17.get("z", 0.0), m17.get("w", 1.0), d.get("menu_entry_id", 0), m23.get("x", 0.0), m23.get("y", 0.0), m23.get("z", 0.0), d.get("mouse_point_valid", False),)))
+                out.append(slow_pack(_S17, _R37, (m13.get("x", 0.0), m13.get("y", 0.0), m13.get("z", 0.0), m17.get("x", 0.0), m17.get("y", 0.0), m17.get("z", 0.0), m17.get("w", 1.0), d.get("menu_entry_id", 0), m23.get("x", 0.0), m23.get("y", 0.0), m23.get("z", 0.0), (t27 if (t27 := d.get("mouse_point_valid", False)).__class__ is bool else check_bool(t27, ".mouse_point_valid")),)))
             pos += 89
         except FieldError as error:
             raise error.within(f) from None
@@ -2343,7 +2340,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v2
             pos = (pos + 7) & -8
             f = _R39
-            v4, = _S21.unpack_from(mv, pos)
+            v4, = _S18.unpack_from(mv, pos)
             pos += 8
             f = ".markers"
             v5, pos = read_messages(
@@ -2369,7 +2366,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v2
             pos = (pos + 7) & -8
             f = _R39
-            v4, = _S21.unpack_from(mv, pos)
+            v4, = _S18.unpack_from(mv, pos)
             pos += 8
             f = ".markers"
             v5, pos = read_messages(
@@ -2406,9 +2403,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S21.pack(d.get("seq_num", 0)))
+                out.append(_S18.pack(d.get("seq_num", 0)))
             except Exception:
-                out.append(slow_pack(_S21, _R39, (d.get("seq_num", 0),)))
+                out.append(slow_pack(_S18, _R39, (d.get("seq_num", 0),)))
             pos += 8
             f = ".markers"
             pos = write_messages(d.get("markers", ()), out, pos, _U32, encode_visualization_msgs__msg__InteractiveMarker, None, False)
@@ -2425,7 +2422,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R40
-            v4, v5, v6, v8, v9, v10, v11, v13 = _S17.unpack_from(mv, pos)
+            v4, v5, v6, v8, v9, v10, v11, v13 = _S15.unpack_from(mv, pos)
             pos += 60
             f = ".name"
             if v13 > lim - pos:
@@ -2445,7 +2442,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R40
-            v4, v5, v6, v8, v9, v10, v11, v13 = _S17.unpack_from(mv, pos)
+            v4, v5, v6, v8, v9, v10, v11, v13 = _S15.unpack_from(mv, pos)
             pos += 60
             f = ".name"
             if v13 > lim - pos:
@@ -2485,9 +2482,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             b12 = utf8z(d.get("name", ""), None)
             f = ""
             try:
-                out.append(_S17.pack(m3.get("x", 0.0), m3.get("y", 0.0), m3.get("z", 0.0), m7.get("x", 0.0), m7.get("y", 0.0), m7.get("z", 0.0), m7.get("w", 1.0), len(b12)))
+                out.append(_S15.pack(m3.get("x", 0.0), m3.get("y", 0.0), m3.get("z", 0.0), m7.get("x", 0.0), m7.get("y", 0.0), m7.get("z", 0.0), m7.get("w", 1.0), len(b12)))
             except Exception:
-                out.append(slow_pack(_S17, _R40, (m3.get("x", 0.0), m3.get("y", 0.0), m3.get("z", 0.0), m7.get("x", 0.0), m7.get("y", 0.0), m7.get("z", 0.0), m7.get("w", 1.0), len(b12),)))
+                out.append(slow_pack(_S15, _R40, (m3.get("x", 0.0), m3.get("y", 0.0), m3.get("z", 0.0), m7.get("x", 0.0), m7.get("y", 0.0), m7.get("z", 0.0), m7.get("w", 1.0), len(b12),)))
             pos += 60
             out.append(b12)
             pos += len(b12)
@@ -2511,7 +2508,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v2
             pos = (pos + 7) & -8
             f = _R42
-            v4, v5 = _S22.unpack_from(mv, pos)
+            v4, v5 = _S19.unpack_from(mv, pos)
             pos += 9
             f = ".markers"
             v6, pos = read_messages(
@@ -2545,7 +2542,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v2
             pos = (pos + 7) & -8
             f = _R42
-            v4, v5 = _S22.unpack_from(mv, pos)
+            v4, v5 = _S19.unpack_from(mv, pos)
             pos += 9
             f = ".markers"
             v6, pos = read_messages(
@@ -2590,9 +2587,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S22.pack(d.get("seq_num", 0), d.get("type", 0)))
+                out.append(_S19.pack(d.get("seq_num", 0), d.get("type", 0)))
             except Exception:
-                out.append(slow_pack(_S22, _R42, (d.get("seq_num", 0), d.get("type", 0),)))
+                out.append(slow_pack(_S19, _R42, (d.get("seq_num", 0), d.get("type", 0),)))
             pos += 9
             f = ".markers"
             pos = write_messages(d.get("markers", ()), out, pos, _U32, encode_visualization_msgs__msg__InteractiveMarker, None, False)
@@ -2649,7 +2646,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R43
-            _S23.unpack_from(mv, pos)
+            _S20.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2661,7 +2658,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         f: Any = ""
         try:
             f = _R43
-            _S23.unpack_from(mv, pos)
+            _S20.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2676,9 +2673,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 d = _submap(d, _K_visualization_msgs__srv__GetInteractiveMarkers_Request)
             f = ""
             try:
-                out.append(_S23.pack())
+                out.append(_S20.pack())
             except Exception:
-                out.append(slow_pack(_S23, _R43, ()))
+                out.append(slow_pack(_S20, _R43, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -2691,7 +2688,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 7) & -8
             f = _R44
-            v1, = _S21.unpack_from(mv, pos)
+            v1, = _S18.unpack_from(mv, pos)
             pos += 8
             f = ".markers"
             v2, pos = read_messages(
@@ -2708,7 +2705,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         try:
             pos = (pos + 7) & -8
             f = _R44
-            v1, = _S21.unpack_from(mv, pos)
+            v1, = _S18.unpack_from(mv, pos)
             pos += 8
             f = ".markers"
             v2, pos = read_messages(
@@ -2731,9 +2728,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S21.pack(d.get("sequence_number", 0)))
+                out.append(_S18.pack(d.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S21, _R44, (d.get("sequence_number", 0),)))
+                out.append(slow_pack(_S18, _R44, (d.get("sequence_number", 0),)))
             pos += 8
             f = ".markers"
             pos = write_messages(d.get("markers", ()), out, pos, _U32, encode_visualization_msgs__msg__InteractiveMarker, None, False)
@@ -2760,7 +2757,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R47
-            v8, = _S24.unpack_from(mv, pos)
+            v8, = _S21.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2785,7 +2782,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R47
-            v8, = _S24.unpack_from(mv, pos)
+            v8, = _S21.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2828,9 +2825,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S24.pack(d.get("sequence_number", 0)))
+                out.append(_S21.pack(d.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S24, _R47, (d.get("sequence_number", 0),)))
+                out.append(slow_pack(_S21, _R47, (d.get("sequence_number", 0),)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -2855,7 +2852,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R50
-            v9, = _S24.unpack_from(mv, pos)
+            v9, = _S21.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -2888,7 +2885,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = _R50
-            v9, = _S24.unpack_from(mv, pos)
+            v9, = _S21.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
@@ -2943,9 +2940,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos += p
             f = ""
             try:
-                out.append(_S24.pack(m1.get("sequence_number", 0)))
+                out.append(_S21.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(slow_pack(_S24, _R50, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S21, _R50, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(d.get("request", ()), out, pos, _U32, encode_visualization_msgs__srv__GetInteractiveMarkers_Request, 1, False)

@@ -15,7 +15,7 @@ from pyconnect.codecs.registry import AnyCodec, Registry, default_registry
 from pyconnect.codecs.stamped import Stamped
 
 if TYPE_CHECKING:
-    from pyconnect.codecs import wire as wire
+    from . import wire as wire
 
 __all__ = [
     "ActionCodec",

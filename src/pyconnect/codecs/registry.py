@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import importlib
 import threading
 from collections.abc import Callable, Mapping
@@ -64,6 +65,8 @@ class Registry:
         self._natural: dict[str, str] = dict(NATURAL_CODECS) if natural else {}
         self._cache: dict[str, AnyCodec] = {}
         self._dict_cache: dict[str, DictCodec] = {}
+        # value_codec is asked once per decoded CDR message: cache by the reference as given.
+        self._value_cache: dict[object, Codec | None] = {}
         self._lock = threading.RLock()
 
     # -- registration -------------------------------------------------------------------------
@@ -83,6 +86,7 @@ class Registry:
                 )
             self._user[full_name] = codec
             self._cache.clear()
+            self._value_cache.clear()
 
     def unregister(self, type_ref: object) -> None:
         """Remove the user codec of ``type_ref``; lookups fall back to the built-in ones."""
@@ -90,6 +94,7 @@ class Registry:
         with self._lock:
             self._user.pop(full_name, None)
             self._cache.clear()
+            self._value_cache.clear()
 
     # -- lookup -------------------------------------------------------------------------------
     def resolve(self, type_ref: object) -> str:
@@ -128,16 +133,23 @@ class Registry:
 
         Needs no message class: the wire codecs use it to decode CDR to natural values.
         """
+        try:
+            return self._value_cache[type_ref]
+        except (KeyError, TypeError):
+            pass
         full_name = self.resolve(type_ref)
+        found: Codec | None = None
         if full_name in self._user:
-            return self._user[full_name]
-        if full_name in self._natural:
+            found = self._user[full_name]
+        elif full_name in self._natural:
             cached = self._cache.get(full_name)
             if cached is None:
                 cached = _load_factory(self._natural[full_name])()
                 self._cache[full_name] = cached
-            return self._as_message_codec(cached)
-        return None
+            found = self._as_message_codec(cached)
+        with contextlib.suppress(TypeError):  # unhashable references are not cached
+            self._value_cache[type_ref] = found
+        return found
 
     def lookup_dict(self, type_ref: object) -> DictCodec:
         """The lossless dict codec of a message type, whatever natural codec it has."""
