@@ -1,1 +1,1 @@
-"""Benchmarks: scripts that print ratios against anchors measured side by side."""
+"""Benchmarks: each module prints tables of ratios measured side by side in one run."""

@@ -7,36 +7,12 @@ all of them alike; ratios are against the anchor row of the same table.
 
 from __future__ import annotations
 
-import timeit
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 
+from bench.timing import compare
 from pyconnect.codecs import default_registry
-
-ROUNDS = 7
-
-
-def compare(
-    title: str, cases: list[tuple[str, Callable[[], Any]]], *, budget_s: float = 0.05
-) -> None:
-    """Time ``cases`` in turns and print ns/op and the ratio to the first case (the anchor)."""
-    timers = []
-    for name, func in cases:
-        timer = timeit.Timer(func)
-        number, elapsed = timer.autorange()
-        per_round = max(1, int(number * budget_s / max(elapsed, 1e-9)))
-        timers.append((name, timer, per_round))
-    best = {name: float("inf") for name, _, _ in timers}
-    for _ in range(ROUNDS):
-        for name, timer, per_round in timers:
-            best[name] = min(best[name], timer.timeit(per_round) / per_round * 1e9)
-    anchor = cases[0][0]
-    print(f"\n{title}  (anchor: {anchor})")
-    print(f"  {'case':<56} {'ns/op':>14} {'ratio':>9}")
-    for name, _ in cases:
-        print(f"  {name:<56} {best[name]:>14,.0f} {best[name] / best[anchor]:>8.2f}x")
 
 
 def image_messages(height: int, width: int) -> tuple[Any, Any]:
