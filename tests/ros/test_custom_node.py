@@ -229,3 +229,11 @@ def test_stop_func_runs_once_on_shutdown(make_node: Any) -> None:
     assert not node.ok()
     with pytest.raises(PyconnectError):
         node.add_agent(conn_name="late", conn_type="pub", data_interface=String)
+
+
+def test_get_show_info_returns_the_value(make_node: Any) -> None:
+    node = make_node()
+    pub = node.add_agent(conn_name="note", conn_type="pub", data_interface=String)
+    pub.send("hi")
+    assert pub.get(show_info=True) == "hi"
+    assert pub.info_text() == "agent 'note' (pub std_msgs/msg/String): latest 'hi'"

@@ -78,6 +78,16 @@ with make()[0] as node:
     ready(heard)
 print("AFTER WITH", flush=True)
 """,
+    "sigint_two_nodes": """
+node, heard = make()
+other = CustomNode("second_child", stop_func=lambda: print("STOP2", flush=True))
+node.spin(run_thread=True)
+other.spin(run_thread=True)
+ready(heard)
+node.wait_for_shutdown()
+other.wait_for_shutdown()
+print("AFTER TWO", flush=True)
+""",
     "interpreter_exit": """
 node, heard = make()
 node.spin(run_thread=True)
@@ -91,6 +101,7 @@ SIGNALS = {
     "sigint_thread_wait_for_shutdown": signal.SIGINT,
     "sigint_thread_user_loop": signal.SIGINT,
     "sigterm_thread_user_loop": signal.SIGTERM,
+    "sigint_two_nodes": signal.SIGINT,
 }
 
 LAST_LINE = {
@@ -98,6 +109,7 @@ LAST_LINE = {
     "sigint_thread_wait_for_shutdown": "AFTER WAIT",
     "shutdown_call": "AFTER SHUTDOWN",
     "with_block": "AFTER WITH",
+    "sigint_two_nodes": "AFTER TWO",
 }
 
 
@@ -136,5 +148,7 @@ def test_program_ends_cleanly(ending: str, tmp_path: Path) -> None:
     assert lines.count("STOP") == 1, (out, err)
     assert "terminate called" not in err
     assert "Traceback" not in err, err
+    if ending == "sigint_two_nodes":
+        assert lines.count("STOP2") == 1, (out, err)
     if ending in LAST_LINE:
         assert out.strip().splitlines()[-1] == LAST_LINE[ending]

@@ -1,19 +1,18 @@
-"""Ending a node cleanly on Ctrl-C, SIGTERM and interpreter exit.
+"""Ending nodes cleanly on Ctrl-C, SIGTERM and interpreter exit.
 
 Why not rclpy's handlers: on Ctrl-C rclpy shuts the context down under the executor, which
 raises ``ExternalShutdownException`` (rclpy#1166) and skips ``on_shutdown`` hooks (rclpy#532);
 Python then tears objects down while threads still sit in ``rcl_wait``, which can end in
 ``terminate called ...``. pyconnect initialises rclpy without signal handlers and installs its
-own (main thread only): the first SIGINT/SIGTERM starts the node's shutdown on a thread of its
-own (``stop_func`` once, executor stopped, threads joined, node destroyed,
-``rclpy.try_shutdown``); if the main thread is waiting in ``spin()``/``wait_for_shutdown()`` it
-returns normally, otherwise ``SystemExit(0)`` unwinds the user's code (``finally`` blocks run)
-and the process exits 0. A second signal raises ``KeyboardInterrupt`` at once. At interpreter
-exit an ``atexit`` hook runs the same shutdown (spin threads are daemons, joined there).
+own (main thread only, one pair per process, shared by every ``CustomNode``): the first
+SIGINT/SIGTERM starts each node's shutdown on a thread of its own (``stop_func`` once, executor
+stopped, threads joined, node destroyed, ``rclpy.try_shutdown``); if the main thread is waiting
+in ``spin()``/``wait_for_shutdown()`` it returns normally, otherwise ``SystemExit(0)`` unwinds
+the user's code (``finally`` blocks run) and the process exits 0. A second signal raises
+``KeyboardInterrupt`` at once. At interpreter exit an ``atexit`` hook runs the same shutdown
+(spin threads are daemons, joined there). The previous handlers come back when the last node
+that installed them is shut down from the main thread.
 """
-
-# rclpy 7.1 ships py.typed but leaves most functions unannotated.
-# mypy: disable-error-code="no-untyped-call,attr-defined"
 
 from __future__ import annotations
 
@@ -25,10 +24,46 @@ from types import FrameType
 from typing import Any
 
 _HANDLED_SIGNALS = (signal.SIGINT, signal.SIGTERM)
+_lock = threading.Lock()
+_live: list[ShutdownHooks] = []
+_previous: dict[int, Any] = {}
+_state = {"signalled": False}
+
+
+def _on_signal(signum: int, frame: FrameType | None) -> None:
+    with _lock:
+        hooks = list(_live)
+        again = _state["signalled"]
+        _state["signalled"] = True
+    if again or not hooks:
+        _restore_handlers()
+        raise KeyboardInterrupt
+    for hook in hooks:
+        hook.begin_shutdown()
+    if not any(hook.main_is_waiting() for hook in hooks):
+        raise SystemExit(0)
+
+
+def _install_handlers() -> None:
+    if _previous or threading.current_thread() is not threading.main_thread():
+        return
+    for signum in _HANDLED_SIGNALS:
+        _previous[signum] = signal.getsignal(signum)
+        signal.signal(signum, _on_signal)
+
+
+def _restore_handlers() -> None:
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for signum, previous in _previous.items():
+        if signal.getsignal(signum) is _on_signal:
+            signal.signal(signum, previous if previous is not None else signal.SIG_DFL)
+    _previous.clear()
+    _state = {"signalled": False}
 
 
 class ShutdownHooks:
-    """Signal handlers and an atexit hook that call ``begin_shutdown`` for one node."""
+    """One node's entry in the process-wide signal handlers, and its atexit hook."""
 
     def __init__(
         self,
@@ -37,37 +72,29 @@ class ShutdownHooks:
         main_is_waiting: Callable[[], bool],
         handle_signals: bool,
     ) -> None:
-        self._begin_shutdown = begin_shutdown
-        self._main_is_waiting = main_is_waiting
-        self._signalled = False
-        self._previous: dict[int, Any] = {}
+        self.begin_shutdown = begin_shutdown
+        self.main_is_waiting = main_is_waiting
+        self._handles_signals = handle_signals
         self._atexit_hook: Callable[[], None] | None = None
-        if handle_signals and threading.current_thread() is threading.main_thread():
-            for signum in _HANDLED_SIGNALS:
-                self._previous[signum] = signal.getsignal(signum)
-                signal.signal(signum, self._on_signal)
+        if handle_signals:
+            with _lock:
+                _live.append(self)
+            _install_handlers()
 
     def register_atexit(self, hook: Callable[[], None]) -> None:
         self._atexit_hook = hook
         atexit.register(hook)
 
-    def _on_signal(self, signum: int, frame: FrameType | None) -> None:
-        if self._signalled:
-            self.restore()
-            raise KeyboardInterrupt
-        self._signalled = True
-        self._begin_shutdown()
-        if not self._main_is_waiting():
-            raise SystemExit(0)
-
     def restore(self) -> None:
-        """Put back the signal handlers that were there before (from the main thread only)."""
+        """Leave the signal handlers (restoring the old ones after the last node) and atexit."""
         if self._atexit_hook is not None:
             atexit.unregister(self._atexit_hook)
             self._atexit_hook = None
-        if threading.current_thread() is not threading.main_thread():
+        if not self._handles_signals:
             return
-        for signum, previous in self._previous.items():
-            if signal.getsignal(signum) == self._on_signal:
-                signal.signal(signum, previous if previous is not None else signal.SIG_DFL)
-        self._previous.clear()
+        with _lock:
+            if self in _live:
+                _live.remove(self)
+            last = not _live
+        if last:
+            _restore_handlers()

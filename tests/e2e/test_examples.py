@@ -1,0 +1,67 @@
+"""The seed's talker/listener examples run unchanged in two processes; argv remapping applies."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.e2e
+
+ROOT = Path(__file__).resolve().parents[2]
+TIMEOUT = 30.0
+
+
+def _start(*args: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, *args],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.DEVNULL,
+        text=True,
+        env={**os.environ, "PYTHONUNBUFFERED": "1"},
+    )
+
+
+def _stop(child: subprocess.Popen[str]) -> int:
+    if child.poll() is None:
+        child.send_signal(2)
+    try:
+        code = child.wait(TIMEOUT)
+    except subprocess.TimeoutExpired:
+        child.kill()
+        code = child.wait()
+    if child.stdout is not None:
+        child.stdout.close()
+    return code
+
+
+def test_talker_and_listener_examples() -> None:
+    talker = _start("-m", "examples.talker")
+    listener = _start("-m", "examples.listener")
+    try:
+        assert listener.stdout is not None
+        line = listener.stdout.readline().strip()
+    finally:
+        codes = (_stop(listener), _stop(talker))
+    assert line.startswith("heard {'cmd': 'forward', 'speed': 0.5, 'count': ")
+    assert codes == (0, 0)
+
+
+def test_remapping_from_the_command_line(tmp_path: Path) -> None:
+    script = tmp_path / "remapped.py"
+    script.write_text(
+        "from std_msgs.msg import String\n"
+        "from pyconnect.ros.custom_node import CustomNode\n"
+        "with CustomNode('remapped') as node:\n"
+        "    agent = node.add_agent(conn_name='chatter', conn_type='pub', data_interface=String)\n"
+        "    print(agent.topic, node.get_param('rate'), flush=True)\n"
+    )
+    child = _start(str(script), "--ros-args", "-r", "chatter:=talk", "-p", "rate:=5")
+    assert child.stdout is not None
+    out = child.stdout.read()
+    assert _stop(child) == 0
+    assert out.strip() == "/talk 5"
