@@ -25,6 +25,8 @@ def main() -> int:
         stdout=subprocess.PIPE,
         text=True,
         env={**os.environ, "PYTHONUNBUFFERED": "1"},
+        # Its own session: a Ctrl-C reaches the demo only, which then stops the robot once.
+        start_new_session=True,
     )
     assert robot.stdout is not None
     if robot.stdout.readline().strip() != "READY":
@@ -36,7 +38,8 @@ def main() -> int:
     try:
         demo_brain.run(DURATION)
     finally:
-        robot.send_signal(signal.SIGINT)
+        if robot.poll() is None:
+            robot.send_signal(signal.SIGINT)
         code = robot.wait(30)
         relay.join(5)
         robot.stdout.close()

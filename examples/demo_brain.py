@@ -97,8 +97,9 @@ def run(duration: float, *, log_dir: str | None = None) -> None:
                 flush=True,
             )
             node.wait_for_shutdown(timeout=1.0)
-        node.agents["enable_motors"].send({"data": False})
-        node.stop_log_subs()
+        if node.ok():  # not after Ctrl-C, which already shut the node down
+            node.agents["enable_motors"].send({"data": False})
+            node.stop_log_subs()
         print(f"[brain] logs in {node.log_dir / node.name}", flush=True)
 
 
