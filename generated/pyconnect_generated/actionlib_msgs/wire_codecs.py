@@ -228,7 +228,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -246,7 +246,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -298,7 +298,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".text"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -321,7 +321,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".text"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -372,7 +372,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -390,7 +390,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None

@@ -399,7 +399,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -417,7 +417,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -464,7 +464,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".key"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R3
@@ -473,7 +473,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".value"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -491,7 +491,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".key"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R3
@@ -500,7 +500,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".value"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -560,7 +560,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
             f = _R6
@@ -569,7 +569,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".message"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 3) & -4
             f = _R7
@@ -578,7 +578,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".hardware_id"
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
-            v10 = str(mv[pos : pos + v9 - 1], "utf-8")
+            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
             f = ".values"
             v11, pos = read_messages(
@@ -603,7 +603,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
             f = _R6
@@ -612,7 +612,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".message"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 3) & -4
             f = _R7
@@ -621,7 +621,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".hardware_id"
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
-            v10 = str(mv[pos : pos + v9 - 1], "utf-8")
+            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
             f = ".values"
             v11, pos = read_messages(
@@ -749,7 +749,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".load_namespace"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -767,7 +767,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".load_namespace"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -813,7 +813,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".message"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -834,7 +834,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".message"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1138,7 +1138,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".id"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             f = _R19
             v4, = _S3.unpack_from(mv, pos)
@@ -1163,7 +1163,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".id"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             f = _R19
             v4, = _S3.unpack_from(mv, pos)

@@ -987,7 +987,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1005,7 +1005,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2239,7 +2239,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".child_frame_id"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 7) & -8
             f = _R22
@@ -2263,7 +2263,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".child_frame_id"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 7) & -8
             f = _R22
@@ -2669,7 +2669,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".body_frame_id"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
             f = _R29
@@ -2678,7 +2678,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".reference_frame_id"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 7) & -8
             f = _R30
@@ -2702,7 +2702,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".body_frame_id"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
             f = _R29
@@ -2711,7 +2711,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".reference_frame_id"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 7) & -8
             f = _R30

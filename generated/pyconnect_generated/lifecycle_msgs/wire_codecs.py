@@ -478,7 +478,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".label"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -499,7 +499,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".label"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -551,7 +551,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".label"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -572,7 +572,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".label"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
         except WireDecodeError as error:
             raise error.within(f) from None

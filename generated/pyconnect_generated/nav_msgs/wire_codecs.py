@@ -793,7 +793,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -811,7 +811,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1616,7 +1616,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".child_frame_id"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 7) & -8
             f = _R16
@@ -1653,7 +1653,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".child_frame_id"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 7) & -8
             f = _R16
@@ -2319,7 +2319,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".map_url"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2337,7 +2337,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".map_url"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
         except WireDecodeError as error:
             raise error.within(f) from None

@@ -1168,7 +1168,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 3) & -4
             f = _R4
@@ -1177,7 +1177,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".msg"
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
-            v10 = str(mv[pos : pos + v9 - 1], "utf-8")
+            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
             pos = (pos + 3) & -4
             f = _R5
@@ -1186,7 +1186,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".file"
             if v12 > lim - pos:
                 raise too_long(v12, 1, lim - pos)
-            v13 = str(mv[pos : pos + v12 - 1], "utf-8")
+            v13 = mv[pos : pos + v12 - 1].tobytes().decode()
             pos += v12
             pos = (pos + 3) & -4
             f = _R6
@@ -1195,7 +1195,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".function"
             if v15 > lim - pos:
                 raise too_long(v15, 1, lim - pos)
-            v16 = str(mv[pos : pos + v15 - 1], "utf-8")
+            v16 = mv[pos : pos + v15 - 1].tobytes().decode()
             pos += v15
             pos = (pos + 3) & -4
             f = _R7
@@ -1217,7 +1217,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 3) & -4
             f = _R4
@@ -1226,7 +1226,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".msg"
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
-            v10 = str(mv[pos : pos + v9 - 1], "utf-8")
+            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
             pos = (pos + 3) & -4
             f = _R5
@@ -1235,7 +1235,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".file"
             if v12 > lim - pos:
                 raise too_long(v12, 1, lim - pos)
-            v13 = str(mv[pos : pos + v12 - 1], "utf-8")
+            v13 = mv[pos : pos + v12 - 1].tobytes().decode()
             pos += v12
             pos = (pos + 3) & -4
             f = _R6
@@ -1244,7 +1244,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".function"
             if v15 > lim - pos:
                 raise too_long(v15, 1, lim - pos)
-            v16 = str(mv[pos : pos + v15 - 1], "utf-8")
+            v16 = mv[pos : pos + v15 - 1].tobytes().decode()
             pos += v15
             pos = (pos + 3) & -4
             f = _R7
@@ -1347,7 +1347,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R9
@@ -1369,7 +1369,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R9
@@ -1429,7 +1429,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value"
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = str(mv[pos : pos + v7 - 1], "utf-8")
+            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
             pos += v7
             pos = (pos + 3) & -4
             f = _R12
@@ -1493,7 +1493,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value"
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = str(mv[pos : pos + v7 - 1], "utf-8")
+            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
             pos += v7
             pos = (pos + 3) & -4
             f = _R12
@@ -1649,7 +1649,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             f = ".value"
             v4, pos = decode_dict_rcl_interfaces__msg__ParameterValue(mv, pos, lim)
@@ -1669,7 +1669,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             f = ".value"
             v4, pos = decode_view_rcl_interfaces__msg__ParameterValue(mv, pos, lim)
@@ -1716,7 +1716,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             f = _R18
             v4, = _S7.unpack_from(mv, pos)
@@ -1728,7 +1728,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".description"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 3) & -4
             f = _R20
@@ -1737,7 +1737,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".additional_constraints"
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
-            v10 = str(mv[pos : pos + v9 - 1], "utf-8")
+            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
             f = _R21
             v12, v14 = _S8.unpack_from(mv, pos)
@@ -1766,7 +1766,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             f = _R18
             v4, = _S7.unpack_from(mv, pos)
@@ -1778,7 +1778,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".description"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 3) & -4
             f = _R20
@@ -1787,7 +1787,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".additional_constraints"
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
-            v10 = str(mv[pos : pos + v9 - 1], "utf-8")
+            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
             f = _R21
             v12, v14 = _S8.unpack_from(mv, pos)
@@ -1885,7 +1885,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".node"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             f = ".new_parameters"
             v7, pos = read_messages(
@@ -1915,7 +1915,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".node"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             f = ".new_parameters"
             v7, pos = read_messages(
@@ -2083,7 +2083,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".reason"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2104,7 +2104,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".reason"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2156,7 +2156,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".reason"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2177,7 +2177,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".reason"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None

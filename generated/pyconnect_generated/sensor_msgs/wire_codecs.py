@@ -1103,7 +1103,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1121,7 +1121,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1186,7 +1186,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".location"
             if v23 > lim - pos:
                 raise too_long(v23, 1, lim - pos)
-            v24 = str(mv[pos : pos + v23 - 1], "utf-8")
+            v24 = mv[pos : pos + v23 - 1].tobytes().decode()
             pos += v23
             pos = (pos + 3) & -4
             f = _R5
@@ -1195,7 +1195,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".serial_number"
             if v26 > lim - pos:
                 raise too_long(v26, 1, lim - pos)
-            v27 = str(mv[pos : pos + v26 - 1], "utf-8")
+            v27 = mv[pos : pos + v26 - 1].tobytes().decode()
             pos += v26
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1231,7 +1231,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".location"
             if v23 > lim - pos:
                 raise too_long(v23, 1, lim - pos)
-            v24 = str(mv[pos : pos + v23 - 1], "utf-8")
+            v24 = mv[pos : pos + v23 - 1].tobytes().decode()
             pos += v23
             pos = (pos + 3) & -4
             f = _R5
@@ -1240,7 +1240,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".serial_number"
             if v26 > lim - pos:
                 raise too_long(v26, 1, lim - pos)
-            v27 = str(mv[pos : pos + v26 - 1], "utf-8")
+            v27 = mv[pos : pos + v26 - 1].tobytes().decode()
             pos += v26
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1368,7 +1368,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".distortion_model"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             pos = (pos + 3) & -4
             f = _R8
@@ -1418,7 +1418,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".distortion_model"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             pos = (pos + 3) & -4
             f = _R8
@@ -1538,7 +1538,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R11
@@ -1565,7 +1565,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R11
@@ -1633,7 +1633,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".format"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
             f = _R13
@@ -1662,7 +1662,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".format"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
             f = _R13
@@ -1838,7 +1838,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".encoding"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             f = _R17
             v7, = _S8.unpack_from(mv, pos)
@@ -1870,7 +1870,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".encoding"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             f = _R17
             v7, = _S8.unpack_from(mv, pos)
@@ -3331,7 +3331,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R47
@@ -3353,7 +3353,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R47
@@ -3702,7 +3702,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".source"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3722,7 +3722,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".source"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3809,7 +3809,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".status_message"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3830,7 +3830,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".status_message"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None

@@ -846,7 +846,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".label"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R3
@@ -868,7 +868,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".label"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R3
@@ -1462,7 +1462,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1480,7 +1480,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1986,7 +1986,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".data"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2004,7 +2004,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".data"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
         except WireDecodeError as error:
             raise error.within(f) from None

@@ -710,7 +710,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".message"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -731,7 +731,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".message"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -943,7 +943,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".message"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -964,7 +964,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".message"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None

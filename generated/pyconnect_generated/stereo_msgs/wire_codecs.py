@@ -243,7 +243,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -261,7 +261,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -310,7 +310,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".encoding"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             f = _R3
             v7, = _S3.unpack_from(mv, pos)
@@ -342,7 +342,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".encoding"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             f = _R3
             v7, = _S3.unpack_from(mv, pos)

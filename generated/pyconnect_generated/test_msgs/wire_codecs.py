@@ -5494,7 +5494,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R97
@@ -5503,7 +5503,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value_default1"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             pos = (pos + 3) & -4
             f = _R98
@@ -5512,7 +5512,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value_default2"
             if v8 > lim - pos:
                 raise too_long(v8, 1, lim - pos)
-            v9 = str(mv[pos : pos + v8 - 1], "utf-8")
+            v9 = mv[pos : pos + v8 - 1].tobytes().decode()
             pos += v8
             pos = (pos + 3) & -4
             f = _R99
@@ -5521,7 +5521,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value_default3"
             if v11 > lim - pos:
                 raise too_long(v11, 1, lim - pos)
-            v12 = str(mv[pos : pos + v11 - 1], "utf-8")
+            v12 = mv[pos : pos + v11 - 1].tobytes().decode()
             pos += v11
             pos = (pos + 3) & -4
             f = _R100
@@ -5530,7 +5530,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value_default4"
             if v14 > lim - pos:
                 raise too_long(v14, 1, lim - pos)
-            v15 = str(mv[pos : pos + v14 - 1], "utf-8")
+            v15 = mv[pos : pos + v14 - 1].tobytes().decode()
             pos += v14
             pos = (pos + 3) & -4
             f = _R101
@@ -5539,7 +5539,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value_default5"
             if v17 > lim - pos:
                 raise too_long(v17, 1, lim - pos)
-            v18 = str(mv[pos : pos + v17 - 1], "utf-8")
+            v18 = mv[pos : pos + v17 - 1].tobytes().decode()
             pos += v17
             pos = (pos + 3) & -4
             f = _R102
@@ -5548,7 +5548,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".bounded_string_value"
             if v20 > lim - pos:
                 raise too_long(v20, 1, lim - pos)
-            v21 = str(mv[pos : pos + v20 - 1], "utf-8")
+            v21 = mv[pos : pos + v20 - 1].tobytes().decode()
             pos += v20
             if len(v21) > 22:
                 raise over_bound(len(v21), 22)
@@ -5559,7 +5559,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".bounded_string_value_default1"
             if v23 > lim - pos:
                 raise too_long(v23, 1, lim - pos)
-            v24 = str(mv[pos : pos + v23 - 1], "utf-8")
+            v24 = mv[pos : pos + v23 - 1].tobytes().decode()
             pos += v23
             if len(v24) > 22:
                 raise over_bound(len(v24), 22)
@@ -5570,7 +5570,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".bounded_string_value_default2"
             if v26 > lim - pos:
                 raise too_long(v26, 1, lim - pos)
-            v27 = str(mv[pos : pos + v26 - 1], "utf-8")
+            v27 = mv[pos : pos + v26 - 1].tobytes().decode()
             pos += v26
             if len(v27) > 22:
                 raise over_bound(len(v27), 22)
@@ -5581,7 +5581,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".bounded_string_value_default3"
             if v29 > lim - pos:
                 raise too_long(v29, 1, lim - pos)
-            v30 = str(mv[pos : pos + v29 - 1], "utf-8")
+            v30 = mv[pos : pos + v29 - 1].tobytes().decode()
             pos += v29
             if len(v30) > 22:
                 raise over_bound(len(v30), 22)
@@ -5592,7 +5592,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".bounded_string_value_default4"
             if v32 > lim - pos:
                 raise too_long(v32, 1, lim - pos)
-            v33 = str(mv[pos : pos + v32 - 1], "utf-8")
+            v33 = mv[pos : pos + v32 - 1].tobytes().decode()
             pos += v32
             if len(v33) > 22:
                 raise over_bound(len(v33), 22)
@@ -5603,7 +5603,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".bounded_string_value_default5"
             if v35 > lim - pos:
                 raise too_long(v35, 1, lim - pos)
-            v36 = str(mv[pos : pos + v35 - 1], "utf-8")
+            v36 = mv[pos : pos + v35 - 1].tobytes().decode()
             pos += v35
             if len(v36) > 22:
                 raise over_bound(len(v36), 22)
@@ -5623,7 +5623,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R97
@@ -5632,7 +5632,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value_default1"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             pos = (pos + 3) & -4
             f = _R98
@@ -5641,7 +5641,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value_default2"
             if v8 > lim - pos:
                 raise too_long(v8, 1, lim - pos)
-            v9 = str(mv[pos : pos + v8 - 1], "utf-8")
+            v9 = mv[pos : pos + v8 - 1].tobytes().decode()
             pos += v8
             pos = (pos + 3) & -4
             f = _R99
@@ -5650,7 +5650,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value_default3"
             if v11 > lim - pos:
                 raise too_long(v11, 1, lim - pos)
-            v12 = str(mv[pos : pos + v11 - 1], "utf-8")
+            v12 = mv[pos : pos + v11 - 1].tobytes().decode()
             pos += v11
             pos = (pos + 3) & -4
             f = _R100
@@ -5659,7 +5659,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value_default4"
             if v14 > lim - pos:
                 raise too_long(v14, 1, lim - pos)
-            v15 = str(mv[pos : pos + v14 - 1], "utf-8")
+            v15 = mv[pos : pos + v14 - 1].tobytes().decode()
             pos += v14
             pos = (pos + 3) & -4
             f = _R101
@@ -5668,7 +5668,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value_default5"
             if v17 > lim - pos:
                 raise too_long(v17, 1, lim - pos)
-            v18 = str(mv[pos : pos + v17 - 1], "utf-8")
+            v18 = mv[pos : pos + v17 - 1].tobytes().decode()
             pos += v17
             pos = (pos + 3) & -4
             f = _R102
@@ -5677,7 +5677,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".bounded_string_value"
             if v20 > lim - pos:
                 raise too_long(v20, 1, lim - pos)
-            v21 = str(mv[pos : pos + v20 - 1], "utf-8")
+            v21 = mv[pos : pos + v20 - 1].tobytes().decode()
             pos += v20
             if len(v21) > 22:
                 raise over_bound(len(v21), 22)
@@ -5688,7 +5688,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".bounded_string_value_default1"
             if v23 > lim - pos:
                 raise too_long(v23, 1, lim - pos)
-            v24 = str(mv[pos : pos + v23 - 1], "utf-8")
+            v24 = mv[pos : pos + v23 - 1].tobytes().decode()
             pos += v23
             if len(v24) > 22:
                 raise over_bound(len(v24), 22)
@@ -5699,7 +5699,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".bounded_string_value_default2"
             if v26 > lim - pos:
                 raise too_long(v26, 1, lim - pos)
-            v27 = str(mv[pos : pos + v26 - 1], "utf-8")
+            v27 = mv[pos : pos + v26 - 1].tobytes().decode()
             pos += v26
             if len(v27) > 22:
                 raise over_bound(len(v27), 22)
@@ -5710,7 +5710,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".bounded_string_value_default3"
             if v29 > lim - pos:
                 raise too_long(v29, 1, lim - pos)
-            v30 = str(mv[pos : pos + v29 - 1], "utf-8")
+            v30 = mv[pos : pos + v29 - 1].tobytes().decode()
             pos += v29
             if len(v30) > 22:
                 raise over_bound(len(v30), 22)
@@ -5721,7 +5721,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".bounded_string_value_default4"
             if v32 > lim - pos:
                 raise too_long(v32, 1, lim - pos)
-            v33 = str(mv[pos : pos + v32 - 1], "utf-8")
+            v33 = mv[pos : pos + v32 - 1].tobytes().decode()
             pos += v32
             if len(v33) > 22:
                 raise over_bound(len(v33), 22)
@@ -5732,7 +5732,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".bounded_string_value_default5"
             if v35 > lim - pos:
                 raise too_long(v35, 1, lim - pos)
-            v36 = str(mv[pos : pos + v35 - 1], "utf-8")
+            v36 = mv[pos : pos + v35 - 1].tobytes().decode()
             pos += v35
             if len(v36) > 22:
                 raise over_bound(len(v36), 22)
@@ -7201,7 +7201,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value"
             if v16 > lim - pos:
                 raise too_long(v16, 1, lim - pos)
-            v17 = str(mv[pos : pos + v16 - 1], "utf-8")
+            v17 = mv[pos : pos + v16 - 1].tobytes().decode()
             pos += v16
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -7226,7 +7226,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value"
             if v16 > lim - pos:
                 raise too_long(v16, 1, lim - pos)
-            v17 = str(mv[pos : pos + v16 - 1], "utf-8")
+            v17 = mv[pos : pos + v16 - 1].tobytes().decode()
             pos += v16
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -7292,7 +7292,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value"
             if v16 > lim - pos:
                 raise too_long(v16, 1, lim - pos)
-            v17 = str(mv[pos : pos + v16 - 1], "utf-8")
+            v17 = mv[pos : pos + v16 - 1].tobytes().decode()
             pos += v16
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -7317,7 +7317,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".string_value"
             if v16 > lim - pos:
                 raise too_long(v16, 1, lim - pos)
-            v17 = str(mv[pos : pos + v16 - 1], "utf-8")
+            v17 = mv[pos : pos + v16 - 1].tobytes().decode()
             pos += v16
         except WireDecodeError as error:
             raise error.within(f) from None

@@ -340,7 +340,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".nested_type_name"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             if len(v6) > 255:
                 raise over_bound(len(v6), 255)
@@ -363,7 +363,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".nested_type_name"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             if len(v6) > 255:
                 raise over_bound(len(v6), 255)
@@ -414,7 +414,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             f = ".type"
             v4, pos = decode_dict_type_description_interfaces__msg__FieldType(mv, pos, lim)
@@ -425,7 +425,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".default_value"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -443,7 +443,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             f = ".type"
             v4, pos = decode_view_type_description_interfaces__msg__FieldType(mv, pos, lim)
@@ -454,7 +454,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".default_value"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -513,7 +513,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".type_name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             if len(v3) > 255:
                 raise over_bound(len(v3), 255)
@@ -537,7 +537,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".type_name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             if len(v3) > 255:
                 raise over_bound(len(v3), 255)
@@ -588,7 +588,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".key"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R6
@@ -597,7 +597,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".value"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -615,7 +615,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".key"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R6
@@ -624,7 +624,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".value"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -726,7 +726,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".type_name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R8
@@ -735,7 +735,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".encoding"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             pos = (pos + 3) & -4
             f = _R9
@@ -744,7 +744,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".raw_file_contents"
             if v8 > lim - pos:
                 raise too_long(v8, 1, lim - pos)
-            v9 = str(mv[pos : pos + v8 - 1], "utf-8")
+            v9 = mv[pos : pos + v8 - 1].tobytes().decode()
             pos += v8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -762,7 +762,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".type_name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R8
@@ -771,7 +771,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".encoding"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             pos = (pos + 3) & -4
             f = _R9
@@ -780,7 +780,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".raw_file_contents"
             if v8 > lim - pos:
                 raise too_long(v8, 1, lim - pos)
-            v9 = str(mv[pos : pos + v8 - 1], "utf-8")
+            v9 = mv[pos : pos + v8 - 1].tobytes().decode()
             pos += v8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -851,7 +851,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".type_name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R11
@@ -860,7 +860,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".type_hash"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             f = _R12
             v8, = _S3.unpack_from(mv, pos)
@@ -881,7 +881,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".type_name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R11
@@ -890,7 +890,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".type_hash"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             f = _R12
             v8, = _S3.unpack_from(mv, pos)
@@ -959,7 +959,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".failure_reason"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
             f = ".type_description"
             v6, pos = decode_dict_type_description_interfaces__msg__TypeDescription(mv, pos, lim)
@@ -990,7 +990,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".failure_reason"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
             f = ".type_description"
             v6, pos = decode_view_type_description_interfaces__msg__TypeDescription(mv, pos, lim)

@@ -758,7 +758,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -776,7 +776,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".frame_id"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = str(mv[pos : pos + v5 - 1], "utf-8")
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -966,7 +966,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".ns"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
             f = _R6
@@ -1002,7 +1002,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".ns"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
             f = _R6
@@ -1205,7 +1205,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".title"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
             pos = (pos + 3) & -4
             f = _R11
@@ -1214,7 +1214,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".command"
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = str(mv[pos : pos + v7 - 1], "utf-8")
+            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
             pos += v7
             f = _R12
             v9, = _S10.unpack_from(mv, pos)
@@ -1235,7 +1235,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".title"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = str(mv[pos : pos + v4 - 1], "utf-8")
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
             pos = (pos + 3) & -4
             f = _R11
@@ -1244,7 +1244,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".command"
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = str(mv[pos : pos + v7 - 1], "utf-8")
+            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
             pos += v7
             f = _R12
             v9, = _S10.unpack_from(mv, pos)
@@ -1359,7 +1359,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".format"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
             f = _R15
@@ -1388,7 +1388,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".format"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
             f = _R15
@@ -1503,7 +1503,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".filename"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R18
@@ -1530,7 +1530,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".filename"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
             f = _R18
@@ -1598,7 +1598,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".ns"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
             f = _R20
@@ -1623,7 +1623,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".texture_resource"
             if v35 > lim - pos:
                 raise too_long(v35, 1, lim - pos)
-            v36 = str(mv[pos : pos + v35 - 1], "utf-8")
+            v36 = mv[pos : pos + v35 - 1].tobytes().decode()
             pos += v35
             f = ".texture"
             v37, pos = decode_dict_sensor_msgs__msg__CompressedImage(mv, pos, lim)
@@ -1638,7 +1638,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".text"
             if v40 > lim - pos:
                 raise too_long(v40, 1, lim - pos)
-            v41 = str(mv[pos : pos + v40 - 1], "utf-8")
+            v41 = mv[pos : pos + v40 - 1].tobytes().decode()
             pos += v40
             pos = (pos + 3) & -4
             f = _R24
@@ -1647,7 +1647,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".mesh_resource"
             if v43 > lim - pos:
                 raise too_long(v43, 1, lim - pos)
-            v44 = str(mv[pos : pos + v43 - 1], "utf-8")
+            v44 = mv[pos : pos + v43 - 1].tobytes().decode()
             pos += v43
             f = ".mesh_file"
             v45, pos = decode_dict_visualization_msgs__msg__MeshFile(mv, pos, lim)
@@ -1672,7 +1672,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".ns"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
             f = _R20
@@ -1697,7 +1697,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".texture_resource"
             if v35 > lim - pos:
                 raise too_long(v35, 1, lim - pos)
-            v36 = str(mv[pos : pos + v35 - 1], "utf-8")
+            v36 = mv[pos : pos + v35 - 1].tobytes().decode()
             pos += v35
             f = ".texture"
             v37, pos = decode_view_sensor_msgs__msg__CompressedImage(mv, pos, lim)
@@ -1712,7 +1712,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".text"
             if v40 > lim - pos:
                 raise too_long(v40, 1, lim - pos)
-            v41 = str(mv[pos : pos + v40 - 1], "utf-8")
+            v41 = mv[pos : pos + v40 - 1].tobytes().decode()
             pos += v40
             pos = (pos + 3) & -4
             f = _R24
@@ -1721,7 +1721,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".mesh_resource"
             if v43 > lim - pos:
                 raise too_long(v43, 1, lim - pos)
-            v44 = str(mv[pos : pos + v43 - 1], "utf-8")
+            v44 = mv[pos : pos + v43 - 1].tobytes().decode()
             pos += v43
             f = ".mesh_file"
             v45, pos = decode_view_visualization_msgs__msg__MeshFile(mv, pos, lim)
@@ -1873,7 +1873,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 7) & -8
             f = _R27
@@ -1893,7 +1893,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".description"
             if v17 > lim - pos:
                 raise too_long(v17, 1, lim - pos)
-            v18 = str(mv[pos : pos + v17 - 1], "utf-8")
+            v18 = mv[pos : pos + v17 - 1].tobytes().decode()
             pos += v17
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1911,7 +1911,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 7) & -8
             f = _R27
@@ -1931,7 +1931,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".description"
             if v17 > lim - pos:
                 raise too_long(v17, 1, lim - pos)
-            v18 = str(mv[pos : pos + v17 - 1], "utf-8")
+            v18 = mv[pos : pos + v17 - 1].tobytes().decode()
             pos += v17
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2012,7 +2012,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v13 > lim - pos:
                 raise too_long(v13, 1, lim - pos)
-            v14 = str(mv[pos : pos + v13 - 1], "utf-8")
+            v14 = mv[pos : pos + v13 - 1].tobytes().decode()
             pos += v13
             pos = (pos + 3) & -4
             f = _R31
@@ -2021,7 +2021,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".description"
             if v16 > lim - pos:
                 raise too_long(v16, 1, lim - pos)
-            v17 = str(mv[pos : pos + v16 - 1], "utf-8")
+            v17 = mv[pos : pos + v16 - 1].tobytes().decode()
             pos += v16
             pos = (pos + 3) & -4
             f = _R32
@@ -2053,7 +2053,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v13 > lim - pos:
                 raise too_long(v13, 1, lim - pos)
-            v14 = str(mv[pos : pos + v13 - 1], "utf-8")
+            v14 = mv[pos : pos + v13 - 1].tobytes().decode()
             pos += v13
             pos = (pos + 3) & -4
             f = _R31
@@ -2062,7 +2062,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".description"
             if v16 > lim - pos:
                 raise too_long(v16, 1, lim - pos)
-            v17 = str(mv[pos : pos + v16 - 1], "utf-8")
+            v17 = mv[pos : pos + v16 - 1].tobytes().decode()
             pos += v16
             pos = (pos + 3) & -4
             f = _R32
@@ -2161,7 +2161,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".client_id"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
             f = _R34
@@ -2170,7 +2170,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".marker_name"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 3) & -4
             f = _R35
@@ -2179,7 +2179,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".control_name"
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
-            v10 = str(mv[pos : pos + v9 - 1], "utf-8")
+            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
             f = _R36
             v11, = _S10.unpack_from(mv, pos)
@@ -2206,7 +2206,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".client_id"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = str(mv[pos : pos + v3 - 1], "utf-8")
+            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
             f = _R34
@@ -2215,7 +2215,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".marker_name"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = str(mv[pos : pos + v6 - 1], "utf-8")
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 3) & -4
             f = _R35
@@ -2224,7 +2224,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".control_name"
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
-            v10 = str(mv[pos : pos + v9 - 1], "utf-8")
+            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
             f = _R36
             v11, = _S10.unpack_from(mv, pos)
@@ -2336,7 +2336,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".server_id"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 7) & -8
             f = _R39
@@ -2362,7 +2362,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".server_id"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 7) & -8
             f = _R39
@@ -2427,7 +2427,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v13 > lim - pos:
                 raise too_long(v13, 1, lim - pos)
-            v14 = str(mv[pos : pos + v13 - 1], "utf-8")
+            v14 = mv[pos : pos + v13 - 1].tobytes().decode()
             pos += v13
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2447,7 +2447,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".name"
             if v13 > lim - pos:
                 raise too_long(v13, 1, lim - pos)
-            v14 = str(mv[pos : pos + v13 - 1], "utf-8")
+            v14 = mv[pos : pos + v13 - 1].tobytes().decode()
             pos += v13
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2504,7 +2504,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".server_id"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 7) & -8
             f = _R42
@@ -2538,7 +2538,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             f = ".server_id"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = str(mv[pos : pos + v2 - 1], "utf-8")
+            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 7) & -8
             f = _R42

@@ -8,7 +8,9 @@ alignment starts; ``lim`` is the length of that body.
 
 from __future__ import annotations
 
+import contextlib
 import struct
+import sys
 from collections.abc import Callable, Mapping, Sequence
 from types import MappingProxyType
 from typing import Any
@@ -48,6 +50,7 @@ _INTEGER_RANGES = {
     "uint32": (0, 2**32 - 1), "int64": (-(2**63), 2**63 - 1), "uint64": (0, 2**64 - 1),
 }  # fmt: skip
 _BYTE_KINDS = frozenset(("byte", "char", "uint8"))
+_ORDER = {"<": "<", ">": ">", "=": "<" if sys.byteorder == "little" else ">", "|": "<"}
 _STRUCT_CODES = {
     "int8": "b", "int16": "h", "uint16": "H", "int32": "i", "uint32": "I", "int64": "q",
     "uint64": "Q", "float32": "f", "float64": "d",
@@ -147,7 +150,7 @@ def _read_string(
     pos += 4
     if count > lim - pos:
         raise too_long(count, 1, lim - pos)
-    text = str(mv[pos : pos + count - 1], "utf-8")
+    text = mv[pos : pos + count - 1].tobytes().decode()
     if bound is not None and len(text) > bound:
         raise over_bound(len(text), bound)
     return text, pos + count
@@ -179,16 +182,31 @@ def read_strings(  # noqa: PLR0917 (generated code calls it positionally)
     """A fixed array (``count`` given) or a sequence (count read first) of (w)strings."""
     if count is None:
         count, pos = _read_count(mv, pos, lim, u32, bound, 4)
-    read = read_wstring if wide else _read_string
-    values = []
-    for index in range(count):
-        try:
-            value, pos = read(mv, pos, lim, u32, string_bound)
-        except WireDecodeError as error:
-            raise error.within(f"[{index}]") from None
-        except Exception as error:
-            raise decode_failure(error, f"[{index}]", pos, lim) from None
-        values.append(value)
+    values: list[str] = []
+    append = values.append
+    unpack = u32.unpack_from
+    index = 0
+    try:
+        if wide:
+            for index in range(count):  # noqa: B007 (the handler names the index)
+                text, pos = read_wstring(mv, pos, lim, u32, string_bound)
+                append(text)
+            return values, pos
+        for index in range(count):  # noqa: B007
+            pos = (pos + 3) & -4
+            (size,) = unpack(mv, pos)
+            pos += 4
+            if size > lim - pos:
+                raise too_long(size, 1, lim - pos)
+            text = mv[pos : pos + size - 1].tobytes().decode()
+            if string_bound is not None and len(text) > string_bound:
+                raise over_bound(len(text), string_bound)
+            append(text)
+            pos += size
+    except WireDecodeError as error:
+        raise error.within(f"[{index}]") from None
+    except Exception as error:
+        raise decode_failure(error, f"[{index}]", pos, lim) from None
     return values, pos
 
 
@@ -394,6 +412,15 @@ def encode_array(
         else:
             converted = uint8_sequence(value, size, "")
         return converted, len(converted)
+    if value.__class__ is list or value.__class__ is tuple:
+        # struct checks every element's type and range; anything it rejects is checked again
+        # below, which names the bad element.
+        count = len(value)
+        if size is None or (count == size if fixed else count <= size):
+            with contextlib.suppress(struct.error, OverflowError, TypeError):
+                return struct.pack(
+                    f"{_ORDER[dtype.byteorder]}{count}{_STRUCT_CODES[kind]}", *value
+                ), count
     if (
         isinstance(value, np.ndarray)
         and value.dtype == dtype

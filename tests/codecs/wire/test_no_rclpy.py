@@ -1,0 +1,47 @@
+"""``pyconnect.codecs.wire`` works with rclpy and every ROS message package hidden."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import textwrap
+
+SCRIPT = textwrap.dedent(
+    """
+    import importlib.abc, sys
+
+    HIDDEN = ("rclpy", "rosidl_runtime_py", "std_msgs", "sensor_msgs", "geometry_msgs",
+              "builtin_interfaces", "test_msgs", "nav_msgs", "rpyutils")
+
+    class Hide(importlib.abc.MetaPathFinder):
+        def find_spec(self, name, path=None, target=None):
+            if name.split(".")[0] in HIDDEN:
+                raise ImportError(f"hidden for this test: {name}")
+            return None
+
+    sys.meta_path.insert(0, Hide())
+    import numpy as np
+    from pyconnect.codecs import wire
+
+    image = np.arange(24, dtype=np.uint8).reshape(2, 4, 3)
+    cdr = wire.encode(image, "sensor_msgs/msg/Image")
+    back = wire.decode(cdr, "sensor_msgs/msg/Image")
+    assert isinstance(back, np.ndarray) and (back == image).all(), back
+    assert wire.to_dict(cdr, "sensor_msgs/Image")["encoding"] == "bgr8"
+    joints = wire.from_dict({"name": ["a"], "position": [1.5]}, "sensor_msgs/msg/JointState")
+    assert wire.to_dict(joints, "sensor_msgs/msg/JointState")["position"].tolist() == [1.5]
+    strings = wire.from_dict({"string_value": "x"}, "test_msgs/msg/Strings")
+    assert wire.to_dict(strings, "test_msgs/msg/Strings")["string_value"] == "x"
+    leaked = sorted(m for m in sys.modules if m.split(".")[0] in HIDDEN)
+    assert not leaked, leaked
+    print("ok")
+    """
+)
+
+
+def test_wire_codecs_need_no_rclpy_and_no_message_classes() -> None:
+    result = subprocess.run(
+        [sys.executable, "-c", SCRIPT], capture_output=True, text=True, timeout=120, check=False
+    )
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.strip() == "ok"
