@@ -31,19 +31,26 @@ def ready(heard):
     if not heard.wait(60):
         print("NO TRAFFIC", flush=True)
     print("READY", flush=True)
+
+def ready_when_main_waits(node, heard):
+    # Signals sent before the main thread waits in spin()/wait_for_shutdown() end the program
+    # with SystemExit(0) instead of a normal return; these endings test the return.
+    while not node._main_waiting:
+        heard.wait(0.01)
+    ready(heard)
 """
 
 ENDINGS = {
     "sigint_blocking_spin": """
 node, heard = make()
-threading.Thread(target=ready, args=(heard,), daemon=True).start()
+threading.Thread(target=ready_when_main_waits, args=(node, heard), daemon=True).start()
 node.spin()
 print("AFTER SPIN", flush=True)
 """,
     "sigint_thread_wait_for_shutdown": """
 node, heard = make()
 node.spin(run_thread=True)
-ready(heard)
+threading.Thread(target=ready_when_main_waits, args=(node, heard), daemon=True).start()
 node.wait_for_shutdown()
 print("AFTER WAIT", flush=True)
 """,
@@ -83,7 +90,7 @@ node, heard = make()
 other = CustomNode("second_child", stop_func=lambda: print("STOP2", flush=True))
 node.spin(run_thread=True)
 other.spin(run_thread=True)
-ready(heard)
+threading.Thread(target=ready_when_main_waits, args=(node, heard), daemon=True).start()
 node.wait_for_shutdown()
 other.wait_for_shutdown()
 print("AFTER TWO", flush=True)

@@ -88,6 +88,7 @@ class ActionClientAgent(NodeAgent):
         self.last_feedback: Any = None
         self._in_flight: dict[int, _GoalInFlight] = {}
         self._lock = threading.Lock()
+        self._server_seen = False
         self.client = ActionClient(
             node.ros_node, action_class, conn_name, callback_group=self.callback_group
         )
@@ -123,11 +124,15 @@ class ActionClientAgent(NodeAgent):
                     daemon=True,
                 ).start()
             return result
-        if not wait_until(self.client.server_is_ready, timeout, stop=self.node._stopped):
-            return self._failed(f"no action server for {self.conn_name} within {timeout} s")
+        # Asking the graph is slow; once seen, a lost server shows up as a timeout instead.
+        if not self._server_seen:
+            if not wait_until(self.client.server_is_ready, timeout, stop=self.node._stopped):
+                return self._failed(f"no action server for {self.conn_name} within {timeout} s")
+            self._server_seen = True
         in_flight = self._send_goal(goal, result, feedback_func)
         if not self.node.executor.wait_for(done, timeout):
             in_flight.cancel()
+            self._server_seen = False
             return self._failed(f"no result within {timeout} s (goal canceled)")
         return result.result()
 

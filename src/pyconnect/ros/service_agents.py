@@ -158,6 +158,7 @@ class ServiceClientAgent(NodeAgent):
             srv_class, conn_name, callback_group=self.callback_group
         )
         self.service_name = self.client.service_name
+        self._server_seen = False
 
     def is_connected(self) -> bool:
         ready: bool = self.client.service_is_ready()
@@ -187,13 +188,18 @@ class ServiceClientAgent(NodeAgent):
                     daemon=True,
                 ).start()
             return result
-        if not wait_until(self.client.service_is_ready, timeout, stop=self.node._stopped):
-            return self._failed(f"no server for {self.service_name} within {timeout} s")
+        # Asking the graph costs about as much as a round trip; once the server was seen, a lost
+        # server shows up as a timeout, which makes the next call ask again.
+        if not self._server_seen:
+            if not wait_until(self.client.service_is_ready, timeout, stop=self.node._stopped):
+                return self._failed(f"no server for {self.service_name} within {timeout} s")
+            self._server_seen = True
         ros_future = self.client.call_async(request)
         done = threading.Event()
         ros_future.add_done_callback(lambda _future: done.set())
         if not self.node.executor.wait_for(done, timeout, poll=ros_future.done):
             self.client.remove_pending_request(ros_future)
+            self._server_seen = False
             return self._failed(f"no response from {self.service_name} within {timeout} s")
         return self._value_of(ros_future)
 
