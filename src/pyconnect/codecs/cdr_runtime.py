@@ -235,19 +235,20 @@ def read_messages(  # noqa: PLR0917 (generated code calls it positionally)
 
 def body_of(data: Any) -> tuple[memoryview, bool]:
     """The CDR body after the encapsulation header, and whether it is little-endian."""
-    mv = data if isinstance(data, memoryview) else memoryview(data)
+    mv = data if data.__class__ is memoryview else memoryview(data)
     if mv.format != "B" or mv.ndim != 1:
         mv = mv.cast("B")
     if len(mv) < 4:
         raise DecodeError(f"{len(mv)} bytes is too short for a CDR encapsulation header")
-    kind = bytes(mv[:2])
-    if kind == b"\x00\x01":
-        return mv[4:], True
-    if kind == b"\x00\x00":
-        return mv[4:], False
+    if mv[0] == 0:
+        kind = mv[1]
+        if kind == 1:
+            return mv[4:], True
+        if kind == 0:
+            return mv[4:], False
     raise DecodeError(
-        f"unsupported CDR encapsulation {kind.hex()} (expected 0001 little-endian or 0000 "
-        "big-endian XCDR1)"
+        f"unsupported CDR encapsulation {bytes(mv[:2]).hex()} (expected 0001 little-endian or "
+        "0000 big-endian XCDR1)"
     )
 
 

@@ -146,11 +146,17 @@ class WireCodec:
         return self.from_dict(value)
 
 
-def _value_codec(msg_type: str, registry: Any) -> Any:
-    if registry is None:
-        from pyconnect.codecs.registry import default_registry
+_default_registry: Any = None
 
-        registry = default_registry
+
+def _value_codec(msg_type: str, registry: Any) -> Any:
+    global _default_registry  # noqa: PLW0603 (bound on first use: an import per call costs 1 us)
+    if registry is None:
+        registry = _default_registry
+        if registry is None:
+            from pyconnect.codecs.registry import default_registry
+
+            registry = _default_registry = default_registry
     return registry.value_codec(msg_type)
 
 
