@@ -32,6 +32,7 @@ from pyconnect.codecs.cdr_runtime import (
     slow_pack,
     too_long,
     utf8z,
+    view_fields,
     view_repr,
     write_messages,
     write_strings,
@@ -69,7 +70,7 @@ _R6 = ((".f", "float32", 4), (".t", "float32", 8), (".valid_window.x_offset", "u
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
-    value = check_mapping(value)
+    value = check_mapping(view_fields(value))
     if not keys.issuperset(value):
         raise unknown_keys(value, keys)
     return value

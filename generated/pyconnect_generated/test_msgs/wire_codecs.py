@@ -73,6 +73,7 @@ from pyconnect.codecs.cdr_runtime import (
     slow_pack,
     too_long,
     utf8z,
+    view_fields,
     view_repr,
     write_messages,
     write_strings,
@@ -388,7 +389,7 @@ _R161 = ((".feedback.nested_field.float64_value", "float64", 8), (".feedback.nes
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
-    value = check_mapping(value)
+    value = check_mapping(view_fields(value))
     if not keys.issuperset(value):
         raise unknown_keys(value, keys)
     return value

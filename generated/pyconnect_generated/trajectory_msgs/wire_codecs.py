@@ -35,6 +35,7 @@ from pyconnect.codecs.cdr_runtime import (
     slow_pack,
     too_long,
     utf8z,
+    view_fields,
     view_repr,
     write_messages,
     write_strings,
@@ -93,7 +94,7 @@ _R12 = ((".time_from_start.sec", "int32", 4), (".time_from_start.nanosec", "uint
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
-    value = check_mapping(value)
+    value = check_mapping(view_fields(value))
     if not keys.issuperset(value):
         raise unknown_keys(value, keys)
     return value

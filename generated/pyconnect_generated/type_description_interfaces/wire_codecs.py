@@ -40,6 +40,7 @@ from pyconnect.codecs.cdr_runtime import (
     slow_pack,
     too_long,
     utf8z,
+    view_fields,
     view_repr,
     write_messages,
     write_strings,
@@ -112,7 +113,7 @@ _R21 = ((".info.sequence_number", "int64", 8),)
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
-    value = check_mapping(value)
+    value = check_mapping(view_fields(value))
     if not keys.issuperset(value):
         raise unknown_keys(value, keys)
     return value

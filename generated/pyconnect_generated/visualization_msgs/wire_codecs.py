@@ -46,6 +46,7 @@ from pyconnect.codecs.cdr_runtime import (
     slow_pack,
     too_long,
     utf8z,
+    view_fields,
     view_repr,
     write_messages,
     write_strings,
@@ -181,7 +182,7 @@ _R50 = ((".info.sequence_number", "int64", 8),)
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
-    value = check_mapping(value)
+    value = check_mapping(view_fields(value))
     if not keys.issuperset(value):
         raise unknown_keys(value, keys)
     return value

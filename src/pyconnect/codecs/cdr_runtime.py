@@ -450,6 +450,14 @@ def encode_bools(
 
 
 # -- views ---------------------------------------------------------------------------------------
+def view_fields(value: Any) -> Any:
+    """A decoded view's fields as a dict (so views encode like dicts); anything else as is."""
+    cls = type(value)
+    if isinstance(getattr(cls, "msg_type", None), str) and hasattr(cls, "__slots__"):
+        return {name: getattr(value, name) for name in cls.__slots__}
+    return value
+
+
 def view_repr(view: Any) -> str:
     fields = ", ".join(f"{name}={getattr(view, name)!r}" for name in type(view).__slots__)
     return f"{view.msg_type}({fields})"
