@@ -34,7 +34,7 @@ def typestore() -> Any:
 
 
 @pytest.mark.parametrize("full_name", ROSBAGS_TYPES)
-@settings(max_examples=15, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+@settings(max_examples=10, deadline=None, database=None, suppress_health_check=list(HealthCheck))
 @given(st.data())
 def test_rosbags_big_endian_decodes_like_rclpy_little_endian(
     typestore: Any, full_name: str, data: st.DataObject

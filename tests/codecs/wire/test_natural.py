@@ -18,7 +18,7 @@ from tests.strategies import default_packages, message_dicts
 
 _, TYPES = default_packages()
 NATURAL_TYPES = sorted(name for name in NATURAL_CODECS if name in TYPES.messages)
-_SETTINGS = settings(max_examples=15, deadline=None, database=None,
+_SETTINGS = settings(max_examples=10, deadline=None, database=None,
                      suppress_health_check=list(HealthCheck))  # fmt: skip
 
 

@@ -27,7 +27,7 @@ FUZZED = [
     "test_msgs/msg/Strings",
     "test_msgs/msg/WStrings",
 ]
-_FUZZ = settings(max_examples=60, deadline=None, database=None,
+_FUZZ = settings(max_examples=40, deadline=None, database=None,
                  suppress_health_check=list(HealthCheck))  # fmt: skip
 IMAGE = {
     "header": {"stamp": {"sec": 1, "nanosec": 2}, "frame_id": "cam"},
