@@ -8,6 +8,7 @@ with one dimension per axis. Dimension labels and any padding between rows are d
 
 from __future__ import annotations
 
+import math
 from functools import partial
 from typing import Any
 
@@ -32,6 +33,9 @@ DTYPES: dict[str, str] = {
 }
 
 
+_MAX_DIMS = 32  # numpy's limit before version 2; plenty for a tensor in a message
+
+
 class MultiArrayCodec:
     """One std_msgs ``*MultiArray`` type ↔ ndarray."""
 
@@ -51,7 +55,19 @@ class MultiArrayCodec:
             return data[offset:]
         shape = tuple(int(d.size) for d in dims)
         element_strides = [int(d.stride) for d in dims[1:]] + [1]
-        if 0 in shape:
+        if len(shape) > _MAX_DIMS:
+            raise DecodeError(
+                f"{self.name}.layout.dim: expected at most {_MAX_DIMS} dimensions, got {len(shape)}"
+            )
+        # A layout comes off the wire: it must not describe more elements than the data holds,
+        # or a zero stride would make a view that claims (and, once copied, allocates) far more.
+        count = math.prod(shape)
+        if count > len(data) - offset:
+            raise DecodeError(
+                f"{self.name}.data: layout {shape} needs {count} elements after offset "
+                f"{offset}, got {max(len(data) - offset, 0)}"
+            )
+        if count == 0:
             return np.empty(shape, self.dtype)
         last = offset + sum((n - 1) * s for n, s in zip(shape, element_strides, strict=True))
         if last >= len(data):

@@ -163,3 +163,24 @@ def test_multi_array_dtype_errors() -> None:
     assert str(not_array.value) == "Int32MultiArray: expected numpy.ndarray, got list"
     widened = codecs.decode(codecs.encode(np.array([1, 2], np.int16), "std_msgs/Int32MultiArray"))
     assert widened.dtype == np.int32 and widened.tolist() == [1, 2]
+
+
+def test_multi_array_layout_cannot_claim_more_than_its_data() -> None:
+    # Zero strides would give a view of 2**40 elements over one float: copying it would try to
+    # allocate terabytes. A layout off the wire may only describe the data it comes with.
+    dims = [std_msgs.MultiArrayDimension(label=str(i), size=2**20, stride=0) for i in range(2)]
+    msg = std_msgs.Float64MultiArray(layout=std_msgs.MultiArrayLayout(dim=dims), data=[1.0])
+    with pytest.raises(DecodeError) as error:
+        codecs.decode(msg)
+    assert str(error.value) == (
+        "Float64MultiArray.data: layout (1048576, 1048576) needs 1099511627776 elements after "
+        "offset 0, got 1"
+    )
+    many = [std_msgs.MultiArrayDimension(label="d", size=1, stride=1) for _ in range(40)]
+    msg = std_msgs.Float64MultiArray(layout=std_msgs.MultiArrayLayout(dim=many), data=[1.0])
+    with pytest.raises(DecodeError) as too_many:
+        codecs.decode(msg)
+    assert (
+        str(too_many.value)
+        == "Float64MultiArray.layout.dim: expected at most 32 dimensions, got 40"
+    )
