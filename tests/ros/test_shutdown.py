@@ -18,8 +18,13 @@ import sys, threading, time
 from std_msgs.msg import String
 from pyconnect.ros.custom_node import CustomNode
 
+def say(word):
+    # One write per line: two nodes stop on two threads at once.
+    sys.stdout.write(word + "\n")
+    sys.stdout.flush()
+
 def make():
-    node = CustomNode("shutdown_child", stop_func=lambda: print("STOP", flush=True))
+    node = CustomNode("shutdown_child", stop_func=lambda: say("STOP"))
     heard = threading.Event()
     node.add_agent(conn_name="beat", conn_type="sub", data_interface=String,
                    response_func=lambda _v: heard.set())
@@ -87,7 +92,7 @@ print("AFTER WITH", flush=True)
 """,
     "sigint_two_nodes": """
 node, heard = make()
-other = CustomNode("second_child", stop_func=lambda: print("STOP2", flush=True))
+other = CustomNode("second_child", stop_func=lambda: say("STOP2"))
 node.spin(run_thread=True)
 other.spin(run_thread=True)
 threading.Thread(target=ready_when_main_waits, args=(node, heard), daemon=True).start()

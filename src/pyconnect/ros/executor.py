@@ -25,6 +25,7 @@ uncontended lock round trips per callback.
 from __future__ import annotations
 
 import contextlib
+import heapq
 import threading
 import time
 from collections.abc import Callable
@@ -73,6 +74,7 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
         self._helpers: list[threading.Thread] = []
         self._monitor: threading.Thread | None = None
         self._monitor_stop = threading.Event()
+        self._waker = _DeadlineWaker(self.wake)
 
     # -- public --------------------------------------------------------------------------------
     @property
@@ -120,6 +122,7 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
         finished = poll if poll is not None else event.is_set
         deadline = None if timeout_sec is None else time.monotonic() + timeout_sec
         me = threading.get_ident()
+        waker_set = False
         while not event.is_set() and not finished():
             remaining = None if deadline is None else deadline - time.monotonic()
             if remaining is not None and remaining <= 0:
@@ -132,10 +135,16 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
             elif self._stopping or self._is_shutdown:
                 return event.is_set() or finished()
             else:
+                # No timeout for rclpy: it would build an rcl timer per wait (a third of a
+                # round trip). The deadline waker triggers the executor's guard instead.
+                if deadline is not None and not waker_set:
+                    self._waker.wake_at(deadline)
+                    waker_set = True
                 self._take_turn(
                     helper=False,
-                    timeout_sec=0.05 if remaining is None else min(remaining, 0.05),
-                    condition=finished,
+                    condition=lambda: (
+                        finished() or (deadline is not None and time.monotonic() >= deadline)
+                    ),
                 )
         return True
 
@@ -145,6 +154,7 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
             self._stopping = True
             self._turn.notify_all()
         self._monitor_stop.set()
+        self._waker.stop()
         # The guard condition may already be destroyed.
         with contextlib.suppress(Exception):
             self.wake()
@@ -152,7 +162,7 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
     def join(self, timeout_sec: float | None = None) -> None:
         """Wait for helper threads and the monitor to end (after ``stop()``)."""
         current = threading.current_thread()
-        for thread in [*list(self._helpers), self._monitor]:
+        for thread in [*list(self._helpers), self._monitor, self._waker.thread]:
             if thread is not None and thread is not current and thread.is_alive():
                 thread.join(timeout_sec)
 
@@ -261,6 +271,50 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
             import traceback
 
             traceback.print_exception(error)
+
+
+class _DeadlineWaker:
+    """One thread that calls ``wake`` at registered deadlines (started on first use)."""
+
+    def __init__(self, wake: Callable[[], None]) -> None:
+        self._wake = wake
+        self._deadlines: list[float] = []
+        self._cond = threading.Condition()
+        self._stopped = False
+        self.thread: threading.Thread | None = None
+
+    def wake_at(self, deadline: float) -> None:
+        with self._cond:
+            if self._stopped:
+                return
+            heapq.heappush(self._deadlines, deadline)
+            if self.thread is None:
+                self.thread = threading.Thread(
+                    target=self._run, name="pyconnect-executor-waker", daemon=True
+                )
+                self.thread.start()
+            # Waking the thread costs a context switch: only when it must wake up earlier.
+            if self._deadlines[0] == deadline:
+                self._cond.notify()
+
+    def stop(self) -> None:
+        with self._cond:
+            self._stopped = True
+            self._cond.notify()
+
+    def _run(self) -> None:
+        with self._cond:
+            while not self._stopped:
+                if not self._deadlines:
+                    self._cond.wait()
+                    continue
+                delay = self._deadlines[0] - time.monotonic()
+                if delay > 0:
+                    self._cond.wait(delay)
+                    continue
+                heapq.heappop(self._deadlines)
+                with contextlib.suppress(Exception):
+                    self._wake()
 
 
 def run_with_turn_released(executor: Any, function: Callable[[], Any]) -> Any:
