@@ -20,7 +20,7 @@ from pyconnect.ros.custom_node import CustomNode
 
 def say(word):
     # One write per line: two nodes stop on two threads at once.
-    sys.stdout.write(word + "\n")
+    sys.stdout.write(word + "\\n")
     sys.stdout.flush()
 
 def make():
