@@ -390,7 +390,7 @@ def main() -> None:
         print(f"{name:40} {raw:10.3f} {pyc:10.3f} {ratio:>6}  {target}")
     print(
         f"({time.perf_counter() - started:.0f} s; raw action server keeps results 900 s, "
-        "pyconnect 0.2 s plus a 60 s cache for late requests)"
+        "pyconnect 0.05 s plus a 60 s cache for late requests)"
     )
 
 

@@ -13,7 +13,7 @@ exception and sends a default result (rclpy#1020), so this agent catches it, abo
 client reports ``{'isdone': False, 'error': "... goal aborted by the server"}``; the text is
 in the server's log.
 
-Finished goals leave the server's goal list after ``result_timeout`` seconds (default 0.2 s
+Finished goals leave the server's goal list after ``result_timeout`` seconds (default 0.05 s
 instead of rclpy's 900 s): every status message lists every goal kept and every client
 converts that list to Python objects several times per goal, so latency grows with the number
 kept (ROS-FACTS.md: 1.5 -> 13 ms over 500 goals). Their results stay available
@@ -41,7 +41,7 @@ from pyconnect.ros.retaining_action_server import RetainingActionServer
 if TYPE_CHECKING:
     from pyconnect.ros.custom_node import CustomNode
 
-DEFAULT_RESULT_TIMEOUT = 0.2
+DEFAULT_RESULT_TIMEOUT = 0.05
 """Seconds a finished goal stays in the server's goal list (and every status message)."""
 
 DEFAULT_RESULT_CACHE_SECONDS = 60.0

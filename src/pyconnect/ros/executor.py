@@ -129,7 +129,8 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
                 return False
             if self.is_spinning or self._owner == me:
                 # Inside a callback, or a spin() runs elsewhere: pass the turn and just wait.
-                self._hand_off(me)
+                if self._owner == me:
+                    self._hand_off(me)
                 # Wake up now and then only to notice that the spinning thread went away.
                 event.wait(0.25 if remaining is None else min(remaining, 0.25))
             elif self._stopping or self._is_shutdown:
@@ -209,8 +210,8 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
             except (ShutdownException, ExternalShutdownException):
                 self._stopping = True
                 return False
-            with self._turn:
-                self._busy_since = time.monotonic()
+            # Read by the monitor without the lock: a stale value only costs a spare hand-off.
+            self._busy_since = time.monotonic()
             handler()
             error = handler.exception()
             if error is not None:
