@@ -86,3 +86,25 @@ def test_start_log_subs_logs_latest_values_and_records(make_node: Any, tmp_path:
         recorded = [(topic, value) for topic, _stamp, value in reader]
     assert recorded
     assert set(recorded) == {("/status", "fine")}
+
+
+def test_record_named_topics_until_stop(make_node: Any, tmp_path: Path) -> None:
+    node = make_node("recorder")
+    pub = node.add_agent(conn_name="events", conn_type="pub", data_interface=String)
+    bag = tmp_path / "events.mcap"
+    recording = node.record(bag, topics=["events"])
+    assert recording.topics == ["/events"]
+    node.spin(run_thread=True)
+    written = threading.Event()
+
+    def publish_and_check() -> None:
+        pub.send("e")
+        if recording.messages_written > 0:
+            written.set()
+
+    assert repeat_until(written, publish_and_check)
+    recording.stop()
+    recording.stop()
+    with open_bag(bag) as reader:
+        values = {value for _topic, _stamp, value in reader}
+    assert values == {"e"}

@@ -269,3 +269,24 @@ def test_header_message_passes_through_as_message(make_node: Any) -> None:
     node = make_node()
     pub = node.add_agent(conn_name="h", conn_type="pub", data_interface=Header)
     assert pub.send(Header(frame_id="map")) is True
+
+
+def test_stamped_sub_keeps_the_header(make_node: Any) -> None:
+    node = make_node()
+    arrived = threading.Event()
+    sub = node.add_agent(
+        conn_name="camera",
+        conn_type="sub",
+        data_interface=Image,
+        stamped=True,
+        response_func=lambda _value: arrived.set(),
+    )
+    pub = node.add_agent(
+        conn_name="camera", agent_name="out", conn_type="pub", data_interface=Image
+    )
+    node.spin(run_thread=True)
+    frame = __import__("numpy").full((2, 2), 7, dtype="uint8")
+    assert repeat_until(arrived, lambda: pub.send(Stamped(frame, 3_000_000_007, "cam")))
+    value = sub.get()
+    assert (value.stamp_ns, value.frame_id) == (3_000_000_007, "cam")
+    assert value.value.tolist() == [[7, 7], [7, 7]]
