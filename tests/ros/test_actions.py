@@ -91,7 +91,7 @@ def test_raising_handler_aborts_with_text_when_result_has_no_string_field(make_n
         "sequence": [],
         "isdone": False,
         "error": "agent 'fib_client' (action_client test_msgs/action/Fibonacci): "
-        "goal aborted by the server",
+        "goal aborted by the server: RuntimeError: arm collision",
     }
     assert node.agents["fib"].last_error == (
         "agent 'fib' (action_server test_msgs/action/Fibonacci): response_func raised "

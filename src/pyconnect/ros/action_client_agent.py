@@ -4,7 +4,8 @@
 ``reform_response``: a dict result gets ``'isdone': True``; an aborted, canceled or rejected
 goal, a timeout or a missing server gives ``{'isdone': False, 'error': ...}`` (plus the result's
 fields when it is a dict). The abort text comes from the result's ``message``/``error`` field
-when the server put one there (a pyconnect server does). ``block=False`` returns a
+when the server put one there, else from the reason a pyconnect server publishes beside the
+action (pyconnect.ros.abort_reasons). ``block=False`` returns a
 ``concurrent.futures.Future``. A timeout cancels the goal. ``feedback_func(value)`` gets each
 decoded feedback; the latest is also in ``last_feedback``.
 """
@@ -23,6 +24,7 @@ from rclpy.action import ActionClient
 from rclpy.callback_groups import CallbackGroup
 from rclpy.task import Future as RosFuture
 
+from pyconnect.ros.abort_reasons import AbortReasons
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
 from pyconnect.ros.error_fields import error_text_of
 from pyconnect.ros.interfaces import interface_class
@@ -92,6 +94,7 @@ class ActionClientAgent(NodeAgent):
         self.client = ActionClient(
             node.ros_node, action_class, conn_name, callback_group=self.callback_group
         )
+        self._abort_reasons = AbortReasons(node.ros_node, conn_name)
 
     def is_connected(self) -> bool:
         ready: bool = self.client.server_is_ready()
@@ -193,13 +196,15 @@ class ActionClientAgent(NodeAgent):
                 result.set_result(self._failed("goal rejected by the server"))
                 return
             in_flight.accepted(handle)
-            handle.get_result_async().add_done_callback(on_result)
+            handle.get_result_async().add_done_callback(
+                lambda result_future: on_result(result_future, handle.goal_id)
+            )
 
-        def on_result(result_future: RosFuture) -> None:
+        def on_result(result_future: RosFuture, goal_id: Any) -> None:
             with self._lock:
                 self._in_flight.pop(key, None)
             try:
-                result.set_result(self._outcome(result_future.result()))
+                result.set_result(self._outcome(result_future.result(), goal_id))
             except Exception as error:
                 result.set_exception(error)
 
@@ -208,7 +213,7 @@ class ActionClientAgent(NodeAgent):
         )
         return in_flight
 
-    def _outcome(self, response: Any) -> Any:
+    def _outcome(self, response: Any, goal_id: Any) -> Any:
         status = response.status
         if status == GoalStatus.STATUS_SUCCEEDED:
             value = self.reform_response(self.result_conversion.decode_checked(response.result))
@@ -221,7 +226,9 @@ class ActionClientAgent(NodeAgent):
         if status == GoalStatus.STATUS_CANCELED:
             return self._failed("goal canceled", partial)
         if status == GoalStatus.STATUS_ABORTED:
-            text = error_text_of(response.result)
+            text = error_text_of(response.result) or self._abort_reasons.wait_for_reason(
+                goal_id, self.node.executor.wait_for
+            )
             return self._failed(
                 f"goal aborted by the server: {text}" if text else "goal aborted by the server",
                 partial,
@@ -230,6 +237,7 @@ class ActionClientAgent(NodeAgent):
 
     def close(self) -> None:
         self.client.destroy()
+        self._abort_reasons.destroy(self.node.ros_node)
         super().close()
 
 

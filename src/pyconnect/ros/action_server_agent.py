@@ -8,10 +8,9 @@ if a cancel arrived meanwhile, the goal ends canceled when it returns.
 A handler that raises aborts the goal *with the error text*: rclpy's own server logs the
 exception and sends a default result (rclpy#1020), so this agent catches it, aborts, and puts
 ``"<Exception>: <text>"`` in the result's first string field named ``message``, ``error``,
-``error_message``... (pyconnect.ros.error_fields). A result type without such a field (e.g.
-``test_msgs/action/Fibonacci``) cannot carry text: the client sees status ABORTED and a pyconnect
-client reports ``{'isdone': False, 'error': "... goal aborted by the server"}``; the text is
-in the server's log.
+``error_message``... (pyconnect.ros.error_fields). Result types without such a field (e.g.
+``test_msgs/action/Fibonacci``) cannot carry text, so the reason is also published beside the
+action's topics (pyconnect.ros.abort_reasons), where pyconnect clients read it.
 
 Finished goals leave the server's goal list after ``result_timeout`` seconds (default 0.05 s
 instead of rclpy's 900 s): every status message lists every goal kept and every client
@@ -32,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 from rclpy.action import CancelResponse, GoalResponse
 from rclpy.callback_groups import CallbackGroup, ReentrantCallbackGroup
 
+from pyconnect.ros.abort_reasons import AbortReasonPublisher
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
 from pyconnect.ros.error_fields import error_message
 from pyconnect.ros.interfaces import interface_class
@@ -106,6 +106,7 @@ class ActionServerAgent(NodeAgent):
         if encode_func is None:
             _ = self.result_conversion.codec
         self.goal_count = 0
+        self._abort_reasons = AbortReasonPublisher(node.ros_node, conn_name)
         self.server = RetainingActionServer(
             node.ros_node,
             action_class,
@@ -146,9 +147,12 @@ class ActionServerAgent(NodeAgent):
             return result
         except Exception as error:
             self.report_exception(where, error)
+            text = f"{type(error).__name__}: {error}"
             if goal_handle.is_active:
+                # Published before the result is, so a client finds it when the abort arrives.
+                self._abort_reasons.publish(goal_handle.goal_id, text)
                 goal_handle.abort()
-            return error_message(self._result_class, f"{type(error).__name__}: {error}")
+            return error_message(self._result_class, text)
 
     def _run_generator(self, generator: Any, goal_handle: Any) -> tuple[bool, Any]:
         """Drive a generator handler: (True, result) at its end, (False, None) when canceled."""
@@ -166,4 +170,5 @@ class ActionServerAgent(NodeAgent):
 
     def close(self) -> None:
         self.server.destroy()
+        self._abort_reasons.destroy(self.node.ros_node)
         super().close()
