@@ -25,7 +25,7 @@ from rclpy.callback_groups import CallbackGroup
 from rclpy.task import Future as RosFuture
 
 from pyconnect.ros.abort_reasons import AbortReasons
-from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
+from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_text_of
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
@@ -65,28 +65,13 @@ class ActionClientAgent(NodeAgent):
             callback_group=callback_group,
         )
         self.timeout = timeout
-        registry = node.registry
-        self.goal_conversion = MessageConversion(
-            describe=self.describe,
-            msg_class=action_class.Goal,
-            codec_of=lambda: registry.lookup_message(action_class.Goal),
-            encode_func=encode_func,
+        self.goal_conversion = self.make_conversion(
+            action_class.Goal, encode_func=encode_func, eager=encode_func is None
         )
-        self.result_conversion = MessageConversion(
-            describe=self.describe,
-            msg_class=action_class.Result,
-            codec_of=lambda: registry.lookup_message(action_class.Result),
-            decode_func=decode_func,
+        self.result_conversion = self.make_conversion(
+            action_class.Result, decode_func=decode_func, eager=decode_func is None
         )
-        self.feedback_conversion = MessageConversion(
-            describe=self.describe,
-            msg_class=action_class.Feedback,
-            codec_of=lambda: registry.lookup_message(action_class.Feedback),
-        )
-        if encode_func is None:
-            _ = self.goal_conversion.codec
-        if decode_func is None:
-            _ = self.result_conversion.codec
+        self.feedback_conversion = self.make_conversion(action_class.Feedback)
         self.last_feedback: Any = None
         self._in_flight: dict[int, _GoalInFlight] = {}
         self._lock = threading.Lock()

@@ -32,7 +32,7 @@ from rclpy.action import CancelResponse, GoalResponse
 from rclpy.callback_groups import CallbackGroup, ReentrantCallbackGroup
 
 from pyconnect.ros.abort_reasons import AbortReasonPublisher
-from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
+from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_message
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
@@ -83,28 +83,13 @@ class ActionServerAgent(NodeAgent):
             raise self.error("an 'action_server' agent needs a response_func")
         self._handler: ResponseFunc = response_func
         self._result_class = action_class.Result
-        registry = node.registry
-        self.goal_conversion = MessageConversion(
-            describe=self.describe,
-            msg_class=action_class.Goal,
-            codec_of=lambda: registry.lookup_message(action_class.Goal),
-            decode_func=decode_func,
+        self.goal_conversion = self.make_conversion(
+            action_class.Goal, decode_func=decode_func, eager=decode_func is None
         )
-        self.result_conversion = MessageConversion(
-            describe=self.describe,
-            msg_class=action_class.Result,
-            codec_of=lambda: registry.lookup_message(action_class.Result),
-            encode_func=encode_func,
+        self.result_conversion = self.make_conversion(
+            action_class.Result, encode_func=encode_func, eager=encode_func is None
         )
-        self.feedback_conversion = MessageConversion(
-            describe=self.describe,
-            msg_class=action_class.Feedback,
-            codec_of=lambda: registry.lookup_message(action_class.Feedback),
-        )
-        if decode_func is None:
-            _ = self.goal_conversion.codec
-        if encode_func is None:
-            _ = self.result_conversion.codec
+        self.feedback_conversion = self.make_conversion(action_class.Feedback)
         self.goal_count = 0
         self._abort_reasons = AbortReasonPublisher(node.ros_node, conn_name)
         self.server = RetainingActionServer(

@@ -21,6 +21,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 from rclpy.callback_groups import CallbackGroup, MutuallyExclusiveCallbackGroup
 
 from pyconnect.errors import PyconnectError
+from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
 from pyconnect.ros.interfaces import interface_name
 
 if TYPE_CHECKING:
@@ -75,6 +76,31 @@ class NodeAgent:
         """How errors name the agent: ``agent 'cmd_vel' (pub geometry_msgs/msg/Twist)``."""
         kind = f"{self.conn_type} {self.type_name}".strip()
         return f"agent {self.name!r} ({kind})"
+
+    def make_conversion(
+        self,
+        msg_class: type,
+        *,
+        encode_func: EncodeFunc | None = None,
+        decode_func: DecodeFunc | None = None,
+        eager: bool = False,
+    ) -> MessageConversion:
+        """How this agent converts ``msg_class``: the user's functions, else the registry codec.
+
+        ``eager`` looks the codec up now, so that a type without one fails when the agent is
+        created instead of at its first message (pass it for the directions the agent uses).
+        """
+        registry = self.node.registry
+        conversion = MessageConversion(
+            describe=self.describe,
+            msg_class=msg_class,
+            codec_of=lambda: registry.lookup_message(msg_class),
+            encode_func=encode_func,
+            decode_func=decode_func,
+        )
+        if eager:
+            _ = conversion.codec
+        return conversion
 
     def error(self, text: str) -> PyconnectError:
         """A ``PyconnectError`` whose message starts with this agent's name."""

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any
 from rclpy.callback_groups import CallbackGroup
 from rclpy.qos import QoSProfile
 
-from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
+from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.qos import resolve_qos
@@ -61,15 +61,9 @@ class PublisherAgent(NodeAgent):
             raise self.error("response_func on a 'pub' agent needs time_period (it is polled)")
         if time_period is not None and time_period <= 0:
             raise self.error(f"time_period must be > 0 seconds, got {time_period!r}")
-        self.conversion = MessageConversion(
-            describe=self.describe,
-            msg_class=msg_class,
-            codec_of=lambda: node.registry.lookup_message(msg_class),
-            encode_func=encode_func,
-            decode_func=decode_func,
+        self.conversion = self.make_conversion(
+            msg_class, encode_func=encode_func, decode_func=decode_func, eager=encode_func is None
         )
-        if encode_func is None:
-            _ = self.conversion.codec
         self.frame_id = frame_id
         self.only_if_subscribed = only_if_subscribed
         self.time_period = time_period

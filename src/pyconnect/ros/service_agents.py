@@ -23,7 +23,7 @@ from typing import TYPE_CHECKING, Any
 from rclpy.callback_groups import CallbackGroup
 from rclpy.task import Future as RosFuture
 
-from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
+from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_message
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
@@ -64,22 +64,12 @@ class ServiceServerAgent(NodeAgent):
         if response_func is None:
             raise self.error("a 'service_server' agent needs a response_func")
         self._handler: ResponseFunc = response_func
-        self.request_conversion = MessageConversion(
-            describe=self.describe,
-            msg_class=srv_class.Request,
-            codec_of=lambda: node.registry.lookup_message(srv_class.Request),
-            decode_func=decode_func,
+        self.request_conversion = self.make_conversion(
+            srv_class.Request, decode_func=decode_func, eager=decode_func is None
         )
-        self.response_conversion = MessageConversion(
-            describe=self.describe,
-            msg_class=srv_class.Response,
-            codec_of=lambda: node.registry.lookup_message(srv_class.Response),
-            encode_func=encode_func,
+        self.response_conversion = self.make_conversion(
+            srv_class.Response, encode_func=encode_func, eager=encode_func is None
         )
-        if decode_func is None:
-            _ = self.request_conversion.codec
-        if encode_func is None:
-            _ = self.response_conversion.codec
         self.request_count = 0
         self.service = node.ros_node.create_service(
             srv_class, conn_name, self._on_request, callback_group=self.callback_group
@@ -138,22 +128,12 @@ class ServiceClientAgent(NodeAgent):
             callback_group=callback_group,
         )
         self.timeout = timeout
-        self.request_conversion = MessageConversion(
-            describe=self.describe,
-            msg_class=srv_class.Request,
-            codec_of=lambda: node.registry.lookup_message(srv_class.Request),
-            encode_func=encode_func,
+        self.request_conversion = self.make_conversion(
+            srv_class.Request, encode_func=encode_func, eager=encode_func is None
         )
-        self.response_conversion = MessageConversion(
-            describe=self.describe,
-            msg_class=srv_class.Response,
-            codec_of=lambda: node.registry.lookup_message(srv_class.Response),
-            decode_func=decode_func,
+        self.response_conversion = self.make_conversion(
+            srv_class.Response, decode_func=decode_func, eager=decode_func is None
         )
-        if encode_func is None:
-            _ = self.request_conversion.codec
-        if decode_func is None:
-            _ = self.response_conversion.codec
         self.client = node.ros_node.create_client(
             srv_class, conn_name, callback_group=self.callback_group
         )

@@ -19,7 +19,7 @@ from rclpy.callback_groups import CallbackGroup
 from rclpy.qos import QoSProfile
 
 from pyconnect.errors import DecodeError
-from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
+from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.qos import resolve_qos
@@ -62,12 +62,8 @@ class SubscriberAgent(NodeAgent):
             do_log_msg=do_log_msg,
             callback_group=callback_group,
         )
-        self.conversion = MessageConversion(
-            describe=self.describe,
-            msg_class=msg_class,
-            codec_of=lambda: node.registry.lookup_message(msg_class),
-            encode_func=encode_func,
-            decode_func=decode_func,
+        self.conversion = self.make_conversion(
+            msg_class, encode_func=encode_func, decode_func=decode_func
         )
         if decode_func is None:
             codec = self.conversion.codec
