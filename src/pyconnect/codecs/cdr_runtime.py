@@ -219,7 +219,7 @@ def read_messages(  # noqa: PLR0917 (generated code calls it positionally)
     count: int | None,
     bound: int | None,
     least: int,
-) -> tuple[list[Any], int]:
+) -> tuple[Sequence[Any], int]:
     """A fixed array (``count`` given) or a sequence (count read first) of messages."""
     if count is None:
         count, pos = _read_count(mv, pos, lim, u32, bound, least)
@@ -324,6 +324,21 @@ def _as_list(value: Any) -> Sequence[Any]:
     raise FieldError("", f"expected list, got {describe(value)}")
 
 
+def _sequence_start(  # noqa: PLR0917 (mirrors the writers' positional signature)
+    value: Any, out: list[Any], pos: int, u32: struct.Struct, size: int | None, fixed: bool
+) -> tuple[Sequence[Any], int]:
+    """The checked elements, and the position after the count a sequence starts with."""
+    values = _as_list(value)
+    check_length(values, size, fixed, "")
+    if not fixed:
+        pad = -pos & 3
+        if pad:
+            out.append(ZEROS[pad])
+        out.append(u32.pack(len(values)))
+        pos += pad + 4
+    return values, pos
+
+
 def write_strings(  # noqa: PLR0917 (generated code calls it positionally)
     value: Any,
     out: list[Any],
@@ -334,14 +349,7 @@ def write_strings(  # noqa: PLR0917 (generated code calls it positionally)
     string_bound: int | None,
     wide: bool,
 ) -> int:
-    values = _as_list(value)
-    check_length(values, size, fixed, "")
-    if not fixed:
-        pad = -pos & 3
-        if pad:
-            out.append(ZEROS[pad])
-        out.append(u32.pack(len(values)))
-        pos += pad + 4
+    values, pos = _sequence_start(value, out, pos, u32, size, fixed)
     for index, text in enumerate(values):
         try:
             if wide:
@@ -368,14 +376,7 @@ def write_messages(  # noqa: PLR0917 (generated code calls it positionally)
     size: int | None,
     fixed: bool,
 ) -> int:
-    values = _as_list(value)
-    check_length(values, size, fixed, "")
-    if not fixed:
-        pad = -pos & 3
-        if pad:
-            out.append(ZEROS[pad])
-        out.append(u32.pack(len(values)))
-        pos += pad + 4
+    values, pos = _sequence_start(value, out, pos, u32, size, fixed)
     for index, item in enumerate(values):
         try:
             pos = encode(item, out, pos)
