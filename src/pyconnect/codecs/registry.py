@@ -15,9 +15,6 @@ from pyconnect.errors import CodecNotFoundError, PyconnectError
 
 AnyCodec = Codec | ServiceCodec | ActionCodec
 
-_SERVICE_PARTS = ("Request", "Response", "Event")
-_ACTION_PARTS = ("Goal", "Result", "Feedback")
-
 
 def _load_factory(spec: str) -> Callable[[], Codec]:
     module_name, _, attr = spec.partition(":")
@@ -164,13 +161,9 @@ class Registry:
 
     def _find(self, full_name: str) -> AnyCodec:
         package, namespace, name = full_name.split("/")
-        if (
-            namespace in ("srv", "action")
-            and not name.endswith(tuple(f"_{part}" for part in _SERVICE_PARTS + _ACTION_PARTS))
-            and "_SendGoal_" not in name
-            and "_GetResult_" not in name
-            and not name.endswith("_FeedbackMessage")
-        ):
+        # Interface names are CamelCase without underscores; the names of their parts
+        # (SetBool_Request, Fibonacci_SendGoal_Request, ...) always have one.
+        if namespace in ("srv", "action") and "_" not in name:
             prefix = f"{package}/{namespace}/{name}_"
             if namespace == "srv":
                 event = self._find(prefix + "Event") if self._has_event(prefix) else None
