@@ -108,3 +108,31 @@ def test_record_named_topics_until_stop(make_node: Any, tmp_path: Path) -> None:
     with open_bag(bag) as reader:
         values = {value for _topic, _stamp, value in reader}
     assert values == {"e"}
+
+
+def test_logged_rgb_images_keep_their_colours(make_node: Any, tmp_path: Path) -> None:
+    import cv2
+    import numpy as np
+    from sensor_msgs.msg import Image
+
+    from pyconnect.codecs.image import ImageCodec
+
+    node = make_node("camera_logger", log_dir=tmp_path)
+    arrived = threading.Event()
+    sub = node.add_agent(
+        conn_name="camera", conn_type="sub", data_interface=Image, do_log_msg=True,
+        response_func=lambda _value: arrived.set(), qos="default",
+    )  # fmt: skip
+    pub = node.add_agent(
+        conn_name="camera", agent_name="out", conn_type="pub", data_interface=Image, qos="default"
+    )
+    node.spin(run_thread=True)
+    red = np.zeros((2, 3, 3), np.uint8)
+    red[..., 0] = 255  # red in RGB order
+    msg = ImageCodec(encoding="rgb8").encode(red)
+    assert repeat_until(arrived, lambda: pub.send(msg))
+    assert sub.flush_log(EVENT_TIMEOUT)
+    written = cv2.imread(str(sorted(sub.make_log_dirs().glob("*.png"))[0]), cv2.IMREAD_UNCHANGED)
+    # A PNG viewer must show red: OpenCV reads it back as BGR with the red in channel 2.
+    assert written[..., 2].tolist() == [[255] * 3] * 2
+    assert written[..., 0].tolist() == [[0] * 3] * 2

@@ -86,6 +86,13 @@ def _json_default(value: Any) -> Any:
     raise TypeError(f"expected a JSON-compatible value, got {type_name_of(value)}")
 
 
+@dataclasses.dataclass(frozen=True)
+class RgbImage:
+    """Pixels in RGB(A) order (an ``rgb8`` image): written to PNG in OpenCV's BGR(A) order."""
+
+    pixels: np.ndarray
+
+
 def _is_image(array: np.ndarray) -> bool:
     if array.dtype not in _IMAGE_DTYPES or array.size == 0:
         return False
@@ -99,6 +106,10 @@ def encode_log_value(value: object) -> tuple[str, bytes]:
     """
     if isinstance(value, Stamped):
         value = value.value
+    if isinstance(value, RgbImage):
+        value = value.pixels
+        if _is_image(value) and value.ndim == 3 and value.shape[2] in (3, 4):
+            value = value[..., [2, 1, 0, 3][: value.shape[2]]]
     if isinstance(value, np.ndarray):
         if _is_image(value):
             import cv2
@@ -209,10 +220,18 @@ class MessageLogger:
         """Values queued and not yet written."""
         return self._pending
 
-    def log(self, value: object, *, stamp_ns: int | None = None) -> bool:
-        """Queue ``value`` for writing; False (and one more drop) when it cannot be queued."""
+    def log(self, value: object, *, stamp_ns: int | None = None, rgb: bool = False) -> bool:
+        """Queue ``value`` for writing; False (and one more drop) when it cannot be queued.
+
+        ``rgb=True`` says an image array holds RGB(A) channels (an ``rgb8`` Image): the writer
+        thread reorders them, since PNG files are written from OpenCV's BGR(A) order.
+        """
         if stamp_ns is None:
             stamp_ns = value.stamp_ns if isinstance(value, Stamped) else time.time_ns()
+        if rgb:
+            pixels = value.value if isinstance(value, Stamped) else value
+            if isinstance(pixels, np.ndarray):
+                value = RgbImage(pixels)
         with self._condition:
             accepted = not self._closed and self._pending < self.queue_size
             if accepted:

@@ -62,6 +62,8 @@ class NodeAgent:
         self._log_dir: Path | None = None
         self._message_logger: Any = None
         self._log_lock = threading.Lock()
+        # True while the latest value is an image with RGB(A) channels (PNG logs want BGR).
+        self._log_rgb = False
 
     # -- identity ------------------------------------------------------------------------------
     @property
@@ -161,8 +163,13 @@ class NodeAgent:
                     self._log_dir = directory
                     self._message_logger = MessageLogger(directory)
                 logger = self._message_logger
-        ok: bool = logger.log(data, stamp_ns=stamp_ns)
+        ok: bool = logger.log(data, stamp_ns=stamp_ns, rgb=self._log_rgb)
         return ok
+
+    def _note_channel_order(self, msg: Any) -> None:
+        """Remember whether ``msg`` is an image whose decoded pixels are RGB(A)."""
+        encoding = getattr(msg, "encoding", None)
+        self._log_rgb = isinstance(encoding, str) and encoding.startswith("rgb")
 
     def flush_log(self, timeout: float | None = None) -> bool:
         """Wait until the logged messages are on disk."""

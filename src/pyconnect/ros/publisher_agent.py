@@ -102,6 +102,7 @@ class PublisherAgent(NodeAgent):
                 header.frame_id = self.frame_id
         self.publisher.publish(msg)
         self._latest = data
+        self._note_channel_order(msg)
         self.sent_count += 1
         if self.do_log_msg:
             self.log_msg(data)

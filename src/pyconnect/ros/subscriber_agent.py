@@ -96,6 +96,7 @@ class SubscriberAgent(NodeAgent):
             self.report_exception("decode", error)
             return
         self._latest = value
+        self._note_channel_order(msg)
         self.message_count += 1
         self.last_received_ns = time.time_ns()
         if not self._first_message.is_set():
