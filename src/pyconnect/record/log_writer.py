@@ -11,7 +11,8 @@ File formats (the extension says which):
   (tuples become lists, nested arrays become lists, nested bytes become base64 strings,
   NaN/inf are written as Python's ``json`` writes them);
 - ``uint8``/``uint16`` arrays of shape (H, W), (H, W, 1), (H, W, 3) or (H, W, 4) -> ``.png``
-  (channels in OpenCV's BGR(A) order, as ``cv2.imwrite`` takes them);
+  (channels in OpenCV's BGR(A) order, as ``cv2.imwrite`` takes them; ``log(..., rgb=True)``,
+  which agents pass for ``rgb8``/``rgba8`` images, reorders RGB(A) first);
 - every other ndarray, structured arrays included -> ``.npy``;
 - top-level bytes, bytearray or memoryview -> ``.bin`` (the raw bytes).
 
