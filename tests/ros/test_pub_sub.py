@@ -290,3 +290,38 @@ def test_stamped_sub_keeps_the_header(make_node: Any) -> None:
     value = sub.get()
     assert (value.stamp_ns, value.frame_id) == (3_000_000_007, "cam")
     assert value.value.tolist() == [[7, 7], [7, 7]]
+
+
+def test_codec_option_replaces_the_registry_codec_for_that_agent(make_node: Any) -> None:
+    import numpy as np
+
+    from pyconnect.codecs.image import ImageCodec
+
+    node = make_node()
+    received: list[Any] = []
+    arrived = threading.Event()
+
+    def on_raw(msg: Any) -> None:
+        received.append(msg)
+        arrived.set()
+
+    # The sub keeps the raw message (decode_func) to see what the pub's codec produced.
+    node.add_agent(
+        conn_name="camera", conn_type="sub", data_interface=Image, decode_func=lambda m: m,
+        response_func=on_raw, qos="default",
+    )  # fmt: skip
+    pub = node.add_agent(
+        conn_name="camera", agent_name="out", conn_type="pub", data_interface=Image,
+        codec=ImageCodec(encoding="rgb8"), qos="default",
+    )  # fmt: skip
+    node.spin(run_thread=True)
+    pixels = np.arange(2 * 3 * 3, dtype=np.uint8).reshape(2, 3, 3)
+    assert repeat_until(arrived, lambda: pub.send(pixels))
+    assert received[0].encoding == "rgb8"
+    assert bytes(received[0].data) == pixels.tobytes()
+    with pytest.raises(PyconnectError) as raised:
+        node.add_agent(conn_name="x", conn_type="pub", data_interface=Image, codec="rgb8")
+    assert str(raised.value) == (
+        "agent 'x' (pub sensor_msgs/msg/Image): codec: expected a codec with msg_type, lossless, "
+        "encode and decode, got str"
+    )

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any, ClassVar
 
 from rclpy.callback_groups import CallbackGroup, MutuallyExclusiveCallbackGroup
 
+from pyconnect.codecs.base import Codec
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
 from pyconnect.ros.interfaces import interface_name
@@ -85,18 +86,27 @@ class NodeAgent:
         *,
         encode_func: EncodeFunc | None = None,
         decode_func: DecodeFunc | None = None,
+        codec: Codec | None = None,
         eager: bool = False,
     ) -> MessageConversion:
-        """How this agent converts ``msg_class``: the user's functions, else the registry codec.
+        """How this agent converts ``msg_class``: the user's functions, else ``codec``, else the
+        registry's codec.
 
         ``eager`` looks the codec up now, so that a type without one fails when the agent is
         created instead of at its first message (pass it for the directions the agent uses).
         """
         registry = self.node.registry
+        if codec is not None and not isinstance(codec, Codec):
+            raise self.error(
+                f"codec: expected a codec with msg_type, lossless, encode and decode, "
+                f"got {type(codec).__name__}"
+            )
         conversion = MessageConversion(
             describe=self.describe,
             msg_class=msg_class,
-            codec_of=lambda: registry.lookup_message(msg_class),
+            codec_of=(lambda: codec)
+            if codec is not None
+            else (lambda: registry.lookup_message(msg_class)),
             encode_func=encode_func,
             decode_func=decode_func,
         )

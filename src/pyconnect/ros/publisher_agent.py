@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 from rclpy.callback_groups import CallbackGroup
 from rclpy.qos import QoSProfile
 
+from pyconnect.codecs.base import Codec
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
@@ -39,6 +40,7 @@ class PublisherAgent(NodeAgent):
         data_interface: object,
         encode_func: EncodeFunc | None = None,
         decode_func: DecodeFunc | None = None,
+        codec: Codec | None = None,
         response_func: ResponseFunc | None = None,
         do_log_msg: bool = False,
         qos: QoSProfile | str | int | None = None,
@@ -62,7 +64,11 @@ class PublisherAgent(NodeAgent):
         if time_period is not None and time_period <= 0:
             raise self.error(f"time_period must be > 0 seconds, got {time_period!r}")
         self.conversion = self.make_conversion(
-            msg_class, encode_func=encode_func, decode_func=decode_func, eager=encode_func is None
+            msg_class,
+            encode_func=encode_func,
+            decode_func=decode_func,
+            codec=codec,
+            eager=encode_func is None,
         )
         self.frame_id = frame_id
         self.only_if_subscribed = only_if_subscribed

@@ -18,6 +18,7 @@ from typing import TYPE_CHECKING, Any
 from rclpy.callback_groups import CallbackGroup
 from rclpy.qos import QoSProfile
 
+from pyconnect.codecs.base import Codec
 from pyconnect.errors import DecodeError
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.interfaces import interface_class
@@ -46,6 +47,7 @@ class SubscriberAgent(NodeAgent):
         data_interface: object,
         encode_func: EncodeFunc | None = None,
         decode_func: DecodeFunc | None = None,
+        codec: Codec | None = None,
         response_func: ResponseFunc | None = None,
         do_log_msg: bool = False,
         qos: QoSProfile | str | int | None = None,
@@ -63,7 +65,7 @@ class SubscriberAgent(NodeAgent):
             callback_group=callback_group,
         )
         self.conversion = self.make_conversion(
-            msg_class, encode_func=encode_func, decode_func=decode_func
+            msg_class, encode_func=encode_func, decode_func=decode_func, codec=codec
         )
         if decode_func is None:
             codec = self.conversion.codec
