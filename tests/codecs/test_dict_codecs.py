@@ -12,12 +12,11 @@ import pyconnect_generated
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from rclpy import serialization as rclpy_serialization
 
 from pyconnect import codecs
 from pyconnect.errors import EncodeError
 from tests.strategies import all_types, message_dicts, same_value
-
-rclpy_serialization = pytest.importorskip("rclpy.serialization")
 
 
 def _generated_entries() -> dict[str, tuple[Any, ...]]:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+import std_msgs.msg as std_msgs
 from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
@@ -16,7 +17,6 @@ from pyconnect.codecs.occupancy_grid import OccupancyGridValue
 from pyconnect.errors import DecodeError, EncodeError
 from tests.codecs.natural.helpers import EXAMPLES, same, wire_view
 
-std_msgs = pytest.importorskip("std_msgs.msg")
 f32 = st.floats(width=32)
 
 

@@ -20,9 +20,8 @@ from tests.codecs.natural.test_point_cloud import agrees
 if not ROSBAGS_RS.is_dir():
     pytest.skip(f"sample bags not found at {ROSBAGS_RS}", allow_module_level=True)
 
-highlevel = pytest.importorskip("rosbags.highlevel")
-typesys = pytest.importorskip("rosbags.typesys")
-serialization = pytest.importorskip("rclpy.serialization")
+from rclpy import serialization
+from rosbags import highlevel, typesys
 
 INTERESTING = set(NATURAL_CODECS) | {"stereo_msgs/msg/DisparityImage"}
 

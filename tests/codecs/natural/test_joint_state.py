@@ -7,12 +7,12 @@ from typing import Any
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
+from sensor_msgs.msg import JointState
 
 from pyconnect import codecs
 from pyconnect.errors import DecodeError, EncodeError
 from tests.codecs.natural.helpers import EXAMPLES, same, wire_view
 
-JointState = pytest.importorskip("sensor_msgs.msg").JointState
 CODEC = codecs.lookup("sensor_msgs/msg/JointState")
 
 

@@ -7,12 +7,11 @@ from typing import Any
 
 import numpy as np
 import pytest
+from rclpy import serialization
 
 from pyconnect import codecs
 from pyconnect.codecs import geometry, image, joint_state, message_slots
 from pyconnect.codecs.message_slots import field_reader, has_slot_layout
-
-serialization = pytest.importorskip("rclpy.serialization")
 
 CASES: list[tuple[str, Any]] = [
     ("sensor_msgs/msg/Image", np.arange(12, dtype=np.uint16).reshape(2, 3, 2)),

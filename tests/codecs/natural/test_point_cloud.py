@@ -7,6 +7,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+import sensor_msgs.msg as msgs
 from hypothesis import given
 from hypothesis import strategies as st
 
@@ -20,7 +21,6 @@ from pyconnect.codecs.point_cloud import (
 from pyconnect.errors import DecodeError, EncodeError
 from tests.codecs.natural.helpers import EXAMPLES, same, wire_view
 
-msgs = pytest.importorskip("sensor_msgs.msg")
 PointCloud2, PointField = msgs.PointCloud2, msgs.PointField
 
 STRUCT = {1: "b", 2: "B", 3: "h", 4: "H", 5: "i", 6: "I", 7: "f", 8: "d"}

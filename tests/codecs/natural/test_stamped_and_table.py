@@ -15,8 +15,6 @@ from pyconnect.codecs.stamped import Stamped, header_of
 from pyconnect.errors import DecodeError, EncodeError
 from tests.codecs.natural.helpers import wire_view
 
-pytest.importorskip("sensor_msgs.msg")
-
 
 @pytest.mark.parametrize("type_name", sorted(NATURAL_CODECS))
 def test_every_table_entry_is_a_codec_of_its_type(type_name: str) -> None:

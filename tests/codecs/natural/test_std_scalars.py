@@ -15,8 +15,6 @@ from pyconnect.codecs.checks import INTEGER_RANGES
 from pyconnect.errors import EncodeError
 from tests.codecs.natural.helpers import EXAMPLES, same, wire_view
 
-pytest.importorskip("std_msgs.msg")
-
 INTS = {
     "Int8": "int8",
     "Int16": "int16",
