@@ -11,6 +11,7 @@ import pytest
 from pyconnect.errors import DecodeError
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_reader import bag_info, open_bag
+from tests.conftest import require_sample_bags
 from tests.record.bag_samples import (
     BAGS,
     expected_bags,
@@ -20,8 +21,7 @@ from tests.record.bag_samples import (
 )
 
 EXPECTED = expected_bags()
-if not EXPECTED:
-    pytest.skip(f"no sample bags at {BAGS}", allow_module_level=True)
+require_sample_bags(BAGS, bool(EXPECTED))
 
 WRONG_FORMAT = sorted(key for key in EXPECTED if key.endswith("wrong_rmw_test"))
 READABLE = sorted(key for key in EXPECTED if key not in WRONG_FORMAT)

@@ -10,18 +10,17 @@ from typing import Any
 
 import numpy as np
 import pytest
+from rclpy import serialization
+from rosbags import highlevel, typesys
 
 from pyconnect import codecs
 from pyconnect.codecs.natural import NATURAL_CODECS
 from pyconnect.errors import DecodeError
 from tests.codecs.natural.helpers import ROSBAGS_RS, same
 from tests.codecs.natural.test_point_cloud import agrees
+from tests.conftest import require_sample_bags
 
-if not ROSBAGS_RS.is_dir():
-    pytest.skip(f"sample bags not found at {ROSBAGS_RS}", allow_module_level=True)
-
-from rclpy import serialization
-from rosbags import highlevel, typesys
+require_sample_bags(ROSBAGS_RS, ROSBAGS_RS.is_dir())
 
 INTERESTING = set(NATURAL_CODECS) | {"stereo_msgs/msg/DisparityImage"}
 
