@@ -10,6 +10,7 @@ from typing import Any
 
 from pyconnect.codecs.base import ActionCodec, Codec, DictCodec, ServiceCodec
 from pyconnect.codecs.natural import NATURAL_CODECS
+from pyconnect.codecs.stamped import Stamped, decode_stamped, encode_stamped
 from pyconnect.codecs.type_names import TypeName, parse_type_name
 from pyconnect.errors import CodecNotFoundError, PyconnectError
 
@@ -203,16 +204,12 @@ class Registry:
         """Decode a ROS message with its codec; ``stamped=True`` wraps it in ``Stamped``."""
         codec = self.lookup_message(type(msg))
         if stamped:
-            from pyconnect.codecs.stamped import decode_stamped
-
             return decode_stamped(codec, msg)
         return codec.decode(msg)
 
     def encode(self, value: Any, type_ref: object) -> Any:
         """Encode ``value`` to a new message of ``type_ref``; a ``Stamped`` fills the header."""
         codec = self.lookup_message(type_ref)
-        from pyconnect.codecs.stamped import Stamped, encode_stamped
-
         if isinstance(value, Stamped):
             return encode_stamped(codec, value)
         return codec.encode(value)
