@@ -26,10 +26,6 @@ from codegen.ir import (
     TypeSet,
 )
 
-# Decoding a bool with "?" gives True for any non-zero byte (as rclpy does).
-_DECODE_CODES = dict(STRUCT_CODES)
-_ENCODE_CODES = dict(STRUCT_CODES)
-
 
 def symbol(full_name: str) -> str:
     """The identifier of a type inside a rendered module: ``sensor_msgs__msg__Image``."""
@@ -224,8 +220,9 @@ class Planner:
                 "run",
                 label=self.tables.run_label(run.items),
                 data={
-                    "decoder": self.tables.struct(_struct_format(run.items, _DECODE_CODES)),
-                    "encoder": self.tables.struct(_struct_format(run.items, _ENCODE_CODES)),
+                    # One format both ways: "?" decodes any non-zero byte as True, as rclpy does.
+                    "decoder": self.tables.struct(_struct_format(run.items, STRUCT_CODES)),
+                    "encoder": self.tables.struct(_struct_format(run.items, STRUCT_CODES)),
                     "targets": targets,
                     "sources": sources,
                     "size": run.size,

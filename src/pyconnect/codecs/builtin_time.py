@@ -11,43 +11,42 @@ Encode also accepts a plain ``(sec, nanosec)`` pair, or an int of nanoseconds (s
 from __future__ import annotations
 
 import numbers
-from typing import Any, NamedTuple
+from typing import Any, ClassVar, NamedTuple, TypeVar
 
 from pyconnect.codecs.checks import check_int, check_sequence
 
 __all__ = ["DurationCodec", "RosDuration", "RosTime", "TimeCodec"]
 
 
-class RosTime(NamedTuple):
+_T = TypeVar("_T", bound="_SecNanosec")
+
+
+class _SecNanosec(NamedTuple):
+    """Seconds (int32) and nanoseconds (uint32), the two fields of Time and Duration."""
+
+    sec: int
+    nanosec: int
+
+    @property
+    def nanoseconds(self) -> int:
+        return self.sec * 1_000_000_000 + self.nanosec
+
+    @classmethod
+    def from_nanoseconds(cls: type[_T], nanoseconds: int) -> _T:
+        sec, nanosec = divmod(nanoseconds, 1_000_000_000)
+        return cls(sec, nanosec)
+
+
+class RosTime(_SecNanosec):
     """A ``builtin_interfaces/Time``: seconds (int32) and nanoseconds (uint32)."""
 
-    sec: int
-    nanosec: int
-
-    @property
-    def nanoseconds(self) -> int:
-        return self.sec * 1_000_000_000 + self.nanosec
-
-    @classmethod
-    def from_nanoseconds(cls, nanoseconds: int) -> RosTime:
-        sec, nanosec = divmod(nanoseconds, 1_000_000_000)
-        return cls(sec, nanosec)
+    __slots__ = ()
 
 
-class RosDuration(NamedTuple):
+class RosDuration(_SecNanosec):
     """A ``builtin_interfaces/Duration``: seconds (int32) and nanoseconds (uint32)."""
 
-    sec: int
-    nanosec: int
-
-    @property
-    def nanoseconds(self) -> int:
-        return self.sec * 1_000_000_000 + self.nanosec
-
-    @classmethod
-    def from_nanoseconds(cls, nanoseconds: int) -> RosDuration:
-        sec, nanosec = divmod(nanoseconds, 1_000_000_000)
-        return cls(sec, nanosec)
+    __slots__ = ()
 
 
 def time_fields(value: Any, path: str) -> dict[str, int]:
@@ -62,37 +61,38 @@ def time_fields(value: Any, path: str) -> dict[str, int]:
     }
 
 
-class TimeCodec:
+class _SecNanosecCodec:
+    """A ``builtin_interfaces`` (sec, nanosec) type ↔ its named tuple."""
+
+    name: ClassVar[str]
+    value_type: ClassVar[type[_SecNanosec]]
+    lossless = True
+
+    @property
+    def msg_type(self) -> str:
+        return f"builtin_interfaces/msg/{self.name}"
+
+    def decode(self, msg: Any) -> _SecNanosec:
+        return self.value_type(msg.sec, msg.nanosec)
+
+    def to_fields(self, value: Any) -> dict[str, int]:
+        return time_fields(value, self.name)
+
+    def encode(self, value: Any) -> Any:
+        import builtin_interfaces.msg
+
+        return getattr(builtin_interfaces.msg, self.name)(**time_fields(value, self.name))
+
+
+class TimeCodec(_SecNanosecCodec):
     """builtin_interfaces/Time ↔ ``RosTime(sec, nanosec)``."""
 
-    msg_type = "builtin_interfaces/msg/Time"
-    lossless = True
-
-    def decode(self, msg: Any) -> RosTime:
-        return RosTime(msg.sec, msg.nanosec)
-
-    def to_fields(self, value: Any) -> dict[str, int]:
-        return time_fields(value, "Time")
-
-    def encode(self, value: Any) -> Any:
-        from builtin_interfaces.msg import Time
-
-        return Time(**time_fields(value, "Time"))
+    name = "Time"
+    value_type = RosTime
 
 
-class DurationCodec:
+class DurationCodec(_SecNanosecCodec):
     """builtin_interfaces/Duration ↔ ``RosDuration(sec, nanosec)``."""
 
-    msg_type = "builtin_interfaces/msg/Duration"
-    lossless = True
-
-    def decode(self, msg: Any) -> RosDuration:
-        return RosDuration(msg.sec, msg.nanosec)
-
-    def to_fields(self, value: Any) -> dict[str, int]:
-        return time_fields(value, "Duration")
-
-    def encode(self, value: Any) -> Any:
-        from builtin_interfaces.msg import Duration
-
-        return Duration(**time_fields(value, "Duration"))
+    name = "Duration"
+    value_type = RosDuration
