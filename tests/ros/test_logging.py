@@ -136,3 +136,51 @@ def test_logged_rgb_images_keep_their_colours(make_node: Any, tmp_path: Path) ->
     # A PNG viewer must show red: OpenCV reads it back as BGR with the red in channel 2.
     assert written[..., 2].tolist() == [[255] * 3] * 2
     assert written[..., 0].tolist() == [[0] * 3] * 2
+
+
+def test_agents_whose_names_clean_alike_log_into_their_own_folders(
+    make_node: Any, tmp_path: Path
+) -> None:
+    node = make_node("folders", log_dir=tmp_path)
+    relative = node.add_agent(conn_name="status", conn_type="pub", data_interface=String)
+    absolute = node.add_agent(
+        conn_name="/status", agent_name="/status", conn_type="pub", data_interface=String
+    )
+    assert relative.log_msg("relative") and absolute.log_msg("absolute")
+    assert relative.flush_log(EVENT_TIMEOUT) and absolute.flush_log(EVENT_TIMEOUT)
+    assert relative.make_log_dirs() != absolute.make_log_dirs()
+    assert relative.make_log_dirs().parent == absolute.make_log_dirs().parent
+    assert _json_values(relative.make_log_dirs()) == ["relative"]
+    assert _json_values(absolute.make_log_dirs()) == ["absolute"]
+    assert node.make_log_dirs() == {
+        "status": relative.make_log_dirs(),
+        "/status": absolute.make_log_dirs(),
+    }
+
+
+def test_do_log_msg_with_start_log_subs_writes_each_value_once(
+    make_node: Any, tmp_path: Path
+) -> None:
+    node = make_node("once", log_dir=tmp_path)
+    arrived = threading.Event()
+    sub = node.add_agent(
+        conn_name="chatter",
+        conn_type="sub",
+        data_interface=String,
+        do_log_msg=True,
+        response_func=lambda _value: arrived.set(),
+    )
+    pub = node.add_agent(
+        conn_name="chatter", agent_name="out", conn_type="pub", data_interface=String
+    )
+    node.start_log_subs(fps=100)
+    node.spin(run_thread=True)
+    assert repeat_until(arrived, lambda: pub.send("only once") if not arrived.is_set() else None)
+    # Let the start_log_subs timer tick a few times after the value arrived.
+    ticked = threading.Event()
+    ticks = node.add_agent(
+        conn_name="ticks", conn_type="timer", time_period=0.01, response_func=lambda: None
+    )
+    assert repeat_until(ticked, lambda: ticked.set() if ticks.tick_count >= 20 else None)
+    node.stop_log_subs()
+    assert len(_json_values(sub.make_log_dirs())) == sub.message_count

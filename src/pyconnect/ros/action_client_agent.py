@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import concurrent.futures
 import threading
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from action_msgs.msg import GoalStatus
 from rclpy.action import ActionClient
@@ -25,14 +25,12 @@ from rclpy.callback_groups import CallbackGroup
 from rclpy.task import Future as RosFuture
 
 from pyconnect.ros.abort_reasons import AbortReasons
+from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_text_of
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.waiting import wait_until
-
-if TYPE_CHECKING:
-    from pyconnect.ros.custom_node import CustomNode
 
 
 class ActionClientAgent(NodeAgent):
@@ -42,7 +40,7 @@ class ActionClientAgent(NodeAgent):
 
     def __init__(
         self,
-        node: CustomNode,
+        node: AgentHost,
         *,
         conn_name: str,
         agent_name: str | None = None,
@@ -114,11 +112,11 @@ class ActionClientAgent(NodeAgent):
             return result
         # Asking the graph is slow; once seen, a lost server shows up as a timeout instead.
         if not self._server_seen:
-            if not wait_until(self.client.server_is_ready, timeout, stop=self.node._stopped):
+            if not wait_until(self.client.server_is_ready, timeout, stop=self.node.shutdown_event):
                 return self._failed(f"no action server for {self.conn_name} within {timeout} s")
             self._server_seen = True
         in_flight = self._send_goal(goal, result, feedback_func)
-        if not self.node.executor.wait_for(done, timeout):
+        if not self.node.wait_for(done, timeout):
             in_flight.cancel()
             self._server_seen = False
             return self._failed(f"no result within {timeout} s (goal canceled)")
@@ -145,7 +143,7 @@ class ActionClientAgent(NodeAgent):
         feedback_func: ResponseFunc | None,
         timeout: float | None,
     ) -> None:
-        if wait_until(self.client.server_is_ready, timeout, stop=self.node._stopped):
+        if wait_until(self.client.server_is_ready, timeout, stop=self.node.shutdown_event):
             self._send_goal(goal, result, feedback_func)
         else:
             result.set_result(
@@ -212,7 +210,7 @@ class ActionClientAgent(NodeAgent):
             return self._failed("goal canceled", partial)
         if status == GoalStatus.STATUS_ABORTED:
             text = error_text_of(response.result) or self._abort_reasons.wait_for_reason(
-                goal_id, self.node.executor.wait_for
+                goal_id, self.node.wait_for
             )
             return self._failed(
                 f"goal aborted by the server: {text}" if text else "goal aborted by the server",

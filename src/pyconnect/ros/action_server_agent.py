@@ -26,20 +26,18 @@ kept (ROS-FACTS.md: 1.5 -> 13 ms over 500 goals). Their results stay available
 from __future__ import annotations
 
 import inspect
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from rclpy.action import CancelResponse, GoalResponse
 from rclpy.callback_groups import CallbackGroup, ReentrantCallbackGroup
 
 from pyconnect.ros.abort_reasons import AbortReasonPublisher
+from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_message
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.retaining_action_server import RetainingActionServer
-
-if TYPE_CHECKING:
-    from pyconnect.ros.custom_node import CustomNode
 
 DEFAULT_RESULT_TIMEOUT = 0.05
 """Seconds a finished goal stays in the server's goal list (and every status message)."""
@@ -55,7 +53,7 @@ class ActionServerAgent(NodeAgent):
 
     def __init__(
         self,
-        node: CustomNode,
+        node: AgentHost,
         *,
         conn_name: str,
         agent_name: str | None = None,

@@ -1,16 +1,20 @@
 """``make_agent`` and ``AGENT_CLASS_DICT``: the one place that maps ``conn_type`` to an agent class.
 
 New agent kinds register here: ``AGENT_CLASS_DICT['my_kind'] = MyAgent`` (a ``NodeAgent``
-subclass whose keyword-only ``__init__`` options are the config keys).
+subclass whose keyword-only ``__init__`` options are the config keys it uses).
 """
 
 from __future__ import annotations
 
+import inspect
+from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.action_client_agent import ActionClientAgent
 from pyconnect.ros.action_server_agent import ActionServerAgent
+from pyconnect.ros.agent_host import AgentHost
+from pyconnect.ros.agent_options import AgentOptions, OptionError
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.publisher_agent import PublisherAgent
 from pyconnect.ros.service_agents import ServiceClientAgent, ServiceServerAgent
@@ -18,7 +22,7 @@ from pyconnect.ros.subscriber_agent import SubscriberAgent
 from pyconnect.ros.timer_agent import TimerAgent
 
 if TYPE_CHECKING:
-    from pyconnect.ros.custom_node import CustomNode
+    from typing_extensions import Unpack
 
 AGENT_CLASS_DICT: dict[str, type[NodeAgent]] = {
     "sub": SubscriberAgent,
@@ -30,38 +34,64 @@ AGENT_CLASS_DICT: dict[str, type[NodeAgent]] = {
     "timer": TimerAgent,
 }
 
+_KNOWN_OPTIONS = frozenset(AgentOptions.__annotations__)
+
 
 def make_agent(
-    node: CustomNode,
-    *,
-    conn_name: str,
-    conn_type: str,
-    agent_name: str | None = None,
-    **options: Any,
+    node: AgentHost,
+    config: Mapping[str, Any] | None = None,
+    /,
+    **options: Unpack[AgentOptions],
 ) -> NodeAgent:
-    """Build the agent of kind ``conn_type``; unknown kinds and options raise ``PyconnectError``."""
+    """Build the agent a config describes: a dict, keywords, or both (keywords win).
+
+    ``make_agent(node, {'conn_name': 'chatter', 'conn_type': 'pub', ...})`` or
+    ``make_agent(node, conn_name='chatter', conn_type='pub', ...)``. An unknown ``conn_type``
+    raises ``PyconnectError``; an unknown, unused or missing option raises ``OptionError`` (a
+    ``TypeError``) naming it.
+    """
+    given: dict[str, Any] = {**(config or {}), **options}
+    conn_name = given.pop("conn_name", None)
+    conn_type = given.pop("conn_type", None)
+    agent_name = given.pop("agent_name", None)
+    if not isinstance(conn_name, str) or not conn_name:
+        raise OptionError(f"agent config: conn_name must be a non-empty str, got {conn_name!r}")
     name = agent_name or conn_name
+    if conn_type is None:
+        raise OptionError(f"agent {name!r}: missing option 'conn_type'")
     agent_class = AGENT_CLASS_DICT.get(conn_type)
     if agent_class is None:
         raise PyconnectError(
             f"agent {name!r}: unknown conn_type {conn_type!r}; expected one of "
             f"{', '.join(repr(kind) for kind in AGENT_CLASS_DICT)}"
         )
+    _check_options(agent_class, given, f"agent {name!r} ({conn_type})")
     try:
-        return agent_class(node, conn_name=conn_name, agent_name=agent_name, **options)
-    except TypeError as error:
-        if "unexpected keyword argument" in str(error) or "missing" in str(error):
-            raise PyconnectError(f"agent {name!r} ({conn_type}): {_option_error(error)}") from error
-        raise
+        return agent_class(node, conn_name=conn_name, agent_name=agent_name, **given)
     except PyconnectError as error:
         if str(error).startswith("agent "):
             raise
         raise type(error)(f"agent {name!r} ({conn_type}): {error}") from error
 
 
-def _option_error(error: TypeError) -> str:
-    text = str(error)
-    if "unexpected keyword argument" in text:
-        option = text.rsplit("argument", 1)[1].strip()
-        return f"unknown option {option} for this kind"
-    return text.split("() ", 1)[-1]
+def options_of(agent_class: type[NodeAgent]) -> tuple[frozenset[str], frozenset[str]]:
+    """(every option ``agent_class`` takes, the ones it requires), from its ``__init__``."""
+    parameters = inspect.signature(agent_class.__init__).parameters.values()
+    keywords = [p for p in parameters if p.kind is inspect.Parameter.KEYWORD_ONLY]
+    return (
+        frozenset(p.name for p in keywords),
+        frozenset(p.name for p in keywords if p.default is inspect.Parameter.empty),
+    )
+
+
+def _check_options(agent_class: type[NodeAgent], given: Mapping[str, Any], where: str) -> None:
+    accepted, required = options_of(agent_class)
+    kind = agent_class.conn_type or agent_class.__name__
+    for option in given:
+        if option in accepted:
+            continue
+        if option in _KNOWN_OPTIONS:
+            raise OptionError(f"{where}: option {option!r} is not used by a {kind!r} agent")
+        raise OptionError(f"{where}: unknown option {option!r}")
+    for option in sorted(required - {"conn_name"} - set(given)):
+        raise OptionError(f"{where}: missing option {option!r}")

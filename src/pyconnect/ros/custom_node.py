@@ -1,11 +1,13 @@
 """``CustomNode``: one ROS node holding a robot program's agents, with one API to run and stop it.
 
-A ``CustomNode`` owns an rclpy node, an ``ElasticExecutor`` (pyconnect.ros.executor) and the
-agents made by ``add_agent``. ``spin(run_thread=True)`` spins in a daemon thread; ``spin()``
-(or ``listen()``) blocks until shutdown. Shutdown — ``shutdown()``, leaving ``with``, Ctrl-C,
-SIGTERM or interpreter exit — runs ``stop_func`` once while the agents still work, stops the
-executor, joins its threads, destroys the node and shuts rclpy down if this node started it
-(pyconnect.ros.shutdown).
+A ``CustomNode`` *is* an ``rclpy.node.Node`` (parameters, clock, ``get_logger``, ``create_*``
+all work on it, as the design promises); it also owns an ``ElasticExecutor``
+(pyconnect.ros.executor), a coroutine runner for ``async def`` handlers
+(pyconnect.ros.coroutines) and the agents made by ``add_agent``. ``spin(run_thread=True)``
+spins in a daemon thread; ``spin()`` (or ``listen()``) blocks until shutdown. Shutdown —
+``shutdown()``, leaving ``with``, Ctrl-C, SIGTERM or interpreter exit — runs ``stop_func`` once
+while the agents still work, stops the executor, joins its threads, destroys the node and shuts
+rclpy down if this node started it (pyconnect.ros.shutdown).
 
 Names resolve like rclpy names: ``conn_name`` is relative to the node's namespace unless it
 starts with ``/`` or ``~``; ``--ros-args -r chatter:=talk`` and ``-p name:=value`` from
@@ -17,6 +19,7 @@ starts with ``/`` or ``~``; ``--ros-args -r chatter:=talk`` and ``-p name:=value
 
 from __future__ import annotations
 
+import asyncio
 import datetime
 import sys
 import threading
@@ -24,7 +27,7 @@ import time
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from types import TracebackType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import rclpy
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
@@ -34,18 +37,29 @@ from rclpy.signals import SignalHandlerOptions
 
 from pyconnect.codecs.registry import Registry, default_registry
 from pyconnect.errors import ConnectionTimeout, PyconnectError
+from pyconnect.record.log_dirs import safe_path_component
 from pyconnect.ros.agent_factory import make_agent
+from pyconnect.ros.agent_options import AgentOptions
+from pyconnect.ros.coroutines import CoroutineRunner
 from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER, ElasticExecutor
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.recording import Recording
 from pyconnect.ros.shutdown import ShutdownHooks
 from pyconnect.ros.subscriber_agent import SubscriberAgent
 
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
+
 StopFunc = Callable[..., Any]
 
 
-class CustomNode:
-    """A ROS 2 node whose connections are agents: ``node.agents[name].send/get``."""
+class CustomNode(Node):  # type: ignore[misc]
+    """A ROS 2 node whose connections are agents: ``node.agents[name].send/get``.
+
+    It is an ``rclpy.node.Node``: rclpy's own methods work on it, and it is its own
+    ``ros_node``. ``loop=`` names an asyncio loop for ``async def`` handlers (default: one
+    pyconnect starts when the first coroutine needs it).
+    """
 
     def __init__(
         self,
@@ -60,6 +74,7 @@ class CustomNode:
         registry: Registry | None = None,
         handle_signals: bool = True,
         handoff_after: float = DEFAULT_HANDOFF_AFTER,
+        loop: asyncio.AbstractEventLoop | None = None,
     ) -> None:
         self.name = name
         self.registry = registry or default_registry
@@ -76,27 +91,31 @@ class CustomNode:
         self._log_subs_timer: Any = None
         self._log_subs_recording: Recording | None = None
         self._recordings: list[Recording] = []
+        self._log_dirs: dict[str, Path] = {}
+        self.coroutines = CoroutineRunner(loop, name=f"pyconnect-asyncio-{name}")
+        """Runs ``async def`` handlers (pyconnect.ros.coroutines)."""
 
-        self.context = context if context is not None else rclpy.get_default_context()
-        self._owns_context = not self.context.ok()
+        context = context if context is not None else rclpy.get_default_context()
+        self._owns_context = not context.ok()
         if self._owns_context:
             rclpy.init(
                 args=sys.argv if args is None else args,
-                context=self.context,
+                context=context,
                 signal_handler_options=SignalHandlerOptions.NO,
             )
-        self.ros_node = Node(
+        super().__init__(
             name,
             namespace=namespace,
-            context=self.context,
+            context=context,
             cli_args=cli_args,
             allow_undeclared_parameters=True,
             automatically_declare_parameters_from_overrides=True,
         )
-        self.executor = ElasticExecutor(
-            context=self.context, handoff_after=handoff_after, on_error=self._on_executor_error
+        self._executor = ElasticExecutor(
+            context=context, handoff_after=handoff_after, on_error=self._on_executor_error
         )
-        self.executor.add_node(self.ros_node)
+        # Also sets rclpy's ``Node.executor`` (a weak reference; ``_executor`` keeps it alive).
+        self._executor.add_node(self)
         self._hooks = ShutdownHooks(
             begin_shutdown=self._shutdown_in_background,
             main_is_waiting=lambda: self._main_waiting,
@@ -104,15 +123,63 @@ class CustomNode:
         )
         self._hooks.register_atexit(self.shutdown)
 
+    # -- what agents use of their host (pyconnect.ros.agent_host) -------------------------------
+    @property
+    def ros_node(self) -> Node:
+        """The rclpy node agents create their entities on: this node itself."""
+        return self
+
+    @property
+    def shutdown_event(self) -> threading.Event:
+        """Set once the node is shut down."""
+        return self._stopped
+
+    def wait_for(
+        self,
+        event: threading.Event,
+        timeout: float | None,
+        *,
+        poll: Callable[[], bool] | None = None,
+    ) -> bool:
+        """Wait until a callback sets ``event``, from any thread, even inside a callback."""
+        return self._executor.wait_for(event, timeout, poll=poll)
+
+    def agent_log_dir(self, agent_name: str) -> Path:
+        """``<log_dir>/<node>/<session>/<agent>/``, created once; agents whose names clean to
+        the same folder name (``status`` and ``/status``) get distinct folders."""
+        with self._lock:
+            directory = self._log_dirs.get(agent_name)
+            if directory is not None:
+                return directory
+            if self._log_session is None:
+                self._log_session = datetime.datetime.now()
+            session = (
+                self.log_dir
+                / safe_path_component(self.name)
+                / self._log_session.strftime("%Y%m%d-%H%M%S")
+            )
+            taken = {path.name for path in self._log_dirs.values()}
+            component = safe_path_component(agent_name)
+            unique, suffix = component, 1
+            while unique in taken:
+                suffix += 1
+                unique = f"{component}_{suffix}"
+            directory = session / unique
+            directory.mkdir(parents=True, exist_ok=True)
+            self._log_dirs[agent_name] = directory
+            return directory
+
     # -- agents --------------------------------------------------------------------------------
     def add_agent(
-        self, *, conn_name: str, conn_type: str, agent_name: str | None = None, **options: Any
+        self, config: Mapping[str, Any] | None = None, /, **options: Unpack[AgentOptions]
     ) -> NodeAgent:
-        """Create an agent (options per kind: see the agent classes) and return it.
+        """Create an agent from keywords or a config dict (or both; keywords win).
 
-        It is ``node.agents[agent_name or conn_name]``.
+        It is ``node.agents[agent_name or conn_name]``. Options per kind: see the agent classes
+        and ``pyconnect.ros.agent_options``; one a kind does not use raises ``OptionError``.
         """
-        key = agent_name or conn_name
+        given: dict[str, Any] = {**(config or {}), **options}
+        key = given.get("agent_name") or given.get("conn_name")
         with self._lock:
             if self._stopped.is_set():
                 raise PyconnectError(f"node {self.name!r} is shut down; cannot add {key!r}")
@@ -121,17 +188,15 @@ class CustomNode:
                     f"agent {key!r}: node {self.name!r} already has an agent of that name; "
                     "give one of them agent_name="
                 )
-            agent = make_agent(
-                self, conn_name=conn_name, conn_type=conn_type, agent_name=agent_name, **options
-            )
-            self.agents[key] = agent
+            agent = make_agent(self, given)
+            self.agents[agent.name] = agent
             return agent
 
     def add_agents(
-        self, configs: Iterable[Mapping[str, Any]], **shared_options: Any
+        self, configs: Iterable[Mapping[str, Any]], **shared_options: Unpack[AgentOptions]
     ) -> list[NodeAgent]:
         """``add_agent`` per config; ``shared_options`` apply unless a config overrides them."""
-        return [self.add_agent(**{**shared_options, **config}) for config in configs]
+        return [self.add_agent({**shared_options, **config}) for config in configs]
 
     # -- running -------------------------------------------------------------------------------
     def spin(self, run_thread: bool = False) -> None:
@@ -147,9 +212,9 @@ class CustomNode:
         if not run_thread:
             self.wait_for_shutdown()
 
-    def listen(self) -> None:
-        """``spin()``: block until shutdown."""
-        self.spin()
+    def listen(self, run_thread: bool = False) -> None:
+        """``spin()`` by the design's other name: in a thread (``run_thread=True``) or here."""
+        self.spin(run_thread=run_thread)
 
     def wait_for_shutdown(self, timeout: float | None = None) -> bool:
         """Block until the node is shut down (Ctrl-C, ``shutdown()``); False on timeout."""
@@ -197,20 +262,17 @@ class CustomNode:
                     f"node {self.name!r}: still waiting after {timeout} s for {names}"
                 )
             step = 0.02 if remaining is None else min(0.02, remaining)
-            if self.executor.is_spinning:
+            if self._executor.is_spinning:
                 self._stopped.wait(step)
             else:
-                self.executor.spin_once(timeout_sec=step)
+                self._executor.spin_once(timeout_sec=step)
 
     # -- parameters and logging ------------------------------------------------------------------
-    def get_logger(self) -> Any:
-        return self.ros_node.get_logger()
-
     def get_param(self, name: str, default: Any = None) -> Any:
         """A parameter's value (``--ros-args -p name:=value``), or ``default`` when unset."""
-        if not self.ros_node.has_parameter(name):
+        if not self.has_parameter(name):
             return default
-        value = self.ros_node.get_parameter(name).value
+        value = self.get_parameter(name).value
         return default if value is None else value
 
     @property
@@ -226,18 +288,6 @@ class CustomNode:
         """Create this session's log directory of every agent; {agent name: directory}."""
         return {name: agent.make_log_dirs() for name, agent in list(self.agents.items())}
 
-    def _agent_log_dir(self, agent_name: str) -> Path:
-        from pyconnect.record.log_dirs import make_log_dirs
-
-        with self._lock:
-            if self._log_session is None:
-                self._log_session = datetime.datetime.now()
-            session = self._log_session
-        directories: dict[str, Path] = make_log_dirs(
-            self.log_dir, self.name, [agent_name], now=session
-        )
-        return directories[agent_name]
-
     @property
     def is_logging_subs(self) -> bool:
         return self._log_subs_timer is not None
@@ -245,7 +295,8 @@ class CustomNode:
     def start_log_subs(self, fps: float = 10, record: str | Path | None = None) -> None:
         """Log the latest value of every sub ``fps`` times a second (new values only).
 
-        ``record=path`` also records the raw messages of the subscribed topics to MCAP.
+        Subs with ``do_log_msg=True`` already log every value and are left out (one writer per
+        value). ``record=path`` also records the raw messages of the subscribed topics to MCAP.
         """
         if fps <= 0:
             raise PyconnectError(f"start_log_subs: fps must be > 0, got {fps!r}")
@@ -256,7 +307,7 @@ class CustomNode:
 
             def log_latest() -> None:
                 for agent in list(self.agents.values()):
-                    if not isinstance(agent, SubscriberAgent):
+                    if not isinstance(agent, SubscriberAgent) or agent.do_log_msg:
                         continue
                     count = agent.message_count
                     if count == 0 or seen.get(agent.name) == count:
@@ -268,7 +319,7 @@ class CustomNode:
                         agent.report_exception("start_log_subs", error)
 
             self._log_subs_recording = self.record(record) if record is not None else None
-            self._log_subs_timer = self.ros_node.create_timer(
+            self._log_subs_timer = self.create_timer(
                 1.0 / fps, log_latest, callback_group=MutuallyExclusiveCallbackGroup()
             )
 
@@ -278,7 +329,7 @@ class CustomNode:
             timer, self._log_subs_timer = self._log_subs_timer, None
             recording, self._log_subs_recording = self._log_subs_recording, None
         if timer is not None:
-            self.ros_node.destroy_timer(timer)
+            self.destroy_timer(timer)
         if recording is not None:
             recording.stop()
         for agent in list(self.agents.values()):
@@ -286,7 +337,9 @@ class CustomNode:
 
     def record(self, path: str | Path, topics: Iterable[str] | None = None) -> Recording:
         """Record raw messages of ``topics`` (default: every sub's topic) to an MCAP file."""
-        recording = Recording(self, Path(path), None if topics is None else list(topics))
+        recording = Recording(
+            self, self.agents, Path(path), None if topics is None else list(topics)
+        )
         with self._lock:
             self._recordings.append(recording)
         return recording
@@ -314,22 +367,28 @@ class CustomNode:
                 self.stop_func()
             except Exception as error:
                 self._log_error(f"stop_func raised {type(error).__name__}: {error}")
-        self.executor.stop()
+        self._executor.stop()
+        # Cancelled coroutines release callbacks that wait for them.
+        self.coroutines.stop()
         spin_thread = self._spin_thread
         if spin_thread is not None and spin_thread is not threading.current_thread():
             spin_thread.join(10.0)
-        self.executor.join(10.0)
+        self._executor.join(10.0)
         for agent in list(self.agents.values()):
             try:
                 agent.close()
             except Exception as error:
                 self._log_error(f"{agent.describe}: close failed: {error!r}")
-        self.executor.remove_node(self.ros_node)
-        self.ros_node.destroy_node()
-        self.executor.shutdown(timeout_sec=1.0)
+        self._executor.remove_node(self)
+        super().destroy_node()
+        self._executor.shutdown(timeout_sec=1.0)
         if self._owns_context:
             rclpy.try_shutdown(context=self.context)
         self._hooks.restore()
+
+    def destroy_node(self) -> None:
+        """rclpy's name for ``shutdown()`` (stops the agents first, then destroys the node)."""
+        self.shutdown()
 
     def _shutdown_in_background(self) -> None:
         if self._shutdown_thread is not None:
@@ -354,7 +413,7 @@ class CustomNode:
     # -- internals -----------------------------------------------------------------------------
     def _spin_forever(self) -> None:
         try:
-            self.executor.spin()
+            self._executor.spin()
         except Exception as error:
             self._log_error(f"executor stopped: {type(error).__name__}: {error}")
 
@@ -363,7 +422,7 @@ class CustomNode:
 
     def _log_error(self, text: str) -> None:
         try:
-            self.ros_node.get_logger().error(text)
+            self.get_logger().error(text)
         except Exception:
             print(f"[pyconnect] {self.name}: {text}", file=sys.stderr)
 

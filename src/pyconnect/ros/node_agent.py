@@ -16,17 +16,16 @@ import threading
 import traceback
 from collections.abc import Callable
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, ClassVar
+from typing import Any, ClassVar
 
 from rclpy.callback_groups import CallbackGroup, MutuallyExclusiveCallbackGroup
 
 from pyconnect.codecs.base import Codec
 from pyconnect.errors import PyconnectError
+from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
+from pyconnect.ros.coroutines import CoroutineLane, is_async_callable
 from pyconnect.ros.interfaces import interface_name
-
-if TYPE_CHECKING:
-    from pyconnect.ros.custom_node import CustomNode
 
 ResponseFunc = Callable[..., Any]
 
@@ -39,7 +38,7 @@ class NodeAgent:
 
     def __init__(
         self,
-        node: CustomNode,
+        node: AgentHost,
         *,
         conn_name: str,
         agent_name: str | None = None,
@@ -49,6 +48,7 @@ class NodeAgent:
         callback_group: CallbackGroup | None = None,
     ) -> None:
         self.node = node
+        """The host node, seen through ``AgentHost`` (what an agent may use of it)."""
         self.name = agent_name or conn_name
         """The key in ``node.agents``: ``agent_name`` when given (two agents on one topic)."""
         self.conn_name = conn_name
@@ -65,6 +65,7 @@ class NodeAgent:
         self._log_lock = threading.Lock()
         # True while the latest value is an image with RGB(A) channels (PNG logs want BGR).
         self._log_rgb = False
+        self._lane: CoroutineLane | None = None
 
     # -- identity ------------------------------------------------------------------------------
     @property
@@ -158,7 +159,7 @@ class NodeAgent:
         """This agent's log directory (``<root>/<node>/<session>/<agent>/``), created once."""
         with self._log_lock:
             if self._log_dir is None:
-                self._log_dir = self.node._agent_log_dir(self.name)
+                self._log_dir = self.node.agent_log_dir(self.name)
             return self._log_dir
 
     def log_msg(self, data: Any, *, stamp_ns: int | None = None) -> bool:
@@ -169,7 +170,7 @@ class NodeAgent:
                 if self._message_logger is None:
                     from pyconnect.record.log_writer import MessageLogger
 
-                    directory = self._log_dir or self.node._agent_log_dir(self.name)
+                    directory = self._log_dir or self.node.agent_log_dir(self.name)
                     self._log_dir = directory
                     self._message_logger = MessageLogger(directory)
                 logger = self._message_logger
@@ -197,11 +198,51 @@ class NodeAgent:
         self.error_count += 1
         self.node.get_logger().error(f"{self.last_error}\n{text.rstrip()}")
 
-    def _check_no_options(self, **options: object) -> None:
-        """Raise for options given to a kind they do not apply to."""
-        for name, value in options.items():
-            if value is not None and value is not False:
-                raise self.error(f"option {name!r} does not apply to a {self.conn_type!r} agent")
+    def call_user(
+        self,
+        where: str,
+        function: Callable[..., Any],
+        *args: Any,
+        on_done: Callable[[Any], None] | None = None,
+    ) -> None:
+        """Call user code without ever raising: errors are reported with ``where``.
+
+        An ``async def`` function runs on the node's coroutine loop, after this agent's earlier
+        coroutines (pyconnect.ros.coroutines); ``on_done(result)`` follows a successful call.
+        """
+        if is_async_callable(function):
+            self.lane.submit(
+                function,
+                args,
+                on_done=_reporting(self, where, on_done),
+                on_error=lambda error: self.report_exception(where, error),
+            )
+            return
+        try:
+            result = function(*args)
+            if on_done is not None:
+                on_done(result)
+        except Exception as error:
+            self.report_exception(where, error)
+
+    def call_user_and_wait(self, function: Callable[..., Any], *args: Any) -> Any:
+        """Call ``function`` and return its result; an ``async def`` one is awaited on the
+        coroutine loop while this thread waits (handing the executor's turn on). Raises what
+        the function raised."""
+        if not is_async_callable(function):
+            return function(*args)
+        future = self.node.coroutines.submit(function(*args))
+        finished = threading.Event()
+        future.add_done_callback(lambda _future: finished.set())
+        self.node.wait_for(finished, None, poll=future.done)
+        return future.result()
+
+    @property
+    def lane(self) -> CoroutineLane:
+        """This agent's ordered lane on the coroutine loop (made on first use)."""
+        if self._lane is None:
+            self._lane = self.node.coroutines.lane()
+        return self._lane
 
     # -- life cycle ----------------------------------------------------------------------------
     def close(self) -> None:
@@ -209,6 +250,22 @@ class NodeAgent:
         logger = self._message_logger
         if logger is not None:
             logger.close()
+
+
+def _reporting(
+    agent: NodeAgent, where: str, on_done: Callable[[Any], None] | None
+) -> Callable[[Any], None] | None:
+    """``on_done`` with its errors reported under ``where`` (the lane reports the call's)."""
+    if on_done is None:
+        return None
+
+    def done(result: Any) -> None:
+        try:
+            on_done(result)
+        except Exception as error:
+            agent.report_exception(where, error)
+
+    return done
 
 
 def _summary(value: Any) -> str:

@@ -11,19 +11,17 @@ skips the periodic ``response_func``, the encoding and the publishing while nobo
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from rclpy.callback_groups import CallbackGroup
 from rclpy.qos import QoSProfile
 
 from pyconnect.codecs.base import Codec
+from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.qos import resolve_qos
-
-if TYPE_CHECKING:
-    from pyconnect.ros.custom_node import CustomNode
 
 
 class PublisherAgent(NodeAgent):
@@ -33,7 +31,7 @@ class PublisherAgent(NodeAgent):
 
     def __init__(
         self,
-        node: CustomNode,
+        node: AgentHost,
         *,
         conn_name: str,
         agent_name: str | None = None,
@@ -113,6 +111,10 @@ class PublisherAgent(NodeAgent):
         if self.do_log_msg:
             self.log_msg(data)
         return True
+
+    def publish(self, data: Any = None) -> bool:
+        """``send(data)`` by the design's name for publishers."""
+        return self.send(data)
 
     def _on_period(self) -> None:
         if self.only_if_subscribed and self.publisher.get_subscription_count() == 0:

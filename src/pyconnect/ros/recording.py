@@ -8,26 +8,34 @@ from __future__ import annotations
 import contextlib
 import threading
 import time
+from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.node import Node
 
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.interfaces import interface_class, interface_name
+from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.qos import SENSOR_DATA
-
-if TYPE_CHECKING:
-    from pyconnect.ros.custom_node import CustomNode
+from pyconnect.ros.subscriber_agent import SubscriberAgent
 
 
 class Recording:
     """A running MCAP recording; ``stop()`` ends it and closes the file."""
 
-    def __init__(self, node: CustomNode, path: Path, topics: list[str] | None) -> None:
+    def __init__(
+        self,
+        ros_node: Node,
+        agents: Mapping[str, NodeAgent],
+        path: Path,
+        topics: list[str] | None,
+    ) -> None:
         from pyconnect.record.mcap_recorder import McapRecorder
 
-        self.node = node
+        self.ros_node = ros_node
+        self.agents = agents
         self.path = path
         self._lock = threading.Lock()
         self._stopped = False
@@ -39,7 +47,7 @@ class Recording:
             self.recorder.add_topic(topic, interface_name(msg_class))
             # Best effort matches every publisher, reliable or not (pyconnect.ros.qos).
             self._subscriptions.append(
-                node.ros_node.create_subscription(
+                ros_node.create_subscription(
                     msg_class,
                     topic,
                     self._writer_for(topic),
@@ -51,10 +59,8 @@ class Recording:
         self.topics = [topic for topic, _ in chosen]
 
     def _choose_topics(self, topics: list[str] | None) -> list[tuple[str, type]]:
-        from pyconnect.ros.subscriber_agent import SubscriberAgent
-
         known: dict[str, type] = {}
-        for agent in self.node.agents.values():
+        for agent in self.agents.values():
             topic = getattr(agent, "topic", None)
             if topic is not None and agent.data_interface is not None:
                 known[topic] = agent.data_interface  # type: ignore[assignment]
@@ -62,17 +68,17 @@ class Recording:
         if topics is None:
             return [
                 (agent.topic, agent.data_interface)  # type: ignore[misc]
-                for agent in self.node.agents.values()
+                for agent in self.agents.values()
                 if isinstance(agent, SubscriberAgent)
             ]
-        graph = dict(self.node.ros_node.get_topic_names_and_types())
+        graph = dict(self.ros_node.get_topic_names_and_types())
         chosen: list[tuple[str, type]] = []
         for topic in topics:
             if topic in known:
                 resolved = next(
                     (
                         getattr(agent, "topic", topic)
-                        for agent in self.node.agents.values()
+                        for agent in self.agents.values()
                         if agent.name == topic
                     ),
                     topic,
@@ -109,5 +115,5 @@ class Recording:
         for subscription in self._subscriptions:
             # The node may be destroyed already.
             with contextlib.suppress(Exception):
-                self.node.ros_node.destroy_subscription(subscription)
+                self.ros_node.destroy_subscription(subscription)
         self.recorder.close()

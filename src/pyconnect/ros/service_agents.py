@@ -18,19 +18,17 @@ from __future__ import annotations
 
 import concurrent.futures
 import threading
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from rclpy.callback_groups import CallbackGroup
 from rclpy.task import Future as RosFuture
 
+from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_message
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.waiting import wait_until
-
-if TYPE_CHECKING:
-    from pyconnect.ros.custom_node import CustomNode
 
 
 class ServiceServerAgent(NodeAgent):
@@ -40,7 +38,7 @@ class ServiceServerAgent(NodeAgent):
 
     def __init__(
         self,
-        node: CustomNode,
+        node: AgentHost,
         *,
         conn_name: str,
         agent_name: str | None = None,
@@ -107,7 +105,7 @@ class ServiceClientAgent(NodeAgent):
 
     def __init__(
         self,
-        node: CustomNode,
+        node: AgentHost,
         *,
         conn_name: str,
         agent_name: str | None = None,
@@ -171,13 +169,13 @@ class ServiceClientAgent(NodeAgent):
         # Asking the graph costs about as much as a round trip; once the server was seen, a lost
         # server shows up as a timeout, which makes the next call ask again.
         if not self._server_seen:
-            if not wait_until(self.client.service_is_ready, timeout, stop=self.node._stopped):
+            if not wait_until(self.client.service_is_ready, timeout, stop=self.node.shutdown_event):
                 return self._failed(f"no server for {self.service_name} within {timeout} s")
             self._server_seen = True
         ros_future = self.client.call_async(request)
         done = threading.Event()
         ros_future.add_done_callback(lambda _future: done.set())
-        if not self.node.executor.wait_for(done, timeout, poll=ros_future.done):
+        if not self.node.wait_for(done, timeout, poll=ros_future.done):
             self.client.remove_pending_request(ros_future)
             self._server_seen = False
             return self._failed(f"no response from {self.service_name} within {timeout} s")
@@ -210,7 +208,7 @@ class ServiceClientAgent(NodeAgent):
     def _call_when_ready(
         self, request: Any, result: concurrent.futures.Future[Any], timeout: float | None
     ) -> None:
-        if wait_until(self.client.service_is_ready, timeout, stop=self.node._stopped):
+        if wait_until(self.client.service_is_ready, timeout, stop=self.node.shutdown_event):
             self._call(request, result)
         else:
             result.set_result(self._failed(f"no server for {self.service_name} within {timeout} s"))

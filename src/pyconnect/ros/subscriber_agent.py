@@ -13,20 +13,18 @@ from __future__ import annotations
 
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from rclpy.callback_groups import CallbackGroup
 from rclpy.qos import QoSProfile
 
 from pyconnect.codecs.base import Codec
 from pyconnect.errors import DecodeError
+from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.qos import resolve_qos
-
-if TYPE_CHECKING:
-    from pyconnect.ros.custom_node import CustomNode
 
 
 class SubscriberAgent(NodeAgent):
@@ -40,7 +38,7 @@ class SubscriberAgent(NodeAgent):
 
     def __init__(
         self,
-        node: CustomNode,
+        node: AgentHost,
         *,
         conn_name: str,
         agent_name: str | None = None,

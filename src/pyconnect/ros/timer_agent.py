@@ -5,14 +5,10 @@
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING
-
 from rclpy.callback_groups import CallbackGroup
 
+from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
-
-if TYPE_CHECKING:
-    from pyconnect.ros.custom_node import CustomNode
 
 
 class TimerAgent(NodeAgent):
@@ -22,7 +18,7 @@ class TimerAgent(NodeAgent):
 
     def __init__(
         self,
-        node: CustomNode,
+        node: AgentHost,
         *,
         conn_name: str,
         agent_name: str | None = None,

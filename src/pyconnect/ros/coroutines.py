@@ -1,0 +1,177 @@
+"""Running ``async def`` handlers: on an asyncio loop per node (or the user's), in order per agent.
+
+rclpy calls callbacks on executor threads, where no asyncio loop runs; a coroutine handler
+called there would never be awaited. ``CoroutineRunner`` hands coroutines to a loop instead:
+the user's own loop when ``CustomNode(loop=...)`` names one (e.g. a FastAPI app's), else a loop
+pyconnect starts on first use in a daemon thread and stops at shutdown.
+
+Each agent gets a ``CoroutineLane``: its coroutines run one after another in arrival order
+(as an agent's plain callbacks do), while different agents' coroutines interleave on the loop.
+Submitting costs a lock and a deque append; the loop is woken only when the lane was idle, so a
+burst of messages costs one wake-up. A lane holds at most ``LANE_LIMIT`` waiting coroutines; a
+submit beyond that waits (back-pressure, like a slow plain callback) instead of dropping.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import concurrent.futures
+import contextlib
+import inspect
+import threading
+from collections import deque
+from collections.abc import Awaitable, Callable
+from typing import Any
+
+LANE_LIMIT = 100
+"""Coroutines an agent may have waiting before a submit blocks."""
+
+ErrorHandler = Callable[[BaseException], None]
+DoneHandler = Callable[[Any], None]
+_Call = tuple[Callable[..., Any], tuple[Any, ...], DoneHandler | None, ErrorHandler]
+
+
+def is_async_callable(function: object) -> bool:
+    """True for ``async def`` functions and methods, their partials, and ``async __call__``."""
+    if inspect.iscoroutinefunction(function):
+        return True
+    call = getattr(function, "__call__", None)  # noqa: B004 - the method itself is inspected
+    return call is not None and inspect.iscoroutinefunction(call)
+
+
+class CoroutineRunner:
+    """Runs coroutines on ``loop`` (the user's), or on a loop of its own started on first use."""
+
+    def __init__(self, loop: asyncio.AbstractEventLoop | None = None, *, name: str) -> None:
+        self._given_loop = loop
+        self._own_loop: asyncio.AbstractEventLoop | None = None
+        self._thread: threading.Thread | None = None
+        self._lock = threading.Lock()
+        self._name = name
+        self._stopped = False
+
+    @property
+    def loop(self) -> asyncio.AbstractEventLoop:
+        """The loop coroutines run on (pyconnect's own one is started here when needed)."""
+        if self._given_loop is not None:
+            return self._given_loop
+        with self._lock:
+            if self._own_loop is None:
+                if self._stopped:
+                    raise RuntimeError(f"{self._name}: the coroutine loop is stopped")
+                loop = asyncio.new_event_loop()
+                started = threading.Event()
+                self._thread = threading.Thread(
+                    target=_run_loop, args=(loop, started), name=self._name, daemon=True
+                )
+                self._thread.start()
+                started.wait()
+                self._own_loop = loop
+            return self._own_loop
+
+    def submit(self, awaitable: Awaitable[Any]) -> concurrent.futures.Future[Any]:
+        """Run ``awaitable`` on the loop; a future of its result for any thread to wait on."""
+        return asyncio.run_coroutine_threadsafe(_awaited(awaitable), self.loop)
+
+    def lane(self) -> CoroutineLane:
+        """An ordered lane for one agent."""
+        return CoroutineLane(self)
+
+    @property
+    def stopped(self) -> bool:
+        """True once ``stop()`` was called."""
+        return self._stopped
+
+    def stop(self, timeout: float | None = 5.0) -> None:
+        """Cancel what still runs on pyconnect's own loop and end its thread (idempotent)."""
+        with self._lock:
+            self._stopped = True
+            loop, thread = self._own_loop, self._thread
+        if loop is None or thread is None:
+            return
+        with contextlib.suppress(RuntimeError):  # already closed
+            loop.call_soon_threadsafe(loop.stop)
+        thread.join(timeout)
+
+
+class CoroutineLane:
+    """One agent's coroutines, awaited one after another in the order they were submitted."""
+
+    def __init__(self, runner: CoroutineRunner) -> None:
+        self._runner = runner
+        self._pending: deque[_Call] = deque()
+        self._cond = threading.Condition()
+        self._draining = False
+
+    def submit(
+        self,
+        function: Callable[..., Any],
+        args: tuple[Any, ...],
+        *,
+        on_done: DoneHandler | None,
+        on_error: ErrorHandler,
+    ) -> None:
+        """Queue ``function(*args)`` (a coroutine function): then ``on_done(result)``, or
+        ``on_error(exception)`` when it raised."""
+        with self._cond:
+            while len(self._pending) >= LANE_LIMIT and not self._runner.stopped:
+                self._cond.wait(0.1)
+            self._pending.append((function, args, on_done, on_error))
+            if self._draining:
+                return
+            self._draining = True
+        try:
+            self._runner.loop.call_soon_threadsafe(self._start_drain)
+        except RuntimeError as error:  # the loop is closed: shutdown is under way
+            with self._cond:
+                dropped = list(self._pending)
+                self._pending.clear()
+                self._draining = False
+            for call in dropped:
+                call[3](error)
+
+    def _start_drain(self) -> None:
+        task = asyncio.ensure_future(self._drain())
+        _keep_alive.add(task)
+        task.add_done_callback(_keep_alive.discard)
+
+    async def _drain(self) -> None:
+        while True:
+            with self._cond:
+                if not self._pending:
+                    self._draining = False
+                    return
+                function, args, on_done, on_error = self._pending.popleft()
+                self._cond.notify()
+            try:
+                result = await function(*args)
+            except asyncio.CancelledError:
+                raise
+            except Exception as error:
+                on_error(error)
+                continue
+            if on_done is not None:
+                on_done(result)
+
+
+# Tasks are only weakly referenced by asyncio; these keep running lanes alive.
+_keep_alive: set[asyncio.Future[Any]] = set()
+
+
+async def _awaited(awaitable: Awaitable[Any]) -> Any:
+    return await awaitable
+
+
+def _run_loop(loop: asyncio.AbstractEventLoop, started: threading.Event) -> None:
+    asyncio.set_event_loop(loop)
+    loop.call_soon(started.set)
+    try:
+        loop.run_forever()
+        # Let cancelled handlers run their ``finally`` blocks before the loop closes.
+        tasks = asyncio.all_tasks(loop)
+        for task in tasks:
+            task.cancel()
+        loop.run_until_complete(asyncio.gather(*tasks, return_exceptions=True))
+        loop.run_until_complete(loop.shutdown_asyncgens())
+    finally:
+        loop.close()
