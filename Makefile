@@ -20,8 +20,8 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 lint: install
-	$(BIN)/ruff check src codegen tests bench examples
-	$(BIN)/ruff format --check src codegen
+	$(BIN)/ruff check src tests bench examples
+	$(BIN)/ruff format --check src
 
 typecheck: install
 	$(BIN)/mypy

@@ -9,9 +9,10 @@ from typing import Any
 
 from hypothesis import strategies as st
 
-from codegen.build import DEFAULT_PACKAGES
-from codegen.introspect import load_packages
-from codegen.ir import INTEGER_RANGES, ElementType, FieldType, MessageDef, PackageDef, TypeSet
+from pyconnect.codegen.build import DEFAULT_PACKAGES
+from pyconnect.typesys.loading import load_packages
+from pyconnect.typesys.model import ElementType, FieldType, MessageDef, PackageDef, TypeSet
+from pyconnect.typesys.primitives import INTEGER_RANGES
 
 # CDR strings are NUL-terminated, so NUL cannot travel; lone surrogates are not encodable.
 _TEXT = st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00")

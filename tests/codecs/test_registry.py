@@ -115,7 +115,7 @@ def test_on_the_fly_codec_for_a_type_generated_lacks() -> None:
     # rosgraph_msgs is generated, so hide its generated module to force the on-the-fly path.
     from rosgraph_msgs.msg import Clock
 
-    from codegen.onthefly import compile_dict_codec
+    from pyconnect.codecs.onthefly_dict import compile_dict_codec
 
     msg_class, to_dict, from_dict = compile_dict_codec("rosgraph_msgs/msg/Clock")
     assert msg_class is Clock

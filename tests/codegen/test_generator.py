@@ -8,9 +8,10 @@ from pathlib import Path
 
 import pytest
 
-from codegen.build import DEFAULT_PACKAGES, default_out_dir, render_loaded, stale_files
-from codegen.cli import main
-from codegen.introspect import installed_packages, load_packages
+from pyconnect.codegen.build import DEFAULT_PACKAGES, default_out_dir, render_loaded, stale_files
+from pyconnect.codegen.cli import main
+from pyconnect.typesys.loading import load_packages
+from pyconnect.typesys.packages import installed_packages
 from tests.strategies import default_packages
 
 TUTORIAL = {

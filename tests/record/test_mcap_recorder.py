@@ -17,8 +17,8 @@ from std_msgs.msg import String
 from test_msgs.msg import BasicTypes, Empty
 
 from pyconnect.record.bag_errors import BagError
-from pyconnect.record.definitions import installed_definition
 from pyconnect.record.mcap_recorder import McapRecorder
+from pyconnect.typesys.definition_text import installed_definition
 
 
 def read_ros2_messages(path: Path) -> list[tuple[str, object]]:

@@ -34,6 +34,7 @@ from pyconnect.codecs.field_checks import (
     uint8_sequence,
 )
 from pyconnect.errors import DecodeError
+from pyconnect.typesys.primitives import BYTE_NAMES, INTEGER_RANGES, PRIMITIVE_SIZES, STRUCT_CODES
 
 EMPTY: Mapping[str, Any] = MappingProxyType({})
 ZEROS = tuple(bytes(n) for n in range(8))
@@ -44,17 +45,7 @@ RunLabel = tuple[tuple[str, str, int], ...]
 DecodeFunction = Callable[[memoryview, int, int], tuple[Any, int]]
 EncodeFunction = Callable[[Any, list[Any], int], int]
 
-_INTEGER_RANGES = {
-    "byte": (0, 255), "char": (0, 255), "int8": (-(2**7), 2**7 - 1), "uint8": (0, 2**8 - 1),
-    "int16": (-(2**15), 2**15 - 1), "uint16": (0, 2**16 - 1), "int32": (-(2**31), 2**31 - 1),
-    "uint32": (0, 2**32 - 1), "int64": (-(2**63), 2**63 - 1), "uint64": (0, 2**64 - 1),
-}  # fmt: skip
-_BYTE_KINDS = frozenset(("byte", "char", "uint8"))
 _ORDER = {"<": "<", ">": ">", "=": "<" if sys.byteorder == "little" else ">", "|": "<"}
-_STRUCT_CODES = {
-    "int8": "b", "int16": "h", "uint16": "H", "int32": "i", "uint32": "I", "int64": "q",
-    "uint64": "Q", "float32": "f", "float64": "d",
-}  # fmt: skip
 
 
 class WireDecodeError(DecodeError):
@@ -102,8 +93,9 @@ def decode_failure(
     if isinstance(label, tuple):
         for segment, kind, end in label:
             if end > left:
-                detail = f"truncated: {kind} at offset {pos + 4 + end - _size(kind)} needs "
-                detail += f"{_size(kind)} bytes, {max(0, left - end + _size(kind))} left"
+                size = PRIMITIVE_SIZES[kind]
+                detail = f"truncated: {kind} at offset {pos + 4 + end - size} needs "
+                detail += f"{size} bytes, {max(0, left - end + size)} left"
                 return WireDecodeError(detail).within(segment)
         return WireDecodeError(f"malformed ({describe(error)}: {error})").within(label[0][0])
     if isinstance(error, UnicodeDecodeError):
@@ -113,11 +105,6 @@ def decode_failure(
     else:
         detail = f"malformed ({describe(error)}: {error})"
     return WireDecodeError(detail).within(label)
-
-
-def _size(kind: str) -> int:
-    return {"int8": 1, "uint8": 1, "byte": 1, "char": 1, "bool": 1, "int16": 2, "uint16": 2,
-            "int32": 4, "uint32": 4, "float32": 4}.get(kind, 8)  # fmt: skip
 
 
 def read_bools(mv: memoryview, pos: int, count: int) -> list[bool]:
@@ -263,7 +250,7 @@ def check_scalar(kind: str, value: Any, segment: str) -> Any:
         return check_float32(value, segment)
     if kind == "byte":
         return check_octet(value, segment)
-    low, high = _INTEGER_RANGES[kind]
+    low, high = INTEGER_RANGES[kind]
     return check_int(value, low, high, kind, segment)
 
 
@@ -404,7 +391,7 @@ def encode_array(
     ``bytes``/``bytearray`` and ndarrays of exactly ``dtype`` are not copied here; lists are
     checked element by element (the error names the first bad one).
     """
-    if kind in _BYTE_KINDS:
+    if kind in BYTE_NAMES:
         view = _byte_buffer(value)
         if view is not None:
             check_length(view, size, fixed, "")
@@ -421,7 +408,7 @@ def encode_array(
         if size is None or (count == size if fixed else count <= size):
             with contextlib.suppress(struct.error, OverflowError, TypeError):
                 return struct.pack(
-                    f"{_ORDER[dtype.byteorder]}{count}{_STRUCT_CODES[kind]}", *value
+                    f"{_ORDER[dtype.byteorder]}{count}{STRUCT_CODES[kind]}", *value
                 ), count
     if (
         isinstance(value, np.ndarray)
@@ -432,9 +419,9 @@ def encode_array(
         check_length(value, size, fixed, "")
         return value.data.cast("B"), len(value)
     if fixed:
-        result = numeric_array(value, _STRUCT_CODES[kind], dtype.name, kind, size or 0, "")
+        result = numeric_array(value, STRUCT_CODES[kind], dtype.name, kind, size or 0, "")
     else:
-        result = np.frombuffer(numeric_sequence(value, _STRUCT_CODES[kind], kind, size, ""),
+        result = np.frombuffer(numeric_sequence(value, STRUCT_CODES[kind], kind, size, ""),
                                dtype=dtype.newbyteorder("="))  # fmt: skip
     count = len(result)
     if result.dtype != dtype:
@@ -465,8 +452,6 @@ def view_repr(view: Any) -> str:
 
 
 # -- Fast DDS's size estimate --------------------------------------------------------------------
-_PRIMITIVE_SIZES = {**{kind: _size(kind) for kind in _INTEGER_RANGES}, "bool": 1, "float32": 4,
-                    "float64": 8}  # fmt: skip
 Definitions = Mapping[str, tuple[str, tuple[Any, ...]]]
 
 
@@ -490,7 +475,7 @@ def fastdds_estimated_size(
         if container != "array":
             pos = ((pos + 3) & -4) + 4
         if kind == "primitive":
-            itemsize = _PRIMITIVE_SIZES[element]
+            itemsize = PRIMITIVE_SIZES[element]
             pos = ((pos + itemsize - 1) & -itemsize) + itemsize * len(field)
         else:
             for item in field:
@@ -500,7 +485,7 @@ def fastdds_estimated_size(
 
 def _estimate_one(value: Any, kind: str, element: str, definitions: Definitions, pos: int) -> int:
     if kind == "primitive":
-        itemsize = _PRIMITIVE_SIZES[element]
+        itemsize = PRIMITIVE_SIZES[element]
         return ((pos + itemsize - 1) & -itemsize) + itemsize
     if kind == "string":
         return ((pos + 3) & -4) + 4 + len(value.encode()) + 1

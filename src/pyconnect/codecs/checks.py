@@ -8,21 +8,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from pyconnect.errors import EncodeError, type_name_of
-
-FLOAT32_MAX = 3.4028234663852886e38
-
-INTEGER_RANGES: dict[str, tuple[int, int]] = {
-    "byte": (0, 255),
-    "char": (0, 255),
-    "int8": (-(2**7), 2**7 - 1),
-    "uint8": (0, 2**8 - 1),
-    "int16": (-(2**15), 2**15 - 1),
-    "uint16": (0, 2**16 - 1),
-    "int32": (-(2**31), 2**31 - 1),
-    "uint32": (0, 2**32 - 1),
-    "int64": (-(2**63), 2**63 - 1),
-    "uint64": (0, 2**64 - 1),
-}
+from pyconnect.typesys.primitives import FLOAT32_MAX, INTEGER_RANGES
 
 
 def check_float(value: Any, path: str) -> float:

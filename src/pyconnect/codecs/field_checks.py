@@ -15,8 +15,8 @@ from typing import Any, NoReturn
 import numpy as np
 
 from pyconnect.errors import EncodeError
+from pyconnect.typesys.primitives import FLOAT32_MAX, INTEGER_NAMES, INTEGER_RANGES
 
-FLOAT32_MAX = 3.4028234663852886e38
 # rosidl stores `byte` fields as one-byte `bytes`; dicts carry them as ints 0..255.
 BYTE_VALUES = tuple(bytes((i,)) for i in range(256))
 _NUMERIC = (int, float, np.integer, np.floating)
@@ -149,8 +149,6 @@ def _element_error(values: Any, check: Callable[[object, str], object], segment:
 
 
 def _scalar_check(kind: str) -> Callable[[object, str], object]:
-    from codegen.ir import INTEGER_RANGES
-
     if kind == "float64":
         return check_float
     if kind == "float32":
@@ -190,9 +188,7 @@ def _to_array(
     return converted
 
 
-_INTEGER_KINDS = frozenset(
-    ("byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32", "int64", "uint64")
-)
+_INTEGER_KINDS = frozenset(INTEGER_NAMES)
 
 
 def numeric_sequence(

@@ -11,8 +11,8 @@ from typing import Any
 from pyconnect.codecs.base import ActionCodec, Codec, DictCodec, ServiceCodec
 from pyconnect.codecs.natural import NATURAL_CODECS
 from pyconnect.codecs.stamped import Stamped, decode_stamped, encode_stamped
-from pyconnect.codecs.type_names import TypeName, parse_type_name
 from pyconnect.errors import CodecNotFoundError, PyconnectError
+from pyconnect.typesys.names import TypeName, parse_type_name
 
 AnyCodec = Codec | ServiceCodec | ActionCodec
 
@@ -45,7 +45,7 @@ def _generated_dict_codec(full_name: str) -> DictCodec | None:
 
 
 def _on_the_fly_dict_codec(full_name: str) -> DictCodec:
-    from codegen.onthefly import compile_dict_codec
+    from pyconnect.codecs.onthefly_dict import compile_dict_codec
 
     msg_class, to_dict, from_dict = compile_dict_codec(full_name)
     return DictCodec(full_name, msg_class, to_dict, from_dict)

@@ -38,6 +38,8 @@ from pyconnect.codecs.cdr_runtime import (
 )
 from pyconnect.codecs.field_checks import FieldError
 from pyconnect.errors import CodecNotFoundError, DecodeError, EncodeError
+from pyconnect.typesys.errors import DefinitionError
+from pyconnect.typesys.names import parse_type_name
 
 __all__ = [
     "WireCodec",
@@ -176,8 +178,6 @@ def _generated_module(package: str) -> Any:
 
 
 def _full_name(msg_type: str) -> str:
-    from pyconnect.codecs.type_names import parse_type_name
-
     parsed = parse_type_name(msg_type)
     if parsed.namespace is not None:
         return parsed.full()
@@ -205,8 +205,7 @@ def _generated_codec(full_name: str) -> WireCodec | None:
 
 def _installed_codec(full_name: str) -> WireCodec:
     try:
-        from codegen.introspect import DefinitionError
-        from codegen.onthefly_wire import compile_installed
+        from pyconnect.codecs.onthefly_wire import compile_installed
     except ImportError as error:
         raise CodecNotFoundError(
             f"{full_name}: no generated wire codec, and the generator cannot run ({error})"
@@ -221,8 +220,7 @@ def _installed_codec(full_name: str) -> WireCodec:
 
 
 def _definition_codec(msg_type: str, text: str, encoding: str) -> WireCodec:
-    from codegen.introspect import DefinitionError
-    from codegen.onthefly_wire import compile_definition, digest
+    from pyconnect.codecs.onthefly_wire import compile_definition, digest
 
     key = (msg_type, encoding, digest(text))
     cached = _by_text.get(key)

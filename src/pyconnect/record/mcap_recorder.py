@@ -16,9 +16,9 @@ from typing import BinaryIO
 
 from mcap.writer import CompressionType, Writer
 
-from pyconnect.codecs.type_names import full_type_name
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_metadata import METADATA_FILE, BagMetadata, TopicMetadata, write_metadata
+from pyconnect.typesys.names import full_type_name
 
 __all__ = ["McapRecorder"]
 
@@ -106,7 +106,7 @@ class McapRecorder:
                     )
                 return
             if definition is None:
-                from pyconnect.record.definitions import installed_definition
+                from pyconnect.typesys.definition_text import installed_definition
 
                 definition = installed_definition(full_type)
             key = (full_type, definition)

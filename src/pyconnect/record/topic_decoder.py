@@ -14,8 +14,8 @@ import logging
 from collections.abc import Callable
 from typing import Any
 
-from pyconnect.codecs.type_names import full_type_name
 from pyconnect.errors import CodecError, DecodeError, PyconnectError
+from pyconnect.typesys.names import full_type_name
 
 __all__ = ["TopicDecoder", "normalise_type_name", "one_line"]
 

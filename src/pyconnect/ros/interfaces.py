@@ -8,8 +8,8 @@ from __future__ import annotations
 import importlib
 from typing import Any
 
-from pyconnect.codecs.type_names import parse_type_name
 from pyconnect.errors import PyconnectError
+from pyconnect.typesys.names import parse_type_name
 
 
 def interface_class(data_interface: object, *, kind: str) -> Any:

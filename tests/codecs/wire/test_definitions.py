@@ -6,8 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from codegen import onthefly_wire
-from pyconnect.codecs import wire
+from pyconnect.codecs import onthefly_wire, wire
 from pyconnect.errors import CodecNotFoundError, DecodeError
 
 SEPARATOR = "=" * 80

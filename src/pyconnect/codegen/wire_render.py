@@ -9,22 +9,14 @@ template (``templates/wire_codecs.py.j2``) prints the steps; it only loops and b
 
 from __future__ import annotations
 
-import hashlib
 import keyword
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from codegen.ir import (
-    NUMPY_DTYPES,
-    PRIMITIVE_SIZES,
-    STRUCT_CODES,
-    Field,
-    FieldType,
-    MessageDef,
-    PackageDef,
-    TypeSet,
-)
+from pyconnect.codegen.templating import header, py_literal, render_template
+from pyconnect.typesys.model import Field, FieldType, MessageDef, PackageDef, TypeSet
+from pyconnect.typesys.primitives import NUMPY_DTYPES, PRIMITIVE_SIZES, STRUCT_CODES
 
 
 def symbol(full_name: str) -> str:
@@ -374,8 +366,6 @@ class Planner:
 
 def default_literal(ftype: FieldType, default: Any) -> str:
     """The value a missing key encodes as: the field's default, else zero/empty."""
-    from codegen.render import py_literal
-
     element = ftype.element
     if ftype.is_single:
         if element.kind == "message":
@@ -450,24 +440,13 @@ def definition_literal(msg: MessageDef) -> str:
             fld.name, element.kind, element.name, element.string_bound, ftype.container,
             ftype.size, fld.default,
         )  # fmt: skip
-        rows.append(py_literal_any(row))
+        rows.append(py_literal(row))
     inner = ", ".join(rows)
     return f'("{msg.type_hash}", ({inner}{"," if len(rows) == 1 else ""}))'
 
 
-def py_literal_any(value: Any) -> str:
-    from codegen.render import py_literal
-
-    if isinstance(value, tuple):
-        inner = ", ".join(py_literal_any(v) for v in value)
-        return f"({inner},)" if len(value) == 1 else f"({inner})"
-    return py_literal(value)
-
-
 def wire_context(messages: Iterable[MessageDef], types: TypeSet, source: str) -> dict[str, Any]:
     """The template context for a module holding ``messages`` and every type they refer to."""
-    from codegen.render import header
-
     wanted = list(messages)
     ordered: list[MessageDef] = []
     seen: set[str] = set()
@@ -493,16 +472,9 @@ def wire_context(messages: Iterable[MessageDef], types: TypeSet, source: str) ->
 
 def render_wire_module(messages: Iterable[MessageDef], types: TypeSet, *, source: str) -> str:
     """A self-contained module of wire codecs for ``messages`` and their dependencies."""
-    # Imported here: codegen.render lists this module's renderer among its output kinds.
-    from codegen.render import render_template
-
     return render_template("wire_codecs.py.j2", wire_context(messages, types, source))
 
 
 def render_wire_codecs(package: PackageDef, types: TypeSet) -> str:
     """The output kind ``wire_codecs`` of ``codecgen build``: one module per package."""
     return render_wire_module(package.all_messages, types, source=f"package {package.name}")
-
-
-def text_digest(text: str) -> str:
-    return hashlib.sha256(text.encode("utf-8")).hexdigest()[:16]

@@ -15,33 +15,15 @@ import importlib
 import linecache
 import re
 import threading
-from dataclasses import replace
-from pathlib import Path
 from typing import Any
 
-from codegen.introspect import (
-    DefinitionError,
-    ParsedInterfaces,
-    build_type_set,
-    installed_packages,
-    iter_messages,
-    load_packages,
-    parse_installed_package,
-    parse_interface_text,
-)
-from codegen.ir import ElementType, Field, FieldType, MessageDef, TypeSet
-from codegen.wire_render import render_wire_module
-
-_SEPARATOR = re.compile(r"^={10,}[ \t]*$", re.MULTILINE)
-_BLOCK_HEADER = re.compile(
-    r"^\s*(MSG|IDL):\s*([A-Za-z][A-Za-z0-9_]*)/(?:(msg|srv|action)/)?([A-Za-z][A-Za-z0-9_]*)\s*$"
-)
-_SERVICE_SUFFIXES = ("_Request", "_Response", "_Event")
-_ACTION_SUFFIXES = (
-    "_Goal", "_Result", "_Feedback", "_FeedbackMessage", "_SendGoal_Request",
-    "_SendGoal_Response", "_SendGoal_Event", "_GetResult_Request", "_GetResult_Response",
-    "_GetResult_Event",
-)  # fmt: skip
+from pyconnect.codegen.wire_render import render_wire_module
+from pyconnect.typesys.definition_text import parse_definition, split_type
+from pyconnect.typesys.errors import DefinitionError
+from pyconnect.typesys.loading import build_type_set, load_packages
+from pyconnect.typesys.model import ElementType, Field, FieldType, MessageDef, TypeSet
+from pyconnect.typesys.packages import installed_packages
+from pyconnect.typesys.parse import ParsedInterfaces, iter_messages, parse_installed_package
 
 Namespace = dict[str, Any]
 _lock = threading.RLock()
@@ -79,74 +61,6 @@ def compile_installed(package: str) -> Namespace:
             )
             _by_package[package] = cached
         return cached
-
-
-# -- definition text -----------------------------------------------------------------------------
-def split_type(msg_type: str) -> tuple[str, str, str]:
-    parts = msg_type.strip().split("/")
-    if len(parts) == 2:
-        return parts[0], "msg", parts[1]
-    if len(parts) == 3 and parts[1] in ("msg", "srv", "action"):
-        return parts[0], parts[1], parts[2]
-    raise DefinitionError(f"{msg_type!r} is not a ROS type name ('pkg/msg/Name' or 'pkg/Name')")
-
-
-def _strip_suffix(name: str, suffixes: tuple[str, ...]) -> str | None:
-    for suffix in sorted(suffixes, key=len, reverse=True):
-        if name.endswith(suffix) and len(name) > len(suffix):
-            return name[: -len(suffix)]
-    return None
-
-
-def parse_definition(msg_type: str, text: str, encoding: str) -> ParsedInterfaces:
-    """Parse a bag's definition text of ``msg_type`` into IR (one block per type)."""
-    if encoding not in ("ros2msg", "ros2idl"):
-        raise DefinitionError(f"unsupported definition encoding {encoding!r} (ros2msg or ros2idl)")
-    package, namespace, name = split_type(msg_type)
-    parsed = ParsedInterfaces()
-    blocks = _SEPARATOR.split(text)
-    main, rest = blocks[0], blocks[1:]
-    if encoding == "ros2idl":
-        # The main type is a block like the others, headed `IDL: pkg/msg/Name`.
-        for block in blocks:
-            lines = block.strip("\n").split("\n", 1)
-            match = _BLOCK_HEADER.match(lines[0]) if lines else None
-            if match is None:
-                if block.strip():
-                    raise DefinitionError(f"{msg_type}: an IDL block lacks its 'IDL: pkg/msg/Name'")
-                continue
-            pkg, ns, nm = match.group(2), match.group(3) or "msg", match.group(4)
-            body = lines[1] if len(lines) > 1 else ""
-            parse_interface_text(pkg, Path(f"{ns}/{nm}.idl"), body, parsed)
-        return parsed
-    _parse_main(package, namespace, name, main, parsed)
-    for block in rest:
-        lines = block.strip("\n").split("\n", 1)
-        if not lines or not lines[0].strip():
-            continue
-        match = _BLOCK_HEADER.match(lines[0])
-        if match is None:
-            raise DefinitionError(f"{msg_type}: a definition block lacks its 'MSG: pkg/Name' line")
-        pkg, nm = match.group(2), match.group(4)
-        body = lines[1] if len(lines) > 1 else ""
-        parse_interface_text(pkg, Path(f"msg/{nm}.msg"), body, parsed)
-    return parsed
-
-
-def _parse_main(package: str, namespace: str, name: str, text: str, into: ParsedInterfaces) -> None:
-    has_parts = re.search(r"^---\s*$", text, re.MULTILINE) is not None
-    if namespace == "srv" and has_parts:
-        base = _strip_suffix(name, _SERVICE_SUFFIXES) or name
-        parse_interface_text(package, Path(f"srv/{base}.srv"), text, into)
-        return
-    if namespace == "action" and has_parts:
-        base = _strip_suffix(name, _ACTION_SUFFIXES) or name
-        parse_interface_text(package, Path(f"action/{base}.action"), text, into)
-        return
-    parse_interface_text(package, Path(f"msg/{name}.msg"), text, into)
-    if namespace != "msg":
-        # A service or action part stored as plain .msg text: move it to its namespace.
-        into.messages[-1] = replace(into.messages[-1], namespace=namespace)  # type: ignore[arg-type]
 
 
 def _generated_definitions(package: str) -> dict[str, MessageDef]:

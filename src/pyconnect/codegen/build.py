@@ -5,10 +5,10 @@ from __future__ import annotations
 from collections.abc import Iterable
 from pathlib import Path
 
-from codegen import FORMAT_VERSION
-from codegen.introspect import load_packages
-from codegen.ir import PackageDef, TypeSet
-from codegen.render import render_package
+from pyconnect.codegen import FORMAT_VERSION
+from pyconnect.codegen.render import render_package
+from pyconnect.typesys.loading import load_packages
+from pyconnect.typesys.model import PackageDef, TypeSet
 
 GENERATED_PACKAGE = "pyconnect_generated"
 # What `codecgen build` with no package names generates: common_interfaces, the core
@@ -27,8 +27,8 @@ _ROOT_INIT = (
 
 
 def default_out_dir() -> Path:
-    """The checked-in ``generated/`` folder of a source checkout."""
-    return Path(__file__).resolve().parent.parent / "generated"
+    """The checked-in ``generated/`` folder of a source checkout (``src/pyconnect/codegen/..``)."""
+    return Path(__file__).resolve().parents[3] / "generated"
 
 
 def render_tree(packages: Iterable[str] = (), folders: Iterable[Path] = ()) -> dict[str, str]:

@@ -1,8 +1,8 @@
-"""The generator's intermediate representation: frozen dataclasses describing ROS interfaces.
+"""The type model: frozen dataclasses describing ROS messages, services, actions and packages.
 
-Everything a codec template needs is here — primitive kinds, array and sequence bounds, string
-bounds, nesting, constants, defaults and the RIHS01 type hash — so that dict codecs, TypedDicts
-and CDR wire codecs are all rendered from the same description.
+Everything a codec needs is here — primitive kinds, array and sequence bounds, string bounds,
+nesting, constants, defaults and the RIHS01 type hash — so that dict codecs, TypedDicts and CDR
+wire codecs are all rendered from the same description.
 """
 
 from __future__ import annotations
@@ -10,38 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Literal
 
-# ROS .msg primitive names. `char` is parsed to uint8 by rosidl_adapter, as rosidl does.
-PRIMITIVE_NAMES = (
-    "bool", "byte", "char", "int8", "uint8", "int16", "uint16", "int32", "uint32",
-    "int64", "uint64", "float32", "float64",
-)  # fmt: skip
-INTEGER_RANGES: dict[str, tuple[int, int]] = {
-    "byte": (0, 255),
-    "char": (0, 255),
-    "int8": (-(2**7), 2**7 - 1),
-    "uint8": (0, 2**8 - 1),
-    "int16": (-(2**15), 2**15 - 1),
-    "uint16": (0, 2**16 - 1),
-    "int32": (-(2**31), 2**31 - 1),
-    "uint32": (0, 2**32 - 1),
-    "int64": (-(2**63), 2**63 - 1),
-    "uint64": (0, 2**64 - 1),
-}
-# Size in bytes of each primitive on the wire (CDR) and its struct/numpy/array code.
-PRIMITIVE_SIZES: dict[str, int] = {
-    "bool": 1, "byte": 1, "char": 1, "int8": 1, "uint8": 1, "int16": 2, "uint16": 2,
-    "int32": 4, "uint32": 4, "int64": 8, "uint64": 8, "float32": 4, "float64": 8,
-}  # fmt: skip
-STRUCT_CODES: dict[str, str] = {
-    "bool": "?", "byte": "B", "char": "B", "int8": "b", "uint8": "B", "int16": "h",
-    "uint16": "H", "int32": "i", "uint32": "I", "int64": "q", "uint64": "Q",
-    "float32": "f", "float64": "d",
-}  # fmt: skip
-NUMPY_DTYPES: dict[str, str] = {
-    "bool": "bool", "byte": "uint8", "char": "uint8", "int8": "int8", "uint8": "uint8",
-    "int16": "int16", "uint16": "uint16", "int32": "int32", "uint32": "uint32",
-    "int64": "int64", "uint64": "uint64", "float32": "float32", "float64": "float64",
-}  # fmt: skip
+from pyconnect.typesys.primitives import FLOAT_NAMES, INTEGER_RANGES
 
 ElementKind = Literal["primitive", "string", "wstring", "message"]
 Container = Literal["single", "array", "bounded_sequence", "sequence"]
@@ -54,7 +23,7 @@ class ElementType:
     """The type of one value: a primitive, a (w)string with an optional bound, or a message."""
 
     kind: ElementKind
-    # primitive: a name from PRIMITIVE_NAMES; string/wstring: "string"/"wstring";
+    # primitive: a name from primitives.PRIMITIVE_NAMES; string/wstring: "string"/"wstring";
     # message: the full name "pkg/msg/Name".
     name: str
     string_bound: int | None = None
@@ -65,7 +34,7 @@ class ElementType:
 
     @property
     def is_float(self) -> bool:
-        return self.name in ("float32", "float64")
+        return self.name in FLOAT_NAMES
 
     @property
     def is_integer(self) -> bool:

@@ -6,8 +6,15 @@ import argparse
 import sys
 from pathlib import Path
 
-from codegen.build import DEFAULT_PACKAGES, default_out_dir, render_tree, stale_files, write_tree
-from codegen.introspect import DefinitionError, ament_prefixes, installed_packages
+from pyconnect.codegen.build import (
+    DEFAULT_PACKAGES,
+    default_out_dir,
+    render_tree,
+    stale_files,
+    write_tree,
+)
+from pyconnect.typesys.errors import DefinitionError
+from pyconnect.typesys.packages import ament_prefixes, installed_packages
 
 
 def _parser() -> argparse.ArgumentParser:

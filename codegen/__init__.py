@@ -1,5 +1,0 @@
-"""codecgen: reads ROS interface definitions and writes straight-line codec modules."""
-
-from __future__ import annotations
-
-FORMAT_VERSION = "1"

@@ -1,0 +1,160 @@
+"""Map rosidl_parser's definition objects onto the type model (fields, constants, defaults)."""
+
+from __future__ import annotations
+
+import ast
+from collections.abc import Iterable
+from dataclasses import replace
+from pathlib import Path
+from typing import Any
+
+from pyconnect.typesys.errors import DefinitionError
+from pyconnect.typesys.model import (
+    ActionDef,
+    Constant,
+    DefaultValue,
+    ElementType,
+    Field,
+    FieldType,
+    MessageDef,
+    ServiceDef,
+)
+from pyconnect.typesys.primitives import FROM_IDL
+
+DUMMY_MEMBER = "structure_needs_at_least_one_member"
+
+
+def element_type_of(rosidl_type: Any, origin: Path) -> ElementType:
+    from rosidl_parser import definition as d
+
+    if isinstance(rosidl_type, d.BasicType):
+        name = FROM_IDL.get(rosidl_type.typename)
+        if name is None:
+            raise DefinitionError(f"unsupported IDL type {rosidl_type.typename!r}", path=origin)
+        return ElementType("primitive", name)
+    if isinstance(rosidl_type, d.AbstractWString):
+        bound = rosidl_type.maximum_size if isinstance(rosidl_type, d.BoundedWString) else None
+        return ElementType("wstring", "wstring", int(bound) if bound is not None else None)
+    if isinstance(rosidl_type, d.AbstractString):
+        bound = rosidl_type.maximum_size if isinstance(rosidl_type, d.BoundedString) else None
+        return ElementType("string", "string", int(bound) if bound is not None else None)
+    if isinstance(rosidl_type, d.NamespacedType):
+        return ElementType("message", "/".join(rosidl_type.namespaced_name()))
+    raise DefinitionError(f"unsupported IDL type {rosidl_type!r}", path=origin)
+
+
+def field_type_of(rosidl_type: Any, origin: Path) -> FieldType:
+    from rosidl_parser import definition as d
+
+    if isinstance(rosidl_type, d.Array):
+        return FieldType(element_type_of(rosidl_type.value_type, origin), "array", rosidl_type.size)
+    if isinstance(rosidl_type, d.BoundedSequence):
+        element = element_type_of(rosidl_type.value_type, origin)
+        return FieldType(element, "bounded_sequence", rosidl_type.maximum_size)
+    if isinstance(rosidl_type, d.UnboundedSequence):
+        return FieldType(element_type_of(rosidl_type.value_type, origin), "sequence")
+    return FieldType(element_type_of(rosidl_type, origin))
+
+
+def _scalar(value: object, element: ElementType) -> bool | int | float | str:
+    if element.kind in ("string", "wstring"):
+        return str(value)
+    if isinstance(value, str):
+        value = ast.literal_eval(value)
+    if element.name == "bool":
+        return bool(value)
+    if element.is_float:
+        return float(value)  # type: ignore[arg-type]
+    return int(value)  # type: ignore[call-overload,no-any-return]
+
+
+def _default(member: Any, ftype: FieldType) -> DefaultValue:
+    if not member.has_annotation("default"):
+        return None
+    raw = member.get_annotation_value("default")["value"]
+    if ftype.is_single:
+        return _scalar(raw, ftype.element)
+    values = ast.literal_eval(raw) if isinstance(raw, str) else raw
+    return tuple(_scalar(v, ftype.element) for v in values)
+
+
+def message_def(
+    structure: Any, constants: Iterable[Any], origin: Path, python: tuple[str, str]
+) -> MessageDef:
+    namespaced = structure.namespaced_type
+    package, namespace = namespaced.namespaces
+    fields = []
+    for member in structure.members:
+        if member.name == DUMMY_MEMBER:
+            continue
+        ftype = field_type_of(member.type, origin)
+        fields.append(Field(member.name, ftype, _default(member, ftype)))
+    consts = tuple(
+        Constant(
+            c.name,
+            element_type_of(c.type, origin),
+            _scalar(c.value, element_type_of(c.type, origin)),
+        )
+        for c in constants
+    )
+    return MessageDef(
+        package=package,
+        namespace=namespace,
+        name=namespaced.name,
+        fields=tuple(fields),
+        constants=consts,
+        python_module=python[0],
+        python_class=python[1],
+    )
+
+
+def service_def(srv: Any, origin: Path, module: str, access: str) -> ServiceDef:
+    package = srv.namespaced_type.namespaces[0]
+    request = message_def(srv.request_message.structure, (), origin, (module, f"{access}.Request"))
+    request = _with_constants(request, srv.request_message.constants, origin)
+    response = message_def(
+        srv.response_message.structure, (), origin, (module, f"{access}.Response")
+    )
+    response = _with_constants(response, srv.response_message.constants, origin)
+    event = message_def(srv.event_message.structure, (), origin, (module, f"{access}.Event"))
+    return ServiceDef(package, srv.namespaced_type.name, request, response, event)
+
+
+def _with_constants(msg: MessageDef, constants: Iterable[Any], origin: Path) -> MessageDef:
+    consts = tuple(
+        Constant(
+            c.name,
+            element_type_of(c.type, origin),
+            _scalar(c.value, element_type_of(c.type, origin)),
+        )
+        for c in constants
+    )
+    return replace(msg, constants=consts)
+
+
+def action_def(action: Any, origin: Path, module: str) -> ActionDef:
+    package = action.namespaced_type.namespaces[0]
+    name = action.namespaced_type.name
+
+    def part(message: Any, access: str) -> MessageDef:
+        return message_def(message.structure, message.constants, origin, (module, access))
+
+    send_goal = service_def(
+        action.send_goal_service, origin, module, f"{name}.Impl.SendGoalService"
+    )
+    get_result = service_def(
+        action.get_result_service, origin, module, f"{name}.Impl.GetResultService"
+    )
+    implicit = (
+        *send_goal.messages,
+        *get_result.messages,
+        part(action.feedback_message, f"{name}.Impl.FeedbackMessage"),
+    )
+    return ActionDef(
+        package,
+        name,
+        goal=part(action.goal, f"{name}.Goal"),
+        result=part(action.result, f"{name}.Result"),
+        feedback=part(action.feedback, f"{name}.Feedback"),
+        implicit=implicit,
+    )
