@@ -41,11 +41,6 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ),
 )
 
-# Packages whose inner circles are known and being removed (issue 10: the agents of ros/ reach
-# their node through custom_node). The test fails once a listed package has none left, so that
-# the exemption goes with the last circle.
-CIRCLES_BEING_REMOVED = ("pyconnect.ros",)
-
 
 def module_name(path: Path) -> str:
     parts = list(path.relative_to(SRC).with_suffix("").parts)
@@ -155,15 +150,7 @@ def strongly_connected(graph: dict[str, set[str]]) -> list[frozenset[str]]:
 
 
 def test_no_import_circles() -> None:
-    circles = strongly_connected(import_graph())
-
-    def exempt(circle: frozenset[str], package: str) -> bool:
-        return all(name.startswith(package + ".") for name in circle)
-
-    new = [c for c in circles if not any(exempt(c, p) for p in CIRCLES_BEING_REMOVED)]
-    assert sorted(sorted(c) for c in new) == []
-    gone = [p for p in CIRCLES_BEING_REMOVED if not any(exempt(c, p) for c in circles)]
-    assert gone == [], "no circles left there: remove them from CIRCLES_BEING_REMOVED"
+    assert sorted(sorted(c) for c in strongly_connected(import_graph())) == []
 
 
 @pytest.mark.parametrize(
