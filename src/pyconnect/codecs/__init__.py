@@ -21,14 +21,17 @@ __all__ = [
     "ActionCodec",
     "AnyCodec",
     "Codec",
+    "CvBridgeError",
     "DictCodec",
     "Registry",
     "ServiceCodec",
     "Stamped",
+    "cv2_to_imgmsg",
     "decode",
     "default_registry",
     "encode",
     "from_dict",
+    "imgmsg_to_cv2",
     "lookup",
     "register",
     "to_dict",
@@ -78,4 +81,22 @@ def __getattr__(name: str) -> Any:
         import importlib
 
         return importlib.import_module("pyconnect.codecs.wire")
+    if name == "CvBridgeError":
+        from pyconnect.codecs.cv_bridge_calls import CvBridgeError
+
+        return CvBridgeError
     raise AttributeError(f"module 'pyconnect.codecs' has no attribute {name!r}")
+
+
+def imgmsg_to_cv2(msg: Any, desired_encoding: str = "passthrough") -> Any:
+    """cv_bridge's call: an Image message's pixels as a writable OpenCV array."""
+    from pyconnect.codecs.cv_bridge_calls import imgmsg_to_cv2 as convert_message
+
+    return convert_message(msg, desired_encoding)
+
+
+def cv2_to_imgmsg(cvim: Any, encoding: str = "passthrough", header: Any | None = None) -> Any:
+    """cv_bridge's call: a new Image message from an OpenCV array (one copy)."""
+    from pyconnect.codecs.cv_bridge_calls import cv2_to_imgmsg as convert_array
+
+    return convert_array(cvim, encoding, header)

@@ -227,21 +227,43 @@ def encode_image(value: Any, *, encoding: str | None = None) -> Any:
 
 
 class ImageCodec:
-    """Image ↔ ndarray. ``encoding`` fixes the encoding on encode (default: inferred)."""
+    """Image ↔ ndarray.
+
+    ``encoding`` fixes the encoding on encode (default: inferred from the array) and converts
+    to it on decode, as cv_bridge's ``desired_encoding`` does. ``copy=True`` makes decode
+    return a writable array of its own (one copy) instead of a view of the message buffer,
+    which is read-only for values read from bags or CDR bytes.
+    """
 
     msg_type = "sensor_msgs/msg/Image"
     lossless = False
 
-    def __init__(self, *, encoding: str | None = None) -> None:
+    def __init__(self, *, encoding: str | None = None, copy: bool = False) -> None:
         if encoding is not None:
             try:
                 pixel_format(encoding)
             except UnknownEncodingError as error:
                 raise EncodeError(f"ImageCodec: {error}") from None
         self.encoding = encoding
+        self.copy = copy
+        if encoding is not None or copy:
+            # An instance attribute shadows the plain decode below only when it has work to do.
+            self.__dict__["decode"] = self._decode_converted
 
-    # The function itself, so a decode costs no extra Python frame.
+    # The function itself, so a plain decode costs no extra Python frame.
     decode = staticmethod(decode_image)
+
+    def _decode_converted(self, msg: Any) -> npt.NDArray[Any]:
+        image = decode_image(msg)
+        if self.encoding is not None and self.encoding != msg.encoding:
+            from pyconnect.codecs.image_convert import ConversionError, convert
+
+            try:
+                image = convert(image, self.encoding, source_encoding=msg.encoding)
+            except ConversionError as error:
+                raise DecodeError(f"Image.encoding: {error}") from None
+        # A conversion may hand back a view (a dtype-only change between generic encodings).
+        return np.array(image) if self.copy and not image.flags.owndata else image
 
     def encode(self, value: Any) -> Any:
         return encode_image(value, encoding=self.encoding)
@@ -250,4 +272,4 @@ class ImageCodec:
         return image_fields(value, encoding=self.encoding)
 
     def __repr__(self) -> str:
-        return f"ImageCodec(encoding={self.encoding!r})"
+        return f"ImageCodec(encoding={self.encoding!r}, copy={self.copy!r})"
