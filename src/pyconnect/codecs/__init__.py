@@ -33,6 +33,8 @@ __all__ = [
     "from_dict",
     "imgmsg_to_cv2",
     "lookup",
+    "lookup_action",
+    "lookup_service",
     "register",
     "to_dict",
     "unregister",
@@ -41,8 +43,22 @@ __all__ = [
 
 
 def lookup(type_ref: object) -> AnyCodec:
-    """The codec of a class, ``"pkg/msg/Name"`` or ``"pkg/Name"`` in the default registry."""
+    """The codec of a class, ``"pkg/msg/Name"`` or ``"pkg/Name"`` in the default registry.
+
+    Every codec it returns has ``decode``/``encode``; for the parts of a service or action
+    type, ``lookup_service``/``lookup_action`` give them typed.
+    """
     return default_registry.lookup(type_ref)
+
+
+def lookup_service(type_ref: object) -> ServiceCodec:
+    """The part codecs of a service type: ``lookup_service(SetBool).request.encode(...)``."""
+    return default_registry.lookup_service(type_ref)
+
+
+def lookup_action(type_ref: object) -> ActionCodec:
+    """The part codecs of an action type: ``lookup_action(Fibonacci).goal.encode(...)``."""
+    return default_registry.lookup_action(type_ref)
 
 
 def decode(msg: Any, *, stamped: bool = False) -> Any:

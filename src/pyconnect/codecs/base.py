@@ -6,6 +6,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
+from pyconnect.errors import CodecError
+
 
 @runtime_checkable
 class Codec(Protocol):
@@ -47,8 +49,38 @@ class DictCodec:
         return self.from_dict(value)
 
 
+class _CompositeCodec:
+    """What a service or action codec answers to the calls of a message codec.
+
+    ``lookup`` returns a message, service or action codec; giving all three ``decode`` and
+    ``encode`` keeps ``codecs.lookup(Image).decode(msg)`` type-correct for users, and tells
+    whoever calls them on a service or action which part to name instead.
+    """
+
+    msg_type: str
+    lossless = False
+
+    @property
+    def parts(self) -> dict[str, Codec]:
+        raise NotImplementedError
+
+    def _not_a_message(self, call: str) -> CodecError:
+        kind = "service" if self.msg_type.split("/")[1] == "srv" else "action"
+        parts = [part.lower() for part in self.parts]
+        return CodecError(
+            f"{self.msg_type} is a {kind} type: {call} one of its parts ({', '.join(parts)}), "
+            f"e.g. codecs.lookup_{kind}(...).{parts[0]}.{call}(...)"
+        )
+
+    def decode(self, msg: Any) -> Any:
+        raise self._not_a_message("decode")
+
+    def encode(self, value: Any) -> Any:
+        raise self._not_a_message("encode")
+
+
 @dataclass(frozen=True)
-class ServiceCodec:
+class ServiceCodec(_CompositeCodec):
     """The codecs of a service's parts: ``request``, ``response`` and the Jazzy ``event``."""
 
     msg_type: str
@@ -65,7 +97,7 @@ class ServiceCodec:
 
 
 @dataclass(frozen=True)
-class ActionCodec:
+class ActionCodec(_CompositeCodec):
     """The codecs of an action's parts: ``goal``, ``result`` and ``feedback``."""
 
     msg_type: str

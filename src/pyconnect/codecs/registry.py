@@ -126,6 +126,20 @@ class Registry:
             )
         return codec
 
+    def lookup_service(self, type_ref: object) -> ServiceCodec:
+        """The codecs of a service's parts (``.request``, ``.response``, ``.event``)."""
+        codec = self.lookup(type_ref)
+        if not isinstance(codec, ServiceCodec):
+            raise CodecNotFoundError(f"{codec.msg_type} is not a service type")
+        return codec
+
+    def lookup_action(self, type_ref: object) -> ActionCodec:
+        """The codecs of an action's parts (``.goal``, ``.result``, ``.feedback``)."""
+        codec = self.lookup(type_ref)
+        if not isinstance(codec, ActionCodec):
+            raise CodecNotFoundError(f"{codec.msg_type} is not an action type")
+        return codec
+
     def value_codec(self, type_ref: object) -> Codec | None:
         """The user or natural codec of a message type, or None when its value is the plain dict.
 
