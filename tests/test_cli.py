@@ -148,3 +148,10 @@ def test_main_entry_exits_with_the_status(
         capsys.readouterr().err
         == f"pyconnect: error: {bag / 'nope'}: no such bag file or directory\n"
     )
+
+
+def test_version(capsys: pytest.CaptureFixture[str]) -> None:
+    from pyconnect import __version__
+
+    assert main(["--version"]) == 0
+    assert capsys.readouterr().out == f"pyconnect {__version__}\n"
