@@ -1,4 +1,4 @@
-"""The seed's talker/listener examples run unchanged in two processes; argv remapping applies."""
+"""The seed's and the design's examples run unchanged in two processes; argv remapping applies."""
 
 from __future__ import annotations
 
@@ -48,6 +48,20 @@ def test_talker_and_listener_examples() -> None:
     finally:
         codes = (_stop(listener), _stop(talker))
     assert line.startswith("heard {'cmd': 'forward', 'speed': 0.5, 'count': ")
+    assert codes == (0, 0)
+
+
+def test_the_designs_minimal_example_delivers_every_second() -> None:
+    """Run verbatim: a periodic pub with only an ``encode_func`` publishes every period."""
+    talker = _start(str(ROOT / "examples" / "minimal_talker.py"))
+    listener = _start(str(ROOT / "examples" / "minimal_listener.py"))
+    try:
+        assert listener.stdout is not None
+        lines = [listener.stdout.readline().strip() for _ in range(2)]
+    finally:
+        codes = (_stop(listener), _stop(talker))
+    assert all(line.startswith("received {'status': 'alive', 'time': ") for line in lines), lines
+    assert lines[0] != lines[1]
     assert codes == (0, 0)
 
 

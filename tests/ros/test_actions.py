@@ -6,7 +6,10 @@ import threading
 from collections.abc import Iterator
 from typing import Any
 
+import pytest
 from test_msgs.action import Fibonacci, NestedMessage
+
+from pyconnect.errors import PyconnectError
 
 from .conftest import EVENT_TIMEOUT
 
@@ -181,3 +184,109 @@ def test_expired_goal_result_is_still_answered(make_node: Any) -> None:
     assert response.status == 4  # STATUS_SUCCEEDED
     assert list(response.result.sequence) == [9, 42]
     client.destroy()
+
+
+def test_publish_feedback_from_a_worker_thread(make_node: Any) -> None:
+    node = make_node()
+    seen_cancel: list[bool] = []
+    feedback: list[Any] = []
+    got_all = threading.Event()
+
+    def long_task(goal: dict[str, Any], publish_feedback: Any) -> dict[str, Any]:
+        # A library reporting progress from its own thread.
+        def work() -> None:
+            for step in range(goal["order"]):
+                publish_feedback({"sequence": [step]})
+
+        worker = threading.Thread(target=work)
+        worker.start()
+        worker.join()
+        # rclpy's client drops feedback that comes after the result: finish once it arrived.
+        got_all.wait(EVENT_TIMEOUT)
+        seen_cancel.append(publish_feedback.cancel_requested)
+        return {"sequence": [publish_feedback.published]}
+
+    def on_feedback(value: Any) -> None:
+        feedback.append(value["sequence"][0])
+        if len(feedback) == 4:
+            got_all.set()
+
+    client = _pair(node, long_task)
+    result = client.send({"order": 4}, feedback_func=on_feedback)
+    assert result == {"sequence": [4], "isdone": True}
+    assert seen_cancel == [False]
+    assert feedback == [0, 1, 2, 3]
+
+
+def test_publish_feedback_after_the_goal_raises(make_node: Any) -> None:
+    node = make_node()
+    kept: list[Any] = []
+    client = _pair(node, lambda goal, publish_feedback: kept.append(publish_feedback))
+    assert client.send({"order": 1})["isdone"] is True
+    with pytest.raises(PyconnectError) as caught:
+        kept[0]({"sequence": [1]})
+    assert str(caught.value) == "publish_feedback: the goal has already finished"
+
+
+def test_client_callbacks_get_acceptance_feedback_and_what_send_returns(make_node: Any) -> None:
+    node = make_node()
+    accepted: list[bool] = []
+    results: list[Any] = []
+    feedback: list[Any] = []
+    two_results = threading.Event()
+    feedback_seen = threading.Event()
+
+    def task(goal: dict[str, Any], publish_feedback: Any) -> dict[str, Any]:
+        publish_feedback({"sequence": [goal["order"]]})
+        feedback_seen.wait(EVENT_TIMEOUT)  # rclpy drops feedback that comes after the result
+        return {"sequence": [0, goal["order"]]}
+
+    node.add_agent(
+        conn_name="fib", conn_type="action_server", data_interface=Fibonacci, response_func=task
+    )
+
+    def on_result(result: Any) -> None:
+        results.append(result)
+        if len(results) == 2:
+            two_results.set()
+
+    client = node.add_agent(
+        conn_name="fib", agent_name="fib_client", conn_type="action_client",
+        data_interface=Fibonacci, timeout=EVENT_TIMEOUT, response_func=on_result,
+        accepted_func=accepted.append,
+        feedback_func=lambda value: (feedback.append(value), feedback_seen.set()),
+    )  # fmt: skip
+    node.spin(run_thread=True)
+    returned = client.send({"order": 2})
+    future_value = client.send({"order": 3}, block=False).result(EVENT_TIMEOUT)
+    assert two_results.wait(EVENT_TIMEOUT)
+    assert results == [returned, future_value]
+    assert returned == {"sequence": [0, 2], "isdone": True}
+    assert accepted == [True, True]
+    assert feedback[0] == {"sequence": [2]}
+
+
+def test_accepted_func_hears_a_rejection(make_node: Any) -> None:
+    from rclpy.action import ActionServer, GoalResponse
+
+    node = make_node()
+    server = ActionServer(
+        node, Fibonacci, "picky", lambda handle: Fibonacci.Result(),
+        goal_callback=lambda _goal: GoalResponse.REJECT,
+    )  # fmt: skip
+    accepted: list[bool] = []
+    results: list[Any] = []
+    client = node.add_agent(
+        conn_name="picky", conn_type="action_client", data_interface=Fibonacci,
+        timeout=EVENT_TIMEOUT, accepted_func=accepted.append, response_func=results.append,
+    )  # fmt: skip
+    node.spin(run_thread=True)
+    result = client.send({"order": 1})
+    assert result == {
+        "isdone": False,
+        "error": "agent 'picky' (action_client test_msgs/action/Fibonacci): "
+        "goal rejected by the server",
+    }
+    assert accepted == [False]
+    assert results == [result]
+    server.destroy()

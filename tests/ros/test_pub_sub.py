@@ -240,7 +240,9 @@ def test_bad_message_and_raising_response_func_do_not_stop_the_executor(make_nod
     node.spin(run_thread=True)
     assert repeat_until(good, lambda: (pub.send("bad"), pub.send("boom"), pub.send("good")))
     assert sub.get() == "good"
-    assert sub.error_count >= 2
+    # The first messages may go out before the subscription matched: wait for both errors.
+    both = threading.Event()
+    assert repeat_until(both, lambda: both.set() if sub.error_count >= 2 else pub.send("bad"))
     assert "boom" in handled
     assert sub.last_error is not None
 
@@ -325,3 +327,36 @@ def test_codec_option_replaces_the_registry_codec_for_that_agent(make_node: Any)
         "agent 'x' (pub sensor_msgs/msg/Image): codec: expected a codec with msg_type, lossless, "
         "encode and decode, got str"
     )
+
+
+def test_periodic_pub_hands_encode_func_none_until_a_value_is_sent(make_node: Any) -> None:
+    node = make_node()
+    given: list[Any] = []
+    heard: list[str] = []
+    sent_one = threading.Event()
+
+    def encode(data: Any, msg: String) -> String:
+        given.append(data)
+        msg.data = "fresh" if data is None else data
+        return msg
+
+    node.add_agent(
+        conn_name="beat", conn_type="sub", data_interface=String,
+        response_func=lambda value: (heard.append(value), sent_one.set()),
+    )  # fmt: skip
+    pub = node.add_agent(
+        conn_name="beat", agent_name="out", conn_type="pub", data_interface=String,
+        encode_func=encode, time_period=0.01,
+    )  # fmt: skip
+    node.spin(run_thread=True)
+    assert sent_one.wait(EVENT_TIMEOUT)
+    assert heard[0] == "fresh"
+    assert given[0] is None
+    pub.send("chosen")
+    repeated = threading.Event()
+    assert repeat_until(repeated, lambda: repeated.set() if heard[-1] == "chosen" else None)
+    # After a send() the period repeats that value.
+    count = len(given)
+    more = threading.Event()
+    assert repeat_until(more, lambda: more.set() if len(given) > count + 2 else None)
+    assert set(given[count:]) == {"chosen"}

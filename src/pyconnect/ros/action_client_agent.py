@@ -8,6 +8,12 @@ when the server put one there, else from the reason a pyconnect server publishes
 action (pyconnect.ros.abort_reasons). ``block=False`` returns a
 ``concurrent.futures.Future``. A timeout cancels the goal. ``feedback_func(value)`` gets each
 decoded feedback; the latest is also in ``last_feedback``.
+
+Callbacks, as options of the agent (each may be ``async def``; errors are reported like any
+callback's): ``accepted_func(accepted: bool)`` when the server accepts or rejects a goal,
+``feedback_func(value)`` for every feedback (``send(feedback_func=...)`` overrides it for one
+goal), and ``response_func(result)`` with exactly the value ``send()`` returns (or its future
+resolves to), failures included. ``await send_async(goal)`` is ``send`` for asyncio code.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -15,6 +21,7 @@ decoded feedback; the latest is also in ``last_feedback``.
 
 from __future__ import annotations
 
+import asyncio
 import concurrent.futures
 import threading
 from typing import Any
@@ -48,6 +55,8 @@ class ActionClientAgent(NodeAgent):
         encode_func: EncodeFunc | None = None,
         decode_func: DecodeFunc | None = None,
         response_func: ResponseFunc | None = None,
+        accepted_func: ResponseFunc | None = None,
+        feedback_func: ResponseFunc | None = None,
         do_log_msg: bool = False,
         timeout: float | None = None,
         callback_group: CallbackGroup | None = None,
@@ -63,6 +72,8 @@ class ActionClientAgent(NodeAgent):
             callback_group=callback_group,
         )
         self.timeout = timeout
+        self.accepted_func = accepted_func
+        self.feedback_func = feedback_func
         self.goal_conversion = self.make_conversion(
             action_class.Goal, encode_func=encode_func, eager=encode_func is None
         )
@@ -72,6 +83,8 @@ class ActionClientAgent(NodeAgent):
         self.feedback_conversion = self.make_conversion(action_class.Feedback)
         self.last_feedback: Any = None
         self._in_flight: dict[int, _GoalInFlight] = {}
+        # The goal behind each pending result future (send_async cancels it on a timeout).
+        self._goal_of_result: dict[int, _GoalInFlight] = {}
         self._lock = threading.Lock()
         self._server_seen = False
         self.client = ActionClient(
@@ -93,6 +106,7 @@ class ActionClientAgent(NodeAgent):
     ) -> Any:
         """Send a goal; the decoded result (or a future of it) through ``reform_response``."""
         timeout = self.timeout if timeout is None else timeout
+        feedback_func = self.feedback_func if feedback_func is None else feedback_func
         goal, _stamped = self.goal_conversion.encode(data)
         if self.do_log_msg:
             self.log_msg(data)
@@ -100,6 +114,8 @@ class ActionClientAgent(NodeAgent):
         done = threading.Event()
         result.add_done_callback(lambda _future: done.set())
         if not block:
+            if self.response_func is not None:
+                result.add_done_callback(self._respond_with_future)
             if self.client.server_is_ready():
                 self._send_goal(goal, result, feedback_func)
             else:
@@ -113,14 +129,50 @@ class ActionClientAgent(NodeAgent):
         # Asking the graph is slow; once seen, a lost server shows up as a timeout instead.
         if not self._server_seen:
             if not wait_until(self.client.server_is_ready, timeout, stop=self.node.shutdown_event):
-                return self._failed(f"no action server for {self.conn_name} within {timeout} s")
+                return self._respond(
+                    self._failed(f"no action server for {self.conn_name} within {timeout} s")
+                )
             self._server_seen = True
         in_flight = self._send_goal(goal, result, feedback_func)
         if not self.node.wait_for(done, timeout):
             in_flight.cancel()
             self._server_seen = False
-            return self._failed(f"no result within {timeout} s (goal canceled)")
-        return result.result()
+            return self._respond(self._failed(f"no result within {timeout} s (goal canceled)"))
+        return self._respond(result.result())
+
+    async def send_async(
+        self,
+        data: Any = None,
+        *,
+        timeout: float | None = None,
+        feedback_func: ResponseFunc | None = None,
+    ) -> Any:
+        """``send(goal)`` awaited on the caller's asyncio loop; a timeout cancels the goal."""
+        timeout = self.timeout if timeout is None else timeout
+        future = self.send(data, timeout=timeout, feedback_func=feedback_func, block=False)
+        try:
+            return await asyncio.wait_for(asyncio.wrap_future(future), timeout)
+        except asyncio.TimeoutError:
+            with self._lock:
+                in_flight = self._goal_of_result.pop(id(future), None)
+            if in_flight is not None:
+                in_flight.cancel()
+            return self._respond(self._failed(f"no result within {timeout} s (goal canceled)"))
+
+    def _respond(self, value: Any) -> Any:
+        """Hand ``send()``'s return value to ``response_func`` too, and return it."""
+        if self.response_func is not None:
+            self.call_user("response_func", self.response_func, value)
+        return value
+
+    def _respond_with_future(self, future: concurrent.futures.Future[Any]) -> None:
+        if self.response_func is None or future.cancelled():
+            return
+        error = future.exception()
+        if error is not None:
+            self.report_exception("send", error)
+            return
+        self.call_user("response_func", self.response_func, future.result())
 
     def cancel(self) -> int:
         """Cancel every goal of this agent in flight (accepted or not yet); how many."""
@@ -161,22 +213,34 @@ class ActionClientAgent(NodeAgent):
         key = id(in_flight)
         with self._lock:
             self._in_flight[key] = in_flight
+            self._goal_of_result[id(result)] = in_flight
+
+        def forget(_future: concurrent.futures.Future[Any]) -> None:
+            with self._lock:
+                self._goal_of_result.pop(id(result), None)
+
+        result.add_done_callback(forget)
 
         def on_feedback(feedback_msg: Any) -> None:
             try:
                 value = self.feedback_conversion.decode_checked(feedback_msg.feedback)
-                self.last_feedback = value
-                if feedback_func is not None:
-                    feedback_func(value)
             except Exception as error:
-                self.report_exception("feedback_func", error)
+                self.report_exception("feedback decode", error)
+                return
+            self.last_feedback = value
+            if feedback_func is not None:
+                self.call_user("feedback_func", feedback_func, value)
 
         def on_goal_response(goal_future: RosFuture) -> None:
             handle = goal_future.result()
-            if handle is None or not handle.accepted:
+            accepted = handle is not None and bool(handle.accepted)
+            if self.accepted_func is not None:
+                self.call_user("accepted_func", self.accepted_func, accepted)
+            if not accepted:
                 with self._lock:
                     self._in_flight.pop(key, None)
-                result.set_result(self._failed("goal rejected by the server"))
+                if not result.done():
+                    result.set_result(self._failed("goal rejected by the server"))
                 return
             in_flight.accepted(handle)
             handle.get_result_async().add_done_callback(
@@ -186,6 +250,8 @@ class ActionClientAgent(NodeAgent):
         def on_result(result_future: RosFuture, goal_id: Any) -> None:
             with self._lock:
                 self._in_flight.pop(key, None)
+            if result.done():  # cancelled by an awaiting caller that timed out
+                return
             try:
                 result.set_result(self._outcome(result_future.result(), goal_id))
             except Exception as error:

@@ -1,9 +1,16 @@
-"""``action_server`` agents: ``response_func(goal) -> result``, generators publish feedback.
+"""``action_server`` agents: ``response_func(goal) -> result``, with feedback two ways.
 
-A generator ``response_func`` publishes each yielded value as feedback and its ``return``
-value is the result. A cancel request is honoured between two yields: the generator is closed
-(its ``finally`` blocks run) and the goal ends canceled. A plain function cannot be stopped;
-if a cancel arrived meanwhile, the goal ends canceled when it returns.
+Feedback, either style:
+- a *generator* ``response_func`` publishes each yielded value as feedback and its ``return``
+  value is the result. A cancel request is honoured between two yields: the generator is
+  closed (its ``finally`` blocks run) and the goal ends canceled. An ``async def`` generator
+  works the same on the node's coroutine loop.
+- a ``response_func(goal, publish_feedback)`` taking a second positional parameter gets a
+  ``FeedbackPublisher``: ``publish_feedback(value)`` may be called from any thread (a worker
+  thread, a library's progress callback) while the goal runs; its ``cancel_requested`` tells
+  the task that a cancel was asked.
+A plain (or ``async def``) function cannot be stopped; if a cancel arrived meanwhile, the goal
+ends canceled when it returns.
 
 A handler that raises aborts the goal *with the error text*: rclpy's own server logs the
 exception and sends a default result (rclpy#1020), so this agent catches it, aborts, and puts
@@ -26,11 +33,14 @@ kept (ROS-FACTS.md: 1.5 -> 13 ms over 500 goals). Their results stay available
 from __future__ import annotations
 
 import inspect
+import threading
+from collections.abc import Callable
 from typing import Any
 
 from rclpy.action import CancelResponse, GoalResponse
 from rclpy.callback_groups import CallbackGroup, ReentrantCallbackGroup
 
+from pyconnect.errors import PyconnectError
 from pyconnect.ros.abort_reasons import AbortReasonPublisher
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
@@ -80,6 +90,7 @@ class ActionServerAgent(NodeAgent):
         if response_func is None:
             raise self.error("an 'action_server' agent needs a response_func")
         self._handler: ResponseFunc = response_func
+        self._wants_feedback_publisher = _positional_count(response_func) >= 2
         self._result_class = action_class.Result
         self.goal_conversion = self.make_conversion(
             action_class.Goal, decode_func=decode_func, eager=decode_func is None
@@ -111,8 +122,15 @@ class ActionServerAgent(NodeAgent):
             if self.do_log_msg:
                 self.log_msg(goal)
             where = "response_func"
-            outcome = self._handler(goal)
-            if inspect.isgenerator(outcome):
+            if self._wants_feedback_publisher:
+                publisher = FeedbackPublisher(goal_handle, self.feedback_conversion.encode)
+                try:
+                    outcome = self.call_user_and_wait(self._handler, goal, publisher)
+                finally:
+                    publisher.close()
+            else:
+                outcome = self.call_user_and_wait(self._handler, goal)
+            if inspect.isgenerator(outcome) or inspect.isasyncgen(outcome):
                 finished, outcome = self._run_generator(outcome, goal_handle)
                 if not finished:
                     goal_handle.canceled()
@@ -138,15 +156,26 @@ class ActionServerAgent(NodeAgent):
             return error_message(self._result_class, text)
 
     def _run_generator(self, generator: Any, goal_handle: Any) -> tuple[bool, Any]:
-        """Drive a generator handler: (True, result) at its end, (False, None) when canceled."""
+        """Drive a generator handler: (True, result) at its end, (False, None) when canceled.
+
+        An async generator has no return value: its result is its last yield.
+        """
+        is_async = inspect.isasyncgen(generator)
+        last: Any = None
         while True:
             if goal_handle.is_cancel_requested:
-                generator.close()
+                if is_async:
+                    self.wait_on_loop(generator.aclose())
+                else:
+                    generator.close()
                 return False, None
             try:
-                feedback = next(generator)
+                feedback = self.wait_on_loop(generator.__anext__()) if is_async else next(generator)
             except StopIteration as stop:
                 return True, stop.value
+            except StopAsyncIteration:
+                return True, last
+            last = feedback
             if feedback is not None:
                 msg, _stamped = self.feedback_conversion.encode(feedback)
                 goal_handle.publish_feedback(msg)
@@ -155,3 +184,55 @@ class ActionServerAgent(NodeAgent):
         self.server.destroy()
         self._abort_reasons.destroy(self.node.ros_node)
         super().close()
+
+
+class FeedbackPublisher:
+    """``publish_feedback(value)``: feedback of one goal, callable from any thread."""
+
+    def __init__(self, goal_handle: Any, encode: Callable[[Any], tuple[Any, bool]]) -> None:
+        self._goal_handle = goal_handle
+        self._encode = encode
+        self._lock = threading.Lock()
+        self._open = True
+        self.published = 0
+        """How many feedback messages were published."""
+
+    def __call__(self, value: Any) -> None:
+        """Encode ``value`` and publish it as this goal's feedback."""
+        msg, _stamped = self._encode(value)
+        with self._lock:
+            if not self._open:
+                raise PyconnectError("publish_feedback: the goal has already finished")
+            self._goal_handle.publish_feedback(msg)
+            self.published += 1
+
+    @property
+    def cancel_requested(self) -> bool:
+        """True once a client asked to cancel this goal (the task may stop early)."""
+        return bool(self._goal_handle.is_cancel_requested)
+
+    def close(self) -> None:
+        """The goal is over: later calls raise instead of publishing for a finished goal."""
+        with self._lock:
+            self._open = False
+
+
+def _positional_count(function: Callable[..., Any]) -> int:
+    """How many positional arguments ``function`` asks for: parameters without a default, a
+    parameter named ``publish_feedback``, and 2 for ``*args``."""
+    try:
+        parameters = inspect.signature(function).parameters.values()
+    except (TypeError, ValueError):
+        return 1
+    count = 0
+    for parameter in parameters:
+        if parameter.kind is inspect.Parameter.VAR_POSITIONAL:
+            return 2
+        if parameter.kind in (
+            inspect.Parameter.POSITIONAL_ONLY,
+            inspect.Parameter.POSITIONAL_OR_KEYWORD,
+        ) and (
+            parameter.default is inspect.Parameter.empty or parameter.name == "publish_feedback"
+        ):
+            count += 1
+    return count

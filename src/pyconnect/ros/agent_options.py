@@ -39,6 +39,7 @@ class AgentOptions(TypedDict, total=False):
     codec: Codec | None
     response_func: Callable[..., Any] | None
     accepted_func: Callable[[bool], Any] | None
+    feedback_func: Callable[[Any], Any] | None
     do_log_msg: bool
     qos: QoSProfile | str | int | None
     time_period: float | None

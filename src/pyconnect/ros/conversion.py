@@ -2,7 +2,8 @@
 
 ``encode_func(data, msg) -> msg`` and ``decode_func(msg) -> data`` keep the seed signatures and
 replace the codec for that agent only. A value that already is a message of the right type is
-sent as it is. Every failure becomes an ``EncodeError``/``DecodeError`` naming the agent.
+sent as it is; ``None`` (or ``send()`` with no argument) is the message of a type without
+fields. Every failure becomes an ``EncodeError``/``DecodeError`` naming the agent.
 """
 
 from __future__ import annotations
@@ -35,6 +36,8 @@ class MessageConversion:
         self.msg_class = msg_class
         self.msg_type = interface_name(msg_class)
         self.has_header = header_field(msg_class)
+        self.is_empty = not msg_class.get_fields_and_field_types()  # type: ignore[attr-defined]
+        """A type without fields (``Trigger`` and ``GetMap`` requests): ``None`` encodes it."""
         self._codec_of = codec_of
         self._codec: Codec | None = None
         self._encode_func = encode_func
@@ -87,6 +90,8 @@ class MessageConversion:
                 return msg, False
             if isinstance(value, self.msg_class):
                 return value, False
+            if value is None and self.is_empty:
+                return self.msg_class(), False
             if isinstance(value, Stamped):
                 return encode_stamped(self.codec, value), True
             return self.codec.encode(value), False

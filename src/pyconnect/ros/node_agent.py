@@ -12,9 +12,10 @@ traceback, kept in ``last_error``, and the executor goes on with the next messag
 
 from __future__ import annotations
 
+import concurrent.futures
 import threading
 import traceback
-from collections.abc import Callable
+from collections.abc import Awaitable, Callable
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -130,6 +131,13 @@ class NodeAgent:
         """Send ``data`` (publish, call, send a goal); kinds that cannot send raise."""
         raise self.error(f"send() is not available on a {self.conn_type!r} agent")
 
+    async def send_async(self, data: Any = None) -> Any:
+        """``await agent.send_async(data)``: ``send`` for code running on an asyncio loop.
+
+        Kinds whose ``send`` waits (service and action clients) wait without blocking the loop.
+        """
+        return self.send(data)
+
     def info_text(self) -> str:
         """A one-line summary of the agent and its latest value, for ``get(show_info=True)``."""
         return f"{self.describe}: latest {_summary(self._latest)}"
@@ -231,11 +239,19 @@ class NodeAgent:
         the function raised."""
         if not is_async_callable(function):
             return function(*args)
-        future = self.node.coroutines.submit(function(*args))
+        return self.wait_on_loop(function(*args))
+
+    def wait_on_loop(self, awaitable: Awaitable[Any]) -> Any:
+        """Run ``awaitable`` on the coroutine loop and wait for its result here (handing the
+        executor's turn on); raises what it raised."""
+        future = self.node.coroutines.submit(awaitable)
         finished = threading.Event()
         future.add_done_callback(lambda _future: finished.set())
         self.node.wait_for(finished, None, poll=future.done)
-        return future.result()
+        try:
+            return future.result()
+        except concurrent.futures.CancelledError:
+            raise PyconnectError("the coroutine was cancelled (the node shuts down)") from None
 
     @property
     def lane(self) -> CoroutineLane:

@@ -1,4 +1,11 @@
-"""``pub`` agents: ``send(value)`` encodes and publishes; ``time_period`` republishes on a timer.
+"""``pub`` agents: ``send(value)`` encodes and publishes; ``time_period`` publishes on a timer.
+
+What a periodic pub publishes each ``time_period``: ``response_func()``'s value when it has one
+(an ``async def`` one is awaited on the coroutine loop; ``None`` skips that period); else the
+last value ``send()`` was given; else, before any value was sent, the message ``encode_func``
+makes from ``None`` (``encode_func(None, msg)``: the function fills the message itself, as the
+design's minimal talker does). A pub with neither a value nor an ``encode_func`` publishes
+nothing until its first ``send()``.
 
 Outgoing headers: a message with a ``std_msgs/Header`` whose stamp is still zero gets the node
 clock's time, and an empty ``frame_id`` gets the agent's ``frame_id`` option; a ``Stamped``
@@ -72,6 +79,8 @@ class PublisherAgent(NodeAgent):
         self.only_if_subscribed = only_if_subscribed
         self.time_period = time_period
         self.sent_count = 0
+        self._has_encode_func = encode_func is not None
+        self._has_value = False
         ros_node = node.ros_node
         self.publisher = ros_node.create_publisher(
             msg_class,
@@ -106,6 +115,7 @@ class PublisherAgent(NodeAgent):
                 header.frame_id = self.frame_id
         self.publisher.publish(msg)
         self._latest = data
+        self._has_value = data is not None
         self._note_channel_order(msg)
         self.sent_count += 1
         if self.do_log_msg:
@@ -116,15 +126,27 @@ class PublisherAgent(NodeAgent):
         """``send(data)`` by the design's name for publishers."""
         return self.send(data)
 
+    async def send_async(self, data: Any = None) -> bool:
+        """``send(data)`` for code on an asyncio loop (publishing never blocks)."""
+        return self.send(data)
+
     def _on_period(self) -> None:
         if self.only_if_subscribed and self.publisher.get_subscription_count() == 0:
             return
+        if self.response_func is not None:
+            self.call_user("periodic send", self.response_func, on_done=self._send_period_value)
+            return
         try:
-            value = self.response_func() if self.response_func is not None else self._latest
-            if value is not None:
-                self.send(value)
+            if self._has_value:
+                self.send(self._latest)
+            elif self._has_encode_func:
+                self.send(None)
         except Exception as error:
             self.report_exception("periodic send", error)
+
+    def _send_period_value(self, value: Any) -> None:
+        if value is not None:
+            self.send(value)
 
     def close(self) -> None:
         if self.timer is not None:

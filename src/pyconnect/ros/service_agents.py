@@ -1,14 +1,17 @@
 """``service_server`` and ``service_client`` agents.
 
-Server: ``response_func(request_value) -> response_value``. A handler (or codec) that raises
-still answers: a response type with ``success``/``message`` fields gets ``success=False`` and
-the error text, any other the default response; the error is logged with the agent's name.
+Server: ``response_func(request_value) -> response_value`` (an ``async def`` one is awaited on
+the node's coroutine loop while the executor goes on with other agents). A handler (or codec)
+that raises still answers: a response type with ``success``/``message`` fields gets
+``success=False`` and the error text, any other the default response; the error is logged with
+the agent's name.
 
 Client: ``send(data, timeout=None)`` blocks and returns the decoded response through
 ``reform_response`` (dicts get ``'isdone': True``); on timeout, or when no server appears in
 time, it returns ``{'isdone': False, 'error': ...}``. ``block=False`` returns a
 ``concurrent.futures.Future`` of the same value. Blocking is safe inside another agent's
 callback: the executor passes its turn on while this thread waits (pyconnect.ros.executor).
+``await send_async(data, timeout=None)`` is the same call for code on an asyncio loop.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -16,6 +19,7 @@ callback: the executor passes its turn on while this thread waits (pyconnect.ros
 
 from __future__ import annotations
 
+import asyncio
 import concurrent.futures
 import threading
 from typing import Any
@@ -83,7 +87,7 @@ class ServiceServerAgent(NodeAgent):
             if self.do_log_msg:
                 self.log_msg(data)
             where = "response_func"
-            value = self._handler(data)
+            value = self.call_user_and_wait(self._handler, data)
             where = "encode"
             if value is None:
                 return response
@@ -181,6 +185,15 @@ class ServiceClientAgent(NodeAgent):
             return self._failed(f"no response from {self.service_name} within {timeout} s")
         return self._value_of(ros_future)
 
+    async def send_async(self, data: Any = None, *, timeout: float | None = None) -> Any:
+        """``send(data, timeout=...)`` awaited on the caller's asyncio loop, never blocking it."""
+        timeout = self.timeout if timeout is None else timeout
+        future = self.send(data, timeout=timeout, block=False)
+        try:
+            return await asyncio.wait_for(asyncio.wrap_future(future), timeout)
+        except asyncio.TimeoutError:
+            return self._failed(f"no response from {self.service_name} within {timeout} s")
+
     def _failed(self, text: str) -> Any:
         value = self.reform_response(None, error=f"{self.describe}: {text}")
         self._latest = value
@@ -198,6 +211,8 @@ class ServiceClientAgent(NodeAgent):
         ros_future = self.client.call_async(request)
 
         def finish(done: RosFuture) -> None:
+            if result.done():  # cancelled by an awaiting caller that timed out
+                return
             try:
                 result.set_result(self._value_of(done))
             except Exception as error:

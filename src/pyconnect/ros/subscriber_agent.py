@@ -3,7 +3,8 @@
 The callback is the hot path of the package (thousands of messages per second): it decodes,
 stores, counts and calls the user function, nothing else. A message the codec rejects, or a
 ``response_func`` that raises, is reported (agent name and traceback) and the next one is
-handled; ``get()`` keeps the last good value.
+handled; ``get()`` keeps the last good value. An ``async def`` ``response_func`` runs on the
+node's coroutine loop, one message after another (pyconnect.ros.coroutines).
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -22,6 +23,7 @@ from pyconnect.codecs.base import Codec
 from pyconnect.errors import DecodeError
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
+from pyconnect.ros.coroutines import is_async_callable
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.qos import resolve_qos
@@ -75,6 +77,7 @@ class SubscriberAgent(NodeAgent):
                 self._decode = codec.decode
         else:
             self._decode = decode_func
+        self._response_is_async = is_async_callable(response_func)
         self.message_count = 0
         self.last_received_ns = 0
         self._first_message = threading.Event()
@@ -107,6 +110,9 @@ class SubscriberAgent(NodeAgent):
             except Exception as error:
                 self.report_exception("log_msg", error)
         if self.response_func is not None:
+            if self._response_is_async:
+                self.call_user("response_func", self.response_func, value)
+                return
             try:
                 self.response_func(value)
             except Exception as error:

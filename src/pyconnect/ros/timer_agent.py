@@ -1,9 +1,15 @@
-"""``timer`` agents: ``response_func()`` every ``time_period`` s; ``get()`` is its last return."""
+"""``timer`` agents: ``response_func()`` every ``time_period`` s; ``get()`` is its last return.
+
+An ``async def`` ``response_func`` runs on the node's coroutine loop; ticks that come while one
+still runs queue behind it (pyconnect.ros.coroutines).
+"""
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
 # mypy: disable-error-code="no-untyped-call,attr-defined"
 
 from __future__ import annotations
+
+from typing import Any
 
 from rclpy.callback_groups import CallbackGroup
 
@@ -44,10 +50,10 @@ class TimerAgent(NodeAgent):
 
     def _on_tick(self) -> None:
         self.tick_count += 1
-        try:
-            self._latest = self._handler()
-        except Exception as error:
-            self.report_exception("response_func", error)
+        self.call_user("response_func", self._handler, on_done=self._keep)
+
+    def _keep(self, value: Any) -> None:
+        self._latest = value
 
     def close(self) -> None:
         self.node.ros_node.destroy_timer(self.timer)

@@ -1,0 +1,252 @@
+"""``async def`` handlers for every agent kind that takes one, and ``send_async`` on a user loop."""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from collections.abc import AsyncIterator, Iterator
+from typing import Any
+
+import pytest
+from std_msgs.msg import String
+from std_srvs.srv import SetBool, Trigger
+from test_msgs.action import Fibonacci
+
+from .conftest import EVENT_TIMEOUT, repeat_until
+
+
+@pytest.fixture
+def user_loop() -> Iterator[asyncio.AbstractEventLoop]:
+    """An asyncio loop running in a thread of its own, as an app's loop would."""
+    loop = asyncio.new_event_loop()
+    thread = threading.Thread(target=loop.run_forever, daemon=True)
+    thread.start()
+    yield loop
+    loop.call_soon_threadsafe(loop.stop)
+    thread.join(EVENT_TIMEOUT)
+    loop.close()
+
+
+def _run(loop: asyncio.AbstractEventLoop, coroutine: Any) -> Any:
+    return asyncio.run_coroutine_threadsafe(coroutine, loop).result(EVENT_TIMEOUT)
+
+
+def test_async_sub_handler_runs_in_order_and_its_errors_are_reported(make_node: Any) -> None:
+    node = make_node()
+    seen: list[str] = []
+    three = threading.Event()
+
+    async def on_text(text: str) -> None:
+        await asyncio.sleep(0.001)
+        if text == "bad":
+            raise ValueError("cannot use 'bad'")
+        seen.append(text)
+        if len(seen) == 3:
+            three.set()
+
+    sub = node.add_agent(
+        conn_name="words", conn_type="sub", data_interface=String, response_func=on_text,
+        qos=100,
+    )  # fmt: skip
+    pub = node.add_agent(
+        conn_name="words", agent_name="out", conn_type="pub", data_interface=String, qos=100
+    )
+    node.spin(run_thread=True)
+    connected = threading.Event()
+    assert repeat_until(connected, lambda: connected.set() if pub.subscriber_count else None)
+    for word in ("a", "bad", "b", "c"):
+        pub.send(word)
+    assert three.wait(EVENT_TIMEOUT)
+    assert seen == ["a", "b", "c"]
+    assert sub.error_count == 1
+    assert sub.last_error == (
+        "agent 'words' (sub std_msgs/msg/String): response_func raised ValueError: "
+        "cannot use 'bad'"
+    )
+
+
+def test_async_handlers_run_on_the_users_loop(
+    make_node: Any, user_loop: asyncio.AbstractEventLoop
+) -> None:
+    node = make_node(loop=user_loop)
+    loops: list[asyncio.AbstractEventLoop] = []
+    ticked = threading.Event()
+
+    async def tick() -> int:
+        loops.append(asyncio.get_running_loop())
+        ticked.set()
+        return 5
+
+    timer = node.add_agent(conn_name="t", conn_type="timer", time_period=0.01, response_func=tick)
+    node.spin(run_thread=True)
+    assert ticked.wait(EVENT_TIMEOUT)
+    assert loops[0] is user_loop
+    got = threading.Event()
+    assert repeat_until(got, lambda: got.set() if timer.get() == 5 else None)
+
+
+def test_async_periodic_pub_publishes_what_it_returns(make_node: Any) -> None:
+    node = make_node()
+    heard = threading.Event()
+    values: list[str] = []
+
+    async def next_text() -> str:
+        await asyncio.sleep(0)
+        return "from a coroutine"
+
+    node.add_agent(
+        conn_name="periodic",
+        conn_type="sub",
+        data_interface=String,
+        response_func=lambda value: (values.append(value), heard.set()),
+    )
+    node.add_agent(
+        conn_name="periodic",
+        agent_name="out",
+        conn_type="pub",
+        data_interface=String,
+        time_period=0.01,
+        response_func=next_text,
+    )
+    node.spin(run_thread=True)
+    assert heard.wait(EVENT_TIMEOUT)
+    assert values[0] == "from a coroutine"
+
+
+def test_async_service_handler_answers_and_its_errors_still_answer(make_node: Any) -> None:
+    node = make_node()
+
+    async def switch(request: dict[str, Any]) -> dict[str, Any]:
+        await asyncio.sleep(0.001)
+        if not request["data"]:
+            raise RuntimeError("motor jammed")
+        return {"success": True, "message": "on"}
+
+    node.add_agent(
+        conn_name="motors", conn_type="service_server", data_interface=SetBool,
+        response_func=switch,
+    )  # fmt: skip
+    client = node.add_agent(
+        conn_name="motors", agent_name="client", conn_type="service_client",
+        data_interface=SetBool, timeout=EVENT_TIMEOUT,
+    )  # fmt: skip
+    node.spin(run_thread=True)
+    assert client.send({"data": True}) == {"success": True, "message": "on", "isdone": True}
+    assert client.send({"data": False}) == {
+        "success": False,
+        "message": "RuntimeError: motor jammed",
+        "isdone": True,
+    }
+
+
+def test_async_action_handlers_plain_and_generator(make_node: Any) -> None:
+    node = make_node()
+
+    async def plain(goal: dict[str, Any]) -> dict[str, Any]:
+        await asyncio.sleep(0.001)
+        if goal["order"] < 0:
+            raise ValueError("negative order")
+        return {"sequence": [goal["order"]]}
+
+    async def stepwise(goal: dict[str, Any]) -> AsyncIterator[dict[str, Any]]:
+        sequence: list[int] = []
+        for step in range(goal["order"]):
+            await asyncio.sleep(0)
+            sequence.append(step)
+            yield {"sequence": list(sequence)}
+
+    node.add_agent(
+        conn_name="plain", conn_type="action_server", data_interface=Fibonacci, response_func=plain
+    )
+    node.add_agent(
+        conn_name="steps", conn_type="action_server", data_interface=Fibonacci,
+        response_func=stepwise,
+    )  # fmt: skip
+    plain_client = node.add_agent(
+        conn_name="plain", agent_name="plain_client", conn_type="action_client",
+        data_interface=Fibonacci, timeout=EVENT_TIMEOUT,
+    )  # fmt: skip
+    steps_client = node.add_agent(
+        conn_name="steps", agent_name="steps_client", conn_type="action_client",
+        data_interface=Fibonacci, timeout=EVENT_TIMEOUT,
+    )  # fmt: skip
+    node.spin(run_thread=True)
+    assert plain_client.send({"order": 3}) == {"sequence": [3], "isdone": True}
+    aborted = plain_client.send({"order": -1})
+    assert aborted["error"] == (
+        "agent 'plain_client' (action_client test_msgs/action/Fibonacci): "
+        "goal aborted by the server: ValueError: negative order"
+    )
+    # An async generator's result is its last yield.
+    assert steps_client.send({"order": 3}) == {"sequence": [0, 1, 2], "isdone": True}
+
+
+def test_send_async_from_a_users_loop(
+    make_node: Any, user_loop: asyncio.AbstractEventLoop
+) -> None:
+    node = make_node()
+    node.add_agent(
+        conn_name="ping", conn_type="service_server", data_interface=Trigger,
+        response_func=lambda _request: {"success": True, "message": "pong"},
+    )  # fmt: skip
+    node.add_agent(
+        conn_name="fib", conn_type="action_server", data_interface=Fibonacci,
+        response_func=lambda goal: {"sequence": [goal["order"], 1]},
+    )  # fmt: skip
+    heard = threading.Event()
+    node.add_agent(
+        conn_name="news", conn_type="sub", data_interface=String,
+        response_func=lambda _value: heard.set(),
+    )  # fmt: skip
+    service = node.add_agent(
+        conn_name="ping", agent_name="ping_client", conn_type="service_client",
+        data_interface=Trigger, timeout=EVENT_TIMEOUT,
+    )  # fmt: skip
+    action = node.add_agent(
+        conn_name="fib", agent_name="fib_client", conn_type="action_client",
+        data_interface=Fibonacci, timeout=EVENT_TIMEOUT,
+    )  # fmt: skip
+    pub = node.add_agent(
+        conn_name="news", agent_name="news_out", conn_type="pub", data_interface=String
+    )
+    node.spin(run_thread=True)
+
+    async def app() -> list[Any]:
+        # Both calls wait together on this loop, which stays free meanwhile.
+        return await asyncio.gather(service.send_async(), action.send_async({"order": 4}))
+
+    assert _run(user_loop, app()) == [
+        {"success": True, "message": "pong", "isdone": True},
+        {"sequence": [4, 1], "isdone": True},
+    ]
+    assert repeat_until(heard, lambda: _run(user_loop, pub.send_async("hello")))
+
+
+def test_send_async_times_out_without_blocking_the_loop(
+    make_node: Any, user_loop: asyncio.AbstractEventLoop
+) -> None:
+    node = make_node()
+    release = threading.Event()
+
+    def slow(_goal: dict[str, Any]) -> Iterator[None]:
+        while not release.wait(0.01):
+            yield None
+        return None
+
+    node.add_agent(
+        conn_name="slow", conn_type="action_server", data_interface=Fibonacci, response_func=slow
+    )
+    client = node.add_agent(
+        conn_name="slow", agent_name="slow_client", conn_type="action_client",
+        data_interface=Fibonacci, timeout=EVENT_TIMEOUT,
+    )  # fmt: skip
+    node.spin(run_thread=True)
+    connected = threading.Event()
+    assert repeat_until(connected, lambda: connected.set() if client.is_connected() else None)
+    result = _run(user_loop, client.send_async({"order": 1}, timeout=0.2))
+    release.set()
+    assert result == {
+        "isdone": False,
+        "error": "agent 'slow_client' (action_client test_msgs/action/Fibonacci): "
+        "no result within 0.2 s (goal canceled)",
+    }
