@@ -6,9 +6,11 @@ import argparse
 import sys
 from pathlib import Path
 
+from pyconnect.codegen import compile_cli
 from pyconnect.codegen.build import (
     DEFAULT_PACKAGES,
     default_out_dir,
+    packages_in,
     render_tree,
     stale_files,
     write_tree,
@@ -29,9 +31,11 @@ def _parser() -> argparse.ArgumentParser:
         help="a bare folder of .msg/.srv/.action files (repeatable)",
     )  # fmt: skip
     build.add_argument("--out", type=Path, default=None, help="output folder (default generated/)")
+    compile_cli.add_compile_options(build)
     commands.add_parser("list", help="show the interface packages codecgen can see")
     check = commands.add_parser("check", help="exit 1 when generated/ is stale")
     check.add_argument("--out", type=Path, default=None)
+    compile_cli.add_uninstall_command(commands)
     return parser
 
 
@@ -58,7 +62,16 @@ def _list() -> int:
 
 def _check(args: argparse.Namespace) -> int:
     out = args.out or default_out_dir()
-    stale = stale_files(render_tree(DEFAULT_PACKAGES), out)
+    # Check what the folder holds: the default packages (in generated/ or an empty folder) and
+    # every installed package built into it; packages built from a bare folder cannot be redone.
+    installed = installed_packages()
+    present = packages_in(out)
+    packages = [p for p in present if p in installed]
+    if out.resolve() == default_out_dir().resolve() or not present:
+        packages = sorted({*DEFAULT_PACKAGES, *packages})
+    for skipped in sorted(set(present) - set(packages)):
+        print(f"codecgen: {skipped} not checked (not installed; built with --from)")
+    stale = stale_files(render_tree(packages), out)
     if stale:
         print(
             f"codecgen: {len(stale)} stale files in {out} (run `codecgen build`):", file=sys.stderr
@@ -73,8 +86,12 @@ def _check(args: argparse.Namespace) -> int:
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
+        if args.command == "build" and args.compile_folders:
+            return compile_cli.run_compile(args)
         if args.command == "build":
             return _build(args)
+        if args.command == "uninstall":
+            return compile_cli.run_uninstall(args)
         if args.command == "list":
             return _list()
         return _check(args)

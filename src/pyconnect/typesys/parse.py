@@ -9,6 +9,7 @@ from __future__ import annotations
 import contextlib
 import functools
 import io
+import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -50,7 +51,12 @@ def _idl_from_interface_text(package: str, path: Path, text: str) -> str:
         spec = _parse_with_adapter(package, path, text)
     except Exception as error:
         line = _failing_line(package, path, text)
-        raise DefinitionError(_one_line(error), path=path, line=line) from None
+        message = _one_line(error)
+        # rosidl reads an unknown lower-case type as a badly named message type.
+        unknown = re.match(r"'([a-z]\w*)' is an invalid message name", message)
+        if unknown:
+            message = f"unknown type {unknown.group(1)!r}"
+        raise DefinitionError(message, path=path, line=line) from None
     key, template = _ADAPTER_TEMPLATES[path.suffix]
     data = {"pkg_name": package, "relative_input_file": f"{key}/{path.name}", key: spec}
     content: str = evaluate_template(template, data)

@@ -1,0 +1,54 @@
+"""``codecgen`` options for compiled interface packages: ``build --compile``, ``uninstall``."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+
+def add_compile_options(build: argparse.ArgumentParser) -> None:
+    """``--compile DIR`` (repeatable), ``--prefix`` and ``--force`` on ``codecgen build``."""
+    build.add_argument(
+        "--compile", dest="compile_folders", action="append", default=[], type=Path,
+        metavar="DIR", help="build an importable interface package from a folder of "
+        ".msg/.srv/.action files, as colcon would (repeatable; dependencies first)",
+    )  # fmt: skip
+    build.add_argument(
+        "--prefix", type=Path, default=None,
+        help="install prefix for --compile (default: the active environment)",
+    )  # fmt: skip
+    build.add_argument("--force", action="store_true", help="rebuild even when up to date")
+
+
+def add_uninstall_command(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    uninstall = commands.add_parser("uninstall", help="remove a package built with --compile")
+    uninstall.add_argument("packages", nargs="+")
+    uninstall.add_argument("--prefix", type=Path, default=None)
+
+
+def run_compile(args: argparse.Namespace) -> int:
+    from pyconnect.codegen.compile_package import compile_folders
+
+    for result in compile_folders(args.compile_folders, prefix=args.prefix, force=args.force):
+        where = result.layout.python / result.package
+        print(f"codecgen: {result.package}: {result.status} ({where})")
+    return 0
+
+
+def run_uninstall(args: argparse.Namespace) -> int:
+    from pyconnect.codegen.compile_install import InstallLayout, uninstall
+
+    layout = InstallLayout.for_prefix(args.prefix)
+    status = 0
+    for package in args.packages:
+        removed = uninstall(layout, package)
+        if removed:
+            print(f"codecgen: {package}: removed {len(removed)} files from {layout.prefix}")
+        else:
+            print(
+                f"codecgen: {package}: no package built by codecgen in {layout.prefix}",
+                file=sys.stderr,
+            )
+            status = 1
+    return status
