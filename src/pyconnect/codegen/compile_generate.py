@@ -117,6 +117,29 @@ def adapt_interfaces(package: str, folder: Path, files: Sequence[Path], build: P
     return sorted(relative_idls)
 
 
+def describe_types(
+    *, package: str, build: Path, idl_files: Sequence[str], dependencies: Sequence[Dependency]
+) -> Path:
+    """Write the type description JSON (with the RIHS01 hashes) of every adapted .idl file."""
+    import rosidl_generator_type_description
+
+    idl_root = build / "rosidl_adapter" / package
+    out = build / "rosidl_generator_type_description" / package
+    out.mkdir(parents=True, exist_ok=True)
+    arguments = _write_arguments(
+        build / "rosidl_generator_type_description__arguments.json",
+        {
+            "package_name": package,
+            "idl_tuples": [f"{idl_root}:{relative}" for relative in idl_files],
+            "output_dir": str(out),
+            "include_paths": [f"{dep.name}:{dep.share}" for dep in dependencies],
+        },
+    )
+    with _quiet():
+        rosidl_generator_type_description.generate_type_hash(arguments)
+    return out
+
+
 def run_generators(
     *,
     package: str,
@@ -129,7 +152,6 @@ def run_generators(
     """Run every generator on the adapted .idl files under ``build``."""
     import rosidl_generator_c
     import rosidl_generator_py
-    import rosidl_generator_type_description
     import rosidl_typesupport_c
     import rosidl_typesupport_fastrtps_c
     import rosidl_typesupport_introspection_c
@@ -141,19 +163,9 @@ def run_generators(
     interface_deps = [
         f"{dep.name}:{dep.share / relative}" for dep in dependencies for relative in dep.idl_files
     ]
-    description_out = sources.output("rosidl_generator_type_description")
-    description_out.mkdir(parents=True, exist_ok=True)
-    description_args = _write_arguments(
-        build / "rosidl_generator_type_description__arguments.json",
-        {
-            "package_name": package,
-            "idl_tuples": idl_tuples,
-            "output_dir": str(description_out),
-            "include_paths": [f"{dep.name}:{dep.share}" for dep in dependencies],
-        },
+    description_out = describe_types(
+        package=package, build=build, idl_files=idl_files, dependencies=dependencies
     )
-    with _quiet():
-        rosidl_generator_type_description.generate_type_hash(description_args)
     description_tuples = [
         f"{relative}:{description_out / Path(relative).with_suffix('.json')}"
         for relative in idl_files

@@ -26,7 +26,7 @@ from pyconnect.codegen.compile_generate import GeneratedSources
 
 # The folder pyconnect.codecs.search_path looks for in every sys.path entry.
 CODECS_FOLDER = "pyconnect_codecs"
-STAMP_FILE = "codecgen_compile.json"
+STAMP_FILE = "codecgen.stamp"  # JSON inside, but no .json suffix: tools glob those
 _HEADER_GENERATORS = (
     "rosidl_generator_c", "rosidl_typesupport_fastrtps_c", "rosidl_typesupport_introspection_c",
 )  # fmt: skip

@@ -24,7 +24,12 @@ from pathlib import Path
 from pyconnect.codegen import FORMAT_VERSION
 from pyconnect.codegen.build import render_loaded
 from pyconnect.codegen.compile_generate import Dependency, adapt_interfaces, run_generators
-from pyconnect.codegen.compile_install import InstallLayout, StagedPackage, install_staged, read_stamp
+from pyconnect.codegen.compile_install import (
+    InstallLayout,
+    StagedPackage,
+    install_staged,
+    read_stamp,
+)
 from pyconnect.codegen.compile_link import build_libraries, relative_rpath
 from pyconnect.codegen.compile_toolchain import find_toolchain
 from pyconnect.typesys.errors import DefinitionError
@@ -86,7 +91,7 @@ def _manifest_version(folder: Path) -> str:
     return "0.0.0"
 
 
-def _referenced_packages(package: PackageDef, types: TypeSet) -> set[str]:
+def referenced_packages(package: PackageDef, types: TypeSet) -> set[str]:
     """Every package whose types ``package``'s types contain, directly or through others."""
     found: set[str] = set()
     for msg in package.all_messages:
@@ -98,6 +103,16 @@ def _referenced_packages(package: PackageDef, types: TypeSet) -> set[str]:
         found.update(_IMPLICIT["action"])
     found.discard(package.name)
     return found
+
+
+def resolve_dependencies(names: set[str]) -> list[Dependency]:
+    """The installed interface packages among ``names`` (others, e.g. build tools, are skipped)."""
+    installed = installed_packages()
+    return [
+        Dependency(name, installed[name].share, installed[name].idl_files)
+        for name in sorted(names)
+        if name in installed and installed[name].idl_files
+    ]
 
 
 def _build_order(folders: dict[str, Path], needs: dict[str, set[str]]) -> list[str]:
@@ -149,7 +164,7 @@ def compile_folders(
             by_name[folder_package_name(folder)] = folder
         requested, types = load_packages(folders=list(by_name.values()))
         needs = {
-            name: _referenced_packages(requested[name], types)
+            name: referenced_packages(requested[name], types)
             | set(_manifest_dependencies(by_name[name]))
             for name in by_name
         }
@@ -175,12 +190,7 @@ def _compile_one(  # noqa: PLR0917  (one private call site)
     if not force and python_dir.is_dir() and read_stamp(layout, package.name) == digest:
         return BuildResult(package.name, "up to date", layout)
     toolchain = find_toolchain([layout.prefix])
-    installed = installed_packages()
-    dependencies = [
-        Dependency(name, installed[name].share, installed[name].idl_files)
-        for name in sorted(needs)
-        if name in installed and name != package.name and installed[name].idl_files
-    ]
+    dependencies = resolve_dependencies(needs - {package.name})
     layout.prefix.mkdir(parents=True, exist_ok=True)
     build = Path(tempfile.mkdtemp(prefix=f".codecgen-{package.name}-", dir=layout.prefix))
     try:

@@ -154,6 +154,9 @@ def link_shared_library(toolchain: Toolchain, library: SharedLibrary) -> None:
     command += [f"-L{d}" for d in (*library.library_dirs, *toolchain.library_dirs())]
     command.append("-Wl,--no-as-needed")
     command += [f"-l{name}" for name in library.libraries]
+    # DT_RPATH, not RUNPATH: searched before LD_LIBRARY_PATH, so a package built here wins over
+    # an older build of the same package in the environment's lib/.
+    command.append("-Wl,--disable-new-dtags")
     command += [f"-Wl,-rpath,{entry}" for entry in library.rpath]
     library.output.parent.mkdir(parents=True, exist_ok=True)
     result = subprocess.run(command, capture_output=True, text=True, check=False)
