@@ -385,6 +385,7 @@ def main() -> None:
             "pyconnect ~1.0",
         )
     )
+    rows.extend(async_handler_rows())
     print(f"{'measure':40} {'raw rclpy':>10} {'pyconnect':>10} {'ratio':>6}  target")
     for name, raw, pyc, ratio, target in rows:
         print(f"{name:40} {raw:10.3f} {pyc:10.3f} {ratio:>6}  {target}")
@@ -394,8 +395,63 @@ def main() -> None:
     )
 
 
+# -- asyncio: async def handlers against plain ones (issue 16's asyncio row) -------------------
+def handler_rate(use_async: bool) -> float:
+    """Messages per CPU second of a pyconnect ``sub`` whose ``response_func`` is plain or
+    ``async def`` (the CPU of the coroutine loop's thread counts too)."""
+    import rclpy
+    from std_msgs.msg import String
+
+    from pyconnect.ros.custom_node import CustomNode
+
+    node = CustomNode("bench_async_sub", context=rclpy.Context(), args=[], handle_signals=False)
+    received = [0]
+
+    def plain(text: str) -> None:
+        received[0] += 1
+
+    async def coroutine(text: str) -> None:
+        received[0] += 1
+
+    sub = node.add_agent(
+        conn_name="bench_chatter",
+        conn_type="sub",
+        data_interface=String,
+        response_func=coroutine if use_async else plain,
+    )
+    node.spin(run_thread=True)
+    sub.wait_for_message(30)
+    cpu, first = time.process_time(), received[0]
+    node.wait_for_shutdown(timeout=WINDOW)
+    rate = (received[0] - first) / (time.process_time() - cpu)
+    node.shutdown()
+    return rate
+
+
+def async_handler_rows() -> list[tuple[str, float, float, str, str]]:
+    """One row: plain vs async def handler, messages per CPU second, best of 3 interleaved."""
+    with running("blast"):
+        plain, coroutine = [], []
+        for _ in range(3):
+            plain.append(handler_rate(use_async=False))
+            coroutine.append(handler_rate(use_async=True))
+    best_plain, best_async = max(plain), max(coroutine)
+    return [
+        (
+            "async def handler msgs/CPU s (vs plain)",
+            best_plain,
+            best_async,
+            f"{best_plain / best_async:.2f}",
+            "cost <= 1.20",
+        )
+    ]
+
+
 if __name__ == "__main__":
     if len(sys.argv) == 3 and sys.argv[1] == "--peer":
         peer(sys.argv[2])
+    elif sys.argv[1:] == ["--async"]:  # only the asyncio row
+        for name, plain, coroutine, ratio, target in async_handler_rows():
+            print(f"{name:40} {plain:10.0f} {coroutine:10.0f} {ratio:>6}  {target}")
     else:
         main()

@@ -26,6 +26,12 @@ from typing import Any
 LANE_LIMIT = 100
 """Coroutines an agent may have waiting before a submit blocks."""
 
+LINGER_SECONDS = 0.0005
+"""How long a lane under a steady stream waits for the next call before it sleeps."""
+
+BUSY_GAP_SECONDS = 0.002
+"""A lane woken again within this time counts as under a steady stream."""
+
 ErrorHandler = Callable[[BaseException], None]
 DoneHandler = Callable[[Any], None]
 _Call = tuple[Callable[..., Any], tuple[Any, ...], DoneHandler | None, ErrorHandler]
@@ -95,13 +101,19 @@ class CoroutineRunner:
 
 
 class CoroutineLane:
-    """One agent's coroutines, awaited one after another in the order they were submitted."""
+    """One agent's coroutines, awaited one after another in the order they were submitted.
+
+    One task per lane lives on the loop: it awaits the queued calls, then sleeps on a future
+    that the next submit resolves (one cross-thread wake-up per burst, no task per message).
+    """
 
     def __init__(self, runner: CoroutineRunner) -> None:
         self._runner = runner
         self._pending: deque[_Call] = deque()
         self._cond = threading.Condition()
         self._draining = False
+        self._task: asyncio.Future[Any] | None = None
+        self._idle: asyncio.Future[None] | None = None
 
     def submit(
         self,
@@ -112,8 +124,10 @@ class CoroutineLane:
         on_error: ErrorHandler,
     ) -> None:
         """Queue ``function(*args)`` (a coroutine function): then ``on_done(result)``, or
-        ``on_error(exception)`` when it raised."""
+        ``on_error(exception)`` when it raised. Dropped once the runner is stopped (shutdown)."""
         with self._cond:
+            if self._runner.stopped:
+                return
             while len(self._pending) >= LANE_LIMIT and not self._runner.stopped:
                 self._cond.wait(0.1)
             self._pending.append((function, args, on_done, on_error))
@@ -121,28 +135,45 @@ class CoroutineLane:
                 return
             self._draining = True
         try:
-            self._runner.loop.call_soon_threadsafe(self._start_drain)
-        except RuntimeError as error:  # the loop is closed: shutdown is under way
+            self._runner.loop.call_soon_threadsafe(self._wake)
+        except RuntimeError:  # the loop closed under us: shutdown is under way
             with self._cond:
-                dropped = list(self._pending)
                 self._pending.clear()
                 self._draining = False
-            for call in dropped:
-                call[3](error)
 
-    def _start_drain(self) -> None:
-        task = asyncio.ensure_future(self._drain())
-        _keep_alive.add(task)
-        task.add_done_callback(_keep_alive.discard)
+    def _wake(self) -> None:
+        """On the loop: start the lane's task, or wake it from its idle wait."""
+        if self._task is None or self._task.done():
+            self._task = asyncio.ensure_future(self._drain())
+            _keep_alive.add(self._task)
+            self._task.add_done_callback(_keep_alive.discard)
+        elif self._idle is not None and not self._idle.done():
+            self._idle.set_result(None)
 
     async def _drain(self) -> None:
+        loop = asyncio.get_running_loop()
+        busy = False
         while True:
+            if busy and not self._pending:
+                # Under a steady stream, look again a moment later instead of making the next
+                # submit wake the loop: one wake-up then serves several calls.
+                await asyncio.sleep(LINGER_SECONDS)
+                busy = bool(self._pending)
             with self._cond:
                 if not self._pending:
                     self._draining = False
-                    return
-                function, args, on_done, on_error = self._pending.popleft()
-                self._cond.notify()
+                    self._idle = loop.create_future()
+                    idle = self._idle
+                else:
+                    idle = None
+                    function, args, on_done, on_error = self._pending.popleft()
+                    if len(self._pending) == LANE_LIMIT - 1:
+                        self._cond.notify()
+            if idle is not None:
+                slept = loop.time()
+                await idle
+                busy = loop.time() - slept < BUSY_GAP_SECONDS
+                continue
             try:
                 result = await function(*args)
             except asyncio.CancelledError:

@@ -111,12 +111,17 @@ class SubscriberAgent(NodeAgent):
                 self.report_exception("log_msg", error)
         if self.response_func is not None:
             if self._response_is_async:
-                self.call_user("response_func", self.response_func, value)
+                self.lane.submit(
+                    self.response_func, (value,), on_done=None, on_error=self._response_failed
+                )
                 return
             try:
                 self.response_func(value)
             except Exception as error:
                 self.report_exception("response_func", error)
+
+    def _response_failed(self, error: BaseException) -> None:
+        self.report_exception("response_func", error)
 
     def wait_for_message(self, timeout: float | None = None) -> bool:
         """Wait until the first message arrived; False on timeout."""
