@@ -302,6 +302,23 @@ class BagReader:
             self.errors[0],
         )
 
+    # -- tables (pyconnect.record.tables; needs the ``tables`` extra) ---------------------------
+    def to_arrow(self, topic: str) -> Any:
+        """``topic`` as a ``pyarrow.Table``: one row per message, one typed column per field."""
+        from pyconnect.record.tables import topic_table
+
+        return topic_table(self, topic, errors=self.errors)
+
+    def to_pandas(self, topic: str) -> Any:
+        """``topic`` as a ``pandas.DataFrame`` with the columns of ``to_arrow``."""
+        return self.to_arrow(topic).to_pandas()
+
+    def to_polars(self, topic: str) -> Any:
+        """``topic`` as a ``polars.DataFrame`` with the columns of ``to_arrow``."""
+        import polars
+
+        return polars.from_arrow(self.to_arrow(topic))
+
     def close(self) -> None:
         """Close the storage files; idempotent."""
         for storage in self._storages:

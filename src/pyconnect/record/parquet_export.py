@@ -1,0 +1,49 @@
+"""``export_parquet``: one Parquet file per bag topic, with the columns of ``tables.topic_table``.
+
+``export_parquet("run1", "out/")`` writes ``out/odom.parquet``, ``out/robot__camera__image.parquet``
+(the topic name with ``/`` as ``__``), one per topic unless ``topics`` names some. DuckDB, polars,
+pandas and Spark read them; the schema metadata holds the topic and the type.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import pyarrow.parquet as pq
+
+from pyconnect.record.bag_reader import DecodeProblem, open_bag
+from pyconnect.record.log_dirs import safe_path_component
+from pyconnect.record.tables import topic_table
+
+__all__ = ["ParquetExport", "export_parquet"]
+
+
+@dataclass
+class ParquetExport:
+    """What ``export_parquet`` wrote: topic -> (file, rows), and the messages it left out."""
+
+    directory: Path
+    files: dict[str, tuple[Path, int]] = field(default_factory=dict)
+    errors: list[DecodeProblem] = field(default_factory=list)
+
+
+def export_parquet(
+    bag: str | Path,
+    directory: str | Path,
+    *,
+    topics: Iterable[str] | None = None,
+    compression: str = "zstd",
+) -> ParquetExport:
+    """Write each topic of ``bag`` (or of ``topics``) to ``directory/<topic>.parquet``."""
+    target = Path(directory)
+    target.mkdir(parents=True, exist_ok=True)
+    result = ParquetExport(target)
+    with open_bag(bag, topics=topics) as reader:
+        for topic in reader.topics:
+            table = topic_table(reader, topic, errors=result.errors)
+            path = target / f"{safe_path_component(topic)}.parquet"
+            pq.write_table(table, path, compression=compression)
+            result.files[topic] = (path, table.num_rows)
+    return result

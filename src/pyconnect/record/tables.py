@@ -1,0 +1,282 @@
+"""Bag topics as tables: one row per message, one typed column per field (pyarrow, pandas, polars).
+
+``topic_table(bag, "/odom")`` reads one topic as lossless dicts and flattens each message into
+columns named by their field path, typed as the ROS fields are (needs the ``tables`` extra):
+
+- ``log_time_ns`` (int64, the time the message was logged) comes first;
+- nested messages are flattened: ``pose.pose.position.x``; a header stays two time columns,
+  ``header.stamp.sec`` (int32) and ``header.stamp.nanosec`` (uint32), and ``header.frame_id``;
+- scalars keep their width and sign (``int8`` stays ``int8``, ``char`` is ``uint8``);
+- an array or sequence field stays one column under its name: a fixed-size array of numbers is
+  a fixed-size list column (a tensor per row, ``pose.covariance`` is ``fixed_size_list<double,
+  36>``), a sequence of numbers a list column, ``uint8``/``byte`` sequences (image and cloud
+  data) a binary column, a fixed ``uint8[N]`` a ``fixed_size_binary(N)``;
+- an image is thus its binary ``data`` beside the ``height``, ``width``, ``step``,
+  ``encoding`` and ``is_bigendian`` columns that give its shape and pixel type;
+- sequences of messages stay one column of lists of structs (``transforms``).
+
+Columns come from the definition stored in the bag (else the installed type); a value missing
+from a message (a Foxy message without a later field) is null. Messages that cannot be decoded
+are left out and reported in the reader's ``errors``, as ``open_bag`` does.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pyarrow as pa
+
+from pyconnect.record.bag_reader import BagReader, DecodeProblem, open_bag
+
+__all__ = ["Column", "columns_of", "topic_table"]
+
+TIME_COLUMN = "log_time_ns"
+
+_PRIMITIVES: dict[str, pa.DataType] = {
+    "bool": pa.bool_(),
+    "byte": pa.uint8(),
+    "octet": pa.uint8(),
+    "char": pa.uint8(),
+    "uint8": pa.uint8(),
+    "int8": pa.int8(),
+    "uint16": pa.uint16(),
+    "int16": pa.int16(),
+    "uint32": pa.uint32(),
+    "int32": pa.int32(),
+    "uint64": pa.uint64(),
+    "int64": pa.int64(),
+    "float32": pa.float32(),
+    "float64": pa.float64(),
+    "float": pa.float32(),
+    "double": pa.float64(),
+    "wchar": pa.uint16(),
+}
+_BYTES = frozenset({"byte", "octet", "char", "uint8"})
+Definitions = Any  # Mapping[type name, (hash, field rows)], as the wire codecs hold them
+
+
+@dataclass(frozen=True)
+class Column:
+    """One column of a topic's table: the field path, its Arrow type and how to build it."""
+
+    path: tuple[str, ...]
+    arrow_type: pa.DataType
+    build: str  # "scalar", "binary", "numbers", "fixed_numbers", "nested"
+
+    @property
+    def name(self) -> str:
+        return ".".join(self.path)
+
+
+def _element_type(kind: str, element: str, definitions: Definitions) -> pa.DataType:
+    if kind == "primitive":
+        return _PRIMITIVES[element]
+    if kind in ("string", "wstring"):
+        return pa.string()
+    return _struct_type(element, definitions)
+
+
+def _struct_type(msg_type: str, definitions: Definitions) -> pa.DataType:
+    fields = []
+    for name, kind, element, _bound, container, size, _default in definitions[msg_type][1]:
+        item = _element_type(kind, element, definitions)
+        if container == "single":
+            fields.append(pa.field(name, item))
+        elif kind == "primitive" and element in _BYTES:
+            fields.append(pa.field(name, pa.binary()))
+        elif container == "array":
+            fields.append(pa.field(name, pa.list_(item, size)))
+        else:
+            fields.append(pa.field(name, pa.list_(item)))
+    if not fields:
+        # Parquet cannot store a struct without children; rosidl's C structs add this same
+        # placeholder member to empty messages. It is always null.
+        fields.append(pa.field("structure_needs_at_least_one_member", pa.uint8()))
+    return pa.struct(fields)
+
+
+def columns_of(msg_type: str, definitions: Definitions) -> list[Column]:
+    """The columns of ``msg_type`` (after ``log_time_ns``), in definition order."""
+    columns: list[Column] = []
+
+    def walk(type_name: str, prefix: tuple[str, ...]) -> None:
+        for name, kind, element, _bound, container, size, _default in definitions[type_name][1]:
+            path = (*prefix, name)
+            if container == "single":
+                if kind == "message":
+                    walk(element, path)
+                else:
+                    scalar = _element_type(kind, element, definitions)
+                    columns.append(Column(path, scalar, "scalar"))
+            elif kind == "primitive" and element in _BYTES:
+                binary = pa.binary(size) if container == "array" else pa.binary()
+                columns.append(Column(path, binary, "binary"))
+            elif kind == "primitive" and element != "bool":
+                item = _PRIMITIVES[element]
+                if container == "array":
+                    columns.append(Column(path, pa.list_(item, size), "fixed_numbers"))
+                else:
+                    columns.append(Column(path, pa.list_(item), "numbers"))
+            else:
+                item = _element_type(kind, element, definitions)
+                list_type = pa.list_(item, size) if container == "array" else pa.list_(item)
+                columns.append(Column(path, list_type, "nested"))
+
+    walk(msg_type, ())
+    return columns
+
+
+# -- values -> Arrow arrays ----------------------------------------------------------------------
+_MISSING = object()
+
+
+def _get(message: Any, path: tuple[str, ...]) -> Any:
+    value = message
+    for key in path:
+        if not isinstance(value, dict):
+            return None
+        value = value.get(key, _MISSING)
+        if value is _MISSING:
+            return None
+    return value
+
+
+def _plain(value: Any) -> Any:
+    """Nested values as pyarrow's converter takes them: no ndarrays (uint8 ones as bytes)."""
+    if isinstance(value, np.ndarray):
+        return value.tobytes() if value.dtype == np.uint8 else value.tolist()
+    if isinstance(value, dict):
+        return {key: _plain(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_plain(item) for item in value]
+    return value
+
+
+def _numbers(values: list[Any], column: Column) -> pa.Array:
+    item_type = column.arrow_type.value_type
+    dtype = item_type.to_pandas_dtype()
+    present = [v for v in values if v is not None]
+    if len(present) != len(values):  # rare: a field missing from some messages
+        lists = [None if v is None else np.asarray(v).tolist() for v in values]
+        return pa.array(lists, type=column.arrow_type)
+    flat = (
+        np.concatenate([np.asarray(v, dtype=dtype).ravel() for v in values])
+        if values
+        else np.empty(0, dtype)
+    )
+    flat_array = pa.array(flat, type=item_type)
+    if column.build == "fixed_numbers":
+        return pa.FixedSizeListArray.from_arrays(flat_array, column.arrow_type.list_size)
+    offsets = np.zeros(len(values) + 1, dtype=np.int32)
+    np.cumsum([len(v) for v in values], out=offsets[1:])
+    return pa.ListArray.from_arrays(pa.array(offsets), flat_array)
+
+
+def _binary(values: list[Any], column: Column) -> pa.Array:
+    data = [None if v is None else bytes(v) for v in values]
+    return pa.array(data, type=column.arrow_type)
+
+
+def _array(values: list[Any], column: Column) -> pa.Array:
+    if column.build == "scalar":
+        return pa.array(values, type=column.arrow_type)
+    if column.build == "binary":
+        return _binary(values, column)
+    if column.build in ("numbers", "fixed_numbers"):
+        return _numbers(values, column)
+    return pa.array([_plain(v) for v in values], type=column.arrow_type)
+
+
+def _schema(columns: Sequence[Column], topic: str, msg_type: str) -> pa.Schema:
+    fields = [pa.field(TIME_COLUMN, pa.int64(), nullable=False)]
+    fields += [pa.field(column.name, column.arrow_type) for column in columns]
+    return pa.schema(fields, metadata={"topic": topic, "msg_type": msg_type})
+
+
+def rows_to_table(
+    rows: Iterable[tuple[int, dict[str, Any]]],
+    columns: Sequence[Column],
+    *,
+    topic: str,
+    msg_type: str,
+) -> pa.Table:
+    """Flatten ``(log_time_ns, lossless dict)`` rows into a table with ``columns``."""
+    times: list[int] = []
+    values: list[list[Any]] = [[] for _ in columns]
+    paths = [column.path for column in columns]
+    for log_time_ns, message in rows:
+        times.append(log_time_ns)
+        for store, path in zip(values, paths, strict=True):
+            store.append(_get(message, path))
+    arrays = [pa.array(np.asarray(times, dtype=np.int64), type=pa.int64())]
+    arrays += [_array(store, column) for store, column in zip(values, columns, strict=True)]
+    return pa.Table.from_arrays(arrays, schema=_schema(columns, topic, msg_type))
+
+
+# -- bags ----------------------------------------------------------------------------------------
+def _definitions(reader: BagReader, topic: str, msg_type: str) -> tuple[Definitions, str]:
+    """The type definitions the topic is decoded with: stored in the bag, else installed."""
+    from pyconnect.codecs import wire
+    from pyconnect.record.bag_files import locate_bag_files, open_storage
+
+    stored: tuple[str, str] | None = None
+    for path in locate_bag_files(reader.path).files:
+        storage = open_storage(path)
+        try:
+            for connection in storage.connections():
+                if connection.topic == topic and connection.definition is not None:
+                    stored = (connection.definition, connection.definition_encoding)
+                    break
+        finally:
+            storage.close()
+        if stored is not None:
+            break
+    codec = None
+    if stored is not None:
+        try:
+            codec = wire.wire_codec(msg_type, definition=stored[0], encoding=stored[1])
+        except Exception:  # the reader falls back to the installed type too
+            codec = None
+    if codec is None:
+        codec = wire.wire_codec(msg_type)
+    # The field rows are the codec's own description of its type (name, kind, element, bound,
+    # container, size, default): the same rows its decoder was generated from.
+    return codec._definitions, codec.msg_type
+
+
+def topic_table(
+    bag: BagReader | str | Path,
+    topic: str,
+    *,
+    errors: list[DecodeProblem] | None = None,
+) -> pa.Table:
+    """One topic of ``bag`` (an open reader, whose time range applies, or a path) as a table.
+
+    Messages that cannot be decoded are appended to ``errors`` (when given) and left out.
+    """
+    owner = bag if isinstance(bag, BagReader) else None
+    path = bag.path if isinstance(bag, BagReader) else Path(bag)
+    with open_bag(
+        path,
+        topics=[topic],
+        natural=False,
+        start_ns=owner.start_ns if owner is not None else None,
+        end_ns=owner.end_ns if owner is not None else None,
+        on_error=owner.on_error if owner is not None else "report",
+    ) as reader:
+        declared_type = reader.topics[topic].msg_type
+        definitions, msg_type = _definitions(reader, topic, declared_type)
+        columns = columns_of(msg_type, definitions)
+        table = rows_to_table(_rows(reader), columns, topic=topic, msg_type=msg_type)
+        if errors is not None:
+            errors.extend(reader.errors)
+    return table
+
+
+def _rows(reader: BagReader) -> Iterator[tuple[int, dict[str, Any]]]:
+    for message in reader:
+        yield message.log_time_ns, message.value

@@ -1,0 +1,224 @@
+"""Bag topics as Arrow, pandas and polars tables; Parquet export read back by DuckDB and polars."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import duckdb
+import numpy as np
+import polars as pl
+import pyarrow as pa
+import pytest
+from geometry_msgs.msg import PoseWithCovarianceStamped
+from sensor_msgs.msg import Image
+from test_msgs.msg import Arrays, BasicTypes, UnboundedSequences
+
+from pyconnect.record import BagError, bag_info, open_bag
+from pyconnect.record.parquet_export import export_parquet
+from tests.conftest import require_sample_bags
+from tests.record.bag_samples import BAGS
+from tests.record.table_bags import stamp_of, write_bag
+
+T0 = 1_700_000_000_000_000_000
+
+
+def _basic(i: int) -> BasicTypes:
+    return BasicTypes(
+        bool_value=bool(i % 2),
+        byte_value=bytes([i]),
+        char_value=65 + i,
+        float32_value=0.5 * i,
+        float64_value=1.25 * i,
+        int8_value=-100 + i,
+        uint8_value=200 + i,
+        int16_value=-3000 - i,
+        uint16_value=60000 + i,
+        int32_value=-(10**9) + i,
+        uint32_value=4 * 10**9 + i,
+        int64_value=-(10**18) - i,
+        uint64_value=18 * 10**18 + i,
+    )
+
+
+def _pose(i: int) -> PoseWithCovarianceStamped:
+    msg = PoseWithCovarianceStamped()
+    msg.header.stamp.sec, msg.header.stamp.nanosec = stamp_of(T0 + i * 10_000_000)
+    msg.header.frame_id = "map"
+    msg.pose.pose.position.x = float(i)
+    msg.pose.pose.orientation.w = 1.0
+    msg.pose.covariance = [float(i * 100 + k) for k in range(36)]
+    return msg
+
+
+def _image(i: int) -> Image:
+    msg = Image(height=2, width=3, encoding="rgb8", step=9)
+    msg.header.frame_id = "cam"
+    msg.data = bytes((i + k) % 256 for k in range(18))
+    return msg
+
+
+def _table(bag: Path, topic: str, how: str = "to_arrow") -> Any:
+    with open_bag(bag) as reader:
+        return getattr(reader, how)(topic)
+
+
+@pytest.fixture(scope="module")
+def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    messages = []
+    for i in range(3):
+        messages.append(("/basic", T0 + i, _basic(i)))
+        messages.append(("/pose", T0 + i, _pose(i)))
+        messages.append(("/camera/image_raw", T0 + i, _image(i)))
+        arrays = Arrays()
+        arrays.int8_values = [-1, 0, i]
+        arrays.string_values = ["a", "b", str(i)]
+        messages.append(("/arrays", T0 + i, arrays))
+        messages.append(("/seqs", T0 + i, UnboundedSequences(float32_values=[0.5] * i)))
+    return write_bag(tmp_path_factory.mktemp("tables") / "bag", messages)
+
+
+def test_scalars_keep_their_ros_types(bag: Path) -> None:
+    table = _table(bag, "/basic", "to_arrow")
+    types = {field.name: field.type for field in table.schema}
+    assert types == {
+        "log_time_ns": pa.int64(),
+        "bool_value": pa.bool_(),
+        "byte_value": pa.uint8(),
+        "char_value": pa.uint8(),
+        "float32_value": pa.float32(),
+        "float64_value": pa.float64(),
+        "int8_value": pa.int8(),
+        "uint8_value": pa.uint8(),
+        "int16_value": pa.int16(),
+        "uint16_value": pa.uint16(),
+        "int32_value": pa.int32(),
+        "uint32_value": pa.uint32(),
+        "int64_value": pa.int64(),
+        "uint64_value": pa.uint64(),
+    }
+    rows = table.to_pylist()
+    assert [row["log_time_ns"] for row in rows] == [T0, T0 + 1, T0 + 2]
+    assert rows[2]["int8_value"] == -98
+    assert rows[2]["uint64_value"] == 18 * 10**18 + 2
+    assert rows[1]["byte_value"] == 1
+    assert table.schema.metadata == {b"topic": b"/basic", b"msg_type": b"test_msgs/msg/BasicTypes"}
+
+
+def test_nested_fields_flatten_and_arrays_stay_one_column(bag: Path) -> None:
+    table = _table(bag, "/pose", "to_arrow")
+    assert table.schema.names == [
+        "log_time_ns",
+        "header.stamp.sec",
+        "header.stamp.nanosec",
+        "header.frame_id",
+        "pose.pose.position.x",
+        "pose.pose.position.y",
+        "pose.pose.position.z",
+        "pose.pose.orientation.x",
+        "pose.pose.orientation.y",
+        "pose.pose.orientation.z",
+        "pose.pose.orientation.w",
+        "pose.covariance",
+    ]
+    assert table.schema.field("header.stamp.sec").type == pa.int32()
+    assert table.schema.field("header.stamp.nanosec").type == pa.uint32()
+    assert table.schema.field("pose.covariance").type == pa.list_(pa.float64(), 36)
+    assert table.column("pose.pose.position.x").to_pylist() == [0.0, 1.0, 2.0]
+    covariance = table.column("pose.covariance").combine_chunks()
+    tensor = covariance.flatten().to_numpy().reshape(len(covariance), 36)
+    assert tensor[2].tolist() == [float(200 + k) for k in range(36)]
+    sec, nanosec = stamp_of(T0 + 20_000_000)
+    assert table.column("header.stamp.sec")[2].as_py() == sec
+    assert table.column("header.stamp.nanosec")[2].as_py() == nanosec
+
+
+def test_images_are_binary_data_beside_their_shape_and_encoding(bag: Path) -> None:
+    table = _table(bag, "/camera/image_raw", "to_arrow")
+    assert table.schema.field("data").type == pa.binary()
+    row = table.to_pylist()[1]
+    assert (row["height"], row["width"], row["step"], row["encoding"]) == (2, 3, 9, "rgb8")
+    pixels = np.frombuffer(row["data"], np.uint8).reshape(row["height"], row["width"], 3)
+    assert pixels[0, 0].tolist() == [1, 2, 3]
+
+
+def test_fixed_arrays_sequences_and_strings(bag: Path) -> None:
+    arrays = _table(bag, "/arrays", "to_arrow")
+    assert arrays.schema.field("int8_values").type == pa.list_(pa.int8(), 3)
+    assert arrays.schema.field("byte_values").type == pa.binary(3)
+    assert arrays.schema.field("bool_values").type == pa.list_(pa.bool_(), 3)
+    assert arrays.schema.field("string_values").type == pa.list_(pa.string(), 3)
+    assert arrays.column("int8_values").to_pylist()[2] == [-1, 0, 2]
+    assert arrays.column("string_values").to_pylist()[1] == ["a", "b", "1"]
+    nested = arrays.schema.field("basic_types_values").type
+    assert nested.value_type.field("int8_value").type == pa.int8()
+    seqs = _table(bag, "/seqs", "to_arrow")
+    assert seqs.schema.field("float32_values").type == pa.list_(pa.float32())
+    assert seqs.column("float32_values").to_pylist() == [[], [0.5], [0.5, 0.5]]
+
+
+def test_pandas_and_polars_have_the_same_columns_and_types(bag: Path) -> None:
+    with open_bag(bag) as reader:
+        frame = reader.to_pandas("/basic")
+        polars_frame = reader.to_polars("/pose")
+        arrow_names = reader.to_arrow("/basic").schema.names
+    assert list(frame.columns) == arrow_names
+    assert str(frame["int8_value"].dtype) == "int8"
+    assert str(frame["uint16_value"].dtype) == "uint16"
+    assert frame["int8_value"].tolist() == [-100, -99, -98]
+    assert polars_frame.schema["header.stamp.sec"] == pl.Int32
+    assert polars_frame.schema["pose.covariance"] == pl.Array(pl.Float64, 36)
+    assert polars_frame["pose.pose.position.x"].to_list() == [0.0, 1.0, 2.0]
+
+
+def test_an_unknown_topic_is_an_error_naming_the_topics(bag: Path) -> None:
+    with pytest.raises(BagError) as raised:
+        _table(bag, "/nope", "to_arrow")
+    assert str(raised.value) == (
+        f"{bag}: no topic /nope in this bag (topics: /arrays, /basic, /camera/image_raw, /pose, "
+        "/seqs)"
+    )
+
+
+def test_parquet_export_is_read_by_duckdb_and_polars(bag: Path, tmp_path: Path) -> None:
+    result = export_parquet(bag, tmp_path / "out")
+    assert sorted(result.files) == ["/arrays", "/basic", "/camera/image_raw", "/pose", "/seqs"]
+    assert result.errors == []
+    pose_file = tmp_path / "out" / "pose.parquet"
+    assert result.files["/pose"] == (pose_file, 3)
+    rows = duckdb.sql(
+        f'SELECT "pose.pose.position.x", "header.stamp.sec" FROM \'{pose_file}\' ORDER BY 1'
+    ).fetchall()
+    assert rows == [(float(i), stamp_of(T0 + i * 10_000_000)[0]) for i in range(3)]
+    basic = pl.read_parquet(tmp_path / "out" / "basic.parquet")
+    assert basic.schema["int8_value"] == pl.Int8
+    assert basic["int8_value"].to_list() == [-100, -99, -98]
+    image = pl.read_parquet(tmp_path / "out" / "camera__image_raw.parquet")
+    assert image["data"].dtype == pl.Binary
+
+
+def test_parquet_export_of_one_topic(bag: Path, tmp_path: Path) -> None:
+    result = export_parquet(bag, tmp_path, topics=["/basic"])
+    assert list(result.files) == ["/basic"]
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["basic.parquet"]
+
+
+SHARED = [
+    "robot_localization_converted/test1_ros2_mcap_zstd",
+    "rosbags_rs/test_bag_mcap",
+    "rosbags_rs/test_bag_sqlite3",
+    "evo/nav2_turtlebot.mcap",
+]
+
+
+@pytest.mark.parametrize("name", SHARED)
+def test_every_shared_topic_tabulates_every_decodable_message(name: str) -> None:
+    path = BAGS / name
+    require_sample_bags(path, path.exists())
+    with open_bag(path, natural=False) as reader:  # tables hold lossless dicts
+        counts: dict[str, int] = {}
+        for message in reader:
+            counts[message.topic] = counts.get(message.topic, 0) + 1
+        for topic in bag_info(path).topics:
+            table = reader.to_arrow(topic.name)
+            assert table.num_rows == counts.get(topic.name, 0), topic.name

@@ -1,0 +1,124 @@
+"""``align``: bag topics matched by header stamp as message_filters' ApproximateTimeSynchronizer."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from sensor_msgs.msg import Image, JointState
+from std_msgs.msg import String
+
+from pyconnect.record import align
+from pyconnect.record.align import align_table, match_stamps
+from tests.record.table_bags import stamp_of, write_bag
+
+T0 = 1_700_000_000_000_000_000
+MS = 1_000_000
+
+
+def _image(stamp_ns: int, level: int) -> Image:
+    msg = Image(height=1, width=2, encoding="mono8", step=2, data=bytes([level, level]))
+    msg.header.stamp.sec, msg.header.stamp.nanosec = stamp_of(stamp_ns)
+    return msg
+
+
+def _joints(stamp_ns: int, position: float) -> JointState:
+    msg = JointState(name=["elbow"], position=[position])
+    msg.header.stamp.sec, msg.header.stamp.nanosec = stamp_of(stamp_ns)
+    return msg
+
+
+def _position(frame: int, offset_ms: int) -> float:
+    return frame + offset_ms / 1000
+
+
+# Camera every 100 ms (stamps k*100 ms); joints with known offsets from each camera frame.
+# Each message is logged 1 ms after its stamp, so the bag order is the stamp order.
+JOINT_OFFSETS_MS = {
+    0: [15],  # one joint 15 ms late: matched at tolerance 0.02
+    1: [-18, 5],  # -18 ms arrives before the frame, +5 ms after: the frame takes -18 (greedy)
+    2: [25],  # 25 ms: outside 0.02, never matched
+    3: [-4, 30],  # -4 ms matched; +30 ms left over
+    4: [],  # no joint: the frame is dropped
+}
+
+
+@pytest.fixture(scope="module")
+def bag(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    messages: list[tuple[int, str, object]] = []
+    for k, offsets in JOINT_OFFSETS_MS.items():
+        frame = T0 + k * 100 * MS
+        messages.append((frame, "/camera/image_raw", _image(frame, k)))
+        for offset in offsets:
+            stamp = frame + offset * MS
+            messages.append((stamp, "/joint_states", _joints(stamp, _position(k, offset))))
+        messages.append((frame + 50 * MS, "/chatter", String(data=f"frame {k}")))
+    messages.sort(key=lambda entry: entry[0])
+    return write_bag(
+        tmp_path_factory.mktemp("align") / "bag",
+        [(topic, stamp + MS, msg) for stamp, topic, msg in messages],
+    )
+
+
+def test_matches_follow_approximate_time_synchronizer(bag: Path) -> None:
+    matches = list(align(bag, ["/camera/image_raw", "/joint_states"], tolerance=0.02))
+    pairs = [(image.value[0, 0], joints.value["elbow"]["position"]) for image, joints in matches]
+    assert pairs == [(0, _position(0, 15)), (1, _position(1, -18)), (3, _position(3, -4))]
+    image, joints = matches[0]
+    assert image.topic == "/camera/image_raw"
+    assert isinstance(image.value, np.ndarray)
+    assert joints.log_time_ns == T0 + 16 * MS
+
+
+def test_a_tighter_tolerance_matches_other_pairs(bag: Path) -> None:
+    matches = list(align(bag, ["/camera/image_raw", "/joint_states"], tolerance=0.01))
+    # frame 1 is still queued (-18 ms is too far) when the +5 ms joint arrives
+    pairs = [(image.value[0, 0], joints.value["elbow"]["position"]) for image, joints in matches]
+    assert pairs == [(1, _position(1, 5)), (3, _position(3, -4))]
+
+
+def test_headerless_topics_use_the_log_time(bag: Path) -> None:
+    matches = list(align(bag, ["/joint_states", "/chatter"], tolerance=0.03, natural=False))
+    # /chatter has no header: its time is its log time, k*100+51 ms; the joints' times are their
+    # stamps, k*100+offset ms. Within 30 ms: +25 ms (frame 2) and +30 ms (frame 3).
+    assert [(joints.value["position"][0], chat.value["data"]) for joints, chat in matches] == [
+        (_position(2, 25), "frame 2"),
+        (_position(3, 30), "frame 3"),
+    ]
+
+
+def test_align_table_holds_each_topics_columns(bag: Path) -> None:
+    table = align_table(bag, ["/camera/image_raw", "/joint_states"], tolerance=0.02)
+    assert table.num_rows == 3
+    assert table.column("/joint_states.position").to_pylist() == [
+        [_position(0, 15)],
+        [_position(1, -18)],
+        [_position(3, -4)],
+    ]
+    assert table.column("/camera/image_raw.header.stamp.nanosec").to_pylist() == [
+        stamp_of(T0 + k * 100 * MS)[1] for k in (0, 1, 3)
+    ]
+
+
+def test_queue_size_drops_the_oldest() -> None:
+    arrivals = [(0, 0, "a0"), (0, 10, "a1"), (1, 1, "b0")]
+    assert list(match_stamps(arrivals, topics=2, tolerance_ns=5, queue_size=2)) == [("a0", "b0")]
+    assert list(match_stamps(arrivals, topics=2, tolerance_ns=5, queue_size=1)) == []
+
+
+def test_three_topics_need_all_within_the_tolerance() -> None:
+    arrivals = [(0, 100, "a"), (1, 104, "b"), (2, 96, "c1"), (2, 99, "c2")]
+    # c1 is within 5 of b's arrival? no: only a and b are queued when c1 arrives: 100, 104, 96
+    # spans 8; c2 gives 100, 104, 99: spans 5, not < 5; so nothing. Tolerance 6 takes c2.
+    assert list(match_stamps(arrivals, topics=3, tolerance_ns=5)) == []
+    assert list(match_stamps(arrivals, topics=3, tolerance_ns=6)) == [("a", "b", "c2")]
+
+
+def test_bad_arguments_are_errors(bag: Path) -> None:
+    with pytest.raises(ValueError) as raised:
+        next(align(bag, ["/joint_states"], tolerance=0.02))
+    assert str(raised.value) == "topics: expected two or more different topics, got ['/joint_states']"
+    with pytest.raises(ValueError) as raised:
+        next(align(bag, ["/a", "/b"], tolerance=0))
+    assert str(raised.value) == "tolerance: expected seconds > 0, got 0"
