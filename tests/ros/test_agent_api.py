@@ -194,3 +194,20 @@ def test_ros_modules_reach_no_private_attribute_of_another_module() -> None:
                 continue
             reaches.append(f"{path.name}:{node.lineno} {ast.unparse(node)}")
     assert reaches == []
+
+
+def test_shared_options_apply_to_the_kinds_that_use_them(make_node: Any) -> None:
+    node = make_node()
+    sub, timer = node.add_agents(
+        [
+            {"conn_name": "chatter", "conn_type": "sub", "data_interface": String},
+            {"conn_name": "beat", "conn_type": "timer", "time_period": 1.0,
+             "response_func": lambda: None},
+        ],
+        do_log_msg=True,
+    )  # fmt: skip
+    assert sub.do_log_msg is True
+    assert timer.do_log_msg is False
+    with pytest.raises(OptionError) as caught:
+        node.add_agents([{"conn_name": "x", "conn_type": "sub", "data_interface": String}], fsp=1)  # type: ignore[call-arg]
+    assert str(caught.value) == "agent 'x' (sub): unknown option 'fsp'"

@@ -250,3 +250,35 @@ def test_send_async_times_out_without_blocking_the_loop(
         "error": "agent 'slow_client' (action_client test_msgs/action/Fibonacci): "
         "no result within 0.2 s (goal canceled)",
     }
+
+
+def test_async_action_client_callbacks(make_node: Any) -> None:
+    node = make_node()
+    accepted: list[bool] = []
+    results: list[Any] = []
+    done = threading.Event()
+
+    async def on_accepted(ok: bool) -> None:
+        await asyncio.sleep(0)
+        accepted.append(ok)
+
+    async def on_result(result: Any) -> None:
+        await asyncio.sleep(0)
+        results.append(result)
+        done.set()
+
+    node.add_agent(
+        conn_name="fib", conn_type="action_server", data_interface=Fibonacci,
+        response_func=lambda goal: {"sequence": [goal["order"]]},
+    )  # fmt: skip
+    client = node.add_agent(
+        conn_name="fib", agent_name="fib_client", conn_type="action_client",
+        data_interface=Fibonacci, timeout=EVENT_TIMEOUT, response_func=on_result,
+        accepted_func=on_accepted,
+    )  # fmt: skip
+    node.spin(run_thread=True)
+    returned = client.send({"order": 6})
+    assert done.wait(EVENT_TIMEOUT)
+    assert results == [returned] == [{"sequence": [6], "isdone": True}]
+    # Each callback has its lane position: the acceptance ran before the result's callback.
+    assert accepted == [True]

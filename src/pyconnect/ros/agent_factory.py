@@ -74,6 +74,24 @@ def make_agent(
         raise type(error)(f"agent {name!r} ({conn_type}): {error}") from error
 
 
+def shared_options_for(conn_type: object, shared: Mapping[str, Any]) -> dict[str, Any]:
+    """The shared options (``add_agents(configs, **shared)``) a kind uses: shared options are
+    defaults, so ``do_log_msg=True`` shared by subs and a timer skips the timer. Unknown names
+    are kept, so they still raise."""
+    agent_class = AGENT_CLASS_DICT.get(conn_type) if isinstance(conn_type, str) else None
+    if agent_class is None:
+        return dict(shared)
+    accepted, _required = options_of(agent_class)
+    return {
+        name: value
+        for name, value in shared.items()
+        if name in accepted or name in _NAMING or name not in _KNOWN_OPTIONS
+    }
+
+
+_NAMING = frozenset({"conn_name", "conn_type", "agent_name"})
+
+
 def options_of(agent_class: type[NodeAgent]) -> tuple[frozenset[str], frozenset[str]]:
     """(every option ``agent_class`` takes, the ones it requires), from its ``__init__``."""
     parameters = inspect.signature(agent_class.__init__).parameters.values()

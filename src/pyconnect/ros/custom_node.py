@@ -38,7 +38,7 @@ from rclpy.signals import SignalHandlerOptions
 from pyconnect.codecs.registry import Registry, default_registry
 from pyconnect.errors import ConnectionTimeout, PyconnectError
 from pyconnect.record.log_dirs import safe_path_component
-from pyconnect.ros.agent_factory import make_agent
+from pyconnect.ros.agent_factory import make_agent, shared_options_for
 from pyconnect.ros.agent_options import AgentOptions
 from pyconnect.ros.coroutines import CoroutineRunner
 from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER, ElasticExecutor
@@ -195,8 +195,14 @@ class CustomNode(Node):  # type: ignore[misc]
     def add_agents(
         self, configs: Iterable[Mapping[str, Any]], **shared_options: Unpack[AgentOptions]
     ) -> list[NodeAgent]:
-        """``add_agent`` per config; ``shared_options`` apply unless a config overrides them."""
-        return [self.add_agent({**shared_options, **config}) for config in configs]
+        """``add_agent`` per config; ``shared_options`` apply unless a config overrides them,
+        and only to the kinds that use them (they are defaults)."""
+        agents = []
+        for config in configs:
+            kind = config.get("conn_type", shared_options.get("conn_type"))
+            shared = shared_options_for(kind, shared_options)
+            agents.append(self.add_agent({**shared, **config}))
+        return agents
 
     # -- running -------------------------------------------------------------------------------
     def spin(self, run_thread: bool = False) -> None:
