@@ -8,7 +8,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install test lint typecheck unit demo bench generate check-generated clean
+.PHONY: install test lint typecheck unit demo bench generate check-generated clean fuzz storm soak
 
 $(STAMP): pyproject.toml
 	@test -n "$(PYTHON)" || { echo "need python3.10, 3.11 or 3.12 (the ROS 2 Jazzy wheels)"; exit 1; }
@@ -20,7 +20,7 @@ $(STAMP): pyproject.toml
 install: $(STAMP)
 
 lint: install
-	$(BIN)/ruff check src tests bench examples
+	$(BIN)/ruff check src tests bench examples tools
 	$(BIN)/ruff format --check src
 
 typecheck: install
@@ -36,6 +36,16 @@ demo: install
 
 bench: install
 	$(BIN)/python -m bench
+
+# Hardening runs (minutes; not in CI): fuzzed wire codecs, signal storms, a 30-minute soak.
+fuzz: install
+	$(BIN)/python -m tools.fuzz
+
+storm: install
+	$(BIN)/python -m tools.storm
+
+soak: install
+	$(BIN)/python -m tools.soak
 
 generate: install
 	$(BIN)/codecgen build

@@ -97,6 +97,8 @@ def decode_failure(
                 detail = f"truncated: {kind} at offset {pos + 4 + end - size} needs "
                 detail += f"{size} bytes, {max(0, left - end + size)} left"
                 return WireDecodeError(detail).within(segment)
+        if not label:  # an empty message's run is its one padding byte
+            return WireDecodeError(f"truncated at offset {pos + 4} ({max(left, 0)} bytes left)")
         return WireDecodeError(f"malformed ({describe(error)}: {error})").within(label[0][0])
     if isinstance(error, UnicodeDecodeError):
         detail = f"invalid {error.encoding.upper()} ({error.reason} at byte {error.start})"

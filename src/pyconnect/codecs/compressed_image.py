@@ -18,6 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pyconnect.codecs.buffers import byte_view
+from pyconnect.codecs.compressed_header import check_payload
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
 
 _FORMATS = ("jpeg", "png")
@@ -34,9 +35,12 @@ _ENCODING_NAMES = {
 def _imdecode(payload: npt.NDArray[np.uint8], what: str) -> npt.NDArray[Any]:
     import cv2
 
+    if not len(payload):
+        raise DecodeError(f"CompressedImage.data: cannot decode 0 bytes as {what}")
+    check_payload(payload, what)  # before OpenCV allocates what the header claims
     image: npt.NDArray[Any] | None
     try:
-        image = cv2.imdecode(payload, cv2.IMREAD_UNCHANGED) if len(payload) else None
+        image = cv2.imdecode(payload, cv2.IMREAD_UNCHANGED)
     except cv2.error:
         image = None
     if image is None:

@@ -68,7 +68,12 @@ class MultiArrayCodec:
                 f"{offset}, got {max(len(data) - offset, 0)}"
             )
         if count == 0:
-            return np.empty(shape, self.dtype)
+            try:
+                return np.empty(shape, self.dtype)
+            except ValueError:  # the other dimensions multiply past what numpy can index
+                raise DecodeError(
+                    f"{self.name}.layout.dim: sizes {shape} are too large for an array"
+                ) from None
         last = offset + sum((n - 1) * s for n, s in zip(shape, element_strides, strict=True))
         if last >= len(data):
             raise DecodeError(

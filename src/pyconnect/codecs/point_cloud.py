@@ -37,6 +37,8 @@ DATATYPES: dict[int, str] = {
 _CODES = {kind: code for code, kind in DATATYPES.items()}
 _NATIVE_BIG = sys.byteorder == "big"
 
+# numpy addresses a structured item's bytes with a C int.
+_MAX_STEP = 2**31 - 1
 _Field = tuple[str, int, int, int]  # name, offset, datatype, count
 _DTYPES: dict[tuple[tuple[_Field, ...], int, bool], np.dtype[Any]] = {}
 
@@ -49,9 +51,20 @@ def cloud_dtype(fields: Any, point_step: int, *, big_endian: bool = False) -> np
     if cached is not None:
         return cached
     order = ">" if big_endian else "<"
+    if not 0 <= point_step < _MAX_STEP:
+        raise DecodeError(
+            f"PointCloud2.point_step: expected 0 to {_MAX_STEP - 1}, got {point_step}"
+        )
     names, formats, offsets = [], [], []
     for name, offset, datatype, count in table:
         kind = DATATYPES.get(datatype)
+        if not isinstance(name, str) or not name:
+            raise DecodeError(f"PointCloud2.fields: expected a non-empty field name, got {name!r}")
+        if not 0 <= offset < _MAX_STEP or not 0 <= count < _MAX_STEP:
+            raise DecodeError(
+                f"PointCloud2.fields[{name!r}]: offset {offset} and count {count} must be in "
+                f"[0, {_MAX_STEP})"
+            )
         if kind is None:
             raise DecodeError(
                 f"PointCloud2.fields[{name!r}].datatype: expected 1-8 (INT8..FLOAT64), got "
@@ -68,9 +81,14 @@ def cloud_dtype(fields: Any, point_step: int, *, big_endian: bool = False) -> np
         names.append(name)
         formats.append(f"{order}{kind}" if count <= 1 else (f"{order}{kind}", (count,)))
         offsets.append(offset)
-    dtype = np.dtype(
-        {"names": names, "formats": formats, "offsets": offsets, "itemsize": point_step}
-    )
+    try:
+        dtype = np.dtype(
+            {"names": names, "formats": formats, "offsets": offsets, "itemsize": point_step}
+        )
+    except (ValueError, TypeError) as error:  # e.g. offsets past what numpy can address
+        raise DecodeError(
+            f"PointCloud2.fields: no point layout fits point_step {point_step} ({error})"
+        ) from None
     _DTYPES[key] = dtype
     return dtype
 
@@ -99,7 +117,13 @@ def decode_point_cloud(msg: Any) -> npt.NDArray[Any]:
         strides = (row_step, point_step)
     if point_step == 0:
         return np.zeros(shape, dtype)
-    view: npt.NDArray[Any] = np.ndarray(shape, dtype, buffer=data, strides=strides)
+    try:
+        view: npt.NDArray[Any] = np.ndarray(shape, dtype, buffer=data, strides=strides)
+    except (ValueError, TypeError) as error:  # a shape or stride numpy cannot index
+        raise DecodeError(
+            f"PointCloud2: height {height}, width {width}, row_step {row_step} and point_step "
+            f"{point_step} do not describe an array ({error})"
+        ) from None
     return view
 
 

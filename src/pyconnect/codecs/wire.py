@@ -80,7 +80,10 @@ class WireCodec:
 
     # -- decoding -----------------------------------------------------------------------------
     def _decode(self, data: Any, which: int) -> Any:
-        mv, little = body_of(data)
+        try:
+            mv, little = body_of(data)
+        except DecodeError as error:  # the header's errors name the type like the others
+            raise DecodeError(f"{self.msg_type}: {error}") from None
         lim = len(mv)
         try:
             value, end = (self._little if little else self._big)[which](mv, 0, lim)

@@ -95,10 +95,11 @@ def test_rclpy_size_estimate_padding_is_accepted() -> None:
 
 def test_bad_headers() -> None:
     assert error_of(b"\x00", "std_msgs/msg/String") == (
-        "1 bytes is too short for a CDR encapsulation header"
+        "std_msgs/msg/String: 1 bytes is too short for a CDR encapsulation header"
     )
     assert error_of(b"\x00\x03\x00\x00\x00\x00\x00\x00", "std_msgs/msg/String") == (
-        "unsupported CDR encapsulation 0003 (expected 0001 little-endian or 0000 big-endian XCDR1)"
+        "std_msgs/msg/String: unsupported CDR encapsulation 0003 (expected 0001 little-endian or "
+        "0000 big-endian XCDR1)"
     )
 
 

@@ -1,0 +1,1 @@
+"""Long-running hardening scripts: ``make fuzz``, ``make storm``, ``make soak`` (not in CI)."""
