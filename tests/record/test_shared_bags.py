@@ -93,7 +93,7 @@ def test_wrong_serialization_format_is_rejected(key: str) -> None:
         open_bag(BAGS / key)
     assert str(caught.value) == (
         f"{BAGS / key}: topic /array_topic is serialised as 'wrong_format'; "
-        "only 'cdr' can be decoded"
+        "only 'cdr' can be decoded (raw=True reads it undecoded)"
     )
     info = bag_info(BAGS / key)
     assert {t.serialization_format for t in info.topics} == {"wrong_format"}

@@ -1,40 +1,60 @@
 """Read rosbag2 bags offline (no ROS graph, no rclpy): ``open_bag`` and ``bag_info``.
 
 ``open_bag(path)`` takes a bag directory (with or without metadata.yaml, one or several split
-files), or one ``.mcap``/``.db3`` file, and yields one ``BagMessage`` per stored message, in
-log-time order within each file (split files in order). A ``BagMessage`` has ``.topic``,
-``.log_time_ns``, ``.msg_type`` and ``.value``, and unpacks as ``topic, log_time_ns, value``::
+files), one ``.mcap``/``.db3`` file, or a list of those (read merged in log-time order), and
+yields one ``BagMessage`` per stored message in log-time order. A ``BagMessage`` is a named
+tuple ``(topic, log_time_ns, value)`` (``item.topic``, ``item[0]`` and unpacking all work) with
+``.msg_type`` beside it::
 
     with open_bag("run1", topics=["/odom"]) as bag:
         for topic, stamp_ns, value in bag:
             ...
-        print(bag.errors)   # messages that could not be decoded
+        print(bag.errors, bag.damage)   # undecodable messages, damaged parts of the files
 
-Values come from the wire codecs (``pyconnect.codecs.wire``): natural values by default, the
-lossless dict with ``natural=False`` (the codec registry is asked once per topic, when its first
-message is read, so a codec registered later applies to the next read). Each topic is decoded
-with the definition stored in the bag when there is one (so a Foxy ``sensor_msgs/Range``
-without ``variance`` decodes), else with the installed type; a stored definition that does not
-fit the bytes gives way to the installed type. A message that cannot be decoded is skipped and
-recorded in ``reader.errors`` (topic, index within the topic, reason; a summary goes to the
-``pyconnect.record`` logger) and the read goes on; ``on_error="raise"`` raises ``DecodeError``
-instead. Only CDR-serialised topics can be read: selecting another (``wrong_format``) raises
-``BagError`` when the bag is opened.
+``topics=`` and ``types=`` select what is read (both given: a topic must match both).
+``raw=True`` yields the CDR bytes as ``value`` undecoded (the type of each topic is
+``item.msg_type`` and ``reader.topics[topic].msg_type``). Values come from the wire codecs
+(``pyconnect.codecs.wire``): natural values by default (from ``registry``, the default registry
+when None), the lossless dict with ``natural=False``. Each topic is decoded with the definition
+stored in the bag when there is one, else with the installed type; a stored definition that
+does not fit the bytes gives way to the installed type. When the bag stores a RIHS01 type hash
+that differs from the installed type's, the mismatch is reported (a warning and
+``reader.mismatches``) and the bag's own definition is used, never the installed one.
+
+Nothing is lost silently. A message that cannot be decoded is skipped: the first on each topic
+is logged at once (``pyconnect.record`` logger), all are listed in ``reader.errors`` and
+summarised in one warning at the end of the read, which goes on; ``on_error="raise"`` raises
+``DecodeError`` instead. A damaged file (cut short, a chunk that does not decompress, a wrong
+CRC, an index pointing past the end, a ``.db3`` cut short) never raises: every intact message
+is delivered, ``reader.damage`` lists what is broken, and one warning at the end of the read
+says what, where, and how many messages were read of those the bag's metadata promised.
+Only CDR-serialised topics can be decoded: selecting another raises ``BagError`` when the bag
+is opened (``raw=True`` reads them).
 """
 
 from __future__ import annotations
 
+import heapq
 import logging
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Generator, Iterable, Iterator, Sequence
 from dataclasses import dataclass
+from operator import itemgetter
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, NamedTuple
 
 from pyconnect.errors import DecodeError
+from pyconnect.record.bag_damage import BagDamage
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_files import BagFiles, locate_bag_files, open_storage
+from pyconnect.record.bag_info import BagInfo, TopicInfo, describe, storage_damage
 from pyconnect.record.bag_storage import Connection, StorageFile
-from pyconnect.record.topic_decoder import TopicDecoder, normalise_type_name, one_line
+from pyconnect.record.topic_decoder import (
+    TopicDecoder,
+    TypeMismatch,
+    installed_type_hash,
+    normalise_type_name,
+    one_line,
+)
 
 __all__ = [
     "BagInfo",
@@ -42,6 +62,7 @@ __all__ = [
     "BagReader",
     "DecodeProblem",
     "TopicInfo",
+    "TypeMismatch",
     "bag_info",
     "normalise_type_name",
     "open_bag",
@@ -49,22 +70,24 @@ __all__ = [
 
 _log = logging.getLogger("pyconnect.record")
 OnError = Literal["report", "raise"]
-Decoder = Callable[[Any], Any]
+BagPaths = str | Path | Sequence[str | Path]
 
 
-class BagMessage:
-    """One decoded message; unpacks as ``(topic, log_time_ns, value)``."""
+class _MessageFields(NamedTuple):
+    topic: str
+    log_time_ns: int
+    value: Any
 
-    __slots__ = ("log_time_ns", "msg_type", "topic", "value")
 
-    def __init__(self, topic: str, log_time_ns: int, value: Any, msg_type: str) -> None:
-        self.topic = topic
-        self.log_time_ns = log_time_ns
-        self.value = value
-        self.msg_type = msg_type
+class BagMessage(_MessageFields):
+    """One message: a named tuple ``(topic, log_time_ns, value)``, and its ``msg_type``."""
 
-    def __iter__(self) -> Iterator[Any]:
-        return iter((self.topic, self.log_time_ns, self.value))
+    msg_type: str
+
+    def __new__(cls, topic: str, log_time_ns: int, value: Any, msg_type: str) -> BagMessage:
+        message = super().__new__(cls, topic, log_time_ns, value)
+        message.msg_type = msg_type
+        return message
 
     def __repr__(self) -> str:
         return (
@@ -86,93 +109,24 @@ class DecodeProblem:
         return f"{self.topic}[{self.index}]: {self.reason}"
 
 
-@dataclass(frozen=True)
-class TopicInfo:
-    """A topic of a bag: its type, how it is serialised and how many messages it has."""
+class _Plan:
+    """How one connection of one storage file is read: its topic, type and decoder."""
 
-    name: str
-    msg_type: str
-    message_count: int
-    serialization_format: str = "cdr"
-    has_definition: bool = False
+    __slots__ = ("decoder", "msg_type", "topic")
 
-
-@dataclass(frozen=True)
-class BagInfo:
-    """What ``pyconnect bag info`` prints. Times are ns since the epoch (None: no messages)."""
-
-    path: Path
-    storage: str
-    files: tuple[Path, ...]
-    topics: tuple[TopicInfo, ...]
-    start_ns: int | None
-    end_ns: int | None
-
-    @property
-    def message_count(self) -> int:
-        return sum(topic.message_count for topic in self.topics)
-
-    @property
-    def duration_ns(self) -> int:
-        if self.start_ns is None or self.end_ns is None:
-            return 0
-        return self.end_ns - self.start_ns
+    def __init__(self, topic: str, msg_type: str, decoder: TopicDecoder | None) -> None:
+        self.topic = topic
+        self.msg_type = msg_type
+        self.decoder = decoder
 
 
-def _storage_name(files: Iterable[StorageFile]) -> str:
-    kinds = {type(f).__name__ for f in files}
-    names = {"McapFile": "mcap", "SqliteFile": "sqlite3"}
-    return "+".join(sorted(names.get(kind, kind) for kind in kinds)) or "none"
-
-
-@dataclass
-class _TopicTally:
-    msg_type: str
-    serialization_format: str
-    count: int = 0
-    has_definition: bool = False
-
-
-def _describe(located: BagFiles, storages: list[StorageFile]) -> BagInfo:
-    """Counts and times from the storage files; metadata.yaml only adds what they lack."""
-    metadata = located.metadata
-    declared = {t.name: t for t in metadata.topics} if metadata is not None else {}
-    tallies: dict[str, _TopicTally] = {}
-    for storage in storages:
-        counts = storage.message_counts()
-        for connection in storage.connections():
-            tally = tallies.setdefault(
-                connection.topic,
-                _TopicTally(connection.msg_type, connection.serialization_format),
-            )
-            tally.count += counts.get(connection.id, 0)
-            tally.has_definition |= connection.definition is not None
-            tally.msg_type = tally.msg_type or connection.msg_type
-    for name, tally in tallies.items():
-        topic_metadata = declared.get(name)
-        if topic_metadata is None:
-            continue
-        tally.msg_type = tally.msg_type or topic_metadata.msg_type
-        if topic_metadata.serialization_format not in ("", "cdr"):
-            tally.serialization_format = topic_metadata.serialization_format
-    ranges = [r for r in (s.time_range() for s in storages) if r is not None]
-    return BagInfo(
-        path=located.path,
-        storage=_storage_name(storages),
-        files=located.files,
-        topics=tuple(
-            TopicInfo(
-                name=name,
-                msg_type=tally.msg_type,
-                message_count=tally.count,
-                serialization_format=tally.serialization_format,
-                has_definition=tally.has_definition,
-            )
-            for name, tally in sorted(tallies.items())
-        ),
-        start_ns=min(r[0] for r in ranges) if ranges else None,
-        end_ns=max(r[1] for r in ranges) if ranges else None,
-    )
+def _as_paths(paths: BagPaths) -> list[str | Path]:
+    if isinstance(paths, str | Path):
+        return [paths]
+    chosen = list(paths)
+    if not chosen:
+        raise BagError("open_bag: no bag given (an empty list)")
+    return chosen
 
 
 class BagReader:
@@ -183,40 +137,55 @@ class BagReader:
 
     def __init__(
         self,
-        path: str | Path,
+        paths: BagPaths,
         *,
         topics: Iterable[str] | None = None,
+        types: Iterable[str] | None = None,
         start_ns: int | None = None,
         end_ns: int | None = None,
         natural: bool = True,
+        raw: bool = False,
+        registry: Any = None,
         on_error: OnError = "report",
     ) -> None:
         if on_error not in ("report", "raise"):
             raise ValueError(f"on_error: expected 'report' or 'raise', got {on_error!r}")
         self.on_error: OnError = on_error
         self.natural = natural
+        self.raw = raw
+        self.registry = registry
         self.start_ns = start_ns
         self.end_ns = end_ns
         self.errors: list[DecodeProblem] = []
-        self._located: BagFiles = locate_bag_files(path)
-        self.path = self._located.path
-        self._storages: list[StorageFile] = []
+        self.mismatches: list[TypeMismatch] = []
+        self._bags: list[tuple[BagFiles, list[StorageFile]]] = []
         try:
-            self._storages = [open_storage(p) for p in self._located.files]
-            self.info = _describe(self._located, self._storages)
-            self.topics = self._select(topics)
+            for path in _as_paths(paths):
+                located = locate_bag_files(path)
+                storages: list[StorageFile] = []
+                self._bags.append((located, storages))
+                storages.extend(open_storage(p) for p in located.files)
+            self.path = self._bags[0][0].path
+            self.info = describe(self._bags)
+            self.topics = self._select(topics, types)
         except BaseException:
             self.close()
             raise
-        self._decoders: dict[tuple[str, str | None, str], TopicDecoder] = {}
+        self._decoders: dict[tuple[str, str | None, str, str], TopicDecoder] = {}
         self._counts: dict[str, int] = {}
-        self._reported = 0
+        self._delivered = 0
 
-    def _select(self, topics: Iterable[str] | None) -> dict[str, TopicInfo]:
+    @property
+    def damage(self) -> list[BagDamage]:
+        """What is broken in the bag's files, as far as they have been read."""
+        return list(storage_damage(s for _, storages in self._bags for s in storages))
+
+    def _select(
+        self, topics: Iterable[str] | None, types: Iterable[str] | None
+    ) -> dict[str, TopicInfo]:
         known = {topic.name: topic for topic in self.info.topics}
-        if topics is None:
-            chosen = dict(known)
-        else:
+        chosen = dict(known)
+        if topics is not None:
             wanted = [topics] if isinstance(topics, str) else list(topics)
             missing = [t for t in wanted if t not in known]
             if missing:
@@ -225,82 +194,171 @@ class BagReader:
                     f"{self.path}: no topic {', '.join(missing)} in this bag (topics: {listed})"
                 )
             chosen = {name: known[name] for name in wanted}
-        for topic in chosen.values():
-            if topic.serialization_format != "cdr":
-                raise BagError(
-                    f"{self.path}: topic {topic.name} is serialised as "
-                    f"{topic.serialization_format!r}; only 'cdr' can be decoded"
-                )
+        if types is not None:
+            wanted_types = {
+                normalise_type_name(t) for t in ([types] if isinstance(types, str) else types)
+            }
+            chosen = {
+                name: topic
+                for name, topic in chosen.items()
+                if normalise_type_name(topic.msg_type) in wanted_types
+            }
+        if not self.raw:
+            for topic in chosen.values():
+                if topic.serialization_format != "cdr":
+                    raise BagError(
+                        f"{self.path}: topic {topic.name} is serialised as "
+                        f"{topic.serialization_format!r}; only 'cdr' can be decoded "
+                        "(raw=True reads it undecoded)"
+                    )
         return chosen
 
     # -- reading ------------------------------------------------------------------------------
     def __iter__(self) -> Iterator[BagMessage]:
-        """Read the bag (again): indices and ``errors`` start afresh with every iteration."""
+        """Read the bag (again): indices, ``errors`` and reports start afresh every time."""
         self.errors = []
         self._counts = {}
-        self._reported = 0
+        self._delivered = 0
+        self._warned_topics: set[str] = set()
+        streams = [self._stream(storage) for _, storages in self._bags for storage in storages]
+        merged = streams[0] if len(streams) == 1 else heapq.merge(*streams, key=itemgetter(0))
         try:
-            for storage in self._storages:
-                yield from self._read(storage)
+            if self.raw:
+                for log_time, plan, data in merged:
+                    self._delivered += 1
+                    yield BagMessage(plan.topic, log_time, bytes(data), plan.msg_type)
+                return
+            counts = self._counts
+            for log_time, plan, data in merged:
+                self._delivered += 1
+                topic = plan.topic
+                index = counts.get(topic, 0)
+                counts[topic] = index + 1
+                decoder = plan.decoder
+                assert decoder is not None
+                try:
+                    value = decoder.decode(data)
+                except Exception as error:  # any codec failure is one message's problem
+                    try:
+                        value = decoder.recover(data, error)
+                    except Exception as final:
+                        self._problem(topic, index, log_time, final)
+                        continue
+                yield BagMessage(topic, log_time, value, plan.msg_type)
         finally:
+            for stream in streams:
+                stream.close()  # before the files: a suspended read must not outlive them
             self._report()
 
-    def _read(self, storage: StorageFile) -> Iterator[BagMessage]:
-        plans: dict[int, tuple[str, TopicDecoder]] = {}
+    def _stream(self, storage: StorageFile) -> Generator[tuple[int, _Plan, Any], None, None]:
+        plans: dict[int, _Plan] = {}
         for connection in storage.connections():
             if connection.topic in self.topics:
-                plans[connection.id] = (connection.topic, self._decoder(connection))
-        counts = self._counts
+                msg_type = normalise_type_name(connection.msg_type)
+                decoder = None if self.raw else self._decoder(connection)
+                plans[connection.id] = _Plan(connection.topic, msg_type, decoder)
         for connection_id, log_time, data in storage.messages(
             set(plans), self.start_ns, self.end_ns
         ):
-            topic, decoder = plans[connection_id]
-            index = counts.get(topic, 0)
-            counts[topic] = index + 1
-            try:
-                value = decoder.decode(data)
-            except Exception as error:  # any codec failure is one message's problem
-                try:
-                    value = decoder.recover(data, error)
-                except Exception as final:
-                    self._problem(topic, index, log_time, final)
-                    continue
-            yield BagMessage(topic, log_time, value, decoder.msg_type)
+            yield log_time, plans[connection_id], data
 
     def _decoder(self, connection: Connection) -> TopicDecoder:
-        key = (connection.msg_type, connection.definition, connection.definition_encoding)
+        key = (
+            connection.msg_type,
+            connection.definition,
+            connection.definition_encoding,
+            connection.type_hash,
+        )
         decoder = self._decoders.get(key)
         if decoder is None:
+            mismatch = self._check_hash(connection)
             decoder = TopicDecoder(
                 connection.msg_type,
                 connection.definition,
                 connection.definition_encoding,
                 natural=self.natural,
+                registry=self.registry,
+                installed_allowed=mismatch is None,
             )
             self._decoders[key] = decoder
         return decoder
+
+    def _check_hash(self, connection: Connection) -> TypeMismatch | None:
+        stored = connection.type_hash
+        if not stored.startswith("RIHS01_"):
+            return None
+        installed = installed_type_hash(connection.msg_type)
+        if installed is None or installed == stored:
+            return None
+        mismatch = TypeMismatch(
+            connection.topic,
+            normalise_type_name(connection.msg_type),
+            stored,
+            installed,
+            connection.definition is not None,
+        )
+        self.mismatches.append(mismatch)
+        _log.warning("%s: %s", self.path, mismatch)
+        return mismatch
 
     def _problem(self, topic: str, index: int, log_time: int, error: Exception) -> None:
         reason = one_line(error)
         if self.on_error == "raise":
             raise DecodeError(f"{self.path}: {topic}[{index}]: {reason}") from error
-        self.errors.append(DecodeProblem(topic, index, log_time, reason))
+        problem = DecodeProblem(topic, index, log_time, reason)
+        self.errors.append(problem)
+        if topic not in self._warned_topics:
+            self._warned_topics.add(topic)
+            _log.warning(
+                "%s: %s; the read goes on (a summary follows at its end)", self.path, problem
+            )
 
     def _report(self) -> None:
-        if not self.errors or self._reported == len(self.errors):
-            return
-        self._reported = len(self.errors)
-        by_topic: dict[str, int] = {}
-        for problem in self.errors:
-            by_topic[problem.topic] = by_topic.get(problem.topic, 0) + 1
-        summary = ", ".join(f"{topic}: {count}" for topic, count in sorted(by_topic.items()))
-        _log.warning(
-            "%s: %d message(s) not decoded (%s); first: %s",
-            self.path,
-            len(self.errors),
-            summary,
-            self.errors[0],
+        if self.errors:
+            by_topic: dict[str, int] = {}
+            for problem in self.errors:
+                by_topic[problem.topic] = by_topic.get(problem.topic, 0) + 1
+            summary = ", ".join(f"{topic}: {count}" for topic, count in sorted(by_topic.items()))
+            _log.warning(
+                "%s: %d message(s) not decoded (%s); first: %s",
+                self.path,
+                len(self.errors),
+                summary,
+                self.errors[0],
+            )
+        damage = self.damage
+        if damage:
+            _log.warning("%s", self.damage_summary(damage))
+
+    def damage_summary(self, damage: Sequence[BagDamage] | None = None) -> str:
+        """One line: what is damaged, where, and how many messages were read of those promised."""
+        found = self.damage if damage is None else list(damage)
+        more = f" (and {len(found) - 1} more problem(s))" if len(found) > 1 else ""
+        promised = self._promised()
+        if promised is None:
+            told = "the bag does not say how many it held"
+        else:
+            told = f"the bag's metadata promised {promised}"
+        return (
+            f"{self.path}: damaged bag: {found[0]}{more}; {self._delivered} message(s) read, {told}"
         )
+
+    def _promised(self) -> int | None:
+        """How many messages of the selected topics the metadata (or MCAP statistics) declare."""
+        total = 0
+        for located, storages in self._bags:
+            metadata = located.metadata
+            if metadata is not None and metadata.topics:
+                total += sum(t.message_count for t in metadata.topics if t.name in self.topics)
+                continue
+            for storage in storages:
+                if getattr(storage, "promised", None) is None:
+                    return None
+                counts = storage.message_counts()  # the file's statistics
+                total += sum(
+                    counts.get(c.id, 0) for c in storage.connections() if c.topic in self.topics
+                )
+        return total
 
     # -- tables (pyconnect.record.tables; needs the ``tables`` extra) ---------------------------
     def to_arrow(self, topic: str) -> Any:
@@ -321,9 +379,10 @@ class BagReader:
 
     def close(self) -> None:
         """Close the storage files; idempotent."""
-        for storage in self._storages:
-            storage.close()
-        self._storages = []
+        for _, storages in self._bags:
+            for storage in storages:
+                storage.close()
+            storages.clear()
 
     def __enter__(self) -> BagReader:
         return self
@@ -336,27 +395,45 @@ class BagReader:
 
 
 def open_bag(
-    path: str | Path,
+    path: BagPaths,
     *,
     topics: Iterable[str] | None = None,
+    types: Iterable[str] | None = None,
     start_ns: int | None = None,
     end_ns: int | None = None,
     natural: bool = True,
+    raw: bool = False,
+    registry: Any = None,
     on_error: OnError = "report",
 ) -> BagReader:
-    """Open a bag for reading: see the module docstring. ``end_ns`` is exclusive."""
+    """Open one bag or several (merged in time order): see the module docstring.
+
+    ``end_ns`` is exclusive.
+    """
     return BagReader(
-        path, topics=topics, start_ns=start_ns, end_ns=end_ns, natural=natural, on_error=on_error
+        path,
+        topics=topics,
+        types=types,
+        start_ns=start_ns,
+        end_ns=end_ns,
+        natural=natural,
+        raw=raw,
+        registry=registry,
+        on_error=on_error,
     )
 
 
-def bag_info(path: str | Path) -> BagInfo:
-    """Topics, types, message counts and time range of a bag, read from its storage files."""
-    located = locate_bag_files(path)
-    storages: list[StorageFile] = []
+def bag_info(path: BagPaths) -> BagInfo:
+    """Topics, types, message counts, time range and damage of a bag, from its storage files."""
+    bags: list[tuple[BagFiles, list[StorageFile]]] = []
     try:
-        storages = [open_storage(p) for p in located.files]
-        return _describe(located, storages)
+        for one in _as_paths(path):
+            located = locate_bag_files(one)
+            storages: list[StorageFile] = []
+            bags.append((located, storages))
+            storages.extend(open_storage(p) for p in located.files)
+        return describe(bags)
     finally:
-        for storage in storages:
-            storage.close()
+        for _, storages in bags:
+            for storage in storages:
+                storage.close()

@@ -27,6 +27,7 @@ class Connection:
     definition: str | None = None
     definition_encoding: str = "ros2msg"
     offered_qos_profiles: str = ""
+    type_hash: str = ""  # the RIHS01 hash rosbag2 stores for the type ("" when none)
 
 
 class StorageFile(Protocol):

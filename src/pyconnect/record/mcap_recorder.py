@@ -12,7 +12,7 @@ from __future__ import annotations
 import threading
 from dataclasses import dataclass
 from pathlib import Path
-from typing import BinaryIO
+from typing import Any, BinaryIO
 
 from mcap.writer import CompressionType, Writer
 
@@ -36,6 +36,7 @@ class _Topic:
     msg_type: str
     channel_id: int
     offered_qos_profiles: str
+    type_hash: str = ""
     count: int = 0
 
 
@@ -49,8 +50,14 @@ class McapRecorder:
     """
 
     def __init__(
-        self, path: str | Path, *, compression: str = "zstd", chunk_size: int = 1024 * 1024
+        self,
+        path: str | Path,
+        *,
+        compression: str = "zstd",
+        chunk_size: int = 1024 * 1024,
+        registry: Any = None,
     ) -> None:
+        self.registry = registry
         if compression not in _COMPRESSION:
             choices = ", ".join(repr(c) for c in _COMPRESSION if c)
             raise ValueError(f"compression: expected one of {choices}, got {compression!r}")
@@ -92,8 +99,14 @@ class McapRecorder:
         *,
         definition: str | None = None,
         offered_qos_profiles: str = "",
+        type_hash: str | None = None,
     ) -> None:
-        """Declare a topic; adding it again with the same type does nothing, another type raises."""
+        """Declare a topic; adding it again with the same type does nothing, another type raises.
+
+        ``type_hash`` (RIHS01), when given, is stored for readers to compare with their installed
+        type. None stores none: rosbags recomputes hashes from the definition text and refuses
+        a bag where its result differs (it does for ``test_msgs/BasicTypes``).
+        """
         full_type = full_type_name(msg_type)
         with self._lock:
             self._check_open()
@@ -120,9 +133,26 @@ class McapRecorder:
                 topic=topic,
                 message_encoding="cdr",
                 schema_id=schema_id,
-                metadata={"offered_qos_profiles": offered_qos_profiles},
+                metadata={
+                    "offered_qos_profiles": offered_qos_profiles,
+                    "topic_type_hash": type_hash or "",
+                },
             )
-            self._topics[topic] = _Topic(topic, full_type, channel_id, offered_qos_profiles)
+            self._topics[topic] = _Topic(
+                topic, full_type, channel_id, offered_qos_profiles, type_hash or ""
+            )
+
+    def write_value(
+        self, topic: str, value: Any, *, log_time_ns: int, publish_time_ns: int | None = None
+    ) -> None:
+        """Encode a natural value or lossless dict (with ``registry``'s codecs) and write it."""
+        from pyconnect.codecs import wire
+
+        known = self._topics.get(topic)
+        if known is None:
+            raise BagError(f"{topic}: not added to this recording; call add_topic first")
+        cdr = wire.encode(value, known.msg_type, registry=self.registry)
+        self.write(topic, cdr, log_time_ns=log_time_ns, publish_time_ns=publish_time_ns)
 
     def write(
         self, topic: str, cdr: bytes, *, log_time_ns: int, publish_time_ns: int | None = None
@@ -172,6 +202,7 @@ class McapRecorder:
                     name=topic.name,
                     msg_type=topic.msg_type,
                     offered_qos_profiles=topic.offered_qos_profiles,
+                    type_description_hash=topic.type_hash,
                     message_count=topic.count,
                 )
                 for topic in self._topics.values()

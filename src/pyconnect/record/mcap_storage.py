@@ -1,119 +1,268 @@
-"""Read MCAP files: the summary through the ``mcap`` package, messages by scanning whole chunks.
+"""Read MCAP files: through the summary's chunk index, or by scanning a file that has none.
 
-The ``mcap`` reader builds one Python object per record; scanning a decompressed chunk with
-``struct`` instead is several times faster, and message data stay zero-copy ``memoryview`` slices
-of the chunk (so wire codecs can return numpy views into it). Files without a summary or chunk
-index (a recording cut short) fall back to the ``mcap`` package's streaming reader.
+A complete file is read through its summary (schemas, channels, statistics, chunk index). A
+file without a usable summary — a recording cut short, a damaged index — is scanned once when
+opened, as ``ros2 bag reindex`` would: chunk headers and the message indexes after them give
+the time range and counts of each chunk without decompressing it; only chunks that declare
+unknown channels, or have no message index (the last chunk of a cut recording), are
+decompressed to read them. Either way, messages are then read chunk by chunk in log-time order
+(``messages``), holding at most two chunks at a time. Damage never raises: it is noted in
+``damage`` and the intact messages are delivered (see ``mcap_chunks``).
 """
 
 from __future__ import annotations
 
+import bisect
+import heapq
+import io
+import os
 import struct
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import BinaryIO
 
 from mcap.data_stream import ReadDataStream
-from mcap.exceptions import McapError
 from mcap.reader import make_reader
-from mcap.records import Channel, Chunk, ChunkIndex, McapRecord, Message, Schema
-from mcap.stream_reader import StreamReader
+from mcap.records import Channel, Schema
 from mcap.summary import Summary
 
+from pyconnect.record.bag_damage import DamageLog
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_storage import Connection, RawMessage
+from pyconnect.record.mcap_chunks import (
+    CHUNK,
+    MESSAGE,
+    MESSAGE_HEADER,
+    RECORD_HEADER,
+    Span,
+    load_span,
+    scan_messages,
+)
 
 __all__ = ["McapFile"]
 
-_MESSAGE = 0x05
-_CHUNK = 0x06
-_RECORD_HEADER = struct.Struct("<BQ")
-# channel id, sequence, log time, publish time (the data follow)
-_MESSAGE_HEADER = struct.Struct("<HIQQ")
+MAGIC = b"\x89MCAP0\r\n"
+_FOOTER, _SCHEMA, _CHANNEL, _MESSAGE_INDEX, _DATA_END = 0x02, 0x03, 0x04, 0x07, 0x0F
+_CHUNK_TIMES = struct.Struct("<QQ")
+_INDEX_HEAD = struct.Struct("<HI")
 _DEFINITION_ENCODINGS = ("ros2msg", "ros2idl")
+_LOOSE_RUN = 4 << 20  # messages outside chunks are read in runs of about this many bytes
 
 
-def _decompress(chunk: Chunk, path: str) -> bytes:
-    if chunk.compression in ("", "none"):
-        return chunk.data
-    if chunk.compression == "zstd":
-        import zstandard
-
-        data: bytes = zstandard.ZstdDecompressor().decompress(
-            chunk.data, max_output_size=chunk.uncompressed_size
-        )
-        return data
-    if chunk.compression == "lz4":
-        import lz4.frame
-
-        decompressed: bytes = lz4.frame.decompress(chunk.data)
-        return decompressed
-    raise BagError(f"{path}: unsupported MCAP chunk compression {chunk.compression!r}")
-
-
-def _scan_chunk(data: bytes, wanted: set[int], start_ns: int, end_ns: int) -> list[RawMessage]:
-    """The wanted messages of a decompressed chunk, in the order stored."""
-    view = memoryview(data)
-    unpack_record = _RECORD_HEADER.unpack_from
-    unpack_message = _MESSAGE_HEADER.unpack_from
-    found: list[RawMessage] = []
-    position, size = 0, len(data)
-    while position < size:
-        opcode, length = unpack_record(data, position)
-        body = position + 9
-        position = body + length
-        if opcode != _MESSAGE:
-            continue
-        channel, _, log_time, _ = unpack_message(data, body)
-        if channel not in wanted or log_time < start_ns or log_time >= end_ns:
-            continue
-        found.append((channel, log_time, view[body + 22 : position]))
-    return found
+def _log_time(message: RawMessage) -> int:
+    return message[1]
 
 
 class McapFile:
-    """One ``.mcap`` file of a bag (or a bare MCAP file)."""
+    """One ``.mcap`` file of a bag (or a bare MCAP file); ``damage`` lists what is broken."""
 
     def __init__(self, path: Path) -> None:
         self.path = str(path)
+        self.damage = DamageLog(self.path)
         self._stream: BinaryIO = path.open("rb")
-        try:
-            self._summary: Summary | None = make_reader(self._stream).get_summary()
-        except (McapError, ValueError, struct.error, EOFError) as error:
-            self._summary = None
-            self._stream.seek(0)
-            if self._stream.read(8) != b"\x89MCAP0\r\n":
-                self._stream.close()
-                raise BagError(f"{path}: not an MCAP file ({error})") from None
-        self._indexed = self._summary is not None and (
-            bool(self._summary.chunk_indexes)
-            or (
-                self._summary.statistics is not None and self._summary.statistics.message_count == 0
-            )
-        )
-        self._connections = self._read_connections()
-
-    def _read_connections(self) -> list[Connection]:
-        if self._summary is not None:
-            schemas, channels = self._summary.schemas, self._summary.channels
+        self._size = os.fstat(self._stream.fileno()).st_size
+        if self._stream.read(8) != MAGIC:
+            self._stream.close()
+            raise BagError(f"{path}: not an MCAP file")
+        self._schemas: dict[int, Schema] = {}
+        self._channels: dict[int, Channel] = {}
+        self._spans: list[Span] = []
+        self._counts: dict[int, int] | None = None
+        self.promised: int | None = None
+        """How many messages the file's statistics declare (None: it has none)."""
+        summary = self._usable_summary()
+        if summary is not None:
+            self._schemas, self._channels = dict(summary.schemas), dict(summary.channels)
+            self._spans = [
+                Span(
+                    offset=c.chunk_start_offset,
+                    start_ns=c.message_start_time,
+                    end_ns=c.message_end_time,
+                    chunked=True,
+                    channels=frozenset(c.message_index_offsets) or None,
+                )
+                for c in summary.chunk_indexes
+            ]
+            if summary.statistics is not None:
+                self._counts = dict(summary.statistics.channel_message_counts)
+            else:
+                self._count_from_message_indexes(summary)
         else:
-            schemas, channels = {}, {}
-            for record in self._unindexed_records():
-                if isinstance(record, Schema):
-                    schemas[record.id] = record
-                elif isinstance(record, Channel):
-                    channels[record.id] = record
+            self._recover()
+        self._spans.sort(key=lambda s: (s.start_ns, s.offset))
+        self._connections = self._make_connections()
+
+    # -- opening --------------------------------------------------------------------------
+    def _usable_summary(self) -> Summary | None:
+        """The summary when it indexes every message, else None (the file is then scanned)."""
+        self._stream.seek(max(0, self._size - 8))
+        ends_well = self._size >= 16 and self._stream.read(8) == MAGIC
+        if not ends_well:
+            self.damage.note(
+                self._size,
+                "the file is cut short (no summary, no index, no end magic); "
+                "its messages were recovered by scanning it",
+            )
+            return None
+        try:
+            self._stream.seek(0)
+            summary = make_reader(self._stream).get_summary()
+        except Exception as error:  # any failure of a damaged summary: scan instead
+            self.damage.note(None, f"summary unreadable ({type(error).__name__}: {error})")
+            return None
+        if summary is None:
+            return None
+        statistics = summary.statistics
+        if statistics is not None:
+            self.promised = statistics.message_count
+        if not summary.chunk_indexes:
+            empty = statistics is not None and statistics.message_count == 0
+            return summary if empty else None
+        for index in summary.chunk_indexes:
+            where = index.chunk_start_offset
+            if where + index.chunk_length > self._size or where < 8:
+                self.damage.note(
+                    where,
+                    f"the chunk index points past the end of the file ({self._size} bytes); "
+                    "the file was scanned instead",
+                )
+                return None
+            self._stream.seek(where)
+            if self._stream.read(1) != bytes([CHUNK]):
+                self.damage.note(
+                    where, "the chunk index points where there is no chunk; scanned instead"
+                )
+                return None
+        return summary
+
+    def _count_from_message_indexes(self, summary: Summary) -> None:
+        """Counts per chunk from its message index records, for a summary without statistics."""
+        for span, index in zip(self._spans, summary.chunk_indexes, strict=True):
+            span.counts = {}
+            for channel, offset in index.message_index_offsets.items():
+                self._stream.seek(offset + RECORD_HEADER.size)
+                head = self._stream.read(_INDEX_HEAD.size)
+                if len(head) == _INDEX_HEAD.size:
+                    span.counts[channel] = _INDEX_HEAD.unpack(head)[1] // 16
+
+    def _recover(self) -> None:
+        """Scan the data section: chunk headers, message indexes, schemas, channels."""
+        stream, size = self._stream, self._size
+        position = 8
+        last_chunk: Span | None = None
+        loose: Span | None = None
+        while True:
+            stream.seek(position)
+            head = stream.read(RECORD_HEADER.size)
+            if len(head) < RECORD_HEADER.size:
+                if head or position != size:
+                    self.damage.note(position, "file ends inside a record header", key="end")
+                break
+            opcode, length = RECORD_HEADER.unpack(head)
+            body = position + RECORD_HEADER.size
+            end = body + length
+            if opcode in (_FOOTER, _DATA_END):
+                break
+            if opcode == 0:
+                self.damage.note(position, "no record here (zeros); the rest is unreadable")
+                break
+            cut = end > size
+            if cut and opcode != CHUNK:
+                self.damage.note(
+                    position,
+                    f"record claims {length} bytes, {size - body} are left in the file; "
+                    "the rest is lost",
+                    key="end",
+                )
+                break
+            if opcode != MESSAGE:
+                loose = None
+            if opcode not in (_MESSAGE_INDEX, CHUNK):
+                last_chunk = None
+            if opcode == CHUNK:
+                times = stream.read(_CHUNK_TIMES.size)
+                if len(times) < _CHUNK_TIMES.size:
+                    self.damage.note(position, "file ends inside a chunk header", key="end")
+                    break
+                start_ns, end_ns = _CHUNK_TIMES.unpack(times)
+                last_chunk = Span(position, start_ns, end_ns, chunked=True)
+                self._spans.append(last_chunk)
+                if cut:
+                    break  # load_span notes how much of it is left
+            elif opcode == _MESSAGE_INDEX and last_chunk is not None and length >= 6:
+                channel, entries = _INDEX_HEAD.unpack(stream.read(_INDEX_HEAD.size))
+                if last_chunk.counts is None:
+                    last_chunk.counts = {}
+                last_chunk.counts[channel] = entries // 16
+            elif opcode in (_SCHEMA, _CHANNEL):
+                self._definition(opcode, stream.read(length), position)
+            elif opcode == MESSAGE and length >= MESSAGE_HEADER.size:
+                channel, _, log_time, _ = MESSAGE_HEADER.unpack(stream.read(MESSAGE_HEADER.size))
+                if loose is None or loose.length > _LOOSE_RUN:
+                    loose = Span(position, log_time, log_time, chunked=False, counts={})
+                    self._spans.append(loose)
+                assert loose.counts is not None
+                loose.length = end - loose.offset
+                loose.start_ns = min(loose.start_ns, log_time)
+                loose.end_ns = max(loose.end_ns, log_time)
+                loose.counts[channel] = loose.counts.get(channel, 0) + 1
+            position = end
+        for span in self._spans:
+            if span.counts is None or not span.counts.keys() <= self._channels.keys():
+                self._probe(span)
+            span.channels = frozenset(span.counts or ())
+
+    def _definition(self, opcode: int, body: bytes, offset: int) -> None:
+        try:
+            stream = ReadDataStream(io.BytesIO(body))
+            if opcode == _SCHEMA:
+                schema = Schema.read(stream)
+                self._schemas.setdefault(schema.id, schema)
+            else:
+                channel = Channel.read(stream)
+                self._channels.setdefault(channel.id, channel)
+        except Exception as error:  # a damaged record: note it, keep scanning
+            kind = "schema" if opcode == _SCHEMA else "channel"
+            self.damage.note(offset, f"{kind} record unreadable ({type(error).__name__})")
+
+    def _probe(self, span: Span) -> None:
+        """Decompress a chunk to learn its channels, counts and times."""
+        records, complete = load_span(self._stream, span, self._size, self.damage)
+        position, size = 0, len(records)
+        counts: dict[int, int] = {}
+        first = last = None
+        while position + 9 <= size:
+            opcode, length = RECORD_HEADER.unpack_from(records, position)
+            body, end = position + 9, position + 9 + length
+            if end > size:
+                break
+            if opcode in (_SCHEMA, _CHANNEL):
+                self._definition(opcode, bytes(records[body:end]), span.offset)
+            elif opcode == MESSAGE and length >= MESSAGE_HEADER.size:
+                channel, _, log_time, _ = MESSAGE_HEADER.unpack_from(records, body)
+                counts[channel] = counts.get(channel, 0) + 1
+                first = log_time if first is None else min(first, log_time)
+                last = log_time if last is None else max(last, log_time)
+            position = end
+        # messages() notes broken records when it reads this chunk; here only learn
+        span.counts = counts
+        if first is not None and last is not None:
+            span.start_ns, span.end_ns = first, last
+        del complete
+
+    def _make_connections(self) -> list[Connection]:
         connections = []
-        for channel in channels.values():
-            schema = schemas.get(channel.schema_id)
+        for channel in self._channels.values():
+            schema = self._schemas.get(channel.schema_id)
             definition = None
             encoding = "ros2msg"
             msg_type = ""
             if schema is not None:
                 msg_type = schema.name
                 if schema.encoding in _DEFINITION_ENCODINGS:
-                    definition = schema.data.decode("utf-8")
+                    definition = schema.data.decode("utf-8", "replace")
                     encoding = schema.encoding
+            type_hash = channel.metadata.get("topic_type_hash", "")
             connections.append(
                 Connection(
                     id=channel.id,
@@ -123,109 +272,71 @@ class McapFile:
                     definition=definition,
                     definition_encoding=encoding,
                     offered_qos_profiles=channel.metadata.get("offered_qos_profiles", ""),
+                    type_hash=type_hash,
                 )
             )
         return connections
 
-    def _unindexed_records(self) -> Iterator[McapRecord]:
-        """Every record up to the end, or up to where a recording cut short stops making sense."""
-        self._stream.seek(0)
-        try:
-            yield from StreamReader(self._stream, skip_magic=False).records
-        except (McapError, EOFError, struct.error, ValueError):
-            return  # keep what was readable, as `ros2 bag reindex` does
-
+    # -- the StorageFile protocol ---------------------------------------------------------
     def connections(self) -> Sequence[Connection]:
         return self._connections
 
     def message_counts(self) -> dict[int, int]:
         counts = {connection.id: 0 for connection in self._connections}
-        summary = self._summary
-        if summary is not None and summary.statistics is not None and self._indexed:
-            for channel_id, count in summary.statistics.channel_message_counts.items():
-                counts[channel_id] = count
+        if self._counts is not None:
+            counts.update(self._counts)
             return counts
-        for channel_id, _, _ in self.messages(set(counts), None, None):
-            counts[channel_id] += 1
+        for span in self._spans:
+            for channel, count in (span.counts or {}).items():
+                counts[channel] = counts.get(channel, 0) + count
         return counts
 
     def time_range(self) -> tuple[int, int] | None:
-        summary = self._summary
-        if summary is not None and self._indexed:
-            statistics = summary.statistics
-            if statistics is not None:
-                if statistics.message_count == 0:
-                    return None
-                return statistics.message_start_time, statistics.message_end_time
-            if summary.chunk_indexes:
-                return (
-                    min(c.message_start_time for c in summary.chunk_indexes),
-                    max(c.message_end_time for c in summary.chunk_indexes),
-                )
-        first = last = None
-        for _, log_time, _ in self.messages({c.id for c in self._connections}, None, None):
-            first = log_time if first is None else min(first, log_time)
-            last = log_time if last is None else max(last, log_time)
-        return None if first is None or last is None else (first, last)
+        spans = [s for s in self._spans if s.counts is None or any(s.counts.values())]
+        if not spans:
+            return None
+        return min(s.start_ns for s in spans), max(s.end_ns for s in spans)
 
     def messages(
         self, connection_ids: set[int], start_ns: int | None, end_ns: int | None
     ) -> Iterator[RawMessage]:
+        """Chunk by chunk in start-time order; a message is held back only while a later
+        chunk may still hold an earlier one, and then copied so that its chunk can go."""
         if not connection_ids:
             return
         start = -1 if start_ns is None else start_ns
         end = 2**64 if end_ns is None else end_ns
-        summary = self._summary
-        if summary is None or not self._indexed:
-            yield from self._streamed_messages(connection_ids, start, end)
-            return
-        chunks = sorted(
-            (
-                c
-                for c in summary.chunk_indexes
-                if c.message_end_time >= start
-                and c.message_start_time < end
-                and (not c.message_index_offsets or connection_ids & c.message_index_offsets.keys())
-            ),
-            key=lambda c: (c.message_start_time, c.chunk_start_offset),
-        )
-        # Chunks whose time ranges overlap are merged and sorted together (sorting the usual
-        # single, already ordered chunk is linear in timsort).
+        spans = [
+            s
+            for s in self._spans
+            if s.end_ns >= start
+            and s.start_ns < end
+            and (s.channels is None or not s.channels.isdisjoint(connection_ids))
+        ]
         pending: list[RawMessage] = []
-        pending_end = -1
-        for chunk_index in chunks:
-            found = _scan_chunk(self._read_chunk(chunk_index), connection_ids, start, end)
-            if pending and chunk_index.message_start_time < pending_end:
-                pending.extend(found)
-                pending_end = max(pending_end, chunk_index.message_end_time)
-                continue
-            if pending:
-                pending.sort(key=_log_time)
-                yield from pending
-            pending, pending_end = found, chunk_index.message_end_time
-        if pending:
-            pending.sort(key=_log_time)
-            yield from pending
-
-    def _read_chunk(self, index: ChunkIndex) -> bytes:
-        self._stream.seek(index.chunk_start_offset)
-        opcode, _ = _RECORD_HEADER.unpack(self._stream.read(9))
-        if opcode != _CHUNK:
-            raise BagError(f"{self.path}: no chunk at offset {index.chunk_start_offset}")
-        return _decompress(Chunk.read(ReadDataStream(self._stream)), self.path)
-
-    def _streamed_messages(self, wanted: set[int], start: int, end: int) -> Iterator[RawMessage]:
-        found: list[RawMessage] = []
-        for record in self._unindexed_records():
-            if not isinstance(record, Message):
-                continue
-            if record.channel_id in wanted and start <= record.log_time < end:
-                found.append((record.channel_id, record.log_time, record.data))
-        yield from sorted(found, key=_log_time)
+        for number, span in enumerate(spans):
+            records, complete = load_span(self._stream, span, self._size, self.damage)
+            found = scan_messages(
+                records,
+                connection_ids,
+                start,
+                end,
+                complete=complete,
+                damage=self.damage,
+                offset=span.offset,
+            )
+            del records
+            found.sort(key=_log_time)
+            pending = list(heapq.merge(pending, found, key=_log_time)) if pending else found
+            del found
+            if number + 1 < len(spans):
+                cut = bisect.bisect_left(pending, spans[number + 1].start_ns, key=_log_time)
+            else:
+                cut = len(pending)
+            ready = pending[:cut]
+            pending = [(c, t, bytes(d)) for c, t, d in pending[cut:]]
+            yield from ready
+            del ready
 
     def close(self) -> None:
         self._stream.close()
-
-
-def _log_time(message: RawMessage) -> int:
-    return message[1]

@@ -4,25 +4,51 @@ Schema versions differ in columns (``offered_qos_profiles`` appeared in Eloquent
 ``type_description_hash`` and the ``message_definitions`` table in Iron); column lists are read
 from the file rather than assumed. The file is opened with ``mode=ro&immutable=1`` so reading a
 bag never leaves ``-wal``/``-shm`` files or changes it.
+
+A file cut short (fewer pages than its header declares) cannot be opened by SQLite as it is: it
+is copied to a temporary file padded with zero pages (sparse, so cheap) and read from there.
+When pages of the ``messages`` table are unreadable, rows are read one batch at a time in id
+order, stepping over the unreadable ranges; every readable row is delivered and the damage is
+noted in ``damage`` (``pyconnect.record.bag_damage``), never raised.
 """
 
 from __future__ import annotations
 
+import os
+import shutil
 import sqlite3
+import tempfile
 import urllib.parse
 from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import Any
 
+from pyconnect.record.bag_damage import DamageLog
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_storage import Connection, RawMessage
 
 __all__ = ["SqliteFile"]
 
 _DEFINITION_ENCODINGS = ("ros2msg", "ros2idl")
+_BATCH = 256
+_HEADER = 100
 
 
 def _columns(db: sqlite3.Connection, table: str) -> list[str]:
     return [row[1] for row in db.execute(f"PRAGMA table_info({table})")]
+
+
+def _declared_size(path: Path) -> tuple[int, int, int]:
+    """(bytes the header declares, bytes in the file, page size)."""
+    with path.open("rb") as stream:
+        head = stream.read(_HEADER)
+        size = os.fstat(stream.fileno()).st_size
+    if len(head) < _HEADER:
+        return size, size, 1
+    page_size = int.from_bytes(head[16:18], "big")
+    page_size = 65536 if page_size == 1 else page_size
+    pages = int.from_bytes(head[28:32], "big")
+    return page_size * pages, size, max(page_size, 1)
 
 
 class SqliteFile:
@@ -30,16 +56,35 @@ class SqliteFile:
 
     def __init__(self, path: Path) -> None:
         self.path = str(path)
-        uri = f"file:{urllib.parse.quote(str(path.resolve()))}?mode=ro&immutable=1"
+        self.damage = DamageLog(self.path)
+        self.promised: int | None = None
+        self._copy: str | None = None
+        self._damaged = False
+        source = path
+        declared, size, page_size = _declared_size(path)
+        if declared > size:
+            self._damaged = True
+            self.damage.note(
+                size,
+                f"the file is cut short: {size} of the {declared} bytes its header declares",
+            )
+            source = self._padded_copy(path, size - size % page_size, declared)
+        uri = f"file:{urllib.parse.quote(str(source.resolve()))}?mode=ro&immutable=1"
         try:
             self._db = sqlite3.connect(uri, uri=True, check_same_thread=False)
             tables = {row[0] for row in self._db.execute("SELECT name FROM sqlite_master")}
         except sqlite3.DatabaseError as error:
+            self._remove_copy()
             raise BagError(f"{path}: not a sqlite3 bag ({error})") from None
         if not {"topics", "messages"} <= tables:
             self._db.close()
             raise BagError(f"{path}: not a rosbag2 sqlite3 file (no topics/messages tables)")
-        self._connections = self._read_connections("message_definitions" in tables)
+        try:
+            self._connections = self._read_connections("message_definitions" in tables)
+        except sqlite3.DatabaseError as error:
+            self._connections = []
+            self._found_damage(error)
+            self.damage.note(None, "the topics table is unreadable: no message can be read")
 
     def _read_connections(self, has_definitions: bool) -> list[Connection]:
         columns = _columns(self._db, "topics")
@@ -77,6 +122,7 @@ class SqliteFile:
                     definition=text,
                     definition_encoding=encoding,
                     offered_qos_profiles=str(offered_qos or ""),
+                    type_hash=str(topic_hash or ""),
                 )
             )
         return connections
@@ -84,19 +130,53 @@ class SqliteFile:
     def connections(self) -> Sequence[Connection]:
         return self._connections
 
+    def _padded_copy(self, path: Path, whole_pages: int, declared: int) -> Path:
+        handle, name = tempfile.mkstemp(prefix="pyconnect-salvage-", suffix=".db3")
+        os.close(handle)
+        self._copy = name
+        shutil.copyfile(path, name)
+        # The page cut in two goes (its cells would read as altered data); the missing pages
+        # become zero pages, which SQLite reports as corrupt when it meets them.
+        os.truncate(name, whole_pages)
+        os.truncate(name, declared)
+        return Path(name)
+
+    def _remove_copy(self) -> None:
+        if self._copy is not None:
+            os.unlink(self._copy)
+            self._copy = None
+
     def message_counts(self) -> dict[int, int]:
         counts = {connection.id: 0 for connection in self._connections}
-        for topic_id, count in self._db.execute(
-            "SELECT topic_id, COUNT(*) FROM messages GROUP BY topic_id"
-        ):
-            counts[int(topic_id)] = int(count)
+        if not self._damaged:
+            try:
+                for topic_id, count in self._db.execute(
+                    "SELECT topic_id, COUNT(*) FROM messages GROUP BY topic_id"
+                ):
+                    counts[int(topic_id)] = int(count)
+                return counts
+            except sqlite3.DatabaseError as error:
+                self._found_damage(error)
+                counts = dict.fromkeys(counts, 0)
+        for _, topic_id, _, _ in self._salvage("topic_id, timestamp, 0", None, None):
+            counts[int(topic_id)] = counts.get(int(topic_id), 0) + 1
         return counts
 
     def time_range(self) -> tuple[int, int] | None:
-        first, last = self._db.execute(
-            "SELECT MIN(timestamp), MAX(timestamp) FROM messages"
-        ).fetchone()
-        return None if first is None else (int(first), int(last))
+        if not self._damaged:
+            try:
+                first, last = self._db.execute(
+                    "SELECT MIN(timestamp), MAX(timestamp) FROM messages"
+                ).fetchone()
+                return None if first is None else (int(first), int(last))
+            except sqlite3.DatabaseError as error:
+                self._found_damage(error)
+        times = [int(t) for _, _, t, _ in self._salvage("topic_id, timestamp, 0", None, None)]
+        return (min(times), max(times)) if times else None
+
+    def _found_damage(self, error: sqlite3.DatabaseError) -> None:
+        self._damaged = True
+        self.damage.note(None, f"the database is damaged ({error})", key="database")
 
     def messages(
         self, connection_ids: set[int], start_ns: int | None, end_ns: int | None
@@ -104,7 +184,7 @@ class SqliteFile:
         if not connection_ids:
             return
         ids = ",".join(str(int(i)) for i in sorted(connection_ids))
-        query = f"SELECT topic_id, timestamp, data FROM messages WHERE topic_id IN ({ids})"
+        query = f"SELECT id, topic_id, timestamp, data FROM messages WHERE topic_id IN ({ids})"
         parameters: list[int] = []
         if start_ns is not None:
             query += " AND timestamp >= ?"
@@ -113,7 +193,104 @@ class SqliteFile:
             query += " AND timestamp < ?"
             parameters.append(end_ns)
         query += " ORDER BY timestamp, id"
-        yield from self._db.execute(query, parameters)
+        done = (-1, -1)  # (timestamp, id) of the last row delivered in time order
+        if not self._damaged:
+            try:
+                cursor = self._db.execute(query, parameters)
+                while rows := cursor.fetchmany(_BATCH):
+                    for row_id, topic_id, timestamp, data in rows:
+                        done = (timestamp, row_id)
+                        yield topic_id, timestamp, data
+                return
+            except sqlite3.DatabaseError as error:
+                self._found_damage(error)
+        for row_id, topic_id, timestamp, data in self._salvage(
+            "topic_id, timestamp, data", connection_ids, (start_ns, end_ns)
+        ):
+            if (timestamp, row_id) > done:
+                yield topic_id, timestamp, data
+
+    def _salvage(
+        self,
+        columns: str,
+        connection_ids: set[int] | None,
+        window: tuple[int | None, int | None] | None,
+    ) -> Iterator[tuple[int, int, int, Any]]:
+        """(id, then ``columns``) of rows in id order, stepping over ranges that cannot be read."""
+        where = ""
+        if connection_ids is not None:
+            where += f" AND topic_id IN ({','.join(str(int(i)) for i in connection_ids)})"
+        if window is not None and window[0] is not None:
+            where += f" AND timestamp >= {int(window[0])}"
+        if window is not None and window[1] is not None:
+            where += f" AND timestamp < {int(window[1])}"
+        query = f"SELECT id, {columns} FROM messages WHERE id > ?{where} ORDER BY id LIMIT ?"
+        last = 0
+        batch = _BATCH
+        while True:
+            try:
+                rows = self._db.execute(query, (last, batch)).fetchall()
+            except sqlite3.DatabaseError as error:
+                if batch > 1:
+                    batch = 1  # find the first unreadable row
+                    continue
+                self.damage.note(
+                    None,
+                    f"rows of the messages table after id {last} are unreadable ({error})",
+                    key=f"rows{last}",
+                )
+                following = self._next_readable(last)
+                if following is None:
+                    return
+                # step at least one row on: a filtered query may fail where an unfiltered does not
+                last, batch = max(following - 1, last + 1), _BATCH
+                continue
+            if not rows:
+                return
+            for row in rows:
+                # a damaged b-tree can hand back rows out of order or with fields missing
+                if not isinstance(row[0], int) or row[0] <= last:
+                    self.damage.note(None, "the messages table is out of order", key="order")
+                    break
+                if isinstance(row[1], int) and isinstance(row[2], int) and row[3] is not None:
+                    yield row
+                else:
+                    self.damage.note(None, "rows with missing fields skipped", key="fields")
+                last = row[0]
+            else:
+                continue
+            last += 1
+
+    def _next_readable(self, last: int) -> int | None:
+        """The smallest id after ``last`` whose row can be read again (None: none)."""
+
+        def readable_from(candidate: int) -> int | None:
+            try:
+                row = self._db.execute(
+                    "SELECT id, length(data) FROM messages WHERE id >= ? ORDER BY id LIMIT 1",
+                    (candidate,),
+                ).fetchone()
+            except sqlite3.DatabaseError:
+                return -1
+            return None if row is None else int(row[0])
+
+        step = 1
+        while step < 1 << 62:
+            found = readable_from(last + step)
+            if found is None:
+                return None
+            if found >= 0:
+                low, high = last + step // 2 + 1, last + step
+                while low < high:  # narrow down to the first readable id
+                    middle = (low + high) // 2
+                    if readable_from(middle) == -1:
+                        low = middle + 1
+                    else:
+                        high = middle
+                return readable_from(low) if readable_from(low) not in (None, -1) else found
+            step *= 2
+        return None
 
     def close(self) -> None:
         self._db.close()
+        self._remove_copy()

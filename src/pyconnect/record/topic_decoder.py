@@ -10,14 +10,22 @@ codecs (``pyconnect.codecs.wire``); no rclpy is needed.
 
 from __future__ import annotations
 
+import functools
 import logging
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from pyconnect.errors import CodecError, DecodeError, PyconnectError
 from pyconnect.typesys.names import full_type_name
 
-__all__ = ["TopicDecoder", "normalise_type_name", "one_line"]
+__all__ = [
+    "TopicDecoder",
+    "TypeMismatch",
+    "installed_type_hash",
+    "normalise_type_name",
+    "one_line",
+]
 
 Decode = Callable[[Any], Any]
 _log = logging.getLogger("pyconnect.record")
@@ -39,46 +47,96 @@ def one_line(error: BaseException) -> str:
     return f"{type(error).__name__}: {text}" if text else type(error).__name__
 
 
-def _function(msg_type: str, definition: str | None, encoding: str, natural: bool) -> Decode:
+@dataclass(frozen=True)
+class TypeMismatch:
+    """A topic whose type hash in the bag differs from the installed type's."""
+
+    topic: str
+    msg_type: str
+    bag_hash: str
+    installed_hash: str
+    bag_has_definition: bool
+
+    def __str__(self) -> str:
+        then = (
+            "decoding with the definition stored in the bag"
+            if self.bag_has_definition
+            else "the bag stores no definition: decoding with the installed type may fail"
+        )
+        return (
+            f"{self.topic}: {self.msg_type} in the bag ({self.bag_hash}) is not the installed "
+            f"{self.msg_type} ({self.installed_hash}); {then}"
+        )
+
+
+@functools.lru_cache(maxsize=1024)
+def installed_type_hash(msg_type: str) -> str | None:
+    """The RIHS01 hash of the installed (or generated) type, None when it is not known."""
+    from pyconnect.codecs import wire
+
+    try:
+        type_hash = wire.wire_codec(normalise_type_name(msg_type)).type_hash
+    except Exception:  # not installed, or not compilable: nothing to compare with
+        return None
+    return type_hash or None
+
+
+def _function(
+    msg_type: str, definition: str | None, encoding: str, natural: bool, registry: Any
+) -> Decode:
     from pyconnect.codecs import wire
 
     if definition is None:
         codec = wire.wire_codec(msg_type)
     else:
         codec = wire.wire_codec(msg_type, definition=definition, encoding=encoding)
-    if natural and _has_natural_codec(codec.msg_type):
-        decode: Decode = codec.decode
-        return decode
+    if natural and _value_codec(codec.msg_type, registry) is not None:
+        if registry is None:
+            decode: Decode = codec.decode
+            return decode
+        return functools.partial(codec.decode, registry=registry)
     # Without a user or natural codec the natural value is the lossless dict: asking the
     # registry once per topic, not once per message, is a third of the time of a bag read.
     to_dict: Decode = codec.to_dict
     return to_dict
 
 
-def _has_natural_codec(msg_type: str) -> bool:
-    from pyconnect.codecs.registry import default_registry
+def _value_codec(msg_type: str, registry: Any) -> Any:
+    if registry is None:
+        from pyconnect.codecs.registry import default_registry
 
-    return default_registry.value_codec(msg_type) is not None
+        registry = default_registry
+    return registry.value_codec(msg_type)
 
 
 class TopicDecoder:
     """``decode(data)`` -> value or raises; ``recover(data, error)`` tries the installed type."""
 
-    __slots__ = ("_fallback", "_fallback_tried", "decode", "msg_type", "natural")
+    __slots__ = ("_fallback", "_fallback_tried", "decode", "msg_type", "natural", "registry")
 
     def __init__(
-        self, msg_type: str, definition: str | None, encoding: str, *, natural: bool
+        self,
+        msg_type: str,
+        definition: str | None,
+        encoding: str,
+        *,
+        natural: bool,
+        registry: Any = None,
+        installed_allowed: bool = True,
     ) -> None:
         self.msg_type = normalise_type_name(msg_type)
         self.natural = natural
+        self.registry = registry
         self._fallback: Decode | None = None
-        self._fallback_tried = False
+        # A bag whose type hash differs from the installed type's is read with its own
+        # definition only: the installed type would misread the bytes.
+        self._fallback_tried = definition is not None and not installed_allowed
         if definition is None:
             self.decode = self._installed_or_raise()
             self._fallback_tried = True
             return
         try:
-            self.decode = _function(self.msg_type, definition, encoding, natural)
+            self.decode = _function(self.msg_type, definition, encoding, natural, registry)
         except Exception as error:  # a definition that does not compile: try the installed type
             _log.info(
                 "%s: stored definition unusable (%s); using the installed type", msg_type, error
@@ -88,7 +146,7 @@ class TopicDecoder:
 
     def _installed_or_raise(self, stored_error: Exception | None = None) -> Decode:
         try:
-            return _function(self.msg_type, None, "ros2msg", self.natural)
+            return _function(self.msg_type, None, "ros2msg", self.natural, self.registry)
         except Exception as error:
             reason = one_line(stored_error if stored_error is not None else error)
             failure = DecodeError(f"cannot build a decoder for {self.msg_type}: {reason}")
@@ -103,7 +161,9 @@ class TopicDecoder:
         if not self._fallback_tried:
             self._fallback_tried = True
             try:
-                self._fallback = _function(self.msg_type, None, "ros2msg", self.natural)
+                self._fallback = _function(
+                    self.msg_type, None, "ros2msg", self.natural, self.registry
+                )
             except Exception:
                 self._fallback = None
         if self._fallback is None or self._fallback is self.decode:

@@ -1,0 +1,150 @@
+"""``BagInfo``: what ``ros2 bag info`` shows of one or several bags, from their storage files."""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from pyconnect.record.bag_damage import BagDamage
+from pyconnect.record.bag_files import BagFiles
+from pyconnect.record.bag_storage import StorageFile
+
+__all__ = ["BagInfo", "TopicInfo", "describe"]
+
+SERVICE_EVENT_SUFFIX = "/_service_event"
+
+
+@dataclass(frozen=True)
+class TopicInfo:
+    """A topic of a bag: its type, how it is serialised and how many messages it has.
+
+    ``type_hash`` is the RIHS01 hash the bag stores for the type ("" when it stores none).
+    """
+
+    name: str
+    msg_type: str
+    message_count: int
+    serialization_format: str = "cdr"
+    has_definition: bool = False
+    type_hash: str = ""
+
+    @property
+    def is_service_event(self) -> bool:
+        """A Jazzy service event topic (``/name/_service_event``, type ``pkg/srv/Name_Event``)."""
+        return self.name.endswith(SERVICE_EVENT_SUFFIX) and self.msg_type.endswith("_Event")
+
+
+@dataclass(frozen=True)
+class BagInfo:
+    """What ``pyconnect bag info`` prints. Times are ns since the epoch (None: no messages).
+
+    ``damage`` lists what is broken in the files as far as opening them shows (a bag cut
+    short, an index pointing past the end); damage inside chunks appears when they are read.
+    """
+
+    path: Path
+    storage: str
+    files: tuple[Path, ...]
+    topics: tuple[TopicInfo, ...]
+    start_ns: int | None
+    end_ns: int | None
+    damage: tuple[BagDamage, ...] = field(default=())
+
+    @property
+    def message_count(self) -> int:
+        return sum(topic.message_count for topic in self.topics)
+
+    @property
+    def duration_ns(self) -> int:
+        if self.start_ns is None or self.end_ns is None:
+            return 0
+        return self.end_ns - self.start_ns
+
+    @property
+    def size_bytes(self) -> int:
+        """The storage files' total size in bytes."""
+        return sum(path.stat().st_size for path in self.files if path.exists())
+
+    @property
+    def services(self) -> tuple[TopicInfo, ...]:
+        """The service event topics (rosbag2 Jazzy records services as these)."""
+        return tuple(topic for topic in self.topics if topic.is_service_event)
+
+
+def _storage_name(files: Iterable[StorageFile]) -> str:
+    kinds = {type(f).__name__ for f in files}
+    names = {"McapFile": "mcap", "SqliteFile": "sqlite3"}
+    return "+".join(sorted(names.get(kind, kind) for kind in kinds)) or "none"
+
+
+@dataclass
+class _TopicTally:
+    msg_type: str
+    serialization_format: str
+    count: int = 0
+    has_definition: bool = False
+    type_hash: str = ""
+
+
+def storage_damage(storages: Iterable[StorageFile]) -> tuple[BagDamage, ...]:
+    """What the storage files have noted as damaged so far."""
+    found: list[BagDamage] = []
+    for storage in storages:
+        log = getattr(storage, "damage", None)
+        if log is not None:
+            found.extend(log.found)
+    return tuple(found)
+
+
+def describe(bags: Iterable[tuple[BagFiles, list[StorageFile]]]) -> BagInfo:
+    """Counts and times from the storage files; metadata.yaml only adds what they lack."""
+    tallies: dict[str, _TopicTally] = {}
+    all_storages: list[StorageFile] = []
+    all_files: list[Path] = []
+    first_path: Path | None = None
+    for located, storages in bags:
+        first_path = first_path or located.path
+        all_storages.extend(storages)
+        all_files.extend(located.files)
+        metadata = located.metadata
+        declared = {t.name: t for t in metadata.topics} if metadata is not None else {}
+        for storage in storages:
+            counts = storage.message_counts()
+            for connection in storage.connections():
+                tally = tallies.setdefault(
+                    connection.topic,
+                    _TopicTally(connection.msg_type, connection.serialization_format),
+                )
+                tally.count += counts.get(connection.id, 0)
+                tally.has_definition |= connection.definition is not None
+                tally.msg_type = tally.msg_type or connection.msg_type
+                tally.type_hash = tally.type_hash or connection.type_hash
+        for name, tally in tallies.items():
+            topic_metadata = declared.get(name)
+            if topic_metadata is None:
+                continue
+            tally.msg_type = tally.msg_type or topic_metadata.msg_type
+            tally.type_hash = tally.type_hash or topic_metadata.type_description_hash
+            if topic_metadata.serialization_format not in ("", "cdr"):
+                tally.serialization_format = topic_metadata.serialization_format
+    ranges = [r for r in (s.time_range() for s in all_storages) if r is not None]
+    return BagInfo(
+        path=first_path or Path(),
+        storage=_storage_name(all_storages),
+        files=tuple(all_files),
+        topics=tuple(
+            TopicInfo(
+                name=name,
+                msg_type=tally.msg_type,
+                message_count=tally.count,
+                serialization_format=tally.serialization_format,
+                has_definition=tally.has_definition,
+                type_hash=tally.type_hash,
+            )
+            for name, tally in sorted(tallies.items())
+        ),
+        start_ns=min(r[0] for r in ranges) if ranges else None,
+        end_ns=max(r[1] for r in ranges) if ranges else None,
+        damage=storage_damage(all_storages),
+    )

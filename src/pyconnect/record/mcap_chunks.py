@@ -1,0 +1,212 @@
+"""Load and scan the parts of an MCAP file that hold messages, tolerating damage.
+
+A *span* is a chunk record, or a run of message records outside chunks. ``load_span`` returns
+the span's (decompressed) records; ``scan_messages`` walks them with ``struct`` and returns the
+wanted messages as zero-copy slices. Neither raises on a damaged file: a chunk cut short gives
+the messages of its readable prefix, a chunk that does not decompress or whose CRC is wrong is
+noted in the file's ``DamageLog`` and gives what could be read. Compressed chunks are
+decompressed straight from the file into one buffer of the declared size, so reading a chunk
+holds little more than the chunk itself.
+"""
+
+from __future__ import annotations
+
+import struct
+import zlib
+from dataclasses import dataclass
+from typing import BinaryIO
+
+from pyconnect.record.bag_damage import DamageLog
+from pyconnect.record.bag_storage import RawMessage
+
+__all__ = ["CHUNK", "MESSAGE", "RECORD_HEADER", "Span", "load_span", "scan_messages"]
+
+CHUNK = 0x06
+MESSAGE = 0x05
+RECORD_HEADER = struct.Struct("<BQ")
+# start time, end time, uncompressed size, uncompressed CRC, length of the compression name
+_CHUNK_FIELDS = struct.Struct("<QQQII")
+_U64 = struct.Struct("<Q")
+# channel id, sequence, log time, publish time (the data follow)
+MESSAGE_HEADER = struct.Struct("<HIQQ")
+_READ_STEP = 1 << 20
+_MAX_UNCOMPRESSED = 1 << 34  # a declared size beyond 16 GiB is a damaged length field
+
+
+@dataclass
+class Span:
+    """Where messages are: a chunk (``chunked``) or ``length`` bytes of loose records."""
+
+    offset: int
+    start_ns: int
+    end_ns: int
+    chunked: bool
+    length: int = 0
+    counts: dict[int, int] | None = None  # messages per channel id; None: not known yet
+    channels: frozenset[int] | None = None  # channels with messages here; None: not known
+
+
+class _Window:
+    """``read(n)`` of at most ``remaining`` bytes of a stream: a chunk's compressed records."""
+
+    def __init__(self, stream: BinaryIO, remaining: int) -> None:
+        self._stream = stream
+        self._remaining = remaining
+
+    def read(self, size: int = -1) -> bytes:
+        if size < 0 or size > self._remaining:
+            size = self._remaining
+        data = self._stream.read(size)
+        self._remaining -= len(data)
+        return data
+
+
+def _decompress_zstd(source: _Window, size: int, damage: DamageLog, offset: int) -> memoryview:
+    import zstandard
+
+    out = bytearray(size)
+    view = memoryview(out)
+    filled = 0
+    try:
+        with zstandard.ZstdDecompressor().stream_reader(
+            source,  # type: ignore[arg-type]  # any object with read(n) will do
+            read_size=_READ_STEP,
+            closefd=False,
+        ) as reader:
+            while filled < size:
+                got = reader.readinto(view[filled:])
+                if not got:
+                    break
+                filled += got
+    except zstandard.ZstdError as error:
+        damage.note(offset, f"chunk does not decompress (zstd: {error})", key="decompress")
+    return view[:filled]
+
+
+def _decompress_lz4(source: _Window, size: int, damage: DamageLog, offset: int) -> memoryview:
+    import lz4.frame
+
+    out = bytearray(size)
+    filled = 0
+    decompressor = lz4.frame.LZ4FrameDecompressor()
+    try:
+        while filled < size:
+            piece = source.read(_READ_STEP)
+            if not piece:
+                break
+            produced = decompressor.decompress(piece)
+            take = min(len(produced), size - filled)
+            out[filled : filled + take] = produced[:take]
+            filled += take
+            if decompressor.eof:
+                break
+    except RuntimeError as error:
+        damage.note(offset, f"chunk does not decompress (lz4: {error})", key="decompress")
+    return memoryview(out)[:filled]
+
+
+def load_span(
+    stream: BinaryIO, span: Span, file_size: int, damage: DamageLog
+) -> tuple[memoryview, bool]:
+    """The records of ``span`` and whether they are complete (False: cut short or damaged)."""
+    if not span.chunked:
+        stream.seek(span.offset)
+        data = stream.read(span.length)
+        return memoryview(data), len(data) == span.length
+    offset = span.offset
+    stream.seek(offset)
+    head = stream.read(RECORD_HEADER.size + _CHUNK_FIELDS.size)
+    if len(head) < RECORD_HEADER.size + _CHUNK_FIELDS.size:
+        damage.note(offset, "file ends inside a chunk header", key="header")
+        return memoryview(b""), False
+    opcode, _ = RECORD_HEADER.unpack_from(head)
+    if opcode != CHUNK:
+        damage.note(offset, f"no chunk where the index points (record type {opcode:#x})")
+        return memoryview(b""), False
+    _, _, size, crc, name_length = _CHUNK_FIELDS.unpack_from(head, RECORD_HEADER.size)
+    name = stream.read(name_length) if name_length <= 16 else b"?"
+    length_field = stream.read(8)
+    if len(name) != name_length or len(length_field) != 8:
+        damage.note(offset, "file ends inside a chunk header", key="header")
+        return memoryview(b""), False
+    compression = name.decode("ascii", "replace")
+    (stored,) = _U64.unpack(length_field)
+    records_at = stream.tell()
+    available = max(0, min(stored, file_size - records_at))
+    complete = available == stored
+    if not complete:
+        damage.note(
+            offset,
+            f"chunk cut short: {available} of its {stored} bytes are in the file",
+            key="cut",
+        )
+    if compression in ("", "none"):
+        records = memoryview(stream.read(available))
+    elif size > _MAX_UNCOMPRESSED:
+        damage.note(offset, f"chunk claims {size} bytes uncompressed; skipped", key="size")
+        return memoryview(b""), False
+    elif compression == "zstd":
+        records = _decompress_zstd(_Window(stream, available), size, damage, offset)
+    elif compression == "lz4":
+        records = _decompress_lz4(_Window(stream, available), size, damage, offset)
+    else:
+        damage.note(offset, f"unsupported chunk compression {compression!r}; skipped")
+        return memoryview(b""), False
+    if complete and len(records) != size:
+        damage.note(
+            offset,
+            f"chunk holds {len(records)} bytes, its header says {size}",
+            key="size",
+        )
+        complete = False
+    if complete and crc and zlib.crc32(records) != crc:
+        damage.note(
+            offset,
+            "chunk CRC mismatch: its messages are delivered but may be altered",
+            key="crc",
+        )
+    return records.toreadonly(), complete
+
+
+def scan_messages(
+    records: memoryview,
+    wanted: set[int] | None,
+    start_ns: int,
+    end_ns: int,
+    *,
+    complete: bool,
+    damage: DamageLog,
+    offset: int,
+) -> list[RawMessage]:
+    """The wanted messages of a span's records, in the order stored (``wanted`` None: all).
+
+    A record that runs past the end is damage when the records were complete, and the expected
+    end of a chunk cut short otherwise; scanning stops there either way.
+    """
+    unpack_record = RECORD_HEADER.unpack_from
+    unpack_message = MESSAGE_HEADER.unpack_from
+    found: list[RawMessage] = []
+    position, size = 0, len(records)
+    while position + 9 <= size:
+        opcode, length = unpack_record(records, position)
+        body = position + 9
+        end = body + length
+        if end > size or (opcode == MESSAGE and length < MESSAGE_HEADER.size):
+            if complete:
+                damage.note(
+                    offset,
+                    f"broken record {position} bytes into the chunk; the rest of it is lost",
+                    key="record",
+                )
+            break
+        position = end
+        if opcode != MESSAGE:
+            continue
+        channel, _, log_time, _ = unpack_message(records, body)
+        if (wanted is not None and channel not in wanted) or not start_ns <= log_time < end_ns:
+            continue
+        found.append((channel, log_time, records[body + MESSAGE_HEADER.size : end]))
+    else:
+        if complete and position != size:
+            damage.note(offset, "chunk ends inside a record header", key="record")
+    return found
