@@ -8,8 +8,12 @@ pyconnect starts on first use in a daemon thread and stops at shutdown.
 Each agent gets a ``CoroutineLane``: its coroutines run one after another in arrival order
 (as an agent's plain callbacks do), while different agents' coroutines interleave on the loop.
 Submitting costs a lock and a deque append; the loop is woken only when the lane was idle, so a
-burst of messages costs one wake-up. A lane holds at most ``LANE_LIMIT`` waiting coroutines; a
-submit beyond that waits (back-pressure, like a slow plain callback) instead of dropping.
+burst of messages costs one wake-up. A cross-thread wake-up costs about as much as handling a
+small message, so a lane under a steady stream does not go idle after its queue empties but
+looks again ``LINGER_SECONDS`` later (one timer wake-up then serves several messages; an
+``async`` handler may start up to that much later). A lane holds at most ``LANE_LIMIT`` waiting
+coroutines; a submit beyond that waits (back-pressure, like a slow plain callback) instead of
+dropping.
 """
 
 from __future__ import annotations
@@ -26,7 +30,7 @@ from typing import Any
 LANE_LIMIT = 100
 """Coroutines an agent may have waiting before a submit blocks."""
 
-LINGER_SECONDS = 0.0005
+LINGER_SECONDS = 0.001
 """How long a lane under a steady stream waits for the next call before it sleeps."""
 
 BUSY_GAP_SECONDS = 0.002
