@@ -1,5 +1,9 @@
-"""Non-ROS peers (TCP links) that carry the same codecs: planned in the design, not built yet.
+"""Non-ROS peers over zenoh, on rmw_zenoh's wire: ``from pyconnect.transport import Peer``.
 
-The wire codecs (``pyconnect.codecs.wire``) are the piece such a transport needs: CDR bytes to
-natural values and back with no rclpy. No transport issue is open, so nothing lives here yet.
+Needs the ``zenoh`` extra (``pip install 'pyconnect[zenoh]'``); imports no rclpy.
 """
+
+from pyconnect.transport.peer import Peer
+from pyconnect.transport.router import start_router
+
+__all__ = ["Peer", "start_router"]

@@ -1,0 +1,58 @@
+"""The ROS graph as a peer sees it: rmw_zenoh's liveliness tokens of one domain, kept current.
+
+rmw_zenoh's ``rmw_context_impl_s.cpp`` subscribes to ``@ros2_lv/<domain>/**`` with history, so
+tokens declared before the subscription are reported too; a token disappears (a DELETE
+sample) when its entity is destroyed or its session vanishes (zenoh notices a lost peer by
+its lease), which is how a peer notices a vanished publisher or server.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+from typing import Any
+
+import zenoh
+
+from pyconnect.transport.rmw_zenoh_keys import ADMIN_SPACE, Token, parse_token
+
+
+class Graph:
+    """Live tokens by key; ``count`` answers "is there a server / publisher now?"."""
+
+    def __init__(self, session: zenoh.Session, domain_id: int) -> None:
+        self._tokens: dict[str, Token] = {}
+        # Reentrant: conditions given to wait_for_graph ask count() while holding it.
+        self._lock = threading.RLock()
+        self.changed = threading.Condition(self._lock)
+        self._subscriber: Any = session.liveliness().declare_subscriber(
+            f"{ADMIN_SPACE}/{domain_id}/**", self._on_sample, history=True
+        )
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        key = str(sample.key_expr)
+        with self._lock:
+            if sample.kind == zenoh.SampleKind.DELETE:
+                self._tokens.pop(key, None)
+            else:
+                token = parse_token(key)
+                if token is not None:
+                    self._tokens[key] = token
+            self.changed.notify_all()
+
+    def tokens(self) -> list[Token]:
+        with self._lock:
+            return list(self._tokens.values())
+
+    def count(self, *, kind: str, name: str) -> int:
+        """How many live entities of ``kind`` (``'MP'``, ``'SS'``, ...) are on ``name``."""
+        with self._lock:
+            return sum(1 for t in self._tokens.values() if t.kind == kind and t.name == name)
+
+    def node_names(self) -> list[str]:
+        with self._lock:
+            return sorted(t.node_name for t in self._tokens.values() if t.kind == "NN")
+
+    def close(self) -> None:
+        with contextlib.suppress(Exception):
+            self._subscriber.undeclare()

@@ -1,0 +1,296 @@
+"""``Peer``: a program's agents on zenoh, with ``CustomNode``'s API and no rclpy.
+
+A peer is one zenoh session that shows itself as one ROS node (rmw_zenoh's ``NN`` token with
+the peer's name; namespace and enclave ``/``, written ``%``), in domain ``domain_id``
+(default ``ROS_DOMAIN_ID``, else 0). Its agents are rmw_zenoh publishers, subscriptions,
+services and clients, so ROS nodes that run ``rmw_zenoh_cpp`` and other peers see them as
+ordinary ROS entities. Samples are handled as they arrive (zenoh runs on its own threads from
+the start); ``spin()`` only blocks until shutdown, ``spin(run_thread=True)`` returns at once.
+
+Shutdown — ``shutdown()``, leaving ``with``, Ctrl-C, SIGTERM or interpreter exit — runs
+``stop_func`` once, closes the agents and the session, and (on a signal) the process exits 0
+without a traceback: the same process-wide handlers as ``CustomNode`` (pyconnect.ros.shutdown,
+which imports no rclpy).
+"""
+
+# zenoh's stubs leave undeclare() and close() unannotated.
+# mypy: disable-error-code="no-untyped-call"
+
+from __future__ import annotations
+
+import itertools
+import os
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from pathlib import Path
+from types import TracebackType
+from typing import Any
+
+import zenoh
+
+from pyconnect.codecs.registry import Registry, default_registry
+from pyconnect.errors import ConnectionTimeout, PyconnectError, TransportError
+from pyconnect.ros.shutdown import ShutdownHooks
+from pyconnect.transport import rmw_zenoh_keys as keys
+from pyconnect.transport.graph import Graph
+from pyconnect.transport.peer_agent import PeerAgent, TimerAgent, logger
+from pyconnect.transport.service_agents import ServiceClientAgent, ServiceServerAgent
+from pyconnect.transport.session_config import session_config
+from pyconnect.transport.topic_agents import PublisherAgent, SubscriberAgent
+
+StopFunc = Callable[..., Any]
+
+PEER_AGENT_CLASSES: dict[str, type[PeerAgent]] = {
+    "sub": SubscriberAgent,
+    "pub": PublisherAgent,
+    "service_client": ServiceClientAgent,
+    "service_server": ServiceServerAgent,
+    "timer": TimerAgent,
+}
+DEFAULT_MAX_PAYLOAD_BYTES = 256 * 1024 * 1024
+
+
+def default_domain_id() -> int:
+    text = os.environ.get("ROS_DOMAIN_ID", "").strip()
+    if not text:
+        return 0
+    try:
+        return int(text)
+    except ValueError:
+        raise TransportError(f"ROS_DOMAIN_ID: expected an integer, got {text!r}") from None
+
+
+class Peer:
+    """A zenoh peer whose connections are agents: ``peer.agents[name].send/get``."""
+
+    def __init__(
+        self,
+        name: str,
+        *,
+        namespace: str = "/",
+        domain_id: int | None = None,
+        config: str | Path | zenoh.Config | None = None,
+        connect: Sequence[str] | None = None,
+        listen: Sequence[str] | None = None,
+        mode: str | None = None,
+        registry: Registry | None = None,
+        max_payload_bytes: int | None = DEFAULT_MAX_PAYLOAD_BYTES,
+        stop_func: StopFunc | None = None,
+        handle_signals: bool = True,
+    ) -> None:
+        if not name or "/" in name:
+            raise PyconnectError(f"peer name: expected a ROS node name, got {name!r}")
+        self.name = name
+        self.namespace = namespace if namespace.startswith("/") else f"/{namespace}"
+        self.domain_id = default_domain_id() if domain_id is None else domain_id
+        self.registry = registry or default_registry
+        self.max_payload_bytes = max_payload_bytes
+        self.stop_func = stop_func
+        self.agents: dict[str, PeerAgent] = {}
+        self._lock = threading.RLock()
+        self._stopped = threading.Event()
+        self._shutdown_lock = threading.Lock()
+        self._shutdown_thread: threading.Thread | None = None
+        self._main_waiting = False
+        self._ids = itertools.count()
+        zenoh_config = session_config(config=config, connect=connect, listen=listen, mode=mode)
+        try:
+            self.session = zenoh.open(zenoh_config)
+        except Exception as error:
+            raise TransportError(f"peer {name!r}: cannot open a zenoh session: {error}") from error
+        self.zid = str(self.session.zid())
+        self.identity = keys.NodeIdentity(
+            domain_id=self.domain_id,
+            zid=self.zid,
+            node_id=next(self._ids),
+            name=name,
+            namespace=self.namespace,
+        )
+        self.graph = Graph(self.session, self.domain_id)
+        self.node_token_key = keys.node_token(self.identity)
+        self._node_token = self.session.liveliness().declare_token(self.node_token_key)
+        self._hooks = ShutdownHooks(
+            begin_shutdown=self._shutdown_in_background,
+            main_is_waiting=lambda: self._main_waiting,
+            handle_signals=handle_signals,
+        )
+        self._hooks.register_atexit(self.shutdown)
+
+    # -- tokens --------------------------------------------------------------------------------
+    def entity_token(
+        self, *, kind: str, name: str, type_name: str, type_hash: str, qos: str
+    ) -> str:
+        """The liveliness key of a new entity of this peer's node (ids count per session)."""
+        with self._lock:
+            entity_id = next(self._ids)
+        return keys.entity_token(
+            self.identity,
+            entity_id=entity_id,
+            kind=kind,
+            name=name,
+            type_name=type_name,
+            type_hash=type_hash,
+            qos=qos,
+        )
+
+    # -- agents --------------------------------------------------------------------------------
+    def add_agent(
+        self, *, conn_name: str, conn_type: str, agent_name: str | None = None, **options: Any
+    ) -> PeerAgent:
+        """Create an agent (options as on ``CustomNode``) and return it; it is ``agents[name]``."""
+        key = agent_name or conn_name
+        with self._lock:
+            if self._stopped.is_set():
+                raise PyconnectError(f"peer {self.name!r} is shut down; cannot add {key!r}")
+            if key in self.agents:
+                raise PyconnectError(
+                    f"agent {key!r}: peer {self.name!r} already has an agent of that name; "
+                    "give one of them agent_name="
+                )
+            agent_class = PEER_AGENT_CLASSES.get(conn_type)
+            if agent_class is None:
+                raise PyconnectError(
+                    f"agent {key!r}: conn_type {conn_type!r} is not available on a peer; expected "
+                    f"one of {', '.join(repr(kind) for kind in PEER_AGENT_CLASSES)}"
+                )
+            try:
+                agent = agent_class(self, conn_name=conn_name, agent_name=agent_name, **options)
+            except TypeError as error:
+                if "unexpected keyword argument" not in str(error) and "missing" not in str(error):
+                    raise
+                text = str(error).split("() ", 1)[-1]
+                raise PyconnectError(f"agent {key!r} ({conn_type}): {text}") from error
+            except PyconnectError as error:
+                if str(error).startswith("agent "):
+                    raise
+                raise type(error)(f"agent {key!r} ({conn_type}): {error}") from error
+            self.agents[key] = agent
+            return agent
+
+    def add_agents(
+        self, configs: Iterable[Mapping[str, Any]], **shared_options: Any
+    ) -> list[PeerAgent]:
+        return [self.add_agent(**{**shared_options, **config}) for config in configs]
+
+    # -- running -------------------------------------------------------------------------------
+    def spin(self, run_thread: bool = False) -> None:
+        """Block until shutdown; ``run_thread=True`` returns at once (agents run either way)."""
+        if self._stopped.is_set():
+            raise PyconnectError(f"peer {self.name!r} is shut down")
+        if not run_thread:
+            self.wait_for_shutdown()
+
+    def listen(self) -> None:
+        self.spin()
+
+    def ok(self) -> bool:
+        return not self._stopped.is_set()
+
+    def wait_for_shutdown(self, timeout: float | None = None) -> bool:
+        """Block until the peer is shut down (Ctrl-C, ``shutdown()``); False on timeout."""
+        is_main = threading.current_thread() is threading.main_thread()
+        if is_main:
+            self._main_waiting = True
+        try:
+            deadline = None if timeout is None else time.monotonic() + timeout
+            while not self._stopped.wait(_step(deadline, 0.5)):
+                if deadline is not None and time.monotonic() >= deadline:
+                    return False
+        finally:
+            if is_main:
+                self._main_waiting = False
+        thread = self._shutdown_thread
+        if thread is not None and thread is not threading.current_thread():
+            thread.join()
+        return True
+
+    def wait_for_graph(self, condition: Callable[[], bool], deadline: float | None) -> bool:
+        """Wait until ``condition()`` holds for the graph; False at ``deadline`` or shutdown."""
+        with self.graph.changed:
+            while not condition():
+                if self._stopped.is_set():
+                    return False
+                if deadline is not None and time.monotonic() >= deadline:
+                    return False
+                self.graph.changed.wait(_step(deadline, 0.1))
+        return True
+
+    def wait_until_connected(self, timeout: float | None = None) -> None:
+        """Return when every sub has a message from a publisher alive now and every client
+        sees a server now; raises ``ConnectionTimeout`` naming the agents still waiting."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            waiting = [agent for agent in list(self.agents.values()) if not agent.is_connected()]
+            if not waiting:
+                return
+            if self._stopped.is_set():
+                raise PyconnectError(f"peer {self.name!r} was shut down while waiting")
+            if deadline is not None and time.monotonic() >= deadline:
+                names = ", ".join(f"{agent.describe} ({agent.waiting_for()})" for agent in waiting)
+                raise ConnectionTimeout(
+                    f"peer {self.name!r}: still waiting after {timeout} s for {names}"
+                )
+            self._stopped.wait(_step(deadline, 0.02))
+
+    def node_names(self) -> list[str]:
+        """Names of the ROS nodes (peers and rmw_zenoh nodes) alive in this domain now."""
+        return self.graph.node_names()
+
+    # -- shutdown ------------------------------------------------------------------------------
+    def shutdown(self) -> None:
+        """Stop everything once: ``stop_func``, agents, tokens, the zenoh session."""
+        with self._shutdown_lock:
+            if self._stopped.is_set():
+                return
+            try:
+                self._shut_down()
+            finally:
+                self._stopped.set()
+
+    def _shut_down(self) -> None:
+        if self.stop_func is not None:
+            try:
+                self.stop_func()
+            except Exception as error:
+                logger.error(
+                    "peer %r: stop_func raised %s: %s", self.name, type(error).__name__, error
+                )
+        for agent in list(self.agents.values()):
+            try:
+                agent.close()
+            except Exception as error:
+                logger.error("%s: close failed: %r", agent.describe, error)
+        self.graph.close()
+        try:
+            self._node_token.undeclare()
+            self.session.close()
+        except Exception as error:
+            print(f"[pyconnect] peer {self.name}: closing zenoh failed: {error}", file=sys.stderr)
+        self._hooks.restore()
+
+    def _shutdown_in_background(self) -> None:
+        if self._shutdown_thread is not None:
+            return
+        self._shutdown_thread = threading.Thread(
+            target=self.shutdown, name=f"pyconnect-shutdown-{self.name}"
+        )
+        self._shutdown_thread.start()
+
+    def __enter__(self) -> Peer:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.shutdown()
+
+
+def _step(deadline: float | None, longest: float) -> float:
+    if deadline is None:
+        return longest
+    return max(0.0, min(longest, deadline - time.monotonic()))

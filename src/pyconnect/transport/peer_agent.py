@@ -1,0 +1,188 @@
+"""``PeerAgent``: the base of a peer's agents (the ``CustomNode`` agent API without rclpy).
+
+Every agent has ``name``, ``conn_name``, ``get()``, ``send()``, ``is_connected()``,
+``last_error``/``error_count`` and ``describe``. Whatever user code or a codec raises is logged
+on the ``pyconnect.transport`` logger (stderr unless configured) with the agent's name and the
+traceback, kept in ``last_error``, and the next sample is handled.
+
+``Inbox`` hands samples from zenoh's threads to one thread per agent: user callbacks never run
+on zenoh's own threads (a callback that blocks, e.g. on a service call, would otherwise stall
+the link its reply has to come through). It keeps the last ``depth`` samples (ROS keep-last
+history) and counts what it had to drop.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import threading
+import traceback
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
+
+from pyconnect.errors import PyconnectError
+
+if TYPE_CHECKING:
+    from pyconnect.transport.peer import Peer
+
+logger = logging.getLogger("pyconnect.transport")
+ResponseFunc = Callable[..., Any]
+_Item = TypeVar("_Item")
+
+
+def reform_response(data: Any, *, error: str | None = None) -> Any:
+    """``CustomNode``'s response contract: dicts get ``'isdone'``; failures carry ``'error'``."""
+    if error is not None:
+        base = dict(data) if isinstance(data, dict) else {}
+        base.update(isdone=False, error=error)
+        return base
+    if isinstance(data, dict):
+        return {**data, "isdone": True}
+    return data
+
+
+def absolute_name(conn_name: str, namespace: str) -> str:
+    """``conn_name`` resolved against the peer's namespace (``/``-rooted, as rclpy does)."""
+    if conn_name.startswith("/"):
+        return conn_name
+    base = namespace.rstrip("/")
+    return f"{base}/{conn_name}"
+
+
+class PeerAgent:
+    """One connection of a ``Peer``."""
+
+    conn_type: ClassVar[str] = ""
+
+    def __init__(
+        self,
+        peer: Peer,
+        *,
+        conn_name: str,
+        agent_name: str | None = None,
+        type_name: str = "",
+        response_func: ResponseFunc | None = None,
+    ) -> None:
+        self.peer = peer
+        self.name = agent_name or conn_name
+        self.conn_name = conn_name
+        self.topic = absolute_name(conn_name, peer.namespace)
+        self.type_name = type_name
+        self.response_func = response_func
+        self.last_error: str | None = None
+        self.error_count = 0
+        self._latest: Any = None
+
+    @property
+    def describe(self) -> str:
+        kind = f"{self.conn_type} {self.type_name}".strip()
+        return f"agent {self.name!r} ({kind})"
+
+    def error(self, text: str) -> PyconnectError:
+        return PyconnectError(f"{self.describe}: {text}")
+
+    def get(self, show_info: bool = False) -> Any:
+        """The latest value this agent handled; None before any."""
+        if show_info:
+            logger.info("%s: latest %r", self.describe, self._latest)
+        return self._latest
+
+    def send(self, data: Any = None) -> Any:
+        raise self.error(f"send() is not available on a {self.conn_type!r} agent")
+
+    def is_connected(self) -> bool:
+        return True
+
+    def waiting_for(self) -> str:
+        return ""
+
+    def report_exception(self, where: str, error: BaseException) -> None:
+        text = "".join(traceback.format_exception(type(error), error, error.__traceback__))
+        self.last_error = f"{self.describe}: {where} raised {type(error).__name__}: {error}"
+        self.error_count += 1
+        logger.error("%s\n%s", self.last_error, text.rstrip())
+
+    def close(self) -> None:
+        """Undeclare the zenoh entities (the peer calls this on shutdown)."""
+
+
+class Inbox(Generic[_Item]):
+    """Keep-last queue between zenoh's threads and one handler thread."""
+
+    def __init__(self, name: str, depth: int, handle: Callable[[_Item], None]) -> None:
+        if depth < 1:
+            raise PyconnectError(f"{name}: depth must be >= 1, got {depth!r}")
+        self._items: collections.deque[_Item] = collections.deque(maxlen=depth)
+        self._ready = threading.Condition(threading.Lock())
+        self._handle = handle
+        self._closed = False
+        self.dropped = 0
+        self._thread = threading.Thread(target=self._run, name=f"pyconnect-{name}", daemon=True)
+        self._thread.start()
+
+    def put(self, item: _Item) -> None:
+        with self._ready:
+            if len(self._items) == self._items.maxlen:
+                self.dropped += 1
+            self._items.append(item)
+            self._ready.notify()
+
+    def _run(self) -> None:
+        while True:
+            with self._ready:
+                while not self._items and not self._closed:
+                    self._ready.wait()
+                if self._closed:
+                    return
+                item = self._items.popleft()
+            self._handle(item)
+            del item  # a zenoh query is answered for good only when it is released
+
+    def close(self, timeout: float = 5.0) -> None:
+        with self._ready:
+            self._closed = True
+            self._ready.notify()
+        if self._thread is not threading.current_thread():
+            self._thread.join(timeout)
+
+
+class TimerAgent(PeerAgent):
+    """Calls ``response_func()`` every ``time_period`` seconds; ``get()`` is its last return."""
+
+    conn_type = "timer"
+
+    def __init__(
+        self,
+        peer: Peer,
+        *,
+        conn_name: str,
+        agent_name: str | None = None,
+        time_period: float,
+        response_func: ResponseFunc,
+    ) -> None:
+        super().__init__(peer, conn_name=conn_name, agent_name=agent_name)
+        if time_period is None or time_period <= 0:
+            raise self.error(f"time_period must be > 0 seconds, got {time_period!r}")
+        if response_func is None:
+            raise self.error("a 'timer' agent needs a response_func")
+        self._handler: ResponseFunc = response_func
+        self.time_period = time_period
+        self.tick_count = 0
+        self._stop = threading.Event()
+        self._thread = threading.Thread(
+            target=self._run, name=f"pyconnect-timer-{self.name}", daemon=True
+        )
+        self._thread.start()
+
+    def _run(self) -> None:
+        while not self._stop.wait(self.time_period):
+            self.tick_count += 1
+            try:
+                self._latest = self._handler()
+            except Exception as error:
+                self.report_exception("response_func", error)
+
+    def close(self) -> None:
+        self._stop.set()
+        if self._thread is not threading.current_thread():
+            self._thread.join(5.0)

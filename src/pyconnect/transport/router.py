@@ -1,0 +1,59 @@
+"""A zenoh router started from Python (for tests and small set-ups; ``zenohd`` is the usual one).
+
+``start_router(listen=['tcp/0.0.0.0:7447'])`` opens a session in router mode: peers that
+``connect`` to it find each other through it (zenoh's gossip), as ROS nodes running
+``rmw_zenoh_cpp`` find each other through ``rmw_zenohd``. ``python -m pyconnect.transport.router
+tcp/0.0.0.0:7447`` runs one until Ctrl-C.
+"""
+
+# zenoh's stubs leave undeclare() and close() unannotated.
+# mypy: disable-error-code="no-untyped-call"
+
+from __future__ import annotations
+
+import json
+import signal
+import sys
+import threading
+from collections.abc import Sequence
+from pathlib import Path
+
+import zenoh
+
+from pyconnect.errors import TransportError
+
+
+def start_router(
+    *,
+    listen: Sequence[str] = ("tcp/0.0.0.0:7447",),
+    config: str | Path | None = None,
+    multicast_scouting: bool = False,
+) -> zenoh.Session:
+    """An open router session; ``close()`` stops it. ``config`` is a JSON5 file (TLS, ACL...)."""
+    try:
+        zenoh_config = zenoh.Config.from_file(str(config)) if config else zenoh.Config()
+        zenoh_config.insert_json5("mode", '"router"')
+        zenoh_config.insert_json5("listen/endpoints", json.dumps(list(listen)))
+        zenoh_config.insert_json5(
+            "scouting/multicast/enabled", "true" if multicast_scouting else "false"
+        )
+        return zenoh.open(zenoh_config)
+    except Exception as error:
+        raise TransportError(f"zenoh router on {', '.join(listen)}: {error}") from error
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    endpoints = list(sys.argv[1:] if argv is None else argv) or ["tcp/0.0.0.0:7447"]
+    router = start_router(listen=endpoints)
+    print(f"zenoh router {router.zid()} listening on {', '.join(endpoints)}", flush=True)
+    stop = threading.Event()
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda _signum, _frame: stop.set())
+    while not stop.wait(0.5):
+        pass
+    router.close()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

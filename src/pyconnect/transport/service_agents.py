@@ -1,0 +1,272 @@
+"""A peer's ``service_server`` and ``service_client`` agents, as rmw_zenoh maps services.
+
+rmw_zenoh (``rmw_service_data.cpp``, ``rmw_client_data.cpp``): a server is a zenoh queryable
+(``complete=True``) on the service's key expression; a client sends a query to it with the
+CDR request as payload and an attachment (sequence number, timestamp, client GID), target
+``ALL_COMPLETE``, no consolidation; the server replies on its key with the CDR response and an
+attachment that echoes the request's sequence number and client GID.
+
+Server: ``response_func(request_value) -> response_value``. A handler or codec that raises
+still answers: a response with ``success``/``message`` fields gets ``success=False`` and the
+error text, any other the default response; the error is logged with the agent's name.
+
+Client: ``send(data, timeout=None)`` returns the decoded response through ``reform_response``;
+when no server is in the graph within the timeout, when the server vanishes before it replies
+or when it does not reply in time, it returns ``{'isdone': False, 'error': ...}`` as
+``CustomNode``'s clients do. ``block=False`` returns a ``concurrent.futures.Future``.
+"""
+
+# zenoh's stubs leave undeclare() and close() unannotated.
+# mypy: disable-error-code="no-untyped-call"
+
+from __future__ import annotations
+
+import concurrent.futures
+import contextlib
+import struct
+import threading
+import time
+from typing import TYPE_CHECKING, Any
+
+import zenoh
+
+from pyconnect.transport import rmw_zenoh_keys as keys
+from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
+from pyconnect.transport.interface_types import service_interface
+from pyconnect.transport.peer_agent import Inbox, PeerAgent, ResponseFunc, reform_response
+
+if TYPE_CHECKING:
+    from pyconnect.transport.peer import Peer
+
+_TEXT_FIELDS = ("message", "error", "error_message", "error_msg", "error_string", "reason")
+# A call without a timeout still ends: zenoh needs one; a day is "never" for a service.
+_NO_TIMEOUT = 86400.0
+
+
+class ServiceServerAgent(PeerAgent):
+    """Answers requests on ``conn_name`` with ``response_func``."""
+
+    conn_type = "service_server"
+
+    def __init__(
+        self,
+        peer: Peer,
+        *,
+        conn_name: str,
+        agent_name: str | None = None,
+        data_interface: object,
+        encode_func: EncodeFunc | None = None,
+        decode_func: DecodeFunc | None = None,
+        response_func: ResponseFunc | None = None,
+        depth: int = 10,
+    ) -> None:
+        interface = service_interface(data_interface)
+        super().__init__(
+            peer,
+            conn_name=conn_name,
+            agent_name=agent_name,
+            type_name=interface.type_name,
+            response_func=response_func,
+        )
+        if response_func is None:
+            raise self.error("a 'service_server' agent needs a response_func")
+        self._handler: ResponseFunc = response_func
+        self.request_conversion = WireConversion(
+            describe=self.describe,
+            codec=interface.request,
+            registry=peer.registry,
+            decode_func=decode_func,
+        )
+        self.response_conversion = WireConversion(
+            describe=self.describe,
+            codec=interface.response,
+            registry=peer.registry,
+            encode_func=encode_func,
+        )
+        self.request_count = 0
+        self.key = keys.data_key(
+            peer.domain_id, self.topic, interface.type_name, interface.type_hash
+        )
+        self.token_key = peer.entity_token(
+            kind=keys.SERVICE,
+            name=self.topic,
+            type_name=interface.type_name,
+            type_hash=interface.type_hash,
+            qos=keys.qos_chunk(depth=depth),
+        )
+        self._inbox: Inbox[zenoh.Query] = Inbox(f"srv-{self.name}", depth, self._on_query)
+        self._queryable = peer.session.declare_queryable(self.key, self._inbox.put, complete=True)
+        self._token = peer.session.liveliness().declare_token(self.token_key)
+
+    def _on_query(self, query: zenoh.Query) -> None:
+        # Leaving ``with`` drops the query, which tells the client no more replies will come.
+        with query:
+            self.request_count += 1
+            sequence, client_gid = 0, bytes(keys.GID_SIZE)
+            attachment = query.attachment
+            if attachment is not None:
+                with contextlib.suppress(struct.error):
+                    sequence, _stamp, client_gid = keys.unpack_attachment(attachment.to_bytes())
+            payload = self._answer(query)
+            reply_attachment = keys.pack_attachment(sequence, time.time_ns(), client_gid)
+            try:
+                query.reply(self.key, payload, attachment=reply_attachment)
+            except Exception as error:
+                self.report_exception("reply", error)
+
+    def _answer(self, query: zenoh.Query) -> bytes:
+        where = "decode"
+        try:
+            request = query.payload
+            if request is None:
+                raise self.error("the query carries no request payload")
+            data = self.request_conversion.decode(request.to_bytes())
+            self._latest = data
+            where = "response_func"
+            value = self._handler(data)
+            where = "encode"
+            if value is None:
+                return self.response_conversion.codec.from_dict({})
+            return self.response_conversion.encode(value)
+        except Exception as error:
+            self.report_exception(where, error)
+            return self._error_response(f"{type(error).__name__}: {error}")
+
+    def _error_response(self, text: str) -> bytes:
+        codec = self.response_conversion.codec
+        fields = codec.to_dict(codec.from_dict({}))
+        answer: dict[str, Any] = {}
+        if isinstance(fields.get("success"), bool):
+            answer["success"] = False
+        for name in _TEXT_FIELDS:
+            if isinstance(fields.get(name), str):
+                answer[name] = text
+                break
+        return codec.from_dict(answer)
+
+    def close(self) -> None:
+        for entity in (self._token, self._queryable):
+            with contextlib.suppress(Exception):
+                entity.undeclare()
+        self._inbox.close()
+
+
+class ServiceClientAgent(PeerAgent):
+    """Calls the service ``conn_name``; ``send``/``get`` return the decoded response."""
+
+    conn_type = "service_client"
+
+    def __init__(
+        self,
+        peer: Peer,
+        *,
+        conn_name: str,
+        agent_name: str | None = None,
+        data_interface: object,
+        encode_func: EncodeFunc | None = None,
+        decode_func: DecodeFunc | None = None,
+        timeout: float | None = None,
+    ) -> None:
+        interface = service_interface(data_interface)
+        super().__init__(
+            peer, conn_name=conn_name, agent_name=agent_name, type_name=interface.type_name
+        )
+        self.timeout = timeout
+        self.request_conversion = WireConversion(
+            describe=self.describe,
+            codec=interface.request,
+            registry=peer.registry,
+            encode_func=encode_func,
+        )
+        self.response_conversion = WireConversion(
+            describe=self.describe,
+            codec=interface.response,
+            registry=peer.registry,
+            decode_func=decode_func,
+        )
+        self.key = keys.data_key(
+            peer.domain_id, self.topic, interface.type_name, interface.type_hash
+        )
+        self.token_key = peer.entity_token(
+            kind=keys.CLIENT,
+            name=self.topic,
+            type_name=interface.type_name,
+            type_hash=interface.type_hash,
+            qos=keys.qos_chunk(),
+        )
+        self.gid = keys.gid_of(self.token_key)
+        self._sequence = 0
+        self._lock = threading.Lock()
+        self._token = peer.session.liveliness().declare_token(self.token_key)
+
+    @property
+    def server_count(self) -> int:
+        return self.peer.graph.count(kind=keys.SERVICE, name=self.topic)
+
+    def is_connected(self) -> bool:
+        return self.server_count > 0
+
+    def waiting_for(self) -> str:
+        return "no server now"
+
+    def get(self, data: Any = None, show_info: bool = False) -> Any:  # type: ignore[override]
+        """``get(data)`` is ``send(data)``, as on a ``CustomNode``."""
+        return self.send(data)
+
+    def send(self, data: Any = None, *, timeout: float | None = None, block: bool = True) -> Any:
+        """Call the service with ``data``; the decoded response, or a future of it."""
+        timeout = self.timeout if timeout is None else timeout
+        payload = self.request_conversion.encode(data)
+        if not block:
+            result: concurrent.futures.Future[Any] = concurrent.futures.Future()
+
+            def call() -> None:
+                try:
+                    result.set_result(self._call(payload, timeout))
+                except Exception as error:
+                    result.set_exception(error)
+
+            threading.Thread(target=call, name=f"pyconnect-{self.name}-call", daemon=True).start()
+            return result
+        return self._call(payload, timeout)
+
+    def _call(self, payload: bytes, timeout: float | None) -> Any:
+        deadline = None if timeout is None else time.monotonic() + timeout
+        if not self.peer.wait_for_graph(lambda: self.server_count > 0, deadline):
+            return self._failed(f"no server for {self.topic} within {timeout} s")
+        with self._lock:
+            self._sequence += 1
+            sequence = self._sequence
+        attachment = keys.pack_attachment(sequence, time.time_ns(), self.gid)
+        remaining = _NO_TIMEOUT if deadline is None else max(0.001, deadline - time.monotonic())
+        replies = self.peer.session.get(
+            self.key,
+            target=zenoh.QueryTarget.ALL_COMPLETE,
+            consolidation=zenoh.ConsolidationMode.NONE,
+            timeout=remaining,
+            payload=payload,
+            attachment=attachment,
+        )
+        errors: list[str] = []
+        for reply in replies:
+            if reply.ok is None:
+                err = reply.err
+                errors.append(err.payload.to_string() if err is not None else "unknown error")
+                continue
+            value = reform_response(self.response_conversion.decode(reply.ok.payload.to_bytes()))
+            self._latest = value
+            return value
+        if errors:
+            return self._failed(f"the server of {self.topic} failed: {'; '.join(errors)}")
+        if self.server_count == 0:
+            return self._failed(f"the server of {self.topic} vanished before it replied")
+        return self._failed(f"no response from {self.topic} within {timeout} s")
+
+    def _failed(self, text: str) -> Any:
+        value = reform_response(None, error=f"{self.describe}: {text}")
+        self._latest = value
+        return value
+
+    def close(self) -> None:
+        with contextlib.suppress(Exception):
+            self._token.undeclare()

@@ -1,0 +1,50 @@
+"""A peer in a process where ``import rclpy`` fails (run by the transport and bridge tests).
+
+``python peer_without_rclpy.py CONFIG ROLE TOPIC``: ROLE ``echo-image`` receives Images on TOPIC
+and republishes each on TOPIC + '_back'; ``spin`` just spins (signal tests). It prints
+``ready`` once its agents exist.
+"""
+
+from __future__ import annotations
+
+import importlib.abc
+import sys
+
+
+class _BlockRos(importlib.abc.MetaPathFinder):
+    def find_spec(self, fullname: str, path: object, target: object = None) -> None:
+        if fullname == "rclpy" or fullname.startswith(("rclpy.", "rpyutils")):
+            raise ImportError(f"{fullname} is blocked in this process")
+
+
+sys.meta_path.insert(0, _BlockRos())
+
+
+def main() -> None:
+    from pyconnect.transport import Peer
+
+    config, role, topic = sys.argv[1:4]
+    try:
+        import rclpy  # noqa: F401
+    except ImportError:
+        pass
+    else:
+        raise SystemExit("rclpy imported although blocked")
+    peer = Peer("vision", config=config)
+    if role == "echo-image":
+        back = peer.add_agent(
+            conn_name=f"{topic}_back", conn_type="pub", data_interface="sensor_msgs/msg/Image"
+        )
+        peer.add_agent(
+            conn_name=topic,
+            conn_type="sub",
+            data_interface="sensor_msgs/msg/Image",
+            response_func=back.send,
+        )
+    print("ready", flush=True)
+    peer.spin()
+    print("rclpy" in sys.modules, flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,287 @@
+"""A peer's agents: pub/sub, services, timers, connection checks and faults, all on loopback."""
+
+from __future__ import annotations
+
+import logging
+import threading
+import time
+from typing import Any
+
+import numpy as np
+import pytest
+
+from pyconnect.errors import ConnectionTimeout, EncodeError, PyconnectError
+from tests.transport.conftest import PeerFactory
+
+TIMEOUT = 30.0
+
+
+def wait_for(condition: Any, timeout: float = TIMEOUT) -> bool:
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    return True
+
+
+def connected_pair(make_peer: PeerFactory, topic: str, type_name: str, **sub_options: Any) -> Any:
+    sender, receiver = make_peer("vision"), make_peer("robot")
+    sub = receiver.add_agent(
+        conn_name=topic, conn_type="sub", data_interface=type_name, **sub_options
+    )
+    pub = sender.add_agent(conn_name=topic, conn_type="pub", data_interface=type_name)
+    assert wait_for(lambda: pub.subscriber_count == 1)
+    return pub, sub
+
+
+def test_image_arrives_as_the_same_ndarray(make_peer: PeerFactory) -> None:
+    got = threading.Event()
+    pub, sub = connected_pair(
+        make_peer, "camera", "sensor_msgs/msg/Image", response_func=lambda _v: got.set()
+    )
+    image = np.random.default_rng(1).integers(0, 255, (48, 64, 3), dtype=np.uint8)
+    assert pub.send(image) is True
+    assert got.wait(TIMEOUT)
+    received = sub.get()
+    assert isinstance(received, np.ndarray)
+    np.testing.assert_array_equal(received, image)
+
+
+def test_joint_state_arrives_as_the_same_dict(make_peer: PeerFactory) -> None:
+    got = threading.Event()
+    pub, sub = connected_pair(
+        make_peer, "joints", "sensor_msgs/msg/JointState", response_func=lambda _v: got.set()
+    )
+    joints = {"elbow": {"position": 0.5, "velocity": -1.0, "effort": 2.0}}
+    pub.send(joints)
+    assert got.wait(TIMEOUT)
+    assert sub.get() == joints
+    assert sub.message_count == 1
+
+
+def test_a_raising_callback_is_reported_and_the_next_sample_handled(
+    make_peer: PeerFactory, caplog: pytest.LogCaptureFixture
+) -> None:
+    seen: list[str] = []
+    done = threading.Event()
+
+    def on_text(text: str) -> None:
+        seen.append(text)
+        if text == "boom":
+            raise ValueError("bad text")
+        done.set()
+
+    pub, sub = connected_pair(make_peer, "chatter", "std_msgs/msg/String", response_func=on_text)
+    with caplog.at_level(logging.ERROR, logger="pyconnect.transport"):
+        pub.send("boom")
+        assert wait_for(lambda: sub.error_count == 1)
+        pub.send("fine")
+        assert done.wait(TIMEOUT)
+    assert seen == ["boom", "fine"]
+    assert sub.last_error == (
+        "agent 'chatter' (sub std_msgs/msg/String): response_func raised ValueError: bad text"
+    )
+    assert "ValueError: bad text" in caplog.text
+
+
+def test_a_sample_of_another_type_is_counted_and_reported_once_per_publisher(
+    make_peer: PeerFactory, caplog: pytest.LogCaptureFixture
+) -> None:
+    sender, receiver = make_peer("talker"), make_peer("listener")
+    sub = receiver.add_agent(
+        conn_name="chatter", conn_type="sub", data_interface="std_msgs/msg/Int32"
+    )
+    pub = sender.add_agent(
+        conn_name="chatter", conn_type="pub", data_interface="std_msgs/msg/String"
+    )
+    assert wait_for(lambda: pub.subscriber_count == 1)
+    with caplog.at_level(logging.WARNING, logger="pyconnect.transport"):
+        pub.send("not a number")
+        pub.send("still not")
+        assert wait_for(lambda: sub.type_mismatch_count == 2)
+    assert sub.message_count == 0
+    assert sub.get() is None
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert warnings == [
+        f"agent 'chatter' (sub std_msgs/msg/Int32) on /chatter: publisher {pub.gid.hex()}: "
+        "ignored samples of std_msgs/msg/String "
+        "(RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18); "
+        "this subscription expects std_msgs/msg/Int32 "
+        "(RIHS01_b6578ded3c58c626cfe8d1a6fb6e04f706f97e9f03d2727c9ff4e74b1cef0deb)"
+    ]
+
+
+def test_a_payload_over_the_limit_is_dropped_and_counted(make_peer: PeerFactory) -> None:
+    sender, receiver = make_peer("vision"), make_peer("robot", max_payload_bytes=1000)
+    sub = receiver.add_agent(
+        conn_name="camera", conn_type="sub", data_interface="sensor_msgs/msg/Image"
+    )
+    pub = sender.add_agent(
+        conn_name="camera", conn_type="pub", data_interface="sensor_msgs/msg/Image"
+    )
+    assert wait_for(lambda: pub.subscriber_count == 1)
+    pub.send(np.zeros((100, 100), dtype=np.uint8))
+    pub.send(np.zeros((4, 4), dtype=np.uint8))
+    assert wait_for(lambda: sub.message_count == 1)
+    assert sub.oversize_count == 1
+    assert sub.get().shape == (4, 4)
+
+
+def test_a_bad_value_raises_an_encode_error_naming_the_agent(make_peer: PeerFactory) -> None:
+    peer = make_peer("vision")
+    pub = peer.add_agent(conn_name="count", conn_type="pub", data_interface="std_msgs/msg/Int32")
+    with pytest.raises(EncodeError) as raised:
+        pub.send("three")
+    assert str(raised.value).startswith("agent 'count' (pub std_msgs/msg/Int32): ")
+
+
+def test_service_call_and_a_raising_handler_still_answers(make_peer: PeerFactory) -> None:
+    server_peer, client_peer = make_peer("robot"), make_peer("vision")
+
+    def handle(request: dict[str, Any]) -> dict[str, Any]:
+        if not request["data"]:
+            raise RuntimeError("refused")
+        return {"success": True, "message": "on"}
+
+    server_peer.add_agent(
+        conn_name="enable",
+        conn_type="service_server",
+        data_interface="std_srvs/srv/SetBool",
+        response_func=handle,
+    )
+    client = client_peer.add_agent(
+        conn_name="enable",
+        conn_type="service_client",
+        data_interface="std_srvs/srv/SetBool",
+        timeout=TIMEOUT,
+    )
+    client_peer.wait_until_connected(timeout=TIMEOUT)
+    assert client.send({"data": True}) == {"success": True, "message": "on", "isdone": True}
+    assert client.send({"data": False}) == {
+        "success": False,
+        "message": "RuntimeError: refused",
+        "isdone": True,
+    }
+    future = client.send({"data": True}, block=False)
+    assert future.result(TIMEOUT)["message"] == "on"
+
+
+def test_a_call_to_a_vanished_server_fails_like_custom_node(make_peer: PeerFactory) -> None:
+    server_peer, client_peer = make_peer("robot"), make_peer("vision")
+    server_peer.add_agent(
+        conn_name="trigger",
+        conn_type="service_server",
+        data_interface="std_srvs/srv/Trigger",
+        response_func=lambda _r: {"success": True},
+    )
+    client = client_peer.add_agent(
+        conn_name="trigger", conn_type="service_client", data_interface="std_srvs/srv/Trigger"
+    )
+    client_peer.wait_until_connected(timeout=TIMEOUT)
+    server_peer.shutdown()
+    assert client_peer.wait_for_graph(lambda: client.server_count == 0, time.monotonic() + TIMEOUT)
+    assert client.send(None, timeout=0.5) == {
+        "isdone": False,
+        "error": "agent 'trigger' (service_client std_srvs/srv/Trigger): "
+        "no server for /trigger within 0.5 s",
+    }
+
+
+def test_wait_until_connected_names_the_agents_still_waiting(make_peer: PeerFactory) -> None:
+    peer = make_peer("vision")
+    peer.add_agent(conn_name="scan", conn_type="sub", data_interface="sensor_msgs/msg/LaserScan")
+    peer.add_agent(
+        conn_name="reset", conn_type="service_client", data_interface="std_srvs/srv/Empty"
+    )
+    with pytest.raises(ConnectionTimeout) as raised:
+        peer.wait_until_connected(timeout=0.2)
+    assert str(raised.value) == (
+        "peer 'vision': still waiting after 0.2 s for "
+        "agent 'scan' (sub sensor_msgs/msg/LaserScan) (no publisher now), "
+        "agent 'reset' (service_client std_srvs/srv/Empty) (no server now)"
+    )
+
+
+def test_a_vanished_publisher_is_noticed(make_peer: PeerFactory) -> None:
+    pub, sub = connected_pair(make_peer, "chatter", "std_msgs/msg/String")
+    pub.send("hello")
+    sub.peer.wait_until_connected(timeout=TIMEOUT)
+    pub.peer.shutdown()
+    assert wait_for(lambda: sub.publisher_count == 0)
+    with pytest.raises(ConnectionTimeout) as raised:
+        sub.peer.wait_until_connected(timeout=0.1)
+    assert str(raised.value) == (
+        "peer 'robot': still waiting after 0.1 s for "
+        "agent 'chatter' (sub std_msgs/msg/String) (no publisher now)"
+    )
+
+
+def test_timer_and_periodic_publisher(make_peer: PeerFactory) -> None:
+    sender, receiver = make_peer("vision"), make_peer("robot")
+    ticks = receiver.add_agent(
+        conn_name="tick", conn_type="timer", time_period=0.01, response_func=lambda: "tock"
+    )
+    sub = receiver.add_agent(
+        conn_name="heartbeat", conn_type="sub", data_interface="std_msgs/msg/Int32"
+    )
+    sender.add_agent(
+        conn_name="heartbeat",
+        conn_type="pub",
+        data_interface="std_msgs/msg/Int32",
+        time_period=0.01,
+        response_func=lambda: 7,
+    )
+    assert wait_for(lambda: ticks.tick_count >= 3 and sub.message_count >= 3)
+    assert ticks.get() == "tock"
+    assert sub.get() == 7
+
+
+def test_encode_and_decode_funcs_keep_the_seed_signatures(make_peer: PeerFactory) -> None:
+    def encode(data: str, msg: Any) -> Any:
+        msg.data = data.upper()
+        return msg
+
+    sender, receiver = make_peer("vision"), make_peer("robot")
+    sub = receiver.add_agent(
+        conn_name="chatter",
+        conn_type="sub",
+        data_interface="std_msgs/msg/String",
+        decode_func=lambda msg: f"<{msg.data}>",
+    )
+    pub = sender.add_agent(
+        conn_name="chatter",
+        conn_type="pub",
+        data_interface="std_msgs/msg/String",
+        encode_func=encode,
+    )
+    assert wait_for(lambda: pub.subscriber_count == 1)
+    pub.send("hi")
+    assert wait_for(lambda: sub.message_count == 1)
+    assert sub.get() == "<HI>"
+
+
+def test_unknown_kinds_and_options_raise(make_peer: PeerFactory) -> None:
+    peer = make_peer("vision")
+    with pytest.raises(PyconnectError) as raised:
+        peer.add_agent(conn_name="a", conn_type="action_client", data_interface="x/action/Y")
+    assert str(raised.value) == (
+        "agent 'a': conn_type 'action_client' is not available on a peer; expected one of "
+        "'sub', 'pub', 'service_client', 'service_server', 'timer'"
+    )
+    with pytest.raises(PyconnectError) as raised:
+        peer.add_agent(conn_name="b", conn_type="pub", data_interface="std_msgs/msg/Int32", qos=5)
+    assert str(raised.value) == "agent 'b' (pub): got an unexpected keyword argument 'qos'"
+
+
+def test_with_block_and_spin_thread_shut_down(make_peer: PeerFactory) -> None:
+    peer = make_peer("vision")
+    stopped: list[bool] = []
+    peer.stop_func = lambda: stopped.append(True)
+    with peer:
+        peer.spin(run_thread=True)
+        assert peer.ok()
+    assert not peer.ok()
+    assert stopped == [True]
+    with pytest.raises(PyconnectError):
+        peer.spin()

@@ -1,0 +1,82 @@
+"""Peers in their own processes: rclpy blocked, Ctrl-C and SIGTERM exit 0 without a traceback."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from tests.transport.conftest import PeerFactory, loopback_config
+
+SCRIPT = Path(__file__).with_name("peer_without_rclpy.py")
+REPO = Path(__file__).resolve().parents[2]
+TIMEOUT = 60.0
+
+
+def start(config: Path, role: str, topic: str) -> subprocess.Popen[str]:
+    process = subprocess.Popen(
+        [sys.executable, str(SCRIPT), str(config), role, topic],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=REPO,
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+    )
+    assert process.stdout is not None
+    line = process.stdout.readline()
+    if line.strip() != "ready":
+        process.kill()
+        _out, err = process.communicate()
+        raise AssertionError(f"peer process did not start: {line!r} {err}")
+    return process
+
+
+def test_a_peer_without_rclpy_exchanges_images(
+    make_peer: PeerFactory, locator: str, tmp_path: Path
+) -> None:
+    here = make_peer("robot")
+    config = tmp_path / "session.json5"
+    config.write_text(loopback_config(connect=locator))
+    back = threading.Event()
+    here.add_agent(
+        conn_name="camera_back",
+        conn_type="sub",
+        data_interface="sensor_msgs/msg/Image",
+        response_func=lambda _v: back.set(),
+    )
+    camera = here.add_agent(
+        conn_name="camera", conn_type="pub", data_interface="sensor_msgs/msg/Image"
+    )
+    process = start(config, "echo-image", "camera")
+    try:
+        assert here.wait_for_graph(lambda: camera.subscriber_count == 1, None)
+        image = np.random.default_rng(2).integers(0, 255, (120, 160, 3), dtype=np.uint8)
+        camera.send(image)
+        assert back.wait(TIMEOUT)
+        np.testing.assert_array_equal(here.agents["camera_back"].get(), image)
+    finally:
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=TIMEOUT)
+    assert process.returncode == 0, err
+    assert out.strip() == "False"  # rclpy never got imported
+    assert "Traceback" not in err
+
+
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_ends_a_spinning_peer_with_exit_0(
+    signum: int, locator: str, tmp_path: Path
+) -> None:
+    config = tmp_path / "session.json5"
+    config.write_text(loopback_config(listen=locator))
+    process = start(config, "spin", "unused")
+    process.send_signal(signum)
+    out, err = process.communicate(timeout=TIMEOUT)
+    assert process.returncode == 0, err
+    assert err == ""
+    del out  # the signal may come before spin() (SystemExit(0)) or during it (spin returns)
