@@ -12,9 +12,9 @@ import importlib
 from dataclasses import dataclass
 
 from pyconnect.codecs import wire
-from pyconnect.codecs.type_names import parse_type_name
 from pyconnect.codecs.wire import WireCodec
 from pyconnect.errors import CodecNotFoundError, PyconnectError
+from pyconnect.typesys.names import parse_type_name
 
 
 @dataclass(frozen=True)

@@ -18,16 +18,34 @@ import logging
 import threading
 import traceback
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, ClassVar, Generic, TypeVar
+from typing import Any, ClassVar, Generic, Protocol, TypeVar
+
+import zenoh
 
 from pyconnect.errors import PyconnectError
-
-if TYPE_CHECKING:
-    from pyconnect.transport.peer import Peer
+from pyconnect.transport.graph import Graph
 
 logger = logging.getLogger("pyconnect.transport")
 ResponseFunc = Callable[..., Any]
 _Item = TypeVar("_Item")
+
+
+class Peer(Protocol):
+    """What agents use of their ``pyconnect.transport.peer.Peer`` (kept apart: no import cycle)."""
+
+    name: str
+    namespace: str
+    domain_id: int
+    registry: Any
+    session: zenoh.Session
+    graph: Graph
+    max_payload_bytes: int | None
+
+    def entity_token(
+        self, *, kind: str, name: str, type_name: str, type_hash: str, qos: str
+    ) -> str: ...
+
+    def wait_for_graph(self, condition: Callable[[], bool], deadline: float | None) -> bool: ...
 
 
 def reform_response(data: Any, *, error: str | None = None) -> Any:

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 
 import xxhash
 
-from pyconnect.codecs.type_names import parse_type_name
+from pyconnect.typesys.names import parse_type_name
 
 ADMIN_SPACE = "@ros2_lv"
 NODE, PUBLISHER, SUBSCRIPTION, SERVICE, CLIENT = "NN", "MP", "MS", "SS", "SC"

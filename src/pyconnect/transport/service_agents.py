@@ -26,17 +26,14 @@ import contextlib
 import struct
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import zenoh
 
 from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
 from pyconnect.transport.interface_types import service_interface
-from pyconnect.transport.peer_agent import Inbox, PeerAgent, ResponseFunc, reform_response
-
-if TYPE_CHECKING:
-    from pyconnect.transport.peer import Peer
+from pyconnect.transport.peer_agent import Inbox, Peer, PeerAgent, ResponseFunc, reform_response
 
 _TEXT_FIELDS = ("message", "error", "error_message", "error_msg", "error_string", "reason")
 # A call without a timeout still ends: zenoh needs one; a day is "never" for a service.

@@ -17,7 +17,7 @@ import contextlib
 import struct
 import threading
 import time
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 import zenoh
 
@@ -25,10 +25,7 @@ from pyconnect.errors import DecodeError
 from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
 from pyconnect.transport.interface_types import message_interface
-from pyconnect.transport.peer_agent import Inbox, PeerAgent, ResponseFunc, logger
-
-if TYPE_CHECKING:
-    from pyconnect.transport.peer import Peer
+from pyconnect.transport.peer_agent import Inbox, Peer, PeerAgent, ResponseFunc, logger
 
 DEFAULT_DEPTH = 10
 
