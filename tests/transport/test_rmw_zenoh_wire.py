@@ -47,7 +47,7 @@ def test_samples_keys_payload_attachment_and_tokens(make_peer: PeerFactory, loca
     try:
         deadline = time.monotonic() + 30
         # The raw subscriber declares no token: wait until zenoh matches it.
-        while not pub._publisher.matching_status and time.monotonic() < deadline:
+        while not pub.matched and time.monotonic() < deadline:
             time.sleep(0.01)
         before = time.time_ns()
         pub.send({"elbow": {"position": 0.5, "velocity": 1.0, "effort": -2.0}})

@@ -106,6 +106,12 @@ class PublisherAgent(PeerAgent):
         """How many subscriptions on this topic the graph shows now."""
         return self.peer.graph.count(kind=keys.SUBSCRIPTION, name=self.topic)
 
+    @property
+    def matched(self) -> bool:
+        """Whether zenoh routes this publisher's samples to any subscriber now (tokens or not)."""
+        status: Any = self._publisher.matching_status  # a MatchingStatus (stubs say bool)
+        return bool(getattr(status, "matching", status))
+
     def send(self, data: Any = None) -> bool:
         """Encode and publish ``data``; False when skipped (``only_if_subscribed``, no reader)."""
         if self.only_if_subscribed and self.subscriber_count == 0:
