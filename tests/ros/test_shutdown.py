@@ -100,6 +100,33 @@ node.wait_for_shutdown()
 other.wait_for_shutdown()
 print("AFTER TWO", flush=True)
 """,
+    "sigint_async_handlers_busy": """
+import asyncio
+from std_srvs.srv import Trigger
+
+node, heard = make()
+started = threading.Event()
+
+async def slow_sub(_value):
+    started.set()
+    await asyncio.sleep(600)
+
+async def slow_service(_request):
+    await asyncio.sleep(600)
+
+node.add_agent(conn_name="beat", agent_name="slow", conn_type="sub", data_interface=String,
+               response_func=slow_sub)
+node.add_agent(conn_name="hang", conn_type="service_server", data_interface=Trigger,
+               response_func=slow_service)
+client = node.add_agent(conn_name="hang", agent_name="hang_client",
+                        conn_type="service_client", data_interface=Trigger)
+node.spin(run_thread=True)
+pending = client.send(block=False)
+started.wait(60)
+threading.Thread(target=ready_when_main_waits, args=(node, heard), daemon=True).start()
+node.wait_for_shutdown()
+print("AFTER BUSY", flush=True)
+""",
     "interpreter_exit": """
 node, heard = make()
 node.spin(run_thread=True)
@@ -109,6 +136,7 @@ print("END OF SCRIPT", flush=True)
 }
 
 SIGNALS = {
+    "sigint_async_handlers_busy": signal.SIGINT,
     "sigint_blocking_spin": signal.SIGINT,
     "sigint_thread_wait_for_shutdown": signal.SIGINT,
     "sigint_thread_user_loop": signal.SIGINT,
@@ -117,6 +145,7 @@ SIGNALS = {
 }
 
 LAST_LINE = {
+    "sigint_async_handlers_busy": "AFTER BUSY",
     "sigint_blocking_spin": "AFTER SPIN",
     "sigint_thread_wait_for_shutdown": "AFTER WAIT",
     "shutdown_call": "AFTER SHUTDOWN",

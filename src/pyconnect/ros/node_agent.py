@@ -31,6 +31,10 @@ from pyconnect.ros.interfaces import interface_name
 ResponseFunc = Callable[..., Any]
 
 
+class CancelledByShutdown(PyconnectError):
+    """An ``async def`` handler was cancelled because its node shut down."""
+
+
 class NodeAgent:
     """One connection of a ``CustomNode``: a publisher, subscriber, service, action or timer."""
 
@@ -201,6 +205,10 @@ class NodeAgent:
     # -- user code -----------------------------------------------------------------------------
     def report_exception(self, where: str, error: BaseException) -> None:
         """Log an exception raised by user code or a codec, with the agent name and traceback."""
+        if isinstance(error, CancelledByShutdown):
+            # Not a failure of user code: the node stopped while the handler was running.
+            self.node.get_logger().warning(f"{self.describe}: {where} cancelled by shutdown")
+            return
         text = "".join(traceback.format_exception(type(error), error, error.__traceback__))
         self.last_error = f"{self.describe}: {where} raised {type(error).__name__}: {error}"
         self.error_count += 1
@@ -251,7 +259,7 @@ class NodeAgent:
         try:
             return future.result()
         except concurrent.futures.CancelledError:
-            raise PyconnectError("the coroutine was cancelled (the node shuts down)") from None
+            raise CancelledByShutdown("the coroutine was cancelled (the node shuts down)") from None
 
     @property
     def lane(self) -> CoroutineLane:
