@@ -15,6 +15,7 @@ import sys
 
 from pyconnect import __version__
 from pyconnect.commands import bag as bag_commands
+from pyconnect.commands import interface as interface_commands
 from pyconnect.commands.common import Parser, UsageError
 from pyconnect.commands.value_text import format_value
 from pyconnect.errors import PyconnectError
@@ -30,6 +31,7 @@ def build_parser() -> argparse.ArgumentParser:
     parser.add_argument("--version", action="version", version=f"{PROGRAM} {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     bag_commands.register(commands)
+    interface_commands.register(commands)
     return parser
 
 

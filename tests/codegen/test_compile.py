@@ -216,3 +216,43 @@ def test_a_missing_compiler_says_what_to_install(
         "build-essential`; Fedora: `sudo dnf install gcc gcc-c++`) or set CC/CXX\n"
     )
     assert not (prefix / "lib").exists()
+
+
+def _files(root: Path) -> set[str]:
+    return {
+        p.relative_to(root).as_posix()
+        for p in root.rglob("*")
+        if p.is_file() and "__pycache__" not in p.parts
+    }
+
+
+def _copy_of(prefix: Path, target: Path) -> Path:
+    shutil.copytree(prefix, target, symlinks=True)
+    return target
+
+
+def test_codecgen_uninstall_removes_every_file(compiled_prefix: Path, tmp_path: Path) -> None:
+    prefix = _copy_of(compiled_prefix, tmp_path / "prefix")
+    extras_only = {f for f in _files(prefix) if "tutorial_interfaces" not in f}
+    assert main(["uninstall", "tutorial_interfaces", "--prefix", str(prefix)]) == 0
+    assert _files(prefix) == extras_only
+    assert not (InstallLayout.for_prefix(prefix).python / "tutorial_interfaces").exists()
+    assert main(["uninstall", "tutorial_interfaces", "--prefix", str(prefix)]) == 1
+
+
+def test_pip_uninstall_removes_every_file(compiled_prefix: Path, tmp_path: Path) -> None:
+    """The prefix made an environment of its own (a venv over it): pip reads the RECORD."""
+    prefix = _copy_of(compiled_prefix, tmp_path / "env")
+    before = _files(prefix)
+    extras_only = {f for f in before if "tutorial_interfaces" not in f}
+    subprocess.run([sys.executable, "-m", "venv", "--without-pip", str(prefix)], check=True)
+    venv_files = _files(prefix) - before
+    pip = [sys.executable, "-m", "pip", "--python", str(prefix / "bin" / "python")]
+    result = subprocess.run(
+        [*pip, "uninstall", "-y", "tutorial_interfaces"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert "Successfully uninstalled tutorial_interfaces-0.1.0" in result.stdout, result.stderr
+    assert _files(prefix) == extras_only | venv_files

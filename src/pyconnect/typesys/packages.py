@@ -19,6 +19,12 @@ def ament_prefixes() -> list[Path]:
     """
     candidates = [Path(p) for p in os.environ.get("AMENT_PREFIX_PATH", "").split(os.pathsep) if p]
     candidates += [Path(sys.prefix), Path(sys.base_prefix)]
+    # Then prefixes whose site-packages is on sys.path: a `codecgen build --compile --prefix P`
+    # install used through PYTHONPATH=P/lib/pythonX.Y/site-packages.
+    for entry in sys.path:
+        site = Path(entry)
+        if site.name in ("site-packages", "dist-packages") and site.parent.name.startswith("py"):
+            candidates.append(site.parent.parent.parent)
     found: list[Path] = []
     for prefix in candidates:
         index = prefix / "share" / "ament_index" / "resource_index" / "rosidl_interfaces"
