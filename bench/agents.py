@@ -27,6 +27,9 @@ WINDOW = 3.0
 CALLS = 150
 GOALS = 500
 
+Row = tuple[str, float | None, float | None, float | None, float | None, str]
+"""(measure, raw SingleThreadedExecutor, raw EventsExecutor, pyconnect, ratio, target)."""
+
 
 # -- peers (child processes) ------------------------------------------------------------------
 def peer(mode: str) -> None:
@@ -293,31 +296,203 @@ def action_latencies() -> list[float]:
     return times
 
 
-def main() -> None:
-    started = time.perf_counter()
-    rows: list[tuple[str, float, float, str, str]] = []
+# -- executor cost (each case in a fresh child process; CPU time per wall second) -------------
+CPU_KINDS = ("pub_100hz", "pub_1khz", "sub_1khz", "idle", "pair_1khz")
+CPU_MODES = ("ste", "events", "pyconnect")
+
+
+def cpu_child(mode: str, kind: str, window: float) -> None:
+    """Run one case for ``window`` seconds; print ``CPU <fraction of a core> <messages>``."""
+    import numpy as np
+    import rclpy
+    from rclpy.node import Node
+    from std_msgs.msg import Float64MultiArray
+
+    rate = 100.0 if kind == "pub_100hz" else 1000.0
+    values = np.arange(12, dtype=np.float64)
+    counter = [0]
+    if mode == "pyconnect":
+        from pyconnect.ros.custom_node import CustomNode
+
+        node = CustomNode(f"bench_cpu_{kind}", args=[], handle_signals=False)
+        if kind.startswith("pub") or kind == "peer":
+            node.add_agent(
+                conn_name="bench_cpu",
+                conn_type="pub",
+                data_interface=Float64MultiArray,
+                time_period=1.0 / rate,
+                response_func=lambda: values,
+            )
+        elif kind in ("sub_1khz", "pair_1khz"):
+
+            def on_value(_value: Any) -> None:
+                counter[0] += 1
+
+            node.add_agent(
+                conn_name="bench_cpu",
+                conn_type="sub",
+                data_interface=Float64MultiArray,
+                response_func=on_value,
+            )
+        else:  # idle: one of each, no traffic
+            node.add_agent(
+                conn_name="bench_idle", conn_type="sub", data_interface=Float64MultiArray
+            )
+            node.add_agent(
+                conn_name="bench_idle_out", conn_type="pub", data_interface=Float64MultiArray
+            )
+        node.spin(run_thread=True)
+        spin: Any = None
+    else:
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.experimental import EventsExecutor
+
+        rclpy.init(args=[])
+        raw = Node(f"bench_cpu_{kind}")
+        msg = Float64MultiArray(data=values.tolist())
+        if kind.startswith("pub") or kind == "peer":
+            publisher = raw.create_publisher(Float64MultiArray, "bench_cpu", 10)
+
+            def tick() -> None:
+                msg.data = values.tolist()
+                publisher.publish(msg)
+
+            raw.create_timer(1.0 / rate, tick)
+        elif kind in ("sub_1khz", "pair_1khz"):
+
+            def on_msg(_msg: Any) -> None:
+                counter[0] += 1
+
+            raw.create_subscription(Float64MultiArray, "bench_cpu", on_msg, 10)
+        else:
+            raw.create_subscription(Float64MultiArray, "bench_idle", lambda _m: None, 10)
+            raw.create_publisher(Float64MultiArray, "bench_idle_out", 10)
+        executor = SingleThreadedExecutor() if mode == "ste" else EventsExecutor()
+        executor.add_node(raw)
+        stop = threading.Event()
+
+        def spin_loop() -> None:
+            # EventsExecutor.spin() busy-loops in the 7.1.6 wheel: spin_once with a timeout works.
+            with suppress(Exception):
+                while not stop.is_set():
+                    executor.spin_once(timeout_sec=0.25)
+
+        spin = threading.Thread(target=spin_loop, daemon=True)
+        spin.start()
+    print("READY", flush=True)
+    # Discovery and warm-up; a peer starts first, so it waits a little longer to overlap.
+    time.sleep(2.0 if kind == "peer" else 1.0)
+    wall, cpu, first = time.perf_counter(), time.process_time(), counter[0]
+    time.sleep(window)
+    used = (time.process_time() - cpu) / (time.perf_counter() - wall)
+    print(f"CPU {used:.5f} {counter[0] - first}", flush=True)
+    if kind == "peer":
+        sys.stdin.read()
+    os._exit(0)  # teardown is not what is measured
+
+
+def cpu_case(mode: str, kind: str, window: float) -> tuple[float, int]:
+    """(fraction of a core, messages received) of one case; sub cases get a 1 kHz peer."""
+    peer_mode = None
+    if kind == "sub_1khz":
+        peer_mode = "events"
+    elif kind == "pair_1khz":
+        peer_mode = mode
+    peer: subprocess.Popen[str] | None = None
+    if peer_mode is not None:
+        peer = subprocess.Popen(
+            [sys.executable, "-m", "bench.agents", "--cpu", peer_mode, "peer", str(window)],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
+        assert peer.stdout is not None
+        peer.stdout.readline()
+    try:
+        child = subprocess.run(
+            [sys.executable, "-m", "bench.agents", "--cpu", mode, kind, str(window)],
+            capture_output=True,
+            text=True,
+            timeout=120,
+            check=False,
+        )
+        found = [line for line in child.stdout.splitlines() if line.startswith("CPU ")]
+        if not found:
+            raise RuntimeError(f"cpu case {mode}/{kind} failed: {child.stderr[-2000:]}")
+        _, fraction, messages = found[-1].split()
+        result = (float(fraction), int(messages))
+        if kind == "pair_1khz" and peer is not None:
+            # The publishing node measured itself over about the same window.
+            assert peer.stdout is not None
+            line = peer.stdout.readline().split()
+            if len(line) == 3 and line[0] == "CPU":
+                result = (result[0] + float(line[1]), result[1])
+        return result
+    finally:
+        if peer is not None:
+            with suppress(Exception):
+                assert peer.stdin is not None
+                peer.stdin.close()
+            try:
+                peer.wait(10)
+            except subprocess.TimeoutExpired:
+                peer.kill()
+                peer.wait()
+
+
+def executor_rows(rounds: int, window: float) -> list[tuple[str, dict[str, float], str]]:
+    """Median CPU (% of a core) per case and mode over ``rounds`` interleaved rounds."""
+    found: dict[tuple[str, str], list[float]] = {}
+    for _ in range(rounds):
+        for kind in CPU_KINDS:
+            for mode in CPU_MODES:
+                fraction, _messages = cpu_case(mode, kind, window)
+                found.setdefault((kind, mode), []).append(fraction * 100)
+    titles = {
+        "pub_100hz": "CPU % pub 100 Hz Float64MultiArray(12)",
+        "pub_1khz": "CPU % pub 1 kHz",
+        "sub_1khz": "CPU % sub receiving 1 kHz (other process)",
+        "idle": "CPU % idle node (1 sub, 1 pub)",
+        "pair_1khz": "CPU % two nodes, pub->sub 1 kHz (sum)",
+    }
+    targets = {"idle": "<= 0.3 %"}
+    return [
+        (
+            titles[kind],
+            {mode: statistics.median(found[(kind, mode)]) for mode in CPU_MODES},
+            targets.get(kind, "<= 1.10x events"),
+        )
+        for kind in CPU_KINDS
+    ]
+
+
+def comparison_rows(rounds: int) -> list[Row]:
+    """The earlier table's rows: small-message rate, service round trip, action latency."""
+    rows: list[Row] = []
     with running("blast"):
         raw_rates, pyc_rates = [], []
-        for _ in range(3):
+        for _ in range(rounds):
             raw_rates.append(raw_sub_rate())
             pyc_rates.append(pyconnect_sub_rate())
     raw_wall, pyc_wall = max(rate[0] for rate in raw_rates), max(rate[0] for rate in pyc_rates)
     raw_cpu, pyc_cpu = max(rate[1] for rate in raw_rates), max(rate[1] for rate in pyc_rates)
     rows.append(
-        ("pub->sub msgs per CPU second", raw_cpu, pyc_cpu, f"{pyc_cpu / raw_cpu:.2f}", ">= 0.90")
+        ("pub->sub msgs per CPU second", raw_cpu, None, pyc_cpu, pyc_cpu / raw_cpu, ">= 0.90 STE")
     )
     rows.append(
         (
             "pub->sub msgs per wall second",
             raw_wall,
+            None,
             pyc_wall,
-            f"{pyc_wall / raw_wall:.2f}",
+            pyc_wall / raw_wall,
             "(noisy here)",
         )
     )
     with running("raw_service"):
         best: dict[str, float] = {}
-        for _ in range(4):
+        for _ in range(rounds + 1):
             for name, make in (
                 ("raw", lambda: RawServiceClient(spin_thread=False)),
                 ("pyc", lambda: PyconnectServiceClient(spin_thread=False)),
@@ -333,8 +508,9 @@ def main() -> None:
         (
             "service round trip ms (caller spins)",
             best["raw"] * 1e3,
+            None,
             best["pyc"] * 1e3,
-            f"{best['pyc'] / best['raw']:.2f}",
+            best["pyc"] / best["raw"],
             "<= 1.10",
         )
     )
@@ -342,15 +518,16 @@ def main() -> None:
         (
             "service round trip ms (spin thread)",
             best["raw_thread"] * 1e3,
+            None,
             best["pyc_thread"] * 1e3,
-            f"{best['pyc_thread'] / best['raw_thread']:.2f}",
+            best["pyc_thread"] / best["raw_thread"],
             "<= 1.10",
         )
     )
     # Two interleaved rounds of GOALS goals against fresh servers; each side keeps its round
     # with the faster first 50 goals.
     runs: dict[str, list[list[float]]] = {"raw_action": [], "pyconnect_action": []}
-    for _ in range(2):
+    for _ in range(max(1, rounds - 1)):
         for mode, found in runs.items():
             with running(mode):
                 found.append(action_latencies())
@@ -362,8 +539,9 @@ def main() -> None:
         (
             "action goal->result ms (goals 1-50)",
             first_raw * 1e3,
+            None,
             first_pyc * 1e3,
-            f"{first_pyc / first_raw:.2f}",
+            first_pyc / first_raw,
             "<= 1.10",
         )
     )
@@ -371,8 +549,9 @@ def main() -> None:
         (
             f"action goal->result ms (goals {GOALS - 49}-{GOALS})",
             last_raw * 1e3,
+            None,
             last_pyc * 1e3,
-            f"{last_pyc / last_raw:.2f}",
+            last_pyc / last_raw,
             "flat",
         )
     )
@@ -380,19 +559,60 @@ def main() -> None:
         (
             "action last 50 / first 50",
             last_raw / first_raw,
+            None,
             last_pyc / first_pyc,
-            "",
+            None,
             "pyconnect ~1.0",
         )
     )
-    rows.extend(async_handler_rows())
-    print(f"{'measure':40} {'raw rclpy':>10} {'pyconnect':>10} {'ratio':>6}  target")
-    for name, raw, pyc, ratio, target in rows:
-        print(f"{name:40} {raw:10.3f} {pyc:10.3f} {ratio:>6}  {target}")
-    print(
-        f"({time.perf_counter() - started:.0f} s; raw action server keeps results 900 s, "
-        "pyconnect 0.05 s plus a 60 s cache for late requests)"
+    return rows
+
+
+def main(quick: bool | None = None) -> None:
+    """Print the table; ``quick`` (or ``--quick``, or PYCONNECT_BENCH_QUICK=1): 1 short round."""
+    global WINDOW, CALLS, GOALS
+    if quick is None:
+        quick = "--quick" in sys.argv or os.environ.get("PYCONNECT_BENCH_QUICK") == "1"
+    rounds, cpu_window = (1, 1.5) if quick else (3, 4.0)
+    if quick:
+        WINDOW, CALLS, GOALS = 1.5, 60, 100
+    started = time.perf_counter()
+    rows: list[Row] = []
+    for title, by_mode, target in executor_rows(rounds, cpu_window):
+        events = by_mode["events"]
+        rows.append(
+            (
+                title,
+                by_mode["ste"],
+                events,
+                by_mode["pyconnect"],
+                by_mode["pyconnect"] / events if events > 0 else None,
+                target,
+            )
+        )
+    rows.extend(comparison_rows(rounds))
+    rows.extend(
+        (name, plain, None, coroutine, float(ratio), target)
+        for name, plain, coroutine, ratio, target in async_handler_rows(rounds)
     )
+    print(
+        f"{'measure':44} {'raw STE':>9} {'raw Events':>10} {'pyconnect':>10} {'ratio':>6}  target"
+    )
+    for name, ste, events_value, pyc, ratio, target in rows:
+        print(
+            f"{name:44} {_cell(ste, 9)} {_cell(events_value, 10)} {_cell(pyc, 10)} "
+            f"{_cell(ratio, 6, digits=2)}  {target}"
+        )
+    print(
+        f"({time.perf_counter() - started:.0f} s, {'quick: 1 round' if quick else 'medians of 3 rounds'};"
+        " CPU = process CPU time per wall second, each case in a fresh process; ratio = pyconnect"
+        " / raw EventsExecutor for CPU rows, / raw SingleThreadedExecutor (STE) below them;"
+        " raw action server keeps results 900 s, pyconnect 0.05 s plus a 60 s cache)"
+    )
+
+
+def _cell(value: float | None, width: int, *, digits: int = 3) -> str:
+    return f"{'-':>{width}}" if value is None else f"{value:{width}.{digits}f}"
 
 
 # -- asyncio: async def handlers against plain ones (issue 16's asyncio row) -------------------
@@ -428,11 +648,11 @@ def handler_rate(use_async: bool) -> float:
     return rate
 
 
-def async_handler_rows() -> list[tuple[str, float, float, str, str]]:
+def async_handler_rows(rounds: int = 3) -> list[tuple[str, float, float, str, str]]:
     """One row: plain vs async def handler, messages per CPU second, best of 3 interleaved."""
     with running("blast"):
         plain, coroutine = [], []
-        for _ in range(3):
+        for _ in range(rounds):
             plain.append(handler_rate(use_async=False))
             coroutine.append(handler_rate(use_async=True))
     best_plain, best_async = max(plain), max(coroutine)
@@ -453,5 +673,7 @@ if __name__ == "__main__":
     elif sys.argv[1:] == ["--async"]:  # only the asyncio row
         for name, plain, coroutine, ratio, target in async_handler_rows():
             print(f"{name:40} {plain:10.0f} {coroutine:10.0f} {ratio:>6}  {target}")
+    elif len(sys.argv) == 5 and sys.argv[1] == "--cpu":
+        cpu_child(sys.argv[2], sys.argv[3], float(sys.argv[4]))
     else:
         main()

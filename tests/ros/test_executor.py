@@ -1,4 +1,4 @@
-"""The elastic executor: blocking callbacks hand spinning over, agents do not block each other."""
+"""The agents' executor: EventsExecutor inline, elastic when a callback blocks; order kept."""
 
 from __future__ import annotations
 
@@ -113,3 +113,80 @@ def test_one_agent_handles_its_messages_in_order(make_node: Any) -> None:
     assert done.wait(EVENT_TIMEOUT)
     assert overlaps == []
     assert seen == sorted(seen)
+
+
+def _wait_for_mode(node: Any, mode: str) -> bool:
+    reached = threading.Event()
+    for _ in range(int(EVENT_TIMEOUT / 0.05)):
+        if node.executor.mode == mode:
+            reached.set()
+            break
+        reached.wait(0.05)
+    return reached.is_set()
+
+
+def test_quick_callbacks_run_on_events_executor_and_a_blocking_one_moves_and_returns(
+    make_node: Any,
+) -> None:
+    node = make_node()
+    node.add_agent(
+        conn_name="lookup",
+        conn_type="service_server",
+        data_interface=Trigger,
+        response_func=lambda _request: {"success": True, "message": "ok"},
+    )
+    client = node.add_agent(
+        conn_name="lookup",
+        agent_name="lookup_client",
+        conn_type="service_client",
+        data_interface=Trigger,
+    )
+    answered = threading.Event()
+    seen: list[str] = []
+
+    def on_command(value: str) -> None:
+        seen.append(value)
+        if value == "block":
+            client.send({}, timeout=EVENT_TIMEOUT)
+            answered.set()
+
+    node.add_agent(
+        conn_name="command", conn_type="sub", data_interface=String, response_func=on_command
+    )
+    pub = node.add_agent(
+        conn_name="command", agent_name="out", conn_type="pub", data_interface=String
+    )
+    node.spin(run_thread=True)
+    assert node.executor.mode == "events"
+    got_quick = threading.Event()
+    assert repeat_until(got_quick, lambda: (pub.send("quick"), seen and got_quick.set()))
+    assert repeat_until(answered, lambda: pub.send("block"))
+    assert node.executor.handoffs >= 1
+    # Calm again: back on EventsExecutor, and messages still arrive there.
+    assert _wait_for_mode(node, "events")
+    count = len(seen)
+    later = threading.Event()
+    assert repeat_until(later, lambda: (pub.send("after"), len(seen) > count and later.set()))
+
+
+def test_a_node_with_an_action_agent_uses_the_elastic_executor(make_node: Any) -> None:
+    from test_msgs.action import Fibonacci
+
+    node = make_node()
+    assert node.executor.mode == "events"
+    node.add_agent(
+        conn_name="fib",
+        conn_type="action_server",
+        data_interface=Fibonacci,
+        response_func=lambda _goal: {"sequence": [1]},
+    )
+    assert node.executor.mode == "elastic"
+    client = node.add_agent(
+        conn_name="fib",
+        agent_name="fib_client",
+        conn_type="action_client",
+        data_interface=Fibonacci,
+        timeout=EVENT_TIMEOUT,
+    )
+    node.spin(run_thread=True)
+    assert client.send({"order": 1}) == {"sequence": [1], "isdone": True}

@@ -1,8 +1,8 @@
 """``CustomNode``: one ROS node holding a robot program's agents, with one API to run and stop it.
 
 A ``CustomNode`` *is* an ``rclpy.node.Node`` (parameters, clock, ``get_logger``, ``create_*``
-all work on it, as the design promises); it also owns an ``ElasticExecutor``
-(pyconnect.ros.executor), a coroutine runner for ``async def`` handlers
+all work on it, as the design promises); it also owns an ``AgentExecutor``
+(pyconnect.ros.agent_executor), a coroutine runner for ``async def`` handlers
 (pyconnect.ros.coroutines) and the agents made by ``add_agent``. ``spin(run_thread=True)``
 spins in a daemon thread; ``spin()`` (or ``listen()``) blocks until shutdown. Shutdown —
 ``shutdown()``, leaving ``with``, Ctrl-C, SIGTERM or interpreter exit — runs ``stop_func`` once
@@ -38,10 +38,11 @@ from rclpy.signals import SignalHandlerOptions
 from pyconnect.codecs.registry import Registry, default_registry
 from pyconnect.errors import ConnectionTimeout, PyconnectError
 from pyconnect.record.log_dirs import safe_path_component
+from pyconnect.ros.agent_executor import AgentExecutor
 from pyconnect.ros.agent_factory import make_agent, shared_options_for
 from pyconnect.ros.agent_options import AgentOptions
 from pyconnect.ros.coroutines import CoroutineRunner
-from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER, ElasticExecutor
+from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.recording import Recording
 from pyconnect.ros.shutdown import ShutdownHooks
@@ -111,7 +112,7 @@ class CustomNode(Node):  # type: ignore[misc]
             allow_undeclared_parameters=True,
             automatically_declare_parameters_from_overrides=True,
         )
-        self._executor = ElasticExecutor(
+        self._executor = AgentExecutor(
             context=context, handoff_after=handoff_after, on_error=self._on_executor_error
         )
         # Also sets rclpy's ``Node.executor`` (a weak reference; ``_executor`` keeps it alive).
@@ -190,7 +191,9 @@ class CustomNode(Node):  # type: ignore[misc]
                 )
             agent = make_agent(self, given)
             self.agents[agent.name] = agent
-            return agent
+        # Wraps the new entities' callbacks (the executor watches for long ones).
+        self._executor.adopt(self)
+        return agent
 
     def add_agents(
         self, configs: Iterable[Mapping[str, Any]], **shared_options: Unpack[AgentOptions]

@@ -75,12 +75,24 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
         self._monitor: threading.Thread | None = None
         self._monitor_stop = threading.Event()
         self._waker = _DeadlineWaker(self.wake)
+        self._running = 0
+        self._last_handoff = time.monotonic()
 
     # -- public --------------------------------------------------------------------------------
     @property
     def is_spinning(self) -> bool:
         """True while some thread runs ``spin()``."""
         return self._spinners > 0 and not self._stopping
+
+    @property
+    def is_stopping(self) -> bool:
+        """True once ``stop()`` was called (spinning ends, never restarts)."""
+        return self._stopping
+
+    def is_calm(self, seconds: float) -> bool:
+        """True when no callback runs and no hand-off happened for ``seconds``."""
+        with self._turn:
+            return self._running == 0 and time.monotonic() - self._last_handoff >= seconds
 
     def spin(self) -> None:
         """Run callbacks in this thread (and helpers, when one blocks) until ``stop()``."""
@@ -190,8 +202,11 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
             while self._owner is not None and not self._stopping:
                 if helper and self._idle >= _STANDBY_LIMIT:
                     return False
+                if condition is not None and self._spinners > 0:
+                    # A spin() started meanwhile: the caller waits for its event instead.
+                    return True
                 self._idle += 1
-                self._turn.wait()
+                self._turn.wait(None if condition is None else 0.25)
                 self._idle -= 1
             if self._stopping:
                 return False
@@ -212,7 +227,13 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
                 return False
             # Read by the monitor without the lock: a stale value only costs a spare hand-off.
             self._busy_since = time.monotonic()
-            handler()
+            with self._turn:
+                self._running += 1
+            try:
+                handler()
+            finally:
+                with self._turn:
+                    self._running -= 1
             error = handler.exception()
             if error is not None:
                 self._report(error)
@@ -231,6 +252,7 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
                 return
             self._owner = None
             self._busy_since = None
+            self._last_handoff = time.monotonic()
             if self._idle == 0:
                 helper = threading.Thread(
                     target=self._helper_loop, name="pyconnect-executor-helper", daemon=True

@@ -1,0 +1,481 @@
+"""The agents' executor: rclpy's C++ ``EventsExecutor`` while callbacks are quick, elastic when not.
+
+Why: the cost of a Python wait-set executor (``SingleThreadedExecutor``, and the
+``ElasticExecutor`` built on it) is 2-3x that of ``rclpy.experimental.EventsExecutor`` for a
+timer or a subscription at 100 Hz-1 kHz (bench/agents.py). But ``EventsExecutor`` runs every
+callback inline under one C++ mutex: a callback that blocks (a ``response_func`` calling a
+blocking ``send()``, rclpy#1398) deadlocks it, and a slow one stops every other agent.
+
+So the node lives on an ``EventsExecutor`` (driven by ``spin_once(timeout_sec=...)``: its
+``spin()`` busy-loops and never fires timers in the 7.1.6 wheel) and callbacks run inline on the
+one dispatching thread. When a callback blocks — it calls ``wait_for`` (a blocking ``send()``), or
+a monitor sees it still running after ``handoff_after`` seconds — the node moves, while that
+callback goes on, to a fresh ``ElasticExecutor`` (pyconnect.ros.executor) spinning on another
+thread: the blocked callback gets its response and the other agents keep running. The callback
+group of the callback that was running stays held until it returns, so an agent never runs two
+of its callbacks at once. Once the elastic executor has been calm for ``CALM_AFTER`` seconds (no
+callback running, no hand-off), the node moves back to a new ``EventsExecutor``.
+
+The monitor costs nothing while the node is idle: it parks until a callback starts, ticks every
+``handoff_after`` while callbacks keep coming, and otherwise checks every ``IDLE_TICK`` seconds
+whether the dispatching thread still returns (an action goal, which is not wrapped, counts).
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import contextlib
+import inspect
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+from rclpy.action import ActionClient, ActionServer
+from rclpy.context import Context
+from rclpy.executors import ExternalShutdownException, ShutdownException
+from rclpy.experimental import EventsExecutor
+from rclpy.node import Node
+from rclpy.task import Future
+
+from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER, ElasticExecutor
+
+IDLE_TICK = 0.25
+"""Seconds between the dispatching thread's returns while idle (it notices ``stop()`` then)."""
+
+CALM_AFTER = 1.0
+"""Seconds without a running callback or a hand-off before the node returns to EventsExecutor."""
+
+_WRAPPED = "_pyconnect_wrapped"
+
+
+class AgentExecutor:
+    """Runs one node's callbacks: inline on ``EventsExecutor``, elastic when one blocks.
+
+    The API is the part of rclpy's ``Executor`` that ``CustomNode`` and the agents use, plus
+    ``wait_for(event)``: wait, from any thread, for something a callback will do.
+    """
+
+    def __init__(
+        self,
+        *,
+        context: Context,
+        handoff_after: float = DEFAULT_HANDOFF_AFTER,
+        on_error: Callable[[BaseException], None] | None = None,
+    ) -> None:
+        self.context = context
+        self._handoff_after = handoff_after
+        self._on_error = on_error
+        self._nodes: list[Node] = []
+        self._lock = threading.Lock()
+        self._events: Any = self._new_events()
+        self._elastic: ElasticExecutor | None = None
+        self._elastic_thread: threading.Thread | None = None
+        self._retired: list[Any] = []
+        self._stopping = False
+        self._stopped = threading.Event()
+        self._dispatcher: int | None = None
+        self._spinning = False
+        # What the wrapped callback on the dispatching thread is doing (read by the monitor).
+        self._seq = 0
+        self._running: tuple[Any, Any] | None = None
+        self._held: tuple[Any, Any] | None = None
+        self._returns = 0
+        self._monitor: threading.Thread | None = None
+        self._monitor_wake = threading.Event()
+        self._monitor_parked = False
+        self.handoffs = 0
+        """How many times the node moved to the elastic executor (tests and diagnostics)."""
+
+    # -- nodes ---------------------------------------------------------------------------------
+    def add_node(self, node: Node) -> bool:
+        with self._lock:
+            if node in self._nodes:
+                return False
+            self._nodes.append(node)
+            target = self._elastic if self._elastic is not None else self._events
+        node.executor = target
+        self.adopt(node)
+        return True
+
+    def remove_node(self, node: Node) -> None:
+        with self._lock:
+            if node not in self._nodes:
+                return
+            self._nodes.remove(node)
+            target = self._elastic if self._elastic is not None else self._events
+        target.remove_node(node)
+        if target is self._events and not self._spinning:
+            # Unregisters the entities' listeners now, while they still exist.
+            with contextlib.suppress(Exception):
+                self._events.shutdown(timeout_sec=1.0)
+            self._events = self._new_events()
+            for other in self._nodes:
+                other.executor = self._events
+
+    def get_nodes(self) -> list[Node]:
+        return list(self._nodes)
+
+    def adopt(self, node: Node | None = None) -> None:
+        """Wrap the callbacks of entities created since the last call (cheap; call after adding).
+
+        The wrapper tells the monitor which callback runs and since when; the first messages of
+        an entity created while spinning may run before it is wrapped, which only delays their
+        hand-off to the idle check.
+        """
+        for each in [node] if node is not None else list(self._nodes):
+            for subscription in list(each.subscriptions):
+                if not getattr(subscription.callback, _WRAPPED, False):
+                    subscription.callback = self._wrap(
+                        subscription.callback, subscription.callback_group, subscription
+                    )
+            for service in list(each.services):
+                if not getattr(service.callback, _WRAPPED, False):
+                    service.callback = self._wrap(service.callback, service.callback_group, service)
+            for timer in list(each.timers):
+                if not getattr(timer.callback, _WRAPPED, False):
+                    timer.callback = self._wrap_timer(timer.callback, timer.callback_group, timer)
+        if self._elastic is None and self._has_actions():
+            self._go_elastic()
+
+    # -- spinning ------------------------------------------------------------------------------
+    @property
+    def mode(self) -> str:
+        """``'events'`` (EventsExecutor, callbacks inline) or ``'elastic'`` (after a block)."""
+        return "events" if self._elastic is None else "elastic"
+
+    @property
+    def is_spinning(self) -> bool:
+        """True while ``spin()`` runs in some thread."""
+        return self._spinning and not self._stopping
+
+    def spin(self) -> None:
+        """Run callbacks until ``stop()`` or shutdown (in this thread, and others when needed)."""
+        with self._lock:
+            if self._spinning:
+                raise RuntimeError("AgentExecutor.spin() is already running")
+            self._spinning = True
+            self._dispatcher = threading.get_ident()
+        self.adopt()
+        self._start_monitor()
+        try:
+            while not self._stopping:
+                if self._elastic is not None:
+                    self._supervise_elastic()
+                    continue
+                events = self._events
+                try:
+                    events.spin_once(timeout_sec=IDLE_TICK)
+                except (ShutdownException, ExternalShutdownException):
+                    self._stopping = True
+                except Exception as error:
+                    self._report(error)
+                self._returns += 1
+                if events is not self._events or self._elastic is not None:
+                    self._retire(events)
+        finally:
+            with self._lock:
+                self._spinning = False
+                self._dispatcher = None
+
+    def spin_once(self, timeout_sec: float | None = None) -> None:
+        """Run at most one callback in this thread (rclpy's executor API)."""
+        elastic = self._elastic
+        if elastic is not None:
+            elastic.spin_once(timeout_sec)
+            return
+        with self._lock:
+            if self._dispatcher is not None:
+                # Someone dispatches already: just let time pass.
+                dispatching = True
+            else:
+                dispatching = False
+                self._dispatcher = threading.get_ident()
+        if dispatching:
+            self._stopped.wait(timeout_sec or 0.0)
+            return
+        events = self._events
+        try:
+            events.spin_once(timeout_sec=timeout_sec)
+        except (ShutdownException, ExternalShutdownException):
+            pass
+        finally:
+            with self._lock:
+                self._dispatcher = None
+            if events is not self._events or self._elastic is not None:
+                self._retire(events)
+
+    def spin_until_future_complete(self, future: Future, timeout_sec: float | None = None) -> None:
+        """Spin, or wait for the spinning thread, until ``future`` is done (rclpy's API)."""
+        done = threading.Event()
+        future.add_done_callback(lambda _future: done.set())
+        if not future.done():
+            self.wait_for(done, timeout_sec, poll=future.done)
+
+    def wait_for(
+        self,
+        event: threading.Event,
+        timeout_sec: float | None,
+        *,
+        poll: Callable[[], bool] | None = None,
+    ) -> bool:
+        """Wait until ``event`` is set by a callback; True if it was, False on timeout.
+
+        Inside a callback on the dispatching thread this first moves the node to the elastic
+        executor, so the callback that sets ``event`` can run; when nothing spins, this thread
+        spins until ``event`` is set.
+        """
+        finished = poll if poll is not None else event.is_set
+        deadline = None if timeout_sec is None else time.monotonic() + timeout_sec
+        me = threading.get_ident()
+        while not event.is_set() and not finished():
+            remaining = None if deadline is None else deadline - time.monotonic()
+            if remaining is not None and remaining <= 0:
+                return False
+            step = IDLE_TICK if remaining is None else min(remaining, IDLE_TICK)
+            if self._dispatcher == me and self._elastic is None:
+                self._go_elastic()
+            elastic = self._elastic
+            if elastic is not None:
+                if elastic.wait_for(event, step, poll=poll):
+                    return True
+                if elastic.is_stopping:
+                    # The node is moving back to EventsExecutor: wait for the move to end.
+                    event.wait(min(step, 0.01))
+            elif self._stopping:
+                return event.is_set() or finished()
+            elif self._dispatcher is not None:
+                event.wait(step)
+            else:
+                self.spin_once(timeout_sec=step)
+        return True
+
+    def wake(self) -> None:
+        """Make the executor notice new entities (rclpy's API)."""
+        elastic = self._elastic
+        if elastic is not None:
+            elastic.wake()
+        else:
+            self._events.wake()
+
+    def stop(self) -> None:
+        """Make ``spin()`` return; callbacks in progress finish on their own threads."""
+        self._stopping = True
+        self._stopped.set()
+        self._monitor_wake.set()
+        elastic = self._elastic
+        if elastic is not None:
+            elastic.stop()
+        # A task is a "user callback": it ends the dispatcher's spin_once at once.
+        with contextlib.suppress(Exception):
+            self._events.create_task(_nothing)
+
+    def join(self, timeout_sec: float | None = None) -> None:
+        """Wait for the monitor and the elastic executor's threads to end (after ``stop()``)."""
+        current = threading.current_thread()
+        for thread in (self._monitor, self._elastic_thread):
+            if thread is not None and thread is not current and thread.is_alive():
+                thread.join(timeout_sec)
+        elastic = self._elastic
+        if elastic is not None:
+            elastic.join(timeout_sec)
+
+    def shutdown(self, timeout_sec: float | None = None) -> bool:
+        self.stop()
+        self.join(timeout_sec)
+        elastic = self._elastic
+        if elastic is not None:
+            elastic.shutdown(timeout_sec)
+        with contextlib.suppress(Exception):
+            self._events.shutdown(timeout_sec=timeout_sec)
+        for events in self._retired:
+            with contextlib.suppress(Exception):
+                events.shutdown(timeout_sec=0.0)
+        self._retired.clear()
+        return True
+
+    # -- wrapping ------------------------------------------------------------------------------
+    def _wrap(self, callback: Callable[..., Any], group: Any, entity: Any) -> Callable[..., Any]:
+        lock = self._lock
+
+        def run(*args: Any) -> Any:
+            self._seq += 1
+            self._running = (group, entity)
+            if self._monitor_parked:
+                self._monitor_wake.set()
+            try:
+                return callback(*args)
+            finally:
+                with lock:
+                    self._running = None
+                    held, self._held = self._held, None
+                if held is not None:
+                    held[0].ending_execution(held[1])
+
+        setattr(run, _WRAPPED, True)
+        return run
+
+    def _wrap_timer(
+        self, callback: Callable[..., Any], group: Any, entity: Any
+    ) -> Callable[..., Any]:
+        wrapped = self._wrap(callback, group, entity)
+        # EventsExecutor passes a TimerInfo only to callbacks that take an argument.
+        if inspect.signature(callback).parameters:
+            return wrapped
+
+        def tick() -> Any:
+            return wrapped()
+
+        setattr(tick, _WRAPPED, True)
+        return tick
+
+    # -- moving between executors --------------------------------------------------------------
+    def _go_elastic(self) -> None:
+        """Move the nodes to a fresh ElasticExecutor spinning on its own thread."""
+        with self._lock:
+            if self._elastic is not None or self._stopping:
+                return
+            running = self._running
+            if running is not None and self._held is None:
+                group, entity = running
+                # Keep the running callback's agent from starting another callback meanwhile.
+                if group.beginning_execution(entity):
+                    self._held = running
+            elastic = ElasticExecutor(
+                context=self.context, handoff_after=self._handoff_after, on_error=self._on_error
+            )
+            self._elastic = elastic
+            self.handoffs += 1
+            nodes = list(self._nodes)
+        for node in nodes:
+            node.executor = elastic
+        if self._spinning:
+            self._start_elastic_thread()
+
+    def _start_elastic_thread(self) -> None:
+        with self._lock:
+            elastic = self._elastic
+            if elastic is None or self._elastic_thread is not None:
+                return
+            self._elastic_thread = threading.Thread(
+                target=self._spin_elastic,
+                args=(elastic,),
+                name="pyconnect-executor-elastic",
+                daemon=True,
+            )
+            self._elastic_thread.start()
+
+    def _spin_elastic(self, elastic: ElasticExecutor) -> None:
+        try:
+            elastic.spin()
+        except (ShutdownException, ExternalShutdownException):
+            self._stopping = True
+        except Exception as error:
+            self._report(error)
+
+    def _retire(self, events: Any) -> None:
+        """Drop an EventsExecutor the nodes left while one of its callbacks ran (never reused)."""
+        # Its queued events are stale: the messages are still in the middleware's queues and the
+        # new executor takes them. Shutting it down unregisters its timers and listeners.
+        with contextlib.suppress(Exception):
+            events.shutdown(timeout_sec=1.0)
+
+    def _supervise_elastic(self) -> None:
+        """On the dispatching thread while elastic: return to EventsExecutor once calm."""
+        elastic = self._elastic
+        if elastic is None:
+            return
+        self._start_elastic_thread()
+        if self._stopped.wait(IDLE_TICK) or self._has_actions():
+            return
+        if not elastic.is_calm(CALM_AFTER):
+            return
+        with self._lock:
+            if self._held is not None or self._stopping:
+                return
+            events = self._new_events()
+        elastic.stop()
+        thread = self._elastic_thread
+        if thread is not None:
+            thread.join()
+        elastic.join()
+        with self._lock:
+            self._events = events
+            self._elastic = None
+            self._elastic_thread = None
+            nodes = list(self._nodes)
+        for node in nodes:
+            node.executor = events
+        self.adopt()
+
+    def _has_actions(self) -> bool:
+        # Action servers and clients stay on the elastic executor: their futures and goal tasks
+        # are bound to the executor that made them and would be stranded by a move.
+        return any(
+            isinstance(waitable, (ActionServer, ActionClient))
+            for node in list(self._nodes)
+            for waitable in node.waitables
+        )
+
+    def _new_events(self) -> Any:
+        return EventsExecutor(context=self.context)
+
+    # -- the monitor ---------------------------------------------------------------------------
+    def _start_monitor(self) -> None:
+        with self._lock:
+            if self._monitor is not None and self._monitor.is_alive():
+                return
+            self._monitor = threading.Thread(
+                target=self._monitor_loop, name="pyconnect-executor-monitor", daemon=True
+            )
+            self._monitor.start()
+
+    def _monitor_loop(self) -> None:
+        """Move to the elastic executor when the dispatching thread is stuck in a callback."""
+        last_seq, last_returns, quiet, ticking = self._seq, self._returns, 0, True
+        while not self._stopping:
+            started = time.monotonic()
+            if ticking:
+                self._monitor_wake.wait(self._handoff_after)
+            else:
+                # Parked: a wrapped callback wakes us; the idle tick catches unwrapped ones.
+                self._monitor_parked = True
+                self._monitor_wake.wait(IDLE_TICK * 2)
+                self._monitor_parked = False
+            self._monitor_wake.clear()
+            if self._stopping:
+                return
+            waited = time.monotonic() - started
+            seq, running, returns = self._seq, self._running, self._returns
+            if self._elastic is None and self._dispatcher is not None:
+                # The same callback (same sequence number) ran through a whole tick.
+                stuck_in_wrapped = (
+                    ticking
+                    and running is not None
+                    and seq == last_seq
+                    and waited >= self._handoff_after
+                )
+                # While idle the dispatcher returns every IDLE_TICK; twice silent means stuck.
+                stuck_unwrapped = (
+                    not ticking and running is None and returns == last_returns and self._spinning
+                )
+                quiet = quiet + 1 if stuck_unwrapped else 0
+                if stuck_in_wrapped or quiet >= 2:
+                    self._go_elastic()
+                    quiet = 0
+            ticking = running is not None or seq != last_seq
+            last_seq, last_returns = seq, returns
+
+    def _report(self, error: BaseException) -> None:
+        if self._on_error is not None:
+            self._on_error(error)
+        else:
+            import traceback
+
+            traceback.print_exception(error)
+
+
+def _nothing() -> None:
+    """A task that only ends a ``spin_once``."""
