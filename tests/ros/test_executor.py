@@ -118,7 +118,7 @@ def test_one_agent_handles_its_messages_in_order(make_node: Any) -> None:
 def _wait_for_mode(node: Any, mode: str) -> bool:
     reached = threading.Event()
     for _ in range(int(EVENT_TIMEOUT / 0.05)):
-        if node.executor.mode == mode:
+        if node._executor.mode == mode:
             reached.set()
             break
         reached.wait(0.05)
@@ -157,11 +157,11 @@ def test_quick_callbacks_run_on_events_executor_and_a_blocking_one_moves_and_ret
         conn_name="command", agent_name="out", conn_type="pub", data_interface=String
     )
     node.spin(run_thread=True)
-    assert node.executor.mode == "events"
+    assert node._executor.mode == "events"
     got_quick = threading.Event()
     assert repeat_until(got_quick, lambda: (pub.send("quick"), seen and got_quick.set()))
     assert repeat_until(answered, lambda: pub.send("block"))
-    assert node.executor.handoffs >= 1
+    assert node._executor.handoffs >= 1
     # Calm again: back on EventsExecutor, and messages still arrive there.
     assert _wait_for_mode(node, "events")
     count = len(seen)
@@ -173,14 +173,14 @@ def test_a_node_with_an_action_agent_uses_the_elastic_executor(make_node: Any) -
     from test_msgs.action import Fibonacci
 
     node = make_node()
-    assert node.executor.mode == "events"
+    assert node._executor.mode == "events"
     node.add_agent(
         conn_name="fib",
         conn_type="action_server",
         data_interface=Fibonacci,
         response_func=lambda _goal: {"sequence": [1]},
     )
-    assert node.executor.mode == "elastic"
+    assert node._executor.mode == "elastic"
     client = node.add_agent(
         conn_name="fib",
         agent_name="fib_client",
