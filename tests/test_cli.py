@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import base64
 import json
+import os
+import stat
 from pathlib import Path
 
 import numpy as np
@@ -39,9 +42,12 @@ def test_info(bag: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["bag", "info", str(bag)]) == 0
     out, err = capsys.readouterr()
     assert err == ""
+    size = (bag / "bag_0.mcap").stat().st_size
     assert out.splitlines() == [
         f"path:      {bag}",
         "storage:   mcap (1 file)",
+        f"  bag_0.mcap  {size / 1024:.1f} KiB",
+        f"size:      {size / 1024:.1f} KiB",
         "messages:  7",
         "start:     1970-01-01 00:00:01.000000000 UTC (1.000000000)",
         "end:       1970-01-01 00:00:02.000000001 UTC (2.000000001)",
@@ -49,17 +55,70 @@ def test_info(bag: Path, capsys: pytest.CaptureFixture[str]) -> None:
         "topics:    2",
         "  /camera   sensor_msgs/msg/Image  2 msgs  cdr",
         "  /chatter  std_msgs/msg/String    5 msgs  cdr",
+        "services:  0",
     ]
 
 
-def test_echo_topic_and_limit(bag: Path, capsys: pytest.CaptureFixture[str]) -> None:
+def test_info_lists_services_apart(capsys: pytest.CaptureFixture[str]) -> None:
+    from tests.record.bag_samples import BAGS
+
+    bag = (
+        BAGS / "ros2_rosbag2_jazzy/rosbag2_tests/resources/mcap/bag_with_topics_and_service_events"
+    )
+    assert main(["bag", "info", str(bag)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[lines.index("services:  2") + 1 :] == [
+        "  /test_service1/_service_event  test_msgs/srv/BasicTypes_Event  4 events  cdr",
+        "  /test_service2/_service_event  test_msgs/srv/BasicTypes_Event  4 events  cdr",
+    ]
+
+
+def test_echo_yaml_topic_and_limit(bag: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["bag", "echo", str(bag), "--topic", "/chatter", "--limit", "2"]) == 0
     assert capsys.readouterr().out.splitlines() == [
-        "/chatter 1.000000000 'hi 0'",
-        "/chatter 1.000000001 'hi 1'",
+        "# /chatter 1.000000000 std_msgs/msg/String",
+        "hi 0",
+        "---",
+        "# /chatter 1.000000001 std_msgs/msg/String",
+        "hi 1",
+        "---",
     ]
     assert main(["bag", "echo", str(bag), "--topic", "/chatter", "--limit", "1", "--dict"]) == 0
-    assert capsys.readouterr().out.splitlines() == ["/chatter 1.000000000 {'data': 'hi 0'}"]
+    assert capsys.readouterr().out.splitlines() == [
+        "# /chatter 1.000000000 std_msgs/msg/String",
+        "data: hi 0",
+        "---",
+    ]
+
+
+def test_echo_json_lines(bag: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["bag", "echo", str(bag), "--json", "--limit", "1"]) == 0
+    assert [json.loads(line) for line in capsys.readouterr().out.splitlines()] == [
+        {"topic": "/chatter", "log_time_ns": 1_000_000_000, "msg_type": "std_msgs/msg/String",
+         "value": "hi 0"}
+    ]  # fmt: skip
+    assert main(["bag", "echo", str(bag), "--json", "--topic", "/camera", "--dict"]) == 0
+    first = json.loads(capsys.readouterr().out.splitlines()[0])
+    assert first["value"]["data"] == base64.b64encode(bytes(range(6))).decode()
+    assert (first["value"]["height"], first["value"]["width"]) == (2, 3)
+
+
+def test_echo_field_and_time_window(bag: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    argv = ["bag", "echo", str(bag), "--json", "--field", "height", "--topic", "/camera"]
+    assert main(argv) == 0
+    assert [json.loads(line)["value"] for line in capsys.readouterr().out.splitlines()] == [2, 2]
+    # --start/--end in seconds: absolute, or an offset from the bag's start when smaller
+    argv = ["bag", "echo", str(bag), "--json", "--field", "data", "--topic", "/chatter"]
+    assert main([*argv, "--start", "1.000000002", "--end", "1.000000003"]) == 0
+    values = [json.loads(line)["value"] for line in capsys.readouterr().out.splitlines()]
+    assert values == ["hi 2", "hi 3"]
+    assert main([*argv, "--start", "0.000000004"]) == 0
+    values = [json.loads(line)["value"] for line in capsys.readouterr().out.splitlines()]
+    assert values == ["hi 4"]
+    assert main([*argv[:-2], "--field", "nope"]) == 2
+    assert capsys.readouterr().err == (
+        "pyconnect: error: --field nope: /chatter: no field 'nope' in the message (fields: data)\n"
+    )
 
 
 def test_echo_summarises_arrays() -> None:
@@ -86,6 +145,77 @@ def test_export(bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     )
     names = sorted(p.name for p in (tmp_path / "img").iterdir())
     assert names == ["000000_2000000000.png", "000001_2000000001.png"]
+
+
+def test_export_honours_the_umask(bag: Path, tmp_path: Path) -> None:
+    old = os.umask(0o027)
+    try:
+        argv = ["bag", "export", str(bag), "--topic", "/chatter", "--topic", "/camera"]
+        assert main([*argv, "--to", str(tmp_path / "out")]) == 0
+    finally:
+        os.umask(old)
+    modes = {p.name: stat.S_IMODE(p.stat().st_mode) for p in (tmp_path / "out").rglob("*.*")}
+    assert modes == {
+        "messages.jsonl": 0o640,
+        "000000_2000000000.png": 0o640,
+        "000001_2000000001.png": 0o640,
+    }
+
+
+def test_export_several_topics_and_refuse_to_overwrite(
+    bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "out"
+    argv = [
+        "bag",
+        "export",
+        str(bag),
+        "--topic",
+        "/chatter",
+        "--topic",
+        "/camera",
+        "--to",
+        str(out),
+    ]
+    assert main(argv) == 0
+    assert capsys.readouterr().out.splitlines() == [
+        f"/chatter: 5 message(s) to {out / 'chatter'}: 5 jsonl",
+        f"/camera: 2 message(s) to {out / 'camera'}: 2 png",
+    ]
+    assert main(argv) == 2
+    assert capsys.readouterr().err == (
+        f"pyconnect: error: {out / 'chatter'}: already holds an export (messages.jsonl); "
+        "use force=True (--force) to overwrite it\n"
+    )
+    (out / "camera" / "000007_1.png").write_bytes(b"stale")
+    assert main([*argv, "--force"]) == 0
+    assert sorted(p.name for p in (out / "camera").iterdir()) == [
+        "000000_2000000000.png",
+        "000001_2000000001.png",
+    ]
+
+
+def test_damaged_bag_exits_1_unless_told_to_go_on(
+    bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    cut = tmp_path / "cut.mcap"
+    data = (bag / "bag_0.mcap").read_bytes()
+    cut.write_bytes(data[: len(data) - 100])  # inside the summary: the messages are intact
+    for action in (
+        ["info"],
+        ["echo"],
+        ["export", "--topic", "/chatter", "--to", str(tmp_path / "x")],
+    ):
+        assert main(["bag", action[0], str(cut), *action[1:]]) == 1, action
+        err = capsys.readouterr().err
+        assert err.startswith(
+            f"pyconnect: {cut}: damaged bag: {cut} at byte {len(data) - 100}: the file is cut short"
+        )
+        argv = ["bag", action[0], str(cut), *action[1:], "--ignore-damage"]
+        if action[0] == "export":
+            argv.append("--force")
+        assert main(argv) == 0, action
+        assert "damaged bag" in capsys.readouterr().err
 
 
 @pytest.mark.parametrize(
@@ -132,7 +262,7 @@ def test_undecodable_messages_give_status_1(
         recorder.write("/chatter", bytes(serialize_message(String(data="ok"))), log_time_ns=2)
     assert main(["bag", "echo", str(tmp_path / "bag")]) == 1
     out, err = capsys.readouterr()
-    assert out == "/chatter 0.000000002 'ok'\n"
+    assert out == "# /chatter 0.000000002 std_msgs/msg/String\nok\n---\n"
     assert err.startswith("pyconnect: 1 message(s) not decoded; first: /chatter[0]: ")
     assert err.count("\n") == 1
 

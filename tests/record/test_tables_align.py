@@ -118,7 +118,9 @@ def test_three_topics_need_all_within_the_tolerance() -> None:
 def test_bad_arguments_are_errors(bag: Path) -> None:
     with pytest.raises(ValueError) as raised:
         next(align(bag, ["/joint_states"], tolerance=0.02))
-    assert str(raised.value) == "topics: expected two or more different topics, got ['/joint_states']"
+    assert (
+        str(raised.value) == "topics: expected two or more different topics, got ['/joint_states']"
+    )
     with pytest.raises(ValueError) as raised:
         next(align(bag, ["/a", "/b"], tolerance=0))
     assert str(raised.value) == "tolerance: expected seconds > 0, got 0"

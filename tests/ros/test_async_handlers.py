@@ -60,8 +60,7 @@ def test_async_sub_handler_runs_in_order_and_its_errors_are_reported(make_node: 
     assert seen == ["a", "b", "c"]
     assert sub.error_count == 1
     assert sub.last_error == (
-        "agent 'words' (sub std_msgs/msg/String): response_func raised ValueError: "
-        "cannot use 'bad'"
+        "agent 'words' (sub std_msgs/msg/String): response_func raised ValueError: cannot use 'bad'"
     )
 
 
@@ -181,9 +180,7 @@ def test_async_action_handlers_plain_and_generator(make_node: Any) -> None:
     assert steps_client.send({"order": 3}) == {"sequence": [0, 1, 2], "isdone": True}
 
 
-def test_send_async_from_a_users_loop(
-    make_node: Any, user_loop: asyncio.AbstractEventLoop
-) -> None:
+def test_send_async_from_a_users_loop(make_node: Any, user_loop: asyncio.AbstractEventLoop) -> None:
     node = make_node()
     node.add_agent(
         conn_name="ping", conn_type="service_server", data_interface=Trigger,

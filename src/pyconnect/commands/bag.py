@@ -1,7 +1,8 @@
 """``pyconnect bag info|echo|export``: read rosbag2 bags (MCAP or sqlite3) without ROS.
 
-Exit status: 0 on success, 1 when some messages could not be decoded (each summarised on
-stderr, the rest still printed or exported), 2 on an error (one line on stderr).
+Exit status: 0 on success; 1 when some messages could not be decoded or the bag is damaged
+(each summarised on stderr, every intact message still printed or exported; ``--ignore-damage``
+makes damage alone exit 0); 2 on an error (one line on stderr).
 """
 
 from __future__ import annotations
@@ -12,45 +13,61 @@ from datetime import datetime, timezone
 from typing import TYPE_CHECKING, Any, TextIO
 
 from pyconnect.commands.common import Parser, UsageError
-from pyconnect.commands.value_text import format_value
+from pyconnect.commands.value_text import field_of, format_value, to_json, to_yaml
 
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
+    from pyconnect.record.bag_info import BagInfo
 
-__all__ = ["PROGRAM", "register"]
+__all__ = ["PROGRAM", "format_value", "print_info", "register", "seconds_to_ns"]
 
 PROGRAM = "pyconnect"
+_PATH_HELP = "bag directory, .mcap or .db3 file"
+_DAMAGE_HELP = "exit 0 on a damaged bag (the damage is still reported on stderr)"
 
 
 def register(commands: Subcommands) -> Subcommands:
     """Add ``bag`` and its actions to ``commands`` (the ``pyconnect`` subparsers).
 
-    Returns the ``bag`` parser's subparsers holder so that other modules can add actions
-    (``bag record``, ``bag play``) beside these.
+    Returns the ``bag`` actions' subparsers so that other modules can add actions beside these
+    (``bag record``, ``bag play``).
     """
     bag = commands.add_parser("bag", help="read rosbag2 bags (MCAP or sqlite3)")
     actions = bag.add_subparsers(dest="action", required=True, parser_class=Parser)
 
-    info = actions.add_parser("info", help="topics, types, counts and duration")
-    info.add_argument("path", help="bag directory, .mcap or .db3 file")
+    info = actions.add_parser("info", help="files, size, duration, topics and services")
+    info.add_argument("path", help=_PATH_HELP)
+    info.add_argument("--ignore-damage", action="store_true", help=_DAMAGE_HELP)
     info.set_defaults(run=_info)
 
-    echo = actions.add_parser("echo", help="print decoded messages")
-    echo.add_argument("path", help="bag directory, .mcap or .db3 file")
+    echo = actions.add_parser("echo", help="print messages (YAML like `ros2 topic echo`)")
+    echo.add_argument("path", help=_PATH_HELP)
     echo.add_argument("--topic", action="append", help="only this topic (repeatable)")
     echo.add_argument("--limit", type=int, default=None, help="stop after N messages")
+    echo.add_argument("--json", action="store_true", help="one JSON object per line")
+    echo.add_argument(
+        "--field", default=None, help="print only this field (dotted: pose.position.x)"
+    )
+    echo.add_argument("--start", type=float, default=None, help="from this time (seconds)")
+    echo.add_argument("--end", type=float, default=None, help="up to this time (seconds)")
     echo.add_argument("--dict", action="store_true", help="lossless dicts, not natural values")
+    echo.add_argument("--ignore-damage", action="store_true", help=_DAMAGE_HELP)
     echo.set_defaults(run=_echo)
 
-    export = actions.add_parser("export", help="write one topic's messages to files")
-    export.add_argument("path", help="bag directory, .mcap or .db3 file")
-    export.add_argument("--topic", required=True, help="the topic to export")
+    export = actions.add_parser("export", help="write topics' messages to files")
+    export.add_argument("path", help=_PATH_HELP)
+    export.add_argument(
+        "--topic", action="append", required=True, help="a topic to export (repeatable)"
+    )
     export.add_argument("--to", required=True, help="output directory (created if needed)")
+    export.add_argument("--force", action="store_true", help="overwrite an earlier export")
     export.add_argument("--dict", action="store_true", help="lossless dicts, not natural values")
+    export.add_argument("--ignore-damage", action="store_true", help=_DAMAGE_HELP)
     export.set_defaults(run=_export)
     return actions
 
 
+# -- formatting -------------------------------------------------------------------------------
 def _format_time(ns: int | None) -> str:
     if ns is None:
         return "-"
@@ -64,28 +81,79 @@ def _format_duration(ns: int) -> str:
     return f"{seconds}.{nanoseconds:09d} s"
 
 
-def _info(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
-    from pyconnect.record.bag_reader import bag_info
+def _format_size(size: int) -> str:
+    value = float(size)
+    for unit in ("B", "KiB", "MiB", "GiB"):
+        if value < 1024 or unit == "GiB":
+            return f"{size} B" if unit == "B" else f"{value:.1f} {unit}"
+        value /= 1024
+    return f"{size} B"  # pragma: no cover - the loop always returns
 
-    info = bag_info(args.path)
+
+def seconds_to_ns(seconds: float | None, bag_start_ns: int | None) -> int | None:
+    """``--start``/``--end`` in ns: an absolute time, or an offset from the bag's start when
+    it is smaller than the start (``--start 2.5`` is 2.5 s into the bag)."""
+    if seconds is None:
+        return None
+    ns = round(seconds * 1e9)
+    if bag_start_ns is not None and ns < bag_start_ns:
+        return bag_start_ns + ns
+    return ns
+
+
+# -- commands ---------------------------------------------------------------------------------
+def _damage_status(
+    damage: Sequence[Any], summary: str, args: argparse.Namespace, err: TextIO
+) -> int:
+    if not damage:
+        return 0
+    print(f"{PROGRAM}: {summary}", file=err)
+    for problem in damage[1:]:
+        print(f"{PROGRAM}:   also: {problem}", file=err)
+    return 0 if args.ignore_damage else 1
+
+
+def _print_topics(out: TextIO, title: str, topics: Sequence[Any], unit: str) -> None:
+    print(f"{title:<11}{len(topics)}", file=out)
+    name_width = max((len(t.name) for t in topics), default=0)
+    type_width = max((len(t.msg_type) for t in topics), default=0)
+    count_width = max((len(str(t.message_count)) for t in topics), default=0)
+    for topic in topics:
+        print(
+            f"  {topic.name:<{name_width}}  {topic.msg_type:<{type_width}}  "
+            f"{topic.message_count:>{count_width}} {unit}  {topic.serialization_format}",
+            file=out,
+        )
+
+
+def print_info(info: BagInfo, out: TextIO) -> None:
+    """The ``bag info`` text: what ``ros2 bag info`` shows, topics and services apart."""
     files = len(info.files)
     print(f"path:      {info.path}", file=out)
     print(f"storage:   {info.storage} ({files} file{'s' if files != 1 else ''})", file=out)
+    for path in info.files:
+        size = path.stat().st_size if path.exists() else 0
+        print(f"  {path.name}  {_format_size(size)}", file=out)
+    print(f"size:      {_format_size(info.size_bytes)}", file=out)
     print(f"messages:  {info.message_count}", file=out)
     print(f"start:     {_format_time(info.start_ns)}", file=out)
     print(f"end:       {_format_time(info.end_ns)}", file=out)
     print(f"duration:  {_format_duration(info.duration_ns)}", file=out)
-    print(f"topics:    {len(info.topics)}", file=out)
-    name_width = max((len(t.name) for t in info.topics), default=0)
-    type_width = max((len(t.msg_type) for t in info.topics), default=0)
-    count_width = max((len(str(t.message_count)) for t in info.topics), default=0)
-    for topic in info.topics:
-        print(
-            f"  {topic.name:<{name_width}}  {topic.msg_type:<{type_width}}  "
-            f"{topic.message_count:>{count_width}} msgs  {topic.serialization_format}",
-            file=out,
-        )
-    return 0
+    services = info.services
+    topics = [t for t in info.topics if t not in services]
+    _print_topics(out, "topics:", topics, "msgs")
+    _print_topics(out, "services:", services, "events")
+
+
+def _info(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from pyconnect.record.bag_reader import bag_info
+
+    info = bag_info(args.path)
+    print_info(info, out)
+    if not info.damage:
+        return 0
+    summary = f"{info.path}: damaged bag: {info.damage[0]}"
+    return _damage_status(info.damage, summary, args, err)
 
 
 def _report_problems(errors: Sequence[Any], err: TextIO) -> int:
@@ -96,32 +164,68 @@ def _report_problems(errors: Sequence[Any], err: TextIO) -> int:
 
 
 def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
-    from pyconnect.record.bag_reader import open_bag
+    from pyconnect.record.bag_reader import bag_info, open_bag
 
     if args.limit is not None and args.limit < 0:
         raise UsageError(f"--limit: expected a count >= 0, got {args.limit}")
+    start_ns = end_ns = None
+    if args.start is not None or args.end is not None:
+        first = bag_info(args.path).start_ns
+        start_ns = seconds_to_ns(args.start, first)
+        end_ns = seconds_to_ns(args.end, first)
+        if end_ns is not None:
+            end_ns += 1  # --end is inclusive, as ros2 bag takes it
+    natural = not (args.dict or args.field)  # field names are the ROS ones
     printed = 0
-    with open_bag(args.path, topics=args.topic, natural=not args.dict) as bag:
+    with open_bag(
+        args.path, topics=args.topic, natural=natural, start_ns=start_ns, end_ns=end_ns
+    ) as bag:
         for message in bag:
             if args.limit is not None and printed >= args.limit:
                 break
-            seconds, nanoseconds = divmod(message.log_time_ns, 1_000_000_000)
-            print(
-                f"{message.topic} {seconds}.{nanoseconds:09d} {format_value(message.value)}",
-                file=out,
-            )
+            value = message.value
+            if args.field:
+                try:
+                    value = field_of(value, args.field)
+                except KeyError as error:
+                    raise UsageError(
+                        f"--field {args.field}: {message.topic}: {error.args[0]}"
+                    ) from None
+            if args.json:
+                record = {
+                    "topic": message.topic,
+                    "log_time_ns": message.log_time_ns,
+                    "msg_type": message.msg_type,
+                    "value": value,
+                }
+                print(to_json(record), file=out)
+            else:
+                seconds, nanoseconds = divmod(message.log_time_ns, 1_000_000_000)
+                print(f"# {message.topic} {seconds}.{nanoseconds:09d} {message.msg_type}", file=out)
+                print(to_yaml(value), end="", file=out)
+                print("---", file=out)
             printed += 1
         errors = list(bag.errors)
-    return _report_problems(errors, err)
+        damage = bag.damage
+        summary = bag.damage_summary(damage) if damage else ""
+    status = _report_problems(errors, err)
+    return max(status, _damage_status(damage, summary, args, err))
 
 
 def _export(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
-    from pyconnect.record.bag_export import export_topic
+    from pyconnect.record.bag_export import export_topics
 
-    result = export_topic(args.path, args.topic, args.to, natural=not args.dict)
-    written = ", ".join(f"{count} {kind}" for kind, count in sorted(result.files.items()))
-    print(
-        f"{args.topic}: {result.messages} message(s) to {result.directory}: {written or 'none'}",
-        file=out,
-    )
-    return _report_problems(result.errors, err)
+    results = export_topics(args.path, args.topic, args.to, natural=not args.dict, force=args.force)
+    status = 0
+    damage: list[Any] = []
+    summary = ""
+    for topic, result in results.items():
+        written = ", ".join(f"{count} {kind}" for kind, count in sorted(result.files.items()))
+        print(
+            f"{topic}: {result.messages} message(s) to {result.directory}: {written or 'none'}",
+            file=out,
+        )
+        status = max(status, _report_problems(result.errors, err))
+        if result.damage and not damage:
+            damage, summary = result.damage, result.damage_summary
+    return max(status, _damage_status(damage, summary, args, err))

@@ -1,12 +1,16 @@
-"""Decoded values as text for a terminal: one line with big arrays and long lists summarised."""
+"""Decoded values as text: one summarised line, YAML like ``ros2 topic echo``, JSON Lines."""
 
 from __future__ import annotations
 
+import base64
+import dataclasses
+import json
 from typing import Any
 
 import numpy as np
+import yaml
 
-__all__ = ["format_value"]
+__all__ = ["field_of", "format_value", "to_json", "to_yaml"]
 
 
 class _Summary:
@@ -20,6 +24,7 @@ class _Summary:
 
 
 _MAX_ITEMS = 16
+YAML_SEQUENCE_LIMIT = 128  # as `ros2 topic echo --truncate-length` defaults
 
 
 def _summarise(value: Any) -> Any:
@@ -45,3 +50,74 @@ def _summarise(value: Any) -> Any:
 def format_value(value: Any) -> str:
     """One line for a decoded value, with arrays and long sequences summarised."""
     return repr(_summarise(value))
+
+
+def _plain(value: Any, limit: int | None) -> Any:
+    """Dicts, lists and scalars; sequences longer than ``limit`` end in ``'...'``."""
+    if isinstance(value, np.ndarray):
+        if value.dtype.names is not None:
+            value = [dict(zip(value.dtype.names, row, strict=True)) for row in value.ravel()]
+        else:
+            value = value.tolist()
+    elif isinstance(value, bytes | bytearray | memoryview):
+        value = list(bytes(value))
+    elif isinstance(value, np.generic):
+        return value.item()
+    elif dataclasses.is_dataclass(value) and not isinstance(value, type):
+        value = {f.name: getattr(value, f.name) for f in dataclasses.fields(value)}
+    if isinstance(value, dict):
+        return {str(key): _plain(item, limit) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        items = [_plain(item, limit) for item in value[:limit]]
+        if limit is not None and len(value) > limit:
+            items.append("...")
+        return items
+    return value
+
+
+def to_yaml(value: Any) -> str:
+    """YAML of a value as ``ros2 topic echo`` prints a message (long sequences truncated)."""
+    text: str = yaml.safe_dump(
+        _plain(value, YAML_SEQUENCE_LIMIT),
+        default_flow_style=False,
+        sort_keys=False,
+        allow_unicode=True,
+        width=100,
+    )
+    return text.removesuffix("...\n")  # a bare scalar's document end marker
+
+
+def _json_default(value: Any) -> Any:
+    if isinstance(value, bytes | bytearray | memoryview):
+        return base64.b64encode(bytes(value)).decode("ascii")
+    if isinstance(value, np.ndarray):
+        if value.dtype == np.uint8:
+            return base64.b64encode(value.tobytes()).decode("ascii")
+        return _plain(value, None)
+    return _plain(value, None)
+
+
+def to_json(record: dict[str, Any]) -> str:
+    """One JSON line: numeric arrays as lists, bytes and uint8 arrays as base64 strings."""
+    return json.dumps(record, default=_json_default, allow_nan=True)
+
+
+def field_of(value: Any, path: str) -> Any:
+    """The field ``path`` (``pose.position.x``, ``position.0``) of a dict value; KeyError."""
+    current = value
+    walked: list[str] = []
+    for name in path.split("."):
+        if isinstance(current, dict):
+            if name not in current:
+                where = ".".join(walked) or "the message"
+                fields = ", ".join(current) or "none"
+                raise KeyError(f"no field {name!r} in {where} (fields: {fields})")
+            current = current[name]
+        elif isinstance(current, list | tuple | np.ndarray) and name.isdigit():
+            if int(name) >= len(current):
+                raise KeyError(f"{'.'.join(walked)}: no item {name} of {len(current)}")
+            current = current[int(name)]
+        else:
+            raise KeyError(f"{'.'.join(walked) or 'the message'} has no field {name!r}")
+        walked.append(name)
+    return current

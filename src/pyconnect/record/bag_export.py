@@ -1,4 +1,4 @@
-"""Export one topic of a bag to files: images as PNG, arrays as NPY, everything else as JSON Lines.
+"""Export topics of a bag to files: images as PNG, arrays as NPY, everything else as JSON Lines.
 
 Each image or array message becomes ``<index:06d>_<log_time_ns>.png`` / ``.npy`` (raw byte
 values ``.bin``); every other message becomes one line ``{"log_time_ns": ..., "value": ...}`` of
@@ -11,33 +11,40 @@ atomically.
 from __future__ import annotations
 
 import os
+import re
 import sys
 import tempfile
 from collections import Counter
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
 from pyconnect.errors import DecodeError
+from pyconnect.record.bag_damage import BagDamage
+from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_reader import DecodeProblem, open_bag
-from pyconnect.record.log_writer import atomic_write_bytes, encode_log_value
+from pyconnect.record.log_dirs import safe_path_component
+from pyconnect.record.log_writer import atomic_write_bytes, encode_log_value, umask_mode
 
-__all__ = ["ExportResult", "export_topic"]
+__all__ = ["ExportResult", "export_topic", "export_topics", "topic_directories"]
 
 JSONL_NAME = "messages.jsonl"
 IMAGE_TYPE = "sensor_msgs/msg/Image"
+_EXPORTED = re.compile(r"^\d{6}_\d+\.(png|npy|bin)$")
 ProgressFactory = Callable[[int, str], Any]
 
 
 @dataclass
 class ExportResult:
-    """What an export wrote: files per extension, and the messages that could not be decoded."""
+    """What an export wrote: files per extension, undecodable messages, damage of the bag."""
 
     directory: Path
     files: Counter[str] = field(default_factory=Counter)
     errors: list[DecodeProblem] = field(default_factory=list)
+    damage: list[BagDamage] = field(default_factory=list)
+    damage_summary: str = ""
 
     @property
     def messages(self) -> int:
@@ -55,6 +62,57 @@ def _tqdm_progress(total: int, description: str) -> Any:
         disable=not sys.stderr.isatty(),
         leave=False,
     )
+
+
+def _earlier_export(directory: Path) -> list[Path]:
+    if not directory.is_dir():
+        return []
+    return sorted(p for p in directory.iterdir() if p.name == JSONL_NAME or _EXPORTED.match(p.name))
+
+
+def topic_directories(topics: Sequence[str], to: str | Path) -> dict[str, Path]:
+    """Where each topic goes: ``to`` itself for one topic, ``to/<topic as a name>`` for more."""
+    root = Path(to)
+    if len(topics) == 1:
+        return {topics[0]: root}
+    return {topic: root / safe_path_component(topic) for topic in topics}
+
+
+def export_topics(
+    path: str | Path,
+    topics: Sequence[str],
+    to: str | Path,
+    *,
+    natural: bool = True,
+    force: bool = False,
+    progress: ProgressFactory = _tqdm_progress,
+) -> dict[str, ExportResult]:
+    """Export several topics: one topic writes into ``to``, several into ``to/<topic>/``.
+
+    An earlier export in a target directory raises ``BagError`` unless ``force`` (its files
+    are then removed first, so that no stale frame survives). Files get the permissions the
+    umask gives (0644 with the usual 022).
+    """
+    chosen = list(dict.fromkeys(topics))
+    if not chosen:
+        raise BagError("export: no topic given")
+    directories = topic_directories(chosen, to)
+    for directory in directories.values():
+        earlier = _earlier_export(directory)
+        if earlier and not force:
+            raise BagError(
+                f"{directory}: already holds an export ({earlier[0].name}); "
+                "use force=True (--force) to overwrite it"
+            )
+    with open_bag(path, topics=chosen):
+        pass  # unknown topics and formats fail here, before anything is removed or written
+    results: dict[str, ExportResult] = {}
+    for topic, directory in directories.items():
+        if force:
+            for old in _earlier_export(directory):
+                old.unlink()
+        results[topic] = export_topic(path, topic, directory, natural=natural, progress=progress)
+    return results
 
 
 def export_topic(
@@ -81,6 +139,7 @@ def export_topic(
         fd, temporary = tempfile.mkstemp(dir=directory, prefix=f".{JSONL_NAME}.", suffix=".tmp")
         try:
             with os.fdopen(fd, "wb") as lines:
+                os.fchmod(lines.fileno(), umask_mode())
                 for index, message in enumerate(bag):
                     value = message.value
                     if is_image:
@@ -112,6 +171,9 @@ def export_topic(
         finally:
             bar.close()
         result.errors[:0] = bag.errors
+        result.damage = bag.damage
+        if result.damage:
+            result.damage_summary = bag.damage_summary()
     return result
 
 

@@ -54,12 +54,35 @@ FileWriter = Callable[[Path, bytes], None]
 _IMAGE_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16))
 
 
+def umask_mode(mode: int = 0o666) -> int:
+    """``mode`` with the process umask applied, as ``open()`` would create a file.
+
+    Read from /proc where it can be: setting the umask to read it back would, for a moment,
+    create other threads' files with no mask at all.
+    """
+    try:
+        with open("/proc/self/status", encoding="ascii") as status:
+            for line in status:
+                if line.startswith("Umask:"):
+                    return mode & ~int(line.split()[1], 8)
+    except (OSError, ValueError):
+        pass
+    current = os.umask(0o022)
+    os.umask(current)
+    return mode & ~current
+
+
 def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write ``data`` to ``path`` so readers see either no file or the whole file."""
+    """Write ``data`` to ``path`` so readers see either no file or the whole file.
+
+    The file gets the permissions ``open()`` would give it (0666 less the umask), not the
+    0600 of a temporary file.
+    """
     fd, temporary = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
     try:
         with os.fdopen(fd, "wb") as handle:
             handle.write(data)
+            os.fchmod(handle.fileno(), umask_mode())
         os.replace(temporary, path)
     except BaseException:
         with contextlib.suppress(OSError):
