@@ -10,7 +10,6 @@ import pytest
 
 from pyconnect.codecs import search_path
 from pyconnect.codegen.cli import main
-from pyconnect.codegen.compile_install import InstallLayout
 
 DATA = Path(__file__).with_name("data")
 TUTORIAL = DATA / "tutorial_interfaces"
@@ -18,18 +17,14 @@ EXTRAS = DATA / "tutorial_extras"
 
 
 @pytest.fixture(scope="session")
-def compiled_prefix(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Path]:
-    """tutorial_interfaces and tutorial_extras (which depends on it), built into a temp prefix.
+def compiled_prefix() -> Iterator[Path]:
+    """tutorial_interfaces and tutorial_extras (which depends on it), built into this environment.
 
-    The prefix's site-packages is appended to ``sys.path`` for the session, as a user's
-    environment would have it, so this process imports the packages and finds their codecs.
+    Exactly what a user does (no ``--prefix``), so a child process started with no environment
+    variables at all imports them; uninstalled again at the end of the session.
     """
-    prefix = tmp_path_factory.mktemp("compiled")
     # Given in reverse dependency order: the command sorts them.
-    argv = ["build", "--compile", str(EXTRAS), "--compile", str(TUTORIAL), "--prefix", str(prefix)]
-    assert main(argv) == 0
-    site = str(InstallLayout.for_prefix(prefix).python)
-    sys.path.append(site)
+    assert main(["build", "--compile", str(EXTRAS), "--compile", str(TUTORIAL)]) == 0
     search_path.refresh()
-    yield prefix
-    sys.path.remove(site)
+    yield Path(sys.prefix)
+    assert main(["uninstall", "tutorial_extras", "tutorial_interfaces"]) == 0

@@ -15,7 +15,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 
 from pyconnect import codecs
 from pyconnect.codegen.cli import main
-from pyconnect.codegen.compile_install import InstallLayout
+from pyconnect.codegen.compile_install import InstallLayout, installed_record
 from pyconnect.typesys.loading import load_packages
 from tests.codegen.conftest import EXTRAS, TUTORIAL
 
@@ -24,15 +24,17 @@ TIMEOUT = 60.0
 
 
 def bare_environment(prefix: Path) -> dict[str, str]:
-    """What a fresh shell has: no ROS or pyconnect variables, only the prefix's site-packages."""
-    return {
+    """What a fresh shell has: no ROS or pyconnect variables; PYTHONPATH only for a --prefix."""
+    environment = {
         "PATH": os.environ.get("PATH", "/usr/bin:/bin"),
         "HOME": os.environ.get("HOME", "/tmp"),
-        "PYTHONPATH": str(InstallLayout.for_prefix(prefix).python),
         "ROS_DOMAIN_ID": os.environ["ROS_DOMAIN_ID"],
         "ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST",
         "PYTHONUNBUFFERED": "1",
     }
+    if prefix != Path(sys.prefix):
+        environment["PYTHONPATH"] = str(InstallLayout.for_prefix(prefix).python)
+    return environment
 
 
 def test_layout_is_what_colcon_installs(compiled_prefix: Path) -> None:
@@ -148,12 +150,19 @@ def test_unchanged_input_is_a_no_op(
     layout = InstallLayout.for_prefix(compiled_prefix)
     library = layout.lib / "libtutorial_interfaces__rosidl_generator_c.so"
     before = library.stat().st_mtime_ns
-    argv = ["build", "--compile", str(TUTORIAL), "--prefix", str(compiled_prefix)]
+    argv = ["build", "--compile", str(TUTORIAL)]  # the active environment, as installed
     assert main(argv) == 0
     assert capsys.readouterr().out == (
         f"codecgen: tutorial_interfaces: up to date ({layout.python / 'tutorial_interfaces'})\n"
     )
     assert library.stat().st_mtime_ns == before
+
+
+def snapshot(prefix: Path) -> dict[Path, int]:
+    """Every file of the compiled tutorial_interfaces install, with its modification time."""
+    files = installed_record(InstallLayout.for_prefix(prefix), "tutorial_interfaces")
+    assert len(files) > 40
+    return {path: path.stat().st_mtime_ns for path in files}
 
 
 def test_a_changed_msg_rebuilds_and_a_failed_build_changes_nothing(
@@ -167,16 +176,15 @@ def test_a_changed_msg_rebuilds_and_a_failed_build_changes_nothing(
     shutil.copytree(TUTORIAL, changed)
     (changed / "msg" / "Num.msg").write_text("int64 num\nstring label\n")
     layout = InstallLayout.for_prefix(compiled_prefix)
-    installed = sorted(p for p in compiled_prefix.rglob("*") if "__pycache__" not in p.parts)
+    installed = snapshot(compiled_prefix)
     monkeypatch.setenv("CC", "false")  # a compiler that always fails
     argv = ["build", "--compile", str(changed), "--prefix", str(compiled_prefix)]
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert err.startswith("codecgen: compiling libtutorial_interfaces__rosidl_generator_c.so")
     assert err.count("\n") == 1
-    assert (
-        sorted(p for p in compiled_prefix.rglob("*") if "__pycache__" not in p.parts) == installed
-    )
+    assert snapshot(compiled_prefix) == installed
+    assert not list(compiled_prefix.glob(".codecgen-*")), "the build folder is removed"
     num = layout.python / "tutorial_interfaces" / "msg" / "_num.py"
     assert "label" not in num.read_text()
 
@@ -227,7 +235,13 @@ def _files(root: Path) -> set[str]:
 
 
 def _copy_of(prefix: Path, target: Path) -> Path:
-    shutil.copytree(prefix, target, symlinks=True)
+    """The two compiled packages' files (from their RECORDs) copied to a prefix of their own."""
+    layout = InstallLayout.for_prefix(prefix)
+    for package in ("tutorial_interfaces", "tutorial_extras"):
+        for path in installed_record(layout, package):
+            copy = target / path.relative_to(prefix)
+            copy.parent.mkdir(parents=True, exist_ok=True)
+            shutil.copy2(path, copy)
     return target
 
 
@@ -241,7 +255,7 @@ def test_codecgen_uninstall_removes_every_file(compiled_prefix: Path, tmp_path: 
 
 
 def test_pip_uninstall_removes_every_file(compiled_prefix: Path, tmp_path: Path) -> None:
-    """The prefix made an environment of its own (a venv over it): pip reads the RECORD."""
+    """The packages copied into an environment of their own (a venv): pip reads the RECORD."""
     prefix = _copy_of(compiled_prefix, tmp_path / "env")
     before = _files(prefix)
     extras_only = {f for f in before if "tutorial_interfaces" not in f}
