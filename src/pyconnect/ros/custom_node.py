@@ -85,6 +85,10 @@ class CustomNode(Node):  # type: ignore[misc]
         self._log_session: datetime.datetime | None = None
         self._lock = threading.RLock()
         self._stopped = threading.Event()
+        # Set once stop_func has run, before anything is destroyed: agents' waits in user
+        # threads end there, and a call that fails after it reports the shutdown, not rclpy's
+        # error.
+        self._stopping = threading.Event()
         self._shutdown_lock = threading.Lock()
         self._shutdown_thread: threading.Thread | None = None
         self._spin_thread: threading.Thread | None = None
@@ -132,8 +136,8 @@ class CustomNode(Node):  # type: ignore[misc]
 
     @property
     def shutdown_event(self) -> threading.Event:
-        """Set once the node is shut down."""
-        return self._stopped
+        """Set when shutdown has run ``stop_func`` and starts destroying the node's entities."""
+        return self._stopping
 
     def wait_for(
         self,
@@ -246,7 +250,7 @@ class CustomNode(Node):  # type: ignore[misc]
 
     def ok(self) -> bool:
         """True until the node is shut down."""
-        return not self._stopped.is_set() and self.context.ok()
+        return not self._stopping.is_set() and self.context.ok()
 
     @property
     def is_spinning(self) -> bool:
@@ -376,6 +380,7 @@ class CustomNode(Node):  # type: ignore[misc]
                 self.stop_func()
             except Exception as error:
                 self._log_error(f"stop_func raised {type(error).__name__}: {error}")
+        self._stopping.set()  # after stop_func, which may still use the agents
         self._executor.stop()
         # Cancelled coroutines release callbacks that wait for them.
         self.coroutines.stop()

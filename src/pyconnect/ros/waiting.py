@@ -25,5 +25,5 @@ def wait_until(
         if remaining is not None and remaining <= 0:
             return False
         if idle.wait(0.02 if remaining is None else min(remaining, 0.02)):
-            return ready()
+            return False  # stopped: the node may already be destroyed, so ask it nothing
     return True
