@@ -4,7 +4,8 @@ Decode reads jpeg, png (16-bit png stays uint16, alpha is kept) and image_transp
 ``compressedDepth`` (a 12-byte header, then a png; ``32FC1`` depth is de-quantised to float32
 metres, 0 → NaN). A corrupt or empty payload gets a ``DecodeError``, never a crash.
 Encode: ``CompressedImageCodec(format="jpeg", quality=95)`` or ``format="png"`` (lossless pixels,
-``png_level`` 0-9), writing image_transport's format string (``"bgr8; jpeg compressed bgr8"``).
+``png_level`` 0-9), writing image_transport's format string (``"bgr8; jpeg compressed bgr8"``),
+or ``format="compressedDepth"`` for uint16/float32 depth (pyconnect.codecs.compressed_depth).
 
 ``lossless`` is False: jpeg loses pixels, and the header and format string are dropped.
 """
@@ -18,10 +19,16 @@ import numpy as np
 import numpy.typing as npt
 
 from pyconnect.codecs.buffers import byte_view
+from pyconnect.codecs.compressed_depth import (
+    DEFAULT_DEPTH_MAX,
+    DEFAULT_DEPTH_QUANTIZATION,
+    DEFAULT_PNG_LEVEL,
+    compressed_depth_fields,
+)
 from pyconnect.codecs.compressed_header import check_payload
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
 
-_FORMATS = ("jpeg", "png")
+_FORMATS = ("jpeg", "png", "compressedDepth")
 _ENCODING_NAMES = {
     ("u1", 1): "mono8",
     ("u1", 3): "bgr8",
@@ -109,25 +116,55 @@ def compressed_fields(
 
 
 class CompressedImageCodec:
-    """CompressedImage ↔ ndarray; ``format`` is ``"jpeg"`` (with ``quality``) or ``"png"``."""
+    """CompressedImage ↔ ndarray; ``format`` is ``"jpeg"`` (with ``quality``), ``"png"`` or
+    ``"compressedDepth"`` (uint16 or float32 depth; ``depth_max``, ``depth_quantization``).
+
+    ``png_level`` defaults to 3 for png and to image_transport's 9 for compressedDepth.
+    """
 
     msg_type = "sensor_msgs/msg/CompressedImage"
     lossless = False
 
     decode = staticmethod(decode_compressed_image)
 
-    def __init__(self, *, format: str = "jpeg", quality: int = 95, png_level: int = 3) -> None:
+    def __init__(
+        self,
+        *,
+        format: str = "jpeg",
+        quality: int = 95,
+        png_level: int | None = None,
+        depth_max: float = DEFAULT_DEPTH_MAX,
+        depth_quantization: float = DEFAULT_DEPTH_QUANTIZATION,
+    ) -> None:
         if format not in _FORMATS:
-            raise EncodeError(f"CompressedImageCodec: format must be jpeg or png, got {format!r}")
+            raise EncodeError(
+                f"CompressedImageCodec: format must be jpeg, png or compressedDepth, got {format!r}"
+            )
+        if png_level is None:
+            png_level = DEFAULT_PNG_LEVEL if format == "compressedDepth" else 3
         if not 0 <= quality <= 100:
             raise EncodeError(f"CompressedImageCodec: quality must be 0-100, got {quality}")
         if not 0 <= png_level <= 9:
             raise EncodeError(f"CompressedImageCodec: png_level must be 0-9, got {png_level}")
+        if not depth_max > 0 or not depth_quantization > 0:
+            raise EncodeError(
+                f"CompressedImageCodec: depth_max and depth_quantization must be > 0, got "
+                f"{depth_max} and {depth_quantization}"
+            )
         self.format = format
         self.quality = quality
         self.png_level = png_level
+        self.depth_max = depth_max
+        self.depth_quantization = depth_quantization
 
     def to_fields(self, value: Any) -> dict[str, Any]:
+        if self.format == "compressedDepth":
+            return compressed_depth_fields(
+                value,
+                depth_max=self.depth_max,
+                depth_quantization=self.depth_quantization,
+                png_level=self.png_level,
+            )
         return compressed_fields(
             value, format=self.format, quality=self.quality, png_level=self.png_level
         )
@@ -141,7 +178,12 @@ class CompressedImageCodec:
         return msg
 
     def __repr__(self) -> str:
+        depth = (
+            f", depth_max={self.depth_max}, depth_quantization={self.depth_quantization}"
+            if self.format == "compressedDepth"
+            else ""
+        )
         return (
             f"CompressedImageCodec(format={self.format!r}, quality={self.quality}, "
-            f"png_level={self.png_level})"
+            f"png_level={self.png_level}{depth})"
         )

@@ -108,7 +108,9 @@ def test_encode_errors() -> None:
     assert str(not_array.value) == "CompressedImage: expected numpy.ndarray, got list"
     with pytest.raises(EncodeError) as bad_format:
         CompressedImageCodec(format="webp")
-    assert str(bad_format.value) == "CompressedImageCodec: format must be jpeg or png, got 'webp'"
+    assert str(bad_format.value) == (
+        "CompressedImageCodec: format must be jpeg, png or compressedDepth, got 'webp'"
+    )
     assert CompressedImageCodec().lossless is False
 
 
