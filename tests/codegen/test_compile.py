@@ -270,3 +270,31 @@ def test_pip_uninstall_removes_every_file(compiled_prefix: Path, tmp_path: Path)
     )
     assert "Successfully uninstalled tutorial_interfaces-0.1.0" in result.stdout, result.stderr
     assert _files(prefix) == extras_only | venv_files
+
+
+def test_missing_ros_headers_say_what_to_install(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import pyconnect.codegen.compile_toolchain as toolchain
+
+    monkeypatch.setattr(toolchain, "ament_prefixes", lambda: [])  # a ROS install without include/
+    prefix = tmp_path / "prefix"
+    assert main(["build", "--compile", str(TUTORIAL), "--prefix", str(prefix)]) == 2
+    assert capsys.readouterr().err == (
+        f"codecgen: header rosidl_runtime_c/message_type_support_struct.h not found under "
+        f"{prefix.resolve()}: install ROS 2 from the wheels (`pip install "
+        "'ros-jazzy-rclpy[fastrtps]'`) or source a ROS 2 Jazzy install\n"
+    )
+
+
+def test_a_prefix_on_sys_path_is_searched(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    """PYTHONPATH=PREFIX/lib/python3.X/site-packages is all a --prefix install needs."""
+    from pyconnect.codecs.search_path import codec_folders
+    from pyconnect.typesys.packages import ament_prefixes
+
+    layout = InstallLayout.for_prefix(tmp_path)
+    (layout.resource_index / "rosidl_interfaces").mkdir(parents=True)
+    (layout.python / "pyconnect_codecs" / "pyconnect_generated").mkdir(parents=True)
+    monkeypatch.setattr(sys, "path", [*sys.path, str(layout.python)])
+    assert ament_prefixes()[-1] == tmp_path
+    assert codec_folders()[-1] == str(layout.python / "pyconnect_codecs" / "pyconnect_generated")
