@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import shutil
+import subprocess
 import sys
 from collections.abc import Iterator
 from pathlib import Path
@@ -15,6 +16,8 @@ from pyconnect import codecs
 from pyconnect.codecs import search_path
 from pyconnect.codegen.build import DEFAULT_PACKAGES, default_out_dir, render_tree, stale_files
 from pyconnect.codegen.cli import main
+from pyconnect.codegen.compile_install import InstallLayout
+from tests.codegen.test_compile import TIMEOUT, bare_environment
 
 EXTRA = "rmw_dds_common"  # installed with the wheels, not one of generated/'s packages
 
@@ -63,3 +66,56 @@ def test_the_registry_finds_codecs_in_an_out_folder(
     msg = codec.from_dict({"data": list(range(16))})
     assert list(msg.data) == list(range(16))
     assert codec.from_dict(codec.to_dict(msg)) == msg
+
+
+# Run against a regular (wheel) install of pyconnect: prints where each codec module came from.
+_NON_EDITABLE = """
+import sys
+import pyconnect
+from pyconnect import codecs
+print("PYCONNECT", pyconnect.__file__)
+for name in ("rmw_dds_common/msg/Gid", "tutorial_interfaces/msg/Num"):
+    module = codecs.Registry().lookup_dict(name).to_dict.__module__
+    print("CODEC", name, sys.modules[module].__file__)
+"""
+
+
+def test_a_wheel_install_finds_out_folders_and_compiled_codecs(
+    compiled_prefix: Path, tmp_path: Path
+) -> None:
+    """pyconnect installed from its wheel (not editable): the same search path works."""
+    root = Path(__file__).resolve().parents[2]
+    pip = [sys.executable, "-m", "pip", "-q"]
+    subprocess.run(
+        [*pip, "wheel", str(root), "--no-deps", "-w", str(tmp_path / "wheel")],
+        check=True,
+        capture_output=True,
+    )
+    wheel = next((tmp_path / "wheel").glob("*.whl"))
+    site = tmp_path / "site"
+    subprocess.run(
+        [*pip, "install", "--no-deps", "--target", str(site), str(wheel)],
+        check=True,
+        capture_output=True,
+    )
+    out = tmp_path / "out"
+    assert main(["build", EXTRA, "--out", str(out)]) == 0
+    env = bare_environment(compiled_prefix)
+    env.update(PYTHONPATH=str(site), **{search_path.ENV_VAR: str(out)})
+    result = subprocess.run(
+        [sys.executable, "-c", _NON_EDITABLE],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT,
+        check=False,
+    )
+    lines = result.stdout.splitlines()
+    assert len(lines) == 3, result.stderr
+    assert Path(lines[0].split()[1]).is_relative_to(site)
+    gid = Path(lines[1].split()[2])
+    assert gid == out / "pyconnect_generated" / EXTRA / "dict_codecs.py"
+    num = Path(lines[2].split()[2])
+    assert num == compiled_prefix.joinpath(
+        InstallLayout.for_prefix(compiled_prefix).codecs("tutorial_interfaces"), "dict_codecs.py"
+    )
