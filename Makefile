@@ -8,7 +8,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install test lint typecheck unit demo bench generate check-generated clean fuzz storm soak
+.PHONY: install test lint typecheck unit demo bench generate check-generated clean fuzz storm soak scale
 
 $(STAMP): pyproject.toml
 	@test -n "$(PYTHON)" || { echo "need python3.10, 3.11 or 3.12 (the ROS 2 Jazzy wheels)"; exit 1; }
@@ -33,6 +33,10 @@ test: lint typecheck unit
 
 demo: install
 	$(BIN)/python -m examples.demo
+
+# Every shared bag read on a local Dask cluster (make test reads a slice of them).
+scale: install
+	PYCONNECT_SCALE=all $(BIN)/pytest -q tests/record/test_tables_dask.py
 
 bench: install
 	$(BIN)/python -m bench

@@ -32,7 +32,15 @@ import pyarrow as pa
 
 from pyconnect.record.bag_reader import BagReader, DecodeProblem, open_bag
 
-__all__ = ["Column", "columns_of", "topic_table"]
+__all__ = [
+    "TIME_COLUMN",
+    "Column",
+    "columns_of",
+    "rows_to_table",
+    "schema_of",
+    "topic_table",
+    "topic_types",
+]
 
 TIME_COLUMN = "log_time_ns"
 
@@ -191,7 +199,8 @@ def _array(values: list[Any], column: Column) -> pa.Array:
     return pa.array([_plain(v) for v in values], type=column.arrow_type)
 
 
-def _schema(columns: Sequence[Column], topic: str, msg_type: str) -> pa.Schema:
+def schema_of(columns: Sequence[Column], *, topic: str, msg_type: str) -> pa.Schema:
+    """The table schema: ``log_time_ns`` then ``columns``; the topic and type as metadata."""
     fields = [pa.field(TIME_COLUMN, pa.int64(), nullable=False)]
     fields += [pa.field(column.name, column.arrow_type) for column in columns]
     return pa.schema(fields, metadata={"topic": topic, "msg_type": msg_type})
@@ -214,12 +223,13 @@ def rows_to_table(
             store.append(_get(message, path))
     arrays = [pa.array(np.asarray(times, dtype=np.int64), type=pa.int64())]
     arrays += [_array(store, column) for store, column in zip(values, columns, strict=True)]
-    return pa.Table.from_arrays(arrays, schema=_schema(columns, topic, msg_type))
+    return pa.Table.from_arrays(arrays, schema=schema_of(columns, topic=topic, msg_type=msg_type))
 
 
 # -- bags ----------------------------------------------------------------------------------------
-def _definitions(reader: BagReader, topic: str, msg_type: str) -> tuple[Definitions, str]:
-    """The type definitions the topic is decoded with: stored in the bag, else installed."""
+def topic_types(reader: BagReader, topic: str) -> tuple[Definitions, str]:
+    """The type definitions and type name ``topic`` is decoded with: the bag's, else installed."""
+    msg_type = reader.topics[topic].msg_type
     from pyconnect.codecs import wire
     from pyconnect.record.bag_files import locate_bag_files, open_storage
 
@@ -268,8 +278,7 @@ def topic_table(
         end_ns=owner.end_ns if owner is not None else None,
         on_error=owner.on_error if owner is not None else "report",
     ) as reader:
-        declared_type = reader.topics[topic].msg_type
-        definitions, msg_type = _definitions(reader, topic, declared_type)
+        definitions, msg_type = topic_types(reader, topic)
         columns = columns_of(msg_type, definitions)
         table = rows_to_table(_rows(reader), columns, topic=topic, msg_type=msg_type)
         if errors is not None:

@@ -1,0 +1,110 @@
+"""``read_bags``: one topic of many bags as a Dask DataFrame, read by the workers of a cluster.
+
+``read_bags(paths, topic="/imu/data")`` returns a lazy ``dask.dataframe.DataFrame`` with the
+columns (and dtypes) of ``open_bag(path).to_pandas(topic)``: one partition per bag, or, for an
+MCAP bag bigger than ``partition_bytes``, one per range of its chunks (split by log time). Each
+worker opens its bag itself and decodes it with the same wire codecs as a serial read, so
+``read_bags(paths, topic=t).compute()`` has the rows of the serial reads, bag after bag.
+
+The paths must be readable by every worker under the same name (a shared file system, or the
+same copy on each machine); the client only reads each bag's summary to plan the partitions.
+Needs the ``scale`` extra (dask, distributed).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import dask
+import dask.dataframe as dd
+import pandas as pd
+
+from pyconnect.record.bag_files import locate_bag_files
+from pyconnect.record.bag_reader import open_bag
+from pyconnect.record.tables import columns_of, schema_of, topic_table, topic_types
+
+__all__ = ["BagPart", "plan_parts", "read_bags", "read_part"]
+
+DEFAULT_PARTITION_BYTES = 256 * 1024 * 1024
+
+
+@dataclass(frozen=True)
+class BagPart:
+    """One partition: the messages of ``topic`` in ``path`` logged in [start_ns, end_ns)."""
+
+    path: str
+    topic: str
+    start_ns: int | None = None
+    end_ns: int | None = None
+
+
+def read_part(part: BagPart) -> pd.DataFrame:
+    """The rows of one partition (runs on a worker)."""
+    with open_bag(
+        part.path, topics=[part.topic], start_ns=part.start_ns, end_ns=part.end_ns
+    ) as bag:
+        frame: pd.DataFrame = topic_table(bag, part.topic).to_pandas()
+    return frame
+
+
+def _chunk_starts(path: Path) -> list[int]:
+    """Log times at which the MCAP file's chunks start, sorted (empty when it has no index)."""
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as stream:
+        summary = make_reader(stream).get_summary()
+    if summary is None:
+        return []
+    return sorted(index.message_start_time for index in summary.chunk_indexes)
+
+
+def plan_parts(
+    path: str | Path, topic: str, *, partition_bytes: int = DEFAULT_PARTITION_BYTES
+) -> list[BagPart]:
+    """The partitions of one bag: itself, or time ranges of about ``partition_bytes`` each."""
+    located = locate_bag_files(path)
+    whole = [BagPart(str(path), topic)]
+    size = sum(file.stat().st_size for file in located.files)
+    if size <= partition_bytes or any(file.suffix != ".mcap" for file in located.files):
+        return whole
+    starts = sorted({t for file in located.files for t in _chunk_starts(file)})
+    wanted = min(len(starts), -(-size // partition_bytes))
+    if wanted < 2:
+        return whole
+    step = len(starts) / wanted
+    bounds = sorted({starts[round(i * step)] for i in range(1, wanted)})
+    edges: list[int | None] = [None, *bounds, None]
+    return [
+        BagPart(str(path), topic, start_ns=edges[i], end_ns=edges[i + 1])
+        for i in range(len(edges) - 1)
+    ]
+
+
+def _meta(path: str | Path, topic: str) -> pd.DataFrame:
+    with open_bag(path, topics=[topic], natural=False) as bag:
+        definitions, msg_type = topic_types(bag, topic)
+    schema = schema_of(columns_of(msg_type, definitions), topic=topic, msg_type=msg_type)
+    frame: pd.DataFrame = schema.empty_table().to_pandas()
+    return frame
+
+
+def read_bags(
+    paths: Iterable[str | Path],
+    *,
+    topic: str,
+    partition_bytes: int = DEFAULT_PARTITION_BYTES,
+) -> Any:
+    """``topic`` of every bag in ``paths`` as one Dask DataFrame (see the module docstring)."""
+    chosen: Sequence[str | Path] = [paths] if isinstance(paths, str | Path) else list(paths)
+    if not chosen:
+        raise ValueError("paths: expected at least one bag")
+    parts = [
+        part for path in chosen for part in plan_parts(path, topic, partition_bytes=partition_bytes)
+    ]
+    meta = _meta(chosen[0], topic)
+    # Keep to_pandas's dtypes: without this, Dask turns string columns into its own type.
+    with dask.config.set({"dataframe.convert-string": False}):
+        return dd.from_map(read_part, parts, meta=meta, enforce_metadata=False)  # type: ignore[no-untyped-call]

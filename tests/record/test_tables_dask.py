@@ -1,0 +1,96 @@
+"""``read_bags`` on a local dask.distributed cluster of worker processes equals the serial reads."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterator
+from pathlib import Path
+
+import dask
+import pandas as pd
+import pytest
+from distributed import Client, LocalCluster
+
+from pyconnect.errors import PyconnectError
+from pyconnect.record import bag_info, open_bag
+from pyconnect.record.dask import plan_parts, read_bags
+from tests.conftest import require_sample_bags
+from tests.record.bag_samples import BAGS, expected_bags
+
+# `make test` reads a slice of the shared bags; `make scale` (PYCONNECT_SCALE=all) reads them all.
+SLICE = (
+    "evo/nav2_turtlebot.mcap",
+    "robot_localization_converted/test2_ros2_mcap_zstd",
+    "ros2_rosbag2_jazzy/rosbag2_py/test/resources/sqlite3/wbag",
+    "ros2_rosbag2_jazzy/rosbag2_tests/resources/mcap/wrong_rmw_test",
+)
+EVERY = os.environ.get("PYCONNECT_SCALE") == "all"
+SHARED = sorted(name for name in expected_bags() if EVERY or name in SLICE)
+LOCALIZATION = [
+    BAGS / "robot_localization_converted" / "test1_ros2_mcap_zstd",
+    BAGS / "robot_localization_converted" / "test2_ros2_mcap_zstd",
+]
+
+
+@pytest.fixture(scope="module")
+def client() -> Iterator[Client]:
+    require_sample_bags(BAGS, bool(SHARED))
+    with (
+        LocalCluster(
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+        ) as cluster,
+        Client(cluster) as dask_client,
+    ):
+        yield dask_client
+
+
+def _serial(paths: list[Path], topic: str) -> pd.DataFrame:
+    frames = []
+    for path in paths:
+        with open_bag(path, topics=[topic]) as bag:
+            frames.append(bag.to_pandas(topic))
+    return pd.concat(frames, ignore_index=True)
+
+
+def test_every_shared_bag_reads_the_same_on_the_cluster(client: Client) -> None:
+    planned: list[tuple[str, str, object]] = []
+    expected: list[pd.DataFrame] = []
+    refused = 0
+    for name in SHARED:
+        path = BAGS / name
+        for topic in bag_info(path).topics:
+            try:
+                serial = _serial([path], topic.name)
+            except PyconnectError as error:  # not CDR, or no definition at all: refused alike
+                with pytest.raises(type(error)) as raised:
+                    read_bags([path], topic=topic.name)
+                assert str(raised.value) == str(error)
+                refused += 1
+                continue
+            planned.append((name, topic.name, read_bags([path], topic=topic.name)))
+            expected.append(serial)
+    results = dask.compute(*[frame for _name, _topic, frame in planned])
+    assert len(results) > (200 if EVERY else 8)
+    for (name, topic, _frame), result, serial in zip(planned, results, expected, strict=True):
+        assert list(result.columns) == list(serial.columns), (name, topic)
+        pd.testing.assert_frame_equal(result.reset_index(drop=True), serial, obj=f"{name} {topic}")
+    assert refused < 10
+
+
+def test_many_bags_split_by_chunks_give_the_serial_rows(client: Client) -> None:
+    parts = plan_parts(LOCALIZATION[0], "/imu/data", partition_bytes=200_000)
+    assert len(parts) > 2
+    assert parts[0].start_ns is None and parts[-1].end_ns is None
+    frame = read_bags(LOCALIZATION, topic="/imu/data", partition_bytes=200_000)
+    assert frame.npartitions == len(parts) + len(
+        plan_parts(LOCALIZATION[1], "/imu/data", partition_bytes=200_000)
+    )
+    result = frame.compute().reset_index(drop=True)
+    pd.testing.assert_frame_equal(result, _serial(LOCALIZATION, "/imu/data"))
+    assert str(result["orientation_covariance"].iloc[0].dtype) == "float64"
+
+
+def test_no_paths_is_an_error() -> None:
+    with pytest.raises(ValueError) as raised:
+        read_bags([], topic="/x")
+    assert str(raised.value) == "paths: expected at least one bag"
