@@ -14,8 +14,12 @@ import logging
 import sys
 
 from pyconnect import __version__
+from pyconnect.commands import action as action_commands
 from pyconnect.commands import bag as bag_commands
 from pyconnect.commands import interface as interface_commands
+from pyconnect.commands import node as node_commands
+from pyconnect.commands import service as service_commands
+from pyconnect.commands import topic as topic_commands
 from pyconnect.commands.common import Parser, UsageError
 from pyconnect.commands.value_text import format_value
 from pyconnect.errors import PyconnectError
@@ -32,6 +36,10 @@ def build_parser() -> argparse.ArgumentParser:
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     bag_commands.register(commands)
     interface_commands.register(commands)
+    topic_commands.register(commands)
+    service_commands.register(commands)
+    action_commands.register(commands)
+    node_commands.register(commands)
     return parser
 
 

@@ -37,7 +37,7 @@ def client() -> Iterator[Client]:
     require_sample_bags(BAGS, bool(SHARED))
     with (
         LocalCluster(
-            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=None
+            n_workers=2, threads_per_worker=1, processes=True, dashboard_address=":0"
         ) as cluster,
         Client(cluster) as dask_client,
     ):

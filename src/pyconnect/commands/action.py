@@ -1,0 +1,137 @@
+"""``pyconnect action list|send_goal``: ros2cli's action verbs with natural values.
+
+Exit status: 0 the goal finished (whatever its status, as ``ros2 action send_goal``), 1 the
+command could not do its work (no server, goal rejected), 2 a bad command line, 130 on Ctrl-C
+(the goal is cancelled first).
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import argparse
+import uuid
+from typing import TYPE_CHECKING, Any, TextIO
+
+from pyconnect.commands.common import Parser
+
+if TYPE_CHECKING:
+    from pyconnect.commands.common import Subcommands
+
+__all__ = ["register"]
+
+EXAMPLES = """examples:
+  pyconnect action list -t
+  pyconnect action send_goal /fibonacci test_msgs/action/Fibonacci "{order: 5}" --feedback
+"""
+
+_STATUS = {
+    0: "UNKNOWN",
+    1: "ACCEPTED",
+    2: "EXECUTING",
+    3: "CANCELING",
+    4: "SUCCEEDED",
+    5: "CANCELED",
+    6: "ABORTED",
+}
+
+
+def register(commands: Subcommands) -> Subcommands:
+    """Add ``action`` and its verbs to the ``pyconnect`` subparsers."""
+    from pyconnect.commands.graph import add_spin_time
+
+    action = commands.add_parser(
+        "action",
+        help="list actions and send goals on a live ROS graph",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    verbs = action.add_subparsers(dest="verb", required=True, parser_class=Parser)
+    listing = verbs.add_parser("list", help="the actions of the graph", epilog=EXAMPLES)
+    listing.add_argument("-t", "--show-types", action="store_true", help="show each type")
+    add_spin_time(listing)
+    listing.set_defaults(run=_list)
+
+    send = verbs.add_parser(
+        "send_goal",
+        help="send a goal (YAML/JSON) and print the result",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    send.add_argument("action_name")
+    send.add_argument("action_type", help="e.g. test_msgs/action/Fibonacci")
+    send.add_argument("goal", help="the goal's fields or natural value")
+    send.add_argument("-f", "--feedback", action="store_true", help="print the feedback")
+    send.add_argument(
+        "--timeout", type=float, default=None, metavar="S", help="give up waiting after S s"
+    )
+    send.set_defaults(run=_send_goal)
+    return verbs
+
+
+def _list(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from rclpy.action import get_action_names_and_types
+
+    from pyconnect.commands.graph import graph_session
+
+    with graph_session("action") as session:
+        session.spin_for(args.spin_time)
+        actions = get_action_names_and_types(session.node)
+    for name, types in sorted(actions):
+        print(f"{name} [{', '.join(types)}]" if args.show_types else name, file=out)
+    return 0
+
+
+def _send_goal(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from rclpy.action import ActionClient
+
+    from pyconnect.commands.graph import CommandFailed, graph_session, report_failure
+    from pyconnect.commands.live_values import echo_value, message_from_text
+    from pyconnect.commands.value_text import format_value
+    from pyconnect.errors import PyconnectError
+    from pyconnect.ros.interfaces import interface_class
+
+    try:
+        action_class = interface_class(args.action_type, kind="action")
+        goal = message_from_text(args.goal, action_class.Goal)
+    except PyconnectError as error:
+        return report_failure(error, err)
+    with graph_session("action") as session:
+        client = ActionClient(session.node, action_class, args.action_name)
+        if not client.server_is_ready():
+            print("Waiting for an action server to become available...", file=out, flush=True)
+        if not session.spin_until(client.server_is_ready, args.timeout):
+            return report_failure(
+                CommandFailed(f"action server {args.action_name} not available"), err
+            )
+        print(f"Sending goal:\n     {format_value(echo_value(goal))}\n", file=out, flush=True)
+
+        def on_feedback(message: Any) -> None:
+            value = format_value(echo_value(message.feedback))
+            print(f"Feedback:\n    {value}\n", file=out, flush=True)
+
+        sent: Any = client.send_goal_async(
+            goal, feedback_callback=on_feedback if args.feedback else None
+        )
+        if not session.spin_until(sent.done, args.timeout):
+            return report_failure(CommandFailed("the goal was neither accepted nor rejected"), err)
+        handle = sent.result()
+        if not handle.accepted:
+            return report_failure(CommandFailed("Goal was rejected."), err)
+        print(
+            f"Goal accepted with ID: {uuid.UUID(bytes=bytes(handle.goal_id.uuid)).hex}\n", file=out
+        )
+        result: Any = handle.get_result_async()
+        try:
+            if not session.spin_until(result.done, args.timeout):
+                return report_failure(CommandFailed("no result before the timeout"), err)
+        except KeyboardInterrupt:
+            cancel = handle.cancel_goal_async()
+            session.spin_until(cancel.done, 5.0)
+            raise
+        answer = result.result()
+        print(f"Result:\n    {format_value(echo_value(answer.result))}\n", file=out)
+        status = _STATUS.get(answer.status, str(answer.status))
+        print(f"Goal finished with status: {status}", file=out, flush=True)
+    return 0

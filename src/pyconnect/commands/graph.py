@@ -1,0 +1,160 @@
+"""What the live-graph commands share: a hidden CLI node in its own context, waits, QoS choice.
+
+Exit statuses follow ros2cli: 0 done, 1 the command could not do its work (no such topic,
+service or type, a timeout, a bad value; one line on stderr), 2 a bad command line (argparse),
+130 on Ctrl-C.
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from typing import Any, TextIO
+
+import rclpy
+from rclpy.context import Context
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import (
+    DurabilityPolicy,
+    QoSPresetProfiles,
+    QoSProfile,
+    ReliabilityPolicy,
+)
+
+from pyconnect.errors import PyconnectError
+
+__all__ = [
+    "PROGRAM",
+    "CommandFailed",
+    "GraphSession",
+    "add_spin_time",
+    "choose_qos",
+    "graph_session",
+    "report_failure",
+    "topic_type",
+]
+
+PROGRAM = "pyconnect"
+HIDDEN_PREFIX = "_"
+
+
+class CommandFailed(PyconnectError):
+    """The command could not do its work: one line on stderr, exit status 1."""
+
+
+def report_failure(error: Exception, err: TextIO) -> int:
+    """Print ``error`` as ros2cli does a failed verb (one line) and return 1."""
+    message = " ".join(str(error).split()) or type(error).__name__
+    print(f"{PROGRAM}: error: {message}", file=err)
+    return 1
+
+
+def add_spin_time(parser: Any, default: float = 2.0) -> None:
+    """``--spin-time S``: how long to discover the graph before answering (ros2cli's name)."""
+    parser.add_argument(
+        "--spin-time",
+        type=float,
+        default=default,
+        metavar="S",
+        help=f"seconds to wait for discovery before answering (default {default})",
+    )
+
+
+class GraphSession:
+    """A hidden node (``_pyconnect_cli_<pid>``) in a private context, spun on this thread."""
+
+    def __init__(self, name: str) -> None:
+        self.context = Context()
+        rclpy.init(context=self.context)
+        try:
+            self.node = Node(
+                f"{HIDDEN_PREFIX}pyconnect_{name}_{os.getpid()}",
+                context=self.context,
+                start_parameter_services=False,
+            )
+            self.executor = SingleThreadedExecutor(context=self.context)
+            self.executor.add_node(self.node)
+        except BaseException:
+            self.context.try_shutdown()
+            raise
+
+    def spin_once(self, timeout: float = 0.05) -> None:
+        self.executor.spin_once(timeout_sec=timeout)
+
+    def spin_for(self, seconds: float) -> None:
+        deadline = time.monotonic() + seconds
+        while time.monotonic() < deadline:
+            self.spin_once(min(0.05, max(0.0, deadline - time.monotonic())))
+
+    def spin_until(self, done: Callable[[], bool], timeout: float | None) -> bool:
+        """Spin until ``done()`` (True) or ``timeout`` seconds pass (False); None: forever."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while not done():
+            if deadline is not None and time.monotonic() >= deadline:
+                return False
+            self.spin_once()
+        return True
+
+    def close(self) -> None:
+        try:
+            self.executor.shutdown(timeout_sec=1.0)
+            self.node.destroy_node()
+        finally:
+            self.context.try_shutdown()
+
+
+@contextmanager
+def graph_session(name: str) -> Iterator[GraphSession]:
+    """A ``GraphSession`` closed on leaving the block (also on Ctrl-C)."""
+    session = GraphSession(name)
+    try:
+        yield session
+    finally:
+        session.close()
+
+
+def topic_type(session: GraphSession, topic: str, *, timeout: float | None) -> str:
+    """The type published on ``topic``, waiting up to ``timeout`` s for it to appear."""
+    found: list[str] = []
+
+    def known() -> bool:
+        for name, types in session.node.get_topic_names_and_types():
+            if name == topic and types:
+                found.append(types[0])
+                return True
+        return False
+
+    if not session.spin_until(known, timeout):
+        raise CommandFailed(
+            f"topic [{topic}] does not appear to be published yet; could not determine its type"
+        )
+    return found[0]
+
+
+def choose_qos(session: GraphSession, topic: str, profile: str | None) -> QoSProfile:
+    """A named profile, or one that matches every publisher (as ``ros2 topic echo`` picks)."""
+    if profile is not None:
+        try:
+            named: QoSProfile = QoSPresetProfiles.get_from_short_key(profile)
+        except KeyError:
+            choices = ", ".join(p.name.lower() for p in QoSPresetProfiles)
+            raise CommandFailed(
+                f"--qos-profile: unknown profile {profile!r}; choose from {choices}"
+            ) from None
+        return named
+    publishers = session.node.get_publishers_info_by_topic(topic)
+    reliable = all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in publishers)
+    latched = bool(publishers) and all(
+        p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers
+    )
+    return QoSProfile(
+        depth=10,
+        reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+    )

@@ -1,0 +1,101 @@
+"""``pyconnect service list|call``: ros2cli's service verbs with natural values.
+
+Exit status: 0 done, 1 the command could not do its work, 2 a bad command line, 130 on Ctrl-C.
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import argparse
+from typing import TYPE_CHECKING, Any, TextIO
+
+from pyconnect.commands.common import Parser
+
+if TYPE_CHECKING:
+    from pyconnect.commands.common import Subcommands
+
+__all__ = ["register"]
+
+EXAMPLES = """examples:
+  pyconnect service list -t
+  pyconnect service call /set_light std_srvs/srv/SetBool "{data: true}"
+  pyconnect service call /reset std_srvs/srv/Empty
+"""
+
+
+def register(commands: Subcommands) -> Subcommands:
+    """Add ``service`` and its verbs to the ``pyconnect`` subparsers."""
+    from pyconnect.commands.graph import add_spin_time
+
+    service = commands.add_parser(
+        "service",
+        help="list and call services of a live ROS graph",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    verbs = service.add_subparsers(dest="verb", required=True, parser_class=Parser)
+    listing = verbs.add_parser("list", help="the services of the graph", epilog=EXAMPLES)
+    listing.add_argument("-t", "--show-types", action="store_true", help="show each type")
+    listing.add_argument(
+        "--include-hidden-services", action="store_true", help="also services with a _ part"
+    )
+    add_spin_time(listing)
+    listing.set_defaults(run=_list)
+
+    call = verbs.add_parser(
+        "call",
+        help="call a service with a request (YAML/JSON)",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    call.add_argument("service_name")
+    call.add_argument("service_type", help="e.g. std_srvs/srv/SetBool")
+    call.add_argument("values", nargs="?", default="{}", help="the request (default {})")
+    call.add_argument(
+        "--timeout", type=float, default=None, metavar="S", help="give up after S seconds"
+    )
+    call.set_defaults(run=_call)
+    return verbs
+
+
+def _list(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from pyconnect.commands.graph import graph_session
+
+    with graph_session("service") as session:
+        session.spin_for(args.spin_time)
+        services = session.node.get_service_names_and_types()
+    for name, types in sorted(services):
+        hidden = any(part.startswith("_") for part in name.split("/"))
+        if hidden and not args.include_hidden_services:
+            continue
+        print(f"{name} [{', '.join(types)}]" if args.show_types else name, file=out)
+    return 0
+
+
+def _call(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from pyconnect.commands.graph import CommandFailed, graph_session, report_failure
+    from pyconnect.commands.live_values import echo_value, message_from_text
+    from pyconnect.commands.value_text import format_value
+    from pyconnect.errors import PyconnectError
+    from pyconnect.ros.interfaces import interface_class
+
+    try:
+        srv_class = interface_class(args.service_type, kind="srv")
+        request = message_from_text(args.values, srv_class.Request)
+    except PyconnectError as error:
+        return report_failure(error, err)
+    with graph_session("service") as session:
+        client = session.node.create_client(srv_class, args.service_name)
+        if not client.service_is_ready():
+            print("waiting for service to become available...", file=out, flush=True)
+        if not session.spin_until(client.service_is_ready, args.timeout):
+            return report_failure(CommandFailed(f"service {args.service_name} not available"), err)
+        print(f"requester: making request: {format_value(echo_value(request))}\n", file=out)
+        future: Any = client.call_async(request)
+        if not session.spin_until(future.done, args.timeout):
+            return report_failure(CommandFailed(f"no response from {args.service_name}"), err)
+        response = future.result()
+        print(f"response:\n{format_value(echo_value(response))}\n", file=out, flush=True)
+    return 0

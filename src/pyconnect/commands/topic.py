@@ -1,0 +1,365 @@
+"""``pyconnect topic list|info|echo|hz|bw|pub``: ros2cli's topic verbs with natural values.
+
+Names, flags and output lines follow ``ros2 topic`` so habits and scripts carry over; values are
+pyconnect's natural values (an image is a one-line summary). Exit status: 0 done, 1 the command
+could not do its work, 2 a bad command line, 130 on Ctrl-C.
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import argparse
+import json
+import time
+from typing import TYPE_CHECKING, Any, TextIO
+
+from pyconnect.commands.common import Parser
+
+if TYPE_CHECKING:
+    from pyconnect.commands.common import Subcommands
+
+__all__ = ["register"]
+
+EXAMPLES = """examples:
+  pyconnect topic list -t
+  pyconnect topic info /chatter -v
+  pyconnect topic echo /camera/image_raw --qos-profile sensor_data
+  pyconnect topic echo /odom --field pose.pose.position --once --json
+  pyconnect topic hz /imu/data
+  pyconnect topic bw /camera/image_raw
+  pyconnect topic pub /chatter std_msgs/msg/String "hello" --rate 10
+  pyconnect topic pub /cmd_vel geometry_msgs/msg/Twist "[[0.2, 0, 0], [0, 0, 0.5]]" --once
+  pyconnect topic pub /cmd_vel geometry_msgs/msg/Twist "{linear: {x: 0.2}}" --times 3
+"""
+
+
+def _add_qos(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--qos-profile",
+        metavar="NAME",
+        help="a preset profile: sensor_data, system_default, services_default, parameters, "
+        "action_status_default, best_available (default: one that matches the publishers)",
+    )
+
+
+def register(commands: Subcommands) -> Subcommands:
+    """Add ``topic`` and its verbs to the ``pyconnect`` subparsers."""
+    from pyconnect.commands.graph import add_spin_time
+
+    topic = commands.add_parser(
+        "topic",
+        help="list, inspect, echo, measure and publish topics of a live ROS graph",
+        description="Topics of a live ROS 2 graph, as `ros2 topic` shows them.",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    verbs = topic.add_subparsers(dest="verb", required=True, parser_class=Parser)
+
+    listing = verbs.add_parser("list", help="the topics of the graph", epilog=EXAMPLES)
+    listing.add_argument("-t", "--show-types", action="store_true", help="show each type")
+    listing.add_argument(
+        "--include-hidden-topics",
+        action="store_true",
+        help="also topics with a part that starts with _",
+    )
+    add_spin_time(listing)
+    listing.set_defaults(run=_list)
+
+    info = verbs.add_parser("info", help="type, publishers and subscriptions of a topic")
+    info.add_argument("topic")
+    info.add_argument("-v", "--verbose", action="store_true", help="each endpoint and its QoS")
+    add_spin_time(info)
+    info.set_defaults(run=_info)
+
+    echo = verbs.add_parser("echo", help="print the natural values of a topic")
+    echo.add_argument("topic")
+    echo.add_argument("message_type", nargs="?", help="the type (found on the graph if left out)")
+    echo.add_argument("--json", action="store_true", help="one JSON value per line")
+    echo.add_argument("--field", help="print only this field of each message (a.b.c)")
+    echo.add_argument("--once", action="store_true", help="print one message and exit")
+    _add_qos(echo)
+    echo.add_argument(
+        "--timeout", type=float, metavar="S", help="give up after S seconds without the topic"
+    )
+    echo.set_defaults(run=_echo)
+
+    hz = verbs.add_parser("hz", help="the rate at which a topic is published")
+    hz.add_argument("topic")
+    hz.add_argument(
+        "-w", "--window", type=int, default=10000, help="intervals to average (default 10000)"
+    )
+    _add_qos(hz)
+    hz.add_argument(
+        "--timeout", type=float, metavar="S", help="give up after S seconds without the topic"
+    )
+    hz.set_defaults(run=_hz)
+
+    bw = verbs.add_parser("bw", help="the bandwidth a topic uses")
+    bw.add_argument("topic")
+    bw.add_argument("-w", "--window", type=int, default=100, help="messages to average (100)")
+    _add_qos(bw)
+    bw.add_argument(
+        "--timeout", type=float, metavar="S", help="give up after S seconds without the topic"
+    )
+    bw.set_defaults(run=_bw)
+
+    pub = verbs.add_parser(
+        "pub",
+        help="publish a value (YAML/JSON: the message's fields or its natural value)",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    pub.add_argument("topic")
+    pub.add_argument("message_type", help="e.g. std_msgs/msg/String")
+    pub.add_argument("value", nargs="?", default="{}", help="YAML or JSON (default {})")
+    pub.add_argument("-r", "--rate", type=float, default=1.0, help="Hz (default 1)")
+    pub.add_argument("-1", "--once", action="store_true", help="publish one message and exit")
+    pub.add_argument("-t", "--times", type=int, help="publish this many messages and exit")
+    pub.add_argument(
+        "-w",
+        "--wait-matching-subscriptions",
+        type=int,
+        help="wait for this many subscriptions first (default 1 with --once/--times, else 0)",
+    )
+    pub.add_argument(
+        "--timeout", type=float, metavar="S", help="give up waiting for subscriptions after S s"
+    )
+    _add_qos(pub)
+    pub.set_defaults(run=_pub)
+    return verbs
+
+
+def _hidden(name: str) -> bool:
+    return any(part.startswith("_") for part in name.split("/"))
+
+
+def _list(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from pyconnect.commands.graph import graph_session
+
+    with graph_session("topic") as session:
+        session.spin_for(args.spin_time)
+        topics = session.node.get_topic_names_and_types()
+    for name, types in sorted(topics):
+        if _hidden(name) and not args.include_hidden_topics:
+            continue
+        print(f"{name} [{', '.join(types)}]" if args.show_types else name, file=out)
+    return 0
+
+
+def _info(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from pyconnect.commands.graph import CommandFailed, graph_session, report_failure, topic_type
+
+    with graph_session("topic") as session:
+        try:
+            msg_type = topic_type(session, args.topic, timeout=args.spin_time)
+        except CommandFailed:
+            return report_failure(CommandFailed(f"Unknown topic '{args.topic}'"), err)
+        node = session.node
+
+        def named() -> bool:  # endpoints are discovered before the nodes that own them
+            endpoints = [
+                *node.get_publishers_info_by_topic(args.topic),
+                *node.get_subscriptions_info_by_topic(args.topic),
+            ]
+            return all(e.node_name != "_NODE_NAME_UNKNOWN_" for e in endpoints)
+
+        session.spin_until(named, args.spin_time)
+        publishers = node.get_publishers_info_by_topic(args.topic)
+        subscriptions = node.get_subscriptions_info_by_topic(args.topic)
+    gap = "\n" if args.verbose else ""
+    print(f"Type: {msg_type}{gap}", file=out)
+    print(f"Publisher count: {len(publishers)}{gap}", file=out)
+    if args.verbose:
+        for endpoint in publishers:
+            print(f"{endpoint}\n", file=out)
+    print(f"Subscription count: {len(subscriptions)}{gap}", file=out)
+    if args.verbose:
+        for endpoint in subscriptions:
+            print(f"{endpoint}\n", file=out)
+    return 0
+
+
+def _subscribe(
+    args: argparse.Namespace, verb: str, on_message: Any, *, raw: bool
+) -> tuple[Any, Any]:
+    """A session subscribed to ``args.topic``; the caller spins it."""
+    from pyconnect.commands.graph import choose_qos, graph_session, topic_type
+    from pyconnect.ros.interfaces import interface_class
+
+    context = graph_session(verb)
+    session = context.__enter__()
+    try:
+        msg_type = getattr(args, "message_type", None) or topic_type(
+            session, args.topic, timeout=args.timeout
+        )
+        msg_class = interface_class(msg_type, kind="msg")
+        qos = choose_qos(session, args.topic, args.qos_profile)
+        session.node.create_subscription(msg_class, args.topic, on_message, qos, raw=raw)
+    except BaseException:
+        context.__exit__(None, None, None)
+        raise
+    return context, session
+
+
+def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from pyconnect.commands.graph import report_failure
+    from pyconnect.commands.live_values import echo_line, echo_value, json_value, select_field
+    from pyconnect.errors import PyconnectError
+
+    received: list[Any] = []
+
+    def on_message(msg: Any) -> None:
+        received.append(msg)
+
+    try:
+        context, session = _subscribe(args, "echo", on_message, raw=False)
+    except PyconnectError as error:
+        return report_failure(error, err)
+    try:
+        while True:
+            session.spin_until(lambda: bool(received), None)
+            while received:
+                value = echo_value(select_field(received.pop(0), args.field))
+                if args.json:
+                    print(json.dumps(json_value(value)), file=out, flush=True)
+                else:
+                    print(echo_line(value), file=out)
+                    print("---", file=out, flush=True)
+                if args.once:
+                    return 0
+    except PyconnectError as error:
+        return report_failure(error, err)
+    finally:
+        context.__exit__(None, None, None)
+
+
+def _hz(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from pyconnect.commands.graph import report_failure
+    from pyconnect.commands.topic_stats import RateWindow
+    from pyconnect.errors import PyconnectError
+
+    if args.window < 1:
+        return report_failure(ValueError(f"--window: expected at least 1, got {args.window}"), err)
+    window = RateWindow(args.window)
+    clock: list[Any] = []
+
+    def on_message(_data: bytes) -> None:
+        window.add(clock[0].now().nanoseconds)
+        report = window.report()
+        if report is not None:
+            print(report, file=out, flush=True)
+
+    if args.qos_profile is None:
+        args.qos_profile = "sensor_data"  # as ros2 topic hz subscribes
+    try:
+        context, session = _subscribe(args, "hz", on_message, raw=True)
+    except PyconnectError as error:
+        return report_failure(error, err)
+    clock.append(session.node.get_clock())
+    try:
+        while True:
+            session.spin_once(0.1)
+    finally:
+        context.__exit__(None, None, None)
+
+
+def _bw(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from pyconnect.commands.graph import report_failure
+    from pyconnect.commands.topic_stats import BandwidthWindow
+    from pyconnect.errors import PyconnectError
+
+    if args.window < 1:
+        return report_failure(ValueError(f"--window: expected at least 1, got {args.window}"), err)
+    window = BandwidthWindow(args.window)
+
+    def on_message(data: bytes) -> None:
+        window.add(time.monotonic(), len(data))
+
+    if args.qos_profile is None:
+        args.qos_profile = "sensor_data"  # as ros2 topic bw subscribes
+    try:
+        context, session = _subscribe(args, "bw", on_message, raw=True)
+    except PyconnectError as error:
+        return report_failure(error, err)
+    print(f"Subscribed to [{args.topic}]", file=out, flush=True)
+    try:
+        next_report = time.monotonic() + 1.0
+        while True:
+            session.spin_once(max(0.0, min(0.1, next_report - time.monotonic())))
+            if time.monotonic() >= next_report:
+                next_report += 1.0
+                report = window.report(time.monotonic())
+                if report is not None:
+                    print(report, file=out, flush=True)
+    finally:
+        context.__exit__(None, None, None)
+
+
+def _pub(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from pyconnect.commands.graph import CommandFailed, graph_session, report_failure
+    from pyconnect.commands.live_values import message_from_text
+    from pyconnect.commands.value_text import format_value
+    from pyconnect.errors import PyconnectError
+    from pyconnect.ros.interfaces import interface_class
+    from pyconnect.ros.qos import DEFAULT
+
+    if args.rate <= 0:
+        return report_failure(ValueError(f"--rate: expected Hz > 0, got {args.rate}"), err)
+    times = 1 if args.once else args.times
+    wait_for = args.wait_matching_subscriptions
+    if wait_for is None:
+        wait_for = 1 if times is not None else 0
+    try:
+        msg_class = interface_class(args.message_type, kind="msg")
+        message = message_from_text(args.value, msg_class)
+    except PyconnectError as error:
+        return report_failure(error, err)
+    with graph_session("pub") as session:
+        try:
+            from rclpy.qos import QoSPresetProfiles
+
+            qos = (
+                QoSPresetProfiles.get_from_short_key(args.qos_profile)
+                if args.qos_profile
+                else DEFAULT
+            )
+        except KeyError:
+            return report_failure(
+                CommandFailed(f"--qos-profile: unknown {args.qos_profile!r}"), err
+            )
+        publisher = session.node.create_publisher(msg_class, args.topic, qos)
+        if wait_for > 0:
+            print(f"Waiting for at least {wait_for} matching subscription(s)...", file=out)
+            if not session.spin_until(
+                lambda: publisher.get_subscription_count() >= wait_for, args.timeout
+            ):
+                return report_failure(
+                    CommandFailed(f"no {wait_for} matching subscription(s) on {args.topic}"), err
+                )
+        print("publisher: beginning loop", file=out)
+        shown = format_value(message_value(message))
+        count = 0
+        period = 1.0 / args.rate
+        next_time = time.monotonic()
+        while times is None or count < times:
+            publisher.publish(message)
+            count += 1
+            print(f"publishing #{count}: {shown}", file=out, flush=True)
+            if times is not None and count >= times:
+                break
+            next_time += period
+            session.spin_for(max(0.0, next_time - time.monotonic()))
+        # Reliable subscriptions acknowledge in the background: wait for them before leaving.
+        from rclpy.duration import Duration
+
+        publisher.wait_for_all_acked(Duration(seconds=2))
+    return 0
+
+
+def message_value(message: Any) -> Any:
+    """The natural value of ``message`` for the ``publishing #N:`` line."""
+    from pyconnect.commands.live_values import echo_value
+
+    return echo_value(message)

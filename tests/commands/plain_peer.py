@@ -1,0 +1,81 @@
+"""A plain rclpy process for the live-tool tests: topics, a service, an action, a subscriber.
+
+Run as ``python -m tests.commands.plain_peer``; prints ``ready`` once everything is created,
+``got <data>`` for each String received on /commands, and exits on SIGINT or stdin closing.
+"""
+
+from __future__ import annotations
+
+import sys
+import threading
+import time
+
+import rclpy
+from rclpy.action import ActionServer
+from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.node import Node
+from sensor_msgs.msg import Image
+from std_msgs.msg import String
+from std_srvs.srv import SetBool
+from test_msgs.action import Fibonacci
+
+
+def main() -> None:
+    rclpy.init()
+    node = Node("plain_peer")
+    chatter = node.create_publisher(String, "chatter", 10)
+    image = node.create_publisher(Image, "image", 10)
+    count = [0]
+
+    def tick() -> None:
+        count[0] += 1
+        chatter.publish(String(data=f"hello {count[0]}"))
+        image.publish(
+            Image(height=2, width=2, encoding="mono8", step=2, data=bytes([0, 10, 20, 30]))
+        )
+
+    node.create_timer(0.05, tick)
+
+    def on_command(msg: String) -> None:
+        print(f"got {msg.data}", flush=True)
+
+    node.create_subscription(String, "commands", on_command, 10)
+
+    def set_flag(request: SetBool.Request, response: SetBool.Response) -> SetBool.Response:
+        response.success = request.data
+        response.message = f"flag is {request.data}"
+        return response
+
+    node.create_service(SetBool, "set_flag", set_flag)
+
+    def fibonacci(goal_handle: object) -> Fibonacci.Result:
+        order = goal_handle.request.order  # type: ignore[attr-defined]
+        sequence = [0, 1]
+        for _ in range(order - 1):
+            sequence.append(sequence[-1] + sequence[-2])
+            feedback = Fibonacci.Feedback(sequence=sequence)
+            goal_handle.publish_feedback(feedback)  # type: ignore[attr-defined]
+            time.sleep(0.01)
+        goal_handle.succeed()  # type: ignore[attr-defined]
+        return Fibonacci.Result(sequence=sequence)
+
+    ActionServer(node, Fibonacci, "fibonacci", fibonacci)
+    executor = MultiThreadedExecutor()
+    executor.add_node(node)
+
+    def watch_stdin() -> None:
+        sys.stdin.read()
+        rclpy.try_shutdown()
+
+    threading.Thread(target=watch_stdin, daemon=True).start()
+    print("ready", flush=True)
+    try:
+        executor.spin()
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        rclpy.try_shutdown()
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,370 @@
+"""``pyconnect topic|service|action|node`` against a plain rclpy process (tests/commands/plain_peer)."""
+
+from __future__ import annotations
+
+import json
+import os
+import queue
+import re
+import signal
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+
+from pyconnect.cli import main
+
+ROOT = Path(__file__).resolve().parents[2]
+WAIT = 90.0  # generous: the machine is shared and loaded
+
+
+class Lines:
+    """A child process's stdout lines, read on a thread."""
+
+    def __init__(self, process: subprocess.Popen[str]) -> None:
+        self.process = process
+        self.lines: queue.Queue[str] = queue.Queue()
+        assert process.stdout is not None
+        stream = process.stdout
+        self.reader = threading.Thread(target=self._read, args=(stream,), daemon=True)
+        self.reader.start()
+
+    def stop(self) -> str:
+        """Ctrl-C the process, wait for it to end and return its stderr."""
+        process = self.process
+        if process.stdin is not None:
+            process.stdin.close()
+        process.send_signal(signal.SIGINT)
+        process.wait(timeout=WAIT)
+        self.reader.join(timeout=WAIT)
+        assert process.stderr is not None and process.stdout is not None
+        err = process.stderr.read()
+        process.stderr.close()
+        process.stdout.close()
+        return err
+
+    def _read(self, stream: object) -> None:
+        for line in stream:  # type: ignore[attr-defined]
+            self.lines.put(line.rstrip("\n"))
+
+    def wait_for(self, pattern: str, timeout: float = WAIT) -> tuple[list[str], re.Match[str]]:
+        seen: list[str] = []
+        deadline = time.monotonic() + timeout
+        while True:
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                raise AssertionError(f"no line matching {pattern!r}; got {seen!r}")
+            try:
+                line = self.lines.get(timeout=remaining)
+            except queue.Empty:
+                continue
+            seen.append(line)
+            found = re.search(pattern, line)
+            if found:
+                return seen, found
+
+
+def _spawn(*args: str) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, *args],
+        cwd=ROOT,
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=dict(os.environ, PYTHONUNBUFFERED="1"),
+    )
+
+
+@pytest.fixture(scope="module")
+def peer() -> Iterator[Lines]:
+    process = _spawn("-m", "tests.commands.plain_peer")
+    lines = Lines(process)
+    try:
+        lines.wait_for("^ready$")
+        yield lines
+    finally:
+        lines.stop()
+
+
+def _run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    status = main(list(argv))
+    captured = capsys.readouterr()
+    return status, captured.out, captured.err
+
+
+def _until(
+    capsys: pytest.CaptureFixture[str], check: Callable[[str], bool], *argv: str
+) -> tuple[int, str]:
+    """Run a listing until its output passes ``check`` (discovery takes a while when loaded)."""
+    deadline = time.monotonic() + WAIT
+    while True:
+        status, out, _err = _run(capsys, *argv)
+        if check(out) or time.monotonic() > deadline:
+            return status, out
+
+
+def test_topic_list_shows_types(peer: Lines, capsys: pytest.CaptureFixture[str]) -> None:
+    status, out = _until(capsys, lambda out: "/image" in out, "topic", "list", "-t")
+    assert status == 0
+    assert "/chatter [std_msgs/msg/String]" in out.splitlines()
+    assert "/image [sensor_msgs/msg/Image]" in out.splitlines()
+    status, out = _until(capsys, lambda out: "/image" in out, "topic", "list")
+    assert "/chatter" in out.splitlines()
+
+
+def test_topic_info_counts_and_qos(peer: Lines, capsys: pytest.CaptureFixture[str]) -> None:
+    status, out, _ = _run(capsys, "topic", "info", "/chatter", "--spin-time", str(WAIT))
+    assert status == 0
+    assert out.splitlines() == [
+        "Type: std_msgs/msg/String",
+        "Publisher count: 1",
+        "Subscription count: 0",
+    ]
+    status, out, _ = _run(capsys, "topic", "info", "/chatter", "-v", "--spin-time", str(WAIT))
+    assert status == 0
+    lines = out.splitlines()
+    assert lines[:4] == ["Type: std_msgs/msg/String", "", "Publisher count: 1", ""]
+    for expected in (
+        "Node name: plain_peer",
+        "Node namespace: /",
+        "Endpoint type: PUBLISHER",
+        "  Reliability: RELIABLE",
+        "  History (Depth): UNKNOWN",
+        "  Durability: VOLATILE",
+        "Subscription count: 0",
+    ):
+        assert expected in lines
+
+
+def test_topic_info_of_an_unknown_topic(capsys: pytest.CaptureFixture[str]) -> None:
+    assert _run(capsys, "topic", "info", "/nope", "--spin-time", "0.5") == (
+        1,
+        "",
+        "pyconnect: error: Unknown topic '/nope'\n",
+    )
+
+
+def test_topic_echo_natural_values(peer: Lines, capsys: pytest.CaptureFixture[str]) -> None:
+    status, out, _ = _run(capsys, "topic", "echo", "/chatter", "--once", "--timeout", str(WAIT))
+    assert status == 0
+    assert re.fullmatch(r"'hello \d+'\n---\n", out), out
+    status, out, _ = _run(
+        capsys, "topic", "echo", "/image", "--once", "--qos-profile", "sensor_data"
+    )
+    assert (status, out) == (
+        0,
+        "Image(shape=(2, 2), dtype=uint8, encoding=mono8, mean=15.000)\n---\n",
+    )
+    status, out, _ = _run(capsys, "topic", "echo", "/image", "--once", "--json")
+    assert json.loads(out) == {"shape": [2, 2], "dtype": "uint8", "encoding": "mono8", "mean": 15.0}
+    status, out, _ = _run(
+        capsys, "topic", "echo", "/image", "--once", "--json", "--field", "header"
+    )
+    assert json.loads(out) == {"stamp": {"sec": 0, "nanosec": 0}, "frame_id": ""}
+    status, out, _ = _run(
+        capsys, "topic", "echo", "/chatter", "--once", "--field", "data", "--json"
+    )
+    assert re.fullmatch(r'"hello \d+"\n', out), out
+
+
+def test_topic_echo_errors(peer: Lines, capsys: pytest.CaptureFixture[str]) -> None:
+    assert _run(capsys, "topic", "echo", "/nope", "--timeout", "0.5") == (
+        1,
+        "",
+        "pyconnect: error: topic [/nope] does not appear to be published yet; could not "
+        "determine its type\n",
+    )
+    assert _run(capsys, "topic", "echo", "/chatter", "--once", "--field", "nope") == (
+        1,
+        "",
+        "pyconnect: error: --field nope: no field 'nope' in String\n",
+    )
+    assert _run(capsys, "topic", "echo", "/chatter", "--qos-profile", "fast") == (
+        1,
+        "",
+        "pyconnect: error: --qos-profile: unknown profile 'fast'; choose from unknown, default, "
+        "system_default, sensor_data, parameters, action_status_default, best_available\n",
+    )
+    status, _out, err = _run(capsys, "topic", "echo")
+    assert (status, err) == (2, "pyconnect: error: the following arguments are required: topic\n")
+
+
+@pytest.mark.parametrize(
+    ("verb", "pattern"),
+    [
+        ("hz", r"^average rate: (\d+\.\d{3})$"),
+        ("bw", r"^(\d+(?:\.\d\d)?) (B|KB|MB)/s from (\d+) messages$"),
+    ],
+)
+def test_hz_and_bw_print_ros2cli_lines_until_ctrl_c(peer: Lines, verb: str, pattern: str) -> None:
+    process = _spawn("-m", "pyconnect.cli", "topic", verb, "/chatter")
+    lines = Lines(process)
+    try:
+        _seen, found = lines.wait_for(pattern)
+        assert float(found.group(1)) > 0
+        _seen, detail = lines.wait_for(r"^\t(min|Message size mean)")
+        if verb == "hz":
+            assert re.fullmatch(
+                r"\tmin: \d+\.\d{3}s max: \d+\.\d{3}s std dev: \d+\.\d{5}s window: \d+",
+                detail.string,
+            )
+        else:
+            assert re.fullmatch(r"\tMessage size mean: \d+ B min: \d+ B max: \d+ B", detail.string)
+    finally:
+        err = lines.stop()
+    assert (process.returncode, err) == (130, "")
+
+
+def test_topic_pub_reaches_a_plain_subscriber(
+    peer: Lines, capsys: pytest.CaptureFixture[str]
+) -> None:
+    status, out, _ = _run(
+        capsys,
+        "topic",
+        "pub",
+        "/commands",
+        "std_msgs/msg/String",
+        "hi there",
+        "--once",
+        "--timeout",
+        str(WAIT),
+    )
+    assert status == 0
+    assert out.splitlines()[-2:] == ["publisher: beginning loop", "publishing #1: 'hi there'"]
+    peer.wait_for("^got hi there$")
+    status, out, _ = _run(
+        capsys,
+        "topic",
+        "pub",
+        "/commands",
+        "std_msgs/msg/String",
+        "{data: as dict}",
+        "-t",
+        "2",
+        "--rate",
+        "20",
+        "--timeout",
+        str(WAIT),
+    )
+    assert status == 0
+    assert out.splitlines()[-1] == "publishing #2: 'as dict'"
+    peer.wait_for("^got as dict$")
+
+
+def test_topic_pub_bad_values(capsys: pytest.CaptureFixture[str]) -> None:
+    assert _run(capsys, "topic", "pub", "/x", "std_msgs/msg/Nope", "1", "--once") == (
+        1,
+        "",
+        "pyconnect: error: std_msgs/msg/Nope: no such interface is installed (module "
+        "'std_msgs.msg' has no attribute 'Nope')\n",
+    )
+    status, _out, err = _run(
+        capsys, "topic", "pub", "/x", "geometry_msgs/msg/Twist", "[1, 2", "--once"
+    )
+    assert status == 1
+    assert err.startswith("pyconnect: error: VALUE is not YAML or JSON: ")
+
+
+def test_service_list_and_call(peer: Lines, capsys: pytest.CaptureFixture[str]) -> None:
+    status, out = _until(capsys, lambda out: "/set_flag" in out, "service", "list", "-t")
+    assert status == 0
+    assert "/set_flag [std_srvs/srv/SetBool]" in out.splitlines()
+    status, out, _ = _run(
+        capsys,
+        "service",
+        "call",
+        "/set_flag",
+        "std_srvs/srv/SetBool",
+        "{data: true}",
+        "--timeout",
+        str(WAIT),
+    )
+    assert status == 0
+    assert out.splitlines()[-5:] == [
+        "requester: making request: {'data': True}",
+        "",
+        "response:",
+        "{'success': True, 'message': 'flag is True'}",
+        "",
+    ]
+    assert _run(
+        capsys, "service", "call", "/absent", "std_srvs/srv/SetBool", "--timeout", "0.5"
+    ) == (
+        1,
+        "waiting for service to become available...\n",
+        "pyconnect: error: service /absent not available\n",
+    )
+
+
+def test_action_list_and_send_goal(peer: Lines, capsys: pytest.CaptureFixture[str]) -> None:
+    status, out = _until(capsys, lambda out: "/fibonacci" in out, "action", "list", "-t")
+    assert "/fibonacci [test_msgs/action/Fibonacci]" in out.splitlines()
+    status, out, _ = _run(
+        capsys,
+        "action",
+        "send_goal",
+        "/fibonacci",
+        "test_msgs/action/Fibonacci",
+        "{order: 4}",
+        "--feedback",
+        "--timeout",
+        str(WAIT),
+    )
+    assert status == 0
+    lines = out.splitlines()
+    assert "Sending goal:" in lines
+    assert "     {'order': 4}" in lines
+    assert "    {'sequence': [0, 1, 1, 2]}" in lines  # a feedback
+    assert lines.count("Feedback:") == 3
+    assert any(re.fullmatch(r"Goal accepted with ID: [0-9a-f]{32}", line) for line in lines)
+    assert lines[-4:] == [
+        "Result:",
+        "    {'sequence': [0, 1, 1, 2, 3]}",
+        "",
+        "Goal finished with status: SUCCEEDED",
+    ]
+
+
+def test_node_list_and_info(peer: Lines, capsys: pytest.CaptureFixture[str]) -> None:
+    status, out = _until(capsys, lambda out: "/plain_peer" in out, "node", "list")
+    assert status == 0
+    assert "/plain_peer" in out.splitlines()
+    assert not any(line.startswith("/_pyconnect") for line in out.splitlines())
+    status, out, _ = _run(capsys, "node", "info", "/plain_peer", "--spin-time", str(WAIT))
+    assert status == 0
+    lines = out.splitlines()
+    assert lines[0] == "/plain_peer"
+    for section, entry in (
+        ("  Subscribers:", "    /commands: std_msgs/msg/String"),
+        ("  Publishers:", "    /chatter: std_msgs/msg/String"),
+        ("  Service Servers:", "    /set_flag: std_srvs/srv/SetBool"),
+        ("  Action Servers:", "    /fibonacci: test_msgs/action/Fibonacci"),
+    ):
+        assert section in lines
+        assert entry in lines
+    assert _run(capsys, "node", "info", "/nobody", "--spin-time", "0.5") == (
+        1,
+        "",
+        "pyconnect: error: Unable to find node '/nobody'\n",
+    )
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["topic", "--help"],
+        ["topic", "pub", "--help"],
+        ["service", "--help"],
+        ["action", "--help"],
+        ["node", "--help"],
+    ],
+)
+def test_help_has_examples(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    status, out, _ = _run(capsys, *argv)
+    assert status == 0
+    assert "examples:\n  pyconnect " in out
