@@ -227,6 +227,11 @@ def rows_to_table(
 
 
 # -- bags ----------------------------------------------------------------------------------------
+def _bag_paths(reader: BagReader) -> list[Path]:
+    """Every bag an open reader merges (``open_bag([run1, run2])``), in its order."""
+    return [located.path for located, _storages in reader._bags]
+
+
 def topic_types(reader: BagReader, topic: str) -> tuple[Definitions, str]:
     """The type definitions and type name ``topic`` is decoded with: the bag's, else installed."""
     msg_type = reader.topics[topic].msg_type
@@ -234,7 +239,8 @@ def topic_types(reader: BagReader, topic: str) -> tuple[Definitions, str]:
     from pyconnect.record.bag_files import locate_bag_files, open_storage
 
     stored: tuple[str, str] | None = None
-    for path in locate_bag_files(reader.path).files:
+    files = [file for bag in _bag_paths(reader) for file in locate_bag_files(bag).files]
+    for path in files:
         storage = open_storage(path)
         try:
             for connection in storage.connections():
@@ -269,7 +275,7 @@ def topic_table(
     Messages that cannot be decoded are appended to ``errors`` (when given) and left out.
     """
     owner = bag if isinstance(bag, BagReader) else None
-    path = bag.path if isinstance(bag, BagReader) else Path(bag)
+    path: list[Path] = _bag_paths(bag) if isinstance(bag, BagReader) else [Path(bag)]
     with open_bag(
         path,
         topics=[topic],
