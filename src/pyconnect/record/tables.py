@@ -30,7 +30,10 @@ from typing import Any
 import numpy as np
 import pyarrow as pa
 
-from pyconnect.record.bag_reader import BagReader, DecodeProblem, open_bag
+# The bag reader calls this module (its to_arrow/to_pandas/to_polars); this module takes the
+# reader it is given and never imports the reader's module, so the two stay free of a cycle.
+BagReader = Any
+DecodeProblem = Any
 
 __all__ = [
     "TIME_COLUMN",
@@ -229,7 +232,8 @@ def rows_to_table(
 # -- bags ----------------------------------------------------------------------------------------
 def _bag_paths(reader: BagReader) -> list[Path]:
     """Every bag an open reader merges (``open_bag([run1, run2])``), in its order."""
-    return [located.path for located, _storages in reader._bags]
+    paths: list[Path] = [located.path for located, _storages in reader._bags]
+    return paths
 
 
 def topic_types(reader: BagReader, topic: str) -> tuple[Definitions, str]:
@@ -265,24 +269,23 @@ def topic_types(reader: BagReader, topic: str) -> tuple[Definitions, str]:
 
 
 def topic_table(
-    bag: BagReader | str | Path,
+    bag: BagReader,
     topic: str,
     *,
     errors: list[DecodeProblem] | None = None,
 ) -> pa.Table:
-    """One topic of ``bag`` (an open reader, whose time range applies, or a path) as a table.
+    """One topic of an open reader (``open_bag(...)``, whose time range applies) as a table.
 
     Messages that cannot be decoded are appended to ``errors`` (when given) and left out.
     """
-    owner = bag if isinstance(bag, BagReader) else None
-    path: list[Path] = _bag_paths(bag) if isinstance(bag, BagReader) else [Path(bag)]
-    with open_bag(
-        path,
+    # A reader of the same class over the same bags, reading lossless dicts of one topic.
+    with type(bag)(
+        _bag_paths(bag),
         topics=[topic],
         natural=False,
-        start_ns=owner.start_ns if owner is not None else None,
-        end_ns=owner.end_ns if owner is not None else None,
-        on_error=owner.on_error if owner is not None else "report",
+        start_ns=bag.start_ns,
+        end_ns=bag.end_ns,
+        on_error=bag.on_error,
     ) as reader:
         definitions, msg_type = topic_types(reader, topic)
         columns = columns_of(msg_type, definitions)
