@@ -37,7 +37,7 @@ from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_text_of
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
-from pyconnect.ros.waiting import wait_until
+from pyconnect.ros.waiting import settle, wait_until
 
 
 class ActionClientAgent(NodeAgent):
@@ -213,12 +213,16 @@ class ActionClientAgent(NodeAgent):
         feedback_func: ResponseFunc | None,
         timeout: float | None,
     ) -> None:
-        if wait_until(self.client.server_is_ready, timeout, stop=self.node.shutdown_event):
+        ready = wait_until(self.client.server_is_ready, timeout, stop=self.node.shutdown_event)
+        if result.done():  # an awaiting caller timed out meanwhile
+            return
+        if ready:
             self._send_goal(goal, result, feedback_func)
-        else:
-            result.set_result(
-                self._failed(f"no action server for {self.conn_name} within {timeout} s")
-            )
+            return
+        settle(
+            result,
+            lambda: self._failed(f"no action server for {self.conn_name} within {timeout} s"),
+        )
 
     def _send_goal(
         self,
@@ -257,8 +261,7 @@ class ActionClientAgent(NodeAgent):
             if not accepted:
                 with self._lock:
                     self._in_flight.pop(key, None)
-                if not result.done():
-                    result.set_result(self._failed("goal rejected by the server"))
+                settle(result, lambda: self._failed("goal rejected by the server"))
                 return
             in_flight.accepted(handle)
             handle.get_result_async().add_done_callback(
@@ -268,12 +271,7 @@ class ActionClientAgent(NodeAgent):
         def on_result(result_future: RosFuture, goal_id: Any) -> None:
             with self._lock:
                 self._in_flight.pop(key, None)
-            if result.done():  # cancelled by an awaiting caller that timed out
-                return
-            try:
-                result.set_result(self._outcome(result_future.result(), goal_id))
-            except Exception as error:
-                result.set_exception(error)
+            settle(result, lambda: self._outcome(result_future.result(), goal_id))
 
         self.client.send_goal_async(goal, feedback_callback=on_feedback).add_done_callback(
             on_goal_response

@@ -32,7 +32,7 @@ from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_message
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
-from pyconnect.ros.waiting import wait_until
+from pyconnect.ros.waiting import settle, wait_until
 
 
 class ServiceServerAgent(NodeAgent):
@@ -222,22 +222,22 @@ class ServiceClientAgent(NodeAgent):
         ros_future = self.client.call_async(request)
 
         def finish(done: RosFuture) -> None:
-            if result.done():  # cancelled by an awaiting caller that timed out
-                return
-            try:
-                result.set_result(self._value_of(done))
-            except Exception as error:
-                result.set_exception(error)
+            settle(result, lambda: self._value_of(done))
 
         ros_future.add_done_callback(finish)
 
     def _call_when_ready(
         self, request: Any, result: concurrent.futures.Future[Any], timeout: float | None
     ) -> None:
-        if wait_until(self.client.service_is_ready, timeout, stop=self.node.shutdown_event):
+        ready = wait_until(self.client.service_is_ready, timeout, stop=self.node.shutdown_event)
+        if result.done():  # an awaiting caller timed out meanwhile
+            return
+        if ready:
             self._call(request, result)
-        else:
-            result.set_result(self._failed(f"no server for {self.service_name} within {timeout} s"))
+            return
+        settle(
+            result, lambda: self._failed(f"no server for {self.service_name} within {timeout} s")
+        )
 
     def close(self) -> None:
         self.node.ros_node.destroy_client(self.client)

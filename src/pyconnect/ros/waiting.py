@@ -5,9 +5,12 @@
 
 from __future__ import annotations
 
+import concurrent.futures
+import contextlib
 import threading
 import time
 from collections.abc import Callable
+from typing import Any
 
 
 def wait_until(
@@ -27,3 +30,18 @@ def wait_until(
         if idle.wait(0.02 if remaining is None else min(remaining, 0.02)):
             return False  # stopped: the node may already be destroyed, so ask it nothing
     return True
+
+
+def settle(future: concurrent.futures.Future[Any], compute: Callable[[], Any]) -> None:
+    """Give ``future`` the value of ``compute()`` (or what it raised), unless the caller gave up
+    on it already (an ``await send_async`` that timed out cancels it)."""
+    if future.done():
+        return
+    try:
+        value = compute()
+    except Exception as error:
+        with contextlib.suppress(concurrent.futures.InvalidStateError):
+            future.set_exception(error)
+        return
+    with contextlib.suppress(concurrent.futures.InvalidStateError):
+        future.set_result(value)
