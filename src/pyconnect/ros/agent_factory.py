@@ -59,6 +59,18 @@ def make_agent(
     name = agent_name or conn_name
     if conn_type is None:
         raise OptionError(f"agent {name!r}: missing option 'conn_type'")
+    transport = given.pop("transport", None)
+    if transport is not None:  # a bridge to non-ROS peers (issue 13): its own module decides
+        from pyconnect.ros.zenoh_bridge import make_bridge_agent
+
+        return make_bridge_agent(
+            node,
+            transport=transport,
+            conn_name=conn_name,
+            conn_type=conn_type,
+            agent_name=agent_name,
+            options=given,
+        )
     agent_class = AGENT_CLASS_DICT.get(conn_type)
     if agent_class is None:
         raise PyconnectError(

@@ -50,3 +50,4 @@ class AgentOptions(TypedDict, total=False):
     result_timeout: float
     result_cache_seconds: float
     callback_group: CallbackGroup | None
+    transport: str | None
