@@ -95,9 +95,10 @@ class Peer:
         self._shutdown_thread: threading.Thread | None = None
         self._main_waiting = False
         self._ids = itertools.count()
-        zenoh_config = session_config(config=config, connect=connect, listen=listen, mode=mode)
+        self.config = session_config(config=config, connect=connect, listen=listen, mode=mode)
+        """The zenoh configuration the session was opened with (file settings kept as given)."""
         try:
-            self.session = zenoh.open(zenoh_config)
+            self.session = zenoh.open(self.config)
         except Exception as error:
             raise TransportError(f"peer {name!r}: cannot open a zenoh session: {error}") from error
         self.zid = str(self.session.zid())

@@ -25,7 +25,7 @@ from pyconnect.errors import DecodeError
 from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
 from pyconnect.transport.interface_types import message_interface
-from pyconnect.transport.peer_agent import Inbox, Peer, PeerAgent, ResponseFunc, logger
+from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc, logger
 
 DEFAULT_DEPTH = 10
 
@@ -189,7 +189,10 @@ class SubscriberAgent(PeerAgent):
         self._verdicts: dict[str, str | None] = {}
         self._reported: set[tuple[str, bytes]] = set()
         self._first_message = threading.Event()
-        self._inbox: Inbox[bytes] = Inbox(f"sub-{self.name}", depth, self._on_payload)
+        self._last_sequence: dict[bytes, int] = {}
+        self.dropped_count = 0
+        """Samples lost before this agent saw them: gaps in each publisher's sequence numbers
+        (zenoh's ring of ``depth`` samples keeps the newest when the agent falls behind)."""
         self.token_key = peer.entity_token(
             kind=keys.SUBSCRIPTION,
             name=self.topic,
@@ -197,30 +200,57 @@ class SubscriberAgent(PeerAgent):
             type_hash=interface.type_hash,
             qos=keys.qos_chunk(depth=depth),
         )
+        # Samples wait in zenoh's own ring (no Python on zenoh's threads, no lock per sample);
+        # this agent's thread takes them, so user code never blocks zenoh.
         self._subscriber = peer.session.declare_subscriber(
-            keys.data_key_any_type(peer.domain_id, self.topic), self._on_sample
+            keys.data_key_any_type(peer.domain_id, self.topic), zenoh.handlers.FifoChannel(depth)
         )
         self._token = peer.session.liveliness().declare_token(self.token_key)
+        self._thread = threading.Thread(
+            target=self._run, name=f"pyconnect-sub-{self.name}", daemon=True
+        )
+        self._thread.start()
 
-    # -- zenoh's thread: checks only, then hand over ---------------------------------------------
+    def _run(self) -> None:
+        for sample in self._subscriber:
+            try:
+                self._on_sample(sample)
+            except Exception as error:
+                self.report_exception("receive", error)
+
     def _on_sample(self, sample: zenoh.Sample) -> None:
         key = str(sample.key_expr)
         verdict = self._verdicts.get(key, "")
         if verdict == "":
             verdict = self._verdicts[key] = self._type_problem(key)
+        attachment = sample.attachment
         if verdict is not None:
             self.type_mismatch_count += 1
-            self._report_once("type", sample, verdict)
+            self._report_once("type", attachment, verdict)
             return
+        if attachment is not None:
+            self._count_gap(attachment)
         payload = sample.payload
         limit = self.peer.max_payload_bytes
         if limit is not None and len(payload) > limit:
             self.oversize_count += 1
             self._report_once(
-                "size", sample, f"dropped a {len(payload)}-byte sample (max_payload_bytes={limit})"
+                "size",
+                attachment,
+                f"dropped a {len(payload)}-byte sample (max_payload_bytes={limit})",
             )
             return
-        self._inbox.put(payload.to_bytes())
+        self._on_payload(payload.to_bytes())
+
+    def _count_gap(self, attachment: zenoh.ZBytes) -> None:
+        try:
+            sequence, _stamp, gid = keys.unpack_attachment(attachment.to_bytes())
+        except struct.error:
+            return
+        last = self._last_sequence.get(gid)
+        if last is not None and sequence > last + 1:
+            self.dropped_count += sequence - last - 1
+        self._last_sequence[gid] = sequence
 
     def _type_problem(self, key: str) -> str | None:
         chunks = key.rsplit("/", 2)
@@ -233,8 +263,7 @@ class SubscriberAgent(PeerAgent):
             f"{self.type_name} ({self.type_hash})"
         )
 
-    def _report_once(self, what: str, sample: zenoh.Sample, text: str) -> None:
-        attachment = sample.attachment
+    def _report_once(self, what: str, attachment: zenoh.ZBytes | None, text: str) -> None:
         gid = b""
         if attachment is not None:
             try:
@@ -267,11 +296,6 @@ class SubscriberAgent(PeerAgent):
             except Exception as error:
                 self.report_exception("response_func", error)
 
-    @property
-    def dropped_count(self) -> int:
-        """Samples dropped because the agent's thread fell ``depth`` samples behind."""
-        return self._inbox.dropped
-
     def wait_for_message(self, timeout: float | None = None) -> bool:
         return self._first_message.wait(timeout)
 
@@ -291,4 +315,5 @@ class SubscriberAgent(PeerAgent):
         for entity in (self._token, self._subscriber):
             with contextlib.suppress(Exception):
                 entity.undeclare()
-        self._inbox.close()
+        if self._thread is not threading.current_thread():
+            self._thread.join(5.0)
