@@ -8,7 +8,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install test lint typecheck unit demo bench generate check-generated clean fuzz storm soak scale
+.PHONY: install test lint typecheck unit demo bench bench-bag-memory generate check-generated clean fuzz storm soak scale
 
 $(STAMP): pyproject.toml
 	@test -n "$(PYTHON)" || { echo "need python3.10, 3.11 or 3.12 (the ROS 2 Jazzy wheels)"; exit 1; }
@@ -40,6 +40,10 @@ scale: install
 
 bench: install
 	$(BIN)/python -m bench
+
+# Peak RSS reading a 2 GB synthetic bag (MCAP, MCAP cut short, db3) beside rosbags and mcap-ros2.
+bench-bag-memory: install
+	$(BIN)/python -m bench.bag_memory
 
 # Hardening runs (minutes; not in CI): fuzzed wire codecs, signal storms, a 30-minute soak.
 fuzz: install

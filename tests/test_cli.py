@@ -285,3 +285,25 @@ def test_version(capsys: pytest.CaptureFixture[str]) -> None:
 
     assert main(["--version"]) == 0
     assert capsys.readouterr().out == f"pyconnect {__version__}\n"
+
+
+def test_codecgen_version_and_a_folder_one_too_deep(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from pyconnect import __version__
+    from pyconnect.codegen.cli import main as codecgen
+
+    with pytest.raises(SystemExit) as exited:
+        codecgen(["--version"])
+    assert exited.value.code == 0
+    assert capsys.readouterr().out == f"codecgen {__version__}\n"
+    folder = tmp_path / "tutorial_interfaces" / "msg"
+    folder.mkdir(parents=True)
+    (folder / "Num.msg").write_text("int64 num\n")
+    assert codecgen(["build", "--from", str(folder), "--out", str(tmp_path / "out")]) == 2
+    assert capsys.readouterr() == (
+        "",
+        f"codecgen: --from {folder}: give the package folder, the one holding msg/, srv/ or "
+        f"action/ (here {folder.parent})\n",
+    )
+    assert not (tmp_path / "out").exists()

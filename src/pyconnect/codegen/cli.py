@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from pyconnect import __version__
 from pyconnect.codegen import compile_cli
 from pyconnect.codegen.build import (
     DEFAULT_PACKAGES,
@@ -23,6 +24,7 @@ def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="codecgen", description="Generate pyconnect codec modules from ROS interfaces."
     )
+    parser.add_argument("--version", action="version", version=f"codecgen {__version__}")
     commands = parser.add_subparsers(dest="command", required=True)
     build = commands.add_parser("build", help="generate codec modules")
     build.add_argument("packages", nargs="*", help="installed interface packages")
@@ -39,7 +41,18 @@ def _parser() -> argparse.ArgumentParser:
     return parser
 
 
+_INTERFACE_FOLDERS = ("msg", "srv", "action")
+
+
 def _build(args: argparse.Namespace) -> int:
+    for folder in args.folders:
+        if Path(folder).name in _INTERFACE_FOLDERS:  # one folder too deep
+            print(
+                f"codecgen: --from {folder}: give the package folder, the one holding "
+                f"msg/, srv/ or action/ (here {Path(folder).parent})",
+                file=sys.stderr,
+            )
+            return 2
     packages = args.packages or ([] if args.folders else list(DEFAULT_PACKAGES))
     files = render_tree(packages, args.folders)
     written = write_tree(files, args.out or default_out_dir())

@@ -30,7 +30,7 @@ from pyconnect.record.bag_storage import Connection, RawMessage
 __all__ = ["SqliteFile"]
 
 _DEFINITION_ENCODINGS = ("ros2msg", "ros2idl")
-_BATCH = 256
+_BATCH = 16  # rows per salvage query: a few big messages at most
 _HEADER = 100
 
 
@@ -196,11 +196,10 @@ class SqliteFile:
         done = (-1, -1)  # (timestamp, id) of the last row delivered in time order
         if not self._damaged:
             try:
-                cursor = self._db.execute(query, parameters)
-                while rows := cursor.fetchmany(_BATCH):
-                    for row_id, topic_id, timestamp, data in rows:
-                        done = (timestamp, row_id)
-                        yield topic_id, timestamp, data
+                # One row at a time: a batch of big messages would hold them all at once.
+                for row_id, topic_id, timestamp, data in self._db.execute(query, parameters):
+                    done = (timestamp, row_id)
+                    yield topic_id, timestamp, data
                 return
             except sqlite3.DatabaseError as error:
                 self._found_damage(error)
