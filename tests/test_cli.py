@@ -224,9 +224,9 @@ def test_damaged_bag_exits_1_unless_told_to_go_on(
         (["bag", "info", "/no/such/bag"], "/no/such/bag: no such bag file or directory"),
         (
             ["bag", "ech"],
-            "argument action: invalid choice: 'ech' (choose from 'info', 'echo', 'export')",
+            "argument action: invalid choice: 'ech' (choose from 'info', 'echo', 'export', 'record', 'play')",
         ),
-        (["bag", "export", "x"], "the following arguments are required: --topic, --to"),
+        (["bag", "export", "x"], "the following arguments are required: --to"),
         (["bag", "echo", "x", "--limit", "many"], "argument --limit: invalid int value: 'many'"),
         ([], "the following arguments are required: command"),
     ],

@@ -16,6 +16,7 @@ import sys
 from pyconnect import __version__
 from pyconnect.commands import action as action_commands
 from pyconnect.commands import bag as bag_commands
+from pyconnect.commands import bag_play, bag_record
 from pyconnect.commands import interface as interface_commands
 from pyconnect.commands import node as node_commands
 from pyconnect.commands import service as service_commands
@@ -34,7 +35,9 @@ def build_parser() -> argparse.ArgumentParser:
     parser = Parser(prog=PROGRAM, description="pyconnect tools (no ROS graph needed)")
     parser.add_argument("--version", action="version", version=f"{PROGRAM} {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
-    bag_commands.register(commands)
+    bag_actions = bag_commands.register(commands)
+    bag_record.register(bag_actions)
+    bag_play.register(bag_actions)
     interface_commands.register(commands)
     topic_commands.register(commands)
     service_commands.register(commands)

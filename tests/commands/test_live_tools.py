@@ -3,92 +3,14 @@
 from __future__ import annotations
 
 import json
-import os
-import queue
 import re
-import signal
-import subprocess
-import sys
-import threading
 import time
-from collections.abc import Callable, Iterator
-from pathlib import Path
+from collections.abc import Callable
 
 import pytest
 
 from pyconnect.cli import main
-
-ROOT = Path(__file__).resolve().parents[2]
-WAIT = 90.0  # generous: the machine is shared and loaded
-
-
-class Lines:
-    """A child process's stdout lines, read on a thread."""
-
-    def __init__(self, process: subprocess.Popen[str]) -> None:
-        self.process = process
-        self.lines: queue.Queue[str] = queue.Queue()
-        assert process.stdout is not None
-        stream = process.stdout
-        self.reader = threading.Thread(target=self._read, args=(stream,), daemon=True)
-        self.reader.start()
-
-    def stop(self) -> str:
-        """Ctrl-C the process, wait for it to end and return its stderr."""
-        process = self.process
-        if process.stdin is not None:
-            process.stdin.close()
-        process.send_signal(signal.SIGINT)
-        process.wait(timeout=WAIT)
-        self.reader.join(timeout=WAIT)
-        assert process.stderr is not None and process.stdout is not None
-        err = process.stderr.read()
-        process.stderr.close()
-        process.stdout.close()
-        return err
-
-    def _read(self, stream: object) -> None:
-        for line in stream:  # type: ignore[attr-defined]
-            self.lines.put(line.rstrip("\n"))
-
-    def wait_for(self, pattern: str, timeout: float = WAIT) -> tuple[list[str], re.Match[str]]:
-        seen: list[str] = []
-        deadline = time.monotonic() + timeout
-        while True:
-            remaining = deadline - time.monotonic()
-            if remaining <= 0:
-                raise AssertionError(f"no line matching {pattern!r}; got {seen!r}")
-            try:
-                line = self.lines.get(timeout=remaining)
-            except queue.Empty:
-                continue
-            seen.append(line)
-            found = re.search(pattern, line)
-            if found:
-                return seen, found
-
-
-def _spawn(*args: str) -> subprocess.Popen[str]:
-    return subprocess.Popen(
-        [sys.executable, *args],
-        cwd=ROOT,
-        stdin=subprocess.PIPE,
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        env=dict(os.environ, PYTHONUNBUFFERED="1"),
-    )
-
-
-@pytest.fixture(scope="module")
-def peer() -> Iterator[Lines]:
-    process = _spawn("-m", "tests.commands.plain_peer")
-    lines = Lines(process)
-    try:
-        lines.wait_for("^ready$")
-        yield lines
-    finally:
-        lines.stop()
+from tests.commands.processes import WAIT, Lines, spawn
 
 
 def _run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
@@ -202,7 +124,7 @@ def test_topic_echo_errors(peer: Lines, capsys: pytest.CaptureFixture[str]) -> N
     ],
 )
 def test_hz_and_bw_print_ros2cli_lines_until_ctrl_c(peer: Lines, verb: str, pattern: str) -> None:
-    process = _spawn("-m", "pyconnect.cli", "topic", verb, "/chatter")
+    process = spawn("-m", "pyconnect.cli", "topic", verb, "/chatter")
     lines = Lines(process)
     try:
         _seen, found = lines.wait_for(pattern)

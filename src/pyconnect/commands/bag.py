@@ -57,7 +57,13 @@ def register(commands: Subcommands) -> Subcommands:
     export = actions.add_parser("export", help="write topics' messages to files")
     export.add_argument("path", help=_PATH_HELP)
     export.add_argument(
-        "--topic", action="append", required=True, help="a topic to export (repeatable)"
+        "--topic", action="append", help="a topic to export (repeatable; parquet: default all)"
+    )
+    export.add_argument(
+        "--format",
+        choices=["files", "parquet"],
+        default="files",
+        help="files: JSON/PNG/NPY per message; parquet: one table per topic",
     )
     export.add_argument("--to", required=True, help="output directory (created if needed)")
     export.add_argument("--force", action="store_true", help="overwrite an earlier export")
@@ -214,6 +220,13 @@ def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
 
 def _export(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.record.bag_export import export_topics
+
+    if args.format == "parquet":
+        from pyconnect.commands.bag_tables import export_parquet_command
+
+        return export_parquet_command(args, out, err)
+    if not args.topic:
+        raise UsageError("the following arguments are required: --topic")
 
     results = export_topics(args.path, args.topic, args.to, natural=not args.dict, force=args.force)
     status = 0

@@ -1,0 +1,162 @@
+"""``pyconnect bag play``: republish a bag's messages with their original timing.
+
+Each message is published (as its stored CDR bytes) when ``(log time - first log time -
+start offset) / rate`` seconds have passed since playing began. Each topic is offered with the
+QoS its publishers had when recorded (``offered_qos_profiles`` in the bag: reliable unless they
+were all best effort; transient local when they all were), else the default profile.
+``--clock`` also publishes the bag's time on ``/clock`` (before each message and every 25 ms) for
+nodes with ``use_sim_time``. At the end it prints how late messages were published against their
+schedule (mean and max), the timing error. Ctrl-C stops playing (exit 0).
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import argparse
+import time
+from typing import TYPE_CHECKING, Any, TextIO
+
+if TYPE_CHECKING:
+    from pyconnect.commands.common import Subcommands
+
+__all__ = ["offered_qos", "register"]
+
+EXAMPLES = """examples:
+  pyconnect bag play run1
+  pyconnect bag play run1 --rate 2 --loop --topics /camera/image_raw /joint_states
+  pyconnect bag play run1 --clock --start-offset 12.5
+"""
+
+CLOCK_PERIOD = 0.025
+
+
+def register(actions: Subcommands) -> None:
+    """Add ``play`` to the ``bag`` actions."""
+    play = actions.add_parser(
+        "play",
+        help="republish a bag's messages with their original timing",
+        epilog=EXAMPLES,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    play.add_argument("path", help="bag directory, .mcap or .db3 file")
+    play.add_argument("-r", "--rate", type=float, default=1.0, help="speed factor (default 1)")
+    play.add_argument("-l", "--loop", action="store_true", help="play again and again")
+    play.add_argument("--topics", nargs="+", help="only these topics")
+    play.add_argument("--clock", action="store_true", help="publish the bag's time on /clock")
+    play.add_argument(
+        "--start-offset", type=float, default=0.0, metavar="S", help="skip the first S seconds"
+    )
+    play.add_argument(
+        "-d", "--delay", type=float, default=0.0, metavar="S", help="wait S seconds before playing"
+    )
+    play.set_defaults(run=_play)
+
+
+def offered_qos(text: str) -> Any:
+    """The QoS to offer a topic, from the bag's ``offered_qos_profiles`` YAML."""
+    import yaml
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    try:
+        profiles = yaml.safe_load(text) if text else None
+    except yaml.YAMLError:
+        profiles = None
+    if not isinstance(profiles, list) or not profiles:
+        return QoSProfile(depth=10)
+
+    def policy(profile: Any, key: str) -> str:
+        value = profile.get(key) if isinstance(profile, dict) else None
+        names = {
+            "reliability": {1: "reliable", 2: "best_effort"},
+            "durability": {1: "transient_local", 2: "volatile"},
+        }[key]
+        return (
+            names.get(value, str(value).lower()) if isinstance(value, int) else str(value).lower()
+        )
+
+    best_effort = all(policy(p, "reliability") == "best_effort" for p in profiles)
+    latched = all(policy(p, "durability") == "transient_local" for p in profiles)
+    return QoSProfile(
+        depth=10,
+        reliability=ReliabilityPolicy.BEST_EFFORT if best_effort else ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+    )
+
+
+def _play(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from pyconnect.commands.graph import CommandFailed, graph_session, report_failure
+
+    if args.rate <= 0:
+        return report_failure(CommandFailed(f"--rate: expected > 0, got {args.rate}"), err)
+    try:
+        with graph_session("play") as session:
+            late = _play_all(args, session, out)
+    except KeyboardInterrupt:  # Ctrl-C ends playing: a success
+        return 0
+    if late:
+        mean = sum(late) / len(late)
+        print(
+            f"Played {len(late)} message(s); timing error: mean {mean * 1e3:.3f} ms, "
+            f"max {max(late) * 1e3:.3f} ms",
+            file=out,
+        )
+    return 0
+
+
+def _play_all(args: argparse.Namespace, session: Any, out: TextIO) -> list[float]:
+    from rosgraph_msgs.msg import Clock  # type: ignore[import-untyped]
+
+    from pyconnect.record.bag_metadata import read_metadata
+    from pyconnect.record.bag_reader import bag_info, open_bag
+    from pyconnect.ros.interfaces import interface_class
+
+    info = bag_info(args.path)
+    declared: dict[str, str] = {}
+    metadata_file = info.path / "metadata.yaml" if info.path.is_dir() else None
+    if metadata_file is not None and metadata_file.is_file():
+        declared = {t.name: t.offered_qos_profiles for t in read_metadata(metadata_file).topics}
+    topics = [t for t in info.topics if args.topics is None or t.name in args.topics]
+    publishers = {
+        topic.name: session.node.create_publisher(
+            interface_class(topic.msg_type, kind="msg"),
+            topic.name,
+            offered_qos(declared.get(topic.name, "")),
+        )
+        for topic in topics
+    }
+    clock = session.node.create_publisher(Clock, "/clock", 10) if args.clock else None
+    start_ns = (info.start_ns or 0) + round(args.start_offset * 1e9)
+    late: list[float] = []
+    session.spin_for(args.delay)  # time for subscribers to discover the new publishers
+    print(f"Playing {info.path} ({len(publishers)} topic(s))", file=out, flush=True)
+    while True:
+        began = time.monotonic()
+        last_clock = 0.0
+        with open_bag(args.path, topics=list(publishers), raw=True, start_ns=start_ns) as bag:
+            for message in bag:
+                due = began + (message.log_time_ns - start_ns) / 1e9 / args.rate
+                while True:
+                    now = time.monotonic()
+                    if clock is not None and now - last_clock >= CLOCK_PERIOD:
+                        elapsed_ns = round((now - began) * args.rate * 1e9)
+                        clock.publish(_clock(min(start_ns + elapsed_ns, message.log_time_ns)))
+                        last_clock = now
+                    if now >= due:
+                        break
+                    time.sleep(min(due - now, CLOCK_PERIOD))
+                if clock is not None:
+                    clock.publish(_clock(message.log_time_ns))
+                publishers[message.topic].publish(bytes(message.value))
+                late.append(time.monotonic() - due)
+        if not args.loop:
+            return late
+
+
+def _clock(ns: int) -> Any:
+    from rosgraph_msgs.msg import Clock  # type: ignore[import-untyped]
+
+    message = Clock()
+    message.clock.sec, message.clock.nanosec = divmod(ns, 1_000_000_000)
+    return message

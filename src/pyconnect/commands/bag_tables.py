@@ -1,0 +1,29 @@
+"""``pyconnect bag export BAG --format parquet --to DIR``: one Parquet file per topic.
+
+All topics unless ``--topic`` names some; the columns are those of ``open_bag(...).to_arrow``
+(``pyconnect.record.tables``). Needs the ``tables`` extra. Exit status 1 when some messages could
+not be decoded (they are left out and summarised on stderr).
+"""
+
+from __future__ import annotations
+
+import argparse
+from typing import TextIO
+
+__all__ = ["export_parquet_command"]
+
+
+def export_parquet_command(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    """Run ``bag export --format parquet``."""
+    from pyconnect.record.parquet_export import export_parquet
+
+    result = export_parquet(args.path, args.to, topics=args.topic)
+    for topic, (path, rows) in result.files.items():
+        print(f"{topic}: {rows} row(s) to {path}", file=out)
+    if result.errors:
+        print(
+            f"pyconnect: {len(result.errors)} message(s) not decoded; first: {result.errors[0]}",
+            file=err,
+        )
+        return 1
+    return 0
