@@ -298,3 +298,31 @@ def test_a_prefix_on_sys_path_is_searched(tmp_path: Path, monkeypatch: pytest.Mo
     monkeypatch.setattr(sys, "path", [*sys.path, str(layout.python)])
     assert ament_prefixes()[-1] == tmp_path
     assert codec_folders()[-1] == str(layout.python / "pyconnect_codecs" / "pyconnect_generated")
+
+
+def test_a_changed_msg_is_rebuilt(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """A one-message package: built, unchanged (no-op), changed (rebuilt with the new field)."""
+    folder = tmp_path / "tiny_msgs"
+    (folder / "msg").mkdir(parents=True)
+    (folder / "msg" / "Flag.msg").write_text("bool on\n")
+    prefix = tmp_path / "prefix"
+    argv = ["build", "--compile", str(folder), "--prefix", str(prefix)]
+    statuses: list[str] = []
+    for text in (None, "bool on\nstring why\n"):
+        if text is not None:
+            (folder / "msg" / "Flag.msg").write_text(text)
+        assert main(argv) == 0
+        assert main(argv) == 0
+        out = capsys.readouterr().out
+        statuses += [line.split(" (")[0].rsplit(": ", 1)[1] for line in out.splitlines()]
+    assert statuses == ["built", "up to date", "built", "up to date"]
+    script = "from tiny_msgs.msg import Flag; print(Flag(on=True, why='changed'))"
+    result = subprocess.run(
+        [sys.executable, "-c", script],
+        env=bare_environment(prefix),
+        capture_output=True,
+        text=True,
+        timeout=TIMEOUT,
+        check=False,
+    )
+    assert result.stdout == "tiny_msgs.msg.Flag(on=True, why='changed')\n", result.stderr
