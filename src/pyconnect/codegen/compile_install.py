@@ -170,8 +170,6 @@ def _replace(staged: Path, final: Path, trash: Path) -> None:
 def install_staged(staged: StagedPackage, stage: InstallLayout, final: InstallLayout) -> None:
     """Lay the package out under ``stage`` and move it into ``final``, Python package last."""
     _lay_out(staged, stage)
-    for old in final.python.glob(f"{staged.name}-*.dist-info"):
-        shutil.rmtree(old, ignore_errors=True)
     _write_dist_info(staged, stage, final)
     trash = stage.prefix.parent / "trash"
     trash.mkdir(exist_ok=True)
@@ -192,6 +190,9 @@ def install_staged(staged: StagedPackage, stage: InstallLayout, final: InstallLa
     moves.append((stage.python / staged.name, final.python / staged.name))
     for source, target in moves:
         _replace(source, target, trash)
+    for old in final.python.glob(f"{staged.name}-*.dist-info"):
+        if old.name != _dist_info_name(staged):  # an earlier version's
+            shutil.rmtree(old, ignore_errors=True)
 
 
 def installed_record(layout: InstallLayout, package: str) -> list[Path]:
