@@ -7,7 +7,15 @@ import sys
 import time
 
 # Order: pure-Python codecs first, then wire codecs and bags, then live ROS (the slowest).
-BENCHMARKS = ("dict_codecs", "natural_codecs", "wire_codecs", "bag_reading", "agents", "transport")
+BENCHMARKS = (
+    "dict_codecs",
+    "natural_codecs",
+    "wire_codecs",
+    "bag_reading",
+    "tables",
+    "agents",
+    "transport",
+)
 
 
 def main(argv: list[str]) -> int:

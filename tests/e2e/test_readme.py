@@ -76,6 +76,35 @@ with CustomNode("readme_peer") as node:
     node.wait_for_shutdown()
 """
 
+
+# Tables: bags with camera images and joint states, stamped 0.1 s apart, joints 5 ms late.
+RUN_BAGS = """
+import numpy as np
+from rclpy.serialization import serialize_message
+from sensor_msgs.msg import Image, JointState
+from pyconnect import codecs
+from pyconnect.record.mcap_recorder import McapRecorder
+
+
+def _write_run_bags():
+    for name in ("run2", "run3"):
+        with McapRecorder(name) as recorder:
+            recorder.add_topic("/camera/image_raw", "sensor_msgs/msg/Image")
+            recorder.add_topic("/joint_states", "sensor_msgs/msg/JointState")
+            for k in range(5):
+                t = 1_700_000_000_000_000_000 + k * 100_000_000
+                image = codecs.encode(np.full((2, 3, 3), k, np.uint8), Image)
+                image.header.stamp.sec, image.header.stamp.nanosec = divmod(t, 10**9)
+                joints = JointState(name=["elbow"], position=[0.1 * k])
+                joints.header.stamp.sec, joints.header.stamp.nanosec = divmod(t + 5_000_000, 10**9)
+                recorder.write("/camera/image_raw", serialize_message(image), log_time_ns=t)
+                recorder.write("/joint_states", serialize_message(joints), log_time_ns=t + 5_000_000)
+
+
+if __name__ == "__main__":  # not again in Dask's worker processes, which re-run the script
+    _write_run_bags()
+"""
+
 SETUPS: dict[str, Setup] = {
     # Codecs: a message, its CDR bytes and a user codec.
     "codec = codecs.lookup(Image)": Setup(
@@ -111,6 +140,9 @@ with McapRecorder("run1") as _recorder:
     _recorder.write("/camera/image_raw", _image, log_time_ns=1)
 """
     ),
+    # Tables and Dask: run2 and run3 (RUN_BAGS).
+    'align("run2"': Setup(prelude=RUN_BAGS),
+    'read_bags(["run2", "run3"]': Setup(prelude=RUN_BAGS),
 }
 
 
