@@ -80,6 +80,7 @@ def brain(seconds: float, every: float, out: Path) -> None:
     lock = threading.Lock()
     latencies: dict[str, list[float]] = {"service": [], "action": []}
     failures = {"service": 0, "action": 0}
+    errors: list[str] = []
     stop = threading.Event()
 
     def call_loop(kind: str, period: float) -> None:
@@ -96,6 +97,7 @@ def brain(seconds: float, every: float, out: Path) -> None:
                     latencies[kind].append((time.perf_counter() - start) * 1e3)
                 else:
                     failures[kind] += 1
+                    errors.append(str(reply)[:300])
 
     workers = [threading.Thread(target=call_loop, args=("service", 0.1), daemon=True),
                threading.Thread(target=call_loop, args=("action", 0.5), daemon=True)]  # fmt: skip
@@ -121,7 +123,7 @@ def brain(seconds: float, every: float, out: Path) -> None:
     loggers = {name: agent._message_logger for name, agent in (("camera", camera),
                                                                 ("joints", joints))}  # fmt: skip
     final = {"final": True, "received": received, "recorded": recording.messages_written,
-             "failures": failures,
+             "failures": failures, "errors": errors[:5],
              "logged": {name: None if lg is None else {"written": lg.written,
                                                        "dropped": lg.dropped,
                                                        "failed": lg.failed}

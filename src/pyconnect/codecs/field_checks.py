@@ -80,7 +80,10 @@ def check_bool(value: object, segment: str) -> bool:
 
 def check_float(value: object, segment: str) -> float:
     if isinstance(value, _NUMERIC) and not isinstance(value, bool):
-        return float(value)
+        try:
+            return float(value)
+        except OverflowError:  # an int beyond float64's range
+            raise FieldError(segment, "expected float, got an int too large for float64") from None
     fail(segment, "float", value)
 
 
@@ -246,8 +249,10 @@ def _as_byte_buffer(value: object, segment: str) -> bytes | bytearray | memoryvi
         return value.cast("B") if value.format != "B" or value.ndim != 1 else value
     if isinstance(value, np.ndarray):
         if value.dtype != np.uint8:
-            out_of_range = value.size > 0 and (value.min() < 0 or value.max() > 255)
-            if value.dtype.kind not in "iu" or out_of_range:
+            # Only integer arrays have a meaningful min/max (object or str ones raise).
+            integral = value.dtype.kind in "iu"
+            out_of_range = integral and value.size > 0 and (value.min() < 0 or value.max() > 255)
+            if not integral or out_of_range:
                 raise FieldError(
                     segment, f"expected bytes or uint8 values, got dtype {value.dtype}"
                 )
