@@ -160,3 +160,34 @@ def test_key_helpers_follow_rmw_zenoh() -> None:
         "sensor_msgs/msg/LaserScan",
     )
     assert keys.parse_token("@ros2_lv/3/abc") is None
+
+
+def test_gaps_in_a_publishers_sequence_numbers_are_counted(
+    make_peer: PeerFactory, locator: str
+) -> None:
+    peer = make_peer("listener", domain_id=44)
+    sub = peer.add_agent(conn_name="count", conn_type="sub", data_interface="std_msgs/msg/Int32")
+    session = raw_session(locator)
+    try:
+        key = sub._subscriber.key_expr  # 44/count/*/*: publish on the concrete key
+        concrete = str(key).replace("*/*", f"std_msgs::msg::dds_::Int32_/{sub.type_hash}")
+        publisher = session.declare_publisher(concrete)
+        from pyconnect.codecs import wire
+
+        deadline = time.monotonic() + 30
+        while not bool(getattr(publisher.matching_status, "matching", False)):
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+        gid = bytes(16)
+        for sequence in (1, 2, 5, 6):
+            publisher.put(
+                wire.encode(sequence, "std_msgs/msg/Int32"),
+                attachment=struct.pack("<qq16s", sequence, time.time_ns(), gid),
+            )
+        while sub.message_count < 4:
+            assert time.monotonic() < deadline
+            time.sleep(0.01)
+        assert sub.get() == 6
+        assert sub.dropped_count == 2
+    finally:
+        session.close()
