@@ -13,6 +13,7 @@ from __future__ import annotations
 import os
 import sysconfig
 from collections.abc import Sequence
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 from pyconnect.codegen.compile_generate import C_TYPESUPPORTS, PY_TYPESUPPORTS, GeneratedSources
@@ -58,10 +59,18 @@ def build_libraries(
         return tuple(library_name(dep, generator) for dep in dependencies)
 
     built: list[Path] = []
+    stage: list[SharedLibrary] = []
 
     def link(generator: str, library: SharedLibrary) -> None:
-        link_shared_library(toolchain, library)
-        built.append(library.output)
+        stage.append(library)
+
+    def flush() -> None:
+        """Build the queued libraries (they do not need each other) side by side."""
+        with ThreadPoolExecutor(max_workers=max(1, min(len(stage), os.cpu_count() or 1))) as pool:
+            for _ in pool.map(lambda library: link_shared_library(toolchain, library), stage):
+                pass
+        built.extend(library.output for library in stage)
+        stage.clear()
 
     def lib(generator: str) -> Path:
         return lib_dir / f"lib{library_name(package, generator)}.so"
@@ -85,6 +94,7 @@ def build_libraries(
             soname=lib("rosidl_generator_c").name,
         ),
     )
+    flush()  # everything else links the C library
     link(
         "rosidl_typesupport_fastrtps_c",
         SharedLibrary(
@@ -150,6 +160,7 @@ def build_libraries(
             soname=lib("rosidl_typesupport_introspection_c").name,
         ),
     )
+    flush()
     # The dispatch library dlopen()s the typesupport libraries by bare name; linking them here
     # loads them first, so that lookup finds them even when lib/ is not on LD_LIBRARY_PATH.
     link(
@@ -182,6 +193,7 @@ def build_libraries(
             soname=lib("rosidl_typesupport_c").name,
         ),
     )
+    flush()
     py_includes = (
         *includes("rosidl_generator_c", "rosidl_generator_py", runtime=()),
         toolchain.python_include,
@@ -207,6 +219,7 @@ def build_libraries(
             soname=lib("rosidl_generator_py").name,
         ),
     )
+    flush()
     py_out = sources.output("rosidl_generator_py")
     for typesupport in PY_TYPESUPPORTS:
         link(
@@ -232,6 +245,7 @@ def build_libraries(
                 library_dirs=(lib_dir,),
             ),
         )
+    flush()
     return built
 
 
