@@ -5,6 +5,7 @@ from __future__ import annotations
 import logging
 import random
 import struct
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -12,6 +13,7 @@ from mcap.reader import make_reader
 from rclpy.serialization import serialize_message
 from std_msgs.msg import String
 
+from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_reader import bag_info, open_bag
 from pyconnect.record.mcap_recorder import McapRecorder
 from tests.record.bag_samples import BAGS
@@ -206,4 +208,14 @@ def test_db3_cut_short(fraction: float, tmp_path: Path) -> None:
     )
     if fraction >= 0.7:
         assert len(got) > len(full) // 2
-    assert list(tmp_path.iterdir()) == [damaged]  # the salvage copy is gone
+    assert list(tmp_path.iterdir()) == [damaged]
+    assert not list(Path(tempfile.gettempdir()).glob("pyconnect-salvage-*"))  # copy removed
+
+
+def test_db3_cut_before_its_tables_leaves_no_copy(tmp_path: Path) -> None:
+    damaged = tmp_path / "cut.db3"
+    damaged.write_bytes(SHARED_DB3.read_bytes()[:3000])
+    with pytest.raises(BagError) as raised:
+        open_bag(damaged)
+    assert str(raised.value).startswith(f"{damaged}: not a")
+    assert not list(Path(tempfile.gettempdir()).glob("pyconnect-salvage-*"))

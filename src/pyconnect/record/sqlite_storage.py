@@ -78,6 +78,7 @@ class SqliteFile:
             raise BagError(f"{path}: not a sqlite3 bag ({error})") from None
         if not {"topics", "messages"} <= tables:
             self._db.close()
+            self._remove_copy()
             raise BagError(f"{path}: not a rosbag2 sqlite3 file (no topics/messages tables)")
         try:
             self._connections = self._read_connections("message_definitions" in tables)
