@@ -115,9 +115,9 @@ def test_on_the_fly_codec_for_a_type_generated_lacks() -> None:
     # rosgraph_msgs is generated, so hide its generated module to force the on-the-fly path.
     from rosgraph_msgs.msg import Clock
 
-    from pyconnect.codecs.onthefly_dict import compile_dict_codec
+    from pyconnect.codecs.type_code import compiled_dict_functions
 
-    msg_class, to_dict, from_dict = compile_dict_codec("rosgraph_msgs/msg/Clock")
+    msg_class, to_dict, from_dict = compiled_dict_functions("rosgraph_msgs/msg/Clock")
     assert msg_class is Clock
     assert to_dict(from_dict({"clock": {"sec": 3}})) == {"clock": {"sec": 3, "nanosec": 0}}
     with pytest.raises(Exception) as raised:

@@ -46,7 +46,7 @@ _new = object.__new__
 _frombuffer = np.frombuffer
 
 # The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default): enough to rebuild the IR.
+# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "builtin_interfaces/msg/Time": ("RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197", (("sec", "primitive", "int32", None, "single", None, None), ("nanosec", "primitive", "uint32", None, "single", None, None))),
     "actionlib_msgs/msg/GoalID": ("RIHS01_140ea4a1bad4781edc32030c7983ab3a62c675f861c61c9b2200ae5e5398be24", (("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None), ("id", "string", "string", None, "single", None, None))),

@@ -45,7 +45,7 @@ _new = object.__new__
 _frombuffer = np.frombuffer
 
 # The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default): enough to rebuild the IR.
+# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "builtin_interfaces/msg/Duration": ("RIHS01_e8d009f659816f758b75334ee1a9ca5b5c0b859843261f14c7f937349599d93b", (("sec", "primitive", "int32", None, "single", None, None), ("nanosec", "primitive", "uint32", None, "single", None, None))),
     "builtin_interfaces/msg/Time": ("RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197", (("sec", "primitive", "int32", None, "single", None, None), ("nanosec", "primitive", "uint32", None, "single", None, None))),

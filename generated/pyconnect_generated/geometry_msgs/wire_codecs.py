@@ -75,7 +75,7 @@ _new = object.__new__
 _frombuffer = np.frombuffer
 
 # The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default): enough to rebuild the IR.
+# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "geometry_msgs/msg/Vector3": ("RIHS01_cc12fe83e4c02719f1ce8070bfd14aecd40f75a96696a67a2a1f37f7dbb0765d", (("x", "primitive", "float64", None, "single", None, None), ("y", "primitive", "float64", None, "single", None, None), ("z", "primitive", "float64", None, "single", None, None))),
     "geometry_msgs/msg/Accel": ("RIHS01_dc448243ded9b1fcbcca24aba0c22f013dae06c354ba2d849571c0a2a3f57ca0", (("linear", "message", "geometry_msgs/msg/Vector3", None, "single", None, None), ("angular", "message", "geometry_msgs/msg/Vector3", None, "single", None, None))),

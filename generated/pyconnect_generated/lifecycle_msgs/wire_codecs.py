@@ -59,7 +59,7 @@ _new = object.__new__
 _frombuffer = np.frombuffer
 
 # The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default): enough to rebuild the IR.
+# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "lifecycle_msgs/msg/State": ("RIHS01_dd2d02b82f3ebc858e53c431b1e6e91f3ffc71436fc81d0715214ac6ee2107a0", (("id", "primitive", "uint8", None, "single", None, None), ("label", "string", "string", None, "single", None, None))),
     "lifecycle_msgs/msg/Transition": ("RIHS01_c65d7b31ea134cba4f54fc867b817979be799f7452035cd35fac9b7421fb3424", (("id", "primitive", "uint8", None, "single", None, None), ("label", "string", "string", None, "single", None, None))),

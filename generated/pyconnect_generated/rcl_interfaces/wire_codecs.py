@@ -80,7 +80,7 @@ _new = object.__new__
 _frombuffer = np.frombuffer
 
 # The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default): enough to rebuild the IR.
+# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "rcl_interfaces/msg/FloatingPointRange": ("RIHS01_e6af23a23c177fee5f3075c8b1e435162a9b63c863d78c06017460b49684262d", (("from_value", "primitive", "float64", None, "single", None, None), ("to_value", "primitive", "float64", None, "single", None, None), ("step", "primitive", "float64", None, "single", None, None))),
     "rcl_interfaces/msg/IntegerRange": ("RIHS01_f7b7fdc0f65f07702e099218e13288c3963bcb9345bde78b560e6cd19800fc5a", (("from_value", "primitive", "int64", None, "single", None, None), ("to_value", "primitive", "int64", None, "single", None, None), ("step", "primitive", "uint64", None, "single", None, None))),

@@ -44,7 +44,7 @@ _new = object.__new__
 _frombuffer = np.frombuffer
 
 # The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default): enough to rebuild the IR.
+# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "builtin_interfaces/msg/Time": ("RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197", (("sec", "primitive", "int32", None, "single", None, None), ("nanosec", "primitive", "uint32", None, "single", None, None))),
     "rosgraph_msgs/msg/Clock": ("RIHS01_692f7a66e93a3c83e71765d033b60349ba68023a8c689a79e48078bcb5c58564", (("clock", "message", "builtin_interfaces/msg/Time", None, "single", None, None),)),

@@ -44,7 +44,7 @@ _new = object.__new__
 _frombuffer = np.frombuffer
 
 # The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default): enough to rebuild the IR.
+# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "builtin_interfaces/msg/Time": ("RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197", (("sec", "primitive", "int32", None, "single", None, None), ("nanosec", "primitive", "uint32", None, "single", None, None))),
     "service_msgs/msg/ServiceEventInfo": ("RIHS01_41bcbbe07a75c9b52bc96bfd5c24d7f0fc0a08c0cb7921b3373c5732345a6f45", (("event_type", "primitive", "uint8", None, "single", None, None), ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None), ("client_gid", "primitive", "uint8", None, "array", 16, None), ("sequence_number", "primitive", "int64", None, "single", None, None))),

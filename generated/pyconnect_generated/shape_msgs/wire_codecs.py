@@ -47,7 +47,7 @@ _new = object.__new__
 _frombuffer = np.frombuffer
 
 # The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default): enough to rebuild the IR.
+# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "shape_msgs/msg/MeshTriangle": ("RIHS01_618e5c073eeb729e433ef6226e72c01d995c459fb7d76348c9700409a5020bd0", (("vertex_indices", "primitive", "uint32", None, "array", 3, None),)),
     "geometry_msgs/msg/Point": ("RIHS01_6963084842a9b04494d6b2941d11444708d892da2f4b09843b9c43f42a7f6881", (("x", "primitive", "float64", None, "single", None, None), ("y", "primitive", "float64", None, "single", None, None), ("z", "primitive", "float64", None, "single", None, None))),

@@ -85,7 +85,7 @@ _new = object.__new__
 _frombuffer = np.frombuffer
 
 # The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default): enough to rebuild the IR.
+# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "test_msgs/msg/BasicTypes": ("RIHS01_7c300afd4e796798d49bdd6cdaa0fa87fa0ed2ba3217d977e1faa87070d797ab", (("bool_value", "primitive", "bool", None, "single", None, None), ("byte_value", "primitive", "byte", None, "single", None, None), ("char_value", "primitive", "uint8", None, "single", None, None), ("float32_value", "primitive", "float32", None, "single", None, None), ("float64_value", "primitive", "float64", None, "single", None, None), ("int8_value", "primitive", "int8", None, "single", None, None), ("uint8_value", "primitive", "uint8", None, "single", None, None), ("int16_value", "primitive", "int16", None, "single", None, None), ("uint16_value", "primitive", "uint16", None, "single", None, None), ("int32_value", "primitive", "int32", None, "single", None, None), ("uint32_value", "primitive", "uint32", None, "single", None, None), ("int64_value", "primitive", "int64", None, "single", None, None), ("uint64_value", "primitive", "uint64", None, "single", None, None))),
     "test_msgs/msg/Constants": ("RIHS01_983e7ae7099d65b3030c31c2890b0ec2b332484fae9f28c68e01340c8f61edcf", ()),

@@ -52,7 +52,7 @@ _new = object.__new__
 _frombuffer = np.frombuffer
 
 # The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default): enough to rebuild the IR.
+# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "type_description_interfaces/msg/FieldType": ("RIHS01_a70b6dd919645a03a3586f7f821defbc886ea3e531a1d95cc0f380a3973ccaa6", (("type_id", "primitive", "uint8", None, "single", None, 0), ("capacity", "primitive", "uint64", None, "single", None, None), ("string_capacity", "primitive", "uint64", None, "single", None, None), ("nested_type_name", "string", "string", 255, "single", None, None))),
     "type_description_interfaces/msg/Field": ("RIHS01_c0b01379cd4226281285ccaf6be46653968f855f7c5e41614ff5d7a854efef7c", (("name", "string", "string", None, "single", None, None), ("type", "message", "type_description_interfaces/msg/FieldType", None, "single", None, None), ("default_value", "string", "string", None, "single", None, None))),

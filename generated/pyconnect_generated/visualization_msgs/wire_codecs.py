@@ -58,7 +58,7 @@ _new = object.__new__
 _frombuffer = np.frombuffer
 
 # The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default): enough to rebuild the IR.
+# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "builtin_interfaces/msg/Time": ("RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197", (("sec", "primitive", "int32", None, "single", None, None), ("nanosec", "primitive", "uint32", None, "single", None, None))),
     "std_msgs/msg/Header": ("RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01", (("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None), ("frame_id", "string", "string", None, "single", None, None))),

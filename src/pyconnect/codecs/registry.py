@@ -1,20 +1,41 @@
-"""The codec registry: finds the codec of any ROS type (user → natural → generated → on the fly)."""
+"""The codec registry: both views of every ROS type through one chain of sources.
+
+For each type the registry keeps one record: the message codec (rclpy message <-> value), the
+lossless dict codec and the wire (CDR) codec. Each is looked up on first use through one order
+of sources: a codec the user registered, the natural codec (DESIGN.md §4), the generated code in
+``generated/``, and code compiled on the fly from the type model (``type_code``).
+"""
 
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import importlib
 import threading
 from collections.abc import Callable, Mapping
-from typing import Any
+from dataclasses import dataclass
+from typing import TYPE_CHECKING, Any
 
 from pyconnect.codecs.base import ActionCodec, Codec, DictCodec, ServiceCodec
 from pyconnect.codecs.natural import NATURAL_CODECS
 from pyconnect.codecs.stamped import Stamped, decode_stamped, encode_stamped
+from pyconnect.codecs.type_code import (
+    compiled_dict_functions,
+    compiled_wire_code,
+    generated_dict_functions,
+    generated_has,
+    generated_wire_code,
+    wire_code_from_model,
+)
 from pyconnect.errors import CodecNotFoundError, PyconnectError
-from pyconnect.typesys.names import TypeName, parse_type_name
+from pyconnect.typesys.errors import DefinitionError
+from pyconnect.typesys.names import SERVICE_PARTS, TypeName, is_interface_name, parse_type_name
+
+if TYPE_CHECKING:  # wire codecs import numpy, which plain lookups do not need
+    from pyconnect.codecs.wire_codec import WireCodec
 
 AnyCodec = Codec | ServiceCodec | ActionCodec
+_UNSET: Any = object()
 
 
 def _load_factory(spec: str) -> Callable[[], Codec]:
@@ -23,48 +44,31 @@ def _load_factory(spec: str) -> Callable[[], Codec]:
     return factory
 
 
-def _generated_dict_codec(full_name: str) -> DictCodec | None:
-    """The checked-in generated codec, if there is one and it matches the installed class."""
-    package = full_name.split("/", 1)[0]
-    try:
-        module = importlib.import_module(f"pyconnect_generated.{package}.dict_codecs")
-    except ModuleNotFoundError as error:
-        # No generated module, or the ROS package it was generated from is not installed here.
-        if error.name is not None and error.name.split(".")[0] in ("pyconnect_generated", package):
-            return None
-        raise
-    entry = module.DICT_CODECS.get(full_name)
-    if entry is None:
-        return None
-    msg_class, to_dict, from_dict, field_types = entry
-    # A sourced ROS install may carry another version of the package than the one generated/
-    # was made from; the generated code reads slots, so it must describe the same fields.
-    if msg_class.get_fields_and_field_types() != field_types:
-        return None
-    return DictCodec(full_name, msg_class, to_dict, from_dict)
+@dataclass(slots=True)
+class TypeRecord:
+    """What a registry knows of one type; each view is found on first use."""
 
-
-def _on_the_fly_dict_codec(full_name: str) -> DictCodec:
-    from pyconnect.codecs.onthefly_dict import compile_dict_codec
-
-    msg_class, to_dict, from_dict = compile_dict_codec(full_name)
-    return DictCodec(full_name, msg_class, to_dict, from_dict)
+    full_name: str
+    codec: AnyCodec | None = None  # the message codec: user, natural or dict
+    value: Codec | None = _UNSET  # the user or natural codec; None: the value is the dict
+    dict_codec: DictCodec | None = None
+    wire: WireCodec | None = None
 
 
 class Registry:
     """Maps ROS types to codecs. ``Registry()`` is isolated; ``default_registry`` is global.
 
     Lookup order: a codec registered by the user, then the natural codec (DESIGN.md §4), then
-    the generated dict codec, then a dict codec generated on the fly from the installed class.
+    the generated code, then code generated on the fly from the installed definitions.
     """
 
     def __init__(self, *, natural: bool = True) -> None:
         self._user: dict[str, Codec] = {}
         self._natural: dict[str, str] = dict(NATURAL_CODECS) if natural else {}
-        self._cache: dict[str, AnyCodec] = {}
-        self._dict_cache: dict[str, DictCodec] = {}
-        # value_codec is asked once per decoded CDR message: cache by the reference as given.
-        self._value_cache: dict[object, Codec | None] = {}
+        # One cache: records by full name and by every reference as given (a class, a short
+        # name), so that the per-message paths skip parsing the name; and the wire codecs of
+        # definition texts, by (type, encoding, digest).
+        self._records: dict[object, TypeRecord] = {}
         self._lock = threading.RLock()
 
     # -- registration -------------------------------------------------------------------------
@@ -83,16 +87,20 @@ class Registry:
                     f"({type(self._user[full_name]).__name__}); pass override=True to replace it"
                 )
             self._user[full_name] = codec
-            self._cache.clear()
-            self._value_cache.clear()
+            self._forget_values()
 
     def unregister(self, type_ref: object) -> None:
         """Remove the user codec of ``type_ref``; lookups fall back to the built-in ones."""
         full_name = self.resolve(type_ref)
         with self._lock:
             self._user.pop(full_name, None)
-            self._cache.clear()
-            self._value_cache.clear()
+            self._forget_values()
+
+    def _forget_values(self) -> None:
+        # Message codecs (and services made of them) depend on the user codecs; code does not.
+        for record in self._records.values():
+            record.codec = None
+            record.value = _UNSET
 
     # -- lookup -------------------------------------------------------------------------------
     def resolve(self, type_ref: object) -> str:
@@ -105,16 +113,30 @@ class Registry:
                 return parsed.full(namespace)
         return parsed.full("msg")
 
+    def _record(self, type_ref: object) -> TypeRecord:
+        try:
+            return self._records[type_ref]
+        except (KeyError, TypeError):
+            pass
+        full_name = self.resolve(type_ref)
+        with self._lock:
+            record = self._records.get(full_name)
+            if record is None:
+                record = self._records[full_name] = TypeRecord(full_name)
+            with contextlib.suppress(TypeError):  # unhashable references are not cached
+                self._records[type_ref] = record
+            return record
+
     def lookup(self, type_ref: object) -> AnyCodec:
         """The codec for a message type, or the composite codec of a service or action."""
-        full_name = self.resolve(type_ref)
-        cached = self._cache.get(full_name)
-        if cached is not None:
-            return cached
-        with self._lock:
-            codec = self._find(full_name)
-            self._cache[full_name] = codec
-            return codec
+        record = self._record(type_ref)
+        codec = record.codec
+        if codec is None:
+            with self._lock:
+                codec = record.codec
+                if codec is None:
+                    codec = record.codec = self._find(record.full_name)
+        return codec
 
     def lookup_message(self, type_ref: object) -> Codec:
         """Like ``lookup`` but for message types only (parts of services and actions included)."""
@@ -145,73 +167,125 @@ class Registry:
 
         Needs no message class: the wire codecs use it to decode CDR to natural values.
         """
-        try:
-            return self._value_cache[type_ref]
-        except (KeyError, TypeError):
-            pass
-        full_name = self.resolve(type_ref)
-        found: Codec | None = None
-        if full_name in self._user:
-            found = self._user[full_name]
-        elif full_name in self._natural:
-            cached = self._cache.get(full_name)
-            if cached is None:
-                cached = _load_factory(self._natural[full_name])()
-                self._cache[full_name] = cached
-            found = self._as_message_codec(cached)
-        with contextlib.suppress(TypeError):  # unhashable references are not cached
-            self._value_cache[type_ref] = found
-        return found
+        record = self._record(type_ref)
+        value = record.value
+        if value is _UNSET:
+            with self._lock:
+                value = record.value
+                if value is _UNSET:
+                    value = record.value = self._value_of(record.full_name)
+        return value
 
-    def lookup_dict(self, type_ref: object) -> DictCodec:
-        """The lossless dict codec of a message type, whatever natural codec it has."""
-        full_name = self.resolve(type_ref)
-        cached = self._dict_cache.get(full_name)
-        if cached is not None:
-            return cached
-        with self._lock:
-            codec = _generated_dict_codec(full_name) or _on_the_fly_dict_codec(full_name)
-            self._dict_cache[full_name] = codec
-            return codec
-
-    def _find(self, full_name: str) -> AnyCodec:
-        package, namespace, name = full_name.split("/")
-        # Interface names are CamelCase without underscores; the names of their parts
-        # (SetBool_Request, Fibonacci_SendGoal_Request, ...) always have one.
-        if namespace in ("srv", "action") and "_" not in name:
-            prefix = f"{package}/{namespace}/{name}_"
-            if namespace == "srv":
-                event = self._find(prefix + "Event") if self._has_event(prefix) else None
-                return ServiceCodec(
-                    full_name,
-                    request=self._as_message_codec(self._find(prefix + "Request")),
-                    response=self._as_message_codec(self._find(prefix + "Response")),
-                    event=self._as_message_codec(event) if event is not None else None,
-                )
-            return ActionCodec(
-                full_name,
-                goal=self._as_message_codec(self._find(prefix + "Goal")),
-                result=self._as_message_codec(self._find(prefix + "Result")),
-                feedback=self._as_message_codec(self._find(prefix + "Feedback")),
-            )
+    def _value_of(self, full_name: str) -> Codec | None:
         if full_name in self._user:
             return self._user[full_name]
         if full_name in self._natural:
             return _load_factory(self._natural[full_name])()
-        return self.lookup_dict(full_name)
+        return None
 
-    def _has_event(self, prefix: str) -> bool:
+    def lookup_dict(self, type_ref: object) -> DictCodec:
+        """The lossless dict codec of a message type, whatever natural codec it has."""
+        record = self._record(type_ref)
+        codec = record.dict_codec
+        if codec is None:
+            with self._lock:
+                codec = record.dict_codec
+                if codec is None:
+                    full_name = record.full_name
+                    functions = generated_dict_functions(full_name) or compiled_dict_functions(
+                        full_name
+                    )
+                    codec = record.dict_codec = DictCodec(full_name, *functions)
+        return codec
+
+    def wire_codec(
+        self, type_ref: object, *, definition: str | None = None, encoding: str = "ros2msg"
+    ) -> WireCodec:
+        """The CDR codec of a message type; with ``definition``, as that text defines it."""
+        if definition is not None:
+            return self._definition_wire_codec(str(type_ref), definition, encoding)
+        record = self._record(type_ref)
+        codec = record.wire
+        if codec is None:
+            with self._lock:
+                codec = record.wire
+                if codec is None:
+                    full_name = record.full_name
+                    from pyconnect.codecs.wire_codec import WireCodec
+
+                    code = generated_wire_code(full_name) or compiled_wire_code(full_name)
+                    codec = record.wire = WireCodec(code, registry=self)
+        return codec
+
+    def register_definition(
+        self, msg_type: str, text: str, *, encoding: str = "ros2msg"
+    ) -> WireCodec:
+        """Compile ``msg_type`` from a definition text and make it the wire codec its name finds."""
+        with self._lock:
+            codec = self.wire_codec(msg_type, definition=text, encoding=encoding)
+            record = self._records.get(codec.msg_type)
+            if record is None:
+                record = self._records[codec.msg_type] = TypeRecord(codec.msg_type)
+            record.wire = codec
+            package, namespace, name = codec.msg_type.split("/")
+            aliases = {msg_type} | ({f"{package}/{name}"} if namespace == "msg" else set())
+            for alias in aliases:
+                self._records[alias] = record
+            return codec
+
+    def _definition_wire_codec(self, msg_type: str, text: str, encoding: str) -> WireCodec:
+        digest = hashlib.sha256(text.encode("utf-8")).hexdigest()
+        key = ("definition", msg_type, encoding, digest)
+        known = self._records.get(key)
+        if known is not None and known.wire is not None:
+            return known.wire
+        with self._lock:
+            from pyconnect.codecs.wire_codec import WireCodec
+            from pyconnect.typesys.definition_text import resolve_definition
+
+            try:
+                msg, types = resolve_definition(msg_type, text, encoding)
+            except DefinitionError as error:
+                raise CodecNotFoundError(
+                    f"{msg_type}: bad {encoding} definition: {error}"
+                ) from None
+            codec: WireCodec | None = None
+            if msg.type_hash and generated_has(msg.full_name):
+                # The same type as the one generated: share its code.
+                codec = self.wire_codec(msg.full_name)
+                codec = codec if codec.type_hash == msg.type_hash else None
+            if codec is None:
+                codec = WireCodec(wire_code_from_model(msg, types), registry=self)
+            self._records[key] = TypeRecord(msg.full_name, wire=codec)
+            return codec
+
+    def _find(self, full_name: str) -> AnyCodec:
+        package, namespace, name = full_name.split("/")
+        if namespace in ("srv", "action") and is_interface_name(name):
+            prefix = f"{package}/{namespace}/{name}_"
+            if namespace == "srv":
+                request, response, event = (prefix + part for part in SERVICE_PARTS)
+                return ServiceCodec(
+                    full_name,
+                    request=self.lookup_message(request),
+                    response=self.lookup_message(response),
+                    event=self.lookup_message(event) if self._has_dict(event) else None,
+                )
+            return ActionCodec(
+                full_name,
+                goal=self.lookup_message(prefix + "Goal"),
+                result=self.lookup_message(prefix + "Result"),
+                feedback=self.lookup_message(prefix + "Feedback"),
+            )
+        value = self.value_codec(full_name)
+        return value if value is not None else self.lookup_dict(full_name)
+
+    def _has_dict(self, full_name: str) -> bool:
         try:
-            self.lookup_dict(prefix + "Event")
+            self.lookup_dict(full_name)
         except CodecNotFoundError:
             return False
         return True
-
-    @staticmethod
-    def _as_message_codec(codec: AnyCodec | None) -> Codec:
-        if isinstance(codec, ServiceCodec | ActionCodec) or codec is None:
-            raise CodecNotFoundError(f"{codec!r} is not a message codec")
-        return codec
 
     # -- conveniences -------------------------------------------------------------------------
     def decode(self, msg: Any, *, stamped: bool = False) -> Any:
@@ -241,18 +315,8 @@ def _interface_exists(parsed: TypeName, namespace: str) -> bool:
     try:
         module = importlib.import_module(f"{parsed.package}.{namespace}")
     except ImportError:
-        return _generated_has(parsed.full(namespace))
+        return generated_has(parsed.full(namespace))
     return hasattr(module, parsed.name)
-
-
-def _generated_has(full_name: str) -> bool:
-    package = full_name.split("/", 1)[0]
-    try:
-        module = importlib.import_module(f"pyconnect_generated.{package}.index")
-    except ImportError:
-        return False
-    names: frozenset[str] = module.TYPE_NAMES
-    return full_name in names
 
 
 default_registry = Registry()

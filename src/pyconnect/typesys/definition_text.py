@@ -16,9 +16,16 @@ from pathlib import Path
 
 from pyconnect.errors import CodecNotFoundError
 from pyconnect.typesys.errors import DefinitionError
+from pyconnect.typesys.loading import build_type_set
+from pyconnect.typesys.model import MessageDef, TypeSet
 from pyconnect.typesys.names import parse_type_name, split_part
 from pyconnect.typesys.packages import installed_packages
-from pyconnect.typesys.parse import ParsedInterfaces, parse_interface_text
+from pyconnect.typesys.parse import (
+    ParsedInterfaces,
+    iter_messages,
+    parse_installed_package,
+    parse_interface_text,
+)
 from pyconnect.typesys.primitives import MSG_BUILTIN_NAMES
 
 __all__ = [
@@ -27,6 +34,7 @@ __all__ = [
     "installed_definition",
     "interface_file",
     "parse_definition",
+    "resolve_definition",
     "split_type",
 ]
 
@@ -169,3 +177,57 @@ def _parse_main(package: str, namespace: str, name: str, text: str, into: Parsed
     if namespace != "msg":
         # A service or action part stored as plain .msg text: move it to its namespace.
         into.messages[-1] = replace(into.messages[-1], namespace=namespace)  # type: ignore[arg-type]
+
+
+def resolve_definition(msg_type: str, text: str, encoding: str) -> tuple[MessageDef, TypeSet]:
+    """The type model of ``msg_type`` as the text defines it; dependencies may come from installed
+    packages (the types the text defines win)."""
+    package, namespace, name = split_type(msg_type)
+    full_name = f"{package}/{namespace}/{name}"
+    parsed = parse_definition(msg_type, text, encoding)
+    defined = {m.full_name for m in iter_messages(parsed)}
+    if full_name not in defined:
+        raise DefinitionError(f"{full_name}: the definition text does not define it")
+    installed = installed_packages()
+    tried: set[str] = set()
+    while True:
+        known = {m.full_name for m in iter_messages(parsed)}
+        missing = sorted({n for m in iter_messages(parsed) for n in m.nested_types} - known)
+        if not missing:
+            break
+        packages = sorted({n.split("/")[0] for n in missing} - tried)
+        if not any(pkg in installed for pkg in packages):
+            raise DefinitionError(
+                f"{full_name}: unknown type {missing[0]} (not in the text, not installed)"
+            )
+        for pkg in packages:
+            tried.add(pkg)
+            if pkg in installed:
+                extra = ParsedInterfaces()
+                parse_installed_package(installed[pkg], extra)
+                _merge_installed(parsed, extra, defined)
+    types = TypeSet()
+    try:
+        hashed: TypeSet | None = build_type_set(parsed)[0]
+    except (DefinitionError, KeyError, ValueError):
+        hashed = None  # rosidl cannot hash some texts (old definitions): decode them unhashed
+    for msg in iter_messages(parsed):
+        types.messages[msg.full_name] = hashed.get(msg.full_name) if hashed is not None else msg
+    return types.get(full_name), types
+
+
+def _merge_installed(parsed: ParsedInterfaces, extra: ParsedInterfaces, defined: set[str]) -> None:
+    """Add an installed package's types, except those the text defines (the text wins)."""
+    from rosidl_parser import definition as d
+
+    parsed.messages += [m for m in extra.messages if m.full_name not in defined]
+    parsed.services += [
+        s for s in extra.services if not {m.full_name for m in s.messages} & defined
+    ]
+    parsed.actions += [a for a in extra.actions if not {m.full_name for m in a.messages} & defined]
+    for element in extra.rosidl_elements:
+        if isinstance(element, d.Message):
+            name = "/".join(element.structure.namespaced_type.namespaced_name())
+            if name in defined:
+                continue
+        parsed.rosidl_elements.append(element)

@@ -6,7 +6,9 @@ from pathlib import Path
 
 import pytest
 
-from pyconnect.codecs import onthefly_wire, wire
+from pyconnect.codecs import wire
+from pyconnect.typesys import definition_text
+from pyconnect.typesys.packages import installed_packages
 from pyconnect.errors import CodecNotFoundError, DecodeError
 
 SEPARATOR = "=" * 80
@@ -53,21 +55,25 @@ def test_dependencies_missing_from_the_text_come_from_installed_packages() -> No
     assert codec.to_dict(codec.from_dict(RANGE)) == RANGE
 
 
-def test_dependencies_fall_back_to_generated_when_not_installed(
+def test_dependencies_neither_in_the_text_nor_installed_are_named(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    monkeypatch.setattr(onthefly_wire, "installed_packages", dict)
-    text = FOXY_RANGE + "\n# not installed anywhere: only generated/ knows std_msgs\n"
-    codec = wire.wire_codec("sensor_msgs/msg/Range", definition=text)
-    assert codec.type_hash == ""  # not hashable without rosidl's view of the dependencies
-    assert codec.to_dict(codec.from_dict(RANGE)) == RANGE
+    # Generated code is never read back into the type model: a type must come from a text.
+    monkeypatch.setattr(definition_text, "installed_packages", dict)
+    text = FOXY_RANGE + "\n# std_msgs is not installed anywhere\n"
+    with pytest.raises(CodecNotFoundError) as caught:
+        wire.wire_codec("sensor_msgs/msg/Range", definition=text)
+    assert str(caught.value) == (
+        "sensor_msgs/msg/Range: bad ros2msg definition: sensor_msgs/msg/Range: unknown type "
+        "std_msgs/msg/Header (not in the text, not installed)"
+    )
 
 
 def test_the_same_text_is_compiled_once_and_an_installed_definition_is_shared() -> None:
     text = Path(__file__).parent.joinpath("Status.msg").read_text()
     first = wire.wire_codec("my_robot_msgs/msg/Status", definition=text)
     assert wire.wire_codec("my_robot_msgs/msg/Status", definition=text) is first
-    installed = Path(onthefly_wire.installed_packages()["sensor_msgs"].share, "msg/Range.msg")
+    installed = Path(installed_packages()["sensor_msgs"].share, "msg/Range.msg")
     same = wire.wire_codec("sensor_msgs/msg/Range", definition=installed.read_text())
     assert same.type_hash == wire.wire_codec("sensor_msgs/msg/Range").type_hash
 
@@ -101,7 +107,7 @@ def test_service_event_schema_is_the_srv_text() -> None:
 
 
 def test_ros2idl_text() -> None:
-    share = onthefly_wire.installed_packages()
+    share = installed_packages()
     header_idl = Path(share["std_msgs"].share, "msg/Header.idl").read_text()
     time_idl = Path(share["builtin_interfaces"].share, "msg/Time.idl").read_text()
     text = (

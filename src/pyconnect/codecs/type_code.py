@@ -1,0 +1,143 @@
+"""The code of one type: the checked-in generated modules first, else rendered and run on the fly.
+
+Both views of a type come from here: the dict functions (rclpy message <-> lossless dict) and the
+wire functions (CDR <-> dict or view). Code compiled on the fly is rendered by the same renderer
+as ``codecgen build`` from the type model, which comes from the installed definitions, the
+installed classes, or a bag's definition text, never from generated code.
+"""
+
+from __future__ import annotations
+
+import importlib
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from types import ModuleType
+from typing import TYPE_CHECKING, Any, NamedTuple
+
+from pyconnect.codecs.generated_source import Namespace, run_generated_source
+from pyconnect.errors import CodecNotFoundError
+from pyconnect.typesys.errors import DefinitionError
+from pyconnect.typesys.model import MessageDef, TypeSet
+
+if TYPE_CHECKING:  # cdr_runtime imports numpy, which plain lookups do not need
+    from pyconnect.codecs.cdr_runtime import DecodeFunction, Definitions, EncodeFunction
+
+
+class DictFunctions(NamedTuple):
+    """The generated dict codec of a message type: its rclpy class and the two conversions."""
+
+    msg_class: type
+    to_dict: Callable[[Any], dict[str, Any]]
+    from_dict: Callable[[Mapping[str, Any]], Any]
+
+
+class WireFunctions(NamedTuple):
+    """The generated CDR functions of a type for one byte order."""
+
+    to_dict: DecodeFunction
+    to_view: DecodeFunction
+    from_dict: EncodeFunction
+
+
+@dataclass(frozen=True)
+class WireCode:
+    """The CDR functions of a type in both byte orders, with what the size estimate needs."""
+
+    full_name: str
+    type_hash: str
+    little: WireFunctions
+    big: WireFunctions
+    definitions: Definitions
+
+
+# -- generated modules ----------------------------------------------------------------------------
+def generated_module(package: str, kind: str) -> ModuleType | None:
+    """``pyconnect_generated.<package>.<kind>``, or None when generated/ lacks the package."""
+    try:
+        return importlib.import_module(f"pyconnect_generated.{package}.{kind}")
+    except ModuleNotFoundError as error:
+        # No generated module, or the ROS package it was generated from is not installed here.
+        if error.name is not None and error.name.split(".")[0] in ("pyconnect_generated", package):
+            return None
+        raise
+
+
+def generated_dict_functions(full_name: str) -> DictFunctions | None:
+    """The checked-in dict codec, if there is one and it matches the installed class."""
+    module = generated_module(full_name.split("/", 1)[0], "dict_codecs")
+    entry = module.DICT_CODECS.get(full_name) if module is not None else None
+    if entry is None:
+        return None
+    msg_class, to_dict, from_dict, field_types = entry
+    # A sourced ROS install may carry another version of the package than the one generated/
+    # was made from; the generated code reads slots, so it must describe the same fields.
+    if msg_class.get_fields_and_field_types() != field_types:
+        return None
+    return DictFunctions(msg_class, to_dict, from_dict)
+
+
+def _wire_code(full_name: str, namespace: Mapping[str, Any]) -> WireCode:
+    definitions = namespace["DEFINITIONS"]
+    return WireCode(
+        full_name,
+        definitions[full_name][0],
+        little=WireFunctions(*namespace["LITTLE"][full_name]),
+        big=WireFunctions(*namespace["BIG"][full_name]),
+        definitions=definitions,
+    )
+
+
+def generated_wire_code(full_name: str) -> WireCode | None:
+    module = generated_module(full_name.split("/", 1)[0], "wire_codecs")
+    if module is None or full_name not in module.EXPORTED:
+        return None
+    return _wire_code(full_name, vars(module))
+
+
+def generated_has(full_name: str) -> bool:
+    """True when generated/ has the type (its index lists it; nothing of ROS is imported)."""
+    module = generated_module(full_name.split("/", 1)[0], "index")
+    return module is not None and full_name in module.TYPE_NAMES
+
+
+# -- compiled on the fly ------------------------------------------------------------------------
+def compiled_dict_functions(full_name: str) -> DictFunctions:
+    """The dict codec rendered from the installed class (``CodecNotFoundError`` if none)."""
+    from pyconnect.codegen.render import render_self_contained_dict_codecs
+    from pyconnect.typesys.classes import type_set_from_classes
+
+    try:
+        types = type_set_from_classes(full_name)
+    except DefinitionError as error:
+        raise CodecNotFoundError(f"{full_name}: {error}") from None
+    source = render_self_contained_dict_codecs(types.closure(full_name), types)
+    namespace = run_generated_source(source, label=f"dict codecs {full_name}")
+    msg_class, to_dict, from_dict, _fields = namespace["DICT_CODECS"][full_name]
+    return DictFunctions(msg_class, to_dict, from_dict)
+
+
+def _run_wire_source(messages: list[MessageDef], types: TypeSet, label: str) -> Namespace:
+    from pyconnect.codegen.wire_render import render_wire_module
+
+    return run_generated_source(render_wire_module(messages, types, source=label), label=label)
+
+
+def compiled_wire_code(full_name: str) -> WireCode:
+    """The wire code rendered from the installed definitions of the type's package."""
+    from pyconnect.typesys.loading import load_packages
+
+    package = full_name.split("/", 1)[0]
+    try:
+        _requested, types = load_packages([package])
+    except DefinitionError as error:
+        raise CodecNotFoundError(f"{full_name}: no generated wire codec and {error}") from None
+    if full_name not in types.messages:
+        raise CodecNotFoundError(f"{full_name}: no such type in its installed package")
+    namespace = _run_wire_source([types.get(full_name)], types, f"installed {full_name}")
+    return _wire_code(full_name, namespace)
+
+
+def wire_code_from_model(msg: MessageDef, types: TypeSet) -> WireCode:
+    """The wire code of a type the caller read into the model (e.g. from a bag's text)."""
+    namespace = _run_wire_source([msg], types, f"{msg.full_name} {msg.type_hash or 'unhashed'}")
+    return _wire_code(msg.full_name, namespace)

@@ -1,0 +1,119 @@
+"""The CDR codec of one message type: natural values, lossless dicts and views <-> CDR bytes.
+
+A ``WireCodec`` wraps the generated functions of its type (``type_code.WireCode``) and asks the
+registry that made it for the type's user or natural codec.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from typing import Any, Protocol
+
+from pyconnect.codecs.base import Codec
+from pyconnect.codecs.cdr_runtime import (
+    HEADER_BE,
+    HEADER_LE,
+    ZEROS,
+    DecodeFunction,
+    WireDecodeError,
+    body_of,
+    fastdds_estimated_size,
+)
+from pyconnect.codecs.field_checks import FieldError
+from pyconnect.codecs.type_code import WireCode
+from pyconnect.errors import DecodeError, EncodeError
+
+
+class ValueCodecs(Protocol):
+    """What a wire codec needs of its registry: the user or natural codec of a type, if any."""
+
+    def value_codec(self, type_ref: object) -> Codec | None: ...
+
+
+class WireCodec:
+    """The CDR codec of one message type: ``decode``/``encode`` natural values, dicts, views."""
+
+    __slots__ = ("_big", "_definitions", "_little", "_registry", "_short", "msg_type", "type_hash")
+
+    def __init__(self, code: WireCode, *, registry: ValueCodecs) -> None:
+        self.msg_type = code.full_name
+        self.type_hash = code.type_hash
+        self._little = code.little
+        self._big = code.big
+        self._definitions = code.definitions
+        self._registry = registry
+        self._short = code.full_name.rsplit("/", 1)[-1]
+
+    def __repr__(self) -> str:
+        return f"WireCodec({self.msg_type!r}, type_hash={self.type_hash!r})"
+
+    # -- decoding -----------------------------------------------------------------------------
+    def _decode(self, data: Any, little: DecodeFunction, big: DecodeFunction) -> Any:
+        mv, is_little = body_of(data)
+        lim = len(mv)
+        try:
+            value, end = (little if is_little else big)(mv, 0, lim)
+        except WireDecodeError as error:
+            raise DecodeError(f"{self.msg_type}{error.path}: {error.detail}") from None
+        if lim - end > 3 and lim > self._estimate(value):
+            raise DecodeError(
+                f"{self.msg_type}: {lim - end} bytes after the end of the message "
+                "(at most 3 bytes of padding may follow it)"
+            )
+        return value
+
+    def _estimate(self, value: Any) -> int:
+        # rclpy's serialize_message pads to Fast DDS's size estimate (see cdr_runtime).
+        estimate = fastdds_estimated_size(value, self.msg_type, self._definitions)
+        return (estimate + 3) & -4
+
+    def to_dict(self, data: Any) -> dict[str, Any]:
+        """The lossless dict (numeric and byte arrays as numpy views of ``data``)."""
+        result: dict[str, Any] = self._decode(data, self._little.to_dict, self._big.to_dict)
+        return result
+
+    def decode_view(self, data: Any) -> Any:
+        """A light view object with attributes named as the ROS fields."""
+        return self._decode(data, self._little.to_view, self._big.to_view)
+
+    def decode(
+        self, data: Any, *, natural: bool = True, registry: ValueCodecs | None = None
+    ) -> Any:
+        """The natural value (the registry's user or natural codec on a view), else the dict."""
+        if natural:
+            codec = (registry or self._registry).value_codec(self.msg_type)
+            if codec is not None:
+                return codec.decode(self.decode_view(data))
+        return self.to_dict(data)
+
+    # -- encoding -----------------------------------------------------------------------------
+    def from_dict(self, data: Mapping[str, Any], *, big_endian: bool = False) -> bytes:
+        """CDR bytes (little-endian unless ``big_endian``) of a lossless dict.
+
+        Missing keys take the field defaults; numpy arrays and scalars are accepted; wrong
+        types, out-of-range values, unknown keys and over-long sequences raise ``EncodeError``
+        naming the path (``JointState.position[3]: expected float, got str``).
+        """
+        out: list[Any] = [HEADER_BE if big_endian else HEADER_LE]
+        try:
+            end = (self._big if big_endian else self._little).from_dict(data, out, 0)
+        except FieldError as error:
+            error.root = self._short
+            raise
+        pad = -end & 3
+        if pad:
+            out.append(ZEROS[pad])
+        return b"".join(out)
+
+    def encode(self, value: Any, *, registry: ValueCodecs | None = None) -> bytes:
+        """CDR bytes of a natural value (through the codec's ``to_fields``) or of a dict."""
+        codec = (registry or self._registry).value_codec(self.msg_type)
+        if codec is not None:
+            to_fields = getattr(codec, "to_fields", None)
+            if to_fields is None:
+                raise EncodeError(
+                    f"{self.msg_type}: codec {type(codec).__name__} has no to_fields(value); "
+                    "encode its lossless dict with from_dict instead"
+                )
+            value = to_fields(value)
+        return self.from_dict(value)
