@@ -7,9 +7,9 @@ from pathlib import Path
 import pytest
 
 from pyconnect.codecs import wire
+from pyconnect.errors import CodecNotFoundError, DecodeError
 from pyconnect.typesys import definition_text
 from pyconnect.typesys.packages import installed_packages
-from pyconnect.errors import CodecNotFoundError, DecodeError
 
 SEPARATOR = "=" * 80
 HEADER_BLOCKS = f"""
