@@ -64,7 +64,7 @@ def test_bare_folder_builds_without_a_build_step(tutorial_interfaces: Path, tmp_
     index = (package / "index.py").read_text()
     for name in ("msg/Num", "msg/Keywords", "srv/AddThreeInts", "srv/AddThreeInts_Request",
                  "action/Fibonacci", "action/Fibonacci_Goal", "action/Fibonacci_FeedbackMessage"):  # fmt: skip
-        assert f'"tutorial_interfaces/{name}": "RIHS01_' in index
+        assert f'"tutorial_interfaces/{name}": (\n        "RIHS01_' in index
     # Deterministic: building again writes nothing.
     assert main(["build", "--from", str(tutorial_interfaces), "--out", str(out)]) == 0
     text = (package / "dict_codecs.py").read_text()
@@ -125,3 +125,13 @@ def test_list_finds_the_wheels_ament_index(capsys: pytest.CaptureFixture[str]) -
 def test_check_reports_stale_files(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["check", "--out", str(tmp_path)]) == 1
     assert "stale files" in capsys.readouterr().err
+
+
+def test_generated_lines_fit_100_columns() -> None:
+    long_lines = [
+        f"{path.relative_to(default_out_dir())}:{number}"
+        for path in sorted(default_out_dir().rglob("*.py"))
+        for number, line in enumerate(path.read_text(encoding="utf-8").splitlines(), start=1)
+        if len(line) > 100
+    ]
+    assert long_lines == []

@@ -6,6 +6,7 @@ from collections.abc import Iterable
 from pathlib import Path
 
 from pyconnect.codegen import FORMAT_VERSION
+from pyconnect.codegen.formatting import format_modules
 from pyconnect.codegen.render import render_package
 from pyconnect.typesys.loading import load_packages
 from pyconnect.typesys.model import PackageDef, TypeSet
@@ -43,12 +44,12 @@ def render_tree(packages: Iterable[str] = (), folders: Iterable[Path] = ()) -> d
 
 
 def render_loaded(requested: Iterable[PackageDef], types: TypeSet) -> dict[str, str]:
-    """``render_tree`` for packages already loaded."""
+    """``render_tree`` for packages already loaded (formatted as ``codecgen build`` writes)."""
     files = {f"{GENERATED_PACKAGE}/__init__.py": _ROOT_INIT, f"{GENERATED_PACKAGE}/py.typed": ""}
     for package in requested:
         for relative, text in render_package(package, types).items():
             files[f"{GENERATED_PACKAGE}/{relative}"] = text
-    return files
+    return format_modules(files)
 
 
 def write_tree(files: dict[str, str], out_dir: Path) -> list[Path]:

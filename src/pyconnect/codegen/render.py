@@ -11,6 +11,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
+from pyconnect.codegen.formatting import LINE_LENGTH
 from pyconnect.codegen.templating import header, py_literal, render_template, snake_case
 from pyconnect.codegen.wire_render import render_wire_codecs
 from pyconnect.typesys.model import Field, FieldType, MessageDef, PackageDef, TypeSet
@@ -94,10 +95,18 @@ def _message_dict_literal(
         return "{}"
     inner = indent + "    "
     items = [
-        f'{inner}"{f.name}": {_to_dict_value(f.type, f"{access}._{f.name}", types, depth, inner)},'
+        dict_item(inner, f.name, _to_dict_value(f.type, f"{access}._{f.name}", types, depth, inner))
         for f in msg.fields
     ]
     return "{\n" + "\n".join(items) + f"\n{indent}}}"
+
+
+def dict_item(indent: str, key: str, value: str) -> str:
+    """One ``"key": value,`` line of a dict literal; a long value goes in parentheses below."""
+    line = f'{indent}"{key}": {value},'
+    if len(line) <= LINE_LENGTH or "\n" in value:
+        return line
+    return f'{indent}"{key}": (\n{indent}    {value}\n{indent}),'
 
 
 # -- from_dict: one descriptor per field ----------------------------------------------------------
@@ -284,7 +293,9 @@ class TypeEntry:
 
 def type_entry(msg: MessageDef, types: TypeSet, symbols: Symbols) -> TypeEntry:
     keys = py_literal(tuple(f.name for f in msg.fields))
-    field_types = ", ".join(f'"{f.name}": "{rosidl_type_string(f.type)}"' for f in msg.fields)
+    field_types = "".join(
+        "\n" + dict_item(" " * 12, f.name, f'"{rosidl_type_string(f.type)}"') for f in msg.fields
+    )
     return TypeEntry(
         msg=msg,
         short=msg.name,
@@ -294,7 +305,7 @@ def type_entry(msg: MessageDef, types: TypeSet, symbols: Symbols) -> TypeEntry:
         to_dict_literal=_message_dict_literal(msg, "msg", types, 0, "    "),
         from_dict_fields=from_dict_fields(msg, symbols),
         keys=f"frozenset({keys})" if msg.fields else "frozenset()",
-        rosidl_field_types="{" + field_types + "}",
+        rosidl_field_types="{" + field_types + "\n        }" if msg.fields else "{}",
         typed_fields=[(f.name, typed_dict_annotation(f.type, symbols)) for f in msg.fields],
     )
 

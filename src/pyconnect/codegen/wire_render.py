@@ -135,29 +135,34 @@ def _struct_format(items: Sequence[RunItem], codes: dict[str, str]) -> str:
 
 
 class ModuleTables:
-    """Module-wide constants shared by every type: struct formats, dtypes, run labels, key sets."""
+    """Constants of a module: struct formats and dtypes (named by what they are, shared), run
+    labels and key sets (named by their type, so a change to one type renames nothing else)."""
 
     def __init__(self) -> None:
         self.structs: dict[str, str] = {}
         self.dtypes: dict[str, str] = {}
-        self.runs: list[str] = []
+        self.runs: dict[str, str] = {}
         self.keysets: dict[str, str] = {}
+        self._runs_of: dict[str, int] = {}
 
     def struct(self, fmt: str) -> str:
-        return self.structs.setdefault(fmt, f"_S{len(self.structs)}")
+        # "?" (bool) is the one struct code that cannot be part of a name; "T" is no code.
+        return self.structs.setdefault(fmt, "_S_" + fmt.replace("?", "T"))
 
     def dtype(self, primitive: str) -> str:
         return self.dtypes.setdefault(NUMPY_DTYPES[primitive], f"_D_{NUMPY_DTYPES[primitive]}")
 
-    def run_label(self, items: Sequence[RunItem]) -> str:
+    def run_label(self, owner: MessageDef, items: Sequence[RunItem]) -> str:
         entries: list[str] = []
         end = 0
         for item in items:
             end += item.size
             if item.kind != "pad":
                 entries.append(f'("{item.segment}", "{item.kind}", {end})')
-        name = f"_R{len(self.runs)}"
-        self.runs.append("(" + ", ".join(entries) + ("," if len(entries) == 1 else "") + ")")
+        index = self._runs_of.get(owner.full_name, 0)
+        self._runs_of[owner.full_name] = index + 1
+        name = f"_R_{symbol(owner.full_name)}_{index}"
+        self.runs[name] = "(" + ", ".join(entries) + ("," if len(entries) == 1 else "") + ")"
         return name
 
     def keyset(self, msg: MessageDef) -> str:
@@ -210,7 +215,7 @@ class Planner:
         self.steps.append(
             Step(
                 "run",
-                label=self.tables.run_label(run.items),
+                label=self.tables.run_label(self.msg, run.items),
                 data={
                     # One format both ways: "?" decodes any non-zero byte as True, as rclpy does.
                     "decoder": self.tables.struct(_struct_format(run.items, STRUCT_CODES)),
@@ -461,11 +466,9 @@ def wire_context(messages: Iterable[MessageDef], types: TypeSet, source: str) ->
         "header": header(source, wanted),
         "codecs": codecs,
         "exported": sorted(m.full_name for m in wanted),
-        "structs": sorted(
-            ((name, fmt) for fmt, name in tables.structs.items()), key=lambda p: int(p[0][2:])
-        ),
+        "structs": sorted((name, fmt) for fmt, name in tables.structs.items()),
         "dtypes": sorted((name, dtype) for dtype, name in tables.dtypes.items()),
-        "runs": list(enumerate(tables.runs)),
+        "runs": sorted(tables.runs.items()),
         "keysets": sorted(tables.keysets.items()),
     }
 
