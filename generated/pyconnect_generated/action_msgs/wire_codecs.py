@@ -14,7 +14,8 @@
 #     RIHS01_178f81615ce6be41ad328211d7a56b08b00e73f41f0b8aec256b2f3ff97a5e7e
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -431,8 +432,8 @@ def make_action_msgs__srv__CancelGoal_Event(
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_B = Struct(E + "B")
     _S_b = Struct(E + "b")
@@ -441,7 +442,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _S_q = Struct(E + "q")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_dict_unique_identifier_msgs__msg__UUID(
+    def decode_unique_identifier_msgs__msg__UUID(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -455,23 +456,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_unique_identifier_msgs__msg__UUID(v3), pos
         return {"uuid": v3}, pos
-
-    def decode_view_unique_identifier_msgs__msg__UUID(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".uuid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v3 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_unique_identifier_msgs__msg__UUID(v3), pos
 
     def encode_unique_identifier_msgs__msg__UUID(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -488,9 +475,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -501,22 +486,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -548,9 +520,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_action_msgs__msg__GoalInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_action_msgs__msg__GoalInfo(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".goal_id.uuid"
@@ -566,29 +536,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_action_msgs__msg__GoalInfo(
+                make_unique_identifier_msgs__msg__UUID(v4),
+                make_builtin_interfaces__msg__Time(v6, v7),
+            ), pos
         return {"goal_id": {"uuid": v4}, "stamp": {"sec": v6, "nanosec": v7}}, pos
-
-    def decode_view_action_msgs__msg__GoalInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".goal_id.uuid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 3) & -4
-            f = _R_action_msgs__msg__GoalInfo_0
-            v6, v7 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_action_msgs__msg__GoalInfo(
-            make_unique_identifier_msgs__msg__UUID(v4), make_builtin_interfaces__msg__Time(v6, v7)
-        ), pos
 
     def encode_action_msgs__msg__GoalInfo(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -632,9 +585,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_action_msgs__msg__GoalStatus(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_action_msgs__msg__GoalStatus(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".goal_info.goal_id.uuid"
@@ -650,36 +601,18 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_action_msgs__msg__GoalStatus(
+                make_action_msgs__msg__GoalInfo(
+                    make_unique_identifier_msgs__msg__UUID(v5),
+                    make_builtin_interfaces__msg__Time(v7, v8),
+                ),
+                v9,
+            ), pos
         return {
             "goal_info": {"goal_id": {"uuid": v5}, "stamp": {"sec": v7, "nanosec": v8}},
             "status": v9,
         }, pos
-
-    def decode_view_action_msgs__msg__GoalStatus(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".goal_info.goal_id.uuid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v5 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 3) & -4
-            f = _R_action_msgs__msg__GoalStatus_0
-            v7, v8, v9 = _S_iIb.unpack_from(mv, pos)
-            pos += 9
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_action_msgs__msg__GoalStatus(
-            make_action_msgs__msg__GoalInfo(
-                make_unique_identifier_msgs__msg__UUID(v5),
-                make_builtin_interfaces__msg__Time(v7, v8),
-            ),
-            v9,
-        ), pos
 
     def encode_action_msgs__msg__GoalStatus(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -728,35 +661,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_action_msgs__msg__GoalStatusArray(
+    def decode_action_msgs__msg__GoalStatusArray(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".status_list"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_action_msgs__msg__GoalStatus, None, None, 25
+                mv, pos, lim, _U32, decode_action_msgs__msg__GoalStatus, None, None, 25
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_action_msgs__msg__GoalStatusArray(v1), pos
         return {"status_list": v1}, pos
-
-    def decode_view_action_msgs__msg__GoalStatusArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".status_list"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_action_msgs__msg__GoalStatus, None, None, 25
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_action_msgs__msg__GoalStatusArray(v1), pos
 
     def encode_action_msgs__msg__GoalStatusArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -779,7 +699,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_action_msgs__srv__CancelGoal_Request(
+    def decode_action_msgs__srv__CancelGoal_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -797,32 +717,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_action_msgs__srv__CancelGoal_Request(
+                make_action_msgs__msg__GoalInfo(
+                    make_unique_identifier_msgs__msg__UUID(v5),
+                    make_builtin_interfaces__msg__Time(v7, v8),
+                )
+            ), pos
         return {"goal_info": {"goal_id": {"uuid": v5}, "stamp": {"sec": v7, "nanosec": v8}}}, pos
-
-    def decode_view_action_msgs__srv__CancelGoal_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".goal_info.goal_id.uuid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v5 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 3) & -4
-            f = _R_action_msgs__srv__CancelGoal_Request_0
-            v7, v8 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_action_msgs__srv__CancelGoal_Request(
-            make_action_msgs__msg__GoalInfo(
-                make_unique_identifier_msgs__msg__UUID(v5),
-                make_builtin_interfaces__msg__Time(v7, v8),
-            )
-        ), pos
 
     def encode_action_msgs__srv__CancelGoal_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -870,7 +772,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_action_msgs__srv__CancelGoal_Response(
+    def decode_action_msgs__srv__CancelGoal_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -880,31 +782,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 1
             f = ".goals_canceling"
             v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_action_msgs__msg__GoalInfo, None, None, 24
+                mv, pos, lim, _U32, decode_action_msgs__msg__GoalInfo, None, None, 24
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_action_msgs__srv__CancelGoal_Response(v1, v2), pos
         return {"return_code": v1, "goals_canceling": v2}, pos
-
-    def decode_view_action_msgs__srv__CancelGoal_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_action_msgs__srv__CancelGoal_Response_0
-            (v1,) = _S_b.unpack_from(mv, pos)
-            pos += 1
-            f = ".goals_canceling"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_action_msgs__msg__GoalInfo, None, None, 24
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_action_msgs__srv__CancelGoal_Response(v1, v2), pos
 
     def encode_action_msgs__srv__CancelGoal_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -939,7 +825,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_service_msgs__msg__ServiceEventInfo(
+    def decode_service_msgs__msg__ServiceEventInfo(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -964,41 +850,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_service_msgs__msg__ServiceEventInfo(
+                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
+            ), pos
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
             "client_gid": v7,
             "sequence_number": v8,
         }, pos
-
-    def decode_view_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_service_msgs__msg__ServiceEventInfo(
-            v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-        ), pos
 
     def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1064,7 +925,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_action_msgs__srv__CancelGoal_Event(
+    def decode_action_msgs__srv__CancelGoal_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1087,16 +948,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_action_msgs__srv__CancelGoal_Request, None, 1, 24
+                mv, pos, lim, _U32, decode_action_msgs__srv__CancelGoal_Request, None, 1, 24
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_action_msgs__srv__CancelGoal_Response, None, 1, 5
+                mv, pos, lim, _U32, decode_action_msgs__srv__CancelGoal_Response, None, 1, 5
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_action_msgs__srv__CancelGoal_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -1107,47 +976,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_action_msgs__srv__CancelGoal_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_action_msgs__srv__CancelGoal_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_action_msgs__srv__CancelGoal_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_action_msgs__srv__CancelGoal_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_action_msgs__srv__CancelGoal_Request, None, 1, 24
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_action_msgs__srv__CancelGoal_Response, None, 1, 5
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_action_msgs__srv__CancelGoal_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_action_msgs__srv__CancelGoal_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1241,52 +1069,48 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "unique_identifier_msgs/msg/UUID": (
-            decode_dict_unique_identifier_msgs__msg__UUID,
-            decode_view_unique_identifier_msgs__msg__UUID,
+            decode_unique_identifier_msgs__msg__UUID,
             encode_unique_identifier_msgs__msg__UUID,
         ),
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
         "action_msgs/msg/GoalInfo": (
-            decode_dict_action_msgs__msg__GoalInfo,
-            decode_view_action_msgs__msg__GoalInfo,
+            decode_action_msgs__msg__GoalInfo,
             encode_action_msgs__msg__GoalInfo,
         ),
         "action_msgs/msg/GoalStatus": (
-            decode_dict_action_msgs__msg__GoalStatus,
-            decode_view_action_msgs__msg__GoalStatus,
+            decode_action_msgs__msg__GoalStatus,
             encode_action_msgs__msg__GoalStatus,
         ),
         "action_msgs/msg/GoalStatusArray": (
-            decode_dict_action_msgs__msg__GoalStatusArray,
-            decode_view_action_msgs__msg__GoalStatusArray,
+            decode_action_msgs__msg__GoalStatusArray,
             encode_action_msgs__msg__GoalStatusArray,
         ),
         "action_msgs/srv/CancelGoal_Request": (
-            decode_dict_action_msgs__srv__CancelGoal_Request,
-            decode_view_action_msgs__srv__CancelGoal_Request,
+            decode_action_msgs__srv__CancelGoal_Request,
             encode_action_msgs__srv__CancelGoal_Request,
         ),
         "action_msgs/srv/CancelGoal_Response": (
-            decode_dict_action_msgs__srv__CancelGoal_Response,
-            decode_view_action_msgs__srv__CancelGoal_Response,
+            decode_action_msgs__srv__CancelGoal_Response,
             encode_action_msgs__srv__CancelGoal_Response,
         ),
         "service_msgs/msg/ServiceEventInfo": (
-            decode_dict_service_msgs__msg__ServiceEventInfo,
-            decode_view_service_msgs__msg__ServiceEventInfo,
+            decode_service_msgs__msg__ServiceEventInfo,
             encode_service_msgs__msg__ServiceEventInfo,
         ),
         "action_msgs/srv/CancelGoal_Event": (
-            decode_dict_action_msgs__srv__CancelGoal_Event,
-            decode_view_action_msgs__srv__CancelGoal_Event,
+            decode_action_msgs__srv__CancelGoal_Event,
             encode_action_msgs__srv__CancelGoal_Event,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

@@ -8,7 +8,8 @@
 #     RIHS01_f3230208e8daec53eb7b8da6df1c1d1d4eb095f3082be922661c29a1f855a1bc
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -277,17 +278,15 @@ def make_actionlib_msgs__msg__GoalStatusArray(
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_B = Struct(E + "B")
     _S_I = Struct(E + "I")
     _S_i2I = Struct(E + "i2I")
     _S_iI = Struct(E + "iI")
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -298,22 +297,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -345,9 +331,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_actionlib_msgs__msg__GoalID(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_actionlib_msgs__msg__GoalID(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -363,27 +347,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_actionlib_msgs__msg__GoalID(
+                make_builtin_interfaces__msg__Time(v2, v3), v6
+            ), pos
         return {"stamp": {"sec": v2, "nanosec": v3}, "id": v6}, pos
-
-    def decode_view_actionlib_msgs__msg__GoalID(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_actionlib_msgs__msg__GoalID_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_actionlib_msgs__msg__GoalID(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
 
     def encode_actionlib_msgs__msg__GoalID(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -424,13 +392,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_actionlib_msgs__msg__GoalStatus(
+    def decode_actionlib_msgs__msg__GoalStatus(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".goal_id"
-            v1, pos = decode_dict_actionlib_msgs__msg__GoalID(mv, pos, lim)
+            v1, pos = decode_actionlib_msgs__msg__GoalID(mv, pos, lim)
             f = _R_actionlib_msgs__msg__GoalStatus_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
@@ -447,32 +415,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_actionlib_msgs__msg__GoalStatus(v1, v2, v5), pos
         return {"goal_id": v1, "status": v2, "text": v5}, pos
-
-    def decode_view_actionlib_msgs__msg__GoalStatus(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".goal_id"
-            v1, pos = decode_view_actionlib_msgs__msg__GoalID(mv, pos, lim)
-            f = _R_actionlib_msgs__msg__GoalStatus_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_actionlib_msgs__msg__GoalStatus_1
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".text"
-            if v4 > lim - pos:
-                raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
-            pos += v4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_actionlib_msgs__msg__GoalStatus(v1, v2, v5), pos
 
     def encode_actionlib_msgs__msg__GoalStatus(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -509,7 +454,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -525,25 +470,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
         return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def decode_view_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
 
     def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -584,39 +513,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_actionlib_msgs__msg__GoalStatusArray(
+    def decode_actionlib_msgs__msg__GoalStatusArray(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = ".status_list"
             v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_actionlib_msgs__msg__GoalStatus, None, None, 17
+                mv, pos, lim, _U32, decode_actionlib_msgs__msg__GoalStatus, None, None, 17
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_actionlib_msgs__msg__GoalStatusArray(v1, v2), pos
         return {"header": v1, "status_list": v2}, pos
-
-    def decode_view_actionlib_msgs__msg__GoalStatusArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = ".status_list"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_actionlib_msgs__msg__GoalStatus, None, None, 17
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_actionlib_msgs__msg__GoalStatusArray(v1, v2), pos
 
     def encode_actionlib_msgs__msg__GoalStatusArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -643,32 +557,29 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
         "actionlib_msgs/msg/GoalID": (
-            decode_dict_actionlib_msgs__msg__GoalID,
-            decode_view_actionlib_msgs__msg__GoalID,
+            decode_actionlib_msgs__msg__GoalID,
             encode_actionlib_msgs__msg__GoalID,
         ),
         "actionlib_msgs/msg/GoalStatus": (
-            decode_dict_actionlib_msgs__msg__GoalStatus,
-            decode_view_actionlib_msgs__msg__GoalStatus,
+            decode_actionlib_msgs__msg__GoalStatus,
             encode_actionlib_msgs__msg__GoalStatus,
         ),
-        "std_msgs/msg/Header": (
-            decode_dict_std_msgs__msg__Header,
-            decode_view_std_msgs__msg__Header,
-            encode_std_msgs__msg__Header,
-        ),
+        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
         "actionlib_msgs/msg/GoalStatusArray": (
-            decode_dict_actionlib_msgs__msg__GoalStatusArray,
-            decode_view_actionlib_msgs__msg__GoalStatusArray,
+            decode_actionlib_msgs__msg__GoalStatusArray,
             encode_actionlib_msgs__msg__GoalStatusArray,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

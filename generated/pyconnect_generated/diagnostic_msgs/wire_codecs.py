@@ -20,7 +20,8 @@
 #     RIHS01_949f4bd418dae483879d649012beff105276e5b75b3c7445693c70dca1687718
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -625,8 +626,8 @@ def make_diagnostic_msgs__srv__SelfTest_Event(
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_B = Struct(E + "B")
@@ -637,9 +638,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _S_q = Struct(E + "q")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -650,22 +649,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -697,7 +683,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -713,25 +699,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
         return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def decode_view_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
 
     def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -772,7 +742,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_diagnostic_msgs__msg__KeyValue(
+    def decode_diagnostic_msgs__msg__KeyValue(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -799,36 +769,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_diagnostic_msgs__msg__KeyValue(v3, v6), pos
         return {"key": v3, "value": v6}, pos
-
-    def decode_view_diagnostic_msgs__msg__KeyValue(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__msg__KeyValue_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".key"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__msg__KeyValue_1
-            (v5,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".value"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_diagnostic_msgs__msg__KeyValue(v3, v6), pos
 
     def encode_diagnostic_msgs__msg__KeyValue(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -869,7 +812,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_diagnostic_msgs__msg__DiagnosticStatus(
+    def decode_diagnostic_msgs__msg__DiagnosticStatus(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -906,58 +849,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v9
             f = ".values"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_diagnostic_msgs__msg__KeyValue, None, None, 8
+                mv, pos, lim, _U32, decode_diagnostic_msgs__msg__KeyValue, None, None, 8
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_diagnostic_msgs__msg__DiagnosticStatus(v1, v4, v7, v10, v11), pos
         return {"level": v1, "name": v4, "message": v7, "hardware_id": v10, "values": v11}, pos
-
-    def decode_view_diagnostic_msgs__msg__DiagnosticStatus(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_diagnostic_msgs__msg__DiagnosticStatus_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__msg__DiagnosticStatus_1
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".name"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
-            pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__msg__DiagnosticStatus_2
-            (v6,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".message"
-            if v6 > lim - pos:
-                raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
-            pos += v6
-            pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__msg__DiagnosticStatus_3
-            (v9,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".hardware_id"
-            if v9 > lim - pos:
-                raise too_long(v9, 1, lim - pos)
-            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
-            pos += v9
-            f = ".values"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_diagnostic_msgs__msg__KeyValue, None, None, 8
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_diagnostic_msgs__msg__DiagnosticStatus(v1, v4, v7, v10, v11), pos
 
     def encode_diagnostic_msgs__msg__DiagnosticStatus(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1034,53 +934,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_diagnostic_msgs__msg__DiagnosticArray(
+    def decode_diagnostic_msgs__msg__DiagnosticArray(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = ".status"
             v2, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_diagnostic_msgs__msg__DiagnosticStatus,
-                None,
-                None,
-                17,
+                mv, pos, lim, _U32, decode_diagnostic_msgs__msg__DiagnosticStatus, None, None, 17
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_diagnostic_msgs__msg__DiagnosticArray(v1, v2), pos
         return {"header": v1, "status": v2}, pos
-
-    def decode_view_diagnostic_msgs__msg__DiagnosticArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = ".status"
-            v2, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_diagnostic_msgs__msg__DiagnosticStatus,
-                None,
-                None,
-                17,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_diagnostic_msgs__msg__DiagnosticArray(v1, v2), pos
 
     def encode_diagnostic_msgs__msg__DiagnosticArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1107,7 +978,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_diagnostic_msgs__srv__AddDiagnostics_Request(
+    def decode_diagnostic_msgs__srv__AddDiagnostics_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1125,27 +996,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_diagnostic_msgs__srv__AddDiagnostics_Request(v3), pos
         return {"load_namespace": v3}, pos
-
-    def decode_view_diagnostic_msgs__srv__AddDiagnostics_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__srv__AddDiagnostics_Request_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".load_namespace"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_diagnostic_msgs__srv__AddDiagnostics_Request(v3), pos
 
     def encode_diagnostic_msgs__srv__AddDiagnostics_Request(
         d: Any, out: list[Any], pos: int
@@ -1179,7 +1032,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_diagnostic_msgs__srv__AddDiagnostics_Response(
+    def decode_diagnostic_msgs__srv__AddDiagnostics_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1200,30 +1053,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_diagnostic_msgs__srv__AddDiagnostics_Response(v2, v5), pos
         return {"success": v2, "message": v5}, pos
-
-    def decode_view_diagnostic_msgs__srv__AddDiagnostics_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_diagnostic_msgs__srv__AddDiagnostics_Response_0
-            (v2,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__srv__AddDiagnostics_Response_1
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".message"
-            if v4 > lim - pos:
-                raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
-            pos += v4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_diagnostic_msgs__srv__AddDiagnostics_Response(v2, v5), pos
 
     def encode_diagnostic_msgs__srv__AddDiagnostics_Response(
         d: Any, out: list[Any], pos: int
@@ -1283,7 +1115,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_service_msgs__msg__ServiceEventInfo(
+    def decode_service_msgs__msg__ServiceEventInfo(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1308,41 +1140,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_service_msgs__msg__ServiceEventInfo(
+                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
+            ), pos
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
             "client_gid": v7,
             "sequence_number": v8,
         }, pos
-
-    def decode_view_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_service_msgs__msg__ServiceEventInfo(
-            v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-        ), pos
 
     def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1408,7 +1215,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_diagnostic_msgs__srv__AddDiagnostics_Event(
+    def decode_diagnostic_msgs__srv__AddDiagnostics_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1431,30 +1238,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_diagnostic_msgs__srv__AddDiagnostics_Request,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, decode_diagnostic_msgs__srv__AddDiagnostics_Request, None, 1, 4
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_diagnostic_msgs__srv__AddDiagnostics_Response,
-                None,
-                1,
-                5,
+                mv, pos, lim, _U32, decode_diagnostic_msgs__srv__AddDiagnostics_Response, None, 1, 5
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_diagnostic_msgs__srv__AddDiagnostics_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -1465,61 +1266,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_diagnostic_msgs__srv__AddDiagnostics_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_diagnostic_msgs__srv__AddDiagnostics_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__srv__AddDiagnostics_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_diagnostic_msgs__srv__AddDiagnostics_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_diagnostic_msgs__srv__AddDiagnostics_Request,
-                None,
-                1,
-                4,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_diagnostic_msgs__srv__AddDiagnostics_Response,
-                None,
-                1,
-                5,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_diagnostic_msgs__srv__AddDiagnostics_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_diagnostic_msgs__srv__AddDiagnostics_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1616,7 +1362,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_diagnostic_msgs__srv__SelfTest_Request(
+    def decode_diagnostic_msgs__srv__SelfTest_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1628,21 +1374,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_diagnostic_msgs__srv__SelfTest_Request(), pos
         return {}, pos
-
-    def decode_view_diagnostic_msgs__srv__SelfTest_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_diagnostic_msgs__srv__SelfTest_Request_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_diagnostic_msgs__srv__SelfTest_Request(), pos
 
     def encode_diagnostic_msgs__srv__SelfTest_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1663,7 +1397,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_diagnostic_msgs__srv__SelfTest_Response(
+    def decode_diagnostic_msgs__srv__SelfTest_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1682,54 +1416,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 1
             f = ".status"
             v5, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_diagnostic_msgs__msg__DiagnosticStatus,
-                None,
-                None,
-                17,
+                mv, pos, lim, _U32, decode_diagnostic_msgs__msg__DiagnosticStatus, None, None, 17
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_diagnostic_msgs__srv__SelfTest_Response(v3, v4, v5), pos
         return {"id": v3, "passed": v4, "status": v5}, pos
-
-    def decode_view_diagnostic_msgs__srv__SelfTest_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__srv__SelfTest_Response_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".id"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            f = _R_diagnostic_msgs__srv__SelfTest_Response_1
-            (v4,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            f = ".status"
-            v5, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_diagnostic_msgs__msg__DiagnosticStatus,
-                None,
-                None,
-                17,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_diagnostic_msgs__srv__SelfTest_Response(v3, v4, v5), pos
 
     def encode_diagnostic_msgs__srv__SelfTest_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1780,7 +1475,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_diagnostic_msgs__srv__SelfTest_Event(
+    def decode_diagnostic_msgs__srv__SelfTest_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1803,16 +1498,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_diagnostic_msgs__srv__SelfTest_Request, None, 1, 1
+                mv, pos, lim, _U32, decode_diagnostic_msgs__srv__SelfTest_Request, None, 1, 1
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_diagnostic_msgs__srv__SelfTest_Response, None, 1, 9
+                mv, pos, lim, _U32, decode_diagnostic_msgs__srv__SelfTest_Response, None, 1, 9
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_diagnostic_msgs__srv__SelfTest_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -1823,47 +1526,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_diagnostic_msgs__srv__SelfTest_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_diagnostic_msgs__srv__SelfTest_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__srv__SelfTest_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_diagnostic_msgs__srv__SelfTest_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_diagnostic_msgs__srv__SelfTest_Request, None, 1, 1
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_diagnostic_msgs__srv__SelfTest_Response, None, 1, 9
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_diagnostic_msgs__srv__SelfTest_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_diagnostic_msgs__srv__SelfTest_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1957,67 +1619,57 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
-        "std_msgs/msg/Header": (
-            decode_dict_std_msgs__msg__Header,
-            decode_view_std_msgs__msg__Header,
-            encode_std_msgs__msg__Header,
-        ),
+        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
         "diagnostic_msgs/msg/KeyValue": (
-            decode_dict_diagnostic_msgs__msg__KeyValue,
-            decode_view_diagnostic_msgs__msg__KeyValue,
+            decode_diagnostic_msgs__msg__KeyValue,
             encode_diagnostic_msgs__msg__KeyValue,
         ),
         "diagnostic_msgs/msg/DiagnosticStatus": (
-            decode_dict_diagnostic_msgs__msg__DiagnosticStatus,
-            decode_view_diagnostic_msgs__msg__DiagnosticStatus,
+            decode_diagnostic_msgs__msg__DiagnosticStatus,
             encode_diagnostic_msgs__msg__DiagnosticStatus,
         ),
         "diagnostic_msgs/msg/DiagnosticArray": (
-            decode_dict_diagnostic_msgs__msg__DiagnosticArray,
-            decode_view_diagnostic_msgs__msg__DiagnosticArray,
+            decode_diagnostic_msgs__msg__DiagnosticArray,
             encode_diagnostic_msgs__msg__DiagnosticArray,
         ),
         "diagnostic_msgs/srv/AddDiagnostics_Request": (
-            decode_dict_diagnostic_msgs__srv__AddDiagnostics_Request,
-            decode_view_diagnostic_msgs__srv__AddDiagnostics_Request,
+            decode_diagnostic_msgs__srv__AddDiagnostics_Request,
             encode_diagnostic_msgs__srv__AddDiagnostics_Request,
         ),
         "diagnostic_msgs/srv/AddDiagnostics_Response": (
-            decode_dict_diagnostic_msgs__srv__AddDiagnostics_Response,
-            decode_view_diagnostic_msgs__srv__AddDiagnostics_Response,
+            decode_diagnostic_msgs__srv__AddDiagnostics_Response,
             encode_diagnostic_msgs__srv__AddDiagnostics_Response,
         ),
         "service_msgs/msg/ServiceEventInfo": (
-            decode_dict_service_msgs__msg__ServiceEventInfo,
-            decode_view_service_msgs__msg__ServiceEventInfo,
+            decode_service_msgs__msg__ServiceEventInfo,
             encode_service_msgs__msg__ServiceEventInfo,
         ),
         "diagnostic_msgs/srv/AddDiagnostics_Event": (
-            decode_dict_diagnostic_msgs__srv__AddDiagnostics_Event,
-            decode_view_diagnostic_msgs__srv__AddDiagnostics_Event,
+            decode_diagnostic_msgs__srv__AddDiagnostics_Event,
             encode_diagnostic_msgs__srv__AddDiagnostics_Event,
         ),
         "diagnostic_msgs/srv/SelfTest_Request": (
-            decode_dict_diagnostic_msgs__srv__SelfTest_Request,
-            decode_view_diagnostic_msgs__srv__SelfTest_Request,
+            decode_diagnostic_msgs__srv__SelfTest_Request,
             encode_diagnostic_msgs__srv__SelfTest_Request,
         ),
         "diagnostic_msgs/srv/SelfTest_Response": (
-            decode_dict_diagnostic_msgs__srv__SelfTest_Response,
-            decode_view_diagnostic_msgs__srv__SelfTest_Response,
+            decode_diagnostic_msgs__srv__SelfTest_Response,
             encode_diagnostic_msgs__srv__SelfTest_Response,
         ),
         "diagnostic_msgs/srv/SelfTest_Event": (
-            decode_dict_diagnostic_msgs__srv__SelfTest_Event,
-            decode_view_diagnostic_msgs__srv__SelfTest_Event,
+            decode_diagnostic_msgs__srv__SelfTest_Event,
             encode_diagnostic_msgs__srv__SelfTest_Event,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

@@ -66,7 +66,8 @@
 #     RIHS01_8dc3deaf06b2ab281f9f9a742a8961c328ca7cec16e3fd6586d3a5c83fa78f77
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -1687,8 +1688,8 @@ def make_geometry_msgs__msg__WrenchStamped(a0: Any, a1: Any) -> geometry_msgs__m
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_10d = Struct(E + "10d")
     _S_3d = Struct(E + "3d")
@@ -1702,9 +1703,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _S_q = Struct(E + "q")
     _D_float64 = np.dtype("float64").newbyteorder(E)
 
-    def decode_dict_geometry_msgs__msg__Vector3(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Vector3(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -1715,22 +1714,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
-
-    def decode_view_geometry_msgs__msg__Vector3(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Vector3_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
 
     def encode_geometry_msgs__msg__Vector3(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1763,9 +1749,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Accel(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Accel(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -1776,25 +1760,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Accel(
+                make_geometry_msgs__msg__Vector3(v2, v3, v4),
+                make_geometry_msgs__msg__Vector3(v6, v7, v8),
+            ), pos
         return {"linear": {"x": v2, "y": v3, "z": v4}, "angular": {"x": v6, "y": v7, "z": v8}}, pos
-
-    def decode_view_geometry_msgs__msg__Accel(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Accel_0
-            v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Accel(
-            make_geometry_msgs__msg__Vector3(v2, v3, v4),
-            make_geometry_msgs__msg__Vector3(v6, v7, v8),
-        ), pos
 
     def encode_geometry_msgs__msg__Accel(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1847,9 +1818,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -1860,22 +1829,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1907,7 +1863,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -1923,25 +1879,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
         return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def decode_view_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
 
     def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1982,13 +1922,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__AccelStamped(
+    def decode_geometry_msgs__msg__AccelStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_geometry_msgs__msg__AccelStamped_0
             v4, v5, v6, v8, v9, v10 = _S_6d.unpack_from(mv, pos)
@@ -1997,6 +1937,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__AccelStamped(
+                v1,
+                make_geometry_msgs__msg__Accel(
+                    make_geometry_msgs__msg__Vector3(v4, v5, v6),
+                    make_geometry_msgs__msg__Vector3(v8, v9, v10),
+                ),
+            ), pos
         return {
             "header": v1,
             "accel": {
@@ -2004,29 +1952,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "angular": {"x": v8, "y": v9, "z": v10},
             },
         }, pos
-
-    def decode_view_geometry_msgs__msg__AccelStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__AccelStamped_0
-            v4, v5, v6, v8, v9, v10 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__AccelStamped(
-            v1,
-            make_geometry_msgs__msg__Accel(
-                make_geometry_msgs__msg__Vector3(v4, v5, v6),
-                make_geometry_msgs__msg__Vector3(v8, v9, v10),
-            ),
-        ), pos
 
     def encode_geometry_msgs__msg__AccelStamped(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2085,7 +2010,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__AccelWithCovariance(
+    def decode_geometry_msgs__msg__AccelWithCovariance(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2103,6 +2028,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__AccelWithCovariance(
+                make_geometry_msgs__msg__Accel(
+                    make_geometry_msgs__msg__Vector3(v3, v4, v5),
+                    make_geometry_msgs__msg__Vector3(v7, v8, v9),
+                ),
+                v12,
+            ), pos
         return {
             "accel": {
                 "linear": {"x": v3, "y": v4, "z": v5},
@@ -2110,32 +2043,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             },
             "covariance": v12,
         }, pos
-
-    def decode_view_geometry_msgs__msg__AccelWithCovariance(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__AccelWithCovariance_0
-            v3, v4, v5, v7, v8, v9 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-            f = ".covariance"
-            if 36 * 8 > lim - pos:
-                raise too_long(36, 8, lim - pos)
-            v12 = _frombuffer(mv, _D_float64, 36, pos)
-            pos += 36 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__AccelWithCovariance(
-            make_geometry_msgs__msg__Accel(
-                make_geometry_msgs__msg__Vector3(v3, v4, v5),
-                make_geometry_msgs__msg__Vector3(v7, v8, v9),
-            ),
-            v12,
-        ), pos
 
     def encode_geometry_msgs__msg__AccelWithCovariance(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2198,13 +2105,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__AccelWithCovarianceStamped(
+    def decode_geometry_msgs__msg__AccelWithCovarianceStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_geometry_msgs__msg__AccelWithCovarianceStamped_0
             v5, v6, v7, v9, v10, v11 = _S_6d.unpack_from(mv, pos)
@@ -2218,6 +2125,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__AccelWithCovarianceStamped(
+                v1,
+                make_geometry_msgs__msg__AccelWithCovariance(
+                    make_geometry_msgs__msg__Accel(
+                        make_geometry_msgs__msg__Vector3(v5, v6, v7),
+                        make_geometry_msgs__msg__Vector3(v9, v10, v11),
+                    ),
+                    v14,
+                ),
+            ), pos
         return {
             "header": v1,
             "accel": {
@@ -2228,37 +2146,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "covariance": v14,
             },
         }, pos
-
-    def decode_view_geometry_msgs__msg__AccelWithCovarianceStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__AccelWithCovarianceStamped_0
-            v5, v6, v7, v9, v10, v11 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-            f = ".accel.covariance"
-            if 36 * 8 > lim - pos:
-                raise too_long(36, 8, lim - pos)
-            v14 = _frombuffer(mv, _D_float64, 36, pos)
-            pos += 36 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__AccelWithCovarianceStamped(
-            v1,
-            make_geometry_msgs__msg__AccelWithCovariance(
-                make_geometry_msgs__msg__Accel(
-                    make_geometry_msgs__msg__Vector3(v5, v6, v7),
-                    make_geometry_msgs__msg__Vector3(v9, v10, v11),
-                ),
-                v14,
-            ),
-        ), pos
 
     def encode_geometry_msgs__msg__AccelWithCovarianceStamped(
         d: Any, out: list[Any], pos: int
@@ -2335,9 +2222,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Inertia(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Inertia(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -2348,6 +2233,10 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Inertia(
+                v1, make_geometry_msgs__msg__Vector3(v3, v4, v5), v6, v7, v8, v9, v10, v11
+            ), pos
         return {
             "m": v1,
             "com": {"x": v3, "y": v4, "z": v5},
@@ -2358,23 +2247,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "iyz": v10,
             "izz": v11,
         }, pos
-
-    def decode_view_geometry_msgs__msg__Inertia(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Inertia_0
-            v1, v3, v4, v5, v6, v7, v8, v9, v10, v11 = _S_10d.unpack_from(mv, pos)
-            pos += 80
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Inertia(
-            v1, make_geometry_msgs__msg__Vector3(v3, v4, v5), v6, v7, v8, v9, v10, v11
-        ), pos
 
     def encode_geometry_msgs__msg__Inertia(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2431,13 +2303,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__InertiaStamped(
+    def decode_geometry_msgs__msg__InertiaStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_geometry_msgs__msg__InertiaStamped_0
             v3, v5, v6, v7, v8, v9, v10, v11, v12, v13 = _S_10d.unpack_from(mv, pos)
@@ -2446,6 +2318,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__InertiaStamped(
+                v1,
+                make_geometry_msgs__msg__Inertia(
+                    v3, make_geometry_msgs__msg__Vector3(v5, v6, v7), v8, v9, v10, v11, v12, v13
+                ),
+            ), pos
         return {
             "header": v1,
             "inertia": {
@@ -2459,28 +2338,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "izz": v13,
             },
         }, pos
-
-    def decode_view_geometry_msgs__msg__InertiaStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__InertiaStamped_0
-            v3, v5, v6, v7, v8, v9, v10, v11, v12, v13 = _S_10d.unpack_from(mv, pos)
-            pos += 80
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__InertiaStamped(
-            v1,
-            make_geometry_msgs__msg__Inertia(
-                v3, make_geometry_msgs__msg__Vector3(v5, v6, v7), v8, v9, v10, v11, v12, v13
-            ),
-        ), pos
 
     def encode_geometry_msgs__msg__InertiaStamped(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2543,9 +2400,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Point(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Point(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -2556,22 +2411,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Point(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
-
-    def decode_view_geometry_msgs__msg__Point(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Point_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Point(v1, v2, v3), pos
 
     def encode_geometry_msgs__msg__Point(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2604,9 +2446,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Point32(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Point32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -2617,22 +2457,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Point32(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
-
-    def decode_view_geometry_msgs__msg__Point32(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_geometry_msgs__msg__Point32_0
-            v1, v2, v3 = _S_3f.unpack_from(mv, pos)
-            pos += 12
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Point32(v1, v2, v3), pos
 
     def encode_geometry_msgs__msg__Point32(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2665,13 +2492,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__PointStamped(
+    def decode_geometry_msgs__msg__PointStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_geometry_msgs__msg__PointStamped_0
             v3, v4, v5 = _S_3d.unpack_from(mv, pos)
@@ -2680,26 +2507,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__PointStamped(
+                v1, make_geometry_msgs__msg__Point(v3, v4, v5)
+            ), pos
         return {"header": v1, "point": {"x": v3, "y": v4, "z": v5}}, pos
-
-    def decode_view_geometry_msgs__msg__PointStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PointStamped_0
-            v3, v4, v5 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__PointStamped(
-            v1, make_geometry_msgs__msg__Point(v3, v4, v5)
-        ), pos
 
     def encode_geometry_msgs__msg__PointStamped(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2738,35 +2550,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Polygon(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Polygon(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".points"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Point32, None, None, 12
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__Point32, None, None, 12
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Polygon(v1), pos
         return {"points": v1}, pos
-
-    def decode_view_geometry_msgs__msg__Polygon(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".points"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Point32, None, None, 12
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Polygon(v1), pos
 
     def encode_geometry_msgs__msg__Polygon(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2783,13 +2580,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__PolygonInstance(
+    def decode_geometry_msgs__msg__PolygonInstance(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".polygon"
-            v1, pos = decode_dict_geometry_msgs__msg__Polygon(mv, pos, lim)
+            v1, pos = decode_geometry_msgs__msg__Polygon(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_geometry_msgs__msg__PolygonInstance_0
             (v2,) = _S_q.unpack_from(mv, pos)
@@ -2798,24 +2595,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__PolygonInstance(v1, v2), pos
         return {"polygon": v1, "id": v2}, pos
-
-    def decode_view_geometry_msgs__msg__PolygonInstance(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".polygon"
-            v1, pos = decode_view_geometry_msgs__msg__Polygon(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PolygonInstance_0
-            (v2,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__PolygonInstance(v1, v2), pos
 
     def encode_geometry_msgs__msg__PolygonInstance(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2842,35 +2624,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__PolygonInstanceStamped(
+    def decode_geometry_msgs__msg__PolygonInstanceStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = ".polygon"
-            v2, pos = decode_dict_geometry_msgs__msg__PolygonInstance(mv, pos, lim)
+            v2, pos = decode_geometry_msgs__msg__PolygonInstance(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__PolygonInstanceStamped(v1, v2), pos
         return {"header": v1, "polygon": v2}, pos
-
-    def decode_view_geometry_msgs__msg__PolygonInstanceStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = ".polygon"
-            v2, pos = decode_view_geometry_msgs__msg__PolygonInstance(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__PolygonInstanceStamped(v1, v2), pos
 
     def encode_geometry_msgs__msg__PolygonInstanceStamped(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2890,35 +2659,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__PolygonStamped(
+    def decode_geometry_msgs__msg__PolygonStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = ".polygon"
-            v2, pos = decode_dict_geometry_msgs__msg__Polygon(mv, pos, lim)
+            v2, pos = decode_geometry_msgs__msg__Polygon(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__PolygonStamped(v1, v2), pos
         return {"header": v1, "polygon": v2}, pos
-
-    def decode_view_geometry_msgs__msg__PolygonStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = ".polygon"
-            v2, pos = decode_view_geometry_msgs__msg__Polygon(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__PolygonStamped(v1, v2), pos
 
     def encode_geometry_msgs__msg__PolygonStamped(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2935,7 +2691,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Quaternion(
+    def decode_geometry_msgs__msg__Quaternion(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2948,22 +2704,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
         return {"x": v1, "y": v2, "z": v3, "w": v4}, pos
-
-    def decode_view_geometry_msgs__msg__Quaternion(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Quaternion_0
-            v1, v2, v3, v4 = _S_4d.unpack_from(mv, pos)
-            pos += 32
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
 
     def encode_geometry_msgs__msg__Quaternion(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2999,7 +2742,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Pose(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Pose(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -3010,26 +2753,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Pose(
+                make_geometry_msgs__msg__Point(v2, v3, v4),
+                make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
+            ), pos
         return {
             "position": {"x": v2, "y": v3, "z": v4},
             "orientation": {"x": v6, "y": v7, "z": v8, "w": v9},
         }, pos
-
-    def decode_view_geometry_msgs__msg__Pose(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Pose_0
-            v2, v3, v4, v6, v7, v8, v9 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Pose(
-            make_geometry_msgs__msg__Point(v2, v3, v4),
-            make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
-        ), pos
 
     def encode_geometry_msgs__msg__Pose(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3084,9 +2816,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Pose2D(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Pose2D(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -3097,22 +2827,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Pose2D(v1, v2, v3), pos
         return {"x": v1, "y": v2, "theta": v3}, pos
-
-    def decode_view_geometry_msgs__msg__Pose2D(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Pose2D_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Pose2D(v1, v2, v3), pos
 
     def encode_geometry_msgs__msg__Pose2D(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3145,39 +2862,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__PoseArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__PoseArray(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = ".poses"
             v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Pose, None, None, 56
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__Pose, None, None, 56
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__PoseArray(v1, v2), pos
         return {"header": v1, "poses": v2}, pos
-
-    def decode_view_geometry_msgs__msg__PoseArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = ".poses"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Pose, None, None, 56
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__PoseArray(v1, v2), pos
 
     def encode_geometry_msgs__msg__PoseArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3196,13 +2896,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__PoseStamped(
+    def decode_geometry_msgs__msg__PoseStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_geometry_msgs__msg__PoseStamped_0
             v4, v5, v6, v8, v9, v10, v11 = _S_7d.unpack_from(mv, pos)
@@ -3211,6 +2911,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__PoseStamped(
+                v1,
+                make_geometry_msgs__msg__Pose(
+                    make_geometry_msgs__msg__Point(v4, v5, v6),
+                    make_geometry_msgs__msg__Quaternion(v8, v9, v10, v11),
+                ),
+            ), pos
         return {
             "header": v1,
             "pose": {
@@ -3218,29 +2926,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "orientation": {"x": v8, "y": v9, "z": v10, "w": v11},
             },
         }, pos
-
-    def decode_view_geometry_msgs__msg__PoseStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PoseStamped_0
-            v4, v5, v6, v8, v9, v10, v11 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__PoseStamped(
-            v1,
-            make_geometry_msgs__msg__Pose(
-                make_geometry_msgs__msg__Point(v4, v5, v6),
-                make_geometry_msgs__msg__Quaternion(v8, v9, v10, v11),
-            ),
-        ), pos
 
     def encode_geometry_msgs__msg__PoseStamped(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3301,7 +2986,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__PoseWithCovariance(
+    def decode_geometry_msgs__msg__PoseWithCovariance(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -3319,6 +3004,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__PoseWithCovariance(
+                make_geometry_msgs__msg__Pose(
+                    make_geometry_msgs__msg__Point(v3, v4, v5),
+                    make_geometry_msgs__msg__Quaternion(v7, v8, v9, v10),
+                ),
+                v13,
+            ), pos
         return {
             "pose": {
                 "position": {"x": v3, "y": v4, "z": v5},
@@ -3326,32 +3019,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             },
             "covariance": v13,
         }, pos
-
-    def decode_view_geometry_msgs__msg__PoseWithCovariance(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PoseWithCovariance_0
-            v3, v4, v5, v7, v8, v9, v10 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-            f = ".covariance"
-            if 36 * 8 > lim - pos:
-                raise too_long(36, 8, lim - pos)
-            v13 = _frombuffer(mv, _D_float64, 36, pos)
-            pos += 36 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__PoseWithCovariance(
-            make_geometry_msgs__msg__Pose(
-                make_geometry_msgs__msg__Point(v3, v4, v5),
-                make_geometry_msgs__msg__Quaternion(v7, v8, v9, v10),
-            ),
-            v13,
-        ), pos
 
     def encode_geometry_msgs__msg__PoseWithCovariance(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3416,13 +3083,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__PoseWithCovarianceStamped(
+    def decode_geometry_msgs__msg__PoseWithCovarianceStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_geometry_msgs__msg__PoseWithCovarianceStamped_0
             v5, v6, v7, v9, v10, v11, v12 = _S_7d.unpack_from(mv, pos)
@@ -3436,6 +3103,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__PoseWithCovarianceStamped(
+                v1,
+                make_geometry_msgs__msg__PoseWithCovariance(
+                    make_geometry_msgs__msg__Pose(
+                        make_geometry_msgs__msg__Point(v5, v6, v7),
+                        make_geometry_msgs__msg__Quaternion(v9, v10, v11, v12),
+                    ),
+                    v15,
+                ),
+            ), pos
         return {
             "header": v1,
             "pose": {
@@ -3446,37 +3124,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "covariance": v15,
             },
         }, pos
-
-    def decode_view_geometry_msgs__msg__PoseWithCovarianceStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PoseWithCovarianceStamped_0
-            v5, v6, v7, v9, v10, v11, v12 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-            f = ".pose.covariance"
-            if 36 * 8 > lim - pos:
-                raise too_long(36, 8, lim - pos)
-            v15 = _frombuffer(mv, _D_float64, 36, pos)
-            pos += 36 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__PoseWithCovarianceStamped(
-            v1,
-            make_geometry_msgs__msg__PoseWithCovariance(
-                make_geometry_msgs__msg__Pose(
-                    make_geometry_msgs__msg__Point(v5, v6, v7),
-                    make_geometry_msgs__msg__Quaternion(v9, v10, v11, v12),
-                ),
-                v15,
-            ),
-        ), pos
 
     def encode_geometry_msgs__msg__PoseWithCovarianceStamped(
         d: Any, out: list[Any], pos: int
@@ -3554,13 +3201,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__QuaternionStamped(
+    def decode_geometry_msgs__msg__QuaternionStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_geometry_msgs__msg__QuaternionStamped_0
             v3, v4, v5, v6 = _S_4d.unpack_from(mv, pos)
@@ -3569,26 +3216,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__QuaternionStamped(
+                v1, make_geometry_msgs__msg__Quaternion(v3, v4, v5, v6)
+            ), pos
         return {"header": v1, "quaternion": {"x": v3, "y": v4, "z": v5, "w": v6}}, pos
-
-    def decode_view_geometry_msgs__msg__QuaternionStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__QuaternionStamped_0
-            v3, v4, v5, v6 = _S_4d.unpack_from(mv, pos)
-            pos += 32
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__QuaternionStamped(
-            v1, make_geometry_msgs__msg__Quaternion(v3, v4, v5, v6)
-        ), pos
 
     def encode_geometry_msgs__msg__QuaternionStamped(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3634,9 +3266,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Transform(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Transform(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -3647,28 +3277,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Transform(
+                make_geometry_msgs__msg__Vector3(v2, v3, v4),
+                make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
+            ), pos
         return {
             "translation": {"x": v2, "y": v3, "z": v4},
             "rotation": {"x": v6, "y": v7, "z": v8, "w": v9},
         }, pos
-
-    def decode_view_geometry_msgs__msg__Transform(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Transform_0
-            v2, v3, v4, v6, v7, v8, v9 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Transform(
-            make_geometry_msgs__msg__Vector3(v2, v3, v4),
-            make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
-        ), pos
 
     def encode_geometry_msgs__msg__Transform(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3723,13 +3340,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__TransformStamped(
+    def decode_geometry_msgs__msg__TransformStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_geometry_msgs__msg__TransformStamped_0
             (v3,) = _S_I.unpack_from(mv, pos)
@@ -3747,6 +3364,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__TransformStamped(
+                v1,
+                v4,
+                make_geometry_msgs__msg__Transform(
+                    make_geometry_msgs__msg__Vector3(v7, v8, v9),
+                    make_geometry_msgs__msg__Quaternion(v11, v12, v13, v14),
+                ),
+            ), pos
         return {
             "header": v1,
             "child_frame_id": v4,
@@ -3755,39 +3381,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "rotation": {"x": v11, "y": v12, "z": v13, "w": v14},
             },
         }, pos
-
-    def decode_view_geometry_msgs__msg__TransformStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_geometry_msgs__msg__TransformStamped_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".child_frame_id"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__TransformStamped_1
-            v7, v8, v9, v11, v12, v13, v14 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__TransformStamped(
-            v1,
-            v4,
-            make_geometry_msgs__msg__Transform(
-                make_geometry_msgs__msg__Vector3(v7, v8, v9),
-                make_geometry_msgs__msg__Quaternion(v11, v12, v13, v14),
-            ),
-        ), pos
 
     def encode_geometry_msgs__msg__TransformStamped(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3862,9 +3455,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Twist(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Twist(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -3875,25 +3466,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Twist(
+                make_geometry_msgs__msg__Vector3(v2, v3, v4),
+                make_geometry_msgs__msg__Vector3(v6, v7, v8),
+            ), pos
         return {"linear": {"x": v2, "y": v3, "z": v4}, "angular": {"x": v6, "y": v7, "z": v8}}, pos
-
-    def decode_view_geometry_msgs__msg__Twist(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Twist_0
-            v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Twist(
-            make_geometry_msgs__msg__Vector3(v2, v3, v4),
-            make_geometry_msgs__msg__Vector3(v6, v7, v8),
-        ), pos
 
     def encode_geometry_msgs__msg__Twist(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3946,13 +3524,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__TwistStamped(
+    def decode_geometry_msgs__msg__TwistStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_geometry_msgs__msg__TwistStamped_0
             v4, v5, v6, v8, v9, v10 = _S_6d.unpack_from(mv, pos)
@@ -3961,6 +3539,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__TwistStamped(
+                v1,
+                make_geometry_msgs__msg__Twist(
+                    make_geometry_msgs__msg__Vector3(v4, v5, v6),
+                    make_geometry_msgs__msg__Vector3(v8, v9, v10),
+                ),
+            ), pos
         return {
             "header": v1,
             "twist": {
@@ -3968,29 +3554,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "angular": {"x": v8, "y": v9, "z": v10},
             },
         }, pos
-
-    def decode_view_geometry_msgs__msg__TwistStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__TwistStamped_0
-            v4, v5, v6, v8, v9, v10 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__TwistStamped(
-            v1,
-            make_geometry_msgs__msg__Twist(
-                make_geometry_msgs__msg__Vector3(v4, v5, v6),
-                make_geometry_msgs__msg__Vector3(v8, v9, v10),
-            ),
-        ), pos
 
     def encode_geometry_msgs__msg__TwistStamped(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4049,7 +3612,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__TwistWithCovariance(
+    def decode_geometry_msgs__msg__TwistWithCovariance(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4067,6 +3630,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__TwistWithCovariance(
+                make_geometry_msgs__msg__Twist(
+                    make_geometry_msgs__msg__Vector3(v3, v4, v5),
+                    make_geometry_msgs__msg__Vector3(v7, v8, v9),
+                ),
+                v12,
+            ), pos
         return {
             "twist": {
                 "linear": {"x": v3, "y": v4, "z": v5},
@@ -4074,32 +3645,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             },
             "covariance": v12,
         }, pos
-
-    def decode_view_geometry_msgs__msg__TwistWithCovariance(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__TwistWithCovariance_0
-            v3, v4, v5, v7, v8, v9 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-            f = ".covariance"
-            if 36 * 8 > lim - pos:
-                raise too_long(36, 8, lim - pos)
-            v12 = _frombuffer(mv, _D_float64, 36, pos)
-            pos += 36 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__TwistWithCovariance(
-            make_geometry_msgs__msg__Twist(
-                make_geometry_msgs__msg__Vector3(v3, v4, v5),
-                make_geometry_msgs__msg__Vector3(v7, v8, v9),
-            ),
-            v12,
-        ), pos
 
     def encode_geometry_msgs__msg__TwistWithCovariance(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4162,13 +3707,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__TwistWithCovarianceStamped(
+    def decode_geometry_msgs__msg__TwistWithCovarianceStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_geometry_msgs__msg__TwistWithCovarianceStamped_0
             v5, v6, v7, v9, v10, v11 = _S_6d.unpack_from(mv, pos)
@@ -4182,6 +3727,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__TwistWithCovarianceStamped(
+                v1,
+                make_geometry_msgs__msg__TwistWithCovariance(
+                    make_geometry_msgs__msg__Twist(
+                        make_geometry_msgs__msg__Vector3(v5, v6, v7),
+                        make_geometry_msgs__msg__Vector3(v9, v10, v11),
+                    ),
+                    v14,
+                ),
+            ), pos
         return {
             "header": v1,
             "twist": {
@@ -4192,37 +3748,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "covariance": v14,
             },
         }, pos
-
-    def decode_view_geometry_msgs__msg__TwistWithCovarianceStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__TwistWithCovarianceStamped_0
-            v5, v6, v7, v9, v10, v11 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-            f = ".twist.covariance"
-            if 36 * 8 > lim - pos:
-                raise too_long(36, 8, lim - pos)
-            v14 = _frombuffer(mv, _D_float64, 36, pos)
-            pos += 36 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__TwistWithCovarianceStamped(
-            v1,
-            make_geometry_msgs__msg__TwistWithCovariance(
-                make_geometry_msgs__msg__Twist(
-                    make_geometry_msgs__msg__Vector3(v5, v6, v7),
-                    make_geometry_msgs__msg__Vector3(v9, v10, v11),
-                ),
-                v14,
-            ),
-        ), pos
 
     def encode_geometry_msgs__msg__TwistWithCovarianceStamped(
         d: Any, out: list[Any], pos: int
@@ -4299,13 +3824,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Vector3Stamped(
+    def decode_geometry_msgs__msg__Vector3Stamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_geometry_msgs__msg__Vector3Stamped_0
             v3, v4, v5 = _S_3d.unpack_from(mv, pos)
@@ -4314,26 +3839,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Vector3Stamped(
+                v1, make_geometry_msgs__msg__Vector3(v3, v4, v5)
+            ), pos
         return {"header": v1, "vector": {"x": v3, "y": v4, "z": v5}}, pos
-
-    def decode_view_geometry_msgs__msg__Vector3Stamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Vector3Stamped_0
-            v3, v4, v5 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Vector3Stamped(
-            v1, make_geometry_msgs__msg__Vector3(v3, v4, v5)
-        ), pos
 
     def encode_geometry_msgs__msg__Vector3Stamped(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4372,13 +3882,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__VelocityStamped(
+    def decode_geometry_msgs__msg__VelocityStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_geometry_msgs__msg__VelocityStamped_0
             (v3,) = _S_I.unpack_from(mv, pos)
@@ -4405,6 +3915,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__VelocityStamped(
+                v1,
+                v4,
+                v7,
+                make_geometry_msgs__msg__Twist(
+                    make_geometry_msgs__msg__Vector3(v10, v11, v12),
+                    make_geometry_msgs__msg__Vector3(v14, v15, v16),
+                ),
+            ), pos
         return {
             "header": v1,
             "body_frame_id": v4,
@@ -4414,49 +3934,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "angular": {"x": v14, "y": v15, "z": v16},
             },
         }, pos
-
-    def decode_view_geometry_msgs__msg__VelocityStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_geometry_msgs__msg__VelocityStamped_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".body_frame_id"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
-            pos = (pos + 3) & -4
-            f = _R_geometry_msgs__msg__VelocityStamped_1
-            (v6,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".reference_frame_id"
-            if v6 > lim - pos:
-                raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
-            pos += v6
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__VelocityStamped_2
-            v10, v11, v12, v14, v15, v16 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__VelocityStamped(
-            v1,
-            v4,
-            v7,
-            make_geometry_msgs__msg__Twist(
-                make_geometry_msgs__msg__Vector3(v10, v11, v12),
-                make_geometry_msgs__msg__Vector3(v14, v15, v16),
-            ),
-        ), pos
 
     def encode_geometry_msgs__msg__VelocityStamped(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4543,9 +4020,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Wrench(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Wrench(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -4556,25 +4031,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Wrench(
+                make_geometry_msgs__msg__Vector3(v2, v3, v4),
+                make_geometry_msgs__msg__Vector3(v6, v7, v8),
+            ), pos
         return {"force": {"x": v2, "y": v3, "z": v4}, "torque": {"x": v6, "y": v7, "z": v8}}, pos
-
-    def decode_view_geometry_msgs__msg__Wrench(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Wrench_0
-            v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Wrench(
-            make_geometry_msgs__msg__Vector3(v2, v3, v4),
-            make_geometry_msgs__msg__Vector3(v6, v7, v8),
-        ), pos
 
     def encode_geometry_msgs__msg__Wrench(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4627,13 +4089,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__WrenchStamped(
+    def decode_geometry_msgs__msg__WrenchStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_geometry_msgs__msg__WrenchStamped_0
             v4, v5, v6, v8, v9, v10 = _S_6d.unpack_from(mv, pos)
@@ -4642,6 +4104,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__WrenchStamped(
+                v1,
+                make_geometry_msgs__msg__Wrench(
+                    make_geometry_msgs__msg__Vector3(v4, v5, v6),
+                    make_geometry_msgs__msg__Vector3(v8, v9, v10),
+                ),
+            ), pos
         return {
             "header": v1,
             "wrench": {
@@ -4649,29 +4119,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "torque": {"x": v8, "y": v9, "z": v10},
             },
         }, pos
-
-    def decode_view_geometry_msgs__msg__WrenchStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__WrenchStamped_0
-            v4, v5, v6, v8, v9, v10 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__WrenchStamped(
-            v1,
-            make_geometry_msgs__msg__Wrench(
-                make_geometry_msgs__msg__Vector3(v4, v5, v6),
-                make_geometry_msgs__msg__Vector3(v8, v9, v10),
-            ),
-        ), pos
 
     def encode_geometry_msgs__msg__WrenchStamped(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4732,177 +4179,145 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "geometry_msgs/msg/Vector3": (
-            decode_dict_geometry_msgs__msg__Vector3,
-            decode_view_geometry_msgs__msg__Vector3,
+            decode_geometry_msgs__msg__Vector3,
             encode_geometry_msgs__msg__Vector3,
         ),
         "geometry_msgs/msg/Accel": (
-            decode_dict_geometry_msgs__msg__Accel,
-            decode_view_geometry_msgs__msg__Accel,
+            decode_geometry_msgs__msg__Accel,
             encode_geometry_msgs__msg__Accel,
         ),
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
-        "std_msgs/msg/Header": (
-            decode_dict_std_msgs__msg__Header,
-            decode_view_std_msgs__msg__Header,
-            encode_std_msgs__msg__Header,
-        ),
+        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
         "geometry_msgs/msg/AccelStamped": (
-            decode_dict_geometry_msgs__msg__AccelStamped,
-            decode_view_geometry_msgs__msg__AccelStamped,
+            decode_geometry_msgs__msg__AccelStamped,
             encode_geometry_msgs__msg__AccelStamped,
         ),
         "geometry_msgs/msg/AccelWithCovariance": (
-            decode_dict_geometry_msgs__msg__AccelWithCovariance,
-            decode_view_geometry_msgs__msg__AccelWithCovariance,
+            decode_geometry_msgs__msg__AccelWithCovariance,
             encode_geometry_msgs__msg__AccelWithCovariance,
         ),
         "geometry_msgs/msg/AccelWithCovarianceStamped": (
-            decode_dict_geometry_msgs__msg__AccelWithCovarianceStamped,
-            decode_view_geometry_msgs__msg__AccelWithCovarianceStamped,
+            decode_geometry_msgs__msg__AccelWithCovarianceStamped,
             encode_geometry_msgs__msg__AccelWithCovarianceStamped,
         ),
         "geometry_msgs/msg/Inertia": (
-            decode_dict_geometry_msgs__msg__Inertia,
-            decode_view_geometry_msgs__msg__Inertia,
+            decode_geometry_msgs__msg__Inertia,
             encode_geometry_msgs__msg__Inertia,
         ),
         "geometry_msgs/msg/InertiaStamped": (
-            decode_dict_geometry_msgs__msg__InertiaStamped,
-            decode_view_geometry_msgs__msg__InertiaStamped,
+            decode_geometry_msgs__msg__InertiaStamped,
             encode_geometry_msgs__msg__InertiaStamped,
         ),
         "geometry_msgs/msg/Point": (
-            decode_dict_geometry_msgs__msg__Point,
-            decode_view_geometry_msgs__msg__Point,
+            decode_geometry_msgs__msg__Point,
             encode_geometry_msgs__msg__Point,
         ),
         "geometry_msgs/msg/Point32": (
-            decode_dict_geometry_msgs__msg__Point32,
-            decode_view_geometry_msgs__msg__Point32,
+            decode_geometry_msgs__msg__Point32,
             encode_geometry_msgs__msg__Point32,
         ),
         "geometry_msgs/msg/PointStamped": (
-            decode_dict_geometry_msgs__msg__PointStamped,
-            decode_view_geometry_msgs__msg__PointStamped,
+            decode_geometry_msgs__msg__PointStamped,
             encode_geometry_msgs__msg__PointStamped,
         ),
         "geometry_msgs/msg/Polygon": (
-            decode_dict_geometry_msgs__msg__Polygon,
-            decode_view_geometry_msgs__msg__Polygon,
+            decode_geometry_msgs__msg__Polygon,
             encode_geometry_msgs__msg__Polygon,
         ),
         "geometry_msgs/msg/PolygonInstance": (
-            decode_dict_geometry_msgs__msg__PolygonInstance,
-            decode_view_geometry_msgs__msg__PolygonInstance,
+            decode_geometry_msgs__msg__PolygonInstance,
             encode_geometry_msgs__msg__PolygonInstance,
         ),
         "geometry_msgs/msg/PolygonInstanceStamped": (
-            decode_dict_geometry_msgs__msg__PolygonInstanceStamped,
-            decode_view_geometry_msgs__msg__PolygonInstanceStamped,
+            decode_geometry_msgs__msg__PolygonInstanceStamped,
             encode_geometry_msgs__msg__PolygonInstanceStamped,
         ),
         "geometry_msgs/msg/PolygonStamped": (
-            decode_dict_geometry_msgs__msg__PolygonStamped,
-            decode_view_geometry_msgs__msg__PolygonStamped,
+            decode_geometry_msgs__msg__PolygonStamped,
             encode_geometry_msgs__msg__PolygonStamped,
         ),
         "geometry_msgs/msg/Quaternion": (
-            decode_dict_geometry_msgs__msg__Quaternion,
-            decode_view_geometry_msgs__msg__Quaternion,
+            decode_geometry_msgs__msg__Quaternion,
             encode_geometry_msgs__msg__Quaternion,
         ),
         "geometry_msgs/msg/Pose": (
-            decode_dict_geometry_msgs__msg__Pose,
-            decode_view_geometry_msgs__msg__Pose,
+            decode_geometry_msgs__msg__Pose,
             encode_geometry_msgs__msg__Pose,
         ),
         "geometry_msgs/msg/Pose2D": (
-            decode_dict_geometry_msgs__msg__Pose2D,
-            decode_view_geometry_msgs__msg__Pose2D,
+            decode_geometry_msgs__msg__Pose2D,
             encode_geometry_msgs__msg__Pose2D,
         ),
         "geometry_msgs/msg/PoseArray": (
-            decode_dict_geometry_msgs__msg__PoseArray,
-            decode_view_geometry_msgs__msg__PoseArray,
+            decode_geometry_msgs__msg__PoseArray,
             encode_geometry_msgs__msg__PoseArray,
         ),
         "geometry_msgs/msg/PoseStamped": (
-            decode_dict_geometry_msgs__msg__PoseStamped,
-            decode_view_geometry_msgs__msg__PoseStamped,
+            decode_geometry_msgs__msg__PoseStamped,
             encode_geometry_msgs__msg__PoseStamped,
         ),
         "geometry_msgs/msg/PoseWithCovariance": (
-            decode_dict_geometry_msgs__msg__PoseWithCovariance,
-            decode_view_geometry_msgs__msg__PoseWithCovariance,
+            decode_geometry_msgs__msg__PoseWithCovariance,
             encode_geometry_msgs__msg__PoseWithCovariance,
         ),
         "geometry_msgs/msg/PoseWithCovarianceStamped": (
-            decode_dict_geometry_msgs__msg__PoseWithCovarianceStamped,
-            decode_view_geometry_msgs__msg__PoseWithCovarianceStamped,
+            decode_geometry_msgs__msg__PoseWithCovarianceStamped,
             encode_geometry_msgs__msg__PoseWithCovarianceStamped,
         ),
         "geometry_msgs/msg/QuaternionStamped": (
-            decode_dict_geometry_msgs__msg__QuaternionStamped,
-            decode_view_geometry_msgs__msg__QuaternionStamped,
+            decode_geometry_msgs__msg__QuaternionStamped,
             encode_geometry_msgs__msg__QuaternionStamped,
         ),
         "geometry_msgs/msg/Transform": (
-            decode_dict_geometry_msgs__msg__Transform,
-            decode_view_geometry_msgs__msg__Transform,
+            decode_geometry_msgs__msg__Transform,
             encode_geometry_msgs__msg__Transform,
         ),
         "geometry_msgs/msg/TransformStamped": (
-            decode_dict_geometry_msgs__msg__TransformStamped,
-            decode_view_geometry_msgs__msg__TransformStamped,
+            decode_geometry_msgs__msg__TransformStamped,
             encode_geometry_msgs__msg__TransformStamped,
         ),
         "geometry_msgs/msg/Twist": (
-            decode_dict_geometry_msgs__msg__Twist,
-            decode_view_geometry_msgs__msg__Twist,
+            decode_geometry_msgs__msg__Twist,
             encode_geometry_msgs__msg__Twist,
         ),
         "geometry_msgs/msg/TwistStamped": (
-            decode_dict_geometry_msgs__msg__TwistStamped,
-            decode_view_geometry_msgs__msg__TwistStamped,
+            decode_geometry_msgs__msg__TwistStamped,
             encode_geometry_msgs__msg__TwistStamped,
         ),
         "geometry_msgs/msg/TwistWithCovariance": (
-            decode_dict_geometry_msgs__msg__TwistWithCovariance,
-            decode_view_geometry_msgs__msg__TwistWithCovariance,
+            decode_geometry_msgs__msg__TwistWithCovariance,
             encode_geometry_msgs__msg__TwistWithCovariance,
         ),
         "geometry_msgs/msg/TwistWithCovarianceStamped": (
-            decode_dict_geometry_msgs__msg__TwistWithCovarianceStamped,
-            decode_view_geometry_msgs__msg__TwistWithCovarianceStamped,
+            decode_geometry_msgs__msg__TwistWithCovarianceStamped,
             encode_geometry_msgs__msg__TwistWithCovarianceStamped,
         ),
         "geometry_msgs/msg/Vector3Stamped": (
-            decode_dict_geometry_msgs__msg__Vector3Stamped,
-            decode_view_geometry_msgs__msg__Vector3Stamped,
+            decode_geometry_msgs__msg__Vector3Stamped,
             encode_geometry_msgs__msg__Vector3Stamped,
         ),
         "geometry_msgs/msg/VelocityStamped": (
-            decode_dict_geometry_msgs__msg__VelocityStamped,
-            decode_view_geometry_msgs__msg__VelocityStamped,
+            decode_geometry_msgs__msg__VelocityStamped,
             encode_geometry_msgs__msg__VelocityStamped,
         ),
         "geometry_msgs/msg/Wrench": (
-            decode_dict_geometry_msgs__msg__Wrench,
-            decode_view_geometry_msgs__msg__Wrench,
+            decode_geometry_msgs__msg__Wrench,
             encode_geometry_msgs__msg__Wrench,
         ),
         "geometry_msgs/msg/WrenchStamped": (
-            decode_dict_geometry_msgs__msg__WrenchStamped,
-            decode_view_geometry_msgs__msg__WrenchStamped,
+            decode_geometry_msgs__msg__WrenchStamped,
             encode_geometry_msgs__msg__WrenchStamped,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

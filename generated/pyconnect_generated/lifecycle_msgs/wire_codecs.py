@@ -34,7 +34,8 @@
 #     RIHS01_4ac077d336db33726a95700398b95c34f326ecd27162b3f85cd7f85b4a55a75a
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -842,8 +843,8 @@ def make_lifecycle_msgs__srv__GetState_Event(
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_B = Struct(E + "B")
@@ -854,9 +855,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _S_q = Struct(E + "q")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_dict_lifecycle_msgs__msg__State(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_lifecycle_msgs__msg__State(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_lifecycle_msgs__msg__State_0
@@ -875,30 +874,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__msg__State(v1, v4), pos
         return {"id": v1, "label": v4}, pos
-
-    def decode_view_lifecycle_msgs__msg__State(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_lifecycle_msgs__msg__State_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_lifecycle_msgs__msg__State_1
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".label"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__msg__State(v1, v4), pos
 
     def encode_lifecycle_msgs__msg__State(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -931,7 +909,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__msg__Transition(
+    def decode_lifecycle_msgs__msg__Transition(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -952,30 +930,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__msg__Transition(v1, v4), pos
         return {"id": v1, "label": v4}, pos
-
-    def decode_view_lifecycle_msgs__msg__Transition(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_lifecycle_msgs__msg__Transition_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_lifecycle_msgs__msg__Transition_1
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".label"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__msg__Transition(v1, v4), pos
 
     def encode_lifecycle_msgs__msg__Transition(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1008,39 +965,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__msg__TransitionDescription(
+    def decode_lifecycle_msgs__msg__TransitionDescription(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".transition"
-            v1, pos = decode_dict_lifecycle_msgs__msg__Transition(mv, pos, lim)
+            v1, pos = decode_lifecycle_msgs__msg__Transition(mv, pos, lim)
             f = ".start_state"
-            v2, pos = decode_dict_lifecycle_msgs__msg__State(mv, pos, lim)
+            v2, pos = decode_lifecycle_msgs__msg__State(mv, pos, lim)
             f = ".goal_state"
-            v3, pos = decode_dict_lifecycle_msgs__msg__State(mv, pos, lim)
+            v3, pos = decode_lifecycle_msgs__msg__State(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__msg__TransitionDescription(v1, v2, v3), pos
         return {"transition": v1, "start_state": v2, "goal_state": v3}, pos
-
-    def decode_view_lifecycle_msgs__msg__TransitionDescription(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".transition"
-            v1, pos = decode_view_lifecycle_msgs__msg__Transition(mv, pos, lim)
-            f = ".start_state"
-            v2, pos = decode_view_lifecycle_msgs__msg__State(mv, pos, lim)
-            f = ".goal_state"
-            v3, pos = decode_view_lifecycle_msgs__msg__State(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__msg__TransitionDescription(v1, v2, v3), pos
 
     def encode_lifecycle_msgs__msg__TransitionDescription(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1062,7 +1004,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__msg__TransitionEvent(
+    def decode_lifecycle_msgs__msg__TransitionEvent(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1072,37 +1014,18 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             (v1,) = _S_Q.unpack_from(mv, pos)
             pos += 8
             f = ".transition"
-            v2, pos = decode_dict_lifecycle_msgs__msg__Transition(mv, pos, lim)
+            v2, pos = decode_lifecycle_msgs__msg__Transition(mv, pos, lim)
             f = ".start_state"
-            v3, pos = decode_dict_lifecycle_msgs__msg__State(mv, pos, lim)
+            v3, pos = decode_lifecycle_msgs__msg__State(mv, pos, lim)
             f = ".goal_state"
-            v4, pos = decode_dict_lifecycle_msgs__msg__State(mv, pos, lim)
+            v4, pos = decode_lifecycle_msgs__msg__State(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__msg__TransitionEvent(v1, v2, v3, v4), pos
         return {"timestamp": v1, "transition": v2, "start_state": v3, "goal_state": v4}, pos
-
-    def decode_view_lifecycle_msgs__msg__TransitionEvent(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_lifecycle_msgs__msg__TransitionEvent_0
-            (v1,) = _S_Q.unpack_from(mv, pos)
-            pos += 8
-            f = ".transition"
-            v2, pos = decode_view_lifecycle_msgs__msg__Transition(mv, pos, lim)
-            f = ".start_state"
-            v3, pos = decode_view_lifecycle_msgs__msg__State(mv, pos, lim)
-            f = ".goal_state"
-            v4, pos = decode_view_lifecycle_msgs__msg__State(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__msg__TransitionEvent(v1, v2, v3, v4), pos
 
     def encode_lifecycle_msgs__msg__TransitionEvent(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1135,31 +1058,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__srv__ChangeState_Request(
+    def decode_lifecycle_msgs__srv__ChangeState_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".transition"
-            v1, pos = decode_dict_lifecycle_msgs__msg__Transition(mv, pos, lim)
+            v1, pos = decode_lifecycle_msgs__msg__Transition(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__srv__ChangeState_Request(v1), pos
         return {"transition": v1}, pos
-
-    def decode_view_lifecycle_msgs__srv__ChangeState_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".transition"
-            v1, pos = decode_view_lifecycle_msgs__msg__Transition(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__srv__ChangeState_Request(v1), pos
 
     def encode_lifecycle_msgs__srv__ChangeState_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1177,7 +1089,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__srv__ChangeState_Response(
+    def decode_lifecycle_msgs__srv__ChangeState_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1189,21 +1101,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__srv__ChangeState_Response(v2), pos
         return {"success": v2}, pos
-
-    def decode_view_lifecycle_msgs__srv__ChangeState_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_lifecycle_msgs__srv__ChangeState_Response_0
-            (v2,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__srv__ChangeState_Response(v2), pos
 
     def encode_lifecycle_msgs__srv__ChangeState_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1245,9 +1145,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -1258,22 +1156,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1305,7 +1190,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_service_msgs__msg__ServiceEventInfo(
+    def decode_service_msgs__msg__ServiceEventInfo(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1330,41 +1215,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_service_msgs__msg__ServiceEventInfo(
+                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
+            ), pos
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
             "client_gid": v7,
             "sequence_number": v8,
         }, pos
-
-    def decode_view_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_service_msgs__msg__ServiceEventInfo(
-            v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-        ), pos
 
     def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1430,7 +1290,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__srv__ChangeState_Event(
+    def decode_lifecycle_msgs__srv__ChangeState_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1453,23 +1313,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_lifecycle_msgs__srv__ChangeState_Request, None, 1, 5
+                mv, pos, lim, _U32, decode_lifecycle_msgs__srv__ChangeState_Request, None, 1, 5
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_lifecycle_msgs__srv__ChangeState_Response,
-                None,
-                1,
-                1,
+                mv, pos, lim, _U32, decode_lifecycle_msgs__srv__ChangeState_Response, None, 1, 1
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__srv__ChangeState_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -1480,54 +1341,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_lifecycle_msgs__srv__ChangeState_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_lifecycle_msgs__srv__ChangeState_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_lifecycle_msgs__srv__ChangeState_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_lifecycle_msgs__srv__ChangeState_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_lifecycle_msgs__srv__ChangeState_Request, None, 1, 5
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_lifecycle_msgs__srv__ChangeState_Response,
-                None,
-                1,
-                1,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__srv__ChangeState_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_lifecycle_msgs__srv__ChangeState_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1623,7 +1436,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__srv__GetAvailableStates_Request(
+    def decode_lifecycle_msgs__srv__GetAvailableStates_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1635,21 +1448,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__srv__GetAvailableStates_Request(), pos
         return {}, pos
-
-    def decode_view_lifecycle_msgs__srv__GetAvailableStates_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_lifecycle_msgs__srv__GetAvailableStates_Request_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__srv__GetAvailableStates_Request(), pos
 
     def encode_lifecycle_msgs__srv__GetAvailableStates_Request(
         d: Any, out: list[Any], pos: int
@@ -1675,35 +1476,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__srv__GetAvailableStates_Response(
+    def decode_lifecycle_msgs__srv__GetAvailableStates_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".available_states"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_lifecycle_msgs__msg__State, None, None, 5
+                mv, pos, lim, _U32, decode_lifecycle_msgs__msg__State, None, None, 5
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__srv__GetAvailableStates_Response(v1), pos
         return {"available_states": v1}, pos
-
-    def decode_view_lifecycle_msgs__srv__GetAvailableStates_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".available_states"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_lifecycle_msgs__msg__State, None, None, 5
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__srv__GetAvailableStates_Response(v1), pos
 
     def encode_lifecycle_msgs__srv__GetAvailableStates_Response(
         d: Any, out: list[Any], pos: int
@@ -1731,7 +1519,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__srv__GetAvailableStates_Event(
+    def decode_lifecycle_msgs__srv__GetAvailableStates_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1758,7 +1546,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_lifecycle_msgs__srv__GetAvailableStates_Request,
+                decode_lifecycle_msgs__srv__GetAvailableStates_Request,
                 None,
                 1,
                 1,
@@ -1769,7 +1557,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_lifecycle_msgs__srv__GetAvailableStates_Response,
+                decode_lifecycle_msgs__srv__GetAvailableStates_Response,
                 None,
                 1,
                 4,
@@ -1778,6 +1566,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__srv__GetAvailableStates_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -1788,61 +1584,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_lifecycle_msgs__srv__GetAvailableStates_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_lifecycle_msgs__srv__GetAvailableStates_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_lifecycle_msgs__srv__GetAvailableStates_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_lifecycle_msgs__srv__GetAvailableStates_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_lifecycle_msgs__srv__GetAvailableStates_Request,
-                None,
-                1,
-                1,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_lifecycle_msgs__srv__GetAvailableStates_Response,
-                None,
-                1,
-                4,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__srv__GetAvailableStates_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_lifecycle_msgs__srv__GetAvailableStates_Event(
         d: Any, out: list[Any], pos: int
@@ -1941,7 +1682,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__srv__GetAvailableTransitions_Request(
+    def decode_lifecycle_msgs__srv__GetAvailableTransitions_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1953,21 +1694,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__srv__GetAvailableTransitions_Request(), pos
         return {}, pos
-
-    def decode_view_lifecycle_msgs__srv__GetAvailableTransitions_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_lifecycle_msgs__srv__GetAvailableTransitions_Request_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__srv__GetAvailableTransitions_Request(), pos
 
     def encode_lifecycle_msgs__srv__GetAvailableTransitions_Request(
         d: Any, out: list[Any], pos: int
@@ -1993,7 +1722,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__srv__GetAvailableTransitions_Response(
+    def decode_lifecycle_msgs__srv__GetAvailableTransitions_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2004,7 +1733,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_lifecycle_msgs__msg__TransitionDescription,
+                decode_lifecycle_msgs__msg__TransitionDescription,
                 None,
                 None,
                 15,
@@ -2013,29 +1742,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__srv__GetAvailableTransitions_Response(v1), pos
         return {"available_transitions": v1}, pos
-
-    def decode_view_lifecycle_msgs__srv__GetAvailableTransitions_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".available_transitions"
-            v1, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_lifecycle_msgs__msg__TransitionDescription,
-                None,
-                None,
-                15,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__srv__GetAvailableTransitions_Response(v1), pos
 
     def encode_lifecycle_msgs__srv__GetAvailableTransitions_Response(
         d: Any, out: list[Any], pos: int
@@ -2063,7 +1772,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__srv__GetAvailableTransitions_Event(
+    def decode_lifecycle_msgs__srv__GetAvailableTransitions_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2090,7 +1799,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_lifecycle_msgs__srv__GetAvailableTransitions_Request,
+                decode_lifecycle_msgs__srv__GetAvailableTransitions_Request,
                 None,
                 1,
                 1,
@@ -2101,7 +1810,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_lifecycle_msgs__srv__GetAvailableTransitions_Response,
+                decode_lifecycle_msgs__srv__GetAvailableTransitions_Response,
                 None,
                 1,
                 4,
@@ -2110,6 +1819,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__srv__GetAvailableTransitions_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -2120,61 +1837,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_lifecycle_msgs__srv__GetAvailableTransitions_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_lifecycle_msgs__srv__GetAvailableTransitions_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_lifecycle_msgs__srv__GetAvailableTransitions_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_lifecycle_msgs__srv__GetAvailableTransitions_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_lifecycle_msgs__srv__GetAvailableTransitions_Request,
-                None,
-                1,
-                1,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_lifecycle_msgs__srv__GetAvailableTransitions_Response,
-                None,
-                1,
-                4,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__srv__GetAvailableTransitions_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_lifecycle_msgs__srv__GetAvailableTransitions_Event(
         d: Any, out: list[Any], pos: int
@@ -2273,7 +1935,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__srv__GetState_Request(
+    def decode_lifecycle_msgs__srv__GetState_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2285,21 +1947,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__srv__GetState_Request(), pos
         return {}, pos
-
-    def decode_view_lifecycle_msgs__srv__GetState_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_lifecycle_msgs__srv__GetState_Request_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__srv__GetState_Request(), pos
 
     def encode_lifecycle_msgs__srv__GetState_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2320,31 +1970,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__srv__GetState_Response(
+    def decode_lifecycle_msgs__srv__GetState_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".current_state"
-            v1, pos = decode_dict_lifecycle_msgs__msg__State(mv, pos, lim)
+            v1, pos = decode_lifecycle_msgs__msg__State(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__srv__GetState_Response(v1), pos
         return {"current_state": v1}, pos
-
-    def decode_view_lifecycle_msgs__srv__GetState_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".current_state"
-            v1, pos = decode_view_lifecycle_msgs__msg__State(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__srv__GetState_Response(v1), pos
 
     def encode_lifecycle_msgs__srv__GetState_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2361,7 +2000,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_lifecycle_msgs__srv__GetState_Event(
+    def decode_lifecycle_msgs__srv__GetState_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2384,16 +2023,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_lifecycle_msgs__srv__GetState_Request, None, 1, 1
+                mv, pos, lim, _U32, decode_lifecycle_msgs__srv__GetState_Request, None, 1, 1
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_lifecycle_msgs__srv__GetState_Response, None, 1, 5
+                mv, pos, lim, _U32, decode_lifecycle_msgs__srv__GetState_Response, None, 1, 5
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_lifecycle_msgs__srv__GetState_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -2404,47 +2051,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_lifecycle_msgs__srv__GetState_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_lifecycle_msgs__srv__GetState_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_lifecycle_msgs__srv__GetState_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_lifecycle_msgs__srv__GetState_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_lifecycle_msgs__srv__GetState_Request, None, 1, 1
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_lifecycle_msgs__srv__GetState_Response, None, 1, 5
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_lifecycle_msgs__srv__GetState_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_lifecycle_msgs__srv__GetState_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2538,97 +2144,84 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "lifecycle_msgs/msg/State": (
-            decode_dict_lifecycle_msgs__msg__State,
-            decode_view_lifecycle_msgs__msg__State,
+            decode_lifecycle_msgs__msg__State,
             encode_lifecycle_msgs__msg__State,
         ),
         "lifecycle_msgs/msg/Transition": (
-            decode_dict_lifecycle_msgs__msg__Transition,
-            decode_view_lifecycle_msgs__msg__Transition,
+            decode_lifecycle_msgs__msg__Transition,
             encode_lifecycle_msgs__msg__Transition,
         ),
         "lifecycle_msgs/msg/TransitionDescription": (
-            decode_dict_lifecycle_msgs__msg__TransitionDescription,
-            decode_view_lifecycle_msgs__msg__TransitionDescription,
+            decode_lifecycle_msgs__msg__TransitionDescription,
             encode_lifecycle_msgs__msg__TransitionDescription,
         ),
         "lifecycle_msgs/msg/TransitionEvent": (
-            decode_dict_lifecycle_msgs__msg__TransitionEvent,
-            decode_view_lifecycle_msgs__msg__TransitionEvent,
+            decode_lifecycle_msgs__msg__TransitionEvent,
             encode_lifecycle_msgs__msg__TransitionEvent,
         ),
         "lifecycle_msgs/srv/ChangeState_Request": (
-            decode_dict_lifecycle_msgs__srv__ChangeState_Request,
-            decode_view_lifecycle_msgs__srv__ChangeState_Request,
+            decode_lifecycle_msgs__srv__ChangeState_Request,
             encode_lifecycle_msgs__srv__ChangeState_Request,
         ),
         "lifecycle_msgs/srv/ChangeState_Response": (
-            decode_dict_lifecycle_msgs__srv__ChangeState_Response,
-            decode_view_lifecycle_msgs__srv__ChangeState_Response,
+            decode_lifecycle_msgs__srv__ChangeState_Response,
             encode_lifecycle_msgs__srv__ChangeState_Response,
         ),
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
         "service_msgs/msg/ServiceEventInfo": (
-            decode_dict_service_msgs__msg__ServiceEventInfo,
-            decode_view_service_msgs__msg__ServiceEventInfo,
+            decode_service_msgs__msg__ServiceEventInfo,
             encode_service_msgs__msg__ServiceEventInfo,
         ),
         "lifecycle_msgs/srv/ChangeState_Event": (
-            decode_dict_lifecycle_msgs__srv__ChangeState_Event,
-            decode_view_lifecycle_msgs__srv__ChangeState_Event,
+            decode_lifecycle_msgs__srv__ChangeState_Event,
             encode_lifecycle_msgs__srv__ChangeState_Event,
         ),
         "lifecycle_msgs/srv/GetAvailableStates_Request": (
-            decode_dict_lifecycle_msgs__srv__GetAvailableStates_Request,
-            decode_view_lifecycle_msgs__srv__GetAvailableStates_Request,
+            decode_lifecycle_msgs__srv__GetAvailableStates_Request,
             encode_lifecycle_msgs__srv__GetAvailableStates_Request,
         ),
         "lifecycle_msgs/srv/GetAvailableStates_Response": (
-            decode_dict_lifecycle_msgs__srv__GetAvailableStates_Response,
-            decode_view_lifecycle_msgs__srv__GetAvailableStates_Response,
+            decode_lifecycle_msgs__srv__GetAvailableStates_Response,
             encode_lifecycle_msgs__srv__GetAvailableStates_Response,
         ),
         "lifecycle_msgs/srv/GetAvailableStates_Event": (
-            decode_dict_lifecycle_msgs__srv__GetAvailableStates_Event,
-            decode_view_lifecycle_msgs__srv__GetAvailableStates_Event,
+            decode_lifecycle_msgs__srv__GetAvailableStates_Event,
             encode_lifecycle_msgs__srv__GetAvailableStates_Event,
         ),
         "lifecycle_msgs/srv/GetAvailableTransitions_Request": (
-            decode_dict_lifecycle_msgs__srv__GetAvailableTransitions_Request,
-            decode_view_lifecycle_msgs__srv__GetAvailableTransitions_Request,
+            decode_lifecycle_msgs__srv__GetAvailableTransitions_Request,
             encode_lifecycle_msgs__srv__GetAvailableTransitions_Request,
         ),
         "lifecycle_msgs/srv/GetAvailableTransitions_Response": (
-            decode_dict_lifecycle_msgs__srv__GetAvailableTransitions_Response,
-            decode_view_lifecycle_msgs__srv__GetAvailableTransitions_Response,
+            decode_lifecycle_msgs__srv__GetAvailableTransitions_Response,
             encode_lifecycle_msgs__srv__GetAvailableTransitions_Response,
         ),
         "lifecycle_msgs/srv/GetAvailableTransitions_Event": (
-            decode_dict_lifecycle_msgs__srv__GetAvailableTransitions_Event,
-            decode_view_lifecycle_msgs__srv__GetAvailableTransitions_Event,
+            decode_lifecycle_msgs__srv__GetAvailableTransitions_Event,
             encode_lifecycle_msgs__srv__GetAvailableTransitions_Event,
         ),
         "lifecycle_msgs/srv/GetState_Request": (
-            decode_dict_lifecycle_msgs__srv__GetState_Request,
-            decode_view_lifecycle_msgs__srv__GetState_Request,
+            decode_lifecycle_msgs__srv__GetState_Request,
             encode_lifecycle_msgs__srv__GetState_Request,
         ),
         "lifecycle_msgs/srv/GetState_Response": (
-            decode_dict_lifecycle_msgs__srv__GetState_Response,
-            decode_view_lifecycle_msgs__srv__GetState_Response,
+            decode_lifecycle_msgs__srv__GetState_Response,
             encode_lifecycle_msgs__srv__GetState_Response,
         ),
         "lifecycle_msgs/srv/GetState_Event": (
-            decode_dict_lifecycle_msgs__srv__GetState_Event,
-            decode_view_lifecycle_msgs__srv__GetState_Event,
+            decode_lifecycle_msgs__srv__GetState_Event,
             encode_lifecycle_msgs__srv__GetState_Event,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

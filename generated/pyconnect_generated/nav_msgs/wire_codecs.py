@@ -38,7 +38,8 @@
 #     RIHS01_68371c7e20b5f04c60581c63c676a033f4530beb507dbb88732cdd5750d60d7f
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -1463,8 +1464,8 @@ def make_nav_msgs__srv__SetMap_Event(a0: Any, a1: Any, a2: Any) -> nav_msgs__srv
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_2f = Struct(E + "2f")
@@ -1485,9 +1486,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _D_int8 = np.dtype("int8").newbyteorder(E)
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -1498,22 +1497,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1545,7 +1531,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -1561,25 +1547,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
         return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def decode_view_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
 
     def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1620,9 +1590,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Point(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Point(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -1633,22 +1601,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Point(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
-
-    def decode_view_geometry_msgs__msg__Point(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Point_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Point(v1, v2, v3), pos
 
     def encode_geometry_msgs__msg__Point(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1681,7 +1636,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Quaternion(
+    def decode_geometry_msgs__msg__Quaternion(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1694,22 +1649,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
         return {"x": v1, "y": v2, "z": v3, "w": v4}, pos
-
-    def decode_view_geometry_msgs__msg__Quaternion(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Quaternion_0
-            v1, v2, v3, v4 = _S_4d.unpack_from(mv, pos)
-            pos += 32
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
 
     def encode_geometry_msgs__msg__Quaternion(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1745,7 +1687,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Pose(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Pose(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -1756,26 +1698,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Pose(
+                make_geometry_msgs__msg__Point(v2, v3, v4),
+                make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
+            ), pos
         return {
             "position": {"x": v2, "y": v3, "z": v4},
             "orientation": {"x": v6, "y": v7, "z": v8, "w": v9},
         }, pos
-
-    def decode_view_geometry_msgs__msg__Pose(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Pose_0
-            v2, v3, v4, v6, v7, v8, v9 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Pose(
-            make_geometry_msgs__msg__Point(v2, v3, v4),
-            make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
-        ), pos
 
     def encode_geometry_msgs__msg__Pose(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1830,13 +1761,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__PoseStamped(
+    def decode_geometry_msgs__msg__PoseStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_geometry_msgs__msg__PoseStamped_0
             v4, v5, v6, v8, v9, v10, v11 = _S_7d.unpack_from(mv, pos)
@@ -1845,6 +1776,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__PoseStamped(
+                v1,
+                make_geometry_msgs__msg__Pose(
+                    make_geometry_msgs__msg__Point(v4, v5, v6),
+                    make_geometry_msgs__msg__Quaternion(v8, v9, v10, v11),
+                ),
+            ), pos
         return {
             "header": v1,
             "pose": {
@@ -1852,29 +1791,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "orientation": {"x": v8, "y": v9, "z": v10, "w": v11},
             },
         }, pos
-
-    def decode_view_geometry_msgs__msg__PoseStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PoseStamped_0
-            v4, v5, v6, v8, v9, v10, v11 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__PoseStamped(
-            v1,
-            make_geometry_msgs__msg__Pose(
-                make_geometry_msgs__msg__Point(v4, v5, v6),
-                make_geometry_msgs__msg__Quaternion(v8, v9, v10, v11),
-            ),
-        ), pos
 
     def encode_geometry_msgs__msg__PoseStamped(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1935,35 +1851,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__msg__Goals(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_nav_msgs__msg__Goals(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = ".goals"
             v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__PoseStamped, None, None, 68
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__PoseStamped, None, None, 68
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__msg__Goals(v1, v2), pos
         return {"header": v1, "goals": v2}, pos
-
-    def decode_view_nav_msgs__msg__Goals(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = ".goals"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__PoseStamped, None, None, 68
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__msg__Goals(v1, v2), pos
 
     def encode_nav_msgs__msg__Goals(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1988,43 +1891,26 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__msg__GridCells(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_nav_msgs__msg__GridCells(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_nav_msgs__msg__GridCells_0
             v2, v3 = _S_2f.unpack_from(mv, pos)
             pos += 8
             f = ".cells"
             v4, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Point, None, None, 24
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__Point, None, None, 24
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__msg__GridCells(v1, v2, v3, v4), pos
         return {"header": v1, "cell_width": v2, "cell_height": v3, "cells": v4}, pos
-
-    def decode_view_nav_msgs__msg__GridCells(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_nav_msgs__msg__GridCells_0
-            v2, v3 = _S_2f.unpack_from(mv, pos)
-            pos += 8
-            f = ".cells"
-            v4, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Point, None, None, 24
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__msg__GridCells(v1, v2, v3, v4), pos
 
     def encode_nav_msgs__msg__GridCells(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2062,9 +1948,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__msg__MapMetaData(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_nav_msgs__msg__MapMetaData(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -2079,6 +1963,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__msg__MapMetaData(
+                make_builtin_interfaces__msg__Time(v2, v3),
+                v4,
+                v5,
+                v6,
+                make_geometry_msgs__msg__Pose(
+                    make_geometry_msgs__msg__Point(v9, v10, v11),
+                    make_geometry_msgs__msg__Quaternion(v13, v14, v15, v16),
+                ),
+            ), pos
         return {
             "map_load_time": {"sec": v2, "nanosec": v3},
             "resolution": v4,
@@ -2089,34 +1984,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "orientation": {"x": v13, "y": v14, "z": v15, "w": v16},
             },
         }, pos
-
-    def decode_view_nav_msgs__msg__MapMetaData(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_nav_msgs__msg__MapMetaData_0
-            v2, v3, v4, v5, v6 = _S_iIf2I.unpack_from(mv, pos)
-            pos += 20
-            pos = (pos + 7) & -8
-            f = _R_nav_msgs__msg__MapMetaData_1
-            v9, v10, v11, v13, v14, v15, v16 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__msg__MapMetaData(
-            make_builtin_interfaces__msg__Time(v2, v3),
-            v4,
-            v5,
-            v6,
-            make_geometry_msgs__msg__Pose(
-                make_geometry_msgs__msg__Point(v9, v10, v11),
-                make_geometry_msgs__msg__Quaternion(v13, v14, v15, v16),
-            ),
-        ), pos
 
     def encode_nav_msgs__msg__MapMetaData(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2209,13 +2076,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__msg__OccupancyGrid(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_nav_msgs__msg__OccupancyGrid(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_nav_msgs__msg__OccupancyGrid_0
             v4, v5, v6, v7, v8 = _S_iIf2I.unpack_from(mv, pos)
@@ -2233,6 +2098,21 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__msg__OccupancyGrid(
+                v1,
+                make_nav_msgs__msg__MapMetaData(
+                    make_builtin_interfaces__msg__Time(v4, v5),
+                    v6,
+                    v7,
+                    v8,
+                    make_geometry_msgs__msg__Pose(
+                        make_geometry_msgs__msg__Point(v11, v12, v13),
+                        make_geometry_msgs__msg__Quaternion(v15, v16, v17, v18),
+                    ),
+                ),
+                v22,
+            ), pos
         return {
             "header": v1,
             "info": {
@@ -2247,45 +2127,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             },
             "data": v22,
         }, pos
-
-    def decode_view_nav_msgs__msg__OccupancyGrid(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_nav_msgs__msg__OccupancyGrid_0
-            v4, v5, v6, v7, v8 = _S_iIf2I.unpack_from(mv, pos)
-            pos += 20
-            pos = (pos + 7) & -8
-            f = _R_nav_msgs__msg__OccupancyGrid_1
-            v11, v12, v13, v15, v16, v17, v18, v21 = _S_7dI.unpack_from(mv, pos)
-            pos += 60
-            f = ".data"
-            if v21 * 1 > lim - pos:
-                raise too_long(v21, 1, lim - pos)
-            v22 = _frombuffer(mv, _D_int8, v21, pos)
-            pos += v21 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__msg__OccupancyGrid(
-            v1,
-            make_nav_msgs__msg__MapMetaData(
-                make_builtin_interfaces__msg__Time(v4, v5),
-                v6,
-                v7,
-                v8,
-                make_geometry_msgs__msg__Pose(
-                    make_geometry_msgs__msg__Point(v11, v12, v13),
-                    make_geometry_msgs__msg__Quaternion(v15, v16, v17, v18),
-                ),
-            ),
-            v22,
-        ), pos
 
     def encode_nav_msgs__msg__OccupancyGrid(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2390,7 +2231,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__PoseWithCovariance(
+    def decode_geometry_msgs__msg__PoseWithCovariance(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2408,6 +2249,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__PoseWithCovariance(
+                make_geometry_msgs__msg__Pose(
+                    make_geometry_msgs__msg__Point(v3, v4, v5),
+                    make_geometry_msgs__msg__Quaternion(v7, v8, v9, v10),
+                ),
+                v13,
+            ), pos
         return {
             "pose": {
                 "position": {"x": v3, "y": v4, "z": v5},
@@ -2415,32 +2264,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             },
             "covariance": v13,
         }, pos
-
-    def decode_view_geometry_msgs__msg__PoseWithCovariance(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PoseWithCovariance_0
-            v3, v4, v5, v7, v8, v9, v10 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-            f = ".covariance"
-            if 36 * 8 > lim - pos:
-                raise too_long(36, 8, lim - pos)
-            v13 = _frombuffer(mv, _D_float64, 36, pos)
-            pos += 36 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__PoseWithCovariance(
-            make_geometry_msgs__msg__Pose(
-                make_geometry_msgs__msg__Point(v3, v4, v5),
-                make_geometry_msgs__msg__Quaternion(v7, v8, v9, v10),
-            ),
-            v13,
-        ), pos
 
     def encode_geometry_msgs__msg__PoseWithCovariance(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2505,9 +2328,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Vector3(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Vector3(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -2518,22 +2339,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
-
-    def decode_view_geometry_msgs__msg__Vector3(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Vector3_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
 
     def encode_geometry_msgs__msg__Vector3(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2566,9 +2374,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Twist(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Twist(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -2579,25 +2385,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Twist(
+                make_geometry_msgs__msg__Vector3(v2, v3, v4),
+                make_geometry_msgs__msg__Vector3(v6, v7, v8),
+            ), pos
         return {"linear": {"x": v2, "y": v3, "z": v4}, "angular": {"x": v6, "y": v7, "z": v8}}, pos
-
-    def decode_view_geometry_msgs__msg__Twist(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Twist_0
-            v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Twist(
-            make_geometry_msgs__msg__Vector3(v2, v3, v4),
-            make_geometry_msgs__msg__Vector3(v6, v7, v8),
-        ), pos
 
     def encode_geometry_msgs__msg__Twist(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2650,7 +2443,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__TwistWithCovariance(
+    def decode_geometry_msgs__msg__TwistWithCovariance(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2668,6 +2461,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__TwistWithCovariance(
+                make_geometry_msgs__msg__Twist(
+                    make_geometry_msgs__msg__Vector3(v3, v4, v5),
+                    make_geometry_msgs__msg__Vector3(v7, v8, v9),
+                ),
+                v12,
+            ), pos
         return {
             "twist": {
                 "linear": {"x": v3, "y": v4, "z": v5},
@@ -2675,32 +2476,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             },
             "covariance": v12,
         }, pos
-
-    def decode_view_geometry_msgs__msg__TwistWithCovariance(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__TwistWithCovariance_0
-            v3, v4, v5, v7, v8, v9 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-            f = ".covariance"
-            if 36 * 8 > lim - pos:
-                raise too_long(36, 8, lim - pos)
-            v12 = _frombuffer(mv, _D_float64, 36, pos)
-            pos += 36 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__TwistWithCovariance(
-            make_geometry_msgs__msg__Twist(
-                make_geometry_msgs__msg__Vector3(v3, v4, v5),
-                make_geometry_msgs__msg__Vector3(v7, v8, v9),
-            ),
-            v12,
-        ), pos
 
     def encode_geometry_msgs__msg__TwistWithCovariance(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2763,11 +2538,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__msg__Odometry(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_nav_msgs__msg__Odometry(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_nav_msgs__msg__Odometry_0
             (v3,) = _S_I.unpack_from(mv, pos)
@@ -2798,6 +2573,25 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__msg__Odometry(
+                v1,
+                v4,
+                make_geometry_msgs__msg__PoseWithCovariance(
+                    make_geometry_msgs__msg__Pose(
+                        make_geometry_msgs__msg__Point(v8, v9, v10),
+                        make_geometry_msgs__msg__Quaternion(v12, v13, v14, v15),
+                    ),
+                    v18,
+                ),
+                make_geometry_msgs__msg__TwistWithCovariance(
+                    make_geometry_msgs__msg__Twist(
+                        make_geometry_msgs__msg__Vector3(v22, v23, v24),
+                        make_geometry_msgs__msg__Vector3(v26, v27, v28),
+                    ),
+                    v31,
+                ),
+            ), pos
         return {
             "header": v1,
             "child_frame_id": v4,
@@ -2816,60 +2610,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "covariance": v31,
             },
         }, pos
-
-    def decode_view_nav_msgs__msg__Odometry(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_nav_msgs__msg__Odometry_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".child_frame_id"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
-            pos = (pos + 7) & -8
-            f = _R_nav_msgs__msg__Odometry_1
-            v8, v9, v10, v12, v13, v14, v15 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-            f = ".pose.covariance"
-            if 36 * 8 > lim - pos:
-                raise too_long(36, 8, lim - pos)
-            v18 = _frombuffer(mv, _D_float64, 36, pos)
-            pos += 36 * 8
-            f = _R_nav_msgs__msg__Odometry_2
-            v22, v23, v24, v26, v27, v28 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-            f = ".twist.covariance"
-            if 36 * 8 > lim - pos:
-                raise too_long(36, 8, lim - pos)
-            v31 = _frombuffer(mv, _D_float64, 36, pos)
-            pos += 36 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__msg__Odometry(
-            v1,
-            v4,
-            make_geometry_msgs__msg__PoseWithCovariance(
-                make_geometry_msgs__msg__Pose(
-                    make_geometry_msgs__msg__Point(v8, v9, v10),
-                    make_geometry_msgs__msg__Quaternion(v12, v13, v14, v15),
-                ),
-                v18,
-            ),
-            make_geometry_msgs__msg__TwistWithCovariance(
-                make_geometry_msgs__msg__Twist(
-                    make_geometry_msgs__msg__Vector3(v22, v23, v24),
-                    make_geometry_msgs__msg__Vector3(v26, v27, v28),
-                ),
-                v31,
-            ),
-        ), pos
 
     def encode_nav_msgs__msg__Odometry(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3009,35 +2749,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__msg__Path(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_nav_msgs__msg__Path(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = ".poses"
             v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__PoseStamped, None, None, 68
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__PoseStamped, None, None, 68
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__msg__Path(v1, v2), pos
         return {"header": v1, "poses": v2}, pos
-
-    def decode_view_nav_msgs__msg__Path(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = ".poses"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__PoseStamped, None, None, 68
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__msg__Path(v1, v2), pos
 
     def encode_nav_msgs__msg__Path(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3062,9 +2789,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__srv__GetMap_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_nav_msgs__srv__GetMap_Request(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_nav_msgs__srv__GetMap_Request_0
@@ -3074,21 +2799,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__srv__GetMap_Request(), pos
         return {}, pos
-
-    def decode_view_nav_msgs__srv__GetMap_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_nav_msgs__srv__GetMap_Request_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__srv__GetMap_Request(), pos
 
     def encode_nav_msgs__srv__GetMap_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3107,31 +2820,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__srv__GetMap_Response(
+    def decode_nav_msgs__srv__GetMap_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".map"
-            v1, pos = decode_dict_nav_msgs__msg__OccupancyGrid(mv, pos, lim)
+            v1, pos = decode_nav_msgs__msg__OccupancyGrid(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__srv__GetMap_Response(v1), pos
         return {"map": v1}, pos
-
-    def decode_view_nav_msgs__srv__GetMap_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".map"
-            v1, pos = decode_view_nav_msgs__msg__OccupancyGrid(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__srv__GetMap_Response(v1), pos
 
     def encode_nav_msgs__srv__GetMap_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3146,7 +2848,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_service_msgs__msg__ServiceEventInfo(
+    def decode_service_msgs__msg__ServiceEventInfo(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -3171,41 +2873,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_service_msgs__msg__ServiceEventInfo(
+                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
+            ), pos
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
             "client_gid": v7,
             "sequence_number": v8,
         }, pos
-
-    def decode_view_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_service_msgs__msg__ServiceEventInfo(
-            v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-        ), pos
 
     def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3271,9 +2948,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__srv__GetMap_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_nav_msgs__srv__GetMap_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_nav_msgs__srv__GetMap_Event_0
@@ -3294,16 +2969,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_nav_msgs__srv__GetMap_Request, None, 1, 1
+                mv, pos, lim, _U32, decode_nav_msgs__srv__GetMap_Request, None, 1, 1
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_nav_msgs__srv__GetMap_Response, None, 1, 92
+                mv, pos, lim, _U32, decode_nav_msgs__srv__GetMap_Response, None, 1, 92
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__srv__GetMap_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -3314,47 +2997,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_nav_msgs__srv__GetMap_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_nav_msgs__srv__GetMap_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_nav_msgs__srv__GetMap_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_nav_msgs__srv__GetMap_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_nav_msgs__srv__GetMap_Request, None, 1, 1
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_nav_msgs__srv__GetMap_Response, None, 1, 92
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__srv__GetMap_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_nav_msgs__srv__GetMap_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3436,15 +3078,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__srv__GetPlan_Request(
+    def decode_nav_msgs__srv__GetPlan_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".start"
-            v1, pos = decode_dict_geometry_msgs__msg__PoseStamped(mv, pos, lim)
+            v1, pos = decode_geometry_msgs__msg__PoseStamped(mv, pos, lim)
             f = ".goal"
-            v2, pos = decode_dict_geometry_msgs__msg__PoseStamped(mv, pos, lim)
+            v2, pos = decode_geometry_msgs__msg__PoseStamped(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_nav_msgs__srv__GetPlan_Request_0
             (v3,) = _S_f.unpack_from(mv, pos)
@@ -3453,26 +3095,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__srv__GetPlan_Request(v1, v2, v3), pos
         return {"start": v1, "goal": v2, "tolerance": v3}, pos
-
-    def decode_view_nav_msgs__srv__GetPlan_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".start"
-            v1, pos = decode_view_geometry_msgs__msg__PoseStamped(mv, pos, lim)
-            f = ".goal"
-            v2, pos = decode_view_geometry_msgs__msg__PoseStamped(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_nav_msgs__srv__GetPlan_Request_0
-            (v3,) = _S_f.unpack_from(mv, pos)
-            pos += 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__srv__GetPlan_Request(v1, v2, v3), pos
 
     def encode_nav_msgs__srv__GetPlan_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3501,31 +3126,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__srv__GetPlan_Response(
+    def decode_nav_msgs__srv__GetPlan_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".plan"
-            v1, pos = decode_dict_nav_msgs__msg__Path(mv, pos, lim)
+            v1, pos = decode_nav_msgs__msg__Path(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__srv__GetPlan_Response(v1), pos
         return {"plan": v1}, pos
-
-    def decode_view_nav_msgs__srv__GetPlan_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".plan"
-            v1, pos = decode_view_nav_msgs__msg__Path(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__srv__GetPlan_Response(v1), pos
 
     def encode_nav_msgs__srv__GetPlan_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3540,9 +3154,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__srv__GetPlan_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_nav_msgs__srv__GetPlan_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_nav_msgs__srv__GetPlan_Event_0
@@ -3563,16 +3175,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_nav_msgs__srv__GetPlan_Request, None, 1, 140
+                mv, pos, lim, _U32, decode_nav_msgs__srv__GetPlan_Request, None, 1, 140
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_nav_msgs__srv__GetPlan_Response, None, 1, 16
+                mv, pos, lim, _U32, decode_nav_msgs__srv__GetPlan_Response, None, 1, 16
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__srv__GetPlan_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -3583,47 +3203,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_nav_msgs__srv__GetPlan_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_nav_msgs__srv__GetPlan_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_nav_msgs__srv__GetPlan_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_nav_msgs__srv__GetPlan_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_nav_msgs__srv__GetPlan_Request, None, 1, 140
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_nav_msgs__srv__GetPlan_Response, None, 1, 16
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__srv__GetPlan_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_nav_msgs__srv__GetPlan_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3711,7 +3290,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__srv__LoadMap_Request(
+    def decode_nav_msgs__srv__LoadMap_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -3729,27 +3308,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__srv__LoadMap_Request(v3), pos
         return {"map_url": v3}, pos
-
-    def decode_view_nav_msgs__srv__LoadMap_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_nav_msgs__srv__LoadMap_Request_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".map_url"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__srv__LoadMap_Request(v3), pos
 
     def encode_nav_msgs__srv__LoadMap_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3776,13 +3337,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__srv__LoadMap_Response(
+    def decode_nav_msgs__srv__LoadMap_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".map"
-            v1, pos = decode_dict_nav_msgs__msg__OccupancyGrid(mv, pos, lim)
+            v1, pos = decode_nav_msgs__msg__OccupancyGrid(mv, pos, lim)
             f = _R_nav_msgs__srv__LoadMap_Response_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
@@ -3790,23 +3351,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__srv__LoadMap_Response(v1, v2), pos
         return {"map": v1, "result": v2}, pos
-
-    def decode_view_nav_msgs__srv__LoadMap_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".map"
-            v1, pos = decode_view_nav_msgs__msg__OccupancyGrid(mv, pos, lim)
-            f = _R_nav_msgs__srv__LoadMap_Response_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__srv__LoadMap_Response(v1, v2), pos
 
     def encode_nav_msgs__srv__LoadMap_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3829,9 +3376,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__srv__LoadMap_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_nav_msgs__srv__LoadMap_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_nav_msgs__srv__LoadMap_Event_0
@@ -3852,16 +3397,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_nav_msgs__srv__LoadMap_Request, None, 1, 4
+                mv, pos, lim, _U32, decode_nav_msgs__srv__LoadMap_Request, None, 1, 4
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_nav_msgs__srv__LoadMap_Response, None, 1, 93
+                mv, pos, lim, _U32, decode_nav_msgs__srv__LoadMap_Response, None, 1, 93
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__srv__LoadMap_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -3872,47 +3425,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_nav_msgs__srv__LoadMap_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_nav_msgs__srv__LoadMap_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_nav_msgs__srv__LoadMap_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_nav_msgs__srv__LoadMap_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_nav_msgs__srv__LoadMap_Request, None, 1, 4
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_nav_msgs__srv__LoadMap_Response, None, 1, 93
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__srv__LoadMap_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_nav_msgs__srv__LoadMap_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4000,13 +3512,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__PoseWithCovarianceStamped(
+    def decode_geometry_msgs__msg__PoseWithCovarianceStamped(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_geometry_msgs__msg__PoseWithCovarianceStamped_0
             v5, v6, v7, v9, v10, v11, v12 = _S_7d.unpack_from(mv, pos)
@@ -4020,6 +3532,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__PoseWithCovarianceStamped(
+                v1,
+                make_geometry_msgs__msg__PoseWithCovariance(
+                    make_geometry_msgs__msg__Pose(
+                        make_geometry_msgs__msg__Point(v5, v6, v7),
+                        make_geometry_msgs__msg__Quaternion(v9, v10, v11, v12),
+                    ),
+                    v15,
+                ),
+            ), pos
         return {
             "header": v1,
             "pose": {
@@ -4030,37 +3553,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "covariance": v15,
             },
         }, pos
-
-    def decode_view_geometry_msgs__msg__PoseWithCovarianceStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PoseWithCovarianceStamped_0
-            v5, v6, v7, v9, v10, v11, v12 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-            f = ".pose.covariance"
-            if 36 * 8 > lim - pos:
-                raise too_long(36, 8, lim - pos)
-            v15 = _frombuffer(mv, _D_float64, 36, pos)
-            pos += 36 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__PoseWithCovarianceStamped(
-            v1,
-            make_geometry_msgs__msg__PoseWithCovariance(
-                make_geometry_msgs__msg__Pose(
-                    make_geometry_msgs__msg__Point(v5, v6, v7),
-                    make_geometry_msgs__msg__Quaternion(v9, v10, v11, v12),
-                ),
-                v15,
-            ),
-        ), pos
 
     def encode_geometry_msgs__msg__PoseWithCovarianceStamped(
         d: Any, out: list[Any], pos: int
@@ -4138,35 +3630,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__srv__SetMap_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_nav_msgs__srv__SetMap_Request(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".map"
-            v1, pos = decode_dict_nav_msgs__msg__OccupancyGrid(mv, pos, lim)
+            v1, pos = decode_nav_msgs__msg__OccupancyGrid(mv, pos, lim)
             f = ".initial_pose"
-            v2, pos = decode_dict_geometry_msgs__msg__PoseWithCovarianceStamped(mv, pos, lim)
+            v2, pos = decode_geometry_msgs__msg__PoseWithCovarianceStamped(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__srv__SetMap_Request(v1, v2), pos
         return {"map": v1, "initial_pose": v2}, pos
-
-    def decode_view_nav_msgs__srv__SetMap_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".map"
-            v1, pos = decode_view_nav_msgs__msg__OccupancyGrid(mv, pos, lim)
-            f = ".initial_pose"
-            v2, pos = decode_view_geometry_msgs__msg__PoseWithCovarianceStamped(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__srv__SetMap_Request(v1, v2), pos
 
     def encode_nav_msgs__srv__SetMap_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4185,7 +3662,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__srv__SetMap_Response(
+    def decode_nav_msgs__srv__SetMap_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4197,21 +3674,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__srv__SetMap_Response(v2), pos
         return {"success": v2}, pos
-
-    def decode_view_nav_msgs__srv__SetMap_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_nav_msgs__srv__SetMap_Response_0
-            (v2,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__srv__SetMap_Response(v2), pos
 
     def encode_nav_msgs__srv__SetMap_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4250,9 +3715,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_nav_msgs__srv__SetMap_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_nav_msgs__srv__SetMap_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_nav_msgs__srv__SetMap_Event_0
@@ -4273,16 +3736,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_nav_msgs__srv__SetMap_Request, None, 1, 448
+                mv, pos, lim, _U32, decode_nav_msgs__srv__SetMap_Request, None, 1, 448
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_nav_msgs__srv__SetMap_Response, None, 1, 1
+                mv, pos, lim, _U32, decode_nav_msgs__srv__SetMap_Response, None, 1, 1
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_nav_msgs__srv__SetMap_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -4293,47 +3764,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_nav_msgs__srv__SetMap_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_nav_msgs__srv__SetMap_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_nav_msgs__srv__SetMap_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_nav_msgs__srv__SetMap_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_nav_msgs__srv__SetMap_Request, None, 1, 448
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_nav_msgs__srv__SetMap_Response, None, 1, 1
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_nav_msgs__srv__SetMap_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_nav_msgs__srv__SetMap_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4417,157 +3847,120 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
-        "std_msgs/msg/Header": (
-            decode_dict_std_msgs__msg__Header,
-            decode_view_std_msgs__msg__Header,
-            encode_std_msgs__msg__Header,
-        ),
+        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
         "geometry_msgs/msg/Point": (
-            decode_dict_geometry_msgs__msg__Point,
-            decode_view_geometry_msgs__msg__Point,
+            decode_geometry_msgs__msg__Point,
             encode_geometry_msgs__msg__Point,
         ),
         "geometry_msgs/msg/Quaternion": (
-            decode_dict_geometry_msgs__msg__Quaternion,
-            decode_view_geometry_msgs__msg__Quaternion,
+            decode_geometry_msgs__msg__Quaternion,
             encode_geometry_msgs__msg__Quaternion,
         ),
         "geometry_msgs/msg/Pose": (
-            decode_dict_geometry_msgs__msg__Pose,
-            decode_view_geometry_msgs__msg__Pose,
+            decode_geometry_msgs__msg__Pose,
             encode_geometry_msgs__msg__Pose,
         ),
         "geometry_msgs/msg/PoseStamped": (
-            decode_dict_geometry_msgs__msg__PoseStamped,
-            decode_view_geometry_msgs__msg__PoseStamped,
+            decode_geometry_msgs__msg__PoseStamped,
             encode_geometry_msgs__msg__PoseStamped,
         ),
-        "nav_msgs/msg/Goals": (
-            decode_dict_nav_msgs__msg__Goals,
-            decode_view_nav_msgs__msg__Goals,
-            encode_nav_msgs__msg__Goals,
-        ),
+        "nav_msgs/msg/Goals": (decode_nav_msgs__msg__Goals, encode_nav_msgs__msg__Goals),
         "nav_msgs/msg/GridCells": (
-            decode_dict_nav_msgs__msg__GridCells,
-            decode_view_nav_msgs__msg__GridCells,
+            decode_nav_msgs__msg__GridCells,
             encode_nav_msgs__msg__GridCells,
         ),
         "nav_msgs/msg/MapMetaData": (
-            decode_dict_nav_msgs__msg__MapMetaData,
-            decode_view_nav_msgs__msg__MapMetaData,
+            decode_nav_msgs__msg__MapMetaData,
             encode_nav_msgs__msg__MapMetaData,
         ),
         "nav_msgs/msg/OccupancyGrid": (
-            decode_dict_nav_msgs__msg__OccupancyGrid,
-            decode_view_nav_msgs__msg__OccupancyGrid,
+            decode_nav_msgs__msg__OccupancyGrid,
             encode_nav_msgs__msg__OccupancyGrid,
         ),
         "geometry_msgs/msg/PoseWithCovariance": (
-            decode_dict_geometry_msgs__msg__PoseWithCovariance,
-            decode_view_geometry_msgs__msg__PoseWithCovariance,
+            decode_geometry_msgs__msg__PoseWithCovariance,
             encode_geometry_msgs__msg__PoseWithCovariance,
         ),
         "geometry_msgs/msg/Vector3": (
-            decode_dict_geometry_msgs__msg__Vector3,
-            decode_view_geometry_msgs__msg__Vector3,
+            decode_geometry_msgs__msg__Vector3,
             encode_geometry_msgs__msg__Vector3,
         ),
         "geometry_msgs/msg/Twist": (
-            decode_dict_geometry_msgs__msg__Twist,
-            decode_view_geometry_msgs__msg__Twist,
+            decode_geometry_msgs__msg__Twist,
             encode_geometry_msgs__msg__Twist,
         ),
         "geometry_msgs/msg/TwistWithCovariance": (
-            decode_dict_geometry_msgs__msg__TwistWithCovariance,
-            decode_view_geometry_msgs__msg__TwistWithCovariance,
+            decode_geometry_msgs__msg__TwistWithCovariance,
             encode_geometry_msgs__msg__TwistWithCovariance,
         ),
-        "nav_msgs/msg/Odometry": (
-            decode_dict_nav_msgs__msg__Odometry,
-            decode_view_nav_msgs__msg__Odometry,
-            encode_nav_msgs__msg__Odometry,
-        ),
-        "nav_msgs/msg/Path": (
-            decode_dict_nav_msgs__msg__Path,
-            decode_view_nav_msgs__msg__Path,
-            encode_nav_msgs__msg__Path,
-        ),
+        "nav_msgs/msg/Odometry": (decode_nav_msgs__msg__Odometry, encode_nav_msgs__msg__Odometry),
+        "nav_msgs/msg/Path": (decode_nav_msgs__msg__Path, encode_nav_msgs__msg__Path),
         "nav_msgs/srv/GetMap_Request": (
-            decode_dict_nav_msgs__srv__GetMap_Request,
-            decode_view_nav_msgs__srv__GetMap_Request,
+            decode_nav_msgs__srv__GetMap_Request,
             encode_nav_msgs__srv__GetMap_Request,
         ),
         "nav_msgs/srv/GetMap_Response": (
-            decode_dict_nav_msgs__srv__GetMap_Response,
-            decode_view_nav_msgs__srv__GetMap_Response,
+            decode_nav_msgs__srv__GetMap_Response,
             encode_nav_msgs__srv__GetMap_Response,
         ),
         "service_msgs/msg/ServiceEventInfo": (
-            decode_dict_service_msgs__msg__ServiceEventInfo,
-            decode_view_service_msgs__msg__ServiceEventInfo,
+            decode_service_msgs__msg__ServiceEventInfo,
             encode_service_msgs__msg__ServiceEventInfo,
         ),
         "nav_msgs/srv/GetMap_Event": (
-            decode_dict_nav_msgs__srv__GetMap_Event,
-            decode_view_nav_msgs__srv__GetMap_Event,
+            decode_nav_msgs__srv__GetMap_Event,
             encode_nav_msgs__srv__GetMap_Event,
         ),
         "nav_msgs/srv/GetPlan_Request": (
-            decode_dict_nav_msgs__srv__GetPlan_Request,
-            decode_view_nav_msgs__srv__GetPlan_Request,
+            decode_nav_msgs__srv__GetPlan_Request,
             encode_nav_msgs__srv__GetPlan_Request,
         ),
         "nav_msgs/srv/GetPlan_Response": (
-            decode_dict_nav_msgs__srv__GetPlan_Response,
-            decode_view_nav_msgs__srv__GetPlan_Response,
+            decode_nav_msgs__srv__GetPlan_Response,
             encode_nav_msgs__srv__GetPlan_Response,
         ),
         "nav_msgs/srv/GetPlan_Event": (
-            decode_dict_nav_msgs__srv__GetPlan_Event,
-            decode_view_nav_msgs__srv__GetPlan_Event,
+            decode_nav_msgs__srv__GetPlan_Event,
             encode_nav_msgs__srv__GetPlan_Event,
         ),
         "nav_msgs/srv/LoadMap_Request": (
-            decode_dict_nav_msgs__srv__LoadMap_Request,
-            decode_view_nav_msgs__srv__LoadMap_Request,
+            decode_nav_msgs__srv__LoadMap_Request,
             encode_nav_msgs__srv__LoadMap_Request,
         ),
         "nav_msgs/srv/LoadMap_Response": (
-            decode_dict_nav_msgs__srv__LoadMap_Response,
-            decode_view_nav_msgs__srv__LoadMap_Response,
+            decode_nav_msgs__srv__LoadMap_Response,
             encode_nav_msgs__srv__LoadMap_Response,
         ),
         "nav_msgs/srv/LoadMap_Event": (
-            decode_dict_nav_msgs__srv__LoadMap_Event,
-            decode_view_nav_msgs__srv__LoadMap_Event,
+            decode_nav_msgs__srv__LoadMap_Event,
             encode_nav_msgs__srv__LoadMap_Event,
         ),
         "geometry_msgs/msg/PoseWithCovarianceStamped": (
-            decode_dict_geometry_msgs__msg__PoseWithCovarianceStamped,
-            decode_view_geometry_msgs__msg__PoseWithCovarianceStamped,
+            decode_geometry_msgs__msg__PoseWithCovarianceStamped,
             encode_geometry_msgs__msg__PoseWithCovarianceStamped,
         ),
         "nav_msgs/srv/SetMap_Request": (
-            decode_dict_nav_msgs__srv__SetMap_Request,
-            decode_view_nav_msgs__srv__SetMap_Request,
+            decode_nav_msgs__srv__SetMap_Request,
             encode_nav_msgs__srv__SetMap_Request,
         ),
         "nav_msgs/srv/SetMap_Response": (
-            decode_dict_nav_msgs__srv__SetMap_Response,
-            decode_view_nav_msgs__srv__SetMap_Response,
+            decode_nav_msgs__srv__SetMap_Response,
             encode_nav_msgs__srv__SetMap_Response,
         ),
         "nav_msgs/srv/SetMap_Event": (
-            decode_dict_nav_msgs__srv__SetMap_Event,
-            decode_view_nav_msgs__srv__SetMap_Event,
+            decode_nav_msgs__srv__SetMap_Event,
             encode_nav_msgs__srv__SetMap_Event,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

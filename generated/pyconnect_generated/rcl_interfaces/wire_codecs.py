@@ -76,7 +76,8 @@
 #     RIHS01_42fc0821e6e8fcff2b150cefc7d8269f0ce65139e1dc715b15267a4bcf63a189
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -1941,8 +1942,8 @@ def make_rcl_interfaces__srv__SetParametersAtomically_Event(
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_2T = Struct(E + "2?")
@@ -1963,7 +1964,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _D_int64 = np.dtype("int64").newbyteorder(E)
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_dict_rcl_interfaces__msg__FloatingPointRange(
+    def decode_rcl_interfaces__msg__FloatingPointRange(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1976,22 +1977,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__msg__FloatingPointRange(v1, v2, v3), pos
         return {"from_value": v1, "to_value": v2, "step": v3}, pos
-
-    def decode_view_rcl_interfaces__msg__FloatingPointRange(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__msg__FloatingPointRange_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__FloatingPointRange(v1, v2, v3), pos
 
     def encode_rcl_interfaces__msg__FloatingPointRange(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2028,7 +2016,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__msg__IntegerRange(
+    def decode_rcl_interfaces__msg__IntegerRange(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2041,22 +2029,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__msg__IntegerRange(v1, v2, v3), pos
         return {"from_value": v1, "to_value": v2, "step": v3}, pos
-
-    def decode_view_rcl_interfaces__msg__IntegerRange(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__msg__IntegerRange_0
-            v1, v2, v3 = _S_2qQ.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__IntegerRange(v1, v2, v3), pos
 
     def encode_rcl_interfaces__msg__IntegerRange(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2091,7 +2066,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__msg__ListParametersResult(
+    def decode_rcl_interfaces__msg__ListParametersResult(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2104,22 +2079,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__msg__ListParametersResult(v1, v2), pos
         return {"names": v1, "prefixes": v2}, pos
-
-    def decode_view_rcl_interfaces__msg__ListParametersResult(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".names"
-            v1, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-            f = ".prefixes"
-            v2, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__ListParametersResult(v1, v2), pos
 
     def encode_rcl_interfaces__msg__ListParametersResult(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2139,9 +2101,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -2152,22 +2112,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2199,7 +2146,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__msg__Log(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_rcl_interfaces__msg__Log(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -2246,6 +2193,10 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__msg__Log(
+                make_builtin_interfaces__msg__Time(v2, v3), v4, v7, v10, v13, v16, v17
+            ), pos
         return {
             "stamp": {"sec": v2, "nanosec": v3},
             "level": v4,
@@ -2255,57 +2206,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "function": v16,
             "line": v17,
         }, pos
-
-    def decode_view_rcl_interfaces__msg__Log(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__Log_0
-            v2, v3, v4, v6 = _S_iIB3xI.unpack_from(mv, pos)
-            pos += 16
-            f = ".name"
-            if v6 > lim - pos:
-                raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
-            pos += v6
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__Log_1
-            (v9,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".msg"
-            if v9 > lim - pos:
-                raise too_long(v9, 1, lim - pos)
-            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
-            pos += v9
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__Log_2
-            (v12,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".file"
-            if v12 > lim - pos:
-                raise too_long(v12, 1, lim - pos)
-            v13 = mv[pos : pos + v12 - 1].tobytes().decode()
-            pos += v12
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__Log_3
-            (v15,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".function"
-            if v15 > lim - pos:
-                raise too_long(v15, 1, lim - pos)
-            v16 = mv[pos : pos + v15 - 1].tobytes().decode()
-            pos += v15
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__Log_4
-            (v17,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__Log(
-            make_builtin_interfaces__msg__Time(v2, v3), v4, v7, v10, v13, v16, v17
-        ), pos
 
     def encode_rcl_interfaces__msg__Log(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2403,7 +2303,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__msg__LoggerLevel(
+    def decode_rcl_interfaces__msg__LoggerLevel(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2425,31 +2325,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__msg__LoggerLevel(v3, v4), pos
         return {"name": v3, "level": v4}, pos
-
-    def decode_view_rcl_interfaces__msg__LoggerLevel(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__LoggerLevel_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".name"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__LoggerLevel_1
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__LoggerLevel(v3, v4), pos
 
     def encode_rcl_interfaces__msg__LoggerLevel(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2488,7 +2366,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__msg__ParameterValue(
+    def decode_rcl_interfaces__msg__ParameterValue(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2550,6 +2428,10 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__msg__ParameterValue(
+                v1, v3, v4, v5, v8, v12, v16, v20, v24, v25
+            ), pos
         return {
             "type": v1,
             "bool_value": v3,
@@ -2562,72 +2444,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "double_array_value": v24,
             "string_array_value": v25,
         }, pos
-
-    def decode_view_rcl_interfaces__msg__ParameterValue(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_rcl_interfaces__msg__ParameterValue_0
-            v1, v3 = _S_BT.unpack_from(mv, pos)
-            pos += 2
-            pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__msg__ParameterValue_1
-            v4, v5, v7 = _S_qdI.unpack_from(mv, pos)
-            pos += 20
-            f = ".string_value"
-            if v7 > lim - pos:
-                raise too_long(v7, 1, lim - pos)
-            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
-            pos += v7
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__ParameterValue_2
-            (v11,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".byte_array_value"
-            if v11 * 1 > lim - pos:
-                raise too_long(v11, 1, lim - pos)
-            v12 = _frombuffer(mv, _D_uint8, v11, pos)
-            pos += v11 * 1
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__ParameterValue_3
-            (v15,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".bool_array_value"
-            if v15 * 1 > lim - pos:
-                raise too_long(v15, 1, lim - pos)
-            v16 = read_bools(mv, pos, v15)
-            pos += v15 * 1
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__ParameterValue_4
-            (v19,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".integer_array_value"
-            if v19:
-                pos = (pos + 7) & -8
-            if v19 * 8 > lim - pos:
-                raise too_long(v19, 8, lim - pos)
-            v20 = _frombuffer(mv, _D_int64, v19, pos)
-            pos += v19 * 8
-            f = _R_rcl_interfaces__msg__ParameterValue_5
-            (v23,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".double_array_value"
-            if v23:
-                pos = (pos + 7) & -8
-            if v23 * 8 > lim - pos:
-                raise too_long(v23, 8, lim - pos)
-            v24 = _frombuffer(mv, _D_float64, v23, pos)
-            pos += v23 * 8
-            f = ".string_array_value"
-            v25, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__ParameterValue(
-            v1, v3, v4, v5, v8, v12, v16, v20, v24, v25
-        ), pos
 
     def encode_rcl_interfaces__msg__ParameterValue(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2764,7 +2580,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__msg__Parameter(
+    def decode_rcl_interfaces__msg__Parameter(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2779,34 +2595,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             f = ".value"
-            v4, pos = decode_dict_rcl_interfaces__msg__ParameterValue(mv, pos, lim)
+            v4, pos = decode_rcl_interfaces__msg__ParameterValue(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__msg__Parameter(v3, v4), pos
         return {"name": v3, "value": v4}, pos
-
-    def decode_view_rcl_interfaces__msg__Parameter(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__Parameter_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".name"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            f = ".value"
-            v4, pos = decode_view_rcl_interfaces__msg__ParameterValue(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__Parameter(v3, v4), pos
 
     def encode_rcl_interfaces__msg__Parameter(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2835,7 +2631,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__msg__ParameterDescriptor(
+    def decode_rcl_interfaces__msg__ParameterDescriptor(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2875,16 +2671,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 2
             f = ".floating_point_range"
             v15, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_rcl_interfaces__msg__FloatingPointRange, None, 1, 24
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__FloatingPointRange, None, 1, 24
             )
             f = ".integer_range"
             v16, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_rcl_interfaces__msg__IntegerRange, None, 1, 24
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__IntegerRange, None, 1, 24
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__msg__ParameterDescriptor(
+                v3, v4, v7, v10, v12, v14, v15, v16
+            ), pos
         return {
             "name": v3,
             "type": v4,
@@ -2895,60 +2695,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "floating_point_range": v15,
             "integer_range": v16,
         }, pos
-
-    def decode_view_rcl_interfaces__msg__ParameterDescriptor(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__ParameterDescriptor_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".name"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            f = _R_rcl_interfaces__msg__ParameterDescriptor_1
-            (v4,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__ParameterDescriptor_2
-            (v6,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".description"
-            if v6 > lim - pos:
-                raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
-            pos += v6
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__ParameterDescriptor_3
-            (v9,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".additional_constraints"
-            if v9 > lim - pos:
-                raise too_long(v9, 1, lim - pos)
-            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
-            pos += v9
-            f = _R_rcl_interfaces__msg__ParameterDescriptor_4
-            v12, v14 = _S_2T.unpack_from(mv, pos)
-            pos += 2
-            f = ".floating_point_range"
-            v15, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_rcl_interfaces__msg__FloatingPointRange, None, 1, 24
-            )
-            f = ".integer_range"
-            v16, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_rcl_interfaces__msg__IntegerRange, None, 1, 24
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__ParameterDescriptor(
-            v3, v4, v7, v10, v12, v14, v15, v16
-        ), pos
 
     def encode_rcl_interfaces__msg__ParameterDescriptor(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3078,7 +2824,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__msg__ParameterEvent(
+    def decode_rcl_interfaces__msg__ParameterEvent(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -3094,20 +2840,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v5
             f = ".new_parameters"
             v7, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_rcl_interfaces__msg__Parameter, None, None, 46
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__Parameter, None, None, 46
             )
             f = ".changed_parameters"
             v8, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_rcl_interfaces__msg__Parameter, None, None, 46
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__Parameter, None, None, 46
             )
             f = ".deleted_parameters"
             v9, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_rcl_interfaces__msg__Parameter, None, None, 46
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__Parameter, None, None, 46
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__msg__ParameterEvent(
+                make_builtin_interfaces__msg__Time(v2, v3), v6, v7, v8, v9
+            ), pos
         return {
             "stamp": {"sec": v2, "nanosec": v3},
             "node": v6,
@@ -3115,40 +2865,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "changed_parameters": v8,
             "deleted_parameters": v9,
         }, pos
-
-    def decode_view_rcl_interfaces__msg__ParameterEvent(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__ParameterEvent_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".node"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-            f = ".new_parameters"
-            v7, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_rcl_interfaces__msg__Parameter, None, None, 46
-            )
-            f = ".changed_parameters"
-            v8, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_rcl_interfaces__msg__Parameter, None, None, 46
-            )
-            f = ".deleted_parameters"
-            v9, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_rcl_interfaces__msg__Parameter, None, None, 46
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__ParameterEvent(
-            make_builtin_interfaces__msg__Time(v2, v3), v6, v7, v8, v9
-        ), pos
 
     def encode_rcl_interfaces__msg__ParameterEvent(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3219,93 +2935,30 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__msg__ParameterEventDescriptors(
+    def decode_rcl_interfaces__msg__ParameterEventDescriptors(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".new_parameters"
             v1, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__msg__ParameterDescriptor,
-                None,
-                None,
-                23,
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__ParameterDescriptor, None, None, 23
             )
             f = ".changed_parameters"
             v2, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__msg__ParameterDescriptor,
-                None,
-                None,
-                23,
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__ParameterDescriptor, None, None, 23
             )
             f = ".deleted_parameters"
             v3, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__msg__ParameterDescriptor,
-                None,
-                None,
-                23,
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__ParameterDescriptor, None, None, 23
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__msg__ParameterEventDescriptors(v1, v2, v3), pos
         return {"new_parameters": v1, "changed_parameters": v2, "deleted_parameters": v3}, pos
-
-    def decode_view_rcl_interfaces__msg__ParameterEventDescriptors(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".new_parameters"
-            v1, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__msg__ParameterDescriptor,
-                None,
-                None,
-                23,
-            )
-            f = ".changed_parameters"
-            v2, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__msg__ParameterDescriptor,
-                None,
-                None,
-                23,
-            )
-            f = ".deleted_parameters"
-            v3, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__msg__ParameterDescriptor,
-                None,
-                None,
-                23,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__ParameterEventDescriptors(v1, v2, v3), pos
 
     def encode_rcl_interfaces__msg__ParameterEventDescriptors(
         d: Any, out: list[Any], pos: int
@@ -3353,7 +3006,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__msg__ParameterType(
+    def decode_rcl_interfaces__msg__ParameterType(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -3365,21 +3018,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__msg__ParameterType(), pos
         return {}, pos
-
-    def decode_view_rcl_interfaces__msg__ParameterType(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_rcl_interfaces__msg__ParameterType_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__ParameterType(), pos
 
     def encode_rcl_interfaces__msg__ParameterType(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3398,7 +3039,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__msg__SetLoggerLevelsResult(
+    def decode_rcl_interfaces__msg__SetLoggerLevelsResult(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -3419,30 +3060,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__msg__SetLoggerLevelsResult(v2, v5), pos
         return {"successful": v2, "reason": v5}, pos
-
-    def decode_view_rcl_interfaces__msg__SetLoggerLevelsResult(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_rcl_interfaces__msg__SetLoggerLevelsResult_0
-            (v2,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__SetLoggerLevelsResult_1
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".reason"
-            if v4 > lim - pos:
-                raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
-            pos += v4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__SetLoggerLevelsResult(v2, v5), pos
 
     def encode_rcl_interfaces__msg__SetLoggerLevelsResult(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3500,7 +3120,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__msg__SetParametersResult(
+    def decode_rcl_interfaces__msg__SetParametersResult(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -3521,30 +3141,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__msg__SetParametersResult(v2, v5), pos
         return {"successful": v2, "reason": v5}, pos
-
-    def decode_view_rcl_interfaces__msg__SetParametersResult(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_rcl_interfaces__msg__SetParametersResult_0
-            (v2,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__SetParametersResult_1
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".reason"
-            if v4 > lim - pos:
-                raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
-            pos += v4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__msg__SetParametersResult(v2, v5), pos
 
     def encode_rcl_interfaces__msg__SetParametersResult(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3602,7 +3201,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__DescribeParameters_Request(
+    def decode_rcl_interfaces__srv__DescribeParameters_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -3613,20 +3212,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__DescribeParameters_Request(v1), pos
         return {"names": v1}, pos
-
-    def decode_view_rcl_interfaces__srv__DescribeParameters_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".names"
-            v1, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__DescribeParameters_Request(v1), pos
 
     def encode_rcl_interfaces__srv__DescribeParameters_Request(
         d: Any, out: list[Any], pos: int
@@ -3646,49 +3234,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__DescribeParameters_Response(
+    def decode_rcl_interfaces__srv__DescribeParameters_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".descriptors"
             v1, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__msg__ParameterDescriptor,
-                None,
-                None,
-                23,
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__ParameterDescriptor, None, None, 23
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__DescribeParameters_Response(v1), pos
         return {"descriptors": v1}, pos
-
-    def decode_view_rcl_interfaces__srv__DescribeParameters_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".descriptors"
-            v1, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__msg__ParameterDescriptor,
-                None,
-                None,
-                23,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__DescribeParameters_Response(v1), pos
 
     def encode_rcl_interfaces__srv__DescribeParameters_Response(
         d: Any, out: list[Any], pos: int
@@ -3716,7 +3277,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_service_msgs__msg__ServiceEventInfo(
+    def decode_service_msgs__msg__ServiceEventInfo(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -3741,41 +3302,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_service_msgs__msg__ServiceEventInfo(
+                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
+            ), pos
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
             "client_gid": v7,
             "sequence_number": v8,
         }, pos
-
-    def decode_view_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_service_msgs__msg__ServiceEventInfo(
-            v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-        ), pos
 
     def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3841,7 +3377,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__DescribeParameters_Event(
+    def decode_rcl_interfaces__srv__DescribeParameters_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -3868,7 +3404,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_rcl_interfaces__srv__DescribeParameters_Request,
+                decode_rcl_interfaces__srv__DescribeParameters_Request,
                 None,
                 1,
                 4,
@@ -3879,7 +3415,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_rcl_interfaces__srv__DescribeParameters_Response,
+                decode_rcl_interfaces__srv__DescribeParameters_Response,
                 None,
                 1,
                 4,
@@ -3888,6 +3424,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__DescribeParameters_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -3898,61 +3442,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_rcl_interfaces__srv__DescribeParameters_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_rcl_interfaces__srv__DescribeParameters_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__DescribeParameters_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__DescribeParameters_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__DescribeParameters_Request,
-                None,
-                1,
-                4,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__DescribeParameters_Response,
-                None,
-                1,
-                4,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__DescribeParameters_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_rcl_interfaces__srv__DescribeParameters_Event(
         d: Any, out: list[Any], pos: int
@@ -4051,7 +3540,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__GetLoggerLevels_Request(
+    def decode_rcl_interfaces__srv__GetLoggerLevels_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4062,20 +3551,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__GetLoggerLevels_Request(v1), pos
         return {"names": v1}, pos
-
-    def decode_view_rcl_interfaces__srv__GetLoggerLevels_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".names"
-            v1, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__GetLoggerLevels_Request(v1), pos
 
     def encode_rcl_interfaces__srv__GetLoggerLevels_Request(
         d: Any, out: list[Any], pos: int
@@ -4095,35 +3573,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__GetLoggerLevels_Response(
+    def decode_rcl_interfaces__srv__GetLoggerLevels_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".levels"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_rcl_interfaces__msg__LoggerLevel, None, None, 8
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__LoggerLevel, None, None, 8
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__GetLoggerLevels_Response(v1), pos
         return {"levels": v1}, pos
-
-    def decode_view_rcl_interfaces__srv__GetLoggerLevels_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".levels"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_rcl_interfaces__msg__LoggerLevel, None, None, 8
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__GetLoggerLevels_Response(v1), pos
 
     def encode_rcl_interfaces__srv__GetLoggerLevels_Response(
         d: Any, out: list[Any], pos: int
@@ -4151,7 +3616,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__GetLoggerLevels_Event(
+    def decode_rcl_interfaces__srv__GetLoggerLevels_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4174,30 +3639,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__srv__GetLoggerLevels_Request,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, decode_rcl_interfaces__srv__GetLoggerLevels_Request, None, 1, 4
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__srv__GetLoggerLevels_Response,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, decode_rcl_interfaces__srv__GetLoggerLevels_Response, None, 1, 4
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__GetLoggerLevels_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -4208,61 +3667,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_rcl_interfaces__srv__GetLoggerLevels_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_rcl_interfaces__srv__GetLoggerLevels_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__GetLoggerLevels_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__GetLoggerLevels_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__GetLoggerLevels_Request,
-                None,
-                1,
-                4,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__GetLoggerLevels_Response,
-                None,
-                1,
-                4,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__GetLoggerLevels_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_rcl_interfaces__srv__GetLoggerLevels_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4359,7 +3763,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__GetParameterTypes_Request(
+    def decode_rcl_interfaces__srv__GetParameterTypes_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4370,20 +3774,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__GetParameterTypes_Request(v1), pos
         return {"names": v1}, pos
-
-    def decode_view_rcl_interfaces__srv__GetParameterTypes_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".names"
-            v1, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__GetParameterTypes_Request(v1), pos
 
     def encode_rcl_interfaces__srv__GetParameterTypes_Request(
         d: Any, out: list[Any], pos: int
@@ -4403,7 +3796,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__GetParameterTypes_Response(
+    def decode_rcl_interfaces__srv__GetParameterTypes_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4421,27 +3814,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__GetParameterTypes_Response(v4), pos
         return {"types": v4}, pos
-
-    def decode_view_rcl_interfaces__srv__GetParameterTypes_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__GetParameterTypes_Response_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".types"
-            if v3 * 1 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, v3, pos)
-            pos += v3 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__GetParameterTypes_Response(v4), pos
 
     def encode_rcl_interfaces__srv__GetParameterTypes_Response(
         d: Any, out: list[Any], pos: int
@@ -4475,7 +3850,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__GetParameterTypes_Event(
+    def decode_rcl_interfaces__srv__GetParameterTypes_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4502,7 +3877,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_rcl_interfaces__srv__GetParameterTypes_Request,
+                decode_rcl_interfaces__srv__GetParameterTypes_Request,
                 None,
                 1,
                 4,
@@ -4513,7 +3888,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_rcl_interfaces__srv__GetParameterTypes_Response,
+                decode_rcl_interfaces__srv__GetParameterTypes_Response,
                 None,
                 1,
                 4,
@@ -4522,6 +3897,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__GetParameterTypes_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -4532,61 +3915,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_rcl_interfaces__srv__GetParameterTypes_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_rcl_interfaces__srv__GetParameterTypes_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__GetParameterTypes_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__GetParameterTypes_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__GetParameterTypes_Request,
-                None,
-                1,
-                4,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__GetParameterTypes_Response,
-                None,
-                1,
-                4,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__GetParameterTypes_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_rcl_interfaces__srv__GetParameterTypes_Event(
         d: Any, out: list[Any], pos: int
@@ -4685,7 +4013,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__GetParameters_Request(
+    def decode_rcl_interfaces__srv__GetParameters_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4696,20 +4024,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__GetParameters_Request(v1), pos
         return {"names": v1}, pos
-
-    def decode_view_rcl_interfaces__srv__GetParameters_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".names"
-            v1, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__GetParameters_Request(v1), pos
 
     def encode_rcl_interfaces__srv__GetParameters_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4727,35 +4044,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__GetParameters_Response(
+    def decode_rcl_interfaces__srv__GetParameters_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".values"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_rcl_interfaces__msg__ParameterValue, None, None, 42
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__ParameterValue, None, None, 42
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__GetParameters_Response(v1), pos
         return {"values": v1}, pos
-
-    def decode_view_rcl_interfaces__srv__GetParameters_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".values"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_rcl_interfaces__msg__ParameterValue, None, None, 42
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__GetParameters_Response(v1), pos
 
     def encode_rcl_interfaces__srv__GetParameters_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4781,7 +4085,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__GetParameters_Event(
+    def decode_rcl_interfaces__srv__GetParameters_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4804,30 +4108,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__srv__GetParameters_Request,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, decode_rcl_interfaces__srv__GetParameters_Request, None, 1, 4
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__srv__GetParameters_Response,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, decode_rcl_interfaces__srv__GetParameters_Response, None, 1, 4
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__GetParameters_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -4838,61 +4136,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_rcl_interfaces__srv__GetParameters_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_rcl_interfaces__srv__GetParameters_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__GetParameters_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__GetParameters_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__GetParameters_Request,
-                None,
-                1,
-                4,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__GetParameters_Response,
-                None,
-                1,
-                4,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__GetParameters_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_rcl_interfaces__srv__GetParameters_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4989,7 +4232,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__ListParameters_Request(
+    def decode_rcl_interfaces__srv__ListParameters_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -5004,24 +4247,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__ListParameters_Request(v1, v2), pos
         return {"prefixes": v1, "depth": v2}, pos
-
-    def decode_view_rcl_interfaces__srv__ListParameters_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".prefixes"
-            v1, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-            pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__ListParameters_Request_0
-            (v2,) = _S_Q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__ListParameters_Request(v1, v2), pos
 
     def encode_rcl_interfaces__srv__ListParameters_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5053,31 +4281,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__ListParameters_Response(
+    def decode_rcl_interfaces__srv__ListParameters_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".result"
-            v1, pos = decode_dict_rcl_interfaces__msg__ListParametersResult(mv, pos, lim)
+            v1, pos = decode_rcl_interfaces__msg__ListParametersResult(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__ListParameters_Response(v1), pos
         return {"result": v1}, pos
-
-    def decode_view_rcl_interfaces__srv__ListParameters_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".result"
-            v1, pos = decode_view_rcl_interfaces__msg__ListParametersResult(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__ListParameters_Response(v1), pos
 
     def encode_rcl_interfaces__srv__ListParameters_Response(
         d: Any, out: list[Any], pos: int
@@ -5097,7 +4314,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__ListParameters_Event(
+    def decode_rcl_interfaces__srv__ListParameters_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -5120,30 +4337,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__srv__ListParameters_Request,
-                None,
-                1,
-                12,
+                mv, pos, lim, _U32, decode_rcl_interfaces__srv__ListParameters_Request, None, 1, 12
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__srv__ListParameters_Response,
-                None,
-                1,
-                8,
+                mv, pos, lim, _U32, decode_rcl_interfaces__srv__ListParameters_Response, None, 1, 8
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__ListParameters_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -5154,61 +4365,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_rcl_interfaces__srv__ListParameters_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_rcl_interfaces__srv__ListParameters_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__ListParameters_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__ListParameters_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__ListParameters_Request,
-                None,
-                1,
-                12,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__ListParameters_Response,
-                None,
-                1,
-                8,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__ListParameters_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_rcl_interfaces__srv__ListParameters_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5305,35 +4461,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__SetLoggerLevels_Request(
+    def decode_rcl_interfaces__srv__SetLoggerLevels_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".levels"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_rcl_interfaces__msg__LoggerLevel, None, None, 8
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__LoggerLevel, None, None, 8
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__SetLoggerLevels_Request(v1), pos
         return {"levels": v1}, pos
-
-    def decode_view_rcl_interfaces__srv__SetLoggerLevels_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".levels"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_rcl_interfaces__msg__LoggerLevel, None, None, 8
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__SetLoggerLevels_Request(v1), pos
 
     def encode_rcl_interfaces__srv__SetLoggerLevels_Request(
         d: Any, out: list[Any], pos: int
@@ -5361,49 +4504,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__SetLoggerLevels_Response(
+    def decode_rcl_interfaces__srv__SetLoggerLevels_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".results"
             v1, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__msg__SetLoggerLevelsResult,
-                None,
-                None,
-                5,
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__SetLoggerLevelsResult, None, None, 5
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__SetLoggerLevels_Response(v1), pos
         return {"results": v1}, pos
-
-    def decode_view_rcl_interfaces__srv__SetLoggerLevels_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".results"
-            v1, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__msg__SetLoggerLevelsResult,
-                None,
-                None,
-                5,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__SetLoggerLevels_Response(v1), pos
 
     def encode_rcl_interfaces__srv__SetLoggerLevels_Response(
         d: Any, out: list[Any], pos: int
@@ -5431,7 +4547,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__SetLoggerLevels_Event(
+    def decode_rcl_interfaces__srv__SetLoggerLevels_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -5454,30 +4570,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__srv__SetLoggerLevels_Request,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, decode_rcl_interfaces__srv__SetLoggerLevels_Request, None, 1, 4
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__srv__SetLoggerLevels_Response,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, decode_rcl_interfaces__srv__SetLoggerLevels_Response, None, 1, 4
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__SetLoggerLevels_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -5488,61 +4598,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_rcl_interfaces__srv__SetLoggerLevels_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_rcl_interfaces__srv__SetLoggerLevels_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__SetLoggerLevels_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__SetLoggerLevels_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__SetLoggerLevels_Request,
-                None,
-                1,
-                4,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__SetLoggerLevels_Response,
-                None,
-                1,
-                4,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__SetLoggerLevels_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_rcl_interfaces__srv__SetLoggerLevels_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5639,35 +4694,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__SetParameters_Request(
+    def decode_rcl_interfaces__srv__SetParameters_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".parameters"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_rcl_interfaces__msg__Parameter, None, None, 46
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__Parameter, None, None, 46
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__SetParameters_Request(v1), pos
         return {"parameters": v1}, pos
-
-    def decode_view_rcl_interfaces__srv__SetParameters_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".parameters"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_rcl_interfaces__msg__Parameter, None, None, 46
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__SetParameters_Request(v1), pos
 
     def encode_rcl_interfaces__srv__SetParameters_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5693,49 +4735,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__SetParameters_Response(
+    def decode_rcl_interfaces__srv__SetParameters_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".results"
             v1, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__msg__SetParametersResult,
-                None,
-                None,
-                5,
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__SetParametersResult, None, None, 5
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__SetParameters_Response(v1), pos
         return {"results": v1}, pos
-
-    def decode_view_rcl_interfaces__srv__SetParameters_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".results"
-            v1, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__msg__SetParametersResult,
-                None,
-                None,
-                5,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__SetParameters_Response(v1), pos
 
     def encode_rcl_interfaces__srv__SetParameters_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5761,7 +4776,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__SetParameters_Event(
+    def decode_rcl_interfaces__srv__SetParameters_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -5784,30 +4799,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__srv__SetParameters_Request,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, decode_rcl_interfaces__srv__SetParameters_Request, None, 1, 4
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_rcl_interfaces__srv__SetParameters_Response,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, decode_rcl_interfaces__srv__SetParameters_Response, None, 1, 4
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__SetParameters_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -5818,61 +4827,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_rcl_interfaces__srv__SetParameters_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_rcl_interfaces__srv__SetParameters_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__SetParameters_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__SetParameters_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__SetParameters_Request,
-                None,
-                1,
-                4,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__SetParameters_Response,
-                None,
-                1,
-                4,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__SetParameters_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_rcl_interfaces__srv__SetParameters_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5969,35 +4923,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__SetParametersAtomically_Request(
+    def decode_rcl_interfaces__srv__SetParametersAtomically_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".parameters"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_rcl_interfaces__msg__Parameter, None, None, 46
+                mv, pos, lim, _U32, decode_rcl_interfaces__msg__Parameter, None, None, 46
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__SetParametersAtomically_Request(v1), pos
         return {"parameters": v1}, pos
-
-    def decode_view_rcl_interfaces__srv__SetParametersAtomically_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".parameters"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_rcl_interfaces__msg__Parameter, None, None, 46
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__SetParametersAtomically_Request(v1), pos
 
     def encode_rcl_interfaces__srv__SetParametersAtomically_Request(
         d: Any, out: list[Any], pos: int
@@ -6025,31 +4966,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__SetParametersAtomically_Response(
+    def decode_rcl_interfaces__srv__SetParametersAtomically_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".result"
-            v1, pos = decode_dict_rcl_interfaces__msg__SetParametersResult(mv, pos, lim)
+            v1, pos = decode_rcl_interfaces__msg__SetParametersResult(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__SetParametersAtomically_Response(v1), pos
         return {"result": v1}, pos
-
-    def decode_view_rcl_interfaces__srv__SetParametersAtomically_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".result"
-            v1, pos = decode_view_rcl_interfaces__msg__SetParametersResult(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__SetParametersAtomically_Response(v1), pos
 
     def encode_rcl_interfaces__srv__SetParametersAtomically_Response(
         d: Any, out: list[Any], pos: int
@@ -6069,7 +4999,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rcl_interfaces__srv__SetParametersAtomically_Event(
+    def decode_rcl_interfaces__srv__SetParametersAtomically_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -6096,7 +5026,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_rcl_interfaces__srv__SetParametersAtomically_Request,
+                decode_rcl_interfaces__srv__SetParametersAtomically_Request,
                 None,
                 1,
                 4,
@@ -6107,7 +5037,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_rcl_interfaces__srv__SetParametersAtomically_Response,
+                decode_rcl_interfaces__srv__SetParametersAtomically_Response,
                 None,
                 1,
                 5,
@@ -6116,6 +5046,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rcl_interfaces__srv__SetParametersAtomically_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -6126,61 +5064,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_rcl_interfaces__srv__SetParametersAtomically_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_rcl_interfaces__srv__SetParametersAtomically_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__SetParametersAtomically_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__SetParametersAtomically_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__SetParametersAtomically_Request,
-                None,
-                1,
-                4,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_rcl_interfaces__srv__SetParametersAtomically_Response,
-                None,
-                1,
-                5,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rcl_interfaces__srv__SetParametersAtomically_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_rcl_interfaces__srv__SetParametersAtomically_Event(
         d: Any, out: list[Any], pos: int
@@ -6281,202 +5164,168 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "rcl_interfaces/msg/FloatingPointRange": (
-            decode_dict_rcl_interfaces__msg__FloatingPointRange,
-            decode_view_rcl_interfaces__msg__FloatingPointRange,
+            decode_rcl_interfaces__msg__FloatingPointRange,
             encode_rcl_interfaces__msg__FloatingPointRange,
         ),
         "rcl_interfaces/msg/IntegerRange": (
-            decode_dict_rcl_interfaces__msg__IntegerRange,
-            decode_view_rcl_interfaces__msg__IntegerRange,
+            decode_rcl_interfaces__msg__IntegerRange,
             encode_rcl_interfaces__msg__IntegerRange,
         ),
         "rcl_interfaces/msg/ListParametersResult": (
-            decode_dict_rcl_interfaces__msg__ListParametersResult,
-            decode_view_rcl_interfaces__msg__ListParametersResult,
+            decode_rcl_interfaces__msg__ListParametersResult,
             encode_rcl_interfaces__msg__ListParametersResult,
         ),
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
         "rcl_interfaces/msg/Log": (
-            decode_dict_rcl_interfaces__msg__Log,
-            decode_view_rcl_interfaces__msg__Log,
+            decode_rcl_interfaces__msg__Log,
             encode_rcl_interfaces__msg__Log,
         ),
         "rcl_interfaces/msg/LoggerLevel": (
-            decode_dict_rcl_interfaces__msg__LoggerLevel,
-            decode_view_rcl_interfaces__msg__LoggerLevel,
+            decode_rcl_interfaces__msg__LoggerLevel,
             encode_rcl_interfaces__msg__LoggerLevel,
         ),
         "rcl_interfaces/msg/ParameterValue": (
-            decode_dict_rcl_interfaces__msg__ParameterValue,
-            decode_view_rcl_interfaces__msg__ParameterValue,
+            decode_rcl_interfaces__msg__ParameterValue,
             encode_rcl_interfaces__msg__ParameterValue,
         ),
         "rcl_interfaces/msg/Parameter": (
-            decode_dict_rcl_interfaces__msg__Parameter,
-            decode_view_rcl_interfaces__msg__Parameter,
+            decode_rcl_interfaces__msg__Parameter,
             encode_rcl_interfaces__msg__Parameter,
         ),
         "rcl_interfaces/msg/ParameterDescriptor": (
-            decode_dict_rcl_interfaces__msg__ParameterDescriptor,
-            decode_view_rcl_interfaces__msg__ParameterDescriptor,
+            decode_rcl_interfaces__msg__ParameterDescriptor,
             encode_rcl_interfaces__msg__ParameterDescriptor,
         ),
         "rcl_interfaces/msg/ParameterEvent": (
-            decode_dict_rcl_interfaces__msg__ParameterEvent,
-            decode_view_rcl_interfaces__msg__ParameterEvent,
+            decode_rcl_interfaces__msg__ParameterEvent,
             encode_rcl_interfaces__msg__ParameterEvent,
         ),
         "rcl_interfaces/msg/ParameterEventDescriptors": (
-            decode_dict_rcl_interfaces__msg__ParameterEventDescriptors,
-            decode_view_rcl_interfaces__msg__ParameterEventDescriptors,
+            decode_rcl_interfaces__msg__ParameterEventDescriptors,
             encode_rcl_interfaces__msg__ParameterEventDescriptors,
         ),
         "rcl_interfaces/msg/ParameterType": (
-            decode_dict_rcl_interfaces__msg__ParameterType,
-            decode_view_rcl_interfaces__msg__ParameterType,
+            decode_rcl_interfaces__msg__ParameterType,
             encode_rcl_interfaces__msg__ParameterType,
         ),
         "rcl_interfaces/msg/SetLoggerLevelsResult": (
-            decode_dict_rcl_interfaces__msg__SetLoggerLevelsResult,
-            decode_view_rcl_interfaces__msg__SetLoggerLevelsResult,
+            decode_rcl_interfaces__msg__SetLoggerLevelsResult,
             encode_rcl_interfaces__msg__SetLoggerLevelsResult,
         ),
         "rcl_interfaces/msg/SetParametersResult": (
-            decode_dict_rcl_interfaces__msg__SetParametersResult,
-            decode_view_rcl_interfaces__msg__SetParametersResult,
+            decode_rcl_interfaces__msg__SetParametersResult,
             encode_rcl_interfaces__msg__SetParametersResult,
         ),
         "rcl_interfaces/srv/DescribeParameters_Request": (
-            decode_dict_rcl_interfaces__srv__DescribeParameters_Request,
-            decode_view_rcl_interfaces__srv__DescribeParameters_Request,
+            decode_rcl_interfaces__srv__DescribeParameters_Request,
             encode_rcl_interfaces__srv__DescribeParameters_Request,
         ),
         "rcl_interfaces/srv/DescribeParameters_Response": (
-            decode_dict_rcl_interfaces__srv__DescribeParameters_Response,
-            decode_view_rcl_interfaces__srv__DescribeParameters_Response,
+            decode_rcl_interfaces__srv__DescribeParameters_Response,
             encode_rcl_interfaces__srv__DescribeParameters_Response,
         ),
         "service_msgs/msg/ServiceEventInfo": (
-            decode_dict_service_msgs__msg__ServiceEventInfo,
-            decode_view_service_msgs__msg__ServiceEventInfo,
+            decode_service_msgs__msg__ServiceEventInfo,
             encode_service_msgs__msg__ServiceEventInfo,
         ),
         "rcl_interfaces/srv/DescribeParameters_Event": (
-            decode_dict_rcl_interfaces__srv__DescribeParameters_Event,
-            decode_view_rcl_interfaces__srv__DescribeParameters_Event,
+            decode_rcl_interfaces__srv__DescribeParameters_Event,
             encode_rcl_interfaces__srv__DescribeParameters_Event,
         ),
         "rcl_interfaces/srv/GetLoggerLevels_Request": (
-            decode_dict_rcl_interfaces__srv__GetLoggerLevels_Request,
-            decode_view_rcl_interfaces__srv__GetLoggerLevels_Request,
+            decode_rcl_interfaces__srv__GetLoggerLevels_Request,
             encode_rcl_interfaces__srv__GetLoggerLevels_Request,
         ),
         "rcl_interfaces/srv/GetLoggerLevels_Response": (
-            decode_dict_rcl_interfaces__srv__GetLoggerLevels_Response,
-            decode_view_rcl_interfaces__srv__GetLoggerLevels_Response,
+            decode_rcl_interfaces__srv__GetLoggerLevels_Response,
             encode_rcl_interfaces__srv__GetLoggerLevels_Response,
         ),
         "rcl_interfaces/srv/GetLoggerLevels_Event": (
-            decode_dict_rcl_interfaces__srv__GetLoggerLevels_Event,
-            decode_view_rcl_interfaces__srv__GetLoggerLevels_Event,
+            decode_rcl_interfaces__srv__GetLoggerLevels_Event,
             encode_rcl_interfaces__srv__GetLoggerLevels_Event,
         ),
         "rcl_interfaces/srv/GetParameterTypes_Request": (
-            decode_dict_rcl_interfaces__srv__GetParameterTypes_Request,
-            decode_view_rcl_interfaces__srv__GetParameterTypes_Request,
+            decode_rcl_interfaces__srv__GetParameterTypes_Request,
             encode_rcl_interfaces__srv__GetParameterTypes_Request,
         ),
         "rcl_interfaces/srv/GetParameterTypes_Response": (
-            decode_dict_rcl_interfaces__srv__GetParameterTypes_Response,
-            decode_view_rcl_interfaces__srv__GetParameterTypes_Response,
+            decode_rcl_interfaces__srv__GetParameterTypes_Response,
             encode_rcl_interfaces__srv__GetParameterTypes_Response,
         ),
         "rcl_interfaces/srv/GetParameterTypes_Event": (
-            decode_dict_rcl_interfaces__srv__GetParameterTypes_Event,
-            decode_view_rcl_interfaces__srv__GetParameterTypes_Event,
+            decode_rcl_interfaces__srv__GetParameterTypes_Event,
             encode_rcl_interfaces__srv__GetParameterTypes_Event,
         ),
         "rcl_interfaces/srv/GetParameters_Request": (
-            decode_dict_rcl_interfaces__srv__GetParameters_Request,
-            decode_view_rcl_interfaces__srv__GetParameters_Request,
+            decode_rcl_interfaces__srv__GetParameters_Request,
             encode_rcl_interfaces__srv__GetParameters_Request,
         ),
         "rcl_interfaces/srv/GetParameters_Response": (
-            decode_dict_rcl_interfaces__srv__GetParameters_Response,
-            decode_view_rcl_interfaces__srv__GetParameters_Response,
+            decode_rcl_interfaces__srv__GetParameters_Response,
             encode_rcl_interfaces__srv__GetParameters_Response,
         ),
         "rcl_interfaces/srv/GetParameters_Event": (
-            decode_dict_rcl_interfaces__srv__GetParameters_Event,
-            decode_view_rcl_interfaces__srv__GetParameters_Event,
+            decode_rcl_interfaces__srv__GetParameters_Event,
             encode_rcl_interfaces__srv__GetParameters_Event,
         ),
         "rcl_interfaces/srv/ListParameters_Request": (
-            decode_dict_rcl_interfaces__srv__ListParameters_Request,
-            decode_view_rcl_interfaces__srv__ListParameters_Request,
+            decode_rcl_interfaces__srv__ListParameters_Request,
             encode_rcl_interfaces__srv__ListParameters_Request,
         ),
         "rcl_interfaces/srv/ListParameters_Response": (
-            decode_dict_rcl_interfaces__srv__ListParameters_Response,
-            decode_view_rcl_interfaces__srv__ListParameters_Response,
+            decode_rcl_interfaces__srv__ListParameters_Response,
             encode_rcl_interfaces__srv__ListParameters_Response,
         ),
         "rcl_interfaces/srv/ListParameters_Event": (
-            decode_dict_rcl_interfaces__srv__ListParameters_Event,
-            decode_view_rcl_interfaces__srv__ListParameters_Event,
+            decode_rcl_interfaces__srv__ListParameters_Event,
             encode_rcl_interfaces__srv__ListParameters_Event,
         ),
         "rcl_interfaces/srv/SetLoggerLevels_Request": (
-            decode_dict_rcl_interfaces__srv__SetLoggerLevels_Request,
-            decode_view_rcl_interfaces__srv__SetLoggerLevels_Request,
+            decode_rcl_interfaces__srv__SetLoggerLevels_Request,
             encode_rcl_interfaces__srv__SetLoggerLevels_Request,
         ),
         "rcl_interfaces/srv/SetLoggerLevels_Response": (
-            decode_dict_rcl_interfaces__srv__SetLoggerLevels_Response,
-            decode_view_rcl_interfaces__srv__SetLoggerLevels_Response,
+            decode_rcl_interfaces__srv__SetLoggerLevels_Response,
             encode_rcl_interfaces__srv__SetLoggerLevels_Response,
         ),
         "rcl_interfaces/srv/SetLoggerLevels_Event": (
-            decode_dict_rcl_interfaces__srv__SetLoggerLevels_Event,
-            decode_view_rcl_interfaces__srv__SetLoggerLevels_Event,
+            decode_rcl_interfaces__srv__SetLoggerLevels_Event,
             encode_rcl_interfaces__srv__SetLoggerLevels_Event,
         ),
         "rcl_interfaces/srv/SetParameters_Request": (
-            decode_dict_rcl_interfaces__srv__SetParameters_Request,
-            decode_view_rcl_interfaces__srv__SetParameters_Request,
+            decode_rcl_interfaces__srv__SetParameters_Request,
             encode_rcl_interfaces__srv__SetParameters_Request,
         ),
         "rcl_interfaces/srv/SetParameters_Response": (
-            decode_dict_rcl_interfaces__srv__SetParameters_Response,
-            decode_view_rcl_interfaces__srv__SetParameters_Response,
+            decode_rcl_interfaces__srv__SetParameters_Response,
             encode_rcl_interfaces__srv__SetParameters_Response,
         ),
         "rcl_interfaces/srv/SetParameters_Event": (
-            decode_dict_rcl_interfaces__srv__SetParameters_Event,
-            decode_view_rcl_interfaces__srv__SetParameters_Event,
+            decode_rcl_interfaces__srv__SetParameters_Event,
             encode_rcl_interfaces__srv__SetParameters_Event,
         ),
         "rcl_interfaces/srv/SetParametersAtomically_Request": (
-            decode_dict_rcl_interfaces__srv__SetParametersAtomically_Request,
-            decode_view_rcl_interfaces__srv__SetParametersAtomically_Request,
+            decode_rcl_interfaces__srv__SetParametersAtomically_Request,
             encode_rcl_interfaces__srv__SetParametersAtomically_Request,
         ),
         "rcl_interfaces/srv/SetParametersAtomically_Response": (
-            decode_dict_rcl_interfaces__srv__SetParametersAtomically_Response,
-            decode_view_rcl_interfaces__srv__SetParametersAtomically_Response,
+            decode_rcl_interfaces__srv__SetParametersAtomically_Response,
             encode_rcl_interfaces__srv__SetParametersAtomically_Response,
         ),
         "rcl_interfaces/srv/SetParametersAtomically_Event": (
-            decode_dict_rcl_interfaces__srv__SetParametersAtomically_Event,
-            decode_view_rcl_interfaces__srv__SetParametersAtomically_Event,
+            decode_rcl_interfaces__srv__SetParametersAtomically_Event,
             encode_rcl_interfaces__srv__SetParametersAtomically_Event,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

@@ -4,7 +4,8 @@
 #     RIHS01_692f7a66e93a3c83e71765d033b60349ba68023a8c689a79e48078bcb5c58564
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -120,14 +121,12 @@ def make_rosgraph_msgs__msg__Clock(a0: Any) -> rosgraph_msgs__msg__Clock:
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_iI = Struct(E + "iI")
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -138,22 +137,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -185,9 +171,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_rosgraph_msgs__msg__Clock(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_rosgraph_msgs__msg__Clock(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -198,22 +182,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_rosgraph_msgs__msg__Clock(make_builtin_interfaces__msg__Time(v2, v3)), pos
         return {"clock": {"sec": v2, "nanosec": v3}}, pos
-
-    def decode_view_rosgraph_msgs__msg__Clock(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_rosgraph_msgs__msg__Clock_0
-            v2, v3 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_rosgraph_msgs__msg__Clock(make_builtin_interfaces__msg__Time(v2, v3)), pos
 
     def encode_rosgraph_msgs__msg__Clock(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -251,17 +222,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
         "rosgraph_msgs/msg/Clock": (
-            decode_dict_rosgraph_msgs__msg__Clock,
-            decode_view_rosgraph_msgs__msg__Clock,
+            decode_rosgraph_msgs__msg__Clock,
             encode_rosgraph_msgs__msg__Clock,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

@@ -62,7 +62,8 @@
 #     RIHS01_e3b4e21ddd26871166e6ae7f342856dfcd3ac033c7eac99db6bfe515fba3d693
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -2203,8 +2204,8 @@ def make_sensor_msgs__srv__SetCameraInfo_Event(
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_2B = Struct(E + "2B")
     _S_2I = Struct(E + "2I")
@@ -2236,9 +2237,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _D_int32 = np.dtype("int32").newbyteorder(E)
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -2249,22 +2248,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2296,7 +2282,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -2312,25 +2298,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
         return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def decode_view_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
 
     def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2371,13 +2341,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__BatteryState(
+    def decode_sensor_msgs__msg__BatteryState(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_sensor_msgs__msg__BatteryState_0
             v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v13, v16 = _S_7f3BTI.unpack_from(mv, pos)
@@ -2416,6 +2386,10 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__BatteryState(
+                v1, v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v13, v17, v21, v24, v27
+            ), pos
         return {
             "header": v1,
             "voltage": v2,
@@ -2434,55 +2408,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "location": v24,
             "serial_number": v27,
         }, pos
-
-    def decode_view_sensor_msgs__msg__BatteryState(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__BatteryState_0
-            v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v13, v16 = _S_7f3BTI.unpack_from(mv, pos)
-            pos += 36
-            f = ".cell_voltage"
-            if v16 * 4 > lim - pos:
-                raise too_long(v16, 4, lim - pos)
-            v17 = _frombuffer(mv, _D_float32, v16, pos)
-            pos += v16 * 4
-            f = _R_sensor_msgs__msg__BatteryState_1
-            (v20,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".cell_temperature"
-            if v20 * 4 > lim - pos:
-                raise too_long(v20, 4, lim - pos)
-            v21 = _frombuffer(mv, _D_float32, v20, pos)
-            pos += v20 * 4
-            f = _R_sensor_msgs__msg__BatteryState_2
-            (v23,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".location"
-            if v23 > lim - pos:
-                raise too_long(v23, 1, lim - pos)
-            v24 = mv[pos : pos + v23 - 1].tobytes().decode()
-            pos += v23
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__BatteryState_3
-            (v26,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".serial_number"
-            if v26 > lim - pos:
-                raise too_long(v26, 1, lim - pos)
-            v27 = mv[pos : pos + v26 - 1].tobytes().decode()
-            pos += v26
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__BatteryState(
-            v1, v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v13, v17, v21, v24, v27
-        ), pos
 
     def encode_sensor_msgs__msg__BatteryState(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2589,7 +2514,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__RegionOfInterest(
+    def decode_sensor_msgs__msg__RegionOfInterest(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2602,22 +2527,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__RegionOfInterest(v1, v2, v3, v4, v6), pos
         return {"x_offset": v1, "y_offset": v2, "height": v3, "width": v4, "do_rectify": v6}, pos
-
-    def decode_view_sensor_msgs__msg__RegionOfInterest(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__RegionOfInterest_0
-            v1, v2, v3, v4, v6 = _S_4IT.unpack_from(mv, pos)
-            pos += 17
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__RegionOfInterest(v1, v2, v3, v4, v6), pos
 
     def encode_sensor_msgs__msg__RegionOfInterest(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2668,13 +2580,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__CameraInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__CameraInfo(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_sensor_msgs__msg__CameraInfo_0
             v2, v3, v5 = _S_3I.unpack_from(mv, pos)
@@ -2718,6 +2628,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__CameraInfo(
+                v1,
+                v2,
+                v3,
+                v6,
+                v10,
+                v13,
+                v16,
+                v19,
+                v20,
+                v21,
+                make_sensor_msgs__msg__RegionOfInterest(v23, v24, v25, v26, v28),
+            ), pos
         return {
             "header": v1,
             "height": v2,
@@ -2737,70 +2661,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "do_rectify": v28,
             },
         }, pos
-
-    def decode_view_sensor_msgs__msg__CameraInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__CameraInfo_0
-            v2, v3, v5 = _S_3I.unpack_from(mv, pos)
-            pos += 12
-            f = ".distortion_model"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__CameraInfo_1
-            (v9,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".d"
-            if v9:
-                pos = (pos + 7) & -8
-            if v9 * 8 > lim - pos:
-                raise too_long(v9, 8, lim - pos)
-            v10 = _frombuffer(mv, _D_float64, v9, pos)
-            pos += v9 * 8
-            f = ".k"
-            pos = (pos + 7) & -8
-            if 9 * 8 > lim - pos:
-                raise too_long(9, 8, lim - pos)
-            v13 = _frombuffer(mv, _D_float64, 9, pos)
-            pos += 9 * 8
-            f = ".r"
-            if 9 * 8 > lim - pos:
-                raise too_long(9, 8, lim - pos)
-            v16 = _frombuffer(mv, _D_float64, 9, pos)
-            pos += 9 * 8
-            f = ".p"
-            if 12 * 8 > lim - pos:
-                raise too_long(12, 8, lim - pos)
-            v19 = _frombuffer(mv, _D_float64, 12, pos)
-            pos += 12 * 8
-            f = _R_sensor_msgs__msg__CameraInfo_2
-            v20, v21, v23, v24, v25, v26, v28 = _S_6IT.unpack_from(mv, pos)
-            pos += 25
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__CameraInfo(
-            v1,
-            v2,
-            v3,
-            v6,
-            v10,
-            v13,
-            v16,
-            v19,
-            v20,
-            v21,
-            make_sensor_msgs__msg__RegionOfInterest(v23, v24, v25, v26, v28),
-        ), pos
 
     def encode_sensor_msgs__msg__CameraInfo(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2918,7 +2778,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__ChannelFloat32(
+    def decode_sensor_msgs__msg__ChannelFloat32(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2945,36 +2805,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__ChannelFloat32(v3, v7), pos
         return {"name": v3, "values": v7}, pos
-
-    def decode_view_sensor_msgs__msg__ChannelFloat32(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__ChannelFloat32_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".name"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__ChannelFloat32_1
-            (v6,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".values"
-            if v6 * 4 > lim - pos:
-                raise too_long(v6, 4, lim - pos)
-            v7 = _frombuffer(mv, _D_float32, v6, pos)
-            pos += v6 * 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__ChannelFloat32(v3, v7), pos
 
     def encode_sensor_msgs__msg__ChannelFloat32(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3015,13 +2848,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__CompressedImage(
+    def decode_sensor_msgs__msg__CompressedImage(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_sensor_msgs__msg__CompressedImage_0
             (v3,) = _S_I.unpack_from(mv, pos)
@@ -3044,38 +2877,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__CompressedImage(v1, v4, v8), pos
         return {"header": v1, "format": v4, "data": v8}, pos
-
-    def decode_view_sensor_msgs__msg__CompressedImage(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__CompressedImage_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".format"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__CompressedImage_1
-            (v7,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v7 * 1 > lim - pos:
-                raise too_long(v7, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, v7, pos)
-            pos += v7 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__CompressedImage(v1, v4, v8), pos
 
     def encode_sensor_msgs__msg__CompressedImage(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3118,13 +2922,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__FluidPressure(
+    def decode_sensor_msgs__msg__FluidPressure(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_sensor_msgs__msg__FluidPressure_0
             v2, v3 = _S_2d.unpack_from(mv, pos)
@@ -3133,24 +2937,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__FluidPressure(v1, v2, v3), pos
         return {"header": v1, "fluid_pressure": v2, "variance": v3}, pos
-
-    def decode_view_sensor_msgs__msg__FluidPressure(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_sensor_msgs__msg__FluidPressure_0
-            v2, v3 = _S_2d.unpack_from(mv, pos)
-            pos += 16
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__FluidPressure(v1, v2, v3), pos
 
     def encode_sensor_msgs__msg__FluidPressure(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3184,13 +2973,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__Illuminance(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__Illuminance(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_sensor_msgs__msg__Illuminance_0
             v2, v3 = _S_2d.unpack_from(mv, pos)
@@ -3199,24 +2986,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__Illuminance(v1, v2, v3), pos
         return {"header": v1, "illuminance": v2, "variance": v3}, pos
-
-    def decode_view_sensor_msgs__msg__Illuminance(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_sensor_msgs__msg__Illuminance_0
-            v2, v3 = _S_2d.unpack_from(mv, pos)
-            pos += 16
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__Illuminance(v1, v2, v3), pos
 
     def encode_sensor_msgs__msg__Illuminance(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3250,11 +3022,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__Image(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__Image(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_sensor_msgs__msg__Image_0
             v2, v3, v5 = _S_3I.unpack_from(mv, pos)
@@ -3280,6 +3052,8 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__Image(v1, v2, v3, v6, v7, v8, v12), pos
         return {
             "header": v1,
             "height": v2,
@@ -3289,38 +3063,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "step": v8,
             "data": v12,
         }, pos
-
-    def decode_view_sensor_msgs__msg__Image(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__Image_0
-            v2, v3, v5 = _S_3I.unpack_from(mv, pos)
-            pos += 12
-            f = ".encoding"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-            f = _R_sensor_msgs__msg__Image_1
-            (v7,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__Image_2
-            v8, v11 = _S_2I.unpack_from(mv, pos)
-            pos += 8
-            f = ".data"
-            if v11 * 1 > lim - pos:
-                raise too_long(v11, 1, lim - pos)
-            v12 = _frombuffer(mv, _D_uint8, v11, pos)
-            pos += v11 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__Image(v1, v2, v3, v6, v7, v8, v12), pos
 
     def encode_sensor_msgs__msg__Image(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3390,7 +3132,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Quaternion(
+    def decode_geometry_msgs__msg__Quaternion(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -3403,22 +3145,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
         return {"x": v1, "y": v2, "z": v3, "w": v4}, pos
-
-    def decode_view_geometry_msgs__msg__Quaternion(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Quaternion_0
-            v1, v2, v3, v4 = _S_4d.unpack_from(mv, pos)
-            pos += 32
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
 
     def encode_geometry_msgs__msg__Quaternion(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3454,9 +3183,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Vector3(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Vector3(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -3467,22 +3194,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
-
-    def decode_view_geometry_msgs__msg__Vector3(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Vector3_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
 
     def encode_geometry_msgs__msg__Vector3(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3515,11 +3229,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__Imu(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__Imu(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_sensor_msgs__msg__Imu_0
             v3, v4, v5, v6 = _S_4d.unpack_from(mv, pos)
@@ -3549,6 +3263,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__Imu(
+                v1,
+                make_geometry_msgs__msg__Quaternion(v3, v4, v5, v6),
+                v9,
+                make_geometry_msgs__msg__Vector3(v11, v12, v13),
+                v16,
+                make_geometry_msgs__msg__Vector3(v18, v19, v20),
+                v23,
+            ), pos
         return {
             "header": v1,
             "orientation": {"x": v3, "y": v4, "z": v5, "w": v6},
@@ -3558,50 +3282,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "linear_acceleration": {"x": v18, "y": v19, "z": v20},
             "linear_acceleration_covariance": v23,
         }, pos
-
-    def decode_view_sensor_msgs__msg__Imu(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_sensor_msgs__msg__Imu_0
-            v3, v4, v5, v6 = _S_4d.unpack_from(mv, pos)
-            pos += 32
-            f = ".orientation_covariance"
-            if 9 * 8 > lim - pos:
-                raise too_long(9, 8, lim - pos)
-            v9 = _frombuffer(mv, _D_float64, 9, pos)
-            pos += 9 * 8
-            f = _R_sensor_msgs__msg__Imu_1
-            v11, v12, v13 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-            f = ".angular_velocity_covariance"
-            if 9 * 8 > lim - pos:
-                raise too_long(9, 8, lim - pos)
-            v16 = _frombuffer(mv, _D_float64, 9, pos)
-            pos += 9 * 8
-            f = _R_sensor_msgs__msg__Imu_2
-            v18, v19, v20 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-            f = ".linear_acceleration_covariance"
-            if 9 * 8 > lim - pos:
-                raise too_long(9, 8, lim - pos)
-            v23 = _frombuffer(mv, _D_float64, 9, pos)
-            pos += 9 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__Imu(
-            v1,
-            make_geometry_msgs__msg__Quaternion(v3, v4, v5, v6),
-            v9,
-            make_geometry_msgs__msg__Vector3(v11, v12, v13),
-            v16,
-            make_geometry_msgs__msg__Vector3(v18, v19, v20),
-            v23,
-        ), pos
 
     def encode_sensor_msgs__msg__Imu(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3703,13 +3383,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__JointState(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__JointState(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = ".name"
             v2, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
             pos = (pos + 3) & -4
@@ -3747,53 +3425,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__JointState(v1, v2, v6, v10, v14), pos
         return {"header": v1, "name": v2, "position": v6, "velocity": v10, "effort": v14}, pos
-
-    def decode_view_sensor_msgs__msg__JointState(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = ".name"
-            v2, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__JointState_0
-            (v5,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".position"
-            if v5:
-                pos = (pos + 7) & -8
-            if v5 * 8 > lim - pos:
-                raise too_long(v5, 8, lim - pos)
-            v6 = _frombuffer(mv, _D_float64, v5, pos)
-            pos += v5 * 8
-            f = _R_sensor_msgs__msg__JointState_1
-            (v9,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".velocity"
-            if v9:
-                pos = (pos + 7) & -8
-            if v9 * 8 > lim - pos:
-                raise too_long(v9, 8, lim - pos)
-            v10 = _frombuffer(mv, _D_float64, v9, pos)
-            pos += v9 * 8
-            f = _R_sensor_msgs__msg__JointState_2
-            (v13,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".effort"
-            if v13:
-                pos = (pos + 7) & -8
-            if v13 * 8 > lim - pos:
-                raise too_long(v13, 8, lim - pos)
-            v14 = _frombuffer(mv, _D_float64, v13, pos)
-            pos += v13 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__JointState(v1, v2, v6, v10, v14), pos
 
     def encode_sensor_msgs__msg__JointState(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3859,11 +3493,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__Joy(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__Joy(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_sensor_msgs__msg__Joy_0
             (v4,) = _S_I.unpack_from(mv, pos)
@@ -3885,35 +3519,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__Joy(v1, v5, v9), pos
         return {"header": v1, "axes": v5, "buttons": v9}, pos
-
-    def decode_view_sensor_msgs__msg__Joy(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__Joy_0
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".axes"
-            if v4 * 4 > lim - pos:
-                raise too_long(v4, 4, lim - pos)
-            v5 = _frombuffer(mv, _D_float32, v4, pos)
-            pos += v4 * 4
-            f = _R_sensor_msgs__msg__Joy_1
-            (v8,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".buttons"
-            if v8 * 4 > lim - pos:
-                raise too_long(v8, 4, lim - pos)
-            v9 = _frombuffer(mv, _D_int32, v8, pos)
-            pos += v8 * 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__Joy(v1, v5, v9), pos
 
     def encode_sensor_msgs__msg__Joy(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3952,9 +3560,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__JoyFeedback(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__JoyFeedback(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_sensor_msgs__msg__JoyFeedback_0
@@ -3968,25 +3574,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__JoyFeedback(v1, v2, v3), pos
         return {"type": v1, "id": v2, "intensity": v3}, pos
-
-    def decode_view_sensor_msgs__msg__JoyFeedback(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_sensor_msgs__msg__JoyFeedback_0
-            v1, v2 = _S_2B.unpack_from(mv, pos)
-            pos += 2
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__JoyFeedback_1
-            (v3,) = _S_f.unpack_from(mv, pos)
-            pos += 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__JoyFeedback(v1, v2, v3), pos
 
     def encode_sensor_msgs__msg__JoyFeedback(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4026,35 +3616,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__JoyFeedbackArray(
+    def decode_sensor_msgs__msg__JoyFeedbackArray(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".array"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_sensor_msgs__msg__JoyFeedback, None, None, 6
+                mv, pos, lim, _U32, decode_sensor_msgs__msg__JoyFeedback, None, None, 6
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__JoyFeedbackArray(v1), pos
         return {"array": v1}, pos
-
-    def decode_view_sensor_msgs__msg__JoyFeedbackArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".array"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_sensor_msgs__msg__JoyFeedback, None, None, 6
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__JoyFeedbackArray(v1), pos
 
     def encode_sensor_msgs__msg__JoyFeedbackArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4077,9 +3654,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__LaserEcho(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__LaserEcho(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -4095,27 +3670,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__LaserEcho(v4), pos
         return {"echoes": v4}, pos
-
-    def decode_view_sensor_msgs__msg__LaserEcho(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__LaserEcho_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".echoes"
-            if v3 * 4 > lim - pos:
-                raise too_long(v3, 4, lim - pos)
-            v4 = _frombuffer(mv, _D_float32, v3, pos)
-            pos += v3 * 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__LaserEcho(v4), pos
 
     def encode_sensor_msgs__msg__LaserEcho(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4142,13 +3699,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__LaserScan(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__LaserScan(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_sensor_msgs__msg__LaserScan_0
             v2, v3, v4, v5, v6, v7, v8, v11 = _S_7fI.unpack_from(mv, pos)
@@ -4170,6 +3725,8 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__LaserScan(v1, v2, v3, v4, v5, v6, v7, v8, v12, v16), pos
         return {
             "header": v1,
             "angle_min": v2,
@@ -4182,36 +3739,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "ranges": v12,
             "intensities": v16,
         }, pos
-
-    def decode_view_sensor_msgs__msg__LaserScan(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__LaserScan_0
-            v2, v3, v4, v5, v6, v7, v8, v11 = _S_7fI.unpack_from(mv, pos)
-            pos += 32
-            f = ".ranges"
-            if v11 * 4 > lim - pos:
-                raise too_long(v11, 4, lim - pos)
-            v12 = _frombuffer(mv, _D_float32, v11, pos)
-            pos += v11 * 4
-            f = _R_sensor_msgs__msg__LaserScan_1
-            (v15,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".intensities"
-            if v15 * 4 > lim - pos:
-                raise too_long(v15, 4, lim - pos)
-            v16 = _frombuffer(mv, _D_float32, v15, pos)
-            pos += v15 * 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__LaserScan(v1, v2, v3, v4, v5, v6, v7, v8, v12, v16), pos
 
     def encode_sensor_msgs__msg__LaserScan(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4276,13 +3803,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__MagneticField(
+    def decode_sensor_msgs__msg__MagneticField(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_sensor_msgs__msg__MagneticField_0
             v3, v4, v5 = _S_3d.unpack_from(mv, pos)
@@ -4296,35 +3823,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__MagneticField(
+                v1, make_geometry_msgs__msg__Vector3(v3, v4, v5), v8
+            ), pos
         return {
             "header": v1,
             "magnetic_field": {"x": v3, "y": v4, "z": v5},
             "magnetic_field_covariance": v8,
         }, pos
-
-    def decode_view_sensor_msgs__msg__MagneticField(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_sensor_msgs__msg__MagneticField_0
-            v3, v4, v5 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-            f = ".magnetic_field_covariance"
-            if 9 * 8 > lim - pos:
-                raise too_long(9, 8, lim - pos)
-            v8 = _frombuffer(mv, _D_float64, 9, pos)
-            pos += 9 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__MagneticField(
-            v1, make_geometry_msgs__msg__Vector3(v3, v4, v5), v8
-        ), pos
 
     def encode_sensor_msgs__msg__MagneticField(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4369,9 +3876,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Transform(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Transform(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -4382,28 +3887,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Transform(
+                make_geometry_msgs__msg__Vector3(v2, v3, v4),
+                make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
+            ), pos
         return {
             "translation": {"x": v2, "y": v3, "z": v4},
             "rotation": {"x": v6, "y": v7, "z": v8, "w": v9},
         }, pos
-
-    def decode_view_geometry_msgs__msg__Transform(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Transform_0
-            v2, v3, v4, v6, v7, v8, v9 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Transform(
-            make_geometry_msgs__msg__Vector3(v2, v3, v4),
-            make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
-        ), pos
 
     def encode_geometry_msgs__msg__Transform(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4458,9 +3950,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Twist(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Twist(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -4471,25 +3961,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Twist(
+                make_geometry_msgs__msg__Vector3(v2, v3, v4),
+                make_geometry_msgs__msg__Vector3(v6, v7, v8),
+            ), pos
         return {"linear": {"x": v2, "y": v3, "z": v4}, "angular": {"x": v6, "y": v7, "z": v8}}, pos
-
-    def decode_view_geometry_msgs__msg__Twist(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Twist_0
-            v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Twist(
-            make_geometry_msgs__msg__Vector3(v2, v3, v4),
-            make_geometry_msgs__msg__Vector3(v6, v7, v8),
-        ), pos
 
     def encode_geometry_msgs__msg__Twist(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4542,9 +4019,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Wrench(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Wrench(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -4555,25 +4030,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Wrench(
+                make_geometry_msgs__msg__Vector3(v2, v3, v4),
+                make_geometry_msgs__msg__Vector3(v6, v7, v8),
+            ), pos
         return {"force": {"x": v2, "y": v3, "z": v4}, "torque": {"x": v6, "y": v7, "z": v8}}, pos
-
-    def decode_view_geometry_msgs__msg__Wrench(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Wrench_0
-            v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Wrench(
-            make_geometry_msgs__msg__Vector3(v2, v3, v4),
-            make_geometry_msgs__msg__Vector3(v6, v7, v8),
-        ), pos
 
     def encode_geometry_msgs__msg__Wrench(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4626,59 +4088,34 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__MultiDOFJointState(
+    def decode_sensor_msgs__msg__MultiDOFJointState(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = ".joint_names"
             v2, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
             f = ".transforms"
             v3, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Transform, None, None, 56
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__Transform, None, None, 56
             )
             f = ".twist"
             v4, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Twist, None, None, 48
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__Twist, None, None, 48
             )
             f = ".wrench"
             v5, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Wrench, None, None, 48
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__Wrench, None, None, 48
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__MultiDOFJointState(v1, v2, v3, v4, v5), pos
         return {"header": v1, "joint_names": v2, "transforms": v3, "twist": v4, "wrench": v5}, pos
-
-    def decode_view_sensor_msgs__msg__MultiDOFJointState(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = ".joint_names"
-            v2, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-            f = ".transforms"
-            v3, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Transform, None, None, 56
-            )
-            f = ".twist"
-            v4, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Twist, None, None, 48
-            )
-            f = ".wrench"
-            v5, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Wrench, None, None, 48
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__MultiDOFJointState(v1, v2, v3, v4, v5), pos
 
     def encode_sensor_msgs__msg__MultiDOFJointState(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4713,29 +4150,33 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__MultiEchoLaserScan(
+    def decode_sensor_msgs__msg__MultiEchoLaserScan(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_sensor_msgs__msg__MultiEchoLaserScan_0
             v2, v3, v4, v5, v6, v7, v8 = _S_7f.unpack_from(mv, pos)
             pos += 28
             f = ".ranges"
             v9, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_sensor_msgs__msg__LaserEcho, None, None, 4
+                mv, pos, lim, _U32, decode_sensor_msgs__msg__LaserEcho, None, None, 4
             )
             f = ".intensities"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_sensor_msgs__msg__LaserEcho, None, None, 4
+                mv, pos, lim, _U32, decode_sensor_msgs__msg__LaserEcho, None, None, 4
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__MultiEchoLaserScan(
+                v1, v2, v3, v4, v5, v6, v7, v8, v9, v10
+            ), pos
         return {
             "header": v1,
             "angle_min": v2,
@@ -4748,33 +4189,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "ranges": v9,
             "intensities": v10,
         }, pos
-
-    def decode_view_sensor_msgs__msg__MultiEchoLaserScan(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__MultiEchoLaserScan_0
-            v2, v3, v4, v5, v6, v7, v8 = _S_7f.unpack_from(mv, pos)
-            pos += 28
-            f = ".ranges"
-            v9, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_sensor_msgs__msg__LaserEcho, None, None, 4
-            )
-            f = ".intensities"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_sensor_msgs__msg__LaserEcho, None, None, 4
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__MultiEchoLaserScan(
-            v1, v2, v3, v4, v5, v6, v7, v8, v9, v10
-        ), pos
 
     def encode_sensor_msgs__msg__MultiEchoLaserScan(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4837,7 +4251,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__NavSatStatus(
+    def decode_sensor_msgs__msg__NavSatStatus(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4853,25 +4267,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__NavSatStatus(v1, v2), pos
         return {"status": v1, "service": v2}, pos
-
-    def decode_view_sensor_msgs__msg__NavSatStatus(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_sensor_msgs__msg__NavSatStatus_0
-            (v1,) = _S_b.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 1) & -2
-            f = _R_sensor_msgs__msg__NavSatStatus_1
-            (v2,) = _S_H.unpack_from(mv, pos)
-            pos += 2
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__NavSatStatus(v1, v2), pos
 
     def encode_sensor_msgs__msg__NavSatStatus(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4904,13 +4302,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__NavSatFix(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__NavSatFix(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = _R_sensor_msgs__msg__NavSatFix_0
             (v3,) = _S_b.unpack_from(mv, pos)
             pos += 1
@@ -4934,6 +4330,10 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__NavSatFix(
+                v1, make_sensor_msgs__msg__NavSatStatus(v3, v4), v5, v6, v7, v10, v11
+            ), pos
         return {
             "header": v1,
             "status": {"status": v3, "service": v4},
@@ -4943,40 +4343,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "position_covariance": v10,
             "position_covariance_type": v11,
         }, pos
-
-    def decode_view_sensor_msgs__msg__NavSatFix(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = _R_sensor_msgs__msg__NavSatFix_0
-            (v3,) = _S_b.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 1) & -2
-            f = _R_sensor_msgs__msg__NavSatFix_1
-            (v4,) = _S_H.unpack_from(mv, pos)
-            pos += 2
-            pos = (pos + 7) & -8
-            f = _R_sensor_msgs__msg__NavSatFix_2
-            v5, v6, v7 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-            f = ".position_covariance"
-            if 9 * 8 > lim - pos:
-                raise too_long(9, 8, lim - pos)
-            v10 = _frombuffer(mv, _D_float64, 9, pos)
-            pos += 9 * 8
-            f = _R_sensor_msgs__msg__NavSatFix_3
-            (v11,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__NavSatFix(
-            v1, make_sensor_msgs__msg__NavSatStatus(v3, v4), v5, v6, v7, v10, v11
-        ), pos
 
     def encode_sensor_msgs__msg__NavSatFix(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5057,9 +4423,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Point32(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Point32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -5070,22 +4434,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Point32(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
-
-    def decode_view_geometry_msgs__msg__Point32(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_geometry_msgs__msg__Point32_0
-            v1, v2, v3 = _S_3f.unpack_from(mv, pos)
-            pos += 12
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Point32(v1, v2, v3), pos
 
     def encode_geometry_msgs__msg__Point32(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5118,47 +4469,26 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__PointCloud(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__PointCloud(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = ".points"
             v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Point32, None, None, 12
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__Point32, None, None, 12
             )
             f = ".channels"
             v3, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_sensor_msgs__msg__ChannelFloat32, None, None, 8
+                mv, pos, lim, _U32, decode_sensor_msgs__msg__ChannelFloat32, None, None, 8
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__PointCloud(v1, v2, v3), pos
         return {"header": v1, "points": v2, "channels": v3}, pos
-
-    def decode_view_sensor_msgs__msg__PointCloud(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = ".points"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Point32, None, None, 12
-            )
-            f = ".channels"
-            v3, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_sensor_msgs__msg__ChannelFloat32, None, None, 8
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__PointCloud(v1, v2, v3), pos
 
     def encode_sensor_msgs__msg__PointCloud(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5187,9 +4517,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__PointField(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__PointField(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -5209,31 +4537,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__PointField(v3, v4, v5, v6), pos
         return {"name": v3, "offset": v4, "datatype": v5, "count": v6}, pos
-
-    def decode_view_sensor_msgs__msg__PointField(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__PointField_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".name"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__PointField_1
-            v4, v5, v6 = _S_IB3xI.unpack_from(mv, pos)
-            pos += 12
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__PointField(v3, v4, v5, v6), pos
 
     def encode_sensor_msgs__msg__PointField(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5282,20 +4588,18 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__PointCloud2(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__PointCloud2(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_sensor_msgs__msg__PointCloud2_0
             v2, v3 = _S_2I.unpack_from(mv, pos)
             pos += 8
             f = ".fields"
             v4, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_sensor_msgs__msg__PointField, None, None, 13
+                mv, pos, lim, _U32, decode_sensor_msgs__msg__PointField, None, None, 13
             )
             f = _R_sensor_msgs__msg__PointCloud2_1
             (v6,) = _S_T.unpack_from(mv, pos)
@@ -5316,6 +4620,8 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__PointCloud2(v1, v2, v3, v4, v6, v7, v8, v12, v14), pos
         return {
             "header": v1,
             "height": v2,
@@ -5327,42 +4633,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "data": v12,
             "is_dense": v14,
         }, pos
-
-    def decode_view_sensor_msgs__msg__PointCloud2(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__PointCloud2_0
-            v2, v3 = _S_2I.unpack_from(mv, pos)
-            pos += 8
-            f = ".fields"
-            v4, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_sensor_msgs__msg__PointField, None, None, 13
-            )
-            f = _R_sensor_msgs__msg__PointCloud2_1
-            (v6,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__PointCloud2_2
-            v7, v8, v11 = _S_3I.unpack_from(mv, pos)
-            pos += 12
-            f = ".data"
-            if v11 * 1 > lim - pos:
-                raise too_long(v11, 1, lim - pos)
-            v12 = _frombuffer(mv, _D_uint8, v11, pos)
-            pos += v11 * 1
-            f = _R_sensor_msgs__msg__PointCloud2_3
-            (v14,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__PointCloud2(v1, v2, v3, v4, v6, v7, v8, v12, v14), pos
 
     def encode_sensor_msgs__msg__PointCloud2(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5482,11 +4752,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__Range(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__Range(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = _R_sensor_msgs__msg__Range_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
@@ -5498,6 +4768,8 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__Range(v1, v2, v3, v4, v5, v6, v7), pos
         return {
             "header": v1,
             "radiation_type": v2,
@@ -5507,24 +4779,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "range": v6,
             "variance": v7,
         }, pos
-
-    def decode_view_sensor_msgs__msg__Range(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = _R_sensor_msgs__msg__Range_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__Range_1
-            v3, v4, v5, v6, v7 = _S_5f.unpack_from(mv, pos)
-            pos += 20
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__Range(v1, v2, v3, v4, v5, v6, v7), pos
 
     def encode_sensor_msgs__msg__Range(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5577,13 +4831,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__RelativeHumidity(
+    def decode_sensor_msgs__msg__RelativeHumidity(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_sensor_msgs__msg__RelativeHumidity_0
             v2, v3 = _S_2d.unpack_from(mv, pos)
@@ -5592,24 +4846,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__RelativeHumidity(v1, v2, v3), pos
         return {"header": v1, "relative_humidity": v2, "variance": v3}, pos
-
-    def decode_view_sensor_msgs__msg__RelativeHumidity(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_sensor_msgs__msg__RelativeHumidity_0
-            v2, v3 = _S_2d.unpack_from(mv, pos)
-            pos += 16
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__RelativeHumidity(v1, v2, v3), pos
 
     def encode_sensor_msgs__msg__RelativeHumidity(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5643,13 +4882,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__Temperature(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__Temperature(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_sensor_msgs__msg__Temperature_0
             v2, v3 = _S_2d.unpack_from(mv, pos)
@@ -5658,24 +4895,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__Temperature(v1, v2, v3), pos
         return {"header": v1, "temperature": v2, "variance": v3}, pos
-
-    def decode_view_sensor_msgs__msg__Temperature(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_sensor_msgs__msg__Temperature_0
-            v2, v3 = _S_2d.unpack_from(mv, pos)
-            pos += 16
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__Temperature(v1, v2, v3), pos
 
     def encode_sensor_msgs__msg__Temperature(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5709,13 +4931,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__TimeReference(
+    def decode_sensor_msgs__msg__TimeReference(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_sensor_msgs__msg__TimeReference_0
             v3, v4, v6 = _S_i2I.unpack_from(mv, pos)
@@ -5729,31 +4951,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__TimeReference(
+                v1, make_builtin_interfaces__msg__Time(v3, v4), v7
+            ), pos
         return {"header": v1, "time_ref": {"sec": v3, "nanosec": v4}, "source": v7}, pos
-
-    def decode_view_sensor_msgs__msg__TimeReference(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__TimeReference_0
-            v3, v4, v6 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".source"
-            if v6 > lim - pos:
-                raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
-            pos += v6
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__TimeReference(
-            v1, make_builtin_interfaces__msg__Time(v3, v4), v7
-        ), pos
 
     def encode_sensor_msgs__msg__TimeReference(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5796,31 +4998,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__srv__SetCameraInfo_Request(
+    def decode_sensor_msgs__srv__SetCameraInfo_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".camera_info"
-            v1, pos = decode_dict_sensor_msgs__msg__CameraInfo(mv, pos, lim)
+            v1, pos = decode_sensor_msgs__msg__CameraInfo(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__srv__SetCameraInfo_Request(v1), pos
         return {"camera_info": v1}, pos
-
-    def decode_view_sensor_msgs__srv__SetCameraInfo_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".camera_info"
-            v1, pos = decode_view_sensor_msgs__msg__CameraInfo(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__srv__SetCameraInfo_Request(v1), pos
 
     def encode_sensor_msgs__srv__SetCameraInfo_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5837,7 +5028,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__srv__SetCameraInfo_Response(
+    def decode_sensor_msgs__srv__SetCameraInfo_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -5858,30 +5049,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__srv__SetCameraInfo_Response(v2, v5), pos
         return {"success": v2, "status_message": v5}, pos
-
-    def decode_view_sensor_msgs__srv__SetCameraInfo_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_sensor_msgs__srv__SetCameraInfo_Response_0
-            (v2,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__srv__SetCameraInfo_Response_1
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".status_message"
-            if v4 > lim - pos:
-                raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
-            pos += v4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__srv__SetCameraInfo_Response(v2, v5), pos
 
     def encode_sensor_msgs__srv__SetCameraInfo_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5939,7 +5109,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_service_msgs__msg__ServiceEventInfo(
+    def decode_service_msgs__msg__ServiceEventInfo(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -5964,41 +5134,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_service_msgs__msg__ServiceEventInfo(
+                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
+            ), pos
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
             "client_gid": v7,
             "sequence_number": v8,
         }, pos
-
-    def decode_view_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_service_msgs__msg__ServiceEventInfo(
-            v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-        ), pos
 
     def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -6064,7 +5209,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__srv__SetCameraInfo_Event(
+    def decode_sensor_msgs__srv__SetCameraInfo_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -6087,23 +5232,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_sensor_msgs__srv__SetCameraInfo_Request,
-                None,
-                1,
-                293,
+                mv, pos, lim, _U32, decode_sensor_msgs__srv__SetCameraInfo_Request, None, 1, 293
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_sensor_msgs__srv__SetCameraInfo_Response, None, 1, 5
+                mv, pos, lim, _U32, decode_sensor_msgs__srv__SetCameraInfo_Response, None, 1, 5
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__srv__SetCameraInfo_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -6114,54 +5260,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_sensor_msgs__srv__SetCameraInfo_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_sensor_msgs__srv__SetCameraInfo_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__srv__SetCameraInfo_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_sensor_msgs__srv__SetCameraInfo_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_sensor_msgs__srv__SetCameraInfo_Request,
-                None,
-                1,
-                293,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_sensor_msgs__srv__SetCameraInfo_Response, None, 1, 5
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__srv__SetCameraInfo_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_sensor_msgs__srv__SetCameraInfo_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -6257,202 +5355,153 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
-        "std_msgs/msg/Header": (
-            decode_dict_std_msgs__msg__Header,
-            decode_view_std_msgs__msg__Header,
-            encode_std_msgs__msg__Header,
-        ),
+        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
         "sensor_msgs/msg/BatteryState": (
-            decode_dict_sensor_msgs__msg__BatteryState,
-            decode_view_sensor_msgs__msg__BatteryState,
+            decode_sensor_msgs__msg__BatteryState,
             encode_sensor_msgs__msg__BatteryState,
         ),
         "sensor_msgs/msg/RegionOfInterest": (
-            decode_dict_sensor_msgs__msg__RegionOfInterest,
-            decode_view_sensor_msgs__msg__RegionOfInterest,
+            decode_sensor_msgs__msg__RegionOfInterest,
             encode_sensor_msgs__msg__RegionOfInterest,
         ),
         "sensor_msgs/msg/CameraInfo": (
-            decode_dict_sensor_msgs__msg__CameraInfo,
-            decode_view_sensor_msgs__msg__CameraInfo,
+            decode_sensor_msgs__msg__CameraInfo,
             encode_sensor_msgs__msg__CameraInfo,
         ),
         "sensor_msgs/msg/ChannelFloat32": (
-            decode_dict_sensor_msgs__msg__ChannelFloat32,
-            decode_view_sensor_msgs__msg__ChannelFloat32,
+            decode_sensor_msgs__msg__ChannelFloat32,
             encode_sensor_msgs__msg__ChannelFloat32,
         ),
         "sensor_msgs/msg/CompressedImage": (
-            decode_dict_sensor_msgs__msg__CompressedImage,
-            decode_view_sensor_msgs__msg__CompressedImage,
+            decode_sensor_msgs__msg__CompressedImage,
             encode_sensor_msgs__msg__CompressedImage,
         ),
         "sensor_msgs/msg/FluidPressure": (
-            decode_dict_sensor_msgs__msg__FluidPressure,
-            decode_view_sensor_msgs__msg__FluidPressure,
+            decode_sensor_msgs__msg__FluidPressure,
             encode_sensor_msgs__msg__FluidPressure,
         ),
         "sensor_msgs/msg/Illuminance": (
-            decode_dict_sensor_msgs__msg__Illuminance,
-            decode_view_sensor_msgs__msg__Illuminance,
+            decode_sensor_msgs__msg__Illuminance,
             encode_sensor_msgs__msg__Illuminance,
         ),
-        "sensor_msgs/msg/Image": (
-            decode_dict_sensor_msgs__msg__Image,
-            decode_view_sensor_msgs__msg__Image,
-            encode_sensor_msgs__msg__Image,
-        ),
+        "sensor_msgs/msg/Image": (decode_sensor_msgs__msg__Image, encode_sensor_msgs__msg__Image),
         "geometry_msgs/msg/Quaternion": (
-            decode_dict_geometry_msgs__msg__Quaternion,
-            decode_view_geometry_msgs__msg__Quaternion,
+            decode_geometry_msgs__msg__Quaternion,
             encode_geometry_msgs__msg__Quaternion,
         ),
         "geometry_msgs/msg/Vector3": (
-            decode_dict_geometry_msgs__msg__Vector3,
-            decode_view_geometry_msgs__msg__Vector3,
+            decode_geometry_msgs__msg__Vector3,
             encode_geometry_msgs__msg__Vector3,
         ),
-        "sensor_msgs/msg/Imu": (
-            decode_dict_sensor_msgs__msg__Imu,
-            decode_view_sensor_msgs__msg__Imu,
-            encode_sensor_msgs__msg__Imu,
-        ),
+        "sensor_msgs/msg/Imu": (decode_sensor_msgs__msg__Imu, encode_sensor_msgs__msg__Imu),
         "sensor_msgs/msg/JointState": (
-            decode_dict_sensor_msgs__msg__JointState,
-            decode_view_sensor_msgs__msg__JointState,
+            decode_sensor_msgs__msg__JointState,
             encode_sensor_msgs__msg__JointState,
         ),
-        "sensor_msgs/msg/Joy": (
-            decode_dict_sensor_msgs__msg__Joy,
-            decode_view_sensor_msgs__msg__Joy,
-            encode_sensor_msgs__msg__Joy,
-        ),
+        "sensor_msgs/msg/Joy": (decode_sensor_msgs__msg__Joy, encode_sensor_msgs__msg__Joy),
         "sensor_msgs/msg/JoyFeedback": (
-            decode_dict_sensor_msgs__msg__JoyFeedback,
-            decode_view_sensor_msgs__msg__JoyFeedback,
+            decode_sensor_msgs__msg__JoyFeedback,
             encode_sensor_msgs__msg__JoyFeedback,
         ),
         "sensor_msgs/msg/JoyFeedbackArray": (
-            decode_dict_sensor_msgs__msg__JoyFeedbackArray,
-            decode_view_sensor_msgs__msg__JoyFeedbackArray,
+            decode_sensor_msgs__msg__JoyFeedbackArray,
             encode_sensor_msgs__msg__JoyFeedbackArray,
         ),
         "sensor_msgs/msg/LaserEcho": (
-            decode_dict_sensor_msgs__msg__LaserEcho,
-            decode_view_sensor_msgs__msg__LaserEcho,
+            decode_sensor_msgs__msg__LaserEcho,
             encode_sensor_msgs__msg__LaserEcho,
         ),
         "sensor_msgs/msg/LaserScan": (
-            decode_dict_sensor_msgs__msg__LaserScan,
-            decode_view_sensor_msgs__msg__LaserScan,
+            decode_sensor_msgs__msg__LaserScan,
             encode_sensor_msgs__msg__LaserScan,
         ),
         "sensor_msgs/msg/MagneticField": (
-            decode_dict_sensor_msgs__msg__MagneticField,
-            decode_view_sensor_msgs__msg__MagneticField,
+            decode_sensor_msgs__msg__MagneticField,
             encode_sensor_msgs__msg__MagneticField,
         ),
         "geometry_msgs/msg/Transform": (
-            decode_dict_geometry_msgs__msg__Transform,
-            decode_view_geometry_msgs__msg__Transform,
+            decode_geometry_msgs__msg__Transform,
             encode_geometry_msgs__msg__Transform,
         ),
         "geometry_msgs/msg/Twist": (
-            decode_dict_geometry_msgs__msg__Twist,
-            decode_view_geometry_msgs__msg__Twist,
+            decode_geometry_msgs__msg__Twist,
             encode_geometry_msgs__msg__Twist,
         ),
         "geometry_msgs/msg/Wrench": (
-            decode_dict_geometry_msgs__msg__Wrench,
-            decode_view_geometry_msgs__msg__Wrench,
+            decode_geometry_msgs__msg__Wrench,
             encode_geometry_msgs__msg__Wrench,
         ),
         "sensor_msgs/msg/MultiDOFJointState": (
-            decode_dict_sensor_msgs__msg__MultiDOFJointState,
-            decode_view_sensor_msgs__msg__MultiDOFJointState,
+            decode_sensor_msgs__msg__MultiDOFJointState,
             encode_sensor_msgs__msg__MultiDOFJointState,
         ),
         "sensor_msgs/msg/MultiEchoLaserScan": (
-            decode_dict_sensor_msgs__msg__MultiEchoLaserScan,
-            decode_view_sensor_msgs__msg__MultiEchoLaserScan,
+            decode_sensor_msgs__msg__MultiEchoLaserScan,
             encode_sensor_msgs__msg__MultiEchoLaserScan,
         ),
         "sensor_msgs/msg/NavSatStatus": (
-            decode_dict_sensor_msgs__msg__NavSatStatus,
-            decode_view_sensor_msgs__msg__NavSatStatus,
+            decode_sensor_msgs__msg__NavSatStatus,
             encode_sensor_msgs__msg__NavSatStatus,
         ),
         "sensor_msgs/msg/NavSatFix": (
-            decode_dict_sensor_msgs__msg__NavSatFix,
-            decode_view_sensor_msgs__msg__NavSatFix,
+            decode_sensor_msgs__msg__NavSatFix,
             encode_sensor_msgs__msg__NavSatFix,
         ),
         "geometry_msgs/msg/Point32": (
-            decode_dict_geometry_msgs__msg__Point32,
-            decode_view_geometry_msgs__msg__Point32,
+            decode_geometry_msgs__msg__Point32,
             encode_geometry_msgs__msg__Point32,
         ),
         "sensor_msgs/msg/PointCloud": (
-            decode_dict_sensor_msgs__msg__PointCloud,
-            decode_view_sensor_msgs__msg__PointCloud,
+            decode_sensor_msgs__msg__PointCloud,
             encode_sensor_msgs__msg__PointCloud,
         ),
         "sensor_msgs/msg/PointField": (
-            decode_dict_sensor_msgs__msg__PointField,
-            decode_view_sensor_msgs__msg__PointField,
+            decode_sensor_msgs__msg__PointField,
             encode_sensor_msgs__msg__PointField,
         ),
         "sensor_msgs/msg/PointCloud2": (
-            decode_dict_sensor_msgs__msg__PointCloud2,
-            decode_view_sensor_msgs__msg__PointCloud2,
+            decode_sensor_msgs__msg__PointCloud2,
             encode_sensor_msgs__msg__PointCloud2,
         ),
-        "sensor_msgs/msg/Range": (
-            decode_dict_sensor_msgs__msg__Range,
-            decode_view_sensor_msgs__msg__Range,
-            encode_sensor_msgs__msg__Range,
-        ),
+        "sensor_msgs/msg/Range": (decode_sensor_msgs__msg__Range, encode_sensor_msgs__msg__Range),
         "sensor_msgs/msg/RelativeHumidity": (
-            decode_dict_sensor_msgs__msg__RelativeHumidity,
-            decode_view_sensor_msgs__msg__RelativeHumidity,
+            decode_sensor_msgs__msg__RelativeHumidity,
             encode_sensor_msgs__msg__RelativeHumidity,
         ),
         "sensor_msgs/msg/Temperature": (
-            decode_dict_sensor_msgs__msg__Temperature,
-            decode_view_sensor_msgs__msg__Temperature,
+            decode_sensor_msgs__msg__Temperature,
             encode_sensor_msgs__msg__Temperature,
         ),
         "sensor_msgs/msg/TimeReference": (
-            decode_dict_sensor_msgs__msg__TimeReference,
-            decode_view_sensor_msgs__msg__TimeReference,
+            decode_sensor_msgs__msg__TimeReference,
             encode_sensor_msgs__msg__TimeReference,
         ),
         "sensor_msgs/srv/SetCameraInfo_Request": (
-            decode_dict_sensor_msgs__srv__SetCameraInfo_Request,
-            decode_view_sensor_msgs__srv__SetCameraInfo_Request,
+            decode_sensor_msgs__srv__SetCameraInfo_Request,
             encode_sensor_msgs__srv__SetCameraInfo_Request,
         ),
         "sensor_msgs/srv/SetCameraInfo_Response": (
-            decode_dict_sensor_msgs__srv__SetCameraInfo_Response,
-            decode_view_sensor_msgs__srv__SetCameraInfo_Response,
+            decode_sensor_msgs__srv__SetCameraInfo_Response,
             encode_sensor_msgs__srv__SetCameraInfo_Response,
         ),
         "service_msgs/msg/ServiceEventInfo": (
-            decode_dict_service_msgs__msg__ServiceEventInfo,
-            decode_view_service_msgs__msg__ServiceEventInfo,
+            decode_service_msgs__msg__ServiceEventInfo,
             encode_service_msgs__msg__ServiceEventInfo,
         ),
         "sensor_msgs/srv/SetCameraInfo_Event": (
-            decode_dict_sensor_msgs__srv__SetCameraInfo_Event,
-            decode_view_sensor_msgs__srv__SetCameraInfo_Event,
+            decode_sensor_msgs__srv__SetCameraInfo_Event,
             encode_sensor_msgs__srv__SetCameraInfo_Event,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

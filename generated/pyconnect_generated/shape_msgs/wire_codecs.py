@@ -10,7 +10,8 @@
 #     RIHS01_2802a15190aadc3f496584df4b0b4c5824d8a0b31aaef839faa75bc34dda38ac
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -313,8 +314,8 @@ def make_shape_msgs__msg__SolidPrimitive(
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_3d = Struct(E + "3d")
     _S_3f = Struct(E + "3f")
@@ -323,9 +324,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _D_float64 = np.dtype("float64").newbyteorder(E)
     _D_uint32 = np.dtype("uint32").newbyteorder(E)
 
-    def decode_dict_shape_msgs__msg__MeshTriangle(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_shape_msgs__msg__MeshTriangle(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".vertex_indices"
@@ -338,24 +337,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_shape_msgs__msg__MeshTriangle(v3), pos
         return {"vertex_indices": v3}, pos
-
-    def decode_view_shape_msgs__msg__MeshTriangle(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".vertex_indices"
-            pos = (pos + 3) & -4
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v3 = _frombuffer(mv, _D_uint32, 3, pos)
-            pos += 3 * 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_shape_msgs__msg__MeshTriangle(v3), pos
 
     def encode_shape_msgs__msg__MeshTriangle(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -376,9 +360,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Point(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Point(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -389,22 +371,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Point(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
-
-    def decode_view_geometry_msgs__msg__Point(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Point_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Point(v1, v2, v3), pos
 
     def encode_geometry_msgs__msg__Point(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -437,39 +406,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_shape_msgs__msg__Mesh(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_shape_msgs__msg__Mesh(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".triangles"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_shape_msgs__msg__MeshTriangle, None, None, 12
+                mv, pos, lim, _U32, decode_shape_msgs__msg__MeshTriangle, None, None, 12
             )
             f = ".vertices"
             v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Point, None, None, 24
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__Point, None, None, 24
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_shape_msgs__msg__Mesh(v1, v2), pos
         return {"triangles": v1, "vertices": v2}, pos
-
-    def decode_view_shape_msgs__msg__Mesh(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".triangles"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_shape_msgs__msg__MeshTriangle, None, None, 12
-            )
-            f = ".vertices"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Point, None, None, 24
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_shape_msgs__msg__Mesh(v1, v2), pos
 
     def encode_shape_msgs__msg__Mesh(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -496,7 +450,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_shape_msgs__msg__Plane(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_shape_msgs__msg__Plane(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".coef"
@@ -509,22 +463,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_shape_msgs__msg__Plane(v3), pos
         return {"coef": v3}, pos
-
-    def decode_view_shape_msgs__msg__Plane(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".coef"
-            pos = (pos + 7) & -8
-            if 4 * 8 > lim - pos:
-                raise too_long(4, 8, lim - pos)
-            v3 = _frombuffer(mv, _D_float64, 4, pos)
-            pos += 4 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_shape_msgs__msg__Plane(v3), pos
 
     def encode_shape_msgs__msg__Plane(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -545,9 +486,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Point32(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Point32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -558,22 +497,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Point32(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
-
-    def decode_view_geometry_msgs__msg__Point32(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_geometry_msgs__msg__Point32_0
-            v1, v2, v3 = _S_3f.unpack_from(mv, pos)
-            pos += 12
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Point32(v1, v2, v3), pos
 
     def encode_geometry_msgs__msg__Point32(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -606,35 +532,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Polygon(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Polygon(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".points"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Point32, None, None, 12
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__Point32, None, None, 12
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Polygon(v1), pos
         return {"points": v1}, pos
-
-    def decode_view_geometry_msgs__msg__Polygon(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".points"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Point32, None, None, 12
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Polygon(v1), pos
 
     def encode_geometry_msgs__msg__Polygon(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -651,7 +562,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_shape_msgs__msg__SolidPrimitive(
+    def decode_shape_msgs__msg__SolidPrimitive(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -673,41 +584,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v5 = _frombuffer(mv, _D_float64, v4, pos)
             pos += v4 * 8
             f = ".polygon"
-            v6, pos = decode_dict_geometry_msgs__msg__Polygon(mv, pos, lim)
+            v6, pos = decode_geometry_msgs__msg__Polygon(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_shape_msgs__msg__SolidPrimitive(v1, v5, v6), pos
         return {"type": v1, "dimensions": v5, "polygon": v6}, pos
-
-    def decode_view_shape_msgs__msg__SolidPrimitive(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_shape_msgs__msg__SolidPrimitive_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_shape_msgs__msg__SolidPrimitive_1
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".dimensions"
-            if v4 > 3:
-                raise over_bound(v4, 3)
-            if v4:
-                pos = (pos + 7) & -8
-            if v4 * 8 > lim - pos:
-                raise too_long(v4, 8, lim - pos)
-            v5 = _frombuffer(mv, _D_float64, v4, pos)
-            pos += v4 * 8
-            f = ".polygon"
-            v6, pos = decode_view_geometry_msgs__msg__Polygon(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_shape_msgs__msg__SolidPrimitive(v1, v5, v6), pos
 
     def encode_shape_msgs__msg__SolidPrimitive(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -751,42 +635,34 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "shape_msgs/msg/MeshTriangle": (
-            decode_dict_shape_msgs__msg__MeshTriangle,
-            decode_view_shape_msgs__msg__MeshTriangle,
+            decode_shape_msgs__msg__MeshTriangle,
             encode_shape_msgs__msg__MeshTriangle,
         ),
         "geometry_msgs/msg/Point": (
-            decode_dict_geometry_msgs__msg__Point,
-            decode_view_geometry_msgs__msg__Point,
+            decode_geometry_msgs__msg__Point,
             encode_geometry_msgs__msg__Point,
         ),
-        "shape_msgs/msg/Mesh": (
-            decode_dict_shape_msgs__msg__Mesh,
-            decode_view_shape_msgs__msg__Mesh,
-            encode_shape_msgs__msg__Mesh,
-        ),
-        "shape_msgs/msg/Plane": (
-            decode_dict_shape_msgs__msg__Plane,
-            decode_view_shape_msgs__msg__Plane,
-            encode_shape_msgs__msg__Plane,
-        ),
+        "shape_msgs/msg/Mesh": (decode_shape_msgs__msg__Mesh, encode_shape_msgs__msg__Mesh),
+        "shape_msgs/msg/Plane": (decode_shape_msgs__msg__Plane, encode_shape_msgs__msg__Plane),
         "geometry_msgs/msg/Point32": (
-            decode_dict_geometry_msgs__msg__Point32,
-            decode_view_geometry_msgs__msg__Point32,
+            decode_geometry_msgs__msg__Point32,
             encode_geometry_msgs__msg__Point32,
         ),
         "geometry_msgs/msg/Polygon": (
-            decode_dict_geometry_msgs__msg__Polygon,
-            decode_view_geometry_msgs__msg__Polygon,
+            decode_geometry_msgs__msg__Polygon,
             encode_geometry_msgs__msg__Polygon,
         ),
         "shape_msgs/msg/SolidPrimitive": (
-            decode_dict_shape_msgs__msg__SolidPrimitive,
-            decode_view_shape_msgs__msg__SolidPrimitive,
+            decode_shape_msgs__msg__SolidPrimitive,
             encode_shape_msgs__msg__SolidPrimitive,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

@@ -62,7 +62,8 @@
 #     RIHS01_5687e861b8d307a5e48b7515467ae7a5fc2daf805bd0ce6d8e9e604bade9f385
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -1139,8 +1140,8 @@ def make_std_msgs__msg__UInt8MultiArray(a0: Any, a1: Any) -> std_msgs__msg__UInt
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_2I = Struct(E + "2I")
@@ -1169,7 +1170,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _D_uint64 = np.dtype("uint64").newbyteorder(E)
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_dict_std_msgs__msg__Bool(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Bool(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_std_msgs__msg__Bool_0
@@ -1179,19 +1180,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Bool(v2), pos
         return {"data": v2}, pos
-
-    def decode_view_std_msgs__msg__Bool(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_msgs__msg__Bool_0
-            (v2,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Bool(v2), pos
 
     def encode_std_msgs__msg__Bool(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1230,7 +1221,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Byte(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Byte(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_std_msgs__msg__Byte_0
@@ -1240,19 +1231,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Byte(v1), pos
         return {"data": v1}, pos
-
-    def decode_view_std_msgs__msg__Byte(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_msgs__msg__Byte_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Byte(v1), pos
 
     def encode_std_msgs__msg__Byte(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1271,7 +1252,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__MultiArrayDimension(
+    def decode_std_msgs__msg__MultiArrayDimension(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1293,31 +1274,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__MultiArrayDimension(v3, v4, v5), pos
         return {"label": v3, "size": v4, "stride": v5}, pos
-
-    def decode_view_std_msgs__msg__MultiArrayDimension(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__MultiArrayDimension_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".label"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__MultiArrayDimension_1
-            v4, v5 = _S_2I.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__MultiArrayDimension(v3, v4, v5), pos
 
     def encode_std_msgs__msg__MultiArrayDimension(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1363,14 +1322,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__MultiArrayLayout(
+    def decode_std_msgs__msg__MultiArrayLayout(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".dim"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_std_msgs__msg__MultiArrayDimension, None, None, 12
+                mv, pos, lim, _U32, decode_std_msgs__msg__MultiArrayDimension, None, None, 12
             )
             pos = (pos + 3) & -4
             f = _R_std_msgs__msg__MultiArrayLayout_0
@@ -1380,26 +1339,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__MultiArrayLayout(v1, v2), pos
         return {"dim": v1, "data_offset": v2}, pos
-
-    def decode_view_std_msgs__msg__MultiArrayLayout(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".dim"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_std_msgs__msg__MultiArrayDimension, None, None, 12
-            )
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__MultiArrayLayout_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__MultiArrayLayout(v1, v2), pos
 
     def encode_std_msgs__msg__MultiArrayLayout(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1436,13 +1378,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__ByteMultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_std_msgs__msg__ByteMultiArray(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_dict_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_std_msgs__msg__ByteMultiArray_0
             (v4,) = _S_I.unpack_from(mv, pos)
@@ -1456,29 +1396,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__ByteMultiArray(v1, v5), pos
         return {"layout": v1, "data": v5}, pos
-
-    def decode_view_std_msgs__msg__ByteMultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".layout"
-            v1, pos = decode_view_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__ByteMultiArray_0
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v4 * 1 > lim - pos:
-                raise too_long(v4, 1, lim - pos)
-            v5 = _frombuffer(mv, _D_uint8, v4, pos)
-            pos += v4 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__ByteMultiArray(v1, v5), pos
 
     def encode_std_msgs__msg__ByteMultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1507,7 +1427,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Char(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Char(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_std_msgs__msg__Char_0
@@ -1517,19 +1437,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Char(v1), pos
         return {"data": v1}, pos
-
-    def decode_view_std_msgs__msg__Char(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_msgs__msg__Char_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Char(v1), pos
 
     def encode_std_msgs__msg__Char(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1548,7 +1458,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__ColorRGBA(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__ColorRGBA(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -1559,20 +1469,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__ColorRGBA(v1, v2, v3, v4), pos
         return {"r": v1, "g": v2, "b": v3, "a": v4}, pos
-
-    def decode_view_std_msgs__msg__ColorRGBA(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__ColorRGBA_0
-            v1, v2, v3, v4 = _S_4f.unpack_from(mv, pos)
-            pos += 16
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__ColorRGBA(v1, v2, v3, v4), pos
 
     def encode_std_msgs__msg__ColorRGBA(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1608,7 +1507,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Empty(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Empty(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_std_msgs__msg__Empty_0
@@ -1618,19 +1517,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Empty(), pos
         return {}, pos
-
-    def decode_view_std_msgs__msg__Empty(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_msgs__msg__Empty_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Empty(), pos
 
     def encode_std_msgs__msg__Empty(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1649,7 +1538,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Float32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Float32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -1660,20 +1549,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Float32(v1), pos
         return {"data": v1}, pos
-
-    def decode_view_std_msgs__msg__Float32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Float32_0
-            (v1,) = _S_f.unpack_from(mv, pos)
-            pos += 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Float32(v1), pos
 
     def encode_std_msgs__msg__Float32(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1696,13 +1574,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Float32MultiArray(
+    def decode_std_msgs__msg__Float32MultiArray(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_dict_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_std_msgs__msg__Float32MultiArray_0
             (v4,) = _S_I.unpack_from(mv, pos)
@@ -1716,29 +1594,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Float32MultiArray(v1, v5), pos
         return {"layout": v1, "data": v5}, pos
-
-    def decode_view_std_msgs__msg__Float32MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".layout"
-            v1, pos = decode_view_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Float32MultiArray_0
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v4 * 4 > lim - pos:
-                raise too_long(v4, 4, lim - pos)
-            v5 = _frombuffer(mv, _D_float32, v4, pos)
-            pos += v4 * 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Float32MultiArray(v1, v5), pos
 
     def encode_std_msgs__msg__Float32MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1767,7 +1625,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Float64(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Float64(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -1778,20 +1636,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Float64(v1), pos
         return {"data": v1}, pos
-
-    def decode_view_std_msgs__msg__Float64(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_std_msgs__msg__Float64_0
-            (v1,) = _S_d.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Float64(v1), pos
 
     def encode_std_msgs__msg__Float64(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1814,13 +1661,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Float64MultiArray(
+    def decode_std_msgs__msg__Float64MultiArray(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_dict_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_std_msgs__msg__Float64MultiArray_0
             (v4,) = _S_I.unpack_from(mv, pos)
@@ -1836,31 +1683,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Float64MultiArray(v1, v5), pos
         return {"layout": v1, "data": v5}, pos
-
-    def decode_view_std_msgs__msg__Float64MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".layout"
-            v1, pos = decode_view_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Float64MultiArray_0
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v4:
-                pos = (pos + 7) & -8
-            if v4 * 8 > lim - pos:
-                raise too_long(v4, 8, lim - pos)
-            v5 = _frombuffer(mv, _D_float64, v4, pos)
-            pos += v4 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Float64MultiArray(v1, v5), pos
 
     def encode_std_msgs__msg__Float64MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1894,9 +1719,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -1907,22 +1730,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1954,7 +1764,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -1970,25 +1780,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
         return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def decode_view_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
 
     def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2029,7 +1823,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Int16(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Int16(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 1) & -2
@@ -2040,20 +1834,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Int16(v1), pos
         return {"data": v1}, pos
-
-    def decode_view_std_msgs__msg__Int16(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 1) & -2
-            f = _R_std_msgs__msg__Int16_0
-            (v1,) = _S_h.unpack_from(mv, pos)
-            pos += 2
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Int16(v1), pos
 
     def encode_std_msgs__msg__Int16(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2076,13 +1859,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Int16MultiArray(
+    def decode_std_msgs__msg__Int16MultiArray(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_dict_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_std_msgs__msg__Int16MultiArray_0
             (v4,) = _S_I.unpack_from(mv, pos)
@@ -2096,29 +1879,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Int16MultiArray(v1, v5), pos
         return {"layout": v1, "data": v5}, pos
-
-    def decode_view_std_msgs__msg__Int16MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".layout"
-            v1, pos = decode_view_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Int16MultiArray_0
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v4 * 2 > lim - pos:
-                raise too_long(v4, 2, lim - pos)
-            v5 = _frombuffer(mv, _D_int16, v4, pos)
-            pos += v4 * 2
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Int16MultiArray(v1, v5), pos
 
     def encode_std_msgs__msg__Int16MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2147,7 +1910,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Int32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Int32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -2158,20 +1921,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Int32(v1), pos
         return {"data": v1}, pos
-
-    def decode_view_std_msgs__msg__Int32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Int32_0
-            (v1,) = _S_i.unpack_from(mv, pos)
-            pos += 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Int32(v1), pos
 
     def encode_std_msgs__msg__Int32(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2194,13 +1946,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Int32MultiArray(
+    def decode_std_msgs__msg__Int32MultiArray(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_dict_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_std_msgs__msg__Int32MultiArray_0
             (v4,) = _S_I.unpack_from(mv, pos)
@@ -2214,29 +1966,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Int32MultiArray(v1, v5), pos
         return {"layout": v1, "data": v5}, pos
-
-    def decode_view_std_msgs__msg__Int32MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".layout"
-            v1, pos = decode_view_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Int32MultiArray_0
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v4 * 4 > lim - pos:
-                raise too_long(v4, 4, lim - pos)
-            v5 = _frombuffer(mv, _D_int32, v4, pos)
-            pos += v4 * 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Int32MultiArray(v1, v5), pos
 
     def encode_std_msgs__msg__Int32MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2265,7 +1997,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Int64(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Int64(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -2276,20 +2008,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Int64(v1), pos
         return {"data": v1}, pos
-
-    def decode_view_std_msgs__msg__Int64(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_std_msgs__msg__Int64_0
-            (v1,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Int64(v1), pos
 
     def encode_std_msgs__msg__Int64(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2312,13 +2033,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Int64MultiArray(
+    def decode_std_msgs__msg__Int64MultiArray(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_dict_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_std_msgs__msg__Int64MultiArray_0
             (v4,) = _S_I.unpack_from(mv, pos)
@@ -2334,31 +2055,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Int64MultiArray(v1, v5), pos
         return {"layout": v1, "data": v5}, pos
-
-    def decode_view_std_msgs__msg__Int64MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".layout"
-            v1, pos = decode_view_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Int64MultiArray_0
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v4:
-                pos = (pos + 7) & -8
-            if v4 * 8 > lim - pos:
-                raise too_long(v4, 8, lim - pos)
-            v5 = _frombuffer(mv, _D_int64, v4, pos)
-            pos += v4 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Int64MultiArray(v1, v5), pos
 
     def encode_std_msgs__msg__Int64MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2392,7 +2091,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Int8(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Int8(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_std_msgs__msg__Int8_0
@@ -2402,19 +2101,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Int8(v1), pos
         return {"data": v1}, pos
-
-    def decode_view_std_msgs__msg__Int8(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_msgs__msg__Int8_0
-            (v1,) = _S_b.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Int8(v1), pos
 
     def encode_std_msgs__msg__Int8(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2433,13 +2122,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Int8MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Int8MultiArray(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_dict_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_std_msgs__msg__Int8MultiArray_0
             (v4,) = _S_I.unpack_from(mv, pos)
@@ -2453,29 +2140,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Int8MultiArray(v1, v5), pos
         return {"layout": v1, "data": v5}, pos
-
-    def decode_view_std_msgs__msg__Int8MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".layout"
-            v1, pos = decode_view_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Int8MultiArray_0
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v4 * 1 > lim - pos:
-                raise too_long(v4, 1, lim - pos)
-            v5 = _frombuffer(mv, _D_int8, v4, pos)
-            pos += v4 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Int8MultiArray(v1, v5), pos
 
     def encode_std_msgs__msg__Int8MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2504,7 +2171,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__String(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__String(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -2520,25 +2187,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__String(v3), pos
         return {"data": v3}, pos
-
-    def decode_view_std_msgs__msg__String(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__String_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__String(v3), pos
 
     def encode_std_msgs__msg__String(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2565,7 +2216,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__UInt16(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__UInt16(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 1) & -2
@@ -2576,20 +2227,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__UInt16(v1), pos
         return {"data": v1}, pos
-
-    def decode_view_std_msgs__msg__UInt16(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 1) & -2
-            f = _R_std_msgs__msg__UInt16_0
-            (v1,) = _S_H.unpack_from(mv, pos)
-            pos += 2
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__UInt16(v1), pos
 
     def encode_std_msgs__msg__UInt16(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2612,13 +2252,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__UInt16MultiArray(
+    def decode_std_msgs__msg__UInt16MultiArray(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_dict_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_std_msgs__msg__UInt16MultiArray_0
             (v4,) = _S_I.unpack_from(mv, pos)
@@ -2632,29 +2272,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__UInt16MultiArray(v1, v5), pos
         return {"layout": v1, "data": v5}, pos
-
-    def decode_view_std_msgs__msg__UInt16MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".layout"
-            v1, pos = decode_view_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__UInt16MultiArray_0
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v4 * 2 > lim - pos:
-                raise too_long(v4, 2, lim - pos)
-            v5 = _frombuffer(mv, _D_uint16, v4, pos)
-            pos += v4 * 2
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__UInt16MultiArray(v1, v5), pos
 
     def encode_std_msgs__msg__UInt16MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2683,7 +2303,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__UInt32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__UInt32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -2694,20 +2314,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__UInt32(v1), pos
         return {"data": v1}, pos
-
-    def decode_view_std_msgs__msg__UInt32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__UInt32_0
-            (v1,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__UInt32(v1), pos
 
     def encode_std_msgs__msg__UInt32(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2730,13 +2339,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__UInt32MultiArray(
+    def decode_std_msgs__msg__UInt32MultiArray(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_dict_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_std_msgs__msg__UInt32MultiArray_0
             (v4,) = _S_I.unpack_from(mv, pos)
@@ -2750,29 +2359,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__UInt32MultiArray(v1, v5), pos
         return {"layout": v1, "data": v5}, pos
-
-    def decode_view_std_msgs__msg__UInt32MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".layout"
-            v1, pos = decode_view_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__UInt32MultiArray_0
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v4 * 4 > lim - pos:
-                raise too_long(v4, 4, lim - pos)
-            v5 = _frombuffer(mv, _D_uint32, v4, pos)
-            pos += v4 * 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__UInt32MultiArray(v1, v5), pos
 
     def encode_std_msgs__msg__UInt32MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2801,7 +2390,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__UInt64(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__UInt64(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -2812,20 +2401,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__UInt64(v1), pos
         return {"data": v1}, pos
-
-    def decode_view_std_msgs__msg__UInt64(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_std_msgs__msg__UInt64_0
-            (v1,) = _S_Q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__UInt64(v1), pos
 
     def encode_std_msgs__msg__UInt64(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2848,13 +2426,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__UInt64MultiArray(
+    def decode_std_msgs__msg__UInt64MultiArray(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_dict_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_std_msgs__msg__UInt64MultiArray_0
             (v4,) = _S_I.unpack_from(mv, pos)
@@ -2870,31 +2448,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__UInt64MultiArray(v1, v5), pos
         return {"layout": v1, "data": v5}, pos
-
-    def decode_view_std_msgs__msg__UInt64MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".layout"
-            v1, pos = decode_view_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__UInt64MultiArray_0
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v4:
-                pos = (pos + 7) & -8
-            if v4 * 8 > lim - pos:
-                raise too_long(v4, 8, lim - pos)
-            v5 = _frombuffer(mv, _D_uint64, v4, pos)
-            pos += v4 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__UInt64MultiArray(v1, v5), pos
 
     def encode_std_msgs__msg__UInt64MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2928,7 +2484,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__UInt8(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__UInt8(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_std_msgs__msg__UInt8_0
@@ -2938,19 +2494,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__UInt8(v1), pos
         return {"data": v1}, pos
-
-    def decode_view_std_msgs__msg__UInt8(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_msgs__msg__UInt8_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__UInt8(v1), pos
 
     def encode_std_msgs__msg__UInt8(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2969,13 +2515,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__UInt8MultiArray(
+    def decode_std_msgs__msg__UInt8MultiArray(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_dict_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_std_msgs__msg__UInt8MultiArray_0
             (v4,) = _S_I.unpack_from(mv, pos)
@@ -2989,29 +2535,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__UInt8MultiArray(v1, v5), pos
         return {"layout": v1, "data": v5}, pos
-
-    def decode_view_std_msgs__msg__UInt8MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".layout"
-            v1, pos = decode_view_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__UInt8MultiArray_0
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v4 * 1 > lim - pos:
-                raise too_long(v4, 1, lim - pos)
-            v5 = _frombuffer(mv, _D_uint8, v4, pos)
-            pos += v4 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__UInt8MultiArray(v1, v5), pos
 
     def encode_std_msgs__msg__UInt8MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3041,163 +2567,89 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
         return pos
 
     return {
-        "std_msgs/msg/Bool": (
-            decode_dict_std_msgs__msg__Bool,
-            decode_view_std_msgs__msg__Bool,
-            encode_std_msgs__msg__Bool,
-        ),
-        "std_msgs/msg/Byte": (
-            decode_dict_std_msgs__msg__Byte,
-            decode_view_std_msgs__msg__Byte,
-            encode_std_msgs__msg__Byte,
-        ),
+        "std_msgs/msg/Bool": (decode_std_msgs__msg__Bool, encode_std_msgs__msg__Bool),
+        "std_msgs/msg/Byte": (decode_std_msgs__msg__Byte, encode_std_msgs__msg__Byte),
         "std_msgs/msg/MultiArrayDimension": (
-            decode_dict_std_msgs__msg__MultiArrayDimension,
-            decode_view_std_msgs__msg__MultiArrayDimension,
+            decode_std_msgs__msg__MultiArrayDimension,
             encode_std_msgs__msg__MultiArrayDimension,
         ),
         "std_msgs/msg/MultiArrayLayout": (
-            decode_dict_std_msgs__msg__MultiArrayLayout,
-            decode_view_std_msgs__msg__MultiArrayLayout,
+            decode_std_msgs__msg__MultiArrayLayout,
             encode_std_msgs__msg__MultiArrayLayout,
         ),
         "std_msgs/msg/ByteMultiArray": (
-            decode_dict_std_msgs__msg__ByteMultiArray,
-            decode_view_std_msgs__msg__ByteMultiArray,
+            decode_std_msgs__msg__ByteMultiArray,
             encode_std_msgs__msg__ByteMultiArray,
         ),
-        "std_msgs/msg/Char": (
-            decode_dict_std_msgs__msg__Char,
-            decode_view_std_msgs__msg__Char,
-            encode_std_msgs__msg__Char,
-        ),
+        "std_msgs/msg/Char": (decode_std_msgs__msg__Char, encode_std_msgs__msg__Char),
         "std_msgs/msg/ColorRGBA": (
-            decode_dict_std_msgs__msg__ColorRGBA,
-            decode_view_std_msgs__msg__ColorRGBA,
+            decode_std_msgs__msg__ColorRGBA,
             encode_std_msgs__msg__ColorRGBA,
         ),
-        "std_msgs/msg/Empty": (
-            decode_dict_std_msgs__msg__Empty,
-            decode_view_std_msgs__msg__Empty,
-            encode_std_msgs__msg__Empty,
-        ),
-        "std_msgs/msg/Float32": (
-            decode_dict_std_msgs__msg__Float32,
-            decode_view_std_msgs__msg__Float32,
-            encode_std_msgs__msg__Float32,
-        ),
+        "std_msgs/msg/Empty": (decode_std_msgs__msg__Empty, encode_std_msgs__msg__Empty),
+        "std_msgs/msg/Float32": (decode_std_msgs__msg__Float32, encode_std_msgs__msg__Float32),
         "std_msgs/msg/Float32MultiArray": (
-            decode_dict_std_msgs__msg__Float32MultiArray,
-            decode_view_std_msgs__msg__Float32MultiArray,
+            decode_std_msgs__msg__Float32MultiArray,
             encode_std_msgs__msg__Float32MultiArray,
         ),
-        "std_msgs/msg/Float64": (
-            decode_dict_std_msgs__msg__Float64,
-            decode_view_std_msgs__msg__Float64,
-            encode_std_msgs__msg__Float64,
-        ),
+        "std_msgs/msg/Float64": (decode_std_msgs__msg__Float64, encode_std_msgs__msg__Float64),
         "std_msgs/msg/Float64MultiArray": (
-            decode_dict_std_msgs__msg__Float64MultiArray,
-            decode_view_std_msgs__msg__Float64MultiArray,
+            decode_std_msgs__msg__Float64MultiArray,
             encode_std_msgs__msg__Float64MultiArray,
         ),
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
-        "std_msgs/msg/Header": (
-            decode_dict_std_msgs__msg__Header,
-            decode_view_std_msgs__msg__Header,
-            encode_std_msgs__msg__Header,
-        ),
-        "std_msgs/msg/Int16": (
-            decode_dict_std_msgs__msg__Int16,
-            decode_view_std_msgs__msg__Int16,
-            encode_std_msgs__msg__Int16,
-        ),
+        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
+        "std_msgs/msg/Int16": (decode_std_msgs__msg__Int16, encode_std_msgs__msg__Int16),
         "std_msgs/msg/Int16MultiArray": (
-            decode_dict_std_msgs__msg__Int16MultiArray,
-            decode_view_std_msgs__msg__Int16MultiArray,
+            decode_std_msgs__msg__Int16MultiArray,
             encode_std_msgs__msg__Int16MultiArray,
         ),
-        "std_msgs/msg/Int32": (
-            decode_dict_std_msgs__msg__Int32,
-            decode_view_std_msgs__msg__Int32,
-            encode_std_msgs__msg__Int32,
-        ),
+        "std_msgs/msg/Int32": (decode_std_msgs__msg__Int32, encode_std_msgs__msg__Int32),
         "std_msgs/msg/Int32MultiArray": (
-            decode_dict_std_msgs__msg__Int32MultiArray,
-            decode_view_std_msgs__msg__Int32MultiArray,
+            decode_std_msgs__msg__Int32MultiArray,
             encode_std_msgs__msg__Int32MultiArray,
         ),
-        "std_msgs/msg/Int64": (
-            decode_dict_std_msgs__msg__Int64,
-            decode_view_std_msgs__msg__Int64,
-            encode_std_msgs__msg__Int64,
-        ),
+        "std_msgs/msg/Int64": (decode_std_msgs__msg__Int64, encode_std_msgs__msg__Int64),
         "std_msgs/msg/Int64MultiArray": (
-            decode_dict_std_msgs__msg__Int64MultiArray,
-            decode_view_std_msgs__msg__Int64MultiArray,
+            decode_std_msgs__msg__Int64MultiArray,
             encode_std_msgs__msg__Int64MultiArray,
         ),
-        "std_msgs/msg/Int8": (
-            decode_dict_std_msgs__msg__Int8,
-            decode_view_std_msgs__msg__Int8,
-            encode_std_msgs__msg__Int8,
-        ),
+        "std_msgs/msg/Int8": (decode_std_msgs__msg__Int8, encode_std_msgs__msg__Int8),
         "std_msgs/msg/Int8MultiArray": (
-            decode_dict_std_msgs__msg__Int8MultiArray,
-            decode_view_std_msgs__msg__Int8MultiArray,
+            decode_std_msgs__msg__Int8MultiArray,
             encode_std_msgs__msg__Int8MultiArray,
         ),
-        "std_msgs/msg/String": (
-            decode_dict_std_msgs__msg__String,
-            decode_view_std_msgs__msg__String,
-            encode_std_msgs__msg__String,
-        ),
-        "std_msgs/msg/UInt16": (
-            decode_dict_std_msgs__msg__UInt16,
-            decode_view_std_msgs__msg__UInt16,
-            encode_std_msgs__msg__UInt16,
-        ),
+        "std_msgs/msg/String": (decode_std_msgs__msg__String, encode_std_msgs__msg__String),
+        "std_msgs/msg/UInt16": (decode_std_msgs__msg__UInt16, encode_std_msgs__msg__UInt16),
         "std_msgs/msg/UInt16MultiArray": (
-            decode_dict_std_msgs__msg__UInt16MultiArray,
-            decode_view_std_msgs__msg__UInt16MultiArray,
+            decode_std_msgs__msg__UInt16MultiArray,
             encode_std_msgs__msg__UInt16MultiArray,
         ),
-        "std_msgs/msg/UInt32": (
-            decode_dict_std_msgs__msg__UInt32,
-            decode_view_std_msgs__msg__UInt32,
-            encode_std_msgs__msg__UInt32,
-        ),
+        "std_msgs/msg/UInt32": (decode_std_msgs__msg__UInt32, encode_std_msgs__msg__UInt32),
         "std_msgs/msg/UInt32MultiArray": (
-            decode_dict_std_msgs__msg__UInt32MultiArray,
-            decode_view_std_msgs__msg__UInt32MultiArray,
+            decode_std_msgs__msg__UInt32MultiArray,
             encode_std_msgs__msg__UInt32MultiArray,
         ),
-        "std_msgs/msg/UInt64": (
-            decode_dict_std_msgs__msg__UInt64,
-            decode_view_std_msgs__msg__UInt64,
-            encode_std_msgs__msg__UInt64,
-        ),
+        "std_msgs/msg/UInt64": (decode_std_msgs__msg__UInt64, encode_std_msgs__msg__UInt64),
         "std_msgs/msg/UInt64MultiArray": (
-            decode_dict_std_msgs__msg__UInt64MultiArray,
-            decode_view_std_msgs__msg__UInt64MultiArray,
+            decode_std_msgs__msg__UInt64MultiArray,
             encode_std_msgs__msg__UInt64MultiArray,
         ),
-        "std_msgs/msg/UInt8": (
-            decode_dict_std_msgs__msg__UInt8,
-            decode_view_std_msgs__msg__UInt8,
-            encode_std_msgs__msg__UInt8,
-        ),
+        "std_msgs/msg/UInt8": (decode_std_msgs__msg__UInt8, encode_std_msgs__msg__UInt8),
         "std_msgs/msg/UInt8MultiArray": (
-            decode_dict_std_msgs__msg__UInt8MultiArray,
-            decode_view_std_msgs__msg__UInt8MultiArray,
+            decode_std_msgs__msg__UInt8MultiArray,
             encode_std_msgs__msg__UInt8MultiArray,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

@@ -20,7 +20,8 @@
 #     RIHS01_ec4a1d26b0575e61906890342aba9523a2360e9845857c5590fa6e23bc39e1c2
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -526,8 +527,8 @@ def make_std_srvs__srv__Trigger_Event(a0: Any, a1: Any, a2: Any) -> std_srvs__sr
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_B = Struct(E + "B")
@@ -537,9 +538,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _S_q = Struct(E + "q")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_dict_std_srvs__srv__Empty_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_std_srvs__srv__Empty_Request(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_std_srvs__srv__Empty_Request_0
@@ -549,21 +548,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_srvs__srv__Empty_Request(), pos
         return {}, pos
-
-    def decode_view_std_srvs__srv__Empty_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_srvs__srv__Empty_Request_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_srvs__srv__Empty_Request(), pos
 
     def encode_std_srvs__srv__Empty_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -582,9 +569,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_srvs__srv__Empty_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_std_srvs__srv__Empty_Response(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_std_srvs__srv__Empty_Response_0
@@ -594,21 +579,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_srvs__srv__Empty_Response(), pos
         return {}, pos
-
-    def decode_view_std_srvs__srv__Empty_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_srvs__srv__Empty_Response_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_srvs__srv__Empty_Response(), pos
 
     def encode_std_srvs__srv__Empty_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -627,9 +600,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -640,22 +611,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -687,7 +645,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_service_msgs__msg__ServiceEventInfo(
+    def decode_service_msgs__msg__ServiceEventInfo(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -712,41 +670,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_service_msgs__msg__ServiceEventInfo(
+                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
+            ), pos
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
             "client_gid": v7,
             "sequence_number": v8,
         }, pos
-
-    def decode_view_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_service_msgs__msg__ServiceEventInfo(
-            v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-        ), pos
 
     def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -812,9 +745,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_srvs__srv__Empty_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_std_srvs__srv__Empty_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_std_srvs__srv__Empty_Event_0
@@ -835,16 +766,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_std_srvs__srv__Empty_Request, None, 1, 1
+                mv, pos, lim, _U32, decode_std_srvs__srv__Empty_Request, None, 1, 1
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_std_srvs__srv__Empty_Response, None, 1, 1
+                mv, pos, lim, _U32, decode_std_srvs__srv__Empty_Response, None, 1, 1
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_srvs__srv__Empty_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -855,47 +794,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_std_srvs__srv__Empty_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_srvs__srv__Empty_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_std_srvs__srv__Empty_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_std_srvs__srv__Empty_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_std_srvs__srv__Empty_Request, None, 1, 1
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_std_srvs__srv__Empty_Response, None, 1, 1
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_srvs__srv__Empty_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_std_srvs__srv__Empty_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -977,7 +875,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_srvs__srv__SetBool_Request(
+    def decode_std_srvs__srv__SetBool_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -989,21 +887,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_srvs__srv__SetBool_Request(v2), pos
         return {"data": v2}, pos
-
-    def decode_view_std_srvs__srv__SetBool_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_srvs__srv__SetBool_Request_0
-            (v2,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_srvs__srv__SetBool_Request(v2), pos
 
     def encode_std_srvs__srv__SetBool_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1042,7 +928,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_srvs__srv__SetBool_Response(
+    def decode_std_srvs__srv__SetBool_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1063,30 +949,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_srvs__srv__SetBool_Response(v2, v5), pos
         return {"success": v2, "message": v5}, pos
-
-    def decode_view_std_srvs__srv__SetBool_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_srvs__srv__SetBool_Response_0
-            (v2,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_std_srvs__srv__SetBool_Response_1
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".message"
-            if v4 > lim - pos:
-                raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
-            pos += v4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_srvs__srv__SetBool_Response(v2, v5), pos
 
     def encode_std_srvs__srv__SetBool_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1139,9 +1004,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_srvs__srv__SetBool_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_std_srvs__srv__SetBool_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_std_srvs__srv__SetBool_Event_0
@@ -1162,16 +1025,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_std_srvs__srv__SetBool_Request, None, 1, 1
+                mv, pos, lim, _U32, decode_std_srvs__srv__SetBool_Request, None, 1, 1
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_std_srvs__srv__SetBool_Response, None, 1, 5
+                mv, pos, lim, _U32, decode_std_srvs__srv__SetBool_Response, None, 1, 5
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_srvs__srv__SetBool_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -1182,47 +1053,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_std_srvs__srv__SetBool_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_srvs__srv__SetBool_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_std_srvs__srv__SetBool_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_std_srvs__srv__SetBool_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_std_srvs__srv__SetBool_Request, None, 1, 1
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_std_srvs__srv__SetBool_Response, None, 1, 5
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_srvs__srv__SetBool_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_std_srvs__srv__SetBool_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1310,7 +1140,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_srvs__srv__Trigger_Request(
+    def decode_std_srvs__srv__Trigger_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1322,21 +1152,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_srvs__srv__Trigger_Request(), pos
         return {}, pos
-
-    def decode_view_std_srvs__srv__Trigger_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_srvs__srv__Trigger_Request_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_srvs__srv__Trigger_Request(), pos
 
     def encode_std_srvs__srv__Trigger_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1355,7 +1173,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_srvs__srv__Trigger_Response(
+    def decode_std_srvs__srv__Trigger_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1376,30 +1194,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_srvs__srv__Trigger_Response(v2, v5), pos
         return {"success": v2, "message": v5}, pos
-
-    def decode_view_std_srvs__srv__Trigger_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_srvs__srv__Trigger_Response_0
-            (v2,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_std_srvs__srv__Trigger_Response_1
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".message"
-            if v4 > lim - pos:
-                raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
-            pos += v4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_srvs__srv__Trigger_Response(v2, v5), pos
 
     def encode_std_srvs__srv__Trigger_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1452,9 +1249,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_srvs__srv__Trigger_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_std_srvs__srv__Trigger_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_std_srvs__srv__Trigger_Event_0
@@ -1475,16 +1270,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_std_srvs__srv__Trigger_Request, None, 1, 1
+                mv, pos, lim, _U32, decode_std_srvs__srv__Trigger_Request, None, 1, 1
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_std_srvs__srv__Trigger_Response, None, 1, 5
+                mv, pos, lim, _U32, decode_std_srvs__srv__Trigger_Response, None, 1, 5
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_srvs__srv__Trigger_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -1495,47 +1298,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_std_srvs__srv__Trigger_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_srvs__srv__Trigger_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_std_srvs__srv__Trigger_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_std_srvs__srv__Trigger_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_std_srvs__srv__Trigger_Request, None, 1, 1
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_std_srvs__srv__Trigger_Response, None, 1, 5
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_srvs__srv__Trigger_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_std_srvs__srv__Trigger_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1625,62 +1387,56 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "std_srvs/srv/Empty_Request": (
-            decode_dict_std_srvs__srv__Empty_Request,
-            decode_view_std_srvs__srv__Empty_Request,
+            decode_std_srvs__srv__Empty_Request,
             encode_std_srvs__srv__Empty_Request,
         ),
         "std_srvs/srv/Empty_Response": (
-            decode_dict_std_srvs__srv__Empty_Response,
-            decode_view_std_srvs__srv__Empty_Response,
+            decode_std_srvs__srv__Empty_Response,
             encode_std_srvs__srv__Empty_Response,
         ),
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
         "service_msgs/msg/ServiceEventInfo": (
-            decode_dict_service_msgs__msg__ServiceEventInfo,
-            decode_view_service_msgs__msg__ServiceEventInfo,
+            decode_service_msgs__msg__ServiceEventInfo,
             encode_service_msgs__msg__ServiceEventInfo,
         ),
         "std_srvs/srv/Empty_Event": (
-            decode_dict_std_srvs__srv__Empty_Event,
-            decode_view_std_srvs__srv__Empty_Event,
+            decode_std_srvs__srv__Empty_Event,
             encode_std_srvs__srv__Empty_Event,
         ),
         "std_srvs/srv/SetBool_Request": (
-            decode_dict_std_srvs__srv__SetBool_Request,
-            decode_view_std_srvs__srv__SetBool_Request,
+            decode_std_srvs__srv__SetBool_Request,
             encode_std_srvs__srv__SetBool_Request,
         ),
         "std_srvs/srv/SetBool_Response": (
-            decode_dict_std_srvs__srv__SetBool_Response,
-            decode_view_std_srvs__srv__SetBool_Response,
+            decode_std_srvs__srv__SetBool_Response,
             encode_std_srvs__srv__SetBool_Response,
         ),
         "std_srvs/srv/SetBool_Event": (
-            decode_dict_std_srvs__srv__SetBool_Event,
-            decode_view_std_srvs__srv__SetBool_Event,
+            decode_std_srvs__srv__SetBool_Event,
             encode_std_srvs__srv__SetBool_Event,
         ),
         "std_srvs/srv/Trigger_Request": (
-            decode_dict_std_srvs__srv__Trigger_Request,
-            decode_view_std_srvs__srv__Trigger_Request,
+            decode_std_srvs__srv__Trigger_Request,
             encode_std_srvs__srv__Trigger_Request,
         ),
         "std_srvs/srv/Trigger_Response": (
-            decode_dict_std_srvs__srv__Trigger_Response,
-            decode_view_std_srvs__srv__Trigger_Response,
+            decode_std_srvs__srv__Trigger_Response,
             encode_std_srvs__srv__Trigger_Response,
         ),
         "std_srvs/srv/Trigger_Event": (
-            decode_dict_std_srvs__srv__Trigger_Event,
-            decode_view_std_srvs__srv__Trigger_Event,
+            decode_std_srvs__srv__Trigger_Event,
             encode_std_srvs__srv__Trigger_Event,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

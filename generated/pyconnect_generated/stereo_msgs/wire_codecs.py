@@ -4,7 +4,8 @@
 #     RIHS01_1ec1ff6b5bace919e4544a37f2d96ead9f81783701b7b7a4d97a09325ecf2711
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -340,8 +341,8 @@ def make_stereo_msgs__msg__DisparityImage(
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_2I = Struct(E + "2I")
     _S_2f4IT3x3f = Struct(E + "2f4I?3x3f")
@@ -352,9 +353,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _S_iI = Struct(E + "iI")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -365,22 +364,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -412,7 +398,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -428,25 +414,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
         return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def decode_view_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
 
     def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -487,11 +457,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__Image(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_sensor_msgs__msg__Image(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_sensor_msgs__msg__Image_0
             v2, v3, v5 = _S_3I.unpack_from(mv, pos)
@@ -517,6 +487,8 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__Image(v1, v2, v3, v6, v7, v8, v12), pos
         return {
             "header": v1,
             "height": v2,
@@ -526,38 +498,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "step": v8,
             "data": v12,
         }, pos
-
-    def decode_view_sensor_msgs__msg__Image(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__Image_0
-            v2, v3, v5 = _S_3I.unpack_from(mv, pos)
-            pos += 12
-            f = ".encoding"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-            f = _R_sensor_msgs__msg__Image_1
-            (v7,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__Image_2
-            v8, v11 = _S_2I.unpack_from(mv, pos)
-            pos += 8
-            f = ".data"
-            if v11 * 1 > lim - pos:
-                raise too_long(v11, 1, lim - pos)
-            v12 = _frombuffer(mv, _D_uint8, v11, pos)
-            pos += v11 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__Image(v1, v2, v3, v6, v7, v8, v12), pos
 
     def encode_sensor_msgs__msg__Image(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -627,7 +567,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__RegionOfInterest(
+    def decode_sensor_msgs__msg__RegionOfInterest(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -640,22 +580,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__RegionOfInterest(v1, v2, v3, v4, v6), pos
         return {"x_offset": v1, "y_offset": v2, "height": v3, "width": v4, "do_rectify": v6}, pos
-
-    def decode_view_sensor_msgs__msg__RegionOfInterest(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__RegionOfInterest_0
-            v1, v2, v3, v4, v6 = _S_4IT.unpack_from(mv, pos)
-            pos += 17
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__RegionOfInterest(v1, v2, v3, v4, v6), pos
 
     def encode_sensor_msgs__msg__RegionOfInterest(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -706,15 +633,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_stereo_msgs__msg__DisparityImage(
+    def decode_stereo_msgs__msg__DisparityImage(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = ".image"
-            v2, pos = decode_dict_sensor_msgs__msg__Image(mv, pos, lim)
+            v2, pos = decode_sensor_msgs__msg__Image(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_stereo_msgs__msg__DisparityImage_0
             v3, v4, v6, v7, v8, v9, v11, v12, v13, v14 = _S_2f4IT3x3f.unpack_from(mv, pos)
@@ -723,6 +650,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_stereo_msgs__msg__DisparityImage(
+                v1,
+                v2,
+                v3,
+                v4,
+                make_sensor_msgs__msg__RegionOfInterest(v6, v7, v8, v9, v11),
+                v12,
+                v13,
+                v14,
+            ), pos
         return {
             "header": v1,
             "image": v2,
@@ -739,34 +677,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "max_disparity": v13,
             "delta_d": v14,
         }, pos
-
-    def decode_view_stereo_msgs__msg__DisparityImage(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = ".image"
-            v2, pos = decode_view_sensor_msgs__msg__Image(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_stereo_msgs__msg__DisparityImage_0
-            v3, v4, v6, v7, v8, v9, v11, v12, v13, v14 = _S_2f4IT3x3f.unpack_from(mv, pos)
-            pos += 40
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_stereo_msgs__msg__DisparityImage(
-            v1,
-            v2,
-            v3,
-            v4,
-            make_sensor_msgs__msg__RegionOfInterest(v6, v7, v8, v9, v11),
-            v12,
-            v13,
-            v14,
-        ), pos
 
     def encode_stereo_msgs__msg__DisparityImage(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -837,32 +747,26 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
-        "std_msgs/msg/Header": (
-            decode_dict_std_msgs__msg__Header,
-            decode_view_std_msgs__msg__Header,
-            encode_std_msgs__msg__Header,
-        ),
-        "sensor_msgs/msg/Image": (
-            decode_dict_sensor_msgs__msg__Image,
-            decode_view_sensor_msgs__msg__Image,
-            encode_sensor_msgs__msg__Image,
-        ),
+        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
+        "sensor_msgs/msg/Image": (decode_sensor_msgs__msg__Image, encode_sensor_msgs__msg__Image),
         "sensor_msgs/msg/RegionOfInterest": (
-            decode_dict_sensor_msgs__msg__RegionOfInterest,
-            decode_view_sensor_msgs__msg__RegionOfInterest,
+            decode_sensor_msgs__msg__RegionOfInterest,
             encode_sensor_msgs__msg__RegionOfInterest,
         ),
         "stereo_msgs/msg/DisparityImage": (
-            decode_dict_stereo_msgs__msg__DisparityImage,
-            decode_view_stereo_msgs__msg__DisparityImage,
+            decode_stereo_msgs__msg__DisparityImage,
             encode_stereo_msgs__msg__DisparityImage,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

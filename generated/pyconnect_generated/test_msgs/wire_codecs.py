@@ -86,7 +86,8 @@
 #     RIHS01_72ee5828e8083f3c42a56bc5d99fd9e7d5c86389850fc006f254ecdcaecb7d03
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -4207,8 +4208,8 @@ def make_test_msgs__action__NestedMessage_FeedbackMessage(
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_B = Struct(E + "B")
@@ -4237,9 +4238,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _D_uint64 = np.dtype("uint64").newbyteorder(E)
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_dict_test_msgs__msg__BasicTypes(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_test_msgs__msg__BasicTypes(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_test_msgs__msg__BasicTypes_0
@@ -4257,6 +4256,10 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__msg__BasicTypes(
+                v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14
+            ), pos
         return {
             "bool_value": v2,
             "byte_value": v3,
@@ -4272,30 +4275,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "int64_value": v13,
             "uint64_value": v14,
         }, pos
-
-    def decode_view_test_msgs__msg__BasicTypes(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__msg__BasicTypes_0
-            v2, v3, v4 = _S_T2B.unpack_from(mv, pos)
-            pos += 3
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BasicTypes_1
-            (v5,) = _S_f.unpack_from(mv, pos)
-            pos += 4
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__msg__BasicTypes_2
-            v6, v7, v8, v9, v10, v11, v12, v13, v14 = _S_dbBhH2xiIqQ.unpack_from(mv, pos)
-            pos += 40
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__BasicTypes(
-            v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14
-        ), pos
 
     def encode_test_msgs__msg__BasicTypes(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4388,9 +4367,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__msg__Constants(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_test_msgs__msg__Constants(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_test_msgs__msg__Constants_0
@@ -4400,21 +4377,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__msg__Constants(), pos
         return {}, pos
-
-    def decode_view_test_msgs__msg__Constants(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__msg__Constants_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__Constants(), pos
 
     def encode_test_msgs__msg__Constants(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4433,7 +4398,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__msg__Defaults(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_test_msgs__msg__Defaults(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_test_msgs__msg__Defaults_0
@@ -4451,6 +4416,10 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__msg__Defaults(
+                v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14
+            ), pos
         return {
             "bool_value": v2,
             "byte_value": v3,
@@ -4466,28 +4435,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "int64_value": v13,
             "uint64_value": v14,
         }, pos
-
-    def decode_view_test_msgs__msg__Defaults(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__msg__Defaults_0
-            v2, v3, v4 = _S_T2B.unpack_from(mv, pos)
-            pos += 3
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Defaults_1
-            (v5,) = _S_f.unpack_from(mv, pos)
-            pos += 4
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__msg__Defaults_2
-            v6, v7, v8, v9, v10, v11, v12, v13, v14 = _S_dbBhH2xiIqQ.unpack_from(mv, pos)
-            pos += 40
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__Defaults(
-            v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14
-        ), pos
 
     def encode_test_msgs__msg__Defaults(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4580,7 +4527,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__msg__Arrays(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_test_msgs__msg__Arrays(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".bool_values"
@@ -4656,15 +4603,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v40, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
             f = ".basic_types_values"
             v41, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__BasicTypes, 3, None, 45
+                mv, pos, lim, _U32, decode_test_msgs__msg__BasicTypes, 3, None, 45
             )
             f = ".constants_values"
             v42, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Constants, 3, None, 1
+                mv, pos, lim, _U32, decode_test_msgs__msg__Constants, 3, None, 1
             )
             f = ".defaults_values"
             v43, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Defaults, 3, None, 45
+                mv, pos, lim, _U32, decode_test_msgs__msg__Defaults, 3, None, 45
             )
             f = ".bool_values_default"
             if 3 * 1 > lim - pos:
@@ -4745,6 +4692,41 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__msg__Arrays(
+                v3,
+                v6,
+                v9,
+                v12,
+                v15,
+                v18,
+                v21,
+                v24,
+                v27,
+                v30,
+                v33,
+                v36,
+                v39,
+                v40,
+                v41,
+                v42,
+                v43,
+                v46,
+                v49,
+                v52,
+                v55,
+                v58,
+                v61,
+                v64,
+                v67,
+                v70,
+                v73,
+                v76,
+                v79,
+                v82,
+                v83,
+                v84,
+            ), pos
         return {
             "bool_values": v3,
             "byte_values": v6,
@@ -4779,206 +4761,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "string_values_default": v83,
             "alignment_check": v84,
         }, pos
-
-    def decode_view_test_msgs__msg__Arrays(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".bool_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v3 = read_bools(mv, pos, 3)
-            pos += 3 * 1
-            f = ".byte_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v6 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".char_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v9 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".float32_values"
-            pos = (pos + 3) & -4
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v12 = _frombuffer(mv, _D_float32, 3, pos)
-            pos += 3 * 4
-            f = ".float64_values"
-            pos = (pos + 7) & -8
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v15 = _frombuffer(mv, _D_float64, 3, pos)
-            pos += 3 * 8
-            f = ".int8_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v18 = _frombuffer(mv, _D_int8, 3, pos)
-            pos += 3 * 1
-            f = ".uint8_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v21 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".int16_values"
-            if 3 * 2 > lim - pos:
-                raise too_long(3, 2, lim - pos)
-            v24 = _frombuffer(mv, _D_int16, 3, pos)
-            pos += 3 * 2
-            f = ".uint16_values"
-            if 3 * 2 > lim - pos:
-                raise too_long(3, 2, lim - pos)
-            v27 = _frombuffer(mv, _D_uint16, 3, pos)
-            pos += 3 * 2
-            f = ".int32_values"
-            pos += 2
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v30 = _frombuffer(mv, _D_int32, 3, pos)
-            pos += 3 * 4
-            f = ".uint32_values"
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v33 = _frombuffer(mv, _D_uint32, 3, pos)
-            pos += 3 * 4
-            f = ".int64_values"
-            pos += 4
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v36 = _frombuffer(mv, _D_int64, 3, pos)
-            pos += 3 * 8
-            f = ".uint64_values"
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v39 = _frombuffer(mv, _D_uint64, 3, pos)
-            pos += 3 * 8
-            f = ".string_values"
-            v40, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
-            f = ".basic_types_values"
-            v41, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__BasicTypes, 3, None, 45
-            )
-            f = ".constants_values"
-            v42, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Constants, 3, None, 1
-            )
-            f = ".defaults_values"
-            v43, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Defaults, 3, None, 45
-            )
-            f = ".bool_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v46 = read_bools(mv, pos, 3)
-            pos += 3 * 1
-            f = ".byte_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v49 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".char_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v52 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".float32_values_default"
-            pos = (pos + 3) & -4
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v55 = _frombuffer(mv, _D_float32, 3, pos)
-            pos += 3 * 4
-            f = ".float64_values_default"
-            pos = (pos + 7) & -8
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v58 = _frombuffer(mv, _D_float64, 3, pos)
-            pos += 3 * 8
-            f = ".int8_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v61 = _frombuffer(mv, _D_int8, 3, pos)
-            pos += 3 * 1
-            f = ".uint8_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v64 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".int16_values_default"
-            if 3 * 2 > lim - pos:
-                raise too_long(3, 2, lim - pos)
-            v67 = _frombuffer(mv, _D_int16, 3, pos)
-            pos += 3 * 2
-            f = ".uint16_values_default"
-            if 3 * 2 > lim - pos:
-                raise too_long(3, 2, lim - pos)
-            v70 = _frombuffer(mv, _D_uint16, 3, pos)
-            pos += 3 * 2
-            f = ".int32_values_default"
-            pos += 2
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v73 = _frombuffer(mv, _D_int32, 3, pos)
-            pos += 3 * 4
-            f = ".uint32_values_default"
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v76 = _frombuffer(mv, _D_uint32, 3, pos)
-            pos += 3 * 4
-            f = ".int64_values_default"
-            pos += 4
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v79 = _frombuffer(mv, _D_int64, 3, pos)
-            pos += 3 * 8
-            f = ".uint64_values_default"
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v82 = _frombuffer(mv, _D_uint64, 3, pos)
-            pos += 3 * 8
-            f = ".string_values_default"
-            v83, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Arrays_0
-            (v84,) = _S_i.unpack_from(mv, pos)
-            pos += 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__Arrays(
-            v3,
-            v6,
-            v9,
-            v12,
-            v15,
-            v18,
-            v21,
-            v24,
-            v27,
-            v30,
-            v33,
-            v36,
-            v39,
-            v40,
-            v41,
-            v42,
-            v43,
-            v46,
-            v49,
-            v52,
-            v55,
-            v58,
-            v61,
-            v64,
-            v67,
-            v70,
-            v73,
-            v76,
-            v79,
-            v82,
-            v83,
-            v84,
-        ), pos
 
     def encode_test_msgs__msg__Arrays(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -5226,7 +5008,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__msg__BoundedPlainSequences(
+    def decode_test_msgs__msg__BoundedPlainSequences(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -5377,15 +5159,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += v51 * 8
             f = ".basic_types_values"
             v53, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__BasicTypes, None, 3, 45
+                mv, pos, lim, _U32, decode_test_msgs__msg__BasicTypes, None, 3, 45
             )
             f = ".constants_values"
             v54, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Constants, None, 3, 1
+                mv, pos, lim, _U32, decode_test_msgs__msg__Constants, None, 3, 1
             )
             f = ".defaults_values"
             v55, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Defaults, None, 3, 45
+                mv, pos, lim, _U32, decode_test_msgs__msg__Defaults, None, 3, 45
             )
             pos = (pos + 3) & -4
             f = _R_test_msgs__msg__BoundedPlainSequences_13
@@ -5538,6 +5320,39 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__msg__BoundedPlainSequences(
+                v4,
+                v8,
+                v12,
+                v16,
+                v20,
+                v24,
+                v28,
+                v32,
+                v36,
+                v40,
+                v44,
+                v48,
+                v52,
+                v53,
+                v54,
+                v55,
+                v59,
+                v63,
+                v67,
+                v71,
+                v75,
+                v79,
+                v83,
+                v87,
+                v91,
+                v95,
+                v99,
+                v103,
+                v107,
+                v108,
+            ), pos
         return {
             "bool_values": v4,
             "byte_values": v8,
@@ -5570,351 +5385,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "uint64_values_default": v107,
             "alignment_check": v108,
         }, pos
-
-    def decode_view_test_msgs__msg__BoundedPlainSequences(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".bool_values"
-            if v3 > 3:
-                raise over_bound(v3, 3)
-            if v3 * 1 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = read_bools(mv, pos, v3)
-            pos += v3 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_1
-            (v7,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".byte_values"
-            if v7 > 3:
-                raise over_bound(v7, 3)
-            if v7 * 1 > lim - pos:
-                raise too_long(v7, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, v7, pos)
-            pos += v7 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_2
-            (v11,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".char_values"
-            if v11 > 3:
-                raise over_bound(v11, 3)
-            if v11 * 1 > lim - pos:
-                raise too_long(v11, 1, lim - pos)
-            v12 = _frombuffer(mv, _D_uint8, v11, pos)
-            pos += v11 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_3
-            (v15,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".float32_values"
-            if v15 > 3:
-                raise over_bound(v15, 3)
-            if v15 * 4 > lim - pos:
-                raise too_long(v15, 4, lim - pos)
-            v16 = _frombuffer(mv, _D_float32, v15, pos)
-            pos += v15 * 4
-            f = _R_test_msgs__msg__BoundedPlainSequences_4
-            (v19,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".float64_values"
-            if v19 > 3:
-                raise over_bound(v19, 3)
-            if v19:
-                pos = (pos + 7) & -8
-            if v19 * 8 > lim - pos:
-                raise too_long(v19, 8, lim - pos)
-            v20 = _frombuffer(mv, _D_float64, v19, pos)
-            pos += v19 * 8
-            f = _R_test_msgs__msg__BoundedPlainSequences_5
-            (v23,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int8_values"
-            if v23 > 3:
-                raise over_bound(v23, 3)
-            if v23 * 1 > lim - pos:
-                raise too_long(v23, 1, lim - pos)
-            v24 = _frombuffer(mv, _D_int8, v23, pos)
-            pos += v23 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_6
-            (v27,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint8_values"
-            if v27 > 3:
-                raise over_bound(v27, 3)
-            if v27 * 1 > lim - pos:
-                raise too_long(v27, 1, lim - pos)
-            v28 = _frombuffer(mv, _D_uint8, v27, pos)
-            pos += v27 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_7
-            (v31,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int16_values"
-            if v31 > 3:
-                raise over_bound(v31, 3)
-            if v31 * 2 > lim - pos:
-                raise too_long(v31, 2, lim - pos)
-            v32 = _frombuffer(mv, _D_int16, v31, pos)
-            pos += v31 * 2
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_8
-            (v35,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint16_values"
-            if v35 > 3:
-                raise over_bound(v35, 3)
-            if v35 * 2 > lim - pos:
-                raise too_long(v35, 2, lim - pos)
-            v36 = _frombuffer(mv, _D_uint16, v35, pos)
-            pos += v35 * 2
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_9
-            (v39,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int32_values"
-            if v39 > 3:
-                raise over_bound(v39, 3)
-            if v39 * 4 > lim - pos:
-                raise too_long(v39, 4, lim - pos)
-            v40 = _frombuffer(mv, _D_int32, v39, pos)
-            pos += v39 * 4
-            f = _R_test_msgs__msg__BoundedPlainSequences_10
-            (v43,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint32_values"
-            if v43 > 3:
-                raise over_bound(v43, 3)
-            if v43 * 4 > lim - pos:
-                raise too_long(v43, 4, lim - pos)
-            v44 = _frombuffer(mv, _D_uint32, v43, pos)
-            pos += v43 * 4
-            f = _R_test_msgs__msg__BoundedPlainSequences_11
-            (v47,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int64_values"
-            if v47 > 3:
-                raise over_bound(v47, 3)
-            if v47:
-                pos = (pos + 7) & -8
-            if v47 * 8 > lim - pos:
-                raise too_long(v47, 8, lim - pos)
-            v48 = _frombuffer(mv, _D_int64, v47, pos)
-            pos += v47 * 8
-            f = _R_test_msgs__msg__BoundedPlainSequences_12
-            (v51,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint64_values"
-            if v51 > 3:
-                raise over_bound(v51, 3)
-            if v51:
-                pos = (pos + 7) & -8
-            if v51 * 8 > lim - pos:
-                raise too_long(v51, 8, lim - pos)
-            v52 = _frombuffer(mv, _D_uint64, v51, pos)
-            pos += v51 * 8
-            f = ".basic_types_values"
-            v53, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__BasicTypes, None, 3, 45
-            )
-            f = ".constants_values"
-            v54, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Constants, None, 3, 1
-            )
-            f = ".defaults_values"
-            v55, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Defaults, None, 3, 45
-            )
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_13
-            (v58,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".bool_values_default"
-            if v58 > 3:
-                raise over_bound(v58, 3)
-            if v58 * 1 > lim - pos:
-                raise too_long(v58, 1, lim - pos)
-            v59 = read_bools(mv, pos, v58)
-            pos += v58 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_14
-            (v62,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".byte_values_default"
-            if v62 > 3:
-                raise over_bound(v62, 3)
-            if v62 * 1 > lim - pos:
-                raise too_long(v62, 1, lim - pos)
-            v63 = _frombuffer(mv, _D_uint8, v62, pos)
-            pos += v62 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_15
-            (v66,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".char_values_default"
-            if v66 > 3:
-                raise over_bound(v66, 3)
-            if v66 * 1 > lim - pos:
-                raise too_long(v66, 1, lim - pos)
-            v67 = _frombuffer(mv, _D_uint8, v66, pos)
-            pos += v66 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_16
-            (v70,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".float32_values_default"
-            if v70 > 3:
-                raise over_bound(v70, 3)
-            if v70 * 4 > lim - pos:
-                raise too_long(v70, 4, lim - pos)
-            v71 = _frombuffer(mv, _D_float32, v70, pos)
-            pos += v70 * 4
-            f = _R_test_msgs__msg__BoundedPlainSequences_17
-            (v74,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".float64_values_default"
-            if v74 > 3:
-                raise over_bound(v74, 3)
-            if v74:
-                pos = (pos + 7) & -8
-            if v74 * 8 > lim - pos:
-                raise too_long(v74, 8, lim - pos)
-            v75 = _frombuffer(mv, _D_float64, v74, pos)
-            pos += v74 * 8
-            f = _R_test_msgs__msg__BoundedPlainSequences_18
-            (v78,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int8_values_default"
-            if v78 > 3:
-                raise over_bound(v78, 3)
-            if v78 * 1 > lim - pos:
-                raise too_long(v78, 1, lim - pos)
-            v79 = _frombuffer(mv, _D_int8, v78, pos)
-            pos += v78 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_19
-            (v82,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint8_values_default"
-            if v82 > 3:
-                raise over_bound(v82, 3)
-            if v82 * 1 > lim - pos:
-                raise too_long(v82, 1, lim - pos)
-            v83 = _frombuffer(mv, _D_uint8, v82, pos)
-            pos += v82 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_20
-            (v86,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int16_values_default"
-            if v86 > 3:
-                raise over_bound(v86, 3)
-            if v86 * 2 > lim - pos:
-                raise too_long(v86, 2, lim - pos)
-            v87 = _frombuffer(mv, _D_int16, v86, pos)
-            pos += v86 * 2
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_21
-            (v90,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint16_values_default"
-            if v90 > 3:
-                raise over_bound(v90, 3)
-            if v90 * 2 > lim - pos:
-                raise too_long(v90, 2, lim - pos)
-            v91 = _frombuffer(mv, _D_uint16, v90, pos)
-            pos += v90 * 2
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_22
-            (v94,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int32_values_default"
-            if v94 > 3:
-                raise over_bound(v94, 3)
-            if v94 * 4 > lim - pos:
-                raise too_long(v94, 4, lim - pos)
-            v95 = _frombuffer(mv, _D_int32, v94, pos)
-            pos += v94 * 4
-            f = _R_test_msgs__msg__BoundedPlainSequences_23
-            (v98,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint32_values_default"
-            if v98 > 3:
-                raise over_bound(v98, 3)
-            if v98 * 4 > lim - pos:
-                raise too_long(v98, 4, lim - pos)
-            v99 = _frombuffer(mv, _D_uint32, v98, pos)
-            pos += v98 * 4
-            f = _R_test_msgs__msg__BoundedPlainSequences_24
-            (v102,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int64_values_default"
-            if v102 > 3:
-                raise over_bound(v102, 3)
-            if v102:
-                pos = (pos + 7) & -8
-            if v102 * 8 > lim - pos:
-                raise too_long(v102, 8, lim - pos)
-            v103 = _frombuffer(mv, _D_int64, v102, pos)
-            pos += v102 * 8
-            f = _R_test_msgs__msg__BoundedPlainSequences_25
-            (v106,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint64_values_default"
-            if v106 > 3:
-                raise over_bound(v106, 3)
-            if v106:
-                pos = (pos + 7) & -8
-            if v106 * 8 > lim - pos:
-                raise too_long(v106, 8, lim - pos)
-            v107 = _frombuffer(mv, _D_uint64, v106, pos)
-            pos += v106 * 8
-            f = _R_test_msgs__msg__BoundedPlainSequences_26
-            (v108,) = _S_i.unpack_from(mv, pos)
-            pos += 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__BoundedPlainSequences(
-            v4,
-            v8,
-            v12,
-            v16,
-            v20,
-            v24,
-            v28,
-            v32,
-            v36,
-            v40,
-            v44,
-            v48,
-            v52,
-            v53,
-            v54,
-            v55,
-            v59,
-            v63,
-            v67,
-            v71,
-            v75,
-            v79,
-            v83,
-            v87,
-            v91,
-            v95,
-            v99,
-            v103,
-            v107,
-            v108,
-        ), pos
 
     def encode_test_msgs__msg__BoundedPlainSequences(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -6371,7 +5841,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__msg__BoundedSequences(
+    def decode_test_msgs__msg__BoundedSequences(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -6524,15 +5994,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v53, pos = read_strings(mv, pos, lim, _U32, None, 3, None, False)
             f = ".basic_types_values"
             v54, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__BasicTypes, None, 3, 45
+                mv, pos, lim, _U32, decode_test_msgs__msg__BasicTypes, None, 3, 45
             )
             f = ".constants_values"
             v55, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Constants, None, 3, 1
+                mv, pos, lim, _U32, decode_test_msgs__msg__Constants, None, 3, 1
             )
             f = ".defaults_values"
             v56, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Defaults, None, 3, 45
+                mv, pos, lim, _U32, decode_test_msgs__msg__Defaults, None, 3, 45
             )
             pos = (pos + 3) & -4
             f = _R_test_msgs__msg__BoundedSequences_13
@@ -6688,6 +6158,41 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__msg__BoundedSequences(
+                v4,
+                v8,
+                v12,
+                v16,
+                v20,
+                v24,
+                v28,
+                v32,
+                v36,
+                v40,
+                v44,
+                v48,
+                v52,
+                v53,
+                v54,
+                v55,
+                v56,
+                v60,
+                v64,
+                v68,
+                v72,
+                v76,
+                v80,
+                v84,
+                v88,
+                v92,
+                v96,
+                v100,
+                v104,
+                v108,
+                v109,
+                v110,
+            ), pos
         return {
             "bool_values": v4,
             "byte_values": v8,
@@ -6722,358 +6227,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "string_values_default": v109,
             "alignment_check": v110,
         }, pos
-
-    def decode_view_test_msgs__msg__BoundedSequences(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".bool_values"
-            if v3 > 3:
-                raise over_bound(v3, 3)
-            if v3 * 1 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = read_bools(mv, pos, v3)
-            pos += v3 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_1
-            (v7,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".byte_values"
-            if v7 > 3:
-                raise over_bound(v7, 3)
-            if v7 * 1 > lim - pos:
-                raise too_long(v7, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, v7, pos)
-            pos += v7 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_2
-            (v11,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".char_values"
-            if v11 > 3:
-                raise over_bound(v11, 3)
-            if v11 * 1 > lim - pos:
-                raise too_long(v11, 1, lim - pos)
-            v12 = _frombuffer(mv, _D_uint8, v11, pos)
-            pos += v11 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_3
-            (v15,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".float32_values"
-            if v15 > 3:
-                raise over_bound(v15, 3)
-            if v15 * 4 > lim - pos:
-                raise too_long(v15, 4, lim - pos)
-            v16 = _frombuffer(mv, _D_float32, v15, pos)
-            pos += v15 * 4
-            f = _R_test_msgs__msg__BoundedSequences_4
-            (v19,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".float64_values"
-            if v19 > 3:
-                raise over_bound(v19, 3)
-            if v19:
-                pos = (pos + 7) & -8
-            if v19 * 8 > lim - pos:
-                raise too_long(v19, 8, lim - pos)
-            v20 = _frombuffer(mv, _D_float64, v19, pos)
-            pos += v19 * 8
-            f = _R_test_msgs__msg__BoundedSequences_5
-            (v23,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int8_values"
-            if v23 > 3:
-                raise over_bound(v23, 3)
-            if v23 * 1 > lim - pos:
-                raise too_long(v23, 1, lim - pos)
-            v24 = _frombuffer(mv, _D_int8, v23, pos)
-            pos += v23 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_6
-            (v27,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint8_values"
-            if v27 > 3:
-                raise over_bound(v27, 3)
-            if v27 * 1 > lim - pos:
-                raise too_long(v27, 1, lim - pos)
-            v28 = _frombuffer(mv, _D_uint8, v27, pos)
-            pos += v27 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_7
-            (v31,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int16_values"
-            if v31 > 3:
-                raise over_bound(v31, 3)
-            if v31 * 2 > lim - pos:
-                raise too_long(v31, 2, lim - pos)
-            v32 = _frombuffer(mv, _D_int16, v31, pos)
-            pos += v31 * 2
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_8
-            (v35,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint16_values"
-            if v35 > 3:
-                raise over_bound(v35, 3)
-            if v35 * 2 > lim - pos:
-                raise too_long(v35, 2, lim - pos)
-            v36 = _frombuffer(mv, _D_uint16, v35, pos)
-            pos += v35 * 2
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_9
-            (v39,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int32_values"
-            if v39 > 3:
-                raise over_bound(v39, 3)
-            if v39 * 4 > lim - pos:
-                raise too_long(v39, 4, lim - pos)
-            v40 = _frombuffer(mv, _D_int32, v39, pos)
-            pos += v39 * 4
-            f = _R_test_msgs__msg__BoundedSequences_10
-            (v43,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint32_values"
-            if v43 > 3:
-                raise over_bound(v43, 3)
-            if v43 * 4 > lim - pos:
-                raise too_long(v43, 4, lim - pos)
-            v44 = _frombuffer(mv, _D_uint32, v43, pos)
-            pos += v43 * 4
-            f = _R_test_msgs__msg__BoundedSequences_11
-            (v47,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int64_values"
-            if v47 > 3:
-                raise over_bound(v47, 3)
-            if v47:
-                pos = (pos + 7) & -8
-            if v47 * 8 > lim - pos:
-                raise too_long(v47, 8, lim - pos)
-            v48 = _frombuffer(mv, _D_int64, v47, pos)
-            pos += v47 * 8
-            f = _R_test_msgs__msg__BoundedSequences_12
-            (v51,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint64_values"
-            if v51 > 3:
-                raise over_bound(v51, 3)
-            if v51:
-                pos = (pos + 7) & -8
-            if v51 * 8 > lim - pos:
-                raise too_long(v51, 8, lim - pos)
-            v52 = _frombuffer(mv, _D_uint64, v51, pos)
-            pos += v51 * 8
-            f = ".string_values"
-            v53, pos = read_strings(mv, pos, lim, _U32, None, 3, None, False)
-            f = ".basic_types_values"
-            v54, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__BasicTypes, None, 3, 45
-            )
-            f = ".constants_values"
-            v55, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Constants, None, 3, 1
-            )
-            f = ".defaults_values"
-            v56, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Defaults, None, 3, 45
-            )
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_13
-            (v59,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".bool_values_default"
-            if v59 > 3:
-                raise over_bound(v59, 3)
-            if v59 * 1 > lim - pos:
-                raise too_long(v59, 1, lim - pos)
-            v60 = read_bools(mv, pos, v59)
-            pos += v59 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_14
-            (v63,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".byte_values_default"
-            if v63 > 3:
-                raise over_bound(v63, 3)
-            if v63 * 1 > lim - pos:
-                raise too_long(v63, 1, lim - pos)
-            v64 = _frombuffer(mv, _D_uint8, v63, pos)
-            pos += v63 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_15
-            (v67,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".char_values_default"
-            if v67 > 3:
-                raise over_bound(v67, 3)
-            if v67 * 1 > lim - pos:
-                raise too_long(v67, 1, lim - pos)
-            v68 = _frombuffer(mv, _D_uint8, v67, pos)
-            pos += v67 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_16
-            (v71,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".float32_values_default"
-            if v71 > 3:
-                raise over_bound(v71, 3)
-            if v71 * 4 > lim - pos:
-                raise too_long(v71, 4, lim - pos)
-            v72 = _frombuffer(mv, _D_float32, v71, pos)
-            pos += v71 * 4
-            f = _R_test_msgs__msg__BoundedSequences_17
-            (v75,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".float64_values_default"
-            if v75 > 3:
-                raise over_bound(v75, 3)
-            if v75:
-                pos = (pos + 7) & -8
-            if v75 * 8 > lim - pos:
-                raise too_long(v75, 8, lim - pos)
-            v76 = _frombuffer(mv, _D_float64, v75, pos)
-            pos += v75 * 8
-            f = _R_test_msgs__msg__BoundedSequences_18
-            (v79,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int8_values_default"
-            if v79 > 3:
-                raise over_bound(v79, 3)
-            if v79 * 1 > lim - pos:
-                raise too_long(v79, 1, lim - pos)
-            v80 = _frombuffer(mv, _D_int8, v79, pos)
-            pos += v79 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_19
-            (v83,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint8_values_default"
-            if v83 > 3:
-                raise over_bound(v83, 3)
-            if v83 * 1 > lim - pos:
-                raise too_long(v83, 1, lim - pos)
-            v84 = _frombuffer(mv, _D_uint8, v83, pos)
-            pos += v83 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_20
-            (v87,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int16_values_default"
-            if v87 > 3:
-                raise over_bound(v87, 3)
-            if v87 * 2 > lim - pos:
-                raise too_long(v87, 2, lim - pos)
-            v88 = _frombuffer(mv, _D_int16, v87, pos)
-            pos += v87 * 2
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_21
-            (v91,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint16_values_default"
-            if v91 > 3:
-                raise over_bound(v91, 3)
-            if v91 * 2 > lim - pos:
-                raise too_long(v91, 2, lim - pos)
-            v92 = _frombuffer(mv, _D_uint16, v91, pos)
-            pos += v91 * 2
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_22
-            (v95,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int32_values_default"
-            if v95 > 3:
-                raise over_bound(v95, 3)
-            if v95 * 4 > lim - pos:
-                raise too_long(v95, 4, lim - pos)
-            v96 = _frombuffer(mv, _D_int32, v95, pos)
-            pos += v95 * 4
-            f = _R_test_msgs__msg__BoundedSequences_23
-            (v99,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint32_values_default"
-            if v99 > 3:
-                raise over_bound(v99, 3)
-            if v99 * 4 > lim - pos:
-                raise too_long(v99, 4, lim - pos)
-            v100 = _frombuffer(mv, _D_uint32, v99, pos)
-            pos += v99 * 4
-            f = _R_test_msgs__msg__BoundedSequences_24
-            (v103,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int64_values_default"
-            if v103 > 3:
-                raise over_bound(v103, 3)
-            if v103:
-                pos = (pos + 7) & -8
-            if v103 * 8 > lim - pos:
-                raise too_long(v103, 8, lim - pos)
-            v104 = _frombuffer(mv, _D_int64, v103, pos)
-            pos += v103 * 8
-            f = _R_test_msgs__msg__BoundedSequences_25
-            (v107,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint64_values_default"
-            if v107 > 3:
-                raise over_bound(v107, 3)
-            if v107:
-                pos = (pos + 7) & -8
-            if v107 * 8 > lim - pos:
-                raise too_long(v107, 8, lim - pos)
-            v108 = _frombuffer(mv, _D_uint64, v107, pos)
-            pos += v107 * 8
-            f = ".string_values_default"
-            v109, pos = read_strings(mv, pos, lim, _U32, None, 3, None, False)
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_26
-            (v110,) = _S_i.unpack_from(mv, pos)
-            pos += 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__BoundedSequences(
-            v4,
-            v8,
-            v12,
-            v16,
-            v20,
-            v24,
-            v28,
-            v32,
-            v36,
-            v40,
-            v44,
-            v48,
-            v52,
-            v53,
-            v54,
-            v55,
-            v56,
-            v60,
-            v64,
-            v68,
-            v72,
-            v76,
-            v80,
-            v84,
-            v88,
-            v92,
-            v96,
-            v100,
-            v104,
-            v108,
-            v109,
-            v110,
-        ), pos
 
     def encode_test_msgs__msg__BoundedSequences(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -7543,7 +6696,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_builtin_interfaces__msg__Duration(
+    def decode_builtin_interfaces__msg__Duration(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -7556,22 +6709,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Duration(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Duration(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Duration_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Duration(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Duration(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -7603,9 +6743,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -7616,22 +6754,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -7663,7 +6788,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__msg__Builtins(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_test_msgs__msg__Builtins(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -7674,26 +6799,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__msg__Builtins(
+                make_builtin_interfaces__msg__Duration(v2, v3),
+                make_builtin_interfaces__msg__Time(v5, v6),
+            ), pos
         return {
             "duration_value": {"sec": v2, "nanosec": v3},
             "time_value": {"sec": v5, "nanosec": v6},
         }, pos
-
-    def decode_view_test_msgs__msg__Builtins(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Builtins_0
-            v2, v3, v5, v6 = _S_iIiI.unpack_from(mv, pos)
-            pos += 16
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__Builtins(
-            make_builtin_interfaces__msg__Duration(v2, v3),
-            make_builtin_interfaces__msg__Time(v5, v6),
-        ), pos
 
     def encode_test_msgs__msg__Builtins(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -7742,7 +6856,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__msg__Empty(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_test_msgs__msg__Empty(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_test_msgs__msg__Empty_0
@@ -7752,19 +6866,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__msg__Empty(), pos
         return {}, pos
-
-    def decode_view_test_msgs__msg__Empty(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__msg__Empty_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__Empty(), pos
 
     def encode_test_msgs__msg__Empty(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -7783,7 +6887,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__msg__UnboundedSequences(
+    def decode_test_msgs__msg__UnboundedSequences(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -7910,15 +7014,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v53, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
             f = ".basic_types_values"
             v54, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__BasicTypes, None, None, 45
+                mv, pos, lim, _U32, decode_test_msgs__msg__BasicTypes, None, None, 45
             )
             f = ".constants_values"
             v55, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Constants, None, None, 1
+                mv, pos, lim, _U32, decode_test_msgs__msg__Constants, None, None, 1
             )
             f = ".defaults_values"
             v56, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Defaults, None, None, 45
+                mv, pos, lim, _U32, decode_test_msgs__msg__Defaults, None, None, 45
             )
             pos = (pos + 3) & -4
             f = _R_test_msgs__msg__UnboundedSequences_13
@@ -8048,6 +7152,41 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__msg__UnboundedSequences(
+                v4,
+                v8,
+                v12,
+                v16,
+                v20,
+                v24,
+                v28,
+                v32,
+                v36,
+                v40,
+                v44,
+                v48,
+                v52,
+                v53,
+                v54,
+                v55,
+                v56,
+                v60,
+                v64,
+                v68,
+                v72,
+                v76,
+                v80,
+                v84,
+                v88,
+                v92,
+                v96,
+                v100,
+                v104,
+                v108,
+                v109,
+                v110,
+            ), pos
         return {
             "bool_values": v4,
             "byte_values": v8,
@@ -8082,306 +7221,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "string_values_default": v109,
             "alignment_check": v110,
         }, pos
-
-    def decode_view_test_msgs__msg__UnboundedSequences(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".bool_values"
-            if v3 * 1 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = read_bools(mv, pos, v3)
-            pos += v3 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_1
-            (v7,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".byte_values"
-            if v7 * 1 > lim - pos:
-                raise too_long(v7, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, v7, pos)
-            pos += v7 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_2
-            (v11,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".char_values"
-            if v11 * 1 > lim - pos:
-                raise too_long(v11, 1, lim - pos)
-            v12 = _frombuffer(mv, _D_uint8, v11, pos)
-            pos += v11 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_3
-            (v15,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".float32_values"
-            if v15 * 4 > lim - pos:
-                raise too_long(v15, 4, lim - pos)
-            v16 = _frombuffer(mv, _D_float32, v15, pos)
-            pos += v15 * 4
-            f = _R_test_msgs__msg__UnboundedSequences_4
-            (v19,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".float64_values"
-            if v19:
-                pos = (pos + 7) & -8
-            if v19 * 8 > lim - pos:
-                raise too_long(v19, 8, lim - pos)
-            v20 = _frombuffer(mv, _D_float64, v19, pos)
-            pos += v19 * 8
-            f = _R_test_msgs__msg__UnboundedSequences_5
-            (v23,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int8_values"
-            if v23 * 1 > lim - pos:
-                raise too_long(v23, 1, lim - pos)
-            v24 = _frombuffer(mv, _D_int8, v23, pos)
-            pos += v23 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_6
-            (v27,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint8_values"
-            if v27 * 1 > lim - pos:
-                raise too_long(v27, 1, lim - pos)
-            v28 = _frombuffer(mv, _D_uint8, v27, pos)
-            pos += v27 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_7
-            (v31,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int16_values"
-            if v31 * 2 > lim - pos:
-                raise too_long(v31, 2, lim - pos)
-            v32 = _frombuffer(mv, _D_int16, v31, pos)
-            pos += v31 * 2
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_8
-            (v35,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint16_values"
-            if v35 * 2 > lim - pos:
-                raise too_long(v35, 2, lim - pos)
-            v36 = _frombuffer(mv, _D_uint16, v35, pos)
-            pos += v35 * 2
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_9
-            (v39,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int32_values"
-            if v39 * 4 > lim - pos:
-                raise too_long(v39, 4, lim - pos)
-            v40 = _frombuffer(mv, _D_int32, v39, pos)
-            pos += v39 * 4
-            f = _R_test_msgs__msg__UnboundedSequences_10
-            (v43,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint32_values"
-            if v43 * 4 > lim - pos:
-                raise too_long(v43, 4, lim - pos)
-            v44 = _frombuffer(mv, _D_uint32, v43, pos)
-            pos += v43 * 4
-            f = _R_test_msgs__msg__UnboundedSequences_11
-            (v47,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int64_values"
-            if v47:
-                pos = (pos + 7) & -8
-            if v47 * 8 > lim - pos:
-                raise too_long(v47, 8, lim - pos)
-            v48 = _frombuffer(mv, _D_int64, v47, pos)
-            pos += v47 * 8
-            f = _R_test_msgs__msg__UnboundedSequences_12
-            (v51,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint64_values"
-            if v51:
-                pos = (pos + 7) & -8
-            if v51 * 8 > lim - pos:
-                raise too_long(v51, 8, lim - pos)
-            v52 = _frombuffer(mv, _D_uint64, v51, pos)
-            pos += v51 * 8
-            f = ".string_values"
-            v53, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-            f = ".basic_types_values"
-            v54, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__BasicTypes, None, None, 45
-            )
-            f = ".constants_values"
-            v55, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Constants, None, None, 1
-            )
-            f = ".defaults_values"
-            v56, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Defaults, None, None, 45
-            )
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_13
-            (v59,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".bool_values_default"
-            if v59 * 1 > lim - pos:
-                raise too_long(v59, 1, lim - pos)
-            v60 = read_bools(mv, pos, v59)
-            pos += v59 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_14
-            (v63,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".byte_values_default"
-            if v63 * 1 > lim - pos:
-                raise too_long(v63, 1, lim - pos)
-            v64 = _frombuffer(mv, _D_uint8, v63, pos)
-            pos += v63 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_15
-            (v67,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".char_values_default"
-            if v67 * 1 > lim - pos:
-                raise too_long(v67, 1, lim - pos)
-            v68 = _frombuffer(mv, _D_uint8, v67, pos)
-            pos += v67 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_16
-            (v71,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".float32_values_default"
-            if v71 * 4 > lim - pos:
-                raise too_long(v71, 4, lim - pos)
-            v72 = _frombuffer(mv, _D_float32, v71, pos)
-            pos += v71 * 4
-            f = _R_test_msgs__msg__UnboundedSequences_17
-            (v75,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".float64_values_default"
-            if v75:
-                pos = (pos + 7) & -8
-            if v75 * 8 > lim - pos:
-                raise too_long(v75, 8, lim - pos)
-            v76 = _frombuffer(mv, _D_float64, v75, pos)
-            pos += v75 * 8
-            f = _R_test_msgs__msg__UnboundedSequences_18
-            (v79,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int8_values_default"
-            if v79 * 1 > lim - pos:
-                raise too_long(v79, 1, lim - pos)
-            v80 = _frombuffer(mv, _D_int8, v79, pos)
-            pos += v79 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_19
-            (v83,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint8_values_default"
-            if v83 * 1 > lim - pos:
-                raise too_long(v83, 1, lim - pos)
-            v84 = _frombuffer(mv, _D_uint8, v83, pos)
-            pos += v83 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_20
-            (v87,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int16_values_default"
-            if v87 * 2 > lim - pos:
-                raise too_long(v87, 2, lim - pos)
-            v88 = _frombuffer(mv, _D_int16, v87, pos)
-            pos += v87 * 2
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_21
-            (v91,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint16_values_default"
-            if v91 * 2 > lim - pos:
-                raise too_long(v91, 2, lim - pos)
-            v92 = _frombuffer(mv, _D_uint16, v91, pos)
-            pos += v91 * 2
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_22
-            (v95,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int32_values_default"
-            if v95 * 4 > lim - pos:
-                raise too_long(v95, 4, lim - pos)
-            v96 = _frombuffer(mv, _D_int32, v95, pos)
-            pos += v95 * 4
-            f = _R_test_msgs__msg__UnboundedSequences_23
-            (v99,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint32_values_default"
-            if v99 * 4 > lim - pos:
-                raise too_long(v99, 4, lim - pos)
-            v100 = _frombuffer(mv, _D_uint32, v99, pos)
-            pos += v99 * 4
-            f = _R_test_msgs__msg__UnboundedSequences_24
-            (v103,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".int64_values_default"
-            if v103:
-                pos = (pos + 7) & -8
-            if v103 * 8 > lim - pos:
-                raise too_long(v103, 8, lim - pos)
-            v104 = _frombuffer(mv, _D_int64, v103, pos)
-            pos += v103 * 8
-            f = _R_test_msgs__msg__UnboundedSequences_25
-            (v107,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".uint64_values_default"
-            if v107:
-                pos = (pos + 7) & -8
-            if v107 * 8 > lim - pos:
-                raise too_long(v107, 8, lim - pos)
-            v108 = _frombuffer(mv, _D_uint64, v107, pos)
-            pos += v107 * 8
-            f = ".string_values_default"
-            v109, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_26
-            (v110,) = _S_i.unpack_from(mv, pos)
-            pos += 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__UnboundedSequences(
-            v4,
-            v8,
-            v12,
-            v16,
-            v20,
-            v24,
-            v28,
-            v32,
-            v36,
-            v40,
-            v44,
-            v48,
-            v52,
-            v53,
-            v54,
-            v55,
-            v56,
-            v60,
-            v64,
-            v68,
-            v72,
-            v76,
-            v80,
-            v84,
-            v88,
-            v92,
-            v96,
-            v100,
-            v104,
-            v108,
-            v109,
-            v110,
-        ), pos
 
     def encode_test_msgs__msg__UnboundedSequences(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -8855,51 +7694,47 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__msg__MultiNested(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_test_msgs__msg__MultiNested(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".array_of_arrays"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Arrays, 3, None, 571
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, decode_test_msgs__msg__Arrays, 3, None, 571)
             f = ".array_of_bounded_sequences"
             v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__BoundedSequences, 3, None, 128
+                mv, pos, lim, _U32, decode_test_msgs__msg__BoundedSequences, 3, None, 128
             )
             f = ".array_of_unbounded_sequences"
             v3, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__UnboundedSequences, 3, None, 128
+                mv, pos, lim, _U32, decode_test_msgs__msg__UnboundedSequences, 3, None, 128
             )
             f = ".bounded_sequence_of_arrays"
-            v4, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Arrays, None, 3, 571
-            )
+            v4, pos = read_messages(mv, pos, lim, _U32, decode_test_msgs__msg__Arrays, None, 3, 571)
             f = ".bounded_sequence_of_bounded_sequences"
             v5, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__BoundedSequences, None, 3, 128
+                mv, pos, lim, _U32, decode_test_msgs__msg__BoundedSequences, None, 3, 128
             )
             f = ".bounded_sequence_of_unbounded_sequences"
             v6, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__UnboundedSequences, None, 3, 128
+                mv, pos, lim, _U32, decode_test_msgs__msg__UnboundedSequences, None, 3, 128
             )
             f = ".unbounded_sequence_of_arrays"
             v7, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Arrays, None, None, 571
+                mv, pos, lim, _U32, decode_test_msgs__msg__Arrays, None, None, 571
             )
             f = ".unbounded_sequence_of_bounded_sequences"
             v8, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__BoundedSequences, None, None, 128
+                mv, pos, lim, _U32, decode_test_msgs__msg__BoundedSequences, None, None, 128
             )
             f = ".unbounded_sequence_of_unbounded_sequences"
             v9, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__UnboundedSequences, None, None, 128
+                mv, pos, lim, _U32, decode_test_msgs__msg__UnboundedSequences, None, None, 128
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__msg__MultiNested(v1, v2, v3, v4, v5, v6, v7, v8, v9), pos
         return {
             "array_of_arrays": v1,
             "array_of_bounded_sequences": v2,
@@ -8911,53 +7746,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "unbounded_sequence_of_bounded_sequences": v8,
             "unbounded_sequence_of_unbounded_sequences": v9,
         }, pos
-
-    def decode_view_test_msgs__msg__MultiNested(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".array_of_arrays"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Arrays, 3, None, 571
-            )
-            f = ".array_of_bounded_sequences"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__BoundedSequences, 3, None, 128
-            )
-            f = ".array_of_unbounded_sequences"
-            v3, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__UnboundedSequences, 3, None, 128
-            )
-            f = ".bounded_sequence_of_arrays"
-            v4, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Arrays, None, 3, 571
-            )
-            f = ".bounded_sequence_of_bounded_sequences"
-            v5, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__BoundedSequences, None, 3, 128
-            )
-            f = ".bounded_sequence_of_unbounded_sequences"
-            v6, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__UnboundedSequences, None, 3, 128
-            )
-            f = ".unbounded_sequence_of_arrays"
-            v7, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Arrays, None, None, 571
-            )
-            f = ".unbounded_sequence_of_bounded_sequences"
-            v8, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__BoundedSequences, None, None, 128
-            )
-            f = ".unbounded_sequence_of_unbounded_sequences"
-            v9, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__UnboundedSequences, None, None, 128
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__MultiNested(v1, v2, v3, v4, v5, v6, v7, v8, v9), pos
 
     def encode_test_msgs__msg__MultiNested(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -9060,7 +7848,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__msg__Nested(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_test_msgs__msg__Nested(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_test_msgs__msg__Nested_0
@@ -9078,6 +7866,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__msg__Nested(
+                make_test_msgs__msg__BasicTypes(
+                    v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v15
+                )
+            ), pos
         return {
             "basic_types_value": {
                 "bool_value": v3,
@@ -9095,30 +7889,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "uint64_value": v15,
             }
         }, pos
-
-    def decode_view_test_msgs__msg__Nested(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__msg__Nested_0
-            v3, v4, v5 = _S_T2B.unpack_from(mv, pos)
-            pos += 3
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Nested_1
-            (v6,) = _S_f.unpack_from(mv, pos)
-            pos += 4
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__msg__Nested_2
-            v7, v8, v9, v10, v11, v12, v13, v14, v15 = _S_dbBhH2xiIqQ.unpack_from(mv, pos)
-            pos += 40
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__Nested(
-            make_test_msgs__msg__BasicTypes(
-                v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v15
-            )
-        ), pos
 
     def encode_test_msgs__msg__Nested(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -9215,7 +7985,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__msg__Strings(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_test_msgs__msg__Strings(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -9342,6 +8112,10 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__msg__Strings(
+                v3, v6, v9, v12, v15, v18, v21, v24, v27, v30, v33, v36
+            ), pos
         return {
             "string_value": v3,
             "string_value_default1": v6,
@@ -9356,137 +8130,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "bounded_string_value_default4": v33,
             "bounded_string_value_default5": v36,
         }, pos
-
-    def decode_view_test_msgs__msg__Strings(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".string_value"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_1
-            (v5,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".string_value_default1"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_2
-            (v8,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".string_value_default2"
-            if v8 > lim - pos:
-                raise too_long(v8, 1, lim - pos)
-            v9 = mv[pos : pos + v8 - 1].tobytes().decode()
-            pos += v8
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_3
-            (v11,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".string_value_default3"
-            if v11 > lim - pos:
-                raise too_long(v11, 1, lim - pos)
-            v12 = mv[pos : pos + v11 - 1].tobytes().decode()
-            pos += v11
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_4
-            (v14,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".string_value_default4"
-            if v14 > lim - pos:
-                raise too_long(v14, 1, lim - pos)
-            v15 = mv[pos : pos + v14 - 1].tobytes().decode()
-            pos += v14
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_5
-            (v17,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".string_value_default5"
-            if v17 > lim - pos:
-                raise too_long(v17, 1, lim - pos)
-            v18 = mv[pos : pos + v17 - 1].tobytes().decode()
-            pos += v17
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_6
-            (v20,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".bounded_string_value"
-            if v20 > lim - pos:
-                raise too_long(v20, 1, lim - pos)
-            v21 = mv[pos : pos + v20 - 1].tobytes().decode()
-            pos += v20
-            if len(v21) > 22:
-                raise over_bound(len(v21), 22)
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_7
-            (v23,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".bounded_string_value_default1"
-            if v23 > lim - pos:
-                raise too_long(v23, 1, lim - pos)
-            v24 = mv[pos : pos + v23 - 1].tobytes().decode()
-            pos += v23
-            if len(v24) > 22:
-                raise over_bound(len(v24), 22)
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_8
-            (v26,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".bounded_string_value_default2"
-            if v26 > lim - pos:
-                raise too_long(v26, 1, lim - pos)
-            v27 = mv[pos : pos + v26 - 1].tobytes().decode()
-            pos += v26
-            if len(v27) > 22:
-                raise over_bound(len(v27), 22)
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_9
-            (v29,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".bounded_string_value_default3"
-            if v29 > lim - pos:
-                raise too_long(v29, 1, lim - pos)
-            v30 = mv[pos : pos + v29 - 1].tobytes().decode()
-            pos += v29
-            if len(v30) > 22:
-                raise over_bound(len(v30), 22)
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_10
-            (v32,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".bounded_string_value_default4"
-            if v32 > lim - pos:
-                raise too_long(v32, 1, lim - pos)
-            v33 = mv[pos : pos + v32 - 1].tobytes().decode()
-            pos += v32
-            if len(v33) > 22:
-                raise over_bound(len(v33), 22)
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_11
-            (v35,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".bounded_string_value_default5"
-            if v35 > lim - pos:
-                raise too_long(v35, 1, lim - pos)
-            v36 = mv[pos : pos + v35 - 1].tobytes().decode()
-            pos += v35
-            if len(v36) > 22:
-                raise over_bound(len(v36), 22)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__Strings(
-            v3, v6, v9, v12, v15, v18, v21, v24, v27, v30, v33, v36
-        ), pos
 
     def encode_test_msgs__msg__Strings(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -9667,7 +8310,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__msg__WStrings(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_test_msgs__msg__WStrings(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".wstring_value"
@@ -9688,6 +8331,8 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__msg__WStrings(v1, v2, v3, v4, v5, v6, v7), pos
         return {
             "wstring_value": v1,
             "wstring_value_default1": v2,
@@ -9697,29 +8342,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "bounded_sequence_of_wstrings": v6,
             "unbounded_sequence_of_wstrings": v7,
         }, pos
-
-    def decode_view_test_msgs__msg__WStrings(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".wstring_value"
-            v1, pos = read_wstring(mv, pos, lim, _U32, None)
-            f = ".wstring_value_default1"
-            v2, pos = read_wstring(mv, pos, lim, _U32, None)
-            f = ".wstring_value_default2"
-            v3, pos = read_wstring(mv, pos, lim, _U32, None)
-            f = ".wstring_value_default3"
-            v4, pos = read_wstring(mv, pos, lim, _U32, None)
-            f = ".array_of_wstrings"
-            v5, pos = read_strings(mv, pos, lim, _U32, 3, None, None, True)
-            f = ".bounded_sequence_of_wstrings"
-            v6, pos = read_strings(mv, pos, lim, _U32, None, 3, None, True)
-            f = ".unbounded_sequence_of_wstrings"
-            v7, pos = read_strings(mv, pos, lim, _U32, None, None, None, True)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__msg__WStrings(v1, v2, v3, v4, v5, v6, v7), pos
 
     def encode_test_msgs__msg__WStrings(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -9758,7 +8380,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__srv__Arrays_Request(
+    def decode_test_msgs__srv__Arrays_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -9836,15 +8458,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v40, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
             f = ".basic_types_values"
             v41, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__BasicTypes, 3, None, 45
+                mv, pos, lim, _U32, decode_test_msgs__msg__BasicTypes, 3, None, 45
             )
             f = ".constants_values"
             v42, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Constants, 3, None, 1
+                mv, pos, lim, _U32, decode_test_msgs__msg__Constants, 3, None, 1
             )
             f = ".defaults_values"
             v43, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Defaults, 3, None, 45
+                mv, pos, lim, _U32, decode_test_msgs__msg__Defaults, 3, None, 45
             )
             f = ".bool_values_default"
             if 3 * 1 > lim - pos:
@@ -9921,6 +8543,40 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__srv__Arrays_Request(
+                v3,
+                v6,
+                v9,
+                v12,
+                v15,
+                v18,
+                v21,
+                v24,
+                v27,
+                v30,
+                v33,
+                v36,
+                v39,
+                v40,
+                v41,
+                v42,
+                v43,
+                v46,
+                v49,
+                v52,
+                v55,
+                v58,
+                v61,
+                v64,
+                v67,
+                v70,
+                v73,
+                v76,
+                v79,
+                v82,
+                v83,
+            ), pos
         return {
             "bool_values": v3,
             "byte_values": v6,
@@ -9954,203 +8610,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "uint64_values_default": v82,
             "string_values_default": v83,
         }, pos
-
-    def decode_view_test_msgs__srv__Arrays_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".bool_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v3 = read_bools(mv, pos, 3)
-            pos += 3 * 1
-            f = ".byte_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v6 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".char_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v9 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".float32_values"
-            pos = (pos + 3) & -4
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v12 = _frombuffer(mv, _D_float32, 3, pos)
-            pos += 3 * 4
-            f = ".float64_values"
-            pos = (pos + 7) & -8
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v15 = _frombuffer(mv, _D_float64, 3, pos)
-            pos += 3 * 8
-            f = ".int8_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v18 = _frombuffer(mv, _D_int8, 3, pos)
-            pos += 3 * 1
-            f = ".uint8_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v21 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".int16_values"
-            if 3 * 2 > lim - pos:
-                raise too_long(3, 2, lim - pos)
-            v24 = _frombuffer(mv, _D_int16, 3, pos)
-            pos += 3 * 2
-            f = ".uint16_values"
-            if 3 * 2 > lim - pos:
-                raise too_long(3, 2, lim - pos)
-            v27 = _frombuffer(mv, _D_uint16, 3, pos)
-            pos += 3 * 2
-            f = ".int32_values"
-            pos += 2
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v30 = _frombuffer(mv, _D_int32, 3, pos)
-            pos += 3 * 4
-            f = ".uint32_values"
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v33 = _frombuffer(mv, _D_uint32, 3, pos)
-            pos += 3 * 4
-            f = ".int64_values"
-            pos += 4
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v36 = _frombuffer(mv, _D_int64, 3, pos)
-            pos += 3 * 8
-            f = ".uint64_values"
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v39 = _frombuffer(mv, _D_uint64, 3, pos)
-            pos += 3 * 8
-            f = ".string_values"
-            v40, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
-            f = ".basic_types_values"
-            v41, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__BasicTypes, 3, None, 45
-            )
-            f = ".constants_values"
-            v42, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Constants, 3, None, 1
-            )
-            f = ".defaults_values"
-            v43, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Defaults, 3, None, 45
-            )
-            f = ".bool_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v46 = read_bools(mv, pos, 3)
-            pos += 3 * 1
-            f = ".byte_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v49 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".char_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v52 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".float32_values_default"
-            pos = (pos + 3) & -4
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v55 = _frombuffer(mv, _D_float32, 3, pos)
-            pos += 3 * 4
-            f = ".float64_values_default"
-            pos = (pos + 7) & -8
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v58 = _frombuffer(mv, _D_float64, 3, pos)
-            pos += 3 * 8
-            f = ".int8_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v61 = _frombuffer(mv, _D_int8, 3, pos)
-            pos += 3 * 1
-            f = ".uint8_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v64 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".int16_values_default"
-            if 3 * 2 > lim - pos:
-                raise too_long(3, 2, lim - pos)
-            v67 = _frombuffer(mv, _D_int16, 3, pos)
-            pos += 3 * 2
-            f = ".uint16_values_default"
-            if 3 * 2 > lim - pos:
-                raise too_long(3, 2, lim - pos)
-            v70 = _frombuffer(mv, _D_uint16, 3, pos)
-            pos += 3 * 2
-            f = ".int32_values_default"
-            pos += 2
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v73 = _frombuffer(mv, _D_int32, 3, pos)
-            pos += 3 * 4
-            f = ".uint32_values_default"
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v76 = _frombuffer(mv, _D_uint32, 3, pos)
-            pos += 3 * 4
-            f = ".int64_values_default"
-            pos += 4
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v79 = _frombuffer(mv, _D_int64, 3, pos)
-            pos += 3 * 8
-            f = ".uint64_values_default"
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v82 = _frombuffer(mv, _D_uint64, 3, pos)
-            pos += 3 * 8
-            f = ".string_values_default"
-            v83, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__srv__Arrays_Request(
-            v3,
-            v6,
-            v9,
-            v12,
-            v15,
-            v18,
-            v21,
-            v24,
-            v27,
-            v30,
-            v33,
-            v36,
-            v39,
-            v40,
-            v41,
-            v42,
-            v43,
-            v46,
-            v49,
-            v52,
-            v55,
-            v58,
-            v61,
-            v64,
-            v67,
-            v70,
-            v73,
-            v76,
-            v79,
-            v82,
-            v83,
-        ), pos
 
     def encode_test_msgs__srv__Arrays_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -10386,7 +8845,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__srv__Arrays_Response(
+    def decode_test_msgs__srv__Arrays_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -10464,15 +8923,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v40, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
             f = ".basic_types_values"
             v41, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__BasicTypes, 3, None, 45
+                mv, pos, lim, _U32, decode_test_msgs__msg__BasicTypes, 3, None, 45
             )
             f = ".constants_values"
             v42, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Constants, 3, None, 1
+                mv, pos, lim, _U32, decode_test_msgs__msg__Constants, 3, None, 1
             )
             f = ".defaults_values"
             v43, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__msg__Defaults, 3, None, 45
+                mv, pos, lim, _U32, decode_test_msgs__msg__Defaults, 3, None, 45
             )
             f = ".bool_values_default"
             if 3 * 1 > lim - pos:
@@ -10549,6 +9008,40 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__srv__Arrays_Response(
+                v3,
+                v6,
+                v9,
+                v12,
+                v15,
+                v18,
+                v21,
+                v24,
+                v27,
+                v30,
+                v33,
+                v36,
+                v39,
+                v40,
+                v41,
+                v42,
+                v43,
+                v46,
+                v49,
+                v52,
+                v55,
+                v58,
+                v61,
+                v64,
+                v67,
+                v70,
+                v73,
+                v76,
+                v79,
+                v82,
+                v83,
+            ), pos
         return {
             "bool_values": v3,
             "byte_values": v6,
@@ -10582,203 +9075,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "uint64_values_default": v82,
             "string_values_default": v83,
         }, pos
-
-    def decode_view_test_msgs__srv__Arrays_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".bool_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v3 = read_bools(mv, pos, 3)
-            pos += 3 * 1
-            f = ".byte_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v6 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".char_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v9 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".float32_values"
-            pos = (pos + 3) & -4
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v12 = _frombuffer(mv, _D_float32, 3, pos)
-            pos += 3 * 4
-            f = ".float64_values"
-            pos = (pos + 7) & -8
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v15 = _frombuffer(mv, _D_float64, 3, pos)
-            pos += 3 * 8
-            f = ".int8_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v18 = _frombuffer(mv, _D_int8, 3, pos)
-            pos += 3 * 1
-            f = ".uint8_values"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v21 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".int16_values"
-            if 3 * 2 > lim - pos:
-                raise too_long(3, 2, lim - pos)
-            v24 = _frombuffer(mv, _D_int16, 3, pos)
-            pos += 3 * 2
-            f = ".uint16_values"
-            if 3 * 2 > lim - pos:
-                raise too_long(3, 2, lim - pos)
-            v27 = _frombuffer(mv, _D_uint16, 3, pos)
-            pos += 3 * 2
-            f = ".int32_values"
-            pos += 2
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v30 = _frombuffer(mv, _D_int32, 3, pos)
-            pos += 3 * 4
-            f = ".uint32_values"
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v33 = _frombuffer(mv, _D_uint32, 3, pos)
-            pos += 3 * 4
-            f = ".int64_values"
-            pos += 4
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v36 = _frombuffer(mv, _D_int64, 3, pos)
-            pos += 3 * 8
-            f = ".uint64_values"
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v39 = _frombuffer(mv, _D_uint64, 3, pos)
-            pos += 3 * 8
-            f = ".string_values"
-            v40, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
-            f = ".basic_types_values"
-            v41, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__BasicTypes, 3, None, 45
-            )
-            f = ".constants_values"
-            v42, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Constants, 3, None, 1
-            )
-            f = ".defaults_values"
-            v43, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__msg__Defaults, 3, None, 45
-            )
-            f = ".bool_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v46 = read_bools(mv, pos, 3)
-            pos += 3 * 1
-            f = ".byte_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v49 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".char_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v52 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".float32_values_default"
-            pos = (pos + 3) & -4
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v55 = _frombuffer(mv, _D_float32, 3, pos)
-            pos += 3 * 4
-            f = ".float64_values_default"
-            pos = (pos + 7) & -8
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v58 = _frombuffer(mv, _D_float64, 3, pos)
-            pos += 3 * 8
-            f = ".int8_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v61 = _frombuffer(mv, _D_int8, 3, pos)
-            pos += 3 * 1
-            f = ".uint8_values_default"
-            if 3 * 1 > lim - pos:
-                raise too_long(3, 1, lim - pos)
-            v64 = _frombuffer(mv, _D_uint8, 3, pos)
-            pos += 3 * 1
-            f = ".int16_values_default"
-            if 3 * 2 > lim - pos:
-                raise too_long(3, 2, lim - pos)
-            v67 = _frombuffer(mv, _D_int16, 3, pos)
-            pos += 3 * 2
-            f = ".uint16_values_default"
-            if 3 * 2 > lim - pos:
-                raise too_long(3, 2, lim - pos)
-            v70 = _frombuffer(mv, _D_uint16, 3, pos)
-            pos += 3 * 2
-            f = ".int32_values_default"
-            pos += 2
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v73 = _frombuffer(mv, _D_int32, 3, pos)
-            pos += 3 * 4
-            f = ".uint32_values_default"
-            if 3 * 4 > lim - pos:
-                raise too_long(3, 4, lim - pos)
-            v76 = _frombuffer(mv, _D_uint32, 3, pos)
-            pos += 3 * 4
-            f = ".int64_values_default"
-            pos += 4
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v79 = _frombuffer(mv, _D_int64, 3, pos)
-            pos += 3 * 8
-            f = ".uint64_values_default"
-            if 3 * 8 > lim - pos:
-                raise too_long(3, 8, lim - pos)
-            v82 = _frombuffer(mv, _D_uint64, 3, pos)
-            pos += 3 * 8
-            f = ".string_values_default"
-            v83, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__srv__Arrays_Response(
-            v3,
-            v6,
-            v9,
-            v12,
-            v15,
-            v18,
-            v21,
-            v24,
-            v27,
-            v30,
-            v33,
-            v36,
-            v39,
-            v40,
-            v41,
-            v42,
-            v43,
-            v46,
-            v49,
-            v52,
-            v55,
-            v58,
-            v61,
-            v64,
-            v67,
-            v70,
-            v73,
-            v76,
-            v79,
-            v82,
-            v83,
-        ), pos
 
     def encode_test_msgs__srv__Arrays_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -11014,7 +9310,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_service_msgs__msg__ServiceEventInfo(
+    def decode_service_msgs__msg__ServiceEventInfo(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -11039,41 +9335,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_service_msgs__msg__ServiceEventInfo(
+                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
+            ), pos
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
             "client_gid": v7,
             "sequence_number": v8,
         }, pos
-
-    def decode_view_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_service_msgs__msg__ServiceEventInfo(
-            v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-        ), pos
 
     def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -11139,9 +9410,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__srv__Arrays_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_test_msgs__srv__Arrays_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_test_msgs__srv__Arrays_Event_0
@@ -11162,16 +9431,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__srv__Arrays_Request, None, 1, 567
+                mv, pos, lim, _U32, decode_test_msgs__srv__Arrays_Request, None, 1, 567
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__srv__Arrays_Response, None, 1, 567
+                mv, pos, lim, _U32, decode_test_msgs__srv__Arrays_Response, None, 1, 567
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__srv__Arrays_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -11182,47 +9459,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_test_msgs__srv__Arrays_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__srv__Arrays_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__srv__Arrays_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__srv__Arrays_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__srv__Arrays_Request, None, 1, 567
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__srv__Arrays_Response, None, 1, 567
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__srv__Arrays_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_test_msgs__srv__Arrays_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -11310,7 +9546,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__srv__BasicTypes_Request(
+    def decode_test_msgs__srv__BasicTypes_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -11335,6 +9571,10 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__srv__BasicTypes_Request(
+                v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v17
+            ), pos
         return {
             "bool_value": v2,
             "byte_value": v3,
@@ -11351,35 +9591,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "uint64_value": v14,
             "string_value": v17,
         }, pos
-
-    def decode_view_test_msgs__srv__BasicTypes_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__srv__BasicTypes_Request_0
-            v2, v3, v4 = _S_T2B.unpack_from(mv, pos)
-            pos += 3
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__srv__BasicTypes_Request_1
-            (v5,) = _S_f.unpack_from(mv, pos)
-            pos += 4
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__srv__BasicTypes_Request_2
-            v6, v7, v8, v9, v10, v11, v12, v13, v14, v16 = _S_dbBhH2xiIqQI.unpack_from(mv, pos)
-            pos += 44
-            f = ".string_value"
-            if v16 > lim - pos:
-                raise too_long(v16, 1, lim - pos)
-            v17 = mv[pos : pos + v16 - 1].tobytes().decode()
-            pos += v16
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__srv__BasicTypes_Request(
-            v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v17
-        ), pos
 
     def encode_test_msgs__srv__BasicTypes_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -11482,7 +9693,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__srv__BasicTypes_Response(
+    def decode_test_msgs__srv__BasicTypes_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -11507,6 +9718,10 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__srv__BasicTypes_Response(
+                v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v17
+            ), pos
         return {
             "bool_value": v2,
             "byte_value": v3,
@@ -11523,35 +9738,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "uint64_value": v14,
             "string_value": v17,
         }, pos
-
-    def decode_view_test_msgs__srv__BasicTypes_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__srv__BasicTypes_Response_0
-            v2, v3, v4 = _S_T2B.unpack_from(mv, pos)
-            pos += 3
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__srv__BasicTypes_Response_1
-            (v5,) = _S_f.unpack_from(mv, pos)
-            pos += 4
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__srv__BasicTypes_Response_2
-            v6, v7, v8, v9, v10, v11, v12, v13, v14, v16 = _S_dbBhH2xiIqQI.unpack_from(mv, pos)
-            pos += 44
-            f = ".string_value"
-            if v16 > lim - pos:
-                raise too_long(v16, 1, lim - pos)
-            v17 = mv[pos : pos + v16 - 1].tobytes().decode()
-            pos += v16
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__srv__BasicTypes_Response(
-            v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v17
-        ), pos
 
     def encode_test_msgs__srv__BasicTypes_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -11654,7 +9840,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__srv__BasicTypes_Event(
+    def decode_test_msgs__srv__BasicTypes_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -11677,16 +9863,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__srv__BasicTypes_Request, None, 1, 49
+                mv, pos, lim, _U32, decode_test_msgs__srv__BasicTypes_Request, None, 1, 49
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__srv__BasicTypes_Response, None, 1, 49
+                mv, pos, lim, _U32, decode_test_msgs__srv__BasicTypes_Response, None, 1, 49
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__srv__BasicTypes_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -11697,47 +9891,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_test_msgs__srv__BasicTypes_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__srv__BasicTypes_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__srv__BasicTypes_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__srv__BasicTypes_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__srv__BasicTypes_Request, None, 1, 49
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__srv__BasicTypes_Response, None, 1, 49
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__srv__BasicTypes_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_test_msgs__srv__BasicTypes_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -11827,9 +9980,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__srv__Empty_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_test_msgs__srv__Empty_Request(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_test_msgs__srv__Empty_Request_0
@@ -11839,21 +9990,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__srv__Empty_Request(), pos
         return {}, pos
-
-    def decode_view_test_msgs__srv__Empty_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__srv__Empty_Request_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__srv__Empty_Request(), pos
 
     def encode_test_msgs__srv__Empty_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -11872,7 +10011,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__srv__Empty_Response(
+    def decode_test_msgs__srv__Empty_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -11884,21 +10023,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__srv__Empty_Response(), pos
         return {}, pos
-
-    def decode_view_test_msgs__srv__Empty_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__srv__Empty_Response_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__srv__Empty_Response(), pos
 
     def encode_test_msgs__srv__Empty_Response(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -11917,9 +10044,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__srv__Empty_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_test_msgs__srv__Empty_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = _R_test_msgs__srv__Empty_Event_0
@@ -11940,16 +10065,24 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__srv__Empty_Request, None, 1, 1
+                mv, pos, lim, _U32, decode_test_msgs__srv__Empty_Request, None, 1, 1
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_test_msgs__srv__Empty_Response, None, 1, 1
+                mv, pos, lim, _U32, decode_test_msgs__srv__Empty_Response, None, 1, 1
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__srv__Empty_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -11960,47 +10093,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_test_msgs__srv__Empty_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__srv__Empty_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__srv__Empty_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__srv__Empty_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__srv__Empty_Request, None, 1, 1
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_test_msgs__srv__Empty_Response, None, 1, 1
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__srv__Empty_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_test_msgs__srv__Empty_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -12082,7 +10174,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__Fibonacci_Goal(
+    def decode_test_msgs__action__Fibonacci_Goal(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -12095,22 +10187,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__Fibonacci_Goal(v1), pos
         return {"order": v1}, pos
-
-    def decode_view_test_msgs__action__Fibonacci_Goal(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__Fibonacci_Goal_0
-            (v1,) = _S_i.unpack_from(mv, pos)
-            pos += 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__Fibonacci_Goal(v1), pos
 
     def encode_test_msgs__action__Fibonacci_Goal(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -12135,7 +10214,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__Fibonacci_Result(
+    def decode_test_msgs__action__Fibonacci_Result(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -12153,27 +10232,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__Fibonacci_Result(v4), pos
         return {"sequence": v4}, pos
-
-    def decode_view_test_msgs__action__Fibonacci_Result(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__Fibonacci_Result_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".sequence"
-            if v3 * 4 > lim - pos:
-                raise too_long(v3, 4, lim - pos)
-            v4 = _frombuffer(mv, _D_int32, v3, pos)
-            pos += v3 * 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__Fibonacci_Result(v4), pos
 
     def encode_test_msgs__action__Fibonacci_Result(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -12200,7 +10261,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__Fibonacci_Feedback(
+    def decode_test_msgs__action__Fibonacci_Feedback(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -12218,27 +10279,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__Fibonacci_Feedback(v4), pos
         return {"sequence": v4}, pos
-
-    def decode_view_test_msgs__action__Fibonacci_Feedback(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__Fibonacci_Feedback_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".sequence"
-            if v3 * 4 > lim - pos:
-                raise too_long(v3, 4, lim - pos)
-            v4 = _frombuffer(mv, _D_int32, v3, pos)
-            pos += v3 * 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__Fibonacci_Feedback(v4), pos
 
     def encode_test_msgs__action__Fibonacci_Feedback(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -12267,7 +10310,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_unique_identifier_msgs__msg__UUID(
+    def decode_unique_identifier_msgs__msg__UUID(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -12281,23 +10324,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_unique_identifier_msgs__msg__UUID(v3), pos
         return {"uuid": v3}, pos
-
-    def decode_view_unique_identifier_msgs__msg__UUID(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".uuid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v3 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_unique_identifier_msgs__msg__UUID(v3), pos
 
     def encode_unique_identifier_msgs__msg__UUID(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -12314,7 +10343,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__Fibonacci_SendGoal_Request(
+    def decode_test_msgs__action__Fibonacci_SendGoal_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -12332,29 +10361,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__Fibonacci_SendGoal_Request(
+                make_unique_identifier_msgs__msg__UUID(v4),
+                make_test_msgs__action__Fibonacci_Goal(v6),
+            ), pos
         return {"goal_id": {"uuid": v4}, "goal": {"order": v6}}, pos
-
-    def decode_view_test_msgs__action__Fibonacci_SendGoal_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".goal_id.uuid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__Fibonacci_SendGoal_Request_0
-            (v6,) = _S_i.unpack_from(mv, pos)
-            pos += 4
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__Fibonacci_SendGoal_Request(
-            make_unique_identifier_msgs__msg__UUID(v4), make_test_msgs__action__Fibonacci_Goal(v6)
-        ), pos
 
     def encode_test_msgs__action__Fibonacci_SendGoal_Request(
         d: Any, out: list[Any], pos: int
@@ -12400,7 +10412,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__Fibonacci_SendGoal_Response(
+    def decode_test_msgs__action__Fibonacci_SendGoal_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -12416,27 +10428,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__Fibonacci_SendGoal_Response(
+                v2, make_builtin_interfaces__msg__Time(v4, v5)
+            ), pos
         return {"accepted": v2, "stamp": {"sec": v4, "nanosec": v5}}, pos
-
-    def decode_view_test_msgs__action__Fibonacci_SendGoal_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__action__Fibonacci_SendGoal_Response_0
-            (v2,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__Fibonacci_SendGoal_Response_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__Fibonacci_SendGoal_Response(
-            v2, make_builtin_interfaces__msg__Time(v4, v5)
-        ), pos
 
     def encode_test_msgs__action__Fibonacci_SendGoal_Response(
         d: Any, out: list[Any], pos: int
@@ -12503,7 +10499,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__Fibonacci_SendGoal_Event(
+    def decode_test_msgs__action__Fibonacci_SendGoal_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -12530,7 +10526,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_test_msgs__action__Fibonacci_SendGoal_Request,
+                decode_test_msgs__action__Fibonacci_SendGoal_Request,
                 None,
                 1,
                 20,
@@ -12541,7 +10537,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_test_msgs__action__Fibonacci_SendGoal_Response,
+                decode_test_msgs__action__Fibonacci_SendGoal_Response,
                 None,
                 1,
                 9,
@@ -12550,6 +10546,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__Fibonacci_SendGoal_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -12560,61 +10564,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_test_msgs__action__Fibonacci_SendGoal_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__action__Fibonacci_SendGoal_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__Fibonacci_SendGoal_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__action__Fibonacci_SendGoal_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_test_msgs__action__Fibonacci_SendGoal_Request,
-                None,
-                1,
-                20,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_test_msgs__action__Fibonacci_SendGoal_Response,
-                None,
-                1,
-                9,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__Fibonacci_SendGoal_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_test_msgs__action__Fibonacci_SendGoal_Event(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -12711,7 +10660,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__Fibonacci_GetResult_Request(
+    def decode_test_msgs__action__Fibonacci_GetResult_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -12725,25 +10674,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__Fibonacci_GetResult_Request(
+                make_unique_identifier_msgs__msg__UUID(v4)
+            ), pos
         return {"goal_id": {"uuid": v4}}, pos
-
-    def decode_view_test_msgs__action__Fibonacci_GetResult_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".goal_id.uuid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__Fibonacci_GetResult_Request(
-            make_unique_identifier_msgs__msg__UUID(v4)
-        ), pos
 
     def encode_test_msgs__action__Fibonacci_GetResult_Request(
         d: Any, out: list[Any], pos: int
@@ -12769,7 +10704,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__Fibonacci_GetResult_Response(
+    def decode_test_msgs__action__Fibonacci_GetResult_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -12778,28 +10713,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             (v1,) = _S_b.unpack_from(mv, pos)
             pos += 1
             f = ".result"
-            v2, pos = decode_dict_test_msgs__action__Fibonacci_Result(mv, pos, lim)
+            v2, pos = decode_test_msgs__action__Fibonacci_Result(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__Fibonacci_GetResult_Response(v1, v2), pos
         return {"status": v1, "result": v2}, pos
-
-    def decode_view_test_msgs__action__Fibonacci_GetResult_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__action__Fibonacci_GetResult_Response_0
-            (v1,) = _S_b.unpack_from(mv, pos)
-            pos += 1
-            f = ".result"
-            v2, pos = decode_view_test_msgs__action__Fibonacci_Result(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__Fibonacci_GetResult_Response(v1, v2), pos
 
     def encode_test_msgs__action__Fibonacci_GetResult_Response(
         d: Any, out: list[Any], pos: int
@@ -12831,7 +10752,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__Fibonacci_GetResult_Event(
+    def decode_test_msgs__action__Fibonacci_GetResult_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -12858,7 +10779,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_test_msgs__action__Fibonacci_GetResult_Request,
+                decode_test_msgs__action__Fibonacci_GetResult_Request,
                 None,
                 1,
                 16,
@@ -12869,7 +10790,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_test_msgs__action__Fibonacci_GetResult_Response,
+                decode_test_msgs__action__Fibonacci_GetResult_Response,
                 None,
                 1,
                 5,
@@ -12878,6 +10799,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__Fibonacci_GetResult_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -12888,61 +10817,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_test_msgs__action__Fibonacci_GetResult_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__action__Fibonacci_GetResult_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__Fibonacci_GetResult_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__action__Fibonacci_GetResult_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_test_msgs__action__Fibonacci_GetResult_Request,
-                None,
-                1,
-                16,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_test_msgs__action__Fibonacci_GetResult_Response,
-                None,
-                1,
-                5,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__Fibonacci_GetResult_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_test_msgs__action__Fibonacci_GetResult_Event(
         d: Any, out: list[Any], pos: int
@@ -13041,7 +10915,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__Fibonacci_FeedbackMessage(
+    def decode_test_msgs__action__Fibonacci_FeedbackMessage(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -13052,32 +10926,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v4 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             f = ".feedback"
-            v5, pos = decode_dict_test_msgs__action__Fibonacci_Feedback(mv, pos, lim)
+            v5, pos = decode_test_msgs__action__Fibonacci_Feedback(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__Fibonacci_FeedbackMessage(
+                make_unique_identifier_msgs__msg__UUID(v4), v5
+            ), pos
         return {"goal_id": {"uuid": v4}, "feedback": v5}, pos
-
-    def decode_view_test_msgs__action__Fibonacci_FeedbackMessage(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".goal_id.uuid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            f = ".feedback"
-            v5, pos = decode_view_test_msgs__action__Fibonacci_Feedback(mv, pos, lim)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__Fibonacci_FeedbackMessage(
-            make_unique_identifier_msgs__msg__UUID(v4), v5
-        ), pos
 
     def encode_test_msgs__action__Fibonacci_FeedbackMessage(
         d: Any, out: list[Any], pos: int
@@ -13105,7 +10963,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__NestedMessage_Goal(
+    def decode_test_msgs__action__NestedMessage_Goal(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -13124,6 +10982,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__NestedMessage_Goal(
+                make_test_msgs__msg__Builtins(
+                    make_builtin_interfaces__msg__Duration(v3, v4),
+                    make_builtin_interfaces__msg__Time(v6, v7),
+                ),
+                make_test_msgs__msg__BasicTypes(
+                    v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22
+                ),
+                make_builtin_interfaces__msg__Time(v24, v25),
+            ), pos
         return {
             "nested_field_no_pkg": {
                 "duration_value": {"sec": v3, "nanosec": v4},
@@ -13146,36 +11015,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             },
             "nested_different_pkg": {"sec": v24, "nanosec": v25},
         }, pos
-
-    def decode_view_test_msgs__action__NestedMessage_Goal(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_Goal_0
-            v3, v4, v6, v7, v10, v11, v12, v13 = _S_iIiIT2B1xf.unpack_from(mv, pos)
-            pos += 24
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_Goal_1
-            v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S_dbBhH2xiIqQiI.unpack_from(
-                mv, pos
-            )
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_Goal(
-            make_test_msgs__msg__Builtins(
-                make_builtin_interfaces__msg__Duration(v3, v4),
-                make_builtin_interfaces__msg__Time(v6, v7),
-            ),
-            make_test_msgs__msg__BasicTypes(
-                v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22
-            ),
-            make_builtin_interfaces__msg__Time(v24, v25),
-        ), pos
 
     def encode_test_msgs__action__NestedMessage_Goal(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -13296,7 +11135,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__NestedMessage_Result(
+    def decode_test_msgs__action__NestedMessage_Result(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -13315,6 +11154,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__NestedMessage_Result(
+                make_test_msgs__msg__Builtins(
+                    make_builtin_interfaces__msg__Duration(v3, v4),
+                    make_builtin_interfaces__msg__Time(v6, v7),
+                ),
+                make_test_msgs__msg__BasicTypes(
+                    v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22
+                ),
+                make_builtin_interfaces__msg__Time(v24, v25),
+            ), pos
         return {
             "nested_field_no_pkg": {
                 "duration_value": {"sec": v3, "nanosec": v4},
@@ -13337,36 +11187,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             },
             "nested_different_pkg": {"sec": v24, "nanosec": v25},
         }, pos
-
-    def decode_view_test_msgs__action__NestedMessage_Result(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_Result_0
-            v3, v4, v6, v7, v10, v11, v12, v13 = _S_iIiIT2B1xf.unpack_from(mv, pos)
-            pos += 24
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_Result_1
-            v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S_dbBhH2xiIqQiI.unpack_from(
-                mv, pos
-            )
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_Result(
-            make_test_msgs__msg__Builtins(
-                make_builtin_interfaces__msg__Duration(v3, v4),
-                make_builtin_interfaces__msg__Time(v6, v7),
-            ),
-            make_test_msgs__msg__BasicTypes(
-                v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22
-            ),
-            make_builtin_interfaces__msg__Time(v24, v25),
-        ), pos
 
     def encode_test_msgs__action__NestedMessage_Result(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -13487,7 +11307,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__NestedMessage_Feedback(
+    def decode_test_msgs__action__NestedMessage_Feedback(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -13506,6 +11326,17 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__NestedMessage_Feedback(
+                make_test_msgs__msg__Builtins(
+                    make_builtin_interfaces__msg__Duration(v3, v4),
+                    make_builtin_interfaces__msg__Time(v6, v7),
+                ),
+                make_test_msgs__msg__BasicTypes(
+                    v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22
+                ),
+                make_builtin_interfaces__msg__Time(v24, v25),
+            ), pos
         return {
             "nested_field_no_pkg": {
                 "duration_value": {"sec": v3, "nanosec": v4},
@@ -13528,36 +11359,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             },
             "nested_different_pkg": {"sec": v24, "nanosec": v25},
         }, pos
-
-    def decode_view_test_msgs__action__NestedMessage_Feedback(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_Feedback_0
-            v3, v4, v6, v7, v10, v11, v12, v13 = _S_iIiIT2B1xf.unpack_from(mv, pos)
-            pos += 24
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_Feedback_1
-            v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S_dbBhH2xiIqQiI.unpack_from(
-                mv, pos
-            )
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_Feedback(
-            make_test_msgs__msg__Builtins(
-                make_builtin_interfaces__msg__Duration(v3, v4),
-                make_builtin_interfaces__msg__Time(v6, v7),
-            ),
-            make_test_msgs__msg__BasicTypes(
-                v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22
-            ),
-            make_builtin_interfaces__msg__Time(v24, v25),
-        ), pos
 
     def encode_test_msgs__action__NestedMessage_Feedback(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -13679,7 +11480,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__NestedMessage_SendGoal_Request(
+    def decode_test_msgs__action__NestedMessage_SendGoal_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -13703,6 +11504,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__NestedMessage_SendGoal_Request(
+                make_unique_identifier_msgs__msg__UUID(v4),
+                make_test_msgs__action__NestedMessage_Goal(
+                    make_test_msgs__msg__Builtins(
+                        make_builtin_interfaces__msg__Duration(v8, v9),
+                        make_builtin_interfaces__msg__Time(v11, v12),
+                    ),
+                    make_test_msgs__msg__BasicTypes(
+                        v15, v16, v17, v18, v19, v20, v21, v22, v23, v24, v25, v26, v27
+                    ),
+                    make_builtin_interfaces__msg__Time(v29, v30),
+                ),
+            ), pos
         return {
             "goal_id": {"uuid": v4},
             "goal": {
@@ -13728,44 +11543,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "nested_different_pkg": {"sec": v29, "nanosec": v30},
             },
         }, pos
-
-    def decode_view_test_msgs__action__NestedMessage_SendGoal_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".goal_id.uuid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_SendGoal_Request_0
-            v8, v9, v11, v12, v15, v16, v17, v18 = _S_iIiIT2B1xf.unpack_from(mv, pos)
-            pos += 24
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_SendGoal_Request_1
-            v19, v20, v21, v22, v23, v24, v25, v26, v27, v29, v30 = _S_dbBhH2xiIqQiI.unpack_from(
-                mv, pos
-            )
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_SendGoal_Request(
-            make_unique_identifier_msgs__msg__UUID(v4),
-            make_test_msgs__action__NestedMessage_Goal(
-                make_test_msgs__msg__Builtins(
-                    make_builtin_interfaces__msg__Duration(v8, v9),
-                    make_builtin_interfaces__msg__Time(v11, v12),
-                ),
-                make_test_msgs__msg__BasicTypes(
-                    v15, v16, v17, v18, v19, v20, v21, v22, v23, v24, v25, v26, v27
-                ),
-                make_builtin_interfaces__msg__Time(v29, v30),
-            ),
-        ), pos
 
     def encode_test_msgs__action__NestedMessage_SendGoal_Request(
         d: Any, out: list[Any], pos: int
@@ -13903,7 +11680,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__NestedMessage_SendGoal_Response(
+    def decode_test_msgs__action__NestedMessage_SendGoal_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -13919,27 +11696,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__NestedMessage_SendGoal_Response(
+                v2, make_builtin_interfaces__msg__Time(v4, v5)
+            ), pos
         return {"accepted": v2, "stamp": {"sec": v4, "nanosec": v5}}, pos
-
-    def decode_view_test_msgs__action__NestedMessage_SendGoal_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__action__NestedMessage_SendGoal_Response_0
-            (v2,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_SendGoal_Response_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_SendGoal_Response(
-            v2, make_builtin_interfaces__msg__Time(v4, v5)
-        ), pos
 
     def encode_test_msgs__action__NestedMessage_SendGoal_Response(
         d: Any, out: list[Any], pos: int
@@ -14006,7 +11767,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__NestedMessage_SendGoal_Event(
+    def decode_test_msgs__action__NestedMessage_SendGoal_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -14033,7 +11794,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_test_msgs__action__NestedMessage_SendGoal_Request,
+                decode_test_msgs__action__NestedMessage_SendGoal_Request,
                 None,
                 1,
                 85,
@@ -14044,7 +11805,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_test_msgs__action__NestedMessage_SendGoal_Response,
+                decode_test_msgs__action__NestedMessage_SendGoal_Response,
                 None,
                 1,
                 9,
@@ -14053,6 +11814,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__NestedMessage_SendGoal_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -14063,61 +11832,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_test_msgs__action__NestedMessage_SendGoal_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__action__NestedMessage_SendGoal_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_SendGoal_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_SendGoal_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_test_msgs__action__NestedMessage_SendGoal_Request,
-                None,
-                1,
-                85,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_test_msgs__action__NestedMessage_SendGoal_Response,
-                None,
-                1,
-                9,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_SendGoal_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_test_msgs__action__NestedMessage_SendGoal_Event(
         d: Any, out: list[Any], pos: int
@@ -14216,7 +11930,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__NestedMessage_GetResult_Request(
+    def decode_test_msgs__action__NestedMessage_GetResult_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -14230,25 +11944,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__NestedMessage_GetResult_Request(
+                make_unique_identifier_msgs__msg__UUID(v4)
+            ), pos
         return {"goal_id": {"uuid": v4}}, pos
-
-    def decode_view_test_msgs__action__NestedMessage_GetResult_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".goal_id.uuid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_GetResult_Request(
-            make_unique_identifier_msgs__msg__UUID(v4)
-        ), pos
 
     def encode_test_msgs__action__NestedMessage_GetResult_Request(
         d: Any, out: list[Any], pos: int
@@ -14274,7 +11974,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__NestedMessage_GetResult_Response(
+    def decode_test_msgs__action__NestedMessage_GetResult_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -14296,6 +11996,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__NestedMessage_GetResult_Response(
+                v1,
+                make_test_msgs__action__NestedMessage_Result(
+                    make_test_msgs__msg__Builtins(
+                        make_builtin_interfaces__msg__Duration(v5, v6),
+                        make_builtin_interfaces__msg__Time(v8, v9),
+                    ),
+                    make_test_msgs__msg__BasicTypes(
+                        v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22, v23, v24
+                    ),
+                    make_builtin_interfaces__msg__Time(v26, v27),
+                ),
+            ), pos
         return {
             "status": v1,
             "result": {
@@ -14321,42 +12035,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "nested_different_pkg": {"sec": v26, "nanosec": v27},
             },
         }, pos
-
-    def decode_view_test_msgs__action__NestedMessage_GetResult_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__action__NestedMessage_GetResult_Response_0
-            (v1,) = _S_b.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_GetResult_Response_1
-            v5, v6, v8, v9, v12, v13, v14, v15 = _S_iIiIT2B1xf.unpack_from(mv, pos)
-            pos += 24
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_GetResult_Response_2
-            v16, v17, v18, v19, v20, v21, v22, v23, v24, v26, v27 = _S_dbBhH2xiIqQiI.unpack_from(
-                mv, pos
-            )
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_GetResult_Response(
-            v1,
-            make_test_msgs__action__NestedMessage_Result(
-                make_test_msgs__msg__Builtins(
-                    make_builtin_interfaces__msg__Duration(v5, v6),
-                    make_builtin_interfaces__msg__Time(v8, v9),
-                ),
-                make_test_msgs__msg__BasicTypes(
-                    v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22, v23, v24
-                ),
-                make_builtin_interfaces__msg__Time(v26, v27),
-            ),
-        ), pos
 
     def encode_test_msgs__action__NestedMessage_GetResult_Response(
         d: Any, out: list[Any], pos: int
@@ -14499,7 +12177,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__NestedMessage_GetResult_Event(
+    def decode_test_msgs__action__NestedMessage_GetResult_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -14526,7 +12204,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_test_msgs__action__NestedMessage_GetResult_Request,
+                decode_test_msgs__action__NestedMessage_GetResult_Request,
                 None,
                 1,
                 16,
@@ -14537,7 +12215,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_test_msgs__action__NestedMessage_GetResult_Response,
+                decode_test_msgs__action__NestedMessage_GetResult_Response,
                 None,
                 1,
                 70,
@@ -14546,6 +12224,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__NestedMessage_GetResult_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -14556,61 +12242,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_test_msgs__action__NestedMessage_GetResult_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__action__NestedMessage_GetResult_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_GetResult_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_GetResult_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_test_msgs__action__NestedMessage_GetResult_Request,
-                None,
-                1,
-                16,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_test_msgs__action__NestedMessage_GetResult_Response,
-                None,
-                1,
-                70,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_GetResult_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_test_msgs__action__NestedMessage_GetResult_Event(
         d: Any, out: list[Any], pos: int
@@ -14709,7 +12340,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_test_msgs__action__NestedMessage_FeedbackMessage(
+    def decode_test_msgs__action__NestedMessage_FeedbackMessage(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -14733,6 +12364,20 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_test_msgs__action__NestedMessage_FeedbackMessage(
+                make_unique_identifier_msgs__msg__UUID(v4),
+                make_test_msgs__action__NestedMessage_Feedback(
+                    make_test_msgs__msg__Builtins(
+                        make_builtin_interfaces__msg__Duration(v8, v9),
+                        make_builtin_interfaces__msg__Time(v11, v12),
+                    ),
+                    make_test_msgs__msg__BasicTypes(
+                        v15, v16, v17, v18, v19, v20, v21, v22, v23, v24, v25, v26, v27
+                    ),
+                    make_builtin_interfaces__msg__Time(v29, v30),
+                ),
+            ), pos
         return {
             "goal_id": {"uuid": v4},
             "feedback": {
@@ -14758,44 +12403,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 "nested_different_pkg": {"sec": v29, "nanosec": v30},
             },
         }, pos
-
-    def decode_view_test_msgs__action__NestedMessage_FeedbackMessage(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".goal_id.uuid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_FeedbackMessage_0
-            v8, v9, v11, v12, v15, v16, v17, v18 = _S_iIiIT2B1xf.unpack_from(mv, pos)
-            pos += 24
-            pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_FeedbackMessage_1
-            v19, v20, v21, v22, v23, v24, v25, v26, v27, v29, v30 = _S_dbBhH2xiIqQiI.unpack_from(
-                mv, pos
-            )
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_test_msgs__action__NestedMessage_FeedbackMessage(
-            make_unique_identifier_msgs__msg__UUID(v4),
-            make_test_msgs__action__NestedMessage_Feedback(
-                make_test_msgs__msg__Builtins(
-                    make_builtin_interfaces__msg__Duration(v8, v9),
-                    make_builtin_interfaces__msg__Time(v11, v12),
-                ),
-                make_test_msgs__msg__BasicTypes(
-                    v15, v16, v17, v18, v19, v20, v21, v22, v23, v24, v25, v26, v27
-                ),
-                make_builtin_interfaces__msg__Time(v29, v30),
-            ),
-        ), pos
 
     def encode_test_msgs__action__NestedMessage_FeedbackMessage(
         d: Any, out: list[Any], pos: int
@@ -14936,237 +12543,184 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "test_msgs/msg/BasicTypes": (
-            decode_dict_test_msgs__msg__BasicTypes,
-            decode_view_test_msgs__msg__BasicTypes,
+            decode_test_msgs__msg__BasicTypes,
             encode_test_msgs__msg__BasicTypes,
         ),
         "test_msgs/msg/Constants": (
-            decode_dict_test_msgs__msg__Constants,
-            decode_view_test_msgs__msg__Constants,
+            decode_test_msgs__msg__Constants,
             encode_test_msgs__msg__Constants,
         ),
         "test_msgs/msg/Defaults": (
-            decode_dict_test_msgs__msg__Defaults,
-            decode_view_test_msgs__msg__Defaults,
+            decode_test_msgs__msg__Defaults,
             encode_test_msgs__msg__Defaults,
         ),
-        "test_msgs/msg/Arrays": (
-            decode_dict_test_msgs__msg__Arrays,
-            decode_view_test_msgs__msg__Arrays,
-            encode_test_msgs__msg__Arrays,
-        ),
+        "test_msgs/msg/Arrays": (decode_test_msgs__msg__Arrays, encode_test_msgs__msg__Arrays),
         "test_msgs/msg/BoundedPlainSequences": (
-            decode_dict_test_msgs__msg__BoundedPlainSequences,
-            decode_view_test_msgs__msg__BoundedPlainSequences,
+            decode_test_msgs__msg__BoundedPlainSequences,
             encode_test_msgs__msg__BoundedPlainSequences,
         ),
         "test_msgs/msg/BoundedSequences": (
-            decode_dict_test_msgs__msg__BoundedSequences,
-            decode_view_test_msgs__msg__BoundedSequences,
+            decode_test_msgs__msg__BoundedSequences,
             encode_test_msgs__msg__BoundedSequences,
         ),
         "builtin_interfaces/msg/Duration": (
-            decode_dict_builtin_interfaces__msg__Duration,
-            decode_view_builtin_interfaces__msg__Duration,
+            decode_builtin_interfaces__msg__Duration,
             encode_builtin_interfaces__msg__Duration,
         ),
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
         "test_msgs/msg/Builtins": (
-            decode_dict_test_msgs__msg__Builtins,
-            decode_view_test_msgs__msg__Builtins,
+            decode_test_msgs__msg__Builtins,
             encode_test_msgs__msg__Builtins,
         ),
-        "test_msgs/msg/Empty": (
-            decode_dict_test_msgs__msg__Empty,
-            decode_view_test_msgs__msg__Empty,
-            encode_test_msgs__msg__Empty,
-        ),
+        "test_msgs/msg/Empty": (decode_test_msgs__msg__Empty, encode_test_msgs__msg__Empty),
         "test_msgs/msg/UnboundedSequences": (
-            decode_dict_test_msgs__msg__UnboundedSequences,
-            decode_view_test_msgs__msg__UnboundedSequences,
+            decode_test_msgs__msg__UnboundedSequences,
             encode_test_msgs__msg__UnboundedSequences,
         ),
         "test_msgs/msg/MultiNested": (
-            decode_dict_test_msgs__msg__MultiNested,
-            decode_view_test_msgs__msg__MultiNested,
+            decode_test_msgs__msg__MultiNested,
             encode_test_msgs__msg__MultiNested,
         ),
-        "test_msgs/msg/Nested": (
-            decode_dict_test_msgs__msg__Nested,
-            decode_view_test_msgs__msg__Nested,
-            encode_test_msgs__msg__Nested,
-        ),
-        "test_msgs/msg/Strings": (
-            decode_dict_test_msgs__msg__Strings,
-            decode_view_test_msgs__msg__Strings,
-            encode_test_msgs__msg__Strings,
-        ),
+        "test_msgs/msg/Nested": (decode_test_msgs__msg__Nested, encode_test_msgs__msg__Nested),
+        "test_msgs/msg/Strings": (decode_test_msgs__msg__Strings, encode_test_msgs__msg__Strings),
         "test_msgs/msg/WStrings": (
-            decode_dict_test_msgs__msg__WStrings,
-            decode_view_test_msgs__msg__WStrings,
+            decode_test_msgs__msg__WStrings,
             encode_test_msgs__msg__WStrings,
         ),
         "test_msgs/srv/Arrays_Request": (
-            decode_dict_test_msgs__srv__Arrays_Request,
-            decode_view_test_msgs__srv__Arrays_Request,
+            decode_test_msgs__srv__Arrays_Request,
             encode_test_msgs__srv__Arrays_Request,
         ),
         "test_msgs/srv/Arrays_Response": (
-            decode_dict_test_msgs__srv__Arrays_Response,
-            decode_view_test_msgs__srv__Arrays_Response,
+            decode_test_msgs__srv__Arrays_Response,
             encode_test_msgs__srv__Arrays_Response,
         ),
         "service_msgs/msg/ServiceEventInfo": (
-            decode_dict_service_msgs__msg__ServiceEventInfo,
-            decode_view_service_msgs__msg__ServiceEventInfo,
+            decode_service_msgs__msg__ServiceEventInfo,
             encode_service_msgs__msg__ServiceEventInfo,
         ),
         "test_msgs/srv/Arrays_Event": (
-            decode_dict_test_msgs__srv__Arrays_Event,
-            decode_view_test_msgs__srv__Arrays_Event,
+            decode_test_msgs__srv__Arrays_Event,
             encode_test_msgs__srv__Arrays_Event,
         ),
         "test_msgs/srv/BasicTypes_Request": (
-            decode_dict_test_msgs__srv__BasicTypes_Request,
-            decode_view_test_msgs__srv__BasicTypes_Request,
+            decode_test_msgs__srv__BasicTypes_Request,
             encode_test_msgs__srv__BasicTypes_Request,
         ),
         "test_msgs/srv/BasicTypes_Response": (
-            decode_dict_test_msgs__srv__BasicTypes_Response,
-            decode_view_test_msgs__srv__BasicTypes_Response,
+            decode_test_msgs__srv__BasicTypes_Response,
             encode_test_msgs__srv__BasicTypes_Response,
         ),
         "test_msgs/srv/BasicTypes_Event": (
-            decode_dict_test_msgs__srv__BasicTypes_Event,
-            decode_view_test_msgs__srv__BasicTypes_Event,
+            decode_test_msgs__srv__BasicTypes_Event,
             encode_test_msgs__srv__BasicTypes_Event,
         ),
         "test_msgs/srv/Empty_Request": (
-            decode_dict_test_msgs__srv__Empty_Request,
-            decode_view_test_msgs__srv__Empty_Request,
+            decode_test_msgs__srv__Empty_Request,
             encode_test_msgs__srv__Empty_Request,
         ),
         "test_msgs/srv/Empty_Response": (
-            decode_dict_test_msgs__srv__Empty_Response,
-            decode_view_test_msgs__srv__Empty_Response,
+            decode_test_msgs__srv__Empty_Response,
             encode_test_msgs__srv__Empty_Response,
         ),
         "test_msgs/srv/Empty_Event": (
-            decode_dict_test_msgs__srv__Empty_Event,
-            decode_view_test_msgs__srv__Empty_Event,
+            decode_test_msgs__srv__Empty_Event,
             encode_test_msgs__srv__Empty_Event,
         ),
         "test_msgs/action/Fibonacci_Goal": (
-            decode_dict_test_msgs__action__Fibonacci_Goal,
-            decode_view_test_msgs__action__Fibonacci_Goal,
+            decode_test_msgs__action__Fibonacci_Goal,
             encode_test_msgs__action__Fibonacci_Goal,
         ),
         "test_msgs/action/Fibonacci_Result": (
-            decode_dict_test_msgs__action__Fibonacci_Result,
-            decode_view_test_msgs__action__Fibonacci_Result,
+            decode_test_msgs__action__Fibonacci_Result,
             encode_test_msgs__action__Fibonacci_Result,
         ),
         "test_msgs/action/Fibonacci_Feedback": (
-            decode_dict_test_msgs__action__Fibonacci_Feedback,
-            decode_view_test_msgs__action__Fibonacci_Feedback,
+            decode_test_msgs__action__Fibonacci_Feedback,
             encode_test_msgs__action__Fibonacci_Feedback,
         ),
         "unique_identifier_msgs/msg/UUID": (
-            decode_dict_unique_identifier_msgs__msg__UUID,
-            decode_view_unique_identifier_msgs__msg__UUID,
+            decode_unique_identifier_msgs__msg__UUID,
             encode_unique_identifier_msgs__msg__UUID,
         ),
         "test_msgs/action/Fibonacci_SendGoal_Request": (
-            decode_dict_test_msgs__action__Fibonacci_SendGoal_Request,
-            decode_view_test_msgs__action__Fibonacci_SendGoal_Request,
+            decode_test_msgs__action__Fibonacci_SendGoal_Request,
             encode_test_msgs__action__Fibonacci_SendGoal_Request,
         ),
         "test_msgs/action/Fibonacci_SendGoal_Response": (
-            decode_dict_test_msgs__action__Fibonacci_SendGoal_Response,
-            decode_view_test_msgs__action__Fibonacci_SendGoal_Response,
+            decode_test_msgs__action__Fibonacci_SendGoal_Response,
             encode_test_msgs__action__Fibonacci_SendGoal_Response,
         ),
         "test_msgs/action/Fibonacci_SendGoal_Event": (
-            decode_dict_test_msgs__action__Fibonacci_SendGoal_Event,
-            decode_view_test_msgs__action__Fibonacci_SendGoal_Event,
+            decode_test_msgs__action__Fibonacci_SendGoal_Event,
             encode_test_msgs__action__Fibonacci_SendGoal_Event,
         ),
         "test_msgs/action/Fibonacci_GetResult_Request": (
-            decode_dict_test_msgs__action__Fibonacci_GetResult_Request,
-            decode_view_test_msgs__action__Fibonacci_GetResult_Request,
+            decode_test_msgs__action__Fibonacci_GetResult_Request,
             encode_test_msgs__action__Fibonacci_GetResult_Request,
         ),
         "test_msgs/action/Fibonacci_GetResult_Response": (
-            decode_dict_test_msgs__action__Fibonacci_GetResult_Response,
-            decode_view_test_msgs__action__Fibonacci_GetResult_Response,
+            decode_test_msgs__action__Fibonacci_GetResult_Response,
             encode_test_msgs__action__Fibonacci_GetResult_Response,
         ),
         "test_msgs/action/Fibonacci_GetResult_Event": (
-            decode_dict_test_msgs__action__Fibonacci_GetResult_Event,
-            decode_view_test_msgs__action__Fibonacci_GetResult_Event,
+            decode_test_msgs__action__Fibonacci_GetResult_Event,
             encode_test_msgs__action__Fibonacci_GetResult_Event,
         ),
         "test_msgs/action/Fibonacci_FeedbackMessage": (
-            decode_dict_test_msgs__action__Fibonacci_FeedbackMessage,
-            decode_view_test_msgs__action__Fibonacci_FeedbackMessage,
+            decode_test_msgs__action__Fibonacci_FeedbackMessage,
             encode_test_msgs__action__Fibonacci_FeedbackMessage,
         ),
         "test_msgs/action/NestedMessage_Goal": (
-            decode_dict_test_msgs__action__NestedMessage_Goal,
-            decode_view_test_msgs__action__NestedMessage_Goal,
+            decode_test_msgs__action__NestedMessage_Goal,
             encode_test_msgs__action__NestedMessage_Goal,
         ),
         "test_msgs/action/NestedMessage_Result": (
-            decode_dict_test_msgs__action__NestedMessage_Result,
-            decode_view_test_msgs__action__NestedMessage_Result,
+            decode_test_msgs__action__NestedMessage_Result,
             encode_test_msgs__action__NestedMessage_Result,
         ),
         "test_msgs/action/NestedMessage_Feedback": (
-            decode_dict_test_msgs__action__NestedMessage_Feedback,
-            decode_view_test_msgs__action__NestedMessage_Feedback,
+            decode_test_msgs__action__NestedMessage_Feedback,
             encode_test_msgs__action__NestedMessage_Feedback,
         ),
         "test_msgs/action/NestedMessage_SendGoal_Request": (
-            decode_dict_test_msgs__action__NestedMessage_SendGoal_Request,
-            decode_view_test_msgs__action__NestedMessage_SendGoal_Request,
+            decode_test_msgs__action__NestedMessage_SendGoal_Request,
             encode_test_msgs__action__NestedMessage_SendGoal_Request,
         ),
         "test_msgs/action/NestedMessage_SendGoal_Response": (
-            decode_dict_test_msgs__action__NestedMessage_SendGoal_Response,
-            decode_view_test_msgs__action__NestedMessage_SendGoal_Response,
+            decode_test_msgs__action__NestedMessage_SendGoal_Response,
             encode_test_msgs__action__NestedMessage_SendGoal_Response,
         ),
         "test_msgs/action/NestedMessage_SendGoal_Event": (
-            decode_dict_test_msgs__action__NestedMessage_SendGoal_Event,
-            decode_view_test_msgs__action__NestedMessage_SendGoal_Event,
+            decode_test_msgs__action__NestedMessage_SendGoal_Event,
             encode_test_msgs__action__NestedMessage_SendGoal_Event,
         ),
         "test_msgs/action/NestedMessage_GetResult_Request": (
-            decode_dict_test_msgs__action__NestedMessage_GetResult_Request,
-            decode_view_test_msgs__action__NestedMessage_GetResult_Request,
+            decode_test_msgs__action__NestedMessage_GetResult_Request,
             encode_test_msgs__action__NestedMessage_GetResult_Request,
         ),
         "test_msgs/action/NestedMessage_GetResult_Response": (
-            decode_dict_test_msgs__action__NestedMessage_GetResult_Response,
-            decode_view_test_msgs__action__NestedMessage_GetResult_Response,
+            decode_test_msgs__action__NestedMessage_GetResult_Response,
             encode_test_msgs__action__NestedMessage_GetResult_Response,
         ),
         "test_msgs/action/NestedMessage_GetResult_Event": (
-            decode_dict_test_msgs__action__NestedMessage_GetResult_Event,
-            decode_view_test_msgs__action__NestedMessage_GetResult_Event,
+            decode_test_msgs__action__NestedMessage_GetResult_Event,
             encode_test_msgs__action__NestedMessage_GetResult_Event,
         ),
         "test_msgs/action/NestedMessage_FeedbackMessage": (
-            decode_dict_test_msgs__action__NestedMessage_FeedbackMessage,
-            decode_view_test_msgs__action__NestedMessage_FeedbackMessage,
+            decode_test_msgs__action__NestedMessage_FeedbackMessage,
             encode_test_msgs__action__NestedMessage_FeedbackMessage,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

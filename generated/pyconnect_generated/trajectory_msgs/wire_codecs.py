@@ -10,7 +10,8 @@
 #     RIHS01_6ada1085b5ee64eaa069b074968e69f0e27c8c5e6f5bb0586dd1c834ef0e32b8
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -596,8 +597,8 @@ def make_trajectory_msgs__msg__MultiDOFJointTrajectory(
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_3d = Struct(E + "3d")
     _S_4d = Struct(E + "4d")
@@ -608,9 +609,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _S_iI = Struct(E + "iI")
     _D_float64 = np.dtype("float64").newbyteorder(E)
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -621,22 +620,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -668,7 +654,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -684,25 +670,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
         return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def decode_view_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
 
     def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -743,7 +713,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_builtin_interfaces__msg__Duration(
+    def decode_builtin_interfaces__msg__Duration(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -756,22 +726,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Duration(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Duration(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Duration_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Duration(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Duration(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -803,7 +760,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_trajectory_msgs__msg__JointTrajectoryPoint(
+    def decode_trajectory_msgs__msg__JointTrajectoryPoint(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -856,6 +813,10 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_trajectory_msgs__msg__JointTrajectoryPoint(
+                v4, v8, v12, v16, make_builtin_interfaces__msg__Duration(v18, v19)
+            ), pos
         return {
             "positions": v4,
             "velocities": v8,
@@ -863,63 +824,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "effort": v16,
             "time_from_start": {"sec": v18, "nanosec": v19},
         }, pos
-
-    def decode_view_trajectory_msgs__msg__JointTrajectoryPoint(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_trajectory_msgs__msg__JointTrajectoryPoint_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".positions"
-            if v3:
-                pos = (pos + 7) & -8
-            if v3 * 8 > lim - pos:
-                raise too_long(v3, 8, lim - pos)
-            v4 = _frombuffer(mv, _D_float64, v3, pos)
-            pos += v3 * 8
-            f = _R_trajectory_msgs__msg__JointTrajectoryPoint_1
-            (v7,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".velocities"
-            if v7:
-                pos = (pos + 7) & -8
-            if v7 * 8 > lim - pos:
-                raise too_long(v7, 8, lim - pos)
-            v8 = _frombuffer(mv, _D_float64, v7, pos)
-            pos += v7 * 8
-            f = _R_trajectory_msgs__msg__JointTrajectoryPoint_2
-            (v11,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".accelerations"
-            if v11:
-                pos = (pos + 7) & -8
-            if v11 * 8 > lim - pos:
-                raise too_long(v11, 8, lim - pos)
-            v12 = _frombuffer(mv, _D_float64, v11, pos)
-            pos += v11 * 8
-            f = _R_trajectory_msgs__msg__JointTrajectoryPoint_3
-            (v15,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".effort"
-            if v15:
-                pos = (pos + 7) & -8
-            if v15 * 8 > lim - pos:
-                raise too_long(v15, 8, lim - pos)
-            v16 = _frombuffer(mv, _D_float64, v15, pos)
-            pos += v15 * 8
-            f = _R_trajectory_msgs__msg__JointTrajectoryPoint_4
-            v18, v19 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_trajectory_msgs__msg__JointTrajectoryPoint(
-            v4, v8, v12, v16, make_builtin_interfaces__msg__Duration(v18, v19)
-        ), pos
 
     def encode_trajectory_msgs__msg__JointTrajectoryPoint(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1020,13 +924,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_trajectory_msgs__msg__JointTrajectory(
+    def decode_trajectory_msgs__msg__JointTrajectory(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = ".joint_names"
             v2, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
             f = ".points"
@@ -1035,7 +939,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_trajectory_msgs__msg__JointTrajectoryPoint,
+                decode_trajectory_msgs__msg__JointTrajectoryPoint,
                 None,
                 None,
                 24,
@@ -1044,33 +948,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_trajectory_msgs__msg__JointTrajectory(v1, v2, v3), pos
         return {"header": v1, "joint_names": v2, "points": v3}, pos
-
-    def decode_view_trajectory_msgs__msg__JointTrajectory(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = ".joint_names"
-            v2, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-            f = ".points"
-            v3, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_trajectory_msgs__msg__JointTrajectoryPoint,
-                None,
-                None,
-                24,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_trajectory_msgs__msg__JointTrajectory(v1, v2, v3), pos
 
     def encode_trajectory_msgs__msg__JointTrajectory(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1099,9 +979,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Vector3(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Vector3(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -1112,22 +990,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
-
-    def decode_view_geometry_msgs__msg__Vector3(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Vector3_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
 
     def encode_geometry_msgs__msg__Vector3(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1160,7 +1025,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Quaternion(
+    def decode_geometry_msgs__msg__Quaternion(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1173,22 +1038,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
         return {"x": v1, "y": v2, "z": v3, "w": v4}, pos
-
-    def decode_view_geometry_msgs__msg__Quaternion(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Quaternion_0
-            v1, v2, v3, v4 = _S_4d.unpack_from(mv, pos)
-            pos += 32
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
 
     def encode_geometry_msgs__msg__Quaternion(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1224,9 +1076,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Transform(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Transform(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -1237,28 +1087,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Transform(
+                make_geometry_msgs__msg__Vector3(v2, v3, v4),
+                make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
+            ), pos
         return {
             "translation": {"x": v2, "y": v3, "z": v4},
             "rotation": {"x": v6, "y": v7, "z": v8, "w": v9},
         }, pos
-
-    def decode_view_geometry_msgs__msg__Transform(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Transform_0
-            v2, v3, v4, v6, v7, v8, v9 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Transform(
-            make_geometry_msgs__msg__Vector3(v2, v3, v4),
-            make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
-        ), pos
 
     def encode_geometry_msgs__msg__Transform(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1313,9 +1150,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Twist(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Twist(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -1326,25 +1161,12 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Twist(
+                make_geometry_msgs__msg__Vector3(v2, v3, v4),
+                make_geometry_msgs__msg__Vector3(v6, v7, v8),
+            ), pos
         return {"linear": {"x": v2, "y": v3, "z": v4}, "angular": {"x": v6, "y": v7, "z": v8}}, pos
-
-    def decode_view_geometry_msgs__msg__Twist(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Twist_0
-            v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Twist(
-            make_geometry_msgs__msg__Vector3(v2, v3, v4),
-            make_geometry_msgs__msg__Vector3(v6, v7, v8),
-        ), pos
 
     def encode_geometry_msgs__msg__Twist(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1397,22 +1219,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint(
+    def decode_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".transforms"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Transform, None, None, 56
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__Transform, None, None, 56
             )
             f = ".velocities"
             v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Twist, None, None, 48
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__Twist, None, None, 48
             )
             f = ".accelerations"
             v3, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Twist, None, None, 48
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__Twist, None, None, 48
             )
             pos = (pos + 3) & -4
             f = _R_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint_0
@@ -1422,41 +1244,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint(
+                v1, v2, v3, make_builtin_interfaces__msg__Duration(v5, v6)
+            ), pos
         return {
             "transforms": v1,
             "velocities": v2,
             "accelerations": v3,
             "time_from_start": {"sec": v5, "nanosec": v6},
         }, pos
-
-    def decode_view_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".transforms"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Transform, None, None, 56
-            )
-            f = ".velocities"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Twist, None, None, 48
-            )
-            f = ".accelerations"
-            v3, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Twist, None, None, 48
-            )
-            pos = (pos + 3) & -4
-            f = _R_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint_0
-            v5, v6 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint(
-            v1, v2, v3, make_builtin_interfaces__msg__Duration(v5, v6)
-        ), pos
 
     def encode_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint(
         d: Any, out: list[Any], pos: int
@@ -1527,13 +1324,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_trajectory_msgs__msg__MultiDOFJointTrajectory(
+    def decode_trajectory_msgs__msg__MultiDOFJointTrajectory(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             f = ".joint_names"
             v2, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
             f = ".points"
@@ -1542,7 +1339,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint,
+                decode_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint,
                 None,
                 None,
                 20,
@@ -1551,33 +1348,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_trajectory_msgs__msg__MultiDOFJointTrajectory(v1, v2, v3), pos
         return {"header": v1, "joint_names": v2, "points": v3}, pos
-
-    def decode_view_trajectory_msgs__msg__MultiDOFJointTrajectory(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            f = ".joint_names"
-            v2, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-            f = ".points"
-            v3, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint,
-                None,
-                None,
-                20,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_trajectory_msgs__msg__MultiDOFJointTrajectory(v1, v2, v3), pos
 
     def encode_trajectory_msgs__msg__MultiDOFJointTrajectory(
         d: Any, out: list[Any], pos: int
@@ -1611,62 +1384,53 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
-        "std_msgs/msg/Header": (
-            decode_dict_std_msgs__msg__Header,
-            decode_view_std_msgs__msg__Header,
-            encode_std_msgs__msg__Header,
-        ),
+        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
         "builtin_interfaces/msg/Duration": (
-            decode_dict_builtin_interfaces__msg__Duration,
-            decode_view_builtin_interfaces__msg__Duration,
+            decode_builtin_interfaces__msg__Duration,
             encode_builtin_interfaces__msg__Duration,
         ),
         "trajectory_msgs/msg/JointTrajectoryPoint": (
-            decode_dict_trajectory_msgs__msg__JointTrajectoryPoint,
-            decode_view_trajectory_msgs__msg__JointTrajectoryPoint,
+            decode_trajectory_msgs__msg__JointTrajectoryPoint,
             encode_trajectory_msgs__msg__JointTrajectoryPoint,
         ),
         "trajectory_msgs/msg/JointTrajectory": (
-            decode_dict_trajectory_msgs__msg__JointTrajectory,
-            decode_view_trajectory_msgs__msg__JointTrajectory,
+            decode_trajectory_msgs__msg__JointTrajectory,
             encode_trajectory_msgs__msg__JointTrajectory,
         ),
         "geometry_msgs/msg/Vector3": (
-            decode_dict_geometry_msgs__msg__Vector3,
-            decode_view_geometry_msgs__msg__Vector3,
+            decode_geometry_msgs__msg__Vector3,
             encode_geometry_msgs__msg__Vector3,
         ),
         "geometry_msgs/msg/Quaternion": (
-            decode_dict_geometry_msgs__msg__Quaternion,
-            decode_view_geometry_msgs__msg__Quaternion,
+            decode_geometry_msgs__msg__Quaternion,
             encode_geometry_msgs__msg__Quaternion,
         ),
         "geometry_msgs/msg/Transform": (
-            decode_dict_geometry_msgs__msg__Transform,
-            decode_view_geometry_msgs__msg__Transform,
+            decode_geometry_msgs__msg__Transform,
             encode_geometry_msgs__msg__Transform,
         ),
         "geometry_msgs/msg/Twist": (
-            decode_dict_geometry_msgs__msg__Twist,
-            decode_view_geometry_msgs__msg__Twist,
+            decode_geometry_msgs__msg__Twist,
             encode_geometry_msgs__msg__Twist,
         ),
         "trajectory_msgs/msg/MultiDOFJointTrajectoryPoint": (
-            decode_dict_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint,
-            decode_view_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint,
+            decode_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint,
             encode_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint,
         ),
         "trajectory_msgs/msg/MultiDOFJointTrajectory": (
-            decode_dict_trajectory_msgs__msg__MultiDOFJointTrajectory,
-            decode_view_trajectory_msgs__msg__MultiDOFJointTrajectory,
+            decode_trajectory_msgs__msg__MultiDOFJointTrajectory,
             encode_trajectory_msgs__msg__MultiDOFJointTrajectory,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

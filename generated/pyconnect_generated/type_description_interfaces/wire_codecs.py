@@ -20,7 +20,8 @@
 #     RIHS01_491e3350e7a0b11918fb16a523cf01a22d76fdaa53c43b52164fea14aabb5612
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -658,8 +659,8 @@ def make_type_description_interfaces__srv__GetTypeDescription_Event(
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_2QI = Struct(E + "2QI")
     _S_B = Struct(E + "B")
@@ -669,7 +670,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _S_q = Struct(E + "q")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_dict_type_description_interfaces__msg__FieldType(
+    def decode_type_description_interfaces__msg__FieldType(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -692,32 +693,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_type_description_interfaces__msg__FieldType(v1, v2, v3, v6), pos
         return {"type_id": v1, "capacity": v2, "string_capacity": v3, "nested_type_name": v6}, pos
-
-    def decode_view_type_description_interfaces__msg__FieldType(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_type_description_interfaces__msg__FieldType_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 7) & -8
-            f = _R_type_description_interfaces__msg__FieldType_1
-            v2, v3, v5 = _S_2QI.unpack_from(mv, pos)
-            pos += 20
-            f = ".nested_type_name"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-            if len(v6) > 255:
-                raise over_bound(len(v6), 255)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_type_description_interfaces__msg__FieldType(v1, v2, v3, v6), pos
 
     def encode_type_description_interfaces__msg__FieldType(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -769,7 +747,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_type_description_interfaces__msg__Field(
+    def decode_type_description_interfaces__msg__Field(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -784,7 +762,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             f = ".type"
-            v4, pos = decode_dict_type_description_interfaces__msg__FieldType(mv, pos, lim)
+            v4, pos = decode_type_description_interfaces__msg__FieldType(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_type_description_interfaces__msg__Field_1
             (v6,) = _S_I.unpack_from(mv, pos)
@@ -798,38 +776,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_type_description_interfaces__msg__Field(v3, v4, v7), pos
         return {"name": v3, "type": v4, "default_value": v7}, pos
-
-    def decode_view_type_description_interfaces__msg__Field(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__Field_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".name"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            f = ".type"
-            v4, pos = decode_view_type_description_interfaces__msg__FieldType(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__Field_1
-            (v6,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".default_value"
-            if v6 > lim - pos:
-                raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
-            pos += v6
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_type_description_interfaces__msg__Field(v3, v4, v7), pos
 
     def encode_type_description_interfaces__msg__Field(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -878,7 +827,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_type_description_interfaces__msg__IndividualTypeDescription(
+    def decode_type_description_interfaces__msg__IndividualTypeDescription(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -896,53 +845,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 raise over_bound(len(v3), 255)
             f = ".fields"
             v4, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_type_description_interfaces__msg__Field,
-                None,
-                None,
-                29,
+                mv, pos, lim, _U32, decode_type_description_interfaces__msg__Field, None, None, 29
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_type_description_interfaces__msg__IndividualTypeDescription(v3, v4), pos
         return {"type_name": v3, "fields": v4}, pos
-
-    def decode_view_type_description_interfaces__msg__IndividualTypeDescription(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__IndividualTypeDescription_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".type_name"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            if len(v3) > 255:
-                raise over_bound(len(v3), 255)
-            f = ".fields"
-            v4, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_type_description_interfaces__msg__Field,
-                None,
-                None,
-                29,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_type_description_interfaces__msg__IndividualTypeDescription(v3, v4), pos
 
     def encode_type_description_interfaces__msg__IndividualTypeDescription(
         d: Any, out: list[Any], pos: int
@@ -990,7 +901,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_type_description_interfaces__msg__KeyValue(
+    def decode_type_description_interfaces__msg__KeyValue(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1017,36 +928,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_type_description_interfaces__msg__KeyValue(v3, v6), pos
         return {"key": v3, "value": v6}, pos
-
-    def decode_view_type_description_interfaces__msg__KeyValue(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__KeyValue_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".key"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__KeyValue_1
-            (v5,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".value"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_type_description_interfaces__msg__KeyValue(v3, v6), pos
 
     def encode_type_description_interfaces__msg__KeyValue(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1094,13 +978,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_type_description_interfaces__msg__TypeDescription(
+    def decode_type_description_interfaces__msg__TypeDescription(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".type_description"
-            v1, pos = decode_dict_type_description_interfaces__msg__IndividualTypeDescription(
+            v1, pos = decode_type_description_interfaces__msg__IndividualTypeDescription(
                 mv, pos, lim
             )
             f = ".referenced_type_descriptions"
@@ -1109,7 +993,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_type_description_interfaces__msg__IndividualTypeDescription,
+                decode_type_description_interfaces__msg__IndividualTypeDescription,
                 None,
                 None,
                 8,
@@ -1118,33 +1002,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_type_description_interfaces__msg__TypeDescription(v1, v2), pos
         return {"type_description": v1, "referenced_type_descriptions": v2}, pos
-
-    def decode_view_type_description_interfaces__msg__TypeDescription(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".type_description"
-            v1, pos = decode_view_type_description_interfaces__msg__IndividualTypeDescription(
-                mv, pos, lim
-            )
-            f = ".referenced_type_descriptions"
-            v2, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_type_description_interfaces__msg__IndividualTypeDescription,
-                None,
-                None,
-                8,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_type_description_interfaces__msg__TypeDescription(v1, v2), pos
 
     def encode_type_description_interfaces__msg__TypeDescription(
         d: Any, out: list[Any], pos: int
@@ -1176,7 +1036,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_type_description_interfaces__msg__TypeSource(
+    def decode_type_description_interfaces__msg__TypeSource(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1212,45 +1072,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_type_description_interfaces__msg__TypeSource(v3, v6, v9), pos
         return {"type_name": v3, "encoding": v6, "raw_file_contents": v9}, pos
-
-    def decode_view_type_description_interfaces__msg__TypeSource(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__TypeSource_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".type_name"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__TypeSource_1
-            (v5,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".encoding"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-            pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__TypeSource_2
-            (v8,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".raw_file_contents"
-            if v8 > lim - pos:
-                raise too_long(v8, 1, lim - pos)
-            v9 = mv[pos : pos + v8 - 1].tobytes().decode()
-            pos += v8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_type_description_interfaces__msg__TypeSource(v3, v6, v9), pos
 
     def encode_type_description_interfaces__msg__TypeSource(
         d: Any, out: list[Any], pos: int
@@ -1316,7 +1140,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_type_description_interfaces__srv__GetTypeDescription_Request(
+    def decode_type_description_interfaces__srv__GetTypeDescription_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1346,39 +1170,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_type_description_interfaces__srv__GetTypeDescription_Request(
+                v3, v6, v8
+            ), pos
         return {"type_name": v3, "type_hash": v6, "include_type_sources": v8}, pos
-
-    def decode_view_type_description_interfaces__srv__GetTypeDescription_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Request_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".type_name"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Request_1
-            (v5,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".type_hash"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Request_2
-            (v8,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_type_description_interfaces__srv__GetTypeDescription_Request(v3, v6, v8), pos
 
     def encode_type_description_interfaces__srv__GetTypeDescription_Request(
         d: Any, out: list[Any], pos: int
@@ -1462,7 +1258,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_type_description_interfaces__srv__GetTypeDescription_Response(
+    def decode_type_description_interfaces__srv__GetTypeDescription_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1480,33 +1276,30 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
             f = ".type_description"
-            v6, pos = decode_dict_type_description_interfaces__msg__TypeDescription(mv, pos, lim)
+            v6, pos = decode_type_description_interfaces__msg__TypeDescription(mv, pos, lim)
             f = ".type_sources"
             v7, pos = read_messages(
                 mv,
                 pos,
                 lim,
                 _U32,
-                decode_dict_type_description_interfaces__msg__TypeSource,
+                decode_type_description_interfaces__msg__TypeSource,
                 None,
                 None,
                 12,
             )
             f = ".extra_information"
             v8, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_dict_type_description_interfaces__msg__KeyValue,
-                None,
-                None,
-                8,
+                mv, pos, lim, _U32, decode_type_description_interfaces__msg__KeyValue, None, None, 8
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_type_description_interfaces__srv__GetTypeDescription_Response(
+                v2, v5, v6, v7, v8
+            ), pos
         return {
             "successful": v2,
             "failure_reason": v5,
@@ -1514,55 +1307,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "type_sources": v7,
             "extra_information": v8,
         }, pos
-
-    def decode_view_type_description_interfaces__srv__GetTypeDescription_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Response_0
-            (v2,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Response_1
-            (v4,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".failure_reason"
-            if v4 > lim - pos:
-                raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
-            pos += v4
-            f = ".type_description"
-            v6, pos = decode_view_type_description_interfaces__msg__TypeDescription(mv, pos, lim)
-            f = ".type_sources"
-            v7, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_type_description_interfaces__msg__TypeSource,
-                None,
-                None,
-                12,
-            )
-            f = ".extra_information"
-            v8, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_type_description_interfaces__msg__KeyValue,
-                None,
-                None,
-                8,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_type_description_interfaces__srv__GetTypeDescription_Response(
-            v2, v5, v6, v7, v8
-        ), pos
 
     def encode_type_description_interfaces__srv__GetTypeDescription_Response(
         d: Any, out: list[Any], pos: int
@@ -1652,9 +1396,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -1665,22 +1407,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1712,7 +1441,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_service_msgs__msg__ServiceEventInfo(
+    def decode_service_msgs__msg__ServiceEventInfo(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1737,41 +1466,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_service_msgs__msg__ServiceEventInfo(
+                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
+            ), pos
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
             "client_gid": v7,
             "sequence_number": v8,
         }, pos
-
-    def decode_view_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_service_msgs__msg__ServiceEventInfo(
-            v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-        ), pos
 
     def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1837,7 +1541,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_type_description_interfaces__srv__GetTypeDescription_Event(
+    def decode_type_description_interfaces__srv__GetTypeDescription_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1864,7 +1568,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_type_description_interfaces__srv__GetTypeDescription_Request,
+                decode_type_description_interfaces__srv__GetTypeDescription_Request,
                 None,
                 1,
                 9,
@@ -1875,7 +1579,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_type_description_interfaces__srv__GetTypeDescription_Response,
+                decode_type_description_interfaces__srv__GetTypeDescription_Response,
                 None,
                 1,
                 25,
@@ -1884,6 +1588,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_type_description_interfaces__srv__GetTypeDescription_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -1894,61 +1606,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_type_description_interfaces__srv__GetTypeDescription_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_type_description_interfaces__srv__GetTypeDescription_Request,
-                None,
-                1,
-                9,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_type_description_interfaces__srv__GetTypeDescription_Response,
-                None,
-                1,
-                25,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_type_description_interfaces__srv__GetTypeDescription_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_type_description_interfaces__srv__GetTypeDescription_Event(
         d: Any, out: list[Any], pos: int
@@ -2049,62 +1706,56 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "type_description_interfaces/msg/FieldType": (
-            decode_dict_type_description_interfaces__msg__FieldType,
-            decode_view_type_description_interfaces__msg__FieldType,
+            decode_type_description_interfaces__msg__FieldType,
             encode_type_description_interfaces__msg__FieldType,
         ),
         "type_description_interfaces/msg/Field": (
-            decode_dict_type_description_interfaces__msg__Field,
-            decode_view_type_description_interfaces__msg__Field,
+            decode_type_description_interfaces__msg__Field,
             encode_type_description_interfaces__msg__Field,
         ),
         "type_description_interfaces/msg/IndividualTypeDescription": (
-            decode_dict_type_description_interfaces__msg__IndividualTypeDescription,
-            decode_view_type_description_interfaces__msg__IndividualTypeDescription,
+            decode_type_description_interfaces__msg__IndividualTypeDescription,
             encode_type_description_interfaces__msg__IndividualTypeDescription,
         ),
         "type_description_interfaces/msg/KeyValue": (
-            decode_dict_type_description_interfaces__msg__KeyValue,
-            decode_view_type_description_interfaces__msg__KeyValue,
+            decode_type_description_interfaces__msg__KeyValue,
             encode_type_description_interfaces__msg__KeyValue,
         ),
         "type_description_interfaces/msg/TypeDescription": (
-            decode_dict_type_description_interfaces__msg__TypeDescription,
-            decode_view_type_description_interfaces__msg__TypeDescription,
+            decode_type_description_interfaces__msg__TypeDescription,
             encode_type_description_interfaces__msg__TypeDescription,
         ),
         "type_description_interfaces/msg/TypeSource": (
-            decode_dict_type_description_interfaces__msg__TypeSource,
-            decode_view_type_description_interfaces__msg__TypeSource,
+            decode_type_description_interfaces__msg__TypeSource,
             encode_type_description_interfaces__msg__TypeSource,
         ),
         "type_description_interfaces/srv/GetTypeDescription_Request": (
-            decode_dict_type_description_interfaces__srv__GetTypeDescription_Request,
-            decode_view_type_description_interfaces__srv__GetTypeDescription_Request,
+            decode_type_description_interfaces__srv__GetTypeDescription_Request,
             encode_type_description_interfaces__srv__GetTypeDescription_Request,
         ),
         "type_description_interfaces/srv/GetTypeDescription_Response": (
-            decode_dict_type_description_interfaces__srv__GetTypeDescription_Response,
-            decode_view_type_description_interfaces__srv__GetTypeDescription_Response,
+            decode_type_description_interfaces__srv__GetTypeDescription_Response,
             encode_type_description_interfaces__srv__GetTypeDescription_Response,
         ),
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
         "service_msgs/msg/ServiceEventInfo": (
-            decode_dict_service_msgs__msg__ServiceEventInfo,
-            decode_view_service_msgs__msg__ServiceEventInfo,
+            decode_service_msgs__msg__ServiceEventInfo,
             encode_service_msgs__msg__ServiceEventInfo,
         ),
         "type_description_interfaces/srv/GetTypeDescription_Event": (
-            decode_dict_type_description_interfaces__srv__GetTypeDescription_Event,
-            decode_view_type_description_interfaces__srv__GetTypeDescription_Event,
+            decode_type_description_interfaces__srv__GetTypeDescription_Event,
             encode_type_description_interfaces__srv__GetTypeDescription_Event,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

@@ -4,7 +4,8 @@
 #     RIHS01_1b8e8aca958cbea28fe6ef60bf6c19b683c97a9ef60bb34752067d0f2f7ab437
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -82,12 +83,12 @@ def make_unique_identifier_msgs__msg__UUID(a0: Any) -> unique_identifier_msgs__m
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_dict_unique_identifier_msgs__msg__UUID(
+    def decode_unique_identifier_msgs__msg__UUID(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -101,23 +102,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_unique_identifier_msgs__msg__UUID(v3), pos
         return {"uuid": v3}, pos
-
-    def decode_view_unique_identifier_msgs__msg__UUID(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".uuid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v3 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_unique_identifier_msgs__msg__UUID(v3), pos
 
     def encode_unique_identifier_msgs__msg__UUID(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -136,12 +123,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "unique_identifier_msgs/msg/UUID": (
-            decode_dict_unique_identifier_msgs__msg__UUID,
-            decode_view_unique_identifier_msgs__msg__UUID,
+            decode_unique_identifier_msgs__msg__UUID,
             encode_unique_identifier_msgs__msg__UUID,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")

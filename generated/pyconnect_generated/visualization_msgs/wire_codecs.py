@@ -32,7 +32,8 @@
 #     RIHS01_4f89243e7571b9563464f4349ceb14a60808a9a0b6f72944dbdfffd6427da2f4
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
-``LITTLE`` and ``BIG`` map each type to ``(decode_dict, decode_view, encode)`` for that byte
+One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
+closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
 decode as numpy views of the input. Imports nothing from ROS.
 """
@@ -1550,8 +1551,8 @@ def make_visualization_msgs__srv__GetInteractiveMarkers_Event(
     return view
 
 
-def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    """Every decoder and encoder of this module for one byte order (``<`` or ``>``)."""
+def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
+    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_10d4fiIT = Struct(E + "10d4fiI?")
     _S_1x = Struct(E + "1x")
@@ -1577,9 +1578,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
     _S_q = Struct(E + "q")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_dict_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -1590,22 +1589,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Time(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Time(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Time(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1637,7 +1623,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -1653,25 +1639,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
         return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def decode_view_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
 
     def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1712,9 +1682,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Point(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Point(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -1725,22 +1693,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Point(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
-
-    def decode_view_geometry_msgs__msg__Point(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Point_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Point(v1, v2, v3), pos
 
     def encode_geometry_msgs__msg__Point(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1773,7 +1728,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_std_msgs__msg__ColorRGBA(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_std_msgs__msg__ColorRGBA(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
@@ -1784,20 +1739,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_std_msgs__msg__ColorRGBA(v1, v2, v3, v4), pos
         return {"r": v1, "g": v2, "b": v3, "a": v4}, pos
-
-    def decode_view_std_msgs__msg__ColorRGBA(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__ColorRGBA_0
-            v1, v2, v3, v4 = _S_4f.unpack_from(mv, pos)
-            pos += 16
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_std_msgs__msg__ColorRGBA(v1, v2, v3, v4), pos
 
     def encode_std_msgs__msg__ColorRGBA(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1833,7 +1777,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_builtin_interfaces__msg__Duration(
+    def decode_builtin_interfaces__msg__Duration(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -1846,22 +1790,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_builtin_interfaces__msg__Duration(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
-
-    def decode_view_builtin_interfaces__msg__Duration(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Duration_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_builtin_interfaces__msg__Duration(v1, v2), pos
 
     def encode_builtin_interfaces__msg__Duration(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1893,13 +1824,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__msg__ImageMarker(
+    def decode_visualization_msgs__msg__ImageMarker(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_visualization_msgs__msg__ImageMarker_0
             (v3,) = _S_I.unpack_from(mv, pos)
@@ -1921,16 +1852,32 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 72
             f = ".points"
             v27, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Point, None, None, 24
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__Point, None, None, 24
             )
             f = ".outline_colors"
             v28, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_std_msgs__msg__ColorRGBA, None, None, 16
+                mv, pos, lim, _U32, decode_std_msgs__msg__ColorRGBA, None, None, 16
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__msg__ImageMarker(
+                v1,
+                v4,
+                v5,
+                v6,
+                v7,
+                make_geometry_msgs__msg__Point(v9, v10, v11),
+                v12,
+                make_std_msgs__msg__ColorRGBA(v14, v15, v16, v17),
+                v18,
+                make_std_msgs__msg__ColorRGBA(v20, v21, v22, v23),
+                make_builtin_interfaces__msg__Duration(v25, v26),
+                v27,
+                v28,
+            ), pos
         return {
             "header": v1,
             "ns": v4,
@@ -1946,60 +1893,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "points": v27,
             "outline_colors": v28,
         }, pos
-
-    def decode_view_visualization_msgs__msg__ImageMarker(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__ImageMarker_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".ns"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__ImageMarker_1
-            v5, v6, v7 = _S_3i.unpack_from(mv, pos)
-            pos += 12
-            pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__ImageMarker_2
-            v9, v10, v11, v12, v14, v15, v16, v17, v18, v20, v21, v22, v23, v25, v26 = (
-                _S_3d5fB3x4fiI.unpack_from(mv, pos)
-            )
-            pos += 72
-            f = ".points"
-            v27, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Point, None, None, 24
-            )
-            f = ".outline_colors"
-            v28, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_std_msgs__msg__ColorRGBA, None, None, 16
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__ImageMarker(
-            v1,
-            v4,
-            v5,
-            v6,
-            v7,
-            make_geometry_msgs__msg__Point(v9, v10, v11),
-            v12,
-            make_std_msgs__msg__ColorRGBA(v14, v15, v16, v17),
-            v18,
-            make_std_msgs__msg__ColorRGBA(v20, v21, v22, v23),
-            make_builtin_interfaces__msg__Duration(v25, v26),
-            v27,
-            v28,
-        ), pos
 
     def encode_visualization_msgs__msg__ImageMarker(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2130,7 +2023,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Quaternion(
+    def decode_geometry_msgs__msg__Quaternion(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2143,22 +2036,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
         return {"x": v1, "y": v2, "z": v3, "w": v4}, pos
-
-    def decode_view_geometry_msgs__msg__Quaternion(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Quaternion_0
-            v1, v2, v3, v4 = _S_4d.unpack_from(mv, pos)
-            pos += 32
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
 
     def encode_geometry_msgs__msg__Quaternion(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2194,7 +2074,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Pose(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Pose(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -2205,26 +2085,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Pose(
+                make_geometry_msgs__msg__Point(v2, v3, v4),
+                make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
+            ), pos
         return {
             "position": {"x": v2, "y": v3, "z": v4},
             "orientation": {"x": v6, "y": v7, "z": v8, "w": v9},
         }, pos
-
-    def decode_view_geometry_msgs__msg__Pose(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Pose_0
-            v2, v3, v4, v6, v7, v8, v9 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Pose(
-            make_geometry_msgs__msg__Point(v2, v3, v4),
-            make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
-        ), pos
 
     def encode_geometry_msgs__msg__Pose(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2279,7 +2148,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__msg__MenuEntry(
+    def decode_visualization_msgs__msg__MenuEntry(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2309,39 +2178,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__msg__MenuEntry(v1, v2, v5, v8, v9), pos
         return {"id": v1, "parent_id": v2, "title": v5, "command": v8, "command_type": v9}, pos
-
-    def decode_view_visualization_msgs__msg__MenuEntry(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__MenuEntry_0
-            v1, v2, v4 = _S_3I.unpack_from(mv, pos)
-            pos += 12
-            f = ".title"
-            if v4 > lim - pos:
-                raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
-            pos += v4
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__MenuEntry_1
-            (v7,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".command"
-            if v7 > lim - pos:
-                raise too_long(v7, 1, lim - pos)
-            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
-            pos += v7
-            f = _R_visualization_msgs__msg__MenuEntry_2
-            (v9,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__MenuEntry(v1, v2, v5, v8, v9), pos
 
     def encode_visualization_msgs__msg__MenuEntry(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2402,9 +2241,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_geometry_msgs__msg__Vector3(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def decode_geometry_msgs__msg__Vector3(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
@@ -2415,22 +2252,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
-
-    def decode_view_geometry_msgs__msg__Vector3(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Vector3_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
 
     def encode_geometry_msgs__msg__Vector3(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2463,13 +2287,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_sensor_msgs__msg__CompressedImage(
+    def decode_sensor_msgs__msg__CompressedImage(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_sensor_msgs__msg__CompressedImage_0
             (v3,) = _S_I.unpack_from(mv, pos)
@@ -2492,38 +2316,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_sensor_msgs__msg__CompressedImage(v1, v4, v8), pos
         return {"header": v1, "format": v4, "data": v8}, pos
-
-    def decode_view_sensor_msgs__msg__CompressedImage(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__CompressedImage_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".format"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__CompressedImage_1
-            (v7,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v7 * 1 > lim - pos:
-                raise too_long(v7, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, v7, pos)
-            pos += v7 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_sensor_msgs__msg__CompressedImage(v1, v4, v8), pos
 
     def encode_sensor_msgs__msg__CompressedImage(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2566,7 +2361,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__msg__UVCoordinate(
+    def decode_visualization_msgs__msg__UVCoordinate(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2579,22 +2374,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__msg__UVCoordinate(v1, v2), pos
         return {"u": v1, "v": v2}, pos
-
-    def decode_view_visualization_msgs__msg__UVCoordinate(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__UVCoordinate_0
-            v1, v2 = _S_2f.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__UVCoordinate(v1, v2), pos
 
     def encode_visualization_msgs__msg__UVCoordinate(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2628,7 +2410,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__msg__MeshFile(
+    def decode_visualization_msgs__msg__MeshFile(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -2655,36 +2437,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__msg__MeshFile(v3, v7), pos
         return {"filename": v3, "data": v7}, pos
-
-    def decode_view_visualization_msgs__msg__MeshFile(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__MeshFile_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".filename"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__MeshFile_1
-            (v6,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v6 * 1 > lim - pos:
-                raise too_long(v6, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, v6, pos)
-            pos += v6 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__MeshFile(v3, v7), pos
 
     def encode_visualization_msgs__msg__MeshFile(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2725,13 +2480,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__msg__Marker(
+    def decode_visualization_msgs__msg__Marker(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_visualization_msgs__msg__Marker_0
             (v3,) = _S_I.unpack_from(mv, pos)
@@ -2753,11 +2508,11 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 105
             f = ".points"
             v32, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_geometry_msgs__msg__Point, None, None, 24
+                mv, pos, lim, _U32, decode_geometry_msgs__msg__Point, None, None, 24
             )
             f = ".colors"
             v33, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_std_msgs__msg__ColorRGBA, None, None, 16
+                mv, pos, lim, _U32, decode_std_msgs__msg__ColorRGBA, None, None, 16
             )
             pos = (pos + 3) & -4
             f = _R_visualization_msgs__msg__Marker_3
@@ -2769,10 +2524,10 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v36 = mv[pos : pos + v35 - 1].tobytes().decode()
             pos += v35
             f = ".texture"
-            v37, pos = decode_dict_sensor_msgs__msg__CompressedImage(mv, pos, lim)
+            v37, pos = decode_sensor_msgs__msg__CompressedImage(mv, pos, lim)
             f = ".uv_coordinates"
             v38, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_visualization_msgs__msg__UVCoordinate, None, None, 8
+                mv, pos, lim, _U32, decode_visualization_msgs__msg__UVCoordinate, None, None, 8
             )
             pos = (pos + 3) & -4
             f = _R_visualization_msgs__msg__Marker_4
@@ -2793,7 +2548,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             v44 = mv[pos : pos + v43 - 1].tobytes().decode()
             pos += v43
             f = ".mesh_file"
-            v45, pos = decode_dict_visualization_msgs__msg__MeshFile(mv, pos, lim)
+            v45, pos = decode_visualization_msgs__msg__MeshFile(mv, pos, lim)
             f = _R_visualization_msgs__msg__Marker_6
             (v47,) = _S_T.unpack_from(mv, pos)
             pos += 1
@@ -2801,6 +2556,31 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__msg__Marker(
+                v1,
+                v4,
+                v5,
+                v6,
+                v7,
+                make_geometry_msgs__msg__Pose(
+                    make_geometry_msgs__msg__Point(v10, v11, v12),
+                    make_geometry_msgs__msg__Quaternion(v14, v15, v16, v17),
+                ),
+                make_geometry_msgs__msg__Vector3(v19, v20, v21),
+                make_std_msgs__msg__ColorRGBA(v23, v24, v25, v26),
+                make_builtin_interfaces__msg__Duration(v28, v29),
+                v31,
+                v32,
+                v33,
+                v36,
+                v37,
+                v38,
+                v41,
+                v44,
+                v45,
+                v47,
+            ), pos
         return {
             "header": v1,
             "ns": v4,
@@ -2825,107 +2605,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "mesh_file": v45,
             "mesh_use_embedded_materials": v47,
         }, pos
-
-    def decode_view_visualization_msgs__msg__Marker(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__Marker_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".ns"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__Marker_1
-            v5, v6, v7 = _S_3i.unpack_from(mv, pos)
-            pos += 12
-            pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__Marker_2
-            v10, v11, v12, v14, v15, v16, v17, v19, v20, v21, v23, v24, v25, v26, v28, v29, v31 = (
-                _S_10d4fiIT.unpack_from(mv, pos)
-            )
-            pos += 105
-            f = ".points"
-            v32, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_geometry_msgs__msg__Point, None, None, 24
-            )
-            f = ".colors"
-            v33, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_std_msgs__msg__ColorRGBA, None, None, 16
-            )
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__Marker_3
-            (v35,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".texture_resource"
-            if v35 > lim - pos:
-                raise too_long(v35, 1, lim - pos)
-            v36 = mv[pos : pos + v35 - 1].tobytes().decode()
-            pos += v35
-            f = ".texture"
-            v37, pos = decode_view_sensor_msgs__msg__CompressedImage(mv, pos, lim)
-            f = ".uv_coordinates"
-            v38, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_visualization_msgs__msg__UVCoordinate, None, None, 8
-            )
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__Marker_4
-            (v40,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".text"
-            if v40 > lim - pos:
-                raise too_long(v40, 1, lim - pos)
-            v41 = mv[pos : pos + v40 - 1].tobytes().decode()
-            pos += v40
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__Marker_5
-            (v43,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".mesh_resource"
-            if v43 > lim - pos:
-                raise too_long(v43, 1, lim - pos)
-            v44 = mv[pos : pos + v43 - 1].tobytes().decode()
-            pos += v43
-            f = ".mesh_file"
-            v45, pos = decode_view_visualization_msgs__msg__MeshFile(mv, pos, lim)
-            f = _R_visualization_msgs__msg__Marker_6
-            (v47,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__Marker(
-            v1,
-            v4,
-            v5,
-            v6,
-            v7,
-            make_geometry_msgs__msg__Pose(
-                make_geometry_msgs__msg__Point(v10, v11, v12),
-                make_geometry_msgs__msg__Quaternion(v14, v15, v16, v17),
-            ),
-            make_geometry_msgs__msg__Vector3(v19, v20, v21),
-            make_std_msgs__msg__ColorRGBA(v23, v24, v25, v26),
-            make_builtin_interfaces__msg__Duration(v28, v29),
-            v31,
-            v32,
-            v33,
-            v36,
-            v37,
-            v38,
-            v41,
-            v44,
-            v45,
-            v47,
-        ), pos
 
     def encode_visualization_msgs__msg__Marker(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3154,7 +2833,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__msg__InteractiveMarkerControl(
+    def decode_visualization_msgs__msg__InteractiveMarkerControl(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -3174,7 +2853,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 35
             f = ".markers"
             v13, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_visualization_msgs__msg__Marker, None, None, 186
+                mv, pos, lim, _U32, decode_visualization_msgs__msg__Marker, None, None, 186
             )
             f = _R_visualization_msgs__msg__InteractiveMarkerControl_2
             (v15,) = _S_T.unpack_from(mv, pos)
@@ -3192,6 +2871,10 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__msg__InteractiveMarkerControl(
+                v3, make_geometry_msgs__msg__Quaternion(v5, v6, v7, v8), v9, v10, v12, v13, v15, v18
+            ), pos
         return {
             "name": v3,
             "orientation": {"x": v5, "y": v6, "z": v7, "w": v8},
@@ -3202,48 +2885,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "independent_marker_orientation": v15,
             "description": v18,
         }, pos
-
-    def decode_view_visualization_msgs__msg__InteractiveMarkerControl(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarkerControl_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".name"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__InteractiveMarkerControl_1
-            v5, v6, v7, v8, v9, v10, v12 = _S_4d2BT.unpack_from(mv, pos)
-            pos += 35
-            f = ".markers"
-            v13, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_visualization_msgs__msg__Marker, None, None, 186
-            )
-            f = _R_visualization_msgs__msg__InteractiveMarkerControl_2
-            (v15,) = _S_T.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarkerControl_3
-            (v17,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".description"
-            if v17 > lim - pos:
-                raise too_long(v17, 1, lim - pos)
-            v18 = mv[pos : pos + v17 - 1].tobytes().decode()
-            pos += v17
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__InteractiveMarkerControl(
-            v3, make_geometry_msgs__msg__Quaternion(v5, v6, v7, v8), v9, v10, v12, v13, v15, v18
-        ), pos
 
     def encode_visualization_msgs__msg__InteractiveMarkerControl(
         d: Any, out: list[Any], pos: int
@@ -3381,13 +3022,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__msg__InteractiveMarker(
+    def decode_visualization_msgs__msg__InteractiveMarker(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_visualization_msgs__msg__InteractiveMarker_0
             v4, v5, v6, v8, v9, v10, v11, v13 = _S_7dI.unpack_from(mv, pos)
@@ -3412,7 +3053,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             pos += 4
             f = ".menu_entries"
             v19, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_visualization_msgs__msg__MenuEntry, None, None, 17
+                mv, pos, lim, _U32, decode_visualization_msgs__msg__MenuEntry, None, None, 17
             )
             f = ".controls"
             v20, pos = read_messages(
@@ -3420,7 +3061,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_visualization_msgs__msg__InteractiveMarkerControl,
+                decode_visualization_msgs__msg__InteractiveMarkerControl,
                 None,
                 None,
                 48,
@@ -3429,6 +3070,19 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__msg__InteractiveMarker(
+                v1,
+                make_geometry_msgs__msg__Pose(
+                    make_geometry_msgs__msg__Point(v4, v5, v6),
+                    make_geometry_msgs__msg__Quaternion(v8, v9, v10, v11),
+                ),
+                v14,
+                v17,
+                v18,
+                v19,
+                v20,
+            ), pos
         return {
             "header": v1,
             "pose": {
@@ -3441,67 +3095,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "menu_entries": v19,
             "controls": v20,
         }, pos
-
-    def decode_view_visualization_msgs__msg__InteractiveMarker(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__InteractiveMarker_0
-            v4, v5, v6, v8, v9, v10, v11, v13 = _S_7dI.unpack_from(mv, pos)
-            pos += 60
-            f = ".name"
-            if v13 > lim - pos:
-                raise too_long(v13, 1, lim - pos)
-            v14 = mv[pos : pos + v13 - 1].tobytes().decode()
-            pos += v13
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarker_1
-            (v16,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".description"
-            if v16 > lim - pos:
-                raise too_long(v16, 1, lim - pos)
-            v17 = mv[pos : pos + v16 - 1].tobytes().decode()
-            pos += v16
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarker_2
-            (v18,) = _S_f.unpack_from(mv, pos)
-            pos += 4
-            f = ".menu_entries"
-            v19, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_visualization_msgs__msg__MenuEntry, None, None, 17
-            )
-            f = ".controls"
-            v20, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_visualization_msgs__msg__InteractiveMarkerControl,
-                None,
-                None,
-                48,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__InteractiveMarker(
-            v1,
-            make_geometry_msgs__msg__Pose(
-                make_geometry_msgs__msg__Point(v4, v5, v6),
-                make_geometry_msgs__msg__Quaternion(v8, v9, v10, v11),
-            ),
-            v14,
-            v17,
-            v18,
-            v19,
-            v20,
-        ), pos
 
     def encode_visualization_msgs__msg__InteractiveMarker(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3623,13 +3216,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__msg__InteractiveMarkerFeedback(
+    def decode_visualization_msgs__msg__InteractiveMarkerFeedback(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 3) & -4
             f = _R_visualization_msgs__msg__InteractiveMarkerFeedback_0
             (v3,) = _S_I.unpack_from(mv, pos)
@@ -3670,6 +3263,21 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__msg__InteractiveMarkerFeedback(
+                v1,
+                v4,
+                v7,
+                v10,
+                v11,
+                make_geometry_msgs__msg__Pose(
+                    make_geometry_msgs__msg__Point(v14, v15, v16),
+                    make_geometry_msgs__msg__Quaternion(v18, v19, v20, v21),
+                ),
+                v22,
+                make_geometry_msgs__msg__Point(v24, v25, v26),
+                v28,
+            ), pos
         return {
             "header": v1,
             "client_id": v4,
@@ -3684,68 +3292,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "mouse_point": {"x": v24, "y": v25, "z": v26},
             "mouse_point_valid": v28,
         }, pos
-
-    def decode_view_visualization_msgs__msg__InteractiveMarkerFeedback(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarkerFeedback_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".client_id"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarkerFeedback_1
-            (v6,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".marker_name"
-            if v6 > lim - pos:
-                raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
-            pos += v6
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarkerFeedback_2
-            (v9,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".control_name"
-            if v9 > lim - pos:
-                raise too_long(v9, 1, lim - pos)
-            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
-            pos += v9
-            f = _R_visualization_msgs__msg__InteractiveMarkerFeedback_3
-            (v11,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__InteractiveMarkerFeedback_4
-            v14, v15, v16, v18, v19, v20, v21, v22, v24, v25, v26, v28 = _S_7dI4x3dT.unpack_from(
-                mv, pos
-            )
-            pos += 89
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__InteractiveMarkerFeedback(
-            v1,
-            v4,
-            v7,
-            v10,
-            v11,
-            make_geometry_msgs__msg__Pose(
-                make_geometry_msgs__msg__Point(v14, v15, v16),
-                make_geometry_msgs__msg__Quaternion(v18, v19, v20, v21),
-            ),
-            v22,
-            make_geometry_msgs__msg__Point(v24, v25, v26),
-            v28,
-        ), pos
 
     def encode_visualization_msgs__msg__InteractiveMarkerFeedback(
         d: Any, out: list[Any], pos: int
@@ -3899,7 +3445,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__msg__InteractiveMarkerInit(
+    def decode_visualization_msgs__msg__InteractiveMarkerInit(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -3923,7 +3469,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_visualization_msgs__msg__InteractiveMarker,
+                decode_visualization_msgs__msg__InteractiveMarker,
                 None,
                 None,
                 88,
@@ -3932,42 +3478,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__msg__InteractiveMarkerInit(v3, v4, v5), pos
         return {"server_id": v3, "seq_num": v4, "markers": v5}, pos
-
-    def decode_view_visualization_msgs__msg__InteractiveMarkerInit(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarkerInit_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".server_id"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__InteractiveMarkerInit_1
-            (v4,) = _S_Q.unpack_from(mv, pos)
-            pos += 8
-            f = ".markers"
-            v5, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_visualization_msgs__msg__InteractiveMarker,
-                None,
-                None,
-                88,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__InteractiveMarkerInit(v3, v4, v5), pos
 
     def encode_visualization_msgs__msg__InteractiveMarkerInit(
         d: Any, out: list[Any], pos: int
@@ -4027,13 +3540,13 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__msg__InteractiveMarkerPose(
+    def decode_visualization_msgs__msg__InteractiveMarkerPose(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_dict_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
             pos = (pos + 7) & -8
             f = _R_visualization_msgs__msg__InteractiveMarkerPose_0
             v4, v5, v6, v8, v9, v10, v11, v13 = _S_7dI.unpack_from(mv, pos)
@@ -4047,6 +3560,15 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__msg__InteractiveMarkerPose(
+                v1,
+                make_geometry_msgs__msg__Pose(
+                    make_geometry_msgs__msg__Point(v4, v5, v6),
+                    make_geometry_msgs__msg__Quaternion(v8, v9, v10, v11),
+                ),
+                v14,
+            ), pos
         return {
             "header": v1,
             "pose": {
@@ -4055,35 +3577,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             },
             "name": v14,
         }, pos
-
-    def decode_view_visualization_msgs__msg__InteractiveMarkerPose(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_view_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__InteractiveMarkerPose_0
-            v4, v5, v6, v8, v9, v10, v11, v13 = _S_7dI.unpack_from(mv, pos)
-            pos += 60
-            f = ".name"
-            if v13 > lim - pos:
-                raise too_long(v13, 1, lim - pos)
-            v14 = mv[pos : pos + v13 - 1].tobytes().decode()
-            pos += v13
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__InteractiveMarkerPose(
-            v1,
-            make_geometry_msgs__msg__Pose(
-                make_geometry_msgs__msg__Point(v4, v5, v6),
-                make_geometry_msgs__msg__Quaternion(v8, v9, v10, v11),
-            ),
-            v14,
-        ), pos
 
     def encode_visualization_msgs__msg__InteractiveMarkerPose(
         d: Any, out: list[Any], pos: int
@@ -4155,7 +3648,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__msg__InteractiveMarkerUpdate(
+    def decode_visualization_msgs__msg__InteractiveMarkerUpdate(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4179,7 +3672,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_visualization_msgs__msg__InteractiveMarker,
+                decode_visualization_msgs__msg__InteractiveMarker,
                 None,
                 None,
                 88,
@@ -4190,7 +3683,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_visualization_msgs__msg__InteractiveMarkerPose,
+                decode_visualization_msgs__msg__InteractiveMarkerPose,
                 None,
                 None,
                 72,
@@ -4201,6 +3694,10 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__msg__InteractiveMarkerUpdate(
+                v3, v4, v5, v6, v7, v8
+            ), pos
         return {
             "server_id": v3,
             "seq_num": v4,
@@ -4209,54 +3706,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "poses": v7,
             "erases": v8,
         }, pos
-
-    def decode_view_visualization_msgs__msg__InteractiveMarkerUpdate(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarkerUpdate_0
-            (v2,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".server_id"
-            if v2 > lim - pos:
-                raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
-            pos += v2
-            pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__InteractiveMarkerUpdate_1
-            v4, v5 = _S_QB.unpack_from(mv, pos)
-            pos += 9
-            f = ".markers"
-            v6, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_visualization_msgs__msg__InteractiveMarker,
-                None,
-                None,
-                88,
-            )
-            f = ".poses"
-            v7, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_visualization_msgs__msg__InteractiveMarkerPose,
-                None,
-                None,
-                72,
-            )
-            f = ".erases"
-            v8, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__InteractiveMarkerUpdate(v3, v4, v5, v6, v7, v8), pos
 
     def encode_visualization_msgs__msg__InteractiveMarkerUpdate(
         d: Any, out: list[Any], pos: int
@@ -4333,35 +3782,22 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__msg__MarkerArray(
+    def decode_visualization_msgs__msg__MarkerArray(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".markers"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_dict_visualization_msgs__msg__Marker, None, None, 186
+                mv, pos, lim, _U32, decode_visualization_msgs__msg__Marker, None, None, 186
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__msg__MarkerArray(v1), pos
         return {"markers": v1}, pos
-
-    def decode_view_visualization_msgs__msg__MarkerArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".markers"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_view_visualization_msgs__msg__Marker, None, None, 186
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__msg__MarkerArray(v1), pos
 
     def encode_visualization_msgs__msg__MarkerArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4384,7 +3820,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__srv__GetInteractiveMarkers_Request(
+    def decode_visualization_msgs__srv__GetInteractiveMarkers_Request(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4396,21 +3832,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__srv__GetInteractiveMarkers_Request(), pos
         return {}, pos
-
-    def decode_view_visualization_msgs__srv__GetInteractiveMarkers_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_visualization_msgs__srv__GetInteractiveMarkers_Request_0
-            _S_1x.unpack_from(mv, pos)
-            pos += 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__srv__GetInteractiveMarkers_Request(), pos
 
     def encode_visualization_msgs__srv__GetInteractiveMarkers_Request(
         d: Any, out: list[Any], pos: int
@@ -4438,7 +3862,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__srv__GetInteractiveMarkers_Response(
+    def decode_visualization_msgs__srv__GetInteractiveMarkers_Response(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4453,7 +3877,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_visualization_msgs__msg__InteractiveMarker,
+                decode_visualization_msgs__msg__InteractiveMarker,
                 None,
                 None,
                 88,
@@ -4462,33 +3886,9 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__srv__GetInteractiveMarkers_Response(v1, v2), pos
         return {"sequence_number": v1, "markers": v2}, pos
-
-    def decode_view_visualization_msgs__srv__GetInteractiveMarkers_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_visualization_msgs__srv__GetInteractiveMarkers_Response_0
-            (v1,) = _S_Q.unpack_from(mv, pos)
-            pos += 8
-            f = ".markers"
-            v2, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_visualization_msgs__msg__InteractiveMarker,
-                None,
-                None,
-                88,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__srv__GetInteractiveMarkers_Response(v1, v2), pos
 
     def encode_visualization_msgs__srv__GetInteractiveMarkers_Response(
         d: Any, out: list[Any], pos: int
@@ -4532,7 +3932,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_service_msgs__msg__ServiceEventInfo(
+    def decode_service_msgs__msg__ServiceEventInfo(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4557,41 +3957,16 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_service_msgs__msg__ServiceEventInfo(
+                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
+            ), pos
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
             "client_gid": v7,
             "sequence_number": v8,
         }, pos
-
-    def decode_view_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_service_msgs__msg__ServiceEventInfo(
-            v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-        ), pos
 
     def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4657,7 +4032,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_dict_visualization_msgs__srv__GetInteractiveMarkers_Event(
+    def decode_visualization_msgs__srv__GetInteractiveMarkers_Event(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -4684,7 +4059,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_visualization_msgs__srv__GetInteractiveMarkers_Request,
+                decode_visualization_msgs__srv__GetInteractiveMarkers_Request,
                 None,
                 1,
                 1,
@@ -4695,7 +4070,7 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
                 pos,
                 lim,
                 _U32,
-                decode_dict_visualization_msgs__srv__GetInteractiveMarkers_Response,
+                decode_visualization_msgs__srv__GetInteractiveMarkers_Response,
                 None,
                 1,
                 12,
@@ -4704,6 +4079,14 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
+        if view:
+            return make_visualization_msgs__srv__GetInteractiveMarkers_Event(
+                make_service_msgs__msg__ServiceEventInfo(
+                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+                ),
+                v10,
+                v11,
+            ), pos
         return {
             "info": {
                 "event_type": v2,
@@ -4714,61 +4097,6 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
             "request": v10,
             "response": v11,
         }, pos
-
-    def decode_view_visualization_msgs__srv__GetInteractiveMarkers_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_visualization_msgs__srv__GetInteractiveMarkers_Event_0
-            (v2,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_visualization_msgs__srv__GetInteractiveMarkers_Event_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".info.client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_visualization_msgs__srv__GetInteractiveMarkers_Event_2
-            (v9,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-            f = ".request"
-            v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_visualization_msgs__srv__GetInteractiveMarkers_Request,
-                None,
-                1,
-                1,
-            )
-            f = ".response"
-            v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_view_visualization_msgs__srv__GetInteractiveMarkers_Response,
-                None,
-                1,
-                12,
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        return make_visualization_msgs__srv__GetInteractiveMarkers_Event(
-            make_service_msgs__msg__ServiceEventInfo(
-                v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
-            ),
-            v10,
-            v11,
-        ), pos
 
     def encode_visualization_msgs__srv__GetInteractiveMarkers_Event(
         d: Any, out: list[Any], pos: int
@@ -4869,132 +4197,109 @@ def _build(E: str) -> dict[str, tuple[Any, Any, Any]]:
 
     return {
         "builtin_interfaces/msg/Time": (
-            decode_dict_builtin_interfaces__msg__Time,
-            decode_view_builtin_interfaces__msg__Time,
+            decode_builtin_interfaces__msg__Time,
             encode_builtin_interfaces__msg__Time,
         ),
-        "std_msgs/msg/Header": (
-            decode_dict_std_msgs__msg__Header,
-            decode_view_std_msgs__msg__Header,
-            encode_std_msgs__msg__Header,
-        ),
+        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
         "geometry_msgs/msg/Point": (
-            decode_dict_geometry_msgs__msg__Point,
-            decode_view_geometry_msgs__msg__Point,
+            decode_geometry_msgs__msg__Point,
             encode_geometry_msgs__msg__Point,
         ),
         "std_msgs/msg/ColorRGBA": (
-            decode_dict_std_msgs__msg__ColorRGBA,
-            decode_view_std_msgs__msg__ColorRGBA,
+            decode_std_msgs__msg__ColorRGBA,
             encode_std_msgs__msg__ColorRGBA,
         ),
         "builtin_interfaces/msg/Duration": (
-            decode_dict_builtin_interfaces__msg__Duration,
-            decode_view_builtin_interfaces__msg__Duration,
+            decode_builtin_interfaces__msg__Duration,
             encode_builtin_interfaces__msg__Duration,
         ),
         "visualization_msgs/msg/ImageMarker": (
-            decode_dict_visualization_msgs__msg__ImageMarker,
-            decode_view_visualization_msgs__msg__ImageMarker,
+            decode_visualization_msgs__msg__ImageMarker,
             encode_visualization_msgs__msg__ImageMarker,
         ),
         "geometry_msgs/msg/Quaternion": (
-            decode_dict_geometry_msgs__msg__Quaternion,
-            decode_view_geometry_msgs__msg__Quaternion,
+            decode_geometry_msgs__msg__Quaternion,
             encode_geometry_msgs__msg__Quaternion,
         ),
         "geometry_msgs/msg/Pose": (
-            decode_dict_geometry_msgs__msg__Pose,
-            decode_view_geometry_msgs__msg__Pose,
+            decode_geometry_msgs__msg__Pose,
             encode_geometry_msgs__msg__Pose,
         ),
         "visualization_msgs/msg/MenuEntry": (
-            decode_dict_visualization_msgs__msg__MenuEntry,
-            decode_view_visualization_msgs__msg__MenuEntry,
+            decode_visualization_msgs__msg__MenuEntry,
             encode_visualization_msgs__msg__MenuEntry,
         ),
         "geometry_msgs/msg/Vector3": (
-            decode_dict_geometry_msgs__msg__Vector3,
-            decode_view_geometry_msgs__msg__Vector3,
+            decode_geometry_msgs__msg__Vector3,
             encode_geometry_msgs__msg__Vector3,
         ),
         "sensor_msgs/msg/CompressedImage": (
-            decode_dict_sensor_msgs__msg__CompressedImage,
-            decode_view_sensor_msgs__msg__CompressedImage,
+            decode_sensor_msgs__msg__CompressedImage,
             encode_sensor_msgs__msg__CompressedImage,
         ),
         "visualization_msgs/msg/UVCoordinate": (
-            decode_dict_visualization_msgs__msg__UVCoordinate,
-            decode_view_visualization_msgs__msg__UVCoordinate,
+            decode_visualization_msgs__msg__UVCoordinate,
             encode_visualization_msgs__msg__UVCoordinate,
         ),
         "visualization_msgs/msg/MeshFile": (
-            decode_dict_visualization_msgs__msg__MeshFile,
-            decode_view_visualization_msgs__msg__MeshFile,
+            decode_visualization_msgs__msg__MeshFile,
             encode_visualization_msgs__msg__MeshFile,
         ),
         "visualization_msgs/msg/Marker": (
-            decode_dict_visualization_msgs__msg__Marker,
-            decode_view_visualization_msgs__msg__Marker,
+            decode_visualization_msgs__msg__Marker,
             encode_visualization_msgs__msg__Marker,
         ),
         "visualization_msgs/msg/InteractiveMarkerControl": (
-            decode_dict_visualization_msgs__msg__InteractiveMarkerControl,
-            decode_view_visualization_msgs__msg__InteractiveMarkerControl,
+            decode_visualization_msgs__msg__InteractiveMarkerControl,
             encode_visualization_msgs__msg__InteractiveMarkerControl,
         ),
         "visualization_msgs/msg/InteractiveMarker": (
-            decode_dict_visualization_msgs__msg__InteractiveMarker,
-            decode_view_visualization_msgs__msg__InteractiveMarker,
+            decode_visualization_msgs__msg__InteractiveMarker,
             encode_visualization_msgs__msg__InteractiveMarker,
         ),
         "visualization_msgs/msg/InteractiveMarkerFeedback": (
-            decode_dict_visualization_msgs__msg__InteractiveMarkerFeedback,
-            decode_view_visualization_msgs__msg__InteractiveMarkerFeedback,
+            decode_visualization_msgs__msg__InteractiveMarkerFeedback,
             encode_visualization_msgs__msg__InteractiveMarkerFeedback,
         ),
         "visualization_msgs/msg/InteractiveMarkerInit": (
-            decode_dict_visualization_msgs__msg__InteractiveMarkerInit,
-            decode_view_visualization_msgs__msg__InteractiveMarkerInit,
+            decode_visualization_msgs__msg__InteractiveMarkerInit,
             encode_visualization_msgs__msg__InteractiveMarkerInit,
         ),
         "visualization_msgs/msg/InteractiveMarkerPose": (
-            decode_dict_visualization_msgs__msg__InteractiveMarkerPose,
-            decode_view_visualization_msgs__msg__InteractiveMarkerPose,
+            decode_visualization_msgs__msg__InteractiveMarkerPose,
             encode_visualization_msgs__msg__InteractiveMarkerPose,
         ),
         "visualization_msgs/msg/InteractiveMarkerUpdate": (
-            decode_dict_visualization_msgs__msg__InteractiveMarkerUpdate,
-            decode_view_visualization_msgs__msg__InteractiveMarkerUpdate,
+            decode_visualization_msgs__msg__InteractiveMarkerUpdate,
             encode_visualization_msgs__msg__InteractiveMarkerUpdate,
         ),
         "visualization_msgs/msg/MarkerArray": (
-            decode_dict_visualization_msgs__msg__MarkerArray,
-            decode_view_visualization_msgs__msg__MarkerArray,
+            decode_visualization_msgs__msg__MarkerArray,
             encode_visualization_msgs__msg__MarkerArray,
         ),
         "visualization_msgs/srv/GetInteractiveMarkers_Request": (
-            decode_dict_visualization_msgs__srv__GetInteractiveMarkers_Request,
-            decode_view_visualization_msgs__srv__GetInteractiveMarkers_Request,
+            decode_visualization_msgs__srv__GetInteractiveMarkers_Request,
             encode_visualization_msgs__srv__GetInteractiveMarkers_Request,
         ),
         "visualization_msgs/srv/GetInteractiveMarkers_Response": (
-            decode_dict_visualization_msgs__srv__GetInteractiveMarkers_Response,
-            decode_view_visualization_msgs__srv__GetInteractiveMarkers_Response,
+            decode_visualization_msgs__srv__GetInteractiveMarkers_Response,
             encode_visualization_msgs__srv__GetInteractiveMarkers_Response,
         ),
         "service_msgs/msg/ServiceEventInfo": (
-            decode_dict_service_msgs__msg__ServiceEventInfo,
-            decode_view_service_msgs__msg__ServiceEventInfo,
+            decode_service_msgs__msg__ServiceEventInfo,
             encode_service_msgs__msg__ServiceEventInfo,
         ),
         "visualization_msgs/srv/GetInteractiveMarkers_Event": (
-            decode_dict_visualization_msgs__srv__GetInteractiveMarkers_Event,
-            decode_view_visualization_msgs__srv__GetInteractiveMarkers_Event,
+            decode_visualization_msgs__srv__GetInteractiveMarkers_Event,
             encode_visualization_msgs__srv__GetInteractiveMarkers_Event,
         ),
     }
 
 
-LITTLE = _build("<")
-BIG = _build(">")
+def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = _build(E, False), _build(E, True)
+    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
+
+
+LITTLE = _both("<")
+BIG = _both(">")
