@@ -128,6 +128,14 @@ def test_index_of_a_bad_element_is_in_the_path() -> None:
     )
 
 
+@pytest.mark.parametrize("full_name", ["std_msgs/msg/Empty", "test_msgs/msg/Constants"])
+def test_an_empty_message_without_its_byte(full_name: str) -> None:
+    for decode in (wire.wire_codec(full_name).to_dict, wire.wire_codec(full_name).decode_view):
+        with pytest.raises(DecodeError) as caught:
+            decode(b"\x00\x01\x00\x00")
+        assert str(caught.value) == f"{full_name}: truncated at offset 4 (0 bytes left)"
+
+
 def test_huge_counts_never_allocate() -> None:
     # Image: the `data` count ends the buffer; PointCloud2: the `fields` count follows the
     # header (16 bytes), height and width.
