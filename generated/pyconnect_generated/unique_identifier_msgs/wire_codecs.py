@@ -18,24 +18,26 @@ from typing import Any
 
 import numpy as np
 
-from pyconnect.codecs.cdr_runtime import (
-    EMPTY,
-    ZEROS,
+from pyconnect.codecs.cdr_read import (
     WireDecodeError,
     decode_failure,
-    encode_array,
-    encode_bools,
-    encode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
-    slow_pack,
     too_long,
-    utf8z,
     view_fields,
     view_repr,
+)
+from pyconnect.codecs.cdr_write import (
+    EMPTY,
+    ZEROS,
+    encode_array,
+    encode_bools,
+    encode_failure,
+    slow_pack,
+    utf8z,
     write_messages,
     write_strings,
     write_wstring,

@@ -4,8 +4,8 @@
 - Pose, Transform → ``((x, y, z), (qx, qy, qz, qw))``
 - Twist, Accel, Wrench → ``((x, y, z), (x, y, z))``; encode also takes the planar ``(v, w)``,
   meaning ``((v, 0, 0), (0, 0, w))``
-- Polygon → float32 (N, 3) array; PoseArray and nav_msgs/Path → list of pose tuples
-- the ``*Stamped`` variants → the inner value.
+- Polygon, PoseArray, nav_msgs/Path: ``geometry_arrays``; the ``*Stamped`` variants:
+  ``geometry_stamped``.
 
 The plain types are lossless (Polygon and Point32 for received messages, whose values are
 float32; an in-process Point32 built from a double keeps it until serialised, and the float32
@@ -20,19 +20,15 @@ import numbers
 from collections.abc import Callable
 from typing import Any
 
-import numpy as np
-import numpy.typing as npt
-
 from pyconnect.codecs.checks import check_float, check_float32, check_sequence
 from pyconnect.codecs.message_slots import CHECK_FIELDS, has_slot_layout, path_reader
-from pyconnect.errors import EncodeError, type_name_of
 
 Triple = tuple[float, float, float]
 Quad = tuple[float, float, float, float]
 PoseValue = tuple[Triple, Quad]
 
 
-def _msg(module: str, name: str) -> Any:
+def message_class(module: str, name: str) -> Any:
     import importlib
 
     return getattr(importlib.import_module(f"{module}.msg"), name)
@@ -116,15 +112,15 @@ def _quad(value: Any, path: str) -> Quad:
     )
 
 
-def _xyz_fields(value: Triple) -> dict[str, float]:
+def xyz_fields(value: Triple) -> dict[str, float]:
     return {"x": value[0], "y": value[1], "z": value[2]}
 
 
-def _xyzw_fields(value: Quad) -> dict[str, float]:
+def xyzw_fields(value: Quad) -> dict[str, float]:
     return {"x": value[0], "y": value[1], "z": value[2], "w": value[3]}
 
 
-class _Base:
+class GeometryCodec:
     """Shared plumbing: the message class is imported on first encode."""
 
     msg_type = ""
@@ -145,11 +141,11 @@ class _Base:
     def _cls(self) -> Any:
         cls = type(self)._class
         if cls is None:
-            cls = type(self)._class = _msg(self._module, self._name)
+            cls = type(self)._class = message_class(self._module, self._name)
         return cls
 
 
-class Vector3Codec(_Base):
+class Vector3Codec(GeometryCodec):
     """geometry_msgs/Vector3 ↔ ``(x, y, z)``."""
 
     msg_type = "geometry_msgs/msg/Vector3"
@@ -161,7 +157,7 @@ class Vector3Codec(_Base):
         return result
 
     def to_fields(self, value: Any) -> dict[str, Any]:
-        return _xyz_fields(_triple(value, self._name))
+        return xyz_fields(_triple(value, self._name))
 
     def encode(self, value: Any) -> Any:
         x, y, z = _triple(value, self._name)
@@ -189,7 +185,7 @@ class Point32Codec(Vector3Codec):
     _build: Any = None
 
     def to_fields(self, value: Any) -> dict[str, Any]:
-        return _xyz_fields(_triple32(value, self._name))
+        return xyz_fields(_triple32(value, self._name))
 
     def encode(self, value: Any) -> Any:
         x, y, z = _triple32(value, self._name)
@@ -199,7 +195,7 @@ class Point32Codec(Vector3Codec):
         return build(x, y, z)
 
 
-class QuaternionCodec(_Base):
+class QuaternionCodec(GeometryCodec):
     """geometry_msgs/Quaternion ↔ ``(x, y, z, w)``."""
 
     msg_type = "geometry_msgs/msg/Quaternion"
@@ -211,7 +207,7 @@ class QuaternionCodec(_Base):
         return result
 
     def to_fields(self, value: Any) -> dict[str, Any]:
-        return _xyzw_fields(_quad(value, self._name))
+        return xyzw_fields(_quad(value, self._name))
 
     def encode(self, value: Any) -> Any:
         x, y, z, w = _quad(value, self._name)
@@ -221,7 +217,7 @@ class QuaternionCodec(_Base):
         return build(x, y, z, w)
 
 
-class Pose2DCodec(_Base):
+class Pose2DCodec(GeometryCodec):
     """geometry_msgs/Pose2D ↔ ``(x, y, theta)``."""
 
     msg_type = "geometry_msgs/msg/Pose2D"
@@ -242,12 +238,12 @@ class Pose2DCodec(_Base):
         return self._cls()(**self.to_fields(value))
 
 
-def _pose_parts(value: Any, path: str, first: str, second: str) -> tuple[Triple, Quad]:
+def pose_parts(value: Any, path: str, first: str, second: str) -> tuple[Triple, Quad]:
     position, orientation = check_sequence(value, 2, path, "((x, y, z), (qx, qy, qz, qw))")
     return _triple(position, f"{path}.{first}"), _quad(orientation, f"{path}.{second}")
 
 
-class PoseCodec(_Base):
+class PoseCodec(GeometryCodec):
     """geometry_msgs/Pose ↔ ``((x, y, z), (qx, qy, qz, qw))``."""
 
     msg_type = "geometry_msgs/msg/Pose"
@@ -265,17 +261,17 @@ class PoseCodec(_Base):
         return ((x, y, z), (qx, qy, qz, qw))
 
     def to_fields(self, value: Any) -> dict[str, Any]:
-        p, q = _pose_parts(value, self._name, self._first, self._second)
-        return {self._first: _xyz_fields(p), self._second: _xyzw_fields(q)}
+        p, q = pose_parts(value, self._name, self._first, self._second)
+        return {self._first: xyz_fields(p), self._second: xyzw_fields(q)}
 
     def encode(self, value: Any) -> Any:
-        (x, y, z), (qx, qy, qz, qw) = _pose_parts(value, self._name, self._first, self._second)
+        (x, y, z), (qx, qy, qz, qw) = pose_parts(value, self._name, self._first, self._second)
         builders = type(self)._build
         if builders is None:
             builders = type(self)._build = (
                 _pair_builder(self._cls(), self._first, self._second),
-                _xyz_builder(_msg("geometry_msgs", self._first_class)),
-                _xyzw_builder(_msg("geometry_msgs", self._second_class)),
+                _xyz_builder(message_class("geometry_msgs", self._first_class)),
+                _xyzw_builder(message_class("geometry_msgs", self._second_class)),
             )
         pair, xyz, xyzw = builders
         return pair(xyz(x, y, z), xyzw(qx, qy, qz, qw))
@@ -308,7 +304,7 @@ def _pair_of_triples(value: Any, path: str, first: str, second: str) -> tuple[Tr
     return _triple(a, f"{path}.{first}"), _triple(b, f"{path}.{second}")
 
 
-class TwistCodec(_Base):
+class TwistCodec(GeometryCodec):
     """geometry_msgs/Twist ↔ ``((vx, vy, vz), (wx, wy, wz))``; encode also takes ``(v, w)``."""
 
     msg_type = "geometry_msgs/msg/Twist"
@@ -326,7 +322,7 @@ class TwistCodec(_Base):
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         a, b = _pair_of_triples(value, self._name, self._first, self._second)
-        return {self._first: _xyz_fields(a), self._second: _xyz_fields(b)}
+        return {self._first: xyz_fields(a), self._second: xyz_fields(b)}
 
     def encode(self, value: Any) -> Any:
         (ax, ay, az), (bx, by, bz) = _pair_of_triples(value, self._name, self._first, self._second)
@@ -334,7 +330,7 @@ class TwistCodec(_Base):
         if builders is None:
             builders = type(self)._build = (
                 _pair_builder(self._cls(), self._first, self._second),
-                _xyz_builder(_msg("geometry_msgs", "Vector3")),
+                _xyz_builder(message_class("geometry_msgs", "Vector3")),
             )
         pair, vector = builders
         return pair(vector(ax, ay, az), vector(bx, by, bz))
@@ -357,185 +353,3 @@ class WrenchCodec(TwistCodec):
     _class: Any = None
     _build: Any = None
     _first, _second = "force", "torque"
-
-
-class PolygonCodec(_Base):
-    """geometry_msgs/Polygon ↔ float32 (N, 3) array of its points."""
-
-    msg_type = "geometry_msgs/msg/Polygon"
-    _name = "Polygon"
-
-    def decode(self, msg: Any) -> npt.NDArray[np.float32]:
-        points = msg.points
-        result = np.empty((len(points), 3), np.float32)
-        for index, point in enumerate(points):
-            result[index] = (point.x, point.y, point.z)
-        return result
-
-    def _checked(self, value: Any) -> npt.NDArray[np.float32]:
-        if isinstance(value, list | tuple) and not value:
-            return np.empty((0, 3), np.float32)
-        try:
-            array = np.asarray(value)
-        except (TypeError, ValueError) as error:  # ragged input
-            raise EncodeError(
-                f"{self._name}.points: expected an (N, 3) array, got {type_name_of(value)}"
-            ) from error
-        if array.ndim != 2 or array.shape[1] != 3 or array.dtype.kind not in "iuf":
-            raise EncodeError(
-                f"{self._name}.points: expected an (N, 3) array of floats, got "
-                f"{type_name_of(value)} of shape {array.shape} and dtype {array.dtype}"
-            )
-        if array.dtype.kind == "f" and array.dtype.itemsize > 4:
-            finite = array[np.isfinite(array)]
-            if finite.size and np.abs(finite).max() > np.finfo(np.float32).max:
-                raise EncodeError(f"{self._name}.points: values exceed the float32 range")
-        return array.astype(np.float32, copy=False)
-
-    def to_fields(self, value: Any) -> dict[str, Any]:
-        array = self._checked(value)
-        return {"points": [{"x": x, "y": y, "z": z} for x, y, z in array.tolist()]}
-
-    def encode(self, value: Any) -> Any:
-        array = self._checked(value)
-        point = _msg("geometry_msgs", "Point32")
-        points = [point(x=x, y=y, z=z) for x, y, z in array.tolist()]
-        return self._cls()(points=points)
-
-
-class PoseArrayCodec(_Base):
-    """geometry_msgs/PoseArray ↔ list of pose tuples (drops the header)."""
-
-    msg_type = "geometry_msgs/msg/PoseArray"
-    _name = "PoseArray"
-    lossless = False
-    _pose = PoseCodec()
-
-    def decode(self, msg: Any) -> list[PoseValue]:
-        decode = self._pose.decode
-        return [decode(pose) for pose in msg.poses]
-
-    def _list(self, value: Any) -> list[Any]:
-        if not isinstance(value, list | tuple):
-            raise EncodeError(
-                f"{self._name}.poses: expected a list of poses, got {type_name_of(value)}"
-            )
-        return list(value)
-
-    def to_fields(self, value: Any) -> dict[str, Any]:
-        return {
-            "poses": [
-                _pose_fields(pose, f"{self._name}.poses[{i}]")
-                for i, pose in enumerate(self._list(value))
-            ]
-        }
-
-    def encode(self, value: Any) -> Any:
-        poses = [
-            _pose_message(pose, f"{self._name}.poses[{i}]")
-            for i, pose in enumerate(self._list(value))
-        ]
-        return self._cls()(poses=poses)
-
-
-def _pose_fields(value: Any, path: str) -> dict[str, Any]:
-    p, q = _pose_parts(value, path, "position", "orientation")
-    return {"position": _xyz_fields(p), "orientation": _xyzw_fields(q)}
-
-
-def _pose_message(value: Any, path: str) -> Any:
-    (x, y, z), (qx, qy, qz, qw) = _pose_parts(value, path, "position", "orientation")
-    return _msg("geometry_msgs", "Pose")(
-        position=_msg("geometry_msgs", "Point")(x=x, y=y, z=z),
-        orientation=_msg("geometry_msgs", "Quaternion")(x=qx, y=qy, z=qz, w=qw),
-    )
-
-
-class PathCodec(PoseArrayCodec):
-    """nav_msgs/Path ↔ list of pose tuples (drops its header and every pose's header)."""
-
-    msg_type = "nav_msgs/msg/Path"
-    _module = "nav_msgs"
-    _name = "Path"
-    _class: Any = None
-
-    def decode(self, msg: Any) -> list[PoseValue]:
-        decode = self._pose.decode
-        return [decode(stamped.pose) for stamped in msg.poses]
-
-    def to_fields(self, value: Any) -> dict[str, Any]:
-        return {
-            "poses": [
-                {"pose": _pose_fields(pose, f"Path.poses[{i}]")}
-                for i, pose in enumerate(self._list(value))
-            ]
-        }
-
-    def encode(self, value: Any) -> Any:
-        stamped = _msg("geometry_msgs", "PoseStamped")
-        poses = [
-            stamped(pose=_pose_message(pose, f"Path.poses[{i}]"))
-            for i, pose in enumerate(self._list(value))
-        ]
-        return self._cls()(poses=poses)
-
-
-class StampedCodec:
-    """A ``*Stamped`` message ↔ the natural value of its inner field (the header is dropped)."""
-
-    lossless = False
-
-    def __init__(self, name: str, field: str, inner: Any) -> None:
-        self.name = name
-        self.msg_type = f"geometry_msgs/msg/{name}"
-        self.field = field
-        self.inner = inner
-        self._class: Any = None
-
-    def decode(self, msg: Any) -> Any:
-        return self.inner.decode(getattr(msg, self.field))
-
-    def to_fields(self, value: Any) -> dict[str, Any]:
-        return {self.field: self.inner.to_fields(value)}
-
-    def encode(self, value: Any) -> Any:
-        cls = self._class
-        if cls is None:
-            cls = self._class = _msg("geometry_msgs", self.name)
-        return cls(**{self.field: self.inner.encode(value)})
-
-
-def point_stamped_codec() -> StampedCodec:
-    return StampedCodec("PointStamped", "point", PointCodec())
-
-
-def vector3_stamped_codec() -> StampedCodec:
-    return StampedCodec("Vector3Stamped", "vector", Vector3Codec())
-
-
-def quaternion_stamped_codec() -> StampedCodec:
-    return StampedCodec("QuaternionStamped", "quaternion", QuaternionCodec())
-
-
-def pose_stamped_codec() -> StampedCodec:
-    return StampedCodec("PoseStamped", "pose", PoseCodec())
-
-
-def transform_stamped_codec() -> StampedCodec:
-    return StampedCodec("TransformStamped", "transform", TransformCodec())
-
-
-def twist_stamped_codec() -> StampedCodec:
-    return StampedCodec("TwistStamped", "twist", TwistCodec())
-
-
-def accel_stamped_codec() -> StampedCodec:
-    return StampedCodec("AccelStamped", "accel", AccelCodec())
-
-
-def wrench_stamped_codec() -> StampedCodec:
-    return StampedCodec("WrenchStamped", "wrench", WrenchCodec())
-
-
-def polygon_stamped_codec() -> StampedCodec:
-    return StampedCodec("PolygonStamped", "polygon", PolygonCodec())

@@ -19,8 +19,10 @@ from pyconnect.errors import CodecNotFoundError
 from pyconnect.typesys.errors import DefinitionError
 from pyconnect.typesys.model import MessageDef, TypeSet
 
-if TYPE_CHECKING:  # cdr_runtime imports numpy, which plain lookups do not need
-    from pyconnect.codecs.cdr_runtime import DecodeFunction, Definitions, EncodeFunction
+if TYPE_CHECKING:  # the CDR runtime imports numpy, which plain lookups do not need
+    from pyconnect.codecs.cdr_read import DecodeFunction
+    from pyconnect.codecs.cdr_write import EncodeFunction
+    from pyconnect.codecs.fastdds_size import Definitions
 
 
 class DictFunctions(NamedTuple):

@@ -10,15 +10,9 @@ from collections.abc import Mapping
 from typing import Any, Protocol
 
 from pyconnect.codecs.base import Codec
-from pyconnect.codecs.cdr_runtime import (
-    HEADER_BE,
-    HEADER_LE,
-    ZEROS,
-    DecodeFunction,
-    WireDecodeError,
-    body_of,
-    fastdds_estimated_size,
-)
+from pyconnect.codecs.cdr_read import DecodeFunction, WireDecodeError, body_of
+from pyconnect.codecs.cdr_write import HEADER_BE, HEADER_LE, ZEROS
+from pyconnect.codecs.fastdds_size import fastdds_estimated_size
 from pyconnect.codecs.field_checks import FieldError
 from pyconnect.codecs.type_code import WireCode
 from pyconnect.errors import DecodeError, EncodeError
@@ -63,7 +57,7 @@ class WireCodec:
         return value
 
     def _estimate(self, value: Any) -> int:
-        # rclpy's serialize_message pads to Fast DDS's size estimate (see cdr_runtime).
+        # rclpy's serialize_message pads to Fast DDS's size estimate (see fastdds_size).
         estimate = fastdds_estimated_size(value, self.msg_type, self._definitions)
         return (estimate + 3) & -4
 

@@ -1,0 +1,83 @@
+"""geometry_msgs ``*Stamped`` messages ↔ the natural value of their inner field.
+
+The header is dropped (``stamped=True`` keeps stamp and frame); TransformStamped also drops
+``child_frame_id``. Their ``lossless`` is False.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from pyconnect.codecs.geometry import (
+    AccelCodec,
+    PointCodec,
+    PoseCodec,
+    QuaternionCodec,
+    TransformCodec,
+    TwistCodec,
+    Vector3Codec,
+    WrenchCodec,
+    message_class,
+)
+from pyconnect.codecs.geometry_arrays import PolygonCodec
+
+
+class StampedCodec:
+    """A ``*Stamped`` message ↔ the natural value of its inner field (the header is dropped)."""
+
+    lossless = False
+
+    def __init__(self, name: str, field: str, inner: Any) -> None:
+        self.name = name
+        self.msg_type = f"geometry_msgs/msg/{name}"
+        self.field = field
+        self.inner = inner
+        self._class: Any = None
+
+    def decode(self, msg: Any) -> Any:
+        return self.inner.decode(getattr(msg, self.field))
+
+    def to_fields(self, value: Any) -> dict[str, Any]:
+        return {self.field: self.inner.to_fields(value)}
+
+    def encode(self, value: Any) -> Any:
+        cls = self._class
+        if cls is None:
+            cls = self._class = message_class("geometry_msgs", self.name)
+        return cls(**{self.field: self.inner.encode(value)})
+
+
+def point_stamped_codec() -> StampedCodec:
+    return StampedCodec("PointStamped", "point", PointCodec())
+
+
+def vector3_stamped_codec() -> StampedCodec:
+    return StampedCodec("Vector3Stamped", "vector", Vector3Codec())
+
+
+def quaternion_stamped_codec() -> StampedCodec:
+    return StampedCodec("QuaternionStamped", "quaternion", QuaternionCodec())
+
+
+def pose_stamped_codec() -> StampedCodec:
+    return StampedCodec("PoseStamped", "pose", PoseCodec())
+
+
+def transform_stamped_codec() -> StampedCodec:
+    return StampedCodec("TransformStamped", "transform", TransformCodec())
+
+
+def twist_stamped_codec() -> StampedCodec:
+    return StampedCodec("TwistStamped", "twist", TwistCodec())
+
+
+def accel_stamped_codec() -> StampedCodec:
+    return StampedCodec("AccelStamped", "accel", AccelCodec())
+
+
+def wrench_stamped_codec() -> StampedCodec:
+    return StampedCodec("WrenchStamped", "wrench", WrenchCodec())
+
+
+def polygon_stamped_codec() -> StampedCodec:
+    return StampedCodec("PolygonStamped", "polygon", PolygonCodec())
