@@ -43,7 +43,10 @@ class WireCodec:
 
     # -- decoding -----------------------------------------------------------------------------
     def _decode(self, data: Any, little: DecodeFunction, big: DecodeFunction) -> Any:
-        mv, is_little = body_of(data)
+        try:
+            mv, is_little = body_of(data)
+        except DecodeError as error:  # the header's errors name the type like the others
+            raise DecodeError(f"{self.msg_type}: {error}") from None
         lim = len(mv)
         try:
             value, end = (little if is_little else big)(mv, 0, lim)
