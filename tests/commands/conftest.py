@@ -1,4 +1,5 @@
-"""The plain rclpy process the live-tool tests talk to, shared by the whole directory."""
+"""The plain rclpy process the live-tool tests talk to: one for this directory, ended after it
+(its /chatter must not reach the tests of other directories, which share the ROS domain)."""
 
 from __future__ import annotations
 
@@ -9,7 +10,7 @@ import pytest
 from tests.commands.processes import Lines, spawn
 
 
-@pytest.fixture(scope="session")
+@pytest.fixture(scope="package")
 def peer() -> Iterator[Lines]:
     process = spawn("-m", "tests.commands.plain_peer")
     lines = Lines(process)
