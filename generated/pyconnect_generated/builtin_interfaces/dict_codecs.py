@@ -23,7 +23,6 @@ import numpy as np
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
     FLOAT32_MAX,
-    FieldError,
     bool_list,
     check_bool,
     check_float,
@@ -41,6 +40,7 @@ from pyconnect.codecs.field_checks import (
     uint8_sequence,
     unknown_keys,
 )
+from pyconnect.codecs.field_path import FieldError
 from pyconnect_generated.builtin_interfaces.typed_dicts import (
     DurationDict,
     TimeDict,

@@ -83,7 +83,6 @@ import numpy as np
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
     FLOAT32_MAX,
-    FieldError,
     bool_list,
     check_bool,
     check_float,
@@ -101,6 +100,7 @@ from pyconnect.codecs.field_checks import (
     uint8_sequence,
     unknown_keys,
 )
+from pyconnect.codecs.field_path import FieldError
 from pyconnect_generated.std_msgs.dict_codecs import header_from_dict as std_msgs__header_from_dict
 from pyconnect_generated.geometry_msgs.typed_dicts import (
     AccelDict,

@@ -51,7 +51,6 @@ import numpy as np
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
     FLOAT32_MAX,
-    FieldError,
     bool_list,
     check_bool,
     check_float,
@@ -69,6 +68,7 @@ from pyconnect.codecs.field_checks import (
     uint8_sequence,
     unknown_keys,
 )
+from pyconnect.codecs.field_path import FieldError
 from pyconnect_generated.service_msgs.dict_codecs import (
     service_event_info_from_dict as service_msgs__service_event_info_from_dict,
 )

@@ -77,7 +77,6 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
-    WireDecodeError,
     decode_failure,
     over_bound,
     read_bools,
@@ -100,7 +99,8 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import FieldError, check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_path import FieldError, WireDecodeError
 
 _new = object.__new__
 _frombuffer = np.frombuffer

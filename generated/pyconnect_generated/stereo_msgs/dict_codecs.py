@@ -21,7 +21,6 @@ import numpy as np
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
     FLOAT32_MAX,
-    FieldError,
     bool_list,
     check_bool,
     check_float,
@@ -39,6 +38,7 @@ from pyconnect.codecs.field_checks import (
     uint8_sequence,
     unknown_keys,
 )
+from pyconnect.codecs.field_path import FieldError
 from pyconnect_generated.sensor_msgs.dict_codecs import (
     image_from_dict as sensor_msgs__image_from_dict,
 )

@@ -27,7 +27,6 @@ import numpy as np
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
     FLOAT32_MAX,
-    FieldError,
     bool_list,
     check_bool,
     check_float,
@@ -45,6 +44,7 @@ from pyconnect.codecs.field_checks import (
     uint8_sequence,
     unknown_keys,
 )
+from pyconnect.codecs.field_path import FieldError
 from pyconnect_generated.builtin_interfaces.dict_codecs import (
     duration_from_dict as builtin_interfaces__duration_from_dict,
 )

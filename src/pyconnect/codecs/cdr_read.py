@@ -14,34 +14,13 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.field_checks import describe
+from pyconnect.codecs.field_path import WireDecodeError
 from pyconnect.errors import DecodeError
 from pyconnect.typesys.primitives import PRIMITIVE_SIZES
 
 # (segment, primitive kind, end offset in the run) for each value of a run of fixed-size values.
 RunLabel = tuple[tuple[str, str, int], ...]
 DecodeFunction = Callable[[memoryview, int, int], tuple[Any, int]]
-
-
-class WireDecodeError(DecodeError):
-    """A ``DecodeError`` that collects its field path while it travels up the generated code."""
-
-    def __init__(self, detail: str) -> None:
-        super().__init__(detail)
-        self.detail = detail
-        self.segments: list[str] = []
-
-    def within(self, segment: str) -> WireDecodeError:
-        """Prefix the path with the field (``.header``) or index (``[3]``) it was raised in."""
-        if segment and isinstance(segment, str):
-            self.segments.append(segment)
-        return self
-
-    @property
-    def path(self) -> str:
-        return "".join(reversed(self.segments))
-
-    def __str__(self) -> str:
-        return f"{self.path}: {self.detail}"
 
 
 # Helpers with many parameters are called positionally by the generated code, where keyword

@@ -18,7 +18,6 @@ import numpy as np
 
 from pyconnect.codecs.cdr_read import RunLabel
 from pyconnect.codecs.field_checks import (
-    FieldError,
     bool_list,
     check_bool,
     check_float,
@@ -33,6 +32,7 @@ from pyconnect.codecs.field_checks import (
     uint8_array,
     uint8_sequence,
 )
+from pyconnect.codecs.field_path import FieldError
 from pyconnect.typesys.primitives import BYTE_NAMES, INTEGER_RANGES, STRUCT_CODES
 
 EMPTY: Mapping[str, Any] = MappingProxyType({})

@@ -14,34 +14,12 @@ from typing import Any, NoReturn
 
 import numpy as np
 
-from pyconnect.errors import EncodeError
+from pyconnect.codecs.field_path import FieldError
 from pyconnect.typesys.primitives import FLOAT32_MAX, INTEGER_NAMES, INTEGER_RANGES
 
 # rosidl stores `byte` fields as one-byte `bytes`; dicts carry them as ints 0..255.
 BYTE_VALUES = tuple(bytes((i,)) for i in range(256))
 _NUMERIC = (int, float, np.integer, np.floating)
-
-
-class FieldError(EncodeError):
-    """An ``EncodeError`` that collects its field path while it travels up the generated code."""
-
-    def __init__(self, segment: str, detail: str) -> None:
-        super().__init__(detail)
-        self.segments = [segment]
-        self.detail = detail
-        self.root = ""
-
-    def within(self, segment: str) -> FieldError:
-        """Prefix the path with the field (``.header``) or index (``[3]``) it was raised in."""
-        self.segments.append(segment)
-        return self
-
-    @property
-    def path(self) -> str:
-        return self.root + "".join(reversed(self.segments))
-
-    def __str__(self) -> str:
-        return f"{self.path}: {self.detail}"
 
 
 def describe(value: object) -> str:

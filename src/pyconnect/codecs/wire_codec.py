@@ -10,10 +10,10 @@ from collections.abc import Mapping
 from typing import Any, Protocol
 
 from pyconnect.codecs.base import Codec
-from pyconnect.codecs.cdr_read import DecodeFunction, WireDecodeError, body_of
+from pyconnect.codecs.cdr_read import DecodeFunction, body_of
 from pyconnect.codecs.cdr_write import HEADER_BE, HEADER_LE, ZEROS
 from pyconnect.codecs.fastdds_size import fastdds_estimated_size
-from pyconnect.codecs.field_checks import FieldError
+from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect.codecs.type_code import WireCode
 from pyconnect.errors import DecodeError, EncodeError
 
