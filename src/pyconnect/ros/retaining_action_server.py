@@ -8,9 +8,11 @@ of expired goals move to a small cache (``result_cache_seconds``, at most ``resu
 entries) from which a late ``get_result`` request is still answered, instead of rclpy's
 STATUS_UNKNOWN. Clients ask for the result right after acceptance, so the cache is rarely used.
 
-Also guards the expiry against the goal-expiry ``KeyError`` race (rclpy#1667): goals already
-gone are skipped. Overrides two private coroutines of rclpy 7.1's ``ActionServer``
-(``_execute_expire_goals``, ``_execute_get_result_request``); the tests pin their behaviour.
+Also guards the expiry against the goal-expiry ``KeyError`` race (rclpy#1667): a result request
+and the expiry of its goal (on another executor thread) never interleave, and a goal that
+expires before rclpy set its result is expired once the result is there. Overrides two private
+coroutines of rclpy 7.1's ``ActionServer`` (``_execute_expire_goals``,
+``_execute_get_result_request``); the tests pin their behaviour.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -18,6 +20,7 @@ gone are skipped. Overrides two private coroutines of rclpy 7.1's ``ActionServer
 
 from __future__ import annotations
 
+import functools
 import threading
 import time
 from collections import OrderedDict
@@ -40,31 +43,50 @@ class RetainingActionServer(ActionServer):
         self._cache_size = result_cache_size
         self._finished: OrderedDict[bytes, tuple[float, Any]] = OrderedDict()
         self._finished_lock = threading.Lock()
+        self._expiry_lock = threading.RLock()
         super().__init__(*args, **kwargs)
 
     async def _execute_expire_goals(self, expired_goals: Any) -> None:
-        now = time.monotonic()
         for goal in expired_goals:
             goal_uuid = bytes(goal.goal_id.uuid)
+            with self._expiry_lock:
+                future = self._result_futures.get(goal_uuid)
+                if future is not None and not future.done():
+                    # rclpy marks the goal terminal, then sets its result: with a short
+                    # result_timeout the expiry can come in between. Expire it once the result
+                    # is there (rclpy would otherwise find its future gone and never answer).
+                    future.add_done_callback(lambda _done, key=goal_uuid: self._expire(key))
+                    continue
+            self._expire(goal_uuid)
+
+    def _expire(self, goal_uuid: bytes) -> None:
+        """Drop a finished goal from the server, keeping its result in the cache."""
+        # Expiry and result requests run on different executor threads (the server's group is
+        # reentrant): the lock makes "goal kept, or result cached" atomic for requests.
+        with self._expiry_lock:
             handle = self._goal_handles.pop(goal_uuid, None)
-            if handle is not None:
-                handle.destroy()
             future = self._result_futures.pop(goal_uuid, None)
-            if future is None:
-                continue
+            if future is not None and future.done():
+                self._remember(goal_uuid, future.result(), time.monotonic())
+        if handle is not None:
+            handle.destroy()
+        if future is not None:
             self.remove_future(future)
-            if future.done():
-                self._remember(goal_uuid, future.result(), now)
 
     async def _execute_get_result_request(self, request_header_and_message: Any) -> None:
         request_header, result_request = request_header_and_message
         goal_uuid = bytes(result_request.goal_id.uuid)
-        if goal_uuid not in self._goal_handles:
-            cached = self._recall(goal_uuid)
-            if cached is not None:
-                self._send_cached(request_header, cached)
-                return
-        await super()._execute_get_result_request(request_header_and_message)
+        with self._expiry_lock:
+            future = (
+                self._result_futures.get(goal_uuid) if goal_uuid in self._goal_handles else None
+            )
+            cached = None if future is not None else self._recall(goal_uuid)
+        if future is not None:
+            future.add_done_callback(functools.partial(self._send_result_response, request_header))
+        elif cached is not None:
+            self._send_cached(request_header, cached)
+        else:
+            await super()._execute_get_result_request(request_header_and_message)  # UNKNOWN
 
     def _remember(self, goal_uuid: bytes, response: Any, now: float) -> None:
         with self._finished_lock:
