@@ -14,6 +14,7 @@ BENCHMARKS = (
     "bag_reading",
     "tables",
     "agents",
+    "large_messages",
     "transport",
 )
 

@@ -447,14 +447,17 @@ def executor_rows(rounds: int, window: float) -> list[tuple[str, dict[str, float
     for _ in range(rounds):
         for kind in CPU_KINDS:
             for mode in CPU_MODES:
-                fraction, _messages = cpu_case(mode, kind, window)
+                fraction, messages = cpu_case(mode, kind, window)
+                if kind in ("sub_1khz", "pair_1khz"):
+                    # Receivers do not all get the full 1 kHz on a loaded machine: scale to it.
+                    fraction = fraction * 1000 * window / messages if messages else float("nan")
                 found.setdefault((kind, mode), []).append(fraction * 100)
     titles = {
         "pub_100hz": "CPU % pub 100 Hz Float64MultiArray(12)",
         "pub_1khz": "CPU % pub 1 kHz",
-        "sub_1khz": "CPU % sub receiving 1 kHz (other process)",
+        "sub_1khz": "CPU % sub, per 1 kHz received (other process)",
         "idle": "CPU % idle node (1 sub, 1 pub)",
-        "pair_1khz": "CPU % two nodes, pub->sub 1 kHz (sum)",
+        "pair_1khz": "CPU % two nodes pub->sub, per 1 kHz (sum)",
     }
     targets = {"idle": "<= 0.3 %"}
     return [

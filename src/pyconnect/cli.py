@@ -19,6 +19,7 @@ from pyconnect.commands import bag as bag_commands
 from pyconnect.commands import bag_play, bag_record
 from pyconnect.commands import interface as interface_commands
 from pyconnect.commands import node as node_commands
+from pyconnect.commands import run as run_commands
 from pyconnect.commands import service as service_commands
 from pyconnect.commands import topic as topic_commands
 from pyconnect.commands.common import Parser, UsageError
@@ -43,6 +44,7 @@ def build_parser() -> argparse.ArgumentParser:
     service_commands.register(commands)
     action_commands.register(commands)
     node_commands.register(commands)
+    run_commands.register(commands)
     return parser
 
 

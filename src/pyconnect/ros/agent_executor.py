@@ -16,9 +16,11 @@ group of the callback that was running stays held until it returns, so an agent 
 of its callbacks at once. Once the elastic executor has been calm for ``CALM_AFTER`` seconds (no
 callback running, no hand-off), the node moves back to a new ``EventsExecutor``.
 
-The monitor costs nothing while the node is idle: it parks until a callback starts, ticks every
-``handoff_after`` while callbacks keep coming, and otherwise checks every ``IDLE_TICK`` seconds
-whether the dispatching thread still returns (an action goal, which is not wrapped, counts).
+The monitor costs nothing while the node is idle: it parks until a callback starts, looks every
+``BUSY_TICK`` while callbacks keep coming, every ``handoff_after`` while one is running, and
+otherwise checks every ``IDLE_TICK`` seconds whether the dispatching thread still returns (an
+action goal, which is not wrapped, counts). A slow callback is thus noticed after 20-120 ms; a
+blocking ``send()`` at once.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -44,6 +46,9 @@ from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER, ElasticExecutor
 
 IDLE_TICK = 0.25
 """Seconds between the dispatching thread's returns while idle (it notices ``stop()`` then)."""
+
+BUSY_TICK = 0.1
+"""Seconds between the monitor's looks while callbacks come but none was running at the last."""
 
 CALM_AFTER = 1.0
 """Seconds without a running callback or a hand-off before the node returns to EventsExecutor."""
@@ -435,10 +440,17 @@ class AgentExecutor:
     def _monitor_loop(self) -> None:
         """Move to the elastic executor when the dispatching thread is stuck in a callback."""
         last_seq, last_returns, quiet, ticking = self._seq, self._returns, 0, True
+        running: tuple[Any, Any] | None = None
         while not self._stopping:
             started = time.monotonic()
             if ticking:
-                self._monitor_wake.wait(self._handoff_after)
+                # Short ticks only while a callback was running at the last look: callbacks
+                # that come often but end quickly cost a wake-up every BUSY_TICK.
+                self._monitor_wake.wait(
+                    self._handoff_after
+                    if running is not None
+                    else max(BUSY_TICK, self._handoff_after)
+                )
             else:
                 # Parked: a wrapped callback wakes us; the idle tick catches unwrapped ones.
                 self._monitor_parked = True

@@ -277,9 +277,13 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
 
     def _monitor_loop(self) -> None:
         """Hand the turn off when the owner's callback has run for longer than ``handoff_after``."""
-        while not self._monitor_stop.wait(self._handoff_after):
+        quiet = 0
+        # After a few looks without a running callback it looks 4 times a second only (an idle
+        # node then costs next to nothing; a slow callback is noticed within 0.25 s).
+        while not self._monitor_stop.wait(self._handoff_after if quiet < 5 else 0.25):
             with self._turn:
                 owner, since = self._owner, self._busy_since
+            quiet = quiet + 1 if since is None else 0
             if (
                 owner is not None
                 and since is not None

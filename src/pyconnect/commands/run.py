@@ -1,0 +1,56 @@
+"""``pyconnect run script.py`` / ``pyconnect run -m module``: run set up for large messages.
+
+Starts a new Python interpreter with the environment pyconnect.ros.large_messages describes
+(the Fast DDS shared-memory profile and glibc's ``MALLOC_MMAP_THRESHOLD_`` /
+``MALLOC_TRIM_THRESHOLD_``), so the settings apply from the first allocation. It replaces this
+process (``exec``): signals and the exit status are the program's own.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from typing import TYPE_CHECKING, TextIO
+
+from pyconnect.commands.common import Parser, UsageError
+
+if TYPE_CHECKING:
+    from pyconnect.commands.common import Subcommands
+
+
+def register(commands: Subcommands) -> Parser:
+    """Add ``run`` to the ``pyconnect`` subparsers."""
+    run = commands.add_parser(
+        "run",
+        help="run a Python program with Fast DDS and malloc set up for large messages",
+        description="Run a Python program with the large-message settings "
+        "(PYCONNECT_LARGE_MESSAGES=0 runs it unchanged).",
+    )
+    run.add_argument("-m", dest="module", help="run a module, like python -m")
+    run.add_argument("program", nargs=argparse.REMAINDER, help="script.py and its arguments")
+    run.set_defaults(run=_run)
+    return run
+
+
+def command_line(module: str | None, program: list[str]) -> list[str]:
+    """The interpreter's argument list for ``pyconnect run``."""
+    if module is not None:
+        return [sys.executable, "-m", module, *program]
+    if not program:
+        raise UsageError("run: give a script (pyconnect run script.py) or -m module")
+    return [sys.executable, *program]
+
+
+def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from pyconnect.ros.large_messages import configure_environment
+
+    argv = command_line(args.module, list(args.program))
+    environ = dict(os.environ)
+    reason = configure_environment(environ)
+    if reason is not None:
+        print(f"pyconnect run: large-message settings not applied: {reason}", file=err)
+    out.flush()
+    err.flush()
+    os.execve(sys.executable, argv, environ)
+    return 0  # not reached

@@ -1,0 +1,93 @@
+"""Large-message set-up: the Fast DDS profile, malloc settings, the opt-out, ``pyconnect run``."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from pyconnect.commands.common import UsageError
+from pyconnect.commands.run import command_line
+from pyconnect.ros import large_messages
+
+
+def test_importing_pyconnect_ros_points_fast_dds_at_the_shared_memory_profile() -> None:
+    # tests/conftest.py sets nothing of this: the import of pyconnect.ros did.
+    assert large_messages.configure() is None
+    profile = Path(os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"])
+    text = profile.read_text()
+    assert "<type>SHM</type>" in text
+    assert f"<segment_size>{large_messages.segment_bytes()}</segment_size>" in text
+    assert "<type>UDPv4</type>" in text
+    assert "<useBuiltinTransports>false</useBuiltinTransports>" in text
+
+
+def test_configure_environment_sets_profile_and_malloc_variables() -> None:
+    environ: dict[str, str] = {}
+    assert large_messages.configure_environment(environ) is None
+    assert environ["MALLOC_MMAP_THRESHOLD_"] == "268435456"
+    assert environ["MALLOC_TRIM_THRESHOLD_"] == "1073741824"
+    assert Path(environ["FASTRTPS_DEFAULT_PROFILES_FILE"]).is_file()
+
+
+@pytest.mark.parametrize(
+    ("environ", "reason"),
+    [
+        ({"PYCONNECT_LARGE_MESSAGES": "0"}, "PYCONNECT_LARGE_MESSAGES is off"),
+        ({"PYCONNECT_LARGE_MESSAGES": "off"}, "PYCONNECT_LARGE_MESSAGES is off"),
+        ({"FASTRTPS_DEFAULT_PROFILES_FILE": "/mine.xml"}, "FASTRTPS_DEFAULT_PROFILES_FILE is set"),
+        ({"FASTDDS_DEFAULT_PROFILES_FILE": "/mine.xml"}, "FASTDDS_DEFAULT_PROFILES_FILE is set"),
+        ({"RMW_IMPLEMENTATION": "rmw_zenoh_cpp"}, "RMW_IMPLEMENTATION is rmw_zenoh_cpp"),
+    ],
+)
+def test_settings_are_left_alone_when_turned_off_or_chosen_by_the_user(
+    environ: dict[str, str], reason: str
+) -> None:
+    before = dict(environ)
+    assert large_messages.configure_environment(environ) == reason
+    assert environ == before
+
+
+def test_segment_size_follows_the_variable() -> None:
+    assert large_messages.segment_bytes({"PYCONNECT_SHM_SEGMENT_MB": "16"}) == 16 * 1024 * 1024
+
+
+def test_run_command_line() -> None:
+    assert command_line(None, ["robot.py", "--fast"]) == [sys.executable, "robot.py", "--fast"]
+    assert command_line("examples.demo", []) == [sys.executable, "-m", "examples.demo"]
+    with pytest.raises(UsageError) as caught:
+        command_line(None, [])
+    assert str(caught.value) == "run: give a script (pyconnect run script.py) or -m module"
+
+
+def _run(tmp_path: Path, **extra: str) -> list[str]:
+    script = tmp_path / "show_env.py"
+    script.write_text(
+        "import os, sys\n"
+        "names = ['MALLOC_MMAP_THRESHOLD_', 'MALLOC_TRIM_THRESHOLD_', "
+        "'FASTRTPS_DEFAULT_PROFILES_FILE']\n"
+        "print(*[str(bool(os.environ.get(n))) for n in names], *sys.argv[1:])\n"
+    )
+    env = {
+        key: value
+        for key, value in os.environ.items()
+        if key not in {"MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_"}
+        and "PROFILES_FILE" not in key
+    }
+    env.update(extra)
+    done = subprocess.run(
+        [sys.executable, "-m", "pyconnect.cli", "run", str(script), "a", "--b"],
+        capture_output=True, text=True, env=env, check=True, timeout=120,
+    )  # fmt: skip
+    return done.stdout.split()
+
+
+def test_pyconnect_run_starts_the_program_with_the_settings(tmp_path: Path) -> None:
+    assert _run(tmp_path) == ["True", "True", "True", "a", "--b"]
+
+
+def test_pyconnect_run_with_the_settings_off_runs_the_program_unchanged(tmp_path: Path) -> None:
+    assert _run(tmp_path, PYCONNECT_LARGE_MESSAGES="0") == ["False", "False", "False", "a", "--b"]
