@@ -113,7 +113,7 @@ def run_case(
 ) -> tuple[int, float, float]:
     """(received, p50 ms, receive rate) of one sender/receiver pair."""
     env = dict(os.environ)
-    env["PYCONNECT_LARGE_MESSAGES"] = "1" if tuned else "0"
+    env["PYCONNECT_LARGE_MESSAGES"] = "1" if tuned else "0"  # as `pyconnect run` does
     if not tuned:
         for name in (
             "MALLOC_MMAP_THRESHOLD_",

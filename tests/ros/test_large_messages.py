@@ -14,20 +14,33 @@ from pyconnect.commands.run import command_line
 from pyconnect.ros import large_messages
 
 
-def test_importing_pyconnect_ros_points_fast_dds_at_the_shared_memory_profile() -> None:
-    # tests/conftest.py sets nothing of this: the import of pyconnect.ros did.
-    assert large_messages.configure() is None
-    profile = Path(os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"])
-    text = profile.read_text()
+def test_importing_pyconnect_ros_with_the_setting_on_configures_the_process() -> None:
+    script = (
+        "import os, pyconnect.ros\n"
+        "print(open(os.environ['FASTRTPS_DEFAULT_PROFILES_FILE']).read())\n"
+    )
+    env = {key: value for key, value in os.environ.items() if "PROFILES_FILE" not in key}
+    env["PYCONNECT_LARGE_MESSAGES"] = "1"
+    text = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, env=env, check=True,
+        timeout=120,
+    ).stdout  # fmt: skip
     assert "<type>SHM</type>" in text
     assert f"<segment_size>{large_messages.segment_bytes()}</segment_size>" in text
     assert "<type>UDPv4</type>" in text
     assert "<useBuiltinTransports>false</useBuiltinTransports>" in text
 
 
+def test_importing_without_the_setting_changes_nothing() -> None:
+    assert large_messages.disabled_because({}) == (
+        "PYCONNECT_LARGE_MESSAGES is not set (pyconnect run sets it)"
+    )
+
+
 def test_configure_environment_sets_profile_and_malloc_variables() -> None:
     environ: dict[str, str] = {}
-    assert large_messages.configure_environment(environ) is None
+    assert large_messages.configure_environment(environ, default_on=True) is None
+    assert environ["PYCONNECT_LARGE_MESSAGES"] == "1"
     assert environ["MALLOC_MMAP_THRESHOLD_"] == "268435456"
     assert environ["MALLOC_TRIM_THRESHOLD_"] == "1073741824"
     assert Path(environ["FASTRTPS_DEFAULT_PROFILES_FILE"]).is_file()
@@ -47,7 +60,7 @@ def test_settings_are_left_alone_when_turned_off_or_chosen_by_the_user(
     environ: dict[str, str], reason: str
 ) -> None:
     before = dict(environ)
-    assert large_messages.configure_environment(environ) == reason
+    assert large_messages.configure_environment(environ, default_on=True) == reason
     assert environ == before
 
 
@@ -76,6 +89,7 @@ def _run(tmp_path: Path, **extra: str) -> list[str]:
         for key, value in os.environ.items()
         if key not in {"MALLOC_MMAP_THRESHOLD_", "MALLOC_TRIM_THRESHOLD_"}
         and "PROFILES_FILE" not in key
+        and key != "PYCONNECT_LARGE_MESSAGES"
     }
     env.update(extra)
     done = subprocess.run(

@@ -47,7 +47,7 @@ def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
 
     argv = command_line(args.module, list(args.program))
     environ = dict(os.environ)
-    reason = configure_environment(environ)
+    reason = configure_environment(environ, default_on=True)
     if reason is not None:
         print(f"pyconnect run: large-message settings not applied: {reason}", file=err)
     out.flush()

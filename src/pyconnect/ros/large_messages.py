@@ -3,7 +3,8 @@
 Stock Fast DDS sends a 1080p image between two processes in 30-35 ms and a best-effort reader
 loses most of them (UDP fragments; ROS-FACTS.md). A shared-memory transport whose segment holds
 the largest message, plus glibc malloc settings that stop page-fault storms on every multi-MB
-buffer, bring it to about 4 ms. pyconnect does both when ``pyconnect.ros`` is imported:
+buffer, bring it to about 4 ms. ``pyconnect run script.py`` does both for a program, and so does
+importing ``pyconnect.ros`` when ``PYCONNECT_LARGE_MESSAGES=1``:
 
 - writes a Fast DDS XML profile (a shared-memory transport with a ``PYCONNECT_SHM_SEGMENT_MB``
   segment, 256 MiB by default, beside UDPv4 for other hosts) and points
@@ -13,6 +14,8 @@ buffer, bring it to about 4 ms. pyconnect does both when ``pyconnect.ros`` is im
   ``MALLOC_TRIM_THRESHOLD_=1073741824`` (``pyconnect run script.py`` sets the variables before
   the interpreter starts, which also covers what was allocated before the import).
 
+Not on at import by default yet: with it, a ``bag record`` test that stops with Ctrl-C right
+after an image lost its last file on the loaded development machine (to be understood first).
 Nothing is changed when ``PYCONNECT_LARGE_MESSAGES=0``, when the user set a Fast DDS profile
 (``FASTRTPS_DEFAULT_PROFILES_FILE`` / ``FASTDDS_DEFAULT_PROFILES_FILE``) or another
 ``RMW_IMPLEMENTATION``, or when ``/dev/shm`` cannot hold four segments (small containers).
@@ -84,11 +87,20 @@ def segment_bytes(environ: MutableMapping[str, str] | None = None) -> int:
     return min(wanted, free // _SHM_HEADROOM)
 
 
-def disabled_because(environ: MutableMapping[str, str] | None = None) -> str | None:
-    """Why pyconnect leaves Fast DDS alone in this environment, or None."""
+def disabled_because(
+    environ: MutableMapping[str, str] | None = None, *, default_on: bool = False
+) -> str | None:
+    """Why pyconnect leaves Fast DDS alone in this environment, or None.
+
+    ``default_on``: on unless ``PYCONNECT_LARGE_MESSAGES`` says off (``pyconnect run``);
+    otherwise (at import) only when it says on.
+    """
     env = os.environ if environ is None else environ
-    if env.get("PYCONNECT_LARGE_MESSAGES", "1").strip().lower() in {"0", "false", "no", "off"}:
+    setting = env.get("PYCONNECT_LARGE_MESSAGES", "").strip().lower()
+    if setting in {"0", "false", "no", "off"}:
         return "PYCONNECT_LARGE_MESSAGES is off"
+    if not default_on and setting not in {"1", "true", "yes", "on"}:
+        return "PYCONNECT_LARGE_MESSAGES is not set (pyconnect run sets it)"
     for name in ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILES_FILE"):
         if env.get(name):
             return f"{name} is set"
@@ -111,15 +123,18 @@ def write_profile(segment: int) -> Path:
     return path
 
 
-def configure_environment(environ: MutableMapping[str, str]) -> str | None:
+def configure_environment(
+    environ: MutableMapping[str, str], *, default_on: bool = False
+) -> str | None:
     """Set the profile and malloc variables in ``environ``; the reason it did not, or None."""
-    reason = disabled_because(environ)
+    reason = disabled_because(environ, default_on=default_on)
     if reason is not None:
         return reason
     segment = segment_bytes(environ)
     if segment < 8 * 1024 * 1024:
         return "/dev/shm has too little room for a shared-memory segment"
     environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(write_profile(segment))
+    environ["PYCONNECT_LARGE_MESSAGES"] = "1"
     for name, value in MALLOC_SETTINGS.items():
         environ.setdefault(name, value)
     return None
