@@ -17,7 +17,8 @@
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
 closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input. Imports nothing from ROS.
+decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
+of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -460,7 +461,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_unique_identifier_msgs__msg__UUID(v3), pos
-        return {"uuid": v3}, pos
+        return {"uuid": v3.tobytes()}, pos
 
     def encode_unique_identifier_msgs__msg__UUID(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -543,7 +544,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 make_unique_identifier_msgs__msg__UUID(v4),
                 make_builtin_interfaces__msg__Time(v6, v7),
             ), pos
-        return {"goal_id": {"uuid": v4}, "stamp": {"sec": v6, "nanosec": v7}}, pos
+        return {"goal_id": {"uuid": v4.tobytes()}, "stamp": {"sec": v6, "nanosec": v7}}, pos
 
     def encode_action_msgs__msg__GoalInfo(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -612,7 +613,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 v9,
             ), pos
         return {
-            "goal_info": {"goal_id": {"uuid": v5}, "stamp": {"sec": v7, "nanosec": v8}},
+            "goal_info": {"goal_id": {"uuid": v5.tobytes()}, "stamp": {"sec": v7, "nanosec": v8}},
             "status": v9,
         }, pos
 
@@ -726,7 +727,9 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                     make_builtin_interfaces__msg__Time(v7, v8),
                 )
             ), pos
-        return {"goal_info": {"goal_id": {"uuid": v5}, "stamp": {"sec": v7, "nanosec": v8}}}, pos
+        return {
+            "goal_info": {"goal_id": {"uuid": v5.tobytes()}, "stamp": {"sec": v7, "nanosec": v8}}
+        }, pos
 
     def encode_action_msgs__srv__CancelGoal_Request(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -859,7 +862,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7,
+            "client_gid": v7.tobytes(),
             "sequence_number": v8,
         }, pos
 
@@ -972,7 +975,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,

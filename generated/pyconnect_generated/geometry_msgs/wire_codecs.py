@@ -69,7 +69,8 @@
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
 closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input. Imports nothing from ROS.
+decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
+of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -2043,7 +2044,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 "linear": {"x": v3, "y": v4, "z": v5},
                 "angular": {"x": v7, "y": v8, "z": v9},
             },
-            "covariance": v12,
+            "covariance": v12.tolist(),
         }, pos
 
     def encode_geometry_msgs__msg__AccelWithCovariance(d: Any, out: list[Any], pos: int) -> int:
@@ -2145,7 +2146,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                     "linear": {"x": v5, "y": v6, "z": v7},
                     "angular": {"x": v9, "y": v10, "z": v11},
                 },
-                "covariance": v14,
+                "covariance": v14.tolist(),
             },
         }, pos
 
@@ -3019,7 +3020,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 "position": {"x": v3, "y": v4, "z": v5},
                 "orientation": {"x": v7, "y": v8, "z": v9, "w": v10},
             },
-            "covariance": v13,
+            "covariance": v13.tolist(),
         }, pos
 
     def encode_geometry_msgs__msg__PoseWithCovariance(d: Any, out: list[Any], pos: int) -> int:
@@ -3123,7 +3124,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                     "position": {"x": v5, "y": v6, "z": v7},
                     "orientation": {"x": v9, "y": v10, "z": v11, "w": v12},
                 },
-                "covariance": v15,
+                "covariance": v15.tolist(),
             },
         }, pos
 
@@ -3645,7 +3646,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 "linear": {"x": v3, "y": v4, "z": v5},
                 "angular": {"x": v7, "y": v8, "z": v9},
             },
-            "covariance": v12,
+            "covariance": v12.tolist(),
         }, pos
 
     def encode_geometry_msgs__msg__TwistWithCovariance(d: Any, out: list[Any], pos: int) -> int:
@@ -3747,7 +3748,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                     "linear": {"x": v5, "y": v6, "z": v7},
                     "angular": {"x": v9, "y": v10, "z": v11},
                 },
-                "covariance": v14,
+                "covariance": v14.tolist(),
             },
         }, pos
 

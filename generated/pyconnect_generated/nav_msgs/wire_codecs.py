@@ -41,7 +41,8 @@
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
 closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input. Imports nothing from ROS.
+decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
+of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -2127,7 +2128,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                     "orientation": {"x": v15, "y": v16, "z": v17, "w": v18},
                 },
             },
-            "data": v22,
+            "data": v22.tolist(),
         }, pos
 
     def encode_nav_msgs__msg__OccupancyGrid(d: Any, out: list[Any], pos: int) -> int:
@@ -2264,7 +2265,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 "position": {"x": v3, "y": v4, "z": v5},
                 "orientation": {"x": v7, "y": v8, "z": v9, "w": v10},
             },
-            "covariance": v13,
+            "covariance": v13.tolist(),
         }, pos
 
     def encode_geometry_msgs__msg__PoseWithCovariance(d: Any, out: list[Any], pos: int) -> int:
@@ -2476,7 +2477,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 "linear": {"x": v3, "y": v4, "z": v5},
                 "angular": {"x": v7, "y": v8, "z": v9},
             },
-            "covariance": v12,
+            "covariance": v12.tolist(),
         }, pos
 
     def encode_geometry_msgs__msg__TwistWithCovariance(d: Any, out: list[Any], pos: int) -> int:
@@ -2602,14 +2603,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                     "position": {"x": v8, "y": v9, "z": v10},
                     "orientation": {"x": v12, "y": v13, "z": v14, "w": v15},
                 },
-                "covariance": v18,
+                "covariance": v18.tolist(),
             },
             "twist": {
                 "twist": {
                     "linear": {"x": v22, "y": v23, "z": v24},
                     "angular": {"x": v26, "y": v27, "z": v28},
                 },
-                "covariance": v31,
+                "covariance": v31.tolist(),
             },
         }, pos
 
@@ -2882,7 +2883,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7,
+            "client_gid": v7.tobytes(),
             "sequence_number": v8,
         }, pos
 
@@ -2993,7 +2994,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -3199,7 +3200,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -3421,7 +3422,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -3552,7 +3553,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                     "position": {"x": v5, "y": v6, "z": v7},
                     "orientation": {"x": v9, "y": v10, "z": v11, "w": v12},
                 },
-                "covariance": v15,
+                "covariance": v15.tolist(),
             },
         }, pos
 
@@ -3760,7 +3761,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,

@@ -79,7 +79,8 @@
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
 closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input. Imports nothing from ROS.
+decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
+of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -2440,10 +2441,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "integer_value": v4,
             "double_value": v5,
             "string_value": v8,
-            "byte_array_value": v12,
+            "byte_array_value": v12.tobytes(),
             "bool_array_value": v16,
-            "integer_array_value": v20,
-            "double_array_value": v24,
+            "integer_array_value": v20.tolist(),
+            "double_array_value": v24.tolist(),
             "string_array_value": v25,
         }, pos
 
@@ -3311,7 +3312,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7,
+            "client_gid": v7.tobytes(),
             "sequence_number": v8,
         }, pos
 
@@ -3438,7 +3439,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -3663,7 +3664,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -3818,7 +3819,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_rcl_interfaces__srv__GetParameterTypes_Response(v4), pos
-        return {"types": v4}, pos
+        return {"types": v4.tobytes()}, pos
 
     def encode_rcl_interfaces__srv__GetParameterTypes_Response(
         d: Any, out: list[Any], pos: int
@@ -3911,7 +3912,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -4132,7 +4133,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -4361,7 +4362,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -4594,7 +4595,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -4823,7 +4824,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -5060,7 +5061,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,

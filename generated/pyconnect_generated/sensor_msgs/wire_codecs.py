@@ -65,7 +65,8 @@
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
 closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input. Imports nothing from ROS.
+decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
+of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -2405,8 +2406,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "power_supply_health": v10,
             "power_supply_technology": v11,
             "present": v13,
-            "cell_voltage": v17,
-            "cell_temperature": v21,
+            "cell_voltage": v17.tolist(),
+            "cell_temperature": v21.tolist(),
             "location": v24,
             "serial_number": v27,
         }, pos
@@ -2649,10 +2650,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "height": v2,
             "width": v3,
             "distortion_model": v6,
-            "d": v10,
-            "k": v13,
-            "r": v16,
-            "p": v19,
+            "d": v10.tolist(),
+            "k": v13.tolist(),
+            "r": v16.tolist(),
+            "p": v19.tolist(),
             "binning_x": v20,
             "binning_y": v21,
             "roi": {
@@ -2809,7 +2810,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_sensor_msgs__msg__ChannelFloat32(v3, v7), pos
-        return {"name": v3, "values": v7}, pos
+        return {"name": v3, "values": v7.tolist()}, pos
 
     def encode_sensor_msgs__msg__ChannelFloat32(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2881,7 +2882,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_sensor_msgs__msg__CompressedImage(v1, v4, v8), pos
-        return {"header": v1, "format": v4, "data": v8}, pos
+        return {"header": v1, "format": v4, "data": v8.tobytes()}, pos
 
     def encode_sensor_msgs__msg__CompressedImage(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3063,7 +3064,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "encoding": v6,
             "is_bigendian": v7,
             "step": v8,
-            "data": v12,
+            "data": v12.tobytes(),
         }, pos
 
     def encode_sensor_msgs__msg__Image(d: Any, out: list[Any], pos: int) -> int:
@@ -3278,11 +3279,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return {
             "header": v1,
             "orientation": {"x": v3, "y": v4, "z": v5, "w": v6},
-            "orientation_covariance": v9,
+            "orientation_covariance": v9.tolist(),
             "angular_velocity": {"x": v11, "y": v12, "z": v13},
-            "angular_velocity_covariance": v16,
+            "angular_velocity_covariance": v16.tolist(),
             "linear_acceleration": {"x": v18, "y": v19, "z": v20},
-            "linear_acceleration_covariance": v23,
+            "linear_acceleration_covariance": v23.tolist(),
         }, pos
 
     def encode_sensor_msgs__msg__Imu(d: Any, out: list[Any], pos: int) -> int:
@@ -3429,7 +3430,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_sensor_msgs__msg__JointState(v1, v2, v6, v10, v14), pos
-        return {"header": v1, "name": v2, "position": v6, "velocity": v10, "effort": v14}, pos
+        return {
+            "header": v1,
+            "name": v2,
+            "position": v6.tolist(),
+            "velocity": v10.tolist(),
+            "effort": v14.tolist(),
+        }, pos
 
     def encode_sensor_msgs__msg__JointState(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3523,7 +3530,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_sensor_msgs__msg__Joy(v1, v5, v9), pos
-        return {"header": v1, "axes": v5, "buttons": v9}, pos
+        return {"header": v1, "axes": v5.tolist(), "buttons": v9.tolist()}, pos
 
     def encode_sensor_msgs__msg__Joy(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3674,7 +3681,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_sensor_msgs__msg__LaserEcho(v4), pos
-        return {"echoes": v4}, pos
+        return {"echoes": v4.tolist()}, pos
 
     def encode_sensor_msgs__msg__LaserEcho(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3738,8 +3745,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "scan_time": v6,
             "range_min": v7,
             "range_max": v8,
-            "ranges": v12,
-            "intensities": v16,
+            "ranges": v12.tolist(),
+            "intensities": v16.tolist(),
         }, pos
 
     def encode_sensor_msgs__msg__LaserScan(d: Any, out: list[Any], pos: int) -> int:
@@ -3832,7 +3839,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return {
             "header": v1,
             "magnetic_field": {"x": v3, "y": v4, "z": v5},
-            "magnetic_field_covariance": v8,
+            "magnetic_field_covariance": v8.tolist(),
         }, pos
 
     def encode_sensor_msgs__msg__MagneticField(d: Any, out: list[Any], pos: int) -> int:
@@ -4342,7 +4349,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "latitude": v5,
             "longitude": v6,
             "altitude": v7,
-            "position_covariance": v10,
+            "position_covariance": v10.tolist(),
             "position_covariance_type": v11,
         }, pos
 
@@ -4632,7 +4639,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "is_bigendian": v6,
             "point_step": v7,
             "row_step": v8,
-            "data": v12,
+            "data": v12.tobytes(),
             "is_dense": v14,
         }, pos
 
@@ -5143,7 +5150,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7,
+            "client_gid": v7.tobytes(),
             "sequence_number": v8,
         }, pos
 
@@ -5256,7 +5263,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,

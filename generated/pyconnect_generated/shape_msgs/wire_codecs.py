@@ -13,7 +13,8 @@
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
 closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input. Imports nothing from ROS.
+decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
+of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -341,7 +342,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_shape_msgs__msg__MeshTriangle(v3), pos
-        return {"vertex_indices": v3}, pos
+        return {"vertex_indices": v3.tolist()}, pos
 
     def encode_shape_msgs__msg__MeshTriangle(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -467,7 +468,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_shape_msgs__msg__Plane(v3), pos
-        return {"coef": v3}, pos
+        return {"coef": v3.tolist()}, pos
 
     def encode_shape_msgs__msg__Plane(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -593,7 +594,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_shape_msgs__msg__SolidPrimitive(v1, v5, v6), pos
-        return {"type": v1, "dimensions": v5, "polygon": v6}, pos
+        return {"type": v1, "dimensions": v5.tolist(), "polygon": v6}, pos
 
     def encode_shape_msgs__msg__SolidPrimitive(d: Any, out: list[Any], pos: int) -> int:
         f = ""

@@ -65,7 +65,8 @@
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
 closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input. Imports nothing from ROS.
+decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
+of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -1400,7 +1401,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_std_msgs__msg__ByteMultiArray(v1, v5), pos
-        return {"layout": v1, "data": v5}, pos
+        return {"layout": v1, "data": v5.tobytes()}, pos
 
     def encode_std_msgs__msg__ByteMultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1598,7 +1599,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_std_msgs__msg__Float32MultiArray(v1, v5), pos
-        return {"layout": v1, "data": v5}, pos
+        return {"layout": v1, "data": v5.tolist()}, pos
 
     def encode_std_msgs__msg__Float32MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1687,7 +1688,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_std_msgs__msg__Float64MultiArray(v1, v5), pos
-        return {"layout": v1, "data": v5}, pos
+        return {"layout": v1, "data": v5.tolist()}, pos
 
     def encode_std_msgs__msg__Float64MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1883,7 +1884,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_std_msgs__msg__Int16MultiArray(v1, v5), pos
-        return {"layout": v1, "data": v5}, pos
+        return {"layout": v1, "data": v5.tolist()}, pos
 
     def encode_std_msgs__msg__Int16MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1970,7 +1971,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_std_msgs__msg__Int32MultiArray(v1, v5), pos
-        return {"layout": v1, "data": v5}, pos
+        return {"layout": v1, "data": v5.tolist()}, pos
 
     def encode_std_msgs__msg__Int32MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2059,7 +2060,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_std_msgs__msg__Int64MultiArray(v1, v5), pos
-        return {"layout": v1, "data": v5}, pos
+        return {"layout": v1, "data": v5.tolist()}, pos
 
     def encode_std_msgs__msg__Int64MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2144,7 +2145,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_std_msgs__msg__Int8MultiArray(v1, v5), pos
-        return {"layout": v1, "data": v5}, pos
+        return {"layout": v1, "data": v5.tolist()}, pos
 
     def encode_std_msgs__msg__Int8MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2276,7 +2277,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_std_msgs__msg__UInt16MultiArray(v1, v5), pos
-        return {"layout": v1, "data": v5}, pos
+        return {"layout": v1, "data": v5.tolist()}, pos
 
     def encode_std_msgs__msg__UInt16MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2363,7 +2364,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_std_msgs__msg__UInt32MultiArray(v1, v5), pos
-        return {"layout": v1, "data": v5}, pos
+        return {"layout": v1, "data": v5.tolist()}, pos
 
     def encode_std_msgs__msg__UInt32MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2452,7 +2453,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_std_msgs__msg__UInt64MultiArray(v1, v5), pos
-        return {"layout": v1, "data": v5}, pos
+        return {"layout": v1, "data": v5.tolist()}, pos
 
     def encode_std_msgs__msg__UInt64MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2539,7 +2540,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_std_msgs__msg__UInt8MultiArray(v1, v5), pos
-        return {"layout": v1, "data": v5}, pos
+        return {"layout": v1, "data": v5.tobytes()}, pos
 
     def encode_std_msgs__msg__UInt8MultiArray(d: Any, out: list[Any], pos: int) -> int:
         f = ""

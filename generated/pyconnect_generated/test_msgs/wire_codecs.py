@@ -89,7 +89,8 @@
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
 closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input. Imports nothing from ROS.
+decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
+of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -4731,35 +4732,35 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             ), pos
         return {
             "bool_values": v3,
-            "byte_values": v6,
-            "char_values": v9,
-            "float32_values": v12,
-            "float64_values": v15,
-            "int8_values": v18,
-            "uint8_values": v21,
-            "int16_values": v24,
-            "uint16_values": v27,
-            "int32_values": v30,
-            "uint32_values": v33,
-            "int64_values": v36,
-            "uint64_values": v39,
+            "byte_values": v6.tobytes(),
+            "char_values": v9.tobytes(),
+            "float32_values": v12.tolist(),
+            "float64_values": v15.tolist(),
+            "int8_values": v18.tolist(),
+            "uint8_values": v21.tobytes(),
+            "int16_values": v24.tolist(),
+            "uint16_values": v27.tolist(),
+            "int32_values": v30.tolist(),
+            "uint32_values": v33.tolist(),
+            "int64_values": v36.tolist(),
+            "uint64_values": v39.tolist(),
             "string_values": v40,
             "basic_types_values": v41,
             "constants_values": v42,
             "defaults_values": v43,
             "bool_values_default": v46,
-            "byte_values_default": v49,
-            "char_values_default": v52,
-            "float32_values_default": v55,
-            "float64_values_default": v58,
-            "int8_values_default": v61,
-            "uint8_values_default": v64,
-            "int16_values_default": v67,
-            "uint16_values_default": v70,
-            "int32_values_default": v73,
-            "uint32_values_default": v76,
-            "int64_values_default": v79,
-            "uint64_values_default": v82,
+            "byte_values_default": v49.tobytes(),
+            "char_values_default": v52.tobytes(),
+            "float32_values_default": v55.tolist(),
+            "float64_values_default": v58.tolist(),
+            "int8_values_default": v61.tolist(),
+            "uint8_values_default": v64.tobytes(),
+            "int16_values_default": v67.tolist(),
+            "uint16_values_default": v70.tolist(),
+            "int32_values_default": v73.tolist(),
+            "uint32_values_default": v76.tolist(),
+            "int64_values_default": v79.tolist(),
+            "uint64_values_default": v82.tolist(),
             "string_values_default": v83,
             "alignment_check": v84,
         }, pos
@@ -5357,34 +5358,34 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             ), pos
         return {
             "bool_values": v4,
-            "byte_values": v8,
-            "char_values": v12,
-            "float32_values": v16,
-            "float64_values": v20,
-            "int8_values": v24,
-            "uint8_values": v28,
-            "int16_values": v32,
-            "uint16_values": v36,
-            "int32_values": v40,
-            "uint32_values": v44,
-            "int64_values": v48,
-            "uint64_values": v52,
+            "byte_values": v8.tobytes(),
+            "char_values": v12.tobytes(),
+            "float32_values": v16.tolist(),
+            "float64_values": v20.tolist(),
+            "int8_values": v24.tolist(),
+            "uint8_values": v28.tobytes(),
+            "int16_values": v32.tolist(),
+            "uint16_values": v36.tolist(),
+            "int32_values": v40.tolist(),
+            "uint32_values": v44.tolist(),
+            "int64_values": v48.tolist(),
+            "uint64_values": v52.tolist(),
             "basic_types_values": v53,
             "constants_values": v54,
             "defaults_values": v55,
             "bool_values_default": v59,
-            "byte_values_default": v63,
-            "char_values_default": v67,
-            "float32_values_default": v71,
-            "float64_values_default": v75,
-            "int8_values_default": v79,
-            "uint8_values_default": v83,
-            "int16_values_default": v87,
-            "uint16_values_default": v91,
-            "int32_values_default": v95,
-            "uint32_values_default": v99,
-            "int64_values_default": v103,
-            "uint64_values_default": v107,
+            "byte_values_default": v63.tobytes(),
+            "char_values_default": v67.tobytes(),
+            "float32_values_default": v71.tolist(),
+            "float64_values_default": v75.tolist(),
+            "int8_values_default": v79.tolist(),
+            "uint8_values_default": v83.tobytes(),
+            "int16_values_default": v87.tolist(),
+            "uint16_values_default": v91.tolist(),
+            "int32_values_default": v95.tolist(),
+            "uint32_values_default": v99.tolist(),
+            "int64_values_default": v103.tolist(),
+            "uint64_values_default": v107.tolist(),
             "alignment_check": v108,
         }, pos
 
@@ -6197,35 +6198,35 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             ), pos
         return {
             "bool_values": v4,
-            "byte_values": v8,
-            "char_values": v12,
-            "float32_values": v16,
-            "float64_values": v20,
-            "int8_values": v24,
-            "uint8_values": v28,
-            "int16_values": v32,
-            "uint16_values": v36,
-            "int32_values": v40,
-            "uint32_values": v44,
-            "int64_values": v48,
-            "uint64_values": v52,
+            "byte_values": v8.tobytes(),
+            "char_values": v12.tobytes(),
+            "float32_values": v16.tolist(),
+            "float64_values": v20.tolist(),
+            "int8_values": v24.tolist(),
+            "uint8_values": v28.tobytes(),
+            "int16_values": v32.tolist(),
+            "uint16_values": v36.tolist(),
+            "int32_values": v40.tolist(),
+            "uint32_values": v44.tolist(),
+            "int64_values": v48.tolist(),
+            "uint64_values": v52.tolist(),
             "string_values": v53,
             "basic_types_values": v54,
             "constants_values": v55,
             "defaults_values": v56,
             "bool_values_default": v60,
-            "byte_values_default": v64,
-            "char_values_default": v68,
-            "float32_values_default": v72,
-            "float64_values_default": v76,
-            "int8_values_default": v80,
-            "uint8_values_default": v84,
-            "int16_values_default": v88,
-            "uint16_values_default": v92,
-            "int32_values_default": v96,
-            "uint32_values_default": v100,
-            "int64_values_default": v104,
-            "uint64_values_default": v108,
+            "byte_values_default": v64.tobytes(),
+            "char_values_default": v68.tobytes(),
+            "float32_values_default": v72.tolist(),
+            "float64_values_default": v76.tolist(),
+            "int8_values_default": v80.tolist(),
+            "uint8_values_default": v84.tobytes(),
+            "int16_values_default": v88.tolist(),
+            "uint16_values_default": v92.tolist(),
+            "int32_values_default": v96.tolist(),
+            "uint32_values_default": v100.tolist(),
+            "int64_values_default": v104.tolist(),
+            "uint64_values_default": v108.tolist(),
             "string_values_default": v109,
             "alignment_check": v110,
         }, pos
@@ -7191,35 +7192,35 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             ), pos
         return {
             "bool_values": v4,
-            "byte_values": v8,
-            "char_values": v12,
-            "float32_values": v16,
-            "float64_values": v20,
-            "int8_values": v24,
-            "uint8_values": v28,
-            "int16_values": v32,
-            "uint16_values": v36,
-            "int32_values": v40,
-            "uint32_values": v44,
-            "int64_values": v48,
-            "uint64_values": v52,
+            "byte_values": v8.tobytes(),
+            "char_values": v12.tobytes(),
+            "float32_values": v16.tolist(),
+            "float64_values": v20.tolist(),
+            "int8_values": v24.tolist(),
+            "uint8_values": v28.tobytes(),
+            "int16_values": v32.tolist(),
+            "uint16_values": v36.tolist(),
+            "int32_values": v40.tolist(),
+            "uint32_values": v44.tolist(),
+            "int64_values": v48.tolist(),
+            "uint64_values": v52.tolist(),
             "string_values": v53,
             "basic_types_values": v54,
             "constants_values": v55,
             "defaults_values": v56,
             "bool_values_default": v60,
-            "byte_values_default": v64,
-            "char_values_default": v68,
-            "float32_values_default": v72,
-            "float64_values_default": v76,
-            "int8_values_default": v80,
-            "uint8_values_default": v84,
-            "int16_values_default": v88,
-            "uint16_values_default": v92,
-            "int32_values_default": v96,
-            "uint32_values_default": v100,
-            "int64_values_default": v104,
-            "uint64_values_default": v108,
+            "byte_values_default": v64.tobytes(),
+            "char_values_default": v68.tobytes(),
+            "float32_values_default": v72.tolist(),
+            "float64_values_default": v76.tolist(),
+            "int8_values_default": v80.tolist(),
+            "uint8_values_default": v84.tobytes(),
+            "int16_values_default": v88.tolist(),
+            "uint16_values_default": v92.tolist(),
+            "int32_values_default": v96.tolist(),
+            "uint32_values_default": v100.tolist(),
+            "int64_values_default": v104.tolist(),
+            "uint64_values_default": v108.tolist(),
             "string_values_default": v109,
             "alignment_check": v110,
         }, pos
@@ -8581,35 +8582,35 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             ), pos
         return {
             "bool_values": v3,
-            "byte_values": v6,
-            "char_values": v9,
-            "float32_values": v12,
-            "float64_values": v15,
-            "int8_values": v18,
-            "uint8_values": v21,
-            "int16_values": v24,
-            "uint16_values": v27,
-            "int32_values": v30,
-            "uint32_values": v33,
-            "int64_values": v36,
-            "uint64_values": v39,
+            "byte_values": v6.tobytes(),
+            "char_values": v9.tobytes(),
+            "float32_values": v12.tolist(),
+            "float64_values": v15.tolist(),
+            "int8_values": v18.tolist(),
+            "uint8_values": v21.tobytes(),
+            "int16_values": v24.tolist(),
+            "uint16_values": v27.tolist(),
+            "int32_values": v30.tolist(),
+            "uint32_values": v33.tolist(),
+            "int64_values": v36.tolist(),
+            "uint64_values": v39.tolist(),
             "string_values": v40,
             "basic_types_values": v41,
             "constants_values": v42,
             "defaults_values": v43,
             "bool_values_default": v46,
-            "byte_values_default": v49,
-            "char_values_default": v52,
-            "float32_values_default": v55,
-            "float64_values_default": v58,
-            "int8_values_default": v61,
-            "uint8_values_default": v64,
-            "int16_values_default": v67,
-            "uint16_values_default": v70,
-            "int32_values_default": v73,
-            "uint32_values_default": v76,
-            "int64_values_default": v79,
-            "uint64_values_default": v82,
+            "byte_values_default": v49.tobytes(),
+            "char_values_default": v52.tobytes(),
+            "float32_values_default": v55.tolist(),
+            "float64_values_default": v58.tolist(),
+            "int8_values_default": v61.tolist(),
+            "uint8_values_default": v64.tobytes(),
+            "int16_values_default": v67.tolist(),
+            "uint16_values_default": v70.tolist(),
+            "int32_values_default": v73.tolist(),
+            "uint32_values_default": v76.tolist(),
+            "int64_values_default": v79.tolist(),
+            "uint64_values_default": v82.tolist(),
             "string_values_default": v83,
         }, pos
 
@@ -9046,35 +9047,35 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             ), pos
         return {
             "bool_values": v3,
-            "byte_values": v6,
-            "char_values": v9,
-            "float32_values": v12,
-            "float64_values": v15,
-            "int8_values": v18,
-            "uint8_values": v21,
-            "int16_values": v24,
-            "uint16_values": v27,
-            "int32_values": v30,
-            "uint32_values": v33,
-            "int64_values": v36,
-            "uint64_values": v39,
+            "byte_values": v6.tobytes(),
+            "char_values": v9.tobytes(),
+            "float32_values": v12.tolist(),
+            "float64_values": v15.tolist(),
+            "int8_values": v18.tolist(),
+            "uint8_values": v21.tobytes(),
+            "int16_values": v24.tolist(),
+            "uint16_values": v27.tolist(),
+            "int32_values": v30.tolist(),
+            "uint32_values": v33.tolist(),
+            "int64_values": v36.tolist(),
+            "uint64_values": v39.tolist(),
             "string_values": v40,
             "basic_types_values": v41,
             "constants_values": v42,
             "defaults_values": v43,
             "bool_values_default": v46,
-            "byte_values_default": v49,
-            "char_values_default": v52,
-            "float32_values_default": v55,
-            "float64_values_default": v58,
-            "int8_values_default": v61,
-            "uint8_values_default": v64,
-            "int16_values_default": v67,
-            "uint16_values_default": v70,
-            "int32_values_default": v73,
-            "uint32_values_default": v76,
-            "int64_values_default": v79,
-            "uint64_values_default": v82,
+            "byte_values_default": v49.tobytes(),
+            "char_values_default": v52.tobytes(),
+            "float32_values_default": v55.tolist(),
+            "float64_values_default": v58.tolist(),
+            "int8_values_default": v61.tolist(),
+            "uint8_values_default": v64.tobytes(),
+            "int16_values_default": v67.tolist(),
+            "uint16_values_default": v70.tolist(),
+            "int32_values_default": v73.tolist(),
+            "uint32_values_default": v76.tolist(),
+            "int64_values_default": v79.tolist(),
+            "uint64_values_default": v82.tolist(),
             "string_values_default": v83,
         }, pos
 
@@ -9344,7 +9345,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7,
+            "client_gid": v7.tobytes(),
             "sequence_number": v8,
         }, pos
 
@@ -9455,7 +9456,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -9887,7 +9888,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -10089,7 +10090,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -10236,7 +10237,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_test_msgs__action__Fibonacci_Result(v4), pos
-        return {"sequence": v4}, pos
+        return {"sequence": v4.tolist()}, pos
 
     def encode_test_msgs__action__Fibonacci_Result(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -10283,7 +10284,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_test_msgs__action__Fibonacci_Feedback(v4), pos
-        return {"sequence": v4}, pos
+        return {"sequence": v4.tolist()}, pos
 
     def encode_test_msgs__action__Fibonacci_Feedback(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -10328,7 +10329,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return make_unique_identifier_msgs__msg__UUID(v3), pos
-        return {"uuid": v3}, pos
+        return {"uuid": v3.tobytes()}, pos
 
     def encode_unique_identifier_msgs__msg__UUID(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -10368,7 +10369,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 make_unique_identifier_msgs__msg__UUID(v4),
                 make_test_msgs__action__Fibonacci_Goal(v6),
             ), pos
-        return {"goal_id": {"uuid": v4}, "goal": {"order": v6}}, pos
+        return {"goal_id": {"uuid": v4.tobytes()}, "goal": {"order": v6}}, pos
 
     def encode_test_msgs__action__Fibonacci_SendGoal_Request(
         d: Any, out: list[Any], pos: int
@@ -10560,7 +10561,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -10680,7 +10681,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             return make_test_msgs__action__Fibonacci_GetResult_Request(
                 make_unique_identifier_msgs__msg__UUID(v4)
             ), pos
-        return {"goal_id": {"uuid": v4}}, pos
+        return {"goal_id": {"uuid": v4.tobytes()}}, pos
 
     def encode_test_msgs__action__Fibonacci_GetResult_Request(
         d: Any, out: list[Any], pos: int
@@ -10813,7 +10814,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -10937,7 +10938,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             return make_test_msgs__action__Fibonacci_FeedbackMessage(
                 make_unique_identifier_msgs__msg__UUID(v4), v5
             ), pos
-        return {"goal_id": {"uuid": v4}, "feedback": v5}, pos
+        return {"goal_id": {"uuid": v4.tobytes()}, "feedback": v5}, pos
 
     def encode_test_msgs__action__Fibonacci_FeedbackMessage(
         d: Any, out: list[Any], pos: int
@@ -11521,7 +11522,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 ),
             ), pos
         return {
-            "goal_id": {"uuid": v4},
+            "goal_id": {"uuid": v4.tobytes()},
             "goal": {
                 "nested_field_no_pkg": {
                     "duration_value": {"sec": v8, "nanosec": v9},
@@ -11828,7 +11829,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -11950,7 +11951,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             return make_test_msgs__action__NestedMessage_GetResult_Request(
                 make_unique_identifier_msgs__msg__UUID(v4)
             ), pos
-        return {"goal_id": {"uuid": v4}}, pos
+        return {"goal_id": {"uuid": v4.tobytes()}}, pos
 
     def encode_test_msgs__action__NestedMessage_GetResult_Request(
         d: Any, out: list[Any], pos: int
@@ -12238,7 +12239,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,
@@ -12381,7 +12382,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 ),
             ), pos
         return {
-            "goal_id": {"uuid": v4},
+            "goal_id": {"uuid": v4.tobytes()},
             "feedback": {
                 "nested_field_no_pkg": {
                     "duration_value": {"sec": v8, "nanosec": v9},

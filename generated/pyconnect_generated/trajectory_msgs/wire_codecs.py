@@ -13,7 +13,8 @@
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
 closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input. Imports nothing from ROS.
+decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
+of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -820,10 +821,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 v4, v8, v12, v16, make_builtin_interfaces__msg__Duration(v18, v19)
             ), pos
         return {
-            "positions": v4,
-            "velocities": v8,
-            "accelerations": v12,
-            "effort": v16,
+            "positions": v4.tolist(),
+            "velocities": v8.tolist(),
+            "accelerations": v12.tolist(),
+            "effort": v16.tolist(),
             "time_from_start": {"sec": v18, "nanosec": v19},
         }, pos
 

@@ -23,7 +23,8 @@
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
 closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
 order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input. Imports nothing from ROS.
+decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
+of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -1475,7 +1476,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return {
             "event_type": v1,
             "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7,
+            "client_gid": v7.tobytes(),
             "sequence_number": v8,
         }, pos
 
@@ -1602,7 +1603,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "info": {
                 "event_type": v2,
                 "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8,
+                "client_gid": v8.tobytes(),
                 "sequence_number": v9,
             },
             "request": v10,

@@ -9,12 +9,13 @@ installed definitions or from a definition text (bags).
 
 What decoding gives:
 
-- Lossless dicts have the keys of ``pyconnect.codecs.to_dict``, but numeric arrays and
-  sequences, and ``uint8``/``byte``/``char`` ones, are numpy arrays that view the input buffer
-  (read-only for ``bytes``; they keep the buffer alive, and an ``mmap`` cannot close while they
-  exist). ``bool`` arrays are lists of bools; strings are ``str``.
-- Views (``decode_view``) are light objects with ``__slots__`` named as the ROS fields, holding
-  the same values; natural codecs read them as they read rclpy messages.
+- Lossless dicts are exactly what ``pyconnect.codecs.to_dict`` gives for the same live message:
+  numeric arrays and sequences are lists, ``uint8``/``byte``/``char`` ones ``bytes``, strings
+  ``str`` (one value per type, whatever the source).
+- Views (``decode_view``) are light objects with ``__slots__`` named as the ROS fields; their
+  numeric and byte arrays are numpy arrays that view the input buffer (read-only for ``bytes``;
+  they keep the buffer alive, and an ``mmap`` cannot close while they exist). Natural codecs
+  read them as they read rclpy messages, so an Image decodes to a zero-copy ndarray.
 - Up to 3 bytes after the message are accepted (Fast DDS pads the payload to 4 bytes; rosbags
   accepts the same), and so are the unwritten bytes up to Fast DDS's size estimate, which
   ``rclpy.serialization.serialize_message`` returns (the estimate aligns empty sequences of

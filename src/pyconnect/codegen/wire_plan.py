@@ -64,6 +64,9 @@ class Value:
     is_list: bool = False
     message: str = ""  # symbol of an inlined flat message
     fields: list[tuple[str, Value]] = field(default_factory=list)
+    # A numeric array is an ndarray view in a view, and in a dict the plain value a live
+    # message's to_dict gives (".tolist()", or ".tobytes()" for byte arrays): one value per type.
+    plain: str = ""
 
     def dict_expr(self) -> str:
         if self.message:
@@ -71,7 +74,7 @@ class Value:
             return "{" + inner + "}"
         if self.is_list:
             return "[" + ", ".join(self.items) + "]"
-        return self.local
+        return self.local + self.plain
 
     def view_expr(self) -> str:
         if self.message:
@@ -349,7 +352,10 @@ class Planner:
                 self._advance(itemsize * (size or 0))
             else:
                 self._forget(min(itemsize, 4) if itemsize > 1 else 1)
-            return Value(local=target)
+            if kind == "bools":
+                return Value(local=target)
+            byte_like = element.name in ("uint8", "byte", "char")
+            return Value(local=target, plain=".tobytes()" if byte_like else ".tolist()")
         target = self.local("v")
         if element.kind in ("string", "wstring"):
             self.step("strings", segment, target=target, source=source, size=size, fixed=fixed,

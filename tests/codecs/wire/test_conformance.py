@@ -114,7 +114,7 @@ def test_empty_sequences_of_doubles_are_not_aligned() -> None:
 
     msg = UnboundedSequences(float64_values=[], int8_values=[7])
     decoded = wire.to_dict(serialize_message(msg), "test_msgs/msg/UnboundedSequences")
-    assert decoded["int8_values"].tolist() == [7]
+    assert decoded["int8_values"] == [7]
     ours = wire.from_dict({"int8_values": [7]}, "test_msgs/msg/UnboundedSequences")
     assert list(deserialize_message(ours, UnboundedSequences).int8_values) == [7]
 

@@ -86,7 +86,7 @@ def test_register_definition_makes_a_new_type_decodable_by_name() -> None:
     cdr = wire.encode(value, "my_robot_msgs/msg/Status")
     decoded = wire.decode(cdr, "my_robot_msgs/Status")
     assert decoded["names"] == ["arm", "base"]
-    assert decoded["temperatures"].tolist() == [40.5, 41.0]
+    assert decoded["temperatures"] == [40.5, 41.0]
 
 
 def test_service_event_schema_is_the_srv_text() -> None:

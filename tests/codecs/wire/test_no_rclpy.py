@@ -29,7 +29,7 @@ SCRIPT = textwrap.dedent(
     assert isinstance(back, np.ndarray) and (back == image).all(), back
     assert wire.to_dict(cdr, "sensor_msgs/Image")["encoding"] == "bgr8"
     joints = wire.from_dict({"name": ["a"], "position": [1.5]}, "sensor_msgs/msg/JointState")
-    assert wire.to_dict(joints, "sensor_msgs/msg/JointState")["position"].tolist() == [1.5]
+    assert wire.to_dict(joints, "sensor_msgs/msg/JointState")["position"] == [1.5]
     strings = wire.from_dict({"string_value": "x"}, "test_msgs/msg/Strings")
     assert wire.to_dict(strings, "test_msgs/msg/Strings")["string_value"] == "x"
     leaked = sorted(m for m in sys.modules if m.split(".")[0] in HIDDEN)

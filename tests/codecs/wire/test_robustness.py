@@ -203,5 +203,5 @@ def test_every_input_kind_decodes(tmp_path: Any) -> None:
     with path.open("rb") as file, mmap.mmap(file.fileno(), 0, access=mmap.ACCESS_READ) as mapped:
         for data in (cdr, bytearray(cdr), memoryview(cdr), mapped):
             value = wire.to_dict(data, "sensor_msgs/msg/Image")
-            assert value["data"].tobytes() == b"ab"
+            assert value["data"] == b"ab"
             del value
