@@ -39,7 +39,7 @@ def _dict_codecs() -> dict[str, tuple[Any, ...]]:
 
 CODECS = _dict_codecs()
 NAMES = sorted(name for name in CODECS if TYPES.get(name).fields)
-_SETTINGS = settings(max_examples=400, deadline=None, database=None,
+_SETTINGS = settings(max_examples=150, deadline=None, database=None,
                      suppress_health_check=list(HealthCheck))  # fmt: skip
 
 
