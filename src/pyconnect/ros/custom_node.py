@@ -218,6 +218,10 @@ class CustomNode(Node):  # type: ignore[misc]
             if self._stopped.is_set():
                 raise PyconnectError(f"node {self.name!r} is shut down")
             if self._spin_thread is None:
+                # Entities made with rclpy's own calls (an ActionClient on this node) are seen
+                # here, before this call returns: moving an action to the elastic executor while
+                # the caller already sends goals could strand their futures.
+                self._executor.adopt(self)
                 self._spin_thread = threading.Thread(
                     target=self._spin_forever, name=f"pyconnect-spin-{self.name}", daemon=True
                 )
