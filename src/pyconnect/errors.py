@@ -1,4 +1,4 @@
-"""The exception hierarchy every part of pyconnect raises (DESIGN.md §5)."""
+"""The exception hierarchy every part of pyconnect raises (docs/design.md §5)."""
 
 from __future__ import annotations
 

@@ -1,4 +1,4 @@
-"""The table of natural codecs (DESIGN.md §4): which type gets which codec, on first use."""
+"""The table of natural codecs (docs/design.md §4): which type gets which codec, on first use."""
 
 from __future__ import annotations
 

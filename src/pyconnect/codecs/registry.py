@@ -2,8 +2,8 @@
 
 For each type the registry keeps one record: the message codec (rclpy message <-> value), the
 lossless dict codec and the wire (CDR) codec. Each is looked up on first use through one order
-of sources: a codec the user registered, the natural codec (DESIGN.md §4), the generated code in
-``generated/``, and code compiled on the fly from the type model (``type_code``).
+of sources: a codec the user registered, the natural codec (docs/design.md §4), the generated
+code in ``generated/``, and code compiled on the fly from the type model (``type_code``).
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ class TypeRecord:
 class Registry:
     """Maps ROS types to codecs. ``Registry()`` is isolated; ``default_registry`` is global.
 
-    Lookup order: a codec registered by the user, then the natural codec (DESIGN.md §4), then
+    Lookup order: a codec registered by the user, then the natural codec (docs/design.md §4), then
     the generated code, then code generated on the fly from the installed definitions.
     """
 

@@ -1,4 +1,4 @@
-"""CDR wire codecs: CDR bytes <-> natural values or lossless dicts, with no rclpy (DESIGN.md §3).
+"""CDR wire codecs: CDR bytes <-> natural values or lossless dicts, no rclpy (docs/design.md §3).
 
 ``decode(data, "sensor_msgs/msg/Image")`` turns a serialized message (``bytes``, ``bytearray``,
 ``memoryview`` or ``mmap``; little- or big-endian XCDR1 with its 4-byte encapsulation header)

@@ -22,7 +22,7 @@ action's topics (pyconnect.ros.abort_reasons), where pyconnect clients read it.
 Finished goals leave the server's goal list after ``result_timeout`` seconds (default 0.05 s
 instead of rclpy's 900 s): every status message lists every goal kept and every client
 converts that list to Python objects several times per goal, so latency grows with the number
-kept (ROS-FACTS.md: 1.5 -> 13 ms over 500 goals). Their results stay available
+kept (docs/ros-facts.md: 1.5 -> 13 ms over 500 goals). Their results stay available
 ``result_cache_seconds`` (60 s) for late ``get_result`` requests
 (pyconnect.ros.retaining_action_server).
 """

@@ -1,6 +1,6 @@
 """The elastic executor: callbacks run inline on one thread that hands spinning on if one blocks.
 
-Why not the stock executors (ROS-FACTS.md): ``MultiThreadedExecutor`` hands every callback to a
+Why not the stock executors (docs/ros-facts.md): ``MultiThreadedExecutor`` hands every callback to a
 pool (3.5x slower than single-threaded, tails of tens of ms); ``SingleThreadedExecutor`` is fast
 but a callback that blocks (a ``response_func`` calling another agent's blocking ``send()``, a
 long image computation, an action running for seconds) stops every other agent, and a blocking

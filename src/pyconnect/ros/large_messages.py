@@ -1,7 +1,7 @@
 """Fast DDS set up for large messages (images, point clouds) before the first node starts.
 
 Stock Fast DDS sends a 1080p image between two processes in 30-35 ms and a best-effort reader
-loses most of them (UDP fragments; ROS-FACTS.md). A shared-memory transport whose segment holds
+loses most of them (UDP fragments; docs/ros-facts.md). A shared-memory transport whose segment holds
 the largest message, plus glibc malloc settings that stop page-fault storms on every multi-MB
 buffer, bring it to about 4 ms. ``pyconnect run script.py`` does both for a program, and so does
 importing ``pyconnect.ros`` when ``PYCONNECT_LARGE_MESSAGES=1``:

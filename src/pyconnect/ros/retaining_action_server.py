@@ -2,7 +2,7 @@
 
 Why: every status message of an action lists every goal the server still keeps, and each
 client turns that whole array into Python objects several times per goal, so goal latency
-grows with the number kept (ROS-FACTS.md: 1.5 -> 13 ms over 500 goals with rclpy's 900 s).
+grows with the number kept (docs/ros-facts.md: 1.5 -> 13 ms over 500 goals with rclpy's 900 s).
 Expiring goals after ``result_timeout`` (pyconnect: 0.05 s) keeps the array short; the results
 of expired goals move to a small cache (``result_cache_seconds``, at most ``result_cache_size``
 entries) from which a late ``get_result`` request is still answered, instead of rclpy's
