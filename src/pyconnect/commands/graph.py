@@ -11,6 +11,8 @@ service or type, a timeout, a bad value; one line on stderr), 2 a bad command li
 from __future__ import annotations
 
 import os
+import signal
+import threading
 import time
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -26,6 +28,7 @@ from rclpy.qos import (
     QoSProfile,
     ReliabilityPolicy,
 )
+from rclpy.signals import SignalHandlerOptions
 
 from pyconnect.errors import PyconnectError
 
@@ -70,8 +73,13 @@ class GraphSession:
     """A hidden node (``_pyconnect_cli_<pid>``) in a private context, spun on this thread."""
 
     def __init__(self, name: str) -> None:
+        self._interrupted = False
+        self._spinning = False
+        self._previous_sigint: Any = None
         self.context = Context()
-        rclpy.init(context=self.context)
+        rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
+        if threading.current_thread() is threading.main_thread():
+            self._previous_sigint = signal.signal(signal.SIGINT, self._on_sigint)
         try:
             self.node = Node(
                 f"{HIDDEN_PREFIX}pyconnect_{name}_{os.getpid()}",
@@ -85,7 +93,21 @@ class GraphSession:
             raise
 
     def spin_once(self, timeout: float = 0.05) -> None:
-        self.executor.spin_once(timeout_sec=timeout)
+        self._spinning = True
+        try:
+            self.executor.spin_once(timeout_sec=timeout)
+        finally:
+            self._spinning = False
+        if self._interrupted:
+            raise KeyboardInterrupt
+
+    def _on_sigint(self, _signum: int, _frame: Any) -> None:
+        # Ctrl-C raised inside rclpy's executor can leave a half-built Task whose __del__
+        # prints a traceback at exit: while it spins, the interrupt waits for the spin to end.
+        if self._spinning:
+            self._interrupted = True
+        else:
+            raise KeyboardInterrupt
 
     def spin_for(self, seconds: float) -> None:
         deadline = time.monotonic() + seconds
@@ -107,6 +129,9 @@ class GraphSession:
             self.node.destroy_node()
         finally:
             self.context.try_shutdown()
+            if self._previous_sigint is not None:
+                signal.signal(signal.SIGINT, self._previous_sigint)
+                self._previous_sigint = None
 
 
 @contextmanager
