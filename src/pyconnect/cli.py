@@ -33,7 +33,13 @@ PROGRAM = "pyconnect"
 
 def build_parser() -> argparse.ArgumentParser:
     """The ``pyconnect`` parser with every command group registered."""
-    parser = Parser(prog=PROGRAM, description="pyconnect tools (no ROS graph needed)")
+    parser = Parser(
+        prog=PROGRAM,
+        description=(
+            "pyconnect tools: what the ros2 command does, for a pip-only install "
+            "(bags and interfaces need no running ROS graph)"
+        ),
+    )
     parser.add_argument("--version", action="version", version=f"{PROGRAM} {__version__}")
     commands = parser.add_subparsers(dest="command", required=True, parser_class=Parser)
     bag_actions = bag_commands.register(commands)

@@ -32,7 +32,9 @@ def register(commands: Subcommands) -> Subcommands:
     Returns the ``bag`` actions' subparsers so that other modules can add actions beside these
     (``bag record``, ``bag play``).
     """
-    bag = commands.add_parser("bag", help="read rosbag2 bags (MCAP or sqlite3)")
+    bag = commands.add_parser(
+        "bag", help="read, export, record and play rosbag2 bags (MCAP or sqlite3)"
+    )
     actions = bag.add_subparsers(dest="action", required=True, parser_class=Parser)
 
     info = actions.add_parser("info", help="files, size, duration, topics and services")
