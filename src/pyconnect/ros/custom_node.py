@@ -26,7 +26,6 @@ import threading
 import time
 from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
-from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
 import rclpy
@@ -45,7 +44,7 @@ from pyconnect.ros.coroutines import CoroutineRunner
 from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.recording import Recording
-from pyconnect.ros.shutdown import ShutdownHooks
+from pyconnect.ros.shutdown import ShutdownHooks, ShutsDownOnExit
 from pyconnect.ros.subscriber_agent import SubscriberAgent
 
 if TYPE_CHECKING:
@@ -54,7 +53,7 @@ if TYPE_CHECKING:
 StopFunc = Callable[..., Any]
 
 
-class CustomNode(Node):  # type: ignore[misc]
+class CustomNode(ShutsDownOnExit, Node):  # type: ignore[misc]
     """A ROS 2 node whose connections are agents: ``node.agents[name].send/get``.
 
     It is an ``rclpy.node.Node``: rclpy's own methods work on it, and it is its own
@@ -408,25 +407,8 @@ class CustomNode(Node):  # type: ignore[misc]
         """rclpy's name for ``shutdown()`` (stops the agents first, then destroys the node)."""
         self.shutdown()
 
-    def _shutdown_in_background(self) -> None:
-        if self._shutdown_thread is not None:
-            return
-        # Not a daemon: the interpreter waits for it before exiting.
-        self._shutdown_thread = threading.Thread(
-            target=self.shutdown, name=f"pyconnect-shutdown-{self.name}"
-        )
-        self._shutdown_thread.start()
-
     def __enter__(self) -> CustomNode:
         return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self.shutdown()
 
     # -- internals -----------------------------------------------------------------------------
     def _spin_forever(self) -> None:

@@ -20,7 +20,7 @@ import atexit
 import signal
 import threading
 from collections.abc import Callable
-from types import FrameType
+from types import FrameType, TracebackType
 from typing import Any
 
 _HANDLED_SIGNALS = (signal.SIGINT, signal.SIGTERM)
@@ -98,3 +98,36 @@ class ShutdownHooks:
             last = not _live
         if last:
             _restore_handlers()
+
+
+class ShutsDownOnExit:
+    """What a node and a peer share: ``shutdown()`` on leaving ``with``, or from a signal.
+
+    The owner sets ``name``, ``_shutdown_thread = None`` and defines ``shutdown()``.
+    """
+
+    name: str
+    _shutdown_thread: threading.Thread | None
+
+    def shutdown(self) -> None:
+        raise NotImplementedError
+
+    def _shutdown_in_background(self) -> None:
+        if self._shutdown_thread is not None:
+            return
+        # Not a daemon: the interpreter waits for it before exiting.
+        self._shutdown_thread = threading.Thread(
+            target=self.shutdown, name=f"pyconnect-shutdown-{self.name}"
+        )
+        self._shutdown_thread.start()
+
+    def __enter__(self) -> Any:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        traceback: TracebackType | None,
+    ) -> None:
+        self.shutdown()

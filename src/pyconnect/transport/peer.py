@@ -25,14 +25,13 @@ import threading
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
-from types import TracebackType
 from typing import Any
 
 import zenoh
 
 from pyconnect.codecs.registry import Registry, default_registry
 from pyconnect.errors import ConnectionTimeout, PyconnectError, TransportError
-from pyconnect.ros.shutdown import ShutdownHooks
+from pyconnect.ros.shutdown import ShutdownHooks, ShutsDownOnExit
 from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.graph import Graph
 from pyconnect.transport.peer_agent import PeerAgent, TimerAgent, logger
@@ -62,7 +61,7 @@ def default_domain_id() -> int:
         raise TransportError(f"ROS_DOMAIN_ID: expected an integer, got {text!r}") from None
 
 
-class Peer:
+class Peer(ShutsDownOnExit):
     """A zenoh peer whose connections are agents: ``peer.agents[name].send/get``."""
 
     def __init__(
@@ -271,24 +270,8 @@ class Peer:
             print(f"[pyconnect] peer {self.name}: closing zenoh failed: {error}", file=sys.stderr)
         self._hooks.restore()
 
-    def _shutdown_in_background(self) -> None:
-        if self._shutdown_thread is not None:
-            return
-        self._shutdown_thread = threading.Thread(
-            target=self.shutdown, name=f"pyconnect-shutdown-{self.name}"
-        )
-        self._shutdown_thread.start()
-
     def __enter__(self) -> Peer:
         return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        traceback: TracebackType | None,
-    ) -> None:
-        self.shutdown()
 
 
 def _step(deadline: float | None, longest: float) -> float:
