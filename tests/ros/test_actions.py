@@ -122,8 +122,8 @@ def test_timeout_cancels_and_reports(make_node: Any) -> None:
     release = threading.Event()
 
     def waits(_goal: dict[str, Any]) -> Iterator[None]:
-        # Bounded: a caller-spun send() can run this goal inline on its own thread (a known
-        # executor defect, see the closing note), and an endless goal would hang the suite.
+        # Bounded, so a regression fails instead of hanging the suite (test_caller_waits pins
+        # that a blocking send() never runs a goal on the caller's thread).
         for _ in range(int(EVENT_TIMEOUT / 0.01)):
             if release.wait(0.01):
                 break

@@ -83,6 +83,7 @@ class AgentExecutor:
         self._stopped = threading.Event()
         self._dispatcher: int | None = None
         self._spinning = False
+        self._background: threading.Thread | None = None
         # What the wrapped callback on the dispatching thread is doing (read by the monitor).
         self._seq = 0
         self._running: tuple[Any, Any] | None = None
@@ -157,20 +158,61 @@ class AgentExecutor:
         return self._spinning and not self._stopping
 
     def spin(self) -> None:
-        """Run callbacks until ``stop()`` or shutdown (in this thread, and others when needed)."""
+        """Run callbacks until ``stop()`` or shutdown (in this thread, and others when needed).
+
+        When a blocking wait already started spinning in the background (nothing spun the node
+        then), this call waits for that spinning to end instead.
+        """
         with self._lock:
-            if self._spinning:
+            background = self._background
+            if self._spinning and background is None:
                 raise RuntimeError("AgentExecutor.spin() is already running")
+            if not self._spinning:
+                self._spinning = True
+                background = None
+        if background is not None:
+            background.join()
+            return
+        self._spin_here()
+
+    def spin_in_background(self) -> None:
+        """Start spinning on a thread of its own, unless something spins already.
+
+        Waits that need callbacks to run call this rather than spinning on the caller's
+        thread: a callback run inline there could be another agent's long work (an action
+        goal, a slow subscriber), and the caller's timeout would go unchecked until it ends.
+        """
+        with self._lock:
+            if self._spinning or self._stopping:
+                return
             self._spinning = True
-            self._dispatcher = threading.get_ident()
-        self.adopt()
-        self._start_monitor()
+            thread = threading.Thread(
+                target=self._spin_reporting, name="pyconnect-executor-spin", daemon=True
+            )
+            self._background = thread
+        thread.start()
+
+    def _spin_reporting(self) -> None:
         try:
+            self._spin_here()
+        except Exception as error:
+            self._report(error)
+
+    def _spin_here(self) -> None:
+        """The dispatching loop, on this thread (``_spinning`` is already set)."""
+        me = threading.get_ident()
+        with self._lock:
+            self._dispatcher = me
+        try:
+            self.adopt()
+            self._start_monitor()
             while not self._stopping:
                 if self._elastic is not None:
                     self._supervise_elastic()
                     continue
                 events = self._events
+                # A spin_once() that dispatched before this loop started resets it when done.
+                self._dispatcher = me
                 try:
                     events.spin_once(timeout_sec=IDLE_TICK)
                 except (ShutdownException, ExternalShutdownException):
@@ -192,7 +234,7 @@ class AgentExecutor:
             elastic.spin_once(timeout_sec)
             return
         with self._lock:
-            if self._dispatcher is not None:
+            if self._dispatcher is not None or self._spinning:
                 # Someone dispatches already: just let time pass.
                 dispatching = True
             else:
@@ -208,7 +250,8 @@ class AgentExecutor:
             pass
         finally:
             with self._lock:
-                self._dispatcher = None
+                if self._dispatcher == threading.get_ident():
+                    self._dispatcher = None
             if events is not self._events or self._elastic is not None:
                 self._retire(events)
 
@@ -228,9 +271,10 @@ class AgentExecutor:
     ) -> bool:
         """Wait until ``event`` is set by a callback; True if it was, False on timeout.
 
-        Inside a callback on the dispatching thread this first moves the node to the elastic
-        executor, so the callback that sets ``event`` can run; when nothing spins, this thread
-        spins until ``event`` is set.
+        The caller never runs callbacks itself: inside a callback on the dispatching thread
+        this first moves the node to the elastic executor (inside one of its callbacks, it
+        passes the turn on), so the callback that sets ``event`` can run elsewhere; when
+        nothing spins, spinning starts in the background. So the timeout always holds.
         """
         finished = poll if poll is not None else event.is_set
         deadline = None if timeout_sec is None else time.monotonic() + timeout_sec
@@ -239,22 +283,16 @@ class AgentExecutor:
             remaining = None if deadline is None else deadline - time.monotonic()
             if remaining is not None and remaining <= 0:
                 return False
-            step = IDLE_TICK if remaining is None else min(remaining, IDLE_TICK)
             if self._dispatcher == me and self._elastic is None:
                 self._go_elastic()
             elastic = self._elastic
             if elastic is not None:
-                if elastic.wait_for(event, step, poll=poll):
-                    return True
-                if elastic.is_stopping:
-                    # The node is moving back to EventsExecutor: wait for the move to end.
-                    event.wait(min(step, 0.01))
-            elif self._stopping:
+                elastic.release_turn()
+            if self._stopping:
                 return event.is_set() or finished()
-            elif self._dispatcher is not None:
-                event.wait(step)
-            else:
-                self.spin_once(timeout_sec=step)
+            if not self._spinning:
+                self.spin_in_background()
+            event.wait(IDLE_TICK if remaining is None else min(remaining, IDLE_TICK))
         return True
 
     def wake(self) -> None:
@@ -280,7 +318,7 @@ class AgentExecutor:
     def join(self, timeout_sec: float | None = None) -> None:
         """Wait for the monitor and the elastic executor's threads to end (after ``stop()``)."""
         current = threading.current_thread()
-        for thread in (self._monitor, self._elastic_thread):
+        for thread in (self._background, self._monitor, self._elastic_thread):
             if thread is not None and thread is not current and thread.is_alive():
                 thread.join(timeout_sec)
         elastic = self._elastic

@@ -278,10 +278,10 @@ class CustomNode(ShutsDownOnExit, Node):  # type: ignore[misc]
                     f"node {self.name!r}: still waiting after {timeout} s for {names}"
                 )
             step = 0.02 if remaining is None else min(0.02, remaining)
-            if self._executor.is_spinning:
-                self._stopped.wait(step)
-            else:
-                self._executor.spin_once(timeout_sec=step)
+            # Subscribers need their messages: nothing spinning, the node spins in the
+            # background from now on (never on this thread; see AgentExecutor.wait_for).
+            self._executor.spin_in_background()
+            self._stopped.wait(step)
 
     # -- parameters and logging ------------------------------------------------------------------
     def get_param(self, name: str, default: Any = None) -> Any:

@@ -161,6 +161,12 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
                 )
         return True
 
+    def release_turn(self) -> None:
+        """Pass the turn on when this thread holds it (a callback about to wait for another)."""
+        me = threading.get_ident()
+        if self._owner == me:
+            self._hand_off(me)
+
     def stop(self) -> None:
         """Make every ``spin()`` return; callbacks in progress finish on their own threads."""
         with self._turn:
