@@ -185,3 +185,32 @@ def test_a_cut_recording_is_read_in_bounded_windows(tmp_path: Path) -> None:
             tracemalloc.stop()
     assert count == 400
     assert peak < 2 * 220_000 + 3 * 20_100 + 100_000, peak  # two chunks and a few messages
+
+
+def test_natural_images_are_read_holding_one_chunk_and_one_message(tmp_path: Path) -> None:
+    """Natural images are views on their chunk; the caller holding the last one while the next
+    chunk loads must not keep two chunks alive (the last message of a chunk is a copy)."""
+    from sensor_msgs.msg import Image
+
+    path = tmp_path / "images.mcap"
+    with McapRecorder(path, compression="none", chunk_size=300_000) as recorder:
+        recorder.add_topic("/camera", "sensor_msgs/msg/Image")
+        for i in range(60):
+            image = Image(height=100, width=200, encoding="rgb8", step=600)
+            image.data = bytes([i]) * 60_000
+            recorder.write("/camera", bytes(serialize_message(image)), log_time_ns=i)
+    with open_bag(path) as bag:
+        list(bag)  # the decoder is built once, outside the measurement
+        tracemalloc.start()
+        try:
+            count = 0
+            for item in bag:
+                assert item.value.shape == (100, 200, 3)
+                assert int(item.value[99, 199, 2]) == count
+                count += 1
+            _, peak = tracemalloc.get_traced_memory()
+        finally:
+            tracemalloc.stop()
+    assert count == 60
+    # A chunk holds five images (300 kB); two chunks would be 600 kB.
+    assert peak < 360_000 + 2 * 60_100 + 50_000, peak

@@ -335,6 +335,13 @@ class McapFile:
                 cut = len(pending)
             ready = pending[:cut]
             pending = [(c, t, bytes(d)) for c, t, d in pending[cut:]]
+            if ready and number + 1 < len(spans):
+                # The caller still holds the last message (and its value, a view on it) when it
+                # asks for the next, which loads the next chunk: a copy of that one message lets
+                # this chunk go first, so a read holds one chunk and a message, not two chunks.
+                channel, log_time, view = ready[-1]
+                ready[-1] = (channel, log_time, bytes(view))
+                del view
             yield from ready
             del ready
 
