@@ -41,6 +41,12 @@ class WireCodec:
     def __repr__(self) -> str:
         return f"WireCodec({self.msg_type!r}, type_hash={self.type_hash!r})"
 
+    @property
+    def definitions(self) -> Mapping[str, Any]:
+        """Type name -> (RIHS01 hash, field rows) of this type and the types it nests: the rows
+        (name, kind, element, bound, container, size, default) its functions were made from."""
+        return self._definitions
+
     # -- decoding -----------------------------------------------------------------------------
     def _decode(self, data: Any, little: DecodeFunction, big: DecodeFunction) -> Any:
         try:

@@ -67,6 +67,13 @@ def register(commands: Subcommands) -> Subcommands:
         default="files",
         help="files: JSON/PNG/NPY per message; parquet: one table per topic",
     )
+    export.add_argument(
+        "--images",
+        choices=["binary", "files"],
+        default="binary",
+        help="parquet: images as a binary data column (default) or as PNG files with a "
+        "data_path column relative to the Parquet file",
+    )
     export.add_argument("--to", required=True, help="output directory (created if needed)")
     export.add_argument("--force", action="store_true", help="overwrite an earlier export")
     export.add_argument("--dict", action="store_true", help="lossless dicts, not natural values")
@@ -227,6 +234,8 @@ def _export(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         from pyconnect.commands.bag_tables import export_parquet_command
 
         return export_parquet_command(args, out, err)
+    if args.images != "binary":
+        raise UsageError("--images is for --format parquet")
     if not args.topic:
         raise UsageError("the following arguments are required: --topic")
 

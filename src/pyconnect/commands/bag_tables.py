@@ -1,7 +1,9 @@
 """``pyconnect bag export BAG --format parquet --to DIR``: one Parquet file per topic.
 
 All topics unless ``--topic`` names some; the columns are those of ``open_bag(...).to_arrow``
-(``pyconnect.record.tables``). Needs the ``tables`` extra. Exit status 1 when some messages could
+(``pyconnect.record.tables``); ``--images files`` writes each image to a lossless PNG file (or
+``.npy``) beside the Parquet files, with its relative path in a ``data_path`` column in place of
+the binary ``data``. Needs the ``tables`` extra. Exit status 1 when some messages could
 not be decoded (they are left out and summarised on stderr).
 """
 
@@ -17,7 +19,7 @@ def export_parquet_command(args: argparse.Namespace, out: TextIO, err: TextIO) -
     """Run ``bag export --format parquet``."""
     from pyconnect.record.parquet_export import export_parquet
 
-    result = export_parquet(args.path, args.to, topics=args.topic)
+    result = export_parquet(args.path, args.to, topics=args.topic, images=args.images)
     for topic, (path, rows) in result.files.items():
         print(f"{topic}: {rows} row(s) to {path}", file=out)
     if result.errors:

@@ -176,6 +176,11 @@ class BagReader:
         self._delivered = 0
 
     @property
+    def bag_paths(self) -> list[Path]:
+        """Every bag this reader merges (``open_bag([run1, run2])``), in the order given."""
+        return [located.path for located, _storages in self._bags]
+
+    @property
     def damage(self) -> list[BagDamage]:
         """What is broken in the bag's files, as far as they have been read."""
         return list(storage_damage(s for _, storages in self._bags for s in storages))
@@ -361,21 +366,44 @@ class BagReader:
         return total
 
     # -- tables (pyconnect.record.tables; needs the ``tables`` extra) ---------------------------
-    def to_arrow(self, topic: str) -> Any:
-        """``topic`` as a ``pyarrow.Table``: one row per message, one typed column per field."""
+    def to_arrow(
+        self,
+        topic: str,
+        *,
+        images: Literal["binary", "files"] = "binary",
+        image_dir: str | Path | None = None,
+    ) -> Any:
+        """``topic`` as a ``pyarrow.Table``: one row per message, one typed column per field.
+
+        ``images="files"`` writes each image to a lossless PNG (or ``.npy``) file under
+        ``image_dir`` and gives a ``data_path`` column (relative to ``image_dir``) in place of
+        the binary ``data`` (``pyconnect.record.image_files``).
+        """
         from pyconnect.record.tables import topic_table
 
-        return topic_table(self, topic, errors=self.errors)
+        return topic_table(self, topic, errors=self.errors, images=images, image_dir=image_dir)
 
-    def to_pandas(self, topic: str) -> Any:
+    def to_pandas(
+        self,
+        topic: str,
+        *,
+        images: Literal["binary", "files"] = "binary",
+        image_dir: str | Path | None = None,
+    ) -> Any:
         """``topic`` as a ``pandas.DataFrame`` with the columns of ``to_arrow``."""
-        return self.to_arrow(topic).to_pandas()
+        return self.to_arrow(topic, images=images, image_dir=image_dir).to_pandas()
 
-    def to_polars(self, topic: str) -> Any:
+    def to_polars(
+        self,
+        topic: str,
+        *,
+        images: Literal["binary", "files"] = "binary",
+        image_dir: str | Path | None = None,
+    ) -> Any:
         """``topic`` as a ``polars.DataFrame`` with the columns of ``to_arrow``."""
         import polars
 
-        return polars.from_arrow(self.to_arrow(topic))
+        return polars.from_arrow(self.to_arrow(topic, images=images, image_dir=image_dir))
 
     def close(self) -> None:
         """Close the storage files; idempotent."""

@@ -3,6 +3,8 @@
 ``export_parquet("run1", "out/")`` writes ``out/odom.parquet``, ``out/robot__camera__image.parquet``
 (the topic name with ``/`` as ``__``), one per topic unless ``topics`` names some. DuckDB, polars,
 pandas and Spark read them; the schema metadata holds the topic and the type.
+``images="files"`` writes images as files beside them (``out/robot__camera__image/00000000.png``)
+and their paths, relative to the Parquet files, in a ``data_path`` column (``image_files``).
 """
 
 from __future__ import annotations
@@ -15,7 +17,7 @@ import pyarrow.parquet as pq
 
 from pyconnect.record.bag_reader import DecodeProblem, open_bag
 from pyconnect.record.log_dirs import safe_path_component
-from pyconnect.record.tables import topic_table
+from pyconnect.record.tables import ImageColumns, topic_table
 
 __all__ = ["ParquetExport", "export_parquet"]
 
@@ -35,6 +37,7 @@ def export_parquet(
     *,
     topics: Iterable[str] | None = None,
     compression: str = "zstd",
+    images: ImageColumns = "binary",
 ) -> ParquetExport:
     """Write each topic of ``bag`` (or of ``topics``) to ``directory/<topic>.parquet``."""
     target = Path(directory)
@@ -42,7 +45,13 @@ def export_parquet(
     result = ParquetExport(target)
     with open_bag(bag, topics=topics) as reader:
         for topic in reader.topics:
-            table = topic_table(reader, topic, errors=result.errors)
+            table = topic_table(
+                reader,
+                topic,
+                errors=result.errors,
+                images=images,
+                image_dir=target if images == "files" else None,
+            )
             path = target / f"{safe_path_component(topic)}.parquet"
             pq.write_table(table, path, compression=compression)
             result.files[topic] = (path, table.num_rows)

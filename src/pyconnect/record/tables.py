@@ -12,7 +12,10 @@ columns named by their field path, typed as the ROS fields are (needs the ``tabl
   36>``), a sequence of numbers a list column, ``uint8``/``byte`` sequences (image and cloud
   data) a binary column, a fixed ``uint8[N]`` a ``fixed_size_binary(N)``;
 - an image is thus its binary ``data`` beside the ``height``, ``width``, ``step``,
-  ``encoding`` and ``is_bigendian`` columns that give its shape and pixel type;
+  ``encoding`` and ``is_bigendian`` columns that give its shape and pixel type; with
+  ``images="files"`` (and ``image_dir``) each image is written to a lossless PNG (or ``.npy``)
+  file instead and ``data`` becomes ``data_path``, the file's path relative to ``image_dir``
+  (``pyconnect.record.image_files`` says which file and why);
 - sequences of messages stay one column of lists of structs (``transforms``).
 
 Columns come from the definition stored in the bag (else the installed type); a value missing
@@ -25,10 +28,12 @@ from __future__ import annotations
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import pyarrow as pa
+
+from pyconnect.record.image_files import IMAGE_TYPE, PATH_COLUMN, ImageFiles
 
 # The bag reader calls this module (its to_arrow/to_pandas/to_polars); this module takes the
 # reader it is given and never imports the reader's module, so the two stay free of a cycle.
@@ -38,6 +43,7 @@ DecodeProblem = Any
 __all__ = [
     "TIME_COLUMN",
     "Column",
+    "ImageColumns",
     "columns_of",
     "rows_to_table",
     "schema_of",
@@ -46,6 +52,7 @@ __all__ = [
 ]
 
 TIME_COLUMN = "log_time_ns"
+ImageColumns = Literal["binary", "files"]
 
 _PRIMITIVES: dict[str, pa.DataType] = {
     "bool": pa.bool_(),
@@ -76,10 +83,12 @@ class Column:
 
     path: tuple[str, ...]
     arrow_type: pa.DataType
-    build: str  # "scalar", "binary", "numbers", "fixed_numbers", "nested"
+    build: str  # "scalar", "binary", "numbers", "fixed_numbers", "nested", "image_file"
 
     @property
     def name(self) -> str:
+        if self.build == "image_file":  # ``path`` is the image's, the column its file's
+            return ".".join((*self.path, PATH_COLUMN))
         return ".".join(self.path)
 
 
@@ -110,14 +119,23 @@ def _struct_type(msg_type: str, definitions: Definitions) -> pa.DataType:
     return pa.struct(fields)
 
 
-def columns_of(msg_type: str, definitions: Definitions) -> list[Column]:
-    """The columns of ``msg_type`` (after ``log_time_ns``), in definition order."""
+def columns_of(
+    msg_type: str, definitions: Definitions, *, images: ImageColumns = "binary"
+) -> list[Column]:
+    """The columns of ``msg_type`` (after ``log_time_ns``), in definition order.
+
+    ``images="files"``: the ``data`` of each (not nested in a sequence) ``sensor_msgs/Image``
+    is one ``data_path`` string column instead of a binary one.
+    """
     columns: list[Column] = []
 
     def walk(type_name: str, prefix: tuple[str, ...]) -> None:
+        as_file = images == "files" and type_name == IMAGE_TYPE
         for name, kind, element, _bound, container, size, _default in definitions[type_name][1]:
             path = (*prefix, name)
-            if container == "single":
+            if as_file and name == "data":
+                columns.append(Column(prefix, pa.string(), "image_file"))
+            elif container == "single":
                 if kind == "message":
                     walk(element, path)
                 else:
@@ -193,7 +211,7 @@ def _binary(values: list[Any], column: Column) -> pa.Array:
 
 
 def _array(values: list[Any], column: Column) -> pa.Array:
-    if column.build == "scalar":
+    if column.build in ("scalar", "image_file"):
         return pa.array(values, type=column.arrow_type)
     if column.build == "binary":
         return _binary(values, column)
@@ -203,10 +221,14 @@ def _array(values: list[Any], column: Column) -> pa.Array:
 
 
 def schema_of(columns: Sequence[Column], *, topic: str, msg_type: str) -> pa.Schema:
-    """The table schema: ``log_time_ns`` then ``columns``; the topic and type as metadata."""
+    """The table schema: ``log_time_ns`` then ``columns``; the topic and type as metadata
+    (and ``images: files`` when image data are files)."""
     fields = [pa.field(TIME_COLUMN, pa.int64(), nullable=False)]
     fields += [pa.field(column.name, column.arrow_type) for column in columns]
-    return pa.schema(fields, metadata={"topic": topic, "msg_type": msg_type})
+    metadata = {"topic": topic, "msg_type": msg_type}
+    if any(column.build == "image_file" for column in columns):
+        metadata["images"] = "files"
+    return pa.schema(fields, metadata=metadata)
 
 
 def rows_to_table(
@@ -215,15 +237,26 @@ def rows_to_table(
     *,
     topic: str,
     msg_type: str,
+    image_files: ImageFiles | None = None,
 ) -> pa.Table:
-    """Flatten ``(log_time_ns, lossless dict)`` rows into a table with ``columns``."""
+    """Flatten ``(log_time_ns, lossless dict)`` rows into a table with ``columns``.
+
+    ``image_files`` writes the images of ``image_file`` columns (as each row is read, so the
+    table never holds their pixels) and gives the paths they hold.
+    """
     times: list[int] = []
     values: list[list[Any]] = [[] for _ in columns]
     paths = [column.path for column in columns]
-    for log_time_ns, message in rows:
+    as_files = [i for i, column in enumerate(columns) if column.build == "image_file"]
+    if as_files and image_files is None:
+        raise ValueError("rows_to_table: image_file columns need image_files")
+    for row, (log_time_ns, message) in enumerate(rows):
         times.append(log_time_ns)
         for store, path in zip(values, paths, strict=True):
             store.append(_get(message, path))
+        for i in as_files:
+            assert image_files is not None
+            values[i][-1] = image_files.write(values[i][-1], row, paths[i])
     arrays = [pa.array(np.asarray(times, dtype=np.int64), type=pa.int64())]
     arrays += [_array(store, column) for store, column in zip(values, columns, strict=True)]
     return pa.Table.from_arrays(arrays, schema=schema_of(columns, topic=topic, msg_type=msg_type))
@@ -232,7 +265,7 @@ def rows_to_table(
 # -- bags ----------------------------------------------------------------------------------------
 def _bag_paths(reader: BagReader) -> list[Path]:
     """Every bag an open reader merges (``open_bag([run1, run2])``), in its order."""
-    paths: list[Path] = [located.path for located, _storages in reader._bags]
+    paths: list[Path] = list(reader.bag_paths)
     return paths
 
 
@@ -265,7 +298,7 @@ def topic_types(reader: BagReader, topic: str) -> tuple[Definitions, str]:
         codec = wire.wire_codec(msg_type)
     # The field rows are the codec's own description of its type (name, kind, element, bound,
     # container, size, default): the same rows its decoder was generated from.
-    return codec._definitions, codec.msg_type
+    return codec.definitions, codec.msg_type
 
 
 def topic_table(
@@ -273,11 +306,21 @@ def topic_table(
     topic: str,
     *,
     errors: list[DecodeProblem] | None = None,
+    images: ImageColumns = "binary",
+    image_dir: str | Path | None = None,
 ) -> pa.Table:
     """One topic of an open reader (``open_bag(...)``, whose time range applies) as a table.
 
     Messages that cannot be decoded are appended to ``errors`` (when given) and left out.
+    ``images="files"`` writes each image to a file under ``image_dir`` (see the module
+    docstring).
     """
+    if images not in ("binary", "files"):
+        raise ValueError(f"images: expected 'binary' or 'files', got {images!r}")
+    if images == "files" and image_dir is None:
+        raise ValueError("images='files' needs image_dir, the directory to write them to")
+    if images == "binary" and image_dir is not None:
+        raise ValueError("image_dir is only for images='files'")
     # A reader of the same class over the same bags, reading lossless dicts of one topic.
     with type(bag)(
         _bag_paths(bag),
@@ -288,8 +331,11 @@ def topic_table(
         on_error=bag.on_error,
     ) as reader:
         definitions, msg_type = topic_types(reader, topic)
-        columns = columns_of(msg_type, definitions)
-        table = rows_to_table(_rows(reader), columns, topic=topic, msg_type=msg_type)
+        columns = columns_of(msg_type, definitions, images=images)
+        files = None if image_dir is None else ImageFiles(image_dir, topic)
+        table = rows_to_table(
+            _rows(reader), columns, topic=topic, msg_type=msg_type, image_files=files
+        )
         if errors is not None:
             errors.extend(reader.errors)
     return table
