@@ -21,6 +21,38 @@ from pyconnect.record.mcap_recorder import McapRecorder
 from tests.commands.processes import WAIT, Lines, spawn
 
 
+def _split_order(name: str) -> int:
+    match = re.fullmatch(r"run1_(\d+)\.mcap", name)
+    assert match, name
+    return int(match.group(1))
+
+
+def _check_bag(bag: Path) -> list[tuple[str, object]]:
+    """Every file finished and listed in order, every reader agrees; the messages read."""
+    # run1_10.mcap comes after run1_9.mcap (a name sort put it third and failed a loaded run)
+    files = sorted((p.name for p in bag.glob("*.mcap")), key=_split_order)
+    assert len(files) >= 2  # a new file after each message of at least 1 byte
+    with open_bag(bag) as reader:
+        ours = [(m.topic, m.value) for m in reader]
+        assert (reader.errors, reader.damage) == ([], [])
+    assert all(re.fullmatch(r"hello \d+", v) for t, v in ours if t == "/chatter")  # type: ignore[arg-type]
+    with AnyReader([bag]) as theirs:
+        assert sum(1 for _ in theirs.messages()) == len(ours)
+    decoded = 0
+    for name in files:
+        with open(bag / name, "rb") as stream:
+            reader = make_reader(stream, decoder_factories=[DecoderFactory()])
+            assert reader.get_summary() is not None, name  # finished, not cut short
+            decoded += sum(1 for _ in reader.iter_decoded_messages())
+    assert decoded == len(ours)
+    metadata = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert metadata["relative_file_paths"] == files
+    assert [f["path"] for f in metadata["files"]] == files
+    assert metadata["message_count"] == len(ours)
+    assert sum(f["message_count"] for f in metadata["files"]) == len(ours)
+    return ours
+
+
 def test_record_until_ctrl_c_writes_a_bag_every_reader_reads(peer: Lines, tmp_path: Path) -> None:
     bag = tmp_path / "run1"
     recorder = spawn(
@@ -34,27 +66,29 @@ def test_record_until_ctrl_c_writes_a_bag_every_reader_reads(peer: Lines, tmp_pa
     finally:
         err = lines.stop()
     assert (recorder.returncode, err) == (0, "")
-    files = sorted(p.name for p in bag.glob("*.mcap"))
-    assert len(files) >= 2  # a new file after each message of at least 1 byte
-    with open_bag(bag) as reader:
-        ours = [(m.topic, m.value) for m in reader]
-        assert reader.errors == []
-    topics = {topic for topic, _value in ours}
-    assert topics == {"/chatter", "/image"}
-    assert all(re.fullmatch(r"hello \d+", v) for t, v in ours if t == "/chatter")
-    with AnyReader([bag]) as theirs:
-        assert sum(1 for _ in theirs.messages()) == len(ours)
-    decoded = 0
-    for path in sorted(bag.glob("*.mcap")):
-        with open(path, "rb") as stream:
-            reader = make_reader(stream, decoder_factories=[DecoderFactory()])
-            decoded += sum(1 for _ in reader.iter_decoded_messages())
-    assert decoded == len(ours)
+    ours = _check_bag(bag)
+    assert {topic for topic, _value in ours} == {"/chatter", "/image"}
     metadata = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
-    assert metadata["relative_file_paths"] == files
-    assert metadata["message_count"] == len(ours)
     chatter = metadata["topics_with_message_count"][0]["topic_metadata"]
     assert yaml.safe_load(chatter["offered_qos_profiles"])[0]["reliability"] == 1  # reliable
+
+
+@pytest.mark.parametrize("split_at", [2, 12])
+def test_ctrl_c_at_a_split_and_again_while_finishing_loses_no_file(
+    peer: Lines, tmp_path: Path, split_at: int
+) -> None:
+    """SIGINT lands right inside the split-th file's opening, and a second one inside the
+    bag's closing (tests/commands/interrupted_record.py): the bag is still whole."""
+    bag = tmp_path / "run1"
+    recorder = spawn(
+        "-m", "tests.commands.interrupted_record", str(split_at),
+        "bag", "record", "/chatter", "/image", "-o", str(bag), "--max-bag-size", "1",
+    )  # fmt: skip
+    out, err = recorder.communicate(timeout=WAIT)
+    assert (recorder.returncode, err) == (0, ""), out
+    ours = _check_bag(bag)
+    assert len(list(bag.glob("*.mcap"))) == split_at  # the interrupted split still happened
+    assert out.splitlines()[-1] == f"Recorded {len(ours)} message(s) to '{bag}'"
 
 
 def test_record_needs_topics_or_all(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -5,8 +5,10 @@ second); ``pyconnect bag record /chatter /odom -o run1`` records those. Messages
 received (raw CDR, no decoding) with their receipt time as log time, the definitions of the
 installed types, and each topic's publishers' QoS as ``offered_qos_profiles`` (what ``bag play``
 offers again). ``--max-bag-size`` (bytes) and ``--max-bag-duration`` (seconds) split the
-recording into ``run1_0.mcap``, ``run1_1.mcap``, ...; ``metadata.yaml`` lists them all.
-Ctrl-C stops the recording and leaves a complete bag (every file finished, metadata written).
+recording into ``run1_0.mcap``, ``run1_1.mcap``, ...; ``metadata.yaml`` lists them all, each from
+the moment it is created (``pyconnect.record.split_recorder``). Ctrl-C stops the recording and
+leaves a complete bag (every file finished, metadata written): it is deferred while a message is
+written, a file split or a topic added, and a second Ctrl-C waits for the bag to be finished.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -16,14 +18,13 @@ from __future__ import annotations
 
 import argparse
 import time
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
     from pyconnect.commands.graph import GraphSession
-    from pyconnect.record.mcap_recorder import McapRecorder
+    from pyconnect.record.split_recorder import SplitRecorder
 
 __all__ = ["register"]
 
@@ -91,124 +92,18 @@ def _qos_yaml(endpoints: list[Any]) -> str:
     return yaml.safe_dump(profiles, sort_keys=False) if profiles else ""
 
 
-@dataclass
-class _Split:
-    """The bag directory, its files so far and the counts metadata.yaml needs."""
-
-    directory: Path
-    max_bytes: int
-    max_ns: int
-    files: list[dict[str, Any]] = field(default_factory=list)
-    counts: dict[str, int] = field(default_factory=dict)
-    types: dict[str, str] = field(default_factory=dict)
-    qos: dict[str, str] = field(default_factory=dict)
-    skipped: set[str] = field(default_factory=set)
-    recorder: McapRecorder | None = None
-    file_start_ns: int = 0
-    file_bytes: int = 0
-    file_first: int | None = None
-    file_last: int = 0
-    file_count: int = 0
-
-    def open_next(self) -> McapRecorder:
-        from pyconnect.record.mcap_recorder import McapRecorder
-
-        self.finish_file()
-        index = len(self.files)
-        recorder = McapRecorder(self.directory / f"{self.directory.name}_{index}.mcap")
-        for topic, msg_type in self.types.items():
-            recorder.add_topic(topic, msg_type, offered_qos_profiles=self.qos[topic])
-        self.recorder = recorder
-        self.file_bytes = 0
-        self.file_first = None
-        self.file_count = 0
-        return recorder
-
-    def add_topic(self, topic: str, msg_type: str, qos: str) -> None:
-        self.types[topic] = msg_type
-        self.qos[topic] = qos
-        self.counts.setdefault(topic, 0)
-        if self.recorder is not None:
-            self.recorder.add_topic(topic, msg_type, offered_qos_profiles=qos)
-
-    def write(self, topic: str, data: bytes, now_ns: int) -> None:
-        recorder = self.recorder if self.recorder is not None else self.open_next()
-        full = (self.max_bytes and self.file_bytes >= self.max_bytes) or (
-            self.max_ns and self.file_first is not None and now_ns - self.file_first >= self.max_ns
-        )
-        if full:
-            recorder = self.open_next()
-        recorder.write(topic, data, log_time_ns=now_ns)
-        self.counts[topic] += 1
-        self.file_bytes += len(data)
-        self.file_count += 1
-        if self.file_first is None:
-            self.file_first = now_ns
-        self.file_last = now_ns
-
-    def finish_file(self) -> None:
-        if self.recorder is None:
-            return
-        self.recorder.close()
-        first = self.file_first or 0
-        self.files.append(
-            {
-                "path": self.recorder.file_path.name,
-                "starting_time": {"nanoseconds_since_epoch": first},
-                "duration": {"nanoseconds": max(0, self.file_last - first)},
-                "message_count": self.file_count,
-            }
-        )
-        self.recorder = None
-
-    def close(self) -> None:
-        from pyconnect.record.bag_metadata import (
-            METADATA_FILE,
-            BagMetadata,
-            TopicMetadata,
-            write_metadata,
-        )
-
-        if self.recorder is None and not self.files:
-            self.open_next()  # an empty recording is still a valid bag
-        self.finish_file()
-        starts = [
-            f["starting_time"]["nanoseconds_since_epoch"] for f in self.files if f["message_count"]
-        ]
-        ends = [
-            f["starting_time"]["nanoseconds_since_epoch"] + f["duration"]["nanoseconds"]
-            for f in self.files
-            if f["message_count"]
-        ]
-        start = min(starts, default=0)
-        metadata = BagMetadata(
-            storage_identifier="mcap",
-            relative_file_paths=tuple(f["path"] for f in self.files),
-            topics=tuple(
-                TopicMetadata(
-                    name=topic,
-                    msg_type=msg_type,
-                    offered_qos_profiles=self.qos[topic],
-                    message_count=self.counts[topic],
-                )
-                for topic, msg_type in self.types.items()
-            ),
-            starting_time_ns=start,
-            duration_ns=max(ends, default=start) - start,
-            message_count=sum(self.counts.values()),
-            files=tuple(self.files),
-        )
-        write_metadata(self.directory / METADATA_FILE, metadata)
-
-
 def _subscribe_new(
-    session: GraphSession, split: _Split, wanted: set[str] | None, out: TextIO
+    session: GraphSession,
+    split: SplitRecorder,
+    wanted: set[str] | None,
+    skipped: set[str],
+    out: TextIO,
 ) -> None:
     from pyconnect.commands.graph import choose_qos
     from pyconnect.ros.interfaces import interface_class
 
     for topic, types in session.node.get_topic_names_and_types():
-        if topic in split.types or topic in split.skipped or not types:
+        if topic in split.counts or topic in skipped or not types:
             continue
         if wanted is not None and topic not in wanted:
             continue
@@ -219,13 +114,13 @@ def _subscribe_new(
             msg_class = interface_class(types[0], kind="msg")
         except Exception as error:
             print(f"skipping {topic}: {error}", file=out, flush=True)
-            split.skipped.add(topic)
+            skipped.add(topic)
             continue
         publishers = session.node.get_publishers_info_by_topic(topic)
-        split.add_topic(topic, types[0], _qos_yaml(publishers))
+        split.add_topic(topic, types[0], offered_qos_profiles=_qos_yaml(publishers))
 
         def on_message(data: bytes, topic: str = topic) -> None:
-            split.write(topic, data, time.time_ns())
+            split.write(topic, data, log_time_ns=time.time_ns())
             if split.counts[topic] == 1:
                 print(f"Recording '{topic}': first message received", file=out, flush=True)
 
@@ -236,23 +131,38 @@ def _subscribe_new(
 
 def _record(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.commands.graph import CommandFailed, graph_session, report_failure
+    from pyconnect.record.split_recorder import SplitRecorder
 
     if args.all == bool(args.topics):
         return report_failure(CommandFailed("give either -a or the topics to record"), err)
     directory = Path(args.output)
     if directory.exists():
         return report_failure(CommandFailed(f"{directory}: already exists"), err)
-    directory.mkdir(parents=True)
-    split = _Split(directory, args.max_bag_size, round(args.max_bag_duration * 1e9))
+    split = SplitRecorder(
+        directory, max_bytes=args.max_bag_size, max_ns=round(args.max_bag_duration * 1e9)
+    )
     wanted = None if args.all else set(args.topics)
+    skipped: set[str] = set()
     try:
         with graph_session("record") as session:
-            print(f"Recording to '{directory}'", file=out, flush=True)
-            while True:
-                _subscribe_new(session, split, wanted, out)
-                session.spin_for(1.0)
-    except KeyboardInterrupt:  # Ctrl-C is how a recording ends: a success
+            try:
+                print(f"Recording to '{directory}'", file=out, flush=True)
+                while True:
+                    # Ctrl-C lands between callbacks and between these steps, never inside one
+                    # (a split, a topic being added): the session defers it until they end.
+                    with session.interrupts_deferred():
+                        _subscribe_new(session, split, wanted, skipped, out)
+                    session.spin_for(1.0)
+            except KeyboardInterrupt:  # Ctrl-C is how a recording ends: a success
+                pass
+            finally:
+                # Nothing spins any more, so no callback writes; a second Ctrl-C waits until
+                # the last file and metadata.yaml are complete.
+                with session.interrupts_deferred():
+                    split.close()
+        return 0
+    except KeyboardInterrupt:  # before the session could defer it, or a second Ctrl-C
         return 0
     finally:
-        split.close()
+        split.close()  # idempotent; finishes the bag when the session never started
         print(f"Recorded {sum(split.counts.values())} message(s) to '{directory}'", file=out)

@@ -75,6 +75,7 @@ class GraphSession:
     def __init__(self, name: str) -> None:
         self._interrupted = False
         self._spinning = False
+        self._deferring = 0
         self._previous_sigint: Any = None
         self.context = Context()
         rclpy.init(context=self.context, signal_handler_options=SignalHandlerOptions.NO)
@@ -98,16 +99,31 @@ class GraphSession:
             self.executor.spin_once(timeout_sec=timeout)
         finally:
             self._spinning = False
-        if self._interrupted:
-            raise KeyboardInterrupt
+        self._raise_deferred()
 
     def _on_sigint(self, _signum: int, _frame: Any) -> None:
         # Ctrl-C raised inside rclpy's executor can leave a half-built Task whose __del__
         # prints a traceback at exit: while it spins, the interrupt waits for the spin to end.
-        if self._spinning:
+        if self._spinning or self._deferring:
             self._interrupted = True
         else:
             raise KeyboardInterrupt
+
+    def _raise_deferred(self) -> None:
+        if self._interrupted and not self._spinning and not self._deferring:
+            self._interrupted = False
+            raise KeyboardInterrupt
+
+    @contextmanager
+    def interrupts_deferred(self) -> Iterator[None]:
+        """Ctrl-C inside the block is raised when it ends: for work that must not stop halfway
+        (a bag file being split or finished)."""
+        self._deferring += 1
+        try:
+            yield
+        finally:
+            self._deferring -= 1
+        self._raise_deferred()
 
     def spin_for(self, seconds: float) -> None:
         deadline = time.monotonic() + seconds

@@ -76,10 +76,17 @@ class McapRecorder:
             raise BagError(f"{self.file_path}: already exists; not overwriting a recording")
         self._lock = threading.Lock()
         self._stream: BinaryIO = open(self.file_path, "wb")  # noqa: SIM115 - closed by close()
-        self._writer = Writer(
-            self._stream, compression=_COMPRESSION[compression], chunk_size=chunk_size
-        )
-        self._writer.start(profile="ros2", library="pyconnect")
+        try:
+            self._writer = Writer(
+                self._stream, compression=_COMPRESSION[compression], chunk_size=chunk_size
+            )
+            self._writer.start(profile="ros2", library="pyconnect")
+            # On disk at once: a process killed now leaves an MCAP file a reader recovers
+            # (open_bag reads a file cut short), not an empty one that is no bag at all.
+            self._stream.flush()
+        except BaseException:  # Ctrl-C included: the file must not stay open
+            self._stream.close()
+            raise
         self._schemas: dict[tuple[str, str], int] = {}
         self._topics: dict[str, _Topic] = {}
         self._first_ns: int | None = None

@@ -1,0 +1,216 @@
+"""``SplitRecorder``: a rosbag2 bag directory written as MCAP files split by size or duration.
+
+``SplitRecorder("run1", max_bytes=..., max_ns=...)`` writes ``run1/run1_0.mcap``,
+``run1/run1_1.mcap``, ... and ``run1/metadata.yaml`` (what ``pyconnect bag record`` writes).
+No file of the bag can be lost, whenever the recording stops:
+
+- ``metadata.yaml`` lists every file from the moment it is created: it is rewritten (atomically)
+  each time a file is opened, so a process killed mid-recording leaves a bag whose metadata names
+  every file; the last one is then cut short, and ``open_bag`` reads every message in it and
+  reports the damage (``ros2 bag reindex`` is not needed);
+- the state changes in an order where an exception (or ``KeyboardInterrupt``) at any point leaves
+  something ``close()`` can finish: a file's name is reserved before the file is created, and
+  ``close()`` finishes the open file, lists a file whose creation was cut short when it holds an
+  MCAP header, and removes it when it does not;
+- ``close()`` writes the final metadata (counts, times); it is idempotent.
+
+``write`` and ``add_topic`` are thread-safe.
+"""
+
+from __future__ import annotations
+
+import threading
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pyconnect.record.bag_errors import BagError
+from pyconnect.record.bag_metadata import METADATA_FILE, BagMetadata, TopicMetadata, write_metadata
+from pyconnect.record.mcap_recorder import McapRecorder
+
+__all__ = ["SplitRecorder"]
+
+_MCAP_MAGIC = b"\x89MCAP0\r\n"
+
+
+@dataclass
+class _File:
+    """One file of the bag: its name, and its recorder and counts once it is open."""
+
+    name: str
+    recorder: McapRecorder | None = None
+    first_ns: int | None = None
+    last_ns: int = 0
+    count: int = 0
+    bytes: int = 0
+
+    def entry(self) -> dict[str, Any]:
+        first = self.first_ns or 0
+        return {
+            "path": self.name,
+            "starting_time": {"nanoseconds_since_epoch": first},
+            "duration": {"nanoseconds": max(0, self.last_ns - first)},
+            "message_count": self.count,
+        }
+
+
+@dataclass
+class _Topic:
+    msg_type: str
+    qos: str
+    count: int = 0
+
+
+class SplitRecorder:
+    """Record raw CDR messages into a new bag directory, one MCAP file per split.
+
+    ``max_bytes`` (of message data) and ``max_ns`` (log time since the file's first message)
+    start a new file when reached; 0 never does.
+    """
+
+    def __init__(
+        self,
+        directory: str | Path,
+        *,
+        max_bytes: int = 0,
+        max_ns: int = 0,
+        compression: str = "zstd",
+    ) -> None:
+        self.directory = Path(directory)
+        self.max_bytes = max_bytes
+        self.max_ns = max_ns
+        self.compression = compression
+        self._files: list[_File] = []
+        self._topics: dict[str, _Topic] = {}
+        self._lock = threading.Lock()
+        self._closed = False
+        if self.directory.exists() and (
+            not self.directory.is_dir() or any(self.directory.iterdir())
+        ):
+            raise BagError(f"{self.directory}: already exists; a new recording needs a new one")
+        self.directory.mkdir(parents=True, exist_ok=True)
+
+    @property
+    def counts(self) -> dict[str, int]:
+        """Messages written per topic."""
+        return {name: topic.count for name, topic in self._topics.items()}
+
+    @property
+    def files(self) -> list[str]:
+        """The names of the bag's files so far, in order."""
+        return [file.name for file in self._files]
+
+    def add_topic(self, topic: str, msg_type: str, *, offered_qos_profiles: str = "") -> None:
+        """Declare a topic (to the open file and every later one)."""
+        with self._lock:
+            self._check_open()
+            if topic in self._topics:
+                return
+            self._topics[topic] = _Topic(msg_type, offered_qos_profiles)
+            current = self._current()
+            if current is not None and current.recorder is not None:
+                current.recorder.add_topic(
+                    topic, msg_type, offered_qos_profiles=offered_qos_profiles
+                )
+
+    def write(self, topic: str, data: bytes, *, log_time_ns: int) -> None:
+        """Append one message, starting the next file first when the open one is full."""
+        with self._lock:
+            self._check_open()
+            known = self._topics.get(topic)
+            if known is None:
+                raise BagError(f"{topic}: not added to this recording; call add_topic first")
+            current = self._current()
+            if current is None or current.recorder is None or self._full(current, log_time_ns):
+                current = self._open_next()
+            assert current.recorder is not None
+            current.recorder.write(topic, data, log_time_ns=log_time_ns)
+            known.count += 1
+            current.count += 1
+            current.bytes += len(data)
+            if current.first_ns is None:
+                current.first_ns = log_time_ns
+            current.last_ns = log_time_ns
+
+    def close(self) -> None:
+        """Finish the open file and write the final metadata.yaml; idempotent."""
+        with self._lock:
+            if self._closed:
+                return
+            if not self._files:
+                self._open_next()  # an empty recording is still a valid bag
+            self._finish_current()
+            self._write_metadata()
+            self._closed = True
+
+    # -- files --------------------------------------------------------------------------------
+    def _current(self) -> _File | None:
+        return self._files[-1] if self._files else None
+
+    def _full(self, current: _File, now_ns: int) -> bool:
+        if self.max_bytes and current.bytes >= self.max_bytes:
+            return True
+        first = current.first_ns
+        return bool(self.max_ns and first is not None and now_ns - first >= self.max_ns)
+
+    def _open_next(self) -> _File:
+        self._finish_current()
+        file = _File(f"{self.directory.name}_{len(self._files)}.mcap")
+        self._files.append(file)  # reserved before it exists: close() sees it either way
+        file.recorder = McapRecorder(self.directory / file.name, compression=self.compression)
+        for topic, known in self._topics.items():
+            file.recorder.add_topic(topic, known.msg_type, offered_qos_profiles=known.qos)
+        self._write_metadata()  # the new file is listed before a message goes into it
+        return file
+
+    def _finish_current(self) -> None:
+        current = self._current()
+        if current is None:
+            return
+        if current.recorder is not None:
+            current.recorder.close()
+            return
+        # Its creation was cut short: keep it when it is an MCAP file (the reader recovers what
+        # it holds), drop it when it never got its header.
+        path = self.directory / current.name
+        try:
+            with path.open("rb") as stream:
+                started = stream.read(len(_MCAP_MAGIC)) == _MCAP_MAGIC
+        except FileNotFoundError:
+            started = False
+        if not started:
+            path.unlink(missing_ok=True)
+            self._files.pop()
+
+    def _write_metadata(self) -> None:
+        counted = [file for file in self._files if file.count]
+        start = min((file.first_ns or 0 for file in counted), default=0)
+        end = max((file.last_ns for file in counted), default=start)
+        metadata = BagMetadata(
+            storage_identifier="mcap",
+            relative_file_paths=tuple(file.name for file in self._files),
+            topics=tuple(
+                TopicMetadata(
+                    name=name,
+                    msg_type=topic.msg_type,
+                    offered_qos_profiles=topic.qos,
+                    message_count=topic.count,
+                )
+                for name, topic in self._topics.items()
+            ),
+            starting_time_ns=start,
+            duration_ns=end - start,
+            message_count=sum(topic.count for topic in self._topics.values()),
+            files=tuple(file.entry() for file in self._files),
+        )
+        write_metadata(self.directory / METADATA_FILE, metadata)
+
+    def _check_open(self) -> None:
+        if self._closed:
+            raise BagError(f"{self.directory}: recording is closed")
+
+    def __enter__(self) -> SplitRecorder:
+        return self
+
+    def __exit__(self, *exc_info: object) -> None:
+        self.close()

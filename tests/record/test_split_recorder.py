@@ -1,0 +1,168 @@
+"""SplitRecorder: split by size and duration, and no file lost whenever the recording stops."""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+from mcap.writer import Writer
+from rclpy.serialization import serialize_message
+from std_msgs.msg import String
+
+from pyconnect.record import open_bag
+from pyconnect.record.mcap_recorder import McapRecorder
+from pyconnect.record.split_recorder import SplitRecorder
+
+
+def _hello(i: int) -> bytes:
+    return bytes(serialize_message(String(data=f"hello {i}")))
+
+
+def _metadata(bag: Path) -> dict[str, Any]:
+    info: dict[str, Any] = yaml.safe_load((bag / "metadata.yaml").read_text())[
+        "rosbag2_bagfile_information"
+    ]
+    return info
+
+
+def _on_disk(bag: Path) -> list[str]:
+    def order(name: str) -> int:
+        match = re.fullmatch(rf"{bag.name}_(\d+)\.mcap", name)
+        assert match, name
+        return int(match.group(1))
+
+    return sorted((p.name for p in bag.glob("*.mcap")), key=order)
+
+
+def test_files_split_by_size_in_numeric_order(tmp_path: Path) -> None:
+    bag = tmp_path / "run"
+    with SplitRecorder(bag, max_bytes=1) as recorder:
+        recorder.add_topic("/chatter", "std_msgs/msg/String")
+        for i in range(12):
+            recorder.write("/chatter", _hello(i), log_time_ns=1_000 + i)
+    names = [f"run_{k}.mcap" for k in range(12)]
+    assert _on_disk(bag) == names
+    metadata = _metadata(bag)
+    assert metadata["relative_file_paths"] == names
+    assert [f["message_count"] for f in metadata["files"]] == [1] * 12
+    assert (metadata["message_count"], metadata["starting_time"]) == (
+        12,
+        {"nanoseconds_since_epoch": 1_000},
+    )
+    assert metadata["duration"] == {"nanoseconds": 11}
+    with open_bag(bag) as reader:
+        assert [m.value for m in reader] == [f"hello {i}" for i in range(12)]
+
+
+def test_files_split_by_duration(tmp_path: Path) -> None:
+    bag = tmp_path / "run"
+    with SplitRecorder(bag, max_ns=100) as recorder:
+        recorder.add_topic("/chatter", "std_msgs/msg/String")
+        for stamp in (0, 50, 99, 100, 150, 260):
+            recorder.write("/chatter", _hello(stamp), log_time_ns=stamp)
+    assert [f["message_count"] for f in _metadata(bag)["files"]] == [3, 2, 1]
+
+
+def test_a_recording_killed_midway_lists_every_file(tmp_path: Path) -> None:
+    """No close(): the process died. Every file is in metadata.yaml, the last one cut short."""
+    bag = tmp_path / "run"
+    recorder = SplitRecorder(bag, max_bytes=1)
+    recorder.add_topic("/chatter", "std_msgs/msg/String")
+    for i in range(4):
+        recorder.write("/chatter", _hello(i), log_time_ns=i)
+    assert (
+        _metadata(bag)["relative_file_paths"]
+        == _on_disk(bag)
+        == [f"run_{k}.mcap" for k in range(4)]
+    )
+    with open_bag(bag) as reader:
+        values = [m.value for m in reader]
+        damage = [str(d) for d in reader.damage]
+    # The open file's last chunk was still in memory: the first three files are whole.
+    assert values == ["hello 0", "hello 1", "hello 2"]
+    assert len(damage) == 1 and damage[0].startswith(f"{bag / 'run_3.mcap'} at byte "), damage
+    recorder.close()  # what the dead process could not do; the bag is then whole
+    with open_bag(bag) as reader:
+        assert [m.value for m in reader] == [f"hello {i}" for i in range(4)]
+        assert reader.damage == []
+
+
+class Interrupt(KeyboardInterrupt):
+    """Ctrl-C, raised where a signal handler could raise it."""
+
+
+def _interrupt_at(where: str, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Make the next file's creation (or the open file's finish) raise ``Interrupt``."""
+    if where == "before the file":
+        original_init = McapRecorder.__init__
+
+        def init(self: McapRecorder, *args: Any, **kwargs: Any) -> None:
+            monkeypatch.setattr(McapRecorder, "__init__", original_init)
+            raise Interrupt
+
+        monkeypatch.setattr(McapRecorder, "__init__", init)
+    elif where == "before its header":
+
+        def start(self: Writer, *args: Any, **kwargs: Any) -> None:
+            monkeypatch.undo()
+            raise Interrupt
+
+        monkeypatch.setattr(Writer, "start", start)
+    elif where == "while adding topics":
+
+        def add_topic(self: McapRecorder, *args: Any, **kwargs: Any) -> None:
+            monkeypatch.undo()
+            raise Interrupt
+
+        monkeypatch.setattr(McapRecorder, "add_topic", add_topic)
+    else:  # while the full file is finished
+
+        def close(self: McapRecorder) -> None:
+            monkeypatch.undo()
+            raise Interrupt
+
+        monkeypatch.setattr(McapRecorder, "close", close)
+
+
+@pytest.mark.parametrize(
+    "where",
+    ["before the file", "before its header", "while adding topics", "while finishing the last"],
+)
+def test_an_interrupt_inside_a_split_loses_no_file(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, where: str
+) -> None:
+    bag = tmp_path / "run"
+    recorder = SplitRecorder(bag, max_bytes=1)
+    recorder.add_topic("/chatter", "std_msgs/msg/String")
+    recorder.add_topic("/other", "std_msgs/msg/String")
+    for i in range(3):
+        recorder.write("/chatter", _hello(i), log_time_ns=i)
+    _interrupt_at(where, monkeypatch)
+    with pytest.raises(Interrupt):
+        recorder.write("/chatter", _hello(3), log_time_ns=3)  # splits: the 4th file
+    recorder.close()
+    files = _on_disk(bag)
+    assert _metadata(bag)["relative_file_paths"] == files
+    assert files[:3] == ["run_0.mcap", "run_1.mcap", "run_2.mcap"]
+    with open_bag(bag) as reader:
+        values = [m.value for m in reader]
+        assert (reader.errors, reader.damage) == ([], [])
+    assert values == ["hello 0", "hello 1", "hello 2"]  # the interrupted write wrote nothing
+    assert _metadata(bag)["message_count"] == 3
+
+
+def test_closed_recorders_refuse_writes_and_new_directories_only(tmp_path: Path) -> None:
+    bag = tmp_path / "run"
+    recorder = SplitRecorder(bag)
+    recorder.close()
+    recorder.close()
+    assert _metadata(bag)["relative_file_paths"] == ["run_0.mcap"]  # empty, still a bag
+    with pytest.raises(Exception) as closed:
+        recorder.write("/chatter", _hello(0), log_time_ns=0)
+    assert str(closed.value) == f"{bag}: recording is closed"
+    with pytest.raises(Exception) as exists:
+        SplitRecorder(bag)
+    assert str(exists.value) == f"{bag}: already exists; a new recording needs a new one"
