@@ -101,6 +101,9 @@ TYPE_HASHES: dict[str, str] = {
     "test_msgs/action/Fibonacci_FeedbackMessage": (
         "RIHS01_37487bae8cea358366b97003c1ef1ca7ce7c08df36f9e8cca496624226aee64e"
     ),
+    "test_msgs/action/Fibonacci_GetResult": (
+        "RIHS01_5d30fdeb21d20e117aa5f36c7b4f0b6874f1a8cf7a9c038d58f1156c5737b209"
+    ),
     "test_msgs/action/Fibonacci_GetResult_Event": (
         "RIHS01_fe0aa5843ef10550a9b322aeeccd5b11e78bca05b3571cf6999c51bff30c1e23"
     ),
@@ -115,6 +118,9 @@ TYPE_HASHES: dict[str, str] = {
     ),
     "test_msgs/action/Fibonacci_Result": (
         "RIHS01_0774b095467813c6904d475498b5486b7ebd4cda6a4569f97e8de8c862689049"
+    ),
+    "test_msgs/action/Fibonacci_SendGoal": (
+        "RIHS01_d807633803e38e164276573cd97e9fbd71e109c290bbf4cc312a0a1c9da7bbd9"
     ),
     "test_msgs/action/Fibonacci_SendGoal_Event": (
         "RIHS01_a20e708c6aae7a99d1eb0e930a0916f596bb5bae93a342a61752e13135be2c44"
@@ -134,6 +140,9 @@ TYPE_HASHES: dict[str, str] = {
     "test_msgs/action/NestedMessage_FeedbackMessage": (
         "RIHS01_72ee5828e8083f3c42a56bc5d99fd9e7d5c86389850fc006f254ecdcaecb7d03"
     ),
+    "test_msgs/action/NestedMessage_GetResult": (
+        "RIHS01_0272bc330d08cbb96e6947dd9c2731c12ad7252823c7086978d117a802119e2b"
+    ),
     "test_msgs/action/NestedMessage_GetResult_Event": (
         "RIHS01_5af20e11dfed8406b4d94837f1ea25424e811d1fdfa1157eb846e29c23130d1f"
     ),
@@ -148,6 +157,9 @@ TYPE_HASHES: dict[str, str] = {
     ),
     "test_msgs/action/NestedMessage_Result": (
         "RIHS01_c3356da873cd9b6f11cafaa25d6a9269a68751b937715cee506c3dbc051cdcfd"
+    ),
+    "test_msgs/action/NestedMessage_SendGoal": (
+        "RIHS01_8dea947216740e5b9e00eb537306bfe75af96492c688927d4f803afa5d81359b"
     ),
     "test_msgs/action/NestedMessage_SendGoal_Event": (
         "RIHS01_cc2d31baaf95995e00221e3ebb65f3ad0b5ba636db19223bade73b49f0d305e7"

@@ -181,6 +181,8 @@ def _context(
     if package is not None:
         interfaces += [(s.full_name, s.type_hash) for s in package.services]
         interfaces += [(a.full_name, a.type_hash) for a in package.actions]
+        # The implicit services' hashes: rmw_zenoh's action keys carry them.
+        interfaces += [pair for a in package.actions for pair in a.service_hashes]
     return {
         "header": header(source, messages),
         "interfaces": sorted(interfaces),

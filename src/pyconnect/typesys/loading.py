@@ -78,6 +78,8 @@ def package_defs(
             feedback=hashed(act.feedback),
             implicit=tuple(hashed(m) for m in act.implicit),
             type_hash=hashes.get(act.full_name, ""),
+            send_goal_hash=hashes.get(f"{act.full_name}_SendGoal", ""),
+            get_result_hash=hashes.get(f"{act.full_name}_GetResult", ""),
         )
         grouped.setdefault(act.package, {"m": [], "s": [], "a": []})["a"].append(filled_act)
     return {

@@ -150,10 +150,22 @@ class ActionDef:
     feedback: MessageDef
     implicit: tuple[MessageDef, ...] = ()
     type_hash: str = ""
+    # The RIHS01 hashes of the action's implicit services (rmw_zenoh puts them in key
+    # expressions): ``<pkg>/action/<Name>_SendGoal`` and ``<pkg>/action/<Name>_GetResult``.
+    send_goal_hash: str = ""
+    get_result_hash: str = ""
 
     @property
     def full_name(self) -> str:
         return f"{self.package}/action/{self.name}"
+
+    @property
+    def service_hashes(self) -> tuple[tuple[str, str], ...]:
+        """(full name, hash) of the implicit SendGoal and GetResult services."""
+        return (
+            (f"{self.full_name}_SendGoal", self.send_goal_hash),
+            (f"{self.full_name}_GetResult", self.get_result_hash),
+        )
 
     @property
     def messages(self) -> tuple[MessageDef, ...]:
