@@ -1,7 +1,8 @@
 """A peer in a process where ``import rclpy`` fails (run by the transport and bridge tests).
 
 ``python peer_without_rclpy.py CONFIG ROLE TOPIC``: ROLE ``echo-image`` receives Images on TOPIC
-and republishes each on TOPIC + '_back'; ``spin`` just spins (signal tests). It prints
+and republishes each on TOPIC + '_back'; ``fibonacci-server`` serves the action
+``test_msgs/action/Fibonacci`` on TOPIC (with feedback); ``spin`` just spins (signal tests). It prints
 ``ready`` once its agents exist.
 """
 
@@ -9,6 +10,7 @@ from __future__ import annotations
 
 import importlib.abc
 import sys
+from typing import Any
 
 
 class _BlockRos(importlib.abc.MetaPathFinder):
@@ -40,6 +42,21 @@ def main() -> None:
             conn_type="sub",
             data_interface="sensor_msgs/msg/Image",
             response_func=back.send,
+        )
+    if role == "fibonacci-server":
+
+        def fibonacci(goal: dict[str, int], publish_feedback: Any) -> dict[str, list[int]]:
+            sequence = [0, 1]
+            for _ in range(goal["order"]):
+                sequence.append(sequence[-1] + sequence[-2])
+                publish_feedback({"sequence": sequence})
+            return {"sequence": sequence}
+
+        peer.add_agent(
+            conn_name=topic,
+            conn_type="action_server",
+            data_interface="test_msgs/action/Fibonacci",
+            response_func=fibonacci,
         )
     print("ready", flush=True)
     peer.spin()

@@ -264,10 +264,11 @@ def test_encode_and_decode_funcs_keep_the_seed_signatures(make_peer: PeerFactory
 def test_unknown_kinds_and_options_raise(make_peer: PeerFactory) -> None:
     peer = make_peer("vision")
     with pytest.raises(PyconnectError) as raised:
-        peer.add_agent(conn_name="a", conn_type="action_client", data_interface="x/action/Y")
+        peer.add_agent(conn_name="a", conn_type="subscriber", data_interface="x/msg/Y")
     assert str(raised.value) == (
-        "agent 'a': conn_type 'action_client' is not available on a peer; expected one of "
-        "'sub', 'pub', 'service_client', 'service_server', 'timer'"
+        "agent 'a': conn_type 'subscriber' is not available on a peer; expected one of "
+        "'sub', 'pub', 'service_client', 'service_server', 'timer', 'action_client', "
+        "'action_server'"
     )
     with pytest.raises(PyconnectError) as raised:
         peer.add_agent(conn_name="b", conn_type="pub", data_interface="std_msgs/msg/Int32", qos=5)

@@ -68,6 +68,31 @@ def test_a_peer_without_rclpy_exchanges_images(
     assert "Traceback" not in err
 
 
+def test_a_peer_without_rclpy_serves_an_action(
+    make_peer: PeerFactory, locator: str, tmp_path: Path
+) -> None:
+    here = make_peer("laptop")
+    config = tmp_path / "session.json5"
+    config.write_text(loopback_config(connect=locator))
+    feedback: list[object] = []
+    client = here.add_agent(
+        conn_name="fib",
+        conn_type="action_client",
+        data_interface="test_msgs/action/Fibonacci",
+        feedback_func=feedback.append,
+    )
+    process = start(config, "fibonacci-server", "fib")
+    try:
+        result = client.send({"order": 3}, timeout=TIMEOUT)
+        assert result == {"sequence": [0, 1, 1, 2, 3], "isdone": True}
+    finally:
+        process.send_signal(signal.SIGINT)
+        out, err = process.communicate(timeout=TIMEOUT)
+    assert process.returncode == 0, err
+    assert out.strip() == "False"  # rclpy never got imported
+    assert "Traceback" not in err
+
+
 @pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
 def test_a_signal_ends_a_spinning_peer_with_exit_0(
     signum: int, locator: str, tmp_path: Path

@@ -3,7 +3,8 @@
 ``data_interface`` is a type name (``'sensor_msgs/msg/Image'``, ``'std_srvs/srv/SetBool'``) or
 an installed rclpy class (only its module path is read). Messages take the wire codec's hash;
 services take the hash the generated index lists for the service type itself (rmw_zenoh puts
-that hash, not the request's, in a service's key expression).
+that hash, not the request's, in a service's key expression). An action is what rcl_action
+builds of services and topics; its implicit services' hashes come from the index too.
 """
 
 from __future__ import annotations
@@ -30,6 +31,21 @@ class ServiceInterface:
     type_hash: str
     request: WireCodec
     response: WireCodec
+
+
+@dataclass(frozen=True)
+class ActionInterface:
+    """An action's parts: rcl_action's three services and two topics, and the user's types."""
+
+    type_name: str
+    goal: WireCodec
+    result: WireCodec
+    feedback: WireCodec
+    send_goal: ServiceInterface
+    get_result: ServiceInterface
+    cancel_goal: ServiceInterface
+    feedback_message: MessageInterface
+    status: MessageInterface
 
 
 _KIND_WORDS = {"msg": "message", "srv": "service", "action": "action"}
@@ -60,7 +76,30 @@ def message_interface(data_interface: object) -> MessageInterface:
 
 def service_interface(data_interface: object) -> ServiceInterface:
     """Name, hash and the request/response wire codecs of a service type."""
-    name = _full_name(data_interface, "srv")
+    return _service_parts(_full_name(data_interface, "srv"))
+
+
+def action_interface(data_interface: object) -> ActionInterface:
+    """Every type an action's services and topics carry, with their hashes."""
+    name = _full_name(data_interface, "action")
+    feedback_message = wire.wire_codec(f"{name}_FeedbackMessage")
+    status = wire.wire_codec("action_msgs/msg/GoalStatusArray")
+    return ActionInterface(
+        type_name=name,
+        goal=wire.wire_codec(f"{name}_Goal"),
+        result=wire.wire_codec(f"{name}_Result"),
+        feedback=wire.wire_codec(f"{name}_Feedback"),
+        send_goal=_service_parts(f"{name}_SendGoal"),
+        get_result=_service_parts(f"{name}_GetResult"),
+        cancel_goal=_service_parts("action_msgs/srv/CancelGoal"),
+        feedback_message=MessageInterface(
+            feedback_message.msg_type, feedback_message.type_hash, feedback_message
+        ),
+        status=MessageInterface(status.msg_type, status.type_hash, status),
+    )
+
+
+def _service_parts(name: str) -> ServiceInterface:
     request = wire.wire_codec(f"{name}_Request")
     response = wire.wire_codec(f"{name}_Response")
     return ServiceInterface(name, _indexed_hash(name), request, response)

@@ -33,6 +33,8 @@ from pyconnect.codecs.registry import Registry, default_registry
 from pyconnect.errors import ConnectionTimeout, PyconnectError, TransportError
 from pyconnect.ros.shutdown import ShutdownHooks, ShutsDownOnExit
 from pyconnect.transport import rmw_zenoh_keys as keys
+from pyconnect.transport.action_client import ActionClientAgent
+from pyconnect.transport.action_server import ActionServerAgent
 from pyconnect.transport.graph import Graph
 from pyconnect.transport.peer_agent import PeerAgent, TimerAgent, logger
 from pyconnect.transport.service_agents import ServiceClientAgent, ServiceServerAgent
@@ -47,6 +49,8 @@ PEER_AGENT_CLASSES: dict[str, type[PeerAgent]] = {
     "service_client": ServiceClientAgent,
     "service_server": ServiceServerAgent,
     "timer": TimerAgent,
+    "action_client": ActionClientAgent,
+    "action_server": ActionServerAgent,
 }
 DEFAULT_MAX_PAYLOAD_BYTES = 256 * 1024 * 1024
 

@@ -1,0 +1,330 @@
+"""A peer's ``action_client`` agent: ``send(goal)`` returns the decoded result, ``cancel()``.
+
+The same contract as ``CustomNode``'s action client (pyconnect.ros.action_client_agent):
+``send(goal, timeout=None, feedback_func=None, block=True)`` blocks until the result and returns
+it through ``reform_response`` (a dict result gets ``'isdone': True``); a rejected, canceled or
+aborted goal, a missing or vanished server or a timeout give ``{'isdone': False, 'error': ...}``
+(plus the result's fields when it is a dict). A timeout cancels the goal. ``block=False``
+returns a ``concurrent.futures.Future``. ``accepted_func(accepted)``, ``feedback_func(value)``
+and ``response_func(value)`` are called as there; the latest feedback is ``last_feedback``.
+
+The protocol is rcl_action's (action_wire): a ``send_goal`` call with a fresh goal id, then a
+``get_result`` call that the server answers when the goal ends; feedback arrives on the
+feedback topic, tagged with the goal id.
+"""
+
+from __future__ import annotations
+
+import collections
+import concurrent.futures
+import threading
+import time
+import uuid
+from typing import Any
+
+from pyconnect.transport import action_wire as aw
+from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
+from pyconnect.transport.endpoints import Caller, CallFailed, Reader
+from pyconnect.transport.interface_types import action_interface, message_interface
+from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc, reform_response
+
+CANCEL_CALL_SECONDS = 10.0
+REASON_WAIT_SECONDS = 2.0
+_KEPT_REASONS = 256
+_KEPT_FINISHED = 64
+
+
+class _GoalInFlight:
+    """A sent goal: its id, its feedback function, and whether a cancel was asked."""
+
+    def __init__(self, goal_id: bytes, feedback_func: ResponseFunc | None) -> None:
+        self.goal_id = goal_id
+        self.feedback_func = feedback_func
+        self.accepted = False
+        self.cancel_asked = False
+
+
+class ActionClientAgent(PeerAgent):
+    """Sends goals to the action ``conn_name``."""
+
+    conn_type = "action_client"
+
+    def __init__(
+        self,
+        peer: Peer,
+        *,
+        conn_name: str,
+        agent_name: str | None = None,
+        data_interface: object,
+        encode_func: EncodeFunc | None = None,
+        decode_func: DecodeFunc | None = None,
+        response_func: ResponseFunc | None = None,
+        accepted_func: ResponseFunc | None = None,
+        feedback_func: ResponseFunc | None = None,
+        timeout: float | None = None,
+    ) -> None:
+        interface = action_interface(data_interface)
+        super().__init__(
+            peer,
+            conn_name=conn_name,
+            agent_name=agent_name,
+            type_name=interface.type_name,
+            response_func=response_func,
+        )
+        self.interface = interface
+        self.timeout = timeout
+        self.accepted_func = accepted_func
+        self.feedback_func = feedback_func
+        self.goal_conversion = WireConversion(
+            describe=self.describe,
+            codec=interface.goal,
+            registry=peer.registry,
+            encode_func=encode_func,
+        )
+        self.result_conversion = WireConversion(
+            describe=self.describe,
+            codec=interface.result,
+            registry=peer.registry,
+            decode_func=decode_func,
+        )
+        self.feedback_conversion = WireConversion(
+            describe=self.describe, codec=interface.feedback, registry=peer.registry
+        )
+        self.last_feedback: Any = None
+        self.last_status: dict[bytes, int] = {}
+        """The latest status the server published for each goal id it lists."""
+        self._in_flight: dict[bytes, _GoalInFlight] = {}
+        # Feedback travels apart from the result and may arrive after it: recently finished
+        # goals still get theirs.
+        self._finished: collections.OrderedDict[bytes, _GoalInFlight] = collections.OrderedDict()
+        self._reasons: dict[str, str] = {}
+        self._reason_arrived = threading.Condition(threading.Lock())
+        self._lock = threading.Lock()
+        reasons = message_interface(aw.ABORT_REASON_TYPE)
+        self._reason_codec = reasons.codec
+        name = self.topic
+        self._send_goal = Caller(peer, aw.part_name(name, aw.SEND_GOAL), interface.send_goal)
+        self._cancel_goal = Caller(peer, aw.part_name(name, aw.CANCEL_GOAL), interface.cancel_goal)
+        self._get_result = Caller(peer, aw.part_name(name, aw.GET_RESULT), interface.get_result)
+        thread = f"action-{self.name}"
+        self._readers = [
+            Reader(peer, aw.part_name(name, aw.FEEDBACK), interface.feedback_message,
+                   self._on_feedback, thread_name=f"{thread}-feedback"),
+            Reader(peer, aw.part_name(name, aw.STATUS), interface.status, self._on_status,
+                   depth=1, durability="transient_local", thread_name=f"{thread}-status"),
+            Reader(peer, aw.part_name(name, aw.ABORT_REASON), reasons, self._on_reason, depth=32,
+                   durability="transient_local", thread_name=f"{thread}-reason"),
+        ]  # fmt: skip
+
+    # -- connection ----------------------------------------------------------------------------
+    def _server_ready(self) -> bool:
+        return all(c.server_count > 0 for c in (self._send_goal, self._get_result))
+
+    def is_connected(self) -> bool:
+        return self._server_ready()
+
+    def waiting_for(self) -> str:
+        return "no action server now"
+
+    # -- sending -------------------------------------------------------------------------------
+    def get(self, data: Any = None, show_info: bool = False) -> Any:  # type: ignore[override]
+        """The latest result (what the last ``send`` returned); None before any."""
+        return super().get(show_info)
+
+    def send(
+        self,
+        data: Any = None,
+        *,
+        timeout: float | None = None,
+        feedback_func: ResponseFunc | None = None,
+        block: bool = True,
+    ) -> Any:
+        """Send a goal; the decoded result (or a future of it) through ``reform_response``."""
+        timeout = self.timeout if timeout is None else timeout
+        feedback_func = self.feedback_func if feedback_func is None else feedback_func
+        goal = aw.nested(self.interface.goal, self.goal_conversion.encode(data))
+        if block:
+            return self._respond(self._run_goal(goal, feedback_func, timeout))
+        result: concurrent.futures.Future[Any] = concurrent.futures.Future()
+
+        def run() -> None:
+            try:
+                result.set_result(self._respond(self._run_goal(goal, feedback_func, timeout)))
+            except Exception as error:
+                self.report_exception("send", error)
+                result.set_exception(error)
+
+        threading.Thread(target=run, name=f"pyconnect-{self.name}-goal", daemon=True).start()
+        return result
+
+    def _respond(self, value: Any) -> Any:
+        self._latest = value
+        if self.response_func is not None:
+            try:
+                self.response_func(value)
+            except Exception as error:
+                self.report_exception("response_func", error)
+        return value
+
+    def _run_goal(
+        self, goal: dict[str, Any], feedback_func: ResponseFunc | None, timeout: float | None
+    ) -> Any:
+        deadline = None if timeout is None else time.monotonic() + timeout
+        if not self.peer.wait_for_graph(self._server_ready, deadline):
+            return self._failed(f"no action server for {self.conn_name} within {timeout} s")
+        in_flight = _GoalInFlight(uuid.uuid4().bytes, feedback_func)
+        with self._lock:
+            self._in_flight[in_flight.goal_id] = in_flight
+        try:
+            return self._goal_outcome(in_flight, goal, deadline, timeout)
+        finally:
+            with self._lock:
+                self._in_flight.pop(in_flight.goal_id, None)
+                self._finished[in_flight.goal_id] = in_flight
+                while len(self._finished) > _KEPT_FINISHED:
+                    self._finished.popitem(last=False)
+
+    def _goal_outcome(
+        self,
+        in_flight: _GoalInFlight,
+        goal: dict[str, Any],
+        deadline: float | None,
+        timeout: float | None,
+    ) -> Any:
+        goal_id = {"uuid": in_flight.goal_id}
+        codecs = self.interface
+        request = codecs.send_goal.request.from_dict({"goal_id": goal_id, "goal": goal})
+        try:
+            answer = codecs.send_goal.response.to_dict(self._send_goal.call(request, deadline))
+        except CallFailed as failure:
+            return self._failed(self._call_failure(failure, timeout))
+        accepted = bool(answer["accepted"])
+        if self.accepted_func is not None:
+            try:
+                self.accepted_func(accepted)
+            except Exception as error:
+                self.report_exception("accepted_func", error)
+        if not accepted:
+            return self._failed("goal rejected by the server")
+        with self._lock:
+            in_flight.accepted = True
+            cancel = in_flight.cancel_asked
+        if cancel:
+            self._request_cancel(in_flight.goal_id)
+        request = codecs.get_result.request.from_dict({"goal_id": goal_id})
+        try:
+            response = self._get_result.call(request, deadline)
+        except CallFailed as failure:
+            if deadline is not None and time.monotonic() >= deadline:
+                self._request_cancel(in_flight.goal_id)
+                return self._failed(f"no result within {timeout} s (goal canceled)")
+            return self._failed(str(failure))
+        return self._outcome(response, in_flight.goal_id)
+
+    def _call_failure(self, failure: CallFailed, timeout: float | None) -> str:
+        text = str(failure)
+        if text.endswith("in time"):
+            return f"no response from the action server within {timeout} s"
+        return text
+
+    def _outcome(self, response: bytes, goal_id: bytes) -> Any:
+        fields = self.interface.get_result.response.to_dict(response)
+        status = int(fields["status"])
+        result_cdr = self.interface.result.from_dict(fields["result"])
+        if status == aw.SUCCEEDED:
+            return reform_response(self.result_conversion.decode(result_cdr))
+        try:
+            partial = self.result_conversion.decode(result_cdr)
+        except Exception:
+            partial = None
+        if status == aw.CANCELED:
+            return self._failed("goal canceled", partial)
+        if status == aw.ABORTED:
+            text = aw.error_text(fields["result"]) or self._wait_for_reason(goal_id.hex())
+            reason = f"goal aborted by the server: {text}" if text else "goal aborted by the server"
+            return self._failed(reason, partial)
+        return self._failed(f"goal ended with status {status}", partial)
+
+    def _failed(self, text: str, partial: Any = None) -> Any:
+        return reform_response(partial, error=f"{self.describe}: {text}")
+
+    # -- canceling -----------------------------------------------------------------------------
+    def cancel(self) -> int:
+        """Cancel every goal of this agent in flight (accepted or not yet); how many."""
+        with self._lock:
+            goals = list(self._in_flight.values())
+            for goal in goals:
+                goal.cancel_asked = True
+            accepted = [goal.goal_id for goal in goals if goal.accepted]
+        for goal_id in accepted:
+            self._request_cancel(goal_id)
+        return len(goals)
+
+    def _request_cancel(self, goal_id: bytes) -> None:
+        request = self.interface.cancel_goal.request.from_dict(
+            {"goal_info": {"goal_id": {"uuid": goal_id}}}
+        )
+        try:
+            self._cancel_goal.call(request, time.monotonic() + CANCEL_CALL_SECONDS)
+        except CallFailed as failure:
+            self.last_error = f"{self.describe}: cancel failed: {failure}"
+
+    # -- topics --------------------------------------------------------------------------------
+    def _on_feedback(self, payload: bytes) -> None:
+        try:
+            fields = self.interface.feedback_message.codec.to_dict(payload)
+            with self._lock:
+                goal_id = bytes(fields["goal_id"]["uuid"])
+                in_flight = self._in_flight.get(goal_id) or self._finished.get(goal_id)
+            if in_flight is None:
+                return  # another client's goal
+            feedback = self.interface.feedback.from_dict(fields["feedback"])
+            value = self.feedback_conversion.decode(feedback)
+        except Exception as error:
+            self.report_exception("feedback decode", error)
+            return
+        self.last_feedback = value
+        if in_flight.feedback_func is not None:
+            try:
+                in_flight.feedback_func(value)
+            except Exception as error:
+                self.report_exception("feedback_func", error)
+
+    def _on_status(self, payload: bytes) -> None:
+        try:
+            fields = self.interface.status.codec.to_dict(payload)
+        except Exception as error:
+            self.report_exception("status decode", error)
+            return
+        self.last_status = {
+            bytes(item["goal_info"]["goal_id"]["uuid"]): int(item["status"])
+            for item in fields["status_list"]
+        }
+
+    def _on_reason(self, payload: bytes) -> None:
+        try:
+            fields = self._reason_codec.to_dict(payload)
+        except Exception as error:
+            self.report_exception("abort reason decode", error)
+            return
+        with self._reason_arrived:
+            self._reasons[str(fields["key"])] = str(fields["value"])
+            while len(self._reasons) > _KEPT_REASONS:
+                del self._reasons[next(iter(self._reasons))]
+            self._reason_arrived.notify_all()
+
+    def _wait_for_reason(self, key: str) -> str:
+        deadline = time.monotonic() + REASON_WAIT_SECONDS
+        with self._reason_arrived:
+            while key not in self._reasons:
+                remaining = deadline - time.monotonic()
+                if remaining <= 0:
+                    return ""
+                self._reason_arrived.wait(remaining)
+            return self._reasons.pop(key)
+
+    def close(self) -> None:
+        for caller in (self._send_goal, self._cancel_goal, self._get_result):
+            caller.close()
+        for reader in self._readers:
+            reader.close()

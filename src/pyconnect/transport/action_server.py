@@ -1,0 +1,394 @@
+"""A peer's ``action_server`` agent: ``response_func(goal) -> result`` on rcl_action's wire.
+
+The same contract as ``CustomNode``'s action server (pyconnect.ros.action_server_agent):
+feedback either from a *generator* ``response_func`` (each yield is published; its ``return``
+value is the result; a cancel is honoured between yields) or through a second positional
+parameter ``publish_feedback`` (callable from any thread; ``publish_feedback.cancel_requested``).
+``async def`` functions and generators run on an event loop of the goal's own thread. Every
+goal is accepted and runs on its own thread. A handler that raises aborts the goal with
+``"<Exception>: <text>"`` in the result's first text field (``message``, ``error``...) and on
+the abort-reason topic (action_wire).
+
+Finished goals stay in the status list ``result_timeout`` seconds and answer late
+``get_result`` requests ``result_cache_seconds`` seconds, as CustomNode's server does.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import inspect
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+from pyconnect.errors import PyconnectError
+from pyconnect.transport import action_wire as aw
+from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
+from pyconnect.transport.endpoints import Request, Server, Writer
+from pyconnect.transport.interface_types import action_interface, message_interface
+from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc
+
+DEFAULT_RESULT_TIMEOUT = 0.05
+DEFAULT_RESULT_CACHE_SECONDS = 60.0
+
+
+class _Goal:
+    """One accepted goal: its state, its result once there, and who waits for it."""
+
+    def __init__(self, goal_id: bytes, stamp: dict[str, int]) -> None:
+        self.goal_id = goal_id
+        self.stamp = stamp
+        self.status = aw.ACCEPTED
+        self.cancel_requested = threading.Event()
+        self.response: bytes | None = None  # the GetResult response, once finished
+        self.finished_at = 0.0
+        self.waiting: list[Request] = []
+
+
+class ActionServerAgent(PeerAgent):
+    """Executes goals sent to the action ``conn_name`` with ``response_func``."""
+
+    conn_type = "action_server"
+
+    def __init__(
+        self,
+        peer: Peer,
+        *,
+        conn_name: str,
+        agent_name: str | None = None,
+        data_interface: object,
+        encode_func: EncodeFunc | None = None,
+        decode_func: DecodeFunc | None = None,
+        response_func: ResponseFunc | None = None,
+        result_timeout: float = DEFAULT_RESULT_TIMEOUT,
+        result_cache_seconds: float = DEFAULT_RESULT_CACHE_SECONDS,
+    ) -> None:
+        interface = action_interface(data_interface)
+        super().__init__(
+            peer,
+            conn_name=conn_name,
+            agent_name=agent_name,
+            type_name=interface.type_name,
+            response_func=response_func,
+        )
+        if response_func is None:
+            raise self.error("an 'action_server' agent needs a response_func")
+        self._handler: ResponseFunc = response_func
+        self._wants_feedback_publisher = _positional_count(response_func) >= 2
+        self.interface = interface
+        self.result_timeout = result_timeout
+        self.result_cache_seconds = result_cache_seconds
+        self.goal_conversion = WireConversion(
+            describe=self.describe,
+            codec=interface.goal,
+            registry=peer.registry,
+            decode_func=decode_func,
+        )
+        self.result_conversion = WireConversion(
+            describe=self.describe,
+            codec=interface.result,
+            registry=peer.registry,
+            encode_func=encode_func,
+        )
+        self.feedback_conversion = WireConversion(
+            describe=self.describe, codec=interface.feedback, registry=peer.registry
+        )
+        self.goal_count = 0
+        self._goals: dict[bytes, _Goal] = {}
+        self._lock = threading.Lock()
+        self._closed = False
+        name = self.topic
+        self._feedback = Writer(peer, aw.part_name(name, aw.FEEDBACK), interface.feedback_message)
+        self._status = Writer(
+            peer,
+            aw.part_name(name, aw.STATUS),
+            interface.status,
+            depth=1,
+            durability="transient_local",
+        )
+        self._abort_reasons = Writer(
+            peer,
+            aw.part_name(name, aw.ABORT_REASON),
+            message_interface(aw.ABORT_REASON_TYPE),
+            depth=32,
+            durability="transient_local",
+        )
+        thread = f"action-{self.name}"
+        self._servers = [
+            Server(peer, aw.part_name(name, aw.SEND_GOAL), interface.send_goal, self._on_goal,
+                   thread_name=f"{thread}-goal"),
+            Server(peer, aw.part_name(name, aw.CANCEL_GOAL), interface.cancel_goal,
+                   self._on_cancel, thread_name=f"{thread}-cancel"),
+            Server(peer, aw.part_name(name, aw.GET_RESULT), interface.get_result,
+                   self._on_result_request, thread_name=f"{thread}-result"),
+        ]  # fmt: skip
+
+    # -- requests ------------------------------------------------------------------------------
+    def _on_goal(self, request: Request) -> None:
+        codecs = self.interface.send_goal
+        try:
+            fields = codecs.request.to_dict(request.payload)
+        except Exception as error:
+            self.report_exception("decode", error)
+            request.reply(codecs.response.from_dict({"accepted": False, "stamp": aw.stamp_now()}))
+            return
+        goal_id = bytes(fields["goal_id"]["uuid"])
+        stamp = aw.stamp_now()
+        with self._lock:
+            accepted = not self._closed and goal_id not in self._goals
+            if accepted:
+                goal = self._goals[goal_id] = _Goal(goal_id, stamp)
+        request.reply(codecs.response.from_dict({"accepted": accepted, "stamp": stamp}))
+        if not accepted:
+            return
+        self.goal_count += 1
+        self._publish_status()
+        goal_cdr = self.interface.goal.from_dict(fields["goal"])
+        threading.Thread(
+            target=self._execute, args=(goal, goal_cdr), name=f"pyconnect-goal-{self.name}",
+            daemon=True,
+        ).start()  # fmt: skip
+
+    def _on_result_request(self, request: Request) -> None:
+        codecs = self.interface.get_result
+        try:
+            goal_id = bytes(codecs.request.to_dict(request.payload)["goal_id"]["uuid"])
+        except Exception as error:
+            self.report_exception("decode", error)
+            goal_id = b""
+        with self._lock:
+            self._forget_expired()
+            goal = self._goals.get(goal_id)
+            if goal is not None and goal.response is None:
+                goal.waiting.append(request)  # answered when the goal ends
+                return
+        if goal is not None and goal.response is not None:
+            request.reply(goal.response)
+        else:  # rcl_action answers an unknown goal with status UNKNOWN and a default result
+            request.reply(codecs.response.from_dict({"status": aw.UNKNOWN}))
+
+    def _on_cancel(self, request: Request) -> None:
+        codecs = self.interface.cancel_goal
+        try:
+            info = codecs.request.to_dict(request.payload)["goal_info"]
+        except Exception as error:
+            self.report_exception("decode", error)
+            request.reply(codecs.response.from_dict({"return_code": aw.CANCEL_REJECTED}))
+            return
+        goal_id, before = bytes(info["goal_id"]["uuid"]), aw.stamp_ns(info["stamp"])
+        any_goal = goal_id == bytes(len(goal_id))
+        canceling: list[dict[str, Any]] = []
+        with self._lock:
+            known = goal_id in self._goals
+            for goal in self._goals.values():
+                # rcl_action_process_cancel_request: this goal, and every goal accepted at or
+                # before a nonzero stamp; a zero id and a zero stamp mean all goals.
+                chosen = goal.goal_id == goal_id or (
+                    (before != 0 and aw.stamp_ns(goal.stamp) <= before)
+                    or (any_goal and before == 0)
+                )
+                if chosen and goal.status in aw.ACTIVE:
+                    goal.status = aw.CANCELING
+                    goal.cancel_requested.set()
+                    canceling.append({"goal_id": {"uuid": goal.goal_id}, "stamp": goal.stamp})
+        if canceling:
+            code = aw.CANCEL_NONE
+        elif not any_goal and not known:
+            code = aw.CANCEL_UNKNOWN_GOAL
+        elif not any_goal:
+            code = aw.CANCEL_TERMINATED
+        else:
+            code = aw.CANCEL_REJECTED
+        request.reply(
+            codecs.response.from_dict({"return_code": code, "goals_canceling": canceling})
+        )
+        if canceling:
+            self._publish_status()
+
+    # -- executing a goal ----------------------------------------------------------------------
+    def _execute(self, goal: _Goal, goal_cdr: bytes) -> None:
+        with self._lock:
+            if goal.status == aw.ACCEPTED:
+                goal.status = aw.EXECUTING
+        self._publish_status()
+        where = "decode"
+        try:
+            value = self.goal_conversion.decode(goal_cdr)
+            self._latest = value
+            where = "response_func"
+            publisher = FeedbackPublisher(self, goal)
+            try:
+                if self._wants_feedback_publisher:
+                    outcome = _run(self._handler, value, publisher)
+                else:
+                    outcome = _run(self._handler, value)
+                if inspect.isgenerator(outcome) or inspect.isasyncgen(outcome):
+                    finished, outcome = _drive(outcome, goal, publisher)
+                    if not finished:
+                        self._finish(goal, aw.CANCELED, {})
+                        return
+            finally:
+                publisher.close()
+            where = "encode"
+            result = {} if outcome is None else self._result_dict(outcome)
+            status = aw.CANCELED if goal.cancel_requested.is_set() else aw.SUCCEEDED
+            self._finish(goal, status, result)
+        except Exception as error:
+            self.report_exception(where, error)
+            text = f"{type(error).__name__}: {error}"
+            # Published before the result is, so a client finds it when the abort arrives.
+            reason = {"key": goal.goal_id.hex(), "value": text}
+            self._abort_reasons.put(self._abort_reasons.codec.from_dict(reason))
+            self._finish(goal, aw.ABORTED, aw.error_result(self.interface.result, text))
+
+    def _result_dict(self, outcome: Any) -> dict[str, Any]:
+        return aw.nested(self.interface.result, self.result_conversion.encode(outcome))
+
+    def publish_feedback(self, goal: _Goal, value: Any) -> None:
+        feedback = aw.nested(self.interface.feedback, self.feedback_conversion.encode(value))
+        message = {"goal_id": {"uuid": goal.goal_id}, "feedback": feedback}
+        self._feedback.put(self.interface.feedback_message.codec.from_dict(message))
+
+    def _finish(self, goal: _Goal, status: int, result: dict[str, Any]) -> None:
+        response = self.interface.get_result.response.from_dict(
+            {"status": status, "result": result}
+        )
+        with self._lock:
+            goal.status = status
+            goal.response = response
+            goal.finished_at = time.monotonic()
+            waiting, goal.waiting = goal.waiting, []
+        self._publish_status(finished=goal)
+        for request in waiting:
+            try:
+                request.reply(response)
+            except Exception as error:
+                self.report_exception("reply", error)
+
+    def _publish_status(self, *, finished: _Goal | None = None) -> None:
+        """Publish every goal still listed (``finished``: the goal that just ended, listed
+        however long the way here took)."""
+        with self._lock:
+            self._forget_expired()
+            now = time.monotonic()
+            listed = [
+                {"goal_info": {"goal_id": {"uuid": g.goal_id}, "stamp": g.stamp},
+                 "status": g.status}
+                for g in self._goals.values()
+                if g.response is None
+                or g is finished
+                or now - g.finished_at <= self.result_timeout
+            ]  # fmt: skip
+            if self._closed:
+                return
+            try:
+                self._status.put(self._status.codec.from_dict({"status_list": listed}))
+            except Exception as error:
+                self.report_exception("status", error)
+
+    def _forget_expired(self) -> None:
+        now = time.monotonic()
+        for goal_id in [
+            g.goal_id
+            for g in self._goals.values()
+            if g.response is not None and now - g.finished_at > self.result_cache_seconds
+        ]:
+            del self._goals[goal_id]
+
+    def close(self) -> None:
+        with self._lock:
+            self._closed = True
+            for goal in self._goals.values():
+                goal.cancel_requested.set()
+        for server in self._servers:
+            server.close()
+        for writer in (self._feedback, self._status, self._abort_reasons):
+            writer.close()
+
+
+class FeedbackPublisher:
+    """``publish_feedback(value)``: feedback of one goal, callable from any thread."""
+
+    def __init__(self, agent: ActionServerAgent, goal: _Goal) -> None:
+        self._agent = agent
+        self._goal = goal
+        self._lock = threading.Lock()
+        self._open = True
+        self.published = 0
+        """How many feedback messages were published."""
+
+    def __call__(self, value: Any) -> None:
+        """Encode ``value`` and publish it as this goal's feedback."""
+        with self._lock:
+            if not self._open:
+                raise PyconnectError("publish_feedback: the goal has already finished")
+            self._agent.publish_feedback(self._goal, value)
+            self.published += 1
+
+    @property
+    def cancel_requested(self) -> bool:
+        """True once a client asked to cancel this goal (the task may stop early)."""
+        return self._goal.cancel_requested.is_set()
+
+    def close(self) -> None:
+        with self._lock:
+            self._open = False
+
+
+def _run(handler: Callable[..., Any], *arguments: Any) -> Any:
+    outcome = handler(*arguments)
+    if inspect.iscoroutine(outcome):
+        return asyncio.run(outcome)
+    return outcome
+
+
+def _drive(generator: Any, goal: _Goal, publish: FeedbackPublisher) -> tuple[bool, Any]:
+    """Run a generator handler: (True, result) at its end, (False, None) when canceled.
+
+    An async generator has no return value: its result is its last yield.
+    """
+    if inspect.isasyncgen(generator):
+        loop = asyncio.new_event_loop()
+        try:
+            last: Any = None
+            while not goal.cancel_requested.is_set():
+                try:
+                    last = loop.run_until_complete(generator.__anext__())
+                except StopAsyncIteration:
+                    return True, last
+                if last is not None:
+                    publish(last)
+            loop.run_until_complete(generator.aclose())
+            return False, None
+        finally:
+            loop.close()
+    while not goal.cancel_requested.is_set():
+        try:
+            feedback = next(generator)
+        except StopIteration as stop:
+            return True, stop.value
+        if feedback is not None:
+            publish(feedback)
+    generator.close()
+    return False, None
+
+
+def _positional_count(function: Callable[..., Any]) -> int:
+    """How many positional arguments ``function`` asks for (as CustomNode's server counts)."""
+    try:
+        parameters = inspect.signature(function).parameters.values()
+    except (TypeError, ValueError):
+        return 1
+    count = 0
+    for parameter in parameters:
+        if parameter.kind is inspect.Parameter.VAR_POSITIONAL:
+            return 2
+        if parameter.kind in (
+            inspect.Parameter.POSITIONAL_ONLY,
+            inspect.Parameter.POSITIONAL_OR_KEYWORD,
+        ) and (
+            parameter.default is inspect.Parameter.empty or parameter.name == "publish_feedback"
+        ):
+            count += 1
+    return count

@@ -1,0 +1,234 @@
+"""One rmw_zenoh entity each, without an agent around it: the parts an action is built of.
+
+rcl_action builds an action of three services and two topics, so a peer's action agents are
+made of the same entities its other agents use, each with its token (see rmw_zenoh_keys for
+the formats): ``Writer`` (publisher), ``Reader`` (subscription), ``Server`` (a queryable
+answering each query once, possibly later and from another thread) and ``Caller`` (a client
+sending one query per call).
+"""
+
+# zenoh's stubs leave undeclare() and close() unannotated.
+# mypy: disable-error-code="no-untyped-call"
+
+from __future__ import annotations
+
+import contextlib
+import struct
+import threading
+import time
+from collections.abc import Callable
+from typing import Any
+
+import zenoh
+
+from pyconnect.transport import rmw_zenoh_keys as keys
+from pyconnect.transport.interface_types import MessageInterface, ServiceInterface
+from pyconnect.transport.peer_agent import Inbox, Peer
+
+# A call without a timeout still ends: zenoh needs one; a day is "never" here.
+NO_TIMEOUT = 86400.0
+
+
+class Writer:
+    """A publisher of ``interface`` on ``name`` (attachment per sample, token ``MP``)."""
+
+    def __init__(
+        self,
+        peer: Peer,
+        name: str,
+        interface: MessageInterface,
+        *,
+        depth: int = 10,
+        durability: str = "volatile",
+    ) -> None:
+        self.codec = interface.codec
+        self.key = keys.data_key(peer.domain_id, name, interface.type_name, interface.type_hash)
+        self.token_key = peer.entity_token(
+            kind=keys.PUBLISHER,
+            name=name,
+            type_name=interface.type_name,
+            type_hash=interface.type_hash,
+            qos=keys.qos_chunk(depth=depth, durability=durability),
+        )
+        self.gid = keys.gid_of(self.token_key)
+        self._sequence = 0
+        self._lock = threading.Lock()
+        self._publisher = peer.session.declare_publisher(
+            self.key, reliability=zenoh.Reliability.RELIABLE
+        )
+        self._token = peer.session.liveliness().declare_token(self.token_key)
+
+    @property
+    def matched(self) -> bool:
+        """Whether zenoh routes this publisher's samples to any subscriber now."""
+        status: Any = self._publisher.matching_status  # a MatchingStatus (stubs say bool)
+        return bool(getattr(status, "matching", status))
+
+    def put(self, payload: bytes) -> None:
+        with self._lock:
+            self._sequence += 1
+            attachment = keys.pack_attachment(self._sequence, time.time_ns(), self.gid)
+            self._publisher.put(payload, attachment=attachment)
+
+    def close(self) -> None:
+        for entity in (self._token, self._publisher):
+            with contextlib.suppress(Exception):
+                entity.undeclare()
+
+
+class Reader:
+    """A subscription to ``name``: ``handle(payload)`` runs on one thread of its own."""
+
+    def __init__(
+        self,
+        peer: Peer,
+        name: str,
+        interface: MessageInterface,
+        handle: Callable[[bytes], None],
+        *,
+        depth: int = 10,
+        durability: str = "volatile",
+        thread_name: str = "reader",
+    ) -> None:
+        self.token_key = peer.entity_token(
+            kind=keys.SUBSCRIPTION,
+            name=name,
+            type_name=interface.type_name,
+            type_hash=interface.type_hash,
+            qos=keys.qos_chunk(depth=depth, durability=durability),
+        )
+        key = keys.data_key(peer.domain_id, name, interface.type_name, interface.type_hash)
+        self._inbox: Inbox[bytes] = Inbox(thread_name, depth, handle)
+        self._subscriber = peer.session.declare_subscriber(
+            key, lambda sample: self._inbox.put(sample.payload.to_bytes())
+        )
+        self._token = peer.session.liveliness().declare_token(self.token_key)
+
+    def close(self) -> None:
+        for entity in (self._token, self._subscriber):
+            with contextlib.suppress(Exception):
+                entity.undeclare()
+        self._inbox.close()
+
+
+class Request:
+    """A query taken by a ``Server``: its CDR payload, answered once with ``reply``."""
+
+    def __init__(self, query: zenoh.Query, key: str) -> None:
+        self._query: zenoh.Query | None = query
+        self._key = key
+        self.sequence, self.client_gid = 0, bytes(keys.GID_SIZE)
+        attachment = query.attachment
+        if attachment is not None:
+            with contextlib.suppress(struct.error):
+                self.sequence, _stamp, self.client_gid = keys.unpack_attachment(
+                    attachment.to_bytes()
+                )
+        payload = query.payload
+        self.payload = payload.to_bytes() if payload is not None else b""
+
+    def reply(self, payload: bytes) -> None:
+        """Answer (once; later calls do nothing) and release the query: the caller's get ends."""
+        query, self._query = self._query, None
+        if query is None:
+            return
+        attachment = keys.pack_attachment(self.sequence, time.time_ns(), self.client_gid)
+        try:
+            query.reply(self._key, payload, attachment=attachment)
+        finally:
+            query.drop()
+
+
+class Server:
+    """A service ``name``: ``handle(request)`` runs on one thread and calls ``request.reply``."""
+
+    def __init__(
+        self,
+        peer: Peer,
+        name: str,
+        interface: ServiceInterface,
+        handle: Callable[[Request], None],
+        *,
+        depth: int = 10,
+        thread_name: str = "server",
+    ) -> None:
+        self.key = keys.data_key(peer.domain_id, name, interface.type_name, interface.type_hash)
+        self.token_key = peer.entity_token(
+            kind=keys.SERVICE,
+            name=name,
+            type_name=interface.type_name,
+            type_hash=interface.type_hash,
+            qos=keys.qos_chunk(depth=depth),
+        )
+        self._inbox: Inbox[Request] = Inbox(thread_name, depth, handle)
+        self._queryable = peer.session.declare_queryable(
+            self.key, lambda query: self._inbox.put(Request(query, self.key)), complete=True
+        )
+        self._token = peer.session.liveliness().declare_token(self.token_key)
+
+    def close(self) -> None:
+        for entity in (self._token, self._queryable):
+            with contextlib.suppress(Exception):
+                entity.undeclare()
+        self._inbox.close()
+
+
+class CallFailed(Exception):
+    """A call got no response: the text says why (no server, vanished, timeout, error)."""
+
+
+class Caller:
+    """A client of the service ``name``: ``call(payload, timeout)`` returns the response bytes."""
+
+    def __init__(self, peer: Peer, name: str, interface: ServiceInterface) -> None:
+        self._peer = peer
+        self.name = name
+        self.key = keys.data_key(peer.domain_id, name, interface.type_name, interface.type_hash)
+        self.token_key = peer.entity_token(
+            kind=keys.CLIENT,
+            name=name,
+            type_name=interface.type_name,
+            type_hash=interface.type_hash,
+            qos=keys.qos_chunk(),
+        )
+        self.gid = keys.gid_of(self.token_key)
+        self._sequence = 0
+        self._lock = threading.Lock()
+        self._token = peer.session.liveliness().declare_token(self.token_key)
+
+    @property
+    def server_count(self) -> int:
+        return self._peer.graph.count(kind=keys.SERVICE, name=self.name)
+
+    def call(self, payload: bytes, deadline: float | None) -> bytes:
+        """The response's CDR bytes; ``CallFailed`` when none comes by ``deadline``."""
+        with self._lock:
+            self._sequence += 1
+            sequence = self._sequence
+        attachment = keys.pack_attachment(sequence, time.time_ns(), self.gid)
+        remaining = NO_TIMEOUT if deadline is None else max(0.001, deadline - time.monotonic())
+        replies: Any = self._peer.session.get(
+            self.key,
+            target=zenoh.QueryTarget.ALL_COMPLETE,
+            consolidation=zenoh.ConsolidationMode.NONE,
+            timeout=remaining,
+            payload=payload,
+            attachment=attachment,
+        )
+        errors: list[str] = []
+        for reply in replies:
+            if reply.ok is None:
+                err = reply.err
+                errors.append(err.payload.to_string() if err is not None else "unknown error")
+                continue
+            response: bytes = reply.ok.payload.to_bytes()
+            return response
+        if errors:
+            raise CallFailed(f"the server of {self.name} failed: {'; '.join(errors)}")
+        if self.server_count == 0:
+            raise CallFailed(f"the server of {self.name} vanished before it replied")
+        raise CallFailed(f"no response from {self.name} in time")
+
+    def close(self) -> None:
+        with contextlib.suppress(Exception):
+            self._token.undeclare()

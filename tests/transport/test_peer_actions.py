@@ -1,0 +1,165 @@
+"""A peer's action agents: CustomNode's contract between two peers, on rcl_action's wire."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+
+from tests.transport.conftest import PeerFactory
+
+TIMEOUT = 30.0
+FIBONACCI = "test_msgs/action/Fibonacci"
+
+
+def fibonacci(goal: dict[str, Any], publish_feedback: Any) -> dict[str, Any]:
+    sequence = [0, 1]
+    for _ in range(goal["order"]):
+        sequence.append(sequence[-1] + sequence[-2])
+        publish_feedback({"sequence": sequence})
+    return {"sequence": sequence}
+
+
+def pair(make_peer: PeerFactory, handler: Any, **client_options: Any) -> Any:
+    server_peer, client_peer = make_peer("robot"), make_peer("laptop")
+    server = server_peer.add_agent(
+        conn_name="fib", conn_type="action_server", data_interface=FIBONACCI,
+        response_func=handler,
+    )  # fmt: skip
+    client = client_peer.add_agent(
+        conn_name="fib", conn_type="action_client", data_interface=FIBONACCI, **client_options
+    )
+    client_peer.wait_until_connected(timeout=TIMEOUT)
+    return server, client
+
+
+def test_goal_feedback_and_result(make_peer: PeerFactory) -> None:
+    feedback: list[Any] = []
+    accepted: list[bool] = []
+    results: list[Any] = []
+    server, client = pair(
+        make_peer, fibonacci, feedback_func=feedback.append, accepted_func=accepted.append,
+        response_func=results.append,
+    )  # fmt: skip
+    result = client.send({"order": 4}, timeout=TIMEOUT)
+    assert result == {"sequence": [0, 1, 1, 2, 3, 5], "isdone": True}
+    assert accepted == [True]
+    assert results == [result]
+    assert client.get() == result
+    # Feedback is published before the result, on another topic: wait for the last one.
+    deadline = time.monotonic() + TIMEOUT
+    while len(feedback) < 4 and time.monotonic() < deadline:
+        time.sleep(0.01)
+    assert feedback[-1] == {"sequence": [0, 1, 1, 2, 3, 5]}
+    assert client.last_feedback == feedback[-1]
+    assert server.goal_count == 1
+    assert server.get() == {"order": 4}
+
+
+def test_a_generator_handler_publishes_its_yields(make_peer: PeerFactory) -> None:
+    def count(goal: dict[str, Any]) -> Iterator[dict[str, Any]]:
+        for i in range(goal["order"]):
+            yield {"sequence": [i]}
+        return {"sequence": [goal["order"]]}
+
+    feedback: list[Any] = []
+    _server, client = pair(make_peer, count)
+    future = client.send({"order": 3}, timeout=TIMEOUT, feedback_func=feedback.append, block=False)
+    assert future.result(TIMEOUT) == {"sequence": [3], "isdone": True}
+
+
+def test_a_raising_handler_aborts_with_its_text(make_peer: PeerFactory) -> None:
+    def refuse(goal: dict[str, Any]) -> Any:
+        raise ValueError(f"order {goal['order']} is too high")
+
+    server, client = pair(make_peer, refuse)
+    assert client.send({"order": 99}, timeout=TIMEOUT) == {
+        "sequence": [],
+        "isdone": False,
+        "error": "agent 'fib' (action_client test_msgs/action/Fibonacci): goal aborted by the "
+        "server: ValueError: order 99 is too high",
+    }
+    assert server.error_count == 1
+    assert server.last_error == (
+        "agent 'fib' (action_server test_msgs/action/Fibonacci): response_func raised "
+        "ValueError: order 99 is too high"
+    )
+
+
+def test_cancel_stops_a_generator_between_yields(make_peer: PeerFactory) -> None:
+    started, closed = threading.Event(), threading.Event()
+
+    def forever(goal: dict[str, Any]) -> Iterator[dict[str, Any]]:
+        try:
+            while True:
+                started.set()
+                yield {"sequence": [1]}
+                time.sleep(0.01)
+        finally:
+            closed.set()
+
+    _server, client = pair(make_peer, forever)
+    future = client.send({"order": 1}, timeout=TIMEOUT, block=False)
+    assert started.wait(TIMEOUT)
+    deadline = time.monotonic() + TIMEOUT
+    while client.cancel() == 0 and time.monotonic() < deadline:
+        time.sleep(0.01)  # the goal is registered just after send() returned its future
+    assert future.result(TIMEOUT) == {
+        "sequence": [],
+        "isdone": False,
+        "error": "agent 'fib' (action_client test_msgs/action/Fibonacci): goal canceled",
+    }
+    assert closed.wait(TIMEOUT)
+
+
+def test_a_timeout_cancels_the_goal(make_peer: PeerFactory) -> None:
+    canceled = threading.Event()
+
+    def slow(goal: dict[str, Any], publish_feedback: Any) -> dict[str, Any]:
+        while not publish_feedback.cancel_requested:
+            time.sleep(0.01)
+        canceled.set()
+        return {"sequence": [7]}
+
+    _server, client = pair(make_peer, slow)
+    result = client.send({"order": 1}, timeout=0.5)
+    assert result == {
+        "isdone": False,
+        "error": "agent 'fib' (action_client test_msgs/action/Fibonacci): no result within "
+        "0.5 s (goal canceled)",
+    }
+    assert canceled.wait(TIMEOUT)
+
+
+def test_no_server_fails_like_custom_node(make_peer: PeerFactory) -> None:
+    peer = make_peer("alone")
+    client = peer.add_agent(conn_name="nobody", conn_type="action_client", data_interface=FIBONACCI)
+    assert client.send({"order": 1}, timeout=0.2) == {
+        "isdone": False,
+        "error": "agent 'nobody' (action_client test_msgs/action/Fibonacci): no action server "
+        "for nobody within 0.2 s",
+    }
+    assert not client.is_connected()
+
+
+def test_a_server_needs_a_response_func_and_an_action_type(make_peer: PeerFactory) -> None:
+    from pyconnect.errors import PyconnectError
+
+    peer = make_peer("robot")
+    with pytest.raises(PyconnectError) as missing:
+        peer.add_agent(conn_name="fib", conn_type="action_server", data_interface=FIBONACCI)
+    assert str(missing.value) == (
+        "agent 'fib' (action_server test_msgs/action/Fibonacci): an 'action_server' agent "
+        "needs a response_func"
+    )
+    with pytest.raises(PyconnectError) as wrong:
+        peer.add_agent(
+            conn_name="x", conn_type="action_client", data_interface="std_srvs/srv/SetBool"
+        )
+    assert str(wrong.value) == (
+        "agent 'x' (action_client): std_srvs/srv/SetBool: expected a action type, got a "
+        "service type"
+    )
