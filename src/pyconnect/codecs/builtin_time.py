@@ -13,7 +13,7 @@ from __future__ import annotations
 import numbers
 from typing import Any, ClassVar, NamedTuple, TypeVar
 
-from pyconnect.codecs.checks import check_int, check_sequence
+from pyconnect.codecs.field_checks import check_kind_int, check_tuple
 
 __all__ = ["DurationCodec", "RosDuration", "RosTime", "TimeCodec"]
 
@@ -54,10 +54,10 @@ def time_fields(value: Any, path: str) -> dict[str, int]:
     if isinstance(value, numbers.Integral) and not isinstance(value, bool):
         sec, nanosec = divmod(int(value), 1_000_000_000)
     else:
-        sec, nanosec = check_sequence(value, 2, path, "(sec, nanosec) or int nanoseconds")
+        sec, nanosec = check_tuple(value, 2, "(sec, nanosec) or int nanoseconds", path)
     return {
-        "sec": check_int(sec, "int32", f"{path}.sec"),
-        "nanosec": check_int(nanosec, "uint32", f"{path}.nanosec"),
+        "sec": check_kind_int(sec, "int32", f"{path}.sec"),
+        "nanosec": check_kind_int(nanosec, "uint32", f"{path}.nanosec"),
     }
 
 

@@ -29,6 +29,7 @@ from pyconnect.codecs.field_checks import (
     describe,
     numeric_array,
     numeric_sequence,
+    plain_numbers,
     uint8_array,
     uint8_sequence,
 )
@@ -206,10 +207,13 @@ def encode_array(
             converted = uint8_sequence(value, size, "")
         return converted, len(converted)
     if value.__class__ is list or value.__class__ is tuple:
-        # struct checks every element's type and range; anything it rejects is checked again
-        # below, which names the bad element.
+        # struct checks every element's type and range but takes bools as numbers: lists of
+        # anything but plain ints (and floats, for float kinds), and whatever struct rejects, are
+        # checked again below, which names the bad element.
         count = len(value)
-        if size is None or (count == size if fixed else count <= size):
+        if (size is None or (count == size if fixed else count <= size)) and plain_numbers(
+            value, kind
+        ):
             with contextlib.suppress(struct.error, OverflowError, TypeError):
                 return struct.pack(
                     f"{_ORDER[dtype.byteorder]}{count}{STRUCT_CODES[kind]}", *value

@@ -1,13 +1,17 @@
-"""Checks and conversions the generated ``from_dict`` code calls when its fast path does not fit.
+"""The one validation module: checks and conversions of values on their way into a message.
 
-Generated code tests the common case inline (``type(v) is float``) and calls these only for
-anything else: numpy scalars and arrays are converted, everything wrong raises ``FieldError``
-with the field path, the expected and the actual type.
+Generated code (dict and wire encoders) tests the common case inline (``type(v) is float``) and
+calls these only for anything else; natural codecs call them for every value they take. Numpy
+scalars and arrays are converted; anything wrong raises ``FieldError`` (an ``EncodeError``)
+naming the field path, the expected and the actual type: generated code passes the field's
+segment (``.data``) and adds the rest of the path as the error passes up, natural codecs pass the
+whole path (``Twist.linear.x``). Bools are refused wherever numbers go, and numbers where bools go.
 """
 
 from __future__ import annotations
 
 import math
+import numbers
 from array import array
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NoReturn
@@ -20,6 +24,11 @@ from pyconnect.typesys.primitives import FLOAT32_MAX, INTEGER_NAMES, INTEGER_RAN
 # rosidl stores `byte` fields as one-byte `bytes`; dicts carry them as ints 0..255.
 BYTE_VALUES = tuple(bytes((i,)) for i in range(256))
 _NUMERIC = (int, float, np.integer, np.floating)
+_REALS = (*_NUMERIC, numbers.Real)  # the exact types first: isinstance tries them in order
+# What a list may hold for the fast conversion of a numeric sequence, by element kind; anything
+# else (a bool above all: Python and array() take True as 1) goes through the element checks.
+_PLAIN_FLOATS = frozenset((float, int))
+_PLAIN_INTS = frozenset((int,))
 
 
 def describe(value: object) -> str:
@@ -57,7 +66,10 @@ def check_bool(value: object, segment: str) -> bool:
 
 
 def check_float(value: object, segment: str) -> float:
-    if isinstance(value, _NUMERIC) and not isinstance(value, bool):
+    """``value`` as a Python float: ints and numpy (or other) reals are converted, bools refused."""
+    if value.__class__ is float:
+        return value
+    if isinstance(value, _REALS) and not isinstance(value, bool):
         try:
             return float(value)
         except OverflowError:  # an int beyond float64's range
@@ -66,19 +78,36 @@ def check_float(value: object, segment: str) -> float:
 
 
 def check_float32(value: object, segment: str) -> float:
+    """Like ``check_float``, and finite values must fit a float32 (inf and NaN pass)."""
     number = check_float(value, segment)
     if math.isfinite(number) and abs(number) > FLOAT32_MAX:
         raise FieldError(segment, f"expected float32 (|x| <= {FLOAT32_MAX:.8g}), got {number!r}")
     return number
 
 
-def check_int(value: object, low: int, high: int, kind: str, segment: str) -> int:
+def check_int(
+    value: object, low: int, high: int, kind: str, segment: str, *, expected: str = ""
+) -> int:
+    """``value`` as a Python int in ``[low, high]``, the range of the ROS integer type ``kind``.
+
+    A value of the wrong type is reported as ``expected int (kind)``, or as ``expected``.
+    """
     if isinstance(value, int | np.integer) and not isinstance(value, bool):
         number = int(value)
         if low <= number <= high:
             return number
         raise FieldError(segment, f"expected {kind} in [{low}, {high}], got {number}")
-    fail(segment, f"int ({kind})", value)
+    fail(segment, expected or f"int ({kind})", value)
+
+
+def check_kind_int(value: Any, kind: str, segment: str) -> int:
+    """``check_int`` for the ROS integer type named ``kind``; the wrong type is ``expected int``."""
+    if value.__class__ is int:
+        low, high = INTEGER_RANGES[kind]
+        if low <= value <= high:
+            return value
+    low, high = INTEGER_RANGES[kind]
+    return check_int(value, low, high, kind, segment, expected="int")
 
 
 def check_octet(value: object, segment: str) -> int:
@@ -89,6 +118,7 @@ def check_octet(value: object, segment: str) -> int:
 
 
 def check_str(value: object, bound: int | None, segment: str) -> str:
+    """``value`` if it is a ``str`` of at most ``bound`` characters (``None``: unbounded)."""
     if not isinstance(value, str):
         fail(segment, "str", value)
     if bound is not None and len(value) > bound:
@@ -97,6 +127,23 @@ def check_str(value: object, bound: int | None, segment: str) -> str:
 
 
 # -- containers ----------------------------------------------------------------------------------
+def check_tuple(value: Any, length: int, expected: str, segment: str) -> tuple[Any, ...]:
+    """``value`` as a tuple of exactly ``length`` items (a tuple, list or 1-D ndarray).
+
+    ``expected`` names the shape in the error: ``Twist: expected ((x, y, z), (x, y, z)), got int``.
+    """
+    if value.__class__ is tuple and len(value) == length:
+        return value
+    if isinstance(value, Mapping | str | bytes | bytearray) or not hasattr(value, "__len__"):
+        fail(segment, expected, value)
+    items = tuple(value)
+    if len(items) != length:
+        raise FieldError(
+            segment, f"expected {expected}, got {describe(value)} of length {len(items)}"
+        )
+    return items
+
+
 def check_length(value: Any, size: int | None, fixed: bool, segment: str) -> None:
     if size is None:
         return
@@ -114,7 +161,7 @@ def _check_sequence(value: object, segment: str) -> Sequence[Any] | np.ndarray:
         return value
     if isinstance(value, str | bytes | bytearray | Mapping) or not isinstance(value, Sequence):
         if isinstance(value, array | memoryview):
-            return value  # type: ignore[return-value]
+            return value
         fail(segment, "list", value)
     return value
 
@@ -127,6 +174,19 @@ def _element_error(values: Any, check: Callable[[object, str], object], segment:
         except FieldError as error:
             raise error.within(f"[{index}]").within(segment) from None
     raise FieldError(segment, "could not convert the sequence")
+
+
+def _checked_elements(
+    values: Any, check: Callable[[object, str], object], segment: str
+) -> list[Any]:
+    """Every element through ``check`` (converting numpy scalars), naming the first bad one."""
+    checked = []
+    for index, element in enumerate(values):
+        try:
+            checked.append(check(element, ""))
+        except FieldError as error:
+            raise error.within(f"[{index}]").within(segment) from None
+    return checked
 
 
 def _scalar_check(kind: str) -> Callable[[object, str], object]:
@@ -155,6 +215,8 @@ def _to_array(
         converted = array(typecode)
         converted.frombytes(np.ascontiguousarray(cast).tobytes())
     else:
+        if not isinstance(values, array) and not plain_numbers(values, kind):
+            values = _checked_elements(values, _scalar_check(kind), segment)
         try:
             converted = array(typecode, values)
         except (TypeError, OverflowError, ValueError):
@@ -170,6 +232,11 @@ def _to_array(
 
 
 _INTEGER_KINDS = frozenset(INTEGER_NAMES)
+
+
+def plain_numbers(values: Sequence[Any], kind: str) -> bool:
+    """Whether ``values`` holds only plain ints (or floats, for a float ``kind``): no bools."""
+    return (_PLAIN_INTS if kind in _INTEGER_KINDS else _PLAIN_FLOATS).issuperset(map(type, values))
 
 
 def numeric_sequence(
@@ -239,6 +306,8 @@ def _as_byte_buffer(value: object, segment: str) -> bytes | bytearray | memoryvi
     if isinstance(value, array) and value.typecode == "B":
         return memoryview(value)
     if isinstance(value, Sequence) and not isinstance(value, str):
+        if not _PLAIN_INTS.issuperset(map(type, value)):
+            value = _checked_elements(value, _scalar_check("uint8"), segment)
         try:
             return bytes(value)
         except (TypeError, ValueError):

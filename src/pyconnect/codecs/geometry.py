@@ -20,7 +20,7 @@ import numbers
 from collections.abc import Callable
 from typing import Any
 
-from pyconnect.codecs.checks import check_float, check_float32, check_sequence
+from pyconnect.codecs.field_checks import check_float, check_float32, check_tuple
 from pyconnect.codecs.message_slots import CHECK_FIELDS, has_slot_layout, path_reader
 
 Triple = tuple[float, float, float]
@@ -87,14 +87,14 @@ def _triple(value: Any, path: str) -> Triple:
     if type(value) is tuple and len(value) == 3:
         x, y, z = value
         if type(x) is float and type(y) is float and type(z) is float:
-            return value  # type: ignore[return-value]
+            return value
     else:
-        x, y, z = check_sequence(value, 3, path, "(x, y, z)")
+        x, y, z = check_tuple(value, 3, "(x, y, z)", path)
     return (check_float(x, f"{path}.x"), check_float(y, f"{path}.y"), check_float(z, f"{path}.z"))
 
 
 def _triple32(value: Any, path: str) -> Triple:
-    x, y, z = check_sequence(value, 3, path, "(x, y, z)")
+    x, y, z = check_tuple(value, 3, "(x, y, z)", path)
     return (
         check_float32(x, f"{path}.x"),
         check_float32(y, f"{path}.y"),
@@ -103,7 +103,7 @@ def _triple32(value: Any, path: str) -> Triple:
 
 
 def _quad(value: Any, path: str) -> Quad:
-    x, y, z, w = check_sequence(value, 4, path, "(x, y, z, w)")
+    x, y, z, w = check_tuple(value, 4, "(x, y, z, w)", path)
     return (
         check_float(x, f"{path}.x"),
         check_float(y, f"{path}.y"),
@@ -227,7 +227,7 @@ class Pose2DCodec(GeometryCodec):
         return (msg.x, msg.y, msg.theta)
 
     def to_fields(self, value: Any) -> dict[str, Any]:
-        x, y, theta = check_sequence(value, 3, "Pose2D", "(x, y, theta)")
+        x, y, theta = check_tuple(value, 3, "(x, y, theta)", "Pose2D")
         return {
             "x": check_float(x, "Pose2D.x"),
             "y": check_float(y, "Pose2D.y"),
@@ -239,7 +239,7 @@ class Pose2DCodec(GeometryCodec):
 
 
 def pose_parts(value: Any, path: str, first: str, second: str) -> tuple[Triple, Quad]:
-    position, orientation = check_sequence(value, 2, path, "((x, y, z), (qx, qy, qz, qw))")
+    position, orientation = check_tuple(value, 2, "((x, y, z), (qx, qy, qz, qw))", path)
     return _triple(position, f"{path}.{first}"), _quad(orientation, f"{path}.{second}")
 
 
@@ -292,7 +292,7 @@ def _pair_of_triples(value: Any, path: str, first: str, second: str) -> tuple[Tr
     if type(value) is tuple and len(value) == 2:
         a, b = value
     else:
-        a, b = check_sequence(value, 2, path, "((x, y, z), (x, y, z)) or (v, w)")
+        a, b = check_tuple(value, 2, "((x, y, z), (x, y, z)) or (v, w)", path)
     if type(a) is tuple and type(b) is tuple:
         return _triple(a, f"{path}.{first}"), _triple(b, f"{path}.{second}")
     if isinstance(a, numbers.Real) and not hasattr(a, "__len__"):

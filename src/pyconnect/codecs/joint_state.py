@@ -13,7 +13,7 @@ import numbers
 from collections.abc import Callable, Mapping
 from typing import Any
 
-from pyconnect.codecs.checks import check_float
+from pyconnect.codecs.field_checks import check_float
 from pyconnect.codecs.message_slots import blank, field_reader, has_slot_layout, zero_header
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
 

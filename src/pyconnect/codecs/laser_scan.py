@@ -14,7 +14,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pyconnect.codecs.buffers import filled_array, numeric_view
-from pyconnect.codecs.checks import check_float32
+from pyconnect.codecs.field_checks import check_float32
 from pyconnect.errors import EncodeError, type_name_of
 
 _GEOMETRY = (

@@ -16,7 +16,7 @@ import numpy.typing as npt
 
 from pyconnect.codecs.buffers import filled_array, numeric_view
 from pyconnect.codecs.builtin_time import RosTime, time_fields
-from pyconnect.codecs.checks import check_float32
+from pyconnect.codecs.field_checks import check_float32
 from pyconnect.codecs.geometry import PoseCodec, PoseValue
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
 

@@ -11,14 +11,15 @@ from __future__ import annotations
 from functools import partial
 from typing import Any
 
-from pyconnect.codecs.checks import (
+from pyconnect.codecs.field_checks import (
+    check_bool,
     check_float,
     check_float32,
-    check_int,
-    check_sequence,
+    check_kind_int,
     check_str,
+    check_tuple,
+    fail,
 )
-from pyconnect.errors import EncodeError, type_name_of
 
 __all__ = [
     "BoolCodec",
@@ -64,11 +65,11 @@ class IntCodec:
         return int(msg.data)
 
     def to_fields(self, value: Any) -> dict[str, Any]:
-        return {"data": check_int(value, self.kind, f"{self.name}.data")}
+        return {"data": check_kind_int(value, self.kind, f"{self.name}.data")}
 
     def encode(self, value: Any) -> Any:
         cls = self._class or self._load()
-        return cls(data=check_int(value, self.kind, f"{self.name}.data"))
+        return cls(data=check_kind_int(value, self.kind, f"{self.name}.data"))
 
     def _load(self) -> Any:
         self._class = _message_class(self.name)
@@ -101,13 +102,6 @@ class FloatCodec:
         return self._class
 
 
-def _check_bool(value: Any) -> bool:
-    # numpy.bool_ (named "bool" in numpy 2) is not a bool subclass.
-    if isinstance(value, bool) or type(value).__name__ in ("bool_", "bool"):
-        return bool(value)
-    raise EncodeError(f"Bool.data: expected bool, got {type_name_of(value)}")
-
-
 class BoolCodec:
     """std_msgs/Bool ↔ ``bool``."""
 
@@ -118,10 +112,10 @@ class BoolCodec:
         return bool(msg.data)
 
     def to_fields(self, value: Any) -> dict[str, Any]:
-        return {"data": _check_bool(value)}
+        return {"data": check_bool(value, "Bool.data")}
 
     def encode(self, value: Any) -> Any:
-        return _message_class("Bool")(data=_check_bool(value))
+        return _message_class("Bool")(data=check_bool(value, "Bool.data"))
 
 
 class ByteCodec:
@@ -137,10 +131,10 @@ class ByteCodec:
         return int(data)
 
     def to_fields(self, value: Any) -> dict[str, Any]:
-        return {"data": check_int(value, "byte", "Byte.data")}
+        return {"data": check_kind_int(value, "byte", "Byte.data")}
 
     def encode(self, value: Any) -> Any:
-        return _message_class("Byte")(data=bytes((check_int(value, "byte", "Byte.data"),)))
+        return _message_class("Byte")(data=bytes((check_kind_int(value, "byte", "Byte.data"),)))
 
 
 class StringCodec:
@@ -153,10 +147,10 @@ class StringCodec:
         return str(msg.data)
 
     def to_fields(self, value: Any) -> dict[str, Any]:
-        return {"data": check_str(value, "String.data")}
+        return {"data": check_str(value, None, "String.data")}
 
     def encode(self, value: Any) -> Any:
-        return _message_class("String")(data=check_str(value, "String.data"))
+        return _message_class("String")(data=check_str(value, None, "String.data"))
 
 
 class EmptyCodec:
@@ -170,7 +164,7 @@ class EmptyCodec:
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         if value is not None:
-            raise EncodeError(f"Empty: expected None, got {type_name_of(value)}")
+            fail("Empty", "None", value)
         return {}
 
     def encode(self, value: Any) -> Any:
@@ -188,7 +182,7 @@ class ColorRGBACodec:
         return (msg.r, msg.g, msg.b, msg.a)
 
     def to_fields(self, value: Any) -> dict[str, Any]:
-        r, g, b, a = check_sequence(value, 4, "ColorRGBA", "(r, g, b, a)")
+        r, g, b, a = check_tuple(value, 4, "(r, g, b, a)", "ColorRGBA")
         return {
             "r": check_float32(r, "ColorRGBA.r"),
             "g": check_float32(g, "ColorRGBA.g"),

@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 
 from pyconnect import codecs
 from pyconnect.codecs.builtin_time import RosDuration, RosTime
-from pyconnect.codecs.checks import INTEGER_RANGES
 from pyconnect.errors import EncodeError
+from pyconnect.typesys.primitives import INTEGER_RANGES
 from tests.codecs.natural.helpers import EXAMPLES, same, wire_view
 
 INTS = {
