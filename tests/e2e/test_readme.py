@@ -142,6 +142,7 @@ with McapRecorder("run1") as _recorder:
     ),
     # Tables and Dask: run2 and run3 (RUN_BAGS).
     'align("run2"': Setup(prelude=RUN_BAGS),
+    'images="files"': Setup(prelude=RUN_BAGS),
     'read_bags(["run2", "run3"]': Setup(prelude=RUN_BAGS),
 }
 
