@@ -3,7 +3,9 @@ RIHS01 checks, decode failures reported per topic, and reading in bounded window
 
 from __future__ import annotations
 
+import copy
 import logging
+import pickle
 import tracemalloc
 from pathlib import Path
 from typing import Any
@@ -48,6 +50,21 @@ def test_items_are_named_tuples(tmp_path: Path) -> None:
         "log_time_ns": 1,
         "value": 2,
     }
+
+
+def test_items_pickle_copy_and_replace_with_their_type(tmp_path: Path) -> None:
+    with open_bag(write(tmp_path / "bag", [10]), topics=["/chatter"]) as bag:
+        (item,) = list(bag)
+    assert isinstance(item, BagMessage)
+    again = pickle.loads(pickle.dumps(item))
+    assert (again, again.msg_type, type(again)) == (item, "std_msgs/msg/String", BagMessage)
+    assert copy.copy(item).msg_type == "std_msgs/msg/String"
+    replaced = item._replace(value="bye")
+    assert (replaced, replaced.msg_type) == (("/chatter", 10, "bye"), "std_msgs/msg/String")
+    assert repr(item) == (
+        "BagMessage(topic='/chatter', log_time_ns=10, msg_type='std_msgs/msg/String', "
+        "value='hello 0')"
+    )
 
 
 def test_raw_gives_cdr_bytes_and_the_type_per_topic(tmp_path: Path) -> None:

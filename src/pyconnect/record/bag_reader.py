@@ -34,9 +34,10 @@ is opened (``raw=True`` reads them).
 
 from __future__ import annotations
 
+import functools
 import heapq
 import logging
-from collections.abc import Generator, Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from operator import itemgetter
 from pathlib import Path
@@ -47,7 +48,7 @@ from pyconnect.record.bag_damage import BagDamage
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_files import BagFiles, locate_bag_files, open_storage
 from pyconnect.record.bag_info import BagInfo, TopicInfo, describe, storage_damage
-from pyconnect.record.bag_storage import Connection, StorageFile
+from pyconnect.record.bag_storage import Connection, RawMessage, StorageFile
 from pyconnect.record.topic_decoder import (
     TopicDecoder,
     TypeMismatch,
@@ -95,6 +96,30 @@ class BagMessage(_MessageFields):
             f"msg_type={self.msg_type!r}, value={self.value!r})"
         )
 
+    def __reduce__(self) -> tuple[Any, ...]:
+        # The reader's messages are of a subclass per type (below): pickle them as this class.
+        return (BagMessage, (self.topic, self.log_time_ns, self.value, self.msg_type))
+
+
+_MESSAGE_CLASSES: dict[str, Callable[[tuple[str, int, Any]], BagMessage]] = {}
+
+
+def _message_maker(msg_type: str) -> Callable[[tuple[str, int, Any]], BagMessage]:
+    """``make((topic, log_time_ns, value))`` -> a ``BagMessage`` of ``msg_type``.
+
+    The reader makes one per message: a subclass holding ``msg_type`` as a class attribute
+    makes them as plain tuples are made, without a per-message ``__dict__`` or ``__new__`` call.
+    """
+    make = _MESSAGE_CLASSES.get(msg_type)
+    if make is None:
+        typed = type(
+            "BagMessage",
+            (BagMessage,),
+            {"__slots__": (), "msg_type": msg_type, "__module__": __name__},
+        )
+        make = _MESSAGE_CLASSES[msg_type] = functools.partial(tuple.__new__, typed)
+    return make
+
 
 @dataclass(frozen=True)
 class DecodeProblem:
@@ -110,14 +135,21 @@ class DecodeProblem:
 
 
 class _Plan:
-    """How one connection of one storage file is read: its topic, type and decoder."""
+    """How one connection of one storage file is read: its topic, type, decoder and messages."""
 
-    __slots__ = ("decoder", "msg_type", "topic")
+    __slots__ = ("decoder", "make", "msg_type", "topic")
 
     def __init__(self, topic: str, msg_type: str, decoder: TopicDecoder | None) -> None:
         self.topic = topic
         self.msg_type = msg_type
         self.decoder = decoder
+        self.make = _message_maker(msg_type)
+
+
+def _keyed(number: int, stream: Iterator[RawMessage]) -> Iterator[tuple[Any, int, Any]]:
+    """A file's messages keyed by (file number, connection id), for merging several files."""
+    for connection_id, log_time, data in stream:
+        yield (number, connection_id), log_time, data
 
 
 def _as_paths(paths: BagPaths) -> list[str | Path]:
@@ -225,17 +257,40 @@ class BagReader:
         self._counts = {}
         self._delivered = 0
         self._warned_topics: set[str] = set()
-        streams = [self._stream(storage) for _, storages in self._bags for storage in storages]
-        merged = streams[0] if len(streams) == 1 else heapq.merge(*streams, key=itemgetter(0))
+        # One plan per connection of each file, keyed by the connection id (one file) or by
+        # (file number, id) when several files are merged by log time.
+        plans: dict[Any, _Plan] = {}
+        streams: list[Iterator[RawMessage]] = []
+        storages = [storage for _, stored in self._bags for storage in stored]
+        for number, storage in enumerate(storages):
+            ids = set()
+            for connection in storage.connections():
+                if connection.topic in self.topics:
+                    msg_type = normalise_type_name(connection.msg_type)
+                    decoder = None if self.raw else self._decoder(connection)
+                    key = connection.id if len(storages) == 1 else (number, connection.id)
+                    plans[key] = _Plan(connection.topic, msg_type, decoder)
+                    ids.add(connection.id)
+            streams.append(storage.messages(ids, self.start_ns, self.end_ns))
+        if len(streams) == 1:
+            merged: Iterator[tuple[Any, int, Any]] = streams[0]
+        else:
+            merged = heapq.merge(
+                *(_keyed(number, stream) for number, stream in enumerate(streams)),
+                key=itemgetter(1),
+            )
+        delivered = 0
         try:
             if self.raw:
-                for log_time, plan, data in merged:
-                    self._delivered += 1
-                    yield BagMessage(plan.topic, log_time, bytes(data), plan.msg_type)
+                for key, log_time, data in merged:
+                    delivered += 1
+                    plan = plans[key]
+                    yield plan.make((plan.topic, log_time, bytes(data)))
                 return
             counts = self._counts
-            for log_time, plan, data in merged:
-                self._delivered += 1
+            for key, log_time, data in merged:
+                delivered += 1
+                plan = plans[key]
                 topic = plan.topic
                 index = counts.get(topic, 0)
                 counts[topic] = index + 1
@@ -249,23 +304,12 @@ class BagReader:
                     except Exception as final:
                         self._problem(topic, index, log_time, final)
                         continue
-                yield BagMessage(topic, log_time, value, plan.msg_type)
+                yield plan.make((topic, log_time, value))
         finally:
+            self._delivered = delivered
             for stream in streams:
-                stream.close()  # before the files: a suspended read must not outlive them
+                stream.close()  # type: ignore[attr-defined]  # generators: before the files
             self._report()
-
-    def _stream(self, storage: StorageFile) -> Generator[tuple[int, _Plan, Any], None, None]:
-        plans: dict[int, _Plan] = {}
-        for connection in storage.connections():
-            if connection.topic in self.topics:
-                msg_type = normalise_type_name(connection.msg_type)
-                decoder = None if self.raw else self._decoder(connection)
-                plans[connection.id] = _Plan(connection.topic, msg_type, decoder)
-        for connection_id, log_time, data in storage.messages(
-            set(plans), self.start_ns, self.end_ns
-        ):
-            yield log_time, plans[connection_id], data
 
     def _decoder(self, connection: Connection) -> TopicDecoder:
         key = (
