@@ -95,7 +95,8 @@ def test_a_sample_of_another_type_is_counted_and_reported_once_per_publisher(
     pub = sender.add_agent(
         conn_name="chatter", conn_type="pub", data_interface="std_msgs/msg/String"
     )
-    assert wait_for(lambda: pub.subscriber_count == 1)
+    # The subscription listens on the String key once the graph shows this publisher.
+    assert wait_for(lambda: pub.matched)
     with caplog.at_level(logging.WARNING, logger="pyconnect.transport"):
         pub.send("not a number")
         pub.send("still not")
@@ -286,3 +287,23 @@ def test_with_block_and_spin_thread_shut_down(make_peer: PeerFactory) -> None:
     assert stopped == [True]
     with pytest.raises(PyconnectError):
         peer.spin()
+
+
+def test_a_slow_subscription_keeps_the_last_depth_samples(make_peer: PeerFactory) -> None:
+    release = threading.Event()
+    handled: list[int] = []
+
+    def slow(value: int) -> None:
+        handled.append(value)
+        release.wait(TIMEOUT)
+
+    pub, sub = connected_pair(make_peer, "count", "std_msgs/msg/Int32", response_func=slow, depth=3)
+    for value in range(1, 31):
+        pub.send(value)
+    # The first sample is in the handler; the other 29 wait in the agent's queue.
+    assert wait_for(lambda: handled == [1] and sub._queue.qsize() == 29)
+    release.set()
+    assert wait_for(lambda: sub.message_count == 4)
+    assert handled == [1, 28, 29, 30]
+    assert sub.dropped_count == 26
+    assert sub.get() == 30

@@ -44,7 +44,11 @@ def _as_dict(value: Any) -> Any:
 
 
 class WireConversion:
-    """Encode values to CDR bytes and decode CDR bytes to values, for one type and agent."""
+    """Encode values to CDR bytes and decode CDR bytes to values, for one type and agent.
+
+    The value codec is looked up once, when the agent is made (as ``CustomNode`` does), so the
+    per-message path is the codec's own functions and nothing else (bench/transport.py).
+    """
 
     def __init__(
         self,
@@ -62,6 +66,13 @@ class WireConversion:
         self.raw = raw
         self._encode_func = encode_func
         self._decode_func = decode_func
+        value_codec = registry.value_codec(codec.msg_type)
+        self._to_fields: Callable[[Any], Any] | None = getattr(value_codec, "to_fields", None)
+        self._value_decode: Callable[[Any], Any] | None = (
+            value_codec.decode if value_codec is not None else None
+        )
+        # A value codec without to_fields: the wire codec's encode says why it cannot encode.
+        self._codec_encodes = value_codec is not None and self._to_fields is None
 
     def encode(self, value: Any) -> bytes:
         if self.raw:
@@ -76,7 +87,12 @@ class WireConversion:
                 return self.codec.from_dict(_as_dict(self._encode_func(value, default)))
             if value is None:
                 return self.codec.from_dict({})  # send() without data: the default message
-            return self.codec.encode(value, registry=self.registry)
+            to_fields = self._to_fields
+            if to_fields is not None:
+                return self.codec.from_dict(to_fields(value))
+            if self._codec_encodes:
+                return self.codec.encode(value, registry=self.registry)
+            return self.codec.from_dict(value)
         except CodecError as error:
             if str(error).startswith(self.describe):
                 raise
@@ -93,7 +109,10 @@ class WireConversion:
         try:
             if self._decode_func is not None:
                 return self._decode_func(self.codec.decode_view(payload))
-            return self.codec.decode(payload, registry=self.registry)
+            value_decode = self._value_decode
+            if value_decode is not None:
+                return value_decode(self.codec.decode_view(payload))
+            return self.codec.to_dict(payload)
         except CodecError as error:
             raise DecodeError(f"{self.describe}: {error}") from error
         except Exception as error:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import contextlib
 import threading
+from collections.abc import Callable
 from typing import Any
 
 import zenoh
@@ -25,6 +26,7 @@ class Graph:
         # Reentrant: conditions given to wait_for_graph ask count() while holding it.
         self._lock = threading.RLock()
         self.changed = threading.Condition(self._lock)
+        self._watchers: list[Callable[[Token], None]] = []
         self._subscriber: Any = session.liveliness().declare_subscriber(
             f"{ADMIN_SPACE}/{domain_id}/**", self._on_sample, history=True
         )
@@ -36,9 +38,23 @@ class Graph:
                 self._tokens.pop(key, None)
             else:
                 token = parse_token(key)
-                if token is not None:
+                if token is not None and key not in self._tokens:
                     self._tokens[key] = token
+                    for watcher in self._watchers:
+                        watcher(token)
             self.changed.notify_all()
+
+    def watch(self, watcher: Callable[[Token], None]) -> None:
+        """Call ``watcher(token)`` for every token now live and every new one (on zenoh's
+        thread, under the graph's lock: it must return at once)."""
+        with self._lock:
+            self._watchers.append(watcher)
+            for token in self._tokens.values():
+                watcher(token)
+
+    def unwatch(self, watcher: Callable[[Token], None]) -> None:
+        with self._lock, contextlib.suppress(ValueError):
+            self._watchers.remove(watcher)
 
     def tokens(self) -> list[Token]:
         with self._lock:

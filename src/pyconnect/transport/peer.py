@@ -6,6 +6,9 @@ the peer's name; namespace and enclave ``/``, written ``%``), in domain ``domain
 services and clients, so ROS nodes that run ``rmw_zenoh_cpp`` and other peers see them as
 ordinary ROS entities. Samples are handled as they arrive (zenoh runs on its own threads from
 the start); ``spin()`` only blocks until shutdown, ``spin(run_thread=True)`` returns at once.
+A peer applies pyconnect's glibc malloc settings to its process (pyconnect.ros.large_messages;
+``PYCONNECT_LARGE_MESSAGES=0`` leaves malloc alone): multi-MB payloads then reuse memory instead
+of faulting in fresh pages on every message.
 
 Shutdown — ``shutdown()``, leaving ``with``, Ctrl-C, SIGTERM or interpreter exit — runs
 ``stop_func`` once, closes the agents and the session, and (on a signal) the process exits 0
@@ -31,6 +34,7 @@ import zenoh
 
 from pyconnect.codecs.registry import Registry, default_registry
 from pyconnect.errors import ConnectionTimeout, PyconnectError, TransportError
+from pyconnect.ros.large_messages import apply_malloc_settings
 from pyconnect.ros.shutdown import ShutdownHooks, ShutsDownOnExit
 from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.action_client import ActionClientAgent
@@ -98,6 +102,8 @@ class Peer(ShutsDownOnExit):
         self._shutdown_thread: threading.Thread | None = None
         self._main_waiting = False
         self._ids = itertools.count()
+        # Multi-MB payloads (images) otherwise cost a page-fault storm per message.
+        apply_malloc_settings()
         self.config = session_config(config=config, connect=connect, listen=listen, mode=mode)
         """The zenoh configuration the session was opened with (file settings kept as given)."""
         try:

@@ -1,11 +1,18 @@
 """A peer's ``pub`` and ``sub`` agents: rmw_zenoh topics (key, CDR payload, attachment, token).
 
-The subscriber listens on ``<domain>/<topic>/*/*`` rather than on its own type's key alone, so
-that a publisher of another type (or another version of the type: a different RIHS01 hash) is
-seen instead of silently missed: its samples are not decoded, they are counted in
-``type_mismatch_count`` and reported once per publisher with both type names. Payloads over
-the peer's ``max_payload_bytes`` are dropped and counted (``oversize_count``), also reported
-once per publisher. Payloads are CDR, decoded by the wire codecs; nothing is ever unpickled.
+A subscriber listens on its own type's key. Publishers of another type (or of another version
+of the type: a different RIHS01 hash) show up in the graph with their tokens; for each such
+key the agent also listens there, so their samples are seen instead of silently missed: they
+are not decoded, they are counted in ``type_mismatch_count`` and reported once per publisher
+with both type names. (A publisher that declares no token, e.g. a bare zenoh session, is not
+seen on another type's key.) Payloads over the peer's ``max_payload_bytes`` are dropped and
+counted (``oversize_count``), also reported once per publisher. Payloads are CDR, decoded by
+the wire codecs; nothing is ever unpickled.
+
+The per-sample path is short (bench/transport.py measures it): zenoh's thread only appends the
+sample to a ``queue.SimpleQueue`` (a C call, no Python frame), the agent's own thread takes it,
+so user code never blocks zenoh; when more than ``depth`` samples wait, the oldest are skipped
+(ROS keep-last) and counted in ``dropped_count`` with the publishers' sequence gaps.
 """
 
 # zenoh's stubs leave undeclare() and close() unannotated.
@@ -14,6 +21,7 @@ once per publisher. Payloads are CDR, decoded by the wire codecs; nothing is eve
 from __future__ import annotations
 
 import contextlib
+import queue
 import struct
 import threading
 import time
@@ -28,6 +36,9 @@ from pyconnect.transport.interface_types import message_interface
 from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc, logger
 
 DEFAULT_DEPTH = 10
+_pack_attachment = keys.pack_attachment
+_unpack_attachment = keys.unpack_attachment
+time_ns = time.time_ns
 
 
 class PublisherAgent(PeerAgent):
@@ -92,6 +103,8 @@ class PublisherAgent(PeerAgent):
             congestion_control=zenoh.CongestionControl.DROP,
             reliability=zenoh.Reliability.RELIABLE,
         )
+        self._put = self._publisher.put
+        self._encode = self.conversion.encode
         self._token = peer.session.liveliness().declare_token(self.token_key)
         self._stop = threading.Event()
         self._timer: threading.Thread | None = None
@@ -116,13 +129,12 @@ class PublisherAgent(PeerAgent):
         """Encode and publish ``data``; False when skipped (``only_if_subscribed``, no reader)."""
         if self.only_if_subscribed and self.subscriber_count == 0:
             return False
-        payload = self.conversion.encode(data)
+        payload = self._encode(data)
         with self._send_lock:
             self._sequence += 1
-            attachment = keys.pack_attachment(self._sequence, time.time_ns(), self.gid)
-            self._publisher.put(payload, attachment=attachment)
+            self._put(payload, attachment=_pack_attachment(self._sequence, time_ns(), self.gid))
+            self.sent_count += 1
         self._latest = data
-        self.sent_count += 1
         return True
 
     def _run_period(self) -> None:
@@ -180,19 +192,20 @@ class SubscriberAgent(PeerAgent):
             decode_func=decode_func,
             raw=raw,
         )
+        if depth < 1:
+            raise self.error(f"depth must be >= 1, got {depth!r}")
         self.type_hash = interface.type_hash
+        self.depth = depth
         self.message_count = 0
         self.type_mismatch_count = 0
         self.oversize_count = 0
         self.last_received_ns = 0
-        self._dds_name = keys.dds_type_name(interface.type_name)
-        self._verdicts: dict[str, str | None] = {}
         self._reported: set[tuple[str, bytes]] = set()
         self._first_message = threading.Event()
         self._last_sequence: dict[bytes, int] = {}
         self.dropped_count = 0
-        """Samples lost before this agent saw them: gaps in each publisher's sequence numbers
-        (zenoh's ring of ``depth`` samples keeps the newest when the agent falls behind)."""
+        """Samples lost before this agent handled them: gaps in each publisher's sequence
+        numbers (zenoh dropped them on congestion, or this agent skipped them to keep up)."""
         self.token_key = peer.entity_token(
             kind=keys.SUBSCRIPTION,
             name=self.topic,
@@ -200,36 +213,75 @@ class SubscriberAgent(PeerAgent):
             type_hash=interface.type_hash,
             qos=keys.qos_chunk(depth=depth),
         )
-        # Samples wait in zenoh's own ring (no Python on zenoh's threads, no lock per sample);
-        # this agent's thread takes them, so user code never blocks zenoh.
-        self._subscriber = peer.session.declare_subscriber(
-            keys.data_key_any_type(peer.domain_id, self.topic), zenoh.handlers.FifoChannel(depth)
-        )
+        self.key = keys.data_key(peer.domain_id, self.topic, interface.type_name, self.type_hash)
+        self._decode = self.conversion.decode
+        self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
+        self._subscriber = peer.session.declare_subscriber(self.key, self._queue.put)
         self._token = peer.session.liveliness().declare_token(self.token_key)
+        self._other_types: dict[str, Any] = {}
+        self._closed = False
         self._thread = threading.Thread(
             target=self._run, name=f"pyconnect-sub-{self.name}", daemon=True
         )
         self._thread.start()
+        peer.graph.watch(self._on_token)
 
+    # -- publishers of other types ---------------------------------------------------------------
+    def _on_token(self, token: keys.Token) -> None:
+        """A new token (zenoh's thread): listen on the key of a publisher of another type."""
+        if token.kind != keys.PUBLISHER or token.name != self.topic:
+            return
+        if token.type_hash == self.type_hash and token.type_name == self.type_name:
+            return
+        try:
+            key = keys.data_key(self.peer.domain_id, self.topic, token.type_name, token.type_hash)
+        except Exception:
+            return  # a type name that maps to no key: nothing of it can reach us
+        if key in self._other_types or self._closed:
+            return
+        self._other_types[key] = None
+        text = (
+            f"ignored samples of {token.type_name} ({token.type_hash}); this subscription "
+            f"expects {self.type_name} ({self.type_hash})"
+        )
+        # Declared off zenoh's thread, which is delivering this token.
+        threading.Thread(target=self._listen_to_other_type, args=(key, text), daemon=True).start()
+
+    def _listen_to_other_type(self, key: str, text: str) -> None:
+        def on_sample(sample: zenoh.Sample) -> None:
+            self.type_mismatch_count += 1
+            self._report_once("type", sample.attachment, text)
+
+        with contextlib.suppress(Exception):
+            if not self._closed:
+                self._other_types[key] = self.peer.session.declare_subscriber(key, on_sample)
+
+    # -- the agent's thread ----------------------------------------------------------------------
     def _run(self) -> None:
-        for sample in self._subscriber:
+        take, waiting, depth = self._queue.get, self._queue.qsize, self.depth
+        while True:
+            sample = take()
+            if sample is None:
+                return
+            if waiting() >= depth:
+                continue  # keep-last: newer samples wait; the gap is counted on the next one
             try:
                 self._on_sample(sample)
             except Exception as error:
                 self.report_exception("receive", error)
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
-        key = str(sample.key_expr)
-        verdict = self._verdicts.get(key, "")
-        if verdict == "":
-            verdict = self._verdicts[key] = self._type_problem(key)
         attachment = sample.attachment
-        if verdict is not None:
-            self.type_mismatch_count += 1
-            self._report_once("type", attachment, verdict)
-            return
         if attachment is not None:
-            self._count_gap(attachment)
+            try:
+                sequence, _stamp, gid = _unpack_attachment(attachment.to_bytes())
+            except struct.error:
+                pass
+            else:
+                last = self._last_sequence.get(gid)
+                if last is not None and sequence > last + 1:
+                    self.dropped_count += sequence - last - 1
+                self._last_sequence[gid] = sequence
         payload = sample.payload
         limit = self.peer.max_payload_bytes
         if limit is not None and len(payload) > limit:
@@ -240,46 +292,8 @@ class SubscriberAgent(PeerAgent):
                 f"dropped a {len(payload)}-byte sample (max_payload_bytes={limit})",
             )
             return
-        self._on_payload(payload.to_bytes())
-
-    def _count_gap(self, attachment: zenoh.ZBytes) -> None:
         try:
-            sequence, _stamp, gid = keys.unpack_attachment(attachment.to_bytes())
-        except struct.error:
-            return
-        last = self._last_sequence.get(gid)
-        if last is not None and sequence > last + 1:
-            self.dropped_count += sequence - last - 1
-        self._last_sequence[gid] = sequence
-
-    def _type_problem(self, key: str) -> str | None:
-        chunks = key.rsplit("/", 2)
-        if len(chunks) == 3 and chunks[1] == self._dds_name and chunks[2] == self.type_hash:
-            return None
-        other_type = keys.ros_type_name(chunks[1]) if len(chunks) == 3 else "?"
-        other_hash = chunks[2] if len(chunks) == 3 else "?"
-        return (
-            f"ignored samples of {other_type} ({other_hash}); this subscription expects "
-            f"{self.type_name} ({self.type_hash})"
-        )
-
-    def _report_once(self, what: str, attachment: zenoh.ZBytes | None, text: str) -> None:
-        gid = b""
-        if attachment is not None:
-            try:
-                gid = keys.unpack_attachment(attachment.to_bytes())[2]
-            except struct.error:
-                gid = b""
-        if (what, gid) in self._reported:
-            return
-        self._reported.add((what, gid))
-        publisher = gid.hex() if gid else "without attachment"
-        logger.warning("%s on %s: publisher %s: %s", self.describe, self.topic, publisher, text)
-
-    # -- the agent's thread --------------------------------------------------------------------
-    def _on_payload(self, payload: bytes) -> None:
-        try:
-            value = self.conversion.decode(payload)
+            value = self._decode(payload.to_bytes())
         except Exception as error:
             if not isinstance(error, DecodeError):
                 error = DecodeError(f"{type(error).__name__}: {error}")
@@ -287,14 +301,27 @@ class SubscriberAgent(PeerAgent):
             return
         self._latest = value
         self.message_count += 1
-        self.last_received_ns = time.time_ns()
-        if not self._first_message.is_set():
+        self.last_received_ns = time_ns()
+        if self.message_count == 1:
             self._first_message.set()
         if self.response_func is not None:
             try:
                 self.response_func(value)
             except Exception as error:
                 self.report_exception("response_func", error)
+
+    def _report_once(self, what: str, attachment: zenoh.ZBytes | None, text: str) -> None:
+        gid = b""
+        if attachment is not None:
+            try:
+                gid = _unpack_attachment(attachment.to_bytes())[2]
+            except struct.error:
+                gid = b""
+        if (what, gid) in self._reported:
+            return
+        self._reported.add((what, gid))
+        publisher = gid.hex() if gid else "without attachment"
+        logger.warning("%s on %s: publisher %s: %s", self.describe, self.topic, publisher, text)
 
     def wait_for_message(self, timeout: float | None = None) -> bool:
         return self._first_message.wait(timeout)
@@ -312,8 +339,12 @@ class SubscriberAgent(PeerAgent):
         return "no message yet"
 
     def close(self) -> None:
-        for entity in (self._token, self._subscriber):
+        self._closed = True
+        self.peer.graph.unwatch(self._on_token)
+        others = [entity for entity in self._other_types.values() if entity is not None]
+        for entity in (self._token, self._subscriber, *others):
             with contextlib.suppress(Exception):
                 entity.undeclare()
+        self._queue.put(None)
         if self._thread is not threading.current_thread():
             self._thread.join(5.0)
