@@ -37,6 +37,7 @@ from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_text_of
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.qos import REQUESTS
 from pyconnect.ros.waiting import settle, wait_until
 
 
@@ -88,7 +89,13 @@ class ActionClientAgent(NodeAgent):
         self._lock = threading.Lock()
         self._server_seen = False
         self.client = ActionClient(
-            node.ros_node, action_class, conn_name, callback_group=self.callback_group
+            node.ros_node,
+            action_class,
+            conn_name,
+            callback_group=self.callback_group,
+            goal_service_qos_profile=REQUESTS,
+            result_service_qos_profile=REQUESTS,
+            cancel_service_qos_profile=REQUESTS,
         )
         self._abort_reasons = AbortReasons(node.ros_node, conn_name)
 

@@ -47,6 +47,7 @@ from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_message
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.qos import REQUESTS
 from pyconnect.ros.retaining_action_server import RetainingActionServer
 
 DEFAULT_RESULT_TIMEOUT = 0.05
@@ -109,6 +110,9 @@ class ActionServerAgent(NodeAgent):
             goal_callback=lambda _goal: GoalResponse.ACCEPT,
             cancel_callback=lambda _request: CancelResponse.ACCEPT,
             callback_group=self.callback_group,
+            goal_service_qos_profile=REQUESTS,
+            result_service_qos_profile=REQUESTS,
+            cancel_service_qos_profile=REQUESTS,
             result_timeout=result_timeout,
             result_cache_seconds=result_cache_seconds,
         )

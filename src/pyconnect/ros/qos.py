@@ -1,5 +1,7 @@
 """QoS profiles by name, and the defaults agents pick for sensor streams.
 
+Services and actions use ``REQUESTS`` (keep all), so no request or response is dropped.
+
 ``qos=`` on an agent takes a ``QoSProfile``, ``'default'`` (reliable, volatile, keep last 10),
 ``'sensor_data'`` (best effort, volatile, keep last 5) or ``'latched'`` (reliable,
 transient local, keep last 1: late subscribers get the last message).
@@ -62,6 +64,22 @@ SENSOR_PUBLISHER = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
+
+REQUESTS = QoSProfile(
+    depth=1,
+    history=HistoryPolicy.KEEP_ALL,
+    reliability=ReliabilityPolicy.RELIABLE,
+    durability=DurabilityPolicy.VOLATILE,
+)
+"""Services and actions' goal/cancel/result services of every agent (both sides).
+
+rclpy's default (keep last 10) loses requests silently in a burst: Fast DDS publishes
+asynchronously, so a client's 11th request can replace its 1st in the writer's queue before
+that was sent, and a busy server's reader keeps only the newest 10 it has not taken yet
+(20 result requests sent at once lost 1-10 of the first ones in one run in two). Keep-all
+queues every request and response until it is delivered and taken; history is not part of
+QoS matching, so plain rclpy peers with the default still connect.
+"""
 
 NAMED_PROFILES: dict[str, QoSProfile] = {
     "default": DEFAULT,

@@ -32,6 +32,7 @@ from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_message
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.qos import REQUESTS
 from pyconnect.ros.waiting import settle, wait_until
 
 
@@ -74,7 +75,11 @@ class ServiceServerAgent(NodeAgent):
         )
         self.request_count = 0
         self.service = node.ros_node.create_service(
-            srv_class, conn_name, self._on_request, callback_group=self.callback_group
+            srv_class,
+            conn_name,
+            self._on_request,
+            qos_profile=REQUESTS,
+            callback_group=self.callback_group,
         )
         self.service_name = self.service.service_name
 
@@ -137,7 +142,7 @@ class ServiceClientAgent(NodeAgent):
             srv_class.Response, decode_func=decode_func, eager=decode_func is None
         )
         self.client = node.ros_node.create_client(
-            srv_class, conn_name, callback_group=self.callback_group
+            srv_class, conn_name, qos_profile=REQUESTS, callback_group=self.callback_group
         )
         self.service_name = self.client.service_name
         self._server_seen = False
