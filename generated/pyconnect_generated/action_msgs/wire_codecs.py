@@ -15,10 +15,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -54,24 +55,32 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.builtin_interfaces.wire_codecs import (
+    DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
+    TIME_KEYS as BUILTIN_INTERFACES__TIME_KEYS,
+    time_view as builtin_interfaces__time_view,
+)
+from pyconnect_generated.service_msgs.wire_codecs import (
+    DEFINITIONS as SERVICE_MSGS__DEFINITIONS,
+    SERVICE_EVENT_INFO_KEYS as SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS,
+    service_event_info_view as service_msgs__service_event_info_view,
+)
+from pyconnect_generated.unique_identifier_msgs.wire_codecs import (
+    DEFINITIONS as UNIQUE_IDENTIFIER_MSGS__DEFINITIONS,
+    UUID_KEYS as UNIQUE_IDENTIFIER_MSGS__UUID_KEYS,
+    uuid_view as unique_identifier_msgs__uuid_view,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
-    "unique_identifier_msgs/msg/UUID": (
-        "RIHS01_1b8e8aca958cbea28fe6ef60bf6c19b683c97a9ef60bb34752067d0f2f7ab437",
-        (("uuid", "primitive", "uint8", None, "array", 16, None),),
-    ),
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
+    **BUILTIN_INTERFACES__DEFINITIONS,
+    **SERVICE_MSGS__DEFINITIONS,
+    **UNIQUE_IDENTIFIER_MSGS__DEFINITIONS,
     "action_msgs/msg/GoalInfo": (
         "RIHS01_6398fe763154554353930716b225947f93b672f0fb2e49fdd01bb7a7e37933e9",
         (
@@ -109,15 +118,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
             ),
         ),
     ),
-    "service_msgs/msg/ServiceEventInfo": (
-        "RIHS01_41bcbbe07a75c9b52bc96bfd5c24d7f0fc0a08c0cb7921b3373c5732345a6f45",
-        (
-            ("event_type", "primitive", "uint8", None, "single", None, None),
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("client_gid", "primitive", "uint8", None, "array", 16, None),
-            ("sequence_number", "primitive", "int64", None, "single", None, None),
-        ),
-    ),
     "action_msgs/srv/CancelGoal_Event": (
         "RIHS01_178f81615ce6be41ad328211d7a56b08b00e73f41f0b8aec256b2f3ff97a5e7e",
         (
@@ -153,72 +153,47 @@ EXPORTED: frozenset[str] = frozenset(
         "action_msgs/srv/CancelGoal_Response",
     )
 )
-_K_action_msgs__msg__GoalInfo = frozenset(
-    (
-        "goal_id",
-        "stamp",
-    )
-)
-_K_action_msgs__msg__GoalStatus = frozenset(
-    (
-        "goal_info",
-        "status",
-    )
-)
-_K_action_msgs__msg__GoalStatusArray = frozenset(("status_list",))
-_K_action_msgs__srv__CancelGoal_Event = frozenset(
+CANCEL_GOAL_EVENT_KEYS = frozenset(
     (
         "info",
         "request",
         "response",
     )
 )
-_K_action_msgs__srv__CancelGoal_Request = frozenset(("goal_info",))
-_K_action_msgs__srv__CancelGoal_Response = frozenset(
+CANCEL_GOAL_REQUEST_KEYS = frozenset(("goal_info",))
+CANCEL_GOAL_RESPONSE_KEYS = frozenset(
     (
         "return_code",
         "goals_canceling",
     )
 )
-_K_builtin_interfaces__msg__Time = frozenset(
+GOAL_INFO_KEYS = frozenset(
     (
-        "sec",
-        "nanosec",
-    )
-)
-_K_service_msgs__msg__ServiceEventInfo = frozenset(
-    (
-        "event_type",
+        "goal_id",
         "stamp",
-        "client_gid",
-        "sequence_number",
     )
 )
-_K_unique_identifier_msgs__msg__UUID = frozenset(("uuid",))
-_R_action_msgs__msg__GoalInfo_0 = ((".stamp.sec", "int32", 4), (".stamp.nanosec", "uint32", 8))
-_R_action_msgs__msg__GoalStatus_0 = (
+GOAL_STATUS_ARRAY_KEYS = frozenset(("status_list",))
+GOAL_STATUS_KEYS = frozenset(
+    (
+        "goal_info",
+        "status",
+    )
+)
+CANCEL_GOAL_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+CANCEL_GOAL_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+CANCEL_GOAL_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+CANCEL_GOAL_REQUEST_RUN_0 = (
+    (".goal_info.stamp.sec", "int32", 4),
+    (".goal_info.stamp.nanosec", "uint32", 8),
+)
+CANCEL_GOAL_RESPONSE_RUN_0 = ((".return_code", "int8", 1),)
+GOAL_INFO_RUN_0 = ((".stamp.sec", "int32", 4), (".stamp.nanosec", "uint32", 8))
+GOAL_STATUS_RUN_0 = (
     (".goal_info.stamp.sec", "int32", 4),
     (".goal_info.stamp.nanosec", "uint32", 8),
     (".status", "int8", 9),
 )
-_R_action_msgs__srv__CancelGoal_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_action_msgs__srv__CancelGoal_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_action_msgs__srv__CancelGoal_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_action_msgs__srv__CancelGoal_Request_0 = (
-    (".goal_info.stamp.sec", "int32", 4),
-    (".goal_info.stamp.nanosec", "uint32", 8),
-)
-_R_action_msgs__srv__CancelGoal_Response_0 = ((".return_code", "int8", 1),)
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_service_msgs__msg__ServiceEventInfo_0 = ((".event_type", "uint8", 1),)
-_R_service_msgs__msg__ServiceEventInfo_1 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-)
-_R_service_msgs__msg__ServiceEventInfo_2 = ((".sequence_number", "int64", 8),)
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
@@ -228,49 +203,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class unique_identifier_msgs__msg__UUID:
-    """A decoded unique_identifier_msgs/msg/UUID.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = ("uuid",)
-    msg_type = "unique_identifier_msgs/msg/UUID"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_unique_identifier_msgs__msg__UUID(a0: Any) -> unique_identifier_msgs__msg__UUID:
-    view = _new(unique_identifier_msgs__msg__UUID)
-    view.uuid = a0
-    return view
-
-
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class action_msgs__msg__GoalInfo:
+class GoalInfo:
     """A decoded action_msgs/msg/GoalInfo.
 
     Attributes named as the ROS fields.
@@ -286,14 +219,14 @@ class action_msgs__msg__GoalInfo:
         return view_repr(self)
 
 
-def make_action_msgs__msg__GoalInfo(a0: Any, a1: Any) -> action_msgs__msg__GoalInfo:
-    view = _new(action_msgs__msg__GoalInfo)
+def goal_info_view(a0: Any, a1: Any) -> GoalInfo:
+    view = _new(GoalInfo)
     view.goal_id = a0
     view.stamp = a1
     return view
 
 
-class action_msgs__msg__GoalStatus:
+class GoalStatus:
     """A decoded action_msgs/msg/GoalStatus.
 
     Attributes named as the ROS fields.
@@ -309,14 +242,14 @@ class action_msgs__msg__GoalStatus:
         return view_repr(self)
 
 
-def make_action_msgs__msg__GoalStatus(a0: Any, a1: Any) -> action_msgs__msg__GoalStatus:
-    view = _new(action_msgs__msg__GoalStatus)
+def goal_status_view(a0: Any, a1: Any) -> GoalStatus:
+    view = _new(GoalStatus)
     view.goal_info = a0
     view.status = a1
     return view
 
 
-class action_msgs__msg__GoalStatusArray:
+class GoalStatusArray:
     """A decoded action_msgs/msg/GoalStatusArray.
 
     Attributes named as the ROS fields.
@@ -329,13 +262,13 @@ class action_msgs__msg__GoalStatusArray:
         return view_repr(self)
 
 
-def make_action_msgs__msg__GoalStatusArray(a0: Any) -> action_msgs__msg__GoalStatusArray:
-    view = _new(action_msgs__msg__GoalStatusArray)
+def goal_status_array_view(a0: Any) -> GoalStatusArray:
+    view = _new(GoalStatusArray)
     view.status_list = a0
     return view
 
 
-class action_msgs__srv__CancelGoal_Request:
+class CancelGoal_Request:
     """A decoded action_msgs/srv/CancelGoal_Request.
 
     Attributes named as the ROS fields.
@@ -348,13 +281,13 @@ class action_msgs__srv__CancelGoal_Request:
         return view_repr(self)
 
 
-def make_action_msgs__srv__CancelGoal_Request(a0: Any) -> action_msgs__srv__CancelGoal_Request:
-    view = _new(action_msgs__srv__CancelGoal_Request)
+def cancel_goal_request_view(a0: Any) -> CancelGoal_Request:
+    view = _new(CancelGoal_Request)
     view.goal_info = a0
     return view
 
 
-class action_msgs__srv__CancelGoal_Response:
+class CancelGoal_Response:
     """A decoded action_msgs/srv/CancelGoal_Response.
 
     Attributes named as the ROS fields.
@@ -370,45 +303,14 @@ class action_msgs__srv__CancelGoal_Response:
         return view_repr(self)
 
 
-def make_action_msgs__srv__CancelGoal_Response(
-    a0: Any, a1: Any
-) -> action_msgs__srv__CancelGoal_Response:
-    view = _new(action_msgs__srv__CancelGoal_Response)
+def cancel_goal_response_view(a0: Any, a1: Any) -> CancelGoal_Response:
+    view = _new(CancelGoal_Response)
     view.return_code = a0
     view.goals_canceling = a1
     return view
 
 
-class service_msgs__msg__ServiceEventInfo:
-    """A decoded service_msgs/msg/ServiceEventInfo.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-    msg_type = "service_msgs/msg/ServiceEventInfo"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_service_msgs__msg__ServiceEventInfo(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> service_msgs__msg__ServiceEventInfo:
-    view = _new(service_msgs__msg__ServiceEventInfo)
-    view.event_type = a0
-    view.stamp = a1
-    view.client_gid = a2
-    view.sequence_number = a3
-    return view
-
-
-class action_msgs__srv__CancelGoal_Event:
+class CancelGoal_Event:
     """A decoded action_msgs/srv/CancelGoal_Event.
 
     Attributes named as the ROS fields.
@@ -425,18 +327,16 @@ class action_msgs__srv__CancelGoal_Event:
         return view_repr(self)
 
 
-def make_action_msgs__srv__CancelGoal_Event(
-    a0: Any, a1: Any, a2: Any
-) -> action_msgs__srv__CancelGoal_Event:
-    view = _new(action_msgs__srv__CancelGoal_Event)
+def cancel_goal_event_view(a0: Any, a1: Any, a2: Any) -> CancelGoal_Event:
+    view = _new(CancelGoal_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_B = Struct(E + "B")
     _S_b = Struct(E + "b")
@@ -445,85 +345,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
     _S_q = Struct(E + "q")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_unique_identifier_msgs__msg__UUID(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".uuid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v3 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_unique_identifier_msgs__msg__UUID(v3), pos
-        return {"uuid": v3.tobytes()}, pos
-
-    def encode_unique_identifier_msgs__msg__UUID(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_unique_identifier_msgs__msg__UUID.issuperset(d):
-                d = _submap(d, _K_unique_identifier_msgs__msg__UUID)
-            f = ".uuid"
-            b1, c2 = encode_array(d.get("uuid", bytes(16)), _D_uint8, "uint8", 16, True)
-            out.append(b1)
-            pos += c2 * 1
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_action_msgs__msg__GoalInfo(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def goal_info_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".goal_id.uuid"
@@ -532,7 +354,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 3) & -4
-            f = _R_action_msgs__msg__GoalInfo_0
+            f = GOAL_INFO_RUN_0
             v6, v7 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -540,29 +362,28 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_action_msgs__msg__GoalInfo(
-                make_unique_identifier_msgs__msg__UUID(v4),
-                make_builtin_interfaces__msg__Time(v6, v7),
+            return goal_info_view(
+                unique_identifier_msgs__uuid_view(v4), builtin_interfaces__time_view(v6, v7)
             ), pos
         return {"goal_id": {"uuid": v4.tobytes()}, "stamp": {"sec": v6, "nanosec": v7}}, pos
 
-    def encode_action_msgs__msg__GoalInfo(d: Any, out: list[Any], pos: int) -> int:
+    def goal_info_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_action_msgs__msg__GoalInfo.issuperset(d):
-                d = _submap(d, _K_action_msgs__msg__GoalInfo)
+            if d.__class__ is not dict or not GOAL_INFO_KEYS.issuperset(d):
+                d = _submap(d, GOAL_INFO_KEYS)
             f = ".goal_id"
             m1 = d.get("goal_id", EMPTY)
-            if m1.__class__ is not dict or not _K_unique_identifier_msgs__msg__UUID.issuperset(m1):
-                m1 = _submap(m1, _K_unique_identifier_msgs__msg__UUID)
+            if m1.__class__ is not dict or not UNIQUE_IDENTIFIER_MSGS__UUID_KEYS.issuperset(m1):
+                m1 = _submap(m1, UNIQUE_IDENTIFIER_MSGS__UUID_KEYS)
             f = ".goal_id.uuid"
             b2, c3 = encode_array(m1.get("uuid", bytes(16)), _D_uint8, "uint8", 16, True)
             out.append(b2)
             pos += c3 * 1
             f = ".stamp"
             m5 = d.get("stamp", EMPTY)
-            if m5.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m5):
-                m5 = _submap(m5, _K_builtin_interfaces__msg__Time)
+            if m5.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m5):
+                m5 = _submap(m5, BUILTIN_INTERFACES__TIME_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -574,7 +395,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_action_msgs__msg__GoalInfo_0,
+                        GOAL_INFO_RUN_0,
                         (
                             m5.get("sec", 0),
                             m5.get("nanosec", 0),
@@ -588,7 +409,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_action_msgs__msg__GoalStatus(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def goal_status_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".goal_info.goal_id.uuid"
@@ -597,7 +418,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v5 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 3) & -4
-            f = _R_action_msgs__msg__GoalStatus_0
+            f = GOAL_STATUS_RUN_0
             v7, v8, v9 = _S_iIb.unpack_from(mv, pos)
             pos += 9
         except WireDecodeError as error:
@@ -605,10 +426,9 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_action_msgs__msg__GoalStatus(
-                make_action_msgs__msg__GoalInfo(
-                    make_unique_identifier_msgs__msg__UUID(v5),
-                    make_builtin_interfaces__msg__Time(v7, v8),
+            return goal_status_view(
+                goal_info_view(
+                    unique_identifier_msgs__uuid_view(v5), builtin_interfaces__time_view(v7, v8)
                 ),
                 v9,
             ), pos
@@ -617,27 +437,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "status": v9,
         }, pos
 
-    def encode_action_msgs__msg__GoalStatus(d: Any, out: list[Any], pos: int) -> int:
+    def goal_status_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_action_msgs__msg__GoalStatus.issuperset(d):
-                d = _submap(d, _K_action_msgs__msg__GoalStatus)
+            if d.__class__ is not dict or not GOAL_STATUS_KEYS.issuperset(d):
+                d = _submap(d, GOAL_STATUS_KEYS)
             f = ".goal_info"
             m1 = d.get("goal_info", EMPTY)
-            if m1.__class__ is not dict or not _K_action_msgs__msg__GoalInfo.issuperset(m1):
-                m1 = _submap(m1, _K_action_msgs__msg__GoalInfo)
+            if m1.__class__ is not dict or not GOAL_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, GOAL_INFO_KEYS)
             f = ".goal_info.goal_id"
             m2 = m1.get("goal_id", EMPTY)
-            if m2.__class__ is not dict or not _K_unique_identifier_msgs__msg__UUID.issuperset(m2):
-                m2 = _submap(m2, _K_unique_identifier_msgs__msg__UUID)
+            if m2.__class__ is not dict or not UNIQUE_IDENTIFIER_MSGS__UUID_KEYS.issuperset(m2):
+                m2 = _submap(m2, UNIQUE_IDENTIFIER_MSGS__UUID_KEYS)
             f = ".goal_info.goal_id.uuid"
             b3, c4 = encode_array(m2.get("uuid", bytes(16)), _D_uint8, "uint8", 16, True)
             out.append(b3)
             pos += c4 * 1
             f = ".goal_info.stamp"
             m6 = m1.get("stamp", EMPTY)
-            if m6.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m6):
-                m6 = _submap(m6, _K_builtin_interfaces__msg__Time)
+            if m6.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m6):
+                m6 = _submap(m6, BUILTIN_INTERFACES__TIME_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -649,7 +469,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iIb,
-                        _R_action_msgs__msg__GoalStatus_0,
+                        GOAL_STATUS_RUN_0,
                         (
                             m6.get("sec", 0),
                             m6.get("nanosec", 0),
@@ -664,37 +484,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_action_msgs__msg__GoalStatusArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def goal_status_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".status_list"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_action_msgs__msg__GoalStatus, None, None, 25
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, goal_status_decode, None, None, 25)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_action_msgs__msg__GoalStatusArray(v1), pos
+            return goal_status_array_view(v1), pos
         return {"status_list": v1}, pos
 
-    def encode_action_msgs__msg__GoalStatusArray(d: Any, out: list[Any], pos: int) -> int:
+    def goal_status_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_action_msgs__msg__GoalStatusArray.issuperset(d):
-                d = _submap(d, _K_action_msgs__msg__GoalStatusArray)
+            if d.__class__ is not dict or not GOAL_STATUS_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, GOAL_STATUS_ARRAY_KEYS)
             f = ".status_list"
             pos = write_messages(
-                d.get("status_list", ()),
-                out,
-                pos,
-                _U32,
-                encode_action_msgs__msg__GoalStatus,
-                None,
-                False,
+                d.get("status_list", ()), out, pos, _U32, goal_status_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -702,9 +512,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_action_msgs__srv__CancelGoal_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def cancel_goal_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".goal_info.goal_id.uuid"
@@ -713,7 +521,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v5 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 3) & -4
-            f = _R_action_msgs__srv__CancelGoal_Request_0
+            f = CANCEL_GOAL_REQUEST_RUN_0
             v7, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -721,37 +529,36 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_action_msgs__srv__CancelGoal_Request(
-                make_action_msgs__msg__GoalInfo(
-                    make_unique_identifier_msgs__msg__UUID(v5),
-                    make_builtin_interfaces__msg__Time(v7, v8),
+            return cancel_goal_request_view(
+                goal_info_view(
+                    unique_identifier_msgs__uuid_view(v5), builtin_interfaces__time_view(v7, v8)
                 )
             ), pos
         return {
             "goal_info": {"goal_id": {"uuid": v5.tobytes()}, "stamp": {"sec": v7, "nanosec": v8}}
         }, pos
 
-    def encode_action_msgs__srv__CancelGoal_Request(d: Any, out: list[Any], pos: int) -> int:
+    def cancel_goal_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_action_msgs__srv__CancelGoal_Request.issuperset(d):
-                d = _submap(d, _K_action_msgs__srv__CancelGoal_Request)
+            if d.__class__ is not dict or not CANCEL_GOAL_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, CANCEL_GOAL_REQUEST_KEYS)
             f = ".goal_info"
             m1 = d.get("goal_info", EMPTY)
-            if m1.__class__ is not dict or not _K_action_msgs__msg__GoalInfo.issuperset(m1):
-                m1 = _submap(m1, _K_action_msgs__msg__GoalInfo)
+            if m1.__class__ is not dict or not GOAL_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, GOAL_INFO_KEYS)
             f = ".goal_info.goal_id"
             m2 = m1.get("goal_id", EMPTY)
-            if m2.__class__ is not dict or not _K_unique_identifier_msgs__msg__UUID.issuperset(m2):
-                m2 = _submap(m2, _K_unique_identifier_msgs__msg__UUID)
+            if m2.__class__ is not dict or not UNIQUE_IDENTIFIER_MSGS__UUID_KEYS.issuperset(m2):
+                m2 = _submap(m2, UNIQUE_IDENTIFIER_MSGS__UUID_KEYS)
             f = ".goal_info.goal_id.uuid"
             b3, c4 = encode_array(m2.get("uuid", bytes(16)), _D_uint8, "uint8", 16, True)
             out.append(b3)
             pos += c4 * 1
             f = ".goal_info.stamp"
             m6 = m1.get("stamp", EMPTY)
-            if m6.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m6):
-                m6 = _submap(m6, _K_builtin_interfaces__msg__Time)
+            if m6.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m6):
+                m6 = _submap(m6, BUILTIN_INTERFACES__TIME_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -763,7 +570,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_action_msgs__srv__CancelGoal_Request_0,
+                        CANCEL_GOAL_REQUEST_RUN_0,
                         (
                             m6.get("sec", 0),
                             m6.get("nanosec", 0),
@@ -777,52 +584,36 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_action_msgs__srv__CancelGoal_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def cancel_goal_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_action_msgs__srv__CancelGoal_Response_0
+            f = CANCEL_GOAL_RESPONSE_RUN_0
             (v1,) = _S_b.unpack_from(mv, pos)
             pos += 1
             f = ".goals_canceling"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_action_msgs__msg__GoalInfo, None, None, 24
-            )
+            v2, pos = read_messages(mv, pos, lim, _U32, goal_info_decode, None, None, 24)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_action_msgs__srv__CancelGoal_Response(v1, v2), pos
+            return cancel_goal_response_view(v1, v2), pos
         return {"return_code": v1, "goals_canceling": v2}, pos
 
-    def encode_action_msgs__srv__CancelGoal_Response(d: Any, out: list[Any], pos: int) -> int:
+    def cancel_goal_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_action_msgs__srv__CancelGoal_Response.issuperset(
-                d
-            ):
-                d = _submap(d, _K_action_msgs__srv__CancelGoal_Response)
+            if d.__class__ is not dict or not CANCEL_GOAL_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, CANCEL_GOAL_RESPONSE_KEYS)
             f = ""
             try:
                 out.append(_S_b.pack(d.get("return_code", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_b, _R_action_msgs__srv__CancelGoal_Response_0, (d.get("return_code", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_b, CANCEL_GOAL_RESPONSE_RUN_0, (d.get("return_code", 0),)))
             pos += 1
             f = ".goals_canceling"
             pos = write_messages(
-                d.get("goals_canceling", ()),
-                out,
-                pos,
-                _U32,
-                encode_action_msgs__msg__GoalInfo,
-                None,
-                False,
+                d.get("goals_canceling", ()), out, pos, _U32, goal_info_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -830,116 +621,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def cancel_goal_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_service_msgs__msg__ServiceEventInfo(
-                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-            ), pos
-        return {
-            "event_type": v1,
-            "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7.tobytes(),
-            "sequence_number": v8,
-        }, pos
-
-    def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(d):
-                d = _submap(d, _K_service_msgs__msg__ServiceEventInfo)
-            f = ".stamp"
-            m2 = d.get("stamp", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
-            f = ""
-            try:
-                out.append(_S_B.pack(d.get("event_type", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_service_msgs__msg__ServiceEventInfo_0, (d.get("event_type", 0),)
-                    )
-                )
-            pos += 1
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".client_gid"
-            b5, c6 = encode_array(d.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
-            f = ""
-            try:
-                out.append(_S_iI.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_service_msgs__msg__ServiceEventInfo_1,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-            out.append(b5)
-            pos += c6 * 1
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_q.pack(d.get("sequence_number", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_service_msgs__msg__ServiceEventInfo_2,
-                        (d.get("sequence_number", 0),),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_action_msgs__srv__CancelGoal_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_action_msgs__srv__CancelGoal_Event_0
+            f = CANCEL_GOAL_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_action_msgs__srv__CancelGoal_Event_1
+            f = CANCEL_GOAL_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -948,25 +637,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_action_msgs__srv__CancelGoal_Event_2
+            f = CANCEL_GOAL_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_action_msgs__srv__CancelGoal_Request, None, 1, 24
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, cancel_goal_request_decode, None, 1, 24)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_action_msgs__srv__CancelGoal_Response, None, 1, 5
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, cancel_goal_response_decode, None, 1, 5)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_action_msgs__srv__CancelGoal_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return cancel_goal_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -982,30 +667,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_action_msgs__srv__CancelGoal_Event(d: Any, out: list[Any], pos: int) -> int:
+    def cancel_goal_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_action_msgs__srv__CancelGoal_Event.issuperset(d):
-                d = _submap(d, _K_action_msgs__srv__CancelGoal_Event)
+            if d.__class__ is not dict or not CANCEL_GOAL_EVENT_KEYS.issuperset(d):
+                d = _submap(d, CANCEL_GOAL_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_action_msgs__srv__CancelGoal_Event_0, (m1.get("event_type", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_B, CANCEL_GOAL_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -1020,7 +699,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_action_msgs__srv__CancelGoal_Event_1,
+                        CANCEL_GOAL_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -1039,32 +718,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_action_msgs__srv__CancelGoal_Event_2,
-                        (m1.get("sequence_number", 0),),
-                    )
+                    slow_pack(_S_q, CANCEL_GOAL_EVENT_RUN_2, (m1.get("sequence_number", 0),))
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_action_msgs__srv__CancelGoal_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, cancel_goal_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_action_msgs__srv__CancelGoal_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, cancel_goal_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -1073,49 +736,63 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
-        "unique_identifier_msgs/msg/UUID": (
-            decode_unique_identifier_msgs__msg__UUID,
-            encode_unique_identifier_msgs__msg__UUID,
-        ),
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
-        ),
+        "goal_info_decode": goal_info_decode,
+        "goal_info_encode": goal_info_encode,
+        "goal_status_decode": goal_status_decode,
+        "goal_status_encode": goal_status_encode,
+        "goal_status_array_decode": goal_status_array_decode,
+        "goal_status_array_encode": goal_status_array_encode,
+        "cancel_goal_request_decode": cancel_goal_request_decode,
+        "cancel_goal_request_encode": cancel_goal_request_encode,
+        "cancel_goal_response_decode": cancel_goal_response_decode,
+        "cancel_goal_response_encode": cancel_goal_response_encode,
+        "cancel_goal_event_decode": cancel_goal_event_decode,
+        "cancel_goal_event_encode": cancel_goal_event_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "action_msgs/msg/GoalInfo": (
-            decode_action_msgs__msg__GoalInfo,
-            encode_action_msgs__msg__GoalInfo,
+            as_dict["goal_info_decode"],
+            as_view["goal_info_decode"],
+            as_dict["goal_info_encode"],
         ),
         "action_msgs/msg/GoalStatus": (
-            decode_action_msgs__msg__GoalStatus,
-            encode_action_msgs__msg__GoalStatus,
+            as_dict["goal_status_decode"],
+            as_view["goal_status_decode"],
+            as_dict["goal_status_encode"],
         ),
         "action_msgs/msg/GoalStatusArray": (
-            decode_action_msgs__msg__GoalStatusArray,
-            encode_action_msgs__msg__GoalStatusArray,
+            as_dict["goal_status_array_decode"],
+            as_view["goal_status_array_decode"],
+            as_dict["goal_status_array_encode"],
         ),
         "action_msgs/srv/CancelGoal_Request": (
-            decode_action_msgs__srv__CancelGoal_Request,
-            encode_action_msgs__srv__CancelGoal_Request,
+            as_dict["cancel_goal_request_decode"],
+            as_view["cancel_goal_request_decode"],
+            as_dict["cancel_goal_request_encode"],
         ),
         "action_msgs/srv/CancelGoal_Response": (
-            decode_action_msgs__srv__CancelGoal_Response,
-            encode_action_msgs__srv__CancelGoal_Response,
-        ),
-        "service_msgs/msg/ServiceEventInfo": (
-            decode_service_msgs__msg__ServiceEventInfo,
-            encode_service_msgs__msg__ServiceEventInfo,
+            as_dict["cancel_goal_response_decode"],
+            as_view["cancel_goal_response_decode"],
+            as_dict["cancel_goal_response_encode"],
         ),
         "action_msgs/srv/CancelGoal_Event": (
-            decode_action_msgs__srv__CancelGoal_Event,
-            encode_action_msgs__srv__CancelGoal_Event,
+            as_dict["cancel_goal_event_decode"],
+            as_view["cancel_goal_event_decode"],
+            as_dict["cancel_goal_event_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

@@ -9,10 +9,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -48,20 +49,25 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.builtin_interfaces.wire_codecs import (
+    DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
+    TIME_KEYS as BUILTIN_INTERFACES__TIME_KEYS,
+    time_view as builtin_interfaces__time_view,
+)
+from pyconnect_generated.std_msgs.wire_codecs import (
+    DEFINITIONS as STD_MSGS__DEFINITIONS,
+    FUNCTIONS as STD_MSGS__FUNCTIONS,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
+    **BUILTIN_INTERFACES__DEFINITIONS,
+    **STD_MSGS__DEFINITIONS,
     "actionlib_msgs/msg/GoalID": (
         "RIHS01_140ea4a1bad4781edc32030c7983ab3a62c675f861c61c9b2200ae5e5398be24",
         (
@@ -75,13 +81,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
             ("goal_id", "message", "actionlib_msgs/msg/GoalID", None, "single", None, None),
             ("status", "primitive", "uint8", None, "single", None, None),
             ("text", "string", "string", None, "single", None, None),
-        ),
-    ),
-    "std_msgs/msg/Header": (
-        "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01",
-        (
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("frame_id", "string", "string", None, "single", None, None),
         ),
     ),
     "actionlib_msgs/msg/GoalStatusArray": (
@@ -107,50 +106,28 @@ EXPORTED: frozenset[str] = frozenset(
         "actionlib_msgs/msg/GoalStatusArray",
     )
 )
-_K_actionlib_msgs__msg__GoalID = frozenset(
+GOAL_ID_KEYS = frozenset(
     (
         "stamp",
         "id",
     )
 )
-_K_actionlib_msgs__msg__GoalStatus = frozenset(
+GOAL_STATUS_ARRAY_KEYS = frozenset(
+    (
+        "header",
+        "status_list",
+    )
+)
+GOAL_STATUS_KEYS = frozenset(
     (
         "goal_id",
         "status",
         "text",
     )
 )
-_K_actionlib_msgs__msg__GoalStatusArray = frozenset(
-    (
-        "header",
-        "status_list",
-    )
-)
-_K_builtin_interfaces__msg__Time = frozenset(
-    (
-        "sec",
-        "nanosec",
-    )
-)
-_K_std_msgs__msg__Header = frozenset(
-    (
-        "stamp",
-        "frame_id",
-    )
-)
-_R_actionlib_msgs__msg__GoalID_0 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-    (".id", "uint32", 12),
-)
-_R_actionlib_msgs__msg__GoalStatus_0 = ((".status", "uint8", 1),)
-_R_actionlib_msgs__msg__GoalStatus_1 = ((".text", "uint32", 4),)
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_std_msgs__msg__Header_0 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-    (".frame_id", "uint32", 12),
-)
+GOAL_ID_RUN_0 = ((".stamp.sec", "int32", 4), (".stamp.nanosec", "uint32", 8), (".id", "uint32", 12))
+GOAL_STATUS_RUN_0 = ((".status", "uint8", 1),)
+GOAL_STATUS_RUN_1 = ((".text", "uint32", 4),)
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
@@ -160,30 +137,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class actionlib_msgs__msg__GoalID:
+class GoalID:
     """A decoded actionlib_msgs/msg/GoalID.
 
     Attributes named as the ROS fields.
@@ -199,14 +153,14 @@ class actionlib_msgs__msg__GoalID:
         return view_repr(self)
 
 
-def make_actionlib_msgs__msg__GoalID(a0: Any, a1: Any) -> actionlib_msgs__msg__GoalID:
-    view = _new(actionlib_msgs__msg__GoalID)
+def goal_id_view(a0: Any, a1: Any) -> GoalID:
+    view = _new(GoalID)
     view.stamp = a0
     view.id = a1
     return view
 
 
-class actionlib_msgs__msg__GoalStatus:
+class GoalStatus:
     """A decoded actionlib_msgs/msg/GoalStatus.
 
     Attributes named as the ROS fields.
@@ -223,40 +177,15 @@ class actionlib_msgs__msg__GoalStatus:
         return view_repr(self)
 
 
-def make_actionlib_msgs__msg__GoalStatus(
-    a0: Any, a1: Any, a2: Any
-) -> actionlib_msgs__msg__GoalStatus:
-    view = _new(actionlib_msgs__msg__GoalStatus)
+def goal_status_view(a0: Any, a1: Any, a2: Any) -> GoalStatus:
+    view = _new(GoalStatus)
     view.goal_id = a0
     view.status = a1
     view.text = a2
     return view
 
 
-class std_msgs__msg__Header:
-    """A decoded std_msgs/msg/Header.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "stamp",
-        "frame_id",
-    )
-    msg_type = "std_msgs/msg/Header"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_std_msgs__msg__Header(a0: Any, a1: Any) -> std_msgs__msg__Header:
-    view = _new(std_msgs__msg__Header)
-    view.stamp = a0
-    view.frame_id = a1
-    return view
-
-
-class actionlib_msgs__msg__GoalStatusArray:
+class GoalStatusArray:
     """A decoded actionlib_msgs/msg/GoalStatusArray.
 
     Attributes named as the ROS fields.
@@ -272,73 +201,27 @@ class actionlib_msgs__msg__GoalStatusArray:
         return view_repr(self)
 
 
-def make_actionlib_msgs__msg__GoalStatusArray(
-    a0: Any, a1: Any
-) -> actionlib_msgs__msg__GoalStatusArray:
-    view = _new(actionlib_msgs__msg__GoalStatusArray)
+def goal_status_array_view(a0: Any, a1: Any) -> GoalStatusArray:
+    view = _new(GoalStatusArray)
     view.header = a0
     view.status_list = a1
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    std_msgs__header_decode = STD_MSGS__FUNCTIONS[E, view]["header_decode"]
+    std_msgs__header_encode = STD_MSGS__FUNCTIONS[E, view]["header_encode"]
     _U32 = Struct(E + "I")
     _S_B = Struct(E + "B")
     _S_I = Struct(E + "I")
     _S_i2I = Struct(E + "i2I")
-    _S_iI = Struct(E + "iI")
 
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def goal_id_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_actionlib_msgs__msg__GoalID(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_actionlib_msgs__msg__GoalID_0
+            f = GOAL_ID_RUN_0
             v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
             pos += 12
             f = ".id"
@@ -351,20 +234,18 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_actionlib_msgs__msg__GoalID(
-                make_builtin_interfaces__msg__Time(v2, v3), v6
-            ), pos
+            return goal_id_view(builtin_interfaces__time_view(v2, v3), v6), pos
         return {"stamp": {"sec": v2, "nanosec": v3}, "id": v6}, pos
 
-    def encode_actionlib_msgs__msg__GoalID(d: Any, out: list[Any], pos: int) -> int:
+    def goal_id_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_actionlib_msgs__msg__GoalID.issuperset(d):
-                d = _submap(d, _K_actionlib_msgs__msg__GoalID)
+            if d.__class__ is not dict or not GOAL_ID_KEYS.issuperset(d):
+                d = _submap(d, GOAL_ID_KEYS)
             f = ".stamp"
             m1 = d.get("stamp", EMPTY)
-            if m1.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m1):
-                m1 = _submap(m1, _K_builtin_interfaces__msg__Time)
+            if m1.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m1):
+                m1 = _submap(m1, BUILTIN_INTERFACES__TIME_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -378,7 +259,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_i2I,
-                        _R_actionlib_msgs__msg__GoalID_0,
+                        GOAL_ID_RUN_0,
                         (
                             m1.get("sec", 0),
                             m1.get("nanosec", 0),
@@ -395,18 +276,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_actionlib_msgs__msg__GoalStatus(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def goal_status_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".goal_id"
-            v1, pos = decode_actionlib_msgs__msg__GoalID(mv, pos, lim)
-            f = _R_actionlib_msgs__msg__GoalStatus_0
+            v1, pos = goal_id_decode(mv, pos, lim)
+            f = GOAL_STATUS_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_actionlib_msgs__msg__GoalStatus_1
+            f = GOAL_STATUS_RUN_1
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".text"
@@ -419,25 +298,23 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_actionlib_msgs__msg__GoalStatus(v1, v2, v5), pos
+            return goal_status_view(v1, v2, v5), pos
         return {"goal_id": v1, "status": v2, "text": v5}, pos
 
-    def encode_actionlib_msgs__msg__GoalStatus(d: Any, out: list[Any], pos: int) -> int:
+    def goal_status_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_actionlib_msgs__msg__GoalStatus.issuperset(d):
-                d = _submap(d, _K_actionlib_msgs__msg__GoalStatus)
+            if d.__class__ is not dict or not GOAL_STATUS_KEYS.issuperset(d):
+                d = _submap(d, GOAL_STATUS_KEYS)
             f = ".goal_id"
-            pos = encode_actionlib_msgs__msg__GoalID(d.get("goal_id", EMPTY), out, pos)
+            pos = goal_id_encode(d.get("goal_id", EMPTY), out, pos)
             f = ".text"
             b3 = utf8z(d.get("text", ""), None)
             f = ""
             try:
                 out.append(_S_B.pack(d.get("status", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_actionlib_msgs__msg__GoalStatus_0, (d.get("status", 0),))
-                )
+                out.append(slow_pack(_S_B, GOAL_STATUS_RUN_0, (d.get("status", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -447,7 +324,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b3)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_actionlib_msgs__msg__GoalStatus_1, (len(b3),)))
+                out.append(slow_pack(_S_I, GOAL_STATUS_RUN_1, (len(b3),)))
             pos += 4
             out.append(b3)
             pos += len(b3)
@@ -457,100 +334,31 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
-        return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Header.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Header)
-            f = ".stamp"
-            m1 = d.get("stamp", EMPTY)
-            if m1.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m1):
-                m1 = _submap(m1, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".frame_id"
-            b4 = utf8z(d.get("frame_id", ""), None)
-            f = ""
-            try:
-                out.append(_S_i2I.pack(m1.get("sec", 0), m1.get("nanosec", 0), len(b4)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_i2I,
-                        _R_std_msgs__msg__Header_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                            len(b4),
-                        ),
-                    )
-                )
-            pos += 12
-            out.append(b4)
-            pos += len(b4)
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_actionlib_msgs__msg__GoalStatusArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def goal_status_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = ".status_list"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_actionlib_msgs__msg__GoalStatus, None, None, 17
-            )
+            v2, pos = read_messages(mv, pos, lim, _U32, goal_status_decode, None, None, 17)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_actionlib_msgs__msg__GoalStatusArray(v1, v2), pos
+            return goal_status_array_view(v1, v2), pos
         return {"header": v1, "status_list": v2}, pos
 
-    def encode_actionlib_msgs__msg__GoalStatusArray(d: Any, out: list[Any], pos: int) -> int:
+    def goal_status_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_actionlib_msgs__msg__GoalStatusArray.issuperset(d):
-                d = _submap(d, _K_actionlib_msgs__msg__GoalStatusArray)
+            if d.__class__ is not dict or not GOAL_STATUS_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, GOAL_STATUS_ARRAY_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".status_list"
             pos = write_messages(
-                d.get("status_list", ()),
-                out,
-                pos,
-                _U32,
-                encode_actionlib_msgs__msg__GoalStatus,
-                None,
-                False,
+                d.get("status_list", ()), out, pos, _U32, goal_status_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -559,30 +367,42 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
-        ),
+        "goal_id_decode": goal_id_decode,
+        "goal_id_encode": goal_id_encode,
+        "goal_status_decode": goal_status_decode,
+        "goal_status_encode": goal_status_encode,
+        "goal_status_array_decode": goal_status_array_decode,
+        "goal_status_array_encode": goal_status_array_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "actionlib_msgs/msg/GoalID": (
-            decode_actionlib_msgs__msg__GoalID,
-            encode_actionlib_msgs__msg__GoalID,
+            as_dict["goal_id_decode"],
+            as_view["goal_id_decode"],
+            as_dict["goal_id_encode"],
         ),
         "actionlib_msgs/msg/GoalStatus": (
-            decode_actionlib_msgs__msg__GoalStatus,
-            encode_actionlib_msgs__msg__GoalStatus,
+            as_dict["goal_status_decode"],
+            as_view["goal_status_decode"],
+            as_dict["goal_status_encode"],
         ),
-        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
         "actionlib_msgs/msg/GoalStatusArray": (
-            decode_actionlib_msgs__msg__GoalStatusArray,
-            encode_actionlib_msgs__msg__GoalStatusArray,
+            as_dict["goal_status_array_decode"],
+            as_view["goal_status_array_decode"],
+            as_dict["goal_status_array_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

@@ -7,10 +7,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -50,8 +51,9 @@ from pyconnect.codecs.field_path import FieldError, WireDecodeError
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "builtin_interfaces/msg/Duration": (
         "RIHS01_e8d009f659816f758b75334ee1a9ca5b5c0b859843261f14c7f937349599d93b",
@@ -74,20 +76,20 @@ EXPORTED: frozenset[str] = frozenset(
         "builtin_interfaces/msg/Time",
     )
 )
-_K_builtin_interfaces__msg__Duration = frozenset(
+DURATION_KEYS = frozenset(
     (
         "sec",
         "nanosec",
     )
 )
-_K_builtin_interfaces__msg__Time = frozenset(
+TIME_KEYS = frozenset(
     (
         "sec",
         "nanosec",
     )
 )
-_R_builtin_interfaces__msg__Duration_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
+DURATION_RUN_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
+TIME_RUN_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
@@ -97,7 +99,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class builtin_interfaces__msg__Duration:
+class Duration:
     """A decoded builtin_interfaces/msg/Duration.
 
     Attributes named as the ROS fields.
@@ -113,14 +115,14 @@ class builtin_interfaces__msg__Duration:
         return view_repr(self)
 
 
-def make_builtin_interfaces__msg__Duration(a0: Any, a1: Any) -> builtin_interfaces__msg__Duration:
-    view = _new(builtin_interfaces__msg__Duration)
+def duration_view(a0: Any, a1: Any) -> Duration:
+    view = _new(Duration)
     view.sec = a0
     view.nanosec = a1
     return view
 
 
-class builtin_interfaces__msg__Time:
+class Time:
     """A decoded builtin_interfaces/msg/Time.
 
     Attributes named as the ROS fields.
@@ -136,25 +138,23 @@ class builtin_interfaces__msg__Time:
         return view_repr(self)
 
 
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
+def time_view(a0: Any, a1: Any) -> Time:
+    view = _new(Time)
     view.sec = a0
     view.nanosec = a1
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_iI = Struct(E + "iI")
 
-    def decode_builtin_interfaces__msg__Duration(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def duration_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Duration_0
+            f = DURATION_RUN_0
             v1, v2 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -162,14 +162,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_builtin_interfaces__msg__Duration(v1, v2), pos
+            return duration_view(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
 
-    def encode_builtin_interfaces__msg__Duration(d: Any, out: list[Any], pos: int) -> int:
+    def duration_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Duration)
+            if d.__class__ is not dict or not DURATION_KEYS.issuperset(d):
+                d = _submap(d, DURATION_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -181,7 +181,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_builtin_interfaces__msg__Duration_0,
+                        DURATION_RUN_0,
                         (
                             d.get("sec", 0),
                             d.get("nanosec", 0),
@@ -195,11 +195,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def time_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
+            f = TIME_RUN_0
             v1, v2 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -207,14 +207,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
+            return time_view(v1, v2), pos
         return {"sec": v1, "nanosec": v2}, pos
 
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
+    def time_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
+            if d.__class__ is not dict or not TIME_KEYS.issuperset(d):
+                d = _submap(d, TIME_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -226,7 +226,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
+                        TIME_RUN_0,
                         (
                             d.get("sec", 0),
                             d.get("nanosec", 0),
@@ -241,21 +241,35 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
+        "duration_decode": duration_decode,
+        "duration_encode": duration_encode,
+        "time_decode": time_decode,
+        "time_encode": time_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "builtin_interfaces/msg/Duration": (
-            decode_builtin_interfaces__msg__Duration,
-            encode_builtin_interfaces__msg__Duration,
+            as_dict["duration_decode"],
+            as_view["duration_decode"],
+            as_dict["duration_encode"],
         ),
         "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
+            as_dict["time_decode"],
+            as_view["time_decode"],
+            as_dict["time_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

@@ -21,10 +21,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -60,27 +61,31 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.builtin_interfaces.wire_codecs import (
+    DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
+    TIME_KEYS as BUILTIN_INTERFACES__TIME_KEYS,
+    time_view as builtin_interfaces__time_view,
+)
+from pyconnect_generated.service_msgs.wire_codecs import (
+    DEFINITIONS as SERVICE_MSGS__DEFINITIONS,
+    SERVICE_EVENT_INFO_KEYS as SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS,
+    service_event_info_view as service_msgs__service_event_info_view,
+)
+from pyconnect_generated.std_msgs.wire_codecs import (
+    DEFINITIONS as STD_MSGS__DEFINITIONS,
+    FUNCTIONS as STD_MSGS__FUNCTIONS,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
-    "std_msgs/msg/Header": (
-        "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01",
-        (
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("frame_id", "string", "string", None, "single", None, None),
-        ),
-    ),
+    **BUILTIN_INTERFACES__DEFINITIONS,
+    **SERVICE_MSGS__DEFINITIONS,
+    **STD_MSGS__DEFINITIONS,
     "diagnostic_msgs/msg/KeyValue": (
         "RIHS01_d68081eaa540288c5440753baecef0c4e16e81a5f78ad68902ded5100413bb42",
         (
@@ -122,15 +127,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
         (
             ("success", "primitive", "bool", None, "single", None, None),
             ("message", "string", "string", None, "single", None, None),
-        ),
-    ),
-    "service_msgs/msg/ServiceEventInfo": (
-        "RIHS01_41bcbbe07a75c9b52bc96bfd5c24d7f0fc0a08c0cb7921b3373c5732345a6f45",
-        (
-            ("event_type", "primitive", "uint8", None, "single", None, None),
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("client_gid", "primitive", "uint8", None, "array", 16, None),
-            ("sequence_number", "primitive", "int64", None, "single", None, None),
         ),
     ),
     "diagnostic_msgs/srv/AddDiagnostics_Event": (
@@ -215,19 +211,27 @@ EXPORTED: frozenset[str] = frozenset(
         "diagnostic_msgs/srv/SelfTest_Response",
     )
 )
-_K_builtin_interfaces__msg__Time = frozenset(
+ADD_DIAGNOSTICS_EVENT_KEYS = frozenset(
     (
-        "sec",
-        "nanosec",
+        "info",
+        "request",
+        "response",
     )
 )
-_K_diagnostic_msgs__msg__DiagnosticArray = frozenset(
+ADD_DIAGNOSTICS_REQUEST_KEYS = frozenset(("load_namespace",))
+ADD_DIAGNOSTICS_RESPONSE_KEYS = frozenset(
+    (
+        "success",
+        "message",
+    )
+)
+DIAGNOSTIC_ARRAY_KEYS = frozenset(
     (
         "header",
         "status",
     )
 )
-_K_diagnostic_msgs__msg__DiagnosticStatus = frozenset(
+DIAGNOSTIC_STATUS_KEYS = frozenset(
     (
         "level",
         "name",
@@ -236,91 +240,48 @@ _K_diagnostic_msgs__msg__DiagnosticStatus = frozenset(
         "values",
     )
 )
-_K_diagnostic_msgs__msg__KeyValue = frozenset(
+KEY_VALUE_KEYS = frozenset(
     (
         "key",
         "value",
     )
 )
-_K_diagnostic_msgs__srv__AddDiagnostics_Event = frozenset(
+SELF_TEST_EVENT_KEYS = frozenset(
     (
         "info",
         "request",
         "response",
     )
 )
-_K_diagnostic_msgs__srv__AddDiagnostics_Request = frozenset(("load_namespace",))
-_K_diagnostic_msgs__srv__AddDiagnostics_Response = frozenset(
-    (
-        "success",
-        "message",
-    )
-)
-_K_diagnostic_msgs__srv__SelfTest_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_diagnostic_msgs__srv__SelfTest_Request = frozenset()
-_K_diagnostic_msgs__srv__SelfTest_Response = frozenset(
+SELF_TEST_REQUEST_KEYS = frozenset()
+SELF_TEST_RESPONSE_KEYS = frozenset(
     (
         "id",
         "passed",
         "status",
     )
 )
-_K_service_msgs__msg__ServiceEventInfo = frozenset(
-    (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-)
-_K_std_msgs__msg__Header = frozenset(
-    (
-        "stamp",
-        "frame_id",
-    )
-)
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_diagnostic_msgs__msg__DiagnosticStatus_0 = ((".level", "byte", 1),)
-_R_diagnostic_msgs__msg__DiagnosticStatus_1 = ((".name", "uint32", 4),)
-_R_diagnostic_msgs__msg__DiagnosticStatus_2 = ((".message", "uint32", 4),)
-_R_diagnostic_msgs__msg__DiagnosticStatus_3 = ((".hardware_id", "uint32", 4),)
-_R_diagnostic_msgs__msg__KeyValue_0 = ((".key", "uint32", 4),)
-_R_diagnostic_msgs__msg__KeyValue_1 = ((".value", "uint32", 4),)
-_R_diagnostic_msgs__srv__AddDiagnostics_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_diagnostic_msgs__srv__AddDiagnostics_Event_1 = (
+ADD_DIAGNOSTICS_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+ADD_DIAGNOSTICS_EVENT_RUN_1 = (
     (".info.stamp.sec", "int32", 4),
     (".info.stamp.nanosec", "uint32", 8),
 )
-_R_diagnostic_msgs__srv__AddDiagnostics_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_diagnostic_msgs__srv__AddDiagnostics_Request_0 = ((".load_namespace", "uint32", 4),)
-_R_diagnostic_msgs__srv__AddDiagnostics_Response_0 = ((".success", "bool", 1),)
-_R_diagnostic_msgs__srv__AddDiagnostics_Response_1 = ((".message", "uint32", 4),)
-_R_diagnostic_msgs__srv__SelfTest_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_diagnostic_msgs__srv__SelfTest_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_diagnostic_msgs__srv__SelfTest_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_diagnostic_msgs__srv__SelfTest_Request_0 = ()
-_R_diagnostic_msgs__srv__SelfTest_Response_0 = ((".id", "uint32", 4),)
-_R_diagnostic_msgs__srv__SelfTest_Response_1 = ((".passed", "byte", 1),)
-_R_service_msgs__msg__ServiceEventInfo_0 = ((".event_type", "uint8", 1),)
-_R_service_msgs__msg__ServiceEventInfo_1 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-)
-_R_service_msgs__msg__ServiceEventInfo_2 = ((".sequence_number", "int64", 8),)
-_R_std_msgs__msg__Header_0 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-    (".frame_id", "uint32", 12),
-)
+ADD_DIAGNOSTICS_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+ADD_DIAGNOSTICS_REQUEST_RUN_0 = ((".load_namespace", "uint32", 4),)
+ADD_DIAGNOSTICS_RESPONSE_RUN_0 = ((".success", "bool", 1),)
+ADD_DIAGNOSTICS_RESPONSE_RUN_1 = ((".message", "uint32", 4),)
+DIAGNOSTIC_STATUS_RUN_0 = ((".level", "byte", 1),)
+DIAGNOSTIC_STATUS_RUN_1 = ((".name", "uint32", 4),)
+DIAGNOSTIC_STATUS_RUN_2 = ((".message", "uint32", 4),)
+DIAGNOSTIC_STATUS_RUN_3 = ((".hardware_id", "uint32", 4),)
+KEY_VALUE_RUN_0 = ((".key", "uint32", 4),)
+KEY_VALUE_RUN_1 = ((".value", "uint32", 4),)
+SELF_TEST_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+SELF_TEST_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+SELF_TEST_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+SELF_TEST_REQUEST_RUN_0 = ()
+SELF_TEST_RESPONSE_RUN_0 = ((".id", "uint32", 4),)
+SELF_TEST_RESPONSE_RUN_1 = ((".passed", "byte", 1),)
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
@@ -330,53 +291,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class std_msgs__msg__Header:
-    """A decoded std_msgs/msg/Header.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "stamp",
-        "frame_id",
-    )
-    msg_type = "std_msgs/msg/Header"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_std_msgs__msg__Header(a0: Any, a1: Any) -> std_msgs__msg__Header:
-    view = _new(std_msgs__msg__Header)
-    view.stamp = a0
-    view.frame_id = a1
-    return view
-
-
-class diagnostic_msgs__msg__KeyValue:
+class KeyValue:
     """A decoded diagnostic_msgs/msg/KeyValue.
 
     Attributes named as the ROS fields.
@@ -392,14 +307,14 @@ class diagnostic_msgs__msg__KeyValue:
         return view_repr(self)
 
 
-def make_diagnostic_msgs__msg__KeyValue(a0: Any, a1: Any) -> diagnostic_msgs__msg__KeyValue:
-    view = _new(diagnostic_msgs__msg__KeyValue)
+def key_value_view(a0: Any, a1: Any) -> KeyValue:
+    view = _new(KeyValue)
     view.key = a0
     view.value = a1
     return view
 
 
-class diagnostic_msgs__msg__DiagnosticStatus:
+class DiagnosticStatus:
     """A decoded diagnostic_msgs/msg/DiagnosticStatus.
 
     Attributes named as the ROS fields.
@@ -418,10 +333,8 @@ class diagnostic_msgs__msg__DiagnosticStatus:
         return view_repr(self)
 
 
-def make_diagnostic_msgs__msg__DiagnosticStatus(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any
-) -> diagnostic_msgs__msg__DiagnosticStatus:
-    view = _new(diagnostic_msgs__msg__DiagnosticStatus)
+def diagnostic_status_view(a0: Any, a1: Any, a2: Any, a3: Any, a4: Any) -> DiagnosticStatus:
+    view = _new(DiagnosticStatus)
     view.level = a0
     view.name = a1
     view.message = a2
@@ -430,7 +343,7 @@ def make_diagnostic_msgs__msg__DiagnosticStatus(
     return view
 
 
-class diagnostic_msgs__msg__DiagnosticArray:
+class DiagnosticArray:
     """A decoded diagnostic_msgs/msg/DiagnosticArray.
 
     Attributes named as the ROS fields.
@@ -446,16 +359,14 @@ class diagnostic_msgs__msg__DiagnosticArray:
         return view_repr(self)
 
 
-def make_diagnostic_msgs__msg__DiagnosticArray(
-    a0: Any, a1: Any
-) -> diagnostic_msgs__msg__DiagnosticArray:
-    view = _new(diagnostic_msgs__msg__DiagnosticArray)
+def diagnostic_array_view(a0: Any, a1: Any) -> DiagnosticArray:
+    view = _new(DiagnosticArray)
     view.header = a0
     view.status = a1
     return view
 
 
-class diagnostic_msgs__srv__AddDiagnostics_Request:
+class AddDiagnostics_Request:
     """A decoded diagnostic_msgs/srv/AddDiagnostics_Request.
 
     Attributes named as the ROS fields.
@@ -468,15 +379,13 @@ class diagnostic_msgs__srv__AddDiagnostics_Request:
         return view_repr(self)
 
 
-def make_diagnostic_msgs__srv__AddDiagnostics_Request(
-    a0: Any,
-) -> diagnostic_msgs__srv__AddDiagnostics_Request:
-    view = _new(diagnostic_msgs__srv__AddDiagnostics_Request)
+def add_diagnostics_request_view(a0: Any) -> AddDiagnostics_Request:
+    view = _new(AddDiagnostics_Request)
     view.load_namespace = a0
     return view
 
 
-class diagnostic_msgs__srv__AddDiagnostics_Response:
+class AddDiagnostics_Response:
     """A decoded diagnostic_msgs/srv/AddDiagnostics_Response.
 
     Attributes named as the ROS fields.
@@ -492,45 +401,14 @@ class diagnostic_msgs__srv__AddDiagnostics_Response:
         return view_repr(self)
 
 
-def make_diagnostic_msgs__srv__AddDiagnostics_Response(
-    a0: Any, a1: Any
-) -> diagnostic_msgs__srv__AddDiagnostics_Response:
-    view = _new(diagnostic_msgs__srv__AddDiagnostics_Response)
+def add_diagnostics_response_view(a0: Any, a1: Any) -> AddDiagnostics_Response:
+    view = _new(AddDiagnostics_Response)
     view.success = a0
     view.message = a1
     return view
 
 
-class service_msgs__msg__ServiceEventInfo:
-    """A decoded service_msgs/msg/ServiceEventInfo.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-    msg_type = "service_msgs/msg/ServiceEventInfo"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_service_msgs__msg__ServiceEventInfo(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> service_msgs__msg__ServiceEventInfo:
-    view = _new(service_msgs__msg__ServiceEventInfo)
-    view.event_type = a0
-    view.stamp = a1
-    view.client_gid = a2
-    view.sequence_number = a3
-    return view
-
-
-class diagnostic_msgs__srv__AddDiagnostics_Event:
+class AddDiagnostics_Event:
     """A decoded diagnostic_msgs/srv/AddDiagnostics_Event.
 
     Attributes named as the ROS fields.
@@ -547,17 +425,15 @@ class diagnostic_msgs__srv__AddDiagnostics_Event:
         return view_repr(self)
 
 
-def make_diagnostic_msgs__srv__AddDiagnostics_Event(
-    a0: Any, a1: Any, a2: Any
-) -> diagnostic_msgs__srv__AddDiagnostics_Event:
-    view = _new(diagnostic_msgs__srv__AddDiagnostics_Event)
+def add_diagnostics_event_view(a0: Any, a1: Any, a2: Any) -> AddDiagnostics_Event:
+    view = _new(AddDiagnostics_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class diagnostic_msgs__srv__SelfTest_Request:
+class SelfTest_Request:
     """A decoded diagnostic_msgs/srv/SelfTest_Request.
 
     Attributes named as the ROS fields.
@@ -570,12 +446,12 @@ class diagnostic_msgs__srv__SelfTest_Request:
         return view_repr(self)
 
 
-def make_diagnostic_msgs__srv__SelfTest_Request() -> diagnostic_msgs__srv__SelfTest_Request:
-    view = _new(diagnostic_msgs__srv__SelfTest_Request)
+def self_test_request_view() -> SelfTest_Request:
+    view = _new(SelfTest_Request)
     return view
 
 
-class diagnostic_msgs__srv__SelfTest_Response:
+class SelfTest_Response:
     """A decoded diagnostic_msgs/srv/SelfTest_Response.
 
     Attributes named as the ROS fields.
@@ -592,17 +468,15 @@ class diagnostic_msgs__srv__SelfTest_Response:
         return view_repr(self)
 
 
-def make_diagnostic_msgs__srv__SelfTest_Response(
-    a0: Any, a1: Any, a2: Any
-) -> diagnostic_msgs__srv__SelfTest_Response:
-    view = _new(diagnostic_msgs__srv__SelfTest_Response)
+def self_test_response_view(a0: Any, a1: Any, a2: Any) -> SelfTest_Response:
+    view = _new(SelfTest_Response)
     view.id = a0
     view.passed = a1
     view.status = a2
     return view
 
 
-class diagnostic_msgs__srv__SelfTest_Event:
+class SelfTest_Event:
     """A decoded diagnostic_msgs/srv/SelfTest_Event.
 
     Attributes named as the ROS fields.
@@ -619,139 +493,32 @@ class diagnostic_msgs__srv__SelfTest_Event:
         return view_repr(self)
 
 
-def make_diagnostic_msgs__srv__SelfTest_Event(
-    a0: Any, a1: Any, a2: Any
-) -> diagnostic_msgs__srv__SelfTest_Event:
-    view = _new(diagnostic_msgs__srv__SelfTest_Event)
+def self_test_event_view(a0: Any, a1: Any, a2: Any) -> SelfTest_Event:
+    view = _new(SelfTest_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    std_msgs__header_decode = STD_MSGS__FUNCTIONS[E, view]["header_decode"]
+    std_msgs__header_encode = STD_MSGS__FUNCTIONS[E, view]["header_encode"]
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_B = Struct(E + "B")
     _S_I = Struct(E + "I")
     _S_T = Struct(E + "?")
-    _S_i2I = Struct(E + "i2I")
     _S_iI = Struct(E + "iI")
     _S_q = Struct(E + "q")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def key_value_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
-        return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Header.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Header)
-            f = ".stamp"
-            m1 = d.get("stamp", EMPTY)
-            if m1.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m1):
-                m1 = _submap(m1, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".frame_id"
-            b4 = utf8z(d.get("frame_id", ""), None)
-            f = ""
-            try:
-                out.append(_S_i2I.pack(m1.get("sec", 0), m1.get("nanosec", 0), len(b4)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_i2I,
-                        _R_std_msgs__msg__Header_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                            len(b4),
-                        ),
-                    )
-                )
-            pos += 12
-            out.append(b4)
-            pos += len(b4)
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_diagnostic_msgs__msg__KeyValue(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__msg__KeyValue_0
+            f = KEY_VALUE_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".key"
@@ -760,7 +527,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__msg__KeyValue_1
+            f = KEY_VALUE_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".value"
@@ -773,14 +540,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_diagnostic_msgs__msg__KeyValue(v3, v6), pos
+            return key_value_view(v3, v6), pos
         return {"key": v3, "value": v6}, pos
 
-    def encode_diagnostic_msgs__msg__KeyValue(d: Any, out: list[Any], pos: int) -> int:
+    def key_value_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_diagnostic_msgs__msg__KeyValue.issuperset(d):
-                d = _submap(d, _K_diagnostic_msgs__msg__KeyValue)
+            if d.__class__ is not dict or not KEY_VALUE_KEYS.issuperset(d):
+                d = _submap(d, KEY_VALUE_KEYS)
             f = ".key"
             b1 = utf8z(d.get("key", ""), None)
             p = -pos & 3
@@ -791,7 +558,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_diagnostic_msgs__msg__KeyValue_0, (len(b1),)))
+                out.append(slow_pack(_S_I, KEY_VALUE_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -805,7 +572,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b4)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_diagnostic_msgs__msg__KeyValue_1, (len(b4),)))
+                out.append(slow_pack(_S_I, KEY_VALUE_RUN_1, (len(b4),)))
             pos += 4
             out.append(b4)
             pos += len(b4)
@@ -815,16 +582,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_diagnostic_msgs__msg__DiagnosticStatus(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def diagnostic_status_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_diagnostic_msgs__msg__DiagnosticStatus_0
+            f = DIAGNOSTIC_STATUS_RUN_0
             (v1,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__msg__DiagnosticStatus_1
+            f = DIAGNOSTIC_STATUS_RUN_1
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".name"
@@ -833,7 +598,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__msg__DiagnosticStatus_2
+            f = DIAGNOSTIC_STATUS_RUN_2
             (v6,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".message"
@@ -842,7 +607,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__msg__DiagnosticStatus_3
+            f = DIAGNOSTIC_STATUS_RUN_3
             (v9,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".hardware_id"
@@ -851,35 +616,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
             f = ".values"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_diagnostic_msgs__msg__KeyValue, None, None, 8
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, key_value_decode, None, None, 8)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_diagnostic_msgs__msg__DiagnosticStatus(v1, v4, v7, v10, v11), pos
+            return diagnostic_status_view(v1, v4, v7, v10, v11), pos
         return {"level": v1, "name": v4, "message": v7, "hardware_id": v10, "values": v11}, pos
 
-    def encode_diagnostic_msgs__msg__DiagnosticStatus(d: Any, out: list[Any], pos: int) -> int:
+    def diagnostic_status_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_diagnostic_msgs__msg__DiagnosticStatus.issuperset(
-                d
-            ):
-                d = _submap(d, _K_diagnostic_msgs__msg__DiagnosticStatus)
+            if d.__class__ is not dict or not DIAGNOSTIC_STATUS_KEYS.issuperset(d):
+                d = _submap(d, DIAGNOSTIC_STATUS_KEYS)
             f = ".name"
             b2 = utf8z(d.get("name", ""), None)
             f = ""
             try:
                 out.append(_S_B.pack(d.get("level", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_diagnostic_msgs__msg__DiagnosticStatus_0, (d.get("level", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_B, DIAGNOSTIC_STATUS_RUN_0, (d.get("level", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -889,7 +646,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b2)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_diagnostic_msgs__msg__DiagnosticStatus_1, (len(b2),)))
+                out.append(slow_pack(_S_I, DIAGNOSTIC_STATUS_RUN_1, (len(b2),)))
             pos += 4
             out.append(b2)
             pos += len(b2)
@@ -903,7 +660,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b5)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_diagnostic_msgs__msg__DiagnosticStatus_2, (len(b5),)))
+                out.append(slow_pack(_S_I, DIAGNOSTIC_STATUS_RUN_2, (len(b5),)))
             pos += 4
             out.append(b5)
             pos += len(b5)
@@ -917,63 +674,43 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b8)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_diagnostic_msgs__msg__DiagnosticStatus_3, (len(b8),)))
+                out.append(slow_pack(_S_I, DIAGNOSTIC_STATUS_RUN_3, (len(b8),)))
             pos += 4
             out.append(b8)
             pos += len(b8)
             f = ".values"
-            pos = write_messages(
-                d.get("values", ()),
-                out,
-                pos,
-                _U32,
-                encode_diagnostic_msgs__msg__KeyValue,
-                None,
-                False,
-            )
+            pos = write_messages(d.get("values", ()), out, pos, _U32, key_value_encode, None, False)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_diagnostic_msgs__msg__DiagnosticArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def diagnostic_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = ".status"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_diagnostic_msgs__msg__DiagnosticStatus, None, None, 17
-            )
+            v2, pos = read_messages(mv, pos, lim, _U32, diagnostic_status_decode, None, None, 17)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_diagnostic_msgs__msg__DiagnosticArray(v1, v2), pos
+            return diagnostic_array_view(v1, v2), pos
         return {"header": v1, "status": v2}, pos
 
-    def encode_diagnostic_msgs__msg__DiagnosticArray(d: Any, out: list[Any], pos: int) -> int:
+    def diagnostic_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_diagnostic_msgs__msg__DiagnosticArray.issuperset(
-                d
-            ):
-                d = _submap(d, _K_diagnostic_msgs__msg__DiagnosticArray)
+            if d.__class__ is not dict or not DIAGNOSTIC_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, DIAGNOSTIC_ARRAY_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".status"
             pos = write_messages(
-                d.get("status", ()),
-                out,
-                pos,
-                _U32,
-                encode_diagnostic_msgs__msg__DiagnosticStatus,
-                None,
-                False,
+                d.get("status", ()), out, pos, _U32, diagnostic_status_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -981,13 +718,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_diagnostic_msgs__srv__AddDiagnostics_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def add_diagnostics_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__srv__AddDiagnostics_Request_0
+            f = ADD_DIAGNOSTICS_REQUEST_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".load_namespace"
@@ -1000,19 +735,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_diagnostic_msgs__srv__AddDiagnostics_Request(v3), pos
+            return add_diagnostics_request_view(v3), pos
         return {"load_namespace": v3}, pos
 
-    def encode_diagnostic_msgs__srv__AddDiagnostics_Request(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def add_diagnostics_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_diagnostic_msgs__srv__AddDiagnostics_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_diagnostic_msgs__srv__AddDiagnostics_Request)
+            if d.__class__ is not dict or not ADD_DIAGNOSTICS_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, ADD_DIAGNOSTICS_REQUEST_KEYS)
             f = ".load_namespace"
             b1 = utf8z(d.get("load_namespace", ""), None)
             p = -pos & 3
@@ -1023,9 +753,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_diagnostic_msgs__srv__AddDiagnostics_Request_0, (len(b1),))
-                )
+                out.append(slow_pack(_S_I, ADD_DIAGNOSTICS_REQUEST_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -1035,16 +763,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_diagnostic_msgs__srv__AddDiagnostics_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def add_diagnostics_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_diagnostic_msgs__srv__AddDiagnostics_Response_0
+            f = ADD_DIAGNOSTICS_RESPONSE_RUN_0
             (v2,) = _S_T.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__srv__AddDiagnostics_Response_1
+            f = ADD_DIAGNOSTICS_RESPONSE_RUN_1
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".message"
@@ -1057,19 +783,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_diagnostic_msgs__srv__AddDiagnostics_Response(v2, v5), pos
+            return add_diagnostics_response_view(v2, v5), pos
         return {"success": v2, "message": v5}, pos
 
-    def encode_diagnostic_msgs__srv__AddDiagnostics_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def add_diagnostics_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_diagnostic_msgs__srv__AddDiagnostics_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_diagnostic_msgs__srv__AddDiagnostics_Response)
+            if d.__class__ is not dict or not ADD_DIAGNOSTICS_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, ADD_DIAGNOSTICS_RESPONSE_KEYS)
             f = ".message"
             b3 = utf8z(d.get("message", ""), None)
             f = ""
@@ -1087,7 +808,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_diagnostic_msgs__srv__AddDiagnostics_Response_0,
+                        ADD_DIAGNOSTICS_RESPONSE_RUN_0,
                         (
                             (
                                 t1
@@ -1106,9 +827,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b3)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_diagnostic_msgs__srv__AddDiagnostics_Response_1, (len(b3),))
-                )
+                out.append(slow_pack(_S_I, ADD_DIAGNOSTICS_RESPONSE_RUN_1, (len(b3),)))
             pos += 4
             out.append(b3)
             pos += len(b3)
@@ -1118,116 +837,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def add_diagnostics_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_service_msgs__msg__ServiceEventInfo(
-                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-            ), pos
-        return {
-            "event_type": v1,
-            "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7.tobytes(),
-            "sequence_number": v8,
-        }, pos
-
-    def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(d):
-                d = _submap(d, _K_service_msgs__msg__ServiceEventInfo)
-            f = ".stamp"
-            m2 = d.get("stamp", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
-            f = ""
-            try:
-                out.append(_S_B.pack(d.get("event_type", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_service_msgs__msg__ServiceEventInfo_0, (d.get("event_type", 0),)
-                    )
-                )
-            pos += 1
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".client_gid"
-            b5, c6 = encode_array(d.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
-            f = ""
-            try:
-                out.append(_S_iI.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_service_msgs__msg__ServiceEventInfo_1,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-            out.append(b5)
-            pos += c6 * 1
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_q.pack(d.get("sequence_number", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_service_msgs__msg__ServiceEventInfo_2,
-                        (d.get("sequence_number", 0),),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_diagnostic_msgs__srv__AddDiagnostics_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_diagnostic_msgs__srv__AddDiagnostics_Event_0
+            f = ADD_DIAGNOSTICS_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__srv__AddDiagnostics_Event_1
+            f = ADD_DIAGNOSTICS_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -1236,25 +853,23 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_diagnostic_msgs__srv__AddDiagnostics_Event_2
+            f = ADD_DIAGNOSTICS_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_diagnostic_msgs__srv__AddDiagnostics_Request, None, 1, 4
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, add_diagnostics_request_decode, None, 1, 4)
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_diagnostic_msgs__srv__AddDiagnostics_Response, None, 1, 5
+                mv, pos, lim, _U32, add_diagnostics_response_decode, None, 1, 5
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_diagnostic_msgs__srv__AddDiagnostics_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return add_diagnostics_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -1270,35 +885,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_diagnostic_msgs__srv__AddDiagnostics_Event(d: Any, out: list[Any], pos: int) -> int:
+    def add_diagnostics_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_diagnostic_msgs__srv__AddDiagnostics_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_diagnostic_msgs__srv__AddDiagnostics_Event)
+            if d.__class__ is not dict or not ADD_DIAGNOSTICS_EVENT_KEYS.issuperset(d):
+                d = _submap(d, ADD_DIAGNOSTICS_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_diagnostic_msgs__srv__AddDiagnostics_Event_0,
-                        (m1.get("event_type", 0),),
-                    )
-                )
+                out.append(slow_pack(_S_B, ADD_DIAGNOSTICS_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -1313,7 +917,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_diagnostic_msgs__srv__AddDiagnostics_Event_1,
+                        ADD_DIAGNOSTICS_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -1332,32 +936,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_diagnostic_msgs__srv__AddDiagnostics_Event_2,
-                        (m1.get("sequence_number", 0),),
-                    )
+                    slow_pack(_S_q, ADD_DIAGNOSTICS_EVENT_RUN_2, (m1.get("sequence_number", 0),))
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_diagnostic_msgs__srv__AddDiagnostics_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, add_diagnostics_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_diagnostic_msgs__srv__AddDiagnostics_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, add_diagnostics_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -1365,12 +953,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_diagnostic_msgs__srv__SelfTest_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def self_test_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_diagnostic_msgs__srv__SelfTest_Request_0
+            f = SELF_TEST_REQUEST_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -1378,21 +964,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_diagnostic_msgs__srv__SelfTest_Request(), pos
+            return self_test_request_view(), pos
         return {}, pos
 
-    def encode_diagnostic_msgs__srv__SelfTest_Request(d: Any, out: list[Any], pos: int) -> int:
+    def self_test_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_diagnostic_msgs__srv__SelfTest_Request.issuperset(
-                d
-            ):
-                d = _submap(d, _K_diagnostic_msgs__srv__SelfTest_Request)
+            if d.__class__ is not dict or not SELF_TEST_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, SELF_TEST_REQUEST_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(slow_pack(_S_1x, _R_diagnostic_msgs__srv__SelfTest_Request_0, ()))
+                out.append(slow_pack(_S_1x, SELF_TEST_REQUEST_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1400,13 +984,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_diagnostic_msgs__srv__SelfTest_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def self_test_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__srv__SelfTest_Response_0
+            f = SELF_TEST_RESPONSE_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".id"
@@ -1414,28 +996,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v2, 1, lim - pos)
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
-            f = _R_diagnostic_msgs__srv__SelfTest_Response_1
+            f = SELF_TEST_RESPONSE_RUN_1
             (v4,) = _S_B.unpack_from(mv, pos)
             pos += 1
             f = ".status"
-            v5, pos = read_messages(
-                mv, pos, lim, _U32, decode_diagnostic_msgs__msg__DiagnosticStatus, None, None, 17
-            )
+            v5, pos = read_messages(mv, pos, lim, _U32, diagnostic_status_decode, None, None, 17)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_diagnostic_msgs__srv__SelfTest_Response(v3, v4, v5), pos
+            return self_test_response_view(v3, v4, v5), pos
         return {"id": v3, "passed": v4, "status": v5}, pos
 
-    def encode_diagnostic_msgs__srv__SelfTest_Response(d: Any, out: list[Any], pos: int) -> int:
+    def self_test_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_diagnostic_msgs__srv__SelfTest_Response.issuperset(
-                d
-            ):
-                d = _submap(d, _K_diagnostic_msgs__srv__SelfTest_Response)
+            if d.__class__ is not dict or not SELF_TEST_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, SELF_TEST_RESPONSE_KEYS)
             f = ".id"
             b1 = utf8z(d.get("id", ""), None)
             p = -pos & 3
@@ -1446,9 +1024,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_diagnostic_msgs__srv__SelfTest_Response_0, (len(b1),))
-                )
+                out.append(slow_pack(_S_I, SELF_TEST_RESPONSE_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -1456,21 +1032,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_B.pack(d.get("passed", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_diagnostic_msgs__srv__SelfTest_Response_1, (d.get("passed", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_B, SELF_TEST_RESPONSE_RUN_1, (d.get("passed", 0),)))
             pos += 1
             f = ".status"
             pos = write_messages(
-                d.get("status", ()),
-                out,
-                pos,
-                _U32,
-                encode_diagnostic_msgs__msg__DiagnosticStatus,
-                None,
-                False,
+                d.get("status", ()), out, pos, _U32, diagnostic_status_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -1478,16 +1044,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_diagnostic_msgs__srv__SelfTest_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def self_test_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_diagnostic_msgs__srv__SelfTest_Event_0
+            f = SELF_TEST_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_diagnostic_msgs__srv__SelfTest_Event_1
+            f = SELF_TEST_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -1496,25 +1060,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_diagnostic_msgs__srv__SelfTest_Event_2
+            f = SELF_TEST_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_diagnostic_msgs__srv__SelfTest_Request, None, 1, 1
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, self_test_request_decode, None, 1, 1)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_diagnostic_msgs__srv__SelfTest_Response, None, 1, 9
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, self_test_response_decode, None, 1, 9)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_diagnostic_msgs__srv__SelfTest_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return self_test_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -1530,30 +1090,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_diagnostic_msgs__srv__SelfTest_Event(d: Any, out: list[Any], pos: int) -> int:
+    def self_test_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_diagnostic_msgs__srv__SelfTest_Event.issuperset(d):
-                d = _submap(d, _K_diagnostic_msgs__srv__SelfTest_Event)
+            if d.__class__ is not dict or not SELF_TEST_EVENT_KEYS.issuperset(d):
+                d = _submap(d, SELF_TEST_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_diagnostic_msgs__srv__SelfTest_Event_0, (m1.get("event_type", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_B, SELF_TEST_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -1568,7 +1122,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_diagnostic_msgs__srv__SelfTest_Event_1,
+                        SELF_TEST_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -1586,33 +1140,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_diagnostic_msgs__srv__SelfTest_Event_2,
-                        (m1.get("sequence_number", 0),),
-                    )
-                )
+                out.append(slow_pack(_S_q, SELF_TEST_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_diagnostic_msgs__srv__SelfTest_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, self_test_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_diagnostic_msgs__srv__SelfTest_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, self_test_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -1621,58 +1157,84 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
-        ),
-        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
+        "key_value_decode": key_value_decode,
+        "key_value_encode": key_value_encode,
+        "diagnostic_status_decode": diagnostic_status_decode,
+        "diagnostic_status_encode": diagnostic_status_encode,
+        "diagnostic_array_decode": diagnostic_array_decode,
+        "diagnostic_array_encode": diagnostic_array_encode,
+        "add_diagnostics_request_decode": add_diagnostics_request_decode,
+        "add_diagnostics_request_encode": add_diagnostics_request_encode,
+        "add_diagnostics_response_decode": add_diagnostics_response_decode,
+        "add_diagnostics_response_encode": add_diagnostics_response_encode,
+        "add_diagnostics_event_decode": add_diagnostics_event_decode,
+        "add_diagnostics_event_encode": add_diagnostics_event_encode,
+        "self_test_request_decode": self_test_request_decode,
+        "self_test_request_encode": self_test_request_encode,
+        "self_test_response_decode": self_test_response_decode,
+        "self_test_response_encode": self_test_response_encode,
+        "self_test_event_decode": self_test_event_decode,
+        "self_test_event_encode": self_test_event_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "diagnostic_msgs/msg/KeyValue": (
-            decode_diagnostic_msgs__msg__KeyValue,
-            encode_diagnostic_msgs__msg__KeyValue,
+            as_dict["key_value_decode"],
+            as_view["key_value_decode"],
+            as_dict["key_value_encode"],
         ),
         "diagnostic_msgs/msg/DiagnosticStatus": (
-            decode_diagnostic_msgs__msg__DiagnosticStatus,
-            encode_diagnostic_msgs__msg__DiagnosticStatus,
+            as_dict["diagnostic_status_decode"],
+            as_view["diagnostic_status_decode"],
+            as_dict["diagnostic_status_encode"],
         ),
         "diagnostic_msgs/msg/DiagnosticArray": (
-            decode_diagnostic_msgs__msg__DiagnosticArray,
-            encode_diagnostic_msgs__msg__DiagnosticArray,
+            as_dict["diagnostic_array_decode"],
+            as_view["diagnostic_array_decode"],
+            as_dict["diagnostic_array_encode"],
         ),
         "diagnostic_msgs/srv/AddDiagnostics_Request": (
-            decode_diagnostic_msgs__srv__AddDiagnostics_Request,
-            encode_diagnostic_msgs__srv__AddDiagnostics_Request,
+            as_dict["add_diagnostics_request_decode"],
+            as_view["add_diagnostics_request_decode"],
+            as_dict["add_diagnostics_request_encode"],
         ),
         "diagnostic_msgs/srv/AddDiagnostics_Response": (
-            decode_diagnostic_msgs__srv__AddDiagnostics_Response,
-            encode_diagnostic_msgs__srv__AddDiagnostics_Response,
-        ),
-        "service_msgs/msg/ServiceEventInfo": (
-            decode_service_msgs__msg__ServiceEventInfo,
-            encode_service_msgs__msg__ServiceEventInfo,
+            as_dict["add_diagnostics_response_decode"],
+            as_view["add_diagnostics_response_decode"],
+            as_dict["add_diagnostics_response_encode"],
         ),
         "diagnostic_msgs/srv/AddDiagnostics_Event": (
-            decode_diagnostic_msgs__srv__AddDiagnostics_Event,
-            encode_diagnostic_msgs__srv__AddDiagnostics_Event,
+            as_dict["add_diagnostics_event_decode"],
+            as_view["add_diagnostics_event_decode"],
+            as_dict["add_diagnostics_event_encode"],
         ),
         "diagnostic_msgs/srv/SelfTest_Request": (
-            decode_diagnostic_msgs__srv__SelfTest_Request,
-            encode_diagnostic_msgs__srv__SelfTest_Request,
+            as_dict["self_test_request_decode"],
+            as_view["self_test_request_decode"],
+            as_dict["self_test_request_encode"],
         ),
         "diagnostic_msgs/srv/SelfTest_Response": (
-            decode_diagnostic_msgs__srv__SelfTest_Response,
-            encode_diagnostic_msgs__srv__SelfTest_Response,
+            as_dict["self_test_response_decode"],
+            as_view["self_test_response_decode"],
+            as_dict["self_test_response_encode"],
         ),
         "diagnostic_msgs/srv/SelfTest_Event": (
-            decode_diagnostic_msgs__srv__SelfTest_Event,
-            encode_diagnostic_msgs__srv__SelfTest_Event,
+            as_dict["self_test_event_decode"],
+            as_view["self_test_event_decode"],
+            as_dict["self_test_event_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

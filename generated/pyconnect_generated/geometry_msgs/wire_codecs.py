@@ -67,10 +67,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -106,13 +107,19 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.std_msgs.wire_codecs import (
+    DEFINITIONS as STD_MSGS__DEFINITIONS,
+    FUNCTIONS as STD_MSGS__FUNCTIONS,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
+    **STD_MSGS__DEFINITIONS,
     "geometry_msgs/msg/Vector3": (
         "RIHS01_cc12fe83e4c02719f1ce8070bfd14aecd40f75a96696a67a2a1f37f7dbb0765d",
         (
@@ -126,20 +133,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
         (
             ("linear", "message", "geometry_msgs/msg/Vector3", None, "single", None, None),
             ("angular", "message", "geometry_msgs/msg/Vector3", None, "single", None, None),
-        ),
-    ),
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
-    "std_msgs/msg/Header": (
-        "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01",
-        (
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("frame_id", "string", "string", None, "single", None, None),
         ),
     ),
     "geometry_msgs/msg/AccelStamped": (
@@ -416,37 +409,31 @@ EXPORTED: frozenset[str] = frozenset(
         "geometry_msgs/msg/WrenchStamped",
     )
 )
-_K_builtin_interfaces__msg__Time = frozenset(
-    (
-        "sec",
-        "nanosec",
-    )
-)
-_K_geometry_msgs__msg__Accel = frozenset(
+ACCEL_KEYS = frozenset(
     (
         "linear",
         "angular",
     )
 )
-_K_geometry_msgs__msg__AccelStamped = frozenset(
+ACCEL_STAMPED_KEYS = frozenset(
     (
         "header",
         "accel",
     )
 )
-_K_geometry_msgs__msg__AccelWithCovariance = frozenset(
+ACCEL_WITH_COVARIANCE_KEYS = frozenset(
     (
         "accel",
         "covariance",
     )
 )
-_K_geometry_msgs__msg__AccelWithCovarianceStamped = frozenset(
+ACCEL_WITH_COVARIANCE_STAMPED_KEYS = frozenset(
     (
         "header",
         "accel",
     )
 )
-_K_geometry_msgs__msg__Inertia = frozenset(
+INERTIA_KEYS = frozenset(
     (
         "m",
         "com",
@@ -458,89 +445,89 @@ _K_geometry_msgs__msg__Inertia = frozenset(
         "izz",
     )
 )
-_K_geometry_msgs__msg__InertiaStamped = frozenset(
+INERTIA_STAMPED_KEYS = frozenset(
     (
         "header",
         "inertia",
     )
 )
-_K_geometry_msgs__msg__Point = frozenset(
+POINT32_KEYS = frozenset(
     (
         "x",
         "y",
         "z",
     )
 )
-_K_geometry_msgs__msg__Point32 = frozenset(
+POINT_KEYS = frozenset(
     (
         "x",
         "y",
         "z",
     )
 )
-_K_geometry_msgs__msg__PointStamped = frozenset(
+POINT_STAMPED_KEYS = frozenset(
     (
         "header",
         "point",
     )
 )
-_K_geometry_msgs__msg__Polygon = frozenset(("points",))
-_K_geometry_msgs__msg__PolygonInstance = frozenset(
+POLYGON_INSTANCE_KEYS = frozenset(
     (
         "polygon",
         "id",
     )
 )
-_K_geometry_msgs__msg__PolygonInstanceStamped = frozenset(
+POLYGON_INSTANCE_STAMPED_KEYS = frozenset(
     (
         "header",
         "polygon",
     )
 )
-_K_geometry_msgs__msg__PolygonStamped = frozenset(
+POLYGON_KEYS = frozenset(("points",))
+POLYGON_STAMPED_KEYS = frozenset(
     (
         "header",
         "polygon",
     )
 )
-_K_geometry_msgs__msg__Pose = frozenset(
-    (
-        "position",
-        "orientation",
-    )
-)
-_K_geometry_msgs__msg__Pose2D = frozenset(
+POSE2_D_KEYS = frozenset(
     (
         "x",
         "y",
         "theta",
     )
 )
-_K_geometry_msgs__msg__PoseArray = frozenset(
+POSE_ARRAY_KEYS = frozenset(
     (
         "header",
         "poses",
     )
 )
-_K_geometry_msgs__msg__PoseStamped = frozenset(
+POSE_KEYS = frozenset(
+    (
+        "position",
+        "orientation",
+    )
+)
+POSE_STAMPED_KEYS = frozenset(
     (
         "header",
         "pose",
     )
 )
-_K_geometry_msgs__msg__PoseWithCovariance = frozenset(
+POSE_WITH_COVARIANCE_KEYS = frozenset(
     (
         "pose",
         "covariance",
     )
 )
-_K_geometry_msgs__msg__PoseWithCovarianceStamped = frozenset(
+POSE_WITH_COVARIANCE_STAMPED_KEYS = frozenset(
     (
         "header",
         "pose",
     )
 )
-_K_geometry_msgs__msg__Quaternion = frozenset(
+QUATERNION_KEYS = frozenset(
     (
         "x",
         "y",
@@ -548,63 +535,63 @@ _K_geometry_msgs__msg__Quaternion = frozenset(
         "w",
     )
 )
-_K_geometry_msgs__msg__QuaternionStamped = frozenset(
+QUATERNION_STAMPED_KEYS = frozenset(
     (
         "header",
         "quaternion",
     )
 )
-_K_geometry_msgs__msg__Transform = frozenset(
+TRANSFORM_KEYS = frozenset(
     (
         "translation",
         "rotation",
     )
 )
-_K_geometry_msgs__msg__TransformStamped = frozenset(
+TRANSFORM_STAMPED_KEYS = frozenset(
     (
         "header",
         "child_frame_id",
         "transform",
     )
 )
-_K_geometry_msgs__msg__Twist = frozenset(
+TWIST_KEYS = frozenset(
     (
         "linear",
         "angular",
     )
 )
-_K_geometry_msgs__msg__TwistStamped = frozenset(
+TWIST_STAMPED_KEYS = frozenset(
     (
         "header",
         "twist",
     )
 )
-_K_geometry_msgs__msg__TwistWithCovariance = frozenset(
+TWIST_WITH_COVARIANCE_KEYS = frozenset(
     (
         "twist",
         "covariance",
     )
 )
-_K_geometry_msgs__msg__TwistWithCovarianceStamped = frozenset(
+TWIST_WITH_COVARIANCE_STAMPED_KEYS = frozenset(
     (
         "header",
         "twist",
     )
 )
-_K_geometry_msgs__msg__Vector3 = frozenset(
+VECTOR3_KEYS = frozenset(
     (
         "x",
         "y",
         "z",
     )
 )
-_K_geometry_msgs__msg__Vector3Stamped = frozenset(
+VECTOR3_STAMPED_KEYS = frozenset(
     (
         "header",
         "vector",
     )
 )
-_K_geometry_msgs__msg__VelocityStamped = frozenset(
+VELOCITY_STAMPED_KEYS = frozenset(
     (
         "header",
         "body_frame_id",
@@ -612,50 +599,19 @@ _K_geometry_msgs__msg__VelocityStamped = frozenset(
         "velocity",
     )
 )
-_K_geometry_msgs__msg__Wrench = frozenset(
+WRENCH_KEYS = frozenset(
     (
         "force",
         "torque",
     )
 )
-_K_geometry_msgs__msg__WrenchStamped = frozenset(
+WRENCH_STAMPED_KEYS = frozenset(
     (
         "header",
         "wrench",
     )
 )
-_K_std_msgs__msg__Header = frozenset(
-    (
-        "stamp",
-        "frame_id",
-    )
-)
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_geometry_msgs__msg__AccelStamped_0 = (
-    (".accel.linear.x", "float64", 8),
-    (".accel.linear.y", "float64", 16),
-    (".accel.linear.z", "float64", 24),
-    (".accel.angular.x", "float64", 32),
-    (".accel.angular.y", "float64", 40),
-    (".accel.angular.z", "float64", 48),
-)
-_R_geometry_msgs__msg__AccelWithCovarianceStamped_0 = (
-    (".accel.accel.linear.x", "float64", 8),
-    (".accel.accel.linear.y", "float64", 16),
-    (".accel.accel.linear.z", "float64", 24),
-    (".accel.accel.angular.x", "float64", 32),
-    (".accel.accel.angular.y", "float64", 40),
-    (".accel.accel.angular.z", "float64", 48),
-)
-_R_geometry_msgs__msg__AccelWithCovariance_0 = (
-    (".accel.linear.x", "float64", 8),
-    (".accel.linear.y", "float64", 16),
-    (".accel.linear.z", "float64", 24),
-    (".accel.angular.x", "float64", 32),
-    (".accel.angular.y", "float64", 40),
-    (".accel.angular.z", "float64", 48),
-)
-_R_geometry_msgs__msg__Accel_0 = (
+ACCEL_RUN_0 = (
     (".linear.x", "float64", 8),
     (".linear.y", "float64", 16),
     (".linear.z", "float64", 24),
@@ -663,19 +619,31 @@ _R_geometry_msgs__msg__Accel_0 = (
     (".angular.y", "float64", 40),
     (".angular.z", "float64", 48),
 )
-_R_geometry_msgs__msg__InertiaStamped_0 = (
-    (".inertia.m", "float64", 8),
-    (".inertia.com.x", "float64", 16),
-    (".inertia.com.y", "float64", 24),
-    (".inertia.com.z", "float64", 32),
-    (".inertia.ixx", "float64", 40),
-    (".inertia.ixy", "float64", 48),
-    (".inertia.ixz", "float64", 56),
-    (".inertia.iyy", "float64", 64),
-    (".inertia.iyz", "float64", 72),
-    (".inertia.izz", "float64", 80),
+ACCEL_STAMPED_RUN_0 = (
+    (".accel.linear.x", "float64", 8),
+    (".accel.linear.y", "float64", 16),
+    (".accel.linear.z", "float64", 24),
+    (".accel.angular.x", "float64", 32),
+    (".accel.angular.y", "float64", 40),
+    (".accel.angular.z", "float64", 48),
 )
-_R_geometry_msgs__msg__Inertia_0 = (
+ACCEL_WITH_COVARIANCE_RUN_0 = (
+    (".accel.linear.x", "float64", 8),
+    (".accel.linear.y", "float64", 16),
+    (".accel.linear.z", "float64", 24),
+    (".accel.angular.x", "float64", 32),
+    (".accel.angular.y", "float64", 40),
+    (".accel.angular.z", "float64", 48),
+)
+ACCEL_WITH_COVARIANCE_STAMPED_RUN_0 = (
+    (".accel.accel.linear.x", "float64", 8),
+    (".accel.accel.linear.y", "float64", 16),
+    (".accel.accel.linear.z", "float64", 24),
+    (".accel.accel.angular.x", "float64", 32),
+    (".accel.accel.angular.y", "float64", 40),
+    (".accel.accel.angular.z", "float64", 48),
+)
+INERTIA_RUN_0 = (
     (".m", "float64", 8),
     (".com.x", "float64", 16),
     (".com.y", "float64", 24),
@@ -687,55 +655,28 @@ _R_geometry_msgs__msg__Inertia_0 = (
     (".iyz", "float64", 72),
     (".izz", "float64", 80),
 )
-_R_geometry_msgs__msg__Point32_0 = (
-    (".x", "float32", 4),
-    (".y", "float32", 8),
-    (".z", "float32", 12),
+INERTIA_STAMPED_RUN_0 = (
+    (".inertia.m", "float64", 8),
+    (".inertia.com.x", "float64", 16),
+    (".inertia.com.y", "float64", 24),
+    (".inertia.com.z", "float64", 32),
+    (".inertia.ixx", "float64", 40),
+    (".inertia.ixy", "float64", 48),
+    (".inertia.ixz", "float64", 56),
+    (".inertia.iyy", "float64", 64),
+    (".inertia.iyz", "float64", 72),
+    (".inertia.izz", "float64", 80),
 )
-_R_geometry_msgs__msg__PointStamped_0 = (
+POINT32_RUN_0 = ((".x", "float32", 4), (".y", "float32", 8), (".z", "float32", 12))
+POINT_RUN_0 = ((".x", "float64", 8), (".y", "float64", 16), (".z", "float64", 24))
+POINT_STAMPED_RUN_0 = (
     (".point.x", "float64", 8),
     (".point.y", "float64", 16),
     (".point.z", "float64", 24),
 )
-_R_geometry_msgs__msg__Point_0 = (
-    (".x", "float64", 8),
-    (".y", "float64", 16),
-    (".z", "float64", 24),
-)
-_R_geometry_msgs__msg__PolygonInstance_0 = ((".id", "int64", 8),)
-_R_geometry_msgs__msg__Pose2D_0 = (
-    (".x", "float64", 8),
-    (".y", "float64", 16),
-    (".theta", "float64", 24),
-)
-_R_geometry_msgs__msg__PoseStamped_0 = (
-    (".pose.position.x", "float64", 8),
-    (".pose.position.y", "float64", 16),
-    (".pose.position.z", "float64", 24),
-    (".pose.orientation.x", "float64", 32),
-    (".pose.orientation.y", "float64", 40),
-    (".pose.orientation.z", "float64", 48),
-    (".pose.orientation.w", "float64", 56),
-)
-_R_geometry_msgs__msg__PoseWithCovarianceStamped_0 = (
-    (".pose.pose.position.x", "float64", 8),
-    (".pose.pose.position.y", "float64", 16),
-    (".pose.pose.position.z", "float64", 24),
-    (".pose.pose.orientation.x", "float64", 32),
-    (".pose.pose.orientation.y", "float64", 40),
-    (".pose.pose.orientation.z", "float64", 48),
-    (".pose.pose.orientation.w", "float64", 56),
-)
-_R_geometry_msgs__msg__PoseWithCovariance_0 = (
-    (".pose.position.x", "float64", 8),
-    (".pose.position.y", "float64", 16),
-    (".pose.position.z", "float64", 24),
-    (".pose.orientation.x", "float64", 32),
-    (".pose.orientation.y", "float64", 40),
-    (".pose.orientation.z", "float64", 48),
-    (".pose.orientation.w", "float64", 56),
-)
-_R_geometry_msgs__msg__Pose_0 = (
+POLYGON_INSTANCE_RUN_0 = ((".id", "int64", 8),)
+POSE2_D_RUN_0 = ((".x", "float64", 8), (".y", "float64", 16), (".theta", "float64", 24))
+POSE_RUN_0 = (
     (".position.x", "float64", 8),
     (".position.y", "float64", 16),
     (".position.z", "float64", 24),
@@ -744,29 +685,46 @@ _R_geometry_msgs__msg__Pose_0 = (
     (".orientation.z", "float64", 48),
     (".orientation.w", "float64", 56),
 )
-_R_geometry_msgs__msg__QuaternionStamped_0 = (
-    (".quaternion.x", "float64", 8),
-    (".quaternion.y", "float64", 16),
-    (".quaternion.z", "float64", 24),
-    (".quaternion.w", "float64", 32),
+POSE_STAMPED_RUN_0 = (
+    (".pose.position.x", "float64", 8),
+    (".pose.position.y", "float64", 16),
+    (".pose.position.z", "float64", 24),
+    (".pose.orientation.x", "float64", 32),
+    (".pose.orientation.y", "float64", 40),
+    (".pose.orientation.z", "float64", 48),
+    (".pose.orientation.w", "float64", 56),
 )
-_R_geometry_msgs__msg__Quaternion_0 = (
+POSE_WITH_COVARIANCE_RUN_0 = (
+    (".pose.position.x", "float64", 8),
+    (".pose.position.y", "float64", 16),
+    (".pose.position.z", "float64", 24),
+    (".pose.orientation.x", "float64", 32),
+    (".pose.orientation.y", "float64", 40),
+    (".pose.orientation.z", "float64", 48),
+    (".pose.orientation.w", "float64", 56),
+)
+POSE_WITH_COVARIANCE_STAMPED_RUN_0 = (
+    (".pose.pose.position.x", "float64", 8),
+    (".pose.pose.position.y", "float64", 16),
+    (".pose.pose.position.z", "float64", 24),
+    (".pose.pose.orientation.x", "float64", 32),
+    (".pose.pose.orientation.y", "float64", 40),
+    (".pose.pose.orientation.z", "float64", 48),
+    (".pose.pose.orientation.w", "float64", 56),
+)
+QUATERNION_RUN_0 = (
     (".x", "float64", 8),
     (".y", "float64", 16),
     (".z", "float64", 24),
     (".w", "float64", 32),
 )
-_R_geometry_msgs__msg__TransformStamped_0 = ((".child_frame_id", "uint32", 4),)
-_R_geometry_msgs__msg__TransformStamped_1 = (
-    (".transform.translation.x", "float64", 8),
-    (".transform.translation.y", "float64", 16),
-    (".transform.translation.z", "float64", 24),
-    (".transform.rotation.x", "float64", 32),
-    (".transform.rotation.y", "float64", 40),
-    (".transform.rotation.z", "float64", 48),
-    (".transform.rotation.w", "float64", 56),
+QUATERNION_STAMPED_RUN_0 = (
+    (".quaternion.x", "float64", 8),
+    (".quaternion.y", "float64", 16),
+    (".quaternion.z", "float64", 24),
+    (".quaternion.w", "float64", 32),
 )
-_R_geometry_msgs__msg__Transform_0 = (
+TRANSFORM_RUN_0 = (
     (".translation.x", "float64", 8),
     (".translation.y", "float64", 16),
     (".translation.z", "float64", 24),
@@ -775,31 +733,17 @@ _R_geometry_msgs__msg__Transform_0 = (
     (".rotation.z", "float64", 48),
     (".rotation.w", "float64", 56),
 )
-_R_geometry_msgs__msg__TwistStamped_0 = (
-    (".twist.linear.x", "float64", 8),
-    (".twist.linear.y", "float64", 16),
-    (".twist.linear.z", "float64", 24),
-    (".twist.angular.x", "float64", 32),
-    (".twist.angular.y", "float64", 40),
-    (".twist.angular.z", "float64", 48),
+TRANSFORM_STAMPED_RUN_0 = ((".child_frame_id", "uint32", 4),)
+TRANSFORM_STAMPED_RUN_1 = (
+    (".transform.translation.x", "float64", 8),
+    (".transform.translation.y", "float64", 16),
+    (".transform.translation.z", "float64", 24),
+    (".transform.rotation.x", "float64", 32),
+    (".transform.rotation.y", "float64", 40),
+    (".transform.rotation.z", "float64", 48),
+    (".transform.rotation.w", "float64", 56),
 )
-_R_geometry_msgs__msg__TwistWithCovarianceStamped_0 = (
-    (".twist.twist.linear.x", "float64", 8),
-    (".twist.twist.linear.y", "float64", 16),
-    (".twist.twist.linear.z", "float64", 24),
-    (".twist.twist.angular.x", "float64", 32),
-    (".twist.twist.angular.y", "float64", 40),
-    (".twist.twist.angular.z", "float64", 48),
-)
-_R_geometry_msgs__msg__TwistWithCovariance_0 = (
-    (".twist.linear.x", "float64", 8),
-    (".twist.linear.y", "float64", 16),
-    (".twist.linear.z", "float64", 24),
-    (".twist.angular.x", "float64", 32),
-    (".twist.angular.y", "float64", 40),
-    (".twist.angular.z", "float64", 48),
-)
-_R_geometry_msgs__msg__Twist_0 = (
+TWIST_RUN_0 = (
     (".linear.x", "float64", 8),
     (".linear.y", "float64", 16),
     (".linear.z", "float64", 24),
@@ -807,19 +751,39 @@ _R_geometry_msgs__msg__Twist_0 = (
     (".angular.y", "float64", 40),
     (".angular.z", "float64", 48),
 )
-_R_geometry_msgs__msg__Vector3Stamped_0 = (
+TWIST_STAMPED_RUN_0 = (
+    (".twist.linear.x", "float64", 8),
+    (".twist.linear.y", "float64", 16),
+    (".twist.linear.z", "float64", 24),
+    (".twist.angular.x", "float64", 32),
+    (".twist.angular.y", "float64", 40),
+    (".twist.angular.z", "float64", 48),
+)
+TWIST_WITH_COVARIANCE_RUN_0 = (
+    (".twist.linear.x", "float64", 8),
+    (".twist.linear.y", "float64", 16),
+    (".twist.linear.z", "float64", 24),
+    (".twist.angular.x", "float64", 32),
+    (".twist.angular.y", "float64", 40),
+    (".twist.angular.z", "float64", 48),
+)
+TWIST_WITH_COVARIANCE_STAMPED_RUN_0 = (
+    (".twist.twist.linear.x", "float64", 8),
+    (".twist.twist.linear.y", "float64", 16),
+    (".twist.twist.linear.z", "float64", 24),
+    (".twist.twist.angular.x", "float64", 32),
+    (".twist.twist.angular.y", "float64", 40),
+    (".twist.twist.angular.z", "float64", 48),
+)
+VECTOR3_RUN_0 = ((".x", "float64", 8), (".y", "float64", 16), (".z", "float64", 24))
+VECTOR3_STAMPED_RUN_0 = (
     (".vector.x", "float64", 8),
     (".vector.y", "float64", 16),
     (".vector.z", "float64", 24),
 )
-_R_geometry_msgs__msg__Vector3_0 = (
-    (".x", "float64", 8),
-    (".y", "float64", 16),
-    (".z", "float64", 24),
-)
-_R_geometry_msgs__msg__VelocityStamped_0 = ((".body_frame_id", "uint32", 4),)
-_R_geometry_msgs__msg__VelocityStamped_1 = ((".reference_frame_id", "uint32", 4),)
-_R_geometry_msgs__msg__VelocityStamped_2 = (
+VELOCITY_STAMPED_RUN_0 = ((".body_frame_id", "uint32", 4),)
+VELOCITY_STAMPED_RUN_1 = ((".reference_frame_id", "uint32", 4),)
+VELOCITY_STAMPED_RUN_2 = (
     (".velocity.linear.x", "float64", 8),
     (".velocity.linear.y", "float64", 16),
     (".velocity.linear.z", "float64", 24),
@@ -827,15 +791,7 @@ _R_geometry_msgs__msg__VelocityStamped_2 = (
     (".velocity.angular.y", "float64", 40),
     (".velocity.angular.z", "float64", 48),
 )
-_R_geometry_msgs__msg__WrenchStamped_0 = (
-    (".wrench.force.x", "float64", 8),
-    (".wrench.force.y", "float64", 16),
-    (".wrench.force.z", "float64", 24),
-    (".wrench.torque.x", "float64", 32),
-    (".wrench.torque.y", "float64", 40),
-    (".wrench.torque.z", "float64", 48),
-)
-_R_geometry_msgs__msg__Wrench_0 = (
+WRENCH_RUN_0 = (
     (".force.x", "float64", 8),
     (".force.y", "float64", 16),
     (".force.z", "float64", 24),
@@ -843,10 +799,13 @@ _R_geometry_msgs__msg__Wrench_0 = (
     (".torque.y", "float64", 40),
     (".torque.z", "float64", 48),
 )
-_R_std_msgs__msg__Header_0 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-    (".frame_id", "uint32", 12),
+WRENCH_STAMPED_RUN_0 = (
+    (".wrench.force.x", "float64", 8),
+    (".wrench.force.y", "float64", 16),
+    (".wrench.force.z", "float64", 24),
+    (".wrench.torque.x", "float64", 32),
+    (".wrench.torque.y", "float64", 40),
+    (".wrench.torque.z", "float64", 48),
 )
 
 
@@ -857,7 +816,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class geometry_msgs__msg__Vector3:
+class Vector3:
     """A decoded geometry_msgs/msg/Vector3.
 
     Attributes named as the ROS fields.
@@ -874,15 +833,15 @@ class geometry_msgs__msg__Vector3:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__Vector3(a0: Any, a1: Any, a2: Any) -> geometry_msgs__msg__Vector3:
-    view = _new(geometry_msgs__msg__Vector3)
+def vector3_view(a0: Any, a1: Any, a2: Any) -> Vector3:
+    view = _new(Vector3)
     view.x = a0
     view.y = a1
     view.z = a2
     return view
 
 
-class geometry_msgs__msg__Accel:
+class Accel:
     """A decoded geometry_msgs/msg/Accel.
 
     Attributes named as the ROS fields.
@@ -898,60 +857,14 @@ class geometry_msgs__msg__Accel:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__Accel(a0: Any, a1: Any) -> geometry_msgs__msg__Accel:
-    view = _new(geometry_msgs__msg__Accel)
+def accel_view(a0: Any, a1: Any) -> Accel:
+    view = _new(Accel)
     view.linear = a0
     view.angular = a1
     return view
 
 
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class std_msgs__msg__Header:
-    """A decoded std_msgs/msg/Header.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "stamp",
-        "frame_id",
-    )
-    msg_type = "std_msgs/msg/Header"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_std_msgs__msg__Header(a0: Any, a1: Any) -> std_msgs__msg__Header:
-    view = _new(std_msgs__msg__Header)
-    view.stamp = a0
-    view.frame_id = a1
-    return view
-
-
-class geometry_msgs__msg__AccelStamped:
+class AccelStamped:
     """A decoded geometry_msgs/msg/AccelStamped.
 
     Attributes named as the ROS fields.
@@ -967,14 +880,14 @@ class geometry_msgs__msg__AccelStamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__AccelStamped(a0: Any, a1: Any) -> geometry_msgs__msg__AccelStamped:
-    view = _new(geometry_msgs__msg__AccelStamped)
+def accel_stamped_view(a0: Any, a1: Any) -> AccelStamped:
+    view = _new(AccelStamped)
     view.header = a0
     view.accel = a1
     return view
 
 
-class geometry_msgs__msg__AccelWithCovariance:
+class AccelWithCovariance:
     """A decoded geometry_msgs/msg/AccelWithCovariance.
 
     Attributes named as the ROS fields.
@@ -990,16 +903,14 @@ class geometry_msgs__msg__AccelWithCovariance:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__AccelWithCovariance(
-    a0: Any, a1: Any
-) -> geometry_msgs__msg__AccelWithCovariance:
-    view = _new(geometry_msgs__msg__AccelWithCovariance)
+def accel_with_covariance_view(a0: Any, a1: Any) -> AccelWithCovariance:
+    view = _new(AccelWithCovariance)
     view.accel = a0
     view.covariance = a1
     return view
 
 
-class geometry_msgs__msg__AccelWithCovarianceStamped:
+class AccelWithCovarianceStamped:
     """A decoded geometry_msgs/msg/AccelWithCovarianceStamped.
 
     Attributes named as the ROS fields.
@@ -1015,16 +926,14 @@ class geometry_msgs__msg__AccelWithCovarianceStamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__AccelWithCovarianceStamped(
-    a0: Any, a1: Any
-) -> geometry_msgs__msg__AccelWithCovarianceStamped:
-    view = _new(geometry_msgs__msg__AccelWithCovarianceStamped)
+def accel_with_covariance_stamped_view(a0: Any, a1: Any) -> AccelWithCovarianceStamped:
+    view = _new(AccelWithCovarianceStamped)
     view.header = a0
     view.accel = a1
     return view
 
 
-class geometry_msgs__msg__Inertia:
+class Inertia:
     """A decoded geometry_msgs/msg/Inertia.
 
     Attributes named as the ROS fields.
@@ -1046,10 +955,8 @@ class geometry_msgs__msg__Inertia:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__Inertia(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any, a7: Any
-) -> geometry_msgs__msg__Inertia:
-    view = _new(geometry_msgs__msg__Inertia)
+def inertia_view(a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any, a7: Any) -> Inertia:
+    view = _new(Inertia)
     view.m = a0
     view.com = a1
     view.ixx = a2
@@ -1061,7 +968,7 @@ def make_geometry_msgs__msg__Inertia(
     return view
 
 
-class geometry_msgs__msg__InertiaStamped:
+class InertiaStamped:
     """A decoded geometry_msgs/msg/InertiaStamped.
 
     Attributes named as the ROS fields.
@@ -1077,14 +984,14 @@ class geometry_msgs__msg__InertiaStamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__InertiaStamped(a0: Any, a1: Any) -> geometry_msgs__msg__InertiaStamped:
-    view = _new(geometry_msgs__msg__InertiaStamped)
+def inertia_stamped_view(a0: Any, a1: Any) -> InertiaStamped:
+    view = _new(InertiaStamped)
     view.header = a0
     view.inertia = a1
     return view
 
 
-class geometry_msgs__msg__Point:
+class Point:
     """A decoded geometry_msgs/msg/Point.
 
     Attributes named as the ROS fields.
@@ -1101,15 +1008,15 @@ class geometry_msgs__msg__Point:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__Point(a0: Any, a1: Any, a2: Any) -> geometry_msgs__msg__Point:
-    view = _new(geometry_msgs__msg__Point)
+def point_view(a0: Any, a1: Any, a2: Any) -> Point:
+    view = _new(Point)
     view.x = a0
     view.y = a1
     view.z = a2
     return view
 
 
-class geometry_msgs__msg__Point32:
+class Point32:
     """A decoded geometry_msgs/msg/Point32.
 
     Attributes named as the ROS fields.
@@ -1126,15 +1033,15 @@ class geometry_msgs__msg__Point32:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__Point32(a0: Any, a1: Any, a2: Any) -> geometry_msgs__msg__Point32:
-    view = _new(geometry_msgs__msg__Point32)
+def point32_view(a0: Any, a1: Any, a2: Any) -> Point32:
+    view = _new(Point32)
     view.x = a0
     view.y = a1
     view.z = a2
     return view
 
 
-class geometry_msgs__msg__PointStamped:
+class PointStamped:
     """A decoded geometry_msgs/msg/PointStamped.
 
     Attributes named as the ROS fields.
@@ -1150,14 +1057,14 @@ class geometry_msgs__msg__PointStamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__PointStamped(a0: Any, a1: Any) -> geometry_msgs__msg__PointStamped:
-    view = _new(geometry_msgs__msg__PointStamped)
+def point_stamped_view(a0: Any, a1: Any) -> PointStamped:
+    view = _new(PointStamped)
     view.header = a0
     view.point = a1
     return view
 
 
-class geometry_msgs__msg__Polygon:
+class Polygon:
     """A decoded geometry_msgs/msg/Polygon.
 
     Attributes named as the ROS fields.
@@ -1170,13 +1077,13 @@ class geometry_msgs__msg__Polygon:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__Polygon(a0: Any) -> geometry_msgs__msg__Polygon:
-    view = _new(geometry_msgs__msg__Polygon)
+def polygon_view(a0: Any) -> Polygon:
+    view = _new(Polygon)
     view.points = a0
     return view
 
 
-class geometry_msgs__msg__PolygonInstance:
+class PolygonInstance:
     """A decoded geometry_msgs/msg/PolygonInstance.
 
     Attributes named as the ROS fields.
@@ -1192,16 +1099,14 @@ class geometry_msgs__msg__PolygonInstance:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__PolygonInstance(
-    a0: Any, a1: Any
-) -> geometry_msgs__msg__PolygonInstance:
-    view = _new(geometry_msgs__msg__PolygonInstance)
+def polygon_instance_view(a0: Any, a1: Any) -> PolygonInstance:
+    view = _new(PolygonInstance)
     view.polygon = a0
     view.id = a1
     return view
 
 
-class geometry_msgs__msg__PolygonInstanceStamped:
+class PolygonInstanceStamped:
     """A decoded geometry_msgs/msg/PolygonInstanceStamped.
 
     Attributes named as the ROS fields.
@@ -1217,16 +1122,14 @@ class geometry_msgs__msg__PolygonInstanceStamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__PolygonInstanceStamped(
-    a0: Any, a1: Any
-) -> geometry_msgs__msg__PolygonInstanceStamped:
-    view = _new(geometry_msgs__msg__PolygonInstanceStamped)
+def polygon_instance_stamped_view(a0: Any, a1: Any) -> PolygonInstanceStamped:
+    view = _new(PolygonInstanceStamped)
     view.header = a0
     view.polygon = a1
     return view
 
 
-class geometry_msgs__msg__PolygonStamped:
+class PolygonStamped:
     """A decoded geometry_msgs/msg/PolygonStamped.
 
     Attributes named as the ROS fields.
@@ -1242,14 +1145,14 @@ class geometry_msgs__msg__PolygonStamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__PolygonStamped(a0: Any, a1: Any) -> geometry_msgs__msg__PolygonStamped:
-    view = _new(geometry_msgs__msg__PolygonStamped)
+def polygon_stamped_view(a0: Any, a1: Any) -> PolygonStamped:
+    view = _new(PolygonStamped)
     view.header = a0
     view.polygon = a1
     return view
 
 
-class geometry_msgs__msg__Quaternion:
+class Quaternion:
     """A decoded geometry_msgs/msg/Quaternion.
 
     Attributes named as the ROS fields.
@@ -1267,10 +1170,8 @@ class geometry_msgs__msg__Quaternion:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__Quaternion(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> geometry_msgs__msg__Quaternion:
-    view = _new(geometry_msgs__msg__Quaternion)
+def quaternion_view(a0: Any, a1: Any, a2: Any, a3: Any) -> Quaternion:
+    view = _new(Quaternion)
     view.x = a0
     view.y = a1
     view.z = a2
@@ -1278,7 +1179,7 @@ def make_geometry_msgs__msg__Quaternion(
     return view
 
 
-class geometry_msgs__msg__Pose:
+class Pose:
     """A decoded geometry_msgs/msg/Pose.
 
     Attributes named as the ROS fields.
@@ -1294,14 +1195,14 @@ class geometry_msgs__msg__Pose:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__Pose(a0: Any, a1: Any) -> geometry_msgs__msg__Pose:
-    view = _new(geometry_msgs__msg__Pose)
+def pose_view(a0: Any, a1: Any) -> Pose:
+    view = _new(Pose)
     view.position = a0
     view.orientation = a1
     return view
 
 
-class geometry_msgs__msg__Pose2D:
+class Pose2D:
     """A decoded geometry_msgs/msg/Pose2D.
 
     Attributes named as the ROS fields.
@@ -1318,15 +1219,15 @@ class geometry_msgs__msg__Pose2D:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__Pose2D(a0: Any, a1: Any, a2: Any) -> geometry_msgs__msg__Pose2D:
-    view = _new(geometry_msgs__msg__Pose2D)
+def pose2_d_view(a0: Any, a1: Any, a2: Any) -> Pose2D:
+    view = _new(Pose2D)
     view.x = a0
     view.y = a1
     view.theta = a2
     return view
 
 
-class geometry_msgs__msg__PoseArray:
+class PoseArray:
     """A decoded geometry_msgs/msg/PoseArray.
 
     Attributes named as the ROS fields.
@@ -1342,14 +1243,14 @@ class geometry_msgs__msg__PoseArray:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__PoseArray(a0: Any, a1: Any) -> geometry_msgs__msg__PoseArray:
-    view = _new(geometry_msgs__msg__PoseArray)
+def pose_array_view(a0: Any, a1: Any) -> PoseArray:
+    view = _new(PoseArray)
     view.header = a0
     view.poses = a1
     return view
 
 
-class geometry_msgs__msg__PoseStamped:
+class PoseStamped:
     """A decoded geometry_msgs/msg/PoseStamped.
 
     Attributes named as the ROS fields.
@@ -1365,14 +1266,14 @@ class geometry_msgs__msg__PoseStamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__PoseStamped(a0: Any, a1: Any) -> geometry_msgs__msg__PoseStamped:
-    view = _new(geometry_msgs__msg__PoseStamped)
+def pose_stamped_view(a0: Any, a1: Any) -> PoseStamped:
+    view = _new(PoseStamped)
     view.header = a0
     view.pose = a1
     return view
 
 
-class geometry_msgs__msg__PoseWithCovariance:
+class PoseWithCovariance:
     """A decoded geometry_msgs/msg/PoseWithCovariance.
 
     Attributes named as the ROS fields.
@@ -1388,16 +1289,14 @@ class geometry_msgs__msg__PoseWithCovariance:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__PoseWithCovariance(
-    a0: Any, a1: Any
-) -> geometry_msgs__msg__PoseWithCovariance:
-    view = _new(geometry_msgs__msg__PoseWithCovariance)
+def pose_with_covariance_view(a0: Any, a1: Any) -> PoseWithCovariance:
+    view = _new(PoseWithCovariance)
     view.pose = a0
     view.covariance = a1
     return view
 
 
-class geometry_msgs__msg__PoseWithCovarianceStamped:
+class PoseWithCovarianceStamped:
     """A decoded geometry_msgs/msg/PoseWithCovarianceStamped.
 
     Attributes named as the ROS fields.
@@ -1413,16 +1312,14 @@ class geometry_msgs__msg__PoseWithCovarianceStamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__PoseWithCovarianceStamped(
-    a0: Any, a1: Any
-) -> geometry_msgs__msg__PoseWithCovarianceStamped:
-    view = _new(geometry_msgs__msg__PoseWithCovarianceStamped)
+def pose_with_covariance_stamped_view(a0: Any, a1: Any) -> PoseWithCovarianceStamped:
+    view = _new(PoseWithCovarianceStamped)
     view.header = a0
     view.pose = a1
     return view
 
 
-class geometry_msgs__msg__QuaternionStamped:
+class QuaternionStamped:
     """A decoded geometry_msgs/msg/QuaternionStamped.
 
     Attributes named as the ROS fields.
@@ -1438,16 +1335,14 @@ class geometry_msgs__msg__QuaternionStamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__QuaternionStamped(
-    a0: Any, a1: Any
-) -> geometry_msgs__msg__QuaternionStamped:
-    view = _new(geometry_msgs__msg__QuaternionStamped)
+def quaternion_stamped_view(a0: Any, a1: Any) -> QuaternionStamped:
+    view = _new(QuaternionStamped)
     view.header = a0
     view.quaternion = a1
     return view
 
 
-class geometry_msgs__msg__Transform:
+class Transform:
     """A decoded geometry_msgs/msg/Transform.
 
     Attributes named as the ROS fields.
@@ -1463,14 +1358,14 @@ class geometry_msgs__msg__Transform:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__Transform(a0: Any, a1: Any) -> geometry_msgs__msg__Transform:
-    view = _new(geometry_msgs__msg__Transform)
+def transform_view(a0: Any, a1: Any) -> Transform:
+    view = _new(Transform)
     view.translation = a0
     view.rotation = a1
     return view
 
 
-class geometry_msgs__msg__TransformStamped:
+class TransformStamped:
     """A decoded geometry_msgs/msg/TransformStamped.
 
     Attributes named as the ROS fields.
@@ -1487,17 +1382,15 @@ class geometry_msgs__msg__TransformStamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__TransformStamped(
-    a0: Any, a1: Any, a2: Any
-) -> geometry_msgs__msg__TransformStamped:
-    view = _new(geometry_msgs__msg__TransformStamped)
+def transform_stamped_view(a0: Any, a1: Any, a2: Any) -> TransformStamped:
+    view = _new(TransformStamped)
     view.header = a0
     view.child_frame_id = a1
     view.transform = a2
     return view
 
 
-class geometry_msgs__msg__Twist:
+class Twist:
     """A decoded geometry_msgs/msg/Twist.
 
     Attributes named as the ROS fields.
@@ -1513,14 +1406,14 @@ class geometry_msgs__msg__Twist:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__Twist(a0: Any, a1: Any) -> geometry_msgs__msg__Twist:
-    view = _new(geometry_msgs__msg__Twist)
+def twist_view(a0: Any, a1: Any) -> Twist:
+    view = _new(Twist)
     view.linear = a0
     view.angular = a1
     return view
 
 
-class geometry_msgs__msg__TwistStamped:
+class TwistStamped:
     """A decoded geometry_msgs/msg/TwistStamped.
 
     Attributes named as the ROS fields.
@@ -1536,14 +1429,14 @@ class geometry_msgs__msg__TwistStamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__TwistStamped(a0: Any, a1: Any) -> geometry_msgs__msg__TwistStamped:
-    view = _new(geometry_msgs__msg__TwistStamped)
+def twist_stamped_view(a0: Any, a1: Any) -> TwistStamped:
+    view = _new(TwistStamped)
     view.header = a0
     view.twist = a1
     return view
 
 
-class geometry_msgs__msg__TwistWithCovariance:
+class TwistWithCovariance:
     """A decoded geometry_msgs/msg/TwistWithCovariance.
 
     Attributes named as the ROS fields.
@@ -1559,16 +1452,14 @@ class geometry_msgs__msg__TwistWithCovariance:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__TwistWithCovariance(
-    a0: Any, a1: Any
-) -> geometry_msgs__msg__TwistWithCovariance:
-    view = _new(geometry_msgs__msg__TwistWithCovariance)
+def twist_with_covariance_view(a0: Any, a1: Any) -> TwistWithCovariance:
+    view = _new(TwistWithCovariance)
     view.twist = a0
     view.covariance = a1
     return view
 
 
-class geometry_msgs__msg__TwistWithCovarianceStamped:
+class TwistWithCovarianceStamped:
     """A decoded geometry_msgs/msg/TwistWithCovarianceStamped.
 
     Attributes named as the ROS fields.
@@ -1584,16 +1475,14 @@ class geometry_msgs__msg__TwistWithCovarianceStamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__TwistWithCovarianceStamped(
-    a0: Any, a1: Any
-) -> geometry_msgs__msg__TwistWithCovarianceStamped:
-    view = _new(geometry_msgs__msg__TwistWithCovarianceStamped)
+def twist_with_covariance_stamped_view(a0: Any, a1: Any) -> TwistWithCovarianceStamped:
+    view = _new(TwistWithCovarianceStamped)
     view.header = a0
     view.twist = a1
     return view
 
 
-class geometry_msgs__msg__Vector3Stamped:
+class Vector3Stamped:
     """A decoded geometry_msgs/msg/Vector3Stamped.
 
     Attributes named as the ROS fields.
@@ -1609,14 +1498,14 @@ class geometry_msgs__msg__Vector3Stamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__Vector3Stamped(a0: Any, a1: Any) -> geometry_msgs__msg__Vector3Stamped:
-    view = _new(geometry_msgs__msg__Vector3Stamped)
+def vector3_stamped_view(a0: Any, a1: Any) -> Vector3Stamped:
+    view = _new(Vector3Stamped)
     view.header = a0
     view.vector = a1
     return view
 
 
-class geometry_msgs__msg__VelocityStamped:
+class VelocityStamped:
     """A decoded geometry_msgs/msg/VelocityStamped.
 
     Attributes named as the ROS fields.
@@ -1634,10 +1523,8 @@ class geometry_msgs__msg__VelocityStamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__VelocityStamped(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> geometry_msgs__msg__VelocityStamped:
-    view = _new(geometry_msgs__msg__VelocityStamped)
+def velocity_stamped_view(a0: Any, a1: Any, a2: Any, a3: Any) -> VelocityStamped:
+    view = _new(VelocityStamped)
     view.header = a0
     view.body_frame_id = a1
     view.reference_frame_id = a2
@@ -1645,7 +1532,7 @@ def make_geometry_msgs__msg__VelocityStamped(
     return view
 
 
-class geometry_msgs__msg__Wrench:
+class Wrench:
     """A decoded geometry_msgs/msg/Wrench.
 
     Attributes named as the ROS fields.
@@ -1661,14 +1548,14 @@ class geometry_msgs__msg__Wrench:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__Wrench(a0: Any, a1: Any) -> geometry_msgs__msg__Wrench:
-    view = _new(geometry_msgs__msg__Wrench)
+def wrench_view(a0: Any, a1: Any) -> Wrench:
+    view = _new(Wrench)
     view.force = a0
     view.torque = a1
     return view
 
 
-class geometry_msgs__msg__WrenchStamped:
+class WrenchStamped:
     """A decoded geometry_msgs/msg/WrenchStamped.
 
     Attributes named as the ROS fields.
@@ -1684,15 +1571,17 @@ class geometry_msgs__msg__WrenchStamped:
         return view_repr(self)
 
 
-def make_geometry_msgs__msg__WrenchStamped(a0: Any, a1: Any) -> geometry_msgs__msg__WrenchStamped:
-    view = _new(geometry_msgs__msg__WrenchStamped)
+def wrench_stamped_view(a0: Any, a1: Any) -> WrenchStamped:
+    view = _new(WrenchStamped)
     view.header = a0
     view.wrench = a1
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    std_msgs__header_decode = STD_MSGS__FUNCTIONS[E, view]["header_decode"]
+    std_msgs__header_encode = STD_MSGS__FUNCTIONS[E, view]["header_encode"]
     _U32 = Struct(E + "I")
     _S_10d = Struct(E + "10d")
     _S_3d = Struct(E + "3d")
@@ -1701,16 +1590,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
     _S_6d = Struct(E + "6d")
     _S_7d = Struct(E + "7d")
     _S_I = Struct(E + "I")
-    _S_i2I = Struct(E + "i2I")
-    _S_iI = Struct(E + "iI")
     _S_q = Struct(E + "q")
     _D_float64 = np.dtype("float64").newbyteorder(E)
 
-    def decode_geometry_msgs__msg__Vector3(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def vector3_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Vector3_0
+            f = VECTOR3_RUN_0
             v1, v2, v3 = _S_3d.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
@@ -1718,14 +1605,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
+            return vector3_view(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
 
-    def encode_geometry_msgs__msg__Vector3(d: Any, out: list[Any], pos: int) -> int:
+    def vector3_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Vector3)
+            if d.__class__ is not dict or not VECTOR3_KEYS.issuperset(d):
+                d = _submap(d, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -1737,7 +1624,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3d,
-                        _R_geometry_msgs__msg__Vector3_0,
+                        VECTOR3_RUN_0,
                         (
                             d.get("x", 0.0),
                             d.get("y", 0.0),
@@ -1752,11 +1639,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Accel(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def accel_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Accel_0
+            f = ACCEL_RUN_0
             v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
@@ -1764,29 +1651,26 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__Accel(
-                make_geometry_msgs__msg__Vector3(v2, v3, v4),
-                make_geometry_msgs__msg__Vector3(v6, v7, v8),
-            ), pos
+            return accel_view(vector3_view(v2, v3, v4), vector3_view(v6, v7, v8)), pos
         return {"linear": {"x": v2, "y": v3, "z": v4}, "angular": {"x": v6, "y": v7, "z": v8}}, pos
 
-    def encode_geometry_msgs__msg__Accel(d: Any, out: list[Any], pos: int) -> int:
+    def accel_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Accel.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Accel)
+            if d.__class__ is not dict or not ACCEL_KEYS.issuperset(d):
+                d = _submap(d, ACCEL_KEYS)
             f = ".linear"
             m1 = d.get("linear", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Vector3)
+            if m1.__class__ is not dict or not VECTOR3_KEYS.issuperset(m1):
+                m1 = _submap(m1, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".angular"
             m5 = d.get("angular", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m5):
-                m5 = _submap(m5, _K_geometry_msgs__msg__Vector3)
+            if m5.__class__ is not dict or not VECTOR3_KEYS.issuperset(m5):
+                m5 = _submap(m5, VECTOR3_KEYS)
             f = ""
             try:
                 out.append(
@@ -1803,7 +1687,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_6d,
-                        _R_geometry_msgs__msg__Accel_0,
+                        ACCEL_RUN_0,
                         (
                             m1.get("x", 0.0),
                             m1.get("y", 0.0),
@@ -1821,119 +1705,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
-        return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Header.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Header)
-            f = ".stamp"
-            m1 = d.get("stamp", EMPTY)
-            if m1.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m1):
-                m1 = _submap(m1, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".frame_id"
-            b4 = utf8z(d.get("frame_id", ""), None)
-            f = ""
-            try:
-                out.append(_S_i2I.pack(m1.get("sec", 0), m1.get("nanosec", 0), len(b4)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_i2I,
-                        _R_std_msgs__msg__Header_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                            len(b4),
-                        ),
-                    )
-                )
-            pos += 12
-            out.append(b4)
-            pos += len(b4)
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__AccelStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def accel_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__AccelStamped_0
+            f = ACCEL_STAMPED_RUN_0
             v4, v5, v6, v8, v9, v10 = _S_6d.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
@@ -1941,12 +1719,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__AccelStamped(
-                v1,
-                make_geometry_msgs__msg__Accel(
-                    make_geometry_msgs__msg__Vector3(v4, v5, v6),
-                    make_geometry_msgs__msg__Vector3(v8, v9, v10),
-                ),
+            return accel_stamped_view(
+                v1, accel_view(vector3_view(v4, v5, v6), vector3_view(v8, v9, v10))
             ), pos
         return {
             "header": v1,
@@ -1956,29 +1730,29 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_geometry_msgs__msg__AccelStamped(d: Any, out: list[Any], pos: int) -> int:
+    def accel_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__AccelStamped.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__AccelStamped)
+            if d.__class__ is not dict or not ACCEL_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, ACCEL_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".accel"
             m2 = d.get("accel", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Accel.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Accel)
+            if m2.__class__ is not dict or not ACCEL_KEYS.issuperset(m2):
+                m2 = _submap(m2, ACCEL_KEYS)
             f = ".accel.linear"
             m3 = m2.get("linear", EMPTY)
-            if m3.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m3):
-                m3 = _submap(m3, _K_geometry_msgs__msg__Vector3)
+            if m3.__class__ is not dict or not VECTOR3_KEYS.issuperset(m3):
+                m3 = _submap(m3, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".accel.angular"
             m7 = m2.get("angular", EMPTY)
-            if m7.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m7):
-                m7 = _submap(m7, _K_geometry_msgs__msg__Vector3)
+            if m7.__class__ is not dict or not VECTOR3_KEYS.issuperset(m7):
+                m7 = _submap(m7, VECTOR3_KEYS)
             f = ""
             try:
                 out.append(
@@ -1995,7 +1769,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_6d,
-                        _R_geometry_msgs__msg__AccelStamped_0,
+                        ACCEL_STAMPED_RUN_0,
                         (
                             m3.get("x", 0.0),
                             m3.get("y", 0.0),
@@ -2013,13 +1787,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__AccelWithCovariance(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def accel_with_covariance_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__AccelWithCovariance_0
+            f = ACCEL_WITH_COVARIANCE_RUN_0
             v3, v4, v5, v7, v8, v9 = _S_6d.unpack_from(mv, pos)
             pos += 48
             f = ".covariance"
@@ -2032,12 +1804,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__AccelWithCovariance(
-                make_geometry_msgs__msg__Accel(
-                    make_geometry_msgs__msg__Vector3(v3, v4, v5),
-                    make_geometry_msgs__msg__Vector3(v7, v8, v9),
-                ),
-                v12,
+            return accel_with_covariance_view(
+                accel_view(vector3_view(v3, v4, v5), vector3_view(v7, v8, v9)), v12
             ), pos
         return {
             "accel": {
@@ -2047,29 +1815,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "covariance": v12.tolist(),
         }, pos
 
-    def encode_geometry_msgs__msg__AccelWithCovariance(d: Any, out: list[Any], pos: int) -> int:
+    def accel_with_covariance_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__AccelWithCovariance.issuperset(
-                d
-            ):
-                d = _submap(d, _K_geometry_msgs__msg__AccelWithCovariance)
+            if d.__class__ is not dict or not ACCEL_WITH_COVARIANCE_KEYS.issuperset(d):
+                d = _submap(d, ACCEL_WITH_COVARIANCE_KEYS)
             f = ".accel"
             m1 = d.get("accel", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Accel.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Accel)
+            if m1.__class__ is not dict or not ACCEL_KEYS.issuperset(m1):
+                m1 = _submap(m1, ACCEL_KEYS)
             f = ".accel.linear"
             m2 = m1.get("linear", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Vector3)
+            if m2.__class__ is not dict or not VECTOR3_KEYS.issuperset(m2):
+                m2 = _submap(m2, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".accel.angular"
             m6 = m1.get("angular", EMPTY)
-            if m6.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m6):
-                m6 = _submap(m6, _K_geometry_msgs__msg__Vector3)
+            if m6.__class__ is not dict or not VECTOR3_KEYS.issuperset(m6):
+                m6 = _submap(m6, VECTOR3_KEYS)
             f = ".covariance"
             b10, c11 = encode_array(d.get("covariance", (0,) * 36), _D_float64, "float64", 36, True)
             f = ""
@@ -2088,7 +1854,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_6d,
-                        _R_geometry_msgs__msg__AccelWithCovariance_0,
+                        ACCEL_WITH_COVARIANCE_RUN_0,
                         (
                             m2.get("x", 0.0),
                             m2.get("y", 0.0),
@@ -2108,15 +1874,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__AccelWithCovarianceStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def accel_with_covariance_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__AccelWithCovarianceStamped_0
+            f = ACCEL_WITH_COVARIANCE_STAMPED_RUN_0
             v5, v6, v7, v9, v10, v11 = _S_6d.unpack_from(mv, pos)
             pos += 48
             f = ".accel.covariance"
@@ -2129,14 +1893,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__AccelWithCovarianceStamped(
+            return accel_with_covariance_stamped_view(
                 v1,
-                make_geometry_msgs__msg__AccelWithCovariance(
-                    make_geometry_msgs__msg__Accel(
-                        make_geometry_msgs__msg__Vector3(v5, v6, v7),
-                        make_geometry_msgs__msg__Vector3(v9, v10, v11),
-                    ),
-                    v14,
+                accel_with_covariance_view(
+                    accel_view(vector3_view(v5, v6, v7), vector3_view(v9, v10, v11)), v14
                 ),
             ), pos
         return {
@@ -2150,41 +1910,33 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_geometry_msgs__msg__AccelWithCovarianceStamped(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def accel_with_covariance_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_geometry_msgs__msg__AccelWithCovarianceStamped.issuperset(d)
-            ):
-                d = _submap(d, _K_geometry_msgs__msg__AccelWithCovarianceStamped)
+            if d.__class__ is not dict or not ACCEL_WITH_COVARIANCE_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, ACCEL_WITH_COVARIANCE_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".accel"
             m2 = d.get("accel", EMPTY)
-            if (
-                m2.__class__ is not dict
-                or not _K_geometry_msgs__msg__AccelWithCovariance.issuperset(m2)
-            ):
-                m2 = _submap(m2, _K_geometry_msgs__msg__AccelWithCovariance)
+            if m2.__class__ is not dict or not ACCEL_WITH_COVARIANCE_KEYS.issuperset(m2):
+                m2 = _submap(m2, ACCEL_WITH_COVARIANCE_KEYS)
             f = ".accel.accel"
             m3 = m2.get("accel", EMPTY)
-            if m3.__class__ is not dict or not _K_geometry_msgs__msg__Accel.issuperset(m3):
-                m3 = _submap(m3, _K_geometry_msgs__msg__Accel)
+            if m3.__class__ is not dict or not ACCEL_KEYS.issuperset(m3):
+                m3 = _submap(m3, ACCEL_KEYS)
             f = ".accel.accel.linear"
             m4 = m3.get("linear", EMPTY)
-            if m4.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m4):
-                m4 = _submap(m4, _K_geometry_msgs__msg__Vector3)
+            if m4.__class__ is not dict or not VECTOR3_KEYS.issuperset(m4):
+                m4 = _submap(m4, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".accel.accel.angular"
             m8 = m3.get("angular", EMPTY)
-            if m8.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m8):
-                m8 = _submap(m8, _K_geometry_msgs__msg__Vector3)
+            if m8.__class__ is not dict or not VECTOR3_KEYS.issuperset(m8):
+                m8 = _submap(m8, VECTOR3_KEYS)
             f = ".accel.covariance"
             b12, c13 = encode_array(
                 m2.get("covariance", (0,) * 36), _D_float64, "float64", 36, True
@@ -2205,7 +1957,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_6d,
-                        _R_geometry_msgs__msg__AccelWithCovarianceStamped_0,
+                        ACCEL_WITH_COVARIANCE_STAMPED_RUN_0,
                         (
                             m4.get("x", 0.0),
                             m4.get("y", 0.0),
@@ -2225,11 +1977,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Inertia(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def inertia_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Inertia_0
+            f = INERTIA_RUN_0
             v1, v3, v4, v5, v6, v7, v8, v9, v10, v11 = _S_10d.unpack_from(mv, pos)
             pos += 80
         except WireDecodeError as error:
@@ -2237,9 +1989,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__Inertia(
-                v1, make_geometry_msgs__msg__Vector3(v3, v4, v5), v6, v7, v8, v9, v10, v11
-            ), pos
+            return inertia_view(v1, vector3_view(v3, v4, v5), v6, v7, v8, v9, v10, v11), pos
         return {
             "m": v1,
             "com": {"x": v3, "y": v4, "z": v5},
@@ -2251,19 +2001,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "izz": v11,
         }, pos
 
-    def encode_geometry_msgs__msg__Inertia(d: Any, out: list[Any], pos: int) -> int:
+    def inertia_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Inertia.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Inertia)
+            if d.__class__ is not dict or not INERTIA_KEYS.issuperset(d):
+                d = _submap(d, INERTIA_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".com"
             m2 = d.get("com", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Vector3)
+            if m2.__class__ is not dict or not VECTOR3_KEYS.issuperset(m2):
+                m2 = _submap(m2, VECTOR3_KEYS)
             f = ""
             try:
                 out.append(
@@ -2284,7 +2034,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_10d,
-                        _R_geometry_msgs__msg__Inertia_0,
+                        INERTIA_RUN_0,
                         (
                             d.get("m", 0.0),
                             m2.get("x", 0.0),
@@ -2306,15 +2056,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__InertiaStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def inertia_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__InertiaStamped_0
+            f = INERTIA_STAMPED_RUN_0
             v3, v5, v6, v7, v8, v9, v10, v11, v12, v13 = _S_10d.unpack_from(mv, pos)
             pos += 80
         except WireDecodeError as error:
@@ -2322,11 +2070,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__InertiaStamped(
-                v1,
-                make_geometry_msgs__msg__Inertia(
-                    v3, make_geometry_msgs__msg__Vector3(v5, v6, v7), v8, v9, v10, v11, v12, v13
-                ),
+            return inertia_stamped_view(
+                v1, inertia_view(v3, vector3_view(v5, v6, v7), v8, v9, v10, v11, v12, v13)
             ), pos
         return {
             "header": v1,
@@ -2342,25 +2087,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_geometry_msgs__msg__InertiaStamped(d: Any, out: list[Any], pos: int) -> int:
+    def inertia_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__InertiaStamped.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__InertiaStamped)
+            if d.__class__ is not dict or not INERTIA_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, INERTIA_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".inertia"
             m2 = d.get("inertia", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Inertia.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Inertia)
+            if m2.__class__ is not dict or not INERTIA_KEYS.issuperset(m2):
+                m2 = _submap(m2, INERTIA_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".inertia.com"
             m4 = m2.get("com", EMPTY)
-            if m4.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m4):
-                m4 = _submap(m4, _K_geometry_msgs__msg__Vector3)
+            if m4.__class__ is not dict or not VECTOR3_KEYS.issuperset(m4):
+                m4 = _submap(m4, VECTOR3_KEYS)
             f = ""
             try:
                 out.append(
@@ -2381,7 +2126,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_10d,
-                        _R_geometry_msgs__msg__InertiaStamped_0,
+                        INERTIA_STAMPED_RUN_0,
                         (
                             m2.get("m", 0.0),
                             m4.get("x", 0.0),
@@ -2403,11 +2148,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Point(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def point_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Point_0
+            f = POINT_RUN_0
             v1, v2, v3 = _S_3d.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
@@ -2415,14 +2160,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__Point(v1, v2, v3), pos
+            return point_view(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
 
-    def encode_geometry_msgs__msg__Point(d: Any, out: list[Any], pos: int) -> int:
+    def point_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Point)
+            if d.__class__ is not dict or not POINT_KEYS.issuperset(d):
+                d = _submap(d, POINT_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -2434,7 +2179,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3d,
-                        _R_geometry_msgs__msg__Point_0,
+                        POINT_RUN_0,
                         (
                             d.get("x", 0.0),
                             d.get("y", 0.0),
@@ -2449,11 +2194,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Point32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def point32_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_geometry_msgs__msg__Point32_0
+            f = POINT32_RUN_0
             v1, v2, v3 = _S_3f.unpack_from(mv, pos)
             pos += 12
         except WireDecodeError as error:
@@ -2461,14 +2206,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__Point32(v1, v2, v3), pos
+            return point32_view(v1, v2, v3), pos
         return {"x": v1, "y": v2, "z": v3}, pos
 
-    def encode_geometry_msgs__msg__Point32(d: Any, out: list[Any], pos: int) -> int:
+    def point32_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Point32.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Point32)
+            if d.__class__ is not dict or not POINT32_KEYS.issuperset(d):
+                d = _submap(d, POINT32_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -2480,7 +2225,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3f,
-                        _R_geometry_msgs__msg__Point32_0,
+                        POINT32_RUN_0,
                         (
                             d.get("x", 0.0),
                             d.get("y", 0.0),
@@ -2495,15 +2240,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__PointStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def point_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PointStamped_0
+            f = POINT_STAMPED_RUN_0
             v3, v4, v5 = _S_3d.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
@@ -2511,22 +2254,20 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__PointStamped(
-                v1, make_geometry_msgs__msg__Point(v3, v4, v5)
-            ), pos
+            return point_stamped_view(v1, point_view(v3, v4, v5)), pos
         return {"header": v1, "point": {"x": v3, "y": v4, "z": v5}}, pos
 
-    def encode_geometry_msgs__msg__PointStamped(d: Any, out: list[Any], pos: int) -> int:
+    def point_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__PointStamped.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__PointStamped)
+            if d.__class__ is not dict or not POINT_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, POINT_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".point"
             m2 = d.get("point", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Point)
+            if m2.__class__ is not dict or not POINT_KEYS.issuperset(m2):
+                m2 = _submap(m2, POINT_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -2538,7 +2279,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3d,
-                        _R_geometry_msgs__msg__PointStamped_0,
+                        POINT_STAMPED_RUN_0,
                         (
                             m2.get("x", 0.0),
                             m2.get("y", 0.0),
@@ -2553,45 +2294,39 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Polygon(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def polygon_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".points"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__Point32, None, None, 12
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, point32_decode, None, None, 12)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__Polygon(v1), pos
+            return polygon_view(v1), pos
         return {"points": v1}, pos
 
-    def encode_geometry_msgs__msg__Polygon(d: Any, out: list[Any], pos: int) -> int:
+    def polygon_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Polygon.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Polygon)
+            if d.__class__ is not dict or not POLYGON_KEYS.issuperset(d):
+                d = _submap(d, POLYGON_KEYS)
             f = ".points"
-            pos = write_messages(
-                d.get("points", ()), out, pos, _U32, encode_geometry_msgs__msg__Point32, None, False
-            )
+            pos = write_messages(d.get("points", ()), out, pos, _U32, point32_encode, None, False)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__PolygonInstance(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def polygon_instance_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".polygon"
-            v1, pos = decode_geometry_msgs__msg__Polygon(mv, pos, lim)
+            v1, pos = polygon_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PolygonInstance_0
+            f = POLYGON_INSTANCE_RUN_0
             (v2,) = _S_q.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -2599,16 +2334,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__PolygonInstance(v1, v2), pos
+            return polygon_instance_view(v1, v2), pos
         return {"polygon": v1, "id": v2}, pos
 
-    def encode_geometry_msgs__msg__PolygonInstance(d: Any, out: list[Any], pos: int) -> int:
+    def polygon_instance_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__PolygonInstance.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__PolygonInstance)
+            if d.__class__ is not dict or not POLYGON_INSTANCE_KEYS.issuperset(d):
+                d = _submap(d, POLYGON_INSTANCE_KEYS)
             f = ".polygon"
-            pos = encode_geometry_msgs__msg__Polygon(d.get("polygon", EMPTY), out, pos)
+            pos = polygon_encode(d.get("polygon", EMPTY), out, pos)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -2617,9 +2352,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_q.pack(d.get("id", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_q, _R_geometry_msgs__msg__PolygonInstance_0, (d.get("id", 0),))
-                )
+                out.append(slow_pack(_S_q, POLYGON_INSTANCE_RUN_0, (d.get("id", 0),)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -2627,80 +2360,71 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__PolygonInstanceStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def polygon_instance_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = ".polygon"
-            v2, pos = decode_geometry_msgs__msg__PolygonInstance(mv, pos, lim)
+            v2, pos = polygon_instance_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__PolygonInstanceStamped(v1, v2), pos
+            return polygon_instance_stamped_view(v1, v2), pos
         return {"header": v1, "polygon": v2}, pos
 
-    def encode_geometry_msgs__msg__PolygonInstanceStamped(d: Any, out: list[Any], pos: int) -> int:
+    def polygon_instance_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_geometry_msgs__msg__PolygonInstanceStamped.issuperset(d)
-            ):
-                d = _submap(d, _K_geometry_msgs__msg__PolygonInstanceStamped)
+            if d.__class__ is not dict or not POLYGON_INSTANCE_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, POLYGON_INSTANCE_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".polygon"
-            pos = encode_geometry_msgs__msg__PolygonInstance(d.get("polygon", EMPTY), out, pos)
+            pos = polygon_instance_encode(d.get("polygon", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__PolygonStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def polygon_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = ".polygon"
-            v2, pos = decode_geometry_msgs__msg__Polygon(mv, pos, lim)
+            v2, pos = polygon_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__PolygonStamped(v1, v2), pos
+            return polygon_stamped_view(v1, v2), pos
         return {"header": v1, "polygon": v2}, pos
 
-    def encode_geometry_msgs__msg__PolygonStamped(d: Any, out: list[Any], pos: int) -> int:
+    def polygon_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__PolygonStamped.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__PolygonStamped)
+            if d.__class__ is not dict or not POLYGON_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, POLYGON_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".polygon"
-            pos = encode_geometry_msgs__msg__Polygon(d.get("polygon", EMPTY), out, pos)
+            pos = polygon_encode(d.get("polygon", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Quaternion(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def quaternion_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Quaternion_0
+            f = QUATERNION_RUN_0
             v1, v2, v3, v4 = _S_4d.unpack_from(mv, pos)
             pos += 32
         except WireDecodeError as error:
@@ -2708,14 +2432,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
+            return quaternion_view(v1, v2, v3, v4), pos
         return {"x": v1, "y": v2, "z": v3, "w": v4}, pos
 
-    def encode_geometry_msgs__msg__Quaternion(d: Any, out: list[Any], pos: int) -> int:
+    def quaternion_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Quaternion)
+            if d.__class__ is not dict or not QUATERNION_KEYS.issuperset(d):
+                d = _submap(d, QUATERNION_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -2729,7 +2453,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_4d,
-                        _R_geometry_msgs__msg__Quaternion_0,
+                        QUATERNION_RUN_0,
                         (
                             d.get("x", 0.0),
                             d.get("y", 0.0),
@@ -2745,11 +2469,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Pose(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def pose_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Pose_0
+            f = POSE_RUN_0
             v2, v3, v4, v6, v7, v8, v9 = _S_7d.unpack_from(mv, pos)
             pos += 56
         except WireDecodeError as error:
@@ -2757,32 +2481,29 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__Pose(
-                make_geometry_msgs__msg__Point(v2, v3, v4),
-                make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
-            ), pos
+            return pose_view(point_view(v2, v3, v4), quaternion_view(v6, v7, v8, v9)), pos
         return {
             "position": {"x": v2, "y": v3, "z": v4},
             "orientation": {"x": v6, "y": v7, "z": v8, "w": v9},
         }, pos
 
-    def encode_geometry_msgs__msg__Pose(d: Any, out: list[Any], pos: int) -> int:
+    def pose_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Pose)
+            if d.__class__ is not dict or not POSE_KEYS.issuperset(d):
+                d = _submap(d, POSE_KEYS)
             f = ".position"
             m1 = d.get("position", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Point)
+            if m1.__class__ is not dict or not POINT_KEYS.issuperset(m1):
+                m1 = _submap(m1, POINT_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".orientation"
             m5 = d.get("orientation", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m5):
-                m5 = _submap(m5, _K_geometry_msgs__msg__Quaternion)
+            if m5.__class__ is not dict or not QUATERNION_KEYS.issuperset(m5):
+                m5 = _submap(m5, QUATERNION_KEYS)
             f = ""
             try:
                 out.append(
@@ -2800,7 +2521,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7d,
-                        _R_geometry_msgs__msg__Pose_0,
+                        POSE_RUN_0,
                         (
                             m1.get("x", 0.0),
                             m1.get("y", 0.0),
@@ -2819,11 +2540,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Pose2D(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def pose2_d_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Pose2D_0
+            f = POSE2_D_RUN_0
             v1, v2, v3 = _S_3d.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
@@ -2831,14 +2552,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__Pose2D(v1, v2, v3), pos
+            return pose2_d_view(v1, v2, v3), pos
         return {"x": v1, "y": v2, "theta": v3}, pos
 
-    def encode_geometry_msgs__msg__Pose2D(d: Any, out: list[Any], pos: int) -> int:
+    def pose2_d_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Pose2D.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Pose2D)
+            if d.__class__ is not dict or not POSE2_D_KEYS.issuperset(d):
+                d = _submap(d, POSE2_D_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -2850,7 +2571,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3d,
-                        _R_geometry_msgs__msg__Pose2D_0,
+                        POSE2_D_RUN_0,
                         (
                             d.get("x", 0.0),
                             d.get("y", 0.0),
@@ -2865,49 +2586,43 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__PoseArray(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def pose_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = ".poses"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__Pose, None, None, 56
-            )
+            v2, pos = read_messages(mv, pos, lim, _U32, pose_decode, None, None, 56)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__PoseArray(v1, v2), pos
+            return pose_array_view(v1, v2), pos
         return {"header": v1, "poses": v2}, pos
 
-    def encode_geometry_msgs__msg__PoseArray(d: Any, out: list[Any], pos: int) -> int:
+    def pose_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__PoseArray.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__PoseArray)
+            if d.__class__ is not dict or not POSE_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, POSE_ARRAY_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".poses"
-            pos = write_messages(
-                d.get("poses", ()), out, pos, _U32, encode_geometry_msgs__msg__Pose, None, False
-            )
+            pos = write_messages(d.get("poses", ()), out, pos, _U32, pose_encode, None, False)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__PoseStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def pose_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PoseStamped_0
+            f = POSE_STAMPED_RUN_0
             v4, v5, v6, v8, v9, v10, v11 = _S_7d.unpack_from(mv, pos)
             pos += 56
         except WireDecodeError as error:
@@ -2915,12 +2630,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__PoseStamped(
-                v1,
-                make_geometry_msgs__msg__Pose(
-                    make_geometry_msgs__msg__Point(v4, v5, v6),
-                    make_geometry_msgs__msg__Quaternion(v8, v9, v10, v11),
-                ),
+            return pose_stamped_view(
+                v1, pose_view(point_view(v4, v5, v6), quaternion_view(v8, v9, v10, v11))
             ), pos
         return {
             "header": v1,
@@ -2930,29 +2641,29 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_geometry_msgs__msg__PoseStamped(d: Any, out: list[Any], pos: int) -> int:
+    def pose_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__PoseStamped.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__PoseStamped)
+            if d.__class__ is not dict or not POSE_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, POSE_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".pose"
             m2 = d.get("pose", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Pose)
+            if m2.__class__ is not dict or not POSE_KEYS.issuperset(m2):
+                m2 = _submap(m2, POSE_KEYS)
             f = ".pose.position"
             m3 = m2.get("position", EMPTY)
-            if m3.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m3):
-                m3 = _submap(m3, _K_geometry_msgs__msg__Point)
+            if m3.__class__ is not dict or not POINT_KEYS.issuperset(m3):
+                m3 = _submap(m3, POINT_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose.orientation"
             m7 = m2.get("orientation", EMPTY)
-            if m7.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m7):
-                m7 = _submap(m7, _K_geometry_msgs__msg__Quaternion)
+            if m7.__class__ is not dict or not QUATERNION_KEYS.issuperset(m7):
+                m7 = _submap(m7, QUATERNION_KEYS)
             f = ""
             try:
                 out.append(
@@ -2970,7 +2681,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7d,
-                        _R_geometry_msgs__msg__PoseStamped_0,
+                        POSE_STAMPED_RUN_0,
                         (
                             m3.get("x", 0.0),
                             m3.get("y", 0.0),
@@ -2989,13 +2700,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__PoseWithCovariance(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def pose_with_covariance_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PoseWithCovariance_0
+            f = POSE_WITH_COVARIANCE_RUN_0
             v3, v4, v5, v7, v8, v9, v10 = _S_7d.unpack_from(mv, pos)
             pos += 56
             f = ".covariance"
@@ -3008,12 +2717,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__PoseWithCovariance(
-                make_geometry_msgs__msg__Pose(
-                    make_geometry_msgs__msg__Point(v3, v4, v5),
-                    make_geometry_msgs__msg__Quaternion(v7, v8, v9, v10),
-                ),
-                v13,
+            return pose_with_covariance_view(
+                pose_view(point_view(v3, v4, v5), quaternion_view(v7, v8, v9, v10)), v13
             ), pos
         return {
             "pose": {
@@ -3023,29 +2728,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "covariance": v13.tolist(),
         }, pos
 
-    def encode_geometry_msgs__msg__PoseWithCovariance(d: Any, out: list[Any], pos: int) -> int:
+    def pose_with_covariance_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__PoseWithCovariance.issuperset(
-                d
-            ):
-                d = _submap(d, _K_geometry_msgs__msg__PoseWithCovariance)
+            if d.__class__ is not dict or not POSE_WITH_COVARIANCE_KEYS.issuperset(d):
+                d = _submap(d, POSE_WITH_COVARIANCE_KEYS)
             f = ".pose"
             m1 = d.get("pose", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Pose)
+            if m1.__class__ is not dict or not POSE_KEYS.issuperset(m1):
+                m1 = _submap(m1, POSE_KEYS)
             f = ".pose.position"
             m2 = m1.get("position", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Point)
+            if m2.__class__ is not dict or not POINT_KEYS.issuperset(m2):
+                m2 = _submap(m2, POINT_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose.orientation"
             m6 = m1.get("orientation", EMPTY)
-            if m6.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m6):
-                m6 = _submap(m6, _K_geometry_msgs__msg__Quaternion)
+            if m6.__class__ is not dict or not QUATERNION_KEYS.issuperset(m6):
+                m6 = _submap(m6, QUATERNION_KEYS)
             f = ".covariance"
             b11, c12 = encode_array(d.get("covariance", (0,) * 36), _D_float64, "float64", 36, True)
             f = ""
@@ -3065,7 +2768,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7d,
-                        _R_geometry_msgs__msg__PoseWithCovariance_0,
+                        POSE_WITH_COVARIANCE_RUN_0,
                         (
                             m2.get("x", 0.0),
                             m2.get("y", 0.0),
@@ -3086,15 +2789,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__PoseWithCovarianceStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def pose_with_covariance_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PoseWithCovarianceStamped_0
+            f = POSE_WITH_COVARIANCE_STAMPED_RUN_0
             v5, v6, v7, v9, v10, v11, v12 = _S_7d.unpack_from(mv, pos)
             pos += 56
             f = ".pose.covariance"
@@ -3107,14 +2808,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__PoseWithCovarianceStamped(
+            return pose_with_covariance_stamped_view(
                 v1,
-                make_geometry_msgs__msg__PoseWithCovariance(
-                    make_geometry_msgs__msg__Pose(
-                        make_geometry_msgs__msg__Point(v5, v6, v7),
-                        make_geometry_msgs__msg__Quaternion(v9, v10, v11, v12),
-                    ),
-                    v15,
+                pose_with_covariance_view(
+                    pose_view(point_view(v5, v6, v7), quaternion_view(v9, v10, v11, v12)), v15
                 ),
             ), pos
         return {
@@ -3128,40 +2825,33 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_geometry_msgs__msg__PoseWithCovarianceStamped(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def pose_with_covariance_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_geometry_msgs__msg__PoseWithCovarianceStamped.issuperset(d)
-            ):
-                d = _submap(d, _K_geometry_msgs__msg__PoseWithCovarianceStamped)
+            if d.__class__ is not dict or not POSE_WITH_COVARIANCE_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, POSE_WITH_COVARIANCE_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".pose"
             m2 = d.get("pose", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__PoseWithCovariance.issuperset(
-                m2
-            ):
-                m2 = _submap(m2, _K_geometry_msgs__msg__PoseWithCovariance)
+            if m2.__class__ is not dict or not POSE_WITH_COVARIANCE_KEYS.issuperset(m2):
+                m2 = _submap(m2, POSE_WITH_COVARIANCE_KEYS)
             f = ".pose.pose"
             m3 = m2.get("pose", EMPTY)
-            if m3.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(m3):
-                m3 = _submap(m3, _K_geometry_msgs__msg__Pose)
+            if m3.__class__ is not dict or not POSE_KEYS.issuperset(m3):
+                m3 = _submap(m3, POSE_KEYS)
             f = ".pose.pose.position"
             m4 = m3.get("position", EMPTY)
-            if m4.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m4):
-                m4 = _submap(m4, _K_geometry_msgs__msg__Point)
+            if m4.__class__ is not dict or not POINT_KEYS.issuperset(m4):
+                m4 = _submap(m4, POINT_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose.pose.orientation"
             m8 = m3.get("orientation", EMPTY)
-            if m8.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m8):
-                m8 = _submap(m8, _K_geometry_msgs__msg__Quaternion)
+            if m8.__class__ is not dict or not QUATERNION_KEYS.issuperset(m8):
+                m8 = _submap(m8, QUATERNION_KEYS)
             f = ".pose.covariance"
             b13, c14 = encode_array(
                 m2.get("covariance", (0,) * 36), _D_float64, "float64", 36, True
@@ -3183,7 +2873,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7d,
-                        _R_geometry_msgs__msg__PoseWithCovarianceStamped_0,
+                        POSE_WITH_COVARIANCE_STAMPED_RUN_0,
                         (
                             m4.get("x", 0.0),
                             m4.get("y", 0.0),
@@ -3204,15 +2894,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__QuaternionStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def quaternion_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__QuaternionStamped_0
+            f = QUATERNION_STAMPED_RUN_0
             v3, v4, v5, v6 = _S_4d.unpack_from(mv, pos)
             pos += 32
         except WireDecodeError as error:
@@ -3220,24 +2908,20 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__QuaternionStamped(
-                v1, make_geometry_msgs__msg__Quaternion(v3, v4, v5, v6)
-            ), pos
+            return quaternion_stamped_view(v1, quaternion_view(v3, v4, v5, v6)), pos
         return {"header": v1, "quaternion": {"x": v3, "y": v4, "z": v5, "w": v6}}, pos
 
-    def encode_geometry_msgs__msg__QuaternionStamped(d: Any, out: list[Any], pos: int) -> int:
+    def quaternion_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__QuaternionStamped.issuperset(
-                d
-            ):
-                d = _submap(d, _K_geometry_msgs__msg__QuaternionStamped)
+            if d.__class__ is not dict or not QUATERNION_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, QUATERNION_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".quaternion"
             m2 = d.get("quaternion", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Quaternion)
+            if m2.__class__ is not dict or not QUATERNION_KEYS.issuperset(m2):
+                m2 = _submap(m2, QUATERNION_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -3253,7 +2937,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_4d,
-                        _R_geometry_msgs__msg__QuaternionStamped_0,
+                        QUATERNION_STAMPED_RUN_0,
                         (
                             m2.get("x", 0.0),
                             m2.get("y", 0.0),
@@ -3269,11 +2953,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Transform(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def transform_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Transform_0
+            f = TRANSFORM_RUN_0
             v2, v3, v4, v6, v7, v8, v9 = _S_7d.unpack_from(mv, pos)
             pos += 56
         except WireDecodeError as error:
@@ -3281,32 +2965,29 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__Transform(
-                make_geometry_msgs__msg__Vector3(v2, v3, v4),
-                make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
-            ), pos
+            return transform_view(vector3_view(v2, v3, v4), quaternion_view(v6, v7, v8, v9)), pos
         return {
             "translation": {"x": v2, "y": v3, "z": v4},
             "rotation": {"x": v6, "y": v7, "z": v8, "w": v9},
         }, pos
 
-    def encode_geometry_msgs__msg__Transform(d: Any, out: list[Any], pos: int) -> int:
+    def transform_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Transform.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Transform)
+            if d.__class__ is not dict or not TRANSFORM_KEYS.issuperset(d):
+                d = _submap(d, TRANSFORM_KEYS)
             f = ".translation"
             m1 = d.get("translation", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Vector3)
+            if m1.__class__ is not dict or not VECTOR3_KEYS.issuperset(m1):
+                m1 = _submap(m1, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".rotation"
             m5 = d.get("rotation", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m5):
-                m5 = _submap(m5, _K_geometry_msgs__msg__Quaternion)
+            if m5.__class__ is not dict or not QUATERNION_KEYS.issuperset(m5):
+                m5 = _submap(m5, QUATERNION_KEYS)
             f = ""
             try:
                 out.append(
@@ -3324,7 +3005,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7d,
-                        _R_geometry_msgs__msg__Transform_0,
+                        TRANSFORM_RUN_0,
                         (
                             m1.get("x", 0.0),
                             m1.get("y", 0.0),
@@ -3343,15 +3024,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__TransformStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def transform_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_geometry_msgs__msg__TransformStamped_0
+            f = TRANSFORM_STAMPED_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".child_frame_id"
@@ -3360,7 +3039,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__TransformStamped_1
+            f = TRANSFORM_STAMPED_RUN_1
             v7, v8, v9, v11, v12, v13, v14 = _S_7d.unpack_from(mv, pos)
             pos += 56
         except WireDecodeError as error:
@@ -3368,13 +3047,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__TransformStamped(
+            return transform_stamped_view(
                 v1,
                 v4,
-                make_geometry_msgs__msg__Transform(
-                    make_geometry_msgs__msg__Vector3(v7, v8, v9),
-                    make_geometry_msgs__msg__Quaternion(v11, v12, v13, v14),
-                ),
+                transform_view(vector3_view(v7, v8, v9), quaternion_view(v11, v12, v13, v14)),
             ), pos
         return {
             "header": v1,
@@ -3385,13 +3061,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_geometry_msgs__msg__TransformStamped(d: Any, out: list[Any], pos: int) -> int:
+    def transform_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__TransformStamped.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__TransformStamped)
+            if d.__class__ is not dict or not TRANSFORM_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, TRANSFORM_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".child_frame_id"
             b2 = utf8z(d.get("child_frame_id", ""), None)
             p = -pos & 3
@@ -3402,26 +3078,26 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b2)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_geometry_msgs__msg__TransformStamped_0, (len(b2),)))
+                out.append(slow_pack(_S_I, TRANSFORM_STAMPED_RUN_0, (len(b2),)))
             pos += 4
             out.append(b2)
             pos += len(b2)
             f = ".transform"
             m5 = d.get("transform", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__Transform.issuperset(m5):
-                m5 = _submap(m5, _K_geometry_msgs__msg__Transform)
+            if m5.__class__ is not dict or not TRANSFORM_KEYS.issuperset(m5):
+                m5 = _submap(m5, TRANSFORM_KEYS)
             f = ".transform.translation"
             m6 = m5.get("translation", EMPTY)
-            if m6.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m6):
-                m6 = _submap(m6, _K_geometry_msgs__msg__Vector3)
+            if m6.__class__ is not dict or not VECTOR3_KEYS.issuperset(m6):
+                m6 = _submap(m6, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".transform.rotation"
             m10 = m5.get("rotation", EMPTY)
-            if m10.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m10):
-                m10 = _submap(m10, _K_geometry_msgs__msg__Quaternion)
+            if m10.__class__ is not dict or not QUATERNION_KEYS.issuperset(m10):
+                m10 = _submap(m10, QUATERNION_KEYS)
             f = ""
             try:
                 out.append(
@@ -3439,7 +3115,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7d,
-                        _R_geometry_msgs__msg__TransformStamped_1,
+                        TRANSFORM_STAMPED_RUN_1,
                         (
                             m6.get("x", 0.0),
                             m6.get("y", 0.0),
@@ -3458,11 +3134,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Twist(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def twist_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Twist_0
+            f = TWIST_RUN_0
             v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
@@ -3470,29 +3146,26 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__Twist(
-                make_geometry_msgs__msg__Vector3(v2, v3, v4),
-                make_geometry_msgs__msg__Vector3(v6, v7, v8),
-            ), pos
+            return twist_view(vector3_view(v2, v3, v4), vector3_view(v6, v7, v8)), pos
         return {"linear": {"x": v2, "y": v3, "z": v4}, "angular": {"x": v6, "y": v7, "z": v8}}, pos
 
-    def encode_geometry_msgs__msg__Twist(d: Any, out: list[Any], pos: int) -> int:
+    def twist_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Twist.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Twist)
+            if d.__class__ is not dict or not TWIST_KEYS.issuperset(d):
+                d = _submap(d, TWIST_KEYS)
             f = ".linear"
             m1 = d.get("linear", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Vector3)
+            if m1.__class__ is not dict or not VECTOR3_KEYS.issuperset(m1):
+                m1 = _submap(m1, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".angular"
             m5 = d.get("angular", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m5):
-                m5 = _submap(m5, _K_geometry_msgs__msg__Vector3)
+            if m5.__class__ is not dict or not VECTOR3_KEYS.issuperset(m5):
+                m5 = _submap(m5, VECTOR3_KEYS)
             f = ""
             try:
                 out.append(
@@ -3509,7 +3182,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_6d,
-                        _R_geometry_msgs__msg__Twist_0,
+                        TWIST_RUN_0,
                         (
                             m1.get("x", 0.0),
                             m1.get("y", 0.0),
@@ -3527,15 +3200,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__TwistStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def twist_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__TwistStamped_0
+            f = TWIST_STAMPED_RUN_0
             v4, v5, v6, v8, v9, v10 = _S_6d.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
@@ -3543,12 +3214,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__TwistStamped(
-                v1,
-                make_geometry_msgs__msg__Twist(
-                    make_geometry_msgs__msg__Vector3(v4, v5, v6),
-                    make_geometry_msgs__msg__Vector3(v8, v9, v10),
-                ),
+            return twist_stamped_view(
+                v1, twist_view(vector3_view(v4, v5, v6), vector3_view(v8, v9, v10))
             ), pos
         return {
             "header": v1,
@@ -3558,29 +3225,29 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_geometry_msgs__msg__TwistStamped(d: Any, out: list[Any], pos: int) -> int:
+    def twist_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__TwistStamped.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__TwistStamped)
+            if d.__class__ is not dict or not TWIST_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, TWIST_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".twist"
             m2 = d.get("twist", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Twist.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Twist)
+            if m2.__class__ is not dict or not TWIST_KEYS.issuperset(m2):
+                m2 = _submap(m2, TWIST_KEYS)
             f = ".twist.linear"
             m3 = m2.get("linear", EMPTY)
-            if m3.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m3):
-                m3 = _submap(m3, _K_geometry_msgs__msg__Vector3)
+            if m3.__class__ is not dict or not VECTOR3_KEYS.issuperset(m3):
+                m3 = _submap(m3, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".twist.angular"
             m7 = m2.get("angular", EMPTY)
-            if m7.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m7):
-                m7 = _submap(m7, _K_geometry_msgs__msg__Vector3)
+            if m7.__class__ is not dict or not VECTOR3_KEYS.issuperset(m7):
+                m7 = _submap(m7, VECTOR3_KEYS)
             f = ""
             try:
                 out.append(
@@ -3597,7 +3264,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_6d,
-                        _R_geometry_msgs__msg__TwistStamped_0,
+                        TWIST_STAMPED_RUN_0,
                         (
                             m3.get("x", 0.0),
                             m3.get("y", 0.0),
@@ -3615,13 +3282,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__TwistWithCovariance(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def twist_with_covariance_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__TwistWithCovariance_0
+            f = TWIST_WITH_COVARIANCE_RUN_0
             v3, v4, v5, v7, v8, v9 = _S_6d.unpack_from(mv, pos)
             pos += 48
             f = ".covariance"
@@ -3634,12 +3299,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__TwistWithCovariance(
-                make_geometry_msgs__msg__Twist(
-                    make_geometry_msgs__msg__Vector3(v3, v4, v5),
-                    make_geometry_msgs__msg__Vector3(v7, v8, v9),
-                ),
-                v12,
+            return twist_with_covariance_view(
+                twist_view(vector3_view(v3, v4, v5), vector3_view(v7, v8, v9)), v12
             ), pos
         return {
             "twist": {
@@ -3649,29 +3310,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "covariance": v12.tolist(),
         }, pos
 
-    def encode_geometry_msgs__msg__TwistWithCovariance(d: Any, out: list[Any], pos: int) -> int:
+    def twist_with_covariance_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__TwistWithCovariance.issuperset(
-                d
-            ):
-                d = _submap(d, _K_geometry_msgs__msg__TwistWithCovariance)
+            if d.__class__ is not dict or not TWIST_WITH_COVARIANCE_KEYS.issuperset(d):
+                d = _submap(d, TWIST_WITH_COVARIANCE_KEYS)
             f = ".twist"
             m1 = d.get("twist", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Twist.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Twist)
+            if m1.__class__ is not dict or not TWIST_KEYS.issuperset(m1):
+                m1 = _submap(m1, TWIST_KEYS)
             f = ".twist.linear"
             m2 = m1.get("linear", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Vector3)
+            if m2.__class__ is not dict or not VECTOR3_KEYS.issuperset(m2):
+                m2 = _submap(m2, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".twist.angular"
             m6 = m1.get("angular", EMPTY)
-            if m6.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m6):
-                m6 = _submap(m6, _K_geometry_msgs__msg__Vector3)
+            if m6.__class__ is not dict or not VECTOR3_KEYS.issuperset(m6):
+                m6 = _submap(m6, VECTOR3_KEYS)
             f = ".covariance"
             b10, c11 = encode_array(d.get("covariance", (0,) * 36), _D_float64, "float64", 36, True)
             f = ""
@@ -3690,7 +3349,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_6d,
-                        _R_geometry_msgs__msg__TwistWithCovariance_0,
+                        TWIST_WITH_COVARIANCE_RUN_0,
                         (
                             m2.get("x", 0.0),
                             m2.get("y", 0.0),
@@ -3710,15 +3369,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__TwistWithCovarianceStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def twist_with_covariance_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__TwistWithCovarianceStamped_0
+            f = TWIST_WITH_COVARIANCE_STAMPED_RUN_0
             v5, v6, v7, v9, v10, v11 = _S_6d.unpack_from(mv, pos)
             pos += 48
             f = ".twist.covariance"
@@ -3731,14 +3388,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__TwistWithCovarianceStamped(
+            return twist_with_covariance_stamped_view(
                 v1,
-                make_geometry_msgs__msg__TwistWithCovariance(
-                    make_geometry_msgs__msg__Twist(
-                        make_geometry_msgs__msg__Vector3(v5, v6, v7),
-                        make_geometry_msgs__msg__Vector3(v9, v10, v11),
-                    ),
-                    v14,
+                twist_with_covariance_view(
+                    twist_view(vector3_view(v5, v6, v7), vector3_view(v9, v10, v11)), v14
                 ),
             ), pos
         return {
@@ -3752,41 +3405,33 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_geometry_msgs__msg__TwistWithCovarianceStamped(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def twist_with_covariance_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_geometry_msgs__msg__TwistWithCovarianceStamped.issuperset(d)
-            ):
-                d = _submap(d, _K_geometry_msgs__msg__TwistWithCovarianceStamped)
+            if d.__class__ is not dict or not TWIST_WITH_COVARIANCE_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, TWIST_WITH_COVARIANCE_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".twist"
             m2 = d.get("twist", EMPTY)
-            if (
-                m2.__class__ is not dict
-                or not _K_geometry_msgs__msg__TwistWithCovariance.issuperset(m2)
-            ):
-                m2 = _submap(m2, _K_geometry_msgs__msg__TwistWithCovariance)
+            if m2.__class__ is not dict or not TWIST_WITH_COVARIANCE_KEYS.issuperset(m2):
+                m2 = _submap(m2, TWIST_WITH_COVARIANCE_KEYS)
             f = ".twist.twist"
             m3 = m2.get("twist", EMPTY)
-            if m3.__class__ is not dict or not _K_geometry_msgs__msg__Twist.issuperset(m3):
-                m3 = _submap(m3, _K_geometry_msgs__msg__Twist)
+            if m3.__class__ is not dict or not TWIST_KEYS.issuperset(m3):
+                m3 = _submap(m3, TWIST_KEYS)
             f = ".twist.twist.linear"
             m4 = m3.get("linear", EMPTY)
-            if m4.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m4):
-                m4 = _submap(m4, _K_geometry_msgs__msg__Vector3)
+            if m4.__class__ is not dict or not VECTOR3_KEYS.issuperset(m4):
+                m4 = _submap(m4, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".twist.twist.angular"
             m8 = m3.get("angular", EMPTY)
-            if m8.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m8):
-                m8 = _submap(m8, _K_geometry_msgs__msg__Vector3)
+            if m8.__class__ is not dict or not VECTOR3_KEYS.issuperset(m8):
+                m8 = _submap(m8, VECTOR3_KEYS)
             f = ".twist.covariance"
             b12, c13 = encode_array(
                 m2.get("covariance", (0,) * 36), _D_float64, "float64", 36, True
@@ -3807,7 +3452,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_6d,
-                        _R_geometry_msgs__msg__TwistWithCovarianceStamped_0,
+                        TWIST_WITH_COVARIANCE_STAMPED_RUN_0,
                         (
                             m4.get("x", 0.0),
                             m4.get("y", 0.0),
@@ -3827,15 +3472,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Vector3Stamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def vector3_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Vector3Stamped_0
+            f = VECTOR3_STAMPED_RUN_0
             v3, v4, v5 = _S_3d.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
@@ -3843,22 +3486,20 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__Vector3Stamped(
-                v1, make_geometry_msgs__msg__Vector3(v3, v4, v5)
-            ), pos
+            return vector3_stamped_view(v1, vector3_view(v3, v4, v5)), pos
         return {"header": v1, "vector": {"x": v3, "y": v4, "z": v5}}, pos
 
-    def encode_geometry_msgs__msg__Vector3Stamped(d: Any, out: list[Any], pos: int) -> int:
+    def vector3_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Vector3Stamped.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Vector3Stamped)
+            if d.__class__ is not dict or not VECTOR3_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, VECTOR3_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".vector"
             m2 = d.get("vector", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Vector3)
+            if m2.__class__ is not dict or not VECTOR3_KEYS.issuperset(m2):
+                m2 = _submap(m2, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -3870,7 +3511,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3d,
-                        _R_geometry_msgs__msg__Vector3Stamped_0,
+                        VECTOR3_STAMPED_RUN_0,
                         (
                             m2.get("x", 0.0),
                             m2.get("y", 0.0),
@@ -3885,15 +3526,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__VelocityStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def velocity_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_geometry_msgs__msg__VelocityStamped_0
+            f = VELOCITY_STAMPED_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".body_frame_id"
@@ -3902,7 +3541,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
-            f = _R_geometry_msgs__msg__VelocityStamped_1
+            f = VELOCITY_STAMPED_RUN_1
             (v6,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".reference_frame_id"
@@ -3911,7 +3550,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__VelocityStamped_2
+            f = VELOCITY_STAMPED_RUN_2
             v10, v11, v12, v14, v15, v16 = _S_6d.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
@@ -3919,14 +3558,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__VelocityStamped(
-                v1,
-                v4,
-                v7,
-                make_geometry_msgs__msg__Twist(
-                    make_geometry_msgs__msg__Vector3(v10, v11, v12),
-                    make_geometry_msgs__msg__Vector3(v14, v15, v16),
-                ),
+            return velocity_stamped_view(
+                v1, v4, v7, twist_view(vector3_view(v10, v11, v12), vector3_view(v14, v15, v16))
             ), pos
         return {
             "header": v1,
@@ -3938,13 +3571,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_geometry_msgs__msg__VelocityStamped(d: Any, out: list[Any], pos: int) -> int:
+    def velocity_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__VelocityStamped.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__VelocityStamped)
+            if d.__class__ is not dict or not VELOCITY_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, VELOCITY_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".body_frame_id"
             b2 = utf8z(d.get("body_frame_id", ""), None)
             p = -pos & 3
@@ -3955,7 +3588,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b2)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_geometry_msgs__msg__VelocityStamped_0, (len(b2),)))
+                out.append(slow_pack(_S_I, VELOCITY_STAMPED_RUN_0, (len(b2),)))
             pos += 4
             out.append(b2)
             pos += len(b2)
@@ -3969,26 +3602,26 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b5)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_geometry_msgs__msg__VelocityStamped_1, (len(b5),)))
+                out.append(slow_pack(_S_I, VELOCITY_STAMPED_RUN_1, (len(b5),)))
             pos += 4
             out.append(b5)
             pos += len(b5)
             f = ".velocity"
             m8 = d.get("velocity", EMPTY)
-            if m8.__class__ is not dict or not _K_geometry_msgs__msg__Twist.issuperset(m8):
-                m8 = _submap(m8, _K_geometry_msgs__msg__Twist)
+            if m8.__class__ is not dict or not TWIST_KEYS.issuperset(m8):
+                m8 = _submap(m8, TWIST_KEYS)
             f = ".velocity.linear"
             m9 = m8.get("linear", EMPTY)
-            if m9.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m9):
-                m9 = _submap(m9, _K_geometry_msgs__msg__Vector3)
+            if m9.__class__ is not dict or not VECTOR3_KEYS.issuperset(m9):
+                m9 = _submap(m9, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".velocity.angular"
             m13 = m8.get("angular", EMPTY)
-            if m13.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m13):
-                m13 = _submap(m13, _K_geometry_msgs__msg__Vector3)
+            if m13.__class__ is not dict or not VECTOR3_KEYS.issuperset(m13):
+                m13 = _submap(m13, VECTOR3_KEYS)
             f = ""
             try:
                 out.append(
@@ -4005,7 +3638,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_6d,
-                        _R_geometry_msgs__msg__VelocityStamped_2,
+                        VELOCITY_STAMPED_RUN_2,
                         (
                             m9.get("x", 0.0),
                             m9.get("y", 0.0),
@@ -4023,11 +3656,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Wrench(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def wrench_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Wrench_0
+            f = WRENCH_RUN_0
             v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
@@ -4035,29 +3668,26 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__Wrench(
-                make_geometry_msgs__msg__Vector3(v2, v3, v4),
-                make_geometry_msgs__msg__Vector3(v6, v7, v8),
-            ), pos
+            return wrench_view(vector3_view(v2, v3, v4), vector3_view(v6, v7, v8)), pos
         return {"force": {"x": v2, "y": v3, "z": v4}, "torque": {"x": v6, "y": v7, "z": v8}}, pos
 
-    def encode_geometry_msgs__msg__Wrench(d: Any, out: list[Any], pos: int) -> int:
+    def wrench_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Wrench.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Wrench)
+            if d.__class__ is not dict or not WRENCH_KEYS.issuperset(d):
+                d = _submap(d, WRENCH_KEYS)
             f = ".force"
             m1 = d.get("force", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Vector3)
+            if m1.__class__ is not dict or not VECTOR3_KEYS.issuperset(m1):
+                m1 = _submap(m1, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".torque"
             m5 = d.get("torque", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m5):
-                m5 = _submap(m5, _K_geometry_msgs__msg__Vector3)
+            if m5.__class__ is not dict or not VECTOR3_KEYS.issuperset(m5):
+                m5 = _submap(m5, VECTOR3_KEYS)
             f = ""
             try:
                 out.append(
@@ -4074,7 +3704,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_6d,
-                        _R_geometry_msgs__msg__Wrench_0,
+                        WRENCH_RUN_0,
                         (
                             m1.get("x", 0.0),
                             m1.get("y", 0.0),
@@ -4092,15 +3722,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__WrenchStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def wrench_stamped_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__WrenchStamped_0
+            f = WRENCH_STAMPED_RUN_0
             v4, v5, v6, v8, v9, v10 = _S_6d.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
@@ -4108,12 +3736,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_geometry_msgs__msg__WrenchStamped(
-                v1,
-                make_geometry_msgs__msg__Wrench(
-                    make_geometry_msgs__msg__Vector3(v4, v5, v6),
-                    make_geometry_msgs__msg__Vector3(v8, v9, v10),
-                ),
+            return wrench_stamped_view(
+                v1, wrench_view(vector3_view(v4, v5, v6), vector3_view(v8, v9, v10))
             ), pos
         return {
             "header": v1,
@@ -4123,29 +3747,29 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_geometry_msgs__msg__WrenchStamped(d: Any, out: list[Any], pos: int) -> int:
+    def wrench_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__WrenchStamped.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__WrenchStamped)
+            if d.__class__ is not dict or not WRENCH_STAMPED_KEYS.issuperset(d):
+                d = _submap(d, WRENCH_STAMPED_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".wrench"
             m2 = d.get("wrench", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Wrench.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Wrench)
+            if m2.__class__ is not dict or not WRENCH_KEYS.issuperset(m2):
+                m2 = _submap(m2, WRENCH_KEYS)
             f = ".wrench.force"
             m3 = m2.get("force", EMPTY)
-            if m3.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m3):
-                m3 = _submap(m3, _K_geometry_msgs__msg__Vector3)
+            if m3.__class__ is not dict or not VECTOR3_KEYS.issuperset(m3):
+                m3 = _submap(m3, VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".wrench.torque"
             m7 = m2.get("torque", EMPTY)
-            if m7.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m7):
-                m7 = _submap(m7, _K_geometry_msgs__msg__Vector3)
+            if m7.__class__ is not dict or not VECTOR3_KEYS.issuperset(m7):
+                m7 = _submap(m7, VECTOR3_KEYS)
             f = ""
             try:
                 out.append(
@@ -4162,7 +3786,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_6d,
-                        _R_geometry_msgs__msg__WrenchStamped_0,
+                        WRENCH_STAMPED_RUN_0,
                         (
                             m3.get("x", 0.0),
                             m3.get("y", 0.0),
@@ -4181,146 +3805,245 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
+        "vector3_decode": vector3_decode,
+        "vector3_encode": vector3_encode,
+        "accel_decode": accel_decode,
+        "accel_encode": accel_encode,
+        "accel_stamped_decode": accel_stamped_decode,
+        "accel_stamped_encode": accel_stamped_encode,
+        "accel_with_covariance_decode": accel_with_covariance_decode,
+        "accel_with_covariance_encode": accel_with_covariance_encode,
+        "accel_with_covariance_stamped_decode": accel_with_covariance_stamped_decode,
+        "accel_with_covariance_stamped_encode": accel_with_covariance_stamped_encode,
+        "inertia_decode": inertia_decode,
+        "inertia_encode": inertia_encode,
+        "inertia_stamped_decode": inertia_stamped_decode,
+        "inertia_stamped_encode": inertia_stamped_encode,
+        "point_decode": point_decode,
+        "point_encode": point_encode,
+        "point32_decode": point32_decode,
+        "point32_encode": point32_encode,
+        "point_stamped_decode": point_stamped_decode,
+        "point_stamped_encode": point_stamped_encode,
+        "polygon_decode": polygon_decode,
+        "polygon_encode": polygon_encode,
+        "polygon_instance_decode": polygon_instance_decode,
+        "polygon_instance_encode": polygon_instance_encode,
+        "polygon_instance_stamped_decode": polygon_instance_stamped_decode,
+        "polygon_instance_stamped_encode": polygon_instance_stamped_encode,
+        "polygon_stamped_decode": polygon_stamped_decode,
+        "polygon_stamped_encode": polygon_stamped_encode,
+        "quaternion_decode": quaternion_decode,
+        "quaternion_encode": quaternion_encode,
+        "pose_decode": pose_decode,
+        "pose_encode": pose_encode,
+        "pose2_d_decode": pose2_d_decode,
+        "pose2_d_encode": pose2_d_encode,
+        "pose_array_decode": pose_array_decode,
+        "pose_array_encode": pose_array_encode,
+        "pose_stamped_decode": pose_stamped_decode,
+        "pose_stamped_encode": pose_stamped_encode,
+        "pose_with_covariance_decode": pose_with_covariance_decode,
+        "pose_with_covariance_encode": pose_with_covariance_encode,
+        "pose_with_covariance_stamped_decode": pose_with_covariance_stamped_decode,
+        "pose_with_covariance_stamped_encode": pose_with_covariance_stamped_encode,
+        "quaternion_stamped_decode": quaternion_stamped_decode,
+        "quaternion_stamped_encode": quaternion_stamped_encode,
+        "transform_decode": transform_decode,
+        "transform_encode": transform_encode,
+        "transform_stamped_decode": transform_stamped_decode,
+        "transform_stamped_encode": transform_stamped_encode,
+        "twist_decode": twist_decode,
+        "twist_encode": twist_encode,
+        "twist_stamped_decode": twist_stamped_decode,
+        "twist_stamped_encode": twist_stamped_encode,
+        "twist_with_covariance_decode": twist_with_covariance_decode,
+        "twist_with_covariance_encode": twist_with_covariance_encode,
+        "twist_with_covariance_stamped_decode": twist_with_covariance_stamped_decode,
+        "twist_with_covariance_stamped_encode": twist_with_covariance_stamped_encode,
+        "vector3_stamped_decode": vector3_stamped_decode,
+        "vector3_stamped_encode": vector3_stamped_encode,
+        "velocity_stamped_decode": velocity_stamped_decode,
+        "velocity_stamped_encode": velocity_stamped_encode,
+        "wrench_decode": wrench_decode,
+        "wrench_encode": wrench_encode,
+        "wrench_stamped_decode": wrench_stamped_decode,
+        "wrench_stamped_encode": wrench_stamped_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "geometry_msgs/msg/Vector3": (
-            decode_geometry_msgs__msg__Vector3,
-            encode_geometry_msgs__msg__Vector3,
+            as_dict["vector3_decode"],
+            as_view["vector3_decode"],
+            as_dict["vector3_encode"],
         ),
         "geometry_msgs/msg/Accel": (
-            decode_geometry_msgs__msg__Accel,
-            encode_geometry_msgs__msg__Accel,
+            as_dict["accel_decode"],
+            as_view["accel_decode"],
+            as_dict["accel_encode"],
         ),
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
-        ),
-        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
         "geometry_msgs/msg/AccelStamped": (
-            decode_geometry_msgs__msg__AccelStamped,
-            encode_geometry_msgs__msg__AccelStamped,
+            as_dict["accel_stamped_decode"],
+            as_view["accel_stamped_decode"],
+            as_dict["accel_stamped_encode"],
         ),
         "geometry_msgs/msg/AccelWithCovariance": (
-            decode_geometry_msgs__msg__AccelWithCovariance,
-            encode_geometry_msgs__msg__AccelWithCovariance,
+            as_dict["accel_with_covariance_decode"],
+            as_view["accel_with_covariance_decode"],
+            as_dict["accel_with_covariance_encode"],
         ),
         "geometry_msgs/msg/AccelWithCovarianceStamped": (
-            decode_geometry_msgs__msg__AccelWithCovarianceStamped,
-            encode_geometry_msgs__msg__AccelWithCovarianceStamped,
+            as_dict["accel_with_covariance_stamped_decode"],
+            as_view["accel_with_covariance_stamped_decode"],
+            as_dict["accel_with_covariance_stamped_encode"],
         ),
         "geometry_msgs/msg/Inertia": (
-            decode_geometry_msgs__msg__Inertia,
-            encode_geometry_msgs__msg__Inertia,
+            as_dict["inertia_decode"],
+            as_view["inertia_decode"],
+            as_dict["inertia_encode"],
         ),
         "geometry_msgs/msg/InertiaStamped": (
-            decode_geometry_msgs__msg__InertiaStamped,
-            encode_geometry_msgs__msg__InertiaStamped,
+            as_dict["inertia_stamped_decode"],
+            as_view["inertia_stamped_decode"],
+            as_dict["inertia_stamped_encode"],
         ),
         "geometry_msgs/msg/Point": (
-            decode_geometry_msgs__msg__Point,
-            encode_geometry_msgs__msg__Point,
+            as_dict["point_decode"],
+            as_view["point_decode"],
+            as_dict["point_encode"],
         ),
         "geometry_msgs/msg/Point32": (
-            decode_geometry_msgs__msg__Point32,
-            encode_geometry_msgs__msg__Point32,
+            as_dict["point32_decode"],
+            as_view["point32_decode"],
+            as_dict["point32_encode"],
         ),
         "geometry_msgs/msg/PointStamped": (
-            decode_geometry_msgs__msg__PointStamped,
-            encode_geometry_msgs__msg__PointStamped,
+            as_dict["point_stamped_decode"],
+            as_view["point_stamped_decode"],
+            as_dict["point_stamped_encode"],
         ),
         "geometry_msgs/msg/Polygon": (
-            decode_geometry_msgs__msg__Polygon,
-            encode_geometry_msgs__msg__Polygon,
+            as_dict["polygon_decode"],
+            as_view["polygon_decode"],
+            as_dict["polygon_encode"],
         ),
         "geometry_msgs/msg/PolygonInstance": (
-            decode_geometry_msgs__msg__PolygonInstance,
-            encode_geometry_msgs__msg__PolygonInstance,
+            as_dict["polygon_instance_decode"],
+            as_view["polygon_instance_decode"],
+            as_dict["polygon_instance_encode"],
         ),
         "geometry_msgs/msg/PolygonInstanceStamped": (
-            decode_geometry_msgs__msg__PolygonInstanceStamped,
-            encode_geometry_msgs__msg__PolygonInstanceStamped,
+            as_dict["polygon_instance_stamped_decode"],
+            as_view["polygon_instance_stamped_decode"],
+            as_dict["polygon_instance_stamped_encode"],
         ),
         "geometry_msgs/msg/PolygonStamped": (
-            decode_geometry_msgs__msg__PolygonStamped,
-            encode_geometry_msgs__msg__PolygonStamped,
+            as_dict["polygon_stamped_decode"],
+            as_view["polygon_stamped_decode"],
+            as_dict["polygon_stamped_encode"],
         ),
         "geometry_msgs/msg/Quaternion": (
-            decode_geometry_msgs__msg__Quaternion,
-            encode_geometry_msgs__msg__Quaternion,
+            as_dict["quaternion_decode"],
+            as_view["quaternion_decode"],
+            as_dict["quaternion_encode"],
         ),
         "geometry_msgs/msg/Pose": (
-            decode_geometry_msgs__msg__Pose,
-            encode_geometry_msgs__msg__Pose,
+            as_dict["pose_decode"],
+            as_view["pose_decode"],
+            as_dict["pose_encode"],
         ),
         "geometry_msgs/msg/Pose2D": (
-            decode_geometry_msgs__msg__Pose2D,
-            encode_geometry_msgs__msg__Pose2D,
+            as_dict["pose2_d_decode"],
+            as_view["pose2_d_decode"],
+            as_dict["pose2_d_encode"],
         ),
         "geometry_msgs/msg/PoseArray": (
-            decode_geometry_msgs__msg__PoseArray,
-            encode_geometry_msgs__msg__PoseArray,
+            as_dict["pose_array_decode"],
+            as_view["pose_array_decode"],
+            as_dict["pose_array_encode"],
         ),
         "geometry_msgs/msg/PoseStamped": (
-            decode_geometry_msgs__msg__PoseStamped,
-            encode_geometry_msgs__msg__PoseStamped,
+            as_dict["pose_stamped_decode"],
+            as_view["pose_stamped_decode"],
+            as_dict["pose_stamped_encode"],
         ),
         "geometry_msgs/msg/PoseWithCovariance": (
-            decode_geometry_msgs__msg__PoseWithCovariance,
-            encode_geometry_msgs__msg__PoseWithCovariance,
+            as_dict["pose_with_covariance_decode"],
+            as_view["pose_with_covariance_decode"],
+            as_dict["pose_with_covariance_encode"],
         ),
         "geometry_msgs/msg/PoseWithCovarianceStamped": (
-            decode_geometry_msgs__msg__PoseWithCovarianceStamped,
-            encode_geometry_msgs__msg__PoseWithCovarianceStamped,
+            as_dict["pose_with_covariance_stamped_decode"],
+            as_view["pose_with_covariance_stamped_decode"],
+            as_dict["pose_with_covariance_stamped_encode"],
         ),
         "geometry_msgs/msg/QuaternionStamped": (
-            decode_geometry_msgs__msg__QuaternionStamped,
-            encode_geometry_msgs__msg__QuaternionStamped,
+            as_dict["quaternion_stamped_decode"],
+            as_view["quaternion_stamped_decode"],
+            as_dict["quaternion_stamped_encode"],
         ),
         "geometry_msgs/msg/Transform": (
-            decode_geometry_msgs__msg__Transform,
-            encode_geometry_msgs__msg__Transform,
+            as_dict["transform_decode"],
+            as_view["transform_decode"],
+            as_dict["transform_encode"],
         ),
         "geometry_msgs/msg/TransformStamped": (
-            decode_geometry_msgs__msg__TransformStamped,
-            encode_geometry_msgs__msg__TransformStamped,
+            as_dict["transform_stamped_decode"],
+            as_view["transform_stamped_decode"],
+            as_dict["transform_stamped_encode"],
         ),
         "geometry_msgs/msg/Twist": (
-            decode_geometry_msgs__msg__Twist,
-            encode_geometry_msgs__msg__Twist,
+            as_dict["twist_decode"],
+            as_view["twist_decode"],
+            as_dict["twist_encode"],
         ),
         "geometry_msgs/msg/TwistStamped": (
-            decode_geometry_msgs__msg__TwistStamped,
-            encode_geometry_msgs__msg__TwistStamped,
+            as_dict["twist_stamped_decode"],
+            as_view["twist_stamped_decode"],
+            as_dict["twist_stamped_encode"],
         ),
         "geometry_msgs/msg/TwistWithCovariance": (
-            decode_geometry_msgs__msg__TwistWithCovariance,
-            encode_geometry_msgs__msg__TwistWithCovariance,
+            as_dict["twist_with_covariance_decode"],
+            as_view["twist_with_covariance_decode"],
+            as_dict["twist_with_covariance_encode"],
         ),
         "geometry_msgs/msg/TwistWithCovarianceStamped": (
-            decode_geometry_msgs__msg__TwistWithCovarianceStamped,
-            encode_geometry_msgs__msg__TwistWithCovarianceStamped,
+            as_dict["twist_with_covariance_stamped_decode"],
+            as_view["twist_with_covariance_stamped_decode"],
+            as_dict["twist_with_covariance_stamped_encode"],
         ),
         "geometry_msgs/msg/Vector3Stamped": (
-            decode_geometry_msgs__msg__Vector3Stamped,
-            encode_geometry_msgs__msg__Vector3Stamped,
+            as_dict["vector3_stamped_decode"],
+            as_view["vector3_stamped_decode"],
+            as_dict["vector3_stamped_encode"],
         ),
         "geometry_msgs/msg/VelocityStamped": (
-            decode_geometry_msgs__msg__VelocityStamped,
-            encode_geometry_msgs__msg__VelocityStamped,
+            as_dict["velocity_stamped_decode"],
+            as_view["velocity_stamped_decode"],
+            as_dict["velocity_stamped_encode"],
         ),
         "geometry_msgs/msg/Wrench": (
-            decode_geometry_msgs__msg__Wrench,
-            encode_geometry_msgs__msg__Wrench,
+            as_dict["wrench_decode"],
+            as_view["wrench_decode"],
+            as_dict["wrench_encode"],
         ),
         "geometry_msgs/msg/WrenchStamped": (
-            decode_geometry_msgs__msg__WrenchStamped,
-            encode_geometry_msgs__msg__WrenchStamped,
+            as_dict["wrench_stamped_decode"],
+            as_view["wrench_stamped_decode"],
+            as_dict["wrench_stamped_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

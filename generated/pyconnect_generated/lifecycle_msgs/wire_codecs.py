@@ -35,10 +35,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -74,13 +75,26 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.builtin_interfaces.wire_codecs import (
+    DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
+    TIME_KEYS as BUILTIN_INTERFACES__TIME_KEYS,
+    time_view as builtin_interfaces__time_view,
+)
+from pyconnect_generated.service_msgs.wire_codecs import (
+    DEFINITIONS as SERVICE_MSGS__DEFINITIONS,
+    SERVICE_EVENT_INFO_KEYS as SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS,
+    service_event_info_view as service_msgs__service_event_info_view,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
+    **BUILTIN_INTERFACES__DEFINITIONS,
+    **SERVICE_MSGS__DEFINITIONS,
     "lifecycle_msgs/msg/State": (
         "RIHS01_dd2d02b82f3ebc858e53c431b1e6e91f3ffc71436fc81d0715214ac6ee2107a0",
         (
@@ -119,22 +133,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "lifecycle_msgs/srv/ChangeState_Response": (
         "RIHS01_e1ddfed0271fefe63767aa71561926e4d9eac0f1ddf9e71a8873eb46b36deac2",
         (("success", "primitive", "bool", None, "single", None, None),),
-    ),
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
-    "service_msgs/msg/ServiceEventInfo": (
-        "RIHS01_41bcbbe07a75c9b52bc96bfd5c24d7f0fc0a08c0cb7921b3373c5732345a6f45",
-        (
-            ("event_type", "primitive", "uint8", None, "single", None, None),
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("client_gid", "primitive", "uint8", None, "array", 16, None),
-            ("sequence_number", "primitive", "int64", None, "single", None, None),
-        ),
     ),
     "lifecycle_msgs/srv/ChangeState_Event": (
         "RIHS01_bf7f355aca8762a7a51df02eaf4a51024255d15b31b1b68bf0a099673c2709bc",
@@ -297,32 +295,56 @@ EXPORTED: frozenset[str] = frozenset(
         "lifecycle_msgs/srv/GetState_Response",
     )
 )
-_K_builtin_interfaces__msg__Time = frozenset(
+CHANGE_STATE_EVENT_KEYS = frozenset(
     (
-        "sec",
-        "nanosec",
+        "info",
+        "request",
+        "response",
     )
 )
-_K_lifecycle_msgs__msg__State = frozenset(
+CHANGE_STATE_REQUEST_KEYS = frozenset(("transition",))
+CHANGE_STATE_RESPONSE_KEYS = frozenset(("success",))
+GET_AVAILABLE_STATES_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+GET_AVAILABLE_STATES_REQUEST_KEYS = frozenset()
+GET_AVAILABLE_STATES_RESPONSE_KEYS = frozenset(("available_states",))
+GET_AVAILABLE_TRANSITIONS_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+GET_AVAILABLE_TRANSITIONS_REQUEST_KEYS = frozenset()
+GET_AVAILABLE_TRANSITIONS_RESPONSE_KEYS = frozenset(("available_transitions",))
+GET_STATE_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+GET_STATE_REQUEST_KEYS = frozenset()
+GET_STATE_RESPONSE_KEYS = frozenset(("current_state",))
+STATE_KEYS = frozenset(
     (
         "id",
         "label",
     )
 )
-_K_lifecycle_msgs__msg__Transition = frozenset(
-    (
-        "id",
-        "label",
-    )
-)
-_K_lifecycle_msgs__msg__TransitionDescription = frozenset(
+TRANSITION_DESCRIPTION_KEYS = frozenset(
     (
         "transition",
         "start_state",
         "goal_state",
     )
 )
-_K_lifecycle_msgs__msg__TransitionEvent = frozenset(
+TRANSITION_EVENT_KEYS = frozenset(
     (
         "timestamp",
         "transition",
@@ -330,90 +352,39 @@ _K_lifecycle_msgs__msg__TransitionEvent = frozenset(
         "goal_state",
     )
 )
-_K_lifecycle_msgs__srv__ChangeState_Event = frozenset(
+TRANSITION_KEYS = frozenset(
     (
-        "info",
-        "request",
-        "response",
+        "id",
+        "label",
     )
 )
-_K_lifecycle_msgs__srv__ChangeState_Request = frozenset(("transition",))
-_K_lifecycle_msgs__srv__ChangeState_Response = frozenset(("success",))
-_K_lifecycle_msgs__srv__GetAvailableStates_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_lifecycle_msgs__srv__GetAvailableStates_Request = frozenset()
-_K_lifecycle_msgs__srv__GetAvailableStates_Response = frozenset(("available_states",))
-_K_lifecycle_msgs__srv__GetAvailableTransitions_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_lifecycle_msgs__srv__GetAvailableTransitions_Request = frozenset()
-_K_lifecycle_msgs__srv__GetAvailableTransitions_Response = frozenset(("available_transitions",))
-_K_lifecycle_msgs__srv__GetState_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_lifecycle_msgs__srv__GetState_Request = frozenset()
-_K_lifecycle_msgs__srv__GetState_Response = frozenset(("current_state",))
-_K_service_msgs__msg__ServiceEventInfo = frozenset(
-    (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-)
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_lifecycle_msgs__msg__State_0 = ((".id", "uint8", 1),)
-_R_lifecycle_msgs__msg__State_1 = ((".label", "uint32", 4),)
-_R_lifecycle_msgs__msg__TransitionEvent_0 = ((".timestamp", "uint64", 8),)
-_R_lifecycle_msgs__msg__Transition_0 = ((".id", "uint8", 1),)
-_R_lifecycle_msgs__msg__Transition_1 = ((".label", "uint32", 4),)
-_R_lifecycle_msgs__srv__ChangeState_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_lifecycle_msgs__srv__ChangeState_Event_1 = (
+CHANGE_STATE_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+CHANGE_STATE_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+CHANGE_STATE_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+CHANGE_STATE_RESPONSE_RUN_0 = ((".success", "bool", 1),)
+GET_AVAILABLE_STATES_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+GET_AVAILABLE_STATES_EVENT_RUN_1 = (
     (".info.stamp.sec", "int32", 4),
     (".info.stamp.nanosec", "uint32", 8),
 )
-_R_lifecycle_msgs__srv__ChangeState_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_lifecycle_msgs__srv__ChangeState_Response_0 = ((".success", "bool", 1),)
-_R_lifecycle_msgs__srv__GetAvailableStates_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_lifecycle_msgs__srv__GetAvailableStates_Event_1 = (
+GET_AVAILABLE_STATES_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+GET_AVAILABLE_STATES_REQUEST_RUN_0 = ()
+GET_AVAILABLE_TRANSITIONS_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+GET_AVAILABLE_TRANSITIONS_EVENT_RUN_1 = (
     (".info.stamp.sec", "int32", 4),
     (".info.stamp.nanosec", "uint32", 8),
 )
-_R_lifecycle_msgs__srv__GetAvailableStates_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_lifecycle_msgs__srv__GetAvailableStates_Request_0 = ()
-_R_lifecycle_msgs__srv__GetAvailableTransitions_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_lifecycle_msgs__srv__GetAvailableTransitions_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_lifecycle_msgs__srv__GetAvailableTransitions_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_lifecycle_msgs__srv__GetAvailableTransitions_Request_0 = ()
-_R_lifecycle_msgs__srv__GetState_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_lifecycle_msgs__srv__GetState_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_lifecycle_msgs__srv__GetState_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_lifecycle_msgs__srv__GetState_Request_0 = ()
-_R_service_msgs__msg__ServiceEventInfo_0 = ((".event_type", "uint8", 1),)
-_R_service_msgs__msg__ServiceEventInfo_1 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-)
-_R_service_msgs__msg__ServiceEventInfo_2 = ((".sequence_number", "int64", 8),)
+GET_AVAILABLE_TRANSITIONS_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+GET_AVAILABLE_TRANSITIONS_REQUEST_RUN_0 = ()
+GET_STATE_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+GET_STATE_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+GET_STATE_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+GET_STATE_REQUEST_RUN_0 = ()
+STATE_RUN_0 = ((".id", "uint8", 1),)
+STATE_RUN_1 = ((".label", "uint32", 4),)
+TRANSITION_EVENT_RUN_0 = ((".timestamp", "uint64", 8),)
+TRANSITION_RUN_0 = ((".id", "uint8", 1),)
+TRANSITION_RUN_1 = ((".label", "uint32", 4),)
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
@@ -423,7 +394,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class lifecycle_msgs__msg__State:
+class State:
     """A decoded lifecycle_msgs/msg/State.
 
     Attributes named as the ROS fields.
@@ -439,14 +410,14 @@ class lifecycle_msgs__msg__State:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__msg__State(a0: Any, a1: Any) -> lifecycle_msgs__msg__State:
-    view = _new(lifecycle_msgs__msg__State)
+def state_view(a0: Any, a1: Any) -> State:
+    view = _new(State)
     view.id = a0
     view.label = a1
     return view
 
 
-class lifecycle_msgs__msg__Transition:
+class Transition:
     """A decoded lifecycle_msgs/msg/Transition.
 
     Attributes named as the ROS fields.
@@ -462,14 +433,14 @@ class lifecycle_msgs__msg__Transition:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__msg__Transition(a0: Any, a1: Any) -> lifecycle_msgs__msg__Transition:
-    view = _new(lifecycle_msgs__msg__Transition)
+def transition_view(a0: Any, a1: Any) -> Transition:
+    view = _new(Transition)
     view.id = a0
     view.label = a1
     return view
 
 
-class lifecycle_msgs__msg__TransitionDescription:
+class TransitionDescription:
     """A decoded lifecycle_msgs/msg/TransitionDescription.
 
     Attributes named as the ROS fields.
@@ -486,17 +457,15 @@ class lifecycle_msgs__msg__TransitionDescription:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__msg__TransitionDescription(
-    a0: Any, a1: Any, a2: Any
-) -> lifecycle_msgs__msg__TransitionDescription:
-    view = _new(lifecycle_msgs__msg__TransitionDescription)
+def transition_description_view(a0: Any, a1: Any, a2: Any) -> TransitionDescription:
+    view = _new(TransitionDescription)
     view.transition = a0
     view.start_state = a1
     view.goal_state = a2
     return view
 
 
-class lifecycle_msgs__msg__TransitionEvent:
+class TransitionEvent:
     """A decoded lifecycle_msgs/msg/TransitionEvent.
 
     Attributes named as the ROS fields.
@@ -514,10 +483,8 @@ class lifecycle_msgs__msg__TransitionEvent:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__msg__TransitionEvent(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> lifecycle_msgs__msg__TransitionEvent:
-    view = _new(lifecycle_msgs__msg__TransitionEvent)
+def transition_event_view(a0: Any, a1: Any, a2: Any, a3: Any) -> TransitionEvent:
+    view = _new(TransitionEvent)
     view.timestamp = a0
     view.transition = a1
     view.start_state = a2
@@ -525,7 +492,7 @@ def make_lifecycle_msgs__msg__TransitionEvent(
     return view
 
 
-class lifecycle_msgs__srv__ChangeState_Request:
+class ChangeState_Request:
     """A decoded lifecycle_msgs/srv/ChangeState_Request.
 
     Attributes named as the ROS fields.
@@ -538,15 +505,13 @@ class lifecycle_msgs__srv__ChangeState_Request:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__srv__ChangeState_Request(
-    a0: Any,
-) -> lifecycle_msgs__srv__ChangeState_Request:
-    view = _new(lifecycle_msgs__srv__ChangeState_Request)
+def change_state_request_view(a0: Any) -> ChangeState_Request:
+    view = _new(ChangeState_Request)
     view.transition = a0
     return view
 
 
-class lifecycle_msgs__srv__ChangeState_Response:
+class ChangeState_Response:
     """A decoded lifecycle_msgs/srv/ChangeState_Response.
 
     Attributes named as the ROS fields.
@@ -559,67 +524,13 @@ class lifecycle_msgs__srv__ChangeState_Response:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__srv__ChangeState_Response(
-    a0: Any,
-) -> lifecycle_msgs__srv__ChangeState_Response:
-    view = _new(lifecycle_msgs__srv__ChangeState_Response)
+def change_state_response_view(a0: Any) -> ChangeState_Response:
+    view = _new(ChangeState_Response)
     view.success = a0
     return view
 
 
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class service_msgs__msg__ServiceEventInfo:
-    """A decoded service_msgs/msg/ServiceEventInfo.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-    msg_type = "service_msgs/msg/ServiceEventInfo"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_service_msgs__msg__ServiceEventInfo(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> service_msgs__msg__ServiceEventInfo:
-    view = _new(service_msgs__msg__ServiceEventInfo)
-    view.event_type = a0
-    view.stamp = a1
-    view.client_gid = a2
-    view.sequence_number = a3
-    return view
-
-
-class lifecycle_msgs__srv__ChangeState_Event:
+class ChangeState_Event:
     """A decoded lifecycle_msgs/srv/ChangeState_Event.
 
     Attributes named as the ROS fields.
@@ -636,17 +547,15 @@ class lifecycle_msgs__srv__ChangeState_Event:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__srv__ChangeState_Event(
-    a0: Any, a1: Any, a2: Any
-) -> lifecycle_msgs__srv__ChangeState_Event:
-    view = _new(lifecycle_msgs__srv__ChangeState_Event)
+def change_state_event_view(a0: Any, a1: Any, a2: Any) -> ChangeState_Event:
+    view = _new(ChangeState_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class lifecycle_msgs__srv__GetAvailableStates_Request:
+class GetAvailableStates_Request:
     """A decoded lifecycle_msgs/srv/GetAvailableStates_Request.
 
     Attributes named as the ROS fields.
@@ -659,14 +568,12 @@ class lifecycle_msgs__srv__GetAvailableStates_Request:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__srv__GetAvailableStates_Request() -> (
-    lifecycle_msgs__srv__GetAvailableStates_Request
-):
-    view = _new(lifecycle_msgs__srv__GetAvailableStates_Request)
+def get_available_states_request_view() -> GetAvailableStates_Request:
+    view = _new(GetAvailableStates_Request)
     return view
 
 
-class lifecycle_msgs__srv__GetAvailableStates_Response:
+class GetAvailableStates_Response:
     """A decoded lifecycle_msgs/srv/GetAvailableStates_Response.
 
     Attributes named as the ROS fields.
@@ -679,15 +586,13 @@ class lifecycle_msgs__srv__GetAvailableStates_Response:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__srv__GetAvailableStates_Response(
-    a0: Any,
-) -> lifecycle_msgs__srv__GetAvailableStates_Response:
-    view = _new(lifecycle_msgs__srv__GetAvailableStates_Response)
+def get_available_states_response_view(a0: Any) -> GetAvailableStates_Response:
+    view = _new(GetAvailableStates_Response)
     view.available_states = a0
     return view
 
 
-class lifecycle_msgs__srv__GetAvailableStates_Event:
+class GetAvailableStates_Event:
     """A decoded lifecycle_msgs/srv/GetAvailableStates_Event.
 
     Attributes named as the ROS fields.
@@ -704,17 +609,15 @@ class lifecycle_msgs__srv__GetAvailableStates_Event:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__srv__GetAvailableStates_Event(
-    a0: Any, a1: Any, a2: Any
-) -> lifecycle_msgs__srv__GetAvailableStates_Event:
-    view = _new(lifecycle_msgs__srv__GetAvailableStates_Event)
+def get_available_states_event_view(a0: Any, a1: Any, a2: Any) -> GetAvailableStates_Event:
+    view = _new(GetAvailableStates_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class lifecycle_msgs__srv__GetAvailableTransitions_Request:
+class GetAvailableTransitions_Request:
     """A decoded lifecycle_msgs/srv/GetAvailableTransitions_Request.
 
     Attributes named as the ROS fields.
@@ -727,14 +630,12 @@ class lifecycle_msgs__srv__GetAvailableTransitions_Request:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__srv__GetAvailableTransitions_Request() -> (
-    lifecycle_msgs__srv__GetAvailableTransitions_Request
-):
-    view = _new(lifecycle_msgs__srv__GetAvailableTransitions_Request)
+def get_available_transitions_request_view() -> GetAvailableTransitions_Request:
+    view = _new(GetAvailableTransitions_Request)
     return view
 
 
-class lifecycle_msgs__srv__GetAvailableTransitions_Response:
+class GetAvailableTransitions_Response:
     """A decoded lifecycle_msgs/srv/GetAvailableTransitions_Response.
 
     Attributes named as the ROS fields.
@@ -747,15 +648,13 @@ class lifecycle_msgs__srv__GetAvailableTransitions_Response:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__srv__GetAvailableTransitions_Response(
-    a0: Any,
-) -> lifecycle_msgs__srv__GetAvailableTransitions_Response:
-    view = _new(lifecycle_msgs__srv__GetAvailableTransitions_Response)
+def get_available_transitions_response_view(a0: Any) -> GetAvailableTransitions_Response:
+    view = _new(GetAvailableTransitions_Response)
     view.available_transitions = a0
     return view
 
 
-class lifecycle_msgs__srv__GetAvailableTransitions_Event:
+class GetAvailableTransitions_Event:
     """A decoded lifecycle_msgs/srv/GetAvailableTransitions_Event.
 
     Attributes named as the ROS fields.
@@ -772,17 +671,17 @@ class lifecycle_msgs__srv__GetAvailableTransitions_Event:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__srv__GetAvailableTransitions_Event(
+def get_available_transitions_event_view(
     a0: Any, a1: Any, a2: Any
-) -> lifecycle_msgs__srv__GetAvailableTransitions_Event:
-    view = _new(lifecycle_msgs__srv__GetAvailableTransitions_Event)
+) -> GetAvailableTransitions_Event:
+    view = _new(GetAvailableTransitions_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class lifecycle_msgs__srv__GetState_Request:
+class GetState_Request:
     """A decoded lifecycle_msgs/srv/GetState_Request.
 
     Attributes named as the ROS fields.
@@ -795,12 +694,12 @@ class lifecycle_msgs__srv__GetState_Request:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__srv__GetState_Request() -> lifecycle_msgs__srv__GetState_Request:
-    view = _new(lifecycle_msgs__srv__GetState_Request)
+def get_state_request_view() -> GetState_Request:
+    view = _new(GetState_Request)
     return view
 
 
-class lifecycle_msgs__srv__GetState_Response:
+class GetState_Response:
     """A decoded lifecycle_msgs/srv/GetState_Response.
 
     Attributes named as the ROS fields.
@@ -813,13 +712,13 @@ class lifecycle_msgs__srv__GetState_Response:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__srv__GetState_Response(a0: Any) -> lifecycle_msgs__srv__GetState_Response:
-    view = _new(lifecycle_msgs__srv__GetState_Response)
+def get_state_response_view(a0: Any) -> GetState_Response:
+    view = _new(GetState_Response)
     view.current_state = a0
     return view
 
 
-class lifecycle_msgs__srv__GetState_Event:
+class GetState_Event:
     """A decoded lifecycle_msgs/srv/GetState_Event.
 
     Attributes named as the ROS fields.
@@ -836,18 +735,16 @@ class lifecycle_msgs__srv__GetState_Event:
         return view_repr(self)
 
 
-def make_lifecycle_msgs__srv__GetState_Event(
-    a0: Any, a1: Any, a2: Any
-) -> lifecycle_msgs__srv__GetState_Event:
-    view = _new(lifecycle_msgs__srv__GetState_Event)
+def get_state_event_view(a0: Any, a1: Any, a2: Any) -> GetState_Event:
+    view = _new(GetState_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_B = Struct(E + "B")
@@ -858,14 +755,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
     _S_q = Struct(E + "q")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_lifecycle_msgs__msg__State(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def state_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_lifecycle_msgs__msg__State_0
+            f = STATE_RUN_0
             (v1,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_lifecycle_msgs__msg__State_1
+            f = STATE_RUN_1
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".label"
@@ -878,21 +775,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__msg__State(v1, v4), pos
+            return state_view(v1, v4), pos
         return {"id": v1, "label": v4}, pos
 
-    def encode_lifecycle_msgs__msg__State(d: Any, out: list[Any], pos: int) -> int:
+    def state_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_lifecycle_msgs__msg__State.issuperset(d):
-                d = _submap(d, _K_lifecycle_msgs__msg__State)
+            if d.__class__ is not dict or not STATE_KEYS.issuperset(d):
+                d = _submap(d, STATE_KEYS)
             f = ".label"
             b2 = utf8z(d.get("label", ""), None)
             f = ""
             try:
                 out.append(_S_B.pack(d.get("id", 0)))
             except Exception:
-                out.append(slow_pack(_S_B, _R_lifecycle_msgs__msg__State_0, (d.get("id", 0),)))
+                out.append(slow_pack(_S_B, STATE_RUN_0, (d.get("id", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -902,7 +799,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b2)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_lifecycle_msgs__msg__State_1, (len(b2),)))
+                out.append(slow_pack(_S_I, STATE_RUN_1, (len(b2),)))
             pos += 4
             out.append(b2)
             pos += len(b2)
@@ -912,16 +809,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_lifecycle_msgs__msg__Transition(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def transition_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_lifecycle_msgs__msg__Transition_0
+            f = TRANSITION_RUN_0
             (v1,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_lifecycle_msgs__msg__Transition_1
+            f = TRANSITION_RUN_1
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".label"
@@ -934,21 +829,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__msg__Transition(v1, v4), pos
+            return transition_view(v1, v4), pos
         return {"id": v1, "label": v4}, pos
 
-    def encode_lifecycle_msgs__msg__Transition(d: Any, out: list[Any], pos: int) -> int:
+    def transition_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_lifecycle_msgs__msg__Transition.issuperset(d):
-                d = _submap(d, _K_lifecycle_msgs__msg__Transition)
+            if d.__class__ is not dict or not TRANSITION_KEYS.issuperset(d):
+                d = _submap(d, TRANSITION_KEYS)
             f = ".label"
             b2 = utf8z(d.get("label", ""), None)
             f = ""
             try:
                 out.append(_S_B.pack(d.get("id", 0)))
             except Exception:
-                out.append(slow_pack(_S_B, _R_lifecycle_msgs__msg__Transition_0, (d.get("id", 0),)))
+                out.append(slow_pack(_S_B, TRANSITION_RUN_0, (d.get("id", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -958,7 +853,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b2)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_lifecycle_msgs__msg__Transition_1, (len(b2),)))
+                out.append(slow_pack(_S_I, TRANSITION_RUN_1, (len(b2),)))
             pos += 4
             out.append(b2)
             pos += len(b2)
@@ -968,73 +863,66 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_lifecycle_msgs__msg__TransitionDescription(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def transition_description_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".transition"
-            v1, pos = decode_lifecycle_msgs__msg__Transition(mv, pos, lim)
+            v1, pos = transition_decode(mv, pos, lim)
             f = ".start_state"
-            v2, pos = decode_lifecycle_msgs__msg__State(mv, pos, lim)
+            v2, pos = state_decode(mv, pos, lim)
             f = ".goal_state"
-            v3, pos = decode_lifecycle_msgs__msg__State(mv, pos, lim)
+            v3, pos = state_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__msg__TransitionDescription(v1, v2, v3), pos
+            return transition_description_view(v1, v2, v3), pos
         return {"transition": v1, "start_state": v2, "goal_state": v3}, pos
 
-    def encode_lifecycle_msgs__msg__TransitionDescription(d: Any, out: list[Any], pos: int) -> int:
+    def transition_description_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_lifecycle_msgs__msg__TransitionDescription.issuperset(d)
-            ):
-                d = _submap(d, _K_lifecycle_msgs__msg__TransitionDescription)
+            if d.__class__ is not dict or not TRANSITION_DESCRIPTION_KEYS.issuperset(d):
+                d = _submap(d, TRANSITION_DESCRIPTION_KEYS)
             f = ".transition"
-            pos = encode_lifecycle_msgs__msg__Transition(d.get("transition", EMPTY), out, pos)
+            pos = transition_encode(d.get("transition", EMPTY), out, pos)
             f = ".start_state"
-            pos = encode_lifecycle_msgs__msg__State(d.get("start_state", EMPTY), out, pos)
+            pos = state_encode(d.get("start_state", EMPTY), out, pos)
             f = ".goal_state"
-            pos = encode_lifecycle_msgs__msg__State(d.get("goal_state", EMPTY), out, pos)
+            pos = state_encode(d.get("goal_state", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_lifecycle_msgs__msg__TransitionEvent(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def transition_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_lifecycle_msgs__msg__TransitionEvent_0
+            f = TRANSITION_EVENT_RUN_0
             (v1,) = _S_Q.unpack_from(mv, pos)
             pos += 8
             f = ".transition"
-            v2, pos = decode_lifecycle_msgs__msg__Transition(mv, pos, lim)
+            v2, pos = transition_decode(mv, pos, lim)
             f = ".start_state"
-            v3, pos = decode_lifecycle_msgs__msg__State(mv, pos, lim)
+            v3, pos = state_decode(mv, pos, lim)
             f = ".goal_state"
-            v4, pos = decode_lifecycle_msgs__msg__State(mv, pos, lim)
+            v4, pos = state_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__msg__TransitionEvent(v1, v2, v3, v4), pos
+            return transition_event_view(v1, v2, v3, v4), pos
         return {"timestamp": v1, "transition": v2, "start_state": v3, "goal_state": v4}, pos
 
-    def encode_lifecycle_msgs__msg__TransitionEvent(d: Any, out: list[Any], pos: int) -> int:
+    def transition_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_lifecycle_msgs__msg__TransitionEvent.issuperset(d):
-                d = _submap(d, _K_lifecycle_msgs__msg__TransitionEvent)
+            if d.__class__ is not dict or not TRANSITION_EVENT_KEYS.issuperset(d):
+                d = _submap(d, TRANSITION_EVENT_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -1043,61 +931,50 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_Q.pack(d.get("timestamp", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_Q, _R_lifecycle_msgs__msg__TransitionEvent_0, (d.get("timestamp", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_Q, TRANSITION_EVENT_RUN_0, (d.get("timestamp", 0),)))
             pos += 8
             f = ".transition"
-            pos = encode_lifecycle_msgs__msg__Transition(d.get("transition", EMPTY), out, pos)
+            pos = transition_encode(d.get("transition", EMPTY), out, pos)
             f = ".start_state"
-            pos = encode_lifecycle_msgs__msg__State(d.get("start_state", EMPTY), out, pos)
+            pos = state_encode(d.get("start_state", EMPTY), out, pos)
             f = ".goal_state"
-            pos = encode_lifecycle_msgs__msg__State(d.get("goal_state", EMPTY), out, pos)
+            pos = state_encode(d.get("goal_state", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_lifecycle_msgs__srv__ChangeState_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def change_state_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".transition"
-            v1, pos = decode_lifecycle_msgs__msg__Transition(mv, pos, lim)
+            v1, pos = transition_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__srv__ChangeState_Request(v1), pos
+            return change_state_request_view(v1), pos
         return {"transition": v1}, pos
 
-    def encode_lifecycle_msgs__srv__ChangeState_Request(d: Any, out: list[Any], pos: int) -> int:
+    def change_state_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_lifecycle_msgs__srv__ChangeState_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_lifecycle_msgs__srv__ChangeState_Request)
+            if d.__class__ is not dict or not CHANGE_STATE_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, CHANGE_STATE_REQUEST_KEYS)
             f = ".transition"
-            pos = encode_lifecycle_msgs__msg__Transition(d.get("transition", EMPTY), out, pos)
+            pos = transition_encode(d.get("transition", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_lifecycle_msgs__srv__ChangeState_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def change_state_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_lifecycle_msgs__srv__ChangeState_Response_0
+            f = CHANGE_STATE_RESPONSE_RUN_0
             (v2,) = _S_T.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -1105,17 +982,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__srv__ChangeState_Response(v2), pos
+            return change_state_response_view(v2), pos
         return {"success": v2}, pos
 
-    def encode_lifecycle_msgs__srv__ChangeState_Response(d: Any, out: list[Any], pos: int) -> int:
+    def change_state_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_lifecycle_msgs__srv__ChangeState_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_lifecycle_msgs__srv__ChangeState_Response)
+            if d.__class__ is not dict or not CHANGE_STATE_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, CHANGE_STATE_RESPONSE_KEYS)
             f = ""
             try:
                 out.append(
@@ -1131,7 +1005,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_lifecycle_msgs__srv__ChangeState_Response_0,
+                        CHANGE_STATE_RESPONSE_RUN_0,
                         (
                             (
                                 t1
@@ -1148,161 +1022,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def change_state_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_service_msgs__msg__ServiceEventInfo(
-                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-            ), pos
-        return {
-            "event_type": v1,
-            "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7.tobytes(),
-            "sequence_number": v8,
-        }, pos
-
-    def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(d):
-                d = _submap(d, _K_service_msgs__msg__ServiceEventInfo)
-            f = ".stamp"
-            m2 = d.get("stamp", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
-            f = ""
-            try:
-                out.append(_S_B.pack(d.get("event_type", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_service_msgs__msg__ServiceEventInfo_0, (d.get("event_type", 0),)
-                    )
-                )
-            pos += 1
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".client_gid"
-            b5, c6 = encode_array(d.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
-            f = ""
-            try:
-                out.append(_S_iI.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_service_msgs__msg__ServiceEventInfo_1,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-            out.append(b5)
-            pos += c6 * 1
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_q.pack(d.get("sequence_number", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_service_msgs__msg__ServiceEventInfo_2,
-                        (d.get("sequence_number", 0),),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_lifecycle_msgs__srv__ChangeState_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_lifecycle_msgs__srv__ChangeState_Event_0
+            f = CHANGE_STATE_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_lifecycle_msgs__srv__ChangeState_Event_1
+            f = CHANGE_STATE_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -1311,25 +1038,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_lifecycle_msgs__srv__ChangeState_Event_2
+            f = CHANGE_STATE_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_lifecycle_msgs__srv__ChangeState_Request, None, 1, 5
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, change_state_request_decode, None, 1, 5)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_lifecycle_msgs__srv__ChangeState_Response, None, 1, 1
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, change_state_response_decode, None, 1, 1)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__srv__ChangeState_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return change_state_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -1345,34 +1068,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_lifecycle_msgs__srv__ChangeState_Event(d: Any, out: list[Any], pos: int) -> int:
+    def change_state_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_lifecycle_msgs__srv__ChangeState_Event.issuperset(
-                d
-            ):
-                d = _submap(d, _K_lifecycle_msgs__srv__ChangeState_Event)
+            if d.__class__ is not dict or not CHANGE_STATE_EVENT_KEYS.issuperset(d):
+                d = _submap(d, CHANGE_STATE_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_lifecycle_msgs__srv__ChangeState_Event_0,
-                        (m1.get("event_type", 0),),
-                    )
-                )
+                out.append(slow_pack(_S_B, CHANGE_STATE_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -1387,7 +1100,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_lifecycle_msgs__srv__ChangeState_Event_1,
+                        CHANGE_STATE_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -1406,32 +1119,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_lifecycle_msgs__srv__ChangeState_Event_2,
-                        (m1.get("sequence_number", 0),),
-                    )
+                    slow_pack(_S_q, CHANGE_STATE_EVENT_RUN_2, (m1.get("sequence_number", 0),))
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_lifecycle_msgs__srv__ChangeState_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, change_state_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_lifecycle_msgs__srv__ChangeState_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, change_state_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -1439,12 +1136,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_lifecycle_msgs__srv__GetAvailableStates_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_available_states_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_lifecycle_msgs__srv__GetAvailableStates_Request_0
+            f = GET_AVAILABLE_STATES_REQUEST_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -1452,26 +1147,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__srv__GetAvailableStates_Request(), pos
+            return get_available_states_request_view(), pos
         return {}, pos
 
-    def encode_lifecycle_msgs__srv__GetAvailableStates_Request(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_available_states_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_lifecycle_msgs__srv__GetAvailableStates_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_lifecycle_msgs__srv__GetAvailableStates_Request)
+            if d.__class__ is not dict or not GET_AVAILABLE_STATES_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, GET_AVAILABLE_STATES_REQUEST_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(
-                    slow_pack(_S_1x, _R_lifecycle_msgs__srv__GetAvailableStates_Request_0, ())
-                )
+                out.append(slow_pack(_S_1x, GET_AVAILABLE_STATES_REQUEST_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1479,42 +1167,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_lifecycle_msgs__srv__GetAvailableStates_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_available_states_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".available_states"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_lifecycle_msgs__msg__State, None, None, 5
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, state_decode, None, None, 5)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__srv__GetAvailableStates_Response(v1), pos
+            return get_available_states_response_view(v1), pos
         return {"available_states": v1}, pos
 
-    def encode_lifecycle_msgs__srv__GetAvailableStates_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_available_states_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_lifecycle_msgs__srv__GetAvailableStates_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_lifecycle_msgs__srv__GetAvailableStates_Response)
+            if d.__class__ is not dict or not GET_AVAILABLE_STATES_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, GET_AVAILABLE_STATES_RESPONSE_KEYS)
             f = ".available_states"
             pos = write_messages(
-                d.get("available_states", ()),
-                out,
-                pos,
-                _U32,
-                encode_lifecycle_msgs__msg__State,
-                None,
-                False,
+                d.get("available_states", ()), out, pos, _U32, state_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -1522,16 +1195,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_lifecycle_msgs__srv__GetAvailableStates_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_available_states_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_lifecycle_msgs__srv__GetAvailableStates_Event_0
+            f = GET_AVAILABLE_STATES_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_lifecycle_msgs__srv__GetAvailableStates_Event_1
+            f = GET_AVAILABLE_STATES_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -1540,39 +1211,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_lifecycle_msgs__srv__GetAvailableStates_Event_2
+            f = GET_AVAILABLE_STATES_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_lifecycle_msgs__srv__GetAvailableStates_Request,
-                None,
-                1,
-                1,
+                mv, pos, lim, _U32, get_available_states_request_decode, None, 1, 1
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_lifecycle_msgs__srv__GetAvailableStates_Response,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, get_available_states_response_decode, None, 1, 4
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__srv__GetAvailableStates_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return get_available_states_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -1588,36 +1245,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_lifecycle_msgs__srv__GetAvailableStates_Event(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_available_states_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_lifecycle_msgs__srv__GetAvailableStates_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_lifecycle_msgs__srv__GetAvailableStates_Event)
+            if d.__class__ is not dict or not GET_AVAILABLE_STATES_EVENT_KEYS.issuperset(d):
+                d = _submap(d, GET_AVAILABLE_STATES_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_lifecycle_msgs__srv__GetAvailableStates_Event_0,
-                        (m1.get("event_type", 0),),
-                    )
+                    slow_pack(_S_B, GET_AVAILABLE_STATES_EVENT_RUN_0, (m1.get("event_type", 0),))
                 )
             pos += 1
             p = -pos & 3
@@ -1633,7 +1279,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_lifecycle_msgs__srv__GetAvailableStates_Event_1,
+                        GET_AVAILABLE_STATES_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -1653,21 +1299,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_q,
-                        _R_lifecycle_msgs__srv__GetAvailableStates_Event_2,
-                        (m1.get("sequence_number", 0),),
+                        _S_q, GET_AVAILABLE_STATES_EVENT_RUN_2, (m1.get("sequence_number", 0),)
                     )
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_lifecycle_msgs__srv__GetAvailableStates_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, get_available_states_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
@@ -1675,7 +1313,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_lifecycle_msgs__srv__GetAvailableStates_Response,
+                get_available_states_response_encode,
                 1,
                 False,
             )
@@ -1685,12 +1323,12 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_lifecycle_msgs__srv__GetAvailableTransitions_Request(
+    def get_available_transitions_request_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_lifecycle_msgs__srv__GetAvailableTransitions_Request_0
+            f = GET_AVAILABLE_TRANSITIONS_REQUEST_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -1698,26 +1336,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__srv__GetAvailableTransitions_Request(), pos
+            return get_available_transitions_request_view(), pos
         return {}, pos
 
-    def encode_lifecycle_msgs__srv__GetAvailableTransitions_Request(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_available_transitions_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_lifecycle_msgs__srv__GetAvailableTransitions_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_lifecycle_msgs__srv__GetAvailableTransitions_Request)
+            if d.__class__ is not dict or not GET_AVAILABLE_TRANSITIONS_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, GET_AVAILABLE_TRANSITIONS_REQUEST_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(
-                    slow_pack(_S_1x, _R_lifecycle_msgs__srv__GetAvailableTransitions_Request_0, ())
-                )
+                out.append(slow_pack(_S_1x, GET_AVAILABLE_TRANSITIONS_REQUEST_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1725,47 +1356,35 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_lifecycle_msgs__srv__GetAvailableTransitions_Response(
+    def get_available_transitions_response_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".available_transitions"
             v1, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_lifecycle_msgs__msg__TransitionDescription,
-                None,
-                None,
-                15,
+                mv, pos, lim, _U32, transition_description_decode, None, None, 15
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__srv__GetAvailableTransitions_Response(v1), pos
+            return get_available_transitions_response_view(v1), pos
         return {"available_transitions": v1}, pos
 
-    def encode_lifecycle_msgs__srv__GetAvailableTransitions_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_available_transitions_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_lifecycle_msgs__srv__GetAvailableTransitions_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_lifecycle_msgs__srv__GetAvailableTransitions_Response)
+            if d.__class__ is not dict or not GET_AVAILABLE_TRANSITIONS_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, GET_AVAILABLE_TRANSITIONS_RESPONSE_KEYS)
             f = ".available_transitions"
             pos = write_messages(
                 d.get("available_transitions", ()),
                 out,
                 pos,
                 _U32,
-                encode_lifecycle_msgs__msg__TransitionDescription,
+                transition_description_encode,
                 None,
                 False,
             )
@@ -1775,16 +1394,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_lifecycle_msgs__srv__GetAvailableTransitions_Event(
+    def get_available_transitions_event_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_lifecycle_msgs__srv__GetAvailableTransitions_Event_0
+            f = GET_AVAILABLE_TRANSITIONS_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_lifecycle_msgs__srv__GetAvailableTransitions_Event_1
+            f = GET_AVAILABLE_TRANSITIONS_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -1793,39 +1412,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_lifecycle_msgs__srv__GetAvailableTransitions_Event_2
+            f = GET_AVAILABLE_TRANSITIONS_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_lifecycle_msgs__srv__GetAvailableTransitions_Request,
-                None,
-                1,
-                1,
+                mv, pos, lim, _U32, get_available_transitions_request_decode, None, 1, 1
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_lifecycle_msgs__srv__GetAvailableTransitions_Response,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, get_available_transitions_response_decode, None, 1, 4
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__srv__GetAvailableTransitions_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return get_available_transitions_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -1841,35 +1446,26 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_lifecycle_msgs__srv__GetAvailableTransitions_Event(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_available_transitions_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_lifecycle_msgs__srv__GetAvailableTransitions_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_lifecycle_msgs__srv__GetAvailableTransitions_Event)
+            if d.__class__ is not dict or not GET_AVAILABLE_TRANSITIONS_EVENT_KEYS.issuperset(d):
+                d = _submap(d, GET_AVAILABLE_TRANSITIONS_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_B,
-                        _R_lifecycle_msgs__srv__GetAvailableTransitions_Event_0,
-                        (m1.get("event_type", 0),),
+                        _S_B, GET_AVAILABLE_TRANSITIONS_EVENT_RUN_0, (m1.get("event_type", 0),)
                     )
                 )
             pos += 1
@@ -1886,7 +1482,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_lifecycle_msgs__srv__GetAvailableTransitions_Event_1,
+                        GET_AVAILABLE_TRANSITIONS_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -1906,9 +1502,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_q,
-                        _R_lifecycle_msgs__srv__GetAvailableTransitions_Event_2,
-                        (m1.get("sequence_number", 0),),
+                        _S_q, GET_AVAILABLE_TRANSITIONS_EVENT_RUN_2, (m1.get("sequence_number", 0),)
                     )
                 )
             pos += 8
@@ -1918,7 +1512,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_lifecycle_msgs__srv__GetAvailableTransitions_Request,
+                get_available_transitions_request_encode,
                 1,
                 False,
             )
@@ -1928,7 +1522,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_lifecycle_msgs__srv__GetAvailableTransitions_Response,
+                get_available_transitions_response_encode,
                 1,
                 False,
             )
@@ -1938,12 +1532,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_lifecycle_msgs__srv__GetState_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_state_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_lifecycle_msgs__srv__GetState_Request_0
+            f = GET_STATE_REQUEST_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -1951,21 +1543,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__srv__GetState_Request(), pos
+            return get_state_request_view(), pos
         return {}, pos
 
-    def encode_lifecycle_msgs__srv__GetState_Request(d: Any, out: list[Any], pos: int) -> int:
+    def get_state_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_lifecycle_msgs__srv__GetState_Request.issuperset(
-                d
-            ):
-                d = _submap(d, _K_lifecycle_msgs__srv__GetState_Request)
+            if d.__class__ is not dict or not GET_STATE_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, GET_STATE_REQUEST_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(slow_pack(_S_1x, _R_lifecycle_msgs__srv__GetState_Request_0, ()))
+                out.append(slow_pack(_S_1x, GET_STATE_REQUEST_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1973,46 +1563,40 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_lifecycle_msgs__srv__GetState_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_state_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".current_state"
-            v1, pos = decode_lifecycle_msgs__msg__State(mv, pos, lim)
+            v1, pos = state_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__srv__GetState_Response(v1), pos
+            return get_state_response_view(v1), pos
         return {"current_state": v1}, pos
 
-    def encode_lifecycle_msgs__srv__GetState_Response(d: Any, out: list[Any], pos: int) -> int:
+    def get_state_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_lifecycle_msgs__srv__GetState_Response.issuperset(
-                d
-            ):
-                d = _submap(d, _K_lifecycle_msgs__srv__GetState_Response)
+            if d.__class__ is not dict or not GET_STATE_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, GET_STATE_RESPONSE_KEYS)
             f = ".current_state"
-            pos = encode_lifecycle_msgs__msg__State(d.get("current_state", EMPTY), out, pos)
+            pos = state_encode(d.get("current_state", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_lifecycle_msgs__srv__GetState_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_state_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_lifecycle_msgs__srv__GetState_Event_0
+            f = GET_STATE_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_lifecycle_msgs__srv__GetState_Event_1
+            f = GET_STATE_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -2021,25 +1605,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_lifecycle_msgs__srv__GetState_Event_2
+            f = GET_STATE_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_lifecycle_msgs__srv__GetState_Request, None, 1, 1
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, get_state_request_decode, None, 1, 1)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_lifecycle_msgs__srv__GetState_Response, None, 1, 5
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, get_state_response_decode, None, 1, 5)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_lifecycle_msgs__srv__GetState_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return get_state_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -2055,30 +1635,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_lifecycle_msgs__srv__GetState_Event(d: Any, out: list[Any], pos: int) -> int:
+    def get_state_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_lifecycle_msgs__srv__GetState_Event.issuperset(d):
-                d = _submap(d, _K_lifecycle_msgs__srv__GetState_Event)
+            if d.__class__ is not dict or not GET_STATE_EVENT_KEYS.issuperset(d):
+                d = _submap(d, GET_STATE_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_lifecycle_msgs__srv__GetState_Event_0, (m1.get("event_type", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_B, GET_STATE_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -2093,7 +1667,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_lifecycle_msgs__srv__GetState_Event_1,
+                        GET_STATE_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -2111,33 +1685,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_lifecycle_msgs__srv__GetState_Event_2,
-                        (m1.get("sequence_number", 0),),
-                    )
-                )
+                out.append(slow_pack(_S_q, GET_STATE_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_lifecycle_msgs__srv__GetState_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, get_state_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_lifecycle_msgs__srv__GetState_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, get_state_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -2146,85 +1702,133 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
+        "state_decode": state_decode,
+        "state_encode": state_encode,
+        "transition_decode": transition_decode,
+        "transition_encode": transition_encode,
+        "transition_description_decode": transition_description_decode,
+        "transition_description_encode": transition_description_encode,
+        "transition_event_decode": transition_event_decode,
+        "transition_event_encode": transition_event_encode,
+        "change_state_request_decode": change_state_request_decode,
+        "change_state_request_encode": change_state_request_encode,
+        "change_state_response_decode": change_state_response_decode,
+        "change_state_response_encode": change_state_response_encode,
+        "change_state_event_decode": change_state_event_decode,
+        "change_state_event_encode": change_state_event_encode,
+        "get_available_states_request_decode": get_available_states_request_decode,
+        "get_available_states_request_encode": get_available_states_request_encode,
+        "get_available_states_response_decode": get_available_states_response_decode,
+        "get_available_states_response_encode": get_available_states_response_encode,
+        "get_available_states_event_decode": get_available_states_event_decode,
+        "get_available_states_event_encode": get_available_states_event_encode,
+        "get_available_transitions_request_decode": get_available_transitions_request_decode,
+        "get_available_transitions_request_encode": get_available_transitions_request_encode,
+        "get_available_transitions_response_decode": get_available_transitions_response_decode,
+        "get_available_transitions_response_encode": get_available_transitions_response_encode,
+        "get_available_transitions_event_decode": get_available_transitions_event_decode,
+        "get_available_transitions_event_encode": get_available_transitions_event_encode,
+        "get_state_request_decode": get_state_request_decode,
+        "get_state_request_encode": get_state_request_encode,
+        "get_state_response_decode": get_state_response_decode,
+        "get_state_response_encode": get_state_response_encode,
+        "get_state_event_decode": get_state_event_decode,
+        "get_state_event_encode": get_state_event_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "lifecycle_msgs/msg/State": (
-            decode_lifecycle_msgs__msg__State,
-            encode_lifecycle_msgs__msg__State,
+            as_dict["state_decode"],
+            as_view["state_decode"],
+            as_dict["state_encode"],
         ),
         "lifecycle_msgs/msg/Transition": (
-            decode_lifecycle_msgs__msg__Transition,
-            encode_lifecycle_msgs__msg__Transition,
+            as_dict["transition_decode"],
+            as_view["transition_decode"],
+            as_dict["transition_encode"],
         ),
         "lifecycle_msgs/msg/TransitionDescription": (
-            decode_lifecycle_msgs__msg__TransitionDescription,
-            encode_lifecycle_msgs__msg__TransitionDescription,
+            as_dict["transition_description_decode"],
+            as_view["transition_description_decode"],
+            as_dict["transition_description_encode"],
         ),
         "lifecycle_msgs/msg/TransitionEvent": (
-            decode_lifecycle_msgs__msg__TransitionEvent,
-            encode_lifecycle_msgs__msg__TransitionEvent,
+            as_dict["transition_event_decode"],
+            as_view["transition_event_decode"],
+            as_dict["transition_event_encode"],
         ),
         "lifecycle_msgs/srv/ChangeState_Request": (
-            decode_lifecycle_msgs__srv__ChangeState_Request,
-            encode_lifecycle_msgs__srv__ChangeState_Request,
+            as_dict["change_state_request_decode"],
+            as_view["change_state_request_decode"],
+            as_dict["change_state_request_encode"],
         ),
         "lifecycle_msgs/srv/ChangeState_Response": (
-            decode_lifecycle_msgs__srv__ChangeState_Response,
-            encode_lifecycle_msgs__srv__ChangeState_Response,
-        ),
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
-        ),
-        "service_msgs/msg/ServiceEventInfo": (
-            decode_service_msgs__msg__ServiceEventInfo,
-            encode_service_msgs__msg__ServiceEventInfo,
+            as_dict["change_state_response_decode"],
+            as_view["change_state_response_decode"],
+            as_dict["change_state_response_encode"],
         ),
         "lifecycle_msgs/srv/ChangeState_Event": (
-            decode_lifecycle_msgs__srv__ChangeState_Event,
-            encode_lifecycle_msgs__srv__ChangeState_Event,
+            as_dict["change_state_event_decode"],
+            as_view["change_state_event_decode"],
+            as_dict["change_state_event_encode"],
         ),
         "lifecycle_msgs/srv/GetAvailableStates_Request": (
-            decode_lifecycle_msgs__srv__GetAvailableStates_Request,
-            encode_lifecycle_msgs__srv__GetAvailableStates_Request,
+            as_dict["get_available_states_request_decode"],
+            as_view["get_available_states_request_decode"],
+            as_dict["get_available_states_request_encode"],
         ),
         "lifecycle_msgs/srv/GetAvailableStates_Response": (
-            decode_lifecycle_msgs__srv__GetAvailableStates_Response,
-            encode_lifecycle_msgs__srv__GetAvailableStates_Response,
+            as_dict["get_available_states_response_decode"],
+            as_view["get_available_states_response_decode"],
+            as_dict["get_available_states_response_encode"],
         ),
         "lifecycle_msgs/srv/GetAvailableStates_Event": (
-            decode_lifecycle_msgs__srv__GetAvailableStates_Event,
-            encode_lifecycle_msgs__srv__GetAvailableStates_Event,
+            as_dict["get_available_states_event_decode"],
+            as_view["get_available_states_event_decode"],
+            as_dict["get_available_states_event_encode"],
         ),
         "lifecycle_msgs/srv/GetAvailableTransitions_Request": (
-            decode_lifecycle_msgs__srv__GetAvailableTransitions_Request,
-            encode_lifecycle_msgs__srv__GetAvailableTransitions_Request,
+            as_dict["get_available_transitions_request_decode"],
+            as_view["get_available_transitions_request_decode"],
+            as_dict["get_available_transitions_request_encode"],
         ),
         "lifecycle_msgs/srv/GetAvailableTransitions_Response": (
-            decode_lifecycle_msgs__srv__GetAvailableTransitions_Response,
-            encode_lifecycle_msgs__srv__GetAvailableTransitions_Response,
+            as_dict["get_available_transitions_response_decode"],
+            as_view["get_available_transitions_response_decode"],
+            as_dict["get_available_transitions_response_encode"],
         ),
         "lifecycle_msgs/srv/GetAvailableTransitions_Event": (
-            decode_lifecycle_msgs__srv__GetAvailableTransitions_Event,
-            encode_lifecycle_msgs__srv__GetAvailableTransitions_Event,
+            as_dict["get_available_transitions_event_decode"],
+            as_view["get_available_transitions_event_decode"],
+            as_dict["get_available_transitions_event_encode"],
         ),
         "lifecycle_msgs/srv/GetState_Request": (
-            decode_lifecycle_msgs__srv__GetState_Request,
-            encode_lifecycle_msgs__srv__GetState_Request,
+            as_dict["get_state_request_decode"],
+            as_view["get_state_request_decode"],
+            as_dict["get_state_request_encode"],
         ),
         "lifecycle_msgs/srv/GetState_Response": (
-            decode_lifecycle_msgs__srv__GetState_Response,
-            encode_lifecycle_msgs__srv__GetState_Response,
+            as_dict["get_state_response_decode"],
+            as_view["get_state_response_decode"],
+            as_dict["get_state_response_encode"],
         ),
         "lifecycle_msgs/srv/GetState_Event": (
-            decode_lifecycle_msgs__srv__GetState_Event,
-            encode_lifecycle_msgs__srv__GetState_Event,
+            as_dict["get_state_event_decode"],
+            as_view["get_state_event_decode"],
+            as_dict["get_state_event_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

@@ -39,10 +39,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -78,58 +79,50 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.builtin_interfaces.wire_codecs import (
+    DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
+    TIME_KEYS as BUILTIN_INTERFACES__TIME_KEYS,
+    time_view as builtin_interfaces__time_view,
+)
+from pyconnect_generated.geometry_msgs.wire_codecs import (
+    DEFINITIONS as GEOMETRY_MSGS__DEFINITIONS,
+    FUNCTIONS as GEOMETRY_MSGS__FUNCTIONS,
+    POINT_KEYS as GEOMETRY_MSGS__POINT_KEYS,
+    point_view as geometry_msgs__point_view,
+    POSE_KEYS as GEOMETRY_MSGS__POSE_KEYS,
+    pose_view as geometry_msgs__pose_view,
+    POSE_WITH_COVARIANCE_KEYS as GEOMETRY_MSGS__POSE_WITH_COVARIANCE_KEYS,
+    pose_with_covariance_view as geometry_msgs__pose_with_covariance_view,
+    QUATERNION_KEYS as GEOMETRY_MSGS__QUATERNION_KEYS,
+    quaternion_view as geometry_msgs__quaternion_view,
+    TWIST_KEYS as GEOMETRY_MSGS__TWIST_KEYS,
+    twist_view as geometry_msgs__twist_view,
+    TWIST_WITH_COVARIANCE_KEYS as GEOMETRY_MSGS__TWIST_WITH_COVARIANCE_KEYS,
+    twist_with_covariance_view as geometry_msgs__twist_with_covariance_view,
+    VECTOR3_KEYS as GEOMETRY_MSGS__VECTOR3_KEYS,
+    vector3_view as geometry_msgs__vector3_view,
+)
+from pyconnect_generated.service_msgs.wire_codecs import (
+    DEFINITIONS as SERVICE_MSGS__DEFINITIONS,
+    SERVICE_EVENT_INFO_KEYS as SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS,
+    service_event_info_view as service_msgs__service_event_info_view,
+)
+from pyconnect_generated.std_msgs.wire_codecs import (
+    DEFINITIONS as STD_MSGS__DEFINITIONS,
+    FUNCTIONS as STD_MSGS__FUNCTIONS,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
-    "std_msgs/msg/Header": (
-        "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01",
-        (
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("frame_id", "string", "string", None, "single", None, None),
-        ),
-    ),
-    "geometry_msgs/msg/Point": (
-        "RIHS01_6963084842a9b04494d6b2941d11444708d892da2f4b09843b9c43f42a7f6881",
-        (
-            ("x", "primitive", "float64", None, "single", None, None),
-            ("y", "primitive", "float64", None, "single", None, None),
-            ("z", "primitive", "float64", None, "single", None, None),
-        ),
-    ),
-    "geometry_msgs/msg/Quaternion": (
-        "RIHS01_8a765f66778c8ff7c8ab94afcc590a2ed5325a1d9a076ffff38fbce36f458684",
-        (
-            ("x", "primitive", "float64", None, "single", None, 0.0),
-            ("y", "primitive", "float64", None, "single", None, 0.0),
-            ("z", "primitive", "float64", None, "single", None, 0.0),
-            ("w", "primitive", "float64", None, "single", None, 1.0),
-        ),
-    ),
-    "geometry_msgs/msg/Pose": (
-        "RIHS01_d501954e9476cea2996984e812054b68026ae0bfae789d9a10b23daf35cc90fa",
-        (
-            ("position", "message", "geometry_msgs/msg/Point", None, "single", None, None),
-            ("orientation", "message", "geometry_msgs/msg/Quaternion", None, "single", None, None),
-        ),
-    ),
-    "geometry_msgs/msg/PoseStamped": (
-        "RIHS01_10f3786d7d40fd2b54367835614bff85d4ad3b5dab62bf8bca0cc232d73b4cd8",
-        (
-            ("header", "message", "std_msgs/msg/Header", None, "single", None, None),
-            ("pose", "message", "geometry_msgs/msg/Pose", None, "single", None, None),
-        ),
-    ),
+    **BUILTIN_INTERFACES__DEFINITIONS,
+    **GEOMETRY_MSGS__DEFINITIONS,
+    **SERVICE_MSGS__DEFINITIONS,
+    **STD_MSGS__DEFINITIONS,
     "nav_msgs/msg/Goals": (
         "RIHS01_02305a51633b5c04d8979b878a7577cafd422f8a07465c878b17a920af3759e9",
         (
@@ -164,35 +157,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
             ("data", "primitive", "int8", None, "sequence", None, None),
         ),
     ),
-    "geometry_msgs/msg/PoseWithCovariance": (
-        "RIHS01_9a7c0fd234b7f45c6098745ecccd773ca1085670e64107135397aee31c02e1bb",
-        (
-            ("pose", "message", "geometry_msgs/msg/Pose", None, "single", None, None),
-            ("covariance", "primitive", "float64", None, "array", 36, None),
-        ),
-    ),
-    "geometry_msgs/msg/Vector3": (
-        "RIHS01_cc12fe83e4c02719f1ce8070bfd14aecd40f75a96696a67a2a1f37f7dbb0765d",
-        (
-            ("x", "primitive", "float64", None, "single", None, None),
-            ("y", "primitive", "float64", None, "single", None, None),
-            ("z", "primitive", "float64", None, "single", None, None),
-        ),
-    ),
-    "geometry_msgs/msg/Twist": (
-        "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a",
-        (
-            ("linear", "message", "geometry_msgs/msg/Vector3", None, "single", None, None),
-            ("angular", "message", "geometry_msgs/msg/Vector3", None, "single", None, None),
-        ),
-    ),
-    "geometry_msgs/msg/TwistWithCovariance": (
-        "RIHS01_49f574f033f095d8b6cd1beaca5ca7925e296e84af1716d16c89d38b059c8c18",
-        (
-            ("twist", "message", "geometry_msgs/msg/Twist", None, "single", None, None),
-            ("covariance", "primitive", "float64", None, "array", 36, None),
-        ),
-    ),
     "nav_msgs/msg/Odometry": (
         "RIHS01_3cc97dc7fb7502f8714462c526d369e35b603cfc34d946e3f2eda2766dfec6e0",
         (
@@ -224,15 +188,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "nav_msgs/srv/GetMap_Response": (
         "RIHS01_45246f7a2ff0cbfa46e13865d4b95929ebb6d2846d1b85a20ad51030f4690dc2",
         (("map", "message", "nav_msgs/msg/OccupancyGrid", None, "single", None, None),),
-    ),
-    "service_msgs/msg/ServiceEventInfo": (
-        "RIHS01_41bcbbe07a75c9b52bc96bfd5c24d7f0fc0a08c0cb7921b3373c5732345a6f45",
-        (
-            ("event_type", "primitive", "uint8", None, "single", None, None),
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("client_gid", "primitive", "uint8", None, "array", 16, None),
-            ("sequence_number", "primitive", "int64", None, "single", None, None),
-        ),
     ),
     "nav_msgs/srv/GetMap_Event": (
         "RIHS01_a7ccc266ea4796564e253156024ef4e829dd3e3c424fed3b11e3118aab3971d7",
@@ -329,13 +284,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
             ),
         ),
     ),
-    "geometry_msgs/msg/PoseWithCovarianceStamped": (
-        "RIHS01_26432f9803e43727d3c8f668d1fdb3c630f548af631e2f4e31382371bfea3b6e",
-        (
-            ("header", "message", "std_msgs/msg/Header", None, "single", None, None),
-            ("pose", "message", "geometry_msgs/msg/PoseWithCovariance", None, "single", None, None),
-        ),
-    ),
     "nav_msgs/srv/SetMap_Request": (
         "RIHS01_5a83a0c20af4d79248fc3287524bf358b603fb5a05818b5ec85b50fa6e5d0266",
         (
@@ -402,77 +350,37 @@ EXPORTED: frozenset[str] = frozenset(
         "nav_msgs/srv/SetMap_Response",
     )
 )
-_K_builtin_interfaces__msg__Time = frozenset(
+GET_MAP_EVENT_KEYS = frozenset(
     (
-        "sec",
-        "nanosec",
+        "info",
+        "request",
+        "response",
     )
 )
-_K_geometry_msgs__msg__Point = frozenset(
+GET_MAP_REQUEST_KEYS = frozenset()
+GET_MAP_RESPONSE_KEYS = frozenset(("map",))
+GET_PLAN_EVENT_KEYS = frozenset(
     (
-        "x",
-        "y",
-        "z",
+        "info",
+        "request",
+        "response",
     )
 )
-_K_geometry_msgs__msg__Pose = frozenset(
+GET_PLAN_REQUEST_KEYS = frozenset(
     (
-        "position",
-        "orientation",
+        "start",
+        "goal",
+        "tolerance",
     )
 )
-_K_geometry_msgs__msg__PoseStamped = frozenset(
-    (
-        "header",
-        "pose",
-    )
-)
-_K_geometry_msgs__msg__PoseWithCovariance = frozenset(
-    (
-        "pose",
-        "covariance",
-    )
-)
-_K_geometry_msgs__msg__PoseWithCovarianceStamped = frozenset(
-    (
-        "header",
-        "pose",
-    )
-)
-_K_geometry_msgs__msg__Quaternion = frozenset(
-    (
-        "x",
-        "y",
-        "z",
-        "w",
-    )
-)
-_K_geometry_msgs__msg__Twist = frozenset(
-    (
-        "linear",
-        "angular",
-    )
-)
-_K_geometry_msgs__msg__TwistWithCovariance = frozenset(
-    (
-        "twist",
-        "covariance",
-    )
-)
-_K_geometry_msgs__msg__Vector3 = frozenset(
-    (
-        "x",
-        "y",
-        "z",
-    )
-)
-_K_nav_msgs__msg__Goals = frozenset(
+GET_PLAN_RESPONSE_KEYS = frozenset(("plan",))
+GOALS_KEYS = frozenset(
     (
         "header",
         "goals",
     )
 )
-_K_nav_msgs__msg__GridCells = frozenset(
+GRID_CELLS_KEYS = frozenset(
     (
         "header",
         "cell_width",
@@ -480,7 +388,21 @@ _K_nav_msgs__msg__GridCells = frozenset(
         "cells",
     )
 )
-_K_nav_msgs__msg__MapMetaData = frozenset(
+LOAD_MAP_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+LOAD_MAP_REQUEST_KEYS = frozenset(("map_url",))
+LOAD_MAP_RESPONSE_KEYS = frozenset(
+    (
+        "map",
+        "result",
+    )
+)
+MAP_META_DATA_KEYS = frozenset(
     (
         "map_load_time",
         "resolution",
@@ -489,14 +411,14 @@ _K_nav_msgs__msg__MapMetaData = frozenset(
         "origin",
     )
 )
-_K_nav_msgs__msg__OccupancyGrid = frozenset(
+OCCUPANCY_GRID_KEYS = frozenset(
     (
         "header",
         "info",
         "data",
     )
 )
-_K_nav_msgs__msg__Odometry = frozenset(
+ODOMETRY_KEYS = frozenset(
     (
         "header",
         "child_frame_id",
@@ -504,156 +426,48 @@ _K_nav_msgs__msg__Odometry = frozenset(
         "twist",
     )
 )
-_K_nav_msgs__msg__Path = frozenset(
+PATH_KEYS = frozenset(
     (
         "header",
         "poses",
     )
 )
-_K_nav_msgs__srv__GetMap_Event = frozenset(
+SET_MAP_EVENT_KEYS = frozenset(
     (
         "info",
         "request",
         "response",
     )
 )
-_K_nav_msgs__srv__GetMap_Request = frozenset()
-_K_nav_msgs__srv__GetMap_Response = frozenset(("map",))
-_K_nav_msgs__srv__GetPlan_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_nav_msgs__srv__GetPlan_Request = frozenset(
-    (
-        "start",
-        "goal",
-        "tolerance",
-    )
-)
-_K_nav_msgs__srv__GetPlan_Response = frozenset(("plan",))
-_K_nav_msgs__srv__LoadMap_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_nav_msgs__srv__LoadMap_Request = frozenset(("map_url",))
-_K_nav_msgs__srv__LoadMap_Response = frozenset(
-    (
-        "map",
-        "result",
-    )
-)
-_K_nav_msgs__srv__SetMap_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_nav_msgs__srv__SetMap_Request = frozenset(
+SET_MAP_REQUEST_KEYS = frozenset(
     (
         "map",
         "initial_pose",
     )
 )
-_K_nav_msgs__srv__SetMap_Response = frozenset(("success",))
-_K_service_msgs__msg__ServiceEventInfo = frozenset(
-    (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-)
-_K_std_msgs__msg__Header = frozenset(
-    (
-        "stamp",
-        "frame_id",
-    )
-)
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_geometry_msgs__msg__Point_0 = (
-    (".x", "float64", 8),
-    (".y", "float64", 16),
-    (".z", "float64", 24),
-)
-_R_geometry_msgs__msg__PoseStamped_0 = (
-    (".pose.position.x", "float64", 8),
-    (".pose.position.y", "float64", 16),
-    (".pose.position.z", "float64", 24),
-    (".pose.orientation.x", "float64", 32),
-    (".pose.orientation.y", "float64", 40),
-    (".pose.orientation.z", "float64", 48),
-    (".pose.orientation.w", "float64", 56),
-)
-_R_geometry_msgs__msg__PoseWithCovarianceStamped_0 = (
-    (".pose.pose.position.x", "float64", 8),
-    (".pose.pose.position.y", "float64", 16),
-    (".pose.pose.position.z", "float64", 24),
-    (".pose.pose.orientation.x", "float64", 32),
-    (".pose.pose.orientation.y", "float64", 40),
-    (".pose.pose.orientation.z", "float64", 48),
-    (".pose.pose.orientation.w", "float64", 56),
-)
-_R_geometry_msgs__msg__PoseWithCovariance_0 = (
-    (".pose.position.x", "float64", 8),
-    (".pose.position.y", "float64", 16),
-    (".pose.position.z", "float64", 24),
-    (".pose.orientation.x", "float64", 32),
-    (".pose.orientation.y", "float64", 40),
-    (".pose.orientation.z", "float64", 48),
-    (".pose.orientation.w", "float64", 56),
-)
-_R_geometry_msgs__msg__Pose_0 = (
-    (".position.x", "float64", 8),
-    (".position.y", "float64", 16),
-    (".position.z", "float64", 24),
-    (".orientation.x", "float64", 32),
-    (".orientation.y", "float64", 40),
-    (".orientation.z", "float64", 48),
-    (".orientation.w", "float64", 56),
-)
-_R_geometry_msgs__msg__Quaternion_0 = (
-    (".x", "float64", 8),
-    (".y", "float64", 16),
-    (".z", "float64", 24),
-    (".w", "float64", 32),
-)
-_R_geometry_msgs__msg__TwistWithCovariance_0 = (
-    (".twist.linear.x", "float64", 8),
-    (".twist.linear.y", "float64", 16),
-    (".twist.linear.z", "float64", 24),
-    (".twist.angular.x", "float64", 32),
-    (".twist.angular.y", "float64", 40),
-    (".twist.angular.z", "float64", 48),
-)
-_R_geometry_msgs__msg__Twist_0 = (
-    (".linear.x", "float64", 8),
-    (".linear.y", "float64", 16),
-    (".linear.z", "float64", 24),
-    (".angular.x", "float64", 32),
-    (".angular.y", "float64", 40),
-    (".angular.z", "float64", 48),
-)
-_R_geometry_msgs__msg__Vector3_0 = (
-    (".x", "float64", 8),
-    (".y", "float64", 16),
-    (".z", "float64", 24),
-)
-_R_nav_msgs__msg__GridCells_0 = ((".cell_width", "float32", 4), (".cell_height", "float32", 8))
-_R_nav_msgs__msg__MapMetaData_0 = (
+SET_MAP_RESPONSE_KEYS = frozenset(("success",))
+GET_MAP_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+GET_MAP_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+GET_MAP_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+GET_MAP_REQUEST_RUN_0 = ()
+GET_PLAN_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+GET_PLAN_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+GET_PLAN_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+GET_PLAN_REQUEST_RUN_0 = ((".tolerance", "float32", 4),)
+GRID_CELLS_RUN_0 = ((".cell_width", "float32", 4), (".cell_height", "float32", 8))
+LOAD_MAP_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+LOAD_MAP_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+LOAD_MAP_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+LOAD_MAP_REQUEST_RUN_0 = ((".map_url", "uint32", 4),)
+LOAD_MAP_RESPONSE_RUN_0 = ((".result", "uint8", 1),)
+MAP_META_DATA_RUN_0 = (
     (".map_load_time.sec", "int32", 4),
     (".map_load_time.nanosec", "uint32", 8),
     (".resolution", "float32", 12),
     (".width", "uint32", 16),
     (".height", "uint32", 20),
 )
-_R_nav_msgs__msg__MapMetaData_1 = (
+MAP_META_DATA_RUN_1 = (
     (".origin.position.x", "float64", 8),
     (".origin.position.y", "float64", 16),
     (".origin.position.z", "float64", 24),
@@ -662,14 +476,14 @@ _R_nav_msgs__msg__MapMetaData_1 = (
     (".origin.orientation.z", "float64", 48),
     (".origin.orientation.w", "float64", 56),
 )
-_R_nav_msgs__msg__OccupancyGrid_0 = (
+OCCUPANCY_GRID_RUN_0 = (
     (".info.map_load_time.sec", "int32", 4),
     (".info.map_load_time.nanosec", "uint32", 8),
     (".info.resolution", "float32", 12),
     (".info.width", "uint32", 16),
     (".info.height", "uint32", 20),
 )
-_R_nav_msgs__msg__OccupancyGrid_1 = (
+OCCUPANCY_GRID_RUN_1 = (
     (".info.origin.position.x", "float64", 8),
     (".info.origin.position.y", "float64", 16),
     (".info.origin.position.z", "float64", 24),
@@ -679,8 +493,8 @@ _R_nav_msgs__msg__OccupancyGrid_1 = (
     (".info.origin.orientation.w", "float64", 56),
     (".data", "uint32", 60),
 )
-_R_nav_msgs__msg__Odometry_0 = ((".child_frame_id", "uint32", 4),)
-_R_nav_msgs__msg__Odometry_1 = (
+ODOMETRY_RUN_0 = ((".child_frame_id", "uint32", 4),)
+ODOMETRY_RUN_1 = (
     (".pose.pose.position.x", "float64", 8),
     (".pose.pose.position.y", "float64", 16),
     (".pose.pose.position.z", "float64", 24),
@@ -689,7 +503,7 @@ _R_nav_msgs__msg__Odometry_1 = (
     (".pose.pose.orientation.z", "float64", 48),
     (".pose.pose.orientation.w", "float64", 56),
 )
-_R_nav_msgs__msg__Odometry_2 = (
+ODOMETRY_RUN_2 = (
     (".twist.twist.linear.x", "float64", 8),
     (".twist.twist.linear.y", "float64", 16),
     (".twist.twist.linear.z", "float64", 24),
@@ -697,46 +511,10 @@ _R_nav_msgs__msg__Odometry_2 = (
     (".twist.twist.angular.y", "float64", 40),
     (".twist.twist.angular.z", "float64", 48),
 )
-_R_nav_msgs__srv__GetMap_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_nav_msgs__srv__GetMap_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_nav_msgs__srv__GetMap_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_nav_msgs__srv__GetMap_Request_0 = ()
-_R_nav_msgs__srv__GetPlan_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_nav_msgs__srv__GetPlan_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_nav_msgs__srv__GetPlan_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_nav_msgs__srv__GetPlan_Request_0 = ((".tolerance", "float32", 4),)
-_R_nav_msgs__srv__LoadMap_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_nav_msgs__srv__LoadMap_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_nav_msgs__srv__LoadMap_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_nav_msgs__srv__LoadMap_Request_0 = ((".map_url", "uint32", 4),)
-_R_nav_msgs__srv__LoadMap_Response_0 = ((".result", "uint8", 1),)
-_R_nav_msgs__srv__SetMap_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_nav_msgs__srv__SetMap_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_nav_msgs__srv__SetMap_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_nav_msgs__srv__SetMap_Response_0 = ((".success", "bool", 1),)
-_R_service_msgs__msg__ServiceEventInfo_0 = ((".event_type", "uint8", 1),)
-_R_service_msgs__msg__ServiceEventInfo_1 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-)
-_R_service_msgs__msg__ServiceEventInfo_2 = ((".sequence_number", "int64", 8),)
-_R_std_msgs__msg__Header_0 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-    (".frame_id", "uint32", 12),
-)
+SET_MAP_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+SET_MAP_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+SET_MAP_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+SET_MAP_RESPONSE_RUN_0 = ((".success", "bool", 1),)
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
@@ -746,153 +524,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class std_msgs__msg__Header:
-    """A decoded std_msgs/msg/Header.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "stamp",
-        "frame_id",
-    )
-    msg_type = "std_msgs/msg/Header"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_std_msgs__msg__Header(a0: Any, a1: Any) -> std_msgs__msg__Header:
-    view = _new(std_msgs__msg__Header)
-    view.stamp = a0
-    view.frame_id = a1
-    return view
-
-
-class geometry_msgs__msg__Point:
-    """A decoded geometry_msgs/msg/Point.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "x",
-        "y",
-        "z",
-    )
-    msg_type = "geometry_msgs/msg/Point"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Point(a0: Any, a1: Any, a2: Any) -> geometry_msgs__msg__Point:
-    view = _new(geometry_msgs__msg__Point)
-    view.x = a0
-    view.y = a1
-    view.z = a2
-    return view
-
-
-class geometry_msgs__msg__Quaternion:
-    """A decoded geometry_msgs/msg/Quaternion.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "x",
-        "y",
-        "z",
-        "w",
-    )
-    msg_type = "geometry_msgs/msg/Quaternion"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Quaternion(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> geometry_msgs__msg__Quaternion:
-    view = _new(geometry_msgs__msg__Quaternion)
-    view.x = a0
-    view.y = a1
-    view.z = a2
-    view.w = a3
-    return view
-
-
-class geometry_msgs__msg__Pose:
-    """A decoded geometry_msgs/msg/Pose.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "position",
-        "orientation",
-    )
-    msg_type = "geometry_msgs/msg/Pose"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Pose(a0: Any, a1: Any) -> geometry_msgs__msg__Pose:
-    view = _new(geometry_msgs__msg__Pose)
-    view.position = a0
-    view.orientation = a1
-    return view
-
-
-class geometry_msgs__msg__PoseStamped:
-    """A decoded geometry_msgs/msg/PoseStamped.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "header",
-        "pose",
-    )
-    msg_type = "geometry_msgs/msg/PoseStamped"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__PoseStamped(a0: Any, a1: Any) -> geometry_msgs__msg__PoseStamped:
-    view = _new(geometry_msgs__msg__PoseStamped)
-    view.header = a0
-    view.pose = a1
-    return view
-
-
-class nav_msgs__msg__Goals:
+class Goals:
     """A decoded nav_msgs/msg/Goals.
 
     Attributes named as the ROS fields.
@@ -908,14 +540,14 @@ class nav_msgs__msg__Goals:
         return view_repr(self)
 
 
-def make_nav_msgs__msg__Goals(a0: Any, a1: Any) -> nav_msgs__msg__Goals:
-    view = _new(nav_msgs__msg__Goals)
+def goals_view(a0: Any, a1: Any) -> Goals:
+    view = _new(Goals)
     view.header = a0
     view.goals = a1
     return view
 
 
-class nav_msgs__msg__GridCells:
+class GridCells:
     """A decoded nav_msgs/msg/GridCells.
 
     Attributes named as the ROS fields.
@@ -933,8 +565,8 @@ class nav_msgs__msg__GridCells:
         return view_repr(self)
 
 
-def make_nav_msgs__msg__GridCells(a0: Any, a1: Any, a2: Any, a3: Any) -> nav_msgs__msg__GridCells:
-    view = _new(nav_msgs__msg__GridCells)
+def grid_cells_view(a0: Any, a1: Any, a2: Any, a3: Any) -> GridCells:
+    view = _new(GridCells)
     view.header = a0
     view.cell_width = a1
     view.cell_height = a2
@@ -942,7 +574,7 @@ def make_nav_msgs__msg__GridCells(a0: Any, a1: Any, a2: Any, a3: Any) -> nav_msg
     return view
 
 
-class nav_msgs__msg__MapMetaData:
+class MapMetaData:
     """A decoded nav_msgs/msg/MapMetaData.
 
     Attributes named as the ROS fields.
@@ -961,10 +593,8 @@ class nav_msgs__msg__MapMetaData:
         return view_repr(self)
 
 
-def make_nav_msgs__msg__MapMetaData(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any
-) -> nav_msgs__msg__MapMetaData:
-    view = _new(nav_msgs__msg__MapMetaData)
+def map_meta_data_view(a0: Any, a1: Any, a2: Any, a3: Any, a4: Any) -> MapMetaData:
+    view = _new(MapMetaData)
     view.map_load_time = a0
     view.resolution = a1
     view.width = a2
@@ -973,7 +603,7 @@ def make_nav_msgs__msg__MapMetaData(
     return view
 
 
-class nav_msgs__msg__OccupancyGrid:
+class OccupancyGrid:
     """A decoded nav_msgs/msg/OccupancyGrid.
 
     Attributes named as the ROS fields.
@@ -990,113 +620,15 @@ class nav_msgs__msg__OccupancyGrid:
         return view_repr(self)
 
 
-def make_nav_msgs__msg__OccupancyGrid(a0: Any, a1: Any, a2: Any) -> nav_msgs__msg__OccupancyGrid:
-    view = _new(nav_msgs__msg__OccupancyGrid)
+def occupancy_grid_view(a0: Any, a1: Any, a2: Any) -> OccupancyGrid:
+    view = _new(OccupancyGrid)
     view.header = a0
     view.info = a1
     view.data = a2
     return view
 
 
-class geometry_msgs__msg__PoseWithCovariance:
-    """A decoded geometry_msgs/msg/PoseWithCovariance.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "pose",
-        "covariance",
-    )
-    msg_type = "geometry_msgs/msg/PoseWithCovariance"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__PoseWithCovariance(
-    a0: Any, a1: Any
-) -> geometry_msgs__msg__PoseWithCovariance:
-    view = _new(geometry_msgs__msg__PoseWithCovariance)
-    view.pose = a0
-    view.covariance = a1
-    return view
-
-
-class geometry_msgs__msg__Vector3:
-    """A decoded geometry_msgs/msg/Vector3.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "x",
-        "y",
-        "z",
-    )
-    msg_type = "geometry_msgs/msg/Vector3"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Vector3(a0: Any, a1: Any, a2: Any) -> geometry_msgs__msg__Vector3:
-    view = _new(geometry_msgs__msg__Vector3)
-    view.x = a0
-    view.y = a1
-    view.z = a2
-    return view
-
-
-class geometry_msgs__msg__Twist:
-    """A decoded geometry_msgs/msg/Twist.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "linear",
-        "angular",
-    )
-    msg_type = "geometry_msgs/msg/Twist"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Twist(a0: Any, a1: Any) -> geometry_msgs__msg__Twist:
-    view = _new(geometry_msgs__msg__Twist)
-    view.linear = a0
-    view.angular = a1
-    return view
-
-
-class geometry_msgs__msg__TwistWithCovariance:
-    """A decoded geometry_msgs/msg/TwistWithCovariance.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "twist",
-        "covariance",
-    )
-    msg_type = "geometry_msgs/msg/TwistWithCovariance"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__TwistWithCovariance(
-    a0: Any, a1: Any
-) -> geometry_msgs__msg__TwistWithCovariance:
-    view = _new(geometry_msgs__msg__TwistWithCovariance)
-    view.twist = a0
-    view.covariance = a1
-    return view
-
-
-class nav_msgs__msg__Odometry:
+class Odometry:
     """A decoded nav_msgs/msg/Odometry.
 
     Attributes named as the ROS fields.
@@ -1114,8 +646,8 @@ class nav_msgs__msg__Odometry:
         return view_repr(self)
 
 
-def make_nav_msgs__msg__Odometry(a0: Any, a1: Any, a2: Any, a3: Any) -> nav_msgs__msg__Odometry:
-    view = _new(nav_msgs__msg__Odometry)
+def odometry_view(a0: Any, a1: Any, a2: Any, a3: Any) -> Odometry:
+    view = _new(Odometry)
     view.header = a0
     view.child_frame_id = a1
     view.pose = a2
@@ -1123,7 +655,7 @@ def make_nav_msgs__msg__Odometry(a0: Any, a1: Any, a2: Any, a3: Any) -> nav_msgs
     return view
 
 
-class nav_msgs__msg__Path:
+class Path:
     """A decoded nav_msgs/msg/Path.
 
     Attributes named as the ROS fields.
@@ -1139,14 +671,14 @@ class nav_msgs__msg__Path:
         return view_repr(self)
 
 
-def make_nav_msgs__msg__Path(a0: Any, a1: Any) -> nav_msgs__msg__Path:
-    view = _new(nav_msgs__msg__Path)
+def path_view(a0: Any, a1: Any) -> Path:
+    view = _new(Path)
     view.header = a0
     view.poses = a1
     return view
 
 
-class nav_msgs__srv__GetMap_Request:
+class GetMap_Request:
     """A decoded nav_msgs/srv/GetMap_Request.
 
     Attributes named as the ROS fields.
@@ -1159,12 +691,12 @@ class nav_msgs__srv__GetMap_Request:
         return view_repr(self)
 
 
-def make_nav_msgs__srv__GetMap_Request() -> nav_msgs__srv__GetMap_Request:
-    view = _new(nav_msgs__srv__GetMap_Request)
+def get_map_request_view() -> GetMap_Request:
+    view = _new(GetMap_Request)
     return view
 
 
-class nav_msgs__srv__GetMap_Response:
+class GetMap_Response:
     """A decoded nav_msgs/srv/GetMap_Response.
 
     Attributes named as the ROS fields.
@@ -1177,42 +709,13 @@ class nav_msgs__srv__GetMap_Response:
         return view_repr(self)
 
 
-def make_nav_msgs__srv__GetMap_Response(a0: Any) -> nav_msgs__srv__GetMap_Response:
-    view = _new(nav_msgs__srv__GetMap_Response)
+def get_map_response_view(a0: Any) -> GetMap_Response:
+    view = _new(GetMap_Response)
     view.map = a0
     return view
 
 
-class service_msgs__msg__ServiceEventInfo:
-    """A decoded service_msgs/msg/ServiceEventInfo.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-    msg_type = "service_msgs/msg/ServiceEventInfo"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_service_msgs__msg__ServiceEventInfo(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> service_msgs__msg__ServiceEventInfo:
-    view = _new(service_msgs__msg__ServiceEventInfo)
-    view.event_type = a0
-    view.stamp = a1
-    view.client_gid = a2
-    view.sequence_number = a3
-    return view
-
-
-class nav_msgs__srv__GetMap_Event:
+class GetMap_Event:
     """A decoded nav_msgs/srv/GetMap_Event.
 
     Attributes named as the ROS fields.
@@ -1229,15 +732,15 @@ class nav_msgs__srv__GetMap_Event:
         return view_repr(self)
 
 
-def make_nav_msgs__srv__GetMap_Event(a0: Any, a1: Any, a2: Any) -> nav_msgs__srv__GetMap_Event:
-    view = _new(nav_msgs__srv__GetMap_Event)
+def get_map_event_view(a0: Any, a1: Any, a2: Any) -> GetMap_Event:
+    view = _new(GetMap_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class nav_msgs__srv__GetPlan_Request:
+class GetPlan_Request:
     """A decoded nav_msgs/srv/GetPlan_Request.
 
     Attributes named as the ROS fields.
@@ -1254,17 +757,15 @@ class nav_msgs__srv__GetPlan_Request:
         return view_repr(self)
 
 
-def make_nav_msgs__srv__GetPlan_Request(
-    a0: Any, a1: Any, a2: Any
-) -> nav_msgs__srv__GetPlan_Request:
-    view = _new(nav_msgs__srv__GetPlan_Request)
+def get_plan_request_view(a0: Any, a1: Any, a2: Any) -> GetPlan_Request:
+    view = _new(GetPlan_Request)
     view.start = a0
     view.goal = a1
     view.tolerance = a2
     return view
 
 
-class nav_msgs__srv__GetPlan_Response:
+class GetPlan_Response:
     """A decoded nav_msgs/srv/GetPlan_Response.
 
     Attributes named as the ROS fields.
@@ -1277,13 +778,13 @@ class nav_msgs__srv__GetPlan_Response:
         return view_repr(self)
 
 
-def make_nav_msgs__srv__GetPlan_Response(a0: Any) -> nav_msgs__srv__GetPlan_Response:
-    view = _new(nav_msgs__srv__GetPlan_Response)
+def get_plan_response_view(a0: Any) -> GetPlan_Response:
+    view = _new(GetPlan_Response)
     view.plan = a0
     return view
 
 
-class nav_msgs__srv__GetPlan_Event:
+class GetPlan_Event:
     """A decoded nav_msgs/srv/GetPlan_Event.
 
     Attributes named as the ROS fields.
@@ -1300,15 +801,15 @@ class nav_msgs__srv__GetPlan_Event:
         return view_repr(self)
 
 
-def make_nav_msgs__srv__GetPlan_Event(a0: Any, a1: Any, a2: Any) -> nav_msgs__srv__GetPlan_Event:
-    view = _new(nav_msgs__srv__GetPlan_Event)
+def get_plan_event_view(a0: Any, a1: Any, a2: Any) -> GetPlan_Event:
+    view = _new(GetPlan_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class nav_msgs__srv__LoadMap_Request:
+class LoadMap_Request:
     """A decoded nav_msgs/srv/LoadMap_Request.
 
     Attributes named as the ROS fields.
@@ -1321,13 +822,13 @@ class nav_msgs__srv__LoadMap_Request:
         return view_repr(self)
 
 
-def make_nav_msgs__srv__LoadMap_Request(a0: Any) -> nav_msgs__srv__LoadMap_Request:
-    view = _new(nav_msgs__srv__LoadMap_Request)
+def load_map_request_view(a0: Any) -> LoadMap_Request:
+    view = _new(LoadMap_Request)
     view.map_url = a0
     return view
 
 
-class nav_msgs__srv__LoadMap_Response:
+class LoadMap_Response:
     """A decoded nav_msgs/srv/LoadMap_Response.
 
     Attributes named as the ROS fields.
@@ -1343,14 +844,14 @@ class nav_msgs__srv__LoadMap_Response:
         return view_repr(self)
 
 
-def make_nav_msgs__srv__LoadMap_Response(a0: Any, a1: Any) -> nav_msgs__srv__LoadMap_Response:
-    view = _new(nav_msgs__srv__LoadMap_Response)
+def load_map_response_view(a0: Any, a1: Any) -> LoadMap_Response:
+    view = _new(LoadMap_Response)
     view.map = a0
     view.result = a1
     return view
 
 
-class nav_msgs__srv__LoadMap_Event:
+class LoadMap_Event:
     """A decoded nav_msgs/srv/LoadMap_Event.
 
     Attributes named as the ROS fields.
@@ -1367,40 +868,15 @@ class nav_msgs__srv__LoadMap_Event:
         return view_repr(self)
 
 
-def make_nav_msgs__srv__LoadMap_Event(a0: Any, a1: Any, a2: Any) -> nav_msgs__srv__LoadMap_Event:
-    view = _new(nav_msgs__srv__LoadMap_Event)
+def load_map_event_view(a0: Any, a1: Any, a2: Any) -> LoadMap_Event:
+    view = _new(LoadMap_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class geometry_msgs__msg__PoseWithCovarianceStamped:
-    """A decoded geometry_msgs/msg/PoseWithCovarianceStamped.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "header",
-        "pose",
-    )
-    msg_type = "geometry_msgs/msg/PoseWithCovarianceStamped"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__PoseWithCovarianceStamped(
-    a0: Any, a1: Any
-) -> geometry_msgs__msg__PoseWithCovarianceStamped:
-    view = _new(geometry_msgs__msg__PoseWithCovarianceStamped)
-    view.header = a0
-    view.pose = a1
-    return view
-
-
-class nav_msgs__srv__SetMap_Request:
+class SetMap_Request:
     """A decoded nav_msgs/srv/SetMap_Request.
 
     Attributes named as the ROS fields.
@@ -1416,14 +892,14 @@ class nav_msgs__srv__SetMap_Request:
         return view_repr(self)
 
 
-def make_nav_msgs__srv__SetMap_Request(a0: Any, a1: Any) -> nav_msgs__srv__SetMap_Request:
-    view = _new(nav_msgs__srv__SetMap_Request)
+def set_map_request_view(a0: Any, a1: Any) -> SetMap_Request:
+    view = _new(SetMap_Request)
     view.map = a0
     view.initial_pose = a1
     return view
 
 
-class nav_msgs__srv__SetMap_Response:
+class SetMap_Response:
     """A decoded nav_msgs/srv/SetMap_Response.
 
     Attributes named as the ROS fields.
@@ -1436,13 +912,13 @@ class nav_msgs__srv__SetMap_Response:
         return view_repr(self)
 
 
-def make_nav_msgs__srv__SetMap_Response(a0: Any) -> nav_msgs__srv__SetMap_Response:
-    view = _new(nav_msgs__srv__SetMap_Response)
+def set_map_response_view(a0: Any) -> SetMap_Response:
+    view = _new(SetMap_Response)
     view.success = a0
     return view
 
 
-class nav_msgs__srv__SetMap_Event:
+class SetMap_Event:
     """A decoded nav_msgs/srv/SetMap_Event.
 
     Attributes named as the ROS fields.
@@ -1459,21 +935,31 @@ class nav_msgs__srv__SetMap_Event:
         return view_repr(self)
 
 
-def make_nav_msgs__srv__SetMap_Event(a0: Any, a1: Any, a2: Any) -> nav_msgs__srv__SetMap_Event:
-    view = _new(nav_msgs__srv__SetMap_Event)
+def set_map_event_view(a0: Any, a1: Any, a2: Any) -> SetMap_Event:
+    view = _new(SetMap_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    geometry_msgs__point_decode = GEOMETRY_MSGS__FUNCTIONS[E, view]["point_decode"]
+    geometry_msgs__point_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["point_encode"]
+    geometry_msgs__pose_stamped_decode = GEOMETRY_MSGS__FUNCTIONS[E, view]["pose_stamped_decode"]
+    geometry_msgs__pose_stamped_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["pose_stamped_encode"]
+    geometry_msgs__pose_with_covariance_stamped_decode = GEOMETRY_MSGS__FUNCTIONS[E, view][
+        "pose_with_covariance_stamped_decode"
+    ]
+    geometry_msgs__pose_with_covariance_stamped_encode = GEOMETRY_MSGS__FUNCTIONS[E, view][
+        "pose_with_covariance_stamped_encode"
+    ]
+    std_msgs__header_decode = STD_MSGS__FUNCTIONS[E, view]["header_decode"]
+    std_msgs__header_encode = STD_MSGS__FUNCTIONS[E, view]["header_encode"]
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_2f = Struct(E + "2f")
-    _S_3d = Struct(E + "3d")
-    _S_4d = Struct(E + "4d")
     _S_6d = Struct(E + "6d")
     _S_7d = Struct(E + "7d")
     _S_7dI = Struct(E + "7dI")
@@ -1481,7 +967,6 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
     _S_I = Struct(E + "I")
     _S_T = Struct(E + "?")
     _S_f = Struct(E + "f")
-    _S_i2I = Struct(E + "i2I")
     _S_iI = Struct(E + "iI")
     _S_iIf2I = Struct(E + "iIf2I")
     _S_q = Struct(E + "q")
@@ -1489,404 +974,33 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
     _D_int8 = np.dtype("int8").newbyteorder(E)
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
-        return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Header.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Header)
-            f = ".stamp"
-            m1 = d.get("stamp", EMPTY)
-            if m1.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m1):
-                m1 = _submap(m1, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".frame_id"
-            b4 = utf8z(d.get("frame_id", ""), None)
-            f = ""
-            try:
-                out.append(_S_i2I.pack(m1.get("sec", 0), m1.get("nanosec", 0), len(b4)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_i2I,
-                        _R_std_msgs__msg__Header_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                            len(b4),
-                        ),
-                    )
-                )
-            pos += 12
-            out.append(b4)
-            pos += len(b4)
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__Point(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Point_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Point(v1, v2, v3), pos
-        return {"x": v1, "y": v2, "z": v3}, pos
-
-    def encode_geometry_msgs__msg__Point(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Point)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_3d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        _R_geometry_msgs__msg__Point_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 24
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__Quaternion(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Quaternion_0
-            v1, v2, v3, v4 = _S_4d.unpack_from(mv, pos)
-            pos += 32
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
-        return {"x": v1, "y": v2, "z": v3, "w": v4}, pos
-
-    def encode_geometry_msgs__msg__Quaternion(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Quaternion)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(
-                    _S_4d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0), d.get("w", 1.0))
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_4d,
-                        _R_geometry_msgs__msg__Quaternion_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                            d.get("w", 1.0),
-                        ),
-                    )
-                )
-            pos += 32
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__Pose(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Pose_0
-            v2, v3, v4, v6, v7, v8, v9 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Pose(
-                make_geometry_msgs__msg__Point(v2, v3, v4),
-                make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
-            ), pos
-        return {
-            "position": {"x": v2, "y": v3, "z": v4},
-            "orientation": {"x": v6, "y": v7, "z": v8, "w": v9},
-        }, pos
-
-    def encode_geometry_msgs__msg__Pose(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Pose)
-            f = ".position"
-            m1 = d.get("position", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Point)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".orientation"
-            m5 = d.get("orientation", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m5):
-                m5 = _submap(m5, _K_geometry_msgs__msg__Quaternion)
-            f = ""
-            try:
-                out.append(
-                    _S_7d.pack(
-                        m1.get("x", 0.0),
-                        m1.get("y", 0.0),
-                        m1.get("z", 0.0),
-                        m5.get("x", 0.0),
-                        m5.get("y", 0.0),
-                        m5.get("z", 0.0),
-                        m5.get("w", 1.0),
-                    )
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_7d,
-                        _R_geometry_msgs__msg__Pose_0,
-                        (
-                            m1.get("x", 0.0),
-                            m1.get("y", 0.0),
-                            m1.get("z", 0.0),
-                            m5.get("x", 0.0),
-                            m5.get("y", 0.0),
-                            m5.get("z", 0.0),
-                            m5.get("w", 1.0),
-                        ),
-                    )
-                )
-            pos += 56
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__PoseStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def goals_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PoseStamped_0
-            v4, v5, v6, v8, v9, v10, v11 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__PoseStamped(
-                v1,
-                make_geometry_msgs__msg__Pose(
-                    make_geometry_msgs__msg__Point(v4, v5, v6),
-                    make_geometry_msgs__msg__Quaternion(v8, v9, v10, v11),
-                ),
-            ), pos
-        return {
-            "header": v1,
-            "pose": {
-                "position": {"x": v4, "y": v5, "z": v6},
-                "orientation": {"x": v8, "y": v9, "z": v10, "w": v11},
-            },
-        }, pos
-
-    def encode_geometry_msgs__msg__PoseStamped(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__PoseStamped.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__PoseStamped)
-            f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
-            f = ".pose"
-            m2 = d.get("pose", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Pose)
-            f = ".pose.position"
-            m3 = m2.get("position", EMPTY)
-            if m3.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m3):
-                m3 = _submap(m3, _K_geometry_msgs__msg__Point)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".pose.orientation"
-            m7 = m2.get("orientation", EMPTY)
-            if m7.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m7):
-                m7 = _submap(m7, _K_geometry_msgs__msg__Quaternion)
-            f = ""
-            try:
-                out.append(
-                    _S_7d.pack(
-                        m3.get("x", 0.0),
-                        m3.get("y", 0.0),
-                        m3.get("z", 0.0),
-                        m7.get("x", 0.0),
-                        m7.get("y", 0.0),
-                        m7.get("z", 0.0),
-                        m7.get("w", 1.0),
-                    )
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_7d,
-                        _R_geometry_msgs__msg__PoseStamped_0,
-                        (
-                            m3.get("x", 0.0),
-                            m3.get("y", 0.0),
-                            m3.get("z", 0.0),
-                            m7.get("x", 0.0),
-                            m7.get("y", 0.0),
-                            m7.get("z", 0.0),
-                            m7.get("w", 1.0),
-                        ),
-                    )
-                )
-            pos += 56
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_nav_msgs__msg__Goals(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = ".goals"
             v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__PoseStamped, None, None, 68
+                mv, pos, lim, _U32, geometry_msgs__pose_stamped_decode, None, None, 68
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__msg__Goals(v1, v2), pos
+            return goals_view(v1, v2), pos
         return {"header": v1, "goals": v2}, pos
 
-    def encode_nav_msgs__msg__Goals(d: Any, out: list[Any], pos: int) -> int:
+    def goals_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__msg__Goals.issuperset(d):
-                d = _submap(d, _K_nav_msgs__msg__Goals)
+            if d.__class__ is not dict or not GOALS_KEYS.issuperset(d):
+                d = _submap(d, GOALS_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".goals"
             pos = write_messages(
-                d.get("goals", ()),
-                out,
-                pos,
-                _U32,
-                encode_geometry_msgs__msg__PoseStamped,
-                None,
-                False,
+                d.get("goals", ()), out, pos, _U32, geometry_msgs__pose_stamped_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -1894,34 +1008,32 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_nav_msgs__msg__GridCells(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def grid_cells_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_nav_msgs__msg__GridCells_0
+            f = GRID_CELLS_RUN_0
             v2, v3 = _S_2f.unpack_from(mv, pos)
             pos += 8
             f = ".cells"
-            v4, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__Point, None, None, 24
-            )
+            v4, pos = read_messages(mv, pos, lim, _U32, geometry_msgs__point_decode, None, None, 24)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__msg__GridCells(v1, v2, v3, v4), pos
+            return grid_cells_view(v1, v2, v3, v4), pos
         return {"header": v1, "cell_width": v2, "cell_height": v3, "cells": v4}, pos
 
-    def encode_nav_msgs__msg__GridCells(d: Any, out: list[Any], pos: int) -> int:
+    def grid_cells_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__msg__GridCells.issuperset(d):
-                d = _submap(d, _K_nav_msgs__msg__GridCells)
+            if d.__class__ is not dict or not GRID_CELLS_KEYS.issuperset(d):
+                d = _submap(d, GRID_CELLS_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -1933,7 +1045,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_2f,
-                        _R_nav_msgs__msg__GridCells_0,
+                        GRID_CELLS_RUN_0,
                         (
                             d.get("cell_width", 0.0),
                             d.get("cell_height", 0.0),
@@ -1943,7 +1055,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             pos += 8
             f = ".cells"
             pos = write_messages(
-                d.get("cells", ()), out, pos, _U32, encode_geometry_msgs__msg__Point, None, False
+                d.get("cells", ()), out, pos, _U32, geometry_msgs__point_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -1951,15 +1063,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_nav_msgs__msg__MapMetaData(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def map_meta_data_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_nav_msgs__msg__MapMetaData_0
+            f = MAP_META_DATA_RUN_0
             v2, v3, v4, v5, v6 = _S_iIf2I.unpack_from(mv, pos)
             pos += 20
             pos = (pos + 7) & -8
-            f = _R_nav_msgs__msg__MapMetaData_1
+            f = MAP_META_DATA_RUN_1
             v9, v10, v11, v13, v14, v15, v16 = _S_7d.unpack_from(mv, pos)
             pos += 56
         except WireDecodeError as error:
@@ -1967,14 +1079,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__msg__MapMetaData(
-                make_builtin_interfaces__msg__Time(v2, v3),
+            return map_meta_data_view(
+                builtin_interfaces__time_view(v2, v3),
                 v4,
                 v5,
                 v6,
-                make_geometry_msgs__msg__Pose(
-                    make_geometry_msgs__msg__Point(v9, v10, v11),
-                    make_geometry_msgs__msg__Quaternion(v13, v14, v15, v16),
+                geometry_msgs__pose_view(
+                    geometry_msgs__point_view(v9, v10, v11),
+                    geometry_msgs__quaternion_view(v13, v14, v15, v16),
                 ),
             ), pos
         return {
@@ -1988,27 +1100,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_nav_msgs__msg__MapMetaData(d: Any, out: list[Any], pos: int) -> int:
+    def map_meta_data_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__msg__MapMetaData.issuperset(d):
-                d = _submap(d, _K_nav_msgs__msg__MapMetaData)
+            if d.__class__ is not dict or not MAP_META_DATA_KEYS.issuperset(d):
+                d = _submap(d, MAP_META_DATA_KEYS)
             f = ".map_load_time"
             m1 = d.get("map_load_time", EMPTY)
-            if m1.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m1):
-                m1 = _submap(m1, _K_builtin_interfaces__msg__Time)
+            if m1.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m1):
+                m1 = _submap(m1, BUILTIN_INTERFACES__TIME_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".origin"
             m7 = d.get("origin", EMPTY)
-            if m7.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(m7):
-                m7 = _submap(m7, _K_geometry_msgs__msg__Pose)
+            if m7.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m7):
+                m7 = _submap(m7, GEOMETRY_MSGS__POSE_KEYS)
             f = ".origin.position"
             m8 = m7.get("position", EMPTY)
-            if m8.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m8):
-                m8 = _submap(m8, _K_geometry_msgs__msg__Point)
+            if m8.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m8):
+                m8 = _submap(m8, GEOMETRY_MSGS__POINT_KEYS)
             f = ""
             try:
                 out.append(
@@ -2024,7 +1136,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iIf2I,
-                        _R_nav_msgs__msg__MapMetaData_0,
+                        MAP_META_DATA_RUN_0,
                         (
                             m1.get("sec", 0),
                             m1.get("nanosec", 0),
@@ -2041,8 +1153,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 pos += p
             f = ".origin.orientation"
             m12 = m7.get("orientation", EMPTY)
-            if m12.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m12):
-                m12 = _submap(m12, _K_geometry_msgs__msg__Quaternion)
+            if m12.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m12):
+                m12 = _submap(m12, GEOMETRY_MSGS__QUATERNION_KEYS)
             f = ""
             try:
                 out.append(
@@ -2060,7 +1172,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7d,
-                        _R_nav_msgs__msg__MapMetaData_1,
+                        MAP_META_DATA_RUN_1,
                         (
                             m8.get("x", 0.0),
                             m8.get("y", 0.0),
@@ -2079,17 +1191,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_nav_msgs__msg__OccupancyGrid(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def occupancy_grid_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_nav_msgs__msg__OccupancyGrid_0
+            f = OCCUPANCY_GRID_RUN_0
             v4, v5, v6, v7, v8 = _S_iIf2I.unpack_from(mv, pos)
             pos += 20
             pos = (pos + 7) & -8
-            f = _R_nav_msgs__msg__OccupancyGrid_1
+            f = OCCUPANCY_GRID_RUN_1
             v11, v12, v13, v15, v16, v17, v18, v21 = _S_7dI.unpack_from(mv, pos)
             pos += 60
             f = ".data"
@@ -2102,16 +1214,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__msg__OccupancyGrid(
+            return occupancy_grid_view(
                 v1,
-                make_nav_msgs__msg__MapMetaData(
-                    make_builtin_interfaces__msg__Time(v4, v5),
+                map_meta_data_view(
+                    builtin_interfaces__time_view(v4, v5),
                     v6,
                     v7,
                     v8,
-                    make_geometry_msgs__msg__Pose(
-                        make_geometry_msgs__msg__Point(v11, v12, v13),
-                        make_geometry_msgs__msg__Quaternion(v15, v16, v17, v18),
+                    geometry_msgs__pose_view(
+                        geometry_msgs__point_view(v11, v12, v13),
+                        geometry_msgs__quaternion_view(v15, v16, v17, v18),
                     ),
                 ),
                 v22,
@@ -2131,33 +1243,33 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "data": v22.tolist(),
         }, pos
 
-    def encode_nav_msgs__msg__OccupancyGrid(d: Any, out: list[Any], pos: int) -> int:
+    def occupancy_grid_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__msg__OccupancyGrid.issuperset(d):
-                d = _submap(d, _K_nav_msgs__msg__OccupancyGrid)
+            if d.__class__ is not dict or not OCCUPANCY_GRID_KEYS.issuperset(d):
+                d = _submap(d, OCCUPANCY_GRID_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".info"
             m2 = d.get("info", EMPTY)
-            if m2.__class__ is not dict or not _K_nav_msgs__msg__MapMetaData.issuperset(m2):
-                m2 = _submap(m2, _K_nav_msgs__msg__MapMetaData)
+            if m2.__class__ is not dict or not MAP_META_DATA_KEYS.issuperset(m2):
+                m2 = _submap(m2, MAP_META_DATA_KEYS)
             f = ".info.map_load_time"
             m3 = m2.get("map_load_time", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.origin"
             m9 = m2.get("origin", EMPTY)
-            if m9.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(m9):
-                m9 = _submap(m9, _K_geometry_msgs__msg__Pose)
+            if m9.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m9):
+                m9 = _submap(m9, GEOMETRY_MSGS__POSE_KEYS)
             f = ".info.origin.position"
             m10 = m9.get("position", EMPTY)
-            if m10.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m10):
-                m10 = _submap(m10, _K_geometry_msgs__msg__Point)
+            if m10.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m10):
+                m10 = _submap(m10, GEOMETRY_MSGS__POINT_KEYS)
             f = ""
             try:
                 out.append(
@@ -2173,7 +1285,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iIf2I,
-                        _R_nav_msgs__msg__OccupancyGrid_0,
+                        OCCUPANCY_GRID_RUN_0,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -2190,8 +1302,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 pos += p
             f = ".info.origin.orientation"
             m14 = m9.get("orientation", EMPTY)
-            if m14.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m14):
-                m14 = _submap(m14, _K_geometry_msgs__msg__Quaternion)
+            if m14.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m14):
+                m14 = _submap(m14, GEOMETRY_MSGS__QUATERNION_KEYS)
             f = ".data"
             b19, c20 = encode_array(d.get("data", ()), _D_int8, "int8", None, False)
             f = ""
@@ -2212,7 +1324,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7dI,
-                        _R_nav_msgs__msg__OccupancyGrid_1,
+                        OCCUPANCY_GRID_RUN_1,
                         (
                             m10.get("x", 0.0),
                             m10.get("y", 0.0),
@@ -2234,320 +1346,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__PoseWithCovariance(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PoseWithCovariance_0
-            v3, v4, v5, v7, v8, v9, v10 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-            f = ".covariance"
-            if 36 * 8 > lim - pos:
-                raise too_long(36, 8, lim - pos)
-            v13 = _frombuffer(mv, _D_float64, 36, pos)
-            pos += 36 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__PoseWithCovariance(
-                make_geometry_msgs__msg__Pose(
-                    make_geometry_msgs__msg__Point(v3, v4, v5),
-                    make_geometry_msgs__msg__Quaternion(v7, v8, v9, v10),
-                ),
-                v13,
-            ), pos
-        return {
-            "pose": {
-                "position": {"x": v3, "y": v4, "z": v5},
-                "orientation": {"x": v7, "y": v8, "z": v9, "w": v10},
-            },
-            "covariance": v13.tolist(),
-        }, pos
-
-    def encode_geometry_msgs__msg__PoseWithCovariance(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__PoseWithCovariance.issuperset(
-                d
-            ):
-                d = _submap(d, _K_geometry_msgs__msg__PoseWithCovariance)
-            f = ".pose"
-            m1 = d.get("pose", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Pose)
-            f = ".pose.position"
-            m2 = m1.get("position", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Point)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".pose.orientation"
-            m6 = m1.get("orientation", EMPTY)
-            if m6.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m6):
-                m6 = _submap(m6, _K_geometry_msgs__msg__Quaternion)
-            f = ".covariance"
-            b11, c12 = encode_array(d.get("covariance", (0,) * 36), _D_float64, "float64", 36, True)
-            f = ""
-            try:
-                out.append(
-                    _S_7d.pack(
-                        m2.get("x", 0.0),
-                        m2.get("y", 0.0),
-                        m2.get("z", 0.0),
-                        m6.get("x", 0.0),
-                        m6.get("y", 0.0),
-                        m6.get("z", 0.0),
-                        m6.get("w", 1.0),
-                    )
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_7d,
-                        _R_geometry_msgs__msg__PoseWithCovariance_0,
-                        (
-                            m2.get("x", 0.0),
-                            m2.get("y", 0.0),
-                            m2.get("z", 0.0),
-                            m6.get("x", 0.0),
-                            m6.get("y", 0.0),
-                            m6.get("z", 0.0),
-                            m6.get("w", 1.0),
-                        ),
-                    )
-                )
-            pos += 56
-            out.append(b11)
-            pos += c12 * 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__Vector3(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Vector3_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
-        return {"x": v1, "y": v2, "z": v3}, pos
-
-    def encode_geometry_msgs__msg__Vector3(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Vector3)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_3d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        _R_geometry_msgs__msg__Vector3_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 24
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__Twist(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Twist_0
-            v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Twist(
-                make_geometry_msgs__msg__Vector3(v2, v3, v4),
-                make_geometry_msgs__msg__Vector3(v6, v7, v8),
-            ), pos
-        return {"linear": {"x": v2, "y": v3, "z": v4}, "angular": {"x": v6, "y": v7, "z": v8}}, pos
-
-    def encode_geometry_msgs__msg__Twist(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Twist.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Twist)
-            f = ".linear"
-            m1 = d.get("linear", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Vector3)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".angular"
-            m5 = d.get("angular", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m5):
-                m5 = _submap(m5, _K_geometry_msgs__msg__Vector3)
-            f = ""
-            try:
-                out.append(
-                    _S_6d.pack(
-                        m1.get("x", 0.0),
-                        m1.get("y", 0.0),
-                        m1.get("z", 0.0),
-                        m5.get("x", 0.0),
-                        m5.get("y", 0.0),
-                        m5.get("z", 0.0),
-                    )
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_6d,
-                        _R_geometry_msgs__msg__Twist_0,
-                        (
-                            m1.get("x", 0.0),
-                            m1.get("y", 0.0),
-                            m1.get("z", 0.0),
-                            m5.get("x", 0.0),
-                            m5.get("y", 0.0),
-                            m5.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 48
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__TwistWithCovariance(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__TwistWithCovariance_0
-            v3, v4, v5, v7, v8, v9 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-            f = ".covariance"
-            if 36 * 8 > lim - pos:
-                raise too_long(36, 8, lim - pos)
-            v12 = _frombuffer(mv, _D_float64, 36, pos)
-            pos += 36 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__TwistWithCovariance(
-                make_geometry_msgs__msg__Twist(
-                    make_geometry_msgs__msg__Vector3(v3, v4, v5),
-                    make_geometry_msgs__msg__Vector3(v7, v8, v9),
-                ),
-                v12,
-            ), pos
-        return {
-            "twist": {
-                "linear": {"x": v3, "y": v4, "z": v5},
-                "angular": {"x": v7, "y": v8, "z": v9},
-            },
-            "covariance": v12.tolist(),
-        }, pos
-
-    def encode_geometry_msgs__msg__TwistWithCovariance(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__TwistWithCovariance.issuperset(
-                d
-            ):
-                d = _submap(d, _K_geometry_msgs__msg__TwistWithCovariance)
-            f = ".twist"
-            m1 = d.get("twist", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Twist.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Twist)
-            f = ".twist.linear"
-            m2 = m1.get("linear", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Vector3)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".twist.angular"
-            m6 = m1.get("angular", EMPTY)
-            if m6.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m6):
-                m6 = _submap(m6, _K_geometry_msgs__msg__Vector3)
-            f = ".covariance"
-            b10, c11 = encode_array(d.get("covariance", (0,) * 36), _D_float64, "float64", 36, True)
-            f = ""
-            try:
-                out.append(
-                    _S_6d.pack(
-                        m2.get("x", 0.0),
-                        m2.get("y", 0.0),
-                        m2.get("z", 0.0),
-                        m6.get("x", 0.0),
-                        m6.get("y", 0.0),
-                        m6.get("z", 0.0),
-                    )
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_6d,
-                        _R_geometry_msgs__msg__TwistWithCovariance_0,
-                        (
-                            m2.get("x", 0.0),
-                            m2.get("y", 0.0),
-                            m2.get("z", 0.0),
-                            m6.get("x", 0.0),
-                            m6.get("y", 0.0),
-                            m6.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 48
-            out.append(b10)
-            pos += c11 * 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_nav_msgs__msg__Odometry(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def odometry_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_nav_msgs__msg__Odometry_0
+            f = ODOMETRY_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".child_frame_id"
@@ -2556,7 +1361,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 7) & -8
-            f = _R_nav_msgs__msg__Odometry_1
+            f = ODOMETRY_RUN_1
             v8, v9, v10, v12, v13, v14, v15 = _S_7d.unpack_from(mv, pos)
             pos += 56
             f = ".pose.covariance"
@@ -2564,7 +1369,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(36, 8, lim - pos)
             v18 = _frombuffer(mv, _D_float64, 36, pos)
             pos += 36 * 8
-            f = _R_nav_msgs__msg__Odometry_2
+            f = ODOMETRY_RUN_2
             v22, v23, v24, v26, v27, v28 = _S_6d.unpack_from(mv, pos)
             pos += 48
             f = ".twist.covariance"
@@ -2577,20 +1382,20 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__msg__Odometry(
+            return odometry_view(
                 v1,
                 v4,
-                make_geometry_msgs__msg__PoseWithCovariance(
-                    make_geometry_msgs__msg__Pose(
-                        make_geometry_msgs__msg__Point(v8, v9, v10),
-                        make_geometry_msgs__msg__Quaternion(v12, v13, v14, v15),
+                geometry_msgs__pose_with_covariance_view(
+                    geometry_msgs__pose_view(
+                        geometry_msgs__point_view(v8, v9, v10),
+                        geometry_msgs__quaternion_view(v12, v13, v14, v15),
                     ),
                     v18,
                 ),
-                make_geometry_msgs__msg__TwistWithCovariance(
-                    make_geometry_msgs__msg__Twist(
-                        make_geometry_msgs__msg__Vector3(v22, v23, v24),
-                        make_geometry_msgs__msg__Vector3(v26, v27, v28),
+                geometry_msgs__twist_with_covariance_view(
+                    geometry_msgs__twist_view(
+                        geometry_msgs__vector3_view(v22, v23, v24),
+                        geometry_msgs__vector3_view(v26, v27, v28),
                     ),
                     v31,
                 ),
@@ -2614,13 +1419,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_nav_msgs__msg__Odometry(d: Any, out: list[Any], pos: int) -> int:
+    def odometry_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__msg__Odometry.issuperset(d):
-                d = _submap(d, _K_nav_msgs__msg__Odometry)
+            if d.__class__ is not dict or not ODOMETRY_KEYS.issuperset(d):
+                d = _submap(d, ODOMETRY_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".child_frame_id"
             b2 = utf8z(d.get("child_frame_id", ""), None)
             p = -pos & 3
@@ -2631,32 +1436,32 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b2)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_nav_msgs__msg__Odometry_0, (len(b2),)))
+                out.append(slow_pack(_S_I, ODOMETRY_RUN_0, (len(b2),)))
             pos += 4
             out.append(b2)
             pos += len(b2)
             f = ".pose"
             m5 = d.get("pose", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__PoseWithCovariance.issuperset(
+            if m5.__class__ is not dict or not GEOMETRY_MSGS__POSE_WITH_COVARIANCE_KEYS.issuperset(
                 m5
             ):
-                m5 = _submap(m5, _K_geometry_msgs__msg__PoseWithCovariance)
+                m5 = _submap(m5, GEOMETRY_MSGS__POSE_WITH_COVARIANCE_KEYS)
             f = ".pose.pose"
             m6 = m5.get("pose", EMPTY)
-            if m6.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(m6):
-                m6 = _submap(m6, _K_geometry_msgs__msg__Pose)
+            if m6.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m6):
+                m6 = _submap(m6, GEOMETRY_MSGS__POSE_KEYS)
             f = ".pose.pose.position"
             m7 = m6.get("position", EMPTY)
-            if m7.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m7):
-                m7 = _submap(m7, _K_geometry_msgs__msg__Point)
+            if m7.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m7):
+                m7 = _submap(m7, GEOMETRY_MSGS__POINT_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose.pose.orientation"
             m11 = m6.get("orientation", EMPTY)
-            if m11.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m11):
-                m11 = _submap(m11, _K_geometry_msgs__msg__Quaternion)
+            if m11.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m11):
+                m11 = _submap(m11, GEOMETRY_MSGS__QUATERNION_KEYS)
             f = ".pose.covariance"
             b16, c17 = encode_array(
                 m5.get("covariance", (0,) * 36), _D_float64, "float64", 36, True
@@ -2678,7 +1483,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7d,
-                        _R_nav_msgs__msg__Odometry_1,
+                        ODOMETRY_RUN_1,
                         (
                             m7.get("x", 0.0),
                             m7.get("y", 0.0),
@@ -2697,21 +1502,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             m19 = d.get("twist", EMPTY)
             if (
                 m19.__class__ is not dict
-                or not _K_geometry_msgs__msg__TwistWithCovariance.issuperset(m19)
+                or not GEOMETRY_MSGS__TWIST_WITH_COVARIANCE_KEYS.issuperset(m19)
             ):
-                m19 = _submap(m19, _K_geometry_msgs__msg__TwistWithCovariance)
+                m19 = _submap(m19, GEOMETRY_MSGS__TWIST_WITH_COVARIANCE_KEYS)
             f = ".twist.twist"
             m20 = m19.get("twist", EMPTY)
-            if m20.__class__ is not dict or not _K_geometry_msgs__msg__Twist.issuperset(m20):
-                m20 = _submap(m20, _K_geometry_msgs__msg__Twist)
+            if m20.__class__ is not dict or not GEOMETRY_MSGS__TWIST_KEYS.issuperset(m20):
+                m20 = _submap(m20, GEOMETRY_MSGS__TWIST_KEYS)
             f = ".twist.twist.linear"
             m21 = m20.get("linear", EMPTY)
-            if m21.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m21):
-                m21 = _submap(m21, _K_geometry_msgs__msg__Vector3)
+            if m21.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m21):
+                m21 = _submap(m21, GEOMETRY_MSGS__VECTOR3_KEYS)
             f = ".twist.twist.angular"
             m25 = m20.get("angular", EMPTY)
-            if m25.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m25):
-                m25 = _submap(m25, _K_geometry_msgs__msg__Vector3)
+            if m25.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m25):
+                m25 = _submap(m25, GEOMETRY_MSGS__VECTOR3_KEYS)
             f = ".twist.covariance"
             b29, c30 = encode_array(
                 m19.get("covariance", (0,) * 36), _D_float64, "float64", 36, True
@@ -2732,7 +1537,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_6d,
-                        _R_nav_msgs__msg__Odometry_2,
+                        ODOMETRY_RUN_2,
                         (
                             m21.get("x", 0.0),
                             m21.get("y", 0.0),
@@ -2752,39 +1557,33 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_nav_msgs__msg__Path(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def path_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = ".poses"
             v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__PoseStamped, None, None, 68
+                mv, pos, lim, _U32, geometry_msgs__pose_stamped_decode, None, None, 68
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__msg__Path(v1, v2), pos
+            return path_view(v1, v2), pos
         return {"header": v1, "poses": v2}, pos
 
-    def encode_nav_msgs__msg__Path(d: Any, out: list[Any], pos: int) -> int:
+    def path_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__msg__Path.issuperset(d):
-                d = _submap(d, _K_nav_msgs__msg__Path)
+            if d.__class__ is not dict or not PATH_KEYS.issuperset(d):
+                d = _submap(d, PATH_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".poses"
             pos = write_messages(
-                d.get("poses", ()),
-                out,
-                pos,
-                _U32,
-                encode_geometry_msgs__msg__PoseStamped,
-                None,
-                False,
+                d.get("poses", ()), out, pos, _U32, geometry_msgs__pose_stamped_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -2792,10 +1591,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_nav_msgs__srv__GetMap_Request(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def get_map_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_nav_msgs__srv__GetMap_Request_0
+            f = GET_MAP_REQUEST_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -2803,19 +1602,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__srv__GetMap_Request(), pos
+            return get_map_request_view(), pos
         return {}, pos
 
-    def encode_nav_msgs__srv__GetMap_Request(d: Any, out: list[Any], pos: int) -> int:
+    def get_map_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__srv__GetMap_Request.issuperset(d):
-                d = _submap(d, _K_nav_msgs__srv__GetMap_Request)
+            if d.__class__ is not dict or not GET_MAP_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, GET_MAP_REQUEST_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(slow_pack(_S_1x, _R_nav_msgs__srv__GetMap_Request_0, ()))
+                out.append(slow_pack(_S_1x, GET_MAP_REQUEST_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -2823,142 +1622,40 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_nav_msgs__srv__GetMap_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_map_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".map"
-            v1, pos = decode_nav_msgs__msg__OccupancyGrid(mv, pos, lim)
+            v1, pos = occupancy_grid_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__srv__GetMap_Response(v1), pos
+            return get_map_response_view(v1), pos
         return {"map": v1}, pos
 
-    def encode_nav_msgs__srv__GetMap_Response(d: Any, out: list[Any], pos: int) -> int:
+    def get_map_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__srv__GetMap_Response.issuperset(d):
-                d = _submap(d, _K_nav_msgs__srv__GetMap_Response)
+            if d.__class__ is not dict or not GET_MAP_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, GET_MAP_RESPONSE_KEYS)
             f = ".map"
-            pos = encode_nav_msgs__msg__OccupancyGrid(d.get("map", EMPTY), out, pos)
+            pos = occupancy_grid_encode(d.get("map", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_map_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_service_msgs__msg__ServiceEventInfo(
-                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-            ), pos
-        return {
-            "event_type": v1,
-            "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7.tobytes(),
-            "sequence_number": v8,
-        }, pos
-
-    def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(d):
-                d = _submap(d, _K_service_msgs__msg__ServiceEventInfo)
-            f = ".stamp"
-            m2 = d.get("stamp", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
-            f = ""
-            try:
-                out.append(_S_B.pack(d.get("event_type", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_service_msgs__msg__ServiceEventInfo_0, (d.get("event_type", 0),)
-                    )
-                )
-            pos += 1
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".client_gid"
-            b5, c6 = encode_array(d.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
-            f = ""
-            try:
-                out.append(_S_iI.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_service_msgs__msg__ServiceEventInfo_1,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-            out.append(b5)
-            pos += c6 * 1
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_q.pack(d.get("sequence_number", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_service_msgs__msg__ServiceEventInfo_2,
-                        (d.get("sequence_number", 0),),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_nav_msgs__srv__GetMap_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_nav_msgs__srv__GetMap_Event_0
+            f = GET_MAP_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_nav_msgs__srv__GetMap_Event_1
+            f = GET_MAP_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -2967,25 +1664,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_nav_msgs__srv__GetMap_Event_2
+            f = GET_MAP_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_nav_msgs__srv__GetMap_Request, None, 1, 1
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, get_map_request_decode, None, 1, 1)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_nav_msgs__srv__GetMap_Response, None, 1, 92
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, get_map_response_decode, None, 1, 92)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__srv__GetMap_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return get_map_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -3001,28 +1694,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_nav_msgs__srv__GetMap_Event(d: Any, out: list[Any], pos: int) -> int:
+    def get_map_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__srv__GetMap_Event.issuperset(d):
-                d = _submap(d, _K_nav_msgs__srv__GetMap_Event)
+            if d.__class__ is not dict or not GET_MAP_EVENT_KEYS.issuperset(d):
+                d = _submap(d, GET_MAP_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_nav_msgs__srv__GetMap_Event_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, GET_MAP_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -3037,7 +1726,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_nav_msgs__srv__GetMap_Event_1,
+                        GET_MAP_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -3055,25 +1744,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, _R_nav_msgs__srv__GetMap_Event_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, GET_MAP_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()), out, pos, _U32, encode_nav_msgs__srv__GetMap_Request, 1, False
+                d.get("request", ()), out, pos, _U32, get_map_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_nav_msgs__srv__GetMap_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, get_map_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -3081,17 +1760,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_nav_msgs__srv__GetPlan_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_plan_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".start"
-            v1, pos = decode_geometry_msgs__msg__PoseStamped(mv, pos, lim)
+            v1, pos = geometry_msgs__pose_stamped_decode(mv, pos, lim)
             f = ".goal"
-            v2, pos = decode_geometry_msgs__msg__PoseStamped(mv, pos, lim)
+            v2, pos = geometry_msgs__pose_stamped_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_nav_msgs__srv__GetPlan_Request_0
+            f = GET_PLAN_REQUEST_RUN_0
             (v3,) = _S_f.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
@@ -3099,18 +1776,18 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__srv__GetPlan_Request(v1, v2, v3), pos
+            return get_plan_request_view(v1, v2, v3), pos
         return {"start": v1, "goal": v2, "tolerance": v3}, pos
 
-    def encode_nav_msgs__srv__GetPlan_Request(d: Any, out: list[Any], pos: int) -> int:
+    def get_plan_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__srv__GetPlan_Request.issuperset(d):
-                d = _submap(d, _K_nav_msgs__srv__GetPlan_Request)
+            if d.__class__ is not dict or not GET_PLAN_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, GET_PLAN_REQUEST_KEYS)
             f = ".start"
-            pos = encode_geometry_msgs__msg__PoseStamped(d.get("start", EMPTY), out, pos)
+            pos = geometry_msgs__pose_stamped_encode(d.get("start", EMPTY), out, pos)
             f = ".goal"
-            pos = encode_geometry_msgs__msg__PoseStamped(d.get("goal", EMPTY), out, pos)
+            pos = geometry_msgs__pose_stamped_encode(d.get("goal", EMPTY), out, pos)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -3119,9 +1796,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_f.pack(d.get("tolerance", 0.0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_f, _R_nav_msgs__srv__GetPlan_Request_0, (d.get("tolerance", 0.0),))
-                )
+                out.append(slow_pack(_S_f, GET_PLAN_REQUEST_RUN_0, (d.get("tolerance", 0.0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -3129,42 +1804,40 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_nav_msgs__srv__GetPlan_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_plan_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".plan"
-            v1, pos = decode_nav_msgs__msg__Path(mv, pos, lim)
+            v1, pos = path_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__srv__GetPlan_Response(v1), pos
+            return get_plan_response_view(v1), pos
         return {"plan": v1}, pos
 
-    def encode_nav_msgs__srv__GetPlan_Response(d: Any, out: list[Any], pos: int) -> int:
+    def get_plan_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__srv__GetPlan_Response.issuperset(d):
-                d = _submap(d, _K_nav_msgs__srv__GetPlan_Response)
+            if d.__class__ is not dict or not GET_PLAN_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, GET_PLAN_RESPONSE_KEYS)
             f = ".plan"
-            pos = encode_nav_msgs__msg__Path(d.get("plan", EMPTY), out, pos)
+            pos = path_encode(d.get("plan", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_nav_msgs__srv__GetPlan_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def get_plan_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_nav_msgs__srv__GetPlan_Event_0
+            f = GET_PLAN_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_nav_msgs__srv__GetPlan_Event_1
+            f = GET_PLAN_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -3173,25 +1846,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_nav_msgs__srv__GetPlan_Event_2
+            f = GET_PLAN_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_nav_msgs__srv__GetPlan_Request, None, 1, 140
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, get_plan_request_decode, None, 1, 140)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_nav_msgs__srv__GetPlan_Response, None, 1, 16
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, get_plan_response_decode, None, 1, 16)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__srv__GetPlan_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return get_plan_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -3207,28 +1876,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_nav_msgs__srv__GetPlan_Event(d: Any, out: list[Any], pos: int) -> int:
+    def get_plan_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__srv__GetPlan_Event.issuperset(d):
-                d = _submap(d, _K_nav_msgs__srv__GetPlan_Event)
+            if d.__class__ is not dict or not GET_PLAN_EVENT_KEYS.issuperset(d):
+                d = _submap(d, GET_PLAN_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_nav_msgs__srv__GetPlan_Event_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, GET_PLAN_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -3243,7 +1908,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_nav_msgs__srv__GetPlan_Event_1,
+                        GET_PLAN_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -3261,31 +1926,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, _R_nav_msgs__srv__GetPlan_Event_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, GET_PLAN_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_nav_msgs__srv__GetPlan_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, get_plan_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_nav_msgs__srv__GetPlan_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, get_plan_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -3293,13 +1942,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_nav_msgs__srv__LoadMap_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def load_map_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_nav_msgs__srv__LoadMap_Request_0
+            f = LOAD_MAP_REQUEST_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".map_url"
@@ -3312,14 +1959,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__srv__LoadMap_Request(v3), pos
+            return load_map_request_view(v3), pos
         return {"map_url": v3}, pos
 
-    def encode_nav_msgs__srv__LoadMap_Request(d: Any, out: list[Any], pos: int) -> int:
+    def load_map_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__srv__LoadMap_Request.issuperset(d):
-                d = _submap(d, _K_nav_msgs__srv__LoadMap_Request)
+            if d.__class__ is not dict or not LOAD_MAP_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, LOAD_MAP_REQUEST_KEYS)
             f = ".map_url"
             b1 = utf8z(d.get("map_url", ""), None)
             p = -pos & 3
@@ -3330,7 +1977,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_nav_msgs__srv__LoadMap_Request_0, (len(b1),)))
+                out.append(slow_pack(_S_I, LOAD_MAP_REQUEST_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -3340,14 +1987,12 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_nav_msgs__srv__LoadMap_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def load_map_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".map"
-            v1, pos = decode_nav_msgs__msg__OccupancyGrid(mv, pos, lim)
-            f = _R_nav_msgs__srv__LoadMap_Response_0
+            v1, pos = occupancy_grid_decode(mv, pos, lim)
+            f = LOAD_MAP_RESPONSE_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -3355,23 +2000,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__srv__LoadMap_Response(v1, v2), pos
+            return load_map_response_view(v1, v2), pos
         return {"map": v1, "result": v2}, pos
 
-    def encode_nav_msgs__srv__LoadMap_Response(d: Any, out: list[Any], pos: int) -> int:
+    def load_map_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__srv__LoadMap_Response.issuperset(d):
-                d = _submap(d, _K_nav_msgs__srv__LoadMap_Response)
+            if d.__class__ is not dict or not LOAD_MAP_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, LOAD_MAP_RESPONSE_KEYS)
             f = ".map"
-            pos = encode_nav_msgs__msg__OccupancyGrid(d.get("map", EMPTY), out, pos)
+            pos = occupancy_grid_encode(d.get("map", EMPTY), out, pos)
             f = ""
             try:
                 out.append(_S_B.pack(d.get("result", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_nav_msgs__srv__LoadMap_Response_0, (d.get("result", 0),))
-                )
+                out.append(slow_pack(_S_B, LOAD_MAP_RESPONSE_RUN_0, (d.get("result", 0),)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -3379,14 +2022,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_nav_msgs__srv__LoadMap_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def load_map_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_nav_msgs__srv__LoadMap_Event_0
+            f = LOAD_MAP_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_nav_msgs__srv__LoadMap_Event_1
+            f = LOAD_MAP_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -3395,25 +2038,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_nav_msgs__srv__LoadMap_Event_2
+            f = LOAD_MAP_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_nav_msgs__srv__LoadMap_Request, None, 1, 4
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, load_map_request_decode, None, 1, 4)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_nav_msgs__srv__LoadMap_Response, None, 1, 93
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, load_map_response_decode, None, 1, 93)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__srv__LoadMap_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return load_map_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -3429,28 +2068,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_nav_msgs__srv__LoadMap_Event(d: Any, out: list[Any], pos: int) -> int:
+    def load_map_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__srv__LoadMap_Event.issuperset(d):
-                d = _submap(d, _K_nav_msgs__srv__LoadMap_Event)
+            if d.__class__ is not dict or not LOAD_MAP_EVENT_KEYS.issuperset(d):
+                d = _submap(d, LOAD_MAP_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_nav_msgs__srv__LoadMap_Event_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, LOAD_MAP_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -3465,7 +2100,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_nav_msgs__srv__LoadMap_Event_1,
+                        LOAD_MAP_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -3483,31 +2118,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, _R_nav_msgs__srv__LoadMap_Event_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, LOAD_MAP_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_nav_msgs__srv__LoadMap_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, load_map_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_nav_msgs__srv__LoadMap_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, load_map_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -3515,148 +2134,30 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__PoseWithCovarianceStamped(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__PoseWithCovarianceStamped_0
-            v5, v6, v7, v9, v10, v11, v12 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-            f = ".pose.covariance"
-            if 36 * 8 > lim - pos:
-                raise too_long(36, 8, lim - pos)
-            v15 = _frombuffer(mv, _D_float64, 36, pos)
-            pos += 36 * 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__PoseWithCovarianceStamped(
-                v1,
-                make_geometry_msgs__msg__PoseWithCovariance(
-                    make_geometry_msgs__msg__Pose(
-                        make_geometry_msgs__msg__Point(v5, v6, v7),
-                        make_geometry_msgs__msg__Quaternion(v9, v10, v11, v12),
-                    ),
-                    v15,
-                ),
-            ), pos
-        return {
-            "header": v1,
-            "pose": {
-                "pose": {
-                    "position": {"x": v5, "y": v6, "z": v7},
-                    "orientation": {"x": v9, "y": v10, "z": v11, "w": v12},
-                },
-                "covariance": v15.tolist(),
-            },
-        }, pos
-
-    def encode_geometry_msgs__msg__PoseWithCovarianceStamped(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
-        f = ""
-        try:
-            if (
-                d.__class__ is not dict
-                or not _K_geometry_msgs__msg__PoseWithCovarianceStamped.issuperset(d)
-            ):
-                d = _submap(d, _K_geometry_msgs__msg__PoseWithCovarianceStamped)
-            f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
-            f = ".pose"
-            m2 = d.get("pose", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__PoseWithCovariance.issuperset(
-                m2
-            ):
-                m2 = _submap(m2, _K_geometry_msgs__msg__PoseWithCovariance)
-            f = ".pose.pose"
-            m3 = m2.get("pose", EMPTY)
-            if m3.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(m3):
-                m3 = _submap(m3, _K_geometry_msgs__msg__Pose)
-            f = ".pose.pose.position"
-            m4 = m3.get("position", EMPTY)
-            if m4.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m4):
-                m4 = _submap(m4, _K_geometry_msgs__msg__Point)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".pose.pose.orientation"
-            m8 = m3.get("orientation", EMPTY)
-            if m8.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m8):
-                m8 = _submap(m8, _K_geometry_msgs__msg__Quaternion)
-            f = ".pose.covariance"
-            b13, c14 = encode_array(
-                m2.get("covariance", (0,) * 36), _D_float64, "float64", 36, True
-            )
-            f = ""
-            try:
-                out.append(
-                    _S_7d.pack(
-                        m4.get("x", 0.0),
-                        m4.get("y", 0.0),
-                        m4.get("z", 0.0),
-                        m8.get("x", 0.0),
-                        m8.get("y", 0.0),
-                        m8.get("z", 0.0),
-                        m8.get("w", 1.0),
-                    )
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_7d,
-                        _R_geometry_msgs__msg__PoseWithCovarianceStamped_0,
-                        (
-                            m4.get("x", 0.0),
-                            m4.get("y", 0.0),
-                            m4.get("z", 0.0),
-                            m8.get("x", 0.0),
-                            m8.get("y", 0.0),
-                            m8.get("z", 0.0),
-                            m8.get("w", 1.0),
-                        ),
-                    )
-                )
-            pos += 56
-            out.append(b13)
-            pos += c14 * 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_nav_msgs__srv__SetMap_Request(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def set_map_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".map"
-            v1, pos = decode_nav_msgs__msg__OccupancyGrid(mv, pos, lim)
+            v1, pos = occupancy_grid_decode(mv, pos, lim)
             f = ".initial_pose"
-            v2, pos = decode_geometry_msgs__msg__PoseWithCovarianceStamped(mv, pos, lim)
+            v2, pos = geometry_msgs__pose_with_covariance_stamped_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__srv__SetMap_Request(v1, v2), pos
+            return set_map_request_view(v1, v2), pos
         return {"map": v1, "initial_pose": v2}, pos
 
-    def encode_nav_msgs__srv__SetMap_Request(d: Any, out: list[Any], pos: int) -> int:
+    def set_map_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__srv__SetMap_Request.issuperset(d):
-                d = _submap(d, _K_nav_msgs__srv__SetMap_Request)
+            if d.__class__ is not dict or not SET_MAP_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, SET_MAP_REQUEST_KEYS)
             f = ".map"
-            pos = encode_nav_msgs__msg__OccupancyGrid(d.get("map", EMPTY), out, pos)
+            pos = occupancy_grid_encode(d.get("map", EMPTY), out, pos)
             f = ".initial_pose"
-            pos = encode_geometry_msgs__msg__PoseWithCovarianceStamped(
+            pos = geometry_msgs__pose_with_covariance_stamped_encode(
                 d.get("initial_pose", EMPTY), out, pos
             )
         except FieldError as error:
@@ -3665,12 +2166,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_nav_msgs__srv__SetMap_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def set_map_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_nav_msgs__srv__SetMap_Response_0
+            f = SET_MAP_RESPONSE_RUN_0
             (v2,) = _S_T.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -3678,14 +2177,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__srv__SetMap_Response(v2), pos
+            return set_map_response_view(v2), pos
         return {"success": v2}, pos
 
-    def encode_nav_msgs__srv__SetMap_Response(d: Any, out: list[Any], pos: int) -> int:
+    def set_map_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__srv__SetMap_Response.issuperset(d):
-                d = _submap(d, _K_nav_msgs__srv__SetMap_Response)
+            if d.__class__ is not dict or not SET_MAP_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, SET_MAP_RESPONSE_KEYS)
             f = ""
             try:
                 out.append(
@@ -3701,7 +2200,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_nav_msgs__srv__SetMap_Response_0,
+                        SET_MAP_RESPONSE_RUN_0,
                         (
                             (
                                 t1
@@ -3718,14 +2217,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_nav_msgs__srv__SetMap_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def set_map_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_nav_msgs__srv__SetMap_Event_0
+            f = SET_MAP_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_nav_msgs__srv__SetMap_Event_1
+            f = SET_MAP_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -3734,25 +2233,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_nav_msgs__srv__SetMap_Event_2
+            f = SET_MAP_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_nav_msgs__srv__SetMap_Request, None, 1, 448
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, set_map_request_decode, None, 1, 448)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_nav_msgs__srv__SetMap_Response, None, 1, 1
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, set_map_response_decode, None, 1, 1)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_nav_msgs__srv__SetMap_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return set_map_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -3768,28 +2263,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_nav_msgs__srv__SetMap_Event(d: Any, out: list[Any], pos: int) -> int:
+    def set_map_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_nav_msgs__srv__SetMap_Event.issuperset(d):
-                d = _submap(d, _K_nav_msgs__srv__SetMap_Event)
+            if d.__class__ is not dict or not SET_MAP_EVENT_KEYS.issuperset(d):
+                d = _submap(d, SET_MAP_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_nav_msgs__srv__SetMap_Event_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, SET_MAP_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -3804,7 +2295,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_nav_msgs__srv__SetMap_Event_1,
+                        SET_MAP_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -3822,25 +2313,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, _R_nav_msgs__srv__SetMap_Event_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, SET_MAP_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()), out, pos, _U32, encode_nav_msgs__srv__SetMap_Request, 1, False
+                d.get("request", ()), out, pos, _U32, set_map_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_nav_msgs__srv__SetMap_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, set_map_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -3849,121 +2330,147 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
+        "goals_decode": goals_decode,
+        "goals_encode": goals_encode,
+        "grid_cells_decode": grid_cells_decode,
+        "grid_cells_encode": grid_cells_encode,
+        "map_meta_data_decode": map_meta_data_decode,
+        "map_meta_data_encode": map_meta_data_encode,
+        "occupancy_grid_decode": occupancy_grid_decode,
+        "occupancy_grid_encode": occupancy_grid_encode,
+        "odometry_decode": odometry_decode,
+        "odometry_encode": odometry_encode,
+        "path_decode": path_decode,
+        "path_encode": path_encode,
+        "get_map_request_decode": get_map_request_decode,
+        "get_map_request_encode": get_map_request_encode,
+        "get_map_response_decode": get_map_response_decode,
+        "get_map_response_encode": get_map_response_encode,
+        "get_map_event_decode": get_map_event_decode,
+        "get_map_event_encode": get_map_event_encode,
+        "get_plan_request_decode": get_plan_request_decode,
+        "get_plan_request_encode": get_plan_request_encode,
+        "get_plan_response_decode": get_plan_response_decode,
+        "get_plan_response_encode": get_plan_response_encode,
+        "get_plan_event_decode": get_plan_event_decode,
+        "get_plan_event_encode": get_plan_event_encode,
+        "load_map_request_decode": load_map_request_decode,
+        "load_map_request_encode": load_map_request_encode,
+        "load_map_response_decode": load_map_response_decode,
+        "load_map_response_encode": load_map_response_encode,
+        "load_map_event_decode": load_map_event_decode,
+        "load_map_event_encode": load_map_event_encode,
+        "set_map_request_decode": set_map_request_decode,
+        "set_map_request_encode": set_map_request_encode,
+        "set_map_response_decode": set_map_response_decode,
+        "set_map_response_encode": set_map_response_encode,
+        "set_map_event_decode": set_map_event_decode,
+        "set_map_event_encode": set_map_event_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
+        "nav_msgs/msg/Goals": (
+            as_dict["goals_decode"],
+            as_view["goals_decode"],
+            as_dict["goals_encode"],
         ),
-        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
-        "geometry_msgs/msg/Point": (
-            decode_geometry_msgs__msg__Point,
-            encode_geometry_msgs__msg__Point,
-        ),
-        "geometry_msgs/msg/Quaternion": (
-            decode_geometry_msgs__msg__Quaternion,
-            encode_geometry_msgs__msg__Quaternion,
-        ),
-        "geometry_msgs/msg/Pose": (
-            decode_geometry_msgs__msg__Pose,
-            encode_geometry_msgs__msg__Pose,
-        ),
-        "geometry_msgs/msg/PoseStamped": (
-            decode_geometry_msgs__msg__PoseStamped,
-            encode_geometry_msgs__msg__PoseStamped,
-        ),
-        "nav_msgs/msg/Goals": (decode_nav_msgs__msg__Goals, encode_nav_msgs__msg__Goals),
         "nav_msgs/msg/GridCells": (
-            decode_nav_msgs__msg__GridCells,
-            encode_nav_msgs__msg__GridCells,
+            as_dict["grid_cells_decode"],
+            as_view["grid_cells_decode"],
+            as_dict["grid_cells_encode"],
         ),
         "nav_msgs/msg/MapMetaData": (
-            decode_nav_msgs__msg__MapMetaData,
-            encode_nav_msgs__msg__MapMetaData,
+            as_dict["map_meta_data_decode"],
+            as_view["map_meta_data_decode"],
+            as_dict["map_meta_data_encode"],
         ),
         "nav_msgs/msg/OccupancyGrid": (
-            decode_nav_msgs__msg__OccupancyGrid,
-            encode_nav_msgs__msg__OccupancyGrid,
+            as_dict["occupancy_grid_decode"],
+            as_view["occupancy_grid_decode"],
+            as_dict["occupancy_grid_encode"],
         ),
-        "geometry_msgs/msg/PoseWithCovariance": (
-            decode_geometry_msgs__msg__PoseWithCovariance,
-            encode_geometry_msgs__msg__PoseWithCovariance,
+        "nav_msgs/msg/Odometry": (
+            as_dict["odometry_decode"],
+            as_view["odometry_decode"],
+            as_dict["odometry_encode"],
         ),
-        "geometry_msgs/msg/Vector3": (
-            decode_geometry_msgs__msg__Vector3,
-            encode_geometry_msgs__msg__Vector3,
+        "nav_msgs/msg/Path": (
+            as_dict["path_decode"],
+            as_view["path_decode"],
+            as_dict["path_encode"],
         ),
-        "geometry_msgs/msg/Twist": (
-            decode_geometry_msgs__msg__Twist,
-            encode_geometry_msgs__msg__Twist,
-        ),
-        "geometry_msgs/msg/TwistWithCovariance": (
-            decode_geometry_msgs__msg__TwistWithCovariance,
-            encode_geometry_msgs__msg__TwistWithCovariance,
-        ),
-        "nav_msgs/msg/Odometry": (decode_nav_msgs__msg__Odometry, encode_nav_msgs__msg__Odometry),
-        "nav_msgs/msg/Path": (decode_nav_msgs__msg__Path, encode_nav_msgs__msg__Path),
         "nav_msgs/srv/GetMap_Request": (
-            decode_nav_msgs__srv__GetMap_Request,
-            encode_nav_msgs__srv__GetMap_Request,
+            as_dict["get_map_request_decode"],
+            as_view["get_map_request_decode"],
+            as_dict["get_map_request_encode"],
         ),
         "nav_msgs/srv/GetMap_Response": (
-            decode_nav_msgs__srv__GetMap_Response,
-            encode_nav_msgs__srv__GetMap_Response,
-        ),
-        "service_msgs/msg/ServiceEventInfo": (
-            decode_service_msgs__msg__ServiceEventInfo,
-            encode_service_msgs__msg__ServiceEventInfo,
+            as_dict["get_map_response_decode"],
+            as_view["get_map_response_decode"],
+            as_dict["get_map_response_encode"],
         ),
         "nav_msgs/srv/GetMap_Event": (
-            decode_nav_msgs__srv__GetMap_Event,
-            encode_nav_msgs__srv__GetMap_Event,
+            as_dict["get_map_event_decode"],
+            as_view["get_map_event_decode"],
+            as_dict["get_map_event_encode"],
         ),
         "nav_msgs/srv/GetPlan_Request": (
-            decode_nav_msgs__srv__GetPlan_Request,
-            encode_nav_msgs__srv__GetPlan_Request,
+            as_dict["get_plan_request_decode"],
+            as_view["get_plan_request_decode"],
+            as_dict["get_plan_request_encode"],
         ),
         "nav_msgs/srv/GetPlan_Response": (
-            decode_nav_msgs__srv__GetPlan_Response,
-            encode_nav_msgs__srv__GetPlan_Response,
+            as_dict["get_plan_response_decode"],
+            as_view["get_plan_response_decode"],
+            as_dict["get_plan_response_encode"],
         ),
         "nav_msgs/srv/GetPlan_Event": (
-            decode_nav_msgs__srv__GetPlan_Event,
-            encode_nav_msgs__srv__GetPlan_Event,
+            as_dict["get_plan_event_decode"],
+            as_view["get_plan_event_decode"],
+            as_dict["get_plan_event_encode"],
         ),
         "nav_msgs/srv/LoadMap_Request": (
-            decode_nav_msgs__srv__LoadMap_Request,
-            encode_nav_msgs__srv__LoadMap_Request,
+            as_dict["load_map_request_decode"],
+            as_view["load_map_request_decode"],
+            as_dict["load_map_request_encode"],
         ),
         "nav_msgs/srv/LoadMap_Response": (
-            decode_nav_msgs__srv__LoadMap_Response,
-            encode_nav_msgs__srv__LoadMap_Response,
+            as_dict["load_map_response_decode"],
+            as_view["load_map_response_decode"],
+            as_dict["load_map_response_encode"],
         ),
         "nav_msgs/srv/LoadMap_Event": (
-            decode_nav_msgs__srv__LoadMap_Event,
-            encode_nav_msgs__srv__LoadMap_Event,
-        ),
-        "geometry_msgs/msg/PoseWithCovarianceStamped": (
-            decode_geometry_msgs__msg__PoseWithCovarianceStamped,
-            encode_geometry_msgs__msg__PoseWithCovarianceStamped,
+            as_dict["load_map_event_decode"],
+            as_view["load_map_event_decode"],
+            as_dict["load_map_event_encode"],
         ),
         "nav_msgs/srv/SetMap_Request": (
-            decode_nav_msgs__srv__SetMap_Request,
-            encode_nav_msgs__srv__SetMap_Request,
+            as_dict["set_map_request_decode"],
+            as_view["set_map_request_decode"],
+            as_dict["set_map_request_encode"],
         ),
         "nav_msgs/srv/SetMap_Response": (
-            decode_nav_msgs__srv__SetMap_Response,
-            encode_nav_msgs__srv__SetMap_Response,
+            as_dict["set_map_response_decode"],
+            as_view["set_map_response_decode"],
+            as_dict["set_map_response_encode"],
         ),
         "nav_msgs/srv/SetMap_Event": (
-            decode_nav_msgs__srv__SetMap_Event,
-            encode_nav_msgs__srv__SetMap_Event,
+            as_dict["set_map_event_decode"],
+            as_view["set_map_event_decode"],
+            as_dict["set_map_event_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

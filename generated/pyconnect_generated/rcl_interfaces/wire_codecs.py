@@ -77,10 +77,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -116,13 +117,26 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.builtin_interfaces.wire_codecs import (
+    DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
+    TIME_KEYS as BUILTIN_INTERFACES__TIME_KEYS,
+    time_view as builtin_interfaces__time_view,
+)
+from pyconnect_generated.service_msgs.wire_codecs import (
+    DEFINITIONS as SERVICE_MSGS__DEFINITIONS,
+    SERVICE_EVENT_INFO_KEYS as SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS,
+    service_event_info_view as service_msgs__service_event_info_view,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
+    **BUILTIN_INTERFACES__DEFINITIONS,
+    **SERVICE_MSGS__DEFINITIONS,
     "rcl_interfaces/msg/FloatingPointRange": (
         "RIHS01_e6af23a23c177fee5f3075c8b1e435162a9b63c863d78c06017460b49684262d",
         (
@@ -144,13 +158,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
         (
             ("names", "string", "string", None, "sequence", None, None),
             ("prefixes", "string", "string", None, "sequence", None, None),
-        ),
-    ),
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
         ),
     ),
     "rcl_interfaces/msg/Log": (
@@ -323,15 +330,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
                 None,
                 None,
             ),
-        ),
-    ),
-    "service_msgs/msg/ServiceEventInfo": (
-        "RIHS01_41bcbbe07a75c9b52bc96bfd5c24d7f0fc0a08c0cb7921b3373c5732345a6f45",
-        (
-            ("event_type", "primitive", "uint8", None, "single", None, None),
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("client_gid", "primitive", "uint8", None, "array", 16, None),
-            ("sequence_number", "primitive", "int64", None, "single", None, None),
         ),
     ),
     "rcl_interfaces/srv/DescribeParameters_Event": (
@@ -667,33 +665,83 @@ EXPORTED: frozenset[str] = frozenset(
         "rcl_interfaces/srv/SetParameters_Response",
     )
 )
-_K_builtin_interfaces__msg__Time = frozenset(
+DESCRIBE_PARAMETERS_EVENT_KEYS = frozenset(
     (
-        "sec",
-        "nanosec",
+        "info",
+        "request",
+        "response",
     )
 )
-_K_rcl_interfaces__msg__FloatingPointRange = frozenset(
-    (
-        "from_value",
-        "to_value",
-        "step",
-    )
-)
-_K_rcl_interfaces__msg__IntegerRange = frozenset(
+DESCRIBE_PARAMETERS_REQUEST_KEYS = frozenset(("names",))
+DESCRIBE_PARAMETERS_RESPONSE_KEYS = frozenset(("descriptors",))
+FLOATING_POINT_RANGE_KEYS = frozenset(
     (
         "from_value",
         "to_value",
         "step",
     )
 )
-_K_rcl_interfaces__msg__ListParametersResult = frozenset(
+GET_LOGGER_LEVELS_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+GET_LOGGER_LEVELS_REQUEST_KEYS = frozenset(("names",))
+GET_LOGGER_LEVELS_RESPONSE_KEYS = frozenset(("levels",))
+GET_PARAMETERS_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+GET_PARAMETERS_REQUEST_KEYS = frozenset(("names",))
+GET_PARAMETERS_RESPONSE_KEYS = frozenset(("values",))
+GET_PARAMETER_TYPES_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+GET_PARAMETER_TYPES_REQUEST_KEYS = frozenset(("names",))
+GET_PARAMETER_TYPES_RESPONSE_KEYS = frozenset(("types",))
+INTEGER_RANGE_KEYS = frozenset(
+    (
+        "from_value",
+        "to_value",
+        "step",
+    )
+)
+LIST_PARAMETERS_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+LIST_PARAMETERS_REQUEST_KEYS = frozenset(
+    (
+        "prefixes",
+        "depth",
+    )
+)
+LIST_PARAMETERS_RESPONSE_KEYS = frozenset(("result",))
+LIST_PARAMETERS_RESULT_KEYS = frozenset(
     (
         "names",
         "prefixes",
     )
 )
-_K_rcl_interfaces__msg__Log = frozenset(
+LOGGER_LEVEL_KEYS = frozenset(
+    (
+        "name",
+        "level",
+    )
+)
+LOG_KEYS = frozenset(
     (
         "stamp",
         "level",
@@ -704,19 +752,7 @@ _K_rcl_interfaces__msg__Log = frozenset(
         "line",
     )
 )
-_K_rcl_interfaces__msg__LoggerLevel = frozenset(
-    (
-        "name",
-        "level",
-    )
-)
-_K_rcl_interfaces__msg__Parameter = frozenset(
-    (
-        "name",
-        "value",
-    )
-)
-_K_rcl_interfaces__msg__ParameterDescriptor = frozenset(
+PARAMETER_DESCRIPTOR_KEYS = frozenset(
     (
         "name",
         "type",
@@ -728,7 +764,14 @@ _K_rcl_interfaces__msg__ParameterDescriptor = frozenset(
         "integer_range",
     )
 )
-_K_rcl_interfaces__msg__ParameterEvent = frozenset(
+PARAMETER_EVENT_DESCRIPTORS_KEYS = frozenset(
+    (
+        "new_parameters",
+        "changed_parameters",
+        "deleted_parameters",
+    )
+)
+PARAMETER_EVENT_KEYS = frozenset(
     (
         "stamp",
         "node",
@@ -737,15 +780,14 @@ _K_rcl_interfaces__msg__ParameterEvent = frozenset(
         "deleted_parameters",
     )
 )
-_K_rcl_interfaces__msg__ParameterEventDescriptors = frozenset(
+PARAMETER_KEYS = frozenset(
     (
-        "new_parameters",
-        "changed_parameters",
-        "deleted_parameters",
+        "name",
+        "value",
     )
 )
-_K_rcl_interfaces__msg__ParameterType = frozenset()
-_K_rcl_interfaces__msg__ParameterValue = frozenset(
+PARAMETER_TYPE_KEYS = frozenset()
+PARAMETER_VALUE_KEYS = frozenset(
     (
         "type",
         "bool_value",
@@ -759,211 +801,137 @@ _K_rcl_interfaces__msg__ParameterValue = frozenset(
         "string_array_value",
     )
 )
-_K_rcl_interfaces__msg__SetLoggerLevelsResult = frozenset(
+SET_LOGGER_LEVELS_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+SET_LOGGER_LEVELS_REQUEST_KEYS = frozenset(("levels",))
+SET_LOGGER_LEVELS_RESPONSE_KEYS = frozenset(("results",))
+SET_LOGGER_LEVELS_RESULT_KEYS = frozenset(
     (
         "successful",
         "reason",
     )
 )
-_K_rcl_interfaces__msg__SetParametersResult = frozenset(
+SET_PARAMETERS_ATOMICALLY_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+SET_PARAMETERS_ATOMICALLY_REQUEST_KEYS = frozenset(("parameters",))
+SET_PARAMETERS_ATOMICALLY_RESPONSE_KEYS = frozenset(("result",))
+SET_PARAMETERS_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+SET_PARAMETERS_REQUEST_KEYS = frozenset(("parameters",))
+SET_PARAMETERS_RESPONSE_KEYS = frozenset(("results",))
+SET_PARAMETERS_RESULT_KEYS = frozenset(
     (
         "successful",
         "reason",
     )
 )
-_K_rcl_interfaces__srv__DescribeParameters_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
+DESCRIBE_PARAMETERS_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+DESCRIBE_PARAMETERS_EVENT_RUN_1 = (
+    (".info.stamp.sec", "int32", 4),
+    (".info.stamp.nanosec", "uint32", 8),
 )
-_K_rcl_interfaces__srv__DescribeParameters_Request = frozenset(("names",))
-_K_rcl_interfaces__srv__DescribeParameters_Response = frozenset(("descriptors",))
-_K_rcl_interfaces__srv__GetLoggerLevels_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_rcl_interfaces__srv__GetLoggerLevels_Request = frozenset(("names",))
-_K_rcl_interfaces__srv__GetLoggerLevels_Response = frozenset(("levels",))
-_K_rcl_interfaces__srv__GetParameterTypes_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_rcl_interfaces__srv__GetParameterTypes_Request = frozenset(("names",))
-_K_rcl_interfaces__srv__GetParameterTypes_Response = frozenset(("types",))
-_K_rcl_interfaces__srv__GetParameters_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_rcl_interfaces__srv__GetParameters_Request = frozenset(("names",))
-_K_rcl_interfaces__srv__GetParameters_Response = frozenset(("values",))
-_K_rcl_interfaces__srv__ListParameters_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_rcl_interfaces__srv__ListParameters_Request = frozenset(
-    (
-        "prefixes",
-        "depth",
-    )
-)
-_K_rcl_interfaces__srv__ListParameters_Response = frozenset(("result",))
-_K_rcl_interfaces__srv__SetLoggerLevels_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_rcl_interfaces__srv__SetLoggerLevels_Request = frozenset(("levels",))
-_K_rcl_interfaces__srv__SetLoggerLevels_Response = frozenset(("results",))
-_K_rcl_interfaces__srv__SetParametersAtomically_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_rcl_interfaces__srv__SetParametersAtomically_Request = frozenset(("parameters",))
-_K_rcl_interfaces__srv__SetParametersAtomically_Response = frozenset(("result",))
-_K_rcl_interfaces__srv__SetParameters_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_rcl_interfaces__srv__SetParameters_Request = frozenset(("parameters",))
-_K_rcl_interfaces__srv__SetParameters_Response = frozenset(("results",))
-_K_service_msgs__msg__ServiceEventInfo = frozenset(
-    (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-)
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_rcl_interfaces__msg__FloatingPointRange_0 = (
+DESCRIBE_PARAMETERS_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+FLOATING_POINT_RANGE_RUN_0 = (
     (".from_value", "float64", 8),
     (".to_value", "float64", 16),
     (".step", "float64", 24),
 )
-_R_rcl_interfaces__msg__IntegerRange_0 = (
+GET_LOGGER_LEVELS_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+GET_LOGGER_LEVELS_EVENT_RUN_1 = (
+    (".info.stamp.sec", "int32", 4),
+    (".info.stamp.nanosec", "uint32", 8),
+)
+GET_LOGGER_LEVELS_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+GET_PARAMETERS_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+GET_PARAMETERS_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+GET_PARAMETERS_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+GET_PARAMETER_TYPES_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+GET_PARAMETER_TYPES_EVENT_RUN_1 = (
+    (".info.stamp.sec", "int32", 4),
+    (".info.stamp.nanosec", "uint32", 8),
+)
+GET_PARAMETER_TYPES_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+GET_PARAMETER_TYPES_RESPONSE_RUN_0 = ((".types", "uint32", 4),)
+INTEGER_RANGE_RUN_0 = (
     (".from_value", "int64", 8),
     (".to_value", "int64", 16),
     (".step", "uint64", 24),
 )
-_R_rcl_interfaces__msg__Log_0 = (
+LIST_PARAMETERS_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+LIST_PARAMETERS_EVENT_RUN_1 = (
+    (".info.stamp.sec", "int32", 4),
+    (".info.stamp.nanosec", "uint32", 8),
+)
+LIST_PARAMETERS_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+LIST_PARAMETERS_REQUEST_RUN_0 = ((".depth", "uint64", 8),)
+LOGGER_LEVEL_RUN_0 = ((".name", "uint32", 4),)
+LOGGER_LEVEL_RUN_1 = ((".level", "uint32", 4),)
+LOG_RUN_0 = (
     (".stamp.sec", "int32", 4),
     (".stamp.nanosec", "uint32", 8),
     (".level", "uint8", 9),
     (".name", "uint32", 16),
 )
-_R_rcl_interfaces__msg__Log_1 = ((".msg", "uint32", 4),)
-_R_rcl_interfaces__msg__Log_2 = ((".file", "uint32", 4),)
-_R_rcl_interfaces__msg__Log_3 = ((".function", "uint32", 4),)
-_R_rcl_interfaces__msg__Log_4 = ((".line", "uint32", 4),)
-_R_rcl_interfaces__msg__LoggerLevel_0 = ((".name", "uint32", 4),)
-_R_rcl_interfaces__msg__LoggerLevel_1 = ((".level", "uint32", 4),)
-_R_rcl_interfaces__msg__ParameterDescriptor_0 = ((".name", "uint32", 4),)
-_R_rcl_interfaces__msg__ParameterDescriptor_1 = ((".type", "uint8", 1),)
-_R_rcl_interfaces__msg__ParameterDescriptor_2 = ((".description", "uint32", 4),)
-_R_rcl_interfaces__msg__ParameterDescriptor_3 = ((".additional_constraints", "uint32", 4),)
-_R_rcl_interfaces__msg__ParameterDescriptor_4 = (
-    (".read_only", "bool", 1),
-    (".dynamic_typing", "bool", 2),
-)
-_R_rcl_interfaces__msg__ParameterEvent_0 = (
+LOG_RUN_1 = ((".msg", "uint32", 4),)
+LOG_RUN_2 = ((".file", "uint32", 4),)
+LOG_RUN_3 = ((".function", "uint32", 4),)
+LOG_RUN_4 = ((".line", "uint32", 4),)
+PARAMETER_DESCRIPTOR_RUN_0 = ((".name", "uint32", 4),)
+PARAMETER_DESCRIPTOR_RUN_1 = ((".type", "uint8", 1),)
+PARAMETER_DESCRIPTOR_RUN_2 = ((".description", "uint32", 4),)
+PARAMETER_DESCRIPTOR_RUN_3 = ((".additional_constraints", "uint32", 4),)
+PARAMETER_DESCRIPTOR_RUN_4 = ((".read_only", "bool", 1), (".dynamic_typing", "bool", 2))
+PARAMETER_EVENT_RUN_0 = (
     (".stamp.sec", "int32", 4),
     (".stamp.nanosec", "uint32", 8),
     (".node", "uint32", 12),
 )
-_R_rcl_interfaces__msg__ParameterType_0 = ()
-_R_rcl_interfaces__msg__ParameterValue_0 = ((".type", "uint8", 1), (".bool_value", "bool", 2))
-_R_rcl_interfaces__msg__ParameterValue_1 = (
+PARAMETER_RUN_0 = ((".name", "uint32", 4),)
+PARAMETER_TYPE_RUN_0 = ()
+PARAMETER_VALUE_RUN_0 = ((".type", "uint8", 1), (".bool_value", "bool", 2))
+PARAMETER_VALUE_RUN_1 = (
     (".integer_value", "int64", 8),
     (".double_value", "float64", 16),
     (".string_value", "uint32", 20),
 )
-_R_rcl_interfaces__msg__ParameterValue_2 = ((".byte_array_value", "uint32", 4),)
-_R_rcl_interfaces__msg__ParameterValue_3 = ((".bool_array_value", "uint32", 4),)
-_R_rcl_interfaces__msg__ParameterValue_4 = ((".integer_array_value", "uint32", 4),)
-_R_rcl_interfaces__msg__ParameterValue_5 = ((".double_array_value", "uint32", 4),)
-_R_rcl_interfaces__msg__Parameter_0 = ((".name", "uint32", 4),)
-_R_rcl_interfaces__msg__SetLoggerLevelsResult_0 = ((".successful", "bool", 1),)
-_R_rcl_interfaces__msg__SetLoggerLevelsResult_1 = ((".reason", "uint32", 4),)
-_R_rcl_interfaces__msg__SetParametersResult_0 = ((".successful", "bool", 1),)
-_R_rcl_interfaces__msg__SetParametersResult_1 = ((".reason", "uint32", 4),)
-_R_rcl_interfaces__srv__DescribeParameters_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_rcl_interfaces__srv__DescribeParameters_Event_1 = (
+PARAMETER_VALUE_RUN_2 = ((".byte_array_value", "uint32", 4),)
+PARAMETER_VALUE_RUN_3 = ((".bool_array_value", "uint32", 4),)
+PARAMETER_VALUE_RUN_4 = ((".integer_array_value", "uint32", 4),)
+PARAMETER_VALUE_RUN_5 = ((".double_array_value", "uint32", 4),)
+SET_LOGGER_LEVELS_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+SET_LOGGER_LEVELS_EVENT_RUN_1 = (
     (".info.stamp.sec", "int32", 4),
     (".info.stamp.nanosec", "uint32", 8),
 )
-_R_rcl_interfaces__srv__DescribeParameters_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_rcl_interfaces__srv__GetLoggerLevels_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_rcl_interfaces__srv__GetLoggerLevels_Event_1 = (
+SET_LOGGER_LEVELS_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+SET_LOGGER_LEVELS_RESULT_RUN_0 = ((".successful", "bool", 1),)
+SET_LOGGER_LEVELS_RESULT_RUN_1 = ((".reason", "uint32", 4),)
+SET_PARAMETERS_ATOMICALLY_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+SET_PARAMETERS_ATOMICALLY_EVENT_RUN_1 = (
     (".info.stamp.sec", "int32", 4),
     (".info.stamp.nanosec", "uint32", 8),
 )
-_R_rcl_interfaces__srv__GetLoggerLevels_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_rcl_interfaces__srv__GetParameterTypes_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_rcl_interfaces__srv__GetParameterTypes_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_rcl_interfaces__srv__GetParameterTypes_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_rcl_interfaces__srv__GetParameterTypes_Response_0 = ((".types", "uint32", 4),)
-_R_rcl_interfaces__srv__GetParameters_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_rcl_interfaces__srv__GetParameters_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_rcl_interfaces__srv__GetParameters_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_rcl_interfaces__srv__ListParameters_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_rcl_interfaces__srv__ListParameters_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_rcl_interfaces__srv__ListParameters_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_rcl_interfaces__srv__ListParameters_Request_0 = ((".depth", "uint64", 8),)
-_R_rcl_interfaces__srv__SetLoggerLevels_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_rcl_interfaces__srv__SetLoggerLevels_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_rcl_interfaces__srv__SetLoggerLevels_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_rcl_interfaces__srv__SetParametersAtomically_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_rcl_interfaces__srv__SetParametersAtomically_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_rcl_interfaces__srv__SetParametersAtomically_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_rcl_interfaces__srv__SetParameters_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_rcl_interfaces__srv__SetParameters_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_rcl_interfaces__srv__SetParameters_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_service_msgs__msg__ServiceEventInfo_0 = ((".event_type", "uint8", 1),)
-_R_service_msgs__msg__ServiceEventInfo_1 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-)
-_R_service_msgs__msg__ServiceEventInfo_2 = ((".sequence_number", "int64", 8),)
+SET_PARAMETERS_ATOMICALLY_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+SET_PARAMETERS_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+SET_PARAMETERS_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+SET_PARAMETERS_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+SET_PARAMETERS_RESULT_RUN_0 = ((".successful", "bool", 1),)
+SET_PARAMETERS_RESULT_RUN_1 = ((".reason", "uint32", 4),)
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
@@ -973,7 +941,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class rcl_interfaces__msg__FloatingPointRange:
+class FloatingPointRange:
     """A decoded rcl_interfaces/msg/FloatingPointRange.
 
     Attributes named as the ROS fields.
@@ -990,17 +958,15 @@ class rcl_interfaces__msg__FloatingPointRange:
         return view_repr(self)
 
 
-def make_rcl_interfaces__msg__FloatingPointRange(
-    a0: Any, a1: Any, a2: Any
-) -> rcl_interfaces__msg__FloatingPointRange:
-    view = _new(rcl_interfaces__msg__FloatingPointRange)
+def floating_point_range_view(a0: Any, a1: Any, a2: Any) -> FloatingPointRange:
+    view = _new(FloatingPointRange)
     view.from_value = a0
     view.to_value = a1
     view.step = a2
     return view
 
 
-class rcl_interfaces__msg__IntegerRange:
+class IntegerRange:
     """A decoded rcl_interfaces/msg/IntegerRange.
 
     Attributes named as the ROS fields.
@@ -1017,17 +983,15 @@ class rcl_interfaces__msg__IntegerRange:
         return view_repr(self)
 
 
-def make_rcl_interfaces__msg__IntegerRange(
-    a0: Any, a1: Any, a2: Any
-) -> rcl_interfaces__msg__IntegerRange:
-    view = _new(rcl_interfaces__msg__IntegerRange)
+def integer_range_view(a0: Any, a1: Any, a2: Any) -> IntegerRange:
+    view = _new(IntegerRange)
     view.from_value = a0
     view.to_value = a1
     view.step = a2
     return view
 
 
-class rcl_interfaces__msg__ListParametersResult:
+class ListParametersResult:
     """A decoded rcl_interfaces/msg/ListParametersResult.
 
     Attributes named as the ROS fields.
@@ -1043,39 +1007,14 @@ class rcl_interfaces__msg__ListParametersResult:
         return view_repr(self)
 
 
-def make_rcl_interfaces__msg__ListParametersResult(
-    a0: Any, a1: Any
-) -> rcl_interfaces__msg__ListParametersResult:
-    view = _new(rcl_interfaces__msg__ListParametersResult)
+def list_parameters_result_view(a0: Any, a1: Any) -> ListParametersResult:
+    view = _new(ListParametersResult)
     view.names = a0
     view.prefixes = a1
     return view
 
 
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class rcl_interfaces__msg__Log:
+class Log:
     """A decoded rcl_interfaces/msg/Log.
 
     Attributes named as the ROS fields.
@@ -1096,10 +1035,8 @@ class rcl_interfaces__msg__Log:
         return view_repr(self)
 
 
-def make_rcl_interfaces__msg__Log(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any
-) -> rcl_interfaces__msg__Log:
-    view = _new(rcl_interfaces__msg__Log)
+def log_view(a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any) -> Log:
+    view = _new(Log)
     view.stamp = a0
     view.level = a1
     view.name = a2
@@ -1110,7 +1047,7 @@ def make_rcl_interfaces__msg__Log(
     return view
 
 
-class rcl_interfaces__msg__LoggerLevel:
+class LoggerLevel:
     """A decoded rcl_interfaces/msg/LoggerLevel.
 
     Attributes named as the ROS fields.
@@ -1126,14 +1063,14 @@ class rcl_interfaces__msg__LoggerLevel:
         return view_repr(self)
 
 
-def make_rcl_interfaces__msg__LoggerLevel(a0: Any, a1: Any) -> rcl_interfaces__msg__LoggerLevel:
-    view = _new(rcl_interfaces__msg__LoggerLevel)
+def logger_level_view(a0: Any, a1: Any) -> LoggerLevel:
+    view = _new(LoggerLevel)
     view.name = a0
     view.level = a1
     return view
 
 
-class rcl_interfaces__msg__ParameterValue:
+class ParameterValue:
     """A decoded rcl_interfaces/msg/ParameterValue.
 
     Attributes named as the ROS fields.
@@ -1157,10 +1094,10 @@ class rcl_interfaces__msg__ParameterValue:
         return view_repr(self)
 
 
-def make_rcl_interfaces__msg__ParameterValue(
+def parameter_value_view(
     a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any, a7: Any, a8: Any, a9: Any
-) -> rcl_interfaces__msg__ParameterValue:
-    view = _new(rcl_interfaces__msg__ParameterValue)
+) -> ParameterValue:
+    view = _new(ParameterValue)
     view.type = a0
     view.bool_value = a1
     view.integer_value = a2
@@ -1174,7 +1111,7 @@ def make_rcl_interfaces__msg__ParameterValue(
     return view
 
 
-class rcl_interfaces__msg__Parameter:
+class Parameter:
     """A decoded rcl_interfaces/msg/Parameter.
 
     Attributes named as the ROS fields.
@@ -1190,14 +1127,14 @@ class rcl_interfaces__msg__Parameter:
         return view_repr(self)
 
 
-def make_rcl_interfaces__msg__Parameter(a0: Any, a1: Any) -> rcl_interfaces__msg__Parameter:
-    view = _new(rcl_interfaces__msg__Parameter)
+def parameter_view(a0: Any, a1: Any) -> Parameter:
+    view = _new(Parameter)
     view.name = a0
     view.value = a1
     return view
 
 
-class rcl_interfaces__msg__ParameterDescriptor:
+class ParameterDescriptor:
     """A decoded rcl_interfaces/msg/ParameterDescriptor.
 
     Attributes named as the ROS fields.
@@ -1219,10 +1156,10 @@ class rcl_interfaces__msg__ParameterDescriptor:
         return view_repr(self)
 
 
-def make_rcl_interfaces__msg__ParameterDescriptor(
+def parameter_descriptor_view(
     a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any, a7: Any
-) -> rcl_interfaces__msg__ParameterDescriptor:
-    view = _new(rcl_interfaces__msg__ParameterDescriptor)
+) -> ParameterDescriptor:
+    view = _new(ParameterDescriptor)
     view.name = a0
     view.type = a1
     view.description = a2
@@ -1234,7 +1171,7 @@ def make_rcl_interfaces__msg__ParameterDescriptor(
     return view
 
 
-class rcl_interfaces__msg__ParameterEvent:
+class ParameterEvent:
     """A decoded rcl_interfaces/msg/ParameterEvent.
 
     Attributes named as the ROS fields.
@@ -1253,10 +1190,8 @@ class rcl_interfaces__msg__ParameterEvent:
         return view_repr(self)
 
 
-def make_rcl_interfaces__msg__ParameterEvent(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any
-) -> rcl_interfaces__msg__ParameterEvent:
-    view = _new(rcl_interfaces__msg__ParameterEvent)
+def parameter_event_view(a0: Any, a1: Any, a2: Any, a3: Any, a4: Any) -> ParameterEvent:
+    view = _new(ParameterEvent)
     view.stamp = a0
     view.node = a1
     view.new_parameters = a2
@@ -1265,7 +1200,7 @@ def make_rcl_interfaces__msg__ParameterEvent(
     return view
 
 
-class rcl_interfaces__msg__ParameterEventDescriptors:
+class ParameterEventDescriptors:
     """A decoded rcl_interfaces/msg/ParameterEventDescriptors.
 
     Attributes named as the ROS fields.
@@ -1282,17 +1217,15 @@ class rcl_interfaces__msg__ParameterEventDescriptors:
         return view_repr(self)
 
 
-def make_rcl_interfaces__msg__ParameterEventDescriptors(
-    a0: Any, a1: Any, a2: Any
-) -> rcl_interfaces__msg__ParameterEventDescriptors:
-    view = _new(rcl_interfaces__msg__ParameterEventDescriptors)
+def parameter_event_descriptors_view(a0: Any, a1: Any, a2: Any) -> ParameterEventDescriptors:
+    view = _new(ParameterEventDescriptors)
     view.new_parameters = a0
     view.changed_parameters = a1
     view.deleted_parameters = a2
     return view
 
 
-class rcl_interfaces__msg__ParameterType:
+class ParameterType:
     """A decoded rcl_interfaces/msg/ParameterType.
 
     Attributes named as the ROS fields.
@@ -1305,12 +1238,12 @@ class rcl_interfaces__msg__ParameterType:
         return view_repr(self)
 
 
-def make_rcl_interfaces__msg__ParameterType() -> rcl_interfaces__msg__ParameterType:
-    view = _new(rcl_interfaces__msg__ParameterType)
+def parameter_type_view() -> ParameterType:
+    view = _new(ParameterType)
     return view
 
 
-class rcl_interfaces__msg__SetLoggerLevelsResult:
+class SetLoggerLevelsResult:
     """A decoded rcl_interfaces/msg/SetLoggerLevelsResult.
 
     Attributes named as the ROS fields.
@@ -1326,16 +1259,14 @@ class rcl_interfaces__msg__SetLoggerLevelsResult:
         return view_repr(self)
 
 
-def make_rcl_interfaces__msg__SetLoggerLevelsResult(
-    a0: Any, a1: Any
-) -> rcl_interfaces__msg__SetLoggerLevelsResult:
-    view = _new(rcl_interfaces__msg__SetLoggerLevelsResult)
+def set_logger_levels_result_view(a0: Any, a1: Any) -> SetLoggerLevelsResult:
+    view = _new(SetLoggerLevelsResult)
     view.successful = a0
     view.reason = a1
     return view
 
 
-class rcl_interfaces__msg__SetParametersResult:
+class SetParametersResult:
     """A decoded rcl_interfaces/msg/SetParametersResult.
 
     Attributes named as the ROS fields.
@@ -1351,16 +1282,14 @@ class rcl_interfaces__msg__SetParametersResult:
         return view_repr(self)
 
 
-def make_rcl_interfaces__msg__SetParametersResult(
-    a0: Any, a1: Any
-) -> rcl_interfaces__msg__SetParametersResult:
-    view = _new(rcl_interfaces__msg__SetParametersResult)
+def set_parameters_result_view(a0: Any, a1: Any) -> SetParametersResult:
+    view = _new(SetParametersResult)
     view.successful = a0
     view.reason = a1
     return view
 
 
-class rcl_interfaces__srv__DescribeParameters_Request:
+class DescribeParameters_Request:
     """A decoded rcl_interfaces/srv/DescribeParameters_Request.
 
     Attributes named as the ROS fields.
@@ -1373,15 +1302,13 @@ class rcl_interfaces__srv__DescribeParameters_Request:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__DescribeParameters_Request(
-    a0: Any,
-) -> rcl_interfaces__srv__DescribeParameters_Request:
-    view = _new(rcl_interfaces__srv__DescribeParameters_Request)
+def describe_parameters_request_view(a0: Any) -> DescribeParameters_Request:
+    view = _new(DescribeParameters_Request)
     view.names = a0
     return view
 
 
-class rcl_interfaces__srv__DescribeParameters_Response:
+class DescribeParameters_Response:
     """A decoded rcl_interfaces/srv/DescribeParameters_Response.
 
     Attributes named as the ROS fields.
@@ -1394,44 +1321,13 @@ class rcl_interfaces__srv__DescribeParameters_Response:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__DescribeParameters_Response(
-    a0: Any,
-) -> rcl_interfaces__srv__DescribeParameters_Response:
-    view = _new(rcl_interfaces__srv__DescribeParameters_Response)
+def describe_parameters_response_view(a0: Any) -> DescribeParameters_Response:
+    view = _new(DescribeParameters_Response)
     view.descriptors = a0
     return view
 
 
-class service_msgs__msg__ServiceEventInfo:
-    """A decoded service_msgs/msg/ServiceEventInfo.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-    msg_type = "service_msgs/msg/ServiceEventInfo"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_service_msgs__msg__ServiceEventInfo(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> service_msgs__msg__ServiceEventInfo:
-    view = _new(service_msgs__msg__ServiceEventInfo)
-    view.event_type = a0
-    view.stamp = a1
-    view.client_gid = a2
-    view.sequence_number = a3
-    return view
-
-
-class rcl_interfaces__srv__DescribeParameters_Event:
+class DescribeParameters_Event:
     """A decoded rcl_interfaces/srv/DescribeParameters_Event.
 
     Attributes named as the ROS fields.
@@ -1448,17 +1344,15 @@ class rcl_interfaces__srv__DescribeParameters_Event:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__DescribeParameters_Event(
-    a0: Any, a1: Any, a2: Any
-) -> rcl_interfaces__srv__DescribeParameters_Event:
-    view = _new(rcl_interfaces__srv__DescribeParameters_Event)
+def describe_parameters_event_view(a0: Any, a1: Any, a2: Any) -> DescribeParameters_Event:
+    view = _new(DescribeParameters_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class rcl_interfaces__srv__GetLoggerLevels_Request:
+class GetLoggerLevels_Request:
     """A decoded rcl_interfaces/srv/GetLoggerLevels_Request.
 
     Attributes named as the ROS fields.
@@ -1471,15 +1365,13 @@ class rcl_interfaces__srv__GetLoggerLevels_Request:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__GetLoggerLevels_Request(
-    a0: Any,
-) -> rcl_interfaces__srv__GetLoggerLevels_Request:
-    view = _new(rcl_interfaces__srv__GetLoggerLevels_Request)
+def get_logger_levels_request_view(a0: Any) -> GetLoggerLevels_Request:
+    view = _new(GetLoggerLevels_Request)
     view.names = a0
     return view
 
 
-class rcl_interfaces__srv__GetLoggerLevels_Response:
+class GetLoggerLevels_Response:
     """A decoded rcl_interfaces/srv/GetLoggerLevels_Response.
 
     Attributes named as the ROS fields.
@@ -1492,15 +1384,13 @@ class rcl_interfaces__srv__GetLoggerLevels_Response:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__GetLoggerLevels_Response(
-    a0: Any,
-) -> rcl_interfaces__srv__GetLoggerLevels_Response:
-    view = _new(rcl_interfaces__srv__GetLoggerLevels_Response)
+def get_logger_levels_response_view(a0: Any) -> GetLoggerLevels_Response:
+    view = _new(GetLoggerLevels_Response)
     view.levels = a0
     return view
 
 
-class rcl_interfaces__srv__GetLoggerLevels_Event:
+class GetLoggerLevels_Event:
     """A decoded rcl_interfaces/srv/GetLoggerLevels_Event.
 
     Attributes named as the ROS fields.
@@ -1517,17 +1407,15 @@ class rcl_interfaces__srv__GetLoggerLevels_Event:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__GetLoggerLevels_Event(
-    a0: Any, a1: Any, a2: Any
-) -> rcl_interfaces__srv__GetLoggerLevels_Event:
-    view = _new(rcl_interfaces__srv__GetLoggerLevels_Event)
+def get_logger_levels_event_view(a0: Any, a1: Any, a2: Any) -> GetLoggerLevels_Event:
+    view = _new(GetLoggerLevels_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class rcl_interfaces__srv__GetParameterTypes_Request:
+class GetParameterTypes_Request:
     """A decoded rcl_interfaces/srv/GetParameterTypes_Request.
 
     Attributes named as the ROS fields.
@@ -1540,15 +1428,13 @@ class rcl_interfaces__srv__GetParameterTypes_Request:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__GetParameterTypes_Request(
-    a0: Any,
-) -> rcl_interfaces__srv__GetParameterTypes_Request:
-    view = _new(rcl_interfaces__srv__GetParameterTypes_Request)
+def get_parameter_types_request_view(a0: Any) -> GetParameterTypes_Request:
+    view = _new(GetParameterTypes_Request)
     view.names = a0
     return view
 
 
-class rcl_interfaces__srv__GetParameterTypes_Response:
+class GetParameterTypes_Response:
     """A decoded rcl_interfaces/srv/GetParameterTypes_Response.
 
     Attributes named as the ROS fields.
@@ -1561,15 +1447,13 @@ class rcl_interfaces__srv__GetParameterTypes_Response:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__GetParameterTypes_Response(
-    a0: Any,
-) -> rcl_interfaces__srv__GetParameterTypes_Response:
-    view = _new(rcl_interfaces__srv__GetParameterTypes_Response)
+def get_parameter_types_response_view(a0: Any) -> GetParameterTypes_Response:
+    view = _new(GetParameterTypes_Response)
     view.types = a0
     return view
 
 
-class rcl_interfaces__srv__GetParameterTypes_Event:
+class GetParameterTypes_Event:
     """A decoded rcl_interfaces/srv/GetParameterTypes_Event.
 
     Attributes named as the ROS fields.
@@ -1586,17 +1470,15 @@ class rcl_interfaces__srv__GetParameterTypes_Event:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__GetParameterTypes_Event(
-    a0: Any, a1: Any, a2: Any
-) -> rcl_interfaces__srv__GetParameterTypes_Event:
-    view = _new(rcl_interfaces__srv__GetParameterTypes_Event)
+def get_parameter_types_event_view(a0: Any, a1: Any, a2: Any) -> GetParameterTypes_Event:
+    view = _new(GetParameterTypes_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class rcl_interfaces__srv__GetParameters_Request:
+class GetParameters_Request:
     """A decoded rcl_interfaces/srv/GetParameters_Request.
 
     Attributes named as the ROS fields.
@@ -1609,15 +1491,13 @@ class rcl_interfaces__srv__GetParameters_Request:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__GetParameters_Request(
-    a0: Any,
-) -> rcl_interfaces__srv__GetParameters_Request:
-    view = _new(rcl_interfaces__srv__GetParameters_Request)
+def get_parameters_request_view(a0: Any) -> GetParameters_Request:
+    view = _new(GetParameters_Request)
     view.names = a0
     return view
 
 
-class rcl_interfaces__srv__GetParameters_Response:
+class GetParameters_Response:
     """A decoded rcl_interfaces/srv/GetParameters_Response.
 
     Attributes named as the ROS fields.
@@ -1630,15 +1510,13 @@ class rcl_interfaces__srv__GetParameters_Response:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__GetParameters_Response(
-    a0: Any,
-) -> rcl_interfaces__srv__GetParameters_Response:
-    view = _new(rcl_interfaces__srv__GetParameters_Response)
+def get_parameters_response_view(a0: Any) -> GetParameters_Response:
+    view = _new(GetParameters_Response)
     view.values = a0
     return view
 
 
-class rcl_interfaces__srv__GetParameters_Event:
+class GetParameters_Event:
     """A decoded rcl_interfaces/srv/GetParameters_Event.
 
     Attributes named as the ROS fields.
@@ -1655,17 +1533,15 @@ class rcl_interfaces__srv__GetParameters_Event:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__GetParameters_Event(
-    a0: Any, a1: Any, a2: Any
-) -> rcl_interfaces__srv__GetParameters_Event:
-    view = _new(rcl_interfaces__srv__GetParameters_Event)
+def get_parameters_event_view(a0: Any, a1: Any, a2: Any) -> GetParameters_Event:
+    view = _new(GetParameters_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class rcl_interfaces__srv__ListParameters_Request:
+class ListParameters_Request:
     """A decoded rcl_interfaces/srv/ListParameters_Request.
 
     Attributes named as the ROS fields.
@@ -1681,16 +1557,14 @@ class rcl_interfaces__srv__ListParameters_Request:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__ListParameters_Request(
-    a0: Any, a1: Any
-) -> rcl_interfaces__srv__ListParameters_Request:
-    view = _new(rcl_interfaces__srv__ListParameters_Request)
+def list_parameters_request_view(a0: Any, a1: Any) -> ListParameters_Request:
+    view = _new(ListParameters_Request)
     view.prefixes = a0
     view.depth = a1
     return view
 
 
-class rcl_interfaces__srv__ListParameters_Response:
+class ListParameters_Response:
     """A decoded rcl_interfaces/srv/ListParameters_Response.
 
     Attributes named as the ROS fields.
@@ -1703,15 +1577,13 @@ class rcl_interfaces__srv__ListParameters_Response:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__ListParameters_Response(
-    a0: Any,
-) -> rcl_interfaces__srv__ListParameters_Response:
-    view = _new(rcl_interfaces__srv__ListParameters_Response)
+def list_parameters_response_view(a0: Any) -> ListParameters_Response:
+    view = _new(ListParameters_Response)
     view.result = a0
     return view
 
 
-class rcl_interfaces__srv__ListParameters_Event:
+class ListParameters_Event:
     """A decoded rcl_interfaces/srv/ListParameters_Event.
 
     Attributes named as the ROS fields.
@@ -1728,17 +1600,15 @@ class rcl_interfaces__srv__ListParameters_Event:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__ListParameters_Event(
-    a0: Any, a1: Any, a2: Any
-) -> rcl_interfaces__srv__ListParameters_Event:
-    view = _new(rcl_interfaces__srv__ListParameters_Event)
+def list_parameters_event_view(a0: Any, a1: Any, a2: Any) -> ListParameters_Event:
+    view = _new(ListParameters_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class rcl_interfaces__srv__SetLoggerLevels_Request:
+class SetLoggerLevels_Request:
     """A decoded rcl_interfaces/srv/SetLoggerLevels_Request.
 
     Attributes named as the ROS fields.
@@ -1751,15 +1621,13 @@ class rcl_interfaces__srv__SetLoggerLevels_Request:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__SetLoggerLevels_Request(
-    a0: Any,
-) -> rcl_interfaces__srv__SetLoggerLevels_Request:
-    view = _new(rcl_interfaces__srv__SetLoggerLevels_Request)
+def set_logger_levels_request_view(a0: Any) -> SetLoggerLevels_Request:
+    view = _new(SetLoggerLevels_Request)
     view.levels = a0
     return view
 
 
-class rcl_interfaces__srv__SetLoggerLevels_Response:
+class SetLoggerLevels_Response:
     """A decoded rcl_interfaces/srv/SetLoggerLevels_Response.
 
     Attributes named as the ROS fields.
@@ -1772,15 +1640,13 @@ class rcl_interfaces__srv__SetLoggerLevels_Response:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__SetLoggerLevels_Response(
-    a0: Any,
-) -> rcl_interfaces__srv__SetLoggerLevels_Response:
-    view = _new(rcl_interfaces__srv__SetLoggerLevels_Response)
+def set_logger_levels_response_view(a0: Any) -> SetLoggerLevels_Response:
+    view = _new(SetLoggerLevels_Response)
     view.results = a0
     return view
 
 
-class rcl_interfaces__srv__SetLoggerLevels_Event:
+class SetLoggerLevels_Event:
     """A decoded rcl_interfaces/srv/SetLoggerLevels_Event.
 
     Attributes named as the ROS fields.
@@ -1797,17 +1663,15 @@ class rcl_interfaces__srv__SetLoggerLevels_Event:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__SetLoggerLevels_Event(
-    a0: Any, a1: Any, a2: Any
-) -> rcl_interfaces__srv__SetLoggerLevels_Event:
-    view = _new(rcl_interfaces__srv__SetLoggerLevels_Event)
+def set_logger_levels_event_view(a0: Any, a1: Any, a2: Any) -> SetLoggerLevels_Event:
+    view = _new(SetLoggerLevels_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class rcl_interfaces__srv__SetParameters_Request:
+class SetParameters_Request:
     """A decoded rcl_interfaces/srv/SetParameters_Request.
 
     Attributes named as the ROS fields.
@@ -1820,15 +1684,13 @@ class rcl_interfaces__srv__SetParameters_Request:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__SetParameters_Request(
-    a0: Any,
-) -> rcl_interfaces__srv__SetParameters_Request:
-    view = _new(rcl_interfaces__srv__SetParameters_Request)
+def set_parameters_request_view(a0: Any) -> SetParameters_Request:
+    view = _new(SetParameters_Request)
     view.parameters = a0
     return view
 
 
-class rcl_interfaces__srv__SetParameters_Response:
+class SetParameters_Response:
     """A decoded rcl_interfaces/srv/SetParameters_Response.
 
     Attributes named as the ROS fields.
@@ -1841,15 +1703,13 @@ class rcl_interfaces__srv__SetParameters_Response:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__SetParameters_Response(
-    a0: Any,
-) -> rcl_interfaces__srv__SetParameters_Response:
-    view = _new(rcl_interfaces__srv__SetParameters_Response)
+def set_parameters_response_view(a0: Any) -> SetParameters_Response:
+    view = _new(SetParameters_Response)
     view.results = a0
     return view
 
 
-class rcl_interfaces__srv__SetParameters_Event:
+class SetParameters_Event:
     """A decoded rcl_interfaces/srv/SetParameters_Event.
 
     Attributes named as the ROS fields.
@@ -1866,17 +1726,15 @@ class rcl_interfaces__srv__SetParameters_Event:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__SetParameters_Event(
-    a0: Any, a1: Any, a2: Any
-) -> rcl_interfaces__srv__SetParameters_Event:
-    view = _new(rcl_interfaces__srv__SetParameters_Event)
+def set_parameters_event_view(a0: Any, a1: Any, a2: Any) -> SetParameters_Event:
+    view = _new(SetParameters_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class rcl_interfaces__srv__SetParametersAtomically_Request:
+class SetParametersAtomically_Request:
     """A decoded rcl_interfaces/srv/SetParametersAtomically_Request.
 
     Attributes named as the ROS fields.
@@ -1889,15 +1747,13 @@ class rcl_interfaces__srv__SetParametersAtomically_Request:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__SetParametersAtomically_Request(
-    a0: Any,
-) -> rcl_interfaces__srv__SetParametersAtomically_Request:
-    view = _new(rcl_interfaces__srv__SetParametersAtomically_Request)
+def set_parameters_atomically_request_view(a0: Any) -> SetParametersAtomically_Request:
+    view = _new(SetParametersAtomically_Request)
     view.parameters = a0
     return view
 
 
-class rcl_interfaces__srv__SetParametersAtomically_Response:
+class SetParametersAtomically_Response:
     """A decoded rcl_interfaces/srv/SetParametersAtomically_Response.
 
     Attributes named as the ROS fields.
@@ -1910,15 +1766,13 @@ class rcl_interfaces__srv__SetParametersAtomically_Response:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__SetParametersAtomically_Response(
-    a0: Any,
-) -> rcl_interfaces__srv__SetParametersAtomically_Response:
-    view = _new(rcl_interfaces__srv__SetParametersAtomically_Response)
+def set_parameters_atomically_response_view(a0: Any) -> SetParametersAtomically_Response:
+    view = _new(SetParametersAtomically_Response)
     view.result = a0
     return view
 
 
-class rcl_interfaces__srv__SetParametersAtomically_Event:
+class SetParametersAtomically_Event:
     """A decoded rcl_interfaces/srv/SetParametersAtomically_Event.
 
     Attributes named as the ROS fields.
@@ -1935,18 +1789,18 @@ class rcl_interfaces__srv__SetParametersAtomically_Event:
         return view_repr(self)
 
 
-def make_rcl_interfaces__srv__SetParametersAtomically_Event(
+def set_parameters_atomically_event_view(
     a0: Any, a1: Any, a2: Any
-) -> rcl_interfaces__srv__SetParametersAtomically_Event:
-    view = _new(rcl_interfaces__srv__SetParametersAtomically_Event)
+) -> SetParametersAtomically_Event:
+    view = _new(SetParametersAtomically_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_2T = Struct(E + "2?")
@@ -1967,13 +1821,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
     _D_int64 = np.dtype("int64").newbyteorder(E)
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_rcl_interfaces__msg__FloatingPointRange(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def floating_point_range_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__msg__FloatingPointRange_0
+            f = FLOATING_POINT_RANGE_RUN_0
             v1, v2, v3 = _S_3d.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
@@ -1981,16 +1833,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__msg__FloatingPointRange(v1, v2, v3), pos
+            return floating_point_range_view(v1, v2, v3), pos
         return {"from_value": v1, "to_value": v2, "step": v3}, pos
 
-    def encode_rcl_interfaces__msg__FloatingPointRange(d: Any, out: list[Any], pos: int) -> int:
+    def floating_point_range_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_rcl_interfaces__msg__FloatingPointRange.issuperset(
-                d
-            ):
-                d = _submap(d, _K_rcl_interfaces__msg__FloatingPointRange)
+            if d.__class__ is not dict or not FLOATING_POINT_RANGE_KEYS.issuperset(d):
+                d = _submap(d, FLOATING_POINT_RANGE_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -2004,7 +1854,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3d,
-                        _R_rcl_interfaces__msg__FloatingPointRange_0,
+                        FLOATING_POINT_RANGE_RUN_0,
                         (
                             d.get("from_value", 0.0),
                             d.get("to_value", 0.0),
@@ -2019,13 +1869,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__msg__IntegerRange(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def integer_range_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__msg__IntegerRange_0
+            f = INTEGER_RANGE_RUN_0
             v1, v2, v3 = _S_2qQ.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
@@ -2033,14 +1881,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__msg__IntegerRange(v1, v2, v3), pos
+            return integer_range_view(v1, v2, v3), pos
         return {"from_value": v1, "to_value": v2, "step": v3}, pos
 
-    def encode_rcl_interfaces__msg__IntegerRange(d: Any, out: list[Any], pos: int) -> int:
+    def integer_range_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_rcl_interfaces__msg__IntegerRange.issuperset(d):
-                d = _submap(d, _K_rcl_interfaces__msg__IntegerRange)
+            if d.__class__ is not dict or not INTEGER_RANGE_KEYS.issuperset(d):
+                d = _submap(d, INTEGER_RANGE_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -2054,7 +1902,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_2qQ,
-                        _R_rcl_interfaces__msg__IntegerRange_0,
+                        INTEGER_RANGE_RUN_0,
                         (
                             d.get("from_value", 0),
                             d.get("to_value", 0),
@@ -2069,9 +1917,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__msg__ListParametersResult(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def list_parameters_result_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".names"
@@ -2083,17 +1929,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__msg__ListParametersResult(v1, v2), pos
+            return list_parameters_result_view(v1, v2), pos
         return {"names": v1, "prefixes": v2}, pos
 
-    def encode_rcl_interfaces__msg__ListParametersResult(d: Any, out: list[Any], pos: int) -> int:
+    def list_parameters_result_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__msg__ListParametersResult.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__msg__ListParametersResult)
+            if d.__class__ is not dict or not LIST_PARAMETERS_RESULT_KEYS.issuperset(d):
+                d = _submap(d, LIST_PARAMETERS_RESULT_KEYS)
             f = ".names"
             pos = write_strings(d.get("names", ()), out, pos, _U32, None, False, None, False)
             f = ".prefixes"
@@ -2104,56 +1947,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def log_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_rcl_interfaces__msg__Log(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__Log_0
+            f = LOG_RUN_0
             v2, v3, v4, v6 = _S_iIB3xI.unpack_from(mv, pos)
             pos += 16
             f = ".name"
@@ -2162,7 +1960,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__Log_1
+            f = LOG_RUN_1
             (v9,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".msg"
@@ -2171,7 +1969,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__Log_2
+            f = LOG_RUN_2
             (v12,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".file"
@@ -2180,7 +1978,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v13 = mv[pos : pos + v12 - 1].tobytes().decode()
             pos += v12
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__Log_3
+            f = LOG_RUN_3
             (v15,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".function"
@@ -2189,7 +1987,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v16 = mv[pos : pos + v15 - 1].tobytes().decode()
             pos += v15
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__Log_4
+            f = LOG_RUN_4
             (v17,) = _S_I.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
@@ -2197,9 +1995,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__msg__Log(
-                make_builtin_interfaces__msg__Time(v2, v3), v4, v7, v10, v13, v16, v17
-            ), pos
+            return log_view(builtin_interfaces__time_view(v2, v3), v4, v7, v10, v13, v16, v17), pos
         return {
             "stamp": {"sec": v2, "nanosec": v3},
             "level": v4,
@@ -2210,15 +2006,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "line": v17,
         }, pos
 
-    def encode_rcl_interfaces__msg__Log(d: Any, out: list[Any], pos: int) -> int:
+    def log_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_rcl_interfaces__msg__Log.issuperset(d):
-                d = _submap(d, _K_rcl_interfaces__msg__Log)
+            if d.__class__ is not dict or not LOG_KEYS.issuperset(d):
+                d = _submap(d, LOG_KEYS)
             f = ".stamp"
             m1 = d.get("stamp", EMPTY)
-            if m1.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m1):
-                m1 = _submap(m1, _K_builtin_interfaces__msg__Time)
+            if m1.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m1):
+                m1 = _submap(m1, BUILTIN_INTERFACES__TIME_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -2236,7 +2032,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iIB3xI,
-                        _R_rcl_interfaces__msg__Log_0,
+                        LOG_RUN_0,
                         (
                             m1.get("sec", 0),
                             m1.get("nanosec", 0),
@@ -2258,7 +2054,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b8)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_rcl_interfaces__msg__Log_1, (len(b8),)))
+                out.append(slow_pack(_S_I, LOG_RUN_1, (len(b8),)))
             pos += 4
             out.append(b8)
             pos += len(b8)
@@ -2272,7 +2068,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b11)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_rcl_interfaces__msg__Log_2, (len(b11),)))
+                out.append(slow_pack(_S_I, LOG_RUN_2, (len(b11),)))
             pos += 4
             out.append(b11)
             pos += len(b11)
@@ -2286,7 +2082,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b14)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_rcl_interfaces__msg__Log_3, (len(b14),)))
+                out.append(slow_pack(_S_I, LOG_RUN_3, (len(b14),)))
             pos += 4
             out.append(b14)
             pos += len(b14)
@@ -2298,7 +2094,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(d.get("line", 0)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_rcl_interfaces__msg__Log_4, (d.get("line", 0),)))
+                out.append(slow_pack(_S_I, LOG_RUN_4, (d.get("line", 0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -2306,13 +2102,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__msg__LoggerLevel(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def logger_level_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__LoggerLevel_0
+            f = LOGGER_LEVEL_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".name"
@@ -2321,7 +2115,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__LoggerLevel_1
+            f = LOGGER_LEVEL_RUN_1
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
@@ -2329,14 +2123,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__msg__LoggerLevel(v3, v4), pos
+            return logger_level_view(v3, v4), pos
         return {"name": v3, "level": v4}, pos
 
-    def encode_rcl_interfaces__msg__LoggerLevel(d: Any, out: list[Any], pos: int) -> int:
+    def logger_level_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_rcl_interfaces__msg__LoggerLevel.issuperset(d):
-                d = _submap(d, _K_rcl_interfaces__msg__LoggerLevel)
+            if d.__class__ is not dict or not LOGGER_LEVEL_KEYS.issuperset(d):
+                d = _submap(d, LOGGER_LEVEL_KEYS)
             f = ".name"
             b1 = utf8z(d.get("name", ""), None)
             p = -pos & 3
@@ -2347,7 +2141,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_rcl_interfaces__msg__LoggerLevel_0, (len(b1),)))
+                out.append(slow_pack(_S_I, LOGGER_LEVEL_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -2359,9 +2153,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(d.get("level", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_rcl_interfaces__msg__LoggerLevel_1, (d.get("level", 0),))
-                )
+                out.append(slow_pack(_S_I, LOGGER_LEVEL_RUN_1, (d.get("level", 0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -2369,16 +2161,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__msg__ParameterValue(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def parameter_value_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_rcl_interfaces__msg__ParameterValue_0
+            f = PARAMETER_VALUE_RUN_0
             v1, v3 = _S_BT.unpack_from(mv, pos)
             pos += 2
             pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__msg__ParameterValue_1
+            f = PARAMETER_VALUE_RUN_1
             v4, v5, v7 = _S_qdI.unpack_from(mv, pos)
             pos += 20
             f = ".string_value"
@@ -2387,7 +2177,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = mv[pos : pos + v7 - 1].tobytes().decode()
             pos += v7
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__ParameterValue_2
+            f = PARAMETER_VALUE_RUN_2
             (v11,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".byte_array_value"
@@ -2396,7 +2186,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v12 = _frombuffer(mv, _D_uint8, v11, pos)
             pos += v11 * 1
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__ParameterValue_3
+            f = PARAMETER_VALUE_RUN_3
             (v15,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".bool_array_value"
@@ -2405,7 +2195,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v16 = read_bools(mv, pos, v15)
             pos += v15 * 1
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__ParameterValue_4
+            f = PARAMETER_VALUE_RUN_4
             (v19,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".integer_array_value"
@@ -2415,7 +2205,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v19, 8, lim - pos)
             v20 = _frombuffer(mv, _D_int64, v19, pos)
             pos += v19 * 8
-            f = _R_rcl_interfaces__msg__ParameterValue_5
+            f = PARAMETER_VALUE_RUN_5
             (v23,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".double_array_value"
@@ -2432,9 +2222,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__msg__ParameterValue(
-                v1, v3, v4, v5, v8, v12, v16, v20, v24, v25
-            ), pos
+            return parameter_value_view(v1, v3, v4, v5, v8, v12, v16, v20, v24, v25), pos
         return {
             "type": v1,
             "bool_value": v3,
@@ -2448,11 +2236,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "string_array_value": v25,
         }, pos
 
-    def encode_rcl_interfaces__msg__ParameterValue(d: Any, out: list[Any], pos: int) -> int:
+    def parameter_value_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_rcl_interfaces__msg__ParameterValue.issuperset(d):
-                d = _submap(d, _K_rcl_interfaces__msg__ParameterValue)
+            if d.__class__ is not dict or not PARAMETER_VALUE_KEYS.issuperset(d):
+                d = _submap(d, PARAMETER_VALUE_KEYS)
             f = ""
             try:
                 out.append(
@@ -2469,7 +2257,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_BT,
-                        _R_rcl_interfaces__msg__ParameterValue_0,
+                        PARAMETER_VALUE_RUN_0,
                         (
                             d.get("type", 0),
                             (
@@ -2496,7 +2284,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_qdI,
-                        _R_rcl_interfaces__msg__ParameterValue_1,
+                        PARAMETER_VALUE_RUN_1,
                         (
                             d.get("integer_value", 0),
                             d.get("double_value", 0.0),
@@ -2517,7 +2305,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c10))
             except Exception:
-                out.append(slow_pack(_S_I, _R_rcl_interfaces__msg__ParameterValue_2, (c10,)))
+                out.append(slow_pack(_S_I, PARAMETER_VALUE_RUN_2, (c10,)))
             pos += 4
             out.append(b9)
             pos += c10 * 1
@@ -2531,7 +2319,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c14))
             except Exception:
-                out.append(slow_pack(_S_I, _R_rcl_interfaces__msg__ParameterValue_3, (c14,)))
+                out.append(slow_pack(_S_I, PARAMETER_VALUE_RUN_3, (c14,)))
             pos += 4
             out.append(b13)
             pos += c14 * 1
@@ -2547,7 +2335,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c18))
             except Exception:
-                out.append(slow_pack(_S_I, _R_rcl_interfaces__msg__ParameterValue_4, (c18,)))
+                out.append(slow_pack(_S_I, PARAMETER_VALUE_RUN_4, (c18,)))
             pos += 4
             if c18:
                 p = -pos & 7
@@ -2564,7 +2352,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c22))
             except Exception:
-                out.append(slow_pack(_S_I, _R_rcl_interfaces__msg__ParameterValue_5, (c22,)))
+                out.append(slow_pack(_S_I, PARAMETER_VALUE_RUN_5, (c22,)))
             pos += 4
             if c22:
                 p = -pos & 7
@@ -2583,13 +2371,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__msg__Parameter(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def parameter_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__Parameter_0
+            f = PARAMETER_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".name"
@@ -2598,20 +2384,20 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             f = ".value"
-            v4, pos = decode_rcl_interfaces__msg__ParameterValue(mv, pos, lim)
+            v4, pos = parameter_value_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__msg__Parameter(v3, v4), pos
+            return parameter_view(v3, v4), pos
         return {"name": v3, "value": v4}, pos
 
-    def encode_rcl_interfaces__msg__Parameter(d: Any, out: list[Any], pos: int) -> int:
+    def parameter_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_rcl_interfaces__msg__Parameter.issuperset(d):
-                d = _submap(d, _K_rcl_interfaces__msg__Parameter)
+            if d.__class__ is not dict or not PARAMETER_KEYS.issuperset(d):
+                d = _submap(d, PARAMETER_KEYS)
             f = ".name"
             b1 = utf8z(d.get("name", ""), None)
             p = -pos & 3
@@ -2622,25 +2408,23 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_rcl_interfaces__msg__Parameter_0, (len(b1),)))
+                out.append(slow_pack(_S_I, PARAMETER_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
             f = ".value"
-            pos = encode_rcl_interfaces__msg__ParameterValue(d.get("value", EMPTY), out, pos)
+            pos = parameter_value_encode(d.get("value", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__msg__ParameterDescriptor(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def parameter_descriptor_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__ParameterDescriptor_0
+            f = PARAMETER_DESCRIPTOR_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".name"
@@ -2648,11 +2432,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v2, 1, lim - pos)
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
-            f = _R_rcl_interfaces__msg__ParameterDescriptor_1
+            f = PARAMETER_DESCRIPTOR_RUN_1
             (v4,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__ParameterDescriptor_2
+            f = PARAMETER_DESCRIPTOR_RUN_2
             (v6,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".description"
@@ -2661,7 +2445,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__ParameterDescriptor_3
+            f = PARAMETER_DESCRIPTOR_RUN_3
             (v9,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".additional_constraints"
@@ -2669,25 +2453,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v9, 1, lim - pos)
             v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
-            f = _R_rcl_interfaces__msg__ParameterDescriptor_4
+            f = PARAMETER_DESCRIPTOR_RUN_4
             v12, v14 = _S_2T.unpack_from(mv, pos)
             pos += 2
             f = ".floating_point_range"
-            v15, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__FloatingPointRange, None, 1, 24
-            )
+            v15, pos = read_messages(mv, pos, lim, _U32, floating_point_range_decode, None, 1, 24)
             f = ".integer_range"
-            v16, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__IntegerRange, None, 1, 24
-            )
+            v16, pos = read_messages(mv, pos, lim, _U32, integer_range_decode, None, 1, 24)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__msg__ParameterDescriptor(
-                v3, v4, v7, v10, v12, v14, v15, v16
-            ), pos
+            return parameter_descriptor_view(v3, v4, v7, v10, v12, v14, v15, v16), pos
         return {
             "name": v3,
             "type": v4,
@@ -2699,14 +2477,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "integer_range": v16,
         }, pos
 
-    def encode_rcl_interfaces__msg__ParameterDescriptor(d: Any, out: list[Any], pos: int) -> int:
+    def parameter_descriptor_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__msg__ParameterDescriptor.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__msg__ParameterDescriptor)
+            if d.__class__ is not dict or not PARAMETER_DESCRIPTOR_KEYS.issuperset(d):
+                d = _submap(d, PARAMETER_DESCRIPTOR_KEYS)
             f = ".name"
             b1 = utf8z(d.get("name", ""), None)
             p = -pos & 3
@@ -2717,9 +2492,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_rcl_interfaces__msg__ParameterDescriptor_0, (len(b1),))
-                )
+                out.append(slow_pack(_S_I, PARAMETER_DESCRIPTOR_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -2729,11 +2502,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_B.pack(d.get("type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_rcl_interfaces__msg__ParameterDescriptor_1, (d.get("type", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_B, PARAMETER_DESCRIPTOR_RUN_1, (d.get("type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -2743,9 +2512,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b5)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_rcl_interfaces__msg__ParameterDescriptor_2, (len(b5),))
-                )
+                out.append(slow_pack(_S_I, PARAMETER_DESCRIPTOR_RUN_2, (len(b5),)))
             pos += 4
             out.append(b5)
             pos += len(b5)
@@ -2759,9 +2526,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b8)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_rcl_interfaces__msg__ParameterDescriptor_3, (len(b8),))
-                )
+                out.append(slow_pack(_S_I, PARAMETER_DESCRIPTOR_RUN_3, (len(b8),)))
             pos += 4
             out.append(b8)
             pos += len(b8)
@@ -2785,7 +2550,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_2T,
-                        _R_rcl_interfaces__msg__ParameterDescriptor_4,
+                        PARAMETER_DESCRIPTOR_RUN_4,
                         (
                             (
                                 t11
@@ -2807,19 +2572,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_rcl_interfaces__msg__FloatingPointRange,
+                floating_point_range_encode,
                 1,
                 False,
             )
             f = ".integer_range"
             pos = write_messages(
-                d.get("integer_range", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__msg__IntegerRange,
-                1,
-                False,
+                d.get("integer_range", ()), out, pos, _U32, integer_range_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -2827,13 +2586,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__msg__ParameterEvent(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def parameter_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__ParameterEvent_0
+            f = PARAMETER_EVENT_RUN_0
             v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
             pos += 12
             f = ".node"
@@ -2842,25 +2599,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             f = ".new_parameters"
-            v7, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__Parameter, None, None, 46
-            )
+            v7, pos = read_messages(mv, pos, lim, _U32, parameter_decode, None, None, 46)
             f = ".changed_parameters"
-            v8, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__Parameter, None, None, 46
-            )
+            v8, pos = read_messages(mv, pos, lim, _U32, parameter_decode, None, None, 46)
             f = ".deleted_parameters"
-            v9, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__Parameter, None, None, 46
-            )
+            v9, pos = read_messages(mv, pos, lim, _U32, parameter_decode, None, None, 46)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__msg__ParameterEvent(
-                make_builtin_interfaces__msg__Time(v2, v3), v6, v7, v8, v9
-            ), pos
+            return parameter_event_view(builtin_interfaces__time_view(v2, v3), v6, v7, v8, v9), pos
         return {
             "stamp": {"sec": v2, "nanosec": v3},
             "node": v6,
@@ -2869,15 +2618,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "deleted_parameters": v9,
         }, pos
 
-    def encode_rcl_interfaces__msg__ParameterEvent(d: Any, out: list[Any], pos: int) -> int:
+    def parameter_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_rcl_interfaces__msg__ParameterEvent.issuperset(d):
-                d = _submap(d, _K_rcl_interfaces__msg__ParameterEvent)
+            if d.__class__ is not dict or not PARAMETER_EVENT_KEYS.issuperset(d):
+                d = _submap(d, PARAMETER_EVENT_KEYS)
             f = ".stamp"
             m1 = d.get("stamp", EMPTY)
-            if m1.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m1):
-                m1 = _submap(m1, _K_builtin_interfaces__msg__Time)
+            if m1.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m1):
+                m1 = _submap(m1, BUILTIN_INTERFACES__TIME_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -2891,7 +2640,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_i2I,
-                        _R_rcl_interfaces__msg__ParameterEvent_0,
+                        PARAMETER_EVENT_RUN_0,
                         (
                             m1.get("sec", 0),
                             m1.get("nanosec", 0),
@@ -2904,33 +2653,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             pos += len(b4)
             f = ".new_parameters"
             pos = write_messages(
-                d.get("new_parameters", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__msg__Parameter,
-                None,
-                False,
+                d.get("new_parameters", ()), out, pos, _U32, parameter_encode, None, False
             )
             f = ".changed_parameters"
             pos = write_messages(
-                d.get("changed_parameters", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__msg__Parameter,
-                None,
-                False,
+                d.get("changed_parameters", ()), out, pos, _U32, parameter_encode, None, False
             )
             f = ".deleted_parameters"
             pos = write_messages(
-                d.get("deleted_parameters", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__msg__Parameter,
-                None,
-                False,
+                d.get("deleted_parameters", ()), out, pos, _U32, parameter_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -2938,48 +2669,35 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__msg__ParameterEventDescriptors(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def parameter_event_descriptors_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".new_parameters"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__ParameterDescriptor, None, None, 23
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, parameter_descriptor_decode, None, None, 23)
             f = ".changed_parameters"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__ParameterDescriptor, None, None, 23
-            )
+            v2, pos = read_messages(mv, pos, lim, _U32, parameter_descriptor_decode, None, None, 23)
             f = ".deleted_parameters"
-            v3, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__ParameterDescriptor, None, None, 23
-            )
+            v3, pos = read_messages(mv, pos, lim, _U32, parameter_descriptor_decode, None, None, 23)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__msg__ParameterEventDescriptors(v1, v2, v3), pos
+            return parameter_event_descriptors_view(v1, v2, v3), pos
         return {"new_parameters": v1, "changed_parameters": v2, "deleted_parameters": v3}, pos
 
-    def encode_rcl_interfaces__msg__ParameterEventDescriptors(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def parameter_event_descriptors_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__msg__ParameterEventDescriptors.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__msg__ParameterEventDescriptors)
+            if d.__class__ is not dict or not PARAMETER_EVENT_DESCRIPTORS_KEYS.issuperset(d):
+                d = _submap(d, PARAMETER_EVENT_DESCRIPTORS_KEYS)
             f = ".new_parameters"
             pos = write_messages(
                 d.get("new_parameters", ()),
                 out,
                 pos,
                 _U32,
-                encode_rcl_interfaces__msg__ParameterDescriptor,
+                parameter_descriptor_encode,
                 None,
                 False,
             )
@@ -2989,7 +2707,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_rcl_interfaces__msg__ParameterDescriptor,
+                parameter_descriptor_encode,
                 None,
                 False,
             )
@@ -2999,7 +2717,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_rcl_interfaces__msg__ParameterDescriptor,
+                parameter_descriptor_encode,
                 None,
                 False,
             )
@@ -3009,12 +2727,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__msg__ParameterType(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def parameter_type_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_rcl_interfaces__msg__ParameterType_0
+            f = PARAMETER_TYPE_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -3022,19 +2738,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__msg__ParameterType(), pos
+            return parameter_type_view(), pos
         return {}, pos
 
-    def encode_rcl_interfaces__msg__ParameterType(d: Any, out: list[Any], pos: int) -> int:
+    def parameter_type_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_rcl_interfaces__msg__ParameterType.issuperset(d):
-                d = _submap(d, _K_rcl_interfaces__msg__ParameterType)
+            if d.__class__ is not dict or not PARAMETER_TYPE_KEYS.issuperset(d):
+                d = _submap(d, PARAMETER_TYPE_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(slow_pack(_S_1x, _R_rcl_interfaces__msg__ParameterType_0, ()))
+                out.append(slow_pack(_S_1x, PARAMETER_TYPE_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -3042,16 +2758,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__msg__SetLoggerLevelsResult(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def set_logger_levels_result_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_rcl_interfaces__msg__SetLoggerLevelsResult_0
+            f = SET_LOGGER_LEVELS_RESULT_RUN_0
             (v2,) = _S_T.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__SetLoggerLevelsResult_1
+            f = SET_LOGGER_LEVELS_RESULT_RUN_1
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".reason"
@@ -3064,17 +2778,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__msg__SetLoggerLevelsResult(v2, v5), pos
+            return set_logger_levels_result_view(v2, v5), pos
         return {"successful": v2, "reason": v5}, pos
 
-    def encode_rcl_interfaces__msg__SetLoggerLevelsResult(d: Any, out: list[Any], pos: int) -> int:
+    def set_logger_levels_result_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__msg__SetLoggerLevelsResult.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__msg__SetLoggerLevelsResult)
+            if d.__class__ is not dict or not SET_LOGGER_LEVELS_RESULT_KEYS.issuperset(d):
+                d = _submap(d, SET_LOGGER_LEVELS_RESULT_KEYS)
             f = ".reason"
             b3 = utf8z(d.get("reason", ""), None)
             f = ""
@@ -3092,7 +2803,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_rcl_interfaces__msg__SetLoggerLevelsResult_0,
+                        SET_LOGGER_LEVELS_RESULT_RUN_0,
                         (
                             (
                                 t1
@@ -3111,9 +2822,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b3)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_rcl_interfaces__msg__SetLoggerLevelsResult_1, (len(b3),))
-                )
+                out.append(slow_pack(_S_I, SET_LOGGER_LEVELS_RESULT_RUN_1, (len(b3),)))
             pos += 4
             out.append(b3)
             pos += len(b3)
@@ -3123,16 +2832,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__msg__SetParametersResult(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def set_parameters_result_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_rcl_interfaces__msg__SetParametersResult_0
+            f = SET_PARAMETERS_RESULT_RUN_0
             (v2,) = _S_T.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__msg__SetParametersResult_1
+            f = SET_PARAMETERS_RESULT_RUN_1
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".reason"
@@ -3145,17 +2852,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__msg__SetParametersResult(v2, v5), pos
+            return set_parameters_result_view(v2, v5), pos
         return {"successful": v2, "reason": v5}, pos
 
-    def encode_rcl_interfaces__msg__SetParametersResult(d: Any, out: list[Any], pos: int) -> int:
+    def set_parameters_result_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__msg__SetParametersResult.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__msg__SetParametersResult)
+            if d.__class__ is not dict or not SET_PARAMETERS_RESULT_KEYS.issuperset(d):
+                d = _submap(d, SET_PARAMETERS_RESULT_KEYS)
             f = ".reason"
             b3 = utf8z(d.get("reason", ""), None)
             f = ""
@@ -3173,7 +2877,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_rcl_interfaces__msg__SetParametersResult_0,
+                        SET_PARAMETERS_RESULT_RUN_0,
                         (
                             (
                                 t1
@@ -3192,9 +2896,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b3)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_rcl_interfaces__msg__SetParametersResult_1, (len(b3),))
-                )
+                out.append(slow_pack(_S_I, SET_PARAMETERS_RESULT_RUN_1, (len(b3),)))
             pos += 4
             out.append(b3)
             pos += len(b3)
@@ -3204,9 +2906,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__DescribeParameters_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def describe_parameters_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".names"
@@ -3216,19 +2916,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__DescribeParameters_Request(v1), pos
+            return describe_parameters_request_view(v1), pos
         return {"names": v1}, pos
 
-    def encode_rcl_interfaces__srv__DescribeParameters_Request(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def describe_parameters_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__DescribeParameters_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__DescribeParameters_Request)
+            if d.__class__ is not dict or not DESCRIBE_PARAMETERS_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, DESCRIBE_PARAMETERS_REQUEST_KEYS)
             f = ".names"
             pos = write_strings(d.get("names", ()), out, pos, _U32, None, False, None, False)
         except FieldError as error:
@@ -3237,42 +2932,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__DescribeParameters_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def describe_parameters_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".descriptors"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__ParameterDescriptor, None, None, 23
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, parameter_descriptor_decode, None, None, 23)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__DescribeParameters_Response(v1), pos
+            return describe_parameters_response_view(v1), pos
         return {"descriptors": v1}, pos
 
-    def encode_rcl_interfaces__srv__DescribeParameters_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def describe_parameters_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__DescribeParameters_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__DescribeParameters_Response)
+            if d.__class__ is not dict or not DESCRIBE_PARAMETERS_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, DESCRIBE_PARAMETERS_RESPONSE_KEYS)
             f = ".descriptors"
             pos = write_messages(
-                d.get("descriptors", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__msg__ParameterDescriptor,
-                None,
-                False,
+                d.get("descriptors", ()), out, pos, _U32, parameter_descriptor_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -3280,116 +2960,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def describe_parameters_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_service_msgs__msg__ServiceEventInfo(
-                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-            ), pos
-        return {
-            "event_type": v1,
-            "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7.tobytes(),
-            "sequence_number": v8,
-        }, pos
-
-    def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(d):
-                d = _submap(d, _K_service_msgs__msg__ServiceEventInfo)
-            f = ".stamp"
-            m2 = d.get("stamp", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
-            f = ""
-            try:
-                out.append(_S_B.pack(d.get("event_type", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_service_msgs__msg__ServiceEventInfo_0, (d.get("event_type", 0),)
-                    )
-                )
-            pos += 1
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".client_gid"
-            b5, c6 = encode_array(d.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
-            f = ""
-            try:
-                out.append(_S_iI.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_service_msgs__msg__ServiceEventInfo_1,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-            out.append(b5)
-            pos += c6 * 1
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_q.pack(d.get("sequence_number", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_service_msgs__msg__ServiceEventInfo_2,
-                        (d.get("sequence_number", 0),),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_rcl_interfaces__srv__DescribeParameters_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_rcl_interfaces__srv__DescribeParameters_Event_0
+            f = DESCRIBE_PARAMETERS_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__DescribeParameters_Event_1
+            f = DESCRIBE_PARAMETERS_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -3398,39 +2976,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__DescribeParameters_Event_2
+            f = DESCRIBE_PARAMETERS_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_rcl_interfaces__srv__DescribeParameters_Request,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, describe_parameters_request_decode, None, 1, 4
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_rcl_interfaces__srv__DescribeParameters_Response,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, describe_parameters_response_decode, None, 1, 4
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__DescribeParameters_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return describe_parameters_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -3446,36 +3010,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_rcl_interfaces__srv__DescribeParameters_Event(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def describe_parameters_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__DescribeParameters_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__DescribeParameters_Event)
+            if d.__class__ is not dict or not DESCRIBE_PARAMETERS_EVENT_KEYS.issuperset(d):
+                d = _submap(d, DESCRIBE_PARAMETERS_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_rcl_interfaces__srv__DescribeParameters_Event_0,
-                        (m1.get("event_type", 0),),
-                    )
+                    slow_pack(_S_B, DESCRIBE_PARAMETERS_EVENT_RUN_0, (m1.get("event_type", 0),))
                 )
             pos += 1
             p = -pos & 3
@@ -3491,7 +3044,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_rcl_interfaces__srv__DescribeParameters_Event_1,
+                        DESCRIBE_PARAMETERS_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -3511,31 +3064,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_q,
-                        _R_rcl_interfaces__srv__DescribeParameters_Event_2,
-                        (m1.get("sequence_number", 0),),
+                        _S_q, DESCRIBE_PARAMETERS_EVENT_RUN_2, (m1.get("sequence_number", 0),)
                     )
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__srv__DescribeParameters_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, describe_parameters_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__srv__DescribeParameters_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, describe_parameters_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -3543,9 +3082,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__GetLoggerLevels_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_logger_levels_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".names"
@@ -3555,19 +3092,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__GetLoggerLevels_Request(v1), pos
+            return get_logger_levels_request_view(v1), pos
         return {"names": v1}, pos
 
-    def encode_rcl_interfaces__srv__GetLoggerLevels_Request(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_logger_levels_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__GetLoggerLevels_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__GetLoggerLevels_Request)
+            if d.__class__ is not dict or not GET_LOGGER_LEVELS_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, GET_LOGGER_LEVELS_REQUEST_KEYS)
             f = ".names"
             pos = write_strings(d.get("names", ()), out, pos, _U32, None, False, None, False)
         except FieldError as error:
@@ -3576,42 +3108,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__GetLoggerLevels_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_logger_levels_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".levels"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__LoggerLevel, None, None, 8
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, logger_level_decode, None, None, 8)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__GetLoggerLevels_Response(v1), pos
+            return get_logger_levels_response_view(v1), pos
         return {"levels": v1}, pos
 
-    def encode_rcl_interfaces__srv__GetLoggerLevels_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_logger_levels_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__GetLoggerLevels_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__GetLoggerLevels_Response)
+            if d.__class__ is not dict or not GET_LOGGER_LEVELS_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, GET_LOGGER_LEVELS_RESPONSE_KEYS)
             f = ".levels"
             pos = write_messages(
-                d.get("levels", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__msg__LoggerLevel,
-                None,
-                False,
+                d.get("levels", ()), out, pos, _U32, logger_level_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -3619,16 +3136,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__GetLoggerLevels_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_logger_levels_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_rcl_interfaces__srv__GetLoggerLevels_Event_0
+            f = GET_LOGGER_LEVELS_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__GetLoggerLevels_Event_1
+            f = GET_LOGGER_LEVELS_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -3637,25 +3152,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__GetLoggerLevels_Event_2
+            f = GET_LOGGER_LEVELS_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__srv__GetLoggerLevels_Request, None, 1, 4
+                mv, pos, lim, _U32, get_logger_levels_request_decode, None, 1, 4
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__srv__GetLoggerLevels_Response, None, 1, 4
+                mv, pos, lim, _U32, get_logger_levels_response_decode, None, 1, 4
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__GetLoggerLevels_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return get_logger_levels_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -3671,34 +3186,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_rcl_interfaces__srv__GetLoggerLevels_Event(d: Any, out: list[Any], pos: int) -> int:
+    def get_logger_levels_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__GetLoggerLevels_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__GetLoggerLevels_Event)
+            if d.__class__ is not dict or not GET_LOGGER_LEVELS_EVENT_KEYS.issuperset(d):
+                d = _submap(d, GET_LOGGER_LEVELS_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_rcl_interfaces__srv__GetLoggerLevels_Event_0,
-                        (m1.get("event_type", 0),),
-                    )
+                    slow_pack(_S_B, GET_LOGGER_LEVELS_EVENT_RUN_0, (m1.get("event_type", 0),))
                 )
             pos += 1
             p = -pos & 3
@@ -3714,7 +3220,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_rcl_interfaces__srv__GetLoggerLevels_Event_1,
+                        GET_LOGGER_LEVELS_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -3733,32 +3239,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_rcl_interfaces__srv__GetLoggerLevels_Event_2,
-                        (m1.get("sequence_number", 0),),
-                    )
+                    slow_pack(_S_q, GET_LOGGER_LEVELS_EVENT_RUN_2, (m1.get("sequence_number", 0),))
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__srv__GetLoggerLevels_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, get_logger_levels_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__srv__GetLoggerLevels_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, get_logger_levels_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -3766,9 +3256,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__GetParameterTypes_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_parameter_types_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".names"
@@ -3778,19 +3266,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__GetParameterTypes_Request(v1), pos
+            return get_parameter_types_request_view(v1), pos
         return {"names": v1}, pos
 
-    def encode_rcl_interfaces__srv__GetParameterTypes_Request(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_parameter_types_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__GetParameterTypes_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__GetParameterTypes_Request)
+            if d.__class__ is not dict or not GET_PARAMETER_TYPES_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, GET_PARAMETER_TYPES_REQUEST_KEYS)
             f = ".names"
             pos = write_strings(d.get("names", ()), out, pos, _U32, None, False, None, False)
         except FieldError as error:
@@ -3799,13 +3282,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__GetParameterTypes_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_parameter_types_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__GetParameterTypes_Response_0
+            f = GET_PARAMETER_TYPES_RESPONSE_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".types"
@@ -3818,19 +3299,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__GetParameterTypes_Response(v4), pos
+            return get_parameter_types_response_view(v4), pos
         return {"types": v4.tobytes()}, pos
 
-    def encode_rcl_interfaces__srv__GetParameterTypes_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_parameter_types_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__GetParameterTypes_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__GetParameterTypes_Response)
+            if d.__class__ is not dict or not GET_PARAMETER_TYPES_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, GET_PARAMETER_TYPES_RESPONSE_KEYS)
             f = ".types"
             b1, c2 = encode_array(d.get("types", ()), _D_uint8, "uint8", None, False)
             p = -pos & 3
@@ -3841,9 +3317,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c2))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_rcl_interfaces__srv__GetParameterTypes_Response_0, (c2,))
-                )
+                out.append(slow_pack(_S_I, GET_PARAMETER_TYPES_RESPONSE_RUN_0, (c2,)))
             pos += 4
             out.append(b1)
             pos += c2 * 1
@@ -3853,16 +3327,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__GetParameterTypes_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_parameter_types_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_rcl_interfaces__srv__GetParameterTypes_Event_0
+            f = GET_PARAMETER_TYPES_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__GetParameterTypes_Event_1
+            f = GET_PARAMETER_TYPES_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -3871,39 +3343,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__GetParameterTypes_Event_2
+            f = GET_PARAMETER_TYPES_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_rcl_interfaces__srv__GetParameterTypes_Request,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, get_parameter_types_request_decode, None, 1, 4
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_rcl_interfaces__srv__GetParameterTypes_Response,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, get_parameter_types_response_decode, None, 1, 4
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__GetParameterTypes_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return get_parameter_types_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -3919,36 +3377,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_rcl_interfaces__srv__GetParameterTypes_Event(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_parameter_types_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__GetParameterTypes_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__GetParameterTypes_Event)
+            if d.__class__ is not dict or not GET_PARAMETER_TYPES_EVENT_KEYS.issuperset(d):
+                d = _submap(d, GET_PARAMETER_TYPES_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_rcl_interfaces__srv__GetParameterTypes_Event_0,
-                        (m1.get("event_type", 0),),
-                    )
+                    slow_pack(_S_B, GET_PARAMETER_TYPES_EVENT_RUN_0, (m1.get("event_type", 0),))
                 )
             pos += 1
             p = -pos & 3
@@ -3964,7 +3411,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_rcl_interfaces__srv__GetParameterTypes_Event_1,
+                        GET_PARAMETER_TYPES_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -3984,31 +3431,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_q,
-                        _R_rcl_interfaces__srv__GetParameterTypes_Event_2,
-                        (m1.get("sequence_number", 0),),
+                        _S_q, GET_PARAMETER_TYPES_EVENT_RUN_2, (m1.get("sequence_number", 0),)
                     )
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__srv__GetParameterTypes_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, get_parameter_types_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__srv__GetParameterTypes_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, get_parameter_types_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -4016,9 +3449,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__GetParameters_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_parameters_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".names"
@@ -4028,17 +3459,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__GetParameters_Request(v1), pos
+            return get_parameters_request_view(v1), pos
         return {"names": v1}, pos
 
-    def encode_rcl_interfaces__srv__GetParameters_Request(d: Any, out: list[Any], pos: int) -> int:
+    def get_parameters_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__GetParameters_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__GetParameters_Request)
+            if d.__class__ is not dict or not GET_PARAMETERS_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, GET_PARAMETERS_REQUEST_KEYS)
             f = ".names"
             pos = write_strings(d.get("names", ()), out, pos, _U32, None, False, None, False)
         except FieldError as error:
@@ -4047,40 +3475,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__GetParameters_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_parameters_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".values"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__ParameterValue, None, None, 42
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, parameter_value_decode, None, None, 42)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__GetParameters_Response(v1), pos
+            return get_parameters_response_view(v1), pos
         return {"values": v1}, pos
 
-    def encode_rcl_interfaces__srv__GetParameters_Response(d: Any, out: list[Any], pos: int) -> int:
+    def get_parameters_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__GetParameters_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__GetParameters_Response)
+            if d.__class__ is not dict or not GET_PARAMETERS_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, GET_PARAMETERS_RESPONSE_KEYS)
             f = ".values"
             pos = write_messages(
-                d.get("values", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__msg__ParameterValue,
-                None,
-                False,
+                d.get("values", ()), out, pos, _U32, parameter_value_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -4088,16 +3503,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__GetParameters_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_parameters_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_rcl_interfaces__srv__GetParameters_Event_0
+            f = GET_PARAMETERS_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__GetParameters_Event_1
+            f = GET_PARAMETERS_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -4106,25 +3519,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__GetParameters_Event_2
+            f = GET_PARAMETERS_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__srv__GetParameters_Request, None, 1, 4
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, get_parameters_request_decode, None, 1, 4)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__srv__GetParameters_Response, None, 1, 4
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, get_parameters_response_decode, None, 1, 4)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__GetParameters_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return get_parameters_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -4140,35 +3549,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_rcl_interfaces__srv__GetParameters_Event(d: Any, out: list[Any], pos: int) -> int:
+    def get_parameters_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__GetParameters_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__GetParameters_Event)
+            if d.__class__ is not dict or not GET_PARAMETERS_EVENT_KEYS.issuperset(d):
+                d = _submap(d, GET_PARAMETERS_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_rcl_interfaces__srv__GetParameters_Event_0,
-                        (m1.get("event_type", 0),),
-                    )
-                )
+                out.append(slow_pack(_S_B, GET_PARAMETERS_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -4183,7 +3581,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_rcl_interfaces__srv__GetParameters_Event_1,
+                        GET_PARAMETERS_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -4202,32 +3600,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_rcl_interfaces__srv__GetParameters_Event_2,
-                        (m1.get("sequence_number", 0),),
-                    )
+                    slow_pack(_S_q, GET_PARAMETERS_EVENT_RUN_2, (m1.get("sequence_number", 0),))
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__srv__GetParameters_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, get_parameters_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__srv__GetParameters_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, get_parameters_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -4235,15 +3617,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__ListParameters_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def list_parameters_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".prefixes"
             v1, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
             pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__ListParameters_Request_0
+            f = LIST_PARAMETERS_REQUEST_RUN_0
             (v2,) = _S_Q.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -4251,17 +3631,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__ListParameters_Request(v1, v2), pos
+            return list_parameters_request_view(v1, v2), pos
         return {"prefixes": v1, "depth": v2}, pos
 
-    def encode_rcl_interfaces__srv__ListParameters_Request(d: Any, out: list[Any], pos: int) -> int:
+    def list_parameters_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__ListParameters_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__ListParameters_Request)
+            if d.__class__ is not dict or not LIST_PARAMETERS_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, LIST_PARAMETERS_REQUEST_KEYS)
             f = ".prefixes"
             pos = write_strings(d.get("prefixes", ()), out, pos, _U32, None, False, None, False)
             p = -pos & 7
@@ -4272,11 +3649,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_Q.pack(d.get("depth", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_Q, _R_rcl_interfaces__srv__ListParameters_Request_0, (d.get("depth", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_Q, LIST_PARAMETERS_REQUEST_RUN_0, (d.get("depth", 0),)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -4284,49 +3657,40 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__ListParameters_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def list_parameters_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".result"
-            v1, pos = decode_rcl_interfaces__msg__ListParametersResult(mv, pos, lim)
+            v1, pos = list_parameters_result_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__ListParameters_Response(v1), pos
+            return list_parameters_response_view(v1), pos
         return {"result": v1}, pos
 
-    def encode_rcl_interfaces__srv__ListParameters_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def list_parameters_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__ListParameters_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__ListParameters_Response)
+            if d.__class__ is not dict or not LIST_PARAMETERS_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, LIST_PARAMETERS_RESPONSE_KEYS)
             f = ".result"
-            pos = encode_rcl_interfaces__msg__ListParametersResult(d.get("result", EMPTY), out, pos)
+            pos = list_parameters_result_encode(d.get("result", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__ListParameters_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def list_parameters_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_rcl_interfaces__srv__ListParameters_Event_0
+            f = LIST_PARAMETERS_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__ListParameters_Event_1
+            f = LIST_PARAMETERS_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -4335,25 +3699,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__ListParameters_Event_2
+            f = LIST_PARAMETERS_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__srv__ListParameters_Request, None, 1, 12
+                mv, pos, lim, _U32, list_parameters_request_decode, None, 1, 12
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__srv__ListParameters_Response, None, 1, 8
+                mv, pos, lim, _U32, list_parameters_response_decode, None, 1, 8
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__ListParameters_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return list_parameters_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -4369,35 +3733,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_rcl_interfaces__srv__ListParameters_Event(d: Any, out: list[Any], pos: int) -> int:
+    def list_parameters_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__ListParameters_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__ListParameters_Event)
+            if d.__class__ is not dict or not LIST_PARAMETERS_EVENT_KEYS.issuperset(d):
+                d = _submap(d, LIST_PARAMETERS_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_rcl_interfaces__srv__ListParameters_Event_0,
-                        (m1.get("event_type", 0),),
-                    )
-                )
+                out.append(slow_pack(_S_B, LIST_PARAMETERS_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -4412,7 +3765,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_rcl_interfaces__srv__ListParameters_Event_1,
+                        LIST_PARAMETERS_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -4431,32 +3784,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_rcl_interfaces__srv__ListParameters_Event_2,
-                        (m1.get("sequence_number", 0),),
-                    )
+                    slow_pack(_S_q, LIST_PARAMETERS_EVENT_RUN_2, (m1.get("sequence_number", 0),))
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__srv__ListParameters_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, list_parameters_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__srv__ListParameters_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, list_parameters_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -4464,42 +3801,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__SetLoggerLevels_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def set_logger_levels_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".levels"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__LoggerLevel, None, None, 8
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, logger_level_decode, None, None, 8)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__SetLoggerLevels_Request(v1), pos
+            return set_logger_levels_request_view(v1), pos
         return {"levels": v1}, pos
 
-    def encode_rcl_interfaces__srv__SetLoggerLevels_Request(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def set_logger_levels_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__SetLoggerLevels_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__SetLoggerLevels_Request)
+            if d.__class__ is not dict or not SET_LOGGER_LEVELS_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, SET_LOGGER_LEVELS_REQUEST_KEYS)
             f = ".levels"
             pos = write_messages(
-                d.get("levels", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__msg__LoggerLevel,
-                None,
-                False,
+                d.get("levels", ()), out, pos, _U32, logger_level_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -4507,42 +3829,29 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__SetLoggerLevels_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def set_logger_levels_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".results"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__SetLoggerLevelsResult, None, None, 5
+                mv, pos, lim, _U32, set_logger_levels_result_decode, None, None, 5
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__SetLoggerLevels_Response(v1), pos
+            return set_logger_levels_response_view(v1), pos
         return {"results": v1}, pos
 
-    def encode_rcl_interfaces__srv__SetLoggerLevels_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def set_logger_levels_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__SetLoggerLevels_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__SetLoggerLevels_Response)
+            if d.__class__ is not dict or not SET_LOGGER_LEVELS_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, SET_LOGGER_LEVELS_RESPONSE_KEYS)
             f = ".results"
             pos = write_messages(
-                d.get("results", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__msg__SetLoggerLevelsResult,
-                None,
-                False,
+                d.get("results", ()), out, pos, _U32, set_logger_levels_result_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -4550,16 +3859,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__SetLoggerLevels_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def set_logger_levels_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_rcl_interfaces__srv__SetLoggerLevels_Event_0
+            f = SET_LOGGER_LEVELS_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__SetLoggerLevels_Event_1
+            f = SET_LOGGER_LEVELS_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -4568,25 +3875,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__SetLoggerLevels_Event_2
+            f = SET_LOGGER_LEVELS_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__srv__SetLoggerLevels_Request, None, 1, 4
+                mv, pos, lim, _U32, set_logger_levels_request_decode, None, 1, 4
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__srv__SetLoggerLevels_Response, None, 1, 4
+                mv, pos, lim, _U32, set_logger_levels_response_decode, None, 1, 4
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__SetLoggerLevels_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return set_logger_levels_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -4602,34 +3909,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_rcl_interfaces__srv__SetLoggerLevels_Event(d: Any, out: list[Any], pos: int) -> int:
+    def set_logger_levels_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__SetLoggerLevels_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__SetLoggerLevels_Event)
+            if d.__class__ is not dict or not SET_LOGGER_LEVELS_EVENT_KEYS.issuperset(d):
+                d = _submap(d, SET_LOGGER_LEVELS_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_rcl_interfaces__srv__SetLoggerLevels_Event_0,
-                        (m1.get("event_type", 0),),
-                    )
+                    slow_pack(_S_B, SET_LOGGER_LEVELS_EVENT_RUN_0, (m1.get("event_type", 0),))
                 )
             pos += 1
             p = -pos & 3
@@ -4645,7 +3943,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_rcl_interfaces__srv__SetLoggerLevels_Event_1,
+                        SET_LOGGER_LEVELS_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -4664,32 +3962,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_rcl_interfaces__srv__SetLoggerLevels_Event_2,
-                        (m1.get("sequence_number", 0),),
-                    )
+                    slow_pack(_S_q, SET_LOGGER_LEVELS_EVENT_RUN_2, (m1.get("sequence_number", 0),))
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__srv__SetLoggerLevels_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, set_logger_levels_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__srv__SetLoggerLevels_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, set_logger_levels_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -4697,40 +3979,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__SetParameters_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def set_parameters_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".parameters"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__Parameter, None, None, 46
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, parameter_decode, None, None, 46)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__SetParameters_Request(v1), pos
+            return set_parameters_request_view(v1), pos
         return {"parameters": v1}, pos
 
-    def encode_rcl_interfaces__srv__SetParameters_Request(d: Any, out: list[Any], pos: int) -> int:
+    def set_parameters_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__SetParameters_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__SetParameters_Request)
+            if d.__class__ is not dict or not SET_PARAMETERS_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, SET_PARAMETERS_REQUEST_KEYS)
             f = ".parameters"
             pos = write_messages(
-                d.get("parameters", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__msg__Parameter,
-                None,
-                False,
+                d.get("parameters", ()), out, pos, _U32, parameter_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -4738,40 +4007,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__SetParameters_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def set_parameters_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".results"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__SetParametersResult, None, None, 5
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, set_parameters_result_decode, None, None, 5)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__SetParameters_Response(v1), pos
+            return set_parameters_response_view(v1), pos
         return {"results": v1}, pos
 
-    def encode_rcl_interfaces__srv__SetParameters_Response(d: Any, out: list[Any], pos: int) -> int:
+    def set_parameters_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__SetParameters_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__SetParameters_Response)
+            if d.__class__ is not dict or not SET_PARAMETERS_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, SET_PARAMETERS_RESPONSE_KEYS)
             f = ".results"
             pos = write_messages(
-                d.get("results", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__msg__SetParametersResult,
-                None,
-                False,
+                d.get("results", ()), out, pos, _U32, set_parameters_result_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -4779,16 +4035,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__SetParameters_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def set_parameters_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_rcl_interfaces__srv__SetParameters_Event_0
+            f = SET_PARAMETERS_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__SetParameters_Event_1
+            f = SET_PARAMETERS_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -4797,25 +4051,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__SetParameters_Event_2
+            f = SET_PARAMETERS_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__srv__SetParameters_Request, None, 1, 4
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, set_parameters_request_decode, None, 1, 4)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__srv__SetParameters_Response, None, 1, 4
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, set_parameters_response_decode, None, 1, 4)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__SetParameters_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return set_parameters_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -4831,35 +4081,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_rcl_interfaces__srv__SetParameters_Event(d: Any, out: list[Any], pos: int) -> int:
+    def set_parameters_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__SetParameters_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__SetParameters_Event)
+            if d.__class__ is not dict or not SET_PARAMETERS_EVENT_KEYS.issuperset(d):
+                d = _submap(d, SET_PARAMETERS_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_rcl_interfaces__srv__SetParameters_Event_0,
-                        (m1.get("event_type", 0),),
-                    )
-                )
+                out.append(slow_pack(_S_B, SET_PARAMETERS_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -4874,7 +4113,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_rcl_interfaces__srv__SetParameters_Event_1,
+                        SET_PARAMETERS_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -4893,32 +4132,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_rcl_interfaces__srv__SetParameters_Event_2,
-                        (m1.get("sequence_number", 0),),
-                    )
+                    slow_pack(_S_q, SET_PARAMETERS_EVENT_RUN_2, (m1.get("sequence_number", 0),))
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__srv__SetParameters_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, set_parameters_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__srv__SetParameters_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, set_parameters_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -4926,42 +4149,29 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__SetParametersAtomically_Request(
+    def set_parameters_atomically_request_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".parameters"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_rcl_interfaces__msg__Parameter, None, None, 46
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, parameter_decode, None, None, 46)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__SetParametersAtomically_Request(v1), pos
+            return set_parameters_atomically_request_view(v1), pos
         return {"parameters": v1}, pos
 
-    def encode_rcl_interfaces__srv__SetParametersAtomically_Request(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def set_parameters_atomically_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__SetParametersAtomically_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__SetParametersAtomically_Request)
+            if d.__class__ is not dict or not SET_PARAMETERS_ATOMICALLY_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, SET_PARAMETERS_ATOMICALLY_REQUEST_KEYS)
             f = ".parameters"
             pos = write_messages(
-                d.get("parameters", ()),
-                out,
-                pos,
-                _U32,
-                encode_rcl_interfaces__msg__Parameter,
-                None,
-                False,
+                d.get("parameters", ()), out, pos, _U32, parameter_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -4969,49 +4179,44 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__SetParametersAtomically_Response(
+    def set_parameters_atomically_response_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".result"
-            v1, pos = decode_rcl_interfaces__msg__SetParametersResult(mv, pos, lim)
+            v1, pos = set_parameters_result_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__SetParametersAtomically_Response(v1), pos
+            return set_parameters_atomically_response_view(v1), pos
         return {"result": v1}, pos
 
-    def encode_rcl_interfaces__srv__SetParametersAtomically_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def set_parameters_atomically_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__SetParametersAtomically_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__SetParametersAtomically_Response)
+            if d.__class__ is not dict or not SET_PARAMETERS_ATOMICALLY_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, SET_PARAMETERS_ATOMICALLY_RESPONSE_KEYS)
             f = ".result"
-            pos = encode_rcl_interfaces__msg__SetParametersResult(d.get("result", EMPTY), out, pos)
+            pos = set_parameters_result_encode(d.get("result", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_rcl_interfaces__srv__SetParametersAtomically_Event(
+    def set_parameters_atomically_event_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_rcl_interfaces__srv__SetParametersAtomically_Event_0
+            f = SET_PARAMETERS_ATOMICALLY_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_rcl_interfaces__srv__SetParametersAtomically_Event_1
+            f = SET_PARAMETERS_ATOMICALLY_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -5020,39 +4225,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_rcl_interfaces__srv__SetParametersAtomically_Event_2
+            f = SET_PARAMETERS_ATOMICALLY_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_rcl_interfaces__srv__SetParametersAtomically_Request,
-                None,
-                1,
-                4,
+                mv, pos, lim, _U32, set_parameters_atomically_request_decode, None, 1, 4
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_rcl_interfaces__srv__SetParametersAtomically_Response,
-                None,
-                1,
-                5,
+                mv, pos, lim, _U32, set_parameters_atomically_response_decode, None, 1, 5
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_rcl_interfaces__srv__SetParametersAtomically_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return set_parameters_atomically_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -5068,35 +4259,26 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_rcl_interfaces__srv__SetParametersAtomically_Event(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def set_parameters_atomically_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_rcl_interfaces__srv__SetParametersAtomically_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_rcl_interfaces__srv__SetParametersAtomically_Event)
+            if d.__class__ is not dict or not SET_PARAMETERS_ATOMICALLY_EVENT_KEYS.issuperset(d):
+                d = _submap(d, SET_PARAMETERS_ATOMICALLY_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_B,
-                        _R_rcl_interfaces__srv__SetParametersAtomically_Event_0,
-                        (m1.get("event_type", 0),),
+                        _S_B, SET_PARAMETERS_ATOMICALLY_EVENT_RUN_0, (m1.get("event_type", 0),)
                     )
                 )
             pos += 1
@@ -5113,7 +4295,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_rcl_interfaces__srv__SetParametersAtomically_Event_1,
+                        SET_PARAMETERS_ATOMICALLY_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -5133,9 +4315,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_q,
-                        _R_rcl_interfaces__srv__SetParametersAtomically_Event_2,
-                        (m1.get("sequence_number", 0),),
+                        _S_q, SET_PARAMETERS_ATOMICALLY_EVENT_RUN_2, (m1.get("sequence_number", 0),)
                     )
                 )
             pos += 8
@@ -5145,7 +4325,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_rcl_interfaces__srv__SetParametersAtomically_Request,
+                set_parameters_atomically_request_encode,
                 1,
                 False,
             )
@@ -5155,7 +4335,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_rcl_interfaces__srv__SetParametersAtomically_Response,
+                set_parameters_atomically_response_encode,
                 1,
                 False,
             )
@@ -5166,169 +4346,280 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
+        "floating_point_range_decode": floating_point_range_decode,
+        "floating_point_range_encode": floating_point_range_encode,
+        "integer_range_decode": integer_range_decode,
+        "integer_range_encode": integer_range_encode,
+        "list_parameters_result_decode": list_parameters_result_decode,
+        "list_parameters_result_encode": list_parameters_result_encode,
+        "log_decode": log_decode,
+        "log_encode": log_encode,
+        "logger_level_decode": logger_level_decode,
+        "logger_level_encode": logger_level_encode,
+        "parameter_value_decode": parameter_value_decode,
+        "parameter_value_encode": parameter_value_encode,
+        "parameter_decode": parameter_decode,
+        "parameter_encode": parameter_encode,
+        "parameter_descriptor_decode": parameter_descriptor_decode,
+        "parameter_descriptor_encode": parameter_descriptor_encode,
+        "parameter_event_decode": parameter_event_decode,
+        "parameter_event_encode": parameter_event_encode,
+        "parameter_event_descriptors_decode": parameter_event_descriptors_decode,
+        "parameter_event_descriptors_encode": parameter_event_descriptors_encode,
+        "parameter_type_decode": parameter_type_decode,
+        "parameter_type_encode": parameter_type_encode,
+        "set_logger_levels_result_decode": set_logger_levels_result_decode,
+        "set_logger_levels_result_encode": set_logger_levels_result_encode,
+        "set_parameters_result_decode": set_parameters_result_decode,
+        "set_parameters_result_encode": set_parameters_result_encode,
+        "describe_parameters_request_decode": describe_parameters_request_decode,
+        "describe_parameters_request_encode": describe_parameters_request_encode,
+        "describe_parameters_response_decode": describe_parameters_response_decode,
+        "describe_parameters_response_encode": describe_parameters_response_encode,
+        "describe_parameters_event_decode": describe_parameters_event_decode,
+        "describe_parameters_event_encode": describe_parameters_event_encode,
+        "get_logger_levels_request_decode": get_logger_levels_request_decode,
+        "get_logger_levels_request_encode": get_logger_levels_request_encode,
+        "get_logger_levels_response_decode": get_logger_levels_response_decode,
+        "get_logger_levels_response_encode": get_logger_levels_response_encode,
+        "get_logger_levels_event_decode": get_logger_levels_event_decode,
+        "get_logger_levels_event_encode": get_logger_levels_event_encode,
+        "get_parameter_types_request_decode": get_parameter_types_request_decode,
+        "get_parameter_types_request_encode": get_parameter_types_request_encode,
+        "get_parameter_types_response_decode": get_parameter_types_response_decode,
+        "get_parameter_types_response_encode": get_parameter_types_response_encode,
+        "get_parameter_types_event_decode": get_parameter_types_event_decode,
+        "get_parameter_types_event_encode": get_parameter_types_event_encode,
+        "get_parameters_request_decode": get_parameters_request_decode,
+        "get_parameters_request_encode": get_parameters_request_encode,
+        "get_parameters_response_decode": get_parameters_response_decode,
+        "get_parameters_response_encode": get_parameters_response_encode,
+        "get_parameters_event_decode": get_parameters_event_decode,
+        "get_parameters_event_encode": get_parameters_event_encode,
+        "list_parameters_request_decode": list_parameters_request_decode,
+        "list_parameters_request_encode": list_parameters_request_encode,
+        "list_parameters_response_decode": list_parameters_response_decode,
+        "list_parameters_response_encode": list_parameters_response_encode,
+        "list_parameters_event_decode": list_parameters_event_decode,
+        "list_parameters_event_encode": list_parameters_event_encode,
+        "set_logger_levels_request_decode": set_logger_levels_request_decode,
+        "set_logger_levels_request_encode": set_logger_levels_request_encode,
+        "set_logger_levels_response_decode": set_logger_levels_response_decode,
+        "set_logger_levels_response_encode": set_logger_levels_response_encode,
+        "set_logger_levels_event_decode": set_logger_levels_event_decode,
+        "set_logger_levels_event_encode": set_logger_levels_event_encode,
+        "set_parameters_request_decode": set_parameters_request_decode,
+        "set_parameters_request_encode": set_parameters_request_encode,
+        "set_parameters_response_decode": set_parameters_response_decode,
+        "set_parameters_response_encode": set_parameters_response_encode,
+        "set_parameters_event_decode": set_parameters_event_decode,
+        "set_parameters_event_encode": set_parameters_event_encode,
+        "set_parameters_atomically_request_decode": set_parameters_atomically_request_decode,
+        "set_parameters_atomically_request_encode": set_parameters_atomically_request_encode,
+        "set_parameters_atomically_response_decode": set_parameters_atomically_response_decode,
+        "set_parameters_atomically_response_encode": set_parameters_atomically_response_encode,
+        "set_parameters_atomically_event_decode": set_parameters_atomically_event_decode,
+        "set_parameters_atomically_event_encode": set_parameters_atomically_event_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "rcl_interfaces/msg/FloatingPointRange": (
-            decode_rcl_interfaces__msg__FloatingPointRange,
-            encode_rcl_interfaces__msg__FloatingPointRange,
+            as_dict["floating_point_range_decode"],
+            as_view["floating_point_range_decode"],
+            as_dict["floating_point_range_encode"],
         ),
         "rcl_interfaces/msg/IntegerRange": (
-            decode_rcl_interfaces__msg__IntegerRange,
-            encode_rcl_interfaces__msg__IntegerRange,
+            as_dict["integer_range_decode"],
+            as_view["integer_range_decode"],
+            as_dict["integer_range_encode"],
         ),
         "rcl_interfaces/msg/ListParametersResult": (
-            decode_rcl_interfaces__msg__ListParametersResult,
-            encode_rcl_interfaces__msg__ListParametersResult,
-        ),
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
+            as_dict["list_parameters_result_decode"],
+            as_view["list_parameters_result_decode"],
+            as_dict["list_parameters_result_encode"],
         ),
         "rcl_interfaces/msg/Log": (
-            decode_rcl_interfaces__msg__Log,
-            encode_rcl_interfaces__msg__Log,
+            as_dict["log_decode"],
+            as_view["log_decode"],
+            as_dict["log_encode"],
         ),
         "rcl_interfaces/msg/LoggerLevel": (
-            decode_rcl_interfaces__msg__LoggerLevel,
-            encode_rcl_interfaces__msg__LoggerLevel,
+            as_dict["logger_level_decode"],
+            as_view["logger_level_decode"],
+            as_dict["logger_level_encode"],
         ),
         "rcl_interfaces/msg/ParameterValue": (
-            decode_rcl_interfaces__msg__ParameterValue,
-            encode_rcl_interfaces__msg__ParameterValue,
+            as_dict["parameter_value_decode"],
+            as_view["parameter_value_decode"],
+            as_dict["parameter_value_encode"],
         ),
         "rcl_interfaces/msg/Parameter": (
-            decode_rcl_interfaces__msg__Parameter,
-            encode_rcl_interfaces__msg__Parameter,
+            as_dict["parameter_decode"],
+            as_view["parameter_decode"],
+            as_dict["parameter_encode"],
         ),
         "rcl_interfaces/msg/ParameterDescriptor": (
-            decode_rcl_interfaces__msg__ParameterDescriptor,
-            encode_rcl_interfaces__msg__ParameterDescriptor,
+            as_dict["parameter_descriptor_decode"],
+            as_view["parameter_descriptor_decode"],
+            as_dict["parameter_descriptor_encode"],
         ),
         "rcl_interfaces/msg/ParameterEvent": (
-            decode_rcl_interfaces__msg__ParameterEvent,
-            encode_rcl_interfaces__msg__ParameterEvent,
+            as_dict["parameter_event_decode"],
+            as_view["parameter_event_decode"],
+            as_dict["parameter_event_encode"],
         ),
         "rcl_interfaces/msg/ParameterEventDescriptors": (
-            decode_rcl_interfaces__msg__ParameterEventDescriptors,
-            encode_rcl_interfaces__msg__ParameterEventDescriptors,
+            as_dict["parameter_event_descriptors_decode"],
+            as_view["parameter_event_descriptors_decode"],
+            as_dict["parameter_event_descriptors_encode"],
         ),
         "rcl_interfaces/msg/ParameterType": (
-            decode_rcl_interfaces__msg__ParameterType,
-            encode_rcl_interfaces__msg__ParameterType,
+            as_dict["parameter_type_decode"],
+            as_view["parameter_type_decode"],
+            as_dict["parameter_type_encode"],
         ),
         "rcl_interfaces/msg/SetLoggerLevelsResult": (
-            decode_rcl_interfaces__msg__SetLoggerLevelsResult,
-            encode_rcl_interfaces__msg__SetLoggerLevelsResult,
+            as_dict["set_logger_levels_result_decode"],
+            as_view["set_logger_levels_result_decode"],
+            as_dict["set_logger_levels_result_encode"],
         ),
         "rcl_interfaces/msg/SetParametersResult": (
-            decode_rcl_interfaces__msg__SetParametersResult,
-            encode_rcl_interfaces__msg__SetParametersResult,
+            as_dict["set_parameters_result_decode"],
+            as_view["set_parameters_result_decode"],
+            as_dict["set_parameters_result_encode"],
         ),
         "rcl_interfaces/srv/DescribeParameters_Request": (
-            decode_rcl_interfaces__srv__DescribeParameters_Request,
-            encode_rcl_interfaces__srv__DescribeParameters_Request,
+            as_dict["describe_parameters_request_decode"],
+            as_view["describe_parameters_request_decode"],
+            as_dict["describe_parameters_request_encode"],
         ),
         "rcl_interfaces/srv/DescribeParameters_Response": (
-            decode_rcl_interfaces__srv__DescribeParameters_Response,
-            encode_rcl_interfaces__srv__DescribeParameters_Response,
-        ),
-        "service_msgs/msg/ServiceEventInfo": (
-            decode_service_msgs__msg__ServiceEventInfo,
-            encode_service_msgs__msg__ServiceEventInfo,
+            as_dict["describe_parameters_response_decode"],
+            as_view["describe_parameters_response_decode"],
+            as_dict["describe_parameters_response_encode"],
         ),
         "rcl_interfaces/srv/DescribeParameters_Event": (
-            decode_rcl_interfaces__srv__DescribeParameters_Event,
-            encode_rcl_interfaces__srv__DescribeParameters_Event,
+            as_dict["describe_parameters_event_decode"],
+            as_view["describe_parameters_event_decode"],
+            as_dict["describe_parameters_event_encode"],
         ),
         "rcl_interfaces/srv/GetLoggerLevels_Request": (
-            decode_rcl_interfaces__srv__GetLoggerLevels_Request,
-            encode_rcl_interfaces__srv__GetLoggerLevels_Request,
+            as_dict["get_logger_levels_request_decode"],
+            as_view["get_logger_levels_request_decode"],
+            as_dict["get_logger_levels_request_encode"],
         ),
         "rcl_interfaces/srv/GetLoggerLevels_Response": (
-            decode_rcl_interfaces__srv__GetLoggerLevels_Response,
-            encode_rcl_interfaces__srv__GetLoggerLevels_Response,
+            as_dict["get_logger_levels_response_decode"],
+            as_view["get_logger_levels_response_decode"],
+            as_dict["get_logger_levels_response_encode"],
         ),
         "rcl_interfaces/srv/GetLoggerLevels_Event": (
-            decode_rcl_interfaces__srv__GetLoggerLevels_Event,
-            encode_rcl_interfaces__srv__GetLoggerLevels_Event,
+            as_dict["get_logger_levels_event_decode"],
+            as_view["get_logger_levels_event_decode"],
+            as_dict["get_logger_levels_event_encode"],
         ),
         "rcl_interfaces/srv/GetParameterTypes_Request": (
-            decode_rcl_interfaces__srv__GetParameterTypes_Request,
-            encode_rcl_interfaces__srv__GetParameterTypes_Request,
+            as_dict["get_parameter_types_request_decode"],
+            as_view["get_parameter_types_request_decode"],
+            as_dict["get_parameter_types_request_encode"],
         ),
         "rcl_interfaces/srv/GetParameterTypes_Response": (
-            decode_rcl_interfaces__srv__GetParameterTypes_Response,
-            encode_rcl_interfaces__srv__GetParameterTypes_Response,
+            as_dict["get_parameter_types_response_decode"],
+            as_view["get_parameter_types_response_decode"],
+            as_dict["get_parameter_types_response_encode"],
         ),
         "rcl_interfaces/srv/GetParameterTypes_Event": (
-            decode_rcl_interfaces__srv__GetParameterTypes_Event,
-            encode_rcl_interfaces__srv__GetParameterTypes_Event,
+            as_dict["get_parameter_types_event_decode"],
+            as_view["get_parameter_types_event_decode"],
+            as_dict["get_parameter_types_event_encode"],
         ),
         "rcl_interfaces/srv/GetParameters_Request": (
-            decode_rcl_interfaces__srv__GetParameters_Request,
-            encode_rcl_interfaces__srv__GetParameters_Request,
+            as_dict["get_parameters_request_decode"],
+            as_view["get_parameters_request_decode"],
+            as_dict["get_parameters_request_encode"],
         ),
         "rcl_interfaces/srv/GetParameters_Response": (
-            decode_rcl_interfaces__srv__GetParameters_Response,
-            encode_rcl_interfaces__srv__GetParameters_Response,
+            as_dict["get_parameters_response_decode"],
+            as_view["get_parameters_response_decode"],
+            as_dict["get_parameters_response_encode"],
         ),
         "rcl_interfaces/srv/GetParameters_Event": (
-            decode_rcl_interfaces__srv__GetParameters_Event,
-            encode_rcl_interfaces__srv__GetParameters_Event,
+            as_dict["get_parameters_event_decode"],
+            as_view["get_parameters_event_decode"],
+            as_dict["get_parameters_event_encode"],
         ),
         "rcl_interfaces/srv/ListParameters_Request": (
-            decode_rcl_interfaces__srv__ListParameters_Request,
-            encode_rcl_interfaces__srv__ListParameters_Request,
+            as_dict["list_parameters_request_decode"],
+            as_view["list_parameters_request_decode"],
+            as_dict["list_parameters_request_encode"],
         ),
         "rcl_interfaces/srv/ListParameters_Response": (
-            decode_rcl_interfaces__srv__ListParameters_Response,
-            encode_rcl_interfaces__srv__ListParameters_Response,
+            as_dict["list_parameters_response_decode"],
+            as_view["list_parameters_response_decode"],
+            as_dict["list_parameters_response_encode"],
         ),
         "rcl_interfaces/srv/ListParameters_Event": (
-            decode_rcl_interfaces__srv__ListParameters_Event,
-            encode_rcl_interfaces__srv__ListParameters_Event,
+            as_dict["list_parameters_event_decode"],
+            as_view["list_parameters_event_decode"],
+            as_dict["list_parameters_event_encode"],
         ),
         "rcl_interfaces/srv/SetLoggerLevels_Request": (
-            decode_rcl_interfaces__srv__SetLoggerLevels_Request,
-            encode_rcl_interfaces__srv__SetLoggerLevels_Request,
+            as_dict["set_logger_levels_request_decode"],
+            as_view["set_logger_levels_request_decode"],
+            as_dict["set_logger_levels_request_encode"],
         ),
         "rcl_interfaces/srv/SetLoggerLevels_Response": (
-            decode_rcl_interfaces__srv__SetLoggerLevels_Response,
-            encode_rcl_interfaces__srv__SetLoggerLevels_Response,
+            as_dict["set_logger_levels_response_decode"],
+            as_view["set_logger_levels_response_decode"],
+            as_dict["set_logger_levels_response_encode"],
         ),
         "rcl_interfaces/srv/SetLoggerLevels_Event": (
-            decode_rcl_interfaces__srv__SetLoggerLevels_Event,
-            encode_rcl_interfaces__srv__SetLoggerLevels_Event,
+            as_dict["set_logger_levels_event_decode"],
+            as_view["set_logger_levels_event_decode"],
+            as_dict["set_logger_levels_event_encode"],
         ),
         "rcl_interfaces/srv/SetParameters_Request": (
-            decode_rcl_interfaces__srv__SetParameters_Request,
-            encode_rcl_interfaces__srv__SetParameters_Request,
+            as_dict["set_parameters_request_decode"],
+            as_view["set_parameters_request_decode"],
+            as_dict["set_parameters_request_encode"],
         ),
         "rcl_interfaces/srv/SetParameters_Response": (
-            decode_rcl_interfaces__srv__SetParameters_Response,
-            encode_rcl_interfaces__srv__SetParameters_Response,
+            as_dict["set_parameters_response_decode"],
+            as_view["set_parameters_response_decode"],
+            as_dict["set_parameters_response_encode"],
         ),
         "rcl_interfaces/srv/SetParameters_Event": (
-            decode_rcl_interfaces__srv__SetParameters_Event,
-            encode_rcl_interfaces__srv__SetParameters_Event,
+            as_dict["set_parameters_event_decode"],
+            as_view["set_parameters_event_decode"],
+            as_dict["set_parameters_event_encode"],
         ),
         "rcl_interfaces/srv/SetParametersAtomically_Request": (
-            decode_rcl_interfaces__srv__SetParametersAtomically_Request,
-            encode_rcl_interfaces__srv__SetParametersAtomically_Request,
+            as_dict["set_parameters_atomically_request_decode"],
+            as_view["set_parameters_atomically_request_decode"],
+            as_dict["set_parameters_atomically_request_encode"],
         ),
         "rcl_interfaces/srv/SetParametersAtomically_Response": (
-            decode_rcl_interfaces__srv__SetParametersAtomically_Response,
-            encode_rcl_interfaces__srv__SetParametersAtomically_Response,
+            as_dict["set_parameters_atomically_response_decode"],
+            as_view["set_parameters_atomically_response_decode"],
+            as_dict["set_parameters_atomically_response_encode"],
         ),
         "rcl_interfaces/srv/SetParametersAtomically_Event": (
-            decode_rcl_interfaces__srv__SetParametersAtomically_Event,
-            encode_rcl_interfaces__srv__SetParametersAtomically_Event,
+            as_dict["set_parameters_atomically_event_decode"],
+            as_view["set_parameters_atomically_event_decode"],
+            as_dict["set_parameters_atomically_event_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

@@ -63,10 +63,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -102,27 +103,40 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.builtin_interfaces.wire_codecs import (
+    DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
+    TIME_KEYS as BUILTIN_INTERFACES__TIME_KEYS,
+    time_view as builtin_interfaces__time_view,
+)
+from pyconnect_generated.geometry_msgs.wire_codecs import (
+    DEFINITIONS as GEOMETRY_MSGS__DEFINITIONS,
+    FUNCTIONS as GEOMETRY_MSGS__FUNCTIONS,
+    QUATERNION_KEYS as GEOMETRY_MSGS__QUATERNION_KEYS,
+    quaternion_view as geometry_msgs__quaternion_view,
+    VECTOR3_KEYS as GEOMETRY_MSGS__VECTOR3_KEYS,
+    vector3_view as geometry_msgs__vector3_view,
+)
+from pyconnect_generated.service_msgs.wire_codecs import (
+    DEFINITIONS as SERVICE_MSGS__DEFINITIONS,
+    SERVICE_EVENT_INFO_KEYS as SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS,
+    service_event_info_view as service_msgs__service_event_info_view,
+)
+from pyconnect_generated.std_msgs.wire_codecs import (
+    DEFINITIONS as STD_MSGS__DEFINITIONS,
+    FUNCTIONS as STD_MSGS__FUNCTIONS,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
-    "std_msgs/msg/Header": (
-        "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01",
-        (
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("frame_id", "string", "string", None, "single", None, None),
-        ),
-    ),
+    **BUILTIN_INTERFACES__DEFINITIONS,
+    **GEOMETRY_MSGS__DEFINITIONS,
+    **SERVICE_MSGS__DEFINITIONS,
+    **STD_MSGS__DEFINITIONS,
     "sensor_msgs/msg/BatteryState": (
         "RIHS01_4bee5dfce981c98faa6828b868307a0a73f992ed0789f374ee96c8f840e69741",
         (
@@ -213,23 +227,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
             ("data", "primitive", "uint8", None, "sequence", None, None),
         ),
     ),
-    "geometry_msgs/msg/Quaternion": (
-        "RIHS01_8a765f66778c8ff7c8ab94afcc590a2ed5325a1d9a076ffff38fbce36f458684",
-        (
-            ("x", "primitive", "float64", None, "single", None, 0.0),
-            ("y", "primitive", "float64", None, "single", None, 0.0),
-            ("z", "primitive", "float64", None, "single", None, 0.0),
-            ("w", "primitive", "float64", None, "single", None, 1.0),
-        ),
-    ),
-    "geometry_msgs/msg/Vector3": (
-        "RIHS01_cc12fe83e4c02719f1ce8070bfd14aecd40f75a96696a67a2a1f37f7dbb0765d",
-        (
-            ("x", "primitive", "float64", None, "single", None, None),
-            ("y", "primitive", "float64", None, "single", None, None),
-            ("z", "primitive", "float64", None, "single", None, None),
-        ),
-    ),
     "sensor_msgs/msg/Imu": (
         "RIHS01_7d9a00ff131080897a5ec7e26e315954b8eae3353c3f995c55faf71574000b5b",
         (
@@ -315,27 +312,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
             ("magnetic_field_covariance", "primitive", "float64", None, "array", 9, None),
         ),
     ),
-    "geometry_msgs/msg/Transform": (
-        "RIHS01_beb83fbe698636351461f6f35d1abb20010c43d55374d81bd041f1ba2581fddc",
-        (
-            ("translation", "message", "geometry_msgs/msg/Vector3", None, "single", None, None),
-            ("rotation", "message", "geometry_msgs/msg/Quaternion", None, "single", None, None),
-        ),
-    ),
-    "geometry_msgs/msg/Twist": (
-        "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a",
-        (
-            ("linear", "message", "geometry_msgs/msg/Vector3", None, "single", None, None),
-            ("angular", "message", "geometry_msgs/msg/Vector3", None, "single", None, None),
-        ),
-    ),
-    "geometry_msgs/msg/Wrench": (
-        "RIHS01_018e8519d57c16adbe97c9fe1460ef21fec7e31bc541de3d653a35895677ce52",
-        (
-            ("force", "message", "geometry_msgs/msg/Vector3", None, "single", None, None),
-            ("torque", "message", "geometry_msgs/msg/Vector3", None, "single", None, None),
-        ),
-    ),
     "sensor_msgs/msg/MultiDOFJointState": (
         "RIHS01_4d4ded702cfba7ff3ec783835c1a1425f75e53939a430ff355d1fee4b3bbc40b",
         (
@@ -378,14 +354,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
             ("altitude", "primitive", "float64", None, "single", None, None),
             ("position_covariance", "primitive", "float64", None, "array", 9, None),
             ("position_covariance_type", "primitive", "uint8", None, "single", None, None),
-        ),
-    ),
-    "geometry_msgs/msg/Point32": (
-        "RIHS01_2fc4db7cae16a4582c79a56b66173a8d48d52c7dc520ddc55a0d4bcf2a4bfdbc",
-        (
-            ("x", "primitive", "float32", None, "single", None, None),
-            ("y", "primitive", "float32", None, "single", None, None),
-            ("z", "primitive", "float32", None, "single", None, None),
         ),
     ),
     "sensor_msgs/msg/PointCloud": (
@@ -466,15 +434,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
             ("status_message", "string", "string", None, "single", None, None),
         ),
     ),
-    "service_msgs/msg/ServiceEventInfo": (
-        "RIHS01_41bcbbe07a75c9b52bc96bfd5c24d7f0fc0a08c0cb7921b3373c5732345a6f45",
-        (
-            ("event_type", "primitive", "uint8", None, "single", None, None),
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("client_gid", "primitive", "uint8", None, "array", 16, None),
-            ("sequence_number", "primitive", "int64", None, "single", None, None),
-        ),
-    ),
     "sensor_msgs/srv/SetCameraInfo_Event": (
         "RIHS01_e3b4e21ddd26871166e6ae7f342856dfcd3ac033c7eac99db6bfe515fba3d693",
         (
@@ -534,53 +493,7 @@ EXPORTED: frozenset[str] = frozenset(
         "sensor_msgs/srv/SetCameraInfo_Response",
     )
 )
-_K_builtin_interfaces__msg__Time = frozenset(
-    (
-        "sec",
-        "nanosec",
-    )
-)
-_K_geometry_msgs__msg__Point32 = frozenset(
-    (
-        "x",
-        "y",
-        "z",
-    )
-)
-_K_geometry_msgs__msg__Quaternion = frozenset(
-    (
-        "x",
-        "y",
-        "z",
-        "w",
-    )
-)
-_K_geometry_msgs__msg__Transform = frozenset(
-    (
-        "translation",
-        "rotation",
-    )
-)
-_K_geometry_msgs__msg__Twist = frozenset(
-    (
-        "linear",
-        "angular",
-    )
-)
-_K_geometry_msgs__msg__Vector3 = frozenset(
-    (
-        "x",
-        "y",
-        "z",
-    )
-)
-_K_geometry_msgs__msg__Wrench = frozenset(
-    (
-        "force",
-        "torque",
-    )
-)
-_K_sensor_msgs__msg__BatteryState = frozenset(
+BATTERY_STATE_KEYS = frozenset(
     (
         "header",
         "voltage",
@@ -600,7 +513,7 @@ _K_sensor_msgs__msg__BatteryState = frozenset(
         "serial_number",
     )
 )
-_K_sensor_msgs__msg__CameraInfo = frozenset(
+CAMERA_INFO_KEYS = frozenset(
     (
         "header",
         "height",
@@ -615,34 +528,34 @@ _K_sensor_msgs__msg__CameraInfo = frozenset(
         "roi",
     )
 )
-_K_sensor_msgs__msg__ChannelFloat32 = frozenset(
+CHANNEL_FLOAT32_KEYS = frozenset(
     (
         "name",
         "values",
     )
 )
-_K_sensor_msgs__msg__CompressedImage = frozenset(
+COMPRESSED_IMAGE_KEYS = frozenset(
     (
         "header",
         "format",
         "data",
     )
 )
-_K_sensor_msgs__msg__FluidPressure = frozenset(
+FLUID_PRESSURE_KEYS = frozenset(
     (
         "header",
         "fluid_pressure",
         "variance",
     )
 )
-_K_sensor_msgs__msg__Illuminance = frozenset(
+ILLUMINANCE_KEYS = frozenset(
     (
         "header",
         "illuminance",
         "variance",
     )
 )
-_K_sensor_msgs__msg__Image = frozenset(
+IMAGE_KEYS = frozenset(
     (
         "header",
         "height",
@@ -653,7 +566,7 @@ _K_sensor_msgs__msg__Image = frozenset(
         "data",
     )
 )
-_K_sensor_msgs__msg__Imu = frozenset(
+IMU_KEYS = frozenset(
     (
         "header",
         "orientation",
@@ -664,7 +577,7 @@ _K_sensor_msgs__msg__Imu = frozenset(
         "linear_acceleration_covariance",
     )
 )
-_K_sensor_msgs__msg__JointState = frozenset(
+JOINT_STATE_KEYS = frozenset(
     (
         "header",
         "name",
@@ -673,23 +586,23 @@ _K_sensor_msgs__msg__JointState = frozenset(
         "effort",
     )
 )
-_K_sensor_msgs__msg__Joy = frozenset(
-    (
-        "header",
-        "axes",
-        "buttons",
-    )
-)
-_K_sensor_msgs__msg__JoyFeedback = frozenset(
+JOY_FEEDBACK_ARRAY_KEYS = frozenset(("array",))
+JOY_FEEDBACK_KEYS = frozenset(
     (
         "type",
         "id",
         "intensity",
     )
 )
-_K_sensor_msgs__msg__JoyFeedbackArray = frozenset(("array",))
-_K_sensor_msgs__msg__LaserEcho = frozenset(("echoes",))
-_K_sensor_msgs__msg__LaserScan = frozenset(
+JOY_KEYS = frozenset(
+    (
+        "header",
+        "axes",
+        "buttons",
+    )
+)
+LASER_ECHO_KEYS = frozenset(("echoes",))
+LASER_SCAN_KEYS = frozenset(
     (
         "header",
         "angle_min",
@@ -703,14 +616,14 @@ _K_sensor_msgs__msg__LaserScan = frozenset(
         "intensities",
     )
 )
-_K_sensor_msgs__msg__MagneticField = frozenset(
+MAGNETIC_FIELD_KEYS = frozenset(
     (
         "header",
         "magnetic_field",
         "magnetic_field_covariance",
     )
 )
-_K_sensor_msgs__msg__MultiDOFJointState = frozenset(
+MULTI_DOF_JOINT_STATE_KEYS = frozenset(
     (
         "header",
         "joint_names",
@@ -719,7 +632,7 @@ _K_sensor_msgs__msg__MultiDOFJointState = frozenset(
         "wrench",
     )
 )
-_K_sensor_msgs__msg__MultiEchoLaserScan = frozenset(
+MULTI_ECHO_LASER_SCAN_KEYS = frozenset(
     (
         "header",
         "angle_min",
@@ -733,7 +646,7 @@ _K_sensor_msgs__msg__MultiEchoLaserScan = frozenset(
         "intensities",
     )
 )
-_K_sensor_msgs__msg__NavSatFix = frozenset(
+NAV_SAT_FIX_KEYS = frozenset(
     (
         "header",
         "status",
@@ -744,20 +657,13 @@ _K_sensor_msgs__msg__NavSatFix = frozenset(
         "position_covariance_type",
     )
 )
-_K_sensor_msgs__msg__NavSatStatus = frozenset(
+NAV_SAT_STATUS_KEYS = frozenset(
     (
         "status",
         "service",
     )
 )
-_K_sensor_msgs__msg__PointCloud = frozenset(
-    (
-        "header",
-        "points",
-        "channels",
-    )
-)
-_K_sensor_msgs__msg__PointCloud2 = frozenset(
+POINT_CLOUD2_KEYS = frozenset(
     (
         "header",
         "height",
@@ -770,7 +676,14 @@ _K_sensor_msgs__msg__PointCloud2 = frozenset(
         "is_dense",
     )
 )
-_K_sensor_msgs__msg__PointField = frozenset(
+POINT_CLOUD_KEYS = frozenset(
+    (
+        "header",
+        "points",
+        "channels",
+    )
+)
+POINT_FIELD_KEYS = frozenset(
     (
         "name",
         "offset",
@@ -778,7 +691,7 @@ _K_sensor_msgs__msg__PointField = frozenset(
         "count",
     )
 )
-_K_sensor_msgs__msg__Range = frozenset(
+RANGE_KEYS = frozenset(
     (
         "header",
         "radiation_type",
@@ -789,7 +702,7 @@ _K_sensor_msgs__msg__Range = frozenset(
         "variance",
     )
 )
-_K_sensor_msgs__msg__RegionOfInterest = frozenset(
+REGION_OF_INTEREST_KEYS = frozenset(
     (
         "x_offset",
         "y_offset",
@@ -798,98 +711,42 @@ _K_sensor_msgs__msg__RegionOfInterest = frozenset(
         "do_rectify",
     )
 )
-_K_sensor_msgs__msg__RelativeHumidity = frozenset(
+RELATIVE_HUMIDITY_KEYS = frozenset(
     (
         "header",
         "relative_humidity",
         "variance",
     )
 )
-_K_sensor_msgs__msg__Temperature = frozenset(
-    (
-        "header",
-        "temperature",
-        "variance",
-    )
-)
-_K_sensor_msgs__msg__TimeReference = frozenset(
-    (
-        "header",
-        "time_ref",
-        "source",
-    )
-)
-_K_sensor_msgs__srv__SetCameraInfo_Event = frozenset(
+SET_CAMERA_INFO_EVENT_KEYS = frozenset(
     (
         "info",
         "request",
         "response",
     )
 )
-_K_sensor_msgs__srv__SetCameraInfo_Request = frozenset(("camera_info",))
-_K_sensor_msgs__srv__SetCameraInfo_Response = frozenset(
+SET_CAMERA_INFO_REQUEST_KEYS = frozenset(("camera_info",))
+SET_CAMERA_INFO_RESPONSE_KEYS = frozenset(
     (
         "success",
         "status_message",
     )
 )
-_K_service_msgs__msg__ServiceEventInfo = frozenset(
+TEMPERATURE_KEYS = frozenset(
     (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
+        "header",
+        "temperature",
+        "variance",
     )
 )
-_K_std_msgs__msg__Header = frozenset(
+TIME_REFERENCE_KEYS = frozenset(
     (
-        "stamp",
-        "frame_id",
+        "header",
+        "time_ref",
+        "source",
     )
 )
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_geometry_msgs__msg__Point32_0 = (
-    (".x", "float32", 4),
-    (".y", "float32", 8),
-    (".z", "float32", 12),
-)
-_R_geometry_msgs__msg__Quaternion_0 = (
-    (".x", "float64", 8),
-    (".y", "float64", 16),
-    (".z", "float64", 24),
-    (".w", "float64", 32),
-)
-_R_geometry_msgs__msg__Transform_0 = (
-    (".translation.x", "float64", 8),
-    (".translation.y", "float64", 16),
-    (".translation.z", "float64", 24),
-    (".rotation.x", "float64", 32),
-    (".rotation.y", "float64", 40),
-    (".rotation.z", "float64", 48),
-    (".rotation.w", "float64", 56),
-)
-_R_geometry_msgs__msg__Twist_0 = (
-    (".linear.x", "float64", 8),
-    (".linear.y", "float64", 16),
-    (".linear.z", "float64", 24),
-    (".angular.x", "float64", 32),
-    (".angular.y", "float64", 40),
-    (".angular.z", "float64", 48),
-)
-_R_geometry_msgs__msg__Vector3_0 = (
-    (".x", "float64", 8),
-    (".y", "float64", 16),
-    (".z", "float64", 24),
-)
-_R_geometry_msgs__msg__Wrench_0 = (
-    (".force.x", "float64", 8),
-    (".force.y", "float64", 16),
-    (".force.z", "float64", 24),
-    (".torque.x", "float64", 32),
-    (".torque.y", "float64", 40),
-    (".torque.z", "float64", 48),
-)
-_R_sensor_msgs__msg__BatteryState_0 = (
+BATTERY_STATE_RUN_0 = (
     (".voltage", "float32", 4),
     (".temperature", "float32", 8),
     (".current", "float32", 12),
@@ -903,16 +760,16 @@ _R_sensor_msgs__msg__BatteryState_0 = (
     (".present", "bool", 32),
     (".cell_voltage", "uint32", 36),
 )
-_R_sensor_msgs__msg__BatteryState_1 = ((".cell_temperature", "uint32", 4),)
-_R_sensor_msgs__msg__BatteryState_2 = ((".location", "uint32", 4),)
-_R_sensor_msgs__msg__BatteryState_3 = ((".serial_number", "uint32", 4),)
-_R_sensor_msgs__msg__CameraInfo_0 = (
+BATTERY_STATE_RUN_1 = ((".cell_temperature", "uint32", 4),)
+BATTERY_STATE_RUN_2 = ((".location", "uint32", 4),)
+BATTERY_STATE_RUN_3 = ((".serial_number", "uint32", 4),)
+CAMERA_INFO_RUN_0 = (
     (".height", "uint32", 4),
     (".width", "uint32", 8),
     (".distortion_model", "uint32", 12),
 )
-_R_sensor_msgs__msg__CameraInfo_1 = ((".d", "uint32", 4),)
-_R_sensor_msgs__msg__CameraInfo_2 = (
+CAMERA_INFO_RUN_1 = ((".d", "uint32", 4),)
+CAMERA_INFO_RUN_2 = (
     (".binning_x", "uint32", 4),
     (".binning_y", "uint32", 8),
     (".roi.x_offset", "uint32", 12),
@@ -921,47 +778,40 @@ _R_sensor_msgs__msg__CameraInfo_2 = (
     (".roi.width", "uint32", 24),
     (".roi.do_rectify", "bool", 25),
 )
-_R_sensor_msgs__msg__ChannelFloat32_0 = ((".name", "uint32", 4),)
-_R_sensor_msgs__msg__ChannelFloat32_1 = ((".values", "uint32", 4),)
-_R_sensor_msgs__msg__CompressedImage_0 = ((".format", "uint32", 4),)
-_R_sensor_msgs__msg__CompressedImage_1 = ((".data", "uint32", 4),)
-_R_sensor_msgs__msg__FluidPressure_0 = (
-    (".fluid_pressure", "float64", 8),
-    (".variance", "float64", 16),
-)
-_R_sensor_msgs__msg__Illuminance_0 = ((".illuminance", "float64", 8), (".variance", "float64", 16))
-_R_sensor_msgs__msg__Image_0 = (
-    (".height", "uint32", 4),
-    (".width", "uint32", 8),
-    (".encoding", "uint32", 12),
-)
-_R_sensor_msgs__msg__Image_1 = ((".is_bigendian", "uint8", 1),)
-_R_sensor_msgs__msg__Image_2 = ((".step", "uint32", 4), (".data", "uint32", 8))
-_R_sensor_msgs__msg__Imu_0 = (
+CHANNEL_FLOAT32_RUN_0 = ((".name", "uint32", 4),)
+CHANNEL_FLOAT32_RUN_1 = ((".values", "uint32", 4),)
+COMPRESSED_IMAGE_RUN_0 = ((".format", "uint32", 4),)
+COMPRESSED_IMAGE_RUN_1 = ((".data", "uint32", 4),)
+FLUID_PRESSURE_RUN_0 = ((".fluid_pressure", "float64", 8), (".variance", "float64", 16))
+ILLUMINANCE_RUN_0 = ((".illuminance", "float64", 8), (".variance", "float64", 16))
+IMAGE_RUN_0 = ((".height", "uint32", 4), (".width", "uint32", 8), (".encoding", "uint32", 12))
+IMAGE_RUN_1 = ((".is_bigendian", "uint8", 1),)
+IMAGE_RUN_2 = ((".step", "uint32", 4), (".data", "uint32", 8))
+IMU_RUN_0 = (
     (".orientation.x", "float64", 8),
     (".orientation.y", "float64", 16),
     (".orientation.z", "float64", 24),
     (".orientation.w", "float64", 32),
 )
-_R_sensor_msgs__msg__Imu_1 = (
+IMU_RUN_1 = (
     (".angular_velocity.x", "float64", 8),
     (".angular_velocity.y", "float64", 16),
     (".angular_velocity.z", "float64", 24),
 )
-_R_sensor_msgs__msg__Imu_2 = (
+IMU_RUN_2 = (
     (".linear_acceleration.x", "float64", 8),
     (".linear_acceleration.y", "float64", 16),
     (".linear_acceleration.z", "float64", 24),
 )
-_R_sensor_msgs__msg__JointState_0 = ((".position", "uint32", 4),)
-_R_sensor_msgs__msg__JointState_1 = ((".velocity", "uint32", 4),)
-_R_sensor_msgs__msg__JointState_2 = ((".effort", "uint32", 4),)
-_R_sensor_msgs__msg__JoyFeedback_0 = ((".type", "uint8", 1), (".id", "uint8", 2))
-_R_sensor_msgs__msg__JoyFeedback_1 = ((".intensity", "float32", 4),)
-_R_sensor_msgs__msg__Joy_0 = ((".axes", "uint32", 4),)
-_R_sensor_msgs__msg__Joy_1 = ((".buttons", "uint32", 4),)
-_R_sensor_msgs__msg__LaserEcho_0 = ((".echoes", "uint32", 4),)
-_R_sensor_msgs__msg__LaserScan_0 = (
+JOINT_STATE_RUN_0 = ((".position", "uint32", 4),)
+JOINT_STATE_RUN_1 = ((".velocity", "uint32", 4),)
+JOINT_STATE_RUN_2 = ((".effort", "uint32", 4),)
+JOY_FEEDBACK_RUN_0 = ((".type", "uint8", 1), (".id", "uint8", 2))
+JOY_FEEDBACK_RUN_1 = ((".intensity", "float32", 4),)
+JOY_RUN_0 = ((".axes", "uint32", 4),)
+JOY_RUN_1 = ((".buttons", "uint32", 4),)
+LASER_ECHO_RUN_0 = ((".echoes", "uint32", 4),)
+LASER_SCAN_RUN_0 = (
     (".angle_min", "float32", 4),
     (".angle_max", "float32", 8),
     (".angle_increment", "float32", 12),
@@ -971,13 +821,13 @@ _R_sensor_msgs__msg__LaserScan_0 = (
     (".range_max", "float32", 28),
     (".ranges", "uint32", 32),
 )
-_R_sensor_msgs__msg__LaserScan_1 = ((".intensities", "uint32", 4),)
-_R_sensor_msgs__msg__MagneticField_0 = (
+LASER_SCAN_RUN_1 = ((".intensities", "uint32", 4),)
+MAGNETIC_FIELD_RUN_0 = (
     (".magnetic_field.x", "float64", 8),
     (".magnetic_field.y", "float64", 16),
     (".magnetic_field.z", "float64", 24),
 )
-_R_sensor_msgs__msg__MultiEchoLaserScan_0 = (
+MULTI_ECHO_LASER_SCAN_RUN_0 = (
     (".angle_min", "float32", 4),
     (".angle_max", "float32", 8),
     (".angle_increment", "float32", 12),
@@ -986,73 +836,55 @@ _R_sensor_msgs__msg__MultiEchoLaserScan_0 = (
     (".range_min", "float32", 24),
     (".range_max", "float32", 28),
 )
-_R_sensor_msgs__msg__NavSatFix_0 = ((".status.status", "int8", 1),)
-_R_sensor_msgs__msg__NavSatFix_1 = ((".status.service", "uint16", 2),)
-_R_sensor_msgs__msg__NavSatFix_2 = (
+NAV_SAT_FIX_RUN_0 = ((".status.status", "int8", 1),)
+NAV_SAT_FIX_RUN_1 = ((".status.service", "uint16", 2),)
+NAV_SAT_FIX_RUN_2 = (
     (".latitude", "float64", 8),
     (".longitude", "float64", 16),
     (".altitude", "float64", 24),
 )
-_R_sensor_msgs__msg__NavSatFix_3 = ((".position_covariance_type", "uint8", 1),)
-_R_sensor_msgs__msg__NavSatStatus_0 = ((".status", "int8", 1),)
-_R_sensor_msgs__msg__NavSatStatus_1 = ((".service", "uint16", 2),)
-_R_sensor_msgs__msg__PointCloud2_0 = ((".height", "uint32", 4), (".width", "uint32", 8))
-_R_sensor_msgs__msg__PointCloud2_1 = ((".is_bigendian", "bool", 1),)
-_R_sensor_msgs__msg__PointCloud2_2 = (
+NAV_SAT_FIX_RUN_3 = ((".position_covariance_type", "uint8", 1),)
+NAV_SAT_STATUS_RUN_0 = ((".status", "int8", 1),)
+NAV_SAT_STATUS_RUN_1 = ((".service", "uint16", 2),)
+POINT_CLOUD2_RUN_0 = ((".height", "uint32", 4), (".width", "uint32", 8))
+POINT_CLOUD2_RUN_1 = ((".is_bigendian", "bool", 1),)
+POINT_CLOUD2_RUN_2 = (
     (".point_step", "uint32", 4),
     (".row_step", "uint32", 8),
     (".data", "uint32", 12),
 )
-_R_sensor_msgs__msg__PointCloud2_3 = ((".is_dense", "bool", 1),)
-_R_sensor_msgs__msg__PointField_0 = ((".name", "uint32", 4),)
-_R_sensor_msgs__msg__PointField_1 = (
-    (".offset", "uint32", 4),
-    (".datatype", "uint8", 5),
-    (".count", "uint32", 12),
-)
-_R_sensor_msgs__msg__Range_0 = ((".radiation_type", "uint8", 1),)
-_R_sensor_msgs__msg__Range_1 = (
+POINT_CLOUD2_RUN_3 = ((".is_dense", "bool", 1),)
+POINT_FIELD_RUN_0 = ((".name", "uint32", 4),)
+POINT_FIELD_RUN_1 = ((".offset", "uint32", 4), (".datatype", "uint8", 5), (".count", "uint32", 12))
+RANGE_RUN_0 = ((".radiation_type", "uint8", 1),)
+RANGE_RUN_1 = (
     (".field_of_view", "float32", 4),
     (".min_range", "float32", 8),
     (".max_range", "float32", 12),
     (".range", "float32", 16),
     (".variance", "float32", 20),
 )
-_R_sensor_msgs__msg__RegionOfInterest_0 = (
+REGION_OF_INTEREST_RUN_0 = (
     (".x_offset", "uint32", 4),
     (".y_offset", "uint32", 8),
     (".height", "uint32", 12),
     (".width", "uint32", 16),
     (".do_rectify", "bool", 17),
 )
-_R_sensor_msgs__msg__RelativeHumidity_0 = (
-    (".relative_humidity", "float64", 8),
-    (".variance", "float64", 16),
-)
-_R_sensor_msgs__msg__Temperature_0 = ((".temperature", "float64", 8), (".variance", "float64", 16))
-_R_sensor_msgs__msg__TimeReference_0 = (
-    (".time_ref.sec", "int32", 4),
-    (".time_ref.nanosec", "uint32", 8),
-    (".source", "uint32", 12),
-)
-_R_sensor_msgs__srv__SetCameraInfo_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_sensor_msgs__srv__SetCameraInfo_Event_1 = (
+RELATIVE_HUMIDITY_RUN_0 = ((".relative_humidity", "float64", 8), (".variance", "float64", 16))
+SET_CAMERA_INFO_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+SET_CAMERA_INFO_EVENT_RUN_1 = (
     (".info.stamp.sec", "int32", 4),
     (".info.stamp.nanosec", "uint32", 8),
 )
-_R_sensor_msgs__srv__SetCameraInfo_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_sensor_msgs__srv__SetCameraInfo_Response_0 = ((".success", "bool", 1),)
-_R_sensor_msgs__srv__SetCameraInfo_Response_1 = ((".status_message", "uint32", 4),)
-_R_service_msgs__msg__ServiceEventInfo_0 = ((".event_type", "uint8", 1),)
-_R_service_msgs__msg__ServiceEventInfo_1 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-)
-_R_service_msgs__msg__ServiceEventInfo_2 = ((".sequence_number", "int64", 8),)
-_R_std_msgs__msg__Header_0 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-    (".frame_id", "uint32", 12),
+SET_CAMERA_INFO_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+SET_CAMERA_INFO_RESPONSE_RUN_0 = ((".success", "bool", 1),)
+SET_CAMERA_INFO_RESPONSE_RUN_1 = ((".status_message", "uint32", 4),)
+TEMPERATURE_RUN_0 = ((".temperature", "float64", 8), (".variance", "float64", 16))
+TIME_REFERENCE_RUN_0 = (
+    (".time_ref.sec", "int32", 4),
+    (".time_ref.nanosec", "uint32", 8),
+    (".source", "uint32", 12),
 )
 
 
@@ -1063,53 +895,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class std_msgs__msg__Header:
-    """A decoded std_msgs/msg/Header.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "stamp",
-        "frame_id",
-    )
-    msg_type = "std_msgs/msg/Header"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_std_msgs__msg__Header(a0: Any, a1: Any) -> std_msgs__msg__Header:
-    view = _new(std_msgs__msg__Header)
-    view.stamp = a0
-    view.frame_id = a1
-    return view
-
-
-class sensor_msgs__msg__BatteryState:
+class BatteryState:
     """A decoded sensor_msgs/msg/BatteryState.
 
     Attributes named as the ROS fields.
@@ -1139,7 +925,7 @@ class sensor_msgs__msg__BatteryState:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__BatteryState(
+def battery_state_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -1156,8 +942,8 @@ def make_sensor_msgs__msg__BatteryState(
     a13: Any,
     a14: Any,
     a15: Any,
-) -> sensor_msgs__msg__BatteryState:
-    view = _new(sensor_msgs__msg__BatteryState)
+) -> BatteryState:
+    view = _new(BatteryState)
     view.header = a0
     view.voltage = a1
     view.temperature = a2
@@ -1177,7 +963,7 @@ def make_sensor_msgs__msg__BatteryState(
     return view
 
 
-class sensor_msgs__msg__RegionOfInterest:
+class RegionOfInterest:
     """A decoded sensor_msgs/msg/RegionOfInterest.
 
     Attributes named as the ROS fields.
@@ -1196,10 +982,8 @@ class sensor_msgs__msg__RegionOfInterest:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__RegionOfInterest(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any
-) -> sensor_msgs__msg__RegionOfInterest:
-    view = _new(sensor_msgs__msg__RegionOfInterest)
+def region_of_interest_view(a0: Any, a1: Any, a2: Any, a3: Any, a4: Any) -> RegionOfInterest:
+    view = _new(RegionOfInterest)
     view.x_offset = a0
     view.y_offset = a1
     view.height = a2
@@ -1208,7 +992,7 @@ def make_sensor_msgs__msg__RegionOfInterest(
     return view
 
 
-class sensor_msgs__msg__CameraInfo:
+class CameraInfo:
     """A decoded sensor_msgs/msg/CameraInfo.
 
     Attributes named as the ROS fields.
@@ -1233,7 +1017,7 @@ class sensor_msgs__msg__CameraInfo:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__CameraInfo(
+def camera_info_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -1245,8 +1029,8 @@ def make_sensor_msgs__msg__CameraInfo(
     a8: Any,
     a9: Any,
     a10: Any,
-) -> sensor_msgs__msg__CameraInfo:
-    view = _new(sensor_msgs__msg__CameraInfo)
+) -> CameraInfo:
+    view = _new(CameraInfo)
     view.header = a0
     view.height = a1
     view.width = a2
@@ -1261,7 +1045,7 @@ def make_sensor_msgs__msg__CameraInfo(
     return view
 
 
-class sensor_msgs__msg__ChannelFloat32:
+class ChannelFloat32:
     """A decoded sensor_msgs/msg/ChannelFloat32.
 
     Attributes named as the ROS fields.
@@ -1277,14 +1061,14 @@ class sensor_msgs__msg__ChannelFloat32:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__ChannelFloat32(a0: Any, a1: Any) -> sensor_msgs__msg__ChannelFloat32:
-    view = _new(sensor_msgs__msg__ChannelFloat32)
+def channel_float32_view(a0: Any, a1: Any) -> ChannelFloat32:
+    view = _new(ChannelFloat32)
     view.name = a0
     view.values = a1
     return view
 
 
-class sensor_msgs__msg__CompressedImage:
+class CompressedImage:
     """A decoded sensor_msgs/msg/CompressedImage.
 
     Attributes named as the ROS fields.
@@ -1301,17 +1085,15 @@ class sensor_msgs__msg__CompressedImage:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__CompressedImage(
-    a0: Any, a1: Any, a2: Any
-) -> sensor_msgs__msg__CompressedImage:
-    view = _new(sensor_msgs__msg__CompressedImage)
+def compressed_image_view(a0: Any, a1: Any, a2: Any) -> CompressedImage:
+    view = _new(CompressedImage)
     view.header = a0
     view.format = a1
     view.data = a2
     return view
 
 
-class sensor_msgs__msg__FluidPressure:
+class FluidPressure:
     """A decoded sensor_msgs/msg/FluidPressure.
 
     Attributes named as the ROS fields.
@@ -1328,17 +1110,15 @@ class sensor_msgs__msg__FluidPressure:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__FluidPressure(
-    a0: Any, a1: Any, a2: Any
-) -> sensor_msgs__msg__FluidPressure:
-    view = _new(sensor_msgs__msg__FluidPressure)
+def fluid_pressure_view(a0: Any, a1: Any, a2: Any) -> FluidPressure:
+    view = _new(FluidPressure)
     view.header = a0
     view.fluid_pressure = a1
     view.variance = a2
     return view
 
 
-class sensor_msgs__msg__Illuminance:
+class Illuminance:
     """A decoded sensor_msgs/msg/Illuminance.
 
     Attributes named as the ROS fields.
@@ -1355,15 +1135,15 @@ class sensor_msgs__msg__Illuminance:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__Illuminance(a0: Any, a1: Any, a2: Any) -> sensor_msgs__msg__Illuminance:
-    view = _new(sensor_msgs__msg__Illuminance)
+def illuminance_view(a0: Any, a1: Any, a2: Any) -> Illuminance:
+    view = _new(Illuminance)
     view.header = a0
     view.illuminance = a1
     view.variance = a2
     return view
 
 
-class sensor_msgs__msg__Image:
+class Image:
     """A decoded sensor_msgs/msg/Image.
 
     Attributes named as the ROS fields.
@@ -1384,10 +1164,8 @@ class sensor_msgs__msg__Image:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__Image(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any
-) -> sensor_msgs__msg__Image:
-    view = _new(sensor_msgs__msg__Image)
+def image_view(a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any) -> Image:
+    view = _new(Image)
     view.header = a0
     view.height = a1
     view.width = a2
@@ -1398,61 +1176,7 @@ def make_sensor_msgs__msg__Image(
     return view
 
 
-class geometry_msgs__msg__Quaternion:
-    """A decoded geometry_msgs/msg/Quaternion.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "x",
-        "y",
-        "z",
-        "w",
-    )
-    msg_type = "geometry_msgs/msg/Quaternion"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Quaternion(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> geometry_msgs__msg__Quaternion:
-    view = _new(geometry_msgs__msg__Quaternion)
-    view.x = a0
-    view.y = a1
-    view.z = a2
-    view.w = a3
-    return view
-
-
-class geometry_msgs__msg__Vector3:
-    """A decoded geometry_msgs/msg/Vector3.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "x",
-        "y",
-        "z",
-    )
-    msg_type = "geometry_msgs/msg/Vector3"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Vector3(a0: Any, a1: Any, a2: Any) -> geometry_msgs__msg__Vector3:
-    view = _new(geometry_msgs__msg__Vector3)
-    view.x = a0
-    view.y = a1
-    view.z = a2
-    return view
-
-
-class sensor_msgs__msg__Imu:
+class Imu:
     """A decoded sensor_msgs/msg/Imu.
 
     Attributes named as the ROS fields.
@@ -1473,10 +1197,8 @@ class sensor_msgs__msg__Imu:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__Imu(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any
-) -> sensor_msgs__msg__Imu:
-    view = _new(sensor_msgs__msg__Imu)
+def imu_view(a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any) -> Imu:
+    view = _new(Imu)
     view.header = a0
     view.orientation = a1
     view.orientation_covariance = a2
@@ -1487,7 +1209,7 @@ def make_sensor_msgs__msg__Imu(
     return view
 
 
-class sensor_msgs__msg__JointState:
+class JointState:
     """A decoded sensor_msgs/msg/JointState.
 
     Attributes named as the ROS fields.
@@ -1506,10 +1228,8 @@ class sensor_msgs__msg__JointState:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__JointState(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any
-) -> sensor_msgs__msg__JointState:
-    view = _new(sensor_msgs__msg__JointState)
+def joint_state_view(a0: Any, a1: Any, a2: Any, a3: Any, a4: Any) -> JointState:
+    view = _new(JointState)
     view.header = a0
     view.name = a1
     view.position = a2
@@ -1518,7 +1238,7 @@ def make_sensor_msgs__msg__JointState(
     return view
 
 
-class sensor_msgs__msg__Joy:
+class Joy:
     """A decoded sensor_msgs/msg/Joy.
 
     Attributes named as the ROS fields.
@@ -1535,15 +1255,15 @@ class sensor_msgs__msg__Joy:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__Joy(a0: Any, a1: Any, a2: Any) -> sensor_msgs__msg__Joy:
-    view = _new(sensor_msgs__msg__Joy)
+def joy_view(a0: Any, a1: Any, a2: Any) -> Joy:
+    view = _new(Joy)
     view.header = a0
     view.axes = a1
     view.buttons = a2
     return view
 
 
-class sensor_msgs__msg__JoyFeedback:
+class JoyFeedback:
     """A decoded sensor_msgs/msg/JoyFeedback.
 
     Attributes named as the ROS fields.
@@ -1560,15 +1280,15 @@ class sensor_msgs__msg__JoyFeedback:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__JoyFeedback(a0: Any, a1: Any, a2: Any) -> sensor_msgs__msg__JoyFeedback:
-    view = _new(sensor_msgs__msg__JoyFeedback)
+def joy_feedback_view(a0: Any, a1: Any, a2: Any) -> JoyFeedback:
+    view = _new(JoyFeedback)
     view.type = a0
     view.id = a1
     view.intensity = a2
     return view
 
 
-class sensor_msgs__msg__JoyFeedbackArray:
+class JoyFeedbackArray:
     """A decoded sensor_msgs/msg/JoyFeedbackArray.
 
     Attributes named as the ROS fields.
@@ -1581,13 +1301,13 @@ class sensor_msgs__msg__JoyFeedbackArray:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__JoyFeedbackArray(a0: Any) -> sensor_msgs__msg__JoyFeedbackArray:
-    view = _new(sensor_msgs__msg__JoyFeedbackArray)
+def joy_feedback_array_view(a0: Any) -> JoyFeedbackArray:
+    view = _new(JoyFeedbackArray)
     view.array = a0
     return view
 
 
-class sensor_msgs__msg__LaserEcho:
+class LaserEcho:
     """A decoded sensor_msgs/msg/LaserEcho.
 
     Attributes named as the ROS fields.
@@ -1600,13 +1320,13 @@ class sensor_msgs__msg__LaserEcho:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__LaserEcho(a0: Any) -> sensor_msgs__msg__LaserEcho:
-    view = _new(sensor_msgs__msg__LaserEcho)
+def laser_echo_view(a0: Any) -> LaserEcho:
+    view = _new(LaserEcho)
     view.echoes = a0
     return view
 
 
-class sensor_msgs__msg__LaserScan:
+class LaserScan:
     """A decoded sensor_msgs/msg/LaserScan.
 
     Attributes named as the ROS fields.
@@ -1630,10 +1350,10 @@ class sensor_msgs__msg__LaserScan:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__LaserScan(
+def laser_scan_view(
     a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any, a7: Any, a8: Any, a9: Any
-) -> sensor_msgs__msg__LaserScan:
-    view = _new(sensor_msgs__msg__LaserScan)
+) -> LaserScan:
+    view = _new(LaserScan)
     view.header = a0
     view.angle_min = a1
     view.angle_max = a2
@@ -1647,7 +1367,7 @@ def make_sensor_msgs__msg__LaserScan(
     return view
 
 
-class sensor_msgs__msg__MagneticField:
+class MagneticField:
     """A decoded sensor_msgs/msg/MagneticField.
 
     Attributes named as the ROS fields.
@@ -1664,86 +1384,15 @@ class sensor_msgs__msg__MagneticField:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__MagneticField(
-    a0: Any, a1: Any, a2: Any
-) -> sensor_msgs__msg__MagneticField:
-    view = _new(sensor_msgs__msg__MagneticField)
+def magnetic_field_view(a0: Any, a1: Any, a2: Any) -> MagneticField:
+    view = _new(MagneticField)
     view.header = a0
     view.magnetic_field = a1
     view.magnetic_field_covariance = a2
     return view
 
 
-class geometry_msgs__msg__Transform:
-    """A decoded geometry_msgs/msg/Transform.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "translation",
-        "rotation",
-    )
-    msg_type = "geometry_msgs/msg/Transform"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Transform(a0: Any, a1: Any) -> geometry_msgs__msg__Transform:
-    view = _new(geometry_msgs__msg__Transform)
-    view.translation = a0
-    view.rotation = a1
-    return view
-
-
-class geometry_msgs__msg__Twist:
-    """A decoded geometry_msgs/msg/Twist.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "linear",
-        "angular",
-    )
-    msg_type = "geometry_msgs/msg/Twist"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Twist(a0: Any, a1: Any) -> geometry_msgs__msg__Twist:
-    view = _new(geometry_msgs__msg__Twist)
-    view.linear = a0
-    view.angular = a1
-    return view
-
-
-class geometry_msgs__msg__Wrench:
-    """A decoded geometry_msgs/msg/Wrench.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "force",
-        "torque",
-    )
-    msg_type = "geometry_msgs/msg/Wrench"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Wrench(a0: Any, a1: Any) -> geometry_msgs__msg__Wrench:
-    view = _new(geometry_msgs__msg__Wrench)
-    view.force = a0
-    view.torque = a1
-    return view
-
-
-class sensor_msgs__msg__MultiDOFJointState:
+class MultiDOFJointState:
     """A decoded sensor_msgs/msg/MultiDOFJointState.
 
     Attributes named as the ROS fields.
@@ -1762,10 +1411,8 @@ class sensor_msgs__msg__MultiDOFJointState:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__MultiDOFJointState(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any
-) -> sensor_msgs__msg__MultiDOFJointState:
-    view = _new(sensor_msgs__msg__MultiDOFJointState)
+def multi_dof_joint_state_view(a0: Any, a1: Any, a2: Any, a3: Any, a4: Any) -> MultiDOFJointState:
+    view = _new(MultiDOFJointState)
     view.header = a0
     view.joint_names = a1
     view.transforms = a2
@@ -1774,7 +1421,7 @@ def make_sensor_msgs__msg__MultiDOFJointState(
     return view
 
 
-class sensor_msgs__msg__MultiEchoLaserScan:
+class MultiEchoLaserScan:
     """A decoded sensor_msgs/msg/MultiEchoLaserScan.
 
     Attributes named as the ROS fields.
@@ -1798,10 +1445,10 @@ class sensor_msgs__msg__MultiEchoLaserScan:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__MultiEchoLaserScan(
+def multi_echo_laser_scan_view(
     a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any, a7: Any, a8: Any, a9: Any
-) -> sensor_msgs__msg__MultiEchoLaserScan:
-    view = _new(sensor_msgs__msg__MultiEchoLaserScan)
+) -> MultiEchoLaserScan:
+    view = _new(MultiEchoLaserScan)
     view.header = a0
     view.angle_min = a1
     view.angle_max = a2
@@ -1815,7 +1462,7 @@ def make_sensor_msgs__msg__MultiEchoLaserScan(
     return view
 
 
-class sensor_msgs__msg__NavSatStatus:
+class NavSatStatus:
     """A decoded sensor_msgs/msg/NavSatStatus.
 
     Attributes named as the ROS fields.
@@ -1831,14 +1478,14 @@ class sensor_msgs__msg__NavSatStatus:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__NavSatStatus(a0: Any, a1: Any) -> sensor_msgs__msg__NavSatStatus:
-    view = _new(sensor_msgs__msg__NavSatStatus)
+def nav_sat_status_view(a0: Any, a1: Any) -> NavSatStatus:
+    view = _new(NavSatStatus)
     view.status = a0
     view.service = a1
     return view
 
 
-class sensor_msgs__msg__NavSatFix:
+class NavSatFix:
     """A decoded sensor_msgs/msg/NavSatFix.
 
     Attributes named as the ROS fields.
@@ -1859,10 +1506,8 @@ class sensor_msgs__msg__NavSatFix:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__NavSatFix(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any
-) -> sensor_msgs__msg__NavSatFix:
-    view = _new(sensor_msgs__msg__NavSatFix)
+def nav_sat_fix_view(a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any) -> NavSatFix:
+    view = _new(NavSatFix)
     view.header = a0
     view.status = a1
     view.latitude = a2
@@ -1873,32 +1518,7 @@ def make_sensor_msgs__msg__NavSatFix(
     return view
 
 
-class geometry_msgs__msg__Point32:
-    """A decoded geometry_msgs/msg/Point32.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "x",
-        "y",
-        "z",
-    )
-    msg_type = "geometry_msgs/msg/Point32"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Point32(a0: Any, a1: Any, a2: Any) -> geometry_msgs__msg__Point32:
-    view = _new(geometry_msgs__msg__Point32)
-    view.x = a0
-    view.y = a1
-    view.z = a2
-    return view
-
-
-class sensor_msgs__msg__PointCloud:
+class PointCloud:
     """A decoded sensor_msgs/msg/PointCloud.
 
     Attributes named as the ROS fields.
@@ -1915,15 +1535,15 @@ class sensor_msgs__msg__PointCloud:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__PointCloud(a0: Any, a1: Any, a2: Any) -> sensor_msgs__msg__PointCloud:
-    view = _new(sensor_msgs__msg__PointCloud)
+def point_cloud_view(a0: Any, a1: Any, a2: Any) -> PointCloud:
+    view = _new(PointCloud)
     view.header = a0
     view.points = a1
     view.channels = a2
     return view
 
 
-class sensor_msgs__msg__PointField:
+class PointField:
     """A decoded sensor_msgs/msg/PointField.
 
     Attributes named as the ROS fields.
@@ -1941,10 +1561,8 @@ class sensor_msgs__msg__PointField:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__PointField(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> sensor_msgs__msg__PointField:
-    view = _new(sensor_msgs__msg__PointField)
+def point_field_view(a0: Any, a1: Any, a2: Any, a3: Any) -> PointField:
+    view = _new(PointField)
     view.name = a0
     view.offset = a1
     view.datatype = a2
@@ -1952,7 +1570,7 @@ def make_sensor_msgs__msg__PointField(
     return view
 
 
-class sensor_msgs__msg__PointCloud2:
+class PointCloud2:
     """A decoded sensor_msgs/msg/PointCloud2.
 
     Attributes named as the ROS fields.
@@ -1975,10 +1593,10 @@ class sensor_msgs__msg__PointCloud2:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__PointCloud2(
+def point_cloud2_view(
     a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any, a7: Any, a8: Any
-) -> sensor_msgs__msg__PointCloud2:
-    view = _new(sensor_msgs__msg__PointCloud2)
+) -> PointCloud2:
+    view = _new(PointCloud2)
     view.header = a0
     view.height = a1
     view.width = a2
@@ -1991,7 +1609,7 @@ def make_sensor_msgs__msg__PointCloud2(
     return view
 
 
-class sensor_msgs__msg__Range:
+class Range:
     """A decoded sensor_msgs/msg/Range.
 
     Attributes named as the ROS fields.
@@ -2012,10 +1630,8 @@ class sensor_msgs__msg__Range:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__Range(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any
-) -> sensor_msgs__msg__Range:
-    view = _new(sensor_msgs__msg__Range)
+def range_view(a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any) -> Range:
+    view = _new(Range)
     view.header = a0
     view.radiation_type = a1
     view.field_of_view = a2
@@ -2026,7 +1642,7 @@ def make_sensor_msgs__msg__Range(
     return view
 
 
-class sensor_msgs__msg__RelativeHumidity:
+class RelativeHumidity:
     """A decoded sensor_msgs/msg/RelativeHumidity.
 
     Attributes named as the ROS fields.
@@ -2043,17 +1659,15 @@ class sensor_msgs__msg__RelativeHumidity:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__RelativeHumidity(
-    a0: Any, a1: Any, a2: Any
-) -> sensor_msgs__msg__RelativeHumidity:
-    view = _new(sensor_msgs__msg__RelativeHumidity)
+def relative_humidity_view(a0: Any, a1: Any, a2: Any) -> RelativeHumidity:
+    view = _new(RelativeHumidity)
     view.header = a0
     view.relative_humidity = a1
     view.variance = a2
     return view
 
 
-class sensor_msgs__msg__Temperature:
+class Temperature:
     """A decoded sensor_msgs/msg/Temperature.
 
     Attributes named as the ROS fields.
@@ -2070,15 +1684,15 @@ class sensor_msgs__msg__Temperature:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__Temperature(a0: Any, a1: Any, a2: Any) -> sensor_msgs__msg__Temperature:
-    view = _new(sensor_msgs__msg__Temperature)
+def temperature_view(a0: Any, a1: Any, a2: Any) -> Temperature:
+    view = _new(Temperature)
     view.header = a0
     view.temperature = a1
     view.variance = a2
     return view
 
 
-class sensor_msgs__msg__TimeReference:
+class TimeReference:
     """A decoded sensor_msgs/msg/TimeReference.
 
     Attributes named as the ROS fields.
@@ -2095,17 +1709,15 @@ class sensor_msgs__msg__TimeReference:
         return view_repr(self)
 
 
-def make_sensor_msgs__msg__TimeReference(
-    a0: Any, a1: Any, a2: Any
-) -> sensor_msgs__msg__TimeReference:
-    view = _new(sensor_msgs__msg__TimeReference)
+def time_reference_view(a0: Any, a1: Any, a2: Any) -> TimeReference:
+    view = _new(TimeReference)
     view.header = a0
     view.time_ref = a1
     view.source = a2
     return view
 
 
-class sensor_msgs__srv__SetCameraInfo_Request:
+class SetCameraInfo_Request:
     """A decoded sensor_msgs/srv/SetCameraInfo_Request.
 
     Attributes named as the ROS fields.
@@ -2118,15 +1730,13 @@ class sensor_msgs__srv__SetCameraInfo_Request:
         return view_repr(self)
 
 
-def make_sensor_msgs__srv__SetCameraInfo_Request(
-    a0: Any,
-) -> sensor_msgs__srv__SetCameraInfo_Request:
-    view = _new(sensor_msgs__srv__SetCameraInfo_Request)
+def set_camera_info_request_view(a0: Any) -> SetCameraInfo_Request:
+    view = _new(SetCameraInfo_Request)
     view.camera_info = a0
     return view
 
 
-class sensor_msgs__srv__SetCameraInfo_Response:
+class SetCameraInfo_Response:
     """A decoded sensor_msgs/srv/SetCameraInfo_Response.
 
     Attributes named as the ROS fields.
@@ -2142,45 +1752,14 @@ class sensor_msgs__srv__SetCameraInfo_Response:
         return view_repr(self)
 
 
-def make_sensor_msgs__srv__SetCameraInfo_Response(
-    a0: Any, a1: Any
-) -> sensor_msgs__srv__SetCameraInfo_Response:
-    view = _new(sensor_msgs__srv__SetCameraInfo_Response)
+def set_camera_info_response_view(a0: Any, a1: Any) -> SetCameraInfo_Response:
+    view = _new(SetCameraInfo_Response)
     view.success = a0
     view.status_message = a1
     return view
 
 
-class service_msgs__msg__ServiceEventInfo:
-    """A decoded service_msgs/msg/ServiceEventInfo.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-    msg_type = "service_msgs/msg/ServiceEventInfo"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_service_msgs__msg__ServiceEventInfo(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> service_msgs__msg__ServiceEventInfo:
-    view = _new(service_msgs__msg__ServiceEventInfo)
-    view.event_type = a0
-    view.stamp = a1
-    view.client_gid = a2
-    view.sequence_number = a3
-    return view
-
-
-class sensor_msgs__srv__SetCameraInfo_Event:
+class SetCameraInfo_Event:
     """A decoded sensor_msgs/srv/SetCameraInfo_Event.
 
     Attributes named as the ROS fields.
@@ -2197,31 +1776,36 @@ class sensor_msgs__srv__SetCameraInfo_Event:
         return view_repr(self)
 
 
-def make_sensor_msgs__srv__SetCameraInfo_Event(
-    a0: Any, a1: Any, a2: Any
-) -> sensor_msgs__srv__SetCameraInfo_Event:
-    view = _new(sensor_msgs__srv__SetCameraInfo_Event)
+def set_camera_info_event_view(a0: Any, a1: Any, a2: Any) -> SetCameraInfo_Event:
+    view = _new(SetCameraInfo_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    geometry_msgs__point32_decode = GEOMETRY_MSGS__FUNCTIONS[E, view]["point32_decode"]
+    geometry_msgs__point32_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["point32_encode"]
+    geometry_msgs__transform_decode = GEOMETRY_MSGS__FUNCTIONS[E, view]["transform_decode"]
+    geometry_msgs__transform_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["transform_encode"]
+    geometry_msgs__twist_decode = GEOMETRY_MSGS__FUNCTIONS[E, view]["twist_decode"]
+    geometry_msgs__twist_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["twist_encode"]
+    geometry_msgs__wrench_decode = GEOMETRY_MSGS__FUNCTIONS[E, view]["wrench_decode"]
+    geometry_msgs__wrench_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["wrench_encode"]
+    std_msgs__header_decode = STD_MSGS__FUNCTIONS[E, view]["header_decode"]
+    std_msgs__header_encode = STD_MSGS__FUNCTIONS[E, view]["header_encode"]
     _U32 = Struct(E + "I")
     _S_2B = Struct(E + "2B")
     _S_2I = Struct(E + "2I")
     _S_2d = Struct(E + "2d")
     _S_3I = Struct(E + "3I")
     _S_3d = Struct(E + "3d")
-    _S_3f = Struct(E + "3f")
     _S_4IT = Struct(E + "4I?")
     _S_4d = Struct(E + "4d")
     _S_5f = Struct(E + "5f")
     _S_6IT = Struct(E + "6I?")
-    _S_6d = Struct(E + "6d")
-    _S_7d = Struct(E + "7d")
     _S_7f = Struct(E + "7f")
     _S_7f3BTI = Struct(E + "7f3B?I")
     _S_7fI = Struct(E + "7fI")
@@ -2240,119 +1824,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
     _D_int32 = np.dtype("int32").newbyteorder(E)
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
-        return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Header.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Header)
-            f = ".stamp"
-            m1 = d.get("stamp", EMPTY)
-            if m1.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m1):
-                m1 = _submap(m1, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".frame_id"
-            b4 = utf8z(d.get("frame_id", ""), None)
-            f = ""
-            try:
-                out.append(_S_i2I.pack(m1.get("sec", 0), m1.get("nanosec", 0), len(b4)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_i2I,
-                        _R_std_msgs__msg__Header_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                            len(b4),
-                        ),
-                    )
-                )
-            pos += 12
-            out.append(b4)
-            pos += len(b4)
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_sensor_msgs__msg__BatteryState(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def battery_state_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__BatteryState_0
+            f = BATTERY_STATE_RUN_0
             v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v13, v16 = _S_7f3BTI.unpack_from(mv, pos)
             pos += 36
             f = ".cell_voltage"
@@ -2360,7 +1838,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v16, 4, lim - pos)
             v17 = _frombuffer(mv, _D_float32, v16, pos)
             pos += v16 * 4
-            f = _R_sensor_msgs__msg__BatteryState_1
+            f = BATTERY_STATE_RUN_1
             (v20,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".cell_temperature"
@@ -2368,7 +1846,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v20, 4, lim - pos)
             v21 = _frombuffer(mv, _D_float32, v20, pos)
             pos += v20 * 4
-            f = _R_sensor_msgs__msg__BatteryState_2
+            f = BATTERY_STATE_RUN_2
             (v23,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".location"
@@ -2377,7 +1855,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v24 = mv[pos : pos + v23 - 1].tobytes().decode()
             pos += v23
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__BatteryState_3
+            f = BATTERY_STATE_RUN_3
             (v26,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".serial_number"
@@ -2390,7 +1868,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__BatteryState(
+            return battery_state_view(
                 v1, v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v13, v17, v21, v24, v27
             ), pos
         return {
@@ -2412,13 +1890,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "serial_number": v27,
         }, pos
 
-    def encode_sensor_msgs__msg__BatteryState(d: Any, out: list[Any], pos: int) -> int:
+    def battery_state_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__BatteryState.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__BatteryState)
+            if d.__class__ is not dict or not BATTERY_STATE_KEYS.issuperset(d):
+                d = _submap(d, BATTERY_STATE_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -2451,7 +1929,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7f3BTI,
-                        _R_sensor_msgs__msg__BatteryState_0,
+                        BATTERY_STATE_RUN_0,
                         (
                             d.get("voltage", 0.0),
                             d.get("temperature", 0.0),
@@ -2483,7 +1961,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c19))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__BatteryState_1, (c19,)))
+                out.append(slow_pack(_S_I, BATTERY_STATE_RUN_1, (c19,)))
             pos += 4
             out.append(b18)
             pos += c19 * 4
@@ -2493,7 +1971,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b22)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__BatteryState_2, (len(b22),)))
+                out.append(slow_pack(_S_I, BATTERY_STATE_RUN_2, (len(b22),)))
             pos += 4
             out.append(b22)
             pos += len(b22)
@@ -2507,7 +1985,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b25)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__BatteryState_3, (len(b25),)))
+                out.append(slow_pack(_S_I, BATTERY_STATE_RUN_3, (len(b25),)))
             pos += 4
             out.append(b25)
             pos += len(b25)
@@ -2517,13 +1995,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__RegionOfInterest(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def region_of_interest_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__RegionOfInterest_0
+            f = REGION_OF_INTEREST_RUN_0
             v1, v2, v3, v4, v6 = _S_4IT.unpack_from(mv, pos)
             pos += 17
         except WireDecodeError as error:
@@ -2531,14 +2007,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__RegionOfInterest(v1, v2, v3, v4, v6), pos
+            return region_of_interest_view(v1, v2, v3, v4, v6), pos
         return {"x_offset": v1, "y_offset": v2, "height": v3, "width": v4, "do_rectify": v6}, pos
 
-    def encode_sensor_msgs__msg__RegionOfInterest(d: Any, out: list[Any], pos: int) -> int:
+    def region_of_interest_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__RegionOfInterest.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__RegionOfInterest)
+            if d.__class__ is not dict or not REGION_OF_INTEREST_KEYS.issuperset(d):
+                d = _submap(d, REGION_OF_INTEREST_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -2562,7 +2038,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_4IT,
-                        _R_sensor_msgs__msg__RegionOfInterest_0,
+                        REGION_OF_INTEREST_RUN_0,
                         (
                             d.get("x_offset", 0),
                             d.get("y_offset", 0),
@@ -2583,13 +2059,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__CameraInfo(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def camera_info_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__CameraInfo_0
+            f = CAMERA_INFO_RUN_0
             v2, v3, v5 = _S_3I.unpack_from(mv, pos)
             pos += 12
             f = ".distortion_model"
@@ -2598,7 +2074,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__CameraInfo_1
+            f = CAMERA_INFO_RUN_1
             (v9,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".d"
@@ -2624,7 +2100,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(12, 8, lim - pos)
             v19 = _frombuffer(mv, _D_float64, 12, pos)
             pos += 12 * 8
-            f = _R_sensor_msgs__msg__CameraInfo_2
+            f = CAMERA_INFO_RUN_2
             v20, v21, v23, v24, v25, v26, v28 = _S_6IT.unpack_from(mv, pos)
             pos += 25
         except WireDecodeError as error:
@@ -2632,7 +2108,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__CameraInfo(
+            return camera_info_view(
                 v1,
                 v2,
                 v3,
@@ -2643,7 +2119,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 v19,
                 v20,
                 v21,
-                make_sensor_msgs__msg__RegionOfInterest(v23, v24, v25, v26, v28),
+                region_of_interest_view(v23, v24, v25, v26, v28),
             ), pos
         return {
             "header": v1,
@@ -2665,13 +2141,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_sensor_msgs__msg__CameraInfo(d: Any, out: list[Any], pos: int) -> int:
+    def camera_info_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__CameraInfo.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__CameraInfo)
+            if d.__class__ is not dict or not CAMERA_INFO_KEYS.issuperset(d):
+                d = _submap(d, CAMERA_INFO_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -2685,7 +2161,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3I,
-                        _R_sensor_msgs__msg__CameraInfo_0,
+                        CAMERA_INFO_RUN_0,
                         (
                             d.get("height", 0),
                             d.get("width", 0),
@@ -2706,7 +2182,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c8))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__CameraInfo_1, (c8,)))
+                out.append(slow_pack(_S_I, CAMERA_INFO_RUN_1, (c8,)))
             pos += 4
             if c8:
                 p = -pos & 7
@@ -2733,10 +2209,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             pos += c18 * 8
             f = ".roi"
             m22 = d.get("roi", EMPTY)
-            if m22.__class__ is not dict or not _K_sensor_msgs__msg__RegionOfInterest.issuperset(
-                m22
-            ):
-                m22 = _submap(m22, _K_sensor_msgs__msg__RegionOfInterest)
+            if m22.__class__ is not dict or not REGION_OF_INTEREST_KEYS.issuperset(m22):
+                m22 = _submap(m22, REGION_OF_INTEREST_KEYS)
             f = ""
             try:
                 out.append(
@@ -2758,7 +2232,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_6IT,
-                        _R_sensor_msgs__msg__CameraInfo_2,
+                        CAMERA_INFO_RUN_2,
                         (
                             d.get("binning_x", 0),
                             d.get("binning_y", 0),
@@ -2781,13 +2255,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__ChannelFloat32(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def channel_float32_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__ChannelFloat32_0
+            f = CHANNEL_FLOAT32_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".name"
@@ -2796,7 +2268,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__ChannelFloat32_1
+            f = CHANNEL_FLOAT32_RUN_1
             (v6,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".values"
@@ -2809,14 +2281,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__ChannelFloat32(v3, v7), pos
+            return channel_float32_view(v3, v7), pos
         return {"name": v3, "values": v7.tolist()}, pos
 
-    def encode_sensor_msgs__msg__ChannelFloat32(d: Any, out: list[Any], pos: int) -> int:
+    def channel_float32_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__ChannelFloat32.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__ChannelFloat32)
+            if d.__class__ is not dict or not CHANNEL_FLOAT32_KEYS.issuperset(d):
+                d = _submap(d, CHANNEL_FLOAT32_KEYS)
             f = ".name"
             b1 = utf8z(d.get("name", ""), None)
             p = -pos & 3
@@ -2827,7 +2299,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__ChannelFloat32_0, (len(b1),)))
+                out.append(slow_pack(_S_I, CHANNEL_FLOAT32_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -2841,7 +2313,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c5))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__ChannelFloat32_1, (c5,)))
+                out.append(slow_pack(_S_I, CHANNEL_FLOAT32_RUN_1, (c5,)))
             pos += 4
             out.append(b4)
             pos += c5 * 4
@@ -2851,15 +2323,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__CompressedImage(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def compressed_image_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__CompressedImage_0
+            f = COMPRESSED_IMAGE_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".format"
@@ -2868,7 +2338,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__CompressedImage_1
+            f = COMPRESSED_IMAGE_RUN_1
             (v7,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".data"
@@ -2881,16 +2351,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__CompressedImage(v1, v4, v8), pos
+            return compressed_image_view(v1, v4, v8), pos
         return {"header": v1, "format": v4, "data": v8.tobytes()}, pos
 
-    def encode_sensor_msgs__msg__CompressedImage(d: Any, out: list[Any], pos: int) -> int:
+    def compressed_image_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__CompressedImage.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__CompressedImage)
+            if d.__class__ is not dict or not COMPRESSED_IMAGE_KEYS.issuperset(d):
+                d = _submap(d, COMPRESSED_IMAGE_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".format"
             b2 = utf8z(d.get("format", ""), None)
             p = -pos & 3
@@ -2901,7 +2371,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b2)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__CompressedImage_0, (len(b2),)))
+                out.append(slow_pack(_S_I, COMPRESSED_IMAGE_RUN_0, (len(b2),)))
             pos += 4
             out.append(b2)
             pos += len(b2)
@@ -2915,7 +2385,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c6))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__CompressedImage_1, (c6,)))
+                out.append(slow_pack(_S_I, COMPRESSED_IMAGE_RUN_1, (c6,)))
             pos += 4
             out.append(b5)
             pos += c6 * 1
@@ -2925,15 +2395,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__FluidPressure(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def fluid_pressure_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_sensor_msgs__msg__FluidPressure_0
+            f = FLUID_PRESSURE_RUN_0
             v2, v3 = _S_2d.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
@@ -2941,16 +2409,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__FluidPressure(v1, v2, v3), pos
+            return fluid_pressure_view(v1, v2, v3), pos
         return {"header": v1, "fluid_pressure": v2, "variance": v3}, pos
 
-    def encode_sensor_msgs__msg__FluidPressure(d: Any, out: list[Any], pos: int) -> int:
+    def fluid_pressure_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__FluidPressure.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__FluidPressure)
+            if d.__class__ is not dict or not FLUID_PRESSURE_KEYS.issuperset(d):
+                d = _submap(d, FLUID_PRESSURE_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -2962,7 +2430,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_2d,
-                        _R_sensor_msgs__msg__FluidPressure_0,
+                        FLUID_PRESSURE_RUN_0,
                         (
                             d.get("fluid_pressure", 0.0),
                             d.get("variance", 0.0),
@@ -2976,13 +2444,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__Illuminance(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def illuminance_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_sensor_msgs__msg__Illuminance_0
+            f = ILLUMINANCE_RUN_0
             v2, v3 = _S_2d.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
@@ -2990,16 +2458,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__Illuminance(v1, v2, v3), pos
+            return illuminance_view(v1, v2, v3), pos
         return {"header": v1, "illuminance": v2, "variance": v3}, pos
 
-    def encode_sensor_msgs__msg__Illuminance(d: Any, out: list[Any], pos: int) -> int:
+    def illuminance_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__Illuminance.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__Illuminance)
+            if d.__class__ is not dict or not ILLUMINANCE_KEYS.issuperset(d):
+                d = _submap(d, ILLUMINANCE_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -3011,7 +2479,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_2d,
-                        _R_sensor_msgs__msg__Illuminance_0,
+                        ILLUMINANCE_RUN_0,
                         (
                             d.get("illuminance", 0.0),
                             d.get("variance", 0.0),
@@ -3025,13 +2493,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__Image(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def image_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__Image_0
+            f = IMAGE_RUN_0
             v2, v3, v5 = _S_3I.unpack_from(mv, pos)
             pos += 12
             f = ".encoding"
@@ -3039,11 +2507,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v5, 1, lim - pos)
             v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
-            f = _R_sensor_msgs__msg__Image_1
+            f = IMAGE_RUN_1
             (v7,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__Image_2
+            f = IMAGE_RUN_2
             v8, v11 = _S_2I.unpack_from(mv, pos)
             pos += 8
             f = ".data"
@@ -3056,7 +2524,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__Image(v1, v2, v3, v6, v7, v8, v12), pos
+            return image_view(v1, v2, v3, v6, v7, v8, v12), pos
         return {
             "header": v1,
             "height": v2,
@@ -3067,13 +2535,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "data": v12.tobytes(),
         }, pos
 
-    def encode_sensor_msgs__msg__Image(d: Any, out: list[Any], pos: int) -> int:
+    def image_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__Image.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__Image)
+            if d.__class__ is not dict or not IMAGE_KEYS.issuperset(d):
+                d = _submap(d, IMAGE_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -3087,7 +2555,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3I,
-                        _R_sensor_msgs__msg__Image_0,
+                        IMAGE_RUN_0,
                         (
                             d.get("height", 0),
                             d.get("width", 0),
@@ -3102,9 +2570,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_B.pack(d.get("is_bigendian", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_sensor_msgs__msg__Image_1, (d.get("is_bigendian", 0),))
-                )
+                out.append(slow_pack(_S_B, IMAGE_RUN_1, (d.get("is_bigendian", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -3119,7 +2585,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_2I,
-                        _R_sensor_msgs__msg__Image_2,
+                        IMAGE_RUN_2,
                         (
                             d.get("step", 0),
                             c10,
@@ -3135,110 +2601,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Quaternion(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Quaternion_0
-            v1, v2, v3, v4 = _S_4d.unpack_from(mv, pos)
-            pos += 32
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
-        return {"x": v1, "y": v2, "z": v3, "w": v4}, pos
-
-    def encode_geometry_msgs__msg__Quaternion(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Quaternion)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(
-                    _S_4d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0), d.get("w", 1.0))
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_4d,
-                        _R_geometry_msgs__msg__Quaternion_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                            d.get("w", 1.0),
-                        ),
-                    )
-                )
-            pos += 32
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__Vector3(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Vector3_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
-        return {"x": v1, "y": v2, "z": v3}, pos
-
-    def encode_geometry_msgs__msg__Vector3(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Vector3)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_3d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        _R_geometry_msgs__msg__Vector3_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 24
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_sensor_msgs__msg__Imu(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def imu_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_sensor_msgs__msg__Imu_0
+            f = IMU_RUN_0
             v3, v4, v5, v6 = _S_4d.unpack_from(mv, pos)
             pos += 32
             f = ".orientation_covariance"
@@ -3246,7 +2615,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(9, 8, lim - pos)
             v9 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
-            f = _R_sensor_msgs__msg__Imu_1
+            f = IMU_RUN_1
             v11, v12, v13 = _S_3d.unpack_from(mv, pos)
             pos += 24
             f = ".angular_velocity_covariance"
@@ -3254,7 +2623,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(9, 8, lim - pos)
             v16 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
-            f = _R_sensor_msgs__msg__Imu_2
+            f = IMU_RUN_2
             v18, v19, v20 = _S_3d.unpack_from(mv, pos)
             pos += 24
             f = ".linear_acceleration_covariance"
@@ -3267,13 +2636,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__Imu(
+            return imu_view(
                 v1,
-                make_geometry_msgs__msg__Quaternion(v3, v4, v5, v6),
+                geometry_msgs__quaternion_view(v3, v4, v5, v6),
                 v9,
-                make_geometry_msgs__msg__Vector3(v11, v12, v13),
+                geometry_msgs__vector3_view(v11, v12, v13),
                 v16,
-                make_geometry_msgs__msg__Vector3(v18, v19, v20),
+                geometry_msgs__vector3_view(v18, v19, v20),
                 v23,
             ), pos
         return {
@@ -3286,17 +2655,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "linear_acceleration_covariance": v23.tolist(),
         }, pos
 
-    def encode_sensor_msgs__msg__Imu(d: Any, out: list[Any], pos: int) -> int:
+    def imu_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__Imu.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__Imu)
+            if d.__class__ is not dict or not IMU_KEYS.issuperset(d):
+                d = _submap(d, IMU_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".orientation"
             m2 = d.get("orientation", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Quaternion)
+            if m2.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m2):
+                m2 = _submap(m2, GEOMETRY_MSGS__QUATERNION_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -3316,7 +2685,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_4d,
-                        _R_sensor_msgs__msg__Imu_0,
+                        IMU_RUN_0,
                         (
                             m2.get("x", 0.0),
                             m2.get("y", 0.0),
@@ -3330,8 +2699,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             pos += c8 * 8
             f = ".angular_velocity"
             m10 = d.get("angular_velocity", EMPTY)
-            if m10.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m10):
-                m10 = _submap(m10, _K_geometry_msgs__msg__Vector3)
+            if m10.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m10):
+                m10 = _submap(m10, GEOMETRY_MSGS__VECTOR3_KEYS)
             f = ".angular_velocity_covariance"
             b14, c15 = encode_array(
                 d.get("angular_velocity_covariance", (0,) * 9), _D_float64, "float64", 9, True
@@ -3343,7 +2712,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3d,
-                        _R_sensor_msgs__msg__Imu_1,
+                        IMU_RUN_1,
                         (
                             m10.get("x", 0.0),
                             m10.get("y", 0.0),
@@ -3356,8 +2725,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             pos += c15 * 8
             f = ".linear_acceleration"
             m17 = d.get("linear_acceleration", EMPTY)
-            if m17.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m17):
-                m17 = _submap(m17, _K_geometry_msgs__msg__Vector3)
+            if m17.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m17):
+                m17 = _submap(m17, GEOMETRY_MSGS__VECTOR3_KEYS)
             f = ".linear_acceleration_covariance"
             b21, c22 = encode_array(
                 d.get("linear_acceleration_covariance", (0,) * 9), _D_float64, "float64", 9, True
@@ -3369,7 +2738,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3d,
-                        _R_sensor_msgs__msg__Imu_2,
+                        IMU_RUN_2,
                         (
                             m17.get("x", 0.0),
                             m17.get("y", 0.0),
@@ -3386,15 +2755,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__JointState(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def joint_state_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = ".name"
             v2, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__JointState_0
+            f = JOINT_STATE_RUN_0
             (v5,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".position"
@@ -3404,7 +2773,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v5, 8, lim - pos)
             v6 = _frombuffer(mv, _D_float64, v5, pos)
             pos += v5 * 8
-            f = _R_sensor_msgs__msg__JointState_1
+            f = JOINT_STATE_RUN_1
             (v9,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".velocity"
@@ -3414,7 +2783,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v9, 8, lim - pos)
             v10 = _frombuffer(mv, _D_float64, v9, pos)
             pos += v9 * 8
-            f = _R_sensor_msgs__msg__JointState_2
+            f = JOINT_STATE_RUN_2
             (v13,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".effort"
@@ -3429,7 +2798,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__JointState(v1, v2, v6, v10, v14), pos
+            return joint_state_view(v1, v2, v6, v10, v14), pos
         return {
             "header": v1,
             "name": v2,
@@ -3438,13 +2807,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "effort": v14.tolist(),
         }, pos
 
-    def encode_sensor_msgs__msg__JointState(d: Any, out: list[Any], pos: int) -> int:
+    def joint_state_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__JointState.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__JointState)
+            if d.__class__ is not dict or not JOINT_STATE_KEYS.issuperset(d):
+                d = _submap(d, JOINT_STATE_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".name"
             pos = write_strings(d.get("name", ()), out, pos, _U32, None, False, None, False)
             f = ".position"
@@ -3457,7 +2826,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c4))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__JointState_0, (c4,)))
+                out.append(slow_pack(_S_I, JOINT_STATE_RUN_0, (c4,)))
             pos += 4
             if c4:
                 p = -pos & 7
@@ -3472,7 +2841,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c8))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__JointState_1, (c8,)))
+                out.append(slow_pack(_S_I, JOINT_STATE_RUN_1, (c8,)))
             pos += 4
             if c8:
                 p = -pos & 7
@@ -3487,7 +2856,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c12))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__JointState_2, (c12,)))
+                out.append(slow_pack(_S_I, JOINT_STATE_RUN_2, (c12,)))
             pos += 4
             if c12:
                 p = -pos & 7
@@ -3502,13 +2871,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__Joy(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def joy_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__Joy_0
+            f = JOY_RUN_0
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".axes"
@@ -3516,7 +2885,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v4, 4, lim - pos)
             v5 = _frombuffer(mv, _D_float32, v4, pos)
             pos += v4 * 4
-            f = _R_sensor_msgs__msg__Joy_1
+            f = JOY_RUN_1
             (v8,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".buttons"
@@ -3529,16 +2898,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__Joy(v1, v5, v9), pos
+            return joy_view(v1, v5, v9), pos
         return {"header": v1, "axes": v5.tolist(), "buttons": v9.tolist()}, pos
 
-    def encode_sensor_msgs__msg__Joy(d: Any, out: list[Any], pos: int) -> int:
+    def joy_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__Joy.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__Joy)
+            if d.__class__ is not dict or not JOY_KEYS.issuperset(d):
+                d = _submap(d, JOY_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".axes"
             b2, c3 = encode_array(d.get("axes", ()), _D_float32, "float32", None, False)
             p = -pos & 3
@@ -3549,7 +2918,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c3))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__Joy_0, (c3,)))
+                out.append(slow_pack(_S_I, JOY_RUN_0, (c3,)))
             pos += 4
             out.append(b2)
             pos += c3 * 4
@@ -3559,7 +2928,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c7))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__Joy_1, (c7,)))
+                out.append(slow_pack(_S_I, JOY_RUN_1, (c7,)))
             pos += 4
             out.append(b6)
             pos += c7 * 4
@@ -3569,14 +2938,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__JoyFeedback(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def joy_feedback_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_sensor_msgs__msg__JoyFeedback_0
+            f = JOY_FEEDBACK_RUN_0
             v1, v2 = _S_2B.unpack_from(mv, pos)
             pos += 2
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__JoyFeedback_1
+            f = JOY_FEEDBACK_RUN_1
             (v3,) = _S_f.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
@@ -3584,14 +2953,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__JoyFeedback(v1, v2, v3), pos
+            return joy_feedback_view(v1, v2, v3), pos
         return {"type": v1, "id": v2, "intensity": v3}, pos
 
-    def encode_sensor_msgs__msg__JoyFeedback(d: Any, out: list[Any], pos: int) -> int:
+    def joy_feedback_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__JoyFeedback.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__JoyFeedback)
+            if d.__class__ is not dict or not JOY_FEEDBACK_KEYS.issuperset(d):
+                d = _submap(d, JOY_FEEDBACK_KEYS)
             f = ""
             try:
                 out.append(_S_2B.pack(d.get("type", 0), d.get("id", 0)))
@@ -3599,7 +2968,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_2B,
-                        _R_sensor_msgs__msg__JoyFeedback_0,
+                        JOY_FEEDBACK_RUN_0,
                         (
                             d.get("type", 0),
                             d.get("id", 0),
@@ -3615,9 +2984,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_f.pack(d.get("intensity", 0.0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_f, _R_sensor_msgs__msg__JoyFeedback_1, (d.get("intensity", 0.0),))
-                )
+                out.append(slow_pack(_S_f, JOY_FEEDBACK_RUN_1, (d.get("intensity", 0.0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -3625,37 +2992,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__JoyFeedbackArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def joy_feedback_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".array"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_sensor_msgs__msg__JoyFeedback, None, None, 6
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, joy_feedback_decode, None, None, 6)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__JoyFeedbackArray(v1), pos
+            return joy_feedback_array_view(v1), pos
         return {"array": v1}, pos
 
-    def encode_sensor_msgs__msg__JoyFeedbackArray(d: Any, out: list[Any], pos: int) -> int:
+    def joy_feedback_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__JoyFeedbackArray.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__JoyFeedbackArray)
+            if d.__class__ is not dict or not JOY_FEEDBACK_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, JOY_FEEDBACK_ARRAY_KEYS)
             f = ".array"
             pos = write_messages(
-                d.get("array", ()),
-                out,
-                pos,
-                _U32,
-                encode_sensor_msgs__msg__JoyFeedback,
-                None,
-                False,
+                d.get("array", ()), out, pos, _U32, joy_feedback_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -3663,11 +3020,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__LaserEcho(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def laser_echo_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__LaserEcho_0
+            f = LASER_ECHO_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".echoes"
@@ -3680,14 +3037,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__LaserEcho(v4), pos
+            return laser_echo_view(v4), pos
         return {"echoes": v4.tolist()}, pos
 
-    def encode_sensor_msgs__msg__LaserEcho(d: Any, out: list[Any], pos: int) -> int:
+    def laser_echo_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__LaserEcho.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__LaserEcho)
+            if d.__class__ is not dict or not LASER_ECHO_KEYS.issuperset(d):
+                d = _submap(d, LASER_ECHO_KEYS)
             f = ".echoes"
             b1, c2 = encode_array(d.get("echoes", ()), _D_float32, "float32", None, False)
             p = -pos & 3
@@ -3698,7 +3055,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c2))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__LaserEcho_0, (c2,)))
+                out.append(slow_pack(_S_I, LASER_ECHO_RUN_0, (c2,)))
             pos += 4
             out.append(b1)
             pos += c2 * 4
@@ -3708,13 +3065,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__LaserScan(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def laser_scan_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__LaserScan_0
+            f = LASER_SCAN_RUN_0
             v2, v3, v4, v5, v6, v7, v8, v11 = _S_7fI.unpack_from(mv, pos)
             pos += 32
             f = ".ranges"
@@ -3722,7 +3079,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v11, 4, lim - pos)
             v12 = _frombuffer(mv, _D_float32, v11, pos)
             pos += v11 * 4
-            f = _R_sensor_msgs__msg__LaserScan_1
+            f = LASER_SCAN_RUN_1
             (v15,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".intensities"
@@ -3735,7 +3092,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__LaserScan(v1, v2, v3, v4, v5, v6, v7, v8, v12, v16), pos
+            return laser_scan_view(v1, v2, v3, v4, v5, v6, v7, v8, v12, v16), pos
         return {
             "header": v1,
             "angle_min": v2,
@@ -3749,13 +3106,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "intensities": v16.tolist(),
         }, pos
 
-    def encode_sensor_msgs__msg__LaserScan(d: Any, out: list[Any], pos: int) -> int:
+    def laser_scan_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__LaserScan.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__LaserScan)
+            if d.__class__ is not dict or not LASER_SCAN_KEYS.issuperset(d):
+                d = _submap(d, LASER_SCAN_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -3780,7 +3137,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7fI,
-                        _R_sensor_msgs__msg__LaserScan_0,
+                        LASER_SCAN_RUN_0,
                         (
                             d.get("angle_min", 0.0),
                             d.get("angle_max", 0.0),
@@ -3802,7 +3159,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c14))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__LaserScan_1, (c14,)))
+                out.append(slow_pack(_S_I, LASER_SCAN_RUN_1, (c14,)))
             pos += 4
             out.append(b13)
             pos += c14 * 4
@@ -3812,15 +3169,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__MagneticField(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def magnetic_field_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_sensor_msgs__msg__MagneticField_0
+            f = MAGNETIC_FIELD_RUN_0
             v3, v4, v5 = _S_3d.unpack_from(mv, pos)
             pos += 24
             f = ".magnetic_field_covariance"
@@ -3833,26 +3188,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__MagneticField(
-                v1, make_geometry_msgs__msg__Vector3(v3, v4, v5), v8
-            ), pos
+            return magnetic_field_view(v1, geometry_msgs__vector3_view(v3, v4, v5), v8), pos
         return {
             "header": v1,
             "magnetic_field": {"x": v3, "y": v4, "z": v5},
             "magnetic_field_covariance": v8.tolist(),
         }, pos
 
-    def encode_sensor_msgs__msg__MagneticField(d: Any, out: list[Any], pos: int) -> int:
+    def magnetic_field_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__MagneticField.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__MagneticField)
+            if d.__class__ is not dict or not MAGNETIC_FIELD_KEYS.issuperset(d):
+                d = _submap(d, MAGNETIC_FIELD_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".magnetic_field"
             m2 = d.get("magnetic_field", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Vector3)
+            if m2.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m2):
+                m2 = _submap(m2, GEOMETRY_MSGS__VECTOR3_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -3868,7 +3221,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3d,
-                        _R_sensor_msgs__msg__MagneticField_0,
+                        MAGNETIC_FIELD_RUN_0,
                         (
                             m2.get("x", 0.0),
                             m2.get("y", 0.0),
@@ -3885,254 +3238,38 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Transform(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Transform_0
-            v2, v3, v4, v6, v7, v8, v9 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Transform(
-                make_geometry_msgs__msg__Vector3(v2, v3, v4),
-                make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
-            ), pos
-        return {
-            "translation": {"x": v2, "y": v3, "z": v4},
-            "rotation": {"x": v6, "y": v7, "z": v8, "w": v9},
-        }, pos
-
-    def encode_geometry_msgs__msg__Transform(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Transform.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Transform)
-            f = ".translation"
-            m1 = d.get("translation", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Vector3)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".rotation"
-            m5 = d.get("rotation", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m5):
-                m5 = _submap(m5, _K_geometry_msgs__msg__Quaternion)
-            f = ""
-            try:
-                out.append(
-                    _S_7d.pack(
-                        m1.get("x", 0.0),
-                        m1.get("y", 0.0),
-                        m1.get("z", 0.0),
-                        m5.get("x", 0.0),
-                        m5.get("y", 0.0),
-                        m5.get("z", 0.0),
-                        m5.get("w", 1.0),
-                    )
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_7d,
-                        _R_geometry_msgs__msg__Transform_0,
-                        (
-                            m1.get("x", 0.0),
-                            m1.get("y", 0.0),
-                            m1.get("z", 0.0),
-                            m5.get("x", 0.0),
-                            m5.get("y", 0.0),
-                            m5.get("z", 0.0),
-                            m5.get("w", 1.0),
-                        ),
-                    )
-                )
-            pos += 56
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__Twist(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Twist_0
-            v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Twist(
-                make_geometry_msgs__msg__Vector3(v2, v3, v4),
-                make_geometry_msgs__msg__Vector3(v6, v7, v8),
-            ), pos
-        return {"linear": {"x": v2, "y": v3, "z": v4}, "angular": {"x": v6, "y": v7, "z": v8}}, pos
-
-    def encode_geometry_msgs__msg__Twist(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Twist.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Twist)
-            f = ".linear"
-            m1 = d.get("linear", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Vector3)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".angular"
-            m5 = d.get("angular", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m5):
-                m5 = _submap(m5, _K_geometry_msgs__msg__Vector3)
-            f = ""
-            try:
-                out.append(
-                    _S_6d.pack(
-                        m1.get("x", 0.0),
-                        m1.get("y", 0.0),
-                        m1.get("z", 0.0),
-                        m5.get("x", 0.0),
-                        m5.get("y", 0.0),
-                        m5.get("z", 0.0),
-                    )
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_6d,
-                        _R_geometry_msgs__msg__Twist_0,
-                        (
-                            m1.get("x", 0.0),
-                            m1.get("y", 0.0),
-                            m1.get("z", 0.0),
-                            m5.get("x", 0.0),
-                            m5.get("y", 0.0),
-                            m5.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 48
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__Wrench(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Wrench_0
-            v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Wrench(
-                make_geometry_msgs__msg__Vector3(v2, v3, v4),
-                make_geometry_msgs__msg__Vector3(v6, v7, v8),
-            ), pos
-        return {"force": {"x": v2, "y": v3, "z": v4}, "torque": {"x": v6, "y": v7, "z": v8}}, pos
-
-    def encode_geometry_msgs__msg__Wrench(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Wrench.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Wrench)
-            f = ".force"
-            m1 = d.get("force", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Vector3)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".torque"
-            m5 = d.get("torque", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m5):
-                m5 = _submap(m5, _K_geometry_msgs__msg__Vector3)
-            f = ""
-            try:
-                out.append(
-                    _S_6d.pack(
-                        m1.get("x", 0.0),
-                        m1.get("y", 0.0),
-                        m1.get("z", 0.0),
-                        m5.get("x", 0.0),
-                        m5.get("y", 0.0),
-                        m5.get("z", 0.0),
-                    )
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_6d,
-                        _R_geometry_msgs__msg__Wrench_0,
-                        (
-                            m1.get("x", 0.0),
-                            m1.get("y", 0.0),
-                            m1.get("z", 0.0),
-                            m5.get("x", 0.0),
-                            m5.get("y", 0.0),
-                            m5.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 48
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_sensor_msgs__msg__MultiDOFJointState(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def multi_dof_joint_state_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = ".joint_names"
             v2, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
             f = ".transforms"
             v3, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__Transform, None, None, 56
+                mv, pos, lim, _U32, geometry_msgs__transform_decode, None, None, 56
             )
             f = ".twist"
-            v4, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__Twist, None, None, 48
-            )
+            v4, pos = read_messages(mv, pos, lim, _U32, geometry_msgs__twist_decode, None, None, 48)
             f = ".wrench"
             v5, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__Wrench, None, None, 48
+                mv, pos, lim, _U32, geometry_msgs__wrench_decode, None, None, 48
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__MultiDOFJointState(v1, v2, v3, v4, v5), pos
+            return multi_dof_joint_state_view(v1, v2, v3, v4, v5), pos
         return {"header": v1, "joint_names": v2, "transforms": v3, "twist": v4, "wrench": v5}, pos
 
-    def encode_sensor_msgs__msg__MultiDOFJointState(d: Any, out: list[Any], pos: int) -> int:
+    def multi_dof_joint_state_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__MultiDOFJointState.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__MultiDOFJointState)
+            if d.__class__ is not dict or not MULTI_DOF_JOINT_STATE_KEYS.issuperset(d):
+                d = _submap(d, MULTI_DOF_JOINT_STATE_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".joint_names"
             pos = write_strings(d.get("joint_names", ()), out, pos, _U32, None, False, None, False)
             f = ".transforms"
@@ -4141,17 +3278,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_geometry_msgs__msg__Transform,
+                geometry_msgs__transform_encode,
                 None,
                 False,
             )
             f = ".twist"
             pos = write_messages(
-                d.get("twist", ()), out, pos, _U32, encode_geometry_msgs__msg__Twist, None, False
+                d.get("twist", ()), out, pos, _U32, geometry_msgs__twist_encode, None, False
             )
             f = ".wrench"
             pos = write_messages(
-                d.get("wrench", ()), out, pos, _U32, encode_geometry_msgs__msg__Wrench, None, False
+                d.get("wrench", ()), out, pos, _U32, geometry_msgs__wrench_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -4159,33 +3296,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__MultiEchoLaserScan(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def multi_echo_laser_scan_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__MultiEchoLaserScan_0
+            f = MULTI_ECHO_LASER_SCAN_RUN_0
             v2, v3, v4, v5, v6, v7, v8 = _S_7f.unpack_from(mv, pos)
             pos += 28
             f = ".ranges"
-            v9, pos = read_messages(
-                mv, pos, lim, _U32, decode_sensor_msgs__msg__LaserEcho, None, None, 4
-            )
+            v9, pos = read_messages(mv, pos, lim, _U32, laser_echo_decode, None, None, 4)
             f = ".intensities"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_sensor_msgs__msg__LaserEcho, None, None, 4
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, laser_echo_decode, None, None, 4)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__MultiEchoLaserScan(
-                v1, v2, v3, v4, v5, v6, v7, v8, v9, v10
-            ), pos
+            return multi_echo_laser_scan_view(v1, v2, v3, v4, v5, v6, v7, v8, v9, v10), pos
         return {
             "header": v1,
             "angle_min": v2,
@@ -4199,13 +3328,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "intensities": v10,
         }, pos
 
-    def encode_sensor_msgs__msg__MultiEchoLaserScan(d: Any, out: list[Any], pos: int) -> int:
+    def multi_echo_laser_scan_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__MultiEchoLaserScan.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__MultiEchoLaserScan)
+            if d.__class__ is not dict or not MULTI_ECHO_LASER_SCAN_KEYS.issuperset(d):
+                d = _submap(d, MULTI_ECHO_LASER_SCAN_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -4227,7 +3356,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7f,
-                        _R_sensor_msgs__msg__MultiEchoLaserScan_0,
+                        MULTI_ECHO_LASER_SCAN_RUN_0,
                         (
                             d.get("angle_min", 0.0),
                             d.get("angle_max", 0.0),
@@ -4242,17 +3371,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             pos += 28
             f = ".ranges"
             pos = write_messages(
-                d.get("ranges", ()), out, pos, _U32, encode_sensor_msgs__msg__LaserEcho, None, False
+                d.get("ranges", ()), out, pos, _U32, laser_echo_encode, None, False
             )
             f = ".intensities"
             pos = write_messages(
-                d.get("intensities", ()),
-                out,
-                pos,
-                _U32,
-                encode_sensor_msgs__msg__LaserEcho,
-                None,
-                False,
+                d.get("intensities", ()), out, pos, _U32, laser_echo_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -4260,16 +3383,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__NavSatStatus(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def nav_sat_status_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_sensor_msgs__msg__NavSatStatus_0
+            f = NAV_SAT_STATUS_RUN_0
             (v1,) = _S_b.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 1) & -2
-            f = _R_sensor_msgs__msg__NavSatStatus_1
+            f = NAV_SAT_STATUS_RUN_1
             (v2,) = _S_H.unpack_from(mv, pos)
             pos += 2
         except WireDecodeError as error:
@@ -4277,21 +3398,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__NavSatStatus(v1, v2), pos
+            return nav_sat_status_view(v1, v2), pos
         return {"status": v1, "service": v2}, pos
 
-    def encode_sensor_msgs__msg__NavSatStatus(d: Any, out: list[Any], pos: int) -> int:
+    def nav_sat_status_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__NavSatStatus.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__NavSatStatus)
+            if d.__class__ is not dict or not NAV_SAT_STATUS_KEYS.issuperset(d):
+                d = _submap(d, NAV_SAT_STATUS_KEYS)
             f = ""
             try:
                 out.append(_S_b.pack(d.get("status", -2)))
             except Exception:
-                out.append(
-                    slow_pack(_S_b, _R_sensor_msgs__msg__NavSatStatus_0, (d.get("status", -2),))
-                )
+                out.append(slow_pack(_S_b, NAV_SAT_STATUS_RUN_0, (d.get("status", -2),)))
             pos += 1
             p = -pos & 1
             if p:
@@ -4301,9 +3420,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_H.pack(d.get("service", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_H, _R_sensor_msgs__msg__NavSatStatus_1, (d.get("service", 0),))
-                )
+                out.append(slow_pack(_S_H, NAV_SAT_STATUS_RUN_1, (d.get("service", 0),)))
             pos += 2
         except FieldError as error:
             raise error.within(f) from None
@@ -4311,20 +3428,20 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__NavSatFix(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def nav_sat_fix_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
-            f = _R_sensor_msgs__msg__NavSatFix_0
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
+            f = NAV_SAT_FIX_RUN_0
             (v3,) = _S_b.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 1) & -2
-            f = _R_sensor_msgs__msg__NavSatFix_1
+            f = NAV_SAT_FIX_RUN_1
             (v4,) = _S_H.unpack_from(mv, pos)
             pos += 2
             pos = (pos + 7) & -8
-            f = _R_sensor_msgs__msg__NavSatFix_2
+            f = NAV_SAT_FIX_RUN_2
             v5, v6, v7 = _S_3d.unpack_from(mv, pos)
             pos += 24
             f = ".position_covariance"
@@ -4332,7 +3449,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(9, 8, lim - pos)
             v10 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
-            f = _R_sensor_msgs__msg__NavSatFix_3
+            f = NAV_SAT_FIX_RUN_3
             (v11,) = _S_B.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -4340,9 +3457,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__NavSatFix(
-                v1, make_sensor_msgs__msg__NavSatStatus(v3, v4), v5, v6, v7, v10, v11
-            ), pos
+            return nav_sat_fix_view(v1, nav_sat_status_view(v3, v4), v5, v6, v7, v10, v11), pos
         return {
             "header": v1,
             "status": {"status": v3, "service": v4},
@@ -4353,24 +3468,22 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "position_covariance_type": v11,
         }, pos
 
-    def encode_sensor_msgs__msg__NavSatFix(d: Any, out: list[Any], pos: int) -> int:
+    def nav_sat_fix_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__NavSatFix.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__NavSatFix)
+            if d.__class__ is not dict or not NAV_SAT_FIX_KEYS.issuperset(d):
+                d = _submap(d, NAV_SAT_FIX_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".status"
             m2 = d.get("status", EMPTY)
-            if m2.__class__ is not dict or not _K_sensor_msgs__msg__NavSatStatus.issuperset(m2):
-                m2 = _submap(m2, _K_sensor_msgs__msg__NavSatStatus)
+            if m2.__class__ is not dict or not NAV_SAT_STATUS_KEYS.issuperset(m2):
+                m2 = _submap(m2, NAV_SAT_STATUS_KEYS)
             f = ""
             try:
                 out.append(_S_b.pack(m2.get("status", -2)))
             except Exception:
-                out.append(
-                    slow_pack(_S_b, _R_sensor_msgs__msg__NavSatFix_0, (m2.get("status", -2),))
-                )
+                out.append(slow_pack(_S_b, NAV_SAT_FIX_RUN_0, (m2.get("status", -2),)))
             pos += 1
             p = -pos & 1
             if p:
@@ -4380,9 +3493,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_H.pack(m2.get("service", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_H, _R_sensor_msgs__msg__NavSatFix_1, (m2.get("service", 0),))
-                )
+                out.append(slow_pack(_S_H, NAV_SAT_FIX_RUN_1, (m2.get("service", 0),)))
             pos += 2
             p = -pos & 7
             if p:
@@ -4403,7 +3514,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3d,
-                        _R_sensor_msgs__msg__NavSatFix_2,
+                        NAV_SAT_FIX_RUN_2,
                         (
                             d.get("latitude", 0.0),
                             d.get("longitude", 0.0),
@@ -4419,11 +3530,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_B.pack(d.get("position_covariance_type", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_sensor_msgs__msg__NavSatFix_3,
-                        (d.get("position_covariance_type", 0),),
-                    )
+                    slow_pack(_S_B, NAV_SAT_FIX_RUN_3, (d.get("position_covariance_type", 0),))
                 )
             pos += 1
         except FieldError as error:
@@ -4432,93 +3539,39 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Point32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_geometry_msgs__msg__Point32_0
-            v1, v2, v3 = _S_3f.unpack_from(mv, pos)
-            pos += 12
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Point32(v1, v2, v3), pos
-        return {"x": v1, "y": v2, "z": v3}, pos
-
-    def encode_geometry_msgs__msg__Point32(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Point32.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Point32)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_3f.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3f,
-                        _R_geometry_msgs__msg__Point32_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 12
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_sensor_msgs__msg__PointCloud(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def point_cloud_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = ".points"
             v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__Point32, None, None, 12
+                mv, pos, lim, _U32, geometry_msgs__point32_decode, None, None, 12
             )
             f = ".channels"
-            v3, pos = read_messages(
-                mv, pos, lim, _U32, decode_sensor_msgs__msg__ChannelFloat32, None, None, 8
-            )
+            v3, pos = read_messages(mv, pos, lim, _U32, channel_float32_decode, None, None, 8)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__PointCloud(v1, v2, v3), pos
+            return point_cloud_view(v1, v2, v3), pos
         return {"header": v1, "points": v2, "channels": v3}, pos
 
-    def encode_sensor_msgs__msg__PointCloud(d: Any, out: list[Any], pos: int) -> int:
+    def point_cloud_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__PointCloud.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__PointCloud)
+            if d.__class__ is not dict or not POINT_CLOUD_KEYS.issuperset(d):
+                d = _submap(d, POINT_CLOUD_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".points"
             pos = write_messages(
-                d.get("points", ()), out, pos, _U32, encode_geometry_msgs__msg__Point32, None, False
+                d.get("points", ()), out, pos, _U32, geometry_msgs__point32_encode, None, False
             )
             f = ".channels"
             pos = write_messages(
-                d.get("channels", ()),
-                out,
-                pos,
-                _U32,
-                encode_sensor_msgs__msg__ChannelFloat32,
-                None,
-                False,
+                d.get("channels", ()), out, pos, _U32, channel_float32_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -4526,11 +3579,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__PointField(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def point_field_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__PointField_0
+            f = POINT_FIELD_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".name"
@@ -4539,7 +3592,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__PointField_1
+            f = POINT_FIELD_RUN_1
             v4, v5, v6 = _S_IB3xI.unpack_from(mv, pos)
             pos += 12
         except WireDecodeError as error:
@@ -4547,14 +3600,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__PointField(v3, v4, v5, v6), pos
+            return point_field_view(v3, v4, v5, v6), pos
         return {"name": v3, "offset": v4, "datatype": v5, "count": v6}, pos
 
-    def encode_sensor_msgs__msg__PointField(d: Any, out: list[Any], pos: int) -> int:
+    def point_field_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__PointField.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__PointField)
+            if d.__class__ is not dict or not POINT_FIELD_KEYS.issuperset(d):
+                d = _submap(d, POINT_FIELD_KEYS)
             f = ".name"
             b1 = utf8z(d.get("name", ""), None)
             p = -pos & 3
@@ -4565,7 +3618,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__PointField_0, (len(b1),)))
+                out.append(slow_pack(_S_I, POINT_FIELD_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -4582,7 +3635,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_IB3xI,
-                        _R_sensor_msgs__msg__PointField_1,
+                        POINT_FIELD_RUN_1,
                         (
                             d.get("offset", 0),
                             d.get("datatype", 0),
@@ -4597,24 +3650,22 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__PointCloud2(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def point_cloud2_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__PointCloud2_0
+            f = POINT_CLOUD2_RUN_0
             v2, v3 = _S_2I.unpack_from(mv, pos)
             pos += 8
             f = ".fields"
-            v4, pos = read_messages(
-                mv, pos, lim, _U32, decode_sensor_msgs__msg__PointField, None, None, 13
-            )
-            f = _R_sensor_msgs__msg__PointCloud2_1
+            v4, pos = read_messages(mv, pos, lim, _U32, point_field_decode, None, None, 13)
+            f = POINT_CLOUD2_RUN_1
             (v6,) = _S_T.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__PointCloud2_2
+            f = POINT_CLOUD2_RUN_2
             v7, v8, v11 = _S_3I.unpack_from(mv, pos)
             pos += 12
             f = ".data"
@@ -4622,7 +3673,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v11, 1, lim - pos)
             v12 = _frombuffer(mv, _D_uint8, v11, pos)
             pos += v11 * 1
-            f = _R_sensor_msgs__msg__PointCloud2_3
+            f = POINT_CLOUD2_RUN_3
             (v14,) = _S_T.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -4630,7 +3681,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__PointCloud2(v1, v2, v3, v4, v6, v7, v8, v12, v14), pos
+            return point_cloud2_view(v1, v2, v3, v4, v6, v7, v8, v12, v14), pos
         return {
             "header": v1,
             "height": v2,
@@ -4643,13 +3694,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "is_dense": v14,
         }, pos
 
-    def encode_sensor_msgs__msg__PointCloud2(d: Any, out: list[Any], pos: int) -> int:
+    def point_cloud2_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__PointCloud2.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__PointCloud2)
+            if d.__class__ is not dict or not POINT_CLOUD2_KEYS.issuperset(d):
+                d = _submap(d, POINT_CLOUD2_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -4661,7 +3712,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_2I,
-                        _R_sensor_msgs__msg__PointCloud2_0,
+                        POINT_CLOUD2_RUN_0,
                         (
                             d.get("height", 0),
                             d.get("width", 0),
@@ -4671,13 +3722,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             pos += 8
             f = ".fields"
             pos = write_messages(
-                d.get("fields", ()),
-                out,
-                pos,
-                _U32,
-                encode_sensor_msgs__msg__PointField,
-                None,
-                False,
+                d.get("fields", ()), out, pos, _U32, point_field_encode, None, False
             )
             f = ""
             try:
@@ -4694,7 +3739,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_sensor_msgs__msg__PointCloud2_1,
+                        POINT_CLOUD2_RUN_1,
                         (
                             (
                                 t5
@@ -4718,7 +3763,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3I,
-                        _R_sensor_msgs__msg__PointCloud2_2,
+                        POINT_CLOUD2_RUN_2,
                         (
                             d.get("point_step", 0),
                             d.get("row_step", 0),
@@ -4744,7 +3789,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_sensor_msgs__msg__PointCloud2_3,
+                        POINT_CLOUD2_RUN_3,
                         (
                             (
                                 t13
@@ -4761,16 +3806,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__Range(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def range_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
-            f = _R_sensor_msgs__msg__Range_0
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
+            f = RANGE_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__Range_1
+            f = RANGE_RUN_1
             v3, v4, v5, v6, v7 = _S_5f.unpack_from(mv, pos)
             pos += 20
         except WireDecodeError as error:
@@ -4778,7 +3823,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__Range(v1, v2, v3, v4, v5, v6, v7), pos
+            return range_view(v1, v2, v3, v4, v5, v6, v7), pos
         return {
             "header": v1,
             "radiation_type": v2,
@@ -4789,20 +3834,18 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "variance": v7,
         }, pos
 
-    def encode_sensor_msgs__msg__Range(d: Any, out: list[Any], pos: int) -> int:
+    def range_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__Range.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__Range)
+            if d.__class__ is not dict or not RANGE_KEYS.issuperset(d):
+                d = _submap(d, RANGE_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ""
             try:
                 out.append(_S_B.pack(d.get("radiation_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_sensor_msgs__msg__Range_0, (d.get("radiation_type", 0),))
-                )
+                out.append(slow_pack(_S_B, RANGE_RUN_0, (d.get("radiation_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -4823,7 +3866,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_5f,
-                        _R_sensor_msgs__msg__Range_1,
+                        RANGE_RUN_1,
                         (
                             d.get("field_of_view", 0.0),
                             d.get("min_range", 0.0),
@@ -4840,15 +3883,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__RelativeHumidity(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def relative_humidity_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_sensor_msgs__msg__RelativeHumidity_0
+            f = RELATIVE_HUMIDITY_RUN_0
             v2, v3 = _S_2d.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
@@ -4856,16 +3897,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__RelativeHumidity(v1, v2, v3), pos
+            return relative_humidity_view(v1, v2, v3), pos
         return {"header": v1, "relative_humidity": v2, "variance": v3}, pos
 
-    def encode_sensor_msgs__msg__RelativeHumidity(d: Any, out: list[Any], pos: int) -> int:
+    def relative_humidity_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__RelativeHumidity.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__RelativeHumidity)
+            if d.__class__ is not dict or not RELATIVE_HUMIDITY_KEYS.issuperset(d):
+                d = _submap(d, RELATIVE_HUMIDITY_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -4877,7 +3918,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_2d,
-                        _R_sensor_msgs__msg__RelativeHumidity_0,
+                        RELATIVE_HUMIDITY_RUN_0,
                         (
                             d.get("relative_humidity", 0.0),
                             d.get("variance", 0.0),
@@ -4891,13 +3932,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__Temperature(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def temperature_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_sensor_msgs__msg__Temperature_0
+            f = TEMPERATURE_RUN_0
             v2, v3 = _S_2d.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
@@ -4905,16 +3946,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__Temperature(v1, v2, v3), pos
+            return temperature_view(v1, v2, v3), pos
         return {"header": v1, "temperature": v2, "variance": v3}, pos
 
-    def encode_sensor_msgs__msg__Temperature(d: Any, out: list[Any], pos: int) -> int:
+    def temperature_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__Temperature.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__Temperature)
+            if d.__class__ is not dict or not TEMPERATURE_KEYS.issuperset(d):
+                d = _submap(d, TEMPERATURE_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -4926,7 +3967,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_2d,
-                        _R_sensor_msgs__msg__Temperature_0,
+                        TEMPERATURE_RUN_0,
                         (
                             d.get("temperature", 0.0),
                             d.get("variance", 0.0),
@@ -4940,15 +3981,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__msg__TimeReference(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def time_reference_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__TimeReference_0
+            f = TIME_REFERENCE_RUN_0
             v3, v4, v6 = _S_i2I.unpack_from(mv, pos)
             pos += 12
             f = ".source"
@@ -4961,22 +4000,20 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__msg__TimeReference(
-                v1, make_builtin_interfaces__msg__Time(v3, v4), v7
-            ), pos
+            return time_reference_view(v1, builtin_interfaces__time_view(v3, v4), v7), pos
         return {"header": v1, "time_ref": {"sec": v3, "nanosec": v4}, "source": v7}, pos
 
-    def encode_sensor_msgs__msg__TimeReference(d: Any, out: list[Any], pos: int) -> int:
+    def time_reference_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__TimeReference.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__TimeReference)
+            if d.__class__ is not dict or not TIME_REFERENCE_KEYS.issuperset(d):
+                d = _submap(d, TIME_REFERENCE_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".time_ref"
             m2 = d.get("time_ref", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
+            if m2.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m2):
+                m2 = _submap(m2, BUILTIN_INTERFACES__TIME_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -4990,7 +4027,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_i2I,
-                        _R_sensor_msgs__msg__TimeReference_0,
+                        TIME_REFERENCE_RUN_0,
                         (
                             m2.get("sec", 0),
                             m2.get("nanosec", 0),
@@ -5007,46 +4044,40 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__srv__SetCameraInfo_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def set_camera_info_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".camera_info"
-            v1, pos = decode_sensor_msgs__msg__CameraInfo(mv, pos, lim)
+            v1, pos = camera_info_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__srv__SetCameraInfo_Request(v1), pos
+            return set_camera_info_request_view(v1), pos
         return {"camera_info": v1}, pos
 
-    def encode_sensor_msgs__srv__SetCameraInfo_Request(d: Any, out: list[Any], pos: int) -> int:
+    def set_camera_info_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__srv__SetCameraInfo_Request.issuperset(
-                d
-            ):
-                d = _submap(d, _K_sensor_msgs__srv__SetCameraInfo_Request)
+            if d.__class__ is not dict or not SET_CAMERA_INFO_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, SET_CAMERA_INFO_REQUEST_KEYS)
             f = ".camera_info"
-            pos = encode_sensor_msgs__msg__CameraInfo(d.get("camera_info", EMPTY), out, pos)
+            pos = camera_info_encode(d.get("camera_info", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_sensor_msgs__srv__SetCameraInfo_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def set_camera_info_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_sensor_msgs__srv__SetCameraInfo_Response_0
+            f = SET_CAMERA_INFO_RESPONSE_RUN_0
             (v2,) = _S_T.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__srv__SetCameraInfo_Response_1
+            f = SET_CAMERA_INFO_RESPONSE_RUN_1
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".status_message"
@@ -5059,17 +4090,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__srv__SetCameraInfo_Response(v2, v5), pos
+            return set_camera_info_response_view(v2, v5), pos
         return {"success": v2, "status_message": v5}, pos
 
-    def encode_sensor_msgs__srv__SetCameraInfo_Response(d: Any, out: list[Any], pos: int) -> int:
+    def set_camera_info_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_sensor_msgs__srv__SetCameraInfo_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_sensor_msgs__srv__SetCameraInfo_Response)
+            if d.__class__ is not dict or not SET_CAMERA_INFO_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, SET_CAMERA_INFO_RESPONSE_KEYS)
             f = ".status_message"
             b3 = utf8z(d.get("status_message", ""), None)
             f = ""
@@ -5087,7 +4115,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_sensor_msgs__srv__SetCameraInfo_Response_0,
+                        SET_CAMERA_INFO_RESPONSE_RUN_0,
                         (
                             (
                                 t1
@@ -5106,9 +4134,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b3)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_sensor_msgs__srv__SetCameraInfo_Response_1, (len(b3),))
-                )
+                out.append(slow_pack(_S_I, SET_CAMERA_INFO_RESPONSE_RUN_1, (len(b3),)))
             pos += 4
             out.append(b3)
             pos += len(b3)
@@ -5118,116 +4144,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def set_camera_info_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_service_msgs__msg__ServiceEventInfo(
-                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-            ), pos
-        return {
-            "event_type": v1,
-            "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7.tobytes(),
-            "sequence_number": v8,
-        }, pos
-
-    def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(d):
-                d = _submap(d, _K_service_msgs__msg__ServiceEventInfo)
-            f = ".stamp"
-            m2 = d.get("stamp", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
-            f = ""
-            try:
-                out.append(_S_B.pack(d.get("event_type", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_service_msgs__msg__ServiceEventInfo_0, (d.get("event_type", 0),)
-                    )
-                )
-            pos += 1
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".client_gid"
-            b5, c6 = encode_array(d.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
-            f = ""
-            try:
-                out.append(_S_iI.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_service_msgs__msg__ServiceEventInfo_1,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-            out.append(b5)
-            pos += c6 * 1
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_q.pack(d.get("sequence_number", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_service_msgs__msg__ServiceEventInfo_2,
-                        (d.get("sequence_number", 0),),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_sensor_msgs__srv__SetCameraInfo_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_sensor_msgs__srv__SetCameraInfo_Event_0
+            f = SET_CAMERA_INFO_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_sensor_msgs__srv__SetCameraInfo_Event_1
+            f = SET_CAMERA_INFO_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -5236,25 +4160,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_sensor_msgs__srv__SetCameraInfo_Event_2
+            f = SET_CAMERA_INFO_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_sensor_msgs__srv__SetCameraInfo_Request, None, 1, 293
+                mv, pos, lim, _U32, set_camera_info_request_decode, None, 1, 293
             )
             f = ".response"
             v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_sensor_msgs__srv__SetCameraInfo_Response, None, 1, 5
+                mv, pos, lim, _U32, set_camera_info_response_decode, None, 1, 5
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_sensor_msgs__srv__SetCameraInfo_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return set_camera_info_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -5270,32 +4194,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_sensor_msgs__srv__SetCameraInfo_Event(d: Any, out: list[Any], pos: int) -> int:
+    def set_camera_info_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_sensor_msgs__srv__SetCameraInfo_Event.issuperset(
-                d
-            ):
-                d = _submap(d, _K_sensor_msgs__srv__SetCameraInfo_Event)
+            if d.__class__ is not dict or not SET_CAMERA_INFO_EVENT_KEYS.issuperset(d):
+                d = _submap(d, SET_CAMERA_INFO_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_sensor_msgs__srv__SetCameraInfo_Event_0, (m1.get("event_type", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_B, SET_CAMERA_INFO_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -5310,7 +4226,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_sensor_msgs__srv__SetCameraInfo_Event_1,
+                        SET_CAMERA_INFO_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -5329,32 +4245,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_sensor_msgs__srv__SetCameraInfo_Event_2,
-                        (m1.get("sequence_number", 0),),
-                    )
+                    slow_pack(_S_q, SET_CAMERA_INFO_EVENT_RUN_2, (m1.get("sequence_number", 0),))
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_sensor_msgs__srv__SetCameraInfo_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, set_camera_info_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_sensor_msgs__srv__SetCameraInfo_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, set_camera_info_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -5363,154 +4263,231 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
-        ),
-        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
+        "battery_state_decode": battery_state_decode,
+        "battery_state_encode": battery_state_encode,
+        "region_of_interest_decode": region_of_interest_decode,
+        "region_of_interest_encode": region_of_interest_encode,
+        "camera_info_decode": camera_info_decode,
+        "camera_info_encode": camera_info_encode,
+        "channel_float32_decode": channel_float32_decode,
+        "channel_float32_encode": channel_float32_encode,
+        "compressed_image_decode": compressed_image_decode,
+        "compressed_image_encode": compressed_image_encode,
+        "fluid_pressure_decode": fluid_pressure_decode,
+        "fluid_pressure_encode": fluid_pressure_encode,
+        "illuminance_decode": illuminance_decode,
+        "illuminance_encode": illuminance_encode,
+        "image_decode": image_decode,
+        "image_encode": image_encode,
+        "imu_decode": imu_decode,
+        "imu_encode": imu_encode,
+        "joint_state_decode": joint_state_decode,
+        "joint_state_encode": joint_state_encode,
+        "joy_decode": joy_decode,
+        "joy_encode": joy_encode,
+        "joy_feedback_decode": joy_feedback_decode,
+        "joy_feedback_encode": joy_feedback_encode,
+        "joy_feedback_array_decode": joy_feedback_array_decode,
+        "joy_feedback_array_encode": joy_feedback_array_encode,
+        "laser_echo_decode": laser_echo_decode,
+        "laser_echo_encode": laser_echo_encode,
+        "laser_scan_decode": laser_scan_decode,
+        "laser_scan_encode": laser_scan_encode,
+        "magnetic_field_decode": magnetic_field_decode,
+        "magnetic_field_encode": magnetic_field_encode,
+        "multi_dof_joint_state_decode": multi_dof_joint_state_decode,
+        "multi_dof_joint_state_encode": multi_dof_joint_state_encode,
+        "multi_echo_laser_scan_decode": multi_echo_laser_scan_decode,
+        "multi_echo_laser_scan_encode": multi_echo_laser_scan_encode,
+        "nav_sat_status_decode": nav_sat_status_decode,
+        "nav_sat_status_encode": nav_sat_status_encode,
+        "nav_sat_fix_decode": nav_sat_fix_decode,
+        "nav_sat_fix_encode": nav_sat_fix_encode,
+        "point_cloud_decode": point_cloud_decode,
+        "point_cloud_encode": point_cloud_encode,
+        "point_field_decode": point_field_decode,
+        "point_field_encode": point_field_encode,
+        "point_cloud2_decode": point_cloud2_decode,
+        "point_cloud2_encode": point_cloud2_encode,
+        "range_decode": range_decode,
+        "range_encode": range_encode,
+        "relative_humidity_decode": relative_humidity_decode,
+        "relative_humidity_encode": relative_humidity_encode,
+        "temperature_decode": temperature_decode,
+        "temperature_encode": temperature_encode,
+        "time_reference_decode": time_reference_decode,
+        "time_reference_encode": time_reference_encode,
+        "set_camera_info_request_decode": set_camera_info_request_decode,
+        "set_camera_info_request_encode": set_camera_info_request_encode,
+        "set_camera_info_response_decode": set_camera_info_response_decode,
+        "set_camera_info_response_encode": set_camera_info_response_encode,
+        "set_camera_info_event_decode": set_camera_info_event_decode,
+        "set_camera_info_event_encode": set_camera_info_event_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "sensor_msgs/msg/BatteryState": (
-            decode_sensor_msgs__msg__BatteryState,
-            encode_sensor_msgs__msg__BatteryState,
+            as_dict["battery_state_decode"],
+            as_view["battery_state_decode"],
+            as_dict["battery_state_encode"],
         ),
         "sensor_msgs/msg/RegionOfInterest": (
-            decode_sensor_msgs__msg__RegionOfInterest,
-            encode_sensor_msgs__msg__RegionOfInterest,
+            as_dict["region_of_interest_decode"],
+            as_view["region_of_interest_decode"],
+            as_dict["region_of_interest_encode"],
         ),
         "sensor_msgs/msg/CameraInfo": (
-            decode_sensor_msgs__msg__CameraInfo,
-            encode_sensor_msgs__msg__CameraInfo,
+            as_dict["camera_info_decode"],
+            as_view["camera_info_decode"],
+            as_dict["camera_info_encode"],
         ),
         "sensor_msgs/msg/ChannelFloat32": (
-            decode_sensor_msgs__msg__ChannelFloat32,
-            encode_sensor_msgs__msg__ChannelFloat32,
+            as_dict["channel_float32_decode"],
+            as_view["channel_float32_decode"],
+            as_dict["channel_float32_encode"],
         ),
         "sensor_msgs/msg/CompressedImage": (
-            decode_sensor_msgs__msg__CompressedImage,
-            encode_sensor_msgs__msg__CompressedImage,
+            as_dict["compressed_image_decode"],
+            as_view["compressed_image_decode"],
+            as_dict["compressed_image_encode"],
         ),
         "sensor_msgs/msg/FluidPressure": (
-            decode_sensor_msgs__msg__FluidPressure,
-            encode_sensor_msgs__msg__FluidPressure,
+            as_dict["fluid_pressure_decode"],
+            as_view["fluid_pressure_decode"],
+            as_dict["fluid_pressure_encode"],
         ),
         "sensor_msgs/msg/Illuminance": (
-            decode_sensor_msgs__msg__Illuminance,
-            encode_sensor_msgs__msg__Illuminance,
+            as_dict["illuminance_decode"],
+            as_view["illuminance_decode"],
+            as_dict["illuminance_encode"],
         ),
-        "sensor_msgs/msg/Image": (decode_sensor_msgs__msg__Image, encode_sensor_msgs__msg__Image),
-        "geometry_msgs/msg/Quaternion": (
-            decode_geometry_msgs__msg__Quaternion,
-            encode_geometry_msgs__msg__Quaternion,
+        "sensor_msgs/msg/Image": (
+            as_dict["image_decode"],
+            as_view["image_decode"],
+            as_dict["image_encode"],
         ),
-        "geometry_msgs/msg/Vector3": (
-            decode_geometry_msgs__msg__Vector3,
-            encode_geometry_msgs__msg__Vector3,
+        "sensor_msgs/msg/Imu": (
+            as_dict["imu_decode"],
+            as_view["imu_decode"],
+            as_dict["imu_encode"],
         ),
-        "sensor_msgs/msg/Imu": (decode_sensor_msgs__msg__Imu, encode_sensor_msgs__msg__Imu),
         "sensor_msgs/msg/JointState": (
-            decode_sensor_msgs__msg__JointState,
-            encode_sensor_msgs__msg__JointState,
+            as_dict["joint_state_decode"],
+            as_view["joint_state_decode"],
+            as_dict["joint_state_encode"],
         ),
-        "sensor_msgs/msg/Joy": (decode_sensor_msgs__msg__Joy, encode_sensor_msgs__msg__Joy),
+        "sensor_msgs/msg/Joy": (
+            as_dict["joy_decode"],
+            as_view["joy_decode"],
+            as_dict["joy_encode"],
+        ),
         "sensor_msgs/msg/JoyFeedback": (
-            decode_sensor_msgs__msg__JoyFeedback,
-            encode_sensor_msgs__msg__JoyFeedback,
+            as_dict["joy_feedback_decode"],
+            as_view["joy_feedback_decode"],
+            as_dict["joy_feedback_encode"],
         ),
         "sensor_msgs/msg/JoyFeedbackArray": (
-            decode_sensor_msgs__msg__JoyFeedbackArray,
-            encode_sensor_msgs__msg__JoyFeedbackArray,
+            as_dict["joy_feedback_array_decode"],
+            as_view["joy_feedback_array_decode"],
+            as_dict["joy_feedback_array_encode"],
         ),
         "sensor_msgs/msg/LaserEcho": (
-            decode_sensor_msgs__msg__LaserEcho,
-            encode_sensor_msgs__msg__LaserEcho,
+            as_dict["laser_echo_decode"],
+            as_view["laser_echo_decode"],
+            as_dict["laser_echo_encode"],
         ),
         "sensor_msgs/msg/LaserScan": (
-            decode_sensor_msgs__msg__LaserScan,
-            encode_sensor_msgs__msg__LaserScan,
+            as_dict["laser_scan_decode"],
+            as_view["laser_scan_decode"],
+            as_dict["laser_scan_encode"],
         ),
         "sensor_msgs/msg/MagneticField": (
-            decode_sensor_msgs__msg__MagneticField,
-            encode_sensor_msgs__msg__MagneticField,
-        ),
-        "geometry_msgs/msg/Transform": (
-            decode_geometry_msgs__msg__Transform,
-            encode_geometry_msgs__msg__Transform,
-        ),
-        "geometry_msgs/msg/Twist": (
-            decode_geometry_msgs__msg__Twist,
-            encode_geometry_msgs__msg__Twist,
-        ),
-        "geometry_msgs/msg/Wrench": (
-            decode_geometry_msgs__msg__Wrench,
-            encode_geometry_msgs__msg__Wrench,
+            as_dict["magnetic_field_decode"],
+            as_view["magnetic_field_decode"],
+            as_dict["magnetic_field_encode"],
         ),
         "sensor_msgs/msg/MultiDOFJointState": (
-            decode_sensor_msgs__msg__MultiDOFJointState,
-            encode_sensor_msgs__msg__MultiDOFJointState,
+            as_dict["multi_dof_joint_state_decode"],
+            as_view["multi_dof_joint_state_decode"],
+            as_dict["multi_dof_joint_state_encode"],
         ),
         "sensor_msgs/msg/MultiEchoLaserScan": (
-            decode_sensor_msgs__msg__MultiEchoLaserScan,
-            encode_sensor_msgs__msg__MultiEchoLaserScan,
+            as_dict["multi_echo_laser_scan_decode"],
+            as_view["multi_echo_laser_scan_decode"],
+            as_dict["multi_echo_laser_scan_encode"],
         ),
         "sensor_msgs/msg/NavSatStatus": (
-            decode_sensor_msgs__msg__NavSatStatus,
-            encode_sensor_msgs__msg__NavSatStatus,
+            as_dict["nav_sat_status_decode"],
+            as_view["nav_sat_status_decode"],
+            as_dict["nav_sat_status_encode"],
         ),
         "sensor_msgs/msg/NavSatFix": (
-            decode_sensor_msgs__msg__NavSatFix,
-            encode_sensor_msgs__msg__NavSatFix,
-        ),
-        "geometry_msgs/msg/Point32": (
-            decode_geometry_msgs__msg__Point32,
-            encode_geometry_msgs__msg__Point32,
+            as_dict["nav_sat_fix_decode"],
+            as_view["nav_sat_fix_decode"],
+            as_dict["nav_sat_fix_encode"],
         ),
         "sensor_msgs/msg/PointCloud": (
-            decode_sensor_msgs__msg__PointCloud,
-            encode_sensor_msgs__msg__PointCloud,
+            as_dict["point_cloud_decode"],
+            as_view["point_cloud_decode"],
+            as_dict["point_cloud_encode"],
         ),
         "sensor_msgs/msg/PointField": (
-            decode_sensor_msgs__msg__PointField,
-            encode_sensor_msgs__msg__PointField,
+            as_dict["point_field_decode"],
+            as_view["point_field_decode"],
+            as_dict["point_field_encode"],
         ),
         "sensor_msgs/msg/PointCloud2": (
-            decode_sensor_msgs__msg__PointCloud2,
-            encode_sensor_msgs__msg__PointCloud2,
+            as_dict["point_cloud2_decode"],
+            as_view["point_cloud2_decode"],
+            as_dict["point_cloud2_encode"],
         ),
-        "sensor_msgs/msg/Range": (decode_sensor_msgs__msg__Range, encode_sensor_msgs__msg__Range),
+        "sensor_msgs/msg/Range": (
+            as_dict["range_decode"],
+            as_view["range_decode"],
+            as_dict["range_encode"],
+        ),
         "sensor_msgs/msg/RelativeHumidity": (
-            decode_sensor_msgs__msg__RelativeHumidity,
-            encode_sensor_msgs__msg__RelativeHumidity,
+            as_dict["relative_humidity_decode"],
+            as_view["relative_humidity_decode"],
+            as_dict["relative_humidity_encode"],
         ),
         "sensor_msgs/msg/Temperature": (
-            decode_sensor_msgs__msg__Temperature,
-            encode_sensor_msgs__msg__Temperature,
+            as_dict["temperature_decode"],
+            as_view["temperature_decode"],
+            as_dict["temperature_encode"],
         ),
         "sensor_msgs/msg/TimeReference": (
-            decode_sensor_msgs__msg__TimeReference,
-            encode_sensor_msgs__msg__TimeReference,
+            as_dict["time_reference_decode"],
+            as_view["time_reference_decode"],
+            as_dict["time_reference_encode"],
         ),
         "sensor_msgs/srv/SetCameraInfo_Request": (
-            decode_sensor_msgs__srv__SetCameraInfo_Request,
-            encode_sensor_msgs__srv__SetCameraInfo_Request,
+            as_dict["set_camera_info_request_decode"],
+            as_view["set_camera_info_request_decode"],
+            as_dict["set_camera_info_request_encode"],
         ),
         "sensor_msgs/srv/SetCameraInfo_Response": (
-            decode_sensor_msgs__srv__SetCameraInfo_Response,
-            encode_sensor_msgs__srv__SetCameraInfo_Response,
-        ),
-        "service_msgs/msg/ServiceEventInfo": (
-            decode_service_msgs__msg__ServiceEventInfo,
-            encode_service_msgs__msg__ServiceEventInfo,
+            as_dict["set_camera_info_response_decode"],
+            as_view["set_camera_info_response_decode"],
+            as_dict["set_camera_info_response_encode"],
         ),
         "sensor_msgs/srv/SetCameraInfo_Event": (
-            decode_sensor_msgs__srv__SetCameraInfo_Event,
-            encode_sensor_msgs__srv__SetCameraInfo_Event,
+            as_dict["set_camera_info_event_decode"],
+            as_view["set_camera_info_event_decode"],
+            as_dict["set_camera_info_event_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

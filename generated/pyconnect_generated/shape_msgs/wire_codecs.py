@@ -11,10 +11,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -50,24 +51,22 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.geometry_msgs.wire_codecs import (
+    DEFINITIONS as GEOMETRY_MSGS__DEFINITIONS,
+    FUNCTIONS as GEOMETRY_MSGS__FUNCTIONS,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
+    **GEOMETRY_MSGS__DEFINITIONS,
     "shape_msgs/msg/MeshTriangle": (
         "RIHS01_618e5c073eeb729e433ef6226e72c01d995c459fb7d76348c9700409a5020bd0",
         (("vertex_indices", "primitive", "uint32", None, "array", 3, None),),
-    ),
-    "geometry_msgs/msg/Point": (
-        "RIHS01_6963084842a9b04494d6b2941d11444708d892da2f4b09843b9c43f42a7f6881",
-        (
-            ("x", "primitive", "float64", None, "single", None, None),
-            ("y", "primitive", "float64", None, "single", None, None),
-            ("z", "primitive", "float64", None, "single", None, None),
-        ),
     ),
     "shape_msgs/msg/Mesh": (
         "RIHS01_f2150b82d8ee7e8bc3f396a2b158aefb4b9a5510a474be271ba1268aebb55289",
@@ -79,18 +78,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "shape_msgs/msg/Plane": (
         "RIHS01_dfbfe8314689c850615d4a727af017e9aa86c10e369a606c8c851ef8f16c58c8",
         (("coef", "primitive", "float64", None, "array", 4, None),),
-    ),
-    "geometry_msgs/msg/Point32": (
-        "RIHS01_2fc4db7cae16a4582c79a56b66173a8d48d52c7dc520ddc55a0d4bcf2a4bfdbc",
-        (
-            ("x", "primitive", "float32", None, "single", None, None),
-            ("y", "primitive", "float32", None, "single", None, None),
-            ("z", "primitive", "float32", None, "single", None, None),
-        ),
-    ),
-    "geometry_msgs/msg/Polygon": (
-        "RIHS01_3782f9f0bf044964d692d6c017d705e37611afb1f0bf6a9dee248a7dda0f784a",
-        (("points", "message", "geometry_msgs/msg/Point32", None, "sequence", None, None),),
     ),
     "shape_msgs/msg/SolidPrimitive": (
         "RIHS01_2802a15190aadc3f496584df4b0b4c5824d8a0b31aaef839faa75bc34dda38ac",
@@ -109,48 +96,23 @@ EXPORTED: frozenset[str] = frozenset(
         "shape_msgs/msg/SolidPrimitive",
     )
 )
-_K_geometry_msgs__msg__Point = frozenset(
-    (
-        "x",
-        "y",
-        "z",
-    )
-)
-_K_geometry_msgs__msg__Point32 = frozenset(
-    (
-        "x",
-        "y",
-        "z",
-    )
-)
-_K_geometry_msgs__msg__Polygon = frozenset(("points",))
-_K_shape_msgs__msg__Mesh = frozenset(
+MESH_KEYS = frozenset(
     (
         "triangles",
         "vertices",
     )
 )
-_K_shape_msgs__msg__MeshTriangle = frozenset(("vertex_indices",))
-_K_shape_msgs__msg__Plane = frozenset(("coef",))
-_K_shape_msgs__msg__SolidPrimitive = frozenset(
+MESH_TRIANGLE_KEYS = frozenset(("vertex_indices",))
+PLANE_KEYS = frozenset(("coef",))
+SOLID_PRIMITIVE_KEYS = frozenset(
     (
         "type",
         "dimensions",
         "polygon",
     )
 )
-_R_geometry_msgs__msg__Point32_0 = (
-    (".x", "float32", 4),
-    (".y", "float32", 8),
-    (".z", "float32", 12),
-)
-_R_geometry_msgs__msg__Point_0 = (
-    (".x", "float64", 8),
-    (".y", "float64", 16),
-    (".z", "float64", 24),
-)
-_R_shape_msgs__msg__SolidPrimitive_0 = ((".type", "uint8", 1),)
-_R_shape_msgs__msg__SolidPrimitive_1 = ((".dimensions", "uint32", 4),)
+SOLID_PRIMITIVE_RUN_0 = ((".type", "uint8", 1),)
+SOLID_PRIMITIVE_RUN_1 = ((".dimensions", "uint32", 4),)
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
@@ -160,7 +122,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class shape_msgs__msg__MeshTriangle:
+class MeshTriangle:
     """A decoded shape_msgs/msg/MeshTriangle.
 
     Attributes named as the ROS fields.
@@ -173,38 +135,13 @@ class shape_msgs__msg__MeshTriangle:
         return view_repr(self)
 
 
-def make_shape_msgs__msg__MeshTriangle(a0: Any) -> shape_msgs__msg__MeshTriangle:
-    view = _new(shape_msgs__msg__MeshTriangle)
+def mesh_triangle_view(a0: Any) -> MeshTriangle:
+    view = _new(MeshTriangle)
     view.vertex_indices = a0
     return view
 
 
-class geometry_msgs__msg__Point:
-    """A decoded geometry_msgs/msg/Point.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "x",
-        "y",
-        "z",
-    )
-    msg_type = "geometry_msgs/msg/Point"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Point(a0: Any, a1: Any, a2: Any) -> geometry_msgs__msg__Point:
-    view = _new(geometry_msgs__msg__Point)
-    view.x = a0
-    view.y = a1
-    view.z = a2
-    return view
-
-
-class shape_msgs__msg__Mesh:
+class Mesh:
     """A decoded shape_msgs/msg/Mesh.
 
     Attributes named as the ROS fields.
@@ -220,14 +157,14 @@ class shape_msgs__msg__Mesh:
         return view_repr(self)
 
 
-def make_shape_msgs__msg__Mesh(a0: Any, a1: Any) -> shape_msgs__msg__Mesh:
-    view = _new(shape_msgs__msg__Mesh)
+def mesh_view(a0: Any, a1: Any) -> Mesh:
+    view = _new(Mesh)
     view.triangles = a0
     view.vertices = a1
     return view
 
 
-class shape_msgs__msg__Plane:
+class Plane:
     """A decoded shape_msgs/msg/Plane.
 
     Attributes named as the ROS fields.
@@ -240,57 +177,13 @@ class shape_msgs__msg__Plane:
         return view_repr(self)
 
 
-def make_shape_msgs__msg__Plane(a0: Any) -> shape_msgs__msg__Plane:
-    view = _new(shape_msgs__msg__Plane)
+def plane_view(a0: Any) -> Plane:
+    view = _new(Plane)
     view.coef = a0
     return view
 
 
-class geometry_msgs__msg__Point32:
-    """A decoded geometry_msgs/msg/Point32.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "x",
-        "y",
-        "z",
-    )
-    msg_type = "geometry_msgs/msg/Point32"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Point32(a0: Any, a1: Any, a2: Any) -> geometry_msgs__msg__Point32:
-    view = _new(geometry_msgs__msg__Point32)
-    view.x = a0
-    view.y = a1
-    view.z = a2
-    return view
-
-
-class geometry_msgs__msg__Polygon:
-    """A decoded geometry_msgs/msg/Polygon.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = ("points",)
-    msg_type = "geometry_msgs/msg/Polygon"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Polygon(a0: Any) -> geometry_msgs__msg__Polygon:
-    view = _new(geometry_msgs__msg__Polygon)
-    view.points = a0
-    return view
-
-
-class shape_msgs__msg__SolidPrimitive:
+class SolidPrimitive:
     """A decoded shape_msgs/msg/SolidPrimitive.
 
     Attributes named as the ROS fields.
@@ -307,27 +200,27 @@ class shape_msgs__msg__SolidPrimitive:
         return view_repr(self)
 
 
-def make_shape_msgs__msg__SolidPrimitive(
-    a0: Any, a1: Any, a2: Any
-) -> shape_msgs__msg__SolidPrimitive:
-    view = _new(shape_msgs__msg__SolidPrimitive)
+def solid_primitive_view(a0: Any, a1: Any, a2: Any) -> SolidPrimitive:
+    view = _new(SolidPrimitive)
     view.type = a0
     view.dimensions = a1
     view.polygon = a2
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    geometry_msgs__point_decode = GEOMETRY_MSGS__FUNCTIONS[E, view]["point_decode"]
+    geometry_msgs__point_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["point_encode"]
+    geometry_msgs__polygon_decode = GEOMETRY_MSGS__FUNCTIONS[E, view]["polygon_decode"]
+    geometry_msgs__polygon_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["polygon_encode"]
     _U32 = Struct(E + "I")
-    _S_3d = Struct(E + "3d")
-    _S_3f = Struct(E + "3f")
     _S_B = Struct(E + "B")
     _S_I = Struct(E + "I")
     _D_float64 = np.dtype("float64").newbyteorder(E)
     _D_uint32 = np.dtype("uint32").newbyteorder(E)
 
-    def decode_shape_msgs__msg__MeshTriangle(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def mesh_triangle_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".vertex_indices"
@@ -341,14 +234,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_shape_msgs__msg__MeshTriangle(v3), pos
+            return mesh_triangle_view(v3), pos
         return {"vertex_indices": v3.tolist()}, pos
 
-    def encode_shape_msgs__msg__MeshTriangle(d: Any, out: list[Any], pos: int) -> int:
+    def mesh_triangle_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_shape_msgs__msg__MeshTriangle.issuperset(d):
-                d = _submap(d, _K_shape_msgs__msg__MeshTriangle)
+            if d.__class__ is not dict or not MESH_TRIANGLE_KEYS.issuperset(d):
+                d = _submap(d, MESH_TRIANGLE_KEYS)
             f = ".vertex_indices"
             b1, c2 = encode_array(d.get("vertex_indices", (0,) * 3), _D_uint32, "uint32", 3, True)
             p = -pos & 3
@@ -363,89 +256,33 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Point(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Point_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Point(v1, v2, v3), pos
-        return {"x": v1, "y": v2, "z": v3}, pos
-
-    def encode_geometry_msgs__msg__Point(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Point)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_3d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        _R_geometry_msgs__msg__Point_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 24
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_shape_msgs__msg__Mesh(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def mesh_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".triangles"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_shape_msgs__msg__MeshTriangle, None, None, 12
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, mesh_triangle_decode, None, None, 12)
             f = ".vertices"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__Point, None, None, 24
-            )
+            v2, pos = read_messages(mv, pos, lim, _U32, geometry_msgs__point_decode, None, None, 24)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_shape_msgs__msg__Mesh(v1, v2), pos
+            return mesh_view(v1, v2), pos
         return {"triangles": v1, "vertices": v2}, pos
 
-    def encode_shape_msgs__msg__Mesh(d: Any, out: list[Any], pos: int) -> int:
+    def mesh_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_shape_msgs__msg__Mesh.issuperset(d):
-                d = _submap(d, _K_shape_msgs__msg__Mesh)
+            if d.__class__ is not dict or not MESH_KEYS.issuperset(d):
+                d = _submap(d, MESH_KEYS)
             f = ".triangles"
             pos = write_messages(
-                d.get("triangles", ()),
-                out,
-                pos,
-                _U32,
-                encode_shape_msgs__msg__MeshTriangle,
-                None,
-                False,
+                d.get("triangles", ()), out, pos, _U32, mesh_triangle_encode, None, False
             )
             f = ".vertices"
             pos = write_messages(
-                d.get("vertices", ()), out, pos, _U32, encode_geometry_msgs__msg__Point, None, False
+                d.get("vertices", ()), out, pos, _U32, geometry_msgs__point_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -453,7 +290,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_shape_msgs__msg__Plane(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def plane_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".coef"
@@ -467,14 +304,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_shape_msgs__msg__Plane(v3), pos
+            return plane_view(v3), pos
         return {"coef": v3.tolist()}, pos
 
-    def encode_shape_msgs__msg__Plane(d: Any, out: list[Any], pos: int) -> int:
+    def plane_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_shape_msgs__msg__Plane.issuperset(d):
-                d = _submap(d, _K_shape_msgs__msg__Plane)
+            if d.__class__ is not dict or not PLANE_KEYS.issuperset(d):
+                d = _submap(d, PLANE_KEYS)
             f = ".coef"
             b1, c2 = encode_array(d.get("coef", (0,) * 4), _D_float64, "float64", 4, True)
             p = -pos & 7
@@ -489,92 +326,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Point32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def solid_primitive_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            pos = (pos + 3) & -4
-            f = _R_geometry_msgs__msg__Point32_0
-            v1, v2, v3 = _S_3f.unpack_from(mv, pos)
-            pos += 12
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Point32(v1, v2, v3), pos
-        return {"x": v1, "y": v2, "z": v3}, pos
-
-    def encode_geometry_msgs__msg__Point32(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Point32.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Point32)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_3f.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3f,
-                        _R_geometry_msgs__msg__Point32_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 12
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__Polygon(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".points"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__Point32, None, None, 12
-            )
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Polygon(v1), pos
-        return {"points": v1}, pos
-
-    def encode_geometry_msgs__msg__Polygon(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Polygon.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Polygon)
-            f = ".points"
-            pos = write_messages(
-                d.get("points", ()), out, pos, _U32, encode_geometry_msgs__msg__Point32, None, False
-            )
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_shape_msgs__msg__SolidPrimitive(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_shape_msgs__msg__SolidPrimitive_0
+            f = SOLID_PRIMITIVE_RUN_0
             (v1,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_shape_msgs__msg__SolidPrimitive_1
+            f = SOLID_PRIMITIVE_RUN_1
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".dimensions"
@@ -587,29 +346,27 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v5 = _frombuffer(mv, _D_float64, v4, pos)
             pos += v4 * 8
             f = ".polygon"
-            v6, pos = decode_geometry_msgs__msg__Polygon(mv, pos, lim)
+            v6, pos = geometry_msgs__polygon_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_shape_msgs__msg__SolidPrimitive(v1, v5, v6), pos
+            return solid_primitive_view(v1, v5, v6), pos
         return {"type": v1, "dimensions": v5.tolist(), "polygon": v6}, pos
 
-    def encode_shape_msgs__msg__SolidPrimitive(d: Any, out: list[Any], pos: int) -> int:
+    def solid_primitive_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_shape_msgs__msg__SolidPrimitive.issuperset(d):
-                d = _submap(d, _K_shape_msgs__msg__SolidPrimitive)
+            if d.__class__ is not dict or not SOLID_PRIMITIVE_KEYS.issuperset(d):
+                d = _submap(d, SOLID_PRIMITIVE_KEYS)
             f = ".dimensions"
             b2, c3 = encode_array(d.get("dimensions", ()), _D_float64, "float64", 3, False)
             f = ""
             try:
                 out.append(_S_B.pack(d.get("type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_shape_msgs__msg__SolidPrimitive_0, (d.get("type", 0),))
-                )
+                out.append(slow_pack(_S_B, SOLID_PRIMITIVE_RUN_0, (d.get("type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -619,7 +376,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c3))
             except Exception:
-                out.append(slow_pack(_S_I, _R_shape_msgs__msg__SolidPrimitive_1, (c3,)))
+                out.append(slow_pack(_S_I, SOLID_PRIMITIVE_RUN_1, (c3,)))
             pos += 4
             if c3:
                 p = -pos & 7
@@ -629,7 +386,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             out.append(b2)
             pos += c3 * 8
             f = ".polygon"
-            pos = encode_geometry_msgs__msg__Polygon(d.get("polygon", EMPTY), out, pos)
+            pos = geometry_msgs__polygon_encode(d.get("polygon", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -637,35 +394,49 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
+        "mesh_triangle_decode": mesh_triangle_decode,
+        "mesh_triangle_encode": mesh_triangle_encode,
+        "mesh_decode": mesh_decode,
+        "mesh_encode": mesh_encode,
+        "plane_decode": plane_decode,
+        "plane_encode": plane_encode,
+        "solid_primitive_decode": solid_primitive_decode,
+        "solid_primitive_encode": solid_primitive_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "shape_msgs/msg/MeshTriangle": (
-            decode_shape_msgs__msg__MeshTriangle,
-            encode_shape_msgs__msg__MeshTriangle,
+            as_dict["mesh_triangle_decode"],
+            as_view["mesh_triangle_decode"],
+            as_dict["mesh_triangle_encode"],
         ),
-        "geometry_msgs/msg/Point": (
-            decode_geometry_msgs__msg__Point,
-            encode_geometry_msgs__msg__Point,
+        "shape_msgs/msg/Mesh": (
+            as_dict["mesh_decode"],
+            as_view["mesh_decode"],
+            as_dict["mesh_encode"],
         ),
-        "shape_msgs/msg/Mesh": (decode_shape_msgs__msg__Mesh, encode_shape_msgs__msg__Mesh),
-        "shape_msgs/msg/Plane": (decode_shape_msgs__msg__Plane, encode_shape_msgs__msg__Plane),
-        "geometry_msgs/msg/Point32": (
-            decode_geometry_msgs__msg__Point32,
-            encode_geometry_msgs__msg__Point32,
-        ),
-        "geometry_msgs/msg/Polygon": (
-            decode_geometry_msgs__msg__Polygon,
-            encode_geometry_msgs__msg__Polygon,
+        "shape_msgs/msg/Plane": (
+            as_dict["plane_decode"],
+            as_view["plane_decode"],
+            as_dict["plane_encode"],
         ),
         "shape_msgs/msg/SolidPrimitive": (
-            decode_shape_msgs__msg__SolidPrimitive,
-            encode_shape_msgs__msg__SolidPrimitive,
+            as_dict["solid_primitive_decode"],
+            as_view["solid_primitive_decode"],
+            as_dict["solid_primitive_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

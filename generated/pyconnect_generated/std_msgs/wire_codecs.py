@@ -63,10 +63,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -102,13 +103,20 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.builtin_interfaces.wire_codecs import (
+    DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
+    TIME_KEYS as BUILTIN_INTERFACES__TIME_KEYS,
+    time_view as builtin_interfaces__time_view,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
+    **BUILTIN_INTERFACES__DEFINITIONS,
     "std_msgs/msg/Bool": (
         "RIHS01_feb91e995ff9ebd09c0cb3d2aed18b11077585839fb5db80193b62d74528f6c9",
         (("data", "primitive", "bool", None, "single", None, None),),
@@ -176,13 +184,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
         (
             ("layout", "message", "std_msgs/msg/MultiArrayLayout", None, "single", None, None),
             ("data", "primitive", "float64", None, "sequence", None, None),
-        ),
-    ),
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
         ),
     ),
     "std_msgs/msg/Header": (
@@ -319,22 +320,16 @@ EXPORTED: frozenset[str] = frozenset(
         "std_msgs/msg/UInt8MultiArray",
     )
 )
-_K_builtin_interfaces__msg__Time = frozenset(
-    (
-        "sec",
-        "nanosec",
-    )
-)
-_K_std_msgs__msg__Bool = frozenset(("data",))
-_K_std_msgs__msg__Byte = frozenset(("data",))
-_K_std_msgs__msg__ByteMultiArray = frozenset(
+BOOL_KEYS = frozenset(("data",))
+BYTE_KEYS = frozenset(("data",))
+BYTE_MULTI_ARRAY_KEYS = frozenset(
     (
         "layout",
         "data",
     )
 )
-_K_std_msgs__msg__Char = frozenset(("data",))
-_K_std_msgs__msg__ColorRGBA = frozenset(
+CHAR_KEYS = frozenset(("data",))
+COLOR_RGBA_KEYS = frozenset(
     (
         "r",
         "g",
@@ -342,138 +337,137 @@ _K_std_msgs__msg__ColorRGBA = frozenset(
         "a",
     )
 )
-_K_std_msgs__msg__Empty = frozenset()
-_K_std_msgs__msg__Float32 = frozenset(("data",))
-_K_std_msgs__msg__Float32MultiArray = frozenset(
+EMPTY_KEYS = frozenset()
+FLOAT32_KEYS = frozenset(("data",))
+FLOAT32_MULTI_ARRAY_KEYS = frozenset(
     (
         "layout",
         "data",
     )
 )
-_K_std_msgs__msg__Float64 = frozenset(("data",))
-_K_std_msgs__msg__Float64MultiArray = frozenset(
+FLOAT64_KEYS = frozenset(("data",))
+FLOAT64_MULTI_ARRAY_KEYS = frozenset(
     (
         "layout",
         "data",
     )
 )
-_K_std_msgs__msg__Header = frozenset(
+HEADER_KEYS = frozenset(
     (
         "stamp",
         "frame_id",
     )
 )
-_K_std_msgs__msg__Int16 = frozenset(("data",))
-_K_std_msgs__msg__Int16MultiArray = frozenset(
+INT16_KEYS = frozenset(("data",))
+INT16_MULTI_ARRAY_KEYS = frozenset(
     (
         "layout",
         "data",
     )
 )
-_K_std_msgs__msg__Int32 = frozenset(("data",))
-_K_std_msgs__msg__Int32MultiArray = frozenset(
+INT32_KEYS = frozenset(("data",))
+INT32_MULTI_ARRAY_KEYS = frozenset(
     (
         "layout",
         "data",
     )
 )
-_K_std_msgs__msg__Int64 = frozenset(("data",))
-_K_std_msgs__msg__Int64MultiArray = frozenset(
+INT64_KEYS = frozenset(("data",))
+INT64_MULTI_ARRAY_KEYS = frozenset(
     (
         "layout",
         "data",
     )
 )
-_K_std_msgs__msg__Int8 = frozenset(("data",))
-_K_std_msgs__msg__Int8MultiArray = frozenset(
+INT8_KEYS = frozenset(("data",))
+INT8_MULTI_ARRAY_KEYS = frozenset(
     (
         "layout",
         "data",
     )
 )
-_K_std_msgs__msg__MultiArrayDimension = frozenset(
+MULTI_ARRAY_DIMENSION_KEYS = frozenset(
     (
         "label",
         "size",
         "stride",
     )
 )
-_K_std_msgs__msg__MultiArrayLayout = frozenset(
+MULTI_ARRAY_LAYOUT_KEYS = frozenset(
     (
         "dim",
         "data_offset",
     )
 )
-_K_std_msgs__msg__String = frozenset(("data",))
-_K_std_msgs__msg__UInt16 = frozenset(("data",))
-_K_std_msgs__msg__UInt16MultiArray = frozenset(
+STRING_KEYS = frozenset(("data",))
+U_INT16_KEYS = frozenset(("data",))
+U_INT16_MULTI_ARRAY_KEYS = frozenset(
     (
         "layout",
         "data",
     )
 )
-_K_std_msgs__msg__UInt32 = frozenset(("data",))
-_K_std_msgs__msg__UInt32MultiArray = frozenset(
+U_INT32_KEYS = frozenset(("data",))
+U_INT32_MULTI_ARRAY_KEYS = frozenset(
     (
         "layout",
         "data",
     )
 )
-_K_std_msgs__msg__UInt64 = frozenset(("data",))
-_K_std_msgs__msg__UInt64MultiArray = frozenset(
+U_INT64_KEYS = frozenset(("data",))
+U_INT64_MULTI_ARRAY_KEYS = frozenset(
     (
         "layout",
         "data",
     )
 )
-_K_std_msgs__msg__UInt8 = frozenset(("data",))
-_K_std_msgs__msg__UInt8MultiArray = frozenset(
+U_INT8_KEYS = frozenset(("data",))
+U_INT8_MULTI_ARRAY_KEYS = frozenset(
     (
         "layout",
         "data",
     )
 )
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_std_msgs__msg__Bool_0 = ((".data", "bool", 1),)
-_R_std_msgs__msg__ByteMultiArray_0 = ((".data", "uint32", 4),)
-_R_std_msgs__msg__Byte_0 = ((".data", "byte", 1),)
-_R_std_msgs__msg__Char_0 = ((".data", "uint8", 1),)
-_R_std_msgs__msg__ColorRGBA_0 = (
+BOOL_RUN_0 = ((".data", "bool", 1),)
+BYTE_MULTI_ARRAY_RUN_0 = ((".data", "uint32", 4),)
+BYTE_RUN_0 = ((".data", "byte", 1),)
+CHAR_RUN_0 = ((".data", "uint8", 1),)
+COLOR_RGBA_RUN_0 = (
     (".r", "float32", 4),
     (".g", "float32", 8),
     (".b", "float32", 12),
     (".a", "float32", 16),
 )
-_R_std_msgs__msg__Empty_0 = ()
-_R_std_msgs__msg__Float32MultiArray_0 = ((".data", "uint32", 4),)
-_R_std_msgs__msg__Float32_0 = ((".data", "float32", 4),)
-_R_std_msgs__msg__Float64MultiArray_0 = ((".data", "uint32", 4),)
-_R_std_msgs__msg__Float64_0 = ((".data", "float64", 8),)
-_R_std_msgs__msg__Header_0 = (
+EMPTY_RUN_0 = ()
+FLOAT32_MULTI_ARRAY_RUN_0 = ((".data", "uint32", 4),)
+FLOAT32_RUN_0 = ((".data", "float32", 4),)
+FLOAT64_MULTI_ARRAY_RUN_0 = ((".data", "uint32", 4),)
+FLOAT64_RUN_0 = ((".data", "float64", 8),)
+HEADER_RUN_0 = (
     (".stamp.sec", "int32", 4),
     (".stamp.nanosec", "uint32", 8),
     (".frame_id", "uint32", 12),
 )
-_R_std_msgs__msg__Int16MultiArray_0 = ((".data", "uint32", 4),)
-_R_std_msgs__msg__Int16_0 = ((".data", "int16", 2),)
-_R_std_msgs__msg__Int32MultiArray_0 = ((".data", "uint32", 4),)
-_R_std_msgs__msg__Int32_0 = ((".data", "int32", 4),)
-_R_std_msgs__msg__Int64MultiArray_0 = ((".data", "uint32", 4),)
-_R_std_msgs__msg__Int64_0 = ((".data", "int64", 8),)
-_R_std_msgs__msg__Int8MultiArray_0 = ((".data", "uint32", 4),)
-_R_std_msgs__msg__Int8_0 = ((".data", "int8", 1),)
-_R_std_msgs__msg__MultiArrayDimension_0 = ((".label", "uint32", 4),)
-_R_std_msgs__msg__MultiArrayDimension_1 = ((".size", "uint32", 4), (".stride", "uint32", 8))
-_R_std_msgs__msg__MultiArrayLayout_0 = ((".data_offset", "uint32", 4),)
-_R_std_msgs__msg__String_0 = ((".data", "uint32", 4),)
-_R_std_msgs__msg__UInt16MultiArray_0 = ((".data", "uint32", 4),)
-_R_std_msgs__msg__UInt16_0 = ((".data", "uint16", 2),)
-_R_std_msgs__msg__UInt32MultiArray_0 = ((".data", "uint32", 4),)
-_R_std_msgs__msg__UInt32_0 = ((".data", "uint32", 4),)
-_R_std_msgs__msg__UInt64MultiArray_0 = ((".data", "uint32", 4),)
-_R_std_msgs__msg__UInt64_0 = ((".data", "uint64", 8),)
-_R_std_msgs__msg__UInt8MultiArray_0 = ((".data", "uint32", 4),)
-_R_std_msgs__msg__UInt8_0 = ((".data", "uint8", 1),)
+INT16_MULTI_ARRAY_RUN_0 = ((".data", "uint32", 4),)
+INT16_RUN_0 = ((".data", "int16", 2),)
+INT32_MULTI_ARRAY_RUN_0 = ((".data", "uint32", 4),)
+INT32_RUN_0 = ((".data", "int32", 4),)
+INT64_MULTI_ARRAY_RUN_0 = ((".data", "uint32", 4),)
+INT64_RUN_0 = ((".data", "int64", 8),)
+INT8_MULTI_ARRAY_RUN_0 = ((".data", "uint32", 4),)
+INT8_RUN_0 = ((".data", "int8", 1),)
+MULTI_ARRAY_DIMENSION_RUN_0 = ((".label", "uint32", 4),)
+MULTI_ARRAY_DIMENSION_RUN_1 = ((".size", "uint32", 4), (".stride", "uint32", 8))
+MULTI_ARRAY_LAYOUT_RUN_0 = ((".data_offset", "uint32", 4),)
+STRING_RUN_0 = ((".data", "uint32", 4),)
+U_INT16_MULTI_ARRAY_RUN_0 = ((".data", "uint32", 4),)
+U_INT16_RUN_0 = ((".data", "uint16", 2),)
+U_INT32_MULTI_ARRAY_RUN_0 = ((".data", "uint32", 4),)
+U_INT32_RUN_0 = ((".data", "uint32", 4),)
+U_INT64_MULTI_ARRAY_RUN_0 = ((".data", "uint32", 4),)
+U_INT64_RUN_0 = ((".data", "uint64", 8),)
+U_INT8_MULTI_ARRAY_RUN_0 = ((".data", "uint32", 4),)
+U_INT8_RUN_0 = ((".data", "uint8", 1),)
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
@@ -483,7 +477,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class std_msgs__msg__Bool:
+class Bool:
     """A decoded std_msgs/msg/Bool.
 
     Attributes named as the ROS fields.
@@ -496,13 +490,13 @@ class std_msgs__msg__Bool:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Bool(a0: Any) -> std_msgs__msg__Bool:
-    view = _new(std_msgs__msg__Bool)
+def bool_view(a0: Any) -> Bool:
+    view = _new(Bool)
     view.data = a0
     return view
 
 
-class std_msgs__msg__Byte:
+class Byte:
     """A decoded std_msgs/msg/Byte.
 
     Attributes named as the ROS fields.
@@ -515,13 +509,13 @@ class std_msgs__msg__Byte:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Byte(a0: Any) -> std_msgs__msg__Byte:
-    view = _new(std_msgs__msg__Byte)
+def byte_view(a0: Any) -> Byte:
+    view = _new(Byte)
     view.data = a0
     return view
 
 
-class std_msgs__msg__MultiArrayDimension:
+class MultiArrayDimension:
     """A decoded std_msgs/msg/MultiArrayDimension.
 
     Attributes named as the ROS fields.
@@ -538,17 +532,15 @@ class std_msgs__msg__MultiArrayDimension:
         return view_repr(self)
 
 
-def make_std_msgs__msg__MultiArrayDimension(
-    a0: Any, a1: Any, a2: Any
-) -> std_msgs__msg__MultiArrayDimension:
-    view = _new(std_msgs__msg__MultiArrayDimension)
+def multi_array_dimension_view(a0: Any, a1: Any, a2: Any) -> MultiArrayDimension:
+    view = _new(MultiArrayDimension)
     view.label = a0
     view.size = a1
     view.stride = a2
     return view
 
 
-class std_msgs__msg__MultiArrayLayout:
+class MultiArrayLayout:
     """A decoded std_msgs/msg/MultiArrayLayout.
 
     Attributes named as the ROS fields.
@@ -564,14 +556,14 @@ class std_msgs__msg__MultiArrayLayout:
         return view_repr(self)
 
 
-def make_std_msgs__msg__MultiArrayLayout(a0: Any, a1: Any) -> std_msgs__msg__MultiArrayLayout:
-    view = _new(std_msgs__msg__MultiArrayLayout)
+def multi_array_layout_view(a0: Any, a1: Any) -> MultiArrayLayout:
+    view = _new(MultiArrayLayout)
     view.dim = a0
     view.data_offset = a1
     return view
 
 
-class std_msgs__msg__ByteMultiArray:
+class ByteMultiArray:
     """A decoded std_msgs/msg/ByteMultiArray.
 
     Attributes named as the ROS fields.
@@ -587,14 +579,14 @@ class std_msgs__msg__ByteMultiArray:
         return view_repr(self)
 
 
-def make_std_msgs__msg__ByteMultiArray(a0: Any, a1: Any) -> std_msgs__msg__ByteMultiArray:
-    view = _new(std_msgs__msg__ByteMultiArray)
+def byte_multi_array_view(a0: Any, a1: Any) -> ByteMultiArray:
+    view = _new(ByteMultiArray)
     view.layout = a0
     view.data = a1
     return view
 
 
-class std_msgs__msg__Char:
+class Char:
     """A decoded std_msgs/msg/Char.
 
     Attributes named as the ROS fields.
@@ -607,13 +599,13 @@ class std_msgs__msg__Char:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Char(a0: Any) -> std_msgs__msg__Char:
-    view = _new(std_msgs__msg__Char)
+def char_view(a0: Any) -> Char:
+    view = _new(Char)
     view.data = a0
     return view
 
 
-class std_msgs__msg__ColorRGBA:
+class ColorRGBA:
     """A decoded std_msgs/msg/ColorRGBA.
 
     Attributes named as the ROS fields.
@@ -631,8 +623,8 @@ class std_msgs__msg__ColorRGBA:
         return view_repr(self)
 
 
-def make_std_msgs__msg__ColorRGBA(a0: Any, a1: Any, a2: Any, a3: Any) -> std_msgs__msg__ColorRGBA:
-    view = _new(std_msgs__msg__ColorRGBA)
+def color_rgba_view(a0: Any, a1: Any, a2: Any, a3: Any) -> ColorRGBA:
+    view = _new(ColorRGBA)
     view.r = a0
     view.g = a1
     view.b = a2
@@ -640,7 +632,7 @@ def make_std_msgs__msg__ColorRGBA(a0: Any, a1: Any, a2: Any, a3: Any) -> std_msg
     return view
 
 
-class std_msgs__msg__Empty:
+class Empty:
     """A decoded std_msgs/msg/Empty.
 
     Attributes named as the ROS fields.
@@ -653,12 +645,12 @@ class std_msgs__msg__Empty:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Empty() -> std_msgs__msg__Empty:
-    view = _new(std_msgs__msg__Empty)
+def empty_view() -> Empty:
+    view = _new(Empty)
     return view
 
 
-class std_msgs__msg__Float32:
+class Float32:
     """A decoded std_msgs/msg/Float32.
 
     Attributes named as the ROS fields.
@@ -671,13 +663,13 @@ class std_msgs__msg__Float32:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Float32(a0: Any) -> std_msgs__msg__Float32:
-    view = _new(std_msgs__msg__Float32)
+def float32_view(a0: Any) -> Float32:
+    view = _new(Float32)
     view.data = a0
     return view
 
 
-class std_msgs__msg__Float32MultiArray:
+class Float32MultiArray:
     """A decoded std_msgs/msg/Float32MultiArray.
 
     Attributes named as the ROS fields.
@@ -693,14 +685,14 @@ class std_msgs__msg__Float32MultiArray:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Float32MultiArray(a0: Any, a1: Any) -> std_msgs__msg__Float32MultiArray:
-    view = _new(std_msgs__msg__Float32MultiArray)
+def float32_multi_array_view(a0: Any, a1: Any) -> Float32MultiArray:
+    view = _new(Float32MultiArray)
     view.layout = a0
     view.data = a1
     return view
 
 
-class std_msgs__msg__Float64:
+class Float64:
     """A decoded std_msgs/msg/Float64.
 
     Attributes named as the ROS fields.
@@ -713,13 +705,13 @@ class std_msgs__msg__Float64:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Float64(a0: Any) -> std_msgs__msg__Float64:
-    view = _new(std_msgs__msg__Float64)
+def float64_view(a0: Any) -> Float64:
+    view = _new(Float64)
     view.data = a0
     return view
 
 
-class std_msgs__msg__Float64MultiArray:
+class Float64MultiArray:
     """A decoded std_msgs/msg/Float64MultiArray.
 
     Attributes named as the ROS fields.
@@ -735,37 +727,14 @@ class std_msgs__msg__Float64MultiArray:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Float64MultiArray(a0: Any, a1: Any) -> std_msgs__msg__Float64MultiArray:
-    view = _new(std_msgs__msg__Float64MultiArray)
+def float64_multi_array_view(a0: Any, a1: Any) -> Float64MultiArray:
+    view = _new(Float64MultiArray)
     view.layout = a0
     view.data = a1
     return view
 
 
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class std_msgs__msg__Header:
+class Header:
     """A decoded std_msgs/msg/Header.
 
     Attributes named as the ROS fields.
@@ -781,14 +750,14 @@ class std_msgs__msg__Header:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Header(a0: Any, a1: Any) -> std_msgs__msg__Header:
-    view = _new(std_msgs__msg__Header)
+def header_view(a0: Any, a1: Any) -> Header:
+    view = _new(Header)
     view.stamp = a0
     view.frame_id = a1
     return view
 
 
-class std_msgs__msg__Int16:
+class Int16:
     """A decoded std_msgs/msg/Int16.
 
     Attributes named as the ROS fields.
@@ -801,13 +770,13 @@ class std_msgs__msg__Int16:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Int16(a0: Any) -> std_msgs__msg__Int16:
-    view = _new(std_msgs__msg__Int16)
+def int16_view(a0: Any) -> Int16:
+    view = _new(Int16)
     view.data = a0
     return view
 
 
-class std_msgs__msg__Int16MultiArray:
+class Int16MultiArray:
     """A decoded std_msgs/msg/Int16MultiArray.
 
     Attributes named as the ROS fields.
@@ -823,14 +792,14 @@ class std_msgs__msg__Int16MultiArray:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Int16MultiArray(a0: Any, a1: Any) -> std_msgs__msg__Int16MultiArray:
-    view = _new(std_msgs__msg__Int16MultiArray)
+def int16_multi_array_view(a0: Any, a1: Any) -> Int16MultiArray:
+    view = _new(Int16MultiArray)
     view.layout = a0
     view.data = a1
     return view
 
 
-class std_msgs__msg__Int32:
+class Int32:
     """A decoded std_msgs/msg/Int32.
 
     Attributes named as the ROS fields.
@@ -843,13 +812,13 @@ class std_msgs__msg__Int32:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Int32(a0: Any) -> std_msgs__msg__Int32:
-    view = _new(std_msgs__msg__Int32)
+def int32_view(a0: Any) -> Int32:
+    view = _new(Int32)
     view.data = a0
     return view
 
 
-class std_msgs__msg__Int32MultiArray:
+class Int32MultiArray:
     """A decoded std_msgs/msg/Int32MultiArray.
 
     Attributes named as the ROS fields.
@@ -865,14 +834,14 @@ class std_msgs__msg__Int32MultiArray:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Int32MultiArray(a0: Any, a1: Any) -> std_msgs__msg__Int32MultiArray:
-    view = _new(std_msgs__msg__Int32MultiArray)
+def int32_multi_array_view(a0: Any, a1: Any) -> Int32MultiArray:
+    view = _new(Int32MultiArray)
     view.layout = a0
     view.data = a1
     return view
 
 
-class std_msgs__msg__Int64:
+class Int64:
     """A decoded std_msgs/msg/Int64.
 
     Attributes named as the ROS fields.
@@ -885,13 +854,13 @@ class std_msgs__msg__Int64:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Int64(a0: Any) -> std_msgs__msg__Int64:
-    view = _new(std_msgs__msg__Int64)
+def int64_view(a0: Any) -> Int64:
+    view = _new(Int64)
     view.data = a0
     return view
 
 
-class std_msgs__msg__Int64MultiArray:
+class Int64MultiArray:
     """A decoded std_msgs/msg/Int64MultiArray.
 
     Attributes named as the ROS fields.
@@ -907,14 +876,14 @@ class std_msgs__msg__Int64MultiArray:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Int64MultiArray(a0: Any, a1: Any) -> std_msgs__msg__Int64MultiArray:
-    view = _new(std_msgs__msg__Int64MultiArray)
+def int64_multi_array_view(a0: Any, a1: Any) -> Int64MultiArray:
+    view = _new(Int64MultiArray)
     view.layout = a0
     view.data = a1
     return view
 
 
-class std_msgs__msg__Int8:
+class Int8:
     """A decoded std_msgs/msg/Int8.
 
     Attributes named as the ROS fields.
@@ -927,13 +896,13 @@ class std_msgs__msg__Int8:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Int8(a0: Any) -> std_msgs__msg__Int8:
-    view = _new(std_msgs__msg__Int8)
+def int8_view(a0: Any) -> Int8:
+    view = _new(Int8)
     view.data = a0
     return view
 
 
-class std_msgs__msg__Int8MultiArray:
+class Int8MultiArray:
     """A decoded std_msgs/msg/Int8MultiArray.
 
     Attributes named as the ROS fields.
@@ -949,14 +918,14 @@ class std_msgs__msg__Int8MultiArray:
         return view_repr(self)
 
 
-def make_std_msgs__msg__Int8MultiArray(a0: Any, a1: Any) -> std_msgs__msg__Int8MultiArray:
-    view = _new(std_msgs__msg__Int8MultiArray)
+def int8_multi_array_view(a0: Any, a1: Any) -> Int8MultiArray:
+    view = _new(Int8MultiArray)
     view.layout = a0
     view.data = a1
     return view
 
 
-class std_msgs__msg__String:
+class String:
     """A decoded std_msgs/msg/String.
 
     Attributes named as the ROS fields.
@@ -969,13 +938,13 @@ class std_msgs__msg__String:
         return view_repr(self)
 
 
-def make_std_msgs__msg__String(a0: Any) -> std_msgs__msg__String:
-    view = _new(std_msgs__msg__String)
+def string_view(a0: Any) -> String:
+    view = _new(String)
     view.data = a0
     return view
 
 
-class std_msgs__msg__UInt16:
+class UInt16:
     """A decoded std_msgs/msg/UInt16.
 
     Attributes named as the ROS fields.
@@ -988,13 +957,13 @@ class std_msgs__msg__UInt16:
         return view_repr(self)
 
 
-def make_std_msgs__msg__UInt16(a0: Any) -> std_msgs__msg__UInt16:
-    view = _new(std_msgs__msg__UInt16)
+def u_int16_view(a0: Any) -> UInt16:
+    view = _new(UInt16)
     view.data = a0
     return view
 
 
-class std_msgs__msg__UInt16MultiArray:
+class UInt16MultiArray:
     """A decoded std_msgs/msg/UInt16MultiArray.
 
     Attributes named as the ROS fields.
@@ -1010,14 +979,14 @@ class std_msgs__msg__UInt16MultiArray:
         return view_repr(self)
 
 
-def make_std_msgs__msg__UInt16MultiArray(a0: Any, a1: Any) -> std_msgs__msg__UInt16MultiArray:
-    view = _new(std_msgs__msg__UInt16MultiArray)
+def u_int16_multi_array_view(a0: Any, a1: Any) -> UInt16MultiArray:
+    view = _new(UInt16MultiArray)
     view.layout = a0
     view.data = a1
     return view
 
 
-class std_msgs__msg__UInt32:
+class UInt32:
     """A decoded std_msgs/msg/UInt32.
 
     Attributes named as the ROS fields.
@@ -1030,13 +999,13 @@ class std_msgs__msg__UInt32:
         return view_repr(self)
 
 
-def make_std_msgs__msg__UInt32(a0: Any) -> std_msgs__msg__UInt32:
-    view = _new(std_msgs__msg__UInt32)
+def u_int32_view(a0: Any) -> UInt32:
+    view = _new(UInt32)
     view.data = a0
     return view
 
 
-class std_msgs__msg__UInt32MultiArray:
+class UInt32MultiArray:
     """A decoded std_msgs/msg/UInt32MultiArray.
 
     Attributes named as the ROS fields.
@@ -1052,14 +1021,14 @@ class std_msgs__msg__UInt32MultiArray:
         return view_repr(self)
 
 
-def make_std_msgs__msg__UInt32MultiArray(a0: Any, a1: Any) -> std_msgs__msg__UInt32MultiArray:
-    view = _new(std_msgs__msg__UInt32MultiArray)
+def u_int32_multi_array_view(a0: Any, a1: Any) -> UInt32MultiArray:
+    view = _new(UInt32MultiArray)
     view.layout = a0
     view.data = a1
     return view
 
 
-class std_msgs__msg__UInt64:
+class UInt64:
     """A decoded std_msgs/msg/UInt64.
 
     Attributes named as the ROS fields.
@@ -1072,13 +1041,13 @@ class std_msgs__msg__UInt64:
         return view_repr(self)
 
 
-def make_std_msgs__msg__UInt64(a0: Any) -> std_msgs__msg__UInt64:
-    view = _new(std_msgs__msg__UInt64)
+def u_int64_view(a0: Any) -> UInt64:
+    view = _new(UInt64)
     view.data = a0
     return view
 
 
-class std_msgs__msg__UInt64MultiArray:
+class UInt64MultiArray:
     """A decoded std_msgs/msg/UInt64MultiArray.
 
     Attributes named as the ROS fields.
@@ -1094,14 +1063,14 @@ class std_msgs__msg__UInt64MultiArray:
         return view_repr(self)
 
 
-def make_std_msgs__msg__UInt64MultiArray(a0: Any, a1: Any) -> std_msgs__msg__UInt64MultiArray:
-    view = _new(std_msgs__msg__UInt64MultiArray)
+def u_int64_multi_array_view(a0: Any, a1: Any) -> UInt64MultiArray:
+    view = _new(UInt64MultiArray)
     view.layout = a0
     view.data = a1
     return view
 
 
-class std_msgs__msg__UInt8:
+class UInt8:
     """A decoded std_msgs/msg/UInt8.
 
     Attributes named as the ROS fields.
@@ -1114,13 +1083,13 @@ class std_msgs__msg__UInt8:
         return view_repr(self)
 
 
-def make_std_msgs__msg__UInt8(a0: Any) -> std_msgs__msg__UInt8:
-    view = _new(std_msgs__msg__UInt8)
+def u_int8_view(a0: Any) -> UInt8:
+    view = _new(UInt8)
     view.data = a0
     return view
 
 
-class std_msgs__msg__UInt8MultiArray:
+class UInt8MultiArray:
     """A decoded std_msgs/msg/UInt8MultiArray.
 
     Attributes named as the ROS fields.
@@ -1136,15 +1105,15 @@ class std_msgs__msg__UInt8MultiArray:
         return view_repr(self)
 
 
-def make_std_msgs__msg__UInt8MultiArray(a0: Any, a1: Any) -> std_msgs__msg__UInt8MultiArray:
-    view = _new(std_msgs__msg__UInt8MultiArray)
+def u_int8_multi_array_view(a0: Any, a1: Any) -> UInt8MultiArray:
+    view = _new(UInt8MultiArray)
     view.layout = a0
     view.data = a1
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_2I = Struct(E + "2I")
@@ -1160,7 +1129,6 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
     _S_h = Struct(E + "h")
     _S_i = Struct(E + "i")
     _S_i2I = Struct(E + "i2I")
-    _S_iI = Struct(E + "iI")
     _S_q = Struct(E + "q")
     _D_float32 = np.dtype("float32").newbyteorder(E)
     _D_float64 = np.dtype("float64").newbyteorder(E)
@@ -1173,10 +1141,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
     _D_uint64 = np.dtype("uint64").newbyteorder(E)
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_std_msgs__msg__Bool(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def bool_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_std_msgs__msg__Bool_0
+            f = BOOL_RUN_0
             (v2,) = _S_T.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -1184,14 +1152,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Bool(v2), pos
+            return bool_view(v2), pos
         return {"data": v2}, pos
 
-    def encode_std_msgs__msg__Bool(d: Any, out: list[Any], pos: int) -> int:
+    def bool_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Bool.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Bool)
+            if d.__class__ is not dict or not BOOL_KEYS.issuperset(d):
+                d = _submap(d, BOOL_KEYS)
             f = ""
             try:
                 out.append(
@@ -1207,7 +1175,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_std_msgs__msg__Bool_0,
+                        BOOL_RUN_0,
                         (
                             (
                                 t1
@@ -1224,10 +1192,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Byte(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def byte_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_std_msgs__msg__Byte_0
+            f = BYTE_RUN_0
             (v1,) = _S_B.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -1235,19 +1203,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Byte(v1), pos
+            return byte_view(v1), pos
         return {"data": v1}, pos
 
-    def encode_std_msgs__msg__Byte(d: Any, out: list[Any], pos: int) -> int:
+    def byte_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Byte.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Byte)
+            if d.__class__ is not dict or not BYTE_KEYS.issuperset(d):
+                d = _submap(d, BYTE_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(d.get("data", 0)))
             except Exception:
-                out.append(slow_pack(_S_B, _R_std_msgs__msg__Byte_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_B, BYTE_RUN_0, (d.get("data", 0),)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1255,13 +1223,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__MultiArrayDimension(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def multi_array_dimension_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__MultiArrayDimension_0
+            f = MULTI_ARRAY_DIMENSION_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".label"
@@ -1270,7 +1236,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__MultiArrayDimension_1
+            f = MULTI_ARRAY_DIMENSION_RUN_1
             v4, v5 = _S_2I.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -1278,14 +1244,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__MultiArrayDimension(v3, v4, v5), pos
+            return multi_array_dimension_view(v3, v4, v5), pos
         return {"label": v3, "size": v4, "stride": v5}, pos
 
-    def encode_std_msgs__msg__MultiArrayDimension(d: Any, out: list[Any], pos: int) -> int:
+    def multi_array_dimension_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__MultiArrayDimension.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__MultiArrayDimension)
+            if d.__class__ is not dict or not MULTI_ARRAY_DIMENSION_KEYS.issuperset(d):
+                d = _submap(d, MULTI_ARRAY_DIMENSION_KEYS)
             f = ".label"
             b1 = utf8z(d.get("label", ""), None)
             p = -pos & 3
@@ -1296,7 +1262,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_msgs__msg__MultiArrayDimension_0, (len(b1),)))
+                out.append(slow_pack(_S_I, MULTI_ARRAY_DIMENSION_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -1311,7 +1277,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_2I,
-                        _R_std_msgs__msg__MultiArrayDimension_1,
+                        MULTI_ARRAY_DIMENSION_RUN_1,
                         (
                             d.get("size", 0),
                             d.get("stride", 0),
@@ -1325,17 +1291,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__MultiArrayLayout(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def multi_array_layout_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".dim"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_std_msgs__msg__MultiArrayDimension, None, None, 12
+                mv, pos, lim, _U32, multi_array_dimension_decode, None, None, 12
             )
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__MultiArrayLayout_0
+            f = MULTI_ARRAY_LAYOUT_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
@@ -1343,23 +1307,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__MultiArrayLayout(v1, v2), pos
+            return multi_array_layout_view(v1, v2), pos
         return {"dim": v1, "data_offset": v2}, pos
 
-    def encode_std_msgs__msg__MultiArrayLayout(d: Any, out: list[Any], pos: int) -> int:
+    def multi_array_layout_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__MultiArrayLayout.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__MultiArrayLayout)
+            if d.__class__ is not dict or not MULTI_ARRAY_LAYOUT_KEYS.issuperset(d):
+                d = _submap(d, MULTI_ARRAY_LAYOUT_KEYS)
             f = ".dim"
             pos = write_messages(
-                d.get("dim", ()),
-                out,
-                pos,
-                _U32,
-                encode_std_msgs__msg__MultiArrayDimension,
-                None,
-                False,
+                d.get("dim", ()), out, pos, _U32, multi_array_dimension_encode, None, False
             )
             p = -pos & 3
             if p:
@@ -1369,11 +1327,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(d.get("data_offset", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_I, _R_std_msgs__msg__MultiArrayLayout_0, (d.get("data_offset", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_I, MULTI_ARRAY_LAYOUT_RUN_0, (d.get("data_offset", 0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -1381,13 +1335,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__ByteMultiArray(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def byte_multi_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = multi_array_layout_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__ByteMultiArray_0
+            f = BYTE_MULTI_ARRAY_RUN_0
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".data"
@@ -1400,16 +1354,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__ByteMultiArray(v1, v5), pos
+            return byte_multi_array_view(v1, v5), pos
         return {"layout": v1, "data": v5.tobytes()}, pos
 
-    def encode_std_msgs__msg__ByteMultiArray(d: Any, out: list[Any], pos: int) -> int:
+    def byte_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__ByteMultiArray.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__ByteMultiArray)
+            if d.__class__ is not dict or not BYTE_MULTI_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, BYTE_MULTI_ARRAY_KEYS)
             f = ".layout"
-            pos = encode_std_msgs__msg__MultiArrayLayout(d.get("layout", EMPTY), out, pos)
+            pos = multi_array_layout_encode(d.get("layout", EMPTY), out, pos)
             f = ".data"
             b2, c3 = encode_array(d.get("data", ()), _D_uint8, "byte", None, False)
             p = -pos & 3
@@ -1420,7 +1374,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c3))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_msgs__msg__ByteMultiArray_0, (c3,)))
+                out.append(slow_pack(_S_I, BYTE_MULTI_ARRAY_RUN_0, (c3,)))
             pos += 4
             out.append(b2)
             pos += c3 * 1
@@ -1430,10 +1384,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Char(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def char_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_std_msgs__msg__Char_0
+            f = CHAR_RUN_0
             (v1,) = _S_B.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -1441,19 +1395,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Char(v1), pos
+            return char_view(v1), pos
         return {"data": v1}, pos
 
-    def encode_std_msgs__msg__Char(d: Any, out: list[Any], pos: int) -> int:
+    def char_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Char.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Char)
+            if d.__class__ is not dict or not CHAR_KEYS.issuperset(d):
+                d = _submap(d, CHAR_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(d.get("data", 0)))
             except Exception:
-                out.append(slow_pack(_S_B, _R_std_msgs__msg__Char_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_B, CHAR_RUN_0, (d.get("data", 0),)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1461,11 +1415,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__ColorRGBA(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def color_rgba_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__ColorRGBA_0
+            f = COLOR_RGBA_RUN_0
             v1, v2, v3, v4 = _S_4f.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
@@ -1473,14 +1427,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__ColorRGBA(v1, v2, v3, v4), pos
+            return color_rgba_view(v1, v2, v3, v4), pos
         return {"r": v1, "g": v2, "b": v3, "a": v4}, pos
 
-    def encode_std_msgs__msg__ColorRGBA(d: Any, out: list[Any], pos: int) -> int:
+    def color_rgba_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__ColorRGBA.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__ColorRGBA)
+            if d.__class__ is not dict or not COLOR_RGBA_KEYS.issuperset(d):
+                d = _submap(d, COLOR_RGBA_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -1494,7 +1448,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_4f,
-                        _R_std_msgs__msg__ColorRGBA_0,
+                        COLOR_RGBA_RUN_0,
                         (
                             d.get("r", 0.0),
                             d.get("g", 0.0),
@@ -1510,10 +1464,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Empty(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def empty_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_std_msgs__msg__Empty_0
+            f = EMPTY_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -1521,19 +1475,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Empty(), pos
+            return empty_view(), pos
         return {}, pos
 
-    def encode_std_msgs__msg__Empty(d: Any, out: list[Any], pos: int) -> int:
+    def empty_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Empty.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Empty)
+            if d.__class__ is not dict or not EMPTY_KEYS.issuperset(d):
+                d = _submap(d, EMPTY_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(slow_pack(_S_1x, _R_std_msgs__msg__Empty_0, ()))
+                out.append(slow_pack(_S_1x, EMPTY_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1541,11 +1495,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Float32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def float32_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Float32_0
+            f = FLOAT32_RUN_0
             (v1,) = _S_f.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
@@ -1553,14 +1507,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Float32(v1), pos
+            return float32_view(v1), pos
         return {"data": v1}, pos
 
-    def encode_std_msgs__msg__Float32(d: Any, out: list[Any], pos: int) -> int:
+    def float32_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Float32.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Float32)
+            if d.__class__ is not dict or not FLOAT32_KEYS.issuperset(d):
+                d = _submap(d, FLOAT32_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -1569,7 +1523,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_f.pack(d.get("data", 0.0)))
             except Exception:
-                out.append(slow_pack(_S_f, _R_std_msgs__msg__Float32_0, (d.get("data", 0.0),)))
+                out.append(slow_pack(_S_f, FLOAT32_RUN_0, (d.get("data", 0.0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -1577,15 +1531,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Float32MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def float32_multi_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = multi_array_layout_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Float32MultiArray_0
+            f = FLOAT32_MULTI_ARRAY_RUN_0
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".data"
@@ -1598,16 +1550,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Float32MultiArray(v1, v5), pos
+            return float32_multi_array_view(v1, v5), pos
         return {"layout": v1, "data": v5.tolist()}, pos
 
-    def encode_std_msgs__msg__Float32MultiArray(d: Any, out: list[Any], pos: int) -> int:
+    def float32_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Float32MultiArray.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Float32MultiArray)
+            if d.__class__ is not dict or not FLOAT32_MULTI_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, FLOAT32_MULTI_ARRAY_KEYS)
             f = ".layout"
-            pos = encode_std_msgs__msg__MultiArrayLayout(d.get("layout", EMPTY), out, pos)
+            pos = multi_array_layout_encode(d.get("layout", EMPTY), out, pos)
             f = ".data"
             b2, c3 = encode_array(d.get("data", ()), _D_float32, "float32", None, False)
             p = -pos & 3
@@ -1618,7 +1570,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c3))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_msgs__msg__Float32MultiArray_0, (c3,)))
+                out.append(slow_pack(_S_I, FLOAT32_MULTI_ARRAY_RUN_0, (c3,)))
             pos += 4
             out.append(b2)
             pos += c3 * 4
@@ -1628,11 +1580,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Float64(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def float64_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_std_msgs__msg__Float64_0
+            f = FLOAT64_RUN_0
             (v1,) = _S_d.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -1640,14 +1592,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Float64(v1), pos
+            return float64_view(v1), pos
         return {"data": v1}, pos
 
-    def encode_std_msgs__msg__Float64(d: Any, out: list[Any], pos: int) -> int:
+    def float64_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Float64.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Float64)
+            if d.__class__ is not dict or not FLOAT64_KEYS.issuperset(d):
+                d = _submap(d, FLOAT64_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -1656,7 +1608,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_d.pack(d.get("data", 0.0)))
             except Exception:
-                out.append(slow_pack(_S_d, _R_std_msgs__msg__Float64_0, (d.get("data", 0.0),)))
+                out.append(slow_pack(_S_d, FLOAT64_RUN_0, (d.get("data", 0.0),)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -1664,15 +1616,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Float64MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def float64_multi_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = multi_array_layout_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Float64MultiArray_0
+            f = FLOAT64_MULTI_ARRAY_RUN_0
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".data"
@@ -1687,16 +1637,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Float64MultiArray(v1, v5), pos
+            return float64_multi_array_view(v1, v5), pos
         return {"layout": v1, "data": v5.tolist()}, pos
 
-    def encode_std_msgs__msg__Float64MultiArray(d: Any, out: list[Any], pos: int) -> int:
+    def float64_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Float64MultiArray.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Float64MultiArray)
+            if d.__class__ is not dict or not FLOAT64_MULTI_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, FLOAT64_MULTI_ARRAY_KEYS)
             f = ".layout"
-            pos = encode_std_msgs__msg__MultiArrayLayout(d.get("layout", EMPTY), out, pos)
+            pos = multi_array_layout_encode(d.get("layout", EMPTY), out, pos)
             f = ".data"
             b2, c3 = encode_array(d.get("data", ()), _D_float64, "float64", None, False)
             p = -pos & 3
@@ -1707,7 +1657,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c3))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_msgs__msg__Float64MultiArray_0, (c3,)))
+                out.append(slow_pack(_S_I, FLOAT64_MULTI_ARRAY_RUN_0, (c3,)))
             pos += 4
             if c3:
                 p = -pos & 7
@@ -1722,56 +1672,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def header_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
+            f = HEADER_RUN_0
             v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
             pos += 12
             f = ".frame_id"
@@ -1784,18 +1689,18 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
+            return header_view(builtin_interfaces__time_view(v2, v3), v6), pos
         return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
 
-    def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
+    def header_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Header.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Header)
+            if d.__class__ is not dict or not HEADER_KEYS.issuperset(d):
+                d = _submap(d, HEADER_KEYS)
             f = ".stamp"
             m1 = d.get("stamp", EMPTY)
-            if m1.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m1):
-                m1 = _submap(m1, _K_builtin_interfaces__msg__Time)
+            if m1.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m1):
+                m1 = _submap(m1, BUILTIN_INTERFACES__TIME_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -1809,7 +1714,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_i2I,
-                        _R_std_msgs__msg__Header_0,
+                        HEADER_RUN_0,
                         (
                             m1.get("sec", 0),
                             m1.get("nanosec", 0),
@@ -1826,11 +1731,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Int16(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def int16_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 1) & -2
-            f = _R_std_msgs__msg__Int16_0
+            f = INT16_RUN_0
             (v1,) = _S_h.unpack_from(mv, pos)
             pos += 2
         except WireDecodeError as error:
@@ -1838,14 +1743,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Int16(v1), pos
+            return int16_view(v1), pos
         return {"data": v1}, pos
 
-    def encode_std_msgs__msg__Int16(d: Any, out: list[Any], pos: int) -> int:
+    def int16_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Int16.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Int16)
+            if d.__class__ is not dict or not INT16_KEYS.issuperset(d):
+                d = _submap(d, INT16_KEYS)
             p = -pos & 1
             if p:
                 out.append(ZEROS[p])
@@ -1854,7 +1759,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_h.pack(d.get("data", 0)))
             except Exception:
-                out.append(slow_pack(_S_h, _R_std_msgs__msg__Int16_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_h, INT16_RUN_0, (d.get("data", 0),)))
             pos += 2
         except FieldError as error:
             raise error.within(f) from None
@@ -1862,15 +1767,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Int16MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def int16_multi_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = multi_array_layout_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Int16MultiArray_0
+            f = INT16_MULTI_ARRAY_RUN_0
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".data"
@@ -1883,16 +1786,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Int16MultiArray(v1, v5), pos
+            return int16_multi_array_view(v1, v5), pos
         return {"layout": v1, "data": v5.tolist()}, pos
 
-    def encode_std_msgs__msg__Int16MultiArray(d: Any, out: list[Any], pos: int) -> int:
+    def int16_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Int16MultiArray.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Int16MultiArray)
+            if d.__class__ is not dict or not INT16_MULTI_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, INT16_MULTI_ARRAY_KEYS)
             f = ".layout"
-            pos = encode_std_msgs__msg__MultiArrayLayout(d.get("layout", EMPTY), out, pos)
+            pos = multi_array_layout_encode(d.get("layout", EMPTY), out, pos)
             f = ".data"
             b2, c3 = encode_array(d.get("data", ()), _D_int16, "int16", None, False)
             p = -pos & 3
@@ -1903,7 +1806,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c3))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_msgs__msg__Int16MultiArray_0, (c3,)))
+                out.append(slow_pack(_S_I, INT16_MULTI_ARRAY_RUN_0, (c3,)))
             pos += 4
             out.append(b2)
             pos += c3 * 2
@@ -1913,11 +1816,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Int32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def int32_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Int32_0
+            f = INT32_RUN_0
             (v1,) = _S_i.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
@@ -1925,14 +1828,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Int32(v1), pos
+            return int32_view(v1), pos
         return {"data": v1}, pos
 
-    def encode_std_msgs__msg__Int32(d: Any, out: list[Any], pos: int) -> int:
+    def int32_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Int32.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Int32)
+            if d.__class__ is not dict or not INT32_KEYS.issuperset(d):
+                d = _submap(d, INT32_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -1941,7 +1844,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_i.pack(d.get("data", 0)))
             except Exception:
-                out.append(slow_pack(_S_i, _R_std_msgs__msg__Int32_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_i, INT32_RUN_0, (d.get("data", 0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -1949,15 +1852,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Int32MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def int32_multi_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = multi_array_layout_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Int32MultiArray_0
+            f = INT32_MULTI_ARRAY_RUN_0
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".data"
@@ -1970,16 +1871,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Int32MultiArray(v1, v5), pos
+            return int32_multi_array_view(v1, v5), pos
         return {"layout": v1, "data": v5.tolist()}, pos
 
-    def encode_std_msgs__msg__Int32MultiArray(d: Any, out: list[Any], pos: int) -> int:
+    def int32_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Int32MultiArray.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Int32MultiArray)
+            if d.__class__ is not dict or not INT32_MULTI_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, INT32_MULTI_ARRAY_KEYS)
             f = ".layout"
-            pos = encode_std_msgs__msg__MultiArrayLayout(d.get("layout", EMPTY), out, pos)
+            pos = multi_array_layout_encode(d.get("layout", EMPTY), out, pos)
             f = ".data"
             b2, c3 = encode_array(d.get("data", ()), _D_int32, "int32", None, False)
             p = -pos & 3
@@ -1990,7 +1891,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c3))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_msgs__msg__Int32MultiArray_0, (c3,)))
+                out.append(slow_pack(_S_I, INT32_MULTI_ARRAY_RUN_0, (c3,)))
             pos += 4
             out.append(b2)
             pos += c3 * 4
@@ -2000,11 +1901,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Int64(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def int64_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_std_msgs__msg__Int64_0
+            f = INT64_RUN_0
             (v1,) = _S_q.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -2012,14 +1913,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Int64(v1), pos
+            return int64_view(v1), pos
         return {"data": v1}, pos
 
-    def encode_std_msgs__msg__Int64(d: Any, out: list[Any], pos: int) -> int:
+    def int64_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Int64.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Int64)
+            if d.__class__ is not dict or not INT64_KEYS.issuperset(d):
+                d = _submap(d, INT64_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -2028,7 +1929,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_q.pack(d.get("data", 0)))
             except Exception:
-                out.append(slow_pack(_S_q, _R_std_msgs__msg__Int64_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_q, INT64_RUN_0, (d.get("data", 0),)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -2036,15 +1937,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Int64MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def int64_multi_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = multi_array_layout_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Int64MultiArray_0
+            f = INT64_MULTI_ARRAY_RUN_0
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".data"
@@ -2059,16 +1958,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Int64MultiArray(v1, v5), pos
+            return int64_multi_array_view(v1, v5), pos
         return {"layout": v1, "data": v5.tolist()}, pos
 
-    def encode_std_msgs__msg__Int64MultiArray(d: Any, out: list[Any], pos: int) -> int:
+    def int64_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Int64MultiArray.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Int64MultiArray)
+            if d.__class__ is not dict or not INT64_MULTI_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, INT64_MULTI_ARRAY_KEYS)
             f = ".layout"
-            pos = encode_std_msgs__msg__MultiArrayLayout(d.get("layout", EMPTY), out, pos)
+            pos = multi_array_layout_encode(d.get("layout", EMPTY), out, pos)
             f = ".data"
             b2, c3 = encode_array(d.get("data", ()), _D_int64, "int64", None, False)
             p = -pos & 3
@@ -2079,7 +1978,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c3))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_msgs__msg__Int64MultiArray_0, (c3,)))
+                out.append(slow_pack(_S_I, INT64_MULTI_ARRAY_RUN_0, (c3,)))
             pos += 4
             if c3:
                 p = -pos & 7
@@ -2094,10 +1993,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Int8(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def int8_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_std_msgs__msg__Int8_0
+            f = INT8_RUN_0
             (v1,) = _S_b.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -2105,19 +2004,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Int8(v1), pos
+            return int8_view(v1), pos
         return {"data": v1}, pos
 
-    def encode_std_msgs__msg__Int8(d: Any, out: list[Any], pos: int) -> int:
+    def int8_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Int8.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Int8)
+            if d.__class__ is not dict or not INT8_KEYS.issuperset(d):
+                d = _submap(d, INT8_KEYS)
             f = ""
             try:
                 out.append(_S_b.pack(d.get("data", 0)))
             except Exception:
-                out.append(slow_pack(_S_b, _R_std_msgs__msg__Int8_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_b, INT8_RUN_0, (d.get("data", 0),)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -2125,13 +2024,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__Int8MultiArray(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def int8_multi_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = multi_array_layout_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Int8MultiArray_0
+            f = INT8_MULTI_ARRAY_RUN_0
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".data"
@@ -2144,16 +2043,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__Int8MultiArray(v1, v5), pos
+            return int8_multi_array_view(v1, v5), pos
         return {"layout": v1, "data": v5.tolist()}, pos
 
-    def encode_std_msgs__msg__Int8MultiArray(d: Any, out: list[Any], pos: int) -> int:
+    def int8_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Int8MultiArray.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Int8MultiArray)
+            if d.__class__ is not dict or not INT8_MULTI_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, INT8_MULTI_ARRAY_KEYS)
             f = ".layout"
-            pos = encode_std_msgs__msg__MultiArrayLayout(d.get("layout", EMPTY), out, pos)
+            pos = multi_array_layout_encode(d.get("layout", EMPTY), out, pos)
             f = ".data"
             b2, c3 = encode_array(d.get("data", ()), _D_int8, "int8", None, False)
             p = -pos & 3
@@ -2164,7 +2063,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c3))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_msgs__msg__Int8MultiArray_0, (c3,)))
+                out.append(slow_pack(_S_I, INT8_MULTI_ARRAY_RUN_0, (c3,)))
             pos += 4
             out.append(b2)
             pos += c3 * 1
@@ -2174,11 +2073,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__String(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def string_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__String_0
+            f = STRING_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".data"
@@ -2191,14 +2090,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__String(v3), pos
+            return string_view(v3), pos
         return {"data": v3}, pos
 
-    def encode_std_msgs__msg__String(d: Any, out: list[Any], pos: int) -> int:
+    def string_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__String.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__String)
+            if d.__class__ is not dict or not STRING_KEYS.issuperset(d):
+                d = _submap(d, STRING_KEYS)
             f = ".data"
             b1 = utf8z(d.get("data", ""), None)
             p = -pos & 3
@@ -2209,7 +2108,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_msgs__msg__String_0, (len(b1),)))
+                out.append(slow_pack(_S_I, STRING_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -2219,11 +2118,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__UInt16(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def u_int16_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 1) & -2
-            f = _R_std_msgs__msg__UInt16_0
+            f = U_INT16_RUN_0
             (v1,) = _S_H.unpack_from(mv, pos)
             pos += 2
         except WireDecodeError as error:
@@ -2231,14 +2130,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__UInt16(v1), pos
+            return u_int16_view(v1), pos
         return {"data": v1}, pos
 
-    def encode_std_msgs__msg__UInt16(d: Any, out: list[Any], pos: int) -> int:
+    def u_int16_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__UInt16.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__UInt16)
+            if d.__class__ is not dict or not U_INT16_KEYS.issuperset(d):
+                d = _submap(d, U_INT16_KEYS)
             p = -pos & 1
             if p:
                 out.append(ZEROS[p])
@@ -2247,7 +2146,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_H.pack(d.get("data", 0)))
             except Exception:
-                out.append(slow_pack(_S_H, _R_std_msgs__msg__UInt16_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_H, U_INT16_RUN_0, (d.get("data", 0),)))
             pos += 2
         except FieldError as error:
             raise error.within(f) from None
@@ -2255,15 +2154,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__UInt16MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def u_int16_multi_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = multi_array_layout_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__UInt16MultiArray_0
+            f = U_INT16_MULTI_ARRAY_RUN_0
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".data"
@@ -2276,16 +2173,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__UInt16MultiArray(v1, v5), pos
+            return u_int16_multi_array_view(v1, v5), pos
         return {"layout": v1, "data": v5.tolist()}, pos
 
-    def encode_std_msgs__msg__UInt16MultiArray(d: Any, out: list[Any], pos: int) -> int:
+    def u_int16_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__UInt16MultiArray.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__UInt16MultiArray)
+            if d.__class__ is not dict or not U_INT16_MULTI_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, U_INT16_MULTI_ARRAY_KEYS)
             f = ".layout"
-            pos = encode_std_msgs__msg__MultiArrayLayout(d.get("layout", EMPTY), out, pos)
+            pos = multi_array_layout_encode(d.get("layout", EMPTY), out, pos)
             f = ".data"
             b2, c3 = encode_array(d.get("data", ()), _D_uint16, "uint16", None, False)
             p = -pos & 3
@@ -2296,7 +2193,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c3))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_msgs__msg__UInt16MultiArray_0, (c3,)))
+                out.append(slow_pack(_S_I, U_INT16_MULTI_ARRAY_RUN_0, (c3,)))
             pos += 4
             out.append(b2)
             pos += c3 * 2
@@ -2306,11 +2203,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__UInt32(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def u_int32_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__UInt32_0
+            f = U_INT32_RUN_0
             (v1,) = _S_I.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
@@ -2318,14 +2215,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__UInt32(v1), pos
+            return u_int32_view(v1), pos
         return {"data": v1}, pos
 
-    def encode_std_msgs__msg__UInt32(d: Any, out: list[Any], pos: int) -> int:
+    def u_int32_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__UInt32.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__UInt32)
+            if d.__class__ is not dict or not U_INT32_KEYS.issuperset(d):
+                d = _submap(d, U_INT32_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -2334,7 +2231,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(d.get("data", 0)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_msgs__msg__UInt32_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_I, U_INT32_RUN_0, (d.get("data", 0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -2342,15 +2239,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__UInt32MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def u_int32_multi_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = multi_array_layout_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__UInt32MultiArray_0
+            f = U_INT32_MULTI_ARRAY_RUN_0
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".data"
@@ -2363,16 +2258,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__UInt32MultiArray(v1, v5), pos
+            return u_int32_multi_array_view(v1, v5), pos
         return {"layout": v1, "data": v5.tolist()}, pos
 
-    def encode_std_msgs__msg__UInt32MultiArray(d: Any, out: list[Any], pos: int) -> int:
+    def u_int32_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__UInt32MultiArray.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__UInt32MultiArray)
+            if d.__class__ is not dict or not U_INT32_MULTI_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, U_INT32_MULTI_ARRAY_KEYS)
             f = ".layout"
-            pos = encode_std_msgs__msg__MultiArrayLayout(d.get("layout", EMPTY), out, pos)
+            pos = multi_array_layout_encode(d.get("layout", EMPTY), out, pos)
             f = ".data"
             b2, c3 = encode_array(d.get("data", ()), _D_uint32, "uint32", None, False)
             p = -pos & 3
@@ -2383,7 +2278,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c3))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_msgs__msg__UInt32MultiArray_0, (c3,)))
+                out.append(slow_pack(_S_I, U_INT32_MULTI_ARRAY_RUN_0, (c3,)))
             pos += 4
             out.append(b2)
             pos += c3 * 4
@@ -2393,11 +2288,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__UInt64(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def u_int64_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_std_msgs__msg__UInt64_0
+            f = U_INT64_RUN_0
             (v1,) = _S_Q.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -2405,14 +2300,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__UInt64(v1), pos
+            return u_int64_view(v1), pos
         return {"data": v1}, pos
 
-    def encode_std_msgs__msg__UInt64(d: Any, out: list[Any], pos: int) -> int:
+    def u_int64_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__UInt64.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__UInt64)
+            if d.__class__ is not dict or not U_INT64_KEYS.issuperset(d):
+                d = _submap(d, U_INT64_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -2421,7 +2316,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_Q.pack(d.get("data", 0)))
             except Exception:
-                out.append(slow_pack(_S_Q, _R_std_msgs__msg__UInt64_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_Q, U_INT64_RUN_0, (d.get("data", 0),)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -2429,15 +2324,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__UInt64MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def u_int64_multi_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = multi_array_layout_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__UInt64MultiArray_0
+            f = U_INT64_MULTI_ARRAY_RUN_0
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".data"
@@ -2452,16 +2345,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__UInt64MultiArray(v1, v5), pos
+            return u_int64_multi_array_view(v1, v5), pos
         return {"layout": v1, "data": v5.tolist()}, pos
 
-    def encode_std_msgs__msg__UInt64MultiArray(d: Any, out: list[Any], pos: int) -> int:
+    def u_int64_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__UInt64MultiArray.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__UInt64MultiArray)
+            if d.__class__ is not dict or not U_INT64_MULTI_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, U_INT64_MULTI_ARRAY_KEYS)
             f = ".layout"
-            pos = encode_std_msgs__msg__MultiArrayLayout(d.get("layout", EMPTY), out, pos)
+            pos = multi_array_layout_encode(d.get("layout", EMPTY), out, pos)
             f = ".data"
             b2, c3 = encode_array(d.get("data", ()), _D_uint64, "uint64", None, False)
             p = -pos & 3
@@ -2472,7 +2365,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c3))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_msgs__msg__UInt64MultiArray_0, (c3,)))
+                out.append(slow_pack(_S_I, U_INT64_MULTI_ARRAY_RUN_0, (c3,)))
             pos += 4
             if c3:
                 p = -pos & 7
@@ -2487,10 +2380,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__UInt8(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def u_int8_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_std_msgs__msg__UInt8_0
+            f = U_INT8_RUN_0
             (v1,) = _S_B.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -2498,19 +2391,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__UInt8(v1), pos
+            return u_int8_view(v1), pos
         return {"data": v1}, pos
 
-    def encode_std_msgs__msg__UInt8(d: Any, out: list[Any], pos: int) -> int:
+    def u_int8_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__UInt8.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__UInt8)
+            if d.__class__ is not dict or not U_INT8_KEYS.issuperset(d):
+                d = _submap(d, U_INT8_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(d.get("data", 0)))
             except Exception:
-                out.append(slow_pack(_S_B, _R_std_msgs__msg__UInt8_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_B, U_INT8_RUN_0, (d.get("data", 0),)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -2518,15 +2411,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_msgs__msg__UInt8MultiArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def u_int8_multi_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".layout"
-            v1, pos = decode_std_msgs__msg__MultiArrayLayout(mv, pos, lim)
+            v1, pos = multi_array_layout_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__UInt8MultiArray_0
+            f = U_INT8_MULTI_ARRAY_RUN_0
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".data"
@@ -2539,16 +2430,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_msgs__msg__UInt8MultiArray(v1, v5), pos
+            return u_int8_multi_array_view(v1, v5), pos
         return {"layout": v1, "data": v5.tobytes()}, pos
 
-    def encode_std_msgs__msg__UInt8MultiArray(d: Any, out: list[Any], pos: int) -> int:
+    def u_int8_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__UInt8MultiArray.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__UInt8MultiArray)
+            if d.__class__ is not dict or not U_INT8_MULTI_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, U_INT8_MULTI_ARRAY_KEYS)
             f = ".layout"
-            pos = encode_std_msgs__msg__MultiArrayLayout(d.get("layout", EMPTY), out, pos)
+            pos = multi_array_layout_encode(d.get("layout", EMPTY), out, pos)
             f = ".data"
             b2, c3 = encode_array(d.get("data", ()), _D_uint8, "uint8", None, False)
             p = -pos & 3
@@ -2559,7 +2450,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c3))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_msgs__msg__UInt8MultiArray_0, (c3,)))
+                out.append(slow_pack(_S_I, U_INT8_MULTI_ARRAY_RUN_0, (c3,)))
             pos += 4
             out.append(b2)
             pos += c3 * 1
@@ -2570,89 +2461,231 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
-        "std_msgs/msg/Bool": (decode_std_msgs__msg__Bool, encode_std_msgs__msg__Bool),
-        "std_msgs/msg/Byte": (decode_std_msgs__msg__Byte, encode_std_msgs__msg__Byte),
+        "bool_decode": bool_decode,
+        "bool_encode": bool_encode,
+        "byte_decode": byte_decode,
+        "byte_encode": byte_encode,
+        "multi_array_dimension_decode": multi_array_dimension_decode,
+        "multi_array_dimension_encode": multi_array_dimension_encode,
+        "multi_array_layout_decode": multi_array_layout_decode,
+        "multi_array_layout_encode": multi_array_layout_encode,
+        "byte_multi_array_decode": byte_multi_array_decode,
+        "byte_multi_array_encode": byte_multi_array_encode,
+        "char_decode": char_decode,
+        "char_encode": char_encode,
+        "color_rgba_decode": color_rgba_decode,
+        "color_rgba_encode": color_rgba_encode,
+        "empty_decode": empty_decode,
+        "empty_encode": empty_encode,
+        "float32_decode": float32_decode,
+        "float32_encode": float32_encode,
+        "float32_multi_array_decode": float32_multi_array_decode,
+        "float32_multi_array_encode": float32_multi_array_encode,
+        "float64_decode": float64_decode,
+        "float64_encode": float64_encode,
+        "float64_multi_array_decode": float64_multi_array_decode,
+        "float64_multi_array_encode": float64_multi_array_encode,
+        "header_decode": header_decode,
+        "header_encode": header_encode,
+        "int16_decode": int16_decode,
+        "int16_encode": int16_encode,
+        "int16_multi_array_decode": int16_multi_array_decode,
+        "int16_multi_array_encode": int16_multi_array_encode,
+        "int32_decode": int32_decode,
+        "int32_encode": int32_encode,
+        "int32_multi_array_decode": int32_multi_array_decode,
+        "int32_multi_array_encode": int32_multi_array_encode,
+        "int64_decode": int64_decode,
+        "int64_encode": int64_encode,
+        "int64_multi_array_decode": int64_multi_array_decode,
+        "int64_multi_array_encode": int64_multi_array_encode,
+        "int8_decode": int8_decode,
+        "int8_encode": int8_encode,
+        "int8_multi_array_decode": int8_multi_array_decode,
+        "int8_multi_array_encode": int8_multi_array_encode,
+        "string_decode": string_decode,
+        "string_encode": string_encode,
+        "u_int16_decode": u_int16_decode,
+        "u_int16_encode": u_int16_encode,
+        "u_int16_multi_array_decode": u_int16_multi_array_decode,
+        "u_int16_multi_array_encode": u_int16_multi_array_encode,
+        "u_int32_decode": u_int32_decode,
+        "u_int32_encode": u_int32_encode,
+        "u_int32_multi_array_decode": u_int32_multi_array_decode,
+        "u_int32_multi_array_encode": u_int32_multi_array_encode,
+        "u_int64_decode": u_int64_decode,
+        "u_int64_encode": u_int64_encode,
+        "u_int64_multi_array_decode": u_int64_multi_array_decode,
+        "u_int64_multi_array_encode": u_int64_multi_array_encode,
+        "u_int8_decode": u_int8_decode,
+        "u_int8_encode": u_int8_encode,
+        "u_int8_multi_array_decode": u_int8_multi_array_decode,
+        "u_int8_multi_array_encode": u_int8_multi_array_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
+        "std_msgs/msg/Bool": (
+            as_dict["bool_decode"],
+            as_view["bool_decode"],
+            as_dict["bool_encode"],
+        ),
+        "std_msgs/msg/Byte": (
+            as_dict["byte_decode"],
+            as_view["byte_decode"],
+            as_dict["byte_encode"],
+        ),
         "std_msgs/msg/MultiArrayDimension": (
-            decode_std_msgs__msg__MultiArrayDimension,
-            encode_std_msgs__msg__MultiArrayDimension,
+            as_dict["multi_array_dimension_decode"],
+            as_view["multi_array_dimension_decode"],
+            as_dict["multi_array_dimension_encode"],
         ),
         "std_msgs/msg/MultiArrayLayout": (
-            decode_std_msgs__msg__MultiArrayLayout,
-            encode_std_msgs__msg__MultiArrayLayout,
+            as_dict["multi_array_layout_decode"],
+            as_view["multi_array_layout_decode"],
+            as_dict["multi_array_layout_encode"],
         ),
         "std_msgs/msg/ByteMultiArray": (
-            decode_std_msgs__msg__ByteMultiArray,
-            encode_std_msgs__msg__ByteMultiArray,
+            as_dict["byte_multi_array_decode"],
+            as_view["byte_multi_array_decode"],
+            as_dict["byte_multi_array_encode"],
         ),
-        "std_msgs/msg/Char": (decode_std_msgs__msg__Char, encode_std_msgs__msg__Char),
+        "std_msgs/msg/Char": (
+            as_dict["char_decode"],
+            as_view["char_decode"],
+            as_dict["char_encode"],
+        ),
         "std_msgs/msg/ColorRGBA": (
-            decode_std_msgs__msg__ColorRGBA,
-            encode_std_msgs__msg__ColorRGBA,
+            as_dict["color_rgba_decode"],
+            as_view["color_rgba_decode"],
+            as_dict["color_rgba_encode"],
         ),
-        "std_msgs/msg/Empty": (decode_std_msgs__msg__Empty, encode_std_msgs__msg__Empty),
-        "std_msgs/msg/Float32": (decode_std_msgs__msg__Float32, encode_std_msgs__msg__Float32),
+        "std_msgs/msg/Empty": (
+            as_dict["empty_decode"],
+            as_view["empty_decode"],
+            as_dict["empty_encode"],
+        ),
+        "std_msgs/msg/Float32": (
+            as_dict["float32_decode"],
+            as_view["float32_decode"],
+            as_dict["float32_encode"],
+        ),
         "std_msgs/msg/Float32MultiArray": (
-            decode_std_msgs__msg__Float32MultiArray,
-            encode_std_msgs__msg__Float32MultiArray,
+            as_dict["float32_multi_array_decode"],
+            as_view["float32_multi_array_decode"],
+            as_dict["float32_multi_array_encode"],
         ),
-        "std_msgs/msg/Float64": (decode_std_msgs__msg__Float64, encode_std_msgs__msg__Float64),
+        "std_msgs/msg/Float64": (
+            as_dict["float64_decode"],
+            as_view["float64_decode"],
+            as_dict["float64_encode"],
+        ),
         "std_msgs/msg/Float64MultiArray": (
-            decode_std_msgs__msg__Float64MultiArray,
-            encode_std_msgs__msg__Float64MultiArray,
+            as_dict["float64_multi_array_decode"],
+            as_view["float64_multi_array_decode"],
+            as_dict["float64_multi_array_encode"],
         ),
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
+        "std_msgs/msg/Header": (
+            as_dict["header_decode"],
+            as_view["header_decode"],
+            as_dict["header_encode"],
         ),
-        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
-        "std_msgs/msg/Int16": (decode_std_msgs__msg__Int16, encode_std_msgs__msg__Int16),
+        "std_msgs/msg/Int16": (
+            as_dict["int16_decode"],
+            as_view["int16_decode"],
+            as_dict["int16_encode"],
+        ),
         "std_msgs/msg/Int16MultiArray": (
-            decode_std_msgs__msg__Int16MultiArray,
-            encode_std_msgs__msg__Int16MultiArray,
+            as_dict["int16_multi_array_decode"],
+            as_view["int16_multi_array_decode"],
+            as_dict["int16_multi_array_encode"],
         ),
-        "std_msgs/msg/Int32": (decode_std_msgs__msg__Int32, encode_std_msgs__msg__Int32),
+        "std_msgs/msg/Int32": (
+            as_dict["int32_decode"],
+            as_view["int32_decode"],
+            as_dict["int32_encode"],
+        ),
         "std_msgs/msg/Int32MultiArray": (
-            decode_std_msgs__msg__Int32MultiArray,
-            encode_std_msgs__msg__Int32MultiArray,
+            as_dict["int32_multi_array_decode"],
+            as_view["int32_multi_array_decode"],
+            as_dict["int32_multi_array_encode"],
         ),
-        "std_msgs/msg/Int64": (decode_std_msgs__msg__Int64, encode_std_msgs__msg__Int64),
+        "std_msgs/msg/Int64": (
+            as_dict["int64_decode"],
+            as_view["int64_decode"],
+            as_dict["int64_encode"],
+        ),
         "std_msgs/msg/Int64MultiArray": (
-            decode_std_msgs__msg__Int64MultiArray,
-            encode_std_msgs__msg__Int64MultiArray,
+            as_dict["int64_multi_array_decode"],
+            as_view["int64_multi_array_decode"],
+            as_dict["int64_multi_array_encode"],
         ),
-        "std_msgs/msg/Int8": (decode_std_msgs__msg__Int8, encode_std_msgs__msg__Int8),
+        "std_msgs/msg/Int8": (
+            as_dict["int8_decode"],
+            as_view["int8_decode"],
+            as_dict["int8_encode"],
+        ),
         "std_msgs/msg/Int8MultiArray": (
-            decode_std_msgs__msg__Int8MultiArray,
-            encode_std_msgs__msg__Int8MultiArray,
+            as_dict["int8_multi_array_decode"],
+            as_view["int8_multi_array_decode"],
+            as_dict["int8_multi_array_encode"],
         ),
-        "std_msgs/msg/String": (decode_std_msgs__msg__String, encode_std_msgs__msg__String),
-        "std_msgs/msg/UInt16": (decode_std_msgs__msg__UInt16, encode_std_msgs__msg__UInt16),
+        "std_msgs/msg/String": (
+            as_dict["string_decode"],
+            as_view["string_decode"],
+            as_dict["string_encode"],
+        ),
+        "std_msgs/msg/UInt16": (
+            as_dict["u_int16_decode"],
+            as_view["u_int16_decode"],
+            as_dict["u_int16_encode"],
+        ),
         "std_msgs/msg/UInt16MultiArray": (
-            decode_std_msgs__msg__UInt16MultiArray,
-            encode_std_msgs__msg__UInt16MultiArray,
+            as_dict["u_int16_multi_array_decode"],
+            as_view["u_int16_multi_array_decode"],
+            as_dict["u_int16_multi_array_encode"],
         ),
-        "std_msgs/msg/UInt32": (decode_std_msgs__msg__UInt32, encode_std_msgs__msg__UInt32),
+        "std_msgs/msg/UInt32": (
+            as_dict["u_int32_decode"],
+            as_view["u_int32_decode"],
+            as_dict["u_int32_encode"],
+        ),
         "std_msgs/msg/UInt32MultiArray": (
-            decode_std_msgs__msg__UInt32MultiArray,
-            encode_std_msgs__msg__UInt32MultiArray,
+            as_dict["u_int32_multi_array_decode"],
+            as_view["u_int32_multi_array_decode"],
+            as_dict["u_int32_multi_array_encode"],
         ),
-        "std_msgs/msg/UInt64": (decode_std_msgs__msg__UInt64, encode_std_msgs__msg__UInt64),
+        "std_msgs/msg/UInt64": (
+            as_dict["u_int64_decode"],
+            as_view["u_int64_decode"],
+            as_dict["u_int64_encode"],
+        ),
         "std_msgs/msg/UInt64MultiArray": (
-            decode_std_msgs__msg__UInt64MultiArray,
-            encode_std_msgs__msg__UInt64MultiArray,
+            as_dict["u_int64_multi_array_decode"],
+            as_view["u_int64_multi_array_decode"],
+            as_dict["u_int64_multi_array_encode"],
         ),
-        "std_msgs/msg/UInt8": (decode_std_msgs__msg__UInt8, encode_std_msgs__msg__UInt8),
+        "std_msgs/msg/UInt8": (
+            as_dict["u_int8_decode"],
+            as_view["u_int8_decode"],
+            as_dict["u_int8_encode"],
+        ),
         "std_msgs/msg/UInt8MultiArray": (
-            decode_std_msgs__msg__UInt8MultiArray,
-            encode_std_msgs__msg__UInt8MultiArray,
+            as_dict["u_int8_multi_array_decode"],
+            as_view["u_int8_multi_array_decode"],
+            as_dict["u_int8_multi_array_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

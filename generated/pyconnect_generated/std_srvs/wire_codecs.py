@@ -21,10 +21,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -60,13 +61,26 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.builtin_interfaces.wire_codecs import (
+    DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
+    TIME_KEYS as BUILTIN_INTERFACES__TIME_KEYS,
+    time_view as builtin_interfaces__time_view,
+)
+from pyconnect_generated.service_msgs.wire_codecs import (
+    DEFINITIONS as SERVICE_MSGS__DEFINITIONS,
+    SERVICE_EVENT_INFO_KEYS as SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS,
+    service_event_info_view as service_msgs__service_event_info_view,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
+    **BUILTIN_INTERFACES__DEFINITIONS,
+    **SERVICE_MSGS__DEFINITIONS,
     "std_srvs/srv/Empty_Request": (
         "RIHS01_458eaf200a3f63d9cc53d19436edebc0c140ef4c93ca75d5bd4ce19fd7759e35",
         (),
@@ -74,22 +88,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "std_srvs/srv/Empty_Response": (
         "RIHS01_0a2858b3f60df644a61d0fa44cfc923a3d3628e0ad9c8ad8534b1a2c92a413dc",
         (),
-    ),
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
-    "service_msgs/msg/ServiceEventInfo": (
-        "RIHS01_41bcbbe07a75c9b52bc96bfd5c24d7f0fc0a08c0cb7921b3373c5732345a6f45",
-        (
-            ("event_type", "primitive", "uint8", None, "single", None, None),
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("client_gid", "primitive", "uint8", None, "array", 16, None),
-            ("sequence_number", "primitive", "int64", None, "single", None, None),
-        ),
     ),
     "std_srvs/srv/Empty_Event": (
         "RIHS01_66fa7fcfb5f2bf04b9a8a55603318c5c402edfc4bd56bb0ed7b602990c29305a",
@@ -191,90 +189,60 @@ EXPORTED: frozenset[str] = frozenset(
         "std_srvs/srv/Trigger_Response",
     )
 )
-_K_builtin_interfaces__msg__Time = frozenset(
-    (
-        "sec",
-        "nanosec",
-    )
-)
-_K_service_msgs__msg__ServiceEventInfo = frozenset(
-    (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-)
-_K_std_srvs__srv__Empty_Event = frozenset(
+EMPTY_EVENT_KEYS = frozenset(
     (
         "info",
         "request",
         "response",
     )
 )
-_K_std_srvs__srv__Empty_Request = frozenset()
-_K_std_srvs__srv__Empty_Response = frozenset()
-_K_std_srvs__srv__SetBool_Event = frozenset(
+EMPTY_REQUEST_KEYS = frozenset()
+EMPTY_RESPONSE_KEYS = frozenset()
+SET_BOOL_EVENT_KEYS = frozenset(
     (
         "info",
         "request",
         "response",
     )
 )
-_K_std_srvs__srv__SetBool_Request = frozenset(("data",))
-_K_std_srvs__srv__SetBool_Response = frozenset(
+SET_BOOL_REQUEST_KEYS = frozenset(("data",))
+SET_BOOL_RESPONSE_KEYS = frozenset(
     (
         "success",
         "message",
     )
 )
-_K_std_srvs__srv__Trigger_Event = frozenset(
+TRIGGER_EVENT_KEYS = frozenset(
     (
         "info",
         "request",
         "response",
     )
 )
-_K_std_srvs__srv__Trigger_Request = frozenset()
-_K_std_srvs__srv__Trigger_Response = frozenset(
+TRIGGER_REQUEST_KEYS = frozenset()
+TRIGGER_RESPONSE_KEYS = frozenset(
     (
         "success",
         "message",
     )
 )
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_service_msgs__msg__ServiceEventInfo_0 = ((".event_type", "uint8", 1),)
-_R_service_msgs__msg__ServiceEventInfo_1 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-)
-_R_service_msgs__msg__ServiceEventInfo_2 = ((".sequence_number", "int64", 8),)
-_R_std_srvs__srv__Empty_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_std_srvs__srv__Empty_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_std_srvs__srv__Empty_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_std_srvs__srv__Empty_Request_0 = ()
-_R_std_srvs__srv__Empty_Response_0 = ()
-_R_std_srvs__srv__SetBool_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_std_srvs__srv__SetBool_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_std_srvs__srv__SetBool_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_std_srvs__srv__SetBool_Request_0 = ((".data", "bool", 1),)
-_R_std_srvs__srv__SetBool_Response_0 = ((".success", "bool", 1),)
-_R_std_srvs__srv__SetBool_Response_1 = ((".message", "uint32", 4),)
-_R_std_srvs__srv__Trigger_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_std_srvs__srv__Trigger_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_std_srvs__srv__Trigger_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_std_srvs__srv__Trigger_Request_0 = ()
-_R_std_srvs__srv__Trigger_Response_0 = ((".success", "bool", 1),)
-_R_std_srvs__srv__Trigger_Response_1 = ((".message", "uint32", 4),)
+EMPTY_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+EMPTY_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+EMPTY_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+EMPTY_REQUEST_RUN_0 = ()
+EMPTY_RESPONSE_RUN_0 = ()
+SET_BOOL_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+SET_BOOL_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+SET_BOOL_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+SET_BOOL_REQUEST_RUN_0 = ((".data", "bool", 1),)
+SET_BOOL_RESPONSE_RUN_0 = ((".success", "bool", 1),)
+SET_BOOL_RESPONSE_RUN_1 = ((".message", "uint32", 4),)
+TRIGGER_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+TRIGGER_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+TRIGGER_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+TRIGGER_REQUEST_RUN_0 = ()
+TRIGGER_RESPONSE_RUN_0 = ((".success", "bool", 1),)
+TRIGGER_RESPONSE_RUN_1 = ((".message", "uint32", 4),)
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
@@ -284,7 +252,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class std_srvs__srv__Empty_Request:
+class Empty_Request:
     """A decoded std_srvs/srv/Empty_Request.
 
     Attributes named as the ROS fields.
@@ -297,12 +265,12 @@ class std_srvs__srv__Empty_Request:
         return view_repr(self)
 
 
-def make_std_srvs__srv__Empty_Request() -> std_srvs__srv__Empty_Request:
-    view = _new(std_srvs__srv__Empty_Request)
+def empty_request_view() -> Empty_Request:
+    view = _new(Empty_Request)
     return view
 
 
-class std_srvs__srv__Empty_Response:
+class Empty_Response:
     """A decoded std_srvs/srv/Empty_Response.
 
     Attributes named as the ROS fields.
@@ -315,64 +283,12 @@ class std_srvs__srv__Empty_Response:
         return view_repr(self)
 
 
-def make_std_srvs__srv__Empty_Response() -> std_srvs__srv__Empty_Response:
-    view = _new(std_srvs__srv__Empty_Response)
+def empty_response_view() -> Empty_Response:
+    view = _new(Empty_Response)
     return view
 
 
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class service_msgs__msg__ServiceEventInfo:
-    """A decoded service_msgs/msg/ServiceEventInfo.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-    msg_type = "service_msgs/msg/ServiceEventInfo"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_service_msgs__msg__ServiceEventInfo(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> service_msgs__msg__ServiceEventInfo:
-    view = _new(service_msgs__msg__ServiceEventInfo)
-    view.event_type = a0
-    view.stamp = a1
-    view.client_gid = a2
-    view.sequence_number = a3
-    return view
-
-
-class std_srvs__srv__Empty_Event:
+class Empty_Event:
     """A decoded std_srvs/srv/Empty_Event.
 
     Attributes named as the ROS fields.
@@ -389,15 +305,15 @@ class std_srvs__srv__Empty_Event:
         return view_repr(self)
 
 
-def make_std_srvs__srv__Empty_Event(a0: Any, a1: Any, a2: Any) -> std_srvs__srv__Empty_Event:
-    view = _new(std_srvs__srv__Empty_Event)
+def empty_event_view(a0: Any, a1: Any, a2: Any) -> Empty_Event:
+    view = _new(Empty_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class std_srvs__srv__SetBool_Request:
+class SetBool_Request:
     """A decoded std_srvs/srv/SetBool_Request.
 
     Attributes named as the ROS fields.
@@ -410,13 +326,13 @@ class std_srvs__srv__SetBool_Request:
         return view_repr(self)
 
 
-def make_std_srvs__srv__SetBool_Request(a0: Any) -> std_srvs__srv__SetBool_Request:
-    view = _new(std_srvs__srv__SetBool_Request)
+def set_bool_request_view(a0: Any) -> SetBool_Request:
+    view = _new(SetBool_Request)
     view.data = a0
     return view
 
 
-class std_srvs__srv__SetBool_Response:
+class SetBool_Response:
     """A decoded std_srvs/srv/SetBool_Response.
 
     Attributes named as the ROS fields.
@@ -432,14 +348,14 @@ class std_srvs__srv__SetBool_Response:
         return view_repr(self)
 
 
-def make_std_srvs__srv__SetBool_Response(a0: Any, a1: Any) -> std_srvs__srv__SetBool_Response:
-    view = _new(std_srvs__srv__SetBool_Response)
+def set_bool_response_view(a0: Any, a1: Any) -> SetBool_Response:
+    view = _new(SetBool_Response)
     view.success = a0
     view.message = a1
     return view
 
 
-class std_srvs__srv__SetBool_Event:
+class SetBool_Event:
     """A decoded std_srvs/srv/SetBool_Event.
 
     Attributes named as the ROS fields.
@@ -456,15 +372,15 @@ class std_srvs__srv__SetBool_Event:
         return view_repr(self)
 
 
-def make_std_srvs__srv__SetBool_Event(a0: Any, a1: Any, a2: Any) -> std_srvs__srv__SetBool_Event:
-    view = _new(std_srvs__srv__SetBool_Event)
+def set_bool_event_view(a0: Any, a1: Any, a2: Any) -> SetBool_Event:
+    view = _new(SetBool_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class std_srvs__srv__Trigger_Request:
+class Trigger_Request:
     """A decoded std_srvs/srv/Trigger_Request.
 
     Attributes named as the ROS fields.
@@ -477,12 +393,12 @@ class std_srvs__srv__Trigger_Request:
         return view_repr(self)
 
 
-def make_std_srvs__srv__Trigger_Request() -> std_srvs__srv__Trigger_Request:
-    view = _new(std_srvs__srv__Trigger_Request)
+def trigger_request_view() -> Trigger_Request:
+    view = _new(Trigger_Request)
     return view
 
 
-class std_srvs__srv__Trigger_Response:
+class Trigger_Response:
     """A decoded std_srvs/srv/Trigger_Response.
 
     Attributes named as the ROS fields.
@@ -498,14 +414,14 @@ class std_srvs__srv__Trigger_Response:
         return view_repr(self)
 
 
-def make_std_srvs__srv__Trigger_Response(a0: Any, a1: Any) -> std_srvs__srv__Trigger_Response:
-    view = _new(std_srvs__srv__Trigger_Response)
+def trigger_response_view(a0: Any, a1: Any) -> Trigger_Response:
+    view = _new(Trigger_Response)
     view.success = a0
     view.message = a1
     return view
 
 
-class std_srvs__srv__Trigger_Event:
+class Trigger_Event:
     """A decoded std_srvs/srv/Trigger_Event.
 
     Attributes named as the ROS fields.
@@ -522,16 +438,16 @@ class std_srvs__srv__Trigger_Event:
         return view_repr(self)
 
 
-def make_std_srvs__srv__Trigger_Event(a0: Any, a1: Any, a2: Any) -> std_srvs__srv__Trigger_Event:
-    view = _new(std_srvs__srv__Trigger_Event)
+def trigger_event_view(a0: Any, a1: Any, a2: Any) -> Trigger_Event:
+    view = _new(Trigger_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_B = Struct(E + "B")
@@ -541,10 +457,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
     _S_q = Struct(E + "q")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_std_srvs__srv__Empty_Request(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def empty_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_std_srvs__srv__Empty_Request_0
+            f = EMPTY_REQUEST_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -552,19 +468,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_srvs__srv__Empty_Request(), pos
+            return empty_request_view(), pos
         return {}, pos
 
-    def encode_std_srvs__srv__Empty_Request(d: Any, out: list[Any], pos: int) -> int:
+    def empty_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_srvs__srv__Empty_Request.issuperset(d):
-                d = _submap(d, _K_std_srvs__srv__Empty_Request)
+            if d.__class__ is not dict or not EMPTY_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, EMPTY_REQUEST_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(slow_pack(_S_1x, _R_std_srvs__srv__Empty_Request_0, ()))
+                out.append(slow_pack(_S_1x, EMPTY_REQUEST_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -572,10 +488,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_srvs__srv__Empty_Response(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def empty_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_std_srvs__srv__Empty_Response_0
+            f = EMPTY_RESPONSE_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -583,19 +499,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_srvs__srv__Empty_Response(), pos
+            return empty_response_view(), pos
         return {}, pos
 
-    def encode_std_srvs__srv__Empty_Response(d: Any, out: list[Any], pos: int) -> int:
+    def empty_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_srvs__srv__Empty_Response.issuperset(d):
-                d = _submap(d, _K_std_srvs__srv__Empty_Response)
+            if d.__class__ is not dict or not EMPTY_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, EMPTY_RESPONSE_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(slow_pack(_S_1x, _R_std_srvs__srv__Empty_Response_0, ()))
+                out.append(slow_pack(_S_1x, EMPTY_RESPONSE_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -603,159 +519,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def empty_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_service_msgs__msg__ServiceEventInfo(
-                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-            ), pos
-        return {
-            "event_type": v1,
-            "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7.tobytes(),
-            "sequence_number": v8,
-        }, pos
-
-    def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(d):
-                d = _submap(d, _K_service_msgs__msg__ServiceEventInfo)
-            f = ".stamp"
-            m2 = d.get("stamp", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
-            f = ""
-            try:
-                out.append(_S_B.pack(d.get("event_type", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_service_msgs__msg__ServiceEventInfo_0, (d.get("event_type", 0),)
-                    )
-                )
-            pos += 1
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".client_gid"
-            b5, c6 = encode_array(d.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
-            f = ""
-            try:
-                out.append(_S_iI.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_service_msgs__msg__ServiceEventInfo_1,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-            out.append(b5)
-            pos += c6 * 1
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_q.pack(d.get("sequence_number", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_service_msgs__msg__ServiceEventInfo_2,
-                        (d.get("sequence_number", 0),),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_std_srvs__srv__Empty_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_std_srvs__srv__Empty_Event_0
+            f = EMPTY_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_std_srvs__srv__Empty_Event_1
+            f = EMPTY_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -764,25 +535,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_std_srvs__srv__Empty_Event_2
+            f = EMPTY_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_std_srvs__srv__Empty_Request, None, 1, 1
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, empty_request_decode, None, 1, 1)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_std_srvs__srv__Empty_Response, None, 1, 1
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, empty_response_decode, None, 1, 1)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_srvs__srv__Empty_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return empty_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -798,28 +565,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_std_srvs__srv__Empty_Event(d: Any, out: list[Any], pos: int) -> int:
+    def empty_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_srvs__srv__Empty_Event.issuperset(d):
-                d = _submap(d, _K_std_srvs__srv__Empty_Event)
+            if d.__class__ is not dict or not EMPTY_EVENT_KEYS.issuperset(d):
+                d = _submap(d, EMPTY_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_std_srvs__srv__Empty_Event_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, EMPTY_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -834,7 +597,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_std_srvs__srv__Empty_Event_1,
+                        EMPTY_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -852,25 +615,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, _R_std_srvs__srv__Empty_Event_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, EMPTY_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()), out, pos, _U32, encode_std_srvs__srv__Empty_Request, 1, False
+                d.get("request", ()), out, pos, _U32, empty_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_std_srvs__srv__Empty_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, empty_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -878,12 +631,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_srvs__srv__SetBool_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def set_bool_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_std_srvs__srv__SetBool_Request_0
+            f = SET_BOOL_REQUEST_RUN_0
             (v2,) = _S_T.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -891,14 +642,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_srvs__srv__SetBool_Request(v2), pos
+            return set_bool_request_view(v2), pos
         return {"data": v2}, pos
 
-    def encode_std_srvs__srv__SetBool_Request(d: Any, out: list[Any], pos: int) -> int:
+    def set_bool_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_srvs__srv__SetBool_Request.issuperset(d):
-                d = _submap(d, _K_std_srvs__srv__SetBool_Request)
+            if d.__class__ is not dict or not SET_BOOL_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, SET_BOOL_REQUEST_KEYS)
             f = ""
             try:
                 out.append(
@@ -914,7 +665,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_std_srvs__srv__SetBool_Request_0,
+                        SET_BOOL_REQUEST_RUN_0,
                         (
                             (
                                 t1
@@ -931,16 +682,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_srvs__srv__SetBool_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def set_bool_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_std_srvs__srv__SetBool_Response_0
+            f = SET_BOOL_RESPONSE_RUN_0
             (v2,) = _S_T.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_std_srvs__srv__SetBool_Response_1
+            f = SET_BOOL_RESPONSE_RUN_1
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".message"
@@ -953,14 +702,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_srvs__srv__SetBool_Response(v2, v5), pos
+            return set_bool_response_view(v2, v5), pos
         return {"success": v2, "message": v5}, pos
 
-    def encode_std_srvs__srv__SetBool_Response(d: Any, out: list[Any], pos: int) -> int:
+    def set_bool_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_srvs__srv__SetBool_Response.issuperset(d):
-                d = _submap(d, _K_std_srvs__srv__SetBool_Response)
+            if d.__class__ is not dict or not SET_BOOL_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, SET_BOOL_RESPONSE_KEYS)
             f = ".message"
             b3 = utf8z(d.get("message", ""), None)
             f = ""
@@ -978,7 +727,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_std_srvs__srv__SetBool_Response_0,
+                        SET_BOOL_RESPONSE_RUN_0,
                         (
                             (
                                 t1
@@ -997,7 +746,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b3)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_srvs__srv__SetBool_Response_1, (len(b3),)))
+                out.append(slow_pack(_S_I, SET_BOOL_RESPONSE_RUN_1, (len(b3),)))
             pos += 4
             out.append(b3)
             pos += len(b3)
@@ -1007,14 +756,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_srvs__srv__SetBool_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def set_bool_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_std_srvs__srv__SetBool_Event_0
+            f = SET_BOOL_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_std_srvs__srv__SetBool_Event_1
+            f = SET_BOOL_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -1023,25 +772,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_std_srvs__srv__SetBool_Event_2
+            f = SET_BOOL_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_std_srvs__srv__SetBool_Request, None, 1, 1
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, set_bool_request_decode, None, 1, 1)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_std_srvs__srv__SetBool_Response, None, 1, 5
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, set_bool_response_decode, None, 1, 5)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_srvs__srv__SetBool_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return set_bool_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -1057,28 +802,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_std_srvs__srv__SetBool_Event(d: Any, out: list[Any], pos: int) -> int:
+    def set_bool_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_srvs__srv__SetBool_Event.issuperset(d):
-                d = _submap(d, _K_std_srvs__srv__SetBool_Event)
+            if d.__class__ is not dict or not SET_BOOL_EVENT_KEYS.issuperset(d):
+                d = _submap(d, SET_BOOL_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_std_srvs__srv__SetBool_Event_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, SET_BOOL_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -1093,7 +834,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_std_srvs__srv__SetBool_Event_1,
+                        SET_BOOL_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -1111,31 +852,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, _R_std_srvs__srv__SetBool_Event_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, SET_BOOL_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_std_srvs__srv__SetBool_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, set_bool_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_std_srvs__srv__SetBool_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, set_bool_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -1143,12 +868,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_srvs__srv__Trigger_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def trigger_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_std_srvs__srv__Trigger_Request_0
+            f = TRIGGER_REQUEST_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -1156,19 +879,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_srvs__srv__Trigger_Request(), pos
+            return trigger_request_view(), pos
         return {}, pos
 
-    def encode_std_srvs__srv__Trigger_Request(d: Any, out: list[Any], pos: int) -> int:
+    def trigger_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_srvs__srv__Trigger_Request.issuperset(d):
-                d = _submap(d, _K_std_srvs__srv__Trigger_Request)
+            if d.__class__ is not dict or not TRIGGER_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, TRIGGER_REQUEST_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(slow_pack(_S_1x, _R_std_srvs__srv__Trigger_Request_0, ()))
+                out.append(slow_pack(_S_1x, TRIGGER_REQUEST_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1176,16 +899,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_srvs__srv__Trigger_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def trigger_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_std_srvs__srv__Trigger_Response_0
+            f = TRIGGER_RESPONSE_RUN_0
             (v2,) = _S_T.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_std_srvs__srv__Trigger_Response_1
+            f = TRIGGER_RESPONSE_RUN_1
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".message"
@@ -1198,14 +919,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_srvs__srv__Trigger_Response(v2, v5), pos
+            return trigger_response_view(v2, v5), pos
         return {"success": v2, "message": v5}, pos
 
-    def encode_std_srvs__srv__Trigger_Response(d: Any, out: list[Any], pos: int) -> int:
+    def trigger_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_srvs__srv__Trigger_Response.issuperset(d):
-                d = _submap(d, _K_std_srvs__srv__Trigger_Response)
+            if d.__class__ is not dict or not TRIGGER_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, TRIGGER_RESPONSE_KEYS)
             f = ".message"
             b3 = utf8z(d.get("message", ""), None)
             f = ""
@@ -1223,7 +944,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_std_srvs__srv__Trigger_Response_0,
+                        TRIGGER_RESPONSE_RUN_0,
                         (
                             (
                                 t1
@@ -1242,7 +963,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b3)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_std_srvs__srv__Trigger_Response_1, (len(b3),)))
+                out.append(slow_pack(_S_I, TRIGGER_RESPONSE_RUN_1, (len(b3),)))
             pos += 4
             out.append(b3)
             pos += len(b3)
@@ -1252,14 +973,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_std_srvs__srv__Trigger_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def trigger_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_std_srvs__srv__Trigger_Event_0
+            f = TRIGGER_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_std_srvs__srv__Trigger_Event_1
+            f = TRIGGER_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -1268,25 +989,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_std_srvs__srv__Trigger_Event_2
+            f = TRIGGER_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_std_srvs__srv__Trigger_Request, None, 1, 1
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, trigger_request_decode, None, 1, 1)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_std_srvs__srv__Trigger_Response, None, 1, 5
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, trigger_response_decode, None, 1, 5)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_std_srvs__srv__Trigger_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return trigger_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -1302,28 +1019,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_std_srvs__srv__Trigger_Event(d: Any, out: list[Any], pos: int) -> int:
+    def trigger_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_std_srvs__srv__Trigger_Event.issuperset(d):
-                d = _submap(d, _K_std_srvs__srv__Trigger_Event)
+            if d.__class__ is not dict or not TRIGGER_EVENT_KEYS.issuperset(d):
+                d = _submap(d, TRIGGER_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_std_srvs__srv__Trigger_Event_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, TRIGGER_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -1338,7 +1051,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_std_srvs__srv__Trigger_Event_1,
+                        TRIGGER_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -1356,31 +1069,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, _R_std_srvs__srv__Trigger_Event_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, TRIGGER_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_std_srvs__srv__Trigger_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, trigger_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_std_srvs__srv__Trigger_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, trigger_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -1389,57 +1086,84 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
+        "empty_request_decode": empty_request_decode,
+        "empty_request_encode": empty_request_encode,
+        "empty_response_decode": empty_response_decode,
+        "empty_response_encode": empty_response_encode,
+        "empty_event_decode": empty_event_decode,
+        "empty_event_encode": empty_event_encode,
+        "set_bool_request_decode": set_bool_request_decode,
+        "set_bool_request_encode": set_bool_request_encode,
+        "set_bool_response_decode": set_bool_response_decode,
+        "set_bool_response_encode": set_bool_response_encode,
+        "set_bool_event_decode": set_bool_event_decode,
+        "set_bool_event_encode": set_bool_event_encode,
+        "trigger_request_decode": trigger_request_decode,
+        "trigger_request_encode": trigger_request_encode,
+        "trigger_response_decode": trigger_response_decode,
+        "trigger_response_encode": trigger_response_encode,
+        "trigger_event_decode": trigger_event_decode,
+        "trigger_event_encode": trigger_event_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "std_srvs/srv/Empty_Request": (
-            decode_std_srvs__srv__Empty_Request,
-            encode_std_srvs__srv__Empty_Request,
+            as_dict["empty_request_decode"],
+            as_view["empty_request_decode"],
+            as_dict["empty_request_encode"],
         ),
         "std_srvs/srv/Empty_Response": (
-            decode_std_srvs__srv__Empty_Response,
-            encode_std_srvs__srv__Empty_Response,
-        ),
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
-        ),
-        "service_msgs/msg/ServiceEventInfo": (
-            decode_service_msgs__msg__ServiceEventInfo,
-            encode_service_msgs__msg__ServiceEventInfo,
+            as_dict["empty_response_decode"],
+            as_view["empty_response_decode"],
+            as_dict["empty_response_encode"],
         ),
         "std_srvs/srv/Empty_Event": (
-            decode_std_srvs__srv__Empty_Event,
-            encode_std_srvs__srv__Empty_Event,
+            as_dict["empty_event_decode"],
+            as_view["empty_event_decode"],
+            as_dict["empty_event_encode"],
         ),
         "std_srvs/srv/SetBool_Request": (
-            decode_std_srvs__srv__SetBool_Request,
-            encode_std_srvs__srv__SetBool_Request,
+            as_dict["set_bool_request_decode"],
+            as_view["set_bool_request_decode"],
+            as_dict["set_bool_request_encode"],
         ),
         "std_srvs/srv/SetBool_Response": (
-            decode_std_srvs__srv__SetBool_Response,
-            encode_std_srvs__srv__SetBool_Response,
+            as_dict["set_bool_response_decode"],
+            as_view["set_bool_response_decode"],
+            as_dict["set_bool_response_encode"],
         ),
         "std_srvs/srv/SetBool_Event": (
-            decode_std_srvs__srv__SetBool_Event,
-            encode_std_srvs__srv__SetBool_Event,
+            as_dict["set_bool_event_decode"],
+            as_view["set_bool_event_decode"],
+            as_dict["set_bool_event_encode"],
         ),
         "std_srvs/srv/Trigger_Request": (
-            decode_std_srvs__srv__Trigger_Request,
-            encode_std_srvs__srv__Trigger_Request,
+            as_dict["trigger_request_decode"],
+            as_view["trigger_request_decode"],
+            as_dict["trigger_request_encode"],
         ),
         "std_srvs/srv/Trigger_Response": (
-            decode_std_srvs__srv__Trigger_Response,
-            encode_std_srvs__srv__Trigger_Response,
+            as_dict["trigger_response_decode"],
+            as_view["trigger_response_decode"],
+            as_dict["trigger_response_encode"],
         ),
         "std_srvs/srv/Trigger_Event": (
-            decode_std_srvs__srv__Trigger_Event,
-            encode_std_srvs__srv__Trigger_Event,
+            as_dict["trigger_event_decode"],
+            as_view["trigger_event_decode"],
+            as_dict["trigger_event_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

@@ -5,10 +5,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -44,49 +45,26 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.sensor_msgs.wire_codecs import (
+    DEFINITIONS as SENSOR_MSGS__DEFINITIONS,
+    FUNCTIONS as SENSOR_MSGS__FUNCTIONS,
+    REGION_OF_INTEREST_KEYS as SENSOR_MSGS__REGION_OF_INTEREST_KEYS,
+    region_of_interest_view as sensor_msgs__region_of_interest_view,
+)
+from pyconnect_generated.std_msgs.wire_codecs import (
+    DEFINITIONS as STD_MSGS__DEFINITIONS,
+    FUNCTIONS as STD_MSGS__FUNCTIONS,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
-    "std_msgs/msg/Header": (
-        "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01",
-        (
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("frame_id", "string", "string", None, "single", None, None),
-        ),
-    ),
-    "sensor_msgs/msg/Image": (
-        "RIHS01_d31d41a9a4c4bc8eae9be757b0beed306564f7526c88ea6a4588fb9582527d47",
-        (
-            ("header", "message", "std_msgs/msg/Header", None, "single", None, None),
-            ("height", "primitive", "uint32", None, "single", None, None),
-            ("width", "primitive", "uint32", None, "single", None, None),
-            ("encoding", "string", "string", None, "single", None, None),
-            ("is_bigendian", "primitive", "uint8", None, "single", None, None),
-            ("step", "primitive", "uint32", None, "single", None, None),
-            ("data", "primitive", "uint8", None, "sequence", None, None),
-        ),
-    ),
-    "sensor_msgs/msg/RegionOfInterest": (
-        "RIHS01_ad16bcba5f9131dcdba6fbded19f726f5440e3c513b4fb586dd3027eeed8abb1",
-        (
-            ("x_offset", "primitive", "uint32", None, "single", None, None),
-            ("y_offset", "primitive", "uint32", None, "single", None, None),
-            ("height", "primitive", "uint32", None, "single", None, None),
-            ("width", "primitive", "uint32", None, "single", None, None),
-            ("do_rectify", "primitive", "bool", None, "single", None, None),
-        ),
-    ),
+    **SENSOR_MSGS__DEFINITIONS,
+    **STD_MSGS__DEFINITIONS,
     "stereo_msgs/msg/DisparityImage": (
         "RIHS01_1ec1ff6b5bace919e4544a37f2d96ead9f81783701b7b7a4d97a09325ecf2711",
         (
@@ -110,39 +88,7 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     ),
 }
 EXPORTED: frozenset[str] = frozenset(("stereo_msgs/msg/DisparityImage",))
-_K_builtin_interfaces__msg__Time = frozenset(
-    (
-        "sec",
-        "nanosec",
-    )
-)
-_K_sensor_msgs__msg__Image = frozenset(
-    (
-        "header",
-        "height",
-        "width",
-        "encoding",
-        "is_bigendian",
-        "step",
-        "data",
-    )
-)
-_K_sensor_msgs__msg__RegionOfInterest = frozenset(
-    (
-        "x_offset",
-        "y_offset",
-        "height",
-        "width",
-        "do_rectify",
-    )
-)
-_K_std_msgs__msg__Header = frozenset(
-    (
-        "stamp",
-        "frame_id",
-    )
-)
-_K_stereo_msgs__msg__DisparityImage = frozenset(
+DISPARITY_IMAGE_KEYS = frozenset(
     (
         "header",
         "image",
@@ -154,27 +100,7 @@ _K_stereo_msgs__msg__DisparityImage = frozenset(
         "delta_d",
     )
 )
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_sensor_msgs__msg__Image_0 = (
-    (".height", "uint32", 4),
-    (".width", "uint32", 8),
-    (".encoding", "uint32", 12),
-)
-_R_sensor_msgs__msg__Image_1 = ((".is_bigendian", "uint8", 1),)
-_R_sensor_msgs__msg__Image_2 = ((".step", "uint32", 4), (".data", "uint32", 8))
-_R_sensor_msgs__msg__RegionOfInterest_0 = (
-    (".x_offset", "uint32", 4),
-    (".y_offset", "uint32", 8),
-    (".height", "uint32", 12),
-    (".width", "uint32", 16),
-    (".do_rectify", "bool", 17),
-)
-_R_std_msgs__msg__Header_0 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-    (".frame_id", "uint32", 12),
-)
-_R_stereo_msgs__msg__DisparityImage_0 = (
+DISPARITY_IMAGE_RUN_0 = (
     (".f", "float32", 4),
     (".t", "float32", 8),
     (".valid_window.x_offset", "uint32", 12),
@@ -195,119 +121,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class std_msgs__msg__Header:
-    """A decoded std_msgs/msg/Header.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "stamp",
-        "frame_id",
-    )
-    msg_type = "std_msgs/msg/Header"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_std_msgs__msg__Header(a0: Any, a1: Any) -> std_msgs__msg__Header:
-    view = _new(std_msgs__msg__Header)
-    view.stamp = a0
-    view.frame_id = a1
-    return view
-
-
-class sensor_msgs__msg__Image:
-    """A decoded sensor_msgs/msg/Image.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "header",
-        "height",
-        "width",
-        "encoding",
-        "is_bigendian",
-        "step",
-        "data",
-    )
-    msg_type = "sensor_msgs/msg/Image"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_sensor_msgs__msg__Image(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any
-) -> sensor_msgs__msg__Image:
-    view = _new(sensor_msgs__msg__Image)
-    view.header = a0
-    view.height = a1
-    view.width = a2
-    view.encoding = a3
-    view.is_bigendian = a4
-    view.step = a5
-    view.data = a6
-    return view
-
-
-class sensor_msgs__msg__RegionOfInterest:
-    """A decoded sensor_msgs/msg/RegionOfInterest.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "x_offset",
-        "y_offset",
-        "height",
-        "width",
-        "do_rectify",
-    )
-    msg_type = "sensor_msgs/msg/RegionOfInterest"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_sensor_msgs__msg__RegionOfInterest(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any
-) -> sensor_msgs__msg__RegionOfInterest:
-    view = _new(sensor_msgs__msg__RegionOfInterest)
-    view.x_offset = a0
-    view.y_offset = a1
-    view.height = a2
-    view.width = a3
-    view.do_rectify = a4
-    return view
-
-
-class stereo_msgs__msg__DisparityImage:
+class DisparityImage:
     """A decoded stereo_msgs/msg/DisparityImage.
 
     Attributes named as the ROS fields.
@@ -329,10 +143,10 @@ class stereo_msgs__msg__DisparityImage:
         return view_repr(self)
 
 
-def make_stereo_msgs__msg__DisparityImage(
+def disparity_image_view(
     a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any, a7: Any
-) -> stereo_msgs__msg__DisparityImage:
-    view = _new(stereo_msgs__msg__DisparityImage)
+) -> DisparityImage:
+    view = _new(DisparityImage)
     view.header = a0
     view.image = a1
     view.f = a2
@@ -344,309 +158,24 @@ def make_stereo_msgs__msg__DisparityImage(
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    sensor_msgs__image_decode = SENSOR_MSGS__FUNCTIONS[E, view]["image_decode"]
+    sensor_msgs__image_encode = SENSOR_MSGS__FUNCTIONS[E, view]["image_encode"]
+    std_msgs__header_decode = STD_MSGS__FUNCTIONS[E, view]["header_decode"]
+    std_msgs__header_encode = STD_MSGS__FUNCTIONS[E, view]["header_encode"]
     _U32 = Struct(E + "I")
-    _S_2I = Struct(E + "2I")
     _S_2f4IT3x3f = Struct(E + "2f4I?3x3f")
-    _S_3I = Struct(E + "3I")
-    _S_4IT = Struct(E + "4I?")
-    _S_B = Struct(E + "B")
-    _S_i2I = Struct(E + "i2I")
-    _S_iI = Struct(E + "iI")
-    _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
-        return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Header.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Header)
-            f = ".stamp"
-            m1 = d.get("stamp", EMPTY)
-            if m1.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m1):
-                m1 = _submap(m1, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".frame_id"
-            b4 = utf8z(d.get("frame_id", ""), None)
-            f = ""
-            try:
-                out.append(_S_i2I.pack(m1.get("sec", 0), m1.get("nanosec", 0), len(b4)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_i2I,
-                        _R_std_msgs__msg__Header_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                            len(b4),
-                        ),
-                    )
-                )
-            pos += 12
-            out.append(b4)
-            pos += len(b4)
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_sensor_msgs__msg__Image(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def disparity_image_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__Image_0
-            v2, v3, v5 = _S_3I.unpack_from(mv, pos)
-            pos += 12
-            f = ".encoding"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-            f = _R_sensor_msgs__msg__Image_1
-            (v7,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__Image_2
-            v8, v11 = _S_2I.unpack_from(mv, pos)
-            pos += 8
-            f = ".data"
-            if v11 * 1 > lim - pos:
-                raise too_long(v11, 1, lim - pos)
-            v12 = _frombuffer(mv, _D_uint8, v11, pos)
-            pos += v11 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_sensor_msgs__msg__Image(v1, v2, v3, v6, v7, v8, v12), pos
-        return {
-            "header": v1,
-            "height": v2,
-            "width": v3,
-            "encoding": v6,
-            "is_bigendian": v7,
-            "step": v8,
-            "data": v12.tobytes(),
-        }, pos
-
-    def encode_sensor_msgs__msg__Image(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__Image.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__Image)
-            f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".encoding"
-            b4 = utf8z(d.get("encoding", ""), None)
-            f = ""
-            try:
-                out.append(_S_3I.pack(d.get("height", 0), d.get("width", 0), len(b4)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3I,
-                        _R_sensor_msgs__msg__Image_0,
-                        (
-                            d.get("height", 0),
-                            d.get("width", 0),
-                            len(b4),
-                        ),
-                    )
-                )
-            pos += 12
-            out.append(b4)
-            pos += len(b4)
-            f = ""
-            try:
-                out.append(_S_B.pack(d.get("is_bigendian", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_sensor_msgs__msg__Image_1, (d.get("is_bigendian", 0),))
-                )
-            pos += 1
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".data"
-            b9, c10 = encode_array(d.get("data", ()), _D_uint8, "uint8", None, False)
-            f = ""
-            try:
-                out.append(_S_2I.pack(d.get("step", 0), c10))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_2I,
-                        _R_sensor_msgs__msg__Image_2,
-                        (
-                            d.get("step", 0),
-                            c10,
-                        ),
-                    )
-                )
-            pos += 8
-            out.append(b9)
-            pos += c10 * 1
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_sensor_msgs__msg__RegionOfInterest(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__RegionOfInterest_0
-            v1, v2, v3, v4, v6 = _S_4IT.unpack_from(mv, pos)
-            pos += 17
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_sensor_msgs__msg__RegionOfInterest(v1, v2, v3, v4, v6), pos
-        return {"x_offset": v1, "y_offset": v2, "height": v3, "width": v4, "do_rectify": v6}, pos
-
-    def encode_sensor_msgs__msg__RegionOfInterest(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__RegionOfInterest.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__RegionOfInterest)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(
-                    _S_4IT.pack(
-                        d.get("x_offset", 0),
-                        d.get("y_offset", 0),
-                        d.get("height", 0),
-                        d.get("width", 0),
-                        (
-                            t5
-                            if (t5 := d.get("do_rectify", False)).__class__ is bool
-                            else check_bool(t5, ".do_rectify")
-                        ),
-                    )
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_4IT,
-                        _R_sensor_msgs__msg__RegionOfInterest_0,
-                        (
-                            d.get("x_offset", 0),
-                            d.get("y_offset", 0),
-                            d.get("height", 0),
-                            d.get("width", 0),
-                            (
-                                t5
-                                if (t5 := d.get("do_rectify", False)).__class__ is bool
-                                else check_bool(t5, ".do_rectify")
-                            ),
-                        ),
-                    )
-                )
-            pos += 17
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_stereo_msgs__msg__DisparityImage(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = ".image"
-            v2, pos = decode_sensor_msgs__msg__Image(mv, pos, lim)
+            v2, pos = sensor_msgs__image_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_stereo_msgs__msg__DisparityImage_0
+            f = DISPARITY_IMAGE_RUN_0
             v3, v4, v6, v7, v8, v9, v11, v12, v13, v14 = _S_2f4IT3x3f.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
@@ -654,12 +183,12 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_stereo_msgs__msg__DisparityImage(
+            return disparity_image_view(
                 v1,
                 v2,
                 v3,
                 v4,
-                make_sensor_msgs__msg__RegionOfInterest(v6, v7, v8, v9, v11),
+                sensor_msgs__region_of_interest_view(v6, v7, v8, v9, v11),
                 v12,
                 v13,
                 v14,
@@ -681,23 +210,23 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "delta_d": v14,
         }, pos
 
-    def encode_stereo_msgs__msg__DisparityImage(d: Any, out: list[Any], pos: int) -> int:
+    def disparity_image_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_stereo_msgs__msg__DisparityImage.issuperset(d):
-                d = _submap(d, _K_stereo_msgs__msg__DisparityImage)
+            if d.__class__ is not dict or not DISPARITY_IMAGE_KEYS.issuperset(d):
+                d = _submap(d, DISPARITY_IMAGE_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".image"
-            pos = encode_sensor_msgs__msg__Image(d.get("image", EMPTY), out, pos)
+            pos = sensor_msgs__image_encode(d.get("image", EMPTY), out, pos)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".valid_window"
             m5 = d.get("valid_window", EMPTY)
-            if m5.__class__ is not dict or not _K_sensor_msgs__msg__RegionOfInterest.issuperset(m5):
-                m5 = _submap(m5, _K_sensor_msgs__msg__RegionOfInterest)
+            if m5.__class__ is not dict or not SENSOR_MSGS__REGION_OF_INTEREST_KEYS.issuperset(m5):
+                m5 = _submap(m5, SENSOR_MSGS__REGION_OF_INTEREST_KEYS)
             f = ""
             try:
                 out.append(
@@ -722,7 +251,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_2f4IT3x3f,
-                        _R_stereo_msgs__msg__DisparityImage_0,
+                        DISPARITY_IMAGE_RUN_0,
                         (
                             d.get("f", 0.0),
                             d.get("t", 0.0),
@@ -749,27 +278,28 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
-        ),
-        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
-        "sensor_msgs/msg/Image": (decode_sensor_msgs__msg__Image, encode_sensor_msgs__msg__Image),
-        "sensor_msgs/msg/RegionOfInterest": (
-            decode_sensor_msgs__msg__RegionOfInterest,
-            encode_sensor_msgs__msg__RegionOfInterest,
-        ),
+        "disparity_image_decode": disparity_image_decode,
+        "disparity_image_encode": disparity_image_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "stereo_msgs/msg/DisparityImage": (
-            decode_stereo_msgs__msg__DisparityImage,
-            encode_stereo_msgs__msg__DisparityImage,
+            as_dict["disparity_image_decode"],
+            as_view["disparity_image_decode"],
+            as_dict["disparity_image_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

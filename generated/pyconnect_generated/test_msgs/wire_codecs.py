@@ -87,10 +87,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -126,13 +127,34 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.builtin_interfaces.wire_codecs import (
+    DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
+    DURATION_KEYS as BUILTIN_INTERFACES__DURATION_KEYS,
+    duration_view as builtin_interfaces__duration_view,
+    TIME_KEYS as BUILTIN_INTERFACES__TIME_KEYS,
+    time_view as builtin_interfaces__time_view,
+)
+from pyconnect_generated.service_msgs.wire_codecs import (
+    DEFINITIONS as SERVICE_MSGS__DEFINITIONS,
+    SERVICE_EVENT_INFO_KEYS as SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS,
+    service_event_info_view as service_msgs__service_event_info_view,
+)
+from pyconnect_generated.unique_identifier_msgs.wire_codecs import (
+    DEFINITIONS as UNIQUE_IDENTIFIER_MSGS__DEFINITIONS,
+    UUID_KEYS as UNIQUE_IDENTIFIER_MSGS__UUID_KEYS,
+    uuid_view as unique_identifier_msgs__uuid_view,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
+    **BUILTIN_INTERFACES__DEFINITIONS,
+    **SERVICE_MSGS__DEFINITIONS,
+    **UNIQUE_IDENTIFIER_MSGS__DEFINITIONS,
     "test_msgs/msg/BasicTypes": (
         "RIHS01_7c300afd4e796798d49bdd6cdaa0fa87fa0ed2ba3217d977e1faa87070d797ab",
         (
@@ -560,20 +582,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
                 ("", "max value", "min value"),
             ),
             ("alignment_check", "primitive", "int32", None, "single", None, None),
-        ),
-    ),
-    "builtin_interfaces/msg/Duration": (
-        "RIHS01_e8d009f659816f758b75334ee1a9ca5b5c0b859843261f14c7f937349599d93b",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
         ),
     ),
     "test_msgs/msg/Builtins": (
@@ -1055,15 +1063,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
             ),
         ),
     ),
-    "service_msgs/msg/ServiceEventInfo": (
-        "RIHS01_41bcbbe07a75c9b52bc96bfd5c24d7f0fc0a08c0cb7921b3373c5732345a6f45",
-        (
-            ("event_type", "primitive", "uint8", None, "single", None, None),
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("client_gid", "primitive", "uint8", None, "array", 16, None),
-            ("sequence_number", "primitive", "int64", None, "single", None, None),
-        ),
-    ),
     "test_msgs/srv/Arrays_Event": (
         "RIHS01_41be0bc3daa6dbbd6d1198678b362bd4b43a08cb75fe0a4f434fe79bad31f19e",
         (
@@ -1193,10 +1192,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "test_msgs/action/Fibonacci_Feedback": (
         "RIHS01_7d1110f2efa019ad5ad8ad2244db98d862f39dc9fae8c976814b0065fa2f32d5",
         (("sequence", "primitive", "int32", None, "sequence", None, None),),
-    ),
-    "unique_identifier_msgs/msg/UUID": (
-        "RIHS01_1b8e8aca958cbea28fe6ef60bf6c19b683c97a9ef60bb34752067d0f2f7ab437",
-        (("uuid", "primitive", "uint8", None, "array", 16, None),),
     ),
     "test_msgs/action/Fibonacci_SendGoal_Request": (
         "RIHS01_dfe75c73dc2c090cbc8fd8c45039bfa279d16aa6aadd348f812c6adad26e669e",
@@ -1501,129 +1496,14 @@ EXPORTED: frozenset[str] = frozenset(
         "test_msgs/srv/Empty_Response",
     )
 )
-_K_builtin_interfaces__msg__Duration = frozenset(
-    (
-        "sec",
-        "nanosec",
-    )
-)
-_K_builtin_interfaces__msg__Time = frozenset(
-    (
-        "sec",
-        "nanosec",
-    )
-)
-_K_service_msgs__msg__ServiceEventInfo = frozenset(
-    (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-)
-_K_test_msgs__action__Fibonacci_Feedback = frozenset(("sequence",))
-_K_test_msgs__action__Fibonacci_FeedbackMessage = frozenset(
-    (
-        "goal_id",
-        "feedback",
-    )
-)
-_K_test_msgs__action__Fibonacci_GetResult_Event = frozenset(
+ARRAYS_EVENT_KEYS = frozenset(
     (
         "info",
         "request",
         "response",
     )
 )
-_K_test_msgs__action__Fibonacci_GetResult_Request = frozenset(("goal_id",))
-_K_test_msgs__action__Fibonacci_GetResult_Response = frozenset(
-    (
-        "status",
-        "result",
-    )
-)
-_K_test_msgs__action__Fibonacci_Goal = frozenset(("order",))
-_K_test_msgs__action__Fibonacci_Result = frozenset(("sequence",))
-_K_test_msgs__action__Fibonacci_SendGoal_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_test_msgs__action__Fibonacci_SendGoal_Request = frozenset(
-    (
-        "goal_id",
-        "goal",
-    )
-)
-_K_test_msgs__action__Fibonacci_SendGoal_Response = frozenset(
-    (
-        "accepted",
-        "stamp",
-    )
-)
-_K_test_msgs__action__NestedMessage_Feedback = frozenset(
-    (
-        "nested_field_no_pkg",
-        "nested_field",
-        "nested_different_pkg",
-    )
-)
-_K_test_msgs__action__NestedMessage_FeedbackMessage = frozenset(
-    (
-        "goal_id",
-        "feedback",
-    )
-)
-_K_test_msgs__action__NestedMessage_GetResult_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_test_msgs__action__NestedMessage_GetResult_Request = frozenset(("goal_id",))
-_K_test_msgs__action__NestedMessage_GetResult_Response = frozenset(
-    (
-        "status",
-        "result",
-    )
-)
-_K_test_msgs__action__NestedMessage_Goal = frozenset(
-    (
-        "nested_field_no_pkg",
-        "nested_field",
-        "nested_different_pkg",
-    )
-)
-_K_test_msgs__action__NestedMessage_Result = frozenset(
-    (
-        "nested_field_no_pkg",
-        "nested_field",
-        "nested_different_pkg",
-    )
-)
-_K_test_msgs__action__NestedMessage_SendGoal_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
-)
-_K_test_msgs__action__NestedMessage_SendGoal_Request = frozenset(
-    (
-        "goal_id",
-        "goal",
-    )
-)
-_K_test_msgs__action__NestedMessage_SendGoal_Response = frozenset(
-    (
-        "accepted",
-        "stamp",
-    )
-)
-_K_test_msgs__msg__Arrays = frozenset(
+ARRAYS_KEYS = frozenset(
     (
         "bool_values",
         "byte_values",
@@ -1659,7 +1539,84 @@ _K_test_msgs__msg__Arrays = frozenset(
         "alignment_check",
     )
 )
-_K_test_msgs__msg__BasicTypes = frozenset(
+ARRAYS_REQUEST_KEYS = frozenset(
+    (
+        "bool_values",
+        "byte_values",
+        "char_values",
+        "float32_values",
+        "float64_values",
+        "int8_values",
+        "uint8_values",
+        "int16_values",
+        "uint16_values",
+        "int32_values",
+        "uint32_values",
+        "int64_values",
+        "uint64_values",
+        "string_values",
+        "basic_types_values",
+        "constants_values",
+        "defaults_values",
+        "bool_values_default",
+        "byte_values_default",
+        "char_values_default",
+        "float32_values_default",
+        "float64_values_default",
+        "int8_values_default",
+        "uint8_values_default",
+        "int16_values_default",
+        "uint16_values_default",
+        "int32_values_default",
+        "uint32_values_default",
+        "int64_values_default",
+        "uint64_values_default",
+        "string_values_default",
+    )
+)
+ARRAYS_RESPONSE_KEYS = frozenset(
+    (
+        "bool_values",
+        "byte_values",
+        "char_values",
+        "float32_values",
+        "float64_values",
+        "int8_values",
+        "uint8_values",
+        "int16_values",
+        "uint16_values",
+        "int32_values",
+        "uint32_values",
+        "int64_values",
+        "uint64_values",
+        "string_values",
+        "basic_types_values",
+        "constants_values",
+        "defaults_values",
+        "bool_values_default",
+        "byte_values_default",
+        "char_values_default",
+        "float32_values_default",
+        "float64_values_default",
+        "int8_values_default",
+        "uint8_values_default",
+        "int16_values_default",
+        "uint16_values_default",
+        "int32_values_default",
+        "uint32_values_default",
+        "int64_values_default",
+        "uint64_values_default",
+        "string_values_default",
+    )
+)
+BASIC_TYPES_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+BASIC_TYPES_KEYS = frozenset(
     (
         "bool_value",
         "byte_value",
@@ -1676,7 +1633,43 @@ _K_test_msgs__msg__BasicTypes = frozenset(
         "uint64_value",
     )
 )
-_K_test_msgs__msg__BoundedPlainSequences = frozenset(
+BASIC_TYPES_REQUEST_KEYS = frozenset(
+    (
+        "bool_value",
+        "byte_value",
+        "char_value",
+        "float32_value",
+        "float64_value",
+        "int8_value",
+        "uint8_value",
+        "int16_value",
+        "uint16_value",
+        "int32_value",
+        "uint32_value",
+        "int64_value",
+        "uint64_value",
+        "string_value",
+    )
+)
+BASIC_TYPES_RESPONSE_KEYS = frozenset(
+    (
+        "bool_value",
+        "byte_value",
+        "char_value",
+        "float32_value",
+        "float64_value",
+        "int8_value",
+        "uint8_value",
+        "int16_value",
+        "uint16_value",
+        "int32_value",
+        "uint32_value",
+        "int64_value",
+        "uint64_value",
+        "string_value",
+    )
+)
+BOUNDED_PLAIN_SEQUENCES_KEYS = frozenset(
     (
         "bool_values",
         "byte_values",
@@ -1710,7 +1703,7 @@ _K_test_msgs__msg__BoundedPlainSequences = frozenset(
         "alignment_check",
     )
 )
-_K_test_msgs__msg__BoundedSequences = frozenset(
+BOUNDED_SEQUENCES_KEYS = frozenset(
     (
         "bool_values",
         "byte_values",
@@ -1746,14 +1739,14 @@ _K_test_msgs__msg__BoundedSequences = frozenset(
         "alignment_check",
     )
 )
-_K_test_msgs__msg__Builtins = frozenset(
+BUILTINS_KEYS = frozenset(
     (
         "duration_value",
         "time_value",
     )
 )
-_K_test_msgs__msg__Constants = frozenset()
-_K_test_msgs__msg__Defaults = frozenset(
+CONSTANTS_KEYS = frozenset()
+DEFAULTS_KEYS = frozenset(
     (
         "bool_value",
         "byte_value",
@@ -1770,8 +1763,59 @@ _K_test_msgs__msg__Defaults = frozenset(
         "uint64_value",
     )
 )
-_K_test_msgs__msg__Empty = frozenset()
-_K_test_msgs__msg__MultiNested = frozenset(
+EMPTY_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+EMPTY_KEYS = frozenset()
+EMPTY_REQUEST_KEYS = frozenset()
+EMPTY_RESPONSE_KEYS = frozenset()
+FIBONACCI_FEEDBACK_KEYS = frozenset(("sequence",))
+FIBONACCI_FEEDBACK_MESSAGE_KEYS = frozenset(
+    (
+        "goal_id",
+        "feedback",
+    )
+)
+FIBONACCI_GET_RESULT_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+FIBONACCI_GET_RESULT_REQUEST_KEYS = frozenset(("goal_id",))
+FIBONACCI_GET_RESULT_RESPONSE_KEYS = frozenset(
+    (
+        "status",
+        "result",
+    )
+)
+FIBONACCI_GOAL_KEYS = frozenset(("order",))
+FIBONACCI_RESULT_KEYS = frozenset(("sequence",))
+FIBONACCI_SEND_GOAL_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+FIBONACCI_SEND_GOAL_REQUEST_KEYS = frozenset(
+    (
+        "goal_id",
+        "goal",
+    )
+)
+FIBONACCI_SEND_GOAL_RESPONSE_KEYS = frozenset(
+    (
+        "accepted",
+        "stamp",
+    )
+)
+MULTI_NESTED_KEYS = frozenset(
     (
         "array_of_arrays",
         "array_of_bounded_sequences",
@@ -1784,8 +1828,68 @@ _K_test_msgs__msg__MultiNested = frozenset(
         "unbounded_sequence_of_unbounded_sequences",
     )
 )
-_K_test_msgs__msg__Nested = frozenset(("basic_types_value",))
-_K_test_msgs__msg__Strings = frozenset(
+NESTED_KEYS = frozenset(("basic_types_value",))
+NESTED_MESSAGE_FEEDBACK_KEYS = frozenset(
+    (
+        "nested_field_no_pkg",
+        "nested_field",
+        "nested_different_pkg",
+    )
+)
+NESTED_MESSAGE_FEEDBACK_MESSAGE_KEYS = frozenset(
+    (
+        "goal_id",
+        "feedback",
+    )
+)
+NESTED_MESSAGE_GET_RESULT_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+NESTED_MESSAGE_GET_RESULT_REQUEST_KEYS = frozenset(("goal_id",))
+NESTED_MESSAGE_GET_RESULT_RESPONSE_KEYS = frozenset(
+    (
+        "status",
+        "result",
+    )
+)
+NESTED_MESSAGE_GOAL_KEYS = frozenset(
+    (
+        "nested_field_no_pkg",
+        "nested_field",
+        "nested_different_pkg",
+    )
+)
+NESTED_MESSAGE_RESULT_KEYS = frozenset(
+    (
+        "nested_field_no_pkg",
+        "nested_field",
+        "nested_different_pkg",
+    )
+)
+NESTED_MESSAGE_SEND_GOAL_EVENT_KEYS = frozenset(
+    (
+        "info",
+        "request",
+        "response",
+    )
+)
+NESTED_MESSAGE_SEND_GOAL_REQUEST_KEYS = frozenset(
+    (
+        "goal_id",
+        "goal",
+    )
+)
+NESTED_MESSAGE_SEND_GOAL_RESPONSE_KEYS = frozenset(
+    (
+        "accepted",
+        "stamp",
+    )
+)
+STRINGS_KEYS = frozenset(
     (
         "string_value",
         "string_value_default1",
@@ -1801,7 +1905,7 @@ _K_test_msgs__msg__Strings = frozenset(
         "bounded_string_value_default5",
     )
 )
-_K_test_msgs__msg__UnboundedSequences = frozenset(
+UNBOUNDED_SEQUENCES_KEYS = frozenset(
     (
         "bool_values",
         "byte_values",
@@ -1837,7 +1941,7 @@ _K_test_msgs__msg__UnboundedSequences = frozenset(
         "alignment_check",
     )
 )
-_K_test_msgs__msg__WStrings = frozenset(
+W_STRINGS_KEYS = frozenset(
     (
         "wstring_value",
         "wstring_value_default1",
@@ -1848,167 +1952,170 @@ _K_test_msgs__msg__WStrings = frozenset(
         "unbounded_sequence_of_wstrings",
     )
 )
-_K_test_msgs__srv__Arrays_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
+ARRAYS_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+ARRAYS_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+ARRAYS_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+ARRAYS_RUN_0 = ((".alignment_check", "int32", 4),)
+BASIC_TYPES_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+BASIC_TYPES_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+BASIC_TYPES_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+BASIC_TYPES_REQUEST_RUN_0 = (
+    (".bool_value", "bool", 1),
+    (".byte_value", "byte", 2),
+    (".char_value", "uint8", 3),
 )
-_K_test_msgs__srv__Arrays_Request = frozenset(
-    (
-        "bool_values",
-        "byte_values",
-        "char_values",
-        "float32_values",
-        "float64_values",
-        "int8_values",
-        "uint8_values",
-        "int16_values",
-        "uint16_values",
-        "int32_values",
-        "uint32_values",
-        "int64_values",
-        "uint64_values",
-        "string_values",
-        "basic_types_values",
-        "constants_values",
-        "defaults_values",
-        "bool_values_default",
-        "byte_values_default",
-        "char_values_default",
-        "float32_values_default",
-        "float64_values_default",
-        "int8_values_default",
-        "uint8_values_default",
-        "int16_values_default",
-        "uint16_values_default",
-        "int32_values_default",
-        "uint32_values_default",
-        "int64_values_default",
-        "uint64_values_default",
-        "string_values_default",
-    )
+BASIC_TYPES_REQUEST_RUN_1 = ((".float32_value", "float32", 4),)
+BASIC_TYPES_REQUEST_RUN_2 = (
+    (".float64_value", "float64", 8),
+    (".int8_value", "int8", 9),
+    (".uint8_value", "uint8", 10),
+    (".int16_value", "int16", 12),
+    (".uint16_value", "uint16", 14),
+    (".int32_value", "int32", 20),
+    (".uint32_value", "uint32", 24),
+    (".int64_value", "int64", 32),
+    (".uint64_value", "uint64", 40),
+    (".string_value", "uint32", 44),
 )
-_K_test_msgs__srv__Arrays_Response = frozenset(
-    (
-        "bool_values",
-        "byte_values",
-        "char_values",
-        "float32_values",
-        "float64_values",
-        "int8_values",
-        "uint8_values",
-        "int16_values",
-        "uint16_values",
-        "int32_values",
-        "uint32_values",
-        "int64_values",
-        "uint64_values",
-        "string_values",
-        "basic_types_values",
-        "constants_values",
-        "defaults_values",
-        "bool_values_default",
-        "byte_values_default",
-        "char_values_default",
-        "float32_values_default",
-        "float64_values_default",
-        "int8_values_default",
-        "uint8_values_default",
-        "int16_values_default",
-        "uint16_values_default",
-        "int32_values_default",
-        "uint32_values_default",
-        "int64_values_default",
-        "uint64_values_default",
-        "string_values_default",
-    )
+BASIC_TYPES_RESPONSE_RUN_0 = (
+    (".bool_value", "bool", 1),
+    (".byte_value", "byte", 2),
+    (".char_value", "uint8", 3),
 )
-_K_test_msgs__srv__BasicTypes_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
+BASIC_TYPES_RESPONSE_RUN_1 = ((".float32_value", "float32", 4),)
+BASIC_TYPES_RESPONSE_RUN_2 = (
+    (".float64_value", "float64", 8),
+    (".int8_value", "int8", 9),
+    (".uint8_value", "uint8", 10),
+    (".int16_value", "int16", 12),
+    (".uint16_value", "uint16", 14),
+    (".int32_value", "int32", 20),
+    (".uint32_value", "uint32", 24),
+    (".int64_value", "int64", 32),
+    (".uint64_value", "uint64", 40),
+    (".string_value", "uint32", 44),
 )
-_K_test_msgs__srv__BasicTypes_Request = frozenset(
-    (
-        "bool_value",
-        "byte_value",
-        "char_value",
-        "float32_value",
-        "float64_value",
-        "int8_value",
-        "uint8_value",
-        "int16_value",
-        "uint16_value",
-        "int32_value",
-        "uint32_value",
-        "int64_value",
-        "uint64_value",
-        "string_value",
-    )
+BASIC_TYPES_RUN_0 = (
+    (".bool_value", "bool", 1),
+    (".byte_value", "byte", 2),
+    (".char_value", "uint8", 3),
 )
-_K_test_msgs__srv__BasicTypes_Response = frozenset(
-    (
-        "bool_value",
-        "byte_value",
-        "char_value",
-        "float32_value",
-        "float64_value",
-        "int8_value",
-        "uint8_value",
-        "int16_value",
-        "uint16_value",
-        "int32_value",
-        "uint32_value",
-        "int64_value",
-        "uint64_value",
-        "string_value",
-    )
+BASIC_TYPES_RUN_1 = ((".float32_value", "float32", 4),)
+BASIC_TYPES_RUN_2 = (
+    (".float64_value", "float64", 8),
+    (".int8_value", "int8", 9),
+    (".uint8_value", "uint8", 10),
+    (".int16_value", "int16", 12),
+    (".uint16_value", "uint16", 14),
+    (".int32_value", "int32", 20),
+    (".uint32_value", "uint32", 24),
+    (".int64_value", "int64", 32),
+    (".uint64_value", "uint64", 40),
 )
-_K_test_msgs__srv__Empty_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
+BOUNDED_PLAIN_SEQUENCES_RUN_0 = ((".bool_values", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_1 = ((".byte_values", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_10 = ((".uint32_values", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_11 = ((".int64_values", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_12 = ((".uint64_values", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_13 = ((".bool_values_default", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_14 = ((".byte_values_default", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_15 = ((".char_values_default", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_16 = ((".float32_values_default", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_17 = ((".float64_values_default", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_18 = ((".int8_values_default", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_19 = ((".uint8_values_default", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_2 = ((".char_values", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_20 = ((".int16_values_default", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_21 = ((".uint16_values_default", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_22 = ((".int32_values_default", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_23 = ((".uint32_values_default", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_24 = ((".int64_values_default", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_25 = ((".uint64_values_default", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_26 = ((".alignment_check", "int32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_3 = ((".float32_values", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_4 = ((".float64_values", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_5 = ((".int8_values", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_6 = ((".uint8_values", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_7 = ((".int16_values", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_8 = ((".uint16_values", "uint32", 4),)
+BOUNDED_PLAIN_SEQUENCES_RUN_9 = ((".int32_values", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_0 = ((".bool_values", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_1 = ((".byte_values", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_10 = ((".uint32_values", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_11 = ((".int64_values", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_12 = ((".uint64_values", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_13 = ((".bool_values_default", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_14 = ((".byte_values_default", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_15 = ((".char_values_default", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_16 = ((".float32_values_default", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_17 = ((".float64_values_default", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_18 = ((".int8_values_default", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_19 = ((".uint8_values_default", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_2 = ((".char_values", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_20 = ((".int16_values_default", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_21 = ((".uint16_values_default", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_22 = ((".int32_values_default", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_23 = ((".uint32_values_default", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_24 = ((".int64_values_default", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_25 = ((".uint64_values_default", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_26 = ((".alignment_check", "int32", 4),)
+BOUNDED_SEQUENCES_RUN_3 = ((".float32_values", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_4 = ((".float64_values", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_5 = ((".int8_values", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_6 = ((".uint8_values", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_7 = ((".int16_values", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_8 = ((".uint16_values", "uint32", 4),)
+BOUNDED_SEQUENCES_RUN_9 = ((".int32_values", "uint32", 4),)
+BUILTINS_RUN_0 = (
+    (".duration_value.sec", "int32", 4),
+    (".duration_value.nanosec", "uint32", 8),
+    (".time_value.sec", "int32", 12),
+    (".time_value.nanosec", "uint32", 16),
 )
-_K_test_msgs__srv__Empty_Request = frozenset()
-_K_test_msgs__srv__Empty_Response = frozenset()
-_K_unique_identifier_msgs__msg__UUID = frozenset(("uuid",))
-_R_builtin_interfaces__msg__Duration_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_service_msgs__msg__ServiceEventInfo_0 = ((".event_type", "uint8", 1),)
-_R_service_msgs__msg__ServiceEventInfo_1 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
+CONSTANTS_RUN_0 = ()
+DEFAULTS_RUN_0 = (
+    (".bool_value", "bool", 1),
+    (".byte_value", "byte", 2),
+    (".char_value", "uint8", 3),
 )
-_R_service_msgs__msg__ServiceEventInfo_2 = ((".sequence_number", "int64", 8),)
-_R_test_msgs__action__Fibonacci_Feedback_0 = ((".sequence", "uint32", 4),)
-_R_test_msgs__action__Fibonacci_GetResult_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_test_msgs__action__Fibonacci_GetResult_Event_1 = (
+DEFAULTS_RUN_1 = ((".float32_value", "float32", 4),)
+DEFAULTS_RUN_2 = (
+    (".float64_value", "float64", 8),
+    (".int8_value", "int8", 9),
+    (".uint8_value", "uint8", 10),
+    (".int16_value", "int16", 12),
+    (".uint16_value", "uint16", 14),
+    (".int32_value", "int32", 20),
+    (".uint32_value", "uint32", 24),
+    (".int64_value", "int64", 32),
+    (".uint64_value", "uint64", 40),
+)
+EMPTY_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+EMPTY_EVENT_RUN_1 = ((".info.stamp.sec", "int32", 4), (".info.stamp.nanosec", "uint32", 8))
+EMPTY_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+EMPTY_REQUEST_RUN_0 = ()
+EMPTY_RESPONSE_RUN_0 = ()
+EMPTY_RUN_0 = ()
+FIBONACCI_FEEDBACK_RUN_0 = ((".sequence", "uint32", 4),)
+FIBONACCI_GET_RESULT_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+FIBONACCI_GET_RESULT_EVENT_RUN_1 = (
     (".info.stamp.sec", "int32", 4),
     (".info.stamp.nanosec", "uint32", 8),
 )
-_R_test_msgs__action__Fibonacci_GetResult_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_test_msgs__action__Fibonacci_GetResult_Response_0 = ((".status", "int8", 1),)
-_R_test_msgs__action__Fibonacci_Goal_0 = ((".order", "int32", 4),)
-_R_test_msgs__action__Fibonacci_Result_0 = ((".sequence", "uint32", 4),)
-_R_test_msgs__action__Fibonacci_SendGoal_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_test_msgs__action__Fibonacci_SendGoal_Event_1 = (
+FIBONACCI_GET_RESULT_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+FIBONACCI_GET_RESULT_RESPONSE_RUN_0 = ((".status", "int8", 1),)
+FIBONACCI_GOAL_RUN_0 = ((".order", "int32", 4),)
+FIBONACCI_RESULT_RUN_0 = ((".sequence", "uint32", 4),)
+FIBONACCI_SEND_GOAL_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+FIBONACCI_SEND_GOAL_EVENT_RUN_1 = (
     (".info.stamp.sec", "int32", 4),
     (".info.stamp.nanosec", "uint32", 8),
 )
-_R_test_msgs__action__Fibonacci_SendGoal_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_test_msgs__action__Fibonacci_SendGoal_Request_0 = ((".goal.order", "int32", 4),)
-_R_test_msgs__action__Fibonacci_SendGoal_Response_0 = ((".accepted", "bool", 1),)
-_R_test_msgs__action__Fibonacci_SendGoal_Response_1 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-)
-_R_test_msgs__action__NestedMessage_FeedbackMessage_0 = (
+FIBONACCI_SEND_GOAL_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+FIBONACCI_SEND_GOAL_REQUEST_RUN_0 = ((".goal.order", "int32", 4),)
+FIBONACCI_SEND_GOAL_RESPONSE_RUN_0 = ((".accepted", "bool", 1),)
+FIBONACCI_SEND_GOAL_RESPONSE_RUN_1 = ((".stamp.sec", "int32", 4), (".stamp.nanosec", "uint32", 8))
+NESTED_MESSAGE_FEEDBACK_MESSAGE_RUN_0 = (
     (".feedback.nested_field_no_pkg.duration_value.sec", "int32", 4),
     (".feedback.nested_field_no_pkg.duration_value.nanosec", "uint32", 8),
     (".feedback.nested_field_no_pkg.time_value.sec", "int32", 12),
@@ -2018,7 +2125,7 @@ _R_test_msgs__action__NestedMessage_FeedbackMessage_0 = (
     (".feedback.nested_field.char_value", "uint8", 19),
     (".feedback.nested_field.float32_value", "float32", 24),
 )
-_R_test_msgs__action__NestedMessage_FeedbackMessage_1 = (
+NESTED_MESSAGE_FEEDBACK_MESSAGE_RUN_1 = (
     (".feedback.nested_field.float64_value", "float64", 8),
     (".feedback.nested_field.int8_value", "int8", 9),
     (".feedback.nested_field.uint8_value", "uint8", 10),
@@ -2031,7 +2138,7 @@ _R_test_msgs__action__NestedMessage_FeedbackMessage_1 = (
     (".feedback.nested_different_pkg.sec", "int32", 44),
     (".feedback.nested_different_pkg.nanosec", "uint32", 48),
 )
-_R_test_msgs__action__NestedMessage_Feedback_0 = (
+NESTED_MESSAGE_FEEDBACK_RUN_0 = (
     (".nested_field_no_pkg.duration_value.sec", "int32", 4),
     (".nested_field_no_pkg.duration_value.nanosec", "uint32", 8),
     (".nested_field_no_pkg.time_value.sec", "int32", 12),
@@ -2041,7 +2148,7 @@ _R_test_msgs__action__NestedMessage_Feedback_0 = (
     (".nested_field.char_value", "uint8", 19),
     (".nested_field.float32_value", "float32", 24),
 )
-_R_test_msgs__action__NestedMessage_Feedback_1 = (
+NESTED_MESSAGE_FEEDBACK_RUN_1 = (
     (".nested_field.float64_value", "float64", 8),
     (".nested_field.int8_value", "int8", 9),
     (".nested_field.uint8_value", "uint8", 10),
@@ -2054,14 +2161,14 @@ _R_test_msgs__action__NestedMessage_Feedback_1 = (
     (".nested_different_pkg.sec", "int32", 44),
     (".nested_different_pkg.nanosec", "uint32", 48),
 )
-_R_test_msgs__action__NestedMessage_GetResult_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_test_msgs__action__NestedMessage_GetResult_Event_1 = (
+NESTED_MESSAGE_GET_RESULT_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+NESTED_MESSAGE_GET_RESULT_EVENT_RUN_1 = (
     (".info.stamp.sec", "int32", 4),
     (".info.stamp.nanosec", "uint32", 8),
 )
-_R_test_msgs__action__NestedMessage_GetResult_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_test_msgs__action__NestedMessage_GetResult_Response_0 = ((".status", "int8", 1),)
-_R_test_msgs__action__NestedMessage_GetResult_Response_1 = (
+NESTED_MESSAGE_GET_RESULT_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_0 = ((".status", "int8", 1),)
+NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_1 = (
     (".result.nested_field_no_pkg.duration_value.sec", "int32", 4),
     (".result.nested_field_no_pkg.duration_value.nanosec", "uint32", 8),
     (".result.nested_field_no_pkg.time_value.sec", "int32", 12),
@@ -2071,7 +2178,7 @@ _R_test_msgs__action__NestedMessage_GetResult_Response_1 = (
     (".result.nested_field.char_value", "uint8", 19),
     (".result.nested_field.float32_value", "float32", 24),
 )
-_R_test_msgs__action__NestedMessage_GetResult_Response_2 = (
+NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_2 = (
     (".result.nested_field.float64_value", "float64", 8),
     (".result.nested_field.int8_value", "int8", 9),
     (".result.nested_field.uint8_value", "uint8", 10),
@@ -2084,7 +2191,7 @@ _R_test_msgs__action__NestedMessage_GetResult_Response_2 = (
     (".result.nested_different_pkg.sec", "int32", 44),
     (".result.nested_different_pkg.nanosec", "uint32", 48),
 )
-_R_test_msgs__action__NestedMessage_Goal_0 = (
+NESTED_MESSAGE_GOAL_RUN_0 = (
     (".nested_field_no_pkg.duration_value.sec", "int32", 4),
     (".nested_field_no_pkg.duration_value.nanosec", "uint32", 8),
     (".nested_field_no_pkg.time_value.sec", "int32", 12),
@@ -2094,7 +2201,7 @@ _R_test_msgs__action__NestedMessage_Goal_0 = (
     (".nested_field.char_value", "uint8", 19),
     (".nested_field.float32_value", "float32", 24),
 )
-_R_test_msgs__action__NestedMessage_Goal_1 = (
+NESTED_MESSAGE_GOAL_RUN_1 = (
     (".nested_field.float64_value", "float64", 8),
     (".nested_field.int8_value", "int8", 9),
     (".nested_field.uint8_value", "uint8", 10),
@@ -2107,7 +2214,7 @@ _R_test_msgs__action__NestedMessage_Goal_1 = (
     (".nested_different_pkg.sec", "int32", 44),
     (".nested_different_pkg.nanosec", "uint32", 48),
 )
-_R_test_msgs__action__NestedMessage_Result_0 = (
+NESTED_MESSAGE_RESULT_RUN_0 = (
     (".nested_field_no_pkg.duration_value.sec", "int32", 4),
     (".nested_field_no_pkg.duration_value.nanosec", "uint32", 8),
     (".nested_field_no_pkg.time_value.sec", "int32", 12),
@@ -2117,7 +2224,7 @@ _R_test_msgs__action__NestedMessage_Result_0 = (
     (".nested_field.char_value", "uint8", 19),
     (".nested_field.float32_value", "float32", 24),
 )
-_R_test_msgs__action__NestedMessage_Result_1 = (
+NESTED_MESSAGE_RESULT_RUN_1 = (
     (".nested_field.float64_value", "float64", 8),
     (".nested_field.int8_value", "int8", 9),
     (".nested_field.uint8_value", "uint8", 10),
@@ -2130,13 +2237,13 @@ _R_test_msgs__action__NestedMessage_Result_1 = (
     (".nested_different_pkg.sec", "int32", 44),
     (".nested_different_pkg.nanosec", "uint32", 48),
 )
-_R_test_msgs__action__NestedMessage_SendGoal_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_test_msgs__action__NestedMessage_SendGoal_Event_1 = (
+NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_1 = (
     (".info.stamp.sec", "int32", 4),
     (".info.stamp.nanosec", "uint32", 8),
 )
-_R_test_msgs__action__NestedMessage_SendGoal_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_test_msgs__action__NestedMessage_SendGoal_Request_0 = (
+NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+NESTED_MESSAGE_SEND_GOAL_REQUEST_RUN_0 = (
     (".goal.nested_field_no_pkg.duration_value.sec", "int32", 4),
     (".goal.nested_field_no_pkg.duration_value.nanosec", "uint32", 8),
     (".goal.nested_field_no_pkg.time_value.sec", "int32", 12),
@@ -2146,7 +2253,7 @@ _R_test_msgs__action__NestedMessage_SendGoal_Request_0 = (
     (".goal.nested_field.char_value", "uint8", 19),
     (".goal.nested_field.float32_value", "float32", 24),
 )
-_R_test_msgs__action__NestedMessage_SendGoal_Request_1 = (
+NESTED_MESSAGE_SEND_GOAL_REQUEST_RUN_1 = (
     (".goal.nested_field.float64_value", "float64", 8),
     (".goal.nested_field.int8_value", "int8", 9),
     (".goal.nested_field.uint8_value", "uint8", 10),
@@ -2159,115 +2266,18 @@ _R_test_msgs__action__NestedMessage_SendGoal_Request_1 = (
     (".goal.nested_different_pkg.sec", "int32", 44),
     (".goal.nested_different_pkg.nanosec", "uint32", 48),
 )
-_R_test_msgs__action__NestedMessage_SendGoal_Response_0 = ((".accepted", "bool", 1),)
-_R_test_msgs__action__NestedMessage_SendGoal_Response_1 = (
+NESTED_MESSAGE_SEND_GOAL_RESPONSE_RUN_0 = ((".accepted", "bool", 1),)
+NESTED_MESSAGE_SEND_GOAL_RESPONSE_RUN_1 = (
     (".stamp.sec", "int32", 4),
     (".stamp.nanosec", "uint32", 8),
 )
-_R_test_msgs__msg__Arrays_0 = ((".alignment_check", "int32", 4),)
-_R_test_msgs__msg__BasicTypes_0 = (
-    (".bool_value", "bool", 1),
-    (".byte_value", "byte", 2),
-    (".char_value", "uint8", 3),
-)
-_R_test_msgs__msg__BasicTypes_1 = ((".float32_value", "float32", 4),)
-_R_test_msgs__msg__BasicTypes_2 = (
-    (".float64_value", "float64", 8),
-    (".int8_value", "int8", 9),
-    (".uint8_value", "uint8", 10),
-    (".int16_value", "int16", 12),
-    (".uint16_value", "uint16", 14),
-    (".int32_value", "int32", 20),
-    (".uint32_value", "uint32", 24),
-    (".int64_value", "int64", 32),
-    (".uint64_value", "uint64", 40),
-)
-_R_test_msgs__msg__BoundedPlainSequences_0 = ((".bool_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_1 = ((".byte_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_10 = ((".uint32_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_11 = ((".int64_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_12 = ((".uint64_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_13 = ((".bool_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_14 = ((".byte_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_15 = ((".char_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_16 = ((".float32_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_17 = ((".float64_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_18 = ((".int8_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_19 = ((".uint8_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_2 = ((".char_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_20 = ((".int16_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_21 = ((".uint16_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_22 = ((".int32_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_23 = ((".uint32_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_24 = ((".int64_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_25 = ((".uint64_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_26 = ((".alignment_check", "int32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_3 = ((".float32_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_4 = ((".float64_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_5 = ((".int8_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_6 = ((".uint8_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_7 = ((".int16_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_8 = ((".uint16_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedPlainSequences_9 = ((".int32_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_0 = ((".bool_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_1 = ((".byte_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_10 = ((".uint32_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_11 = ((".int64_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_12 = ((".uint64_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_13 = ((".bool_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_14 = ((".byte_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_15 = ((".char_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_16 = ((".float32_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_17 = ((".float64_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_18 = ((".int8_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_19 = ((".uint8_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_2 = ((".char_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_20 = ((".int16_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_21 = ((".uint16_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_22 = ((".int32_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_23 = ((".uint32_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_24 = ((".int64_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_25 = ((".uint64_values_default", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_26 = ((".alignment_check", "int32", 4),)
-_R_test_msgs__msg__BoundedSequences_3 = ((".float32_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_4 = ((".float64_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_5 = ((".int8_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_6 = ((".uint8_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_7 = ((".int16_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_8 = ((".uint16_values", "uint32", 4),)
-_R_test_msgs__msg__BoundedSequences_9 = ((".int32_values", "uint32", 4),)
-_R_test_msgs__msg__Builtins_0 = (
-    (".duration_value.sec", "int32", 4),
-    (".duration_value.nanosec", "uint32", 8),
-    (".time_value.sec", "int32", 12),
-    (".time_value.nanosec", "uint32", 16),
-)
-_R_test_msgs__msg__Constants_0 = ()
-_R_test_msgs__msg__Defaults_0 = (
-    (".bool_value", "bool", 1),
-    (".byte_value", "byte", 2),
-    (".char_value", "uint8", 3),
-)
-_R_test_msgs__msg__Defaults_1 = ((".float32_value", "float32", 4),)
-_R_test_msgs__msg__Defaults_2 = (
-    (".float64_value", "float64", 8),
-    (".int8_value", "int8", 9),
-    (".uint8_value", "uint8", 10),
-    (".int16_value", "int16", 12),
-    (".uint16_value", "uint16", 14),
-    (".int32_value", "int32", 20),
-    (".uint32_value", "uint32", 24),
-    (".int64_value", "int64", 32),
-    (".uint64_value", "uint64", 40),
-)
-_R_test_msgs__msg__Empty_0 = ()
-_R_test_msgs__msg__Nested_0 = (
+NESTED_RUN_0 = (
     (".basic_types_value.bool_value", "bool", 1),
     (".basic_types_value.byte_value", "byte", 2),
     (".basic_types_value.char_value", "uint8", 3),
 )
-_R_test_msgs__msg__Nested_1 = ((".basic_types_value.float32_value", "float32", 4),)
-_R_test_msgs__msg__Nested_2 = (
+NESTED_RUN_1 = ((".basic_types_value.float32_value", "float32", 4),)
+NESTED_RUN_2 = (
     (".basic_types_value.float64_value", "float64", 8),
     (".basic_types_value.int8_value", "int8", 9),
     (".basic_types_value.uint8_value", "uint8", 10),
@@ -2278,101 +2288,45 @@ _R_test_msgs__msg__Nested_2 = (
     (".basic_types_value.int64_value", "int64", 32),
     (".basic_types_value.uint64_value", "uint64", 40),
 )
-_R_test_msgs__msg__Strings_0 = ((".string_value", "uint32", 4),)
-_R_test_msgs__msg__Strings_1 = ((".string_value_default1", "uint32", 4),)
-_R_test_msgs__msg__Strings_10 = ((".bounded_string_value_default4", "uint32", 4),)
-_R_test_msgs__msg__Strings_11 = ((".bounded_string_value_default5", "uint32", 4),)
-_R_test_msgs__msg__Strings_2 = ((".string_value_default2", "uint32", 4),)
-_R_test_msgs__msg__Strings_3 = ((".string_value_default3", "uint32", 4),)
-_R_test_msgs__msg__Strings_4 = ((".string_value_default4", "uint32", 4),)
-_R_test_msgs__msg__Strings_5 = ((".string_value_default5", "uint32", 4),)
-_R_test_msgs__msg__Strings_6 = ((".bounded_string_value", "uint32", 4),)
-_R_test_msgs__msg__Strings_7 = ((".bounded_string_value_default1", "uint32", 4),)
-_R_test_msgs__msg__Strings_8 = ((".bounded_string_value_default2", "uint32", 4),)
-_R_test_msgs__msg__Strings_9 = ((".bounded_string_value_default3", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_0 = ((".bool_values", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_1 = ((".byte_values", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_10 = ((".uint32_values", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_11 = ((".int64_values", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_12 = ((".uint64_values", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_13 = ((".bool_values_default", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_14 = ((".byte_values_default", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_15 = ((".char_values_default", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_16 = ((".float32_values_default", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_17 = ((".float64_values_default", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_18 = ((".int8_values_default", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_19 = ((".uint8_values_default", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_2 = ((".char_values", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_20 = ((".int16_values_default", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_21 = ((".uint16_values_default", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_22 = ((".int32_values_default", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_23 = ((".uint32_values_default", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_24 = ((".int64_values_default", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_25 = ((".uint64_values_default", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_26 = ((".alignment_check", "int32", 4),)
-_R_test_msgs__msg__UnboundedSequences_3 = ((".float32_values", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_4 = ((".float64_values", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_5 = ((".int8_values", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_6 = ((".uint8_values", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_7 = ((".int16_values", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_8 = ((".uint16_values", "uint32", 4),)
-_R_test_msgs__msg__UnboundedSequences_9 = ((".int32_values", "uint32", 4),)
-_R_test_msgs__srv__Arrays_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_test_msgs__srv__Arrays_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_test_msgs__srv__Arrays_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_test_msgs__srv__BasicTypes_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_test_msgs__srv__BasicTypes_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_test_msgs__srv__BasicTypes_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_test_msgs__srv__BasicTypes_Request_0 = (
-    (".bool_value", "bool", 1),
-    (".byte_value", "byte", 2),
-    (".char_value", "uint8", 3),
-)
-_R_test_msgs__srv__BasicTypes_Request_1 = ((".float32_value", "float32", 4),)
-_R_test_msgs__srv__BasicTypes_Request_2 = (
-    (".float64_value", "float64", 8),
-    (".int8_value", "int8", 9),
-    (".uint8_value", "uint8", 10),
-    (".int16_value", "int16", 12),
-    (".uint16_value", "uint16", 14),
-    (".int32_value", "int32", 20),
-    (".uint32_value", "uint32", 24),
-    (".int64_value", "int64", 32),
-    (".uint64_value", "uint64", 40),
-    (".string_value", "uint32", 44),
-)
-_R_test_msgs__srv__BasicTypes_Response_0 = (
-    (".bool_value", "bool", 1),
-    (".byte_value", "byte", 2),
-    (".char_value", "uint8", 3),
-)
-_R_test_msgs__srv__BasicTypes_Response_1 = ((".float32_value", "float32", 4),)
-_R_test_msgs__srv__BasicTypes_Response_2 = (
-    (".float64_value", "float64", 8),
-    (".int8_value", "int8", 9),
-    (".uint8_value", "uint8", 10),
-    (".int16_value", "int16", 12),
-    (".uint16_value", "uint16", 14),
-    (".int32_value", "int32", 20),
-    (".uint32_value", "uint32", 24),
-    (".int64_value", "int64", 32),
-    (".uint64_value", "uint64", 40),
-    (".string_value", "uint32", 44),
-)
-_R_test_msgs__srv__Empty_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_test_msgs__srv__Empty_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_test_msgs__srv__Empty_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_test_msgs__srv__Empty_Request_0 = ()
-_R_test_msgs__srv__Empty_Response_0 = ()
+STRINGS_RUN_0 = ((".string_value", "uint32", 4),)
+STRINGS_RUN_1 = ((".string_value_default1", "uint32", 4),)
+STRINGS_RUN_10 = ((".bounded_string_value_default4", "uint32", 4),)
+STRINGS_RUN_11 = ((".bounded_string_value_default5", "uint32", 4),)
+STRINGS_RUN_2 = ((".string_value_default2", "uint32", 4),)
+STRINGS_RUN_3 = ((".string_value_default3", "uint32", 4),)
+STRINGS_RUN_4 = ((".string_value_default4", "uint32", 4),)
+STRINGS_RUN_5 = ((".string_value_default5", "uint32", 4),)
+STRINGS_RUN_6 = ((".bounded_string_value", "uint32", 4),)
+STRINGS_RUN_7 = ((".bounded_string_value_default1", "uint32", 4),)
+STRINGS_RUN_8 = ((".bounded_string_value_default2", "uint32", 4),)
+STRINGS_RUN_9 = ((".bounded_string_value_default3", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_0 = ((".bool_values", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_1 = ((".byte_values", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_10 = ((".uint32_values", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_11 = ((".int64_values", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_12 = ((".uint64_values", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_13 = ((".bool_values_default", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_14 = ((".byte_values_default", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_15 = ((".char_values_default", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_16 = ((".float32_values_default", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_17 = ((".float64_values_default", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_18 = ((".int8_values_default", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_19 = ((".uint8_values_default", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_2 = ((".char_values", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_20 = ((".int16_values_default", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_21 = ((".uint16_values_default", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_22 = ((".int32_values_default", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_23 = ((".uint32_values_default", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_24 = ((".int64_values_default", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_25 = ((".uint64_values_default", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_26 = ((".alignment_check", "int32", 4),)
+UNBOUNDED_SEQUENCES_RUN_3 = ((".float32_values", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_4 = ((".float64_values", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_5 = ((".int8_values", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_6 = ((".uint8_values", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_7 = ((".int16_values", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_8 = ((".uint16_values", "uint32", 4),)
+UNBOUNDED_SEQUENCES_RUN_9 = ((".int32_values", "uint32", 4),)
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
@@ -2382,7 +2336,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class test_msgs__msg__BasicTypes:
+class BasicTypes:
     """A decoded test_msgs/msg/BasicTypes.
 
     Attributes named as the ROS fields.
@@ -2409,7 +2363,7 @@ class test_msgs__msg__BasicTypes:
         return view_repr(self)
 
 
-def make_test_msgs__msg__BasicTypes(
+def basic_types_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -2423,8 +2377,8 @@ def make_test_msgs__msg__BasicTypes(
     a10: Any,
     a11: Any,
     a12: Any,
-) -> test_msgs__msg__BasicTypes:
-    view = _new(test_msgs__msg__BasicTypes)
+) -> BasicTypes:
+    view = _new(BasicTypes)
     view.bool_value = a0
     view.byte_value = a1
     view.char_value = a2
@@ -2441,7 +2395,7 @@ def make_test_msgs__msg__BasicTypes(
     return view
 
 
-class test_msgs__msg__Constants:
+class Constants:
     """A decoded test_msgs/msg/Constants.
 
     Attributes named as the ROS fields.
@@ -2454,12 +2408,12 @@ class test_msgs__msg__Constants:
         return view_repr(self)
 
 
-def make_test_msgs__msg__Constants() -> test_msgs__msg__Constants:
-    view = _new(test_msgs__msg__Constants)
+def constants_view() -> Constants:
+    view = _new(Constants)
     return view
 
 
-class test_msgs__msg__Defaults:
+class Defaults:
     """A decoded test_msgs/msg/Defaults.
 
     Attributes named as the ROS fields.
@@ -2486,7 +2440,7 @@ class test_msgs__msg__Defaults:
         return view_repr(self)
 
 
-def make_test_msgs__msg__Defaults(
+def defaults_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -2500,8 +2454,8 @@ def make_test_msgs__msg__Defaults(
     a10: Any,
     a11: Any,
     a12: Any,
-) -> test_msgs__msg__Defaults:
-    view = _new(test_msgs__msg__Defaults)
+) -> Defaults:
+    view = _new(Defaults)
     view.bool_value = a0
     view.byte_value = a1
     view.char_value = a2
@@ -2518,7 +2472,7 @@ def make_test_msgs__msg__Defaults(
     return view
 
 
-class test_msgs__msg__Arrays:
+class Arrays:
     """A decoded test_msgs/msg/Arrays.
 
     Attributes named as the ROS fields.
@@ -2564,7 +2518,7 @@ class test_msgs__msg__Arrays:
         return view_repr(self)
 
 
-def make_test_msgs__msg__Arrays(
+def arrays_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -2597,8 +2551,8 @@ def make_test_msgs__msg__Arrays(
     a29: Any,
     a30: Any,
     a31: Any,
-) -> test_msgs__msg__Arrays:
-    view = _new(test_msgs__msg__Arrays)
+) -> Arrays:
+    view = _new(Arrays)
     view.bool_values = a0
     view.byte_values = a1
     view.char_values = a2
@@ -2634,7 +2588,7 @@ def make_test_msgs__msg__Arrays(
     return view
 
 
-class test_msgs__msg__BoundedPlainSequences:
+class BoundedPlainSequences:
     """A decoded test_msgs/msg/BoundedPlainSequences.
 
     Attributes named as the ROS fields.
@@ -2678,7 +2632,7 @@ class test_msgs__msg__BoundedPlainSequences:
         return view_repr(self)
 
 
-def make_test_msgs__msg__BoundedPlainSequences(
+def bounded_plain_sequences_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -2709,8 +2663,8 @@ def make_test_msgs__msg__BoundedPlainSequences(
     a27: Any,
     a28: Any,
     a29: Any,
-) -> test_msgs__msg__BoundedPlainSequences:
-    view = _new(test_msgs__msg__BoundedPlainSequences)
+) -> BoundedPlainSequences:
+    view = _new(BoundedPlainSequences)
     view.bool_values = a0
     view.byte_values = a1
     view.char_values = a2
@@ -2744,7 +2698,7 @@ def make_test_msgs__msg__BoundedPlainSequences(
     return view
 
 
-class test_msgs__msg__BoundedSequences:
+class BoundedSequences:
     """A decoded test_msgs/msg/BoundedSequences.
 
     Attributes named as the ROS fields.
@@ -2790,7 +2744,7 @@ class test_msgs__msg__BoundedSequences:
         return view_repr(self)
 
 
-def make_test_msgs__msg__BoundedSequences(
+def bounded_sequences_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -2823,8 +2777,8 @@ def make_test_msgs__msg__BoundedSequences(
     a29: Any,
     a30: Any,
     a31: Any,
-) -> test_msgs__msg__BoundedSequences:
-    view = _new(test_msgs__msg__BoundedSequences)
+) -> BoundedSequences:
+    view = _new(BoundedSequences)
     view.bool_values = a0
     view.byte_values = a1
     view.char_values = a2
@@ -2860,53 +2814,7 @@ def make_test_msgs__msg__BoundedSequences(
     return view
 
 
-class builtin_interfaces__msg__Duration:
-    """A decoded builtin_interfaces/msg/Duration.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Duration"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Duration(a0: Any, a1: Any) -> builtin_interfaces__msg__Duration:
-    view = _new(builtin_interfaces__msg__Duration)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class test_msgs__msg__Builtins:
+class Builtins:
     """A decoded test_msgs/msg/Builtins.
 
     Attributes named as the ROS fields.
@@ -2922,14 +2830,14 @@ class test_msgs__msg__Builtins:
         return view_repr(self)
 
 
-def make_test_msgs__msg__Builtins(a0: Any, a1: Any) -> test_msgs__msg__Builtins:
-    view = _new(test_msgs__msg__Builtins)
+def builtins_view(a0: Any, a1: Any) -> Builtins:
+    view = _new(Builtins)
     view.duration_value = a0
     view.time_value = a1
     return view
 
 
-class test_msgs__msg__Empty:
+class Empty:
     """A decoded test_msgs/msg/Empty.
 
     Attributes named as the ROS fields.
@@ -2942,12 +2850,12 @@ class test_msgs__msg__Empty:
         return view_repr(self)
 
 
-def make_test_msgs__msg__Empty() -> test_msgs__msg__Empty:
-    view = _new(test_msgs__msg__Empty)
+def empty_view() -> Empty:
+    view = _new(Empty)
     return view
 
 
-class test_msgs__msg__UnboundedSequences:
+class UnboundedSequences:
     """A decoded test_msgs/msg/UnboundedSequences.
 
     Attributes named as the ROS fields.
@@ -2993,7 +2901,7 @@ class test_msgs__msg__UnboundedSequences:
         return view_repr(self)
 
 
-def make_test_msgs__msg__UnboundedSequences(
+def unbounded_sequences_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -3026,8 +2934,8 @@ def make_test_msgs__msg__UnboundedSequences(
     a29: Any,
     a30: Any,
     a31: Any,
-) -> test_msgs__msg__UnboundedSequences:
-    view = _new(test_msgs__msg__UnboundedSequences)
+) -> UnboundedSequences:
+    view = _new(UnboundedSequences)
     view.bool_values = a0
     view.byte_values = a1
     view.char_values = a2
@@ -3063,7 +2971,7 @@ def make_test_msgs__msg__UnboundedSequences(
     return view
 
 
-class test_msgs__msg__MultiNested:
+class MultiNested:
     """A decoded test_msgs/msg/MultiNested.
 
     Attributes named as the ROS fields.
@@ -3086,10 +2994,10 @@ class test_msgs__msg__MultiNested:
         return view_repr(self)
 
 
-def make_test_msgs__msg__MultiNested(
+def multi_nested_view(
     a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any, a7: Any, a8: Any
-) -> test_msgs__msg__MultiNested:
-    view = _new(test_msgs__msg__MultiNested)
+) -> MultiNested:
+    view = _new(MultiNested)
     view.array_of_arrays = a0
     view.array_of_bounded_sequences = a1
     view.array_of_unbounded_sequences = a2
@@ -3102,7 +3010,7 @@ def make_test_msgs__msg__MultiNested(
     return view
 
 
-class test_msgs__msg__Nested:
+class Nested:
     """A decoded test_msgs/msg/Nested.
 
     Attributes named as the ROS fields.
@@ -3115,13 +3023,13 @@ class test_msgs__msg__Nested:
         return view_repr(self)
 
 
-def make_test_msgs__msg__Nested(a0: Any) -> test_msgs__msg__Nested:
-    view = _new(test_msgs__msg__Nested)
+def nested_view(a0: Any) -> Nested:
+    view = _new(Nested)
     view.basic_types_value = a0
     return view
 
 
-class test_msgs__msg__Strings:
+class Strings:
     """A decoded test_msgs/msg/Strings.
 
     Attributes named as the ROS fields.
@@ -3147,7 +3055,7 @@ class test_msgs__msg__Strings:
         return view_repr(self)
 
 
-def make_test_msgs__msg__Strings(
+def strings_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -3160,8 +3068,8 @@ def make_test_msgs__msg__Strings(
     a9: Any,
     a10: Any,
     a11: Any,
-) -> test_msgs__msg__Strings:
-    view = _new(test_msgs__msg__Strings)
+) -> Strings:
+    view = _new(Strings)
     view.string_value = a0
     view.string_value_default1 = a1
     view.string_value_default2 = a2
@@ -3177,7 +3085,7 @@ def make_test_msgs__msg__Strings(
     return view
 
 
-class test_msgs__msg__WStrings:
+class WStrings:
     """A decoded test_msgs/msg/WStrings.
 
     Attributes named as the ROS fields.
@@ -3198,10 +3106,8 @@ class test_msgs__msg__WStrings:
         return view_repr(self)
 
 
-def make_test_msgs__msg__WStrings(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any
-) -> test_msgs__msg__WStrings:
-    view = _new(test_msgs__msg__WStrings)
+def w_strings_view(a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any) -> WStrings:
+    view = _new(WStrings)
     view.wstring_value = a0
     view.wstring_value_default1 = a1
     view.wstring_value_default2 = a2
@@ -3212,7 +3118,7 @@ def make_test_msgs__msg__WStrings(
     return view
 
 
-class test_msgs__srv__Arrays_Request:
+class Arrays_Request:
     """A decoded test_msgs/srv/Arrays_Request.
 
     Attributes named as the ROS fields.
@@ -3257,7 +3163,7 @@ class test_msgs__srv__Arrays_Request:
         return view_repr(self)
 
 
-def make_test_msgs__srv__Arrays_Request(
+def arrays_request_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -3289,8 +3195,8 @@ def make_test_msgs__srv__Arrays_Request(
     a28: Any,
     a29: Any,
     a30: Any,
-) -> test_msgs__srv__Arrays_Request:
-    view = _new(test_msgs__srv__Arrays_Request)
+) -> Arrays_Request:
+    view = _new(Arrays_Request)
     view.bool_values = a0
     view.byte_values = a1
     view.char_values = a2
@@ -3325,7 +3231,7 @@ def make_test_msgs__srv__Arrays_Request(
     return view
 
 
-class test_msgs__srv__Arrays_Response:
+class Arrays_Response:
     """A decoded test_msgs/srv/Arrays_Response.
 
     Attributes named as the ROS fields.
@@ -3370,7 +3276,7 @@ class test_msgs__srv__Arrays_Response:
         return view_repr(self)
 
 
-def make_test_msgs__srv__Arrays_Response(
+def arrays_response_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -3402,8 +3308,8 @@ def make_test_msgs__srv__Arrays_Response(
     a28: Any,
     a29: Any,
     a30: Any,
-) -> test_msgs__srv__Arrays_Response:
-    view = _new(test_msgs__srv__Arrays_Response)
+) -> Arrays_Response:
+    view = _new(Arrays_Response)
     view.bool_values = a0
     view.byte_values = a1
     view.char_values = a2
@@ -3438,36 +3344,7 @@ def make_test_msgs__srv__Arrays_Response(
     return view
 
 
-class service_msgs__msg__ServiceEventInfo:
-    """A decoded service_msgs/msg/ServiceEventInfo.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-    msg_type = "service_msgs/msg/ServiceEventInfo"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_service_msgs__msg__ServiceEventInfo(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> service_msgs__msg__ServiceEventInfo:
-    view = _new(service_msgs__msg__ServiceEventInfo)
-    view.event_type = a0
-    view.stamp = a1
-    view.client_gid = a2
-    view.sequence_number = a3
-    return view
-
-
-class test_msgs__srv__Arrays_Event:
+class Arrays_Event:
     """A decoded test_msgs/srv/Arrays_Event.
 
     Attributes named as the ROS fields.
@@ -3484,15 +3361,15 @@ class test_msgs__srv__Arrays_Event:
         return view_repr(self)
 
 
-def make_test_msgs__srv__Arrays_Event(a0: Any, a1: Any, a2: Any) -> test_msgs__srv__Arrays_Event:
-    view = _new(test_msgs__srv__Arrays_Event)
+def arrays_event_view(a0: Any, a1: Any, a2: Any) -> Arrays_Event:
+    view = _new(Arrays_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class test_msgs__srv__BasicTypes_Request:
+class BasicTypes_Request:
     """A decoded test_msgs/srv/BasicTypes_Request.
 
     Attributes named as the ROS fields.
@@ -3520,7 +3397,7 @@ class test_msgs__srv__BasicTypes_Request:
         return view_repr(self)
 
 
-def make_test_msgs__srv__BasicTypes_Request(
+def basic_types_request_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -3535,8 +3412,8 @@ def make_test_msgs__srv__BasicTypes_Request(
     a11: Any,
     a12: Any,
     a13: Any,
-) -> test_msgs__srv__BasicTypes_Request:
-    view = _new(test_msgs__srv__BasicTypes_Request)
+) -> BasicTypes_Request:
+    view = _new(BasicTypes_Request)
     view.bool_value = a0
     view.byte_value = a1
     view.char_value = a2
@@ -3554,7 +3431,7 @@ def make_test_msgs__srv__BasicTypes_Request(
     return view
 
 
-class test_msgs__srv__BasicTypes_Response:
+class BasicTypes_Response:
     """A decoded test_msgs/srv/BasicTypes_Response.
 
     Attributes named as the ROS fields.
@@ -3582,7 +3459,7 @@ class test_msgs__srv__BasicTypes_Response:
         return view_repr(self)
 
 
-def make_test_msgs__srv__BasicTypes_Response(
+def basic_types_response_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -3597,8 +3474,8 @@ def make_test_msgs__srv__BasicTypes_Response(
     a11: Any,
     a12: Any,
     a13: Any,
-) -> test_msgs__srv__BasicTypes_Response:
-    view = _new(test_msgs__srv__BasicTypes_Response)
+) -> BasicTypes_Response:
+    view = _new(BasicTypes_Response)
     view.bool_value = a0
     view.byte_value = a1
     view.char_value = a2
@@ -3616,7 +3493,7 @@ def make_test_msgs__srv__BasicTypes_Response(
     return view
 
 
-class test_msgs__srv__BasicTypes_Event:
+class BasicTypes_Event:
     """A decoded test_msgs/srv/BasicTypes_Event.
 
     Attributes named as the ROS fields.
@@ -3633,17 +3510,15 @@ class test_msgs__srv__BasicTypes_Event:
         return view_repr(self)
 
 
-def make_test_msgs__srv__BasicTypes_Event(
-    a0: Any, a1: Any, a2: Any
-) -> test_msgs__srv__BasicTypes_Event:
-    view = _new(test_msgs__srv__BasicTypes_Event)
+def basic_types_event_view(a0: Any, a1: Any, a2: Any) -> BasicTypes_Event:
+    view = _new(BasicTypes_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class test_msgs__srv__Empty_Request:
+class Empty_Request:
     """A decoded test_msgs/srv/Empty_Request.
 
     Attributes named as the ROS fields.
@@ -3656,12 +3531,12 @@ class test_msgs__srv__Empty_Request:
         return view_repr(self)
 
 
-def make_test_msgs__srv__Empty_Request() -> test_msgs__srv__Empty_Request:
-    view = _new(test_msgs__srv__Empty_Request)
+def empty_request_view() -> Empty_Request:
+    view = _new(Empty_Request)
     return view
 
 
-class test_msgs__srv__Empty_Response:
+class Empty_Response:
     """A decoded test_msgs/srv/Empty_Response.
 
     Attributes named as the ROS fields.
@@ -3674,12 +3549,12 @@ class test_msgs__srv__Empty_Response:
         return view_repr(self)
 
 
-def make_test_msgs__srv__Empty_Response() -> test_msgs__srv__Empty_Response:
-    view = _new(test_msgs__srv__Empty_Response)
+def empty_response_view() -> Empty_Response:
+    view = _new(Empty_Response)
     return view
 
 
-class test_msgs__srv__Empty_Event:
+class Empty_Event:
     """A decoded test_msgs/srv/Empty_Event.
 
     Attributes named as the ROS fields.
@@ -3696,15 +3571,15 @@ class test_msgs__srv__Empty_Event:
         return view_repr(self)
 
 
-def make_test_msgs__srv__Empty_Event(a0: Any, a1: Any, a2: Any) -> test_msgs__srv__Empty_Event:
-    view = _new(test_msgs__srv__Empty_Event)
+def empty_event_view(a0: Any, a1: Any, a2: Any) -> Empty_Event:
+    view = _new(Empty_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class test_msgs__action__Fibonacci_Goal:
+class Fibonacci_Goal:
     """A decoded test_msgs/action/Fibonacci_Goal.
 
     Attributes named as the ROS fields.
@@ -3717,13 +3592,13 @@ class test_msgs__action__Fibonacci_Goal:
         return view_repr(self)
 
 
-def make_test_msgs__action__Fibonacci_Goal(a0: Any) -> test_msgs__action__Fibonacci_Goal:
-    view = _new(test_msgs__action__Fibonacci_Goal)
+def fibonacci_goal_view(a0: Any) -> Fibonacci_Goal:
+    view = _new(Fibonacci_Goal)
     view.order = a0
     return view
 
 
-class test_msgs__action__Fibonacci_Result:
+class Fibonacci_Result:
     """A decoded test_msgs/action/Fibonacci_Result.
 
     Attributes named as the ROS fields.
@@ -3736,13 +3611,13 @@ class test_msgs__action__Fibonacci_Result:
         return view_repr(self)
 
 
-def make_test_msgs__action__Fibonacci_Result(a0: Any) -> test_msgs__action__Fibonacci_Result:
-    view = _new(test_msgs__action__Fibonacci_Result)
+def fibonacci_result_view(a0: Any) -> Fibonacci_Result:
+    view = _new(Fibonacci_Result)
     view.sequence = a0
     return view
 
 
-class test_msgs__action__Fibonacci_Feedback:
+class Fibonacci_Feedback:
     """A decoded test_msgs/action/Fibonacci_Feedback.
 
     Attributes named as the ROS fields.
@@ -3755,32 +3630,13 @@ class test_msgs__action__Fibonacci_Feedback:
         return view_repr(self)
 
 
-def make_test_msgs__action__Fibonacci_Feedback(a0: Any) -> test_msgs__action__Fibonacci_Feedback:
-    view = _new(test_msgs__action__Fibonacci_Feedback)
+def fibonacci_feedback_view(a0: Any) -> Fibonacci_Feedback:
+    view = _new(Fibonacci_Feedback)
     view.sequence = a0
     return view
 
 
-class unique_identifier_msgs__msg__UUID:
-    """A decoded unique_identifier_msgs/msg/UUID.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = ("uuid",)
-    msg_type = "unique_identifier_msgs/msg/UUID"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_unique_identifier_msgs__msg__UUID(a0: Any) -> unique_identifier_msgs__msg__UUID:
-    view = _new(unique_identifier_msgs__msg__UUID)
-    view.uuid = a0
-    return view
-
-
-class test_msgs__action__Fibonacci_SendGoal_Request:
+class Fibonacci_SendGoal_Request:
     """A decoded test_msgs/action/Fibonacci_SendGoal_Request.
 
     Attributes named as the ROS fields.
@@ -3796,16 +3652,14 @@ class test_msgs__action__Fibonacci_SendGoal_Request:
         return view_repr(self)
 
 
-def make_test_msgs__action__Fibonacci_SendGoal_Request(
-    a0: Any, a1: Any
-) -> test_msgs__action__Fibonacci_SendGoal_Request:
-    view = _new(test_msgs__action__Fibonacci_SendGoal_Request)
+def fibonacci_send_goal_request_view(a0: Any, a1: Any) -> Fibonacci_SendGoal_Request:
+    view = _new(Fibonacci_SendGoal_Request)
     view.goal_id = a0
     view.goal = a1
     return view
 
 
-class test_msgs__action__Fibonacci_SendGoal_Response:
+class Fibonacci_SendGoal_Response:
     """A decoded test_msgs/action/Fibonacci_SendGoal_Response.
 
     Attributes named as the ROS fields.
@@ -3821,16 +3675,14 @@ class test_msgs__action__Fibonacci_SendGoal_Response:
         return view_repr(self)
 
 
-def make_test_msgs__action__Fibonacci_SendGoal_Response(
-    a0: Any, a1: Any
-) -> test_msgs__action__Fibonacci_SendGoal_Response:
-    view = _new(test_msgs__action__Fibonacci_SendGoal_Response)
+def fibonacci_send_goal_response_view(a0: Any, a1: Any) -> Fibonacci_SendGoal_Response:
+    view = _new(Fibonacci_SendGoal_Response)
     view.accepted = a0
     view.stamp = a1
     return view
 
 
-class test_msgs__action__Fibonacci_SendGoal_Event:
+class Fibonacci_SendGoal_Event:
     """A decoded test_msgs/action/Fibonacci_SendGoal_Event.
 
     Attributes named as the ROS fields.
@@ -3847,17 +3699,15 @@ class test_msgs__action__Fibonacci_SendGoal_Event:
         return view_repr(self)
 
 
-def make_test_msgs__action__Fibonacci_SendGoal_Event(
-    a0: Any, a1: Any, a2: Any
-) -> test_msgs__action__Fibonacci_SendGoal_Event:
-    view = _new(test_msgs__action__Fibonacci_SendGoal_Event)
+def fibonacci_send_goal_event_view(a0: Any, a1: Any, a2: Any) -> Fibonacci_SendGoal_Event:
+    view = _new(Fibonacci_SendGoal_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class test_msgs__action__Fibonacci_GetResult_Request:
+class Fibonacci_GetResult_Request:
     """A decoded test_msgs/action/Fibonacci_GetResult_Request.
 
     Attributes named as the ROS fields.
@@ -3870,15 +3720,13 @@ class test_msgs__action__Fibonacci_GetResult_Request:
         return view_repr(self)
 
 
-def make_test_msgs__action__Fibonacci_GetResult_Request(
-    a0: Any,
-) -> test_msgs__action__Fibonacci_GetResult_Request:
-    view = _new(test_msgs__action__Fibonacci_GetResult_Request)
+def fibonacci_get_result_request_view(a0: Any) -> Fibonacci_GetResult_Request:
+    view = _new(Fibonacci_GetResult_Request)
     view.goal_id = a0
     return view
 
 
-class test_msgs__action__Fibonacci_GetResult_Response:
+class Fibonacci_GetResult_Response:
     """A decoded test_msgs/action/Fibonacci_GetResult_Response.
 
     Attributes named as the ROS fields.
@@ -3894,16 +3742,14 @@ class test_msgs__action__Fibonacci_GetResult_Response:
         return view_repr(self)
 
 
-def make_test_msgs__action__Fibonacci_GetResult_Response(
-    a0: Any, a1: Any
-) -> test_msgs__action__Fibonacci_GetResult_Response:
-    view = _new(test_msgs__action__Fibonacci_GetResult_Response)
+def fibonacci_get_result_response_view(a0: Any, a1: Any) -> Fibonacci_GetResult_Response:
+    view = _new(Fibonacci_GetResult_Response)
     view.status = a0
     view.result = a1
     return view
 
 
-class test_msgs__action__Fibonacci_GetResult_Event:
+class Fibonacci_GetResult_Event:
     """A decoded test_msgs/action/Fibonacci_GetResult_Event.
 
     Attributes named as the ROS fields.
@@ -3920,17 +3766,15 @@ class test_msgs__action__Fibonacci_GetResult_Event:
         return view_repr(self)
 
 
-def make_test_msgs__action__Fibonacci_GetResult_Event(
-    a0: Any, a1: Any, a2: Any
-) -> test_msgs__action__Fibonacci_GetResult_Event:
-    view = _new(test_msgs__action__Fibonacci_GetResult_Event)
+def fibonacci_get_result_event_view(a0: Any, a1: Any, a2: Any) -> Fibonacci_GetResult_Event:
+    view = _new(Fibonacci_GetResult_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class test_msgs__action__Fibonacci_FeedbackMessage:
+class Fibonacci_FeedbackMessage:
     """A decoded test_msgs/action/Fibonacci_FeedbackMessage.
 
     Attributes named as the ROS fields.
@@ -3946,16 +3790,14 @@ class test_msgs__action__Fibonacci_FeedbackMessage:
         return view_repr(self)
 
 
-def make_test_msgs__action__Fibonacci_FeedbackMessage(
-    a0: Any, a1: Any
-) -> test_msgs__action__Fibonacci_FeedbackMessage:
-    view = _new(test_msgs__action__Fibonacci_FeedbackMessage)
+def fibonacci_feedback_message_view(a0: Any, a1: Any) -> Fibonacci_FeedbackMessage:
+    view = _new(Fibonacci_FeedbackMessage)
     view.goal_id = a0
     view.feedback = a1
     return view
 
 
-class test_msgs__action__NestedMessage_Goal:
+class NestedMessage_Goal:
     """A decoded test_msgs/action/NestedMessage_Goal.
 
     Attributes named as the ROS fields.
@@ -3972,17 +3814,15 @@ class test_msgs__action__NestedMessage_Goal:
         return view_repr(self)
 
 
-def make_test_msgs__action__NestedMessage_Goal(
-    a0: Any, a1: Any, a2: Any
-) -> test_msgs__action__NestedMessage_Goal:
-    view = _new(test_msgs__action__NestedMessage_Goal)
+def nested_message_goal_view(a0: Any, a1: Any, a2: Any) -> NestedMessage_Goal:
+    view = _new(NestedMessage_Goal)
     view.nested_field_no_pkg = a0
     view.nested_field = a1
     view.nested_different_pkg = a2
     return view
 
 
-class test_msgs__action__NestedMessage_Result:
+class NestedMessage_Result:
     """A decoded test_msgs/action/NestedMessage_Result.
 
     Attributes named as the ROS fields.
@@ -3999,17 +3839,15 @@ class test_msgs__action__NestedMessage_Result:
         return view_repr(self)
 
 
-def make_test_msgs__action__NestedMessage_Result(
-    a0: Any, a1: Any, a2: Any
-) -> test_msgs__action__NestedMessage_Result:
-    view = _new(test_msgs__action__NestedMessage_Result)
+def nested_message_result_view(a0: Any, a1: Any, a2: Any) -> NestedMessage_Result:
+    view = _new(NestedMessage_Result)
     view.nested_field_no_pkg = a0
     view.nested_field = a1
     view.nested_different_pkg = a2
     return view
 
 
-class test_msgs__action__NestedMessage_Feedback:
+class NestedMessage_Feedback:
     """A decoded test_msgs/action/NestedMessage_Feedback.
 
     Attributes named as the ROS fields.
@@ -4026,17 +3864,15 @@ class test_msgs__action__NestedMessage_Feedback:
         return view_repr(self)
 
 
-def make_test_msgs__action__NestedMessage_Feedback(
-    a0: Any, a1: Any, a2: Any
-) -> test_msgs__action__NestedMessage_Feedback:
-    view = _new(test_msgs__action__NestedMessage_Feedback)
+def nested_message_feedback_view(a0: Any, a1: Any, a2: Any) -> NestedMessage_Feedback:
+    view = _new(NestedMessage_Feedback)
     view.nested_field_no_pkg = a0
     view.nested_field = a1
     view.nested_different_pkg = a2
     return view
 
 
-class test_msgs__action__NestedMessage_SendGoal_Request:
+class NestedMessage_SendGoal_Request:
     """A decoded test_msgs/action/NestedMessage_SendGoal_Request.
 
     Attributes named as the ROS fields.
@@ -4052,16 +3888,14 @@ class test_msgs__action__NestedMessage_SendGoal_Request:
         return view_repr(self)
 
 
-def make_test_msgs__action__NestedMessage_SendGoal_Request(
-    a0: Any, a1: Any
-) -> test_msgs__action__NestedMessage_SendGoal_Request:
-    view = _new(test_msgs__action__NestedMessage_SendGoal_Request)
+def nested_message_send_goal_request_view(a0: Any, a1: Any) -> NestedMessage_SendGoal_Request:
+    view = _new(NestedMessage_SendGoal_Request)
     view.goal_id = a0
     view.goal = a1
     return view
 
 
-class test_msgs__action__NestedMessage_SendGoal_Response:
+class NestedMessage_SendGoal_Response:
     """A decoded test_msgs/action/NestedMessage_SendGoal_Response.
 
     Attributes named as the ROS fields.
@@ -4077,16 +3911,14 @@ class test_msgs__action__NestedMessage_SendGoal_Response:
         return view_repr(self)
 
 
-def make_test_msgs__action__NestedMessage_SendGoal_Response(
-    a0: Any, a1: Any
-) -> test_msgs__action__NestedMessage_SendGoal_Response:
-    view = _new(test_msgs__action__NestedMessage_SendGoal_Response)
+def nested_message_send_goal_response_view(a0: Any, a1: Any) -> NestedMessage_SendGoal_Response:
+    view = _new(NestedMessage_SendGoal_Response)
     view.accepted = a0
     view.stamp = a1
     return view
 
 
-class test_msgs__action__NestedMessage_SendGoal_Event:
+class NestedMessage_SendGoal_Event:
     """A decoded test_msgs/action/NestedMessage_SendGoal_Event.
 
     Attributes named as the ROS fields.
@@ -4103,17 +3935,15 @@ class test_msgs__action__NestedMessage_SendGoal_Event:
         return view_repr(self)
 
 
-def make_test_msgs__action__NestedMessage_SendGoal_Event(
-    a0: Any, a1: Any, a2: Any
-) -> test_msgs__action__NestedMessage_SendGoal_Event:
-    view = _new(test_msgs__action__NestedMessage_SendGoal_Event)
+def nested_message_send_goal_event_view(a0: Any, a1: Any, a2: Any) -> NestedMessage_SendGoal_Event:
+    view = _new(NestedMessage_SendGoal_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class test_msgs__action__NestedMessage_GetResult_Request:
+class NestedMessage_GetResult_Request:
     """A decoded test_msgs/action/NestedMessage_GetResult_Request.
 
     Attributes named as the ROS fields.
@@ -4126,15 +3956,13 @@ class test_msgs__action__NestedMessage_GetResult_Request:
         return view_repr(self)
 
 
-def make_test_msgs__action__NestedMessage_GetResult_Request(
-    a0: Any,
-) -> test_msgs__action__NestedMessage_GetResult_Request:
-    view = _new(test_msgs__action__NestedMessage_GetResult_Request)
+def nested_message_get_result_request_view(a0: Any) -> NestedMessage_GetResult_Request:
+    view = _new(NestedMessage_GetResult_Request)
     view.goal_id = a0
     return view
 
 
-class test_msgs__action__NestedMessage_GetResult_Response:
+class NestedMessage_GetResult_Response:
     """A decoded test_msgs/action/NestedMessage_GetResult_Response.
 
     Attributes named as the ROS fields.
@@ -4150,16 +3978,14 @@ class test_msgs__action__NestedMessage_GetResult_Response:
         return view_repr(self)
 
 
-def make_test_msgs__action__NestedMessage_GetResult_Response(
-    a0: Any, a1: Any
-) -> test_msgs__action__NestedMessage_GetResult_Response:
-    view = _new(test_msgs__action__NestedMessage_GetResult_Response)
+def nested_message_get_result_response_view(a0: Any, a1: Any) -> NestedMessage_GetResult_Response:
+    view = _new(NestedMessage_GetResult_Response)
     view.status = a0
     view.result = a1
     return view
 
 
-class test_msgs__action__NestedMessage_GetResult_Event:
+class NestedMessage_GetResult_Event:
     """A decoded test_msgs/action/NestedMessage_GetResult_Event.
 
     Attributes named as the ROS fields.
@@ -4176,17 +4002,17 @@ class test_msgs__action__NestedMessage_GetResult_Event:
         return view_repr(self)
 
 
-def make_test_msgs__action__NestedMessage_GetResult_Event(
+def nested_message_get_result_event_view(
     a0: Any, a1: Any, a2: Any
-) -> test_msgs__action__NestedMessage_GetResult_Event:
-    view = _new(test_msgs__action__NestedMessage_GetResult_Event)
+) -> NestedMessage_GetResult_Event:
+    view = _new(NestedMessage_GetResult_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-class test_msgs__action__NestedMessage_FeedbackMessage:
+class NestedMessage_FeedbackMessage:
     """A decoded test_msgs/action/NestedMessage_FeedbackMessage.
 
     Attributes named as the ROS fields.
@@ -4202,17 +4028,15 @@ class test_msgs__action__NestedMessage_FeedbackMessage:
         return view_repr(self)
 
 
-def make_test_msgs__action__NestedMessage_FeedbackMessage(
-    a0: Any, a1: Any
-) -> test_msgs__action__NestedMessage_FeedbackMessage:
-    view = _new(test_msgs__action__NestedMessage_FeedbackMessage)
+def nested_message_feedback_message_view(a0: Any, a1: Any) -> NestedMessage_FeedbackMessage:
+    view = _new(NestedMessage_FeedbackMessage)
     view.goal_id = a0
     view.feedback = a1
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_B = Struct(E + "B")
@@ -4241,18 +4065,18 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
     _D_uint64 = np.dtype("uint64").newbyteorder(E)
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_test_msgs__msg__BasicTypes(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def basic_types_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__msg__BasicTypes_0
+            f = BASIC_TYPES_RUN_0
             v2, v3, v4 = _S_T2B.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BasicTypes_1
+            f = BASIC_TYPES_RUN_1
             (v5,) = _S_f.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
-            f = _R_test_msgs__msg__BasicTypes_2
+            f = BASIC_TYPES_RUN_2
             v6, v7, v8, v9, v10, v11, v12, v13, v14 = _S_dbBhH2xiIqQ.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
@@ -4260,9 +4084,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__msg__BasicTypes(
-                v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14
-            ), pos
+            return basic_types_view(v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14), pos
         return {
             "bool_value": v2,
             "byte_value": v3,
@@ -4279,11 +4101,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "uint64_value": v14,
         }, pos
 
-    def encode_test_msgs__msg__BasicTypes(d: Any, out: list[Any], pos: int) -> int:
+    def basic_types_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__msg__BasicTypes.issuperset(d):
-                d = _submap(d, _K_test_msgs__msg__BasicTypes)
+            if d.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(d):
+                d = _submap(d, BASIC_TYPES_KEYS)
             f = ""
             try:
                 out.append(
@@ -4301,7 +4123,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T2B,
-                        _R_test_msgs__msg__BasicTypes_0,
+                        BASIC_TYPES_RUN_0,
                         (
                             (
                                 t1
@@ -4322,9 +4144,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_f.pack(d.get("float32_value", 0.0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_f, _R_test_msgs__msg__BasicTypes_1, (d.get("float32_value", 0.0),))
-                )
+                out.append(slow_pack(_S_f, BASIC_TYPES_RUN_1, (d.get("float32_value", 0.0),)))
             pos += 4
             p = -pos & 7
             if p:
@@ -4349,7 +4169,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQ,
-                        _R_test_msgs__msg__BasicTypes_2,
+                        BASIC_TYPES_RUN_2,
                         (
                             d.get("float64_value", 0.0),
                             d.get("int8_value", 0),
@@ -4370,10 +4190,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__msg__Constants(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def constants_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__msg__Constants_0
+            f = CONSTANTS_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -4381,19 +4201,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__msg__Constants(), pos
+            return constants_view(), pos
         return {}, pos
 
-    def encode_test_msgs__msg__Constants(d: Any, out: list[Any], pos: int) -> int:
+    def constants_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__msg__Constants.issuperset(d):
-                d = _submap(d, _K_test_msgs__msg__Constants)
+            if d.__class__ is not dict or not CONSTANTS_KEYS.issuperset(d):
+                d = _submap(d, CONSTANTS_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(slow_pack(_S_1x, _R_test_msgs__msg__Constants_0, ()))
+                out.append(slow_pack(_S_1x, CONSTANTS_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -4401,18 +4221,18 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__msg__Defaults(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def defaults_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__msg__Defaults_0
+            f = DEFAULTS_RUN_0
             v2, v3, v4 = _S_T2B.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Defaults_1
+            f = DEFAULTS_RUN_1
             (v5,) = _S_f.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
-            f = _R_test_msgs__msg__Defaults_2
+            f = DEFAULTS_RUN_2
             v6, v7, v8, v9, v10, v11, v12, v13, v14 = _S_dbBhH2xiIqQ.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
@@ -4420,9 +4240,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__msg__Defaults(
-                v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14
-            ), pos
+            return defaults_view(v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14), pos
         return {
             "bool_value": v2,
             "byte_value": v3,
@@ -4439,11 +4257,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "uint64_value": v14,
         }, pos
 
-    def encode_test_msgs__msg__Defaults(d: Any, out: list[Any], pos: int) -> int:
+    def defaults_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__msg__Defaults.issuperset(d):
-                d = _submap(d, _K_test_msgs__msg__Defaults)
+            if d.__class__ is not dict or not DEFAULTS_KEYS.issuperset(d):
+                d = _submap(d, DEFAULTS_KEYS)
             f = ""
             try:
                 out.append(
@@ -4461,7 +4279,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T2B,
-                        _R_test_msgs__msg__Defaults_0,
+                        DEFAULTS_RUN_0,
                         (
                             (
                                 t1
@@ -4482,9 +4300,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_f.pack(d.get("float32_value", 1.125)))
             except Exception:
-                out.append(
-                    slow_pack(_S_f, _R_test_msgs__msg__Defaults_1, (d.get("float32_value", 1.125),))
-                )
+                out.append(slow_pack(_S_f, DEFAULTS_RUN_1, (d.get("float32_value", 1.125),)))
             pos += 4
             p = -pos & 7
             if p:
@@ -4509,7 +4325,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQ,
-                        _R_test_msgs__msg__Defaults_2,
+                        DEFAULTS_RUN_2,
                         (
                             d.get("float64_value", 1.125),
                             d.get("int8_value", -50),
@@ -4530,7 +4346,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__msg__Arrays(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def arrays_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".bool_values"
@@ -4605,17 +4421,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             f = ".string_values"
             v40, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
             f = ".basic_types_values"
-            v41, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__BasicTypes, 3, None, 45
-            )
+            v41, pos = read_messages(mv, pos, lim, _U32, basic_types_decode, 3, None, 45)
             f = ".constants_values"
-            v42, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__Constants, 3, None, 1
-            )
+            v42, pos = read_messages(mv, pos, lim, _U32, constants_decode, 3, None, 1)
             f = ".defaults_values"
-            v43, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__Defaults, 3, None, 45
-            )
+            v43, pos = read_messages(mv, pos, lim, _U32, defaults_decode, 3, None, 45)
             f = ".bool_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
@@ -4688,7 +4498,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             f = ".string_values_default"
             v83, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Arrays_0
+            f = ARRAYS_RUN_0
             (v84,) = _S_i.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
@@ -4696,7 +4506,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__msg__Arrays(
+            return arrays_view(
                 v3,
                 v6,
                 v9,
@@ -4765,11 +4575,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "alignment_check": v84,
         }, pos
 
-    def encode_test_msgs__msg__Arrays(d: Any, out: list[Any], pos: int) -> int:
+    def arrays_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__msg__Arrays.issuperset(d):
-                d = _submap(d, _K_test_msgs__msg__Arrays)
+            if d.__class__ is not dict or not ARRAYS_KEYS.issuperset(d):
+                d = _submap(d, ARRAYS_KEYS)
             f = ".bool_values"
             b1, c2 = encode_bools(d.get("bool_values", (False,) * 3), _D_bool, "bool", 3, True)
             out.append(b1)
@@ -4848,29 +4658,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__msg__BasicTypes,
+                basic_types_encode,
                 3,
                 True,
             )
             f = ".constants_values"
             pos = write_messages(
-                d.get("constants_values", (EMPTY,) * 3),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__Constants,
-                3,
-                True,
+                d.get("constants_values", (EMPTY,) * 3), out, pos, _U32, constants_encode, 3, True
             )
             f = ".defaults_values"
             pos = write_messages(
-                d.get("defaults_values", (EMPTY,) * 3),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__Defaults,
-                3,
-                True,
+                d.get("defaults_values", (EMPTY,) * 3), out, pos, _U32, defaults_encode, 3, True
             )
             f = ".bool_values_default"
             b44, c45 = encode_bools(
@@ -5001,9 +4799,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_i.pack(d.get("alignment_check", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_i, _R_test_msgs__msg__Arrays_0, (d.get("alignment_check", 0),))
-                )
+                out.append(slow_pack(_S_i, ARRAYS_RUN_0, (d.get("alignment_check", 0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -5011,13 +4807,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__msg__BoundedPlainSequences(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def bounded_plain_sequences_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_0
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values"
@@ -5028,7 +4822,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = read_bools(mv, pos, v3)
             pos += v3 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_1
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_1
             (v7,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values"
@@ -5039,7 +4833,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, v7, pos)
             pos += v7 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_2
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_2
             (v11,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".char_values"
@@ -5050,7 +4844,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v12 = _frombuffer(mv, _D_uint8, v11, pos)
             pos += v11 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_3
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_3
             (v15,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values"
@@ -5060,7 +4854,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v15, 4, lim - pos)
             v16 = _frombuffer(mv, _D_float32, v15, pos)
             pos += v15 * 4
-            f = _R_test_msgs__msg__BoundedPlainSequences_4
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_4
             (v19,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values"
@@ -5072,7 +4866,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v19, 8, lim - pos)
             v20 = _frombuffer(mv, _D_float64, v19, pos)
             pos += v19 * 8
-            f = _R_test_msgs__msg__BoundedPlainSequences_5
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_5
             (v23,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values"
@@ -5083,7 +4877,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v24 = _frombuffer(mv, _D_int8, v23, pos)
             pos += v23 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_6
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_6
             (v27,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values"
@@ -5094,7 +4888,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v28 = _frombuffer(mv, _D_uint8, v27, pos)
             pos += v27 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_7
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_7
             (v31,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values"
@@ -5105,7 +4899,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v32 = _frombuffer(mv, _D_int16, v31, pos)
             pos += v31 * 2
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_8
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_8
             (v35,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values"
@@ -5116,7 +4910,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v36 = _frombuffer(mv, _D_uint16, v35, pos)
             pos += v35 * 2
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_9
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_9
             (v39,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values"
@@ -5126,7 +4920,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v39, 4, lim - pos)
             v40 = _frombuffer(mv, _D_int32, v39, pos)
             pos += v39 * 4
-            f = _R_test_msgs__msg__BoundedPlainSequences_10
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_10
             (v43,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values"
@@ -5136,7 +4930,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v43, 4, lim - pos)
             v44 = _frombuffer(mv, _D_uint32, v43, pos)
             pos += v43 * 4
-            f = _R_test_msgs__msg__BoundedPlainSequences_11
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_11
             (v47,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values"
@@ -5148,7 +4942,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v47, 8, lim - pos)
             v48 = _frombuffer(mv, _D_int64, v47, pos)
             pos += v47 * 8
-            f = _R_test_msgs__msg__BoundedPlainSequences_12
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_12
             (v51,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values"
@@ -5161,19 +4955,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v52 = _frombuffer(mv, _D_uint64, v51, pos)
             pos += v51 * 8
             f = ".basic_types_values"
-            v53, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__BasicTypes, None, 3, 45
-            )
+            v53, pos = read_messages(mv, pos, lim, _U32, basic_types_decode, None, 3, 45)
             f = ".constants_values"
-            v54, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__Constants, None, 3, 1
-            )
+            v54, pos = read_messages(mv, pos, lim, _U32, constants_decode, None, 3, 1)
             f = ".defaults_values"
-            v55, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__Defaults, None, 3, 45
-            )
+            v55, pos = read_messages(mv, pos, lim, _U32, defaults_decode, None, 3, 45)
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_13
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_13
             (v58,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values_default"
@@ -5184,7 +4972,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v59 = read_bools(mv, pos, v58)
             pos += v58 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_14
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_14
             (v62,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values_default"
@@ -5195,7 +4983,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v63 = _frombuffer(mv, _D_uint8, v62, pos)
             pos += v62 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_15
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_15
             (v66,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".char_values_default"
@@ -5206,7 +4994,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v67 = _frombuffer(mv, _D_uint8, v66, pos)
             pos += v66 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_16
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_16
             (v70,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values_default"
@@ -5216,7 +5004,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v70, 4, lim - pos)
             v71 = _frombuffer(mv, _D_float32, v70, pos)
             pos += v70 * 4
-            f = _R_test_msgs__msg__BoundedPlainSequences_17
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_17
             (v74,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values_default"
@@ -5228,7 +5016,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v74, 8, lim - pos)
             v75 = _frombuffer(mv, _D_float64, v74, pos)
             pos += v74 * 8
-            f = _R_test_msgs__msg__BoundedPlainSequences_18
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_18
             (v78,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values_default"
@@ -5239,7 +5027,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v79 = _frombuffer(mv, _D_int8, v78, pos)
             pos += v78 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_19
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_19
             (v82,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values_default"
@@ -5250,7 +5038,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v83 = _frombuffer(mv, _D_uint8, v82, pos)
             pos += v82 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_20
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_20
             (v86,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values_default"
@@ -5261,7 +5049,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v87 = _frombuffer(mv, _D_int16, v86, pos)
             pos += v86 * 2
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_21
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_21
             (v90,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values_default"
@@ -5272,7 +5060,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v91 = _frombuffer(mv, _D_uint16, v90, pos)
             pos += v90 * 2
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedPlainSequences_22
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_22
             (v94,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values_default"
@@ -5282,7 +5070,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v94, 4, lim - pos)
             v95 = _frombuffer(mv, _D_int32, v94, pos)
             pos += v94 * 4
-            f = _R_test_msgs__msg__BoundedPlainSequences_23
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_23
             (v98,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values_default"
@@ -5292,7 +5080,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v98, 4, lim - pos)
             v99 = _frombuffer(mv, _D_uint32, v98, pos)
             pos += v98 * 4
-            f = _R_test_msgs__msg__BoundedPlainSequences_24
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_24
             (v102,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values_default"
@@ -5304,7 +5092,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v102, 8, lim - pos)
             v103 = _frombuffer(mv, _D_int64, v102, pos)
             pos += v102 * 8
-            f = _R_test_msgs__msg__BoundedPlainSequences_25
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_25
             (v106,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values_default"
@@ -5316,7 +5104,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v106, 8, lim - pos)
             v107 = _frombuffer(mv, _D_uint64, v106, pos)
             pos += v106 * 8
-            f = _R_test_msgs__msg__BoundedPlainSequences_26
+            f = BOUNDED_PLAIN_SEQUENCES_RUN_26
             (v108,) = _S_i.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
@@ -5324,7 +5112,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__msg__BoundedPlainSequences(
+            return bounded_plain_sequences_view(
                 v4,
                 v8,
                 v12,
@@ -5389,13 +5177,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "alignment_check": v108,
         }, pos
 
-    def encode_test_msgs__msg__BoundedPlainSequences(d: Any, out: list[Any], pos: int) -> int:
+    def bounded_plain_sequences_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__msg__BoundedPlainSequences.issuperset(
-                d
-            ):
-                d = _submap(d, _K_test_msgs__msg__BoundedPlainSequences)
+            if d.__class__ is not dict or not BOUNDED_PLAIN_SEQUENCES_KEYS.issuperset(d):
+                d = _submap(d, BOUNDED_PLAIN_SEQUENCES_KEYS)
             f = ".bool_values"
             b1, c2 = encode_bools(d.get("bool_values", ()), _D_bool, "bool", 3, False)
             p = -pos & 3
@@ -5406,7 +5192,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c2))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_0, (c2,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_0, (c2,)))
             pos += 4
             out.append(b1)
             pos += c2 * 1
@@ -5420,7 +5206,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c6))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_1, (c6,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_1, (c6,)))
             pos += 4
             out.append(b5)
             pos += c6 * 1
@@ -5434,7 +5220,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c10))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_2, (c10,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_2, (c10,)))
             pos += 4
             out.append(b9)
             pos += c10 * 1
@@ -5448,7 +5234,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c14))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_3, (c14,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_3, (c14,)))
             pos += 4
             out.append(b13)
             pos += c14 * 4
@@ -5458,7 +5244,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c18))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_4, (c18,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_4, (c18,)))
             pos += 4
             if c18:
                 p = -pos & 7
@@ -5473,7 +5259,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c22))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_5, (c22,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_5, (c22,)))
             pos += 4
             out.append(b21)
             pos += c22 * 1
@@ -5487,7 +5273,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c26))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_6, (c26,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_6, (c26,)))
             pos += 4
             out.append(b25)
             pos += c26 * 1
@@ -5501,7 +5287,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c30))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_7, (c30,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_7, (c30,)))
             pos += 4
             out.append(b29)
             pos += c30 * 2
@@ -5515,7 +5301,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c34))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_8, (c34,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_8, (c34,)))
             pos += 4
             out.append(b33)
             pos += c34 * 2
@@ -5529,7 +5315,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c38))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_9, (c38,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_9, (c38,)))
             pos += 4
             out.append(b37)
             pos += c38 * 4
@@ -5539,7 +5325,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c42))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_10, (c42,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_10, (c42,)))
             pos += 4
             out.append(b41)
             pos += c42 * 4
@@ -5549,7 +5335,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c46))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_11, (c46,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_11, (c46,)))
             pos += 4
             if c46:
                 p = -pos & 7
@@ -5564,7 +5350,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c50))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_12, (c50,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_12, (c50,)))
             pos += 4
             if c50:
                 p = -pos & 7
@@ -5575,33 +5361,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             pos += c50 * 8
             f = ".basic_types_values"
             pos = write_messages(
-                d.get("basic_types_values", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__BasicTypes,
-                3,
-                False,
+                d.get("basic_types_values", ()), out, pos, _U32, basic_types_encode, 3, False
             )
             f = ".constants_values"
             pos = write_messages(
-                d.get("constants_values", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__Constants,
-                3,
-                False,
+                d.get("constants_values", ()), out, pos, _U32, constants_encode, 3, False
             )
             f = ".defaults_values"
             pos = write_messages(
-                d.get("defaults_values", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__Defaults,
-                3,
-                False,
+                d.get("defaults_values", ()), out, pos, _U32, defaults_encode, 3, False
             )
             f = ".bool_values_default"
             b56, c57 = encode_bools(
@@ -5615,7 +5383,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c57))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_13, (c57,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_13, (c57,)))
             pos += 4
             out.append(b56)
             pos += c57 * 1
@@ -5631,7 +5399,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c61))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_14, (c61,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_14, (c61,)))
             pos += 4
             out.append(b60)
             pos += c61 * 1
@@ -5647,7 +5415,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c65))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_15, (c65,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_15, (c65,)))
             pos += 4
             out.append(b64)
             pos += c65 * 1
@@ -5667,7 +5435,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c69))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_16, (c69,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_16, (c69,)))
             pos += 4
             out.append(b68)
             pos += c69 * 4
@@ -5683,7 +5451,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c73))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_17, (c73,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_17, (c73,)))
             pos += 4
             if c73:
                 p = -pos & 7
@@ -5700,7 +5468,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c77))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_18, (c77,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_18, (c77,)))
             pos += 4
             out.append(b76)
             pos += c77 * 1
@@ -5716,7 +5484,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c81))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_19, (c81,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_19, (c81,)))
             pos += 4
             out.append(b80)
             pos += c81 * 1
@@ -5732,7 +5500,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c85))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_20, (c85,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_20, (c85,)))
             pos += 4
             out.append(b84)
             pos += c85 * 2
@@ -5748,7 +5516,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c89))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_21, (c89,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_21, (c89,)))
             pos += 4
             out.append(b88)
             pos += c89 * 2
@@ -5768,7 +5536,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c93))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_22, (c93,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_22, (c93,)))
             pos += 4
             out.append(b92)
             pos += c93 * 4
@@ -5780,7 +5548,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c97))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_23, (c97,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_23, (c97,)))
             pos += 4
             out.append(b96)
             pos += c97 * 4
@@ -5796,7 +5564,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c101))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_24, (c101,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_24, (c101,)))
             pos += 4
             if c101:
                 p = -pos & 7
@@ -5817,7 +5585,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c105))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedPlainSequences_25, (c105,)))
+                out.append(slow_pack(_S_I, BOUNDED_PLAIN_SEQUENCES_RUN_25, (c105,)))
             pos += 4
             if c105:
                 p = -pos & 7
@@ -5831,11 +5599,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_i.pack(d.get("alignment_check", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_i,
-                        _R_test_msgs__msg__BoundedPlainSequences_26,
-                        (d.get("alignment_check", 0),),
-                    )
+                    slow_pack(_S_i, BOUNDED_PLAIN_SEQUENCES_RUN_26, (d.get("alignment_check", 0),))
                 )
             pos += 4
         except FieldError as error:
@@ -5844,13 +5608,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__msg__BoundedSequences(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def bounded_sequences_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_0
+            f = BOUNDED_SEQUENCES_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values"
@@ -5861,7 +5623,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = read_bools(mv, pos, v3)
             pos += v3 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_1
+            f = BOUNDED_SEQUENCES_RUN_1
             (v7,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values"
@@ -5872,7 +5634,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, v7, pos)
             pos += v7 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_2
+            f = BOUNDED_SEQUENCES_RUN_2
             (v11,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".char_values"
@@ -5883,7 +5645,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v12 = _frombuffer(mv, _D_uint8, v11, pos)
             pos += v11 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_3
+            f = BOUNDED_SEQUENCES_RUN_3
             (v15,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values"
@@ -5893,7 +5655,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v15, 4, lim - pos)
             v16 = _frombuffer(mv, _D_float32, v15, pos)
             pos += v15 * 4
-            f = _R_test_msgs__msg__BoundedSequences_4
+            f = BOUNDED_SEQUENCES_RUN_4
             (v19,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values"
@@ -5905,7 +5667,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v19, 8, lim - pos)
             v20 = _frombuffer(mv, _D_float64, v19, pos)
             pos += v19 * 8
-            f = _R_test_msgs__msg__BoundedSequences_5
+            f = BOUNDED_SEQUENCES_RUN_5
             (v23,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values"
@@ -5916,7 +5678,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v24 = _frombuffer(mv, _D_int8, v23, pos)
             pos += v23 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_6
+            f = BOUNDED_SEQUENCES_RUN_6
             (v27,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values"
@@ -5927,7 +5689,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v28 = _frombuffer(mv, _D_uint8, v27, pos)
             pos += v27 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_7
+            f = BOUNDED_SEQUENCES_RUN_7
             (v31,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values"
@@ -5938,7 +5700,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v32 = _frombuffer(mv, _D_int16, v31, pos)
             pos += v31 * 2
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_8
+            f = BOUNDED_SEQUENCES_RUN_8
             (v35,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values"
@@ -5949,7 +5711,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v36 = _frombuffer(mv, _D_uint16, v35, pos)
             pos += v35 * 2
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_9
+            f = BOUNDED_SEQUENCES_RUN_9
             (v39,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values"
@@ -5959,7 +5721,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v39, 4, lim - pos)
             v40 = _frombuffer(mv, _D_int32, v39, pos)
             pos += v39 * 4
-            f = _R_test_msgs__msg__BoundedSequences_10
+            f = BOUNDED_SEQUENCES_RUN_10
             (v43,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values"
@@ -5969,7 +5731,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v43, 4, lim - pos)
             v44 = _frombuffer(mv, _D_uint32, v43, pos)
             pos += v43 * 4
-            f = _R_test_msgs__msg__BoundedSequences_11
+            f = BOUNDED_SEQUENCES_RUN_11
             (v47,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values"
@@ -5981,7 +5743,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v47, 8, lim - pos)
             v48 = _frombuffer(mv, _D_int64, v47, pos)
             pos += v47 * 8
-            f = _R_test_msgs__msg__BoundedSequences_12
+            f = BOUNDED_SEQUENCES_RUN_12
             (v51,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values"
@@ -5996,19 +5758,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             f = ".string_values"
             v53, pos = read_strings(mv, pos, lim, _U32, None, 3, None, False)
             f = ".basic_types_values"
-            v54, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__BasicTypes, None, 3, 45
-            )
+            v54, pos = read_messages(mv, pos, lim, _U32, basic_types_decode, None, 3, 45)
             f = ".constants_values"
-            v55, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__Constants, None, 3, 1
-            )
+            v55, pos = read_messages(mv, pos, lim, _U32, constants_decode, None, 3, 1)
             f = ".defaults_values"
-            v56, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__Defaults, None, 3, 45
-            )
+            v56, pos = read_messages(mv, pos, lim, _U32, defaults_decode, None, 3, 45)
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_13
+            f = BOUNDED_SEQUENCES_RUN_13
             (v59,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values_default"
@@ -6019,7 +5775,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v60 = read_bools(mv, pos, v59)
             pos += v59 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_14
+            f = BOUNDED_SEQUENCES_RUN_14
             (v63,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values_default"
@@ -6030,7 +5786,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v64 = _frombuffer(mv, _D_uint8, v63, pos)
             pos += v63 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_15
+            f = BOUNDED_SEQUENCES_RUN_15
             (v67,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".char_values_default"
@@ -6041,7 +5797,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v68 = _frombuffer(mv, _D_uint8, v67, pos)
             pos += v67 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_16
+            f = BOUNDED_SEQUENCES_RUN_16
             (v71,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values_default"
@@ -6051,7 +5807,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v71, 4, lim - pos)
             v72 = _frombuffer(mv, _D_float32, v71, pos)
             pos += v71 * 4
-            f = _R_test_msgs__msg__BoundedSequences_17
+            f = BOUNDED_SEQUENCES_RUN_17
             (v75,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values_default"
@@ -6063,7 +5819,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v75, 8, lim - pos)
             v76 = _frombuffer(mv, _D_float64, v75, pos)
             pos += v75 * 8
-            f = _R_test_msgs__msg__BoundedSequences_18
+            f = BOUNDED_SEQUENCES_RUN_18
             (v79,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values_default"
@@ -6074,7 +5830,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v80 = _frombuffer(mv, _D_int8, v79, pos)
             pos += v79 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_19
+            f = BOUNDED_SEQUENCES_RUN_19
             (v83,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values_default"
@@ -6085,7 +5841,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v84 = _frombuffer(mv, _D_uint8, v83, pos)
             pos += v83 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_20
+            f = BOUNDED_SEQUENCES_RUN_20
             (v87,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values_default"
@@ -6096,7 +5852,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v88 = _frombuffer(mv, _D_int16, v87, pos)
             pos += v87 * 2
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_21
+            f = BOUNDED_SEQUENCES_RUN_21
             (v91,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values_default"
@@ -6107,7 +5863,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v92 = _frombuffer(mv, _D_uint16, v91, pos)
             pos += v91 * 2
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_22
+            f = BOUNDED_SEQUENCES_RUN_22
             (v95,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values_default"
@@ -6117,7 +5873,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v95, 4, lim - pos)
             v96 = _frombuffer(mv, _D_int32, v95, pos)
             pos += v95 * 4
-            f = _R_test_msgs__msg__BoundedSequences_23
+            f = BOUNDED_SEQUENCES_RUN_23
             (v99,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values_default"
@@ -6127,7 +5883,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v99, 4, lim - pos)
             v100 = _frombuffer(mv, _D_uint32, v99, pos)
             pos += v99 * 4
-            f = _R_test_msgs__msg__BoundedSequences_24
+            f = BOUNDED_SEQUENCES_RUN_24
             (v103,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values_default"
@@ -6139,7 +5895,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v103, 8, lim - pos)
             v104 = _frombuffer(mv, _D_int64, v103, pos)
             pos += v103 * 8
-            f = _R_test_msgs__msg__BoundedSequences_25
+            f = BOUNDED_SEQUENCES_RUN_25
             (v107,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values_default"
@@ -6154,7 +5910,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             f = ".string_values_default"
             v109, pos = read_strings(mv, pos, lim, _U32, None, 3, None, False)
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__BoundedSequences_26
+            f = BOUNDED_SEQUENCES_RUN_26
             (v110,) = _S_i.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
@@ -6162,7 +5918,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__msg__BoundedSequences(
+            return bounded_sequences_view(
                 v4,
                 v8,
                 v12,
@@ -6231,11 +5987,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "alignment_check": v110,
         }, pos
 
-    def encode_test_msgs__msg__BoundedSequences(d: Any, out: list[Any], pos: int) -> int:
+    def bounded_sequences_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__msg__BoundedSequences.issuperset(d):
-                d = _submap(d, _K_test_msgs__msg__BoundedSequences)
+            if d.__class__ is not dict or not BOUNDED_SEQUENCES_KEYS.issuperset(d):
+                d = _submap(d, BOUNDED_SEQUENCES_KEYS)
             f = ".bool_values"
             b1, c2 = encode_bools(d.get("bool_values", ()), _D_bool, "bool", 3, False)
             p = -pos & 3
@@ -6246,7 +6002,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c2))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_0, (c2,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_0, (c2,)))
             pos += 4
             out.append(b1)
             pos += c2 * 1
@@ -6260,7 +6016,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c6))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_1, (c6,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_1, (c6,)))
             pos += 4
             out.append(b5)
             pos += c6 * 1
@@ -6274,7 +6030,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c10))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_2, (c10,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_2, (c10,)))
             pos += 4
             out.append(b9)
             pos += c10 * 1
@@ -6288,7 +6044,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c14))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_3, (c14,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_3, (c14,)))
             pos += 4
             out.append(b13)
             pos += c14 * 4
@@ -6298,7 +6054,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c18))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_4, (c18,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_4, (c18,)))
             pos += 4
             if c18:
                 p = -pos & 7
@@ -6313,7 +6069,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c22))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_5, (c22,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_5, (c22,)))
             pos += 4
             out.append(b21)
             pos += c22 * 1
@@ -6327,7 +6083,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c26))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_6, (c26,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_6, (c26,)))
             pos += 4
             out.append(b25)
             pos += c26 * 1
@@ -6341,7 +6097,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c30))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_7, (c30,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_7, (c30,)))
             pos += 4
             out.append(b29)
             pos += c30 * 2
@@ -6355,7 +6111,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c34))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_8, (c34,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_8, (c34,)))
             pos += 4
             out.append(b33)
             pos += c34 * 2
@@ -6369,7 +6125,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c38))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_9, (c38,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_9, (c38,)))
             pos += 4
             out.append(b37)
             pos += c38 * 4
@@ -6379,7 +6135,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c42))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_10, (c42,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_10, (c42,)))
             pos += 4
             out.append(b41)
             pos += c42 * 4
@@ -6389,7 +6145,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c46))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_11, (c46,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_11, (c46,)))
             pos += 4
             if c46:
                 p = -pos & 7
@@ -6404,7 +6160,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c50))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_12, (c50,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_12, (c50,)))
             pos += 4
             if c50:
                 p = -pos & 7
@@ -6417,33 +6173,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             pos = write_strings(d.get("string_values", ()), out, pos, _U32, 3, False, None, False)
             f = ".basic_types_values"
             pos = write_messages(
-                d.get("basic_types_values", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__BasicTypes,
-                3,
-                False,
+                d.get("basic_types_values", ()), out, pos, _U32, basic_types_encode, 3, False
             )
             f = ".constants_values"
             pos = write_messages(
-                d.get("constants_values", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__Constants,
-                3,
-                False,
+                d.get("constants_values", ()), out, pos, _U32, constants_encode, 3, False
             )
             f = ".defaults_values"
             pos = write_messages(
-                d.get("defaults_values", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__Defaults,
-                3,
-                False,
+                d.get("defaults_values", ()), out, pos, _U32, defaults_encode, 3, False
             )
             f = ".bool_values_default"
             b57, c58 = encode_bools(
@@ -6457,7 +6195,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c58))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_13, (c58,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_13, (c58,)))
             pos += 4
             out.append(b57)
             pos += c58 * 1
@@ -6473,7 +6211,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c62))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_14, (c62,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_14, (c62,)))
             pos += 4
             out.append(b61)
             pos += c62 * 1
@@ -6489,7 +6227,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c66))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_15, (c66,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_15, (c66,)))
             pos += 4
             out.append(b65)
             pos += c66 * 1
@@ -6509,7 +6247,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c70))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_16, (c70,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_16, (c70,)))
             pos += 4
             out.append(b69)
             pos += c70 * 4
@@ -6525,7 +6263,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c74))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_17, (c74,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_17, (c74,)))
             pos += 4
             if c74:
                 p = -pos & 7
@@ -6542,7 +6280,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c78))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_18, (c78,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_18, (c78,)))
             pos += 4
             out.append(b77)
             pos += c78 * 1
@@ -6558,7 +6296,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c82))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_19, (c82,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_19, (c82,)))
             pos += 4
             out.append(b81)
             pos += c82 * 1
@@ -6574,7 +6312,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c86))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_20, (c86,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_20, (c86,)))
             pos += 4
             out.append(b85)
             pos += c86 * 2
@@ -6590,7 +6328,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c90))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_21, (c90,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_21, (c90,)))
             pos += 4
             out.append(b89)
             pos += c90 * 2
@@ -6610,7 +6348,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c94))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_22, (c94,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_22, (c94,)))
             pos += 4
             out.append(b93)
             pos += c94 * 4
@@ -6622,7 +6360,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c98))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_23, (c98,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_23, (c98,)))
             pos += 4
             out.append(b97)
             pos += c98 * 4
@@ -6638,7 +6376,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c102))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_24, (c102,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_24, (c102,)))
             pos += 4
             if c102:
                 p = -pos & 7
@@ -6659,7 +6397,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c106))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__BoundedSequences_25, (c106,)))
+                out.append(slow_pack(_S_I, BOUNDED_SEQUENCES_RUN_25, (c106,)))
             pos += 4
             if c106:
                 p = -pos & 7
@@ -6688,9 +6426,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_i.pack(d.get("alignment_check", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_i, _R_test_msgs__msg__BoundedSequences_26, (d.get("alignment_check", 0),)
-                    )
+                    slow_pack(_S_i, BOUNDED_SEQUENCES_RUN_26, (d.get("alignment_check", 0),))
                 )
             pos += 4
         except FieldError as error:
@@ -6699,103 +6435,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_builtin_interfaces__msg__Duration(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def builtins_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Duration_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Duration(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Duration(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Duration)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Duration_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_test_msgs__msg__Builtins(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Builtins_0
+            f = BUILTINS_RUN_0
             v2, v3, v5, v6 = _S_iIiI.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
@@ -6803,32 +6447,31 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__msg__Builtins(
-                make_builtin_interfaces__msg__Duration(v2, v3),
-                make_builtin_interfaces__msg__Time(v5, v6),
+            return builtins_view(
+                builtin_interfaces__duration_view(v2, v3), builtin_interfaces__time_view(v5, v6)
             ), pos
         return {
             "duration_value": {"sec": v2, "nanosec": v3},
             "time_value": {"sec": v5, "nanosec": v6},
         }, pos
 
-    def encode_test_msgs__msg__Builtins(d: Any, out: list[Any], pos: int) -> int:
+    def builtins_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__msg__Builtins.issuperset(d):
-                d = _submap(d, _K_test_msgs__msg__Builtins)
+            if d.__class__ is not dict or not BUILTINS_KEYS.issuperset(d):
+                d = _submap(d, BUILTINS_KEYS)
             f = ".duration_value"
             m1 = d.get("duration_value", EMPTY)
-            if m1.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(m1):
-                m1 = _submap(m1, _K_builtin_interfaces__msg__Duration)
+            if m1.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m1):
+                m1 = _submap(m1, BUILTIN_INTERFACES__DURATION_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".time_value"
             m4 = d.get("time_value", EMPTY)
-            if m4.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m4):
-                m4 = _submap(m4, _K_builtin_interfaces__msg__Time)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(
@@ -6843,7 +6486,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iIiI,
-                        _R_test_msgs__msg__Builtins_0,
+                        BUILTINS_RUN_0,
                         (
                             m1.get("sec", 0),
                             m1.get("nanosec", 0),
@@ -6859,10 +6502,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__msg__Empty(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def empty_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__msg__Empty_0
+            f = EMPTY_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -6870,19 +6513,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__msg__Empty(), pos
+            return empty_view(), pos
         return {}, pos
 
-    def encode_test_msgs__msg__Empty(d: Any, out: list[Any], pos: int) -> int:
+    def empty_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__msg__Empty.issuperset(d):
-                d = _submap(d, _K_test_msgs__msg__Empty)
+            if d.__class__ is not dict or not EMPTY_KEYS.issuperset(d):
+                d = _submap(d, EMPTY_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(slow_pack(_S_1x, _R_test_msgs__msg__Empty_0, ()))
+                out.append(slow_pack(_S_1x, EMPTY_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -6890,13 +6533,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__msg__UnboundedSequences(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def unbounded_sequences_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_0
+            f = UNBOUNDED_SEQUENCES_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values"
@@ -6905,7 +6546,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = read_bools(mv, pos, v3)
             pos += v3 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_1
+            f = UNBOUNDED_SEQUENCES_RUN_1
             (v7,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values"
@@ -6914,7 +6555,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, v7, pos)
             pos += v7 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_2
+            f = UNBOUNDED_SEQUENCES_RUN_2
             (v11,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".char_values"
@@ -6923,7 +6564,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v12 = _frombuffer(mv, _D_uint8, v11, pos)
             pos += v11 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_3
+            f = UNBOUNDED_SEQUENCES_RUN_3
             (v15,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values"
@@ -6931,7 +6572,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v15, 4, lim - pos)
             v16 = _frombuffer(mv, _D_float32, v15, pos)
             pos += v15 * 4
-            f = _R_test_msgs__msg__UnboundedSequences_4
+            f = UNBOUNDED_SEQUENCES_RUN_4
             (v19,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values"
@@ -6941,7 +6582,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v19, 8, lim - pos)
             v20 = _frombuffer(mv, _D_float64, v19, pos)
             pos += v19 * 8
-            f = _R_test_msgs__msg__UnboundedSequences_5
+            f = UNBOUNDED_SEQUENCES_RUN_5
             (v23,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values"
@@ -6950,7 +6591,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v24 = _frombuffer(mv, _D_int8, v23, pos)
             pos += v23 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_6
+            f = UNBOUNDED_SEQUENCES_RUN_6
             (v27,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values"
@@ -6959,7 +6600,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v28 = _frombuffer(mv, _D_uint8, v27, pos)
             pos += v27 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_7
+            f = UNBOUNDED_SEQUENCES_RUN_7
             (v31,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values"
@@ -6968,7 +6609,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v32 = _frombuffer(mv, _D_int16, v31, pos)
             pos += v31 * 2
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_8
+            f = UNBOUNDED_SEQUENCES_RUN_8
             (v35,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values"
@@ -6977,7 +6618,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v36 = _frombuffer(mv, _D_uint16, v35, pos)
             pos += v35 * 2
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_9
+            f = UNBOUNDED_SEQUENCES_RUN_9
             (v39,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values"
@@ -6985,7 +6626,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v39, 4, lim - pos)
             v40 = _frombuffer(mv, _D_int32, v39, pos)
             pos += v39 * 4
-            f = _R_test_msgs__msg__UnboundedSequences_10
+            f = UNBOUNDED_SEQUENCES_RUN_10
             (v43,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values"
@@ -6993,7 +6634,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v43, 4, lim - pos)
             v44 = _frombuffer(mv, _D_uint32, v43, pos)
             pos += v43 * 4
-            f = _R_test_msgs__msg__UnboundedSequences_11
+            f = UNBOUNDED_SEQUENCES_RUN_11
             (v47,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values"
@@ -7003,7 +6644,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v47, 8, lim - pos)
             v48 = _frombuffer(mv, _D_int64, v47, pos)
             pos += v47 * 8
-            f = _R_test_msgs__msg__UnboundedSequences_12
+            f = UNBOUNDED_SEQUENCES_RUN_12
             (v51,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values"
@@ -7016,19 +6657,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             f = ".string_values"
             v53, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
             f = ".basic_types_values"
-            v54, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__BasicTypes, None, None, 45
-            )
+            v54, pos = read_messages(mv, pos, lim, _U32, basic_types_decode, None, None, 45)
             f = ".constants_values"
-            v55, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__Constants, None, None, 1
-            )
+            v55, pos = read_messages(mv, pos, lim, _U32, constants_decode, None, None, 1)
             f = ".defaults_values"
-            v56, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__Defaults, None, None, 45
-            )
+            v56, pos = read_messages(mv, pos, lim, _U32, defaults_decode, None, None, 45)
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_13
+            f = UNBOUNDED_SEQUENCES_RUN_13
             (v59,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".bool_values_default"
@@ -7037,7 +6672,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v60 = read_bools(mv, pos, v59)
             pos += v59 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_14
+            f = UNBOUNDED_SEQUENCES_RUN_14
             (v63,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".byte_values_default"
@@ -7046,7 +6681,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v64 = _frombuffer(mv, _D_uint8, v63, pos)
             pos += v63 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_15
+            f = UNBOUNDED_SEQUENCES_RUN_15
             (v67,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".char_values_default"
@@ -7055,7 +6690,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v68 = _frombuffer(mv, _D_uint8, v67, pos)
             pos += v67 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_16
+            f = UNBOUNDED_SEQUENCES_RUN_16
             (v71,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".float32_values_default"
@@ -7063,7 +6698,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v71, 4, lim - pos)
             v72 = _frombuffer(mv, _D_float32, v71, pos)
             pos += v71 * 4
-            f = _R_test_msgs__msg__UnboundedSequences_17
+            f = UNBOUNDED_SEQUENCES_RUN_17
             (v75,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".float64_values_default"
@@ -7073,7 +6708,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v75, 8, lim - pos)
             v76 = _frombuffer(mv, _D_float64, v75, pos)
             pos += v75 * 8
-            f = _R_test_msgs__msg__UnboundedSequences_18
+            f = UNBOUNDED_SEQUENCES_RUN_18
             (v79,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int8_values_default"
@@ -7082,7 +6717,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v80 = _frombuffer(mv, _D_int8, v79, pos)
             pos += v79 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_19
+            f = UNBOUNDED_SEQUENCES_RUN_19
             (v83,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint8_values_default"
@@ -7091,7 +6726,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v84 = _frombuffer(mv, _D_uint8, v83, pos)
             pos += v83 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_20
+            f = UNBOUNDED_SEQUENCES_RUN_20
             (v87,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int16_values_default"
@@ -7100,7 +6735,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v88 = _frombuffer(mv, _D_int16, v87, pos)
             pos += v87 * 2
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_21
+            f = UNBOUNDED_SEQUENCES_RUN_21
             (v91,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint16_values_default"
@@ -7109,7 +6744,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v92 = _frombuffer(mv, _D_uint16, v91, pos)
             pos += v91 * 2
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_22
+            f = UNBOUNDED_SEQUENCES_RUN_22
             (v95,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int32_values_default"
@@ -7117,7 +6752,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v95, 4, lim - pos)
             v96 = _frombuffer(mv, _D_int32, v95, pos)
             pos += v95 * 4
-            f = _R_test_msgs__msg__UnboundedSequences_23
+            f = UNBOUNDED_SEQUENCES_RUN_23
             (v99,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint32_values_default"
@@ -7125,7 +6760,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v99, 4, lim - pos)
             v100 = _frombuffer(mv, _D_uint32, v99, pos)
             pos += v99 * 4
-            f = _R_test_msgs__msg__UnboundedSequences_24
+            f = UNBOUNDED_SEQUENCES_RUN_24
             (v103,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".int64_values_default"
@@ -7135,7 +6770,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v103, 8, lim - pos)
             v104 = _frombuffer(mv, _D_int64, v103, pos)
             pos += v103 * 8
-            f = _R_test_msgs__msg__UnboundedSequences_25
+            f = UNBOUNDED_SEQUENCES_RUN_25
             (v107,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".uint64_values_default"
@@ -7148,7 +6783,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             f = ".string_values_default"
             v109, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__UnboundedSequences_26
+            f = UNBOUNDED_SEQUENCES_RUN_26
             (v110,) = _S_i.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
@@ -7156,7 +6791,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__msg__UnboundedSequences(
+            return unbounded_sequences_view(
                 v4,
                 v8,
                 v12,
@@ -7225,11 +6860,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "alignment_check": v110,
         }, pos
 
-    def encode_test_msgs__msg__UnboundedSequences(d: Any, out: list[Any], pos: int) -> int:
+    def unbounded_sequences_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__msg__UnboundedSequences.issuperset(d):
-                d = _submap(d, _K_test_msgs__msg__UnboundedSequences)
+            if d.__class__ is not dict or not UNBOUNDED_SEQUENCES_KEYS.issuperset(d):
+                d = _submap(d, UNBOUNDED_SEQUENCES_KEYS)
             f = ".bool_values"
             b1, c2 = encode_bools(d.get("bool_values", ()), _D_bool, "bool", None, False)
             p = -pos & 3
@@ -7240,7 +6875,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c2))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_0, (c2,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_0, (c2,)))
             pos += 4
             out.append(b1)
             pos += c2 * 1
@@ -7254,7 +6889,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c6))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_1, (c6,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_1, (c6,)))
             pos += 4
             out.append(b5)
             pos += c6 * 1
@@ -7268,7 +6903,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c10))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_2, (c10,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_2, (c10,)))
             pos += 4
             out.append(b9)
             pos += c10 * 1
@@ -7282,7 +6917,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c14))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_3, (c14,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_3, (c14,)))
             pos += 4
             out.append(b13)
             pos += c14 * 4
@@ -7292,7 +6927,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c18))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_4, (c18,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_4, (c18,)))
             pos += 4
             if c18:
                 p = -pos & 7
@@ -7307,7 +6942,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c22))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_5, (c22,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_5, (c22,)))
             pos += 4
             out.append(b21)
             pos += c22 * 1
@@ -7321,7 +6956,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c26))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_6, (c26,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_6, (c26,)))
             pos += 4
             out.append(b25)
             pos += c26 * 1
@@ -7335,7 +6970,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c30))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_7, (c30,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_7, (c30,)))
             pos += 4
             out.append(b29)
             pos += c30 * 2
@@ -7349,7 +6984,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c34))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_8, (c34,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_8, (c34,)))
             pos += 4
             out.append(b33)
             pos += c34 * 2
@@ -7363,7 +6998,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c38))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_9, (c38,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_9, (c38,)))
             pos += 4
             out.append(b37)
             pos += c38 * 4
@@ -7373,7 +7008,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c42))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_10, (c42,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_10, (c42,)))
             pos += 4
             out.append(b41)
             pos += c42 * 4
@@ -7383,7 +7018,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c46))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_11, (c46,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_11, (c46,)))
             pos += 4
             if c46:
                 p = -pos & 7
@@ -7398,7 +7033,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c50))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_12, (c50,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_12, (c50,)))
             pos += 4
             if c50:
                 p = -pos & 7
@@ -7413,33 +7048,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             )
             f = ".basic_types_values"
             pos = write_messages(
-                d.get("basic_types_values", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__BasicTypes,
-                None,
-                False,
+                d.get("basic_types_values", ()), out, pos, _U32, basic_types_encode, None, False
             )
             f = ".constants_values"
             pos = write_messages(
-                d.get("constants_values", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__Constants,
-                None,
-                False,
+                d.get("constants_values", ()), out, pos, _U32, constants_encode, None, False
             )
             f = ".defaults_values"
             pos = write_messages(
-                d.get("defaults_values", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__Defaults,
-                None,
-                False,
+                d.get("defaults_values", ()), out, pos, _U32, defaults_encode, None, False
             )
             f = ".bool_values_default"
             b57, c58 = encode_bools(
@@ -7453,7 +7070,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c58))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_13, (c58,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_13, (c58,)))
             pos += 4
             out.append(b57)
             pos += c58 * 1
@@ -7469,7 +7086,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c62))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_14, (c62,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_14, (c62,)))
             pos += 4
             out.append(b61)
             pos += c62 * 1
@@ -7485,7 +7102,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c66))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_15, (c66,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_15, (c66,)))
             pos += 4
             out.append(b65)
             pos += c66 * 1
@@ -7505,7 +7122,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c70))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_16, (c70,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_16, (c70,)))
             pos += 4
             out.append(b69)
             pos += c70 * 4
@@ -7521,7 +7138,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c74))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_17, (c74,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_17, (c74,)))
             pos += 4
             if c74:
                 p = -pos & 7
@@ -7538,7 +7155,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c78))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_18, (c78,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_18, (c78,)))
             pos += 4
             out.append(b77)
             pos += c78 * 1
@@ -7554,7 +7171,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c82))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_19, (c82,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_19, (c82,)))
             pos += 4
             out.append(b81)
             pos += c82 * 1
@@ -7570,7 +7187,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c86))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_20, (c86,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_20, (c86,)))
             pos += 4
             out.append(b85)
             pos += c86 * 2
@@ -7586,7 +7203,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c90))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_21, (c90,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_21, (c90,)))
             pos += 4
             out.append(b89)
             pos += c90 * 2
@@ -7606,7 +7223,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c94))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_22, (c94,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_22, (c94,)))
             pos += 4
             out.append(b93)
             pos += c94 * 4
@@ -7618,7 +7235,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c98))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_23, (c98,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_23, (c98,)))
             pos += 4
             out.append(b97)
             pos += c98 * 4
@@ -7634,7 +7251,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c102))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_24, (c102,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_24, (c102,)))
             pos += 4
             if c102:
                 p = -pos & 7
@@ -7655,7 +7272,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c106))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__UnboundedSequences_25, (c106,)))
+                out.append(slow_pack(_S_I, UNBOUNDED_SEQUENCES_RUN_25, (c106,)))
             pos += 4
             if c106:
                 p = -pos & 7
@@ -7684,11 +7301,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_i.pack(d.get("alignment_check", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_i,
-                        _R_test_msgs__msg__UnboundedSequences_26,
-                        (d.get("alignment_check", 0),),
-                    )
+                    slow_pack(_S_i, UNBOUNDED_SEQUENCES_RUN_26, (d.get("alignment_check", 0),))
                 )
             pos += 4
         except FieldError as error:
@@ -7697,47 +7310,33 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__msg__MultiNested(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def multi_nested_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".array_of_arrays"
-            v1, pos = read_messages(mv, pos, lim, _U32, decode_test_msgs__msg__Arrays, 3, None, 571)
+            v1, pos = read_messages(mv, pos, lim, _U32, arrays_decode, 3, None, 571)
             f = ".array_of_bounded_sequences"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__BoundedSequences, 3, None, 128
-            )
+            v2, pos = read_messages(mv, pos, lim, _U32, bounded_sequences_decode, 3, None, 128)
             f = ".array_of_unbounded_sequences"
-            v3, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__UnboundedSequences, 3, None, 128
-            )
+            v3, pos = read_messages(mv, pos, lim, _U32, unbounded_sequences_decode, 3, None, 128)
             f = ".bounded_sequence_of_arrays"
-            v4, pos = read_messages(mv, pos, lim, _U32, decode_test_msgs__msg__Arrays, None, 3, 571)
+            v4, pos = read_messages(mv, pos, lim, _U32, arrays_decode, None, 3, 571)
             f = ".bounded_sequence_of_bounded_sequences"
-            v5, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__BoundedSequences, None, 3, 128
-            )
+            v5, pos = read_messages(mv, pos, lim, _U32, bounded_sequences_decode, None, 3, 128)
             f = ".bounded_sequence_of_unbounded_sequences"
-            v6, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__UnboundedSequences, None, 3, 128
-            )
+            v6, pos = read_messages(mv, pos, lim, _U32, unbounded_sequences_decode, None, 3, 128)
             f = ".unbounded_sequence_of_arrays"
-            v7, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__Arrays, None, None, 571
-            )
+            v7, pos = read_messages(mv, pos, lim, _U32, arrays_decode, None, None, 571)
             f = ".unbounded_sequence_of_bounded_sequences"
-            v8, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__BoundedSequences, None, None, 128
-            )
+            v8, pos = read_messages(mv, pos, lim, _U32, bounded_sequences_decode, None, None, 128)
             f = ".unbounded_sequence_of_unbounded_sequences"
-            v9, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__UnboundedSequences, None, None, 128
-            )
+            v9, pos = read_messages(mv, pos, lim, _U32, unbounded_sequences_decode, None, None, 128)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__msg__MultiNested(v1, v2, v3, v4, v5, v6, v7, v8, v9), pos
+            return multi_nested_view(v1, v2, v3, v4, v5, v6, v7, v8, v9), pos
         return {
             "array_of_arrays": v1,
             "array_of_bounded_sequences": v2,
@@ -7750,20 +7349,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "unbounded_sequence_of_unbounded_sequences": v9,
         }, pos
 
-    def encode_test_msgs__msg__MultiNested(d: Any, out: list[Any], pos: int) -> int:
+    def multi_nested_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__msg__MultiNested.issuperset(d):
-                d = _submap(d, _K_test_msgs__msg__MultiNested)
+            if d.__class__ is not dict or not MULTI_NESTED_KEYS.issuperset(d):
+                d = _submap(d, MULTI_NESTED_KEYS)
             f = ".array_of_arrays"
             pos = write_messages(
-                d.get("array_of_arrays", (EMPTY,) * 3),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__Arrays,
-                3,
-                True,
+                d.get("array_of_arrays", (EMPTY,) * 3), out, pos, _U32, arrays_encode, 3, True
             )
             f = ".array_of_bounded_sequences"
             pos = write_messages(
@@ -7771,7 +7364,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__msg__BoundedSequences,
+                bounded_sequences_encode,
                 3,
                 True,
             )
@@ -7781,19 +7374,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__msg__UnboundedSequences,
+                unbounded_sequences_encode,
                 3,
                 True,
             )
             f = ".bounded_sequence_of_arrays"
             pos = write_messages(
-                d.get("bounded_sequence_of_arrays", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__Arrays,
-                3,
-                False,
+                d.get("bounded_sequence_of_arrays", ()), out, pos, _U32, arrays_encode, 3, False
             )
             f = ".bounded_sequence_of_bounded_sequences"
             pos = write_messages(
@@ -7801,7 +7388,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__msg__BoundedSequences,
+                bounded_sequences_encode,
                 3,
                 False,
             )
@@ -7811,7 +7398,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__msg__UnboundedSequences,
+                unbounded_sequences_encode,
                 3,
                 False,
             )
@@ -7821,7 +7408,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__msg__Arrays,
+                arrays_encode,
                 None,
                 False,
             )
@@ -7831,7 +7418,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__msg__BoundedSequences,
+                bounded_sequences_encode,
                 None,
                 False,
             )
@@ -7841,7 +7428,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__msg__UnboundedSequences,
+                unbounded_sequences_encode,
                 None,
                 False,
             )
@@ -7851,18 +7438,18 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__msg__Nested(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def nested_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__msg__Nested_0
+            f = NESTED_RUN_0
             v3, v4, v5 = _S_T2B.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Nested_1
+            f = NESTED_RUN_1
             (v6,) = _S_f.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
-            f = _R_test_msgs__msg__Nested_2
+            f = NESTED_RUN_2
             v7, v8, v9, v10, v11, v12, v13, v14, v15 = _S_dbBhH2xiIqQ.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
@@ -7870,10 +7457,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__msg__Nested(
-                make_test_msgs__msg__BasicTypes(
-                    v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v15
-                )
+            return nested_view(
+                basic_types_view(v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v15)
             ), pos
         return {
             "basic_types_value": {
@@ -7893,15 +7478,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             }
         }, pos
 
-    def encode_test_msgs__msg__Nested(d: Any, out: list[Any], pos: int) -> int:
+    def nested_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__msg__Nested.issuperset(d):
-                d = _submap(d, _K_test_msgs__msg__Nested)
+            if d.__class__ is not dict or not NESTED_KEYS.issuperset(d):
+                d = _submap(d, NESTED_KEYS)
             f = ".basic_types_value"
             m1 = d.get("basic_types_value", EMPTY)
-            if m1.__class__ is not dict or not _K_test_msgs__msg__BasicTypes.issuperset(m1):
-                m1 = _submap(m1, _K_test_msgs__msg__BasicTypes)
+            if m1.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m1):
+                m1 = _submap(m1, BASIC_TYPES_KEYS)
             f = ""
             try:
                 out.append(
@@ -7919,7 +7504,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T2B,
-                        _R_test_msgs__msg__Nested_0,
+                        NESTED_RUN_0,
                         (
                             (
                                 t2
@@ -7940,9 +7525,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_f.pack(m1.get("float32_value", 0.0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_f, _R_test_msgs__msg__Nested_1, (m1.get("float32_value", 0.0),))
-                )
+                out.append(slow_pack(_S_f, NESTED_RUN_1, (m1.get("float32_value", 0.0),)))
             pos += 4
             p = -pos & 7
             if p:
@@ -7967,7 +7550,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQ,
-                        _R_test_msgs__msg__Nested_2,
+                        NESTED_RUN_2,
                         (
                             m1.get("float64_value", 0.0),
                             m1.get("int8_value", 0),
@@ -7988,11 +7571,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__msg__Strings(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def strings_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_0
+            f = STRINGS_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".string_value"
@@ -8001,7 +7584,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_1
+            f = STRINGS_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default1"
@@ -8010,7 +7593,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_2
+            f = STRINGS_RUN_2
             (v8,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default2"
@@ -8019,7 +7602,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v9 = mv[pos : pos + v8 - 1].tobytes().decode()
             pos += v8
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_3
+            f = STRINGS_RUN_3
             (v11,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default3"
@@ -8028,7 +7611,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v12 = mv[pos : pos + v11 - 1].tobytes().decode()
             pos += v11
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_4
+            f = STRINGS_RUN_4
             (v14,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default4"
@@ -8037,7 +7620,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v15 = mv[pos : pos + v14 - 1].tobytes().decode()
             pos += v14
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_5
+            f = STRINGS_RUN_5
             (v17,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".string_value_default5"
@@ -8046,7 +7629,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v18 = mv[pos : pos + v17 - 1].tobytes().decode()
             pos += v17
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_6
+            f = STRINGS_RUN_6
             (v20,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value"
@@ -8057,7 +7640,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             if len(v21) > 22:
                 raise over_bound(len(v21), 22)
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_7
+            f = STRINGS_RUN_7
             (v23,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default1"
@@ -8068,7 +7651,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             if len(v24) > 22:
                 raise over_bound(len(v24), 22)
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_8
+            f = STRINGS_RUN_8
             (v26,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default2"
@@ -8079,7 +7662,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             if len(v27) > 22:
                 raise over_bound(len(v27), 22)
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_9
+            f = STRINGS_RUN_9
             (v29,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default3"
@@ -8090,7 +7673,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             if len(v30) > 22:
                 raise over_bound(len(v30), 22)
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_10
+            f = STRINGS_RUN_10
             (v32,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default4"
@@ -8101,7 +7684,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             if len(v33) > 22:
                 raise over_bound(len(v33), 22)
             pos = (pos + 3) & -4
-            f = _R_test_msgs__msg__Strings_11
+            f = STRINGS_RUN_11
             (v35,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".bounded_string_value_default5"
@@ -8116,9 +7699,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__msg__Strings(
-                v3, v6, v9, v12, v15, v18, v21, v24, v27, v30, v33, v36
-            ), pos
+            return strings_view(v3, v6, v9, v12, v15, v18, v21, v24, v27, v30, v33, v36), pos
         return {
             "string_value": v3,
             "string_value_default1": v6,
@@ -8134,11 +7715,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "bounded_string_value_default5": v36,
         }, pos
 
-    def encode_test_msgs__msg__Strings(d: Any, out: list[Any], pos: int) -> int:
+    def strings_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__msg__Strings.issuperset(d):
-                d = _submap(d, _K_test_msgs__msg__Strings)
+            if d.__class__ is not dict or not STRINGS_KEYS.issuperset(d):
+                d = _submap(d, STRINGS_KEYS)
             f = ".string_value"
             b1 = utf8z(d.get("string_value", ""), None)
             p = -pos & 3
@@ -8149,7 +7730,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__Strings_0, (len(b1),)))
+                out.append(slow_pack(_S_I, STRINGS_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -8163,7 +7744,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b4)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__Strings_1, (len(b4),)))
+                out.append(slow_pack(_S_I, STRINGS_RUN_1, (len(b4),)))
             pos += 4
             out.append(b4)
             pos += len(b4)
@@ -8177,7 +7758,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b7)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__Strings_2, (len(b7),)))
+                out.append(slow_pack(_S_I, STRINGS_RUN_2, (len(b7),)))
             pos += 4
             out.append(b7)
             pos += len(b7)
@@ -8191,7 +7772,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b10)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__Strings_3, (len(b10),)))
+                out.append(slow_pack(_S_I, STRINGS_RUN_3, (len(b10),)))
             pos += 4
             out.append(b10)
             pos += len(b10)
@@ -8205,7 +7786,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b13)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__Strings_4, (len(b13),)))
+                out.append(slow_pack(_S_I, STRINGS_RUN_4, (len(b13),)))
             pos += 4
             out.append(b13)
             pos += len(b13)
@@ -8219,7 +7800,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b16)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__Strings_5, (len(b16),)))
+                out.append(slow_pack(_S_I, STRINGS_RUN_5, (len(b16),)))
             pos += 4
             out.append(b16)
             pos += len(b16)
@@ -8233,7 +7814,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b19)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__Strings_6, (len(b19),)))
+                out.append(slow_pack(_S_I, STRINGS_RUN_6, (len(b19),)))
             pos += 4
             out.append(b19)
             pos += len(b19)
@@ -8247,7 +7828,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b22)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__Strings_7, (len(b22),)))
+                out.append(slow_pack(_S_I, STRINGS_RUN_7, (len(b22),)))
             pos += 4
             out.append(b22)
             pos += len(b22)
@@ -8261,7 +7842,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b25)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__Strings_8, (len(b25),)))
+                out.append(slow_pack(_S_I, STRINGS_RUN_8, (len(b25),)))
             pos += 4
             out.append(b25)
             pos += len(b25)
@@ -8275,7 +7856,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b28)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__Strings_9, (len(b28),)))
+                out.append(slow_pack(_S_I, STRINGS_RUN_9, (len(b28),)))
             pos += 4
             out.append(b28)
             pos += len(b28)
@@ -8289,7 +7870,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b31)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__Strings_10, (len(b31),)))
+                out.append(slow_pack(_S_I, STRINGS_RUN_10, (len(b31),)))
             pos += 4
             out.append(b31)
             pos += len(b31)
@@ -8303,7 +7884,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b34)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__msg__Strings_11, (len(b34),)))
+                out.append(slow_pack(_S_I, STRINGS_RUN_11, (len(b34),)))
             pos += 4
             out.append(b34)
             pos += len(b34)
@@ -8313,7 +7894,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__msg__WStrings(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def w_strings_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".wstring_value"
@@ -8335,7 +7916,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__msg__WStrings(v1, v2, v3, v4, v5, v6, v7), pos
+            return w_strings_view(v1, v2, v3, v4, v5, v6, v7), pos
         return {
             "wstring_value": v1,
             "wstring_value_default1": v2,
@@ -8346,11 +7927,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "unbounded_sequence_of_wstrings": v7,
         }, pos
 
-    def encode_test_msgs__msg__WStrings(d: Any, out: list[Any], pos: int) -> int:
+    def w_strings_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__msg__WStrings.issuperset(d):
-                d = _submap(d, _K_test_msgs__msg__WStrings)
+            if d.__class__ is not dict or not W_STRINGS_KEYS.issuperset(d):
+                d = _submap(d, W_STRINGS_KEYS)
             f = ".wstring_value"
             pos = write_wstring(d.get("wstring_value", ""), out, pos, _U32, None)
             f = ".wstring_value_default1"
@@ -8383,9 +7964,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__srv__Arrays_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def arrays_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".bool_values"
@@ -8460,17 +8039,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             f = ".string_values"
             v40, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
             f = ".basic_types_values"
-            v41, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__BasicTypes, 3, None, 45
-            )
+            v41, pos = read_messages(mv, pos, lim, _U32, basic_types_decode, 3, None, 45)
             f = ".constants_values"
-            v42, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__Constants, 3, None, 1
-            )
+            v42, pos = read_messages(mv, pos, lim, _U32, constants_decode, 3, None, 1)
             f = ".defaults_values"
-            v43, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__Defaults, 3, None, 45
-            )
+            v43, pos = read_messages(mv, pos, lim, _U32, defaults_decode, 3, None, 45)
             f = ".bool_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
@@ -8547,7 +8120,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__srv__Arrays_Request(
+            return arrays_request_view(
                 v3,
                 v6,
                 v9,
@@ -8614,11 +8187,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "string_values_default": v83,
         }, pos
 
-    def encode_test_msgs__srv__Arrays_Request(d: Any, out: list[Any], pos: int) -> int:
+    def arrays_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__srv__Arrays_Request.issuperset(d):
-                d = _submap(d, _K_test_msgs__srv__Arrays_Request)
+            if d.__class__ is not dict or not ARRAYS_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, ARRAYS_REQUEST_KEYS)
             f = ".bool_values"
             b1, c2 = encode_bools(d.get("bool_values", (False,) * 3), _D_bool, "bool", 3, True)
             out.append(b1)
@@ -8697,29 +8270,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__msg__BasicTypes,
+                basic_types_encode,
                 3,
                 True,
             )
             f = ".constants_values"
             pos = write_messages(
-                d.get("constants_values", (EMPTY,) * 3),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__Constants,
-                3,
-                True,
+                d.get("constants_values", (EMPTY,) * 3), out, pos, _U32, constants_encode, 3, True
             )
             f = ".defaults_values"
             pos = write_messages(
-                d.get("defaults_values", (EMPTY,) * 3),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__Defaults,
-                3,
-                True,
+                d.get("defaults_values", (EMPTY,) * 3), out, pos, _U32, defaults_encode, 3, True
             )
             f = ".bool_values_default"
             b44, c45 = encode_bools(
@@ -8848,9 +8409,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__srv__Arrays_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def arrays_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".bool_values"
@@ -8925,17 +8484,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             f = ".string_values"
             v40, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
             f = ".basic_types_values"
-            v41, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__BasicTypes, 3, None, 45
-            )
+            v41, pos = read_messages(mv, pos, lim, _U32, basic_types_decode, 3, None, 45)
             f = ".constants_values"
-            v42, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__Constants, 3, None, 1
-            )
+            v42, pos = read_messages(mv, pos, lim, _U32, constants_decode, 3, None, 1)
             f = ".defaults_values"
-            v43, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__msg__Defaults, 3, None, 45
-            )
+            v43, pos = read_messages(mv, pos, lim, _U32, defaults_decode, 3, None, 45)
             f = ".bool_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
@@ -9012,7 +8565,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__srv__Arrays_Response(
+            return arrays_response_view(
                 v3,
                 v6,
                 v9,
@@ -9079,11 +8632,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "string_values_default": v83,
         }, pos
 
-    def encode_test_msgs__srv__Arrays_Response(d: Any, out: list[Any], pos: int) -> int:
+    def arrays_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__srv__Arrays_Response.issuperset(d):
-                d = _submap(d, _K_test_msgs__srv__Arrays_Response)
+            if d.__class__ is not dict or not ARRAYS_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, ARRAYS_RESPONSE_KEYS)
             f = ".bool_values"
             b1, c2 = encode_bools(d.get("bool_values", (False,) * 3), _D_bool, "bool", 3, True)
             out.append(b1)
@@ -9162,29 +8715,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__msg__BasicTypes,
+                basic_types_encode,
                 3,
                 True,
             )
             f = ".constants_values"
             pos = write_messages(
-                d.get("constants_values", (EMPTY,) * 3),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__Constants,
-                3,
-                True,
+                d.get("constants_values", (EMPTY,) * 3), out, pos, _U32, constants_encode, 3, True
             )
             f = ".defaults_values"
             pos = write_messages(
-                d.get("defaults_values", (EMPTY,) * 3),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__msg__Defaults,
-                3,
-                True,
+                d.get("defaults_values", (EMPTY,) * 3), out, pos, _U32, defaults_encode, 3, True
             )
             f = ".bool_values_default"
             b44, c45 = encode_bools(
@@ -9313,114 +8854,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def arrays_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_service_msgs__msg__ServiceEventInfo(
-                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-            ), pos
-        return {
-            "event_type": v1,
-            "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7.tobytes(),
-            "sequence_number": v8,
-        }, pos
-
-    def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(d):
-                d = _submap(d, _K_service_msgs__msg__ServiceEventInfo)
-            f = ".stamp"
-            m2 = d.get("stamp", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
-            f = ""
-            try:
-                out.append(_S_B.pack(d.get("event_type", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_service_msgs__msg__ServiceEventInfo_0, (d.get("event_type", 0),)
-                    )
-                )
-            pos += 1
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".client_gid"
-            b5, c6 = encode_array(d.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
-            f = ""
-            try:
-                out.append(_S_iI.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_service_msgs__msg__ServiceEventInfo_1,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-            out.append(b5)
-            pos += c6 * 1
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_q.pack(d.get("sequence_number", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_service_msgs__msg__ServiceEventInfo_2,
-                        (d.get("sequence_number", 0),),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_test_msgs__srv__Arrays_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_test_msgs__srv__Arrays_Event_0
+            f = ARRAYS_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__srv__Arrays_Event_1
+            f = ARRAYS_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -9429,25 +8870,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_test_msgs__srv__Arrays_Event_2
+            f = ARRAYS_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__srv__Arrays_Request, None, 1, 567
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, arrays_request_decode, None, 1, 567)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__srv__Arrays_Response, None, 1, 567
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, arrays_response_decode, None, 1, 567)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__srv__Arrays_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return arrays_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -9463,28 +8900,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_test_msgs__srv__Arrays_Event(d: Any, out: list[Any], pos: int) -> int:
+    def arrays_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__srv__Arrays_Event.issuperset(d):
-                d = _submap(d, _K_test_msgs__srv__Arrays_Event)
+            if d.__class__ is not dict or not ARRAYS_EVENT_KEYS.issuperset(d):
+                d = _submap(d, ARRAYS_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_test_msgs__srv__Arrays_Event_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, ARRAYS_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -9499,7 +8932,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_test_msgs__srv__Arrays_Event_1,
+                        ARRAYS_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -9517,31 +8950,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, _R_test_msgs__srv__Arrays_Event_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, ARRAYS_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__srv__Arrays_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, arrays_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__srv__Arrays_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, arrays_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -9549,20 +8966,18 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__srv__BasicTypes_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def basic_types_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__srv__BasicTypes_Request_0
+            f = BASIC_TYPES_REQUEST_RUN_0
             v2, v3, v4 = _S_T2B.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
-            f = _R_test_msgs__srv__BasicTypes_Request_1
+            f = BASIC_TYPES_REQUEST_RUN_1
             (v5,) = _S_f.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
-            f = _R_test_msgs__srv__BasicTypes_Request_2
+            f = BASIC_TYPES_REQUEST_RUN_2
             v6, v7, v8, v9, v10, v11, v12, v13, v14, v16 = _S_dbBhH2xiIqQI.unpack_from(mv, pos)
             pos += 44
             f = ".string_value"
@@ -9575,7 +8990,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__srv__BasicTypes_Request(
+            return basic_types_request_view(
                 v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v17
             ), pos
         return {
@@ -9595,11 +9010,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "string_value": v17,
         }, pos
 
-    def encode_test_msgs__srv__BasicTypes_Request(d: Any, out: list[Any], pos: int) -> int:
+    def basic_types_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__srv__BasicTypes_Request.issuperset(d):
-                d = _submap(d, _K_test_msgs__srv__BasicTypes_Request)
+            if d.__class__ is not dict or not BASIC_TYPES_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, BASIC_TYPES_REQUEST_KEYS)
             f = ""
             try:
                 out.append(
@@ -9617,7 +9032,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T2B,
-                        _R_test_msgs__srv__BasicTypes_Request_0,
+                        BASIC_TYPES_REQUEST_RUN_0,
                         (
                             (
                                 t1
@@ -9639,11 +9054,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_f.pack(d.get("float32_value", 0.0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_f,
-                        _R_test_msgs__srv__BasicTypes_Request_1,
-                        (d.get("float32_value", 0.0),),
-                    )
+                    slow_pack(_S_f, BASIC_TYPES_REQUEST_RUN_1, (d.get("float32_value", 0.0),))
                 )
             pos += 4
             p = -pos & 7
@@ -9672,7 +9083,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQI,
-                        _R_test_msgs__srv__BasicTypes_Request_2,
+                        BASIC_TYPES_REQUEST_RUN_2,
                         (
                             d.get("float64_value", 0.0),
                             d.get("int8_value", 0),
@@ -9696,20 +9107,18 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__srv__BasicTypes_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def basic_types_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__srv__BasicTypes_Response_0
+            f = BASIC_TYPES_RESPONSE_RUN_0
             v2, v3, v4 = _S_T2B.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
-            f = _R_test_msgs__srv__BasicTypes_Response_1
+            f = BASIC_TYPES_RESPONSE_RUN_1
             (v5,) = _S_f.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
-            f = _R_test_msgs__srv__BasicTypes_Response_2
+            f = BASIC_TYPES_RESPONSE_RUN_2
             v6, v7, v8, v9, v10, v11, v12, v13, v14, v16 = _S_dbBhH2xiIqQI.unpack_from(mv, pos)
             pos += 44
             f = ".string_value"
@@ -9722,7 +9131,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__srv__BasicTypes_Response(
+            return basic_types_response_view(
                 v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v17
             ), pos
         return {
@@ -9742,11 +9151,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "string_value": v17,
         }, pos
 
-    def encode_test_msgs__srv__BasicTypes_Response(d: Any, out: list[Any], pos: int) -> int:
+    def basic_types_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__srv__BasicTypes_Response.issuperset(d):
-                d = _submap(d, _K_test_msgs__srv__BasicTypes_Response)
+            if d.__class__ is not dict or not BASIC_TYPES_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, BASIC_TYPES_RESPONSE_KEYS)
             f = ""
             try:
                 out.append(
@@ -9764,7 +9173,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T2B,
-                        _R_test_msgs__srv__BasicTypes_Response_0,
+                        BASIC_TYPES_RESPONSE_RUN_0,
                         (
                             (
                                 t1
@@ -9786,11 +9195,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_f.pack(d.get("float32_value", 0.0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_f,
-                        _R_test_msgs__srv__BasicTypes_Response_1,
-                        (d.get("float32_value", 0.0),),
-                    )
+                    slow_pack(_S_f, BASIC_TYPES_RESPONSE_RUN_1, (d.get("float32_value", 0.0),))
                 )
             pos += 4
             p = -pos & 7
@@ -9819,7 +9224,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQI,
-                        _R_test_msgs__srv__BasicTypes_Response_2,
+                        BASIC_TYPES_RESPONSE_RUN_2,
                         (
                             d.get("float64_value", 0.0),
                             d.get("int8_value", 0),
@@ -9843,16 +9248,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__srv__BasicTypes_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def basic_types_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__srv__BasicTypes_Event_0
+            f = BASIC_TYPES_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__srv__BasicTypes_Event_1
+            f = BASIC_TYPES_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -9861,25 +9264,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_test_msgs__srv__BasicTypes_Event_2
+            f = BASIC_TYPES_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__srv__BasicTypes_Request, None, 1, 49
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, basic_types_request_decode, None, 1, 49)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__srv__BasicTypes_Response, None, 1, 49
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, basic_types_response_decode, None, 1, 49)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__srv__BasicTypes_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return basic_types_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -9895,30 +9294,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_test_msgs__srv__BasicTypes_Event(d: Any, out: list[Any], pos: int) -> int:
+    def basic_types_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__srv__BasicTypes_Event.issuperset(d):
-                d = _submap(d, _K_test_msgs__srv__BasicTypes_Event)
+            if d.__class__ is not dict or not BASIC_TYPES_EVENT_KEYS.issuperset(d):
+                d = _submap(d, BASIC_TYPES_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_test_msgs__srv__BasicTypes_Event_0, (m1.get("event_type", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_B, BASIC_TYPES_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -9933,7 +9326,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_test_msgs__srv__BasicTypes_Event_1,
+                        BASIC_TYPES_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -9952,30 +9345,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_q, _R_test_msgs__srv__BasicTypes_Event_2, (m1.get("sequence_number", 0),)
-                    )
+                    slow_pack(_S_q, BASIC_TYPES_EVENT_RUN_2, (m1.get("sequence_number", 0),))
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__srv__BasicTypes_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, basic_types_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__srv__BasicTypes_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, basic_types_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -9983,10 +9362,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__srv__Empty_Request(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def empty_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__srv__Empty_Request_0
+            f = EMPTY_REQUEST_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -9994,19 +9373,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__srv__Empty_Request(), pos
+            return empty_request_view(), pos
         return {}, pos
 
-    def encode_test_msgs__srv__Empty_Request(d: Any, out: list[Any], pos: int) -> int:
+    def empty_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__srv__Empty_Request.issuperset(d):
-                d = _submap(d, _K_test_msgs__srv__Empty_Request)
+            if d.__class__ is not dict or not EMPTY_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, EMPTY_REQUEST_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(slow_pack(_S_1x, _R_test_msgs__srv__Empty_Request_0, ()))
+                out.append(slow_pack(_S_1x, EMPTY_REQUEST_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -10014,12 +9393,10 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__srv__Empty_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def empty_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__srv__Empty_Response_0
+            f = EMPTY_RESPONSE_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -10027,19 +9404,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__srv__Empty_Response(), pos
+            return empty_response_view(), pos
         return {}, pos
 
-    def encode_test_msgs__srv__Empty_Response(d: Any, out: list[Any], pos: int) -> int:
+    def empty_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__srv__Empty_Response.issuperset(d):
-                d = _submap(d, _K_test_msgs__srv__Empty_Response)
+            if d.__class__ is not dict or not EMPTY_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, EMPTY_RESPONSE_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(slow_pack(_S_1x, _R_test_msgs__srv__Empty_Response_0, ()))
+                out.append(slow_pack(_S_1x, EMPTY_RESPONSE_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -10047,14 +9424,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__srv__Empty_Event(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def empty_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__srv__Empty_Event_0
+            f = EMPTY_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__srv__Empty_Event_1
+            f = EMPTY_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -10063,25 +9440,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_test_msgs__srv__Empty_Event_2
+            f = EMPTY_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__srv__Empty_Request, None, 1, 1
-            )
+            v10, pos = read_messages(mv, pos, lim, _U32, empty_request_decode, None, 1, 1)
             f = ".response"
-            v11, pos = read_messages(
-                mv, pos, lim, _U32, decode_test_msgs__srv__Empty_Response, None, 1, 1
-            )
+            v11, pos = read_messages(mv, pos, lim, _U32, empty_response_decode, None, 1, 1)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__srv__Empty_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return empty_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -10097,28 +9470,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_test_msgs__srv__Empty_Event(d: Any, out: list[Any], pos: int) -> int:
+    def empty_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__srv__Empty_Event.issuperset(d):
-                d = _submap(d, _K_test_msgs__srv__Empty_Event)
+            if d.__class__ is not dict or not EMPTY_EVENT_KEYS.issuperset(d):
+                d = _submap(d, EMPTY_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, _R_test_msgs__srv__Empty_Event_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, EMPTY_EVENT_RUN_0, (m1.get("event_type", 0),)))
             pos += 1
             p = -pos & 3
             if p:
@@ -10133,7 +9502,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_test_msgs__srv__Empty_Event_1,
+                        EMPTY_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -10151,25 +9520,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_q.pack(m1.get("sequence_number", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, _R_test_msgs__srv__Empty_Event_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, EMPTY_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()), out, pos, _U32, encode_test_msgs__srv__Empty_Request, 1, False
+                d.get("request", ()), out, pos, _U32, empty_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__srv__Empty_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, empty_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -10177,13 +9536,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__Fibonacci_Goal(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def fibonacci_goal_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__Fibonacci_Goal_0
+            f = FIBONACCI_GOAL_RUN_0
             (v1,) = _S_i.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
@@ -10191,14 +9548,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__Fibonacci_Goal(v1), pos
+            return fibonacci_goal_view(v1), pos
         return {"order": v1}, pos
 
-    def encode_test_msgs__action__Fibonacci_Goal(d: Any, out: list[Any], pos: int) -> int:
+    def fibonacci_goal_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__action__Fibonacci_Goal.issuperset(d):
-                d = _submap(d, _K_test_msgs__action__Fibonacci_Goal)
+            if d.__class__ is not dict or not FIBONACCI_GOAL_KEYS.issuperset(d):
+                d = _submap(d, FIBONACCI_GOAL_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -10207,9 +9564,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_i.pack(d.get("order", 0)))
             except Exception:
-                out.append(
-                    slow_pack(_S_i, _R_test_msgs__action__Fibonacci_Goal_0, (d.get("order", 0),))
-                )
+                out.append(slow_pack(_S_i, FIBONACCI_GOAL_RUN_0, (d.get("order", 0),)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -10217,13 +9572,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__Fibonacci_Result(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def fibonacci_result_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__Fibonacci_Result_0
+            f = FIBONACCI_RESULT_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".sequence"
@@ -10236,14 +9589,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__Fibonacci_Result(v4), pos
+            return fibonacci_result_view(v4), pos
         return {"sequence": v4.tolist()}, pos
 
-    def encode_test_msgs__action__Fibonacci_Result(d: Any, out: list[Any], pos: int) -> int:
+    def fibonacci_result_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__action__Fibonacci_Result.issuperset(d):
-                d = _submap(d, _K_test_msgs__action__Fibonacci_Result)
+            if d.__class__ is not dict or not FIBONACCI_RESULT_KEYS.issuperset(d):
+                d = _submap(d, FIBONACCI_RESULT_KEYS)
             f = ".sequence"
             b1, c2 = encode_array(d.get("sequence", ()), _D_int32, "int32", None, False)
             p = -pos & 3
@@ -10254,7 +9607,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c2))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__action__Fibonacci_Result_0, (c2,)))
+                out.append(slow_pack(_S_I, FIBONACCI_RESULT_RUN_0, (c2,)))
             pos += 4
             out.append(b1)
             pos += c2 * 4
@@ -10264,13 +9617,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__Fibonacci_Feedback(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def fibonacci_feedback_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__Fibonacci_Feedback_0
+            f = FIBONACCI_FEEDBACK_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".sequence"
@@ -10283,16 +9634,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__Fibonacci_Feedback(v4), pos
+            return fibonacci_feedback_view(v4), pos
         return {"sequence": v4.tolist()}, pos
 
-    def encode_test_msgs__action__Fibonacci_Feedback(d: Any, out: list[Any], pos: int) -> int:
+    def fibonacci_feedback_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__action__Fibonacci_Feedback.issuperset(
-                d
-            ):
-                d = _submap(d, _K_test_msgs__action__Fibonacci_Feedback)
+            if d.__class__ is not dict or not FIBONACCI_FEEDBACK_KEYS.issuperset(d):
+                d = _submap(d, FIBONACCI_FEEDBACK_KEYS)
             f = ".sequence"
             b1, c2 = encode_array(d.get("sequence", ()), _D_int32, "int32", None, False)
             p = -pos & 3
@@ -10303,7 +9652,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c2))
             except Exception:
-                out.append(slow_pack(_S_I, _R_test_msgs__action__Fibonacci_Feedback_0, (c2,)))
+                out.append(slow_pack(_S_I, FIBONACCI_FEEDBACK_RUN_0, (c2,)))
             pos += 4
             out.append(b1)
             pos += c2 * 4
@@ -10313,42 +9662,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_unique_identifier_msgs__msg__UUID(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".uuid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v3 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_unique_identifier_msgs__msg__UUID(v3), pos
-        return {"uuid": v3.tobytes()}, pos
-
-    def encode_unique_identifier_msgs__msg__UUID(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_unique_identifier_msgs__msg__UUID.issuperset(d):
-                d = _submap(d, _K_unique_identifier_msgs__msg__UUID)
-            f = ".uuid"
-            b1, c2 = encode_array(d.get("uuid", bytes(16)), _D_uint8, "uint8", 16, True)
-            out.append(b1)
-            pos += c2 * 1
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_test_msgs__action__Fibonacci_SendGoal_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def fibonacci_send_goal_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".goal_id.uuid"
@@ -10357,7 +9671,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__Fibonacci_SendGoal_Request_0
+            f = FIBONACCI_SEND_GOAL_REQUEST_RUN_0
             (v6,) = _S_i.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
@@ -10365,34 +9679,28 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__Fibonacci_SendGoal_Request(
-                make_unique_identifier_msgs__msg__UUID(v4),
-                make_test_msgs__action__Fibonacci_Goal(v6),
+            return fibonacci_send_goal_request_view(
+                unique_identifier_msgs__uuid_view(v4), fibonacci_goal_view(v6)
             ), pos
         return {"goal_id": {"uuid": v4.tobytes()}, "goal": {"order": v6}}, pos
 
-    def encode_test_msgs__action__Fibonacci_SendGoal_Request(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def fibonacci_send_goal_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__Fibonacci_SendGoal_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__Fibonacci_SendGoal_Request)
+            if d.__class__ is not dict or not FIBONACCI_SEND_GOAL_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, FIBONACCI_SEND_GOAL_REQUEST_KEYS)
             f = ".goal_id"
             m1 = d.get("goal_id", EMPTY)
-            if m1.__class__ is not dict or not _K_unique_identifier_msgs__msg__UUID.issuperset(m1):
-                m1 = _submap(m1, _K_unique_identifier_msgs__msg__UUID)
+            if m1.__class__ is not dict or not UNIQUE_IDENTIFIER_MSGS__UUID_KEYS.issuperset(m1):
+                m1 = _submap(m1, UNIQUE_IDENTIFIER_MSGS__UUID_KEYS)
             f = ".goal_id.uuid"
             b2, c3 = encode_array(m1.get("uuid", bytes(16)), _D_uint8, "uint8", 16, True)
             out.append(b2)
             pos += c3 * 1
             f = ".goal"
             m5 = d.get("goal", EMPTY)
-            if m5.__class__ is not dict or not _K_test_msgs__action__Fibonacci_Goal.issuperset(m5):
-                m5 = _submap(m5, _K_test_msgs__action__Fibonacci_Goal)
+            if m5.__class__ is not dict or not FIBONACCI_GOAL_KEYS.issuperset(m5):
+                m5 = _submap(m5, FIBONACCI_GOAL_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -10402,11 +9710,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(_S_i.pack(m5.get("order", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_i,
-                        _R_test_msgs__action__Fibonacci_SendGoal_Request_0,
-                        (m5.get("order", 0),),
-                    )
+                    slow_pack(_S_i, FIBONACCI_SEND_GOAL_REQUEST_RUN_0, (m5.get("order", 0),))
                 )
             pos += 4
         except FieldError as error:
@@ -10415,16 +9719,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__Fibonacci_SendGoal_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def fibonacci_send_goal_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__action__Fibonacci_SendGoal_Response_0
+            f = FIBONACCI_SEND_GOAL_RESPONSE_RUN_0
             (v2,) = _S_T.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__Fibonacci_SendGoal_Response_1
+            f = FIBONACCI_SEND_GOAL_RESPONSE_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -10432,25 +9734,18 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__Fibonacci_SendGoal_Response(
-                v2, make_builtin_interfaces__msg__Time(v4, v5)
-            ), pos
+            return fibonacci_send_goal_response_view(v2, builtin_interfaces__time_view(v4, v5)), pos
         return {"accepted": v2, "stamp": {"sec": v4, "nanosec": v5}}, pos
 
-    def encode_test_msgs__action__Fibonacci_SendGoal_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def fibonacci_send_goal_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__Fibonacci_SendGoal_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__Fibonacci_SendGoal_Response)
+            if d.__class__ is not dict or not FIBONACCI_SEND_GOAL_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, FIBONACCI_SEND_GOAL_RESPONSE_KEYS)
             f = ".stamp"
             m3 = d.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(
@@ -10466,7 +9761,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_test_msgs__action__Fibonacci_SendGoal_Response_0,
+                        FIBONACCI_SEND_GOAL_RESPONSE_RUN_0,
                         (
                             (
                                 t1
@@ -10488,7 +9783,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_test_msgs__action__Fibonacci_SendGoal_Response_1,
+                        FIBONACCI_SEND_GOAL_RESPONSE_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -10502,16 +9797,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__Fibonacci_SendGoal_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def fibonacci_send_goal_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__action__Fibonacci_SendGoal_Event_0
+            f = FIBONACCI_SEND_GOAL_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__Fibonacci_SendGoal_Event_1
+            f = FIBONACCI_SEND_GOAL_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -10520,39 +9813,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_test_msgs__action__Fibonacci_SendGoal_Event_2
+            f = FIBONACCI_SEND_GOAL_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_test_msgs__action__Fibonacci_SendGoal_Request,
-                None,
-                1,
-                20,
+                mv, pos, lim, _U32, fibonacci_send_goal_request_decode, None, 1, 20
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_test_msgs__action__Fibonacci_SendGoal_Response,
-                None,
-                1,
-                9,
+                mv, pos, lim, _U32, fibonacci_send_goal_response_decode, None, 1, 9
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__Fibonacci_SendGoal_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return fibonacci_send_goal_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -10568,34 +9847,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_test_msgs__action__Fibonacci_SendGoal_Event(d: Any, out: list[Any], pos: int) -> int:
+    def fibonacci_send_goal_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__Fibonacci_SendGoal_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__Fibonacci_SendGoal_Event)
+            if d.__class__ is not dict or not FIBONACCI_SEND_GOAL_EVENT_KEYS.issuperset(d):
+                d = _submap(d, FIBONACCI_SEND_GOAL_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_test_msgs__action__Fibonacci_SendGoal_Event_0,
-                        (m1.get("event_type", 0),),
-                    )
+                    slow_pack(_S_B, FIBONACCI_SEND_GOAL_EVENT_RUN_0, (m1.get("event_type", 0),))
                 )
             pos += 1
             p = -pos & 3
@@ -10611,7 +9881,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_test_msgs__action__Fibonacci_SendGoal_Event_1,
+                        FIBONACCI_SEND_GOAL_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -10631,31 +9901,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_q,
-                        _R_test_msgs__action__Fibonacci_SendGoal_Event_2,
-                        (m1.get("sequence_number", 0),),
+                        _S_q, FIBONACCI_SEND_GOAL_EVENT_RUN_2, (m1.get("sequence_number", 0),)
                     )
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__action__Fibonacci_SendGoal_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, fibonacci_send_goal_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
-                d.get("response", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__action__Fibonacci_SendGoal_Response,
-                1,
-                False,
+                d.get("response", ()), out, pos, _U32, fibonacci_send_goal_response_encode, 1, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -10663,9 +9919,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__Fibonacci_GetResult_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def fibonacci_get_result_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".goal_id.uuid"
@@ -10678,25 +9932,18 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__Fibonacci_GetResult_Request(
-                make_unique_identifier_msgs__msg__UUID(v4)
-            ), pos
+            return fibonacci_get_result_request_view(unique_identifier_msgs__uuid_view(v4)), pos
         return {"goal_id": {"uuid": v4.tobytes()}}, pos
 
-    def encode_test_msgs__action__Fibonacci_GetResult_Request(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def fibonacci_get_result_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__Fibonacci_GetResult_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__Fibonacci_GetResult_Request)
+            if d.__class__ is not dict or not FIBONACCI_GET_RESULT_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, FIBONACCI_GET_RESULT_REQUEST_KEYS)
             f = ".goal_id"
             m1 = d.get("goal_id", EMPTY)
-            if m1.__class__ is not dict or not _K_unique_identifier_msgs__msg__UUID.issuperset(m1):
-                m1 = _submap(m1, _K_unique_identifier_msgs__msg__UUID)
+            if m1.__class__ is not dict or not UNIQUE_IDENTIFIER_MSGS__UUID_KEYS.issuperset(m1):
+                m1 = _submap(m1, UNIQUE_IDENTIFIER_MSGS__UUID_KEYS)
             f = ".goal_id.uuid"
             b2, c3 = encode_array(m1.get("uuid", bytes(16)), _D_uint8, "uint8", 16, True)
             out.append(b2)
@@ -10707,64 +9954,51 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__Fibonacci_GetResult_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def fibonacci_get_result_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__action__Fibonacci_GetResult_Response_0
+            f = FIBONACCI_GET_RESULT_RESPONSE_RUN_0
             (v1,) = _S_b.unpack_from(mv, pos)
             pos += 1
             f = ".result"
-            v2, pos = decode_test_msgs__action__Fibonacci_Result(mv, pos, lim)
+            v2, pos = fibonacci_result_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__Fibonacci_GetResult_Response(v1, v2), pos
+            return fibonacci_get_result_response_view(v1, v2), pos
         return {"status": v1, "result": v2}, pos
 
-    def encode_test_msgs__action__Fibonacci_GetResult_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def fibonacci_get_result_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__Fibonacci_GetResult_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__Fibonacci_GetResult_Response)
+            if d.__class__ is not dict or not FIBONACCI_GET_RESULT_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, FIBONACCI_GET_RESULT_RESPONSE_KEYS)
             f = ""
             try:
                 out.append(_S_b.pack(d.get("status", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_b,
-                        _R_test_msgs__action__Fibonacci_GetResult_Response_0,
-                        (d.get("status", 0),),
-                    )
+                    slow_pack(_S_b, FIBONACCI_GET_RESULT_RESPONSE_RUN_0, (d.get("status", 0),))
                 )
             pos += 1
             f = ".result"
-            pos = encode_test_msgs__action__Fibonacci_Result(d.get("result", EMPTY), out, pos)
+            pos = fibonacci_result_encode(d.get("result", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__Fibonacci_GetResult_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def fibonacci_get_result_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__action__Fibonacci_GetResult_Event_0
+            f = FIBONACCI_GET_RESULT_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__Fibonacci_GetResult_Event_1
+            f = FIBONACCI_GET_RESULT_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -10773,39 +10007,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_test_msgs__action__Fibonacci_GetResult_Event_2
+            f = FIBONACCI_GET_RESULT_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_test_msgs__action__Fibonacci_GetResult_Request,
-                None,
-                1,
-                16,
+                mv, pos, lim, _U32, fibonacci_get_result_request_decode, None, 1, 16
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_test_msgs__action__Fibonacci_GetResult_Response,
-                None,
-                1,
-                5,
+                mv, pos, lim, _U32, fibonacci_get_result_response_decode, None, 1, 5
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__Fibonacci_GetResult_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return fibonacci_get_result_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -10821,36 +10041,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_test_msgs__action__Fibonacci_GetResult_Event(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def fibonacci_get_result_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__Fibonacci_GetResult_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__Fibonacci_GetResult_Event)
+            if d.__class__ is not dict or not FIBONACCI_GET_RESULT_EVENT_KEYS.issuperset(d):
+                d = _submap(d, FIBONACCI_GET_RESULT_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_test_msgs__action__Fibonacci_GetResult_Event_0,
-                        (m1.get("event_type", 0),),
-                    )
+                    slow_pack(_S_B, FIBONACCI_GET_RESULT_EVENT_RUN_0, (m1.get("event_type", 0),))
                 )
             pos += 1
             p = -pos & 3
@@ -10866,7 +10075,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_test_msgs__action__Fibonacci_GetResult_Event_1,
+                        FIBONACCI_GET_RESULT_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -10886,21 +10095,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_q,
-                        _R_test_msgs__action__Fibonacci_GetResult_Event_2,
-                        (m1.get("sequence_number", 0),),
+                        _S_q, FIBONACCI_GET_RESULT_EVENT_RUN_2, (m1.get("sequence_number", 0),)
                     )
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_test_msgs__action__Fibonacci_GetResult_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, fibonacci_get_result_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
@@ -10908,7 +10109,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__action__Fibonacci_GetResult_Response,
+                fibonacci_get_result_response_encode,
                 1,
                 False,
             )
@@ -10918,9 +10119,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__Fibonacci_FeedbackMessage(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def fibonacci_feedback_message_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".goal_id.uuid"
@@ -10929,54 +10128,45 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             f = ".feedback"
-            v5, pos = decode_test_msgs__action__Fibonacci_Feedback(mv, pos, lim)
+            v5, pos = fibonacci_feedback_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__Fibonacci_FeedbackMessage(
-                make_unique_identifier_msgs__msg__UUID(v4), v5
-            ), pos
+            return fibonacci_feedback_message_view(unique_identifier_msgs__uuid_view(v4), v5), pos
         return {"goal_id": {"uuid": v4.tobytes()}, "feedback": v5}, pos
 
-    def encode_test_msgs__action__Fibonacci_FeedbackMessage(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def fibonacci_feedback_message_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__Fibonacci_FeedbackMessage.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__Fibonacci_FeedbackMessage)
+            if d.__class__ is not dict or not FIBONACCI_FEEDBACK_MESSAGE_KEYS.issuperset(d):
+                d = _submap(d, FIBONACCI_FEEDBACK_MESSAGE_KEYS)
             f = ".goal_id"
             m1 = d.get("goal_id", EMPTY)
-            if m1.__class__ is not dict or not _K_unique_identifier_msgs__msg__UUID.issuperset(m1):
-                m1 = _submap(m1, _K_unique_identifier_msgs__msg__UUID)
+            if m1.__class__ is not dict or not UNIQUE_IDENTIFIER_MSGS__UUID_KEYS.issuperset(m1):
+                m1 = _submap(m1, UNIQUE_IDENTIFIER_MSGS__UUID_KEYS)
             f = ".goal_id.uuid"
             b2, c3 = encode_array(m1.get("uuid", bytes(16)), _D_uint8, "uint8", 16, True)
             out.append(b2)
             pos += c3 * 1
             f = ".feedback"
-            pos = encode_test_msgs__action__Fibonacci_Feedback(d.get("feedback", EMPTY), out, pos)
+            pos = fibonacci_feedback_encode(d.get("feedback", EMPTY), out, pos)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__NestedMessage_Goal(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def nested_message_goal_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_Goal_0
+            f = NESTED_MESSAGE_GOAL_RUN_0
             v3, v4, v6, v7, v10, v11, v12, v13 = _S_iIiIT2B1xf.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_Goal_1
+            f = NESTED_MESSAGE_GOAL_RUN_1
             v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S_dbBhH2xiIqQiI.unpack_from(
                 mv, pos
             )
@@ -10986,15 +10176,12 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__NestedMessage_Goal(
-                make_test_msgs__msg__Builtins(
-                    make_builtin_interfaces__msg__Duration(v3, v4),
-                    make_builtin_interfaces__msg__Time(v6, v7),
+            return nested_message_goal_view(
+                builtins_view(
+                    builtin_interfaces__duration_view(v3, v4), builtin_interfaces__time_view(v6, v7)
                 ),
-                make_test_msgs__msg__BasicTypes(
-                    v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22
-                ),
-                make_builtin_interfaces__msg__Time(v24, v25),
+                basic_types_view(v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22),
+                builtin_interfaces__time_view(v24, v25),
             ), pos
         return {
             "nested_field_no_pkg": {
@@ -11019,33 +10206,31 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "nested_different_pkg": {"sec": v24, "nanosec": v25},
         }, pos
 
-    def encode_test_msgs__action__NestedMessage_Goal(d: Any, out: list[Any], pos: int) -> int:
+    def nested_message_goal_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__action__NestedMessage_Goal.issuperset(
-                d
-            ):
-                d = _submap(d, _K_test_msgs__action__NestedMessage_Goal)
+            if d.__class__ is not dict or not NESTED_MESSAGE_GOAL_KEYS.issuperset(d):
+                d = _submap(d, NESTED_MESSAGE_GOAL_KEYS)
             f = ".nested_field_no_pkg"
             m1 = d.get("nested_field_no_pkg", EMPTY)
-            if m1.__class__ is not dict or not _K_test_msgs__msg__Builtins.issuperset(m1):
-                m1 = _submap(m1, _K_test_msgs__msg__Builtins)
+            if m1.__class__ is not dict or not BUILTINS_KEYS.issuperset(m1):
+                m1 = _submap(m1, BUILTINS_KEYS)
             f = ".nested_field_no_pkg.duration_value"
             m2 = m1.get("duration_value", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Duration)
+            if m2.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m2):
+                m2 = _submap(m2, BUILTIN_INTERFACES__DURATION_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".nested_field_no_pkg.time_value"
             m5 = m1.get("time_value", EMPTY)
-            if m5.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m5):
-                m5 = _submap(m5, _K_builtin_interfaces__msg__Time)
+            if m5.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m5):
+                m5 = _submap(m5, BUILTIN_INTERFACES__TIME_KEYS)
             f = ".nested_field"
             m8 = d.get("nested_field", EMPTY)
-            if m8.__class__ is not dict or not _K_test_msgs__msg__BasicTypes.issuperset(m8):
-                m8 = _submap(m8, _K_test_msgs__msg__BasicTypes)
+            if m8.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m8):
+                m8 = _submap(m8, BASIC_TYPES_KEYS)
             f = ""
             try:
                 out.append(
@@ -11068,7 +10253,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iIiIT2B1xf,
-                        _R_test_msgs__action__NestedMessage_Goal_0,
+                        NESTED_MESSAGE_GOAL_RUN_0,
                         (
                             m2.get("sec", 0),
                             m2.get("nanosec", 0),
@@ -11092,8 +10277,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 pos += p
             f = ".nested_different_pkg"
             m23 = d.get("nested_different_pkg", EMPTY)
-            if m23.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m23):
-                m23 = _submap(m23, _K_builtin_interfaces__msg__Time)
+            if m23.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m23):
+                m23 = _submap(m23, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(
@@ -11115,7 +10300,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQiI,
-                        _R_test_msgs__action__NestedMessage_Goal_1,
+                        NESTED_MESSAGE_GOAL_RUN_1,
                         (
                             m8.get("float64_value", 0.0),
                             m8.get("int8_value", 0),
@@ -11138,17 +10323,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__NestedMessage_Result(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def nested_message_result_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_Result_0
+            f = NESTED_MESSAGE_RESULT_RUN_0
             v3, v4, v6, v7, v10, v11, v12, v13 = _S_iIiIT2B1xf.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_Result_1
+            f = NESTED_MESSAGE_RESULT_RUN_1
             v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S_dbBhH2xiIqQiI.unpack_from(
                 mv, pos
             )
@@ -11158,15 +10341,12 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__NestedMessage_Result(
-                make_test_msgs__msg__Builtins(
-                    make_builtin_interfaces__msg__Duration(v3, v4),
-                    make_builtin_interfaces__msg__Time(v6, v7),
+            return nested_message_result_view(
+                builtins_view(
+                    builtin_interfaces__duration_view(v3, v4), builtin_interfaces__time_view(v6, v7)
                 ),
-                make_test_msgs__msg__BasicTypes(
-                    v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22
-                ),
-                make_builtin_interfaces__msg__Time(v24, v25),
+                basic_types_view(v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22),
+                builtin_interfaces__time_view(v24, v25),
             ), pos
         return {
             "nested_field_no_pkg": {
@@ -11191,33 +10371,31 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "nested_different_pkg": {"sec": v24, "nanosec": v25},
         }, pos
 
-    def encode_test_msgs__action__NestedMessage_Result(d: Any, out: list[Any], pos: int) -> int:
+    def nested_message_result_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_test_msgs__action__NestedMessage_Result.issuperset(
-                d
-            ):
-                d = _submap(d, _K_test_msgs__action__NestedMessage_Result)
+            if d.__class__ is not dict or not NESTED_MESSAGE_RESULT_KEYS.issuperset(d):
+                d = _submap(d, NESTED_MESSAGE_RESULT_KEYS)
             f = ".nested_field_no_pkg"
             m1 = d.get("nested_field_no_pkg", EMPTY)
-            if m1.__class__ is not dict or not _K_test_msgs__msg__Builtins.issuperset(m1):
-                m1 = _submap(m1, _K_test_msgs__msg__Builtins)
+            if m1.__class__ is not dict or not BUILTINS_KEYS.issuperset(m1):
+                m1 = _submap(m1, BUILTINS_KEYS)
             f = ".nested_field_no_pkg.duration_value"
             m2 = m1.get("duration_value", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Duration)
+            if m2.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m2):
+                m2 = _submap(m2, BUILTIN_INTERFACES__DURATION_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".nested_field_no_pkg.time_value"
             m5 = m1.get("time_value", EMPTY)
-            if m5.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m5):
-                m5 = _submap(m5, _K_builtin_interfaces__msg__Time)
+            if m5.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m5):
+                m5 = _submap(m5, BUILTIN_INTERFACES__TIME_KEYS)
             f = ".nested_field"
             m8 = d.get("nested_field", EMPTY)
-            if m8.__class__ is not dict or not _K_test_msgs__msg__BasicTypes.issuperset(m8):
-                m8 = _submap(m8, _K_test_msgs__msg__BasicTypes)
+            if m8.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m8):
+                m8 = _submap(m8, BASIC_TYPES_KEYS)
             f = ""
             try:
                 out.append(
@@ -11240,7 +10418,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iIiIT2B1xf,
-                        _R_test_msgs__action__NestedMessage_Result_0,
+                        NESTED_MESSAGE_RESULT_RUN_0,
                         (
                             m2.get("sec", 0),
                             m2.get("nanosec", 0),
@@ -11264,8 +10442,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 pos += p
             f = ".nested_different_pkg"
             m23 = d.get("nested_different_pkg", EMPTY)
-            if m23.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m23):
-                m23 = _submap(m23, _K_builtin_interfaces__msg__Time)
+            if m23.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m23):
+                m23 = _submap(m23, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(
@@ -11287,7 +10465,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQiI,
-                        _R_test_msgs__action__NestedMessage_Result_1,
+                        NESTED_MESSAGE_RESULT_RUN_1,
                         (
                             m8.get("float64_value", 0.0),
                             m8.get("int8_value", 0),
@@ -11310,17 +10488,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__NestedMessage_Feedback(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def nested_message_feedback_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_Feedback_0
+            f = NESTED_MESSAGE_FEEDBACK_RUN_0
             v3, v4, v6, v7, v10, v11, v12, v13 = _S_iIiIT2B1xf.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_Feedback_1
+            f = NESTED_MESSAGE_FEEDBACK_RUN_1
             v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S_dbBhH2xiIqQiI.unpack_from(
                 mv, pos
             )
@@ -11330,15 +10506,12 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__NestedMessage_Feedback(
-                make_test_msgs__msg__Builtins(
-                    make_builtin_interfaces__msg__Duration(v3, v4),
-                    make_builtin_interfaces__msg__Time(v6, v7),
+            return nested_message_feedback_view(
+                builtins_view(
+                    builtin_interfaces__duration_view(v3, v4), builtin_interfaces__time_view(v6, v7)
                 ),
-                make_test_msgs__msg__BasicTypes(
-                    v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22
-                ),
-                make_builtin_interfaces__msg__Time(v24, v25),
+                basic_types_view(v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22),
+                builtin_interfaces__time_view(v24, v25),
             ), pos
         return {
             "nested_field_no_pkg": {
@@ -11363,34 +10536,31 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "nested_different_pkg": {"sec": v24, "nanosec": v25},
         }, pos
 
-    def encode_test_msgs__action__NestedMessage_Feedback(d: Any, out: list[Any], pos: int) -> int:
+    def nested_message_feedback_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__NestedMessage_Feedback.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__NestedMessage_Feedback)
+            if d.__class__ is not dict or not NESTED_MESSAGE_FEEDBACK_KEYS.issuperset(d):
+                d = _submap(d, NESTED_MESSAGE_FEEDBACK_KEYS)
             f = ".nested_field_no_pkg"
             m1 = d.get("nested_field_no_pkg", EMPTY)
-            if m1.__class__ is not dict or not _K_test_msgs__msg__Builtins.issuperset(m1):
-                m1 = _submap(m1, _K_test_msgs__msg__Builtins)
+            if m1.__class__ is not dict or not BUILTINS_KEYS.issuperset(m1):
+                m1 = _submap(m1, BUILTINS_KEYS)
             f = ".nested_field_no_pkg.duration_value"
             m2 = m1.get("duration_value", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Duration)
+            if m2.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m2):
+                m2 = _submap(m2, BUILTIN_INTERFACES__DURATION_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".nested_field_no_pkg.time_value"
             m5 = m1.get("time_value", EMPTY)
-            if m5.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m5):
-                m5 = _submap(m5, _K_builtin_interfaces__msg__Time)
+            if m5.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m5):
+                m5 = _submap(m5, BUILTIN_INTERFACES__TIME_KEYS)
             f = ".nested_field"
             m8 = d.get("nested_field", EMPTY)
-            if m8.__class__ is not dict or not _K_test_msgs__msg__BasicTypes.issuperset(m8):
-                m8 = _submap(m8, _K_test_msgs__msg__BasicTypes)
+            if m8.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m8):
+                m8 = _submap(m8, BASIC_TYPES_KEYS)
             f = ""
             try:
                 out.append(
@@ -11413,7 +10583,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iIiIT2B1xf,
-                        _R_test_msgs__action__NestedMessage_Feedback_0,
+                        NESTED_MESSAGE_FEEDBACK_RUN_0,
                         (
                             m2.get("sec", 0),
                             m2.get("nanosec", 0),
@@ -11437,8 +10607,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 pos += p
             f = ".nested_different_pkg"
             m23 = d.get("nested_different_pkg", EMPTY)
-            if m23.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m23):
-                m23 = _submap(m23, _K_builtin_interfaces__msg__Time)
+            if m23.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m23):
+                m23 = _submap(m23, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(
@@ -11460,7 +10630,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQiI,
-                        _R_test_msgs__action__NestedMessage_Feedback_1,
+                        NESTED_MESSAGE_FEEDBACK_RUN_1,
                         (
                             m8.get("float64_value", 0.0),
                             m8.get("int8_value", 0),
@@ -11483,7 +10653,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__NestedMessage_SendGoal_Request(
+    def nested_message_send_goal_request_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -11494,11 +10664,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_SendGoal_Request_0
+            f = NESTED_MESSAGE_SEND_GOAL_REQUEST_RUN_0
             v8, v9, v11, v12, v15, v16, v17, v18 = _S_iIiIT2B1xf.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_SendGoal_Request_1
+            f = NESTED_MESSAGE_SEND_GOAL_REQUEST_RUN_1
             v19, v20, v21, v22, v23, v24, v25, v26, v27, v29, v30 = _S_dbBhH2xiIqQiI.unpack_from(
                 mv, pos
             )
@@ -11508,17 +10678,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__NestedMessage_SendGoal_Request(
-                make_unique_identifier_msgs__msg__UUID(v4),
-                make_test_msgs__action__NestedMessage_Goal(
-                    make_test_msgs__msg__Builtins(
-                        make_builtin_interfaces__msg__Duration(v8, v9),
-                        make_builtin_interfaces__msg__Time(v11, v12),
+            return nested_message_send_goal_request_view(
+                unique_identifier_msgs__uuid_view(v4),
+                nested_message_goal_view(
+                    builtins_view(
+                        builtin_interfaces__duration_view(v8, v9),
+                        builtin_interfaces__time_view(v11, v12),
                     ),
-                    make_test_msgs__msg__BasicTypes(
+                    basic_types_view(
                         v15, v16, v17, v18, v19, v20, v21, v22, v23, v24, v25, v26, v27
                     ),
-                    make_builtin_interfaces__msg__Time(v29, v30),
+                    builtin_interfaces__time_view(v29, v30),
                 ),
             ), pos
         return {
@@ -11547,50 +10717,43 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_test_msgs__action__NestedMessage_SendGoal_Request(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def nested_message_send_goal_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__NestedMessage_SendGoal_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__NestedMessage_SendGoal_Request)
+            if d.__class__ is not dict or not NESTED_MESSAGE_SEND_GOAL_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, NESTED_MESSAGE_SEND_GOAL_REQUEST_KEYS)
             f = ".goal_id"
             m1 = d.get("goal_id", EMPTY)
-            if m1.__class__ is not dict or not _K_unique_identifier_msgs__msg__UUID.issuperset(m1):
-                m1 = _submap(m1, _K_unique_identifier_msgs__msg__UUID)
+            if m1.__class__ is not dict or not UNIQUE_IDENTIFIER_MSGS__UUID_KEYS.issuperset(m1):
+                m1 = _submap(m1, UNIQUE_IDENTIFIER_MSGS__UUID_KEYS)
             f = ".goal_id.uuid"
             b2, c3 = encode_array(m1.get("uuid", bytes(16)), _D_uint8, "uint8", 16, True)
             out.append(b2)
             pos += c3 * 1
             f = ".goal"
             m5 = d.get("goal", EMPTY)
-            if m5.__class__ is not dict or not _K_test_msgs__action__NestedMessage_Goal.issuperset(
-                m5
-            ):
-                m5 = _submap(m5, _K_test_msgs__action__NestedMessage_Goal)
+            if m5.__class__ is not dict or not NESTED_MESSAGE_GOAL_KEYS.issuperset(m5):
+                m5 = _submap(m5, NESTED_MESSAGE_GOAL_KEYS)
             f = ".goal.nested_field_no_pkg"
             m6 = m5.get("nested_field_no_pkg", EMPTY)
-            if m6.__class__ is not dict or not _K_test_msgs__msg__Builtins.issuperset(m6):
-                m6 = _submap(m6, _K_test_msgs__msg__Builtins)
+            if m6.__class__ is not dict or not BUILTINS_KEYS.issuperset(m6):
+                m6 = _submap(m6, BUILTINS_KEYS)
             f = ".goal.nested_field_no_pkg.duration_value"
             m7 = m6.get("duration_value", EMPTY)
-            if m7.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(m7):
-                m7 = _submap(m7, _K_builtin_interfaces__msg__Duration)
+            if m7.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m7):
+                m7 = _submap(m7, BUILTIN_INTERFACES__DURATION_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".goal.nested_field_no_pkg.time_value"
             m10 = m6.get("time_value", EMPTY)
-            if m10.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m10):
-                m10 = _submap(m10, _K_builtin_interfaces__msg__Time)
+            if m10.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m10):
+                m10 = _submap(m10, BUILTIN_INTERFACES__TIME_KEYS)
             f = ".goal.nested_field"
             m13 = m5.get("nested_field", EMPTY)
-            if m13.__class__ is not dict or not _K_test_msgs__msg__BasicTypes.issuperset(m13):
-                m13 = _submap(m13, _K_test_msgs__msg__BasicTypes)
+            if m13.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m13):
+                m13 = _submap(m13, BASIC_TYPES_KEYS)
             f = ""
             try:
                 out.append(
@@ -11613,7 +10776,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iIiIT2B1xf,
-                        _R_test_msgs__action__NestedMessage_SendGoal_Request_0,
+                        NESTED_MESSAGE_SEND_GOAL_REQUEST_RUN_0,
                         (
                             m7.get("sec", 0),
                             m7.get("nanosec", 0),
@@ -11637,8 +10800,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 pos += p
             f = ".goal.nested_different_pkg"
             m28 = m5.get("nested_different_pkg", EMPTY)
-            if m28.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m28):
-                m28 = _submap(m28, _K_builtin_interfaces__msg__Time)
+            if m28.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m28):
+                m28 = _submap(m28, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(
@@ -11660,7 +10823,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQiI,
-                        _R_test_msgs__action__NestedMessage_SendGoal_Request_1,
+                        NESTED_MESSAGE_SEND_GOAL_REQUEST_RUN_1,
                         (
                             m13.get("float64_value", 0.0),
                             m13.get("int8_value", 0),
@@ -11683,16 +10846,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__NestedMessage_SendGoal_Response(
+    def nested_message_send_goal_response_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__action__NestedMessage_SendGoal_Response_0
+            f = NESTED_MESSAGE_SEND_GOAL_RESPONSE_RUN_0
             (v2,) = _S_T.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_SendGoal_Response_1
+            f = NESTED_MESSAGE_SEND_GOAL_RESPONSE_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -11700,25 +10863,20 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__NestedMessage_SendGoal_Response(
-                v2, make_builtin_interfaces__msg__Time(v4, v5)
+            return nested_message_send_goal_response_view(
+                v2, builtin_interfaces__time_view(v4, v5)
             ), pos
         return {"accepted": v2, "stamp": {"sec": v4, "nanosec": v5}}, pos
 
-    def encode_test_msgs__action__NestedMessage_SendGoal_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def nested_message_send_goal_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__NestedMessage_SendGoal_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__NestedMessage_SendGoal_Response)
+            if d.__class__ is not dict or not NESTED_MESSAGE_SEND_GOAL_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, NESTED_MESSAGE_SEND_GOAL_RESPONSE_KEYS)
             f = ".stamp"
             m3 = d.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(
@@ -11734,7 +10892,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_test_msgs__action__NestedMessage_SendGoal_Response_0,
+                        NESTED_MESSAGE_SEND_GOAL_RESPONSE_RUN_0,
                         (
                             (
                                 t1
@@ -11756,7 +10914,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_test_msgs__action__NestedMessage_SendGoal_Response_1,
+                        NESTED_MESSAGE_SEND_GOAL_RESPONSE_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -11770,16 +10928,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__NestedMessage_SendGoal_Event(
+    def nested_message_send_goal_event_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__action__NestedMessage_SendGoal_Event_0
+            f = NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_SendGoal_Event_1
+            f = NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -11788,39 +10946,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_SendGoal_Event_2
+            f = NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_test_msgs__action__NestedMessage_SendGoal_Request,
-                None,
-                1,
-                85,
+                mv, pos, lim, _U32, nested_message_send_goal_request_decode, None, 1, 85
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_test_msgs__action__NestedMessage_SendGoal_Response,
-                None,
-                1,
-                9,
+                mv, pos, lim, _U32, nested_message_send_goal_response_decode, None, 1, 9
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__NestedMessage_SendGoal_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return nested_message_send_goal_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -11836,35 +10980,26 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_test_msgs__action__NestedMessage_SendGoal_Event(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def nested_message_send_goal_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__NestedMessage_SendGoal_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__NestedMessage_SendGoal_Event)
+            if d.__class__ is not dict or not NESTED_MESSAGE_SEND_GOAL_EVENT_KEYS.issuperset(d):
+                d = _submap(d, NESTED_MESSAGE_SEND_GOAL_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_B,
-                        _R_test_msgs__action__NestedMessage_SendGoal_Event_0,
-                        (m1.get("event_type", 0),),
+                        _S_B, NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_0, (m1.get("event_type", 0),)
                     )
                 )
             pos += 1
@@ -11881,7 +11016,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_test_msgs__action__NestedMessage_SendGoal_Event_1,
+                        NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -11901,9 +11036,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_q,
-                        _R_test_msgs__action__NestedMessage_SendGoal_Event_2,
-                        (m1.get("sequence_number", 0),),
+                        _S_q, NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_2, (m1.get("sequence_number", 0),)
                     )
                 )
             pos += 8
@@ -11913,7 +11046,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__action__NestedMessage_SendGoal_Request,
+                nested_message_send_goal_request_encode,
                 1,
                 False,
             )
@@ -11923,7 +11056,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__action__NestedMessage_SendGoal_Response,
+                nested_message_send_goal_response_encode,
                 1,
                 False,
             )
@@ -11933,7 +11066,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__NestedMessage_GetResult_Request(
+    def nested_message_get_result_request_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -11948,25 +11081,20 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__NestedMessage_GetResult_Request(
-                make_unique_identifier_msgs__msg__UUID(v4)
+            return nested_message_get_result_request_view(
+                unique_identifier_msgs__uuid_view(v4)
             ), pos
         return {"goal_id": {"uuid": v4.tobytes()}}, pos
 
-    def encode_test_msgs__action__NestedMessage_GetResult_Request(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def nested_message_get_result_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__NestedMessage_GetResult_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__NestedMessage_GetResult_Request)
+            if d.__class__ is not dict or not NESTED_MESSAGE_GET_RESULT_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, NESTED_MESSAGE_GET_RESULT_REQUEST_KEYS)
             f = ".goal_id"
             m1 = d.get("goal_id", EMPTY)
-            if m1.__class__ is not dict or not _K_unique_identifier_msgs__msg__UUID.issuperset(m1):
-                m1 = _submap(m1, _K_unique_identifier_msgs__msg__UUID)
+            if m1.__class__ is not dict or not UNIQUE_IDENTIFIER_MSGS__UUID_KEYS.issuperset(m1):
+                m1 = _submap(m1, UNIQUE_IDENTIFIER_MSGS__UUID_KEYS)
             f = ".goal_id.uuid"
             b2, c3 = encode_array(m1.get("uuid", bytes(16)), _D_uint8, "uint8", 16, True)
             out.append(b2)
@@ -11977,20 +11105,20 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__NestedMessage_GetResult_Response(
+    def nested_message_get_result_response_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__action__NestedMessage_GetResult_Response_0
+            f = NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_0
             (v1,) = _S_b.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_GetResult_Response_1
+            f = NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_1
             v5, v6, v8, v9, v12, v13, v14, v15 = _S_iIiIT2B1xf.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_GetResult_Response_2
+            f = NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_2
             v16, v17, v18, v19, v20, v21, v22, v23, v24, v26, v27 = _S_dbBhH2xiIqQiI.unpack_from(
                 mv, pos
             )
@@ -12000,17 +11128,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__NestedMessage_GetResult_Response(
+            return nested_message_get_result_response_view(
                 v1,
-                make_test_msgs__action__NestedMessage_Result(
-                    make_test_msgs__msg__Builtins(
-                        make_builtin_interfaces__msg__Duration(v5, v6),
-                        make_builtin_interfaces__msg__Time(v8, v9),
+                nested_message_result_view(
+                    builtins_view(
+                        builtin_interfaces__duration_view(v5, v6),
+                        builtin_interfaces__time_view(v8, v9),
                     ),
-                    make_test_msgs__msg__BasicTypes(
+                    basic_types_view(
                         v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22, v23, v24
                     ),
-                    make_builtin_interfaces__msg__Time(v26, v27),
+                    builtin_interfaces__time_view(v26, v27),
                 ),
             ), pos
         return {
@@ -12039,41 +11167,29 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_test_msgs__action__NestedMessage_GetResult_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def nested_message_get_result_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__NestedMessage_GetResult_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__NestedMessage_GetResult_Response)
+            if d.__class__ is not dict or not NESTED_MESSAGE_GET_RESULT_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, NESTED_MESSAGE_GET_RESULT_RESPONSE_KEYS)
             f = ".result"
             m2 = d.get("result", EMPTY)
-            if (
-                m2.__class__ is not dict
-                or not _K_test_msgs__action__NestedMessage_Result.issuperset(m2)
-            ):
-                m2 = _submap(m2, _K_test_msgs__action__NestedMessage_Result)
+            if m2.__class__ is not dict or not NESTED_MESSAGE_RESULT_KEYS.issuperset(m2):
+                m2 = _submap(m2, NESTED_MESSAGE_RESULT_KEYS)
             f = ".result.nested_field_no_pkg"
             m3 = m2.get("nested_field_no_pkg", EMPTY)
-            if m3.__class__ is not dict or not _K_test_msgs__msg__Builtins.issuperset(m3):
-                m3 = _submap(m3, _K_test_msgs__msg__Builtins)
+            if m3.__class__ is not dict or not BUILTINS_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTINS_KEYS)
             f = ".result.nested_field_no_pkg.duration_value"
             m4 = m3.get("duration_value", EMPTY)
-            if m4.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(m4):
-                m4 = _submap(m4, _K_builtin_interfaces__msg__Duration)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__DURATION_KEYS)
             f = ""
             try:
                 out.append(_S_b.pack(d.get("status", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_b,
-                        _R_test_msgs__action__NestedMessage_GetResult_Response_0,
-                        (d.get("status", 0),),
-                    )
+                    slow_pack(_S_b, NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_0, (d.get("status", 0),))
                 )
             pos += 1
             p = -pos & 3
@@ -12082,12 +11198,12 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 pos += p
             f = ".result.nested_field_no_pkg.time_value"
             m7 = m3.get("time_value", EMPTY)
-            if m7.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m7):
-                m7 = _submap(m7, _K_builtin_interfaces__msg__Time)
+            if m7.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m7):
+                m7 = _submap(m7, BUILTIN_INTERFACES__TIME_KEYS)
             f = ".result.nested_field"
             m10 = m2.get("nested_field", EMPTY)
-            if m10.__class__ is not dict or not _K_test_msgs__msg__BasicTypes.issuperset(m10):
-                m10 = _submap(m10, _K_test_msgs__msg__BasicTypes)
+            if m10.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m10):
+                m10 = _submap(m10, BASIC_TYPES_KEYS)
             f = ""
             try:
                 out.append(
@@ -12110,7 +11226,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iIiIT2B1xf,
-                        _R_test_msgs__action__NestedMessage_GetResult_Response_1,
+                        NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_1,
                         (
                             m4.get("sec", 0),
                             m4.get("nanosec", 0),
@@ -12134,8 +11250,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 pos += p
             f = ".result.nested_different_pkg"
             m25 = m2.get("nested_different_pkg", EMPTY)
-            if m25.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m25):
-                m25 = _submap(m25, _K_builtin_interfaces__msg__Time)
+            if m25.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m25):
+                m25 = _submap(m25, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(
@@ -12157,7 +11273,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQiI,
-                        _R_test_msgs__action__NestedMessage_GetResult_Response_2,
+                        NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_2,
                         (
                             m10.get("float64_value", 0.0),
                             m10.get("int8_value", 0),
@@ -12180,16 +11296,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__NestedMessage_GetResult_Event(
+    def nested_message_get_result_event_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_test_msgs__action__NestedMessage_GetResult_Event_0
+            f = NESTED_MESSAGE_GET_RESULT_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_GetResult_Event_1
+            f = NESTED_MESSAGE_GET_RESULT_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -12198,39 +11314,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_GetResult_Event_2
+            f = NESTED_MESSAGE_GET_RESULT_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_test_msgs__action__NestedMessage_GetResult_Request,
-                None,
-                1,
-                16,
+                mv, pos, lim, _U32, nested_message_get_result_request_decode, None, 1, 16
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_test_msgs__action__NestedMessage_GetResult_Response,
-                None,
-                1,
-                70,
+                mv, pos, lim, _U32, nested_message_get_result_response_decode, None, 1, 70
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__NestedMessage_GetResult_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return nested_message_get_result_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -12246,35 +11348,26 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_test_msgs__action__NestedMessage_GetResult_Event(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def nested_message_get_result_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__NestedMessage_GetResult_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__NestedMessage_GetResult_Event)
+            if d.__class__ is not dict or not NESTED_MESSAGE_GET_RESULT_EVENT_KEYS.issuperset(d):
+                d = _submap(d, NESTED_MESSAGE_GET_RESULT_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_B,
-                        _R_test_msgs__action__NestedMessage_GetResult_Event_0,
-                        (m1.get("event_type", 0),),
+                        _S_B, NESTED_MESSAGE_GET_RESULT_EVENT_RUN_0, (m1.get("event_type", 0),)
                     )
                 )
             pos += 1
@@ -12291,7 +11384,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_test_msgs__action__NestedMessage_GetResult_Event_1,
+                        NESTED_MESSAGE_GET_RESULT_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -12311,9 +11404,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_q,
-                        _R_test_msgs__action__NestedMessage_GetResult_Event_2,
-                        (m1.get("sequence_number", 0),),
+                        _S_q, NESTED_MESSAGE_GET_RESULT_EVENT_RUN_2, (m1.get("sequence_number", 0),)
                     )
                 )
             pos += 8
@@ -12323,7 +11414,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__action__NestedMessage_GetResult_Request,
+                nested_message_get_result_request_encode,
                 1,
                 False,
             )
@@ -12333,7 +11424,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_test_msgs__action__NestedMessage_GetResult_Response,
+                nested_message_get_result_response_encode,
                 1,
                 False,
             )
@@ -12343,7 +11434,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_test_msgs__action__NestedMessage_FeedbackMessage(
+    def nested_message_feedback_message_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
@@ -12354,11 +11445,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 3) & -4
-            f = _R_test_msgs__action__NestedMessage_FeedbackMessage_0
+            f = NESTED_MESSAGE_FEEDBACK_MESSAGE_RUN_0
             v8, v9, v11, v12, v15, v16, v17, v18 = _S_iIiIT2B1xf.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
-            f = _R_test_msgs__action__NestedMessage_FeedbackMessage_1
+            f = NESTED_MESSAGE_FEEDBACK_MESSAGE_RUN_1
             v19, v20, v21, v22, v23, v24, v25, v26, v27, v29, v30 = _S_dbBhH2xiIqQiI.unpack_from(
                 mv, pos
             )
@@ -12368,17 +11459,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_test_msgs__action__NestedMessage_FeedbackMessage(
-                make_unique_identifier_msgs__msg__UUID(v4),
-                make_test_msgs__action__NestedMessage_Feedback(
-                    make_test_msgs__msg__Builtins(
-                        make_builtin_interfaces__msg__Duration(v8, v9),
-                        make_builtin_interfaces__msg__Time(v11, v12),
+            return nested_message_feedback_message_view(
+                unique_identifier_msgs__uuid_view(v4),
+                nested_message_feedback_view(
+                    builtins_view(
+                        builtin_interfaces__duration_view(v8, v9),
+                        builtin_interfaces__time_view(v11, v12),
                     ),
-                    make_test_msgs__msg__BasicTypes(
+                    basic_types_view(
                         v15, v16, v17, v18, v19, v20, v21, v22, v23, v24, v25, v26, v27
                     ),
-                    make_builtin_interfaces__msg__Time(v29, v30),
+                    builtin_interfaces__time_view(v29, v30),
                 ),
             ), pos
         return {
@@ -12407,51 +11498,43 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             },
         }, pos
 
-    def encode_test_msgs__action__NestedMessage_FeedbackMessage(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def nested_message_feedback_message_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_test_msgs__action__NestedMessage_FeedbackMessage.issuperset(d)
-            ):
-                d = _submap(d, _K_test_msgs__action__NestedMessage_FeedbackMessage)
+            if d.__class__ is not dict or not NESTED_MESSAGE_FEEDBACK_MESSAGE_KEYS.issuperset(d):
+                d = _submap(d, NESTED_MESSAGE_FEEDBACK_MESSAGE_KEYS)
             f = ".goal_id"
             m1 = d.get("goal_id", EMPTY)
-            if m1.__class__ is not dict or not _K_unique_identifier_msgs__msg__UUID.issuperset(m1):
-                m1 = _submap(m1, _K_unique_identifier_msgs__msg__UUID)
+            if m1.__class__ is not dict or not UNIQUE_IDENTIFIER_MSGS__UUID_KEYS.issuperset(m1):
+                m1 = _submap(m1, UNIQUE_IDENTIFIER_MSGS__UUID_KEYS)
             f = ".goal_id.uuid"
             b2, c3 = encode_array(m1.get("uuid", bytes(16)), _D_uint8, "uint8", 16, True)
             out.append(b2)
             pos += c3 * 1
             f = ".feedback"
             m5 = d.get("feedback", EMPTY)
-            if (
-                m5.__class__ is not dict
-                or not _K_test_msgs__action__NestedMessage_Feedback.issuperset(m5)
-            ):
-                m5 = _submap(m5, _K_test_msgs__action__NestedMessage_Feedback)
+            if m5.__class__ is not dict or not NESTED_MESSAGE_FEEDBACK_KEYS.issuperset(m5):
+                m5 = _submap(m5, NESTED_MESSAGE_FEEDBACK_KEYS)
             f = ".feedback.nested_field_no_pkg"
             m6 = m5.get("nested_field_no_pkg", EMPTY)
-            if m6.__class__ is not dict or not _K_test_msgs__msg__Builtins.issuperset(m6):
-                m6 = _submap(m6, _K_test_msgs__msg__Builtins)
+            if m6.__class__ is not dict or not BUILTINS_KEYS.issuperset(m6):
+                m6 = _submap(m6, BUILTINS_KEYS)
             f = ".feedback.nested_field_no_pkg.duration_value"
             m7 = m6.get("duration_value", EMPTY)
-            if m7.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(m7):
-                m7 = _submap(m7, _K_builtin_interfaces__msg__Duration)
+            if m7.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m7):
+                m7 = _submap(m7, BUILTIN_INTERFACES__DURATION_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".feedback.nested_field_no_pkg.time_value"
             m10 = m6.get("time_value", EMPTY)
-            if m10.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m10):
-                m10 = _submap(m10, _K_builtin_interfaces__msg__Time)
+            if m10.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m10):
+                m10 = _submap(m10, BUILTIN_INTERFACES__TIME_KEYS)
             f = ".feedback.nested_field"
             m13 = m5.get("nested_field", EMPTY)
-            if m13.__class__ is not dict or not _K_test_msgs__msg__BasicTypes.issuperset(m13):
-                m13 = _submap(m13, _K_test_msgs__msg__BasicTypes)
+            if m13.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m13):
+                m13 = _submap(m13, BASIC_TYPES_KEYS)
             f = ""
             try:
                 out.append(
@@ -12474,7 +11557,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iIiIT2B1xf,
-                        _R_test_msgs__action__NestedMessage_FeedbackMessage_0,
+                        NESTED_MESSAGE_FEEDBACK_MESSAGE_RUN_0,
                         (
                             m7.get("sec", 0),
                             m7.get("nanosec", 0),
@@ -12498,8 +11581,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 pos += p
             f = ".feedback.nested_different_pkg"
             m28 = m5.get("nested_different_pkg", EMPTY)
-            if m28.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m28):
-                m28 = _submap(m28, _K_builtin_interfaces__msg__Time)
+            if m28.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m28):
+                m28 = _submap(m28, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(
@@ -12521,7 +11604,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQiI,
-                        _R_test_msgs__action__NestedMessage_FeedbackMessage_1,
+                        NESTED_MESSAGE_FEEDBACK_MESSAGE_RUN_1,
                         (
                             m13.get("float64_value", 0.0),
                             m13.get("int8_value", 0),
@@ -12545,185 +11628,315 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
+        "basic_types_decode": basic_types_decode,
+        "basic_types_encode": basic_types_encode,
+        "constants_decode": constants_decode,
+        "constants_encode": constants_encode,
+        "defaults_decode": defaults_decode,
+        "defaults_encode": defaults_encode,
+        "arrays_decode": arrays_decode,
+        "arrays_encode": arrays_encode,
+        "bounded_plain_sequences_decode": bounded_plain_sequences_decode,
+        "bounded_plain_sequences_encode": bounded_plain_sequences_encode,
+        "bounded_sequences_decode": bounded_sequences_decode,
+        "bounded_sequences_encode": bounded_sequences_encode,
+        "builtins_decode": builtins_decode,
+        "builtins_encode": builtins_encode,
+        "empty_decode": empty_decode,
+        "empty_encode": empty_encode,
+        "unbounded_sequences_decode": unbounded_sequences_decode,
+        "unbounded_sequences_encode": unbounded_sequences_encode,
+        "multi_nested_decode": multi_nested_decode,
+        "multi_nested_encode": multi_nested_encode,
+        "nested_decode": nested_decode,
+        "nested_encode": nested_encode,
+        "strings_decode": strings_decode,
+        "strings_encode": strings_encode,
+        "w_strings_decode": w_strings_decode,
+        "w_strings_encode": w_strings_encode,
+        "arrays_request_decode": arrays_request_decode,
+        "arrays_request_encode": arrays_request_encode,
+        "arrays_response_decode": arrays_response_decode,
+        "arrays_response_encode": arrays_response_encode,
+        "arrays_event_decode": arrays_event_decode,
+        "arrays_event_encode": arrays_event_encode,
+        "basic_types_request_decode": basic_types_request_decode,
+        "basic_types_request_encode": basic_types_request_encode,
+        "basic_types_response_decode": basic_types_response_decode,
+        "basic_types_response_encode": basic_types_response_encode,
+        "basic_types_event_decode": basic_types_event_decode,
+        "basic_types_event_encode": basic_types_event_encode,
+        "empty_request_decode": empty_request_decode,
+        "empty_request_encode": empty_request_encode,
+        "empty_response_decode": empty_response_decode,
+        "empty_response_encode": empty_response_encode,
+        "empty_event_decode": empty_event_decode,
+        "empty_event_encode": empty_event_encode,
+        "fibonacci_goal_decode": fibonacci_goal_decode,
+        "fibonacci_goal_encode": fibonacci_goal_encode,
+        "fibonacci_result_decode": fibonacci_result_decode,
+        "fibonacci_result_encode": fibonacci_result_encode,
+        "fibonacci_feedback_decode": fibonacci_feedback_decode,
+        "fibonacci_feedback_encode": fibonacci_feedback_encode,
+        "fibonacci_send_goal_request_decode": fibonacci_send_goal_request_decode,
+        "fibonacci_send_goal_request_encode": fibonacci_send_goal_request_encode,
+        "fibonacci_send_goal_response_decode": fibonacci_send_goal_response_decode,
+        "fibonacci_send_goal_response_encode": fibonacci_send_goal_response_encode,
+        "fibonacci_send_goal_event_decode": fibonacci_send_goal_event_decode,
+        "fibonacci_send_goal_event_encode": fibonacci_send_goal_event_encode,
+        "fibonacci_get_result_request_decode": fibonacci_get_result_request_decode,
+        "fibonacci_get_result_request_encode": fibonacci_get_result_request_encode,
+        "fibonacci_get_result_response_decode": fibonacci_get_result_response_decode,
+        "fibonacci_get_result_response_encode": fibonacci_get_result_response_encode,
+        "fibonacci_get_result_event_decode": fibonacci_get_result_event_decode,
+        "fibonacci_get_result_event_encode": fibonacci_get_result_event_encode,
+        "fibonacci_feedback_message_decode": fibonacci_feedback_message_decode,
+        "fibonacci_feedback_message_encode": fibonacci_feedback_message_encode,
+        "nested_message_goal_decode": nested_message_goal_decode,
+        "nested_message_goal_encode": nested_message_goal_encode,
+        "nested_message_result_decode": nested_message_result_decode,
+        "nested_message_result_encode": nested_message_result_encode,
+        "nested_message_feedback_decode": nested_message_feedback_decode,
+        "nested_message_feedback_encode": nested_message_feedback_encode,
+        "nested_message_send_goal_request_decode": nested_message_send_goal_request_decode,
+        "nested_message_send_goal_request_encode": nested_message_send_goal_request_encode,
+        "nested_message_send_goal_response_decode": nested_message_send_goal_response_decode,
+        "nested_message_send_goal_response_encode": nested_message_send_goal_response_encode,
+        "nested_message_send_goal_event_decode": nested_message_send_goal_event_decode,
+        "nested_message_send_goal_event_encode": nested_message_send_goal_event_encode,
+        "nested_message_get_result_request_decode": nested_message_get_result_request_decode,
+        "nested_message_get_result_request_encode": nested_message_get_result_request_encode,
+        "nested_message_get_result_response_decode": nested_message_get_result_response_decode,
+        "nested_message_get_result_response_encode": nested_message_get_result_response_encode,
+        "nested_message_get_result_event_decode": nested_message_get_result_event_decode,
+        "nested_message_get_result_event_encode": nested_message_get_result_event_encode,
+        "nested_message_feedback_message_decode": nested_message_feedback_message_decode,
+        "nested_message_feedback_message_encode": nested_message_feedback_message_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "test_msgs/msg/BasicTypes": (
-            decode_test_msgs__msg__BasicTypes,
-            encode_test_msgs__msg__BasicTypes,
+            as_dict["basic_types_decode"],
+            as_view["basic_types_decode"],
+            as_dict["basic_types_encode"],
         ),
         "test_msgs/msg/Constants": (
-            decode_test_msgs__msg__Constants,
-            encode_test_msgs__msg__Constants,
+            as_dict["constants_decode"],
+            as_view["constants_decode"],
+            as_dict["constants_encode"],
         ),
         "test_msgs/msg/Defaults": (
-            decode_test_msgs__msg__Defaults,
-            encode_test_msgs__msg__Defaults,
+            as_dict["defaults_decode"],
+            as_view["defaults_decode"],
+            as_dict["defaults_encode"],
         ),
-        "test_msgs/msg/Arrays": (decode_test_msgs__msg__Arrays, encode_test_msgs__msg__Arrays),
+        "test_msgs/msg/Arrays": (
+            as_dict["arrays_decode"],
+            as_view["arrays_decode"],
+            as_dict["arrays_encode"],
+        ),
         "test_msgs/msg/BoundedPlainSequences": (
-            decode_test_msgs__msg__BoundedPlainSequences,
-            encode_test_msgs__msg__BoundedPlainSequences,
+            as_dict["bounded_plain_sequences_decode"],
+            as_view["bounded_plain_sequences_decode"],
+            as_dict["bounded_plain_sequences_encode"],
         ),
         "test_msgs/msg/BoundedSequences": (
-            decode_test_msgs__msg__BoundedSequences,
-            encode_test_msgs__msg__BoundedSequences,
-        ),
-        "builtin_interfaces/msg/Duration": (
-            decode_builtin_interfaces__msg__Duration,
-            encode_builtin_interfaces__msg__Duration,
-        ),
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
+            as_dict["bounded_sequences_decode"],
+            as_view["bounded_sequences_decode"],
+            as_dict["bounded_sequences_encode"],
         ),
         "test_msgs/msg/Builtins": (
-            decode_test_msgs__msg__Builtins,
-            encode_test_msgs__msg__Builtins,
+            as_dict["builtins_decode"],
+            as_view["builtins_decode"],
+            as_dict["builtins_encode"],
         ),
-        "test_msgs/msg/Empty": (decode_test_msgs__msg__Empty, encode_test_msgs__msg__Empty),
+        "test_msgs/msg/Empty": (
+            as_dict["empty_decode"],
+            as_view["empty_decode"],
+            as_dict["empty_encode"],
+        ),
         "test_msgs/msg/UnboundedSequences": (
-            decode_test_msgs__msg__UnboundedSequences,
-            encode_test_msgs__msg__UnboundedSequences,
+            as_dict["unbounded_sequences_decode"],
+            as_view["unbounded_sequences_decode"],
+            as_dict["unbounded_sequences_encode"],
         ),
         "test_msgs/msg/MultiNested": (
-            decode_test_msgs__msg__MultiNested,
-            encode_test_msgs__msg__MultiNested,
+            as_dict["multi_nested_decode"],
+            as_view["multi_nested_decode"],
+            as_dict["multi_nested_encode"],
         ),
-        "test_msgs/msg/Nested": (decode_test_msgs__msg__Nested, encode_test_msgs__msg__Nested),
-        "test_msgs/msg/Strings": (decode_test_msgs__msg__Strings, encode_test_msgs__msg__Strings),
+        "test_msgs/msg/Nested": (
+            as_dict["nested_decode"],
+            as_view["nested_decode"],
+            as_dict["nested_encode"],
+        ),
+        "test_msgs/msg/Strings": (
+            as_dict["strings_decode"],
+            as_view["strings_decode"],
+            as_dict["strings_encode"],
+        ),
         "test_msgs/msg/WStrings": (
-            decode_test_msgs__msg__WStrings,
-            encode_test_msgs__msg__WStrings,
+            as_dict["w_strings_decode"],
+            as_view["w_strings_decode"],
+            as_dict["w_strings_encode"],
         ),
         "test_msgs/srv/Arrays_Request": (
-            decode_test_msgs__srv__Arrays_Request,
-            encode_test_msgs__srv__Arrays_Request,
+            as_dict["arrays_request_decode"],
+            as_view["arrays_request_decode"],
+            as_dict["arrays_request_encode"],
         ),
         "test_msgs/srv/Arrays_Response": (
-            decode_test_msgs__srv__Arrays_Response,
-            encode_test_msgs__srv__Arrays_Response,
-        ),
-        "service_msgs/msg/ServiceEventInfo": (
-            decode_service_msgs__msg__ServiceEventInfo,
-            encode_service_msgs__msg__ServiceEventInfo,
+            as_dict["arrays_response_decode"],
+            as_view["arrays_response_decode"],
+            as_dict["arrays_response_encode"],
         ),
         "test_msgs/srv/Arrays_Event": (
-            decode_test_msgs__srv__Arrays_Event,
-            encode_test_msgs__srv__Arrays_Event,
+            as_dict["arrays_event_decode"],
+            as_view["arrays_event_decode"],
+            as_dict["arrays_event_encode"],
         ),
         "test_msgs/srv/BasicTypes_Request": (
-            decode_test_msgs__srv__BasicTypes_Request,
-            encode_test_msgs__srv__BasicTypes_Request,
+            as_dict["basic_types_request_decode"],
+            as_view["basic_types_request_decode"],
+            as_dict["basic_types_request_encode"],
         ),
         "test_msgs/srv/BasicTypes_Response": (
-            decode_test_msgs__srv__BasicTypes_Response,
-            encode_test_msgs__srv__BasicTypes_Response,
+            as_dict["basic_types_response_decode"],
+            as_view["basic_types_response_decode"],
+            as_dict["basic_types_response_encode"],
         ),
         "test_msgs/srv/BasicTypes_Event": (
-            decode_test_msgs__srv__BasicTypes_Event,
-            encode_test_msgs__srv__BasicTypes_Event,
+            as_dict["basic_types_event_decode"],
+            as_view["basic_types_event_decode"],
+            as_dict["basic_types_event_encode"],
         ),
         "test_msgs/srv/Empty_Request": (
-            decode_test_msgs__srv__Empty_Request,
-            encode_test_msgs__srv__Empty_Request,
+            as_dict["empty_request_decode"],
+            as_view["empty_request_decode"],
+            as_dict["empty_request_encode"],
         ),
         "test_msgs/srv/Empty_Response": (
-            decode_test_msgs__srv__Empty_Response,
-            encode_test_msgs__srv__Empty_Response,
+            as_dict["empty_response_decode"],
+            as_view["empty_response_decode"],
+            as_dict["empty_response_encode"],
         ),
         "test_msgs/srv/Empty_Event": (
-            decode_test_msgs__srv__Empty_Event,
-            encode_test_msgs__srv__Empty_Event,
+            as_dict["empty_event_decode"],
+            as_view["empty_event_decode"],
+            as_dict["empty_event_encode"],
         ),
         "test_msgs/action/Fibonacci_Goal": (
-            decode_test_msgs__action__Fibonacci_Goal,
-            encode_test_msgs__action__Fibonacci_Goal,
+            as_dict["fibonacci_goal_decode"],
+            as_view["fibonacci_goal_decode"],
+            as_dict["fibonacci_goal_encode"],
         ),
         "test_msgs/action/Fibonacci_Result": (
-            decode_test_msgs__action__Fibonacci_Result,
-            encode_test_msgs__action__Fibonacci_Result,
+            as_dict["fibonacci_result_decode"],
+            as_view["fibonacci_result_decode"],
+            as_dict["fibonacci_result_encode"],
         ),
         "test_msgs/action/Fibonacci_Feedback": (
-            decode_test_msgs__action__Fibonacci_Feedback,
-            encode_test_msgs__action__Fibonacci_Feedback,
-        ),
-        "unique_identifier_msgs/msg/UUID": (
-            decode_unique_identifier_msgs__msg__UUID,
-            encode_unique_identifier_msgs__msg__UUID,
+            as_dict["fibonacci_feedback_decode"],
+            as_view["fibonacci_feedback_decode"],
+            as_dict["fibonacci_feedback_encode"],
         ),
         "test_msgs/action/Fibonacci_SendGoal_Request": (
-            decode_test_msgs__action__Fibonacci_SendGoal_Request,
-            encode_test_msgs__action__Fibonacci_SendGoal_Request,
+            as_dict["fibonacci_send_goal_request_decode"],
+            as_view["fibonacci_send_goal_request_decode"],
+            as_dict["fibonacci_send_goal_request_encode"],
         ),
         "test_msgs/action/Fibonacci_SendGoal_Response": (
-            decode_test_msgs__action__Fibonacci_SendGoal_Response,
-            encode_test_msgs__action__Fibonacci_SendGoal_Response,
+            as_dict["fibonacci_send_goal_response_decode"],
+            as_view["fibonacci_send_goal_response_decode"],
+            as_dict["fibonacci_send_goal_response_encode"],
         ),
         "test_msgs/action/Fibonacci_SendGoal_Event": (
-            decode_test_msgs__action__Fibonacci_SendGoal_Event,
-            encode_test_msgs__action__Fibonacci_SendGoal_Event,
+            as_dict["fibonacci_send_goal_event_decode"],
+            as_view["fibonacci_send_goal_event_decode"],
+            as_dict["fibonacci_send_goal_event_encode"],
         ),
         "test_msgs/action/Fibonacci_GetResult_Request": (
-            decode_test_msgs__action__Fibonacci_GetResult_Request,
-            encode_test_msgs__action__Fibonacci_GetResult_Request,
+            as_dict["fibonacci_get_result_request_decode"],
+            as_view["fibonacci_get_result_request_decode"],
+            as_dict["fibonacci_get_result_request_encode"],
         ),
         "test_msgs/action/Fibonacci_GetResult_Response": (
-            decode_test_msgs__action__Fibonacci_GetResult_Response,
-            encode_test_msgs__action__Fibonacci_GetResult_Response,
+            as_dict["fibonacci_get_result_response_decode"],
+            as_view["fibonacci_get_result_response_decode"],
+            as_dict["fibonacci_get_result_response_encode"],
         ),
         "test_msgs/action/Fibonacci_GetResult_Event": (
-            decode_test_msgs__action__Fibonacci_GetResult_Event,
-            encode_test_msgs__action__Fibonacci_GetResult_Event,
+            as_dict["fibonacci_get_result_event_decode"],
+            as_view["fibonacci_get_result_event_decode"],
+            as_dict["fibonacci_get_result_event_encode"],
         ),
         "test_msgs/action/Fibonacci_FeedbackMessage": (
-            decode_test_msgs__action__Fibonacci_FeedbackMessage,
-            encode_test_msgs__action__Fibonacci_FeedbackMessage,
+            as_dict["fibonacci_feedback_message_decode"],
+            as_view["fibonacci_feedback_message_decode"],
+            as_dict["fibonacci_feedback_message_encode"],
         ),
         "test_msgs/action/NestedMessage_Goal": (
-            decode_test_msgs__action__NestedMessage_Goal,
-            encode_test_msgs__action__NestedMessage_Goal,
+            as_dict["nested_message_goal_decode"],
+            as_view["nested_message_goal_decode"],
+            as_dict["nested_message_goal_encode"],
         ),
         "test_msgs/action/NestedMessage_Result": (
-            decode_test_msgs__action__NestedMessage_Result,
-            encode_test_msgs__action__NestedMessage_Result,
+            as_dict["nested_message_result_decode"],
+            as_view["nested_message_result_decode"],
+            as_dict["nested_message_result_encode"],
         ),
         "test_msgs/action/NestedMessage_Feedback": (
-            decode_test_msgs__action__NestedMessage_Feedback,
-            encode_test_msgs__action__NestedMessage_Feedback,
+            as_dict["nested_message_feedback_decode"],
+            as_view["nested_message_feedback_decode"],
+            as_dict["nested_message_feedback_encode"],
         ),
         "test_msgs/action/NestedMessage_SendGoal_Request": (
-            decode_test_msgs__action__NestedMessage_SendGoal_Request,
-            encode_test_msgs__action__NestedMessage_SendGoal_Request,
+            as_dict["nested_message_send_goal_request_decode"],
+            as_view["nested_message_send_goal_request_decode"],
+            as_dict["nested_message_send_goal_request_encode"],
         ),
         "test_msgs/action/NestedMessage_SendGoal_Response": (
-            decode_test_msgs__action__NestedMessage_SendGoal_Response,
-            encode_test_msgs__action__NestedMessage_SendGoal_Response,
+            as_dict["nested_message_send_goal_response_decode"],
+            as_view["nested_message_send_goal_response_decode"],
+            as_dict["nested_message_send_goal_response_encode"],
         ),
         "test_msgs/action/NestedMessage_SendGoal_Event": (
-            decode_test_msgs__action__NestedMessage_SendGoal_Event,
-            encode_test_msgs__action__NestedMessage_SendGoal_Event,
+            as_dict["nested_message_send_goal_event_decode"],
+            as_view["nested_message_send_goal_event_decode"],
+            as_dict["nested_message_send_goal_event_encode"],
         ),
         "test_msgs/action/NestedMessage_GetResult_Request": (
-            decode_test_msgs__action__NestedMessage_GetResult_Request,
-            encode_test_msgs__action__NestedMessage_GetResult_Request,
+            as_dict["nested_message_get_result_request_decode"],
+            as_view["nested_message_get_result_request_decode"],
+            as_dict["nested_message_get_result_request_encode"],
         ),
         "test_msgs/action/NestedMessage_GetResult_Response": (
-            decode_test_msgs__action__NestedMessage_GetResult_Response,
-            encode_test_msgs__action__NestedMessage_GetResult_Response,
+            as_dict["nested_message_get_result_response_decode"],
+            as_view["nested_message_get_result_response_decode"],
+            as_dict["nested_message_get_result_response_encode"],
         ),
         "test_msgs/action/NestedMessage_GetResult_Event": (
-            decode_test_msgs__action__NestedMessage_GetResult_Event,
-            encode_test_msgs__action__NestedMessage_GetResult_Event,
+            as_dict["nested_message_get_result_event_decode"],
+            as_view["nested_message_get_result_event_decode"],
+            as_dict["nested_message_get_result_event_encode"],
         ),
         "test_msgs/action/NestedMessage_FeedbackMessage": (
-            decode_test_msgs__action__NestedMessage_FeedbackMessage,
-            encode_test_msgs__action__NestedMessage_FeedbackMessage,
+            as_dict["nested_message_feedback_message_decode"],
+            as_view["nested_message_feedback_message_decode"],
+            as_dict["nested_message_feedback_message_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

@@ -11,10 +11,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -50,34 +51,30 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.builtin_interfaces.wire_codecs import (
+    DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
+    DURATION_KEYS as BUILTIN_INTERFACES__DURATION_KEYS,
+    duration_view as builtin_interfaces__duration_view,
+)
+from pyconnect_generated.geometry_msgs.wire_codecs import (
+    DEFINITIONS as GEOMETRY_MSGS__DEFINITIONS,
+    FUNCTIONS as GEOMETRY_MSGS__FUNCTIONS,
+)
+from pyconnect_generated.std_msgs.wire_codecs import (
+    DEFINITIONS as STD_MSGS__DEFINITIONS,
+    FUNCTIONS as STD_MSGS__FUNCTIONS,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
-    "std_msgs/msg/Header": (
-        "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01",
-        (
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("frame_id", "string", "string", None, "single", None, None),
-        ),
-    ),
-    "builtin_interfaces/msg/Duration": (
-        "RIHS01_e8d009f659816f758b75334ee1a9ca5b5c0b859843261f14c7f937349599d93b",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
+    **BUILTIN_INTERFACES__DEFINITIONS,
+    **GEOMETRY_MSGS__DEFINITIONS,
+    **STD_MSGS__DEFINITIONS,
     "trajectory_msgs/msg/JointTrajectoryPoint": (
         "RIHS01_de8907036d8bd45aac6f30cc9044a3d4a329c42cbf719aff7d95a584cfa532d7",
         (
@@ -110,37 +107,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
                 None,
                 None,
             ),
-        ),
-    ),
-    "geometry_msgs/msg/Vector3": (
-        "RIHS01_cc12fe83e4c02719f1ce8070bfd14aecd40f75a96696a67a2a1f37f7dbb0765d",
-        (
-            ("x", "primitive", "float64", None, "single", None, None),
-            ("y", "primitive", "float64", None, "single", None, None),
-            ("z", "primitive", "float64", None, "single", None, None),
-        ),
-    ),
-    "geometry_msgs/msg/Quaternion": (
-        "RIHS01_8a765f66778c8ff7c8ab94afcc590a2ed5325a1d9a076ffff38fbce36f458684",
-        (
-            ("x", "primitive", "float64", None, "single", None, 0.0),
-            ("y", "primitive", "float64", None, "single", None, 0.0),
-            ("z", "primitive", "float64", None, "single", None, 0.0),
-            ("w", "primitive", "float64", None, "single", None, 1.0),
-        ),
-    ),
-    "geometry_msgs/msg/Transform": (
-        "RIHS01_beb83fbe698636351461f6f35d1abb20010c43d55374d81bd041f1ba2581fddc",
-        (
-            ("translation", "message", "geometry_msgs/msg/Vector3", None, "single", None, None),
-            ("rotation", "message", "geometry_msgs/msg/Quaternion", None, "single", None, None),
-        ),
-    ),
-    "geometry_msgs/msg/Twist": (
-        "RIHS01_9c45bf16fe0983d80e3cfe750d6835843d265a9a6c46bd2e609fcddde6fb8d2a",
-        (
-            ("linear", "message", "geometry_msgs/msg/Vector3", None, "single", None, None),
-            ("angular", "message", "geometry_msgs/msg/Vector3", None, "single", None, None),
         ),
     ),
     "trajectory_msgs/msg/MultiDOFJointTrajectoryPoint": (
@@ -185,59 +151,14 @@ EXPORTED: frozenset[str] = frozenset(
         "trajectory_msgs/msg/MultiDOFJointTrajectoryPoint",
     )
 )
-_K_builtin_interfaces__msg__Duration = frozenset(
-    (
-        "sec",
-        "nanosec",
-    )
-)
-_K_builtin_interfaces__msg__Time = frozenset(
-    (
-        "sec",
-        "nanosec",
-    )
-)
-_K_geometry_msgs__msg__Quaternion = frozenset(
-    (
-        "x",
-        "y",
-        "z",
-        "w",
-    )
-)
-_K_geometry_msgs__msg__Transform = frozenset(
-    (
-        "translation",
-        "rotation",
-    )
-)
-_K_geometry_msgs__msg__Twist = frozenset(
-    (
-        "linear",
-        "angular",
-    )
-)
-_K_geometry_msgs__msg__Vector3 = frozenset(
-    (
-        "x",
-        "y",
-        "z",
-    )
-)
-_K_std_msgs__msg__Header = frozenset(
-    (
-        "stamp",
-        "frame_id",
-    )
-)
-_K_trajectory_msgs__msg__JointTrajectory = frozenset(
+JOINT_TRAJECTORY_KEYS = frozenset(
     (
         "header",
         "joint_names",
         "points",
     )
 )
-_K_trajectory_msgs__msg__JointTrajectoryPoint = frozenset(
+JOINT_TRAJECTORY_POINT_KEYS = frozenset(
     (
         "positions",
         "velocities",
@@ -246,14 +167,14 @@ _K_trajectory_msgs__msg__JointTrajectoryPoint = frozenset(
         "time_from_start",
     )
 )
-_K_trajectory_msgs__msg__MultiDOFJointTrajectory = frozenset(
+MULTI_DOF_JOINT_TRAJECTORY_KEYS = frozenset(
     (
         "header",
         "joint_names",
         "points",
     )
 )
-_K_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint = frozenset(
+MULTI_DOF_JOINT_TRAJECTORY_POINT_KEYS = frozenset(
     (
         "transforms",
         "velocities",
@@ -261,50 +182,15 @@ _K_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint = frozenset(
         "time_from_start",
     )
 )
-_R_builtin_interfaces__msg__Duration_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_geometry_msgs__msg__Quaternion_0 = (
-    (".x", "float64", 8),
-    (".y", "float64", 16),
-    (".z", "float64", 24),
-    (".w", "float64", 32),
-)
-_R_geometry_msgs__msg__Transform_0 = (
-    (".translation.x", "float64", 8),
-    (".translation.y", "float64", 16),
-    (".translation.z", "float64", 24),
-    (".rotation.x", "float64", 32),
-    (".rotation.y", "float64", 40),
-    (".rotation.z", "float64", 48),
-    (".rotation.w", "float64", 56),
-)
-_R_geometry_msgs__msg__Twist_0 = (
-    (".linear.x", "float64", 8),
-    (".linear.y", "float64", 16),
-    (".linear.z", "float64", 24),
-    (".angular.x", "float64", 32),
-    (".angular.y", "float64", 40),
-    (".angular.z", "float64", 48),
-)
-_R_geometry_msgs__msg__Vector3_0 = (
-    (".x", "float64", 8),
-    (".y", "float64", 16),
-    (".z", "float64", 24),
-)
-_R_std_msgs__msg__Header_0 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-    (".frame_id", "uint32", 12),
-)
-_R_trajectory_msgs__msg__JointTrajectoryPoint_0 = ((".positions", "uint32", 4),)
-_R_trajectory_msgs__msg__JointTrajectoryPoint_1 = ((".velocities", "uint32", 4),)
-_R_trajectory_msgs__msg__JointTrajectoryPoint_2 = ((".accelerations", "uint32", 4),)
-_R_trajectory_msgs__msg__JointTrajectoryPoint_3 = ((".effort", "uint32", 4),)
-_R_trajectory_msgs__msg__JointTrajectoryPoint_4 = (
+JOINT_TRAJECTORY_POINT_RUN_0 = ((".positions", "uint32", 4),)
+JOINT_TRAJECTORY_POINT_RUN_1 = ((".velocities", "uint32", 4),)
+JOINT_TRAJECTORY_POINT_RUN_2 = ((".accelerations", "uint32", 4),)
+JOINT_TRAJECTORY_POINT_RUN_3 = ((".effort", "uint32", 4),)
+JOINT_TRAJECTORY_POINT_RUN_4 = (
     (".time_from_start.sec", "int32", 4),
     (".time_from_start.nanosec", "uint32", 8),
 )
-_R_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint_0 = (
+MULTI_DOF_JOINT_TRAJECTORY_POINT_RUN_0 = (
     (".time_from_start.sec", "int32", 4),
     (".time_from_start.nanosec", "uint32", 8),
 )
@@ -317,76 +203,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class std_msgs__msg__Header:
-    """A decoded std_msgs/msg/Header.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "stamp",
-        "frame_id",
-    )
-    msg_type = "std_msgs/msg/Header"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_std_msgs__msg__Header(a0: Any, a1: Any) -> std_msgs__msg__Header:
-    view = _new(std_msgs__msg__Header)
-    view.stamp = a0
-    view.frame_id = a1
-    return view
-
-
-class builtin_interfaces__msg__Duration:
-    """A decoded builtin_interfaces/msg/Duration.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Duration"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Duration(a0: Any, a1: Any) -> builtin_interfaces__msg__Duration:
-    view = _new(builtin_interfaces__msg__Duration)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class trajectory_msgs__msg__JointTrajectoryPoint:
+class JointTrajectoryPoint:
     """A decoded trajectory_msgs/msg/JointTrajectoryPoint.
 
     Attributes named as the ROS fields.
@@ -405,10 +222,10 @@ class trajectory_msgs__msg__JointTrajectoryPoint:
         return view_repr(self)
 
 
-def make_trajectory_msgs__msg__JointTrajectoryPoint(
+def joint_trajectory_point_view(
     a0: Any, a1: Any, a2: Any, a3: Any, a4: Any
-) -> trajectory_msgs__msg__JointTrajectoryPoint:
-    view = _new(trajectory_msgs__msg__JointTrajectoryPoint)
+) -> JointTrajectoryPoint:
+    view = _new(JointTrajectoryPoint)
     view.positions = a0
     view.velocities = a1
     view.accelerations = a2
@@ -417,7 +234,7 @@ def make_trajectory_msgs__msg__JointTrajectoryPoint(
     return view
 
 
-class trajectory_msgs__msg__JointTrajectory:
+class JointTrajectory:
     """A decoded trajectory_msgs/msg/JointTrajectory.
 
     Attributes named as the ROS fields.
@@ -434,117 +251,15 @@ class trajectory_msgs__msg__JointTrajectory:
         return view_repr(self)
 
 
-def make_trajectory_msgs__msg__JointTrajectory(
-    a0: Any, a1: Any, a2: Any
-) -> trajectory_msgs__msg__JointTrajectory:
-    view = _new(trajectory_msgs__msg__JointTrajectory)
+def joint_trajectory_view(a0: Any, a1: Any, a2: Any) -> JointTrajectory:
+    view = _new(JointTrajectory)
     view.header = a0
     view.joint_names = a1
     view.points = a2
     return view
 
 
-class geometry_msgs__msg__Vector3:
-    """A decoded geometry_msgs/msg/Vector3.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "x",
-        "y",
-        "z",
-    )
-    msg_type = "geometry_msgs/msg/Vector3"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Vector3(a0: Any, a1: Any, a2: Any) -> geometry_msgs__msg__Vector3:
-    view = _new(geometry_msgs__msg__Vector3)
-    view.x = a0
-    view.y = a1
-    view.z = a2
-    return view
-
-
-class geometry_msgs__msg__Quaternion:
-    """A decoded geometry_msgs/msg/Quaternion.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "x",
-        "y",
-        "z",
-        "w",
-    )
-    msg_type = "geometry_msgs/msg/Quaternion"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Quaternion(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> geometry_msgs__msg__Quaternion:
-    view = _new(geometry_msgs__msg__Quaternion)
-    view.x = a0
-    view.y = a1
-    view.z = a2
-    view.w = a3
-    return view
-
-
-class geometry_msgs__msg__Transform:
-    """A decoded geometry_msgs/msg/Transform.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "translation",
-        "rotation",
-    )
-    msg_type = "geometry_msgs/msg/Transform"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Transform(a0: Any, a1: Any) -> geometry_msgs__msg__Transform:
-    view = _new(geometry_msgs__msg__Transform)
-    view.translation = a0
-    view.rotation = a1
-    return view
-
-
-class geometry_msgs__msg__Twist:
-    """A decoded geometry_msgs/msg/Twist.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "linear",
-        "angular",
-    )
-    msg_type = "geometry_msgs/msg/Twist"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Twist(a0: Any, a1: Any) -> geometry_msgs__msg__Twist:
-    view = _new(geometry_msgs__msg__Twist)
-    view.linear = a0
-    view.angular = a1
-    return view
-
-
-class trajectory_msgs__msg__MultiDOFJointTrajectoryPoint:
+class MultiDOFJointTrajectoryPoint:
     """A decoded trajectory_msgs/msg/MultiDOFJointTrajectoryPoint.
 
     Attributes named as the ROS fields.
@@ -562,10 +277,10 @@ class trajectory_msgs__msg__MultiDOFJointTrajectoryPoint:
         return view_repr(self)
 
 
-def make_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint(
+def multi_dof_joint_trajectory_point_view(
     a0: Any, a1: Any, a2: Any, a3: Any
-) -> trajectory_msgs__msg__MultiDOFJointTrajectoryPoint:
-    view = _new(trajectory_msgs__msg__MultiDOFJointTrajectoryPoint)
+) -> MultiDOFJointTrajectoryPoint:
+    view = _new(MultiDOFJointTrajectoryPoint)
     view.transforms = a0
     view.velocities = a1
     view.accelerations = a2
@@ -573,7 +288,7 @@ def make_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint(
     return view
 
 
-class trajectory_msgs__msg__MultiDOFJointTrajectory:
+class MultiDOFJointTrajectory:
     """A decoded trajectory_msgs/msg/MultiDOFJointTrajectory.
 
     Attributes named as the ROS fields.
@@ -590,186 +305,32 @@ class trajectory_msgs__msg__MultiDOFJointTrajectory:
         return view_repr(self)
 
 
-def make_trajectory_msgs__msg__MultiDOFJointTrajectory(
-    a0: Any, a1: Any, a2: Any
-) -> trajectory_msgs__msg__MultiDOFJointTrajectory:
-    view = _new(trajectory_msgs__msg__MultiDOFJointTrajectory)
+def multi_dof_joint_trajectory_view(a0: Any, a1: Any, a2: Any) -> MultiDOFJointTrajectory:
+    view = _new(MultiDOFJointTrajectory)
     view.header = a0
     view.joint_names = a1
     view.points = a2
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    geometry_msgs__transform_decode = GEOMETRY_MSGS__FUNCTIONS[E, view]["transform_decode"]
+    geometry_msgs__transform_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["transform_encode"]
+    geometry_msgs__twist_decode = GEOMETRY_MSGS__FUNCTIONS[E, view]["twist_decode"]
+    geometry_msgs__twist_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["twist_encode"]
+    std_msgs__header_decode = STD_MSGS__FUNCTIONS[E, view]["header_decode"]
+    std_msgs__header_encode = STD_MSGS__FUNCTIONS[E, view]["header_encode"]
     _U32 = Struct(E + "I")
-    _S_3d = Struct(E + "3d")
-    _S_4d = Struct(E + "4d")
-    _S_6d = Struct(E + "6d")
-    _S_7d = Struct(E + "7d")
     _S_I = Struct(E + "I")
-    _S_i2I = Struct(E + "i2I")
     _S_iI = Struct(E + "iI")
     _D_float64 = np.dtype("float64").newbyteorder(E)
 
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def joint_trajectory_point_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
-        return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Header.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Header)
-            f = ".stamp"
-            m1 = d.get("stamp", EMPTY)
-            if m1.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m1):
-                m1 = _submap(m1, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".frame_id"
-            b4 = utf8z(d.get("frame_id", ""), None)
-            f = ""
-            try:
-                out.append(_S_i2I.pack(m1.get("sec", 0), m1.get("nanosec", 0), len(b4)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_i2I,
-                        _R_std_msgs__msg__Header_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                            len(b4),
-                        ),
-                    )
-                )
-            pos += 12
-            out.append(b4)
-            pos += len(b4)
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_builtin_interfaces__msg__Duration(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Duration_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Duration(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Duration(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Duration)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Duration_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_trajectory_msgs__msg__JointTrajectoryPoint(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_trajectory_msgs__msg__JointTrajectoryPoint_0
+            f = JOINT_TRAJECTORY_POINT_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".positions"
@@ -779,7 +340,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v3, 8, lim - pos)
             v4 = _frombuffer(mv, _D_float64, v3, pos)
             pos += v3 * 8
-            f = _R_trajectory_msgs__msg__JointTrajectoryPoint_1
+            f = JOINT_TRAJECTORY_POINT_RUN_1
             (v7,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".velocities"
@@ -789,7 +350,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v7, 8, lim - pos)
             v8 = _frombuffer(mv, _D_float64, v7, pos)
             pos += v7 * 8
-            f = _R_trajectory_msgs__msg__JointTrajectoryPoint_2
+            f = JOINT_TRAJECTORY_POINT_RUN_2
             (v11,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".accelerations"
@@ -799,7 +360,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v11, 8, lim - pos)
             v12 = _frombuffer(mv, _D_float64, v11, pos)
             pos += v11 * 8
-            f = _R_trajectory_msgs__msg__JointTrajectoryPoint_3
+            f = JOINT_TRAJECTORY_POINT_RUN_3
             (v15,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".effort"
@@ -809,7 +370,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v15, 8, lim - pos)
             v16 = _frombuffer(mv, _D_float64, v15, pos)
             pos += v15 * 8
-            f = _R_trajectory_msgs__msg__JointTrajectoryPoint_4
+            f = JOINT_TRAJECTORY_POINT_RUN_4
             v18, v19 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -817,8 +378,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_trajectory_msgs__msg__JointTrajectoryPoint(
-                v4, v8, v12, v16, make_builtin_interfaces__msg__Duration(v18, v19)
+            return joint_trajectory_point_view(
+                v4, v8, v12, v16, builtin_interfaces__duration_view(v18, v19)
             ), pos
         return {
             "positions": v4.tolist(),
@@ -828,14 +389,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "time_from_start": {"sec": v18, "nanosec": v19},
         }, pos
 
-    def encode_trajectory_msgs__msg__JointTrajectoryPoint(d: Any, out: list[Any], pos: int) -> int:
+    def joint_trajectory_point_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_trajectory_msgs__msg__JointTrajectoryPoint.issuperset(d)
-            ):
-                d = _submap(d, _K_trajectory_msgs__msg__JointTrajectoryPoint)
+            if d.__class__ is not dict or not JOINT_TRAJECTORY_POINT_KEYS.issuperset(d):
+                d = _submap(d, JOINT_TRAJECTORY_POINT_KEYS)
             f = ".positions"
             b1, c2 = encode_array(d.get("positions", ()), _D_float64, "float64", None, False)
             p = -pos & 3
@@ -846,7 +404,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c2))
             except Exception:
-                out.append(slow_pack(_S_I, _R_trajectory_msgs__msg__JointTrajectoryPoint_0, (c2,)))
+                out.append(slow_pack(_S_I, JOINT_TRAJECTORY_POINT_RUN_0, (c2,)))
             pos += 4
             if c2:
                 p = -pos & 7
@@ -861,7 +419,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c6))
             except Exception:
-                out.append(slow_pack(_S_I, _R_trajectory_msgs__msg__JointTrajectoryPoint_1, (c6,)))
+                out.append(slow_pack(_S_I, JOINT_TRAJECTORY_POINT_RUN_1, (c6,)))
             pos += 4
             if c6:
                 p = -pos & 7
@@ -876,7 +434,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c10))
             except Exception:
-                out.append(slow_pack(_S_I, _R_trajectory_msgs__msg__JointTrajectoryPoint_2, (c10,)))
+                out.append(slow_pack(_S_I, JOINT_TRAJECTORY_POINT_RUN_2, (c10,)))
             pos += 4
             if c10:
                 p = -pos & 7
@@ -891,7 +449,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c14))
             except Exception:
-                out.append(slow_pack(_S_I, _R_trajectory_msgs__msg__JointTrajectoryPoint_3, (c14,)))
+                out.append(slow_pack(_S_I, JOINT_TRAJECTORY_POINT_RUN_3, (c14,)))
             pos += 4
             if c14:
                 p = -pos & 7
@@ -902,10 +460,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             pos += c14 * 8
             f = ".time_from_start"
             m17 = d.get("time_from_start", EMPTY)
-            if m17.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(
-                m17
-            ):
-                m17 = _submap(m17, _K_builtin_interfaces__msg__Duration)
+            if m17.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m17):
+                m17 = _submap(m17, BUILTIN_INTERFACES__DURATION_KEYS)
             f = ""
             try:
                 out.append(_S_iI.pack(m17.get("sec", 0), m17.get("nanosec", 0)))
@@ -913,7 +469,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_trajectory_msgs__msg__JointTrajectoryPoint_4,
+                        JOINT_TRAJECTORY_POINT_RUN_4,
                         (
                             m17.get("sec", 0),
                             m17.get("nanosec", 0),
@@ -927,54 +483,37 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_trajectory_msgs__msg__JointTrajectory(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def joint_trajectory_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = ".joint_names"
             v2, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
             f = ".points"
             v3, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_trajectory_msgs__msg__JointTrajectoryPoint,
-                None,
-                None,
-                24,
+                mv, pos, lim, _U32, joint_trajectory_point_decode, None, None, 24
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_trajectory_msgs__msg__JointTrajectory(v1, v2, v3), pos
+            return joint_trajectory_view(v1, v2, v3), pos
         return {"header": v1, "joint_names": v2, "points": v3}, pos
 
-    def encode_trajectory_msgs__msg__JointTrajectory(d: Any, out: list[Any], pos: int) -> int:
+    def joint_trajectory_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_trajectory_msgs__msg__JointTrajectory.issuperset(
-                d
-            ):
-                d = _submap(d, _K_trajectory_msgs__msg__JointTrajectory)
+            if d.__class__ is not dict or not JOINT_TRAJECTORY_KEYS.issuperset(d):
+                d = _submap(d, JOINT_TRAJECTORY_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".joint_names"
             pos = write_strings(d.get("joint_names", ()), out, pos, _U32, None, False, None, False)
             f = ".points"
             pos = write_messages(
-                d.get("points", ()),
-                out,
-                pos,
-                _U32,
-                encode_trajectory_msgs__msg__JointTrajectoryPoint,
-                None,
-                False,
+                d.get("points", ()), out, pos, _U32, joint_trajectory_point_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -982,265 +521,21 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Vector3(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Vector3_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
-        return {"x": v1, "y": v2, "z": v3}, pos
-
-    def encode_geometry_msgs__msg__Vector3(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Vector3)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_3d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        _R_geometry_msgs__msg__Vector3_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 24
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__Quaternion(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Quaternion_0
-            v1, v2, v3, v4 = _S_4d.unpack_from(mv, pos)
-            pos += 32
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
-        return {"x": v1, "y": v2, "z": v3, "w": v4}, pos
-
-    def encode_geometry_msgs__msg__Quaternion(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Quaternion)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(
-                    _S_4d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0), d.get("w", 1.0))
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_4d,
-                        _R_geometry_msgs__msg__Quaternion_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                            d.get("w", 1.0),
-                        ),
-                    )
-                )
-            pos += 32
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__Transform(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Transform_0
-            v2, v3, v4, v6, v7, v8, v9 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Transform(
-                make_geometry_msgs__msg__Vector3(v2, v3, v4),
-                make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
-            ), pos
-        return {
-            "translation": {"x": v2, "y": v3, "z": v4},
-            "rotation": {"x": v6, "y": v7, "z": v8, "w": v9},
-        }, pos
-
-    def encode_geometry_msgs__msg__Transform(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Transform.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Transform)
-            f = ".translation"
-            m1 = d.get("translation", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Vector3)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".rotation"
-            m5 = d.get("rotation", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m5):
-                m5 = _submap(m5, _K_geometry_msgs__msg__Quaternion)
-            f = ""
-            try:
-                out.append(
-                    _S_7d.pack(
-                        m1.get("x", 0.0),
-                        m1.get("y", 0.0),
-                        m1.get("z", 0.0),
-                        m5.get("x", 0.0),
-                        m5.get("y", 0.0),
-                        m5.get("z", 0.0),
-                        m5.get("w", 1.0),
-                    )
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_7d,
-                        _R_geometry_msgs__msg__Transform_0,
-                        (
-                            m1.get("x", 0.0),
-                            m1.get("y", 0.0),
-                            m1.get("z", 0.0),
-                            m5.get("x", 0.0),
-                            m5.get("y", 0.0),
-                            m5.get("z", 0.0),
-                            m5.get("w", 1.0),
-                        ),
-                    )
-                )
-            pos += 56
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__Twist(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Twist_0
-            v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
-            pos += 48
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Twist(
-                make_geometry_msgs__msg__Vector3(v2, v3, v4),
-                make_geometry_msgs__msg__Vector3(v6, v7, v8),
-            ), pos
-        return {"linear": {"x": v2, "y": v3, "z": v4}, "angular": {"x": v6, "y": v7, "z": v8}}, pos
-
-    def encode_geometry_msgs__msg__Twist(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Twist.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Twist)
-            f = ".linear"
-            m1 = d.get("linear", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Vector3)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".angular"
-            m5 = d.get("angular", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m5):
-                m5 = _submap(m5, _K_geometry_msgs__msg__Vector3)
-            f = ""
-            try:
-                out.append(
-                    _S_6d.pack(
-                        m1.get("x", 0.0),
-                        m1.get("y", 0.0),
-                        m1.get("z", 0.0),
-                        m5.get("x", 0.0),
-                        m5.get("y", 0.0),
-                        m5.get("z", 0.0),
-                    )
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_6d,
-                        _R_geometry_msgs__msg__Twist_0,
-                        (
-                            m1.get("x", 0.0),
-                            m1.get("y", 0.0),
-                            m1.get("z", 0.0),
-                            m5.get("x", 0.0),
-                            m5.get("y", 0.0),
-                            m5.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 48
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint(
+    def multi_dof_joint_trajectory_point_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".transforms"
             v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__Transform, None, None, 56
+                mv, pos, lim, _U32, geometry_msgs__transform_decode, None, None, 56
             )
             f = ".velocities"
-            v2, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__Twist, None, None, 48
-            )
+            v2, pos = read_messages(mv, pos, lim, _U32, geometry_msgs__twist_decode, None, None, 48)
             f = ".accelerations"
-            v3, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__Twist, None, None, 48
-            )
+            v3, pos = read_messages(mv, pos, lim, _U32, geometry_msgs__twist_decode, None, None, 48)
             pos = (pos + 3) & -4
-            f = _R_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint_0
+            f = MULTI_DOF_JOINT_TRAJECTORY_POINT_RUN_0
             v5, v6 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -1248,8 +543,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint(
-                v1, v2, v3, make_builtin_interfaces__msg__Duration(v5, v6)
+            return multi_dof_joint_trajectory_point_view(
+                v1, v2, v3, builtin_interfaces__duration_view(v5, v6)
             ), pos
         return {
             "transforms": v1,
@@ -1258,50 +553,33 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "time_from_start": {"sec": v5, "nanosec": v6},
         }, pos
 
-    def encode_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def multi_dof_joint_trajectory_point_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint.issuperset(d)
-            ):
-                d = _submap(d, _K_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint)
+            if d.__class__ is not dict or not MULTI_DOF_JOINT_TRAJECTORY_POINT_KEYS.issuperset(d):
+                d = _submap(d, MULTI_DOF_JOINT_TRAJECTORY_POINT_KEYS)
             f = ".transforms"
             pos = write_messages(
                 d.get("transforms", ()),
                 out,
                 pos,
                 _U32,
-                encode_geometry_msgs__msg__Transform,
+                geometry_msgs__transform_encode,
                 None,
                 False,
             )
             f = ".velocities"
             pos = write_messages(
-                d.get("velocities", ()),
-                out,
-                pos,
-                _U32,
-                encode_geometry_msgs__msg__Twist,
-                None,
-                False,
+                d.get("velocities", ()), out, pos, _U32, geometry_msgs__twist_encode, None, False
             )
             f = ".accelerations"
             pos = write_messages(
-                d.get("accelerations", ()),
-                out,
-                pos,
-                _U32,
-                encode_geometry_msgs__msg__Twist,
-                None,
-                False,
+                d.get("accelerations", ()), out, pos, _U32, geometry_msgs__twist_encode, None, False
             )
             f = ".time_from_start"
             m4 = d.get("time_from_start", EMPTY)
-            if m4.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(m4):
-                m4 = _submap(m4, _K_builtin_interfaces__msg__Duration)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__DURATION_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -1313,7 +591,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint_0,
+                        MULTI_DOF_JOINT_TRAJECTORY_POINT_RUN_0,
                         (
                             m4.get("sec", 0),
                             m4.get("nanosec", 0),
@@ -1327,46 +605,32 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_trajectory_msgs__msg__MultiDOFJointTrajectory(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def multi_dof_joint_trajectory_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = ".joint_names"
             v2, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
             f = ".points"
             v3, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint,
-                None,
-                None,
-                20,
+                mv, pos, lim, _U32, multi_dof_joint_trajectory_point_decode, None, None, 20
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_trajectory_msgs__msg__MultiDOFJointTrajectory(v1, v2, v3), pos
+            return multi_dof_joint_trajectory_view(v1, v2, v3), pos
         return {"header": v1, "joint_names": v2, "points": v3}, pos
 
-    def encode_trajectory_msgs__msg__MultiDOFJointTrajectory(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def multi_dof_joint_trajectory_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_trajectory_msgs__msg__MultiDOFJointTrajectory.issuperset(d)
-            ):
-                d = _submap(d, _K_trajectory_msgs__msg__MultiDOFJointTrajectory)
+            if d.__class__ is not dict or not MULTI_DOF_JOINT_TRAJECTORY_KEYS.issuperset(d):
+                d = _submap(d, MULTI_DOF_JOINT_TRAJECTORY_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".joint_names"
             pos = write_strings(d.get("joint_names", ()), out, pos, _U32, None, False, None, False)
             f = ".points"
@@ -1375,7 +639,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint,
+                multi_dof_joint_trajectory_point_encode,
                 None,
                 False,
             )
@@ -1386,54 +650,49 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
-        ),
-        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
-        "builtin_interfaces/msg/Duration": (
-            decode_builtin_interfaces__msg__Duration,
-            encode_builtin_interfaces__msg__Duration,
-        ),
+        "joint_trajectory_point_decode": joint_trajectory_point_decode,
+        "joint_trajectory_point_encode": joint_trajectory_point_encode,
+        "joint_trajectory_decode": joint_trajectory_decode,
+        "joint_trajectory_encode": joint_trajectory_encode,
+        "multi_dof_joint_trajectory_point_decode": multi_dof_joint_trajectory_point_decode,
+        "multi_dof_joint_trajectory_point_encode": multi_dof_joint_trajectory_point_encode,
+        "multi_dof_joint_trajectory_decode": multi_dof_joint_trajectory_decode,
+        "multi_dof_joint_trajectory_encode": multi_dof_joint_trajectory_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "trajectory_msgs/msg/JointTrajectoryPoint": (
-            decode_trajectory_msgs__msg__JointTrajectoryPoint,
-            encode_trajectory_msgs__msg__JointTrajectoryPoint,
+            as_dict["joint_trajectory_point_decode"],
+            as_view["joint_trajectory_point_decode"],
+            as_dict["joint_trajectory_point_encode"],
         ),
         "trajectory_msgs/msg/JointTrajectory": (
-            decode_trajectory_msgs__msg__JointTrajectory,
-            encode_trajectory_msgs__msg__JointTrajectory,
-        ),
-        "geometry_msgs/msg/Vector3": (
-            decode_geometry_msgs__msg__Vector3,
-            encode_geometry_msgs__msg__Vector3,
-        ),
-        "geometry_msgs/msg/Quaternion": (
-            decode_geometry_msgs__msg__Quaternion,
-            encode_geometry_msgs__msg__Quaternion,
-        ),
-        "geometry_msgs/msg/Transform": (
-            decode_geometry_msgs__msg__Transform,
-            encode_geometry_msgs__msg__Transform,
-        ),
-        "geometry_msgs/msg/Twist": (
-            decode_geometry_msgs__msg__Twist,
-            encode_geometry_msgs__msg__Twist,
+            as_dict["joint_trajectory_decode"],
+            as_view["joint_trajectory_decode"],
+            as_dict["joint_trajectory_encode"],
         ),
         "trajectory_msgs/msg/MultiDOFJointTrajectoryPoint": (
-            decode_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint,
-            encode_trajectory_msgs__msg__MultiDOFJointTrajectoryPoint,
+            as_dict["multi_dof_joint_trajectory_point_decode"],
+            as_view["multi_dof_joint_trajectory_point_decode"],
+            as_dict["multi_dof_joint_trajectory_point_encode"],
         ),
         "trajectory_msgs/msg/MultiDOFJointTrajectory": (
-            decode_trajectory_msgs__msg__MultiDOFJointTrajectory,
-            encode_trajectory_msgs__msg__MultiDOFJointTrajectory,
+            as_dict["multi_dof_joint_trajectory_decode"],
+            as_view["multi_dof_joint_trajectory_decode"],
+            as_dict["multi_dof_joint_trajectory_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

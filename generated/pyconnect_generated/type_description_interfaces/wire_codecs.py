@@ -21,10 +21,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -60,13 +61,26 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.builtin_interfaces.wire_codecs import (
+    DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
+    TIME_KEYS as BUILTIN_INTERFACES__TIME_KEYS,
+    time_view as builtin_interfaces__time_view,
+)
+from pyconnect_generated.service_msgs.wire_codecs import (
+    DEFINITIONS as SERVICE_MSGS__DEFINITIONS,
+    SERVICE_EVENT_INFO_KEYS as SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS,
+    service_event_info_view as service_msgs__service_event_info_view,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
+    **BUILTIN_INTERFACES__DEFINITIONS,
+    **SERVICE_MSGS__DEFINITIONS,
     "type_description_interfaces/msg/FieldType": (
         "RIHS01_a70b6dd919645a03a3586f7f821defbc886ea3e531a1d95cc0f380a3973ccaa6",
         (
@@ -187,22 +201,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
             ),
         ),
     ),
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
-    "service_msgs/msg/ServiceEventInfo": (
-        "RIHS01_41bcbbe07a75c9b52bc96bfd5c24d7f0fc0a08c0cb7921b3373c5732345a6f45",
-        (
-            ("event_type", "primitive", "uint8", None, "single", None, None),
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("client_gid", "primitive", "uint8", None, "array", 16, None),
-            ("sequence_number", "primitive", "int64", None, "single", None, None),
-        ),
-    ),
     "type_description_interfaces/srv/GetTypeDescription_Event": (
         "RIHS01_491e3350e7a0b11918fb16a523cf01a22d76fdaa53c43b52164fea14aabb5612",
         (
@@ -241,28 +239,14 @@ EXPORTED: frozenset[str] = frozenset(
         "type_description_interfaces/srv/GetTypeDescription_Response",
     )
 )
-_K_builtin_interfaces__msg__Time = frozenset(
-    (
-        "sec",
-        "nanosec",
-    )
-)
-_K_service_msgs__msg__ServiceEventInfo = frozenset(
-    (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-)
-_K_type_description_interfaces__msg__Field = frozenset(
+FIELD_KEYS = frozenset(
     (
         "name",
         "type",
         "default_value",
     )
 )
-_K_type_description_interfaces__msg__FieldType = frozenset(
+FIELD_TYPE_KEYS = frozenset(
     (
         "type_id",
         "capacity",
@@ -270,46 +254,21 @@ _K_type_description_interfaces__msg__FieldType = frozenset(
         "nested_type_name",
     )
 )
-_K_type_description_interfaces__msg__IndividualTypeDescription = frozenset(
-    (
-        "type_name",
-        "fields",
-    )
-)
-_K_type_description_interfaces__msg__KeyValue = frozenset(
-    (
-        "key",
-        "value",
-    )
-)
-_K_type_description_interfaces__msg__TypeDescription = frozenset(
-    (
-        "type_description",
-        "referenced_type_descriptions",
-    )
-)
-_K_type_description_interfaces__msg__TypeSource = frozenset(
-    (
-        "type_name",
-        "encoding",
-        "raw_file_contents",
-    )
-)
-_K_type_description_interfaces__srv__GetTypeDescription_Event = frozenset(
+GET_TYPE_DESCRIPTION_EVENT_KEYS = frozenset(
     (
         "info",
         "request",
         "response",
     )
 )
-_K_type_description_interfaces__srv__GetTypeDescription_Request = frozenset(
+GET_TYPE_DESCRIPTION_REQUEST_KEYS = frozenset(
     (
         "type_name",
         "type_hash",
         "include_type_sources",
     )
 )
-_K_type_description_interfaces__srv__GetTypeDescription_Response = frozenset(
+GET_TYPE_DESCRIPTION_RESPONSE_KEYS = frozenset(
     (
         "successful",
         "failure_reason",
@@ -318,46 +277,56 @@ _K_type_description_interfaces__srv__GetTypeDescription_Response = frozenset(
         "extra_information",
     )
 )
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_service_msgs__msg__ServiceEventInfo_0 = ((".event_type", "uint8", 1),)
-_R_service_msgs__msg__ServiceEventInfo_1 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
+INDIVIDUAL_TYPE_DESCRIPTION_KEYS = frozenset(
+    (
+        "type_name",
+        "fields",
+    )
 )
-_R_service_msgs__msg__ServiceEventInfo_2 = ((".sequence_number", "int64", 8),)
-_R_type_description_interfaces__msg__FieldType_0 = ((".type_id", "uint8", 1),)
-_R_type_description_interfaces__msg__FieldType_1 = (
+KEY_VALUE_KEYS = frozenset(
+    (
+        "key",
+        "value",
+    )
+)
+TYPE_DESCRIPTION_KEYS = frozenset(
+    (
+        "type_description",
+        "referenced_type_descriptions",
+    )
+)
+TYPE_SOURCE_KEYS = frozenset(
+    (
+        "type_name",
+        "encoding",
+        "raw_file_contents",
+    )
+)
+FIELD_RUN_0 = ((".name", "uint32", 4),)
+FIELD_RUN_1 = ((".default_value", "uint32", 4),)
+FIELD_TYPE_RUN_0 = ((".type_id", "uint8", 1),)
+FIELD_TYPE_RUN_1 = (
     (".capacity", "uint64", 8),
     (".string_capacity", "uint64", 16),
     (".nested_type_name", "uint32", 20),
 )
-_R_type_description_interfaces__msg__Field_0 = ((".name", "uint32", 4),)
-_R_type_description_interfaces__msg__Field_1 = ((".default_value", "uint32", 4),)
-_R_type_description_interfaces__msg__IndividualTypeDescription_0 = ((".type_name", "uint32", 4),)
-_R_type_description_interfaces__msg__KeyValue_0 = ((".key", "uint32", 4),)
-_R_type_description_interfaces__msg__KeyValue_1 = ((".value", "uint32", 4),)
-_R_type_description_interfaces__msg__TypeSource_0 = ((".type_name", "uint32", 4),)
-_R_type_description_interfaces__msg__TypeSource_1 = ((".encoding", "uint32", 4),)
-_R_type_description_interfaces__msg__TypeSource_2 = ((".raw_file_contents", "uint32", 4),)
-_R_type_description_interfaces__srv__GetTypeDescription_Event_0 = (
-    (".info.event_type", "uint8", 1),
-)
-_R_type_description_interfaces__srv__GetTypeDescription_Event_1 = (
+GET_TYPE_DESCRIPTION_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+GET_TYPE_DESCRIPTION_EVENT_RUN_1 = (
     (".info.stamp.sec", "int32", 4),
     (".info.stamp.nanosec", "uint32", 8),
 )
-_R_type_description_interfaces__srv__GetTypeDescription_Event_2 = (
-    (".info.sequence_number", "int64", 8),
-)
-_R_type_description_interfaces__srv__GetTypeDescription_Request_0 = ((".type_name", "uint32", 4),)
-_R_type_description_interfaces__srv__GetTypeDescription_Request_1 = ((".type_hash", "uint32", 4),)
-_R_type_description_interfaces__srv__GetTypeDescription_Request_2 = (
-    (".include_type_sources", "bool", 1),
-)
-_R_type_description_interfaces__srv__GetTypeDescription_Response_0 = ((".successful", "bool", 1),)
-_R_type_description_interfaces__srv__GetTypeDescription_Response_1 = (
-    (".failure_reason", "uint32", 4),
-)
+GET_TYPE_DESCRIPTION_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+GET_TYPE_DESCRIPTION_REQUEST_RUN_0 = ((".type_name", "uint32", 4),)
+GET_TYPE_DESCRIPTION_REQUEST_RUN_1 = ((".type_hash", "uint32", 4),)
+GET_TYPE_DESCRIPTION_REQUEST_RUN_2 = ((".include_type_sources", "bool", 1),)
+GET_TYPE_DESCRIPTION_RESPONSE_RUN_0 = ((".successful", "bool", 1),)
+GET_TYPE_DESCRIPTION_RESPONSE_RUN_1 = ((".failure_reason", "uint32", 4),)
+INDIVIDUAL_TYPE_DESCRIPTION_RUN_0 = ((".type_name", "uint32", 4),)
+KEY_VALUE_RUN_0 = ((".key", "uint32", 4),)
+KEY_VALUE_RUN_1 = ((".value", "uint32", 4),)
+TYPE_SOURCE_RUN_0 = ((".type_name", "uint32", 4),)
+TYPE_SOURCE_RUN_1 = ((".encoding", "uint32", 4),)
+TYPE_SOURCE_RUN_2 = ((".raw_file_contents", "uint32", 4),)
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
@@ -367,7 +336,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class type_description_interfaces__msg__FieldType:
+class FieldType:
     """A decoded type_description_interfaces/msg/FieldType.
 
     Attributes named as the ROS fields.
@@ -385,10 +354,8 @@ class type_description_interfaces__msg__FieldType:
         return view_repr(self)
 
 
-def make_type_description_interfaces__msg__FieldType(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> type_description_interfaces__msg__FieldType:
-    view = _new(type_description_interfaces__msg__FieldType)
+def field_type_view(a0: Any, a1: Any, a2: Any, a3: Any) -> FieldType:
+    view = _new(FieldType)
     view.type_id = a0
     view.capacity = a1
     view.string_capacity = a2
@@ -396,7 +363,7 @@ def make_type_description_interfaces__msg__FieldType(
     return view
 
 
-class type_description_interfaces__msg__Field:
+class Field:
     """A decoded type_description_interfaces/msg/Field.
 
     Attributes named as the ROS fields.
@@ -413,17 +380,15 @@ class type_description_interfaces__msg__Field:
         return view_repr(self)
 
 
-def make_type_description_interfaces__msg__Field(
-    a0: Any, a1: Any, a2: Any
-) -> type_description_interfaces__msg__Field:
-    view = _new(type_description_interfaces__msg__Field)
+def field_view(a0: Any, a1: Any, a2: Any) -> Field:
+    view = _new(Field)
     view.name = a0
     view.type = a1
     view.default_value = a2
     return view
 
 
-class type_description_interfaces__msg__IndividualTypeDescription:
+class IndividualTypeDescription:
     """A decoded type_description_interfaces/msg/IndividualTypeDescription.
 
     Attributes named as the ROS fields.
@@ -439,16 +404,14 @@ class type_description_interfaces__msg__IndividualTypeDescription:
         return view_repr(self)
 
 
-def make_type_description_interfaces__msg__IndividualTypeDescription(
-    a0: Any, a1: Any
-) -> type_description_interfaces__msg__IndividualTypeDescription:
-    view = _new(type_description_interfaces__msg__IndividualTypeDescription)
+def individual_type_description_view(a0: Any, a1: Any) -> IndividualTypeDescription:
+    view = _new(IndividualTypeDescription)
     view.type_name = a0
     view.fields = a1
     return view
 
 
-class type_description_interfaces__msg__KeyValue:
+class KeyValue:
     """A decoded type_description_interfaces/msg/KeyValue.
 
     Attributes named as the ROS fields.
@@ -464,16 +427,14 @@ class type_description_interfaces__msg__KeyValue:
         return view_repr(self)
 
 
-def make_type_description_interfaces__msg__KeyValue(
-    a0: Any, a1: Any
-) -> type_description_interfaces__msg__KeyValue:
-    view = _new(type_description_interfaces__msg__KeyValue)
+def key_value_view(a0: Any, a1: Any) -> KeyValue:
+    view = _new(KeyValue)
     view.key = a0
     view.value = a1
     return view
 
 
-class type_description_interfaces__msg__TypeDescription:
+class TypeDescription:
     """A decoded type_description_interfaces/msg/TypeDescription.
 
     Attributes named as the ROS fields.
@@ -489,16 +450,14 @@ class type_description_interfaces__msg__TypeDescription:
         return view_repr(self)
 
 
-def make_type_description_interfaces__msg__TypeDescription(
-    a0: Any, a1: Any
-) -> type_description_interfaces__msg__TypeDescription:
-    view = _new(type_description_interfaces__msg__TypeDescription)
+def type_description_view(a0: Any, a1: Any) -> TypeDescription:
+    view = _new(TypeDescription)
     view.type_description = a0
     view.referenced_type_descriptions = a1
     return view
 
 
-class type_description_interfaces__msg__TypeSource:
+class TypeSource:
     """A decoded type_description_interfaces/msg/TypeSource.
 
     Attributes named as the ROS fields.
@@ -515,17 +474,15 @@ class type_description_interfaces__msg__TypeSource:
         return view_repr(self)
 
 
-def make_type_description_interfaces__msg__TypeSource(
-    a0: Any, a1: Any, a2: Any
-) -> type_description_interfaces__msg__TypeSource:
-    view = _new(type_description_interfaces__msg__TypeSource)
+def type_source_view(a0: Any, a1: Any, a2: Any) -> TypeSource:
+    view = _new(TypeSource)
     view.type_name = a0
     view.encoding = a1
     view.raw_file_contents = a2
     return view
 
 
-class type_description_interfaces__srv__GetTypeDescription_Request:
+class GetTypeDescription_Request:
     """A decoded type_description_interfaces/srv/GetTypeDescription_Request.
 
     Attributes named as the ROS fields.
@@ -542,17 +499,15 @@ class type_description_interfaces__srv__GetTypeDescription_Request:
         return view_repr(self)
 
 
-def make_type_description_interfaces__srv__GetTypeDescription_Request(
-    a0: Any, a1: Any, a2: Any
-) -> type_description_interfaces__srv__GetTypeDescription_Request:
-    view = _new(type_description_interfaces__srv__GetTypeDescription_Request)
+def get_type_description_request_view(a0: Any, a1: Any, a2: Any) -> GetTypeDescription_Request:
+    view = _new(GetTypeDescription_Request)
     view.type_name = a0
     view.type_hash = a1
     view.include_type_sources = a2
     return view
 
 
-class type_description_interfaces__srv__GetTypeDescription_Response:
+class GetTypeDescription_Response:
     """A decoded type_description_interfaces/srv/GetTypeDescription_Response.
 
     Attributes named as the ROS fields.
@@ -571,10 +526,10 @@ class type_description_interfaces__srv__GetTypeDescription_Response:
         return view_repr(self)
 
 
-def make_type_description_interfaces__srv__GetTypeDescription_Response(
+def get_type_description_response_view(
     a0: Any, a1: Any, a2: Any, a3: Any, a4: Any
-) -> type_description_interfaces__srv__GetTypeDescription_Response:
-    view = _new(type_description_interfaces__srv__GetTypeDescription_Response)
+) -> GetTypeDescription_Response:
+    view = _new(GetTypeDescription_Response)
     view.successful = a0
     view.failure_reason = a1
     view.type_description = a2
@@ -583,59 +538,7 @@ def make_type_description_interfaces__srv__GetTypeDescription_Response(
     return view
 
 
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class service_msgs__msg__ServiceEventInfo:
-    """A decoded service_msgs/msg/ServiceEventInfo.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-    msg_type = "service_msgs/msg/ServiceEventInfo"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_service_msgs__msg__ServiceEventInfo(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> service_msgs__msg__ServiceEventInfo:
-    view = _new(service_msgs__msg__ServiceEventInfo)
-    view.event_type = a0
-    view.stamp = a1
-    view.client_gid = a2
-    view.sequence_number = a3
-    return view
-
-
-class type_description_interfaces__srv__GetTypeDescription_Event:
+class GetTypeDescription_Event:
     """A decoded type_description_interfaces/srv/GetTypeDescription_Event.
 
     Attributes named as the ROS fields.
@@ -652,18 +555,16 @@ class type_description_interfaces__srv__GetTypeDescription_Event:
         return view_repr(self)
 
 
-def make_type_description_interfaces__srv__GetTypeDescription_Event(
-    a0: Any, a1: Any, a2: Any
-) -> type_description_interfaces__srv__GetTypeDescription_Event:
-    view = _new(type_description_interfaces__srv__GetTypeDescription_Event)
+def get_type_description_event_view(a0: Any, a1: Any, a2: Any) -> GetTypeDescription_Event:
+    view = _new(GetTypeDescription_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _S_2QI = Struct(E + "2QI")
     _S_B = Struct(E + "B")
@@ -673,16 +574,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
     _S_q = Struct(E + "q")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_type_description_interfaces__msg__FieldType(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def field_type_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_type_description_interfaces__msg__FieldType_0
+            f = FIELD_TYPE_RUN_0
             (v1,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 7) & -8
-            f = _R_type_description_interfaces__msg__FieldType_1
+            f = FIELD_TYPE_RUN_1
             v2, v3, v5 = _S_2QI.unpack_from(mv, pos)
             pos += 20
             f = ".nested_type_name"
@@ -697,28 +596,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_type_description_interfaces__msg__FieldType(v1, v2, v3, v6), pos
+            return field_type_view(v1, v2, v3, v6), pos
         return {"type_id": v1, "capacity": v2, "string_capacity": v3, "nested_type_name": v6}, pos
 
-    def encode_type_description_interfaces__msg__FieldType(d: Any, out: list[Any], pos: int) -> int:
+    def field_type_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_type_description_interfaces__msg__FieldType.issuperset(d)
-            ):
-                d = _submap(d, _K_type_description_interfaces__msg__FieldType)
+            if d.__class__ is not dict or not FIELD_TYPE_KEYS.issuperset(d):
+                d = _submap(d, FIELD_TYPE_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(d.get("type_id", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_type_description_interfaces__msg__FieldType_0,
-                        (d.get("type_id", 0),),
-                    )
-                )
+                out.append(slow_pack(_S_B, FIELD_TYPE_RUN_0, (d.get("type_id", 0),)))
             pos += 1
             p = -pos & 7
             if p:
@@ -733,7 +623,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_2QI,
-                        _R_type_description_interfaces__msg__FieldType_1,
+                        FIELD_TYPE_RUN_1,
                         (
                             d.get("capacity", 0),
                             d.get("string_capacity", 0),
@@ -750,13 +640,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_type_description_interfaces__msg__Field(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def field_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__Field_0
+            f = FIELD_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".name"
@@ -765,9 +653,9 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             f = ".type"
-            v4, pos = decode_type_description_interfaces__msg__FieldType(mv, pos, lim)
+            v4, pos = field_type_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__Field_1
+            f = FIELD_RUN_1
             (v6,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".default_value"
@@ -780,16 +668,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_type_description_interfaces__msg__Field(v3, v4, v7), pos
+            return field_view(v3, v4, v7), pos
         return {"name": v3, "type": v4, "default_value": v7}, pos
 
-    def encode_type_description_interfaces__msg__Field(d: Any, out: list[Any], pos: int) -> int:
+    def field_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_type_description_interfaces__msg__Field.issuperset(
-                d
-            ):
-                d = _submap(d, _K_type_description_interfaces__msg__Field)
+            if d.__class__ is not dict or not FIELD_KEYS.issuperset(d):
+                d = _submap(d, FIELD_KEYS)
             f = ".name"
             b1 = utf8z(d.get("name", ""), None)
             p = -pos & 3
@@ -800,14 +686,12 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_type_description_interfaces__msg__Field_0, (len(b1),))
-                )
+                out.append(slow_pack(_S_I, FIELD_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
             f = ".type"
-            pos = encode_type_description_interfaces__msg__FieldType(d.get("type", EMPTY), out, pos)
+            pos = field_type_encode(d.get("type", EMPTY), out, pos)
             f = ".default_value"
             b5 = utf8z(d.get("default_value", ""), None)
             p = -pos & 3
@@ -818,9 +702,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b5)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_type_description_interfaces__msg__Field_1, (len(b5),))
-                )
+                out.append(slow_pack(_S_I, FIELD_RUN_1, (len(b5),)))
             pos += 4
             out.append(b5)
             pos += len(b5)
@@ -830,13 +712,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_type_description_interfaces__msg__IndividualTypeDescription(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def individual_type_description_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__IndividualTypeDescription_0
+            f = INDIVIDUAL_TYPE_DESCRIPTION_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".type_name"
@@ -847,27 +727,20 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             if len(v3) > 255:
                 raise over_bound(len(v3), 255)
             f = ".fields"
-            v4, pos = read_messages(
-                mv, pos, lim, _U32, decode_type_description_interfaces__msg__Field, None, None, 29
-            )
+            v4, pos = read_messages(mv, pos, lim, _U32, field_decode, None, None, 29)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_type_description_interfaces__msg__IndividualTypeDescription(v3, v4), pos
+            return individual_type_description_view(v3, v4), pos
         return {"type_name": v3, "fields": v4}, pos
 
-    def encode_type_description_interfaces__msg__IndividualTypeDescription(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def individual_type_description_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_type_description_interfaces__msg__IndividualTypeDescription.issuperset(d)
-            ):
-                d = _submap(d, _K_type_description_interfaces__msg__IndividualTypeDescription)
+            if d.__class__ is not dict or not INDIVIDUAL_TYPE_DESCRIPTION_KEYS.issuperset(d):
+                d = _submap(d, INDIVIDUAL_TYPE_DESCRIPTION_KEYS)
             f = ".type_name"
             b1 = utf8z(d.get("type_name", ""), 255)
             p = -pos & 3
@@ -878,39 +751,23 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_I,
-                        _R_type_description_interfaces__msg__IndividualTypeDescription_0,
-                        (len(b1),),
-                    )
-                )
+                out.append(slow_pack(_S_I, INDIVIDUAL_TYPE_DESCRIPTION_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
             f = ".fields"
-            pos = write_messages(
-                d.get("fields", ()),
-                out,
-                pos,
-                _U32,
-                encode_type_description_interfaces__msg__Field,
-                None,
-                False,
-            )
+            pos = write_messages(d.get("fields", ()), out, pos, _U32, field_encode, None, False)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_type_description_interfaces__msg__KeyValue(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def key_value_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__KeyValue_0
+            f = KEY_VALUE_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".key"
@@ -919,7 +776,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__KeyValue_1
+            f = KEY_VALUE_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".value"
@@ -932,17 +789,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_type_description_interfaces__msg__KeyValue(v3, v6), pos
+            return key_value_view(v3, v6), pos
         return {"key": v3, "value": v6}, pos
 
-    def encode_type_description_interfaces__msg__KeyValue(d: Any, out: list[Any], pos: int) -> int:
+    def key_value_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_type_description_interfaces__msg__KeyValue.issuperset(d)
-            ):
-                d = _submap(d, _K_type_description_interfaces__msg__KeyValue)
+            if d.__class__ is not dict or not KEY_VALUE_KEYS.issuperset(d):
+                d = _submap(d, KEY_VALUE_KEYS)
             f = ".key"
             b1 = utf8z(d.get("key", ""), None)
             p = -pos & 3
@@ -953,9 +807,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_type_description_interfaces__msg__KeyValue_0, (len(b1),))
-                )
+                out.append(slow_pack(_S_I, KEY_VALUE_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -969,9 +821,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b4)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_type_description_interfaces__msg__KeyValue_1, (len(b4),))
-                )
+                out.append(slow_pack(_S_I, KEY_VALUE_RUN_1, (len(b4),)))
             pos += 4
             out.append(b4)
             pos += len(b4)
@@ -981,55 +831,37 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_type_description_interfaces__msg__TypeDescription(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def type_description_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".type_description"
-            v1, pos = decode_type_description_interfaces__msg__IndividualTypeDescription(
-                mv, pos, lim
-            )
+            v1, pos = individual_type_description_decode(mv, pos, lim)
             f = ".referenced_type_descriptions"
             v2, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_type_description_interfaces__msg__IndividualTypeDescription,
-                None,
-                None,
-                8,
+                mv, pos, lim, _U32, individual_type_description_decode, None, None, 8
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_type_description_interfaces__msg__TypeDescription(v1, v2), pos
+            return type_description_view(v1, v2), pos
         return {"type_description": v1, "referenced_type_descriptions": v2}, pos
 
-    def encode_type_description_interfaces__msg__TypeDescription(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def type_description_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_type_description_interfaces__msg__TypeDescription.issuperset(d)
-            ):
-                d = _submap(d, _K_type_description_interfaces__msg__TypeDescription)
+            if d.__class__ is not dict or not TYPE_DESCRIPTION_KEYS.issuperset(d):
+                d = _submap(d, TYPE_DESCRIPTION_KEYS)
             f = ".type_description"
-            pos = encode_type_description_interfaces__msg__IndividualTypeDescription(
-                d.get("type_description", EMPTY), out, pos
-            )
+            pos = individual_type_description_encode(d.get("type_description", EMPTY), out, pos)
             f = ".referenced_type_descriptions"
             pos = write_messages(
                 d.get("referenced_type_descriptions", ()),
                 out,
                 pos,
                 _U32,
-                encode_type_description_interfaces__msg__IndividualTypeDescription,
+                individual_type_description_encode,
                 None,
                 False,
             )
@@ -1039,13 +871,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_type_description_interfaces__msg__TypeSource(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def type_source_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__TypeSource_0
+            f = TYPE_SOURCE_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".type_name"
@@ -1054,7 +884,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__TypeSource_1
+            f = TYPE_SOURCE_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".encoding"
@@ -1063,7 +893,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
             pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__msg__TypeSource_2
+            f = TYPE_SOURCE_RUN_2
             (v8,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".raw_file_contents"
@@ -1076,19 +906,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_type_description_interfaces__msg__TypeSource(v3, v6, v9), pos
+            return type_source_view(v3, v6, v9), pos
         return {"type_name": v3, "encoding": v6, "raw_file_contents": v9}, pos
 
-    def encode_type_description_interfaces__msg__TypeSource(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def type_source_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_type_description_interfaces__msg__TypeSource.issuperset(d)
-            ):
-                d = _submap(d, _K_type_description_interfaces__msg__TypeSource)
+            if d.__class__ is not dict or not TYPE_SOURCE_KEYS.issuperset(d):
+                d = _submap(d, TYPE_SOURCE_KEYS)
             f = ".type_name"
             b1 = utf8z(d.get("type_name", ""), None)
             p = -pos & 3
@@ -1099,9 +924,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_type_description_interfaces__msg__TypeSource_0, (len(b1),))
-                )
+                out.append(slow_pack(_S_I, TYPE_SOURCE_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -1115,9 +938,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b4)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_type_description_interfaces__msg__TypeSource_1, (len(b4),))
-                )
+                out.append(slow_pack(_S_I, TYPE_SOURCE_RUN_1, (len(b4),)))
             pos += 4
             out.append(b4)
             pos += len(b4)
@@ -1131,9 +952,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b7)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_type_description_interfaces__msg__TypeSource_2, (len(b7),))
-                )
+                out.append(slow_pack(_S_I, TYPE_SOURCE_RUN_2, (len(b7),)))
             pos += 4
             out.append(b7)
             pos += len(b7)
@@ -1143,13 +962,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_type_description_interfaces__srv__GetTypeDescription_Request(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_type_description_request_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Request_0
+            f = GET_TYPE_DESCRIPTION_REQUEST_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".type_name"
@@ -1158,7 +975,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Request_1
+            f = GET_TYPE_DESCRIPTION_REQUEST_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".type_hash"
@@ -1166,7 +983,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v5, 1, lim - pos)
             v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Request_2
+            f = GET_TYPE_DESCRIPTION_REQUEST_RUN_2
             (v8,) = _S_T.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -1174,21 +991,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_type_description_interfaces__srv__GetTypeDescription_Request(
-                v3, v6, v8
-            ), pos
+            return get_type_description_request_view(v3, v6, v8), pos
         return {"type_name": v3, "type_hash": v6, "include_type_sources": v8}, pos
 
-    def encode_type_description_interfaces__srv__GetTypeDescription_Request(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_type_description_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_type_description_interfaces__srv__GetTypeDescription_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_type_description_interfaces__srv__GetTypeDescription_Request)
+            if d.__class__ is not dict or not GET_TYPE_DESCRIPTION_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, GET_TYPE_DESCRIPTION_REQUEST_KEYS)
             f = ".type_name"
             b1 = utf8z(d.get("type_name", ""), None)
             p = -pos & 3
@@ -1199,13 +1009,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_I,
-                        _R_type_description_interfaces__srv__GetTypeDescription_Request_0,
-                        (len(b1),),
-                    )
-                )
+                out.append(slow_pack(_S_I, GET_TYPE_DESCRIPTION_REQUEST_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -1219,13 +1023,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b4)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_I,
-                        _R_type_description_interfaces__srv__GetTypeDescription_Request_1,
-                        (len(b4),),
-                    )
-                )
+                out.append(slow_pack(_S_I, GET_TYPE_DESCRIPTION_REQUEST_RUN_1, (len(b4),)))
             pos += 4
             out.append(b4)
             pos += len(b4)
@@ -1244,7 +1042,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_type_description_interfaces__srv__GetTypeDescription_Request_2,
+                        GET_TYPE_DESCRIPTION_REQUEST_RUN_2,
                         (
                             (
                                 t7
@@ -1261,16 +1059,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_type_description_interfaces__srv__GetTypeDescription_Response(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_type_description_response_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Response_0
+            f = GET_TYPE_DESCRIPTION_RESPONSE_RUN_0
             (v2,) = _S_T.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Response_1
+            f = GET_TYPE_DESCRIPTION_RESPONSE_RUN_1
             (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".failure_reason"
@@ -1279,30 +1075,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
             f = ".type_description"
-            v6, pos = decode_type_description_interfaces__msg__TypeDescription(mv, pos, lim)
+            v6, pos = type_description_decode(mv, pos, lim)
             f = ".type_sources"
-            v7, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_type_description_interfaces__msg__TypeSource,
-                None,
-                None,
-                12,
-            )
+            v7, pos = read_messages(mv, pos, lim, _U32, type_source_decode, None, None, 12)
             f = ".extra_information"
-            v8, pos = read_messages(
-                mv, pos, lim, _U32, decode_type_description_interfaces__msg__KeyValue, None, None, 8
-            )
+            v8, pos = read_messages(mv, pos, lim, _U32, key_value_decode, None, None, 8)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_type_description_interfaces__srv__GetTypeDescription_Response(
-                v2, v5, v6, v7, v8
-            ), pos
+            return get_type_description_response_view(v2, v5, v6, v7, v8), pos
         return {
             "successful": v2,
             "failure_reason": v5,
@@ -1311,18 +1094,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "extra_information": v8,
         }, pos
 
-    def encode_type_description_interfaces__srv__GetTypeDescription_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_type_description_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_type_description_interfaces__srv__GetTypeDescription_Response.issuperset(
-                    d
-                )
-            ):
-                d = _submap(d, _K_type_description_interfaces__srv__GetTypeDescription_Response)
+            if d.__class__ is not dict or not GET_TYPE_DESCRIPTION_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, GET_TYPE_DESCRIPTION_RESPONSE_KEYS)
             f = ".failure_reason"
             b3 = utf8z(d.get("failure_reason", ""), None)
             f = ""
@@ -1340,7 +1116,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_type_description_interfaces__srv__GetTypeDescription_Response_0,
+                        GET_TYPE_DESCRIPTION_RESPONSE_RUN_0,
                         (
                             (
                                 t1
@@ -1359,39 +1135,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b3)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_I,
-                        _R_type_description_interfaces__srv__GetTypeDescription_Response_1,
-                        (len(b3),),
-                    )
-                )
+                out.append(slow_pack(_S_I, GET_TYPE_DESCRIPTION_RESPONSE_RUN_1, (len(b3),)))
             pos += 4
             out.append(b3)
             pos += len(b3)
             f = ".type_description"
-            pos = encode_type_description_interfaces__msg__TypeDescription(
-                d.get("type_description", EMPTY), out, pos
-            )
+            pos = type_description_encode(d.get("type_description", EMPTY), out, pos)
             f = ".type_sources"
             pos = write_messages(
-                d.get("type_sources", ()),
-                out,
-                pos,
-                _U32,
-                encode_type_description_interfaces__msg__TypeSource,
-                None,
-                False,
+                d.get("type_sources", ()), out, pos, _U32, type_source_encode, None, False
             )
             f = ".extra_information"
             pos = write_messages(
-                d.get("extra_information", ()),
-                out,
-                pos,
-                _U32,
-                encode_type_description_interfaces__msg__KeyValue,
-                None,
-                False,
+                d.get("extra_information", ()), out, pos, _U32, key_value_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -1399,161 +1155,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
+    def get_type_description_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_service_msgs__msg__ServiceEventInfo(
-                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-            ), pos
-        return {
-            "event_type": v1,
-            "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7.tobytes(),
-            "sequence_number": v8,
-        }, pos
-
-    def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(d):
-                d = _submap(d, _K_service_msgs__msg__ServiceEventInfo)
-            f = ".stamp"
-            m2 = d.get("stamp", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
-            f = ""
-            try:
-                out.append(_S_B.pack(d.get("event_type", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_service_msgs__msg__ServiceEventInfo_0, (d.get("event_type", 0),)
-                    )
-                )
-            pos += 1
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".client_gid"
-            b5, c6 = encode_array(d.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
-            f = ""
-            try:
-                out.append(_S_iI.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_service_msgs__msg__ServiceEventInfo_1,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-            out.append(b5)
-            pos += c6 * 1
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_q.pack(d.get("sequence_number", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_service_msgs__msg__ServiceEventInfo_2,
-                        (d.get("sequence_number", 0),),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_type_description_interfaces__srv__GetTypeDescription_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Event_0
+            f = GET_TYPE_DESCRIPTION_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Event_1
+            f = GET_TYPE_DESCRIPTION_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -1562,39 +1171,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_type_description_interfaces__srv__GetTypeDescription_Event_2
+            f = GET_TYPE_DESCRIPTION_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_type_description_interfaces__srv__GetTypeDescription_Request,
-                None,
-                1,
-                9,
+                mv, pos, lim, _U32, get_type_description_request_decode, None, 1, 9
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_type_description_interfaces__srv__GetTypeDescription_Response,
-                None,
-                1,
-                25,
+                mv, pos, lim, _U32, get_type_description_response_decode, None, 1, 25
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_type_description_interfaces__srv__GetTypeDescription_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return get_type_description_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -1610,36 +1205,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_type_description_interfaces__srv__GetTypeDescription_Event(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_type_description_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_type_description_interfaces__srv__GetTypeDescription_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_type_description_interfaces__srv__GetTypeDescription_Event)
+            if d.__class__ is not dict or not GET_TYPE_DESCRIPTION_EVENT_KEYS.issuperset(d):
+                d = _submap(d, GET_TYPE_DESCRIPTION_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_type_description_interfaces__srv__GetTypeDescription_Event_0,
-                        (m1.get("event_type", 0),),
-                    )
+                    slow_pack(_S_B, GET_TYPE_DESCRIPTION_EVENT_RUN_0, (m1.get("event_type", 0),))
                 )
             pos += 1
             p = -pos & 3
@@ -1655,7 +1239,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_type_description_interfaces__srv__GetTypeDescription_Event_1,
+                        GET_TYPE_DESCRIPTION_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -1675,21 +1259,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_q,
-                        _R_type_description_interfaces__srv__GetTypeDescription_Event_2,
-                        (m1.get("sequence_number", 0),),
+                        _S_q, GET_TYPE_DESCRIPTION_EVENT_RUN_2, (m1.get("sequence_number", 0),)
                     )
                 )
             pos += 8
             f = ".request"
             pos = write_messages(
-                d.get("request", ()),
-                out,
-                pos,
-                _U32,
-                encode_type_description_interfaces__srv__GetTypeDescription_Request,
-                1,
-                False,
+                d.get("request", ()), out, pos, _U32, get_type_description_request_encode, 1, False
             )
             f = ".response"
             pos = write_messages(
@@ -1697,7 +1273,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_type_description_interfaces__srv__GetTypeDescription_Response,
+                get_type_description_response_encode,
                 1,
                 False,
             )
@@ -1708,57 +1284,84 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
+        "field_type_decode": field_type_decode,
+        "field_type_encode": field_type_encode,
+        "field_decode": field_decode,
+        "field_encode": field_encode,
+        "individual_type_description_decode": individual_type_description_decode,
+        "individual_type_description_encode": individual_type_description_encode,
+        "key_value_decode": key_value_decode,
+        "key_value_encode": key_value_encode,
+        "type_description_decode": type_description_decode,
+        "type_description_encode": type_description_encode,
+        "type_source_decode": type_source_decode,
+        "type_source_encode": type_source_encode,
+        "get_type_description_request_decode": get_type_description_request_decode,
+        "get_type_description_request_encode": get_type_description_request_encode,
+        "get_type_description_response_decode": get_type_description_response_decode,
+        "get_type_description_response_encode": get_type_description_response_encode,
+        "get_type_description_event_decode": get_type_description_event_decode,
+        "get_type_description_event_encode": get_type_description_event_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "type_description_interfaces/msg/FieldType": (
-            decode_type_description_interfaces__msg__FieldType,
-            encode_type_description_interfaces__msg__FieldType,
+            as_dict["field_type_decode"],
+            as_view["field_type_decode"],
+            as_dict["field_type_encode"],
         ),
         "type_description_interfaces/msg/Field": (
-            decode_type_description_interfaces__msg__Field,
-            encode_type_description_interfaces__msg__Field,
+            as_dict["field_decode"],
+            as_view["field_decode"],
+            as_dict["field_encode"],
         ),
         "type_description_interfaces/msg/IndividualTypeDescription": (
-            decode_type_description_interfaces__msg__IndividualTypeDescription,
-            encode_type_description_interfaces__msg__IndividualTypeDescription,
+            as_dict["individual_type_description_decode"],
+            as_view["individual_type_description_decode"],
+            as_dict["individual_type_description_encode"],
         ),
         "type_description_interfaces/msg/KeyValue": (
-            decode_type_description_interfaces__msg__KeyValue,
-            encode_type_description_interfaces__msg__KeyValue,
+            as_dict["key_value_decode"],
+            as_view["key_value_decode"],
+            as_dict["key_value_encode"],
         ),
         "type_description_interfaces/msg/TypeDescription": (
-            decode_type_description_interfaces__msg__TypeDescription,
-            encode_type_description_interfaces__msg__TypeDescription,
+            as_dict["type_description_decode"],
+            as_view["type_description_decode"],
+            as_dict["type_description_encode"],
         ),
         "type_description_interfaces/msg/TypeSource": (
-            decode_type_description_interfaces__msg__TypeSource,
-            encode_type_description_interfaces__msg__TypeSource,
+            as_dict["type_source_decode"],
+            as_view["type_source_decode"],
+            as_dict["type_source_encode"],
         ),
         "type_description_interfaces/srv/GetTypeDescription_Request": (
-            decode_type_description_interfaces__srv__GetTypeDescription_Request,
-            encode_type_description_interfaces__srv__GetTypeDescription_Request,
+            as_dict["get_type_description_request_decode"],
+            as_view["get_type_description_request_decode"],
+            as_dict["get_type_description_request_encode"],
         ),
         "type_description_interfaces/srv/GetTypeDescription_Response": (
-            decode_type_description_interfaces__srv__GetTypeDescription_Response,
-            encode_type_description_interfaces__srv__GetTypeDescription_Response,
-        ),
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
-        ),
-        "service_msgs/msg/ServiceEventInfo": (
-            decode_service_msgs__msg__ServiceEventInfo,
-            encode_service_msgs__msg__ServiceEventInfo,
+            as_dict["get_type_description_response_decode"],
+            as_view["get_type_description_response_decode"],
+            as_dict["get_type_description_response_encode"],
         ),
         "type_description_interfaces/srv/GetTypeDescription_Event": (
-            decode_type_description_interfaces__srv__GetTypeDescription_Event,
-            encode_type_description_interfaces__srv__GetTypeDescription_Event,
+            as_dict["get_type_description_event_decode"],
+            as_view["get_type_description_event_decode"],
+            as_dict["get_type_description_event_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

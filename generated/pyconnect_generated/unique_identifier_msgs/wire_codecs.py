@@ -5,10 +5,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -48,8 +49,9 @@ from pyconnect.codecs.field_path import FieldError, WireDecodeError
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     "unique_identifier_msgs/msg/UUID": (
         "RIHS01_1b8e8aca958cbea28fe6ef60bf6c19b683c97a9ef60bb34752067d0f2f7ab437",
@@ -57,7 +59,7 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
     ),
 }
 EXPORTED: frozenset[str] = frozenset(("unique_identifier_msgs/msg/UUID",))
-_K_unique_identifier_msgs__msg__UUID = frozenset(("uuid",))
+UUID_KEYS = frozenset(("uuid",))
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
@@ -67,7 +69,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class unique_identifier_msgs__msg__UUID:
+class UUID:
     """A decoded unique_identifier_msgs/msg/UUID.
 
     Attributes named as the ROS fields.
@@ -80,20 +82,18 @@ class unique_identifier_msgs__msg__UUID:
         return view_repr(self)
 
 
-def make_unique_identifier_msgs__msg__UUID(a0: Any) -> unique_identifier_msgs__msg__UUID:
-    view = _new(unique_identifier_msgs__msg__UUID)
+def uuid_view(a0: Any) -> UUID:
+    view = _new(UUID)
     view.uuid = a0
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     _U32 = Struct(E + "I")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_unique_identifier_msgs__msg__UUID(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def uuid_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".uuid"
@@ -106,14 +106,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_unique_identifier_msgs__msg__UUID(v3), pos
+            return uuid_view(v3), pos
         return {"uuid": v3.tobytes()}, pos
 
-    def encode_unique_identifier_msgs__msg__UUID(d: Any, out: list[Any], pos: int) -> int:
+    def uuid_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_unique_identifier_msgs__msg__UUID.issuperset(d):
-                d = _submap(d, _K_unique_identifier_msgs__msg__UUID)
+            if d.__class__ is not dict or not UUID_KEYS.issuperset(d):
+                d = _submap(d, UUID_KEYS)
             f = ".uuid"
             b1, c2 = encode_array(d.get("uuid", bytes(16)), _D_uint8, "uint8", 16, True)
             out.append(b1)
@@ -125,17 +125,28 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
+        "uuid_decode": uuid_decode,
+        "uuid_encode": uuid_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "unique_identifier_msgs/msg/UUID": (
-            decode_unique_identifier_msgs__msg__UUID,
-            encode_unique_identifier_msgs__msg__UUID,
+            as_dict["uuid_decode"],
+            as_view["uuid_decode"],
+            as_dict["uuid_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

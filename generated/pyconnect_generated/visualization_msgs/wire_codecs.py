@@ -33,10 +33,11 @@
 """CDR (XCDR1) wire codecs: straight-line decoders to dicts and views, and encoders, per type.
 
 One decoder per type builds either the lossless dict or the view (``_build`` makes both sets of
-closures); ``LITTLE`` and ``BIG`` map each type to ``(to_dict, to_view, from_dict)`` for that byte
-order. Positions count from the end of the encapsulation header; numeric and uint8 arrays
-decode as numpy views of the input in views, and as lists and bytes in dicts (what ``to_dict``
-of a live message gives). Imports nothing from ROS.
+closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
+to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
+linked from their modules. Positions count from the end of the encapsulation header; numeric and
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
+``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -72,51 +73,53 @@ from pyconnect.codecs.cdr_write import (
 )
 from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect_generated.builtin_interfaces.wire_codecs import (
+    DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
+    DURATION_KEYS as BUILTIN_INTERFACES__DURATION_KEYS,
+    duration_view as builtin_interfaces__duration_view,
+    TIME_KEYS as BUILTIN_INTERFACES__TIME_KEYS,
+    time_view as builtin_interfaces__time_view,
+)
+from pyconnect_generated.geometry_msgs.wire_codecs import (
+    DEFINITIONS as GEOMETRY_MSGS__DEFINITIONS,
+    FUNCTIONS as GEOMETRY_MSGS__FUNCTIONS,
+    POINT_KEYS as GEOMETRY_MSGS__POINT_KEYS,
+    point_view as geometry_msgs__point_view,
+    POSE_KEYS as GEOMETRY_MSGS__POSE_KEYS,
+    pose_view as geometry_msgs__pose_view,
+    QUATERNION_KEYS as GEOMETRY_MSGS__QUATERNION_KEYS,
+    quaternion_view as geometry_msgs__quaternion_view,
+    VECTOR3_KEYS as GEOMETRY_MSGS__VECTOR3_KEYS,
+    vector3_view as geometry_msgs__vector3_view,
+)
+from pyconnect_generated.sensor_msgs.wire_codecs import (
+    DEFINITIONS as SENSOR_MSGS__DEFINITIONS,
+    FUNCTIONS as SENSOR_MSGS__FUNCTIONS,
+)
+from pyconnect_generated.service_msgs.wire_codecs import (
+    DEFINITIONS as SERVICE_MSGS__DEFINITIONS,
+    SERVICE_EVENT_INFO_KEYS as SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS,
+    service_event_info_view as service_msgs__service_event_info_view,
+)
+from pyconnect_generated.std_msgs.wire_codecs import (
+    COLOR_RGBA_KEYS as STD_MSGS__COLOR_RGBA_KEYS,
+    color_rgba_view as std_msgs__color_rgba_view,
+    DEFINITIONS as STD_MSGS__DEFINITIONS,
+    FUNCTIONS as STD_MSGS__FUNCTIONS,
+)
 
 _new = object.__new__
 _frombuffer = np.frombuffer
 
-# The types of this module with their RIHS01 hashes and fields as plain data
-# (name, kind, element, string bound, container, size, default), for Fast DDS's size estimate.
+# The types of this module (after those of the linked modules) with their RIHS01 hashes and fields
+# as plain data (name, kind, element, string bound, container, size, default), for Fast DDS's
+# size estimate.
 DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
-    "builtin_interfaces/msg/Time": (
-        "RIHS01_b106235e25a4c5ed35098aa0a61a3ee9c9b18d197f398b0e4206cea9acf9c197",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
-    "std_msgs/msg/Header": (
-        "RIHS01_f49fb3ae2cf070f793645ff749683ac6b06203e41c891e17701b1cb597ce6a01",
-        (
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("frame_id", "string", "string", None, "single", None, None),
-        ),
-    ),
-    "geometry_msgs/msg/Point": (
-        "RIHS01_6963084842a9b04494d6b2941d11444708d892da2f4b09843b9c43f42a7f6881",
-        (
-            ("x", "primitive", "float64", None, "single", None, None),
-            ("y", "primitive", "float64", None, "single", None, None),
-            ("z", "primitive", "float64", None, "single", None, None),
-        ),
-    ),
-    "std_msgs/msg/ColorRGBA": (
-        "RIHS01_77a7a5b9ae477306097665106e0413ba74440245b1f3d0c6d6405fe5c7813fe8",
-        (
-            ("r", "primitive", "float32", None, "single", None, None),
-            ("g", "primitive", "float32", None, "single", None, None),
-            ("b", "primitive", "float32", None, "single", None, None),
-            ("a", "primitive", "float32", None, "single", None, None),
-        ),
-    ),
-    "builtin_interfaces/msg/Duration": (
-        "RIHS01_e8d009f659816f758b75334ee1a9ca5b5c0b859843261f14c7f937349599d93b",
-        (
-            ("sec", "primitive", "int32", None, "single", None, None),
-            ("nanosec", "primitive", "uint32", None, "single", None, None),
-        ),
-    ),
+    **BUILTIN_INTERFACES__DEFINITIONS,
+    **GEOMETRY_MSGS__DEFINITIONS,
+    **SENSOR_MSGS__DEFINITIONS,
+    **SERVICE_MSGS__DEFINITIONS,
+    **STD_MSGS__DEFINITIONS,
     "visualization_msgs/msg/ImageMarker": (
         "RIHS01_603152491ef2331c200a5305230d31f6e8704875944b388da0f547c415d11836",
         (
@@ -135,22 +138,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
             ("outline_colors", "message", "std_msgs/msg/ColorRGBA", None, "sequence", None, None),
         ),
     ),
-    "geometry_msgs/msg/Quaternion": (
-        "RIHS01_8a765f66778c8ff7c8ab94afcc590a2ed5325a1d9a076ffff38fbce36f458684",
-        (
-            ("x", "primitive", "float64", None, "single", None, 0.0),
-            ("y", "primitive", "float64", None, "single", None, 0.0),
-            ("z", "primitive", "float64", None, "single", None, 0.0),
-            ("w", "primitive", "float64", None, "single", None, 1.0),
-        ),
-    ),
-    "geometry_msgs/msg/Pose": (
-        "RIHS01_d501954e9476cea2996984e812054b68026ae0bfae789d9a10b23daf35cc90fa",
-        (
-            ("position", "message", "geometry_msgs/msg/Point", None, "single", None, None),
-            ("orientation", "message", "geometry_msgs/msg/Quaternion", None, "single", None, None),
-        ),
-    ),
     "visualization_msgs/msg/MenuEntry": (
         "RIHS01_22170c387c70fd4236232ec902de8604e72ff027342c7c0f28ad9f68c64c51d6",
         (
@@ -159,22 +146,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
             ("title", "string", "string", None, "single", None, None),
             ("command", "string", "string", None, "single", None, None),
             ("command_type", "primitive", "uint8", None, "single", None, None),
-        ),
-    ),
-    "geometry_msgs/msg/Vector3": (
-        "RIHS01_cc12fe83e4c02719f1ce8070bfd14aecd40f75a96696a67a2a1f37f7dbb0765d",
-        (
-            ("x", "primitive", "float64", None, "single", None, None),
-            ("y", "primitive", "float64", None, "single", None, None),
-            ("z", "primitive", "float64", None, "single", None, None),
-        ),
-    ),
-    "sensor_msgs/msg/CompressedImage": (
-        "RIHS01_15640771531571185e2efc8a100baf923961a4d15d5569652e6cb6691e8e371a",
-        (
-            ("header", "message", "std_msgs/msg/Header", None, "single", None, None),
-            ("format", "string", "string", None, "single", None, None),
-            ("data", "primitive", "uint8", None, "sequence", None, None),
         ),
     ),
     "visualization_msgs/msg/UVCoordinate": (
@@ -352,15 +323,6 @@ DEFINITIONS: dict[str, tuple[str, tuple[Any, ...]]] = {
             ),
         ),
     ),
-    "service_msgs/msg/ServiceEventInfo": (
-        "RIHS01_41bcbbe07a75c9b52bc96bfd5c24d7f0fc0a08c0cb7921b3373c5732345a6f45",
-        (
-            ("event_type", "primitive", "uint8", None, "single", None, None),
-            ("stamp", "message", "builtin_interfaces/msg/Time", None, "single", None, None),
-            ("client_gid", "primitive", "uint8", None, "array", 16, None),
-            ("sequence_number", "primitive", "int64", None, "single", None, None),
-        ),
-    ),
     "visualization_msgs/srv/GetInteractiveMarkers_Event": (
         "RIHS01_4f89243e7571b9563464f4349ceb14a60808a9a0b6f72944dbdfffd6427da2f4",
         (
@@ -405,76 +367,21 @@ EXPORTED: frozenset[str] = frozenset(
         "visualization_msgs/srv/GetInteractiveMarkers_Response",
     )
 )
-_K_builtin_interfaces__msg__Duration = frozenset(
+GET_INTERACTIVE_MARKERS_EVENT_KEYS = frozenset(
     (
-        "sec",
-        "nanosec",
+        "info",
+        "request",
+        "response",
     )
 )
-_K_builtin_interfaces__msg__Time = frozenset(
+GET_INTERACTIVE_MARKERS_REQUEST_KEYS = frozenset()
+GET_INTERACTIVE_MARKERS_RESPONSE_KEYS = frozenset(
     (
-        "sec",
-        "nanosec",
-    )
-)
-_K_geometry_msgs__msg__Point = frozenset(
-    (
-        "x",
-        "y",
-        "z",
-    )
-)
-_K_geometry_msgs__msg__Pose = frozenset(
-    (
-        "position",
-        "orientation",
-    )
-)
-_K_geometry_msgs__msg__Quaternion = frozenset(
-    (
-        "x",
-        "y",
-        "z",
-        "w",
-    )
-)
-_K_geometry_msgs__msg__Vector3 = frozenset(
-    (
-        "x",
-        "y",
-        "z",
-    )
-)
-_K_sensor_msgs__msg__CompressedImage = frozenset(
-    (
-        "header",
-        "format",
-        "data",
-    )
-)
-_K_service_msgs__msg__ServiceEventInfo = frozenset(
-    (
-        "event_type",
-        "stamp",
-        "client_gid",
         "sequence_number",
+        "markers",
     )
 )
-_K_std_msgs__msg__ColorRGBA = frozenset(
-    (
-        "r",
-        "g",
-        "b",
-        "a",
-    )
-)
-_K_std_msgs__msg__Header = frozenset(
-    (
-        "stamp",
-        "frame_id",
-    )
-)
-_K_visualization_msgs__msg__ImageMarker = frozenset(
+IMAGE_MARKER_KEYS = frozenset(
     (
         "header",
         "ns",
@@ -491,18 +398,7 @@ _K_visualization_msgs__msg__ImageMarker = frozenset(
         "outline_colors",
     )
 )
-_K_visualization_msgs__msg__InteractiveMarker = frozenset(
-    (
-        "header",
-        "pose",
-        "name",
-        "description",
-        "scale",
-        "menu_entries",
-        "controls",
-    )
-)
-_K_visualization_msgs__msg__InteractiveMarkerControl = frozenset(
+INTERACTIVE_MARKER_CONTROL_KEYS = frozenset(
     (
         "name",
         "orientation",
@@ -514,7 +410,7 @@ _K_visualization_msgs__msg__InteractiveMarkerControl = frozenset(
         "description",
     )
 )
-_K_visualization_msgs__msg__InteractiveMarkerFeedback = frozenset(
+INTERACTIVE_MARKER_FEEDBACK_KEYS = frozenset(
     (
         "header",
         "client_id",
@@ -527,21 +423,32 @@ _K_visualization_msgs__msg__InteractiveMarkerFeedback = frozenset(
         "mouse_point_valid",
     )
 )
-_K_visualization_msgs__msg__InteractiveMarkerInit = frozenset(
+INTERACTIVE_MARKER_INIT_KEYS = frozenset(
     (
         "server_id",
         "seq_num",
         "markers",
     )
 )
-_K_visualization_msgs__msg__InteractiveMarkerPose = frozenset(
+INTERACTIVE_MARKER_KEYS = frozenset(
+    (
+        "header",
+        "pose",
+        "name",
+        "description",
+        "scale",
+        "menu_entries",
+        "controls",
+    )
+)
+INTERACTIVE_MARKER_POSE_KEYS = frozenset(
     (
         "header",
         "pose",
         "name",
     )
 )
-_K_visualization_msgs__msg__InteractiveMarkerUpdate = frozenset(
+INTERACTIVE_MARKER_UPDATE_KEYS = frozenset(
     (
         "server_id",
         "seq_num",
@@ -551,7 +458,8 @@ _K_visualization_msgs__msg__InteractiveMarkerUpdate = frozenset(
         "erases",
     )
 )
-_K_visualization_msgs__msg__Marker = frozenset(
+MARKER_ARRAY_KEYS = frozenset(("markers",))
+MARKER_KEYS = frozenset(
     (
         "header",
         "ns",
@@ -574,8 +482,7 @@ _K_visualization_msgs__msg__Marker = frozenset(
         "mesh_use_embedded_materials",
     )
 )
-_K_visualization_msgs__msg__MarkerArray = frozenset(("markers",))
-_K_visualization_msgs__msg__MenuEntry = frozenset(
+MENU_ENTRY_KEYS = frozenset(
     (
         "id",
         "parent_id",
@@ -584,85 +491,29 @@ _K_visualization_msgs__msg__MenuEntry = frozenset(
         "command_type",
     )
 )
-_K_visualization_msgs__msg__MeshFile = frozenset(
+MESH_FILE_KEYS = frozenset(
     (
         "filename",
         "data",
     )
 )
-_K_visualization_msgs__msg__UVCoordinate = frozenset(
+UV_COORDINATE_KEYS = frozenset(
     (
         "u",
         "v",
     )
 )
-_K_visualization_msgs__srv__GetInteractiveMarkers_Event = frozenset(
-    (
-        "info",
-        "request",
-        "response",
-    )
+GET_INTERACTIVE_MARKERS_EVENT_RUN_0 = ((".info.event_type", "uint8", 1),)
+GET_INTERACTIVE_MARKERS_EVENT_RUN_1 = (
+    (".info.stamp.sec", "int32", 4),
+    (".info.stamp.nanosec", "uint32", 8),
 )
-_K_visualization_msgs__srv__GetInteractiveMarkers_Request = frozenset()
-_K_visualization_msgs__srv__GetInteractiveMarkers_Response = frozenset(
-    (
-        "sequence_number",
-        "markers",
-    )
-)
-_R_builtin_interfaces__msg__Duration_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_builtin_interfaces__msg__Time_0 = ((".sec", "int32", 4), (".nanosec", "uint32", 8))
-_R_geometry_msgs__msg__Point_0 = (
-    (".x", "float64", 8),
-    (".y", "float64", 16),
-    (".z", "float64", 24),
-)
-_R_geometry_msgs__msg__Pose_0 = (
-    (".position.x", "float64", 8),
-    (".position.y", "float64", 16),
-    (".position.z", "float64", 24),
-    (".orientation.x", "float64", 32),
-    (".orientation.y", "float64", 40),
-    (".orientation.z", "float64", 48),
-    (".orientation.w", "float64", 56),
-)
-_R_geometry_msgs__msg__Quaternion_0 = (
-    (".x", "float64", 8),
-    (".y", "float64", 16),
-    (".z", "float64", 24),
-    (".w", "float64", 32),
-)
-_R_geometry_msgs__msg__Vector3_0 = (
-    (".x", "float64", 8),
-    (".y", "float64", 16),
-    (".z", "float64", 24),
-)
-_R_sensor_msgs__msg__CompressedImage_0 = ((".format", "uint32", 4),)
-_R_sensor_msgs__msg__CompressedImage_1 = ((".data", "uint32", 4),)
-_R_service_msgs__msg__ServiceEventInfo_0 = ((".event_type", "uint8", 1),)
-_R_service_msgs__msg__ServiceEventInfo_1 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-)
-_R_service_msgs__msg__ServiceEventInfo_2 = ((".sequence_number", "int64", 8),)
-_R_std_msgs__msg__ColorRGBA_0 = (
-    (".r", "float32", 4),
-    (".g", "float32", 8),
-    (".b", "float32", 12),
-    (".a", "float32", 16),
-)
-_R_std_msgs__msg__Header_0 = (
-    (".stamp.sec", "int32", 4),
-    (".stamp.nanosec", "uint32", 8),
-    (".frame_id", "uint32", 12),
-)
-_R_visualization_msgs__msg__ImageMarker_0 = ((".ns", "uint32", 4),)
-_R_visualization_msgs__msg__ImageMarker_1 = (
-    (".id", "int32", 4),
-    (".type", "int32", 8),
-    (".action", "int32", 12),
-)
-_R_visualization_msgs__msg__ImageMarker_2 = (
+GET_INTERACTIVE_MARKERS_EVENT_RUN_2 = ((".info.sequence_number", "int64", 8),)
+GET_INTERACTIVE_MARKERS_REQUEST_RUN_0 = ()
+GET_INTERACTIVE_MARKERS_RESPONSE_RUN_0 = ((".sequence_number", "uint64", 8),)
+IMAGE_MARKER_RUN_0 = ((".ns", "uint32", 4),)
+IMAGE_MARKER_RUN_1 = ((".id", "int32", 4), (".type", "int32", 8), (".action", "int32", 12))
+IMAGE_MARKER_RUN_2 = (
     (".position.x", "float64", 8),
     (".position.y", "float64", 16),
     (".position.z", "float64", 24),
@@ -679,8 +530,8 @@ _R_visualization_msgs__msg__ImageMarker_2 = (
     (".lifetime.sec", "int32", 68),
     (".lifetime.nanosec", "uint32", 72),
 )
-_R_visualization_msgs__msg__InteractiveMarkerControl_0 = ((".name", "uint32", 4),)
-_R_visualization_msgs__msg__InteractiveMarkerControl_1 = (
+INTERACTIVE_MARKER_CONTROL_RUN_0 = ((".name", "uint32", 4),)
+INTERACTIVE_MARKER_CONTROL_RUN_1 = (
     (".orientation.x", "float64", 8),
     (".orientation.y", "float64", 16),
     (".orientation.z", "float64", 24),
@@ -689,15 +540,13 @@ _R_visualization_msgs__msg__InteractiveMarkerControl_1 = (
     (".interaction_mode", "uint8", 34),
     (".always_visible", "bool", 35),
 )
-_R_visualization_msgs__msg__InteractiveMarkerControl_2 = (
-    (".independent_marker_orientation", "bool", 1),
-)
-_R_visualization_msgs__msg__InteractiveMarkerControl_3 = ((".description", "uint32", 4),)
-_R_visualization_msgs__msg__InteractiveMarkerFeedback_0 = ((".client_id", "uint32", 4),)
-_R_visualization_msgs__msg__InteractiveMarkerFeedback_1 = ((".marker_name", "uint32", 4),)
-_R_visualization_msgs__msg__InteractiveMarkerFeedback_2 = ((".control_name", "uint32", 4),)
-_R_visualization_msgs__msg__InteractiveMarkerFeedback_3 = ((".event_type", "uint8", 1),)
-_R_visualization_msgs__msg__InteractiveMarkerFeedback_4 = (
+INTERACTIVE_MARKER_CONTROL_RUN_2 = ((".independent_marker_orientation", "bool", 1),)
+INTERACTIVE_MARKER_CONTROL_RUN_3 = ((".description", "uint32", 4),)
+INTERACTIVE_MARKER_FEEDBACK_RUN_0 = ((".client_id", "uint32", 4),)
+INTERACTIVE_MARKER_FEEDBACK_RUN_1 = ((".marker_name", "uint32", 4),)
+INTERACTIVE_MARKER_FEEDBACK_RUN_2 = ((".control_name", "uint32", 4),)
+INTERACTIVE_MARKER_FEEDBACK_RUN_3 = ((".event_type", "uint8", 1),)
+INTERACTIVE_MARKER_FEEDBACK_RUN_4 = (
     (".pose.position.x", "float64", 8),
     (".pose.position.y", "float64", 16),
     (".pose.position.z", "float64", 24),
@@ -711,9 +560,9 @@ _R_visualization_msgs__msg__InteractiveMarkerFeedback_4 = (
     (".mouse_point.z", "float64", 88),
     (".mouse_point_valid", "bool", 89),
 )
-_R_visualization_msgs__msg__InteractiveMarkerInit_0 = ((".server_id", "uint32", 4),)
-_R_visualization_msgs__msg__InteractiveMarkerInit_1 = ((".seq_num", "uint64", 8),)
-_R_visualization_msgs__msg__InteractiveMarkerPose_0 = (
+INTERACTIVE_MARKER_INIT_RUN_0 = ((".server_id", "uint32", 4),)
+INTERACTIVE_MARKER_INIT_RUN_1 = ((".seq_num", "uint64", 8),)
+INTERACTIVE_MARKER_POSE_RUN_0 = (
     (".pose.position.x", "float64", 8),
     (".pose.position.y", "float64", 16),
     (".pose.position.z", "float64", 24),
@@ -723,12 +572,7 @@ _R_visualization_msgs__msg__InteractiveMarkerPose_0 = (
     (".pose.orientation.w", "float64", 56),
     (".name", "uint32", 60),
 )
-_R_visualization_msgs__msg__InteractiveMarkerUpdate_0 = ((".server_id", "uint32", 4),)
-_R_visualization_msgs__msg__InteractiveMarkerUpdate_1 = (
-    (".seq_num", "uint64", 8),
-    (".type", "uint8", 9),
-)
-_R_visualization_msgs__msg__InteractiveMarker_0 = (
+INTERACTIVE_MARKER_RUN_0 = (
     (".pose.position.x", "float64", 8),
     (".pose.position.y", "float64", 16),
     (".pose.position.z", "float64", 24),
@@ -738,15 +582,13 @@ _R_visualization_msgs__msg__InteractiveMarker_0 = (
     (".pose.orientation.w", "float64", 56),
     (".name", "uint32", 60),
 )
-_R_visualization_msgs__msg__InteractiveMarker_1 = ((".description", "uint32", 4),)
-_R_visualization_msgs__msg__InteractiveMarker_2 = ((".scale", "float32", 4),)
-_R_visualization_msgs__msg__Marker_0 = ((".ns", "uint32", 4),)
-_R_visualization_msgs__msg__Marker_1 = (
-    (".id", "int32", 4),
-    (".type", "int32", 8),
-    (".action", "int32", 12),
-)
-_R_visualization_msgs__msg__Marker_2 = (
+INTERACTIVE_MARKER_RUN_1 = ((".description", "uint32", 4),)
+INTERACTIVE_MARKER_RUN_2 = ((".scale", "float32", 4),)
+INTERACTIVE_MARKER_UPDATE_RUN_0 = ((".server_id", "uint32", 4),)
+INTERACTIVE_MARKER_UPDATE_RUN_1 = ((".seq_num", "uint64", 8), (".type", "uint8", 9))
+MARKER_RUN_0 = ((".ns", "uint32", 4),)
+MARKER_RUN_1 = ((".id", "int32", 4), (".type", "int32", 8), (".action", "int32", 12))
+MARKER_RUN_2 = (
     (".pose.position.x", "float64", 8),
     (".pose.position.y", "float64", 16),
     (".pose.position.z", "float64", 24),
@@ -765,28 +607,16 @@ _R_visualization_msgs__msg__Marker_2 = (
     (".lifetime.nanosec", "uint32", 104),
     (".frame_locked", "bool", 105),
 )
-_R_visualization_msgs__msg__Marker_3 = ((".texture_resource", "uint32", 4),)
-_R_visualization_msgs__msg__Marker_4 = ((".text", "uint32", 4),)
-_R_visualization_msgs__msg__Marker_5 = ((".mesh_resource", "uint32", 4),)
-_R_visualization_msgs__msg__Marker_6 = ((".mesh_use_embedded_materials", "bool", 1),)
-_R_visualization_msgs__msg__MenuEntry_0 = (
-    (".id", "uint32", 4),
-    (".parent_id", "uint32", 8),
-    (".title", "uint32", 12),
-)
-_R_visualization_msgs__msg__MenuEntry_1 = ((".command", "uint32", 4),)
-_R_visualization_msgs__msg__MenuEntry_2 = ((".command_type", "uint8", 1),)
-_R_visualization_msgs__msg__MeshFile_0 = ((".filename", "uint32", 4),)
-_R_visualization_msgs__msg__MeshFile_1 = ((".data", "uint32", 4),)
-_R_visualization_msgs__msg__UVCoordinate_0 = ((".u", "float32", 4), (".v", "float32", 8))
-_R_visualization_msgs__srv__GetInteractiveMarkers_Event_0 = ((".info.event_type", "uint8", 1),)
-_R_visualization_msgs__srv__GetInteractiveMarkers_Event_1 = (
-    (".info.stamp.sec", "int32", 4),
-    (".info.stamp.nanosec", "uint32", 8),
-)
-_R_visualization_msgs__srv__GetInteractiveMarkers_Event_2 = ((".info.sequence_number", "int64", 8),)
-_R_visualization_msgs__srv__GetInteractiveMarkers_Request_0 = ()
-_R_visualization_msgs__srv__GetInteractiveMarkers_Response_0 = ((".sequence_number", "uint64", 8),)
+MARKER_RUN_3 = ((".texture_resource", "uint32", 4),)
+MARKER_RUN_4 = ((".text", "uint32", 4),)
+MARKER_RUN_5 = ((".mesh_resource", "uint32", 4),)
+MARKER_RUN_6 = ((".mesh_use_embedded_materials", "bool", 1),)
+MENU_ENTRY_RUN_0 = ((".id", "uint32", 4), (".parent_id", "uint32", 8), (".title", "uint32", 12))
+MENU_ENTRY_RUN_1 = ((".command", "uint32", 4),)
+MENU_ENTRY_RUN_2 = ((".command_type", "uint8", 1),)
+MESH_FILE_RUN_0 = ((".filename", "uint32", 4),)
+MESH_FILE_RUN_1 = ((".data", "uint32", 4),)
+UV_COORDINATE_RUN_0 = ((".u", "float32", 4), (".v", "float32", 8))
 
 
 def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
@@ -796,128 +626,7 @@ def _submap(value: Any, keys: frozenset[str]) -> Mapping[str, Any]:
     return value
 
 
-class builtin_interfaces__msg__Time:
-    """A decoded builtin_interfaces/msg/Time.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Time"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Time(a0: Any, a1: Any) -> builtin_interfaces__msg__Time:
-    view = _new(builtin_interfaces__msg__Time)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class std_msgs__msg__Header:
-    """A decoded std_msgs/msg/Header.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "stamp",
-        "frame_id",
-    )
-    msg_type = "std_msgs/msg/Header"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_std_msgs__msg__Header(a0: Any, a1: Any) -> std_msgs__msg__Header:
-    view = _new(std_msgs__msg__Header)
-    view.stamp = a0
-    view.frame_id = a1
-    return view
-
-
-class geometry_msgs__msg__Point:
-    """A decoded geometry_msgs/msg/Point.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "x",
-        "y",
-        "z",
-    )
-    msg_type = "geometry_msgs/msg/Point"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Point(a0: Any, a1: Any, a2: Any) -> geometry_msgs__msg__Point:
-    view = _new(geometry_msgs__msg__Point)
-    view.x = a0
-    view.y = a1
-    view.z = a2
-    return view
-
-
-class std_msgs__msg__ColorRGBA:
-    """A decoded std_msgs/msg/ColorRGBA.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "r",
-        "g",
-        "b",
-        "a",
-    )
-    msg_type = "std_msgs/msg/ColorRGBA"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_std_msgs__msg__ColorRGBA(a0: Any, a1: Any, a2: Any, a3: Any) -> std_msgs__msg__ColorRGBA:
-    view = _new(std_msgs__msg__ColorRGBA)
-    view.r = a0
-    view.g = a1
-    view.b = a2
-    view.a = a3
-    return view
-
-
-class builtin_interfaces__msg__Duration:
-    """A decoded builtin_interfaces/msg/Duration.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "sec",
-        "nanosec",
-    )
-    msg_type = "builtin_interfaces/msg/Duration"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_builtin_interfaces__msg__Duration(a0: Any, a1: Any) -> builtin_interfaces__msg__Duration:
-    view = _new(builtin_interfaces__msg__Duration)
-    view.sec = a0
-    view.nanosec = a1
-    return view
-
-
-class visualization_msgs__msg__ImageMarker:
+class ImageMarker:
     """A decoded visualization_msgs/msg/ImageMarker.
 
     Attributes named as the ROS fields.
@@ -944,7 +653,7 @@ class visualization_msgs__msg__ImageMarker:
         return view_repr(self)
 
 
-def make_visualization_msgs__msg__ImageMarker(
+def image_marker_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -958,8 +667,8 @@ def make_visualization_msgs__msg__ImageMarker(
     a10: Any,
     a11: Any,
     a12: Any,
-) -> visualization_msgs__msg__ImageMarker:
-    view = _new(visualization_msgs__msg__ImageMarker)
+) -> ImageMarker:
+    view = _new(ImageMarker)
     view.header = a0
     view.ns = a1
     view.id = a2
@@ -976,59 +685,7 @@ def make_visualization_msgs__msg__ImageMarker(
     return view
 
 
-class geometry_msgs__msg__Quaternion:
-    """A decoded geometry_msgs/msg/Quaternion.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "x",
-        "y",
-        "z",
-        "w",
-    )
-    msg_type = "geometry_msgs/msg/Quaternion"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Quaternion(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> geometry_msgs__msg__Quaternion:
-    view = _new(geometry_msgs__msg__Quaternion)
-    view.x = a0
-    view.y = a1
-    view.z = a2
-    view.w = a3
-    return view
-
-
-class geometry_msgs__msg__Pose:
-    """A decoded geometry_msgs/msg/Pose.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "position",
-        "orientation",
-    )
-    msg_type = "geometry_msgs/msg/Pose"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Pose(a0: Any, a1: Any) -> geometry_msgs__msg__Pose:
-    view = _new(geometry_msgs__msg__Pose)
-    view.position = a0
-    view.orientation = a1
-    return view
-
-
-class visualization_msgs__msg__MenuEntry:
+class MenuEntry:
     """A decoded visualization_msgs/msg/MenuEntry.
 
     Attributes named as the ROS fields.
@@ -1047,10 +704,8 @@ class visualization_msgs__msg__MenuEntry:
         return view_repr(self)
 
 
-def make_visualization_msgs__msg__MenuEntry(
-    a0: Any, a1: Any, a2: Any, a3: Any, a4: Any
-) -> visualization_msgs__msg__MenuEntry:
-    view = _new(visualization_msgs__msg__MenuEntry)
+def menu_entry_view(a0: Any, a1: Any, a2: Any, a3: Any, a4: Any) -> MenuEntry:
+    view = _new(MenuEntry)
     view.id = a0
     view.parent_id = a1
     view.title = a2
@@ -1059,59 +714,7 @@ def make_visualization_msgs__msg__MenuEntry(
     return view
 
 
-class geometry_msgs__msg__Vector3:
-    """A decoded geometry_msgs/msg/Vector3.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "x",
-        "y",
-        "z",
-    )
-    msg_type = "geometry_msgs/msg/Vector3"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_geometry_msgs__msg__Vector3(a0: Any, a1: Any, a2: Any) -> geometry_msgs__msg__Vector3:
-    view = _new(geometry_msgs__msg__Vector3)
-    view.x = a0
-    view.y = a1
-    view.z = a2
-    return view
-
-
-class sensor_msgs__msg__CompressedImage:
-    """A decoded sensor_msgs/msg/CompressedImage.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "header",
-        "format",
-        "data",
-    )
-    msg_type = "sensor_msgs/msg/CompressedImage"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_sensor_msgs__msg__CompressedImage(
-    a0: Any, a1: Any, a2: Any
-) -> sensor_msgs__msg__CompressedImage:
-    view = _new(sensor_msgs__msg__CompressedImage)
-    view.header = a0
-    view.format = a1
-    view.data = a2
-    return view
-
-
-class visualization_msgs__msg__UVCoordinate:
+class UVCoordinate:
     """A decoded visualization_msgs/msg/UVCoordinate.
 
     Attributes named as the ROS fields.
@@ -1127,16 +730,14 @@ class visualization_msgs__msg__UVCoordinate:
         return view_repr(self)
 
 
-def make_visualization_msgs__msg__UVCoordinate(
-    a0: Any, a1: Any
-) -> visualization_msgs__msg__UVCoordinate:
-    view = _new(visualization_msgs__msg__UVCoordinate)
+def uv_coordinate_view(a0: Any, a1: Any) -> UVCoordinate:
+    view = _new(UVCoordinate)
     view.u = a0
     view.v = a1
     return view
 
 
-class visualization_msgs__msg__MeshFile:
+class MeshFile:
     """A decoded visualization_msgs/msg/MeshFile.
 
     Attributes named as the ROS fields.
@@ -1152,14 +753,14 @@ class visualization_msgs__msg__MeshFile:
         return view_repr(self)
 
 
-def make_visualization_msgs__msg__MeshFile(a0: Any, a1: Any) -> visualization_msgs__msg__MeshFile:
-    view = _new(visualization_msgs__msg__MeshFile)
+def mesh_file_view(a0: Any, a1: Any) -> MeshFile:
+    view = _new(MeshFile)
     view.filename = a0
     view.data = a1
     return view
 
 
-class visualization_msgs__msg__Marker:
+class Marker:
     """A decoded visualization_msgs/msg/Marker.
 
     Attributes named as the ROS fields.
@@ -1192,7 +793,7 @@ class visualization_msgs__msg__Marker:
         return view_repr(self)
 
 
-def make_visualization_msgs__msg__Marker(
+def marker_view(
     a0: Any,
     a1: Any,
     a2: Any,
@@ -1212,8 +813,8 @@ def make_visualization_msgs__msg__Marker(
     a16: Any,
     a17: Any,
     a18: Any,
-) -> visualization_msgs__msg__Marker:
-    view = _new(visualization_msgs__msg__Marker)
+) -> Marker:
+    view = _new(Marker)
     view.header = a0
     view.ns = a1
     view.id = a2
@@ -1236,7 +837,7 @@ def make_visualization_msgs__msg__Marker(
     return view
 
 
-class visualization_msgs__msg__InteractiveMarkerControl:
+class InteractiveMarkerControl:
     """A decoded visualization_msgs/msg/InteractiveMarkerControl.
 
     Attributes named as the ROS fields.
@@ -1258,10 +859,10 @@ class visualization_msgs__msg__InteractiveMarkerControl:
         return view_repr(self)
 
 
-def make_visualization_msgs__msg__InteractiveMarkerControl(
+def interactive_marker_control_view(
     a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any, a7: Any
-) -> visualization_msgs__msg__InteractiveMarkerControl:
-    view = _new(visualization_msgs__msg__InteractiveMarkerControl)
+) -> InteractiveMarkerControl:
+    view = _new(InteractiveMarkerControl)
     view.name = a0
     view.orientation = a1
     view.orientation_mode = a2
@@ -1273,7 +874,7 @@ def make_visualization_msgs__msg__InteractiveMarkerControl(
     return view
 
 
-class visualization_msgs__msg__InteractiveMarker:
+class InteractiveMarker:
     """A decoded visualization_msgs/msg/InteractiveMarker.
 
     Attributes named as the ROS fields.
@@ -1294,10 +895,10 @@ class visualization_msgs__msg__InteractiveMarker:
         return view_repr(self)
 
 
-def make_visualization_msgs__msg__InteractiveMarker(
+def interactive_marker_view(
     a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any
-) -> visualization_msgs__msg__InteractiveMarker:
-    view = _new(visualization_msgs__msg__InteractiveMarker)
+) -> InteractiveMarker:
+    view = _new(InteractiveMarker)
     view.header = a0
     view.pose = a1
     view.name = a2
@@ -1308,7 +909,7 @@ def make_visualization_msgs__msg__InteractiveMarker(
     return view
 
 
-class visualization_msgs__msg__InteractiveMarkerFeedback:
+class InteractiveMarkerFeedback:
     """A decoded visualization_msgs/msg/InteractiveMarkerFeedback.
 
     Attributes named as the ROS fields.
@@ -1331,10 +932,10 @@ class visualization_msgs__msg__InteractiveMarkerFeedback:
         return view_repr(self)
 
 
-def make_visualization_msgs__msg__InteractiveMarkerFeedback(
+def interactive_marker_feedback_view(
     a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any, a6: Any, a7: Any, a8: Any
-) -> visualization_msgs__msg__InteractiveMarkerFeedback:
-    view = _new(visualization_msgs__msg__InteractiveMarkerFeedback)
+) -> InteractiveMarkerFeedback:
+    view = _new(InteractiveMarkerFeedback)
     view.header = a0
     view.client_id = a1
     view.marker_name = a2
@@ -1347,7 +948,7 @@ def make_visualization_msgs__msg__InteractiveMarkerFeedback(
     return view
 
 
-class visualization_msgs__msg__InteractiveMarkerInit:
+class InteractiveMarkerInit:
     """A decoded visualization_msgs/msg/InteractiveMarkerInit.
 
     Attributes named as the ROS fields.
@@ -1364,17 +965,15 @@ class visualization_msgs__msg__InteractiveMarkerInit:
         return view_repr(self)
 
 
-def make_visualization_msgs__msg__InteractiveMarkerInit(
-    a0: Any, a1: Any, a2: Any
-) -> visualization_msgs__msg__InteractiveMarkerInit:
-    view = _new(visualization_msgs__msg__InteractiveMarkerInit)
+def interactive_marker_init_view(a0: Any, a1: Any, a2: Any) -> InteractiveMarkerInit:
+    view = _new(InteractiveMarkerInit)
     view.server_id = a0
     view.seq_num = a1
     view.markers = a2
     return view
 
 
-class visualization_msgs__msg__InteractiveMarkerPose:
+class InteractiveMarkerPose:
     """A decoded visualization_msgs/msg/InteractiveMarkerPose.
 
     Attributes named as the ROS fields.
@@ -1391,17 +990,15 @@ class visualization_msgs__msg__InteractiveMarkerPose:
         return view_repr(self)
 
 
-def make_visualization_msgs__msg__InteractiveMarkerPose(
-    a0: Any, a1: Any, a2: Any
-) -> visualization_msgs__msg__InteractiveMarkerPose:
-    view = _new(visualization_msgs__msg__InteractiveMarkerPose)
+def interactive_marker_pose_view(a0: Any, a1: Any, a2: Any) -> InteractiveMarkerPose:
+    view = _new(InteractiveMarkerPose)
     view.header = a0
     view.pose = a1
     view.name = a2
     return view
 
 
-class visualization_msgs__msg__InteractiveMarkerUpdate:
+class InteractiveMarkerUpdate:
     """A decoded visualization_msgs/msg/InteractiveMarkerUpdate.
 
     Attributes named as the ROS fields.
@@ -1421,10 +1018,10 @@ class visualization_msgs__msg__InteractiveMarkerUpdate:
         return view_repr(self)
 
 
-def make_visualization_msgs__msg__InteractiveMarkerUpdate(
+def interactive_marker_update_view(
     a0: Any, a1: Any, a2: Any, a3: Any, a4: Any, a5: Any
-) -> visualization_msgs__msg__InteractiveMarkerUpdate:
-    view = _new(visualization_msgs__msg__InteractiveMarkerUpdate)
+) -> InteractiveMarkerUpdate:
+    view = _new(InteractiveMarkerUpdate)
     view.server_id = a0
     view.seq_num = a1
     view.type = a2
@@ -1434,7 +1031,7 @@ def make_visualization_msgs__msg__InteractiveMarkerUpdate(
     return view
 
 
-class visualization_msgs__msg__MarkerArray:
+class MarkerArray:
     """A decoded visualization_msgs/msg/MarkerArray.
 
     Attributes named as the ROS fields.
@@ -1447,13 +1044,13 @@ class visualization_msgs__msg__MarkerArray:
         return view_repr(self)
 
 
-def make_visualization_msgs__msg__MarkerArray(a0: Any) -> visualization_msgs__msg__MarkerArray:
-    view = _new(visualization_msgs__msg__MarkerArray)
+def marker_array_view(a0: Any) -> MarkerArray:
+    view = _new(MarkerArray)
     view.markers = a0
     return view
 
 
-class visualization_msgs__srv__GetInteractiveMarkers_Request:
+class GetInteractiveMarkers_Request:
     """A decoded visualization_msgs/srv/GetInteractiveMarkers_Request.
 
     Attributes named as the ROS fields.
@@ -1466,14 +1063,12 @@ class visualization_msgs__srv__GetInteractiveMarkers_Request:
         return view_repr(self)
 
 
-def make_visualization_msgs__srv__GetInteractiveMarkers_Request() -> (
-    visualization_msgs__srv__GetInteractiveMarkers_Request
-):
-    view = _new(visualization_msgs__srv__GetInteractiveMarkers_Request)
+def get_interactive_markers_request_view() -> GetInteractiveMarkers_Request:
+    view = _new(GetInteractiveMarkers_Request)
     return view
 
 
-class visualization_msgs__srv__GetInteractiveMarkers_Response:
+class GetInteractiveMarkers_Response:
     """A decoded visualization_msgs/srv/GetInteractiveMarkers_Response.
 
     Attributes named as the ROS fields.
@@ -1489,45 +1084,14 @@ class visualization_msgs__srv__GetInteractiveMarkers_Response:
         return view_repr(self)
 
 
-def make_visualization_msgs__srv__GetInteractiveMarkers_Response(
-    a0: Any, a1: Any
-) -> visualization_msgs__srv__GetInteractiveMarkers_Response:
-    view = _new(visualization_msgs__srv__GetInteractiveMarkers_Response)
+def get_interactive_markers_response_view(a0: Any, a1: Any) -> GetInteractiveMarkers_Response:
+    view = _new(GetInteractiveMarkers_Response)
     view.sequence_number = a0
     view.markers = a1
     return view
 
 
-class service_msgs__msg__ServiceEventInfo:
-    """A decoded service_msgs/msg/ServiceEventInfo.
-
-    Attributes named as the ROS fields.
-    """
-
-    __slots__ = (
-        "event_type",
-        "stamp",
-        "client_gid",
-        "sequence_number",
-    )
-    msg_type = "service_msgs/msg/ServiceEventInfo"
-
-    def __repr__(self) -> str:
-        return view_repr(self)
-
-
-def make_service_msgs__msg__ServiceEventInfo(
-    a0: Any, a1: Any, a2: Any, a3: Any
-) -> service_msgs__msg__ServiceEventInfo:
-    view = _new(service_msgs__msg__ServiceEventInfo)
-    view.event_type = a0
-    view.stamp = a1
-    view.client_gid = a2
-    view.sequence_number = a3
-    return view
-
-
-class visualization_msgs__srv__GetInteractiveMarkers_Event:
+class GetInteractiveMarkers_Event:
     """A decoded visualization_msgs/srv/GetInteractiveMarkers_Event.
 
     Attributes named as the ROS fields.
@@ -1544,30 +1108,36 @@ class visualization_msgs__srv__GetInteractiveMarkers_Event:
         return view_repr(self)
 
 
-def make_visualization_msgs__srv__GetInteractiveMarkers_Event(
-    a0: Any, a1: Any, a2: Any
-) -> visualization_msgs__srv__GetInteractiveMarkers_Event:
-    view = _new(visualization_msgs__srv__GetInteractiveMarkers_Event)
+def get_interactive_markers_event_view(a0: Any, a1: Any, a2: Any) -> GetInteractiveMarkers_Event:
+    view = _new(GetInteractiveMarkers_Event)
     view.info = a0
     view.request = a1
     view.response = a2
     return view
 
 
-def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
-    """Every (decoder, encoder) for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+def _build(E: str, view: bool) -> dict[str, Any]:
+    """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    geometry_msgs__point_decode = GEOMETRY_MSGS__FUNCTIONS[E, view]["point_decode"]
+    geometry_msgs__point_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["point_encode"]
+    sensor_msgs__compressed_image_decode = SENSOR_MSGS__FUNCTIONS[E, view][
+        "compressed_image_decode"
+    ]
+    sensor_msgs__compressed_image_encode = SENSOR_MSGS__FUNCTIONS[E, view][
+        "compressed_image_encode"
+    ]
+    std_msgs__color_rgba_decode = STD_MSGS__FUNCTIONS[E, view]["color_rgba_decode"]
+    std_msgs__color_rgba_encode = STD_MSGS__FUNCTIONS[E, view]["color_rgba_encode"]
+    std_msgs__header_decode = STD_MSGS__FUNCTIONS[E, view]["header_decode"]
+    std_msgs__header_encode = STD_MSGS__FUNCTIONS[E, view]["header_encode"]
     _U32 = Struct(E + "I")
     _S_10d4fiIT = Struct(E + "10d4fiI?")
     _S_1x = Struct(E + "1x")
     _S_2f = Struct(E + "2f")
     _S_3I = Struct(E + "3I")
-    _S_3d = Struct(E + "3d")
     _S_3d5fB3x4fiI = Struct(E + "3d5fB3x4fiI")
     _S_3i = Struct(E + "3i")
-    _S_4d = Struct(E + "4d")
     _S_4d2BT = Struct(E + "4d2B?")
-    _S_4f = Struct(E + "4f")
-    _S_7d = Struct(E + "7d")
     _S_7dI = Struct(E + "7dI")
     _S_7dI4x3dT = Struct(E + "7dI4x3d?")
     _S_B = Struct(E + "B")
@@ -1576,266 +1146,17 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
     _S_QB = Struct(E + "QB")
     _S_T = Struct(E + "?")
     _S_f = Struct(E + "f")
-    _S_i2I = Struct(E + "i2I")
     _S_iI = Struct(E + "iI")
     _S_q = Struct(E + "q")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
-    def decode_builtin_interfaces__msg__Time(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Time_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Time(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Time(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Time_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_std_msgs__msg__Header(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__Header_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
-            pos += 12
-            f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_std_msgs__msg__Header(make_builtin_interfaces__msg__Time(v2, v3), v6), pos
-        return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
-
-    def encode_std_msgs__msg__Header(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__Header.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__Header)
-            f = ".stamp"
-            m1 = d.get("stamp", EMPTY)
-            if m1.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m1):
-                m1 = _submap(m1, _K_builtin_interfaces__msg__Time)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".frame_id"
-            b4 = utf8z(d.get("frame_id", ""), None)
-            f = ""
-            try:
-                out.append(_S_i2I.pack(m1.get("sec", 0), m1.get("nanosec", 0), len(b4)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_i2I,
-                        _R_std_msgs__msg__Header_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                            len(b4),
-                        ),
-                    )
-                )
-            pos += 12
-            out.append(b4)
-            pos += len(b4)
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__Point(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Point_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Point(v1, v2, v3), pos
-        return {"x": v1, "y": v2, "z": v3}, pos
-
-    def encode_geometry_msgs__msg__Point(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Point)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_3d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        _R_geometry_msgs__msg__Point_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 24
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_std_msgs__msg__ColorRGBA(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_std_msgs__msg__ColorRGBA_0
-            v1, v2, v3, v4 = _S_4f.unpack_from(mv, pos)
-            pos += 16
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_std_msgs__msg__ColorRGBA(v1, v2, v3, v4), pos
-        return {"r": v1, "g": v2, "b": v3, "a": v4}, pos
-
-    def encode_std_msgs__msg__ColorRGBA(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_std_msgs__msg__ColorRGBA.issuperset(d):
-                d = _submap(d, _K_std_msgs__msg__ColorRGBA)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(
-                    _S_4f.pack(d.get("r", 0.0), d.get("g", 0.0), d.get("b", 0.0), d.get("a", 0.0))
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_4f,
-                        _R_std_msgs__msg__ColorRGBA_0,
-                        (
-                            d.get("r", 0.0),
-                            d.get("g", 0.0),
-                            d.get("b", 0.0),
-                            d.get("a", 0.0),
-                        ),
-                    )
-                )
-            pos += 16
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_builtin_interfaces__msg__Duration(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 3) & -4
-            f = _R_builtin_interfaces__msg__Duration_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_builtin_interfaces__msg__Duration(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
-
-    def encode_builtin_interfaces__msg__Duration(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(d):
-                d = _submap(d, _K_builtin_interfaces__msg__Duration)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_builtin_interfaces__msg__Duration_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_visualization_msgs__msg__ImageMarker(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def image_marker_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__ImageMarker_0
+            f = IMAGE_MARKER_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".ns"
@@ -1844,40 +1165,40 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__ImageMarker_1
+            f = IMAGE_MARKER_RUN_1
             v5, v6, v7 = _S_3i.unpack_from(mv, pos)
             pos += 12
             pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__ImageMarker_2
+            f = IMAGE_MARKER_RUN_2
             v9, v10, v11, v12, v14, v15, v16, v17, v18, v20, v21, v22, v23, v25, v26 = (
                 _S_3d5fB3x4fiI.unpack_from(mv, pos)
             )
             pos += 72
             f = ".points"
             v27, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__Point, None, None, 24
+                mv, pos, lim, _U32, geometry_msgs__point_decode, None, None, 24
             )
             f = ".outline_colors"
             v28, pos = read_messages(
-                mv, pos, lim, _U32, decode_std_msgs__msg__ColorRGBA, None, None, 16
+                mv, pos, lim, _U32, std_msgs__color_rgba_decode, None, None, 16
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__msg__ImageMarker(
+            return image_marker_view(
                 v1,
                 v4,
                 v5,
                 v6,
                 v7,
-                make_geometry_msgs__msg__Point(v9, v10, v11),
+                geometry_msgs__point_view(v9, v10, v11),
                 v12,
-                make_std_msgs__msg__ColorRGBA(v14, v15, v16, v17),
+                std_msgs__color_rgba_view(v14, v15, v16, v17),
                 v18,
-                make_std_msgs__msg__ColorRGBA(v20, v21, v22, v23),
-                make_builtin_interfaces__msg__Duration(v25, v26),
+                std_msgs__color_rgba_view(v20, v21, v22, v23),
+                builtin_interfaces__duration_view(v25, v26),
                 v27,
                 v28,
             ), pos
@@ -1897,13 +1218,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "outline_colors": v28,
         }, pos
 
-    def encode_visualization_msgs__msg__ImageMarker(d: Any, out: list[Any], pos: int) -> int:
+    def image_marker_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_visualization_msgs__msg__ImageMarker.issuperset(d):
-                d = _submap(d, _K_visualization_msgs__msg__ImageMarker)
+            if d.__class__ is not dict or not IMAGE_MARKER_KEYS.issuperset(d):
+                d = _submap(d, IMAGE_MARKER_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".ns"
             b2 = utf8z(d.get("ns", ""), None)
             p = -pos & 3
@@ -1914,7 +1235,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b2)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_visualization_msgs__msg__ImageMarker_0, (len(b2),)))
+                out.append(slow_pack(_S_I, IMAGE_MARKER_RUN_0, (len(b2),)))
             pos += 4
             out.append(b2)
             pos += len(b2)
@@ -1924,8 +1245,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 pos += p
             f = ".position"
             m8 = d.get("position", EMPTY)
-            if m8.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m8):
-                m8 = _submap(m8, _K_geometry_msgs__msg__Point)
+            if m8.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m8):
+                m8 = _submap(m8, GEOMETRY_MSGS__POINT_KEYS)
             f = ""
             try:
                 out.append(_S_3i.pack(d.get("id", 0), d.get("type", 0), d.get("action", 0)))
@@ -1933,7 +1254,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3i,
-                        _R_visualization_msgs__msg__ImageMarker_1,
+                        IMAGE_MARKER_RUN_1,
                         (
                             d.get("id", 0),
                             d.get("type", 0),
@@ -1948,18 +1269,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 pos += p
             f = ".outline_color"
             m13 = d.get("outline_color", EMPTY)
-            if m13.__class__ is not dict or not _K_std_msgs__msg__ColorRGBA.issuperset(m13):
-                m13 = _submap(m13, _K_std_msgs__msg__ColorRGBA)
+            if m13.__class__ is not dict or not STD_MSGS__COLOR_RGBA_KEYS.issuperset(m13):
+                m13 = _submap(m13, STD_MSGS__COLOR_RGBA_KEYS)
             f = ".fill_color"
             m19 = d.get("fill_color", EMPTY)
-            if m19.__class__ is not dict or not _K_std_msgs__msg__ColorRGBA.issuperset(m19):
-                m19 = _submap(m19, _K_std_msgs__msg__ColorRGBA)
+            if m19.__class__ is not dict or not STD_MSGS__COLOR_RGBA_KEYS.issuperset(m19):
+                m19 = _submap(m19, STD_MSGS__COLOR_RGBA_KEYS)
             f = ".lifetime"
             m24 = d.get("lifetime", EMPTY)
-            if m24.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(
-                m24
-            ):
-                m24 = _submap(m24, _K_builtin_interfaces__msg__Duration)
+            if m24.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m24):
+                m24 = _submap(m24, BUILTIN_INTERFACES__DURATION_KEYS)
             f = ""
             try:
                 out.append(
@@ -1985,7 +1304,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3d5fB3x4fiI,
-                        _R_visualization_msgs__msg__ImageMarker_2,
+                        IMAGE_MARKER_RUN_2,
                         (
                             m8.get("x", 0.0),
                             m8.get("y", 0.0),
@@ -2008,7 +1327,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             pos += 72
             f = ".points"
             pos = write_messages(
-                d.get("points", ()), out, pos, _U32, encode_geometry_msgs__msg__Point, None, False
+                d.get("points", ()), out, pos, _U32, geometry_msgs__point_encode, None, False
             )
             f = ".outline_colors"
             pos = write_messages(
@@ -2016,7 +1335,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_std_msgs__msg__ColorRGBA,
+                std_msgs__color_rgba_encode,
                 None,
                 False,
             )
@@ -2026,138 +1345,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Quaternion(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Quaternion_0
-            v1, v2, v3, v4 = _S_4d.unpack_from(mv, pos)
-            pos += 32
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Quaternion(v1, v2, v3, v4), pos
-        return {"x": v1, "y": v2, "z": v3, "w": v4}, pos
-
-    def encode_geometry_msgs__msg__Quaternion(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Quaternion)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(
-                    _S_4d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0), d.get("w", 1.0))
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_4d,
-                        _R_geometry_msgs__msg__Quaternion_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                            d.get("w", 1.0),
-                        ),
-                    )
-                )
-            pos += 32
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_geometry_msgs__msg__Pose(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Pose_0
-            v2, v3, v4, v6, v7, v8, v9 = _S_7d.unpack_from(mv, pos)
-            pos += 56
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Pose(
-                make_geometry_msgs__msg__Point(v2, v3, v4),
-                make_geometry_msgs__msg__Quaternion(v6, v7, v8, v9),
-            ), pos
-        return {
-            "position": {"x": v2, "y": v3, "z": v4},
-            "orientation": {"x": v6, "y": v7, "z": v8, "w": v9},
-        }, pos
-
-    def encode_geometry_msgs__msg__Pose(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Pose)
-            f = ".position"
-            m1 = d.get("position", EMPTY)
-            if m1.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m1):
-                m1 = _submap(m1, _K_geometry_msgs__msg__Point)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".orientation"
-            m5 = d.get("orientation", EMPTY)
-            if m5.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m5):
-                m5 = _submap(m5, _K_geometry_msgs__msg__Quaternion)
-            f = ""
-            try:
-                out.append(
-                    _S_7d.pack(
-                        m1.get("x", 0.0),
-                        m1.get("y", 0.0),
-                        m1.get("z", 0.0),
-                        m5.get("x", 0.0),
-                        m5.get("y", 0.0),
-                        m5.get("z", 0.0),
-                        m5.get("w", 1.0),
-                    )
-                )
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_7d,
-                        _R_geometry_msgs__msg__Pose_0,
-                        (
-                            m1.get("x", 0.0),
-                            m1.get("y", 0.0),
-                            m1.get("z", 0.0),
-                            m5.get("x", 0.0),
-                            m5.get("y", 0.0),
-                            m5.get("z", 0.0),
-                            m5.get("w", 1.0),
-                        ),
-                    )
-                )
-            pos += 56
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_visualization_msgs__msg__MenuEntry(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def menu_entry_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__MenuEntry_0
+            f = MENU_ENTRY_RUN_0
             v1, v2, v4 = _S_3I.unpack_from(mv, pos)
             pos += 12
             f = ".title"
@@ -2166,7 +1358,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__MenuEntry_1
+            f = MENU_ENTRY_RUN_1
             (v7,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".command"
@@ -2174,7 +1366,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v7, 1, lim - pos)
             v8 = mv[pos : pos + v7 - 1].tobytes().decode()
             pos += v7
-            f = _R_visualization_msgs__msg__MenuEntry_2
+            f = MENU_ENTRY_RUN_2
             (v9,) = _S_B.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -2182,14 +1374,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__msg__MenuEntry(v1, v2, v5, v8, v9), pos
+            return menu_entry_view(v1, v2, v5, v8, v9), pos
         return {"id": v1, "parent_id": v2, "title": v5, "command": v8, "command_type": v9}, pos
 
-    def encode_visualization_msgs__msg__MenuEntry(d: Any, out: list[Any], pos: int) -> int:
+    def menu_entry_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_visualization_msgs__msg__MenuEntry.issuperset(d):
-                d = _submap(d, _K_visualization_msgs__msg__MenuEntry)
+            if d.__class__ is not dict or not MENU_ENTRY_KEYS.issuperset(d):
+                d = _submap(d, MENU_ENTRY_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -2203,7 +1395,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3I,
-                        _R_visualization_msgs__msg__MenuEntry_0,
+                        MENU_ENTRY_RUN_0,
                         (
                             d.get("id", 0),
                             d.get("parent_id", 0),
@@ -2224,7 +1416,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b6)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_visualization_msgs__msg__MenuEntry_1, (len(b6),)))
+                out.append(slow_pack(_S_I, MENU_ENTRY_RUN_1, (len(b6),)))
             pos += 4
             out.append(b6)
             pos += len(b6)
@@ -2232,11 +1424,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_B.pack(d.get("command_type", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_visualization_msgs__msg__MenuEntry_2, (d.get("command_type", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_B, MENU_ENTRY_RUN_2, (d.get("command_type", 0),)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -2244,133 +1432,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_geometry_msgs__msg__Vector3(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            pos = (pos + 7) & -8
-            f = _R_geometry_msgs__msg__Vector3_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
-            pos += 24
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_geometry_msgs__msg__Vector3(v1, v2, v3), pos
-        return {"x": v1, "y": v2, "z": v3}, pos
-
-    def encode_geometry_msgs__msg__Vector3(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(d):
-                d = _submap(d, _K_geometry_msgs__msg__Vector3)
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_3d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        _R_geometry_msgs__msg__Vector3_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 24
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_sensor_msgs__msg__CompressedImage(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__CompressedImage_0
-            (v3,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".format"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
-            pos = (pos + 3) & -4
-            f = _R_sensor_msgs__msg__CompressedImage_1
-            (v7,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".data"
-            if v7 * 1 > lim - pos:
-                raise too_long(v7, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, v7, pos)
-            pos += v7 * 1
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_sensor_msgs__msg__CompressedImage(v1, v4, v8), pos
-        return {"header": v1, "format": v4, "data": v8.tobytes()}, pos
-
-    def encode_sensor_msgs__msg__CompressedImage(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_sensor_msgs__msg__CompressedImage.issuperset(d):
-                d = _submap(d, _K_sensor_msgs__msg__CompressedImage)
-            f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
-            f = ".format"
-            b2 = utf8z(d.get("format", ""), None)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_I.pack(len(b2)))
-            except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__CompressedImage_0, (len(b2),)))
-            pos += 4
-            out.append(b2)
-            pos += len(b2)
-            f = ".data"
-            b5, c6 = encode_array(d.get("data", ()), _D_uint8, "uint8", None, False)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_I.pack(c6))
-            except Exception:
-                out.append(slow_pack(_S_I, _R_sensor_msgs__msg__CompressedImage_1, (c6,)))
-            pos += 4
-            out.append(b5)
-            pos += c6 * 1
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_visualization_msgs__msg__UVCoordinate(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def uv_coordinate_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__UVCoordinate_0
+            f = UV_COORDINATE_RUN_0
             v1, v2 = _S_2f.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
@@ -2378,16 +1444,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__msg__UVCoordinate(v1, v2), pos
+            return uv_coordinate_view(v1, v2), pos
         return {"u": v1, "v": v2}, pos
 
-    def encode_visualization_msgs__msg__UVCoordinate(d: Any, out: list[Any], pos: int) -> int:
+    def uv_coordinate_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_visualization_msgs__msg__UVCoordinate.issuperset(
-                d
-            ):
-                d = _submap(d, _K_visualization_msgs__msg__UVCoordinate)
+            if d.__class__ is not dict or not UV_COORDINATE_KEYS.issuperset(d):
+                d = _submap(d, UV_COORDINATE_KEYS)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -2399,7 +1463,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_2f,
-                        _R_visualization_msgs__msg__UVCoordinate_0,
+                        UV_COORDINATE_RUN_0,
                         (
                             d.get("u", 0.0),
                             d.get("v", 0.0),
@@ -2413,13 +1477,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_visualization_msgs__msg__MeshFile(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def mesh_file_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__MeshFile_0
+            f = MESH_FILE_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".filename"
@@ -2428,7 +1490,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__MeshFile_1
+            f = MESH_FILE_RUN_1
             (v6,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".data"
@@ -2441,14 +1503,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__msg__MeshFile(v3, v7), pos
+            return mesh_file_view(v3, v7), pos
         return {"filename": v3, "data": v7.tobytes()}, pos
 
-    def encode_visualization_msgs__msg__MeshFile(d: Any, out: list[Any], pos: int) -> int:
+    def mesh_file_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_visualization_msgs__msg__MeshFile.issuperset(d):
-                d = _submap(d, _K_visualization_msgs__msg__MeshFile)
+            if d.__class__ is not dict or not MESH_FILE_KEYS.issuperset(d):
+                d = _submap(d, MESH_FILE_KEYS)
             f = ".filename"
             b1 = utf8z(d.get("filename", ""), None)
             p = -pos & 3
@@ -2459,7 +1521,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_visualization_msgs__msg__MeshFile_0, (len(b1),)))
+                out.append(slow_pack(_S_I, MESH_FILE_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -2473,7 +1535,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(c5))
             except Exception:
-                out.append(slow_pack(_S_I, _R_visualization_msgs__msg__MeshFile_1, (c5,)))
+                out.append(slow_pack(_S_I, MESH_FILE_RUN_1, (c5,)))
             pos += 4
             out.append(b4)
             pos += c5 * 1
@@ -2483,15 +1545,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_visualization_msgs__msg__Marker(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def marker_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__Marker_0
+            f = MARKER_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".ns"
@@ -2500,25 +1560,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__Marker_1
+            f = MARKER_RUN_1
             v5, v6, v7 = _S_3i.unpack_from(mv, pos)
             pos += 12
             pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__Marker_2
+            f = MARKER_RUN_2
             v10, v11, v12, v14, v15, v16, v17, v19, v20, v21, v23, v24, v25, v26, v28, v29, v31 = (
                 _S_10d4fiIT.unpack_from(mv, pos)
             )
             pos += 105
             f = ".points"
             v32, pos = read_messages(
-                mv, pos, lim, _U32, decode_geometry_msgs__msg__Point, None, None, 24
+                mv, pos, lim, _U32, geometry_msgs__point_decode, None, None, 24
             )
             f = ".colors"
             v33, pos = read_messages(
-                mv, pos, lim, _U32, decode_std_msgs__msg__ColorRGBA, None, None, 16
+                mv, pos, lim, _U32, std_msgs__color_rgba_decode, None, None, 16
             )
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__Marker_3
+            f = MARKER_RUN_3
             (v35,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".texture_resource"
@@ -2527,13 +1587,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v36 = mv[pos : pos + v35 - 1].tobytes().decode()
             pos += v35
             f = ".texture"
-            v37, pos = decode_sensor_msgs__msg__CompressedImage(mv, pos, lim)
+            v37, pos = sensor_msgs__compressed_image_decode(mv, pos, lim)
             f = ".uv_coordinates"
-            v38, pos = read_messages(
-                mv, pos, lim, _U32, decode_visualization_msgs__msg__UVCoordinate, None, None, 8
-            )
+            v38, pos = read_messages(mv, pos, lim, _U32, uv_coordinate_decode, None, None, 8)
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__Marker_4
+            f = MARKER_RUN_4
             (v40,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".text"
@@ -2542,7 +1600,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v41 = mv[pos : pos + v40 - 1].tobytes().decode()
             pos += v40
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__Marker_5
+            f = MARKER_RUN_5
             (v43,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".mesh_resource"
@@ -2551,8 +1609,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v44 = mv[pos : pos + v43 - 1].tobytes().decode()
             pos += v43
             f = ".mesh_file"
-            v45, pos = decode_visualization_msgs__msg__MeshFile(mv, pos, lim)
-            f = _R_visualization_msgs__msg__Marker_6
+            v45, pos = mesh_file_decode(mv, pos, lim)
+            f = MARKER_RUN_6
             (v47,) = _S_T.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -2560,19 +1618,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__msg__Marker(
+            return marker_view(
                 v1,
                 v4,
                 v5,
                 v6,
                 v7,
-                make_geometry_msgs__msg__Pose(
-                    make_geometry_msgs__msg__Point(v10, v11, v12),
-                    make_geometry_msgs__msg__Quaternion(v14, v15, v16, v17),
+                geometry_msgs__pose_view(
+                    geometry_msgs__point_view(v10, v11, v12),
+                    geometry_msgs__quaternion_view(v14, v15, v16, v17),
                 ),
-                make_geometry_msgs__msg__Vector3(v19, v20, v21),
-                make_std_msgs__msg__ColorRGBA(v23, v24, v25, v26),
-                make_builtin_interfaces__msg__Duration(v28, v29),
+                geometry_msgs__vector3_view(v19, v20, v21),
+                std_msgs__color_rgba_view(v23, v24, v25, v26),
+                builtin_interfaces__duration_view(v28, v29),
                 v31,
                 v32,
                 v33,
@@ -2609,13 +1667,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "mesh_use_embedded_materials": v47,
         }, pos
 
-    def encode_visualization_msgs__msg__Marker(d: Any, out: list[Any], pos: int) -> int:
+    def marker_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_visualization_msgs__msg__Marker.issuperset(d):
-                d = _submap(d, _K_visualization_msgs__msg__Marker)
+            if d.__class__ is not dict or not MARKER_KEYS.issuperset(d):
+                d = _submap(d, MARKER_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".ns"
             b2 = utf8z(d.get("ns", ""), None)
             p = -pos & 3
@@ -2626,7 +1684,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b2)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_visualization_msgs__msg__Marker_0, (len(b2),)))
+                out.append(slow_pack(_S_I, MARKER_RUN_0, (len(b2),)))
             pos += 4
             out.append(b2)
             pos += len(b2)
@@ -2636,12 +1694,12 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 pos += p
             f = ".pose"
             m8 = d.get("pose", EMPTY)
-            if m8.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(m8):
-                m8 = _submap(m8, _K_geometry_msgs__msg__Pose)
+            if m8.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m8):
+                m8 = _submap(m8, GEOMETRY_MSGS__POSE_KEYS)
             f = ".pose.position"
             m9 = m8.get("position", EMPTY)
-            if m9.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m9):
-                m9 = _submap(m9, _K_geometry_msgs__msg__Point)
+            if m9.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m9):
+                m9 = _submap(m9, GEOMETRY_MSGS__POINT_KEYS)
             f = ""
             try:
                 out.append(_S_3i.pack(d.get("id", 0), d.get("type", 0), d.get("action", 0)))
@@ -2649,7 +1707,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_3i,
-                        _R_visualization_msgs__msg__Marker_1,
+                        MARKER_RUN_1,
                         (
                             d.get("id", 0),
                             d.get("type", 0),
@@ -2664,22 +1722,20 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 pos += p
             f = ".pose.orientation"
             m13 = m8.get("orientation", EMPTY)
-            if m13.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m13):
-                m13 = _submap(m13, _K_geometry_msgs__msg__Quaternion)
+            if m13.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m13):
+                m13 = _submap(m13, GEOMETRY_MSGS__QUATERNION_KEYS)
             f = ".scale"
             m18 = d.get("scale", EMPTY)
-            if m18.__class__ is not dict or not _K_geometry_msgs__msg__Vector3.issuperset(m18):
-                m18 = _submap(m18, _K_geometry_msgs__msg__Vector3)
+            if m18.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m18):
+                m18 = _submap(m18, GEOMETRY_MSGS__VECTOR3_KEYS)
             f = ".color"
             m22 = d.get("color", EMPTY)
-            if m22.__class__ is not dict or not _K_std_msgs__msg__ColorRGBA.issuperset(m22):
-                m22 = _submap(m22, _K_std_msgs__msg__ColorRGBA)
+            if m22.__class__ is not dict or not STD_MSGS__COLOR_RGBA_KEYS.issuperset(m22):
+                m22 = _submap(m22, STD_MSGS__COLOR_RGBA_KEYS)
             f = ".lifetime"
             m27 = d.get("lifetime", EMPTY)
-            if m27.__class__ is not dict or not _K_builtin_interfaces__msg__Duration.issuperset(
-                m27
-            ):
-                m27 = _submap(m27, _K_builtin_interfaces__msg__Duration)
+            if m27.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m27):
+                m27 = _submap(m27, BUILTIN_INTERFACES__DURATION_KEYS)
             f = ""
             try:
                 out.append(
@@ -2711,7 +1767,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_10d4fiIT,
-                        _R_visualization_msgs__msg__Marker_2,
+                        MARKER_RUN_2,
                         (
                             m9.get("x", 0.0),
                             m9.get("y", 0.0),
@@ -2740,11 +1796,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             pos += 105
             f = ".points"
             pos = write_messages(
-                d.get("points", ()), out, pos, _U32, encode_geometry_msgs__msg__Point, None, False
+                d.get("points", ()), out, pos, _U32, geometry_msgs__point_encode, None, False
             )
             f = ".colors"
             pos = write_messages(
-                d.get("colors", ()), out, pos, _U32, encode_std_msgs__msg__ColorRGBA, None, False
+                d.get("colors", ()), out, pos, _U32, std_msgs__color_rgba_encode, None, False
             )
             f = ".texture_resource"
             b34 = utf8z(d.get("texture_resource", ""), None)
@@ -2756,21 +1812,15 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b34)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_visualization_msgs__msg__Marker_3, (len(b34),)))
+                out.append(slow_pack(_S_I, MARKER_RUN_3, (len(b34),)))
             pos += 4
             out.append(b34)
             pos += len(b34)
             f = ".texture"
-            pos = encode_sensor_msgs__msg__CompressedImage(d.get("texture", EMPTY), out, pos)
+            pos = sensor_msgs__compressed_image_encode(d.get("texture", EMPTY), out, pos)
             f = ".uv_coordinates"
             pos = write_messages(
-                d.get("uv_coordinates", ()),
-                out,
-                pos,
-                _U32,
-                encode_visualization_msgs__msg__UVCoordinate,
-                None,
-                False,
+                d.get("uv_coordinates", ()), out, pos, _U32, uv_coordinate_encode, None, False
             )
             f = ".text"
             b39 = utf8z(d.get("text", ""), None)
@@ -2782,7 +1832,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b39)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_visualization_msgs__msg__Marker_4, (len(b39),)))
+                out.append(slow_pack(_S_I, MARKER_RUN_4, (len(b39),)))
             pos += 4
             out.append(b39)
             pos += len(b39)
@@ -2796,12 +1846,12 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b42)))
             except Exception:
-                out.append(slow_pack(_S_I, _R_visualization_msgs__msg__Marker_5, (len(b42),)))
+                out.append(slow_pack(_S_I, MARKER_RUN_5, (len(b42),)))
             pos += 4
             out.append(b42)
             pos += len(b42)
             f = ".mesh_file"
-            pos = encode_visualization_msgs__msg__MeshFile(d.get("mesh_file", EMPTY), out, pos)
+            pos = mesh_file_encode(d.get("mesh_file", EMPTY), out, pos)
             f = ""
             try:
                 out.append(
@@ -2818,7 +1868,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_visualization_msgs__msg__Marker_6,
+                        MARKER_RUN_6,
                         (
                             (
                                 t46
@@ -2836,13 +1886,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_visualization_msgs__msg__InteractiveMarkerControl(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def interactive_marker_control_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarkerControl_0
+            f = INTERACTIVE_MARKER_CONTROL_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".name"
@@ -2851,18 +1899,16 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__InteractiveMarkerControl_1
+            f = INTERACTIVE_MARKER_CONTROL_RUN_1
             v5, v6, v7, v8, v9, v10, v12 = _S_4d2BT.unpack_from(mv, pos)
             pos += 35
             f = ".markers"
-            v13, pos = read_messages(
-                mv, pos, lim, _U32, decode_visualization_msgs__msg__Marker, None, None, 186
-            )
-            f = _R_visualization_msgs__msg__InteractiveMarkerControl_2
+            v13, pos = read_messages(mv, pos, lim, _U32, marker_decode, None, None, 186)
+            f = INTERACTIVE_MARKER_CONTROL_RUN_2
             (v15,) = _S_T.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarkerControl_3
+            f = INTERACTIVE_MARKER_CONTROL_RUN_3
             (v17,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".description"
@@ -2875,8 +1921,8 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__msg__InteractiveMarkerControl(
-                v3, make_geometry_msgs__msg__Quaternion(v5, v6, v7, v8), v9, v10, v12, v13, v15, v18
+            return interactive_marker_control_view(
+                v3, geometry_msgs__quaternion_view(v5, v6, v7, v8), v9, v10, v12, v13, v15, v18
             ), pos
         return {
             "name": v3,
@@ -2889,16 +1935,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "description": v18,
         }, pos
 
-    def encode_visualization_msgs__msg__InteractiveMarkerControl(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def interactive_marker_control_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_visualization_msgs__msg__InteractiveMarkerControl.issuperset(d)
-            ):
-                d = _submap(d, _K_visualization_msgs__msg__InteractiveMarkerControl)
+            if d.__class__ is not dict or not INTERACTIVE_MARKER_CONTROL_KEYS.issuperset(d):
+                d = _submap(d, INTERACTIVE_MARKER_CONTROL_KEYS)
             f = ".name"
             b1 = utf8z(d.get("name", ""), None)
             p = -pos & 3
@@ -2909,18 +1950,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_I, _R_visualization_msgs__msg__InteractiveMarkerControl_0, (len(b1),)
-                    )
-                )
+                out.append(slow_pack(_S_I, INTERACTIVE_MARKER_CONTROL_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
             f = ".orientation"
             m4 = d.get("orientation", EMPTY)
-            if m4.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m4):
-                m4 = _submap(m4, _K_geometry_msgs__msg__Quaternion)
+            if m4.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m4):
+                m4 = _submap(m4, GEOMETRY_MSGS__QUATERNION_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -2946,7 +1983,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_4d2BT,
-                        _R_visualization_msgs__msg__InteractiveMarkerControl_1,
+                        INTERACTIVE_MARKER_CONTROL_RUN_1,
                         (
                             m4.get("x", 0.0),
                             m4.get("y", 0.0),
@@ -2964,15 +2001,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 )
             pos += 35
             f = ".markers"
-            pos = write_messages(
-                d.get("markers", ()),
-                out,
-                pos,
-                _U32,
-                encode_visualization_msgs__msg__Marker,
-                None,
-                False,
-            )
+            pos = write_messages(d.get("markers", ()), out, pos, _U32, marker_encode, None, False)
             f = ".description"
             b16 = utf8z(d.get("description", ""), None)
             f = ""
@@ -2991,7 +2020,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_T,
-                        _R_visualization_msgs__msg__InteractiveMarkerControl_2,
+                        INTERACTIVE_MARKER_CONTROL_RUN_2,
                         (
                             (
                                 t14
@@ -3011,11 +2040,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b16)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_I, _R_visualization_msgs__msg__InteractiveMarkerControl_3, (len(b16),)
-                    )
-                )
+                out.append(slow_pack(_S_I, INTERACTIVE_MARKER_CONTROL_RUN_3, (len(b16),)))
             pos += 4
             out.append(b16)
             pos += len(b16)
@@ -3025,15 +2050,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_visualization_msgs__msg__InteractiveMarker(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def interactive_marker_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__InteractiveMarker_0
+            f = INTERACTIVE_MARKER_RUN_0
             v4, v5, v6, v8, v9, v10, v11, v13 = _S_7dI.unpack_from(mv, pos)
             pos += 60
             f = ".name"
@@ -3042,7 +2065,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v14 = mv[pos : pos + v13 - 1].tobytes().decode()
             pos += v13
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarker_1
+            f = INTERACTIVE_MARKER_RUN_1
             (v16,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".description"
@@ -3051,34 +2074,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v17 = mv[pos : pos + v16 - 1].tobytes().decode()
             pos += v16
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarker_2
+            f = INTERACTIVE_MARKER_RUN_2
             (v18,) = _S_f.unpack_from(mv, pos)
             pos += 4
             f = ".menu_entries"
-            v19, pos = read_messages(
-                mv, pos, lim, _U32, decode_visualization_msgs__msg__MenuEntry, None, None, 17
-            )
+            v19, pos = read_messages(mv, pos, lim, _U32, menu_entry_decode, None, None, 17)
             f = ".controls"
             v20, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_visualization_msgs__msg__InteractiveMarkerControl,
-                None,
-                None,
-                48,
+                mv, pos, lim, _U32, interactive_marker_control_decode, None, None, 48
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__msg__InteractiveMarker(
+            return interactive_marker_view(
                 v1,
-                make_geometry_msgs__msg__Pose(
-                    make_geometry_msgs__msg__Point(v4, v5, v6),
-                    make_geometry_msgs__msg__Quaternion(v8, v9, v10, v11),
+                geometry_msgs__pose_view(
+                    geometry_msgs__point_view(v4, v5, v6),
+                    geometry_msgs__quaternion_view(v8, v9, v10, v11),
                 ),
                 v14,
                 v17,
@@ -3099,32 +2113,29 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "controls": v20,
         }, pos
 
-    def encode_visualization_msgs__msg__InteractiveMarker(d: Any, out: list[Any], pos: int) -> int:
+    def interactive_marker_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_visualization_msgs__msg__InteractiveMarker.issuperset(d)
-            ):
-                d = _submap(d, _K_visualization_msgs__msg__InteractiveMarker)
+            if d.__class__ is not dict or not INTERACTIVE_MARKER_KEYS.issuperset(d):
+                d = _submap(d, INTERACTIVE_MARKER_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".pose"
             m2 = d.get("pose", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Pose)
+            if m2.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m2):
+                m2 = _submap(m2, GEOMETRY_MSGS__POSE_KEYS)
             f = ".pose.position"
             m3 = m2.get("position", EMPTY)
-            if m3.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m3):
-                m3 = _submap(m3, _K_geometry_msgs__msg__Point)
+            if m3.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m3):
+                m3 = _submap(m3, GEOMETRY_MSGS__POINT_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose.orientation"
             m7 = m2.get("orientation", EMPTY)
-            if m7.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m7):
-                m7 = _submap(m7, _K_geometry_msgs__msg__Quaternion)
+            if m7.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m7):
+                m7 = _submap(m7, GEOMETRY_MSGS__QUATERNION_KEYS)
             f = ".name"
             b12 = utf8z(d.get("name", ""), None)
             f = ""
@@ -3145,7 +2156,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7dI,
-                        _R_visualization_msgs__msg__InteractiveMarker_0,
+                        INTERACTIVE_MARKER_RUN_0,
                         (
                             m3.get("x", 0.0),
                             m3.get("y", 0.0),
@@ -3171,9 +2182,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b15)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_visualization_msgs__msg__InteractiveMarker_1, (len(b15),))
-                )
+                out.append(slow_pack(_S_I, INTERACTIVE_MARKER_RUN_1, (len(b15),)))
             pos += 4
             out.append(b15)
             pos += len(b15)
@@ -3185,23 +2194,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_f.pack(d.get("scale", 0.0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_f,
-                        _R_visualization_msgs__msg__InteractiveMarker_2,
-                        (d.get("scale", 0.0),),
-                    )
-                )
+                out.append(slow_pack(_S_f, INTERACTIVE_MARKER_RUN_2, (d.get("scale", 0.0),)))
             pos += 4
             f = ".menu_entries"
             pos = write_messages(
-                d.get("menu_entries", ()),
-                out,
-                pos,
-                _U32,
-                encode_visualization_msgs__msg__MenuEntry,
-                None,
-                False,
+                d.get("menu_entries", ()), out, pos, _U32, menu_entry_encode, None, False
             )
             f = ".controls"
             pos = write_messages(
@@ -3209,7 +2206,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_visualization_msgs__msg__InteractiveMarkerControl,
+                interactive_marker_control_encode,
                 None,
                 False,
             )
@@ -3219,15 +2216,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_visualization_msgs__msg__InteractiveMarkerFeedback(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def interactive_marker_feedback_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarkerFeedback_0
+            f = INTERACTIVE_MARKER_FEEDBACK_RUN_0
             (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".client_id"
@@ -3236,7 +2231,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarkerFeedback_1
+            f = INTERACTIVE_MARKER_FEEDBACK_RUN_1
             (v6,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".marker_name"
@@ -3245,7 +2240,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarkerFeedback_2
+            f = INTERACTIVE_MARKER_FEEDBACK_RUN_2
             (v9,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".control_name"
@@ -3253,11 +2248,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 raise too_long(v9, 1, lim - pos)
             v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
-            f = _R_visualization_msgs__msg__InteractiveMarkerFeedback_3
+            f = INTERACTIVE_MARKER_FEEDBACK_RUN_3
             (v11,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__InteractiveMarkerFeedback_4
+            f = INTERACTIVE_MARKER_FEEDBACK_RUN_4
             v14, v15, v16, v18, v19, v20, v21, v22, v24, v25, v26, v28 = _S_7dI4x3dT.unpack_from(
                 mv, pos
             )
@@ -3267,18 +2262,18 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__msg__InteractiveMarkerFeedback(
+            return interactive_marker_feedback_view(
                 v1,
                 v4,
                 v7,
                 v10,
                 v11,
-                make_geometry_msgs__msg__Pose(
-                    make_geometry_msgs__msg__Point(v14, v15, v16),
-                    make_geometry_msgs__msg__Quaternion(v18, v19, v20, v21),
+                geometry_msgs__pose_view(
+                    geometry_msgs__point_view(v14, v15, v16),
+                    geometry_msgs__quaternion_view(v18, v19, v20, v21),
                 ),
                 v22,
-                make_geometry_msgs__msg__Point(v24, v25, v26),
+                geometry_msgs__point_view(v24, v25, v26),
                 v28,
             ), pos
         return {
@@ -3296,18 +2291,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "mouse_point_valid": v28,
         }, pos
 
-    def encode_visualization_msgs__msg__InteractiveMarkerFeedback(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def interactive_marker_feedback_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_visualization_msgs__msg__InteractiveMarkerFeedback.issuperset(d)
-            ):
-                d = _submap(d, _K_visualization_msgs__msg__InteractiveMarkerFeedback)
+            if d.__class__ is not dict or not INTERACTIVE_MARKER_FEEDBACK_KEYS.issuperset(d):
+                d = _submap(d, INTERACTIVE_MARKER_FEEDBACK_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".client_id"
             b2 = utf8z(d.get("client_id", ""), None)
             p = -pos & 3
@@ -3318,11 +2308,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b2)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_I, _R_visualization_msgs__msg__InteractiveMarkerFeedback_0, (len(b2),)
-                    )
-                )
+                out.append(slow_pack(_S_I, INTERACTIVE_MARKER_FEEDBACK_RUN_0, (len(b2),)))
             pos += 4
             out.append(b2)
             pos += len(b2)
@@ -3336,11 +2322,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b5)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_I, _R_visualization_msgs__msg__InteractiveMarkerFeedback_1, (len(b5),)
-                    )
-                )
+                out.append(slow_pack(_S_I, INTERACTIVE_MARKER_FEEDBACK_RUN_1, (len(b5),)))
             pos += 4
             out.append(b5)
             pos += len(b5)
@@ -3354,32 +2336,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b8)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_I, _R_visualization_msgs__msg__InteractiveMarkerFeedback_2, (len(b8),)
-                    )
-                )
+                out.append(slow_pack(_S_I, INTERACTIVE_MARKER_FEEDBACK_RUN_2, (len(b8),)))
             pos += 4
             out.append(b8)
             pos += len(b8)
             f = ".pose"
             m12 = d.get("pose", EMPTY)
-            if m12.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(m12):
-                m12 = _submap(m12, _K_geometry_msgs__msg__Pose)
+            if m12.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m12):
+                m12 = _submap(m12, GEOMETRY_MSGS__POSE_KEYS)
             f = ".pose.position"
             m13 = m12.get("position", EMPTY)
-            if m13.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m13):
-                m13 = _submap(m13, _K_geometry_msgs__msg__Point)
+            if m13.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m13):
+                m13 = _submap(m13, GEOMETRY_MSGS__POINT_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(d.get("event_type", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_visualization_msgs__msg__InteractiveMarkerFeedback_3,
-                        (d.get("event_type", 0),),
-                    )
+                    slow_pack(_S_B, INTERACTIVE_MARKER_FEEDBACK_RUN_3, (d.get("event_type", 0),))
                 )
             pos += 1
             p = -pos & 7
@@ -3388,12 +2362,12 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 pos += p
             f = ".pose.orientation"
             m17 = m12.get("orientation", EMPTY)
-            if m17.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m17):
-                m17 = _submap(m17, _K_geometry_msgs__msg__Quaternion)
+            if m17.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m17):
+                m17 = _submap(m17, GEOMETRY_MSGS__QUATERNION_KEYS)
             f = ".mouse_point"
             m23 = d.get("mouse_point", EMPTY)
-            if m23.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m23):
-                m23 = _submap(m23, _K_geometry_msgs__msg__Point)
+            if m23.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m23):
+                m23 = _submap(m23, GEOMETRY_MSGS__POINT_KEYS)
             f = ""
             try:
                 out.append(
@@ -3420,7 +2394,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7dI4x3dT,
-                        _R_visualization_msgs__msg__InteractiveMarkerFeedback_4,
+                        INTERACTIVE_MARKER_FEEDBACK_RUN_4,
                         (
                             m13.get("x", 0.0),
                             m13.get("y", 0.0),
@@ -3448,13 +2422,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_visualization_msgs__msg__InteractiveMarkerInit(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def interactive_marker_init_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarkerInit_0
+            f = INTERACTIVE_MARKER_INIT_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".server_id"
@@ -3463,38 +2435,24 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__InteractiveMarkerInit_1
+            f = INTERACTIVE_MARKER_INIT_RUN_1
             (v4,) = _S_Q.unpack_from(mv, pos)
             pos += 8
             f = ".markers"
-            v5, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_visualization_msgs__msg__InteractiveMarker,
-                None,
-                None,
-                88,
-            )
+            v5, pos = read_messages(mv, pos, lim, _U32, interactive_marker_decode, None, None, 88)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__msg__InteractiveMarkerInit(v3, v4, v5), pos
+            return interactive_marker_init_view(v3, v4, v5), pos
         return {"server_id": v3, "seq_num": v4, "markers": v5}, pos
 
-    def encode_visualization_msgs__msg__InteractiveMarkerInit(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def interactive_marker_init_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_visualization_msgs__msg__InteractiveMarkerInit.issuperset(d)
-            ):
-                d = _submap(d, _K_visualization_msgs__msg__InteractiveMarkerInit)
+            if d.__class__ is not dict or not INTERACTIVE_MARKER_INIT_KEYS.issuperset(d):
+                d = _submap(d, INTERACTIVE_MARKER_INIT_KEYS)
             f = ".server_id"
             b1 = utf8z(d.get("server_id", ""), None)
             p = -pos & 3
@@ -3505,9 +2463,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(
-                    slow_pack(_S_I, _R_visualization_msgs__msg__InteractiveMarkerInit_0, (len(b1),))
-                )
+                out.append(slow_pack(_S_I, INTERACTIVE_MARKER_INIT_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -3519,23 +2475,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_Q.pack(d.get("seq_num", 0)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_Q,
-                        _R_visualization_msgs__msg__InteractiveMarkerInit_1,
-                        (d.get("seq_num", 0),),
-                    )
-                )
+                out.append(slow_pack(_S_Q, INTERACTIVE_MARKER_INIT_RUN_1, (d.get("seq_num", 0),)))
             pos += 8
             f = ".markers"
             pos = write_messages(
-                d.get("markers", ()),
-                out,
-                pos,
-                _U32,
-                encode_visualization_msgs__msg__InteractiveMarker,
-                None,
-                False,
+                d.get("markers", ()), out, pos, _U32, interactive_marker_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -3543,15 +2487,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_visualization_msgs__msg__InteractiveMarkerPose(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def interactive_marker_pose_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".header"
-            v1, pos = decode_std_msgs__msg__Header(mv, pos, lim)
+            v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__InteractiveMarkerPose_0
+            f = INTERACTIVE_MARKER_POSE_RUN_0
             v4, v5, v6, v8, v9, v10, v11, v13 = _S_7dI.unpack_from(mv, pos)
             pos += 60
             f = ".name"
@@ -3564,11 +2506,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__msg__InteractiveMarkerPose(
+            return interactive_marker_pose_view(
                 v1,
-                make_geometry_msgs__msg__Pose(
-                    make_geometry_msgs__msg__Point(v4, v5, v6),
-                    make_geometry_msgs__msg__Quaternion(v8, v9, v10, v11),
+                geometry_msgs__pose_view(
+                    geometry_msgs__point_view(v4, v5, v6),
+                    geometry_msgs__quaternion_view(v8, v9, v10, v11),
                 ),
                 v14,
             ), pos
@@ -3581,34 +2523,29 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "name": v14,
         }, pos
 
-    def encode_visualization_msgs__msg__InteractiveMarkerPose(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def interactive_marker_pose_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_visualization_msgs__msg__InteractiveMarkerPose.issuperset(d)
-            ):
-                d = _submap(d, _K_visualization_msgs__msg__InteractiveMarkerPose)
+            if d.__class__ is not dict or not INTERACTIVE_MARKER_POSE_KEYS.issuperset(d):
+                d = _submap(d, INTERACTIVE_MARKER_POSE_KEYS)
             f = ".header"
-            pos = encode_std_msgs__msg__Header(d.get("header", EMPTY), out, pos)
+            pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ".pose"
             m2 = d.get("pose", EMPTY)
-            if m2.__class__ is not dict or not _K_geometry_msgs__msg__Pose.issuperset(m2):
-                m2 = _submap(m2, _K_geometry_msgs__msg__Pose)
+            if m2.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m2):
+                m2 = _submap(m2, GEOMETRY_MSGS__POSE_KEYS)
             f = ".pose.position"
             m3 = m2.get("position", EMPTY)
-            if m3.__class__ is not dict or not _K_geometry_msgs__msg__Point.issuperset(m3):
-                m3 = _submap(m3, _K_geometry_msgs__msg__Point)
+            if m3.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m3):
+                m3 = _submap(m3, GEOMETRY_MSGS__POINT_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose.orientation"
             m7 = m2.get("orientation", EMPTY)
-            if m7.__class__ is not dict or not _K_geometry_msgs__msg__Quaternion.issuperset(m7):
-                m7 = _submap(m7, _K_geometry_msgs__msg__Quaternion)
+            if m7.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m7):
+                m7 = _submap(m7, GEOMETRY_MSGS__QUATERNION_KEYS)
             f = ".name"
             b12 = utf8z(d.get("name", ""), None)
             f = ""
@@ -3629,7 +2566,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_7dI,
-                        _R_visualization_msgs__msg__InteractiveMarkerPose_0,
+                        INTERACTIVE_MARKER_POSE_RUN_0,
                         (
                             m3.get("x", 0.0),
                             m3.get("y", 0.0),
@@ -3651,13 +2588,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_visualization_msgs__msg__InteractiveMarkerUpdate(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def interactive_marker_update_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__msg__InteractiveMarkerUpdate_0
+            f = INTERACTIVE_MARKER_UPDATE_RUN_0
             (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".server_id"
@@ -3666,30 +2601,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             pos = (pos + 7) & -8
-            f = _R_visualization_msgs__msg__InteractiveMarkerUpdate_1
+            f = INTERACTIVE_MARKER_UPDATE_RUN_1
             v4, v5 = _S_QB.unpack_from(mv, pos)
             pos += 9
             f = ".markers"
-            v6, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_visualization_msgs__msg__InteractiveMarker,
-                None,
-                None,
-                88,
-            )
+            v6, pos = read_messages(mv, pos, lim, _U32, interactive_marker_decode, None, None, 88)
             f = ".poses"
             v7, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_visualization_msgs__msg__InteractiveMarkerPose,
-                None,
-                None,
-                72,
+                mv, pos, lim, _U32, interactive_marker_pose_decode, None, None, 72
             )
             f = ".erases"
             v8, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
@@ -3698,9 +2617,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__msg__InteractiveMarkerUpdate(
-                v3, v4, v5, v6, v7, v8
-            ), pos
+            return interactive_marker_update_view(v3, v4, v5, v6, v7, v8), pos
         return {
             "server_id": v3,
             "seq_num": v4,
@@ -3710,16 +2627,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "erases": v8,
         }, pos
 
-    def encode_visualization_msgs__msg__InteractiveMarkerUpdate(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def interactive_marker_update_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_visualization_msgs__msg__InteractiveMarkerUpdate.issuperset(d)
-            ):
-                d = _submap(d, _K_visualization_msgs__msg__InteractiveMarkerUpdate)
+            if d.__class__ is not dict or not INTERACTIVE_MARKER_UPDATE_KEYS.issuperset(d):
+                d = _submap(d, INTERACTIVE_MARKER_UPDATE_KEYS)
             f = ".server_id"
             b1 = utf8z(d.get("server_id", ""), None)
             p = -pos & 3
@@ -3730,11 +2642,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             try:
                 out.append(_S_I.pack(len(b1)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_I, _R_visualization_msgs__msg__InteractiveMarkerUpdate_0, (len(b1),)
-                    )
-                )
+                out.append(slow_pack(_S_I, INTERACTIVE_MARKER_UPDATE_RUN_0, (len(b1),)))
             pos += 4
             out.append(b1)
             pos += len(b1)
@@ -3749,7 +2657,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_QB,
-                        _R_visualization_msgs__msg__InteractiveMarkerUpdate_1,
+                        INTERACTIVE_MARKER_UPDATE_RUN_1,
                         (
                             d.get("seq_num", 0),
                             d.get("type", 0),
@@ -3759,23 +2667,11 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             pos += 9
             f = ".markers"
             pos = write_messages(
-                d.get("markers", ()),
-                out,
-                pos,
-                _U32,
-                encode_visualization_msgs__msg__InteractiveMarker,
-                None,
-                False,
+                d.get("markers", ()), out, pos, _U32, interactive_marker_encode, None, False
             )
             f = ".poses"
             pos = write_messages(
-                d.get("poses", ()),
-                out,
-                pos,
-                _U32,
-                encode_visualization_msgs__msg__InteractiveMarkerPose,
-                None,
-                False,
+                d.get("poses", ()), out, pos, _U32, interactive_marker_pose_encode, None, False
             )
             f = ".erases"
             pos = write_strings(d.get("erases", ()), out, pos, _U32, None, False, None, False)
@@ -3785,50 +2681,38 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_visualization_msgs__msg__MarkerArray(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def marker_array_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
             f = ".markers"
-            v1, pos = read_messages(
-                mv, pos, lim, _U32, decode_visualization_msgs__msg__Marker, None, None, 186
-            )
+            v1, pos = read_messages(mv, pos, lim, _U32, marker_decode, None, None, 186)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__msg__MarkerArray(v1), pos
+            return marker_array_view(v1), pos
         return {"markers": v1}, pos
 
-    def encode_visualization_msgs__msg__MarkerArray(d: Any, out: list[Any], pos: int) -> int:
+    def marker_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if d.__class__ is not dict or not _K_visualization_msgs__msg__MarkerArray.issuperset(d):
-                d = _submap(d, _K_visualization_msgs__msg__MarkerArray)
+            if d.__class__ is not dict or not MARKER_ARRAY_KEYS.issuperset(d):
+                d = _submap(d, MARKER_ARRAY_KEYS)
             f = ".markers"
-            pos = write_messages(
-                d.get("markers", ()),
-                out,
-                pos,
-                _U32,
-                encode_visualization_msgs__msg__Marker,
-                None,
-                False,
-            )
+            pos = write_messages(d.get("markers", ()), out, pos, _U32, marker_encode, None, False)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_visualization_msgs__srv__GetInteractiveMarkers_Request(
+    def get_interactive_markers_request_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_visualization_msgs__srv__GetInteractiveMarkers_Request_0
+            f = GET_INTERACTIVE_MARKERS_REQUEST_RUN_0
             _S_1x.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
@@ -3836,28 +2720,19 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__srv__GetInteractiveMarkers_Request(), pos
+            return get_interactive_markers_request_view(), pos
         return {}, pos
 
-    def encode_visualization_msgs__srv__GetInteractiveMarkers_Request(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_interactive_markers_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_visualization_msgs__srv__GetInteractiveMarkers_Request.issuperset(d)
-            ):
-                d = _submap(d, _K_visualization_msgs__srv__GetInteractiveMarkers_Request)
+            if d.__class__ is not dict or not GET_INTERACTIVE_MARKERS_REQUEST_KEYS.issuperset(d):
+                d = _submap(d, GET_INTERACTIVE_MARKERS_REQUEST_KEYS)
             f = ""
             try:
                 out.append(_S_1x.pack())
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_1x, _R_visualization_msgs__srv__GetInteractiveMarkers_Request_0, ()
-                    )
-                )
+                out.append(slow_pack(_S_1x, GET_INTERACTIVE_MARKERS_REQUEST_RUN_0, ()))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -3865,44 +2740,30 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_visualization_msgs__srv__GetInteractiveMarkers_Response(
+    def get_interactive_markers_response_decode(
         mv: memoryview, pos: int, lim: int
     ) -> tuple[Any, int]:
         f: Any = ""
         try:
             pos = (pos + 7) & -8
-            f = _R_visualization_msgs__srv__GetInteractiveMarkers_Response_0
+            f = GET_INTERACTIVE_MARKERS_RESPONSE_RUN_0
             (v1,) = _S_Q.unpack_from(mv, pos)
             pos += 8
             f = ".markers"
-            v2, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_visualization_msgs__msg__InteractiveMarker,
-                None,
-                None,
-                88,
-            )
+            v2, pos = read_messages(mv, pos, lim, _U32, interactive_marker_decode, None, None, 88)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__srv__GetInteractiveMarkers_Response(v1, v2), pos
+            return get_interactive_markers_response_view(v1, v2), pos
         return {"sequence_number": v1, "markers": v2}, pos
 
-    def encode_visualization_msgs__srv__GetInteractiveMarkers_Response(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_interactive_markers_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_visualization_msgs__srv__GetInteractiveMarkers_Response.issuperset(d)
-            ):
-                d = _submap(d, _K_visualization_msgs__srv__GetInteractiveMarkers_Response)
+            if d.__class__ is not dict or not GET_INTERACTIVE_MARKERS_RESPONSE_KEYS.issuperset(d):
+                d = _submap(d, GET_INTERACTIVE_MARKERS_RESPONSE_KEYS)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
@@ -3913,21 +2774,13 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_Q,
-                        _R_visualization_msgs__srv__GetInteractiveMarkers_Response_0,
-                        (d.get("sequence_number", 0),),
+                        _S_Q, GET_INTERACTIVE_MARKERS_RESPONSE_RUN_0, (d.get("sequence_number", 0),)
                     )
                 )
             pos += 8
             f = ".markers"
             pos = write_messages(
-                d.get("markers", ()),
-                out,
-                pos,
-                _U32,
-                encode_visualization_msgs__msg__InteractiveMarker,
-                None,
-                False,
+                d.get("markers", ()), out, pos, _U32, interactive_marker_encode, None, False
             )
         except FieldError as error:
             raise error.within(f) from None
@@ -3935,116 +2788,14 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             raise encode_failure(error, f, d) from None
         return pos
 
-    def decode_service_msgs__msg__ServiceEventInfo(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
+    def get_interactive_markers_event_decode(mv: memoryview, pos: int, lim: int) -> tuple[Any, int]:
         f: Any = ""
         try:
-            f = _R_service_msgs__msg__ServiceEventInfo_0
-            (v1,) = _S_B.unpack_from(mv, pos)
-            pos += 1
-            pos = (pos + 3) & -4
-            f = _R_service_msgs__msg__ServiceEventInfo_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
-            pos += 8
-            f = ".client_gid"
-            if 16 * 1 > lim - pos:
-                raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
-            pos += 16 * 1
-            pos = (pos + 7) & -8
-            f = _R_service_msgs__msg__ServiceEventInfo_2
-            (v8,) = _S_q.unpack_from(mv, pos)
-            pos += 8
-        except WireDecodeError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise decode_failure(error, f, pos, lim) from None
-        if view:
-            return make_service_msgs__msg__ServiceEventInfo(
-                v1, make_builtin_interfaces__msg__Time(v3, v4), v7, v8
-            ), pos
-        return {
-            "event_type": v1,
-            "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7.tobytes(),
-            "sequence_number": v8,
-        }, pos
-
-    def encode_service_msgs__msg__ServiceEventInfo(d: Any, out: list[Any], pos: int) -> int:
-        f = ""
-        try:
-            if d.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(d):
-                d = _submap(d, _K_service_msgs__msg__ServiceEventInfo)
-            f = ".stamp"
-            m2 = d.get("stamp", EMPTY)
-            if m2.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m2):
-                m2 = _submap(m2, _K_builtin_interfaces__msg__Time)
-            f = ""
-            try:
-                out.append(_S_B.pack(d.get("event_type", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, _R_service_msgs__msg__ServiceEventInfo_0, (d.get("event_type", 0),)
-                    )
-                )
-            pos += 1
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ".client_gid"
-            b5, c6 = encode_array(d.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
-            f = ""
-            try:
-                out.append(_S_iI.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        _R_service_msgs__msg__ServiceEventInfo_1,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                        ),
-                    )
-                )
-            pos += 8
-            out.append(b5)
-            pos += c6 * 1
-            p = -pos & 7
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_q.pack(d.get("sequence_number", 0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q,
-                        _R_service_msgs__msg__ServiceEventInfo_2,
-                        (d.get("sequence_number", 0),),
-                    )
-                )
-            pos += 8
-        except FieldError as error:
-            raise error.within(f) from None
-        except Exception as error:
-            raise encode_failure(error, f, d) from None
-        return pos
-
-    def decode_visualization_msgs__srv__GetInteractiveMarkers_Event(
-        mv: memoryview, pos: int, lim: int
-    ) -> tuple[Any, int]:
-        f: Any = ""
-        try:
-            f = _R_visualization_msgs__srv__GetInteractiveMarkers_Event_0
+            f = GET_INTERACTIVE_MARKERS_EVENT_RUN_0
             (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
-            f = _R_visualization_msgs__srv__GetInteractiveMarkers_Event_1
+            f = GET_INTERACTIVE_MARKERS_EVENT_RUN_1
             v4, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
@@ -4053,39 +2804,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             v8 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
-            f = _R_visualization_msgs__srv__GetInteractiveMarkers_Event_2
+            f = GET_INTERACTIVE_MARKERS_EVENT_RUN_2
             (v9,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
             v10, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_visualization_msgs__srv__GetInteractiveMarkers_Request,
-                None,
-                1,
-                1,
+                mv, pos, lim, _U32, get_interactive_markers_request_decode, None, 1, 1
             )
             f = ".response"
             v11, pos = read_messages(
-                mv,
-                pos,
-                lim,
-                _U32,
-                decode_visualization_msgs__srv__GetInteractiveMarkers_Response,
-                None,
-                1,
-                12,
+                mv, pos, lim, _U32, get_interactive_markers_response_decode, None, 1, 12
             )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return make_visualization_msgs__srv__GetInteractiveMarkers_Event(
-                make_service_msgs__msg__ServiceEventInfo(
-                    v2, make_builtin_interfaces__msg__Time(v4, v5), v8, v9
+            return get_interactive_markers_event_view(
+                service_msgs__service_event_info_view(
+                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
                 ),
                 v10,
                 v11,
@@ -4101,36 +2838,25 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             "response": v11,
         }, pos
 
-    def encode_visualization_msgs__srv__GetInteractiveMarkers_Event(
-        d: Any, out: list[Any], pos: int
-    ) -> int:
+    def get_interactive_markers_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
         try:
-            if (
-                d.__class__ is not dict
-                or not _K_visualization_msgs__srv__GetInteractiveMarkers_Event.issuperset(d)
-            ):
-                d = _submap(d, _K_visualization_msgs__srv__GetInteractiveMarkers_Event)
+            if d.__class__ is not dict or not GET_INTERACTIVE_MARKERS_EVENT_KEYS.issuperset(d):
+                d = _submap(d, GET_INTERACTIVE_MARKERS_EVENT_KEYS)
             f = ".info"
             m1 = d.get("info", EMPTY)
-            if m1.__class__ is not dict or not _K_service_msgs__msg__ServiceEventInfo.issuperset(
-                m1
-            ):
-                m1 = _submap(m1, _K_service_msgs__msg__ServiceEventInfo)
+            if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
+                m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
             m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not _K_builtin_interfaces__msg__Time.issuperset(m3):
-                m3 = _submap(m3, _K_builtin_interfaces__msg__Time)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
             try:
                 out.append(_S_B.pack(m1.get("event_type", 0)))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_B,
-                        _R_visualization_msgs__srv__GetInteractiveMarkers_Event_0,
-                        (m1.get("event_type", 0),),
-                    )
+                    slow_pack(_S_B, GET_INTERACTIVE_MARKERS_EVENT_RUN_0, (m1.get("event_type", 0),))
                 )
             pos += 1
             p = -pos & 3
@@ -4146,7 +2872,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out.append(
                     slow_pack(
                         _S_iI,
-                        _R_visualization_msgs__srv__GetInteractiveMarkers_Event_1,
+                        GET_INTERACTIVE_MARKERS_EVENT_RUN_1,
                         (
                             m3.get("sec", 0),
                             m3.get("nanosec", 0),
@@ -4166,9 +2892,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_q,
-                        _R_visualization_msgs__srv__GetInteractiveMarkers_Event_2,
-                        (m1.get("sequence_number", 0),),
+                        _S_q, GET_INTERACTIVE_MARKERS_EVENT_RUN_2, (m1.get("sequence_number", 0),)
                     )
                 )
             pos += 8
@@ -4178,7 +2902,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_visualization_msgs__srv__GetInteractiveMarkers_Request,
+                get_interactive_markers_request_encode,
                 1,
                 False,
             )
@@ -4188,7 +2912,7 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
                 out,
                 pos,
                 _U32,
-                encode_visualization_msgs__srv__GetInteractiveMarkers_Response,
+                get_interactive_markers_response_encode,
                 1,
                 False,
             )
@@ -4199,110 +2923,126 @@ def _build(E: str, view: bool) -> dict[str, tuple[Any, Any]]:
         return pos
 
     return {
-        "builtin_interfaces/msg/Time": (
-            decode_builtin_interfaces__msg__Time,
-            encode_builtin_interfaces__msg__Time,
-        ),
-        "std_msgs/msg/Header": (decode_std_msgs__msg__Header, encode_std_msgs__msg__Header),
-        "geometry_msgs/msg/Point": (
-            decode_geometry_msgs__msg__Point,
-            encode_geometry_msgs__msg__Point,
-        ),
-        "std_msgs/msg/ColorRGBA": (
-            decode_std_msgs__msg__ColorRGBA,
-            encode_std_msgs__msg__ColorRGBA,
-        ),
-        "builtin_interfaces/msg/Duration": (
-            decode_builtin_interfaces__msg__Duration,
-            encode_builtin_interfaces__msg__Duration,
-        ),
+        "image_marker_decode": image_marker_decode,
+        "image_marker_encode": image_marker_encode,
+        "menu_entry_decode": menu_entry_decode,
+        "menu_entry_encode": menu_entry_encode,
+        "uv_coordinate_decode": uv_coordinate_decode,
+        "uv_coordinate_encode": uv_coordinate_encode,
+        "mesh_file_decode": mesh_file_decode,
+        "mesh_file_encode": mesh_file_encode,
+        "marker_decode": marker_decode,
+        "marker_encode": marker_encode,
+        "interactive_marker_control_decode": interactive_marker_control_decode,
+        "interactive_marker_control_encode": interactive_marker_control_encode,
+        "interactive_marker_decode": interactive_marker_decode,
+        "interactive_marker_encode": interactive_marker_encode,
+        "interactive_marker_feedback_decode": interactive_marker_feedback_decode,
+        "interactive_marker_feedback_encode": interactive_marker_feedback_encode,
+        "interactive_marker_init_decode": interactive_marker_init_decode,
+        "interactive_marker_init_encode": interactive_marker_init_encode,
+        "interactive_marker_pose_decode": interactive_marker_pose_decode,
+        "interactive_marker_pose_encode": interactive_marker_pose_encode,
+        "interactive_marker_update_decode": interactive_marker_update_decode,
+        "interactive_marker_update_encode": interactive_marker_update_encode,
+        "marker_array_decode": marker_array_decode,
+        "marker_array_encode": marker_array_encode,
+        "get_interactive_markers_request_decode": get_interactive_markers_request_decode,
+        "get_interactive_markers_request_encode": get_interactive_markers_request_encode,
+        "get_interactive_markers_response_decode": get_interactive_markers_response_decode,
+        "get_interactive_markers_response_encode": get_interactive_markers_response_encode,
+        "get_interactive_markers_event_decode": get_interactive_markers_event_decode,
+        "get_interactive_markers_event_encode": get_interactive_markers_event_encode,
+    }
+
+
+# The functions of ``_build`` by byte order and decoding target (True: views), by name; the
+# modules of other packages link to them.
+FUNCTIONS: dict[tuple[str, bool], dict[str, Any]] = {
+    (E, view): _build(E, view) for E in ("<", ">") for view in (False, True)
+}
+
+
+def _table(E: str) -> dict[str, tuple[Any, Any, Any]]:
+    as_dict, as_view = FUNCTIONS[E, False], FUNCTIONS[E, True]
+    return {
         "visualization_msgs/msg/ImageMarker": (
-            decode_visualization_msgs__msg__ImageMarker,
-            encode_visualization_msgs__msg__ImageMarker,
-        ),
-        "geometry_msgs/msg/Quaternion": (
-            decode_geometry_msgs__msg__Quaternion,
-            encode_geometry_msgs__msg__Quaternion,
-        ),
-        "geometry_msgs/msg/Pose": (
-            decode_geometry_msgs__msg__Pose,
-            encode_geometry_msgs__msg__Pose,
+            as_dict["image_marker_decode"],
+            as_view["image_marker_decode"],
+            as_dict["image_marker_encode"],
         ),
         "visualization_msgs/msg/MenuEntry": (
-            decode_visualization_msgs__msg__MenuEntry,
-            encode_visualization_msgs__msg__MenuEntry,
-        ),
-        "geometry_msgs/msg/Vector3": (
-            decode_geometry_msgs__msg__Vector3,
-            encode_geometry_msgs__msg__Vector3,
-        ),
-        "sensor_msgs/msg/CompressedImage": (
-            decode_sensor_msgs__msg__CompressedImage,
-            encode_sensor_msgs__msg__CompressedImage,
+            as_dict["menu_entry_decode"],
+            as_view["menu_entry_decode"],
+            as_dict["menu_entry_encode"],
         ),
         "visualization_msgs/msg/UVCoordinate": (
-            decode_visualization_msgs__msg__UVCoordinate,
-            encode_visualization_msgs__msg__UVCoordinate,
+            as_dict["uv_coordinate_decode"],
+            as_view["uv_coordinate_decode"],
+            as_dict["uv_coordinate_encode"],
         ),
         "visualization_msgs/msg/MeshFile": (
-            decode_visualization_msgs__msg__MeshFile,
-            encode_visualization_msgs__msg__MeshFile,
+            as_dict["mesh_file_decode"],
+            as_view["mesh_file_decode"],
+            as_dict["mesh_file_encode"],
         ),
         "visualization_msgs/msg/Marker": (
-            decode_visualization_msgs__msg__Marker,
-            encode_visualization_msgs__msg__Marker,
+            as_dict["marker_decode"],
+            as_view["marker_decode"],
+            as_dict["marker_encode"],
         ),
         "visualization_msgs/msg/InteractiveMarkerControl": (
-            decode_visualization_msgs__msg__InteractiveMarkerControl,
-            encode_visualization_msgs__msg__InteractiveMarkerControl,
+            as_dict["interactive_marker_control_decode"],
+            as_view["interactive_marker_control_decode"],
+            as_dict["interactive_marker_control_encode"],
         ),
         "visualization_msgs/msg/InteractiveMarker": (
-            decode_visualization_msgs__msg__InteractiveMarker,
-            encode_visualization_msgs__msg__InteractiveMarker,
+            as_dict["interactive_marker_decode"],
+            as_view["interactive_marker_decode"],
+            as_dict["interactive_marker_encode"],
         ),
         "visualization_msgs/msg/InteractiveMarkerFeedback": (
-            decode_visualization_msgs__msg__InteractiveMarkerFeedback,
-            encode_visualization_msgs__msg__InteractiveMarkerFeedback,
+            as_dict["interactive_marker_feedback_decode"],
+            as_view["interactive_marker_feedback_decode"],
+            as_dict["interactive_marker_feedback_encode"],
         ),
         "visualization_msgs/msg/InteractiveMarkerInit": (
-            decode_visualization_msgs__msg__InteractiveMarkerInit,
-            encode_visualization_msgs__msg__InteractiveMarkerInit,
+            as_dict["interactive_marker_init_decode"],
+            as_view["interactive_marker_init_decode"],
+            as_dict["interactive_marker_init_encode"],
         ),
         "visualization_msgs/msg/InteractiveMarkerPose": (
-            decode_visualization_msgs__msg__InteractiveMarkerPose,
-            encode_visualization_msgs__msg__InteractiveMarkerPose,
+            as_dict["interactive_marker_pose_decode"],
+            as_view["interactive_marker_pose_decode"],
+            as_dict["interactive_marker_pose_encode"],
         ),
         "visualization_msgs/msg/InteractiveMarkerUpdate": (
-            decode_visualization_msgs__msg__InteractiveMarkerUpdate,
-            encode_visualization_msgs__msg__InteractiveMarkerUpdate,
+            as_dict["interactive_marker_update_decode"],
+            as_view["interactive_marker_update_decode"],
+            as_dict["interactive_marker_update_encode"],
         ),
         "visualization_msgs/msg/MarkerArray": (
-            decode_visualization_msgs__msg__MarkerArray,
-            encode_visualization_msgs__msg__MarkerArray,
+            as_dict["marker_array_decode"],
+            as_view["marker_array_decode"],
+            as_dict["marker_array_encode"],
         ),
         "visualization_msgs/srv/GetInteractiveMarkers_Request": (
-            decode_visualization_msgs__srv__GetInteractiveMarkers_Request,
-            encode_visualization_msgs__srv__GetInteractiveMarkers_Request,
+            as_dict["get_interactive_markers_request_decode"],
+            as_view["get_interactive_markers_request_decode"],
+            as_dict["get_interactive_markers_request_encode"],
         ),
         "visualization_msgs/srv/GetInteractiveMarkers_Response": (
-            decode_visualization_msgs__srv__GetInteractiveMarkers_Response,
-            encode_visualization_msgs__srv__GetInteractiveMarkers_Response,
-        ),
-        "service_msgs/msg/ServiceEventInfo": (
-            decode_service_msgs__msg__ServiceEventInfo,
-            encode_service_msgs__msg__ServiceEventInfo,
+            as_dict["get_interactive_markers_response_decode"],
+            as_view["get_interactive_markers_response_decode"],
+            as_dict["get_interactive_markers_response_encode"],
         ),
         "visualization_msgs/srv/GetInteractiveMarkers_Event": (
-            decode_visualization_msgs__srv__GetInteractiveMarkers_Event,
-            encode_visualization_msgs__srv__GetInteractiveMarkers_Event,
+            as_dict["get_interactive_markers_event_decode"],
+            as_view["get_interactive_markers_event_decode"],
+            as_dict["get_interactive_markers_event_encode"],
         ),
     }
 
 
-def _both(E: str) -> dict[str, tuple[Any, Any, Any]]:
-    as_dict, as_view = _build(E, False), _build(E, True)
-    return {name: (as_dict[name][0], as_view[name][0], as_dict[name][1]) for name in as_dict}
-
-
-LITTLE = _both("<")
-BIG = _both(">")
+LITTLE = _table("<")
+BIG = _table(">")

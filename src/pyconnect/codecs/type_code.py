@@ -118,10 +118,27 @@ def compiled_dict_functions(full_name: str) -> DictFunctions:
     return DictFunctions(msg_class, to_dict, from_dict)
 
 
+def generated_hash(full_name: str) -> str | None:
+    """The RIHS01 hash of the type as generated/ has it (None when it lacks the type)."""
+    module = generated_module(full_name.split("/", 1)[0], "index")
+    return module.TYPE_HASHES.get(full_name) if module is not None else None
+
+
 def _run_wire_source(messages: list[MessageDef], types: TypeSet, label: str) -> Namespace:
     from pyconnect.codegen.wire_render import render_wire_module
 
-    return run_generated_source(render_wire_module(messages, types, source=label), label=label)
+    # Types used here that generated/ has, hash for hash, link to its code; the rest compile.
+    used = {name for msg in messages for name in msg.nested_types}
+    linked = set()
+    while used:
+        name = used.pop()
+        msg = types.get(name)
+        if msg.type_hash and generated_hash(name) == msg.type_hash:
+            linked.add(name)  # its own nested types come with its module
+        else:
+            used.update(msg.nested_types)
+    source = render_wire_module(messages, types, source=label, linked=linked)
+    return run_generated_source(source, label=label)
 
 
 def compiled_wire_code(full_name: str) -> WireCode:

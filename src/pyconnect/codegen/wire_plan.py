@@ -13,13 +13,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from pyconnect.codegen.templating import py_literal
+from pyconnect.codegen.wire_tables import ModuleTables, RunItem
 from pyconnect.typesys.model import Field, FieldType, MessageDef, TypeSet
-from pyconnect.typesys.primitives import NUMPY_DTYPES, PRIMITIVE_SIZES, STRUCT_CODES
-
-
-def symbol(full_name: str) -> str:
-    """The identifier of a type inside a rendered module: ``sensor_msgs__msg__Image``."""
-    return full_name.replace("/", "__")
+from pyconnect.typesys.primitives import PRIMITIVE_SIZES, STRUCT_CODES
 
 
 def is_flat(msg: MessageDef, types: TypeSet) -> bool:
@@ -62,7 +58,7 @@ class Value:
     local: str = ""
     items: list[str] = field(default_factory=list)
     is_list: bool = False
-    message: str = ""  # symbol of an inlined flat message
+    message: str = ""  # the view function of an inlined flat message
     fields: list[tuple[str, Value]] = field(default_factory=list)
     # A numeric array is an ndarray view in a view, and in a dict the plain value a live
     # message's to_dict gives (".tolist()", or ".tobytes()" for byte arrays): one value per type.
@@ -79,22 +75,13 @@ class Value:
     def view_expr(self) -> str:
         if self.message:
             args = ", ".join(value.view_expr() for _, value in self.fields)
-            return f"make_{self.message}({args})"
+            return f"{self.message}({args})"
         if self.is_list:
             return "[" + ", ".join(self.items) + "]"
         return self.local
 
 
 # -- steps -------------------------------------------------------------------------------------
-@dataclass
-class RunItem:
-    segment: str  # ".stamp.sec"; "" for padding
-    kind: str  # primitive name; "pad"
-    size: int
-    target: str = ""  # decode: local name
-    source: str = ""  # encode: expression
-
-
 @dataclass
 class Step:
     """One step of a decoder and the matching step of the encoder."""
@@ -133,44 +120,6 @@ def _struct_format(items: Sequence[RunItem], codes: dict[str, str]) -> str:
         else:
             collapsed.append(part)
     return "".join(collapsed)
-
-
-class ModuleTables:
-    """Constants of a module: struct formats and dtypes (named by what they are, shared), run
-    labels and key sets (named by their type, so a change to one type renames nothing else)."""
-
-    def __init__(self) -> None:
-        self.structs: dict[str, str] = {}
-        self.dtypes: dict[str, str] = {}
-        self.runs: dict[str, str] = {}
-        self.keysets: dict[str, str] = {}
-        self._runs_of: dict[str, int] = {}
-
-    def struct(self, fmt: str) -> str:
-        # "?" (bool) is the one struct code that cannot be part of a name; "T" is no code.
-        return self.structs.setdefault(fmt, "_S_" + fmt.replace("?", "T"))
-
-    def dtype(self, primitive: str) -> str:
-        return self.dtypes.setdefault(NUMPY_DTYPES[primitive], f"_D_{NUMPY_DTYPES[primitive]}")
-
-    def run_label(self, owner: MessageDef, items: Sequence[RunItem]) -> str:
-        entries: list[str] = []
-        end = 0
-        for item in items:
-            end += item.size
-            if item.kind != "pad":
-                entries.append(f'("{item.segment}", "{item.kind}", {end})')
-        index = self._runs_of.get(owner.full_name, 0)
-        self._runs_of[owner.full_name] = index + 1
-        name = f"_R_{symbol(owner.full_name)}_{index}"
-        self.runs[name] = "(" + ", ".join(entries) + ("," if len(entries) == 1 else "") + ")"
-        return name
-
-    def keyset(self, msg: MessageDef) -> str:
-        name = f"_K_{symbol(msg.full_name)}"
-        keys = ", ".join(f'"{f.name}"' for f in msg.fields)
-        self.keysets[name] = f"frozenset(({keys},))" if msg.fields else "frozenset()"
-        return name
 
 
 class Planner:
@@ -299,12 +248,13 @@ class Planner:
                 keys = self.tables.keyset(nested)
                 self.pre("submap", segment, target=sub, source=source, keys=keys)
                 return Value(
-                    message=symbol(nested.full_name),
+                    message=self.tables.view(nested.full_name),
                     fields=self.message_body(nested, segment, sub),
                 )
             target = self.local("v")
-            self.step("message", segment, target=target, function=symbol(element.name),
-                      source=source)  # fmt: skip
+            self.step("message", segment, target=target, source=source,
+                      decoder=self.tables.decoder(element.name),
+                      encoder=self.tables.encoder(element.name))  # fmt: skip
             self._forget()
             return Value(local=target)
         if ftype.is_single and element.kind == "string":
@@ -364,7 +314,8 @@ class Planner:
         else:
             nested = self.types.get(element.name)
             self.step("messages", segment, target=target, source=source, size=size, fixed=fixed,
-                      bound=bound, function=symbol(element.name),
+                      bound=bound, decoder=self.tables.decoder(element.name),
+                      encoder=self.tables.encoder(element.name),
                       min_size=min_size(nested, self.types))  # fmt: skip
         self._forget()
         return Value(local=target)

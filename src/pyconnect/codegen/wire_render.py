@@ -6,12 +6,14 @@
 from __future__ import annotations
 
 import keyword
-from collections.abc import Iterable
+from collections.abc import Collection, Iterable
 from dataclasses import dataclass
 from typing import Any
 
+from pyconnect.codegen.symbols import Symbols
 from pyconnect.codegen.templating import header, py_literal, render_template
-from pyconnect.codegen.wire_plan import ModuleTables, Planner, Step, Value, is_flat, symbol
+from pyconnect.codegen.wire_plan import Planner, Step, Value, is_flat
+from pyconnect.codegen.wire_tables import ModuleTables
 from pyconnect.typesys.model import MessageDef, PackageDef, TypeSet
 
 
@@ -21,7 +23,10 @@ class TypeCodec:
     """Everything the template prints for one type."""
 
     msg: MessageDef
-    symbol: str
+    cls: str  # the view class
+    view: str  # the function building a view from field values
+    decoder: str
+    encoder: str
     fields: list[str]
     setters: list[tuple[str, bool]]  # (field name, needs setattr because it is a keyword)
     flat: bool
@@ -37,10 +42,13 @@ def plan_type(msg: MessageDef, types: TypeSet, tables: ModuleTables) -> TypeCode
     keys = tables.keyset(msg)
     values = planner.message_body(msg, "", "d")
     planner.flush()
-    top = Value(message=symbol(msg.full_name), fields=values)
+    top = Value(message=tables.view(msg.full_name), fields=values)
     return TypeCodec(
         msg=msg,
-        symbol=symbol(msg.full_name),
+        cls=tables.cls(msg.full_name),
+        view=tables.view(msg.full_name),
+        decoder=tables.decoder(msg.full_name),
+        encoder=tables.encoder(msg.full_name),
         fields=[f.name for f in msg.fields],
         setters=[(f.name, keyword.iskeyword(f.name)) for f in msg.fields],
         flat=is_flat(msg, types),
@@ -66,22 +74,46 @@ def definition_literal(msg: MessageDef) -> str:
     return f'("{msg.type_hash}", ({inner}{"," if len(rows) == 1 else ""}))'
 
 
-def wire_context(messages: Iterable[MessageDef], types: TypeSet, source: str) -> dict[str, Any]:
-    """The template context for a module holding ``messages`` and every type they refer to."""
-    wanted = list(messages)
+def local_types(
+    messages: Iterable[MessageDef], types: TypeSet, linked: Collection[str]
+) -> list[MessageDef]:
+    """``messages`` and the types they use that are not ``linked``, dependencies first."""
     ordered: list[MessageDef] = []
     seen: set[str] = set()
-    for msg in wanted:
-        for dep in types.closure(msg.full_name) if msg.full_name in types.messages else [msg]:
-            if dep.full_name not in seen:
-                seen.add(dep.full_name)
-                ordered.append(types.messages.get(dep.full_name, dep))
-    tables = ModuleTables()
+
+    def visit(msg: MessageDef) -> None:
+        if msg.full_name in seen:
+            return
+        seen.add(msg.full_name)
+        for nested in msg.nested_types:
+            if nested not in linked:
+                visit(types.get(nested))
+        ordered.append(msg)
+
+    for msg in messages:
+        visit(types.messages.get(msg.full_name, msg))
+    return ordered
+
+
+def wire_context(
+    messages: Iterable[MessageDef],
+    types: TypeSet,
+    *,
+    source: str,
+    package: str | None,
+    linked: Collection[str],
+) -> dict[str, Any]:
+    """The template context for a module holding ``messages`` and the types they use; the code
+    of the ``linked`` ones is imported from their packages' modules."""
+    wanted = list(messages)
+    ordered = local_types(wanted, types, linked)
+    tables = ModuleTables(Symbols(package), {m.full_name for m in ordered})
     codecs = [plan_type(m, types, tables) for m in ordered]
     return {
         "header": header(source, wanted),
         "codecs": codecs,
         "exported": sorted(m.full_name for m in wanted),
+        "links": [tables.links[name] for name in sorted(tables.links)],
         "structs": sorted((name, fmt) for fmt, name in tables.structs.items()),
         "dtypes": sorted((name, dtype) for dtype, name in tables.dtypes.items()),
         "runs": sorted(tables.runs.items()),
@@ -89,11 +121,30 @@ def wire_context(messages: Iterable[MessageDef], types: TypeSet, source: str) ->
     }
 
 
-def render_wire_module(messages: Iterable[MessageDef], types: TypeSet, *, source: str) -> str:
-    """A self-contained module of wire codecs for ``messages`` and their dependencies."""
-    return render_template("wire_codecs.py.j2", wire_context(messages, types, source))
+def render_wire_module(
+    messages: Iterable[MessageDef],
+    types: TypeSet,
+    *,
+    source: str,
+    linked: Collection[str] = frozenset(),
+) -> str:
+    """A module of wire codecs for ``messages`` and the types they use, for code compiled on the
+    fly: every type is compiled into it except the ``linked`` ones, whose code it imports from
+    generated modules (the caller checked that they are the same types, RIHS01 hash for hash)."""
+    wanted = list(messages)
+    linked = frozenset(linked) - {m.full_name for m in wanted}
+    return render_template(
+        "wire_codecs.py.j2",
+        wire_context(wanted, types, source=source, package=None, linked=linked),
+    )
 
 
 def render_wire_codecs(package: PackageDef, types: TypeSet) -> str:
-    """The output kind ``wire_codecs`` of ``codecgen build``: one module per package."""
-    return render_wire_module(package.all_messages, types, source=f"package {package.name}")
+    """The output kind ``wire_codecs`` of ``codecgen build``: one module per package, linking
+    the types of other packages from theirs."""
+    own = list(package.all_messages)
+    names = {m.full_name for m in own}
+    linked = set(types.messages) - names
+    context = wire_context(own, types, source=f"package {package.name}", package=package.name,
+                           linked=linked)  # fmt: skip
+    return render_template("wire_codecs.py.j2", context)
