@@ -231,3 +231,26 @@ def test_natural_images_are_read_holding_one_chunk_and_one_message(tmp_path: Pat
     assert count == 60
     # A chunk holds five images (300 kB); two chunks would be 600 kB.
     assert peak < 360_000 + 2 * 60_100 + 50_000, peak
+
+
+@pytest.mark.parametrize("compression", ["zstd", "lz4", "none"])
+def test_chunks_in_memory_maps_read_alike(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, compression: str
+) -> None:
+    """Big chunks are decompressed into memory maps of their own: the same messages come out,
+    also from a file cut short (here every chunk takes that path)."""
+    from pyconnect.record import mcap_chunks
+
+    path = tmp_path / "bag.mcap"
+    with McapRecorder(path, compression=compression, chunk_size=4_000) as recorder:
+        recorder.add_topic("/chatter", "std_msgs/msg/String")
+        for i in range(200):
+            recorder.write("/chatter", chatter(i), log_time_ns=i)
+    cut = tmp_path / "cut.mcap"
+    cut.write_bytes(path.read_bytes()[:-300])
+    monkeypatch.setattr(mcap_chunks, "_MAPPED_FROM", 1)
+    with open_bag(path) as bag:
+        assert [m.value for m in bag] == [f"hello {i}" for i in range(200)]
+        assert bag.damage == []
+    with open_bag(cut) as bag:
+        assert [m.value for m in bag] == [f"hello {i}" for i in range(200)]
