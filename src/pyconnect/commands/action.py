@@ -84,13 +84,12 @@ def _list(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
 
 
 def _send_goal(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
-    from rclpy.action import ActionClient
-
     from pyconnect.commands.graph import CommandFailed, graph_session, report_failure
     from pyconnect.commands.live_values import echo_value, message_from_text
     from pyconnect.commands.value_text import format_value
     from pyconnect.errors import PyconnectError
     from pyconnect.ros.interfaces import interface_class
+    from pyconnect.ros.race_free_action_client import RaceFreeActionClient
 
     try:
         action_class = interface_class(args.action_type, kind="action")
@@ -98,7 +97,7 @@ def _send_goal(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     except PyconnectError as error:
         return report_failure(error, err)
     with graph_session("action") as session:
-        client = ActionClient(session.node, action_class, args.action_name)
+        client = RaceFreeActionClient(session.node, action_class, args.action_name)
         if not client.server_is_ready():
             print("Waiting for an action server to become available...", file=out, flush=True)
         if not session.spin_until(client.server_is_ready, args.timeout):

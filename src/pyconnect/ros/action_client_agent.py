@@ -27,7 +27,6 @@ import threading
 from typing import Any
 
 from action_msgs.msg import GoalStatus
-from rclpy.action import ActionClient
 from rclpy.callback_groups import CallbackGroup
 from rclpy.task import Future as RosFuture
 
@@ -38,6 +37,7 @@ from pyconnect.ros.error_fields import error_text_of
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.qos import REQUESTS
+from pyconnect.ros.race_free_action_client import RaceFreeActionClient
 from pyconnect.ros.waiting import settle, wait_until
 
 
@@ -88,7 +88,7 @@ class ActionClientAgent(NodeAgent):
         self._goal_of_result: dict[int, _GoalInFlight] = {}
         self._lock = threading.Lock()
         self._server_seen = False
-        self.client = ActionClient(
+        self.client = RaceFreeActionClient(
             node.ros_node,
             action_class,
             conn_name,
