@@ -77,7 +77,15 @@ def test_an_image_crosses_ros_zenoh_and_back(locator: str, tmp_path: Path) -> No
     pixels = np.random.default_rng(3).integers(0, 255, (30, 40, 3), dtype=np.uint8)
     msg = Image(height=30, width=40, encoding="bgr8", step=120, data=pixels.tobytes())
     msg.header.frame_id = "cam"
-    spinner = threading.Thread(target=executor.spin, daemon=True)
+    # The test owns its spin loop, so the spinning ends before the executor is shut down
+    # (rclpy 7.1's shutdown while another thread waits makes that thread raise).
+    stopping = threading.Event()
+
+    def spin() -> None:
+        while not stopping.is_set():
+            executor.spin_once(timeout_sec=0.05)
+
+    spinner = threading.Thread(target=spin, daemon=True)
     spinner.start()
     try:
         # Resend until the round trip closes: discovery on three processes takes its time.
@@ -90,6 +98,8 @@ def test_an_image_crosses_ros_zenoh_and_back(locator: str, tmp_path: Path) -> No
         assert (echoed.height, echoed.width, echoed.encoding) == (30, 40, "bgr8")
         assert bytes(echoed.data) == pixels.tobytes()
     finally:
+        stopping.set()
+        spinner.join(TIMEOUT)
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown(context=context)
