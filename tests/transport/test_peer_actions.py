@@ -163,3 +163,32 @@ def test_a_server_needs_a_response_func_and_an_action_type(make_peer: PeerFactor
         "agent 'x' (action_client): std_srvs/srv/SetBool: expected a action type, got a "
         "service type"
     )
+
+
+def test_a_goal_that_ends_after_its_server_shut_down_raises_nothing(
+    make_peer: PeerFactory,
+) -> None:
+    running, release, ended = threading.Event(), threading.Event(), threading.Event()
+
+    def wait(goal: dict[str, Any], publish_feedback: Any) -> dict[str, Any]:
+        running.set()
+        release.wait(TIMEOUT)
+        try:
+            publish_feedback({"sequence": [1]})
+        finally:
+            ended.set()
+        return {"sequence": [2]}
+
+    server, client = pair(make_peer, wait)
+    future = client.send({"order": 1}, timeout=TIMEOUT, block=False)
+    assert running.wait(TIMEOUT)
+    server.peer.shutdown()
+    release.set()
+    assert ended.wait(TIMEOUT)
+    deadline = time.monotonic() + TIMEOUT
+    while not all(goal.response is not None for goal in server._goals.values()):
+        assert time.monotonic() < deadline
+        time.sleep(0.01)
+    # The client learns the server vanished (its result request ends unanswered).
+    result = future.result(TIMEOUT)
+    assert result["isdone"] is False

@@ -53,6 +53,7 @@ class Writer:
         self.gid = keys.gid_of(self.token_key)
         self._sequence = 0
         self._lock = threading.Lock()
+        self._closed = False
         self._publisher = peer.session.declare_publisher(
             self.key, reliability=zenoh.Reliability.RELIABLE
         )
@@ -65,12 +66,17 @@ class Writer:
         return bool(getattr(status, "matching", status))
 
     def put(self, payload: bytes) -> None:
+        """Publish ``payload``; nothing once closed (a goal may end after its server did)."""
         with self._lock:
+            if self._closed:
+                return
             self._sequence += 1
             attachment = keys.pack_attachment(self._sequence, time.time_ns(), self.gid)
             self._publisher.put(payload, attachment=attachment)
 
     def close(self) -> None:
+        with self._lock:
+            self._closed = True
         for entity in (self._token, self._publisher):
             with contextlib.suppress(Exception):
                 entity.undeclare()
