@@ -32,7 +32,10 @@ def main() -> None:
         pass
     else:
         raise SystemExit("rclpy imported although blocked")
-    peer = Peer("vision", config=config)
+    # Printed at shutdown however it comes (a signal may arrive before spin() is reached).
+    peer = Peer(
+        "vision", config=config, stop_func=lambda: print("rclpy" in sys.modules, flush=True)
+    )
     if role == "echo-image":
         back = peer.add_agent(
             conn_name=f"{topic}_back", conn_type="pub", data_interface="sensor_msgs/msg/Image"
@@ -60,7 +63,6 @@ def main() -> None:
         )
     print("ready", flush=True)
     peer.spin()
-    print("rclpy" in sys.modules, flush=True)
 
 
 if __name__ == "__main__":

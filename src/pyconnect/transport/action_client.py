@@ -222,10 +222,9 @@ class ActionClientAgent(PeerAgent):
         return self._outcome(response, in_flight.goal_id)
 
     def _call_failure(self, failure: CallFailed, timeout: float | None) -> str:
-        text = str(failure)
-        if text.endswith("in time"):
+        if failure.timed_out:
             return f"no response from the action server within {timeout} s"
-        return text
+        return str(failure)
 
     def _outcome(self, response: bytes, goal_id: bytes) -> Any:
         fields = self.interface.get_result.response.to_dict(response)

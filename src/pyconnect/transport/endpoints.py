@@ -1,10 +1,10 @@
-"""One rmw_zenoh entity each, without an agent around it: the parts an action is built of.
+"""One rmw_zenoh entity each, without an agent around it: what services and actions are made of.
 
-rcl_action builds an action of three services and two topics, so a peer's action agents are
-made of the same entities its other agents use, each with its token (see rmw_zenoh_keys for
-the formats): ``Writer`` (publisher), ``Reader`` (subscription), ``Server`` (a queryable
-answering each query once, possibly later and from another thread) and ``Caller`` (a client
-sending one query per call).
+A service agent is one ``Server`` or one ``Caller``; rcl_action builds an action of three
+services and two topics, so a peer's action agents are made of the same entities, each with its
+token (see rmw_zenoh_keys for the formats): ``Writer`` (publisher), ``Reader`` (subscription),
+``Server`` (a queryable answering each query once, possibly later and from another thread) and
+``Caller`` (a client sending one query per call).
 """
 
 # zenoh's stubs leave undeclare() and close() unannotated.
@@ -180,7 +180,11 @@ class Server:
 
 
 class CallFailed(Exception):
-    """A call got no response: the text says why (no server, vanished, timeout, error)."""
+    """A call got no response: the text says why (vanished, error, or ``timed_out``)."""
+
+    def __init__(self, text: str, *, timed_out: bool = False) -> None:
+        super().__init__(text)
+        self.timed_out = timed_out
 
 
 class Caller:
@@ -233,7 +237,7 @@ class Caller:
             raise CallFailed(f"the server of {self.name} failed: {'; '.join(errors)}")
         if self.server_count == 0:
             raise CallFailed(f"the server of {self.name} vanished before it replied")
-        raise CallFailed(f"no response from {self.name} in time")
+        raise CallFailed(f"no response from {self.name} in time", timed_out=True)
 
     def close(self) -> None:
         with contextlib.suppress(Exception):

@@ -153,7 +153,12 @@ class Inbox(Generic[_Item]):
                 if self._closed:
                     return
                 item = self._items.popleft()
-            self._handle(item)
+            try:
+                self._handle(item)
+            except Exception as error:  # the handlers report their own; this is the backstop
+                logger.error(
+                    "%s: handler raised %s: %s", self._thread.name, type(error).__name__, error
+                )
             del item  # a zenoh query is answered for good only when it is released
 
     def close(self, timeout: float = 5.0) -> None:

@@ -4,7 +4,8 @@ rmw_zenoh (``rmw_service_data.cpp``, ``rmw_client_data.cpp``): a server is a zen
 (``complete=True``) on the service's key expression; a client sends a query to it with the
 CDR request as payload and an attachment (sequence number, timestamp, client GID), target
 ``ALL_COMPLETE``, no consolidation; the server replies on its key with the CDR response and an
-attachment that echoes the request's sequence number and client GID.
+attachment that echoes the request's sequence number and client GID (pyconnect.transport.
+endpoints: ``Server`` and ``Caller``).
 
 Server: ``response_func(request_value) -> response_value``. A handler or codec that raises
 still answers: a response with ``success``/``message`` fields gets ``success=False`` and the
@@ -22,22 +23,16 @@ or when it does not reply in time, it returns ``{'isdone': False, 'error': ...}`
 from __future__ import annotations
 
 import concurrent.futures
-import contextlib
-import struct
 import threading
 import time
 from typing import Any
 
-import zenoh
-
-from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
+from pyconnect.transport.endpoints import Caller, CallFailed, Request, Server
 from pyconnect.transport.interface_types import service_interface
-from pyconnect.transport.peer_agent import Inbox, Peer, PeerAgent, ResponseFunc, reform_response
+from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc, reform_response
 
 _TEXT_FIELDS = ("message", "error", "error_message", "error_msg", "error_string", "reason")
-# A call without a timeout still ends: zenoh needs one; a day is "never" for a service.
-_NO_TIMEOUT = 86400.0
 
 
 class ServiceServerAgent(PeerAgent):
@@ -81,43 +76,31 @@ class ServiceServerAgent(PeerAgent):
             encode_func=encode_func,
         )
         self.request_count = 0
-        self.key = keys.data_key(
-            peer.domain_id, self.topic, interface.type_name, interface.type_hash
+        self._server = Server(
+            peer,
+            self.topic,
+            interface,
+            self._on_request,
+            depth=depth,
+            thread_name=f"srv-{self.name}",
         )
-        self.token_key = peer.entity_token(
-            kind=keys.SERVICE,
-            name=self.topic,
-            type_name=interface.type_name,
-            type_hash=interface.type_hash,
-            qos=keys.qos_chunk(depth=depth),
-        )
-        self._inbox: Inbox[zenoh.Query] = Inbox(f"srv-{self.name}", depth, self._on_query)
-        self._queryable = peer.session.declare_queryable(self.key, self._inbox.put, complete=True)
-        self._token = peer.session.liveliness().declare_token(self.token_key)
+        self.key = self._server.key
+        self.token_key = self._server.token_key
 
-    def _on_query(self, query: zenoh.Query) -> None:
-        # Leaving ``with`` drops the query, which tells the client no more replies will come.
-        with query:
-            self.request_count += 1
-            sequence, client_gid = 0, bytes(keys.GID_SIZE)
-            attachment = query.attachment
-            if attachment is not None:
-                with contextlib.suppress(struct.error):
-                    sequence, _stamp, client_gid = keys.unpack_attachment(attachment.to_bytes())
-            payload = self._answer(query)
-            reply_attachment = keys.pack_attachment(sequence, time.time_ns(), client_gid)
-            try:
-                query.reply(self.key, payload, attachment=reply_attachment)
-            except Exception as error:
-                self.report_exception("reply", error)
+    def _on_request(self, request: Request) -> None:
+        self.request_count += 1
+        payload = self._answer(request.payload)
+        try:
+            request.reply(payload)
+        except Exception as error:
+            self.report_exception("reply", error)
 
-    def _answer(self, query: zenoh.Query) -> bytes:
+    def _answer(self, request: bytes) -> bytes:
         where = "decode"
         try:
-            request = query.payload
-            if request is None:
+            if not request:
                 raise self.error("the query carries no request payload")
-            data = self.request_conversion.decode(request.to_bytes())
+            data = self.request_conversion.decode(request)
             self._latest = data
             where = "response_func"
             value = self._handler(data)
@@ -142,10 +125,7 @@ class ServiceServerAgent(PeerAgent):
         return codec.from_dict(answer)
 
     def close(self) -> None:
-        for entity in (self._token, self._queryable):
-            with contextlib.suppress(Exception):
-                entity.undeclare()
-        self._inbox.close()
+        self._server.close()
 
 
 class ServiceClientAgent(PeerAgent):
@@ -181,24 +161,14 @@ class ServiceClientAgent(PeerAgent):
             registry=peer.registry,
             decode_func=decode_func,
         )
-        self.key = keys.data_key(
-            peer.domain_id, self.topic, interface.type_name, interface.type_hash
-        )
-        self.token_key = peer.entity_token(
-            kind=keys.CLIENT,
-            name=self.topic,
-            type_name=interface.type_name,
-            type_hash=interface.type_hash,
-            qos=keys.qos_chunk(),
-        )
-        self.gid = keys.gid_of(self.token_key)
-        self._sequence = 0
-        self._lock = threading.Lock()
-        self._token = peer.session.liveliness().declare_token(self.token_key)
+        self._caller = Caller(peer, self.topic, interface)
+        self.key = self._caller.key
+        self.token_key = self._caller.token_key
+        self.gid = self._caller.gid
 
     @property
     def server_count(self) -> int:
-        return self.peer.graph.count(kind=keys.SERVICE, name=self.topic)
+        return self._caller.server_count
 
     def is_connected(self) -> bool:
         return self.server_count > 0
@@ -231,33 +201,15 @@ class ServiceClientAgent(PeerAgent):
         deadline = None if timeout is None else time.monotonic() + timeout
         if not self.peer.wait_for_graph(lambda: self.server_count > 0, deadline):
             return self._failed(f"no server for {self.topic} within {timeout} s")
-        with self._lock:
-            self._sequence += 1
-            sequence = self._sequence
-        attachment = keys.pack_attachment(sequence, time.time_ns(), self.gid)
-        remaining = _NO_TIMEOUT if deadline is None else max(0.001, deadline - time.monotonic())
-        replies = self.peer.session.get(
-            self.key,
-            target=zenoh.QueryTarget.ALL_COMPLETE,
-            consolidation=zenoh.ConsolidationMode.NONE,
-            timeout=remaining,
-            payload=payload,
-            attachment=attachment,
-        )
-        errors: list[str] = []
-        for reply in replies:
-            if reply.ok is None:
-                err = reply.err
-                errors.append(err.payload.to_string() if err is not None else "unknown error")
-                continue
-            value = reform_response(self.response_conversion.decode(reply.ok.payload.to_bytes()))
-            self._latest = value
-            return value
-        if errors:
-            return self._failed(f"the server of {self.topic} failed: {'; '.join(errors)}")
-        if self.server_count == 0:
-            return self._failed(f"the server of {self.topic} vanished before it replied")
-        return self._failed(f"no response from {self.topic} within {timeout} s")
+        try:
+            response = self._caller.call(payload, deadline)
+        except CallFailed as failure:
+            if failure.timed_out:
+                return self._failed(f"no response from {self.topic} within {timeout} s")
+            return self._failed(str(failure))
+        value = reform_response(self.response_conversion.decode(response))
+        self._latest = value
+        return value
 
     def _failed(self, text: str) -> Any:
         value = reform_response(None, error=f"{self.describe}: {text}")
@@ -265,5 +217,4 @@ class ServiceClientAgent(PeerAgent):
         return value
 
     def close(self) -> None:
-        with contextlib.suppress(Exception):
-            self._token.undeclare()
+        self._caller.close()
