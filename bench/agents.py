@@ -5,7 +5,9 @@ String codec vs a raw rclpy subscription on ``SingleThreadedExecutor``; target >
 service round trip (pyconnect ``send()`` vs raw ``call_async`` + ``spin_until_future_complete``;
 target <= 1.1x), action goal->result against a pyconnect action server vs a fresh raw rclpy
 one, measured over 500 goals each (target <= 1.1x and flat: the last 50 goals as fast as the
-first 50). Peers run in child processes of this module (``--peer MODE``).
+first 50). Peers run in child processes of this module (``--peer MODE``). pyconnect agents
+take the raw CDR path by default; the rows marked ``raw=False`` measure the same agents on the
+class path (rclpy message objects), which is how the default was chosen.
 """
 
 from __future__ import annotations
@@ -147,8 +149,9 @@ def raw_sub_rate() -> tuple[float, float]:
     return rates
 
 
-def pyconnect_sub_rate() -> tuple[float, float]:
-    """The same for a pyconnect ``sub`` agent decoding with the registry's String codec."""
+def pyconnect_sub_rate(raw: bool | None = None) -> tuple[float, float]:
+    """The same for a pyconnect ``sub`` agent decoding with the registry's String codec
+    (by default from the CDR bytes with the wire codec; ``raw=False``: from rclpy messages)."""
     import rclpy
     from std_msgs.msg import String
 
@@ -161,7 +164,11 @@ def pyconnect_sub_rate() -> tuple[float, float]:
         received[0] += 1
 
     sub = node.add_agent(
-        conn_name="bench_chatter", conn_type="sub", data_interface=String, response_func=on_text
+        conn_name="bench_chatter",
+        conn_type="sub",
+        data_interface=String,
+        response_func=on_text,
+        raw=raw,
     )
     node.spin(run_thread=True)
     sub.wait_for_message(30)
@@ -298,7 +305,9 @@ def action_latencies() -> list[float]:
 
 # -- executor cost (each case in a fresh child process; CPU time per wall second) -------------
 CPU_KINDS = ("pub_100hz", "pub_1khz", "sub_1khz", "idle", "pair_1khz")
-CPU_MODES = ("ste", "events", "pyconnect")
+CPU_MODES = ("ste", "events", "pyconnect", "pyconnect_class")
+"""``pyconnect``: agents as made by default (the raw CDR path); ``pyconnect_class``: the same
+agents with ``raw=False`` (rclpy message objects), the path before the raw one."""
 
 
 def cpu_child(mode: str, kind: str, window: float) -> None:
@@ -311,9 +320,10 @@ def cpu_child(mode: str, kind: str, window: float) -> None:
     rate = 100.0 if kind == "pub_100hz" else 1000.0
     values = np.arange(12, dtype=np.float64)
     counter = [0]
-    if mode == "pyconnect":
+    if mode in ("pyconnect", "pyconnect_class"):
         from pyconnect.ros.custom_node import CustomNode
 
+        raw_path = None if mode == "pyconnect" else False
         node = CustomNode(f"bench_cpu_{kind}", args=[], handle_signals=False)
         if kind.startswith("pub") or kind == "peer":
             node.add_agent(
@@ -322,6 +332,7 @@ def cpu_child(mode: str, kind: str, window: float) -> None:
                 data_interface=Float64MultiArray,
                 time_period=1.0 / rate,
                 response_func=lambda: values,
+                raw=raw_path,
             )
         elif kind in ("sub_1khz", "pair_1khz"):
 
@@ -333,6 +344,7 @@ def cpu_child(mode: str, kind: str, window: float) -> None:
                 conn_type="sub",
                 data_interface=Float64MultiArray,
                 response_func=on_value,
+                raw=raw_path,
             )
         else:  # idle: one of each, no traffic
             node.add_agent(
@@ -479,14 +491,26 @@ def comparison_rows(rounds: int) -> list[Row]:
     """The earlier table's rows: small-message rate, service round trip, action latency."""
     rows: list[Row] = []
     with running("blast"):
-        raw_rates, pyc_rates = [], []
+        raw_rates, pyc_rates, cdr_rates = [], [], []
         for _ in range(rounds):
             raw_rates.append(raw_sub_rate())
             pyc_rates.append(pyconnect_sub_rate())
+            cdr_rates.append(pyconnect_sub_rate(raw=False))
     raw_wall, pyc_wall = max(rate[0] for rate in raw_rates), max(rate[0] for rate in pyc_rates)
     raw_cpu, pyc_cpu = max(rate[1] for rate in raw_rates), max(rate[1] for rate in pyc_rates)
+    cdr_cpu = max(rate[1] for rate in cdr_rates)
     rows.append(
         ("pub->sub msgs per CPU second", raw_cpu, None, pyc_cpu, pyc_cpu / raw_cpu, ">= 0.90 STE")
+    )
+    rows.append(
+        (
+            "pub->sub msgs per CPU s, sub raw=False",
+            raw_cpu,
+            None,
+            cdr_cpu,
+            cdr_cpu / raw_cpu,
+            "default (raw) row >= this",
+        )
     )
     rows.append(
         (
@@ -598,6 +622,17 @@ def main(quick: bool | None = None) -> None:
                 target,
             )
         )
+        if not title.startswith("CPU % idle"):
+            rows.append(
+                (
+                    "  same, agents raw=False (rclpy messages)",
+                    by_mode["ste"],
+                    events,
+                    by_mode["pyconnect_class"],
+                    by_mode["pyconnect_class"] / events if events > 0 else None,
+                    "default (raw) row <= this",
+                )
+            )
     rows.extend(comparison_rows(rounds))
     rows.extend(
         (name, plain, None, coroutine, float(ratio), target)

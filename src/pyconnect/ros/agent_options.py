@@ -46,6 +46,7 @@ class AgentOptions(TypedDict, total=False):
     frame_id: str
     only_if_subscribed: bool
     stamped: bool
+    raw: bool | None
     timeout: float | None
     result_timeout: float
     result_cache_seconds: float

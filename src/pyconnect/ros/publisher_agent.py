@@ -24,11 +24,13 @@ from rclpy.callback_groups import CallbackGroup
 from rclpy.qos import QoSProfile
 
 from pyconnect.codecs.base import Codec
+from pyconnect.codecs.stamped import Stamped
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.qos import resolve_qos
+from pyconnect.ros.raw_path import RawEncoder, choose_raw
 
 
 class PublisherAgent(NodeAgent):
@@ -52,6 +54,7 @@ class PublisherAgent(NodeAgent):
         time_period: float | None = None,
         frame_id: str = "",
         only_if_subscribed: bool = False,
+        raw: bool | None = None,
         callback_group: CallbackGroup | None = None,
     ) -> None:
         msg_class = interface_class(data_interface, kind="msg")
@@ -81,6 +84,29 @@ class PublisherAgent(NodeAgent):
         self.sent_count = 0
         self._has_encode_func = encode_func is not None
         self._has_value = False
+        self._raw: RawEncoder | None = None
+        """Set when values are published as the CDR bytes the wire codec wrote (raw_path)."""
+        custom = [
+            name
+            for name, given in (
+                ("encode_func", encode_func is not None),
+                ("codec", codec is not None),
+            )
+            if given
+        ]
+        if choose_raw(
+            raw,
+            describe=self.describe,
+            custom=custom,
+            value_codec=None if custom else node.registry.value_codec(self.type_name),
+        ):
+            encoder = RawEncoder(
+                msg_type=self.type_name,
+                registry=node.registry,
+                has_header=self.conversion.has_header,
+                describe=self.describe,
+            )
+            self._raw = encoder if encoder.usable else None
         ros_node = node.ros_node
         self.publisher = ros_node.create_publisher(
             msg_class,
@@ -105,6 +131,14 @@ class PublisherAgent(NodeAgent):
         """Encode and publish ``data``; False when skipped (``only_if_subscribed``, no reader)."""
         if self.only_if_subscribed and self.publisher.get_subscription_count() == 0:
             return False
+        raw = self._raw
+        if raw is not None and not self._is_message_value(data):
+            cdr, fields = raw.encode(data, now=self._now, frame_id=self.frame_id)
+            self.publisher.publish(cdr)
+            encoding = fields.get("encoding")
+            self._log_rgb = isinstance(encoding, str) and encoding.startswith("rgb")
+            self._sent(data)
+            return True
         conversion = self.conversion
         msg, stamped = conversion.encode(data)
         if conversion.has_header and not stamped:
@@ -114,13 +148,26 @@ class PublisherAgent(NodeAgent):
             if self.frame_id and not header.frame_id:
                 header.frame_id = self.frame_id
         self.publisher.publish(msg)
+        self._note_channel_order(msg)
+        self._sent(data)
+        return True
+
+    def _sent(self, data: Any) -> None:
         self._latest = data
         self._has_value = data is not None
-        self._note_channel_order(msg)
         self.sent_count += 1
         if self.do_log_msg:
             self.log_msg(data)
-        return True
+
+    def _is_message_value(self, data: Any) -> bool:
+        """Values the class path publishes as messages (a message, Stamped, an empty type)."""
+        return isinstance(data, (self.conversion.msg_class, Stamped)) or (
+            data is None and self.conversion.is_empty
+        )
+
+    def _now(self) -> tuple[int, int]:
+        sec, nanosec = self.node.ros_node.get_clock().now().seconds_nanoseconds()
+        return int(sec), int(nanosec)
 
     def publish(self, data: Any = None) -> bool:
         """``send(data)`` by the design's name for publishers."""

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import threading
 import time
+from collections.abc import Callable
 from typing import Any
 
 from rclpy.callback_groups import CallbackGroup
@@ -27,6 +28,7 @@ from pyconnect.ros.coroutines import is_async_callable
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.qos import resolve_qos
+from pyconnect.ros.raw_path import RawDecoder, choose_raw
 
 
 class SubscriberAgent(NodeAgent):
@@ -52,6 +54,7 @@ class SubscriberAgent(NodeAgent):
         do_log_msg: bool = False,
         qos: QoSProfile | str | int | None = None,
         stamped: bool = False,
+        raw: bool | None = None,
         callback_group: CallbackGroup | None = None,
     ) -> None:
         msg_class = interface_class(data_interface, kind="msg")
@@ -64,6 +67,7 @@ class SubscriberAgent(NodeAgent):
             do_log_msg=do_log_msg,
             callback_group=callback_group,
         )
+        own_codec = codec is not None
         self.conversion = self.make_conversion(
             msg_class, encode_func=encode_func, decode_func=decode_func, codec=codec
         )
@@ -78,17 +82,51 @@ class SubscriberAgent(NodeAgent):
         else:
             self._decode = decode_func
         self._response_is_async = is_async_callable(response_func)
+        self._raw: RawDecoder | None = None
+        """Set when messages arrive as CDR bytes and the wire codec decodes them (raw_path)."""
+        custom = [
+            name
+            for name, given in (
+                ("decode_func", decode_func is not None),
+                ("codec", own_codec),
+                ("stamped=True", stamped),
+            )
+            if given
+        ]
+        if choose_raw(
+            raw,
+            describe=self.describe,
+            custom=custom,
+            value_codec=None if custom else node.registry.value_codec(self.type_name),
+        ):
+            self._raw = RawDecoder(msg_type=self.type_name, registry=node.registry)
         self.message_count = 0
         self.last_received_ns = 0
         self._first_message = threading.Event()
         self.subscription = node.ros_node.create_subscription(
             msg_class,
             conn_name,
-            self._on_message,
+            self._on_message if self._raw is None else self._raw_callback(self._raw),
             resolve_qos(qos, msg_type=self.type_name, publisher=False),
             callback_group=self.callback_group,
+            raw=self._raw is not None,
         )
         self.topic = self.subscription.topic_name
+
+    def _raw_callback(self, raw: RawDecoder) -> Callable[[bytes], None]:
+        """The subscription callback of the raw path: CDR bytes in, the same delivery."""
+
+        def on_raw_message(data: bytes) -> None:
+            try:
+                value, view = raw.decode(data)
+            except Exception as error:
+                if not isinstance(error, DecodeError):
+                    error = DecodeError(f"{type(error).__name__}: {error}")
+                self.report_exception("decode", error)
+                return
+            self._deliver(value, view)
+
+        return on_raw_message
 
     def _on_message(self, msg: Any) -> None:
         try:
@@ -98,6 +136,9 @@ class SubscriberAgent(NodeAgent):
                 error = DecodeError(f"{type(error).__name__}: {error}")
             self.report_exception("decode", error)
             return
+        self._deliver(value, msg)
+
+    def _deliver(self, value: Any, msg: Any) -> None:
         self._latest = value
         self._note_channel_order(msg)
         self.message_count += 1

@@ -1,0 +1,132 @@
+"""The raw CDR path of ``sub`` and ``pub`` agents: serialized bytes <-> values by the wire codecs.
+
+By default (``raw=None``) and with ``raw=True``, a subscription receives the serialized message
+(rclpy's ``raw=True``) and the wire codec decodes it (the natural codec reads a view of a
+writable copy of the bytes, or the lossless dict is built straight from them); a publisher
+publishes the bytes the wire codec wrote. Both skip rclpy's conversion between C structs and
+Python message objects, which is most of the cost of a large message (a 6 MB image: 9.6 ms
+stock in rclpy against microseconds here).
+
+The values are the class path's: the same registry codec turns the view or the fields into the
+value (``tests/ros/test_raw_path.py`` compares both paths for every natural codec). Outgoing
+headers are filled as the class path fills them: a zero stamp gets the node clock's time, an
+empty ``frame_id`` the agent's ``frame_id``. What needs an rclpy message stays on the class
+path: ``encode_func``/``decode_func``, a ``codec=`` of the agent's own, ``stamped=True``
+subscribers, natural codecs without ``to_fields``, and (unless ``raw=True``) codecs the user
+registered; values that already are messages or ``Stamped`` are published from the message.
+``raw=False`` keeps an agent on the class path. bench/agents.py measured the raw path cheaper
+for small messages too (README), hence the default.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from typing import Any
+
+from pyconnect.codecs.registry import Registry
+from pyconnect.codecs.wire_codec import WireCodec
+from pyconnect.errors import CodecError, EncodeError, PyconnectError
+
+BUILT_IN_MODULES = ("pyconnect.codecs", "pyconnect_generated")
+"""Where pyconnect's own codecs live; a codec from elsewhere was registered by the user."""
+
+
+def choose_raw(raw: bool | None, *, describe: str, custom: list[str], value_codec: Any) -> bool:
+    """Whether an agent takes the raw path: ``raw=None`` (the default) does when nothing needs
+    an rclpy message; ``raw=True`` insists, and is refused beside what needs a message."""
+    if raw is False:
+        return False
+    if custom:
+        if raw:
+            raise PyconnectError(
+                f"{describe}: raw=True converts with the wire codecs; it cannot be combined "
+                f"with {', '.join(custom)} (they work on rclpy messages)"
+            )
+        return False
+    if raw is None and value_codec is not None:
+        # A codec the user registered may read more of a message than its fields.
+        return str(type(value_codec).__module__).startswith(BUILT_IN_MODULES)
+    return True
+
+
+class RawDecoder:
+    """Serialized bytes -> the value a ``sub`` agent delivers."""
+
+    def __init__(self, *, msg_type: str, registry: Registry) -> None:
+        self.wire: WireCodec = registry.wire_codec(msg_type)
+        self.natural = registry.value_codec(msg_type)
+
+    def decode(self, data: bytes) -> tuple[Any, Any]:
+        """(value, the view the natural codec read or None for a dict type)."""
+        natural = self.natural
+        if natural is None:
+            return self.wire.to_dict(data), None
+        # A writable copy: the class path's arrays are writable, views of ``bytes`` are not.
+        view = self.wire.decode_view(bytearray(data))
+        return natural.decode(view), view
+
+
+class RawEncoder:
+    """A value -> serialized bytes a ``pub`` agent publishes (header filled as the class path)."""
+
+    def __init__(
+        self, *, msg_type: str, registry: Registry, has_header: bool, describe: str
+    ) -> None:
+        self.wire: WireCodec = registry.wire_codec(msg_type)
+        self.natural = registry.value_codec(msg_type)
+        self.has_header = has_header
+        self.describe = describe
+        self._to_fields: Callable[[Any], Any] | None = (
+            getattr(self.natural, "to_fields", None) if self.natural is not None else None
+        )
+
+    @property
+    def usable(self) -> bool:
+        """False when the natural codec cannot give fields (the class path is taken)."""
+        return self.natural is None or self._to_fields is not None
+
+    def fields(self, value: Any) -> Mapping[str, Any]:
+        """The lossless dict of ``value`` (through the natural codec's ``to_fields``)."""
+        fields = self._to_fields(value) if self._to_fields is not None else value
+        if not isinstance(fields, Mapping):
+            raise EncodeError(
+                f"{self.describe}: {self.wire.msg_type.rsplit('/', 1)[-1]}: "
+                f"expected dict, got {type(fields).__name__}"
+            )
+        return fields
+
+    def encode(
+        self, value: Any, *, now: Callable[[], tuple[int, int]], frame_id: str
+    ) -> tuple[bytes, Mapping[str, Any]]:
+        """(CDR bytes, the fields written); errors become ``EncodeError`` naming the agent."""
+        try:
+            fields = self.fields(value)
+            if self.has_header:
+                fields = _with_header(fields, now=now, frame_id=frame_id)
+            return self.wire.from_dict(fields), fields
+        except CodecError as error:
+            if str(error).startswith(self.describe):
+                raise
+            raise EncodeError(f"{self.describe}: {error}") from error
+        except PyconnectError:
+            raise
+        except Exception as error:
+            raise EncodeError(
+                f"{self.describe}: codec raised {type(error).__name__}: {error}"
+            ) from error
+
+
+def _with_header(
+    fields: Mapping[str, Any], *, now: Callable[[], tuple[int, int]], frame_id: str
+) -> dict[str, Any]:
+    header = fields.get("header")
+    header = dict(header) if isinstance(header, Mapping) else {}
+    stamp = header.get("stamp")
+    stamp = dict(stamp) if isinstance(stamp, Mapping) else {}
+    if not stamp.get("sec") and not stamp.get("nanosec"):
+        sec, nanosec = now()
+        stamp = {"sec": sec, "nanosec": nanosec}
+    header["stamp"] = stamp
+    if frame_id and not header.get("frame_id"):
+        header["frame_id"] = frame_id
+    return {**fields, "header": header}

@@ -1,0 +1,214 @@
+"""Raw (the default) sub and pub agents give the values of the class path, for every natural codec.
+
+Each type gets a raw and a class ``sub`` agent and a raw and a class ``pub`` agent on one node;
+hypothesis draws messages, the subscription callbacks get the serialized bytes (raw) or the
+message (class), and the publishers' ``publish`` is captured: both paths must give the same
+value, or fail the same way. A last test runs the raw path over DDS.
+"""
+
+from __future__ import annotations
+
+import threading
+from typing import Any
+
+import numpy as np
+import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from rclpy.serialization import deserialize_message, serialize_message
+
+from pyconnect import codecs
+from pyconnect.codecs.natural import NATURAL_CODECS
+from pyconnect.errors import PyconnectError
+from tests.codecs.wire.test_natural import comparable
+from tests.strategies import default_packages, message_dicts
+
+from .conftest import EVENT_TIMEOUT
+
+_, TYPES = default_packages()
+NATURAL_TYPES = sorted(name for name in NATURAL_CODECS if name in TYPES.messages)
+DICT_TYPES = [
+    "test_msgs/msg/BasicTypes",
+    "test_msgs/msg/Arrays",
+    "test_msgs/msg/Nested",
+    "test_msgs/msg/Strings",
+    "sensor_msgs/msg/Imu",
+]
+_SETTINGS = settings(max_examples=8, deadline=None, database=None,
+                     suppress_health_check=list(HealthCheck))  # fmt: skip
+
+
+def outcome(compute: Any) -> Any:
+    """The comparable value, or the kind of error raised (both paths must fail alike)."""
+    try:
+        return ("value", comparable(compute()))
+    except Exception as error:
+        return ("error", type(error).__name__)
+
+
+def without_stamp(fields: dict[str, Any]) -> dict[str, Any]:
+    """A message dict without its header stamp (each path stamps with its own "now")."""
+    header = fields.get("header")
+    if isinstance(header, dict):
+        return {**fields, "header": {**header, "stamp": None}}
+    return fields
+
+
+class Paths:
+    """A raw and a class agent of each direction for one type, fed by hand (no DDS)."""
+
+    def __init__(self, node: Any, full_name: str) -> None:
+        self.msg_class = codecs.default_registry.lookup_dict(full_name).msg_class
+        common = {"data_interface": full_name, "conn_name": "t"}
+        self.raw_sub = node.add_agent(common, agent_name="raw_sub", conn_type="sub", raw=True)
+        self.class_sub = node.add_agent(common, agent_name="class_sub", conn_type="sub", raw=False)
+        self.raw_pub = node.add_agent(
+            common, agent_name="raw_pub", conn_type="pub", raw=True, frame_id="cam"
+        )
+        self.class_pub = node.add_agent(
+            common, agent_name="class_pub", conn_type="pub", frame_id="cam", raw=False
+        )
+        assert self.raw_sub._raw is not None
+        assert self.class_sub._raw is None
+        self.published: dict[str, list[Any]] = {"raw": [], "class": []}
+        self.raw_pub.publisher.publish = self.published["raw"].append
+        self.class_pub.publisher.publish = self.published["class"].append
+
+    def received(self, msg: Any) -> tuple[Any, Any]:
+        """What each sub delivers for ``msg`` (the raw one gets its serialized bytes)."""
+        self.raw_sub.subscription.callback(serialize_message(msg))
+        self.class_sub.subscription.callback(msg)
+        return self.raw_sub.get(), self.class_sub.get()
+
+    def sent(self, value: Any) -> tuple[Any, Any]:
+        """The message dict each pub publishes for ``value`` (header stamp left out)."""
+        raw = outcome(lambda: self._sent_dict("raw", self.raw_pub, value))
+        plain = outcome(lambda: self._sent_dict("class", self.class_pub, value))
+        return raw, plain
+
+    def _sent_dict(self, path: str, agent: Any, value: Any) -> Any:
+        agent.send(value)
+        published = self.published[path].pop()
+        if path == "raw" and value is not None:  # None (an empty type) is sent as the message
+            assert isinstance(published, bytes)
+            published = deserialize_message(published, self.msg_class)
+        else:
+            assert isinstance(published, self.msg_class)
+        return without_stamp(codecs.to_dict(published))
+
+
+@pytest.mark.parametrize("full_name", NATURAL_TYPES + DICT_TYPES)
+def test_raw_and_class_paths_give_the_same_values(make_node: Any, full_name: str) -> None:
+    paths = Paths(make_node(), full_name)
+    dict_codec = codecs.default_registry.lookup_dict(full_name)
+
+    @_SETTINGS
+    @given(st.data())
+    def check(data: st.DataObject) -> None:
+        msg = dict_codec.from_dict(data.draw(message_dicts(TYPES.get(full_name), TYPES)))
+        errors = (paths.raw_sub.error_count, paths.class_sub.error_count)
+        raw, plain = paths.received(msg)
+        failed = (paths.raw_sub.error_count - errors[0], paths.class_sub.error_count - errors[1])
+        assert failed[0] == failed[1]  # a message one path rejects, the other rejects too
+        if failed[0]:
+            return
+        assert comparable(raw) == comparable(plain)
+        raw_sent, class_sent = paths.sent(plain)
+        assert raw_sent == class_sent
+
+    check()
+
+
+def test_raw_pub_fills_the_header_like_the_class_path(make_node: Any) -> None:
+    paths = Paths(make_node(), "sensor_msgs/msg/Image")
+    image = np.zeros((2, 3), dtype=np.uint8)
+    paths.raw_pub.send(image)
+    msg = deserialize_message(paths.published["raw"].pop(), paths.msg_class)
+    assert msg.header.frame_id == "cam"
+    assert (msg.header.stamp.sec, msg.header.stamp.nanosec) != (0, 0)
+
+
+def test_raw_image_is_writable_like_the_class_paths(make_node: Any) -> None:
+    paths = Paths(make_node(), "sensor_msgs/msg/Image")
+    msg = codecs.encode(np.zeros((2, 3), dtype=np.uint8), "sensor_msgs/msg/Image")
+    raw, plain = paths.received(msg)
+    assert raw.flags.writeable and plain.flags.writeable
+    raw[0, 0] = 7  # the user's callback may draw on the image it got
+
+
+def test_raw_is_the_default_unless_a_message_is_needed(make_node: Any) -> None:
+    node = make_node()
+    twist = {"conn_name": "cmd", "data_interface": "geometry_msgs/msg/Twist"}
+    assert node.add_agent(twist, conn_type="sub")._raw is not None
+    assert node.add_agent(twist, agent_name="p", conn_type="pub")._raw is not None
+    decoded = node.add_agent(twist, agent_name="d", conn_type="sub", decode_func=lambda m: m)
+    assert decoded._raw is None
+    stamped = node.add_agent(twist, agent_name="s", conn_type="sub", stamped=True)
+    assert stamped._raw is None
+    encoded = node.add_agent(
+        twist, agent_name="e", conn_type="pub", encode_func=lambda data, msg: msg
+    )
+    assert encoded._raw is None
+    with pytest.raises(PyconnectError) as refused:
+        node.add_agent(twist, agent_name="r", conn_type="sub", decode_func=repr, raw=True)
+    assert str(refused.value) == (
+        "agent 'r' (sub geometry_msgs/msg/Twist): raw=True converts with the wire codecs; it "
+        "cannot be combined with decode_func (they work on rclpy messages)"
+    )
+
+
+def test_a_codec_the_user_registered_gets_messages(make_node: Any) -> None:
+    class Upper:
+        msg_type = "std_msgs/msg/String"
+        lossless = True
+
+        def encode(self, value: str) -> Any:
+            from std_msgs.msg import String
+
+            return String(data=value.lower())
+
+        def decode(self, msg: Any) -> str:
+            return str(msg.data).upper()
+
+    registry = codecs.Registry()
+    registry.register("std_msgs/msg/String", Upper())
+    node = make_node(registry=registry)
+    sub = node.add_agent(conn_name="t", conn_type="sub", data_interface="std_msgs/msg/String")
+    assert sub._raw is None
+
+
+def test_raw_sub_reports_undecodable_bytes(make_node: Any) -> None:
+    paths = Paths(make_node(), "std_msgs/msg/String")
+    paths.raw_sub.subscription.callback(b"\x00\x01\x00\x00\xff\xff\xff\x7f")
+    assert paths.raw_sub.error_count == 1
+    assert paths.raw_sub.get() is None
+
+
+def test_raw_path_over_dds(make_node: Any) -> None:
+    node = make_node()
+    got: dict[str, Any] = {}
+    arrived = {name: threading.Event() for name in ("raw", "class")}
+
+    def keep(path: str) -> Any:
+        def on_value(value: Any) -> None:
+            got[path] = value
+            arrived[path].set()
+
+        return on_value
+
+    for path in ("raw", "class"):
+        node.add_agent(
+            conn_name="joints", agent_name=f"{path}_sub", conn_type="sub",
+            data_interface="sensor_msgs/msg/JointState", raw=path == "raw",
+            response_func=keep(path),
+        )  # fmt: skip
+    publisher = node.add_agent(
+        conn_name="joints", conn_type="pub", data_interface="sensor_msgs/msg/JointState", raw=True
+    )
+    node.spin(run_thread=True)
+    joints = {"elbow": {"position": 1.5, "velocity": 0.25, "effort": -2.0}}
+    for _ in range(int(EVENT_TIMEOUT / 0.05)):
+        publisher.send(joints)
+        if all(event.wait(0.05) for event in arrived.values()):
+            break
+    assert got == {"raw": joints, "class": joints}
