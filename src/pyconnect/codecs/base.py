@@ -1,4 +1,4 @@
-"""What a codec is: the protocol every codec follows; composite codecs of services and actions."""
+"""What a codec is: the protocols codecs follow, the natural codecs' base; services and actions."""
 
 from __future__ import annotations
 
@@ -30,6 +30,77 @@ class Codec(Protocol):
     def decode(self, msg: Any) -> Any:
         """Turn a ROS message into a Python value."""
         ...
+
+
+@runtime_checkable
+class NaturalCodec(Codec, Protocol):
+    """A codec whose value has fields: the one contract of the natural codecs (value ⇄ fields).
+
+    ``to_fields(value)`` checks a natural value and gives the field dict of its message type
+    (the lossless dict the generated code takes: ``{"linear": {"x": 0.2, ...}, ...}``);
+    ``decode`` reads an rclpy message or a wire codec's view (both have the fields as
+    attributes). The registry composes the rest: ``encode`` is the generated message code on
+    ``to_fields`` (``FieldsCodec``), and the wire codec writes ``to_fields`` as CDR.
+    """
+
+    def to_fields(self, value: Any) -> Mapping[str, Any]:
+        """Check a natural value; its field dict, ready for the generated code."""
+        ...
+
+
+class DictCodecs(Protocol):
+    """What a natural codec needs of its registry: the generated dict codec of a type."""
+
+    def lookup_dict(self, type_ref: object) -> DictCodec: ...
+
+
+class FieldsCodec:
+    """Base of the natural codecs: a subclass writes ``decode`` and ``to_fields``, nothing else.
+
+    ``encode`` composes ``to_fields`` with the type's generated ``from_dict`` (fields → new
+    rclpy message), found on first use through the registry that loaded the codec (or, for a
+    codec made by hand, the generated code itself), so no natural codec writes a message
+    twice. Hot codecs (Image, JointState, Twist) override ``encode`` with a direct path, said
+    at each one.
+    """
+
+    msg_type: str
+    lossless: bool
+    _registry: DictCodecs | None = None
+    _message_from_fields: Callable[[Mapping[str, Any]], Any] | None = None
+
+    def to_fields(self, value: Any) -> Mapping[str, Any]:
+        raise NotImplementedError
+
+    def decode(self, msg: Any) -> Any:
+        raise NotImplementedError
+
+    def encode(self, value: Any) -> Any:
+        """A new rclpy message of ``msg_type`` holding the natural value ``value``."""
+        build = self._message_from_fields
+        if build is None:
+            build = self._bind_message_code()
+        return build(self.to_fields(value))
+
+    def use_registry(self, registry: DictCodecs) -> None:
+        """Take the generated message code from ``registry`` (the registry calls this)."""
+        self._registry = registry
+        self._message_from_fields = None
+
+    def _bind_message_code(self) -> Callable[[Mapping[str, Any]], Any]:
+        registry = self._registry
+        if registry is not None:
+            build = registry.lookup_dict(self.msg_type).from_dict
+        else:
+            from pyconnect.codecs.type_code import (
+                compiled_dict_functions,
+                generated_dict_functions,
+            )
+
+            functions = generated_dict_functions(self.msg_type)
+            build = (functions or compiled_dict_functions(self.msg_type)).from_dict
+        self._message_from_fields = build
+        return build
 
 
 @dataclass(frozen=True)

@@ -13,6 +13,7 @@ from __future__ import annotations
 import numbers
 from typing import Any, ClassVar, NamedTuple, TypeVar
 
+from pyconnect.codecs.base import FieldsCodec
 from pyconnect.codecs.field_checks import check_kind_int, check_tuple
 
 __all__ = ["DurationCodec", "RosDuration", "RosTime", "TimeCodec"]
@@ -61,16 +62,12 @@ def time_fields(value: Any, path: str) -> dict[str, int]:
     }
 
 
-class _SecNanosecCodec:
+class _SecNanosecCodec(FieldsCodec):
     """A ``builtin_interfaces`` (sec, nanosec) type ↔ its named tuple."""
 
     name: ClassVar[str]
     value_type: ClassVar[type[_SecNanosec]]
     lossless = True
-
-    @property
-    def msg_type(self) -> str:
-        return f"builtin_interfaces/msg/{self.name}"
 
     def decode(self, msg: Any) -> _SecNanosec:
         return self.value_type(msg.sec, msg.nanosec)
@@ -78,15 +75,11 @@ class _SecNanosecCodec:
     def to_fields(self, value: Any) -> dict[str, int]:
         return time_fields(value, self.name)
 
-    def encode(self, value: Any) -> Any:
-        import builtin_interfaces.msg
-
-        return getattr(builtin_interfaces.msg, self.name)(**time_fields(value, self.name))
-
 
 class TimeCodec(_SecNanosecCodec):
     """builtin_interfaces/Time ↔ ``RosTime(sec, nanosec)``."""
 
+    msg_type = "builtin_interfaces/msg/Time"
     name = "Time"
     value_type = RosTime
 
@@ -94,5 +87,6 @@ class TimeCodec(_SecNanosecCodec):
 class DurationCodec(_SecNanosecCodec):
     """builtin_interfaces/Duration ↔ ``RosDuration(sec, nanosec)``."""
 
+    msg_type = "builtin_interfaces/msg/Duration"
     name = "Duration"
     value_type = RosDuration

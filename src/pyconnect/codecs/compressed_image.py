@@ -18,6 +18,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pyconnect.codecs.base import FieldsCodec
 from pyconnect.codecs.buffers import byte_view
 from pyconnect.codecs.compressed_depth import (
     DEFAULT_DEPTH_MAX,
@@ -115,7 +116,7 @@ def compressed_fields(
     return {"format": f"{name}; {format} compressed {name}", "data": encoded.tobytes()}
 
 
-class CompressedImageCodec:
+class CompressedImageCodec(FieldsCodec):
     """CompressedImage ↔ ndarray; ``format`` is ``"jpeg"`` (with ``quality``), ``"png"`` or
     ``"compressedDepth"`` (uint16 or float32 depth; ``depth_max``, ``depth_quantization``).
 
@@ -168,14 +169,6 @@ class CompressedImageCodec:
         return compressed_fields(
             value, format=self.format, quality=self.quality, png_level=self.png_level
         )
-
-    def encode(self, value: Any) -> Any:
-        from sensor_msgs.msg import CompressedImage
-
-        fields = self.to_fields(value)
-        msg = CompressedImage(format=fields["format"])
-        msg.data.frombytes(fields["data"])
-        return msg
 
     def __repr__(self) -> str:
         depth = (

@@ -15,7 +15,6 @@ from pyconnect.codecs.geometry import (
     GeometryCodec,
     PoseCodec,
     PoseValue,
-    message_class,
     pose_parts,
     xyz_fields,
     xyzw_fields,
@@ -60,12 +59,6 @@ class PolygonCodec(GeometryCodec):
         array = self._checked(value)
         return {"points": [{"x": x, "y": y, "z": z} for x, y, z in array.tolist()]}
 
-    def encode(self, value: Any) -> Any:
-        array = self._checked(value)
-        point = message_class("geometry_msgs", "Point32")
-        points = [point(x=x, y=y, z=z) for x, y, z in array.tolist()]
-        return self._cls()(points=points)
-
 
 class PoseArrayCodec(GeometryCodec):
     """geometry_msgs/PoseArray ↔ list of pose tuples (drops the header)."""
@@ -94,25 +87,10 @@ class PoseArrayCodec(GeometryCodec):
             ]
         }
 
-    def encode(self, value: Any) -> Any:
-        poses = [
-            _pose_message(pose, f"{self._name}.poses[{i}]")
-            for i, pose in enumerate(self._list(value))
-        ]
-        return self._cls()(poses=poses)
-
 
 def _pose_fields(value: Any, path: str) -> dict[str, Any]:
     p, q = pose_parts(value, path, "position", "orientation")
     return {"position": xyz_fields(p), "orientation": xyzw_fields(q)}
-
-
-def _pose_message(value: Any, path: str) -> Any:
-    (x, y, z), (qx, qy, qz, qw) = pose_parts(value, path, "position", "orientation")
-    return message_class("geometry_msgs", "Pose")(
-        position=message_class("geometry_msgs", "Point")(x=x, y=y, z=z),
-        orientation=message_class("geometry_msgs", "Quaternion")(x=qx, y=qy, z=qz, w=qw),
-    )
 
 
 class PathCodec(PoseArrayCodec):
@@ -134,11 +112,3 @@ class PathCodec(PoseArrayCodec):
                 for i, pose in enumerate(self._list(value))
             ]
         }
-
-    def encode(self, value: Any) -> Any:
-        stamped = message_class("geometry_msgs", "PoseStamped")
-        poses = [
-            stamped(pose=_pose_message(pose, f"Path.poses[{i}]"))
-            for i, pose in enumerate(self._list(value))
-        ]
-        return self._cls()(poses=poses)

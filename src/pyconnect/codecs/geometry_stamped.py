@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from pyconnect.codecs.base import FieldsCodec
 from pyconnect.codecs.geometry import (
     AccelCodec,
     PointCodec,
@@ -17,12 +18,11 @@ from pyconnect.codecs.geometry import (
     TwistCodec,
     Vector3Codec,
     WrenchCodec,
-    message_class,
 )
 from pyconnect.codecs.geometry_arrays import PolygonCodec
 
 
-class StampedCodec:
+class StampedCodec(FieldsCodec):
     """A ``*Stamped`` message ↔ the natural value of its inner field (the header is dropped)."""
 
     lossless = False
@@ -32,19 +32,12 @@ class StampedCodec:
         self.msg_type = f"geometry_msgs/msg/{name}"
         self.field = field
         self.inner = inner
-        self._class: Any = None
 
     def decode(self, msg: Any) -> Any:
         return self.inner.decode(getattr(msg, self.field))
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         return {self.field: self.inner.to_fields(value)}
-
-    def encode(self, value: Any) -> Any:
-        cls = self._class
-        if cls is None:
-            cls = self._class = message_class("geometry_msgs", self.name)
-        return cls(**{self.field: self.inner.encode(value)})
 
 
 def point_stamped_codec() -> StampedCodec:

@@ -13,6 +13,7 @@ import numbers
 from collections.abc import Callable, Mapping
 from typing import Any
 
+from pyconnect.codecs.base import FieldsCodec
 from pyconnect.codecs.field_checks import check_float
 from pyconnect.codecs.message_slots import blank, field_reader, has_slot_layout, zero_header
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
@@ -138,7 +139,7 @@ def joint_state_fields(value: Any) -> dict[str, Any]:
     return fields
 
 
-class JointStateCodec:
+class JointStateCodec(FieldsCodec):
     """sensor_msgs/JointState ↔ dict keyed by joint name."""
 
     msg_type = "sensor_msgs/msg/JointState"
@@ -148,9 +149,16 @@ class JointStateCodec:
     decode = staticmethod(decode_joint_state)
 
     def to_fields(self, value: Any) -> dict[str, Any]:
-        return joint_state_fields(value)
+        fast = _fast_columns(value)
+        if fast is None:
+            return joint_state_fields(value)
+        names, columns = fast
+        empty = array.array("d")
+        return {"name": names, **{key: columns.get(key, empty) for key in _ARRAYS}}
 
     def encode(self, value: Any) -> Any:
+        # A hot codec keeps a direct path: the generated from_dict on to_fields costs more
+        # (its checks again), so the checked columns go straight into the message slots.
         classes = JointStateCodec._classes
         if classes is None:
             from builtin_interfaces.msg import Time

@@ -13,6 +13,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pyconnect.codecs.base import FieldsCodec
 from pyconnect.codecs.buffers import filled_array, numeric_view
 from pyconnect.codecs.field_checks import check_float32
 from pyconnect.errors import EncodeError, type_name_of
@@ -94,7 +95,7 @@ def _checked(value: Any) -> LaserScanValue:
     return value
 
 
-class LaserScanCodec:
+class LaserScanCodec(FieldsCodec):
     """sensor_msgs/LaserScan ↔ ``LaserScanValue``."""
 
     msg_type = "sensor_msgs/msg/LaserScan"
@@ -114,14 +115,3 @@ class LaserScanCodec:
             filled_array(scan.intensities, np.float32, "LaserScan.intensities"), np.float32
         )
         return fields
-
-    def encode(self, value: Any) -> Any:
-        from sensor_msgs.msg import LaserScan
-
-        scan = _checked(value)
-        msg = LaserScan()
-        for key in _GEOMETRY:
-            setattr(msg, key, check_float32(getattr(scan, key), f"LaserScan.{key}"))
-        msg.ranges = filled_array(scan.ranges, np.float32, "LaserScan.ranges")
-        msg.intensities = filled_array(scan.intensities, np.float32, "LaserScan.intensities")
-        return msg

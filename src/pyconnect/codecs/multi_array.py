@@ -15,7 +15,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pyconnect.codecs.buffers import ARRAY_TYPECODES, contiguous_bytes, numeric_view
+from pyconnect.codecs.base import FieldsCodec
+from pyconnect.codecs.buffers import ARRAY_TYPECODES, numeric_view
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
 
 DTYPES: dict[str, str] = {
@@ -36,7 +37,7 @@ DTYPES: dict[str, str] = {
 _MAX_DIMS = 32  # numpy's limit before version 2; plenty for a tensor in a message
 
 
-class MultiArrayCodec:
+class MultiArrayCodec(FieldsCodec):
     """One std_msgs ``*MultiArray`` type ↔ ndarray."""
 
     lossless = False
@@ -122,31 +123,6 @@ class MultiArrayCodec:
         if self.name == "ByteMultiArray":
             data = data.tobytes()
         return {"layout": self._layout(array), "data": data}
-
-    def encode(self, value: Any) -> Any:
-        import array as array_module
-
-        import std_msgs.msg
-
-        values = self._checked(value)
-        msg = getattr(std_msgs.msg, self.name)()
-        dimension = std_msgs.msg.MultiArrayDimension
-        dims = []
-        stride = 1
-        for size in reversed(values.shape):
-            stride *= size
-            dims.append(dimension(label="", size=int(size), stride=int(stride)))
-        dims.reverse()
-        msg.layout.dim = dims
-        if self.name == "ByteMultiArray":
-            # rclpy holds byte[] as a list of 1-byte bytes objects.
-            flat = np.ascontiguousarray(values).reshape(-1).tobytes()
-            msg.data = [flat[i : i + 1] for i in range(len(flat))]
-        else:
-            data = array_module.array(self._typecode)
-            data.frombytes(contiguous_bytes(values))
-            msg.data = data
-        return msg
 
 
 byte_multi_array_codec = partial(MultiArrayCodec, "ByteMultiArray")

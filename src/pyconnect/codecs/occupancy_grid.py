@@ -14,7 +14,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pyconnect.codecs.buffers import filled_array, numeric_view
+from pyconnect.codecs.base import FieldsCodec
+from pyconnect.codecs.buffers import numeric_view
 from pyconnect.codecs.builtin_time import RosTime, time_fields
 from pyconnect.codecs.field_checks import check_float32
 from pyconnect.codecs.geometry import PoseCodec, PoseValue
@@ -81,7 +82,7 @@ def _checked(value: Any) -> tuple[OccupancyGridValue, npt.NDArray[np.int8]]:
     return value, cells
 
 
-class OccupancyGridCodec:
+class OccupancyGridCodec(FieldsCodec):
     """nav_msgs/OccupancyGrid ↔ ``OccupancyGridValue``."""
 
     msg_type = "nav_msgs/msg/OccupancyGrid"
@@ -103,21 +104,3 @@ class OccupancyGridCodec:
             },
             "data": np.ascontiguousarray(cells).reshape(-1),
         }
-
-    def encode(self, value: Any) -> Any:
-        from builtin_interfaces.msg import Time
-        from nav_msgs.msg import MapMetaData, OccupancyGrid
-
-        grid, cells = _checked(value)
-        info = MapMetaData(
-            map_load_time=Time(
-                **time_fields(grid.map_load_time, "OccupancyGrid.info.map_load_time")
-            ),
-            resolution=check_float32(grid.resolution, "OccupancyGrid.info.resolution"),
-            width=cells.shape[1],
-            height=cells.shape[0],
-            origin=_POSE.encode(grid.origin),
-        )
-        msg = OccupancyGrid(info=info)
-        msg.data = filled_array(cells.reshape(-1), np.int8, "OccupancyGrid.data")
-        return msg

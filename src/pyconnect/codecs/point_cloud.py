@@ -20,6 +20,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pyconnect.codecs.base import FieldsCodec
 from pyconnect.codecs.buffers import byte_view, contiguous_bytes
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
 
@@ -197,7 +198,7 @@ def point_cloud_fields(value: Any) -> dict[str, Any]:
     }
 
 
-class PointCloudCodec:
+class PointCloudCodec(FieldsCodec):
     """sensor_msgs/PointCloud2 ↔ numpy structured array."""
 
     msg_type = "sensor_msgs/msg/PointCloud2"
@@ -207,22 +208,6 @@ class PointCloudCodec:
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         return point_cloud_fields(value)
-
-    def encode(self, value: Any) -> Any:
-        from sensor_msgs.msg import PointCloud2, PointField
-
-        fields = point_cloud_fields(value)
-        msg = PointCloud2(
-            height=fields["height"],
-            width=fields["width"],
-            fields=[PointField(**f) for f in fields["fields"]],
-            is_bigendian=fields["is_bigendian"],
-            point_step=fields["point_step"],
-            row_step=fields["row_step"],
-            is_dense=fields["is_dense"],
-        )
-        msg.data.frombytes(fields["data"])
-        return msg
 
 
 def unpack_rgb(packed: npt.NDArray[Any]) -> npt.NDArray[np.uint8]:

@@ -16,7 +16,14 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
-from pyconnect.codecs.base import ActionCodec, Codec, DictCodec, ServiceCodec
+from pyconnect.codecs.base import (
+    ActionCodec,
+    Codec,
+    DictCodec,
+    FieldsCodec,
+    NaturalCodec,
+    ServiceCodec,
+)
 from pyconnect.codecs.natural import NATURAL_CODECS
 from pyconnect.codecs.stamped import Stamped, decode_stamped, encode_stamped
 from pyconnect.codecs.type_code import (
@@ -51,6 +58,7 @@ class TypeRecord:
     full_name: str
     codec: AnyCodec | None = None  # the message codec: user, natural or dict
     value: Codec | None = _UNSET  # the user or natural codec; None: the value is the dict
+    fields: NaturalCodec | None = None  # ``value`` when it has ``to_fields`` (the wire encodes it)
     dict_codec: DictCodec | None = None
     wire: WireCodec | None = None
 
@@ -101,6 +109,7 @@ class Registry:
         for record in self._records.values():
             record.codec = None
             record.value = _UNSET
+            record.fields = None
 
     # -- lookup -------------------------------------------------------------------------------
     def resolve(self, type_ref: object) -> str:
@@ -173,14 +182,28 @@ class Registry:
             with self._lock:
                 value = record.value
                 if value is _UNSET:
-                    value = record.value = self._value_of(record.full_name)
+                    value = self._value_of(record.full_name)
+                    # Checked once here: a runtime protocol check costs microseconds.
+                    record.fields = value if isinstance(value, NaturalCodec) else None
+                    record.value = value
         return value
+
+    def fields_codec(self, type_ref: object) -> NaturalCodec | None:
+        """The user or natural codec of a message type if it has ``to_fields``, else None."""
+        record = self._record(type_ref)
+        if record.value is _UNSET:
+            self.value_codec(type_ref)
+        return record.fields
 
     def _value_of(self, full_name: str) -> Codec | None:
         if full_name in self._user:
             return self._user[full_name]
         if full_name in self._natural:
-            return _load_factory(self._natural[full_name])()
+            codec = _load_factory(self._natural[full_name])()
+            if isinstance(codec, FieldsCodec):
+                # Its encode is the generated message code on its fields: this registry's.
+                codec.use_registry(self)
+            return codec
         return None
 
     def lookup_dict(self, type_ref: object) -> DictCodec:

@@ -11,6 +11,7 @@ from __future__ import annotations
 from functools import partial
 from typing import Any
 
+from pyconnect.codecs.base import FieldsCodec
 from pyconnect.codecs.field_checks import (
     check_bool,
     check_float,
@@ -44,13 +45,7 @@ _INT_TYPES = {
 }
 
 
-def _message_class(name: str) -> Any:
-    import std_msgs.msg
-
-    return getattr(std_msgs.msg, name)
-
-
-class IntCodec:
+class IntCodec(FieldsCodec):
     """std_msgs Int*/UInt*/Char ↔ ``int`` with a range check."""
 
     lossless = True
@@ -59,7 +54,6 @@ class IntCodec:
         self.name = name
         self.kind = _INT_TYPES[name]
         self.msg_type = f"std_msgs/msg/{name}"
-        self._class: Any = None
 
     def decode(self, msg: Any) -> int:
         return int(msg.data)
@@ -67,16 +61,8 @@ class IntCodec:
     def to_fields(self, value: Any) -> dict[str, Any]:
         return {"data": check_kind_int(value, self.kind, f"{self.name}.data")}
 
-    def encode(self, value: Any) -> Any:
-        cls = self._class or self._load()
-        return cls(data=check_kind_int(value, self.kind, f"{self.name}.data"))
 
-    def _load(self) -> Any:
-        self._class = _message_class(self.name)
-        return self._class
-
-
-class FloatCodec:
+class FloatCodec(FieldsCodec):
     """std_msgs Float32/Float64 ↔ ``float`` (Float32 checks the float32 range)."""
 
     lossless = True
@@ -85,7 +71,6 @@ class FloatCodec:
         self.name = name
         self.msg_type = f"std_msgs/msg/{name}"
         self._check = check_float32 if name == "Float32" else check_float
-        self._class: Any = None
 
     def decode(self, msg: Any) -> float:
         return float(msg.data)
@@ -93,16 +78,8 @@ class FloatCodec:
     def to_fields(self, value: Any) -> dict[str, Any]:
         return {"data": self._check(value, f"{self.name}.data")}
 
-    def encode(self, value: Any) -> Any:
-        cls = self._class or self._load()
-        return cls(data=self._check(value, f"{self.name}.data"))
 
-    def _load(self) -> Any:
-        self._class = _message_class(self.name)
-        return self._class
-
-
-class BoolCodec:
+class BoolCodec(FieldsCodec):
     """std_msgs/Bool ↔ ``bool``."""
 
     msg_type = "std_msgs/msg/Bool"
@@ -114,11 +91,8 @@ class BoolCodec:
     def to_fields(self, value: Any) -> dict[str, Any]:
         return {"data": check_bool(value, "Bool.data")}
 
-    def encode(self, value: Any) -> Any:
-        return _message_class("Bool")(data=check_bool(value, "Bool.data"))
 
-
-class ByteCodec:
+class ByteCodec(FieldsCodec):
     """std_msgs/Byte ↔ ``int`` in [0, 255] (rclpy's 1-byte ``bytes`` is converted)."""
 
     msg_type = "std_msgs/msg/Byte"
@@ -133,11 +107,8 @@ class ByteCodec:
     def to_fields(self, value: Any) -> dict[str, Any]:
         return {"data": check_kind_int(value, "byte", "Byte.data")}
 
-    def encode(self, value: Any) -> Any:
-        return _message_class("Byte")(data=bytes((check_kind_int(value, "byte", "Byte.data"),)))
 
-
-class StringCodec:
+class StringCodec(FieldsCodec):
     """std_msgs/String ↔ ``str``."""
 
     msg_type = "std_msgs/msg/String"
@@ -149,11 +120,8 @@ class StringCodec:
     def to_fields(self, value: Any) -> dict[str, Any]:
         return {"data": check_str(value, None, "String.data")}
 
-    def encode(self, value: Any) -> Any:
-        return _message_class("String")(data=check_str(value, None, "String.data"))
 
-
-class EmptyCodec:
+class EmptyCodec(FieldsCodec):
     """std_msgs/Empty ↔ ``None``."""
 
     msg_type = "std_msgs/msg/Empty"
@@ -167,12 +135,8 @@ class EmptyCodec:
             fail("Empty", "None", value)
         return {}
 
-    def encode(self, value: Any) -> Any:
-        self.to_fields(value)
-        return _message_class("Empty")()
 
-
-class ColorRGBACodec:
+class ColorRGBACodec(FieldsCodec):
     """std_msgs/ColorRGBA ↔ ``(r, g, b, a)`` floats."""
 
     msg_type = "std_msgs/msg/ColorRGBA"
@@ -189,9 +153,6 @@ class ColorRGBACodec:
             "b": check_float32(b, "ColorRGBA.b"),
             "a": check_float32(a, "ColorRGBA.a"),
         }
-
-    def encode(self, value: Any) -> Any:
-        return _message_class("ColorRGBA")(**self.to_fields(value))
 
 
 # Factories for the natural-codec table (it calls them with no arguments).

@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any, Protocol
 
-from pyconnect.codecs.base import Codec
+from pyconnect.codecs.base import Codec, NaturalCodec
 from pyconnect.codecs.cdr_read import DecodeFunction, body_of
 from pyconnect.codecs.cdr_write import HEADER_BE, HEADER_LE, ZEROS
 from pyconnect.codecs.fastdds_size import fastdds_estimated_size
@@ -22,6 +22,8 @@ class ValueCodecs(Protocol):
     """What a wire codec needs of its registry: the user or natural codec of a type, if any."""
 
     def value_codec(self, type_ref: object) -> Codec | None: ...
+
+    def fields_codec(self, type_ref: object) -> NaturalCodec | None: ...
 
 
 class WireCodec:
@@ -110,13 +112,14 @@ class WireCodec:
 
     def encode(self, value: Any, *, registry: ValueCodecs | None = None) -> bytes:
         """CDR bytes of a natural value (through the codec's ``to_fields``) or of a dict."""
-        codec = (registry or self._registry).value_codec(self.msg_type)
+        registry = registry or self._registry
+        codec = registry.value_codec(self.msg_type)
         if codec is not None:
-            to_fields = getattr(codec, "to_fields", None)
-            if to_fields is None:
+            natural = registry.fields_codec(self.msg_type)
+            if natural is None:
                 raise EncodeError(
                     f"{self.msg_type}: codec {type(codec).__name__} has no to_fields(value); "
                     "encode its lossless dict with from_dict instead"
                 )
-            value = to_fields(value)
+            value = natural.to_fields(value)
         return self.from_dict(value)
