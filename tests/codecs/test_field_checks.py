@@ -104,3 +104,17 @@ def test_natural_and_generated_checks_are_one_set() -> None:
         with pytest.raises(EncodeError) as caught:
             call()
         assert str(caught.value) == message
+
+
+def test_typed_arrays_encode_like_lists_in_both_byte_orders() -> None:
+    # array.array of the field's own type is written as it is (it cannot hold a bool).
+    codec = wire.wire_codec("sensor_msgs/msg/JointState")
+    columns = {"name": ["a", "b"], "position": [0.5, -1.0], "effort": [2.0, 3.0]}
+    typed = {**columns, "position": array("d", [0.5, -1.0]), "effort": array("d", [2.0, 3.0])}
+    for big_endian in (False, True):
+        expected = codec.from_dict(columns, big_endian=big_endian)
+        assert codec.from_dict(typed, big_endian=big_endian) == expected
+    ints = wire.wire_codec("std_msgs/msg/Int32MultiArray")
+    assert ints.from_dict({"data": array("i", [1, -2])}) == ints.from_dict({"data": [1, -2]})
+    swapped = ints.from_dict({"data": array("i", [1, -2])}, big_endian=True)
+    assert ints.to_dict(swapped)["data"] == [1, -2]

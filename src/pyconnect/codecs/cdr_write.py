@@ -10,6 +10,7 @@ from __future__ import annotations
 import contextlib
 import struct
 import sys
+from array import array
 from collections.abc import Callable, Mapping, Sequence
 from types import MappingProxyType
 from typing import Any
@@ -42,7 +43,8 @@ HEADER_LE = b"\x00\x01\x00\x00"
 HEADER_BE = b"\x00\x00\x00\x00"
 EncodeFunction = Callable[[Any, list[Any], int], int]
 
-_ORDER = {"<": "<", ">": ">", "=": "<" if sys.byteorder == "little" else ">", "|": "<"}
+_NATIVE = "<" if sys.byteorder == "little" else ">"
+_ORDER = {"<": "<", ">": ">", "=": _NATIVE, "|": "<"}
 
 
 def check_scalar(kind: str, value: Any, segment: str) -> Any:
@@ -218,6 +220,15 @@ def encode_array(
                 return struct.pack(
                     f"{_ORDER[dtype.byteorder]}{count}{STRUCT_CODES[kind]}", *value
                 ), count
+    if (
+        value.__class__ is array
+        and value.typecode == STRUCT_CODES[kind]
+        and value.itemsize == dtype.itemsize
+        and _ORDER[dtype.byteorder] == _NATIVE
+    ):
+        # rclpy's storage (and JointState's columns): typed, so it holds no bools; not copied.
+        check_length(value, size, fixed, "")
+        return memoryview(value).cast("B"), len(value)
     if (
         isinstance(value, np.ndarray)
         and value.dtype == dtype
