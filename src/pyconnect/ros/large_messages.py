@@ -14,8 +14,8 @@ importing ``pyconnect.ros`` when ``PYCONNECT_LARGE_MESSAGES=1``:
   ``MALLOC_TRIM_THRESHOLD_=1073741824`` (``pyconnect run script.py`` sets the variables before
   the interpreter starts, which also covers what was allocated before the import).
 
-Not on at import by default yet: with it, a ``bag record`` test that stops with Ctrl-C right
-after an image lost its last file on the loaded development machine (to be understood first).
+Not on at plain import: it gives the process a shared-memory segment and changes its malloc,
+a choice for the program's owner (``pyconnect run``, or the variable), not a side effect.
 Nothing is changed when ``PYCONNECT_LARGE_MESSAGES=0``, when the user set a Fast DDS profile
 (``FASTRTPS_DEFAULT_PROFILES_FILE`` / ``FASTDDS_DEFAULT_PROFILES_FILE``) or another
 ``RMW_IMPLEMENTATION``, or when ``/dev/shm`` cannot hold four segments (small containers).
