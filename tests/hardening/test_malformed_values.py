@@ -199,12 +199,6 @@ def test_unencodable_strings_are_refused_by_the_wire_codec() -> None:
     assert str(caught.value) == ("String.data: cannot encode as UTF-8 (surrogates not allowed)")
 
 
-@pytest.mark.xfail(
-    strict=True,
-    reason="known: the wire codec's struct fast path and both encoders' sequence paths take "
-    "bools as 1/0, while the dict codec refuses a bool for a single int (left to the codec "
-    "owners; this test turns green when fixed)",
-)
 def test_bools_where_numbers_go_are_refused() -> None:
     for full_name, value in (
         ("std_msgs/msg/UInt32", {"data": True}),

@@ -43,6 +43,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,

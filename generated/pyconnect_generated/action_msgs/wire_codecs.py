@@ -44,6 +44,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -53,7 +54,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -355,7 +356,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = GOAL_INFO_RUN_0
-            v6, v7 = _S_iI.unpack_from(mv, pos)
+            v7, v9 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -363,9 +364,9 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return goal_info_view(
-                unique_identifier_msgs__uuid_view(v4), builtin_interfaces__time_view(v6, v7)
+                unique_identifier_msgs__uuid_view(v4), builtin_interfaces__time_view(v7, v9)
             ), pos
-        return {"goal_id": {"uuid": v4.tobytes()}, "stamp": {"sec": v6, "nanosec": v7}}, pos
+        return {"goal_id": {"uuid": v4.tobytes()}, "stamp": {"sec": v7, "nanosec": v9}}, pos
 
     def goal_info_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -389,19 +390,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t6 := m5.get("sec", 0)) is not int:
+                t6 = check_scalar("int32", t6, ".stamp.sec")
+            if type(t8 := m5.get("nanosec", 0)) is not int:
+                t8 = check_scalar("uint32", t8, ".stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m5.get("sec", 0), m5.get("nanosec", 0)))
+                out.append(_S_iI.pack(t6, t8))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        GOAL_INFO_RUN_0,
-                        (
-                            m5.get("sec", 0),
-                            m5.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, GOAL_INFO_RUN_0, (t6, t8)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -419,7 +415,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = GOAL_STATUS_RUN_0
-            v7, v8, v9 = _S_iIb.unpack_from(mv, pos)
+            v8, v10, v12 = _S_iIb.unpack_from(mv, pos)
             pos += 9
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -428,13 +424,13 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return goal_status_view(
                 goal_info_view(
-                    unique_identifier_msgs__uuid_view(v5), builtin_interfaces__time_view(v7, v8)
+                    unique_identifier_msgs__uuid_view(v5), builtin_interfaces__time_view(v8, v10)
                 ),
-                v9,
+                v12,
             ), pos
         return {
-            "goal_info": {"goal_id": {"uuid": v5.tobytes()}, "stamp": {"sec": v7, "nanosec": v8}},
-            "status": v9,
+            "goal_info": {"goal_id": {"uuid": v5.tobytes()}, "stamp": {"sec": v8, "nanosec": v10}},
+            "status": v12,
         }, pos
 
     def goal_status_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -463,20 +459,16 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t7 := m6.get("sec", 0)) is not int:
+                t7 = check_scalar("int32", t7, ".goal_info.stamp.sec")
+            if type(t9 := m6.get("nanosec", 0)) is not int:
+                t9 = check_scalar("uint32", t9, ".goal_info.stamp.nanosec")
+            if type(t11 := d.get("status", 0)) is not int:
+                t11 = check_scalar("int8", t11, ".status")
             try:
-                out.append(_S_iIb.pack(m6.get("sec", 0), m6.get("nanosec", 0), d.get("status", 0)))
+                out.append(_S_iIb.pack(t7, t9, t11))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iIb,
-                        GOAL_STATUS_RUN_0,
-                        (
-                            m6.get("sec", 0),
-                            m6.get("nanosec", 0),
-                            d.get("status", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iIb, GOAL_STATUS_RUN_0, (t7, t9, t11)))
             pos += 9
         except FieldError as error:
             raise error.within(f) from None
@@ -522,7 +514,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = CANCEL_GOAL_REQUEST_RUN_0
-            v7, v8 = _S_iI.unpack_from(mv, pos)
+            v8, v10 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -531,11 +523,11 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return cancel_goal_request_view(
                 goal_info_view(
-                    unique_identifier_msgs__uuid_view(v5), builtin_interfaces__time_view(v7, v8)
+                    unique_identifier_msgs__uuid_view(v5), builtin_interfaces__time_view(v8, v10)
                 )
             ), pos
         return {
-            "goal_info": {"goal_id": {"uuid": v5.tobytes()}, "stamp": {"sec": v7, "nanosec": v8}}
+            "goal_info": {"goal_id": {"uuid": v5.tobytes()}, "stamp": {"sec": v8, "nanosec": v10}}
         }, pos
 
     def cancel_goal_request_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -564,19 +556,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t7 := m6.get("sec", 0)) is not int:
+                t7 = check_scalar("int32", t7, ".goal_info.stamp.sec")
+            if type(t9 := m6.get("nanosec", 0)) is not int:
+                t9 = check_scalar("uint32", t9, ".goal_info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m6.get("sec", 0), m6.get("nanosec", 0)))
+                out.append(_S_iI.pack(t7, t9))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        CANCEL_GOAL_REQUEST_RUN_0,
-                        (
-                            m6.get("sec", 0),
-                            m6.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, CANCEL_GOAL_REQUEST_RUN_0, (t7, t9)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -588,17 +575,17 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = CANCEL_GOAL_RESPONSE_RUN_0
-            (v1,) = _S_b.unpack_from(mv, pos)
+            (v2,) = _S_b.unpack_from(mv, pos)
             pos += 1
             f = ".goals_canceling"
-            v2, pos = read_messages(mv, pos, lim, _U32, goal_info_decode, None, None, 24)
+            v3, pos = read_messages(mv, pos, lim, _U32, goal_info_decode, None, None, 24)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return cancel_goal_response_view(v1, v2), pos
-        return {"return_code": v1, "goals_canceling": v2}, pos
+            return cancel_goal_response_view(v2, v3), pos
+        return {"return_code": v2, "goals_canceling": v3}, pos
 
     def cancel_goal_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -606,10 +593,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not CANCEL_GOAL_RESPONSE_KEYS.issuperset(d):
                 d = _submap(d, CANCEL_GOAL_RESPONSE_KEYS)
             f = ""
+            if type(t1 := d.get("return_code", 0)) is not int:
+                t1 = check_scalar("int8", t1, ".return_code")
             try:
-                out.append(_S_b.pack(d.get("return_code", 0)))
+                out.append(_S_b.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_b, CANCEL_GOAL_RESPONSE_RUN_0, (d.get("return_code", 0),)))
+                out.append(slow_pack(_S_b, CANCEL_GOAL_RESPONSE_RUN_0, (t1,)))
             pos += 1
             f = ".goals_canceling"
             pos = write_messages(
@@ -625,25 +614,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = CANCEL_GOAL_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = CANCEL_GOAL_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = CANCEL_GOAL_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, cancel_goal_request_decode, None, 1, 24)
+            v14, pos = read_messages(mv, pos, lim, _U32, cancel_goal_request_decode, None, 1, 24)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, cancel_goal_response_decode, None, 1, 5)
+            v15, pos = read_messages(mv, pos, lim, _U32, cancel_goal_response_decode, None, 1, 5)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -651,20 +640,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return cancel_goal_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def cancel_goal_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -677,49 +666,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, CANCEL_GOAL_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, CANCEL_GOAL_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        CANCEL_GOAL_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, CANCEL_GOAL_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(_S_q, CANCEL_GOAL_EVENT_RUN_2, (m1.get("sequence_number", 0),))
-                )
+                out.append(slow_pack(_S_q, CANCEL_GOAL_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(

@@ -38,6 +38,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -47,7 +48,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -222,20 +223,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = GOAL_ID_RUN_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
+            v3, v5, v7 = _S_i2I.unpack_from(mv, pos)
             pos += 12
             f = ".id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
+            if v7 > lim - pos:
+                raise too_long(v7, 1, lim - pos)
+            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
+            pos += v7
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return goal_id_view(builtin_interfaces__time_view(v2, v3), v6), pos
-        return {"stamp": {"sec": v2, "nanosec": v3}, "id": v6}, pos
+            return goal_id_view(builtin_interfaces__time_view(v3, v5), v8), pos
+        return {"stamp": {"sec": v3, "nanosec": v5}, "id": v8}, pos
 
     def goal_id_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -251,25 +252,19 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".id"
-            b4 = utf8z(d.get("id", ""), None)
+            b6 = utf8z(d.get("id", ""), None)
             f = ""
+            if type(t2 := m1.get("sec", 0)) is not int:
+                t2 = check_scalar("int32", t2, ".stamp.sec")
+            if type(t4 := m1.get("nanosec", 0)) is not int:
+                t4 = check_scalar("uint32", t4, ".stamp.nanosec")
             try:
-                out.append(_S_i2I.pack(m1.get("sec", 0), m1.get("nanosec", 0), len(b4)))
+                out.append(_S_i2I.pack(t2, t4, len(b6)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_i2I,
-                        GOAL_ID_RUN_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                            len(b4),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_i2I, GOAL_ID_RUN_0, (t2, t4, len(b6))))
             pos += 12
-            out.append(b4)
-            pos += len(b4)
+            out.append(b6)
+            pos += len(b6)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -282,24 +277,24 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".goal_id"
             v1, pos = goal_id_decode(mv, pos, lim)
             f = GOAL_STATUS_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = GOAL_STATUS_RUN_1
-            (v4,) = _S_I.unpack_from(mv, pos)
+            (v5,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".text"
-            if v4 > lim - pos:
-                raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
-            pos += v4
+            if v5 > lim - pos:
+                raise too_long(v5, 1, lim - pos)
+            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
+            pos += v5
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return goal_status_view(v1, v2, v5), pos
-        return {"goal_id": v1, "status": v2, "text": v5}, pos
+            return goal_status_view(v1, v3, v6), pos
+        return {"goal_id": v1, "status": v3, "text": v6}, pos
 
     def goal_status_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -309,12 +304,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".goal_id"
             pos = goal_id_encode(d.get("goal_id", EMPTY), out, pos)
             f = ".text"
-            b3 = utf8z(d.get("text", ""), None)
+            b4 = utf8z(d.get("text", ""), None)
             f = ""
+            if type(t2 := d.get("status", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".status")
             try:
-                out.append(_S_B.pack(d.get("status", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, GOAL_STATUS_RUN_0, (d.get("status", 0),)))
+                out.append(slow_pack(_S_B, GOAL_STATUS_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
@@ -322,12 +319,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b3)))
+                out.append(_S_I.pack(len(b4)))
             except Exception:
-                out.append(slow_pack(_S_I, GOAL_STATUS_RUN_1, (len(b3),)))
+                out.append(slow_pack(_S_I, GOAL_STATUS_RUN_1, (len(b4),)))
             pos += 4
-            out.append(b3)
-            pos += len(b3)
+            out.append(b4)
+            pos += len(b4)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:

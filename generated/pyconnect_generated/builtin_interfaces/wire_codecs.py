@@ -36,6 +36,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -45,7 +46,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 
 _new = object.__new__
@@ -155,15 +156,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = DURATION_RUN_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
+            v2, v4 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return duration_view(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
+            return duration_view(v2, v4), pos
+        return {"sec": v2, "nanosec": v4}, pos
 
     def duration_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -175,19 +176,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("sec", 0)) is not int:
+                t1 = check_scalar("int32", t1, ".sec")
+            if type(t3 := d.get("nanosec", 0)) is not int:
+                t3 = check_scalar("uint32", t3, ".nanosec")
             try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
+                out.append(_S_iI.pack(t1, t3))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        DURATION_RUN_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, DURATION_RUN_0, (t1, t3)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -200,15 +196,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = TIME_RUN_0
-            v1, v2 = _S_iI.unpack_from(mv, pos)
+            v2, v4 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return time_view(v1, v2), pos
-        return {"sec": v1, "nanosec": v2}, pos
+            return time_view(v2, v4), pos
+        return {"sec": v2, "nanosec": v4}, pos
 
     def time_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -220,19 +216,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("sec", 0)) is not int:
+                t1 = check_scalar("int32", t1, ".sec")
+            if type(t3 := d.get("nanosec", 0)) is not int:
+                t3 = check_scalar("uint32", t3, ".nanosec")
             try:
-                out.append(_S_iI.pack(d.get("sec", 0), d.get("nanosec", 0)))
+                out.append(_S_iI.pack(t1, t3))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        TIME_RUN_0,
-                        (
-                            d.get("sec", 0),
-                            d.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, TIME_RUN_0, (t1, t3)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None

@@ -50,6 +50,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -59,7 +60,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -586,44 +587,44 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = DIAGNOSTIC_STATUS_RUN_0
-            (v1,) = _S_B.unpack_from(mv, pos)
+            (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = DIAGNOSTIC_STATUS_RUN_1
-            (v3,) = _S_I.unpack_from(mv, pos)
+            (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".name"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
+            if v4 > lim - pos:
+                raise too_long(v4, 1, lim - pos)
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
+            pos += v4
             pos = (pos + 3) & -4
             f = DIAGNOSTIC_STATUS_RUN_2
-            (v6,) = _S_I.unpack_from(mv, pos)
+            (v7,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".message"
-            if v6 > lim - pos:
-                raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
-            pos += v6
+            if v7 > lim - pos:
+                raise too_long(v7, 1, lim - pos)
+            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
+            pos += v7
             pos = (pos + 3) & -4
             f = DIAGNOSTIC_STATUS_RUN_3
-            (v9,) = _S_I.unpack_from(mv, pos)
+            (v10,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".hardware_id"
-            if v9 > lim - pos:
-                raise too_long(v9, 1, lim - pos)
-            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
-            pos += v9
+            if v10 > lim - pos:
+                raise too_long(v10, 1, lim - pos)
+            v11 = mv[pos : pos + v10 - 1].tobytes().decode()
+            pos += v10
             f = ".values"
-            v11, pos = read_messages(mv, pos, lim, _U32, key_value_decode, None, None, 8)
+            v12, pos = read_messages(mv, pos, lim, _U32, key_value_decode, None, None, 8)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return diagnostic_status_view(v1, v4, v7, v10, v11), pos
-        return {"level": v1, "name": v4, "message": v7, "hardware_id": v10, "values": v11}, pos
+            return diagnostic_status_view(v2, v5, v8, v11, v12), pos
+        return {"level": v2, "name": v5, "message": v8, "hardware_id": v11, "values": v12}, pos
 
     def diagnostic_status_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -631,12 +632,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not DIAGNOSTIC_STATUS_KEYS.issuperset(d):
                 d = _submap(d, DIAGNOSTIC_STATUS_KEYS)
             f = ".name"
-            b2 = utf8z(d.get("name", ""), None)
+            b3 = utf8z(d.get("name", ""), None)
             f = ""
+            if type(t1 := d.get("level", 0)) is not int:
+                t1 = check_scalar("byte", t1, ".level")
             try:
-                out.append(_S_B.pack(d.get("level", 0)))
+                out.append(_S_B.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_B, DIAGNOSTIC_STATUS_RUN_0, (d.get("level", 0),)))
+                out.append(slow_pack(_S_B, DIAGNOSTIC_STATUS_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
@@ -644,40 +647,40 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b2)))
+                out.append(_S_I.pack(len(b3)))
             except Exception:
-                out.append(slow_pack(_S_I, DIAGNOSTIC_STATUS_RUN_1, (len(b2),)))
+                out.append(slow_pack(_S_I, DIAGNOSTIC_STATUS_RUN_1, (len(b3),)))
             pos += 4
-            out.append(b2)
-            pos += len(b2)
+            out.append(b3)
+            pos += len(b3)
             f = ".message"
-            b5 = utf8z(d.get("message", ""), None)
+            b6 = utf8z(d.get("message", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b5)))
+                out.append(_S_I.pack(len(b6)))
             except Exception:
-                out.append(slow_pack(_S_I, DIAGNOSTIC_STATUS_RUN_2, (len(b5),)))
+                out.append(slow_pack(_S_I, DIAGNOSTIC_STATUS_RUN_2, (len(b6),)))
             pos += 4
-            out.append(b5)
-            pos += len(b5)
+            out.append(b6)
+            pos += len(b6)
             f = ".hardware_id"
-            b8 = utf8z(d.get("hardware_id", ""), None)
+            b9 = utf8z(d.get("hardware_id", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b8)))
+                out.append(_S_I.pack(len(b9)))
             except Exception:
-                out.append(slow_pack(_S_I, DIAGNOSTIC_STATUS_RUN_3, (len(b8),)))
+                out.append(slow_pack(_S_I, DIAGNOSTIC_STATUS_RUN_3, (len(b9),)))
             pos += 4
-            out.append(b8)
-            pos += len(b8)
+            out.append(b9)
+            pos += len(b9)
             f = ".values"
             pos = write_messages(d.get("values", ()), out, pos, _U32, key_value_encode, None, False)
         except FieldError as error:
@@ -794,30 +797,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".message"
             b3 = utf8z(d.get("message", ""), None)
             f = ""
+            if type(t1 := d.get("success", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".success")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t1
-                            if (t1 := d.get("success", False)).__class__ is bool
-                            else check_bool(t1, ".success")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        ADD_DIAGNOSTICS_RESPONSE_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("success", False)).__class__ is bool
-                                else check_bool(t1, ".success")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, ADD_DIAGNOSTICS_RESPONSE_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
@@ -841,25 +826,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = ADD_DIAGNOSTICS_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = ADD_DIAGNOSTICS_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = ADD_DIAGNOSTICS_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, add_diagnostics_request_decode, None, 1, 4)
+            v14, pos = read_messages(mv, pos, lim, _U32, add_diagnostics_request_decode, None, 1, 4)
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, add_diagnostics_response_decode, None, 1, 5
             )
         except WireDecodeError as error:
@@ -869,20 +854,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return add_diagnostics_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def add_diagnostics_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -895,49 +880,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, ADD_DIAGNOSTICS_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, ADD_DIAGNOSTICS_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        ADD_DIAGNOSTICS_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, ADD_DIAGNOSTICS_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(_S_q, ADD_DIAGNOSTICS_EVENT_RUN_2, (m1.get("sequence_number", 0),))
-                )
+                out.append(slow_pack(_S_q, ADD_DIAGNOSTICS_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -997,17 +979,17 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             f = SELF_TEST_RESPONSE_RUN_1
-            (v4,) = _S_B.unpack_from(mv, pos)
+            (v5,) = _S_B.unpack_from(mv, pos)
             pos += 1
             f = ".status"
-            v5, pos = read_messages(mv, pos, lim, _U32, diagnostic_status_decode, None, None, 17)
+            v6, pos = read_messages(mv, pos, lim, _U32, diagnostic_status_decode, None, None, 17)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return self_test_response_view(v3, v4, v5), pos
-        return {"id": v3, "passed": v4, "status": v5}, pos
+            return self_test_response_view(v3, v5, v6), pos
+        return {"id": v3, "passed": v5, "status": v6}, pos
 
     def self_test_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1029,10 +1011,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             out.append(b1)
             pos += len(b1)
             f = ""
+            if type(t4 := d.get("passed", 0)) is not int:
+                t4 = check_scalar("byte", t4, ".passed")
             try:
-                out.append(_S_B.pack(d.get("passed", 0)))
+                out.append(_S_B.pack(t4))
             except Exception:
-                out.append(slow_pack(_S_B, SELF_TEST_RESPONSE_RUN_1, (d.get("passed", 0),)))
+                out.append(slow_pack(_S_B, SELF_TEST_RESPONSE_RUN_1, (t4,)))
             pos += 1
             f = ".status"
             pos = write_messages(
@@ -1048,25 +1032,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = SELF_TEST_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = SELF_TEST_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = SELF_TEST_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, self_test_request_decode, None, 1, 1)
+            v14, pos = read_messages(mv, pos, lim, _U32, self_test_request_decode, None, 1, 1)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, self_test_response_decode, None, 1, 9)
+            v15, pos = read_messages(mv, pos, lim, _U32, self_test_response_decode, None, 1, 9)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -1074,20 +1058,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return self_test_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def self_test_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1100,47 +1084,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, SELF_TEST_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, SELF_TEST_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        SELF_TEST_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, SELF_TEST_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(slow_pack(_S_q, SELF_TEST_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S_q, SELF_TEST_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(

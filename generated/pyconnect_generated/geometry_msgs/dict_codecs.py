@@ -95,6 +95,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -317,7 +318,7 @@ def accel_with_covariance_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("covariance", MISSING)
         if value is MISSING:
             msg._covariance = np.zeros(36, dtype=np.float64)
-        elif type(value) is list and len(value) == 36:
+        elif type(value) is list and len(value) == 36 and plain_numbers(value, "float64"):
             try:
                 msg._covariance = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -1082,7 +1083,7 @@ def pose_with_covariance_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("covariance", MISSING)
         if value is MISSING:
             msg._covariance = np.zeros(36, dtype=np.float64)
-        elif type(value) is list and len(value) == 36:
+        elif type(value) is list and len(value) == 36 and plain_numbers(value, "float64"):
             try:
                 msg._covariance = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -1494,7 +1495,7 @@ def twist_with_covariance_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("covariance", MISSING)
         if value is MISSING:
             msg._covariance = np.zeros(36, dtype=np.float64)
-        elif type(value) is list and len(value) == 36:
+        elif type(value) is list and len(value) == 36 and plain_numbers(value, "float64"):
             try:
                 msg._covariance = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):

@@ -96,6 +96,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -105,7 +106,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.std_msgs.wire_codecs import (
     DEFINITIONS as STD_MSGS__DEFINITIONS,
@@ -1598,15 +1599,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = VECTOR3_RUN_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
+            v2, v4, v6 = _S_3d.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return vector3_view(v1, v2, v3), pos
-        return {"x": v1, "y": v2, "z": v3}, pos
+            return vector3_view(v2, v4, v6), pos
+        return {"x": v2, "y": v4, "z": v6}, pos
 
     def vector3_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1618,20 +1619,16 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("x", 0.0)) is not float:
+                t1 = check_scalar("float64", t1, ".x")
+            if type(t3 := d.get("y", 0.0)) is not float:
+                t3 = check_scalar("float64", t3, ".y")
+            if type(t5 := d.get("z", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".z")
             try:
-                out.append(_S_3d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
+                out.append(_S_3d.pack(t1, t3, t5))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        VECTOR3_RUN_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3d, VECTOR3_RUN_0, (t1, t3, t5)))
             pos += 24
         except FieldError as error:
             raise error.within(f) from None
@@ -1644,15 +1641,18 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = ACCEL_RUN_0
-            v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
+            v3, v5, v7, v10, v12, v14 = _S_6d.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return accel_view(vector3_view(v2, v3, v4), vector3_view(v6, v7, v8)), pos
-        return {"linear": {"x": v2, "y": v3, "z": v4}, "angular": {"x": v6, "y": v7, "z": v8}}, pos
+            return accel_view(vector3_view(v3, v5, v7), vector3_view(v10, v12, v14)), pos
+        return {
+            "linear": {"x": v3, "y": v5, "z": v7},
+            "angular": {"x": v10, "y": v12, "z": v14},
+        }, pos
 
     def accel_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1668,36 +1668,26 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".angular"
-            m5 = d.get("angular", EMPTY)
-            if m5.__class__ is not dict or not VECTOR3_KEYS.issuperset(m5):
-                m5 = _submap(m5, VECTOR3_KEYS)
+            m8 = d.get("angular", EMPTY)
+            if m8.__class__ is not dict or not VECTOR3_KEYS.issuperset(m8):
+                m8 = _submap(m8, VECTOR3_KEYS)
             f = ""
+            if type(t2 := m1.get("x", 0.0)) is not float:
+                t2 = check_scalar("float64", t2, ".linear.x")
+            if type(t4 := m1.get("y", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".linear.y")
+            if type(t6 := m1.get("z", 0.0)) is not float:
+                t6 = check_scalar("float64", t6, ".linear.z")
+            if type(t9 := m8.get("x", 0.0)) is not float:
+                t9 = check_scalar("float64", t9, ".angular.x")
+            if type(t11 := m8.get("y", 0.0)) is not float:
+                t11 = check_scalar("float64", t11, ".angular.y")
+            if type(t13 := m8.get("z", 0.0)) is not float:
+                t13 = check_scalar("float64", t13, ".angular.z")
             try:
-                out.append(
-                    _S_6d.pack(
-                        m1.get("x", 0.0),
-                        m1.get("y", 0.0),
-                        m1.get("z", 0.0),
-                        m5.get("x", 0.0),
-                        m5.get("y", 0.0),
-                        m5.get("z", 0.0),
-                    )
-                )
+                out.append(_S_6d.pack(t2, t4, t6, t9, t11, t13))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_6d,
-                        ACCEL_RUN_0,
-                        (
-                            m1.get("x", 0.0),
-                            m1.get("y", 0.0),
-                            m1.get("z", 0.0),
-                            m5.get("x", 0.0),
-                            m5.get("y", 0.0),
-                            m5.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_6d, ACCEL_RUN_0, (t2, t4, t6, t9, t11, t13)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None
@@ -1712,7 +1702,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = ACCEL_STAMPED_RUN_0
-            v4, v5, v6, v8, v9, v10 = _S_6d.unpack_from(mv, pos)
+            v5, v7, v9, v12, v14, v16 = _S_6d.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1720,13 +1710,13 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return accel_stamped_view(
-                v1, accel_view(vector3_view(v4, v5, v6), vector3_view(v8, v9, v10))
+                v1, accel_view(vector3_view(v5, v7, v9), vector3_view(v12, v14, v16))
             ), pos
         return {
             "header": v1,
             "accel": {
-                "linear": {"x": v4, "y": v5, "z": v6},
-                "angular": {"x": v8, "y": v9, "z": v10},
+                "linear": {"x": v5, "y": v7, "z": v9},
+                "angular": {"x": v12, "y": v14, "z": v16},
             },
         }, pos
 
@@ -1750,36 +1740,26 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".accel.angular"
-            m7 = m2.get("angular", EMPTY)
-            if m7.__class__ is not dict or not VECTOR3_KEYS.issuperset(m7):
-                m7 = _submap(m7, VECTOR3_KEYS)
+            m10 = m2.get("angular", EMPTY)
+            if m10.__class__ is not dict or not VECTOR3_KEYS.issuperset(m10):
+                m10 = _submap(m10, VECTOR3_KEYS)
             f = ""
+            if type(t4 := m3.get("x", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".accel.linear.x")
+            if type(t6 := m3.get("y", 0.0)) is not float:
+                t6 = check_scalar("float64", t6, ".accel.linear.y")
+            if type(t8 := m3.get("z", 0.0)) is not float:
+                t8 = check_scalar("float64", t8, ".accel.linear.z")
+            if type(t11 := m10.get("x", 0.0)) is not float:
+                t11 = check_scalar("float64", t11, ".accel.angular.x")
+            if type(t13 := m10.get("y", 0.0)) is not float:
+                t13 = check_scalar("float64", t13, ".accel.angular.y")
+            if type(t15 := m10.get("z", 0.0)) is not float:
+                t15 = check_scalar("float64", t15, ".accel.angular.z")
             try:
-                out.append(
-                    _S_6d.pack(
-                        m3.get("x", 0.0),
-                        m3.get("y", 0.0),
-                        m3.get("z", 0.0),
-                        m7.get("x", 0.0),
-                        m7.get("y", 0.0),
-                        m7.get("z", 0.0),
-                    )
-                )
+                out.append(_S_6d.pack(t4, t6, t8, t11, t13, t15))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_6d,
-                        ACCEL_STAMPED_RUN_0,
-                        (
-                            m3.get("x", 0.0),
-                            m3.get("y", 0.0),
-                            m3.get("z", 0.0),
-                            m7.get("x", 0.0),
-                            m7.get("y", 0.0),
-                            m7.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_6d, ACCEL_STAMPED_RUN_0, (t4, t6, t8, t11, t13, t15)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None
@@ -1792,12 +1772,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = ACCEL_WITH_COVARIANCE_RUN_0
-            v3, v4, v5, v7, v8, v9 = _S_6d.unpack_from(mv, pos)
+            v4, v6, v8, v11, v13, v15 = _S_6d.unpack_from(mv, pos)
             pos += 48
             f = ".covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v12 = _frombuffer(mv, _D_float64, 36, pos)
+            v18 = _frombuffer(mv, _D_float64, 36, pos)
             pos += 36 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1805,14 +1785,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return accel_with_covariance_view(
-                accel_view(vector3_view(v3, v4, v5), vector3_view(v7, v8, v9)), v12
+                accel_view(vector3_view(v4, v6, v8), vector3_view(v11, v13, v15)), v18
             ), pos
         return {
             "accel": {
-                "linear": {"x": v3, "y": v4, "z": v5},
-                "angular": {"x": v7, "y": v8, "z": v9},
+                "linear": {"x": v4, "y": v6, "z": v8},
+                "angular": {"x": v11, "y": v13, "z": v15},
             },
-            "covariance": v12.tolist(),
+            "covariance": v18.tolist(),
         }, pos
 
     def accel_with_covariance_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1833,41 +1813,33 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".accel.angular"
-            m6 = m1.get("angular", EMPTY)
-            if m6.__class__ is not dict or not VECTOR3_KEYS.issuperset(m6):
-                m6 = _submap(m6, VECTOR3_KEYS)
+            m9 = m1.get("angular", EMPTY)
+            if m9.__class__ is not dict or not VECTOR3_KEYS.issuperset(m9):
+                m9 = _submap(m9, VECTOR3_KEYS)
             f = ".covariance"
-            b10, c11 = encode_array(d.get("covariance", (0,) * 36), _D_float64, "float64", 36, True)
+            b16, c17 = encode_array(d.get("covariance", (0,) * 36), _D_float64, "float64", 36, True)
             f = ""
+            if type(t3 := m2.get("x", 0.0)) is not float:
+                t3 = check_scalar("float64", t3, ".accel.linear.x")
+            if type(t5 := m2.get("y", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".accel.linear.y")
+            if type(t7 := m2.get("z", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".accel.linear.z")
+            if type(t10 := m9.get("x", 0.0)) is not float:
+                t10 = check_scalar("float64", t10, ".accel.angular.x")
+            if type(t12 := m9.get("y", 0.0)) is not float:
+                t12 = check_scalar("float64", t12, ".accel.angular.y")
+            if type(t14 := m9.get("z", 0.0)) is not float:
+                t14 = check_scalar("float64", t14, ".accel.angular.z")
             try:
-                out.append(
-                    _S_6d.pack(
-                        m2.get("x", 0.0),
-                        m2.get("y", 0.0),
-                        m2.get("z", 0.0),
-                        m6.get("x", 0.0),
-                        m6.get("y", 0.0),
-                        m6.get("z", 0.0),
-                    )
-                )
+                out.append(_S_6d.pack(t3, t5, t7, t10, t12, t14))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_6d,
-                        ACCEL_WITH_COVARIANCE_RUN_0,
-                        (
-                            m2.get("x", 0.0),
-                            m2.get("y", 0.0),
-                            m2.get("z", 0.0),
-                            m6.get("x", 0.0),
-                            m6.get("y", 0.0),
-                            m6.get("z", 0.0),
-                        ),
-                    )
+                    slow_pack(_S_6d, ACCEL_WITH_COVARIANCE_RUN_0, (t3, t5, t7, t10, t12, t14))
                 )
             pos += 48
-            out.append(b10)
-            pos += c11 * 8
+            out.append(b16)
+            pos += c17 * 8
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -1881,12 +1853,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = ACCEL_WITH_COVARIANCE_STAMPED_RUN_0
-            v5, v6, v7, v9, v10, v11 = _S_6d.unpack_from(mv, pos)
+            v6, v8, v10, v13, v15, v17 = _S_6d.unpack_from(mv, pos)
             pos += 48
             f = ".accel.covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v14 = _frombuffer(mv, _D_float64, 36, pos)
+            v20 = _frombuffer(mv, _D_float64, 36, pos)
             pos += 36 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1896,17 +1868,17 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             return accel_with_covariance_stamped_view(
                 v1,
                 accel_with_covariance_view(
-                    accel_view(vector3_view(v5, v6, v7), vector3_view(v9, v10, v11)), v14
+                    accel_view(vector3_view(v6, v8, v10), vector3_view(v13, v15, v17)), v20
                 ),
             ), pos
         return {
             "header": v1,
             "accel": {
                 "accel": {
-                    "linear": {"x": v5, "y": v6, "z": v7},
-                    "angular": {"x": v9, "y": v10, "z": v11},
+                    "linear": {"x": v6, "y": v8, "z": v10},
+                    "angular": {"x": v13, "y": v15, "z": v17},
                 },
-                "covariance": v14.tolist(),
+                "covariance": v20.tolist(),
             },
         }, pos
 
@@ -1934,43 +1906,37 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".accel.accel.angular"
-            m8 = m3.get("angular", EMPTY)
-            if m8.__class__ is not dict or not VECTOR3_KEYS.issuperset(m8):
-                m8 = _submap(m8, VECTOR3_KEYS)
+            m11 = m3.get("angular", EMPTY)
+            if m11.__class__ is not dict or not VECTOR3_KEYS.issuperset(m11):
+                m11 = _submap(m11, VECTOR3_KEYS)
             f = ".accel.covariance"
-            b12, c13 = encode_array(
+            b18, c19 = encode_array(
                 m2.get("covariance", (0,) * 36), _D_float64, "float64", 36, True
             )
             f = ""
+            if type(t5 := m4.get("x", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".accel.accel.linear.x")
+            if type(t7 := m4.get("y", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".accel.accel.linear.y")
+            if type(t9 := m4.get("z", 0.0)) is not float:
+                t9 = check_scalar("float64", t9, ".accel.accel.linear.z")
+            if type(t12 := m11.get("x", 0.0)) is not float:
+                t12 = check_scalar("float64", t12, ".accel.accel.angular.x")
+            if type(t14 := m11.get("y", 0.0)) is not float:
+                t14 = check_scalar("float64", t14, ".accel.accel.angular.y")
+            if type(t16 := m11.get("z", 0.0)) is not float:
+                t16 = check_scalar("float64", t16, ".accel.accel.angular.z")
             try:
-                out.append(
-                    _S_6d.pack(
-                        m4.get("x", 0.0),
-                        m4.get("y", 0.0),
-                        m4.get("z", 0.0),
-                        m8.get("x", 0.0),
-                        m8.get("y", 0.0),
-                        m8.get("z", 0.0),
-                    )
-                )
+                out.append(_S_6d.pack(t5, t7, t9, t12, t14, t16))
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_6d,
-                        ACCEL_WITH_COVARIANCE_STAMPED_RUN_0,
-                        (
-                            m4.get("x", 0.0),
-                            m4.get("y", 0.0),
-                            m4.get("z", 0.0),
-                            m8.get("x", 0.0),
-                            m8.get("y", 0.0),
-                            m8.get("z", 0.0),
-                        ),
+                        _S_6d, ACCEL_WITH_COVARIANCE_STAMPED_RUN_0, (t5, t7, t9, t12, t14, t16)
                     )
                 )
             pos += 48
-            out.append(b12)
-            pos += c13 * 8
+            out.append(b18)
+            pos += c19 * 8
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -1982,23 +1948,23 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = INERTIA_RUN_0
-            v1, v3, v4, v5, v6, v7, v8, v9, v10, v11 = _S_10d.unpack_from(mv, pos)
+            v2, v5, v7, v9, v11, v13, v15, v17, v19, v21 = _S_10d.unpack_from(mv, pos)
             pos += 80
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return inertia_view(v1, vector3_view(v3, v4, v5), v6, v7, v8, v9, v10, v11), pos
+            return inertia_view(v2, vector3_view(v5, v7, v9), v11, v13, v15, v17, v19, v21), pos
         return {
-            "m": v1,
-            "com": {"x": v3, "y": v4, "z": v5},
-            "ixx": v6,
-            "ixy": v7,
-            "ixz": v8,
-            "iyy": v9,
-            "iyz": v10,
-            "izz": v11,
+            "m": v2,
+            "com": {"x": v5, "y": v7, "z": v9},
+            "ixx": v11,
+            "ixy": v13,
+            "ixz": v15,
+            "iyy": v17,
+            "iyz": v19,
+            "izz": v21,
         }, pos
 
     def inertia_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2011,43 +1977,35 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".com"
-            m2 = d.get("com", EMPTY)
-            if m2.__class__ is not dict or not VECTOR3_KEYS.issuperset(m2):
-                m2 = _submap(m2, VECTOR3_KEYS)
+            m3 = d.get("com", EMPTY)
+            if m3.__class__ is not dict or not VECTOR3_KEYS.issuperset(m3):
+                m3 = _submap(m3, VECTOR3_KEYS)
             f = ""
+            if type(t1 := d.get("m", 0.0)) is not float:
+                t1 = check_scalar("float64", t1, ".m")
+            if type(t4 := m3.get("x", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".com.x")
+            if type(t6 := m3.get("y", 0.0)) is not float:
+                t6 = check_scalar("float64", t6, ".com.y")
+            if type(t8 := m3.get("z", 0.0)) is not float:
+                t8 = check_scalar("float64", t8, ".com.z")
+            if type(t10 := d.get("ixx", 0.0)) is not float:
+                t10 = check_scalar("float64", t10, ".ixx")
+            if type(t12 := d.get("ixy", 0.0)) is not float:
+                t12 = check_scalar("float64", t12, ".ixy")
+            if type(t14 := d.get("ixz", 0.0)) is not float:
+                t14 = check_scalar("float64", t14, ".ixz")
+            if type(t16 := d.get("iyy", 0.0)) is not float:
+                t16 = check_scalar("float64", t16, ".iyy")
+            if type(t18 := d.get("iyz", 0.0)) is not float:
+                t18 = check_scalar("float64", t18, ".iyz")
+            if type(t20 := d.get("izz", 0.0)) is not float:
+                t20 = check_scalar("float64", t20, ".izz")
             try:
-                out.append(
-                    _S_10d.pack(
-                        d.get("m", 0.0),
-                        m2.get("x", 0.0),
-                        m2.get("y", 0.0),
-                        m2.get("z", 0.0),
-                        d.get("ixx", 0.0),
-                        d.get("ixy", 0.0),
-                        d.get("ixz", 0.0),
-                        d.get("iyy", 0.0),
-                        d.get("iyz", 0.0),
-                        d.get("izz", 0.0),
-                    )
-                )
+                out.append(_S_10d.pack(t1, t4, t6, t8, t10, t12, t14, t16, t18, t20))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_10d,
-                        INERTIA_RUN_0,
-                        (
-                            d.get("m", 0.0),
-                            m2.get("x", 0.0),
-                            m2.get("y", 0.0),
-                            m2.get("z", 0.0),
-                            d.get("ixx", 0.0),
-                            d.get("ixy", 0.0),
-                            d.get("ixz", 0.0),
-                            d.get("iyy", 0.0),
-                            d.get("iyz", 0.0),
-                            d.get("izz", 0.0),
-                        ),
-                    )
+                    slow_pack(_S_10d, INERTIA_RUN_0, (t1, t4, t6, t8, t10, t12, t14, t16, t18, t20))
                 )
             pos += 80
         except FieldError as error:
@@ -2063,7 +2021,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = INERTIA_STAMPED_RUN_0
-            v3, v5, v6, v7, v8, v9, v10, v11, v12, v13 = _S_10d.unpack_from(mv, pos)
+            v4, v7, v9, v11, v13, v15, v17, v19, v21, v23 = _S_10d.unpack_from(mv, pos)
             pos += 80
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2071,19 +2029,19 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return inertia_stamped_view(
-                v1, inertia_view(v3, vector3_view(v5, v6, v7), v8, v9, v10, v11, v12, v13)
+                v1, inertia_view(v4, vector3_view(v7, v9, v11), v13, v15, v17, v19, v21, v23)
             ), pos
         return {
             "header": v1,
             "inertia": {
-                "m": v3,
-                "com": {"x": v5, "y": v6, "z": v7},
-                "ixx": v8,
-                "ixy": v9,
-                "ixz": v10,
-                "iyy": v11,
-                "iyz": v12,
-                "izz": v13,
+                "m": v4,
+                "com": {"x": v7, "y": v9, "z": v11},
+                "ixx": v13,
+                "ixy": v15,
+                "ixz": v17,
+                "iyy": v19,
+                "iyz": v21,
+                "izz": v23,
             },
         }, pos
 
@@ -2103,42 +2061,38 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".inertia.com"
-            m4 = m2.get("com", EMPTY)
-            if m4.__class__ is not dict or not VECTOR3_KEYS.issuperset(m4):
-                m4 = _submap(m4, VECTOR3_KEYS)
+            m5 = m2.get("com", EMPTY)
+            if m5.__class__ is not dict or not VECTOR3_KEYS.issuperset(m5):
+                m5 = _submap(m5, VECTOR3_KEYS)
             f = ""
+            if type(t3 := m2.get("m", 0.0)) is not float:
+                t3 = check_scalar("float64", t3, ".inertia.m")
+            if type(t6 := m5.get("x", 0.0)) is not float:
+                t6 = check_scalar("float64", t6, ".inertia.com.x")
+            if type(t8 := m5.get("y", 0.0)) is not float:
+                t8 = check_scalar("float64", t8, ".inertia.com.y")
+            if type(t10 := m5.get("z", 0.0)) is not float:
+                t10 = check_scalar("float64", t10, ".inertia.com.z")
+            if type(t12 := m2.get("ixx", 0.0)) is not float:
+                t12 = check_scalar("float64", t12, ".inertia.ixx")
+            if type(t14 := m2.get("ixy", 0.0)) is not float:
+                t14 = check_scalar("float64", t14, ".inertia.ixy")
+            if type(t16 := m2.get("ixz", 0.0)) is not float:
+                t16 = check_scalar("float64", t16, ".inertia.ixz")
+            if type(t18 := m2.get("iyy", 0.0)) is not float:
+                t18 = check_scalar("float64", t18, ".inertia.iyy")
+            if type(t20 := m2.get("iyz", 0.0)) is not float:
+                t20 = check_scalar("float64", t20, ".inertia.iyz")
+            if type(t22 := m2.get("izz", 0.0)) is not float:
+                t22 = check_scalar("float64", t22, ".inertia.izz")
             try:
-                out.append(
-                    _S_10d.pack(
-                        m2.get("m", 0.0),
-                        m4.get("x", 0.0),
-                        m4.get("y", 0.0),
-                        m4.get("z", 0.0),
-                        m2.get("ixx", 0.0),
-                        m2.get("ixy", 0.0),
-                        m2.get("ixz", 0.0),
-                        m2.get("iyy", 0.0),
-                        m2.get("iyz", 0.0),
-                        m2.get("izz", 0.0),
-                    )
-                )
+                out.append(_S_10d.pack(t3, t6, t8, t10, t12, t14, t16, t18, t20, t22))
             except Exception:
                 out.append(
                     slow_pack(
                         _S_10d,
                         INERTIA_STAMPED_RUN_0,
-                        (
-                            m2.get("m", 0.0),
-                            m4.get("x", 0.0),
-                            m4.get("y", 0.0),
-                            m4.get("z", 0.0),
-                            m2.get("ixx", 0.0),
-                            m2.get("ixy", 0.0),
-                            m2.get("ixz", 0.0),
-                            m2.get("iyy", 0.0),
-                            m2.get("iyz", 0.0),
-                            m2.get("izz", 0.0),
-                        ),
+                        (t3, t6, t8, t10, t12, t14, t16, t18, t20, t22),
                     )
                 )
             pos += 80
@@ -2153,15 +2107,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = POINT_RUN_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
+            v2, v4, v6 = _S_3d.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return point_view(v1, v2, v3), pos
-        return {"x": v1, "y": v2, "z": v3}, pos
+            return point_view(v2, v4, v6), pos
+        return {"x": v2, "y": v4, "z": v6}, pos
 
     def point_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2173,20 +2127,16 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("x", 0.0)) is not float:
+                t1 = check_scalar("float64", t1, ".x")
+            if type(t3 := d.get("y", 0.0)) is not float:
+                t3 = check_scalar("float64", t3, ".y")
+            if type(t5 := d.get("z", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".z")
             try:
-                out.append(_S_3d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
+                out.append(_S_3d.pack(t1, t3, t5))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        POINT_RUN_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3d, POINT_RUN_0, (t1, t3, t5)))
             pos += 24
         except FieldError as error:
             raise error.within(f) from None
@@ -2199,15 +2149,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = POINT32_RUN_0
-            v1, v2, v3 = _S_3f.unpack_from(mv, pos)
+            v2, v4, v6 = _S_3f.unpack_from(mv, pos)
             pos += 12
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return point32_view(v1, v2, v3), pos
-        return {"x": v1, "y": v2, "z": v3}, pos
+            return point32_view(v2, v4, v6), pos
+        return {"x": v2, "y": v4, "z": v6}, pos
 
     def point32_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2219,20 +2169,16 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("x", 0.0)) is not float:
+                t1 = check_scalar("float32", t1, ".x")
+            if type(t3 := d.get("y", 0.0)) is not float:
+                t3 = check_scalar("float32", t3, ".y")
+            if type(t5 := d.get("z", 0.0)) is not float:
+                t5 = check_scalar("float32", t5, ".z")
             try:
-                out.append(_S_3f.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0)))
+                out.append(_S_3f.pack(t1, t3, t5))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3f,
-                        POINT32_RUN_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3f, POINT32_RUN_0, (t1, t3, t5)))
             pos += 12
         except FieldError as error:
             raise error.within(f) from None
@@ -2247,15 +2193,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = POINT_STAMPED_RUN_0
-            v3, v4, v5 = _S_3d.unpack_from(mv, pos)
+            v4, v6, v8 = _S_3d.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return point_stamped_view(v1, point_view(v3, v4, v5)), pos
-        return {"header": v1, "point": {"x": v3, "y": v4, "z": v5}}, pos
+            return point_stamped_view(v1, point_view(v4, v6, v8)), pos
+        return {"header": v1, "point": {"x": v4, "y": v6, "z": v8}}, pos
 
     def point_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2273,20 +2219,16 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t3 := m2.get("x", 0.0)) is not float:
+                t3 = check_scalar("float64", t3, ".point.x")
+            if type(t5 := m2.get("y", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".point.y")
+            if type(t7 := m2.get("z", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".point.z")
             try:
-                out.append(_S_3d.pack(m2.get("x", 0.0), m2.get("y", 0.0), m2.get("z", 0.0)))
+                out.append(_S_3d.pack(t3, t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        POINT_STAMPED_RUN_0,
-                        (
-                            m2.get("x", 0.0),
-                            m2.get("y", 0.0),
-                            m2.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3d, POINT_STAMPED_RUN_0, (t3, t5, t7)))
             pos += 24
         except FieldError as error:
             raise error.within(f) from None
@@ -2327,15 +2269,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = polygon_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = POLYGON_INSTANCE_RUN_0
-            (v2,) = _S_q.unpack_from(mv, pos)
+            (v3,) = _S_q.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return polygon_instance_view(v1, v2), pos
-        return {"polygon": v1, "id": v2}, pos
+            return polygon_instance_view(v1, v3), pos
+        return {"polygon": v1, "id": v3}, pos
 
     def polygon_instance_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2349,10 +2291,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t2 := d.get("id", 0)) is not int:
+                t2 = check_scalar("int64", t2, ".id")
             try:
-                out.append(_S_q.pack(d.get("id", 0)))
+                out.append(_S_q.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_q, POLYGON_INSTANCE_RUN_0, (d.get("id", 0),)))
+                out.append(slow_pack(_S_q, POLYGON_INSTANCE_RUN_0, (t2,)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -2425,15 +2369,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = QUATERNION_RUN_0
-            v1, v2, v3, v4 = _S_4d.unpack_from(mv, pos)
+            v2, v4, v6, v8 = _S_4d.unpack_from(mv, pos)
             pos += 32
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return quaternion_view(v1, v2, v3, v4), pos
-        return {"x": v1, "y": v2, "z": v3, "w": v4}, pos
+            return quaternion_view(v2, v4, v6, v8), pos
+        return {"x": v2, "y": v4, "z": v6, "w": v8}, pos
 
     def quaternion_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2445,23 +2389,18 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("x", 0.0)) is not float:
+                t1 = check_scalar("float64", t1, ".x")
+            if type(t3 := d.get("y", 0.0)) is not float:
+                t3 = check_scalar("float64", t3, ".y")
+            if type(t5 := d.get("z", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".z")
+            if type(t7 := d.get("w", 1.0)) is not float:
+                t7 = check_scalar("float64", t7, ".w")
             try:
-                out.append(
-                    _S_4d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("z", 0.0), d.get("w", 1.0))
-                )
+                out.append(_S_4d.pack(t1, t3, t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_4d,
-                        QUATERNION_RUN_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("z", 0.0),
-                            d.get("w", 1.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_4d, QUATERNION_RUN_0, (t1, t3, t5, t7)))
             pos += 32
         except FieldError as error:
             raise error.within(f) from None
@@ -2474,17 +2413,17 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = POSE_RUN_0
-            v2, v3, v4, v6, v7, v8, v9 = _S_7d.unpack_from(mv, pos)
+            v3, v5, v7, v10, v12, v14, v16 = _S_7d.unpack_from(mv, pos)
             pos += 56
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return pose_view(point_view(v2, v3, v4), quaternion_view(v6, v7, v8, v9)), pos
+            return pose_view(point_view(v3, v5, v7), quaternion_view(v10, v12, v14, v16)), pos
         return {
-            "position": {"x": v2, "y": v3, "z": v4},
-            "orientation": {"x": v6, "y": v7, "z": v8, "w": v9},
+            "position": {"x": v3, "y": v5, "z": v7},
+            "orientation": {"x": v10, "y": v12, "z": v14, "w": v16},
         }, pos
 
     def pose_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2501,38 +2440,28 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".orientation"
-            m5 = d.get("orientation", EMPTY)
-            if m5.__class__ is not dict or not QUATERNION_KEYS.issuperset(m5):
-                m5 = _submap(m5, QUATERNION_KEYS)
+            m8 = d.get("orientation", EMPTY)
+            if m8.__class__ is not dict or not QUATERNION_KEYS.issuperset(m8):
+                m8 = _submap(m8, QUATERNION_KEYS)
             f = ""
+            if type(t2 := m1.get("x", 0.0)) is not float:
+                t2 = check_scalar("float64", t2, ".position.x")
+            if type(t4 := m1.get("y", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".position.y")
+            if type(t6 := m1.get("z", 0.0)) is not float:
+                t6 = check_scalar("float64", t6, ".position.z")
+            if type(t9 := m8.get("x", 0.0)) is not float:
+                t9 = check_scalar("float64", t9, ".orientation.x")
+            if type(t11 := m8.get("y", 0.0)) is not float:
+                t11 = check_scalar("float64", t11, ".orientation.y")
+            if type(t13 := m8.get("z", 0.0)) is not float:
+                t13 = check_scalar("float64", t13, ".orientation.z")
+            if type(t15 := m8.get("w", 1.0)) is not float:
+                t15 = check_scalar("float64", t15, ".orientation.w")
             try:
-                out.append(
-                    _S_7d.pack(
-                        m1.get("x", 0.0),
-                        m1.get("y", 0.0),
-                        m1.get("z", 0.0),
-                        m5.get("x", 0.0),
-                        m5.get("y", 0.0),
-                        m5.get("z", 0.0),
-                        m5.get("w", 1.0),
-                    )
-                )
+                out.append(_S_7d.pack(t2, t4, t6, t9, t11, t13, t15))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_7d,
-                        POSE_RUN_0,
-                        (
-                            m1.get("x", 0.0),
-                            m1.get("y", 0.0),
-                            m1.get("z", 0.0),
-                            m5.get("x", 0.0),
-                            m5.get("y", 0.0),
-                            m5.get("z", 0.0),
-                            m5.get("w", 1.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_7d, POSE_RUN_0, (t2, t4, t6, t9, t11, t13, t15)))
             pos += 56
         except FieldError as error:
             raise error.within(f) from None
@@ -2545,15 +2474,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = POSE2_D_RUN_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
+            v2, v4, v6 = _S_3d.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return pose2_d_view(v1, v2, v3), pos
-        return {"x": v1, "y": v2, "theta": v3}, pos
+            return pose2_d_view(v2, v4, v6), pos
+        return {"x": v2, "y": v4, "theta": v6}, pos
 
     def pose2_d_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2565,20 +2494,16 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("x", 0.0)) is not float:
+                t1 = check_scalar("float64", t1, ".x")
+            if type(t3 := d.get("y", 0.0)) is not float:
+                t3 = check_scalar("float64", t3, ".y")
+            if type(t5 := d.get("theta", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".theta")
             try:
-                out.append(_S_3d.pack(d.get("x", 0.0), d.get("y", 0.0), d.get("theta", 0.0)))
+                out.append(_S_3d.pack(t1, t3, t5))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        POSE2_D_RUN_0,
-                        (
-                            d.get("x", 0.0),
-                            d.get("y", 0.0),
-                            d.get("theta", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3d, POSE2_D_RUN_0, (t1, t3, t5)))
             pos += 24
         except FieldError as error:
             raise error.within(f) from None
@@ -2623,7 +2548,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = POSE_STAMPED_RUN_0
-            v4, v5, v6, v8, v9, v10, v11 = _S_7d.unpack_from(mv, pos)
+            v5, v7, v9, v12, v14, v16, v18 = _S_7d.unpack_from(mv, pos)
             pos += 56
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2631,13 +2556,13 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return pose_stamped_view(
-                v1, pose_view(point_view(v4, v5, v6), quaternion_view(v8, v9, v10, v11))
+                v1, pose_view(point_view(v5, v7, v9), quaternion_view(v12, v14, v16, v18))
             ), pos
         return {
             "header": v1,
             "pose": {
-                "position": {"x": v4, "y": v5, "z": v6},
-                "orientation": {"x": v8, "y": v9, "z": v10, "w": v11},
+                "position": {"x": v5, "y": v7, "z": v9},
+                "orientation": {"x": v12, "y": v14, "z": v16, "w": v18},
             },
         }, pos
 
@@ -2661,38 +2586,28 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose.orientation"
-            m7 = m2.get("orientation", EMPTY)
-            if m7.__class__ is not dict or not QUATERNION_KEYS.issuperset(m7):
-                m7 = _submap(m7, QUATERNION_KEYS)
+            m10 = m2.get("orientation", EMPTY)
+            if m10.__class__ is not dict or not QUATERNION_KEYS.issuperset(m10):
+                m10 = _submap(m10, QUATERNION_KEYS)
             f = ""
+            if type(t4 := m3.get("x", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".pose.position.x")
+            if type(t6 := m3.get("y", 0.0)) is not float:
+                t6 = check_scalar("float64", t6, ".pose.position.y")
+            if type(t8 := m3.get("z", 0.0)) is not float:
+                t8 = check_scalar("float64", t8, ".pose.position.z")
+            if type(t11 := m10.get("x", 0.0)) is not float:
+                t11 = check_scalar("float64", t11, ".pose.orientation.x")
+            if type(t13 := m10.get("y", 0.0)) is not float:
+                t13 = check_scalar("float64", t13, ".pose.orientation.y")
+            if type(t15 := m10.get("z", 0.0)) is not float:
+                t15 = check_scalar("float64", t15, ".pose.orientation.z")
+            if type(t17 := m10.get("w", 1.0)) is not float:
+                t17 = check_scalar("float64", t17, ".pose.orientation.w")
             try:
-                out.append(
-                    _S_7d.pack(
-                        m3.get("x", 0.0),
-                        m3.get("y", 0.0),
-                        m3.get("z", 0.0),
-                        m7.get("x", 0.0),
-                        m7.get("y", 0.0),
-                        m7.get("z", 0.0),
-                        m7.get("w", 1.0),
-                    )
-                )
+                out.append(_S_7d.pack(t4, t6, t8, t11, t13, t15, t17))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_7d,
-                        POSE_STAMPED_RUN_0,
-                        (
-                            m3.get("x", 0.0),
-                            m3.get("y", 0.0),
-                            m3.get("z", 0.0),
-                            m7.get("x", 0.0),
-                            m7.get("y", 0.0),
-                            m7.get("z", 0.0),
-                            m7.get("w", 1.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_7d, POSE_STAMPED_RUN_0, (t4, t6, t8, t11, t13, t15, t17)))
             pos += 56
         except FieldError as error:
             raise error.within(f) from None
@@ -2705,12 +2620,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = POSE_WITH_COVARIANCE_RUN_0
-            v3, v4, v5, v7, v8, v9, v10 = _S_7d.unpack_from(mv, pos)
+            v4, v6, v8, v11, v13, v15, v17 = _S_7d.unpack_from(mv, pos)
             pos += 56
             f = ".covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v13 = _frombuffer(mv, _D_float64, 36, pos)
+            v20 = _frombuffer(mv, _D_float64, 36, pos)
             pos += 36 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2718,14 +2633,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return pose_with_covariance_view(
-                pose_view(point_view(v3, v4, v5), quaternion_view(v7, v8, v9, v10)), v13
+                pose_view(point_view(v4, v6, v8), quaternion_view(v11, v13, v15, v17)), v20
             ), pos
         return {
             "pose": {
-                "position": {"x": v3, "y": v4, "z": v5},
-                "orientation": {"x": v7, "y": v8, "z": v9, "w": v10},
+                "position": {"x": v4, "y": v6, "z": v8},
+                "orientation": {"x": v11, "y": v13, "z": v15, "w": v17},
             },
-            "covariance": v13.tolist(),
+            "covariance": v20.tolist(),
         }, pos
 
     def pose_with_covariance_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2746,43 +2661,35 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose.orientation"
-            m6 = m1.get("orientation", EMPTY)
-            if m6.__class__ is not dict or not QUATERNION_KEYS.issuperset(m6):
-                m6 = _submap(m6, QUATERNION_KEYS)
+            m9 = m1.get("orientation", EMPTY)
+            if m9.__class__ is not dict or not QUATERNION_KEYS.issuperset(m9):
+                m9 = _submap(m9, QUATERNION_KEYS)
             f = ".covariance"
-            b11, c12 = encode_array(d.get("covariance", (0,) * 36), _D_float64, "float64", 36, True)
+            b18, c19 = encode_array(d.get("covariance", (0,) * 36), _D_float64, "float64", 36, True)
             f = ""
+            if type(t3 := m2.get("x", 0.0)) is not float:
+                t3 = check_scalar("float64", t3, ".pose.position.x")
+            if type(t5 := m2.get("y", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".pose.position.y")
+            if type(t7 := m2.get("z", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".pose.position.z")
+            if type(t10 := m9.get("x", 0.0)) is not float:
+                t10 = check_scalar("float64", t10, ".pose.orientation.x")
+            if type(t12 := m9.get("y", 0.0)) is not float:
+                t12 = check_scalar("float64", t12, ".pose.orientation.y")
+            if type(t14 := m9.get("z", 0.0)) is not float:
+                t14 = check_scalar("float64", t14, ".pose.orientation.z")
+            if type(t16 := m9.get("w", 1.0)) is not float:
+                t16 = check_scalar("float64", t16, ".pose.orientation.w")
             try:
-                out.append(
-                    _S_7d.pack(
-                        m2.get("x", 0.0),
-                        m2.get("y", 0.0),
-                        m2.get("z", 0.0),
-                        m6.get("x", 0.0),
-                        m6.get("y", 0.0),
-                        m6.get("z", 0.0),
-                        m6.get("w", 1.0),
-                    )
-                )
+                out.append(_S_7d.pack(t3, t5, t7, t10, t12, t14, t16))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_7d,
-                        POSE_WITH_COVARIANCE_RUN_0,
-                        (
-                            m2.get("x", 0.0),
-                            m2.get("y", 0.0),
-                            m2.get("z", 0.0),
-                            m6.get("x", 0.0),
-                            m6.get("y", 0.0),
-                            m6.get("z", 0.0),
-                            m6.get("w", 1.0),
-                        ),
-                    )
+                    slow_pack(_S_7d, POSE_WITH_COVARIANCE_RUN_0, (t3, t5, t7, t10, t12, t14, t16))
                 )
             pos += 56
-            out.append(b11)
-            pos += c12 * 8
+            out.append(b18)
+            pos += c19 * 8
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2796,12 +2703,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = POSE_WITH_COVARIANCE_STAMPED_RUN_0
-            v5, v6, v7, v9, v10, v11, v12 = _S_7d.unpack_from(mv, pos)
+            v6, v8, v10, v13, v15, v17, v19 = _S_7d.unpack_from(mv, pos)
             pos += 56
             f = ".pose.covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v15 = _frombuffer(mv, _D_float64, 36, pos)
+            v22 = _frombuffer(mv, _D_float64, 36, pos)
             pos += 36 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2811,17 +2718,17 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             return pose_with_covariance_stamped_view(
                 v1,
                 pose_with_covariance_view(
-                    pose_view(point_view(v5, v6, v7), quaternion_view(v9, v10, v11, v12)), v15
+                    pose_view(point_view(v6, v8, v10), quaternion_view(v13, v15, v17, v19)), v22
                 ),
             ), pos
         return {
             "header": v1,
             "pose": {
                 "pose": {
-                    "position": {"x": v5, "y": v6, "z": v7},
-                    "orientation": {"x": v9, "y": v10, "z": v11, "w": v12},
+                    "position": {"x": v6, "y": v8, "z": v10},
+                    "orientation": {"x": v13, "y": v15, "z": v17, "w": v19},
                 },
-                "covariance": v15.tolist(),
+                "covariance": v22.tolist(),
             },
         }, pos
 
@@ -2849,45 +2756,39 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose.pose.orientation"
-            m8 = m3.get("orientation", EMPTY)
-            if m8.__class__ is not dict or not QUATERNION_KEYS.issuperset(m8):
-                m8 = _submap(m8, QUATERNION_KEYS)
+            m11 = m3.get("orientation", EMPTY)
+            if m11.__class__ is not dict or not QUATERNION_KEYS.issuperset(m11):
+                m11 = _submap(m11, QUATERNION_KEYS)
             f = ".pose.covariance"
-            b13, c14 = encode_array(
+            b20, c21 = encode_array(
                 m2.get("covariance", (0,) * 36), _D_float64, "float64", 36, True
             )
             f = ""
+            if type(t5 := m4.get("x", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".pose.pose.position.x")
+            if type(t7 := m4.get("y", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".pose.pose.position.y")
+            if type(t9 := m4.get("z", 0.0)) is not float:
+                t9 = check_scalar("float64", t9, ".pose.pose.position.z")
+            if type(t12 := m11.get("x", 0.0)) is not float:
+                t12 = check_scalar("float64", t12, ".pose.pose.orientation.x")
+            if type(t14 := m11.get("y", 0.0)) is not float:
+                t14 = check_scalar("float64", t14, ".pose.pose.orientation.y")
+            if type(t16 := m11.get("z", 0.0)) is not float:
+                t16 = check_scalar("float64", t16, ".pose.pose.orientation.z")
+            if type(t18 := m11.get("w", 1.0)) is not float:
+                t18 = check_scalar("float64", t18, ".pose.pose.orientation.w")
             try:
-                out.append(
-                    _S_7d.pack(
-                        m4.get("x", 0.0),
-                        m4.get("y", 0.0),
-                        m4.get("z", 0.0),
-                        m8.get("x", 0.0),
-                        m8.get("y", 0.0),
-                        m8.get("z", 0.0),
-                        m8.get("w", 1.0),
-                    )
-                )
+                out.append(_S_7d.pack(t5, t7, t9, t12, t14, t16, t18))
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_7d,
-                        POSE_WITH_COVARIANCE_STAMPED_RUN_0,
-                        (
-                            m4.get("x", 0.0),
-                            m4.get("y", 0.0),
-                            m4.get("z", 0.0),
-                            m8.get("x", 0.0),
-                            m8.get("y", 0.0),
-                            m8.get("z", 0.0),
-                            m8.get("w", 1.0),
-                        ),
+                        _S_7d, POSE_WITH_COVARIANCE_STAMPED_RUN_0, (t5, t7, t9, t12, t14, t16, t18)
                     )
                 )
             pos += 56
-            out.append(b13)
-            pos += c14 * 8
+            out.append(b20)
+            pos += c21 * 8
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2901,15 +2802,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = QUATERNION_STAMPED_RUN_0
-            v3, v4, v5, v6 = _S_4d.unpack_from(mv, pos)
+            v4, v6, v8, v10 = _S_4d.unpack_from(mv, pos)
             pos += 32
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return quaternion_stamped_view(v1, quaternion_view(v3, v4, v5, v6)), pos
-        return {"header": v1, "quaternion": {"x": v3, "y": v4, "z": v5, "w": v6}}, pos
+            return quaternion_stamped_view(v1, quaternion_view(v4, v6, v8, v10)), pos
+        return {"header": v1, "quaternion": {"x": v4, "y": v6, "z": v8, "w": v10}}, pos
 
     def quaternion_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2927,25 +2828,18 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t3 := m2.get("x", 0.0)) is not float:
+                t3 = check_scalar("float64", t3, ".quaternion.x")
+            if type(t5 := m2.get("y", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".quaternion.y")
+            if type(t7 := m2.get("z", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".quaternion.z")
+            if type(t9 := m2.get("w", 1.0)) is not float:
+                t9 = check_scalar("float64", t9, ".quaternion.w")
             try:
-                out.append(
-                    _S_4d.pack(
-                        m2.get("x", 0.0), m2.get("y", 0.0), m2.get("z", 0.0), m2.get("w", 1.0)
-                    )
-                )
+                out.append(_S_4d.pack(t3, t5, t7, t9))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_4d,
-                        QUATERNION_STAMPED_RUN_0,
-                        (
-                            m2.get("x", 0.0),
-                            m2.get("y", 0.0),
-                            m2.get("z", 0.0),
-                            m2.get("w", 1.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_4d, QUATERNION_STAMPED_RUN_0, (t3, t5, t7, t9)))
             pos += 32
         except FieldError as error:
             raise error.within(f) from None
@@ -2958,17 +2852,19 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = TRANSFORM_RUN_0
-            v2, v3, v4, v6, v7, v8, v9 = _S_7d.unpack_from(mv, pos)
+            v3, v5, v7, v10, v12, v14, v16 = _S_7d.unpack_from(mv, pos)
             pos += 56
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return transform_view(vector3_view(v2, v3, v4), quaternion_view(v6, v7, v8, v9)), pos
+            return transform_view(
+                vector3_view(v3, v5, v7), quaternion_view(v10, v12, v14, v16)
+            ), pos
         return {
-            "translation": {"x": v2, "y": v3, "z": v4},
-            "rotation": {"x": v6, "y": v7, "z": v8, "w": v9},
+            "translation": {"x": v3, "y": v5, "z": v7},
+            "rotation": {"x": v10, "y": v12, "z": v14, "w": v16},
         }, pos
 
     def transform_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2985,38 +2881,28 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".rotation"
-            m5 = d.get("rotation", EMPTY)
-            if m5.__class__ is not dict or not QUATERNION_KEYS.issuperset(m5):
-                m5 = _submap(m5, QUATERNION_KEYS)
+            m8 = d.get("rotation", EMPTY)
+            if m8.__class__ is not dict or not QUATERNION_KEYS.issuperset(m8):
+                m8 = _submap(m8, QUATERNION_KEYS)
             f = ""
+            if type(t2 := m1.get("x", 0.0)) is not float:
+                t2 = check_scalar("float64", t2, ".translation.x")
+            if type(t4 := m1.get("y", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".translation.y")
+            if type(t6 := m1.get("z", 0.0)) is not float:
+                t6 = check_scalar("float64", t6, ".translation.z")
+            if type(t9 := m8.get("x", 0.0)) is not float:
+                t9 = check_scalar("float64", t9, ".rotation.x")
+            if type(t11 := m8.get("y", 0.0)) is not float:
+                t11 = check_scalar("float64", t11, ".rotation.y")
+            if type(t13 := m8.get("z", 0.0)) is not float:
+                t13 = check_scalar("float64", t13, ".rotation.z")
+            if type(t15 := m8.get("w", 1.0)) is not float:
+                t15 = check_scalar("float64", t15, ".rotation.w")
             try:
-                out.append(
-                    _S_7d.pack(
-                        m1.get("x", 0.0),
-                        m1.get("y", 0.0),
-                        m1.get("z", 0.0),
-                        m5.get("x", 0.0),
-                        m5.get("y", 0.0),
-                        m5.get("z", 0.0),
-                        m5.get("w", 1.0),
-                    )
-                )
+                out.append(_S_7d.pack(t2, t4, t6, t9, t11, t13, t15))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_7d,
-                        TRANSFORM_RUN_0,
-                        (
-                            m1.get("x", 0.0),
-                            m1.get("y", 0.0),
-                            m1.get("z", 0.0),
-                            m5.get("x", 0.0),
-                            m5.get("y", 0.0),
-                            m5.get("z", 0.0),
-                            m5.get("w", 1.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_7d, TRANSFORM_RUN_0, (t2, t4, t6, t9, t11, t13, t15)))
             pos += 56
         except FieldError as error:
             raise error.within(f) from None
@@ -3040,7 +2926,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += v3
             pos = (pos + 7) & -8
             f = TRANSFORM_STAMPED_RUN_1
-            v7, v8, v9, v11, v12, v13, v14 = _S_7d.unpack_from(mv, pos)
+            v8, v10, v12, v15, v17, v19, v21 = _S_7d.unpack_from(mv, pos)
             pos += 56
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3050,14 +2936,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             return transform_stamped_view(
                 v1,
                 v4,
-                transform_view(vector3_view(v7, v8, v9), quaternion_view(v11, v12, v13, v14)),
+                transform_view(vector3_view(v8, v10, v12), quaternion_view(v15, v17, v19, v21)),
             ), pos
         return {
             "header": v1,
             "child_frame_id": v4,
             "transform": {
-                "translation": {"x": v7, "y": v8, "z": v9},
-                "rotation": {"x": v11, "y": v12, "z": v13, "w": v14},
+                "translation": {"x": v8, "y": v10, "z": v12},
+                "rotation": {"x": v15, "y": v17, "z": v19, "w": v21},
             },
         }, pos
 
@@ -3095,37 +2981,29 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".transform.rotation"
-            m10 = m5.get("rotation", EMPTY)
-            if m10.__class__ is not dict or not QUATERNION_KEYS.issuperset(m10):
-                m10 = _submap(m10, QUATERNION_KEYS)
+            m13 = m5.get("rotation", EMPTY)
+            if m13.__class__ is not dict or not QUATERNION_KEYS.issuperset(m13):
+                m13 = _submap(m13, QUATERNION_KEYS)
             f = ""
+            if type(t7 := m6.get("x", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".transform.translation.x")
+            if type(t9 := m6.get("y", 0.0)) is not float:
+                t9 = check_scalar("float64", t9, ".transform.translation.y")
+            if type(t11 := m6.get("z", 0.0)) is not float:
+                t11 = check_scalar("float64", t11, ".transform.translation.z")
+            if type(t14 := m13.get("x", 0.0)) is not float:
+                t14 = check_scalar("float64", t14, ".transform.rotation.x")
+            if type(t16 := m13.get("y", 0.0)) is not float:
+                t16 = check_scalar("float64", t16, ".transform.rotation.y")
+            if type(t18 := m13.get("z", 0.0)) is not float:
+                t18 = check_scalar("float64", t18, ".transform.rotation.z")
+            if type(t20 := m13.get("w", 1.0)) is not float:
+                t20 = check_scalar("float64", t20, ".transform.rotation.w")
             try:
-                out.append(
-                    _S_7d.pack(
-                        m6.get("x", 0.0),
-                        m6.get("y", 0.0),
-                        m6.get("z", 0.0),
-                        m10.get("x", 0.0),
-                        m10.get("y", 0.0),
-                        m10.get("z", 0.0),
-                        m10.get("w", 1.0),
-                    )
-                )
+                out.append(_S_7d.pack(t7, t9, t11, t14, t16, t18, t20))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_7d,
-                        TRANSFORM_STAMPED_RUN_1,
-                        (
-                            m6.get("x", 0.0),
-                            m6.get("y", 0.0),
-                            m6.get("z", 0.0),
-                            m10.get("x", 0.0),
-                            m10.get("y", 0.0),
-                            m10.get("z", 0.0),
-                            m10.get("w", 1.0),
-                        ),
-                    )
+                    slow_pack(_S_7d, TRANSFORM_STAMPED_RUN_1, (t7, t9, t11, t14, t16, t18, t20))
                 )
             pos += 56
         except FieldError as error:
@@ -3139,15 +3017,18 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = TWIST_RUN_0
-            v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
+            v3, v5, v7, v10, v12, v14 = _S_6d.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return twist_view(vector3_view(v2, v3, v4), vector3_view(v6, v7, v8)), pos
-        return {"linear": {"x": v2, "y": v3, "z": v4}, "angular": {"x": v6, "y": v7, "z": v8}}, pos
+            return twist_view(vector3_view(v3, v5, v7), vector3_view(v10, v12, v14)), pos
+        return {
+            "linear": {"x": v3, "y": v5, "z": v7},
+            "angular": {"x": v10, "y": v12, "z": v14},
+        }, pos
 
     def twist_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3163,36 +3044,26 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".angular"
-            m5 = d.get("angular", EMPTY)
-            if m5.__class__ is not dict or not VECTOR3_KEYS.issuperset(m5):
-                m5 = _submap(m5, VECTOR3_KEYS)
+            m8 = d.get("angular", EMPTY)
+            if m8.__class__ is not dict or not VECTOR3_KEYS.issuperset(m8):
+                m8 = _submap(m8, VECTOR3_KEYS)
             f = ""
+            if type(t2 := m1.get("x", 0.0)) is not float:
+                t2 = check_scalar("float64", t2, ".linear.x")
+            if type(t4 := m1.get("y", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".linear.y")
+            if type(t6 := m1.get("z", 0.0)) is not float:
+                t6 = check_scalar("float64", t6, ".linear.z")
+            if type(t9 := m8.get("x", 0.0)) is not float:
+                t9 = check_scalar("float64", t9, ".angular.x")
+            if type(t11 := m8.get("y", 0.0)) is not float:
+                t11 = check_scalar("float64", t11, ".angular.y")
+            if type(t13 := m8.get("z", 0.0)) is not float:
+                t13 = check_scalar("float64", t13, ".angular.z")
             try:
-                out.append(
-                    _S_6d.pack(
-                        m1.get("x", 0.0),
-                        m1.get("y", 0.0),
-                        m1.get("z", 0.0),
-                        m5.get("x", 0.0),
-                        m5.get("y", 0.0),
-                        m5.get("z", 0.0),
-                    )
-                )
+                out.append(_S_6d.pack(t2, t4, t6, t9, t11, t13))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_6d,
-                        TWIST_RUN_0,
-                        (
-                            m1.get("x", 0.0),
-                            m1.get("y", 0.0),
-                            m1.get("z", 0.0),
-                            m5.get("x", 0.0),
-                            m5.get("y", 0.0),
-                            m5.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_6d, TWIST_RUN_0, (t2, t4, t6, t9, t11, t13)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None
@@ -3207,7 +3078,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = TWIST_STAMPED_RUN_0
-            v4, v5, v6, v8, v9, v10 = _S_6d.unpack_from(mv, pos)
+            v5, v7, v9, v12, v14, v16 = _S_6d.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3215,13 +3086,13 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return twist_stamped_view(
-                v1, twist_view(vector3_view(v4, v5, v6), vector3_view(v8, v9, v10))
+                v1, twist_view(vector3_view(v5, v7, v9), vector3_view(v12, v14, v16))
             ), pos
         return {
             "header": v1,
             "twist": {
-                "linear": {"x": v4, "y": v5, "z": v6},
-                "angular": {"x": v8, "y": v9, "z": v10},
+                "linear": {"x": v5, "y": v7, "z": v9},
+                "angular": {"x": v12, "y": v14, "z": v16},
             },
         }, pos
 
@@ -3245,36 +3116,26 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".twist.angular"
-            m7 = m2.get("angular", EMPTY)
-            if m7.__class__ is not dict or not VECTOR3_KEYS.issuperset(m7):
-                m7 = _submap(m7, VECTOR3_KEYS)
+            m10 = m2.get("angular", EMPTY)
+            if m10.__class__ is not dict or not VECTOR3_KEYS.issuperset(m10):
+                m10 = _submap(m10, VECTOR3_KEYS)
             f = ""
+            if type(t4 := m3.get("x", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".twist.linear.x")
+            if type(t6 := m3.get("y", 0.0)) is not float:
+                t6 = check_scalar("float64", t6, ".twist.linear.y")
+            if type(t8 := m3.get("z", 0.0)) is not float:
+                t8 = check_scalar("float64", t8, ".twist.linear.z")
+            if type(t11 := m10.get("x", 0.0)) is not float:
+                t11 = check_scalar("float64", t11, ".twist.angular.x")
+            if type(t13 := m10.get("y", 0.0)) is not float:
+                t13 = check_scalar("float64", t13, ".twist.angular.y")
+            if type(t15 := m10.get("z", 0.0)) is not float:
+                t15 = check_scalar("float64", t15, ".twist.angular.z")
             try:
-                out.append(
-                    _S_6d.pack(
-                        m3.get("x", 0.0),
-                        m3.get("y", 0.0),
-                        m3.get("z", 0.0),
-                        m7.get("x", 0.0),
-                        m7.get("y", 0.0),
-                        m7.get("z", 0.0),
-                    )
-                )
+                out.append(_S_6d.pack(t4, t6, t8, t11, t13, t15))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_6d,
-                        TWIST_STAMPED_RUN_0,
-                        (
-                            m3.get("x", 0.0),
-                            m3.get("y", 0.0),
-                            m3.get("z", 0.0),
-                            m7.get("x", 0.0),
-                            m7.get("y", 0.0),
-                            m7.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_6d, TWIST_STAMPED_RUN_0, (t4, t6, t8, t11, t13, t15)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None
@@ -3287,12 +3148,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = TWIST_WITH_COVARIANCE_RUN_0
-            v3, v4, v5, v7, v8, v9 = _S_6d.unpack_from(mv, pos)
+            v4, v6, v8, v11, v13, v15 = _S_6d.unpack_from(mv, pos)
             pos += 48
             f = ".covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v12 = _frombuffer(mv, _D_float64, 36, pos)
+            v18 = _frombuffer(mv, _D_float64, 36, pos)
             pos += 36 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3300,14 +3161,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return twist_with_covariance_view(
-                twist_view(vector3_view(v3, v4, v5), vector3_view(v7, v8, v9)), v12
+                twist_view(vector3_view(v4, v6, v8), vector3_view(v11, v13, v15)), v18
             ), pos
         return {
             "twist": {
-                "linear": {"x": v3, "y": v4, "z": v5},
-                "angular": {"x": v7, "y": v8, "z": v9},
+                "linear": {"x": v4, "y": v6, "z": v8},
+                "angular": {"x": v11, "y": v13, "z": v15},
             },
-            "covariance": v12.tolist(),
+            "covariance": v18.tolist(),
         }, pos
 
     def twist_with_covariance_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3328,41 +3189,33 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".twist.angular"
-            m6 = m1.get("angular", EMPTY)
-            if m6.__class__ is not dict or not VECTOR3_KEYS.issuperset(m6):
-                m6 = _submap(m6, VECTOR3_KEYS)
+            m9 = m1.get("angular", EMPTY)
+            if m9.__class__ is not dict or not VECTOR3_KEYS.issuperset(m9):
+                m9 = _submap(m9, VECTOR3_KEYS)
             f = ".covariance"
-            b10, c11 = encode_array(d.get("covariance", (0,) * 36), _D_float64, "float64", 36, True)
+            b16, c17 = encode_array(d.get("covariance", (0,) * 36), _D_float64, "float64", 36, True)
             f = ""
+            if type(t3 := m2.get("x", 0.0)) is not float:
+                t3 = check_scalar("float64", t3, ".twist.linear.x")
+            if type(t5 := m2.get("y", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".twist.linear.y")
+            if type(t7 := m2.get("z", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".twist.linear.z")
+            if type(t10 := m9.get("x", 0.0)) is not float:
+                t10 = check_scalar("float64", t10, ".twist.angular.x")
+            if type(t12 := m9.get("y", 0.0)) is not float:
+                t12 = check_scalar("float64", t12, ".twist.angular.y")
+            if type(t14 := m9.get("z", 0.0)) is not float:
+                t14 = check_scalar("float64", t14, ".twist.angular.z")
             try:
-                out.append(
-                    _S_6d.pack(
-                        m2.get("x", 0.0),
-                        m2.get("y", 0.0),
-                        m2.get("z", 0.0),
-                        m6.get("x", 0.0),
-                        m6.get("y", 0.0),
-                        m6.get("z", 0.0),
-                    )
-                )
+                out.append(_S_6d.pack(t3, t5, t7, t10, t12, t14))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_6d,
-                        TWIST_WITH_COVARIANCE_RUN_0,
-                        (
-                            m2.get("x", 0.0),
-                            m2.get("y", 0.0),
-                            m2.get("z", 0.0),
-                            m6.get("x", 0.0),
-                            m6.get("y", 0.0),
-                            m6.get("z", 0.0),
-                        ),
-                    )
+                    slow_pack(_S_6d, TWIST_WITH_COVARIANCE_RUN_0, (t3, t5, t7, t10, t12, t14))
                 )
             pos += 48
-            out.append(b10)
-            pos += c11 * 8
+            out.append(b16)
+            pos += c17 * 8
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -3376,12 +3229,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = TWIST_WITH_COVARIANCE_STAMPED_RUN_0
-            v5, v6, v7, v9, v10, v11 = _S_6d.unpack_from(mv, pos)
+            v6, v8, v10, v13, v15, v17 = _S_6d.unpack_from(mv, pos)
             pos += 48
             f = ".twist.covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v14 = _frombuffer(mv, _D_float64, 36, pos)
+            v20 = _frombuffer(mv, _D_float64, 36, pos)
             pos += 36 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3391,17 +3244,17 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             return twist_with_covariance_stamped_view(
                 v1,
                 twist_with_covariance_view(
-                    twist_view(vector3_view(v5, v6, v7), vector3_view(v9, v10, v11)), v14
+                    twist_view(vector3_view(v6, v8, v10), vector3_view(v13, v15, v17)), v20
                 ),
             ), pos
         return {
             "header": v1,
             "twist": {
                 "twist": {
-                    "linear": {"x": v5, "y": v6, "z": v7},
-                    "angular": {"x": v9, "y": v10, "z": v11},
+                    "linear": {"x": v6, "y": v8, "z": v10},
+                    "angular": {"x": v13, "y": v15, "z": v17},
                 },
-                "covariance": v14.tolist(),
+                "covariance": v20.tolist(),
             },
         }, pos
 
@@ -3429,43 +3282,37 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".twist.twist.angular"
-            m8 = m3.get("angular", EMPTY)
-            if m8.__class__ is not dict or not VECTOR3_KEYS.issuperset(m8):
-                m8 = _submap(m8, VECTOR3_KEYS)
+            m11 = m3.get("angular", EMPTY)
+            if m11.__class__ is not dict or not VECTOR3_KEYS.issuperset(m11):
+                m11 = _submap(m11, VECTOR3_KEYS)
             f = ".twist.covariance"
-            b12, c13 = encode_array(
+            b18, c19 = encode_array(
                 m2.get("covariance", (0,) * 36), _D_float64, "float64", 36, True
             )
             f = ""
+            if type(t5 := m4.get("x", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".twist.twist.linear.x")
+            if type(t7 := m4.get("y", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".twist.twist.linear.y")
+            if type(t9 := m4.get("z", 0.0)) is not float:
+                t9 = check_scalar("float64", t9, ".twist.twist.linear.z")
+            if type(t12 := m11.get("x", 0.0)) is not float:
+                t12 = check_scalar("float64", t12, ".twist.twist.angular.x")
+            if type(t14 := m11.get("y", 0.0)) is not float:
+                t14 = check_scalar("float64", t14, ".twist.twist.angular.y")
+            if type(t16 := m11.get("z", 0.0)) is not float:
+                t16 = check_scalar("float64", t16, ".twist.twist.angular.z")
             try:
-                out.append(
-                    _S_6d.pack(
-                        m4.get("x", 0.0),
-                        m4.get("y", 0.0),
-                        m4.get("z", 0.0),
-                        m8.get("x", 0.0),
-                        m8.get("y", 0.0),
-                        m8.get("z", 0.0),
-                    )
-                )
+                out.append(_S_6d.pack(t5, t7, t9, t12, t14, t16))
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_6d,
-                        TWIST_WITH_COVARIANCE_STAMPED_RUN_0,
-                        (
-                            m4.get("x", 0.0),
-                            m4.get("y", 0.0),
-                            m4.get("z", 0.0),
-                            m8.get("x", 0.0),
-                            m8.get("y", 0.0),
-                            m8.get("z", 0.0),
-                        ),
+                        _S_6d, TWIST_WITH_COVARIANCE_STAMPED_RUN_0, (t5, t7, t9, t12, t14, t16)
                     )
                 )
             pos += 48
-            out.append(b12)
-            pos += c13 * 8
+            out.append(b18)
+            pos += c19 * 8
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -3479,15 +3326,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = VECTOR3_STAMPED_RUN_0
-            v3, v4, v5 = _S_3d.unpack_from(mv, pos)
+            v4, v6, v8 = _S_3d.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return vector3_stamped_view(v1, vector3_view(v3, v4, v5)), pos
-        return {"header": v1, "vector": {"x": v3, "y": v4, "z": v5}}, pos
+            return vector3_stamped_view(v1, vector3_view(v4, v6, v8)), pos
+        return {"header": v1, "vector": {"x": v4, "y": v6, "z": v8}}, pos
 
     def vector3_stamped_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3505,20 +3352,16 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t3 := m2.get("x", 0.0)) is not float:
+                t3 = check_scalar("float64", t3, ".vector.x")
+            if type(t5 := m2.get("y", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".vector.y")
+            if type(t7 := m2.get("z", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".vector.z")
             try:
-                out.append(_S_3d.pack(m2.get("x", 0.0), m2.get("y", 0.0), m2.get("z", 0.0)))
+                out.append(_S_3d.pack(t3, t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        VECTOR3_STAMPED_RUN_0,
-                        (
-                            m2.get("x", 0.0),
-                            m2.get("y", 0.0),
-                            m2.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3d, VECTOR3_STAMPED_RUN_0, (t3, t5, t7)))
             pos += 24
         except FieldError as error:
             raise error.within(f) from None
@@ -3551,7 +3394,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += v6
             pos = (pos + 7) & -8
             f = VELOCITY_STAMPED_RUN_2
-            v10, v11, v12, v14, v15, v16 = _S_6d.unpack_from(mv, pos)
+            v11, v13, v15, v18, v20, v22 = _S_6d.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3559,15 +3402,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return velocity_stamped_view(
-                v1, v4, v7, twist_view(vector3_view(v10, v11, v12), vector3_view(v14, v15, v16))
+                v1, v4, v7, twist_view(vector3_view(v11, v13, v15), vector3_view(v18, v20, v22))
             ), pos
         return {
             "header": v1,
             "body_frame_id": v4,
             "reference_frame_id": v7,
             "velocity": {
-                "linear": {"x": v10, "y": v11, "z": v12},
-                "angular": {"x": v14, "y": v15, "z": v16},
+                "linear": {"x": v11, "y": v13, "z": v15},
+                "angular": {"x": v18, "y": v20, "z": v22},
             },
         }, pos
 
@@ -3619,36 +3462,26 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".velocity.angular"
-            m13 = m8.get("angular", EMPTY)
-            if m13.__class__ is not dict or not VECTOR3_KEYS.issuperset(m13):
-                m13 = _submap(m13, VECTOR3_KEYS)
+            m16 = m8.get("angular", EMPTY)
+            if m16.__class__ is not dict or not VECTOR3_KEYS.issuperset(m16):
+                m16 = _submap(m16, VECTOR3_KEYS)
             f = ""
+            if type(t10 := m9.get("x", 0.0)) is not float:
+                t10 = check_scalar("float64", t10, ".velocity.linear.x")
+            if type(t12 := m9.get("y", 0.0)) is not float:
+                t12 = check_scalar("float64", t12, ".velocity.linear.y")
+            if type(t14 := m9.get("z", 0.0)) is not float:
+                t14 = check_scalar("float64", t14, ".velocity.linear.z")
+            if type(t17 := m16.get("x", 0.0)) is not float:
+                t17 = check_scalar("float64", t17, ".velocity.angular.x")
+            if type(t19 := m16.get("y", 0.0)) is not float:
+                t19 = check_scalar("float64", t19, ".velocity.angular.y")
+            if type(t21 := m16.get("z", 0.0)) is not float:
+                t21 = check_scalar("float64", t21, ".velocity.angular.z")
             try:
-                out.append(
-                    _S_6d.pack(
-                        m9.get("x", 0.0),
-                        m9.get("y", 0.0),
-                        m9.get("z", 0.0),
-                        m13.get("x", 0.0),
-                        m13.get("y", 0.0),
-                        m13.get("z", 0.0),
-                    )
-                )
+                out.append(_S_6d.pack(t10, t12, t14, t17, t19, t21))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_6d,
-                        VELOCITY_STAMPED_RUN_2,
-                        (
-                            m9.get("x", 0.0),
-                            m9.get("y", 0.0),
-                            m9.get("z", 0.0),
-                            m13.get("x", 0.0),
-                            m13.get("y", 0.0),
-                            m13.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_6d, VELOCITY_STAMPED_RUN_2, (t10, t12, t14, t17, t19, t21)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None
@@ -3661,15 +3494,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = WRENCH_RUN_0
-            v2, v3, v4, v6, v7, v8 = _S_6d.unpack_from(mv, pos)
+            v3, v5, v7, v10, v12, v14 = _S_6d.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return wrench_view(vector3_view(v2, v3, v4), vector3_view(v6, v7, v8)), pos
-        return {"force": {"x": v2, "y": v3, "z": v4}, "torque": {"x": v6, "y": v7, "z": v8}}, pos
+            return wrench_view(vector3_view(v3, v5, v7), vector3_view(v10, v12, v14)), pos
+        return {"force": {"x": v3, "y": v5, "z": v7}, "torque": {"x": v10, "y": v12, "z": v14}}, pos
 
     def wrench_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3685,36 +3518,26 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".torque"
-            m5 = d.get("torque", EMPTY)
-            if m5.__class__ is not dict or not VECTOR3_KEYS.issuperset(m5):
-                m5 = _submap(m5, VECTOR3_KEYS)
+            m8 = d.get("torque", EMPTY)
+            if m8.__class__ is not dict or not VECTOR3_KEYS.issuperset(m8):
+                m8 = _submap(m8, VECTOR3_KEYS)
             f = ""
+            if type(t2 := m1.get("x", 0.0)) is not float:
+                t2 = check_scalar("float64", t2, ".force.x")
+            if type(t4 := m1.get("y", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".force.y")
+            if type(t6 := m1.get("z", 0.0)) is not float:
+                t6 = check_scalar("float64", t6, ".force.z")
+            if type(t9 := m8.get("x", 0.0)) is not float:
+                t9 = check_scalar("float64", t9, ".torque.x")
+            if type(t11 := m8.get("y", 0.0)) is not float:
+                t11 = check_scalar("float64", t11, ".torque.y")
+            if type(t13 := m8.get("z", 0.0)) is not float:
+                t13 = check_scalar("float64", t13, ".torque.z")
             try:
-                out.append(
-                    _S_6d.pack(
-                        m1.get("x", 0.0),
-                        m1.get("y", 0.0),
-                        m1.get("z", 0.0),
-                        m5.get("x", 0.0),
-                        m5.get("y", 0.0),
-                        m5.get("z", 0.0),
-                    )
-                )
+                out.append(_S_6d.pack(t2, t4, t6, t9, t11, t13))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_6d,
-                        WRENCH_RUN_0,
-                        (
-                            m1.get("x", 0.0),
-                            m1.get("y", 0.0),
-                            m1.get("z", 0.0),
-                            m5.get("x", 0.0),
-                            m5.get("y", 0.0),
-                            m5.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_6d, WRENCH_RUN_0, (t2, t4, t6, t9, t11, t13)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None
@@ -3729,7 +3552,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = WRENCH_STAMPED_RUN_0
-            v4, v5, v6, v8, v9, v10 = _S_6d.unpack_from(mv, pos)
+            v5, v7, v9, v12, v14, v16 = _S_6d.unpack_from(mv, pos)
             pos += 48
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3737,13 +3560,13 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return wrench_stamped_view(
-                v1, wrench_view(vector3_view(v4, v5, v6), vector3_view(v8, v9, v10))
+                v1, wrench_view(vector3_view(v5, v7, v9), vector3_view(v12, v14, v16))
             ), pos
         return {
             "header": v1,
             "wrench": {
-                "force": {"x": v4, "y": v5, "z": v6},
-                "torque": {"x": v8, "y": v9, "z": v10},
+                "force": {"x": v5, "y": v7, "z": v9},
+                "torque": {"x": v12, "y": v14, "z": v16},
             },
         }, pos
 
@@ -3767,36 +3590,26 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".wrench.torque"
-            m7 = m2.get("torque", EMPTY)
-            if m7.__class__ is not dict or not VECTOR3_KEYS.issuperset(m7):
-                m7 = _submap(m7, VECTOR3_KEYS)
+            m10 = m2.get("torque", EMPTY)
+            if m10.__class__ is not dict or not VECTOR3_KEYS.issuperset(m10):
+                m10 = _submap(m10, VECTOR3_KEYS)
             f = ""
+            if type(t4 := m3.get("x", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".wrench.force.x")
+            if type(t6 := m3.get("y", 0.0)) is not float:
+                t6 = check_scalar("float64", t6, ".wrench.force.y")
+            if type(t8 := m3.get("z", 0.0)) is not float:
+                t8 = check_scalar("float64", t8, ".wrench.force.z")
+            if type(t11 := m10.get("x", 0.0)) is not float:
+                t11 = check_scalar("float64", t11, ".wrench.torque.x")
+            if type(t13 := m10.get("y", 0.0)) is not float:
+                t13 = check_scalar("float64", t13, ".wrench.torque.y")
+            if type(t15 := m10.get("z", 0.0)) is not float:
+                t15 = check_scalar("float64", t15, ".wrench.torque.z")
             try:
-                out.append(
-                    _S_6d.pack(
-                        m3.get("x", 0.0),
-                        m3.get("y", 0.0),
-                        m3.get("z", 0.0),
-                        m7.get("x", 0.0),
-                        m7.get("y", 0.0),
-                        m7.get("z", 0.0),
-                    )
-                )
+                out.append(_S_6d.pack(t4, t6, t8, t11, t13, t15))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_6d,
-                        WRENCH_STAMPED_RUN_0,
-                        (
-                            m3.get("x", 0.0),
-                            m3.get("y", 0.0),
-                            m3.get("z", 0.0),
-                            m7.get("x", 0.0),
-                            m7.get("y", 0.0),
-                            m7.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_6d, WRENCH_STAMPED_RUN_0, (t4, t6, t8, t11, t13, t15)))
             pos += 48
         except FieldError as error:
             raise error.within(f) from None

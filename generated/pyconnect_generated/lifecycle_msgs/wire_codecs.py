@@ -64,6 +64,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -73,7 +74,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -759,24 +760,24 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = STATE_RUN_0
-            (v1,) = _S_B.unpack_from(mv, pos)
+            (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = STATE_RUN_1
-            (v3,) = _S_I.unpack_from(mv, pos)
+            (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".label"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
+            if v4 > lim - pos:
+                raise too_long(v4, 1, lim - pos)
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
+            pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return state_view(v1, v4), pos
-        return {"id": v1, "label": v4}, pos
+            return state_view(v2, v5), pos
+        return {"id": v2, "label": v5}, pos
 
     def state_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -784,12 +785,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not STATE_KEYS.issuperset(d):
                 d = _submap(d, STATE_KEYS)
             f = ".label"
-            b2 = utf8z(d.get("label", ""), None)
+            b3 = utf8z(d.get("label", ""), None)
             f = ""
+            if type(t1 := d.get("id", 0)) is not int:
+                t1 = check_scalar("uint8", t1, ".id")
             try:
-                out.append(_S_B.pack(d.get("id", 0)))
+                out.append(_S_B.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_B, STATE_RUN_0, (d.get("id", 0),)))
+                out.append(slow_pack(_S_B, STATE_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
@@ -797,12 +800,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b2)))
+                out.append(_S_I.pack(len(b3)))
             except Exception:
-                out.append(slow_pack(_S_I, STATE_RUN_1, (len(b2),)))
+                out.append(slow_pack(_S_I, STATE_RUN_1, (len(b3),)))
             pos += 4
-            out.append(b2)
-            pos += len(b2)
+            out.append(b3)
+            pos += len(b3)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -813,24 +816,24 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = TRANSITION_RUN_0
-            (v1,) = _S_B.unpack_from(mv, pos)
+            (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = TRANSITION_RUN_1
-            (v3,) = _S_I.unpack_from(mv, pos)
+            (v4,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".label"
-            if v3 > lim - pos:
-                raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
-            pos += v3
+            if v4 > lim - pos:
+                raise too_long(v4, 1, lim - pos)
+            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
+            pos += v4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return transition_view(v1, v4), pos
-        return {"id": v1, "label": v4}, pos
+            return transition_view(v2, v5), pos
+        return {"id": v2, "label": v5}, pos
 
     def transition_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -838,12 +841,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not TRANSITION_KEYS.issuperset(d):
                 d = _submap(d, TRANSITION_KEYS)
             f = ".label"
-            b2 = utf8z(d.get("label", ""), None)
+            b3 = utf8z(d.get("label", ""), None)
             f = ""
+            if type(t1 := d.get("id", 0)) is not int:
+                t1 = check_scalar("uint8", t1, ".id")
             try:
-                out.append(_S_B.pack(d.get("id", 0)))
+                out.append(_S_B.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_B, TRANSITION_RUN_0, (d.get("id", 0),)))
+                out.append(slow_pack(_S_B, TRANSITION_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
@@ -851,12 +856,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b2)))
+                out.append(_S_I.pack(len(b3)))
             except Exception:
-                out.append(slow_pack(_S_I, TRANSITION_RUN_1, (len(b2),)))
+                out.append(slow_pack(_S_I, TRANSITION_RUN_1, (len(b3),)))
             pos += 4
-            out.append(b2)
-            pos += len(b2)
+            out.append(b3)
+            pos += len(b3)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -902,21 +907,21 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = TRANSITION_EVENT_RUN_0
-            (v1,) = _S_Q.unpack_from(mv, pos)
+            (v2,) = _S_Q.unpack_from(mv, pos)
             pos += 8
             f = ".transition"
-            v2, pos = transition_decode(mv, pos, lim)
+            v3, pos = transition_decode(mv, pos, lim)
             f = ".start_state"
-            v3, pos = state_decode(mv, pos, lim)
-            f = ".goal_state"
             v4, pos = state_decode(mv, pos, lim)
+            f = ".goal_state"
+            v5, pos = state_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return transition_event_view(v1, v2, v3, v4), pos
-        return {"timestamp": v1, "transition": v2, "start_state": v3, "goal_state": v4}, pos
+            return transition_event_view(v2, v3, v4, v5), pos
+        return {"timestamp": v2, "transition": v3, "start_state": v4, "goal_state": v5}, pos
 
     def transition_event_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -928,10 +933,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("timestamp", 0)) is not int:
+                t1 = check_scalar("uint64", t1, ".timestamp")
             try:
-                out.append(_S_Q.pack(d.get("timestamp", 0)))
+                out.append(_S_Q.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_Q, TRANSITION_EVENT_RUN_0, (d.get("timestamp", 0),)))
+                out.append(slow_pack(_S_Q, TRANSITION_EVENT_RUN_0, (t1,)))
             pos += 8
             f = ".transition"
             pos = transition_encode(d.get("transition", EMPTY), out, pos)
@@ -991,30 +998,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not CHANGE_STATE_RESPONSE_KEYS.issuperset(d):
                 d = _submap(d, CHANGE_STATE_RESPONSE_KEYS)
             f = ""
+            if type(t1 := d.get("success", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".success")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t1
-                            if (t1 := d.get("success", False)).__class__ is bool
-                            else check_bool(t1, ".success")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        CHANGE_STATE_RESPONSE_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("success", False)).__class__ is bool
-                                else check_bool(t1, ".success")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, CHANGE_STATE_RESPONSE_RUN_0, (t1,)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1026,25 +1015,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = CHANGE_STATE_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = CHANGE_STATE_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = CHANGE_STATE_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, change_state_request_decode, None, 1, 5)
+            v14, pos = read_messages(mv, pos, lim, _U32, change_state_request_decode, None, 1, 5)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, change_state_response_decode, None, 1, 1)
+            v15, pos = read_messages(mv, pos, lim, _U32, change_state_response_decode, None, 1, 1)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -1052,20 +1041,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return change_state_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def change_state_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1078,49 +1067,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, CHANGE_STATE_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, CHANGE_STATE_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        CHANGE_STATE_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, CHANGE_STATE_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(_S_q, CHANGE_STATE_EVENT_RUN_2, (m1.get("sequence_number", 0),))
-                )
+                out.append(slow_pack(_S_q, CHANGE_STATE_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -1199,27 +1185,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = GET_AVAILABLE_STATES_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = GET_AVAILABLE_STATES_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_AVAILABLE_STATES_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, get_available_states_request_decode, None, 1, 1
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, get_available_states_response_decode, None, 1, 4
             )
         except WireDecodeError as error:
@@ -1229,20 +1215,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return get_available_states_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def get_available_states_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1255,53 +1241,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, GET_AVAILABLE_STATES_EVENT_RUN_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, GET_AVAILABLE_STATES_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        GET_AVAILABLE_STATES_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, GET_AVAILABLE_STATES_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, GET_AVAILABLE_STATES_EVENT_RUN_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, GET_AVAILABLE_STATES_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -1400,27 +1379,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = GET_AVAILABLE_TRANSITIONS_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = GET_AVAILABLE_TRANSITIONS_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_AVAILABLE_TRANSITIONS_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, get_available_transitions_request_decode, None, 1, 1
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, get_available_transitions_response_decode, None, 1, 4
             )
         except WireDecodeError as error:
@@ -1430,20 +1409,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return get_available_transitions_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def get_available_transitions_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1456,55 +1435,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, GET_AVAILABLE_TRANSITIONS_EVENT_RUN_0, (m1.get("event_type", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_B, GET_AVAILABLE_TRANSITIONS_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        GET_AVAILABLE_TRANSITIONS_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, GET_AVAILABLE_TRANSITIONS_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, GET_AVAILABLE_TRANSITIONS_EVENT_RUN_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, GET_AVAILABLE_TRANSITIONS_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -1593,25 +1563,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = GET_STATE_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = GET_STATE_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_STATE_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, get_state_request_decode, None, 1, 1)
+            v14, pos = read_messages(mv, pos, lim, _U32, get_state_request_decode, None, 1, 1)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, get_state_response_decode, None, 1, 5)
+            v15, pos = read_messages(mv, pos, lim, _U32, get_state_response_decode, None, 1, 5)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -1619,20 +1589,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return get_state_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def get_state_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1645,47 +1615,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, GET_STATE_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, GET_STATE_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        GET_STATE_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, GET_STATE_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(slow_pack(_S_q, GET_STATE_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S_q, GET_STATE_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(

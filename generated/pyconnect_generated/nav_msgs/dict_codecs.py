@@ -67,6 +67,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -411,7 +412,7 @@ def occupancy_grid_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("b")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int8"):
             try:
                 msg._data = array("b", value)
             except (TypeError, OverflowError, ValueError):

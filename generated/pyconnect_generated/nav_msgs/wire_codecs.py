@@ -68,6 +68,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -77,7 +78,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -1015,17 +1016,17 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
             f = GRID_CELLS_RUN_0
-            v2, v3 = _S_2f.unpack_from(mv, pos)
+            v3, v5 = _S_2f.unpack_from(mv, pos)
             pos += 8
             f = ".cells"
-            v4, pos = read_messages(mv, pos, lim, _U32, geometry_msgs__point_decode, None, None, 24)
+            v6, pos = read_messages(mv, pos, lim, _U32, geometry_msgs__point_decode, None, None, 24)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return grid_cells_view(v1, v2, v3, v4), pos
-        return {"header": v1, "cell_width": v2, "cell_height": v3, "cells": v4}, pos
+            return grid_cells_view(v1, v3, v5, v6), pos
+        return {"header": v1, "cell_width": v3, "cell_height": v5, "cells": v6}, pos
 
     def grid_cells_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1039,19 +1040,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t2 := d.get("cell_width", 0.0)) is not float:
+                t2 = check_scalar("float32", t2, ".cell_width")
+            if type(t4 := d.get("cell_height", 0.0)) is not float:
+                t4 = check_scalar("float32", t4, ".cell_height")
             try:
-                out.append(_S_2f.pack(d.get("cell_width", 0.0), d.get("cell_height", 0.0)))
+                out.append(_S_2f.pack(t2, t4))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_2f,
-                        GRID_CELLS_RUN_0,
-                        (
-                            d.get("cell_width", 0.0),
-                            d.get("cell_height", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_2f, GRID_CELLS_RUN_0, (t2, t4)))
             pos += 8
             f = ".cells"
             pos = write_messages(
@@ -1068,11 +1064,11 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = MAP_META_DATA_RUN_0
-            v2, v3, v4, v5, v6 = _S_iIf2I.unpack_from(mv, pos)
+            v3, v5, v7, v9, v11 = _S_iIf2I.unpack_from(mv, pos)
             pos += 20
             pos = (pos + 7) & -8
             f = MAP_META_DATA_RUN_1
-            v9, v10, v11, v13, v14, v15, v16 = _S_7d.unpack_from(mv, pos)
+            v15, v17, v19, v22, v24, v26, v28 = _S_7d.unpack_from(mv, pos)
             pos += 56
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1080,23 +1076,23 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return map_meta_data_view(
-                builtin_interfaces__time_view(v2, v3),
-                v4,
-                v5,
-                v6,
+                builtin_interfaces__time_view(v3, v5),
+                v7,
+                v9,
+                v11,
                 geometry_msgs__pose_view(
-                    geometry_msgs__point_view(v9, v10, v11),
-                    geometry_msgs__quaternion_view(v13, v14, v15, v16),
+                    geometry_msgs__point_view(v15, v17, v19),
+                    geometry_msgs__quaternion_view(v22, v24, v26, v28),
                 ),
             ), pos
         return {
-            "map_load_time": {"sec": v2, "nanosec": v3},
-            "resolution": v4,
-            "width": v5,
-            "height": v6,
+            "map_load_time": {"sec": v3, "nanosec": v5},
+            "resolution": v7,
+            "width": v9,
+            "height": v11,
             "origin": {
-                "position": {"x": v9, "y": v10, "z": v11},
-                "orientation": {"x": v13, "y": v14, "z": v15, "w": v16},
+                "position": {"x": v15, "y": v17, "z": v19},
+                "orientation": {"x": v22, "y": v24, "z": v26, "w": v28},
             },
         }, pos
 
@@ -1114,75 +1110,57 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".origin"
-            m7 = d.get("origin", EMPTY)
-            if m7.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m7):
-                m7 = _submap(m7, GEOMETRY_MSGS__POSE_KEYS)
+            m12 = d.get("origin", EMPTY)
+            if m12.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m12):
+                m12 = _submap(m12, GEOMETRY_MSGS__POSE_KEYS)
             f = ".origin.position"
-            m8 = m7.get("position", EMPTY)
-            if m8.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m8):
-                m8 = _submap(m8, GEOMETRY_MSGS__POINT_KEYS)
+            m13 = m12.get("position", EMPTY)
+            if m13.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m13):
+                m13 = _submap(m13, GEOMETRY_MSGS__POINT_KEYS)
             f = ""
+            if type(t2 := m1.get("sec", 0)) is not int:
+                t2 = check_scalar("int32", t2, ".map_load_time.sec")
+            if type(t4 := m1.get("nanosec", 0)) is not int:
+                t4 = check_scalar("uint32", t4, ".map_load_time.nanosec")
+            if type(t6 := d.get("resolution", 0.0)) is not float:
+                t6 = check_scalar("float32", t6, ".resolution")
+            if type(t8 := d.get("width", 0)) is not int:
+                t8 = check_scalar("uint32", t8, ".width")
+            if type(t10 := d.get("height", 0)) is not int:
+                t10 = check_scalar("uint32", t10, ".height")
             try:
-                out.append(
-                    _S_iIf2I.pack(
-                        m1.get("sec", 0),
-                        m1.get("nanosec", 0),
-                        d.get("resolution", 0.0),
-                        d.get("width", 0),
-                        d.get("height", 0),
-                    )
-                )
+                out.append(_S_iIf2I.pack(t2, t4, t6, t8, t10))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iIf2I,
-                        MAP_META_DATA_RUN_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                            d.get("resolution", 0.0),
-                            d.get("width", 0),
-                            d.get("height", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iIf2I, MAP_META_DATA_RUN_0, (t2, t4, t6, t8, t10)))
             pos += 20
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".origin.orientation"
-            m12 = m7.get("orientation", EMPTY)
-            if m12.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m12):
-                m12 = _submap(m12, GEOMETRY_MSGS__QUATERNION_KEYS)
+            m20 = m12.get("orientation", EMPTY)
+            if m20.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m20):
+                m20 = _submap(m20, GEOMETRY_MSGS__QUATERNION_KEYS)
             f = ""
+            if type(t14 := m13.get("x", 0.0)) is not float:
+                t14 = check_scalar("float64", t14, ".origin.position.x")
+            if type(t16 := m13.get("y", 0.0)) is not float:
+                t16 = check_scalar("float64", t16, ".origin.position.y")
+            if type(t18 := m13.get("z", 0.0)) is not float:
+                t18 = check_scalar("float64", t18, ".origin.position.z")
+            if type(t21 := m20.get("x", 0.0)) is not float:
+                t21 = check_scalar("float64", t21, ".origin.orientation.x")
+            if type(t23 := m20.get("y", 0.0)) is not float:
+                t23 = check_scalar("float64", t23, ".origin.orientation.y")
+            if type(t25 := m20.get("z", 0.0)) is not float:
+                t25 = check_scalar("float64", t25, ".origin.orientation.z")
+            if type(t27 := m20.get("w", 1.0)) is not float:
+                t27 = check_scalar("float64", t27, ".origin.orientation.w")
             try:
-                out.append(
-                    _S_7d.pack(
-                        m8.get("x", 0.0),
-                        m8.get("y", 0.0),
-                        m8.get("z", 0.0),
-                        m12.get("x", 0.0),
-                        m12.get("y", 0.0),
-                        m12.get("z", 0.0),
-                        m12.get("w", 1.0),
-                    )
-                )
+                out.append(_S_7d.pack(t14, t16, t18, t21, t23, t25, t27))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_7d,
-                        MAP_META_DATA_RUN_1,
-                        (
-                            m8.get("x", 0.0),
-                            m8.get("y", 0.0),
-                            m8.get("z", 0.0),
-                            m12.get("x", 0.0),
-                            m12.get("y", 0.0),
-                            m12.get("z", 0.0),
-                            m12.get("w", 1.0),
-                        ),
-                    )
+                    slow_pack(_S_7d, MAP_META_DATA_RUN_1, (t14, t16, t18, t21, t23, t25, t27))
                 )
             pos += 56
         except FieldError as error:
@@ -1198,17 +1176,17 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
             f = OCCUPANCY_GRID_RUN_0
-            v4, v5, v6, v7, v8 = _S_iIf2I.unpack_from(mv, pos)
+            v5, v7, v9, v11, v13 = _S_iIf2I.unpack_from(mv, pos)
             pos += 20
             pos = (pos + 7) & -8
             f = OCCUPANCY_GRID_RUN_1
-            v11, v12, v13, v15, v16, v17, v18, v21 = _S_7dI.unpack_from(mv, pos)
+            v17, v19, v21, v24, v26, v28, v30, v33 = _S_7dI.unpack_from(mv, pos)
             pos += 60
             f = ".data"
-            if v21 * 1 > lim - pos:
-                raise too_long(v21, 1, lim - pos)
-            v22 = _frombuffer(mv, _D_int8, v21, pos)
-            pos += v21 * 1
+            if v33 * 1 > lim - pos:
+                raise too_long(v33, 1, lim - pos)
+            v34 = _frombuffer(mv, _D_int8, v33, pos)
+            pos += v33 * 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -1217,30 +1195,30 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             return occupancy_grid_view(
                 v1,
                 map_meta_data_view(
-                    builtin_interfaces__time_view(v4, v5),
-                    v6,
-                    v7,
-                    v8,
+                    builtin_interfaces__time_view(v5, v7),
+                    v9,
+                    v11,
+                    v13,
                     geometry_msgs__pose_view(
-                        geometry_msgs__point_view(v11, v12, v13),
-                        geometry_msgs__quaternion_view(v15, v16, v17, v18),
+                        geometry_msgs__point_view(v17, v19, v21),
+                        geometry_msgs__quaternion_view(v24, v26, v28, v30),
                     ),
                 ),
-                v22,
+                v34,
             ), pos
         return {
             "header": v1,
             "info": {
-                "map_load_time": {"sec": v4, "nanosec": v5},
-                "resolution": v6,
-                "width": v7,
-                "height": v8,
+                "map_load_time": {"sec": v5, "nanosec": v7},
+                "resolution": v9,
+                "width": v11,
+                "height": v13,
                 "origin": {
-                    "position": {"x": v11, "y": v12, "z": v13},
-                    "orientation": {"x": v15, "y": v16, "z": v17, "w": v18},
+                    "position": {"x": v17, "y": v19, "z": v21},
+                    "orientation": {"x": v24, "y": v26, "z": v28, "w": v30},
                 },
             },
-            "data": v22.tolist(),
+            "data": v34.tolist(),
         }, pos
 
     def occupancy_grid_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1263,83 +1241,65 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.origin"
-            m9 = m2.get("origin", EMPTY)
-            if m9.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m9):
-                m9 = _submap(m9, GEOMETRY_MSGS__POSE_KEYS)
+            m14 = m2.get("origin", EMPTY)
+            if m14.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m14):
+                m14 = _submap(m14, GEOMETRY_MSGS__POSE_KEYS)
             f = ".info.origin.position"
-            m10 = m9.get("position", EMPTY)
-            if m10.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m10):
-                m10 = _submap(m10, GEOMETRY_MSGS__POINT_KEYS)
+            m15 = m14.get("position", EMPTY)
+            if m15.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m15):
+                m15 = _submap(m15, GEOMETRY_MSGS__POINT_KEYS)
             f = ""
+            if type(t4 := m3.get("sec", 0)) is not int:
+                t4 = check_scalar("int32", t4, ".info.map_load_time.sec")
+            if type(t6 := m3.get("nanosec", 0)) is not int:
+                t6 = check_scalar("uint32", t6, ".info.map_load_time.nanosec")
+            if type(t8 := m2.get("resolution", 0.0)) is not float:
+                t8 = check_scalar("float32", t8, ".info.resolution")
+            if type(t10 := m2.get("width", 0)) is not int:
+                t10 = check_scalar("uint32", t10, ".info.width")
+            if type(t12 := m2.get("height", 0)) is not int:
+                t12 = check_scalar("uint32", t12, ".info.height")
             try:
-                out.append(
-                    _S_iIf2I.pack(
-                        m3.get("sec", 0),
-                        m3.get("nanosec", 0),
-                        m2.get("resolution", 0.0),
-                        m2.get("width", 0),
-                        m2.get("height", 0),
-                    )
-                )
+                out.append(_S_iIf2I.pack(t4, t6, t8, t10, t12))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iIf2I,
-                        OCCUPANCY_GRID_RUN_0,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                            m2.get("resolution", 0.0),
-                            m2.get("width", 0),
-                            m2.get("height", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iIf2I, OCCUPANCY_GRID_RUN_0, (t4, t6, t8, t10, t12)))
             pos += 20
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.origin.orientation"
-            m14 = m9.get("orientation", EMPTY)
-            if m14.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m14):
-                m14 = _submap(m14, GEOMETRY_MSGS__QUATERNION_KEYS)
+            m22 = m14.get("orientation", EMPTY)
+            if m22.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m22):
+                m22 = _submap(m22, GEOMETRY_MSGS__QUATERNION_KEYS)
             f = ".data"
-            b19, c20 = encode_array(d.get("data", ()), _D_int8, "int8", None, False)
+            b31, c32 = encode_array(d.get("data", ()), _D_int8, "int8", None, False)
             f = ""
+            if type(t16 := m15.get("x", 0.0)) is not float:
+                t16 = check_scalar("float64", t16, ".info.origin.position.x")
+            if type(t18 := m15.get("y", 0.0)) is not float:
+                t18 = check_scalar("float64", t18, ".info.origin.position.y")
+            if type(t20 := m15.get("z", 0.0)) is not float:
+                t20 = check_scalar("float64", t20, ".info.origin.position.z")
+            if type(t23 := m22.get("x", 0.0)) is not float:
+                t23 = check_scalar("float64", t23, ".info.origin.orientation.x")
+            if type(t25 := m22.get("y", 0.0)) is not float:
+                t25 = check_scalar("float64", t25, ".info.origin.orientation.y")
+            if type(t27 := m22.get("z", 0.0)) is not float:
+                t27 = check_scalar("float64", t27, ".info.origin.orientation.z")
+            if type(t29 := m22.get("w", 1.0)) is not float:
+                t29 = check_scalar("float64", t29, ".info.origin.orientation.w")
             try:
-                out.append(
-                    _S_7dI.pack(
-                        m10.get("x", 0.0),
-                        m10.get("y", 0.0),
-                        m10.get("z", 0.0),
-                        m14.get("x", 0.0),
-                        m14.get("y", 0.0),
-                        m14.get("z", 0.0),
-                        m14.get("w", 1.0),
-                        c20,
-                    )
-                )
+                out.append(_S_7dI.pack(t16, t18, t20, t23, t25, t27, t29, c32))
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_7dI,
-                        OCCUPANCY_GRID_RUN_1,
-                        (
-                            m10.get("x", 0.0),
-                            m10.get("y", 0.0),
-                            m10.get("z", 0.0),
-                            m14.get("x", 0.0),
-                            m14.get("y", 0.0),
-                            m14.get("z", 0.0),
-                            m14.get("w", 1.0),
-                            c20,
-                        ),
+                        _S_7dI, OCCUPANCY_GRID_RUN_1, (t16, t18, t20, t23, t25, t27, t29, c32)
                     )
                 )
             pos += 60
-            out.append(b19)
-            pos += c20 * 1
+            out.append(b31)
+            pos += c32 * 1
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -1362,20 +1322,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += v3
             pos = (pos + 7) & -8
             f = ODOMETRY_RUN_1
-            v8, v9, v10, v12, v13, v14, v15 = _S_7d.unpack_from(mv, pos)
+            v9, v11, v13, v16, v18, v20, v22 = _S_7d.unpack_from(mv, pos)
             pos += 56
             f = ".pose.covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v18 = _frombuffer(mv, _D_float64, 36, pos)
+            v25 = _frombuffer(mv, _D_float64, 36, pos)
             pos += 36 * 8
             f = ODOMETRY_RUN_2
-            v22, v23, v24, v26, v27, v28 = _S_6d.unpack_from(mv, pos)
+            v30, v32, v34, v37, v39, v41 = _S_6d.unpack_from(mv, pos)
             pos += 48
             f = ".twist.covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v31 = _frombuffer(mv, _D_float64, 36, pos)
+            v44 = _frombuffer(mv, _D_float64, 36, pos)
             pos += 36 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1387,17 +1347,17 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 v4,
                 geometry_msgs__pose_with_covariance_view(
                     geometry_msgs__pose_view(
-                        geometry_msgs__point_view(v8, v9, v10),
-                        geometry_msgs__quaternion_view(v12, v13, v14, v15),
+                        geometry_msgs__point_view(v9, v11, v13),
+                        geometry_msgs__quaternion_view(v16, v18, v20, v22),
                     ),
-                    v18,
+                    v25,
                 ),
                 geometry_msgs__twist_with_covariance_view(
                     geometry_msgs__twist_view(
-                        geometry_msgs__vector3_view(v22, v23, v24),
-                        geometry_msgs__vector3_view(v26, v27, v28),
+                        geometry_msgs__vector3_view(v30, v32, v34),
+                        geometry_msgs__vector3_view(v37, v39, v41),
                     ),
-                    v31,
+                    v44,
                 ),
             ), pos
         return {
@@ -1405,17 +1365,17 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "child_frame_id": v4,
             "pose": {
                 "pose": {
-                    "position": {"x": v8, "y": v9, "z": v10},
-                    "orientation": {"x": v12, "y": v13, "z": v14, "w": v15},
+                    "position": {"x": v9, "y": v11, "z": v13},
+                    "orientation": {"x": v16, "y": v18, "z": v20, "w": v22},
                 },
-                "covariance": v18.tolist(),
+                "covariance": v25.tolist(),
             },
             "twist": {
                 "twist": {
-                    "linear": {"x": v22, "y": v23, "z": v24},
-                    "angular": {"x": v26, "y": v27, "z": v28},
+                    "linear": {"x": v30, "y": v32, "z": v34},
+                    "angular": {"x": v37, "y": v39, "z": v41},
                 },
-                "covariance": v31.tolist(),
+                "covariance": v44.tolist(),
             },
         }, pos
 
@@ -1459,98 +1419,78 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose.pose.orientation"
-            m11 = m6.get("orientation", EMPTY)
-            if m11.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m11):
-                m11 = _submap(m11, GEOMETRY_MSGS__QUATERNION_KEYS)
+            m14 = m6.get("orientation", EMPTY)
+            if m14.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m14):
+                m14 = _submap(m14, GEOMETRY_MSGS__QUATERNION_KEYS)
             f = ".pose.covariance"
-            b16, c17 = encode_array(
+            b23, c24 = encode_array(
                 m5.get("covariance", (0,) * 36), _D_float64, "float64", 36, True
             )
             f = ""
+            if type(t8 := m7.get("x", 0.0)) is not float:
+                t8 = check_scalar("float64", t8, ".pose.pose.position.x")
+            if type(t10 := m7.get("y", 0.0)) is not float:
+                t10 = check_scalar("float64", t10, ".pose.pose.position.y")
+            if type(t12 := m7.get("z", 0.0)) is not float:
+                t12 = check_scalar("float64", t12, ".pose.pose.position.z")
+            if type(t15 := m14.get("x", 0.0)) is not float:
+                t15 = check_scalar("float64", t15, ".pose.pose.orientation.x")
+            if type(t17 := m14.get("y", 0.0)) is not float:
+                t17 = check_scalar("float64", t17, ".pose.pose.orientation.y")
+            if type(t19 := m14.get("z", 0.0)) is not float:
+                t19 = check_scalar("float64", t19, ".pose.pose.orientation.z")
+            if type(t21 := m14.get("w", 1.0)) is not float:
+                t21 = check_scalar("float64", t21, ".pose.pose.orientation.w")
             try:
-                out.append(
-                    _S_7d.pack(
-                        m7.get("x", 0.0),
-                        m7.get("y", 0.0),
-                        m7.get("z", 0.0),
-                        m11.get("x", 0.0),
-                        m11.get("y", 0.0),
-                        m11.get("z", 0.0),
-                        m11.get("w", 1.0),
-                    )
-                )
+                out.append(_S_7d.pack(t8, t10, t12, t15, t17, t19, t21))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_7d,
-                        ODOMETRY_RUN_1,
-                        (
-                            m7.get("x", 0.0),
-                            m7.get("y", 0.0),
-                            m7.get("z", 0.0),
-                            m11.get("x", 0.0),
-                            m11.get("y", 0.0),
-                            m11.get("z", 0.0),
-                            m11.get("w", 1.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_7d, ODOMETRY_RUN_1, (t8, t10, t12, t15, t17, t19, t21)))
             pos += 56
-            out.append(b16)
-            pos += c17 * 8
+            out.append(b23)
+            pos += c24 * 8
             f = ".twist"
-            m19 = d.get("twist", EMPTY)
+            m26 = d.get("twist", EMPTY)
             if (
-                m19.__class__ is not dict
-                or not GEOMETRY_MSGS__TWIST_WITH_COVARIANCE_KEYS.issuperset(m19)
+                m26.__class__ is not dict
+                or not GEOMETRY_MSGS__TWIST_WITH_COVARIANCE_KEYS.issuperset(m26)
             ):
-                m19 = _submap(m19, GEOMETRY_MSGS__TWIST_WITH_COVARIANCE_KEYS)
+                m26 = _submap(m26, GEOMETRY_MSGS__TWIST_WITH_COVARIANCE_KEYS)
             f = ".twist.twist"
-            m20 = m19.get("twist", EMPTY)
-            if m20.__class__ is not dict or not GEOMETRY_MSGS__TWIST_KEYS.issuperset(m20):
-                m20 = _submap(m20, GEOMETRY_MSGS__TWIST_KEYS)
+            m27 = m26.get("twist", EMPTY)
+            if m27.__class__ is not dict or not GEOMETRY_MSGS__TWIST_KEYS.issuperset(m27):
+                m27 = _submap(m27, GEOMETRY_MSGS__TWIST_KEYS)
             f = ".twist.twist.linear"
-            m21 = m20.get("linear", EMPTY)
-            if m21.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m21):
-                m21 = _submap(m21, GEOMETRY_MSGS__VECTOR3_KEYS)
+            m28 = m27.get("linear", EMPTY)
+            if m28.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m28):
+                m28 = _submap(m28, GEOMETRY_MSGS__VECTOR3_KEYS)
             f = ".twist.twist.angular"
-            m25 = m20.get("angular", EMPTY)
-            if m25.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m25):
-                m25 = _submap(m25, GEOMETRY_MSGS__VECTOR3_KEYS)
+            m35 = m27.get("angular", EMPTY)
+            if m35.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m35):
+                m35 = _submap(m35, GEOMETRY_MSGS__VECTOR3_KEYS)
             f = ".twist.covariance"
-            b29, c30 = encode_array(
-                m19.get("covariance", (0,) * 36), _D_float64, "float64", 36, True
+            b42, c43 = encode_array(
+                m26.get("covariance", (0,) * 36), _D_float64, "float64", 36, True
             )
             f = ""
+            if type(t29 := m28.get("x", 0.0)) is not float:
+                t29 = check_scalar("float64", t29, ".twist.twist.linear.x")
+            if type(t31 := m28.get("y", 0.0)) is not float:
+                t31 = check_scalar("float64", t31, ".twist.twist.linear.y")
+            if type(t33 := m28.get("z", 0.0)) is not float:
+                t33 = check_scalar("float64", t33, ".twist.twist.linear.z")
+            if type(t36 := m35.get("x", 0.0)) is not float:
+                t36 = check_scalar("float64", t36, ".twist.twist.angular.x")
+            if type(t38 := m35.get("y", 0.0)) is not float:
+                t38 = check_scalar("float64", t38, ".twist.twist.angular.y")
+            if type(t40 := m35.get("z", 0.0)) is not float:
+                t40 = check_scalar("float64", t40, ".twist.twist.angular.z")
             try:
-                out.append(
-                    _S_6d.pack(
-                        m21.get("x", 0.0),
-                        m21.get("y", 0.0),
-                        m21.get("z", 0.0),
-                        m25.get("x", 0.0),
-                        m25.get("y", 0.0),
-                        m25.get("z", 0.0),
-                    )
-                )
+                out.append(_S_6d.pack(t29, t31, t33, t36, t38, t40))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_6d,
-                        ODOMETRY_RUN_2,
-                        (
-                            m21.get("x", 0.0),
-                            m21.get("y", 0.0),
-                            m21.get("z", 0.0),
-                            m25.get("x", 0.0),
-                            m25.get("y", 0.0),
-                            m25.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_6d, ODOMETRY_RUN_2, (t29, t31, t33, t36, t38, t40)))
             pos += 48
-            out.append(b29)
-            pos += c30 * 8
+            out.append(b42)
+            pos += c43 * 8
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -1652,25 +1592,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = GET_MAP_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = GET_MAP_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_MAP_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, get_map_request_decode, None, 1, 1)
+            v14, pos = read_messages(mv, pos, lim, _U32, get_map_request_decode, None, 1, 1)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, get_map_response_decode, None, 1, 92)
+            v15, pos = read_messages(mv, pos, lim, _U32, get_map_response_decode, None, 1, 92)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -1678,20 +1618,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return get_map_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def get_map_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1704,47 +1644,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, GET_MAP_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, GET_MAP_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        GET_MAP_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, GET_MAP_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(slow_pack(_S_q, GET_MAP_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S_q, GET_MAP_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -1769,15 +1708,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v2, pos = geometry_msgs__pose_stamped_decode(mv, pos, lim)
             pos = (pos + 3) & -4
             f = GET_PLAN_REQUEST_RUN_0
-            (v3,) = _S_f.unpack_from(mv, pos)
+            (v4,) = _S_f.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return get_plan_request_view(v1, v2, v3), pos
-        return {"start": v1, "goal": v2, "tolerance": v3}, pos
+            return get_plan_request_view(v1, v2, v4), pos
+        return {"start": v1, "goal": v2, "tolerance": v4}, pos
 
     def get_plan_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1793,10 +1732,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t3 := d.get("tolerance", 0.0)) is not float:
+                t3 = check_scalar("float32", t3, ".tolerance")
             try:
-                out.append(_S_f.pack(d.get("tolerance", 0.0)))
+                out.append(_S_f.pack(t3))
             except Exception:
-                out.append(slow_pack(_S_f, GET_PLAN_REQUEST_RUN_0, (d.get("tolerance", 0.0),)))
+                out.append(slow_pack(_S_f, GET_PLAN_REQUEST_RUN_0, (t3,)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -1834,25 +1775,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = GET_PLAN_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = GET_PLAN_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_PLAN_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, get_plan_request_decode, None, 1, 140)
+            v14, pos = read_messages(mv, pos, lim, _U32, get_plan_request_decode, None, 1, 140)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, get_plan_response_decode, None, 1, 16)
+            v15, pos = read_messages(mv, pos, lim, _U32, get_plan_response_decode, None, 1, 16)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -1860,20 +1801,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return get_plan_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def get_plan_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1886,47 +1827,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, GET_PLAN_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, GET_PLAN_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        GET_PLAN_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, GET_PLAN_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(slow_pack(_S_q, GET_PLAN_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S_q, GET_PLAN_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -1993,15 +1933,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".map"
             v1, pos = occupancy_grid_decode(mv, pos, lim)
             f = LOAD_MAP_RESPONSE_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return load_map_response_view(v1, v2), pos
-        return {"map": v1, "result": v2}, pos
+            return load_map_response_view(v1, v3), pos
+        return {"map": v1, "result": v3}, pos
 
     def load_map_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2011,10 +1951,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".map"
             pos = occupancy_grid_encode(d.get("map", EMPTY), out, pos)
             f = ""
+            if type(t2 := d.get("result", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".result")
             try:
-                out.append(_S_B.pack(d.get("result", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, LOAD_MAP_RESPONSE_RUN_0, (d.get("result", 0),)))
+                out.append(slow_pack(_S_B, LOAD_MAP_RESPONSE_RUN_0, (t2,)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -2026,25 +1968,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = LOAD_MAP_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = LOAD_MAP_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = LOAD_MAP_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, load_map_request_decode, None, 1, 4)
+            v14, pos = read_messages(mv, pos, lim, _U32, load_map_request_decode, None, 1, 4)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, load_map_response_decode, None, 1, 93)
+            v15, pos = read_messages(mv, pos, lim, _U32, load_map_response_decode, None, 1, 93)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2052,20 +1994,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return load_map_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def load_map_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2078,47 +2020,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, LOAD_MAP_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, LOAD_MAP_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        LOAD_MAP_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, LOAD_MAP_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(slow_pack(_S_q, LOAD_MAP_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S_q, LOAD_MAP_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -2186,30 +2127,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not SET_MAP_RESPONSE_KEYS.issuperset(d):
                 d = _submap(d, SET_MAP_RESPONSE_KEYS)
             f = ""
+            if type(t1 := d.get("success", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".success")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t1
-                            if (t1 := d.get("success", False)).__class__ is bool
-                            else check_bool(t1, ".success")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        SET_MAP_RESPONSE_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("success", False)).__class__ is bool
-                                else check_bool(t1, ".success")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, SET_MAP_RESPONSE_RUN_0, (t1,)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -2221,25 +2144,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = SET_MAP_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = SET_MAP_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = SET_MAP_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, set_map_request_decode, None, 1, 448)
+            v14, pos = read_messages(mv, pos, lim, _U32, set_map_request_decode, None, 1, 448)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, set_map_response_decode, None, 1, 1)
+            v15, pos = read_messages(mv, pos, lim, _U32, set_map_response_decode, None, 1, 1)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2247,20 +2170,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return set_map_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def set_map_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2273,47 +2196,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, SET_MAP_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, SET_MAP_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        SET_MAP_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, SET_MAP_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(slow_pack(_S_q, SET_MAP_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S_q, SET_MAP_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(

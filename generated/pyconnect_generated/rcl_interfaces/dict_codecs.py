@@ -105,6 +105,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -946,7 +947,7 @@ def parameter_value_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("integer_array_value", MISSING)
         if value is MISSING:
             msg._integer_array_value = array("q")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int64"):
             try:
                 msg._integer_array_value = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -960,7 +961,7 @@ def parameter_value_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("double_array_value", MISSING)
         if value is MISSING:
             msg._double_array_value = array("d")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "float64"):
             try:
                 msg._double_array_value = array("d", value)
             except (TypeError, OverflowError, ValueError):

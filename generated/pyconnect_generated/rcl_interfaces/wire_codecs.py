@@ -106,6 +106,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -115,7 +116,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -1826,15 +1827,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = FLOATING_POINT_RANGE_RUN_0
-            v1, v2, v3 = _S_3d.unpack_from(mv, pos)
+            v2, v4, v6 = _S_3d.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return floating_point_range_view(v1, v2, v3), pos
-        return {"from_value": v1, "to_value": v2, "step": v3}, pos
+            return floating_point_range_view(v2, v4, v6), pos
+        return {"from_value": v2, "to_value": v4, "step": v6}, pos
 
     def floating_point_range_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1846,22 +1847,16 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("from_value", 0.0)) is not float:
+                t1 = check_scalar("float64", t1, ".from_value")
+            if type(t3 := d.get("to_value", 0.0)) is not float:
+                t3 = check_scalar("float64", t3, ".to_value")
+            if type(t5 := d.get("step", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".step")
             try:
-                out.append(
-                    _S_3d.pack(d.get("from_value", 0.0), d.get("to_value", 0.0), d.get("step", 0.0))
-                )
+                out.append(_S_3d.pack(t1, t3, t5))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        FLOATING_POINT_RANGE_RUN_0,
-                        (
-                            d.get("from_value", 0.0),
-                            d.get("to_value", 0.0),
-                            d.get("step", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3d, FLOATING_POINT_RANGE_RUN_0, (t1, t3, t5)))
             pos += 24
         except FieldError as error:
             raise error.within(f) from None
@@ -1874,15 +1869,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = INTEGER_RANGE_RUN_0
-            v1, v2, v3 = _S_2qQ.unpack_from(mv, pos)
+            v2, v4, v6 = _S_2qQ.unpack_from(mv, pos)
             pos += 24
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return integer_range_view(v1, v2, v3), pos
-        return {"from_value": v1, "to_value": v2, "step": v3}, pos
+            return integer_range_view(v2, v4, v6), pos
+        return {"from_value": v2, "to_value": v4, "step": v6}, pos
 
     def integer_range_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1894,22 +1889,16 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("from_value", 0)) is not int:
+                t1 = check_scalar("int64", t1, ".from_value")
+            if type(t3 := d.get("to_value", 0)) is not int:
+                t3 = check_scalar("int64", t3, ".to_value")
+            if type(t5 := d.get("step", 0)) is not int:
+                t5 = check_scalar("uint64", t5, ".step")
             try:
-                out.append(
-                    _S_2qQ.pack(d.get("from_value", 0), d.get("to_value", 0), d.get("step", 0))
-                )
+                out.append(_S_2qQ.pack(t1, t3, t5))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_2qQ,
-                        INTEGER_RANGE_RUN_0,
-                        (
-                            d.get("from_value", 0),
-                            d.get("to_value", 0),
-                            d.get("step", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_2qQ, INTEGER_RANGE_RUN_0, (t1, t3, t5)))
             pos += 24
         except FieldError as error:
             raise error.within(f) from None
@@ -1952,58 +1941,58 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = LOG_RUN_0
-            v2, v3, v4, v6 = _S_iIB3xI.unpack_from(mv, pos)
+            v3, v5, v7, v9 = _S_iIB3xI.unpack_from(mv, pos)
             pos += 16
             f = ".name"
-            if v6 > lim - pos:
-                raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
-            pos += v6
-            pos = (pos + 3) & -4
-            f = LOG_RUN_1
-            (v9,) = _S_I.unpack_from(mv, pos)
-            pos += 4
-            f = ".msg"
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
             v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
             pos = (pos + 3) & -4
-            f = LOG_RUN_2
+            f = LOG_RUN_1
             (v12,) = _S_I.unpack_from(mv, pos)
             pos += 4
-            f = ".file"
+            f = ".msg"
             if v12 > lim - pos:
                 raise too_long(v12, 1, lim - pos)
             v13 = mv[pos : pos + v12 - 1].tobytes().decode()
             pos += v12
             pos = (pos + 3) & -4
-            f = LOG_RUN_3
+            f = LOG_RUN_2
             (v15,) = _S_I.unpack_from(mv, pos)
             pos += 4
-            f = ".function"
+            f = ".file"
             if v15 > lim - pos:
                 raise too_long(v15, 1, lim - pos)
             v16 = mv[pos : pos + v15 - 1].tobytes().decode()
             pos += v15
             pos = (pos + 3) & -4
+            f = LOG_RUN_3
+            (v18,) = _S_I.unpack_from(mv, pos)
+            pos += 4
+            f = ".function"
+            if v18 > lim - pos:
+                raise too_long(v18, 1, lim - pos)
+            v19 = mv[pos : pos + v18 - 1].tobytes().decode()
+            pos += v18
+            pos = (pos + 3) & -4
             f = LOG_RUN_4
-            (v17,) = _S_I.unpack_from(mv, pos)
+            (v21,) = _S_I.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return log_view(builtin_interfaces__time_view(v2, v3), v4, v7, v10, v13, v16, v17), pos
+            return log_view(builtin_interfaces__time_view(v3, v5), v7, v10, v13, v16, v19, v21), pos
         return {
-            "stamp": {"sec": v2, "nanosec": v3},
-            "level": v4,
-            "name": v7,
-            "msg": v10,
-            "file": v13,
-            "function": v16,
-            "line": v17,
+            "stamp": {"sec": v3, "nanosec": v5},
+            "level": v7,
+            "name": v10,
+            "msg": v13,
+            "file": v16,
+            "function": v19,
+            "line": v21,
         }, pos
 
     def log_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2020,46 +2009,23 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".name"
-            b5 = utf8z(d.get("name", ""), None)
+            b8 = utf8z(d.get("name", ""), None)
             f = ""
+            if type(t2 := m1.get("sec", 0)) is not int:
+                t2 = check_scalar("int32", t2, ".stamp.sec")
+            if type(t4 := m1.get("nanosec", 0)) is not int:
+                t4 = check_scalar("uint32", t4, ".stamp.nanosec")
+            if type(t6 := d.get("level", 0)) is not int:
+                t6 = check_scalar("uint8", t6, ".level")
             try:
-                out.append(
-                    _S_iIB3xI.pack(
-                        m1.get("sec", 0), m1.get("nanosec", 0), d.get("level", 0), len(b5)
-                    )
-                )
+                out.append(_S_iIB3xI.pack(t2, t4, t6, len(b8)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iIB3xI,
-                        LOG_RUN_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                            d.get("level", 0),
-                            len(b5),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iIB3xI, LOG_RUN_0, (t2, t4, t6, len(b8))))
             pos += 16
-            out.append(b5)
-            pos += len(b5)
-            f = ".msg"
-            b8 = utf8z(d.get("msg", ""), None)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_I.pack(len(b8)))
-            except Exception:
-                out.append(slow_pack(_S_I, LOG_RUN_1, (len(b8),)))
-            pos += 4
             out.append(b8)
             pos += len(b8)
-            f = ".file"
-            b11 = utf8z(d.get("file", ""), None)
+            f = ".msg"
+            b11 = utf8z(d.get("msg", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -2068,12 +2034,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             try:
                 out.append(_S_I.pack(len(b11)))
             except Exception:
-                out.append(slow_pack(_S_I, LOG_RUN_2, (len(b11),)))
+                out.append(slow_pack(_S_I, LOG_RUN_1, (len(b11),)))
             pos += 4
             out.append(b11)
             pos += len(b11)
-            f = ".function"
-            b14 = utf8z(d.get("function", ""), None)
+            f = ".file"
+            b14 = utf8z(d.get("file", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
@@ -2082,19 +2048,35 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             try:
                 out.append(_S_I.pack(len(b14)))
             except Exception:
-                out.append(slow_pack(_S_I, LOG_RUN_3, (len(b14),)))
+                out.append(slow_pack(_S_I, LOG_RUN_2, (len(b14),)))
             pos += 4
             out.append(b14)
             pos += len(b14)
+            f = ".function"
+            b17 = utf8z(d.get("function", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(d.get("line", 0)))
+                out.append(_S_I.pack(len(b17)))
             except Exception:
-                out.append(slow_pack(_S_I, LOG_RUN_4, (d.get("line", 0),)))
+                out.append(slow_pack(_S_I, LOG_RUN_3, (len(b17),)))
+            pos += 4
+            out.append(b17)
+            pos += len(b17)
+            p = -pos & 3
+            if p:
+                out.append(ZEROS[p])
+                pos += p
+            f = ""
+            if type(t20 := d.get("line", 0)) is not int:
+                t20 = check_scalar("uint32", t20, ".line")
+            try:
+                out.append(_S_I.pack(t20))
+            except Exception:
+                out.append(slow_pack(_S_I, LOG_RUN_4, (t20,)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -2116,15 +2098,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += v2
             pos = (pos + 3) & -4
             f = LOGGER_LEVEL_RUN_1
-            (v4,) = _S_I.unpack_from(mv, pos)
+            (v5,) = _S_I.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return logger_level_view(v3, v4), pos
-        return {"name": v3, "level": v4}, pos
+            return logger_level_view(v3, v5), pos
+        return {"name": v3, "level": v5}, pos
 
     def logger_level_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2150,10 +2132,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t4 := d.get("level", 0)) is not int:
+                t4 = check_scalar("uint32", t4, ".level")
             try:
-                out.append(_S_I.pack(d.get("level", 0)))
+                out.append(_S_I.pack(t4))
             except Exception:
-                out.append(slow_pack(_S_I, LOGGER_LEVEL_RUN_1, (d.get("level", 0),)))
+                out.append(slow_pack(_S_I, LOGGER_LEVEL_RUN_1, (t4,)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -2165,75 +2149,75 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = PARAMETER_VALUE_RUN_0
-            v1, v3 = _S_BT.unpack_from(mv, pos)
+            v2, v4 = _S_BT.unpack_from(mv, pos)
             pos += 2
             pos = (pos + 7) & -8
             f = PARAMETER_VALUE_RUN_1
-            v4, v5, v7 = _S_qdI.unpack_from(mv, pos)
+            v6, v8, v10 = _S_qdI.unpack_from(mv, pos)
             pos += 20
             f = ".string_value"
-            if v7 > lim - pos:
-                raise too_long(v7, 1, lim - pos)
-            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
-            pos += v7
+            if v10 > lim - pos:
+                raise too_long(v10, 1, lim - pos)
+            v11 = mv[pos : pos + v10 - 1].tobytes().decode()
+            pos += v10
             pos = (pos + 3) & -4
             f = PARAMETER_VALUE_RUN_2
-            (v11,) = _S_I.unpack_from(mv, pos)
+            (v14,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".byte_array_value"
-            if v11 * 1 > lim - pos:
-                raise too_long(v11, 1, lim - pos)
-            v12 = _frombuffer(mv, _D_uint8, v11, pos)
-            pos += v11 * 1
+            if v14 * 1 > lim - pos:
+                raise too_long(v14, 1, lim - pos)
+            v15 = _frombuffer(mv, _D_uint8, v14, pos)
+            pos += v14 * 1
             pos = (pos + 3) & -4
             f = PARAMETER_VALUE_RUN_3
-            (v15,) = _S_I.unpack_from(mv, pos)
+            (v18,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".bool_array_value"
-            if v15 * 1 > lim - pos:
-                raise too_long(v15, 1, lim - pos)
-            v16 = read_bools(mv, pos, v15)
-            pos += v15 * 1
+            if v18 * 1 > lim - pos:
+                raise too_long(v18, 1, lim - pos)
+            v19 = read_bools(mv, pos, v18)
+            pos += v18 * 1
             pos = (pos + 3) & -4
             f = PARAMETER_VALUE_RUN_4
-            (v19,) = _S_I.unpack_from(mv, pos)
+            (v22,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".integer_array_value"
-            if v19:
+            if v22:
                 pos = (pos + 7) & -8
-            if v19 * 8 > lim - pos:
-                raise too_long(v19, 8, lim - pos)
-            v20 = _frombuffer(mv, _D_int64, v19, pos)
-            pos += v19 * 8
+            if v22 * 8 > lim - pos:
+                raise too_long(v22, 8, lim - pos)
+            v23 = _frombuffer(mv, _D_int64, v22, pos)
+            pos += v22 * 8
             f = PARAMETER_VALUE_RUN_5
-            (v23,) = _S_I.unpack_from(mv, pos)
+            (v26,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".double_array_value"
-            if v23:
+            if v26:
                 pos = (pos + 7) & -8
-            if v23 * 8 > lim - pos:
-                raise too_long(v23, 8, lim - pos)
-            v24 = _frombuffer(mv, _D_float64, v23, pos)
-            pos += v23 * 8
+            if v26 * 8 > lim - pos:
+                raise too_long(v26, 8, lim - pos)
+            v27 = _frombuffer(mv, _D_float64, v26, pos)
+            pos += v26 * 8
             f = ".string_array_value"
-            v25, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
+            v28, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return parameter_value_view(v1, v3, v4, v5, v8, v12, v16, v20, v24, v25), pos
+            return parameter_value_view(v2, v4, v6, v8, v11, v15, v19, v23, v27, v28), pos
         return {
-            "type": v1,
-            "bool_value": v3,
-            "integer_value": v4,
-            "double_value": v5,
-            "string_value": v8,
-            "byte_array_value": v12.tobytes(),
-            "bool_array_value": v16,
-            "integer_array_value": v20.tolist(),
-            "double_array_value": v24.tolist(),
-            "string_array_value": v25,
+            "type": v2,
+            "bool_value": v4,
+            "integer_value": v6,
+            "double_value": v8,
+            "string_value": v11,
+            "byte_array_value": v15.tobytes(),
+            "bool_array_value": v19,
+            "integer_array_value": v23.tolist(),
+            "double_array_value": v27.tolist(),
+            "string_array_value": v28,
         }, pos
 
     def parameter_value_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2242,89 +2226,63 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not PARAMETER_VALUE_KEYS.issuperset(d):
                 d = _submap(d, PARAMETER_VALUE_KEYS)
             f = ""
+            if type(t1 := d.get("type", 0)) is not int:
+                t1 = check_scalar("uint8", t1, ".type")
+            if type(t3 := d.get("bool_value", False)) is not bool:
+                t3 = check_scalar("bool", t3, ".bool_value")
             try:
-                out.append(
-                    _S_BT.pack(
-                        d.get("type", 0),
-                        (
-                            t2
-                            if (t2 := d.get("bool_value", False)).__class__ is bool
-                            else check_bool(t2, ".bool_value")
-                        ),
-                    )
-                )
+                out.append(_S_BT.pack(t1, t3))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_BT,
-                        PARAMETER_VALUE_RUN_0,
-                        (
-                            d.get("type", 0),
-                            (
-                                t2
-                                if (t2 := d.get("bool_value", False)).__class__ is bool
-                                else check_bool(t2, ".bool_value")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_BT, PARAMETER_VALUE_RUN_0, (t1, t3)))
             pos += 2
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".string_value"
-            b6 = utf8z(d.get("string_value", ""), None)
+            b9 = utf8z(d.get("string_value", ""), None)
             f = ""
+            if type(t5 := d.get("integer_value", 0)) is not int:
+                t5 = check_scalar("int64", t5, ".integer_value")
+            if type(t7 := d.get("double_value", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".double_value")
             try:
-                out.append(
-                    _S_qdI.pack(d.get("integer_value", 0), d.get("double_value", 0.0), len(b6))
-                )
+                out.append(_S_qdI.pack(t5, t7, len(b9)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_qdI,
-                        PARAMETER_VALUE_RUN_1,
-                        (
-                            d.get("integer_value", 0),
-                            d.get("double_value", 0.0),
-                            len(b6),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_qdI, PARAMETER_VALUE_RUN_1, (t5, t7, len(b9))))
             pos += 20
-            out.append(b6)
-            pos += len(b6)
-            f = ".byte_array_value"
-            b9, c10 = encode_array(d.get("byte_array_value", ()), _D_uint8, "byte", None, False)
-            p = -pos & 3
-            if p:
-                out.append(ZEROS[p])
-                pos += p
-            f = ""
-            try:
-                out.append(_S_I.pack(c10))
-            except Exception:
-                out.append(slow_pack(_S_I, PARAMETER_VALUE_RUN_2, (c10,)))
-            pos += 4
             out.append(b9)
-            pos += c10 * 1
-            f = ".bool_array_value"
-            b13, c14 = encode_bools(d.get("bool_array_value", ()), _D_bool, "bool", None, False)
+            pos += len(b9)
+            f = ".byte_array_value"
+            b12, c13 = encode_array(d.get("byte_array_value", ()), _D_uint8, "byte", None, False)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(c14))
+                out.append(_S_I.pack(c13))
             except Exception:
-                out.append(slow_pack(_S_I, PARAMETER_VALUE_RUN_3, (c14,)))
+                out.append(slow_pack(_S_I, PARAMETER_VALUE_RUN_2, (c13,)))
             pos += 4
-            out.append(b13)
-            pos += c14 * 1
+            out.append(b12)
+            pos += c13 * 1
+            f = ".bool_array_value"
+            b16, c17 = encode_bools(d.get("bool_array_value", ()), _D_bool, "bool", None, False)
+            p = -pos & 3
+            if p:
+                out.append(ZEROS[p])
+                pos += p
+            f = ""
+            try:
+                out.append(_S_I.pack(c17))
+            except Exception:
+                out.append(slow_pack(_S_I, PARAMETER_VALUE_RUN_3, (c17,)))
+            pos += 4
+            out.append(b16)
+            pos += c17 * 1
             f = ".integer_array_value"
-            b17, c18 = encode_array(
+            b20, c21 = encode_array(
                 d.get("integer_array_value", ()), _D_int64, "int64", None, False
             )
             p = -pos & 3
@@ -2333,34 +2291,34 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(c18))
+                out.append(_S_I.pack(c21))
             except Exception:
-                out.append(slow_pack(_S_I, PARAMETER_VALUE_RUN_4, (c18,)))
+                out.append(slow_pack(_S_I, PARAMETER_VALUE_RUN_4, (c21,)))
             pos += 4
-            if c18:
+            if c21:
                 p = -pos & 7
                 if p:
                     out.append(ZEROS[p])
                     pos += p
-            out.append(b17)
-            pos += c18 * 8
+            out.append(b20)
+            pos += c21 * 8
             f = ".double_array_value"
-            b21, c22 = encode_array(
+            b24, c25 = encode_array(
                 d.get("double_array_value", ()), _D_float64, "float64", None, False
             )
             f = ""
             try:
-                out.append(_S_I.pack(c22))
+                out.append(_S_I.pack(c25))
             except Exception:
-                out.append(slow_pack(_S_I, PARAMETER_VALUE_RUN_5, (c22,)))
+                out.append(slow_pack(_S_I, PARAMETER_VALUE_RUN_5, (c25,)))
             pos += 4
-            if c22:
+            if c25:
                 p = -pos & 7
                 if p:
                     out.append(ZEROS[p])
                     pos += p
-            out.append(b21)
-            pos += c22 * 8
+            out.append(b24)
+            pos += c25 * 8
             f = ".string_array_value"
             pos = write_strings(
                 d.get("string_array_value", ()), out, pos, _U32, None, False, None, False
@@ -2433,48 +2391,48 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
             f = PARAMETER_DESCRIPTOR_RUN_1
-            (v4,) = _S_B.unpack_from(mv, pos)
+            (v5,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = PARAMETER_DESCRIPTOR_RUN_2
-            (v6,) = _S_I.unpack_from(mv, pos)
+            (v7,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".description"
-            if v6 > lim - pos:
-                raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
-            pos += v6
+            if v7 > lim - pos:
+                raise too_long(v7, 1, lim - pos)
+            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
+            pos += v7
             pos = (pos + 3) & -4
             f = PARAMETER_DESCRIPTOR_RUN_3
-            (v9,) = _S_I.unpack_from(mv, pos)
+            (v10,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".additional_constraints"
-            if v9 > lim - pos:
-                raise too_long(v9, 1, lim - pos)
-            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
-            pos += v9
+            if v10 > lim - pos:
+                raise too_long(v10, 1, lim - pos)
+            v11 = mv[pos : pos + v10 - 1].tobytes().decode()
+            pos += v10
             f = PARAMETER_DESCRIPTOR_RUN_4
-            v12, v14 = _S_2T.unpack_from(mv, pos)
+            v13, v15 = _S_2T.unpack_from(mv, pos)
             pos += 2
             f = ".floating_point_range"
-            v15, pos = read_messages(mv, pos, lim, _U32, floating_point_range_decode, None, 1, 24)
+            v16, pos = read_messages(mv, pos, lim, _U32, floating_point_range_decode, None, 1, 24)
             f = ".integer_range"
-            v16, pos = read_messages(mv, pos, lim, _U32, integer_range_decode, None, 1, 24)
+            v17, pos = read_messages(mv, pos, lim, _U32, integer_range_decode, None, 1, 24)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return parameter_descriptor_view(v3, v4, v7, v10, v12, v14, v15, v16), pos
+            return parameter_descriptor_view(v3, v5, v8, v11, v13, v15, v16, v17), pos
         return {
             "name": v3,
-            "type": v4,
-            "description": v7,
-            "additional_constraints": v10,
-            "read_only": v12,
-            "dynamic_typing": v14,
-            "floating_point_range": v15,
-            "integer_range": v16,
+            "type": v5,
+            "description": v8,
+            "additional_constraints": v11,
+            "read_only": v13,
+            "dynamic_typing": v15,
+            "floating_point_range": v16,
+            "integer_range": v17,
         }, pos
 
     def parameter_descriptor_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2497,12 +2455,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             out.append(b1)
             pos += len(b1)
             f = ".description"
-            b5 = utf8z(d.get("description", ""), None)
+            b6 = utf8z(d.get("description", ""), None)
             f = ""
+            if type(t4 := d.get("type", 0)) is not int:
+                t4 = check_scalar("uint8", t4, ".type")
             try:
-                out.append(_S_B.pack(d.get("type", 0)))
+                out.append(_S_B.pack(t4))
             except Exception:
-                out.append(slow_pack(_S_B, PARAMETER_DESCRIPTOR_RUN_1, (d.get("type", 0),)))
+                out.append(slow_pack(_S_B, PARAMETER_DESCRIPTOR_RUN_1, (t4,)))
             pos += 1
             p = -pos & 3
             if p:
@@ -2510,61 +2470,35 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b5)))
+                out.append(_S_I.pack(len(b6)))
             except Exception:
-                out.append(slow_pack(_S_I, PARAMETER_DESCRIPTOR_RUN_2, (len(b5),)))
+                out.append(slow_pack(_S_I, PARAMETER_DESCRIPTOR_RUN_2, (len(b6),)))
             pos += 4
-            out.append(b5)
-            pos += len(b5)
+            out.append(b6)
+            pos += len(b6)
             f = ".additional_constraints"
-            b8 = utf8z(d.get("additional_constraints", ""), None)
+            b9 = utf8z(d.get("additional_constraints", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b8)))
+                out.append(_S_I.pack(len(b9)))
             except Exception:
-                out.append(slow_pack(_S_I, PARAMETER_DESCRIPTOR_RUN_3, (len(b8),)))
+                out.append(slow_pack(_S_I, PARAMETER_DESCRIPTOR_RUN_3, (len(b9),)))
             pos += 4
-            out.append(b8)
-            pos += len(b8)
+            out.append(b9)
+            pos += len(b9)
             f = ""
+            if type(t12 := d.get("read_only", False)) is not bool:
+                t12 = check_scalar("bool", t12, ".read_only")
+            if type(t14 := d.get("dynamic_typing", False)) is not bool:
+                t14 = check_scalar("bool", t14, ".dynamic_typing")
             try:
-                out.append(
-                    _S_2T.pack(
-                        (
-                            t11
-                            if (t11 := d.get("read_only", False)).__class__ is bool
-                            else check_bool(t11, ".read_only")
-                        ),
-                        (
-                            t13
-                            if (t13 := d.get("dynamic_typing", False)).__class__ is bool
-                            else check_bool(t13, ".dynamic_typing")
-                        ),
-                    )
-                )
+                out.append(_S_2T.pack(t12, t14))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_2T,
-                        PARAMETER_DESCRIPTOR_RUN_4,
-                        (
-                            (
-                                t11
-                                if (t11 := d.get("read_only", False)).__class__ is bool
-                                else check_bool(t11, ".read_only")
-                            ),
-                            (
-                                t13
-                                if (t13 := d.get("dynamic_typing", False)).__class__ is bool
-                                else check_bool(t13, ".dynamic_typing")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_2T, PARAMETER_DESCRIPTOR_RUN_4, (t12, t14)))
             pos += 2
             f = ".floating_point_range"
             pos = write_messages(
@@ -2591,31 +2525,33 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = PARAMETER_EVENT_RUN_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
+            v3, v5, v7 = _S_i2I.unpack_from(mv, pos)
             pos += 12
             f = ".node"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
+            if v7 > lim - pos:
+                raise too_long(v7, 1, lim - pos)
+            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
+            pos += v7
             f = ".new_parameters"
-            v7, pos = read_messages(mv, pos, lim, _U32, parameter_decode, None, None, 46)
-            f = ".changed_parameters"
-            v8, pos = read_messages(mv, pos, lim, _U32, parameter_decode, None, None, 46)
-            f = ".deleted_parameters"
             v9, pos = read_messages(mv, pos, lim, _U32, parameter_decode, None, None, 46)
+            f = ".changed_parameters"
+            v10, pos = read_messages(mv, pos, lim, _U32, parameter_decode, None, None, 46)
+            f = ".deleted_parameters"
+            v11, pos = read_messages(mv, pos, lim, _U32, parameter_decode, None, None, 46)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return parameter_event_view(builtin_interfaces__time_view(v2, v3), v6, v7, v8, v9), pos
+            return parameter_event_view(
+                builtin_interfaces__time_view(v3, v5), v8, v9, v10, v11
+            ), pos
         return {
-            "stamp": {"sec": v2, "nanosec": v3},
-            "node": v6,
-            "new_parameters": v7,
-            "changed_parameters": v8,
-            "deleted_parameters": v9,
+            "stamp": {"sec": v3, "nanosec": v5},
+            "node": v8,
+            "new_parameters": v9,
+            "changed_parameters": v10,
+            "deleted_parameters": v11,
         }, pos
 
     def parameter_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2632,25 +2568,19 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".node"
-            b4 = utf8z(d.get("node", ""), None)
+            b6 = utf8z(d.get("node", ""), None)
             f = ""
+            if type(t2 := m1.get("sec", 0)) is not int:
+                t2 = check_scalar("int32", t2, ".stamp.sec")
+            if type(t4 := m1.get("nanosec", 0)) is not int:
+                t4 = check_scalar("uint32", t4, ".stamp.nanosec")
             try:
-                out.append(_S_i2I.pack(m1.get("sec", 0), m1.get("nanosec", 0), len(b4)))
+                out.append(_S_i2I.pack(t2, t4, len(b6)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_i2I,
-                        PARAMETER_EVENT_RUN_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                            len(b4),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_i2I, PARAMETER_EVENT_RUN_0, (t2, t4, len(b6))))
             pos += 12
-            out.append(b4)
-            pos += len(b4)
+            out.append(b6)
+            pos += len(b6)
             f = ".new_parameters"
             pos = write_messages(
                 d.get("new_parameters", ()), out, pos, _U32, parameter_encode, None, False
@@ -2789,30 +2719,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".reason"
             b3 = utf8z(d.get("reason", ""), None)
             f = ""
+            if type(t1 := d.get("successful", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".successful")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t1
-                            if (t1 := d.get("successful", False)).__class__ is bool
-                            else check_bool(t1, ".successful")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        SET_LOGGER_LEVELS_RESULT_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("successful", False)).__class__ is bool
-                                else check_bool(t1, ".successful")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, SET_LOGGER_LEVELS_RESULT_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
@@ -2863,30 +2775,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".reason"
             b3 = utf8z(d.get("reason", ""), None)
             f = ""
+            if type(t1 := d.get("successful", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".successful")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t1
-                            if (t1 := d.get("successful", False)).__class__ is bool
-                            else check_bool(t1, ".successful")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        SET_PARAMETERS_RESULT_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("successful", False)).__class__ is bool
-                                else check_bool(t1, ".successful")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, SET_PARAMETERS_RESULT_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
@@ -2964,27 +2858,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = DESCRIBE_PARAMETERS_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = DESCRIBE_PARAMETERS_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = DESCRIBE_PARAMETERS_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, describe_parameters_request_decode, None, 1, 4
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, describe_parameters_response_decode, None, 1, 4
             )
         except WireDecodeError as error:
@@ -2994,20 +2888,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return describe_parameters_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def describe_parameters_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3020,53 +2914,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, DESCRIBE_PARAMETERS_EVENT_RUN_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, DESCRIBE_PARAMETERS_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        DESCRIBE_PARAMETERS_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, DESCRIBE_PARAMETERS_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, DESCRIBE_PARAMETERS_EVENT_RUN_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, DESCRIBE_PARAMETERS_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -3140,27 +3027,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = GET_LOGGER_LEVELS_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = GET_LOGGER_LEVELS_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_LOGGER_LEVELS_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, get_logger_levels_request_decode, None, 1, 4
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, get_logger_levels_response_decode, None, 1, 4
             )
         except WireDecodeError as error:
@@ -3170,20 +3057,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return get_logger_levels_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def get_logger_levels_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3196,51 +3083,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, GET_LOGGER_LEVELS_EVENT_RUN_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, GET_LOGGER_LEVELS_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        GET_LOGGER_LEVELS_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, GET_LOGGER_LEVELS_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(_S_q, GET_LOGGER_LEVELS_EVENT_RUN_2, (m1.get("sequence_number", 0),))
-                )
+                out.append(slow_pack(_S_q, GET_LOGGER_LEVELS_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -3331,27 +3213,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = GET_PARAMETER_TYPES_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = GET_PARAMETER_TYPES_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_PARAMETER_TYPES_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, get_parameter_types_request_decode, None, 1, 4
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, get_parameter_types_response_decode, None, 1, 4
             )
         except WireDecodeError as error:
@@ -3361,20 +3243,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return get_parameter_types_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def get_parameter_types_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3387,53 +3269,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, GET_PARAMETER_TYPES_EVENT_RUN_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, GET_PARAMETER_TYPES_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        GET_PARAMETER_TYPES_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, GET_PARAMETER_TYPES_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, GET_PARAMETER_TYPES_EVENT_RUN_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, GET_PARAMETER_TYPES_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -3507,25 +3382,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = GET_PARAMETERS_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = GET_PARAMETERS_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_PARAMETERS_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, get_parameters_request_decode, None, 1, 4)
+            v14, pos = read_messages(mv, pos, lim, _U32, get_parameters_request_decode, None, 1, 4)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, get_parameters_response_decode, None, 1, 4)
+            v15, pos = read_messages(mv, pos, lim, _U32, get_parameters_response_decode, None, 1, 4)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -3533,20 +3408,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return get_parameters_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def get_parameters_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3559,49 +3434,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, GET_PARAMETERS_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, GET_PARAMETERS_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        GET_PARAMETERS_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, GET_PARAMETERS_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(_S_q, GET_PARAMETERS_EVENT_RUN_2, (m1.get("sequence_number", 0),))
-                )
+                out.append(slow_pack(_S_q, GET_PARAMETERS_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -3624,15 +3496,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
             pos = (pos + 7) & -8
             f = LIST_PARAMETERS_REQUEST_RUN_0
-            (v2,) = _S_Q.unpack_from(mv, pos)
+            (v3,) = _S_Q.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return list_parameters_request_view(v1, v2), pos
-        return {"prefixes": v1, "depth": v2}, pos
+            return list_parameters_request_view(v1, v3), pos
+        return {"prefixes": v1, "depth": v3}, pos
 
     def list_parameters_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3646,10 +3518,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t2 := d.get("depth", 0)) is not int:
+                t2 = check_scalar("uint64", t2, ".depth")
             try:
-                out.append(_S_Q.pack(d.get("depth", 0)))
+                out.append(_S_Q.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_Q, LIST_PARAMETERS_REQUEST_RUN_0, (d.get("depth", 0),)))
+                out.append(slow_pack(_S_Q, LIST_PARAMETERS_REQUEST_RUN_0, (t2,)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -3687,27 +3561,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = LIST_PARAMETERS_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = LIST_PARAMETERS_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = LIST_PARAMETERS_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, list_parameters_request_decode, None, 1, 12
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, list_parameters_response_decode, None, 1, 8
             )
         except WireDecodeError as error:
@@ -3717,20 +3591,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return list_parameters_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def list_parameters_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3743,49 +3617,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, LIST_PARAMETERS_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, LIST_PARAMETERS_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        LIST_PARAMETERS_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, LIST_PARAMETERS_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(_S_q, LIST_PARAMETERS_EVENT_RUN_2, (m1.get("sequence_number", 0),))
-                )
+                out.append(slow_pack(_S_q, LIST_PARAMETERS_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -3863,27 +3734,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = SET_LOGGER_LEVELS_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = SET_LOGGER_LEVELS_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = SET_LOGGER_LEVELS_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, set_logger_levels_request_decode, None, 1, 4
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, set_logger_levels_response_decode, None, 1, 4
             )
         except WireDecodeError as error:
@@ -3893,20 +3764,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return set_logger_levels_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def set_logger_levels_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3919,51 +3790,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, SET_LOGGER_LEVELS_EVENT_RUN_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, SET_LOGGER_LEVELS_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        SET_LOGGER_LEVELS_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, SET_LOGGER_LEVELS_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(_S_q, SET_LOGGER_LEVELS_EVENT_RUN_2, (m1.get("sequence_number", 0),))
-                )
+                out.append(slow_pack(_S_q, SET_LOGGER_LEVELS_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -4039,25 +3905,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = SET_PARAMETERS_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = SET_PARAMETERS_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = SET_PARAMETERS_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, set_parameters_request_decode, None, 1, 4)
+            v14, pos = read_messages(mv, pos, lim, _U32, set_parameters_request_decode, None, 1, 4)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, set_parameters_response_decode, None, 1, 4)
+            v15, pos = read_messages(mv, pos, lim, _U32, set_parameters_response_decode, None, 1, 4)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -4065,20 +3931,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return set_parameters_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def set_parameters_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -4091,49 +3957,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, SET_PARAMETERS_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, SET_PARAMETERS_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        SET_PARAMETERS_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, SET_PARAMETERS_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(_S_q, SET_PARAMETERS_EVENT_RUN_2, (m1.get("sequence_number", 0),))
-                )
+                out.append(slow_pack(_S_q, SET_PARAMETERS_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -4213,27 +4076,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = SET_PARAMETERS_ATOMICALLY_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = SET_PARAMETERS_ATOMICALLY_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = SET_PARAMETERS_ATOMICALLY_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, set_parameters_atomically_request_decode, None, 1, 4
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, set_parameters_atomically_response_decode, None, 1, 5
             )
         except WireDecodeError as error:
@@ -4243,20 +4106,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return set_parameters_atomically_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def set_parameters_atomically_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -4269,55 +4132,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, SET_PARAMETERS_ATOMICALLY_EVENT_RUN_0, (m1.get("event_type", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_B, SET_PARAMETERS_ATOMICALLY_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        SET_PARAMETERS_ATOMICALLY_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, SET_PARAMETERS_ATOMICALLY_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, SET_PARAMETERS_ATOMICALLY_EVENT_RUN_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, SET_PARAMETERS_ATOMICALLY_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(

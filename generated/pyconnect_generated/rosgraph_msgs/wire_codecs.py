@@ -34,6 +34,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -43,7 +44,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -105,15 +106,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = CLOCK_RUN_0
-            v2, v3 = _S_iI.unpack_from(mv, pos)
+            v3, v5 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return clock_view(builtin_interfaces__time_view(v2, v3)), pos
-        return {"clock": {"sec": v2, "nanosec": v3}}, pos
+            return clock_view(builtin_interfaces__time_view(v3, v5)), pos
+        return {"clock": {"sec": v3, "nanosec": v5}}, pos
 
     def clock_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -129,19 +130,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t2 := m1.get("sec", 0)) is not int:
+                t2 = check_scalar("int32", t2, ".clock.sec")
+            if type(t4 := m1.get("nanosec", 0)) is not int:
+                t4 = check_scalar("uint32", t4, ".clock.nanosec")
             try:
-                out.append(_S_iI.pack(m1.get("sec", 0), m1.get("nanosec", 0)))
+                out.append(_S_iI.pack(t2, t4))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        CLOCK_RUN_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, CLOCK_RUN_0, (t2, t4)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None

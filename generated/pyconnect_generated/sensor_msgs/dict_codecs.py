@@ -91,6 +91,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -407,7 +408,7 @@ def camera_info_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("d", MISSING)
         if value is MISSING:
             msg._d = array("d")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "float64"):
             try:
                 msg._d = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -417,7 +418,7 @@ def camera_info_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("k", MISSING)
         if value is MISSING:
             msg._k = np.zeros(9, dtype=np.float64)
-        elif type(value) is list and len(value) == 9:
+        elif type(value) is list and len(value) == 9 and plain_numbers(value, "float64"):
             try:
                 msg._k = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -427,7 +428,7 @@ def camera_info_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("r", MISSING)
         if value is MISSING:
             msg._r = np.zeros(9, dtype=np.float64)
-        elif type(value) is list and len(value) == 9:
+        elif type(value) is list and len(value) == 9 and plain_numbers(value, "float64"):
             try:
                 msg._r = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -437,7 +438,7 @@ def camera_info_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("p", MISSING)
         if value is MISSING:
             msg._p = np.zeros(12, dtype=np.float64)
-        elif type(value) is list and len(value) == 12:
+        elif type(value) is list and len(value) == 12 and plain_numbers(value, "float64"):
             try:
                 msg._p = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -777,7 +778,7 @@ def imu_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("orientation_covariance", MISSING)
         if value is MISSING:
             msg._orientation_covariance = np.zeros(9, dtype=np.float64)
-        elif type(value) is list and len(value) == 9:
+        elif type(value) is list and len(value) == 9 and plain_numbers(value, "float64"):
             try:
                 msg._orientation_covariance = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -797,7 +798,7 @@ def imu_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("angular_velocity_covariance", MISSING)
         if value is MISSING:
             msg._angular_velocity_covariance = np.zeros(9, dtype=np.float64)
-        elif type(value) is list and len(value) == 9:
+        elif type(value) is list and len(value) == 9 and plain_numbers(value, "float64"):
             try:
                 msg._angular_velocity_covariance = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -817,7 +818,7 @@ def imu_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("linear_acceleration_covariance", MISSING)
         if value is MISSING:
             msg._linear_acceleration_covariance = np.zeros(9, dtype=np.float64)
-        elif type(value) is list and len(value) == 9:
+        elif type(value) is list and len(value) == 9 and plain_numbers(value, "float64"):
             try:
                 msg._linear_acceleration_covariance = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -883,7 +884,7 @@ def joint_state_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("position", MISSING)
         if value is MISSING:
             msg._position = array("d")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "float64"):
             try:
                 msg._position = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -893,7 +894,7 @@ def joint_state_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("velocity", MISSING)
         if value is MISSING:
             msg._velocity = array("d")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "float64"):
             try:
                 msg._velocity = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -903,7 +904,7 @@ def joint_state_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("effort", MISSING)
         if value is MISSING:
             msg._effort = array("d")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "float64"):
             try:
                 msg._effort = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -959,7 +960,7 @@ def joy_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("buttons", MISSING)
         if value is MISSING:
             msg._buttons = array("i")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int32"):
             try:
                 msg._buttons = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -1236,7 +1237,7 @@ def magnetic_field_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("magnetic_field_covariance", MISSING)
         if value is MISSING:
             msg._magnetic_field_covariance = np.zeros(9, dtype=np.float64)
-        elif type(value) is list and len(value) == 9:
+        elif type(value) is list and len(value) == 9 and plain_numbers(value, "float64"):
             try:
                 msg._magnetic_field_covariance = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -1546,7 +1547,7 @@ def nav_sat_fix_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("position_covariance", MISSING)
         if value is MISSING:
             msg._position_covariance = np.zeros(9, dtype=np.float64)
-        elif type(value) is list and len(value) == 9:
+        elif type(value) is list and len(value) == 9 and plain_numbers(value, "float64"):
             try:
                 msg._position_covariance = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):

@@ -92,6 +92,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -101,7 +102,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -1831,63 +1832,63 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
             f = BATTERY_STATE_RUN_0
-            v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v13, v16 = _S_7f3BTI.unpack_from(mv, pos)
+            v3, v5, v7, v9, v11, v13, v15, v17, v19, v21, v23, v26 = _S_7f3BTI.unpack_from(mv, pos)
             pos += 36
             f = ".cell_voltage"
-            if v16 * 4 > lim - pos:
-                raise too_long(v16, 4, lim - pos)
-            v17 = _frombuffer(mv, _D_float32, v16, pos)
-            pos += v16 * 4
+            if v26 * 4 > lim - pos:
+                raise too_long(v26, 4, lim - pos)
+            v27 = _frombuffer(mv, _D_float32, v26, pos)
+            pos += v26 * 4
             f = BATTERY_STATE_RUN_1
-            (v20,) = _S_I.unpack_from(mv, pos)
+            (v30,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".cell_temperature"
-            if v20 * 4 > lim - pos:
-                raise too_long(v20, 4, lim - pos)
-            v21 = _frombuffer(mv, _D_float32, v20, pos)
-            pos += v20 * 4
+            if v30 * 4 > lim - pos:
+                raise too_long(v30, 4, lim - pos)
+            v31 = _frombuffer(mv, _D_float32, v30, pos)
+            pos += v30 * 4
             f = BATTERY_STATE_RUN_2
-            (v23,) = _S_I.unpack_from(mv, pos)
+            (v33,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".location"
-            if v23 > lim - pos:
-                raise too_long(v23, 1, lim - pos)
-            v24 = mv[pos : pos + v23 - 1].tobytes().decode()
-            pos += v23
+            if v33 > lim - pos:
+                raise too_long(v33, 1, lim - pos)
+            v34 = mv[pos : pos + v33 - 1].tobytes().decode()
+            pos += v33
             pos = (pos + 3) & -4
             f = BATTERY_STATE_RUN_3
-            (v26,) = _S_I.unpack_from(mv, pos)
+            (v36,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".serial_number"
-            if v26 > lim - pos:
-                raise too_long(v26, 1, lim - pos)
-            v27 = mv[pos : pos + v26 - 1].tobytes().decode()
-            pos += v26
+            if v36 > lim - pos:
+                raise too_long(v36, 1, lim - pos)
+            v37 = mv[pos : pos + v36 - 1].tobytes().decode()
+            pos += v36
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return battery_state_view(
-                v1, v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v13, v17, v21, v24, v27
+                v1, v3, v5, v7, v9, v11, v13, v15, v17, v19, v21, v23, v27, v31, v34, v37
             ), pos
         return {
             "header": v1,
-            "voltage": v2,
-            "temperature": v3,
-            "current": v4,
-            "charge": v5,
-            "capacity": v6,
-            "design_capacity": v7,
-            "percentage": v8,
-            "power_supply_status": v9,
-            "power_supply_health": v10,
-            "power_supply_technology": v11,
-            "present": v13,
-            "cell_voltage": v17.tolist(),
-            "cell_temperature": v21.tolist(),
-            "location": v24,
-            "serial_number": v27,
+            "voltage": v3,
+            "temperature": v5,
+            "current": v7,
+            "charge": v9,
+            "capacity": v11,
+            "design_capacity": v13,
+            "percentage": v15,
+            "power_supply_status": v17,
+            "power_supply_health": v19,
+            "power_supply_technology": v21,
+            "present": v23,
+            "cell_voltage": v27.tolist(),
+            "cell_temperature": v31.tolist(),
+            "location": v34,
+            "serial_number": v37,
         }, pos
 
     def battery_state_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1902,93 +1903,79 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".cell_voltage"
-            b14, c15 = encode_array(d.get("cell_voltage", ()), _D_float32, "float32", None, False)
+            b24, c25 = encode_array(d.get("cell_voltage", ()), _D_float32, "float32", None, False)
             f = ""
+            if type(t2 := d.get("voltage", 0.0)) is not float:
+                t2 = check_scalar("float32", t2, ".voltage")
+            if type(t4 := d.get("temperature", 0.0)) is not float:
+                t4 = check_scalar("float32", t4, ".temperature")
+            if type(t6 := d.get("current", 0.0)) is not float:
+                t6 = check_scalar("float32", t6, ".current")
+            if type(t8 := d.get("charge", 0.0)) is not float:
+                t8 = check_scalar("float32", t8, ".charge")
+            if type(t10 := d.get("capacity", 0.0)) is not float:
+                t10 = check_scalar("float32", t10, ".capacity")
+            if type(t12 := d.get("design_capacity", 0.0)) is not float:
+                t12 = check_scalar("float32", t12, ".design_capacity")
+            if type(t14 := d.get("percentage", 0.0)) is not float:
+                t14 = check_scalar("float32", t14, ".percentage")
+            if type(t16 := d.get("power_supply_status", 0)) is not int:
+                t16 = check_scalar("uint8", t16, ".power_supply_status")
+            if type(t18 := d.get("power_supply_health", 0)) is not int:
+                t18 = check_scalar("uint8", t18, ".power_supply_health")
+            if type(t20 := d.get("power_supply_technology", 0)) is not int:
+                t20 = check_scalar("uint8", t20, ".power_supply_technology")
+            if type(t22 := d.get("present", False)) is not bool:
+                t22 = check_scalar("bool", t22, ".present")
             try:
-                out.append(
-                    _S_7f3BTI.pack(
-                        d.get("voltage", 0.0),
-                        d.get("temperature", 0.0),
-                        d.get("current", 0.0),
-                        d.get("charge", 0.0),
-                        d.get("capacity", 0.0),
-                        d.get("design_capacity", 0.0),
-                        d.get("percentage", 0.0),
-                        d.get("power_supply_status", 0),
-                        d.get("power_supply_health", 0),
-                        d.get("power_supply_technology", 0),
-                        (
-                            t12
-                            if (t12 := d.get("present", False)).__class__ is bool
-                            else check_bool(t12, ".present")
-                        ),
-                        c15,
-                    )
-                )
+                out.append(_S_7f3BTI.pack(t2, t4, t6, t8, t10, t12, t14, t16, t18, t20, t22, c25))
             except Exception:
                 out.append(
                     slow_pack(
                         _S_7f3BTI,
                         BATTERY_STATE_RUN_0,
-                        (
-                            d.get("voltage", 0.0),
-                            d.get("temperature", 0.0),
-                            d.get("current", 0.0),
-                            d.get("charge", 0.0),
-                            d.get("capacity", 0.0),
-                            d.get("design_capacity", 0.0),
-                            d.get("percentage", 0.0),
-                            d.get("power_supply_status", 0),
-                            d.get("power_supply_health", 0),
-                            d.get("power_supply_technology", 0),
-                            (
-                                t12
-                                if (t12 := d.get("present", False)).__class__ is bool
-                                else check_bool(t12, ".present")
-                            ),
-                            c15,
-                        ),
+                        (t2, t4, t6, t8, t10, t12, t14, t16, t18, t20, t22, c25),
                     )
                 )
             pos += 36
-            out.append(b14)
-            pos += c15 * 4
+            out.append(b24)
+            pos += c25 * 4
             f = ".cell_temperature"
-            b18, c19 = encode_array(
+            b28, c29 = encode_array(
                 d.get("cell_temperature", ()), _D_float32, "float32", None, False
             )
             f = ""
             try:
-                out.append(_S_I.pack(c19))
+                out.append(_S_I.pack(c29))
             except Exception:
-                out.append(slow_pack(_S_I, BATTERY_STATE_RUN_1, (c19,)))
+                out.append(slow_pack(_S_I, BATTERY_STATE_RUN_1, (c29,)))
             pos += 4
-            out.append(b18)
-            pos += c19 * 4
+            out.append(b28)
+            pos += c29 * 4
             f = ".location"
-            b22 = utf8z(d.get("location", ""), None)
+            b32 = utf8z(d.get("location", ""), None)
             f = ""
             try:
-                out.append(_S_I.pack(len(b22)))
+                out.append(_S_I.pack(len(b32)))
             except Exception:
-                out.append(slow_pack(_S_I, BATTERY_STATE_RUN_2, (len(b22),)))
+                out.append(slow_pack(_S_I, BATTERY_STATE_RUN_2, (len(b32),)))
             pos += 4
-            out.append(b22)
-            pos += len(b22)
+            out.append(b32)
+            pos += len(b32)
             f = ".serial_number"
-            b25 = utf8z(d.get("serial_number", ""), None)
+            b35 = utf8z(d.get("serial_number", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b25)))
+                out.append(_S_I.pack(len(b35)))
             except Exception:
-                out.append(slow_pack(_S_I, BATTERY_STATE_RUN_3, (len(b25),)))
+                out.append(slow_pack(_S_I, BATTERY_STATE_RUN_3, (len(b35),)))
             pos += 4
-            out.append(b25)
-            pos += len(b25)
+            out.append(b35)
+            pos += len(b35)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2000,15 +1987,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = REGION_OF_INTEREST_RUN_0
-            v1, v2, v3, v4, v6 = _S_4IT.unpack_from(mv, pos)
+            v2, v4, v6, v8, v10 = _S_4IT.unpack_from(mv, pos)
             pos += 17
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return region_of_interest_view(v1, v2, v3, v4, v6), pos
-        return {"x_offset": v1, "y_offset": v2, "height": v3, "width": v4, "do_rectify": v6}, pos
+            return region_of_interest_view(v2, v4, v6, v8, v10), pos
+        return {"x_offset": v2, "y_offset": v4, "height": v6, "width": v8, "do_rectify": v10}, pos
 
     def region_of_interest_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2020,38 +2007,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("x_offset", 0)) is not int:
+                t1 = check_scalar("uint32", t1, ".x_offset")
+            if type(t3 := d.get("y_offset", 0)) is not int:
+                t3 = check_scalar("uint32", t3, ".y_offset")
+            if type(t5 := d.get("height", 0)) is not int:
+                t5 = check_scalar("uint32", t5, ".height")
+            if type(t7 := d.get("width", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".width")
+            if type(t9 := d.get("do_rectify", False)) is not bool:
+                t9 = check_scalar("bool", t9, ".do_rectify")
             try:
-                out.append(
-                    _S_4IT.pack(
-                        d.get("x_offset", 0),
-                        d.get("y_offset", 0),
-                        d.get("height", 0),
-                        d.get("width", 0),
-                        (
-                            t5
-                            if (t5 := d.get("do_rectify", False)).__class__ is bool
-                            else check_bool(t5, ".do_rectify")
-                        ),
-                    )
-                )
+                out.append(_S_4IT.pack(t1, t3, t5, t7, t9))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_4IT,
-                        REGION_OF_INTEREST_RUN_0,
-                        (
-                            d.get("x_offset", 0),
-                            d.get("y_offset", 0),
-                            d.get("height", 0),
-                            d.get("width", 0),
-                            (
-                                t5
-                                if (t5 := d.get("do_rectify", False)).__class__ is bool
-                                else check_bool(t5, ".do_rectify")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_4IT, REGION_OF_INTEREST_RUN_0, (t1, t3, t5, t7, t9)))
             pos += 17
         except FieldError as error:
             raise error.within(f) from None
@@ -2066,42 +2035,42 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
             f = CAMERA_INFO_RUN_0
-            v2, v3, v5 = _S_3I.unpack_from(mv, pos)
+            v3, v5, v7 = _S_3I.unpack_from(mv, pos)
             pos += 12
             f = ".distortion_model"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
+            if v7 > lim - pos:
+                raise too_long(v7, 1, lim - pos)
+            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
+            pos += v7
             pos = (pos + 3) & -4
             f = CAMERA_INFO_RUN_1
-            (v9,) = _S_I.unpack_from(mv, pos)
+            (v11,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".d"
-            if v9:
+            if v11:
                 pos = (pos + 7) & -8
-            if v9 * 8 > lim - pos:
-                raise too_long(v9, 8, lim - pos)
-            v10 = _frombuffer(mv, _D_float64, v9, pos)
-            pos += v9 * 8
+            if v11 * 8 > lim - pos:
+                raise too_long(v11, 8, lim - pos)
+            v12 = _frombuffer(mv, _D_float64, v11, pos)
+            pos += v11 * 8
             f = ".k"
             pos = (pos + 7) & -8
             if 9 * 8 > lim - pos:
                 raise too_long(9, 8, lim - pos)
-            v13 = _frombuffer(mv, _D_float64, 9, pos)
+            v15 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
             f = ".r"
             if 9 * 8 > lim - pos:
                 raise too_long(9, 8, lim - pos)
-            v16 = _frombuffer(mv, _D_float64, 9, pos)
+            v18 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
             f = ".p"
             if 12 * 8 > lim - pos:
                 raise too_long(12, 8, lim - pos)
-            v19 = _frombuffer(mv, _D_float64, 12, pos)
+            v21 = _frombuffer(mv, _D_float64, 12, pos)
             pos += 12 * 8
             f = CAMERA_INFO_RUN_2
-            v20, v21, v23, v24, v25, v26, v28 = _S_6IT.unpack_from(mv, pos)
+            v23, v25, v28, v30, v32, v34, v36 = _S_6IT.unpack_from(mv, pos)
             pos += 25
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2110,34 +2079,34 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return camera_info_view(
                 v1,
-                v2,
                 v3,
-                v6,
-                v10,
-                v13,
-                v16,
-                v19,
-                v20,
+                v5,
+                v8,
+                v12,
+                v15,
+                v18,
                 v21,
-                region_of_interest_view(v23, v24, v25, v26, v28),
+                v23,
+                v25,
+                region_of_interest_view(v28, v30, v32, v34, v36),
             ), pos
         return {
             "header": v1,
-            "height": v2,
-            "width": v3,
-            "distortion_model": v6,
-            "d": v10.tolist(),
-            "k": v13.tolist(),
-            "r": v16.tolist(),
-            "p": v19.tolist(),
-            "binning_x": v20,
-            "binning_y": v21,
+            "height": v3,
+            "width": v5,
+            "distortion_model": v8,
+            "d": v12.tolist(),
+            "k": v15.tolist(),
+            "r": v18.tolist(),
+            "p": v21.tolist(),
+            "binning_x": v23,
+            "binning_y": v25,
             "roi": {
-                "x_offset": v23,
-                "y_offset": v24,
-                "height": v25,
-                "width": v26,
-                "do_rectify": v28,
+                "x_offset": v28,
+                "y_offset": v30,
+                "height": v32,
+                "width": v34,
+                "do_rectify": v36,
             },
         }, pos
 
@@ -2153,100 +2122,78 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".distortion_model"
-            b4 = utf8z(d.get("distortion_model", ""), None)
+            b6 = utf8z(d.get("distortion_model", ""), None)
             f = ""
+            if type(t2 := d.get("height", 0)) is not int:
+                t2 = check_scalar("uint32", t2, ".height")
+            if type(t4 := d.get("width", 0)) is not int:
+                t4 = check_scalar("uint32", t4, ".width")
             try:
-                out.append(_S_3I.pack(d.get("height", 0), d.get("width", 0), len(b4)))
+                out.append(_S_3I.pack(t2, t4, len(b6)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3I,
-                        CAMERA_INFO_RUN_0,
-                        (
-                            d.get("height", 0),
-                            d.get("width", 0),
-                            len(b4),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3I, CAMERA_INFO_RUN_0, (t2, t4, len(b6))))
             pos += 12
-            out.append(b4)
-            pos += len(b4)
+            out.append(b6)
+            pos += len(b6)
             f = ".d"
-            b7, c8 = encode_array(d.get("d", ()), _D_float64, "float64", None, False)
+            b9, c10 = encode_array(d.get("d", ()), _D_float64, "float64", None, False)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(c8))
+                out.append(_S_I.pack(c10))
             except Exception:
-                out.append(slow_pack(_S_I, CAMERA_INFO_RUN_1, (c8,)))
+                out.append(slow_pack(_S_I, CAMERA_INFO_RUN_1, (c10,)))
             pos += 4
-            if c8:
+            if c10:
                 p = -pos & 7
                 if p:
                     out.append(ZEROS[p])
                     pos += p
-            out.append(b7)
-            pos += c8 * 8
+            out.append(b9)
+            pos += c10 * 8
             f = ".k"
-            b11, c12 = encode_array(d.get("k", (0,) * 9), _D_float64, "float64", 9, True)
+            b13, c14 = encode_array(d.get("k", (0,) * 9), _D_float64, "float64", 9, True)
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
-            out.append(b11)
-            pos += c12 * 8
+            out.append(b13)
+            pos += c14 * 8
             f = ".r"
-            b14, c15 = encode_array(d.get("r", (0,) * 9), _D_float64, "float64", 9, True)
-            out.append(b14)
-            pos += c15 * 8
+            b16, c17 = encode_array(d.get("r", (0,) * 9), _D_float64, "float64", 9, True)
+            out.append(b16)
+            pos += c17 * 8
             f = ".p"
-            b17, c18 = encode_array(d.get("p", (0,) * 12), _D_float64, "float64", 12, True)
-            out.append(b17)
-            pos += c18 * 8
+            b19, c20 = encode_array(d.get("p", (0,) * 12), _D_float64, "float64", 12, True)
+            out.append(b19)
+            pos += c20 * 8
             f = ".roi"
-            m22 = d.get("roi", EMPTY)
-            if m22.__class__ is not dict or not REGION_OF_INTEREST_KEYS.issuperset(m22):
-                m22 = _submap(m22, REGION_OF_INTEREST_KEYS)
+            m26 = d.get("roi", EMPTY)
+            if m26.__class__ is not dict or not REGION_OF_INTEREST_KEYS.issuperset(m26):
+                m26 = _submap(m26, REGION_OF_INTEREST_KEYS)
             f = ""
+            if type(t22 := d.get("binning_x", 0)) is not int:
+                t22 = check_scalar("uint32", t22, ".binning_x")
+            if type(t24 := d.get("binning_y", 0)) is not int:
+                t24 = check_scalar("uint32", t24, ".binning_y")
+            if type(t27 := m26.get("x_offset", 0)) is not int:
+                t27 = check_scalar("uint32", t27, ".roi.x_offset")
+            if type(t29 := m26.get("y_offset", 0)) is not int:
+                t29 = check_scalar("uint32", t29, ".roi.y_offset")
+            if type(t31 := m26.get("height", 0)) is not int:
+                t31 = check_scalar("uint32", t31, ".roi.height")
+            if type(t33 := m26.get("width", 0)) is not int:
+                t33 = check_scalar("uint32", t33, ".roi.width")
+            if type(t35 := m26.get("do_rectify", False)) is not bool:
+                t35 = check_scalar("bool", t35, ".roi.do_rectify")
             try:
-                out.append(
-                    _S_6IT.pack(
-                        d.get("binning_x", 0),
-                        d.get("binning_y", 0),
-                        m22.get("x_offset", 0),
-                        m22.get("y_offset", 0),
-                        m22.get("height", 0),
-                        m22.get("width", 0),
-                        (
-                            t27
-                            if (t27 := m22.get("do_rectify", False)).__class__ is bool
-                            else check_bool(t27, ".roi.do_rectify")
-                        ),
-                    )
-                )
+                out.append(_S_6IT.pack(t22, t24, t27, t29, t31, t33, t35))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_6IT,
-                        CAMERA_INFO_RUN_2,
-                        (
-                            d.get("binning_x", 0),
-                            d.get("binning_y", 0),
-                            m22.get("x_offset", 0),
-                            m22.get("y_offset", 0),
-                            m22.get("height", 0),
-                            m22.get("width", 0),
-                            (
-                                t27
-                                if (t27 := m22.get("do_rectify", False)).__class__ is bool
-                                else check_bool(t27, ".roi.do_rectify")
-                            ),
-                        ),
-                    )
+                    slow_pack(_S_6IT, CAMERA_INFO_RUN_2, (t22, t24, t27, t29, t31, t33, t35))
                 )
             pos += 25
         except FieldError as error:
@@ -2402,15 +2349,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = FLUID_PRESSURE_RUN_0
-            v2, v3 = _S_2d.unpack_from(mv, pos)
+            v3, v5 = _S_2d.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return fluid_pressure_view(v1, v2, v3), pos
-        return {"header": v1, "fluid_pressure": v2, "variance": v3}, pos
+            return fluid_pressure_view(v1, v3, v5), pos
+        return {"header": v1, "fluid_pressure": v3, "variance": v5}, pos
 
     def fluid_pressure_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2424,19 +2371,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t2 := d.get("fluid_pressure", 0.0)) is not float:
+                t2 = check_scalar("float64", t2, ".fluid_pressure")
+            if type(t4 := d.get("variance", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".variance")
             try:
-                out.append(_S_2d.pack(d.get("fluid_pressure", 0.0), d.get("variance", 0.0)))
+                out.append(_S_2d.pack(t2, t4))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_2d,
-                        FLUID_PRESSURE_RUN_0,
-                        (
-                            d.get("fluid_pressure", 0.0),
-                            d.get("variance", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_2d, FLUID_PRESSURE_RUN_0, (t2, t4)))
             pos += 16
         except FieldError as error:
             raise error.within(f) from None
@@ -2451,15 +2393,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = ILLUMINANCE_RUN_0
-            v2, v3 = _S_2d.unpack_from(mv, pos)
+            v3, v5 = _S_2d.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return illuminance_view(v1, v2, v3), pos
-        return {"header": v1, "illuminance": v2, "variance": v3}, pos
+            return illuminance_view(v1, v3, v5), pos
+        return {"header": v1, "illuminance": v3, "variance": v5}, pos
 
     def illuminance_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2473,19 +2415,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t2 := d.get("illuminance", 0.0)) is not float:
+                t2 = check_scalar("float64", t2, ".illuminance")
+            if type(t4 := d.get("variance", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".variance")
             try:
-                out.append(_S_2d.pack(d.get("illuminance", 0.0), d.get("variance", 0.0)))
+                out.append(_S_2d.pack(t2, t4))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_2d,
-                        ILLUMINANCE_RUN_0,
-                        (
-                            d.get("illuminance", 0.0),
-                            d.get("variance", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_2d, ILLUMINANCE_RUN_0, (t2, t4)))
             pos += 16
         except FieldError as error:
             raise error.within(f) from None
@@ -2500,39 +2437,39 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
             f = IMAGE_RUN_0
-            v2, v3, v5 = _S_3I.unpack_from(mv, pos)
+            v3, v5, v7 = _S_3I.unpack_from(mv, pos)
             pos += 12
             f = ".encoding"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
+            if v7 > lim - pos:
+                raise too_long(v7, 1, lim - pos)
+            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
+            pos += v7
             f = IMAGE_RUN_1
-            (v7,) = _S_B.unpack_from(mv, pos)
+            (v10,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = IMAGE_RUN_2
-            v8, v11 = _S_2I.unpack_from(mv, pos)
+            v12, v15 = _S_2I.unpack_from(mv, pos)
             pos += 8
             f = ".data"
-            if v11 * 1 > lim - pos:
-                raise too_long(v11, 1, lim - pos)
-            v12 = _frombuffer(mv, _D_uint8, v11, pos)
-            pos += v11 * 1
+            if v15 * 1 > lim - pos:
+                raise too_long(v15, 1, lim - pos)
+            v16 = _frombuffer(mv, _D_uint8, v15, pos)
+            pos += v15 * 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return image_view(v1, v2, v3, v6, v7, v8, v12), pos
+            return image_view(v1, v3, v5, v8, v10, v12, v16), pos
         return {
             "header": v1,
-            "height": v2,
-            "width": v3,
-            "encoding": v6,
-            "is_bigendian": v7,
-            "step": v8,
-            "data": v12.tobytes(),
+            "height": v3,
+            "width": v5,
+            "encoding": v8,
+            "is_bigendian": v10,
+            "step": v12,
+            "data": v16.tobytes(),
         }, pos
 
     def image_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2547,54 +2484,43 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".encoding"
-            b4 = utf8z(d.get("encoding", ""), None)
+            b6 = utf8z(d.get("encoding", ""), None)
             f = ""
+            if type(t2 := d.get("height", 0)) is not int:
+                t2 = check_scalar("uint32", t2, ".height")
+            if type(t4 := d.get("width", 0)) is not int:
+                t4 = check_scalar("uint32", t4, ".width")
             try:
-                out.append(_S_3I.pack(d.get("height", 0), d.get("width", 0), len(b4)))
+                out.append(_S_3I.pack(t2, t4, len(b6)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3I,
-                        IMAGE_RUN_0,
-                        (
-                            d.get("height", 0),
-                            d.get("width", 0),
-                            len(b4),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3I, IMAGE_RUN_0, (t2, t4, len(b6))))
             pos += 12
-            out.append(b4)
-            pos += len(b4)
+            out.append(b6)
+            pos += len(b6)
             f = ""
+            if type(t9 := d.get("is_bigendian", 0)) is not int:
+                t9 = check_scalar("uint8", t9, ".is_bigendian")
             try:
-                out.append(_S_B.pack(d.get("is_bigendian", 0)))
+                out.append(_S_B.pack(t9))
             except Exception:
-                out.append(slow_pack(_S_B, IMAGE_RUN_1, (d.get("is_bigendian", 0),)))
+                out.append(slow_pack(_S_B, IMAGE_RUN_1, (t9,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".data"
-            b9, c10 = encode_array(d.get("data", ()), _D_uint8, "uint8", None, False)
+            b13, c14 = encode_array(d.get("data", ()), _D_uint8, "uint8", None, False)
             f = ""
+            if type(t11 := d.get("step", 0)) is not int:
+                t11 = check_scalar("uint32", t11, ".step")
             try:
-                out.append(_S_2I.pack(d.get("step", 0), c10))
+                out.append(_S_2I.pack(t11, c14))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_2I,
-                        IMAGE_RUN_2,
-                        (
-                            d.get("step", 0),
-                            c10,
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_2I, IMAGE_RUN_2, (t11, c14)))
             pos += 8
-            out.append(b9)
-            pos += c10 * 1
+            out.append(b13)
+            pos += c14 * 1
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2608,28 +2534,28 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = IMU_RUN_0
-            v3, v4, v5, v6 = _S_4d.unpack_from(mv, pos)
+            v4, v6, v8, v10 = _S_4d.unpack_from(mv, pos)
             pos += 32
             f = ".orientation_covariance"
             if 9 * 8 > lim - pos:
                 raise too_long(9, 8, lim - pos)
-            v9 = _frombuffer(mv, _D_float64, 9, pos)
+            v13 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
             f = IMU_RUN_1
-            v11, v12, v13 = _S_3d.unpack_from(mv, pos)
+            v16, v18, v20 = _S_3d.unpack_from(mv, pos)
             pos += 24
             f = ".angular_velocity_covariance"
             if 9 * 8 > lim - pos:
                 raise too_long(9, 8, lim - pos)
-            v16 = _frombuffer(mv, _D_float64, 9, pos)
+            v23 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
             f = IMU_RUN_2
-            v18, v19, v20 = _S_3d.unpack_from(mv, pos)
+            v26, v28, v30 = _S_3d.unpack_from(mv, pos)
             pos += 24
             f = ".linear_acceleration_covariance"
             if 9 * 8 > lim - pos:
                 raise too_long(9, 8, lim - pos)
-            v23 = _frombuffer(mv, _D_float64, 9, pos)
+            v33 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2638,21 +2564,21 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return imu_view(
                 v1,
-                geometry_msgs__quaternion_view(v3, v4, v5, v6),
-                v9,
-                geometry_msgs__vector3_view(v11, v12, v13),
-                v16,
-                geometry_msgs__vector3_view(v18, v19, v20),
+                geometry_msgs__quaternion_view(v4, v6, v8, v10),
+                v13,
+                geometry_msgs__vector3_view(v16, v18, v20),
                 v23,
+                geometry_msgs__vector3_view(v26, v28, v30),
+                v33,
             ), pos
         return {
             "header": v1,
-            "orientation": {"x": v3, "y": v4, "z": v5, "w": v6},
-            "orientation_covariance": v9.tolist(),
-            "angular_velocity": {"x": v11, "y": v12, "z": v13},
-            "angular_velocity_covariance": v16.tolist(),
-            "linear_acceleration": {"x": v18, "y": v19, "z": v20},
-            "linear_acceleration_covariance": v23.tolist(),
+            "orientation": {"x": v4, "y": v6, "z": v8, "w": v10},
+            "orientation_covariance": v13.tolist(),
+            "angular_velocity": {"x": v16, "y": v18, "z": v20},
+            "angular_velocity_covariance": v23.tolist(),
+            "linear_acceleration": {"x": v26, "y": v28, "z": v30},
+            "linear_acceleration_covariance": v33.tolist(),
         }, pos
 
     def imu_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2671,84 +2597,69 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".orientation_covariance"
-            b7, c8 = encode_array(
+            b11, c12 = encode_array(
                 d.get("orientation_covariance", (0,) * 9), _D_float64, "float64", 9, True
             )
             f = ""
+            if type(t3 := m2.get("x", 0.0)) is not float:
+                t3 = check_scalar("float64", t3, ".orientation.x")
+            if type(t5 := m2.get("y", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".orientation.y")
+            if type(t7 := m2.get("z", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".orientation.z")
+            if type(t9 := m2.get("w", 1.0)) is not float:
+                t9 = check_scalar("float64", t9, ".orientation.w")
             try:
-                out.append(
-                    _S_4d.pack(
-                        m2.get("x", 0.0), m2.get("y", 0.0), m2.get("z", 0.0), m2.get("w", 1.0)
-                    )
-                )
+                out.append(_S_4d.pack(t3, t5, t7, t9))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_4d,
-                        IMU_RUN_0,
-                        (
-                            m2.get("x", 0.0),
-                            m2.get("y", 0.0),
-                            m2.get("z", 0.0),
-                            m2.get("w", 1.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_4d, IMU_RUN_0, (t3, t5, t7, t9)))
             pos += 32
-            out.append(b7)
-            pos += c8 * 8
+            out.append(b11)
+            pos += c12 * 8
             f = ".angular_velocity"
-            m10 = d.get("angular_velocity", EMPTY)
-            if m10.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m10):
-                m10 = _submap(m10, GEOMETRY_MSGS__VECTOR3_KEYS)
+            m14 = d.get("angular_velocity", EMPTY)
+            if m14.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m14):
+                m14 = _submap(m14, GEOMETRY_MSGS__VECTOR3_KEYS)
             f = ".angular_velocity_covariance"
-            b14, c15 = encode_array(
+            b21, c22 = encode_array(
                 d.get("angular_velocity_covariance", (0,) * 9), _D_float64, "float64", 9, True
             )
             f = ""
+            if type(t15 := m14.get("x", 0.0)) is not float:
+                t15 = check_scalar("float64", t15, ".angular_velocity.x")
+            if type(t17 := m14.get("y", 0.0)) is not float:
+                t17 = check_scalar("float64", t17, ".angular_velocity.y")
+            if type(t19 := m14.get("z", 0.0)) is not float:
+                t19 = check_scalar("float64", t19, ".angular_velocity.z")
             try:
-                out.append(_S_3d.pack(m10.get("x", 0.0), m10.get("y", 0.0), m10.get("z", 0.0)))
+                out.append(_S_3d.pack(t15, t17, t19))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        IMU_RUN_1,
-                        (
-                            m10.get("x", 0.0),
-                            m10.get("y", 0.0),
-                            m10.get("z", 0.0),
-                        ),
-                    )
-                )
-            pos += 24
-            out.append(b14)
-            pos += c15 * 8
-            f = ".linear_acceleration"
-            m17 = d.get("linear_acceleration", EMPTY)
-            if m17.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m17):
-                m17 = _submap(m17, GEOMETRY_MSGS__VECTOR3_KEYS)
-            f = ".linear_acceleration_covariance"
-            b21, c22 = encode_array(
-                d.get("linear_acceleration_covariance", (0,) * 9), _D_float64, "float64", 9, True
-            )
-            f = ""
-            try:
-                out.append(_S_3d.pack(m17.get("x", 0.0), m17.get("y", 0.0), m17.get("z", 0.0)))
-            except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        IMU_RUN_2,
-                        (
-                            m17.get("x", 0.0),
-                            m17.get("y", 0.0),
-                            m17.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3d, IMU_RUN_1, (t15, t17, t19)))
             pos += 24
             out.append(b21)
             pos += c22 * 8
+            f = ".linear_acceleration"
+            m24 = d.get("linear_acceleration", EMPTY)
+            if m24.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m24):
+                m24 = _submap(m24, GEOMETRY_MSGS__VECTOR3_KEYS)
+            f = ".linear_acceleration_covariance"
+            b31, c32 = encode_array(
+                d.get("linear_acceleration_covariance", (0,) * 9), _D_float64, "float64", 9, True
+            )
+            f = ""
+            if type(t25 := m24.get("x", 0.0)) is not float:
+                t25 = check_scalar("float64", t25, ".linear_acceleration.x")
+            if type(t27 := m24.get("y", 0.0)) is not float:
+                t27 = check_scalar("float64", t27, ".linear_acceleration.y")
+            if type(t29 := m24.get("z", 0.0)) is not float:
+                t29 = check_scalar("float64", t29, ".linear_acceleration.z")
+            try:
+                out.append(_S_3d.pack(t25, t27, t29))
+            except Exception:
+                out.append(slow_pack(_S_3d, IMU_RUN_2, (t25, t27, t29)))
+            pos += 24
+            out.append(b31)
+            pos += c32 * 8
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2942,19 +2853,19 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = JOY_FEEDBACK_RUN_0
-            v1, v2 = _S_2B.unpack_from(mv, pos)
+            v2, v4 = _S_2B.unpack_from(mv, pos)
             pos += 2
             pos = (pos + 3) & -4
             f = JOY_FEEDBACK_RUN_1
-            (v3,) = _S_f.unpack_from(mv, pos)
+            (v6,) = _S_f.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return joy_feedback_view(v1, v2, v3), pos
-        return {"type": v1, "id": v2, "intensity": v3}, pos
+            return joy_feedback_view(v2, v4, v6), pos
+        return {"type": v2, "id": v4, "intensity": v6}, pos
 
     def joy_feedback_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2962,29 +2873,26 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not JOY_FEEDBACK_KEYS.issuperset(d):
                 d = _submap(d, JOY_FEEDBACK_KEYS)
             f = ""
+            if type(t1 := d.get("type", 0)) is not int:
+                t1 = check_scalar("uint8", t1, ".type")
+            if type(t3 := d.get("id", 0)) is not int:
+                t3 = check_scalar("uint8", t3, ".id")
             try:
-                out.append(_S_2B.pack(d.get("type", 0), d.get("id", 0)))
+                out.append(_S_2B.pack(t1, t3))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_2B,
-                        JOY_FEEDBACK_RUN_0,
-                        (
-                            d.get("type", 0),
-                            d.get("id", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_2B, JOY_FEEDBACK_RUN_0, (t1, t3)))
             pos += 2
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t5 := d.get("intensity", 0.0)) is not float:
+                t5 = check_scalar("float32", t5, ".intensity")
             try:
-                out.append(_S_f.pack(d.get("intensity", 0.0)))
+                out.append(_S_f.pack(t5))
             except Exception:
-                out.append(slow_pack(_S_f, JOY_FEEDBACK_RUN_1, (d.get("intensity", 0.0),)))
+                out.append(slow_pack(_S_f, JOY_FEEDBACK_RUN_1, (t5,)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -3072,38 +2980,38 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
             f = LASER_SCAN_RUN_0
-            v2, v3, v4, v5, v6, v7, v8, v11 = _S_7fI.unpack_from(mv, pos)
+            v3, v5, v7, v9, v11, v13, v15, v18 = _S_7fI.unpack_from(mv, pos)
             pos += 32
             f = ".ranges"
-            if v11 * 4 > lim - pos:
-                raise too_long(v11, 4, lim - pos)
-            v12 = _frombuffer(mv, _D_float32, v11, pos)
-            pos += v11 * 4
+            if v18 * 4 > lim - pos:
+                raise too_long(v18, 4, lim - pos)
+            v19 = _frombuffer(mv, _D_float32, v18, pos)
+            pos += v18 * 4
             f = LASER_SCAN_RUN_1
-            (v15,) = _S_I.unpack_from(mv, pos)
+            (v22,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".intensities"
-            if v15 * 4 > lim - pos:
-                raise too_long(v15, 4, lim - pos)
-            v16 = _frombuffer(mv, _D_float32, v15, pos)
-            pos += v15 * 4
+            if v22 * 4 > lim - pos:
+                raise too_long(v22, 4, lim - pos)
+            v23 = _frombuffer(mv, _D_float32, v22, pos)
+            pos += v22 * 4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return laser_scan_view(v1, v2, v3, v4, v5, v6, v7, v8, v12, v16), pos
+            return laser_scan_view(v1, v3, v5, v7, v9, v11, v13, v15, v19, v23), pos
         return {
             "header": v1,
-            "angle_min": v2,
-            "angle_max": v3,
-            "angle_increment": v4,
-            "time_increment": v5,
-            "scan_time": v6,
-            "range_min": v7,
-            "range_max": v8,
-            "ranges": v12.tolist(),
-            "intensities": v16.tolist(),
+            "angle_min": v3,
+            "angle_max": v5,
+            "angle_increment": v7,
+            "time_increment": v9,
+            "scan_time": v11,
+            "range_min": v13,
+            "range_max": v15,
+            "ranges": v19.tolist(),
+            "intensities": v23.tolist(),
         }, pos
 
     def laser_scan_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3118,51 +3026,41 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".ranges"
-            b9, c10 = encode_array(d.get("ranges", ()), _D_float32, "float32", None, False)
+            b16, c17 = encode_array(d.get("ranges", ()), _D_float32, "float32", None, False)
             f = ""
+            if type(t2 := d.get("angle_min", 0.0)) is not float:
+                t2 = check_scalar("float32", t2, ".angle_min")
+            if type(t4 := d.get("angle_max", 0.0)) is not float:
+                t4 = check_scalar("float32", t4, ".angle_max")
+            if type(t6 := d.get("angle_increment", 0.0)) is not float:
+                t6 = check_scalar("float32", t6, ".angle_increment")
+            if type(t8 := d.get("time_increment", 0.0)) is not float:
+                t8 = check_scalar("float32", t8, ".time_increment")
+            if type(t10 := d.get("scan_time", 0.0)) is not float:
+                t10 = check_scalar("float32", t10, ".scan_time")
+            if type(t12 := d.get("range_min", 0.0)) is not float:
+                t12 = check_scalar("float32", t12, ".range_min")
+            if type(t14 := d.get("range_max", 0.0)) is not float:
+                t14 = check_scalar("float32", t14, ".range_max")
             try:
-                out.append(
-                    _S_7fI.pack(
-                        d.get("angle_min", 0.0),
-                        d.get("angle_max", 0.0),
-                        d.get("angle_increment", 0.0),
-                        d.get("time_increment", 0.0),
-                        d.get("scan_time", 0.0),
-                        d.get("range_min", 0.0),
-                        d.get("range_max", 0.0),
-                        c10,
-                    )
-                )
+                out.append(_S_7fI.pack(t2, t4, t6, t8, t10, t12, t14, c17))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_7fI,
-                        LASER_SCAN_RUN_0,
-                        (
-                            d.get("angle_min", 0.0),
-                            d.get("angle_max", 0.0),
-                            d.get("angle_increment", 0.0),
-                            d.get("time_increment", 0.0),
-                            d.get("scan_time", 0.0),
-                            d.get("range_min", 0.0),
-                            d.get("range_max", 0.0),
-                            c10,
-                        ),
-                    )
+                    slow_pack(_S_7fI, LASER_SCAN_RUN_0, (t2, t4, t6, t8, t10, t12, t14, c17))
                 )
             pos += 32
-            out.append(b9)
-            pos += c10 * 4
+            out.append(b16)
+            pos += c17 * 4
             f = ".intensities"
-            b13, c14 = encode_array(d.get("intensities", ()), _D_float32, "float32", None, False)
+            b20, c21 = encode_array(d.get("intensities", ()), _D_float32, "float32", None, False)
             f = ""
             try:
-                out.append(_S_I.pack(c14))
+                out.append(_S_I.pack(c21))
             except Exception:
-                out.append(slow_pack(_S_I, LASER_SCAN_RUN_1, (c14,)))
+                out.append(slow_pack(_S_I, LASER_SCAN_RUN_1, (c21,)))
             pos += 4
-            out.append(b13)
-            pos += c14 * 4
+            out.append(b20)
+            pos += c21 * 4
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -3176,23 +3074,23 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = MAGNETIC_FIELD_RUN_0
-            v3, v4, v5 = _S_3d.unpack_from(mv, pos)
+            v4, v6, v8 = _S_3d.unpack_from(mv, pos)
             pos += 24
             f = ".magnetic_field_covariance"
             if 9 * 8 > lim - pos:
                 raise too_long(9, 8, lim - pos)
-            v8 = _frombuffer(mv, _D_float64, 9, pos)
+            v11 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return magnetic_field_view(v1, geometry_msgs__vector3_view(v3, v4, v5), v8), pos
+            return magnetic_field_view(v1, geometry_msgs__vector3_view(v4, v6, v8), v11), pos
         return {
             "header": v1,
-            "magnetic_field": {"x": v3, "y": v4, "z": v5},
-            "magnetic_field_covariance": v8.tolist(),
+            "magnetic_field": {"x": v4, "y": v6, "z": v8},
+            "magnetic_field_covariance": v11.tolist(),
         }, pos
 
     def magnetic_field_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3211,27 +3109,23 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".magnetic_field_covariance"
-            b6, c7 = encode_array(
+            b9, c10 = encode_array(
                 d.get("magnetic_field_covariance", (0,) * 9), _D_float64, "float64", 9, True
             )
             f = ""
+            if type(t3 := m2.get("x", 0.0)) is not float:
+                t3 = check_scalar("float64", t3, ".magnetic_field.x")
+            if type(t5 := m2.get("y", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".magnetic_field.y")
+            if type(t7 := m2.get("z", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".magnetic_field.z")
             try:
-                out.append(_S_3d.pack(m2.get("x", 0.0), m2.get("y", 0.0), m2.get("z", 0.0)))
+                out.append(_S_3d.pack(t3, t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        MAGNETIC_FIELD_RUN_0,
-                        (
-                            m2.get("x", 0.0),
-                            m2.get("y", 0.0),
-                            m2.get("z", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3d, MAGNETIC_FIELD_RUN_0, (t3, t5, t7)))
             pos += 24
-            out.append(b6)
-            pos += c7 * 8
+            out.append(b9)
+            pos += c10 * 8
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -3303,29 +3197,29 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
             f = MULTI_ECHO_LASER_SCAN_RUN_0
-            v2, v3, v4, v5, v6, v7, v8 = _S_7f.unpack_from(mv, pos)
+            v3, v5, v7, v9, v11, v13, v15 = _S_7f.unpack_from(mv, pos)
             pos += 28
             f = ".ranges"
-            v9, pos = read_messages(mv, pos, lim, _U32, laser_echo_decode, None, None, 4)
+            v16, pos = read_messages(mv, pos, lim, _U32, laser_echo_decode, None, None, 4)
             f = ".intensities"
-            v10, pos = read_messages(mv, pos, lim, _U32, laser_echo_decode, None, None, 4)
+            v17, pos = read_messages(mv, pos, lim, _U32, laser_echo_decode, None, None, 4)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return multi_echo_laser_scan_view(v1, v2, v3, v4, v5, v6, v7, v8, v9, v10), pos
+            return multi_echo_laser_scan_view(v1, v3, v5, v7, v9, v11, v13, v15, v16, v17), pos
         return {
             "header": v1,
-            "angle_min": v2,
-            "angle_max": v3,
-            "angle_increment": v4,
-            "time_increment": v5,
-            "scan_time": v6,
-            "range_min": v7,
-            "range_max": v8,
-            "ranges": v9,
-            "intensities": v10,
+            "angle_min": v3,
+            "angle_max": v5,
+            "angle_increment": v7,
+            "time_increment": v9,
+            "scan_time": v11,
+            "range_min": v13,
+            "range_max": v15,
+            "ranges": v16,
+            "intensities": v17,
         }, pos
 
     def multi_echo_laser_scan_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3340,33 +3234,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t2 := d.get("angle_min", 0.0)) is not float:
+                t2 = check_scalar("float32", t2, ".angle_min")
+            if type(t4 := d.get("angle_max", 0.0)) is not float:
+                t4 = check_scalar("float32", t4, ".angle_max")
+            if type(t6 := d.get("angle_increment", 0.0)) is not float:
+                t6 = check_scalar("float32", t6, ".angle_increment")
+            if type(t8 := d.get("time_increment", 0.0)) is not float:
+                t8 = check_scalar("float32", t8, ".time_increment")
+            if type(t10 := d.get("scan_time", 0.0)) is not float:
+                t10 = check_scalar("float32", t10, ".scan_time")
+            if type(t12 := d.get("range_min", 0.0)) is not float:
+                t12 = check_scalar("float32", t12, ".range_min")
+            if type(t14 := d.get("range_max", 0.0)) is not float:
+                t14 = check_scalar("float32", t14, ".range_max")
             try:
-                out.append(
-                    _S_7f.pack(
-                        d.get("angle_min", 0.0),
-                        d.get("angle_max", 0.0),
-                        d.get("angle_increment", 0.0),
-                        d.get("time_increment", 0.0),
-                        d.get("scan_time", 0.0),
-                        d.get("range_min", 0.0),
-                        d.get("range_max", 0.0),
-                    )
-                )
+                out.append(_S_7f.pack(t2, t4, t6, t8, t10, t12, t14))
             except Exception:
                 out.append(
-                    slow_pack(
-                        _S_7f,
-                        MULTI_ECHO_LASER_SCAN_RUN_0,
-                        (
-                            d.get("angle_min", 0.0),
-                            d.get("angle_max", 0.0),
-                            d.get("angle_increment", 0.0),
-                            d.get("time_increment", 0.0),
-                            d.get("scan_time", 0.0),
-                            d.get("range_min", 0.0),
-                            d.get("range_max", 0.0),
-                        ),
-                    )
+                    slow_pack(_S_7f, MULTI_ECHO_LASER_SCAN_RUN_0, (t2, t4, t6, t8, t10, t12, t14))
                 )
             pos += 28
             f = ".ranges"
@@ -3387,19 +3273,19 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = NAV_SAT_STATUS_RUN_0
-            (v1,) = _S_b.unpack_from(mv, pos)
+            (v2,) = _S_b.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 1) & -2
             f = NAV_SAT_STATUS_RUN_1
-            (v2,) = _S_H.unpack_from(mv, pos)
+            (v4,) = _S_H.unpack_from(mv, pos)
             pos += 2
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return nav_sat_status_view(v1, v2), pos
-        return {"status": v1, "service": v2}, pos
+            return nav_sat_status_view(v2, v4), pos
+        return {"status": v2, "service": v4}, pos
 
     def nav_sat_status_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3407,20 +3293,24 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not NAV_SAT_STATUS_KEYS.issuperset(d):
                 d = _submap(d, NAV_SAT_STATUS_KEYS)
             f = ""
+            if type(t1 := d.get("status", -2)) is not int:
+                t1 = check_scalar("int8", t1, ".status")
             try:
-                out.append(_S_b.pack(d.get("status", -2)))
+                out.append(_S_b.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_b, NAV_SAT_STATUS_RUN_0, (d.get("status", -2),)))
+                out.append(slow_pack(_S_b, NAV_SAT_STATUS_RUN_0, (t1,)))
             pos += 1
             p = -pos & 1
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t3 := d.get("service", 0)) is not int:
+                t3 = check_scalar("uint16", t3, ".service")
             try:
-                out.append(_S_H.pack(d.get("service", 0)))
+                out.append(_S_H.pack(t3))
             except Exception:
-                out.append(slow_pack(_S_H, NAV_SAT_STATUS_RUN_1, (d.get("service", 0),)))
+                out.append(slow_pack(_S_H, NAV_SAT_STATUS_RUN_1, (t3,)))
             pos += 2
         except FieldError as error:
             raise error.within(f) from None
@@ -3434,38 +3324,38 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".header"
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = NAV_SAT_FIX_RUN_0
-            (v3,) = _S_b.unpack_from(mv, pos)
+            (v4,) = _S_b.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 1) & -2
             f = NAV_SAT_FIX_RUN_1
-            (v4,) = _S_H.unpack_from(mv, pos)
+            (v6,) = _S_H.unpack_from(mv, pos)
             pos += 2
             pos = (pos + 7) & -8
             f = NAV_SAT_FIX_RUN_2
-            v5, v6, v7 = _S_3d.unpack_from(mv, pos)
+            v8, v10, v12 = _S_3d.unpack_from(mv, pos)
             pos += 24
             f = ".position_covariance"
             if 9 * 8 > lim - pos:
                 raise too_long(9, 8, lim - pos)
-            v10 = _frombuffer(mv, _D_float64, 9, pos)
+            v15 = _frombuffer(mv, _D_float64, 9, pos)
             pos += 9 * 8
             f = NAV_SAT_FIX_RUN_3
-            (v11,) = _S_B.unpack_from(mv, pos)
+            (v17,) = _S_B.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return nav_sat_fix_view(v1, nav_sat_status_view(v3, v4), v5, v6, v7, v10, v11), pos
+            return nav_sat_fix_view(v1, nav_sat_status_view(v4, v6), v8, v10, v12, v15, v17), pos
         return {
             "header": v1,
-            "status": {"status": v3, "service": v4},
-            "latitude": v5,
-            "longitude": v6,
-            "altitude": v7,
-            "position_covariance": v10.tolist(),
-            "position_covariance_type": v11,
+            "status": {"status": v4, "service": v6},
+            "latitude": v8,
+            "longitude": v10,
+            "altitude": v12,
+            "position_covariance": v15.tolist(),
+            "position_covariance_type": v17,
         }, pos
 
     def nav_sat_fix_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3480,58 +3370,54 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m2.__class__ is not dict or not NAV_SAT_STATUS_KEYS.issuperset(m2):
                 m2 = _submap(m2, NAV_SAT_STATUS_KEYS)
             f = ""
+            if type(t3 := m2.get("status", -2)) is not int:
+                t3 = check_scalar("int8", t3, ".status.status")
             try:
-                out.append(_S_b.pack(m2.get("status", -2)))
+                out.append(_S_b.pack(t3))
             except Exception:
-                out.append(slow_pack(_S_b, NAV_SAT_FIX_RUN_0, (m2.get("status", -2),)))
+                out.append(slow_pack(_S_b, NAV_SAT_FIX_RUN_0, (t3,)))
             pos += 1
             p = -pos & 1
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t5 := m2.get("service", 0)) is not int:
+                t5 = check_scalar("uint16", t5, ".status.service")
             try:
-                out.append(_S_H.pack(m2.get("service", 0)))
+                out.append(_S_H.pack(t5))
             except Exception:
-                out.append(slow_pack(_S_H, NAV_SAT_FIX_RUN_1, (m2.get("service", 0),)))
+                out.append(slow_pack(_S_H, NAV_SAT_FIX_RUN_1, (t5,)))
             pos += 2
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".position_covariance"
-            b8, c9 = encode_array(
+            b13, c14 = encode_array(
                 d.get("position_covariance", (0,) * 9), _D_float64, "float64", 9, True
             )
             f = ""
+            if type(t7 := d.get("latitude", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".latitude")
+            if type(t9 := d.get("longitude", 0.0)) is not float:
+                t9 = check_scalar("float64", t9, ".longitude")
+            if type(t11 := d.get("altitude", 0.0)) is not float:
+                t11 = check_scalar("float64", t11, ".altitude")
             try:
-                out.append(
-                    _S_3d.pack(
-                        d.get("latitude", 0.0), d.get("longitude", 0.0), d.get("altitude", 0.0)
-                    )
-                )
+                out.append(_S_3d.pack(t7, t9, t11))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3d,
-                        NAV_SAT_FIX_RUN_2,
-                        (
-                            d.get("latitude", 0.0),
-                            d.get("longitude", 0.0),
-                            d.get("altitude", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3d, NAV_SAT_FIX_RUN_2, (t7, t9, t11)))
             pos += 24
-            out.append(b8)
-            pos += c9 * 8
+            out.append(b13)
+            pos += c14 * 8
             f = ""
+            if type(t16 := d.get("position_covariance_type", 0)) is not int:
+                t16 = check_scalar("uint8", t16, ".position_covariance_type")
             try:
-                out.append(_S_B.pack(d.get("position_covariance_type", 0)))
+                out.append(_S_B.pack(t16))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, NAV_SAT_FIX_RUN_3, (d.get("position_covariance_type", 0),))
-                )
+                out.append(slow_pack(_S_B, NAV_SAT_FIX_RUN_3, (t16,)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -3593,15 +3479,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += v2
             pos = (pos + 3) & -4
             f = POINT_FIELD_RUN_1
-            v4, v5, v6 = _S_IB3xI.unpack_from(mv, pos)
+            v5, v7, v9 = _S_IB3xI.unpack_from(mv, pos)
             pos += 12
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return point_field_view(v3, v4, v5, v6), pos
-        return {"name": v3, "offset": v4, "datatype": v5, "count": v6}, pos
+            return point_field_view(v3, v5, v7, v9), pos
+        return {"name": v3, "offset": v5, "datatype": v7, "count": v9}, pos
 
     def point_field_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3627,22 +3513,16 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t4 := d.get("offset", 0)) is not int:
+                t4 = check_scalar("uint32", t4, ".offset")
+            if type(t6 := d.get("datatype", 0)) is not int:
+                t6 = check_scalar("uint8", t6, ".datatype")
+            if type(t8 := d.get("count", 0)) is not int:
+                t8 = check_scalar("uint32", t8, ".count")
             try:
-                out.append(
-                    _S_IB3xI.pack(d.get("offset", 0), d.get("datatype", 0), d.get("count", 0))
-                )
+                out.append(_S_IB3xI.pack(t4, t6, t8))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_IB3xI,
-                        POINT_FIELD_RUN_1,
-                        (
-                            d.get("offset", 0),
-                            d.get("datatype", 0),
-                            d.get("count", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_IB3xI, POINT_FIELD_RUN_1, (t4, t6, t8)))
             pos += 12
         except FieldError as error:
             raise error.within(f) from None
@@ -3657,41 +3537,41 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
             f = POINT_CLOUD2_RUN_0
-            v2, v3 = _S_2I.unpack_from(mv, pos)
+            v3, v5 = _S_2I.unpack_from(mv, pos)
             pos += 8
             f = ".fields"
-            v4, pos = read_messages(mv, pos, lim, _U32, point_field_decode, None, None, 13)
+            v6, pos = read_messages(mv, pos, lim, _U32, point_field_decode, None, None, 13)
             f = POINT_CLOUD2_RUN_1
-            (v6,) = _S_T.unpack_from(mv, pos)
+            (v8,) = _S_T.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = POINT_CLOUD2_RUN_2
-            v7, v8, v11 = _S_3I.unpack_from(mv, pos)
+            v10, v12, v15 = _S_3I.unpack_from(mv, pos)
             pos += 12
             f = ".data"
-            if v11 * 1 > lim - pos:
-                raise too_long(v11, 1, lim - pos)
-            v12 = _frombuffer(mv, _D_uint8, v11, pos)
-            pos += v11 * 1
+            if v15 * 1 > lim - pos:
+                raise too_long(v15, 1, lim - pos)
+            v16 = _frombuffer(mv, _D_uint8, v15, pos)
+            pos += v15 * 1
             f = POINT_CLOUD2_RUN_3
-            (v14,) = _S_T.unpack_from(mv, pos)
+            (v18,) = _S_T.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return point_cloud2_view(v1, v2, v3, v4, v6, v7, v8, v12, v14), pos
+            return point_cloud2_view(v1, v3, v5, v6, v8, v10, v12, v16, v18), pos
         return {
             "header": v1,
-            "height": v2,
-            "width": v3,
-            "fields": v4,
-            "is_bigendian": v6,
-            "point_step": v7,
-            "row_step": v8,
-            "data": v12.tobytes(),
-            "is_dense": v14,
+            "height": v3,
+            "width": v5,
+            "fields": v6,
+            "is_bigendian": v8,
+            "point_step": v10,
+            "row_step": v12,
+            "data": v16.tobytes(),
+            "is_dense": v18,
         }, pos
 
     def point_cloud2_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3706,99 +3586,52 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t2 := d.get("height", 0)) is not int:
+                t2 = check_scalar("uint32", t2, ".height")
+            if type(t4 := d.get("width", 0)) is not int:
+                t4 = check_scalar("uint32", t4, ".width")
             try:
-                out.append(_S_2I.pack(d.get("height", 0), d.get("width", 0)))
+                out.append(_S_2I.pack(t2, t4))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_2I,
-                        POINT_CLOUD2_RUN_0,
-                        (
-                            d.get("height", 0),
-                            d.get("width", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_2I, POINT_CLOUD2_RUN_0, (t2, t4)))
             pos += 8
             f = ".fields"
             pos = write_messages(
                 d.get("fields", ()), out, pos, _U32, point_field_encode, None, False
             )
             f = ""
+            if type(t7 := d.get("is_bigendian", False)) is not bool:
+                t7 = check_scalar("bool", t7, ".is_bigendian")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t5
-                            if (t5 := d.get("is_bigendian", False)).__class__ is bool
-                            else check_bool(t5, ".is_bigendian")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        POINT_CLOUD2_RUN_1,
-                        (
-                            (
-                                t5
-                                if (t5 := d.get("is_bigendian", False)).__class__ is bool
-                                else check_bool(t5, ".is_bigendian")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, POINT_CLOUD2_RUN_1, (t7,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".data"
-            b9, c10 = encode_array(d.get("data", ()), _D_uint8, "uint8", None, False)
+            b13, c14 = encode_array(d.get("data", ()), _D_uint8, "uint8", None, False)
             f = ""
+            if type(t9 := d.get("point_step", 0)) is not int:
+                t9 = check_scalar("uint32", t9, ".point_step")
+            if type(t11 := d.get("row_step", 0)) is not int:
+                t11 = check_scalar("uint32", t11, ".row_step")
             try:
-                out.append(_S_3I.pack(d.get("point_step", 0), d.get("row_step", 0), c10))
+                out.append(_S_3I.pack(t9, t11, c14))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3I,
-                        POINT_CLOUD2_RUN_2,
-                        (
-                            d.get("point_step", 0),
-                            d.get("row_step", 0),
-                            c10,
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3I, POINT_CLOUD2_RUN_2, (t9, t11, c14)))
             pos += 12
-            out.append(b9)
-            pos += c10 * 1
+            out.append(b13)
+            pos += c14 * 1
             f = ""
+            if type(t17 := d.get("is_dense", False)) is not bool:
+                t17 = check_scalar("bool", t17, ".is_dense")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t13
-                            if (t13 := d.get("is_dense", False)).__class__ is bool
-                            else check_bool(t13, ".is_dense")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t17))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        POINT_CLOUD2_RUN_3,
-                        (
-                            (
-                                t13
-                                if (t13 := d.get("is_dense", False)).__class__ is bool
-                                else check_bool(t13, ".is_dense")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, POINT_CLOUD2_RUN_3, (t17,)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -3812,26 +3645,26 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".header"
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             f = RANGE_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = RANGE_RUN_1
-            v3, v4, v5, v6, v7 = _S_5f.unpack_from(mv, pos)
+            v5, v7, v9, v11, v13 = _S_5f.unpack_from(mv, pos)
             pos += 20
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return range_view(v1, v2, v3, v4, v5, v6, v7), pos
+            return range_view(v1, v3, v5, v7, v9, v11, v13), pos
         return {
             "header": v1,
-            "radiation_type": v2,
-            "field_of_view": v3,
-            "min_range": v4,
-            "max_range": v5,
-            "range": v6,
-            "variance": v7,
+            "radiation_type": v3,
+            "field_of_view": v5,
+            "min_range": v7,
+            "max_range": v9,
+            "range": v11,
+            "variance": v13,
         }, pos
 
     def range_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3842,40 +3675,32 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".header"
             pos = std_msgs__header_encode(d.get("header", EMPTY), out, pos)
             f = ""
+            if type(t2 := d.get("radiation_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".radiation_type")
             try:
-                out.append(_S_B.pack(d.get("radiation_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, RANGE_RUN_0, (d.get("radiation_type", 0),)))
+                out.append(slow_pack(_S_B, RANGE_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t4 := d.get("field_of_view", 0.0)) is not float:
+                t4 = check_scalar("float32", t4, ".field_of_view")
+            if type(t6 := d.get("min_range", 0.0)) is not float:
+                t6 = check_scalar("float32", t6, ".min_range")
+            if type(t8 := d.get("max_range", 0.0)) is not float:
+                t8 = check_scalar("float32", t8, ".max_range")
+            if type(t10 := d.get("range", 0.0)) is not float:
+                t10 = check_scalar("float32", t10, ".range")
+            if type(t12 := d.get("variance", 0.0)) is not float:
+                t12 = check_scalar("float32", t12, ".variance")
             try:
-                out.append(
-                    _S_5f.pack(
-                        d.get("field_of_view", 0.0),
-                        d.get("min_range", 0.0),
-                        d.get("max_range", 0.0),
-                        d.get("range", 0.0),
-                        d.get("variance", 0.0),
-                    )
-                )
+                out.append(_S_5f.pack(t4, t6, t8, t10, t12))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_5f,
-                        RANGE_RUN_1,
-                        (
-                            d.get("field_of_view", 0.0),
-                            d.get("min_range", 0.0),
-                            d.get("max_range", 0.0),
-                            d.get("range", 0.0),
-                            d.get("variance", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_5f, RANGE_RUN_1, (t4, t6, t8, t10, t12)))
             pos += 20
         except FieldError as error:
             raise error.within(f) from None
@@ -3890,15 +3715,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = RELATIVE_HUMIDITY_RUN_0
-            v2, v3 = _S_2d.unpack_from(mv, pos)
+            v3, v5 = _S_2d.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return relative_humidity_view(v1, v2, v3), pos
-        return {"header": v1, "relative_humidity": v2, "variance": v3}, pos
+            return relative_humidity_view(v1, v3, v5), pos
+        return {"header": v1, "relative_humidity": v3, "variance": v5}, pos
 
     def relative_humidity_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3912,19 +3737,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t2 := d.get("relative_humidity", 0.0)) is not float:
+                t2 = check_scalar("float64", t2, ".relative_humidity")
+            if type(t4 := d.get("variance", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".variance")
             try:
-                out.append(_S_2d.pack(d.get("relative_humidity", 0.0), d.get("variance", 0.0)))
+                out.append(_S_2d.pack(t2, t4))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_2d,
-                        RELATIVE_HUMIDITY_RUN_0,
-                        (
-                            d.get("relative_humidity", 0.0),
-                            d.get("variance", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_2d, RELATIVE_HUMIDITY_RUN_0, (t2, t4)))
             pos += 16
         except FieldError as error:
             raise error.within(f) from None
@@ -3939,15 +3759,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = TEMPERATURE_RUN_0
-            v2, v3 = _S_2d.unpack_from(mv, pos)
+            v3, v5 = _S_2d.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return temperature_view(v1, v2, v3), pos
-        return {"header": v1, "temperature": v2, "variance": v3}, pos
+            return temperature_view(v1, v3, v5), pos
+        return {"header": v1, "temperature": v3, "variance": v5}, pos
 
     def temperature_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3961,19 +3781,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t2 := d.get("temperature", 0.0)) is not float:
+                t2 = check_scalar("float64", t2, ".temperature")
+            if type(t4 := d.get("variance", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".variance")
             try:
-                out.append(_S_2d.pack(d.get("temperature", 0.0), d.get("variance", 0.0)))
+                out.append(_S_2d.pack(t2, t4))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_2d,
-                        TEMPERATURE_RUN_0,
-                        (
-                            d.get("temperature", 0.0),
-                            d.get("variance", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_2d, TEMPERATURE_RUN_0, (t2, t4)))
             pos += 16
         except FieldError as error:
             raise error.within(f) from None
@@ -3988,20 +3803,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 3) & -4
             f = TIME_REFERENCE_RUN_0
-            v3, v4, v6 = _S_i2I.unpack_from(mv, pos)
+            v4, v6, v8 = _S_i2I.unpack_from(mv, pos)
             pos += 12
             f = ".source"
-            if v6 > lim - pos:
-                raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
-            pos += v6
+            if v8 > lim - pos:
+                raise too_long(v8, 1, lim - pos)
+            v9 = mv[pos : pos + v8 - 1].tobytes().decode()
+            pos += v8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return time_reference_view(v1, builtin_interfaces__time_view(v3, v4), v7), pos
-        return {"header": v1, "time_ref": {"sec": v3, "nanosec": v4}, "source": v7}, pos
+            return time_reference_view(v1, builtin_interfaces__time_view(v4, v6), v9), pos
+        return {"header": v1, "time_ref": {"sec": v4, "nanosec": v6}, "source": v9}, pos
 
     def time_reference_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -4019,25 +3834,19 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".source"
-            b5 = utf8z(d.get("source", ""), None)
+            b7 = utf8z(d.get("source", ""), None)
             f = ""
+            if type(t3 := m2.get("sec", 0)) is not int:
+                t3 = check_scalar("int32", t3, ".time_ref.sec")
+            if type(t5 := m2.get("nanosec", 0)) is not int:
+                t5 = check_scalar("uint32", t5, ".time_ref.nanosec")
             try:
-                out.append(_S_i2I.pack(m2.get("sec", 0), m2.get("nanosec", 0), len(b5)))
+                out.append(_S_i2I.pack(t3, t5, len(b7)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_i2I,
-                        TIME_REFERENCE_RUN_0,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                            len(b5),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_i2I, TIME_REFERENCE_RUN_0, (t3, t5, len(b7))))
             pos += 12
-            out.append(b5)
-            pos += len(b5)
+            out.append(b7)
+            pos += len(b7)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -4101,30 +3910,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".status_message"
             b3 = utf8z(d.get("status_message", ""), None)
             f = ""
+            if type(t1 := d.get("success", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".success")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t1
-                            if (t1 := d.get("success", False)).__class__ is bool
-                            else check_bool(t1, ".success")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        SET_CAMERA_INFO_RESPONSE_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("success", False)).__class__ is bool
-                                else check_bool(t1, ".success")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, SET_CAMERA_INFO_RESPONSE_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
@@ -4148,27 +3939,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = SET_CAMERA_INFO_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = SET_CAMERA_INFO_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = SET_CAMERA_INFO_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, set_camera_info_request_decode, None, 1, 293
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, set_camera_info_response_decode, None, 1, 5
             )
         except WireDecodeError as error:
@@ -4178,20 +3969,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return set_camera_info_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def set_camera_info_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -4204,49 +3995,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, SET_CAMERA_INFO_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, SET_CAMERA_INFO_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        SET_CAMERA_INFO_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, SET_CAMERA_INFO_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(_S_q, SET_CAMERA_INFO_EVENT_RUN_2, (m1.get("sequence_number", 0),))
-                )
+                out.append(slow_pack(_S_q, SET_CAMERA_INFO_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(

@@ -34,6 +34,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -43,7 +44,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -129,32 +130,32 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = SERVICE_EVENT_INFO_RUN_0
-            (v1,) = _S_B.unpack_from(mv, pos)
+            (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = SERVICE_EVENT_INFO_RUN_1
-            v3, v4 = _S_iI.unpack_from(mv, pos)
+            v5, v7 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, 16, pos)
+            v10 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = SERVICE_EVENT_INFO_RUN_2
-            (v8,) = _S_q.unpack_from(mv, pos)
+            (v12,) = _S_q.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return service_event_info_view(v1, builtin_interfaces__time_view(v3, v4), v7, v8), pos
+            return service_event_info_view(v2, builtin_interfaces__time_view(v5, v7), v10, v12), pos
         return {
-            "event_type": v1,
-            "stamp": {"sec": v3, "nanosec": v4},
-            "client_gid": v7.tobytes(),
-            "sequence_number": v8,
+            "event_type": v2,
+            "stamp": {"sec": v5, "nanosec": v7},
+            "client_gid": v10.tobytes(),
+            "sequence_number": v12,
         }, pos
 
     def service_event_info_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -163,49 +164,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not SERVICE_EVENT_INFO_KEYS.issuperset(d):
                 d = _submap(d, SERVICE_EVENT_INFO_KEYS)
             f = ".stamp"
-            m2 = d.get("stamp", EMPTY)
-            if m2.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m2):
-                m2 = _submap(m2, BUILTIN_INTERFACES__TIME_KEYS)
+            m3 = d.get("stamp", EMPTY)
+            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
+                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t1 := d.get("event_type", 0)) is not int:
+                t1 = check_scalar("uint8", t1, ".event_type")
             try:
-                out.append(_S_B.pack(d.get("event_type", 0)))
+                out.append(_S_B.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_B, SERVICE_EVENT_INFO_RUN_0, (d.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, SERVICE_EVENT_INFO_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".client_gid"
-            b5, c6 = encode_array(d.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b8, c9 = encode_array(d.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t4 := m3.get("sec", 0)) is not int:
+                t4 = check_scalar("int32", t4, ".stamp.sec")
+            if type(t6 := m3.get("nanosec", 0)) is not int:
+                t6 = check_scalar("uint32", t6, ".stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m2.get("sec", 0), m2.get("nanosec", 0)))
+                out.append(_S_iI.pack(t4, t6))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        SERVICE_EVENT_INFO_RUN_1,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, SERVICE_EVENT_INFO_RUN_1, (t4, t6)))
             pos += 8
-            out.append(b5)
-            pos += c6 * 1
+            out.append(b8)
+            pos += c9 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t11 := d.get("sequence_number", 0)) is not int:
+                t11 = check_scalar("int64", t11, ".sequence_number")
             try:
-                out.append(_S_q.pack(d.get("sequence_number", 0)))
+                out.append(_S_q.pack(t11))
             except Exception:
-                out.append(
-                    slow_pack(_S_q, SERVICE_EVENT_INFO_RUN_2, (d.get("sequence_number", 0),))
-                )
+                out.append(slow_pack(_S_q, SERVICE_EVENT_INFO_RUN_2, (t11,)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None

@@ -39,6 +39,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -148,7 +149,7 @@ def mesh_triangle_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("vertex_indices", MISSING)
         if value is MISSING:
             msg._vertex_indices = np.zeros(3, dtype=np.uint32)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint32"):
             try:
                 msg._vertex_indices = np.array(array("I", value), dtype=np.uint32)
             except (TypeError, OverflowError, ValueError):
@@ -190,7 +191,7 @@ def plane_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("coef", MISSING)
         if value is MISSING:
             msg._coef = np.zeros(4, dtype=np.float64)
-        elif type(value) is list and len(value) == 4:
+        elif type(value) is list and len(value) == 4 and plain_numbers(value, "float64"):
             try:
                 msg._coef = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -243,7 +244,7 @@ def solid_primitive_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("dimensions", MISSING)
         if value is MISSING:
             msg._dimensions = array("d")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "float64"):
             try:
                 msg._dimensions = array("d", value)
             except (TypeError, OverflowError, ValueError):

@@ -40,6 +40,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -49,7 +50,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.geometry_msgs.wire_codecs import (
     DEFINITIONS as GEOMETRY_MSGS__DEFINITIONS,
@@ -330,30 +331,30 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = SOLID_PRIMITIVE_RUN_0
-            (v1,) = _S_B.unpack_from(mv, pos)
+            (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = SOLID_PRIMITIVE_RUN_1
-            (v4,) = _S_I.unpack_from(mv, pos)
+            (v5,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".dimensions"
-            if v4 > 3:
-                raise over_bound(v4, 3)
-            if v4:
+            if v5 > 3:
+                raise over_bound(v5, 3)
+            if v5:
                 pos = (pos + 7) & -8
-            if v4 * 8 > lim - pos:
-                raise too_long(v4, 8, lim - pos)
-            v5 = _frombuffer(mv, _D_float64, v4, pos)
-            pos += v4 * 8
+            if v5 * 8 > lim - pos:
+                raise too_long(v5, 8, lim - pos)
+            v6 = _frombuffer(mv, _D_float64, v5, pos)
+            pos += v5 * 8
             f = ".polygon"
-            v6, pos = geometry_msgs__polygon_decode(mv, pos, lim)
+            v7, pos = geometry_msgs__polygon_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return solid_primitive_view(v1, v5, v6), pos
-        return {"type": v1, "dimensions": v5.tolist(), "polygon": v6}, pos
+            return solid_primitive_view(v2, v6, v7), pos
+        return {"type": v2, "dimensions": v6.tolist(), "polygon": v7}, pos
 
     def solid_primitive_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -361,12 +362,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not SOLID_PRIMITIVE_KEYS.issuperset(d):
                 d = _submap(d, SOLID_PRIMITIVE_KEYS)
             f = ".dimensions"
-            b2, c3 = encode_array(d.get("dimensions", ()), _D_float64, "float64", 3, False)
+            b3, c4 = encode_array(d.get("dimensions", ()), _D_float64, "float64", 3, False)
             f = ""
+            if type(t1 := d.get("type", 0)) is not int:
+                t1 = check_scalar("uint8", t1, ".type")
             try:
-                out.append(_S_B.pack(d.get("type", 0)))
+                out.append(_S_B.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_B, SOLID_PRIMITIVE_RUN_0, (d.get("type", 0),)))
+                out.append(slow_pack(_S_B, SOLID_PRIMITIVE_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
@@ -374,17 +377,17 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(c3))
+                out.append(_S_I.pack(c4))
             except Exception:
-                out.append(slow_pack(_S_I, SOLID_PRIMITIVE_RUN_1, (c3,)))
+                out.append(slow_pack(_S_I, SOLID_PRIMITIVE_RUN_1, (c4,)))
             pos += 4
-            if c3:
+            if c4:
                 p = -pos & 7
                 if p:
                     out.append(ZEROS[p])
                     pos += p
-            out.append(b2)
-            pos += c3 * 8
+            out.append(b3)
+            pos += c4 * 8
             f = ".polygon"
             pos = geometry_msgs__polygon_encode(d.get("polygon", EMPTY), out, pos)
         except FieldError as error:

@@ -91,6 +91,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -538,7 +539,7 @@ def float64_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("d")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "float64"):
             try:
                 msg._data = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -663,7 +664,7 @@ def int16_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("h")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int16"):
             try:
                 msg._data = array("h", value)
             except (TypeError, OverflowError, ValueError):
@@ -748,7 +749,7 @@ def int32_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("i")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int32"):
             try:
                 msg._data = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -833,7 +834,7 @@ def int64_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("q")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int64"):
             try:
                 msg._data = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -918,7 +919,7 @@ def int8_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("b")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int8"):
             try:
                 msg._data = array("b", value)
             except (TypeError, OverflowError, ValueError):
@@ -1123,7 +1124,7 @@ def u_int16_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("H")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "uint16"):
             try:
                 msg._data = array("H", value)
             except (TypeError, OverflowError, ValueError):
@@ -1208,7 +1209,7 @@ def u_int32_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("I")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "uint32"):
             try:
                 msg._data = array("I", value)
             except (TypeError, OverflowError, ValueError):
@@ -1293,7 +1294,7 @@ def u_int64_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("Q")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "uint64"):
             try:
                 msg._data = array("Q", value)
             except (TypeError, OverflowError, ValueError):

@@ -92,6 +92,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -101,7 +102,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -1161,30 +1162,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not BOOL_KEYS.issuperset(d):
                 d = _submap(d, BOOL_KEYS)
             f = ""
+            if type(t1 := d.get("data", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".data")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t1
-                            if (t1 := d.get("data", False)).__class__ is bool
-                            else check_bool(t1, ".data")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        BOOL_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("data", False)).__class__ is bool
-                                else check_bool(t1, ".data")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, BOOL_RUN_0, (t1,)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1196,15 +1179,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = BYTE_RUN_0
-            (v1,) = _S_B.unpack_from(mv, pos)
+            (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return byte_view(v1), pos
-        return {"data": v1}, pos
+            return byte_view(v2), pos
+        return {"data": v2}, pos
 
     def byte_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1212,10 +1195,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not BYTE_KEYS.issuperset(d):
                 d = _submap(d, BYTE_KEYS)
             f = ""
+            if type(t1 := d.get("data", 0)) is not int:
+                t1 = check_scalar("byte", t1, ".data")
             try:
-                out.append(_S_B.pack(d.get("data", 0)))
+                out.append(_S_B.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_B, BYTE_RUN_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_B, BYTE_RUN_0, (t1,)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1237,15 +1222,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += v2
             pos = (pos + 3) & -4
             f = MULTI_ARRAY_DIMENSION_RUN_1
-            v4, v5 = _S_2I.unpack_from(mv, pos)
+            v5, v7 = _S_2I.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return multi_array_dimension_view(v3, v4, v5), pos
-        return {"label": v3, "size": v4, "stride": v5}, pos
+            return multi_array_dimension_view(v3, v5, v7), pos
+        return {"label": v3, "size": v5, "stride": v7}, pos
 
     def multi_array_dimension_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1271,19 +1256,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t4 := d.get("size", 0)) is not int:
+                t4 = check_scalar("uint32", t4, ".size")
+            if type(t6 := d.get("stride", 0)) is not int:
+                t6 = check_scalar("uint32", t6, ".stride")
             try:
-                out.append(_S_2I.pack(d.get("size", 0), d.get("stride", 0)))
+                out.append(_S_2I.pack(t4, t6))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_2I,
-                        MULTI_ARRAY_DIMENSION_RUN_1,
-                        (
-                            d.get("size", 0),
-                            d.get("stride", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_2I, MULTI_ARRAY_DIMENSION_RUN_1, (t4, t6)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -1300,15 +1280,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             )
             pos = (pos + 3) & -4
             f = MULTI_ARRAY_LAYOUT_RUN_0
-            (v2,) = _S_I.unpack_from(mv, pos)
+            (v3,) = _S_I.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return multi_array_layout_view(v1, v2), pos
-        return {"dim": v1, "data_offset": v2}, pos
+            return multi_array_layout_view(v1, v3), pos
+        return {"dim": v1, "data_offset": v3}, pos
 
     def multi_array_layout_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1324,10 +1304,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t2 := d.get("data_offset", 0)) is not int:
+                t2 = check_scalar("uint32", t2, ".data_offset")
             try:
-                out.append(_S_I.pack(d.get("data_offset", 0)))
+                out.append(_S_I.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_I, MULTI_ARRAY_LAYOUT_RUN_0, (d.get("data_offset", 0),)))
+                out.append(slow_pack(_S_I, MULTI_ARRAY_LAYOUT_RUN_0, (t2,)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -1388,15 +1370,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = CHAR_RUN_0
-            (v1,) = _S_B.unpack_from(mv, pos)
+            (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return char_view(v1), pos
-        return {"data": v1}, pos
+            return char_view(v2), pos
+        return {"data": v2}, pos
 
     def char_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1404,10 +1386,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not CHAR_KEYS.issuperset(d):
                 d = _submap(d, CHAR_KEYS)
             f = ""
+            if type(t1 := d.get("data", 0)) is not int:
+                t1 = check_scalar("uint8", t1, ".data")
             try:
-                out.append(_S_B.pack(d.get("data", 0)))
+                out.append(_S_B.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_B, CHAR_RUN_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_B, CHAR_RUN_0, (t1,)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1420,15 +1404,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = COLOR_RGBA_RUN_0
-            v1, v2, v3, v4 = _S_4f.unpack_from(mv, pos)
+            v2, v4, v6, v8 = _S_4f.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return color_rgba_view(v1, v2, v3, v4), pos
-        return {"r": v1, "g": v2, "b": v3, "a": v4}, pos
+            return color_rgba_view(v2, v4, v6, v8), pos
+        return {"r": v2, "g": v4, "b": v6, "a": v8}, pos
 
     def color_rgba_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1440,23 +1424,18 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("r", 0.0)) is not float:
+                t1 = check_scalar("float32", t1, ".r")
+            if type(t3 := d.get("g", 0.0)) is not float:
+                t3 = check_scalar("float32", t3, ".g")
+            if type(t5 := d.get("b", 0.0)) is not float:
+                t5 = check_scalar("float32", t5, ".b")
+            if type(t7 := d.get("a", 0.0)) is not float:
+                t7 = check_scalar("float32", t7, ".a")
             try:
-                out.append(
-                    _S_4f.pack(d.get("r", 0.0), d.get("g", 0.0), d.get("b", 0.0), d.get("a", 0.0))
-                )
+                out.append(_S_4f.pack(t1, t3, t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_4f,
-                        COLOR_RGBA_RUN_0,
-                        (
-                            d.get("r", 0.0),
-                            d.get("g", 0.0),
-                            d.get("b", 0.0),
-                            d.get("a", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_4f, COLOR_RGBA_RUN_0, (t1, t3, t5, t7)))
             pos += 16
         except FieldError as error:
             raise error.within(f) from None
@@ -1500,15 +1479,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = FLOAT32_RUN_0
-            (v1,) = _S_f.unpack_from(mv, pos)
+            (v2,) = _S_f.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return float32_view(v1), pos
-        return {"data": v1}, pos
+            return float32_view(v2), pos
+        return {"data": v2}, pos
 
     def float32_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1520,10 +1499,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("data", 0.0)) is not float:
+                t1 = check_scalar("float32", t1, ".data")
             try:
-                out.append(_S_f.pack(d.get("data", 0.0)))
+                out.append(_S_f.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_f, FLOAT32_RUN_0, (d.get("data", 0.0),)))
+                out.append(slow_pack(_S_f, FLOAT32_RUN_0, (t1,)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -1585,15 +1566,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = FLOAT64_RUN_0
-            (v1,) = _S_d.unpack_from(mv, pos)
+            (v2,) = _S_d.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return float64_view(v1), pos
-        return {"data": v1}, pos
+            return float64_view(v2), pos
+        return {"data": v2}, pos
 
     def float64_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1605,10 +1586,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("data", 0.0)) is not float:
+                t1 = check_scalar("float64", t1, ".data")
             try:
-                out.append(_S_d.pack(d.get("data", 0.0)))
+                out.append(_S_d.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_d, FLOAT64_RUN_0, (d.get("data", 0.0),)))
+                out.append(slow_pack(_S_d, FLOAT64_RUN_0, (t1,)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -1677,20 +1660,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = HEADER_RUN_0
-            v2, v3, v5 = _S_i2I.unpack_from(mv, pos)
+            v3, v5, v7 = _S_i2I.unpack_from(mv, pos)
             pos += 12
             f = ".frame_id"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
+            if v7 > lim - pos:
+                raise too_long(v7, 1, lim - pos)
+            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
+            pos += v7
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return header_view(builtin_interfaces__time_view(v2, v3), v6), pos
-        return {"stamp": {"sec": v2, "nanosec": v3}, "frame_id": v6}, pos
+            return header_view(builtin_interfaces__time_view(v3, v5), v8), pos
+        return {"stamp": {"sec": v3, "nanosec": v5}, "frame_id": v8}, pos
 
     def header_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1706,25 +1689,19 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".frame_id"
-            b4 = utf8z(d.get("frame_id", ""), None)
+            b6 = utf8z(d.get("frame_id", ""), None)
             f = ""
+            if type(t2 := m1.get("sec", 0)) is not int:
+                t2 = check_scalar("int32", t2, ".stamp.sec")
+            if type(t4 := m1.get("nanosec", 0)) is not int:
+                t4 = check_scalar("uint32", t4, ".stamp.nanosec")
             try:
-                out.append(_S_i2I.pack(m1.get("sec", 0), m1.get("nanosec", 0), len(b4)))
+                out.append(_S_i2I.pack(t2, t4, len(b6)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_i2I,
-                        HEADER_RUN_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                            len(b4),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_i2I, HEADER_RUN_0, (t2, t4, len(b6))))
             pos += 12
-            out.append(b4)
-            pos += len(b4)
+            out.append(b6)
+            pos += len(b6)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -1736,15 +1713,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 1) & -2
             f = INT16_RUN_0
-            (v1,) = _S_h.unpack_from(mv, pos)
+            (v2,) = _S_h.unpack_from(mv, pos)
             pos += 2
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return int16_view(v1), pos
-        return {"data": v1}, pos
+            return int16_view(v2), pos
+        return {"data": v2}, pos
 
     def int16_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1756,10 +1733,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("data", 0)) is not int:
+                t1 = check_scalar("int16", t1, ".data")
             try:
-                out.append(_S_h.pack(d.get("data", 0)))
+                out.append(_S_h.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_h, INT16_RUN_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_h, INT16_RUN_0, (t1,)))
             pos += 2
         except FieldError as error:
             raise error.within(f) from None
@@ -1821,15 +1800,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = INT32_RUN_0
-            (v1,) = _S_i.unpack_from(mv, pos)
+            (v2,) = _S_i.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return int32_view(v1), pos
-        return {"data": v1}, pos
+            return int32_view(v2), pos
+        return {"data": v2}, pos
 
     def int32_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1841,10 +1820,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("data", 0)) is not int:
+                t1 = check_scalar("int32", t1, ".data")
             try:
-                out.append(_S_i.pack(d.get("data", 0)))
+                out.append(_S_i.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_i, INT32_RUN_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_i, INT32_RUN_0, (t1,)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -1906,15 +1887,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = INT64_RUN_0
-            (v1,) = _S_q.unpack_from(mv, pos)
+            (v2,) = _S_q.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return int64_view(v1), pos
-        return {"data": v1}, pos
+            return int64_view(v2), pos
+        return {"data": v2}, pos
 
     def int64_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1926,10 +1907,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("data", 0)) is not int:
+                t1 = check_scalar("int64", t1, ".data")
             try:
-                out.append(_S_q.pack(d.get("data", 0)))
+                out.append(_S_q.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_q, INT64_RUN_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_q, INT64_RUN_0, (t1,)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -1997,15 +1980,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = INT8_RUN_0
-            (v1,) = _S_b.unpack_from(mv, pos)
+            (v2,) = _S_b.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return int8_view(v1), pos
-        return {"data": v1}, pos
+            return int8_view(v2), pos
+        return {"data": v2}, pos
 
     def int8_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2013,10 +1996,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not INT8_KEYS.issuperset(d):
                 d = _submap(d, INT8_KEYS)
             f = ""
+            if type(t1 := d.get("data", 0)) is not int:
+                t1 = check_scalar("int8", t1, ".data")
             try:
-                out.append(_S_b.pack(d.get("data", 0)))
+                out.append(_S_b.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_b, INT8_RUN_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_b, INT8_RUN_0, (t1,)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -2123,15 +2108,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 1) & -2
             f = U_INT16_RUN_0
-            (v1,) = _S_H.unpack_from(mv, pos)
+            (v2,) = _S_H.unpack_from(mv, pos)
             pos += 2
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return u_int16_view(v1), pos
-        return {"data": v1}, pos
+            return u_int16_view(v2), pos
+        return {"data": v2}, pos
 
     def u_int16_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2143,10 +2128,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("data", 0)) is not int:
+                t1 = check_scalar("uint16", t1, ".data")
             try:
-                out.append(_S_H.pack(d.get("data", 0)))
+                out.append(_S_H.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_H, U_INT16_RUN_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_H, U_INT16_RUN_0, (t1,)))
             pos += 2
         except FieldError as error:
             raise error.within(f) from None
@@ -2208,15 +2195,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = U_INT32_RUN_0
-            (v1,) = _S_I.unpack_from(mv, pos)
+            (v2,) = _S_I.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return u_int32_view(v1), pos
-        return {"data": v1}, pos
+            return u_int32_view(v2), pos
+        return {"data": v2}, pos
 
     def u_int32_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2228,10 +2215,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("data", 0)) is not int:
+                t1 = check_scalar("uint32", t1, ".data")
             try:
-                out.append(_S_I.pack(d.get("data", 0)))
+                out.append(_S_I.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_I, U_INT32_RUN_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_I, U_INT32_RUN_0, (t1,)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -2293,15 +2282,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = U_INT64_RUN_0
-            (v1,) = _S_Q.unpack_from(mv, pos)
+            (v2,) = _S_Q.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return u_int64_view(v1), pos
-        return {"data": v1}, pos
+            return u_int64_view(v2), pos
+        return {"data": v2}, pos
 
     def u_int64_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2313,10 +2302,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("data", 0)) is not int:
+                t1 = check_scalar("uint64", t1, ".data")
             try:
-                out.append(_S_Q.pack(d.get("data", 0)))
+                out.append(_S_Q.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_Q, U_INT64_RUN_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_Q, U_INT64_RUN_0, (t1,)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -2384,15 +2375,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = U_INT8_RUN_0
-            (v1,) = _S_B.unpack_from(mv, pos)
+            (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return u_int8_view(v1), pos
-        return {"data": v1}, pos
+            return u_int8_view(v2), pos
+        return {"data": v2}, pos
 
     def u_int8_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2400,10 +2391,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not U_INT8_KEYS.issuperset(d):
                 d = _submap(d, U_INT8_KEYS)
             f = ""
+            if type(t1 := d.get("data", 0)) is not int:
+                t1 = check_scalar("uint8", t1, ".data")
             try:
-                out.append(_S_B.pack(d.get("data", 0)))
+                out.append(_S_B.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_B, U_INT8_RUN_0, (d.get("data", 0),)))
+                out.append(slow_pack(_S_B, U_INT8_RUN_0, (t1,)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None

@@ -50,6 +50,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -59,7 +60,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -523,25 +524,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = EMPTY_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = EMPTY_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = EMPTY_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, empty_request_decode, None, 1, 1)
+            v14, pos = read_messages(mv, pos, lim, _U32, empty_request_decode, None, 1, 1)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, empty_response_decode, None, 1, 1)
+            v15, pos = read_messages(mv, pos, lim, _U32, empty_response_decode, None, 1, 1)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -549,20 +550,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return empty_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def empty_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -575,47 +576,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, EMPTY_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, EMPTY_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        EMPTY_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, EMPTY_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(slow_pack(_S_q, EMPTY_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S_q, EMPTY_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -651,30 +651,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not SET_BOOL_REQUEST_KEYS.issuperset(d):
                 d = _submap(d, SET_BOOL_REQUEST_KEYS)
             f = ""
+            if type(t1 := d.get("data", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".data")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t1
-                            if (t1 := d.get("data", False)).__class__ is bool
-                            else check_bool(t1, ".data")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        SET_BOOL_REQUEST_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("data", False)).__class__ is bool
-                                else check_bool(t1, ".data")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, SET_BOOL_REQUEST_RUN_0, (t1,)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -713,30 +695,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".message"
             b3 = utf8z(d.get("message", ""), None)
             f = ""
+            if type(t1 := d.get("success", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".success")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t1
-                            if (t1 := d.get("success", False)).__class__ is bool
-                            else check_bool(t1, ".success")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        SET_BOOL_RESPONSE_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("success", False)).__class__ is bool
-                                else check_bool(t1, ".success")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, SET_BOOL_RESPONSE_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
@@ -760,25 +724,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = SET_BOOL_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = SET_BOOL_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = SET_BOOL_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, set_bool_request_decode, None, 1, 1)
+            v14, pos = read_messages(mv, pos, lim, _U32, set_bool_request_decode, None, 1, 1)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, set_bool_response_decode, None, 1, 5)
+            v15, pos = read_messages(mv, pos, lim, _U32, set_bool_response_decode, None, 1, 5)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -786,20 +750,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return set_bool_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def set_bool_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -812,47 +776,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, SET_BOOL_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, SET_BOOL_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        SET_BOOL_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, SET_BOOL_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(slow_pack(_S_q, SET_BOOL_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S_q, SET_BOOL_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -930,30 +893,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".message"
             b3 = utf8z(d.get("message", ""), None)
             f = ""
+            if type(t1 := d.get("success", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".success")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t1
-                            if (t1 := d.get("success", False)).__class__ is bool
-                            else check_bool(t1, ".success")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        TRIGGER_RESPONSE_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("success", False)).__class__ is bool
-                                else check_bool(t1, ".success")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, TRIGGER_RESPONSE_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
@@ -977,25 +922,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = TRIGGER_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = TRIGGER_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = TRIGGER_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, trigger_request_decode, None, 1, 1)
+            v14, pos = read_messages(mv, pos, lim, _U32, trigger_request_decode, None, 1, 1)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, trigger_response_decode, None, 1, 5)
+            v15, pos = read_messages(mv, pos, lim, _U32, trigger_response_decode, None, 1, 5)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -1003,20 +948,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return trigger_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def trigger_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1029,47 +974,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, TRIGGER_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, TRIGGER_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        TRIGGER_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, TRIGGER_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(slow_pack(_S_q, TRIGGER_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S_q, TRIGGER_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(

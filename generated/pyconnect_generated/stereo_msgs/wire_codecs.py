@@ -34,6 +34,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -43,7 +44,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.sensor_msgs.wire_codecs import (
     DEFINITIONS as SENSOR_MSGS__DEFINITIONS,
@@ -176,7 +177,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v2, pos = sensor_msgs__image_decode(mv, pos, lim)
             pos = (pos + 3) & -4
             f = DISPARITY_IMAGE_RUN_0
-            v3, v4, v6, v7, v8, v9, v11, v12, v13, v14 = _S_2f4IT3x3f.unpack_from(mv, pos)
+            v4, v6, v9, v11, v13, v15, v17, v19, v21, v23 = _S_2f4IT3x3f.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -186,28 +187,28 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             return disparity_image_view(
                 v1,
                 v2,
-                v3,
                 v4,
-                sensor_msgs__region_of_interest_view(v6, v7, v8, v9, v11),
-                v12,
-                v13,
-                v14,
+                v6,
+                sensor_msgs__region_of_interest_view(v9, v11, v13, v15, v17),
+                v19,
+                v21,
+                v23,
             ), pos
         return {
             "header": v1,
             "image": v2,
-            "f": v3,
-            "t": v4,
+            "f": v4,
+            "t": v6,
             "valid_window": {
-                "x_offset": v6,
-                "y_offset": v7,
-                "height": v8,
-                "width": v9,
-                "do_rectify": v11,
+                "x_offset": v9,
+                "y_offset": v11,
+                "height": v13,
+                "width": v15,
+                "do_rectify": v17,
             },
-            "min_disparity": v12,
-            "max_disparity": v13,
-            "delta_d": v14,
+            "min_disparity": v19,
+            "max_disparity": v21,
+            "delta_d": v23,
         }, pos
 
     def disparity_image_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -224,50 +225,38 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".valid_window"
-            m5 = d.get("valid_window", EMPTY)
-            if m5.__class__ is not dict or not SENSOR_MSGS__REGION_OF_INTEREST_KEYS.issuperset(m5):
-                m5 = _submap(m5, SENSOR_MSGS__REGION_OF_INTEREST_KEYS)
+            m7 = d.get("valid_window", EMPTY)
+            if m7.__class__ is not dict or not SENSOR_MSGS__REGION_OF_INTEREST_KEYS.issuperset(m7):
+                m7 = _submap(m7, SENSOR_MSGS__REGION_OF_INTEREST_KEYS)
             f = ""
+            if type(t3 := d.get("f", 0.0)) is not float:
+                t3 = check_scalar("float32", t3, ".f")
+            if type(t5 := d.get("t", 0.0)) is not float:
+                t5 = check_scalar("float32", t5, ".t")
+            if type(t8 := m7.get("x_offset", 0)) is not int:
+                t8 = check_scalar("uint32", t8, ".valid_window.x_offset")
+            if type(t10 := m7.get("y_offset", 0)) is not int:
+                t10 = check_scalar("uint32", t10, ".valid_window.y_offset")
+            if type(t12 := m7.get("height", 0)) is not int:
+                t12 = check_scalar("uint32", t12, ".valid_window.height")
+            if type(t14 := m7.get("width", 0)) is not int:
+                t14 = check_scalar("uint32", t14, ".valid_window.width")
+            if type(t16 := m7.get("do_rectify", False)) is not bool:
+                t16 = check_scalar("bool", t16, ".valid_window.do_rectify")
+            if type(t18 := d.get("min_disparity", 0.0)) is not float:
+                t18 = check_scalar("float32", t18, ".min_disparity")
+            if type(t20 := d.get("max_disparity", 0.0)) is not float:
+                t20 = check_scalar("float32", t20, ".max_disparity")
+            if type(t22 := d.get("delta_d", 0.0)) is not float:
+                t22 = check_scalar("float32", t22, ".delta_d")
             try:
-                out.append(
-                    _S_2f4IT3x3f.pack(
-                        d.get("f", 0.0),
-                        d.get("t", 0.0),
-                        m5.get("x_offset", 0),
-                        m5.get("y_offset", 0),
-                        m5.get("height", 0),
-                        m5.get("width", 0),
-                        (
-                            t10
-                            if (t10 := m5.get("do_rectify", False)).__class__ is bool
-                            else check_bool(t10, ".valid_window.do_rectify")
-                        ),
-                        d.get("min_disparity", 0.0),
-                        d.get("max_disparity", 0.0),
-                        d.get("delta_d", 0.0),
-                    )
-                )
+                out.append(_S_2f4IT3x3f.pack(t3, t5, t8, t10, t12, t14, t16, t18, t20, t22))
             except Exception:
                 out.append(
                     slow_pack(
                         _S_2f4IT3x3f,
                         DISPARITY_IMAGE_RUN_0,
-                        (
-                            d.get("f", 0.0),
-                            d.get("t", 0.0),
-                            m5.get("x_offset", 0),
-                            m5.get("y_offset", 0),
-                            m5.get("height", 0),
-                            m5.get("width", 0),
-                            (
-                                t10
-                                if (t10 := m5.get("do_rectify", False)).__class__ is bool
-                                else check_bool(t10, ".valid_window.do_rectify")
-                            ),
-                            d.get("min_disparity", 0.0),
-                            d.get("max_disparity", 0.0),
-                            d.get("delta_d", 0.0),
-                        ),
+                        (t3, t5, t8, t10, t12, t14, t16, t18, t20, t22),
                     )
                 )
             pos += 40

@@ -115,6 +115,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -378,7 +379,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values", MISSING)
         if value is MISSING:
             msg._float64_values = np.zeros(3, dtype=np.float64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "float64"):
             try:
                 msg._float64_values = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -392,7 +393,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values", MISSING)
         if value is MISSING:
             msg._int8_values = np.zeros(3, dtype=np.int8)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int8"):
             try:
                 msg._int8_values = np.array(array("b", value), dtype=np.int8)
             except (TypeError, OverflowError, ValueError):
@@ -408,7 +409,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values", MISSING)
         if value is MISSING:
             msg._int16_values = np.zeros(3, dtype=np.int16)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int16"):
             try:
                 msg._int16_values = np.array(array("h", value), dtype=np.int16)
             except (TypeError, OverflowError, ValueError):
@@ -418,7 +419,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values", MISSING)
         if value is MISSING:
             msg._uint16_values = np.zeros(3, dtype=np.uint16)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint16"):
             try:
                 msg._uint16_values = np.array(array("H", value), dtype=np.uint16)
             except (TypeError, OverflowError, ValueError):
@@ -430,7 +431,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values", MISSING)
         if value is MISSING:
             msg._int32_values = np.zeros(3, dtype=np.int32)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int32"):
             try:
                 msg._int32_values = np.array(array("i", value), dtype=np.int32)
             except (TypeError, OverflowError, ValueError):
@@ -440,7 +441,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values", MISSING)
         if value is MISSING:
             msg._uint32_values = np.zeros(3, dtype=np.uint32)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint32"):
             try:
                 msg._uint32_values = np.array(array("I", value), dtype=np.uint32)
             except (TypeError, OverflowError, ValueError):
@@ -452,7 +453,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values", MISSING)
         if value is MISSING:
             msg._int64_values = np.zeros(3, dtype=np.int64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int64"):
             try:
                 msg._int64_values = np.array(array("q", value), dtype=np.int64)
             except (TypeError, OverflowError, ValueError):
@@ -462,7 +463,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values", MISSING)
         if value is MISSING:
             msg._uint64_values = np.zeros(3, dtype=np.uint64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint64"):
             try:
                 msg._uint64_values = np.array(array("Q", value), dtype=np.uint64)
             except (TypeError, OverflowError, ValueError):
@@ -520,7 +521,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values_default", MISSING)
         if value is MISSING:
             msg._float64_values_default = np.array((3.1415, 0.0, -3.1415), dtype=np.float64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "float64"):
             try:
                 msg._float64_values_default = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -534,7 +535,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values_default", MISSING)
         if value is MISSING:
             msg._int8_values_default = np.array((0, 127, -128), dtype=np.int8)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int8"):
             try:
                 msg._int8_values_default = np.array(array("b", value), dtype=np.int8)
             except (TypeError, OverflowError, ValueError):
@@ -554,7 +555,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values_default", MISSING)
         if value is MISSING:
             msg._int16_values_default = np.array((0, 32767, -32768), dtype=np.int16)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int16"):
             try:
                 msg._int16_values_default = np.array(array("h", value), dtype=np.int16)
             except (TypeError, OverflowError, ValueError):
@@ -568,7 +569,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values_default", MISSING)
         if value is MISSING:
             msg._uint16_values_default = np.array((0, 1, 65535), dtype=np.uint16)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint16"):
             try:
                 msg._uint16_values_default = np.array(array("H", value), dtype=np.uint16)
             except (TypeError, OverflowError, ValueError):
@@ -582,7 +583,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values_default", MISSING)
         if value is MISSING:
             msg._int32_values_default = np.array((0, 2147483647, -2147483648), dtype=np.int32)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int32"):
             try:
                 msg._int32_values_default = np.array(array("i", value), dtype=np.int32)
             except (TypeError, OverflowError, ValueError):
@@ -596,7 +597,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values_default", MISSING)
         if value is MISSING:
             msg._uint32_values_default = np.array((0, 1, 4294967295), dtype=np.uint32)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint32"):
             try:
                 msg._uint32_values_default = np.array(array("I", value), dtype=np.uint32)
             except (TypeError, OverflowError, ValueError):
@@ -612,7 +613,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
             msg._int64_values_default = np.array(
                 (0, 9223372036854775807, -9223372036854775808), dtype=np.int64
             )
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int64"):
             try:
                 msg._int64_values_default = np.array(array("q", value), dtype=np.int64)
             except (TypeError, OverflowError, ValueError):
@@ -626,7 +627,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values_default", MISSING)
         if value is MISSING:
             msg._uint64_values_default = np.array((0, 1, 18446744073709551615), dtype=np.uint64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint64"):
             try:
                 msg._uint64_values_default = np.array(array("Q", value), dtype=np.uint64)
             except (TypeError, OverflowError, ValueError):
@@ -898,7 +899,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values", MISSING)
         if value is MISSING:
             msg._float64_values = array("d")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "float64"):
             try:
                 msg._float64_values = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -908,7 +909,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values", MISSING)
         if value is MISSING:
             msg._int8_values = array("b")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int8"):
             try:
                 msg._int8_values = array("b", value)
             except (TypeError, OverflowError, ValueError):
@@ -922,7 +923,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values", MISSING)
         if value is MISSING:
             msg._int16_values = array("h")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int16"):
             try:
                 msg._int16_values = array("h", value)
             except (TypeError, OverflowError, ValueError):
@@ -932,7 +933,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values", MISSING)
         if value is MISSING:
             msg._uint16_values = array("H")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint16"):
             try:
                 msg._uint16_values = array("H", value)
             except (TypeError, OverflowError, ValueError):
@@ -942,7 +943,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values", MISSING)
         if value is MISSING:
             msg._int32_values = array("i")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int32"):
             try:
                 msg._int32_values = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -952,7 +953,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values", MISSING)
         if value is MISSING:
             msg._uint32_values = array("I")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint32"):
             try:
                 msg._uint32_values = array("I", value)
             except (TypeError, OverflowError, ValueError):
@@ -962,7 +963,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values", MISSING)
         if value is MISSING:
             msg._int64_values = array("q")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int64"):
             try:
                 msg._int64_values = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -972,7 +973,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values", MISSING)
         if value is MISSING:
             msg._uint64_values = array("Q")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint64"):
             try:
                 msg._uint64_values = array("Q", value)
             except (TypeError, OverflowError, ValueError):
@@ -1024,7 +1025,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values_default", MISSING)
         if value is MISSING:
             msg._float64_values_default = array("d", (3.1415, 0.0, -3.1415))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "float64"):
             try:
                 msg._float64_values_default = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -1038,7 +1039,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values_default", MISSING)
         if value is MISSING:
             msg._int8_values_default = array("b", (0, 127, -128))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int8"):
             try:
                 msg._int8_values_default = array("b", value)
             except (TypeError, OverflowError, ValueError):
@@ -1058,7 +1059,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values_default", MISSING)
         if value is MISSING:
             msg._int16_values_default = array("h", (0, 32767, -32768))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int16"):
             try:
                 msg._int16_values_default = array("h", value)
             except (TypeError, OverflowError, ValueError):
@@ -1072,7 +1073,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values_default", MISSING)
         if value is MISSING:
             msg._uint16_values_default = array("H", (0, 1, 65535))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint16"):
             try:
                 msg._uint16_values_default = array("H", value)
             except (TypeError, OverflowError, ValueError):
@@ -1086,7 +1087,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values_default", MISSING)
         if value is MISSING:
             msg._int32_values_default = array("i", (0, 2147483647, -2147483648))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int32"):
             try:
                 msg._int32_values_default = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -1100,7 +1101,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values_default", MISSING)
         if value is MISSING:
             msg._uint32_values_default = array("I", (0, 1, 4294967295))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint32"):
             try:
                 msg._uint32_values_default = array("I", value)
             except (TypeError, OverflowError, ValueError):
@@ -1114,7 +1115,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values_default", MISSING)
         if value is MISSING:
             msg._int64_values_default = array("q", (0, 9223372036854775807, -9223372036854775808))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int64"):
             try:
                 msg._int64_values_default = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -1128,7 +1129,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values_default", MISSING)
         if value is MISSING:
             msg._uint64_values_default = array("Q", (0, 1, 18446744073709551615))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint64"):
             try:
                 msg._uint64_values_default = array("Q", value)
             except (TypeError, OverflowError, ValueError):
@@ -1288,7 +1289,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values", MISSING)
         if value is MISSING:
             msg._float64_values = array("d")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "float64"):
             try:
                 msg._float64_values = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -1298,7 +1299,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values", MISSING)
         if value is MISSING:
             msg._int8_values = array("b")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int8"):
             try:
                 msg._int8_values = array("b", value)
             except (TypeError, OverflowError, ValueError):
@@ -1312,7 +1313,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values", MISSING)
         if value is MISSING:
             msg._int16_values = array("h")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int16"):
             try:
                 msg._int16_values = array("h", value)
             except (TypeError, OverflowError, ValueError):
@@ -1322,7 +1323,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values", MISSING)
         if value is MISSING:
             msg._uint16_values = array("H")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint16"):
             try:
                 msg._uint16_values = array("H", value)
             except (TypeError, OverflowError, ValueError):
@@ -1332,7 +1333,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values", MISSING)
         if value is MISSING:
             msg._int32_values = array("i")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int32"):
             try:
                 msg._int32_values = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -1342,7 +1343,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values", MISSING)
         if value is MISSING:
             msg._uint32_values = array("I")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint32"):
             try:
                 msg._uint32_values = array("I", value)
             except (TypeError, OverflowError, ValueError):
@@ -1352,7 +1353,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values", MISSING)
         if value is MISSING:
             msg._int64_values = array("q")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int64"):
             try:
                 msg._int64_values = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -1362,7 +1363,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values", MISSING)
         if value is MISSING:
             msg._uint64_values = array("Q")
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint64"):
             try:
                 msg._uint64_values = array("Q", value)
             except (TypeError, OverflowError, ValueError):
@@ -1418,7 +1419,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values_default", MISSING)
         if value is MISSING:
             msg._float64_values_default = array("d", (3.1415, 0.0, -3.1415))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "float64"):
             try:
                 msg._float64_values_default = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -1432,7 +1433,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values_default", MISSING)
         if value is MISSING:
             msg._int8_values_default = array("b", (0, 127, -128))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int8"):
             try:
                 msg._int8_values_default = array("b", value)
             except (TypeError, OverflowError, ValueError):
@@ -1452,7 +1453,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values_default", MISSING)
         if value is MISSING:
             msg._int16_values_default = array("h", (0, 32767, -32768))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int16"):
             try:
                 msg._int16_values_default = array("h", value)
             except (TypeError, OverflowError, ValueError):
@@ -1466,7 +1467,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values_default", MISSING)
         if value is MISSING:
             msg._uint16_values_default = array("H", (0, 1, 65535))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint16"):
             try:
                 msg._uint16_values_default = array("H", value)
             except (TypeError, OverflowError, ValueError):
@@ -1480,7 +1481,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values_default", MISSING)
         if value is MISSING:
             msg._int32_values_default = array("i", (0, 2147483647, -2147483648))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int32"):
             try:
                 msg._int32_values_default = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -1494,7 +1495,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values_default", MISSING)
         if value is MISSING:
             msg._uint32_values_default = array("I", (0, 1, 4294967295))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint32"):
             try:
                 msg._uint32_values_default = array("I", value)
             except (TypeError, OverflowError, ValueError):
@@ -1508,7 +1509,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values_default", MISSING)
         if value is MISSING:
             msg._int64_values_default = array("q", (0, 9223372036854775807, -9223372036854775808))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int64"):
             try:
                 msg._int64_values_default = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -1522,7 +1523,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values_default", MISSING)
         if value is MISSING:
             msg._uint64_values_default = array("Q", (0, 1, 18446744073709551615))
-        elif type(value) is list and len(value) <= 3:
+        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint64"):
             try:
                 msg._uint64_values_default = array("Q", value)
             except (TypeError, OverflowError, ValueError):
@@ -2805,7 +2806,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values", MISSING)
         if value is MISSING:
             msg._float64_values = array("d")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "float64"):
             try:
                 msg._float64_values = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -2817,7 +2818,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values", MISSING)
         if value is MISSING:
             msg._int8_values = array("b")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int8"):
             try:
                 msg._int8_values = array("b", value)
             except (TypeError, OverflowError, ValueError):
@@ -2831,7 +2832,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values", MISSING)
         if value is MISSING:
             msg._int16_values = array("h")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int16"):
             try:
                 msg._int16_values = array("h", value)
             except (TypeError, OverflowError, ValueError):
@@ -2841,7 +2842,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values", MISSING)
         if value is MISSING:
             msg._uint16_values = array("H")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "uint16"):
             try:
                 msg._uint16_values = array("H", value)
             except (TypeError, OverflowError, ValueError):
@@ -2851,7 +2852,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values", MISSING)
         if value is MISSING:
             msg._int32_values = array("i")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int32"):
             try:
                 msg._int32_values = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -2861,7 +2862,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values", MISSING)
         if value is MISSING:
             msg._uint32_values = array("I")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "uint32"):
             try:
                 msg._uint32_values = array("I", value)
             except (TypeError, OverflowError, ValueError):
@@ -2871,7 +2872,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values", MISSING)
         if value is MISSING:
             msg._int64_values = array("q")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int64"):
             try:
                 msg._int64_values = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -2881,7 +2882,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values", MISSING)
         if value is MISSING:
             msg._uint64_values = array("Q")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "uint64"):
             try:
                 msg._uint64_values = array("Q", value)
             except (TypeError, OverflowError, ValueError):
@@ -2943,7 +2944,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values_default", MISSING)
         if value is MISSING:
             msg._float64_values_default = array("d", (3.1415, 0.0, -3.1415))
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "float64"):
             try:
                 msg._float64_values_default = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -2957,7 +2958,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values_default", MISSING)
         if value is MISSING:
             msg._int8_values_default = array("b", (0, 127, -128))
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int8"):
             try:
                 msg._int8_values_default = array("b", value)
             except (TypeError, OverflowError, ValueError):
@@ -2977,7 +2978,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values_default", MISSING)
         if value is MISSING:
             msg._int16_values_default = array("h", (0, 32767, -32768))
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int16"):
             try:
                 msg._int16_values_default = array("h", value)
             except (TypeError, OverflowError, ValueError):
@@ -2991,7 +2992,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values_default", MISSING)
         if value is MISSING:
             msg._uint16_values_default = array("H", (0, 1, 65535))
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "uint16"):
             try:
                 msg._uint16_values_default = array("H", value)
             except (TypeError, OverflowError, ValueError):
@@ -3005,7 +3006,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values_default", MISSING)
         if value is MISSING:
             msg._int32_values_default = array("i", (0, 2147483647, -2147483648))
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int32"):
             try:
                 msg._int32_values_default = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -3019,7 +3020,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values_default", MISSING)
         if value is MISSING:
             msg._uint32_values_default = array("I", (0, 1, 4294967295))
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "uint32"):
             try:
                 msg._uint32_values_default = array("I", value)
             except (TypeError, OverflowError, ValueError):
@@ -3033,7 +3034,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values_default", MISSING)
         if value is MISSING:
             msg._int64_values_default = array("q", (0, 9223372036854775807, -9223372036854775808))
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int64"):
             try:
                 msg._int64_values_default = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -3047,7 +3048,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values_default", MISSING)
         if value is MISSING:
             msg._uint64_values_default = array("Q", (0, 1, 18446744073709551615))
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "uint64"):
             try:
                 msg._uint64_values_default = array("Q", value)
             except (TypeError, OverflowError, ValueError):
@@ -3309,7 +3310,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values", MISSING)
         if value is MISSING:
             msg._float64_values = np.zeros(3, dtype=np.float64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "float64"):
             try:
                 msg._float64_values = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -3323,7 +3324,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values", MISSING)
         if value is MISSING:
             msg._int8_values = np.zeros(3, dtype=np.int8)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int8"):
             try:
                 msg._int8_values = np.array(array("b", value), dtype=np.int8)
             except (TypeError, OverflowError, ValueError):
@@ -3339,7 +3340,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values", MISSING)
         if value is MISSING:
             msg._int16_values = np.zeros(3, dtype=np.int16)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int16"):
             try:
                 msg._int16_values = np.array(array("h", value), dtype=np.int16)
             except (TypeError, OverflowError, ValueError):
@@ -3349,7 +3350,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values", MISSING)
         if value is MISSING:
             msg._uint16_values = np.zeros(3, dtype=np.uint16)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint16"):
             try:
                 msg._uint16_values = np.array(array("H", value), dtype=np.uint16)
             except (TypeError, OverflowError, ValueError):
@@ -3361,7 +3362,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values", MISSING)
         if value is MISSING:
             msg._int32_values = np.zeros(3, dtype=np.int32)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int32"):
             try:
                 msg._int32_values = np.array(array("i", value), dtype=np.int32)
             except (TypeError, OverflowError, ValueError):
@@ -3371,7 +3372,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values", MISSING)
         if value is MISSING:
             msg._uint32_values = np.zeros(3, dtype=np.uint32)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint32"):
             try:
                 msg._uint32_values = np.array(array("I", value), dtype=np.uint32)
             except (TypeError, OverflowError, ValueError):
@@ -3383,7 +3384,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values", MISSING)
         if value is MISSING:
             msg._int64_values = np.zeros(3, dtype=np.int64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int64"):
             try:
                 msg._int64_values = np.array(array("q", value), dtype=np.int64)
             except (TypeError, OverflowError, ValueError):
@@ -3393,7 +3394,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values", MISSING)
         if value is MISSING:
             msg._uint64_values = np.zeros(3, dtype=np.uint64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint64"):
             try:
                 msg._uint64_values = np.array(array("Q", value), dtype=np.uint64)
             except (TypeError, OverflowError, ValueError):
@@ -3451,7 +3452,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values_default", MISSING)
         if value is MISSING:
             msg._float64_values_default = np.array((3.1415, 0.0, -3.1415), dtype=np.float64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "float64"):
             try:
                 msg._float64_values_default = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -3465,7 +3466,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values_default", MISSING)
         if value is MISSING:
             msg._int8_values_default = np.array((0, 127, -128), dtype=np.int8)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int8"):
             try:
                 msg._int8_values_default = np.array(array("b", value), dtype=np.int8)
             except (TypeError, OverflowError, ValueError):
@@ -3485,7 +3486,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values_default", MISSING)
         if value is MISSING:
             msg._int16_values_default = np.array((0, 32767, -32768), dtype=np.int16)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int16"):
             try:
                 msg._int16_values_default = np.array(array("h", value), dtype=np.int16)
             except (TypeError, OverflowError, ValueError):
@@ -3499,7 +3500,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values_default", MISSING)
         if value is MISSING:
             msg._uint16_values_default = np.array((0, 1, 65535), dtype=np.uint16)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint16"):
             try:
                 msg._uint16_values_default = np.array(array("H", value), dtype=np.uint16)
             except (TypeError, OverflowError, ValueError):
@@ -3513,7 +3514,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values_default", MISSING)
         if value is MISSING:
             msg._int32_values_default = np.array((0, 2147483647, -2147483648), dtype=np.int32)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int32"):
             try:
                 msg._int32_values_default = np.array(array("i", value), dtype=np.int32)
             except (TypeError, OverflowError, ValueError):
@@ -3527,7 +3528,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values_default", MISSING)
         if value is MISSING:
             msg._uint32_values_default = np.array((0, 1, 4294967295), dtype=np.uint32)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint32"):
             try:
                 msg._uint32_values_default = np.array(array("I", value), dtype=np.uint32)
             except (TypeError, OverflowError, ValueError):
@@ -3543,7 +3544,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
             msg._int64_values_default = np.array(
                 (0, 9223372036854775807, -9223372036854775808), dtype=np.int64
             )
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int64"):
             try:
                 msg._int64_values_default = np.array(array("q", value), dtype=np.int64)
             except (TypeError, OverflowError, ValueError):
@@ -3557,7 +3558,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values_default", MISSING)
         if value is MISSING:
             msg._uint64_values_default = np.array((0, 1, 18446744073709551615), dtype=np.uint64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint64"):
             try:
                 msg._uint64_values_default = np.array(array("Q", value), dtype=np.uint64)
             except (TypeError, OverflowError, ValueError):
@@ -3723,7 +3724,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values", MISSING)
         if value is MISSING:
             msg._float64_values = np.zeros(3, dtype=np.float64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "float64"):
             try:
                 msg._float64_values = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -3737,7 +3738,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values", MISSING)
         if value is MISSING:
             msg._int8_values = np.zeros(3, dtype=np.int8)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int8"):
             try:
                 msg._int8_values = np.array(array("b", value), dtype=np.int8)
             except (TypeError, OverflowError, ValueError):
@@ -3753,7 +3754,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values", MISSING)
         if value is MISSING:
             msg._int16_values = np.zeros(3, dtype=np.int16)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int16"):
             try:
                 msg._int16_values = np.array(array("h", value), dtype=np.int16)
             except (TypeError, OverflowError, ValueError):
@@ -3763,7 +3764,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values", MISSING)
         if value is MISSING:
             msg._uint16_values = np.zeros(3, dtype=np.uint16)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint16"):
             try:
                 msg._uint16_values = np.array(array("H", value), dtype=np.uint16)
             except (TypeError, OverflowError, ValueError):
@@ -3775,7 +3776,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values", MISSING)
         if value is MISSING:
             msg._int32_values = np.zeros(3, dtype=np.int32)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int32"):
             try:
                 msg._int32_values = np.array(array("i", value), dtype=np.int32)
             except (TypeError, OverflowError, ValueError):
@@ -3785,7 +3786,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values", MISSING)
         if value is MISSING:
             msg._uint32_values = np.zeros(3, dtype=np.uint32)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint32"):
             try:
                 msg._uint32_values = np.array(array("I", value), dtype=np.uint32)
             except (TypeError, OverflowError, ValueError):
@@ -3797,7 +3798,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values", MISSING)
         if value is MISSING:
             msg._int64_values = np.zeros(3, dtype=np.int64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int64"):
             try:
                 msg._int64_values = np.array(array("q", value), dtype=np.int64)
             except (TypeError, OverflowError, ValueError):
@@ -3807,7 +3808,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values", MISSING)
         if value is MISSING:
             msg._uint64_values = np.zeros(3, dtype=np.uint64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint64"):
             try:
                 msg._uint64_values = np.array(array("Q", value), dtype=np.uint64)
             except (TypeError, OverflowError, ValueError):
@@ -3865,7 +3866,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values_default", MISSING)
         if value is MISSING:
             msg._float64_values_default = np.array((3.1415, 0.0, -3.1415), dtype=np.float64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "float64"):
             try:
                 msg._float64_values_default = np.array(array("d", value), dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
@@ -3879,7 +3880,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values_default", MISSING)
         if value is MISSING:
             msg._int8_values_default = np.array((0, 127, -128), dtype=np.int8)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int8"):
             try:
                 msg._int8_values_default = np.array(array("b", value), dtype=np.int8)
             except (TypeError, OverflowError, ValueError):
@@ -3899,7 +3900,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values_default", MISSING)
         if value is MISSING:
             msg._int16_values_default = np.array((0, 32767, -32768), dtype=np.int16)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int16"):
             try:
                 msg._int16_values_default = np.array(array("h", value), dtype=np.int16)
             except (TypeError, OverflowError, ValueError):
@@ -3913,7 +3914,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values_default", MISSING)
         if value is MISSING:
             msg._uint16_values_default = np.array((0, 1, 65535), dtype=np.uint16)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint16"):
             try:
                 msg._uint16_values_default = np.array(array("H", value), dtype=np.uint16)
             except (TypeError, OverflowError, ValueError):
@@ -3927,7 +3928,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values_default", MISSING)
         if value is MISSING:
             msg._int32_values_default = np.array((0, 2147483647, -2147483648), dtype=np.int32)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int32"):
             try:
                 msg._int32_values_default = np.array(array("i", value), dtype=np.int32)
             except (TypeError, OverflowError, ValueError):
@@ -3941,7 +3942,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values_default", MISSING)
         if value is MISSING:
             msg._uint32_values_default = np.array((0, 1, 4294967295), dtype=np.uint32)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint32"):
             try:
                 msg._uint32_values_default = np.array(array("I", value), dtype=np.uint32)
             except (TypeError, OverflowError, ValueError):
@@ -3957,7 +3958,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
             msg._int64_values_default = np.array(
                 (0, 9223372036854775807, -9223372036854775808), dtype=np.int64
             )
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int64"):
             try:
                 msg._int64_values_default = np.array(array("q", value), dtype=np.int64)
             except (TypeError, OverflowError, ValueError):
@@ -3971,7 +3972,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values_default", MISSING)
         if value is MISSING:
             msg._uint64_values_default = np.array((0, 1, 18446744073709551615), dtype=np.uint64)
-        elif type(value) is list and len(value) == 3:
+        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint64"):
             try:
                 msg._uint64_values_default = np.array(array("Q", value), dtype=np.uint64)
             except (TypeError, OverflowError, ValueError):
@@ -4671,7 +4672,7 @@ def fibonacci_result_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("sequence", MISSING)
         if value is MISSING:
             msg._sequence = array("i")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int32"):
             try:
                 msg._sequence = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -4709,7 +4710,7 @@ def fibonacci_feedback_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("sequence", MISSING)
         if value is MISSING:
             msg._sequence = array("i")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "int32"):
             try:
                 msg._sequence = array("i", value)
             except (TypeError, OverflowError, ValueError):

@@ -116,6 +116,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -125,7 +126,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -4069,36 +4070,38 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = BASIC_TYPES_RUN_0
-            v2, v3, v4 = _S_T2B.unpack_from(mv, pos)
+            v2, v4, v6 = _S_T2B.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = BASIC_TYPES_RUN_1
-            (v5,) = _S_f.unpack_from(mv, pos)
+            (v8,) = _S_f.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = BASIC_TYPES_RUN_2
-            v6, v7, v8, v9, v10, v11, v12, v13, v14 = _S_dbBhH2xiIqQ.unpack_from(mv, pos)
+            v10, v12, v14, v16, v18, v20, v22, v24, v26 = _S_dbBhH2xiIqQ.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return basic_types_view(v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14), pos
+            return basic_types_view(
+                v2, v4, v6, v8, v10, v12, v14, v16, v18, v20, v22, v24, v26
+            ), pos
         return {
             "bool_value": v2,
-            "byte_value": v3,
-            "char_value": v4,
-            "float32_value": v5,
-            "float64_value": v6,
-            "int8_value": v7,
-            "uint8_value": v8,
-            "int16_value": v9,
-            "uint16_value": v10,
-            "int32_value": v11,
-            "uint32_value": v12,
-            "int64_value": v13,
-            "uint64_value": v14,
+            "byte_value": v4,
+            "char_value": v6,
+            "float32_value": v8,
+            "float64_value": v10,
+            "int8_value": v12,
+            "uint8_value": v14,
+            "int16_value": v16,
+            "uint16_value": v18,
+            "int32_value": v20,
+            "uint32_value": v22,
+            "int64_value": v24,
+            "uint64_value": v26,
         }, pos
 
     def basic_types_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -4107,80 +4110,60 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(d):
                 d = _submap(d, BASIC_TYPES_KEYS)
             f = ""
+            if type(t1 := d.get("bool_value", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".bool_value")
+            if type(t3 := d.get("byte_value", 0)) is not int:
+                t3 = check_scalar("byte", t3, ".byte_value")
+            if type(t5 := d.get("char_value", 0)) is not int:
+                t5 = check_scalar("uint8", t5, ".char_value")
             try:
-                out.append(
-                    _S_T2B.pack(
-                        (
-                            t1
-                            if (t1 := d.get("bool_value", False)).__class__ is bool
-                            else check_bool(t1, ".bool_value")
-                        ),
-                        d.get("byte_value", 0),
-                        d.get("char_value", 0),
-                    )
-                )
+                out.append(_S_T2B.pack(t1, t3, t5))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T2B,
-                        BASIC_TYPES_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("bool_value", False)).__class__ is bool
-                                else check_bool(t1, ".bool_value")
-                            ),
-                            d.get("byte_value", 0),
-                            d.get("char_value", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T2B, BASIC_TYPES_RUN_0, (t1, t3, t5)))
             pos += 3
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t7 := d.get("float32_value", 0.0)) is not float:
+                t7 = check_scalar("float32", t7, ".float32_value")
             try:
-                out.append(_S_f.pack(d.get("float32_value", 0.0)))
+                out.append(_S_f.pack(t7))
             except Exception:
-                out.append(slow_pack(_S_f, BASIC_TYPES_RUN_1, (d.get("float32_value", 0.0),)))
+                out.append(slow_pack(_S_f, BASIC_TYPES_RUN_1, (t7,)))
             pos += 4
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t9 := d.get("float64_value", 0.0)) is not float:
+                t9 = check_scalar("float64", t9, ".float64_value")
+            if type(t11 := d.get("int8_value", 0)) is not int:
+                t11 = check_scalar("int8", t11, ".int8_value")
+            if type(t13 := d.get("uint8_value", 0)) is not int:
+                t13 = check_scalar("uint8", t13, ".uint8_value")
+            if type(t15 := d.get("int16_value", 0)) is not int:
+                t15 = check_scalar("int16", t15, ".int16_value")
+            if type(t17 := d.get("uint16_value", 0)) is not int:
+                t17 = check_scalar("uint16", t17, ".uint16_value")
+            if type(t19 := d.get("int32_value", 0)) is not int:
+                t19 = check_scalar("int32", t19, ".int32_value")
+            if type(t21 := d.get("uint32_value", 0)) is not int:
+                t21 = check_scalar("uint32", t21, ".uint32_value")
+            if type(t23 := d.get("int64_value", 0)) is not int:
+                t23 = check_scalar("int64", t23, ".int64_value")
+            if type(t25 := d.get("uint64_value", 0)) is not int:
+                t25 = check_scalar("uint64", t25, ".uint64_value")
             try:
-                out.append(
-                    _S_dbBhH2xiIqQ.pack(
-                        d.get("float64_value", 0.0),
-                        d.get("int8_value", 0),
-                        d.get("uint8_value", 0),
-                        d.get("int16_value", 0),
-                        d.get("uint16_value", 0),
-                        d.get("int32_value", 0),
-                        d.get("uint32_value", 0),
-                        d.get("int64_value", 0),
-                        d.get("uint64_value", 0),
-                    )
-                )
+                out.append(_S_dbBhH2xiIqQ.pack(t9, t11, t13, t15, t17, t19, t21, t23, t25))
             except Exception:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQ,
                         BASIC_TYPES_RUN_2,
-                        (
-                            d.get("float64_value", 0.0),
-                            d.get("int8_value", 0),
-                            d.get("uint8_value", 0),
-                            d.get("int16_value", 0),
-                            d.get("uint16_value", 0),
-                            d.get("int32_value", 0),
-                            d.get("uint32_value", 0),
-                            d.get("int64_value", 0),
-                            d.get("uint64_value", 0),
-                        ),
+                        (t9, t11, t13, t15, t17, t19, t21, t23, t25),
                     )
                 )
             pos += 40
@@ -4225,36 +4208,36 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = DEFAULTS_RUN_0
-            v2, v3, v4 = _S_T2B.unpack_from(mv, pos)
+            v2, v4, v6 = _S_T2B.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = DEFAULTS_RUN_1
-            (v5,) = _S_f.unpack_from(mv, pos)
+            (v8,) = _S_f.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = DEFAULTS_RUN_2
-            v6, v7, v8, v9, v10, v11, v12, v13, v14 = _S_dbBhH2xiIqQ.unpack_from(mv, pos)
+            v10, v12, v14, v16, v18, v20, v22, v24, v26 = _S_dbBhH2xiIqQ.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return defaults_view(v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14), pos
+            return defaults_view(v2, v4, v6, v8, v10, v12, v14, v16, v18, v20, v22, v24, v26), pos
         return {
             "bool_value": v2,
-            "byte_value": v3,
-            "char_value": v4,
-            "float32_value": v5,
-            "float64_value": v6,
-            "int8_value": v7,
-            "uint8_value": v8,
-            "int16_value": v9,
-            "uint16_value": v10,
-            "int32_value": v11,
-            "uint32_value": v12,
-            "int64_value": v13,
-            "uint64_value": v14,
+            "byte_value": v4,
+            "char_value": v6,
+            "float32_value": v8,
+            "float64_value": v10,
+            "int8_value": v12,
+            "uint8_value": v14,
+            "int16_value": v16,
+            "uint16_value": v18,
+            "int32_value": v20,
+            "uint32_value": v22,
+            "int64_value": v24,
+            "uint64_value": v26,
         }, pos
 
     def defaults_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -4263,80 +4246,58 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not DEFAULTS_KEYS.issuperset(d):
                 d = _submap(d, DEFAULTS_KEYS)
             f = ""
+            if type(t1 := d.get("bool_value", True)) is not bool:
+                t1 = check_scalar("bool", t1, ".bool_value")
+            if type(t3 := d.get("byte_value", 50)) is not int:
+                t3 = check_scalar("byte", t3, ".byte_value")
+            if type(t5 := d.get("char_value", 100)) is not int:
+                t5 = check_scalar("uint8", t5, ".char_value")
             try:
-                out.append(
-                    _S_T2B.pack(
-                        (
-                            t1
-                            if (t1 := d.get("bool_value", True)).__class__ is bool
-                            else check_bool(t1, ".bool_value")
-                        ),
-                        d.get("byte_value", 50),
-                        d.get("char_value", 100),
-                    )
-                )
+                out.append(_S_T2B.pack(t1, t3, t5))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T2B,
-                        DEFAULTS_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("bool_value", True)).__class__ is bool
-                                else check_bool(t1, ".bool_value")
-                            ),
-                            d.get("byte_value", 50),
-                            d.get("char_value", 100),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T2B, DEFAULTS_RUN_0, (t1, t3, t5)))
             pos += 3
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t7 := d.get("float32_value", 1.125)) is not float:
+                t7 = check_scalar("float32", t7, ".float32_value")
             try:
-                out.append(_S_f.pack(d.get("float32_value", 1.125)))
+                out.append(_S_f.pack(t7))
             except Exception:
-                out.append(slow_pack(_S_f, DEFAULTS_RUN_1, (d.get("float32_value", 1.125),)))
+                out.append(slow_pack(_S_f, DEFAULTS_RUN_1, (t7,)))
             pos += 4
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t9 := d.get("float64_value", 1.125)) is not float:
+                t9 = check_scalar("float64", t9, ".float64_value")
+            if type(t11 := d.get("int8_value", -50)) is not int:
+                t11 = check_scalar("int8", t11, ".int8_value")
+            if type(t13 := d.get("uint8_value", 200)) is not int:
+                t13 = check_scalar("uint8", t13, ".uint8_value")
+            if type(t15 := d.get("int16_value", -1000)) is not int:
+                t15 = check_scalar("int16", t15, ".int16_value")
+            if type(t17 := d.get("uint16_value", 2000)) is not int:
+                t17 = check_scalar("uint16", t17, ".uint16_value")
+            if type(t19 := d.get("int32_value", -30000)) is not int:
+                t19 = check_scalar("int32", t19, ".int32_value")
+            if type(t21 := d.get("uint32_value", 60000)) is not int:
+                t21 = check_scalar("uint32", t21, ".uint32_value")
+            if type(t23 := d.get("int64_value", -40000000)) is not int:
+                t23 = check_scalar("int64", t23, ".int64_value")
+            if type(t25 := d.get("uint64_value", 50000000)) is not int:
+                t25 = check_scalar("uint64", t25, ".uint64_value")
             try:
-                out.append(
-                    _S_dbBhH2xiIqQ.pack(
-                        d.get("float64_value", 1.125),
-                        d.get("int8_value", -50),
-                        d.get("uint8_value", 200),
-                        d.get("int16_value", -1000),
-                        d.get("uint16_value", 2000),
-                        d.get("int32_value", -30000),
-                        d.get("uint32_value", 60000),
-                        d.get("int64_value", -40000000),
-                        d.get("uint64_value", 50000000),
-                    )
-                )
+                out.append(_S_dbBhH2xiIqQ.pack(t9, t11, t13, t15, t17, t19, t21, t23, t25))
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_dbBhH2xiIqQ,
-                        DEFAULTS_RUN_2,
-                        (
-                            d.get("float64_value", 1.125),
-                            d.get("int8_value", -50),
-                            d.get("uint8_value", 200),
-                            d.get("int16_value", -1000),
-                            d.get("uint16_value", 2000),
-                            d.get("int32_value", -30000),
-                            d.get("uint32_value", 60000),
-                            d.get("int64_value", -40000000),
-                            d.get("uint64_value", 50000000),
-                        ),
+                        _S_dbBhH2xiIqQ, DEFAULTS_RUN_2, (t9, t11, t13, t15, t17, t19, t21, t23, t25)
                     )
                 )
             pos += 40
@@ -4499,7 +4460,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v83, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
             pos = (pos + 3) & -4
             f = ARRAYS_RUN_0
-            (v84,) = _S_i.unpack_from(mv, pos)
+            (v85,) = _S_i.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -4538,7 +4499,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 v79,
                 v82,
                 v83,
-                v84,
+                v85,
             ), pos
         return {
             "bool_values": v3,
@@ -4572,7 +4533,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "int64_values_default": v79.tolist(),
             "uint64_values_default": v82.tolist(),
             "string_values_default": v83,
-            "alignment_check": v84,
+            "alignment_check": v85,
         }, pos
 
     def arrays_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -4796,10 +4757,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t84 := d.get("alignment_check", 0)) is not int:
+                t84 = check_scalar("int32", t84, ".alignment_check")
             try:
-                out.append(_S_i.pack(d.get("alignment_check", 0)))
+                out.append(_S_i.pack(t84))
             except Exception:
-                out.append(slow_pack(_S_i, ARRAYS_RUN_0, (d.get("alignment_check", 0),)))
+                out.append(slow_pack(_S_i, ARRAYS_RUN_0, (t84,)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -5105,7 +5068,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v107 = _frombuffer(mv, _D_uint64, v106, pos)
             pos += v106 * 8
             f = BOUNDED_PLAIN_SEQUENCES_RUN_26
-            (v108,) = _S_i.unpack_from(mv, pos)
+            (v109,) = _S_i.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -5142,7 +5105,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 v99,
                 v103,
                 v107,
-                v108,
+                v109,
             ), pos
         return {
             "bool_values": v4,
@@ -5174,7 +5137,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "uint32_values_default": v99.tolist(),
             "int64_values_default": v103.tolist(),
             "uint64_values_default": v107.tolist(),
-            "alignment_check": v108,
+            "alignment_check": v109,
         }, pos
 
     def bounded_plain_sequences_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -5595,12 +5558,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             out.append(b104)
             pos += c105 * 8
             f = ""
+            if type(t108 := d.get("alignment_check", 0)) is not int:
+                t108 = check_scalar("int32", t108, ".alignment_check")
             try:
-                out.append(_S_i.pack(d.get("alignment_check", 0)))
+                out.append(_S_i.pack(t108))
             except Exception:
-                out.append(
-                    slow_pack(_S_i, BOUNDED_PLAIN_SEQUENCES_RUN_26, (d.get("alignment_check", 0),))
-                )
+                out.append(slow_pack(_S_i, BOUNDED_PLAIN_SEQUENCES_RUN_26, (t108,)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -5911,7 +5874,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v109, pos = read_strings(mv, pos, lim, _U32, None, 3, None, False)
             pos = (pos + 3) & -4
             f = BOUNDED_SEQUENCES_RUN_26
-            (v110,) = _S_i.unpack_from(mv, pos)
+            (v111,) = _S_i.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -5950,7 +5913,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 v104,
                 v108,
                 v109,
-                v110,
+                v111,
             ), pos
         return {
             "bool_values": v4,
@@ -5984,7 +5947,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "int64_values_default": v104.tolist(),
             "uint64_values_default": v108.tolist(),
             "string_values_default": v109,
-            "alignment_check": v110,
+            "alignment_check": v111,
         }, pos
 
     def bounded_sequences_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -6422,12 +6385,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t110 := d.get("alignment_check", 0)) is not int:
+                t110 = check_scalar("int32", t110, ".alignment_check")
             try:
-                out.append(_S_i.pack(d.get("alignment_check", 0)))
+                out.append(_S_i.pack(t110))
             except Exception:
-                out.append(
-                    slow_pack(_S_i, BOUNDED_SEQUENCES_RUN_26, (d.get("alignment_check", 0),))
-                )
+                out.append(slow_pack(_S_i, BOUNDED_SEQUENCES_RUN_26, (t110,)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -6440,7 +6403,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = BUILTINS_RUN_0
-            v2, v3, v5, v6 = _S_iIiI.unpack_from(mv, pos)
+            v3, v5, v8, v10 = _S_iIiI.unpack_from(mv, pos)
             pos += 16
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -6448,11 +6411,11 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return builtins_view(
-                builtin_interfaces__duration_view(v2, v3), builtin_interfaces__time_view(v5, v6)
+                builtin_interfaces__duration_view(v3, v5), builtin_interfaces__time_view(v8, v10)
             ), pos
         return {
-            "duration_value": {"sec": v2, "nanosec": v3},
-            "time_value": {"sec": v5, "nanosec": v6},
+            "duration_value": {"sec": v3, "nanosec": v5},
+            "time_value": {"sec": v8, "nanosec": v10},
         }, pos
 
     def builtins_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -6469,32 +6432,22 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".time_value"
-            m4 = d.get("time_value", EMPTY)
-            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
-                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
+            m6 = d.get("time_value", EMPTY)
+            if m6.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m6):
+                m6 = _submap(m6, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("sec", 0)) is not int:
+                t2 = check_scalar("int32", t2, ".duration_value.sec")
+            if type(t4 := m1.get("nanosec", 0)) is not int:
+                t4 = check_scalar("uint32", t4, ".duration_value.nanosec")
+            if type(t7 := m6.get("sec", 0)) is not int:
+                t7 = check_scalar("int32", t7, ".time_value.sec")
+            if type(t9 := m6.get("nanosec", 0)) is not int:
+                t9 = check_scalar("uint32", t9, ".time_value.nanosec")
             try:
-                out.append(
-                    _S_iIiI.pack(
-                        m1.get("sec", 0),
-                        m1.get("nanosec", 0),
-                        m4.get("sec", 0),
-                        m4.get("nanosec", 0),
-                    )
-                )
+                out.append(_S_iIiI.pack(t2, t4, t7, t9))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iIiI,
-                        BUILTINS_RUN_0,
-                        (
-                            m1.get("sec", 0),
-                            m1.get("nanosec", 0),
-                            m4.get("sec", 0),
-                            m4.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iIiI, BUILTINS_RUN_0, (t2, t4, t7, t9)))
             pos += 16
         except FieldError as error:
             raise error.within(f) from None
@@ -6784,7 +6737,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v109, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
             pos = (pos + 3) & -4
             f = UNBOUNDED_SEQUENCES_RUN_26
-            (v110,) = _S_i.unpack_from(mv, pos)
+            (v111,) = _S_i.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -6823,7 +6776,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 v104,
                 v108,
                 v109,
-                v110,
+                v111,
             ), pos
         return {
             "bool_values": v4,
@@ -6857,7 +6810,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "int64_values_default": v104.tolist(),
             "uint64_values_default": v108.tolist(),
             "string_values_default": v109,
-            "alignment_check": v110,
+            "alignment_check": v111,
         }, pos
 
     def unbounded_sequences_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -7297,12 +7250,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t110 := d.get("alignment_check", 0)) is not int:
+                t110 = check_scalar("int32", t110, ".alignment_check")
             try:
-                out.append(_S_i.pack(d.get("alignment_check", 0)))
+                out.append(_S_i.pack(t110))
             except Exception:
-                out.append(
-                    slow_pack(_S_i, UNBOUNDED_SEQUENCES_RUN_26, (d.get("alignment_check", 0),))
-                )
+                out.append(slow_pack(_S_i, UNBOUNDED_SEQUENCES_RUN_26, (t110,)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -7442,15 +7395,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = NESTED_RUN_0
-            v3, v4, v5 = _S_T2B.unpack_from(mv, pos)
+            v3, v5, v7 = _S_T2B.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = NESTED_RUN_1
-            (v6,) = _S_f.unpack_from(mv, pos)
+            (v9,) = _S_f.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = NESTED_RUN_2
-            v7, v8, v9, v10, v11, v12, v13, v14, v15 = _S_dbBhH2xiIqQ.unpack_from(mv, pos)
+            v11, v13, v15, v17, v19, v21, v23, v25, v27 = _S_dbBhH2xiIqQ.unpack_from(mv, pos)
             pos += 40
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -7458,23 +7411,23 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return nested_view(
-                basic_types_view(v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v15)
+                basic_types_view(v3, v5, v7, v9, v11, v13, v15, v17, v19, v21, v23, v25, v27)
             ), pos
         return {
             "basic_types_value": {
                 "bool_value": v3,
-                "byte_value": v4,
-                "char_value": v5,
-                "float32_value": v6,
-                "float64_value": v7,
-                "int8_value": v8,
-                "uint8_value": v9,
-                "int16_value": v10,
-                "uint16_value": v11,
-                "int32_value": v12,
-                "uint32_value": v13,
-                "int64_value": v14,
-                "uint64_value": v15,
+                "byte_value": v5,
+                "char_value": v7,
+                "float32_value": v9,
+                "float64_value": v11,
+                "int8_value": v13,
+                "uint8_value": v15,
+                "int16_value": v17,
+                "uint16_value": v19,
+                "int32_value": v21,
+                "uint32_value": v23,
+                "int64_value": v25,
+                "uint64_value": v27,
             }
         }, pos
 
@@ -7488,80 +7441,58 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m1):
                 m1 = _submap(m1, BASIC_TYPES_KEYS)
             f = ""
+            if type(t2 := m1.get("bool_value", False)) is not bool:
+                t2 = check_scalar("bool", t2, ".basic_types_value.bool_value")
+            if type(t4 := m1.get("byte_value", 0)) is not int:
+                t4 = check_scalar("byte", t4, ".basic_types_value.byte_value")
+            if type(t6 := m1.get("char_value", 0)) is not int:
+                t6 = check_scalar("uint8", t6, ".basic_types_value.char_value")
             try:
-                out.append(
-                    _S_T2B.pack(
-                        (
-                            t2
-                            if (t2 := m1.get("bool_value", False)).__class__ is bool
-                            else check_bool(t2, ".basic_types_value.bool_value")
-                        ),
-                        m1.get("byte_value", 0),
-                        m1.get("char_value", 0),
-                    )
-                )
+                out.append(_S_T2B.pack(t2, t4, t6))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T2B,
-                        NESTED_RUN_0,
-                        (
-                            (
-                                t2
-                                if (t2 := m1.get("bool_value", False)).__class__ is bool
-                                else check_bool(t2, ".basic_types_value.bool_value")
-                            ),
-                            m1.get("byte_value", 0),
-                            m1.get("char_value", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T2B, NESTED_RUN_0, (t2, t4, t6)))
             pos += 3
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t8 := m1.get("float32_value", 0.0)) is not float:
+                t8 = check_scalar("float32", t8, ".basic_types_value.float32_value")
             try:
-                out.append(_S_f.pack(m1.get("float32_value", 0.0)))
+                out.append(_S_f.pack(t8))
             except Exception:
-                out.append(slow_pack(_S_f, NESTED_RUN_1, (m1.get("float32_value", 0.0),)))
+                out.append(slow_pack(_S_f, NESTED_RUN_1, (t8,)))
             pos += 4
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t10 := m1.get("float64_value", 0.0)) is not float:
+                t10 = check_scalar("float64", t10, ".basic_types_value.float64_value")
+            if type(t12 := m1.get("int8_value", 0)) is not int:
+                t12 = check_scalar("int8", t12, ".basic_types_value.int8_value")
+            if type(t14 := m1.get("uint8_value", 0)) is not int:
+                t14 = check_scalar("uint8", t14, ".basic_types_value.uint8_value")
+            if type(t16 := m1.get("int16_value", 0)) is not int:
+                t16 = check_scalar("int16", t16, ".basic_types_value.int16_value")
+            if type(t18 := m1.get("uint16_value", 0)) is not int:
+                t18 = check_scalar("uint16", t18, ".basic_types_value.uint16_value")
+            if type(t20 := m1.get("int32_value", 0)) is not int:
+                t20 = check_scalar("int32", t20, ".basic_types_value.int32_value")
+            if type(t22 := m1.get("uint32_value", 0)) is not int:
+                t22 = check_scalar("uint32", t22, ".basic_types_value.uint32_value")
+            if type(t24 := m1.get("int64_value", 0)) is not int:
+                t24 = check_scalar("int64", t24, ".basic_types_value.int64_value")
+            if type(t26 := m1.get("uint64_value", 0)) is not int:
+                t26 = check_scalar("uint64", t26, ".basic_types_value.uint64_value")
             try:
-                out.append(
-                    _S_dbBhH2xiIqQ.pack(
-                        m1.get("float64_value", 0.0),
-                        m1.get("int8_value", 0),
-                        m1.get("uint8_value", 0),
-                        m1.get("int16_value", 0),
-                        m1.get("uint16_value", 0),
-                        m1.get("int32_value", 0),
-                        m1.get("uint32_value", 0),
-                        m1.get("int64_value", 0),
-                        m1.get("uint64_value", 0),
-                    )
-                )
+                out.append(_S_dbBhH2xiIqQ.pack(t10, t12, t14, t16, t18, t20, t22, t24, t26))
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_dbBhH2xiIqQ,
-                        NESTED_RUN_2,
-                        (
-                            m1.get("float64_value", 0.0),
-                            m1.get("int8_value", 0),
-                            m1.get("uint8_value", 0),
-                            m1.get("int16_value", 0),
-                            m1.get("uint16_value", 0),
-                            m1.get("int32_value", 0),
-                            m1.get("uint32_value", 0),
-                            m1.get("int64_value", 0),
-                            m1.get("uint64_value", 0),
-                        ),
+                        _S_dbBhH2xiIqQ, NESTED_RUN_2, (t10, t12, t14, t16, t18, t20, t22, t24, t26)
                     )
                 )
             pos += 40
@@ -8858,25 +8789,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = ARRAYS_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = ARRAYS_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = ARRAYS_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, arrays_request_decode, None, 1, 567)
+            v14, pos = read_messages(mv, pos, lim, _U32, arrays_request_decode, None, 1, 567)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, arrays_response_decode, None, 1, 567)
+            v15, pos = read_messages(mv, pos, lim, _U32, arrays_response_decode, None, 1, 567)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -8884,20 +8815,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return arrays_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def arrays_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -8910,47 +8841,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, ARRAYS_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, ARRAYS_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        ARRAYS_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, ARRAYS_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(slow_pack(_S_q, ARRAYS_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S_q, ARRAYS_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -8970,44 +8900,44 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = BASIC_TYPES_REQUEST_RUN_0
-            v2, v3, v4 = _S_T2B.unpack_from(mv, pos)
+            v2, v4, v6 = _S_T2B.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = BASIC_TYPES_REQUEST_RUN_1
-            (v5,) = _S_f.unpack_from(mv, pos)
+            (v8,) = _S_f.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = BASIC_TYPES_REQUEST_RUN_2
-            v6, v7, v8, v9, v10, v11, v12, v13, v14, v16 = _S_dbBhH2xiIqQI.unpack_from(mv, pos)
+            v10, v12, v14, v16, v18, v20, v22, v24, v26, v28 = _S_dbBhH2xiIqQI.unpack_from(mv, pos)
             pos += 44
             f = ".string_value"
-            if v16 > lim - pos:
-                raise too_long(v16, 1, lim - pos)
-            v17 = mv[pos : pos + v16 - 1].tobytes().decode()
-            pos += v16
+            if v28 > lim - pos:
+                raise too_long(v28, 1, lim - pos)
+            v29 = mv[pos : pos + v28 - 1].tobytes().decode()
+            pos += v28
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return basic_types_request_view(
-                v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v17
+                v2, v4, v6, v8, v10, v12, v14, v16, v18, v20, v22, v24, v26, v29
             ), pos
         return {
             "bool_value": v2,
-            "byte_value": v3,
-            "char_value": v4,
-            "float32_value": v5,
-            "float64_value": v6,
-            "int8_value": v7,
-            "uint8_value": v8,
-            "int16_value": v9,
-            "uint16_value": v10,
-            "int32_value": v11,
-            "uint32_value": v12,
-            "int64_value": v13,
-            "uint64_value": v14,
-            "string_value": v17,
+            "byte_value": v4,
+            "char_value": v6,
+            "float32_value": v8,
+            "float64_value": v10,
+            "int8_value": v12,
+            "uint8_value": v14,
+            "int16_value": v16,
+            "uint16_value": v18,
+            "int32_value": v20,
+            "uint32_value": v22,
+            "int64_value": v24,
+            "uint64_value": v26,
+            "string_value": v29,
         }, pos
 
     def basic_types_request_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -9016,91 +8946,69 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not BASIC_TYPES_REQUEST_KEYS.issuperset(d):
                 d = _submap(d, BASIC_TYPES_REQUEST_KEYS)
             f = ""
+            if type(t1 := d.get("bool_value", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".bool_value")
+            if type(t3 := d.get("byte_value", 0)) is not int:
+                t3 = check_scalar("byte", t3, ".byte_value")
+            if type(t5 := d.get("char_value", 0)) is not int:
+                t5 = check_scalar("uint8", t5, ".char_value")
             try:
-                out.append(
-                    _S_T2B.pack(
-                        (
-                            t1
-                            if (t1 := d.get("bool_value", False)).__class__ is bool
-                            else check_bool(t1, ".bool_value")
-                        ),
-                        d.get("byte_value", 0),
-                        d.get("char_value", 0),
-                    )
-                )
+                out.append(_S_T2B.pack(t1, t3, t5))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T2B,
-                        BASIC_TYPES_REQUEST_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("bool_value", False)).__class__ is bool
-                                else check_bool(t1, ".bool_value")
-                            ),
-                            d.get("byte_value", 0),
-                            d.get("char_value", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T2B, BASIC_TYPES_REQUEST_RUN_0, (t1, t3, t5)))
             pos += 3
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t7 := d.get("float32_value", 0.0)) is not float:
+                t7 = check_scalar("float32", t7, ".float32_value")
             try:
-                out.append(_S_f.pack(d.get("float32_value", 0.0)))
+                out.append(_S_f.pack(t7))
             except Exception:
-                out.append(
-                    slow_pack(_S_f, BASIC_TYPES_REQUEST_RUN_1, (d.get("float32_value", 0.0),))
-                )
+                out.append(slow_pack(_S_f, BASIC_TYPES_REQUEST_RUN_1, (t7,)))
             pos += 4
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".string_value"
-            b15 = utf8z(d.get("string_value", ""), None)
+            b27 = utf8z(d.get("string_value", ""), None)
             f = ""
+            if type(t9 := d.get("float64_value", 0.0)) is not float:
+                t9 = check_scalar("float64", t9, ".float64_value")
+            if type(t11 := d.get("int8_value", 0)) is not int:
+                t11 = check_scalar("int8", t11, ".int8_value")
+            if type(t13 := d.get("uint8_value", 0)) is not int:
+                t13 = check_scalar("uint8", t13, ".uint8_value")
+            if type(t15 := d.get("int16_value", 0)) is not int:
+                t15 = check_scalar("int16", t15, ".int16_value")
+            if type(t17 := d.get("uint16_value", 0)) is not int:
+                t17 = check_scalar("uint16", t17, ".uint16_value")
+            if type(t19 := d.get("int32_value", 0)) is not int:
+                t19 = check_scalar("int32", t19, ".int32_value")
+            if type(t21 := d.get("uint32_value", 0)) is not int:
+                t21 = check_scalar("uint32", t21, ".uint32_value")
+            if type(t23 := d.get("int64_value", 0)) is not int:
+                t23 = check_scalar("int64", t23, ".int64_value")
+            if type(t25 := d.get("uint64_value", 0)) is not int:
+                t25 = check_scalar("uint64", t25, ".uint64_value")
             try:
                 out.append(
-                    _S_dbBhH2xiIqQI.pack(
-                        d.get("float64_value", 0.0),
-                        d.get("int8_value", 0),
-                        d.get("uint8_value", 0),
-                        d.get("int16_value", 0),
-                        d.get("uint16_value", 0),
-                        d.get("int32_value", 0),
-                        d.get("uint32_value", 0),
-                        d.get("int64_value", 0),
-                        d.get("uint64_value", 0),
-                        len(b15),
-                    )
+                    _S_dbBhH2xiIqQI.pack(t9, t11, t13, t15, t17, t19, t21, t23, t25, len(b27))
                 )
             except Exception:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQI,
                         BASIC_TYPES_REQUEST_RUN_2,
-                        (
-                            d.get("float64_value", 0.0),
-                            d.get("int8_value", 0),
-                            d.get("uint8_value", 0),
-                            d.get("int16_value", 0),
-                            d.get("uint16_value", 0),
-                            d.get("int32_value", 0),
-                            d.get("uint32_value", 0),
-                            d.get("int64_value", 0),
-                            d.get("uint64_value", 0),
-                            len(b15),
-                        ),
+                        (t9, t11, t13, t15, t17, t19, t21, t23, t25, len(b27)),
                     )
                 )
             pos += 44
-            out.append(b15)
-            pos += len(b15)
+            out.append(b27)
+            pos += len(b27)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -9111,44 +9019,44 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = BASIC_TYPES_RESPONSE_RUN_0
-            v2, v3, v4 = _S_T2B.unpack_from(mv, pos)
+            v2, v4, v6 = _S_T2B.unpack_from(mv, pos)
             pos += 3
             pos = (pos + 3) & -4
             f = BASIC_TYPES_RESPONSE_RUN_1
-            (v5,) = _S_f.unpack_from(mv, pos)
+            (v8,) = _S_f.unpack_from(mv, pos)
             pos += 4
             pos = (pos + 7) & -8
             f = BASIC_TYPES_RESPONSE_RUN_2
-            v6, v7, v8, v9, v10, v11, v12, v13, v14, v16 = _S_dbBhH2xiIqQI.unpack_from(mv, pos)
+            v10, v12, v14, v16, v18, v20, v22, v24, v26, v28 = _S_dbBhH2xiIqQI.unpack_from(mv, pos)
             pos += 44
             f = ".string_value"
-            if v16 > lim - pos:
-                raise too_long(v16, 1, lim - pos)
-            v17 = mv[pos : pos + v16 - 1].tobytes().decode()
-            pos += v16
+            if v28 > lim - pos:
+                raise too_long(v28, 1, lim - pos)
+            v29 = mv[pos : pos + v28 - 1].tobytes().decode()
+            pos += v28
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return basic_types_response_view(
-                v2, v3, v4, v5, v6, v7, v8, v9, v10, v11, v12, v13, v14, v17
+                v2, v4, v6, v8, v10, v12, v14, v16, v18, v20, v22, v24, v26, v29
             ), pos
         return {
             "bool_value": v2,
-            "byte_value": v3,
-            "char_value": v4,
-            "float32_value": v5,
-            "float64_value": v6,
-            "int8_value": v7,
-            "uint8_value": v8,
-            "int16_value": v9,
-            "uint16_value": v10,
-            "int32_value": v11,
-            "uint32_value": v12,
-            "int64_value": v13,
-            "uint64_value": v14,
-            "string_value": v17,
+            "byte_value": v4,
+            "char_value": v6,
+            "float32_value": v8,
+            "float64_value": v10,
+            "int8_value": v12,
+            "uint8_value": v14,
+            "int16_value": v16,
+            "uint16_value": v18,
+            "int32_value": v20,
+            "uint32_value": v22,
+            "int64_value": v24,
+            "uint64_value": v26,
+            "string_value": v29,
         }, pos
 
     def basic_types_response_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -9157,91 +9065,69 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not BASIC_TYPES_RESPONSE_KEYS.issuperset(d):
                 d = _submap(d, BASIC_TYPES_RESPONSE_KEYS)
             f = ""
+            if type(t1 := d.get("bool_value", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".bool_value")
+            if type(t3 := d.get("byte_value", 0)) is not int:
+                t3 = check_scalar("byte", t3, ".byte_value")
+            if type(t5 := d.get("char_value", 0)) is not int:
+                t5 = check_scalar("uint8", t5, ".char_value")
             try:
-                out.append(
-                    _S_T2B.pack(
-                        (
-                            t1
-                            if (t1 := d.get("bool_value", False)).__class__ is bool
-                            else check_bool(t1, ".bool_value")
-                        ),
-                        d.get("byte_value", 0),
-                        d.get("char_value", 0),
-                    )
-                )
+                out.append(_S_T2B.pack(t1, t3, t5))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T2B,
-                        BASIC_TYPES_RESPONSE_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("bool_value", False)).__class__ is bool
-                                else check_bool(t1, ".bool_value")
-                            ),
-                            d.get("byte_value", 0),
-                            d.get("char_value", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T2B, BASIC_TYPES_RESPONSE_RUN_0, (t1, t3, t5)))
             pos += 3
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t7 := d.get("float32_value", 0.0)) is not float:
+                t7 = check_scalar("float32", t7, ".float32_value")
             try:
-                out.append(_S_f.pack(d.get("float32_value", 0.0)))
+                out.append(_S_f.pack(t7))
             except Exception:
-                out.append(
-                    slow_pack(_S_f, BASIC_TYPES_RESPONSE_RUN_1, (d.get("float32_value", 0.0),))
-                )
+                out.append(slow_pack(_S_f, BASIC_TYPES_RESPONSE_RUN_1, (t7,)))
             pos += 4
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".string_value"
-            b15 = utf8z(d.get("string_value", ""), None)
+            b27 = utf8z(d.get("string_value", ""), None)
             f = ""
+            if type(t9 := d.get("float64_value", 0.0)) is not float:
+                t9 = check_scalar("float64", t9, ".float64_value")
+            if type(t11 := d.get("int8_value", 0)) is not int:
+                t11 = check_scalar("int8", t11, ".int8_value")
+            if type(t13 := d.get("uint8_value", 0)) is not int:
+                t13 = check_scalar("uint8", t13, ".uint8_value")
+            if type(t15 := d.get("int16_value", 0)) is not int:
+                t15 = check_scalar("int16", t15, ".int16_value")
+            if type(t17 := d.get("uint16_value", 0)) is not int:
+                t17 = check_scalar("uint16", t17, ".uint16_value")
+            if type(t19 := d.get("int32_value", 0)) is not int:
+                t19 = check_scalar("int32", t19, ".int32_value")
+            if type(t21 := d.get("uint32_value", 0)) is not int:
+                t21 = check_scalar("uint32", t21, ".uint32_value")
+            if type(t23 := d.get("int64_value", 0)) is not int:
+                t23 = check_scalar("int64", t23, ".int64_value")
+            if type(t25 := d.get("uint64_value", 0)) is not int:
+                t25 = check_scalar("uint64", t25, ".uint64_value")
             try:
                 out.append(
-                    _S_dbBhH2xiIqQI.pack(
-                        d.get("float64_value", 0.0),
-                        d.get("int8_value", 0),
-                        d.get("uint8_value", 0),
-                        d.get("int16_value", 0),
-                        d.get("uint16_value", 0),
-                        d.get("int32_value", 0),
-                        d.get("uint32_value", 0),
-                        d.get("int64_value", 0),
-                        d.get("uint64_value", 0),
-                        len(b15),
-                    )
+                    _S_dbBhH2xiIqQI.pack(t9, t11, t13, t15, t17, t19, t21, t23, t25, len(b27))
                 )
             except Exception:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQI,
                         BASIC_TYPES_RESPONSE_RUN_2,
-                        (
-                            d.get("float64_value", 0.0),
-                            d.get("int8_value", 0),
-                            d.get("uint8_value", 0),
-                            d.get("int16_value", 0),
-                            d.get("uint16_value", 0),
-                            d.get("int32_value", 0),
-                            d.get("uint32_value", 0),
-                            d.get("int64_value", 0),
-                            d.get("uint64_value", 0),
-                            len(b15),
-                        ),
+                        (t9, t11, t13, t15, t17, t19, t21, t23, t25, len(b27)),
                     )
                 )
             pos += 44
-            out.append(b15)
-            pos += len(b15)
+            out.append(b27)
+            pos += len(b27)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -9252,25 +9138,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = BASIC_TYPES_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = BASIC_TYPES_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = BASIC_TYPES_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, basic_types_request_decode, None, 1, 49)
+            v14, pos = read_messages(mv, pos, lim, _U32, basic_types_request_decode, None, 1, 49)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, basic_types_response_decode, None, 1, 49)
+            v15, pos = read_messages(mv, pos, lim, _U32, basic_types_response_decode, None, 1, 49)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -9278,20 +9164,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return basic_types_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def basic_types_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -9304,49 +9190,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, BASIC_TYPES_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, BASIC_TYPES_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        BASIC_TYPES_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, BASIC_TYPES_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(_S_q, BASIC_TYPES_EVENT_RUN_2, (m1.get("sequence_number", 0),))
-                )
+                out.append(slow_pack(_S_q, BASIC_TYPES_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -9428,25 +9311,25 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = EMPTY_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = EMPTY_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = EMPTY_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(mv, pos, lim, _U32, empty_request_decode, None, 1, 1)
+            v14, pos = read_messages(mv, pos, lim, _U32, empty_request_decode, None, 1, 1)
             f = ".response"
-            v11, pos = read_messages(mv, pos, lim, _U32, empty_response_decode, None, 1, 1)
+            v15, pos = read_messages(mv, pos, lim, _U32, empty_response_decode, None, 1, 1)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -9454,20 +9337,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return empty_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def empty_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -9480,47 +9363,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(slow_pack(_S_B, EMPTY_EVENT_RUN_0, (m1.get("event_type", 0),)))
+                out.append(slow_pack(_S_B, EMPTY_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        EMPTY_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, EMPTY_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(slow_pack(_S_q, EMPTY_EVENT_RUN_2, (m1.get("sequence_number", 0),)))
+                out.append(slow_pack(_S_q, EMPTY_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -9541,15 +9423,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = FIBONACCI_GOAL_RUN_0
-            (v1,) = _S_i.unpack_from(mv, pos)
+            (v2,) = _S_i.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return fibonacci_goal_view(v1), pos
-        return {"order": v1}, pos
+            return fibonacci_goal_view(v2), pos
+        return {"order": v2}, pos
 
     def fibonacci_goal_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -9561,10 +9443,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("order", 0)) is not int:
+                t1 = check_scalar("int32", t1, ".order")
             try:
-                out.append(_S_i.pack(d.get("order", 0)))
+                out.append(_S_i.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_i, FIBONACCI_GOAL_RUN_0, (d.get("order", 0),)))
+                out.append(slow_pack(_S_i, FIBONACCI_GOAL_RUN_0, (t1,)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -9672,7 +9556,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = FIBONACCI_SEND_GOAL_REQUEST_RUN_0
-            (v6,) = _S_i.unpack_from(mv, pos)
+            (v7,) = _S_i.unpack_from(mv, pos)
             pos += 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -9680,9 +9564,9 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return fibonacci_send_goal_request_view(
-                unique_identifier_msgs__uuid_view(v4), fibonacci_goal_view(v6)
+                unique_identifier_msgs__uuid_view(v4), fibonacci_goal_view(v7)
             ), pos
-        return {"goal_id": {"uuid": v4.tobytes()}, "goal": {"order": v6}}, pos
+        return {"goal_id": {"uuid": v4.tobytes()}, "goal": {"order": v7}}, pos
 
     def fibonacci_send_goal_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -9706,12 +9590,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t6 := m5.get("order", 0)) is not int:
+                t6 = check_scalar("int32", t6, ".goal.order")
             try:
-                out.append(_S_i.pack(m5.get("order", 0)))
+                out.append(_S_i.pack(t6))
             except Exception:
-                out.append(
-                    slow_pack(_S_i, FIBONACCI_SEND_GOAL_REQUEST_RUN_0, (m5.get("order", 0),))
-                )
+                out.append(slow_pack(_S_i, FIBONACCI_SEND_GOAL_REQUEST_RUN_0, (t6,)))
             pos += 4
         except FieldError as error:
             raise error.within(f) from None
@@ -9727,15 +9611,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += 1
             pos = (pos + 3) & -4
             f = FIBONACCI_SEND_GOAL_RESPONSE_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v5, v7 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return fibonacci_send_goal_response_view(v2, builtin_interfaces__time_view(v4, v5)), pos
-        return {"accepted": v2, "stamp": {"sec": v4, "nanosec": v5}}, pos
+            return fibonacci_send_goal_response_view(v2, builtin_interfaces__time_view(v5, v7)), pos
+        return {"accepted": v2, "stamp": {"sec": v5, "nanosec": v7}}, pos
 
     def fibonacci_send_goal_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -9747,49 +9631,26 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
                 m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t1 := d.get("accepted", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".accepted")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t1
-                            if (t1 := d.get("accepted", False)).__class__ is bool
-                            else check_bool(t1, ".accepted")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        FIBONACCI_SEND_GOAL_RESPONSE_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("accepted", False)).__class__ is bool
-                                else check_bool(t1, ".accepted")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, FIBONACCI_SEND_GOAL_RESPONSE_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t4 := m3.get("sec", 0)) is not int:
+                t4 = check_scalar("int32", t4, ".stamp.sec")
+            if type(t6 := m3.get("nanosec", 0)) is not int:
+                t6 = check_scalar("uint32", t6, ".stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t4, t6))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        FIBONACCI_SEND_GOAL_RESPONSE_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, FIBONACCI_SEND_GOAL_RESPONSE_RUN_1, (t4, t6)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -9801,27 +9662,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = FIBONACCI_SEND_GOAL_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = FIBONACCI_SEND_GOAL_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = FIBONACCI_SEND_GOAL_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, fibonacci_send_goal_request_decode, None, 1, 20
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, fibonacci_send_goal_response_decode, None, 1, 9
             )
         except WireDecodeError as error:
@@ -9831,20 +9692,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return fibonacci_send_goal_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def fibonacci_send_goal_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -9857,53 +9718,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, FIBONACCI_SEND_GOAL_EVENT_RUN_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, FIBONACCI_SEND_GOAL_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        FIBONACCI_SEND_GOAL_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, FIBONACCI_SEND_GOAL_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, FIBONACCI_SEND_GOAL_EVENT_RUN_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, FIBONACCI_SEND_GOAL_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -9958,17 +9812,17 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = FIBONACCI_GET_RESULT_RESPONSE_RUN_0
-            (v1,) = _S_b.unpack_from(mv, pos)
+            (v2,) = _S_b.unpack_from(mv, pos)
             pos += 1
             f = ".result"
-            v2, pos = fibonacci_result_decode(mv, pos, lim)
+            v3, pos = fibonacci_result_decode(mv, pos, lim)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return fibonacci_get_result_response_view(v1, v2), pos
-        return {"status": v1, "result": v2}, pos
+            return fibonacci_get_result_response_view(v2, v3), pos
+        return {"status": v2, "result": v3}, pos
 
     def fibonacci_get_result_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -9976,12 +9830,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not FIBONACCI_GET_RESULT_RESPONSE_KEYS.issuperset(d):
                 d = _submap(d, FIBONACCI_GET_RESULT_RESPONSE_KEYS)
             f = ""
+            if type(t1 := d.get("status", 0)) is not int:
+                t1 = check_scalar("int8", t1, ".status")
             try:
-                out.append(_S_b.pack(d.get("status", 0)))
+                out.append(_S_b.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(_S_b, FIBONACCI_GET_RESULT_RESPONSE_RUN_0, (d.get("status", 0),))
-                )
+                out.append(slow_pack(_S_b, FIBONACCI_GET_RESULT_RESPONSE_RUN_0, (t1,)))
             pos += 1
             f = ".result"
             pos = fibonacci_result_encode(d.get("result", EMPTY), out, pos)
@@ -9995,27 +9849,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = FIBONACCI_GET_RESULT_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = FIBONACCI_GET_RESULT_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = FIBONACCI_GET_RESULT_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, fibonacci_get_result_request_decode, None, 1, 16
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, fibonacci_get_result_response_decode, None, 1, 5
             )
         except WireDecodeError as error:
@@ -10025,20 +9879,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return fibonacci_get_result_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def fibonacci_get_result_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -10051,53 +9905,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, FIBONACCI_GET_RESULT_EVENT_RUN_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, FIBONACCI_GET_RESULT_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        FIBONACCI_GET_RESULT_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, FIBONACCI_GET_RESULT_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, FIBONACCI_GET_RESULT_EVENT_RUN_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, FIBONACCI_GET_RESULT_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -10163,11 +10010,11 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = NESTED_MESSAGE_GOAL_RUN_0
-            v3, v4, v6, v7, v10, v11, v12, v13 = _S_iIiIT2B1xf.unpack_from(mv, pos)
+            v4, v6, v9, v11, v14, v16, v18, v20 = _S_iIiIT2B1xf.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = NESTED_MESSAGE_GOAL_RUN_1
-            v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S_dbBhH2xiIqQiI.unpack_from(
+            v22, v24, v26, v28, v30, v32, v34, v36, v38, v41, v43 = _S_dbBhH2xiIqQiI.unpack_from(
                 mv, pos
             )
             pos += 48
@@ -10178,32 +10025,33 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return nested_message_goal_view(
                 builtins_view(
-                    builtin_interfaces__duration_view(v3, v4), builtin_interfaces__time_view(v6, v7)
+                    builtin_interfaces__duration_view(v4, v6),
+                    builtin_interfaces__time_view(v9, v11),
                 ),
-                basic_types_view(v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22),
-                builtin_interfaces__time_view(v24, v25),
+                basic_types_view(v14, v16, v18, v20, v22, v24, v26, v28, v30, v32, v34, v36, v38),
+                builtin_interfaces__time_view(v41, v43),
             ), pos
         return {
             "nested_field_no_pkg": {
-                "duration_value": {"sec": v3, "nanosec": v4},
-                "time_value": {"sec": v6, "nanosec": v7},
+                "duration_value": {"sec": v4, "nanosec": v6},
+                "time_value": {"sec": v9, "nanosec": v11},
             },
             "nested_field": {
-                "bool_value": v10,
-                "byte_value": v11,
-                "char_value": v12,
-                "float32_value": v13,
-                "float64_value": v14,
-                "int8_value": v15,
-                "uint8_value": v16,
-                "int16_value": v17,
-                "uint16_value": v18,
-                "int32_value": v19,
-                "uint32_value": v20,
-                "int64_value": v21,
-                "uint64_value": v22,
+                "bool_value": v14,
+                "byte_value": v16,
+                "char_value": v18,
+                "float32_value": v20,
+                "float64_value": v22,
+                "int8_value": v24,
+                "uint8_value": v26,
+                "int16_value": v28,
+                "uint16_value": v30,
+                "int32_value": v32,
+                "uint32_value": v34,
+                "int64_value": v36,
+                "uint64_value": v38,
             },
-            "nested_different_pkg": {"sec": v24, "nanosec": v25},
+            "nested_different_pkg": {"sec": v41, "nanosec": v43},
         }, pos
 
     def nested_message_goal_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -10224,50 +10072,38 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".nested_field_no_pkg.time_value"
-            m5 = m1.get("time_value", EMPTY)
-            if m5.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m5):
-                m5 = _submap(m5, BUILTIN_INTERFACES__TIME_KEYS)
+            m7 = m1.get("time_value", EMPTY)
+            if m7.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m7):
+                m7 = _submap(m7, BUILTIN_INTERFACES__TIME_KEYS)
             f = ".nested_field"
-            m8 = d.get("nested_field", EMPTY)
-            if m8.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m8):
-                m8 = _submap(m8, BASIC_TYPES_KEYS)
+            m12 = d.get("nested_field", EMPTY)
+            if m12.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m12):
+                m12 = _submap(m12, BASIC_TYPES_KEYS)
             f = ""
+            if type(t3 := m2.get("sec", 0)) is not int:
+                t3 = check_scalar("int32", t3, ".nested_field_no_pkg.duration_value.sec")
+            if type(t5 := m2.get("nanosec", 0)) is not int:
+                t5 = check_scalar("uint32", t5, ".nested_field_no_pkg.duration_value.nanosec")
+            if type(t8 := m7.get("sec", 0)) is not int:
+                t8 = check_scalar("int32", t8, ".nested_field_no_pkg.time_value.sec")
+            if type(t10 := m7.get("nanosec", 0)) is not int:
+                t10 = check_scalar("uint32", t10, ".nested_field_no_pkg.time_value.nanosec")
+            if type(t13 := m12.get("bool_value", False)) is not bool:
+                t13 = check_scalar("bool", t13, ".nested_field.bool_value")
+            if type(t15 := m12.get("byte_value", 0)) is not int:
+                t15 = check_scalar("byte", t15, ".nested_field.byte_value")
+            if type(t17 := m12.get("char_value", 0)) is not int:
+                t17 = check_scalar("uint8", t17, ".nested_field.char_value")
+            if type(t19 := m12.get("float32_value", 0.0)) is not float:
+                t19 = check_scalar("float32", t19, ".nested_field.float32_value")
             try:
-                out.append(
-                    _S_iIiIT2B1xf.pack(
-                        m2.get("sec", 0),
-                        m2.get("nanosec", 0),
-                        m5.get("sec", 0),
-                        m5.get("nanosec", 0),
-                        (
-                            t9
-                            if (t9 := m8.get("bool_value", False)).__class__ is bool
-                            else check_bool(t9, ".nested_field.bool_value")
-                        ),
-                        m8.get("byte_value", 0),
-                        m8.get("char_value", 0),
-                        m8.get("float32_value", 0.0),
-                    )
-                )
+                out.append(_S_iIiIT2B1xf.pack(t3, t5, t8, t10, t13, t15, t17, t19))
             except Exception:
                 out.append(
                     slow_pack(
                         _S_iIiIT2B1xf,
                         NESTED_MESSAGE_GOAL_RUN_0,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                            m5.get("sec", 0),
-                            m5.get("nanosec", 0),
-                            (
-                                t9
-                                if (t9 := m8.get("bool_value", False)).__class__ is bool
-                                else check_bool(t9, ".nested_field.bool_value")
-                            ),
-                            m8.get("byte_value", 0),
-                            m8.get("char_value", 0),
-                            m8.get("float32_value", 0.0),
-                        ),
+                        (t3, t5, t8, t10, t13, t15, t17, t19),
                     )
                 )
             pos += 24
@@ -10276,44 +10112,42 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".nested_different_pkg"
-            m23 = d.get("nested_different_pkg", EMPTY)
-            if m23.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m23):
-                m23 = _submap(m23, BUILTIN_INTERFACES__TIME_KEYS)
+            m39 = d.get("nested_different_pkg", EMPTY)
+            if m39.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m39):
+                m39 = _submap(m39, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t21 := m12.get("float64_value", 0.0)) is not float:
+                t21 = check_scalar("float64", t21, ".nested_field.float64_value")
+            if type(t23 := m12.get("int8_value", 0)) is not int:
+                t23 = check_scalar("int8", t23, ".nested_field.int8_value")
+            if type(t25 := m12.get("uint8_value", 0)) is not int:
+                t25 = check_scalar("uint8", t25, ".nested_field.uint8_value")
+            if type(t27 := m12.get("int16_value", 0)) is not int:
+                t27 = check_scalar("int16", t27, ".nested_field.int16_value")
+            if type(t29 := m12.get("uint16_value", 0)) is not int:
+                t29 = check_scalar("uint16", t29, ".nested_field.uint16_value")
+            if type(t31 := m12.get("int32_value", 0)) is not int:
+                t31 = check_scalar("int32", t31, ".nested_field.int32_value")
+            if type(t33 := m12.get("uint32_value", 0)) is not int:
+                t33 = check_scalar("uint32", t33, ".nested_field.uint32_value")
+            if type(t35 := m12.get("int64_value", 0)) is not int:
+                t35 = check_scalar("int64", t35, ".nested_field.int64_value")
+            if type(t37 := m12.get("uint64_value", 0)) is not int:
+                t37 = check_scalar("uint64", t37, ".nested_field.uint64_value")
+            if type(t40 := m39.get("sec", 0)) is not int:
+                t40 = check_scalar("int32", t40, ".nested_different_pkg.sec")
+            if type(t42 := m39.get("nanosec", 0)) is not int:
+                t42 = check_scalar("uint32", t42, ".nested_different_pkg.nanosec")
             try:
                 out.append(
-                    _S_dbBhH2xiIqQiI.pack(
-                        m8.get("float64_value", 0.0),
-                        m8.get("int8_value", 0),
-                        m8.get("uint8_value", 0),
-                        m8.get("int16_value", 0),
-                        m8.get("uint16_value", 0),
-                        m8.get("int32_value", 0),
-                        m8.get("uint32_value", 0),
-                        m8.get("int64_value", 0),
-                        m8.get("uint64_value", 0),
-                        m23.get("sec", 0),
-                        m23.get("nanosec", 0),
-                    )
+                    _S_dbBhH2xiIqQiI.pack(t21, t23, t25, t27, t29, t31, t33, t35, t37, t40, t42)
                 )
             except Exception:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQiI,
                         NESTED_MESSAGE_GOAL_RUN_1,
-                        (
-                            m8.get("float64_value", 0.0),
-                            m8.get("int8_value", 0),
-                            m8.get("uint8_value", 0),
-                            m8.get("int16_value", 0),
-                            m8.get("uint16_value", 0),
-                            m8.get("int32_value", 0),
-                            m8.get("uint32_value", 0),
-                            m8.get("int64_value", 0),
-                            m8.get("uint64_value", 0),
-                            m23.get("sec", 0),
-                            m23.get("nanosec", 0),
-                        ),
+                        (t21, t23, t25, t27, t29, t31, t33, t35, t37, t40, t42),
                     )
                 )
             pos += 48
@@ -10328,11 +10162,11 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = NESTED_MESSAGE_RESULT_RUN_0
-            v3, v4, v6, v7, v10, v11, v12, v13 = _S_iIiIT2B1xf.unpack_from(mv, pos)
+            v4, v6, v9, v11, v14, v16, v18, v20 = _S_iIiIT2B1xf.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = NESTED_MESSAGE_RESULT_RUN_1
-            v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S_dbBhH2xiIqQiI.unpack_from(
+            v22, v24, v26, v28, v30, v32, v34, v36, v38, v41, v43 = _S_dbBhH2xiIqQiI.unpack_from(
                 mv, pos
             )
             pos += 48
@@ -10343,32 +10177,33 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return nested_message_result_view(
                 builtins_view(
-                    builtin_interfaces__duration_view(v3, v4), builtin_interfaces__time_view(v6, v7)
+                    builtin_interfaces__duration_view(v4, v6),
+                    builtin_interfaces__time_view(v9, v11),
                 ),
-                basic_types_view(v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22),
-                builtin_interfaces__time_view(v24, v25),
+                basic_types_view(v14, v16, v18, v20, v22, v24, v26, v28, v30, v32, v34, v36, v38),
+                builtin_interfaces__time_view(v41, v43),
             ), pos
         return {
             "nested_field_no_pkg": {
-                "duration_value": {"sec": v3, "nanosec": v4},
-                "time_value": {"sec": v6, "nanosec": v7},
+                "duration_value": {"sec": v4, "nanosec": v6},
+                "time_value": {"sec": v9, "nanosec": v11},
             },
             "nested_field": {
-                "bool_value": v10,
-                "byte_value": v11,
-                "char_value": v12,
-                "float32_value": v13,
-                "float64_value": v14,
-                "int8_value": v15,
-                "uint8_value": v16,
-                "int16_value": v17,
-                "uint16_value": v18,
-                "int32_value": v19,
-                "uint32_value": v20,
-                "int64_value": v21,
-                "uint64_value": v22,
+                "bool_value": v14,
+                "byte_value": v16,
+                "char_value": v18,
+                "float32_value": v20,
+                "float64_value": v22,
+                "int8_value": v24,
+                "uint8_value": v26,
+                "int16_value": v28,
+                "uint16_value": v30,
+                "int32_value": v32,
+                "uint32_value": v34,
+                "int64_value": v36,
+                "uint64_value": v38,
             },
-            "nested_different_pkg": {"sec": v24, "nanosec": v25},
+            "nested_different_pkg": {"sec": v41, "nanosec": v43},
         }, pos
 
     def nested_message_result_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -10389,50 +10224,38 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".nested_field_no_pkg.time_value"
-            m5 = m1.get("time_value", EMPTY)
-            if m5.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m5):
-                m5 = _submap(m5, BUILTIN_INTERFACES__TIME_KEYS)
+            m7 = m1.get("time_value", EMPTY)
+            if m7.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m7):
+                m7 = _submap(m7, BUILTIN_INTERFACES__TIME_KEYS)
             f = ".nested_field"
-            m8 = d.get("nested_field", EMPTY)
-            if m8.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m8):
-                m8 = _submap(m8, BASIC_TYPES_KEYS)
+            m12 = d.get("nested_field", EMPTY)
+            if m12.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m12):
+                m12 = _submap(m12, BASIC_TYPES_KEYS)
             f = ""
+            if type(t3 := m2.get("sec", 0)) is not int:
+                t3 = check_scalar("int32", t3, ".nested_field_no_pkg.duration_value.sec")
+            if type(t5 := m2.get("nanosec", 0)) is not int:
+                t5 = check_scalar("uint32", t5, ".nested_field_no_pkg.duration_value.nanosec")
+            if type(t8 := m7.get("sec", 0)) is not int:
+                t8 = check_scalar("int32", t8, ".nested_field_no_pkg.time_value.sec")
+            if type(t10 := m7.get("nanosec", 0)) is not int:
+                t10 = check_scalar("uint32", t10, ".nested_field_no_pkg.time_value.nanosec")
+            if type(t13 := m12.get("bool_value", False)) is not bool:
+                t13 = check_scalar("bool", t13, ".nested_field.bool_value")
+            if type(t15 := m12.get("byte_value", 0)) is not int:
+                t15 = check_scalar("byte", t15, ".nested_field.byte_value")
+            if type(t17 := m12.get("char_value", 0)) is not int:
+                t17 = check_scalar("uint8", t17, ".nested_field.char_value")
+            if type(t19 := m12.get("float32_value", 0.0)) is not float:
+                t19 = check_scalar("float32", t19, ".nested_field.float32_value")
             try:
-                out.append(
-                    _S_iIiIT2B1xf.pack(
-                        m2.get("sec", 0),
-                        m2.get("nanosec", 0),
-                        m5.get("sec", 0),
-                        m5.get("nanosec", 0),
-                        (
-                            t9
-                            if (t9 := m8.get("bool_value", False)).__class__ is bool
-                            else check_bool(t9, ".nested_field.bool_value")
-                        ),
-                        m8.get("byte_value", 0),
-                        m8.get("char_value", 0),
-                        m8.get("float32_value", 0.0),
-                    )
-                )
+                out.append(_S_iIiIT2B1xf.pack(t3, t5, t8, t10, t13, t15, t17, t19))
             except Exception:
                 out.append(
                     slow_pack(
                         _S_iIiIT2B1xf,
                         NESTED_MESSAGE_RESULT_RUN_0,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                            m5.get("sec", 0),
-                            m5.get("nanosec", 0),
-                            (
-                                t9
-                                if (t9 := m8.get("bool_value", False)).__class__ is bool
-                                else check_bool(t9, ".nested_field.bool_value")
-                            ),
-                            m8.get("byte_value", 0),
-                            m8.get("char_value", 0),
-                            m8.get("float32_value", 0.0),
-                        ),
+                        (t3, t5, t8, t10, t13, t15, t17, t19),
                     )
                 )
             pos += 24
@@ -10441,44 +10264,42 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".nested_different_pkg"
-            m23 = d.get("nested_different_pkg", EMPTY)
-            if m23.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m23):
-                m23 = _submap(m23, BUILTIN_INTERFACES__TIME_KEYS)
+            m39 = d.get("nested_different_pkg", EMPTY)
+            if m39.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m39):
+                m39 = _submap(m39, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t21 := m12.get("float64_value", 0.0)) is not float:
+                t21 = check_scalar("float64", t21, ".nested_field.float64_value")
+            if type(t23 := m12.get("int8_value", 0)) is not int:
+                t23 = check_scalar("int8", t23, ".nested_field.int8_value")
+            if type(t25 := m12.get("uint8_value", 0)) is not int:
+                t25 = check_scalar("uint8", t25, ".nested_field.uint8_value")
+            if type(t27 := m12.get("int16_value", 0)) is not int:
+                t27 = check_scalar("int16", t27, ".nested_field.int16_value")
+            if type(t29 := m12.get("uint16_value", 0)) is not int:
+                t29 = check_scalar("uint16", t29, ".nested_field.uint16_value")
+            if type(t31 := m12.get("int32_value", 0)) is not int:
+                t31 = check_scalar("int32", t31, ".nested_field.int32_value")
+            if type(t33 := m12.get("uint32_value", 0)) is not int:
+                t33 = check_scalar("uint32", t33, ".nested_field.uint32_value")
+            if type(t35 := m12.get("int64_value", 0)) is not int:
+                t35 = check_scalar("int64", t35, ".nested_field.int64_value")
+            if type(t37 := m12.get("uint64_value", 0)) is not int:
+                t37 = check_scalar("uint64", t37, ".nested_field.uint64_value")
+            if type(t40 := m39.get("sec", 0)) is not int:
+                t40 = check_scalar("int32", t40, ".nested_different_pkg.sec")
+            if type(t42 := m39.get("nanosec", 0)) is not int:
+                t42 = check_scalar("uint32", t42, ".nested_different_pkg.nanosec")
             try:
                 out.append(
-                    _S_dbBhH2xiIqQiI.pack(
-                        m8.get("float64_value", 0.0),
-                        m8.get("int8_value", 0),
-                        m8.get("uint8_value", 0),
-                        m8.get("int16_value", 0),
-                        m8.get("uint16_value", 0),
-                        m8.get("int32_value", 0),
-                        m8.get("uint32_value", 0),
-                        m8.get("int64_value", 0),
-                        m8.get("uint64_value", 0),
-                        m23.get("sec", 0),
-                        m23.get("nanosec", 0),
-                    )
+                    _S_dbBhH2xiIqQiI.pack(t21, t23, t25, t27, t29, t31, t33, t35, t37, t40, t42)
                 )
             except Exception:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQiI,
                         NESTED_MESSAGE_RESULT_RUN_1,
-                        (
-                            m8.get("float64_value", 0.0),
-                            m8.get("int8_value", 0),
-                            m8.get("uint8_value", 0),
-                            m8.get("int16_value", 0),
-                            m8.get("uint16_value", 0),
-                            m8.get("int32_value", 0),
-                            m8.get("uint32_value", 0),
-                            m8.get("int64_value", 0),
-                            m8.get("uint64_value", 0),
-                            m23.get("sec", 0),
-                            m23.get("nanosec", 0),
-                        ),
+                        (t21, t23, t25, t27, t29, t31, t33, t35, t37, t40, t42),
                     )
                 )
             pos += 48
@@ -10493,11 +10314,11 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = NESTED_MESSAGE_FEEDBACK_RUN_0
-            v3, v4, v6, v7, v10, v11, v12, v13 = _S_iIiIT2B1xf.unpack_from(mv, pos)
+            v4, v6, v9, v11, v14, v16, v18, v20 = _S_iIiIT2B1xf.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = NESTED_MESSAGE_FEEDBACK_RUN_1
-            v14, v15, v16, v17, v18, v19, v20, v21, v22, v24, v25 = _S_dbBhH2xiIqQiI.unpack_from(
+            v22, v24, v26, v28, v30, v32, v34, v36, v38, v41, v43 = _S_dbBhH2xiIqQiI.unpack_from(
                 mv, pos
             )
             pos += 48
@@ -10508,32 +10329,33 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return nested_message_feedback_view(
                 builtins_view(
-                    builtin_interfaces__duration_view(v3, v4), builtin_interfaces__time_view(v6, v7)
+                    builtin_interfaces__duration_view(v4, v6),
+                    builtin_interfaces__time_view(v9, v11),
                 ),
-                basic_types_view(v10, v11, v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22),
-                builtin_interfaces__time_view(v24, v25),
+                basic_types_view(v14, v16, v18, v20, v22, v24, v26, v28, v30, v32, v34, v36, v38),
+                builtin_interfaces__time_view(v41, v43),
             ), pos
         return {
             "nested_field_no_pkg": {
-                "duration_value": {"sec": v3, "nanosec": v4},
-                "time_value": {"sec": v6, "nanosec": v7},
+                "duration_value": {"sec": v4, "nanosec": v6},
+                "time_value": {"sec": v9, "nanosec": v11},
             },
             "nested_field": {
-                "bool_value": v10,
-                "byte_value": v11,
-                "char_value": v12,
-                "float32_value": v13,
-                "float64_value": v14,
-                "int8_value": v15,
-                "uint8_value": v16,
-                "int16_value": v17,
-                "uint16_value": v18,
-                "int32_value": v19,
-                "uint32_value": v20,
-                "int64_value": v21,
-                "uint64_value": v22,
+                "bool_value": v14,
+                "byte_value": v16,
+                "char_value": v18,
+                "float32_value": v20,
+                "float64_value": v22,
+                "int8_value": v24,
+                "uint8_value": v26,
+                "int16_value": v28,
+                "uint16_value": v30,
+                "int32_value": v32,
+                "uint32_value": v34,
+                "int64_value": v36,
+                "uint64_value": v38,
             },
-            "nested_different_pkg": {"sec": v24, "nanosec": v25},
+            "nested_different_pkg": {"sec": v41, "nanosec": v43},
         }, pos
 
     def nested_message_feedback_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -10554,50 +10376,38 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".nested_field_no_pkg.time_value"
-            m5 = m1.get("time_value", EMPTY)
-            if m5.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m5):
-                m5 = _submap(m5, BUILTIN_INTERFACES__TIME_KEYS)
+            m7 = m1.get("time_value", EMPTY)
+            if m7.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m7):
+                m7 = _submap(m7, BUILTIN_INTERFACES__TIME_KEYS)
             f = ".nested_field"
-            m8 = d.get("nested_field", EMPTY)
-            if m8.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m8):
-                m8 = _submap(m8, BASIC_TYPES_KEYS)
+            m12 = d.get("nested_field", EMPTY)
+            if m12.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m12):
+                m12 = _submap(m12, BASIC_TYPES_KEYS)
             f = ""
+            if type(t3 := m2.get("sec", 0)) is not int:
+                t3 = check_scalar("int32", t3, ".nested_field_no_pkg.duration_value.sec")
+            if type(t5 := m2.get("nanosec", 0)) is not int:
+                t5 = check_scalar("uint32", t5, ".nested_field_no_pkg.duration_value.nanosec")
+            if type(t8 := m7.get("sec", 0)) is not int:
+                t8 = check_scalar("int32", t8, ".nested_field_no_pkg.time_value.sec")
+            if type(t10 := m7.get("nanosec", 0)) is not int:
+                t10 = check_scalar("uint32", t10, ".nested_field_no_pkg.time_value.nanosec")
+            if type(t13 := m12.get("bool_value", False)) is not bool:
+                t13 = check_scalar("bool", t13, ".nested_field.bool_value")
+            if type(t15 := m12.get("byte_value", 0)) is not int:
+                t15 = check_scalar("byte", t15, ".nested_field.byte_value")
+            if type(t17 := m12.get("char_value", 0)) is not int:
+                t17 = check_scalar("uint8", t17, ".nested_field.char_value")
+            if type(t19 := m12.get("float32_value", 0.0)) is not float:
+                t19 = check_scalar("float32", t19, ".nested_field.float32_value")
             try:
-                out.append(
-                    _S_iIiIT2B1xf.pack(
-                        m2.get("sec", 0),
-                        m2.get("nanosec", 0),
-                        m5.get("sec", 0),
-                        m5.get("nanosec", 0),
-                        (
-                            t9
-                            if (t9 := m8.get("bool_value", False)).__class__ is bool
-                            else check_bool(t9, ".nested_field.bool_value")
-                        ),
-                        m8.get("byte_value", 0),
-                        m8.get("char_value", 0),
-                        m8.get("float32_value", 0.0),
-                    )
-                )
+                out.append(_S_iIiIT2B1xf.pack(t3, t5, t8, t10, t13, t15, t17, t19))
             except Exception:
                 out.append(
                     slow_pack(
                         _S_iIiIT2B1xf,
                         NESTED_MESSAGE_FEEDBACK_RUN_0,
-                        (
-                            m2.get("sec", 0),
-                            m2.get("nanosec", 0),
-                            m5.get("sec", 0),
-                            m5.get("nanosec", 0),
-                            (
-                                t9
-                                if (t9 := m8.get("bool_value", False)).__class__ is bool
-                                else check_bool(t9, ".nested_field.bool_value")
-                            ),
-                            m8.get("byte_value", 0),
-                            m8.get("char_value", 0),
-                            m8.get("float32_value", 0.0),
-                        ),
+                        (t3, t5, t8, t10, t13, t15, t17, t19),
                     )
                 )
             pos += 24
@@ -10606,44 +10416,42 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".nested_different_pkg"
-            m23 = d.get("nested_different_pkg", EMPTY)
-            if m23.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m23):
-                m23 = _submap(m23, BUILTIN_INTERFACES__TIME_KEYS)
+            m39 = d.get("nested_different_pkg", EMPTY)
+            if m39.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m39):
+                m39 = _submap(m39, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t21 := m12.get("float64_value", 0.0)) is not float:
+                t21 = check_scalar("float64", t21, ".nested_field.float64_value")
+            if type(t23 := m12.get("int8_value", 0)) is not int:
+                t23 = check_scalar("int8", t23, ".nested_field.int8_value")
+            if type(t25 := m12.get("uint8_value", 0)) is not int:
+                t25 = check_scalar("uint8", t25, ".nested_field.uint8_value")
+            if type(t27 := m12.get("int16_value", 0)) is not int:
+                t27 = check_scalar("int16", t27, ".nested_field.int16_value")
+            if type(t29 := m12.get("uint16_value", 0)) is not int:
+                t29 = check_scalar("uint16", t29, ".nested_field.uint16_value")
+            if type(t31 := m12.get("int32_value", 0)) is not int:
+                t31 = check_scalar("int32", t31, ".nested_field.int32_value")
+            if type(t33 := m12.get("uint32_value", 0)) is not int:
+                t33 = check_scalar("uint32", t33, ".nested_field.uint32_value")
+            if type(t35 := m12.get("int64_value", 0)) is not int:
+                t35 = check_scalar("int64", t35, ".nested_field.int64_value")
+            if type(t37 := m12.get("uint64_value", 0)) is not int:
+                t37 = check_scalar("uint64", t37, ".nested_field.uint64_value")
+            if type(t40 := m39.get("sec", 0)) is not int:
+                t40 = check_scalar("int32", t40, ".nested_different_pkg.sec")
+            if type(t42 := m39.get("nanosec", 0)) is not int:
+                t42 = check_scalar("uint32", t42, ".nested_different_pkg.nanosec")
             try:
                 out.append(
-                    _S_dbBhH2xiIqQiI.pack(
-                        m8.get("float64_value", 0.0),
-                        m8.get("int8_value", 0),
-                        m8.get("uint8_value", 0),
-                        m8.get("int16_value", 0),
-                        m8.get("uint16_value", 0),
-                        m8.get("int32_value", 0),
-                        m8.get("uint32_value", 0),
-                        m8.get("int64_value", 0),
-                        m8.get("uint64_value", 0),
-                        m23.get("sec", 0),
-                        m23.get("nanosec", 0),
-                    )
+                    _S_dbBhH2xiIqQiI.pack(t21, t23, t25, t27, t29, t31, t33, t35, t37, t40, t42)
                 )
             except Exception:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQiI,
                         NESTED_MESSAGE_FEEDBACK_RUN_1,
-                        (
-                            m8.get("float64_value", 0.0),
-                            m8.get("int8_value", 0),
-                            m8.get("uint8_value", 0),
-                            m8.get("int16_value", 0),
-                            m8.get("uint16_value", 0),
-                            m8.get("int32_value", 0),
-                            m8.get("uint32_value", 0),
-                            m8.get("int64_value", 0),
-                            m8.get("uint64_value", 0),
-                            m23.get("sec", 0),
-                            m23.get("nanosec", 0),
-                        ),
+                        (t21, t23, t25, t27, t29, t31, t33, t35, t37, t40, t42),
                     )
                 )
             pos += 48
@@ -10665,11 +10473,11 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = NESTED_MESSAGE_SEND_GOAL_REQUEST_RUN_0
-            v8, v9, v11, v12, v15, v16, v17, v18 = _S_iIiIT2B1xf.unpack_from(mv, pos)
+            v9, v11, v14, v16, v19, v21, v23, v25 = _S_iIiIT2B1xf.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = NESTED_MESSAGE_SEND_GOAL_REQUEST_RUN_1
-            v19, v20, v21, v22, v23, v24, v25, v26, v27, v29, v30 = _S_dbBhH2xiIqQiI.unpack_from(
+            v27, v29, v31, v33, v35, v37, v39, v41, v43, v46, v48 = _S_dbBhH2xiIqQiI.unpack_from(
                 mv, pos
             )
             pos += 48
@@ -10682,38 +10490,38 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 unique_identifier_msgs__uuid_view(v4),
                 nested_message_goal_view(
                     builtins_view(
-                        builtin_interfaces__duration_view(v8, v9),
-                        builtin_interfaces__time_view(v11, v12),
+                        builtin_interfaces__duration_view(v9, v11),
+                        builtin_interfaces__time_view(v14, v16),
                     ),
                     basic_types_view(
-                        v15, v16, v17, v18, v19, v20, v21, v22, v23, v24, v25, v26, v27
+                        v19, v21, v23, v25, v27, v29, v31, v33, v35, v37, v39, v41, v43
                     ),
-                    builtin_interfaces__time_view(v29, v30),
+                    builtin_interfaces__time_view(v46, v48),
                 ),
             ), pos
         return {
             "goal_id": {"uuid": v4.tobytes()},
             "goal": {
                 "nested_field_no_pkg": {
-                    "duration_value": {"sec": v8, "nanosec": v9},
-                    "time_value": {"sec": v11, "nanosec": v12},
+                    "duration_value": {"sec": v9, "nanosec": v11},
+                    "time_value": {"sec": v14, "nanosec": v16},
                 },
                 "nested_field": {
-                    "bool_value": v15,
-                    "byte_value": v16,
-                    "char_value": v17,
-                    "float32_value": v18,
-                    "float64_value": v19,
-                    "int8_value": v20,
-                    "uint8_value": v21,
-                    "int16_value": v22,
-                    "uint16_value": v23,
-                    "int32_value": v24,
-                    "uint32_value": v25,
-                    "int64_value": v26,
-                    "uint64_value": v27,
+                    "bool_value": v19,
+                    "byte_value": v21,
+                    "char_value": v23,
+                    "float32_value": v25,
+                    "float64_value": v27,
+                    "int8_value": v29,
+                    "uint8_value": v31,
+                    "int16_value": v33,
+                    "uint16_value": v35,
+                    "int32_value": v37,
+                    "uint32_value": v39,
+                    "int64_value": v41,
+                    "uint64_value": v43,
                 },
-                "nested_different_pkg": {"sec": v29, "nanosec": v30},
+                "nested_different_pkg": {"sec": v46, "nanosec": v48},
             },
         }, pos
 
@@ -10747,50 +10555,40 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".goal.nested_field_no_pkg.time_value"
-            m10 = m6.get("time_value", EMPTY)
-            if m10.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m10):
-                m10 = _submap(m10, BUILTIN_INTERFACES__TIME_KEYS)
+            m12 = m6.get("time_value", EMPTY)
+            if m12.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m12):
+                m12 = _submap(m12, BUILTIN_INTERFACES__TIME_KEYS)
             f = ".goal.nested_field"
-            m13 = m5.get("nested_field", EMPTY)
-            if m13.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m13):
-                m13 = _submap(m13, BASIC_TYPES_KEYS)
+            m17 = m5.get("nested_field", EMPTY)
+            if m17.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m17):
+                m17 = _submap(m17, BASIC_TYPES_KEYS)
             f = ""
-            try:
-                out.append(
-                    _S_iIiIT2B1xf.pack(
-                        m7.get("sec", 0),
-                        m7.get("nanosec", 0),
-                        m10.get("sec", 0),
-                        m10.get("nanosec", 0),
-                        (
-                            t14
-                            if (t14 := m13.get("bool_value", False)).__class__ is bool
-                            else check_bool(t14, ".goal.nested_field.bool_value")
-                        ),
-                        m13.get("byte_value", 0),
-                        m13.get("char_value", 0),
-                        m13.get("float32_value", 0.0),
-                    )
+            if type(t8 := m7.get("sec", 0)) is not int:
+                t8 = check_scalar("int32", t8, ".goal.nested_field_no_pkg.duration_value.sec")
+            if type(t10 := m7.get("nanosec", 0)) is not int:
+                t10 = check_scalar(
+                    "uint32", t10, ".goal.nested_field_no_pkg.duration_value.nanosec"
                 )
+            if type(t13 := m12.get("sec", 0)) is not int:
+                t13 = check_scalar("int32", t13, ".goal.nested_field_no_pkg.time_value.sec")
+            if type(t15 := m12.get("nanosec", 0)) is not int:
+                t15 = check_scalar("uint32", t15, ".goal.nested_field_no_pkg.time_value.nanosec")
+            if type(t18 := m17.get("bool_value", False)) is not bool:
+                t18 = check_scalar("bool", t18, ".goal.nested_field.bool_value")
+            if type(t20 := m17.get("byte_value", 0)) is not int:
+                t20 = check_scalar("byte", t20, ".goal.nested_field.byte_value")
+            if type(t22 := m17.get("char_value", 0)) is not int:
+                t22 = check_scalar("uint8", t22, ".goal.nested_field.char_value")
+            if type(t24 := m17.get("float32_value", 0.0)) is not float:
+                t24 = check_scalar("float32", t24, ".goal.nested_field.float32_value")
+            try:
+                out.append(_S_iIiIT2B1xf.pack(t8, t10, t13, t15, t18, t20, t22, t24))
             except Exception:
                 out.append(
                     slow_pack(
                         _S_iIiIT2B1xf,
                         NESTED_MESSAGE_SEND_GOAL_REQUEST_RUN_0,
-                        (
-                            m7.get("sec", 0),
-                            m7.get("nanosec", 0),
-                            m10.get("sec", 0),
-                            m10.get("nanosec", 0),
-                            (
-                                t14
-                                if (t14 := m13.get("bool_value", False)).__class__ is bool
-                                else check_bool(t14, ".goal.nested_field.bool_value")
-                            ),
-                            m13.get("byte_value", 0),
-                            m13.get("char_value", 0),
-                            m13.get("float32_value", 0.0),
-                        ),
+                        (t8, t10, t13, t15, t18, t20, t22, t24),
                     )
                 )
             pos += 24
@@ -10799,44 +10597,42 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".goal.nested_different_pkg"
-            m28 = m5.get("nested_different_pkg", EMPTY)
-            if m28.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m28):
-                m28 = _submap(m28, BUILTIN_INTERFACES__TIME_KEYS)
+            m44 = m5.get("nested_different_pkg", EMPTY)
+            if m44.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m44):
+                m44 = _submap(m44, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t26 := m17.get("float64_value", 0.0)) is not float:
+                t26 = check_scalar("float64", t26, ".goal.nested_field.float64_value")
+            if type(t28 := m17.get("int8_value", 0)) is not int:
+                t28 = check_scalar("int8", t28, ".goal.nested_field.int8_value")
+            if type(t30 := m17.get("uint8_value", 0)) is not int:
+                t30 = check_scalar("uint8", t30, ".goal.nested_field.uint8_value")
+            if type(t32 := m17.get("int16_value", 0)) is not int:
+                t32 = check_scalar("int16", t32, ".goal.nested_field.int16_value")
+            if type(t34 := m17.get("uint16_value", 0)) is not int:
+                t34 = check_scalar("uint16", t34, ".goal.nested_field.uint16_value")
+            if type(t36 := m17.get("int32_value", 0)) is not int:
+                t36 = check_scalar("int32", t36, ".goal.nested_field.int32_value")
+            if type(t38 := m17.get("uint32_value", 0)) is not int:
+                t38 = check_scalar("uint32", t38, ".goal.nested_field.uint32_value")
+            if type(t40 := m17.get("int64_value", 0)) is not int:
+                t40 = check_scalar("int64", t40, ".goal.nested_field.int64_value")
+            if type(t42 := m17.get("uint64_value", 0)) is not int:
+                t42 = check_scalar("uint64", t42, ".goal.nested_field.uint64_value")
+            if type(t45 := m44.get("sec", 0)) is not int:
+                t45 = check_scalar("int32", t45, ".goal.nested_different_pkg.sec")
+            if type(t47 := m44.get("nanosec", 0)) is not int:
+                t47 = check_scalar("uint32", t47, ".goal.nested_different_pkg.nanosec")
             try:
                 out.append(
-                    _S_dbBhH2xiIqQiI.pack(
-                        m13.get("float64_value", 0.0),
-                        m13.get("int8_value", 0),
-                        m13.get("uint8_value", 0),
-                        m13.get("int16_value", 0),
-                        m13.get("uint16_value", 0),
-                        m13.get("int32_value", 0),
-                        m13.get("uint32_value", 0),
-                        m13.get("int64_value", 0),
-                        m13.get("uint64_value", 0),
-                        m28.get("sec", 0),
-                        m28.get("nanosec", 0),
-                    )
+                    _S_dbBhH2xiIqQiI.pack(t26, t28, t30, t32, t34, t36, t38, t40, t42, t45, t47)
                 )
             except Exception:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQiI,
                         NESTED_MESSAGE_SEND_GOAL_REQUEST_RUN_1,
-                        (
-                            m13.get("float64_value", 0.0),
-                            m13.get("int8_value", 0),
-                            m13.get("uint8_value", 0),
-                            m13.get("int16_value", 0),
-                            m13.get("uint16_value", 0),
-                            m13.get("int32_value", 0),
-                            m13.get("uint32_value", 0),
-                            m13.get("int64_value", 0),
-                            m13.get("uint64_value", 0),
-                            m28.get("sec", 0),
-                            m28.get("nanosec", 0),
-                        ),
+                        (t26, t28, t30, t32, t34, t36, t38, t40, t42, t45, t47),
                     )
                 )
             pos += 48
@@ -10856,7 +10652,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += 1
             pos = (pos + 3) & -4
             f = NESTED_MESSAGE_SEND_GOAL_RESPONSE_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v5, v7 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -10864,9 +10660,9 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return nested_message_send_goal_response_view(
-                v2, builtin_interfaces__time_view(v4, v5)
+                v2, builtin_interfaces__time_view(v5, v7)
             ), pos
-        return {"accepted": v2, "stamp": {"sec": v4, "nanosec": v5}}, pos
+        return {"accepted": v2, "stamp": {"sec": v5, "nanosec": v7}}, pos
 
     def nested_message_send_goal_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -10878,49 +10674,26 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
                 m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t1 := d.get("accepted", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".accepted")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t1
-                            if (t1 := d.get("accepted", False)).__class__ is bool
-                            else check_bool(t1, ".accepted")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        NESTED_MESSAGE_SEND_GOAL_RESPONSE_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("accepted", False)).__class__ is bool
-                                else check_bool(t1, ".accepted")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, NESTED_MESSAGE_SEND_GOAL_RESPONSE_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t4 := m3.get("sec", 0)) is not int:
+                t4 = check_scalar("int32", t4, ".stamp.sec")
+            if type(t6 := m3.get("nanosec", 0)) is not int:
+                t6 = check_scalar("uint32", t6, ".stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t4, t6))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        NESTED_MESSAGE_SEND_GOAL_RESPONSE_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, NESTED_MESSAGE_SEND_GOAL_RESPONSE_RUN_1, (t4, t6)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -10934,27 +10707,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, nested_message_send_goal_request_decode, None, 1, 85
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, nested_message_send_goal_response_decode, None, 1, 9
             )
         except WireDecodeError as error:
@@ -10964,20 +10737,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return nested_message_send_goal_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def nested_message_send_goal_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -10990,55 +10763,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_0, (m1.get("event_type", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_B, NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -11111,15 +10875,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_0
-            (v1,) = _S_b.unpack_from(mv, pos)
+            (v2,) = _S_b.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_1
-            v5, v6, v8, v9, v12, v13, v14, v15 = _S_iIiIT2B1xf.unpack_from(mv, pos)
+            v7, v9, v12, v14, v17, v19, v21, v23 = _S_iIiIT2B1xf.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_2
-            v16, v17, v18, v19, v20, v21, v22, v23, v24, v26, v27 = _S_dbBhH2xiIqQiI.unpack_from(
+            v25, v27, v29, v31, v33, v35, v37, v39, v41, v44, v46 = _S_dbBhH2xiIqQiI.unpack_from(
                 mv, pos
             )
             pos += 48
@@ -11129,41 +10893,41 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return nested_message_get_result_response_view(
-                v1,
+                v2,
                 nested_message_result_view(
                     builtins_view(
-                        builtin_interfaces__duration_view(v5, v6),
-                        builtin_interfaces__time_view(v8, v9),
+                        builtin_interfaces__duration_view(v7, v9),
+                        builtin_interfaces__time_view(v12, v14),
                     ),
                     basic_types_view(
-                        v12, v13, v14, v15, v16, v17, v18, v19, v20, v21, v22, v23, v24
+                        v17, v19, v21, v23, v25, v27, v29, v31, v33, v35, v37, v39, v41
                     ),
-                    builtin_interfaces__time_view(v26, v27),
+                    builtin_interfaces__time_view(v44, v46),
                 ),
             ), pos
         return {
-            "status": v1,
+            "status": v2,
             "result": {
                 "nested_field_no_pkg": {
-                    "duration_value": {"sec": v5, "nanosec": v6},
-                    "time_value": {"sec": v8, "nanosec": v9},
+                    "duration_value": {"sec": v7, "nanosec": v9},
+                    "time_value": {"sec": v12, "nanosec": v14},
                 },
                 "nested_field": {
-                    "bool_value": v12,
-                    "byte_value": v13,
-                    "char_value": v14,
-                    "float32_value": v15,
-                    "float64_value": v16,
-                    "int8_value": v17,
-                    "uint8_value": v18,
-                    "int16_value": v19,
-                    "uint16_value": v20,
-                    "int32_value": v21,
-                    "uint32_value": v22,
-                    "int64_value": v23,
-                    "uint64_value": v24,
+                    "bool_value": v17,
+                    "byte_value": v19,
+                    "char_value": v21,
+                    "float32_value": v23,
+                    "float64_value": v25,
+                    "int8_value": v27,
+                    "uint8_value": v29,
+                    "int16_value": v31,
+                    "uint16_value": v33,
+                    "int32_value": v35,
+                    "uint32_value": v37,
+                    "int64_value": v39,
+                    "uint64_value": v41,
                 },
-                "nested_different_pkg": {"sec": v26, "nanosec": v27},
+                "nested_different_pkg": {"sec": v44, "nanosec": v46},
             },
         }, pos
 
@@ -11173,74 +10937,64 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not NESTED_MESSAGE_GET_RESULT_RESPONSE_KEYS.issuperset(d):
                 d = _submap(d, NESTED_MESSAGE_GET_RESULT_RESPONSE_KEYS)
             f = ".result"
-            m2 = d.get("result", EMPTY)
-            if m2.__class__ is not dict or not NESTED_MESSAGE_RESULT_KEYS.issuperset(m2):
-                m2 = _submap(m2, NESTED_MESSAGE_RESULT_KEYS)
+            m3 = d.get("result", EMPTY)
+            if m3.__class__ is not dict or not NESTED_MESSAGE_RESULT_KEYS.issuperset(m3):
+                m3 = _submap(m3, NESTED_MESSAGE_RESULT_KEYS)
             f = ".result.nested_field_no_pkg"
-            m3 = m2.get("nested_field_no_pkg", EMPTY)
-            if m3.__class__ is not dict or not BUILTINS_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTINS_KEYS)
+            m4 = m3.get("nested_field_no_pkg", EMPTY)
+            if m4.__class__ is not dict or not BUILTINS_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTINS_KEYS)
             f = ".result.nested_field_no_pkg.duration_value"
-            m4 = m3.get("duration_value", EMPTY)
-            if m4.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m4):
-                m4 = _submap(m4, BUILTIN_INTERFACES__DURATION_KEYS)
+            m5 = m4.get("duration_value", EMPTY)
+            if m5.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m5):
+                m5 = _submap(m5, BUILTIN_INTERFACES__DURATION_KEYS)
             f = ""
+            if type(t1 := d.get("status", 0)) is not int:
+                t1 = check_scalar("int8", t1, ".status")
             try:
-                out.append(_S_b.pack(d.get("status", 0)))
+                out.append(_S_b.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(_S_b, NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_0, (d.get("status", 0),))
-                )
+                out.append(slow_pack(_S_b, NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".result.nested_field_no_pkg.time_value"
-            m7 = m3.get("time_value", EMPTY)
-            if m7.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m7):
-                m7 = _submap(m7, BUILTIN_INTERFACES__TIME_KEYS)
+            m10 = m4.get("time_value", EMPTY)
+            if m10.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m10):
+                m10 = _submap(m10, BUILTIN_INTERFACES__TIME_KEYS)
             f = ".result.nested_field"
-            m10 = m2.get("nested_field", EMPTY)
-            if m10.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m10):
-                m10 = _submap(m10, BASIC_TYPES_KEYS)
+            m15 = m3.get("nested_field", EMPTY)
+            if m15.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m15):
+                m15 = _submap(m15, BASIC_TYPES_KEYS)
             f = ""
-            try:
-                out.append(
-                    _S_iIiIT2B1xf.pack(
-                        m4.get("sec", 0),
-                        m4.get("nanosec", 0),
-                        m7.get("sec", 0),
-                        m7.get("nanosec", 0),
-                        (
-                            t11
-                            if (t11 := m10.get("bool_value", False)).__class__ is bool
-                            else check_bool(t11, ".result.nested_field.bool_value")
-                        ),
-                        m10.get("byte_value", 0),
-                        m10.get("char_value", 0),
-                        m10.get("float32_value", 0.0),
-                    )
+            if type(t6 := m5.get("sec", 0)) is not int:
+                t6 = check_scalar("int32", t6, ".result.nested_field_no_pkg.duration_value.sec")
+            if type(t8 := m5.get("nanosec", 0)) is not int:
+                t8 = check_scalar(
+                    "uint32", t8, ".result.nested_field_no_pkg.duration_value.nanosec"
                 )
+            if type(t11 := m10.get("sec", 0)) is not int:
+                t11 = check_scalar("int32", t11, ".result.nested_field_no_pkg.time_value.sec")
+            if type(t13 := m10.get("nanosec", 0)) is not int:
+                t13 = check_scalar("uint32", t13, ".result.nested_field_no_pkg.time_value.nanosec")
+            if type(t16 := m15.get("bool_value", False)) is not bool:
+                t16 = check_scalar("bool", t16, ".result.nested_field.bool_value")
+            if type(t18 := m15.get("byte_value", 0)) is not int:
+                t18 = check_scalar("byte", t18, ".result.nested_field.byte_value")
+            if type(t20 := m15.get("char_value", 0)) is not int:
+                t20 = check_scalar("uint8", t20, ".result.nested_field.char_value")
+            if type(t22 := m15.get("float32_value", 0.0)) is not float:
+                t22 = check_scalar("float32", t22, ".result.nested_field.float32_value")
+            try:
+                out.append(_S_iIiIT2B1xf.pack(t6, t8, t11, t13, t16, t18, t20, t22))
             except Exception:
                 out.append(
                     slow_pack(
                         _S_iIiIT2B1xf,
                         NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_1,
-                        (
-                            m4.get("sec", 0),
-                            m4.get("nanosec", 0),
-                            m7.get("sec", 0),
-                            m7.get("nanosec", 0),
-                            (
-                                t11
-                                if (t11 := m10.get("bool_value", False)).__class__ is bool
-                                else check_bool(t11, ".result.nested_field.bool_value")
-                            ),
-                            m10.get("byte_value", 0),
-                            m10.get("char_value", 0),
-                            m10.get("float32_value", 0.0),
-                        ),
+                        (t6, t8, t11, t13, t16, t18, t20, t22),
                     )
                 )
             pos += 24
@@ -11249,44 +11003,42 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".result.nested_different_pkg"
-            m25 = m2.get("nested_different_pkg", EMPTY)
-            if m25.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m25):
-                m25 = _submap(m25, BUILTIN_INTERFACES__TIME_KEYS)
+            m42 = m3.get("nested_different_pkg", EMPTY)
+            if m42.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m42):
+                m42 = _submap(m42, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t24 := m15.get("float64_value", 0.0)) is not float:
+                t24 = check_scalar("float64", t24, ".result.nested_field.float64_value")
+            if type(t26 := m15.get("int8_value", 0)) is not int:
+                t26 = check_scalar("int8", t26, ".result.nested_field.int8_value")
+            if type(t28 := m15.get("uint8_value", 0)) is not int:
+                t28 = check_scalar("uint8", t28, ".result.nested_field.uint8_value")
+            if type(t30 := m15.get("int16_value", 0)) is not int:
+                t30 = check_scalar("int16", t30, ".result.nested_field.int16_value")
+            if type(t32 := m15.get("uint16_value", 0)) is not int:
+                t32 = check_scalar("uint16", t32, ".result.nested_field.uint16_value")
+            if type(t34 := m15.get("int32_value", 0)) is not int:
+                t34 = check_scalar("int32", t34, ".result.nested_field.int32_value")
+            if type(t36 := m15.get("uint32_value", 0)) is not int:
+                t36 = check_scalar("uint32", t36, ".result.nested_field.uint32_value")
+            if type(t38 := m15.get("int64_value", 0)) is not int:
+                t38 = check_scalar("int64", t38, ".result.nested_field.int64_value")
+            if type(t40 := m15.get("uint64_value", 0)) is not int:
+                t40 = check_scalar("uint64", t40, ".result.nested_field.uint64_value")
+            if type(t43 := m42.get("sec", 0)) is not int:
+                t43 = check_scalar("int32", t43, ".result.nested_different_pkg.sec")
+            if type(t45 := m42.get("nanosec", 0)) is not int:
+                t45 = check_scalar("uint32", t45, ".result.nested_different_pkg.nanosec")
             try:
                 out.append(
-                    _S_dbBhH2xiIqQiI.pack(
-                        m10.get("float64_value", 0.0),
-                        m10.get("int8_value", 0),
-                        m10.get("uint8_value", 0),
-                        m10.get("int16_value", 0),
-                        m10.get("uint16_value", 0),
-                        m10.get("int32_value", 0),
-                        m10.get("uint32_value", 0),
-                        m10.get("int64_value", 0),
-                        m10.get("uint64_value", 0),
-                        m25.get("sec", 0),
-                        m25.get("nanosec", 0),
-                    )
+                    _S_dbBhH2xiIqQiI.pack(t24, t26, t28, t30, t32, t34, t36, t38, t40, t43, t45)
                 )
             except Exception:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQiI,
                         NESTED_MESSAGE_GET_RESULT_RESPONSE_RUN_2,
-                        (
-                            m10.get("float64_value", 0.0),
-                            m10.get("int8_value", 0),
-                            m10.get("uint8_value", 0),
-                            m10.get("int16_value", 0),
-                            m10.get("uint16_value", 0),
-                            m10.get("int32_value", 0),
-                            m10.get("uint32_value", 0),
-                            m10.get("int64_value", 0),
-                            m10.get("uint64_value", 0),
-                            m25.get("sec", 0),
-                            m25.get("nanosec", 0),
-                        ),
+                        (t24, t26, t28, t30, t32, t34, t36, t38, t40, t43, t45),
                     )
                 )
             pos += 48
@@ -11302,27 +11054,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = NESTED_MESSAGE_GET_RESULT_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = NESTED_MESSAGE_GET_RESULT_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = NESTED_MESSAGE_GET_RESULT_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, nested_message_get_result_request_decode, None, 1, 16
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, nested_message_get_result_response_decode, None, 1, 70
             )
         except WireDecodeError as error:
@@ -11332,20 +11084,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return nested_message_get_result_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def nested_message_get_result_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -11358,55 +11110,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_B, NESTED_MESSAGE_GET_RESULT_EVENT_RUN_0, (m1.get("event_type", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_B, NESTED_MESSAGE_GET_RESULT_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        NESTED_MESSAGE_GET_RESULT_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, NESTED_MESSAGE_GET_RESULT_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, NESTED_MESSAGE_GET_RESULT_EVENT_RUN_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, NESTED_MESSAGE_GET_RESULT_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(
@@ -11446,11 +11189,11 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = NESTED_MESSAGE_FEEDBACK_MESSAGE_RUN_0
-            v8, v9, v11, v12, v15, v16, v17, v18 = _S_iIiIT2B1xf.unpack_from(mv, pos)
+            v9, v11, v14, v16, v19, v21, v23, v25 = _S_iIiIT2B1xf.unpack_from(mv, pos)
             pos += 24
             pos = (pos + 7) & -8
             f = NESTED_MESSAGE_FEEDBACK_MESSAGE_RUN_1
-            v19, v20, v21, v22, v23, v24, v25, v26, v27, v29, v30 = _S_dbBhH2xiIqQiI.unpack_from(
+            v27, v29, v31, v33, v35, v37, v39, v41, v43, v46, v48 = _S_dbBhH2xiIqQiI.unpack_from(
                 mv, pos
             )
             pos += 48
@@ -11463,38 +11206,38 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 unique_identifier_msgs__uuid_view(v4),
                 nested_message_feedback_view(
                     builtins_view(
-                        builtin_interfaces__duration_view(v8, v9),
-                        builtin_interfaces__time_view(v11, v12),
+                        builtin_interfaces__duration_view(v9, v11),
+                        builtin_interfaces__time_view(v14, v16),
                     ),
                     basic_types_view(
-                        v15, v16, v17, v18, v19, v20, v21, v22, v23, v24, v25, v26, v27
+                        v19, v21, v23, v25, v27, v29, v31, v33, v35, v37, v39, v41, v43
                     ),
-                    builtin_interfaces__time_view(v29, v30),
+                    builtin_interfaces__time_view(v46, v48),
                 ),
             ), pos
         return {
             "goal_id": {"uuid": v4.tobytes()},
             "feedback": {
                 "nested_field_no_pkg": {
-                    "duration_value": {"sec": v8, "nanosec": v9},
-                    "time_value": {"sec": v11, "nanosec": v12},
+                    "duration_value": {"sec": v9, "nanosec": v11},
+                    "time_value": {"sec": v14, "nanosec": v16},
                 },
                 "nested_field": {
-                    "bool_value": v15,
-                    "byte_value": v16,
-                    "char_value": v17,
-                    "float32_value": v18,
-                    "float64_value": v19,
-                    "int8_value": v20,
-                    "uint8_value": v21,
-                    "int16_value": v22,
-                    "uint16_value": v23,
-                    "int32_value": v24,
-                    "uint32_value": v25,
-                    "int64_value": v26,
-                    "uint64_value": v27,
+                    "bool_value": v19,
+                    "byte_value": v21,
+                    "char_value": v23,
+                    "float32_value": v25,
+                    "float64_value": v27,
+                    "int8_value": v29,
+                    "uint8_value": v31,
+                    "int16_value": v33,
+                    "uint16_value": v35,
+                    "int32_value": v37,
+                    "uint32_value": v39,
+                    "int64_value": v41,
+                    "uint64_value": v43,
                 },
-                "nested_different_pkg": {"sec": v29, "nanosec": v30},
+                "nested_different_pkg": {"sec": v46, "nanosec": v48},
             },
         }, pos
 
@@ -11528,50 +11271,42 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".feedback.nested_field_no_pkg.time_value"
-            m10 = m6.get("time_value", EMPTY)
-            if m10.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m10):
-                m10 = _submap(m10, BUILTIN_INTERFACES__TIME_KEYS)
+            m12 = m6.get("time_value", EMPTY)
+            if m12.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m12):
+                m12 = _submap(m12, BUILTIN_INTERFACES__TIME_KEYS)
             f = ".feedback.nested_field"
-            m13 = m5.get("nested_field", EMPTY)
-            if m13.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m13):
-                m13 = _submap(m13, BASIC_TYPES_KEYS)
+            m17 = m5.get("nested_field", EMPTY)
+            if m17.__class__ is not dict or not BASIC_TYPES_KEYS.issuperset(m17):
+                m17 = _submap(m17, BASIC_TYPES_KEYS)
             f = ""
-            try:
-                out.append(
-                    _S_iIiIT2B1xf.pack(
-                        m7.get("sec", 0),
-                        m7.get("nanosec", 0),
-                        m10.get("sec", 0),
-                        m10.get("nanosec", 0),
-                        (
-                            t14
-                            if (t14 := m13.get("bool_value", False)).__class__ is bool
-                            else check_bool(t14, ".feedback.nested_field.bool_value")
-                        ),
-                        m13.get("byte_value", 0),
-                        m13.get("char_value", 0),
-                        m13.get("float32_value", 0.0),
-                    )
+            if type(t8 := m7.get("sec", 0)) is not int:
+                t8 = check_scalar("int32", t8, ".feedback.nested_field_no_pkg.duration_value.sec")
+            if type(t10 := m7.get("nanosec", 0)) is not int:
+                t10 = check_scalar(
+                    "uint32", t10, ".feedback.nested_field_no_pkg.duration_value.nanosec"
                 )
+            if type(t13 := m12.get("sec", 0)) is not int:
+                t13 = check_scalar("int32", t13, ".feedback.nested_field_no_pkg.time_value.sec")
+            if type(t15 := m12.get("nanosec", 0)) is not int:
+                t15 = check_scalar(
+                    "uint32", t15, ".feedback.nested_field_no_pkg.time_value.nanosec"
+                )
+            if type(t18 := m17.get("bool_value", False)) is not bool:
+                t18 = check_scalar("bool", t18, ".feedback.nested_field.bool_value")
+            if type(t20 := m17.get("byte_value", 0)) is not int:
+                t20 = check_scalar("byte", t20, ".feedback.nested_field.byte_value")
+            if type(t22 := m17.get("char_value", 0)) is not int:
+                t22 = check_scalar("uint8", t22, ".feedback.nested_field.char_value")
+            if type(t24 := m17.get("float32_value", 0.0)) is not float:
+                t24 = check_scalar("float32", t24, ".feedback.nested_field.float32_value")
+            try:
+                out.append(_S_iIiIT2B1xf.pack(t8, t10, t13, t15, t18, t20, t22, t24))
             except Exception:
                 out.append(
                     slow_pack(
                         _S_iIiIT2B1xf,
                         NESTED_MESSAGE_FEEDBACK_MESSAGE_RUN_0,
-                        (
-                            m7.get("sec", 0),
-                            m7.get("nanosec", 0),
-                            m10.get("sec", 0),
-                            m10.get("nanosec", 0),
-                            (
-                                t14
-                                if (t14 := m13.get("bool_value", False)).__class__ is bool
-                                else check_bool(t14, ".feedback.nested_field.bool_value")
-                            ),
-                            m13.get("byte_value", 0),
-                            m13.get("char_value", 0),
-                            m13.get("float32_value", 0.0),
-                        ),
+                        (t8, t10, t13, t15, t18, t20, t22, t24),
                     )
                 )
             pos += 24
@@ -11580,44 +11315,42 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".feedback.nested_different_pkg"
-            m28 = m5.get("nested_different_pkg", EMPTY)
-            if m28.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m28):
-                m28 = _submap(m28, BUILTIN_INTERFACES__TIME_KEYS)
+            m44 = m5.get("nested_different_pkg", EMPTY)
+            if m44.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m44):
+                m44 = _submap(m44, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t26 := m17.get("float64_value", 0.0)) is not float:
+                t26 = check_scalar("float64", t26, ".feedback.nested_field.float64_value")
+            if type(t28 := m17.get("int8_value", 0)) is not int:
+                t28 = check_scalar("int8", t28, ".feedback.nested_field.int8_value")
+            if type(t30 := m17.get("uint8_value", 0)) is not int:
+                t30 = check_scalar("uint8", t30, ".feedback.nested_field.uint8_value")
+            if type(t32 := m17.get("int16_value", 0)) is not int:
+                t32 = check_scalar("int16", t32, ".feedback.nested_field.int16_value")
+            if type(t34 := m17.get("uint16_value", 0)) is not int:
+                t34 = check_scalar("uint16", t34, ".feedback.nested_field.uint16_value")
+            if type(t36 := m17.get("int32_value", 0)) is not int:
+                t36 = check_scalar("int32", t36, ".feedback.nested_field.int32_value")
+            if type(t38 := m17.get("uint32_value", 0)) is not int:
+                t38 = check_scalar("uint32", t38, ".feedback.nested_field.uint32_value")
+            if type(t40 := m17.get("int64_value", 0)) is not int:
+                t40 = check_scalar("int64", t40, ".feedback.nested_field.int64_value")
+            if type(t42 := m17.get("uint64_value", 0)) is not int:
+                t42 = check_scalar("uint64", t42, ".feedback.nested_field.uint64_value")
+            if type(t45 := m44.get("sec", 0)) is not int:
+                t45 = check_scalar("int32", t45, ".feedback.nested_different_pkg.sec")
+            if type(t47 := m44.get("nanosec", 0)) is not int:
+                t47 = check_scalar("uint32", t47, ".feedback.nested_different_pkg.nanosec")
             try:
                 out.append(
-                    _S_dbBhH2xiIqQiI.pack(
-                        m13.get("float64_value", 0.0),
-                        m13.get("int8_value", 0),
-                        m13.get("uint8_value", 0),
-                        m13.get("int16_value", 0),
-                        m13.get("uint16_value", 0),
-                        m13.get("int32_value", 0),
-                        m13.get("uint32_value", 0),
-                        m13.get("int64_value", 0),
-                        m13.get("uint64_value", 0),
-                        m28.get("sec", 0),
-                        m28.get("nanosec", 0),
-                    )
+                    _S_dbBhH2xiIqQiI.pack(t26, t28, t30, t32, t34, t36, t38, t40, t42, t45, t47)
                 )
             except Exception:
                 out.append(
                     slow_pack(
                         _S_dbBhH2xiIqQiI,
                         NESTED_MESSAGE_FEEDBACK_MESSAGE_RUN_1,
-                        (
-                            m13.get("float64_value", 0.0),
-                            m13.get("int8_value", 0),
-                            m13.get("uint8_value", 0),
-                            m13.get("int16_value", 0),
-                            m13.get("uint16_value", 0),
-                            m13.get("int32_value", 0),
-                            m13.get("uint32_value", 0),
-                            m13.get("int64_value", 0),
-                            m13.get("uint64_value", 0),
-                            m28.get("sec", 0),
-                            m28.get("nanosec", 0),
-                        ),
+                        (t26, t28, t30, t32, t34, t36, t38, t40, t42, t45, t47),
                     )
                 )
             pos += 48

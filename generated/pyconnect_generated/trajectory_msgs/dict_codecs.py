@@ -39,6 +39,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -176,7 +177,7 @@ def joint_trajectory_point_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("positions", MISSING)
         if value is MISSING:
             msg._positions = array("d")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "float64"):
             try:
                 msg._positions = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -186,7 +187,7 @@ def joint_trajectory_point_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("velocities", MISSING)
         if value is MISSING:
             msg._velocities = array("d")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "float64"):
             try:
                 msg._velocities = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -196,7 +197,7 @@ def joint_trajectory_point_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("accelerations", MISSING)
         if value is MISSING:
             msg._accelerations = array("d")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "float64"):
             try:
                 msg._accelerations = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -206,7 +207,7 @@ def joint_trajectory_point_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("effort", MISSING)
         if value is MISSING:
             msg._effort = array("d")
-        elif type(value) is list:
+        elif type(value) is list and plain_numbers(value, "float64"):
             try:
                 msg._effort = array("d", value)
             except (TypeError, OverflowError, ValueError):

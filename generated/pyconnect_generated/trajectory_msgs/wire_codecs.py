@@ -40,6 +40,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -49,7 +50,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -371,7 +372,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v16 = _frombuffer(mv, _D_float64, v15, pos)
             pos += v15 * 8
             f = JOINT_TRAJECTORY_POINT_RUN_4
-            v18, v19 = _S_iI.unpack_from(mv, pos)
+            v19, v21 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -379,14 +380,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return joint_trajectory_point_view(
-                v4, v8, v12, v16, builtin_interfaces__duration_view(v18, v19)
+                v4, v8, v12, v16, builtin_interfaces__duration_view(v19, v21)
             ), pos
         return {
             "positions": v4.tolist(),
             "velocities": v8.tolist(),
             "accelerations": v12.tolist(),
             "effort": v16.tolist(),
-            "time_from_start": {"sec": v18, "nanosec": v19},
+            "time_from_start": {"sec": v19, "nanosec": v21},
         }, pos
 
     def joint_trajectory_point_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -463,19 +464,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m17.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m17):
                 m17 = _submap(m17, BUILTIN_INTERFACES__DURATION_KEYS)
             f = ""
+            if type(t18 := m17.get("sec", 0)) is not int:
+                t18 = check_scalar("int32", t18, ".time_from_start.sec")
+            if type(t20 := m17.get("nanosec", 0)) is not int:
+                t20 = check_scalar("uint32", t20, ".time_from_start.nanosec")
             try:
-                out.append(_S_iI.pack(m17.get("sec", 0), m17.get("nanosec", 0)))
+                out.append(_S_iI.pack(t18, t20))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        JOINT_TRAJECTORY_POINT_RUN_4,
-                        (
-                            m17.get("sec", 0),
-                            m17.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, JOINT_TRAJECTORY_POINT_RUN_4, (t18, t20)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -536,7 +532,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v3, pos = read_messages(mv, pos, lim, _U32, geometry_msgs__twist_decode, None, None, 48)
             pos = (pos + 3) & -4
             f = MULTI_DOF_JOINT_TRAJECTORY_POINT_RUN_0
-            v5, v6 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -544,13 +540,13 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return multi_dof_joint_trajectory_point_view(
-                v1, v2, v3, builtin_interfaces__duration_view(v5, v6)
+                v1, v2, v3, builtin_interfaces__duration_view(v6, v8)
             ), pos
         return {
             "transforms": v1,
             "velocities": v2,
             "accelerations": v3,
-            "time_from_start": {"sec": v5, "nanosec": v6},
+            "time_from_start": {"sec": v6, "nanosec": v8},
         }, pos
 
     def multi_dof_joint_trajectory_point_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -585,19 +581,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".time_from_start.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".time_from_start.nanosec")
             try:
-                out.append(_S_iI.pack(m4.get("sec", 0), m4.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        MULTI_DOF_JOINT_TRAJECTORY_POINT_RUN_0,
-                        (
-                            m4.get("sec", 0),
-                            m4.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, MULTI_DOF_JOINT_TRAJECTORY_POINT_RUN_0, (t5, t7)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None

@@ -50,6 +50,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -59,7 +60,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -578,26 +579,26 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = FIELD_TYPE_RUN_0
-            (v1,) = _S_B.unpack_from(mv, pos)
+            (v2,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 7) & -8
             f = FIELD_TYPE_RUN_1
-            v2, v3, v5 = _S_2QI.unpack_from(mv, pos)
+            v4, v6, v8 = _S_2QI.unpack_from(mv, pos)
             pos += 20
             f = ".nested_type_name"
-            if v5 > lim - pos:
-                raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
-            pos += v5
-            if len(v6) > 255:
-                raise over_bound(len(v6), 255)
+            if v8 > lim - pos:
+                raise too_long(v8, 1, lim - pos)
+            v9 = mv[pos : pos + v8 - 1].tobytes().decode()
+            pos += v8
+            if len(v9) > 255:
+                raise over_bound(len(v9), 255)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return field_type_view(v1, v2, v3, v6), pos
-        return {"type_id": v1, "capacity": v2, "string_capacity": v3, "nested_type_name": v6}, pos
+            return field_type_view(v2, v4, v6, v9), pos
+        return {"type_id": v2, "capacity": v4, "string_capacity": v6, "nested_type_name": v9}, pos
 
     def field_type_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -605,35 +606,31 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if d.__class__ is not dict or not FIELD_TYPE_KEYS.issuperset(d):
                 d = _submap(d, FIELD_TYPE_KEYS)
             f = ""
+            if type(t1 := d.get("type_id", 0)) is not int:
+                t1 = check_scalar("uint8", t1, ".type_id")
             try:
-                out.append(_S_B.pack(d.get("type_id", 0)))
+                out.append(_S_B.pack(t1))
             except Exception:
-                out.append(slow_pack(_S_B, FIELD_TYPE_RUN_0, (d.get("type_id", 0),)))
+                out.append(slow_pack(_S_B, FIELD_TYPE_RUN_0, (t1,)))
             pos += 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".nested_type_name"
-            b4 = utf8z(d.get("nested_type_name", ""), 255)
+            b7 = utf8z(d.get("nested_type_name", ""), 255)
             f = ""
+            if type(t3 := d.get("capacity", 0)) is not int:
+                t3 = check_scalar("uint64", t3, ".capacity")
+            if type(t5 := d.get("string_capacity", 0)) is not int:
+                t5 = check_scalar("uint64", t5, ".string_capacity")
             try:
-                out.append(_S_2QI.pack(d.get("capacity", 0), d.get("string_capacity", 0), len(b4)))
+                out.append(_S_2QI.pack(t3, t5, len(b7)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_2QI,
-                        FIELD_TYPE_RUN_1,
-                        (
-                            d.get("capacity", 0),
-                            d.get("string_capacity", 0),
-                            len(b4),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_2QI, FIELD_TYPE_RUN_1, (t3, t5, len(b7))))
             pos += 20
-            out.append(b4)
-            pos += len(b4)
+            out.append(b7)
+            pos += len(b7)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -1028,30 +1025,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             out.append(b4)
             pos += len(b4)
             f = ""
+            if type(t7 := d.get("include_type_sources", True)) is not bool:
+                t7 = check_scalar("bool", t7, ".include_type_sources")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t7
-                            if (t7 := d.get("include_type_sources", True)).__class__ is bool
-                            else check_bool(t7, ".include_type_sources")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        GET_TYPE_DESCRIPTION_REQUEST_RUN_2,
-                        (
-                            (
-                                t7
-                                if (t7 := d.get("include_type_sources", True)).__class__ is bool
-                                else check_bool(t7, ".include_type_sources")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, GET_TYPE_DESCRIPTION_REQUEST_RUN_2, (t7,)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1102,30 +1081,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".failure_reason"
             b3 = utf8z(d.get("failure_reason", ""), None)
             f = ""
+            if type(t1 := d.get("successful", False)) is not bool:
+                t1 = check_scalar("bool", t1, ".successful")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t1
-                            if (t1 := d.get("successful", False)).__class__ is bool
-                            else check_bool(t1, ".successful")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        GET_TYPE_DESCRIPTION_RESPONSE_RUN_0,
-                        (
-                            (
-                                t1
-                                if (t1 := d.get("successful", False)).__class__ is bool
-                                else check_bool(t1, ".successful")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, GET_TYPE_DESCRIPTION_RESPONSE_RUN_0, (t1,)))
             pos += 1
             p = -pos & 3
             if p:
@@ -1159,27 +1120,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = GET_TYPE_DESCRIPTION_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = GET_TYPE_DESCRIPTION_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_TYPE_DESCRIPTION_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, get_type_description_request_decode, None, 1, 9
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, get_type_description_response_decode, None, 1, 25
             )
         except WireDecodeError as error:
@@ -1189,20 +1150,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return get_type_description_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def get_type_description_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1215,53 +1176,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, GET_TYPE_DESCRIPTION_EVENT_RUN_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, GET_TYPE_DESCRIPTION_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        GET_TYPE_DESCRIPTION_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, GET_TYPE_DESCRIPTION_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, GET_TYPE_DESCRIPTION_EVENT_RUN_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, GET_TYPE_DESCRIPTION_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(

@@ -62,6 +62,7 @@ from pyconnect.codecs.cdr_read import (
 from pyconnect.codecs.cdr_write import (
     EMPTY,
     ZEROS,
+    check_scalar,
     encode_array,
     encode_bools,
     encode_failure,
@@ -71,7 +72,7 @@ from pyconnect.codecs.cdr_write import (
     write_strings,
     write_wstring,
 )
-from pyconnect.codecs.field_checks import check_bool, check_mapping, unknown_keys
+from pyconnect.codecs.field_checks import check_mapping, unknown_keys
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect_generated.builtin_interfaces.wire_codecs import (
     DEFINITIONS as BUILTIN_INTERFACES__DEFINITIONS,
@@ -1166,20 +1167,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += v3
             pos = (pos + 3) & -4
             f = IMAGE_MARKER_RUN_1
-            v5, v6, v7 = _S_3i.unpack_from(mv, pos)
+            v6, v8, v10 = _S_3i.unpack_from(mv, pos)
             pos += 12
             pos = (pos + 7) & -8
             f = IMAGE_MARKER_RUN_2
-            v9, v10, v11, v12, v14, v15, v16, v17, v18, v20, v21, v22, v23, v25, v26 = (
+            v13, v15, v17, v19, v22, v24, v26, v28, v30, v33, v35, v37, v39, v42, v44 = (
                 _S_3d5fB3x4fiI.unpack_from(mv, pos)
             )
             pos += 72
             f = ".points"
-            v27, pos = read_messages(
+            v45, pos = read_messages(
                 mv, pos, lim, _U32, geometry_msgs__point_decode, None, None, 24
             )
             f = ".outline_colors"
-            v28, pos = read_messages(
+            v46, pos = read_messages(
                 mv, pos, lim, _U32, std_msgs__color_rgba_decode, None, None, 16
             )
         except WireDecodeError as error:
@@ -1190,32 +1191,32 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             return image_marker_view(
                 v1,
                 v4,
-                v5,
                 v6,
-                v7,
-                geometry_msgs__point_view(v9, v10, v11),
-                v12,
-                std_msgs__color_rgba_view(v14, v15, v16, v17),
-                v18,
-                std_msgs__color_rgba_view(v20, v21, v22, v23),
-                builtin_interfaces__duration_view(v25, v26),
-                v27,
-                v28,
+                v8,
+                v10,
+                geometry_msgs__point_view(v13, v15, v17),
+                v19,
+                std_msgs__color_rgba_view(v22, v24, v26, v28),
+                v30,
+                std_msgs__color_rgba_view(v33, v35, v37, v39),
+                builtin_interfaces__duration_view(v42, v44),
+                v45,
+                v46,
             ), pos
         return {
             "header": v1,
             "ns": v4,
-            "id": v5,
-            "type": v6,
-            "action": v7,
-            "position": {"x": v9, "y": v10, "z": v11},
-            "scale": v12,
-            "outline_color": {"r": v14, "g": v15, "b": v16, "a": v17},
-            "filled": v18,
-            "fill_color": {"r": v20, "g": v21, "b": v22, "a": v23},
-            "lifetime": {"sec": v25, "nanosec": v26},
-            "points": v27,
-            "outline_colors": v28,
+            "id": v6,
+            "type": v8,
+            "action": v10,
+            "position": {"x": v13, "y": v15, "z": v17},
+            "scale": v19,
+            "outline_color": {"r": v22, "g": v24, "b": v26, "a": v28},
+            "filled": v30,
+            "fill_color": {"r": v33, "g": v35, "b": v37, "a": v39},
+            "lifetime": {"sec": v42, "nanosec": v44},
+            "points": v45,
+            "outline_colors": v46,
         }, pos
 
     def image_marker_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1244,60 +1245,72 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".position"
-            m8 = d.get("position", EMPTY)
-            if m8.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m8):
-                m8 = _submap(m8, GEOMETRY_MSGS__POINT_KEYS)
+            m11 = d.get("position", EMPTY)
+            if m11.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m11):
+                m11 = _submap(m11, GEOMETRY_MSGS__POINT_KEYS)
             f = ""
+            if type(t5 := d.get("id", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".id")
+            if type(t7 := d.get("type", 0)) is not int:
+                t7 = check_scalar("int32", t7, ".type")
+            if type(t9 := d.get("action", 0)) is not int:
+                t9 = check_scalar("int32", t9, ".action")
             try:
-                out.append(_S_3i.pack(d.get("id", 0), d.get("type", 0), d.get("action", 0)))
+                out.append(_S_3i.pack(t5, t7, t9))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3i,
-                        IMAGE_MARKER_RUN_1,
-                        (
-                            d.get("id", 0),
-                            d.get("type", 0),
-                            d.get("action", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3i, IMAGE_MARKER_RUN_1, (t5, t7, t9)))
             pos += 12
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".outline_color"
-            m13 = d.get("outline_color", EMPTY)
-            if m13.__class__ is not dict or not STD_MSGS__COLOR_RGBA_KEYS.issuperset(m13):
-                m13 = _submap(m13, STD_MSGS__COLOR_RGBA_KEYS)
+            m20 = d.get("outline_color", EMPTY)
+            if m20.__class__ is not dict or not STD_MSGS__COLOR_RGBA_KEYS.issuperset(m20):
+                m20 = _submap(m20, STD_MSGS__COLOR_RGBA_KEYS)
             f = ".fill_color"
-            m19 = d.get("fill_color", EMPTY)
-            if m19.__class__ is not dict or not STD_MSGS__COLOR_RGBA_KEYS.issuperset(m19):
-                m19 = _submap(m19, STD_MSGS__COLOR_RGBA_KEYS)
+            m31 = d.get("fill_color", EMPTY)
+            if m31.__class__ is not dict or not STD_MSGS__COLOR_RGBA_KEYS.issuperset(m31):
+                m31 = _submap(m31, STD_MSGS__COLOR_RGBA_KEYS)
             f = ".lifetime"
-            m24 = d.get("lifetime", EMPTY)
-            if m24.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m24):
-                m24 = _submap(m24, BUILTIN_INTERFACES__DURATION_KEYS)
+            m40 = d.get("lifetime", EMPTY)
+            if m40.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m40):
+                m40 = _submap(m40, BUILTIN_INTERFACES__DURATION_KEYS)
             f = ""
+            if type(t12 := m11.get("x", 0.0)) is not float:
+                t12 = check_scalar("float64", t12, ".position.x")
+            if type(t14 := m11.get("y", 0.0)) is not float:
+                t14 = check_scalar("float64", t14, ".position.y")
+            if type(t16 := m11.get("z", 0.0)) is not float:
+                t16 = check_scalar("float64", t16, ".position.z")
+            if type(t18 := d.get("scale", 0.0)) is not float:
+                t18 = check_scalar("float32", t18, ".scale")
+            if type(t21 := m20.get("r", 0.0)) is not float:
+                t21 = check_scalar("float32", t21, ".outline_color.r")
+            if type(t23 := m20.get("g", 0.0)) is not float:
+                t23 = check_scalar("float32", t23, ".outline_color.g")
+            if type(t25 := m20.get("b", 0.0)) is not float:
+                t25 = check_scalar("float32", t25, ".outline_color.b")
+            if type(t27 := m20.get("a", 0.0)) is not float:
+                t27 = check_scalar("float32", t27, ".outline_color.a")
+            if type(t29 := d.get("filled", 0)) is not int:
+                t29 = check_scalar("uint8", t29, ".filled")
+            if type(t32 := m31.get("r", 0.0)) is not float:
+                t32 = check_scalar("float32", t32, ".fill_color.r")
+            if type(t34 := m31.get("g", 0.0)) is not float:
+                t34 = check_scalar("float32", t34, ".fill_color.g")
+            if type(t36 := m31.get("b", 0.0)) is not float:
+                t36 = check_scalar("float32", t36, ".fill_color.b")
+            if type(t38 := m31.get("a", 0.0)) is not float:
+                t38 = check_scalar("float32", t38, ".fill_color.a")
+            if type(t41 := m40.get("sec", 0)) is not int:
+                t41 = check_scalar("int32", t41, ".lifetime.sec")
+            if type(t43 := m40.get("nanosec", 0)) is not int:
+                t43 = check_scalar("uint32", t43, ".lifetime.nanosec")
             try:
                 out.append(
                     _S_3d5fB3x4fiI.pack(
-                        m8.get("x", 0.0),
-                        m8.get("y", 0.0),
-                        m8.get("z", 0.0),
-                        d.get("scale", 0.0),
-                        m13.get("r", 0.0),
-                        m13.get("g", 0.0),
-                        m13.get("b", 0.0),
-                        m13.get("a", 0.0),
-                        d.get("filled", 0),
-                        m19.get("r", 0.0),
-                        m19.get("g", 0.0),
-                        m19.get("b", 0.0),
-                        m19.get("a", 0.0),
-                        m24.get("sec", 0),
-                        m24.get("nanosec", 0),
+                        t12, t14, t16, t18, t21, t23, t25, t27, t29, t32, t34, t36, t38, t41, t43
                     )
                 )
             except Exception:
@@ -1305,23 +1318,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                     slow_pack(
                         _S_3d5fB3x4fiI,
                         IMAGE_MARKER_RUN_2,
-                        (
-                            m8.get("x", 0.0),
-                            m8.get("y", 0.0),
-                            m8.get("z", 0.0),
-                            d.get("scale", 0.0),
-                            m13.get("r", 0.0),
-                            m13.get("g", 0.0),
-                            m13.get("b", 0.0),
-                            m13.get("a", 0.0),
-                            d.get("filled", 0),
-                            m19.get("r", 0.0),
-                            m19.get("g", 0.0),
-                            m19.get("b", 0.0),
-                            m19.get("a", 0.0),
-                            m24.get("sec", 0),
-                            m24.get("nanosec", 0),
-                        ),
+                        (t12, t14, t16, t18, t21, t23, t25, t27, t29, t32, t34, t36, t38, t41, t43),
                     )
                 )
             pos += 72
@@ -1350,32 +1347,32 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = MENU_ENTRY_RUN_0
-            v1, v2, v4 = _S_3I.unpack_from(mv, pos)
+            v2, v4, v6 = _S_3I.unpack_from(mv, pos)
             pos += 12
             f = ".title"
-            if v4 > lim - pos:
-                raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
-            pos += v4
+            if v6 > lim - pos:
+                raise too_long(v6, 1, lim - pos)
+            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
+            pos += v6
             pos = (pos + 3) & -4
             f = MENU_ENTRY_RUN_1
-            (v7,) = _S_I.unpack_from(mv, pos)
+            (v9,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".command"
-            if v7 > lim - pos:
-                raise too_long(v7, 1, lim - pos)
-            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
-            pos += v7
+            if v9 > lim - pos:
+                raise too_long(v9, 1, lim - pos)
+            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
+            pos += v9
             f = MENU_ENTRY_RUN_2
-            (v9,) = _S_B.unpack_from(mv, pos)
+            (v12,) = _S_B.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return menu_entry_view(v1, v2, v5, v8, v9), pos
-        return {"id": v1, "parent_id": v2, "title": v5, "command": v8, "command_type": v9}, pos
+            return menu_entry_view(v2, v4, v7, v10, v12), pos
+        return {"id": v2, "parent_id": v4, "title": v7, "command": v10, "command_type": v12}, pos
 
     def menu_entry_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1387,44 +1384,40 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".title"
-            b3 = utf8z(d.get("title", ""), None)
+            b5 = utf8z(d.get("title", ""), None)
             f = ""
+            if type(t1 := d.get("id", 0)) is not int:
+                t1 = check_scalar("uint32", t1, ".id")
+            if type(t3 := d.get("parent_id", 0)) is not int:
+                t3 = check_scalar("uint32", t3, ".parent_id")
             try:
-                out.append(_S_3I.pack(d.get("id", 0), d.get("parent_id", 0), len(b3)))
+                out.append(_S_3I.pack(t1, t3, len(b5)))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3I,
-                        MENU_ENTRY_RUN_0,
-                        (
-                            d.get("id", 0),
-                            d.get("parent_id", 0),
-                            len(b3),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3I, MENU_ENTRY_RUN_0, (t1, t3, len(b5))))
             pos += 12
-            out.append(b3)
-            pos += len(b3)
+            out.append(b5)
+            pos += len(b5)
             f = ".command"
-            b6 = utf8z(d.get("command", ""), None)
+            b8 = utf8z(d.get("command", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b6)))
+                out.append(_S_I.pack(len(b8)))
             except Exception:
-                out.append(slow_pack(_S_I, MENU_ENTRY_RUN_1, (len(b6),)))
+                out.append(slow_pack(_S_I, MENU_ENTRY_RUN_1, (len(b8),)))
             pos += 4
-            out.append(b6)
-            pos += len(b6)
+            out.append(b8)
+            pos += len(b8)
             f = ""
+            if type(t11 := d.get("command_type", 0)) is not int:
+                t11 = check_scalar("uint8", t11, ".command_type")
             try:
-                out.append(_S_B.pack(d.get("command_type", 0)))
+                out.append(_S_B.pack(t11))
             except Exception:
-                out.append(slow_pack(_S_B, MENU_ENTRY_RUN_2, (d.get("command_type", 0),)))
+                out.append(slow_pack(_S_B, MENU_ENTRY_RUN_2, (t11,)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1437,15 +1430,15 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 3) & -4
             f = UV_COORDINATE_RUN_0
-            v1, v2 = _S_2f.unpack_from(mv, pos)
+            v2, v4 = _S_2f.unpack_from(mv, pos)
             pos += 8
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return uv_coordinate_view(v1, v2), pos
-        return {"u": v1, "v": v2}, pos
+            return uv_coordinate_view(v2, v4), pos
+        return {"u": v2, "v": v4}, pos
 
     def uv_coordinate_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1457,19 +1450,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("u", 0.0)) is not float:
+                t1 = check_scalar("float32", t1, ".u")
+            if type(t3 := d.get("v", 0.0)) is not float:
+                t3 = check_scalar("float32", t3, ".v")
             try:
-                out.append(_S_2f.pack(d.get("u", 0.0), d.get("v", 0.0)))
+                out.append(_S_2f.pack(t1, t3))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_2f,
-                        UV_COORDINATE_RUN_0,
-                        (
-                            d.get("u", 0.0),
-                            d.get("v", 0.0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_2f, UV_COORDINATE_RUN_0, (t1, t3)))
             pos += 8
         except FieldError as error:
             raise error.within(f) from None
@@ -1561,57 +1549,57 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += v3
             pos = (pos + 3) & -4
             f = MARKER_RUN_1
-            v5, v6, v7 = _S_3i.unpack_from(mv, pos)
+            v6, v8, v10 = _S_3i.unpack_from(mv, pos)
             pos += 12
             pos = (pos + 7) & -8
             f = MARKER_RUN_2
-            v10, v11, v12, v14, v15, v16, v17, v19, v20, v21, v23, v24, v25, v26, v28, v29, v31 = (
+            v14, v16, v18, v21, v23, v25, v27, v30, v32, v34, v37, v39, v41, v43, v46, v48, v50 = (
                 _S_10d4fiIT.unpack_from(mv, pos)
             )
             pos += 105
             f = ".points"
-            v32, pos = read_messages(
+            v51, pos = read_messages(
                 mv, pos, lim, _U32, geometry_msgs__point_decode, None, None, 24
             )
             f = ".colors"
-            v33, pos = read_messages(
+            v52, pos = read_messages(
                 mv, pos, lim, _U32, std_msgs__color_rgba_decode, None, None, 16
             )
             pos = (pos + 3) & -4
             f = MARKER_RUN_3
-            (v35,) = _S_I.unpack_from(mv, pos)
+            (v54,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".texture_resource"
-            if v35 > lim - pos:
-                raise too_long(v35, 1, lim - pos)
-            v36 = mv[pos : pos + v35 - 1].tobytes().decode()
-            pos += v35
+            if v54 > lim - pos:
+                raise too_long(v54, 1, lim - pos)
+            v55 = mv[pos : pos + v54 - 1].tobytes().decode()
+            pos += v54
             f = ".texture"
-            v37, pos = sensor_msgs__compressed_image_decode(mv, pos, lim)
+            v56, pos = sensor_msgs__compressed_image_decode(mv, pos, lim)
             f = ".uv_coordinates"
-            v38, pos = read_messages(mv, pos, lim, _U32, uv_coordinate_decode, None, None, 8)
+            v57, pos = read_messages(mv, pos, lim, _U32, uv_coordinate_decode, None, None, 8)
             pos = (pos + 3) & -4
             f = MARKER_RUN_4
-            (v40,) = _S_I.unpack_from(mv, pos)
+            (v59,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".text"
-            if v40 > lim - pos:
-                raise too_long(v40, 1, lim - pos)
-            v41 = mv[pos : pos + v40 - 1].tobytes().decode()
-            pos += v40
+            if v59 > lim - pos:
+                raise too_long(v59, 1, lim - pos)
+            v60 = mv[pos : pos + v59 - 1].tobytes().decode()
+            pos += v59
             pos = (pos + 3) & -4
             f = MARKER_RUN_5
-            (v43,) = _S_I.unpack_from(mv, pos)
+            (v62,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".mesh_resource"
-            if v43 > lim - pos:
-                raise too_long(v43, 1, lim - pos)
-            v44 = mv[pos : pos + v43 - 1].tobytes().decode()
-            pos += v43
+            if v62 > lim - pos:
+                raise too_long(v62, 1, lim - pos)
+            v63 = mv[pos : pos + v62 - 1].tobytes().decode()
+            pos += v62
             f = ".mesh_file"
-            v45, pos = mesh_file_decode(mv, pos, lim)
+            v64, pos = mesh_file_decode(mv, pos, lim)
             f = MARKER_RUN_6
-            (v47,) = _S_T.unpack_from(mv, pos)
+            (v66,) = _S_T.unpack_from(mv, pos)
             pos += 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1621,50 +1609,50 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             return marker_view(
                 v1,
                 v4,
-                v5,
                 v6,
-                v7,
+                v8,
+                v10,
                 geometry_msgs__pose_view(
-                    geometry_msgs__point_view(v10, v11, v12),
-                    geometry_msgs__quaternion_view(v14, v15, v16, v17),
+                    geometry_msgs__point_view(v14, v16, v18),
+                    geometry_msgs__quaternion_view(v21, v23, v25, v27),
                 ),
-                geometry_msgs__vector3_view(v19, v20, v21),
-                std_msgs__color_rgba_view(v23, v24, v25, v26),
-                builtin_interfaces__duration_view(v28, v29),
-                v31,
-                v32,
-                v33,
-                v36,
-                v37,
-                v38,
-                v41,
-                v44,
-                v45,
-                v47,
+                geometry_msgs__vector3_view(v30, v32, v34),
+                std_msgs__color_rgba_view(v37, v39, v41, v43),
+                builtin_interfaces__duration_view(v46, v48),
+                v50,
+                v51,
+                v52,
+                v55,
+                v56,
+                v57,
+                v60,
+                v63,
+                v64,
+                v66,
             ), pos
         return {
             "header": v1,
             "ns": v4,
-            "id": v5,
-            "type": v6,
-            "action": v7,
+            "id": v6,
+            "type": v8,
+            "action": v10,
             "pose": {
-                "position": {"x": v10, "y": v11, "z": v12},
-                "orientation": {"x": v14, "y": v15, "z": v16, "w": v17},
+                "position": {"x": v14, "y": v16, "z": v18},
+                "orientation": {"x": v21, "y": v23, "z": v25, "w": v27},
             },
-            "scale": {"x": v19, "y": v20, "z": v21},
-            "color": {"r": v23, "g": v24, "b": v25, "a": v26},
-            "lifetime": {"sec": v28, "nanosec": v29},
-            "frame_locked": v31,
-            "points": v32,
-            "colors": v33,
-            "texture_resource": v36,
-            "texture": v37,
-            "uv_coordinates": v38,
-            "text": v41,
-            "mesh_resource": v44,
-            "mesh_file": v45,
-            "mesh_use_embedded_materials": v47,
+            "scale": {"x": v30, "y": v32, "z": v34},
+            "color": {"r": v37, "g": v39, "b": v41, "a": v43},
+            "lifetime": {"sec": v46, "nanosec": v48},
+            "frame_locked": v50,
+            "points": v51,
+            "colors": v52,
+            "texture_resource": v55,
+            "texture": v56,
+            "uv_coordinates": v57,
+            "text": v60,
+            "mesh_resource": v63,
+            "mesh_file": v64,
+            "mesh_use_embedded_materials": v66,
         }, pos
 
     def marker_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1693,74 +1681,100 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose"
-            m8 = d.get("pose", EMPTY)
-            if m8.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m8):
-                m8 = _submap(m8, GEOMETRY_MSGS__POSE_KEYS)
+            m11 = d.get("pose", EMPTY)
+            if m11.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m11):
+                m11 = _submap(m11, GEOMETRY_MSGS__POSE_KEYS)
             f = ".pose.position"
-            m9 = m8.get("position", EMPTY)
-            if m9.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m9):
-                m9 = _submap(m9, GEOMETRY_MSGS__POINT_KEYS)
+            m12 = m11.get("position", EMPTY)
+            if m12.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m12):
+                m12 = _submap(m12, GEOMETRY_MSGS__POINT_KEYS)
             f = ""
+            if type(t5 := d.get("id", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".id")
+            if type(t7 := d.get("type", 0)) is not int:
+                t7 = check_scalar("int32", t7, ".type")
+            if type(t9 := d.get("action", 0)) is not int:
+                t9 = check_scalar("int32", t9, ".action")
             try:
-                out.append(_S_3i.pack(d.get("id", 0), d.get("type", 0), d.get("action", 0)))
+                out.append(_S_3i.pack(t5, t7, t9))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_3i,
-                        MARKER_RUN_1,
-                        (
-                            d.get("id", 0),
-                            d.get("type", 0),
-                            d.get("action", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_3i, MARKER_RUN_1, (t5, t7, t9)))
             pos += 12
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose.orientation"
-            m13 = m8.get("orientation", EMPTY)
-            if m13.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m13):
-                m13 = _submap(m13, GEOMETRY_MSGS__QUATERNION_KEYS)
+            m19 = m11.get("orientation", EMPTY)
+            if m19.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m19):
+                m19 = _submap(m19, GEOMETRY_MSGS__QUATERNION_KEYS)
             f = ".scale"
-            m18 = d.get("scale", EMPTY)
-            if m18.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m18):
-                m18 = _submap(m18, GEOMETRY_MSGS__VECTOR3_KEYS)
+            m28 = d.get("scale", EMPTY)
+            if m28.__class__ is not dict or not GEOMETRY_MSGS__VECTOR3_KEYS.issuperset(m28):
+                m28 = _submap(m28, GEOMETRY_MSGS__VECTOR3_KEYS)
             f = ".color"
-            m22 = d.get("color", EMPTY)
-            if m22.__class__ is not dict or not STD_MSGS__COLOR_RGBA_KEYS.issuperset(m22):
-                m22 = _submap(m22, STD_MSGS__COLOR_RGBA_KEYS)
+            m35 = d.get("color", EMPTY)
+            if m35.__class__ is not dict or not STD_MSGS__COLOR_RGBA_KEYS.issuperset(m35):
+                m35 = _submap(m35, STD_MSGS__COLOR_RGBA_KEYS)
             f = ".lifetime"
-            m27 = d.get("lifetime", EMPTY)
-            if m27.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m27):
-                m27 = _submap(m27, BUILTIN_INTERFACES__DURATION_KEYS)
+            m44 = d.get("lifetime", EMPTY)
+            if m44.__class__ is not dict or not BUILTIN_INTERFACES__DURATION_KEYS.issuperset(m44):
+                m44 = _submap(m44, BUILTIN_INTERFACES__DURATION_KEYS)
             f = ""
+            if type(t13 := m12.get("x", 0.0)) is not float:
+                t13 = check_scalar("float64", t13, ".pose.position.x")
+            if type(t15 := m12.get("y", 0.0)) is not float:
+                t15 = check_scalar("float64", t15, ".pose.position.y")
+            if type(t17 := m12.get("z", 0.0)) is not float:
+                t17 = check_scalar("float64", t17, ".pose.position.z")
+            if type(t20 := m19.get("x", 0.0)) is not float:
+                t20 = check_scalar("float64", t20, ".pose.orientation.x")
+            if type(t22 := m19.get("y", 0.0)) is not float:
+                t22 = check_scalar("float64", t22, ".pose.orientation.y")
+            if type(t24 := m19.get("z", 0.0)) is not float:
+                t24 = check_scalar("float64", t24, ".pose.orientation.z")
+            if type(t26 := m19.get("w", 1.0)) is not float:
+                t26 = check_scalar("float64", t26, ".pose.orientation.w")
+            if type(t29 := m28.get("x", 0.0)) is not float:
+                t29 = check_scalar("float64", t29, ".scale.x")
+            if type(t31 := m28.get("y", 0.0)) is not float:
+                t31 = check_scalar("float64", t31, ".scale.y")
+            if type(t33 := m28.get("z", 0.0)) is not float:
+                t33 = check_scalar("float64", t33, ".scale.z")
+            if type(t36 := m35.get("r", 0.0)) is not float:
+                t36 = check_scalar("float32", t36, ".color.r")
+            if type(t38 := m35.get("g", 0.0)) is not float:
+                t38 = check_scalar("float32", t38, ".color.g")
+            if type(t40 := m35.get("b", 0.0)) is not float:
+                t40 = check_scalar("float32", t40, ".color.b")
+            if type(t42 := m35.get("a", 0.0)) is not float:
+                t42 = check_scalar("float32", t42, ".color.a")
+            if type(t45 := m44.get("sec", 0)) is not int:
+                t45 = check_scalar("int32", t45, ".lifetime.sec")
+            if type(t47 := m44.get("nanosec", 0)) is not int:
+                t47 = check_scalar("uint32", t47, ".lifetime.nanosec")
+            if type(t49 := d.get("frame_locked", False)) is not bool:
+                t49 = check_scalar("bool", t49, ".frame_locked")
             try:
                 out.append(
                     _S_10d4fiIT.pack(
-                        m9.get("x", 0.0),
-                        m9.get("y", 0.0),
-                        m9.get("z", 0.0),
-                        m13.get("x", 0.0),
-                        m13.get("y", 0.0),
-                        m13.get("z", 0.0),
-                        m13.get("w", 1.0),
-                        m18.get("x", 0.0),
-                        m18.get("y", 0.0),
-                        m18.get("z", 0.0),
-                        m22.get("r", 0.0),
-                        m22.get("g", 0.0),
-                        m22.get("b", 0.0),
-                        m22.get("a", 0.0),
-                        m27.get("sec", 0),
-                        m27.get("nanosec", 0),
-                        (
-                            t30
-                            if (t30 := d.get("frame_locked", False)).__class__ is bool
-                            else check_bool(t30, ".frame_locked")
-                        ),
+                        t13,
+                        t15,
+                        t17,
+                        t20,
+                        t22,
+                        t24,
+                        t26,
+                        t29,
+                        t31,
+                        t33,
+                        t36,
+                        t38,
+                        t40,
+                        t42,
+                        t45,
+                        t47,
+                        t49,
                     )
                 )
             except Exception:
@@ -1769,27 +1783,23 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                         _S_10d4fiIT,
                         MARKER_RUN_2,
                         (
-                            m9.get("x", 0.0),
-                            m9.get("y", 0.0),
-                            m9.get("z", 0.0),
-                            m13.get("x", 0.0),
-                            m13.get("y", 0.0),
-                            m13.get("z", 0.0),
-                            m13.get("w", 1.0),
-                            m18.get("x", 0.0),
-                            m18.get("y", 0.0),
-                            m18.get("z", 0.0),
-                            m22.get("r", 0.0),
-                            m22.get("g", 0.0),
-                            m22.get("b", 0.0),
-                            m22.get("a", 0.0),
-                            m27.get("sec", 0),
-                            m27.get("nanosec", 0),
-                            (
-                                t30
-                                if (t30 := d.get("frame_locked", False)).__class__ is bool
-                                else check_bool(t30, ".frame_locked")
-                            ),
+                            t13,
+                            t15,
+                            t17,
+                            t20,
+                            t22,
+                            t24,
+                            t26,
+                            t29,
+                            t31,
+                            t33,
+                            t36,
+                            t38,
+                            t40,
+                            t42,
+                            t45,
+                            t47,
+                            t49,
                         ),
                     )
                 )
@@ -1803,19 +1813,19 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 d.get("colors", ()), out, pos, _U32, std_msgs__color_rgba_encode, None, False
             )
             f = ".texture_resource"
-            b34 = utf8z(d.get("texture_resource", ""), None)
+            b53 = utf8z(d.get("texture_resource", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b34)))
+                out.append(_S_I.pack(len(b53)))
             except Exception:
-                out.append(slow_pack(_S_I, MARKER_RUN_3, (len(b34),)))
+                out.append(slow_pack(_S_I, MARKER_RUN_3, (len(b53),)))
             pos += 4
-            out.append(b34)
-            pos += len(b34)
+            out.append(b53)
+            pos += len(b53)
             f = ".texture"
             pos = sensor_msgs__compressed_image_encode(d.get("texture", EMPTY), out, pos)
             f = ".uv_coordinates"
@@ -1823,62 +1833,42 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 d.get("uv_coordinates", ()), out, pos, _U32, uv_coordinate_encode, None, False
             )
             f = ".text"
-            b39 = utf8z(d.get("text", ""), None)
+            b58 = utf8z(d.get("text", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b39)))
+                out.append(_S_I.pack(len(b58)))
             except Exception:
-                out.append(slow_pack(_S_I, MARKER_RUN_4, (len(b39),)))
+                out.append(slow_pack(_S_I, MARKER_RUN_4, (len(b58),)))
             pos += 4
-            out.append(b39)
-            pos += len(b39)
+            out.append(b58)
+            pos += len(b58)
             f = ".mesh_resource"
-            b42 = utf8z(d.get("mesh_resource", ""), None)
+            b61 = utf8z(d.get("mesh_resource", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b42)))
+                out.append(_S_I.pack(len(b61)))
             except Exception:
-                out.append(slow_pack(_S_I, MARKER_RUN_5, (len(b42),)))
+                out.append(slow_pack(_S_I, MARKER_RUN_5, (len(b61),)))
             pos += 4
-            out.append(b42)
-            pos += len(b42)
+            out.append(b61)
+            pos += len(b61)
             f = ".mesh_file"
             pos = mesh_file_encode(d.get("mesh_file", EMPTY), out, pos)
             f = ""
+            if type(t65 := d.get("mesh_use_embedded_materials", False)) is not bool:
+                t65 = check_scalar("bool", t65, ".mesh_use_embedded_materials")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t46
-                            if (t46 := d.get("mesh_use_embedded_materials", False)).__class__
-                            is bool
-                            else check_bool(t46, ".mesh_use_embedded_materials")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t65))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        MARKER_RUN_6,
-                        (
-                            (
-                                t46
-                                if (t46 := d.get("mesh_use_embedded_materials", False)).__class__
-                                is bool
-                                else check_bool(t46, ".mesh_use_embedded_materials")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, MARKER_RUN_6, (t65,)))
             pos += 1
         except FieldError as error:
             raise error.within(f) from None
@@ -1900,39 +1890,39 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += v2
             pos = (pos + 7) & -8
             f = INTERACTIVE_MARKER_CONTROL_RUN_1
-            v5, v6, v7, v8, v9, v10, v12 = _S_4d2BT.unpack_from(mv, pos)
+            v6, v8, v10, v12, v14, v16, v18 = _S_4d2BT.unpack_from(mv, pos)
             pos += 35
             f = ".markers"
-            v13, pos = read_messages(mv, pos, lim, _U32, marker_decode, None, None, 186)
+            v19, pos = read_messages(mv, pos, lim, _U32, marker_decode, None, None, 186)
             f = INTERACTIVE_MARKER_CONTROL_RUN_2
-            (v15,) = _S_T.unpack_from(mv, pos)
+            (v21,) = _S_T.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = INTERACTIVE_MARKER_CONTROL_RUN_3
-            (v17,) = _S_I.unpack_from(mv, pos)
+            (v23,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".description"
-            if v17 > lim - pos:
-                raise too_long(v17, 1, lim - pos)
-            v18 = mv[pos : pos + v17 - 1].tobytes().decode()
-            pos += v17
+            if v23 > lim - pos:
+                raise too_long(v23, 1, lim - pos)
+            v24 = mv[pos : pos + v23 - 1].tobytes().decode()
+            pos += v23
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return interactive_marker_control_view(
-                v3, geometry_msgs__quaternion_view(v5, v6, v7, v8), v9, v10, v12, v13, v15, v18
+                v3, geometry_msgs__quaternion_view(v6, v8, v10, v12), v14, v16, v18, v19, v21, v24
             ), pos
         return {
             "name": v3,
-            "orientation": {"x": v5, "y": v6, "z": v7, "w": v8},
-            "orientation_mode": v9,
-            "interaction_mode": v10,
-            "always_visible": v12,
-            "markers": v13,
-            "independent_marker_orientation": v15,
-            "description": v18,
+            "orientation": {"x": v6, "y": v8, "z": v10, "w": v12},
+            "orientation_mode": v14,
+            "interaction_mode": v16,
+            "always_visible": v18,
+            "markers": v19,
+            "independent_marker_orientation": v21,
+            "description": v24,
         }, pos
 
     def interactive_marker_control_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1963,74 +1953,40 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t5 := m4.get("x", 0.0)) is not float:
+                t5 = check_scalar("float64", t5, ".orientation.x")
+            if type(t7 := m4.get("y", 0.0)) is not float:
+                t7 = check_scalar("float64", t7, ".orientation.y")
+            if type(t9 := m4.get("z", 0.0)) is not float:
+                t9 = check_scalar("float64", t9, ".orientation.z")
+            if type(t11 := m4.get("w", 1.0)) is not float:
+                t11 = check_scalar("float64", t11, ".orientation.w")
+            if type(t13 := d.get("orientation_mode", 0)) is not int:
+                t13 = check_scalar("uint8", t13, ".orientation_mode")
+            if type(t15 := d.get("interaction_mode", 0)) is not int:
+                t15 = check_scalar("uint8", t15, ".interaction_mode")
+            if type(t17 := d.get("always_visible", False)) is not bool:
+                t17 = check_scalar("bool", t17, ".always_visible")
             try:
-                out.append(
-                    _S_4d2BT.pack(
-                        m4.get("x", 0.0),
-                        m4.get("y", 0.0),
-                        m4.get("z", 0.0),
-                        m4.get("w", 1.0),
-                        d.get("orientation_mode", 0),
-                        d.get("interaction_mode", 0),
-                        (
-                            t11
-                            if (t11 := d.get("always_visible", False)).__class__ is bool
-                            else check_bool(t11, ".always_visible")
-                        ),
-                    )
-                )
+                out.append(_S_4d2BT.pack(t5, t7, t9, t11, t13, t15, t17))
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_4d2BT,
-                        INTERACTIVE_MARKER_CONTROL_RUN_1,
-                        (
-                            m4.get("x", 0.0),
-                            m4.get("y", 0.0),
-                            m4.get("z", 0.0),
-                            m4.get("w", 1.0),
-                            d.get("orientation_mode", 0),
-                            d.get("interaction_mode", 0),
-                            (
-                                t11
-                                if (t11 := d.get("always_visible", False)).__class__ is bool
-                                else check_bool(t11, ".always_visible")
-                            ),
-                        ),
+                        _S_4d2BT, INTERACTIVE_MARKER_CONTROL_RUN_1, (t5, t7, t9, t11, t13, t15, t17)
                     )
                 )
             pos += 35
             f = ".markers"
             pos = write_messages(d.get("markers", ()), out, pos, _U32, marker_encode, None, False)
             f = ".description"
-            b16 = utf8z(d.get("description", ""), None)
+            b22 = utf8z(d.get("description", ""), None)
             f = ""
+            if type(t20 := d.get("independent_marker_orientation", False)) is not bool:
+                t20 = check_scalar("bool", t20, ".independent_marker_orientation")
             try:
-                out.append(
-                    _S_T.pack(
-                        (
-                            t14
-                            if (t14 := d.get("independent_marker_orientation", False)).__class__
-                            is bool
-                            else check_bool(t14, ".independent_marker_orientation")
-                        )
-                    )
-                )
+                out.append(_S_T.pack(t20))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_T,
-                        INTERACTIVE_MARKER_CONTROL_RUN_2,
-                        (
-                            (
-                                t14
-                                if (t14 := d.get("independent_marker_orientation", False)).__class__
-                                is bool
-                                else check_bool(t14, ".independent_marker_orientation")
-                            ),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_T, INTERACTIVE_MARKER_CONTROL_RUN_2, (t20,)))
             pos += 1
             p = -pos & 3
             if p:
@@ -2038,12 +1994,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b16)))
+                out.append(_S_I.pack(len(b22)))
             except Exception:
-                out.append(slow_pack(_S_I, INTERACTIVE_MARKER_CONTROL_RUN_3, (len(b16),)))
+                out.append(slow_pack(_S_I, INTERACTIVE_MARKER_CONTROL_RUN_3, (len(b22),)))
             pos += 4
-            out.append(b16)
-            pos += len(b16)
+            out.append(b22)
+            pos += len(b22)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2057,30 +2013,30 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = INTERACTIVE_MARKER_RUN_0
-            v4, v5, v6, v8, v9, v10, v11, v13 = _S_7dI.unpack_from(mv, pos)
+            v5, v7, v9, v12, v14, v16, v18, v20 = _S_7dI.unpack_from(mv, pos)
             pos += 60
             f = ".name"
-            if v13 > lim - pos:
-                raise too_long(v13, 1, lim - pos)
-            v14 = mv[pos : pos + v13 - 1].tobytes().decode()
-            pos += v13
+            if v20 > lim - pos:
+                raise too_long(v20, 1, lim - pos)
+            v21 = mv[pos : pos + v20 - 1].tobytes().decode()
+            pos += v20
             pos = (pos + 3) & -4
             f = INTERACTIVE_MARKER_RUN_1
-            (v16,) = _S_I.unpack_from(mv, pos)
+            (v23,) = _S_I.unpack_from(mv, pos)
             pos += 4
             f = ".description"
-            if v16 > lim - pos:
-                raise too_long(v16, 1, lim - pos)
-            v17 = mv[pos : pos + v16 - 1].tobytes().decode()
-            pos += v16
+            if v23 > lim - pos:
+                raise too_long(v23, 1, lim - pos)
+            v24 = mv[pos : pos + v23 - 1].tobytes().decode()
+            pos += v23
             pos = (pos + 3) & -4
             f = INTERACTIVE_MARKER_RUN_2
-            (v18,) = _S_f.unpack_from(mv, pos)
+            (v26,) = _S_f.unpack_from(mv, pos)
             pos += 4
             f = ".menu_entries"
-            v19, pos = read_messages(mv, pos, lim, _U32, menu_entry_decode, None, None, 17)
+            v27, pos = read_messages(mv, pos, lim, _U32, menu_entry_decode, None, None, 17)
             f = ".controls"
-            v20, pos = read_messages(
+            v28, pos = read_messages(
                 mv, pos, lim, _U32, interactive_marker_control_decode, None, None, 48
             )
         except WireDecodeError as error:
@@ -2091,26 +2047,26 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             return interactive_marker_view(
                 v1,
                 geometry_msgs__pose_view(
-                    geometry_msgs__point_view(v4, v5, v6),
-                    geometry_msgs__quaternion_view(v8, v9, v10, v11),
+                    geometry_msgs__point_view(v5, v7, v9),
+                    geometry_msgs__quaternion_view(v12, v14, v16, v18),
                 ),
-                v14,
-                v17,
-                v18,
-                v19,
-                v20,
+                v21,
+                v24,
+                v26,
+                v27,
+                v28,
             ), pos
         return {
             "header": v1,
             "pose": {
-                "position": {"x": v4, "y": v5, "z": v6},
-                "orientation": {"x": v8, "y": v9, "z": v10, "w": v11},
+                "position": {"x": v5, "y": v7, "z": v9},
+                "orientation": {"x": v12, "y": v14, "z": v16, "w": v18},
             },
-            "name": v14,
-            "description": v17,
-            "scale": v18,
-            "menu_entries": v19,
-            "controls": v20,
+            "name": v21,
+            "description": v24,
+            "scale": v26,
+            "menu_entries": v27,
+            "controls": v28,
         }, pos
 
     def interactive_marker_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2133,68 +2089,62 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose.orientation"
-            m7 = m2.get("orientation", EMPTY)
-            if m7.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m7):
-                m7 = _submap(m7, GEOMETRY_MSGS__QUATERNION_KEYS)
+            m10 = m2.get("orientation", EMPTY)
+            if m10.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m10):
+                m10 = _submap(m10, GEOMETRY_MSGS__QUATERNION_KEYS)
             f = ".name"
-            b12 = utf8z(d.get("name", ""), None)
+            b19 = utf8z(d.get("name", ""), None)
             f = ""
+            if type(t4 := m3.get("x", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".pose.position.x")
+            if type(t6 := m3.get("y", 0.0)) is not float:
+                t6 = check_scalar("float64", t6, ".pose.position.y")
+            if type(t8 := m3.get("z", 0.0)) is not float:
+                t8 = check_scalar("float64", t8, ".pose.position.z")
+            if type(t11 := m10.get("x", 0.0)) is not float:
+                t11 = check_scalar("float64", t11, ".pose.orientation.x")
+            if type(t13 := m10.get("y", 0.0)) is not float:
+                t13 = check_scalar("float64", t13, ".pose.orientation.y")
+            if type(t15 := m10.get("z", 0.0)) is not float:
+                t15 = check_scalar("float64", t15, ".pose.orientation.z")
+            if type(t17 := m10.get("w", 1.0)) is not float:
+                t17 = check_scalar("float64", t17, ".pose.orientation.w")
             try:
-                out.append(
-                    _S_7dI.pack(
-                        m3.get("x", 0.0),
-                        m3.get("y", 0.0),
-                        m3.get("z", 0.0),
-                        m7.get("x", 0.0),
-                        m7.get("y", 0.0),
-                        m7.get("z", 0.0),
-                        m7.get("w", 1.0),
-                        len(b12),
-                    )
-                )
+                out.append(_S_7dI.pack(t4, t6, t8, t11, t13, t15, t17, len(b19)))
             except Exception:
                 out.append(
                     slow_pack(
-                        _S_7dI,
-                        INTERACTIVE_MARKER_RUN_0,
-                        (
-                            m3.get("x", 0.0),
-                            m3.get("y", 0.0),
-                            m3.get("z", 0.0),
-                            m7.get("x", 0.0),
-                            m7.get("y", 0.0),
-                            m7.get("z", 0.0),
-                            m7.get("w", 1.0),
-                            len(b12),
-                        ),
+                        _S_7dI, INTERACTIVE_MARKER_RUN_0, (t4, t6, t8, t11, t13, t15, t17, len(b19))
                     )
                 )
             pos += 60
-            out.append(b12)
-            pos += len(b12)
+            out.append(b19)
+            pos += len(b19)
             f = ".description"
-            b15 = utf8z(d.get("description", ""), None)
+            b22 = utf8z(d.get("description", ""), None)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
             try:
-                out.append(_S_I.pack(len(b15)))
+                out.append(_S_I.pack(len(b22)))
             except Exception:
-                out.append(slow_pack(_S_I, INTERACTIVE_MARKER_RUN_1, (len(b15),)))
+                out.append(slow_pack(_S_I, INTERACTIVE_MARKER_RUN_1, (len(b22),)))
             pos += 4
-            out.append(b15)
-            pos += len(b15)
+            out.append(b22)
+            pos += len(b22)
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t25 := d.get("scale", 0.0)) is not float:
+                t25 = check_scalar("float32", t25, ".scale")
             try:
-                out.append(_S_f.pack(d.get("scale", 0.0)))
+                out.append(_S_f.pack(t25))
             except Exception:
-                out.append(slow_pack(_S_f, INTERACTIVE_MARKER_RUN_2, (d.get("scale", 0.0),)))
+                out.append(slow_pack(_S_f, INTERACTIVE_MARKER_RUN_2, (t25,)))
             pos += 4
             f = ".menu_entries"
             pos = write_messages(
@@ -2249,11 +2199,11 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
             f = INTERACTIVE_MARKER_FEEDBACK_RUN_3
-            (v11,) = _S_B.unpack_from(mv, pos)
+            (v12,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 7) & -8
             f = INTERACTIVE_MARKER_FEEDBACK_RUN_4
-            v14, v15, v16, v18, v19, v20, v21, v22, v24, v25, v26, v28 = _S_7dI4x3dT.unpack_from(
+            v16, v18, v20, v23, v25, v27, v29, v31, v34, v36, v38, v40 = _S_7dI4x3dT.unpack_from(
                 mv, pos
             )
             pos += 89
@@ -2267,28 +2217,28 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 v4,
                 v7,
                 v10,
-                v11,
+                v12,
                 geometry_msgs__pose_view(
-                    geometry_msgs__point_view(v14, v15, v16),
-                    geometry_msgs__quaternion_view(v18, v19, v20, v21),
+                    geometry_msgs__point_view(v16, v18, v20),
+                    geometry_msgs__quaternion_view(v23, v25, v27, v29),
                 ),
-                v22,
-                geometry_msgs__point_view(v24, v25, v26),
-                v28,
+                v31,
+                geometry_msgs__point_view(v34, v36, v38),
+                v40,
             ), pos
         return {
             "header": v1,
             "client_id": v4,
             "marker_name": v7,
             "control_name": v10,
-            "event_type": v11,
+            "event_type": v12,
             "pose": {
-                "position": {"x": v14, "y": v15, "z": v16},
-                "orientation": {"x": v18, "y": v19, "z": v20, "w": v21},
+                "position": {"x": v16, "y": v18, "z": v20},
+                "orientation": {"x": v23, "y": v25, "z": v27, "w": v29},
             },
-            "menu_entry_id": v22,
-            "mouse_point": {"x": v24, "y": v25, "z": v26},
-            "mouse_point_valid": v28,
+            "menu_entry_id": v31,
+            "mouse_point": {"x": v34, "y": v36, "z": v38},
+            "mouse_point_valid": v40,
         }, pos
 
     def interactive_marker_feedback_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2341,78 +2291,68 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             out.append(b8)
             pos += len(b8)
             f = ".pose"
-            m12 = d.get("pose", EMPTY)
-            if m12.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m12):
-                m12 = _submap(m12, GEOMETRY_MSGS__POSE_KEYS)
+            m13 = d.get("pose", EMPTY)
+            if m13.__class__ is not dict or not GEOMETRY_MSGS__POSE_KEYS.issuperset(m13):
+                m13 = _submap(m13, GEOMETRY_MSGS__POSE_KEYS)
             f = ".pose.position"
-            m13 = m12.get("position", EMPTY)
-            if m13.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m13):
-                m13 = _submap(m13, GEOMETRY_MSGS__POINT_KEYS)
+            m14 = m13.get("position", EMPTY)
+            if m14.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m14):
+                m14 = _submap(m14, GEOMETRY_MSGS__POINT_KEYS)
             f = ""
+            if type(t11 := d.get("event_type", 0)) is not int:
+                t11 = check_scalar("uint8", t11, ".event_type")
             try:
-                out.append(_S_B.pack(d.get("event_type", 0)))
+                out.append(_S_B.pack(t11))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, INTERACTIVE_MARKER_FEEDBACK_RUN_3, (d.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, INTERACTIVE_MARKER_FEEDBACK_RUN_3, (t11,)))
             pos += 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose.orientation"
-            m17 = m12.get("orientation", EMPTY)
-            if m17.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m17):
-                m17 = _submap(m17, GEOMETRY_MSGS__QUATERNION_KEYS)
+            m21 = m13.get("orientation", EMPTY)
+            if m21.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m21):
+                m21 = _submap(m21, GEOMETRY_MSGS__QUATERNION_KEYS)
             f = ".mouse_point"
-            m23 = d.get("mouse_point", EMPTY)
-            if m23.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m23):
-                m23 = _submap(m23, GEOMETRY_MSGS__POINT_KEYS)
+            m32 = d.get("mouse_point", EMPTY)
+            if m32.__class__ is not dict or not GEOMETRY_MSGS__POINT_KEYS.issuperset(m32):
+                m32 = _submap(m32, GEOMETRY_MSGS__POINT_KEYS)
             f = ""
+            if type(t15 := m14.get("x", 0.0)) is not float:
+                t15 = check_scalar("float64", t15, ".pose.position.x")
+            if type(t17 := m14.get("y", 0.0)) is not float:
+                t17 = check_scalar("float64", t17, ".pose.position.y")
+            if type(t19 := m14.get("z", 0.0)) is not float:
+                t19 = check_scalar("float64", t19, ".pose.position.z")
+            if type(t22 := m21.get("x", 0.0)) is not float:
+                t22 = check_scalar("float64", t22, ".pose.orientation.x")
+            if type(t24 := m21.get("y", 0.0)) is not float:
+                t24 = check_scalar("float64", t24, ".pose.orientation.y")
+            if type(t26 := m21.get("z", 0.0)) is not float:
+                t26 = check_scalar("float64", t26, ".pose.orientation.z")
+            if type(t28 := m21.get("w", 1.0)) is not float:
+                t28 = check_scalar("float64", t28, ".pose.orientation.w")
+            if type(t30 := d.get("menu_entry_id", 0)) is not int:
+                t30 = check_scalar("uint32", t30, ".menu_entry_id")
+            if type(t33 := m32.get("x", 0.0)) is not float:
+                t33 = check_scalar("float64", t33, ".mouse_point.x")
+            if type(t35 := m32.get("y", 0.0)) is not float:
+                t35 = check_scalar("float64", t35, ".mouse_point.y")
+            if type(t37 := m32.get("z", 0.0)) is not float:
+                t37 = check_scalar("float64", t37, ".mouse_point.z")
+            if type(t39 := d.get("mouse_point_valid", False)) is not bool:
+                t39 = check_scalar("bool", t39, ".mouse_point_valid")
             try:
                 out.append(
-                    _S_7dI4x3dT.pack(
-                        m13.get("x", 0.0),
-                        m13.get("y", 0.0),
-                        m13.get("z", 0.0),
-                        m17.get("x", 0.0),
-                        m17.get("y", 0.0),
-                        m17.get("z", 0.0),
-                        m17.get("w", 1.0),
-                        d.get("menu_entry_id", 0),
-                        m23.get("x", 0.0),
-                        m23.get("y", 0.0),
-                        m23.get("z", 0.0),
-                        (
-                            t27
-                            if (t27 := d.get("mouse_point_valid", False)).__class__ is bool
-                            else check_bool(t27, ".mouse_point_valid")
-                        ),
-                    )
+                    _S_7dI4x3dT.pack(t15, t17, t19, t22, t24, t26, t28, t30, t33, t35, t37, t39)
                 )
             except Exception:
                 out.append(
                     slow_pack(
                         _S_7dI4x3dT,
                         INTERACTIVE_MARKER_FEEDBACK_RUN_4,
-                        (
-                            m13.get("x", 0.0),
-                            m13.get("y", 0.0),
-                            m13.get("z", 0.0),
-                            m17.get("x", 0.0),
-                            m17.get("y", 0.0),
-                            m17.get("z", 0.0),
-                            m17.get("w", 1.0),
-                            d.get("menu_entry_id", 0),
-                            m23.get("x", 0.0),
-                            m23.get("y", 0.0),
-                            m23.get("z", 0.0),
-                            (
-                                t27
-                                if (t27 := d.get("mouse_point_valid", False)).__class__ is bool
-                                else check_bool(t27, ".mouse_point_valid")
-                            ),
-                        ),
+                        (t15, t17, t19, t22, t24, t26, t28, t30, t33, t35, t37, t39),
                     )
                 )
             pos += 89
@@ -2436,17 +2376,17 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += v2
             pos = (pos + 7) & -8
             f = INTERACTIVE_MARKER_INIT_RUN_1
-            (v4,) = _S_Q.unpack_from(mv, pos)
+            (v5,) = _S_Q.unpack_from(mv, pos)
             pos += 8
             f = ".markers"
-            v5, pos = read_messages(mv, pos, lim, _U32, interactive_marker_decode, None, None, 88)
+            v6, pos = read_messages(mv, pos, lim, _U32, interactive_marker_decode, None, None, 88)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return interactive_marker_init_view(v3, v4, v5), pos
-        return {"server_id": v3, "seq_num": v4, "markers": v5}, pos
+            return interactive_marker_init_view(v3, v5, v6), pos
+        return {"server_id": v3, "seq_num": v5, "markers": v6}, pos
 
     def interactive_marker_init_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2472,10 +2412,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t4 := d.get("seq_num", 0)) is not int:
+                t4 = check_scalar("uint64", t4, ".seq_num")
             try:
-                out.append(_S_Q.pack(d.get("seq_num", 0)))
+                out.append(_S_Q.pack(t4))
             except Exception:
-                out.append(slow_pack(_S_Q, INTERACTIVE_MARKER_INIT_RUN_1, (d.get("seq_num", 0),)))
+                out.append(slow_pack(_S_Q, INTERACTIVE_MARKER_INIT_RUN_1, (t4,)))
             pos += 8
             f = ".markers"
             pos = write_messages(
@@ -2494,13 +2436,13 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             v1, pos = std_msgs__header_decode(mv, pos, lim)
             pos = (pos + 7) & -8
             f = INTERACTIVE_MARKER_POSE_RUN_0
-            v4, v5, v6, v8, v9, v10, v11, v13 = _S_7dI.unpack_from(mv, pos)
+            v5, v7, v9, v12, v14, v16, v18, v20 = _S_7dI.unpack_from(mv, pos)
             pos += 60
             f = ".name"
-            if v13 > lim - pos:
-                raise too_long(v13, 1, lim - pos)
-            v14 = mv[pos : pos + v13 - 1].tobytes().decode()
-            pos += v13
+            if v20 > lim - pos:
+                raise too_long(v20, 1, lim - pos)
+            v21 = mv[pos : pos + v20 - 1].tobytes().decode()
+            pos += v20
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2509,18 +2451,18 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             return interactive_marker_pose_view(
                 v1,
                 geometry_msgs__pose_view(
-                    geometry_msgs__point_view(v4, v5, v6),
-                    geometry_msgs__quaternion_view(v8, v9, v10, v11),
+                    geometry_msgs__point_view(v5, v7, v9),
+                    geometry_msgs__quaternion_view(v12, v14, v16, v18),
                 ),
-                v14,
+                v21,
             ), pos
         return {
             "header": v1,
             "pose": {
-                "position": {"x": v4, "y": v5, "z": v6},
-                "orientation": {"x": v8, "y": v9, "z": v10, "w": v11},
+                "position": {"x": v5, "y": v7, "z": v9},
+                "orientation": {"x": v12, "y": v14, "z": v16, "w": v18},
             },
-            "name": v14,
+            "name": v21,
         }, pos
 
     def interactive_marker_pose_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2543,45 +2485,39 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ".pose.orientation"
-            m7 = m2.get("orientation", EMPTY)
-            if m7.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m7):
-                m7 = _submap(m7, GEOMETRY_MSGS__QUATERNION_KEYS)
+            m10 = m2.get("orientation", EMPTY)
+            if m10.__class__ is not dict or not GEOMETRY_MSGS__QUATERNION_KEYS.issuperset(m10):
+                m10 = _submap(m10, GEOMETRY_MSGS__QUATERNION_KEYS)
             f = ".name"
-            b12 = utf8z(d.get("name", ""), None)
+            b19 = utf8z(d.get("name", ""), None)
             f = ""
+            if type(t4 := m3.get("x", 0.0)) is not float:
+                t4 = check_scalar("float64", t4, ".pose.position.x")
+            if type(t6 := m3.get("y", 0.0)) is not float:
+                t6 = check_scalar("float64", t6, ".pose.position.y")
+            if type(t8 := m3.get("z", 0.0)) is not float:
+                t8 = check_scalar("float64", t8, ".pose.position.z")
+            if type(t11 := m10.get("x", 0.0)) is not float:
+                t11 = check_scalar("float64", t11, ".pose.orientation.x")
+            if type(t13 := m10.get("y", 0.0)) is not float:
+                t13 = check_scalar("float64", t13, ".pose.orientation.y")
+            if type(t15 := m10.get("z", 0.0)) is not float:
+                t15 = check_scalar("float64", t15, ".pose.orientation.z")
+            if type(t17 := m10.get("w", 1.0)) is not float:
+                t17 = check_scalar("float64", t17, ".pose.orientation.w")
             try:
-                out.append(
-                    _S_7dI.pack(
-                        m3.get("x", 0.0),
-                        m3.get("y", 0.0),
-                        m3.get("z", 0.0),
-                        m7.get("x", 0.0),
-                        m7.get("y", 0.0),
-                        m7.get("z", 0.0),
-                        m7.get("w", 1.0),
-                        len(b12),
-                    )
-                )
+                out.append(_S_7dI.pack(t4, t6, t8, t11, t13, t15, t17, len(b19)))
             except Exception:
                 out.append(
                     slow_pack(
                         _S_7dI,
                         INTERACTIVE_MARKER_POSE_RUN_0,
-                        (
-                            m3.get("x", 0.0),
-                            m3.get("y", 0.0),
-                            m3.get("z", 0.0),
-                            m7.get("x", 0.0),
-                            m7.get("y", 0.0),
-                            m7.get("z", 0.0),
-                            m7.get("w", 1.0),
-                            len(b12),
-                        ),
+                        (t4, t6, t8, t11, t13, t15, t17, len(b19)),
                     )
                 )
             pos += 60
-            out.append(b12)
-            pos += len(b12)
+            out.append(b19)
+            pos += len(b19)
         except FieldError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2602,29 +2538,29 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos += v2
             pos = (pos + 7) & -8
             f = INTERACTIVE_MARKER_UPDATE_RUN_1
-            v4, v5 = _S_QB.unpack_from(mv, pos)
+            v5, v7 = _S_QB.unpack_from(mv, pos)
             pos += 9
             f = ".markers"
-            v6, pos = read_messages(mv, pos, lim, _U32, interactive_marker_decode, None, None, 88)
+            v8, pos = read_messages(mv, pos, lim, _U32, interactive_marker_decode, None, None, 88)
             f = ".poses"
-            v7, pos = read_messages(
+            v9, pos = read_messages(
                 mv, pos, lim, _U32, interactive_marker_pose_decode, None, None, 72
             )
             f = ".erases"
-            v8, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
+            v10, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return interactive_marker_update_view(v3, v4, v5, v6, v7, v8), pos
+            return interactive_marker_update_view(v3, v5, v7, v8, v9, v10), pos
         return {
             "server_id": v3,
-            "seq_num": v4,
-            "type": v5,
-            "markers": v6,
-            "poses": v7,
-            "erases": v8,
+            "seq_num": v5,
+            "type": v7,
+            "markers": v8,
+            "poses": v9,
+            "erases": v10,
         }, pos
 
     def interactive_marker_update_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2651,19 +2587,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t4 := d.get("seq_num", 0)) is not int:
+                t4 = check_scalar("uint64", t4, ".seq_num")
+            if type(t6 := d.get("type", 0)) is not int:
+                t6 = check_scalar("uint8", t6, ".type")
             try:
-                out.append(_S_QB.pack(d.get("seq_num", 0), d.get("type", 0)))
+                out.append(_S_QB.pack(t4, t6))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_QB,
-                        INTERACTIVE_MARKER_UPDATE_RUN_1,
-                        (
-                            d.get("seq_num", 0),
-                            d.get("type", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_QB, INTERACTIVE_MARKER_UPDATE_RUN_1, (t4, t6)))
             pos += 9
             f = ".markers"
             pos = write_messages(
@@ -2747,17 +2678,17 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         try:
             pos = (pos + 7) & -8
             f = GET_INTERACTIVE_MARKERS_RESPONSE_RUN_0
-            (v1,) = _S_Q.unpack_from(mv, pos)
+            (v2,) = _S_Q.unpack_from(mv, pos)
             pos += 8
             f = ".markers"
-            v2, pos = read_messages(mv, pos, lim, _U32, interactive_marker_decode, None, None, 88)
+            v3, pos = read_messages(mv, pos, lim, _U32, interactive_marker_decode, None, None, 88)
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
             raise decode_failure(error, f, pos, lim) from None
         if view:
-            return get_interactive_markers_response_view(v1, v2), pos
-        return {"sequence_number": v1, "markers": v2}, pos
+            return get_interactive_markers_response_view(v2, v3), pos
+        return {"sequence_number": v2, "markers": v3}, pos
 
     def get_interactive_markers_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2769,14 +2700,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t1 := d.get("sequence_number", 0)) is not int:
+                t1 = check_scalar("uint64", t1, ".sequence_number")
             try:
-                out.append(_S_Q.pack(d.get("sequence_number", 0)))
+                out.append(_S_Q.pack(t1))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_Q, GET_INTERACTIVE_MARKERS_RESPONSE_RUN_0, (d.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_Q, GET_INTERACTIVE_MARKERS_RESPONSE_RUN_0, (t1,)))
             pos += 8
             f = ".markers"
             pos = write_messages(
@@ -2792,27 +2721,27 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         f: Any = ""
         try:
             f = GET_INTERACTIVE_MARKERS_EVENT_RUN_0
-            (v2,) = _S_B.unpack_from(mv, pos)
+            (v3,) = _S_B.unpack_from(mv, pos)
             pos += 1
             pos = (pos + 3) & -4
             f = GET_INTERACTIVE_MARKERS_EVENT_RUN_1
-            v4, v5 = _S_iI.unpack_from(mv, pos)
+            v6, v8 = _S_iI.unpack_from(mv, pos)
             pos += 8
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, 16, pos)
+            v11 = _frombuffer(mv, _D_uint8, 16, pos)
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_INTERACTIVE_MARKERS_EVENT_RUN_2
-            (v9,) = _S_q.unpack_from(mv, pos)
+            (v13,) = _S_q.unpack_from(mv, pos)
             pos += 8
             f = ".request"
-            v10, pos = read_messages(
+            v14, pos = read_messages(
                 mv, pos, lim, _U32, get_interactive_markers_request_decode, None, 1, 1
             )
             f = ".response"
-            v11, pos = read_messages(
+            v15, pos = read_messages(
                 mv, pos, lim, _U32, get_interactive_markers_response_decode, None, 1, 12
             )
         except WireDecodeError as error:
@@ -2822,20 +2751,20 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         if view:
             return get_interactive_markers_event_view(
                 service_msgs__service_event_info_view(
-                    v2, builtin_interfaces__time_view(v4, v5), v8, v9
+                    v3, builtin_interfaces__time_view(v6, v8), v11, v13
                 ),
-                v10,
-                v11,
+                v14,
+                v15,
             ), pos
         return {
             "info": {
-                "event_type": v2,
-                "stamp": {"sec": v4, "nanosec": v5},
-                "client_gid": v8.tobytes(),
-                "sequence_number": v9,
+                "event_type": v3,
+                "stamp": {"sec": v6, "nanosec": v8},
+                "client_gid": v11.tobytes(),
+                "sequence_number": v13,
             },
-            "request": v10,
-            "response": v11,
+            "request": v14,
+            "response": v15,
         }, pos
 
     def get_interactive_markers_event_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2848,53 +2777,46 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if m1.__class__ is not dict or not SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS.issuperset(m1):
                 m1 = _submap(m1, SERVICE_MSGS__SERVICE_EVENT_INFO_KEYS)
             f = ".info.stamp"
-            m3 = m1.get("stamp", EMPTY)
-            if m3.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m3):
-                m3 = _submap(m3, BUILTIN_INTERFACES__TIME_KEYS)
+            m4 = m1.get("stamp", EMPTY)
+            if m4.__class__ is not dict or not BUILTIN_INTERFACES__TIME_KEYS.issuperset(m4):
+                m4 = _submap(m4, BUILTIN_INTERFACES__TIME_KEYS)
             f = ""
+            if type(t2 := m1.get("event_type", 0)) is not int:
+                t2 = check_scalar("uint8", t2, ".info.event_type")
             try:
-                out.append(_S_B.pack(m1.get("event_type", 0)))
+                out.append(_S_B.pack(t2))
             except Exception:
-                out.append(
-                    slow_pack(_S_B, GET_INTERACTIVE_MARKERS_EVENT_RUN_0, (m1.get("event_type", 0),))
-                )
+                out.append(slow_pack(_S_B, GET_INTERACTIVE_MARKERS_EVENT_RUN_0, (t2,)))
             pos += 1
             p = -pos & 3
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ".info.client_gid"
-            b6, c7 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
+            b9, c10 = encode_array(m1.get("client_gid", bytes(16)), _D_uint8, "uint8", 16, True)
             f = ""
+            if type(t5 := m4.get("sec", 0)) is not int:
+                t5 = check_scalar("int32", t5, ".info.stamp.sec")
+            if type(t7 := m4.get("nanosec", 0)) is not int:
+                t7 = check_scalar("uint32", t7, ".info.stamp.nanosec")
             try:
-                out.append(_S_iI.pack(m3.get("sec", 0), m3.get("nanosec", 0)))
+                out.append(_S_iI.pack(t5, t7))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_iI,
-                        GET_INTERACTIVE_MARKERS_EVENT_RUN_1,
-                        (
-                            m3.get("sec", 0),
-                            m3.get("nanosec", 0),
-                        ),
-                    )
-                )
+                out.append(slow_pack(_S_iI, GET_INTERACTIVE_MARKERS_EVENT_RUN_1, (t5, t7)))
             pos += 8
-            out.append(b6)
-            pos += c7 * 1
+            out.append(b9)
+            pos += c10 * 1
             p = -pos & 7
             if p:
                 out.append(ZEROS[p])
                 pos += p
             f = ""
+            if type(t12 := m1.get("sequence_number", 0)) is not int:
+                t12 = check_scalar("int64", t12, ".info.sequence_number")
             try:
-                out.append(_S_q.pack(m1.get("sequence_number", 0)))
+                out.append(_S_q.pack(t12))
             except Exception:
-                out.append(
-                    slow_pack(
-                        _S_q, GET_INTERACTIVE_MARKERS_EVENT_RUN_2, (m1.get("sequence_number", 0),)
-                    )
-                )
+                out.append(slow_pack(_S_q, GET_INTERACTIVE_MARKERS_EVENT_RUN_2, (t12,)))
             pos += 8
             f = ".request"
             pos = write_messages(

@@ -59,6 +59,12 @@ def _scalar_field(fld: Field) -> FromDictField:
     return FromDictField(fld.name, "scalar", default, fast, slow)
 
 
+# array() takes True as 1 and 1.0: a list holding anything but plain numbers (a bool above all)
+# goes to the checked conversion, which refuses bools.
+def _plain(kind: str) -> str:
+    return f'plain_numbers(value, "{kind}")'
+
+
 def _container_field(fld: Field, symbols: Symbols) -> FromDictField:
     ftype, element = fld.type, fld.type.element
     segment = f'".{fld.name}"'
@@ -113,7 +119,7 @@ def _container_field(fld: Field, symbols: Symbols) -> FromDictField:
             return FromDictField(fld.name, "container", default, convert=convert)
         return FromDictField(
             fld.name, "container", default, convert=convert,
-            list_check=f"type(value) is list and len(value) == {size}",
+            list_check=f"type(value) is list and len(value) == {size} and {_plain(name)}",
             list_convert=f'np.array(array("{code}", value), dtype=np.{dtype})',
         )  # fmt: skip
     convert = f'numeric_sequence(value, "{code}", "{name}", {size}, {segment})'
@@ -124,7 +130,8 @@ def _container_field(fld: Field, symbols: Symbols) -> FromDictField:
     bounded = f" and len(value) <= {size}" if size is not None else ""
     return FromDictField(
         fld.name, "container", default, convert=convert,
-        list_check=f"type(value) is list{bounded}", list_convert=f'array("{code}", value)',
+        list_check=f"type(value) is list{bounded} and {_plain(name)}",
+        list_convert=f'array("{code}", value)',
     )  # fmt: skip
 
 

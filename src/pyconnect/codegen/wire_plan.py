@@ -13,9 +13,9 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from pyconnect.codegen.templating import py_literal
-from pyconnect.codegen.wire_tables import ModuleTables, RunItem
+from pyconnect.codegen.wire_tables import ModuleTables, RunItem, ValueCheck
 from pyconnect.typesys.model import Field, FieldType, MessageDef, TypeSet
-from pyconnect.typesys.primitives import PRIMITIVE_SIZES, STRUCT_CODES
+from pyconnect.typesys.primitives import FLOAT_NAMES, PRIMITIVE_SIZES, STRUCT_CODES
 
 
 def is_flat(msg: MessageDef, types: TypeSet) -> bool:
@@ -162,6 +162,8 @@ class Planner:
         values = [item for item in run.items if item.kind != "pad"]
         targets = ", ".join(item.target for item in values) + ("," if len(values) == 1 else "")
         sources = ", ".join(item.source for item in values)
+        checks = [item.check for item in values if item.check is not None]
+        as_tuple = "(" + sources + ("," if len(values) == 1 else "") + ")"
         self.steps.append(
             Step(
                 "run",
@@ -172,6 +174,8 @@ class Planner:
                     "encoder": self.tables.struct(_struct_format(run.items, STRUCT_CODES)),
                     "targets": targets,
                     "sources": sources,
+                    "checks": checks,
+                    "as_tuple": as_tuple,
                     "size": run.size,
                     "empty": not values,
                 },
@@ -195,18 +199,21 @@ class Planner:
         self.run.items.append(item)
         self._advance(item.size)
 
-    def primitive(self, kind: str, segment: str, source: str) -> str:
+    def primitive(self, kind: str, segment: str, source: str, *, trusted: bool = False) -> str:
+        """A value of a run; unless ``trusted`` (our own counts), checked into a local first:
+        struct packs any object as a bool by its truth and True as 1 and 1.0, so only values of
+        exactly the field's Python type pass unchecked, the rest go through the field's check
+        (bools refused where numbers go, numpy scalars converted)."""
         size = PRIMITIVE_SIZES[kind]
-        if kind == "bool":
-            # struct's "?" packs any object by its truth: only real bools pass unchecked.
+        check = None
+        if not trusted:
             held = self.local("t")
-            source = (
-                f"({held} if ({held} := {source}).__class__ is bool "
-                f'else check_bool({held}, "{segment}"))'
-            )
+            exact = "bool" if kind == "bool" else "float" if kind in FLOAT_NAMES else "int"
+            check = ValueCheck(held, source, exact, f'check_scalar("{kind}", {held}, "{segment}")')
+            source = held
         self.align(size)
         target = self.local("v")
-        self.item(RunItem(segment, kind, size, target, source))
+        self.item(RunItem(segment, kind, size, target, source, check))
         return target
 
     def pad_byte(self) -> None:
@@ -214,7 +221,7 @@ class Planner:
         self.item(RunItem("", "pad", 1))
 
     def count(self, segment: str, source: str) -> str:
-        return self.primitive("uint32", segment, source)
+        return self.primitive("uint32", segment, source, trusted=True)
 
     def step(self, kind: str, segment: str, **data: Any) -> None:
         self.flush()

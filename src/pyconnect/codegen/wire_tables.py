@@ -17,6 +17,16 @@ from pyconnect.typesys.primitives import NUMPY_DTYPES
 
 
 @dataclass(frozen=True)
+class ValueCheck:
+    """An encoder's value held in a local, replaced by ``fallback`` unless exactly ``exact``."""
+
+    local: str
+    source: str
+    exact: str  # bool, int or float
+    fallback: str
+
+
+@dataclass(frozen=True)
 class RunItem:
     """One value (or padding) of a run of fixed-size values packed by one ``struct`` call."""
 
@@ -25,6 +35,7 @@ class RunItem:
     size: int
     target: str = ""  # decode: local name
     source: str = ""  # encode: expression
+    check: ValueCheck | None = None  # encode: how ``source`` (then a local) was checked
 
 
 @dataclass
