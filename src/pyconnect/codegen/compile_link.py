@@ -14,6 +14,7 @@ import os
 import sysconfig
 from collections.abc import Sequence
 from concurrent.futures import ThreadPoolExecutor
+from dataclasses import dataclass
 from pathlib import Path
 
 from pyconnect.codegen.compile_generate import C_TYPESUPPORTS, PY_TYPESUPPORTS, GeneratedSources
@@ -27,6 +28,9 @@ from pyconnect.codegen.compile_toolchain import (
 GENERATOR_LIBRARIES = (
     "rosidl_generator_c", *C_TYPESUPPORTS, "rosidl_typesupport_c", "rosidl_generator_py",
 )  # fmt: skip
+GENERATOR_C = "rosidl_generator_c"
+TYPESUPPORT_C = "rosidl_typesupport_c"
+GENERATOR_PY = "rosidl_generator_py"
 
 
 def library_name(package: str, generator: str) -> str:
@@ -35,6 +39,153 @@ def library_name(package: str, generator: str) -> str:
 
 def extension_filename(package: str, typesupport: str) -> str:
     return f"{package}_s__{typesupport}{sysconfig.get_config_var('EXT_SUFFIX')}"
+
+
+@dataclass(frozen=True)
+class Recipe:
+    """How one library of a package is built; every one has this shape.
+
+    It links the package's own libraries of ``own``, the dependencies' libraries of ``linked``,
+    then the ROS libraries ``system``; headers come from the generators ``headers`` and the ROS
+    packages ``runtime`` (plus the dependencies' and the common runtime's).
+    """
+
+    generator: str
+    pattern: str  # its sources in the generator's output
+    headers: tuple[str, ...]
+    own: tuple[str, ...]
+    linked: tuple[str, ...]
+    system: tuple[str, ...]
+    runtime: tuple[str, ...] = ()
+    define: str = ""  # the BUILDING_DLL macro, named after the package
+    python: bool = False  # needs Python's and numpy's headers
+
+
+_RUNTIME_C = ("rosidl_runtime_c", "rcutils")
+_FASTRTPS_C = "rosidl_typesupport_fastrtps_c"
+_INTROSPECTION_C = "rosidl_typesupport_introspection_c"
+# Stages: the libraries of one stage do not need each other and build side by side; every later
+# stage links the earlier ones.
+STAGES: tuple[tuple[Recipe, ...], ...] = (
+    (
+        Recipe(
+            GENERATOR_C, "*.c", headers=(GENERATOR_C,), own=(), linked=(GENERATOR_C,),
+            system=_RUNTIME_C,
+            runtime=("rosidl_runtime_c", "rosidl_typesupport_interface", "rcutils"),
+            define="ROSIDL_GENERATOR_C_BUILDING_DLL",
+        ),
+    ),
+    (
+        Recipe(
+            _FASTRTPS_C, "*.cpp", headers=(_FASTRTPS_C, GENERATOR_C), own=(GENERATOR_C,),
+            linked=(_FASTRTPS_C, GENERATOR_C),
+            system=(_FASTRTPS_C, "rosidl_typesupport_fastrtps_cpp", "rosidl_runtime_c", "fastcdr",
+                    "rcutils"),
+            runtime=("fastcdr", "rosidl_runtime_c", "rosidl_runtime_cpp",
+                     "rosidl_typesupport_interface", "rosidl_typesupport_fastrtps_cpp",
+                     _FASTRTPS_C, "rcutils"),
+            define="ROSIDL_TYPESUPPORT_FASTRTPS_C_BUILDING_DLL",
+        ),
+        Recipe(
+            _INTROSPECTION_C, "*.c", headers=(_INTROSPECTION_C, GENERATOR_C), own=(GENERATOR_C,),
+            linked=(_INTROSPECTION_C, GENERATOR_C), system=(_INTROSPECTION_C, *_RUNTIME_C),
+            runtime=("rosidl_runtime_c", "rosidl_typesupport_interface", _INTROSPECTION_C,
+                     "rcutils"),
+            define="ROSIDL_TYPESUPPORT_INTROSPECTION_C_BUILDING_DLL",
+        ),
+    ),
+    # The dispatch library dlopen()s the typesupport libraries by bare name; linking them here
+    # loads them first, so that lookup finds them even when lib/ is not on LD_LIBRARY_PATH.
+    (
+        Recipe(
+            TYPESUPPORT_C, "*.cpp", headers=(GENERATOR_C,), own=(GENERATOR_C, *C_TYPESUPPORTS),
+            linked=(TYPESUPPORT_C, GENERATOR_C), system=(TYPESUPPORT_C, *_RUNTIME_C),
+            runtime=("rosidl_runtime_c", "rosidl_typesupport_interface", TYPESUPPORT_C,
+                     "rcutils"),
+            define="ROSIDL_GENERATOR_C_BUILDING_DLL",
+        ),
+    ),
+    (
+        Recipe(
+            GENERATOR_PY, "_*_s.c", headers=(GENERATOR_C, GENERATOR_PY),
+            own=(GENERATOR_C, TYPESUPPORT_C), linked=(GENERATOR_PY, GENERATOR_C),
+            system=_RUNTIME_C, python=True,
+        ),
+    ),
+)  # fmt: skip
+
+
+def extension_recipe(typesupport: str) -> Recipe:
+    """The Python extension module of one typesupport (its one source is named, not globbed)."""
+    return Recipe(
+        typesupport, "", headers=(GENERATOR_C, GENERATOR_PY),
+        own=(GENERATOR_PY, typesupport, TYPESUPPORT_C, GENERATOR_C),
+        linked=(GENERATOR_PY, TYPESUPPORT_C, GENERATOR_C), system=(TYPESUPPORT_C, *_RUNTIME_C),
+        python=True,
+    )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class _Planner:
+    """Turns recipes into the shared objects of one package."""
+
+    sources: GeneratedSources
+    dependencies: Sequence[str]
+    toolchain: Toolchain
+    lib_dir: Path
+    python_dir: Path
+    lib_rpath_from_python: str
+
+    def library(self, recipe: Recipe) -> SharedLibrary:
+        package = self.sources.package
+        output = self.lib_dir / f"lib{library_name(package, recipe.generator)}.so"
+        rpath: tuple[str, ...] = ("$ORIGIN",)
+        sources = self.sources.files(recipe.generator, recipe.pattern)
+        if not recipe.pattern:  # an extension module
+            output = self.python_dir / extension_filename(package, recipe.generator)
+            rpath = (f"$ORIGIN/{self.lib_rpath_from_python}",)
+            py_out = self.sources.output(GENERATOR_PY)
+            sources = (py_out / f"_{package}_s.ep.{recipe.generator}.c",)
+        return SharedLibrary(
+            output=output,
+            sources=sources,
+            cxx=recipe.pattern.endswith(".cpp"),
+            include_dirs=self.include_dirs(recipe),
+            libraries=(
+                *(library_name(package, g) for g in recipe.own),
+                *(library_name(dep, g) for g in recipe.linked for dep in self.dependencies),
+                *recipe.system,
+            ),
+            rpath=(*rpath, *(str(d) for d in self.toolchain.library_dirs())),
+            library_dirs=(self.lib_dir,),
+            defines=(f"{recipe.define}_{package}",) if recipe.define else (),
+            soname=output.name if recipe.pattern else None,
+        )
+
+    def include_dirs(self, recipe: Recipe) -> tuple[Path, ...]:
+        own = tuple(self.sources.root(g) for g in recipe.headers)
+        packages = dict.fromkeys([*self.dependencies, *recipe.runtime, *RUNTIME_PACKAGES])
+        found = (*own, *self.toolchain.include_dirs(packages))
+        if recipe.python:
+            return (*found, self.toolchain.python_include, self.toolchain.numpy_include)
+        return found
+
+
+def plan_libraries(
+    *,
+    sources: GeneratedSources,
+    dependencies: Sequence[str],
+    toolchain: Toolchain,
+    lib_dir: Path,
+    python_dir: Path,
+    lib_rpath_from_python: str,
+) -> list[list[SharedLibrary]]:
+    """The shared objects of ``sources.package``, stage by stage (a stage links the earlier)."""
+    planner = _Planner(sources, dependencies, toolchain, lib_dir, python_dir,
+                       lib_rpath_from_python)  # fmt: skip
+    stages = [[planner.library(recipe) for recipe in stage] for stage in STAGES]
+    stages.append([planner.library(extension_recipe(ts)) for ts in PY_TYPESUPPORTS])
+    return stages
 
 
 def build_libraries(
@@ -47,205 +198,16 @@ def build_libraries(
     lib_rpath_from_python: str,
 ) -> list[Path]:
     """Compile everything for ``sources.package`` into ``lib_dir`` and ``python_dir``."""
-    package = sources.package
-    ros_lib_dirs = tuple(str(d) for d in toolchain.library_dirs())
-
-    def includes(*generators: str, runtime: Sequence[str]) -> tuple[Path, ...]:
-        own = tuple(sources.root(g) for g in generators)
-        packages = [*dependencies, *runtime, *RUNTIME_PACKAGES]
-        return own + tuple(toolchain.include_dirs(dict.fromkeys(packages)))
-
-    def deps(generator: str) -> tuple[str, ...]:
-        return tuple(library_name(dep, generator) for dep in dependencies)
-
     built: list[Path] = []
-    stage: list[SharedLibrary] = []
-
-    def link(generator: str, library: SharedLibrary) -> None:
-        stage.append(library)
-
-    def flush() -> None:
-        """Build the queued libraries (they do not need each other) side by side."""
-        with ThreadPoolExecutor(max_workers=max(1, min(len(stage), os.cpu_count() or 1))) as pool:
+    stages = plan_libraries(sources=sources, dependencies=dependencies, toolchain=toolchain,
+                            lib_dir=lib_dir, python_dir=python_dir,
+                            lib_rpath_from_python=lib_rpath_from_python)  # fmt: skip
+    for stage in stages:
+        workers = max(1, min(len(stage), os.cpu_count() or 1))
+        with ThreadPoolExecutor(max_workers=workers) as pool:
             for _ in pool.map(lambda library: link_shared_library(toolchain, library), stage):
                 pass
         built.extend(library.output for library in stage)
-        stage.clear()
-
-    def lib(generator: str) -> Path:
-        return lib_dir / f"lib{library_name(package, generator)}.so"
-
-    own_c = library_name(package, "rosidl_generator_c")
-    common_rpath = ("$ORIGIN", *ros_lib_dirs)
-    link(
-        "rosidl_generator_c",
-        SharedLibrary(
-            output=lib("rosidl_generator_c"),
-            sources=sources.files("rosidl_generator_c", "*.c"),
-            cxx=False,
-            include_dirs=includes(
-                "rosidl_generator_c",
-                runtime=("rosidl_runtime_c", "rosidl_typesupport_interface", "rcutils"),
-            ),
-            libraries=(*deps("rosidl_generator_c"), "rosidl_runtime_c", "rcutils"),
-            rpath=common_rpath,
-            library_dirs=(lib_dir,),
-            defines=(f"ROSIDL_GENERATOR_C_BUILDING_DLL_{package}",),
-            soname=lib("rosidl_generator_c").name,
-        ),
-    )
-    flush()  # everything else links the C library
-    link(
-        "rosidl_typesupport_fastrtps_c",
-        SharedLibrary(
-            output=lib("rosidl_typesupport_fastrtps_c"),
-            sources=sources.files("rosidl_typesupport_fastrtps_c", "*.cpp"),
-            cxx=True,
-            include_dirs=includes(
-                "rosidl_typesupport_fastrtps_c",
-                "rosidl_generator_c",
-                runtime=(
-                    "fastcdr",
-                    "rosidl_runtime_c",
-                    "rosidl_runtime_cpp",
-                    "rosidl_typesupport_interface",
-                    "rosidl_typesupport_fastrtps_cpp",
-                    "rosidl_typesupport_fastrtps_c",
-                    "rcutils",
-                ),
-            ),
-            libraries=(
-                own_c,
-                *deps("rosidl_typesupport_fastrtps_c"),
-                *deps("rosidl_generator_c"),
-                "rosidl_typesupport_fastrtps_c",
-                "rosidl_typesupport_fastrtps_cpp",
-                "rosidl_runtime_c",
-                "fastcdr",
-                "rcutils",
-            ),
-            rpath=common_rpath,
-            library_dirs=(lib_dir,),
-            defines=(f"ROSIDL_TYPESUPPORT_FASTRTPS_C_BUILDING_DLL_{package}",),
-            soname=lib("rosidl_typesupport_fastrtps_c").name,
-        ),
-    )
-    link(
-        "rosidl_typesupport_introspection_c",
-        SharedLibrary(
-            output=lib("rosidl_typesupport_introspection_c"),
-            sources=sources.files("rosidl_typesupport_introspection_c", "*.c"),
-            cxx=False,
-            include_dirs=includes(
-                "rosidl_typesupport_introspection_c",
-                "rosidl_generator_c",
-                runtime=(
-                    "rosidl_runtime_c",
-                    "rosidl_typesupport_interface",
-                    "rosidl_typesupport_introspection_c",
-                    "rcutils",
-                ),
-            ),
-            libraries=(
-                own_c,
-                *deps("rosidl_typesupport_introspection_c"),
-                *deps("rosidl_generator_c"),
-                "rosidl_typesupport_introspection_c",
-                "rosidl_runtime_c",
-                "rcutils",
-            ),
-            rpath=common_rpath,
-            library_dirs=(lib_dir,),
-            defines=(f"ROSIDL_TYPESUPPORT_INTROSPECTION_C_BUILDING_DLL_{package}",),
-            soname=lib("rosidl_typesupport_introspection_c").name,
-        ),
-    )
-    flush()
-    # The dispatch library dlopen()s the typesupport libraries by bare name; linking them here
-    # loads them first, so that lookup finds them even when lib/ is not on LD_LIBRARY_PATH.
-    link(
-        "rosidl_typesupport_c",
-        SharedLibrary(
-            output=lib("rosidl_typesupport_c"),
-            sources=sources.files("rosidl_typesupport_c", "*.cpp"),
-            cxx=True,
-            include_dirs=includes(
-                "rosidl_generator_c",
-                runtime=(
-                    "rosidl_runtime_c",
-                    "rosidl_typesupport_interface",
-                    "rosidl_typesupport_c",
-                    "rcutils",
-                ),
-            ),
-            libraries=(
-                own_c,
-                *(library_name(package, ts) for ts in C_TYPESUPPORTS),
-                *deps("rosidl_typesupport_c"),
-                *deps("rosidl_generator_c"),
-                "rosidl_typesupport_c",
-                "rosidl_runtime_c",
-                "rcutils",
-            ),
-            rpath=common_rpath,
-            library_dirs=(lib_dir,),
-            defines=(f"ROSIDL_GENERATOR_C_BUILDING_DLL_{package}",),
-            soname=lib("rosidl_typesupport_c").name,
-        ),
-    )
-    flush()
-    py_includes = (
-        *includes("rosidl_generator_c", "rosidl_generator_py", runtime=()),
-        toolchain.python_include,
-        toolchain.numpy_include,
-    )
-    link(
-        "rosidl_generator_py",
-        SharedLibrary(
-            output=lib("rosidl_generator_py"),
-            sources=sources.files("rosidl_generator_py", "_*_s.c"),
-            cxx=False,
-            include_dirs=py_includes,
-            libraries=(
-                own_c,
-                library_name(package, "rosidl_typesupport_c"),
-                *deps("rosidl_generator_py"),
-                *deps("rosidl_generator_c"),
-                "rosidl_runtime_c",
-                "rcutils",
-            ),
-            rpath=common_rpath,
-            library_dirs=(lib_dir,),
-            soname=lib("rosidl_generator_py").name,
-        ),
-    )
-    flush()
-    py_out = sources.output("rosidl_generator_py")
-    for typesupport in PY_TYPESUPPORTS:
-        link(
-            typesupport,
-            SharedLibrary(
-                output=python_dir / extension_filename(package, typesupport),
-                sources=(py_out / f"_{package}_s.ep.{typesupport}.c",),
-                cxx=False,
-                include_dirs=py_includes,
-                libraries=(
-                    library_name(package, "rosidl_generator_py"),
-                    library_name(package, typesupport),
-                    library_name(package, "rosidl_typesupport_c"),
-                    own_c,
-                    *deps("rosidl_generator_py"),
-                    *deps("rosidl_typesupport_c"),
-                    *deps("rosidl_generator_c"),
-                    "rosidl_typesupport_c",
-                    "rosidl_runtime_c",
-                    "rcutils",
-                ),
-                rpath=(f"$ORIGIN/{lib_rpath_from_python}", *ros_lib_dirs),
-                library_dirs=(lib_dir,),
-            ),
-        )
-    flush()
     return built
 
 
