@@ -114,7 +114,7 @@ def image_seeds(rng: random.Random) -> list[bytes]:
             "height": height,
             "width": width,
             "encoding": encoding,
-            "is_bigendian": rng.random() < 0.2,
+            "is_bigendian": int(rng.random() < 0.2),
             "step": step,
             "data": rng.randbytes(step * height),
         }
