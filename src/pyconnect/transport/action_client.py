@@ -23,7 +23,7 @@ import uuid
 from typing import Any
 
 from pyconnect.transport import action_wire as aw
-from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
+from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.endpoints import Caller, CallFailed, Reader
 from pyconnect.transport.interface_types import action_interface, message_interface
 from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc, reform_response
@@ -75,21 +75,9 @@ class ActionClientAgent(PeerAgent):
         self.timeout = timeout
         self.accepted_func = accepted_func
         self.feedback_func = feedback_func
-        self.goal_conversion = WireConversion(
-            describe=self.describe,
-            codec=interface.goal,
-            registry=peer.registry,
-            encode_func=encode_func,
-        )
-        self.result_conversion = WireConversion(
-            describe=self.describe,
-            codec=interface.result,
-            registry=peer.registry,
-            decode_func=decode_func,
-        )
-        self.feedback_conversion = WireConversion(
-            describe=self.describe, codec=interface.feedback, registry=peer.registry
-        )
+        self.goal_conversion = self.wire_conversion(interface.goal, encode_func=encode_func)
+        self.result_conversion = self.wire_conversion(interface.result, decode_func=decode_func)
+        self.feedback_conversion = self.wire_conversion(interface.feedback)
         self.last_feedback: Any = None
         self.last_status: dict[bytes, int] = {}
         """The latest status the server published for each goal id it lists."""

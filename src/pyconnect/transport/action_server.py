@@ -24,7 +24,7 @@ from typing import Any
 
 from pyconnect.errors import PyconnectError
 from pyconnect.transport import action_wire as aw
-from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
+from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.endpoints import Request, Server, Writer
 from pyconnect.transport.interface_types import action_interface, message_interface
 from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc
@@ -79,21 +79,9 @@ class ActionServerAgent(PeerAgent):
         self.interface = interface
         self.result_timeout = result_timeout
         self.result_cache_seconds = result_cache_seconds
-        self.goal_conversion = WireConversion(
-            describe=self.describe,
-            codec=interface.goal,
-            registry=peer.registry,
-            decode_func=decode_func,
-        )
-        self.result_conversion = WireConversion(
-            describe=self.describe,
-            codec=interface.result,
-            registry=peer.registry,
-            encode_func=encode_func,
-        )
-        self.feedback_conversion = WireConversion(
-            describe=self.describe, codec=interface.feedback, registry=peer.registry
-        )
+        self.goal_conversion = self.wire_conversion(interface.goal, decode_func=decode_func)
+        self.result_conversion = self.wire_conversion(interface.result, encode_func=encode_func)
+        self.feedback_conversion = self.wire_conversion(interface.feedback)
         self.goal_count = 0
         self._goals: dict[bytes, _Goal] = {}
         self._lock = threading.Lock()

@@ -22,7 +22,9 @@ from typing import Any, ClassVar, Generic, Protocol, TypeVar
 
 import zenoh
 
+from pyconnect.codecs.wire import WireCodec
 from pyconnect.errors import PyconnectError
+from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
 from pyconnect.transport.graph import Graph
 
 logger = logging.getLogger("pyconnect.transport")
@@ -95,6 +97,24 @@ class PeerAgent:
     def describe(self) -> str:
         kind = f"{self.conn_type} {self.type_name}".strip()
         return f"agent {self.name!r} ({kind})"
+
+    def wire_conversion(
+        self,
+        codec: WireCodec,
+        *,
+        encode_func: EncodeFunc | None = None,
+        decode_func: DecodeFunc | None = None,
+        raw: bool = False,
+    ) -> WireConversion:
+        """Values of ``codec``'s type to CDR and back, for this agent (its peer's registry)."""
+        return WireConversion(
+            describe=self.describe,
+            codec=codec,
+            registry=self.peer.registry,
+            encode_func=encode_func,
+            decode_func=decode_func,
+            raw=raw,
+        )
 
     def error(self, text: str) -> PyconnectError:
         return PyconnectError(f"{self.describe}: {text}")

@@ -27,7 +27,7 @@ import threading
 import time
 from typing import Any
 
-from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
+from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.endpoints import Caller, CallFailed, Request, Server
 from pyconnect.transport.interface_types import service_interface
 from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc, reform_response
@@ -63,18 +63,8 @@ class ServiceServerAgent(PeerAgent):
         if response_func is None:
             raise self.error("a 'service_server' agent needs a response_func")
         self._handler: ResponseFunc = response_func
-        self.request_conversion = WireConversion(
-            describe=self.describe,
-            codec=interface.request,
-            registry=peer.registry,
-            decode_func=decode_func,
-        )
-        self.response_conversion = WireConversion(
-            describe=self.describe,
-            codec=interface.response,
-            registry=peer.registry,
-            encode_func=encode_func,
-        )
+        self.request_conversion = self.wire_conversion(interface.request, decode_func=decode_func)
+        self.response_conversion = self.wire_conversion(interface.response, encode_func=encode_func)
         self.request_count = 0
         self._server = Server(
             peer,
@@ -149,18 +139,8 @@ class ServiceClientAgent(PeerAgent):
             peer, conn_name=conn_name, agent_name=agent_name, type_name=interface.type_name
         )
         self.timeout = timeout
-        self.request_conversion = WireConversion(
-            describe=self.describe,
-            codec=interface.request,
-            registry=peer.registry,
-            encode_func=encode_func,
-        )
-        self.response_conversion = WireConversion(
-            describe=self.describe,
-            codec=interface.response,
-            registry=peer.registry,
-            decode_func=decode_func,
-        )
+        self.request_conversion = self.wire_conversion(interface.request, encode_func=encode_func)
+        self.response_conversion = self.wire_conversion(interface.response, decode_func=decode_func)
         self._caller = Caller(peer, self.topic, interface)
         self.key = self._caller.key
         self.token_key = self._caller.token_key

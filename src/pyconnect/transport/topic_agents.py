@@ -31,7 +31,7 @@ import zenoh
 
 from pyconnect.errors import DecodeError
 from pyconnect.transport import rmw_zenoh_keys as keys
-from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
+from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.interface_types import message_interface
 from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc, logger
 
@@ -74,13 +74,7 @@ class PublisherAgent(PeerAgent):
             raise self.error("response_func on a 'pub' agent needs time_period (it is polled)")
         if time_period is not None and time_period <= 0:
             raise self.error(f"time_period must be > 0 seconds, got {time_period!r}")
-        self.conversion = WireConversion(
-            describe=self.describe,
-            codec=interface.codec,
-            registry=peer.registry,
-            encode_func=encode_func,
-            raw=raw,
-        )
+        self.conversion = self.wire_conversion(interface.codec, encode_func=encode_func, raw=raw)
         self.only_if_subscribed = only_if_subscribed
         self.time_period = time_period
         self.sent_count = 0
@@ -185,13 +179,7 @@ class SubscriberAgent(PeerAgent):
             response_func=response_func,
         )
         del encode_func  # accepted for CustomNode's signature; a subscriber encodes nothing
-        self.conversion = WireConversion(
-            describe=self.describe,
-            codec=interface.codec,
-            registry=peer.registry,
-            decode_func=decode_func,
-            raw=raw,
-        )
+        self.conversion = self.wire_conversion(interface.codec, decode_func=decode_func, raw=raw)
         if depth < 1:
             raise self.error(f"depth must be >= 1, got {depth!r}")
         self.type_hash = interface.type_hash
