@@ -76,8 +76,9 @@ class RawEncoder:
         self.natural = registry.value_codec(msg_type)
         self.has_header = has_header
         self.describe = describe
+        fields_codec = registry.fields_codec(msg_type)
         self._to_fields: Callable[[Any], Any] | None = (
-            getattr(self.natural, "to_fields", None) if self.natural is not None else None
+            fields_codec.to_fields if fields_codec is not None else None
         )
 
     @property

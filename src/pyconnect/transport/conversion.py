@@ -67,7 +67,10 @@ class WireConversion:
         self._encode_func = encode_func
         self._decode_func = decode_func
         value_codec = registry.value_codec(codec.msg_type)
-        self._to_fields: Callable[[Any], Any] | None = getattr(value_codec, "to_fields", None)
+        fields_codec = registry.fields_codec(codec.msg_type)
+        self._to_fields: Callable[[Any], Any] | None = (
+            fields_codec.to_fields if fields_codec is not None else None
+        )
         self._value_decode: Callable[[Any], Any] | None = (
             value_codec.decode if value_codec is not None else None
         )
