@@ -64,6 +64,36 @@ def _twist_builder(cls: Any, vector: Any, first: str, second: str) -> Callable[.
     return build
 
 
+def _xyz_builder(cls: Any) -> Callable[[Triple], Any]:
+    """``build((x, y, z))``: a new ``cls`` (Vector3, Point) holding three checked floats."""
+    if not has_slot_layout(cls):
+        return lambda v: cls(x=v[0], y=v[1], z=v[2])
+    new = object.__new__
+
+    def build(value: Triple) -> Any:
+        msg = new(cls)
+        msg._check_fields = CHECK_FIELDS
+        msg._x, msg._y, msg._z = value
+        return msg
+
+    return build
+
+
+def _xyzw_builder(cls: Any) -> Callable[[Quad], Any]:
+    """``build((x, y, z, w))``: a new Quaternion holding four checked floats."""
+    if not has_slot_layout(cls):
+        return lambda v: cls(x=v[0], y=v[1], z=v[2], w=v[3])
+    new = object.__new__
+
+    def build(value: Quad) -> Any:
+        msg = new(cls)
+        msg._check_fields = CHECK_FIELDS
+        msg._x, msg._y, msg._z, msg._w = value
+        return msg
+
+    return build
+
+
 def _triple(value: Any, path: str) -> Triple:
     if type(value) is tuple and len(value) == 3:
         x, y, z = value
@@ -84,7 +114,12 @@ def _triple32(value: Any, path: str) -> Triple:
 
 
 def _quad(value: Any, path: str) -> Quad:
-    x, y, z, w = check_tuple(value, 4, "(x, y, z, w)", path)
+    if type(value) is tuple and len(value) == 4:
+        x, y, z, w = value
+        if type(x) is float and type(y) is float and type(z) is float and type(w) is float:
+            return value
+    else:
+        x, y, z, w = check_tuple(value, 4, "(x, y, z, w)", path)
     return (
         check_float(x, f"{path}.x"),
         check_float(y, f"{path}.y"),
@@ -124,6 +159,8 @@ class GeometryCodec(FieldsCodec):
             cls = type(self)._class = message_class(self._module, self._name)
         return cls
 
+    _build: Callable[..., Any] | None = None
+
 
 class Vector3Codec(GeometryCodec):
     """geometry_msgs/Vector3 ↔ ``(x, y, z)``."""
@@ -138,6 +175,13 @@ class Vector3Codec(GeometryCodec):
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         return xyz_fields(_triple(value, self._name))
+
+    def encode(self, value: Any) -> Any:
+        # A hot codec keeps a direct path (composing costs it 2x): checked floats into slots.
+        build = self._build
+        if build is None:
+            build = self._build = _xyz_builder(self._cls())
+        return build(_triple(value, self._name))
 
 
 class PointCodec(Vector3Codec):
@@ -158,6 +202,8 @@ class Point32Codec(Vector3Codec):
     def to_fields(self, value: Any) -> dict[str, Any]:
         return xyz_fields(_triple32(value, self._name))
 
+    encode = FieldsCodec.encode  # float32 values: the generated code rounds them as rclpy does
+
 
 class QuaternionCodec(GeometryCodec):
     """geometry_msgs/Quaternion ↔ ``(x, y, z, w)``."""
@@ -172,6 +218,12 @@ class QuaternionCodec(GeometryCodec):
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         return xyzw_fields(_quad(value, self._name))
+
+    def encode(self, value: Any) -> Any:
+        build = self._build
+        if build is None:
+            build = self._build = _xyzw_builder(self._cls())
+        return build(_quad(value, self._name))
 
 
 class Pose2DCodec(GeometryCodec):
@@ -217,6 +269,35 @@ class PoseCodec(GeometryCodec):
         p, q = pose_parts(value, self._name, self._first, self._second)
         return {self._first: xyz_fields(p), self._second: xyzw_fields(q)}
 
+    _vector_name = "Point"
+
+    def encode(self, value: Any) -> Any:
+        build = self._build
+        if build is None:
+            build = self._build = self._pose_builder()
+        return build(*pose_parts(value, self._name, self._first, self._second))
+
+    def _pose_builder(self) -> Callable[[Triple, Quad], Any]:
+        cls = self._cls()
+        vector = message_class(self._module, self._vector_name)
+        quaternion = message_class(self._module, "Quaternion")
+        build_vector = _xyz_builder(vector)
+        build_quaternion = _xyzw_builder(quaternion)
+        first, second = self._first, self._second
+        if not has_slot_layout(cls):
+            return lambda p, q: cls(**{first: build_vector(p), second: build_quaternion(q)})
+        first_slot, second_slot = f"_{first}", f"_{second}"
+        new = object.__new__
+
+        def build(p: Triple, q: Quad) -> Any:
+            msg = new(cls)
+            msg._check_fields = CHECK_FIELDS
+            setattr(msg, first_slot, build_vector(p))
+            setattr(msg, second_slot, build_quaternion(q))
+            return msg
+
+        return build
+
 
 class TransformCodec(PoseCodec):
     """geometry_msgs/Transform ↔ ``((x, y, z), (qx, qy, qz, qw))``."""
@@ -225,6 +306,7 @@ class TransformCodec(PoseCodec):
     _name = "Transform"
     _class: Any = None
     _first, _second = "translation", "rotation"
+    _vector_name = "Vector3"
 
 
 def _pair_of_triples(value: Any, path: str, first: str, second: str) -> tuple[Triple, Triple]:
