@@ -60,8 +60,8 @@ class FieldsCodec:
     ``encode`` composes ``to_fields`` with the type's generated ``from_dict`` (fields → new
     rclpy message), found on first use through the registry that loaded the codec (or, for a
     codec made by hand, the generated code itself), so no natural codec writes a message
-    twice. Hot codecs (Image, JointState, Twist) override ``encode`` with a direct path, said
-    at each one.
+    twice. Hot codecs (Image, JointState, the geometry tuples) override ``encode`` with a
+    direct path, said at each one.
     """
 
     msg_type: str
