@@ -34,20 +34,19 @@ is opened (``raw=True`` reads them).
 
 from __future__ import annotations
 
-import functools
 import heapq
 import logging
-from collections.abc import Callable, Iterable, Iterator, Sequence
-from dataclasses import dataclass
+from collections.abc import Iterable, Iterator, Sequence
 from operator import itemgetter
 from pathlib import Path
-from typing import Any, Literal, NamedTuple
+from typing import Any, Literal
 
 from pyconnect.errors import DecodeError
 from pyconnect.record.bag_damage import BagDamage
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_files import BagFiles, locate_bag_files, open_storage
 from pyconnect.record.bag_info import BagInfo, TopicInfo, describe, storage_damage
+from pyconnect.record.bag_message import BagMessage, DecodeProblem, message_maker
 from pyconnect.record.bag_storage import Connection, RawMessage, StorageFile
 from pyconnect.record.topic_decoder import (
     TopicDecoder,
@@ -74,66 +73,6 @@ OnError = Literal["report", "raise"]
 BagPaths = str | Path | Sequence[str | Path]
 
 
-class _MessageFields(NamedTuple):
-    topic: str
-    log_time_ns: int
-    value: Any
-
-
-class BagMessage(_MessageFields):
-    """One message: a named tuple ``(topic, log_time_ns, value)``, and its ``msg_type``."""
-
-    msg_type: str
-
-    def __new__(cls, topic: str, log_time_ns: int, value: Any, msg_type: str) -> BagMessage:
-        message = super().__new__(cls, topic, log_time_ns, value)
-        message.msg_type = msg_type
-        return message
-
-    def __repr__(self) -> str:
-        return (
-            f"BagMessage(topic={self.topic!r}, log_time_ns={self.log_time_ns}, "
-            f"msg_type={self.msg_type!r}, value={self.value!r})"
-        )
-
-    def __reduce__(self) -> tuple[Any, ...]:
-        # The reader's messages are of a subclass per type (below): pickle them as this class.
-        return (BagMessage, (self.topic, self.log_time_ns, self.value, self.msg_type))
-
-
-_MESSAGE_CLASSES: dict[str, Callable[[tuple[str, int, Any]], BagMessage]] = {}
-
-
-def _message_maker(msg_type: str) -> Callable[[tuple[str, int, Any]], BagMessage]:
-    """``make((topic, log_time_ns, value))`` -> a ``BagMessage`` of ``msg_type``.
-
-    The reader makes one per message: a subclass holding ``msg_type`` as a class attribute
-    makes them as plain tuples are made, without a per-message ``__dict__`` or ``__new__`` call.
-    """
-    make = _MESSAGE_CLASSES.get(msg_type)
-    if make is None:
-        typed = type(
-            "BagMessage",
-            (BagMessage,),
-            {"__slots__": (), "msg_type": msg_type, "__module__": __name__},
-        )
-        make = _MESSAGE_CLASSES[msg_type] = functools.partial(tuple.__new__, typed)
-    return make
-
-
-@dataclass(frozen=True)
-class DecodeProblem:
-    """A message that could not be decoded: ``index`` counts the topic's messages read, from 0."""
-
-    topic: str
-    index: int
-    log_time_ns: int
-    reason: str
-
-    def __str__(self) -> str:
-        return f"{self.topic}[{self.index}]: {self.reason}"
-
-
 class _Plan:
     """How one connection of one storage file is read: its topic, type, decoder and messages."""
 
@@ -143,7 +82,7 @@ class _Plan:
         self.topic = topic
         self.msg_type = msg_type
         self.decoder = decoder
-        self.make = _message_maker(msg_type)
+        self.make = message_maker(msg_type)
 
 
 def _keyed(number: int, stream: Iterator[RawMessage]) -> Iterator[tuple[Any, int, Any]]:
