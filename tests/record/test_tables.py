@@ -203,6 +203,19 @@ def test_parquet_export_of_one_topic(bag: Path, tmp_path: Path) -> None:
     assert sorted(p.name for p in tmp_path.iterdir()) == ["basic.parquet"]
 
 
+def test_a_second_parquet_export_needs_force(bag: Path, tmp_path: Path) -> None:
+    export_parquet(bag, tmp_path, topics=["/basic"])
+    written = (tmp_path / "basic.parquet").stat().st_mtime_ns
+    with pytest.raises(BagError) as refused:
+        export_parquet(bag, tmp_path, topics=["/basic"])
+    assert str(refused.value) == (
+        f"{tmp_path}: already holds an export (basic.parquet); "
+        "use force=True (--force) to overwrite it"
+    )
+    assert (tmp_path / "basic.parquet").stat().st_mtime_ns == written
+    assert list(export_parquet(bag, tmp_path, topics=["/basic"], force=True).files) == ["/basic"]
+
+
 # Every shared bag is read in tables by tests/record/test_tables_dask.py (`make scale`).
 SHARED = ["rosbags_rs/test_bag_mcap", "robot_localization_converted/test1_ros2_mcap_zstd"]
 

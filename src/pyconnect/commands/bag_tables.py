@@ -19,7 +19,9 @@ def export_parquet_command(args: argparse.Namespace, out: TextIO, err: TextIO) -
     """Run ``bag export --format parquet``."""
     from pyconnect.record.parquet_export import export_parquet
 
-    result = export_parquet(args.path, args.to, topics=args.topic, images=args.images)
+    result = export_parquet(
+        args.path, args.to, topics=args.topic, images=args.images, force=args.force
+    )
     for topic, (path, rows) in result.files.items():
         print(f"{topic}: {rows} row(s) to {path}", file=out)
     if result.errors:

@@ -15,6 +15,7 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 
+from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_reader import DecodeProblem, open_bag
 from pyconnect.record.log_dirs import safe_path_component
 from pyconnect.record.tables import ImageColumns, topic_table
@@ -38,12 +39,27 @@ def export_parquet(
     topics: Iterable[str] | None = None,
     compression: str = "zstd",
     images: ImageColumns = "binary",
+    force: bool = False,
 ) -> ParquetExport:
-    """Write each topic of ``bag`` (or of ``topics``) to ``directory/<topic>.parquet``."""
+    """Write each topic of ``bag`` (or of ``topics``) to ``directory/<topic>.parquet``.
+
+    A Parquet file of an earlier export raises ``BagError`` unless ``force`` (then it is
+    overwritten), as the other export formats do.
+    """
     target = Path(directory)
-    target.mkdir(parents=True, exist_ok=True)
     result = ParquetExport(target)
     with open_bag(bag, topics=topics) as reader:
+        earlier = [
+            path
+            for topic in reader.topics
+            if (path := target / f"{safe_path_component(topic)}.parquet").exists()
+        ]
+        if earlier and not force:
+            raise BagError(
+                f"{target}: already holds an export ({earlier[0].name}); "
+                "use force=True (--force) to overwrite it"
+            )
+        target.mkdir(parents=True, exist_ok=True)
         for topic in reader.topics:
             table = topic_table(
                 reader,
