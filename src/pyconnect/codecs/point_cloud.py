@@ -14,6 +14,7 @@ NaN or inf) and dropped on decode, as are the header and row padding, so ``lossl
 
 from __future__ import annotations
 
+import array
 import sys
 from typing import Any
 
@@ -22,6 +23,7 @@ import numpy.typing as npt
 
 from pyconnect.codecs.base import FieldsCodec
 from pyconnect.codecs.buffers import byte_view, contiguous_bytes
+from pyconnect.codecs.message_slots import has_slot_layout
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
 
 # PointField datatype codes (sensor_msgs/PointField constants).
@@ -172,17 +174,58 @@ def _field_table(dtype: np.dtype[Any]) -> tuple[list[dict[str, Any]], bool]:
     return fields, bool(orders and orders.pop())
 
 
-def _is_dense(points: npt.NDArray[Any]) -> bool:
+def _axes(points: npt.NDArray[Any]) -> list[str]:
     names = points.dtype.names or ()
-    for axis in ("x", "y", "z"):
-        if axis in names and points.dtype[axis].kind == "f" and not np.isfinite(points[axis]).all():
-            return False
-    return True
+    return [a for a in ("x", "y", "z") if a in names and points.dtype[a].kind == "f"]
+
+
+def _words(points: npt.NDArray[Any]) -> npt.NDArray[np.float32] | None:
+    """Every byte of ``points`` as native float32 words, when a NaN or inf in a float32 x/y/z
+    field is one of those words (contiguous, 4-byte aligned, x/y/z native float32); else None."""
+    dtype = points.dtype
+    if (
+        not points.flags.c_contiguous
+        or dtype.itemsize % 4
+        or points.ctypes.data % 4
+        or any(dtype[a] != np.float32 or dtype.fields[a][1] % 4 for a in _axes(points))  # type: ignore[index]
+    ):
+        return None
+    return points.reshape(-1).view(np.float32)
+
+
+def _finite_words(words: npt.NDArray[np.float32]) -> bool:
+    """True when all ``words`` are finite; False may also mean a sum of squares overflowed.
+
+    A NaN or inf among the words makes the sum of squares NaN or inf (squares are never
+    negative, so nothing cancels); BLAS reads the words once at memory speed (0.3x a memcpy,
+    against 1.3x for ``isfinite`` per axis, which makes a boolean array each).
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        return bool(np.isfinite(np.dot(words, words)))
+
+
+def _is_dense(points: npt.NDArray[Any]) -> bool:
+    """True when no x/y/z is NaN or inf: the words check first (other fields, padding or a
+    huge coordinate may fail it), then the per-axis check decides."""
+    axes = _axes(points)
+    if not axes:
+        return True
+    words = _words(points)
+    if words is not None and _finite_words(words):
+        return True
+    return all(bool(np.isfinite(points[a]).all()) for a in axes)
 
 
 def point_cloud_fields(value: Any) -> dict[str, Any]:
     """The PointCloud2 fields of a structured (or (N, 3)) array; ``data`` is a byte memoryview."""
     points = _as_structured(value)
+    fields = _layout(points)
+    fields["data"] = contiguous_bytes(points)
+    fields["is_dense"] = _is_dense(points)
+    return fields
+
+
+def _layout(points: npt.NDArray[Any]) -> dict[str, Any]:
     fields, big_endian = _field_table(points.dtype)
     height, width = (1, points.shape[0]) if points.ndim == 1 else points.shape
     point_step = points.dtype.itemsize
@@ -193,8 +236,6 @@ def point_cloud_fields(value: Any) -> dict[str, Any]:
         "is_bigendian": big_endian,
         "point_step": point_step,
         "row_step": point_step * width,
-        "data": contiguous_bytes(points),
-        "is_dense": _is_dense(points),
     }
 
 
@@ -208,6 +249,23 @@ class PointCloudCodec(FieldsCodec):
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         return point_cloud_fields(value)
+
+    def encode(self, value: Any) -> Any:
+        # The composed path, with the data copied once here and put in the message's slot as
+        # is (rclpy's setter would copy an array('B') again when field checks are off), and
+        # is_dense from the words check: 1.4x a memcpy for 40 MB, against 2.3x composed.
+        points = _as_structured(value)
+        fields = _layout(points)
+        fields["is_dense"] = _is_dense(points)
+        data = array.array("B")
+        data.frombytes(contiguous_bytes(points))
+        build = self._message_from_fields or self._bind_message_code()
+        msg = build(fields)
+        if has_slot_layout(type(msg)):
+            msg._data = data  # the setter would copy it again (array.array('B', value))
+        else:
+            msg.data = data
+        return msg
 
 
 def unpack_rgb(packed: npt.NDArray[Any]) -> npt.NDArray[np.uint8]:

@@ -12,12 +12,22 @@ from pyconnect.codecs.geometry import PoseCodec, QuaternionCodec, TwistCodec, Ve
 from pyconnect.codecs.image import ImageCodec
 from pyconnect.codecs.joint_state import JointStateCodec
 from pyconnect.codecs.natural import NATURAL_CODECS
+from pyconnect.codecs.point_cloud import PointCloudCodec
 from pyconnect.errors import EncodeError
 from tests.codecs.natural.test_wire_integration import CASES
 
 # The hot codecs keep a direct encode (composing costs them more than 5 %, bench/natural_codecs;
-# 2-3x for the vectors and poses); every other natural codec writes decode and to_fields only.
-DIRECT_ENCODE = (ImageCodec, JointStateCodec, TwistCodec, Vector3Codec, QuaternionCodec, PoseCodec)
+# 2-3x for the vectors and poses; PointCloud2 copies its data once, not
+# three times); every other natural codec writes decode and to_fields only.
+DIRECT_ENCODE = (
+    ImageCodec,
+    JointStateCodec,
+    TwistCodec,
+    Vector3Codec,
+    QuaternionCodec,
+    PoseCodec,
+    PointCloudCodec,
+)
 
 
 @pytest.mark.parametrize("full_name", sorted(NATURAL_CODECS))

@@ -195,3 +195,49 @@ def test_errors_name_the_field() -> None:
         "PointCloud2.fields['x']: expected int8, uint8, int16, uint16, int32, uint32, float32 "
         "or float64, got float16"
     )
+
+
+XYZ_RGB = np.dtype([("x", "<f4"), ("y", "<f4"), ("z", "<f4"), ("rgb", "<f4")])
+ODD_WORDS = [np.nan, np.inf, -np.inf, 3.0e38, 1.0e20, 0.0]  # non-finite, or squares overflow
+
+
+@EXAMPLES
+@given(
+    count=st.sampled_from([0, 1, 7, 300_000]),
+    spots=st.lists(
+        st.tuples(
+            st.floats(0, 1, exclude_max=True),
+            st.sampled_from(["x", "y", "z", "rgb"]),
+            st.sampled_from(ODD_WORDS),
+        ),
+        max_size=3,
+    ),
+)
+def test_is_dense_in_one_pass_agrees_with_a_per_axis_check(count: int, spots: Any) -> None:
+    """The words check (sum of squares, then per axis if that is not finite) against
+    ``isfinite`` per axis, on both encode paths: NaN/inf in x, y or z clears is_dense; in rgb,
+    or a huge finite coordinate (its square overflows), it does not."""
+    points = np.zeros(count, XYZ_RGB)
+    for where, name, value in spots:
+        if count:
+            points[name][int(where * count)] = value
+    expected = all(bool(np.isfinite(points[axis]).all()) for axis in "xyz")
+    msg = PointCloudCodec().encode(points)
+    assert msg.is_dense is expected
+    assert bytes(msg.data) == points.tobytes()
+    assert point_cloud_fields(points)["is_dense"] is expected
+    if count > 1:
+        even = points[: count // 2 * 2]
+        organised = PointCloudCodec().encode(even.reshape(2, -1))
+        assert organised.is_dense is all(bool(np.isfinite(even[axis]).all()) for axis in "xyz")
+
+
+def test_is_dense_of_float64_and_strided_points_uses_the_per_axis_check() -> None:
+    wide = np.zeros(5, [("x", "<f8"), ("y", "<f8"), ("z", "<f8")])
+    wide["z"][4] = np.nan
+    assert PointCloudCodec().encode(wide).is_dense is False
+    assert PointCloudCodec().encode(wide[:4]).is_dense is True
+    every_other = np.zeros(10, XYZ_RGB)
+    every_other["y"][1] = np.inf
+    assert PointCloudCodec().encode(every_other[::2]).is_dense is True
+    assert PointCloudCodec().encode(every_other[1::2]).is_dense is False
