@@ -634,6 +634,7 @@ def main(quick: bool | None = None) -> None:
                 )
             )
     rows.extend(comparison_rows(rounds))
+    rows.extend(many_agents_rows(rounds))
     rows.extend(
         (name, plain, None, coroutine, float(ratio), target)
         for name, plain, coroutine, ratio, target in async_handler_rows(rounds)
@@ -656,6 +657,135 @@ def main(quick: bool | None = None) -> None:
 
 def _cell(value: float | None, width: int, *, digits: int = 3) -> str:
     return f"{'-':>{width}}" if value is None else f"{value:{width}.{digits}f}"
+
+
+# -- many agents: a node with 120 agents and its mirror (issue 16's "100+ agents" row) -------
+MANY_IDLE_WINDOW = 5.0
+
+
+def add_many_agents(node: Any, *, mine: str, theirs: str) -> None:
+    """40 subs, 40 pubs, 10+10 service servers/clients, 5+5 action servers/clients, 10 timers
+    (tests/ros/test_many_agents.py builds the same node); ``mine``/``theirs`` prefix names."""
+    from std_msgs.msg import String
+    from std_srvs.srv import Trigger
+    from test_msgs.action import Fibonacci
+
+    for index in range(40):
+        node.add_agent(conn_name=f"{theirs}_topic_{index}", conn_type="sub",
+                       data_interface=String, qos="latched")  # fmt: skip
+        pub = node.add_agent(conn_name=f"{mine}_topic_{index}", conn_type="pub",
+                             data_interface=String, qos="latched")  # fmt: skip
+        pub.send(f"{mine} {index}")
+    for index in range(10):
+        node.add_agent(conn_name=f"{mine}_service_{index}", conn_type="service_server",
+                       data_interface=Trigger,
+                       response_func=lambda _request: {"success": True, "message": ""})  # fmt: skip
+        node.add_agent(conn_name=f"{theirs}_service_{index}", conn_type="service_client",
+                       data_interface=Trigger, timeout=30.0)  # fmt: skip
+        node.add_agent(conn_name=f"{mine}_timer_{index}", conn_type="timer", time_period=0.5,
+                       response_func=lambda: None)  # fmt: skip
+    for index in range(5):
+        node.add_agent(conn_name=f"{mine}_action_{index}", conn_type="action_server",
+                       data_interface=Fibonacci,
+                       response_func=lambda _goal: {"sequence": [1]})  # fmt: skip
+        node.add_agent(conn_name=f"{theirs}_action_{index}", conn_type="action_client",
+                       data_interface=Fibonacci, timeout=30.0)  # fmt: skip
+
+
+def many_child(role: str) -> None:
+    """One side of the 120-agent pair; prints ``MANY <start s> <connect s> <idle CPU %>``.
+
+    Start: constructing the node, adding its 120 agents and starting to spin. Connect:
+    ``wait_until_connected`` (every sub has its latched message, every client its server).
+    Idle: CPU per wall second afterwards, with only the ten 2 Hz timers running.
+    """
+    from pyconnect.ros.custom_node import CustomNode
+
+    mine, theirs = ("left", "right") if role == "node" else ("right", "left")
+    started = time.perf_counter()
+    node = CustomNode(f"bench_many_{mine}", args=[], handle_signals=False)
+    add_many_agents(node, mine=mine, theirs=theirs)
+    node.spin(run_thread=True)
+    start = time.perf_counter() - started
+    print("READY", flush=True)
+    started = time.perf_counter()
+    node.wait_until_connected(timeout=60.0)
+    connect = time.perf_counter() - started
+    if len(node.agents) != 120:
+        raise RuntimeError(f"expected 120 agents, got {len(node.agents)}")
+    time.sleep(1.0)  # the peer connects too; then nothing but timers
+    wall, cpu = time.perf_counter(), time.process_time()
+    time.sleep(MANY_IDLE_WINDOW)
+    idle = (time.process_time() - cpu) / (time.perf_counter() - wall) * 100
+    print(f"MANY {start:.4f} {connect:.4f} {idle:.4f}", flush=True)
+    if role == "mirror":
+        sys.stdin.read()
+    os._exit(0)
+
+
+def many_agents_rows(rounds: int) -> list[Row]:
+    """Start, connect and idle CPU of a 120-agent node whose mirror runs in another process."""
+    starts, connects, idles = [], [], []
+    for _ in range(rounds):
+        mirror = subprocess.Popen(
+            [sys.executable, "-m", "bench.agents", "--many", "mirror"],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.DEVNULL,
+            text=True,
+        )
+        try:
+            assert mirror.stdout is not None
+            mirror.stdout.readline()
+            child = subprocess.run(
+                [sys.executable, "-m", "bench.agents", "--many", "node"],
+                capture_output=True,
+                text=True,
+                timeout=180,
+                check=False,
+            )
+            found = [line for line in child.stdout.splitlines() if line.startswith("MANY ")]
+            if not found:
+                raise RuntimeError(f"many agents case failed: {child.stderr[-2000:]}")
+            _, start, connect, idle = found[-1].split()
+            starts.append(float(start))
+            connects.append(float(connect))
+            idles.append(float(idle))
+        finally:
+            with suppress(Exception):
+                assert mirror.stdin is not None
+                mirror.stdin.close()
+            try:
+                mirror.wait(10)
+            except subprocess.TimeoutExpired:
+                mirror.kill()
+                mirror.wait()
+    return [
+        (
+            "120 agents: start s (node + agents + spin)",
+            None,
+            None,
+            statistics.median(starts),
+            None,
+            "<= 2 s",
+        ),
+        (
+            "120 agents: wait_until_connected s (mirror)",
+            None,
+            None,
+            statistics.median(connects),
+            None,
+            "returns",
+        ),
+        (
+            "120 agents: idle CPU % (10 timers at 2 Hz)",
+            None,
+            None,
+            statistics.median(idles),
+            None,
+            "<= 1 %",
+        ),
+    ]
 
 
 # -- asyncio: async def handlers against plain ones (issue 16's asyncio row) -------------------
@@ -716,6 +846,11 @@ if __name__ == "__main__":
     elif sys.argv[1:] == ["--async"]:  # only the asyncio row
         for name, plain, coroutine, ratio, target in async_handler_rows():
             print(f"{name:40} {plain:10.0f} {coroutine:10.0f} {ratio:>6}  {target}")
+    elif len(sys.argv) == 3 and sys.argv[1] == "--many":
+        many_child(sys.argv[2])
+    elif sys.argv[1:] == ["--many-rows"]:  # only the many-agents rows
+        for row in many_agents_rows(1):
+            print(row)
     elif len(sys.argv) == 5 and sys.argv[1] == "--cpu":
         cpu_child(sys.argv[2], sys.argv[3], float(sys.argv[4]))
     else:

@@ -16,11 +16,9 @@ group of the callback that was running stays held until it returns, so an agent 
 of its callbacks at once. Once the elastic executor has been calm for ``CALM_AFTER`` seconds (no
 callback running, no hand-off), the node moves back to a new ``EventsExecutor``.
 
-The monitor costs nothing while the node is idle: it parks until a callback starts, looks every
-``BUSY_TICK`` while callbacks keep coming, every ``handoff_after`` while one is running, and
-otherwise checks every ``IDLE_TICK`` seconds whether the dispatching thread still returns (an
-action goal, which is not wrapped, counts). A slow callback is thus noticed after 20-120 ms; a
-blocking ``send()`` at once.
+The watch over running callbacks (wrappers and a monitor thread) is
+pyconnect.ros.callback_watch: a slow callback is noticed after 20-120 ms; a blocking ``send()``
+at once.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -29,7 +27,6 @@ blocking ``send()`` at once.
 from __future__ import annotations
 
 import contextlib
-import inspect
 import threading
 import time
 from collections.abc import Callable
@@ -42,21 +39,15 @@ from rclpy.experimental import EventsExecutor
 from rclpy.node import Node
 from rclpy.task import Future
 
+from pyconnect.ros.callback_watch import IDLE_TICK, CallbackWatch
 from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER, ElasticExecutor
-
-IDLE_TICK = 0.25
-"""Seconds between the dispatching thread's returns while idle (it notices ``stop()`` then)."""
-
-BUSY_TICK = 0.1
-"""Seconds between the monitor's looks while callbacks come but none was running at the last."""
+from pyconnect.ros.waiting import EventLike
 
 CALM_AFTER = 1.0
 """Seconds without a running callback or a hand-off before the node returns to EventsExecutor."""
 
-_WRAPPED = "_pyconnect_wrapped"
 
-
-class AgentExecutor:
+class AgentExecutor(CallbackWatch):
     """Runs one node's callbacks: inline on ``EventsExecutor``, elastic when one blocks.
 
     The API is the part of rclpy's ``Executor`` that ``CustomNode`` and the agents use, plus
@@ -127,22 +118,11 @@ class AgentExecutor:
     def adopt(self, node: Node | None = None) -> None:
         """Wrap the callbacks of entities created since the last call (cheap; call after adding).
 
-        The wrapper tells the monitor which callback runs and since when; the first messages of
-        an entity created while spinning may run before it is wrapped, which only delays their
-        hand-off to the idle check.
+        The wrapper tells the monitor which callback runs and since when
+        (pyconnect.ros.callback_watch); the first messages of an entity created while spinning
+        may run before it is wrapped, which only delays their hand-off to the idle check.
         """
-        for each in [node] if node is not None else list(self._nodes):
-            for subscription in list(each.subscriptions):
-                if not getattr(subscription.callback, _WRAPPED, False):
-                    subscription.callback = self._wrap(
-                        subscription.callback, subscription.callback_group, subscription
-                    )
-            for service in list(each.services):
-                if not getattr(service.callback, _WRAPPED, False):
-                    service.callback = self._wrap(service.callback, service.callback_group, service)
-            for timer in list(each.timers):
-                if not getattr(timer.callback, _WRAPPED, False):
-                    timer.callback = self._wrap_timer(timer.callback, timer.callback_group, timer)
+        self.wrap_callbacks(node)
         if self._elastic is None and self._has_actions():
             self._go_elastic()
 
@@ -264,7 +244,7 @@ class AgentExecutor:
 
     def wait_for(
         self,
-        event: threading.Event,
+        event: EventLike,
         timeout_sec: float | None,
         *,
         poll: Callable[[], bool] | None = None,
@@ -339,41 +319,6 @@ class AgentExecutor:
         self._retired.clear()
         return True
 
-    # -- wrapping ------------------------------------------------------------------------------
-    def _wrap(self, callback: Callable[..., Any], group: Any, entity: Any) -> Callable[..., Any]:
-        lock = self._lock
-
-        def run(*args: Any) -> Any:
-            self._seq += 1
-            self._running = (group, entity)
-            if self._monitor_parked:
-                self._monitor_wake.set()
-            try:
-                return callback(*args)
-            finally:
-                with lock:
-                    self._running = None
-                    held, self._held = self._held, None
-                if held is not None:
-                    held[0].ending_execution(held[1])
-
-        setattr(run, _WRAPPED, True)
-        return run
-
-    def _wrap_timer(
-        self, callback: Callable[..., Any], group: Any, entity: Any
-    ) -> Callable[..., Any]:
-        wrapped = self._wrap(callback, group, entity)
-        # EventsExecutor passes a TimerInfo only to callbacks that take an argument.
-        if inspect.signature(callback).parameters:
-            return wrapped
-
-        def tick() -> Any:
-            return wrapped()
-
-        setattr(tick, _WRAPPED, True)
-        return tick
-
     # -- moving between executors --------------------------------------------------------------
     def _go_elastic(self) -> None:
         """Move the nodes to a fresh ElasticExecutor spinning on its own thread."""
@@ -386,6 +331,11 @@ class AgentExecutor:
                 # Keep the running callback's agent from starting another callback meanwhile.
                 if group.beginning_execution(entity):
                     self._held = running
+                    # The callback clears ``_running`` and then looks at ``_held`` without the
+                    # lock: if it returned between our two looks, the hold is ours to end.
+                    if self._running is None:
+                        self._held = None
+                        group.ending_execution(entity)
             elastic = ElasticExecutor(
                 context=self.context, handoff_after=self._handoff_after, on_error=self._on_error
             )
@@ -464,59 +414,6 @@ class AgentExecutor:
 
     def _new_events(self) -> Any:
         return EventsExecutor(context=self.context)
-
-    # -- the monitor ---------------------------------------------------------------------------
-    def _start_monitor(self) -> None:
-        with self._lock:
-            if self._monitor is not None and self._monitor.is_alive():
-                return
-            self._monitor = threading.Thread(
-                target=self._monitor_loop, name="pyconnect-executor-monitor", daemon=True
-            )
-            self._monitor.start()
-
-    def _monitor_loop(self) -> None:
-        """Move to the elastic executor when the dispatching thread is stuck in a callback."""
-        last_seq, last_returns, quiet, ticking = self._seq, self._returns, 0, True
-        running: tuple[Any, Any] | None = None
-        while not self._stopping:
-            started = time.monotonic()
-            if ticking:
-                # Short ticks only while a callback was running at the last look: callbacks
-                # that come often but end quickly cost a wake-up every BUSY_TICK.
-                self._monitor_wake.wait(
-                    self._handoff_after
-                    if running is not None
-                    else max(BUSY_TICK, self._handoff_after)
-                )
-            else:
-                # Parked: a wrapped callback wakes us; the idle tick catches unwrapped ones.
-                self._monitor_parked = True
-                self._monitor_wake.wait(IDLE_TICK * 2)
-                self._monitor_parked = False
-            self._monitor_wake.clear()
-            if self._stopping:
-                return
-            waited = time.monotonic() - started
-            seq, running, returns = self._seq, self._running, self._returns
-            if self._elastic is None and self._dispatcher is not None:
-                # The same callback (same sequence number) ran through a whole tick.
-                stuck_in_wrapped = (
-                    ticking
-                    and running is not None
-                    and seq == last_seq
-                    and waited >= self._handoff_after
-                )
-                # While idle the dispatcher returns every IDLE_TICK; twice silent means stuck.
-                stuck_unwrapped = (
-                    not ticking and running is None and returns == last_returns and self._spinning
-                )
-                quiet = quiet + 1 if stuck_unwrapped else 0
-                if stuck_in_wrapped or quiet >= 2:
-                    self._go_elastic()
-                    quiet = 0
-            ticking = running is not None or seq != last_seq
-            last_seq, last_returns = seq, returns
 
     def _report(self, error: BaseException) -> None:
         if self._on_error is not None:

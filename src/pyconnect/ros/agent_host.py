@@ -12,6 +12,8 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Protocol
 
+from pyconnect.ros.waiting import EventLike
+
 if TYPE_CHECKING:
     from rclpy.node import Node
 
@@ -53,7 +55,7 @@ class AgentHost(Protocol):
 
     def wait_for(
         self,
-        event: threading.Event,
+        event: EventLike,
         timeout: float | None,
         *,
         poll: Callable[[], bool] | None = None,

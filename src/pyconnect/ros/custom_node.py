@@ -29,23 +29,23 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 import rclpy
-from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.context import Context
 from rclpy.node import Node
 from rclpy.signals import SignalHandlerOptions
 
 from pyconnect.codecs.registry import Registry, default_registry
 from pyconnect.errors import ConnectionTimeout, PyconnectError
-from pyconnect.record.log_dirs import safe_path_component
 from pyconnect.ros.agent_executor import AgentExecutor
 from pyconnect.ros.agent_factory import make_agent, shared_options_for
 from pyconnect.ros.agent_options import AgentOptions
 from pyconnect.ros.coroutines import CoroutineRunner
 from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER
 from pyconnect.ros.node_agent import NodeAgent
+from pyconnect.ros.node_logging import NodeLogging
 from pyconnect.ros.recording import Recording
 from pyconnect.ros.shutdown import ShutdownHooks, ShutsDownOnExit
 from pyconnect.ros.subscriber_agent import SubscriberAgent
+from pyconnect.ros.waiting import EventLike
 
 if TYPE_CHECKING:
     from typing_extensions import Unpack
@@ -53,7 +53,7 @@ if TYPE_CHECKING:
 StopFunc = Callable[..., Any]
 
 
-class CustomNode(ShutsDownOnExit, Node):  # type: ignore[misc]
+class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
     """A ROS 2 node whose connections are agents: ``node.agents[name].send/get``.
 
     It is an ``rclpy.node.Node``: rclpy's own methods work on it, and it is its own
@@ -140,38 +140,13 @@ class CustomNode(ShutsDownOnExit, Node):  # type: ignore[misc]
 
     def wait_for(
         self,
-        event: threading.Event,
+        event: EventLike,
         timeout: float | None,
         *,
         poll: Callable[[], bool] | None = None,
     ) -> bool:
         """Wait until a callback sets ``event``, from any thread, even inside a callback."""
         return self._executor.wait_for(event, timeout, poll=poll)
-
-    def agent_log_dir(self, agent_name: str) -> Path:
-        """``<log_dir>/<node>/<session>/<agent>/``, created once; agents whose names clean to
-        the same folder name (``status`` and ``/status``) get distinct folders."""
-        with self._lock:
-            directory = self._log_dirs.get(agent_name)
-            if directory is not None:
-                return directory
-            if self._log_session is None:
-                self._log_session = datetime.datetime.now()
-            session = (
-                self.log_dir
-                / safe_path_component(self.name)
-                / self._log_session.strftime("%Y%m%d-%H%M%S")
-            )
-            taken = {path.name for path in self._log_dirs.values()}
-            component = safe_path_component(agent_name)
-            unique, suffix = component, 1
-            while unique in taken:
-                suffix += 1
-                unique = f"{component}_{suffix}"
-            directory = session / unique
-            directory.mkdir(parents=True, exist_ok=True)
-            self._log_dirs[agent_name] = directory
-            return directory
 
     # -- agents --------------------------------------------------------------------------------
     def add_agent(
@@ -283,82 +258,13 @@ class CustomNode(ShutsDownOnExit, Node):  # type: ignore[misc]
             self._executor.spin_in_background()
             self._stopped.wait(step)
 
-    # -- parameters and logging ------------------------------------------------------------------
+    # -- parameters (logging and recording: pyconnect.ros.node_logging) --------------------------
     def get_param(self, name: str, default: Any = None) -> Any:
         """A parameter's value (``--ros-args -p name:=value``), or ``default`` when unset."""
         if not self.has_parameter(name):
             return default
         value = self.get_parameter(name).value
         return default if value is None else value
-
-    @property
-    def log_dir(self) -> Path:
-        """The root under which ``<node>/<session>/<agent>/`` log directories are made."""
-        if self._log_root is None:
-            from pyconnect.record.log_dirs import DEFAULT_LOG_ROOT
-
-            self._log_root = Path(DEFAULT_LOG_ROOT)
-        return self._log_root
-
-    def make_log_dirs(self) -> dict[str, Path]:
-        """Create this session's log directory of every agent; {agent name: directory}."""
-        return {name: agent.make_log_dirs() for name, agent in list(self.agents.items())}
-
-    @property
-    def is_logging_subs(self) -> bool:
-        return self._log_subs_timer is not None
-
-    def start_log_subs(self, fps: float = 10, record: str | Path | None = None) -> None:
-        """Log the latest value of every sub ``fps`` times a second (new values only).
-
-        Subs with ``do_log_msg=True`` already log every value and are left out (one writer per
-        value). ``record=path`` also records the raw messages of the subscribed topics to MCAP.
-        """
-        if fps <= 0:
-            raise PyconnectError(f"start_log_subs: fps must be > 0, got {fps!r}")
-        with self._lock:
-            if self._log_subs_timer is not None:
-                raise PyconnectError(f"node {self.name!r} already logs its subs")
-            seen: dict[str, int] = {}
-
-            def log_latest() -> None:
-                for agent in list(self.agents.values()):
-                    if not isinstance(agent, SubscriberAgent) or agent.do_log_msg:
-                        continue
-                    count = agent.message_count
-                    if count == 0 or seen.get(agent.name) == count:
-                        continue
-                    seen[agent.name] = count
-                    try:
-                        agent.log_msg(agent.get())
-                    except Exception as error:
-                        agent.report_exception("start_log_subs", error)
-
-            self._log_subs_recording = self.record(record) if record is not None else None
-            self._log_subs_timer = self.create_timer(
-                1.0 / fps, log_latest, callback_group=MutuallyExclusiveCallbackGroup()
-            )
-
-    def stop_log_subs(self, timeout: float | None = 10.0) -> None:
-        """Stop ``start_log_subs`` and flush what it logged."""
-        with self._lock:
-            timer, self._log_subs_timer = self._log_subs_timer, None
-            recording, self._log_subs_recording = self._log_subs_recording, None
-        if timer is not None:
-            self.destroy_timer(timer)
-        if recording is not None:
-            recording.stop()
-        for agent in list(self.agents.values()):
-            agent.flush_log(timeout)
-
-    def record(self, path: str | Path, topics: Iterable[str] | None = None) -> Recording:
-        """Record raw messages of ``topics`` (default: every sub's topic) to an MCAP file."""
-        recording = Recording(
-            self, self.agents, Path(path), None if topics is None else list(topics)
-        )
-        with self._lock:
-            self._recordings.append(recording)
-        return recording
 
     # -- shutdown ------------------------------------------------------------------------------
     def shutdown(self) -> None:

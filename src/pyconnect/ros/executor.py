@@ -41,6 +41,8 @@ from rclpy.executors import (
 )
 from rclpy.task import Future
 
+from pyconnect.ros.waiting import EventLike
+
 DEFAULT_HANDOFF_AFTER = 0.02
 """Seconds a callback may hold the turn before another thread takes over spinning."""
 
@@ -120,7 +122,7 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
 
     def wait_for(
         self,
-        event: threading.Event,
+        event: EventLike,
         timeout_sec: float | None,
         *,
         poll: Callable[[], bool] | None = None,

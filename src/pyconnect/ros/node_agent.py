@@ -71,6 +71,8 @@ class NodeAgent:
         # True while the latest value is an image with RGB(A) channels (PNG logs want BGR).
         self._log_rgb = False
         self._lane: CoroutineLane | None = None
+        self._async_checked: object = None
+        self._async_answer = False
 
     # -- identity ------------------------------------------------------------------------------
     @property
@@ -214,6 +216,18 @@ class NodeAgent:
         self.error_count += 1
         self.node.get_logger().error(f"{self.last_error}\n{text.rstrip()}")
 
+    def is_async(self, function: Callable[..., Any]) -> bool:
+        """``is_async_callable(function)``, remembered for the last function asked about.
+
+        Handlers are called per message: ``inspect`` costs tens of microseconds on a cold
+        cache (bench/agents.py), the identity check next to nothing.
+        """
+        if function is self._async_checked:
+            return self._async_answer
+        answer = is_async_callable(function)
+        self._async_checked, self._async_answer = function, answer
+        return answer
+
     def call_user(
         self,
         where: str,
@@ -226,7 +240,7 @@ class NodeAgent:
         An ``async def`` function runs on the node's coroutine loop, after this agent's earlier
         coroutines (pyconnect.ros.coroutines); ``on_done(result)`` follows a successful call.
         """
-        if is_async_callable(function):
+        if self.is_async(function):
             self.lane.submit(
                 function,
                 args,
@@ -245,7 +259,7 @@ class NodeAgent:
         """Call ``function`` and return its result; an ``async def`` one is awaited on the
         coroutine loop while this thread waits (handing the executor's turn on). Raises what
         the function raised."""
-        if not is_async_callable(function):
+        if not self.is_async(function):
             return function(*args)
         return self.wait_on_loop(function(*args))
 

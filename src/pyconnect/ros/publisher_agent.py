@@ -84,6 +84,10 @@ class PublisherAgent(NodeAgent):
         self.sent_count = 0
         self._has_encode_func = encode_func is not None
         self._has_value = False
+        self._message_values = (msg_class, Stamped)
+        self._is_empty = self.conversion.is_empty
+        # Only image-like types have an ``encoding`` that decides the log's channel order.
+        self._has_encoding = "encoding" in msg_class.get_fields_and_field_types()
         self._raw: RawEncoder | None = None
         """Set when values are published as the CDR bytes the wire codec wrote (raw_path)."""
         custom = [
@@ -135,8 +139,9 @@ class PublisherAgent(NodeAgent):
         if raw is not None and not self._is_message_value(data):
             cdr, fields = raw.encode(data, now=self._now, frame_id=self.frame_id)
             self.publisher.publish(cdr)
-            encoding = fields.get("encoding")
-            self._log_rgb = isinstance(encoding, str) and encoding.startswith("rgb")
+            if self._has_encoding:
+                encoding = fields.get("encoding")
+                self._log_rgb = isinstance(encoding, str) and encoding.startswith("rgb")
             self._sent(data)
             return True
         conversion = self.conversion
@@ -161,9 +166,7 @@ class PublisherAgent(NodeAgent):
 
     def _is_message_value(self, data: Any) -> bool:
         """Values the class path publishes as messages (a message, Stamped, an empty type)."""
-        return isinstance(data, (self.conversion.msg_class, Stamped)) or (
-            data is None and self.conversion.is_empty
-        )
+        return isinstance(data, self._message_values) or (data is None and self._is_empty)
 
     def _now(self) -> tuple[int, int]:
         sec, nanosec = self.node.ros_node.get_clock().now().seconds_nanoseconds()
@@ -180,8 +183,18 @@ class PublisherAgent(NodeAgent):
     def _on_period(self) -> None:
         if self.only_if_subscribed and self.publisher.get_subscription_count() == 0:
             return
-        if self.response_func is not None:
-            self.call_user("periodic send", self.response_func, on_done=self._send_period_value)
+        function = self.response_func
+        if function is not None:
+            if self.is_async(function):
+                self.call_user("periodic send", function, on_done=self._send_period_value)
+                return
+            # The plain case inline (call_user's rule: whatever raises is reported).
+            try:
+                value = function()
+                if value is not None:
+                    self.send(value)
+            except Exception as error:
+                self.report_exception("periodic send", error)
             return
         try:
             if self._has_value:

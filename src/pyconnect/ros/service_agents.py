@@ -33,7 +33,7 @@ from pyconnect.ros.error_fields import error_message
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.qos import REQUESTS
-from pyconnect.ros.waiting import settle, wait_until
+from pyconnect.ros.waiting import Signal, settle, wait_until
 
 
 class ServiceServerAgent(NodeAgent):
@@ -193,7 +193,9 @@ class ServiceClientAgent(NodeAgent):
                 return self._failed(f"no server for {self.service_name} within {timeout} s")
             self._server_seen = True
         ros_future = self.client.call_async(request)
-        done = threading.Event()
+        # The reply wakes this thread through one bare lock (waiting.Signal): the hand-off
+        # from the spinning thread is most of what a blocking call adds to a round trip.
+        done = Signal()
         ros_future.add_done_callback(lambda _future: done.set())
         if not self.node.wait_for(done, timeout, poll=ros_future.done):
             self.client.remove_pending_request(ros_future)

@@ -82,6 +82,8 @@ class SubscriberAgent(NodeAgent):
         else:
             self._decode = decode_func
         self._response_is_async = is_async_callable(response_func)
+        # Only image-like types have an ``encoding`` that decides the log's channel order.
+        self._has_encoding = "encoding" in msg_class.get_fields_and_field_types()
         self._raw: RawDecoder | None = None
         """Set when messages arrive as CDR bytes and the wire codec decodes them (raw_path)."""
         custom = [
@@ -140,7 +142,8 @@ class SubscriberAgent(NodeAgent):
 
     def _deliver(self, value: Any, msg: Any) -> None:
         self._latest = value
-        self._note_channel_order(msg)
+        if self._has_encoding:
+            self._note_channel_order(msg)
         self.message_count += 1
         self.last_received_ns = time.time_ns()
         if not self._first_message.is_set():

@@ -10,7 +10,7 @@ import contextlib
 import threading
 import time
 from collections.abc import Callable
-from typing import Any
+from typing import Any, Protocol
 
 
 def wait_until(
@@ -45,3 +45,46 @@ def settle(future: concurrent.futures.Future[Any], compute: Callable[[], Any]) -
         return
     with contextlib.suppress(concurrent.futures.InvalidStateError):
         future.set_result(value)
+
+
+class EventLike(Protocol):
+    """What a wait needs of an event: ``threading.Event`` and ``Signal`` both are one."""
+
+    def is_set(self) -> bool: ...
+
+    def wait(self, timeout: float | None = None) -> bool: ...
+
+
+class Signal:
+    """A one-shot ``threading.Event`` on one bare lock, for a reply that one thread waits for.
+
+    ``threading.Event`` is a ``Condition``: each wait allocates a lock and each ``set`` walks
+    the waiters under another; a service round trip pays both on the critical path. Here the
+    waiter blocks on a lock that ``set`` releases once. Any number of ``wait`` calls work
+    (each gives the lock back); ``set`` twice is harmless.
+    """
+
+    __slots__ = ("_lock", "_set")
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._lock.acquire()
+        self._set = False
+
+    def set(self) -> None:
+        if self._set:
+            return
+        self._set = True
+        with contextlib.suppress(RuntimeError):  # a racing second set() released it already
+            self._lock.release()
+
+    def is_set(self) -> bool:
+        return self._set
+
+    def wait(self, timeout: float | None = None) -> bool:
+        if self._set:
+            return True
+        if self._lock.acquire(True, -1 if timeout is None else max(0.0, timeout)):
+            with contextlib.suppress(RuntimeError):
+                self._lock.release()
+        return self._set

@@ -1,0 +1,180 @@
+"""Watching an ``AgentExecutor``'s callbacks: a wrapper per entity and a monitor thread.
+
+The wrapper notes which callback runs (a sequence number and the callback's group and
+entity); the monitor thread reads that and moves the node to the elastic executor when the
+dispatching thread is stuck: the same callback ran through a whole ``handoff_after``, or, for
+what is not wrapped (an action goal), the dispatcher stopped returning from its idle waits.
+
+The watch costs nothing while the node is idle: the monitor parks until a callback starts,
+looks every ``BUSY_TICK`` while callbacks keep coming, every ``handoff_after`` while one is
+running, and otherwise checks every ``IDLE_TICK`` seconds whether the dispatching thread still
+returns. A slow callback is thus noticed after 20-120 ms. The wrapper runs per message on a
+cold cache (bench/agents.py: the whole tick of a 100 Hz timer is ~200 us of CPU there), so it
+is a few attribute stores and takes no lock unless a move held its callback's group.
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import inspect
+import threading
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from rclpy.node import Node
+
+IDLE_TICK = 0.25
+"""Seconds between the dispatching thread's returns while idle (it notices ``stop()`` then)."""
+
+BUSY_TICK = 0.1
+"""Seconds between the monitor's looks while callbacks come but none was running at the last."""
+
+_WRAPPED = "_pyconnect_wrapped"
+
+
+class CallbackWatch:
+    """The part of ``AgentExecutor`` that wraps callbacks and watches for long ones."""
+
+    # Set up by AgentExecutor.__init__ (shared with the executor's own code).
+    _lock: threading.Lock
+    _nodes: list[Node]
+    _handoff_after: float
+    _stopping: bool
+    _spinning: bool
+    _dispatcher: int | None
+    _returns: int
+    _elastic: Any
+    _seq: int
+    _running: tuple[Any, Any] | None
+    _held: tuple[Any, Any] | None
+    _monitor: threading.Thread | None
+    _monitor_wake: threading.Event
+    _monitor_parked: bool
+
+    if TYPE_CHECKING:  # AgentExecutor's
+
+        def _go_elastic(self) -> None: ...
+
+    def wrap_callbacks(self, node: Node | None = None) -> None:
+        """Wrap the callbacks of entities created since the last call (cheap; call after adding).
+
+        The wrapper tells the monitor which callback runs and since when; the first messages of
+        an entity created while spinning may run before it is wrapped, which only delays their
+        hand-off to the idle check.
+        """
+        for each in [node] if node is not None else list(self._nodes):
+            for subscription in list(each.subscriptions):
+                if not getattr(subscription.callback, _WRAPPED, False):
+                    subscription.callback = self._wrap(
+                        subscription.callback, subscription.callback_group, subscription
+                    )
+            for service in list(each.services):
+                if not getattr(service.callback, _WRAPPED, False):
+                    service.callback = self._wrap(service.callback, service.callback_group, service)
+            for timer in list(each.timers):
+                if not getattr(timer.callback, _WRAPPED, False):
+                    timer.callback = self._wrap_timer(timer.callback, timer.callback_group, timer)
+
+    def _wrap(
+        self, callback: Callable[..., Any], group: Any, entity: Any, *, takes_args: bool = True
+    ) -> Callable[..., Any]:
+        # Runs per message on a cold cache: a few attribute stores, no lock unless the
+        # callback's agent was held by a move to the elastic executor (see ``_go_elastic``).
+        token = (group, entity)
+
+        def run(*args: Any) -> Any:
+            self._seq += 1
+            self._running = token
+            if self._monitor_parked:
+                self._monitor_wake.set()
+            try:
+                return callback(*args)
+            finally:
+                self._running = None
+                if self._held is not None:
+                    self._release_held()
+
+        def tick() -> Any:
+            self._seq += 1
+            self._running = token
+            if self._monitor_parked:
+                self._monitor_wake.set()
+            try:
+                return callback()
+            finally:
+                self._running = None
+                if self._held is not None:
+                    self._release_held()
+
+        wrapped = run if takes_args else tick
+        setattr(wrapped, _WRAPPED, True)
+        return wrapped
+
+    def _wrap_timer(
+        self, callback: Callable[..., Any], group: Any, entity: Any
+    ) -> Callable[..., Any]:
+        # EventsExecutor passes a TimerInfo only to callbacks that take an argument.
+        takes_args = bool(inspect.signature(callback).parameters)
+        return self._wrap(callback, group, entity, takes_args=takes_args)
+
+    def _release_held(self) -> None:
+        """End the hold ``_go_elastic`` put on the group of a callback that has returned."""
+        with self._lock:
+            held, self._held = self._held, None
+        if held is not None:
+            held[0].ending_execution(held[1])
+
+    def _start_monitor(self) -> None:
+        with self._lock:
+            if self._monitor is not None and self._monitor.is_alive():
+                return
+            self._monitor = threading.Thread(
+                target=self._monitor_loop, name="pyconnect-executor-monitor", daemon=True
+            )
+            self._monitor.start()
+
+    def _monitor_loop(self) -> None:
+        """Move to the elastic executor when the dispatching thread is stuck in a callback."""
+        last_seq, last_returns, quiet, ticking = self._seq, self._returns, 0, True
+        running: tuple[Any, Any] | None = None
+        while not self._stopping:
+            started = time.monotonic()
+            if ticking:
+                # Short ticks only while a callback was running at the last look: callbacks
+                # that come often but end quickly cost a wake-up every BUSY_TICK.
+                self._monitor_wake.wait(
+                    self._handoff_after
+                    if running is not None
+                    else max(BUSY_TICK, self._handoff_after)
+                )
+            else:
+                # Parked: a wrapped callback wakes us; the idle tick catches unwrapped ones.
+                self._monitor_parked = True
+                self._monitor_wake.wait(IDLE_TICK * 2)
+                self._monitor_parked = False
+            self._monitor_wake.clear()
+            if self._stopping:
+                return
+            waited = time.monotonic() - started
+            seq, running, returns = self._seq, self._running, self._returns
+            if self._elastic is None and self._dispatcher is not None:
+                # The same callback (same sequence number) ran through a whole tick.
+                stuck_in_wrapped = (
+                    ticking
+                    and running is not None
+                    and seq == last_seq
+                    and waited >= self._handoff_after
+                )
+                # While idle the dispatcher returns every IDLE_TICK; twice silent means stuck.
+                stuck_unwrapped = (
+                    not ticking and running is None and returns == last_returns and self._spinning
+                )
+                quiet = quiet + 1 if stuck_unwrapped else 0
+                if stuck_in_wrapped or quiet >= 2:
+                    self._go_elastic()
+                    quiet = 0
+            ticking = running is not None or seq != last_seq
+            last_seq, last_returns = seq, returns

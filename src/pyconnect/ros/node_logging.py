@@ -1,0 +1,143 @@
+"""Logging and recording of a ``CustomNode``: log folders per agent, ``start_log_subs``, MCAP.
+
+A mixin of ``CustomNode`` (pyconnect.ros.custom_node): the node keeps its agents, lock and
+name; this part lays out ``<log_dir>/<node>/<session>/<agent>/`` folders, logs the latest value
+of every sub at a fixed rate, and records raw messages of the subscribed topics.
+"""
+
+# rclpy 7.1 ships py.typed but leaves most functions unannotated.
+# mypy: disable-error-code="no-untyped-call,attr-defined"
+
+from __future__ import annotations
+
+import datetime
+import threading
+from collections.abc import Iterable
+from pathlib import Path
+from typing import TYPE_CHECKING, Any, cast
+
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.node import Node
+
+from pyconnect.errors import PyconnectError
+from pyconnect.record.log_dirs import safe_path_component
+from pyconnect.ros.node_agent import NodeAgent
+from pyconnect.ros.recording import Recording
+from pyconnect.ros.subscriber_agent import SubscriberAgent
+
+
+class NodeLogging:
+    """Log folders, periodic sub logging and recording for ``CustomNode``."""
+
+    # Set up by CustomNode.__init__.
+    name: str
+    agents: dict[str, NodeAgent]
+    _lock: threading.RLock
+    _log_root: Path | None
+    _log_session: datetime.datetime | None
+    _log_subs_timer: Any
+    _log_subs_recording: Recording | None
+    _recordings: list[Recording]
+    _log_dirs: dict[str, Path]
+
+    if TYPE_CHECKING:  # rclpy's Node methods, on CustomNode (a stub here would shadow them)
+
+        def create_timer(
+            self, timer_period_sec: float, callback: Any, *, callback_group: Any = None
+        ) -> Any: ...
+
+        def destroy_timer(self, timer: Any) -> bool: ...
+
+    def agent_log_dir(self, agent_name: str) -> Path:
+        """``<log_dir>/<node>/<session>/<agent>/``, created once; agents whose names clean to
+        the same folder name (``status`` and ``/status``) get distinct folders."""
+        with self._lock:
+            directory = self._log_dirs.get(agent_name)
+            if directory is not None:
+                return directory
+            if self._log_session is None:
+                self._log_session = datetime.datetime.now()
+            session = (
+                self.log_dir
+                / safe_path_component(self.name)
+                / self._log_session.strftime("%Y%m%d-%H%M%S")
+            )
+            taken = {path.name for path in self._log_dirs.values()}
+            component = safe_path_component(agent_name)
+            unique, suffix = component, 1
+            while unique in taken:
+                suffix += 1
+                unique = f"{component}_{suffix}"
+            directory = session / unique
+            directory.mkdir(parents=True, exist_ok=True)
+            self._log_dirs[agent_name] = directory
+            return directory
+
+    @property
+    def log_dir(self) -> Path:
+        """The root under which ``<node>/<session>/<agent>/`` log directories are made."""
+        if self._log_root is None:
+            from pyconnect.record.log_dirs import DEFAULT_LOG_ROOT
+
+            self._log_root = Path(DEFAULT_LOG_ROOT)
+        return self._log_root
+
+    def make_log_dirs(self) -> dict[str, Path]:
+        """Create this session's log directory of every agent; {agent name: directory}."""
+        return {name: agent.make_log_dirs() for name, agent in list(self.agents.items())}
+
+    @property
+    def is_logging_subs(self) -> bool:
+        return self._log_subs_timer is not None
+
+    def start_log_subs(self, fps: float = 10, record: str | Path | None = None) -> None:
+        """Log the latest value of every sub ``fps`` times a second (new values only).
+
+        Subs with ``do_log_msg=True`` already log every value and are left out (one writer per
+        value). ``record=path`` also records the raw messages of the subscribed topics to MCAP.
+        """
+        if fps <= 0:
+            raise PyconnectError(f"start_log_subs: fps must be > 0, got {fps!r}")
+        with self._lock:
+            if self._log_subs_timer is not None:
+                raise PyconnectError(f"node {self.name!r} already logs its subs")
+            seen: dict[str, int] = {}
+
+            def log_latest() -> None:
+                for agent in list(self.agents.values()):
+                    if not isinstance(agent, SubscriberAgent) or agent.do_log_msg:
+                        continue
+                    count = agent.message_count
+                    if count == 0 or seen.get(agent.name) == count:
+                        continue
+                    seen[agent.name] = count
+                    try:
+                        agent.log_msg(agent.get())
+                    except Exception as error:
+                        agent.report_exception("start_log_subs", error)
+
+            self._log_subs_recording = self.record(record) if record is not None else None
+            self._log_subs_timer = self.create_timer(
+                1.0 / fps, log_latest, callback_group=MutuallyExclusiveCallbackGroup()
+            )
+
+    def stop_log_subs(self, timeout: float | None = 10.0) -> None:
+        """Stop ``start_log_subs`` and flush what it logged."""
+        with self._lock:
+            timer, self._log_subs_timer = self._log_subs_timer, None
+            recording, self._log_subs_recording = self._log_subs_recording, None
+        if timer is not None:
+            self.destroy_timer(timer)
+        if recording is not None:
+            recording.stop()
+        for agent in list(self.agents.values()):
+            agent.flush_log(timeout)
+
+    def record(self, path: str | Path, topics: Iterable[str] | None = None) -> Recording:
+        """Record raw messages of ``topics`` (default: every sub's topic) to an MCAP file."""
+        recording = Recording(
+            cast(Node, self), self.agents, Path(path), None if topics is None else list(topics)
+        )
+        with self._lock:
+            self._recordings.append(recording)
+        return recording
