@@ -279,3 +279,111 @@ def test_async_action_client_callbacks(make_node: Any) -> None:
     assert results == [returned] == [{"sequence": [6], "isdone": True}]
     # Each callback has its lane position: the acceptance ran before the result's callback.
     assert accepted == [True]
+
+
+# -- the inline driver: handlers that never await run on the calling thread ---------------------
+async def _no_await(value: int) -> int:
+    return value
+
+
+async def _awaits(value: int) -> int:
+    await asyncio.sleep(0)
+    return value
+
+
+class _Handlers:
+    async def method(self, value: int) -> int:
+        return value
+
+    async def generator(self) -> AsyncIterator[int]:
+        yield 1
+
+
+def test_never_suspends_tells_handlers_without_await() -> None:
+    import functools
+
+    from pyconnect.ros.coroutines import never_suspends
+
+    async def with_async_for(values: Any) -> None:
+        async for _ in values:
+            pass
+
+    async def with_async_with(lock: Any) -> None:
+        async with lock:
+            pass
+
+    handlers = _Handlers()
+    assert [
+        never_suspends(_no_await),
+        never_suspends(functools.partial(_no_await, 1)),
+        never_suspends(handlers.method),
+        never_suspends(_awaits),
+        never_suspends(with_async_for),
+        never_suspends(with_async_with),
+        never_suspends(handlers.generator),
+        never_suspends(lambda value: value),
+    ] == [True, True, True, False, False, False, False, False]
+
+
+def test_a_handler_without_await_runs_inline_on_the_lanes_loop(
+    user_loop: asyncio.AbstractEventLoop,
+) -> None:
+    from pyconnect.ros.coroutines import CoroutineRunner
+
+    runner = CoroutineRunner(user_loop, name="test")
+    lane = runner.lane()
+    seen: list[tuple[int, asyncio.AbstractEventLoop, threading.Thread]] = []
+    scheduled = threading.Event()
+    errors: list[BaseException] = []
+
+    async def handler(value: int) -> int:
+        seen.append((value, asyncio.get_running_loop(), threading.current_thread()))
+        # Work scheduled on the loop from here runs: the loop is woken after the handler.
+        asyncio.get_running_loop().call_soon(scheduled.set)
+        return value * 2
+
+    results: list[int] = []
+    lane.submit(handler, (3,), on_done=results.append, on_error=errors.append)
+    assert seen == [(3, user_loop, threading.current_thread())]
+    assert results == [6]
+    assert scheduled.wait(EVENT_TIMEOUT)
+
+    async def broken(value: int) -> None:
+        raise ValueError(f"bad {value}")
+
+    lane.submit(broken, (4,), on_done=None, on_error=errors.append)
+    assert [str(error) for error in errors] == ["bad 4"]
+    with pytest.raises(RuntimeError):
+        asyncio.get_running_loop()  # the calling thread has no running loop afterwards
+
+
+def test_a_handler_without_await_waits_behind_the_lanes_queued_coroutines(
+    user_loop: asyncio.AbstractEventLoop,
+) -> None:
+    from pyconnect.ros.coroutines import CoroutineRunner
+
+    lane = CoroutineRunner(user_loop, name="test").lane()
+    gate = threading.Event()
+    order: list[str] = []
+    done = threading.Event()
+
+    async def slow(name: str) -> None:
+        while not gate.is_set():
+            await asyncio.sleep(0.001)
+        order.append(name)
+
+    async def quick(name: str) -> None:
+        order.append(name)
+        if name == "quick 2":
+            done.set()
+
+    lane.submit(slow, ("slow",), on_done=None, on_error=print)
+    lane.submit(quick, ("quick 1",), on_done=None, on_error=print)
+    lane.submit(quick, ("quick 2",), on_done=None, on_error=print)
+    assert order == []  # queued behind the slow one, not run inline
+    gate.set()
+    assert done.wait(EVENT_TIMEOUT)
+    assert order == ["slow", "quick 1", "quick 2"]
+    # The lane is idle again: the next one runs inline.
+    lane.submit(quick, ("quick 3",), on_done=None, on_error=print)
+    assert order[-1] == "quick 3"
