@@ -300,11 +300,17 @@ def test_a_slow_subscription_keeps_the_last_depth_samples(make_peer: PeerFactory
     pub, sub = connected_pair(make_peer, "count", "std_msgs/msg/Int32", response_func=slow, depth=3)
     pub.send(1)
     assert wait_for(lambda: handled == [1])
-    # The first sample is in the handler; the others wait in the agent's queue (one at a time:
-    # a burst may meet zenoh's congestion control, which drops on the sending side).
+    # The first sample is in the handler; the others go to the agent's keep-last ring. A marker
+    # put after them on the same link arrives after zenoh has pushed them all into the ring.
+    marker = threading.Event()
+    probe = sub.peer.session.declare_subscriber("probe/marker", lambda _sample: marker.set())
+    probe_publisher = pub.peer.session.declare_publisher("probe/marker")
+    assert wait_for(lambda: probe_publisher.matching_status.matching)
     for value in range(2, 31):
         pub.send(value)
-        assert wait_for(lambda value=value: sub._queue.qsize() == value - 1)
+    probe_publisher.put(b"after")
+    assert marker.wait(TIMEOUT)
+    probe.undeclare()
     release.set()
     assert wait_for(lambda: sub.message_count == 4)
     assert handled == [1, 28, 29, 30]

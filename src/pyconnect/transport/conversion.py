@@ -46,9 +46,13 @@ def _as_dict(value: Any) -> Any:
 class WireConversion:
     """Encode values to CDR bytes and decode CDR bytes to values, for one type and agent.
 
-    The value codec is looked up once, when the agent is made (as ``CustomNode`` does), so the
-    per-message path is the codec's own functions and nothing else (bench/transport.py).
+    The value codec is looked up once, when the agent is made (as ``CustomNode`` does), and
+    ``encode``/``decode`` are closures over the functions that path needs: per message nothing
+    is looked up or tested but the value (bench/transport.py measures it).
     """
+
+    encode: Callable[[Any], bytes]
+    decode: Callable[[bytes], Any]
 
     def __init__(
         self,
@@ -64,62 +68,88 @@ class WireConversion:
         self.codec = codec
         self.registry = registry
         self.raw = raw
-        self._encode_func = encode_func
-        self._decode_func = decode_func
         value_codec = registry.value_codec(codec.msg_type)
         fields_codec = registry.fields_codec(codec.msg_type)
-        self._to_fields: Callable[[Any], Any] | None = (
-            fields_codec.to_fields if fields_codec is not None else None
+        to_fields = fields_codec.to_fields if fields_codec is not None else None
+        if raw:
+            self.encode, self.decode = self._raw_encode, _same
+            return
+        self.encode = self._encoder(
+            encode_func,
+            to_fields,
+            # A value codec without to_fields: the wire codec's encode says why it cannot.
+            codec_encodes=value_codec is not None and to_fields is None,
         )
-        self._value_decode: Callable[[Any], Any] | None = (
-            value_codec.decode if value_codec is not None else None
+        self.decode = self._decoder(
+            decode_func, value_codec.decode if value_codec is not None else None
         )
-        # A value codec without to_fields: the wire codec's encode says why it cannot encode.
-        self._codec_encodes = value_codec is not None and self._to_fields is None
 
-    def encode(self, value: Any) -> bytes:
-        if self.raw:
-            if not isinstance(value, (bytes, bytearray, memoryview)):
-                raise EncodeError(
-                    f"{self.describe}: expected CDR bytes, got {type(value).__name__}"
-                )
-            return bytes(value)
-        try:
-            if self._encode_func is not None:
-                default = _as_fields(self.codec.to_dict(self.codec.from_dict({})))
-                return self.codec.from_dict(_as_dict(self._encode_func(value, default)))
+    def _raw_encode(self, value: Any) -> bytes:
+        if not isinstance(value, (bytes, bytearray, memoryview)):
+            raise EncodeError(f"{self.describe}: expected CDR bytes, got {type(value).__name__}")
+        return bytes(value)
+
+    def _encoder(
+        self,
+        encode_func: EncodeFunc | None,
+        to_fields: Callable[[Any], Any] | None,
+        *,
+        codec_encodes: bool,
+    ) -> Callable[[Any], bytes]:
+        codec, registry, describe = self.codec, self.registry, self.describe
+        from_dict = codec.from_dict
+        where = "encode_func" if encode_func is not None else "codec"
+
+        def convert(value: Any) -> bytes:
+            if encode_func is not None:
+                default = _as_fields(codec.to_dict(from_dict({})))
+                return from_dict(_as_dict(encode_func(value, default)))
             if value is None:
-                return self.codec.from_dict({})  # send() without data: the default message
-            to_fields = self._to_fields
+                return from_dict({})  # send() without data: the default message
             if to_fields is not None:
-                return self.codec.from_dict(to_fields(value))
-            if self._codec_encodes:
-                return self.codec.encode(value, registry=self.registry)
-            return self.codec.from_dict(value)
-        except CodecError as error:
-            if str(error).startswith(self.describe):
-                raise
-            raise EncodeError(f"{self.describe}: {error}") from error
-        except Exception as error:
-            where = "encode_func" if self._encode_func is not None else "codec"
-            raise EncodeError(
-                f"{self.describe}: {where} raised {type(error).__name__}: {error}"
-            ) from error
+                return from_dict(to_fields(value))
+            if codec_encodes:
+                return codec.encode(value, registry=registry)
+            return from_dict(value)
 
-    def decode(self, payload: bytes) -> Any:
-        if self.raw:
-            return payload
-        try:
-            if self._decode_func is not None:
-                return self._decode_func(self.codec.decode_view(payload))
-            value_decode = self._value_decode
-            if value_decode is not None:
-                return value_decode(self.codec.decode_view(payload))
-            return self.codec.to_dict(payload)
-        except CodecError as error:
-            raise DecodeError(f"{self.describe}: {error}") from error
-        except Exception as error:
-            where = "decode_func" if self._decode_func is not None else "codec"
-            raise DecodeError(
-                f"{self.describe}: {where} raised {type(error).__name__}: {error}"
-            ) from error
+        def encode(value: Any) -> bytes:
+            try:
+                if to_fields is not None and encode_func is None and value is not None:
+                    return from_dict(to_fields(value))  # the common case, first
+                return convert(value)
+            except CodecError as error:
+                if str(error).startswith(describe):
+                    raise
+                raise EncodeError(f"{describe}: {error}") from error
+            except Exception as error:
+                raise EncodeError(
+                    f"{describe}: {where} raised {type(error).__name__}: {error}"
+                ) from error
+
+        return encode
+
+    def _decoder(
+        self, decode_func: DecodeFunc | None, value_decode: Callable[[Any], Any] | None
+    ) -> Callable[[bytes], Any]:
+        describe, decode_view = self.describe, self.codec.decode_view
+        convert = decode_func or value_decode
+        where = "decode_func" if decode_func is not None else "codec"
+        to_dict = self.codec.to_dict
+
+        def decode(payload: bytes) -> Any:
+            try:
+                if convert is not None:
+                    return convert(decode_view(payload))
+                return to_dict(payload)
+            except CodecError as error:
+                raise DecodeError(f"{describe}: {error}") from error
+            except Exception as error:
+                raise DecodeError(
+                    f"{describe}: {where} raised {type(error).__name__}: {error}"
+                ) from error
+
+        return decode
+
+
+def _same(payload: bytes) -> bytes:
+    return payload

@@ -9,10 +9,13 @@ seen on another type's key.) Payloads over the peer's ``max_payload_bytes`` are 
 counted (``oversize_count``), also reported once per publisher. Payloads are CDR, decoded by
 the wire codecs; nothing is ever unpickled.
 
-The per-sample path is short (bench/transport.py measures it): zenoh's thread only appends the
-sample to a ``queue.SimpleQueue`` (a C call, no Python frame), the agent's own thread takes it,
-so user code never blocks zenoh; when more than ``depth`` samples wait, the oldest are skipped
-(ROS keep-last) and counted in ``dropped_count`` with the publishers' sequence gaps.
+The per-sample path is short (bench/transport.py measures it). zenoh's own thread pushes each
+sample into a ``zenoh.handlers.RingChannel(depth)``, in Rust: no GIL, no Python frame, and the
+oldest sample is dropped when ``depth`` wait (ROS keep-last, as rmw_zenoh's subscription queue
+does). The agent's one thread blocks in ``recv()`` (the GIL released) and drains what waits with
+``try_recv()``: it checks, decodes and hands each sample to ``response_func`` in arrival order, so
+user code never blocks zenoh. Samples lost on the way (dropped by keep-last, or by zenoh's
+congestion control) are counted in ``dropped_count`` from the publishers' sequence gaps.
 """
 
 # zenoh's stubs leave undeclare() and close() unannotated.
@@ -21,7 +24,6 @@ so user code never blocks zenoh; when more than ``depth`` samples wait, the olde
 from __future__ import annotations
 
 import contextlib
-import queue
 import struct
 import threading
 import time
@@ -203,8 +205,9 @@ class SubscriberAgent(PeerAgent):
         )
         self.key = keys.data_key(peer.domain_id, self.topic, interface.type_name, self.type_hash)
         self._decode = self.conversion.decode
-        self._queue: queue.SimpleQueue[Any] = queue.SimpleQueue()
-        self._subscriber = peer.session.declare_subscriber(self.key, self._queue.put)
+        self._subscriber = peer.session.declare_subscriber(
+            self.key, zenoh.handlers.RingChannel(depth)
+        )
         self._token = peer.session.liveliness().declare_token(self.token_key)
         self._other_types: dict[str, Any] = {}
         self._closed = False
@@ -246,17 +249,22 @@ class SubscriberAgent(PeerAgent):
 
     # -- the agent's thread ----------------------------------------------------------------------
     def _run(self) -> None:
-        take, waiting, depth = self._queue.get, self._queue.qsize, self.depth
+        samples: Any = self._subscriber.handler  # a zenoh Handler[Sample] (stubs: generic)
+        recv, try_recv, handle = samples.recv, samples.try_recv, self._on_sample
         while True:
-            sample = take()
-            if sample is None:
-                return
-            if waiting() >= depth:
-                continue  # keep-last: newer samples wait; the gap is counted on the next one
             try:
-                self._on_sample(sample)
-            except Exception as error:
-                self.report_exception("receive", error)
+                sample = recv()  # waits with the GIL released
+            except zenoh.ZError:
+                return  # the subscriber is undeclared: the agent is closing
+            while sample is not None:
+                try:
+                    handle(sample)
+                except Exception as error:
+                    self.report_exception("receive", error)
+                try:
+                    sample = try_recv()  # what else waits, without giving up the GIL per sample
+                except zenoh.ZError:
+                    return
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         attachment = sample.attachment
@@ -332,7 +340,6 @@ class SubscriberAgent(PeerAgent):
         others = [entity for entity in self._other_types.values() if entity is not None]
         for entity in (self._token, self._subscriber, *others):
             with contextlib.suppress(Exception):
-                entity.undeclare()
-        self._queue.put(None)
+                entity.undeclare()  # the subscriber's: its channel closes, recv() ends the thread
         if self._thread is not threading.current_thread():
             self._thread.join(5.0)
