@@ -7,12 +7,16 @@ buffer, bring it to about 4 ms. ``pyconnect run script.py`` does both for a prog
 importing ``pyconnect.ros`` when ``PYCONNECT_LARGE_MESSAGES=1``:
 
 - writes a Fast DDS XML profile (a shared-memory transport with a ``PYCONNECT_SHM_SEGMENT_MB``
-  segment, 256 MiB by default, beside UDPv4 for other hosts) and points
+  segment, 64 MiB by default, beside UDPv4 for other hosts) and points
   ``FASTRTPS_DEFAULT_PROFILES_FILE`` at it — Fast DDS reads it when the first node of the
   process is created, so import pyconnect before creating rclpy nodes yourself;
 - calls glibc's ``mallopt`` with the values of ``MALLOC_MMAP_THRESHOLD_=268435456`` and
   ``MALLOC_TRIM_THRESHOLD_=1073741824`` (``pyconnect run script.py`` sets the variables before
   the interpreter starts, which also covers what was allocated before the import).
+
+Fast DDS's data-sharing is left at its default (automatic): it refuses data-sharing for
+unbounded types such as Image and PointCloud2, which therefore travel through the shared-memory
+transport in 64 KB fragments (the delivery stage of ``bench.large_messages``).
 
 Not on at plain import: it gives the process a shared-memory segment and changes its malloc,
 a choice for the program's owner (``pyconnect run``, or the variable), not a side effect.
@@ -38,8 +42,14 @@ MALLOC_SETTINGS = {
 }
 """glibc's environment variables and the values pyconnect uses (bytes)."""
 
-DEFAULT_SEGMENT_MB = 256
-"""Shared-memory segment per process: room for a queue of 5 frames of 1080p, or 5 x 10 MB clouds."""
+DEFAULT_SEGMENT_MB = 64
+"""Shared-memory segment per process: room for 5 queued 1080p frames, 2 of 4K or 5 x 10 MB clouds.
+
+Fast DDS writes the whole segment when it creates it, so each process holds this much RAM in
+``/dev/shm``, and a process that dies without shutting down leaves it there: 256 MiB filled a
+24 GB ``/dev/shm`` during a benchmark run. 16, 32, 64 and 256 MiB gave the same 1080p latency
+(the frame is copied out of the segment as it arrives). ``PYCONNECT_SHM_SEGMENT_MB`` changes it.
+"""
 
 _M_TRIM_THRESHOLD = -1
 _M_MMAP_THRESHOLD = -3
