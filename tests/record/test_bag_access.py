@@ -254,3 +254,41 @@ def test_chunks_in_memory_maps_read_alike(
         assert bag.damage == []
     with open_bag(cut) as bag:
         assert [m.value for m in bag] == [f"hello {i}" for i in range(200)]
+
+
+@pytest.mark.parametrize("compression", ["zstd", "none"])
+def test_chunk_buffers_are_reused_only_when_no_value_views_them(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, compression: str
+) -> None:
+    """A file reuses its last chunk buffer for the next chunk once nothing views it: natural
+    images kept by the caller (views on their chunks) keep their pixels, and a read that keeps
+    nothing loads every chunk after the first into the same buffer."""
+    from sensor_msgs.msg import Image
+
+    from pyconnect.record import mcap_chunks
+
+    path = tmp_path / "images.mcap"
+    with McapRecorder(path, compression=compression, chunk_size=50_000) as recorder:
+        recorder.add_topic("/camera", "sensor_msgs/msg/Image")
+        for i in range(30):
+            image = Image(height=100, width=100, encoding="mono8", step=100)
+            image.data = bytes([i]) * 10_000
+            recorder.write("/camera", bytes(serialize_message(image)), log_time_ns=i)
+    with open_bag(path) as bag:
+        kept = [item.value for item in bag]
+    assert [(int(v.min()), int(v.max())) for v in kept] == [(i, i) for i in range(30)]
+
+    made: list[int] = []
+    take = mcap_chunks.ChunkBuffers.take
+
+    def counting_take(self: mcap_chunks.ChunkBuffers, size: int) -> memoryview:
+        before = id(self._spare)  # not the buffer: a reference would keep it from reuse
+        view = take(self, size)
+        if id(self._spare) != before:
+            made.append(size)
+        return view
+
+    monkeypatch.setattr(mcap_chunks.ChunkBuffers, "take", counting_take)
+    with open_bag(path) as bag:
+        assert sum(1 for _ in bag) == 30
+    assert len(made) == 1, made

@@ -18,8 +18,8 @@ One decoder per type builds either the lossless dict or the view (``_build`` mak
 closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
 to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
 linked from their modules. Positions count from the end of the encapsulation header; numeric and
-uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
-``to_dict`` of a live message gives). Imports nothing from ROS.
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes read straight
+from the input in dicts (what ``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -31,12 +31,14 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
+    NATIVE_ORDER,
     decode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
+    swapped_list,
     too_long,
     view_fields,
     view_repr,
@@ -338,6 +340,7 @@ def cancel_goal_event_view(a0: Any, a1: Any, a2: Any) -> CancelGoal_Event:
 
 def _build(E: str, view: bool) -> dict[str, Any]:
     """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    native = E == NATIVE_ORDER
     _U32 = Struct(E + "I")
     _S_B = Struct(E + "B")
     _S_b = Struct(E + "b")
@@ -352,7 +355,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".goal_id.uuid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v4 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v4 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = GOAL_INFO_RUN_0
@@ -366,7 +372,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             return goal_info_view(
                 unique_identifier_msgs__uuid_view(v4), builtin_interfaces__time_view(v7, v9)
             ), pos
-        return {"goal_id": {"uuid": v4.tobytes()}, "stamp": {"sec": v7, "nanosec": v9}}, pos
+        return {"goal_id": {"uuid": v4}, "stamp": {"sec": v7, "nanosec": v9}}, pos
 
     def goal_info_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -411,7 +417,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".goal_info.goal_id.uuid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v5 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v5 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v5 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = GOAL_STATUS_RUN_0
@@ -429,7 +438,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 v12,
             ), pos
         return {
-            "goal_info": {"goal_id": {"uuid": v5.tobytes()}, "stamp": {"sec": v8, "nanosec": v10}},
+            "goal_info": {"goal_id": {"uuid": v5}, "stamp": {"sec": v8, "nanosec": v10}},
             "status": v12,
         }, pos
 
@@ -510,7 +519,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".goal_info.goal_id.uuid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v5 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v5 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v5 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = CANCEL_GOAL_REQUEST_RUN_0
@@ -526,9 +538,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                     unique_identifier_msgs__uuid_view(v5), builtin_interfaces__time_view(v8, v10)
                 )
             ), pos
-        return {
-            "goal_info": {"goal_id": {"uuid": v5.tobytes()}, "stamp": {"sec": v8, "nanosec": v10}}
-        }, pos
+        return {"goal_info": {"goal_id": {"uuid": v5}, "stamp": {"sec": v8, "nanosec": v10}}}, pos
 
     def cancel_goal_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -623,7 +633,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = CANCEL_GOAL_EVENT_RUN_2
@@ -649,7 +662,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,

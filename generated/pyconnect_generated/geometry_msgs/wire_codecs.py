@@ -70,8 +70,8 @@ One decoder per type builds either the lossless dict or the view (``_build`` mak
 closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
 to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
 linked from their modules. Positions count from the end of the encapsulation header; numeric and
-uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
-``to_dict`` of a live message gives). Imports nothing from ROS.
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes read straight
+from the input in dicts (what ``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -83,12 +83,14 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
+    NATIVE_ORDER,
     decode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
+    swapped_list,
     too_long,
     view_fields,
     view_repr,
@@ -1583,6 +1585,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
     """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
     std_msgs__header_decode = STD_MSGS__FUNCTIONS[E, view]["header_decode"]
     std_msgs__header_encode = STD_MSGS__FUNCTIONS[E, view]["header_encode"]
+    native = E == NATIVE_ORDER
     _U32 = Struct(E + "I")
     _S_10d = Struct(E + "10d")
     _S_3d = Struct(E + "3d")
@@ -1777,7 +1780,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v18 = _frombuffer(mv, _D_float64, 36, pos)
+            if view:
+                v18 = _frombuffer(mv, _D_float64, 36, pos)
+            elif native:
+                v18 = mv[pos : pos + 36 * 8].cast("d").tolist()
+            else:
+                v18 = swapped_list(mv, pos, 36, "d")
             pos += 36 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1792,7 +1800,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 "linear": {"x": v4, "y": v6, "z": v8},
                 "angular": {"x": v11, "y": v13, "z": v15},
             },
-            "covariance": v18.tolist(),
+            "covariance": v18,
         }, pos
 
     def accel_with_covariance_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1858,7 +1866,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".accel.covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v20 = _frombuffer(mv, _D_float64, 36, pos)
+            if view:
+                v20 = _frombuffer(mv, _D_float64, 36, pos)
+            elif native:
+                v20 = mv[pos : pos + 36 * 8].cast("d").tolist()
+            else:
+                v20 = swapped_list(mv, pos, 36, "d")
             pos += 36 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1878,7 +1891,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                     "linear": {"x": v6, "y": v8, "z": v10},
                     "angular": {"x": v13, "y": v15, "z": v17},
                 },
-                "covariance": v20.tolist(),
+                "covariance": v20,
             },
         }, pos
 
@@ -2625,7 +2638,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v20 = _frombuffer(mv, _D_float64, 36, pos)
+            if view:
+                v20 = _frombuffer(mv, _D_float64, 36, pos)
+            elif native:
+                v20 = mv[pos : pos + 36 * 8].cast("d").tolist()
+            else:
+                v20 = swapped_list(mv, pos, 36, "d")
             pos += 36 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2640,7 +2658,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 "position": {"x": v4, "y": v6, "z": v8},
                 "orientation": {"x": v11, "y": v13, "z": v15, "w": v17},
             },
-            "covariance": v20.tolist(),
+            "covariance": v20,
         }, pos
 
     def pose_with_covariance_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2708,7 +2726,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".pose.covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v22 = _frombuffer(mv, _D_float64, 36, pos)
+            if view:
+                v22 = _frombuffer(mv, _D_float64, 36, pos)
+            elif native:
+                v22 = mv[pos : pos + 36 * 8].cast("d").tolist()
+            else:
+                v22 = swapped_list(mv, pos, 36, "d")
             pos += 36 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2728,7 +2751,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                     "position": {"x": v6, "y": v8, "z": v10},
                     "orientation": {"x": v13, "y": v15, "z": v17, "w": v19},
                 },
-                "covariance": v22.tolist(),
+                "covariance": v22,
             },
         }, pos
 
@@ -3153,7 +3176,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v18 = _frombuffer(mv, _D_float64, 36, pos)
+            if view:
+                v18 = _frombuffer(mv, _D_float64, 36, pos)
+            elif native:
+                v18 = mv[pos : pos + 36 * 8].cast("d").tolist()
+            else:
+                v18 = swapped_list(mv, pos, 36, "d")
             pos += 36 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3168,7 +3196,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 "linear": {"x": v4, "y": v6, "z": v8},
                 "angular": {"x": v11, "y": v13, "z": v15},
             },
-            "covariance": v18.tolist(),
+            "covariance": v18,
         }, pos
 
     def twist_with_covariance_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3234,7 +3262,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".twist.covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v20 = _frombuffer(mv, _D_float64, 36, pos)
+            if view:
+                v20 = _frombuffer(mv, _D_float64, 36, pos)
+            elif native:
+                v20 = mv[pos : pos + 36 * 8].cast("d").tolist()
+            else:
+                v20 = swapped_list(mv, pos, 36, "d")
             pos += 36 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3254,7 +3287,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                     "linear": {"x": v6, "y": v8, "z": v10},
                     "angular": {"x": v13, "y": v15, "z": v17},
                 },
-                "covariance": v20.tolist(),
+                "covariance": v20,
             },
         }, pos
 

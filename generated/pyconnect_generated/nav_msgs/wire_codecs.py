@@ -42,8 +42,8 @@ One decoder per type builds either the lossless dict or the view (``_build`` mak
 closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
 to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
 linked from their modules. Positions count from the end of the encapsulation header; numeric and
-uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
-``to_dict`` of a live message gives). Imports nothing from ROS.
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes read straight
+from the input in dicts (what ``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -55,12 +55,14 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
+    NATIVE_ORDER,
     decode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
+    swapped_list,
     too_long,
     view_fields,
     view_repr,
@@ -958,6 +960,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
     ]
     std_msgs__header_decode = STD_MSGS__FUNCTIONS[E, view]["header_decode"]
     std_msgs__header_encode = STD_MSGS__FUNCTIONS[E, view]["header_encode"]
+    native = E == NATIVE_ORDER
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_2f = Struct(E + "2f")
@@ -1185,7 +1188,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".data"
             if v33 * 1 > lim - pos:
                 raise too_long(v33, 1, lim - pos)
-            v34 = _frombuffer(mv, _D_int8, v33, pos)
+            if view:
+                v34 = _frombuffer(mv, _D_int8, v33, pos)
+            elif native:
+                v34 = mv[pos : pos + v33 * 1].cast("b").tolist()
+            else:
+                v34 = swapped_list(mv, pos, v33, "b")
             pos += v33 * 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1218,7 +1226,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                     "orientation": {"x": v24, "y": v26, "z": v28, "w": v30},
                 },
             },
-            "data": v34.tolist(),
+            "data": v34,
         }, pos
 
     def occupancy_grid_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -1327,7 +1335,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".pose.covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v25 = _frombuffer(mv, _D_float64, 36, pos)
+            if view:
+                v25 = _frombuffer(mv, _D_float64, 36, pos)
+            elif native:
+                v25 = mv[pos : pos + 36 * 8].cast("d").tolist()
+            else:
+                v25 = swapped_list(mv, pos, 36, "d")
             pos += 36 * 8
             f = ODOMETRY_RUN_2
             v30, v32, v34, v37, v39, v41 = _S_6d.unpack_from(mv, pos)
@@ -1335,7 +1348,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".twist.covariance"
             if 36 * 8 > lim - pos:
                 raise too_long(36, 8, lim - pos)
-            v44 = _frombuffer(mv, _D_float64, 36, pos)
+            if view:
+                v44 = _frombuffer(mv, _D_float64, 36, pos)
+            elif native:
+                v44 = mv[pos : pos + 36 * 8].cast("d").tolist()
+            else:
+                v44 = swapped_list(mv, pos, 36, "d")
             pos += 36 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1368,14 +1386,14 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                     "position": {"x": v9, "y": v11, "z": v13},
                     "orientation": {"x": v16, "y": v18, "z": v20, "w": v22},
                 },
-                "covariance": v25.tolist(),
+                "covariance": v25,
             },
             "twist": {
                 "twist": {
                     "linear": {"x": v30, "y": v32, "z": v34},
                     "angular": {"x": v37, "y": v39, "z": v41},
                 },
-                "covariance": v44.tolist(),
+                "covariance": v44,
             },
         }, pos
 
@@ -1601,7 +1619,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_MAP_EVENT_RUN_2
@@ -1627,7 +1648,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -1784,7 +1805,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_PLAN_EVENT_RUN_2
@@ -1810,7 +1834,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -1977,7 +2001,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = LOAD_MAP_EVENT_RUN_2
@@ -2003,7 +2030,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -2153,7 +2180,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = SET_MAP_EVENT_RUN_2
@@ -2179,7 +2209,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,

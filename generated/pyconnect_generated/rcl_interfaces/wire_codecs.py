@@ -80,8 +80,8 @@ One decoder per type builds either the lossless dict or the view (``_build`` mak
 closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
 to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
 linked from their modules. Positions count from the end of the encapsulation header; numeric and
-uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
-``to_dict`` of a live message gives). Imports nothing from ROS.
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes read straight
+from the input in dicts (what ``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -93,12 +93,14 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
+    NATIVE_ORDER,
     decode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
+    swapped_list,
     too_long,
     view_fields,
     view_repr,
@@ -1802,6 +1804,7 @@ def set_parameters_atomically_event_view(
 
 def _build(E: str, view: bool) -> dict[str, Any]:
     """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    native = E == NATIVE_ORDER
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_2T = Struct(E + "2?")
@@ -2167,7 +2170,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".byte_array_value"
             if v14 * 1 > lim - pos:
                 raise too_long(v14, 1, lim - pos)
-            v15 = _frombuffer(mv, _D_uint8, v14, pos)
+            if view:
+                v15 = _frombuffer(mv, _D_uint8, v14, pos)
+            else:
+                v15 = mv[pos : pos + v14].tobytes()
             pos += v14 * 1
             pos = (pos + 3) & -4
             f = PARAMETER_VALUE_RUN_3
@@ -2187,7 +2193,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v22 * 8 > lim - pos:
                 raise too_long(v22, 8, lim - pos)
-            v23 = _frombuffer(mv, _D_int64, v22, pos)
+            if view:
+                v23 = _frombuffer(mv, _D_int64, v22, pos)
+            elif native:
+                v23 = mv[pos : pos + v22 * 8].cast("q").tolist()
+            else:
+                v23 = swapped_list(mv, pos, v22, "q")
             pos += v22 * 8
             f = PARAMETER_VALUE_RUN_5
             (v26,) = _S_I.unpack_from(mv, pos)
@@ -2197,7 +2208,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v26 * 8 > lim - pos:
                 raise too_long(v26, 8, lim - pos)
-            v27 = _frombuffer(mv, _D_float64, v26, pos)
+            if view:
+                v27 = _frombuffer(mv, _D_float64, v26, pos)
+            elif native:
+                v27 = mv[pos : pos + v26 * 8].cast("d").tolist()
+            else:
+                v27 = swapped_list(mv, pos, v26, "d")
             pos += v26 * 8
             f = ".string_array_value"
             v28, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
@@ -2213,10 +2229,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "integer_value": v6,
             "double_value": v8,
             "string_value": v11,
-            "byte_array_value": v15.tobytes(),
+            "byte_array_value": v15,
             "bool_array_value": v19,
-            "integer_array_value": v23.tolist(),
-            "double_array_value": v27.tolist(),
+            "integer_array_value": v23,
+            "double_array_value": v27,
             "string_array_value": v28,
         }, pos
 
@@ -2867,7 +2883,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = DESCRIBE_PARAMETERS_EVENT_RUN_2
@@ -2897,7 +2916,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -3036,7 +3055,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_LOGGER_LEVELS_EVENT_RUN_2
@@ -3066,7 +3088,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -3174,7 +3196,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".types"
             if v3 * 1 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, v3, pos)
+            if view:
+                v4 = _frombuffer(mv, _D_uint8, v3, pos)
+            else:
+                v4 = mv[pos : pos + v3].tobytes()
             pos += v3 * 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3182,7 +3207,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return get_parameter_types_response_view(v4), pos
-        return {"types": v4.tobytes()}, pos
+        return {"types": v4}, pos
 
     def get_parameter_types_response_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -3222,7 +3247,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_PARAMETER_TYPES_EVENT_RUN_2
@@ -3252,7 +3280,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -3391,7 +3419,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_PARAMETERS_EVENT_RUN_2
@@ -3417,7 +3448,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -3570,7 +3601,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = LIST_PARAMETERS_EVENT_RUN_2
@@ -3600,7 +3634,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -3743,7 +3777,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = SET_LOGGER_LEVELS_EVENT_RUN_2
@@ -3773,7 +3810,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -3914,7 +3951,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = SET_PARAMETERS_EVENT_RUN_2
@@ -3940,7 +3980,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -4085,7 +4125,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = SET_PARAMETERS_ATOMICALLY_EVENT_RUN_2
@@ -4115,7 +4158,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,

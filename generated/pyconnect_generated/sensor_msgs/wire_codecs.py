@@ -66,8 +66,8 @@ One decoder per type builds either the lossless dict or the view (``_build`` mak
 closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
 to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
 linked from their modules. Positions count from the end of the encapsulation header; numeric and
-uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
-``to_dict`` of a live message gives). Imports nothing from ROS.
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes read straight
+from the input in dicts (what ``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -79,12 +79,14 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
+    NATIVE_ORDER,
     decode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
+    swapped_list,
     too_long,
     view_fields,
     view_repr,
@@ -1797,6 +1799,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
     geometry_msgs__wrench_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["wrench_encode"]
     std_msgs__header_decode = STD_MSGS__FUNCTIONS[E, view]["header_decode"]
     std_msgs__header_encode = STD_MSGS__FUNCTIONS[E, view]["header_encode"]
+    native = E == NATIVE_ORDER
     _U32 = Struct(E + "I")
     _S_2B = Struct(E + "2B")
     _S_2I = Struct(E + "2I")
@@ -1837,7 +1840,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".cell_voltage"
             if v26 * 4 > lim - pos:
                 raise too_long(v26, 4, lim - pos)
-            v27 = _frombuffer(mv, _D_float32, v26, pos)
+            if view:
+                v27 = _frombuffer(mv, _D_float32, v26, pos)
+            elif native:
+                v27 = mv[pos : pos + v26 * 4].cast("f").tolist()
+            else:
+                v27 = swapped_list(mv, pos, v26, "f")
             pos += v26 * 4
             f = BATTERY_STATE_RUN_1
             (v30,) = _S_I.unpack_from(mv, pos)
@@ -1845,7 +1853,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".cell_temperature"
             if v30 * 4 > lim - pos:
                 raise too_long(v30, 4, lim - pos)
-            v31 = _frombuffer(mv, _D_float32, v30, pos)
+            if view:
+                v31 = _frombuffer(mv, _D_float32, v30, pos)
+            elif native:
+                v31 = mv[pos : pos + v30 * 4].cast("f").tolist()
+            else:
+                v31 = swapped_list(mv, pos, v30, "f")
             pos += v30 * 4
             f = BATTERY_STATE_RUN_2
             (v33,) = _S_I.unpack_from(mv, pos)
@@ -1885,8 +1898,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "power_supply_health": v19,
             "power_supply_technology": v21,
             "present": v23,
-            "cell_voltage": v27.tolist(),
-            "cell_temperature": v31.tolist(),
+            "cell_voltage": v27,
+            "cell_temperature": v31,
             "location": v34,
             "serial_number": v37,
         }, pos
@@ -2051,23 +2064,43 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v11 * 8 > lim - pos:
                 raise too_long(v11, 8, lim - pos)
-            v12 = _frombuffer(mv, _D_float64, v11, pos)
+            if view:
+                v12 = _frombuffer(mv, _D_float64, v11, pos)
+            elif native:
+                v12 = mv[pos : pos + v11 * 8].cast("d").tolist()
+            else:
+                v12 = swapped_list(mv, pos, v11, "d")
             pos += v11 * 8
             f = ".k"
             pos = (pos + 7) & -8
             if 9 * 8 > lim - pos:
                 raise too_long(9, 8, lim - pos)
-            v15 = _frombuffer(mv, _D_float64, 9, pos)
+            if view:
+                v15 = _frombuffer(mv, _D_float64, 9, pos)
+            elif native:
+                v15 = mv[pos : pos + 9 * 8].cast("d").tolist()
+            else:
+                v15 = swapped_list(mv, pos, 9, "d")
             pos += 9 * 8
             f = ".r"
             if 9 * 8 > lim - pos:
                 raise too_long(9, 8, lim - pos)
-            v18 = _frombuffer(mv, _D_float64, 9, pos)
+            if view:
+                v18 = _frombuffer(mv, _D_float64, 9, pos)
+            elif native:
+                v18 = mv[pos : pos + 9 * 8].cast("d").tolist()
+            else:
+                v18 = swapped_list(mv, pos, 9, "d")
             pos += 9 * 8
             f = ".p"
             if 12 * 8 > lim - pos:
                 raise too_long(12, 8, lim - pos)
-            v21 = _frombuffer(mv, _D_float64, 12, pos)
+            if view:
+                v21 = _frombuffer(mv, _D_float64, 12, pos)
+            elif native:
+                v21 = mv[pos : pos + 12 * 8].cast("d").tolist()
+            else:
+                v21 = swapped_list(mv, pos, 12, "d")
             pos += 12 * 8
             f = CAMERA_INFO_RUN_2
             v23, v25, v28, v30, v32, v34, v36 = _S_6IT.unpack_from(mv, pos)
@@ -2095,10 +2128,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "height": v3,
             "width": v5,
             "distortion_model": v8,
-            "d": v12.tolist(),
-            "k": v15.tolist(),
-            "r": v18.tolist(),
-            "p": v21.tolist(),
+            "d": v12,
+            "k": v15,
+            "r": v18,
+            "p": v21,
             "binning_x": v23,
             "binning_y": v25,
             "roi": {
@@ -2221,7 +2254,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".values"
             if v6 * 4 > lim - pos:
                 raise too_long(v6, 4, lim - pos)
-            v7 = _frombuffer(mv, _D_float32, v6, pos)
+            if view:
+                v7 = _frombuffer(mv, _D_float32, v6, pos)
+            elif native:
+                v7 = mv[pos : pos + v6 * 4].cast("f").tolist()
+            else:
+                v7 = swapped_list(mv, pos, v6, "f")
             pos += v6 * 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2229,7 +2267,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return channel_float32_view(v3, v7), pos
-        return {"name": v3, "values": v7.tolist()}, pos
+        return {"name": v3, "values": v7}, pos
 
     def channel_float32_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2291,7 +2329,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".data"
             if v7 * 1 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, v7, pos)
+            if view:
+                v8 = _frombuffer(mv, _D_uint8, v7, pos)
+            else:
+                v8 = mv[pos : pos + v7].tobytes()
             pos += v7 * 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2299,7 +2340,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return compressed_image_view(v1, v4, v8), pos
-        return {"header": v1, "format": v4, "data": v8.tobytes()}, pos
+        return {"header": v1, "format": v4, "data": v8}, pos
 
     def compressed_image_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2454,7 +2495,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".data"
             if v15 * 1 > lim - pos:
                 raise too_long(v15, 1, lim - pos)
-            v16 = _frombuffer(mv, _D_uint8, v15, pos)
+            if view:
+                v16 = _frombuffer(mv, _D_uint8, v15, pos)
+            else:
+                v16 = mv[pos : pos + v15].tobytes()
             pos += v15 * 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2469,7 +2513,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "encoding": v8,
             "is_bigendian": v10,
             "step": v12,
-            "data": v16.tobytes(),
+            "data": v16,
         }, pos
 
     def image_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2539,7 +2583,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".orientation_covariance"
             if 9 * 8 > lim - pos:
                 raise too_long(9, 8, lim - pos)
-            v13 = _frombuffer(mv, _D_float64, 9, pos)
+            if view:
+                v13 = _frombuffer(mv, _D_float64, 9, pos)
+            elif native:
+                v13 = mv[pos : pos + 9 * 8].cast("d").tolist()
+            else:
+                v13 = swapped_list(mv, pos, 9, "d")
             pos += 9 * 8
             f = IMU_RUN_1
             v16, v18, v20 = _S_3d.unpack_from(mv, pos)
@@ -2547,7 +2596,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".angular_velocity_covariance"
             if 9 * 8 > lim - pos:
                 raise too_long(9, 8, lim - pos)
-            v23 = _frombuffer(mv, _D_float64, 9, pos)
+            if view:
+                v23 = _frombuffer(mv, _D_float64, 9, pos)
+            elif native:
+                v23 = mv[pos : pos + 9 * 8].cast("d").tolist()
+            else:
+                v23 = swapped_list(mv, pos, 9, "d")
             pos += 9 * 8
             f = IMU_RUN_2
             v26, v28, v30 = _S_3d.unpack_from(mv, pos)
@@ -2555,7 +2609,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".linear_acceleration_covariance"
             if 9 * 8 > lim - pos:
                 raise too_long(9, 8, lim - pos)
-            v33 = _frombuffer(mv, _D_float64, 9, pos)
+            if view:
+                v33 = _frombuffer(mv, _D_float64, 9, pos)
+            elif native:
+                v33 = mv[pos : pos + 9 * 8].cast("d").tolist()
+            else:
+                v33 = swapped_list(mv, pos, 9, "d")
             pos += 9 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2574,11 +2633,11 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         return {
             "header": v1,
             "orientation": {"x": v4, "y": v6, "z": v8, "w": v10},
-            "orientation_covariance": v13.tolist(),
+            "orientation_covariance": v13,
             "angular_velocity": {"x": v16, "y": v18, "z": v20},
-            "angular_velocity_covariance": v23.tolist(),
+            "angular_velocity_covariance": v23,
             "linear_acceleration": {"x": v26, "y": v28, "z": v30},
-            "linear_acceleration_covariance": v33.tolist(),
+            "linear_acceleration_covariance": v33,
         }, pos
 
     def imu_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -2682,7 +2741,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v5 * 8 > lim - pos:
                 raise too_long(v5, 8, lim - pos)
-            v6 = _frombuffer(mv, _D_float64, v5, pos)
+            if view:
+                v6 = _frombuffer(mv, _D_float64, v5, pos)
+            elif native:
+                v6 = mv[pos : pos + v5 * 8].cast("d").tolist()
+            else:
+                v6 = swapped_list(mv, pos, v5, "d")
             pos += v5 * 8
             f = JOINT_STATE_RUN_1
             (v9,) = _S_I.unpack_from(mv, pos)
@@ -2692,7 +2756,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v9 * 8 > lim - pos:
                 raise too_long(v9, 8, lim - pos)
-            v10 = _frombuffer(mv, _D_float64, v9, pos)
+            if view:
+                v10 = _frombuffer(mv, _D_float64, v9, pos)
+            elif native:
+                v10 = mv[pos : pos + v9 * 8].cast("d").tolist()
+            else:
+                v10 = swapped_list(mv, pos, v9, "d")
             pos += v9 * 8
             f = JOINT_STATE_RUN_2
             (v13,) = _S_I.unpack_from(mv, pos)
@@ -2702,7 +2771,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v13 * 8 > lim - pos:
                 raise too_long(v13, 8, lim - pos)
-            v14 = _frombuffer(mv, _D_float64, v13, pos)
+            if view:
+                v14 = _frombuffer(mv, _D_float64, v13, pos)
+            elif native:
+                v14 = mv[pos : pos + v13 * 8].cast("d").tolist()
+            else:
+                v14 = swapped_list(mv, pos, v13, "d")
             pos += v13 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2710,13 +2784,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return joint_state_view(v1, v2, v6, v10, v14), pos
-        return {
-            "header": v1,
-            "name": v2,
-            "position": v6.tolist(),
-            "velocity": v10.tolist(),
-            "effort": v14.tolist(),
-        }, pos
+        return {"header": v1, "name": v2, "position": v6, "velocity": v10, "effort": v14}, pos
 
     def joint_state_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2794,7 +2862,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".axes"
             if v4 * 4 > lim - pos:
                 raise too_long(v4, 4, lim - pos)
-            v5 = _frombuffer(mv, _D_float32, v4, pos)
+            if view:
+                v5 = _frombuffer(mv, _D_float32, v4, pos)
+            elif native:
+                v5 = mv[pos : pos + v4 * 4].cast("f").tolist()
+            else:
+                v5 = swapped_list(mv, pos, v4, "f")
             pos += v4 * 4
             f = JOY_RUN_1
             (v8,) = _S_I.unpack_from(mv, pos)
@@ -2802,7 +2875,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".buttons"
             if v8 * 4 > lim - pos:
                 raise too_long(v8, 4, lim - pos)
-            v9 = _frombuffer(mv, _D_int32, v8, pos)
+            if view:
+                v9 = _frombuffer(mv, _D_int32, v8, pos)
+            elif native:
+                v9 = mv[pos : pos + v8 * 4].cast("i").tolist()
+            else:
+                v9 = swapped_list(mv, pos, v8, "i")
             pos += v8 * 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2810,7 +2888,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return joy_view(v1, v5, v9), pos
-        return {"header": v1, "axes": v5.tolist(), "buttons": v9.tolist()}, pos
+        return {"header": v1, "axes": v5, "buttons": v9}, pos
 
     def joy_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2938,7 +3016,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".echoes"
             if v3 * 4 > lim - pos:
                 raise too_long(v3, 4, lim - pos)
-            v4 = _frombuffer(mv, _D_float32, v3, pos)
+            if view:
+                v4 = _frombuffer(mv, _D_float32, v3, pos)
+            elif native:
+                v4 = mv[pos : pos + v3 * 4].cast("f").tolist()
+            else:
+                v4 = swapped_list(mv, pos, v3, "f")
             pos += v3 * 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2946,7 +3029,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return laser_echo_view(v4), pos
-        return {"echoes": v4.tolist()}, pos
+        return {"echoes": v4}, pos
 
     def laser_echo_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2985,7 +3068,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".ranges"
             if v18 * 4 > lim - pos:
                 raise too_long(v18, 4, lim - pos)
-            v19 = _frombuffer(mv, _D_float32, v18, pos)
+            if view:
+                v19 = _frombuffer(mv, _D_float32, v18, pos)
+            elif native:
+                v19 = mv[pos : pos + v18 * 4].cast("f").tolist()
+            else:
+                v19 = swapped_list(mv, pos, v18, "f")
             pos += v18 * 4
             f = LASER_SCAN_RUN_1
             (v22,) = _S_I.unpack_from(mv, pos)
@@ -2993,7 +3081,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".intensities"
             if v22 * 4 > lim - pos:
                 raise too_long(v22, 4, lim - pos)
-            v23 = _frombuffer(mv, _D_float32, v22, pos)
+            if view:
+                v23 = _frombuffer(mv, _D_float32, v22, pos)
+            elif native:
+                v23 = mv[pos : pos + v22 * 4].cast("f").tolist()
+            else:
+                v23 = swapped_list(mv, pos, v22, "f")
             pos += v22 * 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3010,8 +3103,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "scan_time": v11,
             "range_min": v13,
             "range_max": v15,
-            "ranges": v19.tolist(),
-            "intensities": v23.tolist(),
+            "ranges": v19,
+            "intensities": v23,
         }, pos
 
     def laser_scan_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3079,7 +3172,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".magnetic_field_covariance"
             if 9 * 8 > lim - pos:
                 raise too_long(9, 8, lim - pos)
-            v11 = _frombuffer(mv, _D_float64, 9, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_float64, 9, pos)
+            elif native:
+                v11 = mv[pos : pos + 9 * 8].cast("d").tolist()
+            else:
+                v11 = swapped_list(mv, pos, 9, "d")
             pos += 9 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -3090,7 +3188,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         return {
             "header": v1,
             "magnetic_field": {"x": v4, "y": v6, "z": v8},
-            "magnetic_field_covariance": v11.tolist(),
+            "magnetic_field_covariance": v11,
         }, pos
 
     def magnetic_field_encode(d: Any, out: list[Any], pos: int) -> int:
@@ -3337,7 +3435,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".position_covariance"
             if 9 * 8 > lim - pos:
                 raise too_long(9, 8, lim - pos)
-            v15 = _frombuffer(mv, _D_float64, 9, pos)
+            if view:
+                v15 = _frombuffer(mv, _D_float64, 9, pos)
+            elif native:
+                v15 = mv[pos : pos + 9 * 8].cast("d").tolist()
+            else:
+                v15 = swapped_list(mv, pos, 9, "d")
             pos += 9 * 8
             f = NAV_SAT_FIX_RUN_3
             (v17,) = _S_B.unpack_from(mv, pos)
@@ -3354,7 +3457,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "latitude": v8,
             "longitude": v10,
             "altitude": v12,
-            "position_covariance": v15.tolist(),
+            "position_covariance": v15,
             "position_covariance_type": v17,
         }, pos
 
@@ -3551,7 +3654,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".data"
             if v15 * 1 > lim - pos:
                 raise too_long(v15, 1, lim - pos)
-            v16 = _frombuffer(mv, _D_uint8, v15, pos)
+            if view:
+                v16 = _frombuffer(mv, _D_uint8, v15, pos)
+            else:
+                v16 = mv[pos : pos + v15].tobytes()
             pos += v15 * 1
             f = POINT_CLOUD2_RUN_3
             (v18,) = _S_T.unpack_from(mv, pos)
@@ -3570,7 +3676,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "is_bigendian": v8,
             "point_step": v10,
             "row_step": v12,
-            "data": v16.tobytes(),
+            "data": v16,
             "is_dense": v18,
         }, pos
 
@@ -3948,7 +4054,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = SET_CAMERA_INFO_EVENT_RUN_2
@@ -3978,7 +4087,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,

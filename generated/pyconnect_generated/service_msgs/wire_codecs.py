@@ -8,8 +8,8 @@ One decoder per type builds either the lossless dict or the view (``_build`` mak
 closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
 to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
 linked from their modules. Positions count from the end of the encapsulation header; numeric and
-uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
-``to_dict`` of a live message gives). Imports nothing from ROS.
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes read straight
+from the input in dicts (what ``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -21,12 +21,14 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
+    NATIVE_ORDER,
     decode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
+    swapped_list,
     too_long,
     view_fields,
     view_repr,
@@ -120,6 +122,7 @@ def service_event_info_view(a0: Any, a1: Any, a2: Any, a3: Any) -> ServiceEventI
 
 def _build(E: str, view: bool) -> dict[str, Any]:
     """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    native = E == NATIVE_ORDER
     _U32 = Struct(E + "I")
     _S_B = Struct(E + "B")
     _S_iI = Struct(E + "iI")
@@ -139,7 +142,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v10 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v10 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v10 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = SERVICE_EVENT_INFO_RUN_2
@@ -154,7 +160,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
         return {
             "event_type": v2,
             "stamp": {"sec": v5, "nanosec": v7},
-            "client_gid": v10.tobytes(),
+            "client_gid": v10,
             "sequence_number": v12,
         }, pos
 

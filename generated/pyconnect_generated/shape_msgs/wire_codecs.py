@@ -14,8 +14,8 @@ One decoder per type builds either the lossless dict or the view (``_build`` mak
 closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
 to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
 linked from their modules. Positions count from the end of the encapsulation header; numeric and
-uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
-``to_dict`` of a live message gives). Imports nothing from ROS.
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes read straight
+from the input in dicts (what ``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -27,12 +27,14 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
+    NATIVE_ORDER,
     decode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
+    swapped_list,
     too_long,
     view_fields,
     view_repr,
@@ -215,6 +217,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
     geometry_msgs__point_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["point_encode"]
     geometry_msgs__polygon_decode = GEOMETRY_MSGS__FUNCTIONS[E, view]["polygon_decode"]
     geometry_msgs__polygon_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["polygon_encode"]
+    native = E == NATIVE_ORDER
     _U32 = Struct(E + "I")
     _S_B = Struct(E + "B")
     _S_I = Struct(E + "I")
@@ -228,7 +231,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos = (pos + 3) & -4
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v3 = _frombuffer(mv, _D_uint32, 3, pos)
+            if view:
+                v3 = _frombuffer(mv, _D_uint32, 3, pos)
+            elif native:
+                v3 = mv[pos : pos + 3 * 4].cast("I").tolist()
+            else:
+                v3 = swapped_list(mv, pos, 3, "I")
             pos += 3 * 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -236,7 +244,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return mesh_triangle_view(v3), pos
-        return {"vertex_indices": v3.tolist()}, pos
+        return {"vertex_indices": v3}, pos
 
     def mesh_triangle_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -298,7 +306,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             pos = (pos + 7) & -8
             if 4 * 8 > lim - pos:
                 raise too_long(4, 8, lim - pos)
-            v3 = _frombuffer(mv, _D_float64, 4, pos)
+            if view:
+                v3 = _frombuffer(mv, _D_float64, 4, pos)
+            elif native:
+                v3 = mv[pos : pos + 4 * 8].cast("d").tolist()
+            else:
+                v3 = swapped_list(mv, pos, 4, "d")
             pos += 4 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -306,7 +319,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return plane_view(v3), pos
-        return {"coef": v3.tolist()}, pos
+        return {"coef": v3}, pos
 
     def plane_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -344,7 +357,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v5 * 8 > lim - pos:
                 raise too_long(v5, 8, lim - pos)
-            v6 = _frombuffer(mv, _D_float64, v5, pos)
+            if view:
+                v6 = _frombuffer(mv, _D_float64, v5, pos)
+            elif native:
+                v6 = mv[pos : pos + v5 * 8].cast("d").tolist()
+            else:
+                v6 = swapped_list(mv, pos, v5, "d")
             pos += v5 * 8
             f = ".polygon"
             v7, pos = geometry_msgs__polygon_decode(mv, pos, lim)
@@ -354,7 +372,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return solid_primitive_view(v2, v6, v7), pos
-        return {"type": v2, "dimensions": v6.tolist(), "polygon": v7}, pos
+        return {"type": v2, "dimensions": v6, "polygon": v7}, pos
 
     def solid_primitive_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""

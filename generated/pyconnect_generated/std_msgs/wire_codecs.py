@@ -66,8 +66,8 @@ One decoder per type builds either the lossless dict or the view (``_build`` mak
 closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
 to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
 linked from their modules. Positions count from the end of the encapsulation header; numeric and
-uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
-``to_dict`` of a live message gives). Imports nothing from ROS.
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes read straight
+from the input in dicts (what ``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -79,12 +79,14 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
+    NATIVE_ORDER,
     decode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
+    swapped_list,
     too_long,
     view_fields,
     view_repr,
@@ -1115,6 +1117,7 @@ def u_int8_multi_array_view(a0: Any, a1: Any) -> UInt8MultiArray:
 
 def _build(E: str, view: bool) -> dict[str, Any]:
     """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    native = E == NATIVE_ORDER
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_2I = Struct(E + "2I")
@@ -1329,7 +1332,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".data"
             if v4 * 1 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = _frombuffer(mv, _D_uint8, v4, pos)
+            if view:
+                v5 = _frombuffer(mv, _D_uint8, v4, pos)
+            else:
+                v5 = mv[pos : pos + v4].tobytes()
             pos += v4 * 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1337,7 +1343,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return byte_multi_array_view(v1, v5), pos
-        return {"layout": v1, "data": v5.tobytes()}, pos
+        return {"layout": v1, "data": v5}, pos
 
     def byte_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1524,7 +1530,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".data"
             if v4 * 4 > lim - pos:
                 raise too_long(v4, 4, lim - pos)
-            v5 = _frombuffer(mv, _D_float32, v4, pos)
+            if view:
+                v5 = _frombuffer(mv, _D_float32, v4, pos)
+            elif native:
+                v5 = mv[pos : pos + v4 * 4].cast("f").tolist()
+            else:
+                v5 = swapped_list(mv, pos, v4, "f")
             pos += v4 * 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1532,7 +1543,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return float32_multi_array_view(v1, v5), pos
-        return {"layout": v1, "data": v5.tolist()}, pos
+        return {"layout": v1, "data": v5}, pos
 
     def float32_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1613,7 +1624,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v4 * 8 > lim - pos:
                 raise too_long(v4, 8, lim - pos)
-            v5 = _frombuffer(mv, _D_float64, v4, pos)
+            if view:
+                v5 = _frombuffer(mv, _D_float64, v4, pos)
+            elif native:
+                v5 = mv[pos : pos + v4 * 8].cast("d").tolist()
+            else:
+                v5 = swapped_list(mv, pos, v4, "d")
             pos += v4 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1621,7 +1637,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return float64_multi_array_view(v1, v5), pos
-        return {"layout": v1, "data": v5.tolist()}, pos
+        return {"layout": v1, "data": v5}, pos
 
     def float64_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1758,7 +1774,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".data"
             if v4 * 2 > lim - pos:
                 raise too_long(v4, 2, lim - pos)
-            v5 = _frombuffer(mv, _D_int16, v4, pos)
+            if view:
+                v5 = _frombuffer(mv, _D_int16, v4, pos)
+            elif native:
+                v5 = mv[pos : pos + v4 * 2].cast("h").tolist()
+            else:
+                v5 = swapped_list(mv, pos, v4, "h")
             pos += v4 * 2
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1766,7 +1787,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return int16_multi_array_view(v1, v5), pos
-        return {"layout": v1, "data": v5.tolist()}, pos
+        return {"layout": v1, "data": v5}, pos
 
     def int16_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1845,7 +1866,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".data"
             if v4 * 4 > lim - pos:
                 raise too_long(v4, 4, lim - pos)
-            v5 = _frombuffer(mv, _D_int32, v4, pos)
+            if view:
+                v5 = _frombuffer(mv, _D_int32, v4, pos)
+            elif native:
+                v5 = mv[pos : pos + v4 * 4].cast("i").tolist()
+            else:
+                v5 = swapped_list(mv, pos, v4, "i")
             pos += v4 * 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1853,7 +1879,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return int32_multi_array_view(v1, v5), pos
-        return {"layout": v1, "data": v5.tolist()}, pos
+        return {"layout": v1, "data": v5}, pos
 
     def int32_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -1934,7 +1960,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v4 * 8 > lim - pos:
                 raise too_long(v4, 8, lim - pos)
-            v5 = _frombuffer(mv, _D_int64, v4, pos)
+            if view:
+                v5 = _frombuffer(mv, _D_int64, v4, pos)
+            elif native:
+                v5 = mv[pos : pos + v4 * 8].cast("q").tolist()
+            else:
+                v5 = swapped_list(mv, pos, v4, "q")
             pos += v4 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1942,7 +1973,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return int64_multi_array_view(v1, v5), pos
-        return {"layout": v1, "data": v5.tolist()}, pos
+        return {"layout": v1, "data": v5}, pos
 
     def int64_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2021,7 +2052,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".data"
             if v4 * 1 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = _frombuffer(mv, _D_int8, v4, pos)
+            if view:
+                v5 = _frombuffer(mv, _D_int8, v4, pos)
+            elif native:
+                v5 = mv[pos : pos + v4 * 1].cast("b").tolist()
+            else:
+                v5 = swapped_list(mv, pos, v4, "b")
             pos += v4 * 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2029,7 +2065,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return int8_multi_array_view(v1, v5), pos
-        return {"layout": v1, "data": v5.tolist()}, pos
+        return {"layout": v1, "data": v5}, pos
 
     def int8_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2153,7 +2189,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".data"
             if v4 * 2 > lim - pos:
                 raise too_long(v4, 2, lim - pos)
-            v5 = _frombuffer(mv, _D_uint16, v4, pos)
+            if view:
+                v5 = _frombuffer(mv, _D_uint16, v4, pos)
+            elif native:
+                v5 = mv[pos : pos + v4 * 2].cast("H").tolist()
+            else:
+                v5 = swapped_list(mv, pos, v4, "H")
             pos += v4 * 2
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2161,7 +2202,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return u_int16_multi_array_view(v1, v5), pos
-        return {"layout": v1, "data": v5.tolist()}, pos
+        return {"layout": v1, "data": v5}, pos
 
     def u_int16_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2240,7 +2281,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".data"
             if v4 * 4 > lim - pos:
                 raise too_long(v4, 4, lim - pos)
-            v5 = _frombuffer(mv, _D_uint32, v4, pos)
+            if view:
+                v5 = _frombuffer(mv, _D_uint32, v4, pos)
+            elif native:
+                v5 = mv[pos : pos + v4 * 4].cast("I").tolist()
+            else:
+                v5 = swapped_list(mv, pos, v4, "I")
             pos += v4 * 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2248,7 +2294,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return u_int32_multi_array_view(v1, v5), pos
-        return {"layout": v1, "data": v5.tolist()}, pos
+        return {"layout": v1, "data": v5}, pos
 
     def u_int32_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2329,7 +2375,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v4 * 8 > lim - pos:
                 raise too_long(v4, 8, lim - pos)
-            v5 = _frombuffer(mv, _D_uint64, v4, pos)
+            if view:
+                v5 = _frombuffer(mv, _D_uint64, v4, pos)
+            elif native:
+                v5 = mv[pos : pos + v4 * 8].cast("Q").tolist()
+            else:
+                v5 = swapped_list(mv, pos, v4, "Q")
             pos += v4 * 8
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2337,7 +2388,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return u_int64_multi_array_view(v1, v5), pos
-        return {"layout": v1, "data": v5.tolist()}, pos
+        return {"layout": v1, "data": v5}, pos
 
     def u_int64_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2416,7 +2467,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".data"
             if v4 * 1 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = _frombuffer(mv, _D_uint8, v4, pos)
+            if view:
+                v5 = _frombuffer(mv, _D_uint8, v4, pos)
+            else:
+                v5 = mv[pos : pos + v4].tobytes()
             pos += v4 * 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -2424,7 +2478,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return u_int8_multi_array_view(v1, v5), pos
-        return {"layout": v1, "data": v5.tobytes()}, pos
+        return {"layout": v1, "data": v5}, pos
 
     def u_int8_multi_array_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""

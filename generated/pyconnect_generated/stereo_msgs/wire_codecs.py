@@ -8,8 +8,8 @@ One decoder per type builds either the lossless dict or the view (``_build`` mak
 closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
 to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
 linked from their modules. Positions count from the end of the encapsulation header; numeric and
-uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
-``to_dict`` of a live message gives). Imports nothing from ROS.
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes read straight
+from the input in dicts (what ``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -21,12 +21,14 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
+    NATIVE_ORDER,
     decode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
+    swapped_list,
     too_long,
     view_fields,
     view_repr,
@@ -165,6 +167,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
     sensor_msgs__image_encode = SENSOR_MSGS__FUNCTIONS[E, view]["image_encode"]
     std_msgs__header_decode = STD_MSGS__FUNCTIONS[E, view]["header_decode"]
     std_msgs__header_encode = STD_MSGS__FUNCTIONS[E, view]["header_encode"]
+    native = E == NATIVE_ORDER
     _U32 = Struct(E + "I")
     _S_2f4IT3x3f = Struct(E + "2f4I?3x3f")
 

@@ -90,8 +90,8 @@ One decoder per type builds either the lossless dict or the view (``_build`` mak
 closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
 to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
 linked from their modules. Positions count from the end of the encapsulation header; numeric and
-uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
-``to_dict`` of a live message gives). Imports nothing from ROS.
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes read straight
+from the input in dicts (what ``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -103,12 +103,14 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
+    NATIVE_ORDER,
     decode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
+    swapped_list,
     too_long,
     view_fields,
     view_repr,
@@ -4038,6 +4040,7 @@ def nested_message_feedback_message_view(a0: Any, a1: Any) -> NestedMessage_Feed
 
 def _build(E: str, view: bool) -> dict[str, Any]:
     """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    native = E == NATIVE_ORDER
     _U32 = Struct(E + "I")
     _S_1x = Struct(E + "1x")
     _S_B = Struct(E + "B")
@@ -4318,66 +4321,120 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".byte_values"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v6 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v6 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v6 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".char_values"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v9 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v9 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v9 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".float32_values"
             pos = (pos + 3) & -4
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v12 = _frombuffer(mv, _D_float32, 3, pos)
+            if view:
+                v12 = _frombuffer(mv, _D_float32, 3, pos)
+            elif native:
+                v12 = mv[pos : pos + 3 * 4].cast("f").tolist()
+            else:
+                v12 = swapped_list(mv, pos, 3, "f")
             pos += 3 * 4
             f = ".float64_values"
             pos = (pos + 7) & -8
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v15 = _frombuffer(mv, _D_float64, 3, pos)
+            if view:
+                v15 = _frombuffer(mv, _D_float64, 3, pos)
+            elif native:
+                v15 = mv[pos : pos + 3 * 8].cast("d").tolist()
+            else:
+                v15 = swapped_list(mv, pos, 3, "d")
             pos += 3 * 8
             f = ".int8_values"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v18 = _frombuffer(mv, _D_int8, 3, pos)
+            if view:
+                v18 = _frombuffer(mv, _D_int8, 3, pos)
+            elif native:
+                v18 = mv[pos : pos + 3 * 1].cast("b").tolist()
+            else:
+                v18 = swapped_list(mv, pos, 3, "b")
             pos += 3 * 1
             f = ".uint8_values"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v21 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v21 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v21 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".int16_values"
             if 3 * 2 > lim - pos:
                 raise too_long(3, 2, lim - pos)
-            v24 = _frombuffer(mv, _D_int16, 3, pos)
+            if view:
+                v24 = _frombuffer(mv, _D_int16, 3, pos)
+            elif native:
+                v24 = mv[pos : pos + 3 * 2].cast("h").tolist()
+            else:
+                v24 = swapped_list(mv, pos, 3, "h")
             pos += 3 * 2
             f = ".uint16_values"
             if 3 * 2 > lim - pos:
                 raise too_long(3, 2, lim - pos)
-            v27 = _frombuffer(mv, _D_uint16, 3, pos)
+            if view:
+                v27 = _frombuffer(mv, _D_uint16, 3, pos)
+            elif native:
+                v27 = mv[pos : pos + 3 * 2].cast("H").tolist()
+            else:
+                v27 = swapped_list(mv, pos, 3, "H")
             pos += 3 * 2
             f = ".int32_values"
             pos += 2
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v30 = _frombuffer(mv, _D_int32, 3, pos)
+            if view:
+                v30 = _frombuffer(mv, _D_int32, 3, pos)
+            elif native:
+                v30 = mv[pos : pos + 3 * 4].cast("i").tolist()
+            else:
+                v30 = swapped_list(mv, pos, 3, "i")
             pos += 3 * 4
             f = ".uint32_values"
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v33 = _frombuffer(mv, _D_uint32, 3, pos)
+            if view:
+                v33 = _frombuffer(mv, _D_uint32, 3, pos)
+            elif native:
+                v33 = mv[pos : pos + 3 * 4].cast("I").tolist()
+            else:
+                v33 = swapped_list(mv, pos, 3, "I")
             pos += 3 * 4
             f = ".int64_values"
             pos += 4
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v36 = _frombuffer(mv, _D_int64, 3, pos)
+            if view:
+                v36 = _frombuffer(mv, _D_int64, 3, pos)
+            elif native:
+                v36 = mv[pos : pos + 3 * 8].cast("q").tolist()
+            else:
+                v36 = swapped_list(mv, pos, 3, "q")
             pos += 3 * 8
             f = ".uint64_values"
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v39 = _frombuffer(mv, _D_uint64, 3, pos)
+            if view:
+                v39 = _frombuffer(mv, _D_uint64, 3, pos)
+            elif native:
+                v39 = mv[pos : pos + 3 * 8].cast("Q").tolist()
+            else:
+                v39 = swapped_list(mv, pos, 3, "Q")
             pos += 3 * 8
             f = ".string_values"
             v40, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
@@ -4395,66 +4452,120 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".byte_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v49 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v49 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v49 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".char_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v52 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v52 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v52 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".float32_values_default"
             pos = (pos + 3) & -4
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v55 = _frombuffer(mv, _D_float32, 3, pos)
+            if view:
+                v55 = _frombuffer(mv, _D_float32, 3, pos)
+            elif native:
+                v55 = mv[pos : pos + 3 * 4].cast("f").tolist()
+            else:
+                v55 = swapped_list(mv, pos, 3, "f")
             pos += 3 * 4
             f = ".float64_values_default"
             pos = (pos + 7) & -8
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v58 = _frombuffer(mv, _D_float64, 3, pos)
+            if view:
+                v58 = _frombuffer(mv, _D_float64, 3, pos)
+            elif native:
+                v58 = mv[pos : pos + 3 * 8].cast("d").tolist()
+            else:
+                v58 = swapped_list(mv, pos, 3, "d")
             pos += 3 * 8
             f = ".int8_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v61 = _frombuffer(mv, _D_int8, 3, pos)
+            if view:
+                v61 = _frombuffer(mv, _D_int8, 3, pos)
+            elif native:
+                v61 = mv[pos : pos + 3 * 1].cast("b").tolist()
+            else:
+                v61 = swapped_list(mv, pos, 3, "b")
             pos += 3 * 1
             f = ".uint8_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v64 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v64 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v64 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".int16_values_default"
             if 3 * 2 > lim - pos:
                 raise too_long(3, 2, lim - pos)
-            v67 = _frombuffer(mv, _D_int16, 3, pos)
+            if view:
+                v67 = _frombuffer(mv, _D_int16, 3, pos)
+            elif native:
+                v67 = mv[pos : pos + 3 * 2].cast("h").tolist()
+            else:
+                v67 = swapped_list(mv, pos, 3, "h")
             pos += 3 * 2
             f = ".uint16_values_default"
             if 3 * 2 > lim - pos:
                 raise too_long(3, 2, lim - pos)
-            v70 = _frombuffer(mv, _D_uint16, 3, pos)
+            if view:
+                v70 = _frombuffer(mv, _D_uint16, 3, pos)
+            elif native:
+                v70 = mv[pos : pos + 3 * 2].cast("H").tolist()
+            else:
+                v70 = swapped_list(mv, pos, 3, "H")
             pos += 3 * 2
             f = ".int32_values_default"
             pos += 2
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v73 = _frombuffer(mv, _D_int32, 3, pos)
+            if view:
+                v73 = _frombuffer(mv, _D_int32, 3, pos)
+            elif native:
+                v73 = mv[pos : pos + 3 * 4].cast("i").tolist()
+            else:
+                v73 = swapped_list(mv, pos, 3, "i")
             pos += 3 * 4
             f = ".uint32_values_default"
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v76 = _frombuffer(mv, _D_uint32, 3, pos)
+            if view:
+                v76 = _frombuffer(mv, _D_uint32, 3, pos)
+            elif native:
+                v76 = mv[pos : pos + 3 * 4].cast("I").tolist()
+            else:
+                v76 = swapped_list(mv, pos, 3, "I")
             pos += 3 * 4
             f = ".int64_values_default"
             pos += 4
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v79 = _frombuffer(mv, _D_int64, 3, pos)
+            if view:
+                v79 = _frombuffer(mv, _D_int64, 3, pos)
+            elif native:
+                v79 = mv[pos : pos + 3 * 8].cast("q").tolist()
+            else:
+                v79 = swapped_list(mv, pos, 3, "q")
             pos += 3 * 8
             f = ".uint64_values_default"
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v82 = _frombuffer(mv, _D_uint64, 3, pos)
+            if view:
+                v82 = _frombuffer(mv, _D_uint64, 3, pos)
+            elif native:
+                v82 = mv[pos : pos + 3 * 8].cast("Q").tolist()
+            else:
+                v82 = swapped_list(mv, pos, 3, "Q")
             pos += 3 * 8
             f = ".string_values_default"
             v83, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
@@ -4503,35 +4614,35 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             ), pos
         return {
             "bool_values": v3,
-            "byte_values": v6.tobytes(),
-            "char_values": v9.tobytes(),
-            "float32_values": v12.tolist(),
-            "float64_values": v15.tolist(),
-            "int8_values": v18.tolist(),
-            "uint8_values": v21.tobytes(),
-            "int16_values": v24.tolist(),
-            "uint16_values": v27.tolist(),
-            "int32_values": v30.tolist(),
-            "uint32_values": v33.tolist(),
-            "int64_values": v36.tolist(),
-            "uint64_values": v39.tolist(),
+            "byte_values": v6,
+            "char_values": v9,
+            "float32_values": v12,
+            "float64_values": v15,
+            "int8_values": v18,
+            "uint8_values": v21,
+            "int16_values": v24,
+            "uint16_values": v27,
+            "int32_values": v30,
+            "uint32_values": v33,
+            "int64_values": v36,
+            "uint64_values": v39,
             "string_values": v40,
             "basic_types_values": v41,
             "constants_values": v42,
             "defaults_values": v43,
             "bool_values_default": v46,
-            "byte_values_default": v49.tobytes(),
-            "char_values_default": v52.tobytes(),
-            "float32_values_default": v55.tolist(),
-            "float64_values_default": v58.tolist(),
-            "int8_values_default": v61.tolist(),
-            "uint8_values_default": v64.tobytes(),
-            "int16_values_default": v67.tolist(),
-            "uint16_values_default": v70.tolist(),
-            "int32_values_default": v73.tolist(),
-            "uint32_values_default": v76.tolist(),
-            "int64_values_default": v79.tolist(),
-            "uint64_values_default": v82.tolist(),
+            "byte_values_default": v49,
+            "char_values_default": v52,
+            "float32_values_default": v55,
+            "float64_values_default": v58,
+            "int8_values_default": v61,
+            "uint8_values_default": v64,
+            "int16_values_default": v67,
+            "uint16_values_default": v70,
+            "int32_values_default": v73,
+            "uint32_values_default": v76,
+            "int64_values_default": v79,
+            "uint64_values_default": v82,
             "string_values_default": v83,
             "alignment_check": v85,
         }, pos
@@ -4793,7 +4904,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v7, 3)
             if v7 * 1 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, v7, pos)
+            if view:
+                v8 = _frombuffer(mv, _D_uint8, v7, pos)
+            else:
+                v8 = mv[pos : pos + v7].tobytes()
             pos += v7 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_2
@@ -4804,7 +4918,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v11, 3)
             if v11 * 1 > lim - pos:
                 raise too_long(v11, 1, lim - pos)
-            v12 = _frombuffer(mv, _D_uint8, v11, pos)
+            if view:
+                v12 = _frombuffer(mv, _D_uint8, v11, pos)
+            else:
+                v12 = mv[pos : pos + v11].tobytes()
             pos += v11 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_3
@@ -4815,7 +4932,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v15, 3)
             if v15 * 4 > lim - pos:
                 raise too_long(v15, 4, lim - pos)
-            v16 = _frombuffer(mv, _D_float32, v15, pos)
+            if view:
+                v16 = _frombuffer(mv, _D_float32, v15, pos)
+            elif native:
+                v16 = mv[pos : pos + v15 * 4].cast("f").tolist()
+            else:
+                v16 = swapped_list(mv, pos, v15, "f")
             pos += v15 * 4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_4
             (v19,) = _S_I.unpack_from(mv, pos)
@@ -4827,7 +4949,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v19 * 8 > lim - pos:
                 raise too_long(v19, 8, lim - pos)
-            v20 = _frombuffer(mv, _D_float64, v19, pos)
+            if view:
+                v20 = _frombuffer(mv, _D_float64, v19, pos)
+            elif native:
+                v20 = mv[pos : pos + v19 * 8].cast("d").tolist()
+            else:
+                v20 = swapped_list(mv, pos, v19, "d")
             pos += v19 * 8
             f = BOUNDED_PLAIN_SEQUENCES_RUN_5
             (v23,) = _S_I.unpack_from(mv, pos)
@@ -4837,7 +4964,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v23, 3)
             if v23 * 1 > lim - pos:
                 raise too_long(v23, 1, lim - pos)
-            v24 = _frombuffer(mv, _D_int8, v23, pos)
+            if view:
+                v24 = _frombuffer(mv, _D_int8, v23, pos)
+            elif native:
+                v24 = mv[pos : pos + v23 * 1].cast("b").tolist()
+            else:
+                v24 = swapped_list(mv, pos, v23, "b")
             pos += v23 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_6
@@ -4848,7 +4980,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v27, 3)
             if v27 * 1 > lim - pos:
                 raise too_long(v27, 1, lim - pos)
-            v28 = _frombuffer(mv, _D_uint8, v27, pos)
+            if view:
+                v28 = _frombuffer(mv, _D_uint8, v27, pos)
+            else:
+                v28 = mv[pos : pos + v27].tobytes()
             pos += v27 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_7
@@ -4859,7 +4994,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v31, 3)
             if v31 * 2 > lim - pos:
                 raise too_long(v31, 2, lim - pos)
-            v32 = _frombuffer(mv, _D_int16, v31, pos)
+            if view:
+                v32 = _frombuffer(mv, _D_int16, v31, pos)
+            elif native:
+                v32 = mv[pos : pos + v31 * 2].cast("h").tolist()
+            else:
+                v32 = swapped_list(mv, pos, v31, "h")
             pos += v31 * 2
             pos = (pos + 3) & -4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_8
@@ -4870,7 +5010,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v35, 3)
             if v35 * 2 > lim - pos:
                 raise too_long(v35, 2, lim - pos)
-            v36 = _frombuffer(mv, _D_uint16, v35, pos)
+            if view:
+                v36 = _frombuffer(mv, _D_uint16, v35, pos)
+            elif native:
+                v36 = mv[pos : pos + v35 * 2].cast("H").tolist()
+            else:
+                v36 = swapped_list(mv, pos, v35, "H")
             pos += v35 * 2
             pos = (pos + 3) & -4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_9
@@ -4881,7 +5026,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v39, 3)
             if v39 * 4 > lim - pos:
                 raise too_long(v39, 4, lim - pos)
-            v40 = _frombuffer(mv, _D_int32, v39, pos)
+            if view:
+                v40 = _frombuffer(mv, _D_int32, v39, pos)
+            elif native:
+                v40 = mv[pos : pos + v39 * 4].cast("i").tolist()
+            else:
+                v40 = swapped_list(mv, pos, v39, "i")
             pos += v39 * 4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_10
             (v43,) = _S_I.unpack_from(mv, pos)
@@ -4891,7 +5041,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v43, 3)
             if v43 * 4 > lim - pos:
                 raise too_long(v43, 4, lim - pos)
-            v44 = _frombuffer(mv, _D_uint32, v43, pos)
+            if view:
+                v44 = _frombuffer(mv, _D_uint32, v43, pos)
+            elif native:
+                v44 = mv[pos : pos + v43 * 4].cast("I").tolist()
+            else:
+                v44 = swapped_list(mv, pos, v43, "I")
             pos += v43 * 4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_11
             (v47,) = _S_I.unpack_from(mv, pos)
@@ -4903,7 +5058,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v47 * 8 > lim - pos:
                 raise too_long(v47, 8, lim - pos)
-            v48 = _frombuffer(mv, _D_int64, v47, pos)
+            if view:
+                v48 = _frombuffer(mv, _D_int64, v47, pos)
+            elif native:
+                v48 = mv[pos : pos + v47 * 8].cast("q").tolist()
+            else:
+                v48 = swapped_list(mv, pos, v47, "q")
             pos += v47 * 8
             f = BOUNDED_PLAIN_SEQUENCES_RUN_12
             (v51,) = _S_I.unpack_from(mv, pos)
@@ -4915,7 +5075,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v51 * 8 > lim - pos:
                 raise too_long(v51, 8, lim - pos)
-            v52 = _frombuffer(mv, _D_uint64, v51, pos)
+            if view:
+                v52 = _frombuffer(mv, _D_uint64, v51, pos)
+            elif native:
+                v52 = mv[pos : pos + v51 * 8].cast("Q").tolist()
+            else:
+                v52 = swapped_list(mv, pos, v51, "Q")
             pos += v51 * 8
             f = ".basic_types_values"
             v53, pos = read_messages(mv, pos, lim, _U32, basic_types_decode, None, 3, 45)
@@ -4943,7 +5108,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v62, 3)
             if v62 * 1 > lim - pos:
                 raise too_long(v62, 1, lim - pos)
-            v63 = _frombuffer(mv, _D_uint8, v62, pos)
+            if view:
+                v63 = _frombuffer(mv, _D_uint8, v62, pos)
+            else:
+                v63 = mv[pos : pos + v62].tobytes()
             pos += v62 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_15
@@ -4954,7 +5122,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v66, 3)
             if v66 * 1 > lim - pos:
                 raise too_long(v66, 1, lim - pos)
-            v67 = _frombuffer(mv, _D_uint8, v66, pos)
+            if view:
+                v67 = _frombuffer(mv, _D_uint8, v66, pos)
+            else:
+                v67 = mv[pos : pos + v66].tobytes()
             pos += v66 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_16
@@ -4965,7 +5136,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v70, 3)
             if v70 * 4 > lim - pos:
                 raise too_long(v70, 4, lim - pos)
-            v71 = _frombuffer(mv, _D_float32, v70, pos)
+            if view:
+                v71 = _frombuffer(mv, _D_float32, v70, pos)
+            elif native:
+                v71 = mv[pos : pos + v70 * 4].cast("f").tolist()
+            else:
+                v71 = swapped_list(mv, pos, v70, "f")
             pos += v70 * 4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_17
             (v74,) = _S_I.unpack_from(mv, pos)
@@ -4977,7 +5153,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v74 * 8 > lim - pos:
                 raise too_long(v74, 8, lim - pos)
-            v75 = _frombuffer(mv, _D_float64, v74, pos)
+            if view:
+                v75 = _frombuffer(mv, _D_float64, v74, pos)
+            elif native:
+                v75 = mv[pos : pos + v74 * 8].cast("d").tolist()
+            else:
+                v75 = swapped_list(mv, pos, v74, "d")
             pos += v74 * 8
             f = BOUNDED_PLAIN_SEQUENCES_RUN_18
             (v78,) = _S_I.unpack_from(mv, pos)
@@ -4987,7 +5168,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v78, 3)
             if v78 * 1 > lim - pos:
                 raise too_long(v78, 1, lim - pos)
-            v79 = _frombuffer(mv, _D_int8, v78, pos)
+            if view:
+                v79 = _frombuffer(mv, _D_int8, v78, pos)
+            elif native:
+                v79 = mv[pos : pos + v78 * 1].cast("b").tolist()
+            else:
+                v79 = swapped_list(mv, pos, v78, "b")
             pos += v78 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_19
@@ -4998,7 +5184,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v82, 3)
             if v82 * 1 > lim - pos:
                 raise too_long(v82, 1, lim - pos)
-            v83 = _frombuffer(mv, _D_uint8, v82, pos)
+            if view:
+                v83 = _frombuffer(mv, _D_uint8, v82, pos)
+            else:
+                v83 = mv[pos : pos + v82].tobytes()
             pos += v82 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_20
@@ -5009,7 +5198,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v86, 3)
             if v86 * 2 > lim - pos:
                 raise too_long(v86, 2, lim - pos)
-            v87 = _frombuffer(mv, _D_int16, v86, pos)
+            if view:
+                v87 = _frombuffer(mv, _D_int16, v86, pos)
+            elif native:
+                v87 = mv[pos : pos + v86 * 2].cast("h").tolist()
+            else:
+                v87 = swapped_list(mv, pos, v86, "h")
             pos += v86 * 2
             pos = (pos + 3) & -4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_21
@@ -5020,7 +5214,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v90, 3)
             if v90 * 2 > lim - pos:
                 raise too_long(v90, 2, lim - pos)
-            v91 = _frombuffer(mv, _D_uint16, v90, pos)
+            if view:
+                v91 = _frombuffer(mv, _D_uint16, v90, pos)
+            elif native:
+                v91 = mv[pos : pos + v90 * 2].cast("H").tolist()
+            else:
+                v91 = swapped_list(mv, pos, v90, "H")
             pos += v90 * 2
             pos = (pos + 3) & -4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_22
@@ -5031,7 +5230,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v94, 3)
             if v94 * 4 > lim - pos:
                 raise too_long(v94, 4, lim - pos)
-            v95 = _frombuffer(mv, _D_int32, v94, pos)
+            if view:
+                v95 = _frombuffer(mv, _D_int32, v94, pos)
+            elif native:
+                v95 = mv[pos : pos + v94 * 4].cast("i").tolist()
+            else:
+                v95 = swapped_list(mv, pos, v94, "i")
             pos += v94 * 4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_23
             (v98,) = _S_I.unpack_from(mv, pos)
@@ -5041,7 +5245,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v98, 3)
             if v98 * 4 > lim - pos:
                 raise too_long(v98, 4, lim - pos)
-            v99 = _frombuffer(mv, _D_uint32, v98, pos)
+            if view:
+                v99 = _frombuffer(mv, _D_uint32, v98, pos)
+            elif native:
+                v99 = mv[pos : pos + v98 * 4].cast("I").tolist()
+            else:
+                v99 = swapped_list(mv, pos, v98, "I")
             pos += v98 * 4
             f = BOUNDED_PLAIN_SEQUENCES_RUN_24
             (v102,) = _S_I.unpack_from(mv, pos)
@@ -5053,7 +5262,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v102 * 8 > lim - pos:
                 raise too_long(v102, 8, lim - pos)
-            v103 = _frombuffer(mv, _D_int64, v102, pos)
+            if view:
+                v103 = _frombuffer(mv, _D_int64, v102, pos)
+            elif native:
+                v103 = mv[pos : pos + v102 * 8].cast("q").tolist()
+            else:
+                v103 = swapped_list(mv, pos, v102, "q")
             pos += v102 * 8
             f = BOUNDED_PLAIN_SEQUENCES_RUN_25
             (v106,) = _S_I.unpack_from(mv, pos)
@@ -5065,7 +5279,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v106 * 8 > lim - pos:
                 raise too_long(v106, 8, lim - pos)
-            v107 = _frombuffer(mv, _D_uint64, v106, pos)
+            if view:
+                v107 = _frombuffer(mv, _D_uint64, v106, pos)
+            elif native:
+                v107 = mv[pos : pos + v106 * 8].cast("Q").tolist()
+            else:
+                v107 = swapped_list(mv, pos, v106, "Q")
             pos += v106 * 8
             f = BOUNDED_PLAIN_SEQUENCES_RUN_26
             (v109,) = _S_i.unpack_from(mv, pos)
@@ -5109,34 +5328,34 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             ), pos
         return {
             "bool_values": v4,
-            "byte_values": v8.tobytes(),
-            "char_values": v12.tobytes(),
-            "float32_values": v16.tolist(),
-            "float64_values": v20.tolist(),
-            "int8_values": v24.tolist(),
-            "uint8_values": v28.tobytes(),
-            "int16_values": v32.tolist(),
-            "uint16_values": v36.tolist(),
-            "int32_values": v40.tolist(),
-            "uint32_values": v44.tolist(),
-            "int64_values": v48.tolist(),
-            "uint64_values": v52.tolist(),
+            "byte_values": v8,
+            "char_values": v12,
+            "float32_values": v16,
+            "float64_values": v20,
+            "int8_values": v24,
+            "uint8_values": v28,
+            "int16_values": v32,
+            "uint16_values": v36,
+            "int32_values": v40,
+            "uint32_values": v44,
+            "int64_values": v48,
+            "uint64_values": v52,
             "basic_types_values": v53,
             "constants_values": v54,
             "defaults_values": v55,
             "bool_values_default": v59,
-            "byte_values_default": v63.tobytes(),
-            "char_values_default": v67.tobytes(),
-            "float32_values_default": v71.tolist(),
-            "float64_values_default": v75.tolist(),
-            "int8_values_default": v79.tolist(),
-            "uint8_values_default": v83.tobytes(),
-            "int16_values_default": v87.tolist(),
-            "uint16_values_default": v91.tolist(),
-            "int32_values_default": v95.tolist(),
-            "uint32_values_default": v99.tolist(),
-            "int64_values_default": v103.tolist(),
-            "uint64_values_default": v107.tolist(),
+            "byte_values_default": v63,
+            "char_values_default": v67,
+            "float32_values_default": v71,
+            "float64_values_default": v75,
+            "int8_values_default": v79,
+            "uint8_values_default": v83,
+            "int16_values_default": v87,
+            "uint16_values_default": v91,
+            "int32_values_default": v95,
+            "uint32_values_default": v99,
+            "int64_values_default": v103,
+            "uint64_values_default": v107,
             "alignment_check": v109,
         }, pos
 
@@ -5594,7 +5813,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v7, 3)
             if v7 * 1 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, v7, pos)
+            if view:
+                v8 = _frombuffer(mv, _D_uint8, v7, pos)
+            else:
+                v8 = mv[pos : pos + v7].tobytes()
             pos += v7 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_SEQUENCES_RUN_2
@@ -5605,7 +5827,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v11, 3)
             if v11 * 1 > lim - pos:
                 raise too_long(v11, 1, lim - pos)
-            v12 = _frombuffer(mv, _D_uint8, v11, pos)
+            if view:
+                v12 = _frombuffer(mv, _D_uint8, v11, pos)
+            else:
+                v12 = mv[pos : pos + v11].tobytes()
             pos += v11 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_SEQUENCES_RUN_3
@@ -5616,7 +5841,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v15, 3)
             if v15 * 4 > lim - pos:
                 raise too_long(v15, 4, lim - pos)
-            v16 = _frombuffer(mv, _D_float32, v15, pos)
+            if view:
+                v16 = _frombuffer(mv, _D_float32, v15, pos)
+            elif native:
+                v16 = mv[pos : pos + v15 * 4].cast("f").tolist()
+            else:
+                v16 = swapped_list(mv, pos, v15, "f")
             pos += v15 * 4
             f = BOUNDED_SEQUENCES_RUN_4
             (v19,) = _S_I.unpack_from(mv, pos)
@@ -5628,7 +5858,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v19 * 8 > lim - pos:
                 raise too_long(v19, 8, lim - pos)
-            v20 = _frombuffer(mv, _D_float64, v19, pos)
+            if view:
+                v20 = _frombuffer(mv, _D_float64, v19, pos)
+            elif native:
+                v20 = mv[pos : pos + v19 * 8].cast("d").tolist()
+            else:
+                v20 = swapped_list(mv, pos, v19, "d")
             pos += v19 * 8
             f = BOUNDED_SEQUENCES_RUN_5
             (v23,) = _S_I.unpack_from(mv, pos)
@@ -5638,7 +5873,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v23, 3)
             if v23 * 1 > lim - pos:
                 raise too_long(v23, 1, lim - pos)
-            v24 = _frombuffer(mv, _D_int8, v23, pos)
+            if view:
+                v24 = _frombuffer(mv, _D_int8, v23, pos)
+            elif native:
+                v24 = mv[pos : pos + v23 * 1].cast("b").tolist()
+            else:
+                v24 = swapped_list(mv, pos, v23, "b")
             pos += v23 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_SEQUENCES_RUN_6
@@ -5649,7 +5889,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v27, 3)
             if v27 * 1 > lim - pos:
                 raise too_long(v27, 1, lim - pos)
-            v28 = _frombuffer(mv, _D_uint8, v27, pos)
+            if view:
+                v28 = _frombuffer(mv, _D_uint8, v27, pos)
+            else:
+                v28 = mv[pos : pos + v27].tobytes()
             pos += v27 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_SEQUENCES_RUN_7
@@ -5660,7 +5903,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v31, 3)
             if v31 * 2 > lim - pos:
                 raise too_long(v31, 2, lim - pos)
-            v32 = _frombuffer(mv, _D_int16, v31, pos)
+            if view:
+                v32 = _frombuffer(mv, _D_int16, v31, pos)
+            elif native:
+                v32 = mv[pos : pos + v31 * 2].cast("h").tolist()
+            else:
+                v32 = swapped_list(mv, pos, v31, "h")
             pos += v31 * 2
             pos = (pos + 3) & -4
             f = BOUNDED_SEQUENCES_RUN_8
@@ -5671,7 +5919,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v35, 3)
             if v35 * 2 > lim - pos:
                 raise too_long(v35, 2, lim - pos)
-            v36 = _frombuffer(mv, _D_uint16, v35, pos)
+            if view:
+                v36 = _frombuffer(mv, _D_uint16, v35, pos)
+            elif native:
+                v36 = mv[pos : pos + v35 * 2].cast("H").tolist()
+            else:
+                v36 = swapped_list(mv, pos, v35, "H")
             pos += v35 * 2
             pos = (pos + 3) & -4
             f = BOUNDED_SEQUENCES_RUN_9
@@ -5682,7 +5935,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v39, 3)
             if v39 * 4 > lim - pos:
                 raise too_long(v39, 4, lim - pos)
-            v40 = _frombuffer(mv, _D_int32, v39, pos)
+            if view:
+                v40 = _frombuffer(mv, _D_int32, v39, pos)
+            elif native:
+                v40 = mv[pos : pos + v39 * 4].cast("i").tolist()
+            else:
+                v40 = swapped_list(mv, pos, v39, "i")
             pos += v39 * 4
             f = BOUNDED_SEQUENCES_RUN_10
             (v43,) = _S_I.unpack_from(mv, pos)
@@ -5692,7 +5950,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v43, 3)
             if v43 * 4 > lim - pos:
                 raise too_long(v43, 4, lim - pos)
-            v44 = _frombuffer(mv, _D_uint32, v43, pos)
+            if view:
+                v44 = _frombuffer(mv, _D_uint32, v43, pos)
+            elif native:
+                v44 = mv[pos : pos + v43 * 4].cast("I").tolist()
+            else:
+                v44 = swapped_list(mv, pos, v43, "I")
             pos += v43 * 4
             f = BOUNDED_SEQUENCES_RUN_11
             (v47,) = _S_I.unpack_from(mv, pos)
@@ -5704,7 +5967,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v47 * 8 > lim - pos:
                 raise too_long(v47, 8, lim - pos)
-            v48 = _frombuffer(mv, _D_int64, v47, pos)
+            if view:
+                v48 = _frombuffer(mv, _D_int64, v47, pos)
+            elif native:
+                v48 = mv[pos : pos + v47 * 8].cast("q").tolist()
+            else:
+                v48 = swapped_list(mv, pos, v47, "q")
             pos += v47 * 8
             f = BOUNDED_SEQUENCES_RUN_12
             (v51,) = _S_I.unpack_from(mv, pos)
@@ -5716,7 +5984,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v51 * 8 > lim - pos:
                 raise too_long(v51, 8, lim - pos)
-            v52 = _frombuffer(mv, _D_uint64, v51, pos)
+            if view:
+                v52 = _frombuffer(mv, _D_uint64, v51, pos)
+            elif native:
+                v52 = mv[pos : pos + v51 * 8].cast("Q").tolist()
+            else:
+                v52 = swapped_list(mv, pos, v51, "Q")
             pos += v51 * 8
             f = ".string_values"
             v53, pos = read_strings(mv, pos, lim, _U32, None, 3, None, False)
@@ -5746,7 +6019,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v63, 3)
             if v63 * 1 > lim - pos:
                 raise too_long(v63, 1, lim - pos)
-            v64 = _frombuffer(mv, _D_uint8, v63, pos)
+            if view:
+                v64 = _frombuffer(mv, _D_uint8, v63, pos)
+            else:
+                v64 = mv[pos : pos + v63].tobytes()
             pos += v63 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_SEQUENCES_RUN_15
@@ -5757,7 +6033,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v67, 3)
             if v67 * 1 > lim - pos:
                 raise too_long(v67, 1, lim - pos)
-            v68 = _frombuffer(mv, _D_uint8, v67, pos)
+            if view:
+                v68 = _frombuffer(mv, _D_uint8, v67, pos)
+            else:
+                v68 = mv[pos : pos + v67].tobytes()
             pos += v67 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_SEQUENCES_RUN_16
@@ -5768,7 +6047,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v71, 3)
             if v71 * 4 > lim - pos:
                 raise too_long(v71, 4, lim - pos)
-            v72 = _frombuffer(mv, _D_float32, v71, pos)
+            if view:
+                v72 = _frombuffer(mv, _D_float32, v71, pos)
+            elif native:
+                v72 = mv[pos : pos + v71 * 4].cast("f").tolist()
+            else:
+                v72 = swapped_list(mv, pos, v71, "f")
             pos += v71 * 4
             f = BOUNDED_SEQUENCES_RUN_17
             (v75,) = _S_I.unpack_from(mv, pos)
@@ -5780,7 +6064,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v75 * 8 > lim - pos:
                 raise too_long(v75, 8, lim - pos)
-            v76 = _frombuffer(mv, _D_float64, v75, pos)
+            if view:
+                v76 = _frombuffer(mv, _D_float64, v75, pos)
+            elif native:
+                v76 = mv[pos : pos + v75 * 8].cast("d").tolist()
+            else:
+                v76 = swapped_list(mv, pos, v75, "d")
             pos += v75 * 8
             f = BOUNDED_SEQUENCES_RUN_18
             (v79,) = _S_I.unpack_from(mv, pos)
@@ -5790,7 +6079,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v79, 3)
             if v79 * 1 > lim - pos:
                 raise too_long(v79, 1, lim - pos)
-            v80 = _frombuffer(mv, _D_int8, v79, pos)
+            if view:
+                v80 = _frombuffer(mv, _D_int8, v79, pos)
+            elif native:
+                v80 = mv[pos : pos + v79 * 1].cast("b").tolist()
+            else:
+                v80 = swapped_list(mv, pos, v79, "b")
             pos += v79 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_SEQUENCES_RUN_19
@@ -5801,7 +6095,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v83, 3)
             if v83 * 1 > lim - pos:
                 raise too_long(v83, 1, lim - pos)
-            v84 = _frombuffer(mv, _D_uint8, v83, pos)
+            if view:
+                v84 = _frombuffer(mv, _D_uint8, v83, pos)
+            else:
+                v84 = mv[pos : pos + v83].tobytes()
             pos += v83 * 1
             pos = (pos + 3) & -4
             f = BOUNDED_SEQUENCES_RUN_20
@@ -5812,7 +6109,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v87, 3)
             if v87 * 2 > lim - pos:
                 raise too_long(v87, 2, lim - pos)
-            v88 = _frombuffer(mv, _D_int16, v87, pos)
+            if view:
+                v88 = _frombuffer(mv, _D_int16, v87, pos)
+            elif native:
+                v88 = mv[pos : pos + v87 * 2].cast("h").tolist()
+            else:
+                v88 = swapped_list(mv, pos, v87, "h")
             pos += v87 * 2
             pos = (pos + 3) & -4
             f = BOUNDED_SEQUENCES_RUN_21
@@ -5823,7 +6125,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v91, 3)
             if v91 * 2 > lim - pos:
                 raise too_long(v91, 2, lim - pos)
-            v92 = _frombuffer(mv, _D_uint16, v91, pos)
+            if view:
+                v92 = _frombuffer(mv, _D_uint16, v91, pos)
+            elif native:
+                v92 = mv[pos : pos + v91 * 2].cast("H").tolist()
+            else:
+                v92 = swapped_list(mv, pos, v91, "H")
             pos += v91 * 2
             pos = (pos + 3) & -4
             f = BOUNDED_SEQUENCES_RUN_22
@@ -5834,7 +6141,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v95, 3)
             if v95 * 4 > lim - pos:
                 raise too_long(v95, 4, lim - pos)
-            v96 = _frombuffer(mv, _D_int32, v95, pos)
+            if view:
+                v96 = _frombuffer(mv, _D_int32, v95, pos)
+            elif native:
+                v96 = mv[pos : pos + v95 * 4].cast("i").tolist()
+            else:
+                v96 = swapped_list(mv, pos, v95, "i")
             pos += v95 * 4
             f = BOUNDED_SEQUENCES_RUN_23
             (v99,) = _S_I.unpack_from(mv, pos)
@@ -5844,7 +6156,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 raise over_bound(v99, 3)
             if v99 * 4 > lim - pos:
                 raise too_long(v99, 4, lim - pos)
-            v100 = _frombuffer(mv, _D_uint32, v99, pos)
+            if view:
+                v100 = _frombuffer(mv, _D_uint32, v99, pos)
+            elif native:
+                v100 = mv[pos : pos + v99 * 4].cast("I").tolist()
+            else:
+                v100 = swapped_list(mv, pos, v99, "I")
             pos += v99 * 4
             f = BOUNDED_SEQUENCES_RUN_24
             (v103,) = _S_I.unpack_from(mv, pos)
@@ -5856,7 +6173,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v103 * 8 > lim - pos:
                 raise too_long(v103, 8, lim - pos)
-            v104 = _frombuffer(mv, _D_int64, v103, pos)
+            if view:
+                v104 = _frombuffer(mv, _D_int64, v103, pos)
+            elif native:
+                v104 = mv[pos : pos + v103 * 8].cast("q").tolist()
+            else:
+                v104 = swapped_list(mv, pos, v103, "q")
             pos += v103 * 8
             f = BOUNDED_SEQUENCES_RUN_25
             (v107,) = _S_I.unpack_from(mv, pos)
@@ -5868,7 +6190,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v107 * 8 > lim - pos:
                 raise too_long(v107, 8, lim - pos)
-            v108 = _frombuffer(mv, _D_uint64, v107, pos)
+            if view:
+                v108 = _frombuffer(mv, _D_uint64, v107, pos)
+            elif native:
+                v108 = mv[pos : pos + v107 * 8].cast("Q").tolist()
+            else:
+                v108 = swapped_list(mv, pos, v107, "Q")
             pos += v107 * 8
             f = ".string_values_default"
             v109, pos = read_strings(mv, pos, lim, _U32, None, 3, None, False)
@@ -5917,35 +6244,35 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             ), pos
         return {
             "bool_values": v4,
-            "byte_values": v8.tobytes(),
-            "char_values": v12.tobytes(),
-            "float32_values": v16.tolist(),
-            "float64_values": v20.tolist(),
-            "int8_values": v24.tolist(),
-            "uint8_values": v28.tobytes(),
-            "int16_values": v32.tolist(),
-            "uint16_values": v36.tolist(),
-            "int32_values": v40.tolist(),
-            "uint32_values": v44.tolist(),
-            "int64_values": v48.tolist(),
-            "uint64_values": v52.tolist(),
+            "byte_values": v8,
+            "char_values": v12,
+            "float32_values": v16,
+            "float64_values": v20,
+            "int8_values": v24,
+            "uint8_values": v28,
+            "int16_values": v32,
+            "uint16_values": v36,
+            "int32_values": v40,
+            "uint32_values": v44,
+            "int64_values": v48,
+            "uint64_values": v52,
             "string_values": v53,
             "basic_types_values": v54,
             "constants_values": v55,
             "defaults_values": v56,
             "bool_values_default": v60,
-            "byte_values_default": v64.tobytes(),
-            "char_values_default": v68.tobytes(),
-            "float32_values_default": v72.tolist(),
-            "float64_values_default": v76.tolist(),
-            "int8_values_default": v80.tolist(),
-            "uint8_values_default": v84.tobytes(),
-            "int16_values_default": v88.tolist(),
-            "uint16_values_default": v92.tolist(),
-            "int32_values_default": v96.tolist(),
-            "uint32_values_default": v100.tolist(),
-            "int64_values_default": v104.tolist(),
-            "uint64_values_default": v108.tolist(),
+            "byte_values_default": v64,
+            "char_values_default": v68,
+            "float32_values_default": v72,
+            "float64_values_default": v76,
+            "int8_values_default": v80,
+            "uint8_values_default": v84,
+            "int16_values_default": v88,
+            "uint16_values_default": v92,
+            "int32_values_default": v96,
+            "uint32_values_default": v100,
+            "int64_values_default": v104,
+            "uint64_values_default": v108,
             "string_values_default": v109,
             "alignment_check": v111,
         }, pos
@@ -6505,7 +6832,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".byte_values"
             if v7 * 1 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = _frombuffer(mv, _D_uint8, v7, pos)
+            if view:
+                v8 = _frombuffer(mv, _D_uint8, v7, pos)
+            else:
+                v8 = mv[pos : pos + v7].tobytes()
             pos += v7 * 1
             pos = (pos + 3) & -4
             f = UNBOUNDED_SEQUENCES_RUN_2
@@ -6514,7 +6844,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".char_values"
             if v11 * 1 > lim - pos:
                 raise too_long(v11, 1, lim - pos)
-            v12 = _frombuffer(mv, _D_uint8, v11, pos)
+            if view:
+                v12 = _frombuffer(mv, _D_uint8, v11, pos)
+            else:
+                v12 = mv[pos : pos + v11].tobytes()
             pos += v11 * 1
             pos = (pos + 3) & -4
             f = UNBOUNDED_SEQUENCES_RUN_3
@@ -6523,7 +6856,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".float32_values"
             if v15 * 4 > lim - pos:
                 raise too_long(v15, 4, lim - pos)
-            v16 = _frombuffer(mv, _D_float32, v15, pos)
+            if view:
+                v16 = _frombuffer(mv, _D_float32, v15, pos)
+            elif native:
+                v16 = mv[pos : pos + v15 * 4].cast("f").tolist()
+            else:
+                v16 = swapped_list(mv, pos, v15, "f")
             pos += v15 * 4
             f = UNBOUNDED_SEQUENCES_RUN_4
             (v19,) = _S_I.unpack_from(mv, pos)
@@ -6533,7 +6871,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v19 * 8 > lim - pos:
                 raise too_long(v19, 8, lim - pos)
-            v20 = _frombuffer(mv, _D_float64, v19, pos)
+            if view:
+                v20 = _frombuffer(mv, _D_float64, v19, pos)
+            elif native:
+                v20 = mv[pos : pos + v19 * 8].cast("d").tolist()
+            else:
+                v20 = swapped_list(mv, pos, v19, "d")
             pos += v19 * 8
             f = UNBOUNDED_SEQUENCES_RUN_5
             (v23,) = _S_I.unpack_from(mv, pos)
@@ -6541,7 +6884,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".int8_values"
             if v23 * 1 > lim - pos:
                 raise too_long(v23, 1, lim - pos)
-            v24 = _frombuffer(mv, _D_int8, v23, pos)
+            if view:
+                v24 = _frombuffer(mv, _D_int8, v23, pos)
+            elif native:
+                v24 = mv[pos : pos + v23 * 1].cast("b").tolist()
+            else:
+                v24 = swapped_list(mv, pos, v23, "b")
             pos += v23 * 1
             pos = (pos + 3) & -4
             f = UNBOUNDED_SEQUENCES_RUN_6
@@ -6550,7 +6898,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".uint8_values"
             if v27 * 1 > lim - pos:
                 raise too_long(v27, 1, lim - pos)
-            v28 = _frombuffer(mv, _D_uint8, v27, pos)
+            if view:
+                v28 = _frombuffer(mv, _D_uint8, v27, pos)
+            else:
+                v28 = mv[pos : pos + v27].tobytes()
             pos += v27 * 1
             pos = (pos + 3) & -4
             f = UNBOUNDED_SEQUENCES_RUN_7
@@ -6559,7 +6910,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".int16_values"
             if v31 * 2 > lim - pos:
                 raise too_long(v31, 2, lim - pos)
-            v32 = _frombuffer(mv, _D_int16, v31, pos)
+            if view:
+                v32 = _frombuffer(mv, _D_int16, v31, pos)
+            elif native:
+                v32 = mv[pos : pos + v31 * 2].cast("h").tolist()
+            else:
+                v32 = swapped_list(mv, pos, v31, "h")
             pos += v31 * 2
             pos = (pos + 3) & -4
             f = UNBOUNDED_SEQUENCES_RUN_8
@@ -6568,7 +6924,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".uint16_values"
             if v35 * 2 > lim - pos:
                 raise too_long(v35, 2, lim - pos)
-            v36 = _frombuffer(mv, _D_uint16, v35, pos)
+            if view:
+                v36 = _frombuffer(mv, _D_uint16, v35, pos)
+            elif native:
+                v36 = mv[pos : pos + v35 * 2].cast("H").tolist()
+            else:
+                v36 = swapped_list(mv, pos, v35, "H")
             pos += v35 * 2
             pos = (pos + 3) & -4
             f = UNBOUNDED_SEQUENCES_RUN_9
@@ -6577,7 +6938,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".int32_values"
             if v39 * 4 > lim - pos:
                 raise too_long(v39, 4, lim - pos)
-            v40 = _frombuffer(mv, _D_int32, v39, pos)
+            if view:
+                v40 = _frombuffer(mv, _D_int32, v39, pos)
+            elif native:
+                v40 = mv[pos : pos + v39 * 4].cast("i").tolist()
+            else:
+                v40 = swapped_list(mv, pos, v39, "i")
             pos += v39 * 4
             f = UNBOUNDED_SEQUENCES_RUN_10
             (v43,) = _S_I.unpack_from(mv, pos)
@@ -6585,7 +6951,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".uint32_values"
             if v43 * 4 > lim - pos:
                 raise too_long(v43, 4, lim - pos)
-            v44 = _frombuffer(mv, _D_uint32, v43, pos)
+            if view:
+                v44 = _frombuffer(mv, _D_uint32, v43, pos)
+            elif native:
+                v44 = mv[pos : pos + v43 * 4].cast("I").tolist()
+            else:
+                v44 = swapped_list(mv, pos, v43, "I")
             pos += v43 * 4
             f = UNBOUNDED_SEQUENCES_RUN_11
             (v47,) = _S_I.unpack_from(mv, pos)
@@ -6595,7 +6966,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v47 * 8 > lim - pos:
                 raise too_long(v47, 8, lim - pos)
-            v48 = _frombuffer(mv, _D_int64, v47, pos)
+            if view:
+                v48 = _frombuffer(mv, _D_int64, v47, pos)
+            elif native:
+                v48 = mv[pos : pos + v47 * 8].cast("q").tolist()
+            else:
+                v48 = swapped_list(mv, pos, v47, "q")
             pos += v47 * 8
             f = UNBOUNDED_SEQUENCES_RUN_12
             (v51,) = _S_I.unpack_from(mv, pos)
@@ -6605,7 +6981,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v51 * 8 > lim - pos:
                 raise too_long(v51, 8, lim - pos)
-            v52 = _frombuffer(mv, _D_uint64, v51, pos)
+            if view:
+                v52 = _frombuffer(mv, _D_uint64, v51, pos)
+            elif native:
+                v52 = mv[pos : pos + v51 * 8].cast("Q").tolist()
+            else:
+                v52 = swapped_list(mv, pos, v51, "Q")
             pos += v51 * 8
             f = ".string_values"
             v53, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
@@ -6631,7 +7012,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".byte_values_default"
             if v63 * 1 > lim - pos:
                 raise too_long(v63, 1, lim - pos)
-            v64 = _frombuffer(mv, _D_uint8, v63, pos)
+            if view:
+                v64 = _frombuffer(mv, _D_uint8, v63, pos)
+            else:
+                v64 = mv[pos : pos + v63].tobytes()
             pos += v63 * 1
             pos = (pos + 3) & -4
             f = UNBOUNDED_SEQUENCES_RUN_15
@@ -6640,7 +7024,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".char_values_default"
             if v67 * 1 > lim - pos:
                 raise too_long(v67, 1, lim - pos)
-            v68 = _frombuffer(mv, _D_uint8, v67, pos)
+            if view:
+                v68 = _frombuffer(mv, _D_uint8, v67, pos)
+            else:
+                v68 = mv[pos : pos + v67].tobytes()
             pos += v67 * 1
             pos = (pos + 3) & -4
             f = UNBOUNDED_SEQUENCES_RUN_16
@@ -6649,7 +7036,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".float32_values_default"
             if v71 * 4 > lim - pos:
                 raise too_long(v71, 4, lim - pos)
-            v72 = _frombuffer(mv, _D_float32, v71, pos)
+            if view:
+                v72 = _frombuffer(mv, _D_float32, v71, pos)
+            elif native:
+                v72 = mv[pos : pos + v71 * 4].cast("f").tolist()
+            else:
+                v72 = swapped_list(mv, pos, v71, "f")
             pos += v71 * 4
             f = UNBOUNDED_SEQUENCES_RUN_17
             (v75,) = _S_I.unpack_from(mv, pos)
@@ -6659,7 +7051,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v75 * 8 > lim - pos:
                 raise too_long(v75, 8, lim - pos)
-            v76 = _frombuffer(mv, _D_float64, v75, pos)
+            if view:
+                v76 = _frombuffer(mv, _D_float64, v75, pos)
+            elif native:
+                v76 = mv[pos : pos + v75 * 8].cast("d").tolist()
+            else:
+                v76 = swapped_list(mv, pos, v75, "d")
             pos += v75 * 8
             f = UNBOUNDED_SEQUENCES_RUN_18
             (v79,) = _S_I.unpack_from(mv, pos)
@@ -6667,7 +7064,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".int8_values_default"
             if v79 * 1 > lim - pos:
                 raise too_long(v79, 1, lim - pos)
-            v80 = _frombuffer(mv, _D_int8, v79, pos)
+            if view:
+                v80 = _frombuffer(mv, _D_int8, v79, pos)
+            elif native:
+                v80 = mv[pos : pos + v79 * 1].cast("b").tolist()
+            else:
+                v80 = swapped_list(mv, pos, v79, "b")
             pos += v79 * 1
             pos = (pos + 3) & -4
             f = UNBOUNDED_SEQUENCES_RUN_19
@@ -6676,7 +7078,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".uint8_values_default"
             if v83 * 1 > lim - pos:
                 raise too_long(v83, 1, lim - pos)
-            v84 = _frombuffer(mv, _D_uint8, v83, pos)
+            if view:
+                v84 = _frombuffer(mv, _D_uint8, v83, pos)
+            else:
+                v84 = mv[pos : pos + v83].tobytes()
             pos += v83 * 1
             pos = (pos + 3) & -4
             f = UNBOUNDED_SEQUENCES_RUN_20
@@ -6685,7 +7090,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".int16_values_default"
             if v87 * 2 > lim - pos:
                 raise too_long(v87, 2, lim - pos)
-            v88 = _frombuffer(mv, _D_int16, v87, pos)
+            if view:
+                v88 = _frombuffer(mv, _D_int16, v87, pos)
+            elif native:
+                v88 = mv[pos : pos + v87 * 2].cast("h").tolist()
+            else:
+                v88 = swapped_list(mv, pos, v87, "h")
             pos += v87 * 2
             pos = (pos + 3) & -4
             f = UNBOUNDED_SEQUENCES_RUN_21
@@ -6694,7 +7104,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".uint16_values_default"
             if v91 * 2 > lim - pos:
                 raise too_long(v91, 2, lim - pos)
-            v92 = _frombuffer(mv, _D_uint16, v91, pos)
+            if view:
+                v92 = _frombuffer(mv, _D_uint16, v91, pos)
+            elif native:
+                v92 = mv[pos : pos + v91 * 2].cast("H").tolist()
+            else:
+                v92 = swapped_list(mv, pos, v91, "H")
             pos += v91 * 2
             pos = (pos + 3) & -4
             f = UNBOUNDED_SEQUENCES_RUN_22
@@ -6703,7 +7118,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".int32_values_default"
             if v95 * 4 > lim - pos:
                 raise too_long(v95, 4, lim - pos)
-            v96 = _frombuffer(mv, _D_int32, v95, pos)
+            if view:
+                v96 = _frombuffer(mv, _D_int32, v95, pos)
+            elif native:
+                v96 = mv[pos : pos + v95 * 4].cast("i").tolist()
+            else:
+                v96 = swapped_list(mv, pos, v95, "i")
             pos += v95 * 4
             f = UNBOUNDED_SEQUENCES_RUN_23
             (v99,) = _S_I.unpack_from(mv, pos)
@@ -6711,7 +7131,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".uint32_values_default"
             if v99 * 4 > lim - pos:
                 raise too_long(v99, 4, lim - pos)
-            v100 = _frombuffer(mv, _D_uint32, v99, pos)
+            if view:
+                v100 = _frombuffer(mv, _D_uint32, v99, pos)
+            elif native:
+                v100 = mv[pos : pos + v99 * 4].cast("I").tolist()
+            else:
+                v100 = swapped_list(mv, pos, v99, "I")
             pos += v99 * 4
             f = UNBOUNDED_SEQUENCES_RUN_24
             (v103,) = _S_I.unpack_from(mv, pos)
@@ -6721,7 +7146,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v103 * 8 > lim - pos:
                 raise too_long(v103, 8, lim - pos)
-            v104 = _frombuffer(mv, _D_int64, v103, pos)
+            if view:
+                v104 = _frombuffer(mv, _D_int64, v103, pos)
+            elif native:
+                v104 = mv[pos : pos + v103 * 8].cast("q").tolist()
+            else:
+                v104 = swapped_list(mv, pos, v103, "q")
             pos += v103 * 8
             f = UNBOUNDED_SEQUENCES_RUN_25
             (v107,) = _S_I.unpack_from(mv, pos)
@@ -6731,7 +7161,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v107 * 8 > lim - pos:
                 raise too_long(v107, 8, lim - pos)
-            v108 = _frombuffer(mv, _D_uint64, v107, pos)
+            if view:
+                v108 = _frombuffer(mv, _D_uint64, v107, pos)
+            elif native:
+                v108 = mv[pos : pos + v107 * 8].cast("Q").tolist()
+            else:
+                v108 = swapped_list(mv, pos, v107, "Q")
             pos += v107 * 8
             f = ".string_values_default"
             v109, pos = read_strings(mv, pos, lim, _U32, None, None, None, False)
@@ -6780,35 +7215,35 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             ), pos
         return {
             "bool_values": v4,
-            "byte_values": v8.tobytes(),
-            "char_values": v12.tobytes(),
-            "float32_values": v16.tolist(),
-            "float64_values": v20.tolist(),
-            "int8_values": v24.tolist(),
-            "uint8_values": v28.tobytes(),
-            "int16_values": v32.tolist(),
-            "uint16_values": v36.tolist(),
-            "int32_values": v40.tolist(),
-            "uint32_values": v44.tolist(),
-            "int64_values": v48.tolist(),
-            "uint64_values": v52.tolist(),
+            "byte_values": v8,
+            "char_values": v12,
+            "float32_values": v16,
+            "float64_values": v20,
+            "int8_values": v24,
+            "uint8_values": v28,
+            "int16_values": v32,
+            "uint16_values": v36,
+            "int32_values": v40,
+            "uint32_values": v44,
+            "int64_values": v48,
+            "uint64_values": v52,
             "string_values": v53,
             "basic_types_values": v54,
             "constants_values": v55,
             "defaults_values": v56,
             "bool_values_default": v60,
-            "byte_values_default": v64.tobytes(),
-            "char_values_default": v68.tobytes(),
-            "float32_values_default": v72.tolist(),
-            "float64_values_default": v76.tolist(),
-            "int8_values_default": v80.tolist(),
-            "uint8_values_default": v84.tobytes(),
-            "int16_values_default": v88.tolist(),
-            "uint16_values_default": v92.tolist(),
-            "int32_values_default": v96.tolist(),
-            "uint32_values_default": v100.tolist(),
-            "int64_values_default": v104.tolist(),
-            "uint64_values_default": v108.tolist(),
+            "byte_values_default": v64,
+            "char_values_default": v68,
+            "float32_values_default": v72,
+            "float64_values_default": v76,
+            "int8_values_default": v80,
+            "uint8_values_default": v84,
+            "int16_values_default": v88,
+            "uint16_values_default": v92,
+            "int32_values_default": v96,
+            "uint32_values_default": v100,
+            "int64_values_default": v104,
+            "uint64_values_default": v108,
             "string_values_default": v109,
             "alignment_check": v111,
         }, pos
@@ -7906,66 +8341,120 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".byte_values"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v6 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v6 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v6 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".char_values"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v9 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v9 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v9 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".float32_values"
             pos = (pos + 3) & -4
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v12 = _frombuffer(mv, _D_float32, 3, pos)
+            if view:
+                v12 = _frombuffer(mv, _D_float32, 3, pos)
+            elif native:
+                v12 = mv[pos : pos + 3 * 4].cast("f").tolist()
+            else:
+                v12 = swapped_list(mv, pos, 3, "f")
             pos += 3 * 4
             f = ".float64_values"
             pos = (pos + 7) & -8
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v15 = _frombuffer(mv, _D_float64, 3, pos)
+            if view:
+                v15 = _frombuffer(mv, _D_float64, 3, pos)
+            elif native:
+                v15 = mv[pos : pos + 3 * 8].cast("d").tolist()
+            else:
+                v15 = swapped_list(mv, pos, 3, "d")
             pos += 3 * 8
             f = ".int8_values"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v18 = _frombuffer(mv, _D_int8, 3, pos)
+            if view:
+                v18 = _frombuffer(mv, _D_int8, 3, pos)
+            elif native:
+                v18 = mv[pos : pos + 3 * 1].cast("b").tolist()
+            else:
+                v18 = swapped_list(mv, pos, 3, "b")
             pos += 3 * 1
             f = ".uint8_values"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v21 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v21 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v21 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".int16_values"
             if 3 * 2 > lim - pos:
                 raise too_long(3, 2, lim - pos)
-            v24 = _frombuffer(mv, _D_int16, 3, pos)
+            if view:
+                v24 = _frombuffer(mv, _D_int16, 3, pos)
+            elif native:
+                v24 = mv[pos : pos + 3 * 2].cast("h").tolist()
+            else:
+                v24 = swapped_list(mv, pos, 3, "h")
             pos += 3 * 2
             f = ".uint16_values"
             if 3 * 2 > lim - pos:
                 raise too_long(3, 2, lim - pos)
-            v27 = _frombuffer(mv, _D_uint16, 3, pos)
+            if view:
+                v27 = _frombuffer(mv, _D_uint16, 3, pos)
+            elif native:
+                v27 = mv[pos : pos + 3 * 2].cast("H").tolist()
+            else:
+                v27 = swapped_list(mv, pos, 3, "H")
             pos += 3 * 2
             f = ".int32_values"
             pos += 2
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v30 = _frombuffer(mv, _D_int32, 3, pos)
+            if view:
+                v30 = _frombuffer(mv, _D_int32, 3, pos)
+            elif native:
+                v30 = mv[pos : pos + 3 * 4].cast("i").tolist()
+            else:
+                v30 = swapped_list(mv, pos, 3, "i")
             pos += 3 * 4
             f = ".uint32_values"
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v33 = _frombuffer(mv, _D_uint32, 3, pos)
+            if view:
+                v33 = _frombuffer(mv, _D_uint32, 3, pos)
+            elif native:
+                v33 = mv[pos : pos + 3 * 4].cast("I").tolist()
+            else:
+                v33 = swapped_list(mv, pos, 3, "I")
             pos += 3 * 4
             f = ".int64_values"
             pos += 4
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v36 = _frombuffer(mv, _D_int64, 3, pos)
+            if view:
+                v36 = _frombuffer(mv, _D_int64, 3, pos)
+            elif native:
+                v36 = mv[pos : pos + 3 * 8].cast("q").tolist()
+            else:
+                v36 = swapped_list(mv, pos, 3, "q")
             pos += 3 * 8
             f = ".uint64_values"
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v39 = _frombuffer(mv, _D_uint64, 3, pos)
+            if view:
+                v39 = _frombuffer(mv, _D_uint64, 3, pos)
+            elif native:
+                v39 = mv[pos : pos + 3 * 8].cast("Q").tolist()
+            else:
+                v39 = swapped_list(mv, pos, 3, "Q")
             pos += 3 * 8
             f = ".string_values"
             v40, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
@@ -7983,66 +8472,120 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".byte_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v49 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v49 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v49 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".char_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v52 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v52 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v52 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".float32_values_default"
             pos = (pos + 3) & -4
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v55 = _frombuffer(mv, _D_float32, 3, pos)
+            if view:
+                v55 = _frombuffer(mv, _D_float32, 3, pos)
+            elif native:
+                v55 = mv[pos : pos + 3 * 4].cast("f").tolist()
+            else:
+                v55 = swapped_list(mv, pos, 3, "f")
             pos += 3 * 4
             f = ".float64_values_default"
             pos = (pos + 7) & -8
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v58 = _frombuffer(mv, _D_float64, 3, pos)
+            if view:
+                v58 = _frombuffer(mv, _D_float64, 3, pos)
+            elif native:
+                v58 = mv[pos : pos + 3 * 8].cast("d").tolist()
+            else:
+                v58 = swapped_list(mv, pos, 3, "d")
             pos += 3 * 8
             f = ".int8_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v61 = _frombuffer(mv, _D_int8, 3, pos)
+            if view:
+                v61 = _frombuffer(mv, _D_int8, 3, pos)
+            elif native:
+                v61 = mv[pos : pos + 3 * 1].cast("b").tolist()
+            else:
+                v61 = swapped_list(mv, pos, 3, "b")
             pos += 3 * 1
             f = ".uint8_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v64 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v64 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v64 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".int16_values_default"
             if 3 * 2 > lim - pos:
                 raise too_long(3, 2, lim - pos)
-            v67 = _frombuffer(mv, _D_int16, 3, pos)
+            if view:
+                v67 = _frombuffer(mv, _D_int16, 3, pos)
+            elif native:
+                v67 = mv[pos : pos + 3 * 2].cast("h").tolist()
+            else:
+                v67 = swapped_list(mv, pos, 3, "h")
             pos += 3 * 2
             f = ".uint16_values_default"
             if 3 * 2 > lim - pos:
                 raise too_long(3, 2, lim - pos)
-            v70 = _frombuffer(mv, _D_uint16, 3, pos)
+            if view:
+                v70 = _frombuffer(mv, _D_uint16, 3, pos)
+            elif native:
+                v70 = mv[pos : pos + 3 * 2].cast("H").tolist()
+            else:
+                v70 = swapped_list(mv, pos, 3, "H")
             pos += 3 * 2
             f = ".int32_values_default"
             pos += 2
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v73 = _frombuffer(mv, _D_int32, 3, pos)
+            if view:
+                v73 = _frombuffer(mv, _D_int32, 3, pos)
+            elif native:
+                v73 = mv[pos : pos + 3 * 4].cast("i").tolist()
+            else:
+                v73 = swapped_list(mv, pos, 3, "i")
             pos += 3 * 4
             f = ".uint32_values_default"
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v76 = _frombuffer(mv, _D_uint32, 3, pos)
+            if view:
+                v76 = _frombuffer(mv, _D_uint32, 3, pos)
+            elif native:
+                v76 = mv[pos : pos + 3 * 4].cast("I").tolist()
+            else:
+                v76 = swapped_list(mv, pos, 3, "I")
             pos += 3 * 4
             f = ".int64_values_default"
             pos += 4
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v79 = _frombuffer(mv, _D_int64, 3, pos)
+            if view:
+                v79 = _frombuffer(mv, _D_int64, 3, pos)
+            elif native:
+                v79 = mv[pos : pos + 3 * 8].cast("q").tolist()
+            else:
+                v79 = swapped_list(mv, pos, 3, "q")
             pos += 3 * 8
             f = ".uint64_values_default"
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v82 = _frombuffer(mv, _D_uint64, 3, pos)
+            if view:
+                v82 = _frombuffer(mv, _D_uint64, 3, pos)
+            elif native:
+                v82 = mv[pos : pos + 3 * 8].cast("Q").tolist()
+            else:
+                v82 = swapped_list(mv, pos, 3, "Q")
             pos += 3 * 8
             f = ".string_values_default"
             v83, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
@@ -8086,35 +8629,35 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             ), pos
         return {
             "bool_values": v3,
-            "byte_values": v6.tobytes(),
-            "char_values": v9.tobytes(),
-            "float32_values": v12.tolist(),
-            "float64_values": v15.tolist(),
-            "int8_values": v18.tolist(),
-            "uint8_values": v21.tobytes(),
-            "int16_values": v24.tolist(),
-            "uint16_values": v27.tolist(),
-            "int32_values": v30.tolist(),
-            "uint32_values": v33.tolist(),
-            "int64_values": v36.tolist(),
-            "uint64_values": v39.tolist(),
+            "byte_values": v6,
+            "char_values": v9,
+            "float32_values": v12,
+            "float64_values": v15,
+            "int8_values": v18,
+            "uint8_values": v21,
+            "int16_values": v24,
+            "uint16_values": v27,
+            "int32_values": v30,
+            "uint32_values": v33,
+            "int64_values": v36,
+            "uint64_values": v39,
             "string_values": v40,
             "basic_types_values": v41,
             "constants_values": v42,
             "defaults_values": v43,
             "bool_values_default": v46,
-            "byte_values_default": v49.tobytes(),
-            "char_values_default": v52.tobytes(),
-            "float32_values_default": v55.tolist(),
-            "float64_values_default": v58.tolist(),
-            "int8_values_default": v61.tolist(),
-            "uint8_values_default": v64.tobytes(),
-            "int16_values_default": v67.tolist(),
-            "uint16_values_default": v70.tolist(),
-            "int32_values_default": v73.tolist(),
-            "uint32_values_default": v76.tolist(),
-            "int64_values_default": v79.tolist(),
-            "uint64_values_default": v82.tolist(),
+            "byte_values_default": v49,
+            "char_values_default": v52,
+            "float32_values_default": v55,
+            "float64_values_default": v58,
+            "int8_values_default": v61,
+            "uint8_values_default": v64,
+            "int16_values_default": v67,
+            "uint16_values_default": v70,
+            "int32_values_default": v73,
+            "uint32_values_default": v76,
+            "int64_values_default": v79,
+            "uint64_values_default": v82,
             "string_values_default": v83,
         }, pos
 
@@ -8351,66 +8894,120 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".byte_values"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v6 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v6 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v6 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".char_values"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v9 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v9 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v9 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".float32_values"
             pos = (pos + 3) & -4
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v12 = _frombuffer(mv, _D_float32, 3, pos)
+            if view:
+                v12 = _frombuffer(mv, _D_float32, 3, pos)
+            elif native:
+                v12 = mv[pos : pos + 3 * 4].cast("f").tolist()
+            else:
+                v12 = swapped_list(mv, pos, 3, "f")
             pos += 3 * 4
             f = ".float64_values"
             pos = (pos + 7) & -8
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v15 = _frombuffer(mv, _D_float64, 3, pos)
+            if view:
+                v15 = _frombuffer(mv, _D_float64, 3, pos)
+            elif native:
+                v15 = mv[pos : pos + 3 * 8].cast("d").tolist()
+            else:
+                v15 = swapped_list(mv, pos, 3, "d")
             pos += 3 * 8
             f = ".int8_values"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v18 = _frombuffer(mv, _D_int8, 3, pos)
+            if view:
+                v18 = _frombuffer(mv, _D_int8, 3, pos)
+            elif native:
+                v18 = mv[pos : pos + 3 * 1].cast("b").tolist()
+            else:
+                v18 = swapped_list(mv, pos, 3, "b")
             pos += 3 * 1
             f = ".uint8_values"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v21 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v21 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v21 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".int16_values"
             if 3 * 2 > lim - pos:
                 raise too_long(3, 2, lim - pos)
-            v24 = _frombuffer(mv, _D_int16, 3, pos)
+            if view:
+                v24 = _frombuffer(mv, _D_int16, 3, pos)
+            elif native:
+                v24 = mv[pos : pos + 3 * 2].cast("h").tolist()
+            else:
+                v24 = swapped_list(mv, pos, 3, "h")
             pos += 3 * 2
             f = ".uint16_values"
             if 3 * 2 > lim - pos:
                 raise too_long(3, 2, lim - pos)
-            v27 = _frombuffer(mv, _D_uint16, 3, pos)
+            if view:
+                v27 = _frombuffer(mv, _D_uint16, 3, pos)
+            elif native:
+                v27 = mv[pos : pos + 3 * 2].cast("H").tolist()
+            else:
+                v27 = swapped_list(mv, pos, 3, "H")
             pos += 3 * 2
             f = ".int32_values"
             pos += 2
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v30 = _frombuffer(mv, _D_int32, 3, pos)
+            if view:
+                v30 = _frombuffer(mv, _D_int32, 3, pos)
+            elif native:
+                v30 = mv[pos : pos + 3 * 4].cast("i").tolist()
+            else:
+                v30 = swapped_list(mv, pos, 3, "i")
             pos += 3 * 4
             f = ".uint32_values"
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v33 = _frombuffer(mv, _D_uint32, 3, pos)
+            if view:
+                v33 = _frombuffer(mv, _D_uint32, 3, pos)
+            elif native:
+                v33 = mv[pos : pos + 3 * 4].cast("I").tolist()
+            else:
+                v33 = swapped_list(mv, pos, 3, "I")
             pos += 3 * 4
             f = ".int64_values"
             pos += 4
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v36 = _frombuffer(mv, _D_int64, 3, pos)
+            if view:
+                v36 = _frombuffer(mv, _D_int64, 3, pos)
+            elif native:
+                v36 = mv[pos : pos + 3 * 8].cast("q").tolist()
+            else:
+                v36 = swapped_list(mv, pos, 3, "q")
             pos += 3 * 8
             f = ".uint64_values"
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v39 = _frombuffer(mv, _D_uint64, 3, pos)
+            if view:
+                v39 = _frombuffer(mv, _D_uint64, 3, pos)
+            elif native:
+                v39 = mv[pos : pos + 3 * 8].cast("Q").tolist()
+            else:
+                v39 = swapped_list(mv, pos, 3, "Q")
             pos += 3 * 8
             f = ".string_values"
             v40, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
@@ -8428,66 +9025,120 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".byte_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v49 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v49 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v49 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".char_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v52 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v52 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v52 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".float32_values_default"
             pos = (pos + 3) & -4
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v55 = _frombuffer(mv, _D_float32, 3, pos)
+            if view:
+                v55 = _frombuffer(mv, _D_float32, 3, pos)
+            elif native:
+                v55 = mv[pos : pos + 3 * 4].cast("f").tolist()
+            else:
+                v55 = swapped_list(mv, pos, 3, "f")
             pos += 3 * 4
             f = ".float64_values_default"
             pos = (pos + 7) & -8
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v58 = _frombuffer(mv, _D_float64, 3, pos)
+            if view:
+                v58 = _frombuffer(mv, _D_float64, 3, pos)
+            elif native:
+                v58 = mv[pos : pos + 3 * 8].cast("d").tolist()
+            else:
+                v58 = swapped_list(mv, pos, 3, "d")
             pos += 3 * 8
             f = ".int8_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v61 = _frombuffer(mv, _D_int8, 3, pos)
+            if view:
+                v61 = _frombuffer(mv, _D_int8, 3, pos)
+            elif native:
+                v61 = mv[pos : pos + 3 * 1].cast("b").tolist()
+            else:
+                v61 = swapped_list(mv, pos, 3, "b")
             pos += 3 * 1
             f = ".uint8_values_default"
             if 3 * 1 > lim - pos:
                 raise too_long(3, 1, lim - pos)
-            v64 = _frombuffer(mv, _D_uint8, 3, pos)
+            if view:
+                v64 = _frombuffer(mv, _D_uint8, 3, pos)
+            else:
+                v64 = mv[pos : pos + 3].tobytes()
             pos += 3 * 1
             f = ".int16_values_default"
             if 3 * 2 > lim - pos:
                 raise too_long(3, 2, lim - pos)
-            v67 = _frombuffer(mv, _D_int16, 3, pos)
+            if view:
+                v67 = _frombuffer(mv, _D_int16, 3, pos)
+            elif native:
+                v67 = mv[pos : pos + 3 * 2].cast("h").tolist()
+            else:
+                v67 = swapped_list(mv, pos, 3, "h")
             pos += 3 * 2
             f = ".uint16_values_default"
             if 3 * 2 > lim - pos:
                 raise too_long(3, 2, lim - pos)
-            v70 = _frombuffer(mv, _D_uint16, 3, pos)
+            if view:
+                v70 = _frombuffer(mv, _D_uint16, 3, pos)
+            elif native:
+                v70 = mv[pos : pos + 3 * 2].cast("H").tolist()
+            else:
+                v70 = swapped_list(mv, pos, 3, "H")
             pos += 3 * 2
             f = ".int32_values_default"
             pos += 2
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v73 = _frombuffer(mv, _D_int32, 3, pos)
+            if view:
+                v73 = _frombuffer(mv, _D_int32, 3, pos)
+            elif native:
+                v73 = mv[pos : pos + 3 * 4].cast("i").tolist()
+            else:
+                v73 = swapped_list(mv, pos, 3, "i")
             pos += 3 * 4
             f = ".uint32_values_default"
             if 3 * 4 > lim - pos:
                 raise too_long(3, 4, lim - pos)
-            v76 = _frombuffer(mv, _D_uint32, 3, pos)
+            if view:
+                v76 = _frombuffer(mv, _D_uint32, 3, pos)
+            elif native:
+                v76 = mv[pos : pos + 3 * 4].cast("I").tolist()
+            else:
+                v76 = swapped_list(mv, pos, 3, "I")
             pos += 3 * 4
             f = ".int64_values_default"
             pos += 4
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v79 = _frombuffer(mv, _D_int64, 3, pos)
+            if view:
+                v79 = _frombuffer(mv, _D_int64, 3, pos)
+            elif native:
+                v79 = mv[pos : pos + 3 * 8].cast("q").tolist()
+            else:
+                v79 = swapped_list(mv, pos, 3, "q")
             pos += 3 * 8
             f = ".uint64_values_default"
             if 3 * 8 > lim - pos:
                 raise too_long(3, 8, lim - pos)
-            v82 = _frombuffer(mv, _D_uint64, 3, pos)
+            if view:
+                v82 = _frombuffer(mv, _D_uint64, 3, pos)
+            elif native:
+                v82 = mv[pos : pos + 3 * 8].cast("Q").tolist()
+            else:
+                v82 = swapped_list(mv, pos, 3, "Q")
             pos += 3 * 8
             f = ".string_values_default"
             v83, pos = read_strings(mv, pos, lim, _U32, 3, None, None, False)
@@ -8531,35 +9182,35 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             ), pos
         return {
             "bool_values": v3,
-            "byte_values": v6.tobytes(),
-            "char_values": v9.tobytes(),
-            "float32_values": v12.tolist(),
-            "float64_values": v15.tolist(),
-            "int8_values": v18.tolist(),
-            "uint8_values": v21.tobytes(),
-            "int16_values": v24.tolist(),
-            "uint16_values": v27.tolist(),
-            "int32_values": v30.tolist(),
-            "uint32_values": v33.tolist(),
-            "int64_values": v36.tolist(),
-            "uint64_values": v39.tolist(),
+            "byte_values": v6,
+            "char_values": v9,
+            "float32_values": v12,
+            "float64_values": v15,
+            "int8_values": v18,
+            "uint8_values": v21,
+            "int16_values": v24,
+            "uint16_values": v27,
+            "int32_values": v30,
+            "uint32_values": v33,
+            "int64_values": v36,
+            "uint64_values": v39,
             "string_values": v40,
             "basic_types_values": v41,
             "constants_values": v42,
             "defaults_values": v43,
             "bool_values_default": v46,
-            "byte_values_default": v49.tobytes(),
-            "char_values_default": v52.tobytes(),
-            "float32_values_default": v55.tolist(),
-            "float64_values_default": v58.tolist(),
-            "int8_values_default": v61.tolist(),
-            "uint8_values_default": v64.tobytes(),
-            "int16_values_default": v67.tolist(),
-            "uint16_values_default": v70.tolist(),
-            "int32_values_default": v73.tolist(),
-            "uint32_values_default": v76.tolist(),
-            "int64_values_default": v79.tolist(),
-            "uint64_values_default": v82.tolist(),
+            "byte_values_default": v49,
+            "char_values_default": v52,
+            "float32_values_default": v55,
+            "float64_values_default": v58,
+            "int8_values_default": v61,
+            "uint8_values_default": v64,
+            "int16_values_default": v67,
+            "uint16_values_default": v70,
+            "int32_values_default": v73,
+            "uint32_values_default": v76,
+            "int64_values_default": v79,
+            "uint64_values_default": v82,
             "string_values_default": v83,
         }, pos
 
@@ -8798,7 +9449,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = ARRAYS_EVENT_RUN_2
@@ -8824,7 +9478,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -9147,7 +9801,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = BASIC_TYPES_EVENT_RUN_2
@@ -9173,7 +9830,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -9320,7 +9977,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = EMPTY_EVENT_RUN_2
@@ -9346,7 +10006,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -9466,7 +10126,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".sequence"
             if v3 * 4 > lim - pos:
                 raise too_long(v3, 4, lim - pos)
-            v4 = _frombuffer(mv, _D_int32, v3, pos)
+            if view:
+                v4 = _frombuffer(mv, _D_int32, v3, pos)
+            elif native:
+                v4 = mv[pos : pos + v3 * 4].cast("i").tolist()
+            else:
+                v4 = swapped_list(mv, pos, v3, "i")
             pos += v3 * 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -9474,7 +10139,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return fibonacci_result_view(v4), pos
-        return {"sequence": v4.tolist()}, pos
+        return {"sequence": v4}, pos
 
     def fibonacci_result_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -9511,7 +10176,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".sequence"
             if v3 * 4 > lim - pos:
                 raise too_long(v3, 4, lim - pos)
-            v4 = _frombuffer(mv, _D_int32, v3, pos)
+            if view:
+                v4 = _frombuffer(mv, _D_int32, v3, pos)
+            elif native:
+                v4 = mv[pos : pos + v3 * 4].cast("i").tolist()
+            else:
+                v4 = swapped_list(mv, pos, v3, "i")
             pos += v3 * 4
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -9519,7 +10189,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return fibonacci_feedback_view(v4), pos
-        return {"sequence": v4.tolist()}, pos
+        return {"sequence": v4}, pos
 
     def fibonacci_feedback_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -9552,7 +10222,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".goal_id.uuid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v4 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v4 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = FIBONACCI_SEND_GOAL_REQUEST_RUN_0
@@ -9566,7 +10239,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             return fibonacci_send_goal_request_view(
                 unique_identifier_msgs__uuid_view(v4), fibonacci_goal_view(v7)
             ), pos
-        return {"goal_id": {"uuid": v4.tobytes()}, "goal": {"order": v7}}, pos
+        return {"goal_id": {"uuid": v4}, "goal": {"order": v7}}, pos
 
     def fibonacci_send_goal_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -9671,7 +10344,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = FIBONACCI_SEND_GOAL_EVENT_RUN_2
@@ -9701,7 +10377,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -9779,7 +10455,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".goal_id.uuid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v4 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v4 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -9787,7 +10466,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return fibonacci_get_result_request_view(unique_identifier_msgs__uuid_view(v4)), pos
-        return {"goal_id": {"uuid": v4.tobytes()}}, pos
+        return {"goal_id": {"uuid": v4}}, pos
 
     def fibonacci_get_result_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -9858,7 +10537,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = FIBONACCI_GET_RESULT_EVENT_RUN_2
@@ -9888,7 +10570,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -9972,7 +10654,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".goal_id.uuid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v4 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v4 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             f = ".feedback"
             v5, pos = fibonacci_feedback_decode(mv, pos, lim)
@@ -9982,7 +10667,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return fibonacci_feedback_message_view(unique_identifier_msgs__uuid_view(v4), v5), pos
-        return {"goal_id": {"uuid": v4.tobytes()}, "feedback": v5}, pos
+        return {"goal_id": {"uuid": v4}, "feedback": v5}, pos
 
     def fibonacci_feedback_message_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -10469,7 +11154,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".goal_id.uuid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v4 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v4 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = NESTED_MESSAGE_SEND_GOAL_REQUEST_RUN_0
@@ -10500,7 +11188,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 ),
             ), pos
         return {
-            "goal_id": {"uuid": v4.tobytes()},
+            "goal_id": {"uuid": v4},
             "goal": {
                 "nested_field_no_pkg": {
                     "duration_value": {"sec": v9, "nanosec": v11},
@@ -10716,7 +11404,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = NESTED_MESSAGE_SEND_GOAL_EVENT_RUN_2
@@ -10746,7 +11437,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -10838,7 +11529,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".goal_id.uuid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v4 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v4 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -10848,7 +11542,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             return nested_message_get_result_request_view(
                 unique_identifier_msgs__uuid_view(v4)
             ), pos
-        return {"goal_id": {"uuid": v4.tobytes()}}, pos
+        return {"goal_id": {"uuid": v4}}, pos
 
     def nested_message_get_result_request_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -11063,7 +11757,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = NESTED_MESSAGE_GET_RESULT_EVENT_RUN_2
@@ -11093,7 +11790,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,
@@ -11185,7 +11882,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".goal_id.uuid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v4 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v4 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v4 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 3) & -4
             f = NESTED_MESSAGE_FEEDBACK_MESSAGE_RUN_0
@@ -11216,7 +11916,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 ),
             ), pos
         return {
-            "goal_id": {"uuid": v4.tobytes()},
+            "goal_id": {"uuid": v4},
             "feedback": {
                 "nested_field_no_pkg": {
                     "duration_value": {"sec": v9, "nanosec": v11},

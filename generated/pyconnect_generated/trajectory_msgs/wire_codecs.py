@@ -14,8 +14,8 @@ One decoder per type builds either the lossless dict or the view (``_build`` mak
 closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
 to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
 linked from their modules. Positions count from the end of the encapsulation header; numeric and
-uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
-``to_dict`` of a live message gives). Imports nothing from ROS.
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes read straight
+from the input in dicts (what ``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -27,12 +27,14 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
+    NATIVE_ORDER,
     decode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
+    swapped_list,
     too_long,
     view_fields,
     view_repr,
@@ -322,6 +324,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
     geometry_msgs__twist_encode = GEOMETRY_MSGS__FUNCTIONS[E, view]["twist_encode"]
     std_msgs__header_decode = STD_MSGS__FUNCTIONS[E, view]["header_decode"]
     std_msgs__header_encode = STD_MSGS__FUNCTIONS[E, view]["header_encode"]
+    native = E == NATIVE_ORDER
     _U32 = Struct(E + "I")
     _S_I = Struct(E + "I")
     _S_iI = Struct(E + "iI")
@@ -339,7 +342,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v3 * 8 > lim - pos:
                 raise too_long(v3, 8, lim - pos)
-            v4 = _frombuffer(mv, _D_float64, v3, pos)
+            if view:
+                v4 = _frombuffer(mv, _D_float64, v3, pos)
+            elif native:
+                v4 = mv[pos : pos + v3 * 8].cast("d").tolist()
+            else:
+                v4 = swapped_list(mv, pos, v3, "d")
             pos += v3 * 8
             f = JOINT_TRAJECTORY_POINT_RUN_1
             (v7,) = _S_I.unpack_from(mv, pos)
@@ -349,7 +357,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v7 * 8 > lim - pos:
                 raise too_long(v7, 8, lim - pos)
-            v8 = _frombuffer(mv, _D_float64, v7, pos)
+            if view:
+                v8 = _frombuffer(mv, _D_float64, v7, pos)
+            elif native:
+                v8 = mv[pos : pos + v7 * 8].cast("d").tolist()
+            else:
+                v8 = swapped_list(mv, pos, v7, "d")
             pos += v7 * 8
             f = JOINT_TRAJECTORY_POINT_RUN_2
             (v11,) = _S_I.unpack_from(mv, pos)
@@ -359,7 +372,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v11 * 8 > lim - pos:
                 raise too_long(v11, 8, lim - pos)
-            v12 = _frombuffer(mv, _D_float64, v11, pos)
+            if view:
+                v12 = _frombuffer(mv, _D_float64, v11, pos)
+            elif native:
+                v12 = mv[pos : pos + v11 * 8].cast("d").tolist()
+            else:
+                v12 = swapped_list(mv, pos, v11, "d")
             pos += v11 * 8
             f = JOINT_TRAJECTORY_POINT_RUN_3
             (v15,) = _S_I.unpack_from(mv, pos)
@@ -369,7 +387,12 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 pos = (pos + 7) & -8
             if v15 * 8 > lim - pos:
                 raise too_long(v15, 8, lim - pos)
-            v16 = _frombuffer(mv, _D_float64, v15, pos)
+            if view:
+                v16 = _frombuffer(mv, _D_float64, v15, pos)
+            elif native:
+                v16 = mv[pos : pos + v15 * 8].cast("d").tolist()
+            else:
+                v16 = swapped_list(mv, pos, v15, "d")
             pos += v15 * 8
             f = JOINT_TRAJECTORY_POINT_RUN_4
             v19, v21 = _S_iI.unpack_from(mv, pos)
@@ -383,10 +406,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
                 v4, v8, v12, v16, builtin_interfaces__duration_view(v19, v21)
             ), pos
         return {
-            "positions": v4.tolist(),
-            "velocities": v8.tolist(),
-            "accelerations": v12.tolist(),
-            "effort": v16.tolist(),
+            "positions": v4,
+            "velocities": v8,
+            "accelerations": v12,
+            "effort": v16,
             "time_from_start": {"sec": v19, "nanosec": v21},
         }, pos
 

@@ -24,8 +24,8 @@ One decoder per type builds either the lossless dict or the view (``_build`` mak
 closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
 to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
 linked from their modules. Positions count from the end of the encapsulation header; numeric and
-uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
-``to_dict`` of a live message gives). Imports nothing from ROS.
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes read straight
+from the input in dicts (what ``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -37,12 +37,14 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
+    NATIVE_ORDER,
     decode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
+    swapped_list,
     too_long,
     view_fields,
     view_repr,
@@ -566,6 +568,7 @@ def get_type_description_event_view(a0: Any, a1: Any, a2: Any) -> GetTypeDescrip
 
 def _build(E: str, view: bool) -> dict[str, Any]:
     """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    native = E == NATIVE_ORDER
     _U32 = Struct(E + "I")
     _S_2QI = Struct(E + "2QI")
     _S_B = Struct(E + "B")
@@ -1129,7 +1132,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_TYPE_DESCRIPTION_EVENT_RUN_2
@@ -1159,7 +1165,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,

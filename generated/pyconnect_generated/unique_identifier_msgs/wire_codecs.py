@@ -8,8 +8,8 @@ One decoder per type builds either the lossless dict or the view (``_build`` mak
 closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
 to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
 linked from their modules. Positions count from the end of the encapsulation header; numeric and
-uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
-``to_dict`` of a live message gives). Imports nothing from ROS.
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes read straight
+from the input in dicts (what ``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -21,12 +21,14 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
+    NATIVE_ORDER,
     decode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
+    swapped_list,
     too_long,
     view_fields,
     view_repr,
@@ -91,6 +93,7 @@ def uuid_view(a0: Any) -> UUID:
 
 def _build(E: str, view: bool) -> dict[str, Any]:
     """Every decoder and encoder for byte order ``E`` (``<``, ``>``), decoding to views or dicts."""
+    native = E == NATIVE_ORDER
     _U32 = Struct(E + "I")
     _D_uint8 = np.dtype("uint8").newbyteorder(E)
 
@@ -100,7 +103,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".uuid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v3 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v3 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v3 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -108,7 +114,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return uuid_view(v3), pos
-        return {"uuid": v3.tobytes()}, pos
+        return {"uuid": v3}, pos
 
     def uuid_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""

@@ -36,8 +36,8 @@ One decoder per type builds either the lossless dict or the view (``_build`` mak
 closures, ``FUNCTIONS`` holds them by byte order and target); ``LITTLE`` and ``BIG`` map each type
 to ``(to_dict, to_view, from_dict)`` for that byte order. The code of other packages' types is
 linked from their modules. Positions count from the end of the encapsulation header; numeric and
-uint8 arrays decode as numpy views of the input in views, and as lists and bytes in dicts (what
-``to_dict`` of a live message gives). Imports nothing from ROS.
+uint8 arrays decode as numpy views of the input in views, and as lists and bytes read straight
+from the input in dicts (what ``to_dict`` of a live message gives). Imports nothing from ROS.
 """
 
 from __future__ import annotations
@@ -49,12 +49,14 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.cdr_read import (
+    NATIVE_ORDER,
     decode_failure,
     over_bound,
     read_bools,
     read_messages,
     read_strings,
     read_wstring,
+    swapped_list,
     too_long,
     view_fields,
     view_repr,
@@ -1131,6 +1133,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
     std_msgs__color_rgba_encode = STD_MSGS__FUNCTIONS[E, view]["color_rgba_encode"]
     std_msgs__header_decode = STD_MSGS__FUNCTIONS[E, view]["header_decode"]
     std_msgs__header_encode = STD_MSGS__FUNCTIONS[E, view]["header_encode"]
+    native = E == NATIVE_ORDER
     _U32 = Struct(E + "I")
     _S_10d4fiIT = Struct(E + "10d4fiI?")
     _S_1x = Struct(E + "1x")
@@ -1484,7 +1487,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".data"
             if v6 * 1 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = _frombuffer(mv, _D_uint8, v6, pos)
+            if view:
+                v7 = _frombuffer(mv, _D_uint8, v6, pos)
+            else:
+                v7 = mv[pos : pos + v6].tobytes()
             pos += v6 * 1
         except WireDecodeError as error:
             raise error.within(f) from None
@@ -1492,7 +1498,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             raise decode_failure(error, f, pos, lim) from None
         if view:
             return mesh_file_view(v3, v7), pos
-        return {"filename": v3, "data": v7.tobytes()}, pos
+        return {"filename": v3, "data": v7}, pos
 
     def mesh_file_encode(d: Any, out: list[Any], pos: int) -> int:
         f = ""
@@ -2730,7 +2736,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".info.client_gid"
             if 16 * 1 > lim - pos:
                 raise too_long(16, 1, lim - pos)
-            v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            if view:
+                v11 = _frombuffer(mv, _D_uint8, 16, pos)
+            else:
+                v11 = mv[pos : pos + 16].tobytes()
             pos += 16 * 1
             pos = (pos + 7) & -8
             f = GET_INTERACTIVE_MARKERS_EVENT_RUN_2
@@ -2760,7 +2769,7 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             "info": {
                 "event_type": v3,
                 "stamp": {"sec": v6, "nanosec": v8},
-                "client_gid": v11.tobytes(),
+                "client_gid": v11,
                 "sequence_number": v13,
             },
             "request": v14,

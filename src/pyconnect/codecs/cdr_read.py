@@ -8,6 +8,8 @@ the 4-byte encapsulation header, where CDR alignment starts; ``lim`` is the leng
 from __future__ import annotations
 
 import struct
+import sys
+from array import array
 from collections.abc import Callable, Sequence
 from typing import Any
 
@@ -21,6 +23,8 @@ from pyconnect.typesys.primitives import PRIMITIVE_SIZES
 # (segment, primitive kind, end offset in the run) for each value of a run of fixed-size values.
 RunLabel = tuple[tuple[str, str, int], ...]
 DecodeFunction = Callable[[memoryview, int, int], tuple[Any, int]]
+# The byte order (struct's "<" or ">") whose numbers a memoryview cast reads as they are.
+NATIVE_ORDER = "<" if sys.byteorder == "little" else ">"
 
 
 # Helpers with many parameters are called positionally by the generated code, where keyword
@@ -60,6 +64,14 @@ def decode_failure(
     else:
         detail = f"malformed ({describe(error)}: {error})"
     return WireDecodeError(detail).within(label)
+
+
+def swapped_list(mv: memoryview, pos: int, count: int, code: str) -> list[Any]:
+    """``count`` numbers of struct code ``code`` at ``pos``, stored in the other byte order."""
+    values = array(code)
+    values.frombytes(mv[pos : pos + count * values.itemsize])
+    values.byteswap()
+    return values.tolist()
 
 
 def read_bools(mv: memoryview, pos: int, count: int) -> list[bool]:

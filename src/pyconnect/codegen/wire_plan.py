@@ -15,7 +15,7 @@ from typing import Any
 from pyconnect.codegen.templating import py_literal
 from pyconnect.codegen.wire_tables import ModuleTables, RunItem, ValueCheck
 from pyconnect.typesys.model import Field, FieldType, MessageDef, TypeSet
-from pyconnect.typesys.primitives import FLOAT_NAMES, PRIMITIVE_SIZES, STRUCT_CODES
+from pyconnect.typesys.primitives import BYTE_NAMES, FLOAT_NAMES, PRIMITIVE_SIZES, STRUCT_CODES
 
 
 def is_flat(msg: MessageDef, types: TypeSet) -> bool:
@@ -60,9 +60,6 @@ class Value:
     is_list: bool = False
     message: str = ""  # the view function of an inlined flat message
     fields: list[tuple[str, Value]] = field(default_factory=list)
-    # A numeric array is an ndarray view in a view, and in a dict the plain value a live
-    # message's to_dict gives (".tolist()", or ".tobytes()" for byte arrays): one value per type.
-    plain: str = ""
 
     def dict_expr(self) -> str:
         if self.message:
@@ -70,7 +67,7 @@ class Value:
             return "{" + inner + "}"
         if self.is_list:
             return "[" + ", ".join(self.items) + "]"
-        return self.local + self.plain
+        return self.local
 
     def view_expr(self) -> str:
         if self.message:
@@ -298,9 +295,14 @@ class Planner:
             pad = self._static_pad(itemsize) if itemsize > 1 else 0
             target = self.local("v")
             kind = "bools" if element.name == "bool" else "array"
+            # A numeric array decodes as an ndarray view in a view, and in a dict as the plain
+            # value a live message's to_dict gives (a list, or bytes for byte arrays), read
+            # straight from the buffer without numpy: one value per type.
             self.step(kind, segment, target=target, count=count, buffer=buffer, counted=counted,
                       itemsize=itemsize, pad=pad, fixed=fixed, bound=bound,
-                      dtype=self.tables.dtype(element.name))  # fmt: skip
+                      dtype=self.tables.dtype(element.name),
+                      code=STRUCT_CODES[element.name],
+                      byte_like=element.name in BYTE_NAMES)  # fmt: skip
             if fixed:
                 if pad is None:
                     self._forget(min(itemsize, 8))
@@ -309,10 +311,7 @@ class Planner:
                 self._advance(itemsize * (size or 0))
             else:
                 self._forget(min(itemsize, 4) if itemsize > 1 else 1)
-            if kind == "bools":
-                return Value(local=target)
-            byte_like = element.name in ("uint8", "byte", "char")
-            return Value(local=target, plain=".tobytes()" if byte_like else ".tolist()")
+            return Value(local=target)
         target = self.local("v")
         if element.kind in ("string", "wstring"):
             self.step("strings", segment, target=target, source=source, size=size, fixed=fixed,

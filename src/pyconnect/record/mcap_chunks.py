@@ -10,7 +10,8 @@ holds little more than the chunk itself. Chunk buffers of a megabyte or more are
 maps of their own, given back to the system as soon as the last message view on them goes:
 from malloc, a freed multi-megabyte buffer raises glibc's mmap threshold, so the next chunks
 come from the heap, whose freed pages stay counted in the process's memory (a read held ~4 MiB
-more than its two chunks that way).
+more than its two chunks that way). A file reuses its last buffer for the next chunk once no
+view holds it (``ChunkBuffers``).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ from __future__ import annotations
 import io
 import mmap
 import struct
+import sys
 import zlib
 from dataclasses import dataclass
 from typing import BinaryIO, cast
@@ -25,7 +27,15 @@ from typing import BinaryIO, cast
 from pyconnect.record.bag_damage import DamageLog
 from pyconnect.record.bag_storage import RawMessage
 
-__all__ = ["CHUNK", "MESSAGE", "RECORD_HEADER", "Span", "load_span", "scan_messages"]
+__all__ = [
+    "CHUNK",
+    "MESSAGE",
+    "RECORD_HEADER",
+    "ChunkBuffers",
+    "Span",
+    "load_span",
+    "scan_messages",
+]
 
 CHUNK = 0x06
 MESSAGE = 0x05
@@ -40,11 +50,31 @@ _MAX_UNCOMPRESSED = 1 << 34  # a declared size beyond 16 GiB is a damaged length
 _MAPPED_FROM = 1 << 20  # buffers this big get a memory map of their own
 
 
-def chunk_buffer(size: int) -> memoryview:
-    """A writable buffer of ``size`` bytes, freed to the system when its last view goes."""
-    if size >= _MAPPED_FROM:
-        return memoryview(mmap.mmap(-1, size))
-    return memoryview(bytearray(size))
+class ChunkBuffers:
+    """The chunk buffers of one file: a buffer no message view holds any more is reused.
+
+    Fresh memory costs a page fault per page on first write (a third of loading a chunk); a
+    file's chunks come one after the other, so the last chunk's buffer is usually free again when
+    the next one loads. Views (message slices, numpy arrays on them) each hold a reference to the
+    buffer, so a buffer referenced only here is free; one still viewed is left to its views.
+    """
+
+    __slots__ = ("_spare",)
+
+    def __init__(self) -> None:
+        self._spare: mmap.mmap | bytearray | None = None
+
+    def take(self, size: int) -> memoryview:
+        """A writable buffer of ``size`` bytes, freed to the system when its last view goes."""
+        spare = self._spare
+        # References: self._spare, `spare` and getrefcount's argument; any view adds one.
+        if spare is not None and len(spare) >= size and sys.getrefcount(spare) == 3:
+            return memoryview(spare)[:size]
+        self._spare = None
+        del spare
+        buffer = mmap.mmap(-1, size) if size >= _MAPPED_FROM else bytearray(size)
+        self._spare = buffer
+        return memoryview(buffer)
 
 
 @dataclass
@@ -75,10 +105,12 @@ class _Window:
         return data
 
 
-def _decompress_zstd(source: _Window, size: int, damage: DamageLog, offset: int) -> memoryview:
+def _decompress_zstd(
+    source: _Window, view: memoryview, damage: DamageLog, offset: int
+) -> memoryview:
     import zstandard
 
-    view = chunk_buffer(size)
+    size = len(view)
     filled = 0
     try:
         with zstandard.ZstdDecompressor().stream_reader(
@@ -96,10 +128,10 @@ def _decompress_zstd(source: _Window, size: int, damage: DamageLog, offset: int)
     return view[:filled]
 
 
-def _decompress_lz4(source: _Window, size: int, damage: DamageLog, offset: int) -> memoryview:
+def _decompress_lz4(source: _Window, out: memoryview, damage: DamageLog, offset: int) -> memoryview:
     import lz4.frame
 
-    out = chunk_buffer(size)
+    size = len(out)
     filled = 0
     decompressor = lz4.frame.LZ4FrameDecompressor()
     try:
@@ -118,9 +150,9 @@ def _decompress_lz4(source: _Window, size: int, damage: DamageLog, offset: int) 
     return out[:filled]
 
 
-def _read_into_buffer(stream: BinaryIO, size: int) -> memoryview:
-    """Up to ``size`` bytes of ``stream`` (fewer at its end), read straight into a new buffer."""
-    buffer = chunk_buffer(size)
+def _read_into_buffer(stream: BinaryIO, buffer: memoryview) -> memoryview:
+    """Up to ``len(buffer)`` bytes of ``stream`` (fewer at its end), read straight into it."""
+    size = len(buffer)
     reader = cast("io.BufferedIOBase", stream)  # the file is opened "rb": a BufferedReader
     filled = 0
     while filled < size:
@@ -132,12 +164,12 @@ def _read_into_buffer(stream: BinaryIO, size: int) -> memoryview:
 
 
 def load_span(
-    stream: BinaryIO, span: Span, file_size: int, damage: DamageLog
+    stream: BinaryIO, span: Span, file_size: int, damage: DamageLog, buffers: ChunkBuffers
 ) -> tuple[memoryview, bool]:
     """The records of ``span`` and whether they are complete (False: cut short or damaged)."""
     if not span.chunked:
         stream.seek(span.offset)
-        loose = _read_into_buffer(stream, span.length)
+        loose = _read_into_buffer(stream, buffers.take(span.length))
         return loose, len(loose) == span.length
     offset = span.offset
     stream.seek(offset)
@@ -167,14 +199,14 @@ def load_span(
             key="cut",
         )
     if compression in ("", "none"):
-        records = _read_into_buffer(stream, available)
+        records = _read_into_buffer(stream, buffers.take(available))
     elif size > _MAX_UNCOMPRESSED:
         damage.note(offset, f"chunk claims {size} bytes uncompressed; skipped", key="size")
         return memoryview(b""), False
     elif compression == "zstd":
-        records = _decompress_zstd(_Window(stream, available), size, damage, offset)
+        records = _decompress_zstd(_Window(stream, available), buffers.take(size), damage, offset)
     elif compression == "lz4":
-        records = _decompress_lz4(_Window(stream, available), size, damage, offset)
+        records = _decompress_lz4(_Window(stream, available), buffers.take(size), damage, offset)
     else:
         damage.note(offset, f"unsupported chunk compression {compression!r}; skipped")
         return memoryview(b""), False

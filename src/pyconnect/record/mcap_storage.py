@@ -35,6 +35,7 @@ from pyconnect.record.mcap_chunks import (
     MESSAGE,
     MESSAGE_HEADER,
     RECORD_HEADER,
+    ChunkBuffers,
     Span,
     load_span,
     scan_messages,
@@ -67,6 +68,7 @@ class McapFile:
         self._schemas: dict[int, Schema] = {}
         self._channels: dict[int, Channel] = {}
         self._spans: list[Span] = []
+        self._buffers = ChunkBuffers()
         self._counts: dict[int, int] | None = None
         self.promised: int | None = None
         """How many messages the file's statistics declare (None: it has none)."""
@@ -227,7 +229,7 @@ class McapFile:
 
     def _probe(self, span: Span) -> None:
         """Decompress a chunk to learn its channels, counts and times."""
-        records, complete = load_span(self._stream, span, self._size, self.damage)
+        records, complete = load_span(self._stream, span, self._size, self.damage, self._buffers)
         position, size = 0, len(records)
         counts: dict[int, int] = {}
         first = last = None
@@ -315,7 +317,9 @@ class McapFile:
         ]
         pending: list[RawMessage] = []
         for number, span in enumerate(spans):
-            records, complete = load_span(self._stream, span, self._size, self.damage)
+            records, complete = load_span(
+                self._stream, span, self._size, self.damage, self._buffers
+            )
             found = scan_messages(
                 records,
                 connection_ids,
