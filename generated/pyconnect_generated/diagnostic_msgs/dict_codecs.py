@@ -37,6 +37,8 @@ import numpy as np
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
     FLOAT32_MAX,
+    PLAIN_FLOATS,
+    PLAIN_INTS,
     bool_list,
     check_bool,
     check_float,
@@ -49,7 +51,6 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
-    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,

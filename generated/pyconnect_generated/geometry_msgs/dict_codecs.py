@@ -83,6 +83,8 @@ import numpy as np
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
     FLOAT32_MAX,
+    PLAIN_FLOATS,
+    PLAIN_INTS,
     bool_list,
     check_bool,
     check_float,
@@ -95,7 +97,6 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
-    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -318,9 +319,9 @@ def accel_with_covariance_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("covariance", MISSING)
         if value is MISSING:
             msg._covariance = np.zeros(36, dtype=np.float64)
-        elif type(value) is list and len(value) == 36 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 36 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._covariance = np.array(array("d", value), dtype=np.float64)
+                msg._covariance = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._covariance = numeric_array(value, "d", "float64", "float64", 36, ".covariance")
         else:
@@ -1083,9 +1084,9 @@ def pose_with_covariance_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("covariance", MISSING)
         if value is MISSING:
             msg._covariance = np.zeros(36, dtype=np.float64)
-        elif type(value) is list and len(value) == 36 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 36 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._covariance = np.array(array("d", value), dtype=np.float64)
+                msg._covariance = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._covariance = numeric_array(value, "d", "float64", "float64", 36, ".covariance")
         else:
@@ -1495,9 +1496,9 @@ def twist_with_covariance_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("covariance", MISSING)
         if value is MISSING:
             msg._covariance = np.zeros(36, dtype=np.float64)
-        elif type(value) is list and len(value) == 36 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 36 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._covariance = np.array(array("d", value), dtype=np.float64)
+                msg._covariance = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._covariance = numeric_array(value, "d", "float64", "float64", 36, ".covariance")
         else:

@@ -55,6 +55,8 @@ import numpy as np
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
     FLOAT32_MAX,
+    PLAIN_FLOATS,
+    PLAIN_INTS,
     bool_list,
     check_bool,
     check_float,
@@ -67,7 +69,6 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
-    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -412,7 +413,7 @@ def occupancy_grid_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("b")
-        elif type(value) is list and plain_numbers(value, "int8"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._data = array("b", value)
             except (TypeError, OverflowError, ValueError):

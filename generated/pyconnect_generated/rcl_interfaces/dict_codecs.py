@@ -93,6 +93,8 @@ import numpy as np
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
     FLOAT32_MAX,
+    PLAIN_FLOATS,
+    PLAIN_INTS,
     bool_list,
     check_bool,
     check_float,
@@ -105,7 +107,6 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
-    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -947,7 +948,7 @@ def parameter_value_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("integer_array_value", MISSING)
         if value is MISSING:
             msg._integer_array_value = array("q")
-        elif type(value) is list and plain_numbers(value, "int64"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._integer_array_value = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -961,7 +962,7 @@ def parameter_value_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("double_array_value", MISSING)
         if value is MISSING:
             msg._double_array_value = array("d")
-        elif type(value) is list and plain_numbers(value, "float64"):
+        elif type(value) is list and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._double_array_value = array("d", value)
             except (TypeError, OverflowError, ValueError):

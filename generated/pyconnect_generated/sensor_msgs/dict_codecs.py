@@ -79,6 +79,8 @@ import numpy as np
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
     FLOAT32_MAX,
+    PLAIN_FLOATS,
+    PLAIN_INTS,
     bool_list,
     check_bool,
     check_float,
@@ -91,7 +93,6 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
-    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -408,7 +409,7 @@ def camera_info_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("d", MISSING)
         if value is MISSING:
             msg._d = array("d")
-        elif type(value) is list and plain_numbers(value, "float64"):
+        elif type(value) is list and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._d = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -418,9 +419,9 @@ def camera_info_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("k", MISSING)
         if value is MISSING:
             msg._k = np.zeros(9, dtype=np.float64)
-        elif type(value) is list and len(value) == 9 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 9 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._k = np.array(array("d", value), dtype=np.float64)
+                msg._k = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._k = numeric_array(value, "d", "float64", "float64", 9, ".k")
         else:
@@ -428,9 +429,9 @@ def camera_info_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("r", MISSING)
         if value is MISSING:
             msg._r = np.zeros(9, dtype=np.float64)
-        elif type(value) is list and len(value) == 9 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 9 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._r = np.array(array("d", value), dtype=np.float64)
+                msg._r = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._r = numeric_array(value, "d", "float64", "float64", 9, ".r")
         else:
@@ -438,9 +439,9 @@ def camera_info_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("p", MISSING)
         if value is MISSING:
             msg._p = np.zeros(12, dtype=np.float64)
-        elif type(value) is list and len(value) == 12 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 12 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._p = np.array(array("d", value), dtype=np.float64)
+                msg._p = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._p = numeric_array(value, "d", "float64", "float64", 12, ".p")
         else:
@@ -778,9 +779,9 @@ def imu_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("orientation_covariance", MISSING)
         if value is MISSING:
             msg._orientation_covariance = np.zeros(9, dtype=np.float64)
-        elif type(value) is list and len(value) == 9 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 9 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._orientation_covariance = np.array(array("d", value), dtype=np.float64)
+                msg._orientation_covariance = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._orientation_covariance = numeric_array(
                     value, "d", "float64", "float64", 9, ".orientation_covariance"
@@ -798,9 +799,9 @@ def imu_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("angular_velocity_covariance", MISSING)
         if value is MISSING:
             msg._angular_velocity_covariance = np.zeros(9, dtype=np.float64)
-        elif type(value) is list and len(value) == 9 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 9 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._angular_velocity_covariance = np.array(array("d", value), dtype=np.float64)
+                msg._angular_velocity_covariance = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._angular_velocity_covariance = numeric_array(
                     value, "d", "float64", "float64", 9, ".angular_velocity_covariance"
@@ -818,9 +819,9 @@ def imu_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("linear_acceleration_covariance", MISSING)
         if value is MISSING:
             msg._linear_acceleration_covariance = np.zeros(9, dtype=np.float64)
-        elif type(value) is list and len(value) == 9 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 9 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._linear_acceleration_covariance = np.array(array("d", value), dtype=np.float64)
+                msg._linear_acceleration_covariance = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._linear_acceleration_covariance = numeric_array(
                     value, "d", "float64", "float64", 9, ".linear_acceleration_covariance"
@@ -884,7 +885,7 @@ def joint_state_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("position", MISSING)
         if value is MISSING:
             msg._position = array("d")
-        elif type(value) is list and plain_numbers(value, "float64"):
+        elif type(value) is list and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._position = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -894,7 +895,7 @@ def joint_state_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("velocity", MISSING)
         if value is MISSING:
             msg._velocity = array("d")
-        elif type(value) is list and plain_numbers(value, "float64"):
+        elif type(value) is list and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._velocity = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -904,7 +905,7 @@ def joint_state_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("effort", MISSING)
         if value is MISSING:
             msg._effort = array("d")
-        elif type(value) is list and plain_numbers(value, "float64"):
+        elif type(value) is list and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._effort = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -960,7 +961,7 @@ def joy_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("buttons", MISSING)
         if value is MISSING:
             msg._buttons = array("i")
-        elif type(value) is list and plain_numbers(value, "int32"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._buttons = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -1237,9 +1238,9 @@ def magnetic_field_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("magnetic_field_covariance", MISSING)
         if value is MISSING:
             msg._magnetic_field_covariance = np.zeros(9, dtype=np.float64)
-        elif type(value) is list and len(value) == 9 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 9 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._magnetic_field_covariance = np.array(array("d", value), dtype=np.float64)
+                msg._magnetic_field_covariance = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._magnetic_field_covariance = numeric_array(
                     value, "d", "float64", "float64", 9, ".magnetic_field_covariance"
@@ -1547,9 +1548,9 @@ def nav_sat_fix_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("position_covariance", MISSING)
         if value is MISSING:
             msg._position_covariance = np.zeros(9, dtype=np.float64)
-        elif type(value) is list and len(value) == 9 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 9 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._position_covariance = np.array(array("d", value), dtype=np.float64)
+                msg._position_covariance = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._position_covariance = numeric_array(
                     value, "d", "float64", "float64", 9, ".position_covariance"

@@ -27,6 +27,8 @@ import numpy as np
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
     FLOAT32_MAX,
+    PLAIN_FLOATS,
+    PLAIN_INTS,
     bool_list,
     check_bool,
     check_float,
@@ -39,7 +41,6 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
-    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -149,7 +150,7 @@ def mesh_triangle_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("vertex_indices", MISSING)
         if value is MISSING:
             msg._vertex_indices = np.zeros(3, dtype=np.uint32)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint32"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._vertex_indices = np.array(array("I", value), dtype=np.uint32)
             except (TypeError, OverflowError, ValueError):
@@ -191,9 +192,9 @@ def plane_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("coef", MISSING)
         if value is MISSING:
             msg._coef = np.zeros(4, dtype=np.float64)
-        elif type(value) is list and len(value) == 4 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 4 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._coef = np.array(array("d", value), dtype=np.float64)
+                msg._coef = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._coef = numeric_array(value, "d", "float64", "float64", 4, ".coef")
         else:
@@ -244,7 +245,7 @@ def solid_primitive_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("dimensions", MISSING)
         if value is MISSING:
             msg._dimensions = array("d")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._dimensions = array("d", value)
             except (TypeError, OverflowError, ValueError):

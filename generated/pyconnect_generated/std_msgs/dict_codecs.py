@@ -79,6 +79,8 @@ import numpy as np
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
     FLOAT32_MAX,
+    PLAIN_FLOATS,
+    PLAIN_INTS,
     bool_list,
     check_bool,
     check_float,
@@ -91,7 +93,6 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
-    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -539,7 +540,7 @@ def float64_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("d")
-        elif type(value) is list and plain_numbers(value, "float64"):
+        elif type(value) is list and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._data = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -664,7 +665,7 @@ def int16_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("h")
-        elif type(value) is list and plain_numbers(value, "int16"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._data = array("h", value)
             except (TypeError, OverflowError, ValueError):
@@ -749,7 +750,7 @@ def int32_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("i")
-        elif type(value) is list and plain_numbers(value, "int32"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._data = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -834,7 +835,7 @@ def int64_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("q")
-        elif type(value) is list and plain_numbers(value, "int64"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._data = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -919,7 +920,7 @@ def int8_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("b")
-        elif type(value) is list and plain_numbers(value, "int8"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._data = array("b", value)
             except (TypeError, OverflowError, ValueError):
@@ -1124,7 +1125,7 @@ def u_int16_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("H")
-        elif type(value) is list and plain_numbers(value, "uint16"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._data = array("H", value)
             except (TypeError, OverflowError, ValueError):
@@ -1209,7 +1210,7 @@ def u_int32_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("I")
-        elif type(value) is list and plain_numbers(value, "uint32"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._data = array("I", value)
             except (TypeError, OverflowError, ValueError):
@@ -1294,7 +1295,7 @@ def u_int64_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("data", MISSING)
         if value is MISSING:
             msg._data = array("Q")
-        elif type(value) is list and plain_numbers(value, "uint64"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._data = array("Q", value)
             except (TypeError, OverflowError, ValueError):

@@ -103,6 +103,8 @@ import numpy as np
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
     FLOAT32_MAX,
+    PLAIN_FLOATS,
+    PLAIN_INTS,
     bool_list,
     check_bool,
     check_float,
@@ -115,7 +117,6 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
-    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -379,9 +380,9 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values", MISSING)
         if value is MISSING:
             msg._float64_values = np.zeros(3, dtype=np.float64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._float64_values = np.array(array("d", value), dtype=np.float64)
+                msg._float64_values = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._float64_values = numeric_array(
                     value, "d", "float64", "float64", 3, ".float64_values"
@@ -393,7 +394,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values", MISSING)
         if value is MISSING:
             msg._int8_values = np.zeros(3, dtype=np.int8)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int8"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int8_values = np.array(array("b", value), dtype=np.int8)
             except (TypeError, OverflowError, ValueError):
@@ -409,7 +410,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values", MISSING)
         if value is MISSING:
             msg._int16_values = np.zeros(3, dtype=np.int16)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int16"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int16_values = np.array(array("h", value), dtype=np.int16)
             except (TypeError, OverflowError, ValueError):
@@ -419,7 +420,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values", MISSING)
         if value is MISSING:
             msg._uint16_values = np.zeros(3, dtype=np.uint16)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint16"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint16_values = np.array(array("H", value), dtype=np.uint16)
             except (TypeError, OverflowError, ValueError):
@@ -431,7 +432,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values", MISSING)
         if value is MISSING:
             msg._int32_values = np.zeros(3, dtype=np.int32)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int32"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int32_values = np.array(array("i", value), dtype=np.int32)
             except (TypeError, OverflowError, ValueError):
@@ -441,7 +442,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values", MISSING)
         if value is MISSING:
             msg._uint32_values = np.zeros(3, dtype=np.uint32)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint32"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint32_values = np.array(array("I", value), dtype=np.uint32)
             except (TypeError, OverflowError, ValueError):
@@ -453,7 +454,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values", MISSING)
         if value is MISSING:
             msg._int64_values = np.zeros(3, dtype=np.int64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int64_values = np.array(array("q", value), dtype=np.int64)
             except (TypeError, OverflowError, ValueError):
@@ -463,7 +464,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values", MISSING)
         if value is MISSING:
             msg._uint64_values = np.zeros(3, dtype=np.uint64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint64_values = np.array(array("Q", value), dtype=np.uint64)
             except (TypeError, OverflowError, ValueError):
@@ -521,9 +522,9 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values_default", MISSING)
         if value is MISSING:
             msg._float64_values_default = np.array((3.1415, 0.0, -3.1415), dtype=np.float64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._float64_values_default = np.array(array("d", value), dtype=np.float64)
+                msg._float64_values_default = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._float64_values_default = numeric_array(
                     value, "d", "float64", "float64", 3, ".float64_values_default"
@@ -535,7 +536,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values_default", MISSING)
         if value is MISSING:
             msg._int8_values_default = np.array((0, 127, -128), dtype=np.int8)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int8"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int8_values_default = np.array(array("b", value), dtype=np.int8)
             except (TypeError, OverflowError, ValueError):
@@ -555,7 +556,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values_default", MISSING)
         if value is MISSING:
             msg._int16_values_default = np.array((0, 32767, -32768), dtype=np.int16)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int16"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int16_values_default = np.array(array("h", value), dtype=np.int16)
             except (TypeError, OverflowError, ValueError):
@@ -569,7 +570,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values_default", MISSING)
         if value is MISSING:
             msg._uint16_values_default = np.array((0, 1, 65535), dtype=np.uint16)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint16"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint16_values_default = np.array(array("H", value), dtype=np.uint16)
             except (TypeError, OverflowError, ValueError):
@@ -583,7 +584,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values_default", MISSING)
         if value is MISSING:
             msg._int32_values_default = np.array((0, 2147483647, -2147483648), dtype=np.int32)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int32"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int32_values_default = np.array(array("i", value), dtype=np.int32)
             except (TypeError, OverflowError, ValueError):
@@ -597,7 +598,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values_default", MISSING)
         if value is MISSING:
             msg._uint32_values_default = np.array((0, 1, 4294967295), dtype=np.uint32)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint32"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint32_values_default = np.array(array("I", value), dtype=np.uint32)
             except (TypeError, OverflowError, ValueError):
@@ -613,7 +614,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
             msg._int64_values_default = np.array(
                 (0, 9223372036854775807, -9223372036854775808), dtype=np.int64
             )
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int64_values_default = np.array(array("q", value), dtype=np.int64)
             except (TypeError, OverflowError, ValueError):
@@ -627,7 +628,7 @@ def arrays_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values_default", MISSING)
         if value is MISSING:
             msg._uint64_values_default = np.array((0, 1, 18446744073709551615), dtype=np.uint64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint64_values_default = np.array(array("Q", value), dtype=np.uint64)
             except (TypeError, OverflowError, ValueError):
@@ -899,7 +900,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values", MISSING)
         if value is MISSING:
             msg._float64_values = array("d")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._float64_values = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -909,7 +910,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values", MISSING)
         if value is MISSING:
             msg._int8_values = array("b")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int8"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int8_values = array("b", value)
             except (TypeError, OverflowError, ValueError):
@@ -923,7 +924,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values", MISSING)
         if value is MISSING:
             msg._int16_values = array("h")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int16"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int16_values = array("h", value)
             except (TypeError, OverflowError, ValueError):
@@ -933,7 +934,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values", MISSING)
         if value is MISSING:
             msg._uint16_values = array("H")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint16"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint16_values = array("H", value)
             except (TypeError, OverflowError, ValueError):
@@ -943,7 +944,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values", MISSING)
         if value is MISSING:
             msg._int32_values = array("i")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int32"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int32_values = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -953,7 +954,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values", MISSING)
         if value is MISSING:
             msg._uint32_values = array("I")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint32"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint32_values = array("I", value)
             except (TypeError, OverflowError, ValueError):
@@ -963,7 +964,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values", MISSING)
         if value is MISSING:
             msg._int64_values = array("q")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int64"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int64_values = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -973,7 +974,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values", MISSING)
         if value is MISSING:
             msg._uint64_values = array("Q")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint64"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint64_values = array("Q", value)
             except (TypeError, OverflowError, ValueError):
@@ -1025,7 +1026,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values_default", MISSING)
         if value is MISSING:
             msg._float64_values_default = array("d", (3.1415, 0.0, -3.1415))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._float64_values_default = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -1039,7 +1040,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values_default", MISSING)
         if value is MISSING:
             msg._int8_values_default = array("b", (0, 127, -128))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int8"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int8_values_default = array("b", value)
             except (TypeError, OverflowError, ValueError):
@@ -1059,7 +1060,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values_default", MISSING)
         if value is MISSING:
             msg._int16_values_default = array("h", (0, 32767, -32768))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int16"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int16_values_default = array("h", value)
             except (TypeError, OverflowError, ValueError):
@@ -1073,7 +1074,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values_default", MISSING)
         if value is MISSING:
             msg._uint16_values_default = array("H", (0, 1, 65535))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint16"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint16_values_default = array("H", value)
             except (TypeError, OverflowError, ValueError):
@@ -1087,7 +1088,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values_default", MISSING)
         if value is MISSING:
             msg._int32_values_default = array("i", (0, 2147483647, -2147483648))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int32"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int32_values_default = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -1101,7 +1102,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values_default", MISSING)
         if value is MISSING:
             msg._uint32_values_default = array("I", (0, 1, 4294967295))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint32"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint32_values_default = array("I", value)
             except (TypeError, OverflowError, ValueError):
@@ -1115,7 +1116,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values_default", MISSING)
         if value is MISSING:
             msg._int64_values_default = array("q", (0, 9223372036854775807, -9223372036854775808))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int64"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int64_values_default = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -1129,7 +1130,7 @@ def bounded_plain_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values_default", MISSING)
         if value is MISSING:
             msg._uint64_values_default = array("Q", (0, 1, 18446744073709551615))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint64"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint64_values_default = array("Q", value)
             except (TypeError, OverflowError, ValueError):
@@ -1289,7 +1290,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values", MISSING)
         if value is MISSING:
             msg._float64_values = array("d")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._float64_values = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -1299,7 +1300,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values", MISSING)
         if value is MISSING:
             msg._int8_values = array("b")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int8"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int8_values = array("b", value)
             except (TypeError, OverflowError, ValueError):
@@ -1313,7 +1314,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values", MISSING)
         if value is MISSING:
             msg._int16_values = array("h")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int16"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int16_values = array("h", value)
             except (TypeError, OverflowError, ValueError):
@@ -1323,7 +1324,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values", MISSING)
         if value is MISSING:
             msg._uint16_values = array("H")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint16"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint16_values = array("H", value)
             except (TypeError, OverflowError, ValueError):
@@ -1333,7 +1334,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values", MISSING)
         if value is MISSING:
             msg._int32_values = array("i")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int32"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int32_values = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -1343,7 +1344,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values", MISSING)
         if value is MISSING:
             msg._uint32_values = array("I")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint32"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint32_values = array("I", value)
             except (TypeError, OverflowError, ValueError):
@@ -1353,7 +1354,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values", MISSING)
         if value is MISSING:
             msg._int64_values = array("q")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int64"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int64_values = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -1363,7 +1364,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values", MISSING)
         if value is MISSING:
             msg._uint64_values = array("Q")
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint64"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint64_values = array("Q", value)
             except (TypeError, OverflowError, ValueError):
@@ -1419,7 +1420,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values_default", MISSING)
         if value is MISSING:
             msg._float64_values_default = array("d", (3.1415, 0.0, -3.1415))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._float64_values_default = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -1433,7 +1434,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values_default", MISSING)
         if value is MISSING:
             msg._int8_values_default = array("b", (0, 127, -128))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int8"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int8_values_default = array("b", value)
             except (TypeError, OverflowError, ValueError):
@@ -1453,7 +1454,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values_default", MISSING)
         if value is MISSING:
             msg._int16_values_default = array("h", (0, 32767, -32768))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int16"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int16_values_default = array("h", value)
             except (TypeError, OverflowError, ValueError):
@@ -1467,7 +1468,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values_default", MISSING)
         if value is MISSING:
             msg._uint16_values_default = array("H", (0, 1, 65535))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint16"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint16_values_default = array("H", value)
             except (TypeError, OverflowError, ValueError):
@@ -1481,7 +1482,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values_default", MISSING)
         if value is MISSING:
             msg._int32_values_default = array("i", (0, 2147483647, -2147483648))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int32"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int32_values_default = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -1495,7 +1496,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values_default", MISSING)
         if value is MISSING:
             msg._uint32_values_default = array("I", (0, 1, 4294967295))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint32"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint32_values_default = array("I", value)
             except (TypeError, OverflowError, ValueError):
@@ -1509,7 +1510,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values_default", MISSING)
         if value is MISSING:
             msg._int64_values_default = array("q", (0, 9223372036854775807, -9223372036854775808))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "int64"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int64_values_default = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -1523,7 +1524,7 @@ def bounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values_default", MISSING)
         if value is MISSING:
             msg._uint64_values_default = array("Q", (0, 1, 18446744073709551615))
-        elif type(value) is list and len(value) <= 3 and plain_numbers(value, "uint64"):
+        elif type(value) is list and len(value) <= 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint64_values_default = array("Q", value)
             except (TypeError, OverflowError, ValueError):
@@ -2806,7 +2807,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values", MISSING)
         if value is MISSING:
             msg._float64_values = array("d")
-        elif type(value) is list and plain_numbers(value, "float64"):
+        elif type(value) is list and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._float64_values = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -2818,7 +2819,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values", MISSING)
         if value is MISSING:
             msg._int8_values = array("b")
-        elif type(value) is list and plain_numbers(value, "int8"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int8_values = array("b", value)
             except (TypeError, OverflowError, ValueError):
@@ -2832,7 +2833,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values", MISSING)
         if value is MISSING:
             msg._int16_values = array("h")
-        elif type(value) is list and plain_numbers(value, "int16"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int16_values = array("h", value)
             except (TypeError, OverflowError, ValueError):
@@ -2842,7 +2843,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values", MISSING)
         if value is MISSING:
             msg._uint16_values = array("H")
-        elif type(value) is list and plain_numbers(value, "uint16"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint16_values = array("H", value)
             except (TypeError, OverflowError, ValueError):
@@ -2852,7 +2853,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values", MISSING)
         if value is MISSING:
             msg._int32_values = array("i")
-        elif type(value) is list and plain_numbers(value, "int32"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int32_values = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -2862,7 +2863,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values", MISSING)
         if value is MISSING:
             msg._uint32_values = array("I")
-        elif type(value) is list and plain_numbers(value, "uint32"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint32_values = array("I", value)
             except (TypeError, OverflowError, ValueError):
@@ -2872,7 +2873,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values", MISSING)
         if value is MISSING:
             msg._int64_values = array("q")
-        elif type(value) is list and plain_numbers(value, "int64"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int64_values = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -2882,7 +2883,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values", MISSING)
         if value is MISSING:
             msg._uint64_values = array("Q")
-        elif type(value) is list and plain_numbers(value, "uint64"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint64_values = array("Q", value)
             except (TypeError, OverflowError, ValueError):
@@ -2944,7 +2945,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values_default", MISSING)
         if value is MISSING:
             msg._float64_values_default = array("d", (3.1415, 0.0, -3.1415))
-        elif type(value) is list and plain_numbers(value, "float64"):
+        elif type(value) is list and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._float64_values_default = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -2958,7 +2959,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values_default", MISSING)
         if value is MISSING:
             msg._int8_values_default = array("b", (0, 127, -128))
-        elif type(value) is list and plain_numbers(value, "int8"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int8_values_default = array("b", value)
             except (TypeError, OverflowError, ValueError):
@@ -2978,7 +2979,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values_default", MISSING)
         if value is MISSING:
             msg._int16_values_default = array("h", (0, 32767, -32768))
-        elif type(value) is list and plain_numbers(value, "int16"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int16_values_default = array("h", value)
             except (TypeError, OverflowError, ValueError):
@@ -2992,7 +2993,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values_default", MISSING)
         if value is MISSING:
             msg._uint16_values_default = array("H", (0, 1, 65535))
-        elif type(value) is list and plain_numbers(value, "uint16"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint16_values_default = array("H", value)
             except (TypeError, OverflowError, ValueError):
@@ -3006,7 +3007,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values_default", MISSING)
         if value is MISSING:
             msg._int32_values_default = array("i", (0, 2147483647, -2147483648))
-        elif type(value) is list and plain_numbers(value, "int32"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int32_values_default = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -3020,7 +3021,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values_default", MISSING)
         if value is MISSING:
             msg._uint32_values_default = array("I", (0, 1, 4294967295))
-        elif type(value) is list and plain_numbers(value, "uint32"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint32_values_default = array("I", value)
             except (TypeError, OverflowError, ValueError):
@@ -3034,7 +3035,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values_default", MISSING)
         if value is MISSING:
             msg._int64_values_default = array("q", (0, 9223372036854775807, -9223372036854775808))
-        elif type(value) is list and plain_numbers(value, "int64"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int64_values_default = array("q", value)
             except (TypeError, OverflowError, ValueError):
@@ -3048,7 +3049,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values_default", MISSING)
         if value is MISSING:
             msg._uint64_values_default = array("Q", (0, 1, 18446744073709551615))
-        elif type(value) is list and plain_numbers(value, "uint64"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint64_values_default = array("Q", value)
             except (TypeError, OverflowError, ValueError):
@@ -3310,9 +3311,9 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values", MISSING)
         if value is MISSING:
             msg._float64_values = np.zeros(3, dtype=np.float64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._float64_values = np.array(array("d", value), dtype=np.float64)
+                msg._float64_values = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._float64_values = numeric_array(
                     value, "d", "float64", "float64", 3, ".float64_values"
@@ -3324,7 +3325,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values", MISSING)
         if value is MISSING:
             msg._int8_values = np.zeros(3, dtype=np.int8)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int8"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int8_values = np.array(array("b", value), dtype=np.int8)
             except (TypeError, OverflowError, ValueError):
@@ -3340,7 +3341,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values", MISSING)
         if value is MISSING:
             msg._int16_values = np.zeros(3, dtype=np.int16)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int16"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int16_values = np.array(array("h", value), dtype=np.int16)
             except (TypeError, OverflowError, ValueError):
@@ -3350,7 +3351,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values", MISSING)
         if value is MISSING:
             msg._uint16_values = np.zeros(3, dtype=np.uint16)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint16"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint16_values = np.array(array("H", value), dtype=np.uint16)
             except (TypeError, OverflowError, ValueError):
@@ -3362,7 +3363,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values", MISSING)
         if value is MISSING:
             msg._int32_values = np.zeros(3, dtype=np.int32)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int32"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int32_values = np.array(array("i", value), dtype=np.int32)
             except (TypeError, OverflowError, ValueError):
@@ -3372,7 +3373,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values", MISSING)
         if value is MISSING:
             msg._uint32_values = np.zeros(3, dtype=np.uint32)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint32"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint32_values = np.array(array("I", value), dtype=np.uint32)
             except (TypeError, OverflowError, ValueError):
@@ -3384,7 +3385,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values", MISSING)
         if value is MISSING:
             msg._int64_values = np.zeros(3, dtype=np.int64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int64_values = np.array(array("q", value), dtype=np.int64)
             except (TypeError, OverflowError, ValueError):
@@ -3394,7 +3395,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values", MISSING)
         if value is MISSING:
             msg._uint64_values = np.zeros(3, dtype=np.uint64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint64_values = np.array(array("Q", value), dtype=np.uint64)
             except (TypeError, OverflowError, ValueError):
@@ -3452,9 +3453,9 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values_default", MISSING)
         if value is MISSING:
             msg._float64_values_default = np.array((3.1415, 0.0, -3.1415), dtype=np.float64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._float64_values_default = np.array(array("d", value), dtype=np.float64)
+                msg._float64_values_default = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._float64_values_default = numeric_array(
                     value, "d", "float64", "float64", 3, ".float64_values_default"
@@ -3466,7 +3467,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values_default", MISSING)
         if value is MISSING:
             msg._int8_values_default = np.array((0, 127, -128), dtype=np.int8)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int8"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int8_values_default = np.array(array("b", value), dtype=np.int8)
             except (TypeError, OverflowError, ValueError):
@@ -3486,7 +3487,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values_default", MISSING)
         if value is MISSING:
             msg._int16_values_default = np.array((0, 32767, -32768), dtype=np.int16)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int16"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int16_values_default = np.array(array("h", value), dtype=np.int16)
             except (TypeError, OverflowError, ValueError):
@@ -3500,7 +3501,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values_default", MISSING)
         if value is MISSING:
             msg._uint16_values_default = np.array((0, 1, 65535), dtype=np.uint16)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint16"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint16_values_default = np.array(array("H", value), dtype=np.uint16)
             except (TypeError, OverflowError, ValueError):
@@ -3514,7 +3515,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values_default", MISSING)
         if value is MISSING:
             msg._int32_values_default = np.array((0, 2147483647, -2147483648), dtype=np.int32)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int32"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int32_values_default = np.array(array("i", value), dtype=np.int32)
             except (TypeError, OverflowError, ValueError):
@@ -3528,7 +3529,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values_default", MISSING)
         if value is MISSING:
             msg._uint32_values_default = np.array((0, 1, 4294967295), dtype=np.uint32)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint32"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint32_values_default = np.array(array("I", value), dtype=np.uint32)
             except (TypeError, OverflowError, ValueError):
@@ -3544,7 +3545,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
             msg._int64_values_default = np.array(
                 (0, 9223372036854775807, -9223372036854775808), dtype=np.int64
             )
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int64_values_default = np.array(array("q", value), dtype=np.int64)
             except (TypeError, OverflowError, ValueError):
@@ -3558,7 +3559,7 @@ def arrays_request_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values_default", MISSING)
         if value is MISSING:
             msg._uint64_values_default = np.array((0, 1, 18446744073709551615), dtype=np.uint64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint64_values_default = np.array(array("Q", value), dtype=np.uint64)
             except (TypeError, OverflowError, ValueError):
@@ -3724,9 +3725,9 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values", MISSING)
         if value is MISSING:
             msg._float64_values = np.zeros(3, dtype=np.float64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._float64_values = np.array(array("d", value), dtype=np.float64)
+                msg._float64_values = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._float64_values = numeric_array(
                     value, "d", "float64", "float64", 3, ".float64_values"
@@ -3738,7 +3739,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values", MISSING)
         if value is MISSING:
             msg._int8_values = np.zeros(3, dtype=np.int8)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int8"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int8_values = np.array(array("b", value), dtype=np.int8)
             except (TypeError, OverflowError, ValueError):
@@ -3754,7 +3755,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values", MISSING)
         if value is MISSING:
             msg._int16_values = np.zeros(3, dtype=np.int16)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int16"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int16_values = np.array(array("h", value), dtype=np.int16)
             except (TypeError, OverflowError, ValueError):
@@ -3764,7 +3765,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values", MISSING)
         if value is MISSING:
             msg._uint16_values = np.zeros(3, dtype=np.uint16)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint16"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint16_values = np.array(array("H", value), dtype=np.uint16)
             except (TypeError, OverflowError, ValueError):
@@ -3776,7 +3777,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values", MISSING)
         if value is MISSING:
             msg._int32_values = np.zeros(3, dtype=np.int32)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int32"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int32_values = np.array(array("i", value), dtype=np.int32)
             except (TypeError, OverflowError, ValueError):
@@ -3786,7 +3787,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values", MISSING)
         if value is MISSING:
             msg._uint32_values = np.zeros(3, dtype=np.uint32)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint32"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint32_values = np.array(array("I", value), dtype=np.uint32)
             except (TypeError, OverflowError, ValueError):
@@ -3798,7 +3799,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int64_values", MISSING)
         if value is MISSING:
             msg._int64_values = np.zeros(3, dtype=np.int64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int64_values = np.array(array("q", value), dtype=np.int64)
             except (TypeError, OverflowError, ValueError):
@@ -3808,7 +3809,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values", MISSING)
         if value is MISSING:
             msg._uint64_values = np.zeros(3, dtype=np.uint64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint64_values = np.array(array("Q", value), dtype=np.uint64)
             except (TypeError, OverflowError, ValueError):
@@ -3866,9 +3867,9 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("float64_values_default", MISSING)
         if value is MISSING:
             msg._float64_values_default = np.array((3.1415, 0.0, -3.1415), dtype=np.float64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "float64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
-                msg._float64_values_default = np.array(array("d", value), dtype=np.float64)
+                msg._float64_values_default = np.array(value, dtype=np.float64)
             except (TypeError, OverflowError, ValueError):
                 msg._float64_values_default = numeric_array(
                     value, "d", "float64", "float64", 3, ".float64_values_default"
@@ -3880,7 +3881,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int8_values_default", MISSING)
         if value is MISSING:
             msg._int8_values_default = np.array((0, 127, -128), dtype=np.int8)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int8"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int8_values_default = np.array(array("b", value), dtype=np.int8)
             except (TypeError, OverflowError, ValueError):
@@ -3900,7 +3901,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int16_values_default", MISSING)
         if value is MISSING:
             msg._int16_values_default = np.array((0, 32767, -32768), dtype=np.int16)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int16"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int16_values_default = np.array(array("h", value), dtype=np.int16)
             except (TypeError, OverflowError, ValueError):
@@ -3914,7 +3915,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint16_values_default", MISSING)
         if value is MISSING:
             msg._uint16_values_default = np.array((0, 1, 65535), dtype=np.uint16)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint16"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint16_values_default = np.array(array("H", value), dtype=np.uint16)
             except (TypeError, OverflowError, ValueError):
@@ -3928,7 +3929,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("int32_values_default", MISSING)
         if value is MISSING:
             msg._int32_values_default = np.array((0, 2147483647, -2147483648), dtype=np.int32)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int32"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int32_values_default = np.array(array("i", value), dtype=np.int32)
             except (TypeError, OverflowError, ValueError):
@@ -3942,7 +3943,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint32_values_default", MISSING)
         if value is MISSING:
             msg._uint32_values_default = np.array((0, 1, 4294967295), dtype=np.uint32)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint32"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint32_values_default = np.array(array("I", value), dtype=np.uint32)
             except (TypeError, OverflowError, ValueError):
@@ -3958,7 +3959,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
             msg._int64_values_default = np.array(
                 (0, 9223372036854775807, -9223372036854775808), dtype=np.int64
             )
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "int64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._int64_values_default = np.array(array("q", value), dtype=np.int64)
             except (TypeError, OverflowError, ValueError):
@@ -3972,7 +3973,7 @@ def arrays_response_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("uint64_values_default", MISSING)
         if value is MISSING:
             msg._uint64_values_default = np.array((0, 1, 18446744073709551615), dtype=np.uint64)
-        elif type(value) is list and len(value) == 3 and plain_numbers(value, "uint64"):
+        elif type(value) is list and len(value) == 3 and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._uint64_values_default = np.array(array("Q", value), dtype=np.uint64)
             except (TypeError, OverflowError, ValueError):
@@ -4672,7 +4673,7 @@ def fibonacci_result_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("sequence", MISSING)
         if value is MISSING:
             msg._sequence = array("i")
-        elif type(value) is list and plain_numbers(value, "int32"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._sequence = array("i", value)
             except (TypeError, OverflowError, ValueError):
@@ -4710,7 +4711,7 @@ def fibonacci_feedback_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("sequence", MISSING)
         if value is MISSING:
             msg._sequence = array("i")
-        elif type(value) is list and plain_numbers(value, "int32"):
+        elif type(value) is list and PLAIN_INTS.issuperset(map(type, value)):
             try:
                 msg._sequence = array("i", value)
             except (TypeError, OverflowError, ValueError):

@@ -27,6 +27,8 @@ import numpy as np
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
     FLOAT32_MAX,
+    PLAIN_FLOATS,
+    PLAIN_INTS,
     bool_list,
     check_bool,
     check_float,
@@ -39,7 +41,6 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
-    plain_numbers,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -177,7 +178,7 @@ def joint_trajectory_point_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("positions", MISSING)
         if value is MISSING:
             msg._positions = array("d")
-        elif type(value) is list and plain_numbers(value, "float64"):
+        elif type(value) is list and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._positions = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -187,7 +188,7 @@ def joint_trajectory_point_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("velocities", MISSING)
         if value is MISSING:
             msg._velocities = array("d")
-        elif type(value) is list and plain_numbers(value, "float64"):
+        elif type(value) is list and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._velocities = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -197,7 +198,7 @@ def joint_trajectory_point_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("accelerations", MISSING)
         if value is MISSING:
             msg._accelerations = array("d")
-        elif type(value) is list and plain_numbers(value, "float64"):
+        elif type(value) is list and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._accelerations = array("d", value)
             except (TypeError, OverflowError, ValueError):
@@ -207,7 +208,7 @@ def joint_trajectory_point_from_dict(data: Mapping[str, Any]) -> Any:
         value = data.get("effort", MISSING)
         if value is MISSING:
             msg._effort = array("d")
-        elif type(value) is list and plain_numbers(value, "float64"):
+        elif type(value) is list and PLAIN_FLOATS.issuperset(map(type, value)):
             try:
                 msg._effort = array("d", value)
             except (TypeError, OverflowError, ValueError):

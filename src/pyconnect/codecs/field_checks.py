@@ -27,8 +27,8 @@ _NUMERIC = (int, float, np.integer, np.floating)
 _REALS = (*_NUMERIC, numbers.Real)  # the exact types first: isinstance tries them in order
 # What a list may hold for the fast conversion of a numeric sequence, by element kind; anything
 # else (a bool above all: Python and array() take True as 1) goes through the element checks.
-_PLAIN_FLOATS = frozenset((float, int))
-_PLAIN_INTS = frozenset((int,))
+PLAIN_FLOATS = frozenset((float, int))
+PLAIN_INTS = frozenset((int,))
 
 
 def describe(value: object) -> str:
@@ -236,7 +236,7 @@ _INTEGER_KINDS = frozenset(INTEGER_NAMES)
 
 def plain_numbers(values: Sequence[Any], kind: str) -> bool:
     """Whether ``values`` holds only plain ints (or floats, for a float ``kind``): no bools."""
-    return (_PLAIN_INTS if kind in _INTEGER_KINDS else _PLAIN_FLOATS).issuperset(map(type, values))
+    return (PLAIN_INTS if kind in _INTEGER_KINDS else PLAIN_FLOATS).issuperset(map(type, values))
 
 
 def numeric_sequence(
@@ -306,7 +306,7 @@ def _as_byte_buffer(value: object, segment: str) -> bytes | bytearray | memoryvi
     if isinstance(value, array) and value.typecode == "B":
         return memoryview(value)
     if isinstance(value, Sequence) and not isinstance(value, str):
-        if not _PLAIN_INTS.issuperset(map(type, value)):
+        if not PLAIN_INTS.issuperset(map(type, value)):
             value = _checked_elements(value, _scalar_check("uint8"), segment)
         try:
             return bytes(value)
