@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import re
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -10,7 +11,9 @@ from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_metadata import METADATA_FILE, BagMetadata, read_metadata
 from pyconnect.record.bag_storage import StorageFile
 
-__all__ = ["BagFiles", "locate_bag_files", "open_storage"]
+BagPaths = str | Path | Sequence[str | Path]
+
+__all__ = ["BagFiles", "BagPaths", "as_paths", "locate_bag_files", "open_bag_files", "open_storage"]
 
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
 _SQLITE_MAGIC = b"SQLite format 3\x00"
@@ -87,3 +90,26 @@ def open_storage(path: Path) -> StorageFile:
 
         return SqliteFile(path)
     raise BagError(f"{path}: neither an MCAP nor a sqlite3 bag file")
+
+
+def as_paths(paths: BagPaths) -> list[str | Path]:
+    """One bag or several, as a list; an empty list raises ``BagError``."""
+    if isinstance(paths, str | Path):
+        return [paths]
+    chosen = list(paths)
+    if not chosen:
+        raise BagError("open_bag: no bag given (an empty list)")
+    return chosen
+
+
+def open_bag_files(
+    paths: BagPaths, *, into: list[tuple[BagFiles, list[StorageFile]]]
+) -> list[tuple[BagFiles, list[StorageFile]]]:
+    """Locate each bag's files and open them, appending to ``into`` as they open (so that the
+    caller can close what did open when a later one raises)."""
+    for path in as_paths(paths):
+        located = locate_bag_files(path)
+        storages: list[StorageFile] = []
+        into.append((located, storages))
+        storages.extend(open_storage(p) for p in located.files)
+    return into

@@ -7,10 +7,10 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from pyconnect.record.bag_damage import BagDamage
-from pyconnect.record.bag_files import BagFiles
+from pyconnect.record.bag_files import BagFiles, BagPaths, open_bag_files
 from pyconnect.record.bag_storage import StorageFile
 
-__all__ = ["BagInfo", "TopicInfo", "describe"]
+__all__ = ["BagInfo", "TopicInfo", "bag_info", "describe"]
 
 SERVICE_EVENT_SUFFIX = "/_service_event"
 
@@ -148,3 +148,14 @@ def describe(bags: Iterable[tuple[BagFiles, list[StorageFile]]]) -> BagInfo:
         end_ns=max(r[1] for r in ranges) if ranges else None,
         damage=storage_damage(all_storages),
     )
+
+
+def bag_info(path: BagPaths) -> BagInfo:
+    """Topics, types, message counts, time range and damage of a bag, from its storage files."""
+    bags: list[tuple[BagFiles, list[StorageFile]]] = []
+    try:
+        return describe(open_bag_files(path, into=bags))
+    finally:
+        for _, storages in bags:
+            for storage in storages:
+                storage.close()

@@ -43,9 +43,8 @@ from typing import Any, Literal
 
 from pyconnect.errors import DecodeError
 from pyconnect.record.bag_damage import BagDamage
-from pyconnect.record.bag_errors import BagError
-from pyconnect.record.bag_files import BagFiles, locate_bag_files, open_storage
-from pyconnect.record.bag_info import BagInfo, TopicInfo, describe, storage_damage
+from pyconnect.record.bag_files import BagFiles, BagPaths, open_bag_files
+from pyconnect.record.bag_info import BagInfo, TopicInfo, bag_info, describe, storage_damage
 from pyconnect.record.bag_message import BagMessage, DecodeProblem, message_maker
 from pyconnect.record.bag_storage import Connection, RawMessage, StorageFile
 from pyconnect.record.topic_decoder import (
@@ -55,6 +54,7 @@ from pyconnect.record.topic_decoder import (
     normalise_type_name,
     one_line,
 )
+from pyconnect.record.topic_selection import select_topics
 
 __all__ = [
     "BagInfo",
@@ -70,7 +70,6 @@ __all__ = [
 
 _log = logging.getLogger("pyconnect.record")
 OnError = Literal["report", "raise"]
-BagPaths = str | Path | Sequence[str | Path]
 
 
 class _Plan:
@@ -89,15 +88,6 @@ def _keyed(number: int, stream: Iterator[RawMessage]) -> Iterator[tuple[Any, int
     """A file's messages keyed by (file number, connection id), for merging several files."""
     for connection_id, log_time, data in stream:
         yield (number, connection_id), log_time, data
-
-
-def _as_paths(paths: BagPaths) -> list[str | Path]:
-    if isinstance(paths, str | Path):
-        return [paths]
-    chosen = list(paths)
-    if not chosen:
-        raise BagError("open_bag: no bag given (an empty list)")
-    return chosen
 
 
 class BagReader:
@@ -131,14 +121,10 @@ class BagReader:
         self.mismatches: list[TypeMismatch] = []
         self._bags: list[tuple[BagFiles, list[StorageFile]]] = []
         try:
-            for path in _as_paths(paths):
-                located = locate_bag_files(path)
-                storages: list[StorageFile] = []
-                self._bags.append((located, storages))
-                storages.extend(open_storage(p) for p in located.files)
+            open_bag_files(paths, into=self._bags)
             self.path = self._bags[0][0].path
             self.info = describe(self._bags)
-            self.topics = self._select(topics, types)
+            self.topics = select_topics(self.info, self.path, topics, types, raw=raw)
         except BaseException:
             self.close()
             raise
@@ -155,39 +141,6 @@ class BagReader:
     def damage(self) -> list[BagDamage]:
         """What is broken in the bag's files, as far as they have been read."""
         return list(storage_damage(s for _, storages in self._bags for s in storages))
-
-    def _select(
-        self, topics: Iterable[str] | None, types: Iterable[str] | None
-    ) -> dict[str, TopicInfo]:
-        known = {topic.name: topic for topic in self.info.topics}
-        chosen = dict(known)
-        if topics is not None:
-            wanted = [topics] if isinstance(topics, str) else list(topics)
-            missing = [t for t in wanted if t not in known]
-            if missing:
-                listed = ", ".join(sorted(known)) or "none"
-                raise BagError(
-                    f"{self.path}: no topic {', '.join(missing)} in this bag (topics: {listed})"
-                )
-            chosen = {name: known[name] for name in wanted}
-        if types is not None:
-            wanted_types = {
-                normalise_type_name(t) for t in ([types] if isinstance(types, str) else types)
-            }
-            chosen = {
-                name: topic
-                for name, topic in chosen.items()
-                if normalise_type_name(topic.msg_type) in wanted_types
-            }
-        if not self.raw:
-            for topic in chosen.values():
-                if topic.serialization_format != "cdr":
-                    raise BagError(
-                        f"{self.path}: topic {topic.name} is serialised as "
-                        f"{topic.serialization_format!r}; only 'cdr' can be decoded "
-                        "(raw=True reads it undecoded)"
-                    )
-        return chosen
 
     # -- reading ------------------------------------------------------------------------------
     def __iter__(self) -> Iterator[BagMessage]:
@@ -432,19 +385,3 @@ def open_bag(
         registry=registry,
         on_error=on_error,
     )
-
-
-def bag_info(path: BagPaths) -> BagInfo:
-    """Topics, types, message counts, time range and damage of a bag, from its storage files."""
-    bags: list[tuple[BagFiles, list[StorageFile]]] = []
-    try:
-        for one in _as_paths(path):
-            located = locate_bag_files(one)
-            storages: list[StorageFile] = []
-            bags.append((located, storages))
-            storages.extend(open_storage(p) for p in located.files)
-        return describe(bags)
-    finally:
-        for _, storages in bags:
-            for storage in storages:
-                storage.close()
