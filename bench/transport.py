@@ -38,6 +38,14 @@ KINDS = ("raw zenoh", "pyconnect Peer", "CustomNode DDS")
 # The rate row also shows a peer subscription keeping 1000 samples instead of ROS's 10: under a
 # flood, keep-last 10 skips most samples (as rmw_zenoh's does), which the row counts as lost.
 RATE_KINDS = ("raw zenoh", "pyconnect Peer", "Peer depth=1000", "CustomNode DDS")
+RATE_ROWS = {
+    "raw zenoh": "put(bytes) -> Python callback counting (zenoh's FIFO: the receiver never "
+    "drops, a full queue stalls the link and the sender's congestion control drops)",
+    "pyconnect Peer": "send(str) -> keep-last 10 ring -> decode -> response_func (under a flood "
+    "keep-last drops by design, as rmw_zenoh's does)",
+    "Peer depth=1000": "the same with keep-last 1000: what the receiving thread can handle",
+    "CustomNode DDS": "two CustomNodes over Fast DDS, keep-last 10",
+}
 
 
 def _zenoh_config(locator: str, *, listen: bool) -> Any:
@@ -265,6 +273,8 @@ def main() -> None:
             continue
         ratio = row[0] / floor if floor else float("nan")
         print(f"  {kind:<20} {row[0]:>12,.0f} {row[1]:>10,} {row[2]:>10,} {ratio:>12.2f}x")
+    for kind, text in RATE_ROWS.items():
+        print(f"  {kind}: {text}")
     print("  goal: pyconnect Peer >= 0.80x raw zenoh")
     print(
         f"\n1080p bgr8 Image one-way latency, {LATENCY_SAMPLES} samples every {LATENCY_PERIOD * 1000:.0f} ms"

@@ -38,8 +38,9 @@ ADMIN_SPACE = "@ros2_lv"
 NODE, PUBLISHER, SUBSCRIPTION, SERVICE, CLIENT = "NN", "MP", "MS", "SS", "SC"
 ENTITY_KINDS = (NODE, PUBLISHER, SUBSCRIPTION, SERVICE, CLIENT)
 GID_SIZE = 16
-_ATTACHMENT = struct.Struct("<qq16s")
-ATTACHMENT_SIZE = _ATTACHMENT.size
+ATTACHMENT = struct.Struct("<qq16s")
+_ATTACHMENT = ATTACHMENT
+ATTACHMENT_SIZE = ATTACHMENT.size
 
 # rmw_zenoh's defaults (qos.cpp): a value equal to one of these is left empty in the token.
 _DEFAULT_DEPTH = 42

@@ -38,7 +38,7 @@ from pyconnect.transport.interface_types import message_interface
 from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc, logger
 
 DEFAULT_DEPTH = 10
-_pack_attachment = keys.pack_attachment
+_pack_attachment = keys.ATTACHMENT.pack  # bound once: no wrapper per sample
 _unpack_attachment = keys.unpack_attachment
 time_ns = time.time_ns
 
@@ -126,10 +126,10 @@ class PublisherAgent(PeerAgent):
         if self.only_if_subscribed and self.subscriber_count == 0:
             return False
         payload = self._encode(data)
-        with self._send_lock:
-            self._sequence += 1
-            self._put(payload, attachment=_pack_attachment(self._sequence, time_ns(), self.gid))
-            self.sent_count += 1
+        with self._send_lock:  # sequence numbers go on the wire in order
+            self._sequence = sequence = self._sequence + 1
+            self._put(payload, attachment=_pack_attachment(sequence, time_ns(), self.gid))
+        self.sent_count += 1
         self._latest = data
         return True
 
