@@ -224,3 +224,26 @@ def test_split_bag_without_metadata_reads_as_one(storage: str) -> None:
     assert len(stamps) == expected
     assert stamps == sorted(stamps)
     assert bag.errors == []
+
+
+def test_stored_definitions_of_installed_hashes_use_the_generated_code(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A topic whose stored hash (here from metadata.yaml) is the installed type's is decoded by
+    the generated code, without compiling the stored text (the cost of a fresh process's read)."""
+    from pyconnect.codecs.registry import Registry
+
+    compiled: list[Any] = []
+    compile_text = Registry._definition_wire_codec
+
+    def counting(*args: Any, **kwargs: Any) -> Any:
+        compiled.append(args)
+        return compile_text(*args, **kwargs)
+
+    monkeypatch.setattr(Registry, "_definition_wire_codec", counting)
+    bag = BAGS / "robot_localization_converted" / "test2_ros2_mcap_zstd"
+    with open_bag(bag, natural=False) as reader:
+        count = sum(1 for _ in reader)
+        assert reader.errors == []
+    assert count == sum(topic.message_count for topic in bag_info(bag).topics)
+    assert compiled == []

@@ -220,6 +220,8 @@ class BagReader:
                 natural=self.natural,
                 registry=self.registry,
                 installed_allowed=mismatch is None,
+                # The file's hash, else the one metadata.yaml gives for the topic.
+                type_hash=connection.type_hash or self.topics[connection.topic].type_hash,
             )
             self._decoders[key] = decoder
         return decoder

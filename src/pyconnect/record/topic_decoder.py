@@ -123,8 +123,17 @@ class TopicDecoder:
         natural: bool,
         registry: Any = None,
         installed_allowed: bool = True,
+        type_hash: str = "",
     ) -> None:
         self.msg_type = normalise_type_name(msg_type)
+        if (
+            definition is not None
+            and type_hash.startswith("RIHS01_")
+            and installed_type_hash(self.msg_type) == type_hash
+        ):
+            # The stored text describes the installed type, hash for hash: its generated code
+            # decodes these bytes, without compiling the text (most of a fresh process's read).
+            definition = None
         self.natural = natural
         self.registry = registry
         self._fallback: Decode | None = None
