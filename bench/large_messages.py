@@ -116,7 +116,8 @@ def receiver(impl: str, kind: str, qos: str, frames: int, timeout: float) -> Non
         node.create_subscription(_interface(kind), "bench_large", on_msg, profile)
         executor = SingleThreadedExecutor()
         executor.add_node(node)
-        threading.Thread(target=executor.spin, daemon=True).start()
+        node.bench_spin_thread = threading.Thread(target=executor.spin, daemon=True)
+        node.bench_spin_thread.start()
     else:
         from pyconnect.ros.custom_node import CustomNode
 
@@ -197,14 +198,17 @@ def sender(impl: str, kind: str, frames: int, period: float) -> None:
 def _shut_down(node: Any) -> None:
     """End the process with its DDS participant destroyed: Fast DDS then removes its shared-
     memory segment, which ``os._exit`` alone would leave in ``/dev/shm`` (64 MiB each)."""
-    import rclpy
-
     try:
         if hasattr(node, "shutdown"):
             node.shutdown()
-        else:
+        else:  # raw rclpy: the participant goes with the context's handle, not at shutdown
+            context = node.context
+            context.try_shutdown()  # ends the spin thread's loop
+            spinner = getattr(node, "bench_spin_thread", None)
+            if spinner is not None:
+                spinner.join(5)
             node.destroy_node()
-        rclpy.try_shutdown()
+            context.destroy()
     finally:
         sys.stdout.flush()
         os._exit(0)
