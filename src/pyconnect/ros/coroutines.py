@@ -7,14 +7,6 @@ pyconnect starts on first use in a daemon thread and stops at shutdown.
 
 Each agent gets a ``CoroutineLane``: its coroutines run one after another in arrival order
 (as an agent's plain callbacks do), while different agents' coroutines interleave on the loop.
-
-A handler whose body never awaits (no ``await``, ``async for``/``async with``: checked once per
-function in its bytecode) finishes in one step, so an idle lane runs it at once on the calling
-thread with the lane's loop set as the running loop (``asyncio.get_running_loop()`` is the same
-loop there): no loop wake-up, no task, about the cost of a plain function (bench/agents.py).
-Should such a handler schedule work on the loop (``loop.call_soon``, ``create_task``), the loop
-is woken afterwards; loops other than asyncio's own, and loops in debug mode, always get the
-coroutine.
 Submitting costs a lock and a deque append; the loop is woken only when the lane was idle, so a
 burst of messages costs one wake-up. A cross-thread wake-up costs about as much as handling a
 small message, so a lane under a steady stream does not go idle after its queue empties but
@@ -29,13 +21,10 @@ from __future__ import annotations
 import asyncio
 import concurrent.futures
 import contextlib
-import dis
-import functools
 import inspect
 import threading
 from collections import deque
 from collections.abc import Awaitable, Callable
-from types import CodeType
 from typing import Any
 
 LANE_LIMIT = 100
@@ -58,30 +47,6 @@ def is_async_callable(function: object) -> bool:
         return True
     call = getattr(function, "__call__", None)  # noqa: B004 - the method itself is inspected
     return call is not None and inspect.iscoroutinefunction(call)
-
-
-_SUSPENDING_OPS = frozenset(
-    {"YIELD_VALUE", "SEND", "GET_AWAITABLE", "GET_AITER", "GET_ANEXT", "BEFORE_ASYNC_WITH"}
-)
-
-
-def never_suspends(function: object) -> bool:
-    """True for an ``async def`` function (or its method or partial) whose body never awaits:
-    its coroutine ends in the first ``send(None)``."""
-    target = function
-    while isinstance(target, functools.partial):
-        target = target.func
-    if inspect.ismethod(target):
-        target = target.__func__
-    if not inspect.iscoroutinefunction(target):
-        return False
-    code = getattr(target, "__code__", None)
-    return isinstance(code, CodeType) and _code_never_suspends(code)
-
-
-@functools.lru_cache(maxsize=1024)
-def _code_never_suspends(code: CodeType) -> bool:
-    return not any(op.opname in _SUSPENDING_OPS for op in dis.get_instructions(code))
 
 
 class CoroutineRunner:
@@ -153,8 +118,6 @@ class CoroutineLane:
         self._draining = False
         self._task: asyncio.Future[Any] | None = None
         self._idle: asyncio.Future[None] | None = None
-        self._inline: dict[Any, bool] = {}
-        """Per function: whether it may run inline (it never suspends)."""
 
     def submit(
         self,
@@ -166,97 +129,15 @@ class CoroutineLane:
     ) -> None:
         """Queue ``function(*args)`` (a coroutine function): then ``on_done(result)``, or
         ``on_error(exception)`` when it raised. Dropped once the runner is stopped (shutdown)."""
-        inline = self._inline.get(function)
-        if inline is None:
-            if len(self._inline) > 64:  # new functions per call (a feedback_func per goal)
-                self._inline.clear()
-            inline = self._inline[function] = never_suspends(function)
         with self._cond:
             if self._runner.stopped:
                 return
-            if inline and not self._draining and not self._pending:
-                # The lane is idle: run it here, holding the lane so later calls queue behind.
-                self._draining = True
-            else:
-                inline = False
-                while len(self._pending) >= LANE_LIMIT and not self._runner.stopped:
-                    self._cond.wait(0.1)
-                self._pending.append((function, args, on_done, on_error))
-                if self._draining:
-                    return
-                self._draining = True
-        if inline:
-            self._run_inline(function, args, on_done, on_error)
-            return
-        self._wake_loop()
-
-    def _run_inline(
-        self,
-        function: Callable[..., Any],
-        args: tuple[Any, ...],
-        on_done: DoneHandler | None,
-        on_error: ErrorHandler,
-    ) -> None:
-        """Run a coroutine that never suspends to its end on this thread, then free the lane."""
-        try:
-            loop = self._runner.loop
-        except RuntimeError:  # stopped meanwhile
-            loop = None
-        if not isinstance(loop, asyncio.BaseEventLoop) or loop.get_debug():
-            # Only asyncio's own loops can be checked for work scheduled from this thread.
-            with self._cond:
-                self._pending.appendleft((function, args, on_done, on_error))
-            self._wake_loop()
-            return
-        # asyncio's queues, read to notice work the coroutine scheduled from this thread; a
-        # Python whose loop lacks them gets the coroutine on the loop, as other loops do.
-        ready: Any = getattr(loop, "_ready", None)
-        scheduled: Any = getattr(loop, "_scheduled", None)
-        if ready is None or scheduled is None:
-            with self._cond:
-                self._pending.appendleft((function, args, on_done, on_error))
-            self._wake_loop()
-            return
-        before = (len(ready), len(scheduled))
-        outer = asyncio._get_running_loop()
-        asyncio._set_running_loop(loop)
-        failure: Exception | None = None
-        result: Any = None
-        try:
-            coroutine = function(*args)
-            try:
-                coroutine.send(None)
-            except StopIteration as stop:
-                result = stop.value
-            else:  # cannot happen for code without await; never leave it half-run
-                coroutine.close()
-                failure = RuntimeError(f"{function!r} suspended although it has no await")
-        except Exception as error:
-            failure = error
-        finally:
-            asyncio._set_running_loop(outer)
-            if (len(ready), len(scheduled)) != before:
-                # It scheduled work on the loop from this thread: make the loop look.
-                with contextlib.suppress(RuntimeError):
-                    loop.call_soon_threadsafe(_nothing)
-        try:
-            if failure is not None:
-                on_error(failure)
-            elif on_done is not None:
-                on_done(result)
-        except Exception as error:
-            on_error(error)
-        finally:
-            with self._cond:
-                self._draining = False
-                queued = bool(self._pending)
-                if queued:
-                    self._draining = True
-            if queued:
-                self._wake_loop()
-
-    def _wake_loop(self) -> None:
-        """Make the loop drain this lane (``_draining`` is set)."""
+            while len(self._pending) >= LANE_LIMIT and not self._runner.stopped:
+                self._cond.wait(0.1)
+            self._pending.append((function, args, on_done, on_error))
+            if self._draining:
+                return
+            self._draining = True
         try:
             self._runner.loop.call_soon_threadsafe(self._wake)
         except RuntimeError:  # the loop closed under us: shutdown is under way
@@ -329,7 +210,3 @@ def _run_loop(loop: asyncio.AbstractEventLoop, started: threading.Event) -> None
         loop.run_until_complete(loop.shutdown_asyncgens())
     finally:
         loop.close()
-
-
-def _nothing() -> None:
-    """A callback that only wakes the loop."""
