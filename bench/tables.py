@@ -49,7 +49,7 @@ def export_ours(target: Path) -> None:
     from pyconnect.record.parquet_export import export_parquet
 
     for bag in LOCALIZATION:
-        export_parquet(bag, target / bag.name)
+        export_parquet(bag, target / bag.name, force=True)  # each round overwrites the last
 
 
 def export_rosbags_dataframe(target: Path, keys: dict[str, list[str]]) -> None:

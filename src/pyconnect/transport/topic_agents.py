@@ -129,7 +129,7 @@ class PublisherAgent(PeerAgent):
         with self._send_lock:  # sequence numbers go on the wire in order
             self._sequence = sequence = self._sequence + 1
             self._put(payload, attachment=_pack_attachment(sequence, time_ns(), self.gid))
-        self.sent_count += 1
+            self.sent_count += 1  # under the lock: sends from several threads all count
         self._latest = data
         return True
 
