@@ -663,9 +663,10 @@ def _cell(value: float | None, width: int, *, digits: int = 3) -> str:
 MANY_IDLE_WINDOW = 5.0
 
 
-def add_many_agents(node: Any, *, mine: str, theirs: str) -> None:
+def add_many_agents(node: Any, *, mine: str, theirs: str, timeout: float = 30.0) -> None:
     """40 subs, 40 pubs, 10+10 service servers/clients, 5+5 action servers/clients, 10 timers
-    (tests/ros/test_many_agents.py builds the same node); ``mine``/``theirs`` prefix names."""
+    (tests/ros/test_many_agents.py builds its nodes with this); ``mine``/``theirs`` prefix the
+    names this node serves and the names its mirror serves; clients wait up to ``timeout``."""
     from std_msgs.msg import String
     from std_srvs.srv import Trigger
     from test_msgs.action import Fibonacci
@@ -681,7 +682,7 @@ def add_many_agents(node: Any, *, mine: str, theirs: str) -> None:
                        data_interface=Trigger,
                        response_func=lambda _request: {"success": True, "message": ""})  # fmt: skip
         node.add_agent(conn_name=f"{theirs}_service_{index}", conn_type="service_client",
-                       data_interface=Trigger, timeout=30.0)  # fmt: skip
+                       data_interface=Trigger, timeout=timeout)  # fmt: skip
         node.add_agent(conn_name=f"{mine}_timer_{index}", conn_type="timer", time_period=0.5,
                        response_func=lambda: None)  # fmt: skip
     for index in range(5):
@@ -689,7 +690,7 @@ def add_many_agents(node: Any, *, mine: str, theirs: str) -> None:
                        data_interface=Fibonacci,
                        response_func=lambda _goal: {"sequence": [1]})  # fmt: skip
         node.add_agent(conn_name=f"{theirs}_action_{index}", conn_type="action_client",
-                       data_interface=Fibonacci, timeout=30.0)  # fmt: skip
+                       data_interface=Fibonacci, timeout=timeout)  # fmt: skip
 
 
 def many_child(role: str) -> None:
