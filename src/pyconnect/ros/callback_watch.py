@@ -26,6 +26,8 @@ from typing import TYPE_CHECKING, Any
 
 from rclpy.node import Node
 
+from pyconnect.ros.waiting import running_thread
+
 IDLE_TICK = 0.25
 """Seconds between the dispatching thread's returns while idle (it notices ``stop()`` then)."""
 
@@ -129,12 +131,9 @@ class CallbackWatch:
 
     def _start_monitor(self) -> None:
         with self._lock:
-            if self._monitor is not None and self._monitor.is_alive():
-                return
-            self._monitor = threading.Thread(
-                target=self._monitor_loop, name="pyconnect-executor-monitor", daemon=True
+            self._monitor = running_thread(
+                self._monitor, self._monitor_loop, "pyconnect-executor-monitor"
             )
-            self._monitor.start()
 
     def _monitor_loop(self) -> None:
         """Move to the elastic executor when the dispatching thread is stuck in a callback."""

@@ -41,7 +41,7 @@ from rclpy.executors import (
 )
 from rclpy.task import Future
 
-from pyconnect.ros.waiting import EventLike
+from pyconnect.ros.waiting import EventLike, running_thread
 
 DEFAULT_HANDOFF_AFTER = 0.02
 """Seconds a callback may hold the turn before another thread takes over spinning."""
@@ -276,12 +276,9 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
 
     def _start_monitor(self) -> None:
         with self._turn:
-            if self._monitor is not None and self._monitor.is_alive():
-                return
-            self._monitor = threading.Thread(
-                target=self._monitor_loop, name="pyconnect-executor-monitor", daemon=True
+            self._monitor = running_thread(
+                self._monitor, self._monitor_loop, "pyconnect-executor-monitor"
             )
-            self._monitor.start()
 
     def _monitor_loop(self) -> None:
         """Hand the turn off when the owner's callback has run for longer than ``handoff_after``."""

@@ -32,6 +32,17 @@ def wait_until(
     return True
 
 
+def running_thread(
+    thread: threading.Thread | None, target: Callable[[], None], name: str
+) -> threading.Thread:
+    """``thread`` when it is alive, else a new daemon thread running ``target``, started."""
+    if thread is not None and thread.is_alive():
+        return thread
+    started = threading.Thread(target=target, name=name, daemon=True)
+    started.start()
+    return started
+
+
 def settle(future: concurrent.futures.Future[Any], compute: Callable[[], Any]) -> None:
     """Give ``future`` the value of ``compute()`` (or what it raised), unless the caller gave up
     on it already (an ``await send_async`` that timed out cancels it)."""
