@@ -71,8 +71,7 @@ class NodeAgent:
         # True while the latest value is an image with RGB(A) channels (PNG logs want BGR).
         self._log_rgb = False
         self._lane: CoroutineLane | None = None
-        self._async_checked: object = None
-        self._async_answer = False
+        self._async_memo: tuple[object, bool] = (None, False)
 
     # -- identity ------------------------------------------------------------------------------
     @property
@@ -222,10 +221,11 @@ class NodeAgent:
         Handlers are called per message: ``inspect`` costs tens of microseconds on a cold
         cache (bench/agents.py), the identity check next to nothing.
         """
-        if function is self._async_checked:
-            return self._async_answer
+        checked, answer = self._async_memo  # one tuple: threads never see a mixed pair
+        if function is checked:
+            return answer
         answer = is_async_callable(function)
-        self._async_checked, self._async_answer = function, answer
+        self._async_memo = (function, answer)
         return answer
 
     def call_user(
