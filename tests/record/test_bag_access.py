@@ -16,6 +16,8 @@ from std_msgs.msg import String
 from test_msgs.msg import BasicTypes
 
 from pyconnect.codecs.registry import Registry
+from pyconnect.record.bag_errors import BagError
+from pyconnect.record.bag_info import bag_info
 from pyconnect.record.bag_reader import BagMessage, open_bag
 from pyconnect.record.mcap_recorder import McapRecorder
 
@@ -88,6 +90,15 @@ def test_several_bags_merge_in_time_order(tmp_path: Path) -> None:
         ]  # fmt: skip
         assert bag.topics["/chatter"].message_count == 5
         assert bag.info.files == (first, second / "b_0.mcap")
+
+
+def test_an_empty_list_of_bags_names_the_function_called() -> None:
+    with pytest.raises(BagError) as opening:
+        open_bag([])
+    with pytest.raises(BagError) as describing:
+        bag_info([])
+    assert str(opening.value) == "open_bag: no bag given (an empty list)"
+    assert str(describing.value) == "bag_info: no bag given (an empty list)"
 
 
 def test_types_filter_alone_and_with_topics(tmp_path: Path) -> None:

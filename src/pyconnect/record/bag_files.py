@@ -92,22 +92,23 @@ def open_storage(path: Path) -> StorageFile:
     raise BagError(f"{path}: neither an MCAP nor a sqlite3 bag file")
 
 
-def as_paths(paths: BagPaths) -> list[str | Path]:
-    """One bag or several, as a list; an empty list raises ``BagError``."""
+def as_paths(paths: BagPaths, *, caller: str) -> list[str | Path]:
+    """One bag or several, as a list; an empty list raises ``BagError`` naming ``caller``."""
     if isinstance(paths, str | Path):
         return [paths]
     chosen = list(paths)
     if not chosen:
-        raise BagError("open_bag: no bag given (an empty list)")
+        raise BagError(f"{caller}: no bag given (an empty list)")
     return chosen
 
 
 def open_bag_files(
-    paths: BagPaths, *, into: list[tuple[BagFiles, list[StorageFile]]]
+    paths: BagPaths, *, into: list[tuple[BagFiles, list[StorageFile]]], caller: str
 ) -> list[tuple[BagFiles, list[StorageFile]]]:
     """Locate each bag's files and open them, appending to ``into`` as they open (so that the
-    caller can close what did open when a later one raises)."""
-    for path in as_paths(paths):
+    caller can close what did open when a later one raises). ``caller`` names the public function
+    in errors."""
+    for path in as_paths(paths, caller=caller):
         located = locate_bag_files(path)
         storages: list[StorageFile] = []
         into.append((located, storages))

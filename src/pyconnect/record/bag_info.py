@@ -154,7 +154,7 @@ def bag_info(path: BagPaths) -> BagInfo:
     """Topics, types, message counts, time range and damage of a bag, from its storage files."""
     bags: list[tuple[BagFiles, list[StorageFile]]] = []
     try:
-        return describe(open_bag_files(path, into=bags))
+        return describe(open_bag_files(path, into=bags, caller="bag_info"))
     finally:
         for _, storages in bags:
             for storage in storages:

@@ -121,7 +121,7 @@ class BagReader:
         self.mismatches: list[TypeMismatch] = []
         self._bags: list[tuple[BagFiles, list[StorageFile]]] = []
         try:
-            open_bag_files(paths, into=self._bags)
+            open_bag_files(paths, into=self._bags, caller="open_bag")
             self.path = self._bags[0][0].path
             self.info = describe(self._bags)
             self.topics = select_topics(self.info, self.path, topics, types, raw=raw)
