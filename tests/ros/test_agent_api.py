@@ -170,6 +170,26 @@ def test_ros_modules_import_each_other_without_circles() -> None:
         visit(module)
 
 
+# wait_plan.py replaces rclpy's ``Executor._wait_for_ready_callbacks`` (a hook rclpy names
+# private) and so reads the state that rclpy's own version reads; nothing else may.
+RCLPY_WAIT_INTERNALS = {
+    "_active_entity",
+    "_executor_event",
+    "_executor_triggered",
+    "_is_shutdown",
+    "_make_handler",
+    "_sigint_gc",
+    "_take_client",
+    "_take_guard_condition",
+    "_take_service",
+    "_take_subscription",
+    "_take_timer",
+    "_take_waitable",
+    "_tasks",
+    "_tasks_lock",
+}
+
+
 def test_ros_modules_reach_no_private_attribute_of_another_module() -> None:
     reaches = []
     for path in sorted(ROS_PACKAGE.glob("*.py")):
@@ -189,6 +209,8 @@ def test_ros_modules_reach_no_private_attribute_of_another_module() -> None:
             if not (isinstance(node, ast.Attribute) and node.attr.startswith("_")):
                 continue
             if node.attr.startswith("__") or node.attr in own:
+                continue
+            if path.name == "wait_plan.py" and node.attr in RCLPY_WAIT_INTERNALS:
                 continue
             if isinstance(node.value, ast.Name) and node.value.id in ("self", "cls"):
                 continue

@@ -38,9 +38,11 @@ from rclpy.executors import (
     ExternalShutdownException,
     ShutdownException,
     TimeoutException,
+    TimeoutObject,
 )
 from rclpy.task import Future
 
+from pyconnect.ros.wait_plan import PlannedWaits, WakeGuard
 from pyconnect.ros.waiting import EventLike, running_thread
 
 DEFAULT_HANDOFF_AFTER = 0.02
@@ -79,6 +81,10 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
         self._waker = _DeadlineWaker(self.wake)
         self._running = 0
         self._last_handoff = time.monotonic()
+        self._wake_guard = WakeGuard(self._guard)
+        # rclpy triggers this guard from its handlers, wake(), create_task() and shutdown().
+        self._guard = self._wake_guard  # type: ignore[assignment]
+        self._waits = PlannedWaits(self)
 
     # -- public --------------------------------------------------------------------------------
     @property
@@ -95,6 +101,10 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
         """True when no callback runs and no hand-off happened for ``seconds``."""
         with self._turn:
             return self._running == 0 and time.monotonic() - self._last_handoff >= seconds
+
+    def wait_counts(self) -> dict[str, int]:
+        """``{'plans': wait sets built, 'waits': waits on them}`` so far (see wait_plan)."""
+        return {"plans": self._waits.plans, "waits": self._waits.waits}
 
     def spin(self) -> None:
         """Run callbacks in this thread (and helpers, when one blocks) until ``stop()``."""
@@ -186,12 +196,26 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
         for thread in [*list(self._helpers), self._monitor, self._waker.thread]:
             if thread is not None and thread is not current and thread.is_alive():
                 thread.join(timeout_sec)
+        if self._stopping:
+            # Lets go of the entities' handles (rclpy destroys what was destroyed meanwhile).
+            self._waits.close()
+            self._waits.join(timeout_sec)
 
     def shutdown(self, timeout_sec: float | None = None) -> bool:
         self.stop()
         self.join(timeout_sec)
         result: bool = super().shutdown(timeout_sec)
         return result
+
+    def _wait_for_ready_callbacks(
+        self,
+        timeout_sec: float | TimeoutObject | None = None,
+        nodes: list[Any] | None = None,
+        condition: Callable[[], bool] = lambda: False,
+    ) -> Any:
+        # One wait set kept between wake-ups (pyconnect.ros.wait_plan).
+        seconds = timeout_sec.timeout if isinstance(timeout_sec, TimeoutObject) else timeout_sec
+        return self._waits.ready_callbacks(seconds, nodes, condition, self._wake_guard)
 
     # -- the turn ------------------------------------------------------------------------------
     def _stop_requested(self) -> bool:
