@@ -14,7 +14,7 @@ NaN or inf) and dropped on decode, as are the header and row padding, so ``lossl
 
 from __future__ import annotations
 
-import array
+import ctypes
 import sys
 from typing import Any
 
@@ -216,6 +216,52 @@ def _is_dense(points: npt.NDArray[Any]) -> bool:
     return all(bool(np.isfinite(points[a]).all()) for a in axes)
 
 
+_CHUNK = 4 * 1024 * 1024
+"""Bytes checked, then copied, at a time: they stay in cache (L2/L3) between the two, and
+smaller chunks cost more in per-call overhead than they save (1.8x a memcpy at 128 KiB)."""
+
+_new_bytearray = ctypes.pythonapi.PyByteArray_FromStringAndSize
+_new_bytearray.argtypes = [ctypes.c_void_p, ctypes.c_ssize_t]
+_new_bytearray.restype = ctypes.py_object
+
+
+def uninitialised_bytearray(size: int) -> bytearray:
+    """A new ``bytearray`` of ``size`` bytes, not zeroed: CPython's C API gives one when the
+    source is NULL, while ``bytearray(size)`` writes every byte (a pass over the memory)."""
+    result: bytearray = _new_bytearray(None, size)
+    return result
+
+
+def copy_checking_dense(points: npt.NDArray[Any]) -> tuple[bytearray, bool]:
+    """A new ``bytearray`` of the points' bytes, and ``is_dense``, reading the points once.
+
+    Each chunk is checked (the words check), then copied while it is still in cache: 1.1x a
+    memcpy for 40 MB against 1.4x for a copy and a separate check. A ``bytearray``, not
+    rclpy's ``array('B')``: an array cannot be sized without writing it (or growing it, which
+    moves it when the heap has no room behind it); rclpy takes any buffer, and a
+    ``bytearray`` compares equal to an ``array('B')`` of the same bytes.
+    """
+    source = contiguous_bytes(points)
+    data = uninitialised_bytearray(len(source))
+    words = _words(points)
+    if words is None or not _axes(points):
+        data[:] = source
+        return data, _is_dense(points)
+    target = np.frombuffer(data, np.uint8)
+    source_bytes = np.frombuffer(source, np.uint8)
+    finite = True
+    step = _CHUNK // 4
+    with np.errstate(over="ignore", invalid="ignore"):
+        for start in range(0, len(words), step):
+            chunk = words[start : start + step]
+            if finite:
+                finite = bool(np.isfinite(np.dot(chunk, chunk)))
+            target[start * 4 : (start + step) * 4] = source_bytes[start * 4 : (start + step) * 4]
+    if finite:
+        return data, True
+    return data, all(bool(np.isfinite(points[a]).all()) for a in _axes(points))
+
+
 def point_cloud_fields(value: Any) -> dict[str, Any]:
     """The PointCloud2 fields of a structured (or (N, 3)) array; ``data`` is a byte memoryview."""
     points = _as_structured(value)
@@ -251,14 +297,12 @@ class PointCloudCodec(FieldsCodec):
         return point_cloud_fields(value)
 
     def encode(self, value: Any) -> Any:
-        # The composed path, with the data copied once here and put in the message's slot as
-        # is (rclpy's setter would copy an array('B') again when field checks are off), and
-        # is_dense from the words check: 1.4x a memcpy for 40 MB, against 2.3x composed.
+        # The composed path, with the data copied once here (checked for is_dense while each
+        # chunk is in cache) and put in the message's slot as is: rclpy's setter would copy an
+        # array('B') again when field checks are off.
         points = _as_structured(value)
         fields = _layout(points)
-        fields["is_dense"] = _is_dense(points)
-        data = array.array("B")
-        data.frombytes(contiguous_bytes(points))
+        data, fields["is_dense"] = copy_checking_dense(points)
         build = self._message_from_fields or self._bind_message_code()
         msg = build(fields)
         if has_slot_layout(type(msg)):

@@ -241,3 +241,36 @@ def test_is_dense_of_float64_and_strided_points_uses_the_per_axis_check() -> Non
     every_other["y"][1] = np.inf
     assert PointCloudCodec().encode(every_other[::2]).is_dense is True
     assert PointCloudCodec().encode(every_other[1::2]).is_dense is False
+
+
+def test_encoded_message_equals_and_serialises_as_rclpys_own() -> None:
+    """The data is a bytearray (sized without zeroing): equal to rclpy's array('B') message,
+    both ways, and rclpy serialises it (its padding bytes are not zeroed: compare values)."""
+    from array import array
+
+    from rclpy.serialization import deserialize_message, serialize_message
+
+    points = np.zeros(9_000, XYZ_RGB)  # several chunks when the chunk is small
+    points["x"] = np.arange(9_000)
+    msg = PointCloudCodec().encode(points)
+    reference = msgs.PointCloud2(
+        height=1, width=9_000, fields=msg.fields, point_step=16, row_step=16 * 9_000,
+        is_dense=True,
+    )  # fmt: skip
+    reference.data = array("B", points.tobytes())
+    assert msg == reference
+    assert reference == msg
+    assert deserialize_message(serialize_message(msg), msgs.PointCloud2) == reference
+
+
+def test_chunked_copy_is_exact_across_chunk_boundaries(monkeypatch: pytest.MonkeyPatch) -> None:
+    from pyconnect.codecs import point_cloud
+
+    monkeypatch.setattr(point_cloud, "_CHUNK", 64)  # 4 points a chunk, 250 chunks
+    points = np.zeros(1_001, XYZ_RGB)
+    points["y"] = np.arange(1_001)
+    data, dense = point_cloud.copy_checking_dense(points)
+    assert (bytes(data), dense) == (points.tobytes(), True)
+    points["z"][1_000] = np.nan  # in the last, partial chunk
+    data, dense = point_cloud.copy_checking_dense(points)
+    assert (bytes(data), dense) == (points.tobytes(), False)
