@@ -289,12 +289,46 @@ def test_with_block_and_spin_thread_shut_down(make_peer: PeerFactory) -> None:
         peer.spin()
 
 
+def test_a_burst_is_not_cut_to_depth_while_the_subscription_keeps_up(
+    make_peer: PeerFactory,
+) -> None:
+    handled: list[str] = []
+    pub, sub = connected_pair(
+        make_peer, "chatter", "std_msgs/msg/String", response_func=handled.append, depth=10
+    )
+    assert sub.burst_samples == 1000
+    sub.burst_seconds = TIMEOUT  # "keeping up" however slow this machine is now
+    for number in range(500):  # back to back: zenoh batches them, the ring takes each batch
+        pub.send(f"message {number}")
+    assert wait_for(lambda: sub.message_count == 500)
+    assert handled == [f"message {number}" for number in range(500)]
+    assert sub.dropped_count == 0
+
+
+def test_only_types_without_unbounded_sequences_get_a_burst_allowance(
+    make_peer: PeerFactory,
+) -> None:
+    peer = make_peer("vision")
+    for type_name, burst in [
+        ("std_msgs/msg/String", 1000),
+        ("geometry_msgs/msg/PoseStamped", 1000),
+        ("sensor_msgs/msg/Image", 0),
+        ("sensor_msgs/msg/JointState", 0),
+    ]:
+        agent = peer.add_agent(
+            conn_name=type_name.replace("/", "_"), conn_type="sub", data_interface=type_name
+        )
+        assert agent.burst_samples == burst, type_name
+
+
 def test_a_slow_subscription_keeps_the_last_depth_samples(make_peer: PeerFactory) -> None:
     release = threading.Event()
     handled: list[int] = []
+    started: list[float] = []
 
     def slow(value: int) -> None:
         handled.append(value)
+        started.append(time.monotonic())
         release.wait(TIMEOUT)
 
     pub, sub = connected_pair(make_peer, "count", "std_msgs/msg/Int32", response_func=slow, depth=3)
@@ -311,6 +345,8 @@ def test_a_slow_subscription_keeps_the_last_depth_samples(make_peer: PeerFactory
     probe_publisher.put(b"after")
     assert marker.wait(TIMEOUT)
     probe.undeclare()
+    # Busy longer than the burst window: what waits now is a backlog, not a transport burst.
+    assert wait_for(lambda: time.monotonic() - started[0] > sub.burst_seconds)
     release.set()
     assert wait_for(lambda: sub.message_count == 4)
     assert handled == [1, 28, 29, 30]

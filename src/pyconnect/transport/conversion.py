@@ -16,6 +16,7 @@ from typing import Any
 
 from pyconnect.codecs.wire import WireCodec
 from pyconnect.errors import CodecError, DecodeError, EncodeError
+from pyconnect.transport.fast_paths import fast_paths
 
 EncodeFunc = Callable[[Any, Any], Any]
 DecodeFunc = Callable[[Any], Any]
@@ -48,7 +49,8 @@ class WireConversion:
 
     The value codec is looked up once, when the agent is made (as ``CustomNode`` does), and
     ``encode``/``decode`` are closures over the functions that path needs: per message nothing
-    is looked up or tested but the value (bench/transport.py measures it).
+    is looked up or tested but the value (bench/transport.py measures it). The smallest std_msgs
+    types (String, Int*, Float*) take the straight-line paths of ``fast_paths``.
     """
 
     encode: Callable[[Any], bytes]
@@ -63,6 +65,7 @@ class WireConversion:
         encode_func: EncodeFunc | None = None,
         decode_func: DecodeFunc | None = None,
         raw: bool = False,
+        fast: bool = True,
     ) -> None:
         self.describe = describe
         self.codec = codec
@@ -83,6 +86,10 @@ class WireConversion:
         self.decode = self._decoder(
             decode_func, value_codec.decode if value_codec is not None else None
         )
+        if fast and encode_func is None and decode_func is None:
+            paths = fast_paths(value_codec, general_encode=self.encode, general_decode=self.decode)
+            if paths is not None:
+                self.encode, self.decode = paths
 
     def _raw_encode(self, value: Any) -> bytes:
         if not isinstance(value, (bytes, bytearray, memoryview)):

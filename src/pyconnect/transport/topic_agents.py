@@ -23,6 +23,7 @@ congestion control) are counted in ``dropped_count`` from the publishers' sequen
 
 from __future__ import annotations
 
+import collections
 import contextlib
 import struct
 import threading
@@ -31,6 +32,7 @@ from typing import Any
 
 import zenoh
 
+from pyconnect.codecs.wire import WireCodec
 from pyconnect.errors import DecodeError
 from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
@@ -38,9 +40,32 @@ from pyconnect.transport.interface_types import message_interface
 from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc, logger
 
 DEFAULT_DEPTH = 10
+# What an agent that keeps up on average may hold beyond ``depth`` while it works through a burst.
+BURST_SAMPLES = 1000
+BURST_SECONDS = 0.02
 _pack_attachment = keys.ATTACHMENT.pack  # bound once: no wrapper per sample
-_unpack_attachment = keys.unpack_attachment
+_unpack_attachment = keys.ATTACHMENT.unpack  # (sequence, stamp ns, gid); struct.error if malformed
 time_ns = time.time_ns
+monotonic = time.monotonic
+
+
+def has_small_messages(codec: WireCodec) -> bool:
+    """Whether ``codec``'s type has no unbounded sequence, nested types included (strings may
+    be long, but such types are commands, poses, counters: small in practice)."""
+    rows = codec.definitions
+    seen: set[str] = set()
+    pending = [codec.msg_type]
+    while pending:
+        type_name = pending.pop()
+        if type_name in seen or type_name not in rows:
+            continue
+        seen.add(type_name)
+        for _name, kind, element, _bound, container, *_rest in rows[type_name][1]:
+            if container == "sequence":
+                return False
+            if kind == "message":
+                pending.append(element)
+    return True
 
 
 class PublisherAgent(PeerAgent):
@@ -205,8 +230,14 @@ class SubscriberAgent(PeerAgent):
         )
         self.key = keys.data_key(peer.domain_id, self.topic, interface.type_name, self.type_hash)
         self._decode = self.conversion.decode
+        self.burst_samples = BURST_SAMPLES if has_small_messages(interface.codec) else 0
+        """How many samples beyond ``depth`` zenoh's ring and the agent hold while the agent
+        works through a burst (types without unbounded sequences; 0 for the others)."""
+        self.burst_seconds = BURST_SECONDS
+        """Samples beyond ``depth`` are kept only while the agent found nothing waiting this
+        recently: once it has been busy longer (a slow ``response_func``), keep-last applies."""
         self._subscriber = peer.session.declare_subscriber(
-            self.key, zenoh.handlers.RingChannel(depth)
+            self.key, zenoh.handlers.RingChannel(depth + self.burst_samples)
         )
         self._token = peer.session.liveliness().declare_token(self.token_key)
         self._other_types: dict[str, Any] = {}
@@ -251,20 +282,44 @@ class SubscriberAgent(PeerAgent):
     def _run(self) -> None:
         samples: Any = self._subscriber.handler  # a zenoh Handler[Sample] (stubs: generic)
         recv, try_recv, handle = samples.recv, samples.try_recv, self._on_sample
+        most = self.depth + self.burst_samples
+        backlog: collections.deque[zenoh.Sample] = collections.deque()
+        take, append = backlog.popleft, backlog.append
+        idle_at = monotonic()
         while True:
             try:
-                sample = recv()  # waits with the GIL released
+                sample = try_recv()
+                if sample is None:  # zenoh's ring is empty: the agent keeps up
+                    idle_at = monotonic()
+                    sample = recv()  # waits with the GIL released
+                append(sample)
+                while backlog:
+                    # Take what zenoh pushed meanwhile before handling the next sample, so a
+                    # burst leaves the ring as fast as zenoh fills it.
+                    sample = try_recv()
+                    while sample is not None:
+                        append(sample)
+                        sample = try_recv()
+                    if len(backlog) > self.depth and (
+                        len(backlog) > most or monotonic() - idle_at > self.burst_seconds
+                    ):
+                        self._keep_last(backlog)
+                    try:
+                        handle(take())
+                    except Exception as error:
+                        self.report_exception("receive", error)
             except zenoh.ZError:
                 return  # the subscriber is undeclared: the agent is closing
-            while sample is not None:
-                try:
-                    handle(sample)
-                except Exception as error:
-                    self.report_exception("receive", error)
-                try:
-                    sample = try_recv()  # what else waits, without giving up the GIL per sample
-                except zenoh.ZError:
-                    return
+
+    def _keep_last(self, backlog: collections.deque[zenoh.Sample]) -> None:
+        """Skip all but the newest ``depth`` waiting samples (the agent fell behind).
+
+        Skipped samples are counted in ``dropped_count`` through the sequence gap the next
+        handled sample shows, or here when they carry no attachment.
+        """
+        while len(backlog) > self.depth:
+            if backlog.popleft().attachment is None:
+                self.dropped_count += 1
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         attachment = sample.attachment
@@ -274,8 +329,8 @@ class SubscriberAgent(PeerAgent):
             except struct.error:
                 pass
             else:
-                last = self._last_sequence.get(gid)
-                if last is not None and sequence > last + 1:
+                last = self._last_sequence.get(gid, sequence - 1)
+                if sequence > last + 1:
                     self.dropped_count += sequence - last - 1
                 self._last_sequence[gid] = sequence
         payload = sample.payload
@@ -296,13 +351,14 @@ class SubscriberAgent(PeerAgent):
             self.report_exception("decode", error)
             return
         self._latest = value
-        self.message_count += 1
         self.last_received_ns = time_ns()
-        if self.message_count == 1:
+        self.message_count = count = self.message_count + 1
+        if count == 1:
             self._first_message.set()
-        if self.response_func is not None:
+        response_func = self.response_func
+        if response_func is not None:
             try:
-                self.response_func(value)
+                response_func(value)
             except Exception as error:
                 self.report_exception("response_func", error)
 

@@ -1,0 +1,137 @@
+"""Straight-line CDR encode/decode for the smallest std_msgs types, at a peer agent's call sites.
+
+A ``std_msgs/String`` is 4 header bytes, a length, the UTF-8 bytes and a NUL; an ``Int32`` is 4
+header bytes and 4 value bytes. The general path (codec ``to_fields`` -> generated
+``from_dict`` -> join; ``body_of`` -> generated view -> codec ``decode``) spends ~1 µs per
+message on frames and checks such a message does not need (bench/transport.py).
+
+A fast path handles only what it can prove is well formed and gives exactly the general
+path's result there (tests/transport/test_fast_paths.py compares both on arbitrary values and
+bytes); everything else — a wrong type, an out-of-range int, a big-endian or malformed
+payload, a stray trailing byte — goes to the general path, which raises its usual error. Fast
+paths apply only when the registry's codec of the type is the stock one and the agent has no
+``encode_func``/``decode_func``: a user codec is never bypassed.
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from collections.abc import Callable
+from typing import Any
+
+from pyconnect.codecs.std_scalars import FloatCodec, IntCodec, StringCodec
+from pyconnect.typesys.primitives import FLOAT32_MAX, INTEGER_RANGES
+
+Encode = Callable[[Any], bytes]
+Decode = Callable[[bytes], Any]
+
+_LITTLE = b"\x00\x01\x00\x00"  # the XCDR1 little-endian encapsulation header, no options
+_U32 = struct.Struct("<I")
+_STRING_HEAD = struct.Struct("<4sI")
+
+
+def fast_paths(
+    value_codec: object, *, general_encode: Encode, general_decode: Decode
+) -> tuple[Encode, Decode] | None:
+    """``(encode, decode)`` for ``value_codec``'s type, or None when it has no fast path."""
+    codec_class = type(value_codec)
+    if codec_class is StringCodec:
+        return _string(general_encode, general_decode)
+    if codec_class is IntCodec and value_codec.kind != "char":  # type: ignore[attr-defined]
+        kind: str = value_codec.kind  # type: ignore[attr-defined]
+        return _integer(kind, general_encode, general_decode)
+    if codec_class is FloatCodec:
+        name: str = value_codec.name  # type: ignore[attr-defined]
+        return _float(name == "Float32", general_encode, general_decode)
+    return None
+
+
+def _string(general_encode: Encode, general_decode: Decode) -> tuple[Encode, Decode]:
+    pack_head, unpack_u32 = _STRING_HEAD.pack, _U32.unpack_from
+    # The NUL, then padding to a 4-byte boundary (the body is the length word and ``size`` bytes).
+    tails = (b"\0", b"\0\0\0\0", b"\0\0\0", b"\0\0")
+
+    def encode(value: Any) -> bytes:
+        if value.__class__ is str:
+            try:
+                data = value.encode()
+            except UnicodeEncodeError:
+                return general_encode(value)  # the general path names the field and reason
+            size = len(data) + 1
+            return pack_head(_LITTLE, size) + data + tails[size & 3]
+        return general_encode(value)
+
+    def decode(payload: bytes) -> Any:
+        if payload[:2] == b"\x00\x01" and len(payload) >= 9:
+            (size,) = unpack_u32(payload, 4)
+            end = 8 + size
+            if size and end <= len(payload) <= end + 3:
+                try:
+                    return payload[8 : end - 1].decode()
+                except UnicodeDecodeError:
+                    pass
+        return general_decode(payload)
+
+    return encode, decode
+
+
+_INTEGER_FORMATS = {
+    "int8": "b",
+    "uint8": "B",
+    "int16": "h",
+    "uint16": "H",
+    "int32": "i",
+    "uint32": "I",
+    "int64": "q",
+    "uint64": "Q",
+}
+
+
+def _scalar_decode(fmt: str, general_decode: Decode) -> Decode:
+    layout = struct.Struct("<" + fmt)
+    unpack, size = layout.unpack_from, layout.size
+    shortest = 4 + size
+    longest = shortest + 3  # at most 3 bytes of padding may follow
+
+    def decode(payload: bytes) -> Any:
+        if shortest <= len(payload) <= longest and payload[:2] == b"\x00\x01":
+            return unpack(payload, 4)[0]
+        return general_decode(payload)
+
+    return decode
+
+
+def _scalar_encode(fmt: str, accept: Callable[[Any], bool], general_encode: Encode) -> Encode:
+    layout = struct.Struct("<4s" + fmt)
+    pack = layout.pack
+    pad = b"\0" * (-layout.size & 3)
+
+    def encode(value: Any) -> bytes:
+        if accept(value):
+            return pack(_LITTLE, value) + pad
+        return general_encode(value)
+
+    return encode
+
+
+def _integer(kind: str, general_encode: Encode, general_decode: Decode) -> tuple[Encode, Decode]:
+    fmt = _INTEGER_FORMATS[kind]
+    low, high = INTEGER_RANGES[kind]
+
+    def accept(value: Any) -> bool:
+        return value.__class__ is int and low <= value <= high
+
+    return _scalar_encode(fmt, accept, general_encode), _scalar_decode(fmt, general_decode)
+
+
+def _float(single: bool, general_encode: Encode, general_decode: Decode) -> tuple[Encode, Decode]:
+    fmt = "f" if single else "d"
+    isfinite = math.isfinite
+
+    def accept(value: Any) -> bool:
+        if value.__class__ is not float:
+            return False
+        return not single or not isfinite(value) or abs(value) <= FLOAT32_MAX
+
+    return _scalar_encode(fmt, accept, general_encode), _scalar_decode(fmt, general_decode)
