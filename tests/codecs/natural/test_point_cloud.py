@@ -243,12 +243,14 @@ def test_is_dense_of_float64_and_strided_points_uses_the_per_axis_check() -> Non
     assert PointCloudCodec().encode(every_other[1::2]).is_dense is False
 
 
-def test_encoded_message_equals_and_serialises_as_rclpys_own() -> None:
-    """The data is a bytearray (sized without zeroing): equal to rclpy's array('B') message,
-    both ways, and rclpy serialises it (its padding bytes are not zeroed: compare values)."""
+def test_encoded_message_is_rclpys_own() -> None:
+    """The data is rclpy's array('B') (grown chunk by chunk): the message equals, serialises
+    and converts to a dict as one rclpy built."""
     from array import array
 
     from rclpy.serialization import deserialize_message, serialize_message
+
+    from pyconnect import codecs
 
     points = np.zeros(9_000, XYZ_RGB)  # several chunks when the chunk is small
     points["x"] = np.arange(9_000)
@@ -261,6 +263,8 @@ def test_encoded_message_equals_and_serialises_as_rclpys_own() -> None:
     assert msg == reference
     assert reference == msg
     assert deserialize_message(serialize_message(msg), msgs.PointCloud2) == reference
+    assert type(msg.data) is array and msg.data.typecode == "B"
+    assert codecs.to_dict(msg) == codecs.to_dict(reference)
 
 
 def test_chunked_copy_is_exact_across_chunk_boundaries(monkeypatch: pytest.MonkeyPatch) -> None:
