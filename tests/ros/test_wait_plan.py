@@ -8,6 +8,7 @@ from typing import Any
 
 import pytest
 import rclpy
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.exceptions import InvalidHandle
 from rclpy.node import Node
@@ -15,17 +16,19 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
 from pyconnect.ros.executor import ElasticExecutor
+from pyconnect.ros.wait_plan import COOL_AFTER
 
 from .conftest import EVENT_TIMEOUT, repeat_until
 
 
-@pytest.fixture
-def spun() -> Iterator[tuple[Node, ElasticExecutor]]:
-    """A raw rclpy node spinning on an ElasticExecutor in a thread (shut down afterwards)."""
+@pytest.fixture(params=[COOL_AFTER, 0.05], ids=["default", "quick_cooling"])
+def spun(request: pytest.FixtureRequest) -> Iterator[tuple[Node, ElasticExecutor]]:
+    """A raw rclpy node spinning on an ElasticExecutor in a thread (shut down afterwards);
+    with ``quick_cooling`` quiet entities move to the cold waiter's thread after 50 ms."""
     context = rclpy.Context()
     rclpy.init(context=context, args=[])
     node = Node("wait_plan_test", context=context)
-    executor = ElasticExecutor(context=context)
+    executor = ElasticExecutor(context=context, cool_after=request.param)
     executor.add_node(node)
     thread = threading.Thread(target=executor.spin, daemon=True)
     thread.start()
@@ -120,3 +123,39 @@ def test_a_qos_event_reaches_its_callback_on_the_elastic_executor(
     )
     assert incompatible.wait(EVENT_TIMEOUT)
     assert seen[0].total_count >= 1
+
+
+def _until(predicate: Any) -> bool:
+    """Poll ``predicate`` (state the executor's threads change) up to EVENT_TIMEOUT."""
+    pause = threading.Event()
+    for _ in range(int(EVENT_TIMEOUT / 0.01)):
+        if predicate():
+            return True
+        pause.wait(0.01)
+    return bool(predicate())
+
+
+@pytest.mark.parametrize("spun", [0.05], indirect=True, ids=["quick_cooling"])
+def test_quiet_entities_wait_on_the_cold_thread_and_still_get_their_work(
+    spun: tuple[Node, ElasticExecutor],
+) -> None:
+    node, executor = spun
+    received: list[str] = []
+    arrived = threading.Semaphore(0)
+    group = MutuallyExclusiveCallbackGroup()
+
+    def on_message(msg: String) -> None:
+        received.append(msg.data)
+        arrived.release()
+
+    sub = node.create_subscription(String, "cold_topic", on_message, 10, callback_group=group)
+    pub = node.create_publisher(String, "cold_topic", 10)
+    assert _until(lambda: pub.get_subscription_count() == 1)
+    for index in range(5):
+        # The subscription (and everything else but timers) went quiet: the cold thread has it.
+        assert _until(lambda: executor.is_cold(sub))
+        wakes = executor.wait_counts()["cold_wakes"]
+        pub.publish(String(data=str(index)))
+        assert arrived.acquire(timeout=EVENT_TIMEOUT)
+        assert executor.wait_counts()["cold_wakes"] > wakes
+    assert received == ["0", "1", "2", "3", "4"]

@@ -140,6 +140,14 @@ class CallbackWatch:
         last_seq, last_returns, quiet, ticking = self._seq, self._returns, 0, True
         running: tuple[Any, Any] | None = None
         while not self._stopping:
+            if self._elastic is not None:
+                # The elastic executor's own monitor watches its callbacks: look now and then
+                # whether the node is back on EventsExecutor (wrappers do not wake us: not parked).
+                self._monitor_wake.wait(IDLE_TICK * 4)
+                self._monitor_wake.clear()
+                last_seq, last_returns, quiet, ticking = self._seq, self._returns, 0, True
+                running = None
+                continue
             started = time.monotonic()
             if ticking:
                 # Short ticks only while a callback was running at the last look: callbacks

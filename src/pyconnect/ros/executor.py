@@ -42,7 +42,7 @@ from rclpy.executors import (
 )
 from rclpy.task import Future
 
-from pyconnect.ros.wait_plan import PlannedWaits, WakeGuard
+from pyconnect.ros.wait_plan import COOL_AFTER, PlannedWaits, WakeGuard
 from pyconnect.ros.waiting import EventLike, running_thread
 
 DEFAULT_HANDOFF_AFTER = 0.02
@@ -65,6 +65,7 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
         context: Context | None = None,
         handoff_after: float = DEFAULT_HANDOFF_AFTER,
         on_error: Callable[[BaseException], None] | None = None,
+        cool_after: float = COOL_AFTER,
     ) -> None:
         super().__init__(context=context)
         self._handoff_after = handoff_after
@@ -84,7 +85,7 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
         self._wake_guard = WakeGuard(self._guard)
         # rclpy triggers this guard from its handlers, wake(), create_task() and shutdown().
         self._guard = self._wake_guard  # type: ignore[assignment]
-        self._waits = PlannedWaits(self)
+        self._waits = PlannedWaits(self, cool_after=cool_after)
 
     # -- public --------------------------------------------------------------------------------
     @property
@@ -103,8 +104,32 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
             return self._running == 0 and time.monotonic() - self._last_handoff >= seconds
 
     def wait_counts(self) -> dict[str, int]:
-        """``{'plans': wait sets built, 'waits': waits on them}`` so far (see wait_plan)."""
-        return {"plans": self._waits.plans, "waits": self._waits.waits}
+        """Wait sets built, waits on them, cold-waiter wake-ups so far and entities it waits
+        on now (pyconnect.ros.wait_plan, cold_waiter)."""
+        return {
+            "plans": self._waits.plans,
+            "waits": self._waits.waits,
+            "cold_wakes": self._waits.cold_wakes,
+            "cold": self._waits.cold,
+        }
+
+    def is_cold(self, entity: Any) -> bool:
+        """True if ``entity`` went quiet and waits on the cold waiter's thread now."""
+        return self._waits.is_cold(entity)
+
+    def wake(self) -> None:
+        """Make the executor notice new entities (rclpy's nodes call this on every change)."""
+        self._waits.may_have_changed()
+        super().wake()
+
+    def add_node(self, node: Any) -> bool:
+        self._waits.may_have_changed()
+        added: bool = super().add_node(node)
+        return added
+
+    def remove_node(self, node: Any) -> None:
+        self._waits.may_have_changed()
+        super().remove_node(node)
 
     def spin(self) -> None:
         """Run callbacks in this thread (and helpers, when one blocks) until ``stop()``."""

@@ -1,4 +1,4 @@
-"""The ElasticExecutor's wait: one wait set kept between wake-ups while the nodes' entities stay.
+"""The ElasticExecutor's wait: one wait set kept between wake-ups, quiet entities left out.
 
 Why (bench/agents.py, "120 agents" rows): rclpy's ``Executor._wait_for_ready_callbacks``
 gathers every entity of every node, enters each handle through an ``ExitStack``, builds a new
@@ -8,14 +8,16 @@ gathers every entity of every node, enters each handle through an ``ExitStack``,
 
 - the plan (the entities sorted by kind with their handles, callback groups and pointers, and a
   wait set sized for all of them) is built when the nodes' entity lists change (compared by
-  identity on each wake-up, microseconds) and kept otherwise. It keeps every handle entered (in
-  use): rclpy defers the destruction of an entity destroyed meanwhile until the plan lets go of
-  it, which happens on the wake-up that the destroying node sends its executor, so no wait ever
-  sees a freed handle;
+  identity after a ``wake()``, which rclpy's nodes call on every change, and every
+  ``COOL_CHECK`` seconds) and kept otherwise. It keeps every handle entered (in use): rclpy
+  defers the destruction of an entity destroyed meanwhile until the plan lets go of it, which
+  happens on the wake-up that the destroying node sends its executor, so no wait ever sees a
+  freed handle;
 - a wake-up only clears the wait set and adds the handles of the entities that may run now (no
   handler pending, callback group free), like rclpy's ``can_execute``;
-- QoS event handlers, which hardly ever fire, wait on a thread of their own
-  (:class:`EventWaiter`) that wakes the executor when one is ready;
+- an entity not ready for ``COOL_AFTER`` seconds (timers and guard conditions excepted) leaves
+  this wait for pyconnect.ros.cold_waiter's thread, which hands it back when it is ready again:
+  a wake-up then costs what the active entities cost, not what all of them do;
 - the executor's guard condition is a :class:`WakeGuard`: a trigger reaches rcl only while a
   thread prepares or runs a wait. Every handler triggers it twice (rclpy), which would cost a
   second full wake-up per callback; a callback that ran inline needs none, as the next
@@ -38,7 +40,6 @@ from collections.abc import Callable, Generator
 from typing import Any
 
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
-from rclpy.event_handler import EventHandler
 from rclpy.executors import (
     ConditionReachedException,
     ExternalShutdownException,
@@ -49,6 +50,14 @@ from rclpy.guard_condition import GuardCondition
 from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
 from rclpy.waitable import NumberOfEntities
+
+from pyconnect.ros.cold_waiter import ColdWaiter
+
+COOL_AFTER = 2.0
+"""Seconds an entity may stay unready before the cold waiter's thread waits on it instead."""
+
+COOL_CHECK = 0.5
+"""Seconds between looks for entities to cool (and a full check of the nodes' entity lists)."""
 
 _FREE, _EXCLUSIVE, _ASK = 0, 1, 2
 """How a callback group says whether its entity may run: always, while no callback of the
@@ -78,86 +87,102 @@ def _node_lists(node: Node) -> tuple[list[Any], ...]:
 
 
 class _Entry:
-    """One entity of the plan: its handle (entered), callback group and node."""
+    """One entity of the plan: its handle (entered), callback group, node, and how it waits."""
 
-    __slots__ = ("entity", "group", "handle", "kind", "node")
+    __slots__ = (
+        "counts",
+        "entity",
+        "group",
+        "handle",
+        "hot",
+        "kind",
+        "last_ready",
+        "mode",
+        "node",
+        "pointer",
+    )
 
-    def __init__(self, entity: Any, handle: Any, node: Node) -> None:
+    def __init__(self, kind: str, entity: Any, node: Node, last_ready: float) -> None:
+        self.kind = kind
         self.entity = entity
-        self.handle = handle
+        self.handle = None if kind == "waitable" else entity.handle
+        self.pointer = 0 if self.handle is None else self.handle.pointer
+        self.counts = entity.get_num_entities() if kind == "waitable" else _ONE[kind]
         self.group = entity.callback_group
-        self.kind = _group_kind(self.group)
+        self.mode = _group_kind(self.group)
         self.node = node
+        self.hot = True
+        self.last_ready = last_ready
 
     def usable(self) -> bool:
         if self.entity._executor_event:
             return False
-        if self.kind == _EXCLUSIVE:
+        if self.mode == _EXCLUSIVE:
             return self.group._active_entity is None
-        return self.kind == _FREE or bool(self.group.can_execute(self.entity))
+        return self.mode == _FREE or bool(self.group.can_execute(self.entity))
+
+
+_ONE = {
+    "subscription": NumberOfEntities(num_subs=1),
+    "client": NumberOfEntities(num_clients=1),
+    "service": NumberOfEntities(num_services=1),
+    "timer": NumberOfEntities(num_timers=1),
+    "guard": NumberOfEntities(num_gcs=1),
+}
 
 
 class _Plan:
-    """The entities of some nodes, their handles entered, and wait sets sized for them."""
+    """The entities of some nodes, their handles entered, and a wait set sized for all."""
 
-    def __init__(self, nodes: list[Node], executor: Any) -> None:
+    def __init__(self, nodes: list[Node], executor: Any, last_ready: dict[Any, float]) -> None:
         self.nodes = nodes
         self.lists = [_node_lists(node) for node in nodes]
         self.stack = contextlib.ExitStack()
-        self.subscriptions: list[_Entry] = []
-        self.timers: list[_Entry] = []
-        self.clients: list[_Entry] = []
-        self.services: list[_Entry] = []
-        self.guards: list[_Entry] = []
-        self.waitables: list[_Entry] = []
-        self.events: dict[Any, Node] = {}
+        self.entries: list[_Entry] = []
+        now = time.monotonic()
         count = NumberOfEntities()
         try:
             for node, (subs, timers, clients, services, guards, waitables) in zip(
                 nodes, self.lists, strict=True
             ):
                 for kind, entities in (
-                    (self.subscriptions, subs),
-                    (self.timers, timers),
-                    (self.clients, clients),
-                    (self.services, services),
-                    (self.guards, guards),
+                    ("timer", timers),
+                    ("subscription", subs),
+                    ("guard", guards),
+                    ("client", clients),
+                    ("service", services),
+                    ("waitable", waitables),
                 ):
                     for entity in entities:
-                        if self._enter(entity.handle):
-                            kind.append(_Entry(entity, entity.handle, node))
-                for waitable in waitables:
-                    if isinstance(waitable, EventHandler):
-                        self.events[waitable] = node
-                    elif self._enter(waitable):
-                        self.waitables.append(_Entry(waitable, None, node))
-                        count += waitable.get_num_entities()
+                        if self._enter(entity if kind == "waitable" else entity.handle):
+                            entry = _Entry(kind, entity, node, last_ready.get(entity, now))
+                            self.entries.append(entry)
+                            count += entry.counts
             self.own_guards = [executor._guard.handle, executor._sigint_gc.handle]
             for handle in self.own_guards:
                 self.stack.enter_context(handle)
             context = executor.context.handle
             self.stack.enter_context(context)
             self.wait_set = _rclpy.WaitSet(
-                len(self.subscriptions) + count.num_subscriptions,
-                len(self.guards) + len(self.own_guards) + count.num_guard_conditions,
-                len(self.timers) + count.num_timers,
-                len(self.clients) + count.num_clients,
-                len(self.services) + count.num_services,
+                count.num_subscriptions,
+                count.num_guard_conditions + len(self.own_guards),
+                count.num_timers,
+                count.num_clients,
+                count.num_services,
                 count.num_events,
                 context,
             )
         except BaseException:
             self.stack.close()
             raise
-        self.by_pointer = {
-            kind: {entry.handle.pointer: entry for entry in entries}
-            for kind, entries in (
-                ("subscription", self.subscriptions),
-                ("timer", self.timers),
-                ("client", self.clients),
-                ("service", self.services),
-            )
+        # Timers and guard conditions always wait here: a timer's next tick is due anyway.
+        self.always = [entry for entry in self.entries if entry.kind in ("timer", "guard")]
+        self.hot = [entry for entry in self.entries if entry.kind not in ("timer", "guard")]
+        self.by_pointer: dict[str, dict[int, _Entry]] = {
+            kind: {entry.pointer: entry for entry in self.entries if entry.kind == kind}
+            for kind in ("subscription", "timer", "client", "service")
         }
+        self.next_check = now
 
     def _enter(self, handle: Any) -> bool:
         try:
@@ -171,6 +196,33 @@ class _Plan:
             _node_lists(node) == lists for node, lists in zip(nodes, self.lists, strict=True)
         )
 
+    def cold(self) -> list[_Entry]:
+        return [entry for entry in self.entries if not entry.hot and entry.kind != "timer"]
+
+    def warm_up(self, entries: list[_Entry], now: float) -> None:
+        """``entries`` (found ready by the cold waiter) wait here again."""
+        for entry in entries:
+            if not entry.hot:
+                entry.hot = True
+                entry.last_ready = now
+                self.hot.append(entry)
+
+    def cool_down(self, now: float, cool_after: float) -> bool:
+        """Leave entities unready for ``cool_after`` s to the cold waiter; True if any left."""
+        keep = [
+            entry
+            for entry in self.hot
+            if now - entry.last_ready < cool_after or entry.entity._executor_event
+        ]
+        if len(keep) == len(self.hot):
+            return False
+        for entry in self.hot:
+            entry.hot = False
+        for entry in keep:
+            entry.hot = True
+        self.hot = keep
+        return True
+
     def release(self) -> None:
         self.stack.close()
 
@@ -179,21 +231,42 @@ class PlannedWaits:
     """An executor's wait with a kept plan; ``ready_callbacks`` is its
     ``_wait_for_ready_callbacks``. ``close()`` lets go of every handle (after spinning ends)."""
 
-    def __init__(self, executor: Any) -> None:
+    def __init__(self, executor: Any, *, cool_after: float = COOL_AFTER) -> None:
         self._executor = executor
+        self._cool_after = cool_after
+        self._check_every = min(COOL_CHECK, cool_after / 2)
         self._lock = threading.Lock()
         self._plan: _Plan | None = None
         self._closed = False
-        self._events = EventWaiter(executor.context, executor.wake)
-        self._handed: dict[Any, Any] = {}
+        self._changes = 0
+        self._checked = -1
+        self._cold = ColdWaiter(executor.context, executor.wake)
         self.plans = 0
         """Plans built so far (tests and diagnostics)."""
         self.waits = 0
         """Waits on the plan's wait set so far (tests and diagnostics)."""
 
+    @property
+    def cold_wakes(self) -> int:
+        """Wake-ups of the cold waiter's thread so far (tests and diagnostics)."""
+        return self._cold.wakes
+
+    @property
+    def cold(self) -> int:
+        """Entities the cold waiter's thread waits on now (tests and diagnostics)."""
+        return self._cold.watching
+
+    def is_cold(self, entity: Any) -> bool:
+        """True if the cold waiter's thread waits on ``entity`` now (tests and diagnostics)."""
+        return self._cold.has(entity)
+
+    def may_have_changed(self) -> None:
+        """The nodes' entities may have changed (rclpy's nodes call ``wake()`` on a change)."""
+        self._changes += 1
+
     def close(self) -> None:
-        """Stop the event thread and release the plan's handles (waits for a running wait)."""
-        self._events.stop()
+        """Stop the cold waiter and release the plan's handles (waits for a running wait)."""
+        self._cold.stop()
         with self._lock:
             self._closed = True
             if self._plan is not None:
@@ -201,18 +274,28 @@ class PlannedWaits:
                 self._plan = None
 
     def join(self, timeout_sec: float | None = None) -> None:
-        self._events.join(timeout_sec)
+        self._cold.join(timeout_sec)
 
-    def _current_plan(self, nodes: list[Node]) -> _Plan:
+    def _current_plan(self, nodes: list[Node], now: float) -> _Plan:
         plan = self._plan
+        changes = self._changes
+        if plan is not None and changes == self._checked and now < plan.next_check:
+            return plan
+        self._checked = changes
         if plan is None or not plan.is_current(nodes):
+            last_ready: dict[Any, float] = {}
             if plan is not None:
+                last_ready = {entry.entity: entry.last_ready for entry in plan.entries}
                 plan.release()
             self._plan = None
-            plan = _Plan(nodes, self._executor)
+            plan = _Plan(nodes, self._executor, last_ready)
             self._plan = plan
             self.plans += 1
-            self._events.watch(list(plan.events))
+            self._cold.watch(plan.cold())
+        if now >= plan.next_check:
+            plan.next_check = now + self._check_every
+            if plan.cool_down(now, self._cool_after):
+                self._cold.watch(plan.cold())
         return plan
 
     def ready_callbacks(
@@ -238,13 +321,12 @@ class PlannedWaits:
             if yielded or executor._is_shutdown or condition():
                 guard.waiting = False
                 break
-            ready: list[tuple[str, _Entry]] = []
             with self._lock:
                 if self._closed:
                     guard.waiting = False
                     raise ShutdownException()
                 nodes_to_use = executor.get_nodes() if nodes is None else list(nodes)
-                plan = self._current_plan(nodes_to_use)
+                plan = self._current_plan(nodes_to_use, time.monotonic())
             # Tasks in progress before new work (as rclpy: newest first).
             with executor._tasks_lock:
                 tasks = list(executor._tasks)
@@ -263,87 +345,10 @@ class PlannedWaits:
                         for each in executor._tasks
                         if not each[0].done() and not each[0].cancelled()
                     ]
-            # QoS events the event thread found ready.
-            for waitable, task in list(self._handed.items()):
-                if task.done():
-                    del self._handed[waitable]
-                    self._events.hand_back(waitable)
-            for waitable in self._events.pending():
-                node = plan.events.get(waitable)
-                if (
-                    node is not None
-                    and waitable not in self._handed
-                    and executor.can_execute(waitable)
-                ):
-                    handler = executor._make_handler(waitable, node, executor._take_waitable)
-                    self._handed[waitable] = handler
-                    yielded = True
-                    yield handler, waitable, node
             with self._lock:
                 if self._closed or self._plan is not plan:
                     continue
-                wait_set = plan.wait_set
-                wait_set.clear_entities()
-                for entry in plan.subscriptions:
-                    if entry.usable():
-                        wait_set.add_subscription(entry.handle)
-                for entry in plan.clients:
-                    if entry.usable():
-                        wait_set.add_client(entry.handle)
-                for entry in plan.services:
-                    if entry.usable():
-                        wait_set.add_service(entry.handle)
-                for entry in plan.timers:
-                    if entry.usable():
-                        wait_set.add_timer(entry.handle)
-                guards = [entry for entry in plan.guards if entry.usable()]
-                for entry in guards:
-                    if entry.entity._executor_triggered:
-                        # Retrigger a guard condition that was triggered but not handled.
-                        entry.entity.trigger()
-                    wait_set.add_guard_condition(entry.handle)
-                for handle in plan.own_guards:
-                    wait_set.add_guard_condition(handle)
-                waitables = [entry for entry in plan.waitables if entry.usable()]
-                for entry in waitables:
-                    entry.entity.add_to_wait_set(wait_set)
-                if deadline is None:
-                    timeout_nsec = -1
-                else:
-                    timeout_nsec = max(0, int((deadline - time.monotonic()) * 1e9))
-                self.waits += 1
-                try:
-                    wait_set.wait(timeout_nsec)
-                finally:
-                    guard.waiting = False
-                if executor._is_shutdown:
-                    raise ShutdownException()
-                if not executor.context.ok():
-                    raise ExternalShutdownException()
-                guards_ready = wait_set.get_ready_entities("guard_condition")
-                for entry in guards:
-                    if entry.handle.pointer in guards_ready:
-                        entry.entity._executor_triggered = True
-                ready.extend(
-                    ("waitable", entry) for entry in waitables if entry.entity.is_ready(wait_set)
-                )
-                for kind in ("timer", "subscription"):
-                    entries = plan.by_pointer[kind]
-                    ready.extend(
-                        (kind, entries[pointer])
-                        for pointer in wait_set.get_ready_entities(kind)
-                        if pointer in entries
-                    )
-                ready.extend(
-                    ("guard", entry) for entry in guards if entry.entity._executor_triggered
-                )
-                for kind in ("client", "service"):
-                    entries = plan.by_pointer[kind]
-                    ready.extend(
-                        (kind, entries[pointer])
-                        for pointer in wait_set.get_ready_entities(kind)
-                        if pointer in entries
-                    )
+                ready = self._wait(plan, deadline, guard)
             takes = {
                 "waitable": executor._take_waitable,
                 "timer": executor._take_timer,
@@ -352,13 +357,13 @@ class PlannedWaits:
                 "client": executor._take_client,
                 "service": executor._take_service,
             }
-            for kind, entry in ready:
+            for entry in ready:
                 entity = entry.entity
-                if kind == "timer" and not _timer_ready(entity):
+                if entry.kind == "timer" and not _timer_ready(entity):
                     # rcl reports cancelled timers as ready.
                     continue
                 if entity.callback_group.can_execute(entity):
-                    handler = executor._make_handler(entity, entry.node, takes[kind])
+                    handler = executor._make_handler(entity, entry.node, takes[entry.kind])
                     yielded = True
                     yield handler, entity, entry.node
             if deadline is not None and time.monotonic() >= deadline:
@@ -367,6 +372,78 @@ class PlannedWaits:
             raise ShutdownException()
         if condition():
             raise ConditionReachedException()
+
+    def _wait(self, plan: _Plan, deadline: float | None, guard: WakeGuard) -> list[_Entry]:
+        """One wait on the plan's usable hot entities; the entries ready, in rclpy's order."""
+        executor = self._executor
+        warmed = self._cold.take_ready()
+        if warmed:
+            plan.warm_up(warmed, time.monotonic())
+            self._cold.watch(plan.cold())
+        wait_set = plan.wait_set
+        wait_set.clear_entities()
+        adders = {
+            "timer": wait_set.add_timer,
+            "subscription": wait_set.add_subscription,
+            "guard": wait_set.add_guard_condition,
+            "client": wait_set.add_client,
+            "service": wait_set.add_service,
+        }
+        guards: list[_Entry] = []
+        waitables: list[_Entry] = []
+        for group in (plan.always, plan.hot):
+            for entry in group:
+                if not entry.usable():
+                    continue
+                if entry.kind == "waitable":
+                    entry.entity.add_to_wait_set(wait_set)
+                    waitables.append(entry)
+                    continue
+                if entry.kind == "guard":
+                    if entry.entity._executor_triggered:
+                        # Retrigger a guard condition that was triggered but not handled.
+                        entry.entity.trigger()
+                    guards.append(entry)
+                adders[entry.kind](entry.handle)
+        for handle in plan.own_guards:
+            wait_set.add_guard_condition(handle)
+        # While some entities are hot, wake up to cool them even if nothing else happens.
+        wake_at = plan.next_check if plan.hot else None
+        if deadline is not None and (wake_at is None or deadline < wake_at):
+            wake_at = deadline
+        if wake_at is None:
+            timeout_nsec = -1
+        else:
+            timeout_nsec = max(0, int((wake_at - time.monotonic()) * 1e9))
+        self.waits += 1
+        try:
+            wait_set.wait(timeout_nsec)
+        finally:
+            guard.waiting = False
+        if executor._is_shutdown:
+            raise ShutdownException()
+        if not executor.context.ok():
+            raise ExternalShutdownException()
+        ready: list[_Entry] = []
+        guards_ready = wait_set.get_ready_entities("guard_condition")
+        for entry in guards:
+            if entry.pointer in guards_ready:
+                entry.entity._executor_triggered = True
+        ready.extend(entry for entry in waitables if entry.entity.is_ready(wait_set))
+        for kind in ("timer", "subscription", "guard", "client", "service"):
+            if kind == "guard":
+                ready.extend(entry for entry in guards if entry.entity._executor_triggered)
+                continue
+            by_pointer = plan.by_pointer[kind]
+            ready.extend(
+                by_pointer[pointer]
+                for pointer in wait_set.get_ready_entities(kind)
+                if pointer in by_pointer
+            )
+        now = time.monotonic()
+        for entry in ready:
+            entry.last_ready = now
+        return ready
 
 
 class WakeGuard:
@@ -401,109 +478,3 @@ def _timer_ready(timer: Any) -> bool:
             return bool(timer.handle.is_timer_ready())
     except Exception:  # InvalidHandle: destroyed meanwhile
         return False
-
-
-class EventWaiter:
-    """A thread waiting on QoS event handlers; wakes the executor when one is ready.
-
-    A handler found ready stays out of this thread's wait set until the executor has run it
-    (``hand_back``): the event stays ready in the middleware until it is taken.
-    """
-
-    def __init__(self, context: Any, wake: Callable[[], None]) -> None:
-        self._context = context
-        self._wake = wake
-        self._cond = threading.Condition()
-        self._members: list[Any] = []
-        self._pending: dict[Any, None] = {}
-        self._guard: GuardCondition | None = None
-        self._stopped = False
-        self._thread: threading.Thread | None = None
-
-    def watch(self, handlers: list[Any]) -> None:
-        """Wait on ``handlers`` from now on (the thread starts on the first non-empty list)."""
-        with self._cond:
-            if self._stopped or handlers == self._members:
-                return
-            self._members = handlers
-            self._pending = {each: None for each in self._pending if each in handlers}
-            if self._thread is None and handlers:
-                self._guard = GuardCondition(None, None, context=self._context)
-                self._thread = threading.Thread(
-                    target=self._run, name="pyconnect-executor-events", daemon=True
-                )
-                self._thread.start()
-        self._trigger()
-
-    def pending(self) -> list[Any]:
-        """The handlers found ready and not yet handed back, oldest first."""
-        if not self._pending:
-            return []
-        with self._cond:
-            return list(self._pending)
-
-    def hand_back(self, handler: Any) -> None:
-        """``handler`` ran (or will be found ready again): wait on it again."""
-        with self._cond:
-            self._pending.pop(handler, None)
-        self._trigger()
-
-    def stop(self) -> None:
-        with self._cond:
-            self._stopped = True
-        self._trigger()
-
-    def join(self, timeout_sec: float | None = None) -> None:
-        thread = self._thread
-        if thread is not None and thread is not threading.current_thread():
-            thread.join(timeout_sec)
-
-    def _trigger(self) -> None:
-        guard = self._guard
-        if guard is not None:
-            with contextlib.suppress(Exception):
-                guard.trigger()
-
-    def _run(self) -> None:
-        guard = self._guard
-        assert guard is not None
-        try:
-            while True:
-                with self._cond:
-                    if self._stopped:
-                        return
-                    waiting = [each for each in self._members if each not in self._pending]
-                ready = self._wait(guard, waiting)
-                if not self._context.ok():
-                    return
-                if ready:
-                    with self._cond:
-                        for each in ready:
-                            if each in self._members:
-                                self._pending[each] = None
-                    with contextlib.suppress(Exception):
-                        self._wake()
-        except Exception:  # the context went away under us: nothing left to watch
-            return
-        finally:
-            with contextlib.suppress(Exception):
-                guard.destroy()
-
-    def _wait(self, guard: GuardCondition, waiting: list[Any]) -> list[Any]:
-        with contextlib.ExitStack() as stack:
-            stack.enter_context(guard.handle)
-            entered = []
-            for handler in waiting:
-                try:
-                    stack.enter_context(handler)
-                except Exception:  # InvalidHandle: destroyed meanwhile
-                    continue
-                entered.append(handler)
-            stack.enter_context(self._context.handle)
-            wait_set = _rclpy.WaitSet(0, 1, 0, 0, 0, len(entered), self._context.handle)
-            wait_set.clear_entities()
-            wait_set.add_guard_condition(guard.handle)
-            for handler in entered:
-                handler.add_to_wait_set(wait_set)
-            wait_set.wait(-1)
-            return [handler for handler in entered if handler.is_ready(wait_set)]
