@@ -14,7 +14,7 @@ from std_srvs.srv import Trigger
 from pyconnect.errors import ConnectionTimeout, PyconnectError
 from pyconnect.ros.agent_factory import AGENT_CLASS_DICT, make_agent
 from pyconnect.ros.node_agent import NodeAgent
-from pyconnect.ros.qos import resolve_qos
+from pyconnect.ros.qos import follows_publishers, resolve_qos
 
 from .conftest import EVENT_TIMEOUT, repeat_until
 
@@ -88,6 +88,11 @@ def test_qos_names_and_sensor_defaults() -> None:
     assert resolve_qos("latched", msg_type="std_msgs/msg/String", publisher=True).durability == (
         DurabilityPolicy.TRANSIENT_LOCAL
     )
+    # A sensor sub agent follows its publishers (tests/ros/test_sensor_qos.py); a subscription
+    # that cannot follow them (the zenoh bridge's) stays best effort, which hears every driver.
+    assert follows_publishers(None, msg_type="sensor_msgs/msg/LaserScan")
+    assert not follows_publishers("sensor_data", msg_type="sensor_msgs/msg/LaserScan")
+    assert not follows_publishers(None, msg_type="std_msgs/msg/String")
     sensor_sub = resolve_qos(None, msg_type="sensor_msgs/msg/LaserScan", publisher=False)
     sensor_pub = resolve_qos(None, msg_type="sensor_msgs/msg/Image", publisher=True)
     assert sensor_sub.reliability == ReliabilityPolicy.BEST_EFFORT
@@ -102,19 +107,23 @@ def test_qos_names_and_sensor_defaults() -> None:
     )
 
 
-def test_best_effort_sensor_sub_hears_a_reliable_driver(make_node: Any) -> None:
+def test_sensor_sub_is_reliable_and_hears_a_reliable_driver(make_node: Any) -> None:
     node = make_node()
     arrived = threading.Event()
-    node.add_agent(
+    sub = node.add_agent(
         conn_name="scan",
         conn_type="sub",
         data_interface=LaserScan,
         decode_func=lambda msg: msg,
         response_func=lambda _msg: arrived.set(),
     )
+    # No publisher yet: reliable, so no large frame is dropped (a best-effort one appearing
+    # later switches it: tests/ros/test_sensor_qos.py).
+    assert sub.subscription.qos_profile.reliability == ReliabilityPolicy.RELIABLE
     driver = node.ros_node.create_publisher(LaserScan, "scan", 10)  # reliable, as drivers do
     node.spin(run_thread=True)
     assert repeat_until(arrived, lambda: driver.publish(LaserScan()))
+    assert sub.subscription.qos_profile.reliability == ReliabilityPolicy.RELIABLE
 
 
 def test_wait_until_connected_names_the_agents_still_waiting(make_node: Any) -> None:

@@ -26,11 +26,11 @@ from rclpy.qos import (
     DurabilityPolicy,
     QoSPresetProfiles,
     QoSProfile,
-    ReliabilityPolicy,
 )
 from rclpy.signals import SignalHandlerOptions
 
 from pyconnect.errors import PyconnectError
+from pyconnect.ros.qos import matching_reliability
 
 __all__ = [
     "PROGRAM",
@@ -190,12 +190,11 @@ def choose_qos(session: GraphSession, topic: str, profile: str | None) -> QoSPro
             ) from None
         return named
     publishers = session.node.get_publishers_info_by_topic(topic)
-    reliable = all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in publishers)
     latched = bool(publishers) and all(
         p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers
     )
     return QoSProfile(
         depth=10,
-        reliability=ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT,
+        reliability=matching_reliability(publishers),
         durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
     )

@@ -6,18 +6,27 @@ Services and actions use ``REQUESTS`` (keep all), so no request or response is d
 ``'sensor_data'`` (best effort, volatile, keep last 5) or ``'latched'`` (reliable,
 transient local, keep last 1: late subscribers get the last message).
 
-Sensor streams (``SENSOR_TYPES``: images, point clouds, scans, IMU, ...) default to a profile
-that connects to the common camera and lidar drivers whatever they chose: a *subscriber* is
-best effort, because a best-effort reader matches both reliable and best-effort writers (a
-reliable reader never matches a best-effort writer, the usual "no images arrive" surprise);
-a *publisher* is reliable with a short queue, because a reliable writer matches both kinds of
-reader (rviz and ``ros2 topic echo`` subscribe reliably by default).
+Sensor streams (``SENSOR_TYPES``: images, point clouds, scans, IMU, ...) default to profiles
+that connect to the common camera and lidar drivers whatever they chose, without losing large
+frames. A *publisher* is reliable with a short queue, because a reliable writer matches both
+kinds of reader (rviz and ``ros2 topic echo`` subscribe reliably by default). A *subscriber*
+follows the publishers it sees, as ROS 2's "best available" does: reliable when every one of
+them is reliable (or there is none yet), best effort when one is best effort
+(``matching_reliability``); and it switches to best effort when a best-effort publisher appears
+later (pyconnect.ros.sensor_subscription), because a reliable reader never matches a
+best-effort writer (the usual "no images arrive" surprise). Why not best effort always: on
+stock Fast DDS a best-effort reader loses about half of the 640x480 frames and nearly every
+1080p frame (UDP fragments), a reliable one none (bench/sensor_qos.py). An explicit ``qos=``
+is never adapted.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
 # mypy: disable-error-code="no-untyped-call,attr-defined"
 
 from __future__ import annotations
+
+from collections.abc import Iterable
+from typing import Any
 
 from rclpy.qos import (
     DurabilityPolicy,
@@ -65,6 +74,37 @@ SENSOR_PUBLISHER = QoSProfile(
     durability=DurabilityPolicy.VOLATILE,
 )
 
+
+def sensor_subscriber_profile(reliability: ReliabilityPolicy) -> QoSProfile:
+    """A sensor subscriber's profile: ``SENSOR_DATA`` with the given reliability."""
+    if reliability == ReliabilityPolicy.BEST_EFFORT:
+        return SENSOR_DATA
+    return QoSProfile(
+        depth=SENSOR_DATA.depth,
+        history=HistoryPolicy.KEEP_LAST,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.VOLATILE,
+    )
+
+
+def matching_reliability(publishers: Iterable[Any]) -> ReliabilityPolicy:
+    """The reliability a reader needs to hear all ``publishers`` (rclpy ``TopicEndpointInfo``).
+
+    Reliable unless one of them is best effort (a reliable reader never matches a best-effort
+    writer), so no frame is dropped when none has to be: ROS 2's "best available" rule, also
+    what ``ros2 topic echo`` picks.
+    """
+    for publisher in publishers:
+        if publisher.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT:
+            return ReliabilityPolicy.BEST_EFFORT
+    return ReliabilityPolicy.RELIABLE
+
+
+def follows_publishers(qos: object, *, msg_type: str) -> bool:
+    """True when a subscriber's QoS is chosen from its publishers: a sensor type, no ``qos=``."""
+    return qos is None and msg_type in SENSOR_TYPES
+
+
 REQUESTS = QoSProfile(
     depth=1,
     history=HistoryPolicy.KEEP_ALL,
@@ -93,7 +133,9 @@ def resolve_qos(
 ) -> QoSProfile:
     """The profile an agent uses: an explicit one, a named one, or the default for its type.
 
-    An int is a queue depth with the default policies, as rclpy accepts.
+    An int is a queue depth with the default policies, as rclpy accepts. A sensor subscriber
+    that cannot follow its publishers (``follows_publishers``) gets ``SENSOR_DATA``, which hears
+    every publisher.
     """
     if isinstance(qos, QoSProfile):
         return qos

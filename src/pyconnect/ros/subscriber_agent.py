@@ -27,8 +27,9 @@ from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.coroutines import is_async_callable
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
-from pyconnect.ros.qos import resolve_qos
+from pyconnect.ros.qos import follows_publishers, resolve_qos
 from pyconnect.ros.raw_path import RawDecoder, choose_raw
+from pyconnect.ros.sensor_subscription import SensorSubscription
 
 
 class SubscriberAgent(NodeAgent):
@@ -105,15 +106,37 @@ class SubscriberAgent(NodeAgent):
         self.message_count = 0
         self.last_received_ns = 0
         self._first_message = threading.Event()
-        self.subscription = node.ros_node.create_subscription(
-            msg_class,
-            conn_name,
-            self._on_message if self._raw is None else self._raw_callback(self._raw),
-            resolve_qos(qos, msg_type=self.type_name, publisher=False),
-            callback_group=self.callback_group,
-            raw=self._raw is not None,
-        )
-        self.topic = self.subscription.topic_name
+        callback = self._on_message if self._raw is None else self._raw_callback(self._raw)
+        self.sensor_subscription: SensorSubscription | None = None
+        """Set when the QoS follows the publishers (a sensor type without ``qos=``)."""
+        if follows_publishers(qos, msg_type=self.type_name):
+            self.sensor_subscription = SensorSubscription(
+                node.ros_node,
+                msg_class=msg_class,
+                topic=conn_name,
+                callback=callback,
+                raw=self._raw is not None,
+                callback_group=self.callback_group,
+                describe=self.describe,
+            )
+            self.topic: str = self.sensor_subscription.topic
+        else:
+            self._subscription = node.ros_node.create_subscription(
+                msg_class,
+                conn_name,
+                callback,
+                resolve_qos(qos, msg_type=self.type_name, publisher=False),
+                callback_group=self.callback_group,
+                raw=self._raw is not None,
+            )
+            self.topic = self._subscription.topic_name
+
+    @property
+    def subscription(self) -> Any:
+        """The rclpy subscription now receiving (a sensor one is replaced when it switches)."""
+        if self.sensor_subscription is not None:
+            return self.sensor_subscription.subscription
+        return self._subscription
 
     def _raw_callback(self, raw: RawDecoder) -> Callable[[bytes], None]:
         """The subscription callback of the raw path: CDR bytes in, the same delivery."""
@@ -183,5 +206,8 @@ class SubscriberAgent(NodeAgent):
         return f"{super().info_text()} ({self.message_count} messages on {self.topic}{age})"
 
     def close(self) -> None:
-        self.node.ros_node.destroy_subscription(self.subscription)
+        if self.sensor_subscription is not None:
+            self.sensor_subscription.close()
+        else:
+            self.node.ros_node.destroy_subscription(self._subscription)
         super().close()

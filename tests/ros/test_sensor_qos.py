@@ -1,0 +1,148 @@
+"""A sensor ``sub`` agent without ``qos=`` follows its publishers' reliability (ros/qos.py)."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from typing import Any
+
+import pytest
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import Image
+
+from pyconnect.ros.qos import SENSOR_DATA, matching_reliability
+from tests.ros.conftest import EVENT_TIMEOUT, repeat_until
+
+BEST_EFFORT = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT)
+
+
+def frame(index: int) -> Image:
+    return Image(height=1, width=1, encoding="mono8", step=1, data=bytes([index]))
+
+
+def until(condition: Callable[[], bool]) -> bool:
+    """Wait until ``condition`` holds (graph changes have no event to wait on)."""
+    done = threading.Event()
+    return repeat_until(done, lambda: done.set() if condition() else None)
+
+
+def add_camera_sub(node: Any, name: str = "camera", **options: Any) -> tuple[Any, list[int]]:
+    """A sub agent on ``camera`` recording the first data byte of every frame it gets."""
+    heard: list[int] = []
+    agent = node.add_agent(
+        conn_name="camera",
+        agent_name=name,
+        conn_type="sub",
+        data_interface=Image,
+        decode_func=lambda msg: msg.data[0],
+        response_func=heard.append,
+        **options,
+    )
+    return agent, heard
+
+
+def test_the_rule_is_reliable_unless_a_publisher_is_best_effort() -> None:
+    class Endpoint:
+        def __init__(self, reliability: ReliabilityPolicy) -> None:
+            self.qos_profile = QoSProfile(depth=1, reliability=reliability)
+
+    reliable, best_effort = ReliabilityPolicy.RELIABLE, ReliabilityPolicy.BEST_EFFORT
+    assert matching_reliability([]) == reliable
+    assert matching_reliability([Endpoint(reliable), Endpoint(reliable)]) == reliable
+    assert matching_reliability([Endpoint(reliable), Endpoint(best_effort)]) == best_effort
+
+
+def test_a_reliable_publisher_gets_a_reliable_sub_that_hears_a_whole_burst(make_node: Any) -> None:
+    node = make_node()
+    driver = node.create_publisher(Image, "camera", QoSProfile(depth=10))
+    sub, heard = add_camera_sub(node)
+    assert sub.subscription.qos_profile.reliability == ReliabilityPolicy.RELIABLE
+    node.spin(run_thread=True)
+    assert repeat_until(sub._first_message, lambda: driver.publish(frame(0)))
+    burst = list(range(1, 6))  # the sub's queue depth: a reliable reader keeps all of them
+    all_heard = threading.Event()
+    sub.response_func = lambda value: (heard.append(value), value == 5 and all_heard.set())
+    for index in burst:
+        driver.publish(frame(index))
+    assert all_heard.wait(EVENT_TIMEOUT)
+    assert [value for value in heard if value != 0] == burst
+    assert sub.sensor_subscription.switch_note is None
+
+
+def test_a_best_effort_publisher_first_gets_a_best_effort_sub(make_node: Any) -> None:
+    node = make_node()
+    node.create_publisher(Image, "camera", QoSProfile(depth=10))
+    driver = node.create_publisher(Image, "camera", BEST_EFFORT)
+    sub, heard = add_camera_sub(node)
+    assert sub.subscription.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+    node.spin(run_thread=True)
+    assert repeat_until(sub._first_message, lambda: driver.publish(frame(7)))
+    assert heard[0] == 7
+    assert sub.sensor_subscription.switch_note is None
+
+
+def test_a_best_effort_publisher_appearing_later_switches_the_sub(
+    make_node: Any, capfd: pytest.CaptureFixture[str]
+) -> None:
+    node = make_node()
+    sub, heard = add_camera_sub(node)
+    first = sub.subscription
+    assert first.qos_profile.reliability == ReliabilityPolicy.RELIABLE
+    node.spin(run_thread=True)
+    driver = make_node("driver").create_publisher(Image, "camera", BEST_EFFORT)
+    sensor = sub.sensor_subscription
+    assert sensor.switched.wait(EVENT_TIMEOUT)
+    assert sensor.switch_note == (
+        "agent 'camera' (sub sensor_msgs/msg/Image): a best-effort publisher appeared on "
+        "/camera, so the subscription switched from reliable to best effort (a reliable reader "
+        "never hears a best-effort writer); without pyconnect run's shared memory, large "
+        "messages may now be lost on the way. Pass qos= to choose yourself."
+    )
+    assert sub.subscription is not first
+    assert sub.subscription.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+    assert repeat_until(sub._first_message, lambda: driver.publish(frame(3)))
+    assert heard[0] == 3
+    assert sub.get() == heard[-1]
+    assert [s for s in node.subscriptions if s.topic_name == "/camera"] == [sub.subscription]
+    assert capfd.readouterr().err.count(sensor.switch_note) == 1
+
+
+def test_the_switch_keeps_hearing_a_reliable_publisher(make_node: Any) -> None:
+    node = make_node()
+    sub, heard = add_camera_sub(node)
+    reliable = make_node("reliable_driver")
+    reliable_driver = reliable.create_publisher(Image, "camera", QoSProfile(depth=10))
+    node.spin(run_thread=True)
+    assert repeat_until(sub._first_message, lambda: reliable_driver.publish(frame(1)))
+    driver = make_node("driver").create_publisher(Image, "camera", BEST_EFFORT)
+    assert sub.sensor_subscription.switched.wait(EVENT_TIMEOUT)
+    # Once the best-effort reader has matched both publishers, the reliable one is gone.
+    assert until(lambda: len([s for s in node.subscriptions if s.topic_name == "/camera"]) == 1)
+    assert sub.subscription.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+    from_both = threading.Event()
+    sub.response_func = lambda value: (
+        heard.append(value),
+        {4, 5} <= set(heard) and from_both.set(),
+    )
+    assert repeat_until(
+        from_both, lambda: (reliable_driver.publish(frame(4)), driver.publish(frame(5)))
+    )
+
+
+@pytest.mark.parametrize("qos", ["default", "sensor_data", QoSProfile(depth=3), 4])
+def test_an_explicit_qos_is_never_changed(make_node: Any, qos: Any) -> None:
+    node = make_node()
+    explicit, _heard = add_camera_sub(node, "explicit", qos=qos)
+    following, _ = add_camera_sub(node, "following")
+    chosen = explicit.subscription
+    reliability = chosen.qos_profile.reliability
+    assert explicit.sensor_subscription is None
+    node.spin(run_thread=True)
+    make_node("driver").create_publisher(Image, "camera", BEST_EFFORT)
+    # The node has seen the best-effort publisher once the default sub switched.
+    assert following.sensor_subscription.switched.wait(EVENT_TIMEOUT)
+    assert explicit.subscription is chosen
+    assert chosen.qos_profile.reliability == reliability
+    assert chosen in node.subscriptions
+    expected = SENSOR_DATA if qos == "sensor_data" else QoSProfile(depth=10)
+    assert reliability == expected.reliability
