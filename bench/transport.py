@@ -1,11 +1,15 @@
 """Peers over zenoh against zenoh's own Python pub/sub and against CustomNodes over DDS.
 
 ``python -m bench.transport``. Two rows, each measured for three pairs of processes on this
-machine, side by side in one run:
+machine, side by side in one run, then the per-stage costs of a peer's send and receive
+(``bench.transport_stages``):
 
 - small messages (std_msgs/String) per second at the receiver while the sender publishes as
   fast as it can: raw zenoh ``put(bytes)`` -> callback counting (the floor), a pyconnect
   ``Peer`` pub -> sub decoding each String, two ``CustomNode``s over DDS; goal >= 0.8x raw.
+  Each row also shows what the receiving Peer counted as lost and the CPU each process spent
+  per message (all its threads, zenoh's included): on a 2-core machine sender and receiver
+  share the cores, so a costlier sender slows the receiver too.
 - one-way latency of a 1080p bgr8 Image (6.2 MB), p50 and p90 over samples sent every 50 ms
   (sender stamps a sequence number into the pixels; both sides read ``time.time_ns``): raw
   zenoh bytes, Peer ndarray -> ndarray, CustomNode ndarray -> ndarray; goal <= 5 ms p50.
@@ -24,6 +28,7 @@ import struct
 import subprocess
 import sys
 import time
+from dataclasses import dataclass
 from typing import Any
 
 os.environ.setdefault("ROS_DOMAIN_ID", "48")
@@ -35,17 +40,29 @@ LATENCY_PERIOD = 0.05
 IDLE_END = 2.0
 SHAPE = (1080, 1920, 3)
 KINDS = ("raw zenoh", "pyconnect Peer", "CustomNode DDS")
-# The rate row also shows a peer subscription keeping 1000 samples instead of ROS's 10: under a
-# flood, keep-last 10 skips most samples (as rmw_zenoh's does), which the row counts as lost.
+# The rate row also shows a peer subscription keeping 1000 samples instead of ROS's 10.
 RATE_KINDS = ("raw zenoh", "pyconnect Peer", "Peer depth=1000", "CustomNode DDS")
 RATE_ROWS = {
     "raw zenoh": "put(bytes) -> Python callback counting (zenoh's FIFO: the receiver never "
     "drops, a full queue stalls the link and the sender's congestion control drops)",
-    "pyconnect Peer": "send(str) -> keep-last 10 ring -> decode -> response_func (under a flood "
-    "keep-last drops by design, as rmw_zenoh's does)",
-    "Peer depth=1000": "the same with keep-last 1000: what the receiving thread can handle",
+    "pyconnect Peer": "send(str) -> rmw_zenoh attachment -> keep-last 10 (+ burst allowance "
+    "while the agent keeps up) -> agent thread: sequence check, decode, response_func; when the "
+    "receiver falls behind, keep-last skips (counted in lost*)",
+    "Peer depth=1000": "the same with keep-last 1000",
     "CustomNode DDS": "two CustomNodes over Fast DDS, keep-last 10",
 }
+
+
+@dataclass(frozen=True)
+class RateRow:
+    """One pair's small-message run: what the receiver handled, what the sender put."""
+
+    rate: float  # messages handled per second at the receiver, first to last
+    received: int
+    sent: int  # send()/put() calls that returned
+    lost: int | None  # what the receiving Peer counted as lost (sequence gaps); None: no count
+    receiver_us: float  # receiver process CPU (all threads) per message handled
+    sender_us: float  # sender process CPU (all threads) per message sent
 
 
 def _zenoh_config(locator: str, *, listen: bool) -> Any:
@@ -72,21 +89,28 @@ def receive(kind: str, row: str, locator: str) -> None:
         arrivals.append((seq, time.time_ns()))
         last[0] = time.monotonic()
 
-    closer = _start_receiver(kind, row, locator, note)
+    closer, counted_lost = _start_receiver(kind, row, locator, note)
     print("READY", flush=True)
+    cpu_start = _process_cpu()
     deadline = time.monotonic() + 120
     while time.monotonic() < deadline:
         time.sleep(0.2)
         if arrivals and time.monotonic() - last[0] > IDLE_END:
             break
+    cpu = _process_cpu() - cpu_start
+    lost = counted_lost()
     closer()
-    print(json.dumps(arrivals if row == "latency" else _span(arrivals)), flush=True)
+    if row == "latency":
+        print(json.dumps(arrivals), flush=True)
+        return
+    span = arrivals[-1][1] - arrivals[0][1] if len(arrivals) > 1 else 0
+    print(json.dumps([len(arrivals), span, cpu, lost]), flush=True)
 
 
-def _span(arrivals: list[tuple[int, int]]) -> list[int]:
-    if len(arrivals) < 2:
-        return [len(arrivals), 0]
-    return [len(arrivals), arrivals[-1][1] - arrivals[0][1]]
+def _process_cpu() -> float:
+    """CPU seconds of this process, all threads (zenoh's included)."""
+    times = os.times()
+    return times.user + times.system
 
 
 def _start_receiver(kind: str, row: str, locator: str, note: Any) -> Any:
@@ -107,20 +131,20 @@ def _start_receiver(kind: str, row: str, locator: str, note: Any) -> Any:
                 note(0)
 
         subscriber = session.declare_subscriber("bench/raw", on_sample)
-        return lambda: (subscriber.undeclare(), session.close())
+        return (lambda: (subscriber.undeclare(), session.close())), lambda: None
     if kind in ("pyconnect Peer", "Peer depth=1000"):
         from pyconnect.transport import Peer
 
         peer = Peer("bench_receiver", config=_zenoh_config(locator, listen=True))
         handler = (lambda value: note(_seq_of(value))) if row == "latency" else (lambda _v: note(0))
-        peer.add_agent(
+        agent = peer.add_agent(
             conn_name="bench",
             conn_type="sub",
             data_interface=type_name,
             response_func=handler,
             depth=1000 if kind == "Peer depth=1000" else 10,
         )
-        return peer.shutdown
+        return peer.shutdown, lambda: agent.dropped_count
     from pyconnect.ros.custom_node import CustomNode
 
     node = CustomNode("bench_receiver")
@@ -129,7 +153,7 @@ def _start_receiver(kind: str, row: str, locator: str, note: Any) -> Any:
         conn_name="bench", conn_type="sub", data_interface=type_name, response_func=handler
     )
     node.spin(run_thread=True)
-    return node.shutdown
+    return node.shutdown, lambda: None
 
 
 # -- senders (this process) -------------------------------------------------------------------
@@ -195,14 +219,23 @@ def _run_pair(kind: str, row: str) -> Any:
                 return None
             time.sleep(0.05)
         time.sleep(0.5)  # let the last discovery messages settle before measuring
+        cpu_start = _process_cpu()
         sent = _send_rate(sender) if row == "rate" else _send_latency(sender)
+        sender_cpu = _process_cpu() - cpu_start
     finally:
         out = child.communicate(timeout=180)[0]
         sender.close()
     received = json.loads(out.strip().splitlines()[-1])
     if row == "rate":
-        count, span_ns = received
-        return (count / (span_ns / 1e9) if span_ns else 0.0, count, sent)
+        count, span_ns, receiver_cpu, lost = received
+        return RateRow(
+            rate=count / (span_ns / 1e9) if span_ns else 0.0,
+            received=count,
+            sent=sent,
+            lost=lost,
+            receiver_us=receiver_cpu / max(count, 1) * 1e6,
+            sender_us=sender_cpu / max(sent, 1) * 1e6,
+        )
     latencies = [(t - sent[seq]) / 1e6 for seq, t in received if seq in sent]
     return latencies
 
@@ -261,18 +294,30 @@ def main() -> None:
     rates: dict[str, Any] = {}
     for kind in RATE_KINDS:
         rates[kind] = _run_pair(kind, "rate")
-    floor = rates["raw zenoh"][0] if rates["raw zenoh"] else 0.0
+    floor = rates["raw zenoh"].rate if rates["raw zenoh"] else 0.0
     print(
         f"\nsmall messages (std_msgs/String) received per second, sender flat out {RATE_SECONDS} s"
     )
-    print(f"  {'pair':<20} {'msg/s':>12} {'received':>10} {'sent':>10} {'vs raw zenoh':>13}")
+    print(
+        f"  {'pair':<17} {'msg/s':>9} {'vs raw':>7} {'received':>10} {'sent':>10} "
+        f"{'lost*':>9} {'rx us/msg':>10} {'tx us/msg':>10}"
+    )
     for kind in RATE_KINDS:
         row = rates[kind]
         if row is None:
-            print(f"  {kind:<20} {'n/a (no connection)':>12}")
+            print(f"  {kind:<17} {'n/a (no connection)':>12}")
             continue
-        ratio = row[0] / floor if floor else float("nan")
-        print(f"  {kind:<20} {row[0]:>12,.0f} {row[1]:>10,} {row[2]:>10,} {ratio:>12.2f}x")
+        ratio = row.rate / floor if floor else float("nan")
+        lost = "-" if row.lost is None else f"{row.lost:,}"
+        print(
+            f"  {kind:<17} {row.rate:>9,.0f} {ratio:>6.2f}x {row.received:>10,} {row.sent:>10,} "
+            f"{lost:>9} {row.receiver_us:>10.2f} {row.sender_us:>10.2f}"
+        )
+    print(
+        "  lost*: what the receiving Peer counted (publisher sequence gaps: zenoh's congestion "
+        "drops and keep-last); rx/tx us/msg: CPU of the receiving / sending process (all its "
+        "threads) per message received / sent"
+    )
     for kind, text in RATE_ROWS.items():
         print(f"  {kind}: {text}")
     print("  goal: pyconnect Peer >= 0.80x raw zenoh")
@@ -289,6 +334,9 @@ def main() -> None:
         p90 = statistics.quantiles(latencies, n=10)[-1] if len(latencies) > 1 else p50
         print(f"  {kind:<20} {p50:>9.2f} {p90:>9.2f} {len(latencies):>9}")
     print("  goal: pyconnect Peer <= 5 ms p50")
+    from bench import transport_stages
+
+    transport_stages.main()
 
 
 if __name__ == "__main__":

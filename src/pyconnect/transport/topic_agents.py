@@ -9,13 +9,24 @@ seen on another type's key.) Payloads over the peer's ``max_payload_bytes`` are 
 counted (``oversize_count``), also reported once per publisher. Payloads are CDR, decoded by
 the wire codecs; nothing is ever unpickled.
 
-The per-sample path is short (bench/transport.py measures it). zenoh's own thread pushes each
-sample into a ``zenoh.handlers.RingChannel(depth)``, in Rust: no GIL, no Python frame, and the
-oldest sample is dropped when ``depth`` wait (ROS keep-last, as rmw_zenoh's subscription queue
-does). The agent's one thread blocks in ``recv()`` (the GIL released) and drains what waits with
-``try_recv()``: it checks, decodes and hands each sample to ``response_func`` in arrival order, so
-user code never blocks zenoh. Samples lost on the way (dropped by keep-last, or by zenoh's
-congestion control) are counted in ``dropped_count`` from the publishers' sequence gaps.
+The per-sample path is short (bench/transport.py and bench/transport_stages.py measure it).
+zenoh's own thread pushes each sample into a ``zenoh.handlers.RingChannel``, in Rust: no GIL,
+no Python frame, never blocking the link. The agent's one thread blocks in ``recv()`` (the GIL
+released), takes everything else waiting with ``try_recv()`` (one wake-up per burst), and
+checks, decodes and hands each sample to ``response_func`` in arrival order, so user code never
+blocks zenoh. Keep-last: zenoh delivers samples in bursts (one transport batch holds up to
+~1000 small samples, all pushed at once), so a ring of exactly ``depth`` would drop most of a
+burst even from an agent that keeps up on average; for types without unbounded sequences
+(``burst_samples``: String, Twist, poses...) the ring and the agent hold up to 1000 samples
+beyond ``depth`` while the agent keeps up, i.e. found nothing waiting within the last
+``burst_seconds`` (20 ms). An agent busy longer (a slow ``response_func``) skips to the newest
+``depth`` samples, as ROS keep-last does; types with arrays (Image, PointCloud2, JointState...)
+keep exactly ``depth`` (a few large samples, never a thousand). rmw_zenoh's subscription queue
+(``rmw_subscription_data.cpp``, ``SubscriptionData::add_new_message``) keeps ``depth`` and drops
+the oldest, bursts included. Samples lost on the way (skipped by keep-last, or dropped by
+zenoh's congestion control) are counted in ``dropped_count`` from the publishers' sequence gaps
+(samples without an attachment, from a bare zenoh session, are counted when the agent skips
+them; what zenoh's ring drops of them leaves no trace).
 """
 
 # zenoh's stubs leave undeclare() and close() unannotated.
@@ -151,9 +162,10 @@ class PublisherAgent(PeerAgent):
         if self.only_if_subscribed and self.subscriber_count == 0:
             return False
         payload = self._encode(data)
+        stamp = time_ns()
         with self._send_lock:  # sequence numbers go on the wire in order
             self._sequence = sequence = self._sequence + 1
-            self._put(payload, attachment=_pack_attachment(sequence, time_ns(), self.gid))
+            self._put(payload, attachment=_pack_attachment(sequence, stamp, self.gid))
             self.sent_count += 1  # under the lock: sends from several threads all count
         self._latest = data
         return True
@@ -282,7 +294,7 @@ class SubscriberAgent(PeerAgent):
     def _run(self) -> None:
         samples: Any = self._subscriber.handler  # a zenoh Handler[Sample] (stubs: generic)
         recv, try_recv, handle = samples.recv, samples.try_recv, self._on_sample
-        most = self.depth + self.burst_samples
+        depth, most = self.depth, self.depth + self.burst_samples
         backlog: collections.deque[zenoh.Sample] = collections.deque()
         take, append = backlog.popleft, backlog.append
         idle_at = monotonic()
@@ -292,24 +304,21 @@ class SubscriberAgent(PeerAgent):
                 if sample is None:  # zenoh's ring is empty: the agent keeps up
                     idle_at = monotonic()
                     sample = recv()  # waits with the GIL released
-                append(sample)
-                while backlog:
-                    # Take what zenoh pushed meanwhile before handling the next sample, so a
-                    # burst leaves the ring as fast as zenoh fills it.
+                while sample is not None:  # take the whole burst: one wake-up per burst
+                    append(sample)
                     sample = try_recv()
-                    while sample is not None:
-                        append(sample)
-                        sample = try_recv()
-                    if len(backlog) > self.depth and (
-                        len(backlog) > most or monotonic() - idle_at > self.burst_seconds
-                    ):
-                        self._keep_last(backlog)
-                    try:
-                        handle(take())
-                    except Exception as error:
-                        self.report_exception("receive", error)
+                self.last_received_ns = time_ns()
             except zenoh.ZError:
                 return  # the subscriber is undeclared: the agent is closing
+            while backlog:
+                if len(backlog) > depth and (
+                    len(backlog) > most or monotonic() - idle_at > self.burst_seconds
+                ):
+                    self._keep_last(backlog)
+                try:
+                    handle(take())
+                except Exception as error:
+                    self.report_exception("receive", error)
 
     def _keep_last(self, backlog: collections.deque[zenoh.Sample]) -> None:
         """Skip all but the newest ``depth`` waiting samples (the agent fell behind).
@@ -351,7 +360,6 @@ class SubscriberAgent(PeerAgent):
             self.report_exception("decode", error)
             return
         self._latest = value
-        self.last_received_ns = time_ns()
         self.message_count = count = self.message_count + 1
         if count == 1:
             self._first_message.set()
