@@ -321,6 +321,28 @@ def test_only_types_without_unbounded_sequences_get_a_burst_allowance(
         assert agent.burst_samples == burst, type_name
 
 
+def test_samples_waiting_at_shutdown_are_not_handed_on(make_peer: PeerFactory) -> None:
+    release = threading.Event()
+    handled: list[str] = []
+
+    def slow(value: str) -> None:
+        handled.append(value)
+        release.wait(TIMEOUT)
+
+    pub, sub = connected_pair(make_peer, "chatter", "std_msgs/msg/String", response_func=slow)
+    pub.send("first")
+    assert wait_for(lambda: handled == ["first"])
+    for number in range(50):
+        pub.send(f"waiting {number}")
+    closing = threading.Thread(target=sub.peer.shutdown)
+    closing.start()
+    assert wait_for(lambda: sub._closed)
+    release.set()
+    closing.join(TIMEOUT)
+    assert not closing.is_alive()
+    assert handled == ["first"]
+
+
 def test_a_slow_subscription_keeps_the_last_depth_samples(make_peer: PeerFactory) -> None:
     release = threading.Event()
     handled: list[int] = []

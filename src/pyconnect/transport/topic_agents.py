@@ -306,11 +306,13 @@ class SubscriberAgent(PeerAgent):
                     sample = recv()  # waits with the GIL released
                 while sample is not None:  # take the whole burst: one wake-up per burst
                     append(sample)
+                    if len(backlog) > most:  # a whole ring's worth: handle it (keep-last) first
+                        break
                     sample = try_recv()
                 self.last_received_ns = time_ns()
             except zenoh.ZError:
                 return  # the subscriber is undeclared: the agent is closing
-            while backlog:
+            while backlog and not self._closed:  # closing: what waits is not handed on
                 if len(backlog) > depth and (
                     len(backlog) > most or monotonic() - idle_at > self.burst_seconds
                 ):
