@@ -38,6 +38,17 @@ _SETTINGS = settings(max_examples=8, deadline=None, database=None,
                      suppress_health_check=list(HealthCheck))  # fmt: skip
 
 
+@pytest.fixture(autouse=True)
+def _publish_through_rclpy(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The raw pub agents publish with ``serialized_io.publish_serialized`` (rcl, through ctypes);
+    the tests here replace ``publisher.publish`` to see what is sent, so they go through it."""
+    from pyconnect.ros import publisher_agent
+
+    monkeypatch.setattr(
+        publisher_agent, "publish_serialized", lambda publisher, data: publisher.publish(data)
+    )
+
+
 def outcome(compute: Any) -> Any:
     """The comparable value, or the kind of error raised (both paths must fail alike)."""
     try:
@@ -212,3 +223,61 @@ def test_raw_path_over_dds(make_node: Any) -> None:
         if all(event.wait(0.05) for event in arrived.values()):
             break
     assert got == {"raw": joints, "class": joints}
+
+
+def test_raw_agents_publish_through_rcl_over_dds(
+    make_node: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Across two nodes a raw pub agent publishes with ``serialized_io`` (no copy before rcl's)
+    and the other node's raw sub gets the same value, writable like the class path's."""
+    from pyconnect.ros import publisher_agent, serialized_io
+
+    assert serialized_io._rcl() is not None  # the wheel's librcl, loaded by rclpy
+    published: list[int] = []
+
+    def counted_publish(publisher: Any, data: bytes) -> None:
+        published.append(len(data))
+        serialized_io.publish_serialized(publisher, data)
+
+    monkeypatch.setattr(publisher_agent, "publish_serialized", counted_publish)
+    receiver, sender = make_node("raw_rx"), make_node("raw_tx")
+    got: list[Any] = []
+    arrived = threading.Event()
+
+    def on_image(value: Any) -> None:
+        got.append(value)
+        arrived.set()
+
+    receiver.add_agent(
+        conn_name="frames", conn_type="sub", data_interface="sensor_msgs/msg/Image",
+        response_func=on_image, qos="default",
+    )  # fmt: skip
+    pub = sender.add_agent(
+        conn_name="frames", conn_type="pub", data_interface="sensor_msgs/msg/Image",
+        qos="default",
+    )  # fmt: skip
+    receiver.spin(run_thread=True)
+    sender.spin(run_thread=True)
+    image = np.arange(4 * 6 * 3, dtype=np.uint8).reshape(4, 6, 3)
+    for _ in range(int(EVENT_TIMEOUT / 0.05)):
+        pub.send(image)
+        if arrived.wait(0.05):
+            break
+    assert np.array_equal(got[0], image)
+    assert got[0].flags.writeable
+    assert published
+
+
+def test_publish_serialized_falls_back_to_rclpy_without_rcl(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from pyconnect.ros import serialized_io
+
+    monkeypatch.setattr(serialized_io, "_loaded", [None])
+    sent: list[Any] = []
+
+    class Publisher:
+        publish = sent.append
+
+    serialized_io.publish_serialized(Publisher(), b"\x00\x01\x00\x00")
+    assert sent == [b"\x00\x01\x00\x00"]

@@ -31,6 +31,7 @@ from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.qos import resolve_qos
 from pyconnect.ros.raw_path import RawEncoder, choose_raw
+from pyconnect.ros.serialized_io import publish_serialized
 
 
 class PublisherAgent(NodeAgent):
@@ -138,7 +139,7 @@ class PublisherAgent(NodeAgent):
         raw = self._raw
         if raw is not None and not self._is_message_value(data):
             cdr, fields = raw.encode(data, now=self._now, frame_id=self.frame_id)
-            self.publisher.publish(cdr)
+            publish_serialized(self.publisher, cdr)  # no copy before rcl's
             if self._has_encoding:
                 encoding = fields.get("encoding")
                 self._log_rgb = isinstance(encoding, str) and encoding.startswith("rgb")
