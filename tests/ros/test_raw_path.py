@@ -258,7 +258,8 @@ def test_raw_agents_publish_through_rcl_over_dds(
     )  # fmt: skip
     receiver.spin(run_thread=True)
     sender.spin(run_thread=True)
-    image = np.arange(4 * 6 * 3, dtype=np.uint8).reshape(4, 6, 3)
+    image = (np.arange(160 * 160 * 3) % 251).astype(np.uint8).reshape(160, 160, 3)
+    assert image.nbytes >= serialized_io.DIRECT_FROM_BYTES  # through rcl, not rclpy's copy
     for _ in range(int(EVENT_TIMEOUT / 0.05)):
         pub.send(image)
         if arrived.wait(0.05):
@@ -279,5 +280,7 @@ def test_publish_serialized_falls_back_to_rclpy_without_rcl(
     class Publisher:
         publish = sent.append
 
-    serialized_io.publish_serialized(Publisher(), b"\x00\x01\x00\x00")
-    assert sent == [b"\x00\x01\x00\x00"]
+    small, large = b"\x00\x01\x00\x00", bytes(serialized_io.DIRECT_FROM_BYTES)
+    serialized_io.publish_serialized(Publisher(), small)  # small: rclpy's call, always
+    serialized_io.publish_serialized(Publisher(), large)  # large, but no librcl loaded
+    assert sent == [small, large]

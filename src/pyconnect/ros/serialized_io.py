@@ -20,6 +20,10 @@ from typing import Any
 
 _RCL_RET_OK = 0
 
+DIRECT_FROM_BYTES = 64 * 1024
+"""Messages at least this large go through rcl directly. Below, rclpy's copy costs less than
+building the ctypes call (a 112-byte message: 4.7 µs through rclpy, 5-8 µs through ctypes)."""
+
 
 class _Allocator(ctypes.Structure):
     """rcutils_allocator_t."""
@@ -80,6 +84,9 @@ def _rcl() -> _Rcl | None:
 
 def publish_serialized(publisher: Any, data: bytes) -> None:
     """``publisher.publish(data)`` for CDR ``bytes``, without copying them first."""
+    if len(data) < DIRECT_FROM_BYTES:
+        publisher.publish(data)
+        return
     rcl = _rcl()
     if rcl is None or type(data) is not bytes:
         publisher.publish(data)
