@@ -15,6 +15,7 @@ BENCHMARKS = (
     "tables",
     "agents",
     "large_messages",
+    "sensor_qos",
     "transport",
 )
 
