@@ -297,7 +297,7 @@ def _conversion_table(kind: str, msg_type: str) -> None:
         f"Python-side conversion of the raw path, {kind} ({value.nbytes / 1e6:.1f} MB)",
         [
             ("one memcpy into a fresh buffer: bytes(arr)", lambda: bytes(value)),
-            ("take -> value: RawDecoder.decode (writable copy)", lambda: decoder.decode(cdr)),
+            ("take -> value: RawDecoder.decode (writable, in place)", lambda: decoder.decode(cdr)),
             (
                 "value -> publish: RawEncoder.encode",
                 lambda: encoder.encode(value, now=lambda: (1, 2), frame_id="camera"),

@@ -284,3 +284,24 @@ def test_publish_serialized_falls_back_to_rclpy_without_rcl(
     serialized_io.publish_serialized(Publisher(), small)  # small: rclpy's call, always
     serialized_io.publish_serialized(Publisher(), large)  # large, but no librcl loaded
     assert sent == [small, large]
+
+
+def test_a_large_taken_message_is_made_writable_in_place(make_node: Any) -> None:
+    """From ``IN_PLACE_BYTES`` the value is a view of the taken bytes (no copy), writable like
+    the class path's; a small message is copied, so the bytes it came in stay as they were."""
+    from pyconnect.ros.raw_path import IN_PLACE_BYTES
+
+    paths = Paths(make_node(), "sensor_msgs/msg/Image")
+    side = int((IN_PLACE_BYTES // 3) ** 0.5) + 1
+    for shape, in_place in (((side, side, 3), True), ((4, 4, 3), False)):
+        image = np.arange(np.prod(shape), dtype=np.uint64).astype(np.uint8).reshape(shape)
+        taken = serialize_message(codecs.encode(image, "sensor_msgs/msg/Image"))
+        before = bytes(bytearray(taken))
+        paths.raw_sub.subscription.callback(taken)
+        value = paths.raw_sub.get()
+        assert np.array_equal(value, image)
+        assert value.flags.writeable
+        assert np.shares_memory(value, np.frombuffer(taken, np.uint8)) is in_place
+        value[0, 0, 0] = 200
+        assert (taken == before) is not in_place
+        del taken, value
