@@ -50,6 +50,9 @@ def test_the_rule_is_reliable_unless_a_publisher_is_best_effort() -> None:
     assert matching_reliability([]) == reliable
     assert matching_reliability([Endpoint(reliable), Endpoint(reliable)]) == reliable
     assert matching_reliability([Endpoint(reliable), Endpoint(best_effort)]) == best_effort
+    # As rmw's best available: anything but reliable (an unknown policy) is not reliable.
+    unknown = ReliabilityPolicy.UNKNOWN
+    assert matching_reliability([Endpoint(reliable), Endpoint(unknown)]) == best_effort
 
 
 def test_a_reliable_publisher_gets_a_reliable_sub_that_hears_a_whole_burst(make_node: Any) -> None:
@@ -146,3 +149,24 @@ def test_an_explicit_qos_is_never_changed(make_node: Any, qos: Any) -> None:
     assert chosen in node.subscriptions
     expected = SENSOR_DATA if qos == "sensor_data" else QoSProfile(depth=10)
     assert reliability == expected.reliability
+
+
+def test_the_switch_works_on_the_elastic_executor(make_node: Any) -> None:
+    from test_msgs.action import Fibonacci
+
+    node = make_node()
+    node.add_agent(
+        conn_name="fib",
+        conn_type="action_server",
+        data_interface=Fibonacci,
+        response_func=lambda _goal: {"sequence": [1]},
+    )
+    assert node._executor.mode == "elastic"  # a node with action agents stays on it
+    sub, heard = add_camera_sub(node)
+    node.spin(run_thread=True)
+    driver = make_node("driver").create_publisher(Image, "camera", BEST_EFFORT)
+    assert sub.sensor_subscription.switched.wait(EVENT_TIMEOUT)
+    assert repeat_until(sub._first_message, lambda: driver.publish(frame(9)))
+    assert heard[0] == 9
+    assert sub.subscription.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+    assert node._executor.mode == "elastic"

@@ -90,14 +90,16 @@ def sensor_subscriber_profile(reliability: ReliabilityPolicy) -> QoSProfile:
 def matching_reliability(publishers: Iterable[Any]) -> ReliabilityPolicy:
     """The reliability a reader needs to hear all ``publishers`` (rclpy ``TopicEndpointInfo``).
 
-    Reliable unless one of them is best effort (a reliable reader never matches a best-effort
-    writer), so no frame is dropped when none has to be: ROS 2's "best available" rule, also
-    what ``ros2 topic echo`` picks.
+    Reliable when every one of them is reliable (or there is none), else best effort (a reliable
+    reader never matches a best-effort writer), so no frame is dropped when none has to be:
+    ROS 2's "best available" rule (rmw_dds_common's
+    ``qos_profile_get_best_available_for_subscription``), also what ``ros2 topic echo`` picks.
+    pyconnect applies it itself rather than passing ``ReliabilityPolicy.BEST_AVAILABLE``
+    (which the Jazzy wheels accept): rmw decides that once, at creation, usually before
+    discovery has found anyone, and the agent must know the outcome to switch later.
     """
-    for publisher in publishers:
-        if publisher.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT:
-            return ReliabilityPolicy.BEST_EFFORT
-    return ReliabilityPolicy.RELIABLE
+    reliable = all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in publishers)
+    return ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT
 
 
 def follows_publishers(qos: object, *, msg_type: str) -> bool:
