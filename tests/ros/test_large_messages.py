@@ -105,3 +105,62 @@ def test_pyconnect_run_starts_the_program_with_the_settings(tmp_path: Path) -> N
 
 def test_pyconnect_run_with_the_settings_off_runs_the_program_unchanged(tmp_path: Path) -> None:
     assert _run(tmp_path, PYCONNECT_LARGE_MESSAGES="0") == ["False", "False", "False", "a", "--b"]
+
+
+_PEER = """
+import os, sys, time
+import pyconnect.ros  # configures Fast DDS (PYCONNECT_LARGE_MESSAGES=1) before the node
+import rclpy
+from sensor_msgs.msg import Image
+
+assert os.environ["FASTRTPS_DEFAULT_PROFILES_FILE"].endswith(".xml")
+rclpy.init()
+node = rclpy.create_node("large_" + sys.argv[1])
+if sys.argv[1] == "pub":
+    publisher = node.create_publisher(Image, "large_profile_check", 5)
+    image = Image(height=600, width=800, encoding="rgb8", step=2400)
+    image.data.frombytes(bytes(range(256)) * 5625)  # 1.44 MB: fragments through SHM
+    while True:  # until the test ends this process
+        publisher.publish(image)
+        rclpy.spin_once(node, timeout_sec=0.05)
+else:
+    got = []
+    node.create_subscription(Image, "large_profile_check", got.append, 5)
+    while not got:
+        rclpy.spin_once(node, timeout_sec=0.1)
+    data = bytes(got[0].data)
+    print("GOT", len(data), data == bytes(range(256)) * 5625, flush=True)
+    node.destroy_node()
+    rclpy.shutdown()
+"""
+
+
+@pytest.mark.parametrize("discovery_range", ["LOCALHOST", None])
+def test_two_processes_talk_with_the_profile_on(discovery_range: str | None) -> None:
+    """With pyconnect's profile in both processes, a 1.44 MB image goes from one to the other,
+    with LOCALHOST discovery (the tests') and Fast DDS's default (rmw adds its own transports
+    for LOCALHOST: the profile must not stop discovery either way)."""
+    env = {key: value for key, value in os.environ.items() if "PROFILES_FILE" not in key}
+    env["PYCONNECT_LARGE_MESSAGES"] = "1"
+    env.pop("ROS_AUTOMATIC_DISCOVERY_RANGE", None)
+    if discovery_range is not None:
+        env["ROS_AUTOMATIC_DISCOVERY_RANGE"] = discovery_range
+    receiver = subprocess.Popen(
+        [sys.executable, "-c", _PEER, "sub"], stdout=subprocess.PIPE, text=True, env=env
+    )
+    sender = subprocess.Popen(
+        [sys.executable, "-c", _PEER, "pub"], stdout=subprocess.DEVNULL, env=env
+    )
+    try:
+        out, _ = receiver.communicate(timeout=120)
+    finally:
+        sender.terminate()  # SIGTERM: rclpy's handler shuts the context down cleanly
+        try:
+            sender.wait(30)
+        except subprocess.TimeoutExpired:
+            sender.kill()
+            sender.wait()
+        if receiver.poll() is None:
+            receiver.kill()
+            receiver.wait()
+    assert out.split() == ["GOT", "1440000", "True"]
