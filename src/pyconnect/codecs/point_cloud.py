@@ -250,6 +250,34 @@ def copy_checking_dense(points: npt.NDArray[Any]) -> tuple[array.array[int], boo
     return data, all(bool(np.isfinite(points[a]).all()) for a in _axes(points))
 
 
+def copy_checking_dense_into(points: npt.NDArray[Any], target: npt.NDArray[np.uint8]) -> bool:
+    """Copy the points' bytes into ``target`` (uint8, as many bytes) and return ``is_dense``,
+    reading the points once: each chunk checked, then copied while in cache (the raw path's
+    CDR buffer; ``copy_checking_dense`` for rclpy's array)."""
+    source = np.frombuffer(contiguous_bytes(points), np.uint8)
+    words = _words(points)
+    if words is None or not _axes(points):
+        target[:] = source
+        return _is_dense(points)
+    finite = True
+    step = _CHUNK
+    with np.errstate(over="ignore", invalid="ignore"):
+        for start in range(0, len(source), step):
+            chunk = words[start // 4 : (start + step) // 4]
+            if finite:
+                finite = bool(np.isfinite(np.dot(chunk, chunk)))
+            target[start : start + step] = source[start : start + step]
+    if finite:
+        return True
+    return all(bool(np.isfinite(points[a]).all()) for a in _axes(points))
+
+
+def point_cloud_layout(value: Any) -> tuple[dict[str, Any], npt.NDArray[Any]]:
+    """The PointCloud2 fields of a value but ``data`` and ``is_dense``, and its points."""
+    points = _as_structured(value)
+    return _layout(points), points
+
+
 def point_cloud_fields(value: Any) -> dict[str, Any]:
     """The PointCloud2 fields of a structured (or (N, 3)) array; ``data`` is a byte memoryview."""
     points = _as_structured(value)
