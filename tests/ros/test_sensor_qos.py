@@ -170,3 +170,25 @@ def test_the_switch_works_on_the_elastic_executor(make_node: Any) -> None:
     assert heard[0] == 9
     assert sub.subscription.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
     assert node._executor.mode == "elastic"
+
+
+def test_the_switch_works_when_the_event_waits_on_the_cold_thread(make_node: Any) -> None:
+    from test_msgs.action import Fibonacci
+
+    node = make_node()
+    node.add_agent(
+        conn_name="fib",
+        conn_type="action_server",
+        data_interface=Fibonacci,
+        response_func=lambda _goal: {"sequence": [1]},
+    )
+    sub, heard = add_camera_sub(node)
+    node.spin(run_thread=True)
+    elastic = node._executor._elastic
+    handlers = sub.subscription.event_handlers
+    # Quiet for a while, the QoS event handlers leave the wait set for the cold waiter's thread.
+    assert until(lambda: all(elastic.is_cold(handler) for handler in handlers))
+    driver = make_node("driver").create_publisher(Image, "camera", BEST_EFFORT)
+    assert sub.sensor_subscription.switched.wait(EVENT_TIMEOUT)
+    assert repeat_until(sub._first_message, lambda: driver.publish(frame(8)))
+    assert heard[0] == 8
