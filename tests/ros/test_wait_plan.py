@@ -14,6 +14,7 @@ from rclpy.exceptions import InvalidHandle
 from rclpy.node import Node
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
+from std_srvs.srv import Trigger
 
 from pyconnect.ros.executor import ElasticExecutor
 from pyconnect.ros.wait_plan import COOL_AFTER
@@ -159,3 +160,26 @@ def test_quiet_entities_wait_on_the_cold_thread_and_still_get_their_work(
         assert arrived.acquire(timeout=EVENT_TIMEOUT)
         assert executor.wait_counts()["cold_wakes"] > wakes
     assert received == ["0", "1", "2", "3", "4"]
+
+
+@pytest.mark.parametrize("spun", [0.05], indirect=True, ids=["quick_cooling"])
+def test_a_quiet_service_and_client_answer_from_the_cold_thread(
+    spun: tuple[Node, ElasticExecutor],
+) -> None:
+    node, executor = spun
+
+    def answer(_request: Any, response: Any) -> Any:
+        response.success = True
+        response.message = "cold"
+        return response
+
+    service = node.create_service(Trigger, "cold_service", answer)
+    client = node.create_client(Trigger, "cold_service")
+    assert client.wait_for_service(timeout_sec=EVENT_TIMEOUT)
+    for _ in range(3):
+        assert _until(lambda: executor.is_cold(service) and executor.is_cold(client))
+        done = threading.Event()
+        future = client.call_async(Trigger.Request())
+        future.add_done_callback(lambda _future, done=done: done.set())
+        assert done.wait(EVENT_TIMEOUT)
+        assert future.result().message == "cold"
