@@ -118,6 +118,18 @@ class MultiArrayCodec(FieldsCodec):
         return {"dim": dims, "data_offset": 0}
 
     def to_fields(self, value: Any) -> dict[str, Any]:
+        if (
+            value.__class__ is np.ndarray
+            and value.dtype is self.dtype
+            and value.ndim == 1
+            and self.name != "ByteMultiArray"
+            and value.flags.c_contiguous
+        ):
+            # The common case (a flat array of the message's own dtype) in a few steps: a
+            # publisher at 100 Hz runs this on a cold cache, where each call costs microseconds.
+            size = value.shape[0]
+            dim = {"label": "", "size": size, "stride": size}
+            return {"layout": {"dim": [dim], "data_offset": 0}, "data": value}
         array = self._checked(value)
         data: Any = np.ascontiguousarray(array).reshape(-1)
         if self.name == "ByteMultiArray":

@@ -124,6 +124,11 @@ def test_multi_array_round_trip(case: tuple[str, np.ndarray]) -> None:
     assert same(codec.decode(msg), array)
     assert same(codec.decode(wire_view(msg)), array)
     assert same(codec.decode(codecs.from_dict(codec.to_fields(array), f"std_msgs/{name}")), array)
+    # A strided copy of the same values takes the general path; a flat array, the short one.
+    fields = codec.to_fields(array)
+    general = codec.to_fields(np.repeat(array, 2, axis=-1)[..., ::2])
+    assert fields["layout"] == general["layout"]
+    assert same(np.asarray(fields["data"]), np.asarray(general["data"]))
 
 
 def test_multi_array_layout_with_offset_and_padding() -> None:
