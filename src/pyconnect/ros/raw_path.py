@@ -153,6 +153,7 @@ class RawEncoder:
         self.natural = registry.value_codec(msg_type)
         self.has_header = has_header
         self.describe = describe
+        self._is_cloud = msg_type == CLOUD
         fields_codec = registry.fields_codec(msg_type)
         self._to_fields: Callable[[Any], Any] | None = (
             fields_codec.to_fields if fields_codec is not None else None
@@ -166,7 +167,7 @@ class RawEncoder:
     def fields(self, value: Any) -> Mapping[str, Any]:
         """The lossless dict of ``value`` (through the natural codec's ``to_fields``)."""
         fields = self._to_fields(value) if self._to_fields is not None else value
-        if not isinstance(fields, Mapping):
+        if fields.__class__ is not dict and not isinstance(fields, Mapping):
             raise EncodeError(
                 f"{self.describe}: {self.wire.msg_type.rsplit('/', 1)[-1]}: "
                 f"expected dict, got {type(fields).__name__}"
@@ -179,7 +180,7 @@ class RawEncoder:
         """(CDR bytes, the fields written); errors become ``EncodeError`` naming the agent."""
         try:
             if (
-                self.wire.msg_type == CLOUD
+                self._is_cloud
                 and isinstance(value, np.ndarray)
                 and value.flags.c_contiguous
                 and value.nbytes >= CLOUD_IN_ONE_PASS_BYTES
