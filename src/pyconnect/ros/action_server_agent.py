@@ -45,6 +45,7 @@ from pyconnect.ros.abort_reasons import AbortReasonPublisher
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_message
+from pyconnect.ros.handler_shape import wants_feedback_publisher
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.qos import REQUESTS
@@ -91,7 +92,7 @@ class ActionServerAgent(NodeAgent):
         if response_func is None:
             raise self.error("an 'action_server' agent needs a response_func")
         self._handler: ResponseFunc = response_func
-        self._wants_feedback_publisher = _positional_count(response_func) >= 2
+        self._wants_feedback_publisher = wants_feedback_publisher(response_func)
         self._result_class = action_class.Result
         self.goal_conversion = self.make_conversion(
             action_class.Goal, decode_func=decode_func, eager=decode_func is None
@@ -219,24 +220,3 @@ class FeedbackPublisher:
         """The goal is over: later calls raise instead of publishing for a finished goal."""
         with self._lock:
             self._open = False
-
-
-def _positional_count(function: Callable[..., Any]) -> int:
-    """How many positional arguments ``function`` asks for: parameters without a default, a
-    parameter named ``publish_feedback``, and 2 for ``*args``."""
-    try:
-        parameters = inspect.signature(function).parameters.values()
-    except (TypeError, ValueError):
-        return 1
-    count = 0
-    for parameter in parameters:
-        if parameter.kind is inspect.Parameter.VAR_POSITIONAL:
-            return 2
-        if parameter.kind in (
-            inspect.Parameter.POSITIONAL_ONLY,
-            inspect.Parameter.POSITIONAL_OR_KEYWORD,
-        ) and (
-            parameter.default is inspect.Parameter.empty or parameter.name == "publish_feedback"
-        ):
-            count += 1
-    return count

@@ -23,6 +23,7 @@ from collections.abc import Callable
 from typing import Any
 
 from pyconnect.errors import PyconnectError
+from pyconnect.ros.handler_shape import wants_feedback_publisher
 from pyconnect.transport import action_wire as aw
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.endpoints import Request, Server, Writer
@@ -75,7 +76,7 @@ class ActionServerAgent(PeerAgent):
         if response_func is None:
             raise self.error("an 'action_server' agent needs a response_func")
         self._handler: ResponseFunc = response_func
-        self._wants_feedback_publisher = _positional_count(response_func) >= 2
+        self._wants_feedback_publisher = wants_feedback_publisher(response_func)
         self.interface = interface
         self.result_timeout = result_timeout
         self.result_cache_seconds = result_cache_seconds
@@ -360,23 +361,3 @@ def _drive(generator: Any, goal: _Goal, publish: FeedbackPublisher) -> tuple[boo
             publish(feedback)
     generator.close()
     return False, None
-
-
-def _positional_count(function: Callable[..., Any]) -> int:
-    """How many positional arguments ``function`` asks for (as CustomNode's server counts)."""
-    try:
-        parameters = inspect.signature(function).parameters.values()
-    except (TypeError, ValueError):
-        return 1
-    count = 0
-    for parameter in parameters:
-        if parameter.kind is inspect.Parameter.VAR_POSITIONAL:
-            return 2
-        if parameter.kind in (
-            inspect.Parameter.POSITIONAL_ONLY,
-            inspect.Parameter.POSITIONAL_OR_KEYWORD,
-        ) and (
-            parameter.default is inspect.Parameter.empty or parameter.name == "publish_feedback"
-        ):
-            count += 1
-    return count
