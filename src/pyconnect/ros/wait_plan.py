@@ -33,13 +33,11 @@ The generator keeps rclpy's contract (``Executor.wait_for_ready_callbacks`` call
 
 from __future__ import annotations
 
-import contextlib
 import threading
 import time
 from collections.abc import Callable, Generator
 from typing import Any
 
-from rclpy.callback_groups import MutuallyExclusiveCallbackGroup, ReentrantCallbackGroup
 from rclpy.executors import (
     ConditionReachedException,
     ExternalShutdownException,
@@ -47,11 +45,10 @@ from rclpy.executors import (
     TimeoutException,
 )
 from rclpy.guard_condition import GuardCondition
-from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.node import Node
-from rclpy.waitable import NumberOfEntities
 
 from pyconnect.ros.cold_waiter import ColdWaiter
+from pyconnect.ros.wait_entries import WaitEntry, WaitPlan
 
 COOL_AFTER = 2.0
 """Seconds an entity may stay unready before the cold waiter's thread waits on it instead."""
@@ -59,172 +56,7 @@ COOL_AFTER = 2.0
 COOL_CHECK = 0.5
 """Seconds between looks for entities to cool (and a full check of the nodes' entity lists)."""
 
-_FREE, _EXCLUSIVE, _ASK = 0, 1, 2
-"""How a callback group says whether its entity may run: always, while no callback of the
-group runs (read without its lock: a stale answer costs one spare wake-up, the handler asks
-again), or by calling its ``can_execute``."""
-
 Ready = tuple[Any, Any, Node]
-
-
-def _group_kind(group: Any) -> int:
-    if type(group) is ReentrantCallbackGroup:
-        return _FREE
-    if type(group) is MutuallyExclusiveCallbackGroup and hasattr(group, "_active_entity"):
-        return _EXCLUSIVE
-    return _ASK
-
-
-def _node_lists(node: Node) -> tuple[list[Any], ...]:
-    return (
-        list(node.subscriptions),
-        list(node.timers),
-        list(node.clients),
-        list(node.services),
-        list(node.guards),
-        list(node.waitables),
-    )
-
-
-class _Entry:
-    """One entity of the plan: its handle (entered), callback group, node, and how it waits."""
-
-    __slots__ = (
-        "counts",
-        "entity",
-        "group",
-        "handle",
-        "hot",
-        "kind",
-        "last_ready",
-        "mode",
-        "node",
-        "pointer",
-    )
-
-    def __init__(self, kind: str, entity: Any, node: Node, last_ready: float) -> None:
-        self.kind = kind
-        self.entity = entity
-        self.handle = None if kind == "waitable" else entity.handle
-        self.pointer = 0 if self.handle is None else self.handle.pointer
-        self.counts = entity.get_num_entities() if kind == "waitable" else _ONE[kind]
-        self.group = entity.callback_group
-        self.mode = _group_kind(self.group)
-        self.node = node
-        self.hot = True
-        self.last_ready = last_ready
-
-    def usable(self) -> bool:
-        if self.entity._executor_event:
-            return False
-        if self.mode == _EXCLUSIVE:
-            return self.group._active_entity is None
-        return self.mode == _FREE or bool(self.group.can_execute(self.entity))
-
-
-_ONE = {
-    "subscription": NumberOfEntities(num_subs=1),
-    "client": NumberOfEntities(num_clients=1),
-    "service": NumberOfEntities(num_services=1),
-    "timer": NumberOfEntities(num_timers=1),
-    "guard": NumberOfEntities(num_gcs=1),
-}
-
-
-class _Plan:
-    """The entities of some nodes, their handles entered, and a wait set sized for all."""
-
-    def __init__(self, nodes: list[Node], executor: Any, last_ready: dict[Any, float]) -> None:
-        self.nodes = nodes
-        self.lists = [_node_lists(node) for node in nodes]
-        self.stack = contextlib.ExitStack()
-        self.entries: list[_Entry] = []
-        now = time.monotonic()
-        count = NumberOfEntities()
-        try:
-            for node, (subs, timers, clients, services, guards, waitables) in zip(
-                nodes, self.lists, strict=True
-            ):
-                for kind, entities in (
-                    ("timer", timers),
-                    ("subscription", subs),
-                    ("guard", guards),
-                    ("client", clients),
-                    ("service", services),
-                    ("waitable", waitables),
-                ):
-                    for entity in entities:
-                        if self._enter(entity if kind == "waitable" else entity.handle):
-                            entry = _Entry(kind, entity, node, last_ready.get(entity, now))
-                            self.entries.append(entry)
-                            count += entry.counts
-            self.own_guards = [executor._guard.handle, executor._sigint_gc.handle]
-            for handle in self.own_guards:
-                self.stack.enter_context(handle)
-            context = executor.context.handle
-            self.stack.enter_context(context)
-            self.wait_set = _rclpy.WaitSet(
-                count.num_subscriptions,
-                count.num_guard_conditions + len(self.own_guards),
-                count.num_timers,
-                count.num_clients,
-                count.num_services,
-                count.num_events,
-                context,
-            )
-        except BaseException:
-            self.stack.close()
-            raise
-        # Timers and guard conditions always wait here: a timer's next tick is due anyway.
-        self.always = [entry for entry in self.entries if entry.kind in ("timer", "guard")]
-        self.hot = [entry for entry in self.entries if entry.kind not in ("timer", "guard")]
-        self.by_pointer: dict[str, dict[int, _Entry]] = {
-            kind: {entry.pointer: entry for entry in self.entries if entry.kind == kind}
-            for kind in ("subscription", "timer", "client", "service")
-        }
-        self.next_check = now
-
-    def _enter(self, handle: Any) -> bool:
-        try:
-            self.stack.enter_context(handle)
-        except Exception:  # InvalidHandle: destroyed meanwhile
-            return False
-        return True
-
-    def is_current(self, nodes: list[Node]) -> bool:
-        return nodes == self.nodes and all(
-            _node_lists(node) == lists for node, lists in zip(nodes, self.lists, strict=True)
-        )
-
-    def cold(self) -> list[_Entry]:
-        return [entry for entry in self.entries if not entry.hot and entry.kind != "timer"]
-
-    def warm_up(self, entries: list[_Entry], now: float) -> None:
-        """``entries`` (found ready by the cold waiter) wait here again."""
-        for entry in entries:
-            if not entry.hot:
-                entry.hot = True
-                entry.last_ready = now
-                self.hot.append(entry)
-
-    def cool_down(self, now: float, cool_after: float) -> bool:
-        """Leave entities unready for ``cool_after`` s to the cold waiter; True if any left."""
-        keep = [
-            entry
-            for entry in self.hot
-            if now - entry.last_ready < cool_after or entry.entity._executor_event
-        ]
-        if len(keep) == len(self.hot):
-            return False
-        for entry in self.hot:
-            entry.hot = False
-        for entry in keep:
-            entry.hot = True
-        self.hot = keep
-        return True
-
-    def release(self) -> None:
-        self.stack.close()
 
 
 class PlannedWaits:
@@ -236,7 +68,7 @@ class PlannedWaits:
         self._cool_after = cool_after
         self._check_every = min(COOL_CHECK, cool_after / 2)
         self._lock = threading.Lock()
-        self._plan: _Plan | None = None
+        self._plan: WaitPlan | None = None
         self._closed = False
         self._changes = 0
         self._checked = -1
@@ -276,7 +108,7 @@ class PlannedWaits:
     def join(self, timeout_sec: float | None = None) -> None:
         self._cold.join(timeout_sec)
 
-    def _current_plan(self, nodes: list[Node], now: float) -> _Plan:
+    def _current_plan(self, nodes: list[Node], now: float) -> WaitPlan:
         plan = self._plan
         changes = self._changes
         if plan is not None and changes == self._checked and now < plan.next_check:
@@ -288,7 +120,7 @@ class PlannedWaits:
                 last_ready = {entry.entity: entry.last_ready for entry in plan.entries}
                 plan.release()
             self._plan = None
-            plan = _Plan(nodes, self._executor, last_ready)
+            plan = WaitPlan(nodes, self._executor, last_ready)
             self._plan = plan
             self.plans += 1
             self._cold.watch(plan.cold())
@@ -373,7 +205,7 @@ class PlannedWaits:
         if condition():
             raise ConditionReachedException()
 
-    def _wait(self, plan: _Plan, deadline: float | None, guard: WakeGuard) -> list[_Entry]:
+    def _wait(self, plan: WaitPlan, deadline: float | None, guard: WakeGuard) -> list[WaitEntry]:
         """One wait on the plan's usable hot entities; the entries ready, in rclpy's order."""
         executor = self._executor
         warmed = self._cold.take_ready()
@@ -389,8 +221,8 @@ class PlannedWaits:
             "client": wait_set.add_client,
             "service": wait_set.add_service,
         }
-        guards: list[_Entry] = []
-        waitables: list[_Entry] = []
+        guards: list[WaitEntry] = []
+        waitables: list[WaitEntry] = []
         for group in (plan.always, plan.hot):
             for entry in group:
                 if not entry.usable():
@@ -424,7 +256,7 @@ class PlannedWaits:
             raise ShutdownException()
         if not executor.context.ok():
             raise ExternalShutdownException()
-        ready: list[_Entry] = []
+        ready: list[WaitEntry] = []
         guards_ready = wait_set.get_ready_entities("guard_condition")
         for entry in guards:
             if entry.pointer in guards_ready:
