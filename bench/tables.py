@@ -139,6 +139,7 @@ def bench_dask() -> None:
 # -- 3. topic hz on 1 kHz ------------------------------------------------------------------------
 PUBLISHER = """
 import rclpy
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from std_msgs.msg import String
 rclpy.init()
@@ -149,12 +150,13 @@ node.create_timer(0.001, lambda: pub.publish(message))
 print("READY", flush=True)
 try:
     rclpy.spin(node)
-except KeyboardInterrupt:
+except (KeyboardInterrupt, ExternalShutdownException):  # SIGINT, before or after rclpy's handler
     pass
 """
 
 BARE_SUBSCRIBER = """
 import rclpy
+from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
 from std_msgs.msg import String
@@ -166,7 +168,7 @@ def on_message(data):
 node.create_subscription(String, "fast", on_message, qos_profile_sensor_data, raw=True)
 try:
     rclpy.spin(node)
-except KeyboardInterrupt:
+except (KeyboardInterrupt, ExternalShutdownException):  # SIGINT, before or after rclpy's handler
     print(count[0], flush=True)
 """
 
