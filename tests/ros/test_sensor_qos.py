@@ -151,7 +151,8 @@ def test_an_explicit_qos_is_never_changed(make_node: Any, qos: Any) -> None:
     assert reliability == expected.reliability
 
 
-def test_the_switch_works_on_the_elastic_executor(make_node: Any) -> None:
+def node_with_an_action_server(make_node: Any) -> Any:
+    """A node on the elastic executor (action agents keep it there)."""
     from test_msgs.action import Fibonacci
 
     node = make_node()
@@ -161,6 +162,11 @@ def test_the_switch_works_on_the_elastic_executor(make_node: Any) -> None:
         data_interface=Fibonacci,
         response_func=lambda _goal: {"sequence": [1]},
     )
+    return node
+
+
+def test_the_switch_works_on_the_elastic_executor(make_node: Any) -> None:
+    node = node_with_an_action_server(make_node)
     assert node._executor.mode == "elastic"  # a node with action agents stays on it
     sub, heard = add_camera_sub(node)
     node.spin(run_thread=True)
@@ -173,15 +179,7 @@ def test_the_switch_works_on_the_elastic_executor(make_node: Any) -> None:
 
 
 def test_the_switch_works_when_the_event_waits_on_the_cold_thread(make_node: Any) -> None:
-    from test_msgs.action import Fibonacci
-
-    node = make_node()
-    node.add_agent(
-        conn_name="fib",
-        conn_type="action_server",
-        data_interface=Fibonacci,
-        response_func=lambda _goal: {"sequence": [1]},
-    )
+    node = node_with_an_action_server(make_node)
     sub, heard = add_camera_sub(node)
     node.spin(run_thread=True)
     elastic = node._executor._elastic

@@ -21,7 +21,7 @@ from collections.abc import Callable
 from typing import Any
 
 from pyconnect.codecs.std_scalars import FloatCodec, IntCodec, StringCodec
-from pyconnect.typesys.primitives import FLOAT32_MAX, INTEGER_RANGES
+from pyconnect.typesys.primitives import FLOAT32_MAX, INTEGER_RANGES, STRUCT_CODES
 
 Encode = Callable[[Any], bytes]
 Decode = Callable[[bytes], Any]
@@ -76,18 +76,6 @@ def _string(general_encode: Encode, general_decode: Decode) -> tuple[Encode, Dec
     return encode, decode
 
 
-_INTEGER_FORMATS = {
-    "int8": "b",
-    "uint8": "B",
-    "int16": "h",
-    "uint16": "H",
-    "int32": "i",
-    "uint32": "I",
-    "int64": "q",
-    "uint64": "Q",
-}
-
-
 def _scalar_decode(fmt: str, general_decode: Decode) -> Decode:
     layout = struct.Struct("<" + fmt)
     unpack, size = layout.unpack_from, layout.size
@@ -116,7 +104,7 @@ def _scalar_encode(fmt: str, accept: Callable[[Any], bool], general_encode: Enco
 
 
 def _integer(kind: str, general_encode: Encode, general_decode: Decode) -> tuple[Encode, Decode]:
-    fmt = _INTEGER_FORMATS[kind]
+    fmt = STRUCT_CODES[kind]
     low, high = INTEGER_RANGES[kind]
 
     def accept(value: Any) -> bool:
