@@ -37,6 +37,23 @@ def write(path: Path, times: list[int], *, topic: str = "/chatter", **options: A
     return path
 
 
+def write_images(
+    path: Path, count: int, shape: tuple[int, int, int], *, compression: str, chunk_size: int
+) -> Path:
+    """A bag of ``count`` images on /camera, image ``i`` filled with byte ``i``."""
+    from sensor_msgs.msg import Image
+
+    height, width, channels = shape
+    with McapRecorder(path, compression=compression, chunk_size=chunk_size) as recorder:
+        recorder.add_topic("/camera", "sensor_msgs/msg/Image")
+        for i in range(count):
+            image = Image(height=height, width=width, step=width * channels,
+                          encoding="rgb8" if channels == 3 else "mono8")  # fmt: skip
+            image.data = bytes([i]) * (height * width * channels)
+            recorder.write("/camera", bytes(serialize_message(image)), log_time_ns=i)
+    return path
+
+
 def test_items_are_named_tuples(tmp_path: Path) -> None:
     with open_bag(write(tmp_path / "bag", [10]), topics=["/chatter"]) as bag:
         (item,) = list(bag)
@@ -218,15 +235,8 @@ def test_a_cut_recording_is_read_in_bounded_windows(tmp_path: Path) -> None:
 def test_natural_images_are_read_holding_one_chunk_and_one_message(tmp_path: Path) -> None:
     """Natural images are views on their chunk; the caller holding the last one while the next
     chunk loads must not keep two chunks alive (the last message of a chunk is a copy)."""
-    from sensor_msgs.msg import Image
-
-    path = tmp_path / "images.mcap"
-    with McapRecorder(path, compression="none", chunk_size=300_000) as recorder:
-        recorder.add_topic("/camera", "sensor_msgs/msg/Image")
-        for i in range(60):
-            image = Image(height=100, width=200, encoding="rgb8", step=600)
-            image.data = bytes([i]) * 60_000
-            recorder.write("/camera", bytes(serialize_message(image)), log_time_ns=i)
+    path = write_images(tmp_path / "images.mcap", 60, (100, 200, 3), compression="none",
+                        chunk_size=300_000)  # fmt: skip
     with open_bag(path) as bag:
         list(bag)  # the decoder is built once, outside the measurement
         tracemalloc.start()
@@ -274,17 +284,10 @@ def test_chunk_buffers_are_reused_only_when_no_value_views_them(
     """A file reuses its last chunk buffer for the next chunk once nothing views it: natural
     images kept by the caller (views on their chunks) keep their pixels, and a read that keeps
     nothing loads every chunk after the first into the same buffer."""
-    from sensor_msgs.msg import Image
-
     from pyconnect.record import mcap_chunks
 
-    path = tmp_path / "images.mcap"
-    with McapRecorder(path, compression=compression, chunk_size=50_000) as recorder:
-        recorder.add_topic("/camera", "sensor_msgs/msg/Image")
-        for i in range(30):
-            image = Image(height=100, width=100, encoding="mono8", step=100)
-            image.data = bytes([i]) * 10_000
-            recorder.write("/camera", bytes(serialize_message(image)), log_time_ns=i)
+    path = write_images(tmp_path / "images.mcap", 30, (100, 100, 1), compression=compression,
+                        chunk_size=50_000)  # fmt: skip
     with open_bag(path) as bag:
         kept = [item.value for item in bag]
     assert [(int(v.min()), int(v.max())) for v in kept] == [(i, i) for i in range(30)]

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import array
 import sys
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -231,33 +232,29 @@ def copy_checking_dense(points: npt.NDArray[Any]) -> tuple[array.array[int], boo
     and a separate check: 1.4x). rclpy's own type, so the message's ``data`` behaves as one
     rclpy built (``tobytes``, ``tolist``, the generated ``to_dict``).
     """
-    source = contiguous_bytes(points)
     data = array.array("B")
-    words = _words(points)
-    if words is None or not _axes(points):
-        data.frombytes(source)
-        return data, _is_dense(points)
-    finite = True
-    step = _CHUNK // 4
-    with np.errstate(over="ignore", invalid="ignore"):
-        for start in range(0, len(words), step):
-            chunk = words[start : start + step]
-            if finite:
-                finite = bool(np.isfinite(np.dot(chunk, chunk)))
-            data.frombytes(source[start * 4 : (start + step) * 4])
-    if finite:
-        return data, True
-    return data, all(bool(np.isfinite(points[a]).all()) for a in _axes(points))
+    dense = _copy_checking(points, lambda _start, chunk: data.frombytes(chunk))
+    return data, dense
 
 
 def copy_checking_dense_into(points: npt.NDArray[Any], target: npt.NDArray[np.uint8]) -> bool:
     """Copy the points' bytes into ``target`` (uint8, as many bytes) and return ``is_dense``,
     reading the points once: each chunk checked, then copied while in cache (the raw path's
     CDR buffer; ``copy_checking_dense`` for rclpy's array)."""
-    source = np.frombuffer(contiguous_bytes(points), np.uint8)
+
+    def write(start: int, chunk: memoryview) -> None:
+        target[start : start + len(chunk)] = np.frombuffer(chunk, np.uint8)
+
+    return _copy_checking(points, write)
+
+
+def _copy_checking(points: npt.NDArray[Any], write: Callable[[int, memoryview], Any]) -> bool:
+    """Hand the points' bytes to ``write(offset, chunk)`` in ``_CHUNK`` pieces, each checked for
+    NaN/inf just before (the words check, exact per axis when it fails); ``is_dense``."""
+    source = contiguous_bytes(points)
     words = _words(points)
     if words is None or not _axes(points):
-        target[:] = source
+        write(0, source)
         return _is_dense(points)
     finite = True
     step = _CHUNK
@@ -266,7 +263,7 @@ def copy_checking_dense_into(points: npt.NDArray[Any], target: npt.NDArray[np.ui
             chunk = words[start // 4 : (start + step) // 4]
             if finite:
                 finite = bool(np.isfinite(np.dot(chunk, chunk)))
-            target[start : start + step] = source[start : start + step]
+            write(start, source[start : start + step])
     if finite:
         return True
     return all(bool(np.isfinite(points[a]).all()) for a in _axes(points))
