@@ -96,20 +96,6 @@ def read_wstring(
     return text, pos + count * 4
 
 
-def _read_string(
-    mv: memoryview, pos: int, lim: int, u32: struct.Struct, bound: int | None
-) -> tuple[str, int]:
-    pos = (pos + 3) & -4
-    (count,) = u32.unpack_from(mv, pos)
-    pos += 4
-    if count > lim - pos:
-        raise too_long(count, 1, lim - pos)
-    text = mv[pos : pos + count - 1].tobytes().decode()
-    if bound is not None and len(text) > bound:
-        raise over_bound(len(text), bound)
-    return text, pos + count
-
-
 def _read_count(  # noqa: PLR0917 (generated code calls it positionally)
     mv: memoryview, pos: int, lim: int, u32: struct.Struct, bound: int | None, least: int
 ) -> tuple[int, int]:

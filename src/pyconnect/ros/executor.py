@@ -93,11 +93,6 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
         """True while some thread runs ``spin()``."""
         return self._spinners > 0 and not self._stopping
 
-    @property
-    def is_stopping(self) -> bool:
-        """True once ``stop()`` was called (spinning ends, never restarts)."""
-        return self._stopping
-
     def is_calm(self, seconds: float) -> bool:
         """True when no callback runs and no hand-off happened for ``seconds``."""
         with self._turn:
@@ -396,10 +391,3 @@ class _DeadlineWaker:
                 heapq.heappop(self._deadlines)
                 with contextlib.suppress(Exception):
                     self._wake()
-
-
-def run_with_turn_released(executor: Any, function: Callable[[], Any]) -> Any:
-    """Call ``function`` after passing the turn on, when the caller is inside a callback."""
-    if isinstance(executor, ElasticExecutor) and executor.is_spinning:
-        executor._hand_off(threading.get_ident())
-    return function()

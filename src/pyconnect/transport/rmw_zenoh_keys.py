@@ -77,11 +77,6 @@ def data_key(domain_id: int, name: str, type_name: str, type_hash: str) -> str:
     return f"{domain_id}/{name.strip('/')}/{dds_type_name(type_name)}/{type_hash}"
 
 
-def data_key_any_type(domain_id: int, name: str) -> str:
-    """The key expression matching ``name`` with any type and hash (for the type check)."""
-    return f"{domain_id}/{name.strip('/')}/*/*"
-
-
 def qos_chunk(
     *, reliability: str = "reliable", durability: str = "volatile", depth: int = 10
 ) -> str:
