@@ -60,11 +60,13 @@ def test_info(bag: Path, capsys: pytest.CaptureFixture[str]) -> None:
 
 
 def test_info_lists_services_apart(capsys: pytest.CaptureFixture[str]) -> None:
+    from tests.conftest import require_sample_bags
     from tests.record.bag_samples import BAGS
 
     bag = (
         BAGS / "ros2_rosbag2_jazzy/rosbag2_tests/resources/mcap/bag_with_topics_and_service_events"
     )
+    require_sample_bags(bag, bag.exists())
     assert main(["bag", "info", str(bag)]) == 0
     lines = capsys.readouterr().out.splitlines()
     assert lines[lines.index("services:  2") + 1 :] == [

@@ -15,6 +15,8 @@ from pyconnect.codecs import wire
 from pyconnect.codecs.compressed_image import decode_compressed_image
 from pyconnect.codecs.point_cloud import decode_point_cloud
 from pyconnect.errors import DecodeError
+from tests.conftest import require_sample_bags
+from tests.record.bag_samples import BAGS
 from tools import fuzz
 
 SLICE = 250  # byte strings per family here; `make fuzz` runs 100,000
@@ -38,6 +40,8 @@ def families() -> dict[str, list[fuzz.Target]]:
 )
 def test_fuzz_slice_finds_nothing(families: dict[str, list[fuzz.Target]], family: str) -> None:
     targets = families[family]
+    if family == "bag definitions (on the fly)":
+        require_sample_bags(BAGS, any(target.seeds for target in targets))
     fuzz._warm_up(targets)
     tracemalloc.start()
     try:

@@ -16,6 +16,7 @@ from std_msgs.msg import String
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_reader import bag_info, open_bag
 from pyconnect.record.mcap_recorder import McapRecorder
+from tests.conftest import require_sample_bags
 from tests.record.bag_samples import BAGS
 
 SHARED_MCAP = BAGS / "robot_localization_converted/test1_ros2_mcap_zstd"
@@ -65,6 +66,7 @@ def test_cut_at_random_offsets(
     if source == "written":
         original = write_chunked(tmp_path / "bag.mcap")
     else:
+        require_sample_bags(SHARED_MCAP, SHARED_MCAP.exists())
         original = next(SHARED_MCAP.glob("*.mcap"))
     data = original.read_bytes()
     full, damage = read_raw(original)
@@ -194,6 +196,7 @@ def test_index_pointing_past_the_end(tmp_path: Path) -> None:
 
 @pytest.mark.parametrize("fraction", [0.3, 0.5, 0.7, 0.9, 0.99])
 def test_db3_cut_short(fraction: float, tmp_path: Path) -> None:
+    require_sample_bags(SHARED_DB3, SHARED_DB3.exists())
     full, _ = read_raw(SHARED_DB3)
     data = SHARED_DB3.read_bytes()
     cut = int(len(data) * fraction)
@@ -213,6 +216,7 @@ def test_db3_cut_short(fraction: float, tmp_path: Path) -> None:
 
 
 def test_db3_cut_before_its_tables_leaves_no_copy(tmp_path: Path) -> None:
+    require_sample_bags(SHARED_DB3, SHARED_DB3.exists())
     damaged = tmp_path / "cut.db3"
     damaged.write_bytes(SHARED_DB3.read_bytes()[:3000])
     with pytest.raises(BagError) as raised:
