@@ -1,12 +1,15 @@
 """Peers over zenoh against zenoh's own Python pub/sub and against CustomNodes over DDS.
 
-``python -m bench.transport``. Two rows, each measured for three pairs of processes on this
+``python -m bench.transport``. Two rows, each measured for pairs of processes on this
 machine, side by side in one run, then the per-stage costs of a peer's send and receive
 (``bench.transport_stages``):
 
 - small messages (std_msgs/String) per second at the receiver while the sender publishes as
   fast as it can: raw zenoh ``put(bytes)`` -> callback counting (the floor), a pyconnect
   ``Peer`` pub -> sub decoding each String, two ``CustomNode``s over DDS; goal >= 0.8x raw.
+  Two more pairs put a Peer on one side only (a Peer sender -> a raw receiver, a raw sender
+  with rmw_zenoh's attachment -> a Peer receiver): the slower of the two sets the Peer pair's
+  rate.
   Each row also shows what the receiving Peer counted as lost and the CPU each process spent
   per message (all its threads, zenoh's included): on a 2-core machine sender and receiver
   share the cores, so a costlier sender slows the receiver too.
@@ -40,8 +43,18 @@ LATENCY_PERIOD = 0.05
 IDLE_END = 2.0
 SHAPE = (1080, 1920, 3)
 KINDS = ("raw zenoh", "pyconnect Peer", "CustomNode DDS")
-# The rate row also shows a peer subscription keeping 1000 samples instead of ROS's 10.
-RATE_KINDS = ("raw zenoh", "pyconnect Peer", "Peer depth=1000", "CustomNode DDS")
+# The rate row also shows a peer subscription keeping 1000 samples instead of ROS's 10, and
+# each side of a Peer against the raw other side, to show which side sets the rate.
+PEER_TO_RAW = "Peer -> raw"
+RAW_TO_PEER = "raw -> Peer"
+RATE_KINDS = (
+    "raw zenoh",
+    "pyconnect Peer",
+    "Peer depth=1000",
+    PEER_TO_RAW,
+    RAW_TO_PEER,
+    "CustomNode DDS",
+)
 RATE_ROWS = {
     "raw zenoh": "put(bytes) -> Python callback counting (zenoh's FIFO: the receiver never "
     "drops, a full queue stalls the link and the sender's congestion control drops)",
@@ -49,6 +62,8 @@ RATE_ROWS = {
     "while the agent keeps up) -> agent thread: sequence check, decode, response_func; when the "
     "receiver falls behind, keep-last skips (counted in lost*)",
     "Peer depth=1000": "the same with keep-last 1000",
+    PEER_TO_RAW: "a Peer's send(str) -> a raw callback counting on the Peer's rmw_zenoh key",
+    RAW_TO_PEER: "raw put(bytes) with rmw_zenoh's attachment on the rmw_zenoh key -> a Peer sub",
     "CustomNode DDS": "two CustomNodes over Fast DDS, keep-last 10",
 }
 
@@ -113,8 +128,24 @@ def _process_cpu() -> float:
     return times.user + times.system
 
 
+def _rmw_key(type_name: str) -> str:
+    """The rmw_zenoh key a Peer's agent named ``bench`` uses for ``type_name``."""
+    from pyconnect.transport import rmw_zenoh_keys as keys
+    from pyconnect.transport.interface_types import message_interface
+    from pyconnect.transport.peer import default_domain_id
+
+    interface = message_interface(type_name)
+    return keys.data_key(default_domain_id(), "bench", interface.type_name, interface.type_hash)
+
+
 def _start_receiver(kind: str, row: str, locator: str, note: Any) -> Any:
     type_name = "sensor_msgs/msg/Image" if row == "latency" else "std_msgs/msg/String"
+    if kind == PEER_TO_RAW:
+        import zenoh
+
+        session = zenoh.open(_zenoh_config(locator, listen=True))
+        subscriber = session.declare_subscriber(_rmw_key(type_name), lambda _sample: note(0))
+        return (lambda: (subscriber.undeclare(), session.close())), lambda: None
     if kind == "raw zenoh":
         import zenoh
 
@@ -132,7 +163,7 @@ def _start_receiver(kind: str, row: str, locator: str, note: Any) -> Any:
 
         subscriber = session.declare_subscriber("bench/raw", on_sample)
         return (lambda: (subscriber.undeclare(), session.close())), lambda: None
-    if kind in ("pyconnect Peer", "Peer depth=1000"):
+    if kind in ("pyconnect Peer", "Peer depth=1000", RAW_TO_PEER):
         from pyconnect.transport import Peer
 
         peer = Peer("bench_receiver", config=_zenoh_config(locator, listen=True))
@@ -168,7 +199,15 @@ class _Sender:
             self.session = zenoh.open(_zenoh_config(locator, listen=False))
             self.publisher = self.session.declare_publisher("bench/raw")
             self._close = lambda: (self.publisher.undeclare(), self.session.close())
-        elif kind in ("pyconnect Peer", "Peer depth=1000"):
+        elif kind == RAW_TO_PEER:
+            import zenoh
+
+            self.session = zenoh.open(_zenoh_config(locator, listen=False))
+            self.publisher = self.session.declare_publisher(
+                _rmw_key(type_name), congestion_control=zenoh.CongestionControl.DROP
+            )
+            self._close = lambda: (self.publisher.undeclare(), self.session.close())
+        elif kind in ("pyconnect Peer", "Peer depth=1000", PEER_TO_RAW):
             from pyconnect.transport import Peer
 
             peer = Peer("bench_sender", config=_zenoh_config(locator, listen=False))
@@ -189,11 +228,11 @@ class _Sender:
             self._close = node.shutdown
 
     def connected(self) -> bool:
-        if self.kind == "raw zenoh":
+        if self.kind in ("raw zenoh", RAW_TO_PEER):
             status: Any = self.publisher.matching_status
             return bool(getattr(status, "matching", status))
-        if self.kind in ("pyconnect Peer", "Peer depth=1000"):
-            return bool(self.agent.subscriber_count > 0)
+        if self.kind == PEER_TO_RAW:  # a raw subscriber declares no liveliness token
+            return bool(self.agent.matched)
         return bool(self.agent.subscriber_count > 0)
 
     def close(self) -> None:
@@ -252,6 +291,15 @@ def _send_rate(sender: _Sender) -> int:
             for _ in range(100):
                 put(payload)
             sent += 100
+        return sent
+    if sender.kind == RAW_TO_PEER:
+        from pyconnect.transport.rmw_zenoh_keys import ATTACHMENT
+
+        put, pack, gid, clock = sender.publisher.put, ATTACHMENT.pack, bytes(16), time.time_ns
+        while time.monotonic() < end:
+            for _ in range(100):
+                sent += 1
+                put(payload, attachment=pack(sent, clock(), gid))
         return sent
     send = sender.agent.send
     while time.monotonic() < end:
