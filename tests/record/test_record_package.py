@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-import pyconnect.record as record
+from pyconnect import record
 
 
 def test_every_public_name_resolves_to_its_home_module() -> None:
