@@ -324,6 +324,7 @@ def test_cloud_cdr_is_the_wire_codecs_bytes(
 ) -> None:
     """A large cloud's CDR written in one pass over the points (``cloud_cdr``) is byte for byte
     what the wire codec writes, with the same exact ``is_dense``, for every alignment."""
+    from pyconnect.codecs import point_cloud_cdr
     from pyconnect.ros import raw_path
 
     kinds = {"xyz": "<f4", "xyzrgb": "<f4", "organised": "<f4", "xyz64": "<f8"}
@@ -346,7 +347,7 @@ def test_cloud_cdr_is_the_wire_codecs_bytes(
     )  # fmt: skip
     expected, expected_fields = encoder.encode(points, now=lambda: (3, 4), frame_id=frame_id)
     with pytest.MonkeyPatch.context() as patch:
-        patch.setattr(raw_path, "CLOUD_IN_ONE_PASS_BYTES", 0)
+        patch.setattr(point_cloud_cdr, "IN_ONE_PASS_BYTES", 0)
         fast, fields = encoder.encode(points, now=lambda: (3, 4), frame_id=frame_id)
     assert fast == expected
     assert fields["is_dense"] is expected_fields["is_dense"]

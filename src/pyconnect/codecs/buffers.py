@@ -3,11 +3,13 @@
 rclpy gives numeric sequences as ``array.array`` and ``uint8[]`` as ``array('B')``; the CDR wire
 codecs give numpy arrays (often read-only views); ``byte[]`` comes as a list of 1-byte ``bytes``.
 Every reader here accepts all of them and copies nothing when the buffer protocol allows it.
+``new_bytes`` and ``writable_bytes`` let numpy fill a ``bytes`` object nothing else holds yet.
 """
 
 from __future__ import annotations
 
 import array
+import ctypes
 from typing import Any
 
 import numpy as np
@@ -102,3 +104,38 @@ def filled_array(values: Any, dtype: npt.DTypeLike, path: str) -> array.array[An
     result = array.array(ARRAY_TYPECODES[wanted.name])
     result.frombytes(contiguous_bytes(source))
     return result
+
+
+_new_bytes = ctypes.pythonapi.PyBytes_FromStringAndSize
+_new_bytes.argtypes = (ctypes.c_void_p, ctypes.c_ssize_t)
+_new_bytes.restype = ctypes.py_object
+
+
+def new_bytes(size: int) -> bytes:
+    """A ``bytes`` of ``size`` bytes, not yet filled: fill it (``writable_bytes``) before
+    anything else sees it, as C code does with ``PyBytes_FromStringAndSize(NULL, n)``."""
+    made: bytes = _new_bytes(None, size)
+    return made
+
+
+class _BytesHolder:
+    """Exposes a ``bytes`` object's buffer to numpy as writable, and keeps the object alive."""
+
+    __slots__ = ("__array_interface__", "data")
+
+    def __init__(self, data: bytes) -> None:
+        address = ctypes.cast(ctypes.c_char_p(data), ctypes.c_void_p).value
+        self.__array_interface__ = {
+            "data": (address, False),
+            "shape": (len(data),),
+            "typestr": "|u1",
+            "version": 3,
+        }
+        self.data = data
+
+
+def writable_bytes(data: bytes) -> npt.NDArray[np.uint8]:
+    """A writable uint8 view of ``data``, which keeps it alive: only for a ``bytes`` made for
+    this one use (``new_bytes``, or one rclpy just took) that nothing else holds or hashes,
+    and longer than 1 byte (CPython shares those)."""
+    return np.asarray(_BytesHolder(data))

@@ -14,6 +14,8 @@ from pyconnect.codecs.cdr_read import DecodeFunction, body_of
 from pyconnect.codecs.cdr_write import HEADER_BE, HEADER_LE, ZEROS
 from pyconnect.codecs.fastdds_size import fastdds_estimated_size
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
+from pyconnect.codecs.point_cloud import point_cloud_layout
+from pyconnect.codecs.point_cloud_cdr import cloud_cdr, writes_in_one_pass
 from pyconnect.codecs.type_code import WireCode
 from pyconnect.errors import DecodeError, EncodeError
 
@@ -121,5 +123,8 @@ class WireCodec:
                     f"{self.msg_type}: codec {type(codec).__name__} has no to_fields(value); "
                     "encode its lossless dict with from_dict instead"
                 )
+            if writes_in_one_pass(natural, value):
+                fields, points = point_cloud_layout(value)
+                return cloud_cdr(self, fields, points)
             value = natural.to_fields(value)
         return self.from_dict(value)

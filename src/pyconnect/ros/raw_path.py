@@ -21,15 +21,15 @@ for small messages too (README), hence the default.
 
 from __future__ import annotations
 
-import ctypes
-import struct
 from collections.abc import Callable, Mapping
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
-from pyconnect.codecs.point_cloud import copy_checking_dense_into, point_cloud_layout
+from pyconnect.codecs.buffers import writable_bytes
+from pyconnect.codecs.point_cloud import point_cloud_layout
+from pyconnect.codecs.point_cloud_cdr import CLOUD, cloud_cdr, writes_in_one_pass
 from pyconnect.codecs.registry import Registry
 from pyconnect.codecs.wire_codec import WireCodec
 from pyconnect.errors import CodecError, EncodeError, PyconnectError
@@ -76,22 +76,6 @@ IN_PLACE_BYTES = 64 * 1024
 """From this size a taken message is made writable in place rather than copied."""
 
 
-class _TakenBytes:
-    """Exposes a ``bytes`` object's buffer to numpy as writable, and keeps the object alive."""
-
-    __slots__ = ("__array_interface__", "taken")
-
-    def __init__(self, taken: bytes) -> None:
-        address = ctypes.cast(ctypes.c_char_p(taken), ctypes.c_void_p).value
-        self.__array_interface__ = {
-            "data": (address, False),
-            "shape": (len(taken),),
-            "typestr": "|u1",
-            "version": 3,
-        }
-        self.taken = taken
-
-
 def writable_buffer(data: bytes | bytearray | memoryview) -> bytearray | npt.NDArray[np.uint8]:
     """A writable buffer with the bytes of a message rclpy just took.
 
@@ -104,43 +88,7 @@ def writable_buffer(data: bytes | bytearray | memoryview) -> bytearray | npt.NDA
     """
     if type(data) is not bytes or len(data) < IN_PLACE_BYTES:
         return bytearray(data)
-    return np.asarray(_TakenBytes(data))  # numpy keeps the holder (and the bytes) as base
-
-
-_new_bytes = ctypes.pythonapi.PyBytes_FromStringAndSize
-_new_bytes.argtypes = (ctypes.c_void_p, ctypes.c_ssize_t)
-_new_bytes.restype = ctypes.py_object
-
-CLOUD = "sensor_msgs/msg/PointCloud2"
-CLOUD_IN_ONE_PASS_BYTES = 1024 * 1024
-"""From this size a PointCloud2's CDR is written by ``cloud_cdr`` (points read once)."""
-
-
-def cloud_cdr(wire: WireCodec, fields: dict[str, Any], points: npt.NDArray[Any]) -> bytes:
-    """The CDR bytes of a PointCloud2 (``fields`` without data), ``is_dense`` set in ``fields``.
-
-    The wire codec would join the 40 MB of a large cloud into its bytes after ``is_dense`` was
-    computed by reading them once already (1.4-1.6x a memcpy). Here the wire codec writes the
-    message with empty ``data`` (``data`` and ``is_dense`` are its last fields: the length, the
-    flag and the padding are its last 8 bytes) and the points go, chunk by chunk, checked then
-    copied, into a new ``bytes`` of the final size, filled before anything else sees it (what
-    C code does with ``PyBytes_FromStringAndSize(NULL, n)``). ``tests/ros/test_raw_path.py``
-    holds it to the wire codec's bytes.
-    """
-    empty = wire.from_dict({**fields, "data": b"", "is_dense": False})
-    head = len(empty) - 8
-    size = points.nbytes
-    end = head + 4 + size + 1
-    total = end + (-end & 3)
-    out: bytes = _new_bytes(None, total)
-    target = np.asarray(_TakenBytes(out))
-    target[:head] = np.frombuffer(empty, np.uint8, head)
-    target[head : head + 4] = np.frombuffer(struct.pack("<I", size), np.uint8)
-    dense = copy_checking_dense_into(points, target[head + 4 : head + 4 + size])
-    target[end - 1] = dense
-    target[end:] = 0
-    fields["is_dense"] = dense
-    return out
+    return writable_bytes(data)
 
 
 class RawEncoder:
@@ -155,6 +103,7 @@ class RawEncoder:
         self.describe = describe
         self._is_cloud = msg_type == CLOUD
         fields_codec = registry.fields_codec(msg_type)
+        self._fields_codec = fields_codec
         self._to_fields: Callable[[Any], Any] | None = (
             fields_codec.to_fields if fields_codec is not None else None
         )
@@ -179,13 +128,7 @@ class RawEncoder:
     ) -> tuple[bytes, Mapping[str, Any]]:
         """(CDR bytes, the fields written); errors become ``EncodeError`` naming the agent."""
         try:
-            if (
-                self._is_cloud
-                and isinstance(value, np.ndarray)
-                and value.flags.c_contiguous
-                and value.nbytes >= CLOUD_IN_ONE_PASS_BYTES
-                and self._to_fields is not None
-            ):
+            if self._is_cloud and writes_in_one_pass(self._fields_codec, value):
                 return self._cloud(value, now=now, frame_id=frame_id)
             fields = self.fields(value)
             if self.has_header:

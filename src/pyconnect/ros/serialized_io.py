@@ -8,8 +8,11 @@ loaded, through the ``pointer`` rclpy gives for its publisher, inside the handle
 (rclpy's guard against a destroyed publisher). When the library or a symbol is missing, or the
 call fails, rclpy's ``publish`` is called instead (same result, same errors).
 
-(The take side cannot be shortened the same way: pyconnect's executor is rclpy's C++
-``EventsExecutor``, which takes messages in C++.)
+(The take side cannot be shortened the same way: the agents' executor is rclpy's C++
+``EventsExecutor`` (pyconnect.ros.agent_executor), which takes each message through rclpy's C++
+``take_message`` itself; a Python subclass of rclpy's subscription handle that overrides
+``take_message`` is never asked (tried with the 7.1.6 wheel). A large message's one copy there is
+the ``bytes`` rclpy makes, which ``raw_path.writable_buffer`` then uses in place.)
 """
 
 from __future__ import annotations
