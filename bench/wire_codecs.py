@@ -36,7 +36,7 @@ def _image_cases() -> None:
         "1080p rgb8 Image decode from a memoryview (6.2 MB)",
         [
             ("rosbags typestore.deserialize_cdr", lambda: typestore.deserialize_cdr(view, "sensor_msgs/msg/Image")),
-            ("wire.to_dict (lossless dict, data a uint8 view)", lambda: codec.to_dict(view)),
+            ("wire.to_dict (lossless dict, data copied to bytes)", lambda: codec.to_dict(view)),
             ("wire codec.decode_view", lambda: codec.decode_view(view)),
             ("wire.decode -> ndarray (natural, registry lookup)", lambda: wire.decode(view, "sensor_msgs/msg/Image")),
             ("rclpy deserialize_message", lambda: deserialize_message(cdr, Image)),
