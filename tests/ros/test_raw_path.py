@@ -21,6 +21,7 @@ from pyconnect import codecs
 from pyconnect.codecs.natural import NATURAL_CODECS
 from pyconnect.errors import PyconnectError
 from tests.codecs.wire.test_natural import comparable
+from tests.codecs.wire.test_point_cloud_cdr import cloud
 from tests.strategies import default_packages, message_dicts
 
 from .conftest import EVENT_TIMEOUT
@@ -327,20 +328,7 @@ def test_cloud_cdr_is_the_wire_codecs_bytes(
     from pyconnect.codecs import point_cloud_cdr
     from pyconnect.ros import raw_path
 
-    kinds = {"xyz": "<f4", "xyzrgb": "<f4", "organised": "<f4", "xyz64": "<f8"}
-    if layout == "n3":
-        points: Any = np.zeros((count, 3), np.float32)
-        flat = points.reshape(-1)
-    else:
-        names = ["x", "y", "z"] + (["rgb"] if layout == "xyzrgb" else [])
-        points = np.zeros(count * (2 if layout == "organised" else 1),
-                          [(n, kinds[layout]) for n in names])  # fmt: skip
-        if layout == "organised":
-            points = points.reshape(2, count)
-        flat = points.reshape(-1)["y"]
-    for where, number in spots:
-        if flat.size:
-            flat[int(where * flat.size)] = number
+    points = cloud(layout, count, spots)
     encoder = raw_path.RawEncoder(
         msg_type=raw_path.CLOUD, registry=codecs.default_registry, has_header=True,
         describe="cloud",

@@ -24,6 +24,7 @@ def general_path(points: Any) -> bytes:
 
 
 def cloud(layout: str, count: int, spots: list[tuple[float, float]]) -> Any:
+    """Points of a layout (``n3``: an (N, 3) array), odd numbers at the ``spots`` of ``y``."""
     kinds = {"xyz": "<f4", "xyzrgb": "<f4", "organised": "<f4", "xyz64": "<f8"}
     if layout == "n3":
         points: Any = np.zeros((count, 3), np.float32)
