@@ -2,12 +2,12 @@
 
 The general path reads a cloud's points twice and copies them twice: ``to_fields`` reads them
 for ``is_dense``, then the wire codec joins them into its bytes (1.48x a memcpy for 40 MB in
-``bench.natural_codecs``; 1.29x this way). Here the wire codec writes the message with empty ``data``
-(``data`` and ``is_dense`` are its last fields: the length, the flag and the padding are its
-last 8 bytes) and the points go, chunk by chunk, checked then copied, into a new ``bytes`` of
-the final size. ``WireCodec.encode`` and a ``pub`` agent's raw path (pyconnect.ros.raw_path)
-take this path from ``IN_ONE_PASS_BYTES``; tests/codecs/wire/test_point_cloud_cdr.py holds it
-to the general path's bytes.
+``bench.natural_codecs``; 1.29x this way). Here the wire codec writes the message with empty
+``data`` (``data`` and ``is_dense`` are its last fields: the length, the flag and the padding
+are its last 8 bytes) and the points go, chunk by chunk, checked then copied, into a new
+``bytes`` of the final size. ``WireCodec.encode`` and a ``pub`` agent's raw path
+(pyconnect.ros.raw_path) take this path from ``IN_ONE_PASS_BYTES``;
+tests/codecs/wire/test_point_cloud_cdr.py holds it to the general path's bytes.
 """
 
 from __future__ import annotations
