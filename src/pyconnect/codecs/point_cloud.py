@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import array
 import sys
-from collections.abc import Callable
 from typing import Any
 
 import numpy as np
@@ -214,6 +213,11 @@ def _is_dense(points: npt.NDArray[Any]) -> bool:
     words = _words(points)
     if words is not None and _finite_words(words):
         return True
+    return _finite_axes(points, axes)
+
+
+def _finite_axes(points: npt.NDArray[Any], axes: list[str]) -> bool:
+    """The exact check: no NaN or inf in any of ``axes``."""
     return all(bool(np.isfinite(points[a]).all()) for a in axes)
 
 
@@ -241,22 +245,13 @@ def copy_checking_dense(points: npt.NDArray[Any]) -> tuple[array.array[int], boo
 
 def copy_checking_dense_into(points: npt.NDArray[Any], target: npt.NDArray[np.uint8]) -> bool:
     """Copy the points' bytes into ``target`` (uint8, as many bytes) and return ``is_dense``,
-    reading the points once: each chunk checked, then copied while in cache (the raw path's
-    CDR buffer; ``copy_checking_dense`` for rclpy's array)."""
-
-    def write(start: int, chunk: memoryview) -> None:
-        target[start : start + len(chunk)] = np.frombuffer(chunk, np.uint8)
-
-    return _copy_checking(points, write)
-
-
-def _copy_checking(points: npt.NDArray[Any], write: Callable[[int, memoryview], Any]) -> bool:
-    """Hand the points' bytes to ``write(offset, chunk)`` in ``_CHUNK`` pieces, each checked for
-    NaN/inf just before (the words check, exact per axis when it fails); ``is_dense``."""
-    source = contiguous_bytes(points)
+    reading the points once: each ``_CHUNK`` checked (the words check), then copied while in
+    cache; the exact per-axis check only when a chunk fails (the raw path's CDR buffer)."""
+    source = np.frombuffer(contiguous_bytes(points), np.uint8)
     words = _words(points)
-    if words is None or not _axes(points):
-        write(0, source)
+    axes = _axes(points)
+    if words is None or not axes:
+        target[:] = source
         return _is_dense(points)
     finite = True
     step = _CHUNK
@@ -265,10 +260,8 @@ def _copy_checking(points: npt.NDArray[Any], write: Callable[[int, memoryview], 
             chunk = words[start // 4 : (start + step) // 4]
             if finite:
                 finite = bool(np.isfinite(np.dot(chunk, chunk)))
-            write(start, source[start : start + step])
-    if finite:
-        return True
-    return all(bool(np.isfinite(points[a]).all()) for a in _axes(points))
+            target[start : start + step] = source[start : start + step]
+    return finite or _finite_axes(points, axes)
 
 
 def point_cloud_layout(value: Any) -> tuple[dict[str, Any], npt.NDArray[Any]]:
