@@ -140,6 +140,29 @@ def test_raw_pub_fills_the_header_like_the_class_path(make_node: Any) -> None:
     assert (msg.header.stamp.sec, msg.header.stamp.nanosec) != (0, 0)
 
 
+def test_small_header_less_pubs_write_their_bytes_straight(make_node: Any) -> None:
+    """codecs/fast_paths.py's encoders: same bytes as the general path, same errors."""
+    flat = Paths(make_node(), "std_msgs/msg/Float64MultiArray")
+    assert flat.raw_pub._raw.encode_bytes is not None
+    assert Paths(make_node(), "std_msgs/msg/String").raw_pub._raw.encode_bytes is not None
+    assert Paths(make_node(), "sensor_msgs/msg/Image").raw_pub._raw.encode_bytes is None
+    value = np.linspace(0.0, 1.0, 5)
+    flat.raw_pub.send(value)
+    sent = flat.published["raw"].pop()
+    assert sent == flat.raw_pub._raw.encode(value, now=time_unused, frame_id="")[0]
+    assert deserialize_message(sent, flat.msg_class).data.tolist() == value.tolist()
+    with pytest.raises(PyconnectError) as refused:
+        flat.raw_pub.send("not an array")
+    assert str(refused.value) == (
+        "agent 'raw_pub' (pub std_msgs/msg/Float64MultiArray): Float64MultiArray: expected "
+        "numpy.ndarray, got str"
+    )
+
+
+def time_unused() -> tuple[int, int]:
+    raise AssertionError("a Float64MultiArray has no header to stamp")
+
+
 def test_raw_image_is_writable_like_the_class_paths(make_node: Any) -> None:
     paths = Paths(make_node(), "sensor_msgs/msg/Image")
     msg = codecs.encode(np.zeros((2, 3), dtype=np.uint8), "sensor_msgs/msg/Image")

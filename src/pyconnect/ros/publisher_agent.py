@@ -138,6 +138,11 @@ class PublisherAgent(NodeAgent):
             return False
         raw = self._raw
         if raw is not None and not self._is_message_value(data):
+            encode_bytes = raw.encode_bytes
+            if encode_bytes is not None:  # a String, a number, a flat MultiArray
+                publish_serialized(self.publisher, encode_bytes(data))
+                self._sent(data)
+                return True
             cdr, fields = raw.encode(data, now=self._now, frame_id=self.frame_id)
             publish_serialized(self.publisher, cdr)  # no copy before rcl's
             if self._has_encoding:

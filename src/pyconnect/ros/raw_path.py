@@ -4,9 +4,10 @@ By default (``raw=None``) and with ``raw=True``, a subscription receives the ser
 (rclpy's ``raw=True``) and the wire codec decodes it (the natural codec reads a writable view:
 of a copy for small messages, of the taken bytes themselves for large ones, see
 ``writable_buffer``; or the lossless dict is built straight from them); a publisher
-publishes the bytes the wire codec wrote. Both skip rclpy's conversion between C structs and
-Python message objects, which is most of the cost of a large message (a 6 MB image: 9.6 ms
-stock in rclpy against microseconds here).
+publishes the bytes the wire codec wrote (String, the numbers and flat MultiArrays through the
+straight-line encoders of ``codecs/fast_paths.py``). Both skip rclpy's conversion between C
+structs and Python message objects, which is most of the cost of a large message (a 6 MB
+image: 9.6 ms stock in rclpy against microseconds here).
 
 The values are the class path's: the same registry codec turns the view or the fields into the
 value (``tests/ros/test_raw_path.py`` compares both paths for every natural codec). Outgoing
@@ -28,6 +29,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pyconnect.codecs.buffers import writable_bytes
+from pyconnect.codecs.fast_paths import fast_encoder
 from pyconnect.codecs.point_cloud import point_cloud_layout
 from pyconnect.codecs.point_cloud_cdr import CLOUD, cloud_cdr, writes_in_one_pass
 from pyconnect.codecs.registry import Registry
@@ -107,6 +109,11 @@ class RawEncoder:
         self._to_fields: Callable[[Any], Any] | None = (
             fields_codec.to_fields if fields_codec is not None else None
         )
+        self.encode_bytes: Callable[[Any], bytes] | None = (
+            None if has_header else fast_encoder(self.natural, self._general_bytes)
+        )
+        """The straight-line encoder of a small header-less type (codecs/fast_paths.py) or
+        None; what it cannot prove well formed goes to ``encode``, which raises as usual."""
 
     @property
     def usable(self) -> bool:
@@ -145,6 +152,9 @@ class RawEncoder:
                 f"{self.describe}: codec raised {type(error).__name__}: {error}"
             ) from error
 
+    def _general_bytes(self, value: Any) -> bytes:
+        return self.encode(value, now=_no_header, frame_id="")[0]
+
     def _cloud(
         self, value: Any, *, now: Callable[[], tuple[int, int]], frame_id: str
     ) -> tuple[bytes, Mapping[str, Any]]:
@@ -153,6 +163,10 @@ class RawEncoder:
         cdr = cloud_cdr(self.wire, fields, points)
         fields["data"] = points.reshape(-1).view(np.uint8).data
         return cdr, fields
+
+
+def _no_header() -> tuple[int, int]:
+    raise AssertionError("a type without a header needs no stamp")  # pragma: no cover
 
 
 def _with_header(

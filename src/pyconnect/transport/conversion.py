@@ -14,9 +14,9 @@ from collections.abc import Callable, Mapping
 from types import SimpleNamespace
 from typing import Any
 
+from pyconnect.codecs.fast_paths import fast_paths
 from pyconnect.codecs.wire import WireCodec
 from pyconnect.errors import CodecError, DecodeError, EncodeError
-from pyconnect.transport.fast_paths import fast_paths
 
 EncodeFunc = Callable[[Any, Any], Any]
 DecodeFunc = Callable[[Any], Any]

@@ -1,25 +1,33 @@
-"""Straight-line CDR encode/decode for the smallest std_msgs types, at a peer agent's call sites.
+"""Straight-line CDR for the commonest small std_msgs values, at an agent's call sites.
 
 A ``std_msgs/String`` is 4 header bytes, a length, the UTF-8 bytes and a NUL; an ``Int32`` is 4
-header bytes and 4 value bytes. The general path (codec ``to_fields`` -> generated
-``from_dict`` -> join; ``body_of`` -> generated view -> codec ``decode``) spends ~1 µs per
-message on frames and checks such a message does not need (bench/transport.py).
+header bytes and 4 value bytes; a ``Float64MultiArray`` of a flat array is 7 words (one
+dimension labelled ``''``, its size and stride, ``data_offset`` 0, the count) and the array's
+bytes. The general path (codec ``to_fields`` -> generated ``from_dict`` -> join; ``body_of`` ->
+generated view -> codec ``decode``) spends 1-6 µs per message on frames and checks such a
+message does not need, and a 100 Hz publisher runs it on a cold cache, where it costs several
+times that (bench/transport.py, bench/agents.py). Peers (``transport/``) and the ``pub``/``sub``
+agents' raw CDR path (``ros/raw_path.py``) both take these paths.
 
 A fast path handles only what it can prove is well formed and gives exactly the general
-path's result there (tests/transport/test_fast_paths.py compares both on arbitrary values and
-bytes); everything else — a wrong type, an out-of-range int, a big-endian or malformed
-payload, a stray trailing byte — goes to the general path, which raises its usual error. Fast
-paths apply only when the registry's codec of the type is the stock one and the agent has no
-``encode_func``/``decode_func``: a user codec is never bypassed.
+path's result there (tests/transport/test_fast_paths.py and tests/codecs/test_fast_paths.py
+compare both on arbitrary values and bytes); everything else — a wrong type, an out-of-range
+int, a big-endian or malformed payload, a stray trailing byte — goes to the general path, which
+raises its usual error. Fast paths apply only when the registry's codec of the type is the
+stock one and the agent has no ``encode_func``/``decode_func``: a user codec is never bypassed.
 """
 
 from __future__ import annotations
 
 import math
 import struct
+import sys
 from collections.abc import Callable
 from typing import Any
 
+import numpy as np
+
+from pyconnect.codecs.multi_array import MultiArrayCodec
 from pyconnect.codecs.std_scalars import FloatCodec, IntCodec, StringCodec
 from pyconnect.typesys.primitives import FLOAT32_MAX, INTEGER_RANGES, STRUCT_CODES
 
@@ -29,6 +37,8 @@ Decode = Callable[[bytes], Any]
 _LITTLE = b"\x00\x01\x00\x00"  # the XCDR1 little-endian encapsulation header, no options
 _U32 = struct.Struct("<I")
 _STRING_HEAD = struct.Struct("<4sI")
+# dim count 1, label length 1, the label's NUL and padding, size, stride, data_offset, count
+_FLAT_LAYOUT = struct.Struct("<4s7I")
 
 
 def fast_paths(
@@ -36,6 +46,9 @@ def fast_paths(
 ) -> tuple[Encode, Decode] | None:
     """``(encode, decode)`` for ``value_codec``'s type, or None when it has no fast path."""
     codec_class = type(value_codec)
+    if codec_class is MultiArrayCodec:
+        encode = _flat_multi_array(value_codec, general_encode)  # type: ignore[arg-type]
+        return None if encode is None else (encode, general_decode)
     if codec_class is StringCodec:
         return _string(general_encode, general_decode)
     if codec_class is IntCodec and value_codec.kind != "char":  # type: ignore[attr-defined]
@@ -45,6 +58,16 @@ def fast_paths(
         name: str = value_codec.name  # type: ignore[attr-defined]
         return _float(name == "Float32", general_encode, general_decode)
     return None
+
+
+def fast_encoder(value_codec: object, general_encode: Encode) -> Encode | None:
+    """The encoding half of ``fast_paths`` (a publisher's), or None."""
+    paths = fast_paths(value_codec, general_encode=general_encode, general_decode=_no_decode)
+    return None if paths is None else paths[0]
+
+
+def _no_decode(payload: bytes) -> Any:
+    raise AssertionError("fast_encoder's caller decodes nothing")  # pragma: no cover
 
 
 def _string(general_encode: Encode, general_decode: Decode) -> tuple[Encode, Decode]:
@@ -123,3 +146,37 @@ def _float(single: bool, general_encode: Encode, general_decode: Decode) -> tupl
         return not single or not isfinite(value) or abs(value) <= FLOAT32_MAX
 
     return _scalar_encode(fmt, accept, general_encode), _scalar_decode(fmt, general_decode)
+
+
+def _flat_multi_array(codec: MultiArrayCodec, general_encode: Encode) -> Encode | None:
+    """A C-contiguous 1-D ndarray of the message's own dtype; decoding keeps the general path."""
+    dtype = codec.dtype
+    if codec.name == "ByteMultiArray" or sys.byteorder != "little":
+        return None  # ByteMultiArray's data are bytes; elsewhere CDR's order needs a swap
+    itemsize = dtype.itemsize
+    pack_layout = _FLAT_LAYOUT.pack
+    # The body's 28 bytes, then the elements aligned to their size (CDR counts from the body).
+    align = b"\0" * (-28 % itemsize)
+    ndarray = np.ndarray
+
+    def encode(value: Any) -> bytes:
+        if (
+            value.__class__ is ndarray
+            and value.dtype is dtype
+            and value.ndim == 1
+            and value.flags.c_contiguous
+        ):
+            size = value.shape[0]
+            if size and size <= 0xFFFFFFFF:
+                end = 28 + len(align) + size * itemsize
+                return b"".join(
+                    (pack_layout(_LITTLE, 1, 1, 0, size, size, 0, size), align, value.data,
+                     _TAILS[end & 3])
+                )  # fmt: skip
+        return general_encode(value)
+
+    return encode
+
+
+_TAILS = (b"", b"\0\0\0", b"\0\0", b"\0")
+"""Zero bytes that bring a body of ``end`` bytes (``end & 3``) to a 4-byte boundary."""
