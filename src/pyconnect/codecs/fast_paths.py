@@ -66,8 +66,18 @@ def fast_encoder(value_codec: object, general_encode: Encode) -> Encode | None:
     return None if paths is None else paths[0]
 
 
+def fast_decoder(value_codec: object, general_decode: Decode) -> Decode | None:
+    """The decoding half of ``fast_paths`` (a subscriber's), or None where it is the general."""
+    paths = fast_paths(value_codec, general_encode=_no_encode, general_decode=general_decode)
+    return None if paths is None or paths[1] is general_decode else paths[1]
+
+
 def _no_decode(payload: bytes) -> Any:
     raise AssertionError("fast_encoder's caller decodes nothing")  # pragma: no cover
+
+
+def _no_encode(value: Any) -> bytes:
+    raise AssertionError("fast_decoder's caller encodes nothing")  # pragma: no cover
 
 
 def _string(general_encode: Encode, general_decode: Decode) -> tuple[Encode, Decode]:

@@ -29,7 +29,7 @@ import numpy as np
 import numpy.typing as npt
 
 from pyconnect.codecs.buffers import writable_bytes
-from pyconnect.codecs.fast_paths import fast_encoder
+from pyconnect.codecs.fast_paths import fast_decoder, fast_encoder
 from pyconnect.codecs.point_cloud import point_cloud_layout
 from pyconnect.codecs.point_cloud_cdr import CLOUD, cloud_cdr, writes_in_one_pass
 from pyconnect.codecs.registry import Registry
@@ -64,6 +64,14 @@ class RawDecoder:
     def __init__(self, *, msg_type: str, registry: Registry) -> None:
         self.wire: WireCodec = registry.wire_codec(msg_type)
         self.natural = registry.value_codec(msg_type)
+        self.decode_value: Callable[[bytes], Any] | None = fast_decoder(
+            self.natural, self._general_value
+        )
+        """The straight-line decoder of a String or a number (codecs/fast_paths.py) or None;
+        what it cannot prove well formed goes to ``decode``, which raises as usual."""
+
+    def _general_value(self, data: bytes) -> Any:
+        return self.decode(data)[0]
 
     def decode(self, data: bytes) -> tuple[Any, Any]:
         """(value, the view the natural codec read or None for a dict type)."""

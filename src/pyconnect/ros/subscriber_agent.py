@@ -141,13 +141,24 @@ class SubscriberAgent(NodeAgent):
     def _raw_callback(self, raw: RawDecoder) -> Callable[[bytes], None]:
         """The subscription callback of the raw path: CDR bytes in, the same delivery."""
 
+        decode_value = raw.decode_value
+        if decode_value is not None:  # a String or a number: no view to keep
+
+            def on_small_message(data: bytes) -> None:
+                try:
+                    value = decode_value(data)
+                except Exception as error:
+                    self._decode_failed(error)
+                    return
+                self._deliver(value, None)
+
+            return on_small_message
+
         def on_raw_message(data: bytes) -> None:
             try:
                 value, view = raw.decode(data)
             except Exception as error:
-                if not isinstance(error, DecodeError):
-                    error = DecodeError(f"{type(error).__name__}: {error}")
-                self.report_exception("decode", error)
+                self._decode_failed(error)
                 return
             self._deliver(value, view)
 
@@ -157,11 +168,14 @@ class SubscriberAgent(NodeAgent):
         try:
             value = self._decode(msg)
         except Exception as error:
-            if not isinstance(error, DecodeError):
-                error = DecodeError(f"{type(error).__name__}: {error}")
-            self.report_exception("decode", error)
+            self._decode_failed(error)
             return
         self._deliver(value, msg)
+
+    def _decode_failed(self, error: Exception) -> None:
+        if not isinstance(error, DecodeError):
+            error = DecodeError(f"{type(error).__name__}: {error}")
+        self.report_exception("decode", error)
 
     def _deliver(self, value: Any, msg: Any) -> None:
         self._latest = value
