@@ -77,6 +77,10 @@ class MultiArrayCodec(FieldsCodec):
                 raise DecodeError(
                     f"{self.name}.layout.dim: sizes {shape} are too large for an array"
                 ) from None
+        if len(shape) == 1:
+            # One dimension (what encode writes for a flat array): its stride never matters,
+            # and the slice is the view as_strided would make, without its ~7 µs.
+            return data[offset : offset + count]
         last = offset + sum((n - 1) * s for n, s in zip(shape, element_strides, strict=True))
         if last >= len(data):
             raise DecodeError(

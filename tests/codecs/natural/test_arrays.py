@@ -156,6 +156,41 @@ def test_multi_array_layout_with_offset_and_padding() -> None:
     )
 
 
+@EXAMPLES
+@given(
+    data=st.lists(st.integers(-(2**31), 2**31 - 1), max_size=12),
+    size=st.integers(0, 14),
+    stride=st.integers(0, 20),
+    offset=st.integers(0, 14),
+)
+def test_one_dimension_is_the_slice_after_the_offset(
+    data: list[int], size: int, stride: int, offset: int
+) -> None:
+    """A 1-D layout reads ``size`` elements from ``data_offset`` (its stride never matters)."""
+    msg = std_msgs.Int32MultiArray(
+        layout=std_msgs.MultiArrayLayout(
+            dim=[std_msgs.MultiArrayDimension(label="x", size=size, stride=stride)],
+            data_offset=offset,
+        ),
+        data=data,
+    )
+    if offset + size > len(data):
+        with pytest.raises(DecodeError) as error:
+            codecs.decode(msg)
+        assert str(error.value) == (
+            f"Int32MultiArray.data: layout ({size},) needs {size} elements after offset "
+            f"{offset}, got {max(len(data) - offset, 0)}"
+        )
+        return
+    codec = codecs.lookup("std_msgs/Int32MultiArray")
+    for decoded in (codec.decode(msg), codec.decode(wire_view(msg))):
+        assert decoded.tolist() == data[offset : offset + size]
+        assert decoded.dtype == np.int32 and decoded.shape == (size,)
+    decoded = codec.decode(msg)
+    assert decoded.flags.writeable
+    assert np.shares_memory(decoded, np.frombuffer(msg.data, np.int32)) or not size
+
+
 def test_multi_array_dtype_errors() -> None:
     with pytest.raises(EncodeError) as error:
         codecs.encode(np.zeros(3, np.float64), "std_msgs/Int32MultiArray")
