@@ -141,22 +141,14 @@ class SubscriberAgent(NodeAgent):
     def _raw_callback(self, raw: RawDecoder) -> Callable[[bytes], None]:
         """The subscription callback of the raw path: CDR bytes in, the same delivery."""
 
-        decode_value = raw.decode_value
-        if decode_value is not None:  # a String or a number: no view to keep
-
-            def on_small_message(data: bytes) -> None:
-                try:
-                    value = decode_value(data)
-                except Exception as error:
-                    self._decode_failed(error)
-                    return
-                self._deliver(value, None)
-
-            return on_small_message
+        decode_value = raw.decode_value  # a String or a number: read straight, no view to keep
 
         def on_raw_message(data: bytes) -> None:
             try:
-                value, view = raw.decode(data)
+                if decode_value is not None:
+                    value, view = decode_value(data), None
+                else:
+                    value, view = raw.decode(data)
             except Exception as error:
                 self._decode_failed(error)
                 return
