@@ -1,4 +1,4 @@
-"""The flat-MultiArray fast encoder gives exactly the general path's bytes and errors.
+"""The flat-MultiArray fast paths give exactly the general path's bytes, values and errors.
 
 The transport's tests (tests/transport/test_fast_paths.py) hold String and the numbers to the
 same rule; ``pub`` agents use these encoders too (tests/ros/test_raw_path.py compares their
@@ -7,6 +7,7 @@ messages with the class path's).
 
 from __future__ import annotations
 
+import importlib
 from typing import Any
 
 import numpy as np
@@ -14,12 +15,13 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
-from rclpy.serialization import deserialize_message
-from std_msgs.msg import Float64MultiArray
+from rclpy.serialization import deserialize_message, serialize_message
+from std_msgs.msg import Float64MultiArray, MultiArrayDimension
 
 from pyconnect.codecs import default_registry, wire
-from pyconnect.codecs.fast_paths import fast_encoder
+from pyconnect.codecs.fast_paths import FAST_DECODE_BYTES, fast_decoder, fast_encoder
 from pyconnect.codecs.multi_array import DTYPES, MultiArrayCodec
+from pyconnect.ros.raw_path import RawDecoder
 
 FLAT_TYPES = [f"std_msgs/msg/{name}" for name in DTYPES if name != "ByteMultiArray"]
 
@@ -101,3 +103,95 @@ def test_only_the_stock_codec_of_a_numeric_multi_array_has_one() -> None:
 
     assert fast_encoder(Scaled("Float64MultiArray"), general) is None
     assert fast_encoder(MultiArrayCodec("Float64MultiArray"), general) is not None
+
+
+# -- decoding: a sub agent's raw path (writable arrays over a copy) ----------------------------
+def decoders(type_name: str) -> tuple[Any, Any]:
+    """(the fast decoder, the raw path's general one: writable buffer -> view -> codec)."""
+    general = RawDecoder(msg_type=type_name, registry=default_registry)._general_value
+    fast = fast_decoder(default_registry.value_codec(type_name), general)
+    assert fast is not None, type_name
+    return fast, general
+
+
+def decoded(decode: Any, payload: bytes) -> tuple[Any, ...]:
+    try:
+        value = decode(payload)
+    except Exception as error:
+        return type(error).__name__, str(error)
+    return "array", value.dtype.str, value.shape, value.tobytes(), value.flags.writeable
+
+
+def payloads(type_name: str) -> st.SearchStrategy[bytes]:
+    """What a publisher sends: pyconnect's flat layout, rclpy's bare one, any layout; each
+    maybe with bytes flipped, cut short or extended."""
+    name = type_name.rsplit("/", 1)[1]
+    dtype = DTYPES[name]
+    message_class = getattr(importlib.import_module("std_msgs.msg"), name)
+    elements = hnp.arrays(dtype=dtype, shape=st.integers(0, 40))
+    labels = st.sampled_from(["", "x", "rows"])
+    dims = st.lists(st.tuples(labels, st.integers(0, 50), st.integers(0, 50)), max_size=2)
+
+    def by_rclpy(data: Any, layout: list[tuple[str, int, int]], offset: int) -> bytes:
+        msg = message_class(data=data.tolist())
+        msg.layout.dim = [MultiArrayDimension(label=t, size=n, stride=s) for t, n, s in layout]
+        msg.layout.data_offset = offset
+        return bytes(serialize_message(msg))
+
+    clean = st.one_of(
+        elements.map(lambda data: wire.wire_codec(type_name).encode(data)),
+        st.builds(by_rclpy, elements, st.just([]), st.just(0)),
+        st.builds(by_rclpy, elements, dims, st.integers(0, 3)),
+    )
+
+    def spoil(payload: bytes, where: int, byte: int, how: int) -> bytes:
+        if how == 0 or not payload:
+            return payload
+        if how == 1:
+            index = where % len(payload)
+            return payload[:index] + bytes([byte]) + payload[index + 1 :]
+        if how == 2:
+            return payload[: where % len(payload)]
+        return payload + bytes([byte]) * (where % 6)
+
+    return st.builds(spoil, clean, st.integers(0, 10**6), st.integers(0, 255), st.integers(0, 3))
+
+
+@pytest.mark.parametrize("type_name", FLAT_TYPES)
+@settings(max_examples=200, deadline=None)
+@given(data=st.data())
+def test_decode_equals_the_general_path(type_name: str, data: st.DataObject) -> None:
+    fast, general = decoders(type_name)
+    payload = data.draw(payloads(type_name))
+    assert decoded(fast, payload) == decoded(general, payload)
+
+
+@pytest.mark.parametrize("type_name", FLAT_TYPES)
+def test_both_flat_layouts_are_read_straight_into_writable_arrays(type_name: str) -> None:
+    name = type_name.rsplit("/", 1)[1]
+    values = np.arange(1, 8).astype(DTYPES[name])
+    message_class = getattr(importlib.import_module("std_msgs.msg"), name)
+    calls: list[bytes] = []
+    fast = fast_decoder(default_registry.value_codec(type_name), calls.append)
+    assert fast is not None
+    for payload in (
+        wire.wire_codec(type_name).encode(values),  # one dimension, what a pub agent sends
+        bytes(serialize_message(message_class(data=values.tolist()))),  # no layout, rclpy's
+    ):
+        value = fast(payload)
+        assert value.tolist() == values.tolist() and value.dtype == values.dtype
+        value[0] = 0  # writable, and over a copy: the payload is untouched
+        assert fast(payload)[0] == values[0]
+    assert calls == []
+
+
+def test_a_large_payload_keeps_the_general_path_which_copies_nothing() -> None:
+    fast, _ = decoders("std_msgs/msg/Float64MultiArray")
+    calls: list[bytes] = []
+    straight = fast_decoder(default_registry.value_codec("std_msgs/msg/Float64MultiArray"),
+                            calls.append)  # fmt: skip
+    assert straight is not None
+    payload = wire.wire_codec("std_msgs/msg/Float64MultiArray").encode(np.zeros(FAST_DECODE_BYTES))
+    straight(payload)
+    assert calls == [payload]
+    assert fast(payload).shape == (FAST_DECODE_BYTES,)

@@ -141,14 +141,17 @@ def test_raw_pub_fills_the_header_like_the_class_path(make_node: Any) -> None:
 
 
 def test_small_header_less_types_are_written_and_read_straight(make_node: Any) -> None:
-    """codecs/fast_paths.py's encoders: same bytes as the general path, same errors."""
+    """codecs/fast_paths.py's paths: same bytes and values as the general path, same errors."""
     flat = Paths(make_node(), "std_msgs/msg/Float64MultiArray")
     assert flat.raw_pub._raw.encode_bytes is not None
     text = Paths(make_node(), "std_msgs/msg/String")
     assert text.raw_pub._raw.encode_bytes is not None
     assert text.raw_sub._raw.decode_value is not None  # decoded straight too
     assert text.received(text.msg_class(data="héllo")) == ("héllo", "héllo")
-    assert flat.raw_sub._raw.decode_value is None  # its values are writable views: general path
+    assert flat.raw_sub._raw.decode_value is not None  # into a writable copy, as the class path
+    raw_array, class_array = flat.received(flat.msg_class(data=[1.5, -2.0]))
+    assert raw_array.tolist() == class_array.tolist() == [1.5, -2.0]
+    assert raw_array.flags.writeable and class_array.flags.writeable
     assert Paths(make_node(), "sensor_msgs/msg/Image").raw_pub._raw.encode_bytes is None
     value = np.linspace(0.0, 1.0, 5)
     flat.raw_pub.send(value)

@@ -3,11 +3,12 @@
 A ``std_msgs/String`` is 4 header bytes, a length, the UTF-8 bytes and a NUL; an ``Int32`` is 4
 header bytes and 4 value bytes; a ``Float64MultiArray`` of a flat array is 7 words (one
 dimension labelled ``''``, its size and stride, ``data_offset`` 0, the count) and the array's
-bytes. The general path (codec ``to_fields`` -> generated ``from_dict`` -> join; ``body_of`` ->
-generated view -> codec ``decode``) spends 1-6 µs per message on frames and checks such a
-message does not need, and a 100 Hz publisher runs it on a cold cache, where it costs several
-times that (bench/transport.py, bench/agents.py). Peers (``transport/``) and the ``pub``/``sub``
-agents' raw CDR path (``ros/raw_path.py``) both take these paths.
+bytes (rclpy writes no dimension: 3 words). The general path (codec ``to_fields`` -> generated
+``from_dict`` -> join; ``body_of`` -> generated view -> codec ``decode``) spends 1-6 µs per
+message on frames and checks such a message does not need, and a 100 Hz publisher runs it on a
+cold cache, where it costs several times that (bench/transport.py, bench/agents.py). Peers
+(``transport/``) and the ``pub``/``sub`` agents' raw CDR path (``ros/raw_path.py``) both take
+these paths.
 
 A fast path handles only what it can prove is well formed and gives exactly the general
 path's result there (tests/transport/test_fast_paths.py and tests/codecs/test_fast_paths.py
@@ -67,7 +68,14 @@ def fast_encoder(value_codec: object, general_encode: Encode) -> Encode | None:
 
 
 def fast_decoder(value_codec: object, general_decode: Decode) -> Decode | None:
-    """The decoding half of ``fast_paths`` (a subscriber's), or None where it is the general."""
+    """The decoding half of ``fast_paths`` (a subscriber's), or None where it is the general.
+
+    A flat ``*MultiArray`` decodes straight here too, into a writable array over a copy of the
+    payload, as the agents' raw path gives (a peer's general decode gives read-only views, so
+    ``fast_paths`` leaves its MultiArrays alone).
+    """
+    if type(value_codec) is MultiArrayCodec:
+        return _flat_multi_array_decode(value_codec, general_decode)
     paths = fast_paths(value_codec, general_encode=_no_encode, general_decode=general_decode)
     return None if paths is None or paths[1] is general_decode else paths[1]
 
@@ -159,7 +167,7 @@ def _float(single: bool, general_encode: Encode, general_decode: Decode) -> tupl
 
 
 def _flat_multi_array(codec: MultiArrayCodec, general_encode: Encode) -> Encode | None:
-    """A C-contiguous 1-D ndarray of the message's own dtype; decoding keeps the general path."""
+    """A C-contiguous 1-D ndarray of the message's own dtype (decoding: ``fast_decoder``)."""
     dtype = codec.dtype
     if codec.name == "ByteMultiArray" or sys.byteorder != "little":
         return None  # ByteMultiArray's data are bytes; elsewhere CDR's order needs a swap
@@ -188,5 +196,51 @@ def _flat_multi_array(codec: MultiArrayCodec, general_encode: Encode) -> Encode 
     return encode
 
 
+def _flat_multi_array_decode(codec: MultiArrayCodec, general_decode: Decode) -> Decode | None:
+    """A layout without dimensions (rclpy's default) or with one unlabelled dimension spanning
+    all the data (what encode writes), ``data_offset`` 0, at least one element, under
+    ``FAST_DECODE_BYTES``; a writable 1-D array as the general path gives."""
+    dtype = codec.dtype
+    if codec.name == "ByteMultiArray" or sys.byteorder != "little":
+        return None
+    itemsize = dtype.itemsize
+    # Payload offsets of the data: 4 header bytes, then the body's 12 or 28 bytes aligned.
+    bare_start = 4 + 12 + (-12 % itemsize)
+    flat_start = 4 + 28 + (-28 % itemsize)
+    unpack_u32, unpack_bare, unpack_flat = (
+        _U32.unpack_from,
+        _BARE_TAIL.unpack_from,
+        _FLAT_TAIL.unpack_from,
+    )
+    frombuffer = np.frombuffer
+
+    def decode(payload: bytes) -> Any:
+        length = len(payload)
+        if length < FAST_DECODE_BYTES and length >= 16 and payload[:2] == b"\x00\x01":
+            (dims,) = unpack_u32(payload, 4)
+            if dims == 0:
+                offset, count = unpack_bare(payload, 8)
+                start = bare_start
+            elif dims == 1 and length >= 32:
+                label, size, _stride, offset, count = unpack_flat(payload, 8)
+                start = flat_start if label == _EMPTY_LABEL and size == count else 0
+            else:
+                start = 0
+            if start and offset == 0 and count:
+                end = start + count * itemsize
+                if end <= length <= end + 3:
+                    return frombuffer(bytearray(payload), dtype, count, start)
+        return general_decode(payload)
+
+    return decode
+
+
+FAST_DECODE_BYTES = 64 * 1024
+"""Larger payloads take the general path, which makes the taken bytes writable without a copy."""
+_BARE_TAIL = struct.Struct("<2I")  # data_offset, count
+_FLAT_TAIL = struct.Struct(
+    "<8s4I"
+)  # the label (length 1, NUL, padding), size, stride, offset, count
+_EMPTY_LABEL = b"\x01\x00\x00\x00\x00\x00\x00\x00"
 _TAILS = (b"", b"\0\0\0", b"\0\0", b"\0")
 """Zero bytes that bring a body of ``end`` bytes (``end & 3``) to a 4-byte boundary."""

@@ -67,8 +67,9 @@ class RawDecoder:
         self.decode_value: Callable[[bytes], Any] | None = fast_decoder(
             self.natural, self._general_value
         )
-        """The straight-line decoder of a String or a number (codecs/fast_paths.py) or None;
-        what it cannot prove well formed goes to ``decode``, which raises as usual."""
+        """The straight-line decoder of a String, a number or a flat ``*MultiArray``
+        (codecs/fast_paths.py) or None; what it cannot prove well formed goes to ``decode``,
+        which raises as usual."""
 
     def _general_value(self, data: bytes) -> Any:
         return self.decode(data)[0]

@@ -141,7 +141,7 @@ class SubscriberAgent(NodeAgent):
     def _raw_callback(self, raw: RawDecoder) -> Callable[[bytes], None]:
         """The subscription callback of the raw path: CDR bytes in, the same delivery."""
 
-        decode_value = raw.decode_value  # a String or a number: read straight, no view to keep
+        decode_value = raw.decode_value  # String, numbers, flat arrays: read straight, no view
 
         def on_raw_message(data: bytes) -> None:
             try:
