@@ -12,6 +12,7 @@ from hypothesis import strategies as st
 
 from pyconnect.codecs import wire
 from pyconnect.transport.conversion import WireConversion
+from tests.codecs.test_fast_paths import FLAT_TYPES, decoded, payloads
 
 FAST_TYPES = [
     "std_msgs/msg/String",
@@ -106,3 +107,14 @@ def test_strings_match_rclpy(text: str) -> None:
     # rclpy pads short messages to Fast DDS's size estimate: compare values, not bytes.
     assert serialization.deserialize_message(fast.encode(text), string_class).data == text
     assert fast.decode(serialization.serialize_message(string_class(data=text))) == text
+
+
+@pytest.mark.parametrize("type_name", FLAT_TYPES)
+@settings(max_examples=150, deadline=None)
+@given(data=st.data())
+def test_flat_multi_arrays_decode_as_the_general_path(type_name: str, data: Any) -> None:
+    """Read-only views over the payload, as a peer's general path gives; same errors."""
+    fast, general = conversions(type_name)
+    assert fast.decode is not general.decode
+    payload = data.draw(payloads(type_name))
+    assert decoded(fast.decode, payload) == decoded(general.decode, payload)

@@ -49,7 +49,8 @@ def fast_paths(
     codec_class = type(value_codec)
     if codec_class is MultiArrayCodec:
         encode = _flat_multi_array(value_codec, general_encode)  # type: ignore[arg-type]
-        return None if encode is None else (encode, general_decode)
+        decode = _flat_multi_array_decode(value_codec, general_decode, copy=False)  # type: ignore[arg-type]
+        return None if encode is None or decode is None else (encode, decode)
     if codec_class is StringCodec:
         return _string(general_encode, general_decode)
     if codec_class is IntCodec and value_codec.kind != "char":  # type: ignore[attr-defined]
@@ -68,14 +69,12 @@ def fast_encoder(value_codec: object, general_encode: Encode) -> Encode | None:
 
 
 def fast_decoder(value_codec: object, general_decode: Decode) -> Decode | None:
-    """The decoding half of ``fast_paths`` (a subscriber's), or None where it is the general.
-
-    A flat ``*MultiArray`` decodes straight here too, into a writable array over a copy of the
-    payload, as the agents' raw path gives (a peer's general decode gives read-only views, so
-    ``fast_paths`` leaves its MultiArrays alone).
+    """The decoding half of ``fast_paths`` for a ``sub`` agent's raw path, or None where it is
+    the general: its arrays are writable, so a flat ``*MultiArray`` is read from a copy of the
+    payload (``fast_paths``, a peer's, gives read-only views over it, as a peer's general path).
     """
     if type(value_codec) is MultiArrayCodec:
-        return _flat_multi_array_decode(value_codec, general_decode)
+        return _flat_multi_array_decode(value_codec, general_decode, copy=True)  # type: ignore[arg-type]
     paths = fast_paths(value_codec, general_encode=_no_encode, general_decode=general_decode)
     return None if paths is None or paths[1] is general_decode else paths[1]
 
@@ -196,10 +195,13 @@ def _flat_multi_array(codec: MultiArrayCodec, general_encode: Encode) -> Encode 
     return encode
 
 
-def _flat_multi_array_decode(codec: MultiArrayCodec, general_decode: Decode) -> Decode | None:
+def _flat_multi_array_decode(
+    codec: MultiArrayCodec, general_decode: Decode, *, copy: bool
+) -> Decode | None:
     """A layout without dimensions (rclpy's default) or with one unlabelled dimension spanning
-    all the data (what encode writes), ``data_offset`` 0, at least one element, under
-    ``FAST_DECODE_BYTES``; a writable 1-D array as the general path gives."""
+    all the data (what encode writes), ``data_offset`` 0, at least one element: the 1-D array
+    the general path gives, over a copy of the payload (writable, under ``FAST_DECODE_BYTES``)
+    or over the payload itself."""
     dtype = codec.dtype
     if codec.name == "ByteMultiArray" or sys.byteorder != "little":
         return None
@@ -213,10 +215,11 @@ def _flat_multi_array_decode(codec: MultiArrayCodec, general_decode: Decode) -> 
         _FLAT_TAIL.unpack_from,
     )
     frombuffer = np.frombuffer
+    longest = FAST_DECODE_BYTES if copy else 1 << 62
 
     def decode(payload: bytes) -> Any:
         length = len(payload)
-        if length < FAST_DECODE_BYTES and length >= 16 and payload[:2] == b"\x00\x01":
+        if 16 <= length < longest and payload[:2] == b"\x00\x01":
             (dims,) = unpack_u32(payload, 4)
             if dims == 0:
                 offset, count = unpack_bare(payload, 8)
@@ -229,7 +232,7 @@ def _flat_multi_array_decode(codec: MultiArrayCodec, general_decode: Decode) -> 
             if start and offset == 0 and count:
                 end = start + count * itemsize
                 if end <= length <= end + 3:
-                    return frombuffer(bytearray(payload), dtype, count, start)
+                    return frombuffer(bytearray(payload) if copy else payload, dtype, count, start)
         return general_decode(payload)
 
     return decode
