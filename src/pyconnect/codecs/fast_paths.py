@@ -70,9 +70,9 @@ def fast_encoder(value_codec: object, general_encode: Encode) -> Encode | None:
 
 def fast_decoder(value_codec: object, general_decode: Decode) -> Decode | None:
     """The decoding half of ``fast_paths`` for a ``sub`` agent's raw path, or None where it is
-    the general: its arrays are writable, so a flat ``*MultiArray`` is read from a copy of the
-    payload (``fast_paths``, a peer's, gives read-only views over it, as a peer's general path).
-    """
+    the general. The raw path hands out writable arrays, so a flat ``*MultiArray`` is read from
+    a copy of the payload here; a peer's (``fast_paths``) is a read-only view over the payload,
+    as its general path gives."""
     if type(value_codec) is MultiArrayCodec:
         return _flat_multi_array_decode(value_codec, general_decode, copy=True)  # type: ignore[arg-type]
     paths = fast_paths(value_codec, general_encode=_no_encode, general_decode=general_decode)
@@ -215,7 +215,7 @@ def _flat_multi_array_decode(
         _FLAT_TAIL.unpack_from,
     )
     frombuffer = np.frombuffer
-    longest = FAST_DECODE_BYTES if copy else 1 << 62
+    longest = FAST_DECODE_BYTES if copy else sys.maxsize
 
     def decode(payload: bytes) -> Any:
         length = len(payload)
@@ -241,9 +241,8 @@ def _flat_multi_array_decode(
 FAST_DECODE_BYTES = 64 * 1024
 """Larger payloads take the general path, which makes the taken bytes writable without a copy."""
 _BARE_TAIL = struct.Struct("<2I")  # data_offset, count
-_FLAT_TAIL = struct.Struct(
-    "<8s4I"
-)  # the label (length 1, NUL, padding), size, stride, offset, count
+# The one dimension's label (length 1, its NUL, padding), size and stride; data_offset, count.
+_FLAT_TAIL = struct.Struct("<8s4I")
 _EMPTY_LABEL = b"\x01\x00\x00\x00\x00\x00\x00\x00"
 _TAILS = (b"", b"\0\0\0", b"\0\0", b"\0")
 """Zero bytes that bring a body of ``end`` bytes (``end & 3``) to a 4-byte boundary."""
