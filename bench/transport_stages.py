@@ -96,7 +96,7 @@ def _sender_stages(pub: Any, general: Any, keys: Any) -> None:
 
 
 def _receiver_stages(sub: Any, general: Any, samples: list[Any], handled: list[Any]) -> None:
-    from pyconnect.transport import topic_agents
+    from pyconnect.transport import topic_subscriber
 
     idle = sub.peer.session.declare_subscriber("stages/idle", zenoh.handlers.RingChannel(1))
     try_recv = idle.handler.try_recv
@@ -113,7 +113,7 @@ def _receiver_stages(sub: Any, general: Any, samples: list[Any], handled: list[A
 
     def attachment() -> None:
         attached = next(replay).attachment
-        topic_agents._unpack_attachment(attached.to_bytes())
+        topic_subscriber._unpack_attachment(attached.to_bytes())
 
     decode, on_sample = sub.conversion.decode, sub._on_sample
 

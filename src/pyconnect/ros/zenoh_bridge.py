@@ -30,7 +30,8 @@ from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.qos import resolve_qos
 from pyconnect.transport.peer import Peer
-from pyconnect.transport.topic_agents import PublisherAgent, SubscriberAgent
+from pyconnect.transport.topic_publisher import PublisherAgent
+from pyconnect.transport.topic_subscriber import SubscriberAgent
 
 _peers_lock = threading.Lock()
 _peers: weakref.WeakKeyDictionary[Any, tuple[Peer, int]] = weakref.WeakKeyDictionary()

@@ -43,7 +43,8 @@ from pyconnect.transport.graph import Graph
 from pyconnect.transport.peer_agent import PeerAgent, TimerAgent, logger
 from pyconnect.transport.service_agents import ServiceClientAgent, ServiceServerAgent
 from pyconnect.transport.session_config import session_config
-from pyconnect.transport.topic_agents import PublisherAgent, SubscriberAgent
+from pyconnect.transport.topic_publisher import PublisherAgent
+from pyconnect.transport.topic_subscriber import SubscriberAgent
 
 StopFunc = Callable[..., Any]
 

@@ -28,6 +28,8 @@ from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversio
 from pyconnect.transport.graph import Graph
 
 logger = logging.getLogger("pyconnect.transport")
+DEFAULT_DEPTH = 10
+"""The keep-last depth of a topic agent's queue when none is given (ROS's default)."""
 ResponseFunc = Callable[..., Any]
 _Item = TypeVar("_Item")
 

@@ -1,4 +1,4 @@
-"""A peer's ``pub`` and ``sub`` agents: rmw_zenoh topics (key, CDR payload, attachment, token).
+"""A peer's ``sub`` agent: samples of an rmw_zenoh topic checked, decoded and handed on in order.
 
 A subscriber listens on its own type's key. Publishers of another type (or of another version
 of the type: a different RIHS01 hash) show up in the graph with their tokens; for each such
@@ -48,13 +48,11 @@ from pyconnect.errors import DecodeError
 from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.interface_types import message_interface
-from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc, logger
+from pyconnect.transport.peer_agent import DEFAULT_DEPTH, Peer, PeerAgent, ResponseFunc, logger
 
-DEFAULT_DEPTH = 10
 # What an agent that keeps up on average may hold beyond ``depth`` while it works through a burst.
 BURST_SAMPLES = 1000
 BURST_SECONDS = 0.02
-_pack_attachment = keys.ATTACHMENT.pack  # bound once: no wrapper per sample
 _unpack_attachment = keys.ATTACHMENT.unpack  # (sequence, stamp ns, gid); struct.error if malformed
 time_ns = time.time_ns
 monotonic = time.monotonic
@@ -77,118 +75,6 @@ def has_small_messages(codec: WireCodec) -> bool:
             if kind == "message":
                 pending.append(element)
     return True
-
-
-class PublisherAgent(PeerAgent):
-    """Publishes values of ``data_interface`` on ``conn_name`` as rmw_zenoh does."""
-
-    conn_type = "pub"
-
-    def __init__(
-        self,
-        peer: Peer,
-        *,
-        conn_name: str,
-        agent_name: str | None = None,
-        data_interface: object,
-        encode_func: EncodeFunc | None = None,
-        decode_func: DecodeFunc | None = None,
-        response_func: ResponseFunc | None = None,
-        time_period: float | None = None,
-        only_if_subscribed: bool = False,
-        depth: int = DEFAULT_DEPTH,
-        raw: bool = False,
-    ) -> None:
-        interface = message_interface(data_interface)
-        super().__init__(
-            peer,
-            conn_name=conn_name,
-            agent_name=agent_name,
-            type_name=interface.type_name,
-            response_func=response_func,
-        )
-        del decode_func  # accepted for CustomNode's signature; a publisher decodes nothing
-        if response_func is not None and time_period is None:
-            raise self.error("response_func on a 'pub' agent needs time_period (it is polled)")
-        if time_period is not None and time_period <= 0:
-            raise self.error(f"time_period must be > 0 seconds, got {time_period!r}")
-        self.conversion = self.wire_conversion(interface.codec, encode_func=encode_func, raw=raw)
-        self.only_if_subscribed = only_if_subscribed
-        self.time_period = time_period
-        self.sent_count = 0
-        self.key = keys.data_key(
-            peer.domain_id, self.topic, interface.type_name, interface.type_hash
-        )
-        self.token_key = peer.entity_token(
-            kind=keys.PUBLISHER,
-            name=self.topic,
-            type_name=interface.type_name,
-            type_hash=interface.type_hash,
-            qos=keys.qos_chunk(depth=depth),
-        )
-        self.gid = keys.gid_of(self.token_key)
-        self._sequence = 0
-        self._send_lock = threading.Lock()
-        # rmw_zenoh (rmw_publisher_data.cpp): reliable keep-last publishers drop on congestion.
-        self._publisher = peer.session.declare_publisher(
-            self.key,
-            congestion_control=zenoh.CongestionControl.DROP,
-            reliability=zenoh.Reliability.RELIABLE,
-        )
-        self._put = self._publisher.put
-        self._encode = self.conversion.encode
-        self._token = peer.session.liveliness().declare_token(self.token_key)
-        self._stop = threading.Event()
-        self._timer: threading.Thread | None = None
-        if time_period is not None:
-            self._timer = threading.Thread(
-                target=self._run_period, name=f"pyconnect-pub-{self.name}", daemon=True
-            )
-            self._timer.start()
-
-    @property
-    def subscriber_count(self) -> int:
-        """How many subscriptions on this topic the graph shows now."""
-        return self.peer.graph.count(kind=keys.SUBSCRIPTION, name=self.topic)
-
-    @property
-    def matched(self) -> bool:
-        """Whether zenoh routes this publisher's samples to any subscriber now (tokens or not)."""
-        status: Any = self._publisher.matching_status  # a MatchingStatus (stubs say bool)
-        return bool(getattr(status, "matching", status))
-
-    def send(self, data: Any = None) -> bool:
-        """Encode and publish ``data``; False when skipped (``only_if_subscribed``, no reader)."""
-        if self.only_if_subscribed and self.subscriber_count == 0:
-            return False
-        payload = self._encode(data)
-        stamp = time_ns()
-        with self._send_lock:  # sequence numbers go on the wire in order
-            self._sequence = sequence = self._sequence + 1
-            self._put(payload, attachment=_pack_attachment(sequence, stamp, self.gid))
-            self.sent_count += 1  # under the lock: sends from several threads all count
-        self._latest = data
-        return True
-
-    def _run_period(self) -> None:
-        period = self.time_period or 1.0  # set whenever this thread runs
-        while not self._stop.wait(period):
-            if self.only_if_subscribed and self.subscriber_count == 0:
-                continue
-            try:
-                value = self.response_func() if self.response_func is not None else self._latest
-                if value is not None:
-                    self.send(value)
-            except Exception as error:
-                self.report_exception("periodic send", error)
-
-    def close(self) -> None:
-        self._stop.set()
-        if self._timer is not None and self._timer is not threading.current_thread():
-            self._timer.join(5.0)
-        for entity in (self._token, self._publisher):
-            with contextlib.suppress(Exception):
-                entity.undeclare()
 
 
 class SubscriberAgent(PeerAgent):
