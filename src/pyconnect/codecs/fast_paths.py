@@ -43,14 +43,26 @@ _FLAT_LAYOUT = struct.Struct("<4s7I")
 
 
 def fast_paths(
-    value_codec: object, *, general_encode: Encode, general_decode: Decode
+    value_codec: object,
+    *,
+    general_encode: Encode,
+    general_decode: Decode,
+    writable_arrays: bool = False,
 ) -> tuple[Encode, Decode] | None:
-    """``(encode, decode)`` for ``value_codec``'s type, or None when it has no fast path."""
+    """``(encode, decode)`` for ``value_codec``'s type, or None when it has no fast path.
+
+    A flat ``*MultiArray`` decodes to a read-only view over the payload (a peer's general path
+    gives one), or with ``writable_arrays`` to an array over a copy of it (an agent's raw path
+    hands out writable arrays, as the class path does).
+    """
+    if type(value_codec) is MultiArrayCodec:
+        if value_codec.name == "ByteMultiArray" or sys.byteorder != "little":
+            return None  # ByteMultiArray's data are bytes; elsewhere CDR's order needs a swap
+        return (
+            _flat_multi_array(value_codec, general_encode),
+            _flat_multi_array_decode(value_codec, general_decode, copy=writable_arrays),
+        )
     codec_class = type(value_codec)
-    if codec_class is MultiArrayCodec:
-        encode = _flat_multi_array(value_codec, general_encode)  # type: ignore[arg-type]
-        decode = _flat_multi_array_decode(value_codec, general_decode, copy=False)  # type: ignore[arg-type]
-        return None if encode is None or decode is None else (encode, decode)
     if codec_class is StringCodec:
         return _string(general_encode, general_decode)
     if codec_class is IntCodec and value_codec.kind != "char":  # type: ignore[attr-defined]
@@ -69,13 +81,11 @@ def fast_encoder(value_codec: object, general_encode: Encode) -> Encode | None:
 
 
 def fast_decoder(value_codec: object, general_decode: Decode) -> Decode | None:
-    """The decoding half of ``fast_paths`` for a ``sub`` agent's raw path, or None where it is
-    the general. The raw path hands out writable arrays, so a flat ``*MultiArray`` is read from
-    a copy of the payload here; a peer's (``fast_paths``) is a read-only view over the payload,
-    as its general path gives."""
-    if type(value_codec) is MultiArrayCodec:
-        return _flat_multi_array_decode(value_codec, general_decode, copy=True)  # type: ignore[arg-type]
-    paths = fast_paths(value_codec, general_encode=_no_encode, general_decode=general_decode)
+    """The decoding half of ``fast_paths`` for a ``sub`` agent's raw path (writable arrays), or
+    None where it is the general."""
+    paths = fast_paths(
+        value_codec, general_encode=_no_encode, general_decode=general_decode, writable_arrays=True
+    )
     return None if paths is None or paths[1] is general_decode else paths[1]
 
 
@@ -165,11 +175,9 @@ def _float(single: bool, general_encode: Encode, general_decode: Decode) -> tupl
     return _scalar_encode(fmt, accept, general_encode), _scalar_decode(fmt, general_decode)
 
 
-def _flat_multi_array(codec: MultiArrayCodec, general_encode: Encode) -> Encode | None:
-    """A C-contiguous 1-D ndarray of the message's own dtype (decoding: ``fast_decoder``)."""
+def _flat_multi_array(codec: MultiArrayCodec, general_encode: Encode) -> Encode:
+    """A C-contiguous 1-D ndarray of the message's own dtype."""
     dtype = codec.dtype
-    if codec.name == "ByteMultiArray" or sys.byteorder != "little":
-        return None  # ByteMultiArray's data are bytes; elsewhere CDR's order needs a swap
     itemsize = dtype.itemsize
     pack_layout = _FLAT_LAYOUT.pack
     # The body's 28 bytes, then the elements aligned to their size (CDR counts from the body).
@@ -197,14 +205,12 @@ def _flat_multi_array(codec: MultiArrayCodec, general_encode: Encode) -> Encode 
 
 def _flat_multi_array_decode(
     codec: MultiArrayCodec, general_decode: Decode, *, copy: bool
-) -> Decode | None:
+) -> Decode:
     """A layout without dimensions (rclpy's default) or with one unlabelled dimension spanning
     all the data (what encode writes), ``data_offset`` 0, at least one element: the 1-D array
     the general path gives, over a copy of the payload (writable, under ``FAST_DECODE_BYTES``)
     or over the payload itself."""
     dtype = codec.dtype
-    if codec.name == "ByteMultiArray" or sys.byteorder != "little":
-        return None
     itemsize = dtype.itemsize
     # Payload offsets of the data: 4 header bytes, then the body's 12 or 28 bytes aligned.
     bare_start = 4 + 12 + (-12 % itemsize)
