@@ -231,8 +231,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".id"
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
             pos += v7
+            v8 = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -289,8 +289,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".text"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
+            v6 = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:

@@ -528,8 +528,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".key"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             pos = (pos + 3) & -4
             f = KEY_VALUE_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
@@ -537,8 +537,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".value"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
+            v6 = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -599,8 +599,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".name"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
+            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
             pos = (pos + 3) & -4
             f = DIAGNOSTIC_STATUS_RUN_2
             (v7,) = _S_I.unpack_from(mv, pos)
@@ -608,8 +608,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".message"
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
             pos += v7
+            v8 = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes().decode()
             pos = (pos + 3) & -4
             f = DIAGNOSTIC_STATUS_RUN_3
             (v10,) = _S_I.unpack_from(mv, pos)
@@ -617,8 +617,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".hardware_id"
             if v10 > lim - pos:
                 raise too_long(v10, 1, lim - pos)
-            v11 = mv[pos : pos + v10 - 1].tobytes().decode()
             pos += v10
+            v11 = mv[pos - v10 : pos - (mv[pos - 1] == 0 < v10)].tobytes().decode()
             f = ".values"
             v12, pos = read_messages(mv, pos, lim, _U32, key_value_decode, None, None, 8)
         except WireDecodeError as error:
@@ -734,8 +734,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".load_namespace"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -782,8 +782,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".message"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
+            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -982,8 +982,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".id"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             f = SELF_TEST_RESPONSE_RUN_1
             (v5,) = _S_B.unpack_from(mv, pos)
             pos += 1

@@ -2945,8 +2945,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".child_frame_id"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
+            v4 = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes().decode()
             pos = (pos + 7) & -8
             f = TRANSFORM_STAMPED_RUN_1
             v8, v10, v12, v15, v17, v19, v21 = _S_7d.unpack_from(mv, pos)
@@ -3414,8 +3414,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".body_frame_id"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
+            v4 = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes().decode()
             pos = (pos + 3) & -4
             f = VELOCITY_STAMPED_RUN_1
             (v6,) = _S_I.unpack_from(mv, pos)
@@ -3423,8 +3423,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".reference_frame_id"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
+            v7 = mv[pos - v6 : pos - (mv[pos - 1] == 0 < v6)].tobytes().decode()
             pos = (pos + 7) & -8
             f = VELOCITY_STAMPED_RUN_2
             v11, v13, v15, v18, v20, v22 = _S_6d.unpack_from(mv, pos)

@@ -772,8 +772,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".label"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
+            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -828,8 +828,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".label"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
+            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:

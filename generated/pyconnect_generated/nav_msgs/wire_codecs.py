@@ -1326,8 +1326,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".child_frame_id"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
+            v4 = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes().decode()
             pos = (pos + 7) & -8
             f = ODOMETRY_RUN_1
             v9, v11, v13, v16, v18, v20, v22 = _S_7d.unpack_from(mv, pos)
@@ -1916,8 +1916,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".map_url"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:

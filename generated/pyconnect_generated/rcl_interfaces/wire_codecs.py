@@ -1949,8 +1949,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".name"
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
-            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
+            v10 = mv[pos - v9 : pos - (mv[pos - 1] == 0 < v9)].tobytes().decode()
             pos = (pos + 3) & -4
             f = LOG_RUN_1
             (v12,) = _S_I.unpack_from(mv, pos)
@@ -1958,8 +1958,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".msg"
             if v12 > lim - pos:
                 raise too_long(v12, 1, lim - pos)
-            v13 = mv[pos : pos + v12 - 1].tobytes().decode()
             pos += v12
+            v13 = mv[pos - v12 : pos - (mv[pos - 1] == 0 < v12)].tobytes().decode()
             pos = (pos + 3) & -4
             f = LOG_RUN_2
             (v15,) = _S_I.unpack_from(mv, pos)
@@ -1967,8 +1967,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".file"
             if v15 > lim - pos:
                 raise too_long(v15, 1, lim - pos)
-            v16 = mv[pos : pos + v15 - 1].tobytes().decode()
             pos += v15
+            v16 = mv[pos - v15 : pos - (mv[pos - 1] == 0 < v15)].tobytes().decode()
             pos = (pos + 3) & -4
             f = LOG_RUN_3
             (v18,) = _S_I.unpack_from(mv, pos)
@@ -1976,8 +1976,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".function"
             if v18 > lim - pos:
                 raise too_long(v18, 1, lim - pos)
-            v19 = mv[pos : pos + v18 - 1].tobytes().decode()
             pos += v18
+            v19 = mv[pos - v18 : pos - (mv[pos - 1] == 0 < v18)].tobytes().decode()
             pos = (pos + 3) & -4
             f = LOG_RUN_4
             (v21,) = _S_I.unpack_from(mv, pos)
@@ -2097,8 +2097,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             pos = (pos + 3) & -4
             f = LOGGER_LEVEL_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
@@ -2161,8 +2161,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".string_value"
             if v10 > lim - pos:
                 raise too_long(v10, 1, lim - pos)
-            v11 = mv[pos : pos + v10 - 1].tobytes().decode()
             pos += v10
+            v11 = mv[pos - v10 : pos - (mv[pos - 1] == 0 < v10)].tobytes().decode()
             pos = (pos + 3) & -4
             f = PARAMETER_VALUE_RUN_2
             (v14,) = _S_I.unpack_from(mv, pos)
@@ -2355,8 +2355,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             f = ".value"
             v4, pos = parameter_value_decode(mv, pos, lim)
         except WireDecodeError as error:
@@ -2404,8 +2404,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             f = PARAMETER_DESCRIPTOR_RUN_1
             (v5,) = _S_B.unpack_from(mv, pos)
             pos += 1
@@ -2416,8 +2416,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".description"
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
             pos += v7
+            v8 = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes().decode()
             pos = (pos + 3) & -4
             f = PARAMETER_DESCRIPTOR_RUN_3
             (v10,) = _S_I.unpack_from(mv, pos)
@@ -2425,8 +2425,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".additional_constraints"
             if v10 > lim - pos:
                 raise too_long(v10, 1, lim - pos)
-            v11 = mv[pos : pos + v10 - 1].tobytes().decode()
             pos += v10
+            v11 = mv[pos - v10 : pos - (mv[pos - 1] == 0 < v10)].tobytes().decode()
             f = PARAMETER_DESCRIPTOR_RUN_4
             v13, v15 = _S_2T.unpack_from(mv, pos)
             pos += 2
@@ -2546,8 +2546,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".node"
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
             pos += v7
+            v8 = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes().decode()
             f = ".new_parameters"
             v9, pos = read_messages(mv, pos, lim, _U32, parameter_decode, None, None, 46)
             f = ".changed_parameters"
@@ -2717,8 +2717,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".reason"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
+            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2773,8 +2773,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".reason"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
+            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:

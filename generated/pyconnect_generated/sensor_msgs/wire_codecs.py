@@ -1866,8 +1866,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".location"
             if v33 > lim - pos:
                 raise too_long(v33, 1, lim - pos)
-            v34 = mv[pos : pos + v33 - 1].tobytes().decode()
             pos += v33
+            v34 = mv[pos - v33 : pos - (mv[pos - 1] == 0 < v33)].tobytes().decode()
             pos = (pos + 3) & -4
             f = BATTERY_STATE_RUN_3
             (v36,) = _S_I.unpack_from(mv, pos)
@@ -1875,8 +1875,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".serial_number"
             if v36 > lim - pos:
                 raise too_long(v36, 1, lim - pos)
-            v37 = mv[pos : pos + v36 - 1].tobytes().decode()
             pos += v36
+            v37 = mv[pos - v36 : pos - (mv[pos - 1] == 0 < v36)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2053,8 +2053,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".distortion_model"
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
             pos += v7
+            v8 = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes().decode()
             pos = (pos + 3) & -4
             f = CAMERA_INFO_RUN_1
             (v11,) = _S_I.unpack_from(mv, pos)
@@ -2245,8 +2245,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             pos = (pos + 3) & -4
             f = CHANNEL_FLOAT32_RUN_1
             (v6,) = _S_I.unpack_from(mv, pos)
@@ -2320,8 +2320,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".format"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
+            v4 = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes().decode()
             pos = (pos + 3) & -4
             f = COMPRESSED_IMAGE_RUN_1
             (v7,) = _S_I.unpack_from(mv, pos)
@@ -2483,8 +2483,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".encoding"
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
             pos += v7
+            v8 = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes().decode()
             f = IMAGE_RUN_1
             (v10,) = _S_B.unpack_from(mv, pos)
             pos += 1
@@ -3578,8 +3578,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             pos = (pos + 3) & -4
             f = POINT_FIELD_RUN_1
             v5, v7, v9 = _S_IB3xI.unpack_from(mv, pos)
@@ -3914,8 +3914,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".source"
             if v8 > lim - pos:
                 raise too_long(v8, 1, lim - pos)
-            v9 = mv[pos : pos + v8 - 1].tobytes().decode()
             pos += v8
+            v9 = mv[pos - v8 : pos - (mv[pos - 1] == 0 < v8)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -3998,8 +3998,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".status_message"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
+            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:

@@ -1221,8 +1221,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".label"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             pos = (pos + 3) & -4
             f = MULTI_ARRAY_DIMENSION_RUN_1
             v5, v7 = _S_2I.unpack_from(mv, pos)
@@ -1681,8 +1681,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".frame_id"
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
-            v8 = mv[pos : pos + v7 - 1].tobytes().decode()
             pos += v7
+            v8 = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2104,8 +2104,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".data"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:

@@ -7947,8 +7947,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".string_value"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             pos = (pos + 3) & -4
             f = STRINGS_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
@@ -7956,8 +7956,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".string_value_default1"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
+            v6 = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes().decode()
             pos = (pos + 3) & -4
             f = STRINGS_RUN_2
             (v8,) = _S_I.unpack_from(mv, pos)
@@ -7965,8 +7965,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".string_value_default2"
             if v8 > lim - pos:
                 raise too_long(v8, 1, lim - pos)
-            v9 = mv[pos : pos + v8 - 1].tobytes().decode()
             pos += v8
+            v9 = mv[pos - v8 : pos - (mv[pos - 1] == 0 < v8)].tobytes().decode()
             pos = (pos + 3) & -4
             f = STRINGS_RUN_3
             (v11,) = _S_I.unpack_from(mv, pos)
@@ -7974,8 +7974,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".string_value_default3"
             if v11 > lim - pos:
                 raise too_long(v11, 1, lim - pos)
-            v12 = mv[pos : pos + v11 - 1].tobytes().decode()
             pos += v11
+            v12 = mv[pos - v11 : pos - (mv[pos - 1] == 0 < v11)].tobytes().decode()
             pos = (pos + 3) & -4
             f = STRINGS_RUN_4
             (v14,) = _S_I.unpack_from(mv, pos)
@@ -7983,8 +7983,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".string_value_default4"
             if v14 > lim - pos:
                 raise too_long(v14, 1, lim - pos)
-            v15 = mv[pos : pos + v14 - 1].tobytes().decode()
             pos += v14
+            v15 = mv[pos - v14 : pos - (mv[pos - 1] == 0 < v14)].tobytes().decode()
             pos = (pos + 3) & -4
             f = STRINGS_RUN_5
             (v17,) = _S_I.unpack_from(mv, pos)
@@ -7992,8 +7992,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".string_value_default5"
             if v17 > lim - pos:
                 raise too_long(v17, 1, lim - pos)
-            v18 = mv[pos : pos + v17 - 1].tobytes().decode()
             pos += v17
+            v18 = mv[pos - v17 : pos - (mv[pos - 1] == 0 < v17)].tobytes().decode()
             pos = (pos + 3) & -4
             f = STRINGS_RUN_6
             (v20,) = _S_I.unpack_from(mv, pos)
@@ -8001,8 +8001,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".bounded_string_value"
             if v20 > lim - pos:
                 raise too_long(v20, 1, lim - pos)
-            v21 = mv[pos : pos + v20 - 1].tobytes().decode()
             pos += v20
+            v21 = mv[pos - v20 : pos - (mv[pos - 1] == 0 < v20)].tobytes().decode()
             if len(v21) > 22:
                 raise over_bound(len(v21), 22)
             pos = (pos + 3) & -4
@@ -8012,8 +8012,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".bounded_string_value_default1"
             if v23 > lim - pos:
                 raise too_long(v23, 1, lim - pos)
-            v24 = mv[pos : pos + v23 - 1].tobytes().decode()
             pos += v23
+            v24 = mv[pos - v23 : pos - (mv[pos - 1] == 0 < v23)].tobytes().decode()
             if len(v24) > 22:
                 raise over_bound(len(v24), 22)
             pos = (pos + 3) & -4
@@ -8023,8 +8023,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".bounded_string_value_default2"
             if v26 > lim - pos:
                 raise too_long(v26, 1, lim - pos)
-            v27 = mv[pos : pos + v26 - 1].tobytes().decode()
             pos += v26
+            v27 = mv[pos - v26 : pos - (mv[pos - 1] == 0 < v26)].tobytes().decode()
             if len(v27) > 22:
                 raise over_bound(len(v27), 22)
             pos = (pos + 3) & -4
@@ -8034,8 +8034,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".bounded_string_value_default3"
             if v29 > lim - pos:
                 raise too_long(v29, 1, lim - pos)
-            v30 = mv[pos : pos + v29 - 1].tobytes().decode()
             pos += v29
+            v30 = mv[pos - v29 : pos - (mv[pos - 1] == 0 < v29)].tobytes().decode()
             if len(v30) > 22:
                 raise over_bound(len(v30), 22)
             pos = (pos + 3) & -4
@@ -8045,8 +8045,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".bounded_string_value_default4"
             if v32 > lim - pos:
                 raise too_long(v32, 1, lim - pos)
-            v33 = mv[pos : pos + v32 - 1].tobytes().decode()
             pos += v32
+            v33 = mv[pos - v32 : pos - (mv[pos - 1] == 0 < v32)].tobytes().decode()
             if len(v33) > 22:
                 raise over_bound(len(v33), 22)
             pos = (pos + 3) & -4
@@ -8056,8 +8056,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".bounded_string_value_default5"
             if v35 > lim - pos:
                 raise too_long(v35, 1, lim - pos)
-            v36 = mv[pos : pos + v35 - 1].tobytes().decode()
             pos += v35
+            v36 = mv[pos - v35 : pos - (mv[pos - 1] == 0 < v35)].tobytes().decode()
             if len(v36) > 22:
                 raise over_bound(len(v36), 22)
         except WireDecodeError as error:
@@ -9567,8 +9567,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".string_value"
             if v28 > lim - pos:
                 raise too_long(v28, 1, lim - pos)
-            v29 = mv[pos : pos + v28 - 1].tobytes().decode()
             pos += v28
+            v29 = mv[pos - v28 : pos - (mv[pos - 1] == 0 < v28)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -9686,8 +9686,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".string_value"
             if v28 > lim - pos:
                 raise too_long(v28, 1, lim - pos)
-            v29 = mv[pos : pos + v28 - 1].tobytes().decode()
             pos += v28
+            v29 = mv[pos - v28 : pos - (mv[pos - 1] == 0 < v28)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:

@@ -591,8 +591,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".nested_type_name"
             if v8 > lim - pos:
                 raise too_long(v8, 1, lim - pos)
-            v9 = mv[pos : pos + v8 - 1].tobytes().decode()
             pos += v8
+            v9 = mv[pos - v8 : pos - (mv[pos - 1] == 0 < v8)].tobytes().decode()
             if len(v9) > 255:
                 raise over_bound(len(v9), 255)
         except WireDecodeError as error:
@@ -650,8 +650,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             f = ".type"
             v4, pos = field_type_decode(mv, pos, lim)
             pos = (pos + 3) & -4
@@ -661,8 +661,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".default_value"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
+            v7 = mv[pos - v6 : pos - (mv[pos - 1] == 0 < v6)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -722,8 +722,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".type_name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             if len(v3) > 255:
                 raise over_bound(len(v3), 255)
             f = ".fields"
@@ -773,8 +773,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".key"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             pos = (pos + 3) & -4
             f = KEY_VALUE_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
@@ -782,8 +782,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".value"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
+            v6 = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -881,8 +881,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".type_name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             pos = (pos + 3) & -4
             f = TYPE_SOURCE_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
@@ -890,8 +890,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".encoding"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
+            v6 = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes().decode()
             pos = (pos + 3) & -4
             f = TYPE_SOURCE_RUN_2
             (v8,) = _S_I.unpack_from(mv, pos)
@@ -899,8 +899,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".raw_file_contents"
             if v8 > lim - pos:
                 raise too_long(v8, 1, lim - pos)
-            v9 = mv[pos : pos + v8 - 1].tobytes().decode()
             pos += v8
+            v9 = mv[pos - v8 : pos - (mv[pos - 1] == 0 < v8)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -972,8 +972,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".type_name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             pos = (pos + 3) & -4
             f = GET_TYPE_DESCRIPTION_REQUEST_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
@@ -981,8 +981,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".type_hash"
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
-            v6 = mv[pos : pos + v5 - 1].tobytes().decode()
             pos += v5
+            v6 = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes().decode()
             f = GET_TYPE_DESCRIPTION_REQUEST_RUN_2
             (v8,) = _S_T.unpack_from(mv, pos)
             pos += 1
@@ -1054,8 +1054,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".failure_reason"
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
-            v5 = mv[pos : pos + v4 - 1].tobytes().decode()
             pos += v4
+            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
             f = ".type_description"
             v6, pos = type_description_decode(mv, pos, lim)
             f = ".type_sources"

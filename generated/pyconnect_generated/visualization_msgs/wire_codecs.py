@@ -1166,8 +1166,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".ns"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
+            v4 = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes().decode()
             pos = (pos + 3) & -4
             f = IMAGE_MARKER_RUN_1
             v6, v8, v10 = _S_3i.unpack_from(mv, pos)
@@ -1355,8 +1355,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".title"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
+            v7 = mv[pos - v6 : pos - (mv[pos - 1] == 0 < v6)].tobytes().decode()
             pos = (pos + 3) & -4
             f = MENU_ENTRY_RUN_1
             (v9,) = _S_I.unpack_from(mv, pos)
@@ -1364,8 +1364,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".command"
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
-            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
+            v10 = mv[pos - v9 : pos - (mv[pos - 1] == 0 < v9)].tobytes().decode()
             f = MENU_ENTRY_RUN_2
             (v12,) = _S_B.unpack_from(mv, pos)
             pos += 1
@@ -1478,8 +1478,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".filename"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             pos = (pos + 3) & -4
             f = MESH_FILE_RUN_1
             (v6,) = _S_I.unpack_from(mv, pos)
@@ -1551,8 +1551,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".ns"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
+            v4 = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes().decode()
             pos = (pos + 3) & -4
             f = MARKER_RUN_1
             v6, v8, v10 = _S_3i.unpack_from(mv, pos)
@@ -1578,8 +1578,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".texture_resource"
             if v54 > lim - pos:
                 raise too_long(v54, 1, lim - pos)
-            v55 = mv[pos : pos + v54 - 1].tobytes().decode()
             pos += v54
+            v55 = mv[pos - v54 : pos - (mv[pos - 1] == 0 < v54)].tobytes().decode()
             f = ".texture"
             v56, pos = sensor_msgs__compressed_image_decode(mv, pos, lim)
             f = ".uv_coordinates"
@@ -1591,8 +1591,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".text"
             if v59 > lim - pos:
                 raise too_long(v59, 1, lim - pos)
-            v60 = mv[pos : pos + v59 - 1].tobytes().decode()
             pos += v59
+            v60 = mv[pos - v59 : pos - (mv[pos - 1] == 0 < v59)].tobytes().decode()
             pos = (pos + 3) & -4
             f = MARKER_RUN_5
             (v62,) = _S_I.unpack_from(mv, pos)
@@ -1600,8 +1600,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".mesh_resource"
             if v62 > lim - pos:
                 raise too_long(v62, 1, lim - pos)
-            v63 = mv[pos : pos + v62 - 1].tobytes().decode()
             pos += v62
+            v63 = mv[pos - v62 : pos - (mv[pos - 1] == 0 < v62)].tobytes().decode()
             f = ".mesh_file"
             v64, pos = mesh_file_decode(mv, pos, lim)
             f = MARKER_RUN_6
@@ -1892,8 +1892,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".name"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             pos = (pos + 7) & -8
             f = INTERACTIVE_MARKER_CONTROL_RUN_1
             v6, v8, v10, v12, v14, v16, v18 = _S_4d2BT.unpack_from(mv, pos)
@@ -1910,8 +1910,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".description"
             if v23 > lim - pos:
                 raise too_long(v23, 1, lim - pos)
-            v24 = mv[pos : pos + v23 - 1].tobytes().decode()
             pos += v23
+            v24 = mv[pos - v23 : pos - (mv[pos - 1] == 0 < v23)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2024,8 +2024,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".name"
             if v20 > lim - pos:
                 raise too_long(v20, 1, lim - pos)
-            v21 = mv[pos : pos + v20 - 1].tobytes().decode()
             pos += v20
+            v21 = mv[pos - v20 : pos - (mv[pos - 1] == 0 < v20)].tobytes().decode()
             pos = (pos + 3) & -4
             f = INTERACTIVE_MARKER_RUN_1
             (v23,) = _S_I.unpack_from(mv, pos)
@@ -2033,8 +2033,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".description"
             if v23 > lim - pos:
                 raise too_long(v23, 1, lim - pos)
-            v24 = mv[pos : pos + v23 - 1].tobytes().decode()
             pos += v23
+            v24 = mv[pos - v23 : pos - (mv[pos - 1] == 0 < v23)].tobytes().decode()
             pos = (pos + 3) & -4
             f = INTERACTIVE_MARKER_RUN_2
             (v26,) = _S_f.unpack_from(mv, pos)
@@ -2184,8 +2184,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".client_id"
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
-            v4 = mv[pos : pos + v3 - 1].tobytes().decode()
             pos += v3
+            v4 = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes().decode()
             pos = (pos + 3) & -4
             f = INTERACTIVE_MARKER_FEEDBACK_RUN_1
             (v6,) = _S_I.unpack_from(mv, pos)
@@ -2193,8 +2193,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".marker_name"
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
-            v7 = mv[pos : pos + v6 - 1].tobytes().decode()
             pos += v6
+            v7 = mv[pos - v6 : pos - (mv[pos - 1] == 0 < v6)].tobytes().decode()
             pos = (pos + 3) & -4
             f = INTERACTIVE_MARKER_FEEDBACK_RUN_2
             (v9,) = _S_I.unpack_from(mv, pos)
@@ -2202,8 +2202,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".control_name"
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
-            v10 = mv[pos : pos + v9 - 1].tobytes().decode()
             pos += v9
+            v10 = mv[pos - v9 : pos - (mv[pos - 1] == 0 < v9)].tobytes().decode()
             f = INTERACTIVE_MARKER_FEEDBACK_RUN_3
             (v12,) = _S_B.unpack_from(mv, pos)
             pos += 1
@@ -2378,8 +2378,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".server_id"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             pos = (pos + 7) & -8
             f = INTERACTIVE_MARKER_INIT_RUN_1
             (v5,) = _S_Q.unpack_from(mv, pos)
@@ -2447,8 +2447,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".name"
             if v20 > lim - pos:
                 raise too_long(v20, 1, lim - pos)
-            v21 = mv[pos : pos + v20 - 1].tobytes().decode()
             pos += v20
+            v21 = mv[pos - v20 : pos - (mv[pos - 1] == 0 < v20)].tobytes().decode()
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2540,8 +2540,8 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             f = ".server_id"
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
-            v3 = mv[pos : pos + v2 - 1].tobytes().decode()
             pos += v2
+            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
             pos = (pos + 7) & -8
             f = INTERACTIVE_MARKER_UPDATE_RUN_1
             v5, v7 = _S_QB.unpack_from(mv, pos)

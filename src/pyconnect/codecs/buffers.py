@@ -15,7 +15,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pyconnect.errors import EncodeError, type_name_of
+from pyconnect.codecs.field_checks import numeric_sequence
+from pyconnect.errors import EncodeError
 
 # numpy dtype -> array.array typecode of the same size, for rclpy's sequence fields.
 ARRAY_TYPECODES: dict[str, str] = {
@@ -38,8 +39,6 @@ def numeric_view(values: Any, dtype: npt.DTypeLike) -> npt.NDArray[Any]:
     if isinstance(values, np.ndarray):
         if values.dtype == wanted:
             return values.reshape(-1) if values.ndim != 1 else values
-        if values.dtype.itemsize == wanted.itemsize and values.dtype.kind == wanted.kind:
-            return values.reshape(-1).view(wanted)
         return np.asarray(values, dtype=wanted).reshape(-1)
     if isinstance(values, array.array) and values.itemsize == wanted.itemsize:
         return np.frombuffer(values, dtype=wanted)
@@ -90,19 +89,15 @@ def filled_array(values: Any, dtype: npt.DTypeLike, path: str) -> array.array[An
     fast path.
     """
     wanted = np.dtype(dtype)
-    if isinstance(values, np.ndarray) and values.dtype == wanted:
-        source = values
-    else:
-        try:
-            source = np.asarray(values, dtype=wanted)
-        except (TypeError, ValueError) as error:
-            raise EncodeError(
-                f"{path}: expected a sequence of {wanted.name}, got {type_name_of(values)}"
-            ) from error
-    if source.ndim != 1:
-        raise EncodeError(f"{path}: expected a 1-D sequence, got shape {source.shape}")
-    result = array.array(ARRAY_TYPECODES[wanted.name])
-    result.frombytes(contiguous_bytes(source))
+    typecode = ARRAY_TYPECODES[wanted.name]
+    if not (isinstance(values, np.ndarray) and values.dtype == wanted):
+        # Anything else element by element, as the generated codecs check a sequence field:
+        # bools, strings and out-of-range numbers are refused, naming the element.
+        return numeric_sequence(values, typecode, wanted.name, None, path)
+    if values.ndim != 1:
+        raise EncodeError(f"{path}: expected a 1-D sequence, got shape {values.shape}")
+    result = array.array(typecode)
+    result.frombytes(contiguous_bytes(values))
     return result
 
 

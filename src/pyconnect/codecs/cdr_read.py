@@ -138,11 +138,12 @@ def read_strings(  # noqa: PLR0917 (generated code calls it positionally)
             pos += 4
             if size > lim - pos:
                 raise too_long(size, 1, lim - pos)
-            text = mv[pos : pos + size - 1].tobytes().decode()
+            pos += size
+            # Without the terminating NUL; a last byte that is not NUL is kept, as Fast CDR does.
+            text = mv[pos - size : pos - (mv[pos - 1] == 0 < size)].tobytes().decode()
             if string_bound is not None and len(text) > string_bound:
                 raise over_bound(len(text), string_bound)
             append(text)
-            pos += size
     except WireDecodeError as error:
         raise error.within(f"[{index}]") from None
     except Exception as error:

@@ -105,12 +105,20 @@ def compressed_fields(
             f"CompressedImage: {format} expects {wanted}, got {value.dtype.name} of shape "
             f"{value.shape}"
         )
+    if not value.size:
+        raise EncodeError(f"CompressedImage: cannot compress an empty image (shape {value.shape})")
     if not value.dtype.isnative:
         value = value.astype(value.dtype.newbyteorder("="))
-    if format == "jpeg":
-        ok, encoded = cv2.imencode(".jpg", value, [cv2.IMWRITE_JPEG_QUALITY, quality])
-    else:
-        ok, encoded = cv2.imencode(".png", value, [cv2.IMWRITE_PNG_COMPRESSION, png_level])
+    try:
+        if format == "jpeg":
+            ok, encoded = cv2.imencode(".jpg", value, [cv2.IMWRITE_JPEG_QUALITY, quality])
+        else:
+            ok, encoded = cv2.imencode(".png", value, [cv2.IMWRITE_PNG_COMPRESSION, png_level])
+    except cv2.error as error:  # e.g. a side beyond JPEG's 65,500 pixels
+        raise EncodeError(
+            f"CompressedImage: OpenCV could not encode {value.shape} as {format}: "
+            f"{str(error).strip().splitlines()[-1]}"
+        ) from None
     if not ok:
         raise EncodeError(f"CompressedImage: OpenCV could not encode {value.shape} as {format}")
     return {"format": f"{name}; {format} compressed {name}", "data": encoded.tobytes()}

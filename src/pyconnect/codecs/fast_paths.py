@@ -116,7 +116,7 @@ def _string(general_encode: Encode, general_decode: Decode) -> tuple[Encode, Dec
         if payload[:2] == b"\x00\x01" and len(payload) >= 9:
             (size,) = unpack_u32(payload, 4)
             end = 8 + size
-            if size and end <= len(payload) <= end + 3:
+            if size and end <= len(payload) <= end + 3 and payload[end - 1] == 0:
                 try:
                     return payload[8 : end - 1].decode()
                 except UnicodeDecodeError:

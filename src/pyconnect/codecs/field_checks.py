@@ -207,7 +207,8 @@ def _to_array(
     if isinstance(values, np.ndarray):
         if values.dtype.kind not in "iuf":
             raise FieldError(segment, f"expected an array of {kind}, got dtype {values.dtype}")
-        cast = values.astype(np.dtype(typecode), copy=False)
+        with np.errstate(invalid="ignore", over="ignore"):  # what does not fit is named below
+            cast = values.astype(np.dtype(typecode), copy=False)
         if (values.dtype.kind in "iu" and not np.array_equal(cast, values)) or (
             kind in _INTEGER_KINDS and values.dtype.kind == "f"
         ):

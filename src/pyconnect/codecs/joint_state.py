@@ -14,7 +14,7 @@ from collections.abc import Callable, Mapping
 from typing import Any
 
 from pyconnect.codecs.base import FieldsCodec
-from pyconnect.codecs.field_checks import check_float
+from pyconnect.codecs.field_checks import PLAIN_FLOATS, check_float
 from pyconnect.codecs.message_slots import blank, field_reader, has_slot_layout, zero_header
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
 
@@ -74,9 +74,9 @@ def _fast_columns(value: Any) -> tuple[list[str], dict[str, array.array[float]]]
     """Names and float columns of a well-formed joints dict, or None to take the checked path.
 
     The checks run in C (``map``/``set``): every joint a dict with the first joint's keys (a
-    missing key raises KeyError, an extra one changes the total length), every name a str.
-    array('d') converts ints and floats and raises TypeError for anything else. Whatever
-    fails goes to ``joint_state_fields`` for an error naming the joint.
+    missing key raises KeyError, an extra one changes the total length), every name a str,
+    every number an int or a float (array('d') would take a bool as 1.0). Whatever fails goes
+    to ``joint_state_fields`` for an error naming the joint.
     """
     if type(value) is not dict or not value:
         return None
@@ -94,10 +94,13 @@ def _fast_columns(value: Any) -> tuple[list[str], dict[str, array.array[float]]]
                 or sum(map(len, joints)) != len(keys) * len(joints)
             ):
                 return None
-            columns = {k: array.array("d", [j[k] for j in joints]) for k in keys}
+            lists = {k: [j[k] for j in joints] for k in keys}
         else:
-            columns = {"position": array.array("d", joints)}
-    except (TypeError, KeyError):
+            lists = {"position": joints}
+        if not all(PLAIN_FLOATS.issuperset(map(type, column)) for column in lists.values()):
+            return None
+        columns = {k: array.array("d", column) for k, column in lists.items()}
+    except (KeyError, OverflowError):  # a missing key; an int beyond float's range
         return None
     return names, columns
 
@@ -126,7 +129,7 @@ def joint_state_fields(value: Any) -> dict[str, Any]:
                 columns[key].append(check_float(joint[key], f"{path}.{key}"))
         elif isinstance(joint, numbers.Real) and not isinstance(joint, bool):
             joint_keys = ("position",)
-            columns["position"].append(float(joint))
+            columns["position"].append(check_float(joint, path))
         else:
             raise EncodeError(f"{path}: expected float or dict, got {type_name_of(joint)}")
         if keys is None:

@@ -144,9 +144,9 @@ def _as_structured(value: Any) -> npt.NDArray[Any]:
             )
         return value
     if value.ndim == 2 and value.shape[1] == 3 and value.dtype.kind == "f":
-        kind = value.dtype.newbyteorder("=")
+        kind = value.dtype.newbyteorder("=")  # native order: most readers assume it
         xyz = np.dtype([("x", kind), ("y", kind), ("z", kind)])
-        return np.ascontiguousarray(value).view(xyz).reshape(-1)
+        return np.ascontiguousarray(value, dtype=kind).view(xyz).reshape(-1)
     raise EncodeError(
         f"PointCloud2: expected a structured ndarray or an (N, 3) float array, got "
         f"{value.dtype} array of shape {value.shape}"

@@ -63,9 +63,24 @@ def test_laser_scan_errors() -> None:
     with pytest.raises(EncodeError) as error:
         codecs.encode({"ranges": []}, "sensor_msgs/LaserScan")
     assert str(error.value) == "LaserScan: expected LaserScanValue, got dict"
+    # Ranges and intensities are checked element by element, as a float32[] field anywhere.
+    for ranges, text in [
+        (["a"], "LaserScan.ranges[0]: expected float, got str"),
+        ([1.0, True], "LaserScan.ranges[1]: expected float, got bool"),
+        ([1.0, 2.0, 1e39], "LaserScan.ranges[2]: expected float32 (|x| <= 3.4028235e+38), got 1e+39"),
+        (np.array([1e39]), "LaserScan.ranges[0]: expected float32 (|x| <= 3.4028235e+38), got 1e+39"),
+        (np.zeros((2, 2), np.float32), "LaserScan.ranges: expected a 1-D sequence, got shape (2, 2)"),
+        ("12", "LaserScan.ranges: expected list, got str"),
+    ]:
+        with pytest.raises(EncodeError) as bad:
+            codecs.encode(LaserScanValue(ranges=ranges), "sensor_msgs/LaserScan")
+        assert str(bad.value) == text
     with pytest.raises(EncodeError) as bad:
-        codecs.encode(LaserScanValue(ranges=["a"]), "sensor_msgs/LaserScan")  # type: ignore[arg-type]
-    assert str(bad.value) == "LaserScan.ranges: expected a sequence of float32, got list"
+        codecs.encode(LaserScanValue(intensities=[0, None]), "sensor_msgs/LaserScan")
+    assert str(bad.value) == "LaserScan.intensities[1]: expected float, got NoneType"
+    # ints and float64 arrays are converted, as the generated codecs convert them
+    scan = codecs.decode(codecs.encode(LaserScanValue(ranges=[1, 2.5]), "sensor_msgs/LaserScan"))
+    assert scan.ranges.tolist() == [1.0, 2.5] and scan.ranges.dtype == np.float32
 
 
 @st.composite

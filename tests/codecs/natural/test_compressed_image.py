@@ -112,6 +112,13 @@ def test_encode_errors() -> None:
         "CompressedImageCodec: format must be jpeg, png or compressedDepth, got 'webp'"
     )
     assert CompressedImageCodec().lossless is False
+    for shape in [(0, 4, 3), (4, 0)]:  # OpenCV's own error would name no field
+        with pytest.raises(EncodeError) as empty:
+            CompressedImageCodec().encode(np.zeros(shape, np.uint8))
+        assert str(empty.value) == f"CompressedImage: cannot compress an empty image (shape {shape})"
+    with pytest.raises(EncodeError) as too_wide:
+        CompressedImageCodec().encode(np.zeros((1, 70_000), np.uint8))  # JPEG's limit is 65,500
+    assert str(too_wide.value).startswith("CompressedImage: OpenCV could not encode (1, 70000) as jpeg")
 
 
 def test_big_endian_16_bit_png() -> None:

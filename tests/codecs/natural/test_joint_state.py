@@ -77,6 +77,12 @@ def test_a_joint_named_twice() -> None:
             ),
         ),
         ({1: 1.0}, "JointState.name: expected str, got int"),
+        # bools are refused wherever numbers go, on the fast path too (array('d') takes them)
+        ({"a": True}, "JointState['a']: expected float or dict, got bool"),
+        ({"a": 1.0, "b": False}, "JointState['b']: expected float or dict, got bool"),
+        ({"a": {"position": 1.0, "velocity": True}}, "JointState['a'].velocity: expected float, got bool"),
+        ({"a": 10**400}, "JointState['a']: expected float, got an int too large for float64"),
+        ({"a": {"effort": -(10**400)}}, "JointState['a'].effort: expected float, got an int too large for float64"),
     ],
 )
 def test_bad_values(value: Any, message: str) -> None:

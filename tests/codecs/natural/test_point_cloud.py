@@ -137,6 +137,10 @@ def test_xyz_array_encodes_as_float_fields() -> None:
     assert decoded["x"].tolist() == [1.0, 4.0] and np.isnan(decoded["y"][1])
     dense = PointCloudCodec().encode(np.zeros((3, 3)))
     assert dense.is_dense is True and dense.fields[0].datatype == 8
+    # a big-endian (N, 3) array is converted to native order, not reinterpreted
+    swapped = PointCloudCodec().encode(np.array([[1.0, 2.0, 3.0]], ">f4"))
+    assert swapped.is_bigendian is False
+    assert decode_point_cloud(swapped).tolist() == [(1.0, 2.0, 3.0)]
 
 
 def test_ouster_like_padding_and_rgb() -> None:

@@ -58,3 +58,32 @@ def test_arrays_decode_as_views_of_the_input_in_views_and_as_lists_in_dicts() ->
     assert np.shares_memory(viewed, np.frombuffer(cdr, np.uint8))
     assert viewed.tolist() == [1.5, 2.5]
     assert wire.to_dict(cdr, "std_msgs/msg/Float64MultiArray")["data"] == [1.5, 2.5]
+
+
+@pytest.mark.parametrize(
+    ("msg_type", "value"),
+    [
+        ("std_msgs/msg/Float64MultiArray", np.array([1.0, -2.5, 1e300])),
+        ("std_msgs/msg/Int32MultiArray", np.array([1, -2, 2**31 - 1], np.int32)),
+        ("std_msgs/msg/UInt16MultiArray", np.array([1, 65535], np.uint16)),
+    ],
+)
+def test_natural_values_of_big_endian_cdr_equal_the_little_endian_ones(
+    msg_type: str, value: Any
+) -> None:
+    codec = wire.wire_codec(msg_type)
+    little = codec.encode(value)
+    big = codec.from_dict(codec.to_dict(little), big_endian=True)
+    assert big[:2] == b"\x00\x00" and big != little  # really big-endian
+    decoded = codec.decode(big)
+    assert decoded.dtype == value.dtype and decoded.tolist() == value.tolist()
+
+
+def test_laser_scan_of_big_endian_cdr() -> None:
+    from pyconnect.codecs.laser_scan import LaserScanValue
+
+    codec = wire.wire_codec("sensor_msgs/msg/LaserScan")
+    scan = LaserScanValue(ranges=np.array([1.0, 2.5], np.float32), intensities=[7.0])
+    big = codec.from_dict(codec.to_dict(codec.encode(scan)), big_endian=True)
+    decoded = codec.decode(big)
+    assert decoded.ranges.tolist() == [1.0, 2.5] and decoded.intensities.tolist() == [7.0]

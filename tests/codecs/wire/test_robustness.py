@@ -205,3 +205,30 @@ def test_every_input_kind_decodes(tmp_path: Any) -> None:
             value = wire.to_dict(data, "sensor_msgs/msg/Image")
             assert value["data"] == b"ab"
             del value
+
+
+@pytest.mark.parametrize(
+    ("msg_type", "field"),
+    [
+        ("std_msgs/msg/String", "data"),  # the fast path
+        ("std_msgs/msg/Header", "frame_id"),  # the generated decoder
+        ("test_msgs/msg/UnboundedSequences", "string_values"),  # read_strings
+    ],
+)
+def test_a_string_without_its_nul_reads_as_rclpy_reads_it(msg_type: str, field: str) -> None:
+    """CDR counts the NUL that ends a string; Fast CDR keeps a last byte that is not NUL."""
+    import importlib
+
+    from rclpy.serialization import deserialize_message
+
+    package, _, name = msg_type.split("/")
+    cls = getattr(importlib.import_module(f"{package}.msg"), name)
+    values: Any = ["ab"] if field == "string_values" else "ab"
+    cdr = wire.from_dict({field: values}, msg_type)
+    unterminated = cdr.replace(b"\x03\x00\x00\x00ab\x00", b"\x03\x00\x00\x00abc")
+    assert unterminated != cdr
+    expected = ["abc"] if field == "string_values" else "abc"
+    assert getattr(deserialize_message(unterminated, cls), field) == expected
+    assert wire.to_dict(unterminated, msg_type)[field] == expected
+    natural = wire.decode(unterminated, msg_type)
+    assert (natural if msg_type == "std_msgs/msg/String" else expected) == expected
