@@ -2,8 +2,10 @@
 
 ``python peer_without_rclpy.py CONFIG ROLE TOPIC``: ROLE ``echo-image`` receives Images on TOPIC
 and republishes each on TOPIC + '_back'; ``fibonacci-server`` serves the action
-``test_msgs/action/Fibonacci`` on TOPIC (with feedback); ``spin`` just spins (signal tests). It prints
-``ready`` once its agents exist.
+``test_msgs/action/Fibonacci`` on TOPIC (with feedback); ``spin`` just spins (signal tests);
+``spin-twice`` spins, then makes a second peer and spins again; ``stop-service`` serves a
+``std_srvs/srv/Trigger`` on TOPIC whose handler shuts the peer down; ``no-shutdown`` ends the
+script without shutting its peer down. It prints ``ready`` once its agents exist.
 """
 
 from __future__ import annotations
@@ -61,8 +63,33 @@ def main() -> None:
             data_interface="test_msgs/action/Fibonacci",
             response_func=fibonacci,
         )
+    if role == "stop-service":
+
+        def stop(_request: Any) -> dict[str, Any]:
+            peer.shutdown()  # from the handler's own thread: the reply still goes out
+            return {"success": True, "message": "stopping"}
+
+        peer.add_agent(
+            conn_name=topic,
+            conn_type="service_server",
+            data_interface="std_srvs/srv/Trigger",
+            response_func=stop,
+        )
+    if role == "no-shutdown":
+        peer.add_agent(conn_name=topic, conn_type="sub", data_interface="std_msgs/msg/String")
+        print("ready", flush=True)
+        return  # the interpreter's exit shuts the peer down
     print("ready", flush=True)
-    peer.spin()
+    if role != "spin-twice":
+        peer.spin()
+        return
+    try:
+        peer.spin()
+    except SystemExit:  # the signal came before spin() was reached
+        peer.wait_for_shutdown()
+    with Peer("vision_again", config=config, stop_func=lambda: print("again", flush=True)) as again:
+        print("ready", flush=True)
+        again.spin()
 
 
 if __name__ == "__main__":

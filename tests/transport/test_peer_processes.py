@@ -105,3 +105,47 @@ def test_a_signal_ends_a_spinning_peer_with_exit_0(
     assert process.returncode == 0, err
     assert err == ""
     del out  # the signal may come before spin() (SystemExit(0)) or during it (spin returns)
+
+
+def test_a_script_that_never_shuts_its_peer_down_still_exits(locator: str, tmp_path: Path) -> None:
+    """zenoh's callback threads are not daemons: the peer shuts down when the main thread ends."""
+    config = tmp_path / "session.json5"
+    config.write_text(loopback_config(listen=locator))
+    process = start(config, "no-shutdown", "chatter")
+    out, err = process.communicate(timeout=TIMEOUT)
+    assert process.returncode == 0, err
+    assert (out.strip(), err) == ("False", "")  # stop_func ran
+
+
+def test_a_handler_that_shuts_its_peer_down_still_answers(
+    make_peer: PeerFactory, locator: str, tmp_path: Path
+) -> None:
+    here = make_peer("operator")
+    config = tmp_path / "session.json5"
+    config.write_text(loopback_config(connect=locator))
+    stop = here.add_agent(
+        conn_name="stop", conn_type="service_client", data_interface="std_srvs/srv/Trigger"
+    )
+    process = start(config, "stop-service", "stop")
+    try:
+        here.wait_until_connected(timeout=TIMEOUT)
+        assert stop.send() == {"success": True, "message": "stopping", "isdone": True}
+        out, err = process.communicate(timeout=TIMEOUT)
+    finally:
+        process.kill()
+    assert process.returncode == 0, err  # not SIGABRT: no thread left inside zenoh at exit
+    assert (out.strip(), err) == ("False", "")
+
+
+def test_a_second_peer_in_the_process_ends_on_a_signal_too(locator: str, tmp_path: Path) -> None:
+    config = tmp_path / "session.json5"
+    config.write_text(loopback_config(listen=locator))
+    process = start(config, "spin-twice", "unused")
+    assert process.stdout is not None
+    process.send_signal(signal.SIGTERM)
+    assert process.stdout.readline().strip() == "False"  # the first peer's stop_func
+    assert process.stdout.readline().strip() == "ready"
+    process.send_signal(signal.SIGTERM)  # a first signal again, not a second Ctrl-C
+    out, err = process.communicate(timeout=TIMEOUT)
+    assert process.returncode == 0, err
+    assert (out.strip(), err) == ("again", "")

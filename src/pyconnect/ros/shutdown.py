@@ -10,14 +10,18 @@ stopped, threads joined, node destroyed, ``rclpy.try_shutdown``); if the main th
 in ``spin()``/``wait_for_shutdown()`` it returns normally, otherwise ``SystemExit(0)`` unwinds
 the user's code (``finally`` blocks run) and the process exits 0. A second signal raises
 ``KeyboardInterrupt`` at once. At interpreter exit an ``atexit`` hook runs the same shutdown
-(spin threads are daemons, joined there). The previous handlers come back when the last node
-that installed them is shut down from the main thread.
+(spin threads are daemons, joined there); a peer's runs as soon as the main thread ends, since
+zenoh's callback threads are not daemons and would keep the process waiting for ever. The
+previous handlers come back when the last node that installed them is shut down from the main
+thread.
 """
 
 from __future__ import annotations
 
 import atexit
+import contextlib
 import signal
+import sys
 import threading
 from collections.abc import Callable
 from types import FrameType, TracebackType
@@ -59,7 +63,6 @@ def _restore_handlers() -> None:
         if signal.getsignal(signum) is _on_signal:
             signal.signal(signum, previous if previous is not None else signal.SIG_DFL)
     _previous.clear()
-    _state = {"signalled": False}
 
 
 class ShutdownHooks:
@@ -81,23 +84,63 @@ class ShutdownHooks:
                 _live.append(self)
             _install_handlers()
 
-    def register_atexit(self, hook: Callable[[], None]) -> None:
+    def register_atexit(
+        self, hook: Callable[[], None], *, before_threads_end: bool = False
+    ) -> None:
+        """Run ``hook`` at interpreter exit: after the program's other threads have ended, or
+        with ``before_threads_end`` as soon as the main thread ends (for a zenoh session, whose
+        callback threads never end on their own, so waiting for them first would hang)."""
         self._atexit_hook = hook
-        atexit.register(hook)
+        if before_threads_end:
+            with _lock:
+                _early_hooks.append(hook)
+            _register_early_dispatch()
+        else:
+            atexit.register(hook)
 
     def restore(self) -> None:
         """Leave the signal handlers (restoring the old ones after the last node) and atexit."""
-        if self._atexit_hook is not None:
-            atexit.unregister(self._atexit_hook)
-            self._atexit_hook = None
+        hook, self._atexit_hook = self._atexit_hook, None
+        if hook is not None:
+            atexit.unregister(hook)
+            with _lock, contextlib.suppress(ValueError):
+                _early_hooks.remove(hook)
         if not self._handles_signals:
             return
         with _lock:
             if self in _live:
                 _live.remove(self)
             last = not _live
+            if last:  # the next node starts afresh: its first signal is a first one
+                _state["signalled"] = False
         if last:
             _restore_handlers()
+
+
+_early_hooks: list[Callable[[], None]] = []
+_early_dispatch: list[bool] = []
+
+
+def _register_early_dispatch() -> None:
+    """Once per process: run ``_early_hooks`` when the main thread ends, before Python waits
+    for the other non-daemon threads (``threading._register_atexit``, as concurrent.futures
+    uses it; plain ``atexit`` where it is missing)."""
+    with _lock:
+        if _early_dispatch:
+            return
+        _early_dispatch.append(True)
+    register = getattr(threading, "_register_atexit", atexit.register)
+    register(_run_early_hooks)
+
+
+def _run_early_hooks() -> None:
+    with _lock:
+        hooks = list(reversed(_early_hooks))
+    for hook in hooks:
+        try:
+            hook()
+        except Exception as error:  # as atexit would, but every hook runs
+            print(f"[pyconnect] shutdown at exit failed: {error!r}", file=sys.stderr)
 
 
 class ShutsDownOnExit:
@@ -117,8 +160,8 @@ class ShutsDownOnExit:
             return
         # Not a daemon: the interpreter waits for it before exiting.
         self._shutdown_thread = threading.Thread(
-            target=self.shutdown, name=f"pyconnect-shutdown-{self.name}"
-        )
+            target=self.shutdown, name=f"pyconnect-shutdown-{self.name}", daemon=False
+        )  # (a thread started from a daemon thread would be a daemon too)
         self._shutdown_thread.start()
 
     def __enter__(self) -> Any:

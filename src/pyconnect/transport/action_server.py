@@ -85,6 +85,7 @@ class ActionServerAgent(PeerAgent):
         self.feedback_conversion = self.wire_conversion(interface.feedback)
         self.goal_count = 0
         self._goals: dict[bytes, _Goal] = {}
+        self._running: set[threading.Thread] = set()  # goal threads, joined on close
         self._lock = threading.Lock()
         self._closed = False
         name = self.topic
@@ -134,10 +135,13 @@ class ActionServerAgent(PeerAgent):
         self.goal_count += 1
         self._publish_status()
         goal_cdr = self.interface.goal.from_dict(fields["goal"])
-        threading.Thread(
+        thread = threading.Thread(
             target=self._execute, args=(goal, goal_cdr), name=f"pyconnect-goal-{self.name}",
             daemon=True,
-        ).start()  # fmt: skip
+        )  # fmt: skip
+        with self._lock:
+            self._running.add(thread)
+        thread.start()
 
     def _on_result_request(self, request: Request) -> None:
         codecs = self.interface.get_result
@@ -197,6 +201,13 @@ class ActionServerAgent(PeerAgent):
 
     # -- executing a goal ----------------------------------------------------------------------
     def _execute(self, goal: _Goal, goal_cdr: bytes) -> None:
+        try:
+            self._execute_goal(goal, goal_cdr)
+        finally:
+            with self._lock:
+                self._running.discard(threading.current_thread())
+
+    def _execute_goal(self, goal: _Goal, goal_cdr: bytes) -> None:
         with self._lock:
             if goal.status == aw.ACCEPTED:
                 goal.status = aw.EXECUTING
@@ -285,11 +296,17 @@ class ActionServerAgent(PeerAgent):
         ]:
             del self._goals[goal_id]
 
-    def close(self) -> None:
+    def close(self, timeout: float = 5.0) -> None:
         with self._lock:
             self._closed = True
             for goal in self._goals.values():
                 goal.cancel_requested.set()
+            running = [t for t in self._running if t is not threading.current_thread()]
+        # Goals asked to cancel get ``timeout`` seconds to send their result while the session
+        # is open (a goal thread left inside zenoh at interpreter exit aborts the process).
+        deadline = time.monotonic() + timeout
+        for thread in running:
+            thread.join(max(0.0, deadline - time.monotonic()))
         for server in self._servers:
             server.close()
         for writer in (self._feedback, self._status, self._abort_reasons):

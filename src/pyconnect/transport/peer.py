@@ -127,7 +127,7 @@ class Peer(ShutsDownOnExit):
             main_is_waiting=lambda: self._main_waiting,
             handle_signals=handle_signals,
         )
-        self._hooks.register_atexit(self.shutdown)
+        self._hooks.register_atexit(self.shutdown, before_threads_end=True)
 
     # -- tokens --------------------------------------------------------------------------------
     def entity_token(
@@ -251,7 +251,16 @@ class Peer(ShutsDownOnExit):
 
     # -- shutdown ------------------------------------------------------------------------------
     def shutdown(self) -> None:
-        """Stop everything once: ``stop_func``, agents, tokens, the zenoh session."""
+        """Stop everything once: ``stop_func``, agents, tokens, the zenoh session.
+
+        Called from one of the peer's own threads (a handler), it starts the shutdown on a
+        thread of its own and returns: the shutdown waits for the handler to finish (a service
+        still sends its reply), and ``spin()`` returns when everything is closed.
+        """
+        current = threading.current_thread()
+        if current.daemon and current.name.startswith("pyconnect-"):  # an agent's thread
+            self._shutdown_in_background()
+            return
         with self._shutdown_lock:
             if self._stopped.is_set():
                 return
