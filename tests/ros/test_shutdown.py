@@ -127,6 +127,39 @@ threading.Thread(target=ready_when_main_waits, args=(node, heard), daemon=True).
 node.wait_for_shutdown()
 print("AFTER BUSY", flush=True)
 """,
+    "one_of_two_nodes_shut_down": """
+node, heard = make()
+other = CustomNode("other_child", stop_func=lambda: say("STOP2"))
+echo = threading.Event()
+other.add_agent(conn_name="echo", conn_type="sub", data_interface=String,
+                response_func=lambda _v: echo.set())
+shout = other.add_agent(conn_name="echo", agent_name="shout", conn_type="pub",
+                        data_interface=String, time_period=0.01, response_func=lambda: "hi")
+node.spin(run_thread=True)
+other.spin(run_thread=True)
+ready(heard)
+node.shutdown()  # the other node shares the context pyconnect initialised: it keeps working
+echo.clear()
+print("OTHER WORKS" if echo.wait(60) and other.context.ok() else "OTHER BROKEN", flush=True)
+other.shutdown()
+print("CONTEXT DOWN" if not other.context.ok() else "CONTEXT LEFT", flush=True)
+""",
+    "node_after_node": """
+node, heard = make()
+node.spin(run_thread=True)
+ready(heard)
+node.shutdown()
+again = CustomNode("again_child", stop_func=lambda: say("STOP2"))  # a fresh default context
+echo = threading.Event()
+again.add_agent(conn_name="echo", conn_type="sub", data_interface=String,
+                response_func=lambda _v: echo.set())
+again.add_agent(conn_name="echo", agent_name="shout", conn_type="pub",
+                data_interface=String, time_period=0.01, response_func=lambda: "hi")
+again.spin(run_thread=True)
+print("SECOND WORKS" if echo.wait(60) else "SECOND BROKEN", flush=True)
+again.shutdown()
+print("AFTER SECOND", flush=True)
+""",
     "interpreter_exit": """
 node, heard = make()
 node.spin(run_thread=True)
@@ -151,6 +184,8 @@ LAST_LINE = {
     "shutdown_call": "AFTER SHUTDOWN",
     "with_block": "AFTER WITH",
     "sigint_two_nodes": "AFTER TWO",
+    "one_of_two_nodes_shut_down": "CONTEXT DOWN",
+    "node_after_node": "AFTER SECOND",
 }
 
 
@@ -189,7 +224,8 @@ def test_program_ends_cleanly(ending: str, tmp_path: Path) -> None:
     assert lines.count("STOP") == 1, (out, err)
     assert "terminate called" not in err
     assert "Traceback" not in err, err
-    if ending == "sigint_two_nodes":
+    if ending in ("sigint_two_nodes", "one_of_two_nodes_shut_down", "node_after_node"):
         assert lines.count("STOP2") == 1, (out, err)
+    assert "BROKEN" not in out
     if ending in LAST_LINE:
         assert out.strip().splitlines()[-1] == LAST_LINE[ending]

@@ -6,8 +6,9 @@ all work on it, as the design promises); it also owns an ``AgentExecutor``
 (pyconnect.ros.coroutines) and the agents made by ``add_agent``. ``spin(run_thread=True)``
 spins in a daemon thread; ``spin()`` (or ``listen()``) blocks until shutdown. Shutdown —
 ``shutdown()``, leaving ``with``, Ctrl-C, SIGTERM or interpreter exit — runs ``stop_func`` once
-while the agents still work, stops the executor, joins its threads, destroys the node and shuts
-rclpy down if this node started it (pyconnect.ros.shutdown).
+while the agents still work, stops the executor, joins its threads, destroys the node and, for
+the last node on a context pyconnect initialised, shuts that context down
+(pyconnect.ros.shutdown, pyconnect.ros.shared_context).
 
 Names resolve like rclpy names: ``conn_name`` is relative to the node's namespace unless it
 starts with ``/`` or ``~``; ``--ros-args -r chatter:=talk`` and ``-p name:=value`` from
@@ -28,10 +29,8 @@ from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-import rclpy
 from rclpy.context import Context
 from rclpy.node import Node
-from rclpy.signals import SignalHandlerOptions
 
 from pyconnect.codecs.registry import Registry, default_registry
 from pyconnect.errors import ConnectionTimeout, PyconnectError
@@ -43,6 +42,7 @@ from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.node_logging import NodeLogging
 from pyconnect.ros.recording import Recording
+from pyconnect.ros.shared_context import join_context, leave_context
 from pyconnect.ros.shutdown import ShutdownHooks, ShutsDownOnExit
 from pyconnect.ros.subscriber_agent import SubscriberAgent
 from pyconnect.ros.waiting import EventLike
@@ -99,22 +99,19 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
         self.coroutines = CoroutineRunner(loop, name=f"pyconnect-asyncio-{name}")
         """Runs ``async def`` handlers (pyconnect.ros.coroutines)."""
 
-        context = context if context is not None else rclpy.get_default_context()
-        self._owns_context = not context.ok()
-        if self._owns_context:
-            rclpy.init(
-                args=sys.argv if args is None else args,
+        context = join_context(context, sys.argv if args is None else args)
+        try:
+            super().__init__(
+                name,
+                namespace=namespace,
                 context=context,
-                signal_handler_options=SignalHandlerOptions.NO,
+                cli_args=cli_args,
+                allow_undeclared_parameters=True,
+                automatically_declare_parameters_from_overrides=True,
             )
-        super().__init__(
-            name,
-            namespace=namespace,
-            context=context,
-            cli_args=cli_args,
-            allow_undeclared_parameters=True,
-            automatically_declare_parameters_from_overrides=True,
-        )
+        except BaseException:
+            leave_context(context)
+            raise
         self._executor = AgentExecutor(
             context=context, handoff_after=handoff_after, on_error=self._on_executor_error
         )
@@ -305,8 +302,7 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
         self._executor.remove_node(self)
         super().destroy_node()
         self._executor.shutdown(timeout_sec=1.0)
-        if self._owns_context:
-            rclpy.try_shutdown(context=self.context)
+        leave_context(self.context)
         self._hooks.restore()
 
     def destroy_node(self) -> None:
