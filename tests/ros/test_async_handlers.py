@@ -40,6 +40,10 @@ def test_async_sub_handler_runs_in_order_and_its_errors_are_reported(make_node: 
         await asyncio.sleep(0.001)
         if text == "bad":
             raise ValueError("cannot use 'bad'")
+        if text == "cancelled":  # something the handler awaited was cancelled: reported too
+            gone = asyncio.get_running_loop().create_future()
+            gone.cancel()
+            await gone
         seen.append(text)
         if len(seen) == 3:
             three.set()
@@ -54,11 +58,11 @@ def test_async_sub_handler_runs_in_order_and_its_errors_are_reported(make_node: 
     node.spin(run_thread=True)
     connected = threading.Event()
     assert repeat_until(connected, lambda: connected.set() if pub.subscriber_count else None)
-    for word in ("a", "bad", "b", "c"):
+    for word in ("a", "cancelled", "bad", "b", "c"):
         pub.send(word)
     assert three.wait(EVENT_TIMEOUT)
     assert seen == ["a", "b", "c"]
-    assert sub.error_count == 1
+    assert sub.error_count == 2
     assert sub.last_error == (
         "agent 'words' (sub std_msgs/msg/String): response_func raised ValueError: cannot use 'bad'"
     )

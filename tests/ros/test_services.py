@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import concurrent.futures
+import threading
 from typing import Any
 
 import pytest
@@ -134,3 +135,39 @@ def test_server_needs_response_func(make_node: Any) -> None:
         "agent 'x' (service_server std_srvs/srv/Trigger): a 'service_server' agent needs a "
         "response_func"
     )
+
+
+def test_a_call_cut_short_by_shutdown_says_so(make_node: Any) -> None:
+    """Not "no response within 60 s": the wait ended because the caller's node shut down."""
+    server_node, caller = make_node("slow_server"), make_node("caller")
+    entered, release = threading.Event(), threading.Event()
+
+    def slow(_request: dict[str, Any]) -> dict[str, Any]:
+        entered.set()
+        release.wait(EVENT_TIMEOUT)
+        return {"success": True, "message": ""}
+
+    server_node.add_agent(
+        conn_name="slow", conn_type="service_server", data_interface=Trigger, response_func=slow
+    )
+    client = caller.add_agent(
+        conn_name="slow", conn_type="service_client", data_interface=Trigger, timeout=600
+    )
+    server_node.spin(run_thread=True)
+    caller.spin(run_thread=True)
+    outcome: list[Any] = []
+    calling = threading.Thread(target=lambda: outcome.append(client.send()))
+    calling.start()
+    try:
+        assert entered.wait(EVENT_TIMEOUT)
+        caller.shutdown()
+        calling.join(EVENT_TIMEOUT)
+    finally:
+        release.set()
+    assert outcome == [
+        {
+            "isdone": False,
+            "error": "agent 'slow' (service_client std_srvs/srv/Trigger): node 'caller' shut "
+            "down during the call",
+        }
+    ]

@@ -155,14 +155,19 @@ class ActionClientAgent(NodeAgent):
         if not self._server_seen:
             if not wait_until(self.client.server_is_ready, timeout, stop=self.node.shutdown_event):
                 return self._respond(
-                    self._failed(f"no action server for {self.conn_name} within {timeout} s")
+                    self._failed(
+                        self.why_no_answer(
+                            f"no action server for {self.conn_name}", timeout, during="goal"
+                        )
+                    )
                 )
             self._server_seen = True
         in_flight = self._send_goal(goal, result, feedback_func)
         if not self.node.wait_for(done, timeout):
             in_flight.cancel()
             self._server_seen = False
-            return self._respond(self._failed(f"no result within {timeout} s (goal canceled)"))
+            text = self.why_no_answer("no result", timeout, during="goal")
+            return self._respond(self._failed(f"{text} (goal canceled)"))
         return self._respond(result.result())
 
     async def send_async(

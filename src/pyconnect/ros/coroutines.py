@@ -180,13 +180,23 @@ class CoroutineLane:
                 continue
             try:
                 result = await function(*args)
-            except asyncio.CancelledError:
-                raise
+            except asyncio.CancelledError as error:
+                if self._runner.stopped or _being_cancelled():
+                    raise  # the lane's own task: shutdown
+                on_error(error)  # the handler's own (an awaited thing was cancelled): go on
+                continue
             except Exception as error:
                 on_error(error)
                 continue
             if on_done is not None:
                 on_done(result)
+
+
+def _being_cancelled() -> bool:
+    """Whether the running task itself was asked to stop (``Task.cancelling``, Python 3.11+)."""
+    task = asyncio.current_task()
+    cancelling = getattr(task, "cancelling", None)
+    return bool(cancelling()) if cancelling is not None else False
 
 
 # Tasks are only weakly referenced by asyncio; these keep running lanes alive.

@@ -204,6 +204,12 @@ class NodeAgent:
         return flushed
 
     # -- user code -----------------------------------------------------------------------------
+    def why_no_answer(self, missing: str, timeout: float | None, *, during: str = "call") -> str:
+        """Why a blocking wait ended without an answer: the node's shutdown, or ``timeout``."""
+        if self.node.shutdown_event.is_set():
+            return f"node {self.node.name!r} shut down during the {during}"
+        return f"{missing} within {timeout} s"
+
     def report_exception(self, where: str, error: BaseException) -> None:
         """Log an exception raised by user code or a codec, with the agent name and traceback."""
         if isinstance(error, CancelledByShutdown):

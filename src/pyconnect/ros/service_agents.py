@@ -190,7 +190,9 @@ class ServiceClientAgent(NodeAgent):
         # server shows up as a timeout, which makes the next call ask again.
         if not self._server_seen:
             if not wait_until(self.client.service_is_ready, timeout, stop=self.node.shutdown_event):
-                return self._failed(f"no server for {self.service_name} within {timeout} s")
+                return self._failed(
+                    self.why_no_answer(f"no server for {self.service_name}", timeout)
+                )
             self._server_seen = True
         ros_future = self.client.call_async(request)
         # The reply wakes this thread through one bare lock (waiting.Signal): the hand-off
@@ -200,7 +202,9 @@ class ServiceClientAgent(NodeAgent):
         if not self.node.wait_for(done, timeout, poll=ros_future.done):
             self.client.remove_pending_request(ros_future)
             self._server_seen = False
-            return self._failed(f"no response from {self.service_name} within {timeout} s")
+            return self._failed(
+                self.why_no_answer(f"no response from {self.service_name}", timeout)
+            )
         return self._value_of(ros_future)
 
     async def send_async(self, data: Any = None, *, timeout: float | None = None) -> Any:
