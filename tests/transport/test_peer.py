@@ -374,3 +374,39 @@ def test_a_slow_subscription_keeps_the_last_depth_samples(make_peer: PeerFactory
     assert handled == [1, 28, 29, 30]
     assert sub.dropped_count == 26
     assert sub.get() == 30
+
+
+def test_a_malformed_reply_fails_the_call_like_any_other(make_peer: PeerFactory) -> None:
+    """A reply that is not CDR of the response type: {'isdone': False, ...}, never an exception."""
+    from pyconnect.transport import rmw_zenoh_keys as keys
+
+    peer = make_peer("vision")
+    client = peer.add_agent(
+        conn_name="trigger",
+        conn_type="service_client",
+        data_interface="std_srvs/srv/Trigger",
+        timeout=TIMEOUT,
+    )
+    queryable = peer.session.declare_queryable(
+        client.key, lambda query: query.reply(client.key, b"\xff" * 12), complete=True
+    )
+    token = peer.session.liveliness().declare_token(
+        peer.entity_token(
+            kind=keys.SERVICE,
+            name="/trigger",
+            type_name="std_srvs/srv/Trigger",
+            type_hash=client.key.rsplit("/", 1)[1].removeprefix("RIHS01_"),
+            qos=keys.qos_chunk(),
+        )
+    )
+    try:
+        assert client.send() == {
+            "isdone": False,
+            "error": "agent 'trigger' (service_client std_srvs/srv/Trigger): could not decode "
+            "the response: std_srvs/srv/Trigger_Response: unsupported CDR encapsulation ffff "
+            "(expected 0001 little-endian or 0000 big-endian XCDR1)",
+        }
+        assert client.error_count == 1
+    finally:
+        token.undeclare()
+        queryable.undeclare()

@@ -107,12 +107,22 @@ def test_a_signal_ends_a_spinning_peer_with_exit_0(
     del out  # the signal may come before spin() (SystemExit(0)) or during it (spin returns)
 
 
+def finish(process: subprocess.Popen[str]) -> tuple[str, str]:
+    """The rest of stdout and all of stderr once the process ends (``communicate()`` would skip
+    what ``readline()`` has buffered already)."""
+    assert process.stdout is not None and process.stderr is not None
+    with process.stdout, process.stderr:
+        out = process.stdout.read()
+        process.wait(TIMEOUT)
+        return out, process.stderr.read()
+
+
 def test_a_script_that_never_shuts_its_peer_down_still_exits(locator: str, tmp_path: Path) -> None:
     """zenoh's callback threads are not daemons: the peer shuts down when the main thread ends."""
     config = tmp_path / "session.json5"
     config.write_text(loopback_config(listen=locator))
     process = start(config, "no-shutdown", "chatter")
-    out, err = process.communicate(timeout=TIMEOUT)
+    out, err = finish(process)
     assert process.returncode == 0, err
     assert (out.strip(), err) == ("False", "")  # stop_func ran
 
@@ -130,7 +140,7 @@ def test_a_handler_that_shuts_its_peer_down_still_answers(
     try:
         here.wait_until_connected(timeout=TIMEOUT)
         assert stop.send() == {"success": True, "message": "stopping", "isdone": True}
-        out, err = process.communicate(timeout=TIMEOUT)
+        out, err = finish(process)
     finally:
         process.kill()
     assert process.returncode == 0, err  # not SIGABRT: no thread left inside zenoh at exit
@@ -146,6 +156,6 @@ def test_a_second_peer_in_the_process_ends_on_a_signal_too(locator: str, tmp_pat
     assert process.stdout.readline().strip() == "False"  # the first peer's stop_func
     assert process.stdout.readline().strip() == "ready"
     process.send_signal(signal.SIGTERM)  # a first signal again, not a second Ctrl-C
-    out, err = process.communicate(timeout=TIMEOUT)
+    out, err = finish(process)
     assert process.returncode == 0, err
     assert (out.strip(), err) == ("again", "")

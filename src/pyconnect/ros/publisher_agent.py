@@ -25,6 +25,7 @@ from rclpy.qos import QoSProfile
 
 from pyconnect.codecs.base import Codec
 from pyconnect.codecs.stamped import Stamped
+from pyconnect.errors import PyconnectError
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.interfaces import interface_class
@@ -134,6 +135,19 @@ class PublisherAgent(NodeAgent):
 
     def send(self, data: Any = None) -> bool:
         """Encode and publish ``data``; False when skipped (``only_if_subscribed``, no reader)."""
+        try:
+            return self._publish(data)
+        except PyconnectError:
+            raise
+        except Exception as error:
+            if not self.node.shutdown_event.is_set():
+                raise
+            # rclpy's own words ("cannot use Destroyable") name neither the agent nor the cause.
+            raise PyconnectError(
+                f"{self.describe}: node {self.node.name!r} is shut down"
+            ) from error
+
+    def _publish(self, data: Any) -> bool:
         if self.only_if_subscribed and self.publisher.get_subscription_count() == 0:
             return False
         raw = self._raw

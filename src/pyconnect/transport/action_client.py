@@ -159,7 +159,9 @@ class ActionClientAgent(PeerAgent):
     ) -> Any:
         deadline = None if timeout is None else time.monotonic() + timeout
         if not self.peer.wait_for_graph(self._server_ready, deadline):
-            return self._failed(f"no action server for {self.conn_name} within {timeout} s")
+            return self._failed(
+                self.why_no_answer(f"no action server for {self.conn_name}", timeout)
+            )
         in_flight = _GoalInFlight(uuid.uuid4().bytes, feedback_func)
         with self._lock:
             self._in_flight[in_flight.goal_id] = in_flight
@@ -186,6 +188,8 @@ class ActionClientAgent(PeerAgent):
             answer = codecs.send_goal.response.to_dict(self._send_goal.call(request, deadline))
         except CallFailed as failure:
             return self._failed(self._call_failure(failure, timeout))
+        except Exception as error:  # a malformed answer: a failed send, as any other
+            return self._undecodable("the goal response", error)
         accepted = bool(answer["accepted"])
         if self.accepted_func is not None:
             try:
@@ -207,7 +211,14 @@ class ActionClientAgent(PeerAgent):
                 self._request_cancel(in_flight.goal_id)
                 return self._failed(f"no result within {timeout} s (goal canceled)")
             return self._failed(str(failure))
-        return self._outcome(response, in_flight.goal_id)
+        try:
+            return self._outcome(response, in_flight.goal_id)
+        except Exception as error:
+            return self._undecodable("the result", error)
+
+    def _undecodable(self, what: str, error: Exception) -> Any:
+        self.report_exception("decode", error)
+        return self._failed(f"could not decode {what}: {error}")
 
     def _call_failure(self, failure: CallFailed, timeout: float | None) -> str:
         if failure.timed_out:

@@ -237,7 +237,11 @@ class Caller:
             raise CallFailed(f"the server of {self.name} failed: {'; '.join(errors)}")
         if self.server_count == 0:
             raise CallFailed(f"the server of {self.name} vanished before it replied")
-        raise CallFailed(f"no response from {self.name} in time", timed_out=True)
+        if deadline is not None and time.monotonic() >= deadline - 0.01:
+            raise CallFailed(f"no response from {self.name} in time", timed_out=True)
+        # zenoh ended the query early: the server's session went away (its token may be gone
+        # from the graph a moment later).
+        raise CallFailed(f"the server of {self.name} went away before it replied")
 
     def close(self) -> None:
         with contextlib.suppress(Exception):

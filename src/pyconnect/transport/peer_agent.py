@@ -51,6 +51,8 @@ class Peer(Protocol):
 
     def wait_for_graph(self, condition: Callable[[], bool], deadline: float | None) -> bool: ...
 
+    def ok(self) -> bool: ...
+
 
 def reform_response(data: Any, *, error: str | None = None) -> Any:
     """``CustomNode``'s response contract: dicts get ``'isdone'``; failures carry ``'error'``."""
@@ -135,6 +137,12 @@ class PeerAgent:
 
     def waiting_for(self) -> str:
         return ""
+
+    def why_no_answer(self, missing: str, timeout: float | None) -> str:
+        """Why a wait ended without an answer: the peer's shutdown, or ``timeout``."""
+        if not self.peer.ok():
+            return f"peer {self.peer.name!r} is shut down"
+        return f"{missing} within {timeout} s"
 
     def report_exception(self, where: str, error: BaseException) -> None:
         text = "".join(traceback.format_exception(type(error), error, error.__traceback__))

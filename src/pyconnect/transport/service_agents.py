@@ -180,14 +180,20 @@ class ServiceClientAgent(PeerAgent):
     def _call(self, payload: bytes, timeout: float | None) -> Any:
         deadline = None if timeout is None else time.monotonic() + timeout
         if not self.peer.wait_for_graph(lambda: self.server_count > 0, deadline):
-            return self._failed(f"no server for {self.topic} within {timeout} s")
+            return self._failed(self.why_no_answer(f"no server for {self.topic}", timeout))
         try:
             response = self._caller.call(payload, deadline)
         except CallFailed as failure:
             if failure.timed_out:
-                return self._failed(f"no response from {self.topic} within {timeout} s")
+                return self._failed(self.why_no_answer(f"no response from {self.topic}", timeout))
             return self._failed(str(failure))
-        value = reform_response(self.response_conversion.decode(response))
+        try:
+            decoded = self.response_conversion.decode(response)
+        except Exception as error:  # a malformed reply: a failed call, as any other
+            self.report_exception("decode", error)
+            reason = str(error).removeprefix(f"{self.describe}: ")  # named once, by _failed
+            return self._failed(f"could not decode the response: {reason}")
+        value = reform_response(decoded)
         self._latest = value
         return value
 

@@ -18,6 +18,7 @@ from typing import Any
 
 import zenoh
 
+from pyconnect.errors import TransportError
 from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.interface_types import message_interface
@@ -113,7 +114,11 @@ class PublisherAgent(PeerAgent):
         stamp = time_ns()
         with self._send_lock:  # sequence numbers go on the wire in order
             self._sequence = sequence = self._sequence + 1
-            self._put(payload, attachment=_pack_attachment(sequence, stamp, self.gid))
+            try:
+                self._put(payload, attachment=_pack_attachment(sequence, stamp, self.gid))
+            except zenoh.ZError as error:  # zenoh's words ("Undeclared publisher") name no agent
+                state = "is shut down" if self._stop.is_set() else f"failed: {error}"
+                raise TransportError(f"{self.describe}: peer {self.peer.name!r} {state}") from error
             self.sent_count += 1  # under the lock: sends from several threads all count
         self._latest = data
         return True
