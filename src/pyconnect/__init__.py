@@ -2,10 +2,8 @@
 
 from __future__ import annotations
 
-import logging
-
-# A library never configures logging; this keeps unconfigured programs from printing our records
-# through Python's last-resort handler.
-logging.getLogger("pyconnect").addHandler(logging.NullHandler())
+# No logging set-up here, not even a NullHandler: until a program configures logging, what
+# pyconnect reports (a peer's sample of another type, a callback that raised, a damaged bag) reaches
+# stderr through logging's last-resort handler, as the design promises; nothing is lost silently.
 
 __version__ = "0.1.0"

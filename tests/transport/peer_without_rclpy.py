@@ -5,7 +5,8 @@ and republishes each on TOPIC + '_back'; ``fibonacci-server`` serves the action
 ``test_msgs/action/Fibonacci`` on TOPIC (with feedback); ``spin`` just spins (signal tests);
 ``spin-twice`` spins, then makes a second peer and spins again; ``stop-service`` serves a
 ``std_srvs/srv/Trigger`` on TOPIC whose handler shuts the peer down; ``no-shutdown`` ends the
-script without shutting its peer down. It prints ``ready`` once its agents exist.
+script without shutting its peer down; ``raising-sub`` sends itself one String on TOPIC that its
+handler refuses. It prints ``ready`` once its agents exist.
 """
 
 from __future__ import annotations
@@ -75,6 +76,22 @@ def main() -> None:
             data_interface="std_srvs/srv/Trigger",
             response_func=stop,
         )
+    if role == "raising-sub":  # a handler that raises, in a program that configures no logging
+
+        def fail(_value: Any) -> None:
+            raise RuntimeError("no use for it")
+
+        sub = peer.add_agent(
+            conn_name=topic, conn_type="sub", data_interface="std_msgs/msg/String", response_func=fail
+        )
+        out = peer.add_agent(
+            conn_name=topic, agent_name="out", conn_type="pub", data_interface="std_msgs/msg/String"
+        )
+        peer.wait_for_graph(lambda: out.subscriber_count > 0, None)
+        out.send("hello")
+        sub.wait_for_message(60)
+        peer.shutdown()
+        return
     if role == "no-shutdown":
         peer.add_agent(conn_name=topic, conn_type="sub", data_interface="std_msgs/msg/String")
         print("ready", flush=True)

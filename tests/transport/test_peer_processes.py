@@ -159,3 +159,24 @@ def test_a_second_peer_in_the_process_ends_on_a_signal_too(locator: str, tmp_pat
     out, err = finish(process)
     assert process.returncode == 0, err
     assert (out.strip(), err) == ("again", "")
+
+
+def test_what_a_peer_reports_reaches_stderr_unconfigured(locator: str, tmp_path: Path) -> None:
+    """A program that never configures logging still sees a handler's failure (stderr)."""
+    config = tmp_path / "session.json5"
+    config.write_text(loopback_config(listen=locator))
+    process = subprocess.Popen(
+        [sys.executable, str(SCRIPT), str(config), "raising-sub", "words"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=REPO,
+        env={**os.environ, "PYTHONPATH": str(REPO)},
+    )
+    out, err = finish(process)
+    assert process.returncode == 0, err
+    assert out.strip() == "False"
+    assert (
+        "agent 'words' (sub std_msgs/msg/String): response_func raised RuntimeError: no use for it"
+        in err
+    )
