@@ -131,3 +131,28 @@ def test_bridge_options_are_checked() -> None:
             "agent 'x' (sub over zenoh): option 'response_func' does not apply to a bridged "
             "agent (it takes data_interface and qos)"
         )
+
+
+def test_a_malformed_sample_from_zenoh_is_reported_not_published(
+    locator: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    config = tmp_path / "bridge.json5"
+    config.write_text(loopback_config(listen=locator))
+    monkeypatch.setenv("ZENOH_SESSION_CONFIG_URI", str(config))
+    from std_msgs.msg import String
+
+    from pyconnect.codecs import wire
+
+    with CustomNode("bridge_checks", handle_signals=False, context=Context()) as node:
+        bridge = node.add_agent(
+            conn_name="words", conn_type="pub", transport="zenoh", data_interface=String
+        )
+        forward = bridge.zenoh_subscriber.response_func  # what zenoh's samples go through
+        forward(b"\x00\x01\x00\x00\xe8\x03\x00\x00abc")  # a length beyond the payload
+        assert (bridge.forwarded_count, bridge.error_count) == (0, 1)
+        assert bridge.last_error == (
+            "agent 'words' (pub std_msgs/msg/String): decode raised DecodeError: "
+            "std_msgs/msg/String.data: length 1000 exceeds the 3 bytes left"
+        )
+        forward(wire.encode("fine", "std_msgs/msg/String"))
+        assert (bridge.forwarded_count, bridge.error_count) == (1, 1)

@@ -2,8 +2,9 @@
 
 ``conn_type`` names the ROS side. ``'sub'`` subscribes to the ROS topic and republishes every
 message on zenoh; ``'pub'`` publishes on ROS what zenoh peers publish. Messages cross as the
-CDR bytes they already are (rclpy's raw subscription and ``publish(bytes)``), so nothing is
-decoded on the way; ``get()`` decodes the latest one on demand. On zenoh the topic has the
+CDR bytes they already are (rclpy's raw subscription and ``publish(bytes)``): nothing is
+decoded on the way, but what comes from zenoh is read as a zero-copy view first, so a malformed
+sample is reported at the bridge and not published; ``get()`` decodes the latest one on demand. On zenoh the topic has the
 ROS name and rmw_zenoh's key, attachment and tokens (pyconnect.transport), so peers and ROS
 nodes running rmw_zenoh see it as usual.
 
@@ -24,6 +25,7 @@ from typing import Any
 
 from rclpy.qos import QoSProfile
 
+from pyconnect.codecs import wire
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.interfaces import interface_class
@@ -168,8 +170,17 @@ class ZenohToRosAgent(_BridgeAgent):
             raw=True,
             response_func=self._on_sample,
         )
+        # Read (zero-copy views, microseconds even for an image) before it goes on ROS: a
+        # malformed sample is reported here, where it came in, instead of being handed to
+        # every ROS subscriber to fail on.
+        self._check = wire.wire_codec(self.type_name, registry=node.registry).decode_view
 
     def _on_sample(self, payload: bytes) -> None:
+        try:
+            self._check(payload)
+        except Exception as error:
+            self.report_exception("decode", error)
+            return
         self.publisher.publish(payload)
         self._forwarded(payload)
 
