@@ -4,9 +4,9 @@
 message on zenoh; ``'pub'`` publishes on ROS what zenoh peers publish. Messages cross as the
 CDR bytes they already are (rclpy's raw subscription and ``publish(bytes)``): nothing is
 decoded on the way, but what comes from zenoh is read as a zero-copy view first, so a malformed
-sample is reported at the bridge and not published; ``get()`` decodes the latest one on demand. On zenoh the topic has the
-ROS name and rmw_zenoh's key, attachment and tokens (pyconnect.transport), so peers and ROS
-nodes running rmw_zenoh see it as usual.
+sample is reported at the bridge and not published; ``get()`` decodes the latest one on
+demand. On zenoh the topic has the ROS name and rmw_zenoh's key, attachment and tokens
+(pyconnect.transport), so peers and ROS nodes running rmw_zenoh see it as usual.
 
 All bridged agents of one node share one ``Peer`` named as the node, opened with the zenoh
 configuration rmw_zenoh reads (``ZENOH_SESSION_CONFIG_URI``, ``ZENOH_CONFIG_OVERRIDE``) in the
