@@ -87,6 +87,7 @@ def main() -> None:
         out = peer.add_agent(
             conn_name=topic, agent_name="out", conn_type="pub", data_interface="std_msgs/msg/String"
         )
+        print("ready", flush=True)
         peer.wait_for_graph(lambda: out.subscriber_count > 0, None)
         out.send("hello")
         sub.wait_for_message(60)

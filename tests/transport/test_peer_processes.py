@@ -165,14 +165,7 @@ def test_what_a_peer_reports_reaches_stderr_unconfigured(locator: str, tmp_path:
     """A program that never configures logging still sees a handler's failure (stderr)."""
     config = tmp_path / "session.json5"
     config.write_text(loopback_config(listen=locator))
-    process = subprocess.Popen(
-        [sys.executable, str(SCRIPT), str(config), "raising-sub", "words"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-        cwd=REPO,
-        env={**os.environ, "PYTHONPATH": str(REPO)},
-    )
+    process = start(config, "raising-sub", "words")
     out, err = finish(process)
     assert process.returncode == 0, err
     assert out.strip() == "False"
