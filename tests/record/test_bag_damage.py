@@ -223,3 +223,60 @@ def test_db3_cut_before_its_tables_leaves_no_copy(tmp_path: Path) -> None:
         open_bag(damaged)
     assert str(raised.value).startswith(f"{damaged}: not a")
     assert not list(Path(tempfile.gettempdir()).glob("pyconnect-salvage-*"))
+
+
+def _first_record_after_header(file: Path) -> int:
+    """Offset of the record after the MCAP header: the first channel or chunk of the file."""
+    data = file.read_bytes()
+    length = struct.unpack_from("<Q", data, 9)[0]
+    return 8 + 9 + length
+
+
+def test_cut_before_the_channels_keeps_the_topics_and_what_was_promised(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    bag = write_chunked(tmp_path / "bag", count=300)
+    file = bag / "bag_0.mcap"
+    cut = _first_record_after_header(file) + 20  # inside the record holding the channel
+    file.write_bytes(file.read_bytes()[:cut])
+    with caplog.at_level(logging.WARNING, logger="pyconnect.record"), open_bag(bag) as reader:
+        assert list(reader.topics) == ["/chatter"]
+        assert reader.info.topics[0].message_count == 0
+        assert sum(1 for _ in reader) == 0
+        found = reader.damage
+    assert len(damage_warnings(caplog)) == 1
+    assert damage_warnings(caplog)[0].endswith(
+        f"(and {len(found) - 1} more problem(s)); 0 message(s) read, "
+        "the bag's metadata promised 300"
+    )
+    with open_bag(bag, topics=["/chatter"]) as reader:
+        assert reader.to_pandas("/chatter").empty
+
+
+def test_a_storage_file_metadata_does_not_list_is_reported(tmp_path: Path) -> None:
+    bag = write_chunked(tmp_path / "bag", count=30)
+    (bag / "bag_1.mcap").write_bytes((bag / "bag_0.mcap").read_bytes())
+    expected = [
+        f"{bag / 'metadata.yaml'}: does not list bag_1.mcap, a storage file of the bag; not read"
+    ]
+    with open_bag(bag) as reader:
+        assert sum(1 for _ in reader) == 30
+        assert [str(d) for d in reader.damage] == expected
+    assert [str(d) for d in bag_info(bag).damage] == expected
+
+
+def test_metadata_counts_that_lie_are_reported(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    bag = write_chunked(tmp_path / "bag", count=30)
+    metadata = bag / "metadata.yaml"
+    metadata.write_text(metadata.read_text().replace("message_count: 30", "message_count: 40"))
+    with caplog.at_level(logging.WARNING, logger="pyconnect.record"), open_bag(bag) as reader:
+        assert sum(1 for _ in reader) == 30
+        assert [str(d) for d in reader.damage] == [
+            f"{metadata}: /chatter: declares 40 message(s), the storage files hold 30"
+        ]
+    assert damage_warnings(caplog) == [
+        f"{bag}: damaged bag: {metadata}: /chatter: declares 40 message(s), the storage files "
+        "hold 30; 30 message(s) read, the bag's metadata promised 40"
+    ]

@@ -15,6 +15,7 @@ from sensor_msgs.msg import Image
 from test_msgs.msg import Arrays, BasicTypes, UnboundedSequences
 
 from pyconnect.record import BagError, bag_info, open_bag
+from pyconnect.record.mcap_recorder import McapRecorder
 from pyconnect.record.parquet_export import export_parquet
 from tests.conftest import require_sample_bags
 from tests.record.bag_samples import BAGS
@@ -231,3 +232,70 @@ def test_every_shared_topic_tabulates_every_decodable_message(name: str) -> None
         for topic in bag_info(path).topics:
             table = reader.to_arrow(topic.name)
             assert table.num_rows == counts.get(topic.name, 0), topic.name
+
+
+# -- columns follow the definition the values are decoded with ------------------------------------
+TALKER = BAGS / "ros2_rosbag2_jazzy/rosbag2_py/test/resources/sqlite3/talker"
+# A stored definition of std_msgs/String with a field the installed type lacks (no type hash:
+# the reader may give way to the installed type when the text does not fit the bytes).
+TWO_STRINGS = "string data\nstring extra\n"
+
+
+def _cdr_strings(*texts: str) -> bytes:
+    """Little-endian CDR of consecutive string fields."""
+    out = bytearray(b"\x00\x01\x00\x00")
+    for text in texts:
+        out += -len(out[4:]) % 4 * b"\x00"
+        raw = text.encode() + b"\x00"
+        out += len(raw).to_bytes(4, "little") + raw
+    return bytes(out)
+
+
+def _stored_strings_bag(path: Path, messages: list[bytes]) -> Path:
+    with McapRecorder(path) as recorder:
+        recorder.add_topic("/s", "std_msgs/msg/String", definition=TWO_STRINGS)
+        for i, data in enumerate(messages):
+            recorder.write("/s", data, log_time_ns=1_000 + i)
+    return path
+
+
+def test_columns_follow_the_installed_type_when_the_stored_definition_does_not_fit(
+    tmp_path: Path,
+) -> None:
+    bag = _stored_strings_bag(tmp_path / "bag", [_cdr_strings("a"), _cdr_strings("b")])
+    with open_bag(bag, natural=False) as reader:
+        values = [m.value for m in reader]
+        table = reader.to_arrow("/s")
+    assert values == [{"data": "a"}, {"data": "b"}]
+    assert table.column_names == ["log_time_ns", "data"]
+    assert table.column("data").to_pylist() == ["a", "b"]
+
+
+def test_values_of_two_definitions_in_one_topic_are_an_error(tmp_path: Path) -> None:
+    # The stored text fits the first message, only the installed type fits the second.
+    bag = _stored_strings_bag(tmp_path / "bag", [_cdr_strings("a", "x"), _cdr_strings("b")])
+    with open_bag(bag, natural=False) as reader:
+        assert [m.value for m in reader] == [{"data": "a", "extra": "x"}, {"data": "b"}]
+        with pytest.raises(BagError) as raised:
+            reader.to_arrow("/s")
+    assert str(raised.value) == (
+        f"{bag}: /s: the first 1 message(s) decode with the definition of std_msgs/msg/String "
+        "stored in the bag, later ones only with the installed type; one table cannot hold "
+        "both (read them with open_bag)"
+    )
+
+
+def test_rosout_of_a_wrong_stored_definition_keeps_every_field(tmp_path: Path) -> None:
+    # The fixture stores `uint8 level` for rcl_interfaces/Log: its bytes are the installed Log.
+    require_sample_bags(TALKER, TALKER.exists())
+    with open_bag(TALKER, topics=["/rosout"], natural=False) as reader:
+        first = next(iter(reader)).value
+        table = reader.to_arrow("/rosout")
+    assert table.column_names == [
+        "log_time_ns", "stamp.sec", "stamp.nanosec", "level", "name", "msg", "file", "function",
+        "line",
+    ]  # fmt: skip
+    assert sorted(first) == ["file", "function", "level", "line", "msg", "name", "stamp"]
+    export_parquet(TALKER, tmp_path / "out", topics=["/rosout"])
+    exported = pl.read_parquet(next((tmp_path / "out").rglob("*.parquet")))
+    assert exported.columns == table.column_names

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -9,8 +10,11 @@ import pytest
 from sensor_msgs.msg import Image, JointState
 from std_msgs.msg import String
 
-from pyconnect.record import align
+from pyconnect.record import align, open_bag
 from pyconnect.record.align import align_table, match_stamps
+from pyconnect.record.mcap_recorder import McapRecorder
+from tests.conftest import require_sample_bags
+from tests.record.bag_samples import BAGS
 from tests.record.table_bags import stamp_of, write_bag
 
 T0 = 1_700_000_000_000_000_000
@@ -124,3 +128,56 @@ def test_bad_arguments_are_errors(bag: Path) -> None:
     with pytest.raises(ValueError) as raised:
         next(align(bag, ["/a", "/b"], tolerance=0))
     assert str(raised.value) == "tolerance: expected seconds > 0, got 0"
+
+
+def test_a_message_trimmed_from_its_own_queue_matches_nothing() -> None:
+    # /a's queue holds 20 and 30; the late stamp 5 is the oldest, so it leaves at once: the /b
+    # message at 5 stays unmatched, as message_filters' ApproximateTimeSynchronizer leaves it.
+    arrivals = [(1, 5, "b5"), (0, 20, "a20"), (0, 30, "a30"), (0, 5, "a5")]
+    assert list(match_stamps(arrivals, topics=2, tolerance_ns=1, queue_size=2)) == []
+    assert list(match_stamps(arrivals, topics=2, tolerance_ns=1, queue_size=3)) == [("a5", "b5")]
+
+
+# A type only the bag defines (my_pkg is not installed): natural values come from its definition.
+STAMPED = (
+    "std_msgs/Header header\nfloat64 v\n"
+    "================================================================================\n"
+    "MSG: std_msgs/Header\nbuiltin_interfaces/Time stamp\nstring frame_id\n"
+    "================================================================================\n"
+    "MSG: builtin_interfaces/Time\nint32 sec\nuint32 nanosec\n"
+)
+
+
+def _stamped(sec: int, v: float) -> bytes:
+    # header.stamp (sec, nanosec), frame_id "" (length 1, its NUL), padding to 8, then v.
+    return b"\x00\x01\x00\x00" + struct.pack("<iIIB3xd", sec, 0, 1, 0, v)
+
+
+def test_natural_values_of_a_type_only_the_bag_defines(tmp_path: Path) -> None:
+    bag = tmp_path / "bag"
+    with McapRecorder(bag) as recorder:
+        for topic in ("/a", "/b"):
+            recorder.add_topic(topic, "my_pkg/msg/Stamped", definition=STAMPED)
+        for i in range(3):
+            recorder.write("/a", _stamped(i, 1.5 * i), log_time_ns=10 * i + 1)
+            recorder.write("/b", _stamped(i, -1.5 * i), log_time_ns=10 * i + 2)
+    with open_bag(bag) as reader:
+        expected = [m.value for m in reader]
+    pairs = list(align(bag, ["/a", "/b"], tolerance=0.1))
+    assert [m.value for pair in pairs for m in pair] == expected
+    assert [m.msg_type for m in pairs[0]] == ["my_pkg/msg/Stamped"] * 2
+
+
+def test_natural_values_of_an_old_definition_are_the_bags(tmp_path: Path) -> None:
+    # A Foxy sensor_msgs/Range has no `variance`: align must not invent one.
+    foxy = BAGS / "rosbags_rs/test_bag_sqlite3"
+    require_sample_bags(foxy, foxy.exists())
+    topics = ["/test/sensor_msgs/range", "/test/sensor_msgs/temperature"]
+    with open_bag(foxy, topics=topics) as reader:
+        expected = {(m.topic, m.log_time_ns): m.value for m in reader}
+    pairs = list(align(foxy, topics, tolerance=1.0))
+    assert pairs
+    for pair in pairs:
+        for message in pair:
+            assert message.value == expected[message.topic, message.log_time_ns]
+    assert "variance" not in pairs[0][0].value

@@ -9,6 +9,7 @@ recording into ``run1_0.mcap``, ``run1_1.mcap``, ...; ``metadata.yaml`` lists th
 the moment it is created (``pyconnect.record.split_recorder``). Ctrl-C stops the recording and
 leaves a complete bag (every file finished, metadata written): it is deferred while a message is
 written, a file split or a topic added, and a second Ctrl-C waits for the bag to be finished.
+SIGTERM does the same as Ctrl-C.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -17,6 +18,8 @@ written, a file split or a topic added, and a second Ctrl-C waits for the bag to
 from __future__ import annotations
 
 import argparse
+import signal
+import threading
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
@@ -143,8 +146,14 @@ def _record(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     )
     wanted = None if args.all else set(args.topics)
     skipped: set[str] = set()
+    # SIGTERM (systemd, docker stop, timeout) ends a recording as Ctrl-C does, as it does
+    # `ros2 bag record`: a complete bag and exit 0, not a process killed with its data unwritten.
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous_sigterm = signal.signal(signal.SIGTERM, _interrupt) if main_thread else None
     try:
         with graph_session("record") as session:
+            if main_thread:  # the session's Ctrl-C handler, which defers it while bags are written
+                signal.signal(signal.SIGTERM, signal.getsignal(signal.SIGINT))
             try:
                 print(f"Recording to '{directory}'", file=out, flush=True)
                 while True:
@@ -166,3 +175,9 @@ def _record(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     finally:
         split.close()  # idempotent; finishes the bag when the session never started
         print(f"Recorded {sum(split.counts.values())} message(s) to '{directory}'", file=out)
+        if previous_sigterm is not None:
+            signal.signal(signal.SIGTERM, previous_sigterm)
+
+
+def _interrupt(_signum: int, _frame: Any) -> None:
+    raise KeyboardInterrupt

@@ -14,7 +14,8 @@ slop)``, replayed over the bag in log-time order (the order messages arrived whe
 
 1. A message's time is its ``header.stamp`` (types without a header use the log time, as
    ``allow_headerless`` uses the arrival time). Each topic keeps the last ``queue_size``
-   messages by time (a later message with the same time replaces the earlier one).
+   messages by time (a later message with the same time replaces the earlier one); a message
+   older than every other in its full queue leaves it at once and matches nothing.
 2. When a message arrives, each other topic's queued messages within ``tolerance`` of it
    (``|t - t_new| <= tolerance``) are candidates, nearest first; when some topic has none,
    nothing happens.
@@ -29,11 +30,13 @@ already received; a message is used in at most one match; messages never matched
 from __future__ import annotations
 
 import itertools
-from collections.abc import Iterable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
 
+from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_reader import BagMessage, BagReader, open_bag
+from pyconnect.record.topic_decoder import value_function
 
 __all__ = ["align", "align_table", "match_stamps"]
 
@@ -56,6 +59,10 @@ def match_stamps(
         mine[stamp] = item
         while len(mine) > queue_size:
             del mine[min(mine)]
+        if stamp not in mine:
+            # Its own stamp was the oldest of a full queue: the message is gone, so no match
+            # can use it (message_filters skips every combination whose stamp left its queue).
+            continue
         candidates: list[list[int]] = []
         for other_index, queue in enumerate(queues):
             if other_index == index:
@@ -117,9 +124,13 @@ def align(
 ) -> Iterator[tuple[BagMessage, ...]]:
     """Yield matched messages of ``topics`` (``tolerance`` in seconds): see the module docstring."""
     chosen = _check(topics, tolerance)
-    from pyconnect.codecs import wire
-
     with open_bag(bag, topics=chosen, natural=False) as reader:
+        naturals: dict[int, Callable[[Any], Any]] = {}
+        if natural:
+            for topic in chosen:
+                # Settles each topic's codec on its first message now, before the read: later
+                # (during it) that would read the same storage file in the middle of the read.
+                reader.topic_codec(topic)
         for match in match_stamps(
             _arrivals(reader, chosen),
             topics=len(chosen),
@@ -129,15 +140,27 @@ def align(
             if not natural:
                 yield tuple(message for _row, message in match)
                 continue
-            yield tuple(
-                BagMessage(
-                    message.topic,
-                    message.log_time_ns,
-                    wire.decode(wire.from_dict(message.value, message.msg_type), message.msg_type),
-                    message.msg_type,
-                )
-                for _row, message in match
-            )
+            yield tuple(_natural(reader, message, naturals) for _row, message in match)
+
+
+def _natural(
+    reader: BagReader, message: BagMessage, naturals: dict[int, Callable[[Any], Any]]
+) -> BagMessage:
+    """``message`` (a lossless dict) with the natural value ``open_bag`` gives for it.
+
+    The stamps need the dicts, and only matched messages need natural values: the dict goes
+    back to CDR through the codec the reader decoded it with (the bag's own definition, or the
+    installed type where that did not fit), which is lossless, and that codec decodes it again.
+    """
+    codec = reader.topic_codec(message.topic)
+    if codec is None:  # nothing could decode the topic, so no message of it gets here
+        raise BagError(f"{reader.path}: {message.topic}: no codec for {message.msg_type}")
+    decode = naturals.get(id(codec))
+    if decode is None:
+        decode = naturals[id(codec)] = value_function(codec, natural=True)
+    return BagMessage(
+        message.topic, message.log_time_ns, decode(codec.from_dict(message.value)), message.msg_type
+    )
 
 
 def align_table(

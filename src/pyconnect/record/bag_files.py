@@ -13,11 +13,19 @@ from pyconnect.record.bag_storage import StorageFile
 
 BagPaths = str | Path | Sequence[str | Path]
 
-__all__ = ["BagFiles", "BagPaths", "as_paths", "locate_bag_files", "open_bag_files", "open_storage"]
+__all__ = [
+    "STORAGE_SUFFIXES",
+    "BagFiles",
+    "BagPaths",
+    "as_paths",
+    "locate_bag_files",
+    "open_bag_files",
+    "open_storage",
+]
 
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
 _SQLITE_MAGIC = b"SQLite format 3\x00"
-_STORAGE_SUFFIXES = (".mcap", ".db3")
+STORAGE_SUFFIXES = (".mcap", ".db3")
 
 
 @dataclass(frozen=True)
@@ -66,7 +74,7 @@ def locate_bag_files(path: str | Path) -> BagFiles:
         return BagFiles(target, files, metadata)
     # No metadata.yaml (a bag before `ros2 bag reindex`): every storage file, in split order.
     found = sorted(
-        (p for p in target.iterdir() if p.suffix in _STORAGE_SUFFIXES and p.is_file()),
+        (p for p in target.iterdir() if p.suffix in STORAGE_SUFFIXES and p.is_file()),
         key=_natural_key,
     )
     if not found:

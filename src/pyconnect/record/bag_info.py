@@ -7,10 +7,11 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from pyconnect.record.bag_damage import BagDamage
-from pyconnect.record.bag_files import BagFiles, BagPaths, open_bag_files
+from pyconnect.record.bag_files import STORAGE_SUFFIXES, BagFiles, BagPaths, open_bag_files
+from pyconnect.record.bag_metadata import METADATA_FILE
 from pyconnect.record.bag_storage import StorageFile
 
-__all__ = ["BagInfo", "TopicInfo", "bag_info", "describe"]
+__all__ = ["BagInfo", "TopicInfo", "bag_info", "describe", "storage_damage"]
 
 SERVICE_EVENT_SUFFIX = "/_service_event"
 
@@ -40,7 +41,8 @@ class BagInfo:
     """What ``pyconnect bag info`` prints. Times are ns since the epoch (None: no messages).
 
     ``damage`` lists what is broken in the files as far as opening them shows (a bag cut
-    short, an index pointing past the end); damage inside chunks appears when they are read.
+    short, an index pointing past the end), then where metadata.yaml disagrees with them; damage
+    inside chunks appears when they are read.
     """
 
     path: Path
@@ -50,6 +52,9 @@ class BagInfo:
     start_ns: int | None
     end_ns: int | None
     damage: tuple[BagDamage, ...] = field(default=())
+    metadata_damage: tuple[BagDamage, ...] = field(default=())
+    """Where metadata.yaml disagrees with the storage files (a file it does not list, counts
+    that differ from theirs); these are the last entries of ``damage`` too."""
 
     @property
     def message_count(self) -> int:
@@ -97,29 +102,71 @@ def storage_damage(storages: Iterable[StorageFile]) -> tuple[BagDamage, ...]:
     return tuple(found)
 
 
+def _metadata_damage(located: BagFiles, stored: dict[str, int], damaged: bool) -> list[BagDamage]:
+    """Where a bag's metadata.yaml disagrees with its storage files (``stored``: their counts).
+
+    A storage file in the bag's directory that metadata.yaml does not list is not read (rosbag2
+    reads the listed ones only): said, not skipped in silence. Per-topic counts that differ from
+    the files' are said unless the files are ``damaged`` (the damage says why fewer were read).
+    """
+    metadata = located.metadata
+    if metadata is None:
+        return []
+    where = str(located.path / METADATA_FILE)
+    listed = {path.resolve() for path in located.files}
+    found = [
+        BagDamage(where, None, f"does not list {path.name}, a storage file of the bag; not read")
+        for path in sorted(located.path.iterdir())
+        if path.suffix in STORAGE_SUFFIXES and path.is_file() and path.resolve() not in listed
+    ]
+    if not damaged:
+        found.extend(
+            BagDamage(
+                where,
+                None,
+                f"{topic.name}: declares {topic.message_count} message(s), "
+                f"the storage files hold {stored.get(topic.name, 0)}",
+            )
+            for topic in metadata.topics
+            if stored.get(topic.name, 0) != topic.message_count
+        )
+    return found
+
+
 def describe(bags: Iterable[tuple[BagFiles, list[StorageFile]]]) -> BagInfo:
     """Counts and times from the storage files; metadata.yaml only adds what they lack."""
     tallies: dict[str, _TopicTally] = {}
     all_storages: list[StorageFile] = []
     all_files: list[Path] = []
     first_path: Path | None = None
+    disagreements: list[BagDamage] = []
     for located, storages in bags:
         first_path = first_path or located.path
         all_storages.extend(storages)
         all_files.extend(located.files)
         metadata = located.metadata
         declared = {t.name: t for t in metadata.topics} if metadata is not None else {}
+        stored: dict[str, int] = {}  # this bag's counts, to compare with its metadata.yaml
         for storage in storages:
             counts = storage.message_counts()
             for connection in storage.connections():
+                count = counts.get(connection.id, 0)
+                stored[connection.topic] = stored.get(connection.topic, 0) + count
                 tally = tallies.setdefault(
                     connection.topic,
                     _TopicTally(connection.msg_type, connection.serialization_format),
                 )
-                tally.count += counts.get(connection.id, 0)
+                tally.count += count
                 tally.has_definition |= connection.definition is not None
                 tally.msg_type = tally.msg_type or connection.msg_type
                 tally.type_hash = tally.type_hash or connection.type_hash
+        disagreements += _metadata_damage(located, stored, bool(storage_damage(storages)))
+        for name, listed in declared.items():
+            # Listed but in no storage file (a recording cut before its channel records): still
+            # a topic of the bag, with the messages the files hold, none.
+            tallies.setdefault(
+                name, _TopicTally(listed.msg_type, listed.serialization_format or "cdr")
+            )
         for name, tally in tallies.items():
             topic_metadata = declared.get(name)
             if topic_metadata is None:
@@ -146,7 +193,8 @@ def describe(bags: Iterable[tuple[BagFiles, list[StorageFile]]]) -> BagInfo:
         ),
         start_ns=min(r[0] for r in ranges) if ranges else None,
         end_ns=max(r[1] for r in ranges) if ranges else None,
-        damage=storage_damage(all_storages),
+        damage=storage_damage(all_storages) + tuple(disagreements),
+        metadata_damage=tuple(disagreements),
     )
 
 

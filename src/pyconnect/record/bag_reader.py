@@ -27,7 +27,10 @@ summarised in one warning at the end of the read, which goes on; ``on_error="rai
 ``DecodeError`` instead. A damaged file (cut short, a chunk that does not decompress, a wrong
 CRC, an index pointing past the end, a ``.db3`` cut short) never raises: every intact message
 is delivered, ``reader.damage`` lists what is broken, and one warning at the end of the read
-says what, where, and how many messages were read of those the bag's metadata promised.
+says what, where, and how many messages were read of those the bag's metadata promised. A
+metadata.yaml that disagrees with the storage files (a file it does not list, which is not read;
+per-topic counts that differ) is reported the same way; a topic it lists that no file holds (a
+recording cut before its channels) is still a topic of the bag, with no messages.
 Only CDR-serialised topics can be decoded: selecting another raises ``BagError`` when the bag
 is opened (``raw=True`` reads them).
 """
@@ -44,7 +47,13 @@ from typing import Any, Literal
 from pyconnect.errors import DecodeError
 from pyconnect.record.bag_damage import BagDamage
 from pyconnect.record.bag_files import BagFiles, BagPaths, open_bag_files
-from pyconnect.record.bag_info import BagInfo, TopicInfo, bag_info, describe, storage_damage
+from pyconnect.record.bag_info import (
+    BagInfo,
+    TopicInfo,
+    bag_info,
+    describe,
+    storage_damage,
+)
 from pyconnect.record.bag_message import BagMessage, DecodeProblem, message_maker
 from pyconnect.record.bag_storage import Connection, RawMessage, StorageFile
 from pyconnect.record.topic_decoder import (
@@ -131,6 +140,10 @@ class BagReader:
         self._decoders: dict[tuple[str, str | None, str, str], TopicDecoder] = {}
         self._counts: dict[str, int] = {}
         self._delivered = 0
+        self.switched: dict[str, int] = {}
+        """Topic -> how many of its messages had been delivered, decoded with the definition
+        stored in the bag, when a later one needed the installed type (its values then follow
+        two definitions). Filled as the bag is read."""
 
     @property
     def bag_paths(self) -> list[Path]:
@@ -139,13 +152,16 @@ class BagReader:
 
     @property
     def damage(self) -> list[BagDamage]:
-        """What is broken in the bag's files, as far as they have been read."""
-        return list(storage_damage(s for _, storages in self._bags for s in storages))
+        """What is broken in the bag's files, as far as they have been read, then where its
+        metadata.yaml disagrees with them."""
+        found = storage_damage(s for _, storages in self._bags for s in storages)
+        return [*found, *self.info.metadata_damage]
 
     # -- reading ------------------------------------------------------------------------------
     def __iter__(self) -> Iterator[BagMessage]:
         """Read the bag (again): indices, ``errors`` and reports start afresh every time."""
         self.errors = []
+        self.switched = {}
         self._counts = {}
         self._delivered = 0
         self._warned_topics: set[str] = set()
@@ -196,6 +212,7 @@ class BagReader:
                     except Exception as final:
                         self._problem(topic, index, log_time, final)
                         continue
+                    self._note_switch(topic, index)
                 yield plan.make((topic, log_time, value))
         finally:
             self._delivered = delivered
@@ -225,6 +242,46 @@ class BagReader:
             )
             self._decoders[key] = decoder
         return decoder
+
+    def _note_switch(self, topic: str, index: int) -> None:
+        # recover() returned a value: the decoder has just given up the stored definition.
+        before = index - sum(1 for problem in self.errors if problem.topic == topic)
+        if before > 0:
+            self.switched.setdefault(topic, before)
+
+    def topic_codec(self, topic: str) -> Any:
+        """The wire codec the values of ``topic`` follow (None: none could be built).
+
+        That is the definition stored in the bag, unless it does not fit the topic's first
+        message and the installed type does (then the installed type), as reading decides: the
+        first message is decoded here to settle it. Its ``definitions`` give the fields.
+        """
+        for _, storages in self._bags:
+            for storage in storages:
+                for connection in storage.connections():
+                    if connection.topic != topic:
+                        continue
+                    decoder = self._decoder(connection)
+                    if not decoder.settled:
+                        self._settle(decoder, storage, connection.id)
+                    if decoder.codec is not None:
+                        return decoder.codec
+        return None
+
+    def _settle(self, decoder: TopicDecoder, storage: StorageFile, connection_id: int) -> None:
+        stream = storage.messages({connection_id}, self.start_ns, self.end_ns)
+        try:
+            for _id, _log_time, data in stream:
+                try:
+                    decoder.decode(data)
+                except Exception as error:  # reading reports it; here only choose the codec
+                    try:
+                        decoder.recover(data, error)
+                    except Exception:
+                        continue  # undecodable either way: the next message decides
+                return
+        finally:
+            stream.close()  # type: ignore[attr-defined]  # a generator
 
     def _check_hash(self, connection: Connection) -> TypeMismatch | None:
         stored = connection.type_hash

@@ -2,7 +2,8 @@
 
 ``read_bags(paths, topic="/imu/data")`` returns a lazy ``dask.dataframe.DataFrame`` with the
 columns (and dtypes) of ``open_bag(path).to_pandas(topic)``: one partition per bag, or, for an
-MCAP bag bigger than ``partition_bytes``, one per range of its chunks (split by log time). Each
+MCAP bag bigger than ``partition_bytes``, one per range of its chunks (split by log time; a
+damaged file without a readable index, such as a recording cut short, stays one partition). Each
 worker opens its bag itself and decodes it with the same wire codecs as a serial read, so
 ``read_bags(paths, topic=t).compute()`` has the rows of the serial reads, bag after bag.
 
@@ -51,11 +52,16 @@ def read_part(part: BagPart) -> pd.DataFrame:
 
 
 def _chunk_starts(path: Path) -> list[int]:
-    """Log times at which the MCAP file's chunks start, sorted (empty when it has no index)."""
+    """Log times at which the MCAP file's chunks start, sorted (empty when it has no usable
+    index: then the bag is one partition)."""
     from mcap.reader import make_reader
 
-    with open(path, "rb") as stream:
-        summary = make_reader(stream).get_summary()
+    try:
+        with open(path, "rb") as stream:
+            summary = make_reader(stream).get_summary()
+    except Exception:  # damaged (cut short, bad footer): the worker's open_bag
+        # reads what is intact and reports the damage, as a serial read does.
+        return []
     if summary is None:
         return []
     return sorted(index.message_start_time for index in summary.chunk_indexes)

@@ -18,9 +18,11 @@ columns named by their field path, typed as the ROS fields are (needs the ``tabl
   (``pyconnect.record.image_files`` says which file and why);
 - sequences of messages stay one column of lists of structs (``transforms``).
 
-Columns come from the definition stored in the bag (else the installed type); a value missing
-from a message (a Foxy message without a later field) is null. Messages that cannot be decoded
-are left out and reported in the reader's ``errors``, as ``open_bag`` does.
+Columns come from the definition the values are decoded with: the one stored in the bag, else
+(none stored, or it does not fit the bytes) the installed type; a value missing from a message
+(a Foxy message without a later field) is null. A topic whose values follow both (the stored
+definition fits its first messages, not later ones) raises ``BagError``. Messages that cannot
+be decoded are left out and reported in the reader's ``errors``, as ``open_bag`` does.
 """
 
 from __future__ import annotations
@@ -270,32 +272,14 @@ def _bag_paths(reader: BagReader) -> list[Path]:
 
 
 def topic_types(reader: BagReader, topic: str) -> tuple[Definitions, str]:
-    """The type definitions and type name ``topic`` is decoded with: the bag's, else installed."""
-    msg_type = reader.topics[topic].msg_type
-    from pyconnect.codecs import wire
-    from pyconnect.record.bag_files import locate_bag_files, open_storage
-
-    stored: tuple[str, str] | None = None
-    files = [file for bag in _bag_paths(reader) for file in locate_bag_files(bag).files]
-    for path in files:
-        storage = open_storage(path)
-        try:
-            for connection in storage.connections():
-                if connection.topic == topic and connection.definition is not None:
-                    stored = (connection.definition, connection.definition_encoding)
-                    break
-        finally:
-            storage.close()
-        if stored is not None:
-            break
-    codec = None
-    if stored is not None:
-        try:
-            codec = wire.wire_codec(msg_type, definition=stored[0], encoding=stored[1])
-        except Exception:  # the reader falls back to the installed type too
-            codec = None
+    """The type definitions and type name ``topic`` is decoded with: the codec ``reader`` decodes
+    it with (the bag's definition, or the installed type when that does not fit the bytes)."""
+    codec = reader.topic_codec(topic)
     if codec is None:
-        codec = wire.wire_codec(msg_type)
+        from pyconnect.codecs import wire
+
+        # No codec could be built: this raises the error that says why.
+        codec = wire.wire_codec(reader.topics[topic].msg_type)
     # The field rows are the codec's own description of its type (name, kind, element, bound,
     # container, size, default): the same rows its decoder was generated from.
     return codec.definitions, codec.msg_type
@@ -338,6 +322,16 @@ def topic_table(
         )
         if errors is not None:
             errors.extend(reader.errors)
+        if topic in reader.switched:
+            # Earlier rows hold the fields of the stored definition, later ones those of the
+            # installed type: one set of columns would drop some of them without a word.
+            from pyconnect.record.bag_errors import BagError
+
+            raise BagError(
+                f"{reader.path}: {topic}: the first {reader.switched[topic]} message(s) decode "
+                f"with the definition of {msg_type} stored in the bag, later ones only with the "
+                "installed type; one table cannot hold both (read them with open_bag)"
+            )
     return table
 
 

@@ -25,6 +25,7 @@ __all__ = [
     "installed_type_hash",
     "normalise_type_name",
     "one_line",
+    "value_function",
 ]
 
 Decode = Callable[[Any], Any]
@@ -83,13 +84,19 @@ def installed_type_hash(msg_type: str) -> str | None:
 
 def _function(
     msg_type: str, definition: str | None, encoding: str, natural: bool, registry: Any
-) -> Decode:
+) -> tuple[Any, Decode]:
+    """The wire codec and the function that decodes one message with it."""
     from pyconnect.codecs import wire
 
     if definition is None:
         codec = wire.wire_codec(msg_type)
     else:
         codec = wire.wire_codec(msg_type, definition=definition, encoding=encoding)
+    return codec, value_function(codec, natural=natural, registry=registry)
+
+
+def value_function(codec: Any, *, natural: bool, registry: Any = None) -> Decode:
+    """CDR bytes -> value with ``codec``: natural (``registry``'s codec) or the lossless dict."""
     if natural and _value_codec(codec.msg_type, registry) is not None:
         if registry is None:
             decode: Decode = codec.decode
@@ -112,7 +119,16 @@ def _value_codec(msg_type: str, registry: Any) -> Any:
 class TopicDecoder:
     """``decode(data)`` -> value or raises; ``recover(data, error)`` tries the installed type."""
 
-    __slots__ = ("_fallback", "_fallback_tried", "decode", "msg_type", "natural", "registry")
+    __slots__ = (
+        "_fallback",
+        "_fallback_codec",
+        "_fallback_tried",
+        "codec",
+        "decode",
+        "msg_type",
+        "natural",
+        "registry",
+    )
 
     def __init__(
         self,
@@ -137,6 +153,10 @@ class TopicDecoder:
         self.natural = natural
         self.registry = registry
         self._fallback: Decode | None = None
+        self._fallback_codec: Any = None
+        # The wire codec ``decode`` uses now (None: no codec could be built); its definitions
+        # are the fields of the values (tables build their columns from them).
+        self.codec: Any = None
         # A bag whose type hash differs from the installed type's is read with its own
         # definition only: the installed type would misread the bytes.
         self._fallback_tried = definition is not None and not installed_allowed
@@ -145,7 +165,9 @@ class TopicDecoder:
             self._fallback_tried = True
             return
         try:
-            self.decode = _function(self.msg_type, definition, encoding, natural, registry)
+            self.codec, self.decode = _function(
+                self.msg_type, definition, encoding, natural, registry
+            )
         except Exception as error:  # a definition that does not compile: try the installed type
             _log.info(
                 "%s: stored definition unusable (%s); using the installed type", msg_type, error
@@ -155,7 +177,9 @@ class TopicDecoder:
 
     def _installed_or_raise(self, stored_error: Exception | None = None) -> Decode:
         try:
-            return _function(self.msg_type, None, "ros2msg", self.natural, self.registry)
+            self.codec, decode = _function(
+                self.msg_type, None, "ros2msg", self.natural, self.registry
+            )
         except Exception as error:
             reason = one_line(stored_error if stored_error is not None else error)
             failure = DecodeError(f"cannot build a decoder for {self.msg_type}: {reason}")
@@ -164,13 +188,19 @@ class TopicDecoder:
                 raise failure
 
             return unavailable
+        return decode
+
+    @property
+    def settled(self) -> bool:
+        """Whether ``decode`` is final: no stored definition left that may give way."""
+        return self._fallback_tried
 
     def recover(self, data: Any, error: Exception) -> Any:
         """Decode with the installed type after the stored definition failed, or re-raise."""
         if not self._fallback_tried:
             self._fallback_tried = True
             try:
-                self._fallback = _function(
+                self._fallback_codec, self._fallback = _function(
                     self.msg_type, None, "ros2msg", self.natural, self.registry
                 )
             except Exception:
@@ -187,4 +217,5 @@ class TopicDecoder:
             error,
         )
         self.decode = self._fallback  # the stored definition does not describe these bytes
+        self.codec = self._fallback_codec
         return value
