@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import argparse
 import base64
 import json
 import os
 import stat
+import subprocess
+import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +18,7 @@ from rclpy.serialization import serialize_message
 from sensor_msgs.msg import Image
 from std_msgs.msg import String
 
-from pyconnect.cli import format_value, main, main_entry
+from pyconnect.cli import build_parser, format_value, main, main_entry
 from pyconnect.record.mcap_recorder import McapRecorder
 
 
@@ -309,3 +313,56 @@ def test_codecgen_version_and_a_folder_one_too_deep(
         f"action/ (here {folder.parent})\n",
     )
     assert not (tmp_path / "out").exists()
+
+
+def _subcommands(
+    parser: argparse.ArgumentParser, path: tuple[str, ...] = ()
+) -> Iterator[tuple[tuple[str, ...], argparse.ArgumentParser]]:
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                yield (*path, name), sub
+                yield from _subcommands(sub, (*path, name))
+
+
+def test_every_subcommand_help_ends_with_its_examples_one_per_line(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    monkeypatch.setenv("COLUMNS", "80")  # argparse wraps text to this width
+    walked = dict(_subcommands(build_parser()))
+    assert ("topic", "echo") in walked
+    assert ("bag", "record") in walked
+    for path, parser in walked.items():
+        _text, found, examples = parser.format_help().rpartition("\nexamples:\n")
+        assert found, f"pyconnect {' '.join(path)} --help has no examples"
+        lines = examples.rstrip("\n").split("\n")
+        for line in lines:
+            assert line.startswith("  pyconnect "), (path, line)
+            assert line.count("pyconnect") == 1, (path, line)  # not run into one paragraph
+        command = f"  pyconnect {' '.join(path)}"
+        assert any(line == command or line.startswith(command + " ") for line in lines), path
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [["pyconnect.cli", "interface", "list", "--packages"], ["pyconnect.codegen", "list"]],
+)
+def test_a_closed_stdout_ends_the_command_quietly(argv: list[str]) -> None:
+    # `... | head -1`: the reader has gone before the output is written (the read end is closed
+    # first, so no timing); without PYTHONUNBUFFERED the last of it is written at exit.
+    read_end, write_end = os.pipe()
+    os.close(read_end)
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONUNBUFFERED"}
+    try:
+        done = subprocess.run(
+            [sys.executable, "-m", *argv],
+            stdout=write_end,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=env,
+            check=False,
+            timeout=120,
+        )
+    finally:
+        os.close(write_end)
+    assert (done.returncode, done.stderr) == (0, "")

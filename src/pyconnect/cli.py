@@ -22,7 +22,7 @@ from pyconnect.commands import node as node_commands
 from pyconnect.commands import run as run_commands
 from pyconnect.commands import service as service_commands
 from pyconnect.commands import topic as topic_commands
-from pyconnect.commands.common import Parser, UsageError
+from pyconnect.commands.common import Parser, UsageError, until_reader_leaves
 from pyconnect.commands.value_text import format_value
 from pyconnect.errors import PyconnectError
 
@@ -64,15 +64,13 @@ def main(argv: list[str] | None = None) -> int:
         package_logger.addHandler(logging.NullHandler())
     try:
         args = build_parser().parse_args(argv)
-        status: int = args.run(args, out, err)
+        status: int = until_reader_leaves(lambda: args.run(args, out, err))
         return status
     except SystemExit as exit_request:  # --help, --version
         code = exit_request.code
         return code if isinstance(code, int) else 0
     except KeyboardInterrupt:
         return 130
-    except BrokenPipeError:  # `pyconnect bag echo ... | head`
-        return 0
     except (UsageError, PyconnectError, OSError, ValueError) as error:
         message = " ".join(str(error).split()) or type(error).__name__
         print(f"{PROGRAM}: error: {message}", file=err)

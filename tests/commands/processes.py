@@ -35,9 +35,11 @@ class Lines:
         process.send_signal(signal.SIGINT)
         process.wait(timeout=WAIT)
         self.reader.join(timeout=WAIT)
-        assert process.stderr is not None and process.stdout is not None
-        err = process.stderr.read()
-        process.stderr.close()
+        assert process.stdout is not None
+        err = ""
+        if process.stderr is not None:  # None: merged into stdout, read as lines
+            err = process.stderr.read()
+            process.stderr.close()
         process.stdout.close()
         return err
 
@@ -62,13 +64,14 @@ class Lines:
                 return seen, found
 
 
-def spawn(*args: str) -> subprocess.Popen[str]:
+def spawn(*args: str, merge_stderr: bool = False) -> subprocess.Popen[str]:
+    """``python *args``; with ``merge_stderr`` its stderr lines are read among stdout's."""
     return subprocess.Popen(
         [sys.executable, *args],
         cwd=ROOT,
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
+        stderr=subprocess.STDOUT if merge_stderr else subprocess.PIPE,
         text=True,
         env=dict(os.environ, PYTHONUNBUFFERED="1"),
     )

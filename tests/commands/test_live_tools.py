@@ -4,12 +4,18 @@ from __future__ import annotations
 
 import json
 import re
+import subprocess
+import sys
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from types import SimpleNamespace
 
 import pytest
 
 from pyconnect.cli import main
+from pyconnect.commands import graph
+from pyconnect.commands.graph import NODE_NAME_UNKNOWN, GraphSession
 from tests.commands.processes import WAIT, Lines, spawn
 
 
@@ -290,3 +296,112 @@ def test_help_has_examples(argv: list[str], capsys: pytest.CaptureFixture[str]) 
     status, out, _ = _run(capsys, *argv)
     assert status == 0
     assert "examples:\n  pyconnect " in out
+
+
+def test_echo_timeout_gives_up_on_a_topic_without_publishers() -> None:
+    # A subprocess: before the fix the wait for a first message never ended.
+    argv = ["topic", "echo", "/nobody", "std_msgs/msg/String", "--timeout", "0.5"]
+    done = subprocess.run(
+        [sys.executable, "-m", "pyconnect.cli", *argv],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=WAIT,
+    )
+    assert (done.returncode, done.stdout, done.stderr) == (
+        1,
+        "",
+        "pyconnect: error: no message on [/nobody] within 0.5 s: it has no publishers\n",
+    )
+
+
+def test_echo_warns_once_of_publishers_of_another_type(peer: Lines) -> None:
+    process = spawn(
+        "-m", "pyconnect.cli", "topic", "echo", "/chatter", "std_msgs/msg/Int32", merge_stderr=True
+    )
+    lines = Lines(process)
+    try:
+        _seen, found = lines.wait_for("warning")
+    finally:
+        lines.stop()
+    assert found.string == (
+        "pyconnect: warning: [/chatter] is published as std_msgs/msg/String, not "
+        "std_msgs/msg/Int32: waiting for a publisher of std_msgs/msg/Int32"
+    )
+    assert process.returncode == 130
+    rest = []
+    while not lines.lines.empty():
+        rest.append(lines.lines.get())
+    assert rest == []
+
+
+@pytest.mark.parametrize(
+    ("published", "reason"),
+    [
+        ([], "no message on [/chatter] within 3 s: it has no publishers"),
+        (
+            ["std_msgs/msg/String", "std_msgs/msg/String"],
+            "no message on [/chatter] within 3 s: it is published as std_msgs/msg/String, not "
+            "std_msgs/msg/Int32",
+        ),
+        (
+            ["std_msgs/msg/Int32"],
+            "no message on [/chatter] within 3 s from its 1 publisher(s) of std_msgs/msg/Int32",
+        ),
+        (
+            ["std_msgs/msg/String", "std_msgs/msg/Int32"],
+            "no message on [/chatter] within 3 s from its 1 publisher(s) of std_msgs/msg/Int32 "
+            "(others publish std_msgs/msg/String)",
+        ),
+    ],
+)
+def test_echo_timeout_says_why_no_message_came(published: list[str], reason: str) -> None:
+    from pyconnect.commands.topic import no_message_reason
+
+    assert no_message_reason("/chatter", "std_msgs/msg/Int32", published, 3.0) == reason
+
+
+class _GraphSoonNamed:
+    """A graph whose endpoints are discovered before their node's name, as rmw reports them."""
+
+    def __init__(self) -> None:
+        self.spins = 0
+
+    def _named(self) -> bool:
+        return self.spins >= 3
+
+    def get_topic_names_and_types(self) -> list[tuple[str, list[str]]]:
+        return [("/chatter", ["std_msgs/msg/String"])] if self.spins else []
+
+    def get_publishers_info_by_topic(self, topic: str) -> list[SimpleNamespace]:
+        return [SimpleNamespace(node_name="plain_peer" if self._named() else NODE_NAME_UNKNOWN)]
+
+    def get_subscriptions_info_by_topic(self, topic: str) -> list[SimpleNamespace]:
+        return []
+
+    def get_node_names_and_namespaces(self) -> list[tuple[str, str]]:
+        return [("plain_peer", "/")] if self._named() else []
+
+
+class _Session:
+    spin_until = GraphSession.spin_until
+
+    def __init__(self) -> None:
+        self.node = _GraphSoonNamed()
+
+    def spin_once(self, timeout: float = 0.05) -> None:
+        self.node.spins += 1
+
+    def spin_for(self, seconds: float) -> None:
+        self.spin_once()  # --spin-time ends with the topics seen and their node not yet named
+
+
+def test_node_list_waits_for_the_nodes_of_the_endpoints_it_sees(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    @contextmanager
+    def session(_name: str) -> Iterator[_Session]:
+        yield _Session()
+
+    monkeypatch.setattr(graph, "graph_session", session)
+    assert _run(capsys, "node", "list", "--spin-time", str(WAIT)) == (0, "/plain_peer\n", "")

@@ -16,6 +16,7 @@ from pyconnect.codegen.build import (
     stale_files,
     write_tree,
 )
+from pyconnect.commands.common import until_reader_leaves
 from pyconnect.typesys.errors import DefinitionError
 from pyconnect.typesys.packages import ament_prefixes, installed_packages
 
@@ -96,18 +97,23 @@ def _check(args: argparse.Namespace) -> int:
     return 0
 
 
+def _run(args: argparse.Namespace) -> int:
+    if args.command == "build" and args.compile_folders:
+        return compile_cli.run_compile(args)
+    if args.command == "build":
+        return _build(args)
+    if args.command == "uninstall":
+        return compile_cli.run_uninstall(args)
+    if args.command == "list":
+        return _list()
+    return _check(args)
+
+
 def main(argv: list[str] | None = None) -> int:
     args = _parser().parse_args(argv)
     try:
-        if args.command == "build" and args.compile_folders:
-            return compile_cli.run_compile(args)
-        if args.command == "build":
-            return _build(args)
-        if args.command == "uninstall":
-            return compile_cli.run_uninstall(args)
-        if args.command == "list":
-            return _list()
-        return _check(args)
+        # Inside the OSError handler: a closed pipe (`codecgen list | head`) is no error.
+        return until_reader_leaves(lambda: _run(args))
     except DefinitionError as error:
         print(f"codecgen: {error}", file=sys.stderr)
         return 2

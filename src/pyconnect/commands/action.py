@@ -45,7 +45,6 @@ def register(commands: Subcommands) -> Subcommands:
         "action",
         help="list actions and send goals on a live ROS graph",
         epilog=EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     verbs = action.add_subparsers(dest="verb", required=True, parser_class=Parser)
     listing = verbs.add_parser("list", help="the actions of the graph", epilog=EXAMPLES)
@@ -57,7 +56,6 @@ def register(commands: Subcommands) -> Subcommands:
         "send_goal",
         help="send a goal (YAML/JSON) and print the result",
         epilog=EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     send.add_argument("action_name")
     send.add_argument("action_type", help="e.g. test_msgs/action/Fibonacci")

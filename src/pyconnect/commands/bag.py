@@ -25,6 +25,16 @@ PROGRAM = "pyconnect"
 _PATH_HELP = "bag directory, .mcap or .db3 file"
 _DAMAGE_HELP = "exit 0 on a damaged bag (the damage is still reported on stderr)"
 
+EXAMPLES = """examples:
+  pyconnect bag info run1
+  pyconnect bag echo run1 --topic /chatter --limit 5
+  pyconnect bag echo run1.mcap --topic /odom --field pose.pose.position --json
+  pyconnect bag export run1 --topic /camera/image_raw --to images
+  pyconnect bag export run1 --format parquet --to tables
+  pyconnect bag record -a -o run1
+  pyconnect bag play run1 --rate 2 --loop
+"""
+
 
 def register(commands: Subcommands) -> Subcommands:
     """Add ``bag`` and its actions to ``commands`` (the ``pyconnect`` subparsers).
@@ -33,16 +43,20 @@ def register(commands: Subcommands) -> Subcommands:
     (``bag record``, ``bag play``).
     """
     bag = commands.add_parser(
-        "bag", help="read, export, record and play rosbag2 bags (MCAP or sqlite3)"
+        "bag", help="read, export, record and play rosbag2 bags (MCAP or sqlite3)", epilog=EXAMPLES
     )
     actions = bag.add_subparsers(dest="action", required=True, parser_class=Parser)
 
-    info = actions.add_parser("info", help="files, size, duration, topics and services")
+    info = actions.add_parser(
+        "info", help="files, size, duration, topics and services", epilog=EXAMPLES
+    )
     info.add_argument("path", help=_PATH_HELP)
     info.add_argument("--ignore-damage", action="store_true", help=_DAMAGE_HELP)
     info.set_defaults(run=_info)
 
-    echo = actions.add_parser("echo", help="print messages (YAML like `ros2 topic echo`)")
+    echo = actions.add_parser(
+        "echo", help="print messages (YAML like `ros2 topic echo`)", epilog=EXAMPLES
+    )
     echo.add_argument("path", help=_PATH_HELP)
     echo.add_argument("--topic", action="append", help="only this topic (repeatable)")
     echo.add_argument("--limit", type=int, default=None, help="stop after N messages")
@@ -56,7 +70,7 @@ def register(commands: Subcommands) -> Subcommands:
     echo.add_argument("--ignore-damage", action="store_true", help=_DAMAGE_HELP)
     echo.set_defaults(run=_echo)
 
-    export = actions.add_parser("export", help="write topics' messages to files")
+    export = actions.add_parser("export", help="write topics' messages to files", epilog=EXAMPLES)
     export.add_argument("path", help=_PATH_HELP)
     export.add_argument(
         "--topic", action="append", help="a topic to export (repeatable; parquet: default all)"

@@ -33,11 +33,13 @@ from pyconnect.errors import PyconnectError
 from pyconnect.ros.qos import matching_reliability
 
 __all__ = [
+    "NODE_NAME_UNKNOWN",
     "PROGRAM",
     "CommandFailed",
     "GraphSession",
     "add_spin_time",
     "choose_qos",
+    "endpoints_named",
     "graph_session",
     "report_failure",
     "topic_type",
@@ -45,6 +47,7 @@ __all__ = [
 
 PROGRAM = "pyconnect"
 HIDDEN_PREFIX = "_"
+NODE_NAME_UNKNOWN = "_NODE_NAME_UNKNOWN_"  # what rmw names the node of an endpoint until it knows
 
 
 class CommandFailed(PyconnectError):
@@ -176,6 +179,26 @@ def topic_type(session: GraphSession, topic: str, *, timeout: float | None) -> s
             f"topic [{topic}] does not appear to be published yet; could not determine its type"
         )
     return found[0]
+
+
+def endpoints_named(session: GraphSession, topics: list[str] | None = None) -> bool:
+    """True when the node of every endpoint seen on ``topics`` (default: every topic) is known.
+
+    rmw learns endpoints from DDS discovery but the names of their nodes from each process's
+    ``ros_discovery_info`` message, which comes later: in between, a process's topics are listed
+    and its nodes are not (``node list`` printed nothing while ``topic list`` had the topics).
+    """
+    node = session.node
+    names = topics if topics is not None else [n for n, _ in node.get_topic_names_and_types()]
+    return all(
+        endpoint.node_name != NODE_NAME_UNKNOWN
+        for name in names
+        for endpoints in (
+            node.get_publishers_info_by_topic(name),
+            node.get_subscriptions_info_by_topic(name),
+        )
+        for endpoint in endpoints
+    )
 
 
 def choose_qos(session: GraphSession, topic: str, profile: str | None) -> QoSProfile:

@@ -23,17 +23,29 @@ __all__ = ["interface_text", "register"]
 
 _KINDS = (("msg", "Messages"), ("srv", "Services"), ("action", "Actions"))
 
+EXAMPLES = """examples:
+  pyconnect interface list
+  pyconnect interface list std_msgs sensor_msgs
+  pyconnect interface list --packages
+  pyconnect interface show geometry_msgs/msg/Twist
+  pyconnect interface show std_srvs/srv/SetBool --raw
+"""
+
 
 def register(commands: Subcommands) -> Subcommands:
     """Add ``interface list`` and ``interface show`` to the ``pyconnect`` subparsers."""
-    interface = commands.add_parser("interface", help="list and show installed interface types")
+    interface = commands.add_parser(
+        "interface", help="list and show installed interface types", epilog=EXAMPLES
+    )
     actions = interface.add_subparsers(dest="action", required=True, parser_class=Parser)
-    listing = actions.add_parser("list", help="the interface types pyconnect can see")
+    listing = actions.add_parser(
+        "list", help="the interface types pyconnect can see", epilog=EXAMPLES
+    )
     listing.add_argument("packages", nargs="*", help="only these packages")
     listing.add_argument("--packages", dest="only_packages", action="store_true",
                          help="list package names only")  # fmt: skip
     listing.set_defaults(run=_list)
-    show = actions.add_parser("show", help="print a type's definition")
+    show = actions.add_parser("show", help="print a type's definition", epilog=EXAMPLES)
     show.add_argument("type", help="pkg/msg/Name, pkg/srv/Name, pkg/action/Name or pkg/Name")
     show.add_argument("--raw", action="store_true", help="do not expand nested types")
     show.set_defaults(run=_show)

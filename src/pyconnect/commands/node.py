@@ -32,7 +32,6 @@ def register(commands: Subcommands) -> Subcommands:
         "node",
         help="list and inspect nodes of a live ROS graph",
         epilog=EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     verbs = node.add_subparsers(dest="verb", required=True, parser_class=Parser)
     listing = verbs.add_parser("list", help="the nodes of the graph", epilog=EXAMPLES)
@@ -55,10 +54,13 @@ def _full_name(name: str, namespace: str) -> str:
 
 
 def _list(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
-    from pyconnect.commands.graph import graph_session
+    from pyconnect.commands.graph import endpoints_named, graph_session
 
     with graph_session("node") as session:
         session.spin_for(args.spin_time)
+        # The nodes owning the endpoints discovered so far are on their way: wait for them (at
+        # most another --spin-time, for endpoints of a DDS program that has no ROS nodes).
+        session.spin_until(lambda: endpoints_named(session), args.spin_time)
         nodes = session.node.get_node_names_and_namespaces()
     for name, namespace in sorted(nodes, key=lambda n: _full_name(n[0], n[1])):
         if name.startswith("_") and not args.all:

@@ -18,6 +18,11 @@ from pyconnect.commands.common import Parser, UsageError
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
 
+EXAMPLES = """examples:
+  pyconnect run camera_node.py --width 1920
+  pyconnect run -m my_robot.vision
+"""
+
 
 def register(commands: Subcommands) -> Parser:
     """Add ``run`` to the ``pyconnect`` subparsers."""
@@ -26,6 +31,7 @@ def register(commands: Subcommands) -> Parser:
         help="run a Python program with Fast DDS and malloc set up for large messages",
         description="Run a Python program with the large-message settings "
         "(PYCONNECT_LARGE_MESSAGES=0 runs it unchanged).",
+        epilog=EXAMPLES,
     )
     run.add_argument("-m", dest="module", help="run a module, like python -m")
     run.add_argument("program", nargs=argparse.REMAINDER, help="script.py and its arguments")

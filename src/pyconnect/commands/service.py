@@ -33,7 +33,6 @@ def register(commands: Subcommands) -> Subcommands:
         "service",
         help="list and call services of a live ROS graph",
         epilog=EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     verbs = service.add_subparsers(dest="verb", required=True, parser_class=Parser)
     listing = verbs.add_parser("list", help="the services of the graph", epilog=EXAMPLES)
@@ -48,7 +47,6 @@ def register(commands: Subcommands) -> Subcommands:
         "call",
         help="call a service with a request (YAML/JSON)",
         epilog=EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     call.add_argument("service_name")
     call.add_argument("service_type", help="e.g. std_srvs/srv/SetBool")

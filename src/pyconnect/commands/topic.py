@@ -18,6 +18,8 @@ from typing import TYPE_CHECKING, Any, TextIO
 from pyconnect.commands.common import Parser
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from pyconnect.commands.common import Subcommands
 
 __all__ = ["register"]
@@ -53,7 +55,6 @@ def register(commands: Subcommands) -> Subcommands:
         help="list, inspect, echo, measure and publish topics of a live ROS graph",
         description="Topics of a live ROS 2 graph, as `ros2 topic` shows them.",
         epilog=EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     verbs = topic.add_subparsers(dest="verb", required=True, parser_class=Parser)
 
@@ -67,13 +68,15 @@ def register(commands: Subcommands) -> Subcommands:
     add_spin_time(listing)
     listing.set_defaults(run=_list)
 
-    info = verbs.add_parser("info", help="type, publishers and subscriptions of a topic")
+    info = verbs.add_parser(
+        "info", help="type, publishers and subscriptions of a topic", epilog=EXAMPLES
+    )
     info.add_argument("topic")
     info.add_argument("-v", "--verbose", action="store_true", help="each endpoint and its QoS")
     add_spin_time(info)
     info.set_defaults(run=_info)
 
-    echo = verbs.add_parser("echo", help="print the natural values of a topic")
+    echo = verbs.add_parser("echo", help="print the natural values of a topic", epilog=EXAMPLES)
     echo.add_argument("topic")
     echo.add_argument("message_type", nargs="?", help="the type (found on the graph if left out)")
     echo.add_argument("--json", action="store_true", help="one JSON value per line")
@@ -85,7 +88,7 @@ def register(commands: Subcommands) -> Subcommands:
     )
     echo.set_defaults(run=_echo)
 
-    hz = verbs.add_parser("hz", help="the rate at which a topic is published")
+    hz = verbs.add_parser("hz", help="the rate at which a topic is published", epilog=EXAMPLES)
     hz.add_argument("topic")
     hz.add_argument(
         "-w", "--window", type=int, default=10000, help="intervals to average (default 10000)"
@@ -96,7 +99,7 @@ def register(commands: Subcommands) -> Subcommands:
     )
     hz.set_defaults(run=_hz)
 
-    bw = verbs.add_parser("bw", help="the bandwidth a topic uses")
+    bw = verbs.add_parser("bw", help="the bandwidth a topic uses", epilog=EXAMPLES)
     bw.add_argument("topic")
     bw.add_argument("-w", "--window", type=int, default=100, help="messages to average (100)")
     _add_qos(bw)
@@ -109,7 +112,6 @@ def register(commands: Subcommands) -> Subcommands:
         "pub",
         help="publish a value (YAML/JSON: the message's fields or its natural value)",
         epilog=EXAMPLES,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     pub.add_argument("topic")
     pub.add_argument("message_type", help="e.g. std_msgs/msg/String")
@@ -149,7 +151,13 @@ def _list(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
 
 
 def _info(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
-    from pyconnect.commands.graph import CommandFailed, graph_session, report_failure, topic_type
+    from pyconnect.commands.graph import (
+        CommandFailed,
+        endpoints_named,
+        graph_session,
+        report_failure,
+        topic_type,
+    )
 
     with graph_session("topic") as session:
         try:
@@ -157,15 +165,7 @@ def _info(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         except CommandFailed:
             return report_failure(CommandFailed(f"Unknown topic '{args.topic}'"), err)
         node = session.node
-
-        def named() -> bool:  # endpoints are discovered before the nodes that own them
-            endpoints = [
-                *node.get_publishers_info_by_topic(args.topic),
-                *node.get_subscriptions_info_by_topic(args.topic),
-            ]
-            return all(e.node_name != "_NODE_NAME_UNKNOWN_" for e in endpoints)
-
-        session.spin_until(named, args.spin_time)
+        session.spin_until(lambda: endpoints_named(session, [args.topic]), args.spin_time)
         publishers = node.get_publishers_info_by_topic(args.topic)
         subscriptions = node.get_subscriptions_info_by_topic(args.topic)
     gap = "\n" if args.verbose else ""
@@ -183,10 +183,10 @@ def _info(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
 
 def _subscribe(
     args: argparse.Namespace, verb: str, on_message: Any, *, raw: bool
-) -> tuple[Any, Any]:
-    """A session subscribed to ``args.topic``; the caller spins it."""
+) -> tuple[Any, Any, str]:
+    """A session subscribed to ``args.topic`` and the type it expects; the caller spins it."""
     from pyconnect.commands.graph import choose_qos, graph_session, topic_type
-    from pyconnect.ros.interfaces import interface_class
+    from pyconnect.ros.interfaces import interface_class, interface_name
 
     context = graph_session(verb)
     session = context.__enter__()
@@ -200,11 +200,66 @@ def _subscribe(
     except BaseException:
         context.__exit__(None, None, None)
         raise
-    return context, session
+    return context, session, interface_name(msg_class)
+
+
+def no_message_reason(topic: str, msg_type: str, published: list[str], timeout: float) -> str:
+    """Why ``echo --timeout`` got nothing: ``published`` holds the type of each publisher."""
+    said = f"no message on [{topic}] within {timeout:g} s"
+    if not published:
+        return f"{said}: it has no publishers"
+    others = ", ".join(sorted(set(published) - {msg_type}))
+    if msg_type not in published:
+        return f"{said}: it is published as {others}, not {msg_type}"
+    count = published.count(msg_type)
+    also = f" (others publish {others})" if others else ""
+    return f"{said} from its {count} publisher(s) of {msg_type}{also}"
+
+
+def _publisher_types(session: Any, topic: str) -> list[str]:
+    return [str(p.topic_type) for p in session.node.get_publishers_info_by_topic(topic)]
+
+
+def _await_first(
+    session: Any,
+    topic: str,
+    msg_type: str,
+    *,
+    arrived: Callable[[], bool],
+    timeout: float | None,
+    err: TextIO,
+) -> bool:
+    """Spin until ``arrived()``: False when ``timeout`` s pass first (None: wait for ever).
+
+    A topic published as another type will never deliver: without a timeout that is said once,
+    as the wait may be long (``ros2 topic echo`` waits silently)."""
+    from pyconnect.commands.graph import PROGRAM
+
+    warned = False
+
+    def done() -> bool:
+        nonlocal warned
+        if arrived():
+            return True
+        if timeout is None and not warned:
+            published = _publisher_types(session, topic)
+            if published and msg_type not in published:
+                others = ", ".join(sorted(set(published)))
+                print(
+                    f"{PROGRAM}: warning: [{topic}] is published as {others}, not {msg_type}: "
+                    f"waiting for a publisher of {msg_type}",
+                    file=err,
+                    flush=True,
+                )
+                warned = True
+        return False
+
+    result: bool = session.spin_until(done, timeout)
+    return result
 
 
 def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
-    from pyconnect.commands.graph import report_failure
+    from pyconnect.commands.graph import CommandFailed, report_failure
     from pyconnect.commands.live_values import echo_line, echo_value, json_value, select_field
     from pyconnect.errors import PyconnectError
 
@@ -213,11 +268,20 @@ def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     def on_message(msg: Any) -> None:
         received.append(msg)
 
+    # --timeout bounds the whole wait for a first message, finding the type included.
+    started = time.monotonic()
     try:
-        context, session = _subscribe(args, "echo", on_message, raw=False)
+        context, session, msg_type = _subscribe(args, "echo", on_message, raw=False)
     except PyconnectError as error:
         return report_failure(error, err)
     try:
+        left = None if args.timeout is None else args.timeout - (time.monotonic() - started)
+        if not _await_first(
+            session, args.topic, msg_type, arrived=lambda: bool(received), timeout=left, err=err
+        ):
+            published = _publisher_types(session, args.topic)
+            reason = no_message_reason(args.topic, msg_type, published, args.timeout)
+            return report_failure(CommandFailed(reason), err)
         while True:
             session.spin_until(lambda: bool(received), None)
             while received:
@@ -254,7 +318,7 @@ def _hz(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     if args.qos_profile is None:
         args.qos_profile = "sensor_data"  # as ros2 topic hz subscribes
     try:
-        context, session = _subscribe(args, "hz", on_message, raw=True)
+        context, session, _msg_type = _subscribe(args, "hz", on_message, raw=True)
     except PyconnectError as error:
         return report_failure(error, err)
     clock.append(session.node.get_clock())
@@ -280,7 +344,7 @@ def _bw(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     if args.qos_profile is None:
         args.qos_profile = "sensor_data"  # as ros2 topic bw subscribes
     try:
-        context, session = _subscribe(args, "bw", on_message, raw=True)
+        context, session, _msg_type = _subscribe(args, "bw", on_message, raw=True)
     except PyconnectError as error:
         return report_failure(error, err)
     print(f"Subscribed to [{args.topic}]", file=out, flush=True)
