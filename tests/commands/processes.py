@@ -27,12 +27,12 @@ class Lines:
         self.reader = threading.Thread(target=self._read, args=(stream,), daemon=True)
         self.reader.start()
 
-    def stop(self) -> str:
-        """Ctrl-C the process, wait for it to end and return its stderr."""
+    def stop(self, signum: int = signal.SIGINT) -> str:
+        """Ctrl-C (or ``signum``) the process, wait for it to end and return its stderr."""
         process = self.process
         if process.stdin is not None:
             process.stdin.close()
-        process.send_signal(signal.SIGINT)
+        process.send_signal(signum)
         process.wait(timeout=WAIT)
         self.reader.join(timeout=WAIT)
         assert process.stdout is not None

@@ -54,7 +54,11 @@ def _check_bag(bag: Path) -> list[tuple[str, object]]:
     return ours
 
 
-def test_record_until_ctrl_c_writes_a_bag_every_reader_reads(peer: Lines, tmp_path: Path) -> None:
+# SIGTERM too: systemd, docker stop and timeout stop a recorder with it, and the bag must be whole.
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_record_until_ctrl_c_writes_a_bag_every_reader_reads(
+    peer: Lines, tmp_path: Path, signum: int
+) -> None:
     bag = tmp_path / "run1"
     recorder = spawn(
         "-m", "pyconnect.cli", "bag", "record", "/chatter", "/image", "-o", str(bag),
@@ -65,7 +69,7 @@ def test_record_until_ctrl_c_writes_a_bag_every_reader_reads(peer: Lines, tmp_pa
         lines.wait_for("^Recording '/chatter': first message received$")
         lines.wait_for("^Recording '/image': first message received$")
     finally:
-        err = lines.stop()
+        err = lines.stop(signum)
     assert (recorder.returncode, err) == (0, "")
     ours = _check_bag(bag)
     assert {topic for topic, _value in ours} == {"/chatter", "/image"}
@@ -73,31 +77,6 @@ def test_record_until_ctrl_c_writes_a_bag_every_reader_reads(peer: Lines, tmp_pa
     chatter = metadata["topics_with_message_count"][0]["topic_metadata"]
     assert yaml.safe_load(chatter["offered_qos_profiles"])[0]["reliability"] == 1  # reliable
 
-
-def test_sigterm_ends_the_recording_as_ctrl_c_does(peer: Lines, tmp_path: Path) -> None:
-    """systemd, docker stop and timeout stop a recorder with SIGTERM: the bag must be whole."""
-    bag = tmp_path / "run1"
-    recorder = spawn(
-        "-m", "pyconnect.cli", "bag", "record", "/chatter", "/image", "-o", str(bag),
-        "--max-bag-size", "1",
-    )  # fmt: skip
-    lines = Lines(recorder)
-    try:
-        lines.wait_for("^Recording '/chatter': first message received$")
-        lines.wait_for("^Recording '/image': first message received$")
-    finally:
-        recorder.send_signal(signal.SIGTERM)
-        recorder.wait(timeout=WAIT)
-        lines.reader.join(timeout=WAIT)
-        assert recorder.stderr is not None and recorder.stdout is not None
-        err = recorder.stderr.read()
-        recorder.stderr.close()
-        recorder.stdout.close()
-        assert recorder.stdin is not None
-        recorder.stdin.close()
-    assert (recorder.returncode, err) == (0, "")
-    ours = _check_bag(bag)
-    assert {topic for topic, _value in ours} == {"/chatter", "/image"}
 
 
 @pytest.mark.parametrize("split_at", [2, 12])
