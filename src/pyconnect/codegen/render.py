@@ -13,7 +13,7 @@ from typing import Any
 
 from pyconnect.codegen.formatting import LINE_LENGTH
 from pyconnect.codegen.from_dict_fields import FromDictField, from_dict_fields
-from pyconnect.codegen.symbols import Symbols
+from pyconnect.codegen.symbols import Symbols, check_type_names
 from pyconnect.codegen.templating import header, py_literal, render_template, snake_case
 from pyconnect.codegen.wire_render import render_wire_codecs
 from pyconnect.typesys.model import FieldType, MessageDef, PackageDef, TypeSet
@@ -173,7 +173,9 @@ def _external_types(messages: Iterable[MessageDef], local: set[str]) -> list[str
 def _context(
     package: PackageDef | None, messages: list[MessageDef], types: TypeSet
 ) -> dict[str, Any]:
-    symbols = Symbols(package.name if package is not None else None)
+    type_names = frozenset((m.package, m.name) for m in types.messages.values())
+    symbols = Symbols(package.name if package is not None else None, type_names)
+    check_type_names(messages, symbols)
     local = {m.full_name for m in messages}
     external = _external_types(messages, local) if package is not None else []
     source = f"package {package.name}" if package is not None else "installed classes"
@@ -194,7 +196,7 @@ def _context(
                 "package": name.split("/")[0],
                 "function": snake_case(name.split("/")[2]),
                 "alias": symbols.function(name),
-                "typed_dict": name.split("/")[2].replace("_", "") + "Dict",
+                "typed_dict": Symbols(name.split("/")[0], type_names).typed_dict(name),
                 "typed_alias": symbols.typed_dict(name),
             }
             for name in external

@@ -10,7 +10,7 @@ from collections.abc import Collection, Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from pyconnect.codegen.symbols import Symbols
+from pyconnect.codegen.symbols import Symbols, check_type_names
 from pyconnect.codegen.templating import header, py_literal, render_template
 from pyconnect.codegen.wire_plan import Planner, Step, Value, is_flat
 from pyconnect.codegen.wire_tables import ModuleTables
@@ -107,7 +107,9 @@ def wire_context(
     of the ``linked`` ones is imported from their packages' modules."""
     wanted = list(messages)
     ordered = local_types(wanted, types, linked)
-    tables = ModuleTables(Symbols(package), {m.full_name for m in ordered})
+    symbols = Symbols(package, frozenset((m.package, m.name) for m in types.messages.values()))
+    check_type_names(ordered, symbols)
+    tables = ModuleTables(symbols, {m.full_name for m in ordered})
     codecs = [plan_type(m, types, tables) for m in ordered]
     return {
         "header": header(source, wanted),
