@@ -10,15 +10,13 @@ import dask
 import pandas as pd
 import pytest
 from distributed import Client, LocalCluster
-from rclpy.serialization import serialize_message
-from std_msgs.msg import String
 
 from pyconnect.errors import PyconnectError
 from pyconnect.record import bag_info, open_bag
 from pyconnect.record.dask import BagPart, plan_parts, read_bags
-from pyconnect.record.mcap_recorder import McapRecorder
 from tests.conftest import require_sample_bags
 from tests.record.bag_samples import BAGS, expected_bags
+from tests.record.test_bag_damage import write_chunked
 
 # `make test` reads a slice of the shared bags; `make scale` (PYCONNECT_SCALE=all) reads them all.
 SLICE = (
@@ -102,12 +100,7 @@ def test_no_paths_is_an_error() -> None:
 def test_a_bag_cut_short_reads_as_open_bag_reads_it(tmp_path: Path) -> None:
     # No summary to plan chunk ranges from: one partition, with the rows (and the damage
     # report) of the serial read.
-    bag = tmp_path / "bag"
-    with McapRecorder(bag, chunk_size=2048) as recorder:
-        recorder.add_topic("/chatter", "std_msgs/msg/String")
-        for i in range(600):
-            data = bytes(serialize_message(String(data=f"message {i:05d}")))
-            recorder.write("/chatter", data, log_time_ns=1_000 + i)
+    bag = write_chunked(tmp_path / "bag", count=600)
     file = bag / "bag_0.mcap"
     file.write_bytes(file.read_bytes()[: file.stat().st_size // 2])
     assert plan_parts(bag, "/chatter", partition_bytes=1000) == [BagPart(str(bag), "/chatter")]
