@@ -97,11 +97,12 @@ def main() -> None:
         peer.add_agent(conn_name=topic, conn_type="sub", data_interface="std_msgs/msg/String")
         print("ready", flush=True)
         return  # the interpreter's exit shuts the peer down
-    print("ready", flush=True)
     if role != "spin-twice":
+        print("ready", flush=True)
         peer.spin()
         return
     try:
+        print("ready", flush=True)
         peer.spin()
     except SystemExit:  # the signal came before spin() was reached
         peer.wait_for_shutdown()
