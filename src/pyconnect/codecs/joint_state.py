@@ -11,6 +11,7 @@ from __future__ import annotations
 import array
 import numbers
 from collections.abc import Callable, Mapping
+from itertools import chain
 from typing import Any
 
 from pyconnect.codecs.base import FieldsCodec
@@ -94,12 +95,12 @@ def _fast_columns(value: Any) -> tuple[list[str], dict[str, array.array[float]]]
                 or sum(map(len, joints)) != len(keys) * len(joints)
             ):
                 return None
-            lists = {k: [j[k] for j in joints] for k in keys}
+            lists = [[j[k] for j in joints] for k in keys]
         else:
-            lists = {"position": joints}
-        if not all(PLAIN_FLOATS.issuperset(map(type, column)) for column in lists.values()):
+            keys, lists = ["position"], [joints]
+        if not PLAIN_FLOATS.issuperset(map(type, chain.from_iterable(lists))):
             return None
-        columns = {k: array.array("d", column) for k, column in lists.items()}
+        columns = dict(zip(keys, map(array.array, "ddd", lists), strict=False))
     except (KeyError, OverflowError):  # a missing key; an int beyond float's range
         return None
     return names, columns
