@@ -75,6 +75,25 @@ def test_matches_follow_approximate_time_synchronizer(bag: Path) -> None:
     assert joints.log_time_ns == T0 + 16 * MS
 
 
+def test_natural_values_read_each_topics_first_message_once(
+    bag: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Settling a topic's codec reads its first message; once per topic, not per match."""
+    from pyconnect.record.bag_reader import BagReader
+
+    settled: list[object] = []
+    real = BagReader._settle
+
+    def counting(self: BagReader, decoder: object, *args: object) -> None:
+        settled.append(decoder)
+        real(self, decoder, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(BagReader, "_settle", counting)
+    matches = list(align(bag, ["/camera/image_raw", "/joint_states"], tolerance=0.02))
+    assert len(matches) == 3
+    assert len(settled) == len(set(map(id, settled))) <= 2
+
+
 def test_a_tighter_tolerance_matches_other_pairs(bag: Path) -> None:
     matches = list(align(bag, ["/camera/image_raw", "/joint_states"], tolerance=0.01))
     # frame 1 is still queued (-18 ms is too far) when the +5 ms joint arrives

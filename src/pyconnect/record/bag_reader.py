@@ -140,6 +140,7 @@ class BagReader:
         self._decoders: dict[tuple[str, str | None, str, str], TopicDecoder] = {}
         self._counts: dict[str, int] = {}
         self._delivered = 0
+        self._first_decoded: set[int] = set()  # decoders topic_codec has settled
         self.switched: dict[str, int] = {}
         """Topic -> how many of its messages had been delivered, decoded with the definition
         stored in the bag, when a later one needed the installed type (its values then follow
@@ -262,7 +263,10 @@ class BagReader:
                     if connection.topic != topic:
                         continue
                     decoder = self._decoder(connection)
-                    if not decoder.settled:
+                    # Once per decoder: align asks for every matched message, and a stored
+                    # definition that fits never counts as settled.
+                    if not decoder.settled and id(decoder) not in self._first_decoded:
+                        self._first_decoded.add(id(decoder))
                         self._settle(decoder, storage, connection.id)
                     if decoder.codec is not None:
                         return decoder.codec
