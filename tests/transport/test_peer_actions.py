@@ -192,3 +192,24 @@ def test_a_goal_that_ends_after_its_server_shut_down_raises_nothing(
     # The client learns the server vanished (its result request ends unanswered).
     result = future.result(TIMEOUT)
     assert result["isdone"] is False
+
+
+@pytest.mark.parametrize("answer", ["goal", "result"])
+def test_a_malformed_answer_fails_the_goal_like_any_other(
+    make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch, answer: str
+) -> None:
+    """A goal or result response that is not CDR of its type: {'isdone': False, ...}."""
+    from pyconnect.transport.action_server import ActionServerAgent
+
+    method = "_on_goal" if answer == "goal" else "_on_result_request"
+    monkeypatch.setattr(ActionServerAgent, method, lambda _self, request: request.reply(b"\xff" * 12))
+    _server, client = pair(make_peer, fibonacci)
+    what = "the goal response" if answer == "goal" else "the result"
+    part = "SendGoal_Response" if answer == "goal" else "GetResult_Response"
+    assert client.send({"order": 2}, timeout=TIMEOUT) == {
+        "isdone": False,
+        "error": f"agent 'fib' (action_client {FIBONACCI}): could not decode {what}: "
+        f"{FIBONACCI}_{part}: unsupported CDR encapsulation ffff (expected 0001 little-endian "
+        "or 0000 big-endian XCDR1)",
+    }
+    assert client.error_count == 1
