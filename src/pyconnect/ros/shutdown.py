@@ -31,7 +31,7 @@ _HANDLED_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _lock = threading.Lock()
 _live: list[ShutdownHooks] = []
 _previous: dict[int, Any] = {}
-_state = {"signalled": False}
+_state = {"signalled": False, "early_dispatch": False}
 
 
 def _on_signal(signum: int, frame: FrameType | None) -> None:
@@ -118,7 +118,6 @@ class ShutdownHooks:
 
 
 _early_hooks: list[Callable[[], None]] = []
-_early_dispatch: list[bool] = []
 
 
 def _register_early_dispatch() -> None:
@@ -126,9 +125,9 @@ def _register_early_dispatch() -> None:
     for the other non-daemon threads (``threading._register_atexit``, as concurrent.futures
     uses it; plain ``atexit`` where it is missing)."""
     with _lock:
-        if _early_dispatch:
+        if _state["early_dispatch"]:
             return
-        _early_dispatch.append(True)
+        _state["early_dispatch"] = True
     register = getattr(threading, "_register_atexit", atexit.register)
     register(_run_early_hooks)
 

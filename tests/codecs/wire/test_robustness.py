@@ -230,5 +230,5 @@ def test_a_string_without_its_nul_reads_as_rclpy_reads_it(msg_type: str, field: 
     expected = ["abc"] if field == "string_values" else "abc"
     assert getattr(deserialize_message(unterminated, cls), field) == expected
     assert wire.to_dict(unterminated, msg_type)[field] == expected
-    natural = wire.decode(unterminated, msg_type)
-    assert (natural if msg_type == "std_msgs/msg/String" else expected) == expected
+    if msg_type == "std_msgs/msg/String":  # its natural value is the str, read by the fast path
+        assert wire.decode(unterminated, msg_type) == expected
