@@ -190,3 +190,54 @@ def test_a_node_with_an_action_agent_uses_the_elastic_executor(make_node: Any) -
     )
     node.spin(run_thread=True)
     assert client.send({"order": 1}) == {"sequence": [1], "isdone": True}
+
+
+def test_a_blocked_agent_stays_exclusive_while_other_agents_run_after_the_move(
+    make_node: Any,
+) -> None:
+    # The move holds the blocked agent's group; a timer agent's callbacks, finishing on the
+    # elastic executor meanwhile, must not end that hold (the agent's next message would run
+    # beside the first, out of order).
+    from std_msgs.msg import Int32
+
+    node = make_node()
+    first_started = threading.Event()
+    release_first = threading.Event()
+    second_started = threading.Event()
+    order: list[int] = []
+    all_handled = threading.Event()
+
+    def on_int(value: int) -> None:
+        if value == 0:
+            first_started.set()
+            release_first.wait(EVENT_TIMEOUT)
+        elif not release_first.is_set():
+            second_started.set()
+        order.append(value)
+        if value == 5:
+            all_handled.set()
+
+    ticks_on_elastic: list[int] = []
+    ticked = threading.Event()
+
+    def on_tick() -> None:
+        if node._executor.mode == "elastic" and first_started.is_set():
+            ticks_on_elastic.append(1)
+            if len(ticks_on_elastic) >= 3:
+                ticked.set()
+
+    node.add_agent(conn_name="ints", conn_type="sub", data_interface=Int32, response_func=on_int)
+    node.add_agent(conn_name="tick", conn_type="timer", time_period=0.02, response_func=on_tick)
+    pub = node.add_agent(conn_name="ints", agent_name="out", conn_type="pub", data_interface=Int32)
+    node.spin(run_thread=True)
+    assert repeat_until(first_started, lambda: pub.send(0))
+    assert _wait_for_mode(node, "elastic")
+    for value in range(1, 6):
+        pub.send(value)
+    assert ticked.wait(EVENT_TIMEOUT)  # the timer's callbacks have ended on the elastic executor
+    # Nothing can wake this wait in a correct run: it only gives a broken hold time to show.
+    assert not second_started.wait(1.0), "a second message ran while the first was running"
+    release_first.set()
+    assert all_handled.wait(EVENT_TIMEOUT)
+    # repeat_until may have sent 0 more than once until discovery was done
+    assert order[0] == 0 and [value for value in order if value] == [1, 2, 3, 4, 5]

@@ -10,7 +10,9 @@ looks every ``BUSY_TICK`` while callbacks keep coming, every ``handoff_after`` w
 running, and otherwise checks every ``IDLE_TICK`` seconds whether the dispatching thread still
 returns. A slow callback is thus noticed after 20-120 ms. The wrapper runs per message on a
 cold cache (bench/agents.py: the whole tick of a 100 Hz timer is ~200 us of CPU there), so it
-is a few attribute stores and takes no lock unless a move held its callback's group.
+is a few attribute stores and takes no lock unless a move held its callback's group. Only the
+held callback's own return ends the hold: callbacks of other agents, which go on running on the
+elastic executor meanwhile, leave it alone.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -96,7 +98,7 @@ class CallbackWatch:
                 return callback(*args)
             finally:
                 self._running = None
-                if self._held is not None:
+                if self._held is token:  # this agent's hold only: another agent's end is not ours
                     self._release_held()
 
         def tick() -> Any:
@@ -108,7 +110,7 @@ class CallbackWatch:
                 return callback()
             finally:
                 self._running = None
-                if self._held is not None:
+                if self._held is token:  # this agent's hold only: another agent's end is not ours
                     self._release_held()
 
         wrapped = run if takes_args else tick
