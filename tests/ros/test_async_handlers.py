@@ -283,3 +283,52 @@ def test_async_action_client_callbacks(make_node: Any) -> None:
     assert results == [returned] == [{"sequence": [6], "isdone": True}]
     # Each callback has its lane position: the acceptance ran before the result's callback.
     assert accepted == [True]
+
+
+@pytest.mark.parametrize("shut_down_on", ["the loop's thread", "another thread"])
+def test_shutdown_cancels_a_handler_awaiting_on_the_users_loop(
+    make_node: Any, user_loop: asyncio.AbstractEventLoop, shut_down_on: str
+) -> None:
+    # The user's loop outlives the node: nothing but shutdown cancels what the node started on
+    # it, and a service callback waiting for the handler would hold shutdown up (and the node
+    # be destroyed under it). On the loop's own thread (a FastAPI lifespan's exit) the loop
+    # cannot run anything until shutdown returns.
+    node = make_node(loop=user_loop)
+    started = threading.Event()
+    cancelled = threading.Event()
+
+    async def never_answers(_request: dict[str, Any]) -> dict[str, Any]:
+        started.set()
+        try:
+            await asyncio.Event().wait()
+        except asyncio.CancelledError:
+            cancelled.set()
+            raise
+        return {"success": True}
+
+    node.add_agent(
+        conn_name="stuck", conn_type="service_server", data_interface=Trigger,
+        response_func=never_answers,
+    )  # fmt: skip
+    client = node.add_agent(
+        conn_name="stuck", agent_name="stuck_client", conn_type="service_client",
+        data_interface=Trigger,
+    )  # fmt: skip
+    node.spin(run_thread=True)
+    reply = client.send({}, block=False, timeout=EVENT_TIMEOUT)
+    assert started.wait(EVENT_TIMEOUT)
+    shut_down = threading.Event()
+
+    def shut_down_now() -> None:
+        node.shutdown()
+        shut_down.set()
+
+    if shut_down_on == "the loop's thread":
+        user_loop.call_soon_threadsafe(shut_down_now)
+    else:
+        threading.Thread(target=shut_down_now).start()
+    assert cancelled.wait(EVENT_TIMEOUT)
+    assert shut_down.wait(EVENT_TIMEOUT)
+    assert node.shutdown_event.is_set()
+    # The node's own client gets its answer (failed: the node shut down) rather than hanging.
+    assert reply.result(EVENT_TIMEOUT)["isdone"] is False

@@ -23,6 +23,7 @@ import concurrent.futures
 import contextlib
 import inspect
 import threading
+import weakref
 from collections import deque
 from collections.abc import Awaitable, Callable
 from typing import Any
@@ -59,6 +60,9 @@ class CoroutineRunner:
         self._lock = threading.Lock()
         self._name = name
         self._stopped = False
+        # What stop() cancels: on the user's loop nothing else would (the loop outlives us).
+        self._submitted: set[concurrent.futures.Future[Any]] = set()
+        self._lanes: weakref.WeakSet[CoroutineLane] = weakref.WeakSet()
 
     @property
     def loop(self) -> asyncio.AbstractEventLoop:
@@ -80,12 +84,32 @@ class CoroutineRunner:
             return self._own_loop
 
     def submit(self, awaitable: Awaitable[Any]) -> concurrent.futures.Future[Any]:
-        """Run ``awaitable`` on the loop; a future of its result for any thread to wait on."""
-        return asyncio.run_coroutine_threadsafe(_awaited(awaitable), self.loop)
+        """Run ``awaitable`` on the loop; a future of its result for any thread to wait on
+        (cancelled by ``stop()``; already cancelled once stopped)."""
+        future: concurrent.futures.Future[Any]
+        with self._lock:
+            if self._stopped:
+                if inspect.iscoroutine(awaitable):
+                    awaitable.close()  # never awaited, and no warning saying so
+                future = concurrent.futures.Future()
+                future.cancel()
+                return future
+        future = asyncio.run_coroutine_threadsafe(_awaited(awaitable), self.loop)
+        with self._lock:
+            self._submitted.add(future)
+        future.add_done_callback(self._forget)
+        return future
+
+    def _forget(self, future: concurrent.futures.Future[Any]) -> None:
+        with self._lock:
+            self._submitted.discard(future)
 
     def lane(self) -> CoroutineLane:
         """An ordered lane for one agent."""
-        return CoroutineLane(self)
+        lane = CoroutineLane(self)
+        with self._lock:
+            self._lanes.add(lane)
+        return lane
 
     @property
     def stopped(self) -> bool:
@@ -93,10 +117,20 @@ class CoroutineRunner:
         return self._stopped
 
     def stop(self, timeout: float | None = 5.0) -> None:
-        """Cancel what still runs on pyconnect's own loop and end its thread (idempotent)."""
+        """Cancel what still runs, on either loop, and end pyconnect's own loop (idempotent).
+
+        A waiting future is cancelled here, at once: a callback waiting for it is released even
+        when ``stop()`` runs on the user's loop thread, which cannot run the cancellation until
+        ``stop()`` returns. The coroutines themselves are cancelled on their loop.
+        """
         with self._lock:
             self._stopped = True
             loop, thread = self._own_loop, self._thread
+            submitted, lanes = list(self._submitted), list(self._lanes)
+        for future in submitted:
+            future.cancel()  # asyncio cancels the coroutine's task on its loop
+        for lane in lanes:
+            lane.cancel()
         if loop is None or thread is None:
             return
         with contextlib.suppress(RuntimeError):  # already closed
@@ -144,6 +178,13 @@ class CoroutineLane:
             with self._cond:
                 self._pending.clear()
                 self._draining = False
+
+    def cancel(self) -> None:
+        """Cancel the lane's task on its loop (the runner stops; callable from any thread)."""
+        task = self._task
+        if task is not None and not task.done():
+            with contextlib.suppress(RuntimeError):  # the loop is closed: nothing runs
+                task.get_loop().call_soon_threadsafe(task.cancel)
 
     def _wake(self) -> None:
         """On the loop: start the lane's task, or wake it from its idle wait."""

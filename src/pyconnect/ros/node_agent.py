@@ -276,6 +276,8 @@ class NodeAgent:
         finished = threading.Event()
         future.add_done_callback(lambda _future: finished.set())
         self.node.wait_for(finished, None, poll=future.done)
+        # wait_for also returns when the node stops: the coroutine's result is not awaited then.
+        future.cancel()
         try:
             return future.result()
         except concurrent.futures.CancelledError:
