@@ -36,6 +36,7 @@ from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_text_of
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.pending_calls import PendingCalls
 from pyconnect.ros.qos import REQUESTS
 from pyconnect.ros.race_free_action_client import RaceFreeActionClient
 from pyconnect.ros.waiting import settle, wait_until
@@ -84,8 +85,6 @@ class ActionClientAgent(NodeAgent):
         self.feedback_conversion = self.make_conversion(action_class.Feedback)
         self.last_feedback: Any = None
         self._in_flight: dict[int, _GoalInFlight] = {}
-        # The goal behind each pending result future (send_async cancels it on a timeout).
-        self._goal_of_result: dict[int, _GoalInFlight] = {}
         self._lock = threading.Lock()
         self._server_seen = False
         self.client = RaceFreeActionClient(
@@ -98,6 +97,13 @@ class ActionClientAgent(NodeAgent):
             cancel_service_qos_profile=REQUESTS,
         )
         self._abort_reasons = AbortReasons(node.ros_node, conn_name)
+        self._pending = PendingCalls(
+            node,
+            agent_name=self.name,
+            during="goal",
+            server_ready=self.client.server_is_ready,
+            failed=self._failed,
+        )
 
     def is_connected(self) -> bool:
         ready: bool = self.client.server_is_ready()
@@ -123,15 +129,12 @@ class ActionClientAgent(NodeAgent):
         if not block:
             if self.response_func is not None:
                 result.add_done_callback(self._respond_with_future)
-            if self.client.server_is_ready():
-                self._send_goal(goal, result, feedback_func)
-            else:
-                threading.Thread(
-                    target=self._send_when_ready,
-                    args=(goal, result, feedback_func, timeout),
-                    name=f"pyconnect-{self.name}-wait",
-                    daemon=True,
-                ).start()
+            self._pending.start(
+                result,
+                lambda future: self._send_goal(goal, future, feedback_func),
+                timeout=timeout,
+                missing=f"no action server for {self.conn_name}",
+            )
             return result
         try:
             return self._send_and_wait(goal, result, done, feedback_func, timeout)
@@ -181,12 +184,9 @@ class ActionClientAgent(NodeAgent):
         timeout = self.timeout if timeout is None else timeout
         future = self.send(data, timeout=timeout, feedback_func=feedback_func, block=False)
         try:
+            # A timeout, or the awaiting task's cancellation, cancels the future: the goal too.
             return await asyncio.wait_for(asyncio.wrap_future(future), timeout)
         except asyncio.TimeoutError:
-            with self._lock:
-                in_flight = self._goal_of_result.pop(id(future), None)
-            if in_flight is not None:
-                in_flight.cancel()
             return self._respond(self._failed(f"no result within {timeout} s (goal canceled)"))
 
     def _respond(self, value: Any) -> Any:
@@ -218,42 +218,23 @@ class ActionClientAgent(NodeAgent):
         self._latest = value
         return value
 
-    def _send_when_ready(
-        self,
-        goal: Any,
-        result: concurrent.futures.Future[Any],
-        feedback_func: ResponseFunc | None,
-        timeout: float | None,
-    ) -> None:
-        ready = wait_until(self.client.server_is_ready, timeout, stop=self.node.shutdown_event)
-        if result.done():  # an awaiting caller timed out meanwhile
-            return
-        if ready:
-            self._send_goal(goal, result, feedback_func)
-            return
-        settle(
-            result,
-            lambda: self._failed(f"no action server for {self.conn_name} within {timeout} s"),
-        )
-
     def _send_goal(
         self,
         goal: Any,
         result: concurrent.futures.Future[Any],
         feedback_func: ResponseFunc | None,
     ) -> _GoalInFlight:
-        """Send ``goal``; ``result`` gets the outcome."""
+        """Send ``goal``; ``result`` gets the outcome (cancelling ``result`` cancels the goal)."""
         in_flight = _GoalInFlight()
         key = id(in_flight)
         with self._lock:
             self._in_flight[key] = in_flight
-            self._goal_of_result[id(result)] = in_flight
 
-        def forget(_future: concurrent.futures.Future[Any]) -> None:
-            with self._lock:
-                self._goal_of_result.pop(id(result), None)
+        def cancel_if_cancelled(_result: concurrent.futures.Future[Any]) -> None:
+            if result.cancelled():  # an awaiting caller gave up (timeout or its task cancelled)
+                in_flight.cancel()
 
-        result.add_done_callback(forget)
+        result.add_done_callback(cancel_if_cancelled)
 
         def on_feedback(feedback_msg: Any) -> None:
             try:
@@ -293,7 +274,13 @@ class ActionClientAgent(NodeAgent):
     def _outcome(self, response: Any, goal_id: Any) -> Any:
         status = response.status
         if status == GoalStatus.STATUS_SUCCEEDED:
-            value = self.reform_response(self.result_conversion.decode_checked(response.result))
+            try:
+                decoded = self.result_conversion.decode_checked(response.result)
+            except Exception as error:  # a failed goal like any other: response_func sees it
+                self.report_exception("decode", error)
+                reason = str(error).removeprefix(f"{self.describe}: ")  # named once, by _failed
+                return self._failed(f"could not decode the result: {reason}")
+            value = self.reform_response(decoded)
             self._latest = value
             return value
         try:
@@ -313,6 +300,7 @@ class ActionClientAgent(NodeAgent):
         return self._failed(f"goal ended with status {status}", partial)
 
     def close(self) -> None:
+        self._pending.fail_all()
         self.client.destroy()
         self._abort_reasons.destroy(self.node.ros_node)
         super().close()

@@ -63,6 +63,10 @@ class AgentHost(Protocol):
         """Wait until ``event`` is set by a callback (safe inside a callback); False on timeout."""
         ...
 
+    def ensure_spinning(self) -> None:
+        """Spin in the background unless something spins already (an answer needs callbacks)."""
+        ...
+
     def agent_log_dir(self, agent_name: str) -> Path:
         """This session's log folder of ``agent_name``: one folder per agent, made once."""
         ...

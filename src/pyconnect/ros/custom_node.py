@@ -231,6 +231,10 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
     def is_spinning(self) -> bool:
         return self._spin_thread is not None and self._spin_thread.is_alive()
 
+    def ensure_spinning(self) -> None:
+        """Spin in the background unless something spins already (never on this thread)."""
+        self._executor.spin_in_background()
+
     def wait_until_connected(self, timeout: float | None = None) -> None:
         """Return when every sub has a message and every client sees its server.
 
@@ -238,11 +242,12 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
         """
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
+            # Asked first: a shut-down node's entities are destroyed, asking them raises.
+            if self._stopping.is_set():
+                raise PyconnectError(f"node {self.name!r} is shut down")
             waiting = [agent for agent in list(self.agents.values()) if not agent.is_connected()]
             if not waiting:
                 return
-            if self._stopped.is_set():
-                raise PyconnectError(f"node {self.name!r} was shut down while waiting")
             remaining = None if deadline is None else deadline - time.monotonic()
             if remaining is not None and remaining <= 0:
                 names = ", ".join(f"{agent.describe} ({_waiting_for(agent)})" for agent in waiting)

@@ -21,7 +21,6 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
-import threading
 from typing import Any
 
 from rclpy.callback_groups import CallbackGroup
@@ -32,6 +31,7 @@ from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_message
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.pending_calls import PendingCalls
 from pyconnect.ros.qos import REQUESTS
 from pyconnect.ros.waiting import Signal, settle, wait_until
 
@@ -146,6 +146,13 @@ class ServiceClientAgent(NodeAgent):
         )
         self.service_name = self.client.service_name
         self._server_seen = False
+        self._pending = PendingCalls(
+            node,
+            agent_name=self.name,
+            during="call",
+            server_ready=self.client.service_is_ready,
+            failed=self._failed,
+        )
 
     def is_connected(self) -> bool:
         ready: bool = self.client.service_is_ready()
@@ -165,15 +172,12 @@ class ServiceClientAgent(NodeAgent):
             self.log_msg(data)
         if not block:
             result: concurrent.futures.Future[Any] = concurrent.futures.Future()
-            if self.client.service_is_ready():
-                self._call(request, result)
-            else:
-                threading.Thread(
-                    target=self._call_when_ready,
-                    args=(request, result, timeout),
-                    name=f"pyconnect-{self.name}-wait",
-                    daemon=True,
-                ).start()
+            self._pending.start(
+                result,
+                lambda future: self._call(request, future),
+                timeout=timeout,
+                missing=f"no server for {self.service_name}",
+            )
             return result
         try:
             return self._call_and_wait(request, timeout)
@@ -225,7 +229,13 @@ class ServiceClientAgent(NodeAgent):
         response = ros_future.result()
         if response is None:
             return self._failed("the call was cancelled")
-        value = self.reform_response(self.response_conversion.decode_checked(response))
+        try:
+            decoded = self.response_conversion.decode_checked(response)
+        except Exception as error:  # a failed call like any other: response_func sees it too
+            self.report_exception("decode", error)
+            reason = str(error).removeprefix(f"{self.describe}: ")  # named once, by _failed
+            return self._failed(f"could not decode the response: {reason}")
+        value = self.reform_response(decoded)
         self._latest = value
         return value
 
@@ -235,21 +245,14 @@ class ServiceClientAgent(NodeAgent):
         def finish(done: RosFuture) -> None:
             settle(result, lambda: self._value_of(done))
 
-        ros_future.add_done_callback(finish)
+        def forget_if_cancelled(_result: concurrent.futures.Future[Any]) -> None:
+            if result.cancelled():  # the caller gave up: rclpy need not keep the request
+                self.client.remove_pending_request(ros_future)
 
-    def _call_when_ready(
-        self, request: Any, result: concurrent.futures.Future[Any], timeout: float | None
-    ) -> None:
-        ready = wait_until(self.client.service_is_ready, timeout, stop=self.node.shutdown_event)
-        if result.done():  # an awaiting caller timed out meanwhile
-            return
-        if ready:
-            self._call(request, result)
-            return
-        settle(
-            result, lambda: self._failed(f"no server for {self.service_name} within {timeout} s")
-        )
+        ros_future.add_done_callback(finish)
+        result.add_done_callback(forget_if_cancelled)
 
     def close(self) -> None:
+        self._pending.fail_all()
         self.node.ros_node.destroy_client(self.client)
         super().close()

@@ -1,0 +1,118 @@
+"""A client agent's ``block=False`` calls: started when the server is ready, always answered.
+
+Both client kinds (service, action) hand their non-blocking calls to a ``PendingCalls``: the
+call starts at once when the server is ready, else on a thread that waits for it (a future
+that the caller cancels meanwhile is dropped); the node spins in the background from then on,
+since the answer needs callbacks to run, as a blocking ``send()`` and ``wait_until_connected``
+start it. A future still open when the node shuts down gets the failed value, so nothing
+waits on it for ever; on a node already shut down the future is failed from the start.
+"""
+
+from __future__ import annotations
+
+import concurrent.futures
+import contextlib
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from pyconnect.ros.agent_host import AgentHost
+from pyconnect.ros.waiting import settle, wait_until
+
+Call = Callable[[concurrent.futures.Future[Any]], object]
+"""Starts the middleware call that will settle the future it is given."""
+
+
+class PendingCalls:
+    """The open ``block=False`` calls of one client agent."""
+
+    def __init__(
+        self,
+        host: AgentHost,
+        *,
+        agent_name: str,
+        during: str,
+        server_ready: Callable[[], bool],
+        failed: Callable[[str], Any],
+    ) -> None:
+        self._host = host
+        self._agent_name = agent_name
+        self._during = during  # "call" or "goal": the failure texts say which
+        self._server_ready = server_ready
+        self._failed = failed
+        self._lock = threading.Lock()
+        self._open: set[concurrent.futures.Future[Any]] = set()
+
+    def start(
+        self,
+        result: concurrent.futures.Future[Any],
+        call: Call,
+        *,
+        timeout: float | None,
+        missing: str,
+    ) -> None:
+        """Run ``call(result)`` once the server is ready; ``missing`` (within ``timeout`` s)
+        is the failure when it never is."""
+        if self._host.shutdown_event.is_set():
+            settle(result, lambda: self._failed(f"node {self._host.name!r} is shut down"))
+            return
+        with self._lock:
+            self._open.add(result)
+        result.add_done_callback(self._forget)
+        self._host.ensure_spinning()
+        if self._ready():
+            self._call(call, result)
+            return
+        threading.Thread(
+            target=self._call_when_ready,
+            args=(call, result, timeout, missing),
+            name=f"pyconnect-{self._agent_name}-wait",
+            daemon=True,
+        ).start()
+
+    def fail_all(self) -> None:
+        """Answer every open call as failed: the node shuts down."""
+        with self._lock:
+            still_open = list(self._open)
+        text = f"node {self._host.name!r} shut down during the {self._during}"
+        for result in still_open:
+            settle(result, lambda: self._failed(text))
+
+    def _ready(self) -> bool:
+        try:
+            return self._server_ready()
+        except Exception:  # the node was destroyed under the question (shutdown racing)
+            return False
+
+    def _call_when_ready(
+        self,
+        call: Call,
+        result: concurrent.futures.Future[Any],
+        timeout: float | None,
+        missing: str,
+    ) -> None:
+        ready = wait_until(self._ready, timeout, stop=self._host.shutdown_event)
+        if result.done():  # cancelled by its caller, or answered by fail_all
+            return
+        if ready:
+            self._call(call, result)
+        elif self._host.shutdown_event.is_set():
+            text = f"node {self._host.name!r} shut down during the {self._during}"
+            settle(result, lambda: self._failed(text))
+        else:
+            settle(result, lambda: self._failed(f"{missing} within {timeout} s"))
+
+    def _call(self, call: Call, result: concurrent.futures.Future[Any]) -> None:
+        try:
+            call(result)
+        except Exception as error:
+            if self._host.shutdown_event.is_set():  # the node was destroyed under the call
+                text = f"node {self._host.name!r} shut down during the {self._during}"
+                settle(result, lambda: self._failed(text))
+            else:
+                with contextlib.suppress(concurrent.futures.InvalidStateError):
+                    result.set_exception(error)
+
+    def _forget(self, result: concurrent.futures.Future[Any]) -> None:
+        with self._lock:
+            self._open.discard(result)

@@ -1,0 +1,151 @@
+"""Client agents' non-blocking calls: answered without spin(), on shutdown, and when undecodable."""
+
+from __future__ import annotations
+
+import asyncio
+import threading
+from collections.abc import Iterator
+from typing import Any
+
+import pytest
+from std_srvs.srv import SetBool
+from test_msgs.action import Fibonacci
+
+from pyconnect.errors import PyconnectError
+
+from .conftest import EVENT_TIMEOUT
+
+SERVICE = "agent 'toggle_client' (service_client std_srvs/srv/SetBool)"
+ACTION = "agent 'fib_client' (action_client test_msgs/action/Fibonacci)"
+
+
+def _service_pair(node: Any, **client_options: Any) -> Any:
+    node.add_agent(
+        conn_name="toggle", conn_type="service_server", data_interface=SetBool,
+        response_func=lambda request: {"success": request["data"], "message": "ok"},
+    )  # fmt: skip
+    return node.add_agent(
+        conn_name="toggle", agent_name="toggle_client", conn_type="service_client",
+        data_interface=SetBool, timeout=EVENT_TIMEOUT, **client_options,
+    )  # fmt: skip
+
+
+def _action_pair(node: Any, handler: Any = None, **client_options: Any) -> Any:
+    node.add_agent(
+        conn_name="fib", conn_type="action_server", data_interface=Fibonacci,
+        response_func=handler or (lambda goal: {"sequence": [goal["order"]]}),
+    )  # fmt: skip
+    return node.add_agent(
+        conn_name="fib", agent_name="fib_client", conn_type="action_client",
+        data_interface=Fibonacci, timeout=EVENT_TIMEOUT, **client_options,
+    )  # fmt: skip
+
+
+def test_non_blocking_calls_are_answered_on_a_node_nobody_spins(make_node: Any) -> None:
+    # As a blocking send() does, the call starts the node spinning in the background.
+    node = make_node()
+    service = _service_pair(node)
+    action = _action_pair(node)
+    assert service.send({"data": True}, block=False).result(EVENT_TIMEOUT) == {
+        "success": True, "message": "ok", "isdone": True,
+    }  # fmt: skip
+    assert asyncio.run(action.send_async({"order": 3})) == {"sequence": [3], "isdone": True}
+
+
+def test_calls_on_a_shut_down_node_fail_with_its_name(make_node: Any) -> None:
+    node = make_node()
+    service = _service_pair(node)
+    action = _action_pair(node)
+    node.shutdown()
+    for client, name in ((service, SERVICE), (action, ACTION)):
+        failed = {"isdone": False, "error": f"{name}: node 'test_node' is shut down"}
+        assert client.send({}, block=False).result(EVENT_TIMEOUT) == failed
+        assert asyncio.run(client.send_async({})) == failed
+    with pytest.raises(PyconnectError, match="node 'test_node' is shut down"):
+        node.wait_until_connected(timeout=1.0)
+
+
+def test_an_open_non_blocking_goal_fails_when_the_node_shuts_down(make_node: Any) -> None:
+    node = make_node()
+    started = threading.Event()
+
+    def never_ends(_goal: dict[str, Any]) -> Iterator[None]:
+        started.set()
+        while not node.shutdown_event.is_set():
+            yield None
+        return None
+
+    action = _action_pair(node, never_ends)
+    future = action.send({"order": 1}, block=False)
+    assert started.wait(EVENT_TIMEOUT)
+    node.shutdown()
+    assert future.result(EVENT_TIMEOUT) == {
+        "isdone": False, "error": f"{ACTION}: node 'test_node' shut down during the goal",
+    }  # fmt: skip
+
+
+@pytest.mark.parametrize("how", ["timeout", "task cancelled"])
+def test_giving_up_on_send_async_cancels_the_goal(make_node: Any, how: str) -> None:
+    node = make_node()
+    started = threading.Event()
+    cancelled = threading.Event()
+
+    def runs_until_cancelled(_goal: dict[str, Any]) -> Iterator[None]:
+        started.set()
+        try:
+            for _ in range(int(EVENT_TIMEOUT / 0.01)):  # bounded: a regression fails, not hangs
+                cancelled.wait(0.01)
+                yield None
+        except GeneratorExit:  # the server closes a canceled goal's generator
+            cancelled.set()
+            raise
+        return None
+
+    action = _action_pair(node, runs_until_cancelled)
+    node.spin(run_thread=True)
+
+    async def give_up() -> Any:
+        if how == "timeout":
+            return await action.send_async({"order": 1}, timeout=0.5)
+        task = asyncio.ensure_future(action.send_async({"order": 1}))
+        await asyncio.get_running_loop().run_in_executor(None, started.wait, EVENT_TIMEOUT)
+        task.cancel()
+        with pytest.raises(asyncio.CancelledError):
+            await task
+        return None
+
+    result = asyncio.run(give_up())
+    if how == "timeout":
+        assert result == {
+            "isdone": False, "error": f"{ACTION}: no result within 0.5 s (goal canceled)",
+        }  # fmt: skip
+    assert cancelled.wait(EVENT_TIMEOUT), "the server never saw the goal canceled"
+
+
+def test_an_undecodable_answer_is_a_failed_call_that_response_func_sees(make_node: Any) -> None:
+    def cannot_read(_msg: Any) -> Any:
+        raise ValueError("cannot read this reply")
+
+    node = make_node()
+    answers: list[Any] = []
+    answered = threading.Event()
+
+    def on_answer(value: Any) -> None:
+        answers.append(value)
+        answered.set()
+
+    service = _service_pair(node, decode_func=cannot_read)
+    action = _action_pair(node, decode_func=cannot_read, response_func=on_answer)
+    node.spin(run_thread=True)
+    assert service.send({"data": True}) == {
+        "isdone": False, "error": f"{SERVICE}: could not decode the response: "
+        "decode_func raised ValueError: cannot read this reply",
+    }  # fmt: skip
+    failed = {
+        "isdone": False, "error": f"{ACTION}: could not decode the result: "
+        "decode_func raised ValueError: cannot read this reply",
+    }  # fmt: skip
+    assert action.send({"order": 1}) == failed
+    assert answered.wait(EVENT_TIMEOUT)
+    assert answers == [failed]
+    assert service.error_count == 1 and action.error_count == 1
