@@ -184,3 +184,107 @@ def test_do_log_msg_with_start_log_subs_writes_each_value_once(
     assert repeat_until(ticked, lambda: ticked.set() if ticks.tick_count >= 20 else None)
     node.stop_log_subs()
     assert len(_json_values(sub.make_log_dirs())) == sub.message_count
+
+
+def test_a_logged_image_is_the_one_received_not_what_response_func_drew_on_it(
+    make_node: Any, tmp_path: Path
+) -> None:
+    import cv2
+    import numpy as np
+    from sensor_msgs.msg import Image
+
+    node = make_node("drawing", log_dir=tmp_path)
+    arrived = threading.Event()
+
+    def draw(frame: Any) -> None:
+        frame[...] = 255  # decoded images are writable: drawing on them is ordinary use
+        arrived.set()
+
+    sub = node.add_agent(
+        conn_name="camera", conn_type="sub", data_interface=Image, do_log_msg=True,
+        response_func=draw, qos="default",
+    )  # fmt: skip
+    pub = node.add_agent(
+        conn_name="camera", agent_name="out", conn_type="pub", data_interface=Image, qos="default"
+    )
+    node.spin(run_thread=True)
+    assert repeat_until(arrived, lambda: pub.send(np.zeros((2, 3), np.uint8)))
+    assert sub.flush_log(EVENT_TIMEOUT)
+    for path in sub.make_log_dirs().glob("*.png"):
+        assert cv2.imread(str(path), cv2.IMREAD_UNCHANGED).max() == 0
+
+
+def test_a_sent_value_is_logged_as_it_was_sent(make_node: Any, tmp_path: Path) -> None:
+    node = make_node("sender", log_dir=tmp_path)
+    pub = node.add_agent(conn_name="plan", conn_type="pub", data_interface=String)
+    words = {"cmd": "forward"}
+    assert pub.log_msg(words)
+    words["cmd"] = "changed after logging"
+    assert pub.flush_log(EVENT_TIMEOUT)
+    assert _json_values(pub.make_log_dirs()) == [{"cmd": "forward"}]
+
+
+def test_images_a_codec_converts_are_logged_in_their_decoded_channel_order(
+    make_node: Any, tmp_path: Path
+) -> None:
+    import cv2
+    import numpy as np
+    from sensor_msgs.msg import Image
+
+    from pyconnect.codecs.image import ImageCodec
+
+    node = make_node("converting", log_dir=tmp_path)
+    arrived = threading.Event()
+    sub = node.add_agent(
+        conn_name="camera", conn_type="sub", data_interface=Image, do_log_msg=True,
+        codec=ImageCodec(encoding="bgr8"), response_func=lambda _value: arrived.set(),
+        qos="default",
+    )  # fmt: skip
+    pub = node.add_agent(
+        conn_name="camera", agent_name="out", conn_type="pub", data_interface=Image, qos="default"
+    )
+    node.spin(run_thread=True)
+    red = np.zeros((2, 3, 3), np.uint8)
+    red[..., 0] = 255  # red in RGB order, sent as rgb8; the codec hands on BGR pixels
+    msg = ImageCodec(encoding="rgb8").encode(red)
+    assert repeat_until(arrived, lambda: pub.send(msg))
+    assert sub.flush_log(EVENT_TIMEOUT)
+    written = cv2.imread(str(sorted(sub.make_log_dirs().glob("*.png"))[0]), cv2.IMREAD_UNCHANGED)
+    assert written[..., 2].tolist() == [[255] * 3] * 2  # red, as OpenCV reads a PNG (BGR)
+    assert written[..., 0].tolist() == [[0] * 3] * 2
+
+
+def test_nodes_of_one_name_log_apart_across_namespaces_and_restarts(
+    make_node: Any, tmp_path: Path
+) -> None:
+    first = make_node("driver", namespace="robot1", log_dir=tmp_path)
+    second = make_node("driver", namespace="robot2", log_dir=tmp_path)
+    plain = make_node("driver", log_dir=tmp_path)
+    again = make_node("driver", log_dir=tmp_path)  # a respawn within the same second
+    folders = []
+    for node in (first, second, plain, again):
+        agent = node.add_agent(conn_name="status", conn_type="pub", data_interface=String)
+        assert agent.log_msg(node.get_namespace())
+        assert agent.flush_log(EVENT_TIMEOUT)
+        folders.append(agent.make_log_dirs())
+    assert len(set(folders)) == 4
+    assert [folder.parent.parent.name for folder in folders] == [
+        "robot1__driver", "robot2__driver", "driver", "driver",
+    ]  # fmt: skip
+    assert [_json_values(folder) for folder in folders] == [["/robot1"], ["/robot2"], ["/"], ["/"]]
+
+
+def test_a_log_folder_that_cannot_be_made_is_reported_and_send_still_works(
+    make_node: Any, tmp_path: Path
+) -> None:
+    blocker = tmp_path / "not_a_folder"
+    blocker.write_text("a file where the log root should be")
+    node = make_node("unlogged", log_dir=blocker)
+    pub = node.add_agent(
+        conn_name="status", conn_type="pub", data_interface=String, do_log_msg=True
+    )
+    assert pub.send("published anyway") is True
+    assert pub.send("again") is True
+    assert pub.error_count == 1  # reported once, not per message
+    assert "log_msg" in pub.last_error
+    assert pub.log_msg("direct") is False

@@ -82,6 +82,7 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
         self.agents: dict[str, NodeAgent] = {}
         self._log_root = Path(log_dir) if log_dir is not None else None
         self._log_session: datetime.datetime | None = None
+        self._log_session_dir: Path | None = None
         self._lock = threading.RLock()
         self._stopped = threading.Event()
         # Set once stop_func has run, before anything is destroyed: agents' waits in user

@@ -27,6 +27,7 @@ from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
 from pyconnect.ros.coroutines import CoroutineLane, is_async_callable
 from pyconnect.ros.interfaces import interface_name
+from pyconnect.ros.log_snapshot import snapshot
 
 ResponseFunc = Callable[..., Any]
 
@@ -67,6 +68,7 @@ class NodeAgent:
         self._latest: Any = None
         self._log_dir: Path | None = None
         self._message_logger: Any = None
+        self._log_failure: Exception | None = None
         self._log_lock = threading.Lock()
         # True while the latest value is an image with RGB(A) channels (PNG logs want BGR).
         self._log_rgb = False
@@ -176,19 +178,35 @@ class NodeAgent:
             return self._log_dir
 
     def log_msg(self, data: Any, *, stamp_ns: int | None = None) -> bool:
-        """Write ``data`` to this agent's log (never blocks; False when the queue is full)."""
+        """Write ``data`` as it is now to this agent's log; never blocks or raises.
+
+        False when the queue is full, or when the log folder cannot be made (reported once).
+        The value is copied first (arrays, dicts, lists): files are written on another thread,
+        while the caller goes on, e.g. draws on the image it received or refills the frame
+        buffer it sent.
+        """
         logger = self._message_logger
         if logger is None:
-            with self._log_lock:
-                if self._message_logger is None:
-                    from pyconnect.record.log_writer import MessageLogger
-
-                    directory = self._log_dir or self.node.agent_log_dir(self.name)
-                    self._log_dir = directory
-                    self._message_logger = MessageLogger(directory)
-                logger = self._message_logger
-        ok: bool = logger.log(data, stamp_ns=stamp_ns, rgb=self._log_rgb)
+            logger = self._open_message_log()
+            if logger is None:
+                return False
+        ok: bool = logger.log(snapshot(data), stamp_ns=stamp_ns, rgb=self._log_rgb)
         return ok
+
+    def _open_message_log(self) -> Any:
+        with self._log_lock:
+            if self._message_logger is None and self._log_failure is None:
+                from pyconnect.record.log_writer import MessageLogger
+
+                try:
+                    directory = self._log_dir or self.node.agent_log_dir(self.name)
+                    self._message_logger = MessageLogger(directory)
+                except Exception as error:  # e.g. a read-only disk: the agent still works
+                    self._log_failure = error
+                    self.report_exception("log_msg", error)
+                    return None
+                self._log_dir = directory
+            return self._message_logger
 
     def _note_channel_order(self, msg: Any) -> None:
         """Remember whether ``msg`` is an image whose decoded pixels are RGB(A)."""

@@ -35,6 +35,7 @@ class NodeLogging:
     _lock: threading.RLock
     _log_root: Path | None
     _log_session: datetime.datetime | None
+    _log_session_dir: Path | None
     _log_subs_timer: Any
     _log_subs_recording: Recording | None
     _recordings: list[Recording]
@@ -48,6 +49,8 @@ class NodeLogging:
 
         def destroy_timer(self, timer: Any) -> bool: ...
 
+        def get_fully_qualified_name(self) -> str: ...
+
     def agent_log_dir(self, agent_name: str) -> Path:
         """``<log_dir>/<node>/<session>/<agent>/``, created once; agents whose names clean to
         the same folder name (``status`` and ``/status``) get distinct folders."""
@@ -57,11 +60,14 @@ class NodeLogging:
                 return directory
             if self._log_session is None:
                 self._log_session = datetime.datetime.now()
-            session = (
-                self.log_dir
-                / safe_path_component(self.name)
-                / self._log_session.strftime("%Y%m%d-%H%M%S")
-            )
+            if self._log_session_dir is None:
+                # The fully qualified name: nodes of one name in two namespaces (two robots'
+                # drivers) must not share a folder. ``/driver`` stays ``driver``.
+                node_dir = self.log_dir / safe_path_component(self.get_fully_qualified_name())
+                self._log_session_dir = _claim_session_dir(
+                    node_dir, self._log_session.strftime("%Y%m%d-%H%M%S")
+                )
+            session = self._log_session_dir
             taken = {path.name for path in self._log_dirs.values()}
             component = safe_path_component(agent_name)
             unique, suffix = component, 1
@@ -141,3 +147,22 @@ class NodeLogging:
         with self._lock:
             self._recordings.append(recording)
         return recording
+
+
+def _claim_session_dir(node_dir: Path, stamp: str) -> Path:
+    """A session folder no other node process uses: ``<stamp>``, else ``<stamp>_2``, ...
+
+    A node started twice within one second (a respawn, two launches) would otherwise write its
+    files into the other's folder, where file names (sequence and stamp) may collide. ``mkdir``
+    without ``exist_ok`` claims a folder atomically across processes.
+    """
+    node_dir.mkdir(parents=True, exist_ok=True)
+    name, suffix = stamp, 1
+    while True:
+        try:
+            (node_dir / name).mkdir()
+        except FileExistsError:
+            suffix += 1
+            name = f"{stamp}_{suffix}"
+            continue
+        return node_dir / name

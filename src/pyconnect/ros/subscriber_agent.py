@@ -83,8 +83,13 @@ class SubscriberAgent(NodeAgent):
         else:
             self._decode = decode_func
         self._response_is_async = is_async_callable(response_func)
-        # Only image-like types have an ``encoding`` that decides the log's channel order.
+        # Only image-like types have an ``encoding`` that decides the log's channel order: the
+        # message's, or the one a converting codec (ImageCodec(encoding=...)) decodes to.
         self._has_encoding = "encoding" in msg_class.get_fields_and_field_types()
+        decoded_encoding = getattr(codec, "encoding", None) if decode_func is None else None
+        self._decoded_rgb: bool | None = (
+            decoded_encoding.startswith("rgb") if isinstance(decoded_encoding, str) else None
+        )
         self._raw: RawDecoder | None = None
         """Set when messages arrive as CDR bytes and the wire codec decodes them (raw_path)."""
         custom = [
@@ -172,7 +177,10 @@ class SubscriberAgent(NodeAgent):
     def _deliver(self, value: Any, msg: Any) -> None:
         self._latest = value
         if self._has_encoding:
-            self._note_channel_order(msg)
+            if self._decoded_rgb is None:
+                self._note_channel_order(msg)
+            else:
+                self._log_rgb = self._decoded_rgb
         self.message_count += 1
         self.last_received_ns = time.time_ns()
         if not self._first_message.is_set():
