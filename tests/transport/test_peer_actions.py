@@ -189,9 +189,12 @@ def test_a_goal_that_ends_after_its_server_shut_down_raises_nothing(
     while not all(goal.response is not None for goal in server._goals.values()):
         assert time.monotonic() < deadline
         time.sleep(0.01)
-    # The client learns the server vanished (its result request ends unanswered).
-    result = future.result(TIMEOUT)
-    assert result["isdone"] is False
+    # The client learns the server is gone: its waiting result request gets an error reply.
+    assert future.result(TIMEOUT) == {
+        "isdone": False,
+        "error": f"agent 'fib' (action_client {FIBONACCI}): the server of "
+        "/fib/_action/get_result failed: request dropped: the server is shutting down",
+    }
 
 
 @pytest.mark.parametrize("answer", ["goal", "result"])
@@ -211,5 +214,20 @@ def test_a_malformed_answer_fails_the_goal_like_any_other(
         "error": f"agent 'fib' (action_client {FIBONACCI}): could not decode {what}: "
         f"{FIBONACCI}_{part}: unsupported CDR encapsulation ffff (expected 0001 little-endian "
         "or 0000 big-endian XCDR1)",
+    }
+    assert client.error_count == 1
+
+
+def test_a_raising_decode_func_fails_the_goal_naming_the_agent_once(
+    make_peer: PeerFactory,
+) -> None:
+    def unreadable(_msg: Any) -> Any:
+        raise ValueError("cannot read this result")
+
+    _server, client = pair(make_peer, fibonacci, decode_func=unreadable)
+    assert client.send({"order": 1}, timeout=TIMEOUT) == {
+        "isdone": False,
+        "error": f"agent 'fib' (action_client {FIBONACCI}): could not decode the result: "
+        "decode_func raised ValueError: cannot read this result",
     }
     assert client.error_count == 1

@@ -6,7 +6,8 @@ it through ``reform_response`` (a dict result gets ``'isdone': True``); a reject
 aborted goal, a missing or vanished server or a timeout give ``{'isdone': False, 'error': ...}``
 (plus the result's fields when it is a dict). A timeout cancels the goal. ``block=False``
 returns a ``concurrent.futures.Future``. ``accepted_func(accepted)``, ``feedback_func(value)``
-and ``response_func(value)`` are called as there; the latest feedback is ``last_feedback``.
+and ``response_func(value)`` are called as there (an ``async def`` one is awaited); the latest
+feedback is ``last_feedback``.
 
 The protocol is rcl_action's (action_wire): a ``send_goal`` call with a fresh goal id, then a
 ``get_result`` call that the server answers when the goal ends; feedback arrives on the
@@ -23,6 +24,7 @@ import uuid
 from typing import Any
 
 from pyconnect.transport import action_wire as aw
+from pyconnect.transport.async_handlers import settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.endpoints import Caller, CallFailed, Reader
 from pyconnect.transport.interface_types import action_interface, message_interface
@@ -149,7 +151,7 @@ class ActionClientAgent(PeerAgent):
         self._latest = value
         if self.response_func is not None:
             try:
-                self.response_func(value)
+                settle(self.response_func(value))
             except Exception as error:
                 self.report_exception("response_func", error)
         return value
@@ -193,7 +195,7 @@ class ActionClientAgent(PeerAgent):
         accepted = bool(answer["accepted"])
         if self.accepted_func is not None:
             try:
-                self.accepted_func(accepted)
+                settle(self.accepted_func(accepted))
             except Exception as error:
                 self.report_exception("accepted_func", error)
         if not accepted:
@@ -218,7 +220,8 @@ class ActionClientAgent(PeerAgent):
 
     def _undecodable(self, what: str, error: Exception) -> Any:
         self.report_exception("decode", error)
-        return self._failed(f"could not decode {what}: {error}")
+        reason = str(error).removeprefix(f"{self.describe}: ")  # named once, by _failed
+        return self._failed(f"could not decode {what}: {reason}")
 
     def _call_failure(self, failure: CallFailed, timeout: float | None) -> str:
         if failure.timed_out:
@@ -284,7 +287,7 @@ class ActionClientAgent(PeerAgent):
         self.last_feedback = value
         if in_flight.feedback_func is not None:
             try:
-                in_flight.feedback_func(value)
+                settle(in_flight.feedback_func(value))
             except Exception as error:
                 self.report_exception("feedback_func", error)
 

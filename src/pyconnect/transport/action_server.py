@@ -4,10 +4,11 @@ The same contract as ``CustomNode``'s action server (pyconnect.ros.action_server
 feedback either from a *generator* ``response_func`` (each yield is published; its ``return``
 value is the result; a cancel is honoured between yields) or through a second positional
 parameter ``publish_feedback`` (callable from any thread; ``publish_feedback.cancel_requested``).
-``async def`` functions and generators run on an event loop of the goal's own thread. Every
-goal is accepted and runs on its own thread. A handler that raises aborts the goal with
-``"<Exception>: <text>"`` in the result's first text field (``message``, ``error``...) and on
-the abort-reason topic (action_wire).
+``async def`` functions and generators run on an event loop of the goal's own thread
+(pyconnect.transport.async_handlers). Every goal is accepted and runs on its own thread; the
+goal, cancel and result services keep every request until it is answered (keep-all). A
+handler that raises aborts the goal with ``"<Exception>: <text>"`` in the result's first text
+field (``message``, ``error``...) and on the abort-reason topic (action_wire).
 
 Finished goals stay in the status list ``result_timeout`` seconds and answer late
 ``get_result`` requests ``result_cache_seconds`` seconds, as CustomNode's server does.
@@ -15,16 +16,16 @@ Finished goals stay in the status list ``result_timeout`` seconds and answer lat
 
 from __future__ import annotations
 
-import asyncio
+import contextlib
 import inspect
 import threading
 import time
-from collections.abc import Callable
 from typing import Any
 
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.handler_shape import wants_feedback_publisher
 from pyconnect.transport import action_wire as aw
+from pyconnect.transport.async_handlers import agent_loop, run_coroutine, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.endpoints import Request, Server, Writer
 from pyconnect.transport.interface_types import action_interface, message_interface
@@ -202,7 +203,8 @@ class ActionServerAgent(PeerAgent):
     # -- executing a goal ----------------------------------------------------------------------
     def _execute(self, goal: _Goal, goal_cdr: bytes) -> None:
         try:
-            self._execute_goal(goal, goal_cdr)
+            with agent_loop():
+                self._execute_goal(goal, goal_cdr)
         finally:
             with self._lock:
                 self._running.discard(threading.current_thread())
@@ -220,9 +222,9 @@ class ActionServerAgent(PeerAgent):
             publisher = FeedbackPublisher(self, goal)
             try:
                 if self._wants_feedback_publisher:
-                    outcome = _run(self._handler, value, publisher)
+                    outcome = settle(self._handler(value, publisher))
                 else:
-                    outcome = _run(self._handler, value)
+                    outcome = settle(self._handler(value))
                 if inspect.isgenerator(outcome) or inspect.isasyncgen(outcome):
                     finished, outcome = _drive(outcome, goal, publisher)
                     if not finished:
@@ -307,6 +309,13 @@ class ActionServerAgent(PeerAgent):
         deadline = time.monotonic() + timeout
         for thread in running:
             thread.join(max(0.0, deadline - time.monotonic()))
+        with self._lock:  # goals still running: their result requests would go unanswered
+            waiting = [request for goal in self._goals.values() for request in goal.waiting]
+            for goal in self._goals.values():
+                goal.waiting = []
+        for request in waiting:
+            with contextlib.suppress(Exception):
+                request.reply_error("request dropped: the server is shutting down")
         for server in self._servers:
             server.close()
         for writer in (self._feedback, self._status, self._abort_reasons):
@@ -342,33 +351,23 @@ class FeedbackPublisher:
             self._open = False
 
 
-def _run(handler: Callable[..., Any], *arguments: Any) -> Any:
-    outcome = handler(*arguments)
-    if inspect.iscoroutine(outcome):
-        return asyncio.run(outcome)
-    return outcome
-
-
 def _drive(generator: Any, goal: _Goal, publish: FeedbackPublisher) -> tuple[bool, Any]:
     """Run a generator handler: (True, result) at its end, (False, None) when canceled.
 
-    An async generator has no return value: its result is its last yield.
+    An async generator has no return value: its result is its last yield. It runs on the goal
+    thread's loop (``_execute`` scopes it), which closes it if it is left unfinished.
     """
     if inspect.isasyncgen(generator):
-        loop = asyncio.new_event_loop()
-        try:
-            last: Any = None
-            while not goal.cancel_requested.is_set():
-                try:
-                    last = loop.run_until_complete(generator.__anext__())
-                except StopAsyncIteration:
-                    return True, last
-                if last is not None:
-                    publish(last)
-            loop.run_until_complete(generator.aclose())
-            return False, None
-        finally:
-            loop.close()
+        last: Any = None
+        while not goal.cancel_requested.is_set():
+            try:
+                last = run_coroutine(generator.__anext__())
+            except StopAsyncIteration:
+                return True, last
+            if last is not None:
+                publish(last)
+        run_coroutine(generator.aclose())
+        return False, None
     while not goal.cancel_requested.is_set():
         try:
             feedback = next(generator)

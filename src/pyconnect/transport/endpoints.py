@@ -144,9 +144,25 @@ class Request:
         finally:
             query.drop()
 
+    def reply_error(self, text: str) -> None:
+        """Answer with a zenoh error reply (the caller's call fails with ``text``), once."""
+        query, self._query = self._query, None
+        if query is None:
+            return
+        try:
+            query.reply_err(text)
+        finally:
+            query.drop()
+
 
 class Server:
-    """A service ``name``: ``handle(request)`` runs on one thread and calls ``request.reply``."""
+    """A service ``name``: ``handle(request)`` runs on one thread and calls ``request.reply``.
+
+    Every request is queued until it is handled (keep-all, as ROS services' queues are): a
+    query released unanswered ends its caller's call with nothing to say why. ``depth`` is only
+    what the token advertises. Requests still waiting when the server closes get an error
+    reply that says so.
+    """
 
     def __init__(
         self,
@@ -166,11 +182,23 @@ class Server:
             type_hash=interface.type_hash,
             qos=keys.qos_chunk(depth=depth),
         )
-        self._inbox: Inbox[Request] = Inbox(thread_name, depth, handle)
+        self._inbox: Inbox[Request] = Inbox(
+            thread_name,
+            None,
+            handle,
+            discard=lambda request: request.reply_error(
+                "request dropped: the server is shutting down"
+            ),
+        )
         self._queryable = peer.session.declare_queryable(
             self.key, lambda query: self._inbox.put(Request(query, self.key)), complete=True
         )
         self._token = peer.session.liveliness().declare_token(self.token_key)
+
+    @property
+    def waiting(self) -> int:
+        """Requests taken and not handled yet."""
+        return self._inbox.waiting
 
     def close(self) -> None:
         for entity in (self._token, self._queryable):

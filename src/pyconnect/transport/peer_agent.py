@@ -8,7 +8,10 @@ traceback, kept in ``last_error``, and the next sample is handled.
 ``Inbox`` hands samples from zenoh's threads to one thread per agent: user callbacks never run
 on zenoh's own threads (a callback that blocks, e.g. on a service call, would otherwise stall
 the link its reply has to come through). It keeps the last ``depth`` samples (ROS keep-last
-history) and counts what it had to drop.
+history) and counts what it had to drop, or with ``depth=None`` every item (a service's
+requests: each one is a query that must get its one reply, as ROS services keep all requests).
+Handlers may be ``async def`` (pyconnect.transport.async_handlers); timers keep rcl's schedule
+(pyconnect.transport.periodic).
 """
 
 from __future__ import annotations
@@ -24,8 +27,10 @@ import zenoh
 
 from pyconnect.codecs.wire import WireCodec
 from pyconnect.errors import PyconnectError
+from pyconnect.transport.async_handlers import agent_loop, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
 from pyconnect.transport.graph import Graph
+from pyconnect.transport.periodic import run_every
 
 logger = logging.getLogger("pyconnect.transport")
 DEFAULT_DEPTH = 10
@@ -155,41 +160,73 @@ class PeerAgent:
 
 
 class Inbox(Generic[_Item]):
-    """Keep-last queue between zenoh's threads and one handler thread."""
+    """Keep-last (or, ``depth=None``, keep-all) queue between zenoh's threads and one handler
+    thread. ``discard(item)`` takes what arrives after ``close`` or is still waiting then."""
 
-    def __init__(self, name: str, depth: int, handle: Callable[[_Item], None]) -> None:
-        if depth < 1:
+    def __init__(
+        self,
+        name: str,
+        depth: int | None,
+        handle: Callable[[_Item], None],
+        *,
+        discard: Callable[[_Item], None] | None = None,
+    ) -> None:
+        if depth is not None and depth < 1:
             raise PyconnectError(f"{name}: depth must be >= 1, got {depth!r}")
         self._items: collections.deque[_Item] = collections.deque(maxlen=depth)
         self._ready = threading.Condition(threading.Lock())
         self._handle = handle
+        self._discard = discard
         self._closed = False
         self.dropped = 0
         self._thread = threading.Thread(target=self._run, name=f"pyconnect-{name}", daemon=True)
         self._thread.start()
 
+    @property
+    def waiting(self) -> int:
+        """How many items wait for the handler now."""
+        return len(self._items)
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
     def put(self, item: _Item) -> None:
         with self._ready:
-            if len(self._items) == self._items.maxlen:
-                self.dropped += 1
-            self._items.append(item)
-            self._ready.notify()
+            if not self._closed:
+                if len(self._items) == self._items.maxlen:
+                    self.dropped += 1
+                self._items.append(item)
+                self._ready.notify()
+                return
+        self._drop(item)
 
     def _run(self) -> None:
-        while True:
-            with self._ready:
-                while not self._items and not self._closed:
-                    self._ready.wait()
-                if self._closed:
-                    return
-                item = self._items.popleft()
-            try:
-                self._handle(item)
-            except Exception as error:  # the handlers report their own; this is the backstop
-                logger.error(
-                    "%s: handler raised %s: %s", self._thread.name, type(error).__name__, error
-                )
-            del item  # a zenoh query is answered for good only when it is released
+        with agent_loop():
+            while True:
+                with self._ready:
+                    while not self._items and not self._closed:
+                        self._ready.wait()
+                    if self._closed:
+                        return
+                    item = self._items.popleft()
+                try:
+                    self._handle(item)
+                except Exception as error:  # the handlers report their own; this is the backstop
+                    logger.error(
+                        "%s: handler raised %s: %s", self._thread.name, type(error).__name__, error
+                    )
+                del item  # a zenoh query is answered for good only when it is released
+
+    def _drop(self, item: _Item) -> None:
+        if self._discard is None:
+            return
+        try:
+            self._discard(item)
+        except Exception as error:  # the session may be closing under it: nothing to tell
+            logger.debug(
+                "%s: discard raised %s: %s", self._thread.name, type(error).__name__, error
+            )
 
     def close(self, timeout: float = 5.0) -> None:
         with self._ready:
@@ -197,10 +234,16 @@ class Inbox(Generic[_Item]):
             self._ready.notify()
         if self._thread is not threading.current_thread():
             self._thread.join(timeout)
+        with self._ready:
+            left = list(self._items)
+            self._items.clear()
+        for item in left:
+            self._drop(item)
 
 
 class TimerAgent(PeerAgent):
-    """Calls ``response_func()`` every ``time_period`` seconds; ``get()`` is its last return."""
+    """Calls ``response_func()`` every ``time_period`` seconds on rcl's schedule (periodic);
+    ``get()`` is its last return (an ``async def`` one's: what its coroutine returned)."""
 
     conn_type = "timer"
 
@@ -228,12 +271,15 @@ class TimerAgent(PeerAgent):
         self._thread.start()
 
     def _run(self) -> None:
-        while not self._stop.wait(self.time_period):
-            self.tick_count += 1
-            try:
-                self._latest = self._handler()
-            except Exception as error:
-                self.report_exception("response_func", error)
+        with agent_loop():
+            run_every(self.time_period, self._stop, self._tick)
+
+    def _tick(self) -> None:
+        self.tick_count += 1
+        try:
+            self._latest = settle(self._handler())
+        except Exception as error:
+            self.report_exception("response_func", error)
 
     def close(self) -> None:
         self._stop.set()

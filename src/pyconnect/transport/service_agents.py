@@ -7,9 +7,12 @@ CDR request as payload and an attachment (sequence number, timestamp, client GID
 attachment that echoes the request's sequence number and client GID (pyconnect.transport.
 endpoints: ``Server`` and ``Caller``).
 
-Server: ``response_func(request_value) -> response_value``. A handler or codec that raises
-still answers: a response with ``success``/``message`` fields gets ``success=False`` and the
-error text, any other the default response; the error is logged with the agent's name.
+Server: ``response_func(request_value) -> response_value`` (an ``async def`` one is awaited on
+the agent's thread). Requests are handled one at a time in arrival order and every one is kept
+until it is answered, however many arrive at once (keep-all, as CustomNode's servers); ``depth``
+is only the QoS depth the token advertises. A handler or codec that raises still answers: a
+response with ``success``/``message`` fields gets ``success=False`` and the error text, any
+other the default response; the error is logged with the agent's name.
 
 Client: ``send(data, timeout=None)`` returns the decoded response through ``reform_response``;
 when no server is in the graph within the timeout, when the server vanishes before it replies
@@ -27,6 +30,7 @@ import threading
 import time
 from typing import Any
 
+from pyconnect.transport.async_handlers import settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.endpoints import Caller, CallFailed, Request, Server
 from pyconnect.transport.interface_types import service_interface
@@ -77,6 +81,11 @@ class ServiceServerAgent(PeerAgent):
         self.key = self._server.key
         self.token_key = self._server.token_key
 
+    @property
+    def waiting_requests(self) -> int:
+        """Requests that arrived and wait for ``response_func`` (none is ever dropped)."""
+        return self._server.waiting
+
     def _on_request(self, request: Request) -> None:
         self.request_count += 1
         payload = self._answer(request.payload)
@@ -93,7 +102,7 @@ class ServiceServerAgent(PeerAgent):
             data = self.request_conversion.decode(request)
             self._latest = data
             where = "response_func"
-            value = self._handler(data)
+            value = settle(self._handler(data))
             where = "encode"
             if value is None:
                 return self.response_conversion.codec.from_dict({})

@@ -20,9 +20,11 @@ import zenoh
 
 from pyconnect.errors import TransportError
 from pyconnect.transport import rmw_zenoh_keys as keys
+from pyconnect.transport.async_handlers import agent_loop, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.interface_types import message_interface
 from pyconnect.transport.peer_agent import DEFAULT_DEPTH, Peer, PeerAgent, ResponseFunc
+from pyconnect.transport.periodic import run_every
 
 _pack_attachment = keys.ATTACHMENT.pack  # bound once: no wrapper per sample
 time_ns = time.time_ns
@@ -125,15 +127,19 @@ class PublisherAgent(PeerAgent):
 
     def _run_period(self) -> None:
         period = self.time_period or 1.0  # set whenever this thread runs
-        while not self._stop.wait(period):
-            if self.only_if_subscribed and self.subscriber_count == 0:
-                continue
-            try:
-                value = self.response_func() if self.response_func is not None else self._latest
-                if value is not None:
-                    self.send(value)
-            except Exception as error:
-                self.report_exception("periodic send", error)
+        with agent_loop():  # an ``async def`` response_func runs on this thread's loop
+            run_every(period, self._stop, self._send_period)
+
+    def _send_period(self) -> None:
+        if self.only_if_subscribed and self.subscriber_count == 0:
+            return
+        try:
+            func = self.response_func
+            value = settle(func()) if func is not None else self._latest
+            if value is not None:
+                self.send(value)
+        except Exception as error:
+            self.report_exception("periodic send", error)
 
     def close(self) -> None:
         self._stop.set()

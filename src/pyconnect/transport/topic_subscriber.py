@@ -14,7 +14,8 @@ zenoh's own thread pushes each sample into a ``zenoh.handlers.RingChannel``, in 
 no Python frame, never blocking the link. The agent's one thread blocks in ``recv()`` (the GIL
 released), takes everything else waiting with ``try_recv()`` (one wake-up per burst), and
 checks, decodes and hands each sample to ``response_func`` in arrival order, so user code never
-blocks zenoh. Keep-last: zenoh delivers samples in bursts (one transport batch holds up to
+blocks zenoh (an ``async def`` one runs to completion there: pyconnect.transport.async_handlers).
+Keep-last: zenoh delivers samples in bursts (one transport batch holds up to
 ~1000 small samples, all pushed at once), so a ring of exactly ``depth`` would drop most of a
 burst even from an agent that keeps up on average; for types without unbounded sequences
 (``burst_samples``: String, Twist, poses...) the ring and the agent hold up to 1000 samples
@@ -46,6 +47,7 @@ import zenoh
 from pyconnect.codecs.wire import WireCodec
 from pyconnect.errors import DecodeError
 from pyconnect.transport import rmw_zenoh_keys as keys
+from pyconnect.transport.async_handlers import agent_loop, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.interface_types import message_interface
 from pyconnect.transport.peer_agent import DEFAULT_DEPTH, Peer, PeerAgent, ResponseFunc, logger
@@ -178,6 +180,10 @@ class SubscriberAgent(PeerAgent):
 
     # -- the agent's thread ----------------------------------------------------------------------
     def _run(self) -> None:
+        with agent_loop():  # an ``async def`` response_func runs on this thread's loop
+            self._handle_samples()
+
+    def _handle_samples(self) -> None:
         samples: Any = self._subscriber.handler  # a zenoh Handler[Sample] (stubs: generic)
         recv, try_recv, handle = samples.recv, samples.try_recv, self._on_sample
         depth, most = self.depth, self.depth + self.burst_samples
@@ -254,7 +260,9 @@ class SubscriberAgent(PeerAgent):
         response_func = self.response_func
         if response_func is not None:
             try:
-                response_func(value)
+                outcome = response_func(value)
+                if outcome is not None:  # a plain handler's None skips the coroutine check
+                    settle(outcome)
             except Exception as error:
                 self.report_exception("response_func", error)
 
