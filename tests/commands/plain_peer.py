@@ -1,6 +1,7 @@
 """A plain rclpy process for the live-tool tests: topics, a service, an action, a subscriber.
 
-Run as ``python -m tests.commands.plain_peer``; prints ``ready`` once everything is created,
+Besides /chatter and /image it publishes /scan (LaserScan), /joint_states and /bad_image, whose
+every other frame is too short to decode (the echo must go on past it). Run as ``python -m tests.commands.plain_peer``; prints ``ready`` once everything is created,
 ``got <data>`` for each String received on /commands, and exits on SIGINT or stdin closing.
 """
 
@@ -14,7 +15,7 @@ import rclpy
 from rclpy.action import ActionServer
 from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
-from sensor_msgs.msg import Image
+from sensor_msgs.msg import Image, JointState, LaserScan
 from std_msgs.msg import String
 from std_srvs.srv import SetBool
 from test_msgs.action import Fibonacci
@@ -25,6 +26,9 @@ def main() -> None:
     node = Node("plain_peer")
     chatter = node.create_publisher(String, "chatter", 10)
     image = node.create_publisher(Image, "image", 10)
+    scan = node.create_publisher(LaserScan, "scan", 10)
+    joints = node.create_publisher(JointState, "joint_states", 10)
+    bad_image = node.create_publisher(Image, "bad_image", 10)
     count = [0]
 
     def tick() -> None:
@@ -32,6 +36,20 @@ def main() -> None:
         chatter.publish(String(data=f"hello {count[0]}"))
         image.publish(
             Image(height=2, width=2, encoding="mono8", step=2, data=bytes([0, 10, 20, 30]))
+        )
+        scan.publish(
+            LaserScan(
+                angle_min=-1.0,
+                angle_max=1.0,
+                angle_increment=1.0,
+                range_max=10.0,
+                ranges=[1.0, 2.0, 3.0],
+            )
+        )
+        joints.publish(JointState(name=["a", "b"], position=[1.0, 2.5]))
+        short = count[0] % 2 == 1  # 2 bytes where a 2x2 mono8 frame needs 4
+        bad_image.publish(
+            Image(height=2, width=2, encoding="mono8", step=2, data=bytes(2 if short else 4))
         )
 
     node.create_timer(0.05, tick)

@@ -39,7 +39,7 @@ _STATUS = {
 
 def register(commands: Subcommands) -> Subcommands:
     """Add ``action`` and its verbs to the ``pyconnect`` subparsers."""
-    from pyconnect.commands.graph import add_spin_time
+    from pyconnect.commands.graph import add_spin_time, expand_name
 
     action = commands.add_parser(
         "action",
@@ -57,7 +57,7 @@ def register(commands: Subcommands) -> Subcommands:
         help="send a goal (YAML/JSON) and print the result",
         epilog=EXAMPLES,
     )
-    send.add_argument("action_name")
+    send.add_argument("action_name", type=expand_name)
     send.add_argument("action_type", help="e.g. test_msgs/action/Fibonacci")
     send.add_argument("goal", help="the goal's fields or natural value")
     send.add_argument("-f", "--feedback", action="store_true", help="print the feedback")
@@ -83,15 +83,15 @@ def _list(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
 
 def _send_goal(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.commands.graph import CommandFailed, graph_session, report_failure
-    from pyconnect.commands.live_values import echo_value, message_from_text
-    from pyconnect.commands.value_text import format_value
+    from pyconnect.commands.live_values import shown_line
+    from pyconnect.commands.value_input import message_template
     from pyconnect.errors import PyconnectError
     from pyconnect.ros.interfaces import interface_class
     from pyconnect.ros.race_free_action_client import RaceFreeActionClient
 
     try:
         action_class = interface_class(args.action_type, kind="action")
-        goal = message_from_text(args.goal, action_class.Goal)
+        template = message_template(args.goal, action_class.Goal)
     except PyconnectError as error:
         return report_failure(error, err)
     with graph_session("action") as session:
@@ -102,11 +102,11 @@ def _send_goal(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
             return report_failure(
                 CommandFailed(f"action server {args.action_name} not available"), err
             )
-        print(f"Sending goal:\n     {format_value(echo_value(goal))}\n", file=out, flush=True)
+        goal = template.stamped()  # `now` / `auto`: the time it is sent, not of the wait
+        print(f"Sending goal:\n     {shown_line(goal, err)}\n", file=out, flush=True)
 
         def on_feedback(message: Any) -> None:
-            value = format_value(echo_value(message.feedback))
-            print(f"Feedback:\n    {value}\n", file=out, flush=True)
+            print(f"Feedback:\n    {shown_line(message.feedback, err)}\n", file=out, flush=True)
 
         sent: Any = client.send_goal_async(
             goal, feedback_callback=on_feedback if args.feedback else None
@@ -128,7 +128,7 @@ def _send_goal(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
             session.spin_until(cancel.done, 5.0)
             raise
         answer = result.result()
-        print(f"Result:\n    {format_value(echo_value(answer.result))}\n", file=out)
+        print(f"Result:\n    {shown_line(answer.result, err)}\n", file=out)
         status = _STATUS.get(answer.status, str(answer.status))
         print(f"Goal finished with status: {status}", file=out, flush=True)
     return 0

@@ -1,26 +1,36 @@
-"""Live values as text: natural values in one line, images as a summary, JSON, and parsing VALUE.
+"""Live values as text: natural values in one line, images as a summary, JSON.
 
 ``echo_value(msg)`` decodes an rclpy message with the codec registry and gives what ``topic
 echo`` prints: an image as ``Image(shape=(480, 640, 3), dtype=uint8, encoding=rgb8,
 mean=127.512)``, anything else as its natural value with big arrays summarised. ``--json``
 prints ``json_value`` of the same: images as ``{"shape", "dtype", "encoding", "mean"}``,
-arrays as lists, bytes as lists of ints. ``message_from_text`` builds a message from a YAML or
-JSON VALUE: a dict of the message's fields, or the type's natural value.
+arrays as lists, bytes as lists of ints, dataclasses as dicts. ``message_from_text`` (from
+``value_input``) builds a message from a YAML or JSON VALUE.
 """
 
 from __future__ import annotations
 
+import json
 import math
-from typing import Any
+from typing import Any, TextIO
 
 import numpy as np
-import yaml
 
 from pyconnect import codecs
-from pyconnect.commands.graph import CommandFailed
-from pyconnect.commands.value_text import format_value
+from pyconnect.commands.graph import PROGRAM, CommandFailed
+from pyconnect.commands.value_input import message_from_text
+from pyconnect.commands.value_text import format_value, plain_value
 
-__all__ = ["ImageSummary", "echo_value", "json_value", "message_from_text", "select_field"]
+__all__ = [
+    "ImageSummary",
+    "echo_json",
+    "echo_value",
+    "json_value",
+    "message_from_text",
+    "select_field",
+    "shown_line",
+    "shown_text",
+]
 
 _IMAGE_TYPES = {"Image", "CompressedImage"}
 
@@ -83,50 +93,59 @@ def echo_line(value: Any) -> str:
     return format_value(value)
 
 
-def json_value(value: Any) -> Any:
-    """``value`` as plain JSON data (tuples and arrays become lists)."""
+def _live_plain(value: Any) -> Any:
+    """What ``plain_value`` leaves to the live tools: summaries, messages, non-finite floats."""
     if isinstance(value, ImageSummary):
         return value.as_dict()
-    if isinstance(value, np.ndarray):
-        if value.dtype.names is not None:
-            return [json_value(row) for row in value.tolist()]
-        return value.tolist()
-    if isinstance(value, np.generic):
-        return value.item()
-    if isinstance(value, bytes | bytearray | memoryview):
-        return list(bytes(value))
-    if isinstance(value, dict):
-        return {str(key): json_value(item) for key, item in value.items()}
-    if isinstance(value, list | tuple):
-        return [json_value(item) for item in value]
     if _is_message(value):
-        return json_value(codecs.to_dict(value))
-    if isinstance(value, float) and not math.isfinite(value):
-        return str(value)
+        return codecs.to_dict(value)
+    if isinstance(value, float | np.floating) and not math.isfinite(value):
+        return str(float(value))  # JSON has no NaN or Infinity
     return value
 
 
-def _tuples(value: Any) -> Any:
-    if isinstance(value, list):
-        return tuple(_tuples(item) for item in value)
-    if isinstance(value, dict):
-        return {key: _tuples(item) for key, item in value.items()}
-    return value
+def json_value(value: Any) -> Any:
+    """``value`` as plain JSON data: tuples, arrays and dataclasses become lists and dicts."""
+    return plain_value(value, other=_live_plain)
 
 
-def message_from_text(text: str, msg_class: type) -> Any:
-    """A message of ``msg_class`` from YAML/JSON: its fields as a dict, or its natural value."""
+def _unknown_as_text(value: Any) -> str:
     try:
-        value = yaml.safe_load(text) if text.strip() else {}
-    except yaml.YAMLError as error:
-        raise CommandFailed(f"VALUE is not YAML or JSON: {' '.join(str(error).split())}") from None
-    fields = set(msg_class.get_fields_and_field_types())  # type: ignore[attr-defined]
-    if isinstance(value, dict) and set(value) <= fields:
-        try:
-            return codecs.from_dict(value, msg_class)
-        except Exception as error:
-            raise CommandFailed(str(error)) from None
+        return repr(value)
+    except Exception:  # a broken __repr__ must not end the echo either
+        return f"<{type(value).__name__}>"
+
+
+def echo_json(value: Any) -> str:
+    """One JSON line of ``value``; a value of no known kind is written as its repr, never an
+    error (a user codec may return anything)."""
+    return json.dumps(json_value(value), default=_unknown_as_text)
+
+
+def shown_text(value: Any, *, as_json: bool = False) -> tuple[str | None, str | None]:
+    """What the live tools print of a message or field, and the problem when its natural value
+    could not be made (the text is then its plain fields, or None when even those fail).
+
+    One undecodable message (a short image frame, a CompressedImage that is not jpeg) must not
+    end an echo that would print the good ones after it, as ``ros2 topic echo`` goes on."""
     try:
-        return codecs.encode(_tuples(value), msg_class)
-    except Exception as error:
-        raise CommandFailed(str(error)) from None
+        shown = echo_value(value)
+        return (echo_json(shown) if as_json else echo_line(shown)), None
+    except Exception as error:  # any codec, the user's included
+        problem = " ".join(str(error).split()) or type(error).__name__
+    try:
+        plain = codecs.to_dict(value) if _is_message(value) else value
+        return (echo_json(plain) if as_json else format_value(plain)), problem
+    except Exception:
+        return None, problem
+
+
+def shown_line(value: Any, err: TextIO) -> str:
+    """``shown_text`` for a value printed beside the real work (what ``pub`` publishes, a
+    service's request and response): a warning on ``err`` when it is shown by its fields."""
+    text, problem = shown_text(value)
+    name = type(value).__name__
+    if problem is not None:
+        said = "shown as its fields" if text is not None else "not shown"
+        print(f"{PROGRAM}: warning: cannot decode the {name} ({said}): {problem}", file=err)
+    return text if text is not None else f"<{name}>"

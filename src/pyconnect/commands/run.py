@@ -33,7 +33,15 @@ def register(commands: Subcommands) -> Parser:
         "(PYCONNECT_LARGE_MESSAGES=0 runs it unchanged).",
         epilog=EXAMPLES,
     )
-    run.add_argument("-m", dest="module", help="run a module, like python -m")
+    # Everything after the module (or the script) is the program's, as for python: REMAINDER
+    # on -m itself, else argparse would take `-m mod --help` for pyconnect's own options.
+    run.add_argument(
+        "-m",
+        dest="module",
+        nargs=argparse.REMAINDER,
+        metavar="MODULE ARGS",
+        help="run a module, like python -m; what follows goes to the module",
+    )
     run.add_argument("program", nargs=argparse.REMAINDER, help="script.py and its arguments")
     run.set_defaults(run=_run)
     return run
@@ -51,7 +59,12 @@ def command_line(module: str | None, program: list[str]) -> list[str]:
 def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.ros.large_messages import configure_environment
 
-    argv = command_line(args.module, list(args.program))
+    module, program = None, list(args.program)
+    if args.module is not None:  # -m took the module and every argument after it
+        if not args.module:
+            raise UsageError("run: argument -m: expected a module name")
+        module, program = args.module[0], list(args.module[1:])
+    argv = command_line(module, program)
     environ = dict(os.environ)
     reason = configure_environment(environ, default_on=True)
     if reason is not None:

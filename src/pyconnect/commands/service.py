@@ -27,7 +27,7 @@ EXAMPLES = """examples:
 
 def register(commands: Subcommands) -> Subcommands:
     """Add ``service`` and its verbs to the ``pyconnect`` subparsers."""
-    from pyconnect.commands.graph import add_spin_time
+    from pyconnect.commands.graph import add_spin_time, expand_name
 
     service = commands.add_parser(
         "service",
@@ -48,7 +48,7 @@ def register(commands: Subcommands) -> Subcommands:
         help="call a service with a request (YAML/JSON)",
         epilog=EXAMPLES,
     )
-    call.add_argument("service_name")
+    call.add_argument("service_name", type=expand_name)
     call.add_argument("service_type", help="e.g. std_srvs/srv/SetBool")
     call.add_argument("values", nargs="?", default="{}", help="the request (default {})")
     call.add_argument(
@@ -74,14 +74,14 @@ def _list(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
 
 def _call(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.commands.graph import CommandFailed, graph_session, report_failure
-    from pyconnect.commands.live_values import echo_value, message_from_text
-    from pyconnect.commands.value_text import format_value
+    from pyconnect.commands.live_values import shown_line
+    from pyconnect.commands.value_input import message_template
     from pyconnect.errors import PyconnectError
     from pyconnect.ros.interfaces import interface_class
 
     try:
         srv_class = interface_class(args.service_type, kind="srv")
-        request = message_from_text(args.values, srv_class.Request)
+        template = message_template(args.values, srv_class.Request)
     except PyconnectError as error:
         return report_failure(error, err)
     with graph_session("service") as session:
@@ -90,10 +90,11 @@ def _call(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
             print("waiting for service to become available...", file=out, flush=True)
         if not session.spin_until(client.service_is_ready, args.timeout):
             return report_failure(CommandFailed(f"service {args.service_name} not available"), err)
-        print(f"requester: making request: {format_value(echo_value(request))}\n", file=out)
+        request = template.stamped()  # `now` / `auto`: the time of the call, not of the wait
+        print(f"requester: making request: {shown_line(request, err)}\n", file=out)
         future: Any = client.call_async(request)
         if not session.spin_until(future.done, args.timeout):
             return report_failure(CommandFailed(f"no response from {args.service_name}"), err)
         response = future.result()
-        print(f"response:\n{format_value(echo_value(response))}\n", file=out, flush=True)
+        print(f"response:\n{shown_line(response, err)}\n", file=out, flush=True)
     return 0

@@ -11,7 +11,6 @@ could not do its work, 2 a bad command line, 130 on Ctrl-C.
 from __future__ import annotations
 
 import argparse
-import json
 import time
 from typing import TYPE_CHECKING, Any, TextIO
 
@@ -34,10 +33,11 @@ EXAMPLES = """examples:
   pyconnect topic pub /chatter std_msgs/msg/String "hello" --rate 10
   pyconnect topic pub /cmd_vel geometry_msgs/msg/Twist "[[0.2, 0, 0], [0, 0, 0.5]]" --once
   pyconnect topic pub /cmd_vel geometry_msgs/msg/Twist "{linear: {x: 0.2}}" --times 3
+  pyconnect topic pub /goal geometry_msgs/msg/PoseStamped "{header: auto, pose: {}}" --once
 """
 
 
-def _add_qos(parser: argparse.ArgumentParser) -> None:
+def add_qos(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--qos-profile",
         metavar="NAME",
@@ -48,7 +48,7 @@ def _add_qos(parser: argparse.ArgumentParser) -> None:
 
 def register(commands: Subcommands) -> Subcommands:
     """Add ``topic`` and its verbs to the ``pyconnect`` subparsers."""
-    from pyconnect.commands.graph import add_spin_time
+    from pyconnect.commands.graph import add_spin_time, expand_name
 
     topic = commands.add_parser(
         "topic",
@@ -71,65 +71,46 @@ def register(commands: Subcommands) -> Subcommands:
     info = verbs.add_parser(
         "info", help="type, publishers and subscriptions of a topic", epilog=EXAMPLES
     )
-    info.add_argument("topic")
+    info.add_argument("topic", type=expand_name)
     info.add_argument("-v", "--verbose", action="store_true", help="each endpoint and its QoS")
     add_spin_time(info)
     info.set_defaults(run=_info)
 
     echo = verbs.add_parser("echo", help="print the natural values of a topic", epilog=EXAMPLES)
-    echo.add_argument("topic")
+    echo.add_argument("topic", type=expand_name)
     echo.add_argument("message_type", nargs="?", help="the type (found on the graph if left out)")
     echo.add_argument("--json", action="store_true", help="one JSON value per line")
     echo.add_argument("--field", help="print only this field of each message (a.b.c)")
     echo.add_argument("--once", action="store_true", help="print one message and exit")
-    _add_qos(echo)
+    add_qos(echo)
     echo.add_argument(
         "--timeout", type=float, metavar="S", help="give up after S seconds without the topic"
     )
     echo.set_defaults(run=_echo)
 
     hz = verbs.add_parser("hz", help="the rate at which a topic is published", epilog=EXAMPLES)
-    hz.add_argument("topic")
+    hz.add_argument("topic", type=expand_name)
     hz.add_argument(
         "-w", "--window", type=int, default=10000, help="intervals to average (default 10000)"
     )
-    _add_qos(hz)
+    add_qos(hz)
     hz.add_argument(
         "--timeout", type=float, metavar="S", help="give up after S seconds without the topic"
     )
     hz.set_defaults(run=_hz)
 
     bw = verbs.add_parser("bw", help="the bandwidth a topic uses", epilog=EXAMPLES)
-    bw.add_argument("topic")
+    bw.add_argument("topic", type=expand_name)
     bw.add_argument("-w", "--window", type=int, default=100, help="messages to average (100)")
-    _add_qos(bw)
+    add_qos(bw)
     bw.add_argument(
         "--timeout", type=float, metavar="S", help="give up after S seconds without the topic"
     )
     bw.set_defaults(run=_bw)
 
-    pub = verbs.add_parser(
-        "pub",
-        help="publish a value (YAML/JSON: the message's fields or its natural value)",
-        epilog=EXAMPLES,
-    )
-    pub.add_argument("topic")
-    pub.add_argument("message_type", help="e.g. std_msgs/msg/String")
-    pub.add_argument("value", nargs="?", default="{}", help="YAML or JSON (default {})")
-    pub.add_argument("-r", "--rate", type=float, default=1.0, help="Hz (default 1)")
-    pub.add_argument("-1", "--once", action="store_true", help="publish one message and exit")
-    pub.add_argument("-t", "--times", type=int, help="publish this many messages and exit")
-    pub.add_argument(
-        "-w",
-        "--wait-matching-subscriptions",
-        type=int,
-        help="wait for this many subscriptions first (default 1 with --once/--times, else 0)",
-    )
-    pub.add_argument(
-        "--timeout", type=float, metavar="S", help="give up waiting for subscriptions after S s"
-    )
-    _add_qos(pub)
-    pub.set_defaults(run=_pub)
+    from pyconnect.commands import topic_pub
+
+    topic_pub.register(verbs, epilog=EXAMPLES)
     return verbs
 
 
@@ -259,8 +240,8 @@ def _await_first(
 
 
 def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
-    from pyconnect.commands.graph import CommandFailed, report_failure
-    from pyconnect.commands.live_values import echo_line, echo_value, json_value, select_field
+    from pyconnect.commands.graph import PROGRAM, CommandFailed, report_failure
+    from pyconnect.commands.live_values import select_field, shown_text
     from pyconnect.errors import PyconnectError
 
     received: list[Any] = []
@@ -285,11 +266,22 @@ def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         while True:
             session.spin_until(lambda: bool(received), None)
             while received:
-                value = echo_value(select_field(received.pop(0), args.field))
-                if args.json:
-                    print(json.dumps(json_value(value)), file=out, flush=True)
-                else:
-                    print(echo_line(value), file=out)
+                # A wrong --field is the command line's fault: select_field ends the echo.
+                text, problem = shown_text(
+                    select_field(received.pop(0), args.field), as_json=args.json
+                )
+                if problem is not None:
+                    said = "printed as its fields" if text is not None else "skipped"
+                    print(
+                        f"{PROGRAM}: warning: [{args.topic}]: cannot decode a message "
+                        f"({said}): {problem}",
+                        file=err,
+                        flush=True,
+                    )
+                if text is None:
+                    continue
+                print(text, file=out, flush=args.json)
+                if not args.json:
                     print("---", file=out, flush=True)
                 if args.once:
                     return 0
@@ -359,71 +351,3 @@ def _bw(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
                     print(report, file=out, flush=True)
     finally:
         context.__exit__(None, None, None)
-
-
-def _pub(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
-    from pyconnect.commands.graph import CommandFailed, graph_session, report_failure
-    from pyconnect.commands.live_values import message_from_text
-    from pyconnect.commands.value_text import format_value
-    from pyconnect.errors import PyconnectError
-    from pyconnect.ros.interfaces import interface_class
-    from pyconnect.ros.qos import DEFAULT
-
-    if args.rate <= 0:
-        return report_failure(ValueError(f"--rate: expected Hz > 0, got {args.rate}"), err)
-    times = 1 if args.once else args.times
-    wait_for = args.wait_matching_subscriptions
-    if wait_for is None:
-        wait_for = 1 if times is not None else 0
-    try:
-        msg_class = interface_class(args.message_type, kind="msg")
-        message = message_from_text(args.value, msg_class)
-    except PyconnectError as error:
-        return report_failure(error, err)
-    with graph_session("pub") as session:
-        try:
-            from rclpy.qos import QoSPresetProfiles
-
-            qos = (
-                QoSPresetProfiles.get_from_short_key(args.qos_profile)
-                if args.qos_profile
-                else DEFAULT
-            )
-        except KeyError:
-            return report_failure(
-                CommandFailed(f"--qos-profile: unknown {args.qos_profile!r}"), err
-            )
-        publisher = session.node.create_publisher(msg_class, args.topic, qos)
-        if wait_for > 0:
-            print(f"Waiting for at least {wait_for} matching subscription(s)...", file=out)
-            if not session.spin_until(
-                lambda: publisher.get_subscription_count() >= wait_for, args.timeout
-            ):
-                return report_failure(
-                    CommandFailed(f"no {wait_for} matching subscription(s) on {args.topic}"), err
-                )
-        print("publisher: beginning loop", file=out)
-        shown = format_value(message_value(message))
-        count = 0
-        period = 1.0 / args.rate
-        next_time = time.monotonic()
-        while times is None or count < times:
-            publisher.publish(message)
-            count += 1
-            print(f"publishing #{count}: {shown}", file=out, flush=True)
-            if times is not None and count >= times:
-                break
-            next_time += period
-            session.spin_for(max(0.0, next_time - time.monotonic()))
-        # Reliable subscriptions acknowledge in the background: wait for them before leaving.
-        from rclpy.duration import Duration
-
-        publisher.wait_for_all_acked(Duration(seconds=2))
-    return 0
-
-
-def message_value(message: Any) -> Any:
-    """The natural value of ``message`` for the ``publishing #N:`` line."""
-    from pyconnect.commands.live_values import echo_value
-
-    return echo_value(message)

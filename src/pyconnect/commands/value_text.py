@@ -2,15 +2,17 @@
 
 from __future__ import annotations
 
+import array
 import base64
 import dataclasses
 import json
+from collections.abc import Callable
 from typing import Any
 
 import numpy as np
 import yaml
 
-__all__ = ["field_of", "format_value", "to_json", "to_yaml"]
+__all__ = ["field_of", "format_value", "plain_value", "to_json", "to_yaml"]
 
 
 class _Summary:
@@ -52,23 +54,33 @@ def format_value(value: Any) -> str:
     return repr(_summarise(value))
 
 
-def _plain(value: Any, limit: int | None) -> Any:
-    """Dicts, lists and scalars; sequences longer than ``limit`` end in ``'...'``."""
+def plain_value(
+    value: Any, limit: int | None = None, *, other: Callable[[Any], Any] | None = None
+) -> Any:
+    """Dicts, lists and scalars; sequences longer than ``limit`` end in ``'...'``.
+
+    ``other`` sees every value first and may replace it (live messages become their dicts);
+    whatever it returns is converted in turn.
+    """
+    if other is not None:
+        value = other(value)
     if isinstance(value, np.ndarray):
         if value.dtype.names is not None:
             value = [dict(zip(value.dtype.names, row, strict=True)) for row in value.ravel()]
         else:
             value = value.tolist()
+    elif isinstance(value, array.array):  # an rclpy message's numeric sequence field
+        value = value.tolist()
     elif isinstance(value, bytes | bytearray | memoryview):
         value = list(bytes(value))
     elif isinstance(value, np.generic):
-        return value.item()
+        value = value.item()
     elif dataclasses.is_dataclass(value) and not isinstance(value, type):
         value = {f.name: getattr(value, f.name) for f in dataclasses.fields(value)}
     if isinstance(value, dict):
-        return {str(key): _plain(item, limit) for key, item in value.items()}
+        return {str(key): plain_value(item, limit, other=other) for key, item in value.items()}
     if isinstance(value, list | tuple):
-        items = [_plain(item, limit) for item in value[:limit]]
+        items = [plain_value(item, limit, other=other) for item in value[:limit]]
         if limit is not None and len(value) > limit:
             items.append("...")
         return items
@@ -78,7 +90,7 @@ def _plain(value: Any, limit: int | None) -> Any:
 def to_yaml(value: Any) -> str:
     """YAML of a value as ``ros2 topic echo`` prints a message (long sequences truncated)."""
     text: str = yaml.safe_dump(
-        _plain(value, YAML_SEQUENCE_LIMIT),
+        plain_value(value, YAML_SEQUENCE_LIMIT),
         default_flow_style=False,
         sort_keys=False,
         allow_unicode=True,
@@ -93,8 +105,8 @@ def _json_default(value: Any) -> Any:
     if isinstance(value, np.ndarray):
         if value.dtype == np.uint8:
             return base64.b64encode(value.tobytes()).decode("ascii")
-        return _plain(value, None)
-    return _plain(value, None)
+        return plain_value(value)
+    return plain_value(value)
 
 
 def to_json(record: dict[str, Any]) -> str:

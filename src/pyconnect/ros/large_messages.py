@@ -21,7 +21,8 @@ transport in 64 KB fragments (the delivery stage of ``bench.large_messages``).
 Not on at plain import: it gives the process a shared-memory segment and changes its malloc,
 a choice for the program's owner (``pyconnect run``, or the variable), not a side effect.
 Nothing is changed when ``PYCONNECT_LARGE_MESSAGES=0``, when the user set a Fast DDS profile
-(``FASTRTPS_DEFAULT_PROFILES_FILE`` / ``FASTDDS_DEFAULT_PROFILES_FILE``) or another
+(``FASTRTPS_DEFAULT_PROFILES_FILE`` / ``FASTDDS_DEFAULT_PROFILES_FILE`` naming a file other
+than pyconnect's own ``pyconnect-fastdds-<digest>.xml``) or another
 ``RMW_IMPLEMENTATION``, or when ``/dev/shm`` cannot hold four segments (small containers).
 """
 
@@ -31,6 +32,7 @@ import ctypes
 import ctypes.util
 import hashlib
 import os
+import re
 import shutil
 import tempfile
 from collections.abc import MutableMapping
@@ -112,12 +114,22 @@ def disabled_because(
     if not default_on and setting not in {"1", "true", "yes", "on"}:
         return "PYCONNECT_LARGE_MESSAGES is not set (pyconnect run sets it)"
     for name in ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILES_FILE"):
-        if env.get(name):
+        if env.get(name) and not is_own_profile(env[name]):
             return f"{name} is set"
     rmw = env.get("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
     if rmw not in {"rmw_fastrtps_cpp", "rmw_fastrtps_dynamic_cpp"}:
         return f"RMW_IMPLEMENTATION is {rmw}"
     return None
+
+
+_OWN_PROFILE = re.compile(r"pyconnect-fastdds-[0-9a-f]{12}\.xml")
+
+
+def is_own_profile(path: str) -> bool:
+    """True for a profile ``write_profile`` wrote: the variable naming it was set by pyconnect
+    (importing ``pyconnect.ros`` in this process, or a ``pyconnect run`` before it), which is
+    no user's choice of profile to leave alone."""
+    return _OWN_PROFILE.fullmatch(Path(path).name) is not None
 
 
 def write_profile(segment: int) -> Path:

@@ -1,0 +1,187 @@
+"""VALUE of ``topic pub``, ``service call`` and ``action send_goal``: YAML text to a message.
+
+The text is YAML (JSON is YAML) read with YAML 1.2's floats, so ``1e-3`` is a number as in JSON
+(PyYAML reads YAML 1.1, where it is a string). It holds the message's fields as a dict, or the
+type's natural value; a list given for a type whose natural value is an ndarray (the
+``*MultiArray`` types, Polygon) becomes one. As ``ros2 topic pub`` does, ``now`` in a
+builtin_interfaces/Time field and ``auto`` in a std_msgs/Header field (frame_id left empty)
+stand for the current time, taken again at each ``MessageTemplate.stamped()`` (each publish).
+"""
+
+from __future__ import annotations
+
+import re
+import time
+import typing
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import yaml
+
+from pyconnect import codecs
+from pyconnect.commands.graph import CommandFailed
+
+__all__ = ["MessageTemplate", "Yaml12Loader", "message_from_text", "message_template"]
+
+_FLOAT_TAG = "tag:yaml.org,2002:float"
+_TIME = "builtin_interfaces/msg/Time"
+_HEADER = "std_msgs/msg/Header"
+
+
+class Yaml12Loader(yaml.SafeLoader):
+    """PyYAML's safe loader with YAML 1.2's floats: ``1e-3``, ``1E-2``, ``2.5e3``, ``.inf``,
+    ``-.inf``, ``.nan`` (YAML 1.1 wants a dot and a signed exponent: ``1.0e-3``)."""
+
+
+# A float needs a dot or an exponent: a bare 12 must stay the int resolver's.
+Yaml12Loader.yaml_implicit_resolvers = {
+    first: [(tag, regexp) for tag, regexp in resolvers if tag != _FLOAT_TAG]
+    for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+Yaml12Loader.add_implicit_resolver(
+    _FLOAT_TAG,
+    re.compile(
+        r"""^(?:[-+]?[0-9][0-9_]*\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+            |[-+]?\.[0-9][0-9_]*(?:[eE][-+]?[0-9]+)?
+            |[-+]?[0-9][0-9_]*[eE][-+]?[0-9]+
+            |[-+]?\.(?:inf|Inf|INF)
+            |\.(?:nan|NaN|NAN))$""",
+        re.VERBOSE,
+    ),
+    list("-+.0123456789"),
+)
+
+_Path = tuple[str | int, ...]
+
+
+@dataclass
+class MessageTemplate:
+    """A message built from VALUE and the paths of the Time fields that say ``now``."""
+
+    message: Any
+    now_paths: list[_Path] = field(default_factory=list)
+
+    def stamped(self) -> Any:
+        """The message with every ``now`` (and ``auto`` header) set to the current time."""
+        if self.now_paths:
+            sec, nanosec = divmod(time.time_ns(), 1_000_000_000)
+            for path in self.now_paths:
+                stamp = self.message
+                for step in path:
+                    stamp = stamp[step] if isinstance(step, int) else getattr(stamp, step)
+                stamp.sec, stamp.nanosec = sec, nanosec
+        return self.message
+
+
+def message_from_text(text: str, msg_class: type) -> Any:
+    """A message of ``msg_class`` from YAML/JSON: its fields as a dict, or its natural value;
+    ``now``/``auto`` stamped once."""
+    return message_template(text, msg_class).stamped()
+
+
+def message_template(text: str, msg_class: type) -> MessageTemplate:
+    """Parse VALUE for ``msg_class``; ``stamped()`` gives the message (re-stamped each call)."""
+    try:
+        value = yaml.load(text, Loader=Yaml12Loader) if text.strip() else {}
+    except yaml.YAMLError as error:
+        raise CommandFailed(f"VALUE is not YAML or JSON: {' '.join(str(error).split())}") from None
+    try:
+        value, now_paths = _take_now(value, msg_class, ())
+        if _is_fields(value, msg_class):
+            return MessageTemplate(codecs.from_dict(value, msg_class), now_paths)
+        return MessageTemplate(codecs.encode(_natural(value, msg_class), msg_class))
+    except CommandFailed:
+        raise
+    except Exception as error:
+        raise CommandFailed(str(error)) from None
+
+
+def _is_fields(value: Any, msg_class: type) -> bool:
+    fields = msg_class.get_fields_and_field_types()  # type: ignore[attr-defined]
+    return isinstance(value, dict) and set(value) <= set(fields)
+
+
+# A nested message field's type as rosidl writes it: pkg/Name, sequence<pkg/Name[, N]>, pkg/Name[N]
+_NESTED = re.compile(r"(sequence<)?(\w+)/(\w+)(?:, \d+)?>?(\[\d+\])?")
+
+
+def _take_now(value: Any, msg_type: type | str, path: _Path) -> tuple[Any, list[_Path]]:
+    """``value`` with each ``now``/``auto`` replaced by a default field, and the paths of the
+    Time fields they stand for (as rosidl_runtime_py's ``set_message_fields`` finds them).
+
+    ``msg_type``: the class at the top (a service's Request has no name to import it by), the
+    ``pkg/msg/Name`` of a nested field below it."""
+    from pyconnect.ros.interfaces import interface_class, interface_name
+
+    type_name = msg_type if isinstance(msg_type, str) else interface_name(msg_type)
+    if value == "now" and type_name == _TIME:
+        return {}, [path]
+    if value == "auto" and type_name == _HEADER:
+        return {}, [(*path, "stamp")]
+    if not isinstance(value, dict):
+        return value, []
+    msg_class = interface_class(msg_type, kind="msg")
+    if not _is_fields(value, msg_class):
+        return value, []  # a natural value: its codec reads it as it is
+    field_types: dict[str, str] = msg_class.get_fields_and_field_types()
+    taken: dict[str, Any] = {}
+    paths: list[_Path] = []
+    for name, item in value.items():
+        nested = _NESTED.fullmatch(field_types[name])
+        if nested is None:
+            taken[name] = item
+            continue
+        item_type = f"{nested.group(2)}/msg/{nested.group(3)}"
+        if (nested.group(1) or nested.group(4)) and isinstance(item, list):
+            elements = []
+            for index, element in enumerate(item):
+                taken_element, found = _take_now(element, item_type, (*path, name, index))
+                elements.append(taken_element)
+                paths += found
+            taken[name] = elements
+        else:
+            taken[name], found = _take_now(item, item_type, (*path, name))
+            paths += found
+    return taken, paths
+
+
+def _natural(value: Any, msg_class: type) -> Any:
+    """VALUE as the codec takes it: lists become tuples, or one ndarray when the natural value
+    is an ndarray (asked of the codec: the return type of its ``decode``)."""
+    codec = codecs.default_registry.value_codec(msg_class)
+    if isinstance(value, list) and codec is not None and _decodes_to_ndarray(codec):
+        return _as_array(value, getattr(codec, "dtype", None))
+    return _tuples(value)
+
+
+def _decodes_to_ndarray(codec: Any) -> bool:
+    try:
+        returned = typing.get_type_hints(codec.decode).get("return")
+    except Exception:  # a user codec with annotations that do not resolve: take it as it is
+        return False
+    return (typing.get_origin(returned) or returned) is np.ndarray
+
+
+def _as_array(value: list[Any], dtype: np.dtype[Any] | None) -> np.ndarray[Any, Any]:
+    array = np.asarray(value)
+    # YAML ints arrive as int64, which an int32 codec refuses as a narrowing cast: narrow here
+    # when every value fits (the codec reports the ones that do not).
+    if (
+        dtype is not None
+        and array.size
+        and array.dtype.kind in "iu"
+        and dtype.kind in "iu"
+        and np.iinfo(dtype).min <= array.min()
+        and array.max() <= np.iinfo(dtype).max
+    ):
+        return array.astype(dtype)
+    return array
+
+
+def _tuples(value: Any) -> Any:
+    if isinstance(value, list):
+        return tuple(_tuples(item) for item in value)
+    if isinstance(value, dict):
+        return {key: _tuples(item) for key, item in value.items()}
+    return value

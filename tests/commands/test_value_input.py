@@ -1,0 +1,151 @@
+"""VALUE parsing for ``topic pub``, ``service call`` and ``action send_goal`` (no ROS graph)."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+import pytest
+import yaml
+from builtin_interfaces.msg import Time
+from geometry_msgs.msg import PoseStamped, Twist
+from nav_msgs.msg import Path
+from std_msgs.msg import Float64, Float64MultiArray, Int8MultiArray, Int32MultiArray, String
+from std_srvs.srv import SetBool
+from test_msgs.action import Fibonacci
+from test_msgs.msg import Builtins
+
+from pyconnect.commands import value_input
+from pyconnect.commands.graph import CommandFailed
+from pyconnect.commands.value_input import Yaml12Loader, message_from_text, message_template
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("1e-3", 0.001),
+        ("1E-2", 0.01),
+        ("2.5e3", 2500.0),
+        ("-1e3", -1000.0),
+        ("+.5e1", 5.0),
+        ("1.0", 1.0),
+        (".5", 0.5),
+        ("1_000.5", 1000.5),
+        (".inf", math.inf),
+        ("-.inf", -math.inf),
+    ],
+)
+def test_yaml_1_2_floats(text: str, expected: float) -> None:
+    value = yaml.load(text, Loader=Yaml12Loader)
+    assert type(value) is float
+    assert value == expected
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [("12", 12), ("-3", -3), ("0x1F", 31), ("e3", "e3"), ("1e", "1e"), (".", "."), ("now", "now")],
+)
+def test_what_is_no_float_stays_as_it_was(text: str, expected: object) -> None:
+    value = yaml.load(text, Loader=Yaml12Loader)
+    assert (type(value), value) == (type(expected), expected)
+
+
+def test_nan_is_a_float() -> None:
+    assert math.isnan(yaml.load(".nan", Loader=Yaml12Loader))
+
+
+def test_exponents_in_fields_and_natural_values() -> None:
+    assert message_from_text('{"data": 1e-3}', Float64) == Float64(data=0.001)
+    assert message_from_text("1e-3", Float64) == Float64(data=0.001)
+    twist = message_from_text('{"linear": {"x": 1E-2}, "angular": {"z": 2.5e3}}', Twist)
+    assert (twist.linear.x, twist.angular.z) == (0.01, 2500.0)
+
+
+def test_a_multi_array_takes_its_natural_value_as_a_list() -> None:
+    floats = message_from_text("[1.0, 2.0, 3.0]", Float64MultiArray)
+    assert list(floats.data) == [1.0, 2.0, 3.0]
+    ints = message_from_text("[1, 2, 3]", Int32MultiArray)
+    assert list(ints.data) == [1, 2, 3]
+    grid = message_from_text("[[1, 2, 3], [4, 5, 6]]", Float64MultiArray)
+    assert [(d.size, d.stride) for d in grid.layout.dim] == [(2, 6), (3, 3)]
+    assert list(grid.data) == [1.0, 2.0, 3.0, 4.0, 5.0, 6.0]
+    # The fields as a dict still work.
+    assert list(message_from_text("{data: [4.0]}", Float64MultiArray).data) == [4.0]
+
+
+def test_a_multi_array_value_out_of_range_is_refused() -> None:
+    with pytest.raises(CommandFailed) as caught:
+        message_from_text("[1, 300]", Int8MultiArray)
+    assert str(caught.value) == "Int8MultiArray.data: expected int8 values, got int64"
+
+
+def test_now_in_a_time_field_and_auto_in_a_header(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(value_input.time, "time_ns", lambda: 1_700_000_000_123_456_789)
+    pose = message_from_text("{header: {stamp: now, frame_id: map}}", PoseStamped)
+    assert (pose.header.stamp, pose.header.frame_id) == (
+        Time(sec=1_700_000_000, nanosec=123_456_789),
+        "map",
+    )
+    pose = message_from_text("{header: auto, pose: {position: {x: 1.5}}}", PoseStamped)
+    assert (pose.header.stamp.sec, pose.header.frame_id, pose.pose.position.x) == (
+        1_700_000_000,
+        "",
+        1.5,
+    )
+    builtins = message_from_text("{time_value: now}", Builtins)
+    assert builtins.time_value == Time(sec=1_700_000_000, nanosec=123_456_789)
+    assert message_from_text("now", Time) == Time(sec=1_700_000_000, nanosec=123_456_789)
+
+
+def test_auto_in_a_sequence_of_messages(monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(value_input.time, "time_ns", lambda: 5_000_000_007)
+    path = message_from_text(
+        "{header: auto, poses: [{header: {frame_id: a}}, {header: auto}]}", Path
+    )
+    assert [p.header.stamp.sec for p in path.poses] == [0, 5]
+    assert (path.header.stamp.sec, path.header.stamp.nanosec) == (5, 7)
+    assert path.poses[0].header.frame_id == "a"
+
+
+def test_each_publish_takes_the_time_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    clock = iter([1_000_000_000, 2_000_000_000])
+    monkeypatch.setattr(value_input.time, "time_ns", lambda: next(clock))
+    template = message_template("{header: auto}", PoseStamped)
+    assert template.stamped().header.stamp.sec == 1
+    assert template.stamped().header.stamp.sec == 2
+
+
+def test_now_and_auto_elsewhere_are_plain_strings() -> None:
+    assert message_from_text("{data: now}", String) == String(data="now")
+    assert message_from_text("auto", String) == String(data="auto")
+    assert message_template("{data: now}", String).now_paths == []
+
+
+@pytest.mark.parametrize(
+    ("text", "msg_class", "error"),
+    [
+        (
+            "{header: {stamp: soon}}",
+            PoseStamped,
+            "PoseStamped.header.stamp: expected dict, got str",
+        ),
+        ("{header: now}", PoseStamped, "PoseStamped.header: expected dict, got str"),
+    ],
+)
+def test_other_words_in_time_fields_are_refused(text: str, msg_class: Any, error: str) -> None:
+    with pytest.raises(CommandFailed) as caught:
+        message_from_text(text, msg_class)
+    assert str(caught.value) == error
+
+
+def test_a_natural_value_list_elsewhere_still_becomes_tuples() -> None:
+    twist = message_from_text("[[0.2, 0, 0], [0, 0, 0.5]]", Twist)
+    assert (twist.linear.x, twist.angular.z) == (0.2, 0.5)
+    assert isinstance(value_input._natural([1.0], Float64MultiArray), np.ndarray)
+
+
+def test_parts_of_services_and_actions_take_values_too() -> None:
+    # They have no importable name of their own (test_msgs/action/Fibonacci_Goal).
+    assert message_from_text("{order: 3}", Fibonacci.Goal) == Fibonacci.Goal(order=3)
+    assert message_from_text("{data: true}", SetBool.Request) == SetBool.Request(data=True)
