@@ -78,13 +78,13 @@ def test_record_until_ctrl_c_writes_a_bag_every_reader_reads(
     assert yaml.safe_load(chatter["offered_qos_profiles"])[0]["reliability"] == 1  # reliable
 
 
-
 @pytest.mark.parametrize("split_at", [2, 12])
 def test_ctrl_c_at_a_split_and_again_while_finishing_loses_no_file(
     peer: Lines, tmp_path: Path, split_at: int
 ) -> None:
-    """SIGINT lands right inside the split-th file's opening, and a second one inside the
-    bag's closing (tests/commands/interrupted_record.py): the bag is still whole."""
+    """SIGINT is sent from inside the split-th file's opening (on the writer thread), and a
+    second one from inside the bag's closing (tests/commands/interrupted_record.py): the bag is
+    still whole."""
     bag = tmp_path / "run1"
     recorder = spawn(
         "-m", "tests.commands.interrupted_record", str(split_at),
@@ -93,7 +93,9 @@ def test_ctrl_c_at_a_split_and_again_while_finishing_loses_no_file(
     out, err = recorder.communicate(timeout=WAIT)
     assert (recorder.returncode, err) == (0, ""), out
     ours = _check_bag(bag)
-    assert len(list(bag.glob("*.mcap"))) == split_at  # the interrupted split still happened
+    # The split still happened; messages received before the recording stopped came after it
+    # (the writer thread writes them all), one file each.
+    assert len(list(bag.glob("*.mcap"))) >= split_at
     assert out.splitlines()[-1] == f"Recorded {len(ours)} message(s) to '{bag}'"
 
 

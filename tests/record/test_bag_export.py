@@ -13,7 +13,7 @@ from sensor_msgs.msg import Image
 from std_msgs.msg import Float64MultiArray
 from test_msgs.msg import BasicTypes
 
-from pyconnect.record.bag_export import export_topic
+from pyconnect.record.bag_export import export_topic, export_topics
 from pyconnect.record.mcap_recorder import McapRecorder
 
 
@@ -98,3 +98,35 @@ def test_rgb_images_keep_their_colours(tmp_path: Path) -> None:
     assert dict(result.files) == {"png": 1}
     assert [(p.topic, p.index, p.log_time_ns) for p in result.errors] == [("/short", 0, 2)]
     assert result.errors[0].reason.startswith("Image.data: expected at least 18 bytes")
+
+
+def test_topics_whose_names_clean_alike_export_to_distinct_folders(tmp_path: Path) -> None:
+    """/cam_/info and /cam/_info both clean to cam___info: one folder held the second topic's
+    messages.jsonl only (and mixed their image files)."""
+    topics = ["/cam_/info", "/cam/_info", "/a__b", "/a/b"]
+    with McapRecorder(tmp_path / "bag") as recorder:
+        for k, topic in enumerate(topics):
+            recorder.add_topic(topic, "std_msgs/msg/String")
+            for i in range(2):
+                recorder.write_value(topic, f"{topic} {i}", log_time_ns=10 * k + i)
+    out = tmp_path / "out"
+    # The order of the topics given does not change where each goes.
+    results = export_topics(tmp_path / "bag", topics[::-1], out, progress=lambda *_: _NoBar())
+    assert {topic: result.directory for topic, result in results.items()} == {
+        "/a/b": out / "a__b",
+        "/a__b": out / "a__b_2",
+        "/cam/_info": out / "cam___info",
+        "/cam_/info": out / "cam___info_2",
+    }
+    for topic, result in results.items():
+        lines = (result.directory / "messages.jsonl").read_text().splitlines()
+        assert [json.loads(line)["value"] for line in lines] == [f"{topic} 0", f"{topic} 1"]
+    assert export_topics(tmp_path / "bag", topics, out, force=True).keys() == set(topics)
+
+
+class _NoBar:
+    def update(self, n: int) -> None:
+        pass
+
+    def close(self) -> None:
+        pass

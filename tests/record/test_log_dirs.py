@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+import re
 from datetime import datetime
 from pathlib import Path
 
 import pytest
 
-from pyconnect.record.log_dirs import default_log_root, make_log_dirs, safe_path_component
+from pyconnect.record.log_dirs import (
+    MAX_COMPONENT,
+    default_log_root,
+    distinct_path_components,
+    make_log_dirs,
+    safe_path_component,
+)
 
 NOW = datetime(2026, 11, 23, 5, 6, 7)
 
@@ -63,3 +70,33 @@ def test_default_root_honours_the_environment(
     monkeypatch.delenv("PYCONNECT_LOG_DIR")
     monkeypatch.chdir(tmp_path)
     assert default_log_root() == tmp_path / "pyconnect_logs"
+
+
+def test_a_long_name_is_cut_to_a_length_file_systems_take(tmp_path: Path) -> None:
+    # A valid ROS topic name of 240 characters; a file name may have 255 bytes.
+    topic = "/" + "/".join(f"seg{i:02d}_x" for i in range(30))
+    component = safe_path_component(topic)
+    assert len(component) == MAX_COMPONENT
+    assert component.startswith("seg00_x__seg01_x__")
+    assert re.fullmatch(r".*-[0-9a-f]{10}", component)
+    assert safe_path_component(topic) == component  # stable: the same folder every session
+    sibling = topic[:-1] + "y"  # same start, another name: another folder
+    assert safe_path_component(sibling) != component
+    dirs = make_log_dirs(tmp_path, topic, [topic, sibling], now=NOW)
+    assert all(d.is_dir() for d in dirs.values())
+    assert len(set(dirs.values())) == 2
+    assert safe_path_component("a" * MAX_COMPONENT) == "a" * MAX_COMPONENT  # short enough
+
+
+def test_names_that_clean_alike_get_distinct_components() -> None:
+    names = ["/cam_/info", "/cam/_info", "/a/b", "/a__b", "a__b_2", "/Chatter", "/chatter"]
+    assert distinct_path_components(names) == {
+        "/cam_/info": "cam___info",
+        "/cam/_info": "cam___info_2",
+        "/a/b": "a__b",
+        "/a__b": "a__b_2",
+        "a__b_2": "a__b_2_2",
+        "/Chatter": "Chatter",
+        "/chatter": "chatter_2",  # one folder on macOS and Windows otherwise
+    }
+    assert distinct_path_components(["/x", "/y"], taken=["x"]) == {"/x": "x_2", "/y": "y"}

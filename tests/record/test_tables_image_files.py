@@ -162,3 +162,28 @@ def test_images_option_is_for_parquet_only(
     argv = ["bag", "export", str(bag), "--topic", "/camera/image", "--to", str(tmp_path / "x")]
     assert main([*argv, "--images", "files"]) == 2
     assert capsys.readouterr().err == "pyconnect: error: --images is for --format parquet\n"
+
+
+def test_topics_whose_names_clean_alike_get_their_own_files(tmp_path: Path) -> None:
+    """/cam_/img and /cam/_img both clean to cam___img: one Parquet file and one image folder
+    held the second topic over the first."""
+    first, second = CASES[0][1], CASES[1][1]
+    messages: list[tuple[str, int, Any]] = [
+        ("/cam_/img", T0, _image(first, CASES[0][0])),
+        ("/cam/_img", T0 + 1, _image(second, CASES[1][0])),
+    ]
+    bag = write_bag(tmp_path / "bag", messages)
+    out = tmp_path / "tables"
+    result = export_parquet(bag, out, images="files")
+    assert {topic: path.name for topic, (path, _rows) in result.files.items()} == {
+        "/cam/_img": "cam___img.parquet",
+        "/cam_/img": "cam___img_2.parquet",
+    }
+    for topic, array, encoding in (
+        ("/cam_/img", first, CASES[0][0]),
+        ("/cam/_img", second, CASES[1][0]),
+    ):
+        path, _rows = result.files[topic]
+        (image_path,) = pl.read_parquet(path)["data_path"].to_list()
+        assert image_path.split("/")[0] == path.stem  # its own folder, named as its file
+        np.testing.assert_array_equal(_read_back(out / image_path, encoding), array)

@@ -4,12 +4,17 @@
 second); ``pyconnect bag record /chatter /odom -o run1`` records those. Messages are stored as
 received (raw CDR, no decoding) with their receipt time as log time, the definitions of the
 installed types, and each topic's publishers' QoS as ``offered_qos_profiles`` (what ``bag play``
-offers again). ``--max-bag-size`` (bytes) and ``--max-bag-duration`` (seconds) split the
-recording into ``run1_0.mcap``, ``run1_1.mcap``, ...; ``metadata.yaml`` lists them all, each from
-the moment it is created (``pyconnect.record.split_recorder``). Ctrl-C stops the recording and
-leaves a complete bag (every file finished, metadata written): it is deferred while a message is
-written, a file split or a topic added, and a second Ctrl-C waits for the bag to be finished.
-SIGTERM does the same as Ctrl-C.
+offers again). ``--max-bag-size`` (bytes of the file, as ``ros2 bag record -b``; a file grows a
+compressed chunk at a time) and ``--max-bag-duration`` (seconds) split the recording into
+``run1_0.mcap``, ``run1_1.mcap``, ...; ``metadata.yaml`` lists them all, each from the moment it
+is created (``pyconnect.record.split_recorder``).
+
+No message is lost to the recorder being busy: a topic's file and definition are ready before
+its subscription exists, and callbacks only queue the messages for a writer thread, which writes
+them and splits the files (``pyconnect.record.queued_recorder``). Ctrl-C stops the recording
+and leaves a complete bag (every received message written, every file finished, metadata
+written): it is deferred while a topic is added, never reaches the writer thread, and a second
+Ctrl-C waits for the bag to be finished. SIGTERM does the same as Ctrl-C.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -25,9 +30,11 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
 if TYPE_CHECKING:
+    from collections.abc import Callable
+
     from pyconnect.commands.common import Subcommands
     from pyconnect.commands.graph import GraphSession
-    from pyconnect.record.split_recorder import SplitRecorder
+    from pyconnect.record.queued_recorder import QueuedRecorder
 
 __all__ = ["register"]
 
@@ -41,6 +48,11 @@ _DURABILITY = {"TRANSIENT_LOCAL": 1, "VOLATILE": 2}
 _HISTORY = {"KEEP_LAST": 1, "KEEP_ALL": 2}
 _LIVELINESS = {"AUTOMATIC": 1, "MANUAL_BY_TOPIC": 3}
 _INFINITE = {"sec": 2147483647, "nsec": 4294967295}
+# Messages a subscription keeps until the executor takes them. rosbag2 keeps 10, with callbacks
+# in C++; here a callback waits for the GIL whenever the writer thread (a file split: several
+# ms), a topic being added or the garbage collector holds it, and at 1 kHz 10 messages last
+# 10 ms. 1000 last a second; DDS allocates them only while they wait.
+_DEPTH = 1000
 
 
 def _duration(value: Any) -> dict[str, int]:
@@ -64,7 +76,12 @@ def register(actions: Subcommands) -> None:
     record.add_argument("-o", "--output", required=True, help="the new bag directory")
     record.add_argument("-s", "--storage", default="mcap", choices=["mcap"], help="mcap")
     record.add_argument(
-        "-b", "--max-bag-size", type=int, default=0, help="split files at this many bytes"
+        "-b",
+        "--max-bag-size",
+        type=int,
+        default=0,
+        help="split files at this many bytes on disk (checked as each compressed chunk of at "
+        "most 1 MiB is written, as rosbag2 does)",
     )
     record.add_argument(
         "-d", "--max-bag-duration", type=float, default=0, help="split files every S seconds"
@@ -95,9 +112,23 @@ def _qos_yaml(endpoints: list[Any]) -> str:
     return yaml.safe_dump(profiles, sort_keys=False) if profiles else ""
 
 
+def _queue_into(writer: QueuedRecorder, topic: str, out: TextIO) -> Callable[[bytes], None]:
+    """The subscription callback of ``topic``: stamp the message and queue it, nothing more."""
+    first = True
+
+    def on_message(data: bytes) -> None:
+        nonlocal first
+        writer.write(topic, data, log_time_ns=time.time_ns())
+        if first:
+            first = False
+            print(f"Recording '{topic}': first message received", file=out, flush=True)
+
+    return on_message
+
+
 def _subscribe_new(
     session: GraphSession,
-    split: SplitRecorder,
+    writer: QueuedRecorder,
     wanted: set[str] | None,
     skipped: set[str],
     out: TextIO,
@@ -105,6 +136,7 @@ def _subscribe_new(
     from pyconnect.commands.graph import choose_qos
     from pyconnect.ros.interfaces import interface_class
 
+    split = writer.recorder
     for topic, types in session.node.get_topic_names_and_types():
         if topic in split.counts or topic in skipped or not types:
             continue
@@ -113,27 +145,27 @@ def _subscribe_new(
         hidden = any(part.startswith("_") for part in topic.split("/"))
         if wanted is None and (hidden or topic in ("/rosout", "/parameter_events")):
             continue  # as `ros2 bag record -a` leaves them out unless asked
+        publishers = session.node.get_publishers_info_by_topic(topic)
         try:
             msg_class = interface_class(types[0], kind="msg")
+            # Opens the bag's first file and reads the definition now, before the subscription
+            # exists: done in the first callback, it cost ~0.1 s of messages.
+            split.add_topic(topic, types[0], offered_qos_profiles=_qos_yaml(publishers))
         except Exception as error:
             print(f"skipping {topic}: {error}", file=out, flush=True)
             skipped.add(topic)
             continue
-        publishers = session.node.get_publishers_info_by_topic(topic)
-        split.add_topic(topic, types[0], offered_qos_profiles=_qos_yaml(publishers))
 
-        def on_message(data: bytes, topic: str = topic) -> None:
-            split.write(topic, data, log_time_ns=time.time_ns())
-            if split.counts[topic] == 1:
-                print(f"Recording '{topic}': first message received", file=out, flush=True)
-
+        on_message = _queue_into(writer, topic, out)
         qos = choose_qos(session, topic, None)
+        qos.depth = _DEPTH
         session.node.create_subscription(msg_class, topic, on_message, qos, raw=True)
         print(f"Subscribed to topic '{topic}'", file=out, flush=True)
 
 
 def _record(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.commands.graph import CommandFailed, graph_session, report_failure
+    from pyconnect.record.queued_recorder import QueuedRecorder
     from pyconnect.record.split_recorder import SplitRecorder
 
     if args.all == bool(args.topics):
@@ -144,6 +176,7 @@ def _record(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     split = SplitRecorder(
         directory, max_bytes=args.max_bag_size, max_ns=round(args.max_bag_duration * 1e9)
     )
+    writer = QueuedRecorder(split)
     wanted = None if args.all else set(args.topics)
     skipped: set[str] = set()
     # SIGTERM (systemd, docker stop, timeout) ends a recording as Ctrl-C does, as it does
@@ -160,20 +193,20 @@ def _record(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
                     # Ctrl-C lands between callbacks and between these steps, never inside one
                     # (a split, a topic being added): the session defers it until they end.
                     with session.interrupts_deferred():
-                        _subscribe_new(session, split, wanted, skipped, out)
+                        _subscribe_new(session, writer, wanted, skipped, out)
                     session.spin_for(1.0)
             except KeyboardInterrupt:  # Ctrl-C is how a recording ends: a success
                 pass
             finally:
-                # Nothing spins any more, so no callback writes; a second Ctrl-C waits until
-                # the last file and metadata.yaml are complete.
+                # Nothing spins any more, so no callback queues; a second Ctrl-C waits until
+                # the queued messages, the last file and metadata.yaml are written.
                 with session.interrupts_deferred():
-                    split.close()
+                    writer.close()
         return 0
     except KeyboardInterrupt:  # before the session could defer it, or a second Ctrl-C
         return 0
     finally:
-        split.close()  # idempotent; finishes the bag when the session never started
+        writer.close()  # idempotent; finishes the bag when the session never started
         print(f"Recorded {sum(split.counts.values())} message(s) to '{directory}'", file=out)
         if previous_sigterm is not None:
             signal.signal(signal.SIGTERM, previous_sigterm)

@@ -25,7 +25,7 @@ from pyconnect.errors import DecodeError
 from pyconnect.record.bag_damage import BagDamage
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_reader import DecodeProblem, open_bag
-from pyconnect.record.log_dirs import safe_path_component
+from pyconnect.record.log_dirs import distinct_path_components
 from pyconnect.record.log_writer import atomic_write_bytes, encode_log_value, umask_mode
 
 __all__ = ["ExportResult", "export_topic", "export_topics", "topic_directories"]
@@ -71,11 +71,17 @@ def _earlier_export(directory: Path) -> list[Path]:
 
 
 def topic_directories(topics: Sequence[str], to: str | Path) -> dict[str, Path]:
-    """Where each topic goes: ``to`` itself for one topic, ``to/<topic as a name>`` for more."""
+    """Where each topic goes: ``to`` itself for one topic, ``to/<topic as a name>`` for more.
+
+    Topics whose names clean to the same folder name (``/a/b`` and ``/a__b``) get distinct
+    folders (``a__b``, ``a__b_2``; ``log_dirs.distinct_path_components``), handed out in sorted
+    topic order so that the order of ``--topic`` options does not change them.
+    """
     root = Path(to)
     if len(topics) == 1:
         return {topics[0]: root}
-    return {topic: root / safe_path_component(topic) for topic in topics}
+    folders = distinct_path_components(sorted(topics))
+    return {topic: root / folders[topic] for topic in topics}
 
 
 def export_topics(

@@ -129,6 +129,7 @@ class BagReader:
         self.errors: list[DecodeProblem] = []
         self.mismatches: list[TypeMismatch] = []
         self._bags: list[tuple[BagFiles, list[StorageFile]]] = []
+        self._closed_damage: tuple[BagDamage, ...] = ()
         try:
             open_bag_files(paths, into=self._bags, caller="open_bag")
             self.path = self._bags[0][0].path
@@ -156,7 +157,7 @@ class BagReader:
         """What is broken in the bag's files, as far as they have been read, then where its
         metadata.yaml disagrees with them."""
         found = storage_damage(s for _, storages in self._bags for s in storages)
-        return [*found, *self.info.metadata_damage]
+        return [*(found or self._closed_damage), *self.info.metadata_damage]
 
     # -- reading ------------------------------------------------------------------------------
     def __iter__(self) -> Iterator[BagMessage]:
@@ -405,7 +406,10 @@ class BagReader:
         return polars.from_arrow(self.to_arrow(topic, images=images, image_dir=image_dir))
 
     def close(self) -> None:
-        """Close the storage files; idempotent."""
+        """Close the storage files; idempotent. ``damage`` still lists what they held."""
+        self._closed_damage = self._closed_damage or storage_damage(
+            s for _, storages in self._bags for s in storages
+        )
         for _, storages in self._bags:
             for storage in storages:
                 storage.close()

@@ -77,9 +77,11 @@ def _png_bytes(array: npt.NDArray[Any], encoding: str) -> bytes | None:
 class ImageFiles:
     """Writes the images of one topic's table under ``directory``; ``write`` gives the path."""
 
-    def __init__(self, directory: str | Path, topic: str) -> None:
+    def __init__(self, directory: str | Path, topic: str, *, folder: str | None = None) -> None:
+        """``folder``: the topic's directory name under ``directory`` (default: the topic as a
+        name); exports of several topics pass distinct ones (``distinct_path_components``)."""
         self.directory = Path(directory)
-        self.topic_dir = Path(safe_path_component(topic))
+        self.topic_dir = Path(safe_path_component(topic) if folder is None else folder)
         self._made: set[Path] = set()
 
     def write(self, image: Any, row: int, field: tuple[str, ...]) -> str | None:

@@ -20,7 +20,9 @@ from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_metadata import METADATA_FILE, BagMetadata, TopicMetadata, write_metadata
 from pyconnect.typesys.names import full_type_name
 
-__all__ = ["McapRecorder"]
+__all__ = ["DEFAULT_CHUNK_SIZE", "McapRecorder"]
+
+DEFAULT_CHUNK_SIZE = 1024 * 1024
 
 _COMPRESSION = {
     "zstd": CompressionType.ZSTD,
@@ -28,6 +30,32 @@ _COMPRESSION = {
     "none": CompressionType.NONE,
     "": CompressionType.NONE,
 }
+
+
+class _CountedFile:
+    """The file the MCAP writer writes to, counting what it is given: the file's size so far.
+
+    The writer asks ``tell()`` for chunk offsets; the file is new, so the count is the position,
+    without a system call per question.
+    """
+
+    def __init__(self, stream: BinaryIO) -> None:
+        self.stream = stream
+        self.written = 0
+
+    def write(self, data: bytes) -> int:
+        count = self.stream.write(data)
+        self.written += count
+        return count
+
+    def tell(self) -> int:
+        return self.written
+
+    def flush(self) -> None:
+        self.stream.flush()
+
+    def close(self) -> None:
+        self.stream.close()
 
 
 @dataclass
@@ -54,7 +82,7 @@ class McapRecorder:
         path: str | Path,
         *,
         compression: str = "zstd",
-        chunk_size: int = 1024 * 1024,
+        chunk_size: int = DEFAULT_CHUNK_SIZE,
         registry: Any = None,
     ) -> None:
         self.registry = registry
@@ -76,9 +104,12 @@ class McapRecorder:
             raise BagError(f"{self.file_path}: already exists; not overwriting a recording")
         self._lock = threading.Lock()
         self._stream: BinaryIO = open(self.file_path, "wb")  # noqa: SIM115 - closed by close()
+        self._counted = _CountedFile(self._stream)
         try:
             self._writer = Writer(
-                self._stream, compression=_COMPRESSION[compression], chunk_size=chunk_size
+                self._counted,  # type: ignore[arg-type]  # a file as far as the writer uses one
+                compression=_COMPRESSION[compression],
+                chunk_size=chunk_size,
             )
             self._writer.start(profile="ros2", library="pyconnect")
             # On disk at once: a process killed now leaves an MCAP file a reader recovers
@@ -93,6 +124,13 @@ class McapRecorder:
         self._last_ns: int | None = None
         self._closed = False
         self.messages_written = 0
+
+    @property
+    def bytes_written(self) -> int:
+        """The file's size so far: its header, and each chunk once it is closed (compressed)
+        with its indexes; the chunk being filled is in memory and not counted yet. This is what
+        ``ros2 bag record -b`` measures (rosbag2's MCAP storage asks its writer the same)."""
+        return self._counted.written
 
     @property
     def topics(self) -> dict[str, str]:

@@ -1,7 +1,8 @@
 """``export_parquet``: one Parquet file per bag topic, with the columns of ``tables.topic_table``.
 
 ``export_parquet("run1", "out/")`` writes ``out/odom.parquet``, ``out/robot__camera__image.parquet``
-(the topic name with ``/`` as ``__``), one per topic unless ``topics`` names some. DuckDB, polars,
+(the topic name with ``/`` as ``__``; topics whose names clean alike, ``/a/b`` and ``/a__b``, get
+``a__b`` and ``a__b_2``), one per topic unless ``topics`` names some. DuckDB, polars,
 pandas and Spark read them; the schema metadata holds the topic and the type.
 ``images="files"`` writes images as files beside them (``out/robot__camera__image/00000000.png``)
 and their paths, relative to the Parquet files, in a ``data_path`` column (``image_files``).
@@ -17,7 +18,7 @@ import pyarrow.parquet as pq
 
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_reader import DecodeProblem, open_bag
-from pyconnect.record.log_dirs import safe_path_component
+from pyconnect.record.log_dirs import distinct_path_components
 from pyconnect.record.tables import ImageColumns, topic_table
 
 __all__ = ["ParquetExport", "export_parquet"]
@@ -49,10 +50,10 @@ def export_parquet(
     target = Path(directory)
     result = ParquetExport(target)
     with open_bag(bag, topics=topics) as reader:
+        # Topics that clean to one name (/a/b, /a__b) must not share a file or an image folder.
+        names = distinct_path_components(sorted(reader.topics))
         earlier = [
-            path
-            for topic in reader.topics
-            if (path := target / f"{safe_path_component(topic)}.parquet").exists()
+            path for topic in reader.topics if (path := target / f"{names[topic]}.parquet").exists()
         ]
         if earlier and not force:
             raise BagError(
@@ -67,8 +68,9 @@ def export_parquet(
                 errors=result.errors,
                 images=images,
                 image_dir=target if images == "files" else None,
+                image_folder=names[topic],
             )
-            path = target / f"{safe_path_component(topic)}.parquet"
+            path = target / f"{names[topic]}.parquet"
             pq.write_table(table, path, compression=compression)
             result.files[topic] = (path, table.num_rows)
     return result

@@ -1,7 +1,17 @@
 """``SplitRecorder``: a rosbag2 bag directory written as MCAP files split by size or duration.
 
 ``SplitRecorder("run1", max_bytes=..., max_ns=...)`` writes ``run1/run1_0.mcap``,
-``run1/run1_1.mcap``, ... and ``run1/metadata.yaml`` (what ``pyconnect bag record`` writes).
+``run1/run1_1.mcap``, ... and ``run1/metadata.yaml`` (what ``pyconnect bag record`` writes, from
+a thread of its own: ``pyconnect.record.queued_recorder``). The first file is opened, and each
+topic's definition read, when the first topic is added, so that the first message written costs
+no more than the others; later files reuse the definitions.
+
+``max_bytes`` is a file size, as ``ros2 bag record -b`` has it: the bytes written to the file so
+far (``McapRecorder.bytes_written``). Messages reach the file in compressed chunks, so a file
+grows a chunk at a time and is split at the first chunk that takes it to the limit (as rosbag2's
+MCAP files are); chunks hold at most ``max_bytes`` of uncompressed messages (and 1 MiB), so a
+small limit still gives files of about that size.
+
 No file of the bag can be lost, whenever the recording stops:
 
 - ``metadata.yaml`` lists every file from the moment it is created: it is rewritten (atomically)
@@ -26,7 +36,7 @@ from typing import Any
 
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_metadata import METADATA_FILE, BagMetadata, TopicMetadata, write_metadata
-from pyconnect.record.mcap_recorder import McapRecorder
+from pyconnect.record.mcap_recorder import DEFAULT_CHUNK_SIZE, McapRecorder
 
 __all__ = ["SplitRecorder"]
 
@@ -42,7 +52,6 @@ class _File:
     first_ns: int | None = None
     last_ns: int = 0
     count: int = 0
-    bytes: int = 0
 
     def entry(self) -> dict[str, Any]:
         first = self.first_ns or 0
@@ -58,14 +67,16 @@ class _File:
 class _Topic:
     msg_type: str
     qos: str
+    definition: str
     count: int = 0
 
 
 class SplitRecorder:
     """Record raw CDR messages into a new bag directory, one MCAP file per split.
 
-    ``max_bytes`` (of message data) and ``max_ns`` (log time since the file's first message)
-    start a new file when reached; 0 never does.
+    ``max_bytes`` (the file's size: bytes written to it, see the module docstring) and
+    ``max_ns`` (log time since the file's first message) start a new file when reached; 0 never
+    does. A file holds at least one message.
     """
 
     def __init__(
@@ -80,6 +91,7 @@ class SplitRecorder:
         self.max_bytes = max_bytes
         self.max_ns = max_ns
         self.compression = compression
+        self.chunk_size = min(max_bytes, DEFAULT_CHUNK_SIZE) if max_bytes else DEFAULT_CHUNK_SIZE
         self._files: list[_File] = []
         self._topics: dict[str, _Topic] = {}
         self._lock = threading.Lock()
@@ -100,18 +112,38 @@ class SplitRecorder:
         """The names of the bag's files so far, in order."""
         return [file.name for file in self._files]
 
-    def add_topic(self, topic: str, msg_type: str, *, offered_qos_profiles: str = "") -> None:
-        """Declare a topic (to the open file and every later one)."""
+    def add_topic(
+        self,
+        topic: str,
+        msg_type: str,
+        *,
+        offered_qos_profiles: str = "",
+        definition: str | None = None,
+    ) -> None:
+        """Declare a topic (to the open file and every later one), opening the first file.
+
+        ``definition`` is the ros2msg text (None: built from the installed interface files,
+        here, so that no later write or split has to).
+        """
+        if topic in self._topics:
+            return
+        if definition is None:
+            from pyconnect.typesys.definition_text import installed_definition
+            from pyconnect.typesys.names import full_type_name
+
+            # Outside the lock: reading interface files must not hold up a write meanwhile.
+            definition = installed_definition(full_type_name(msg_type))
         with self._lock:
             self._check_open()
             if topic in self._topics:
                 return
-            self._topics[topic] = _Topic(msg_type, offered_qos_profiles)
+            known = _Topic(msg_type, offered_qos_profiles, definition)
+            self._topics[topic] = known
             current = self._current()
-            if current is not None and current.recorder is not None:
-                current.recorder.add_topic(
-                    topic, msg_type, offered_qos_profiles=offered_qos_profiles
-                )
+            if current is None or current.recorder is None:
+                self._open_next()  # adds every topic, this one included
+            else:
+                self._add_to(current.recorder, topic, known)
 
     def write(self, topic: str, data: bytes, *, log_time_ns: int) -> None:
         """Append one message, starting the next file first when the open one is full."""
@@ -127,7 +159,6 @@ class SplitRecorder:
             current.recorder.write(topic, data, log_time_ns=log_time_ns)
             known.count += 1
             current.count += 1
-            current.bytes += len(data)
             if current.first_ns is None:
                 current.first_ns = log_time_ns
             current.last_ns = log_time_ns
@@ -148,7 +179,10 @@ class SplitRecorder:
         return self._files[-1] if self._files else None
 
     def _full(self, current: _File, now_ns: int) -> bool:
-        if self.max_bytes and current.bytes >= self.max_bytes:
+        if not current.count:
+            return False  # a new file's header alone may pass a tiny max_bytes
+        assert current.recorder is not None
+        if self.max_bytes and current.recorder.bytes_written >= self.max_bytes:
             return True
         first = current.first_ns
         return bool(self.max_ns and first is not None and now_ns - first >= self.max_ns)
@@ -157,11 +191,19 @@ class SplitRecorder:
         self._finish_current()
         file = _File(f"{self.directory.name}_{len(self._files)}.mcap")
         self._files.append(file)  # reserved before it exists: close() sees it either way
-        file.recorder = McapRecorder(self.directory / file.name, compression=self.compression)
+        file.recorder = McapRecorder(
+            self.directory / file.name, compression=self.compression, chunk_size=self.chunk_size
+        )
         for topic, known in self._topics.items():
-            file.recorder.add_topic(topic, known.msg_type, offered_qos_profiles=known.qos)
+            self._add_to(file.recorder, topic, known)
         self._write_metadata()  # the new file is listed before a message goes into it
         return file
+
+    @staticmethod
+    def _add_to(recorder: McapRecorder, topic: str, known: _Topic) -> None:
+        recorder.add_topic(
+            topic, known.msg_type, definition=known.definition, offered_qos_profiles=known.qos
+        )
 
     def _finish_current(self) -> None:
         current = self._current()

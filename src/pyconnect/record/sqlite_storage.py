@@ -9,7 +9,10 @@ A file cut short (fewer pages than its header declares) cannot be opened by SQLi
 is copied to a temporary file padded with zero pages (sparse, so cheap) and read from there.
 When pages of the ``messages`` table are unreadable, rows are read one batch at a time in id
 order, stepping over the unreadable ranges; every readable row is delivered and the damage is
-noted in ``damage`` (``pyconnect.record.bag_damage``), never raised.
+noted in ``damage`` (``pyconnect.record.bag_damage``), never raised. A flipped byte can also
+leave a page SQLite still reads with wrong values in it: text that is not UTF-8 (read with
+replacement characters), a NULL, text or blob where an integer belongs; such rows are damage
+too (skipped and noted), never a ``UnicodeDecodeError`` or ``TypeError``.
 """
 
 from __future__ import annotations
@@ -34,8 +37,30 @@ _BATCH = 16  # rows per salvage query: a few big messages at most
 _HEADER = 100
 
 
+class _DamagedRow(ValueError):
+    """A row SQLite reads whose values cannot be what rosbag2 wrote (a damaged page)."""
+
+
+def _integer(value: object, what: str) -> int:
+    """``value`` of an INTEGER column; a damaged row can hold NULL, text, a blob or a float."""
+    if isinstance(value, int):
+        return value
+    raise _DamagedRow(f"a row's {what} is {type(value).__name__}, not an integer")
+
+
+# What a damaged file can raise from a query: SQLite's errors; the message of one of them when
+# it quotes damaged bytes (the sqlite3 module decodes it strictly); our own check of a row.
+_ERRORS = (sqlite3.DatabaseError, UnicodeDecodeError, _DamagedRow)
+
+
+def _reason(error: Exception) -> str:
+    if isinstance(error, UnicodeDecodeError):  # SQLite's message, as far as it can be read
+        return bytes(error.object).decode("utf-8", errors="replace")
+    return str(error)
+
+
 def _columns(db: sqlite3.Connection, table: str) -> list[str]:
-    return [row[1] for row in db.execute(f"PRAGMA table_info({table})")]
+    return [str(row[1]) for row in db.execute(f"PRAGMA table_info({table})")]
 
 
 def _declared_size(path: Path) -> tuple[int, int, int]:
@@ -72,20 +97,48 @@ class SqliteFile:
         uri = f"file:{urllib.parse.quote(str(source.resolve()))}?mode=ro&immutable=1"
         try:
             self._db = sqlite3.connect(uri, uri=True, check_same_thread=False)
-            tables = {row[0] for row in self._db.execute("SELECT name FROM sqlite_master")}
         except sqlite3.DatabaseError as error:
             self._remove_copy()
             raise BagError(f"{path}: not a sqlite3 bag ({error})") from None
+        self._db.text_factory = self._text
+        try:
+            tables = self._table_names()
+        except _ERRORS as error:
+            self._db.close()
+            self._remove_copy()
+            raise BagError(f"{path}: not a sqlite3 bag ({_reason(error)})") from None
         if not {"topics", "messages"} <= tables:
             self._db.close()
             self._remove_copy()
             raise BagError(f"{path}: not a rosbag2 sqlite3 file (no topics/messages tables)")
         try:
             self._connections = self._read_connections("message_definitions" in tables)
-        except sqlite3.DatabaseError as error:
+        except _ERRORS as error:
             self._connections = []
             self._found_damage(error)
             self.damage.note(None, "the topics table is unreadable: no message can be read")
+
+    def _table_names(self) -> set[str]:
+        query = "SELECT name FROM sqlite_master WHERE type = 'table'"
+        try:
+            return {str(row[0]) for row in self._db.execute(query)}
+        except _ERRORS as error:
+            # One damaged CREATE statement makes SQLite refuse every query on the file
+            # ("malformed database schema"); with writable_schema it skips that table and reads
+            # the others (the file stays read-only: it is opened so).
+            self._db.execute("PRAGMA writable_schema = ON")
+            tables = {str(row[0]) for row in self._db.execute(query)}
+            self.damage.note(None, f"the schema is damaged ({_reason(error)})", key="schema")
+            return tables
+
+    def _text(self, raw: bytes) -> str:
+        # SQLite hands TEXT over as stored; a flipped byte makes it invalid UTF-8, which the
+        # default text factory raises on (UnicodeDecodeError) from any query that reads it.
+        try:
+            return raw.decode("utf-8")
+        except UnicodeDecodeError:
+            self.damage.note(None, "text that is not UTF-8 (read with U+FFFD)", key="utf-8")
+            return raw.decode("utf-8", errors="replace")
 
     def _read_connections(self, has_definitions: bool) -> list[Connection]:
         columns = _columns(self._db, "topics")
@@ -94,19 +147,15 @@ class SqliteFile:
         rows = self._db.execute(
             f"SELECT id, name, type, serialization_format, {qos}, {type_hash} FROM topics"
         ).fetchall()
-        by_hash: dict[str, tuple[str, str]] = {}
-        by_type: dict[str, tuple[str, str]] = {}
-        if has_definitions:
-            for topic_type, encoding, text, definition_hash in self._db.execute(
-                "SELECT topic_type, encoding, encoded_message_definition, type_description_hash "
-                "FROM message_definitions"
-            ):
-                if encoding in _DEFINITION_ENCODINGS:
-                    by_type[topic_type] = (text, encoding)
-                    if definition_hash:
-                        by_hash[definition_hash] = (text, encoding)
+        by_hash, by_type = self._read_definitions() if has_definitions else ({}, {})
         connections = []
-        for topic_id, name, msg_type, serialization, offered_qos, topic_hash in rows:
+        for topic_id, name, msg_type, serialization, offered_qos, stored_hash in rows:
+            if not (
+                isinstance(topic_id, int) and isinstance(name, str) and isinstance(msg_type, str)
+            ):
+                self._damaged_row("topics")  # its messages cannot be told apart from noise
+                continue
+            topic_hash = stored_hash if isinstance(stored_hash, str) else ""
             found = by_hash.get(topic_hash) if topic_hash else None
             if found is None:
                 found = by_type.get(msg_type)
@@ -122,11 +171,35 @@ class SqliteFile:
                     serialization_format=str(serialization),
                     definition=text,
                     definition_encoding=encoding,
-                    offered_qos_profiles=str(offered_qos or ""),
-                    type_hash=str(topic_hash or ""),
+                    offered_qos_profiles=offered_qos if isinstance(offered_qos, str) else "",
+                    type_hash=topic_hash,
                 )
             )
         return connections
+
+    def _read_definitions(self) -> tuple[dict[str, tuple[str, str]], dict[str, tuple[str, str]]]:
+        """(definition by type hash, by type name); damage leaves the installed types to decode."""
+        by_hash: dict[str, tuple[str, str]] = {}
+        by_type: dict[str, tuple[str, str]] = {}
+        try:
+            for topic_type, encoding, text, definition_hash in self._db.execute(
+                "SELECT topic_type, encoding, encoded_message_definition, type_description_hash "
+                "FROM message_definitions"
+            ):
+                if not (isinstance(topic_type, str) and isinstance(text, str)):
+                    self._damaged_row("message_definitions")
+                elif encoding in _DEFINITION_ENCODINGS:
+                    by_type[topic_type] = (text, encoding)
+                    if isinstance(definition_hash, str) and definition_hash:
+                        by_hash[definition_hash] = (text, encoding)
+        except _ERRORS as error:
+            self.damage.note(
+                None,
+                f"the message_definitions table is unreadable ({_reason(error)}); the installed "
+                "types decode what it would have defined",
+                key="definitions",
+            )
+        return by_hash, by_type
 
     def connections(self) -> Sequence[Connection]:
         return self._connections
@@ -154,12 +227,12 @@ class SqliteFile:
                 for topic_id, count in self._db.execute(
                     "SELECT topic_id, COUNT(*) FROM messages GROUP BY topic_id"
                 ):
-                    counts[int(topic_id)] = int(count)
+                    counts[_integer(topic_id, "topic_id")] = _integer(count, "count")
                 return counts
-            except sqlite3.DatabaseError as error:
+            except _ERRORS as error:
                 self._found_damage(error)
                 counts = dict.fromkeys(counts, 0)
-        for _, topic_id, _, _ in self._salvage("topic_id, timestamp, 0", None, None):
+        for _, topic_id, _, _ in self._salvage("topic_id, timestamp, x''", None, None):
             counts[int(topic_id)] = counts.get(int(topic_id), 0) + 1
         return counts
 
@@ -169,15 +242,22 @@ class SqliteFile:
                 first, last = self._db.execute(
                     "SELECT MIN(timestamp), MAX(timestamp) FROM messages"
                 ).fetchone()
-                return None if first is None else (int(first), int(last))
-            except sqlite3.DatabaseError as error:
+                if first is None and last is None:
+                    return None
+                # MIN/MAX order NULL, then numbers, text and blobs: both ends are damage-free
+                # only when both are integers.
+                return _integer(first, "timestamp"), _integer(last, "timestamp")
+            except _ERRORS as error:
                 self._found_damage(error)
-        times = [int(t) for _, _, t, _ in self._salvage("topic_id, timestamp, 0", None, None)]
+        times = [t for _, _, t, _ in self._salvage("topic_id, timestamp, x''", None, None)]
         return (min(times), max(times)) if times else None
 
-    def _found_damage(self, error: sqlite3.DatabaseError) -> None:
+    def _found_damage(self, error: Exception) -> None:
         self._damaged = True
-        self.damage.note(None, f"the database is damaged ({error})", key="database")
+        self.damage.note(None, f"the database is damaged ({_reason(error)})", key="database")
+
+    def _damaged_row(self, table: str) -> None:
+        self.damage.note(None, f"damaged rows of the {table} table skipped", key=f"row:{table}")
 
     def messages(
         self, connection_ids: set[int], start_ns: int | None, end_ns: int | None
@@ -199,10 +279,19 @@ class SqliteFile:
             try:
                 # One row at a time: a batch of big messages would hold them all at once.
                 for row_id, topic_id, timestamp, data in self._db.execute(query, parameters):
+                    if not (
+                        isinstance(timestamp, int)
+                        and isinstance(topic_id, int)
+                        and isinstance(data, bytes)
+                    ):
+                        # Sorted apart from the integers (NULL first, text and blobs last), so
+                        # skipping it keeps the others in time order.
+                        self.damage.note(None, "rows with missing fields skipped", key="fields")
+                        continue
                     done = (timestamp, row_id)
                     yield topic_id, timestamp, data
                 return
-            except sqlite3.DatabaseError as error:
+            except _ERRORS as error:
                 self._found_damage(error)
         for row_id, topic_id, timestamp, data in self._salvage(
             "topic_id, timestamp, data", connection_ids, (start_ns, end_ns)
@@ -230,13 +319,13 @@ class SqliteFile:
         while True:
             try:
                 rows = self._db.execute(query, (last, batch)).fetchall()
-            except sqlite3.DatabaseError as error:
+            except _ERRORS as error:
                 if batch > 1:
                     batch = 1  # find the first unreadable row
                     continue
                 self.damage.note(
                     None,
-                    f"rows of the messages table after id {last} are unreadable ({error})",
+                    f"rows of the messages table after id {last} are unreadable ({_reason(error)})",
                     key=f"rows{last}",
                 )
                 following = self._next_readable(last)
@@ -252,7 +341,11 @@ class SqliteFile:
                 if not isinstance(row[0], int) or row[0] <= last:
                     self.damage.note(None, "the messages table is out of order", key="order")
                     break
-                if isinstance(row[1], int) and isinstance(row[2], int) and row[3] is not None:
+                if (
+                    isinstance(row[1], int)
+                    and isinstance(row[2], int)
+                    and isinstance(row[3], bytes)
+                ):
                     yield row
                 else:
                     self.damage.note(None, "rows with missing fields skipped", key="fields")
@@ -270,7 +363,7 @@ class SqliteFile:
                     "SELECT id, length(data) FROM messages WHERE id >= ? ORDER BY id LIMIT 1",
                     (candidate,),
                 ).fetchone()
-            except sqlite3.DatabaseError:
+            except _ERRORS:
                 return -1
             return None if row is None else int(row[0])
 

@@ -292,12 +292,13 @@ def topic_table(
     errors: list[DecodeProblem] | None = None,
     images: ImageColumns = "binary",
     image_dir: str | Path | None = None,
+    image_folder: str | None = None,
 ) -> pa.Table:
     """One topic of an open reader (``open_bag(...)``, whose time range applies) as a table.
 
     Messages that cannot be decoded are appended to ``errors`` (when given) and left out.
     ``images="files"`` writes each image to a file under ``image_dir`` (see the module
-    docstring).
+    docstring), in its folder ``image_folder`` (default: the topic as a name).
     """
     if images not in ("binary", "files"):
         raise ValueError(f"images: expected 'binary' or 'files', got {images!r}")
@@ -316,7 +317,7 @@ def topic_table(
     ) as reader:
         definitions, msg_type = topic_types(reader, topic)
         columns = columns_of(msg_type, definitions, images=images)
-        files = None if image_dir is None else ImageFiles(image_dir, topic)
+        files = None if image_dir is None else ImageFiles(image_dir, topic, folder=image_folder)
         table = rows_to_table(
             _rows(reader), columns, topic=topic, msg_type=msg_type, image_files=files
         )

@@ -1,0 +1,82 @@
+"""QueuedRecorder: writes never wait for a split, nothing queued is lost, failures are raised."""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+from typing import Any
+
+import pytest
+from rclpy.serialization import serialize_message
+from std_msgs.msg import String
+
+from pyconnect.record import open_bag
+from pyconnect.record.bag_errors import BagError
+from pyconnect.record.queued_recorder import QueuedRecorder
+from pyconnect.record.split_recorder import SplitRecorder
+
+WAIT = 60.0
+
+
+def _hello(i: int) -> bytes:
+    return bytes(serialize_message(String(data=f"hello {i}")))
+
+
+def test_writes_return_while_a_split_is_stuck_and_all_land_in_order(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    bag = tmp_path / "run"
+    split = SplitRecorder(bag, max_bytes=1)  # a new file after every message
+    split.add_topic("/chatter", "std_msgs/msg/String")
+    in_split = threading.Event()
+    release = threading.Event()
+    open_next = SplitRecorder._open_next
+
+    def slow_open_next(self: SplitRecorder) -> Any:
+        in_split.set()
+        assert release.wait(WAIT)  # a slow disk: the split takes as long as the test wants
+        return open_next(self)
+
+    monkeypatch.setattr(SplitRecorder, "_open_next", slow_open_next)
+    recorder = QueuedRecorder(split)
+    written = threading.Event()
+
+    def subscription_callbacks() -> None:
+        for i in range(200):
+            recorder.write("/chatter", _hello(i), log_time_ns=i)
+        written.set()
+
+    try:
+        threading.Thread(target=subscription_callbacks, daemon=True).start()
+        assert in_split.wait(WAIT)
+        # Every write returned while the writer thread is still inside the first split.
+        assert written.wait(WAIT)
+        assert not release.is_set() and recorder.pending >= 198
+    finally:
+        release.set()
+        recorder.close()
+    assert split.counts == {"/chatter": 200}
+    assert len(split.files) == 200
+    with open_bag(bag) as reader:
+        assert [m.value for m in reader] == [f"hello {i}" for i in range(200)]
+        assert (reader.errors, reader.damage) == ([], [])
+
+
+def test_a_failed_writer_is_reported_with_what_it_did_not_write(tmp_path: Path) -> None:
+    bag = tmp_path / "run"
+    split = SplitRecorder(bag)
+    split.add_topic("/chatter", "std_msgs/msg/String")
+    recorder = QueuedRecorder(split)
+    recorder.write("/chatter", _hello(0), log_time_ns=0)
+    recorder.write("/unknown", _hello(1), log_time_ns=1)  # the writer fails on this one
+    with pytest.raises(BagError) as failed:
+        recorder.close()
+    assert str(failed.value) == (
+        f"{bag}: writing the bag failed (/unknown: not added to this recording; call add_topic "
+        "first); 0 received message(s) not written"
+    )
+    recorder.close()  # reported once; the bag is finished with what was written
+    with open_bag(bag) as reader:
+        assert [m.value for m in reader] == ["hello 0"]
+    with pytest.raises(BagError, match="recording is closed"):
+        recorder.write("/chatter", _hello(2), log_time_ns=2)
