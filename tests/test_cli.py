@@ -211,6 +211,7 @@ def test_damaged_bag_exits_1_unless_told_to_go_on(
         ["info"],
         ["echo"],
         ["export", "--topic", "/chatter", "--to", str(tmp_path / "x")],
+        ["export", "--format", "parquet", "--to", str(tmp_path / "tables")],
     ):
         assert main(["bag", action[0], str(cut), *action[1:]]) == 1, action
         err = capsys.readouterr().err

@@ -165,3 +165,46 @@ def test_offered_qos_from_metadata() -> None:
     profile = offered_qos(mixed)
     assert (profile.reliability.name, profile.durability.name) == ("RELIABLE", "VOLATILE")
     assert offered_qos("").reliability.name == "RELIABLE"
+
+
+def test_play_leaves_out_a_topic_whose_type_is_not_installed(
+    played_bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # tf2_msgs is not in the wheels: a bag with /tf must still play its other topics.
+    bag = tmp_path / "with_tf"
+    with McapRecorder(bag) as recorder:
+        recorder.add_topic("/played", "std_msgs/msg/String")
+        recorder.add_topic("/tf", "nowhere_msgs/msg/Transforms", definition="int32 count\n")
+        for k in range(3):
+            recorder.write("/played", serialize_message(String(data=f"{k}")), log_time_ns=k + 1)
+            recorder.write("/tf", b"\x00\x01\x00\x00\x07\x00\x00\x00", log_time_ns=k + 1)
+    assert main(["bag", "play", str(bag), "--rate", "1000"]) == 0
+    captured = capsys.readouterr()
+    assert captured.err.startswith(
+        "pyconnect: warning: not playing /tf: nowhere_msgs/msg/Transforms: "
+        "no such interface is installed"
+    )
+    assert captured.out.splitlines()[0] == f"Playing {bag} (1 topic(s))"
+    assert captured.out.splitlines()[-1].startswith("Played 3 message(s)")
+
+
+def test_play_of_a_damaged_bag_plays_what_it_can_then_exits_1(
+    played_bag: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    mcap = next(played_bag.glob("*.mcap"))
+    cut = tmp_path / "cut.mcap"
+    data = mcap.read_bytes()
+    cut.write_bytes(data[: len(data) - 100])  # inside the summary: the messages are intact
+    assert main(["bag", "play", str(cut), "--rate", "1000"]) == 1
+    captured = capsys.readouterr()
+    assert captured.out.splitlines()[-1].startswith("Played 20 message(s)")
+    assert captured.err.startswith(f"pyconnect: {cut}: damaged bag: {cut} at byte")
+    assert main(["bag", "play", str(cut), "--rate", "1000", "--ignore-damage"]) == 0
+    assert "damaged bag" in capsys.readouterr().err
+
+
+def test_record_resolves_relative_topic_names_as_rosbag2_does() -> None:
+    from pyconnect.cli import build_parser
+
+    args = build_parser().parse_args(["bag", "record", "chatter", "/image", "-o", "run"])
+    assert args.topics == ["/chatter", "/image"]

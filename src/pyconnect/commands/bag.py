@@ -12,6 +12,7 @@ from collections.abc import Sequence
 from datetime import datetime, timezone
 from typing import TYPE_CHECKING, Any, TextIO
 
+from pyconnect.commands.bag_damage import IGNORE_DAMAGE_HELP, damage_status
 from pyconnect.commands.common import Parser, UsageError
 from pyconnect.commands.value_text import field_of, format_value, to_json, to_yaml
 
@@ -23,7 +24,6 @@ __all__ = ["PROGRAM", "format_value", "print_info", "register", "seconds_to_ns"]
 
 PROGRAM = "pyconnect"
 _PATH_HELP = "bag directory, .mcap or .db3 file"
-_DAMAGE_HELP = "exit 0 on a damaged bag (the damage is still reported on stderr)"
 
 EXAMPLES = """examples:
   pyconnect bag info run1
@@ -51,7 +51,7 @@ def register(commands: Subcommands) -> Subcommands:
         "info", help="files, size, duration, topics and services", epilog=EXAMPLES
     )
     info.add_argument("path", help=_PATH_HELP)
-    info.add_argument("--ignore-damage", action="store_true", help=_DAMAGE_HELP)
+    info.add_argument("--ignore-damage", action="store_true", help=IGNORE_DAMAGE_HELP)
     info.set_defaults(run=_info)
 
     echo = actions.add_parser(
@@ -67,7 +67,7 @@ def register(commands: Subcommands) -> Subcommands:
     echo.add_argument("--start", type=float, default=None, help="from this time (seconds)")
     echo.add_argument("--end", type=float, default=None, help="up to this time (seconds)")
     echo.add_argument("--dict", action="store_true", help="lossless dicts, not natural values")
-    echo.add_argument("--ignore-damage", action="store_true", help=_DAMAGE_HELP)
+    echo.add_argument("--ignore-damage", action="store_true", help=IGNORE_DAMAGE_HELP)
     echo.set_defaults(run=_echo)
 
     export = actions.add_parser("export", help="write topics' messages to files", epilog=EXAMPLES)
@@ -91,7 +91,7 @@ def register(commands: Subcommands) -> Subcommands:
     export.add_argument("--to", required=True, help="output directory (created if needed)")
     export.add_argument("--force", action="store_true", help="overwrite an earlier export")
     export.add_argument("--dict", action="store_true", help="lossless dicts, not natural values")
-    export.add_argument("--ignore-damage", action="store_true", help=_DAMAGE_HELP)
+    export.add_argument("--ignore-damage", action="store_true", help=IGNORE_DAMAGE_HELP)
     export.set_defaults(run=_export)
     return actions
 
@@ -131,17 +131,6 @@ def seconds_to_ns(seconds: float | None, bag_start_ns: int | None) -> int | None
 
 
 # -- commands ---------------------------------------------------------------------------------
-def _damage_status(
-    damage: Sequence[Any], summary: str, args: argparse.Namespace, err: TextIO
-) -> int:
-    if not damage:
-        return 0
-    print(f"{PROGRAM}: {summary}", file=err)
-    for problem in damage[1:]:
-        print(f"{PROGRAM}:   also: {problem}", file=err)
-    return 0 if args.ignore_damage else 1
-
-
 def _print_topics(out: TextIO, title: str, topics: Sequence[Any], unit: str) -> None:
     print(f"{title:<11}{len(topics)}", file=out)
     name_width = max((len(t.name) for t in topics), default=0)
@@ -182,7 +171,7 @@ def _info(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     if not info.damage:
         return 0
     summary = f"{info.path}: damaged bag: {info.damage[0]}"
-    return _damage_status(info.damage, summary, args, err)
+    return damage_status(info.damage, summary, args, err)
 
 
 def _report_problems(errors: Sequence[Any], err: TextIO) -> int:
@@ -238,7 +227,7 @@ def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         damage = bag.damage
         summary = bag.damage_summary(damage) if damage else ""
     status = _report_problems(errors, err)
-    return max(status, _damage_status(damage, summary, args, err))
+    return max(status, damage_status(damage, summary, args, err))
 
 
 def _export(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
@@ -266,4 +255,4 @@ def _export(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         status = max(status, _report_problems(result.errors, err))
         if result.damage and not damage:
             damage, summary = result.damage, result.damage_summary
-    return max(status, _damage_status(damage, summary, args, err))
+    return max(status, damage_status(damage, summary, args, err))

@@ -6,7 +6,9 @@ QoS its publishers had when recorded (``offered_qos_profiles`` in the bag: relia
 were all best effort; transient local when they all were), else the default profile.
 ``--clock`` also publishes the bag's time on ``/clock`` (before each message and every 25 ms) for
 nodes with ``use_sim_time``. At the end it prints how late messages were published against their
-schedule (mean and max), the timing error. Ctrl-C stops playing (exit 0).
+schedule (mean and max), the timing error. Ctrl-C stops playing (exit 0). A topic whose type is
+not installed is left out with a warning, as ``ros2 bag play`` does; a damaged bag plays all
+that can be read, then its damage is reported and the exit status is 1 (``--ignore-damage``: 0).
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -17,6 +19,9 @@ from __future__ import annotations
 import argparse
 import time
 from typing import TYPE_CHECKING, Any, TextIO
+
+from pyconnect.commands.bag_damage import IGNORE_DAMAGE_HELP, damage_status
+from pyconnect.errors import PyconnectError
 
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
@@ -51,6 +56,7 @@ def register(actions: Subcommands) -> None:
     play.add_argument(
         "-d", "--delay", type=float, default=0.0, metavar="S", help="wait S seconds before playing"
     )
+    play.add_argument("--ignore-damage", action="store_true", help=IGNORE_DAMAGE_HELP)
     play.set_defaults(run=_play)
 
 
@@ -92,9 +98,11 @@ def _play(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         return report_failure(CommandFailed(f"--rate: expected > 0, got {args.rate}"), err)
     try:
         with graph_session("play") as session:
-            late = _play_all(args, session, out)
+            late, damage, summary = _play_all(args, session, out, err)
     except KeyboardInterrupt:  # Ctrl-C ends playing: a success
         return 0
+    except CommandFailed as failure:
+        return report_failure(failure, err)
     if late:
         mean = sum(late) / len(late)
         print(
@@ -102,12 +110,16 @@ def _play(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
             f"max {max(late) * 1e3:.3f} ms",
             file=out,
         )
-    return 0
+    return damage_status(damage, summary, args, err)
 
 
-def _play_all(args: argparse.Namespace, session: Any, out: TextIO) -> list[float]:
+def _play_all(
+    args: argparse.Namespace, session: Any, out: TextIO, err: TextIO
+) -> tuple[list[float], list[Any], str]:
+    """Play the bag; the timing errors, and the damage the bag showed with its summary."""
     from rosgraph_msgs.msg import Clock  # type: ignore[import-untyped]
 
+    from pyconnect.commands.graph import CommandFailed
     from pyconnect.record.bag_metadata import read_metadata
     from pyconnect.record.bag_reader import bag_info, open_bag
     from pyconnect.ros.interfaces import interface_class
@@ -118,16 +130,25 @@ def _play_all(args: argparse.Namespace, session: Any, out: TextIO) -> list[float
     if metadata_file is not None and metadata_file.is_file():
         declared = {t.name: t.offered_qos_profiles for t in read_metadata(metadata_file).topics}
     topics = [t for t in info.topics if args.topics is None or t.name in args.topics]
-    publishers = {
-        topic.name: session.node.create_publisher(
-            interface_class(topic.msg_type, kind="msg"),
-            topic.name,
-            offered_qos(declared.get(topic.name, "")),
+    publishers: dict[str, Any] = {}
+    for topic in topics:
+        try:
+            msg_class = interface_class(topic.msg_type, kind="msg")
+        except PyconnectError as error:
+            # As ros2 bag play: the other topics still play (tf2_msgs is not in the wheels).
+            print(
+                f"pyconnect: warning: not playing {topic.name}: {error} "
+                "(codecgen build --compile builds a type from its definition)",
+                file=err,
+            )
+            continue
+        publishers[topic.name] = session.node.create_publisher(
+            msg_class, topic.name, offered_qos(declared.get(topic.name, ""))
         )
-        for topic in topics
-    }
     clock = session.node.create_publisher(Clock, "/clock", 10) if args.clock else None
     start_ns = (info.start_ns or 0) + round(args.start_offset * 1e9)
+    if topics and not publishers:
+        raise CommandFailed(f"{info.path}: no topic to play: no type of the bag is installed")
     late: list[float] = []
     session.spin_for(args.delay)  # time for subscribers to discover the new publishers
     print(f"Playing {info.path} ({len(publishers)} topic(s))", file=out, flush=True)
@@ -150,8 +171,10 @@ def _play_all(args: argparse.Namespace, session: Any, out: TextIO) -> list[float
                     clock.publish(_clock(message.log_time_ns))
                 publishers[message.topic].publish(bytes(message.value))
                 late.append(time.monotonic() - due)
-        if not args.loop:
-            return late
+            damage = bag.damage
+            summary = bag.damage_summary(damage) if damage else ""
+        if not args.loop or damage:  # a damaged bag plays once: its damage is reported then
+            return late, damage, summary
 
 
 def _clock(ns: int) -> Any:

@@ -71,7 +71,10 @@ def register(actions: Subcommands) -> None:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    record.add_argument("topics", nargs="*", help="topics to record")
+    from pyconnect.commands.graph import expand_name
+
+    # ``chatter`` is ``/chatter``, as rosbag2's recorder expands it.
+    record.add_argument("topics", nargs="*", type=expand_name, help="topics to record")
     record.add_argument("-a", "--all", action="store_true", help="record every topic")
     record.add_argument("-o", "--output", required=True, help="the new bag directory")
     record.add_argument("-s", "--storage", default="mcap", choices=["mcap"], help="mcap")

@@ -4,13 +4,16 @@ All topics unless ``--topic`` names some; the columns are those of ``open_bag(..
 (``pyconnect.record.tables``); ``--images files`` writes each image to a lossless PNG file (or
 ``.npy``) beside the Parquet files, with its relative path in a ``data_path`` column in place of
 the binary ``data``. Needs the ``tables`` extra. Exit status 1 when some messages could
-not be decoded (they are left out and summarised on stderr).
+not be decoded (they are left out and summarised on stderr) or the bag is damaged (unless
+``--ignore-damage``), after writing all that could be read.
 """
 
 from __future__ import annotations
 
 import argparse
 from typing import TextIO
+
+from pyconnect.commands.bag_damage import damage_status
 
 __all__ = ["export_parquet_command"]
 
@@ -24,10 +27,11 @@ def export_parquet_command(args: argparse.Namespace, out: TextIO, err: TextIO) -
     )
     for topic, (path, rows) in result.files.items():
         print(f"{topic}: {rows} row(s) to {path}", file=out)
+    status = 0
     if result.errors:
         print(
             f"pyconnect: {len(result.errors)} message(s) not decoded; first: {result.errors[0]}",
             file=err,
         )
-        return 1
-    return 0
+        status = 1
+    return max(status, damage_status(result.damage, result.damage_summary, args, err))

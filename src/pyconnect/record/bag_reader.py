@@ -335,8 +335,11 @@ class BagReader:
         if damage:
             _log.warning("%s", self.damage_summary(damage))
 
-    def damage_summary(self, damage: Sequence[BagDamage] | None = None) -> str:
-        """One line: what is damaged, where, and how many messages were read of those promised."""
+    def damage_summary(
+        self, damage: Sequence[BagDamage] | None = None, *, read: int | None = None
+    ) -> str:
+        """One line: what is damaged, where, and how many messages were read of those promised
+        (``read``: when they were read by other readers of the same bag, as tables are)."""
         found = self.damage if damage is None else list(damage)
         more = f" (and {len(found) - 1} more problem(s))" if len(found) > 1 else ""
         promised = self._promised()
@@ -345,7 +348,8 @@ class BagReader:
         else:
             told = f"the bag's metadata promised {promised}"
         return (
-            f"{self.path}: damaged bag: {found[0]}{more}; {self._delivered} message(s) read, {told}"
+            f"{self.path}: damaged bag: {found[0]}{more}; "
+            f"{self._delivered if read is None else read} message(s) read, {told}"
         )
 
     def _promised(self) -> int | None:

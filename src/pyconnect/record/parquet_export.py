@@ -16,6 +16,7 @@ from pathlib import Path
 
 import pyarrow.parquet as pq
 
+from pyconnect.record.bag_damage import BagDamage
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_reader import DecodeProblem, open_bag
 from pyconnect.record.log_dirs import distinct_path_components
@@ -26,11 +27,14 @@ __all__ = ["ParquetExport", "export_parquet"]
 
 @dataclass
 class ParquetExport:
-    """What ``export_parquet`` wrote: topic -> (file, rows), and the messages it left out."""
+    """What ``export_parquet`` wrote: topic -> (file, rows), the messages it left out, and the
+    damage the bag showed (what a cut or corrupt file kept from being read)."""
 
     directory: Path
     files: dict[str, tuple[Path, int]] = field(default_factory=dict)
     errors: list[DecodeProblem] = field(default_factory=list)
+    damage: list[BagDamage] = field(default_factory=list)
+    damage_summary: str = ""
 
 
 def export_parquet(
@@ -73,4 +77,8 @@ def export_parquet(
             path = target / f"{names[topic]}.parquet"
             pq.write_table(table, path, compression=compression)
             result.files[topic] = (path, table.num_rows)
+        result.damage = list(reader.damage)
+        if result.damage:
+            read = sum(rows for _path, rows in result.files.values()) + len(result.errors)
+            result.damage_summary = reader.damage_summary(result.damage, read=read)
     return result
