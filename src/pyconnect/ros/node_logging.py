@@ -20,7 +20,7 @@ from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 
 from pyconnect.errors import PyconnectError
-from pyconnect.record.log_dirs import safe_path_component
+from pyconnect.record.log_dirs import distinct_path_components, safe_path_component
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.recording import Recording
 from pyconnect.ros.subscriber_agent import SubscriberAgent
@@ -68,13 +68,8 @@ class NodeLogging:
                     node_dir, self._log_session.strftime("%Y%m%d-%H%M%S")
                 )
             session = self._log_session_dir
-            taken = {path.name for path in self._log_dirs.values()}
-            component = safe_path_component(agent_name)
-            unique, suffix = component, 1
-            while unique in taken:
-                suffix += 1
-                unique = f"{component}_{suffix}"
-            directory = session / unique
+            taken = [path.name for path in self._log_dirs.values()]
+            directory = session / distinct_path_components([agent_name], taken)[agent_name]
             directory.mkdir(parents=True, exist_ok=True)
             self._log_dirs[agent_name] = directory
             return directory
