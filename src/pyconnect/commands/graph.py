@@ -41,6 +41,7 @@ __all__ = [
     "PROGRAM",
     "CommandFailed",
     "GraphSession",
+    "add_qos",
     "add_spin_time",
     "choose_qos",
     "endpoints_named",
@@ -85,6 +86,16 @@ def expand_name(name: str) -> str:
         # Its message points at the fault on two more lines; one line names the name instead.
         raise UsageError(f"{str(error).splitlines()[0]} {full!r}") from None
     return full
+
+
+def add_qos(parser: Any) -> None:
+    """``--qos-profile NAME``: a preset instead of the QoS ``choose_qos`` matches to publishers."""
+    parser.add_argument(
+        "--qos-profile",
+        metavar="NAME",
+        help="a preset profile: sensor_data, system_default, services_default, parameters, "
+        "action_status_default, best_available (default: one that matches the publishers)",
+    )
 
 
 def add_spin_time(parser: Any, default: float = 2.0) -> None:

@@ -37,18 +37,9 @@ EXAMPLES = """examples:
 """
 
 
-def add_qos(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--qos-profile",
-        metavar="NAME",
-        help="a preset profile: sensor_data, system_default, services_default, parameters, "
-        "action_status_default, best_available (default: one that matches the publishers)",
-    )
-
-
 def register(commands: Subcommands) -> Subcommands:
     """Add ``topic`` and its verbs to the ``pyconnect`` subparsers."""
-    from pyconnect.commands.graph import add_spin_time, expand_name
+    from pyconnect.commands.graph import add_qos, add_spin_time, expand_name
 
     topic = commands.add_parser(
         "topic",

@@ -22,8 +22,7 @@ __all__ = ["register"]
 
 def register(verbs: Subcommands, *, epilog: str) -> None:
     """Add ``pub`` to the ``topic`` verbs."""
-    from pyconnect.commands.graph import expand_name
-    from pyconnect.commands.topic import add_qos
+    from pyconnect.commands.graph import add_qos, expand_name
 
     pub = verbs.add_parser(
         "pub",
