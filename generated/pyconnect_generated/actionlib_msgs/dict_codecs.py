@@ -39,6 +39,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_str_list,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -60,7 +61,6 @@ from actionlib_msgs.msg import GoalStatusArray
 
 
 EMPTY: Mapping[str, Any] = {}
-STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -97,7 +97,7 @@ def goal_id_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".stamp") from None
         value = data.get("id", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".id")
         msg._id = value
     except FieldError as error:
@@ -145,7 +145,7 @@ def goal_status_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 255, "uint8", ".status")
         msg._status = value
         value = data.get("text", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".text")
         msg._text = value
     except FieldError as error:

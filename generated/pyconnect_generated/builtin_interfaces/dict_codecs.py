@@ -37,6 +37,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_str_list,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -52,7 +53,6 @@ from builtin_interfaces.msg import Time
 
 
 EMPTY: Mapping[str, Any] = {}
-STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"

@@ -51,6 +51,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_str_list,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -86,7 +87,6 @@ SelfTest_Response = _diagnostic_msgs__srv__SelfTest.Response
 SelfTest_Event = _diagnostic_msgs__srv__SelfTest.Event
 
 EMPTY: Mapping[str, Any] = {}
-STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -189,15 +189,15 @@ def diagnostic_status_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_octet(value, ".level")
         msg._level = BYTE_VALUES[value]
         value = data.get("name", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".name")
         msg._name = value
         value = data.get("message", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".message")
         msg._message = value
         value = data.get("hardware_id", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".hardware_id")
         msg._hardware_id = value
         value = data.get("values", MISSING)
@@ -236,11 +236,11 @@ def key_value_from_dict(data: Mapping[str, Any]) -> Any:
         msg = KeyValue.__new__(KeyValue)
         msg._check_fields = CHECK_FIELDS
         value = data.get("key", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".key")
         msg._key = value
         value = data.get("value", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".value")
         msg._value = value
     except FieldError as error:
@@ -272,7 +272,7 @@ def add_diagnostics_request_from_dict(data: Mapping[str, Any]) -> Any:
         msg = AddDiagnostics_Request.__new__(AddDiagnostics_Request)
         msg._check_fields = CHECK_FIELDS
         value = data.get("load_namespace", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".load_namespace")
         msg._load_namespace = value
     except FieldError as error:
@@ -309,7 +309,7 @@ def add_diagnostics_response_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_bool(value, ".success")
         msg._success = value
         value = data.get("message", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".message")
         msg._message = value
     except FieldError as error:
@@ -449,7 +449,7 @@ def self_test_response_from_dict(data: Mapping[str, Any]) -> Any:
         msg = SelfTest_Response.__new__(SelfTest_Response)
         msg._check_fields = CHECK_FIELDS
         value = data.get("id", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".id")
         msg._id = value
         value = data.get("passed", 0)

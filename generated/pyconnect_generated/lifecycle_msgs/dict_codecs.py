@@ -65,6 +65,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_str_list,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -117,7 +118,6 @@ GetState_Response = _lifecycle_msgs__srv__GetState.Response
 GetState_Event = _lifecycle_msgs__srv__GetState.Event
 
 EMPTY: Mapping[str, Any] = {}
-STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -151,7 +151,7 @@ def state_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 255, "uint8", ".id")
         msg._id = value
         value = data.get("label", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".label")
         msg._label = value
     except FieldError as error:
@@ -188,7 +188,7 @@ def transition_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 255, "uint8", ".id")
         msg._id = value
         value = data.get("label", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".label")
         msg._label = value
     except FieldError as error:

@@ -69,6 +69,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_str_list,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -145,7 +146,6 @@ SetMap_Response = _nav_msgs__srv__SetMap.Response
 SetMap_Event = _nav_msgs__srv__SetMap.Event
 
 EMPTY: Mapping[str, Any] = {}
-STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -491,7 +491,7 @@ def odometry_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".header") from None
         value = data.get("child_frame_id", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".child_frame_id")
         msg._child_frame_id = value
         try:
@@ -1069,7 +1069,7 @@ def load_map_request_from_dict(data: Mapping[str, Any]) -> Any:
         msg = LoadMap_Request.__new__(LoadMap_Request)
         msg._check_fields = CHECK_FIELDS
         value = data.get("map_url", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".map_url")
         msg._map_url = value
     except FieldError as error:

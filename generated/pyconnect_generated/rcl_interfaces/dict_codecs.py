@@ -107,6 +107,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_str_list,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -208,7 +209,6 @@ SetParametersAtomically_Response = _rcl_interfaces__srv__SetParametersAtomically
 SetParametersAtomically_Event = _rcl_interfaces__srv__SetParametersAtomically.Event
 
 EMPTY: Mapping[str, Any] = {}
-STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -330,7 +330,7 @@ def list_parameters_result_from_dict(data: Mapping[str, Any]) -> Any:
             msg._names = []
         elif type(value) is list:
             try:
-                msg._names = (STR_JOIN(value), value.copy())[1]
+                msg._names = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._names = str_list(value, None, None, False, ".names")
         else:
@@ -340,7 +340,7 @@ def list_parameters_result_from_dict(data: Mapping[str, Any]) -> Any:
             msg._prefixes = []
         elif type(value) is list:
             try:
-                msg._prefixes = (STR_JOIN(value), value.copy())[1]
+                msg._prefixes = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._prefixes = str_list(value, None, None, False, ".prefixes")
         else:
@@ -391,19 +391,19 @@ def log_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 255, "uint8", ".level")
         msg._level = value
         value = data.get("name", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".name")
         msg._name = value
         value = data.get("msg", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".msg")
         msg._msg = value
         value = data.get("file", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".file")
         msg._file = value
         value = data.get("function", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".function")
         msg._function = value
         value = data.get("line", 0)
@@ -440,7 +440,7 @@ def logger_level_from_dict(data: Mapping[str, Any]) -> Any:
         msg = LoggerLevel.__new__(LoggerLevel)
         msg._check_fields = CHECK_FIELDS
         value = data.get("name", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".name")
         msg._name = value
         value = data.get("level", 0)
@@ -488,7 +488,7 @@ def parameter_from_dict(data: Mapping[str, Any]) -> Any:
         msg = Parameter.__new__(Parameter)
         msg._check_fields = CHECK_FIELDS
         value = data.get("name", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".name")
         msg._name = value
         try:
@@ -556,7 +556,7 @@ def parameter_descriptor_from_dict(data: Mapping[str, Any]) -> Any:
         msg = ParameterDescriptor.__new__(ParameterDescriptor)
         msg._check_fields = CHECK_FIELDS
         value = data.get("name", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".name")
         msg._name = value
         value = data.get("type", 0)
@@ -564,11 +564,11 @@ def parameter_descriptor_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 255, "uint8", ".type")
         msg._type = value
         value = data.get("description", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".description")
         msg._description = value
         value = data.get("additional_constraints", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".additional_constraints")
         msg._additional_constraints = value
         value = data.get("read_only", False)
@@ -686,7 +686,7 @@ def parameter_event_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".stamp") from None
         value = data.get("node", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".node")
         msg._node = value
         value = data.get("new_parameters", MISSING)
@@ -934,7 +934,7 @@ def parameter_value_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_float(value, ".double_value")
         msg._double_value = value
         value = data.get("string_value", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".string_value")
         msg._string_value = value
         value = data.get("byte_array_value", MISSING)
@@ -978,7 +978,7 @@ def parameter_value_from_dict(data: Mapping[str, Any]) -> Any:
             msg._string_array_value = []
         elif type(value) is list:
             try:
-                msg._string_array_value = (STR_JOIN(value), value.copy())[1]
+                msg._string_array_value = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._string_array_value = str_list(value, None, None, False, ".string_array_value")
         else:
@@ -1017,7 +1017,7 @@ def set_logger_levels_result_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_bool(value, ".successful")
         msg._successful = value
         value = data.get("reason", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".reason")
         msg._reason = value
     except FieldError as error:
@@ -1054,7 +1054,7 @@ def set_parameters_result_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_bool(value, ".successful")
         msg._successful = value
         value = data.get("reason", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".reason")
         msg._reason = value
     except FieldError as error:
@@ -1090,7 +1090,7 @@ def describe_parameters_request_from_dict(data: Mapping[str, Any]) -> Any:
             msg._names = []
         elif type(value) is list:
             try:
-                msg._names = (STR_JOIN(value), value.copy())[1]
+                msg._names = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._names = str_list(value, None, None, False, ".names")
         else:
@@ -1278,7 +1278,7 @@ def get_logger_levels_request_from_dict(data: Mapping[str, Any]) -> Any:
             msg._names = []
         elif type(value) is list:
             try:
-                msg._names = (STR_JOIN(value), value.copy())[1]
+                msg._names = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._names = str_list(value, None, None, False, ".names")
         else:
@@ -1426,7 +1426,7 @@ def get_parameter_types_request_from_dict(data: Mapping[str, Any]) -> Any:
             msg._names = []
         elif type(value) is list:
             try:
-                msg._names = (STR_JOIN(value), value.copy())[1]
+                msg._names = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._names = str_list(value, None, None, False, ".names")
         else:
@@ -1558,7 +1558,7 @@ def get_parameters_request_from_dict(data: Mapping[str, Any]) -> Any:
             msg._names = []
         elif type(value) is list:
             try:
-                msg._names = (STR_JOIN(value), value.copy())[1]
+                msg._names = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._names = str_list(value, None, None, False, ".names")
         else:
@@ -1723,7 +1723,7 @@ def list_parameters_request_from_dict(data: Mapping[str, Any]) -> Any:
             msg._prefixes = []
         elif type(value) is list:
             try:
-                msg._prefixes = (STR_JOIN(value), value.copy())[1]
+                msg._prefixes = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._prefixes = str_list(value, None, None, False, ".prefixes")
         else:

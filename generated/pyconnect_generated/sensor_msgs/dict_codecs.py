@@ -93,6 +93,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_str_list,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -190,7 +191,6 @@ SetCameraInfo_Response = _sensor_msgs__srv__SetCameraInfo.Response
 SetCameraInfo_Event = _sensor_msgs__srv__SetCameraInfo.Event
 
 EMPTY: Mapping[str, Any] = {}
-STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -319,11 +319,11 @@ def battery_state_from_dict(data: Mapping[str, Any]) -> Any:
             else numeric_sequence(value, "f", "float32", None, ".cell_temperature")
         )
         value = data.get("location", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".location")
         msg._location = value
         value = data.get("serial_number", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".serial_number")
         msg._serial_number = value
     except FieldError as error:
@@ -403,7 +403,7 @@ def camera_info_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 4294967295, "uint32", ".width")
         msg._width = value
         value = data.get("distortion_model", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".distortion_model")
         msg._distortion_model = value
         value = data.get("d", MISSING)
@@ -488,7 +488,7 @@ def channel_float32_from_dict(data: Mapping[str, Any]) -> Any:
         msg = ChannelFloat32.__new__(ChannelFloat32)
         msg._check_fields = CHECK_FIELDS
         value = data.get("name", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".name")
         msg._name = value
         value = data.get("values", MISSING)
@@ -538,7 +538,7 @@ def compressed_image_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".header") from None
         value = data.get("format", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".format")
         msg._format = value
         value = data.get("data", MISSING)
@@ -692,7 +692,7 @@ def image_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 4294967295, "uint32", ".width")
         msg._width = value
         value = data.get("encoding", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".encoding")
         msg._encoding = value
         value = data.get("is_bigendian", 0)
@@ -877,7 +877,7 @@ def joint_state_from_dict(data: Mapping[str, Any]) -> Any:
             msg._name = []
         elif type(value) is list:
             try:
-                msg._name = (STR_JOIN(value), value.copy())[1]
+                msg._name = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._name = str_list(value, None, None, False, ".name")
         else:
@@ -1339,7 +1339,7 @@ def multi_dof_joint_state_from_dict(data: Mapping[str, Any]) -> Any:
             msg._joint_names = []
         elif type(value) is list:
             try:
-                msg._joint_names = (STR_JOIN(value), value.copy())[1]
+                msg._joint_names = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._joint_names = str_list(value, None, None, False, ".joint_names")
         else:
@@ -1795,7 +1795,7 @@ def point_field_from_dict(data: Mapping[str, Any]) -> Any:
         msg = PointField.__new__(PointField)
         msg._check_fields = CHECK_FIELDS
         value = data.get("name", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".name")
         msg._name = value
         value = data.get("offset", 0)
@@ -2076,7 +2076,7 @@ def time_reference_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".time_ref") from None
         value = data.get("source", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".source")
         msg._source = value
     except FieldError as error:
@@ -2169,7 +2169,7 @@ def set_camera_info_response_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_bool(value, ".success")
         msg._success = value
         value = data.get("status_message", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".status_message")
         msg._status_message = value
     except FieldError as error:

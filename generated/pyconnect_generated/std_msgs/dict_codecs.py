@@ -93,6 +93,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_str_list,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -167,7 +168,6 @@ from std_msgs.msg import UInt8MultiArray
 
 
 EMPTY: Mapping[str, Any] = {}
-STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -584,7 +584,7 @@ def header_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".stamp") from None
         value = data.get("frame_id", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".frame_id")
         msg._frame_id = value
     except FieldError as error:
@@ -958,7 +958,7 @@ def multi_array_dimension_from_dict(data: Mapping[str, Any]) -> Any:
         msg = MultiArrayDimension.__new__(MultiArrayDimension)
         msg._check_fields = CHECK_FIELDS
         value = data.get("label", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".label")
         msg._label = value
         value = data.get("size", 0)
@@ -1044,7 +1044,7 @@ def string_from_dict(data: Mapping[str, Any]) -> Any:
         msg = String.__new__(String)
         msg._check_fields = CHECK_FIELDS
         value = data.get("data", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".data")
         msg._data = value
     except FieldError as error:

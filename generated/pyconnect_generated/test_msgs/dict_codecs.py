@@ -117,6 +117,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_str_list,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -229,7 +230,6 @@ NestedMessage_GetResult_Event = _test_msgs__action__NestedMessage.Impl.GetResult
 NestedMessage_FeedbackMessage = _test_msgs__action__NestedMessage.Impl.FeedbackMessage
 
 EMPTY: Mapping[str, Any] = {}
-STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -2613,51 +2613,51 @@ def strings_from_dict(data: Mapping[str, Any]) -> Any:
         msg = Strings.__new__(Strings)
         msg._check_fields = CHECK_FIELDS
         value = data.get("string_value", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".string_value")
         msg._string_value = value
         value = data.get("string_value_default1", "Hello world!")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".string_value_default1")
         msg._string_value_default1 = value
         value = data.get("string_value_default2", "Hello'world!")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".string_value_default2")
         msg._string_value_default2 = value
         value = data.get("string_value_default3", 'Hello"world!')
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".string_value_default3")
         msg._string_value_default3 = value
         value = data.get("string_value_default4", "Hello'world!")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".string_value_default4")
         msg._string_value_default4 = value
         value = data.get("string_value_default5", 'Hello"world!')
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".string_value_default5")
         msg._string_value_default5 = value
         value = data.get("bounded_string_value", "")
-        if type(value) is not str or len(value) > 22:
+        if type(value) is not str or len(value) > 22 or "\x00" in value:
             value = check_str(value, 22, ".bounded_string_value")
         msg._bounded_string_value = value
         value = data.get("bounded_string_value_default1", "Hello world!")
-        if type(value) is not str or len(value) > 22:
+        if type(value) is not str or len(value) > 22 or "\x00" in value:
             value = check_str(value, 22, ".bounded_string_value_default1")
         msg._bounded_string_value_default1 = value
         value = data.get("bounded_string_value_default2", "Hello'world!")
-        if type(value) is not str or len(value) > 22:
+        if type(value) is not str or len(value) > 22 or "\x00" in value:
             value = check_str(value, 22, ".bounded_string_value_default2")
         msg._bounded_string_value_default2 = value
         value = data.get("bounded_string_value_default3", 'Hello"world!')
-        if type(value) is not str or len(value) > 22:
+        if type(value) is not str or len(value) > 22 or "\x00" in value:
             value = check_str(value, 22, ".bounded_string_value_default3")
         msg._bounded_string_value_default3 = value
         value = data.get("bounded_string_value_default4", "Hello'world!")
-        if type(value) is not str or len(value) > 22:
+        if type(value) is not str or len(value) > 22 or "\x00" in value:
             value = check_str(value, 22, ".bounded_string_value_default4")
         msg._bounded_string_value_default4 = value
         value = data.get("bounded_string_value_default5", 'Hello"world!')
-        if type(value) is not str or len(value) > 22:
+        if type(value) is not str or len(value) > 22 or "\x00" in value:
             value = check_str(value, 22, ".bounded_string_value_default5")
         msg._bounded_string_value_default5 = value
     except FieldError as error:
@@ -2895,7 +2895,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
             msg._string_values = []
         elif type(value) is list:
             try:
-                msg._string_values = (STR_JOIN(value), value.copy())[1]
+                msg._string_values = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._string_values = str_list(value, None, None, False, ".string_values")
         else:
@@ -3065,7 +3065,7 @@ def unbounded_sequences_from_dict(data: Mapping[str, Any]) -> Any:
             msg._string_values_default = ["", "max value", "min value"]
         elif type(value) is list:
             try:
-                msg._string_values_default = (STR_JOIN(value), value.copy())[1]
+                msg._string_values_default = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._string_values_default = str_list(
                     value, None, None, False, ".string_values_default"
@@ -3123,19 +3123,19 @@ def w_strings_from_dict(data: Mapping[str, Any]) -> Any:
         msg = WStrings.__new__(WStrings)
         msg._check_fields = CHECK_FIELDS
         value = data.get("wstring_value", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".wstring_value")
         msg._wstring_value = value
         value = data.get("wstring_value_default1", "Hello world!")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".wstring_value_default1")
         msg._wstring_value_default1 = value
         value = data.get("wstring_value_default2", "Hellö wörld!")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".wstring_value_default2")
         msg._wstring_value_default2 = value
         value = data.get("wstring_value_default3", "ハローワールド")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".wstring_value_default3")
         msg._wstring_value_default3 = value
         value = data.get("array_of_wstrings", MISSING)
@@ -3153,7 +3153,7 @@ def w_strings_from_dict(data: Mapping[str, Any]) -> Any:
             msg._unbounded_sequence_of_wstrings = []
         elif type(value) is list:
             try:
-                msg._unbounded_sequence_of_wstrings = (STR_JOIN(value), value.copy())[1]
+                msg._unbounded_sequence_of_wstrings = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._unbounded_sequence_of_wstrings = str_list(
                     value, None, None, False, ".unbounded_sequence_of_wstrings"
@@ -4295,7 +4295,7 @@ def basic_types_request_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 18446744073709551615, "uint64", ".uint64_value")
         msg._uint64_value = value
         value = data.get("string_value", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".string_value")
         msg._string_value = value
     except FieldError as error:
@@ -4411,7 +4411,7 @@ def basic_types_response_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 18446744073709551615, "uint64", ".uint64_value")
         msg._uint64_value = value
         value = data.get("string_value", "")
-        if type(value) is not str:
+        if type(value) is not str or "\x00" in value:
             value = check_str(value, None, ".string_value")
         msg._string_value = value
     except FieldError as error:

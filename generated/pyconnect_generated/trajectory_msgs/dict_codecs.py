@@ -41,6 +41,7 @@ from pyconnect.codecs.field_checks import (
     numeric_array,
     numeric_sequence,
     octet_list,
+    plain_str_list,
     str_list,
     uint8_array,
     uint8_sequence,
@@ -70,7 +71,6 @@ from trajectory_msgs.msg import MultiDOFJointTrajectoryPoint
 
 
 EMPTY: Mapping[str, Any] = {}
-STR_JOIN = "".join
 MISSING: Any = object()
 # rosidl's own setters check values only when this is set; mirror it on the messages we build.
 CHECK_FIELDS = os.environ.get("ROS_PYTHON_CHECK_FIELDS", "") == "1"
@@ -127,7 +127,7 @@ def joint_trajectory_from_dict(data: Mapping[str, Any]) -> Any:
             msg._joint_names = []
         elif type(value) is list:
             try:
-                msg._joint_names = (STR_JOIN(value), value.copy())[1]
+                msg._joint_names = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._joint_names = str_list(value, None, None, False, ".joint_names")
         else:
@@ -320,7 +320,7 @@ def multi_dof_joint_trajectory_from_dict(data: Mapping[str, Any]) -> Any:
             msg._joint_names = []
         elif type(value) is list:
             try:
-                msg._joint_names = (STR_JOIN(value), value.copy())[1]
+                msg._joint_names = plain_str_list(value)
             except (TypeError, OverflowError, ValueError):
                 msg._joint_names = str_list(value, None, None, False, ".joint_names")
         else:

@@ -80,7 +80,11 @@ def encode_failure(error: BaseException, label: str, data: Any) -> FieldError:
 
 def utf8z(value: Any, bound: int | None) -> bytes:
     """A string's UTF-8 bytes and the NUL terminator CDR writes after them."""
-    if value.__class__ is not str or (bound is not None and len(value) > bound):
+    if (
+        value.__class__ is not str
+        or (bound is not None and len(value) > bound)
+        or "\0" in value  # C readers would end the string there (check_str says so)
+    ):
         value = check_str(value, bound, "")
     try:
         return value.encode() + b"\0"  # type: ignore[no-any-return]

@@ -103,7 +103,7 @@ def _string(general_encode: Encode, general_decode: Decode) -> tuple[Encode, Dec
     tails = (b"\0", b"\0\0\0\0", b"\0\0\0", b"\0\0")
 
     def encode(value: Any) -> bytes:
-        if value.__class__ is str:
+        if value.__class__ is str and "\0" not in value:  # the general path refuses a NUL
             try:
                 data = value.encode()
             except UnicodeEncodeError:

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import math
 import numbers
+import reprlib
 from array import array
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, NoReturn
@@ -118,12 +119,29 @@ def check_octet(value: object, segment: str) -> int:
 
 
 def check_str(value: object, bound: int | None, segment: str) -> str:
-    """``value`` if it is a ``str`` of at most ``bound`` characters (``None``: unbounded)."""
+    """``value`` if it is a ``str`` of at most ``bound`` characters (``None``: unbounded) and
+    without NUL characters."""
     if not isinstance(value, str):
         fail(segment, "str", value)
     if bound is not None and len(value) > bound:
         raise FieldError(segment, f"expected at most {bound} characters, got {len(value)}")
+    if "\0" in value:
+        # rclpy's C conversion ends a string at its first NUL, and so does every C or C++
+        # reader of the CDR bytes: the value would arrive cut on one path and whole on another.
+        raise FieldError(
+            segment,
+            f"expected str without NUL characters, got {reprlib.repr(value)} "
+            f"(NUL at index {value.index(chr(0))})",
+        )
     return value
+
+
+def plain_str_list(values: list[Any]) -> list[Any]:
+    """A copy of a list of ``str`` without NULs, for generated code's fast path of unbounded
+    string sequences; raises TypeError or ValueError otherwise (``str_list`` then names it)."""
+    if "\0" in "".join(values):  # join checks in C that every element is a str
+        raise ValueError("a NUL character")
+    return values.copy()
 
 
 # -- containers ----------------------------------------------------------------------------------
@@ -280,7 +298,11 @@ def str_list(
     values = _check_sequence(value, segment)
     check_length(values, size, fixed, segment)
     for index, element in enumerate(values):
-        if type(element) is not str or (bound is not None and len(element) > bound):
+        if (
+            type(element) is not str
+            or (bound is not None and len(element) > bound)
+            or "\0" in element
+        ):
             try:
                 check_str(element, bound, "")
             except FieldError as error:

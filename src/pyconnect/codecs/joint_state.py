@@ -15,7 +15,7 @@ from itertools import chain
 from typing import Any
 
 from pyconnect.codecs.base import FieldsCodec
-from pyconnect.codecs.field_checks import PLAIN_FLOATS, check_float
+from pyconnect.codecs.field_checks import PLAIN_FLOATS, check_float, check_str
 from pyconnect.codecs.message_slots import blank, field_reader, has_slot_layout, zero_header
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
 
@@ -82,7 +82,7 @@ def _fast_columns(value: Any) -> tuple[list[str], dict[str, array.array[float]]]
     if type(value) is not dict or not value:
         return None
     names = list(value)
-    if set(map(type, names)) != _STR_ONLY:
+    if set(map(type, names)) != _STR_ONLY or "\0" in "".join(names):
         return None
     joints = list(value.values())
     first = joints[0]
@@ -118,6 +118,7 @@ def joint_state_fields(value: Any) -> dict[str, Any]:
     for name, joint in value.items():
         if not isinstance(name, str):
             raise EncodeError(f"JointState.name: expected str, got {type_name_of(name)}")
+        check_str(name, None, "JointState.name")  # a NUL: the direct path has no other check
         path = f"JointState[{name!r}]"
         if isinstance(joint, Mapping):
             joint_keys = tuple(k for k in _ARRAYS if k in joint)

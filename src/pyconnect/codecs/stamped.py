@@ -75,6 +75,10 @@ def decode_stamped(codec: Codec, msg: Any) -> Stamped[Any]:
 
 def encode_stamped(codec: Codec, stamped: Stamped[Any]) -> Any:
     """Encode ``stamped.value`` and write its stamp and frame into the message header."""
+    from pyconnect.codecs.field_checks import check_str  # numpy: not on plain lookups' path
+
+    # rclpy's setter takes any str; its C conversion would cut the frame at a NUL.
+    check_str(stamped.frame_id, None, "Stamped.frame_id")
     msg = codec.encode(stamped.value)
     header = header_of(msg)
     if header is None:

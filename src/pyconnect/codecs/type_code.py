@@ -18,6 +18,7 @@ from pyconnect.codecs.generated_source import Namespace, run_generated_source
 from pyconnect.errors import CodecNotFoundError
 from pyconnect.typesys.errors import DefinitionError
 from pyconnect.typesys.model import MessageDef, TypeSet
+from pyconnect.typesys.packages import installed_type_hash
 
 if TYPE_CHECKING:  # the CDR runtime imports numpy, which plain lookups do not need
     from pyconnect.codecs.cdr_read import DecodeFunction
@@ -90,8 +91,16 @@ def _wire_code(full_name: str, namespace: Mapping[str, Any]) -> WireCode:
 
 
 def generated_wire_code(full_name: str) -> WireCode | None:
+    """The generated wire code, if there is one and it was made from the installed type."""
     module = generated_module(full_name.split("/", 1)[0], "wire_codecs")
     if module is None or full_name not in module.EXPORTED:
+        return None
+    # Code generated from another version of the type than the installed one (a stale folder
+    # on the codec search path, generated/ against a sourced install) would read and write
+    # other fields: its hash, which covers every nested type, must be the installed one. A type
+    # that is not installed here (a zenoh peer without ROS) has nothing to disagree with.
+    installed = installed_type_hash(full_name)
+    if installed is not None and module.DEFINITIONS[full_name][0] != installed:
         return None
     return _wire_code(full_name, vars(module))
 
@@ -128,7 +137,9 @@ def _run_wire_source(messages: list[MessageDef], types: TypeSet, label: str) -> 
     from pyconnect.codegen.wire_render import render_wire_module
 
     # Types used here that generated/ has, hash for hash, link to its code; the rest compile.
+    # ``seen`` keeps the walk finite whatever the model holds (typesys refuses recursive types).
     used = {name for msg in messages for name in msg.nested_types}
+    seen = set(used)
     linked = set()
     while used:
         name = used.pop()
@@ -136,7 +147,9 @@ def _run_wire_source(messages: list[MessageDef], types: TypeSet, label: str) -> 
         if msg.type_hash and generated_hash(name) == msg.type_hash:
             linked.add(name)  # its own nested types come with its module
         else:
-            used.update(msg.nested_types)
+            fresh = set(msg.nested_types) - seen
+            seen |= fresh
+            used |= fresh
     source = render_wire_module(messages, types, source=label, linked=linked)
     return run_generated_source(source, label=label)
 

@@ -31,7 +31,7 @@ def _parser() -> argparse.ArgumentParser:
     build.add_argument("packages", nargs="*", help="installed interface packages")
     build.add_argument(
         "--from", dest="folders", action="append", default=[], type=Path,
-        help="a bare folder of .msg/.srv/.action files (repeatable)",
+        help="a bare folder of .msg/.srv/.action/.idl files (repeatable)",
     )  # fmt: skip
     build.add_argument("--out", type=Path, default=None, help="output folder (default generated/)")
     compile_cli.add_compile_options(build)

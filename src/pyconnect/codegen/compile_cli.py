@@ -12,7 +12,7 @@ def add_compile_options(build: argparse.ArgumentParser) -> None:
     build.add_argument(
         "--compile", dest="compile_folders", action="append", default=[], type=Path,
         metavar="DIR", help="build an importable interface package from a folder of "
-        ".msg/.srv/.action files, as colcon would (repeatable; dependencies first)",
+        ".msg/.srv/.action/.idl files, as colcon would (repeatable; dependencies first)",
     )  # fmt: skip
     build.add_argument(
         "--prefix", type=Path, default=None,

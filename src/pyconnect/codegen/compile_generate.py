@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from pyconnect.typesys.errors import DefinitionError
+from pyconnect.typesys.packages import interface_namespace
 
 C_TYPESUPPORTS = ("rosidl_typesupport_fastrtps_c", "rosidl_typesupport_introspection_c")
 PY_TYPESUPPORTS = ("rosidl_typesupport_c", *C_TYPESUPPORTS)
@@ -97,7 +98,7 @@ def adapt_interfaces(package: str, folder: Path, files: Sequence[Path], build: P
     relative_idls: list[str] = []
     for path in files:
         relative = path.relative_to(folder)
-        namespace = path.suffix[1:] if path.suffix != ".idl" else path.parent.name
+        namespace = interface_namespace(path)
         out_dir = out_root / namespace
         out_dir.mkdir(parents=True, exist_ok=True)
         if path.suffix == ".idl":

@@ -1,4 +1,4 @@
-"""``codecgen build --compile``: a folder of .msg/.srv/.action files to an installed package.
+"""``codecgen build --compile``: a folder of .msg/.srv/.action/.idl files to an installed package.
 
 What a colcon build of a ``rosidl_generate_interfaces`` package installs, made from Python in one
 command: rosidl's generators (``codegen.compile_generate``), the system compiler
@@ -162,7 +162,7 @@ def compile_folders(
             if not folder.is_dir():
                 raise DefinitionError("no such folder", path=folder)
             by_name[folder_package_name(folder)] = folder
-        requested, types = load_packages(folders=list(by_name.values()))
+        requested, types = load_packages(folders=list(by_name.values()), compiled=True)
         needs = {
             name: referenced_packages(requested[name], types)
             | set(_manifest_dependencies(by_name[name]))

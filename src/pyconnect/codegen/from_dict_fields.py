@@ -40,6 +40,7 @@ def _scalar_field(fld: Field) -> FromDictField:
     if element.kind in ("string", "wstring"):
         bound = element.string_bound
         fast = "type(value) is not str" + (f" or len(value) > {bound}" if bound else "")
+        fast += ' or "\\x00" in value'  # a NUL: check_str refuses it, naming the field
         slow, zero = f"check_str(value, {bound}, {segment})", ""
     elif name == "bool":
         fast, slow, zero = "type(value) is not bool", f"check_bool(value, {segment})", False
@@ -83,10 +84,11 @@ def _container_field(fld: Field, symbols: Symbols) -> FromDictField:
         convert = f"str_list(value, {bound}, {size}, {fixed}, {segment})"
         default = _list_default(defaults, '""', fixed, size)
         if bound is None and not fixed and size is None:
-            # "".join() checks every element is a str in C, much faster than a Python loop.
+            # "".join() checks every element is a str (and then for NULs) in C, much faster
+            # than a Python loop.
             return FromDictField(
                 fld.name, "container", default, convert=convert,
-                list_check="type(value) is list", list_convert="(STR_JOIN(value), value.copy())[1]",
+                list_check="type(value) is list", list_convert="plain_str_list(value)",
             )  # fmt: skip
         return FromDictField(fld.name, "container", default, convert=convert)
     name = element.name

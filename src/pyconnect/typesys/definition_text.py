@@ -16,10 +16,10 @@ from pathlib import Path
 
 from pyconnect.errors import CodecNotFoundError
 from pyconnect.typesys.errors import DefinitionError
-from pyconnect.typesys.loading import build_type_set
+from pyconnect.typesys.loading import build_type_set, reject_recursive_types
 from pyconnect.typesys.model import MessageDef, TypeSet
 from pyconnect.typesys.names import parse_type_name, split_part
-from pyconnect.typesys.packages import installed_packages
+from pyconnect.typesys.packages import installed_packages, installed_share_dirs
 from pyconnect.typesys.parse import (
     ParsedInterfaces,
     iter_messages,
@@ -45,14 +45,9 @@ _BLOCK_HEADER = re.compile(
 )
 
 
-@functools.lru_cache(maxsize=1)
-def _share_dirs() -> dict[str, Path]:
-    return {name: package.share for name, package in installed_packages().items()}
-
-
 def interface_file(package: str, namespace: str, name: str) -> Path:
     """The installed ``.msg``/``.srv``/``.action`` file of a type (``CodecNotFoundError``)."""
-    share = _share_dirs().get(package)
+    share = installed_share_dirs().get(package)
     if share is None:
         raise CodecNotFoundError(
             f"{package}/{namespace}/{name}: package {package!r} is not installed"
@@ -206,6 +201,8 @@ def resolve_definition(msg_type: str, text: str, encoding: str) -> tuple[Message
                 extra = ParsedInterfaces()
                 parse_installed_package(installed[pkg], extra)
                 _merge_installed(parsed, extra, defined)
+    # Before the hashing below, whose failures are forgiven: a recursive text never decodes.
+    reject_recursive_types(parsed)
     types = TypeSet()
     try:
         hashed: TypeSet | None = build_type_set(parsed)[0]

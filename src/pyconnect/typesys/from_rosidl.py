@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import ast
+import math
+import re
 from collections.abc import Iterable
 from dataclasses import replace
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 from pyconnect.typesys.errors import DefinitionError
 from pyconnect.typesys.model import (
@@ -56,26 +58,65 @@ def field_type_of(rosidl_type: Any, origin: Path) -> FieldType:
     return FieldType(element_type_of(rosidl_type, origin))
 
 
-def _scalar(value: object, element: ElementType) -> bool | int | float | str:
+# rosidl writes defaults and constants into the C and Python code as literals (`inff`, `inf`),
+# which do not compile: a colcon build fails on them, so the model refuses them up front.
+_NOT_FINITE = "is not finite"
+_WHY = "(rosidl's generated code cannot spell inf or nan)"
+
+
+class _Subject(NamedTuple):
+    """What a default or constant value belongs to, for errors: ``the default of speed``."""
+
+    role: str
+    name: str
+    origin: Path
+
+    def error(self, problem: str) -> DefinitionError:
+        return DefinitionError(
+            f"the {self.role} of {self.name} {problem}", path=self.origin, member=self.name
+        )
+
+
+def _scalar(value: object, element: ElementType, subject: _Subject) -> bool | int | float | str:
     if element.kind in ("string", "wstring"):
         return str(value)
     if isinstance(value, str):
-        value = ast.literal_eval(value)
+        value = _literal(value, element, subject)
     if element.name == "bool":
         return bool(value)
     if element.is_float:
-        return float(value)  # type: ignore[arg-type]
+        number = float(value)  # type: ignore[arg-type]
+        if not math.isfinite(number):
+            raise subject.error(f"{_NOT_FINITE}: {number} {_WHY}")
+        return number
     return int(value)  # type: ignore[call-overload,no-any-return]
 
 
-def _default(member: Any, ftype: FieldType) -> DefaultValue:
+def _literal(text: str, element: ElementType, subject: _Subject) -> Any:
+    # rosidl keeps as text what it could not read as a number: inf, nan, a list holding them.
+    try:
+        return ast.literal_eval(text)
+    except (ValueError, SyntaxError):
+        if element.is_float and re.search(r"(?i)\b(inf|infinity|nan)\b", text):
+            raise subject.error(f"{_NOT_FINITE}: {text} {_WHY}") from None
+        raise subject.error(f"is not a {element.name} value: {text!r}") from None
+
+
+def _default(member: Any, ftype: FieldType, origin: Path) -> DefaultValue:
     if not member.has_annotation("default"):
         return None
     raw = member.get_annotation_value("default")["value"]
+    subject = _Subject("default", member.name, origin)
     if ftype.is_single:
-        return _scalar(raw, ftype.element)
-    values = ast.literal_eval(raw) if isinstance(raw, str) else raw
-    return tuple(_scalar(v, ftype.element) for v in values)
+        return _scalar(raw, ftype.element, subject)
+    values = _literal(raw, ftype.element, subject) if isinstance(raw, str) else raw
+    return tuple(_scalar(v, ftype.element, subject) for v in values)
+
+
+def _constant(constant: Any, origin: Path) -> Constant:
+    element = element_type_of(constant.type, origin)
+    subject = _Subject("value", constant.name, origin)
+    return Constant(constant.name, element, _scalar(constant.value, element, subject))
 
 
 def message_def(
@@ -88,15 +129,8 @@ def message_def(
         if member.name == DUMMY_MEMBER:
             continue
         ftype = field_type_of(member.type, origin)
-        fields.append(Field(member.name, ftype, _default(member, ftype)))
-    consts = tuple(
-        Constant(
-            c.name,
-            element_type_of(c.type, origin),
-            _scalar(c.value, element_type_of(c.type, origin)),
-        )
-        for c in constants
-    )
+        fields.append(Field(member.name, ftype, _default(member, ftype, origin)))
+    consts = tuple(_constant(c, origin) for c in constants)
     return MessageDef(
         package=package,
         namespace=namespace,
@@ -121,15 +155,7 @@ def service_def(srv: Any, origin: Path, module: str, access: str) -> ServiceDef:
 
 
 def _with_constants(msg: MessageDef, constants: Iterable[Any], origin: Path) -> MessageDef:
-    consts = tuple(
-        Constant(
-            c.name,
-            element_type_of(c.type, origin),
-            _scalar(c.value, element_type_of(c.type, origin)),
-        )
-        for c in constants
-    )
-    return replace(msg, constants=consts)
+    return replace(msg, constants=tuple(_constant(c, origin) for c in constants))
 
 
 def action_def(action: Any, origin: Path, module: str) -> ActionDef:

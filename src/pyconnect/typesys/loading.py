@@ -11,10 +11,12 @@ from typing import Any
 from pyconnect.typesys.errors import DefinitionError
 from pyconnect.typesys.hashing import rihs01_hashes
 from pyconnect.typesys.model import MessageDef, PackageDef, TypeSet
-from pyconnect.typesys.packages import installed_packages
+from pyconnect.typesys.names import compiled_name_problem
+from pyconnect.typesys.packages import installed_packages, read_text_file
 from pyconnect.typesys.parse import (
     ParsedInterfaces,
     iter_messages,
+    line_declaring,
     parse_folder,
     parse_installed_package,
 )
@@ -32,11 +34,43 @@ def build_type_set(parsed: ParsedInterfaces) -> tuple[TypeSet, dict[str, str]]:
                     path=origin,
                     line=_line_mentioning(origin, nested),
                 )
+    reject_recursive_types(parsed)
     hashes = rihs01_hashes(parsed.rosidl_elements)
     types = TypeSet()
     for msg in iter_messages(parsed):
         types.messages[msg.full_name] = replace(msg, type_hash=hashes.get(msg.full_name, ""))
     return types, hashes
+
+
+def reject_recursive_types(parsed: ParsedInterfaces) -> None:
+    """Refuse a type that contains itself, directly or through others (``A[] children``).
+
+    ROS 2 has no recursive types (rosidl's type descriptions and hashes cannot describe one), and
+    every walk over nested types would otherwise have to guard against going round forever.
+    """
+    nested = {m.full_name: m.nested_types for m in iter_messages(parsed)}
+    done: set[str] = set()
+    trail: list[str] = []  # the types being visited, outermost first
+
+    def visit(name: str) -> None:
+        if name in done:
+            return
+        if name in trail:
+            cycle = [*trail[trail.index(name) :], name]
+            origin = parsed.origins.get(cycle[0])
+            raise DefinitionError(
+                f"recursive type {' -> '.join(cycle)} (a ROS type cannot contain itself)",
+                path=origin,
+                line=_line_mentioning(origin, cycle[1]),
+            )
+        trail.append(name)
+        for child in nested.get(name, ()):
+            visit(child)
+        trail.pop()
+        done.add(name)
+
+    for name in sorted(nested):
+        visit(name)
 
 
 def _line_mentioning(origin: Path | None, full_name: str) -> int | None:
@@ -93,12 +127,38 @@ def package_defs(
     }
 
 
+def reject_uncompilable_names(parsed: ParsedInterfaces, packages: Iterable[str]) -> None:
+    """Refuse fields and constants of ``packages`` whose names rosidl's generated code cannot use
+    (``int32 from``, ``int32 class``): rosidl builds them without an error into a package that
+    does not import or compile."""
+    wanted = set(packages)
+    for msg in iter_messages(parsed):
+        if msg.package not in wanted:
+            continue
+        members = [("field", f.name) for f in msg.fields]
+        members += [("constant", c.name) for c in msg.constants]
+        for kind, name in members:
+            problem = compiled_name_problem(name)
+            if problem is None:
+                continue
+            origin = parsed.origins.get(msg.full_name)
+            line = None
+            if origin is not None and origin.is_file():
+                line = line_declaring(read_text_file(origin), name, idl=origin.suffix == ".idl")
+            raise DefinitionError(
+                f"{msg.full_name}: the {kind} name {name!r} is {problem}; rename it",
+                path=origin,
+                line=line,
+            )
+
+
 def load_packages(
-    package_names: Iterable[str] = (), folders: Iterable[Path] = ()
+    package_names: Iterable[str] = (), folders: Iterable[Path] = (), *, compiled: bool = False
 ) -> tuple[dict[str, PackageDef], TypeSet]:
     """Load the named installed packages and bare folders, plus every package they depend on.
 
-    Returns the requested packages (by name) and the TypeSet of everything loaded.
+    Returns the requested packages (by name) and the TypeSet of everything loaded. With
+    ``compiled``, the folders are to be compiled by rosidl: names it cannot use are refused.
     """
     installed = installed_packages()
     parsed = ParsedInterfaces()
@@ -108,6 +168,8 @@ def load_packages(
         name = parse_folder(Path(folder), parsed)
         loaded.add(name)
         requested.append(name)
+    if compiled:
+        reject_uncompilable_names(parsed, requested)
     for name in package_names:
         if name in loaded:
             continue

@@ -2,11 +2,13 @@
 
 Users name a type by class, instance, ``"pkg/msg/Name"`` or ``"pkg/Name"``. Services and
 actions have implicit message types (``SetBool_Request``, ``Fibonacci_SendGoal_Request``...):
-the rules for those names, and for the rosidl Python class that holds each part, live here.
+the rules for those names, and for the rosidl Python class that holds each part, live here;
+so do the field and constant names a compiled package cannot have.
 """
 
 from __future__ import annotations
 
+import keyword
 import re
 from dataclasses import dataclass
 
@@ -103,3 +105,40 @@ def class_path(full_name: str) -> tuple[str, str]:
         return module, name
     interface, suffix = part
     return module, f"{interface}.{ACTION_PARTS[suffix] if namespace == 'action' else suffix}"
+
+
+# -- field and constant names ------------------------------------------------------------------
+# Words a compiled interface package cannot use as a field or constant name: rosidl copies the
+# names verbatim into Python classes (a keyword is a SyntaxError on import; rosidl_generator_py
+# only warns), C structs and the C++ sources of the type supports, which include those structs.
+_C_KEYWORDS = frozenset((
+    "auto", "break", "case", "char", "const", "continue", "default", "do", "double", "else",
+    "enum", "extern", "float", "for", "goto", "if", "inline", "int", "long", "register",
+    "restrict", "return", "short", "signed", "sizeof", "static", "struct", "switch", "typedef",
+    "union", "unsigned", "void", "volatile", "while",
+    # C23
+    "alignas", "alignof", "bool", "constexpr", "false", "nullptr", "static_assert",
+    "thread_local", "true", "typeof", "typeof_unqual",
+))  # fmt: skip
+_CPP_KEYWORDS = frozenset((
+    "and", "and_eq", "asm", "bitand", "bitor", "catch", "char8_t", "char16_t", "char32_t",
+    "class", "compl", "concept", "consteval", "constinit", "const_cast", "co_await", "co_return",
+    "co_yield", "decltype", "delete", "dynamic_cast", "explicit", "export", "friend", "mutable",
+    "namespace", "new", "noexcept", "not", "not_eq", "operator", "or", "or_eq", "private",
+    "protected", "public", "reinterpret_cast", "requires", "static_cast", "template", "this",
+    "throw", "try", "typeid", "typename", "using", "virtual", "wchar_t", "xor", "xor_eq",
+))  # fmt: skip
+
+
+def compiled_name_problem(name: str) -> str | None:
+    """Why a field or constant called ``name`` breaks a compiled package, or None if it does not.
+
+    Only compiled packages need this: pyconnect's own generated code escapes every name.
+    """
+    if keyword.iskeyword(name):
+        return "a Python keyword (the Python class rosidl generates would not import)"
+    if name in _C_KEYWORDS:
+        return "a C keyword (the C code rosidl generates would not compile)"
+    if name in _CPP_KEYWORDS:
+        return "a C++ keyword (the C++ type support rosidl generates would not compile)"
+    return None

@@ -19,10 +19,13 @@ from pyconnect.typesys.errors import DefinitionError
 from pyconnect.typesys.from_rosidl import action_def, message_def, service_def
 from pyconnect.typesys.model import ActionDef, MessageDef, ServiceDef
 from pyconnect.typesys.packages import (
+    INTERFACE_NAMESPACES,
     INTERFACE_SUFFIXES,
     InstalledPackage,
     folder_interface_files,
     folder_package_name,
+    interface_namespace,
+    read_text_file,
 )
 
 # -- parsing ----------------------------------------------------------------------------------
@@ -103,8 +106,6 @@ class ParsedInterfaces:
 
 def parse_interface_text(package: str, path: Path, text: str, into: ParsedInterfaces) -> None:
     """Parse one .msg/.srv/.action/.idl text (``path`` names it in errors) into ``into``."""
-    from rosidl_parser import definition as d
-
     if path.suffix == ".idl":
         idl_text = text
     elif path.suffix in INTERFACE_SUFFIXES:
@@ -112,7 +113,32 @@ def parse_interface_text(package: str, path: Path, text: str, into: ParsedInterf
     else:
         raise DefinitionError("not an interface file (.msg, .srv, .action or .idl)", path=path)
     content = _parse_idl(idl_text, path)
-    for element in content.elements:
+    try:
+        _add_elements(package, path, content.elements, into)
+    except DefinitionError as error:
+        if error.line is not None or error.member is None:
+            raise
+        line = line_declaring(text, error.member, idl=path.suffix == ".idl")
+        raise DefinitionError(error.detail, path=path, line=line) from None
+
+
+def line_declaring(text: str, member: str, *, idl: bool) -> int | None:
+    """The first line that declares the field or constant ``member`` (None if none is found)."""
+    name = re.escape(member)
+    # .msg: `type name [default]` or `type NAME=value`; IDL: `type name;`, `const type NAME = v;`
+    pattern = re.compile(rf"\b{name}\s*[=;]" if idl else rf"^\s*\S+\s+{name}(\s|=|$)")
+    for number, line in enumerate(text.splitlines(), start=1):
+        if pattern.search(line.split("//" if idl else "#", 1)[0]):
+            return number
+    return None
+
+
+def _add_elements(package: str, path: Path, elements: list[Any], into: ParsedInterfaces) -> None:
+    from rosidl_parser import definition as d
+
+    for element in elements:
+        if isinstance(element, d.Message | d.Service | d.Action):
+            _check_modules(element, path)
         if isinstance(element, d.Message):
             namespace = element.structure.namespaced_type.namespaces[1]
             name = element.structure.namespaced_type.name
@@ -135,6 +161,21 @@ def parse_interface_text(package: str, path: Path, text: str, into: ParsedInterf
         into.rosidl_elements.append(element)
 
 
+def _check_modules(element: Any, path: Path) -> None:
+    """A type is declared in ``module <package> { module msg|srv|action``, as rosidl needs."""
+    from rosidl_parser import definition as d
+
+    if isinstance(element, d.Message):
+        named = element.structure.namespaced_type
+    else:
+        named = element.namespaced_type
+    if len(named.namespaces) != 2 or named.namespaces[1] not in INTERFACE_NAMESPACES:
+        raise DefinitionError(
+            f"declares {named.name} outside a `module <package> {{ module msg|srv|action {{ }} }}`",
+            path=path,
+        )
+
+
 def parse_installed_package(package: InstalledPackage, into: ParsedInterfaces) -> None:
     parsed = _parse_installed(package)
     into.messages += parsed.messages
@@ -151,7 +192,7 @@ def _parse_installed(package: InstalledPackage) -> ParsedInterfaces:
     parsed = ParsedInterfaces()
     for relative in package.idl_files:
         path = package.share / relative
-        parse_interface_text(package.name, path, path.read_text(encoding="utf-8"), parsed)
+        parse_interface_text(package.name, path, read_text_file(path), parsed)
     return parsed
 
 
@@ -162,10 +203,30 @@ def parse_folder(folder: Path, into: ParsedInterfaces) -> str:
     package = folder_package_name(folder)
     files = folder_interface_files(folder)
     if not files:
-        raise DefinitionError("no .msg, .srv or .action files found", path=folder)
+        raise DefinitionError("no .msg, .srv, .action or .idl files found", path=folder)
     for path in files:
-        parse_interface_text(package, path, path.read_text(encoding="utf-8"), into)
+        parse_interface_text(package, path, read_text_file(path), into)
+        if path.suffix == ".idl":
+            _check_idl_place(package, path, into)
     return package
+
+
+def _check_idl_place(package: str, path: Path, parsed: ParsedInterfaces) -> None:
+    """An .idl file of a folder declares its types in ``<package>::<namespace>`` and is named
+    after one of them, as rosidl's generators (which name their output by file) require."""
+    namespace = interface_namespace(path)
+    names = [name for name, origin in parsed.origins.items() if origin == path]
+    for full_name in names:
+        pkg, ns, _name = full_name.split("/")
+        if (pkg, ns) != (package, namespace):
+            raise DefinitionError(
+                f"declares {pkg}::{ns}, expected module {package}::{namespace} "
+                "(the folder's package and namespace)",
+                path=path,
+            )
+    stem = path.stem
+    if not any(n.split("/")[2] == stem or n.split("/")[2].startswith(stem + "_") for n in names):
+        raise DefinitionError(f"declares no type named {stem} (the file's name)", path=path)
 
 
 def iter_messages(parsed: ParsedInterfaces) -> Iterator[MessageDef]:

@@ -18,7 +18,9 @@ CODEC = codecs.lookup("sensor_msgs/msg/JointState")
 
 @st.composite
 def joint_dicts(draw: st.DrawFn) -> dict[str, Any]:
-    names = draw(st.lists(st.text(min_size=1, max_size=8), unique=True, max_size=6))
+    # No NUL: a joint name with one is refused on encode (tests/codecs/test_nul_strings.py).
+    name = st.text(st.characters(exclude_characters="\x00"), min_size=1, max_size=8)
+    names = draw(st.lists(name, unique=True, max_size=6))
     keys = draw(st.sets(st.sampled_from(["position", "velocity", "effort"]), min_size=1))
     ordered = [k for k in ("position", "velocity", "effort") if k in keys]
     return {n: {k: draw(st.floats()) for k in ordered} for n in names}

@@ -1,0 +1,66 @@
+"""Field and constant names rosidl's generated code cannot use: refused by ``--compile`` only.
+
+rosidl builds ``int32 from`` into a Python class that does not import (a warning, exit 0) and
+``int32 class`` into C that does not compile; pyconnect's own generated code escapes every
+name, so ``build --from`` keeps them (a wire-only peer or a bag may carry such types).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from pyconnect.codecs import wire
+from pyconnect.codegen.cli import main
+from pyconnect.typesys.loading import load_packages
+from pyconnect.typesys.names import compiled_name_problem
+
+_PY = "a Python keyword (the Python class rosidl generates would not import)"
+_C = "a C keyword (the C code rosidl generates would not compile)"
+_CPP = "a C++ keyword (the C++ type support rosidl generates would not compile)"
+
+
+@pytest.mark.parametrize(
+    ("files", "expected"),
+    [
+        ({"msg/Kw.msg": "int32 from\nfloat64 lambda\n", "msg/Fine.msg": "int32 x\n"},
+         f"msg/Kw.msg:1: kw_msgs/msg/Kw: the field name 'from' is {_PY}; rename it"),
+        ({"msg/Kw.msg": "# c\nint32 ok\nint32 switch\n"},
+         f"msg/Kw.msg:3: kw_msgs/msg/Kw: the field name 'switch' is {_C}; rename it"),
+        ({"srv/Kc.srv": "int32 a\n---\n# x\nint32 operator\n"},
+         f"srv/Kc.srv:4: kw_msgs/srv/Kc_Response: the field name 'operator' is {_CPP}; rename it"),
+        ({"msg/Kw.idl": "module kw_msgs { module msg {\n"
+                        "  module Kw_Constants { const long this = 1; };\n"
+                        "  struct Kw { long x; };\n}; };\n"},
+         f"msg/Kw.idl:2: kw_msgs/msg/Kw: the constant name 'this' is {_CPP}; rename it"),
+    ],
+)  # fmt: skip
+def test_compile_refuses_names_rosidl_cannot_use(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], files: dict[str, str], expected: str
+) -> None:
+    root = tmp_path / "kw_msgs"
+    for relative, text in files.items():
+        (root / relative).parent.mkdir(parents=True, exist_ok=True)
+        (root / relative).write_text(text)
+    prefix = tmp_path / "prefix"
+    assert main(["build", "--compile", str(root), "--prefix", str(prefix)]) == 2
+    assert capsys.readouterr().err == f"codecgen: {root}/{expected}\n"
+    assert not prefix.exists(), "refused before anything is built"
+
+
+def test_build_from_keeps_keyword_fields_and_its_codecs_work(tmp_path: Path) -> None:
+    root = tmp_path / "kw_msgs"
+    (root / "msg").mkdir(parents=True)
+    (root / "msg" / "Kw.msg").write_text("int32 from\nfloat64 lambda\nint32 class\n")
+    assert main(["build", "--from", str(root), "--out", str(tmp_path / "out")]) == 0
+    _, types = load_packages(folders=[root])
+    codec = wire.wire_codec("kw_msgs/msg/Kw", definition=(root / "msg" / "Kw.msg").read_text())
+    value = {"from": 3, "lambda": 1.5, "class": -2}
+    assert codec.to_dict(codec.from_dict(value)) == value
+    assert [f.name for f in types.get("kw_msgs/msg/Kw").fields] == ["from", "lambda", "class"]
+
+
+def test_ordinary_names_pass() -> None:
+    for name in ("data", "type", "match", "id", "string_value", "Class", "FROM", "ELSE"):
+        assert compiled_name_problem(name) is None, name
