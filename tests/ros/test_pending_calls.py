@@ -149,3 +149,46 @@ def test_an_undecodable_answer_is_a_failed_call_that_response_func_sees(make_nod
     assert answered.wait(EVENT_TIMEOUT)
     assert answers == [failed]
     assert service.error_count == 1 and action.error_count == 1
+
+
+def test_a_non_blocking_call_answered_too_late_fails_after_its_timeout(make_node: Any) -> None:
+    node = make_node()
+    release = threading.Event()
+    cancelled = threading.Event()
+
+    def never_in_time(_request: dict[str, Any]) -> dict[str, Any]:
+        release.wait(EVENT_TIMEOUT)
+        return {"success": True}
+
+    def runs_until_cancelled(_goal: dict[str, Any]) -> Iterator[None]:
+        try:
+            for _ in range(int(EVENT_TIMEOUT / 0.01)):  # bounded: a regression fails, not hangs
+                cancelled.wait(0.01)
+                yield None
+        except GeneratorExit:
+            cancelled.set()
+            raise
+        return None
+
+    node.add_agent(
+        conn_name="slow", conn_type="service_server", data_interface=SetBool,
+        response_func=never_in_time,
+    )  # fmt: skip
+    service = node.add_agent(
+        conn_name="slow", agent_name="toggle_client", conn_type="service_client",
+        data_interface=SetBool,
+    )  # fmt: skip
+    action = _action_pair(node, runs_until_cancelled)
+    node.spin(run_thread=True)
+    try:
+        call = service.send({"data": True}, block=False, timeout=0.5)
+        goal = action.send({"order": 1}, block=False, timeout=0.5)
+        assert call.result(EVENT_TIMEOUT) == {
+            "isdone": False, "error": f"{SERVICE}: no response from /slow within 0.5 s",
+        }  # fmt: skip
+        assert goal.result(EVENT_TIMEOUT) == {
+            "isdone": False, "error": f"{ACTION}: no result within 0.5 s (goal canceled)",
+        }  # fmt: skip
+        assert cancelled.wait(EVENT_TIMEOUT), "the server never saw the late goal canceled"
+    finally:
+        release.set()

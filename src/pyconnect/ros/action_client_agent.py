@@ -134,6 +134,7 @@ class ActionClientAgent(NodeAgent):
                 lambda future: self._send_goal(goal, future, feedback_func),
                 timeout=timeout,
                 missing=f"no action server for {self.conn_name}",
+                late=f"no result within {timeout} s (goal canceled)",
             )
             return result
         try:
@@ -231,7 +232,8 @@ class ActionClientAgent(NodeAgent):
             self._in_flight[key] = in_flight
 
         def cancel_if_cancelled(_result: concurrent.futures.Future[Any]) -> None:
-            if result.cancelled():  # an awaiting caller gave up (timeout or its task cancelled)
+            # An awaiting caller gave up (its timeout, its task cancelled), or the result is late.
+            if result.cancelled() or self._pending.is_late(result):
                 in_flight.cancel()
 
         result.add_done_callback(cancel_if_cancelled)

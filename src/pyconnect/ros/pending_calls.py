@@ -4,7 +4,10 @@ Both client kinds (service, action) hand their non-blocking calls to a ``Pending
 call starts at once when the server is ready, else on a thread that waits for it (a future
 that the caller cancels meanwhile is dropped); the node spins in the background from then on,
 since the answer needs callbacks to run, as a blocking ``send()`` and ``wait_until_connected``
-start it. A future still open when the node shuts down gets the failed value, so nothing
+start it. ``timeout`` holds as for a blocking call: for the server to appear, then for the
+answer (one watchdog thread per agent, alive only while calls wait for answers); a late call
+is answered with the failure value and ``is_late`` tells the agent to drop its request or
+cancel its goal. A future still open when the node shuts down gets the failed value, so nothing
 waits on it for ever; on a node already shut down the future is failed from the start.
 """
 
@@ -12,7 +15,11 @@ from __future__ import annotations
 
 import concurrent.futures
 import contextlib
+import heapq
+import itertools
 import threading
+import time
+import weakref
 from collections.abc import Callable
 from typing import Any
 
@@ -42,6 +49,12 @@ class PendingCalls:
         self._failed = failed
         self._lock = threading.Lock()
         self._open: set[concurrent.futures.Future[Any]] = set()
+        # (deadline, tie-breaker, future, failure text): the answers the watchdog waits for.
+        self._deadlines: list[tuple[float, int, concurrent.futures.Future[Any], str]] = []
+        self._order = itertools.count()
+        self._wake = threading.Condition(self._lock)
+        self._watchdog: threading.Thread | None = None
+        self._late: weakref.WeakSet[concurrent.futures.Future[Any]] = weakref.WeakSet()
 
     def start(
         self,
@@ -50,9 +63,11 @@ class PendingCalls:
         *,
         timeout: float | None,
         missing: str,
+        late: str,
     ) -> None:
         """Run ``call(result)`` once the server is ready; ``missing`` (within ``timeout`` s)
-        is the failure when it never is."""
+        is the failure when it never is, ``late`` when the answer takes longer than ``timeout``
+        once the call is made."""
         if self._host.shutdown_event.is_set():
             settle(result, lambda: self._failed(f"node {self._host.name!r} is shut down"))
             return
@@ -61,14 +76,18 @@ class PendingCalls:
         result.add_done_callback(self._forget)
         self._host.ensure_spinning()
         if self._ready():
-            self._call(call, result)
+            self._call(call, result, timeout, late)
             return
         threading.Thread(
             target=self._call_when_ready,
-            args=(call, result, timeout, missing),
+            args=(call, result, timeout, missing, late),
             name=f"pyconnect-{self._agent_name}-wait",
             daemon=True,
         ).start()
+
+    def is_late(self, result: concurrent.futures.Future[Any]) -> bool:
+        """Whether ``result`` was answered as late (its request should be dropped)."""
+        return result in self._late
 
     def fail_all(self) -> None:
         """Answer every open call as failed: the node shuts down."""
@@ -90,19 +109,28 @@ class PendingCalls:
         result: concurrent.futures.Future[Any],
         timeout: float | None,
         missing: str,
+        late: str,
     ) -> None:
         ready = wait_until(self._ready, timeout, stop=self._host.shutdown_event)
         if result.done():  # cancelled by its caller, or answered by fail_all
             return
         if ready:
-            self._call(call, result)
+            self._call(call, result, timeout, late)
         elif self._host.shutdown_event.is_set():
             text = f"node {self._host.name!r} shut down during the {self._during}"
             settle(result, lambda: self._failed(text))
         else:
             settle(result, lambda: self._failed(f"{missing} within {timeout} s"))
 
-    def _call(self, call: Call, result: concurrent.futures.Future[Any]) -> None:
+    def _call(
+        self,
+        call: Call,
+        result: concurrent.futures.Future[Any],
+        timeout: float | None,
+        late: str,
+    ) -> None:
+        if timeout is not None:
+            self._watch(result, time.monotonic() + timeout, late)
         try:
             call(result)
         except Exception as error:
@@ -116,3 +144,35 @@ class PendingCalls:
     def _forget(self, result: concurrent.futures.Future[Any]) -> None:
         with self._lock:
             self._open.discard(result)
+
+    # -- the watchdog ----------------------------------------------------------------------------
+    def _watch(self, result: concurrent.futures.Future[Any], deadline: float, late: str) -> None:
+        with self._wake:
+            heapq.heappush(self._deadlines, (deadline, next(self._order), result, late))
+            if self._watchdog is None:
+                self._watchdog = threading.Thread(
+                    target=self._watch_deadlines,
+                    name=f"pyconnect-{self._agent_name}-deadlines",
+                    daemon=True,
+                )
+                self._watchdog.start()
+            elif self._deadlines[0][2] is result:  # sooner than what the watchdog sleeps on
+                self._wake.notify()
+
+    def _watch_deadlines(self) -> None:
+        """Answer calls whose answer is late; ends when no call waits (restarted by _watch)."""
+        while True:
+            with self._wake:
+                while self._deadlines and self._deadlines[0][2].done():
+                    heapq.heappop(self._deadlines)  # answered in time
+                if not self._deadlines:
+                    self._watchdog = None
+                    return
+                deadline, _order, result, late = self._deadlines[0]
+                remaining = deadline - time.monotonic()
+                if remaining > 0:
+                    self._wake.wait(remaining)
+                    continue
+                heapq.heappop(self._deadlines)
+                self._late.add(result)
+            settle(result, lambda text=late: self._failed(text))  # type: ignore[misc]

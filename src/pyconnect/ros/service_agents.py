@@ -177,6 +177,7 @@ class ServiceClientAgent(NodeAgent):
                 lambda future: self._call(request, future),
                 timeout=timeout,
                 missing=f"no server for {self.service_name}",
+                late=f"no response from {self.service_name} within {timeout} s",
             )
             return result
         try:
@@ -246,7 +247,8 @@ class ServiceClientAgent(NodeAgent):
             settle(result, lambda: self._value_of(done))
 
         def forget_if_cancelled(_result: concurrent.futures.Future[Any]) -> None:
-            if result.cancelled():  # the caller gave up: rclpy need not keep the request
+            # The caller gave up, or the answer is late: rclpy need not keep the request.
+            if result.cancelled() or self._pending.is_late(result):
                 self.client.remove_pending_request(ros_future)
 
         ros_future.add_done_callback(finish)
