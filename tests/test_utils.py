@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from hypothesis import given, settings
@@ -44,3 +46,29 @@ def test_non_string_rejected() -> None:
     with pytest.raises(DecodeError) as caught:
         str2dict(3)  # type: ignore[arg-type]
     assert str(caught.value) == "str2dict: expected str, got int"
+
+
+def test_missing_sample_bags_fail_in_ci_and_skip_elsewhere(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    """README: the tests that read the shared sample bags skip without them, and with ``CI``
+    set they fail instead (tests/conftest.py ``require_sample_bags``)."""
+    from tests.conftest import require_sample_bags
+
+    def outcome(present: bool) -> tuple[str, str] | None:
+        # Caught here, both: a skip escaping this test would hide a broken rule as a skip.
+        try:
+            require_sample_bags(tmp_path, present)
+        except (pytest.fail.Exception, pytest.skip.Exception) as raised:
+            return type(raised).__name__, str(raised)
+        return None
+
+    monkeypatch.setenv("CI", "true")
+    assert outcome(False) == (
+        "Failed",
+        f"sample bags not found at {tmp_path} (CI must have shared/ beside the repo)",
+    )
+    assert outcome(True) is None
+    monkeypatch.delenv("CI")
+    assert outcome(False) == ("Skipped", f"sample bags not found at {tmp_path}")
+    assert outcome(True) is None

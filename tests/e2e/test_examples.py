@@ -79,3 +79,27 @@ def test_remapping_from_the_command_line(tmp_path: Path) -> None:
     out = child.stdout.read()
     assert _stop(child) == 0
     assert out.strip() == "/talk 5"
+
+
+def test_the_demo_ends_cleanly_and_writes_its_logs(tmp_path: Path) -> None:
+    """README: ``make demo`` (``python -m examples.demo``) runs the simulated robot and the
+    brain, ends with exit status 0, and logs to ``./pyconnect_logs``. Runs in a domain of its
+    own (the one after the test run's), from ``tmp_path`` so the logs land there."""
+    run_domain = int(os.environ["ROS_DOMAIN_ID"])
+    env = {key: value for key, value in os.environ.items() if key != "PYCONNECT_LOG_DIR"}
+    env["ROS_DOMAIN_ID"] = str(run_domain + 1 if run_domain < 232 else run_domain - 1)
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), os.environ.get("PYTHONPATH")]))
+    env["PYTHONUNBUFFERED"] = "1"
+    done = subprocess.run(
+        [sys.executable, "-m", "examples.demo"], cwd=tmp_path, env=env,
+        capture_output=True, text=True, timeout=240, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stdout + done.stderr
+    logs = tmp_path / "pyconnect_logs" / "demo_brain"
+    assert f"[brain] logs in {logs}" in done.stdout
+    assert done.stdout.rstrip().endswith("[demo] robot exited with 0; done")
+    (session,) = logs.iterdir()  # <YYYYmmdd-HHMMSS>
+    # do_log_msg on joint_states, start_log_subs for the rest: dicts as JSON, images as PNG.
+    expected = {"joint_states": "*.json", "scan": "*.json", "camera__image": "*.png"}
+    for agent, files in expected.items():
+        assert any((session / agent).glob(files)), sorted(session.rglob("*"))[:20]

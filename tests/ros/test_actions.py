@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+import time
 from collections.abc import Iterator
 from typing import Any
 
@@ -294,3 +295,60 @@ def test_accepted_func_hears_a_rejection(make_node: Any) -> None:
     assert accepted == [False]
     assert results == [result]
     server.destroy()
+
+
+def test_finished_goals_leave_the_status_list(make_node: Any) -> None:
+    """README (Actions stay fast): a finished goal leaves the status list (after 0.05 s, not
+    rclpy's 900 s), so every status message stays short however many goals ran. Goals run one
+    after another, each once the server has dropped the one before (waited for, not timed):
+    then every status message lists only the goal in flight."""
+    from action_msgs.msg import GoalStatus, GoalStatusArray
+    from rclpy.qos import DurabilityPolicy, QoSProfile
+
+    node = make_node()
+    client = _pair(node, lambda goal: {"sequence": [goal["order"]]})
+    server = node.agents["fib"]
+    lock = threading.Lock()
+    listed: list[list[bytes]] = []  # the goal ids of each status message, in arrival order
+    succeeded: list[bytes] = []
+    status_arrived = threading.Event()
+
+    def on_status(message: GoalStatusArray) -> None:
+        with lock:
+            listed.append([bytes(status.goal_info.goal_id.uuid) for status in message.status_list])
+            for status in message.status_list:
+                goal_id = bytes(status.goal_info.goal_id.uuid)
+                if status.status == GoalStatus.STATUS_SUCCEEDED and goal_id not in succeeded:
+                    succeeded.append(goal_id)
+        status_arrived.set()
+
+    # rcl_action publishes the status reliable and transient local.
+    node.ros_node.create_subscription(
+        GoalStatusArray, "fib/_action/status", on_status,
+        QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL),
+    )  # fmt: skip
+
+    def wait_for(condition: Any) -> bool:
+        """Until ``condition()`` holds: woken by each status message, else every 10 ms (the
+        server drops a goal without publishing anything)."""
+        deadline = time.monotonic() + EVENT_TIMEOUT
+        while True:
+            status_arrived.clear()
+            with lock:
+                if condition():
+                    return True
+            if time.monotonic() > deadline:
+                return False
+            status_arrived.wait(0.01)
+
+    for order in range(6):
+        assert client.send({"order": order}) == {"sequence": [order], "isdone": True}
+        # Its last status message (SUCCEEDED) reaches the subscription.
+        assert wait_for(lambda count=order + 1: len(succeeded) == count), listed
+        # The server drops the goal: rclpy would keep it, and list it in every later status.
+        assert wait_for(lambda: not server.server._goal_handles), f"goal {order} still kept"
+    with lock:
+        assert max(len(ids) for ids in listed) == 1, listed
+        # Each later goal's status messages list it alone: its predecessors are gone.
+        for goal_id in succeeded[1:]:
+            assert [goal_id] in listed

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import subprocess
 import sys
@@ -84,6 +85,15 @@ def _run(tmp_path: Path, **extra: str) -> list[str]:
         "'FASTRTPS_DEFAULT_PROFILES_FILE']\n"
         "print(*[str(bool(os.environ.get(n))) for n in names], *sys.argv[1:])\n"
     )
+    done = subprocess.run(
+        [sys.executable, "-m", "pyconnect.cli", "run", str(script), "a", "--b"],
+        capture_output=True, text=True, env=_unconfigured_env(**extra), check=True, timeout=120,
+    )  # fmt: skip
+    return done.stdout.split()
+
+
+def _unconfigured_env(**extra: str) -> dict[str, str]:
+    """This process's environment without the large-message settings, plus ``extra``."""
     env = {
         key: value
         for key, value in os.environ.items()
@@ -92,11 +102,7 @@ def _run(tmp_path: Path, **extra: str) -> list[str]:
         and key != "PYCONNECT_LARGE_MESSAGES"
     }
     env.update(extra)
-    done = subprocess.run(
-        [sys.executable, "-m", "pyconnect.cli", "run", str(script), "a", "--b"],
-        capture_output=True, text=True, env=env, check=True, timeout=120,
-    )  # fmt: skip
-    return done.stdout.split()
+    return env
 
 
 def test_pyconnect_run_starts_the_program_with_the_settings(tmp_path: Path) -> None:
@@ -105,6 +111,35 @@ def test_pyconnect_run_starts_the_program_with_the_settings(tmp_path: Path) -> N
 
 def test_pyconnect_run_with_the_settings_off_runs_the_program_unchanged(tmp_path: Path) -> None:
     assert _run(tmp_path, PYCONNECT_LARGE_MESSAGES="0") == ["False", "False", "False", "a", "--b"]
+
+
+def test_pyconnect_run_m_runs_a_module_with_the_settings(tmp_path: Path) -> None:
+    """README (Large messages): ``pyconnect run -m module args`` runs the module as
+    ``python -m`` would, with the malloc variables and the profile in its environment, and
+    every argument after the module (options too) goes to the module."""
+    (tmp_path / "robot_vision.py").write_text(
+        "import json, os, sys\n"
+        "names = ['MALLOC_MMAP_THRESHOLD_', 'MALLOC_TRIM_THRESHOLD_', "
+        "'FASTRTPS_DEFAULT_PROFILES_FILE', 'PYCONNECT_LARGE_MESSAGES']\n"
+        "print(json.dumps({'name': __name__, 'argv': sys.argv, "
+        "'env': {n: os.environ.get(n) for n in names}}))\n"
+    )
+    path = os.pathsep.join(filter(None, [str(tmp_path), os.environ.get("PYTHONPATH")]))
+    done = subprocess.run(
+        [sys.executable, "-m", "pyconnect.cli", "run", "-m", "robot_vision", "a", "--b"],
+        capture_output=True, text=True, env=_unconfigured_env(PYTHONPATH=path), timeout=120,
+        check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    seen = json.loads(done.stdout)
+    assert seen["name"] == "__main__"
+    assert seen["argv"] == [str(tmp_path / "robot_vision.py"), "a", "--b"]
+    env = seen["env"]
+    assert env["MALLOC_MMAP_THRESHOLD_"] == large_messages.MALLOC_SETTINGS["MALLOC_MMAP_THRESHOLD_"]
+    assert env["MALLOC_TRIM_THRESHOLD_"] == large_messages.MALLOC_SETTINGS["MALLOC_TRIM_THRESHOLD_"]
+    assert large_messages.is_own_profile(env["FASTRTPS_DEFAULT_PROFILES_FILE"])
+    assert Path(env["FASTRTPS_DEFAULT_PROFILES_FILE"]).is_file()
+    assert env["PYCONNECT_LARGE_MESSAGES"] == "1"
 
 
 _PEER = """
@@ -164,3 +199,29 @@ def test_two_processes_talk_with_the_profile_on(discovery_range: str | None) -> 
             receiver.kill()
             receiver.wait()
     assert out.split() == ["GOT", "1440000", "True"]
+
+
+def test_the_segment_shrinks_to_a_quarter_of_what_dev_shm_can_hold(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """README (Large messages): the 64 MiB segment is shrunk to a quarter of what /dev/shm can
+    hold (a small container's), and the profile written has that size."""
+    import shutil
+    from types import SimpleNamespace
+
+    free = 100 * 1024 * 1024  # a quarter is 25 MiB: less than the 64 MiB default
+    asked: list[str] = []
+
+    def disk_usage(path: str) -> SimpleNamespace:
+        asked.append(str(path))
+        return SimpleNamespace(total=4 * free, used=3 * free, free=free)
+
+    monkeypatch.setattr(shutil, "disk_usage", disk_usage)
+    assert large_messages.segment_bytes({}) == free // 4
+    assert asked == ["/dev/shm"]
+    # A smaller wish is kept as it is.
+    assert large_messages.segment_bytes({"PYCONNECT_SHM_SEGMENT_MB": "16"}) == 16 * 1024 * 1024
+    environ: dict[str, str] = {}
+    assert large_messages.configure_environment(environ, default_on=True) is None
+    profile = Path(environ["FASTRTPS_DEFAULT_PROFILES_FILE"]).read_text()
+    assert f"<segment_size>{free // 4}</segment_size>" in profile

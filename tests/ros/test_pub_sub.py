@@ -360,3 +360,90 @@ def test_periodic_pub_hands_encode_func_none_until_a_value_is_sent(make_node: An
     more = threading.Event()
     assert repeat_until(more, lambda: more.set() if len(given) > count + 2 else None)
     assert set(given[count:]) == {"chosen"}
+
+
+def test_periodic_pub_skips_the_periods_whose_response_func_returns_none(make_node: Any) -> None:
+    """README (pub): with ``time_period``, a ``None`` from ``response_func`` publishes nothing
+    that period (not an empty message, not the last value again)."""
+    node = make_node()
+    heard: list[str] = []
+    three = threading.Event()
+
+    def on_value(value: str) -> None:
+        heard.append(value)
+        if len(heard) == 3:
+            three.set()
+
+    node.add_agent(conn_name="beat", conn_type="sub", data_interface=String, response_func=on_value)
+    go, idle, finished = threading.Event(), threading.Event(), threading.Event()
+    script: list[str | None] = ["a", None, "b", None, None, "c"]
+    trailing = 0
+
+    def next_value() -> str | None:
+        nonlocal trailing
+        if not go.is_set():
+            idle.set()
+            return None
+        if script:
+            return script.pop(0)
+        trailing += 1
+        if trailing == 3:
+            finished.set()
+        return None
+
+    pub = node.add_agent(
+        conn_name="beat", agent_name="beat_out", conn_type="pub", data_interface=String,
+        time_period=0.01, response_func=next_value,
+    )  # fmt: skip
+    node.spin(run_thread=True)
+    matched = threading.Event()
+    assert repeat_until(matched, lambda: matched.set() if pub.subscriber_count == 1 else None)
+    assert idle.wait(EVENT_TIMEOUT)
+    assert pub.sent_count == 0  # every period so far returned None
+    go.set()
+    assert finished.wait(EVENT_TIMEOUT)
+    assert three.wait(EVENT_TIMEOUT)
+    assert pub.sent_count == 3
+    assert heard == ["a", "b", "c"]
+    assert pub.error_count == 0
+
+
+def test_periodic_pub_without_functions_waits_for_send_then_repeats_it(make_node: Any) -> None:
+    """README (pub): a pub with ``time_period`` and neither ``response_func`` nor
+    ``encode_func`` publishes nothing until its first ``send()``, then that value every
+    period."""
+    node = make_node()
+    heard: list[str] = []
+    repeated = threading.Event()
+
+    def on_value(value: str) -> None:
+        heard.append(value)
+        if len(heard) >= 4:
+            repeated.set()
+
+    node.add_agent(conn_name="echo", conn_type="sub", data_interface=String, response_func=on_value)
+    pub = node.add_agent(
+        conn_name="echo", agent_name="echo_out", conn_type="pub", data_interface=String,
+        time_period=0.01,
+    )  # fmt: skip
+    # A timer of the same period on the same node: once it ticked 5 times, so did the pub's.
+    ticks = 0
+    ticked = threading.Event()
+
+    def tick() -> None:
+        nonlocal ticks
+        ticks += 1
+        if ticks >= 5:
+            ticked.set()
+
+    node.add_agent(conn_name="clock", conn_type="timer", time_period=0.01, response_func=tick)
+    node.spin(run_thread=True)
+    matched = threading.Event()
+    assert repeat_until(matched, lambda: matched.set() if pub.subscriber_count == 1 else None)
+    assert ticked.wait(EVENT_TIMEOUT)
+    assert (pub.sent_count, heard, pub.error_count) == (0, [], 0)
+    assert pub.send("x") is True
+    assert repeated.wait(EVENT_TIMEOUT)
+    assert set(heard) == {"x"}
+    assert pub.sent_count >= 4
+    assert pub.error_count == 0

@@ -171,3 +171,40 @@ def test_a_call_cut_short_by_shutdown_says_so(make_node: Any) -> None:
             "down during the call",
         }
     ]
+
+
+def test_a_burst_of_more_than_ten_requests_loses_none(make_node: Any) -> None:
+    """README (QoS): services keep every request (keep-all, both sides); rclpy's keep-last 10
+    silently loses some of a burst. The handler holds the first request until all 40 are sent,
+    so the rest pile up in the server's reader and the client's writer."""
+    server_node, caller = make_node("burst_server"), make_node("burst_client")
+    all_sent = threading.Event()
+    handled: list[int] = []
+
+    def handler(request: dict[str, Any]) -> dict[str, Any]:
+        assert all_sent.wait(EVENT_TIMEOUT)
+        handled.append(1)
+        return {"success": request["data"], "message": str(len(handled))}
+
+    server_node.add_agent(
+        conn_name="burst", conn_type="service_server", data_interface=SetBool,
+        response_func=handler,
+    )  # fmt: skip
+    client = caller.add_agent(
+        conn_name="burst", conn_type="service_client", data_interface=SetBool,
+        timeout=EVENT_TIMEOUT,
+    )  # fmt: skip
+    server_node.spin(run_thread=True)
+    caller.spin(run_thread=True)
+    caller.wait_until_connected(timeout=EVENT_TIMEOUT)
+    try:
+        futures = [client.send({"data": True}, block=False) for _ in range(40)]
+    finally:
+        all_sent.set()
+    # A lost request is never answered (a non-blocking call's timeout covers finding the server).
+    _done, lost = concurrent.futures.wait(futures, timeout=2 * EVENT_TIMEOUT)
+    assert not lost, f"{len(lost)} of 40 requests were never answered"
+    results = [future.result() for future in futures]
+    assert [result["isdone"] for result in results] == [True] * 40, results
+    assert sorted(int(result["message"]) for result in results) == list(range(1, 41))
+    assert len(handled) == 40

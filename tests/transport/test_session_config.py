@@ -4,7 +4,11 @@ from __future__ import annotations
 
 import json
 import os
+import signal
+import subprocess
+import sys
 import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -27,7 +31,8 @@ def exchange(sender: Peer, receiver: Peer) -> str:
     pub = sender.add_agent(
         conn_name="chatter", conn_type="pub", data_interface="std_msgs/msg/String"
     )
-    assert sender.wait_for_graph(lambda: pub.subscriber_count == 1, None)
+    deadline = time.monotonic() + TIMEOUT
+    assert sender.wait_for_graph(lambda: pub.subscriber_count == 1, deadline)
     pub.send("hello")
     assert got.wait(TIMEOUT)
     value: str = sub.get()
@@ -112,3 +117,65 @@ def test_tls_and_access_control_settings_pass_through(tmp_path: Path) -> None:
         assert json.loads(get("access_control/enabled")) is True
         assert json.loads(get("access_control/default_permission")) == "allow"
         assert json.loads(get("transport/link/tls/root_ca_certificate")) == "/etc/robot/ca.pem"
+
+
+def test_the_router_module_runs_until_sigint_and_exits_0() -> None:
+    """README: ``python -m pyconnect.transport.router ENDPOINT`` runs a router (peers meet
+    through it) until Ctrl-C, which ends it with exit status 0 and no warning on stderr."""
+    router_locator = f"tcp/127.0.0.1:{free_port()}"
+    router = subprocess.Popen(
+        [sys.executable, "-m", "pyconnect.transport.router", router_locator],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+    )  # fmt: skip
+    try:
+        # Ready when two peers that connect to it exchange a message through it.
+        options = {
+            "connect": [router_locator],
+            "listen": ["tcp/127.0.0.1:0"],
+            "handle_signals": False,
+        }
+        with (
+            Peer("a", config=_peer_config(), **options) as a,  # type: ignore[arg-type]
+            Peer("b", config=_peer_config(), **options) as b,  # type: ignore[arg-type]
+        ):
+            assert exchange(a, b) == "hello"
+        assert router.stdout is not None
+        assert router.stdout.readline().startswith("zenoh router ")
+        # It prints that line just before it installs its handlers: wait for those (its SIGTERM
+        # handler is the last), or a SIGINT sent in between would end it with a traceback.
+        assert _catches_sigterm(router.pid)
+        router.send_signal(signal.SIGINT)
+        _out, err = router.communicate(timeout=TIMEOUT)
+    finally:
+        if router.poll() is None:
+            router.kill()
+            router.communicate()
+    assert router.returncode == 0, err
+    assert "RuntimeWarning" not in err, err
+
+
+def _catches_sigterm(pid: int) -> bool:
+    """True once process ``pid`` has a SIGTERM handler (Linux: SigCgt in /proc/<pid>/status)."""
+    waited = threading.Event()
+    for _ in range(int(TIMEOUT / 0.01)):
+        status = Path(f"/proc/{pid}/status").read_text()
+        caught = int(status.split("SigCgt:")[1].split()[0], 16)
+        if caught & (1 << (signal.SIGTERM - 1)):
+            return True
+        waited.wait(0.01)
+    return False
+
+
+def test_a_peer_without_a_config_file_starts_from_rmw_zenohs_default(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """README (Many machines): without a file a peer starts from rmw_zenoh's default session
+    config: a peer that connects to a router on tcp/localhost:7447, multicast scouting off.
+    (Nothing need listen on 7447: a peer keeps trying in the background.)"""
+    monkeypatch.delenv("ZENOH_SESSION_CONFIG_URI", raising=False)
+    monkeypatch.delenv("ZENOH_CONFIG_OVERRIDE", raising=False)
+    with Peer("plain", handle_signals=False) as peer:
+        get = peer.config.get_json  # JSON text of the setting
+        assert json.loads(get("mode")) == "peer"
+        assert json.loads(get("connect/endpoints")) == ["tcp/localhost:7447"]
+        assert json.loads(get("scouting/multicast/enabled")) is False

@@ -1,9 +1,33 @@
 """Non-ROS peers over zenoh, on rmw_zenoh's wire: ``from pyconnect.transport import Peer``.
 
 Needs the ``zenoh`` extra (``pip install 'pyconnect[zenoh]'``); imports no rclpy.
+
+``start_router`` (and the ``router`` module) load on first use, not with the package:
+``python -m pyconnect.transport.router`` imports this package first, and runpy warns
+(``RuntimeWarning: ... found in sys.modules``) when the package has already imported the
+module it is about to run as ``__main__``.
 """
 
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
 from pyconnect.transport.peer import Peer
-from pyconnect.transport.router import start_router
+
+if TYPE_CHECKING:
+    from pyconnect.transport import router as router
+    from pyconnect.transport.router import start_router
 
 __all__ = ["Peer", "start_router"]
+
+
+def __getattr__(name: str) -> object:
+    """``start_router`` and ``router``, imported when first asked for."""
+    if name == "router":
+        return importlib.import_module("pyconnect.transport.router")
+    if name == "start_router":
+        function: object = importlib.import_module("pyconnect.transport.router").start_router
+        globals()[name] = function  # found directly from now on
+        return function
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
