@@ -332,3 +332,32 @@ def test_shutdown_cancels_a_handler_awaiting_on_the_users_loop(
     assert node.shutdown_event.is_set()
     # The node's own client gets its answer (failed: the node shut down) rather than hanging.
     assert reply.result(EVENT_TIMEOUT)["isdone"] is False
+
+
+def test_a_coroutine_queued_before_shutdown_never_runs_after_it(
+    make_node: Any, user_loop: asyncio.AbstractEventLoop
+) -> None:
+    # The user's loop is busy when the message arrives: the lane's first wake-up is still
+    # queued on it at shutdown, so no task exists yet to cancel.
+    node = make_node(loop=user_loop)
+    ran: list[str] = []
+
+    async def handler(value: str) -> None:
+        ran.append(value)
+
+    sub = node.add_agent(conn_name="lane", conn_type="sub", data_interface=String,
+                         response_func=handler)  # fmt: skip
+    pub = node.add_agent(conn_name="lane", agent_name="out", conn_type="pub", data_interface=String)
+    node.spin(run_thread=True)
+    matched = threading.Event()
+    assert repeat_until(matched, lambda: matched.set() if pub.subscriber_count else None)
+    busy, release = threading.Event(), threading.Event()
+    user_loop.call_soon_threadsafe(lambda: (busy.set(), release.wait(EVENT_TIMEOUT)))
+    assert busy.wait(EVENT_TIMEOUT)
+    received = threading.Event()
+    assert repeat_until(received, lambda: received.set() if sub.message_count else pub.send("x"))
+    node.shutdown()
+    release.set()
+    for _ in range(3):  # a few turns of the loop: what was queued on it has run by then
+        _run(user_loop, asyncio.sleep(0))
+    assert ran == []

@@ -241,3 +241,58 @@ def test_a_blocked_agent_stays_exclusive_while_other_agents_run_after_the_move(
     assert all_handled.wait(EVENT_TIMEOUT)
     # repeat_until may have sent 0 more than once until discovery was done
     assert order[0] == 0 and [value for value in order if value] == [1, 2, 3, 4, 5]
+
+
+def test_a_hold_taken_as_the_agent_returns_is_ended_when_another_agent_runs_by_then(
+    make_node: Any,
+) -> None:
+    # The monitor holds the group of the agent it saw running; if that agent returned meanwhile
+    # and another agent's callback runs by the time the hold is taken, nobody else would end it
+    # (only the held agent's own return does): the first agent would never run again.
+    node = make_node(handoff_after=0.1)
+    monitor_holding = threading.Event()
+    b_started = threading.Event()
+    a_seen: list[str] = []
+    a_done = threading.Event()
+
+    def on_a(value: str) -> None:
+        a_seen.append(value)
+        if value == "slow":
+            monitor_holding.wait(EVENT_TIMEOUT)  # returns while the monitor takes the hold
+        if value == "a4":
+            a_done.set()
+
+    def on_b(_value: str) -> None:
+        b_started.set()
+        for _ in range(int(EVENT_TIMEOUT / 0.01)):  # running until the move is complete
+            if node._executor.handoffs:
+                break
+            a_done.wait(0.01)
+
+    sub_a = node.add_agent(
+        conn_name="ra", conn_type="sub", data_interface=String, response_func=on_a
+    )
+    node.add_agent(conn_name="rb", conn_type="sub", data_interface=String, response_func=on_b)
+    pub_a = node.add_agent(conn_name="ra", agent_name="pa", conn_type="pub", data_interface=String)
+    pub_b = node.add_agent(conn_name="rb", agent_name="pb", conn_type="pub", data_interface=String)
+    group = sub_a.callback_group
+    begin = group.beginning_execution
+
+    def begin_once_b_runs(entity: Any) -> bool:
+        if threading.current_thread().name == "pyconnect-executor-monitor":
+            monitor_holding.set()
+            b_started.wait(EVENT_TIMEOUT)  # A has returned and B runs
+        return bool(begin(entity))
+
+    group.beginning_execution = begin_once_b_runs  # type: ignore[method-assign]
+    node.spin(run_thread=True)
+    matched = threading.Event()
+    assert repeat_until(
+        matched, lambda: matched.set() if pub_a.subscriber_count and pub_b.subscriber_count else None
+    )
+    pub_a.send("slow")
+    pub_b.send("b1")
+    assert b_started.wait(EVENT_TIMEOUT)
+    for value in range(5):
+        pub_a.send(f"a{value}")
+    assert a_done.wait(EVENT_TIMEOUT), f"agent A stopped after {a_seen}"

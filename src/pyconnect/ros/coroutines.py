@@ -188,6 +188,11 @@ class CoroutineLane:
 
     def _wake(self) -> None:
         """On the loop: start the lane's task, or wake it from its idle wait."""
+        if self._runner.stopped:  # queued before shutdown, run after it: nothing is handed on
+            with self._cond:
+                self._pending.clear()
+                self._draining = False
+            return
         if self._task is None or self._task.done():
             self._task = asyncio.ensure_future(self._drain())
             _keep_alive.add(self._task)
@@ -205,6 +210,10 @@ class CoroutineLane:
                 await asyncio.sleep(LINGER_SECONDS)
                 busy = bool(self._pending)
             with self._cond:
+                if self._runner.stopped:  # shutdown: what waits is not handed on
+                    self._pending.clear()
+                    self._draining = False
+                    return
                 if not self._pending:
                     self._draining = False
                     self._idle = loop.create_future()

@@ -57,8 +57,9 @@ class ExecutorMoves(CallbackWatch):
                 if group.beginning_execution(entity):
                     self._held = running
                     # The callback clears ``_running`` and then looks at ``_held`` without the
-                    # lock: if it returned between our two looks, the hold is ours to end.
-                    if self._running is None:
+                    # lock: if it returned between our two looks (another agent's callback may
+                    # run by now), the hold is ours to end: only its own return ends it.
+                    if self._running is not running:
                         self._held = None
                         group.ending_execution(entity)
             elastic = ElasticExecutor(
