@@ -249,15 +249,33 @@ def test_a_hold_taken_as_the_agent_returns_is_ended_when_another_agent_runs_by_t
     # The monitor holds the group of the agent it saw running; if that agent returned meanwhile
     # and another agent's callback runs by the time the hold is taken, nobody else would end it
     # (only the held agent's own return does): the first agent would never run again.
+    staged = 0
+    for _attempt in range(5):
+        outcome = _stage_a_late_hold(make_node)
+        if outcome is None:
+            continue  # the node had moved before A ran (a loaded machine): stage it again
+        staged += 1
+        assert outcome == [], f"agent A stopped after {outcome}"
+    assert staged, "the monitor never took the hold while A returned"
+
+
+def _stage_a_late_hold(make_node: Any) -> list[str] | None:
+    """[] when agent A goes on after the staged race; what A got when it stopped; None when
+    the race could not be staged (the node was already elastic when A's slow callback ran)."""
     node = make_node(handoff_after=0.1)
     monitor_holding = threading.Event()
     b_started = threading.Event()
     a_seen: list[str] = []
     a_done = threading.Event()
+    missed = threading.Event()
 
     def on_a(value: str) -> None:
         a_seen.append(value)
         if value == "slow":
+            if node._executor.mode != "events":
+                missed.set()
+                b_started.set()
+                return
             monitor_holding.wait(EVENT_TIMEOUT)  # returns while the monitor takes the hold
         if value == "a4":
             a_done.set()
@@ -265,7 +283,7 @@ def test_a_hold_taken_as_the_agent_returns_is_ended_when_another_agent_runs_by_t
     def on_b(_value: str) -> None:
         b_started.set()
         for _ in range(int(EVENT_TIMEOUT / 0.01)):  # running until the move is complete
-            if node._executor.handoffs:
+            if node._executor.handoffs or missed.is_set():
                 break
             a_done.wait(0.01)
 
@@ -293,6 +311,11 @@ def test_a_hold_taken_as_the_agent_returns_is_ended_when_another_agent_runs_by_t
     pub_a.send("slow")
     pub_b.send("b1")
     assert b_started.wait(EVENT_TIMEOUT)
+    if missed.is_set():
+        node.shutdown()
+        return None
     for value in range(5):
         pub_a.send(f"a{value}")
-    assert a_done.wait(EVENT_TIMEOUT), f"agent A stopped after {a_seen}"
+    went_on = a_done.wait(EVENT_TIMEOUT)
+    node.shutdown()
+    return [] if went_on else a_seen
