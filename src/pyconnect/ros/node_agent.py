@@ -190,7 +190,9 @@ class NodeAgent:
             logger = self._open_message_log()
             if logger is None:
                 return False
-        ok: bool = logger.log(snapshot(data), stamp_ns=stamp_ns, rgb=self._log_rgb)
+        if logger.pending < logger.queue_size:  # a full queue drops it: no copy for nothing
+            data = snapshot(data)
+        ok: bool = logger.log(data, stamp_ns=stamp_ns, rgb=self._log_rgb)
         return ok
 
     def _open_message_log(self) -> Any:
