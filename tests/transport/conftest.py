@@ -7,12 +7,27 @@ other; the domain is the test run's ROS_DOMAIN_ID.
 from __future__ import annotations
 
 import socket
+import time
 from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
 
 from pyconnect.transport import Peer
+
+TIMEOUT = 30.0
+"""Seconds to wait for anything that crosses zenoh: generous, so loaded machines pass."""
+
+
+def wait_for(condition: Callable[[], object], timeout: float = TIMEOUT) -> bool:
+    """Poll ``condition`` until it is true (discovery and delivery take a moment); False after
+    ``timeout``."""
+    deadline = time.monotonic() + timeout
+    while not condition():
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.01)
+    return True
 
 
 def free_port() -> int:

@@ -11,18 +11,7 @@ import numpy as np
 import pytest
 
 from pyconnect.errors import ConnectionTimeout, EncodeError, PyconnectError
-from tests.transport.conftest import PeerFactory
-
-TIMEOUT = 30.0
-
-
-def wait_for(condition: Any, timeout: float = TIMEOUT) -> bool:
-    deadline = time.monotonic() + timeout
-    while not condition():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.01)
-    return True
+from tests.transport.conftest import TIMEOUT, PeerFactory, wait_for
 
 
 def connected_pair(make_peer: PeerFactory, topic: str, type_name: str, **sub_options: Any) -> Any:

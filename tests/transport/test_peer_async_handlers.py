@@ -4,23 +4,12 @@ from __future__ import annotations
 
 import asyncio
 import threading
-import time
 from typing import Any
 
-from tests.transport.conftest import PeerFactory
+from tests.transport.conftest import TIMEOUT, PeerFactory, wait_for
 
-TIMEOUT = 30.0
 SET_BOOL = "std_srvs/srv/SetBool"
 FIBONACCI = "test_msgs/action/Fibonacci"
-
-
-def wait_for(condition: Any, timeout: float = TIMEOUT) -> bool:
-    deadline = time.monotonic() + timeout
-    while not condition():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.01)
-    return True
 
 
 def test_an_async_sub_handler_is_awaited_in_order_on_one_loop(make_peer: PeerFactory) -> None:

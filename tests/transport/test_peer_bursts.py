@@ -11,19 +11,9 @@ import pytest
 from pyconnect.transport.endpoints import Caller, CallFailed, Request, Server
 from pyconnect.transport.interface_types import service_interface
 from pyconnect.transport.peer_agent import Inbox
-from tests.transport.conftest import PeerFactory
+from tests.transport.conftest import TIMEOUT, PeerFactory, wait_for
 
-TIMEOUT = 30.0
 BURST = 30  # three times the depth of 10 the servers used to keep
-
-
-def wait_for(condition: Any, timeout: float = TIMEOUT) -> bool:
-    deadline = time.monotonic() + timeout
-    while not condition():
-        if time.monotonic() > deadline:
-            return False
-        time.sleep(0.01)
-    return True
 
 
 class FirstCallBlocks:
