@@ -152,3 +152,27 @@ def test_flipped_bytes_of_shared_bags(case: str, tmp_path: Path) -> None:
     assert any(d.startswith(f"{path}: {expected}") for d in found), found
     assert whole - 10 <= read <= whole
     assert any(d.startswith(f"{path}: {expected}") for d in map(str, bag_info(path).damage))
+
+
+def test_a_damaged_messages_page_met_by_a_table_is_the_bags_damage(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Tables read each topic with a reader of their own: the damage it meets (here a page of
+    # the messages table) was dropped with it, and a Parquet export lost a row with exit 0.
+    source = BAGS / "ros2_rosbag2_jazzy/rosbag2_py/test/resources/sqlite3/wbag/wbag_1.db3"
+    require_sample_bags(source, source.is_file())
+    data = bytearray(source.read_bytes())
+    for offset, bit in [(9494, 2), (47931, 1), (66510, 8), (85319, 1)]:  # four flipped bits
+        data[offset] ^= bit
+    bag = tmp_path / "wbag_1.db3"
+    bag.write_bytes(bytes(data))
+    with open_bag(bag) as reader:
+        read = sum(1 for message in reader if message.topic == "DDD")
+    with open_bag(bag) as reader:
+        table = reader.to_arrow("DDD")
+        unreadable = [d for d in reader.damage if "rows of the messages table" in str(d)]
+    assert table.num_rows == read
+    assert len(unreadable) == 1  # one entry for the range, not one per row stepped over
+    argv = ["bag", "export", str(bag), "--format", "parquet", "--to", str(tmp_path / "pq")]
+    assert main(argv) == 1
+    assert "damaged bag" in capsys.readouterr().err

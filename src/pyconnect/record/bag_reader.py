@@ -130,6 +130,7 @@ class BagReader:
         self.mismatches: list[TypeMismatch] = []
         self._bags: list[tuple[BagFiles, list[StorageFile]]] = []
         self._closed_damage: tuple[BagDamage, ...] = ()
+        self._borrowed_damage: list[BagDamage] = []  # found by readers of one topic (tables)
         try:
             open_bag_files(paths, into=self._bags, caller="open_bag")
             self.path = self._bags[0][0].path
@@ -157,7 +158,19 @@ class BagReader:
         """What is broken in the bag's files, as far as they have been read, then where its
         metadata.yaml disagrees with them."""
         found = storage_damage(s for _, storages in self._bags for s in storages)
-        return [*(found or self._closed_damage), *self.info.metadata_damage]
+        own = [*(found or self._closed_damage)]
+        seen = {str(item) for item in own}
+        borrowed = [item for item in self._borrowed_damage if str(item) not in seen]
+        return [*own, *borrowed, *self.info.metadata_damage]
+
+    def note_damage(self, damage: Sequence[BagDamage]) -> None:
+        """Add what another reader of the same bags found (``topic_table`` reads one topic with
+        a reader of its own): ``damage`` then lists it too, once."""
+        known = {str(item) for item in self._borrowed_damage}
+        for item in damage:
+            if str(item) not in known:
+                known.add(str(item))
+                self._borrowed_damage.append(item)
 
     # -- reading ------------------------------------------------------------------------------
     def __iter__(self) -> Iterator[BagMessage]:

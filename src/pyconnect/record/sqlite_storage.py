@@ -316,6 +316,7 @@ class SqliteFile:
         query = f"SELECT id, {columns} FROM messages WHERE id > ?{where} ORDER BY id LIMIT ?"
         last = 0
         batch = _BATCH
+        stepping = False  # the last query failed and we stepped on past it
         while True:
             try:
                 rows = self._db.execute(query, (last, batch)).fetchall()
@@ -323,17 +324,20 @@ class SqliteFile:
                 if batch > 1:
                     batch = 1  # find the first unreadable row
                     continue
-                self.damage.note(
-                    None,
-                    f"rows of the messages table after id {last} are unreadable ({_reason(error)})",
-                    key=f"rows{last}",
-                )
+                if not stepping:  # one entry per unreadable range, not one per row stepped over
+                    self.damage.note(
+                        None,
+                        f"rows of the messages table after id {last} are unreadable "
+                        f"({_reason(error)})",
+                        key=f"rows{last}",
+                    )
                 following = self._next_readable(last)
                 if following is None:
                     return
                 # step at least one row on: a filtered query may fail where an unfiltered does not
-                last, batch = max(following - 1, last + 1), _BATCH
+                last, batch, stepping = max(following - 1, last + 1), _BATCH, True
                 continue
+            stepping = False
             if not rows:
                 return
             for row in rows:

@@ -323,6 +323,8 @@ def topic_table(
         )
         if errors is not None:
             errors.extend(reader.errors)
+        # Damage this reader met (a page of the topic's rows) is the bag's: never dropped.
+        bag.note_damage([d for d in reader.damage if d not in reader.info.metadata_damage])
         if topic in reader.switched:
             # Earlier rows hold the fields of the stored definition, later ones those of the
             # installed type: one set of columns would drop some of them without a word.
