@@ -367,3 +367,23 @@ def test_a_closed_stdout_ends_the_command_quietly(argv: list[str]) -> None:
     finally:
         os.close(write_end)
     assert (done.returncode, done.stderr) == (0, "")
+
+
+def test_bag_echo_json_writes_non_finite_floats_as_strict_json(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from std_msgs.msg import Float64
+
+    bag = tmp_path / "floats"
+    with McapRecorder(bag) as recorder:
+        recorder.add_topic("/f", "std_msgs/msg/Float64")
+        for stamp, number in enumerate([float("nan"), float("inf"), -float("inf"), 1.5], 1):
+            recorder.write("/f", serialize_message(Float64(data=number)), log_time_ns=stamp)
+    assert main(["bag", "echo", str(bag), "--json"]) == 0
+
+    def refuse(constant: str) -> None:
+        raise ValueError(f"not JSON: {constant}")
+
+    lines = capsys.readouterr().out.splitlines()
+    values = [json.loads(line, parse_constant=refuse)["value"] for line in lines]
+    assert values == ["nan", "inf", "-inf", 1.5]  # as topic echo --json writes them

@@ -6,6 +6,7 @@ import array
 import base64
 import dataclasses
 import json
+import math
 from collections.abc import Callable
 from typing import Any
 
@@ -105,13 +106,26 @@ def _json_default(value: Any) -> Any:
     if isinstance(value, np.ndarray):
         if value.dtype == np.uint8:
             return base64.b64encode(value.tobytes()).decode("ascii")
-        return plain_value(value)
-    return plain_value(value)
+        return _finite(plain_value(value))
+    return _finite(plain_value(value))
+
+
+def _finite(value: Any) -> Any:
+    """``value`` with NaN and infinities as the strings ``"nan"``, ``"inf"``, ``"-inf"``: JSON
+    has no such numbers (``topic echo --json`` writes them the same way)."""
+    if isinstance(value, float):
+        return value if math.isfinite(value) else str(value)
+    if isinstance(value, dict):
+        return {key: _finite(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [_finite(item) for item in value]
+    return value
 
 
 def to_json(record: dict[str, Any]) -> str:
-    """One JSON line: numeric arrays as lists, bytes and uint8 arrays as base64 strings."""
-    return json.dumps(record, default=_json_default, allow_nan=True)
+    """One JSON line: numeric arrays as lists, bytes and uint8 arrays as base64 strings,
+    non-finite floats as strings (strict JSON readers refuse ``NaN``)."""
+    return json.dumps(_finite(record), default=_json_default, allow_nan=False)
 
 
 def field_of(value: Any, path: str) -> Any:
