@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
@@ -39,6 +39,26 @@ def _action_pair(node: Any, handler: Any = None, **client_options: Any) -> Any:
         conn_name="fib", agent_name="fib_client", conn_type="action_client",
         data_interface=Fibonacci, timeout=EVENT_TIMEOUT, **client_options,
     )  # fmt: skip
+
+
+def _until_cancelled(
+    cancelled: threading.Event, started: threading.Event | None = None
+) -> Callable[[dict[str, Any]], Iterator[None]]:
+    """An action handler that yields until its goal is canceled (then sets ``cancelled``)."""
+
+    def runs_until_cancelled(_goal: dict[str, Any]) -> Iterator[None]:
+        if started is not None:
+            started.set()
+        try:
+            for _ in range(int(EVENT_TIMEOUT / 0.01)):  # bounded: a regression fails, not hangs
+                cancelled.wait(0.01)
+                yield None
+        except GeneratorExit:  # the server closes a canceled goal's generator
+            cancelled.set()
+            raise
+        return None
+
+    return runs_until_cancelled
 
 
 def test_non_blocking_calls_are_answered_on_a_node_nobody_spins(make_node: Any) -> None:
@@ -90,18 +110,7 @@ def test_giving_up_on_send_async_cancels_the_goal(make_node: Any, how: str) -> N
     started = threading.Event()
     cancelled = threading.Event()
 
-    def runs_until_cancelled(_goal: dict[str, Any]) -> Iterator[None]:
-        started.set()
-        try:
-            for _ in range(int(EVENT_TIMEOUT / 0.01)):  # bounded: a regression fails, not hangs
-                cancelled.wait(0.01)
-                yield None
-        except GeneratorExit:  # the server closes a canceled goal's generator
-            cancelled.set()
-            raise
-        return None
-
-    action = _action_pair(node, runs_until_cancelled)
+    action = _action_pair(node, _until_cancelled(cancelled, started))
     node.spin(run_thread=True)
 
     async def give_up() -> Any:
@@ -160,16 +169,6 @@ def test_a_non_blocking_call_answered_too_late_fails_after_its_timeout(make_node
         release.wait(EVENT_TIMEOUT)
         return {"success": True}
 
-    def runs_until_cancelled(_goal: dict[str, Any]) -> Iterator[None]:
-        try:
-            for _ in range(int(EVENT_TIMEOUT / 0.01)):  # bounded: a regression fails, not hangs
-                cancelled.wait(0.01)
-                yield None
-        except GeneratorExit:
-            cancelled.set()
-            raise
-        return None
-
     node.add_agent(
         conn_name="slow", conn_type="service_server", data_interface=SetBool,
         response_func=never_in_time,
@@ -178,7 +177,7 @@ def test_a_non_blocking_call_answered_too_late_fails_after_its_timeout(make_node
         conn_name="slow", agent_name="toggle_client", conn_type="service_client",
         data_interface=SetBool,
     )  # fmt: skip
-    action = _action_pair(node, runs_until_cancelled)
+    action = _action_pair(node, _until_cancelled(cancelled))
     node.spin(run_thread=True)
     try:
         call = service.send({"data": True}, block=False, timeout=0.5)

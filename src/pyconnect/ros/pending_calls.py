@@ -93,9 +93,12 @@ class PendingCalls:
         """Answer every open call as failed: the node shuts down."""
         with self._lock:
             still_open = list(self._open)
-        text = f"node {self._host.name!r} shut down during the {self._during}"
+        text = self._shut_down_text()
         for result in still_open:
             settle(result, lambda: self._failed(text))
+
+    def _shut_down_text(self) -> str:
+        return f"node {self._host.name!r} shut down during the {self._during}"
 
     def _ready(self) -> bool:
         try:
@@ -117,7 +120,7 @@ class PendingCalls:
         if ready:
             self._call(call, result, timeout, late)
         elif self._host.shutdown_event.is_set():
-            text = f"node {self._host.name!r} shut down during the {self._during}"
+            text = self._shut_down_text()
             settle(result, lambda: self._failed(text))
         else:
             settle(result, lambda: self._failed(f"{missing} within {timeout} s"))
@@ -135,7 +138,7 @@ class PendingCalls:
             call(result)
         except Exception as error:
             if self._host.shutdown_event.is_set():  # the node was destroyed under the call
-                text = f"node {self._host.name!r} shut down during the {self._during}"
+                text = self._shut_down_text()
                 settle(result, lambda: self._failed(text))
             else:
                 with contextlib.suppress(concurrent.futures.InvalidStateError):

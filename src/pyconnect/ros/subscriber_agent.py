@@ -186,10 +186,7 @@ class SubscriberAgent(NodeAgent):
         if not self._first_message.is_set():
             self._first_message.set()
         if self.do_log_msg:
-            try:
-                self.log_msg(value)
-            except Exception as error:
-                self.report_exception("log_msg", error)
+            self.log_msg(value)  # never raises: a log that cannot be opened is reported there
         if self.response_func is not None:
             if self._response_is_async:
                 self.lane.submit(
