@@ -11,11 +11,20 @@ import yaml
 from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import Path
-from std_msgs.msg import Float64, Float64MultiArray, Int8MultiArray, Int32MultiArray, String
+from std_msgs.msg import (
+    Float32MultiArray,
+    Float64,
+    Float64MultiArray,
+    Int8MultiArray,
+    Int32MultiArray,
+    String,
+    UInt8MultiArray,
+)
 from std_srvs.srv import SetBool
 from test_msgs.action import Fibonacci
 from test_msgs.msg import Builtins
 
+from pyconnect.cli import main
 from pyconnect.commands import value_input
 from pyconnect.commands.graph import CommandFailed
 from pyconnect.commands.value_input import Yaml12Loader, message_from_text, message_template
@@ -74,10 +83,65 @@ def test_a_multi_array_takes_its_natural_value_as_a_list() -> None:
     assert list(message_from_text("{data: [4.0]}", Float64MultiArray).data) == [4.0]
 
 
-def test_a_multi_array_value_out_of_range_is_refused() -> None:
+@pytest.mark.parametrize("msg_class", [Int32MultiArray, UInt8MultiArray, Float32MultiArray])
+def test_an_empty_list_is_an_empty_multi_array(msg_class: Any) -> None:
+    message = message_from_text("[]", msg_class)
+    assert len(message.data) == 0
+    assert [(d.size, d.stride) for d in message.layout.dim] == [(0, 0)]
+
+
+def test_an_empty_list_is_an_empty_polygon() -> None:
+    # An (N, 3) codec takes [] itself: numpy's empty array would be of shape (0,).
+    from geometry_msgs.msg import Polygon
+
+    assert list(message_from_text("[]", Polygon).points) == []
+
+
+@pytest.mark.parametrize(
+    ("text", "msg_class", "error"),
+    [
+        ("[1, 300]", Int8MultiArray, "Int8MultiArray.data[1]: expected int8 in [-128, 127], got 300"),
+        ("[1, -200]", Int8MultiArray, "Int8MultiArray.data[1]: expected int8 in [-128, 127], got -200"),
+        ("[1, 2, 300]", UInt8MultiArray, "UInt8MultiArray.data[2]: expected uint8 in [0, 255], got 300"),
+        ("[[1, 2], [3, -1]]", UInt8MultiArray, "UInt8MultiArray.data[1][1]: expected uint8 in [0, 255], got -1"),
+        ("[1, 2.5]", Int32MultiArray, "Int32MultiArray.data[1]: expected int (int32), got float"),
+        ("[true, 2]", Int32MultiArray, "Int32MultiArray.data[0]: expected int (int32), got bool"),
+        ("[1, 'a']", Float32MultiArray, "Float32MultiArray.data[1]: expected float, got str"),
+        ("[1, 1e40]", Float32MultiArray, "Float32MultiArray.data[1]: expected float32 (|x| <= 3.4028235e+38), got 1e+40"),
+    ],
+)  # fmt: skip
+def test_a_multi_array_element_that_does_not_fit_is_named(
+    text: str, msg_class: Any, error: str
+) -> None:
     with pytest.raises(CommandFailed) as caught:
-        message_from_text("[1, 300]", Int8MultiArray)
-    assert str(caught.value) == "Int8MultiArray.data: expected int8 values, got int64"
+        message_from_text(text, msg_class)
+    assert str(caught.value) == error
+
+
+@pytest.mark.parametrize(
+    ("text", "error"),
+    [
+        ("[[1, 2], [3]]", "Int32MultiArray.data: ragged nested list: row 1 has 1 elements, row 0 has 2"),
+        ("[[1, 2], 3]", "Int32MultiArray.data: ragged nested list: row 1 is not a list, row 0 is a list of 2 elements"),
+        ("[1, [2]]", "Int32MultiArray.data: ragged nested list: row 1 is a list of 1 elements, row 0 is not a list"),
+        ("[[[1], [2]], [[3], []]]", "Int32MultiArray.data[1]: ragged nested list: row 1 has 0 elements, row 0 has 1"),
+    ],
+)  # fmt: skip
+def test_a_ragged_multi_array_list_is_refused_with_its_path(text: str, error: str) -> None:
+    with pytest.raises(CommandFailed) as caught:
+        message_from_text(text, Int32MultiArray)
+    assert str(caught.value) == error
+
+
+def test_a_bad_multi_array_list_is_one_line_from_topic_pub(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # The value is refused before any ROS graph is joined.
+    argv = ["topic", "pub", "--once", "/x", "std_msgs/msg/Int8MultiArray", "[1, -200]"]
+    assert main(argv) == 1
+    assert capsys.readouterr().err == (
+        "pyconnect: error: Int8MultiArray.data[1]: expected int8 in [-128, 127], got -200\n"
+    )
 
 
 def test_now_in_a_time_field_and_auto_in_a_header(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -232,6 +232,7 @@ def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
 
 def _export(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.record.bag_export import export_topics
+    from pyconnect.record.bag_reader import open_bag
 
     if args.format == "parquet":
         from pyconnect.commands.bag_tables import export_parquet_command
@@ -245,7 +246,7 @@ def _export(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     results = export_topics(args.path, args.topic, args.to, natural=not args.dict, force=args.force)
     status = 0
     damage: list[Any] = []
-    summary = ""
+    read = 0
     for topic, result in results.items():
         written = ", ".join(f"{count} {kind}" for kind, count in sorted(result.files.items()))
         print(
@@ -254,5 +255,11 @@ def _export(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         )
         status = max(status, _report_problems(result.errors, err))
         if result.damage and not damage:
-            damage, summary = result.damage, result.damage_summary
+            damage = result.damage
+        read += result.messages + len(result.errors)  # every message read, written or not
+    summary = ""
+    if damage:
+        # A topic's own summary counts only its messages and its promise: sum every topic's.
+        with open_bag(args.path, topics=list(results)) as bag:
+            summary = bag.damage_summary(damage, read=read)
     return max(status, damage_status(damage, summary, args, err))

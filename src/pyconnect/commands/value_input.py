@@ -20,7 +20,10 @@ import numpy as np
 import yaml
 
 from pyconnect import codecs
+from pyconnect.codecs.field_checks import check_float, check_float32, check_int
+from pyconnect.codecs.field_path import FieldError
 from pyconnect.commands.graph import CommandFailed
+from pyconnect.typesys.primitives import INTEGER_RANGES
 
 __all__ = ["MessageTemplate", "Yaml12Loader", "message_from_text", "message_template"]
 
@@ -151,7 +154,12 @@ def _natural(value: Any, msg_class: type) -> Any:
     is an ndarray (asked of the codec: the return type of its ``decode``)."""
     codec = codecs.default_registry.value_codec(msg_class)
     if isinstance(value, list) and codec is not None and _decodes_to_ndarray(codec):
-        return _as_array(value, getattr(codec, "dtype", None))
+        dtype = getattr(codec, "dtype", None)
+        if dtype is None and not value:
+            return value  # numpy's [] is of shape (0,), which an (N, 3) codec refuses
+        # A codec with one dtype (the *MultiArray types) holds the list's elements in ``data``.
+        path = f"{msg_class.__name__}.data" if dtype is not None else msg_class.__name__
+        return _as_array(value, dtype, path)
     return _tuples(value)
 
 
@@ -163,20 +171,59 @@ def _decodes_to_ndarray(codec: Any) -> bool:
     return (typing.get_origin(returned) or returned) is np.ndarray
 
 
-def _as_array(value: list[Any], dtype: np.dtype[Any] | None) -> np.ndarray[Any, Any]:
-    array = np.asarray(value)
-    # YAML ints arrive as int64, which an int32 codec refuses as a narrowing cast: narrow here
-    # when every value fits (the codec reports the ones that do not).
-    if (
-        dtype is not None
-        and array.size
-        and array.dtype.kind in "iu"
-        and dtype.kind in "iu"
-        and np.iinfo(dtype).min <= array.min()
-        and array.max() <= np.iinfo(dtype).max
-    ):
-        return array.astype(dtype)
-    return array
+def _as_array(value: list[Any], dtype: np.dtype[Any] | None, path: str) -> np.ndarray[Any, Any]:
+    """``value`` as an ndarray of ``dtype`` (None: numpy's choice); ``path`` names it in errors
+    (``Int8MultiArray.data[1]: expected int8 in [-128, 127], got -200``)."""
+    _check_rectangular(value, path)
+    if dtype is None:
+        return np.asarray(value)
+    # Checked here, not left to numpy and the codec: numpy takes [] as float64 (which no int
+    # type takes), YAML ints as int64 (a narrowing cast the codec refuses), bools as numbers,
+    # and casts 1e40 to a float32 inf; and the codec's error cannot name the element.
+    _check_elements(value, dtype, path)
+    return np.array(value, dtype=dtype)
+
+
+def _check_rectangular(value: list[Any], path: str) -> None:
+    """Refuse a nested list whose rows differ in length or mix lists and scalars: numpy's own
+    message for it names neither the field nor the rows."""
+    rows = [len(row) if isinstance(row, list) else None for row in value]
+    for index, row in enumerate(rows):
+        if row != rows[0]:
+            raise FieldError(path, f"ragged nested list: {_rows(index, row, rows[0])}")
+    if rows and rows[0] is not None:
+        for index, row in enumerate(value):
+            _check_rectangular(row, f"{path}[{index}]")
+
+
+def _rows(index: int, length: int | None, first: int | None) -> str:
+    if length is None:
+        return f"row {index} is not a list, row 0 is a list of {first} elements"
+    if first is None:
+        return f"row {index} is a list of {length} elements, row 0 is not a list"
+    return f"row {index} has {length} elements, row 0 has {first}"
+
+
+def _check_elements(value: list[Any], dtype: np.dtype[Any], path: str) -> None:
+    """Raise ``FieldError`` for the first element of the (nested) ``value`` that ``dtype``
+    does not hold: a bool, a str, a float for an int type, a number out of its range."""
+    kind = dtype.name
+    low, high = INTEGER_RANGES.get(kind, (0, -1))
+    for index, element in enumerate(value):
+        if isinstance(element, list):
+            _check_elements(element, dtype, f"{path}[{index}]")
+            continue
+        if element.__class__ is int and low <= element <= high:
+            continue  # the common case, without a call
+        try:
+            if kind in INTEGER_RANGES:
+                check_int(element, low, high, kind, "")
+            elif kind == "float32":
+                check_float32(element, "")
+            else:
+                check_float(element, "")
+        except FieldError as error:
+            raise error.within(f"[{index}]").within(path) from None
 
 
 def _tuples(value: Any) -> Any:
