@@ -232,7 +232,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
             pos += v7
-            v8 = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes().decode()
+            raw_text = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes()
+            v8 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -290,7 +293,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
             pos += v5
-            v6 = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes().decode()
+            raw_text = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes()
+            v6 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:

@@ -529,7 +529,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = KEY_VALUE_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
@@ -538,7 +541,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
             pos += v5
-            v6 = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes().decode()
+            raw_text = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes()
+            v6 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -600,7 +606,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
             pos += v4
-            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
+            raw_text = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes()
+            v5 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = DIAGNOSTIC_STATUS_RUN_2
             (v7,) = _S_I.unpack_from(mv, pos)
@@ -609,7 +618,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
             pos += v7
-            v8 = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes().decode()
+            raw_text = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes()
+            v8 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = DIAGNOSTIC_STATUS_RUN_3
             (v10,) = _S_I.unpack_from(mv, pos)
@@ -618,7 +630,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v10 > lim - pos:
                 raise too_long(v10, 1, lim - pos)
             pos += v10
-            v11 = mv[pos - v10 : pos - (mv[pos - 1] == 0 < v10)].tobytes().decode()
+            raw_text = mv[pos - v10 : pos - (mv[pos - 1] == 0 < v10)].tobytes()
+            v11 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             f = ".values"
             v12, pos = read_messages(mv, pos, lim, _U32, key_value_decode, None, None, 8)
         except WireDecodeError as error:
@@ -735,7 +750,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -783,7 +801,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
             pos += v4
-            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
+            raw_text = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes()
+            v5 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -983,7 +1004,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             f = SELF_TEST_RESPONSE_RUN_1
             (v5,) = _S_B.unpack_from(mv, pos)
             pos += 1

@@ -2946,7 +2946,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
             pos += v3
-            v4 = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes().decode()
+            raw_text = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes()
+            v4 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 7) & -8
             f = TRANSFORM_STAMPED_RUN_1
             v8, v10, v12, v15, v17, v19, v21 = _S_7d.unpack_from(mv, pos)
@@ -3415,7 +3418,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
             pos += v3
-            v4 = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes().decode()
+            raw_text = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes()
+            v4 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = VELOCITY_STAMPED_RUN_1
             (v6,) = _S_I.unpack_from(mv, pos)
@@ -3424,7 +3430,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
             pos += v6
-            v7 = mv[pos - v6 : pos - (mv[pos - 1] == 0 < v6)].tobytes().decode()
+            raw_text = mv[pos - v6 : pos - (mv[pos - 1] == 0 < v6)].tobytes()
+            v7 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 7) & -8
             f = VELOCITY_STAMPED_RUN_2
             v11, v13, v15, v18, v20, v22 = _S_6d.unpack_from(mv, pos)

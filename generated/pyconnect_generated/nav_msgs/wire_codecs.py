@@ -1327,7 +1327,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
             pos += v3
-            v4 = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes().decode()
+            raw_text = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes()
+            v4 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 7) & -8
             f = ODOMETRY_RUN_1
             v9, v11, v13, v16, v18, v20, v22 = _S_7d.unpack_from(mv, pos)
@@ -1917,7 +1920,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:

@@ -1950,7 +1950,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
             pos += v9
-            v10 = mv[pos - v9 : pos - (mv[pos - 1] == 0 < v9)].tobytes().decode()
+            raw_text = mv[pos - v9 : pos - (mv[pos - 1] == 0 < v9)].tobytes()
+            v10 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = LOG_RUN_1
             (v12,) = _S_I.unpack_from(mv, pos)
@@ -1959,7 +1962,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v12 > lim - pos:
                 raise too_long(v12, 1, lim - pos)
             pos += v12
-            v13 = mv[pos - v12 : pos - (mv[pos - 1] == 0 < v12)].tobytes().decode()
+            raw_text = mv[pos - v12 : pos - (mv[pos - 1] == 0 < v12)].tobytes()
+            v13 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = LOG_RUN_2
             (v15,) = _S_I.unpack_from(mv, pos)
@@ -1968,7 +1974,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v15 > lim - pos:
                 raise too_long(v15, 1, lim - pos)
             pos += v15
-            v16 = mv[pos - v15 : pos - (mv[pos - 1] == 0 < v15)].tobytes().decode()
+            raw_text = mv[pos - v15 : pos - (mv[pos - 1] == 0 < v15)].tobytes()
+            v16 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = LOG_RUN_3
             (v18,) = _S_I.unpack_from(mv, pos)
@@ -1977,7 +1986,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v18 > lim - pos:
                 raise too_long(v18, 1, lim - pos)
             pos += v18
-            v19 = mv[pos - v18 : pos - (mv[pos - 1] == 0 < v18)].tobytes().decode()
+            raw_text = mv[pos - v18 : pos - (mv[pos - 1] == 0 < v18)].tobytes()
+            v19 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = LOG_RUN_4
             (v21,) = _S_I.unpack_from(mv, pos)
@@ -2098,7 +2110,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = LOGGER_LEVEL_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
@@ -2162,7 +2177,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v10 > lim - pos:
                 raise too_long(v10, 1, lim - pos)
             pos += v10
-            v11 = mv[pos - v10 : pos - (mv[pos - 1] == 0 < v10)].tobytes().decode()
+            raw_text = mv[pos - v10 : pos - (mv[pos - 1] == 0 < v10)].tobytes()
+            v11 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = PARAMETER_VALUE_RUN_2
             (v14,) = _S_I.unpack_from(mv, pos)
@@ -2356,7 +2374,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             f = ".value"
             v4, pos = parameter_value_decode(mv, pos, lim)
         except WireDecodeError as error:
@@ -2405,7 +2426,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             f = PARAMETER_DESCRIPTOR_RUN_1
             (v5,) = _S_B.unpack_from(mv, pos)
             pos += 1
@@ -2417,7 +2441,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
             pos += v7
-            v8 = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes().decode()
+            raw_text = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes()
+            v8 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = PARAMETER_DESCRIPTOR_RUN_3
             (v10,) = _S_I.unpack_from(mv, pos)
@@ -2426,7 +2453,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v10 > lim - pos:
                 raise too_long(v10, 1, lim - pos)
             pos += v10
-            v11 = mv[pos - v10 : pos - (mv[pos - 1] == 0 < v10)].tobytes().decode()
+            raw_text = mv[pos - v10 : pos - (mv[pos - 1] == 0 < v10)].tobytes()
+            v11 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             f = PARAMETER_DESCRIPTOR_RUN_4
             v13, v15 = _S_2T.unpack_from(mv, pos)
             pos += 2
@@ -2547,7 +2577,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
             pos += v7
-            v8 = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes().decode()
+            raw_text = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes()
+            v8 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             f = ".new_parameters"
             v9, pos = read_messages(mv, pos, lim, _U32, parameter_decode, None, None, 46)
             f = ".changed_parameters"
@@ -2718,7 +2751,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
             pos += v4
-            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
+            raw_text = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes()
+            v5 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2774,7 +2810,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
             pos += v4
-            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
+            raw_text = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes()
+            v5 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:

@@ -1867,7 +1867,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v33 > lim - pos:
                 raise too_long(v33, 1, lim - pos)
             pos += v33
-            v34 = mv[pos - v33 : pos - (mv[pos - 1] == 0 < v33)].tobytes().decode()
+            raw_text = mv[pos - v33 : pos - (mv[pos - 1] == 0 < v33)].tobytes()
+            v34 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = BATTERY_STATE_RUN_3
             (v36,) = _S_I.unpack_from(mv, pos)
@@ -1876,7 +1879,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v36 > lim - pos:
                 raise too_long(v36, 1, lim - pos)
             pos += v36
-            v37 = mv[pos - v36 : pos - (mv[pos - 1] == 0 < v36)].tobytes().decode()
+            raw_text = mv[pos - v36 : pos - (mv[pos - 1] == 0 < v36)].tobytes()
+            v37 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2054,7 +2060,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
             pos += v7
-            v8 = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes().decode()
+            raw_text = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes()
+            v8 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = CAMERA_INFO_RUN_1
             (v11,) = _S_I.unpack_from(mv, pos)
@@ -2246,7 +2255,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = CHANNEL_FLOAT32_RUN_1
             (v6,) = _S_I.unpack_from(mv, pos)
@@ -2321,7 +2333,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
             pos += v3
-            v4 = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes().decode()
+            raw_text = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes()
+            v4 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = COMPRESSED_IMAGE_RUN_1
             (v7,) = _S_I.unpack_from(mv, pos)
@@ -2484,7 +2499,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
             pos += v7
-            v8 = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes().decode()
+            raw_text = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes()
+            v8 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             f = IMAGE_RUN_1
             (v10,) = _S_B.unpack_from(mv, pos)
             pos += 1
@@ -3579,7 +3597,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = POINT_FIELD_RUN_1
             v5, v7, v9 = _S_IB3xI.unpack_from(mv, pos)
@@ -3915,7 +3936,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v8 > lim - pos:
                 raise too_long(v8, 1, lim - pos)
             pos += v8
-            v9 = mv[pos - v8 : pos - (mv[pos - 1] == 0 < v8)].tobytes().decode()
+            raw_text = mv[pos - v8 : pos - (mv[pos - 1] == 0 < v8)].tobytes()
+            v9 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -3999,7 +4023,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
             pos += v4
-            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
+            raw_text = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes()
+            v5 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:

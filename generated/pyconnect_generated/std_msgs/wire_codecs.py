@@ -1222,7 +1222,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = MULTI_ARRAY_DIMENSION_RUN_1
             v5, v7 = _S_2I.unpack_from(mv, pos)
@@ -1682,7 +1685,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v7 > lim - pos:
                 raise too_long(v7, 1, lim - pos)
             pos += v7
-            v8 = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes().decode()
+            raw_text = mv[pos - v7 : pos - (mv[pos - 1] == 0 < v7)].tobytes()
+            v8 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2105,7 +2111,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:

@@ -684,7 +684,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
             pos += v4
-            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
+            raw_text = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes()
+            v5 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -885,7 +888,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
             pos += v4
-            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
+            raw_text = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes()
+            v5 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:

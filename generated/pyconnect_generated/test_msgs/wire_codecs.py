@@ -7948,7 +7948,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = STRINGS_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
@@ -7957,7 +7960,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
             pos += v5
-            v6 = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes().decode()
+            raw_text = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes()
+            v6 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = STRINGS_RUN_2
             (v8,) = _S_I.unpack_from(mv, pos)
@@ -7966,7 +7972,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v8 > lim - pos:
                 raise too_long(v8, 1, lim - pos)
             pos += v8
-            v9 = mv[pos - v8 : pos - (mv[pos - 1] == 0 < v8)].tobytes().decode()
+            raw_text = mv[pos - v8 : pos - (mv[pos - 1] == 0 < v8)].tobytes()
+            v9 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = STRINGS_RUN_3
             (v11,) = _S_I.unpack_from(mv, pos)
@@ -7975,7 +7984,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v11 > lim - pos:
                 raise too_long(v11, 1, lim - pos)
             pos += v11
-            v12 = mv[pos - v11 : pos - (mv[pos - 1] == 0 < v11)].tobytes().decode()
+            raw_text = mv[pos - v11 : pos - (mv[pos - 1] == 0 < v11)].tobytes()
+            v12 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = STRINGS_RUN_4
             (v14,) = _S_I.unpack_from(mv, pos)
@@ -7984,7 +7996,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v14 > lim - pos:
                 raise too_long(v14, 1, lim - pos)
             pos += v14
-            v15 = mv[pos - v14 : pos - (mv[pos - 1] == 0 < v14)].tobytes().decode()
+            raw_text = mv[pos - v14 : pos - (mv[pos - 1] == 0 < v14)].tobytes()
+            v15 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = STRINGS_RUN_5
             (v17,) = _S_I.unpack_from(mv, pos)
@@ -7993,7 +8008,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v17 > lim - pos:
                 raise too_long(v17, 1, lim - pos)
             pos += v17
-            v18 = mv[pos - v17 : pos - (mv[pos - 1] == 0 < v17)].tobytes().decode()
+            raw_text = mv[pos - v17 : pos - (mv[pos - 1] == 0 < v17)].tobytes()
+            v18 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = STRINGS_RUN_6
             (v20,) = _S_I.unpack_from(mv, pos)
@@ -8002,7 +8020,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v20 > lim - pos:
                 raise too_long(v20, 1, lim - pos)
             pos += v20
-            v21 = mv[pos - v20 : pos - (mv[pos - 1] == 0 < v20)].tobytes().decode()
+            raw_text = mv[pos - v20 : pos - (mv[pos - 1] == 0 < v20)].tobytes()
+            v21 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             if len(v21) > 22:
                 raise over_bound(len(v21), 22)
             pos = (pos + 3) & -4
@@ -8013,7 +8034,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v23 > lim - pos:
                 raise too_long(v23, 1, lim - pos)
             pos += v23
-            v24 = mv[pos - v23 : pos - (mv[pos - 1] == 0 < v23)].tobytes().decode()
+            raw_text = mv[pos - v23 : pos - (mv[pos - 1] == 0 < v23)].tobytes()
+            v24 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             if len(v24) > 22:
                 raise over_bound(len(v24), 22)
             pos = (pos + 3) & -4
@@ -8024,7 +8048,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v26 > lim - pos:
                 raise too_long(v26, 1, lim - pos)
             pos += v26
-            v27 = mv[pos - v26 : pos - (mv[pos - 1] == 0 < v26)].tobytes().decode()
+            raw_text = mv[pos - v26 : pos - (mv[pos - 1] == 0 < v26)].tobytes()
+            v27 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             if len(v27) > 22:
                 raise over_bound(len(v27), 22)
             pos = (pos + 3) & -4
@@ -8035,7 +8062,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v29 > lim - pos:
                 raise too_long(v29, 1, lim - pos)
             pos += v29
-            v30 = mv[pos - v29 : pos - (mv[pos - 1] == 0 < v29)].tobytes().decode()
+            raw_text = mv[pos - v29 : pos - (mv[pos - 1] == 0 < v29)].tobytes()
+            v30 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             if len(v30) > 22:
                 raise over_bound(len(v30), 22)
             pos = (pos + 3) & -4
@@ -8046,7 +8076,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v32 > lim - pos:
                 raise too_long(v32, 1, lim - pos)
             pos += v32
-            v33 = mv[pos - v32 : pos - (mv[pos - 1] == 0 < v32)].tobytes().decode()
+            raw_text = mv[pos - v32 : pos - (mv[pos - 1] == 0 < v32)].tobytes()
+            v33 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             if len(v33) > 22:
                 raise over_bound(len(v33), 22)
             pos = (pos + 3) & -4
@@ -8057,7 +8090,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v35 > lim - pos:
                 raise too_long(v35, 1, lim - pos)
             pos += v35
-            v36 = mv[pos - v35 : pos - (mv[pos - 1] == 0 < v35)].tobytes().decode()
+            raw_text = mv[pos - v35 : pos - (mv[pos - 1] == 0 < v35)].tobytes()
+            v36 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             if len(v36) > 22:
                 raise over_bound(len(v36), 22)
         except WireDecodeError as error:
@@ -9568,7 +9604,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v28 > lim - pos:
                 raise too_long(v28, 1, lim - pos)
             pos += v28
-            v29 = mv[pos - v28 : pos - (mv[pos - 1] == 0 < v28)].tobytes().decode()
+            raw_text = mv[pos - v28 : pos - (mv[pos - 1] == 0 < v28)].tobytes()
+            v29 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -9687,7 +9726,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v28 > lim - pos:
                 raise too_long(v28, 1, lim - pos)
             pos += v28
-            v29 = mv[pos - v28 : pos - (mv[pos - 1] == 0 < v28)].tobytes().decode()
+            raw_text = mv[pos - v28 : pos - (mv[pos - 1] == 0 < v28)].tobytes()
+            v29 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:

@@ -592,7 +592,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v8 > lim - pos:
                 raise too_long(v8, 1, lim - pos)
             pos += v8
-            v9 = mv[pos - v8 : pos - (mv[pos - 1] == 0 < v8)].tobytes().decode()
+            raw_text = mv[pos - v8 : pos - (mv[pos - 1] == 0 < v8)].tobytes()
+            v9 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             if len(v9) > 255:
                 raise over_bound(len(v9), 255)
         except WireDecodeError as error:
@@ -651,7 +654,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             f = ".type"
             v4, pos = field_type_decode(mv, pos, lim)
             pos = (pos + 3) & -4
@@ -662,7 +668,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
             pos += v6
-            v7 = mv[pos - v6 : pos - (mv[pos - 1] == 0 < v6)].tobytes().decode()
+            raw_text = mv[pos - v6 : pos - (mv[pos - 1] == 0 < v6)].tobytes()
+            v7 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -723,7 +732,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             if len(v3) > 255:
                 raise over_bound(len(v3), 255)
             f = ".fields"
@@ -774,7 +786,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = KEY_VALUE_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
@@ -783,7 +798,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
             pos += v5
-            v6 = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes().decode()
+            raw_text = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes()
+            v6 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -882,7 +900,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = TYPE_SOURCE_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
@@ -891,7 +912,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
             pos += v5
-            v6 = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes().decode()
+            raw_text = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes()
+            v6 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = TYPE_SOURCE_RUN_2
             (v8,) = _S_I.unpack_from(mv, pos)
@@ -900,7 +924,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v8 > lim - pos:
                 raise too_long(v8, 1, lim - pos)
             pos += v8
-            v9 = mv[pos - v8 : pos - (mv[pos - 1] == 0 < v8)].tobytes().decode()
+            raw_text = mv[pos - v8 : pos - (mv[pos - 1] == 0 < v8)].tobytes()
+            v9 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -973,7 +1000,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = GET_TYPE_DESCRIPTION_REQUEST_RUN_1
             (v5,) = _S_I.unpack_from(mv, pos)
@@ -982,7 +1012,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v5 > lim - pos:
                 raise too_long(v5, 1, lim - pos)
             pos += v5
-            v6 = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes().decode()
+            raw_text = mv[pos - v5 : pos - (mv[pos - 1] == 0 < v5)].tobytes()
+            v6 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             f = GET_TYPE_DESCRIPTION_REQUEST_RUN_2
             (v8,) = _S_T.unpack_from(mv, pos)
             pos += 1
@@ -1055,7 +1088,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v4 > lim - pos:
                 raise too_long(v4, 1, lim - pos)
             pos += v4
-            v5 = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes().decode()
+            raw_text = mv[pos - v4 : pos - (mv[pos - 1] == 0 < v4)].tobytes()
+            v5 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             f = ".type_description"
             v6, pos = type_description_decode(mv, pos, lim)
             f = ".type_sources"

@@ -1167,7 +1167,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
             pos += v3
-            v4 = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes().decode()
+            raw_text = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes()
+            v4 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = IMAGE_MARKER_RUN_1
             v6, v8, v10 = _S_3i.unpack_from(mv, pos)
@@ -1356,7 +1359,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
             pos += v6
-            v7 = mv[pos - v6 : pos - (mv[pos - 1] == 0 < v6)].tobytes().decode()
+            raw_text = mv[pos - v6 : pos - (mv[pos - 1] == 0 < v6)].tobytes()
+            v7 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = MENU_ENTRY_RUN_1
             (v9,) = _S_I.unpack_from(mv, pos)
@@ -1365,7 +1371,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
             pos += v9
-            v10 = mv[pos - v9 : pos - (mv[pos - 1] == 0 < v9)].tobytes().decode()
+            raw_text = mv[pos - v9 : pos - (mv[pos - 1] == 0 < v9)].tobytes()
+            v10 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             f = MENU_ENTRY_RUN_2
             (v12,) = _S_B.unpack_from(mv, pos)
             pos += 1
@@ -1479,7 +1488,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = MESH_FILE_RUN_1
             (v6,) = _S_I.unpack_from(mv, pos)
@@ -1552,7 +1564,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
             pos += v3
-            v4 = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes().decode()
+            raw_text = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes()
+            v4 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = MARKER_RUN_1
             v6, v8, v10 = _S_3i.unpack_from(mv, pos)
@@ -1579,7 +1594,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v54 > lim - pos:
                 raise too_long(v54, 1, lim - pos)
             pos += v54
-            v55 = mv[pos - v54 : pos - (mv[pos - 1] == 0 < v54)].tobytes().decode()
+            raw_text = mv[pos - v54 : pos - (mv[pos - 1] == 0 < v54)].tobytes()
+            v55 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             f = ".texture"
             v56, pos = sensor_msgs__compressed_image_decode(mv, pos, lim)
             f = ".uv_coordinates"
@@ -1592,7 +1610,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v59 > lim - pos:
                 raise too_long(v59, 1, lim - pos)
             pos += v59
-            v60 = mv[pos - v59 : pos - (mv[pos - 1] == 0 < v59)].tobytes().decode()
+            raw_text = mv[pos - v59 : pos - (mv[pos - 1] == 0 < v59)].tobytes()
+            v60 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = MARKER_RUN_5
             (v62,) = _S_I.unpack_from(mv, pos)
@@ -1601,7 +1622,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v62 > lim - pos:
                 raise too_long(v62, 1, lim - pos)
             pos += v62
-            v63 = mv[pos - v62 : pos - (mv[pos - 1] == 0 < v62)].tobytes().decode()
+            raw_text = mv[pos - v62 : pos - (mv[pos - 1] == 0 < v62)].tobytes()
+            v63 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             f = ".mesh_file"
             v64, pos = mesh_file_decode(mv, pos, lim)
             f = MARKER_RUN_6
@@ -1893,7 +1917,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 7) & -8
             f = INTERACTIVE_MARKER_CONTROL_RUN_1
             v6, v8, v10, v12, v14, v16, v18 = _S_4d2BT.unpack_from(mv, pos)
@@ -1911,7 +1938,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v23 > lim - pos:
                 raise too_long(v23, 1, lim - pos)
             pos += v23
-            v24 = mv[pos - v23 : pos - (mv[pos - 1] == 0 < v23)].tobytes().decode()
+            raw_text = mv[pos - v23 : pos - (mv[pos - 1] == 0 < v23)].tobytes()
+            v24 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2025,7 +2055,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v20 > lim - pos:
                 raise too_long(v20, 1, lim - pos)
             pos += v20
-            v21 = mv[pos - v20 : pos - (mv[pos - 1] == 0 < v20)].tobytes().decode()
+            raw_text = mv[pos - v20 : pos - (mv[pos - 1] == 0 < v20)].tobytes()
+            v21 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = INTERACTIVE_MARKER_RUN_1
             (v23,) = _S_I.unpack_from(mv, pos)
@@ -2034,7 +2067,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v23 > lim - pos:
                 raise too_long(v23, 1, lim - pos)
             pos += v23
-            v24 = mv[pos - v23 : pos - (mv[pos - 1] == 0 < v23)].tobytes().decode()
+            raw_text = mv[pos - v23 : pos - (mv[pos - 1] == 0 < v23)].tobytes()
+            v24 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = INTERACTIVE_MARKER_RUN_2
             (v26,) = _S_f.unpack_from(mv, pos)
@@ -2185,7 +2221,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v3 > lim - pos:
                 raise too_long(v3, 1, lim - pos)
             pos += v3
-            v4 = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes().decode()
+            raw_text = mv[pos - v3 : pos - (mv[pos - 1] == 0 < v3)].tobytes()
+            v4 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = INTERACTIVE_MARKER_FEEDBACK_RUN_1
             (v6,) = _S_I.unpack_from(mv, pos)
@@ -2194,7 +2233,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v6 > lim - pos:
                 raise too_long(v6, 1, lim - pos)
             pos += v6
-            v7 = mv[pos - v6 : pos - (mv[pos - 1] == 0 < v6)].tobytes().decode()
+            raw_text = mv[pos - v6 : pos - (mv[pos - 1] == 0 < v6)].tobytes()
+            v7 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 3) & -4
             f = INTERACTIVE_MARKER_FEEDBACK_RUN_2
             (v9,) = _S_I.unpack_from(mv, pos)
@@ -2203,7 +2245,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v9 > lim - pos:
                 raise too_long(v9, 1, lim - pos)
             pos += v9
-            v10 = mv[pos - v9 : pos - (mv[pos - 1] == 0 < v9)].tobytes().decode()
+            raw_text = mv[pos - v9 : pos - (mv[pos - 1] == 0 < v9)].tobytes()
+            v10 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             f = INTERACTIVE_MARKER_FEEDBACK_RUN_3
             (v12,) = _S_B.unpack_from(mv, pos)
             pos += 1
@@ -2379,7 +2424,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 7) & -8
             f = INTERACTIVE_MARKER_INIT_RUN_1
             (v5,) = _S_Q.unpack_from(mv, pos)
@@ -2448,7 +2496,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v20 > lim - pos:
                 raise too_long(v20, 1, lim - pos)
             pos += v20
-            v21 = mv[pos - v20 : pos - (mv[pos - 1] == 0 < v20)].tobytes().decode()
+            raw_text = mv[pos - v20 : pos - (mv[pos - 1] == 0 < v20)].tobytes()
+            v21 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
         except WireDecodeError as error:
             raise error.within(f) from None
         except Exception as error:
@@ -2541,7 +2592,10 @@ def _build(E: str, view: bool) -> dict[str, Any]:
             if v2 > lim - pos:
                 raise too_long(v2, 1, lim - pos)
             pos += v2
-            v3 = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes().decode()
+            raw_text = mv[pos - v2 : pos - (mv[pos - 1] == 0 < v2)].tobytes()
+            v3 = (raw_text[: raw_text.index(0)] if 0 in raw_text else raw_text).decode(
+                "utf-8", "replace"
+            )
             pos = (pos + 7) & -8
             f = INTERACTIVE_MARKER_UPDATE_RUN_1
             v5, v7 = _S_QB.unpack_from(mv, pos)

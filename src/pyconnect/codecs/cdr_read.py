@@ -139,8 +139,10 @@ def read_strings(  # noqa: PLR0917 (generated code calls it positionally)
             if size > lim - pos:
                 raise too_long(size, 1, lim - pos)
             pos += size
-            # Without the terminating NUL; a last byte that is not NUL is kept, as Fast CDR does.
-            text = mv[pos - size : pos - (mv[pos - 1] == 0 < size)].tobytes().decode()
+            # rclpy's value (as the generated decoders read a string field): up to the first NUL,
+            # a last byte that is not NUL kept (Fast CDR's reading), bad UTF-8 as U+FFFD.
+            raw = mv[pos - size : pos - (mv[pos - 1] == 0 < size)].tobytes()
+            text = (raw[: raw.index(0)] if 0 in raw else raw).decode("utf-8", "replace")
             if string_bound is not None and len(text) > string_bound:
                 raise over_bound(len(text), string_bound)
             append(text)

@@ -117,10 +117,9 @@ def _string(general_encode: Encode, general_decode: Decode) -> tuple[Encode, Dec
             (size,) = unpack_u32(payload, 4)
             end = 8 + size
             if size and end <= len(payload) <= end + 3 and payload[end - 1] == 0:
-                try:
-                    return payload[8 : end - 1].decode()
-                except UnicodeDecodeError:
-                    pass
+                text = payload[8 : end - 1]
+                if 0 not in text:  # the general path ends the text at an inner NUL, as rclpy
+                    return text.decode("utf-8", "replace")
         return general_decode(payload)
 
     return encode, decode

@@ -103,13 +103,6 @@ def test_bad_headers() -> None:
     )
 
 
-def test_invalid_utf8_names_the_field() -> None:
-    cdr = b"\x00\x01\x00\x00" + struct.pack("<I", 3) + b"\xff\xfe\x00"
-    assert error_of(cdr, "std_msgs/msg/String") == (
-        "std_msgs/msg/String.data: invalid UTF-8 (invalid start byte at byte 0)"
-    )
-
-
 def test_sequence_over_its_bound() -> None:
     cdr = b"\x00\x01\x00\x00" + struct.pack("<I", 4) + bytes(4)
     assert error_of(cdr, "test_msgs/msg/BoundedSequences") == (
