@@ -257,7 +257,11 @@ class Caller:
         for reply in replies:
             if reply.ok is None:
                 err = reply.err
-                errors.append(err.payload.to_string() if err is not None else "unknown error")
+                # Any server may send any bytes: to_string() raises on what is not UTF-8.
+                if err is None:
+                    errors.append("unknown error")
+                else:
+                    errors.append(err.payload.to_bytes().decode(errors="replace"))
                 continue
             response: bytes = reply.ok.payload.to_bytes()
             return response

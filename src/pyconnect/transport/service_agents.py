@@ -15,9 +15,11 @@ response with ``success``/``message`` fields gets ``success=False`` and the erro
 other the default response; the error is logged with the agent's name.
 
 Client: ``send(data, timeout=None)`` returns the decoded response through ``reform_response``;
-when no server is in the graph within the timeout, when the server vanishes before it replies
-or when it does not reply in time, it returns ``{'isdone': False, 'error': ...}`` as
-``CustomNode``'s clients do. ``block=False`` returns a ``concurrent.futures.Future``.
+when no server is in the graph within the timeout, when the server vanishes before it replies,
+does not reply in time or replies with an error, or when anything else goes wrong in the call
+(a reply that does not decode, zenoh's own errors), it returns ``{'isdone': False, 'error':
+...}`` as ``CustomNode``'s clients do. ``block=False`` returns a ``concurrent.futures.Future``
+of the same (only a request that does not encode raises, at once).
 """
 
 # zenoh's stubs leave undeclare() and close() unannotated.
@@ -179,7 +181,7 @@ class ServiceClientAgent(PeerAgent):
             def call() -> None:
                 try:
                     result.set_result(self._call(payload, timeout))
-                except Exception as error:
+                except BaseException as error:  # KeyboardInterrupt...: raised by result()
                     result.set_exception(error)
 
             threading.Thread(target=call, name=f"pyconnect-{self.name}-call", daemon=True).start()
@@ -187,6 +189,14 @@ class ServiceClientAgent(PeerAgent):
         return self._call(payload, timeout)
 
     def _call(self, payload: bytes, timeout: float | None) -> Any:
+        """The decoded response, or the failure dict: whatever goes wrong, never an exception."""
+        try:
+            return self._attempt(payload, timeout)
+        except Exception as error:  # zenoh's own errors, a closing session, a bug
+            self.report_exception("call", error)
+            return self._failed(f"the call failed: {type(error).__name__}: {error}")
+
+    def _attempt(self, payload: bytes, timeout: float | None) -> Any:
         deadline = None if timeout is None else time.monotonic() + timeout
         if not self.peer.wait_for_graph(lambda: self.server_count > 0, deadline):
             return self._failed(self.why_no_answer(f"no server for {self.topic}", timeout))

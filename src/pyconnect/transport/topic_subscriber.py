@@ -27,7 +27,10 @@ keep exactly ``depth`` (a few large samples, never a thousand). rmw_zenoh's subs
 the oldest, bursts included. Samples lost on the way (skipped by keep-last, or dropped by
 zenoh's congestion control) are counted in ``dropped_count`` from the publishers' sequence gaps
 (samples without an attachment, from a bare zenoh session, are counted when the agent skips
-them; what zenoh's ring drops of them leaves no trace).
+them; what zenoh's ring drops of them leaves no trace). A sequence number that goes backwards
+or jumps by more than ``MAX_SEQUENCE_GAP`` is a restarted publisher or a bogus number: counting
+restarts from it, no gap counted. An attachment that is not rmw_zenoh's 32 bytes is counted in
+``bad_attachment_count`` and reported once; its sample is still decoded and handed on.
 """
 
 # zenoh's stubs leave undeclare() and close() unannotated.
@@ -55,6 +58,9 @@ from pyconnect.transport.peer_agent import DEFAULT_DEPTH, Peer, PeerAgent, Respo
 # What an agent that keeps up on average may hold beyond ``depth`` while it works through a burst.
 BURST_SAMPLES = 1000
 BURST_SECONDS = 0.02
+# The most samples one gap in a publisher's sequence numbers may stand for: a longer jump (or
+# one backwards) is a restarted publisher or a bogus number, not ~2**62 lost samples.
+MAX_SEQUENCE_GAP = 2**20
 _unpack_attachment = keys.ATTACHMENT.unpack  # (sequence, stamp ns, gid); struct.error if malformed
 time_ns = time.time_ns
 monotonic = time.monotonic
@@ -115,9 +121,13 @@ class SubscriberAgent(PeerAgent):
         self.type_mismatch_count = 0
         self.oversize_count = 0
         self.last_received_ns = 0
-        self._reported: set[tuple[str, bytes]] = set()
+        self.bad_attachment_count = 0
+        """Samples whose attachment is not rmw_zenoh's (decoded and handed on all the same)."""
+        self._reported: set[tuple[str, str]] = set()
         self._first_message = threading.Event()
         self._last_sequence: dict[bytes, int] = {}
+        self._interrupted: dict[bytes, int] = {}
+        """Per publisher, its sequence number before an implausible jump (see _sequence_jump)."""
         self.dropped_count = 0
         """Samples lost before this agent handled them: gaps in each publisher's sequence
         numbers (zenoh dropped them on congestion, or this agent skipped them to keep up)."""
@@ -230,11 +240,11 @@ class SubscriberAgent(PeerAgent):
             try:
                 sequence, _stamp, gid = _unpack_attachment(attachment.to_bytes())
             except struct.error:
-                pass
+                self._bad_attachment(attachment)
             else:
                 last = self._last_sequence.get(gid, sequence - 1)
-                if sequence > last + 1:
-                    self.dropped_count += sequence - last - 1
+                if sequence != last + 1:  # rare: a gap, a restart or a bogus number
+                    self._sequence_jump(gid, last, sequence)
                 self._last_sequence[gid] = sequence
         payload = sample.payload
         limit = self.peer.max_payload_bytes
@@ -266,17 +276,47 @@ class SubscriberAgent(PeerAgent):
             except Exception as error:
                 self.report_exception("response_func", error)
 
+    def _sequence_jump(self, gid: bytes, last: int, sequence: int) -> None:
+        """Count the samples lost before ``sequence`` when its jump from ``last`` is a gap.
+
+        A sequence number that goes backwards or jumps further than ``MAX_SEQUENCE_GAP`` is a
+        restarted publisher or a bogus number: counting restarts from it, and where the run
+        stood before is kept, so a later sample that continues that run (the odd number was a
+        one-off) is counted from there, not as a gap from the odd one.
+        """
+        before = self._interrupted.get(gid)
+        base = last if 0 < sequence - last <= MAX_SEQUENCE_GAP + 1 else None
+        if before is not None and 0 < sequence - before <= MAX_SEQUENCE_GAP + 1:
+            base = before if base is None else max(base, before)
+        if base is None:
+            if before is None:
+                self._interrupted[gid] = last
+            return
+        self.dropped_count += sequence - base - 1
+        if before is not None and sequence > before:
+            del self._interrupted[gid]  # the run before the jump is over (or resumed here)
+
+    def _bad_attachment(self, attachment: zenoh.ZBytes) -> None:
+        self.bad_attachment_count += 1
+        self._report_once(
+            "attachment",
+            attachment,
+            f"attachment of {len(attachment)} bytes, expected {keys.ATTACHMENT_SIZE} "
+            "(rmw_zenoh's sequence number, source timestamp and GID); its samples are handed "
+            "on, not checked for gaps",
+        )
+
     def _report_once(self, what: str, attachment: zenoh.ZBytes | None, text: str) -> None:
-        gid = b""
+        publisher = "without attachment"
         if attachment is not None:
             try:
-                gid = _unpack_attachment(attachment.to_bytes())[2]
+                publisher = _unpack_attachment(attachment.to_bytes())[2].hex()
             except struct.error:
-                gid = b""
-        if (what, gid) in self._reported:
+                # Nothing tells such publishers apart: reported once for all of them.
+                publisher = "with an unreadable attachment"
+        if (what, publisher) in self._reported:
             return
-        self._reported.add((what, gid))
-        publisher = gid.hex() if gid else "without attachment"
+        self._reported.add((what, publisher))
         logger.warning("%s on %s: publisher %s: %s", self.describe, self.topic, publisher, text)
 
     def wait_for_message(self, timeout: float | None = None) -> bool:
