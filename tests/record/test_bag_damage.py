@@ -13,7 +13,7 @@ from mcap.reader import make_reader
 from rclpy.serialization import serialize_message
 from std_msgs.msg import String
 
-from pyconnect.record.bag_errors import BagError
+from pyconnect.cli import main
 from pyconnect.record.bag_reader import bag_info, open_bag
 from pyconnect.record.mcap_recorder import McapRecorder
 from tests.conftest import require_sample_bags
@@ -215,14 +215,38 @@ def test_db3_cut_short(fraction: float, tmp_path: Path) -> None:
     assert not list(Path(tempfile.gettempdir()).glob("pyconnect-salvage-*"))  # copy removed
 
 
-def test_db3_cut_before_its_tables_leaves_no_copy(tmp_path: Path) -> None:
+@pytest.mark.parametrize(
+    ("cut", "told"),
+    [
+        (3000, "3000 of the 106496 bytes its header declares"),
+        (50, "50 of the 100 bytes of a sqlite3 header"),
+    ],
+)
+def test_db3_cut_inside_its_first_page_is_a_damaged_bag(
+    cut: int, told: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Page 1 holds the schema: cut inside it, no table can be found. That is a damaged bag with
+    # nothing left to read (exit 1), not "not a sqlite3 bag" (exit 2, a usage error).
     require_sample_bags(SHARED_DB3, SHARED_DB3.exists())
     damaged = tmp_path / "cut.db3"
-    damaged.write_bytes(SHARED_DB3.read_bytes()[:3000])
-    with pytest.raises(BagError) as raised:
-        open_bag(damaged)
-    assert str(raised.value).startswith(f"{damaged}: not a")
+    damaged.write_bytes(SHARED_DB3.read_bytes()[:cut])
+    expected = (
+        f"{damaged} at byte {cut}: the file is cut short inside its first page (the schema): "
+        f"{told}; no message can be read"
+    )
+    got, damage = read_raw(damaged)
+    assert (got, damage) == ([], [expected])
+    assert [str(d) for d in bag_info(damaged).damage] == [expected]
     assert not list(Path(tempfile.gettempdir()).glob("pyconnect-salvage-*"))
+    for action in ("echo", "info"):
+        assert main(["bag", action, str(damaged)]) == 1
+        assert capsys.readouterr().err.splitlines() == [
+            f"pyconnect: {damaged}: damaged bag: {expected}"
+            + ("; 0 message(s) read, the bag does not say how many it held" * (action == "echo"))
+        ]
+    not_sqlite = tmp_path / "not.db3"
+    not_sqlite.write_bytes(b"SQLite format 2\x00" + SHARED_DB3.read_bytes()[16:cut])
+    assert main(["bag", "echo", str(not_sqlite)]) == 2  # not the magic: not a bag
 
 
 def _first_record_after_header(file: Path) -> int:
