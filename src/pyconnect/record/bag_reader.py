@@ -44,7 +44,6 @@ from operator import itemgetter
 from pathlib import Path
 from typing import Any, Literal
 
-from pyconnect.errors import DecodeError
 from pyconnect.record.bag_damage import BagDamage
 from pyconnect.record.bag_files import BagFiles, BagPaths, open_bag_files
 from pyconnect.record.bag_info import (
@@ -55,13 +54,13 @@ from pyconnect.record.bag_info import (
     storage_damage,
 )
 from pyconnect.record.bag_message import BagMessage, DecodeProblem, message_maker
+from pyconnect.record.bag_read_report import OnError, ProblemLog, damage_line, promised_count
 from pyconnect.record.bag_storage import Connection, RawMessage, StorageFile
 from pyconnect.record.topic_decoder import (
     TopicDecoder,
     TypeMismatch,
-    installed_type_hash,
     normalise_type_name,
-    one_line,
+    type_mismatch,
 )
 from pyconnect.record.topic_selection import select_topics
 
@@ -78,7 +77,6 @@ __all__ = [
 ]
 
 _log = logging.getLogger("pyconnect.record")
-OnError = Literal["report", "raise"]
 
 
 class _Plan:
@@ -121,12 +119,12 @@ class BagReader:
         if on_error not in ("report", "raise"):
             raise ValueError(f"on_error: expected 'report' or 'raise', got {on_error!r}")
         self.on_error: OnError = on_error
+        self._problems = ProblemLog(Path(), on_error)
         self.natural = natural
         self.raw = raw
         self.registry = registry
         self.start_ns = start_ns
         self.end_ns = end_ns
-        self.errors: list[DecodeProblem] = []
         self.mismatches: list[TypeMismatch] = []
         self._bags: list[tuple[BagFiles, list[StorageFile]]] = []
         self._closed_damage: tuple[BagDamage, ...] = ()
@@ -134,6 +132,7 @@ class BagReader:
         try:
             open_bag_files(paths, into=self._bags, caller="open_bag")
             self.path = self._bags[0][0].path
+            self._problems.path = self.path
             self.info = describe(self._bags)
             self.topics = select_topics(self.info, self.path, topics, types, raw=raw)
         except BaseException:
@@ -147,6 +146,11 @@ class BagReader:
         """Topic -> how many of its messages had been delivered, decoded with the definition
         stored in the bag, when a later one needed the installed type (its values then follow
         two definitions). Filled as the bag is read."""
+
+    @property
+    def errors(self) -> list[DecodeProblem]:
+        """The messages of the last read that could not be decoded, in reading order."""
+        return self._problems.errors
 
     @property
     def bag_paths(self) -> list[Path]:
@@ -175,11 +179,10 @@ class BagReader:
     # -- reading ------------------------------------------------------------------------------
     def __iter__(self) -> Iterator[BagMessage]:
         """Read the bag (again): indices, ``errors`` and reports start afresh every time."""
-        self.errors = []
+        self._problems = ProblemLog(self.path, self.on_error)
         self.switched = {}
         self._counts = {}
         self._delivered = 0
-        self._warned_topics: set[str] = set()
         # One plan per connection of each file, keyed by the connection id (one file) or by
         # (file number, id) when several files are merged by log time.
         plans: dict[Any, _Plan] = {}
@@ -225,7 +228,7 @@ class BagReader:
                     try:
                         value = decoder.recover(data, error)
                     except Exception as final:
-                        self._problem(topic, index, log_time, final)
+                        self._problems.add(topic, index, log_time, final)
                         continue
                     self._note_switch(topic, index)
                 yield plan.make((topic, log_time, value))
@@ -260,7 +263,7 @@ class BagReader:
 
     def _note_switch(self, topic: str, index: int) -> None:
         # recover() returned a value: the decoder has just given up the stored definition.
-        before = index - sum(1 for problem in self.errors if problem.topic == topic)
+        before = index - self._problems.count(topic)
         if before > 0:
             self.switched.setdefault(topic, before)
 
@@ -302,48 +305,14 @@ class BagReader:
             stream.close()  # type: ignore[attr-defined]  # a generator
 
     def _check_hash(self, connection: Connection) -> TypeMismatch | None:
-        stored = connection.type_hash
-        if not stored.startswith("RIHS01_"):
-            return None
-        installed = installed_type_hash(connection.msg_type)
-        if installed is None or installed == stored:
-            return None
-        mismatch = TypeMismatch(
-            connection.topic,
-            normalise_type_name(connection.msg_type),
-            stored,
-            installed,
-            connection.definition is not None,
-        )
-        self.mismatches.append(mismatch)
-        _log.warning("%s: %s", self.path, mismatch)
+        mismatch = type_mismatch(connection)
+        if mismatch is not None:
+            self.mismatches.append(mismatch)
+            _log.warning("%s: %s", self.path, mismatch)
         return mismatch
 
-    def _problem(self, topic: str, index: int, log_time: int, error: Exception) -> None:
-        reason = one_line(error)
-        if self.on_error == "raise":
-            raise DecodeError(f"{self.path}: {topic}[{index}]: {reason}") from error
-        problem = DecodeProblem(topic, index, log_time, reason)
-        self.errors.append(problem)
-        if topic not in self._warned_topics:
-            self._warned_topics.add(topic)
-            _log.warning(
-                "%s: %s; the read goes on (a summary follows at its end)", self.path, problem
-            )
-
     def _report(self) -> None:
-        if self.errors:
-            by_topic: dict[str, int] = {}
-            for problem in self.errors:
-                by_topic[problem.topic] = by_topic.get(problem.topic, 0) + 1
-            summary = ", ".join(f"{topic}: {count}" for topic, count in sorted(by_topic.items()))
-            _log.warning(
-                "%s: %d message(s) not decoded (%s); first: %s",
-                self.path,
-                len(self.errors),
-                summary,
-                self.errors[0],
-            )
+        self._problems.log_summary()
         damage = self.damage
         if damage:
             _log.warning("%s", self.damage_summary(damage))
@@ -354,33 +323,8 @@ class BagReader:
         """One line: what is damaged, where, and how many messages were read of those promised
         (``read``: when they were read by other readers of the same bag, as tables are)."""
         found = self.damage if damage is None else list(damage)
-        more = f" (and {len(found) - 1} more problem(s))" if len(found) > 1 else ""
-        promised = self._promised()
-        if promised is None:
-            told = "the bag does not say how many it held"
-        else:
-            told = f"the bag's metadata promised {promised}"
-        return (
-            f"{self.path}: damaged bag: {found[0]}{more}; "
-            f"{self._delivered if read is None else read} message(s) read, {told}"
-        )
-
-    def _promised(self) -> int | None:
-        """How many messages of the selected topics the metadata (or MCAP statistics) declare."""
-        total = 0
-        for located, storages in self._bags:
-            metadata = located.metadata
-            if metadata is not None and metadata.topics:
-                total += sum(t.message_count for t in metadata.topics if t.name in self.topics)
-                continue
-            for storage in storages:
-                if getattr(storage, "promised", None) is None:
-                    return None
-                counts = storage.message_counts()  # the file's statistics
-                total += sum(
-                    counts.get(c.id, 0) for c in storage.connections() if c.topic in self.topics
-                )
-        return total
+        read = self._delivered if read is None else read
+        return damage_line(self.path, found, read, promised_count(self._bags, self.topics))
 
     # -- tables (pyconnect.record.tables; needs the ``tables`` extra) ---------------------------
     def to_arrow(

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from pyconnect.errors import CodecError, DecodeError, PyconnectError
+from pyconnect.record.bag_storage import Connection
 from pyconnect.typesys.names import full_type_name
 
 __all__ = [
@@ -25,6 +26,7 @@ __all__ = [
     "installed_type_hash",
     "normalise_type_name",
     "one_line",
+    "type_mismatch",
     "value_function",
 ]
 
@@ -80,6 +82,24 @@ def installed_type_hash(msg_type: str) -> str | None:
     except Exception:  # not installed, or not compilable: nothing to compare with
         return None
     return type_hash or None
+
+
+def type_mismatch(connection: Connection) -> TypeMismatch | None:
+    """The mismatch when a bag's connection stores a RIHS01 hash that is not the installed
+    type's (None: no hash stored, the type not installed, or the same hash)."""
+    stored = connection.type_hash
+    if not stored.startswith("RIHS01_"):
+        return None
+    installed = installed_type_hash(connection.msg_type)
+    if installed is None or installed == stored:
+        return None
+    return TypeMismatch(
+        connection.topic,
+        normalise_type_name(connection.msg_type),
+        stored,
+        installed,
+        connection.definition is not None,
+    )
 
 
 def _function(
