@@ -278,6 +278,33 @@ def test_with_block_and_spin_thread_shut_down(make_peer: PeerFactory) -> None:
         peer.spin()
 
 
+def test_listen_takes_run_thread_as_custom_node_does(make_peer: PeerFactory) -> None:
+    peer = make_peer("vision")
+    done = threading.Event()
+
+    def listen_here() -> None:
+        peer.listen()
+        done.set()
+
+    peer.listen(run_thread=True)  # returns at once
+    thread = threading.Thread(target=listen_here, daemon=True)
+    thread.start()
+    assert not done.is_set()
+    peer.shutdown()
+    assert done.wait(TIMEOUT)  # listen() blocked until the shutdown
+    with pytest.raises(PyconnectError):
+        peer.listen(run_thread=True)
+
+
+def test_a_peer_is_not_ok_once_its_shutdown_begins(make_peer: PeerFactory) -> None:
+    """Calls racing the shutdown see it before the session closes under them."""
+    peer = make_peer("vision")
+    seen: list[bool] = []
+    peer.stop_func = lambda: seen.append(peer.ok())
+    peer.shutdown()
+    assert seen == [False]
+
+
 def test_a_burst_is_not_cut_to_depth_while_the_subscription_keeps_up(
     make_peer: PeerFactory,
 ) -> None:

@@ -231,3 +231,73 @@ def test_a_raising_decode_func_fails_the_goal_naming_the_agent_once(
         "decode_func raised ValueError: cannot read this result",
     }
     assert client.error_count == 1
+
+
+SHUT_DOWN = {
+    "isdone": False,
+    "error": f"agent 'fib' (action_client {FIBONACCI}): peer 'laptop' is shut down",
+}
+
+
+def test_a_goal_whose_peer_shuts_down_before_it_is_sent_fails_as_shut_down(
+    make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The peer shuts down between the goal's graph check and its send_goal query (zenoh then
+    refuses the query: "session closed"): the failure of a goal sent after the shutdown."""
+    _server, client = pair(make_peer, fibonacci)
+    check = client.peer.wait_for_graph
+
+    def check_then_shut_down(condition: Any, deadline: float | None) -> bool:
+        found: bool = check(condition, deadline)
+        client.peer.shutdown()
+        return found
+
+    monkeypatch.setattr(client.peer, "wait_for_graph", check_then_shut_down)
+    assert client.send({"order": 1}, timeout=TIMEOUT) == SHUT_DOWN
+    assert client.error_count == 0  # not "could not decode the goal response: session closed"
+    assert client.send({"order": 1}, timeout=TIMEOUT) == SHUT_DOWN
+
+
+def test_a_goal_whose_peer_shuts_down_before_the_result_request_fails_as_shut_down(
+    make_peer: PeerFactory,
+) -> None:
+    """accepted_func runs between send_goal and get_result: a shutdown there made zenoh's
+    "session closed" escape send()."""
+    peers: list[Any] = []
+    _server, client = pair(make_peer, fibonacci, accepted_func=lambda _ok: peers[0].shutdown())
+    peers.append(client.peer)
+    assert client.send({"order": 1}, timeout=TIMEOUT) == SHUT_DOWN
+    assert client.error_count == 0
+
+
+def test_a_goal_in_flight_when_its_peer_shuts_down_fails_as_shut_down(
+    make_peer: PeerFactory,
+) -> None:
+    """Closing the client's session ends its pending call (the result request, or the goal
+    request if its answer is still on the way) unanswered: not the server's doing."""
+    peers: list[Any] = []
+
+    def shut_the_client_down(goal: dict[str, Any], publish_feedback: Any) -> dict[str, Any]:
+        peers[0].shutdown()  # on the server's thread: it runs on a thread of its own
+        assert peers[0].wait_for_shutdown(TIMEOUT)
+        return {"sequence": [1]}
+
+    _server, client = pair(make_peer, shut_the_client_down)
+    peers.append(client.peer)
+    assert client.send({"order": 1}, timeout=TIMEOUT) == SHUT_DOWN
+    assert client.error_count == 0
+    assert client.last_error is None
+
+
+def test_a_zenoh_error_on_a_peer_still_running_fails_the_goal_naming_the_call(
+    make_peer: PeerFactory,
+) -> None:
+    """zenoh refusing the query is a failed call, not an undecodable answer."""
+    _server, client = pair(make_peer, fibonacci)
+    client.peer.session.close()  # under the peer: it does not know it is shut down
+    assert client.peer.ok()
+    assert client.send({"order": 1}, timeout=TIMEOUT) == {
+        "isdone": False,
+        "error": f"agent 'fib' (action_client {FIBONACCI}): the call to "
+        "/fib/_action/send_goal failed: session closed",
+    }

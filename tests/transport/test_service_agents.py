@@ -91,3 +91,63 @@ def test_keyboard_interrupt_in_the_call_is_not_swallowed(
     monkeypatch.setattr(client._caller, "call", interrupted)
     with pytest.raises(KeyboardInterrupt):
         client.send()
+
+
+def shuts_down_after_the_graph_check(monkeypatch: pytest.MonkeyPatch, peer: Any) -> None:
+    """The race made certain: ``peer`` shuts down between a call's graph check (a server is
+    there) and its query, so zenoh refuses the query: "session closed"."""
+    check = peer.wait_for_graph
+
+    def check_then_shut_down(condition: Any, deadline: float | None) -> bool:
+        found: bool = check(condition, deadline)
+        peer.shutdown()
+        return found
+
+    monkeypatch.setattr(peer, "wait_for_graph", check_then_shut_down)
+
+
+def set_bool_pair(make_peer: PeerFactory, handler: Any) -> tuple[Any, Any]:
+    server_peer, client_peer = make_peer("robot"), make_peer("vision")
+    server_peer.add_agent(
+        conn_name="enable", conn_type="service_server", data_interface="std_srvs/srv/SetBool",
+        response_func=handler,
+    )  # fmt: skip
+    client = client_peer.add_agent(
+        conn_name="enable", conn_type="service_client", data_interface="std_srvs/srv/SetBool",
+        timeout=TIMEOUT,
+    )  # fmt: skip
+    client_peer.wait_until_connected(timeout=TIMEOUT)
+    return client_peer, client
+
+
+SHUT_DOWN = {
+    "isdone": False,
+    "error": "agent 'enable' (service_client std_srvs/srv/SetBool): peer 'vision' is shut down",
+}
+
+
+def test_a_call_whose_peer_shuts_down_before_the_query_fails_as_shut_down(
+    make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    client_peer, client = set_bool_pair(make_peer, lambda _request: {"success": True})
+    shuts_down_after_the_graph_check(monkeypatch, client_peer)
+    assert client.send({"data": True}) == SHUT_DOWN  # not "the call failed: ZError: ..."
+    assert client.error_count == 0  # a shutdown is no error to log
+    assert client.send({"data": True}) == SHUT_DOWN  # as any call after the shutdown
+
+
+def test_a_call_in_flight_when_its_peer_shuts_down_fails_as_shut_down(
+    make_peer: PeerFactory,
+) -> None:
+    """Closing the client's session ends its query unanswered: the server did not go away."""
+    peers: list[Any] = []
+
+    def shut_the_client_down(_request: Any) -> dict[str, Any]:
+        peers[0].shutdown()  # on the server's thread: it runs on a thread of its own
+        assert peers[0].wait_for_shutdown(TIMEOUT)
+        return {"success": True}
+
+    client_peer, client = set_bool_pair(make_peer, shut_the_client_down)
+    peers.append(client_peer)
+    assert client.send({"data": True}) == SHUT_DOWN  # not "the server ... went away ..."
+    assert client.error_count == 0

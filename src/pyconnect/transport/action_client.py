@@ -3,11 +3,12 @@
 The same contract as ``CustomNode``'s action client (pyconnect.ros.action_client_agent):
 ``send(goal, timeout=None, feedback_func=None, block=True)`` blocks until the result and returns
 it through ``reform_response`` (a dict result gets ``'isdone': True``); a rejected, canceled or
-aborted goal, a missing or vanished server or a timeout give ``{'isdone': False, 'error': ...}``
-(plus the result's fields when it is a dict). A timeout cancels the goal. ``block=False``
-returns a ``concurrent.futures.Future``. ``accepted_func(accepted)``, ``feedback_func(value)``
-and ``response_func(value)`` are called as there (an ``async def`` one is awaited); the latest
-feedback is ``last_feedback``.
+aborted goal, a missing or vanished server, a timeout or the shutdown of the client's peer
+(``"... peer '<name>' is shut down"``, before or during the call) give ``{'isdone': False,
+'error': ...}`` (plus the result's fields when it is a dict). A timeout cancels the goal.
+``block=False`` returns a ``concurrent.futures.Future``. ``accepted_func(accepted)``,
+``feedback_func(value)`` and ``response_func(value)`` are called as there (an ``async def`` one
+is awaited); the latest feedback is ``last_feedback``.
 
 The protocol is rcl_action's (action_wire): a ``send_goal`` call with a fresh goal id, then a
 ``get_result`` call that the server answers when the goal ends; feedback arrives on the
@@ -209,6 +210,8 @@ class ActionClientAgent(PeerAgent):
         try:
             response = self._get_result.call(request, deadline)
         except CallFailed as failure:
+            if not self.peer.ok():  # no cancel: this peer can no longer send one
+                return self._failed(self.why_no_answer("no result", timeout))
             if deadline is not None and time.monotonic() >= deadline:
                 self._request_cancel(in_flight.goal_id)
                 return self._failed(f"no result within {timeout} s (goal canceled)")
@@ -224,6 +227,8 @@ class ActionClientAgent(PeerAgent):
         return self._failed(f"could not decode {what}: {reason}")
 
     def _call_failure(self, failure: CallFailed, timeout: float | None) -> str:
+        if not self.peer.ok():
+            return self.why_no_answer("no response from the action server", timeout)
         if failure.timed_out:
             return f"no response from the action server within {timeout} s"
         return str(failure)

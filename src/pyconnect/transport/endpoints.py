@@ -208,7 +208,8 @@ class Server:
 
 
 class CallFailed(Exception):
-    """A call got no response: the text says why (vanished, error, or ``timed_out``)."""
+    """A call got no response: the text says why (vanished, error, this peer's shutdown, or
+    ``timed_out``)."""
 
     def __init__(self, text: str, *, timed_out: bool = False) -> None:
         super().__init__(text)
@@ -245,14 +246,19 @@ class Caller:
             sequence = self._sequence
         attachment = keys.pack_attachment(sequence, time.time_ns(), self.gid)
         remaining = NO_TIMEOUT if deadline is None else max(0.001, deadline - time.monotonic())
-        replies: Any = self._peer.session.get(
-            self.key,
-            target=zenoh.QueryTarget.ALL_COMPLETE,
-            consolidation=zenoh.ConsolidationMode.NONE,
-            timeout=remaining,
-            payload=payload,
-            attachment=attachment,
-        )
+        try:
+            replies: Any = self._peer.session.get(
+                self.key,
+                target=zenoh.QueryTarget.ALL_COMPLETE,
+                consolidation=zenoh.ConsolidationMode.NONE,
+                timeout=remaining,
+                payload=payload,
+                attachment=attachment,
+            )
+        except zenoh.ZError as error:  # "session closed": the peer shut down since the check
+            if not self._peer.ok():
+                raise self._shut_down() from error
+            raise CallFailed(f"the call to {self.name} failed: {error}") from error
         errors: list[str] = []
         for reply in replies:
             if reply.ok is None:
@@ -267,6 +273,9 @@ class Caller:
             return response
         if errors:
             raise CallFailed(f"the server of {self.name} failed: {'; '.join(errors)}")
+        if not self._peer.ok():
+            # Closing this peer's session ends its queries without a reply: no server's fault.
+            raise self._shut_down()
         if self.server_count == 0:
             raise CallFailed(f"the server of {self.name} vanished before it replied")
         if deadline is not None and time.monotonic() >= deadline - 0.01:
@@ -274,6 +283,10 @@ class Caller:
         # zenoh ended the query early: the server's session went away (its token may be gone
         # from the graph a moment later).
         raise CallFailed(f"the server of {self.name} went away before it replied")
+
+    def _shut_down(self) -> CallFailed:
+        # The text an agent gives for any call made after its peer's shutdown (why_no_answer).
+        return CallFailed(f"peer {self._peer.name!r} is shut down")
 
     def close(self) -> None:
         with contextlib.suppress(Exception):

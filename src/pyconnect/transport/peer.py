@@ -99,6 +99,8 @@ class Peer(ShutsDownOnExit):
         self.agents: dict[str, PeerAgent] = {}
         self._lock = threading.RLock()
         self._stopped = threading.Event()
+        # Set when shutdown begins: calls racing the closing session end as shut down.
+        self._stopping = threading.Event()
         self._shutdown_lock = threading.Lock()
         self._shutdown_thread: threading.Thread | None = None
         self._main_waiting = False
@@ -193,11 +195,14 @@ class Peer(ShutsDownOnExit):
         if not run_thread:
             self.wait_for_shutdown()
 
-    def listen(self) -> None:
-        self.spin()
+    def listen(self, run_thread: bool = False) -> None:
+        """``spin()`` by the design's other name: here until shutdown, or ``run_thread=True``
+        returns at once (as ``CustomNode.listen``)."""
+        self.spin(run_thread=run_thread)
 
     def ok(self) -> bool:
-        return not self._stopped.is_set()
+        """True until the peer's shutdown begins."""
+        return not self._stopping.is_set()
 
     def wait_for_shutdown(self, timeout: float | None = None) -> bool:
         """Block until the peer is shut down (Ctrl-C, ``shutdown()``); False on timeout."""
@@ -221,7 +226,7 @@ class Peer(ShutsDownOnExit):
         """Wait until ``condition()`` holds for the graph; False at ``deadline`` or shutdown."""
         with self.graph.changed:
             while not condition():
-                if self._stopped.is_set():
+                if not self.ok():
                     return False
                 if deadline is not None and time.monotonic() >= deadline:
                     return False
@@ -264,6 +269,7 @@ class Peer(ShutsDownOnExit):
         with self._shutdown_lock:
             if self._stopped.is_set():
                 return
+            self._stopping.set()
             try:
                 self._shut_down()
             finally:

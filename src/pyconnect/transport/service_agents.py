@@ -16,10 +16,11 @@ other the default response; the error is logged with the agent's name.
 
 Client: ``send(data, timeout=None)`` returns the decoded response through ``reform_response``;
 when no server is in the graph within the timeout, when the server vanishes before it replies,
-does not reply in time or replies with an error, or when anything else goes wrong in the call
-(a reply that does not decode, zenoh's own errors), it returns ``{'isdone': False, 'error':
-...}`` as ``CustomNode``'s clients do. ``block=False`` returns a ``concurrent.futures.Future``
-of the same (only a request that does not encode raises, at once).
+does not reply in time or replies with an error, when the client's peer shuts down during the
+call (``"... peer '<name>' is shut down"``, as for a call made after), or when anything else
+goes wrong in the call (a reply that does not decode, zenoh's own errors), it returns
+``{'isdone': False, 'error': ...}`` as ``CustomNode``'s clients do. ``block=False`` returns a
+``concurrent.futures.Future`` of the same (only a request that does not encode raises, at once).
 """
 
 # zenoh's stubs leave undeclare() and close() unannotated.
@@ -193,6 +194,8 @@ class ServiceClientAgent(PeerAgent):
         try:
             return self._attempt(payload, timeout)
         except Exception as error:  # zenoh's own errors, a closing session, a bug
+            if not self.peer.ok():  # the session closed under the call: nothing went wrong
+                return self._failed(self.why_no_answer(f"no response from {self.topic}", timeout))
             self.report_exception("call", error)
             return self._failed(f"the call failed: {type(error).__name__}: {error}")
 
