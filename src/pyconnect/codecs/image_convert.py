@@ -1,10 +1,12 @@
 """``convert(image, desired_encoding, source_encoding=...)``: cv_bridge's ``desired_encoding``.
 
 Converts a decoded Image array between encodings with OpenCV: bayer, yuv422 (UYVY), yuv422_yuy2
-(YUYV), nv12/nv21 and nv24 to colour; between mono, bgr, rgb, bgra and rgba; and between 8 and
-16 bits (16 → 8 scales by 255/65535 and rounds, 8 → 16 multiplies by 257). The generic
-``…C…`` encodings convert only to an encoding with the same channel count (a dtype cast).
-``"passthrough"`` returns the image unchanged.
+(YUYV), nv12/nv21 and nv24 to colour; between mono, bgr, rgb, bgra and rgba; and between depths
+as cv_bridge's ``convertTo`` does: 16 → 8 bits scales by 255/65535, 8 → 16 bits by 257, other
+depth changes do not scale, and every change to an integer depth rounds half to even and
+saturates (``32FC1`` 300.0 → ``8UC1`` 255, -1.0 → 0). A generic ``…C…`` source converts only to a
+``…C…`` encoding with the same channel count; a named source converts to a ``…C…`` encoding of
+its channel count. ``"passthrough"`` returns the image unchanged.
 """
 
 from __future__ import annotations
@@ -83,15 +85,45 @@ def _to_bgr_family(image: npt.NDArray[Any], source: str) -> tuple[npt.NDArray[An
     raise ConversionError(f"convert: no colour conversion from {source!r}")
 
 
+# cv_bridge scales by bit depth (enc::bitDepth), whatever the signedness: 8 ↔ 16 bits only.
+_SCALE = {(1, 2): 65535.0 / 255.0, (2, 1): 255.0 / 65535.0}
+_INT32_MIN = -(2**31)
+
+
 def _depth(image: npt.NDArray[Any], target: np.dtype[Any]) -> npt.NDArray[Any]:
+    """``image`` in ``target``'s depth as OpenCV's ``convertTo`` gives it (cv_bridge's scale)."""
     if image.dtype == target:
         return image
-    if image.dtype == np.uint16 and target == np.uint8:
-        return np.rint(image * (255.0 / 65535.0)).astype(np.uint8)
+    if target.kind == "f":
+        # No scale reaches a float depth; float64 → float32 overflows to ±inf as in OpenCV,
+        # and a signalling NaN is no error here.
+        with np.errstate(over="ignore", invalid="ignore"):
+            return image.astype(target)
     if image.dtype == np.uint8 and target == np.uint16:
         widened: npt.NDArray[np.uint16] = image.astype(np.uint16) * np.uint16(257)
         return widened
-    return image.astype(target)
+    bounds = np.iinfo(target)
+    scale = _SCALE.get((image.dtype.itemsize, target.itemsize), 1.0)
+    if image.dtype.kind != "f" and scale == 1.0:
+        source = np.iinfo(image.dtype)
+        if source.min < bounds.min or source.max > bounds.max:
+            image = np.clip(image, max(source.min, bounds.min), min(source.max, bounds.max))
+        return image.astype(target)
+    values: npt.NDArray[np.floating[Any]]
+    if image.dtype.kind == "f":
+        # OpenCV rounds through int32 (cvRound); on x86 NaN, ±inf and anything outside int32
+        # come back as INT32_MIN, which then saturates: NaN → 0 in 8UC1, -128 in 8SC1.
+        with np.errstate(invalid="ignore"):  # a signalling NaN
+            values = np.rint(image)
+            values[~((values >= _INT32_MIN) & (values < -_INT32_MIN))] = _INT32_MIN
+    else:
+        # 8 ↔ 16 bits: exact in float64, and x * 255/65535 is never within 1e-3 of a half.
+        values = np.rint(image * scale)
+        source = np.iinfo(image.dtype)
+        if bounds.min <= round(source.min * scale) and round(source.max * scale) <= bounds.max:
+            return values.astype(target)  # mono16 → mono8: nothing to saturate
+    np.clip(values, bounds.min, bounds.max, out=values)
+    return values.astype(target)
 
 
 def convert(
@@ -109,11 +141,15 @@ def convert(
         raise ConversionError(f"convert: {error}") from None
     if not image.dtype.isnative:
         image = image.astype(image.dtype.newbyteorder("="))
-    generic = {source_encoding, desired_encoding} - set(NAMED_ENCODINGS)
-    if generic:
-        if source_format.channels != target_format.channels or (
-            desired_encoding not in _FAMILY and desired_encoding not in generic
-        ):
+    generic_source = source_encoding not in NAMED_ENCODINGS
+    if generic_source and desired_encoding in NAMED_ENCODINGS:
+        # cv_bridge's rule and words: a …C… image has no colour to convert.
+        raise ConversionError(
+            f"convert: [{source_encoding}] is not a color format. but [{desired_encoding}] is. "
+            "The conversion does not make sense"
+        )
+    if generic_source or desired_encoding not in NAMED_ENCODINGS:
+        if source_format.channels != target_format.channels:
             raise ConversionError(
                 f"convert: cannot convert {source_encoding!r} ({source_format.channels} "
                 f"channels) to {desired_encoding!r} ({target_format.channels} channels)"

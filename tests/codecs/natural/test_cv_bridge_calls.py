@@ -105,7 +105,8 @@ def test_image_codec_decodes_to_its_encoding() -> None:
     with pytest.raises(DecodeError) as error:
         ImageCodec(encoding="bgr8").decode(_message(np.zeros((1, 1), np.float32), "32FC1"))
     assert str(error.value) == (
-        "Image.encoding: convert: cannot convert '32FC1' (1 channels) to 'bgr8' (3 channels)"
+        "Image.encoding: convert: [32FC1] is not a color format. but [bgr8] is. "
+        "The conversion does not make sense"
     )
 
 
@@ -116,3 +117,13 @@ def test_image_codec_copy_gives_an_array_of_its_own() -> None:
     image[0, 0] = 99
     assert image.flags.owndata and ImageCodec().decode(view)[0, 0] == 0
     assert repr(ImageCodec(copy=True)) == "ImageCodec(encoding=None, copy=True)"
+
+
+def test_generic_depth_changes_saturate_and_colour_targets_are_refused() -> None:
+    depth = _message(np.array([[0.6, 300.0, -1.0, 1.5]], np.float32), "32FC1")
+    assert imgmsg_to_cv2(depth, "8UC1").tolist() == [[1, 255, 0, 2]]
+    with pytest.raises(CvBridgeError) as error:
+        imgmsg_to_cv2(depth, "mono8")
+    assert str(error.value) == (
+        "convert: [32FC1] is not a color format. but [mono8] is. The conversion does not make sense"
+    )

@@ -5,8 +5,11 @@ from __future__ import annotations
 import cv2
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from pyconnect.codecs.image_convert import ConversionError, convert
+from tests.codecs.natural.helpers import EXAMPLES
 
 RNG = np.random.default_rng(7)
 
@@ -77,9 +80,14 @@ def test_generic_and_errors() -> None:
     depth = np.array([[1.5, 2.5]], np.float32)
     assert convert(depth, "64FC1", source_encoding="32FC1").dtype == np.float64
     with pytest.raises(ConversionError) as error:
-        convert(depth, "bgr8", source_encoding="32FC1")
+        convert(depth, "32FC3", source_encoding="32FC1")
     assert str(error.value) == (
-        "convert: cannot convert '32FC1' (1 channels) to 'bgr8' (3 channels)"
+        "convert: cannot convert '32FC1' (1 channels) to '32FC3' (3 channels)"
+    )
+    with pytest.raises(ConversionError) as colour:
+        convert(np.zeros((2, 2, 3), np.uint8), "8UC1", source_encoding="bgr8")
+    assert str(colour.value) == (
+        "convert: cannot convert 'bgr8' (3 channels) to '8UC1' (1 channels)"
     )
     with pytest.raises(ConversionError) as unknown:
         convert(depth, "hsv", source_encoding="32FC1")
@@ -87,3 +95,128 @@ def test_generic_and_errors() -> None:
     with pytest.raises(ConversionError) as target:
         convert(np.zeros((2, 2), np.uint8), "bayer_rggb8", source_encoding="mono8")
     assert str(target.value).startswith("convert: cannot convert to 'bayer_rggb8'")
+
+
+# cv_bridge's convertTo: 16 <-> 8 bits scale (by bit depth, signed too), the rest do not; integer
+# targets round half to even and saturate.
+@pytest.mark.parametrize(
+    ("source", "values", "target", "expected"),
+    [
+        ("32FC1", np.array([[0.6, 300.0, -1.0, 1.5]], np.float32), "8UC1", [[1, 255, 0, 2]]),
+        ("16SC1", np.array([[-5, 300, 20000]], np.int16), "8UC1", [[0, 1, 78]]),
+        ("32SC1", np.array([[-1, 70000]], np.int32), "16UC1", [[0, 65535]]),
+        (
+            "32FC1",
+            np.array([[0.5, 2.5, -0.5, -1.5, 255.5]], np.float32),
+            "8SC1",
+            [[0, 2, 0, -2, 127]],
+        ),
+        ("64FC1", np.array([[-40000.0, 40000.0, 65535.5]]), "16UC1", [[0, 40000, 65535]]),
+        ("8SC1", np.array([[-1, 1, 127]], np.int8), "16UC1", [[0, 257, 32639]]),
+        ("8SC1", np.array([[-128, 127]], np.int8), "16SC1", [[-32768, 32639]]),
+        ("16UC1", np.array([[0, 257, 65535]], np.uint16), "8SC1", [[0, 1, 127]]),
+        ("32SC1", np.array([[-200, 200]], np.int32), "8SC1", [[-128, 127]]),
+        ("mono16", np.array([[65535, 32768]], np.uint16), "8SC1", [[127, 127]]),
+        ("bgr8", np.array([[[0, 1, 255]]], np.uint8), "16SC3", [[[0, 257, 32767]]]),
+    ],
+)
+def test_depth_changes_round_and_saturate(
+    source: str, values: np.ndarray, target: str, expected: list[object]
+) -> None:
+    assert convert(values, target, source_encoding=source).tolist() == expected
+
+
+def test_float_nan_and_out_of_int32_saturate_as_opencv_on_x86() -> None:
+    # cvRound gives INT32_MIN for NaN, inf and anything beyond int32; that then saturates.
+    odd = np.array([[np.nan, np.inf, -np.inf, 3e9, 1e6]], np.float32)
+    assert convert(odd, "8UC1", source_encoding="32FC1").tolist() == [[0, 0, 0, 0, 255]]
+    assert convert(odd, "16SC1", source_encoding="32FC1").tolist() == [
+        [-32768, -32768, -32768, -32768, 32767]
+    ]
+    assert convert(odd, "32SC1", source_encoding="32FC1").tolist() == [[-(2**31)] * 4 + [10**6]]
+    assert np.array_equal(
+        convert(odd, "64FC1", source_encoding="32FC1"), odd.astype(np.float64), equal_nan=True
+    )
+    signalling = np.array([[0x7F800001, 0xFFA00000]], np.uint32).view(np.float32)
+    assert convert(signalling, "8SC1", source_encoding="32FC1").tolist() == [[-128, -128]]
+    assert np.isnan(convert(signalling, "64FC1", source_encoding="32FC1")).all()
+    wide = np.array([[0x7FF0000000000001]], np.uint64).view(np.float64)
+    assert np.isnan(convert(wide, "32FC1", source_encoding="64FC1")).all()
+
+
+@pytest.mark.parametrize(
+    ("source", "target"),
+    [("32FC1", "mono8"), ("32FC1", "bgr8"), ("8UC3", "bgr8"), ("8UC1", "mono8")],
+)
+def test_generic_to_a_colour_encoding_is_refused_as_cv_bridge_does(
+    source: str, target: str
+) -> None:
+    channels = int(source[-1])
+    dtype = np.float32 if source.startswith("32F") else np.uint8
+    image = np.zeros((2, 2) if channels == 1 else (2, 2, channels), dtype)
+    with pytest.raises(ConversionError) as error:
+        convert(image, target, source_encoding=source)
+    assert str(error.value) == (
+        f"convert: [{source}] is not a color format. but [{target}] is. "
+        "The conversion does not make sense"
+    )
+
+
+def test_same_depth_generic_conversion_is_no_work() -> None:
+    mono = np.zeros((2, 3), np.uint8)
+    assert convert(mono, "8UC1", source_encoding="mono8") is mono
+    bgr = np.zeros((2, 3, 3), np.uint16)
+    assert convert(bgr, "16UC3", source_encoding="bgr16") is bgr
+
+
+_DEPTHS = {
+    "8U": (np.uint8, cv2.CV_8U),
+    "8S": (np.int8, cv2.CV_8S),
+    "16U": (np.uint16, cv2.CV_16U),
+    "16S": (np.int16, cv2.CV_16S),
+    "32S": (np.int32, cv2.CV_32S),
+    "32F": (np.float32, cv2.CV_32F),
+    "64F": (np.float64, cv2.CV_64F),
+}
+
+
+def _opencv_convert_to(image: np.ndarray, target: str) -> np.ndarray:
+    """What cv_bridge's ``image.convertTo(dst, type, scale)`` gives, from OpenCV itself."""
+    dtype, cv_depth = _DEPTHS[target]
+    bits = (image.dtype.itemsize, np.dtype(dtype).itemsize)
+    if bits == (1, 2):
+        wide = image.astype(np.int64) * 257
+    elif bits == (2, 1):
+        # x * 255/65535 is never a half, so rounding half up in integers is exact.
+        wide = (image.astype(np.int64) * 510 + 65535) // 131070
+    else:
+        # add() ends with the same saturate_cast as convertTo.
+        return cv2.add(image, np.zeros_like(image), dtype=cv_depth)
+    bounds = np.iinfo(dtype)
+    return np.clip(wide, bounds.min, bounds.max).astype(dtype)
+
+
+@st.composite
+def depth_changes(draw: st.DrawFn) -> tuple[str, str, np.ndarray]:
+    source, target = draw(st.permutations(list(_DEPTHS)))[:2]
+    channels = draw(st.integers(1, 4))
+    shape = (draw(st.integers(1, 3)), draw(st.integers(1, 5)), channels)
+    dtype = np.dtype(_DEPTHS[source][0])
+    raw = draw(
+        st.binary(
+            min_size=int(np.prod(shape)) * dtype.itemsize,
+            max_size=int(np.prod(shape)) * dtype.itemsize,
+        )
+    )
+    image = np.frombuffer(raw, dtype).reshape(shape)
+    return f"{source}C{channels}", f"{target}C{channels}", image if channels > 1 else image[..., 0]
+
+
+@EXAMPLES
+@given(depth_changes())
+def test_generic_depth_changes_match_opencv(case: tuple[str, str, np.ndarray]) -> None:
+    source, target, image = case
+    out = convert(image, target, source_encoding=source)
+    expected = _opencv_convert_to(image, target[: target.index("C")])
+    assert out.dtype == expected.dtype
+    assert np.array_equal(out, expected, equal_nan=out.dtype.kind == "f")
