@@ -11,8 +11,9 @@ import pytest
 from test_msgs.action import Fibonacci, NestedMessage
 
 from pyconnect.errors import PyconnectError
+from pyconnect.ros import custom_node
 
-from .conftest import EVENT_TIMEOUT
+from .conftest import EVENT_TIMEOUT, repeat_until
 
 
 def fibonacci(goal: dict[str, Any]) -> Iterator[dict[str, Any]]:
@@ -352,3 +353,91 @@ def test_finished_goals_leave_the_status_list(make_node: Any) -> None:
         # Each later goal's status messages list it alone: its predecessors are gone.
         for goal_id in succeeded[1:]:
             assert [goal_id] in listed
+
+
+def _server_and_client(make_node: Any, handler: Any, name: str) -> tuple[Any, Any]:
+    """An action server on a node of its own (shut down by the test) and its client."""
+    server_node, client_node = make_node(f"{name}_server"), make_node(f"{name}_client")
+    server_node.add_agent(
+        conn_name="fib", conn_type="action_server", data_interface=Fibonacci, response_func=handler
+    )
+    client = client_node.add_agent(
+        conn_name="fib", conn_type="action_client", data_interface=Fibonacci,
+        timeout=EVENT_TIMEOUT,
+    )  # fmt: skip
+    server_node.spin(run_thread=True)
+    client_node.spin(run_thread=True)
+    client_node.wait_until_connected(timeout=EVENT_TIMEOUT)
+    return server_node, client
+
+
+def _wait_for_the_result_request(server_node: Any) -> None:
+    """Until the server has taken the client's request for the goal's result."""
+    asked = threading.Event()
+    server = server_node.agents["fib"].server
+    assert repeat_until(asked, lambda: asked.set() if server._waiting else None)
+
+
+def test_a_goal_finishing_during_shutdown_still_sends_its_result(
+    make_node: Any, monkeypatch: Any
+) -> None:
+    """rclpy sends a result from an executor task: shutdown, which has stopped the executor
+    by the time the goal ends, sends it instead."""
+    started, release = threading.Event(), threading.Event()
+
+    def goal(_goal: dict[str, Any]) -> dict[str, Any]:
+        started.set()
+        release.wait(EVENT_TIMEOUT)
+        return {"sequence": [1, 2, 3]}
+
+    server_node, client = _server_and_client(make_node, goal, "finishing")
+    stop = server_node._executor.stop
+
+    def stop_then_release() -> None:
+        stop()
+        release.set()  # the goal ends after the executor stopped
+
+    monkeypatch.setattr(server_node._executor, "stop", stop_then_release)
+    try:
+        result = client.send({"order": 3}, block=False)
+        assert started.wait(EVENT_TIMEOUT)
+        _wait_for_the_result_request(server_node)
+        server_node.shutdown()
+    finally:
+        release.set()
+    assert result.result(EVENT_TIMEOUT * 2) == {"sequence": [1, 2, 3], "isdone": True}
+
+
+def test_a_goal_still_running_when_shutdown_ends_is_aborted_with_a_reason(
+    make_node: Any, monkeypatch: Any
+) -> None:
+    """Shutdown waits JOIN_TIMEOUT for running callbacks; a goal still running then is aborted
+    and its client told why, instead of waiting its whole timeout."""
+    started, release = threading.Event(), threading.Event()
+
+    running_on: list[threading.Thread] = []
+
+    def goal(_goal: dict[str, Any]) -> dict[str, Any]:
+        running_on.append(threading.current_thread())
+        started.set()
+        release.wait(EVENT_TIMEOUT * 3)
+        return {"sequence": [1]}
+
+    server_node, client = _server_and_client(make_node, goal, "stuck")
+    monkeypatch.setattr(custom_node, "JOIN_TIMEOUT", 0.1)
+    errors: list[str] = []
+    monkeypatch.setattr(server_node, "_log_error", errors.append)
+    try:
+        result = client.send({"order": 3}, block=False)
+        assert started.wait(EVENT_TIMEOUT)
+        _wait_for_the_result_request(server_node)
+        server_node.shutdown()
+        outcome = result.result(EVENT_TIMEOUT * 2)
+    finally:
+        release.set()
+    assert outcome["isdone"] is False
+    assert outcome["error"].endswith("goal aborted by the server: server is shutting down")
+    # The handler left behind ends now: its result goes nowhere, without an error.
+    running_on[0].join(EVENT_TIMEOUT)  # an executor thread: it ends after this goal's task
+    assert not running_on[0].is_alive()
+    assert errors == []

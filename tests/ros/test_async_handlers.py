@@ -361,3 +361,83 @@ def test_a_coroutine_queued_before_shutdown_never_runs_after_it(
     for _ in range(3):  # a few turns of the loop: what was queued on it has run by then
         _run(user_loop, asyncio.sleep(0))
     assert ran == []
+
+
+def test_shutdown_from_an_async_handler_on_pyconnects_loop_completes(make_node: Any) -> None:
+    """The handler runs on the loop's own thread: shutdown cannot join that thread from there,
+    so it starts on a thread of its own, and still goes all the way (node destroyed, context
+    left, loop thread ended)."""
+    node = make_node("async_stopper")
+    raised: list[BaseException] = []
+    called = threading.Event()
+
+    async def tick() -> None:
+        if called.is_set():
+            return
+        called.set()
+        try:
+            node.shutdown()
+        except BaseException as error:
+            raised.append(error)
+
+    node.add_agent(conn_name="tick", conn_type="timer", time_period=0.01, response_func=tick)
+    node.spin(run_thread=True)
+    assert node.wait_for_shutdown(EVENT_TIMEOUT)
+    assert raised == []
+    assert not node.context.ok()
+    loop_threads = [t for t in threading.enumerate() if t.name == "pyconnect-asyncio-async_stopper"]
+    assert not any(thread.is_alive() for thread in loop_threads)
+
+
+def test_an_async_service_handler_that_shuts_its_node_down_still_replies(
+    make_node: Any,
+) -> None:
+    server_node, caller = make_node("async_stop_server"), make_node("async_stop_caller")
+
+    async def stop(_request: dict[str, Any]) -> dict[str, Any]:
+        server_node.shutdown()
+        return {"success": True, "message": "bye"}
+
+    server_node.add_agent(
+        conn_name="stop", conn_type="service_server", data_interface=Trigger, response_func=stop
+    )
+    client = caller.add_agent(
+        conn_name="stop", conn_type="service_client", data_interface=Trigger,
+        timeout=EVENT_TIMEOUT,
+    )  # fmt: skip
+    server_node.spin(run_thread=True)
+    caller.spin(run_thread=True)
+    caller.wait_until_connected(timeout=EVENT_TIMEOUT)
+    assert client.send() == {"success": True, "message": "bye", "isdone": True}
+    assert server_node.wait_for_shutdown(EVENT_TIMEOUT)
+
+
+def test_an_async_goal_cancelled_by_shutdown_is_aborted_with_a_reason(make_node: Any) -> None:
+    server_node, client_node = make_node("async_goal_server"), make_node("async_goal_client")
+    started = threading.Event()
+
+    async def endless(_goal: dict[str, Any]) -> dict[str, Any]:
+        started.set()
+        await asyncio.Event().wait()
+        return {"sequence": []}
+
+    server_node.add_agent(
+        conn_name="fib", conn_type="action_server", data_interface=Fibonacci,
+        response_func=endless,
+    )  # fmt: skip
+    client = client_node.add_agent(
+        conn_name="fib", conn_type="action_client", data_interface=Fibonacci,
+        timeout=EVENT_TIMEOUT,
+    )  # fmt: skip
+    server_node.spin(run_thread=True)
+    client_node.spin(run_thread=True)
+    client_node.wait_until_connected(timeout=EVENT_TIMEOUT)
+    result = client.send({"order": 1}, block=False)
+    assert started.wait(EVENT_TIMEOUT)
+    asked = threading.Event()
+    server = server_node.agents["fib"].server
+    assert repeat_until(asked, lambda: asked.set() if server._waiting else None)
+    server_node.shutdown()
+    outcome = result.result(EVENT_TIMEOUT * 2)
+    assert outcome["isdone"] is False
+    assert outcome["error"].endswith("goal aborted by the server: server is shutting down")

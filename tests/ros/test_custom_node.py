@@ -246,3 +246,75 @@ def test_get_show_info_returns_the_value(make_node: Any) -> None:
     pub.send("hi")
     assert pub.get(show_info=True) == "hi"
     assert pub.info_text() == "agent 'note' (pub std_msgs/msg/String): latest 'hi'"
+
+
+def test_add_agent_while_shutdown_destroys_the_agents_is_refused(
+    make_node: Any, monkeypatch: Any
+) -> None:
+    """Another thread adding an agent while the node's entities are being destroyed gets the
+    node's own error, not rclpy's (and no agent that nobody would close)."""
+    node = make_node("closing_node")
+    agent = node.add_agent(conn_name="chatter", conn_type="pub", data_interface=String)
+    outcome: list[BaseException | None] = []
+
+    def add_from_another_thread() -> None:
+        try:
+            node.add_agent(conn_name="late", conn_type="pub", data_interface=String)
+            outcome.append(None)
+        except BaseException as error:
+            outcome.append(error)
+
+    close = agent.close
+
+    def close_while_another_thread_adds() -> None:
+        adder = threading.Thread(target=add_from_another_thread)
+        adder.start()
+        adder.join(EVENT_TIMEOUT)
+        close()
+
+    monkeypatch.setattr(agent, "close", close_while_another_thread_adds)
+    node.shutdown()
+    assert len(outcome) == 1
+    assert isinstance(outcome[0], PyconnectError)
+    assert str(outcome[0]) == "node 'closing_node' is shut down; cannot add 'late'"
+    assert "late" not in node.agents
+
+
+def test_a_failing_shutdown_step_is_reported_and_the_rest_still_run(
+    make_node: Any, monkeypatch: Any
+) -> None:
+    node = make_node("failing_step")
+    node.add_agent(conn_name="chatter", conn_type="pub", data_interface=String)
+    node.spin(run_thread=True)
+
+    def broken_stop(timeout: float | None = 5.0) -> None:
+        raise RuntimeError("the loop is broken")
+
+    monkeypatch.setattr(node.coroutines, "stop", broken_stop)
+    errors: list[str] = []
+    monkeypatch.setattr(node, "_log_error", errors.append)
+    node.shutdown()
+    assert errors == [
+        "shutdown: stopping the coroutine loop failed: RuntimeError: the loop is broken"
+    ]
+    assert node.wait_for_shutdown(0)
+    assert not node.context.ok()  # the node was destroyed and left its context
+    assert not node.is_spinning
+
+
+def test_shutdown_from_a_plain_callback_returns_at_once_and_spin_returns(make_node: Any) -> None:
+    node = make_node("timer_stopper")
+    down_in_callback: list[bool] = []
+
+    def tick() -> None:
+        if not down_in_callback:
+            node.shutdown()
+            down_in_callback.append(node.wait_for_shutdown(0))
+
+    node.add_agent(conn_name="tick", conn_type="timer", time_period=0.01, response_func=tick)
+    spun = threading.Thread(target=node.spin)  # spin() blocking, as a main thread would
+    spun.start()
+    spun.join(EVENT_TIMEOUT)
+    assert not spun.is_alive()
+    assert down_in_callback == [False]  # it did not wait for (nor destroy the node under) tick
+    assert not node.context.ok()

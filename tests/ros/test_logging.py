@@ -7,8 +7,10 @@ import threading
 from pathlib import Path
 from typing import Any
 
+import pytest
 from std_msgs.msg import String
 
+from pyconnect.errors import PyconnectError
 from pyconnect.record.bag_reader import open_bag
 
 from .conftest import EVENT_TIMEOUT, repeat_until
@@ -288,3 +290,22 @@ def test_a_log_folder_that_cannot_be_made_is_reported_and_send_still_works(
     assert pub.error_count == 1  # reported once, not per message
     assert "log_msg" in pub.last_error
     assert pub.log_msg("direct") is False
+
+
+def test_logging_and_recording_after_shutdown_are_refused(make_node: Any, tmp_path: Path) -> None:
+    node = make_node("closed_logger")
+    node.add_agent(conn_name="chatter", conn_type="sub", data_interface=String)
+    node.shutdown()
+    with pytest.raises(PyconnectError) as logging_refused:
+        node.start_log_subs(fps=10)
+    assert str(logging_refused.value) == (
+        "node 'closed_logger' is shut down; cannot start logging its subs"
+    )
+    target = tmp_path / "after_shutdown"
+    with pytest.raises(PyconnectError) as record_refused:
+        node.record(target)
+    assert str(record_refused.value) == (
+        f"node 'closed_logger' is shut down; cannot record to {str(target)!r}"
+    )
+    assert not target.exists()
+    assert not (tmp_path / "after_shutdown.mcap").exists()

@@ -160,6 +160,33 @@ print("SECOND WORKS" if echo.wait(60) else "SECOND BROKEN", flush=True)
 again.shutdown()
 print("AFTER SECOND", flush=True)
 """,
+    "stop_service_blocking_spin": """
+from std_srvs.srv import Trigger
+
+node, heard = make()
+
+def stop(_request):
+    node.shutdown()  # in the handler: returns at once, the reply is sent, then the node ends
+    return {"success": True, "message": "stopping"}
+
+node.add_agent(conn_name="stop", conn_type="service_server", data_interface=Trigger,
+               response_func=stop)
+caller = CustomNode("stop_caller")
+client = caller.add_agent(conn_name="stop", conn_type="service_client", data_interface=Trigger)
+replies = []
+
+def call():
+    ready(heard)
+    replies.append(client.send(timeout=60))
+
+calling = threading.Thread(target=call, daemon=True)
+calling.start()
+node.spin()
+calling.join(60)
+print("REPLY", replies[0]["success"] if replies else "NONE", flush=True)
+caller.shutdown()
+print("AFTER SERVICE", flush=True)
+""",
     "interpreter_exit": """
 node, heard = make()
 node.spin(run_thread=True)
@@ -186,6 +213,7 @@ LAST_LINE = {
     "sigint_two_nodes": "AFTER TWO",
     "one_of_two_nodes_shut_down": "CONTEXT DOWN",
     "node_after_node": "AFTER SECOND",
+    "stop_service_blocking_spin": "AFTER SERVICE",
 }
 
 
@@ -227,5 +255,7 @@ def test_program_ends_cleanly(ending: str, tmp_path: Path) -> None:
     if ending in ("sigint_two_nodes", "one_of_two_nodes_shut_down", "node_after_node"):
         assert lines.count("STOP2") == 1, (out, err)
     assert "BROKEN" not in out
+    if ending == "stop_service_blocking_spin":
+        assert "REPLY True" in out, (out, err)
     if ending in LAST_LINE:
         assert out.strip().splitlines()[-1] == LAST_LINE[ending]

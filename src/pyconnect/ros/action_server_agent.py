@@ -19,6 +19,12 @@ exception and sends a default result (rclpy#1020), so this agent catches it, abo
 ``test_msgs/action/Fibonacci``) cannot carry text, so the reason is also published beside the
 action's topics (pyconnect.ros.abort_reasons), where pyconnect clients read it.
 
+At shutdown (``close``, after the executor has stopped and waited for running goals) a goal
+that finished gets its result sent; one still running is aborted with ``"server is shutting
+down"`` (in the result's text field and on the abort-reason topic), so its client hears at once
+instead of waiting its whole timeout. Its handler thread is not stopped (Python cannot), and
+what it returns later is dropped.
+
 Finished goals leave the server's goal list after ``result_timeout`` seconds (default 0.05 s
 instead of rclpy's 900 s): every status message lists every goal kept and every client
 converts that list to Python objects several times per goal, so latency grows with the number
@@ -32,6 +38,7 @@ kept (docs/ros-facts.md: 1.5 -> 13 ms over 500 goals). Their results stay availa
 
 from __future__ import annotations
 
+import functools
 import inspect
 import threading
 from collections.abc import Callable
@@ -47,9 +54,10 @@ from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_message
 from pyconnect.ros.handler_shape import wants_feedback_publisher
 from pyconnect.ros.interfaces import interface_class
-from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.node_agent import CancelledByShutdown, NodeAgent, ResponseFunc
 from pyconnect.ros.qos import REQUESTS
 from pyconnect.ros.retaining_action_server import RetainingActionServer
+from pyconnect.ros.service_agents import SHUTTING_DOWN
 
 DEFAULT_RESULT_TIMEOUT = 0.05
 """Seconds a finished goal stays in the server's goal list (and every status message)."""
@@ -102,6 +110,8 @@ class ActionServerAgent(NodeAgent):
         )
         self.feedback_conversion = self.make_conversion(action_class.Feedback)
         self.goal_count = 0
+        # A goal ends once: its handler's end and the shutdown's abort (close) never interleave.
+        self._ending = threading.Lock()
         self._abort_reasons = AbortReasonPublisher(node.ros_node, conn_name)
         self.server = RetainingActionServer(
             node.ros_node,
@@ -138,7 +148,7 @@ class ActionServerAgent(NodeAgent):
             if inspect.isgenerator(outcome) or inspect.isasyncgen(outcome):
                 finished, outcome = self._run_generator(outcome, goal_handle)
                 if not finished:
-                    goal_handle.canceled()
+                    self._end(goal_handle, goal_handle.canceled)
                     return self._result_class()
             where = "encode"
             result = (
@@ -147,18 +157,29 @@ class ActionServerAgent(NodeAgent):
                 else self.result_conversion.encode(outcome)[0]
             )
             if goal_handle.is_cancel_requested:
-                goal_handle.canceled()
+                self._end(goal_handle, goal_handle.canceled)
             else:
-                goal_handle.succeed()
+                self._end(goal_handle, goal_handle.succeed)
             return result
         except Exception as error:
             self.report_exception(where, error)
-            text = f"{type(error).__name__}: {error}"
-            if goal_handle.is_active:
-                # Published before the result is, so a client finds it when the abort arrives.
-                self._abort_reasons.publish(goal_handle.goal_id, text)
-                goal_handle.abort()
+            if isinstance(error, CancelledByShutdown):  # an ``async def`` handler
+                text = SHUTTING_DOWN
+            else:
+                text = f"{type(error).__name__}: {error}"
+            self._end(goal_handle, lambda: self._abort(goal_handle, text))
             return error_message(self._result_class, text)
+
+    def _end(self, goal_handle: Any, end: Callable[[], None]) -> None:
+        """Move a goal to its final state, unless it has one already (aborted at shutdown)."""
+        with self._ending:
+            if goal_handle.is_active:
+                end()
+
+    def _abort(self, goal_handle: Any, text: str) -> None:
+        # Published before the result is, so a client finds it when the abort arrives.
+        self._abort_reasons.publish(goal_handle.goal_id, text)
+        goal_handle.abort()
 
     def _run_generator(self, generator: Any, goal_handle: Any) -> tuple[bool, Any]:
         """Drive a generator handler: (True, result) at its end, (False, None) when canceled.
@@ -186,6 +207,14 @@ class ActionServerAgent(NodeAgent):
                 goal_handle.publish_feedback(msg)
 
     def close(self) -> None:
+        # The executor has stopped: rclpy's server would answer nothing more (see
+        # pyconnect.ros.retaining_action_server), so goals still running end here.
+        for goal_handle in self.server.active_goals():
+            try:
+                self._end(goal_handle, functools.partial(self._abort, goal_handle, SHUTTING_DOWN))
+            except Exception as error:  # e.g. a transition rcl refuses: the others still end
+                self.report_exception("abort at shutdown", error)
+        self.server.answer_waiting_requests(error_message(self._result_class, SHUTTING_DOWN))
         self.server.destroy()
         self._abort_reasons.destroy(self.node.ros_node)
         super().close()

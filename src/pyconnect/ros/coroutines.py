@@ -135,7 +135,9 @@ class CoroutineRunner:
             return
         with contextlib.suppress(RuntimeError):  # already closed
             loop.call_soon_threadsafe(loop.stop)
-        thread.join(timeout)
+        # On the loop's own thread (a handler stopping it) the loop ends once this returns.
+        if thread is not threading.current_thread():
+            thread.join(timeout)
 
 
 class CoroutineLane:

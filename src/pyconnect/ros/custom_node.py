@@ -8,7 +8,11 @@ spins in a daemon thread; ``spin()`` (or ``listen()``) blocks until shutdown. Sh
 ``shutdown()``, leaving ``with``, Ctrl-C, SIGTERM or interpreter exit — runs ``stop_func`` once
 while the agents still work, stops the executor, joins its threads, destroys the node and, for
 the last node on a context pyconnect initialised, shuts that context down
-(pyconnect.ros.shutdown, pyconnect.ros.shared_context).
+(pyconnect.ros.shutdown, pyconnect.ros.shared_context). Every step runs even when one before it
+failed (the failure is logged): a node is never left half shut down. ``shutdown()`` called in a
+callback (or an ``async def`` handler on pyconnect's loop) cannot wait for that callback, nor
+destroy the node under it: it starts the shutdown on a thread of its own and returns, so the
+callback ends (a service sends its reply) before the node goes down.
 
 Names resolve like rclpy names: ``conn_name`` is relative to the node's namespace unless it
 starts with ``/`` or ``~``; ``--ros-args -r chatter:=talk`` and ``-p name:=value`` from
@@ -52,6 +56,10 @@ if TYPE_CHECKING:
 
 StopFunc = Callable[..., Any]
 
+JOIN_TIMEOUT = 10.0
+"""Seconds shutdown waits for the spin thread, then for each executor thread, to end: a
+callback still running after that is left behind (an action goal is aborted, its client told)."""
+
 
 class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
     """A ROS 2 node whose connections are agents: ``node.agents[name].send/get``.
@@ -84,6 +92,10 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
         self._log_session: datetime.datetime | None = None
         self._log_session_dir: Path | None = None
         self._lock = threading.RLock()
+        # Set under ``_lock`` as shutdown begins: what creates entities (add_agent, record,
+        # start_log_subs) checks it under the same lock, so nothing is made while (or after)
+        # the node's entities are destroyed.
+        self._closing = False
         self._stopped = threading.Event()
         # Set once stop_func has run, before anything is destroyed: agents' waits in user
         # threads end there, and a call that fails after it reports the shutdown, not rclpy's
@@ -158,8 +170,7 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
         given: dict[str, Any] = {**(config or {}), **options}
         key = given.get("agent_name") or given.get("conn_name")
         with self._lock:
-            if self._stopped.is_set():
-                raise PyconnectError(f"node {self.name!r} is shut down; cannot add {key!r}")
+            self._refuse_when_closed(f"add {key!r}")
             if key in self.agents:
                 raise PyconnectError(
                     f"agent {key!r}: node {self.name!r} already has an agent of that name; "
@@ -170,6 +181,11 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
         # Wraps the new entities' callbacks (the executor watches for long ones).
         self._executor.adopt(self)
         return agent
+
+    def _refuse_when_closed(self, what: str) -> None:
+        """Raise ``PyconnectError`` once shutdown has begun (call with ``_lock`` held)."""
+        if self._closing:
+            raise PyconnectError(f"node {self.name!r} is shut down; cannot {what}")
 
     def add_agents(
         self, configs: Iterable[Mapping[str, Any]], **shared_options: Unpack[AgentOptions]
@@ -187,7 +203,7 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
     def spin(self, run_thread: bool = False) -> None:
         """Run the agents: in a daemon thread (``run_thread=True``) or here until shutdown."""
         with self._lock:
-            if self._stopped.is_set():
+            if self._closing:
                 raise PyconnectError(f"node {self.name!r} is shut down")
             if self._spin_thread is None:
                 # Entities made with rclpy's own calls (an ActionClient on this node) are seen
@@ -271,7 +287,17 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
 
     # -- shutdown ------------------------------------------------------------------------------
     def shutdown(self) -> None:
-        """Stop everything once: ``stop_func``, executor, threads, node, rclpy (if ours)."""
+        """Stop everything once: ``stop_func``, executor, threads, node, rclpy (if ours).
+
+        Called from one of pyconnect's callback threads (a handler, or an ``async def``
+        handler on pyconnect's loop), it starts the shutdown on a thread of its own and
+        returns at once: the shutdown waits for the callback to end (a service still sends its
+        reply), and ``spin()``/``wait_for_shutdown()`` return when everything is closed.
+        Called from any other thread, it returns when the node is shut down.
+        """
+        if _on_pyconnect_thread():
+            self._shutdown_after_this_callback()
+            return
         with self._shutdown_lock:
             if self._stopped.is_set():
                 return
@@ -281,35 +307,54 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
                 self._stopped.set()
 
     def _shut_down(self) -> None:
-        try:
-            self.stop_log_subs()
-        except Exception as error:
-            self._log_error(f"stop_log_subs failed: {error!r}")
+        with self._lock:
+            self._closing = True
+        self._attempt("stop_log_subs", self.stop_log_subs)
         for recording in list(self._recordings):
-            recording.stop()
+            self._attempt(f"stopping the recording {str(recording.path)!r}", recording.stop)
         if self.stop_func is not None:
             try:
                 self.stop_func()
             except Exception as error:
                 self._log_error(f"stop_func raised {type(error).__name__}: {error}")
         self._stopping.set()  # after stop_func, which may still use the agents
-        self._executor.stop()
+        self._attempt("stopping the executor", self._executor.stop)
         # Cancelled coroutines release callbacks that wait for them.
-        self.coroutines.stop()
+        self._attempt("stopping the coroutine loop", self.coroutines.stop)
         spin_thread = self._spin_thread
         if spin_thread is not None and spin_thread is not threading.current_thread():
-            spin_thread.join(10.0)
-        self._executor.join(10.0)
+            self._attempt("joining the spin thread", lambda: spin_thread.join(JOIN_TIMEOUT))
+        self._attempt("joining the executor's threads", lambda: self._executor.join(JOIN_TIMEOUT))
         for agent in list(self.agents.values()):
-            try:
-                agent.close()
-            except Exception as error:
-                self._log_error(f"{agent.describe}: close failed: {error!r}")
-        self._executor.remove_node(self)
-        super().destroy_node()
-        self._executor.shutdown(timeout_sec=1.0)
-        leave_context(self.context)
-        self._hooks.restore()
+            self._attempt(f"{agent.describe}: close", agent.close)
+        self._attempt(
+            "removing the node from its executor", lambda: self._executor.remove_node(self)
+        )
+        self._attempt("destroying the node", super().destroy_node)
+        self._attempt(
+            "shutting the executor down", lambda: self._executor.shutdown(timeout_sec=1.0)
+        )
+        self._attempt("leaving the rclpy context", lambda: leave_context(self.context))
+        self._attempt("restoring the signal handlers", self._hooks.restore)
+
+    def _shutdown_after_this_callback(self) -> None:
+        """Start the shutdown on a thread of its own, once the calling callback can end."""
+        try:
+            loop = asyncio.get_running_loop()
+        except RuntimeError:  # an executor thread: the shutdown waits for its callback
+            self._shutdown_in_background()
+            return
+        # An ``async def`` handler on pyconnect's loop: the shutdown cancels what still runs
+        # there, so it starts two turns of the loop later, when the handler has returned and
+        # its result reached the callback waiting for it (a service's reply is then sent).
+        loop.call_soon(loop.call_soon, self._shutdown_in_background)
+
+    def _attempt(self, what: str, step: Callable[[], object]) -> None:
+        """Run one shutdown step; a failure is logged and the next steps still run."""
+        try:
+            step()
+        except Exception as error:
+            self._log_error(f"shutdown: {what} failed: {type(error).__name__}: {error}")
 
     def destroy_node(self) -> None:
         """rclpy's name for ``shutdown()`` (stops the agents first, then destroys the node)."""
@@ -333,6 +378,13 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
             self.get_logger().error(text)
         except Exception:
             print(f"[pyconnect] {self.name}: {text}", file=sys.stderr)
+
+
+def _on_pyconnect_thread() -> bool:
+    """Whether this is one of pyconnect's own daemon threads (executors, spin, asyncio loop):
+    a shutdown there would wait for (or destroy the node under) the callback it runs."""
+    current = threading.current_thread()
+    return current.daemon and current.name.startswith("pyconnect-")
 
 
 def _wait_step(deadline: float | None) -> float:

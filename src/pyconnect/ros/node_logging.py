@@ -51,6 +51,8 @@ class NodeLogging:
 
         def get_fully_qualified_name(self) -> str: ...
 
+        def _refuse_when_closed(self, what: str) -> None: ...
+
     def agent_log_dir(self, agent_name: str) -> Path:
         """``<log_dir>/<node>/<session>/<agent>/``, created once; agents whose names clean to
         the same folder name (``status`` and ``/status``) get distinct folders."""
@@ -100,6 +102,7 @@ class NodeLogging:
         if fps <= 0:
             raise PyconnectError(f"start_log_subs: fps must be > 0, got {fps!r}")
         with self._lock:
+            self._refuse_when_closed("start logging its subs")
             if self._log_subs_timer is not None:
                 raise PyconnectError(f"node {self.name!r} already logs its subs")
             seen: dict[str, int] = {}
@@ -136,10 +139,13 @@ class NodeLogging:
 
     def record(self, path: str | Path, topics: Iterable[str] | None = None) -> Recording:
         """Record raw messages of ``topics`` (default: every sub's topic) to an MCAP file."""
-        recording = Recording(
-            cast(Node, self), self.agents, Path(path), None if topics is None else list(topics)
-        )
         with self._lock:
+            # Checked before the file is made; the lock keeps shutdown from destroying the node
+            # while the recording subscribes (shutdown stops every recording in the list).
+            self._refuse_when_closed(f"record to {str(path)!r}")
+            recording = Recording(
+                cast(Node, self), self.agents, Path(path), None if topics is None else list(topics)
+            )
             self._recordings.append(recording)
         return recording
 

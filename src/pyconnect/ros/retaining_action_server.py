@@ -13,6 +13,12 @@ and the expiry of its goal (on another executor thread) never interleave, and a 
 expires before rclpy set its result is expired once the result is there. Overrides two private
 coroutines of rclpy 7.1's ``ActionServer`` (``_execute_expire_goals``,
 ``_execute_get_result_request``); the tests pin their behaviour.
+
+At shutdown rclpy's server would drop what it owes: it sends a result from a done callback of
+the goal's result future, which it schedules on the executor, and the executor has stopped by
+then. So this server keeps the result requests still waiting, and ``answer_waiting_requests``
+sends them directly before the server is destroyed: a finished goal's result, or ``ABORTED``
+for a goal that is still running (which the agent has aborted by then).
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -26,7 +32,13 @@ import time
 from collections import OrderedDict
 from typing import Any
 
+from action_msgs.msg import GoalStatus
 from rclpy.action import ActionServer
+from rclpy.task import Future
+
+TAKE_FOR_SECONDS = 0.5
+"""How long shutdown goes on taking result requests that were never taken: a flood cannot
+hold it up, nor requests of clients gone meanwhile (rmw may wait on each such answer)."""
 
 
 class RetainingActionServer(ActionServer):
@@ -44,6 +56,8 @@ class RetainingActionServer(ActionServer):
         self._finished: OrderedDict[bytes, tuple[float, Any]] = OrderedDict()
         self._finished_lock = threading.Lock()
         self._expiry_lock = threading.RLock()
+        # Result requests not answered yet, per goal uuid (under ``_expiry_lock``).
+        self._waiting: dict[bytes, list[Any]] = {}
         super().__init__(*args, **kwargs)
 
     async def _execute_expire_goals(self, expired_goals: Any) -> None:
@@ -70,7 +84,7 @@ class RetainingActionServer(ActionServer):
                 self._remember(goal_uuid, future.result(), time.monotonic())
         if handle is not None:
             handle.destroy()
-        if future is not None:
+        if future is not None and future in self._futures:  # not after destroy()
             self.remove_future(future)
 
     async def _execute_get_result_request(self, request_header_and_message: Any) -> None:
@@ -81,12 +95,86 @@ class RetainingActionServer(ActionServer):
                 self._result_futures.get(goal_uuid) if goal_uuid in self._goal_handles else None
             )
             cached = None if future is not None else self._recall(goal_uuid)
+            if future is not None:
+                self._waiting.setdefault(goal_uuid, []).append(request_header)
         if future is not None:
-            future.add_done_callback(functools.partial(self._send_result_response, request_header))
+            future.add_done_callback(functools.partial(self._answer, goal_uuid, request_header))
         elif cached is not None:
-            self._send_cached(request_header, cached)
+            self._send_result(request_header, cached)
         else:
             await super()._execute_get_result_request(request_header_and_message)  # UNKNOWN
+
+    def _answer(self, goal_uuid: bytes, request_header: Any, future: Any) -> None:
+        """Send a goal's result to one waiting request, unless shutdown answered it already."""
+        with self._expiry_lock:
+            if not _take(self._waiting, goal_uuid, request_header):
+                return
+        self._send_result_response(request_header, future)
+
+    def active_goals(self) -> list[Any]:
+        """The goal handles of goals not finished yet."""
+        with self._expiry_lock:
+            return [handle for handle in self._goal_handles.values() if handle.is_active]
+
+    def answer_waiting_requests(self, unfinished_result: Any) -> int:
+        """Answer every result request still waiting (shutdown: the executor that would run
+        rclpy's answers has stopped): a finished goal's own result, else ``ABORTED`` with
+        ``unfinished_result``. Returns how many requests were answered."""
+        answered = self._take_result_requests()
+        with self._expiry_lock:
+            waiting, self._waiting = self._waiting, {}
+            futures = {goal_uuid: self._result_futures.get(goal_uuid) for goal_uuid in waiting}
+        for goal_uuid, headers in waiting.items():
+            future = futures[goal_uuid]
+            if future is not None and future.done():
+                response = future.result()
+            else:
+                response = self._action_type.Impl.GetResultService.Response()
+                response.status = GoalStatus.STATUS_ABORTED
+                response.result = unfinished_result
+            for header in headers:
+                self._send_result(header, response)
+                answered += 1
+        return answered
+
+    def destroy(self) -> None:
+        """Destroy the server; a goal still running (its handler left behind at shutdown) may
+        end later, and its result then goes nowhere instead of to the shut-down executor."""
+        super().destroy()
+        with self._expiry_lock:
+            for goal_uuid, future in list(self._result_futures.items()):
+                if not future.done():
+                    # rclpy hands a done future's callbacks to its executor: a fresh future
+                    # has no executor and no callbacks (every waiting request is answered).
+                    self._result_futures[goal_uuid] = Future()
+
+    def _take_result_requests(self) -> int:
+        """Take the result requests that arrived but were never taken (the executor has
+        stopped): those for goals still kept wait with the others; the rest are answered here
+        as rclpy would (cached result, or ``UNKNOWN``). Returns how many were answered."""
+        answered = 0
+        deadline = time.monotonic() + TAKE_FOR_SECONDS
+        while time.monotonic() < deadline:
+            with self._lock:
+                header, request = self._handle.take_result_request(
+                    self._action_type.Impl.GetResultService.Request
+                )
+            if header is None or request is None:
+                break
+            goal_uuid = bytes(request.goal_id.uuid)
+            with self._expiry_lock:
+                kept = goal_uuid in self._goal_handles
+                if kept:
+                    self._waiting.setdefault(goal_uuid, []).append(header)
+                response = None if kept else self._recall(goal_uuid)
+            if kept:
+                continue
+            if response is None:
+                response = self._action_type.Impl.GetResultService.Response()
+                response.status = GoalStatus.STATUS_UNKNOWN
+            self._send_result(header, response)
+            answered += 1
+        return answered
 
     def _remember(self, goal_uuid: bytes, response: Any, now: float) -> None:
         with self._finished_lock:
@@ -106,10 +194,22 @@ class RetainingActionServer(ActionServer):
             return None
         return entry[1]
 
-    def _send_cached(self, request_header: Any, response: Any) -> None:
+    def _send_result(self, request_header: Any, response: Any) -> None:
         from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 
         try:
             self._handle.send_result_response(request_header, response)
         except _rclpy.RCLError:
             self._logger.warn("Failed to send result response (the client may have gone away)")
+
+
+def _take(waiting: dict[bytes, list[Any]], goal_uuid: bytes, request_header: Any) -> bool:
+    """Remove ``request_header`` (this very object) from ``waiting``; False if it is not there."""
+    headers = waiting.get(goal_uuid, [])
+    for index, header in enumerate(headers):
+        if header is request_header:
+            del headers[index]
+            if not headers:
+                del waiting[goal_uuid]
+            return True
+    return False

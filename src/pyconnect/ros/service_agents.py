@@ -4,7 +4,10 @@ Server: ``response_func(request_value) -> response_value`` (an ``async def`` one
 the node's coroutine loop while the executor goes on with other agents). A handler (or codec)
 that raises still answers: a response type with ``success``/``message`` fields gets
 ``success=False`` and the error text, any other the default response; the error is logged with
-the agent's name.
+the agent's name. At shutdown (``close``) the requests that arrived but were never handled are
+answered ``success=False``, ``"server is shutting down"`` where the response type has a text
+field; other types stay unanswered (a default response would read as a real answer), and their
+clients time out.
 
 Client: ``send(data, timeout=None)`` blocks and returns the decoded response through
 ``reform_response`` (dicts get ``'isdone': True``); on timeout, or when no server appears in
@@ -21,6 +24,7 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import time
 from typing import Any
 
 from rclpy.callback_groups import CallbackGroup
@@ -28,12 +32,19 @@ from rclpy.task import Future as RosFuture
 
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
-from pyconnect.ros.error_fields import error_message
+from pyconnect.ros.error_fields import error_message, text_field
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.pending_calls import PendingCalls
 from pyconnect.ros.qos import REQUESTS
 from pyconnect.ros.waiting import Signal, settle, wait_until
+
+SHUTTING_DOWN = "server is shutting down"
+"""The answer to requests a server still had waiting when its node shut down."""
+
+REFUSE_FOR_SECONDS = 0.5
+"""How long shutdown goes on answering waiting requests: a flood cannot hold it up, nor
+requests of clients gone meanwhile (rmw may wait on each such answer)."""
 
 
 class ServiceServerAgent(NodeAgent):
@@ -103,8 +114,27 @@ class ServiceServerAgent(NodeAgent):
             return error_message(type(response), f"{type(error).__name__}: {error}")
 
     def close(self) -> None:
+        self.refuse_waiting_requests()
         self.node.ros_node.destroy_service(self.service)
         super().close()
+
+    def refuse_waiting_requests(self) -> int:
+        """Answer the requests still queued (the executor has stopped) with ``SHUTTING_DOWN``,
+        where the response type can say so; returns how many were answered."""
+        service = self.service
+        if text_field(service.srv_type.Response) is None:
+            return 0
+        refusal = error_message(service.srv_type.Response, SHUTTING_DOWN)
+        answered = 0
+        deadline = time.monotonic() + REFUSE_FOR_SECONDS
+        while time.monotonic() < deadline:
+            with service.handle:
+                request, header = service.handle.service_take_request(service.srv_type.Request)
+            if request is None or header is None:
+                break
+            service.send_response(refusal, header)
+            answered += 1
+        return answered
 
 
 class ServiceClientAgent(NodeAgent):
