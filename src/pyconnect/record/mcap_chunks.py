@@ -4,7 +4,9 @@ A *span* is a chunk record, or a run of message records outside chunks. ``load_s
 the span's (decompressed) records; ``scan_messages`` walks them with ``struct`` and returns the
 wanted messages as zero-copy slices. Neither raises on a damaged file: a chunk cut short gives
 the messages of its readable prefix, a chunk that does not decompress or whose CRC is wrong is
-noted in the file's ``DamageLog`` and gives what could be read. Compressed chunks are
+noted in the file's ``DamageLog`` and gives what could be read. ``chunk_problem`` says what is
+wrong with a chunk's declared compression and sizes without reading it (a summary's chunk index
+is checked with it when a file is opened). Compressed chunks are
 decompressed straight from the file into one buffer of the declared size, so reading a chunk
 holds little more than the chunk itself. Chunk buffers of a megabyte or more are anonymous memory
 maps of their own, given back to the system as soon as the last message view on them goes:
@@ -32,8 +34,11 @@ __all__ = [
     "MESSAGE",
     "RECORD_HEADER",
     "ChunkBuffers",
+    "ChunkHead",
     "Span",
+    "chunk_problem",
     "load_span",
+    "read_chunk_head",
     "scan_messages",
 ]
 
@@ -47,6 +52,11 @@ _U64 = struct.Struct("<Q")
 MESSAGE_HEADER = struct.Struct("<HIQQ")
 _READ_STEP = 1 << 20
 _MAX_UNCOMPRESSED = 1 << 34  # a declared size beyond 16 GiB is a damaged length field
+# The most a compressed byte can give: zstd's best (an RLE block, 4 bytes for 128 KiB) is
+# 32768:1, lz4's 255:1 (a match length grows by 255 per byte); twice that, as a sanity bound.
+_MAX_RATIO = {"zstd": 1 << 16, "lz4": 1 << 9}
+_RATIO_SLACK = 1 << 12  # frame headers of a tiny chunk
+_COMPRESSIONS = ("", "none", *_MAX_RATIO)
 _MAPPED_FROM = 1 << 20  # buffers this big get a memory map of their own
 
 
@@ -88,6 +98,63 @@ class Span:
     length: int = 0
     counts: dict[int, int] | None = None  # messages per channel id; None: not known yet
     channels: frozenset[int] | None = None  # channels with messages here; None: not known
+
+
+@dataclass(frozen=True)
+class ChunkHead:
+    """The fields of a chunk record before its records, which start at ``records_at``."""
+
+    start_ns: int
+    end_ns: int
+    uncompressed: int  # the declared size of its records once decompressed
+    crc: int
+    compression: str
+    stored: int  # the size of its (compressed) records in the file
+    records_at: int
+
+
+def read_chunk_head(stream: BinaryIO, offset: int) -> ChunkHead | str:
+    """The head of the chunk record at ``offset``, or what is wrong there."""
+    stream.seek(offset)
+    head = stream.read(RECORD_HEADER.size + _CHUNK_FIELDS.size)
+    if len(head) < RECORD_HEADER.size + _CHUNK_FIELDS.size:
+        return "file ends inside a chunk header"
+    opcode, _ = RECORD_HEADER.unpack_from(head)
+    if opcode != CHUNK:
+        return f"no chunk where the index points (record type {opcode:#x})"
+    start_ns, end_ns, size, crc, name_length = _CHUNK_FIELDS.unpack_from(head, RECORD_HEADER.size)
+    name = stream.read(name_length) if name_length <= 16 else b"?"
+    length_field = stream.read(8)
+    if len(name) != name_length or len(length_field) != 8:
+        return "file ends inside a chunk header"
+    (stored,) = _U64.unpack(length_field)
+    compression = name.decode("ascii", "replace")
+    return ChunkHead(start_ns, end_ns, size, crc, compression, stored, stream.tell())
+
+
+def _largest_output(compression: str, stored: int) -> int:
+    """The most ``stored`` bytes of ``compression`` can decompress to."""
+    ratio = _MAX_RATIO.get(compression)
+    largest = stored if ratio is None else stored * ratio + _RATIO_SLACK
+    return min(largest, _MAX_UNCOMPRESSED)
+
+
+def chunk_problem(compression: str, stored: int, uncompressed: int) -> tuple[str, str] | None:
+    """What is wrong with a chunk's declared compression and sizes, as (key, text) for a
+    ``DamageLog`` note; None when nothing is. Says the same when its chunk is opened and read,
+    so that the note is made once."""
+    if compression not in _COMPRESSIONS:
+        return "compression", f"unsupported chunk compression {compression!r}; skipped"
+    if compression in ("", "none"):
+        if stored != uncompressed:
+            return "size", f"uncompressed chunk of {stored} bytes, its header says {uncompressed}"
+        return None
+    if uncompressed > _largest_output(compression, stored):
+        return "size", (
+            f"chunk claims {uncompressed} bytes uncompressed, more than its {stored} bytes of "
+            f"{compression} can hold; read as far as it decompresses"
+        )
+    return None
 
 
 class _Window:
@@ -150,6 +217,36 @@ def _decompress_lz4(source: _Window, out: memoryview, damage: DamageLog, offset:
     return out[:filled]
 
 
+def _decompress_unsized(
+    source: _Window, compression: str, largest: int, damage: DamageLog, offset: int
+) -> memoryview:
+    """Up to ``largest`` bytes of records whose declared size is damaged, in a buffer grown as
+    they decompress: a buffer of the largest size they could have may be more than memory."""
+    import lz4.frame
+    import zstandard
+
+    out = bytearray()
+    try:
+        if compression == "zstd":
+            with zstandard.ZstdDecompressor().stream_reader(
+                source,  # type: ignore[arg-type]  # any object with read(n) will do
+                read_size=_READ_STEP,
+                closefd=False,
+            ) as reader:
+                while len(out) < largest and (piece := reader.read(_READ_STEP)):
+                    out += piece
+        else:
+            decompressor = lz4.frame.LZ4FrameDecompressor()
+            while (
+                len(out) < largest and not decompressor.eof and (piece := source.read(_READ_STEP))
+            ):
+                out += decompressor.decompress(piece)
+    except (zstandard.ZstdError, RuntimeError) as error:
+        what = f"chunk does not decompress ({compression}: {error})"
+        damage.note(offset, what, key="decompress")
+    return memoryview(out)[:largest]
+
+
 def _read_into_buffer(stream: BinaryIO, buffer: memoryview) -> memoryview:
     """Up to ``len(buffer)`` bytes of ``stream`` (fewer at its end), read straight into it."""
     size = len(buffer)
@@ -172,25 +269,12 @@ def load_span(
         loose = _read_into_buffer(stream, buffers.take(span.length))
         return loose, len(loose) == span.length
     offset = span.offset
-    stream.seek(offset)
-    head = stream.read(RECORD_HEADER.size + _CHUNK_FIELDS.size)
-    if len(head) < RECORD_HEADER.size + _CHUNK_FIELDS.size:
-        damage.note(offset, "file ends inside a chunk header", key="header")
+    head = read_chunk_head(stream, offset)
+    if isinstance(head, str):
+        damage.note(offset, head, key="header")
         return memoryview(b""), False
-    opcode, _ = RECORD_HEADER.unpack_from(head)
-    if opcode != CHUNK:
-        damage.note(offset, f"no chunk where the index points (record type {opcode:#x})")
-        return memoryview(b""), False
-    _, _, size, crc, name_length = _CHUNK_FIELDS.unpack_from(head, RECORD_HEADER.size)
-    name = stream.read(name_length) if name_length <= 16 else b"?"
-    length_field = stream.read(8)
-    if len(name) != name_length or len(length_field) != 8:
-        damage.note(offset, "file ends inside a chunk header", key="header")
-        return memoryview(b""), False
-    compression = name.decode("ascii", "replace")
-    (stored,) = _U64.unpack(length_field)
-    records_at = stream.tell()
-    available = max(0, min(stored, file_size - records_at))
+    compression, stored, size = head.compression, head.stored, head.uncompressed
+    available = max(0, min(stored, file_size - head.records_at))
     complete = available == stored
     if not complete:
         damage.note(
@@ -198,18 +282,25 @@ def load_span(
             f"chunk cut short: {available} of its {stored} bytes are in the file",
             key="cut",
         )
+    problem = chunk_problem(compression, stored, size)
+    if problem is not None:
+        key, what = problem
+        damage.note(offset, what, key=key)
+        if key == "compression":
+            return memoryview(b""), False
+        if compression not in ("", "none"):
+            # The declared size is damaged, maybe not the records: decompress what they give.
+            largest = _largest_output(compression, stored)
+            records = _decompress_unsized(
+                _Window(stream, available), compression, largest, damage, offset
+            )
+            return records.toreadonly(), False
     if compression in ("", "none"):
         records = _read_into_buffer(stream, buffers.take(available))
-    elif size > _MAX_UNCOMPRESSED:
-        damage.note(offset, f"chunk claims {size} bytes uncompressed; skipped", key="size")
-        return memoryview(b""), False
     elif compression == "zstd":
         records = _decompress_zstd(_Window(stream, available), buffers.take(size), damage, offset)
-    elif compression == "lz4":
-        records = _decompress_lz4(_Window(stream, available), buffers.take(size), damage, offset)
     else:
-        damage.note(offset, f"unsupported chunk compression {compression!r}; skipped")
-        return memoryview(b""), False
+        records = _decompress_lz4(_Window(stream, available), buffers.take(size), damage, offset)
     if complete and len(records) != size:
         damage.note(
             offset,
@@ -217,7 +308,7 @@ def load_span(
             key="size",
         )
         complete = False
-    if complete and crc and zlib.crc32(records) != crc:
+    if complete and head.crc and zlib.crc32(records) != head.crc:
         damage.note(
             offset,
             "chunk CRC mismatch: its messages are delivered but may be altered",

@@ -8,6 +8,12 @@ unknown channels, or have no message index (the last chunk of a cut recording), 
 decompressed to read them. Either way, messages are then read chunk by chunk in log-time order
 (``messages``), holding at most two chunks at a time. Damage never raises: it is noted in
 ``damage`` and the intact messages are delivered (see ``mcap_chunks``).
+
+A file scanned although its summary is readable (one written without chunks has no chunk index)
+keeps the summary's statistics as the counts it promises. When its footer places the end of the
+data section, each record scanned must fit before it and parse; a damaged one is skipped by
+resynchronising on the next run of records that do (``mcap_records``), rather than losing
+the rest of the file.
 """
 
 from __future__ import annotations
@@ -37,15 +43,24 @@ from pyconnect.record.mcap_chunks import (
     RECORD_HEADER,
     ChunkBuffers,
     Span,
+    chunk_problem,
     load_span,
+    read_chunk_head,
     scan_messages,
+)
+from pyconnect.record.mcap_records import (
+    CHANNEL,
+    DATA_END,
+    FOOTER,
+    MAGIC,
+    MESSAGE_INDEX,
+    SCHEMA,
+    RecordChecker,
 )
 
 __all__ = ["McapFile"]
 
-MAGIC = b"\x89MCAP0\r\n"
-_FOOTER, _SCHEMA, _CHANNEL, _MESSAGE_INDEX, _DATA_END = 0x02, 0x03, 0x04, 0x07, 0x0F
-_CHUNK_TIMES = struct.Struct("<QQ")
+_HEADS = RECORD_HEADER.size + MESSAGE_HEADER.size
 _INDEX_HEAD = struct.Struct("<HI")
 _DEFINITION_ENCODINGS = ("ros2msg", "ros2idl")
 _LOOSE_RUN = 4 << 20  # messages outside chunks are read in runs of about this many bytes
@@ -72,9 +87,9 @@ class McapFile:
         self._counts: dict[int, int] | None = None
         self.promised: int | None = None
         """How many messages the file's statistics declare (None: it has none)."""
+        self._times: tuple[int, int] | None = None  # the statistics' first and last log time
         summary = self._usable_summary()
         if summary is not None:
-            self._schemas, self._channels = dict(summary.schemas), dict(summary.channels)
             self._spans = [
                 Span(
                     offset=c.chunk_start_offset,
@@ -85,9 +100,7 @@ class McapFile:
                 )
                 for c in summary.chunk_indexes
             ]
-            if summary.statistics is not None:
-                self._counts = dict(summary.statistics.channel_message_counts)
-            else:
+            if self._counts is None:
                 self._count_from_message_indexes(summary)
         else:
             self._recover()
@@ -114,9 +127,15 @@ class McapFile:
             return None
         if summary is None:
             return None
+        # Scanned or not, the file keeps what its summary declares: the statistics are what it
+        # promises, and its schemas and channels are defined before a damaged record can hide
+        # them.
+        self._schemas, self._channels = dict(summary.schemas), dict(summary.channels)
         statistics = summary.statistics
         if statistics is not None:
             self.promised = statistics.message_count
+            self._counts = dict(statistics.channel_message_counts)
+            self._times = (statistics.message_start_time, statistics.message_end_time)
         if not summary.chunk_indexes:
             empty = statistics is not None and statistics.message_count == 0
             return summary if empty else None
@@ -135,6 +154,14 @@ class McapFile:
                     where, "the chunk index points where there is no chunk; scanned instead"
                 )
                 return None
+        for index in summary.chunk_indexes:
+            # Found now, not when the chunk is read, so that `bag info` reports it too.
+            problem = chunk_problem(
+                index.compression, index.compressed_size, index.uncompressed_size
+            )
+            if problem is not None:
+                key, what = problem
+                self.damage.note(index.chunk_start_offset, what, key=key)
         return summary
 
     def _count_from_message_indexes(self, summary: Summary) -> None:
@@ -150,60 +177,108 @@ class McapFile:
     def _recover(self) -> None:
         """Scan the data section: chunk headers, message indexes, schemas, channels."""
         stream, size = self._stream, self._size
+        records = RecordChecker(self._stream, self._size, self._channels, self._times)
+        data_end = records.data_end()
+        limit = size if data_end is None else data_end
         position = 8
         last_chunk: Span | None = None
         loose: Span | None = None
+        # (offset, length, channel) of the message record before, while it is in `loose`
+        previous: tuple[int, int, int] | None = None
+        first_ns, last_ns = self._times or (0, 2**64)
         while True:
             stream.seek(position)
-            head = stream.read(RECORD_HEADER.size)
+            head = stream.read(RECORD_HEADER.size + MESSAGE_HEADER.size)
             if len(head) < RECORD_HEADER.size:
                 if head or position != size:
                     self.damage.note(position, "file ends inside a record header", key="end")
                 break
-            opcode, length = RECORD_HEADER.unpack(head)
+            opcode, length = RECORD_HEADER.unpack_from(head)
             body = position + RECORD_HEADER.size
             end = body + length
-            if opcode in (_FOOTER, _DATA_END):
+            if opcode in (FOOTER, DATA_END) and (data_end is None or position == data_end):
                 break
+            message = None
+            if opcode == MESSAGE and length >= MESSAGE_HEADER.size and len(head) == _HEADS:
+                message = MESSAGE_HEADER.unpack_from(head, RECORD_HEADER.size)
+            if data_end is None:
+                fits = True
+            elif message is not None:  # checked here, not by _fits: once per message counts
+                fits = end <= limit and message[0] in self._channels
+                fits = fits and first_ns <= message[2] <= last_ns
+            else:
+                fits = opcode != MESSAGE and records.fits(position, opcode, limit)
+            if not fits:
+                # The damage is in this record, or in the length of the message before, which
+                # then led here: resynchronise from inside that one.
+                start = position + 1 if previous is None else previous[0] + RECORD_HEADER.size
+                resumed = records.resync(start, limit)
+                if resumed is not None:
+                    if previous is not None and resumed < position:
+                        assert loose is not None and loose.counts is not None
+                        position, length, channel = previous
+                        loose.length = position - loose.offset
+                        loose.counts[channel] -= 1
+                        if not loose.counts[channel]:
+                            del loose.counts[channel]
+                        what = f"message record claims {length} bytes, where no record follows"
+                    elif opcode == 0:
+                        what = "no record here (zeros)"
+                    elif end > limit:
+                        what = f"record claims {length} bytes, more than the data section holds"
+                    else:
+                        what = f"broken record (type {opcode:#x}, {length} bytes)"
+                    self.damage.note(
+                        position,
+                        f"{what}; {resumed - position} bytes skipped to the next intact record",
+                    )
+                    position, loose, last_chunk, previous = resumed, None, None, None
+                    continue
+            previous = None
             if opcode == 0:
                 self.damage.note(position, "no record here (zeros); the rest is unreadable")
                 break
-            cut = end > size
+            cut = end > limit
             if cut and opcode != CHUNK:
                 self.damage.note(
                     position,
-                    f"record claims {length} bytes, {size - body} are left in the file; "
-                    "the rest is lost",
+                    f"record claims {length} bytes, {limit - body} are left in the "
+                    f"{'file' if limit == size else 'data section'}; the rest is lost",
                     key="end",
                 )
                 break
             if opcode != MESSAGE:
                 loose = None
-            if opcode not in (_MESSAGE_INDEX, CHUNK):
+            if opcode not in (MESSAGE_INDEX, CHUNK):
                 last_chunk = None
             if opcode == CHUNK:
-                times = stream.read(_CHUNK_TIMES.size)
-                if len(times) < _CHUNK_TIMES.size:
-                    self.damage.note(position, "file ends inside a chunk header", key="end")
+                chunk = read_chunk_head(stream, position)
+                if isinstance(chunk, str):
+                    self.damage.note(position, chunk, key="end")
                     break
-                start_ns, end_ns = _CHUNK_TIMES.unpack(times)
-                last_chunk = Span(position, start_ns, end_ns, chunked=True)
+                problem = chunk_problem(chunk.compression, chunk.stored, chunk.uncompressed)
+                if problem is not None:
+                    self.damage.note(position, problem[1], key=problem[0])
+                last_chunk = Span(position, chunk.start_ns, chunk.end_ns, chunked=True)
                 self._spans.append(last_chunk)
                 if cut:
                     break  # load_span notes how much of it is left
-            elif opcode == _MESSAGE_INDEX and last_chunk is not None and length >= 6:
+            elif opcode == MESSAGE_INDEX and last_chunk is not None and length >= 6:
+                stream.seek(body)
                 channel, entries = _INDEX_HEAD.unpack(stream.read(_INDEX_HEAD.size))
                 if last_chunk.counts is None:
                     last_chunk.counts = {}
                 last_chunk.counts[channel] = entries // 16
-            elif opcode in (_SCHEMA, _CHANNEL):
+            elif opcode in (SCHEMA, CHANNEL):
+                stream.seek(body)
                 self._definition(opcode, stream.read(length), position)
-            elif opcode == MESSAGE and length >= MESSAGE_HEADER.size:
-                channel, _, log_time, _ = MESSAGE_HEADER.unpack(stream.read(MESSAGE_HEADER.size))
+            elif message is not None:
+                channel, _, log_time, _ = message
                 if loose is None or loose.length > _LOOSE_RUN:
                     loose = Span(position, log_time, log_time, chunked=False, counts={})
                     self._spans.append(loose)
                 assert loose.counts is not None
+                previous = (position, length, channel)
                 loose.length = end - loose.offset
                 loose.start_ns = min(loose.start_ns, log_time)
                 loose.end_ns = max(loose.end_ns, log_time)
@@ -213,18 +288,27 @@ class McapFile:
             if span.counts is None or not span.counts.keys() <= self._channels.keys():
                 self._probe(span)
             span.channels = frozenset(span.counts or ())
+        found = sum(sum((span.counts or {}).values()) for span in self._spans)
+        if self.promised is not None and found != self.promised and not self.damage.found:
+            # A damaged length that happens to land on a later record loses the records between
+            # without a trace in the data section: only the statistics show it. (Damage already
+            # noted says why messages are missing.)
+            self.damage.note(
+                None,
+                f"the file's statistics count {self.promised} message(s), {found} were found in it",
+            )
 
     def _definition(self, opcode: int, body: bytes, offset: int) -> None:
         try:
             stream = ReadDataStream(io.BytesIO(body))
-            if opcode == _SCHEMA:
+            if opcode == SCHEMA:
                 schema = Schema.read(stream)
                 self._schemas.setdefault(schema.id, schema)
             else:
                 channel = Channel.read(stream)
                 self._channels.setdefault(channel.id, channel)
         except Exception as error:  # a damaged record: note it, keep scanning
-            kind = "schema" if opcode == _SCHEMA else "channel"
+            kind = "schema" if opcode == SCHEMA else "channel"
             self.damage.note(offset, f"{kind} record unreadable ({type(error).__name__})")
 
     def _probe(self, span: Span) -> None:
@@ -238,7 +322,7 @@ class McapFile:
             body, end = position + 9, position + 9 + length
             if end > size:
                 break
-            if opcode in (_SCHEMA, _CHANNEL):
+            if opcode in (SCHEMA, CHANNEL):
                 self._definition(opcode, bytes(records[body:end]), span.offset)
             elif opcode == MESSAGE and length >= MESSAGE_HEADER.size:
                 channel, _, log_time, _ = MESSAGE_HEADER.unpack_from(records, body)
