@@ -41,8 +41,10 @@ class BagInfo:
     """What ``pyconnect bag info`` prints. Times are ns since the epoch (None: no messages).
 
     ``damage`` lists what is broken in the files as far as opening them shows (a bag cut
-    short, an index pointing past the end), then where metadata.yaml disagrees with them; damage
-    inside chunks appears when they are read.
+    short, an index pointing past the end, a chunk of an unknown compression or an impossible
+    size, a ``.db3`` row that cannot be read), then where metadata.yaml disagrees with them;
+    a wrong CRC or data that do not decompress inside an MCAP chunk appear when the chunk is
+    read (``info`` reads no chunk, as ``ros2 bag info`` reads only the summary).
     """
 
     path: Path
