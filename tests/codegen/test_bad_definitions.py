@@ -39,6 +39,8 @@ def build(root: Path, files: dict[str, bytes], tmp_path: Path) -> int:
         ({"msg/A.msg": b"int32 x\n\xff\xfe int32 y\n"}, "msg/A.msg:2: not UTF-8 text (bytes ff)"),
         ({"msg/A.msg": b"int32 x\n", "package.xml": b"<name>tb_msgs</name>\xe9\n"},
          "package.xml:1: not UTF-8 text (bytes e9)"),
+        ({"msg/Stamp.msg": b"time stamp\nint32 v\n"}, "msg/Stamp.msg:1: unknown type 'time'"),
+        ({"srv/S.srv": b"int32 a\n---\n# c\nduration[] d\n"}, "srv/S.srv:4: unknown type 'duration'"),
     ],
 )  # fmt: skip
 def test_bad_definitions_are_one_line_exit_2(

@@ -19,6 +19,8 @@ from test_msgs.msg import BasicTypes, Empty
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.mcap_recorder import McapRecorder
 from pyconnect.typesys.definition_text import installed_definition
+from tests.conftest import require_sample_bags
+from tests.record.bag_samples import BAGS
 
 
 def read_ros2_messages(path: Path) -> list[tuple[str, object]]:
@@ -154,7 +156,8 @@ def test_write_is_thread_safe(tmp_path: Path) -> None:
 def test_definition_layout_matches_rosbag2() -> None:
     text = installed_definition("geometry_msgs/msg/Twist")
     separator = "=" * 80
-    assert f"\n{separator}\nMSG: geometry_msgs/Vector3\n" in text
+    # rosbag2 writes a newline before each separator, even after the text's own last newline
+    assert f"\n\n{separator}\nMSG: geometry_msgs/Vector3\n" in text
     assert text.count("MSG: ") == 1
     assert installed_definition("test_msgs/srv/BasicTypes_Event").count("\n---\n") == 1
     odometry = installed_definition("nav_msgs/msg/Odometry")
@@ -191,3 +194,88 @@ def test_errors(tmp_path: Path) -> None:
         ValueError, match=r"^compression: expected one of 'zstd', 'lz4', 'none', got 'gzip'$"
     ):
         McapRecorder(tmp_path / "x", compression="gzip")
+
+
+def test_dependencies_come_in_rosbag2_jazzy_order() -> None:
+    """Each text's dependencies sorted (rosbag2 keeps them in a std::set), depth first."""
+    odometry = installed_definition("nav_msgs/msg/Odometry")
+    headers = [line[5:] for line in odometry.splitlines() if line.startswith("MSG: ")]
+    assert headers == [
+        "geometry_msgs/PoseWithCovariance", "geometry_msgs/Pose", "geometry_msgs/Point",
+        "geometry_msgs/Quaternion", "geometry_msgs/TwistWithCovariance", "geometry_msgs/Twist",
+        "geometry_msgs/Vector3", "std_msgs/Header", "builtin_interfaces/Time",
+    ]  # fmt: skip
+    shared = BAGS / "evo" / "nav2_turtlebot.mcap"
+    require_sample_bags(shared, shared.exists())
+    with shared.open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    jazzy = {s.name: s.data.decode() for s in summary.schemas.values()}
+    assert odometry == jazzy["nav_msgs/msg/Odometry"]  # what rosbag2 Jazzy wrote, byte for byte
+
+
+def test_the_file_holds_the_rosbag2_metadata_record(tmp_path: Path) -> None:
+    from pyconnect.typesys.packages import installed_type_hash
+
+    type_hash = installed_type_hash("std_msgs/msg/String")
+    with McapRecorder(tmp_path / "bag") as recorder:
+        recorder.add_topic("/chatter", "std_msgs/msg/String", type_hash=type_hash)
+        for i in range(3):
+            recorder.write("/chatter", serialize_message(String(data=str(i))), log_time_ns=10 + i)
+    with (tmp_path / "bag" / "bag_0.mcap").open("rb") as stream:
+        records = [(m.name, m.metadata) for m in make_reader(stream).iter_metadata()]
+    assert [(name, list(data)) for name, data in records] == [("rosbag2", ["serialized_metadata"])]
+    stored = yaml.safe_load(records[0][1]["serialized_metadata"])
+    written = yaml.safe_load((tmp_path / "bag" / "metadata.yaml").read_text())
+    assert stored == written["rosbag2_bagfile_information"]
+    assert stored["message_count"] == 3
+    assert stored["topics_with_message_count"][0]["topic_metadata"]["type_description_hash"] == (
+        type_hash
+    )
+    assert [m.data for _, m in read_ros2_messages(tmp_path / "bag" / "bag_0.mcap")] == ["0", "1", "2"]
+    with AnyReader([tmp_path / "bag"]) as reader:
+        assert sum(1 for _ in reader.messages()) == 3
+
+
+ACTION_PARTS = [
+    "FeedbackMessage", "Goal", "Result", "Feedback", "SendGoal_Request", "SendGoal_Response",
+    "GetResult_Request", "GetResult_Response", "SendGoal_Event", "GetResult_Event",
+]  # fmt: skip
+
+
+def test_action_parts_are_recorded_with_a_definition_rosbags_reads(tmp_path: Path) -> None:
+    """rosbag2 Jazzy stores these with encoding "unknown", which rosbags refuses (the whole
+    bag); pyconnect stores their .msg form, which rosbags decodes and open_bag reads."""
+    from test_msgs.action import Fibonacci, NestedMessage
+
+    from pyconnect.record.bag_reader import open_bag
+    from pyconnect.typesys.classes import import_class
+
+    sent = {}
+    with McapRecorder(tmp_path / "bag") as recorder:
+        for action in (Fibonacci, NestedMessage):
+            for part in ACTION_PARTS:
+                msg_type = f"test_msgs/action/{action.__name__}_{part}"
+                message = import_class(msg_type)()
+                if part == "FeedbackMessage":
+                    message.goal_id.uuid[3] = 7
+                    if action is Fibonacci:
+                        message.feedback.sequence = [1, 1, 2]
+                    else:
+                        message.feedback.nested_field.int32_value = -5
+                topic = f"/{action.__name__}/{part}"
+                recorder.add_topic(topic, msg_type)
+                recorder.write(topic, serialize_message(message), log_time_ns=len(sent))
+                sent[topic] = message
+    store = get_typestore(Stores.ROS2_JAZZY)
+    with AnyReader([tmp_path / "bag"], default_typestore=store) as reader:
+        theirs = {c.topic: reader.deserialize(raw, c.msgtype) for c, _, raw in reader.messages()}
+    assert set(theirs) == set(sent)
+    feedback = theirs["/Fibonacci/FeedbackMessage"]
+    assert (list(feedback.goal_id.uuid)[3], list(feedback.feedback.sequence)) == (7, [1, 1, 2])
+    nested = theirs["/NestedMessage/FeedbackMessage"]
+    assert nested.feedback.nested_field.int32_value == -5
+    with open_bag(tmp_path / "bag") as bag:
+        ours = {m.topic: m.value for m in bag}
+    assert bag.errors == []
+    assert ours["/Fibonacci/FeedbackMessage"]["feedback"] == {"sequence": [1, 1, 2]}

@@ -137,7 +137,8 @@ def _subscribe_new(
     out: TextIO,
 ) -> None:
     from pyconnect.commands.graph import choose_qos
-    from pyconnect.ros.interfaces import interface_class
+    from pyconnect.typesys.classes import import_class
+    from pyconnect.typesys.names import full_type_name
 
     split = writer.recorder
     for topic, types in session.node.get_topic_names_and_types():
@@ -150,7 +151,9 @@ def _subscribe_new(
             continue  # as `ros2 bag record -a` leaves them out unless asked
         publishers = session.node.get_publishers_info_by_topic(topic)
         try:
-            msg_class = interface_class(types[0], kind="msg")
+            # Also the parts of services and actions (`pkg/action/Fibonacci_FeedbackMessage` is
+            # the class Fibonacci.Impl.FeedbackMessage), which a module attribute is not.
+            msg_class = import_class(full_type_name(types[0]))
             # Opens the bag's first file and reads the definition now, before the subscription
             # exists: done in the first callback, it cost ~0.1 s of messages.
             split.add_topic(topic, types[0], offered_qos_profiles=_qos_yaml(publishers))

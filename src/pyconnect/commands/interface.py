@@ -3,7 +3,8 @@
 Reads the ament indexes pyconnect finds (the wheels' ``share/``, ``AMENT_PREFIX_PATH``, and the
 prefixes of packages built with ``codecgen build --compile``); no ROS graph, no rclpy needed.
 ``show`` prints a type's .msg/.srv/.action text with every nested message type expanded below
-its field, indented by a tab, as ``ros2 interface show`` does.
+its field, indented by a tab, as ``ros2 interface show`` does. A type defined in an ``.idl``
+file (no .msg/.srv/.action) is shown as that file's text, and is not expanded below a field.
 """
 
 from __future__ import annotations
@@ -84,13 +85,19 @@ def _list(args: argparse.Namespace, out: TextIO, _err: TextIO) -> int:
 
 
 def _definition_file(full_name: str) -> Path:
+    """The .msg/.srv/.action file of an installed type, else its .idl file."""
     package, namespace, name = full_name.split("/")
     installed = installed_packages().get(package)
     if installed is None:
         raise UsageError(f"{full_name}: package {package!r} is not installed")
     path = installed.share / namespace / f"{name}.{namespace}"
+    idl = path.with_suffix(".idl")
+    if not path.is_file() and idl.is_file():
+        return idl
     if not path.is_file():
-        raise UsageError(f"{full_name}: no such type ({path.name} is not in {installed.share})")
+        raise UsageError(
+            f"{full_name}: no such type ({path.name} is not in {installed.share}, nor {idl.name})"
+        )
     return path
 
 
@@ -102,7 +109,11 @@ def _resolve(type_name: str) -> str:
         installed = installed_packages().get(parts[0])
         if installed is not None:
             for namespace in ("msg", "srv", "action"):
-                if (installed.share / namespace / f"{parts[1]}.{namespace}").is_file():
+                base = installed.share / namespace / parts[1]
+                if (
+                    base.with_suffix(f".{namespace}").is_file()
+                    or base.with_suffix(".idl").is_file()
+                ):
                     return f"{parts[0]}/{namespace}/{parts[1]}"
         return f"{parts[0]}/msg/{parts[1]}"
     raise UsageError(f"{type_name!r} is not a type name (pkg/msg/Name, pkg/srv/Name or pkg/Name)")
@@ -128,8 +139,9 @@ def _nested_type(line: str, package: str) -> str | None:
 def interface_text(type_name: str, *, expand: bool = True) -> str:
     """The definition of an installed type, nested message types expanded below their fields."""
     full_name = _resolve(type_name)
-    text = _definition_file(full_name).read_text(encoding="utf-8")
-    if not expand:
+    path = _definition_file(full_name)
+    text = path.read_text(encoding="utf-8")
+    if not expand or path.suffix == ".idl":
         return text
     lines: list[str] = []
 
@@ -140,8 +152,9 @@ def interface_text(type_name: str, *, expand: bool = True) -> str:
             lines.append("\t" * depth + line.rstrip())
             nested = _nested_type(line, package)
             if nested is not None:
-                nested_text = _definition_file(nested).read_text(encoding="utf-8")
-                emit(nested_text, nested.split("/")[0], depth + 1)
+                nested_path = _definition_file(nested)
+                if nested_path.suffix != ".idl":  # IDL text does not indent into a .msg
+                    emit(nested_path.read_text(encoding="utf-8"), nested.split("/")[0], depth + 1)
 
     emit(text, full_name.split("/")[0], 0)
     return "\n".join(lines) + "\n"

@@ -10,7 +10,15 @@ import yaml
 
 from pyconnect.record.bag_errors import BagError
 
-__all__ = ["METADATA_FILE", "BagMetadata", "TopicMetadata", "read_metadata", "write_metadata"]
+__all__ = [
+    "METADATA_FILE",
+    "BagMetadata",
+    "TopicMetadata",
+    "metadata_info",
+    "metadata_yaml",
+    "read_metadata",
+    "write_metadata",
+]
 
 METADATA_FILE = "metadata.yaml"
 WRITTEN_VERSION = 8
@@ -91,9 +99,10 @@ def read_metadata(path: Path) -> BagMetadata:
         raise BagError(f"{path}: not a rosbag2 metadata file ({kind}: {error})") from None
 
 
-def write_metadata(path: Path, metadata: BagMetadata) -> None:
-    """Write ``metadata`` as a version-8 metadata.yaml (``ros2 bag`` and rosbags read it)."""
-    info: dict[str, Any] = {
+def metadata_info(metadata: BagMetadata) -> dict[str, Any]:
+    """``metadata`` as version 8's ``rosbag2_bagfile_information`` mapping: metadata.yaml's
+    content, and what rosbag2 stores in an MCAP file's "rosbag2" metadata record."""
+    return {
         "version": WRITTEN_VERSION,
         "storage_identifier": metadata.storage_identifier,
         "duration": {"nanoseconds": metadata.duration_ns},
@@ -119,10 +128,19 @@ def write_metadata(path: Path, metadata: BagMetadata) -> None:
         "custom_data": {},
         "ros_distro": "jazzy",
     }
+
+
+def metadata_yaml(info: dict[str, Any]) -> str:
+    """YAML text of a mapping, written as rosbag2 writes its metadata."""
     # libyaml's emitter when PyYAML has it: the same text, several times faster; a split bag
-    # rewrites this file (one entry per file so far) at every split.
+    # rewrites metadata.yaml (one entry per file so far) at every split.
     dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
-    text = yaml.dump({"rosbag2_bagfile_information": info}, Dumper=dumper, sort_keys=False)
+    return str(yaml.dump(info, Dumper=dumper, sort_keys=False))
+
+
+def write_metadata(path: Path, metadata: BagMetadata) -> None:
+    """Write ``metadata`` as a version-8 metadata.yaml (``ros2 bag`` and rosbags read it)."""
+    text = metadata_yaml({"rosbag2_bagfile_information": metadata_info(metadata)})
     from pyconnect.record.log_writer import atomic_write_bytes
 
     atomic_write_bytes(path, text.encode("utf-8"))

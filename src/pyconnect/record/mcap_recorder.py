@@ -4,7 +4,9 @@
 ``close()``, ``metadata.yaml`` (version 8), as ``ros2 bag record -s mcap`` does.
 ``McapRecorder("run1.mcap")`` writes that one file and no metadata (``ros2 bag``, rosbags and
 Foxglove read bare MCAP files). The container is the ``mcap`` package's writer with the "ros2"
-profile, "ros2msg" schemas, "cdr" messages and zstd (or lz4, or no) chunk compression.
+profile, "ros2msg" schemas ("ros2idl" for types defined in .idl), "cdr" messages and zstd (or
+lz4, or no) chunk compression. As rosbag2's MCAP storage does on closing a file, a "rosbag2"
+metadata record holds the bag's metadata as YAML (``serialized_metadata``).
 """
 
 from __future__ import annotations
@@ -17,7 +19,14 @@ from typing import Any, BinaryIO
 from mcap.writer import CompressionType, Writer
 
 from pyconnect.record.bag_errors import BagError
-from pyconnect.record.bag_metadata import METADATA_FILE, BagMetadata, TopicMetadata, write_metadata
+from pyconnect.record.bag_metadata import (
+    METADATA_FILE,
+    BagMetadata,
+    TopicMetadata,
+    metadata_info,
+    metadata_yaml,
+    write_metadata,
+)
 from pyconnect.typesys.names import full_type_name
 
 __all__ = ["DEFAULT_CHUNK_SIZE", "McapRecorder"]
@@ -71,8 +80,9 @@ class _Topic:
 class McapRecorder:
     """Record CDR messages of any number of topics; ``write`` is thread-safe.
 
-    Call ``add_topic`` once per topic before writing it; ``definition`` is the ros2msg text
-    (built from the installed interface files when None). ``chunk_size`` is the uncompressed
+    Call ``add_topic`` once per topic before writing it; ``definition`` is the definition text
+    (built from the installed interface files when None): ros2msg, or ros2idl when it is laid
+    out as ``definition_text.installed_definition`` writes IDL. ``chunk_size`` is the uncompressed
     size at which a chunk is closed and compressed. ``close()`` finishes the file and
     writes metadata.yaml; it is idempotent and also runs on leaving a ``with`` block.
     """
@@ -163,15 +173,17 @@ class McapRecorder:
                         f"{full_type}"
                     )
                 return
-            if definition is None:
-                from pyconnect.typesys.definition_text import installed_definition
+            from pyconnect.typesys.definition_text import definition_encoding, installed_definition
 
+            if definition is None:
                 definition = installed_definition(full_type)
             key = (full_type, definition)
             schema_id = self._schemas.get(key)
             if schema_id is None:
                 schema_id = self._writer.register_schema(
-                    name=full_type, encoding="ros2msg", data=definition.encode("utf-8")
+                    name=full_type,
+                    encoding=definition_encoding(definition),
+                    data=definition.encode("utf-8"),
                 )
                 self._schemas[key] = schema_id
             channel_id = self._writer.register_channel(
@@ -228,12 +240,15 @@ class McapRecorder:
             if self._closed:
                 return
             self._closed = True
+            metadata = self._metadata()
             try:
+                serialized = metadata_yaml(metadata_info(metadata))
+                self._writer.add_metadata("rosbag2", {"serialized_metadata": serialized})
                 self._writer.finish()  # type: ignore[no-untyped-call]
             finally:
                 self._stream.close()
             if self.bag_dir is not None:
-                write_metadata(self.bag_dir / METADATA_FILE, self._metadata())
+                write_metadata(self.bag_dir / METADATA_FILE, metadata)
 
     def _metadata(self) -> BagMetadata:
         start = self._first_ns or 0

@@ -60,10 +60,31 @@ def _idl_from_interface_text(package: str, path: Path, text: str) -> str:
         if unknown:
             message = f"unknown type {unknown.group(1)!r}"
         raise DefinitionError(message, path=path, line=line) from None
+    _reject_ros1_builtins(path, text)
     key, template = _ADAPTER_TEMPLATES[path.suffix]
     data = {"pkg_name": package, "relative_input_file": f"{key}/{path.name}", key: spec}
-    content: str = evaluate_template(template, data)
+    try:
+        # rosidl's template prints its own report and calls sys.exit(1) on what it cannot map.
+        with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
+            content: str = evaluate_template(template, data)
+    except (Exception, SystemExit) as error:
+        reason = "it exited" if isinstance(error, SystemExit) else _one_line(error)
+        raise DefinitionError(f"rosidl cannot convert it to IDL ({reason})", path=path) from None
     return content
+
+
+# ROS 1 builtins that rosidl_adapter parses but has no IDL type for.
+_ROS1_BUILTINS = frozenset({"time", "duration"})
+
+
+def _reject_ros1_builtins(path: Path, text: str) -> None:
+    """Refuse a field of ROS 1's ``time``/``duration`` (ROS 2 spells them builtin_interfaces/Time
+    and Duration): rosidl_adapter parses them and only its IDL template fails, by exiting."""
+    for number, raw in enumerate(text.splitlines(), start=1):
+        tokens = raw.split("#", 1)[0].split()
+        base = re.split(r"[\[<]", tokens[0], maxsplit=1)[0] if tokens else ""
+        if base in _ROS1_BUILTINS:
+            raise DefinitionError(f"unknown type {base!r}", path=path, line=number)
 
 
 def _one_line(error: BaseException) -> str:

@@ -1,0 +1,103 @@
+"""Definition text of bags: what pyconnect writes for installed types and how it reads texts back."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from rclpy.serialization import serialize_message
+from std_msgs.msg import Header, String
+
+from pyconnect.errors import CodecNotFoundError
+from pyconnect.record.bag_reader import open_bag
+from pyconnect.typesys.definition_text import (
+    definition_encoding,
+    installed_definition,
+    resolve_definition,
+)
+from pyconnect.typesys.errors import DefinitionError
+from tests.typesys.idl_prefix import READING_IDL, SAMPLE_IDL, idl_share
+
+__all__ = ["idl_share"]  # a fixture
+
+
+def test_ros1_time_in_a_text_is_an_error_not_an_exit() -> None:
+    with pytest.raises(DefinitionError) as caught:
+        resolve_definition("my_pkg/msg/T", "int32 v\ntime t\n", "ros2msg")
+    assert str(caught.value) == "msg/T.msg:2: unknown type 'time'"
+
+
+def test_a_bag_text_with_ros1_time_falls_back_to_the_installed_type(tmp_path: Path) -> None:
+    from mcap.writer import Writer
+
+    with (tmp_path / "time.mcap").open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2", library="test")
+        ros1_header = b"uint32 seq\ntime stamp\nstring frame_id\n"
+        texts = {"/hdr": ("std_msgs/msg/Header", ros1_header), "/ok": ("std_msgs/msg/String", b"string data\n")}  # fmt: skip
+        for topic, (name, text) in texts.items():
+            schema = writer.register_schema(name=name, encoding="ros2msg", data=text)
+            writer.register_channel(topic=topic, message_encoding="cdr", schema_id=schema)
+        writer.add_message(1, log_time=1, data=serialize_message(Header(frame_id="a")), publish_time=1)  # fmt: skip
+        writer.add_message(2, log_time=2, data=serialize_message(String(data="b")), publish_time=2)
+        writer.finish()
+    with open_bag(tmp_path / "time.mcap") as bag:
+        values = [(m.topic, m.value) for m in bag]
+    assert values[1] == ("/ok", "b")
+    assert values[0][0] == "/hdr" and values[0][1]["frame_id"] == "a"
+
+
+# -- types defined in .idl: stored as rosbag2 does, encoding ros2idl ---------------------------
+SEPARATOR = "=" * 80
+
+
+def test_a_type_with_only_an_idl_file_is_stored_as_ros2idl(idl_share: Path) -> None:
+    text = installed_definition("idlpkg/msg/Reading")
+    assert text == f"{SEPARATOR}\nIDL: idlpkg/msg/Reading\n{READING_IDL}"
+    assert definition_encoding(text) == "ros2idl"
+
+
+def test_a_msg_nesting_an_idl_only_type_is_stored_as_ros2idl_with_its_includes(
+    idl_share: Path,
+) -> None:
+    text = installed_definition("idlpkg/Sample")
+    assert text == (
+        f"{SEPARATOR}\nIDL: idlpkg/msg/Sample\n{SAMPLE_IDL}"
+        f"\n{SEPARATOR}\nIDL: idlpkg/msg/Reading\n{READING_IDL}"
+    )
+    message, _types = resolve_definition("idlpkg/msg/Sample", text, "ros2idl")
+    assert [f.name for f in message.fields] == ["reading", "vals"]
+
+
+def test_a_type_with_neither_file_names_the_msg_file(idl_share: Path) -> None:
+    with pytest.raises(CodecNotFoundError, match=r"idlpkg/msg/Nothing: no Nothing\.msg in "):
+        installed_definition("idlpkg/msg/Nothing")
+
+
+def test_an_idl_type_is_recorded_and_read_back(idl_share: Path, tmp_path: Path) -> None:
+    from mcap.reader import make_reader
+
+    from pyconnect.codecs import wire
+    from pyconnect.record.mcap_recorder import McapRecorder
+
+    codec = wire.wire_codec(
+        "idlpkg/msg/Sample", definition=installed_definition("idlpkg/msg/Sample"), encoding="ros2idl"
+    )
+    with McapRecorder(tmp_path / "idl.mcap") as recorder:
+        recorder.add_topic("/sample", "idlpkg/msg/Sample")
+        recorder.add_topic("/chatter", "std_msgs/msg/String")
+        value = {"reading": {"value": 2.5, "label": "cd"}, "vals": [1, 2]}
+        recorder.write("/sample", codec.from_dict(value), log_time_ns=1)
+        recorder.write("/chatter", serialize_message(String(data="x")), log_time_ns=2)
+    with (tmp_path / "idl.mcap").open("rb") as stream:
+        schemas = make_reader(stream).get_summary().schemas.values()  # type: ignore[union-attr]
+        assert {s.name: s.encoding for s in schemas} == {
+            "idlpkg/msg/Sample": "ros2idl",
+            "std_msgs/msg/String": "ros2msg",
+        }
+    with open_bag(tmp_path / "idl.mcap") as bag:
+        values = [m.value for m in bag]
+    assert bag.errors == []
+    assert values[0]["reading"] == {"value": 2.5, "label": "cd"}
+    assert list(values[0]["vals"]) == [1, 2]
+    assert values[1] == "x"
