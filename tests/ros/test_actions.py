@@ -13,7 +13,7 @@ from test_msgs.action import Fibonacci, NestedMessage
 from pyconnect.errors import PyconnectError
 from pyconnect.ros import custom_node
 
-from .conftest import EVENT_TIMEOUT, repeat_until
+from .conftest import EVENT_TIMEOUT, server_and_client, wait_for_the_result_request
 
 
 def fibonacci(goal: dict[str, Any]) -> Iterator[dict[str, Any]]:
@@ -355,29 +355,6 @@ def test_finished_goals_leave_the_status_list(make_node: Any) -> None:
             assert [goal_id] in listed
 
 
-def _server_and_client(make_node: Any, handler: Any, name: str) -> tuple[Any, Any]:
-    """An action server on a node of its own (shut down by the test) and its client."""
-    server_node, client_node = make_node(f"{name}_server"), make_node(f"{name}_client")
-    server_node.add_agent(
-        conn_name="fib", conn_type="action_server", data_interface=Fibonacci, response_func=handler
-    )
-    client = client_node.add_agent(
-        conn_name="fib", conn_type="action_client", data_interface=Fibonacci,
-        timeout=EVENT_TIMEOUT,
-    )  # fmt: skip
-    server_node.spin(run_thread=True)
-    client_node.spin(run_thread=True)
-    client_node.wait_until_connected(timeout=EVENT_TIMEOUT)
-    return server_node, client
-
-
-def _wait_for_the_result_request(server_node: Any) -> None:
-    """Until the server has taken the client's request for the goal's result."""
-    asked = threading.Event()
-    server = server_node.agents["fib"].server
-    assert repeat_until(asked, lambda: asked.set() if server._waiting else None)
-
-
 def test_a_goal_finishing_during_shutdown_still_sends_its_result(
     make_node: Any, monkeypatch: Any
 ) -> None:
@@ -390,7 +367,9 @@ def test_a_goal_finishing_during_shutdown_still_sends_its_result(
         release.wait(EVENT_TIMEOUT)
         return {"sequence": [1, 2, 3]}
 
-    server_node, client = _server_and_client(make_node, goal, "finishing")
+    server_node, client = server_and_client(
+        make_node, "finishing", "action", Fibonacci, goal, conn_name="fib"
+    )
     stop = server_node._executor.stop
 
     def stop_then_release() -> None:
@@ -401,7 +380,7 @@ def test_a_goal_finishing_during_shutdown_still_sends_its_result(
     try:
         result = client.send({"order": 3}, block=False)
         assert started.wait(EVENT_TIMEOUT)
-        _wait_for_the_result_request(server_node)
+        wait_for_the_result_request(server_node, "fib")
         server_node.shutdown()
     finally:
         release.set()
@@ -423,14 +402,16 @@ def test_a_goal_still_running_when_shutdown_ends_is_aborted_with_a_reason(
         release.wait(EVENT_TIMEOUT * 3)
         return {"sequence": [1]}
 
-    server_node, client = _server_and_client(make_node, goal, "stuck")
+    server_node, client = server_and_client(
+        make_node, "stuck", "action", Fibonacci, goal, conn_name="fib"
+    )
     monkeypatch.setattr(custom_node, "JOIN_TIMEOUT", 0.1)
     errors: list[str] = []
     monkeypatch.setattr(server_node, "_log_error", errors.append)
     try:
         result = client.send({"order": 3}, block=False)
         assert started.wait(EVENT_TIMEOUT)
-        _wait_for_the_result_request(server_node)
+        wait_for_the_result_request(server_node, "fib")
         server_node.shutdown()
         outcome = result.result(EVENT_TIMEOUT * 2)
     finally:

@@ -12,7 +12,7 @@ from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 from test_msgs.action import Fibonacci
 
-from .conftest import EVENT_TIMEOUT, repeat_until
+from .conftest import EVENT_TIMEOUT, repeat_until, server_and_client, wait_for_the_result_request
 
 
 @pytest.fixture
@@ -392,28 +392,16 @@ def test_shutdown_from_an_async_handler_on_pyconnects_loop_completes(make_node: 
 def test_an_async_service_handler_that_shuts_its_node_down_still_replies(
     make_node: Any,
 ) -> None:
-    server_node, caller = make_node("async_stop_server"), make_node("async_stop_caller")
-
     async def stop(_request: dict[str, Any]) -> dict[str, Any]:
         server_node.shutdown()
         return {"success": True, "message": "bye"}
 
-    server_node.add_agent(
-        conn_name="stop", conn_type="service_server", data_interface=Trigger, response_func=stop
-    )
-    client = caller.add_agent(
-        conn_name="stop", conn_type="service_client", data_interface=Trigger,
-        timeout=EVENT_TIMEOUT,
-    )  # fmt: skip
-    server_node.spin(run_thread=True)
-    caller.spin(run_thread=True)
-    caller.wait_until_connected(timeout=EVENT_TIMEOUT)
+    server_node, client = server_and_client(make_node, "async_stop", "service", Trigger, stop)
     assert client.send() == {"success": True, "message": "bye", "isdone": True}
     assert server_node.wait_for_shutdown(EVENT_TIMEOUT)
 
 
 def test_an_async_goal_cancelled_by_shutdown_is_aborted_with_a_reason(make_node: Any) -> None:
-    server_node, client_node = make_node("async_goal_server"), make_node("async_goal_client")
     started = threading.Event()
 
     async def endless(_goal: dict[str, Any]) -> dict[str, Any]:
@@ -421,22 +409,10 @@ def test_an_async_goal_cancelled_by_shutdown_is_aborted_with_a_reason(make_node:
         await asyncio.Event().wait()
         return {"sequence": []}
 
-    server_node.add_agent(
-        conn_name="fib", conn_type="action_server", data_interface=Fibonacci,
-        response_func=endless,
-    )  # fmt: skip
-    client = client_node.add_agent(
-        conn_name="fib", conn_type="action_client", data_interface=Fibonacci,
-        timeout=EVENT_TIMEOUT,
-    )  # fmt: skip
-    server_node.spin(run_thread=True)
-    client_node.spin(run_thread=True)
-    client_node.wait_until_connected(timeout=EVENT_TIMEOUT)
+    server_node, client = server_and_client(make_node, "async_goal", "action", Fibonacci, endless)
     result = client.send({"order": 1}, block=False)
     assert started.wait(EVENT_TIMEOUT)
-    asked = threading.Event()
-    server = server_node.agents["fib"].server
-    assert repeat_until(asked, lambda: asked.set() if server._waiting else None)
+    wait_for_the_result_request(server_node, "served")
     server_node.shutdown()
     outcome = result.result(EVENT_TIMEOUT * 2)
     assert outcome["isdone"] is False

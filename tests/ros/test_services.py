@@ -12,7 +12,7 @@ from test_msgs.srv import BasicTypes
 
 from pyconnect.errors import PyconnectError
 
-from .conftest import EVENT_TIMEOUT
+from .conftest import EVENT_TIMEOUT, server_and_client
 
 
 def _set_bool_pair(node: Any, handler: Any) -> Any:
@@ -213,7 +213,6 @@ def test_a_burst_of_more_than_ten_requests_loses_none(make_node: Any) -> None:
 def test_a_handler_that_shuts_its_node_down_still_replies(make_node: Any) -> None:
     """A "stop" service: shutdown() in the handler returns at once (the node cannot go down
     under its own callback), the reply is sent, then the node shuts down."""
-    server_node, caller = make_node("stopping_server"), make_node("stop_caller")
     down_in_handler: list[bool] = []
 
     def stop(_request: dict[str, Any]) -> dict[str, Any]:
@@ -221,16 +220,7 @@ def test_a_handler_that_shuts_its_node_down_still_replies(make_node: Any) -> Non
         down_in_handler.append(server_node.wait_for_shutdown(0))
         return {"success": True, "message": "stopping"}
 
-    server_node.add_agent(
-        conn_name="stop", conn_type="service_server", data_interface=Trigger, response_func=stop
-    )
-    client = caller.add_agent(
-        conn_name="stop", conn_type="service_client", data_interface=Trigger,
-        timeout=EVENT_TIMEOUT,
-    )  # fmt: skip
-    server_node.spin(run_thread=True)
-    caller.spin(run_thread=True)
-    caller.wait_until_connected(timeout=EVENT_TIMEOUT)
+    server_node, client = server_and_client(make_node, "stopping", "service", Trigger, stop)
     assert client.send() == {"success": True, "message": "stopping", "isdone": True}
     assert down_in_handler == [False]
     assert server_node.wait_for_shutdown(EVENT_TIMEOUT)
@@ -240,7 +230,6 @@ def test_a_handler_that_shuts_its_node_down_still_replies(make_node: Any) -> Non
 def test_requests_still_waiting_at_shutdown_are_refused(make_node: Any, monkeypatch: Any) -> None:
     """The request being handled gets its reply; the ones queued behind it (never taken: the
     executor has stopped) are answered "server is shutting down" instead of timing out."""
-    server_node, caller = make_node("refusing_server"), make_node("refused_caller")
     entered, release = threading.Event(), threading.Event()
 
     def slow(request: dict[str, Any]) -> dict[str, Any]:
@@ -248,6 +237,7 @@ def test_requests_still_waiting_at_shutdown_are_refused(make_node: Any, monkeypa
         release.wait(EVENT_TIMEOUT)
         return {"success": True, "message": "handled"}
 
+    server_node, client = server_and_client(make_node, "refusing", "service", SetBool, slow)
     stop = server_node._executor.stop
 
     def stop_then_release() -> None:
@@ -255,16 +245,6 @@ def test_requests_still_waiting_at_shutdown_are_refused(make_node: Any, monkeypa
         release.set()  # the handler ends after the executor stopped
 
     monkeypatch.setattr(server_node._executor, "stop", stop_then_release)
-    server_node.add_agent(
-        conn_name="slow", conn_type="service_server", data_interface=SetBool, response_func=slow
-    )
-    client = caller.add_agent(
-        conn_name="slow", conn_type="service_client", data_interface=SetBool,
-        timeout=EVENT_TIMEOUT,
-    )  # fmt: skip
-    server_node.spin(run_thread=True)
-    caller.spin(run_thread=True)
-    caller.wait_until_connected(timeout=EVENT_TIMEOUT)
     try:
         replies = [client.send({"data": True}, block=False) for _ in range(3)]
         assert entered.wait(EVENT_TIMEOUT)
