@@ -202,18 +202,25 @@ def test_flipped_bytes_of_shared_bags(case: str, tmp_path: Path) -> None:
     assert {t.name: t.message_count for t in info.topics if t.message_count} == read
 
 
+def wbag_with_a_broken_messages_page(tmp_path: Path) -> Path:
+    """A copy of rosbag2's wbag_1.db3 with four bits flipped: one page of its messages table
+    cannot be read (a row of topic DDD is lost with it)."""
+    source = BAGS / "ros2_rosbag2_jazzy/rosbag2_py/test/resources/sqlite3/wbag/wbag_1.db3"
+    require_sample_bags(source, source.is_file())
+    data = bytearray(source.read_bytes())
+    for offset, bit in [(9494, 2), (47931, 1), (66510, 8), (85319, 1)]:
+        data[offset] ^= bit
+    bag = tmp_path / "wbag_1.db3"
+    bag.write_bytes(bytes(data))
+    return bag
+
+
 def test_a_damaged_messages_page_met_by_a_table_is_the_bags_damage(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     # Tables read each topic with a reader of their own: the damage it meets (here a page of
     # the messages table) was dropped with it, and a Parquet export lost a row with exit 0.
-    source = BAGS / "ros2_rosbag2_jazzy/rosbag2_py/test/resources/sqlite3/wbag/wbag_1.db3"
-    require_sample_bags(source, source.is_file())
-    data = bytearray(source.read_bytes())
-    for offset, bit in [(9494, 2), (47931, 1), (66510, 8), (85319, 1)]:  # four flipped bits
-        data[offset] ^= bit
-    bag = tmp_path / "wbag_1.db3"
-    bag.write_bytes(bytes(data))
+    bag = wbag_with_a_broken_messages_page(tmp_path)
     with open_bag(bag) as reader:
         read = sum(1 for message in reader if message.topic == "DDD")
     with open_bag(bag) as reader:
@@ -289,13 +296,7 @@ def test_info_counts_the_messages_that_can_be_read(
 ) -> None:
     # A row of the messages table whose record is damaged past its topic_id: info counted it (a
     # count reads less than a message), said nothing and exited 0; echo cannot read it.
-    source = BAGS / "ros2_rosbag2_jazzy/rosbag2_py/test/resources/sqlite3/wbag/wbag_1.db3"
-    require_sample_bags(source, source.is_file())
-    data = bytearray(source.read_bytes())
-    for offset, bit in [(9494, 2), (47931, 1), (66510, 8), (85319, 1)]:  # four flipped bits
-        data[offset] ^= bit
-    bag = tmp_path / "wbag_1.db3"
-    bag.write_bytes(bytes(data))
+    bag = wbag_with_a_broken_messages_page(tmp_path)
     with open_bag(bag, raw=True) as reader:
         read: dict[str, int] = {}
         for message in reader:
