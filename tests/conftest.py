@@ -1,8 +1,16 @@
-"""Test-wide set-up: every ROS test runs in its own DDS domain, on localhost only."""
+"""Test-wide set-up: every ROS test runs in its own DDS domain, on localhost only; hypothesis
+never fails a test for being slow."""
 
 from __future__ import annotations
 
 import os
+
+from hypothesis import HealthCheck, settings
+
+# Nothing may depend on timing to pass: hypothesis's per-example deadline and its "too slow"
+# health check fail a correct test on a loaded 2-core machine.
+settings.register_profile("pyconnect", deadline=None, suppress_health_check=[HealthCheck.too_slow])
+settings.load_profile("pyconnect")
 
 # Set before rclpy is imported anywhere, so no test joins another run's graph. A caller may pin
 # the domain (parallel suites); otherwise the process id spreads concurrent runs apart.
