@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import importlib.util
 from collections.abc import Iterable
 from pathlib import Path
 
@@ -33,8 +34,13 @@ _ROOT_INIT = (
 
 
 def default_out_dir() -> Path:
-    """The checked-in ``generated/`` folder of a source checkout (``src/pyconnect/codegen/..``)."""
-    return Path(__file__).resolve().parents[3] / "generated"
+    """The folder holding the ``pyconnect_generated`` package pyconnect loads codecs from:
+    ``generated/`` of a source checkout, ``site-packages`` of an installed wheel (found
+    without importing it)."""
+    spec = importlib.util.find_spec("pyconnect_generated")
+    if spec is not None and spec.origin is not None:
+        return Path(spec.origin).resolve().parents[1]
+    return Path(__file__).resolve().parents[3] / "generated"  # a checkout not installed yet
 
 
 def render_tree(packages: Iterable[str] = (), folders: Iterable[Path] = ()) -> dict[str, str]:

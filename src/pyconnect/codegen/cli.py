@@ -33,11 +33,19 @@ def _parser() -> argparse.ArgumentParser:
         "--from", dest="folders", action="append", default=[], type=Path,
         help="a bare folder of .msg/.srv/.action/.idl files (repeatable)",
     )  # fmt: skip
-    build.add_argument("--out", type=Path, default=None, help="output folder (default generated/)")
+    build.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help="output folder (default: where pyconnect loads its codecs from, generated/ of a "
+        "checkout or site-packages of an installed wheel)",
+    )
     compile_cli.add_compile_options(build)
     commands.add_parser("list", help="show the interface packages codecgen can see")
     check = commands.add_parser("check", help="exit 1 when generated/ is stale")
-    check.add_argument("--out", type=Path, default=None)
+    check.add_argument(
+        "--out", type=Path, default=None, help="folder to check (default: as for build)"
+    )
     compile_cli.add_uninstall_command(commands)
     return parser
 
