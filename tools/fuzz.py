@@ -15,6 +15,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import hashlib
+import os
 import random
 import resource
 import sys
@@ -257,11 +258,17 @@ def main(argv: list[str] | None = None) -> int:
     rng = random.Random(options.seed)
     started = time.perf_counter()
     tallies = []
+    missing = False
     chosen = families(rng, options.per_type)
     # Started after the codecs are compiled: tracing makes the compiler ten times slower.
     tracemalloc.start()
     for family, targets in chosen.items():
         if options.family and not any(part in family for part in options.family):
+            continue
+        if not any(target.seeds for target in targets):
+            # The bag family's seeds are the sample bags: a clone without shared/ has none.
+            print(f"{family}: skipped, no seed messages (sample bags at {fuzz_corpus.BAGS}?)")
+            missing = True
             continue
         _warm_up(targets)
         tallies.append(run_family(family, targets, options.count, rng))
@@ -269,7 +276,9 @@ def main(argv: list[str] | None = None) -> int:
         print(report(tallies, time.perf_counter() - started), file=sys.stderr, flush=True)
     tracemalloc.stop()
     print(report(tallies, time.perf_counter() - started))
-    return 1 if any(t.failures for t in tallies) else 0
+    if any(t.failures for t in tallies):
+        return 1
+    return 1 if missing and os.environ.get("CI") else 0  # CI must have the bags beside it
 
 
 if __name__ == "__main__":
