@@ -213,3 +213,29 @@ def test_parts_of_services_and_actions_take_values_too() -> None:
     # They have no importable name of their own (test_msgs/action/Fibonacci_Goal).
     assert message_from_text("{order: 3}", Fibonacci.Goal) == Fibonacci.Goal(order=3)
     assert message_from_text("{data: true}", SetBool.Request) == SetBool.Request(data=True)
+
+
+@pytest.mark.parametrize(
+    ("text", "msg_class", "error"),
+    [
+        ("{linaer: {x: 0.2}}", "geometry_msgs/msg/Twist", "Twist: unknown field 'linaer' (fields: angular, linear)"),
+        ("{daat: hi}", "std_msgs/msg/String", "String: unknown field 'daat' (fields: data)"),
+        ("{header: {stamp: now}, twist: {linaer: {x: 1}}}", "geometry_msgs/msg/TwistStamped",
+         "TwistStamped.twist: unknown field 'linaer' (fields: angular, linear)"),
+    ],
+)  # fmt: skip
+def test_a_misspelt_field_is_named(text: str, msg_class: str, error: str) -> None:
+    # A dict for a type whose natural value is no mapping holds fields: the natural codec's
+    # "expected ((x, y, z), (x, y, z)) or (v, w), got dict" did not say which key was wrong.
+    from pyconnect.ros.interfaces import interface_class
+
+    with pytest.raises(CommandFailed) as caught:
+        message_from_text(text, interface_class(msg_class, kind="msg"))
+    assert str(caught.value) == error
+
+
+def test_a_dict_of_joints_is_still_a_joint_state() -> None:
+    from sensor_msgs.msg import JointState
+
+    message = message_from_text("{j1: {position: 1.0}}", JointState)
+    assert (list(message.name), list(message.position)) == (["j1"], [1.0])

@@ -13,6 +13,7 @@ from __future__ import annotations
 import re
 import time
 import typing
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -101,8 +102,17 @@ def message_template(text: str, msg_class: type) -> MessageTemplate:
 
 
 def _is_fields(value: Any, msg_class: type) -> bool:
+    """Whether a dict VALUE holds the message's fields (else it is its natural value)."""
+    if not isinstance(value, dict):
+        return False
     fields = msg_class.get_fields_and_field_types()  # type: ignore[attr-defined]
-    return isinstance(value, dict) and set(value) <= set(fields)
+    if set(value) <= set(fields):
+        return True
+    # Other keys: a natural value only where the type's natural value can be a mapping
+    # (JointState's joints by name); for any other type a misspelt field, which from_dict names
+    # (`Twist: unknown field 'linaer'`), where the natural codec would only refuse a dict.
+    codec = codecs.default_registry.value_codec(msg_class)
+    return codec is not None and not _may_decode_to_mapping(codec)
 
 
 # A nested message field's type as rosidl writes it: pkg/Name, sequence<pkg/Name[, N]>, pkg/Name[N]
@@ -131,7 +141,7 @@ def _take_now(value: Any, msg_type: type | str, path: _Path) -> tuple[Any, list[
     taken: dict[str, Any] = {}
     paths: list[_Path] = []
     for name, item in value.items():
-        nested = _NESTED.fullmatch(field_types[name])
+        nested = _NESTED.fullmatch(field_types.get(name, ""))  # no such field: from_dict says
         if nested is None:
             taken[name] = item
             continue
@@ -163,12 +173,25 @@ def _natural(value: Any, msg_class: type) -> Any:
     return _tuples(value)
 
 
-def _decodes_to_ndarray(codec: Any) -> bool:
+def _decoded_type(codec: Any) -> Any:
+    """What the codec's ``decode`` says it returns (its origin: ``dict`` for ``dict[str, X]``);
+    None when it does not say, or its annotations do not resolve (a user codec)."""
     try:
         returned = typing.get_type_hints(codec.decode).get("return")
-    except Exception:  # a user codec with annotations that do not resolve: take it as it is
-        return False
-    return (typing.get_origin(returned) or returned) is np.ndarray
+    except Exception:
+        return None
+    return typing.get_origin(returned) or returned
+
+
+def _decodes_to_ndarray(codec: Any) -> bool:
+    return _decoded_type(codec) is np.ndarray
+
+
+def _may_decode_to_mapping(codec: Any) -> bool:
+    decoded = _decoded_type(codec)
+    if decoded is None or decoded is Any or decoded is object or not isinstance(decoded, type):
+        return True  # it does not say: take a dict as its natural value, as before
+    return issubclass(decoded, Mapping)
 
 
 def _as_array(value: list[Any], dtype: np.dtype[Any] | None, path: str) -> np.ndarray[Any, Any]:
