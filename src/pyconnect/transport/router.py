@@ -3,7 +3,7 @@
 ``start_router(listen=['tcp/0.0.0.0:7447'])`` opens a session in router mode: peers that
 ``connect`` to it find each other through it (zenoh's gossip), as ROS nodes running
 ``rmw_zenoh_cpp`` find each other through ``rmw_zenohd``. ``python -m pyconnect.transport.router
-tcp/0.0.0.0:7447`` runs one until Ctrl-C.
+tcp/0.0.0.0:7447`` runs one until Ctrl-C (``--config FILE`` for TLS or access control).
 """
 
 # zenoh's stubs leave undeclare() and close() unannotated.
@@ -11,6 +11,7 @@ tcp/0.0.0.0:7447`` runs one until Ctrl-C.
 
 from __future__ import annotations
 
+import argparse
 import json
 import signal
 import sys
@@ -43,9 +44,24 @@ def start_router(
 
 
 def main(argv: Sequence[str] | None = None) -> int:
-    endpoints = list(sys.argv[1:] if argv is None else argv) or ["tcp/0.0.0.0:7447"]
-    router = start_router(listen=endpoints)
-    print(f"zenoh router {router.zid()} listening on {', '.join(endpoints)}", flush=True)
+    """``python -m pyconnect.transport.router [ENDPOINT ...] [--config FILE]``: run a router
+    until Ctrl-C or SIGTERM (exit 0); an endpoint it cannot listen on is one line, exit 1."""
+    parser = argparse.ArgumentParser(
+        prog="python -m pyconnect.transport.router",
+        description="Run a zenoh router until Ctrl-C (peers connect to it: tcp/HOST:7447).",
+    )
+    parser.add_argument(
+        "endpoints", nargs="*", default=["tcp/0.0.0.0:7447"], metavar="ENDPOINT",
+        help="where to listen (default tcp/0.0.0.0:7447)",
+    )  # fmt: skip
+    parser.add_argument("--config", type=Path, help="a zenoh JSON5 config file (TLS, ACL...)")
+    options = parser.parse_args(argv)
+    try:
+        router = start_router(listen=options.endpoints, config=options.config)
+    except TransportError as error:
+        print(f"router: {' '.join(str(error).split())}", file=sys.stderr)
+        return 1
+    print(f"zenoh router {router.zid()} listening on {', '.join(options.endpoints)}", flush=True)
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda _signum, _frame: stop.set())
