@@ -299,7 +299,7 @@ def _send_rate(sender: _Sender) -> int:
         while time.monotonic() < end:
             for _ in range(100):
                 sent += 1
-                put(payload, attachment=pack(sent, clock(), gid))
+                put(payload, attachment=pack(sent, clock(), 16, gid))
         return sent
     send = sender.agent.send
     while time.monotonic() < end:

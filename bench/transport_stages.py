@@ -73,7 +73,7 @@ def main() -> None:
 
 def _sender_stages(pub: Any, general: Any, keys: Any) -> None:
     payload = pub.conversion.encode("hello")
-    attachment = keys.ATTACHMENT.pack(1, time.time_ns(), pub.gid)
+    attachment = keys.pack_attachment(1, time.time_ns(), pub.gid)
     put, pack, gid, encode = pub._put, keys.ATTACHMENT.pack, pub.gid, pub.conversion.encode
     sequence = itertools.count(1)
     compare(
@@ -81,12 +81,12 @@ def _sender_stages(pub: Any, general: Any, keys: Any) -> None:
         [
             ("raw floor: publisher.put(bytes)", lambda: put(payload)),
             (
-                "put(bytes, attachment=<rmw_zenoh's 32 bytes>)",
+                "put(bytes, attachment=<rmw_zenoh's 33 bytes>)",
                 lambda: put(payload, attachment=attachment),
             ),
             (
-                "attachment: pack(sequence, time_ns(), gid)",
-                lambda: pack(next(sequence), time.time_ns(), gid),
+                "attachment: pack(sequence, time_ns(), 16, gid)",
+                lambda: pack(next(sequence), time.time_ns(), 16, gid),
             ),
             ("encode 'hello' (fast path)", lambda: encode("hello")),
             ("encode 'hello' (general path: codec + generated)", lambda: general.encode("hello")),

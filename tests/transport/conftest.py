@@ -90,3 +90,23 @@ def _no_scouting() -> Any:
     config.insert_json5("mode", '"peer"')
     config.insert_json5("scouting/multicast/enabled", "false")
     return config
+
+
+def zenoh_attachment(sequence: int, stamp_ns: int, gid: bytes) -> bytes:
+    """rmw_zenoh's attachment as zenoh's own serializer writes it (the reference, not ours):
+    int64, int64, then the GID as a sequence of 16 uint8 (rmw_zenoh's std::array)."""
+    import zenoh.ext as ze
+
+    gid_bytes = [ze.UInt8(byte) for byte in gid]
+    return bytes(ze.z_serialize((ze.Int64(sequence), ze.Int64(stamp_ns), gid_bytes)).to_bytes())
+
+
+def read_zenoh_attachment(data: bytes) -> tuple[int, int, bytes]:
+    """(sequence, stamp ns, GID) read by zenoh's own deserializer, as rmw_zenoh reads them."""
+    import zenoh
+    import zenoh.ext as ze
+
+    sequence, stamp, gid = ze.z_deserialize(
+        tuple[ze.Int64, ze.Int64, list[ze.UInt8]], zenoh.ZBytes(data)
+    )
+    return int(sequence), int(stamp), bytes(int(byte) for byte in gid)

@@ -10,7 +10,6 @@ from __future__ import annotations
 import json
 import queue
 import re
-import struct
 import time
 from pathlib import Path
 from typing import Any
@@ -22,7 +21,7 @@ from test_msgs.action import Fibonacci
 from unique_identifier_msgs.msg import UUID
 
 from pyconnect.typesys.packages import installed_packages
-from tests.transport.conftest import PeerFactory
+from tests.transport.conftest import PeerFactory, read_zenoh_attachment, zenoh_attachment
 from tests.transport.test_peer_actions import fibonacci
 from tests.transport.test_rmw_zenoh_wire import raw_session
 
@@ -191,13 +190,13 @@ def call(session: zenoh.Session, key: str, payload: bytes, *, sequence: int) -> 
     replies = session.get(
         key,
         payload=payload,
-        attachment=struct.pack("<qq16s", sequence, time.time_ns(), client_gid),
+        attachment=zenoh_attachment(sequence, time.time_ns(), client_gid),
         target=zenoh.QueryTarget.ALL_COMPLETE,
         timeout=TIMEOUT,
     )
     (sample,) = [reply.ok for reply in replies if reply.ok is not None]
     assert str(sample.key_expr) == key
     assert sample.attachment is not None
-    echoed_sequence, _stamp, gid = struct.unpack("<qq16s", sample.attachment.to_bytes())
+    echoed_sequence, _stamp, gid = read_zenoh_attachment(sample.attachment.to_bytes())
     assert (echoed_sequence, gid) == (sequence, client_gid)
     return sample.payload.to_bytes()

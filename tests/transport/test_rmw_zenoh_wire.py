@@ -17,7 +17,7 @@ from sensor_msgs.msg import JointState
 from zenoh.ext import Int64, UInt8, z_serialize
 
 from pyconnect.transport import rmw_zenoh_keys as keys
-from tests.transport.conftest import PeerFactory
+from tests.transport.conftest import PeerFactory, read_zenoh_attachment, zenoh_attachment
 
 JOINT_STATE_HASH = "RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e"
 SET_BOOL_HASH = "RIHS01_abe9e4bb6b41b40e6789712c00ec8871923e089af3f667a79992a428cff2da0a"
@@ -69,12 +69,13 @@ def test_samples_keys_payload_attachment_and_tokens(make_peer: PeerFactory, loca
         digest = xxhash.xxh3_128_intdigest(token.encode())
         gid = struct.pack("<QQ", digest & (2**64 - 1), digest >> 64)
         assert first.attachment is not None and second.attachment is not None
-        sequence, stamp, sent_gid = struct.unpack("<qq16s", first.attachment.to_bytes())
+        sequence, stamp, sent_gid = read_zenoh_attachment(first.attachment.to_bytes())
         assert (sequence, sent_gid) == (1, gid)
         assert before <= stamp <= time.time_ns()
-        assert struct.unpack("<qq16s", second.attachment.to_bytes())[0] == 2
-        # The same bytes zenoh's own serializer writes for (int64, int64, uint8[16]).
-        layout = (Int64(sequence), Int64(stamp), tuple(UInt8(b) for b in gid))
+        assert read_zenoh_attachment(second.attachment.to_bytes())[0] == 2
+        # The same bytes zenoh's own serializer writes for (int64, int64, std::array<uint8_t,
+        # 16>): zenoh-cpp writes a std::array as a sequence, its length first (a Python list).
+        layout = (Int64(sequence), Int64(stamp), [UInt8(b) for b in gid])
         assert z_serialize(layout).to_bytes() == first.attachment.to_bytes()
 
         expected = {
@@ -124,7 +125,7 @@ def test_a_service_answers_a_raw_query_as_rmw_zenoh_does(
         replies = session.get(
             key,
             payload=request,
-            attachment=struct.pack("<qq16s", 7, time.time_ns(), client_gid),
+            attachment=zenoh_attachment(7, time.time_ns(), client_gid),
             target=zenoh.QueryTarget.ALL_COMPLETE,
             timeout=30,
         )
@@ -133,7 +134,7 @@ def test_a_service_answers_a_raw_query_as_rmw_zenoh_does(
         response = deserialize_message(sample.payload.to_bytes(), SetBool.Response)
         assert (response.success, response.message) == (True, "done")
         assert sample.attachment is not None
-        sequence, _stamp, gid = struct.unpack("<qq16s", sample.attachment.to_bytes())
+        sequence, _stamp, gid = read_zenoh_attachment(sample.attachment.to_bytes())
         assert (sequence, gid) == (7, client_gid)
     finally:
         session.close()
@@ -182,7 +183,7 @@ def test_gaps_in_a_publishers_sequence_numbers_are_counted(
         for sequence in (1, 2, 5, 6):
             publisher.put(
                 wire.encode(sequence, "std_msgs/msg/Int32"),
-                attachment=struct.pack("<qq16s", sequence, time.time_ns(), gid),
+                attachment=zenoh_attachment(sequence, time.time_ns(), gid),
             )
         while sub.message_count < 4:
             assert time.monotonic() < deadline

@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import logging
-import struct
 import time
 from types import SimpleNamespace
 from typing import Any
@@ -13,7 +12,7 @@ import zenoh
 
 from pyconnect.codecs import wire
 from pyconnect.transport import topic_subscriber
-from tests.transport.conftest import PeerFactory, wait_for
+from tests.transport.conftest import PeerFactory, wait_for, zenoh_attachment
 
 GID_A, GID_B = b"A" * 16, b"B" * 16
 HELLO = wire.encode("hello", "std_msgs/msg/String")
@@ -28,7 +27,7 @@ def sample(attachment: bytes | None) -> Any:
 
 
 def attached(sequence: int, gid: bytes = GID_A) -> Any:
-    return sample(struct.pack("<qq16s", sequence, time.time_ns(), gid))
+    return sample(zenoh_attachment(sequence, time.time_ns(), gid))
 
 
 def handled(sub: Any, *samples: Any) -> int:
@@ -84,7 +83,7 @@ def test_a_malformed_attachment_is_counted_and_reported_once(
     warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
     assert warnings == [
         "agent 'chat' (sub std_msgs/msg/String) on /chat: publisher with an unreadable "
-        "attachment: attachment of 3 bytes, expected 32 (rmw_zenoh's sequence number, "
+        "attachment: attachment of 3 bytes, expected 33 (rmw_zenoh's sequence number, "
         "source timestamp and GID); its samples are handed on, not checked for gaps"
     ]
 
@@ -103,7 +102,7 @@ def test_a_bogus_sequence_from_a_raw_session(make_peer: PeerFactory, locator: st
         publisher = session.declare_publisher(sub.key)
         assert wait_for(lambda: bool(getattr(publisher.matching_status, "matching", False)))
         for sequence in (1, 2, 2**62, 3, 4):
-            publisher.put(HELLO, attachment=struct.pack("<qq16s", sequence, 0, GID_A))
+            publisher.put(HELLO, attachment=zenoh_attachment(sequence, 0, GID_A))
         assert wait_for(lambda: sub.message_count == 5)
         assert sub.dropped_count == 0
     finally:

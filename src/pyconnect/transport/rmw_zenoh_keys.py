@@ -21,8 +21,10 @@ Everything here follows ros2/rmw_zenoh, jazzy branch (release 0.2.x), read from 
   little-endian (``Entity::Entity`` with ``simplified_xxhash3``).
 - ``attachment_helpers.cpp``: every sample, query and reply carries an attachment made with
   zenoh's ``ext::Serializer``: int64 sequence number, int64 source timestamp (ns since the
-  epoch), then the 16 GID bytes as a fixed-size array (no length prefix); integers are
-  little-endian. Sequence numbers start at 1 per publisher and per client.
+  epoch), then the GID as a ``std::array<uint8_t, 16>``, which zenoh-cpp's serializer writes
+  as a sequence (``ext/serialization.hxx``): its length as a LEB128 varint (one byte, 16) and
+  the 16 bytes; 33 bytes in all, and a reader refuses another length ("Incorrect sequence
+  size"). Integers are little-endian. Sequence numbers start at 1 per publisher and client.
 """
 
 from __future__ import annotations
@@ -38,8 +40,8 @@ ADMIN_SPACE = "@ros2_lv"
 NODE, PUBLISHER, SUBSCRIPTION, SERVICE, CLIENT = "NN", "MP", "MS", "SS", "SC"
 ENTITY_KINDS = (NODE, PUBLISHER, SUBSCRIPTION, SERVICE, CLIENT)
 GID_SIZE = 16
-ATTACHMENT = struct.Struct("<qq16s")
-_ATTACHMENT = ATTACHMENT
+ATTACHMENT = struct.Struct("<qqB16s")
+"""(sequence number, source timestamp ns, GID length, GID): the length is always ``GID_SIZE``."""
 ATTACHMENT_SIZE = ATTACHMENT.size
 
 # rmw_zenoh's defaults (qos.cpp): a value equal to one of these is left empty in the token.
@@ -133,12 +135,14 @@ def gid_of(token: str) -> bytes:
 
 
 def pack_attachment(sequence_number: int, source_timestamp_ns: int, gid: bytes) -> bytes:
-    return _ATTACHMENT.pack(sequence_number, source_timestamp_ns, gid)
+    return ATTACHMENT.pack(sequence_number, source_timestamp_ns, GID_SIZE, gid)
 
 
 def unpack_attachment(data: bytes) -> tuple[int, int, bytes]:
     """``(sequence number, source timestamp ns, gid)``; raises ``struct.error`` when malformed."""
-    sequence_number, stamp, gid = _ATTACHMENT.unpack(data)
+    sequence_number, stamp, size, gid = ATTACHMENT.unpack(data)
+    if size != GID_SIZE:
+        raise struct.error(f"a GID of {size} bytes, expected {GID_SIZE}")
     return sequence_number, stamp, gid
 
 

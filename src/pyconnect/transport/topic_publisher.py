@@ -27,6 +27,7 @@ from pyconnect.transport.peer_agent import DEFAULT_DEPTH, Peer, PeerAgent, Respo
 from pyconnect.transport.periodic import run_every
 
 _pack_attachment = keys.ATTACHMENT.pack  # bound once: no wrapper per sample
+GID_SIZE = keys.GID_SIZE
 time_ns = time.time_ns
 
 
@@ -117,7 +118,8 @@ class PublisherAgent(PeerAgent):
         with self._send_lock:  # sequence numbers go on the wire in order
             self._sequence = sequence = self._sequence + 1
             try:
-                self._put(payload, attachment=_pack_attachment(sequence, stamp, self.gid))
+                attachment = _pack_attachment(sequence, stamp, GID_SIZE, self.gid)
+                self._put(payload, attachment=attachment)
             except zenoh.ZError as error:  # zenoh's words ("Undeclared publisher") name no agent
                 state = "is shut down" if self._stop.is_set() else f"failed: {error}"
                 raise TransportError(f"{self.describe}: peer {self.peer.name!r} {state}") from error

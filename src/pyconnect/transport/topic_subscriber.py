@@ -29,7 +29,7 @@ zenoh's congestion control) are counted in ``dropped_count`` from the publishers
 (samples without an attachment, from a bare zenoh session, are counted when the agent skips
 them; what zenoh's ring drops of them leaves no trace). A sequence number that goes backwards
 or jumps by more than ``MAX_SEQUENCE_GAP`` is a restarted publisher or a bogus number: counting
-restarts from it, no gap counted. An attachment that is not rmw_zenoh's 32 bytes is counted in
+restarts from it, no gap counted. An attachment that is not rmw_zenoh's 33 bytes is counted in
 ``bad_attachment_count`` and reported once; its sample is still decoded and handed on.
 """
 
@@ -61,7 +61,9 @@ BURST_SECONDS = 0.02
 # The most samples one gap in a publisher's sequence numbers may stand for: a longer jump (or
 # one backwards) is a restarted publisher or a bogus number, not ~2**62 lost samples.
 MAX_SEQUENCE_GAP = 2**20
-_unpack_attachment = keys.ATTACHMENT.unpack  # (sequence, stamp ns, gid); struct.error if malformed
+# (sequence, stamp ns, GID length, GID); struct.error if malformed
+_unpack_attachment = keys.ATTACHMENT.unpack
+GID_SIZE = keys.GID_SIZE
 time_ns = time.time_ns
 monotonic = time.monotonic
 
@@ -238,8 +240,10 @@ class SubscriberAgent(PeerAgent):
         attachment = sample.attachment
         if attachment is not None:
             try:
-                sequence, _stamp, gid = _unpack_attachment(attachment.to_bytes())
+                sequence, _stamp, gid_size, gid = _unpack_attachment(attachment.to_bytes())
             except struct.error:
+                gid_size = 0
+            if gid_size != GID_SIZE:
                 self._bad_attachment(attachment)
             else:
                 last = self._last_sequence.get(gid, sequence - 1)
@@ -310,7 +314,7 @@ class SubscriberAgent(PeerAgent):
         publisher = "without attachment"
         if attachment is not None:
             try:
-                publisher = _unpack_attachment(attachment.to_bytes())[2].hex()
+                publisher = keys.unpack_attachment(attachment.to_bytes())[2].hex()
             except struct.error:
                 # Nothing tells such publishers apart: reported once for all of them.
                 publisher = "with an unreadable attachment"
