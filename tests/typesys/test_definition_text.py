@@ -11,6 +11,7 @@ from std_msgs.msg import Header, String
 from pyconnect.errors import CodecNotFoundError
 from pyconnect.record.bag_reader import open_bag
 from pyconnect.typesys.definition_text import (
+    DEFINITION_SEPARATOR,
     definition_encoding,
     installed_definition,
     resolve_definition,
@@ -101,3 +102,32 @@ def test_an_idl_type_is_recorded_and_read_back(idl_share: Path, tmp_path: Path) 
     assert values[0]["reading"] == {"value": 2.5, "label": "cd"}
     assert list(values[0]["vals"]) == [1, 2]
     assert values[1] == "x"
+
+
+def _chain(levels: int) -> str:
+    """A text whose type nests ``levels`` types deep (x_msgs/L1 holds L2 ... holds an int8)."""
+    blocks = [f"x_msgs/L{i + 1} f\n{DEFINITION_SEPARATOR}\nMSG: x_msgs/L{i + 1}\n" for i in range(levels)]
+    return "".join(blocks) + "int8 z\n"
+
+
+@pytest.mark.parametrize(
+    ("text", "error"),
+    [
+        # rosidl's parser takes ~2 ms a declaration: this one stalled a bag read for a minute.
+        ("".join(f"uint8 f{i}\n" for i in range(20_000)),
+         "a type of the text has 20000 lines of declarations (at most 1000)"),
+        (_chain(300), "the text defines 301 types (at most 256)"),
+        # Compiled, this failed in Python's own parser ("too many nested parentheses").
+        (_chain(100), "types nested more than 64 deep"),
+    ],
+)  # fmt: skip
+def test_a_text_beyond_any_real_message_is_refused(text: str, error: str) -> None:
+    with pytest.raises(DefinitionError) as caught:
+        resolve_definition("x_msgs/msg/T", text, "ros2msg")
+    assert str(caught.value) == f"x_msgs/msg/T: {error}"
+
+
+def test_a_deep_but_plausible_text_is_read() -> None:
+    message, types = resolve_definition("x_msgs/msg/T", _chain(40), "ros2msg")
+    assert message.nested_types == ("x_msgs/msg/L1",)
+    assert "x_msgs/msg/L40" in types.messages

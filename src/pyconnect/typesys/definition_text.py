@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import functools
 import re
+from collections.abc import Iterable
 from dataclasses import replace
 from pathlib import Path
 
@@ -253,6 +254,14 @@ def split_type(msg_type: str) -> tuple[str, str, str]:
     raise DefinitionError(f"{msg_type!r} is not a ROS type name ('pkg/msg/Name' or 'pkg/Name')")
 
 
+MAX_TYPES = 256
+"""Types (blocks) one definition text may hold."""
+MAX_DECLARATIONS = 1000
+"""Field and constant lines one type of a definition text may hold."""
+MAX_NESTING = 64
+"""How deep the types of a definition text may nest."""
+
+
 def parse_definition(msg_type: str, text: str, encoding: str) -> ParsedInterfaces:
     """Parse a bag's definition text of ``msg_type`` into IR (one block per type)."""
     if encoding not in ("ros2msg", "ros2idl"):
@@ -260,6 +269,7 @@ def parse_definition(msg_type: str, text: str, encoding: str) -> ParsedInterface
     package, namespace, name = split_type(msg_type)
     parsed = ParsedInterfaces()
     blocks = _SEPARATOR.split(text)
+    _refuse_oversized(msg_type, blocks)
     main, rest = blocks[0], blocks[1:]
     if encoding == "ros2idl":
         # The main type is a block like the others, headed `IDL: pkg/msg/Name`.
@@ -286,6 +296,42 @@ def parse_definition(msg_type: str, text: str, encoding: str) -> ParsedInterface
         body = lines[1] if len(lines) > 1 else ""
         parse_interface_text(pkg, Path(f"msg/{nm}.msg"), body, parsed)
     return parsed
+
+
+def _refuse_oversized(msg_type: str, blocks: list[str]) -> None:
+    """Refuse a text far beyond any real message before rosidl parses it: its parser takes about
+    2 ms a declaration, so a bag whose stored text declares 20,000 fields stalled a read for a
+    minute (and a compile of 300 nested types failed in Python's parser)."""
+    if len(blocks) > MAX_TYPES:
+        raise DefinitionError(
+            f"{msg_type}: the text defines {len(blocks)} types (at most {MAX_TYPES})"
+        )
+    for block in blocks:
+        lines = sum(1 for line in block.splitlines() if line.strip() and line.lstrip()[0] != "#")
+        if lines > MAX_DECLARATIONS:
+            raise DefinitionError(
+                f"{msg_type}: a type of the text has {lines} lines of declarations "
+                f"(at most {MAX_DECLARATIONS})"
+            )
+
+
+def _refuse_deep_nesting(full_name: str, types: Iterable[MessageDef]) -> None:
+    """Refuse types nested deeper than ``MAX_NESTING`` (the text is known free of cycles)."""
+    nested = {m.full_name: m.nested_types for m in types}
+    depths: dict[str, int] = {}  # how many levels of types each one holds, itself included
+
+    def depth(name: str, level: int) -> int:
+        # ``level``: where ``name`` sits; checked on the way down, so the recursion stays short.
+        found = depths.get(name)
+        if found is None and level <= MAX_NESTING:
+            children = nested.get(name, ())
+            found = depths[name] = 1 + max((depth(c, level + 1) for c in children), default=0)
+        if found is None or level + found - 1 > MAX_NESTING:
+            raise DefinitionError(f"{full_name}: types nested more than {MAX_NESTING} deep")
+        return found
+
+    for name in nested:
+        depth(name, 1)
 
 
 def _parse_main(package: str, namespace: str, name: str, text: str, into: ParsedInterfaces) -> None:
@@ -330,6 +376,7 @@ def resolve_definition(msg_type: str, text: str, encoding: str) -> tuple[Message
                 _merge_installed(parsed, extra, defined)
     # Before the hashing below, whose failures are forgiven: a recursive text never decodes.
     reject_recursive_types(parsed)
+    _refuse_deep_nesting(full_name, iter_messages(parsed))
     types = TypeSet()
     try:
         hashed: TypeSet | None = build_type_set(parsed)[0]
