@@ -156,3 +156,210 @@ def test_a_malformed_sample_from_zenoh_is_reported_not_published(
         )
         forward(wire.encode("fine", "std_msgs/msg/String"))
         assert (bridge.forwarded_count, bridge.error_count) == (1, 1)
+
+
+def _bridge_node(name: str, locator: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Any:
+    config = tmp_path / f"{name}.json5"
+    config.write_text(loopback_config(listen=locator))
+    monkeypatch.setenv("ZENOH_SESSION_CONFIG_URI", str(config))
+    return CustomNode(name, handle_signals=False, context=Context())
+
+
+def test_a_topic_bridged_both_ways_by_one_node_crosses_once(
+    locator: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """ROS -> zenoh -> ROS -> ... never loops: the zenoh -> ROS side skips what the bridge put
+    on zenoh. A zenoh peer's message reaches ROS once too."""
+    from std_msgs.msg import String
+
+    from pyconnect.transport import Peer
+    from tests.transport.conftest import _no_scouting, wait_for
+
+    with _bridge_node("loop_bridge", locator, tmp_path, monkeypatch) as node:
+        to_zenoh = node.add_agent(
+            conn_name="loop", conn_type="sub", data_interface=String, transport="zenoh"
+        )
+        to_ros = node.add_agent(
+            conn_name="loop",
+            agent_name="loop_back",
+            conn_type="pub",
+            data_interface=String,
+            transport="zenoh",
+        )
+        seen: list[str] = []
+        got = {word: threading.Event() for word in ("warm", "first", "sentinel")}
+
+        def on_ros(value: str) -> None:
+            seen.append(value)
+            if value in got:
+                got[value].set()
+
+        node.add_agent(
+            conn_name="loop",
+            agent_name="watch",
+            conn_type="sub",
+            data_interface=String,
+            response_func=on_ros,
+        )
+        talker = node.add_agent(
+            conn_name="loop", agent_name="talker", conn_type="pub", data_interface=String
+        )
+        node.spin(run_thread=True)
+        with Peer(
+            "far", config=_no_scouting(), listen=[], connect=[locator], handle_signals=False
+        ) as peer:
+            on_zenoh: list[str] = []
+            peer.add_agent(
+                conn_name="/loop",
+                agent_name="listen",
+                conn_type="sub",
+                data_interface="std_msgs/msg/String",
+                response_func=on_zenoh.append,
+            )
+            far = peer.add_agent(
+                conn_name="/loop", conn_type="pub", data_interface="std_msgs/msg/String"
+            )
+            # zenoh -> ROS works (discovery done) before anything is counted.
+            deadline = time.monotonic() + TIMEOUT
+            while not got["warm"].wait(0.1):
+                assert time.monotonic() < deadline, "zenoh -> ROS never delivered"
+                far.send("warm")
+            assert wait_for(lambda: to_zenoh.zenoh_publisher.matched)
+            assert wait_for(lambda: talker.publisher.get_subscription_count() >= 2)
+            zenoh_side = to_ros.zenoh_subscriber
+            before = zenoh_side.message_count + getattr(zenoh_side, "bridged_skipped_count", 0)
+            talker.send("first")
+            assert got["first"].wait(TIMEOUT)
+            assert wait_for(lambda: "first" in on_zenoh)
+            # The bridge's own sample came back from zenoh (handled or skipped)...
+            assert wait_for(
+                lambda: (
+                    zenoh_side.message_count + getattr(zenoh_side, "bridged_skipped_count", 0)
+                    > before
+                )
+            )
+            # ... and what the bridge publishes on ROS arrives in order: the sentinel after any
+            # copy of "first".
+            far.send("sentinel")
+            assert got["sentinel"].wait(TIMEOUT)
+            assert (seen.count("first"), seen.count("sentinel")) == (1, 1)
+            assert on_zenoh.count("first") == 1
+            assert zenoh_side.bridged_skipped_count > 0
+
+
+def test_a_sensor_bridge_follows_its_publishers(
+    locator: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A sensor 'sub' bridge subscribes as a 'sub' agent does: reliable while its publishers
+    are (a best-effort reader loses large frames of a reliable camera)."""
+    from rclpy.qos import ReliabilityPolicy
+
+    with _bridge_node("qos_bridge", locator, tmp_path, monkeypatch) as node:
+        camera = node.add_agent(
+            conn_name="cam", conn_type="sub", data_interface=Image, transport="zenoh"
+        )
+        assert getattr(camera, "sensor_subscription", None) is not None
+        assert camera.subscription.qos_profile.reliability == ReliabilityPolicy.RELIABLE
+
+
+def test_the_depth_of_qos_reaches_the_zenoh_side(
+    locator: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from rclpy.qos import HistoryPolicy, QoSProfile
+    from std_msgs.msg import String
+
+    with _bridge_node("depth_bridge", locator, tmp_path, monkeypatch) as node:
+        small = node.add_agent(
+            conn_name="map", conn_type="sub", data_interface=String, transport="zenoh", qos=7
+        )
+        assert small.zenoh_publisher.token_key.endswith("/::,7:,:,:,,")
+        commands = node.add_agent(
+            conn_name="cmds",
+            conn_type="pub",
+            data_interface=String,
+            transport="zenoh",
+            qos=QoSProfile(depth=2000, history=HistoryPolicy.KEEP_LAST),
+        )
+        assert commands.zenoh_subscriber.depth == 2000
+        assert commands.zenoh_subscriber.token_key.endswith("/::,2000:,:,:,,")
+
+
+def test_a_topic_bridged_both_ways_by_two_processes_crosses_once(
+    locator: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Here ROS -> zenoh, another process zenoh -> ROS: that one skips what this one bridged
+    (it knows the GID from this bridge's liveliness token)."""
+    from std_msgs.msg import String
+
+    from pyconnect.transport import Peer
+    from tests.transport.conftest import _no_scouting, free_port, wait_for
+
+    far_locator = f"tcp/127.0.0.1:{free_port()}"
+    far_config = tmp_path / "far.json5"
+    far_config.write_text(loopback_config(listen=far_locator, connect=locator))
+    far_bridge = spawn(
+        "bridge_loop_node.py", "loop2", env={"ZENOH_SESSION_CONFIG_URI": str(far_config)}
+    )
+    lines: list[str] = []
+
+    def read() -> None:
+        assert far_bridge.stdout is not None
+        for line in far_bridge.stdout:
+            lines.append(line.strip())
+
+    threading.Thread(target=read, daemon=True).start()
+
+    try:
+        with _bridge_node("near_bridge", locator, tmp_path, monkeypatch) as node:
+            node.add_agent(
+                conn_name="loop2", conn_type="sub", data_interface=String, transport="zenoh"
+            )
+            seen: list[str] = []
+            got = {word: threading.Event() for word in ("first", "sentinel")}
+
+            def on_ros(value: str) -> None:
+                seen.append(value)
+                if value in got:
+                    got[value].set()
+
+            node.add_agent(
+                conn_name="loop2",
+                agent_name="watch",
+                conn_type="sub",
+                data_interface=String,
+                response_func=on_ros,
+            )
+            talker = node.add_agent(
+                conn_name="loop2", agent_name="talker", conn_type="pub", data_interface=String
+            )
+            node.spin(run_thread=True)
+            # ROS -> zenoh reaches the other process before anything is counted.
+            deadline = time.monotonic() + TIMEOUT
+            while "value warm" not in lines:
+                assert far_bridge.poll() is None
+                assert time.monotonic() < deadline, "ROS -> zenoh never reached the far bridge"
+                talker.send("warm")
+                time.sleep(0.1)
+            talker.send("first")
+            assert got["first"].wait(TIMEOUT)
+            # The far bridge's session has "first" queued: the sentinel is handled after it.
+            assert wait_for(lambda: "value first" in lines)
+            with Peer(
+                "far",
+                config=_no_scouting(),
+                listen=[],
+                connect=[far_locator],
+                handle_signals=False,
+            ) as peer:
+                far = peer.add_agent(
+                    conn_name="/loop2", conn_type="pub", data_interface="std_msgs/msg/String"
+                )
+                # What the far bridge publishes on ROS arrives in order: after any copy of 'first'.
+                deadline = time.monotonic() + TIMEOUT
+                while not got["sentinel"].wait(0.1):
+                    assert time.monotonic() < deadline, "zenoh -> ROS never delivered"
+                    far.send("sentinel")
+            assert seen.count("first") == 1
+    finally:
+        err = stop(far_bridge)
+    assert "Traceback" not in err

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import collections
 import logging
 import time
 from types import SimpleNamespace
@@ -72,6 +73,23 @@ def test_a_jump_beyond_the_bound_is_not_a_gap(sub: Any) -> None:
     assert handled(sub, attached(1), attached(2 + bound)) == bound
     assert handled(sub, attached(3 + 2 * bound + 1)) == bound
     assert handled(sub, attached(3 + 2 * bound + 2)) == bound
+
+
+def test_samples_skipped_before_a_publishers_first_handled_one_are_counted(sub: Any) -> None:
+    """Keep-last skips the head of a burst of a publisher not handled yet: the gap counts."""
+    assert handled(sub, attached(1, GID_B)) == 0
+    backlog = collections.deque(
+        [
+            *(attached(n) for n in range(1, 16)),
+            *(attached(n, GID_B) for n in (2, 3, 4)),
+            sample(None),
+            *(attached(n) for n in range(16, 16 + sub.depth)),
+        ]
+    )
+    sub._keep_last(backlog)
+    assert len(backlog) == sub.depth
+    assert handled(sub, *backlog) == 15 + 1  # GID_A's 1..15 and the one without attachment
+    assert handled(sub, attached(5, GID_B)) == 15 + 1 + 3
 
 
 def test_a_malformed_attachment_is_counted_and_reported_once(

@@ -11,6 +11,22 @@ demand. On zenoh the topic has the ROS name and rmw_zenoh's key, attachment and 
 All bridged agents of one node share one ``Peer`` named as the node, opened with the zenoh
 configuration rmw_zenoh reads (``ZENOH_SESSION_CONFIG_URI``, ``ZENOH_CONFIG_OVERRIDE``) in the
 domain ``ROS_DOMAIN_ID``; it closes with the last of them.
+
+Loops: a topic bridged both ways (by one node, or by two processes) would otherwise go round
+for ever: ROS -> zenoh -> ROS -> zenoh ... So the zenoh -> ROS side never republishes a sample a
+bridge put on zenoh: such a sample came from the ROS graph of that domain, where it already
+is. A bridge's zenoh publishers are recognised by their GID (the one in every sample's
+attachment): each ``'sub'`` bridge declares a liveliness token ``@pyconnect_bridge/<domain>/<GID
+hex>`` (its own process knows it at once), and every bridge peer keeps the set of live ones.
+The ROS -> zenoh side cannot tell a bridge's ROS publisher from any other (rclpy's message info
+names no publisher), so a zenoh peer's message bridged to ROS and back to zenoh by a ``'sub'``
+bridge of the same topic reaches zenoh subscribers twice (once from the peer, once from the
+bridge), never more. This assumes the bridges of one domain share one ROS graph.
+
+QoS: ``qos=`` (or the default for the type) sets the ROS side, and its depth the zenoh side
+(the keep-last depth of the zenoh subscription, the depth the tokens advertise). A sensor
+type without ``qos=`` is subscribed on ROS as a ``'sub'`` agent does
+(pyconnect.ros.sensor_subscription): reliable unless a publisher is best effort.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -18,38 +34,103 @@ domain ``ROS_DOMAIN_ID``; it closes with the last of them.
 
 from __future__ import annotations
 
+import contextlib
+import struct
 import threading
 import time
 import weakref
 from typing import Any
 
-from rclpy.qos import QoSProfile
+import zenoh
+from rclpy.qos import HistoryPolicy, QoSProfile
 
 from pyconnect.codecs import wire
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent
-from pyconnect.ros.qos import resolve_qos
+from pyconnect.ros.qos import follows_publishers, resolve_qos
+from pyconnect.ros.sensor_subscription import SensorSubscription
+from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.peer import Peer
+from pyconnect.transport.peer_agent import DEFAULT_DEPTH
 from pyconnect.transport.topic_publisher import PublisherAgent
 from pyconnect.transport.topic_subscriber import SubscriberAgent
 
+BRIDGE_SPACE = "@pyconnect_bridge"
+"""Liveliness tokens ``@pyconnect_bridge/<domain>/<GID hex>`` name the zenoh publishers of
+bridges (outside rmw_zenoh's ``@ros2_lv``, so ROS graphs never see them)."""
+KEEP_ALL_DEPTH = 1000
+"""The zenoh-side depth of a keep-all profile (a zenoh subscription keeps a bounded ring)."""
+
+
+def zenoh_depth(profile: QoSProfile) -> int:
+    """The zenoh-side depth of a bridge whose ROS side uses ``profile``."""
+    depth = int(profile.depth)
+    if profile.history == HistoryPolicy.KEEP_ALL:
+        return max(depth, KEEP_ALL_DEPTH)
+    return depth if depth >= 1 else DEFAULT_DEPTH
+
+
+class BridgeSession:
+    """One node's bridge ``Peer`` and the GIDs of every bridge's zenoh publishers it sees."""
+
+    def __init__(self, node: AgentHost) -> None:
+        self.peer = Peer(
+            node.name,
+            namespace=node.ros_node.get_namespace(),
+            registry=node.registry,
+            handle_signals=False,
+        )
+        self.bridge_gids: set[bytes] = set()
+        """GIDs of bridges' zenoh publishers, here and in other processes (set operations are
+        atomic under the GIL: zenoh's thread adds, agents' threads read)."""
+        self._prefix = f"{BRIDGE_SPACE}/{self.peer.domain_id}/"
+        self._tokens: dict[bytes, Any] = {}
+        liveliness = self.peer.session.liveliness()
+        self._subscriber: Any = liveliness.declare_subscriber(
+            f"{self._prefix}*", self._on_token, history=True
+        )
+
+    def _on_token(self, sample: zenoh.Sample) -> None:
+        try:
+            gid = bytes.fromhex(str(sample.key_expr).rsplit("/", 1)[1])
+        except ValueError:
+            return  # not a GID: nothing of ours
+        if sample.kind == zenoh.SampleKind.DELETE:
+            if gid not in self._tokens:  # ours stay until our publisher closes
+                self.bridge_gids.discard(gid)
+        else:
+            self.bridge_gids.add(gid)
+
+    def declare_bridge_publisher(self, gid: bytes) -> None:
+        """Mark ``gid`` as a bridge's zenoh publisher, here at once and for other peers."""
+        self.bridge_gids.add(gid)
+        liveliness = self.peer.session.liveliness()
+        self._tokens[gid] = liveliness.declare_token(self._prefix + gid.hex())
+
+    def undeclare_bridge_publisher(self, gid: bytes) -> None:
+        token = self._tokens.pop(gid, None)
+        self.bridge_gids.discard(gid)
+        if token is not None:
+            with contextlib.suppress(Exception):
+                token.undeclare()
+
+    def close(self) -> None:
+        with contextlib.suppress(Exception):
+            self._subscriber.undeclare()
+        self.peer.shutdown()
+
+
 _peers_lock = threading.Lock()
-_peers: weakref.WeakKeyDictionary[Any, tuple[Peer, int]] = weakref.WeakKeyDictionary()
+_peers: weakref.WeakKeyDictionary[Any, tuple[BridgeSession, int]] = weakref.WeakKeyDictionary()
 
 
-def _acquire_peer(node: AgentHost) -> Peer:
+def _acquire_peer(node: AgentHost) -> BridgeSession:
     with _peers_lock:
         found = _peers.get(node)
         if found is None:
-            peer = Peer(
-                node.name,
-                namespace=node.ros_node.get_namespace(),
-                registry=node.registry,
-                handle_signals=False,
-            )
-            found = (peer, 0)
+            found = (BridgeSession(node), 0)
         _peers[node] = (found[0], found[1] + 1)
         return found[0]
 
@@ -59,12 +140,34 @@ def _release_peer(node: AgentHost) -> None:
         found = _peers.get(node)
         if found is None:
             return
-        peer, users = found
+        shared, users = found
         if users > 1:
-            _peers[node] = (peer, users - 1)
+            _peers[node] = (shared, users - 1)
             return
         del _peers[node]
-    peer.shutdown()
+    shared.close()
+
+
+class _PeersSubscriber(SubscriberAgent):
+    """A zenoh subscription that skips what bridges published: it came from ROS already."""
+
+    def __init__(self, peer: Peer, *, bridge_gids: set[bytes], **options: Any) -> None:
+        self._bridge_gids = bridge_gids  # before the agent's thread starts
+        self.bridged_skipped_count = 0
+        """Samples skipped because a bridge put them on zenoh (they came from ROS)."""
+        super().__init__(peer, **options)
+
+    def _on_sample(self, sample: zenoh.Sample) -> None:
+        attachment = sample.attachment
+        if attachment is not None:
+            try:
+                gid = keys.ATTACHMENT.unpack(attachment.to_bytes())[3]
+            except struct.error:
+                gid = b""
+            if gid in self._bridge_gids:
+                self.bridged_skipped_count += 1
+                return
+        super()._on_sample(sample)
 
 
 class _BridgeAgent(NodeAgent):
@@ -110,19 +213,46 @@ class RosToZenohAgent(_BridgeAgent):
     ) -> None:
         msg_class = interface_class(data_interface, kind="msg")
         super().__init__(node, conn_name=conn_name, agent_name=agent_name, msg_class=msg_class)
-        self.subscription = node.ros_node.create_subscription(
-            msg_class,
-            conn_name,
-            self._on_message,
-            resolve_qos(qos, msg_type=self.type_name, publisher=False),
-            callback_group=self.callback_group,
-            raw=True,
-        )
+        self.sensor_subscription: SensorSubscription | None = None
+        """Set when the QoS follows the publishers (a sensor type without ``qos=``), as a
+        ``'sub'`` agent's does: a best-effort reader would lose large frames of reliable ones."""
+        if follows_publishers(qos, msg_type=self.type_name):
+            self.sensor_subscription = SensorSubscription(
+                node.ros_node,
+                msg_class=msg_class,
+                topic=conn_name,
+                callback=self._on_message,
+                raw=True,
+                callback_group=self.callback_group,
+                describe=self.describe,
+            )
+        else:
+            self._subscription = node.ros_node.create_subscription(
+                msg_class,
+                conn_name,
+                self._on_message,
+                resolve_qos(qos, msg_type=self.type_name, publisher=False),
+                callback_group=self.callback_group,
+                raw=True,
+            )
         self.topic = self.subscription.topic_name
-        self.peer = _acquire_peer(node)
+        self._session = _acquire_peer(node)
+        self.peer = self._session.peer
         self.zenoh_publisher = PublisherAgent(
-            self.peer, conn_name=self.topic, data_interface=self.type_name, raw=True
+            self.peer,
+            conn_name=self.topic,
+            data_interface=self.type_name,
+            raw=True,
+            depth=zenoh_depth(self.subscription.qos_profile),
         )
+        self._session.declare_bridge_publisher(self.zenoh_publisher.gid)
+
+    @property
+    def subscription(self) -> Any:
+        """The rclpy subscription now receiving (a sensor one is replaced when it switches)."""
+        if self.sensor_subscription is not None:
+            return self.sensor_subscription.subscription
+        return self._subscription
 
     def _on_message(self, payload: bytes) -> None:
         try:
@@ -133,8 +263,12 @@ class RosToZenohAgent(_BridgeAgent):
         self._forwarded(payload)
 
     def close(self) -> None:
-        self.node.ros_node.destroy_subscription(self.subscription)
+        if self.sensor_subscription is not None:
+            self.sensor_subscription.close()
+        else:
+            self.node.ros_node.destroy_subscription(self._subscription)
         self.zenoh_publisher.close()
+        self._session.undeclare_bridge_publisher(self.zenoh_publisher.gid)
         _release_peer(self.node)
         super().close()
 
@@ -155,20 +289,21 @@ class ZenohToRosAgent(_BridgeAgent):
     ) -> None:
         msg_class = interface_class(data_interface, kind="msg")
         super().__init__(node, conn_name=conn_name, agent_name=agent_name, msg_class=msg_class)
+        profile = resolve_qos(qos, msg_type=self.type_name, publisher=True)
         self.publisher = node.ros_node.create_publisher(
-            msg_class,
-            conn_name,
-            resolve_qos(qos, msg_type=self.type_name, publisher=True),
-            callback_group=self.callback_group,
+            msg_class, conn_name, profile, callback_group=self.callback_group
         )
         self.topic = self.publisher.topic_name
-        self.peer = _acquire_peer(node)
-        self.zenoh_subscriber = SubscriberAgent(
+        self._session = _acquire_peer(node)
+        self.peer = self._session.peer
+        self.zenoh_subscriber: SubscriberAgent = _PeersSubscriber(
             self.peer,
+            bridge_gids=self._session.bridge_gids,
             conn_name=self.topic,
             data_interface=self.type_name,
             raw=True,
             response_func=self._on_sample,
+            depth=zenoh_depth(profile),
         )
         # Read (zero-copy views, microseconds even for an image) before it goes on ROS: a
         # malformed sample is reported here, where it came in, instead of being handed to

@@ -27,10 +27,12 @@ keep exactly ``depth`` (a few large samples, never a thousand). rmw_zenoh's subs
 the oldest, bursts included. Samples lost on the way (skipped by keep-last, or dropped by
 zenoh's congestion control) are counted in ``dropped_count`` from the publishers' sequence gaps
 (samples without an attachment, from a bare zenoh session, are counted when the agent skips
-them; what zenoh's ring drops of them leaves no trace). A sequence number that goes backwards
-or jumps by more than ``MAX_SEQUENCE_GAP`` is a restarted publisher or a bogus number: counting
-restarts from it, no gap counted. An attachment that is not rmw_zenoh's 33 bytes is counted in
-``bad_attachment_count`` and reported once; its sample is still decoded and handed on.
+them; what zenoh's ring drops of them leaves no trace). Samples skipped before the first one
+of their publisher the agent handles count too: the first skipped one starts the count. A
+sequence number that goes backwards or jumps by more than ``MAX_SEQUENCE_GAP`` is a restarted
+publisher or a bogus number: counting restarts from it, no gap counted. An attachment that is
+not rmw_zenoh's 33 bytes is counted in ``bad_attachment_count`` and reported once; its sample
+is still decoded and handed on.
 """
 
 # zenoh's stubs leave undeclare() and close() unannotated.
@@ -230,11 +232,25 @@ class SubscriberAgent(PeerAgent):
         """Skip all but the newest ``depth`` waiting samples (the agent fell behind).
 
         Skipped samples are counted in ``dropped_count`` through the sequence gap the next
-        handled sample shows, or here when they carry no attachment.
+        handled sample shows, or here when they carry no readable attachment. A publisher not
+        heard from yet gets the sequence number before its first skipped sample as its last
+        one, so the next handled sample shows the gap (the first handled sample of a publisher
+        is otherwise taken as its start).
         """
+        last_sequence = self._last_sequence
         while len(backlog) > self.depth:
-            if backlog.popleft().attachment is None:
+            attachment = backlog.popleft().attachment
+            if attachment is None:
                 self.dropped_count += 1
+                continue
+            try:
+                sequence, _stamp, gid_size, gid = _unpack_attachment(attachment.to_bytes())
+            except struct.error:
+                gid_size = 0
+            if gid_size != GID_SIZE:
+                self.dropped_count += 1  # no sequence to count it from later
+            elif gid not in last_sequence:
+                last_sequence[gid] = sequence - 1
 
     def _on_sample(self, sample: zenoh.Sample) -> None:
         attachment = sample.attachment
