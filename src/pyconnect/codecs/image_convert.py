@@ -1,7 +1,9 @@
 """``convert(image, desired_encoding, source_encoding=...)``: cv_bridge's ``desired_encoding``.
 
-Converts a decoded Image array between encodings with OpenCV: bayer, yuv422 (UYVY), yuv422_yuy2
-(YUYV), nv12/nv21 and nv24 to colour; between mono, bgr, rgb, bgra and rgba; and between depths
+Converts a decoded Image array between encodings with OpenCV, by the one ``cvtColor`` code
+cv_bridge uses for each pair: bayer to mono, bgr and rgb (not to 4 channels, which cv_bridge
+refuses); yuv422 (UYVY), yuv422_yuy2 (YUYV), nv12 and nv21 to mono, bgr, rgb, bgra and rgba;
+nv24 (which OpenCV lacks) through bgr; between mono, bgr, rgb, bgra and rgba; and between depths
 as cv_bridge's ``convertTo`` does: 16 → 8 bits scales by 255/65535, 8 → 16 bits by 257, other
 depth changes do not scale, and every change to an integer depth rounds half to even and
 saturates (``32FC1`` 300.0 → ``8UC1`` 255, -1.0 → 0). A generic ``…C…`` source converts only to a
@@ -62,26 +64,30 @@ def _code(name: str) -> int:
     return code
 
 
-def _to_bgr_family(image: npt.NDArray[Any], source: str) -> tuple[npt.NDArray[Any], str]:
-    """``image`` in one of GRAY/BGR/RGB/BGRA/RGBA, and which."""
+def _in_family(image: npt.NDArray[Any], source: str, wanted: str, target: str) -> npt.NDArray[Any]:
+    """``image`` (of encoding ``source``) in the colour family ``wanted`` (GRAY, BGR, RGB, BGRA,
+    RGBA), by the one OpenCV conversion cv_bridge uses for the pair."""
     import cv2
 
     if source in _FAMILY:
-        return image, _FAMILY[source]
+        family = _FAMILY[source]
+        if family == wanted:
+            return image
+        return cv2.cvtColor(np.ascontiguousarray(image), _code(f"COLOR_{family}2{wanted}"))
     if source.startswith("bayer_"):
+        if wanted not in ("GRAY", "BGR", "RGB"):  # cv_bridge has no Bayer to 4 channels
+            raise ConversionError(f"convert: Unsupported conversion from [{source}] to [{target}]")
         pattern = _BAYER[source[6:10]]
-        return cv2.cvtColor(np.ascontiguousarray(image), _code(f"COLOR_{pattern}2BGR")), "BGR"
+        return cv2.cvtColor(np.ascontiguousarray(image), _code(f"COLOR_{pattern}2{wanted}"))
     if source in _YUV:
-        return (
-            cv2.cvtColor(np.ascontiguousarray(image), _code(f"COLOR_YUV2BGR_{_YUV[source]}")),
-            "BGR",
-        )
-    if source == "nv24":
+        code = _code(f"COLOR_YUV2{wanted}_{_YUV[source]}")
+        return cv2.cvtColor(np.ascontiguousarray(image), code)
+    if source == "nv24":  # OpenCV has no NV24 code: YUV 4:4:4 planes, then BGR
         rows = image.shape[0] // 3
         luma = image[:rows]
         chroma = image[rows:].reshape(rows, image.shape[1], 2)  # interleaved V, U
-        yuv = np.dstack((luma, chroma[..., 1], chroma[..., 0]))
-        return cv2.cvtColor(yuv, cv2.COLOR_YUV2BGR), "BGR"
+        bgr = cv2.cvtColor(np.dstack((luma, chroma[..., 1], chroma[..., 0])), cv2.COLOR_YUV2BGR)
+        return bgr if wanted == "BGR" else cv2.cvtColor(bgr, _code(f"COLOR_BGR2{wanted}"))
     raise ConversionError(f"convert: no colour conversion from {source!r}")
 
 
@@ -130,7 +136,6 @@ def convert(
     image: npt.NDArray[Any], desired_encoding: str, *, source_encoding: str
 ) -> npt.NDArray[Any]:
     """``image`` (decoded from ``source_encoding``) in ``desired_encoding``; a new array."""
-    import cv2
 
     if desired_encoding in ("passthrough", source_encoding):
         return image
@@ -160,8 +165,5 @@ def convert(
             f"convert: cannot convert to {desired_encoding!r} (targets: "
             f"{', '.join(_FAMILY)} and the …C… encodings)"
         )
-    colour, family = _to_bgr_family(image, source_encoding)
-    wanted = _FAMILY[desired_encoding]
-    if family != wanted:
-        colour = cv2.cvtColor(np.ascontiguousarray(colour), _code(f"COLOR_{family}2{wanted}"))
+    colour = _in_family(image, source_encoding, _FAMILY[desired_encoding], desired_encoding)
     return _depth(colour, target_format.dtype)

@@ -220,3 +220,29 @@ def test_generic_depth_changes_match_opencv(case: tuple[str, str, np.ndarray]) -
     expected = _opencv_convert_to(image, target[: target.index("C")])
     assert out.dtype == expected.dtype
     assert np.array_equal(out, expected, equal_nan=out.dtype.kind == "f")
+
+
+@pytest.mark.parametrize(
+    ("source", "shape", "target", "code"),
+    [
+        # One cvtColor, as cv_bridge: through BGR first, the grey of a Bayer image differed.
+        ("bayer_rggb8", (6, 8), "mono8", cv2.COLOR_BayerBG2GRAY),
+        ("bayer_grbg8", (6, 8), "rgb8", cv2.COLOR_BayerGB2RGB),
+        ("yuv422", (4, 6, 2), "mono8", cv2.COLOR_YUV2GRAY_UYVY),
+        ("yuv422_yuy2", (4, 6, 2), "rgba8", cv2.COLOR_YUV2RGBA_YUY2),
+        ("nv21", (6, 4), "mono8", cv2.COLOR_YUV2GRAY_NV21),
+        ("nv12", (6, 4), "bgra8", cv2.COLOR_YUV2BGRA_NV12),
+    ],
+)
+def test_each_pair_is_the_one_conversion_cv_bridge_makes(
+    source: str, shape: tuple[int, ...], target: str, code: int
+) -> None:
+    raw = RNG.integers(0, 256, shape, dtype=np.uint8)
+    assert np.array_equal(convert(raw, target, source_encoding=source), cv2.cvtColor(raw, code))
+
+
+@pytest.mark.parametrize("target", ["rgba8", "bgra8"])
+def test_bayer_to_four_channels_is_refused_as_cv_bridge_does(target: str) -> None:
+    with pytest.raises(ConversionError) as caught:
+        convert(np.zeros((4, 4), np.uint8), target, source_encoding="bayer_rggb8")
+    assert str(caught.value) == f"convert: Unsupported conversion from [bayer_rggb8] to [{target}]"
