@@ -165,6 +165,31 @@ def _bridge_node(name: str, locator: str, tmp_path: Path, monkeypatch: pytest.Mo
     return CustomNode(name, handle_signals=False, context=Context())
 
 
+def _watch_and_talk(
+    node: Any, topic: str, words: tuple[str, ...]
+) -> tuple[list[str], dict[str, threading.Event], Any]:
+    """A plain ROS sub on ``topic`` recording what it sees (an event per word of ``words``) and
+    a plain ROS pub on it: (what was seen, the events, the pub agent)."""
+    from std_msgs.msg import String
+
+    seen: list[str] = []
+    got = {word: threading.Event() for word in words}
+
+    def on_ros(value: str) -> None:
+        seen.append(value)
+        if value in got:
+            got[value].set()
+
+    node.add_agent(
+        conn_name=topic, agent_name="watch", conn_type="sub", data_interface=String,
+        response_func=on_ros,
+    )  # fmt: skip
+    talker = node.add_agent(
+        conn_name=topic, agent_name="talker", conn_type="pub", data_interface=String
+    )
+    return seen, got, talker
+
+
 def test_a_topic_bridged_both_ways_by_one_node_crosses_once(
     locator: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -186,24 +211,7 @@ def test_a_topic_bridged_both_ways_by_one_node_crosses_once(
             data_interface=String,
             transport="zenoh",
         )
-        seen: list[str] = []
-        got = {word: threading.Event() for word in ("warm", "first", "sentinel")}
-
-        def on_ros(value: str) -> None:
-            seen.append(value)
-            if value in got:
-                got[value].set()
-
-        node.add_agent(
-            conn_name="loop",
-            agent_name="watch",
-            conn_type="sub",
-            data_interface=String,
-            response_func=on_ros,
-        )
-        talker = node.add_agent(
-            conn_name="loop", agent_name="talker", conn_type="pub", data_interface=String
-        )
+        seen, got, talker = _watch_and_talk(node, "loop", ("warm", "first", "sentinel"))
         node.spin(run_thread=True)
         with Peer(
             "far", config=_no_scouting(), listen=[], connect=[locator], handle_signals=False
@@ -314,24 +322,7 @@ def test_a_topic_bridged_both_ways_by_two_processes_crosses_once(
             node.add_agent(
                 conn_name="loop2", conn_type="sub", data_interface=String, transport="zenoh"
             )
-            seen: list[str] = []
-            got = {word: threading.Event() for word in ("first", "sentinel")}
-
-            def on_ros(value: str) -> None:
-                seen.append(value)
-                if value in got:
-                    got[value].set()
-
-            node.add_agent(
-                conn_name="loop2",
-                agent_name="watch",
-                conn_type="sub",
-                data_interface=String,
-                response_func=on_ros,
-            )
-            talker = node.add_agent(
-                conn_name="loop2", agent_name="talker", conn_type="pub", data_interface=String
-            )
+            seen, got, talker = _watch_and_talk(node, "loop2", ("first", "sentinel"))
             node.spin(run_thread=True)
             # ROS -> zenoh reaches the other process before anything is counted.
             deadline = time.monotonic() + TIMEOUT
