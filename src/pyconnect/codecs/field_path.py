@@ -44,6 +44,27 @@ class FieldPath:
         return f"{self.path}: {self.detail}"
 
 
+def rerooted(error: EncodeError, inner: str, outer: str) -> EncodeError:
+    """``error`` of a codec for type ``inner`` (its path or text starts with that type's name)
+    as the error of the field ``outer`` of an enclosing type: ``Pose.orientation.z`` becomes
+    ``PoseStamped.pose.orientation.z``. Anything else comes back as it is."""
+
+    def moved(text: str) -> str | None:
+        if text == inner or text.startswith((f"{inner}.", f"{inner}[", f"{inner}:")):
+            return outer + text[len(inner) :]
+        return None
+
+    if isinstance(error, FieldPath) and error.segments and not error.root:
+        path = moved(error.segments[-1])
+        if path is not None:
+            error.segments[-1] = path
+        return error
+    text = moved(str(error))
+    if text is None or isinstance(error, FieldPath):
+        return error
+    return type(error)(text)
+
+
 class FieldError(FieldPath, EncodeError):
     """A value does not fit its field: ``JointState.position[3]: expected float, got str``."""
 

@@ -9,6 +9,7 @@ from __future__ import annotations
 from typing import Any
 
 from pyconnect.codecs.base import FieldsCodec
+from pyconnect.codecs.field_path import rerooted
 from pyconnect.codecs.geometry import (
     AccelCodec,
     PointCodec,
@@ -20,6 +21,7 @@ from pyconnect.codecs.geometry import (
     WrenchCodec,
 )
 from pyconnect.codecs.geometry_arrays import PolygonCodec
+from pyconnect.errors import EncodeError
 
 
 class StampedCodec(FieldsCodec):
@@ -37,7 +39,11 @@ class StampedCodec(FieldsCodec):
         return self.inner.decode(getattr(msg, self.field))
 
     def to_fields(self, value: Any) -> dict[str, Any]:
-        return {self.field: self.inner.to_fields(value)}
+        try:
+            return {self.field: self.inner.to_fields(value)}
+        except EncodeError as error:  # named from the inner type: PoseStamped.pose.orientation
+            inner = self.inner.msg_type.rsplit("/", 1)[-1]
+            raise rerooted(error, inner, f"{self.name}.{self.field}") from None
 
 
 def point_stamped_codec() -> StampedCodec:

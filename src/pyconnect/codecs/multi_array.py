@@ -100,17 +100,39 @@ class MultiArrayCodec(FieldsCodec):
     def _checked(self, value: Any) -> npt.NDArray[Any]:
         if not isinstance(value, np.ndarray):
             raise EncodeError(f"{self.name}: expected numpy.ndarray, got {type_name_of(value)}")
+        if value.ndim == 0:
+            # No dimension to write: it would come back as shape (1,).
+            raise EncodeError(
+                f"{self.name}: expected an array of at least one dimension, got a 0-d array "
+                "(value.reshape(1) sends one element)"
+            )
         if value.dtype == self.dtype:
             return value
-        if not np.can_cast(value.dtype, self.dtype, casting="same_kind") or (
-            value.dtype.kind in "iu"
-            and self.dtype.kind in "iu"
-            and not np.can_cast(value.dtype, self.dtype, casting="safe")
+        if (
+            value.dtype.kind == "b"  # bools are refused where numbers go, as everywhere
+            or not np.can_cast(value.dtype, self.dtype, casting="same_kind")
+            or (
+                value.dtype.kind in "iu"
+                and self.dtype.kind in "iu"
+                and not np.can_cast(value.dtype, self.dtype, casting="safe")
+            )
         ):
             raise EncodeError(
                 f"{self.name}.data: expected {self.dtype.name} values, got {value.dtype.name}"
             )
-        return value.astype(self.dtype, copy=False)
+        with np.errstate(over="ignore"):
+            cast = value.astype(self.dtype, copy=False)
+        if value.dtype.kind == "f" and self.dtype.itemsize < value.dtype.itemsize:
+            # float64 -> float32: a finite value past float32's range would become inf.
+            overflow = np.isinf(cast) & np.isfinite(value)
+            if overflow.any():
+                index = np.unravel_index(int(np.flatnonzero(overflow)[0]), value.shape)
+                where = "".join(f"[{int(i)}]" for i in index)
+                raise EncodeError(
+                    f"{self.name}.data{where}: expected {self.dtype.name} "
+                    f"(|x| <= {float(np.finfo(self.dtype).max):.8g}), got {float(value[index])!r}"
+                )
+        return cast
 
     def _layout(self, array: npt.NDArray[Any]) -> dict[str, Any]:
         # ROS strides count elements of this and all inner dimensions: C order, no padding.

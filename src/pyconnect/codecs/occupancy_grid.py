@@ -18,6 +18,7 @@ from pyconnect.codecs.base import FieldsCodec
 from pyconnect.codecs.buffers import numeric_view
 from pyconnect.codecs.builtin_time import RosTime, time_fields
 from pyconnect.codecs.field_checks import check_float32
+from pyconnect.codecs.field_path import rerooted
 from pyconnect.codecs.geometry import PoseCodec, PoseValue
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
 
@@ -100,7 +101,14 @@ class OccupancyGridCodec(FieldsCodec):
                 "resolution": check_float32(grid.resolution, "OccupancyGrid.info.resolution"),
                 "width": cells.shape[1],
                 "height": cells.shape[0],
-                "origin": _POSE.to_fields(grid.origin),
+                "origin": _origin_fields(grid.origin),
             },
             "data": np.ascontiguousarray(cells).reshape(-1),
         }
+
+
+def _origin_fields(origin: Any) -> dict[str, Any]:
+    try:
+        return _POSE.to_fields(origin)
+    except EncodeError as error:  # named from Pose: OccupancyGrid.info.origin.orientation
+        raise rerooted(error, "Pose", "OccupancyGrid.info.origin") from None

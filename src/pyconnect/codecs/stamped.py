@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from typing import Any, Generic, TypeVar
 
 from pyconnect.codecs.base import Codec
-from pyconnect.errors import DecodeError, EncodeError
+from pyconnect.errors import DecodeError, EncodeError, type_name_of
 
 T = TypeVar("T")
 
@@ -83,8 +83,22 @@ def encode_stamped(codec: Codec, stamped: Stamped[Any]) -> Any:
     header = header_of(msg)
     if header is None:
         raise EncodeError(f"{codec.msg_type}: has no std_msgs/Header, so it cannot take a Stamped")
-    sec, nanosec = divmod(stamped.stamp_ns, 1_000_000_000)
-    header.stamp.sec = sec
-    header.stamp.nanosec = nanosec
+    stamp = _time_fields(stamped.stamp_ns)
+    header.stamp.sec = stamp["sec"]
+    header.stamp.nanosec = stamp["nanosec"]
     header.frame_id = stamped.frame_id
     return msg
+
+
+def _time_fields(stamp_ns: Any) -> dict[str, int]:
+    """The header's sec/nanosec of ``stamp_ns``, checked: rclpy's setters check nothing, so a
+    stamp past 2038 wrapped to 1901 on the wire and a float failed inside serialisation."""
+    import numbers
+
+    from pyconnect.codecs.builtin_time import time_fields
+
+    if not isinstance(stamp_ns, numbers.Integral) or isinstance(stamp_ns, bool):
+        raise EncodeError(
+            f"Stamped.stamp_ns: expected int nanoseconds, got {type_name_of(stamp_ns)}"
+        )
+    return time_fields(int(stamp_ns), "Stamped.stamp_ns")

@@ -239,3 +239,37 @@ def test_multi_array_layout_cannot_claim_more_than_its_data() -> None:
         str(too_many.value)
         == "Float64MultiArray.layout.dim: expected at most 32 dimensions, got 40"
     )
+
+
+@pytest.mark.parametrize(
+    ("name", "value", "error"),
+    [
+        # float64 -> float32 made 1e300 an inf with only a numpy warning.
+        ("Float32MultiArray", np.array([1.0, 1e300]),
+         "Float32MultiArray.data[1]: expected float32 (|x| <= 3.4028235e+38), got 1e+300"),
+        ("Float32MultiArray", np.array([[1.0, 2.0], [3.0, -1e300]]),
+         "Float32MultiArray.data[1][1]: expected float32 (|x| <= 3.4028235e+38), got -1e+300"),
+        ("UInt8MultiArray", np.array([True, False]), "UInt8MultiArray.data: expected uint8 values, got bool"),
+        # No dimension to write: it came back of shape (1,).
+        ("Float64MultiArray", np.array(2.5),
+         "Float64MultiArray: expected an array of at least one dimension, got a 0-d array "
+         "(value.reshape(1) sends one element)"),
+    ],
+)  # fmt: skip
+def test_a_multi_array_that_would_change_on_the_way_is_refused(
+    name: str, value: np.ndarray, error: str
+) -> None:
+    from pyconnect.codecs import wire
+
+    with pytest.raises(EncodeError) as caught:
+        codecs.encode(value, f"std_msgs/msg/{name}")
+    assert str(caught.value) == error
+    with pytest.raises(EncodeError) as caught:
+        wire.encode(value, f"std_msgs/msg/{name}")
+    assert str(caught.value) == error
+
+
+def test_infinities_and_nan_still_narrow_to_float32() -> None:
+    value = np.array([np.inf, -np.inf, np.nan, 1.5])
+    back = codecs.decode(codecs.encode(value, "std_msgs/msg/Float32MultiArray"))
+    assert np.array_equal(back, value.astype(np.float32), equal_nan=True)

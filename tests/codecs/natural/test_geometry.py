@@ -140,7 +140,7 @@ def test_ints_and_numpy_values_are_accepted() -> None:
         (
             "geometry_msgs/TwistStamped",
             [1.0],
-            ("Twist: expected ((x, y, z), (x, y, z)) or (v, w), got list of length 1"),
+            ("TwistStamped.twist: expected ((x, y, z), (x, y, z)) or (v, w), got list of length 1"),
         ),
     ],
 )
