@@ -11,6 +11,12 @@ import numpy as np
 import pytest
 
 from pyconnect.errors import ConnectionTimeout, EncodeError, PyconnectError
+from pyconnect.ros.agent_options import OptionError
+from pyconnect.transport import rmw_zenoh_keys as keys
+from pyconnect.transport.peer_options import KEEP_ALL_DEPTH
+from pyconnect.transport.service_agents import ServiceClientAgent
+from pyconnect.transport.topic_publisher import PublisherAgent
+from pyconnect.transport.topic_subscriber import SubscriberAgent
 from tests.transport.conftest import TIMEOUT, PeerFactory, wait_for
 
 
@@ -260,9 +266,145 @@ def test_unknown_kinds_and_options_raise(make_peer: PeerFactory) -> None:
         "'sub', 'pub', 'service_client', 'service_server', 'timer', 'action_client', "
         "'action_server'"
     )
+
+
+def test_add_agent_takes_a_config_dict_as_custom_node_does(make_peer: PeerFactory) -> None:
+    peer = make_peer("vision")
+    config = {"conn_name": "chatter", "conn_type": "pub", "data_interface": "std_msgs/msg/String"}
+    agent = peer.add_agent(config)
+    assert peer.agents["chatter"] is agent
+    assert agent.conn_type == "pub"
+    # Keywords win over the dict's keys.
+    sub = peer.add_agent({**config, "conn_type": "pub"}, conn_type="sub", agent_name="heard")
+    assert peer.agents["heard"] is sub
+    assert sub.conn_type == "sub"
+
+
+def test_add_agents_gives_shared_options_only_to_the_kinds_that_take_them(
+    make_peer: PeerFactory,
+) -> None:
+    peer = make_peer("vision")
+    configs = [
+        {"conn_name": "s", "conn_type": "service_client", "data_interface": "std_srvs/srv/SetBool"},
+        {"conn_name": "chatter", "conn_type": "sub", "data_interface": "std_msgs/msg/String"},
+    ]
+    client, sub = peer.add_agents(configs, timeout=2.0, qos=3)
+    assert isinstance(client, ServiceClientAgent)
+    assert client.timeout == 2.0
+    assert isinstance(sub, SubscriberAgent)
+    assert sub.depth == 3
+    # One no kind takes on a peer is not dropped quietly.
+    with pytest.raises(OptionError) as raised:
+        peer.add_agents([{**configs[1], "conn_name": "other"}], do_log_msg=True)
+    assert str(raised.value) == (
+        "agent 'other' (sub): option 'do_log_msg' is not available on a peer: "
+        "a peer writes no message logs (log from response_func)"
+    )
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (
+            {"conn_type": "sub", "data_interface": "std_msgs/msg/String", "time_period": 1.0},
+            "agent 'b' (sub): option 'time_period' is not used by a 'sub' agent",
+        ),
+        (
+            {"conn_type": "service_server", "data_interface": "std_srvs/srv/SetBool", "qos": 5},
+            "agent 'b' (service_server): option 'qos' is not used by a 'service_server' agent",
+        ),
+        (
+            {"conn_type": "sub", "data_interface": "std_msgs/msg/String", "tiemout": 1.0},
+            "agent 'b' (sub): unknown option 'tiemout'",
+        ),
+        (
+            {"conn_type": "pub"},
+            "agent 'b' (pub): missing option 'data_interface'",
+        ),
+        (
+            {"data_interface": "std_msgs/msg/String"},
+            "agent 'b': missing option 'conn_type'",
+        ),
+        (
+            {"conn_type": "timer", "time_period": 1.0, "response_func": print, "do_log_msg": True},
+            "agent 'b' (timer): option 'do_log_msg' is not available on a peer: "
+            "a peer writes no message logs (log from response_func)",
+        ),
+        (
+            {"conn_type": "pub", "data_interface": "std_msgs/msg/String", "codec": None},
+            "agent 'b' (pub): option 'codec' is not available on a peer",
+        ),
+        (
+            {"conn_type": "sub", "data_interface": "std_msgs/msg/String", "qos": 3, "depth": 4},
+            "agent 'b' (sub): give qos= or depth=, not both",
+        ),
+        (
+            {"conn_type": "sub", "data_interface": "std_msgs/msg/String", "qos": "latched"},
+            "agent 'b' (sub): qos 'latched' cannot be honoured on a peer: it keeps no cache for "
+            "late joiners (zenoh-python has no publication cache)",
+        ),
+    ],
+)
+def test_a_wrong_option_raises_option_error_as_custom_node_does(
+    make_peer: PeerFactory, options: dict[str, Any], message: str
+) -> None:
+    peer = make_peer("vision")
+    with pytest.raises(OptionError) as raised:
+        peer.add_agent(conn_name="b", **options)
+    assert str(raised.value) == message
+    assert isinstance(raised.value, TypeError)  # as CustomNode's
+    assert peer.agents == {}
+
+
+@pytest.mark.parametrize(
+    ("qos", "message"),
+    [
+        (
+            "fast",
+            "agent 'b' (pub): qos: unknown profile 'fast'; expected a QoSProfile or one of "
+            "'default', 'sensor_data', 'latched'",
+        ),
+        (True, "agent 'b' (pub): qos: expected a QoSProfile, a name or a depth, got True"),
+        (2.5, "agent 'b' (pub): qos: expected a QoSProfile, a name or a depth, got float"),
+        (0, "agent 'b' (pub): qos: depth must be >= 1, got 0"),
+    ],
+)
+def test_a_bad_qos_value_raises_naming_it(
+    make_peer: PeerFactory, qos: object, message: str
+) -> None:
+    peer = make_peer("vision")
     with pytest.raises(PyconnectError) as raised:
-        peer.add_agent(conn_name="b", conn_type="pub", data_interface="std_msgs/msg/Int32", qos=5)
-    assert str(raised.value) == "agent 'b' (pub): got an unexpected keyword argument 'qos'"
+        peer.add_agent(conn_name="b", conn_type="pub", data_interface="std_msgs/msg/Int32", qos=qos)
+    assert str(raised.value) == message
+
+
+def test_qos_sets_the_depth_of_a_sub_or_pub(make_peer: PeerFactory) -> None:
+    qos = pytest.importorskip("rclpy.qos")
+    peer = make_peer("vision")
+    string = {"data_interface": "std_msgs/msg/String"}
+
+    def sub_depth(name: str, value: object) -> int:
+        agent = peer.add_agent(conn_name=name, conn_type="sub", qos=value, **string)
+        assert isinstance(agent, SubscriberAgent)
+        return agent.depth
+
+    assert sub_depth("a", 3) == 3
+    assert sub_depth("b", "sensor_data") == 5
+    assert sub_depth("c", "default") == 10
+    assert sub_depth("d", None) == 10
+    best_effort = qos.QoSProfile(depth=7, reliability=qos.ReliabilityPolicy.BEST_EFFORT)
+    assert sub_depth("e", best_effort) == 7  # reliability is not used: zenoh links are reliable
+    assert sub_depth("f", qos.QoSProfile(history=qos.HistoryPolicy.KEEP_ALL)) == KEEP_ALL_DEPTH
+    pub = peer.add_agent(conn_name="g", conn_type="pub", qos=3, **string)
+    assert isinstance(pub, PublisherAgent)
+    assert pub.token_key.endswith(f"/{keys.qos_chunk(depth=3)}")  # what ROS graphs are told
+    latched = qos.QoSProfile(depth=1, durability=qos.DurabilityPolicy.TRANSIENT_LOCAL)
+    with pytest.raises(OptionError) as raised:
+        peer.add_agent(conn_name="h", conn_type="pub", qos=latched, **string)
+    assert str(raised.value) == (
+        "agent 'h' (pub): qos durability TRANSIENT_LOCAL cannot be honoured on a peer: it keeps "
+        "no cache for late joiners (zenoh-python has no publication cache)"
+    )
 
 
 def test_with_block_and_spin_thread_shut_down(make_peer: PeerFactory) -> None:

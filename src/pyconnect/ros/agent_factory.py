@@ -6,7 +6,6 @@ subclass whose keyword-only ``__init__`` options are the config keys it uses).
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -16,6 +15,7 @@ from pyconnect.ros.action_server_agent import ActionServerAgent
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.agent_options import AgentOptions, OptionError
 from pyconnect.ros.node_agent import NodeAgent
+from pyconnect.ros.option_checks import check_options, options_of, shared_options
 from pyconnect.ros.publisher_agent import PublisherAgent
 from pyconnect.ros.service_agents import ServiceClientAgent, ServiceServerAgent
 from pyconnect.ros.subscriber_agent import SubscriberAgent
@@ -34,7 +34,7 @@ AGENT_CLASS_DICT: dict[str, type[NodeAgent]] = {
     "timer": TimerAgent,
 }
 
-_KNOWN_OPTIONS = frozenset(AgentOptions.__annotations__)
+__all__ = ["AGENT_CLASS_DICT", "make_agent", "options_of", "shared_options_for"]
 
 
 def make_agent(
@@ -91,37 +91,9 @@ def shared_options_for(conn_type: object, shared: Mapping[str, Any]) -> dict[str
     defaults, so ``do_log_msg=True`` shared by subs and a timer skips the timer. Unknown names
     are kept, so they still raise."""
     agent_class = AGENT_CLASS_DICT.get(conn_type) if isinstance(conn_type, str) else None
-    if agent_class is None:
-        return dict(shared)
-    accepted, _required = options_of(agent_class)
-    return {
-        name: value
-        for name, value in shared.items()
-        if name in accepted or name in _NAMING or name not in _KNOWN_OPTIONS
-    }
-
-
-_NAMING = frozenset({"conn_name", "conn_type", "agent_name"})
-
-
-def options_of(agent_class: type[NodeAgent]) -> tuple[frozenset[str], frozenset[str]]:
-    """(every option ``agent_class`` takes, the ones it requires), from its ``__init__``."""
-    parameters = inspect.signature(agent_class.__init__).parameters.values()
-    keywords = [p for p in parameters if p.kind is inspect.Parameter.KEYWORD_ONLY]
-    return (
-        frozenset(p.name for p in keywords),
-        frozenset(p.name for p in keywords if p.default is inspect.Parameter.empty),
-    )
+    accepted = None if agent_class is None else options_of(agent_class)[0]
+    return shared_options(accepted, shared)
 
 
 def _check_options(agent_class: type[NodeAgent], given: Mapping[str, Any], where: str) -> None:
-    accepted, required = options_of(agent_class)
-    kind = agent_class.conn_type or agent_class.__name__
-    for option in given:
-        if option in accepted:
-            continue
-        if option in _KNOWN_OPTIONS:
-            raise OptionError(f"{where}: option {option!r} is not used by a {kind!r} agent")
-        raise OptionError(f"{where}: unknown option {option!r}")
-    for option in sorted(required - {"conn_name"} - set(given)):
-        raise OptionError(f"{where}: missing option {option!r}")
+    check_options(agent_class, given, where, kind=agent_class.conn_type or agent_class.__name__)

@@ -54,14 +54,13 @@ from pyconnect.ros.sensor_subscription import SensorSubscription
 from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.peer import Peer
 from pyconnect.transport.peer_agent import DEFAULT_DEPTH
+from pyconnect.transport.peer_options import KEEP_ALL_DEPTH
 from pyconnect.transport.topic_publisher import PublisherAgent
 from pyconnect.transport.topic_subscriber import SubscriberAgent
 
 BRIDGE_SPACE = "@pyconnect_bridge"
 """Liveliness tokens ``@pyconnect_bridge/<domain>/<GID hex>`` name the zenoh publishers of
 bridges (outside rmw_zenoh's ``@ros2_lv``, so ROS graphs never see them)."""
-KEEP_ALL_DEPTH = 1000
-"""The zenoh-side depth of a keep-all profile (a zenoh subscription keeps a bounded ring)."""
 
 
 def zenoh_depth(profile: QoSProfile) -> int:

@@ -28,35 +28,36 @@ import threading
 import time
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import zenoh
 
 from pyconnect.codecs.registry import Registry, default_registry
 from pyconnect.errors import ConnectionTimeout, PyconnectError, TransportError
+from pyconnect.ros.agent_options import OptionError
 from pyconnect.ros.large_messages import apply_malloc_settings
+from pyconnect.ros.option_checks import check_options
+from pyconnect.ros.option_checks import shared_options as shared_options_of
 from pyconnect.ros.shutdown import ShutdownHooks, ShutsDownOnExit
 from pyconnect.transport import rmw_zenoh_keys as keys
-from pyconnect.transport.action_client import ActionClientAgent
-from pyconnect.transport.action_server import ActionServerAgent
 from pyconnect.transport.graph import Graph
-from pyconnect.transport.peer_agent import PeerAgent, TimerAgent, logger
-from pyconnect.transport.service_agents import ServiceClientAgent, ServiceServerAgent
+from pyconnect.transport.peer_agent import PeerAgent, logger
+from pyconnect.transport.peer_options import (
+    NOT_ON_A_PEER,
+    PEER_AGENT_CLASSES,
+    PEER_OPTIONS,
+    TAKES_QOS,
+    PeerAgentOptions,
+    accepted_options,
+    depth_from_qos,
+)
 from pyconnect.transport.session_config import session_config
-from pyconnect.transport.topic_publisher import PublisherAgent
-from pyconnect.transport.topic_subscriber import SubscriberAgent
+
+if TYPE_CHECKING:
+    from typing_extensions import Unpack
 
 StopFunc = Callable[..., Any]
 
-PEER_AGENT_CLASSES: dict[str, type[PeerAgent]] = {
-    "sub": SubscriberAgent,
-    "pub": PublisherAgent,
-    "service_client": ServiceClientAgent,
-    "service_server": ServiceServerAgent,
-    "timer": TimerAgent,
-    "action_client": ActionClientAgent,
-    "action_server": ActionServerAgent,
-}
 DEFAULT_MAX_PAYLOAD_BYTES = 256 * 1024 * 1024
 
 
@@ -150,9 +151,21 @@ class Peer(ShutsDownOnExit):
 
     # -- agents --------------------------------------------------------------------------------
     def add_agent(
-        self, *, conn_name: str, conn_type: str, agent_name: str | None = None, **options: Any
+        self, config: Mapping[str, Any] | None = None, /, **options: Unpack[PeerAgentOptions]
     ) -> PeerAgent:
-        """Create an agent (options as on ``CustomNode``) and return it; it is ``agents[name]``."""
+        """Create an agent from keywords or a config dict (or both; keywords win), as
+        ``CustomNode.add_agent`` does; it is ``agents[agent_name or conn_name]``.
+
+        Options per kind: the agent classes' keyword-only ``__init__``, plus ``qos=`` on a sub
+        or pub (its depth: ``depth_from_qos``). An option the kind does not take, or one no
+        kind takes on a peer (``do_log_msg``...), raises ``OptionError`` naming it.
+        """
+        given: dict[str, Any] = {**(config or {}), **options}
+        conn_name = given.pop("conn_name", None)
+        conn_type = given.pop("conn_type", None)
+        agent_name = given.pop("agent_name", None)
+        if not isinstance(conn_name, str) or not conn_name:
+            raise OptionError(f"agent config: conn_name must be a non-empty str, got {conn_name!r}")
         key = agent_name or conn_name
         with self._lock:
             if self._stopped.is_set():
@@ -162,30 +175,51 @@ class Peer(ShutsDownOnExit):
                     f"agent {key!r}: peer {self.name!r} already has an agent of that name; "
                     "give one of them agent_name="
                 )
+            if conn_type is None:
+                raise OptionError(f"agent {key!r}: missing option 'conn_type'")
             agent_class = PEER_AGENT_CLASSES.get(conn_type)
             if agent_class is None:
                 raise PyconnectError(
                     f"agent {key!r}: conn_type {conn_type!r} is not available on a peer; expected "
                     f"one of {', '.join(repr(kind) for kind in PEER_AGENT_CLASSES)}"
                 )
+            where = f"agent {key!r} ({conn_type})"
+            if "qos" in given and conn_type in TAKES_QOS:
+                if "depth" in given:
+                    raise OptionError(f"{where}: give qos= or depth=, not both")
+                depth = depth_from_qos(given.pop("qos"), where)
+                if depth is not None:
+                    given["depth"] = depth
+            check_options(
+                agent_class,
+                given,
+                where,
+                kind=conn_type,
+                known=PEER_OPTIONS,
+                unavailable=NOT_ON_A_PEER,
+            )
             try:
-                agent = agent_class(self, conn_name=conn_name, agent_name=agent_name, **options)
-            except TypeError as error:
-                if "unexpected keyword argument" not in str(error) and "missing" not in str(error):
-                    raise
-                text = str(error).split("() ", 1)[-1]
-                raise PyconnectError(f"agent {key!r} ({conn_type}): {text}") from error
+                agent = agent_class(self, conn_name=conn_name, agent_name=agent_name, **given)
             except PyconnectError as error:
                 if str(error).startswith("agent "):
                     raise
-                raise type(error)(f"agent {key!r} ({conn_type}): {error}") from error
+                raise type(error)(f"{where}: {error}") from error
             self.agents[key] = agent
             return agent
 
     def add_agents(
-        self, configs: Iterable[Mapping[str, Any]], **shared_options: Any
+        self, configs: Iterable[Mapping[str, Any]], **shared_options: Unpack[PeerAgentOptions]
     ) -> list[PeerAgent]:
-        return [self.add_agent(**{**shared_options, **config}) for config in configs]
+        """``add_agent`` per config; ``shared_options`` apply unless a config overrides them,
+        and only to the kinds that take them (they are defaults, as on ``CustomNode``)."""
+        agents = []
+        for config in configs:
+            kind = config.get("conn_type", shared_options.get("conn_type"))
+            agent_class = PEER_AGENT_CLASSES.get(kind) if isinstance(kind, str) else None
+            accepted = None if agent_class is None else accepted_options(agent_class)
+            shared = shared_options_of(accepted, shared_options, known=PEER_OPTIONS)
+            agents.append(self.add_agent({**shared, **config}))
+        return agents
 
     # -- running -------------------------------------------------------------------------------
     def spin(self, run_thread: bool = False) -> None:

@@ -1,0 +1,80 @@
+"""Checking an agent's options against its class, without rclpy: CustomNode's and Peer's rules.
+
+An agent class lists the options it takes as its keyword-only ``__init__`` parameters
+(``options_of``). ``check_options`` refuses a given option the class does not take with an
+``OptionError`` naming it; ``shared_options`` keeps of ``add_agents(configs, **shared)`` only the
+options a kind takes (shared options are defaults). Both hosts use them —
+``pyconnect.ros.agent_factory`` for ``CustomNode`` and ``pyconnect.transport.peer`` for
+``Peer`` — so this module imports nothing that imports rclpy.
+"""
+
+from __future__ import annotations
+
+import inspect
+from collections.abc import Mapping
+from typing import Any
+
+from pyconnect.ros.agent_options import AgentOptions, OptionError
+
+KNOWN_OPTIONS = frozenset(AgentOptions.__annotations__)
+"""Every option a ``CustomNode`` agent kind may take."""
+NAMING = frozenset({"conn_name", "conn_type", "agent_name"})
+"""The options that name an agent: every kind takes them."""
+
+
+def options_of(agent_class: type[Any]) -> tuple[frozenset[str], frozenset[str]]:
+    """(every option ``agent_class`` takes, the ones it requires), from its ``__init__``."""
+    parameters = inspect.signature(agent_class.__init__).parameters.values()
+    keywords = [p for p in parameters if p.kind is inspect.Parameter.KEYWORD_ONLY]
+    return (
+        frozenset(p.name for p in keywords),
+        frozenset(p.name for p in keywords if p.default is inspect.Parameter.empty),
+    )
+
+
+def check_options(
+    agent_class: type[Any],
+    given: Mapping[str, Any],
+    where: str,
+    *,
+    kind: str,
+    known: frozenset[str] = KNOWN_OPTIONS,
+    unavailable: Mapping[str, str] | None = None,
+) -> None:
+    """Raise ``OptionError`` for the first option in ``given`` that ``agent_class`` does not take,
+    then for the first one it requires that is missing (``conn_name`` is checked by the caller).
+
+    ``known`` options are "not used by a '<kind>' agent"; ``unavailable`` maps an option the host
+    offers to no kind at all to why ("option 'x' is not available on a peer: <why>"); any other
+    name is unknown. Messages start with ``where``, e.g. ``agent 'cam' (sub)``.
+    """
+    accepted, required = options_of(agent_class)
+    for option in given:
+        if option in accepted:
+            continue
+        if unavailable is not None and option in unavailable:
+            raise OptionError(f"{where}: option {option!r} {unavailable[option]}")
+        if option in known:
+            raise OptionError(f"{where}: option {option!r} is not used by a {kind!r} agent")
+        raise OptionError(f"{where}: unknown option {option!r}")
+    for option in sorted(required - {"conn_name"} - set(given)):
+        raise OptionError(f"{where}: missing option {option!r}")
+
+
+def shared_options(
+    accepted: frozenset[str] | None,
+    shared: Mapping[str, Any],
+    *,
+    known: frozenset[str] = KNOWN_OPTIONS,
+) -> dict[str, Any]:
+    """The ``shared`` options a kind that takes ``accepted`` uses (``None``: an unknown kind,
+    which keeps them all). A ``known`` option the kind does not take is left out: shared options
+    are defaults, so ``do_log_msg=True`` shared by subs and a timer skips the timer. Other names
+    are kept, so that ``check_options`` still refuses them."""
+    if accepted is None:
+        return dict(shared)
+    return {
+        name: value
+        for name, value in shared.items()
+        if name in accepted or name in NAMING or name not in known
+    }
