@@ -11,7 +11,7 @@ import pytest
 
 from pyconnect import codecs
 from pyconnect.codecs import ActionCodec, DictCodec, Registry, ServiceCodec
-from pyconnect.errors import CodecNotFoundError, PyconnectError
+from pyconnect.errors import CodecError, CodecNotFoundError, PyconnectError
 
 
 class UpperStringCodec:
@@ -88,6 +88,88 @@ def test_user_codec_wins_and_conflicts_need_override() -> None:
 def test_registering_a_non_codec_is_refused() -> None:
     with pytest.raises(PyconnectError, match="expected a codec with msg_type"):
         Registry().register("std_msgs/msg/String", object())  # type: ignore[arg-type]
+
+
+class NamedCodec:
+    lossless = True
+
+    def __init__(self, msg_type: str) -> None:
+        self.msg_type = msg_type
+
+    def encode(self, value: Any) -> Any:
+        return value
+
+    def decode(self, msg: Any) -> Any:
+        return msg
+
+
+def test_registering_for_a_service_or_action_type_names_its_parts() -> None:
+    from std_srvs.srv import SetBool
+
+    registry = Registry()
+    with pytest.raises(CodecError) as service:
+        registry.register(SetBool, NamedCodec("std_srvs/srv/SetBool_Request"))
+    assert str(service.value) == (
+        "register(std_srvs/srv/SetBool): a service type has no messages of its own; register "
+        "the codec for one of its parts, e.g. std_srvs/srv/SetBool_Request or "
+        "std_srvs/srv/SetBool_Response"
+    )
+    with pytest.raises(CodecError, match=r"Fibonacci_Goal or test_msgs/action/Fibonacci_Result"):
+        registry.register("test_msgs/action/Fibonacci", NamedCodec("test_msgs/action/Fibonacci"))
+    # Their parts are messages: a codec registered for one is the one lookups find.
+    request = NamedCodec("std_srvs/srv/SetBool_Request")
+    registry.register(SetBool.Request, request)
+    assert registry.lookup_service(SetBool).request is request
+    goal = NamedCodec("test_msgs/action/Fibonacci_Goal")
+    registry.register("test_msgs/action/Fibonacci_Goal", goal)
+    assert registry.lookup_action("test_msgs/action/Fibonacci").goal is goal
+
+
+def test_registering_for_a_type_that_does_not_exist_is_refused() -> None:
+    with pytest.raises(CodecNotFoundError) as typo:
+        Registry().register("geometry_msgs/msg/Twst", NamedCodec("geometry_msgs/msg/Twst"))
+    assert str(typo.value) == (
+        "register(geometry_msgs/msg/Twst): no such type: not installed, not in generated/ and "
+        "not registered by definition (wire.register_definition); "
+        "did you mean geometry_msgs/msg/Twist?"
+    )
+    with pytest.raises(CodecNotFoundError, match=r"^register\(no_such_pkg/msg/Thing\): no such"):
+        Registry().register("no_such_pkg/Thing", NamedCodec("no_such_pkg/msg/Thing"))
+    with pytest.raises(CodecNotFoundError, match="no such type"):
+        Registry().register("std_srvs/srv/SetBool_Reply", NamedCodec("std_srvs/srv/SetBool_Reply"))
+
+
+def test_a_type_known_only_by_its_definition_takes_a_codec() -> None:
+    from pyconnect.codecs import wire
+
+    class Thing(NamedCodec):
+        def decode(self, msg: Any) -> Any:
+            return (msg.a, msg.b)
+
+    registry = Registry()
+    with pytest.raises(CodecNotFoundError, match="no such type"):
+        registry.register("my_pkg/msg/Thing", Thing("my_pkg/msg/Thing"))
+    wire.register_definition("my_pkg/msg/Thing", "int32 a\nstring b\n", registry=registry)
+    registry.register("my_pkg/Thing", Thing("my_pkg/Thing"))
+    cdr = wire.from_dict({"a": 7, "b": "x"}, "my_pkg/msg/Thing", registry=registry)
+    assert wire.decode(cdr, "my_pkg/msg/Thing", registry=registry) == (7, "x")
+
+
+def test_a_codec_for_another_type_is_refused() -> None:
+    from sensor_msgs.msg import Image
+
+    registry = Registry()
+    with pytest.raises(CodecError) as raised:
+        registry.register(Image, NamedCodec("geometry_msgs/msg/Twist"))
+    assert str(raised.value) == (
+        "register(sensor_msgs/msg/Image): codec NamedCodec has msg_type "
+        "'geometry_msgs/msg/Twist', expected 'sensor_msgs/msg/Image' (a codec converts the "
+        "messages of its own msg_type)"
+    )
+    # The short and the full name are the same type.
+    registry.register(Image, NamedCodec("sensor_msgs/Image"))
+    registry.register("sensor_msgs/Image", NamedCodec("sensor_msgs/msg/Image"), override=True)
+    assert registry.lookup(Image).msg_type == "sensor_msgs/msg/Image"
 
 
 def test_registries_are_isolated() -> None:

@@ -34,9 +34,15 @@ from pyconnect.codecs.type_code import (
     generated_wire_code,
     wire_code_from_model,
 )
-from pyconnect.errors import CodecNotFoundError, PyconnectError
+from pyconnect.errors import CodecError, CodecNotFoundError, PyconnectError
 from pyconnect.typesys.errors import DefinitionError
-from pyconnect.typesys.names import SERVICE_PARTS, TypeName, is_interface_name, parse_type_name
+from pyconnect.typesys.installed_types import close_names_hint, type_installed
+from pyconnect.typesys.names import (
+    SERVICE_PARTS,
+    TypeName,
+    is_interface_name,
+    parse_type_name,
+)
 
 if TYPE_CHECKING:  # wire codecs import numpy, which plain lookups do not need
     from pyconnect.codecs.wire_codec import WireCodec
@@ -88,6 +94,7 @@ class Registry:
                 f"register({full_name}): expected a codec with msg_type, lossless, encode and "
                 f"decode, got {type(codec).__name__}"
             )
+        self._check_registrable(full_name, codec)
         with self._lock:
             if full_name in self._user and not override:
                 raise PyconnectError(
@@ -96,6 +103,40 @@ class Registry:
                 )
             self._user[full_name] = codec
             self._forget_values()
+
+    def _check_registrable(self, full_name: str, codec: Codec) -> None:
+        # A codec registered under a name no lookup reaches would be ignored silently.
+        _package, namespace, name = full_name.split("/")
+        if namespace in ("srv", "action") and is_interface_name(name):
+            kind = "a service" if namespace == "srv" else "an action"
+            suffixes = ("Request", "Response") if namespace == "srv" else ("Goal", "Result")
+            parts = [f"{full_name}_{suffix}" for suffix in suffixes]
+            raise CodecError(
+                f"register({full_name}): {kind} type has no messages of its own; "
+                f"register the codec for one of its parts, e.g. {parts[0]} or {parts[1]}"
+            )
+        if not self._type_exists(full_name):
+            raise CodecNotFoundError(
+                f"register({full_name}): no such type: not installed, not in generated/ and not "
+                f"registered by definition (wire.register_definition){close_names_hint(full_name)}"
+            )
+        msg_type = getattr(codec, "msg_type", None)
+        try:
+            codec_type = self.resolve(msg_type) if isinstance(msg_type, str) else None
+        except CodecNotFoundError:
+            codec_type = None
+        if codec_type != full_name:
+            raise CodecError(
+                f"register({full_name}): codec {type(codec).__name__} has msg_type "
+                f"{msg_type!r}, expected {full_name!r} (a codec converts the messages of its "
+                "own msg_type)"
+            )
+
+    def _type_exists(self, full_name: str) -> bool:
+        record = self._records.get(full_name)
+        if record is not None and record.wire is not None:
+            return True  # register_definition made it, or its wire codec was found before
+        return generated_has(full_name) or type_installed(full_name)
 
     def unregister(self, type_ref: object) -> None:
         """Remove the user codec of ``type_ref``; lookups fall back to the built-in ones."""

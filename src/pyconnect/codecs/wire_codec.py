@@ -9,7 +9,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from typing import Any, Protocol
 
-from pyconnect.codecs.base import Codec, NaturalCodec
+from pyconnect.codecs.base import Codec, DictCodec, NaturalCodec
 from pyconnect.codecs.cdr_read import DecodeFunction, body_of
 from pyconnect.codecs.cdr_write import HEADER_BE, HEADER_LE, ZEROS
 from pyconnect.codecs.fastdds_size import fastdds_estimated_size
@@ -17,15 +17,18 @@ from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect.codecs.point_cloud import point_cloud_layout
 from pyconnect.codecs.point_cloud_cdr import cloud_cdr, writes_in_one_pass
 from pyconnect.codecs.type_code import WireCode
-from pyconnect.errors import DecodeError, EncodeError
+from pyconnect.errors import CodecNotFoundError, DecodeError, EncodeError
 
 
 class ValueCodecs(Protocol):
-    """What a wire codec needs of its registry: the user or natural codec of a type, if any."""
+    """What a wire codec needs of its registry: the user or natural codec of a type, if any,
+    and the dict codec that reads the message of a user codec without ``to_fields``."""
 
     def value_codec(self, type_ref: object) -> Codec | None: ...
 
     def fields_codec(self, type_ref: object) -> NaturalCodec | None: ...
+
+    def lookup_dict(self, type_ref: object) -> DictCodec: ...
 
 
 class WireCodec:
@@ -113,18 +116,38 @@ class WireCodec:
         return b"".join(out)
 
     def encode(self, value: Any, *, registry: ValueCodecs | None = None) -> bytes:
-        """CDR bytes of a natural value (through the codec's ``to_fields``) or of a dict."""
+        """CDR bytes of a natural value (through the codec's ``to_fields``) or of a dict.
+
+        A user codec without ``to_fields`` (only ``encode``/``decode``) builds its message, whose
+        lossless dict is then written: that path needs the message classes (rclpy).
+        """
         registry = registry or self._registry
         codec = registry.value_codec(self.msg_type)
         if codec is not None:
             natural = registry.fields_codec(self.msg_type)
             if natural is None:
-                raise EncodeError(
-                    f"{self.msg_type}: codec {type(codec).__name__} has no to_fields(value); "
-                    "encode its lossless dict with from_dict instead"
-                )
+                return self.from_dict(self._fields_of_message(codec, value, registry))
             if writes_in_one_pass(natural, value):
                 fields, points = point_cloud_layout(value)
                 return cloud_cdr(self, fields, points)
             value = natural.to_fields(value)
         return self.from_dict(value)
+
+    def _fields_of_message(self, codec: Codec, value: Any, registry: ValueCodecs) -> dict[str, Any]:
+        # The codec's only way to write a value is its message: read that back as fields.
+        name = type(codec).__name__
+        try:
+            dict_codec = registry.lookup_dict(self.msg_type)
+        except (ImportError, CodecNotFoundError) as error:
+            raise EncodeError(
+                f"{self.msg_type}: codec {name} has no to_fields(value), and the message its "
+                f"encode builds cannot be read without the type's class ({error}); give the "
+                "codec to_fields(value) or encode the lossless dict with from_dict"
+            ) from error
+        msg = codec.encode(value)
+        if not isinstance(msg, dict_codec.msg_class):
+            raise EncodeError(
+                f"{self.msg_type}: codec {name}.encode returned {type(msg).__name__}, "
+                f"expected a {self.msg_type} message"
+            )
+        return dict_codec.to_dict(msg)

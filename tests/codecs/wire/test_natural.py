@@ -14,6 +14,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 from pyconnect import codecs
 from pyconnect.codecs import wire
 from pyconnect.codecs.natural import NATURAL_CODECS
+from pyconnect.errors import EncodeError
 from tests.strategies import default_packages, message_dicts
 
 _, TYPES = default_packages()
@@ -88,3 +89,66 @@ def test_natural_false_gives_the_dict_and_an_isolated_registry_is_honoured() -> 
     assert as_dict["angular"] == {"x": 4.0, "y": 5.0, "z": 6.0}
     plain = codecs.Registry(natural=False)
     assert wire.decode(cdr, "geometry_msgs/msg/Twist", registry=plain) == as_dict
+
+
+class TwistAsSpeed:
+    """A user codec as the README shows it: msg_type, lossless, encode, decode (no to_fields)."""
+
+    msg_type = "geometry_msgs/msg/Twist"
+    lossless = False
+
+    def encode(self, value: Any) -> Any:
+        from geometry_msgs.msg import Twist
+
+        msg = Twist()
+        msg.linear.x = float(value["vx"])
+        return msg
+
+    def decode(self, msg: Any) -> Any:
+        return {"vx": msg.linear.x}
+
+
+def test_a_user_codec_without_to_fields_encodes_through_its_message() -> None:
+    from geometry_msgs.msg import Twist
+
+    registry = codecs.Registry()
+    registry.register(Twist, TwistAsSpeed())
+    cdr = wire.encode({"vx": 2.0}, "geometry_msgs/msg/Twist", registry=registry)
+    assert cdr == bytes(serialize_message(TwistAsSpeed().encode({"vx": 2.0})))
+    assert wire.decode(cdr, "geometry_msgs/msg/Twist", registry=registry) == {"vx": 2.0}
+    # The codec's registry is the one asked, as a pub agent asks it.
+    codec = codecs.default_registry.wire_codec("geometry_msgs/msg/Twist")
+    assert codec.encode({"vx": 2.0}, registry=registry) == cdr
+
+
+def test_mcap_recorder_writes_values_of_a_user_codec_without_to_fields(tmp_path: Any) -> None:
+    from geometry_msgs.msg import Twist
+
+    from pyconnect.record.bag_reader import open_bag
+    from pyconnect.record.mcap_recorder import McapRecorder
+
+    registry = codecs.Registry()
+    registry.register(Twist, TwistAsSpeed())
+    with McapRecorder(tmp_path / "a.mcap", registry=registry) as recorder:
+        recorder.add_topic("/cmd", "geometry_msgs/msg/Twist")
+        recorder.write_value("/cmd", {"vx": 2.0}, log_time_ns=1)
+    assert recorder.messages_written == 1
+    with open_bag(tmp_path / "a.mcap", registry=registry) as bag:
+        assert [m.value for m in bag] == [{"vx": 2.0}]
+
+
+def test_a_user_codec_encoding_another_type_is_named() -> None:
+    from std_msgs.msg import String
+
+    class Wrong(TwistAsSpeed):
+        def encode(self, value: Any) -> Any:
+            return String(data="x")
+
+    registry = codecs.Registry()
+    registry.register("geometry_msgs/msg/Twist", Wrong())
+    with pytest.raises(EncodeError) as raised:
+        wire.encode({"vx": 1.0}, "geometry_msgs/msg/Twist", registry=registry)
+    assert str(raised.value) == (
+        "geometry_msgs/msg/Twist: codec Wrong.encode returned String, "
+        "expected a geometry_msgs/msg/Twist message"
+    )

@@ -32,6 +32,28 @@ SCRIPT = textwrap.dedent(
     assert wire.to_dict(joints, "sensor_msgs/msg/JointState")["position"] == [1.5]
     strings = wire.from_dict({"string_value": "x"}, "test_msgs/msg/Strings")
     assert wire.to_dict(strings, "test_msgs/msg/Strings")["string_value"] == "x"
+    # A user codec without to_fields writes through its message: without the class, it says so.
+    from pyconnect.codecs import Registry
+    from pyconnect.errors import EncodeError
+
+    class Plain:
+        msg_type = "std_msgs/msg/String"
+        lossless = True
+        def encode(self, value): raise AssertionError("no message class to build")
+        def decode(self, msg): return msg.data
+
+    registry = Registry()
+    registry.register("std_msgs/msg/String", Plain())
+    assert wire.decode(wire.from_dict({"data": "y"}, "std_msgs/msg/String"),
+                       "std_msgs/msg/String", registry=registry) == "y"
+    try:
+        wire.encode("x", "std_msgs/msg/String", registry=registry)
+    except EncodeError as error:
+        assert str(error).startswith(
+            "std_msgs/msg/String: codec Plain has no to_fields(value), and the message its "
+            "encode builds cannot be read without the type's class"), error
+    else:
+        raise AssertionError("no EncodeError")
     leaked = sorted(m for m in sys.modules if m.split(".")[0] in HIDDEN)
     assert not leaked, leaked
     print("ok")
