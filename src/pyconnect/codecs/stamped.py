@@ -90,6 +90,14 @@ def encode_stamped(codec: Codec, stamped: Stamped[Any]) -> Any:
     return msg
 
 
+def stamped_header(stamped: Stamped[Any]) -> dict[str, Any]:
+    """The lossless dict of the header a ``Stamped`` value's message carries (checked)."""
+    from pyconnect.codecs.field_checks import check_str
+
+    check_str(stamped.frame_id, None, "Stamped.frame_id")
+    return {"stamp": _time_fields(stamped.stamp_ns), "frame_id": stamped.frame_id}
+
+
 def _time_fields(stamp_ns: Any) -> dict[str, int]:
     """The header's sec/nanosec of ``stamp_ns``, checked: rclpy's setters check nothing, so a
     stamp past 2038 wrapped to 1901 on the wire and a float failed inside serialisation."""

@@ -16,6 +16,7 @@ from pyconnect.codecs.fastdds_size import fastdds_estimated_size
 from pyconnect.codecs.field_path import FieldError, WireDecodeError
 from pyconnect.codecs.point_cloud import point_cloud_layout
 from pyconnect.codecs.point_cloud_cdr import cloud_cdr, writes_in_one_pass
+from pyconnect.codecs.stamped import Stamped, stamped_header
 from pyconnect.codecs.type_code import WireCode
 from pyconnect.errors import CodecNotFoundError, DecodeError, EncodeError
 
@@ -122,6 +123,8 @@ class WireCodec:
         lossless dict is then written: that path needs the message classes (rclpy).
         """
         registry = registry or self._registry
+        if isinstance(value, Stamped):
+            return self.from_dict(self._stamped_fields(value, registry))
         codec = registry.value_codec(self.msg_type)
         if codec is not None:
             natural = registry.fields_codec(self.msg_type)
@@ -132,6 +135,32 @@ class WireCodec:
                 return cloud_cdr(self, fields, points)
             value = natural.to_fields(value)
         return self.from_dict(value)
+
+    def _stamped_fields(self, stamped: Stamped[Any], registry: ValueCodecs) -> dict[str, Any]:
+        """The fields of a ``Stamped`` value: its value's, with its stamp and frame in the
+        header (as ``codecs.encode`` writes them into the message)."""
+        header = next(
+            (
+                field[0]
+                for field in self._definitions[self.msg_type][1]
+                if field[2] == "std_msgs/msg/Header" and field[4] == "single"
+            ),
+            None,
+        )
+        if header is None:
+            raise EncodeError(
+                f"{self.msg_type}: has no std_msgs/Header, so it cannot take a Stamped"
+            )
+        codec = registry.value_codec(self.msg_type)
+        natural = registry.fields_codec(self.msg_type)
+        if natural is not None:
+            fields = dict(natural.to_fields(stamped.value))
+        elif codec is not None:
+            fields = self._fields_of_message(codec, stamped.value, registry)
+        else:
+            fields = dict(stamped.value)
+        fields[header] = stamped_header(stamped)
+        return fields
 
     def _fields_of_message(self, codec: Codec, value: Any, registry: ValueCodecs) -> dict[str, Any]:
         # The codec's only way to write a value is its message: read that back as fields.

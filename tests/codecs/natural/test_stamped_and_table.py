@@ -153,8 +153,9 @@ def test_a_stamp_that_does_not_fit_a_header_is_refused(stamp_ns: object, error: 
     with pytest.raises(EncodeError) as caught:
         codecs.encode(value, PoseStamped)
     assert str(caught.value) == error
-    with pytest.raises(EncodeError):
+    with pytest.raises(EncodeError) as caught:
         wire.encode(value, "geometry_msgs/msg/PoseStamped")
+    assert str(caught.value) == error
 
 
 def test_a_numpy_integer_stamp_is_an_int() -> None:
@@ -189,3 +190,36 @@ def test_an_error_inside_a_stamped_type_names_its_whole_path(
     with pytest.raises(EncodeError) as caught:
         wire.encode(value, type_name)
     assert str(caught.value) == error
+
+
+@pytest.mark.parametrize(
+    ("type_name", "value"),
+    [
+        ("geometry_msgs/msg/TwistStamped", ((1.0, 2.0, 3.0), (0.0, 0.0, 0.5))),
+        ("geometry_msgs/msg/PoseStamped", ((1.0, 2.0, 3.0), (0.0, 0.0, 0.0, 1.0))),
+        ("sensor_msgs/msg/Image", np.zeros((2, 3), np.uint8)),
+    ],
+)
+def test_the_wire_path_writes_a_stamped_value_as_the_message_path(
+    type_name: str, value: object
+) -> None:
+    # A Peer's pub and wire.encode refused a Stamped ("Twist: expected ..., got Stamped").
+    from rclpy.serialization import deserialize_message, serialize_message
+
+    from pyconnect.codecs import wire
+
+    stamped = Stamped(value, 5_000_000_001, "base")
+    msg_class = type(codecs.encode(stamped, type_name))
+    cdr = wire.encode(stamped, type_name)
+    assert deserialize_message(cdr, msg_class) == deserialize_message(
+        serialize_message(codecs.encode(stamped, type_name)), msg_class
+    )
+
+
+def test_the_wire_path_refuses_a_stamped_value_for_a_type_without_header() -> None:
+    from pyconnect.codecs import wire
+
+    with pytest.raises(EncodeError) as caught:
+        wire.encode(Stamped("hi", 0, ""), "std_msgs/msg/String")
+    assert str(caught.value) == "std_msgs/msg/String: has no std_msgs/Header, so it cannot take a Stamped"
+
