@@ -37,3 +37,11 @@ def test_reading_a_bag_imports_no_recorder_logger_or_exporter() -> None:
     assert "pyconnect.record.bag_reader" in loaded
     for writer in ("mcap_recorder", "log_writer", "bag_export", "tables"):
         assert f"pyconnect.record.{writer}'" not in loaded
+
+
+def test_the_names_the_readme_imports_from_the_package_are_there() -> None:
+    # README: "align_table(...) gives the matches as one Arrow table", beside align.
+    from pyconnect.record import align, align_table, open_bag
+
+    assert align.__module__ == align_table.__module__ == "pyconnect.record.align"
+    assert callable(open_bag)

@@ -19,7 +19,7 @@ from __future__ import annotations
 import importlib
 from typing import TYPE_CHECKING, Any
 
-from pyconnect.record.align import align
+from pyconnect.record.align import align, align_table
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_reader import (
     BagInfo,
@@ -50,6 +50,7 @@ _HOMES = {
     "MessageLogger": "log_writer",
     "TopicInfo": "bag_reader",
     "align": "align",
+    "align_table": "align",
     "bag_info": "bag_reader",
     "export_topic": "bag_export",
     "make_log_dirs": "log_dirs",
@@ -69,6 +70,7 @@ __all__ = [
     "MessageLogger",
     "TopicInfo",
     "align",
+    "align_table",
     "bag_info",
     "export_topic",
     "make_log_dirs",
