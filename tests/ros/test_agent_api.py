@@ -47,6 +47,9 @@ def test_make_agent_takes_the_designs_config_dict(make_node: Any) -> None:
     node = make_node()
     agent = make_agent(node, {"conn_name": "chatter", "conn_type": "pub", "data_interface": String})
     assert agent.topic == "/chatter"
+    # The node owns it (DESIGN: make_agent(node, {...}); node.listen(...)): it was built but
+    # left out of node.agents, so wait_until_connected ignored it and shutdown never closed it.
+    assert node.agents["chatter"] is agent
     # The dict and keywords mix; keywords win.
     other = node.add_agent(
         {"conn_name": "x", "conn_type": "sub", "data_interface": Trigger},

@@ -34,7 +34,7 @@ AGENT_CLASS_DICT: dict[str, type[NodeAgent]] = {
     "timer": TimerAgent,
 }
 
-__all__ = ["AGENT_CLASS_DICT", "make_agent", "options_of", "shared_options_for"]
+__all__ = ["AGENT_CLASS_DICT", "build_agent", "make_agent", "options_of", "shared_options_for"]
 
 
 def make_agent(
@@ -43,14 +43,26 @@ def make_agent(
     /,
     **options: Unpack[AgentOptions],
 ) -> NodeAgent:
-    """Build the agent a config describes: a dict, keywords, or both (keywords win).
+    """Make the agent a config describes on ``node``: a dict, keywords, or both (keywords win).
 
     ``make_agent(node, {'conn_name': 'chatter', 'conn_type': 'pub', ...})`` or
-    ``make_agent(node, conn_name='chatter', conn_type='pub', ...)``. An unknown ``conn_type``
+    ``make_agent(node, conn_name='chatter', conn_type='pub', ...)``. On a ``CustomNode`` (any
+    host with ``add_agent``) it is ``node.add_agent(...)``: the agent is ``node.agents[name]``,
+    ``wait_until_connected`` waits for it and shutdown closes it. An unknown ``conn_type``
     raises ``PyconnectError``; an unknown, unused or missing option raises ``OptionError`` (a
     ``TypeError``) naming it.
     """
-    given: dict[str, Any] = {**(config or {}), **options}
+    add_agent = getattr(node, "add_agent", None)
+    if callable(add_agent):
+        agent: NodeAgent = add_agent(config, **options)
+        return agent
+    return build_agent(node, {**(config or {}), **options})
+
+
+def build_agent(node: AgentHost, given: Mapping[str, Any]) -> NodeAgent:
+    """The agent ``given`` (a config's options) describes, built on ``node`` (not registered
+    in ``node.agents``: ``CustomNode.add_agent`` does that)."""
+    given = dict(given)
     conn_name = given.pop("conn_name", None)
     conn_type = given.pop("conn_type", None)
     agent_name = given.pop("agent_name", None)

@@ -39,7 +39,7 @@ from rclpy.node import Node
 from pyconnect.codecs.registry import Registry, default_registry
 from pyconnect.errors import ConnectionTimeout, PyconnectError
 from pyconnect.ros.agent_executor import AgentExecutor
-from pyconnect.ros.agent_factory import make_agent, shared_options_for
+from pyconnect.ros.agent_factory import build_agent, shared_options_for
 from pyconnect.ros.agent_options import AgentOptions
 from pyconnect.ros.coroutines import CoroutineRunner
 from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER
@@ -176,7 +176,7 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
                     f"agent {key!r}: node {self.name!r} already has an agent of that name; "
                     "give one of them agent_name="
                 )
-            agent = make_agent(self, given)
+            agent = build_agent(self, given)
             self.agents[agent.name] = agent
         # Wraps the new entities' callbacks (the executor watches for long ones).
         self._executor.adopt(self)
