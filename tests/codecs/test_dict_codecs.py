@@ -103,6 +103,39 @@ def test_uint8_data_is_bytes() -> None:
     )
 
 
+# Every form rclpy's setters and serialiser take for an octet sequence: the list of one-byte
+# bytes it deserialises to, a tuple of them, and bytes-like objects assigned directly.
+OCTET_FORMS = [
+    pytest.param([b"a", b"\x00", b"\xff"], id="list"),
+    pytest.param((b"a", b"\x00", b"\xff"), id="tuple"),
+    pytest.param(b"a\x00\xff", id="bytes"),
+    pytest.param(bytearray(b"a\x00\xff"), id="bytearray"),
+    pytest.param(memoryview(b"a\x00\xff"), id="memoryview"),
+]
+OCTET_FIELDS = [
+    ("std_msgs/msg/ByteMultiArray", "data"),
+    ("rcl_interfaces/msg/ParameterValue", "byte_array_value"),
+    ("test_msgs/msg/BoundedSequences", "byte_values"),
+]  # Not fixed byte[N] arrays: rclpy serialises bytes-like ones there as garbage.
+
+
+@pytest.mark.parametrize("value", OCTET_FORMS)
+@pytest.mark.parametrize(("type_name", "field"), OCTET_FIELDS)
+def test_octet_sequence_to_dict_takes_every_rclpy_form(
+    type_name: str, field: str, value: Any
+) -> None:
+    msg_class = GENERATED[type_name][0]
+    msg = msg_class()
+    setattr(msg, field, value)
+    # What rclpy itself makes of the field: its serialiser's bytes, read back as a message.
+    wire = rclpy_serialization.serialize_message(msg)
+    expected = rclpy_serialization.deserialize_message(wire, msg_class)
+    data = codecs.to_dict(msg)
+    assert type(data[field]) is bytes
+    assert data[field] == b"".join(getattr(expected, field)) == b"a\x00\xff"
+    assert codecs.from_dict(data, msg_class) == expected
+
+
 ERRORS = [
     ("sensor_msgs/msg/JointState", {"position": [0.0, 1.0, 2.0, "x"]},
      "JointState.position[3]: expected float, got str"),

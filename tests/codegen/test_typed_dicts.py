@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import importlib
 from pathlib import Path
 
 import pytest
 from mypy import api
 
-GENERATED = Path(__file__).resolve().parents[2] / "generated"
+ROOT = Path(__file__).resolve().parents[2]
+GENERATED = ROOT / "generated"
 USE = """
 from sensor_msgs.msg import JointState
 from pyconnect_generated.sensor_msgs.dict_codecs import joint_state_to_dict
@@ -34,4 +36,34 @@ def test_to_dict_results_are_typed(tmp_path: Path, monkeypatch: pytest.MonkeyPat
     assert errors == [
         'Incompatible types in assignment (expression has type "list[float]", variable has type "str")  [assignment]',
         'TypedDict "JointStateDict" has no key "positon"  [typeddict-item]',
+    ]
+
+
+def test_docstring_example_type_checks(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # The module docstring shows how to get a TypedDict from codecs.to_dict (which returns
+    # dict[str, Any]): its example must pass mypy --strict, and the bare assignment must not.
+    module = importlib.import_module("pyconnect_generated.sensor_msgs.typed_dicts")
+    examples = [
+        line.strip() for line in (module.__doc__ or "").splitlines() if line.startswith("    ")
+    ]
+    assert examples == ["d = cast(BatteryStateDict, codecs.to_dict(msg))"]
+    monkeypatch.setenv("MYPYPATH", f"{GENERATED}:{ROOT / 'src'}")
+    script = tmp_path / "use.py"
+    script.write_text(
+        "from typing import cast\n"
+        "from pyconnect import codecs\n"
+        "from pyconnect_generated.sensor_msgs.typed_dicts import BatteryStateDict\n"
+        "msg = object()\n"
+        f"{examples[0]}\n"
+        "voltage: float = d['voltage']\n"
+        "bare: BatteryStateDict = codecs.to_dict(msg)\n"
+    )
+    out, _, status = api.run([
+        "--strict", "--no-incremental", "--ignore-missing-imports", "--follow-imports=silent",
+        "--cache-dir", str(tmp_path / "cache"), "--config-file", "", str(script),
+    ])  # fmt: skip
+    errors = [line.split(": error: ", 1)[1] for line in out.splitlines() if ": error: " in line]
+    assert status == 1
+    assert errors == [
+        'Incompatible types in assignment (expression has type "dict[str, Any]", variable has type "BatteryStateDict")  [assignment]',
     ]

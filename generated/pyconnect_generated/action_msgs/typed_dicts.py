@@ -14,7 +14,14 @@
 #     RIHS01_178f81615ce6be41ad328211d7a56b08b00e73f41f0b8aec256b2f3ff97a5e7e
 """TypedDicts of the action_msgs dict shapes.
 
-They let ``to_dict`` results type-check.
+``codecs.to_dict`` returns ``dict[str, Any]``; a type checker takes it as one of these only
+through ``cast``:
+
+    d = cast(GoalInfoDict, codecs.to_dict(msg))
+
+The ``*_to_dict`` functions of this package's ``dict_codecs`` return them as they are. Every key
+is required, so a dict you build for ``from_dict`` (which takes any ``Mapping[str, Any]``)
+checks against one only when it is complete.
 """
 
 from __future__ import annotations

@@ -66,7 +66,14 @@
 #     RIHS01_8dc3deaf06b2ab281f9f9a742a8961c328ca7cec16e3fd6586d3a5c83fa78f77
 """TypedDicts of the geometry_msgs dict shapes.
 
-They let ``to_dict`` results type-check.
+``codecs.to_dict`` returns ``dict[str, Any]``; a type checker takes it as one of these only
+through ``cast``:
+
+    d = cast(AccelDict, codecs.to_dict(msg))
+
+The ``*_to_dict`` functions of this package's ``dict_codecs`` return them as they are. Every key
+is required, so a dict you build for ``from_dict`` (which takes any ``Mapping[str, Any]``)
+checks against one only when it is complete.
 """
 
 from __future__ import annotations

@@ -38,7 +38,14 @@
 #     RIHS01_68371c7e20b5f04c60581c63c676a033f4530beb507dbb88732cdd5750d60d7f
 """TypedDicts of the nav_msgs dict shapes.
 
-They let ``to_dict`` results type-check.
+``codecs.to_dict`` returns ``dict[str, Any]``; a type checker takes it as one of these only
+through ``cast``:
+
+    d = cast(GoalsDict, codecs.to_dict(msg))
+
+The ``*_to_dict`` functions of this package's ``dict_codecs`` return them as they are. Every key
+is required, so a dict you build for ``from_dict`` (which takes any ``Mapping[str, Any]``)
+checks against one only when it is complete.
 """
 
 from __future__ import annotations

@@ -463,7 +463,12 @@ def parameter_to_dict(msg: Any) -> ParameterDict:
             "integer_value": msg._value._integer_value,
             "double_value": msg._value._double_value,
             "string_value": msg._value._string_value,
-            "byte_array_value": b"".join(msg._value._byte_array_value),
+            "byte_array_value": (
+                b"".join(msg._value._byte_array_value)
+                if msg._value._byte_array_value.__class__ is list
+                or msg._value._byte_array_value.__class__ is tuple
+                else bytes(msg._value._byte_array_value)
+            ),
             "bool_array_value": list(msg._value._bool_array_value),
             "integer_array_value": msg._value._integer_array_value.tolist(),
             "double_array_value": msg._value._double_array_value.tolist(),
@@ -616,7 +621,12 @@ def parameter_event_to_dict(msg: Any) -> ParameterEventDict:
                     "integer_value": e0._value._integer_value,
                     "double_value": e0._value._double_value,
                     "string_value": e0._value._string_value,
-                    "byte_array_value": b"".join(e0._value._byte_array_value),
+                    "byte_array_value": (
+                        b"".join(e0._value._byte_array_value)
+                        if e0._value._byte_array_value.__class__ is list
+                        or e0._value._byte_array_value.__class__ is tuple
+                        else bytes(e0._value._byte_array_value)
+                    ),
                     "bool_array_value": list(e0._value._bool_array_value),
                     "integer_array_value": e0._value._integer_array_value.tolist(),
                     "double_array_value": e0._value._double_array_value.tolist(),
@@ -634,7 +644,12 @@ def parameter_event_to_dict(msg: Any) -> ParameterEventDict:
                     "integer_value": e0._value._integer_value,
                     "double_value": e0._value._double_value,
                     "string_value": e0._value._string_value,
-                    "byte_array_value": b"".join(e0._value._byte_array_value),
+                    "byte_array_value": (
+                        b"".join(e0._value._byte_array_value)
+                        if e0._value._byte_array_value.__class__ is list
+                        or e0._value._byte_array_value.__class__ is tuple
+                        else bytes(e0._value._byte_array_value)
+                    ),
                     "bool_array_value": list(e0._value._bool_array_value),
                     "integer_array_value": e0._value._integer_array_value.tolist(),
                     "double_array_value": e0._value._double_array_value.tolist(),
@@ -652,7 +667,12 @@ def parameter_event_to_dict(msg: Any) -> ParameterEventDict:
                     "integer_value": e0._value._integer_value,
                     "double_value": e0._value._double_value,
                     "string_value": e0._value._string_value,
-                    "byte_array_value": b"".join(e0._value._byte_array_value),
+                    "byte_array_value": (
+                        b"".join(e0._value._byte_array_value)
+                        if e0._value._byte_array_value.__class__ is list
+                        or e0._value._byte_array_value.__class__ is tuple
+                        else bytes(e0._value._byte_array_value)
+                    ),
                     "bool_array_value": list(e0._value._bool_array_value),
                     "integer_array_value": e0._value._integer_array_value.tolist(),
                     "double_array_value": e0._value._double_array_value.tolist(),
@@ -879,7 +899,11 @@ def parameter_value_to_dict(msg: Any) -> ParameterValueDict:
         "integer_value": msg._integer_value,
         "double_value": msg._double_value,
         "string_value": msg._string_value,
-        "byte_array_value": b"".join(msg._byte_array_value),
+        "byte_array_value": (
+            b"".join(msg._byte_array_value)
+            if msg._byte_array_value.__class__ is list or msg._byte_array_value.__class__ is tuple
+            else bytes(msg._byte_array_value)
+        ),
         "bool_array_value": list(msg._bool_array_value),
         "integer_array_value": msg._integer_array_value.tolist(),
         "double_array_value": msg._double_array_value.tolist(),
@@ -1579,7 +1603,12 @@ def get_parameters_response_to_dict(msg: Any) -> GetParametersResponseDict:
                 "integer_value": e0._integer_value,
                 "double_value": e0._double_value,
                 "string_value": e0._string_value,
-                "byte_array_value": b"".join(e0._byte_array_value),
+                "byte_array_value": (
+                    b"".join(e0._byte_array_value)
+                    if e0._byte_array_value.__class__ is list
+                    or e0._byte_array_value.__class__ is tuple
+                    else bytes(e0._byte_array_value)
+                ),
                 "bool_array_value": list(e0._bool_array_value),
                 "integer_array_value": e0._integer_array_value.tolist(),
                 "double_array_value": e0._double_array_value.tolist(),
@@ -1644,7 +1673,12 @@ def get_parameters_event_to_dict(msg: Any) -> GetParametersEventDict:
                         "integer_value": e1._integer_value,
                         "double_value": e1._double_value,
                         "string_value": e1._string_value,
-                        "byte_array_value": b"".join(e1._byte_array_value),
+                        "byte_array_value": (
+                            b"".join(e1._byte_array_value)
+                            if e1._byte_array_value.__class__ is list
+                            or e1._byte_array_value.__class__ is tuple
+                            else bytes(e1._byte_array_value)
+                        ),
                         "bool_array_value": list(e1._bool_array_value),
                         "integer_array_value": e1._integer_array_value.tolist(),
                         "double_array_value": e1._double_array_value.tolist(),
@@ -2009,7 +2043,12 @@ def set_parameters_request_to_dict(msg: Any) -> SetParametersRequestDict:
                     "integer_value": e0._value._integer_value,
                     "double_value": e0._value._double_value,
                     "string_value": e0._value._string_value,
-                    "byte_array_value": b"".join(e0._value._byte_array_value),
+                    "byte_array_value": (
+                        b"".join(e0._value._byte_array_value)
+                        if e0._value._byte_array_value.__class__ is list
+                        or e0._value._byte_array_value.__class__ is tuple
+                        else bytes(e0._value._byte_array_value)
+                    ),
                     "bool_array_value": list(e0._value._bool_array_value),
                     "integer_array_value": e0._value._integer_array_value.tolist(),
                     "double_array_value": e0._value._double_array_value.tolist(),
@@ -2111,7 +2150,12 @@ def set_parameters_event_to_dict(msg: Any) -> SetParametersEventDict:
                             "integer_value": e1._value._integer_value,
                             "double_value": e1._value._double_value,
                             "string_value": e1._value._string_value,
-                            "byte_array_value": b"".join(e1._value._byte_array_value),
+                            "byte_array_value": (
+                                b"".join(e1._value._byte_array_value)
+                                if e1._value._byte_array_value.__class__ is list
+                                or e1._value._byte_array_value.__class__ is tuple
+                                else bytes(e1._value._byte_array_value)
+                            ),
                             "bool_array_value": list(e1._value._bool_array_value),
                             "integer_array_value": e1._value._integer_array_value.tolist(),
                             "double_array_value": e1._value._double_array_value.tolist(),
@@ -2187,7 +2231,12 @@ def set_parameters_atomically_request_to_dict(msg: Any) -> SetParametersAtomical
                     "integer_value": e0._value._integer_value,
                     "double_value": e0._value._double_value,
                     "string_value": e0._value._string_value,
-                    "byte_array_value": b"".join(e0._value._byte_array_value),
+                    "byte_array_value": (
+                        b"".join(e0._value._byte_array_value)
+                        if e0._value._byte_array_value.__class__ is list
+                        or e0._value._byte_array_value.__class__ is tuple
+                        else bytes(e0._value._byte_array_value)
+                    ),
                     "bool_array_value": list(e0._value._bool_array_value),
                     "integer_array_value": e0._value._integer_array_value.tolist(),
                     "double_array_value": e0._value._double_array_value.tolist(),
@@ -2284,7 +2333,12 @@ def set_parameters_atomically_event_to_dict(msg: Any) -> SetParametersAtomically
                             "integer_value": e1._value._integer_value,
                             "double_value": e1._value._double_value,
                             "string_value": e1._value._string_value,
-                            "byte_array_value": b"".join(e1._value._byte_array_value),
+                            "byte_array_value": (
+                                b"".join(e1._value._byte_array_value)
+                                if e1._value._byte_array_value.__class__ is list
+                                or e1._value._byte_array_value.__class__ is tuple
+                                else bytes(e1._value._byte_array_value)
+                            ),
                             "bool_array_value": list(e1._value._bool_array_value),
                             "integer_array_value": e1._value._integer_array_value.tolist(),
                             "double_array_value": e1._value._double_array_value.tolist(),

@@ -251,7 +251,11 @@ def byte_multi_array_to_dict(msg: Any) -> ByteMultiArrayDict:
             ],
             "data_offset": msg._layout._data_offset,
         },
-        "data": b"".join(msg._data),
+        "data": (
+            b"".join(msg._data)
+            if msg._data.__class__ is list or msg._data.__class__ is tuple
+            else bytes(msg._data)
+        ),
     }
 
 

@@ -62,7 +62,14 @@
 #     RIHS01_5687e861b8d307a5e48b7515467ae7a5fc2daf805bd0ce6d8e9e604bade9f385
 """TypedDicts of the std_msgs dict shapes.
 
-They let ``to_dict`` results type-check.
+``codecs.to_dict`` returns ``dict[str, Any]``; a type checker takes it as one of these only
+through ``cast``:
+
+    d = cast(BoolDict, codecs.to_dict(msg))
+
+The ``*_to_dict`` functions of this package's ``dict_codecs`` return them as they are. Every key
+is required, so a dict you build for ``from_dict`` (which takes any ``Mapping[str, Any]``)
+checks against one only when it is complete.
 """
 
 from __future__ import annotations

@@ -239,7 +239,11 @@ def arrays_to_dict(msg: Any) -> ArraysDict:
     """The lossless dict of a test_msgs/msg/Arrays."""
     return {
         "bool_values": list(msg._bool_values),
-        "byte_values": b"".join(msg._byte_values),
+        "byte_values": (
+            b"".join(msg._byte_values)
+            if msg._byte_values.__class__ is list or msg._byte_values.__class__ is tuple
+            else bytes(msg._byte_values)
+        ),
         "char_values": msg._char_values.tobytes(),
         "float32_values": msg._float32_values.tolist(),
         "float64_values": msg._float64_values.tolist(),
@@ -290,7 +294,12 @@ def arrays_to_dict(msg: Any) -> ArraysDict:
             for e0 in msg._defaults_values
         ],
         "bool_values_default": list(msg._bool_values_default),
-        "byte_values_default": b"".join(msg._byte_values_default),
+        "byte_values_default": (
+            b"".join(msg._byte_values_default)
+            if msg._byte_values_default.__class__ is list
+            or msg._byte_values_default.__class__ is tuple
+            else bytes(msg._byte_values_default)
+        ),
         "char_values_default": msg._char_values_default.tobytes(),
         "float32_values_default": msg._float32_values_default.tolist(),
         "float64_values_default": msg._float64_values_default.tolist(),
@@ -769,7 +778,11 @@ def bounded_plain_sequences_to_dict(msg: Any) -> BoundedPlainSequencesDict:
     """The lossless dict of a test_msgs/msg/BoundedPlainSequences."""
     return {
         "bool_values": list(msg._bool_values),
-        "byte_values": b"".join(msg._byte_values),
+        "byte_values": (
+            b"".join(msg._byte_values)
+            if msg._byte_values.__class__ is list or msg._byte_values.__class__ is tuple
+            else bytes(msg._byte_values)
+        ),
         "char_values": msg._char_values.tobytes(),
         "float32_values": msg._float32_values.tolist(),
         "float64_values": msg._float64_values.tolist(),
@@ -819,7 +832,12 @@ def bounded_plain_sequences_to_dict(msg: Any) -> BoundedPlainSequencesDict:
             for e0 in msg._defaults_values
         ],
         "bool_values_default": list(msg._bool_values_default),
-        "byte_values_default": b"".join(msg._byte_values_default),
+        "byte_values_default": (
+            b"".join(msg._byte_values_default)
+            if msg._byte_values_default.__class__ is list
+            or msg._byte_values_default.__class__ is tuple
+            else bytes(msg._byte_values_default)
+        ),
         "char_values_default": msg._char_values_default.tobytes(),
         "float32_values_default": msg._float32_values_default.tolist(),
         "float64_values_default": msg._float64_values_default.tolist(),
@@ -1155,7 +1173,11 @@ def bounded_sequences_to_dict(msg: Any) -> BoundedSequencesDict:
     """The lossless dict of a test_msgs/msg/BoundedSequences."""
     return {
         "bool_values": list(msg._bool_values),
-        "byte_values": b"".join(msg._byte_values),
+        "byte_values": (
+            b"".join(msg._byte_values)
+            if msg._byte_values.__class__ is list or msg._byte_values.__class__ is tuple
+            else bytes(msg._byte_values)
+        ),
         "char_values": msg._char_values.tobytes(),
         "float32_values": msg._float32_values.tolist(),
         "float64_values": msg._float64_values.tolist(),
@@ -1206,7 +1228,12 @@ def bounded_sequences_to_dict(msg: Any) -> BoundedSequencesDict:
             for e0 in msg._defaults_values
         ],
         "bool_values_default": list(msg._bool_values_default),
-        "byte_values_default": b"".join(msg._byte_values_default),
+        "byte_values_default": (
+            b"".join(msg._byte_values_default)
+            if msg._byte_values_default.__class__ is list
+            or msg._byte_values_default.__class__ is tuple
+            else bytes(msg._byte_values_default)
+        ),
         "char_values_default": msg._char_values_default.tobytes(),
         "float32_values_default": msg._float32_values_default.tolist(),
         "float64_values_default": msg._float64_values_default.tolist(),
@@ -1764,7 +1791,11 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
         "array_of_arrays": [
             {
                 "bool_values": list(e0._bool_values),
-                "byte_values": b"".join(e0._byte_values),
+                "byte_values": (
+                    b"".join(e0._byte_values)
+                    if e0._byte_values.__class__ is list or e0._byte_values.__class__ is tuple
+                    else bytes(e0._byte_values)
+                ),
                 "char_values": e0._char_values.tobytes(),
                 "float32_values": e0._float32_values.tolist(),
                 "float64_values": e0._float64_values.tolist(),
@@ -1815,7 +1846,12 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
                     for e1 in e0._defaults_values
                 ],
                 "bool_values_default": list(e0._bool_values_default),
-                "byte_values_default": b"".join(e0._byte_values_default),
+                "byte_values_default": (
+                    b"".join(e0._byte_values_default)
+                    if e0._byte_values_default.__class__ is list
+                    or e0._byte_values_default.__class__ is tuple
+                    else bytes(e0._byte_values_default)
+                ),
                 "char_values_default": e0._char_values_default.tobytes(),
                 "float32_values_default": e0._float32_values_default.tolist(),
                 "float64_values_default": e0._float64_values_default.tolist(),
@@ -1835,7 +1871,11 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
         "array_of_bounded_sequences": [
             {
                 "bool_values": list(e0._bool_values),
-                "byte_values": b"".join(e0._byte_values),
+                "byte_values": (
+                    b"".join(e0._byte_values)
+                    if e0._byte_values.__class__ is list or e0._byte_values.__class__ is tuple
+                    else bytes(e0._byte_values)
+                ),
                 "char_values": e0._char_values.tobytes(),
                 "float32_values": e0._float32_values.tolist(),
                 "float64_values": e0._float64_values.tolist(),
@@ -1886,7 +1926,12 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
                     for e1 in e0._defaults_values
                 ],
                 "bool_values_default": list(e0._bool_values_default),
-                "byte_values_default": b"".join(e0._byte_values_default),
+                "byte_values_default": (
+                    b"".join(e0._byte_values_default)
+                    if e0._byte_values_default.__class__ is list
+                    or e0._byte_values_default.__class__ is tuple
+                    else bytes(e0._byte_values_default)
+                ),
                 "char_values_default": e0._char_values_default.tobytes(),
                 "float32_values_default": e0._float32_values_default.tolist(),
                 "float64_values_default": e0._float64_values_default.tolist(),
@@ -1906,7 +1951,11 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
         "array_of_unbounded_sequences": [
             {
                 "bool_values": list(e0._bool_values),
-                "byte_values": b"".join(e0._byte_values),
+                "byte_values": (
+                    b"".join(e0._byte_values)
+                    if e0._byte_values.__class__ is list or e0._byte_values.__class__ is tuple
+                    else bytes(e0._byte_values)
+                ),
                 "char_values": e0._char_values.tobytes(),
                 "float32_values": e0._float32_values.tolist(),
                 "float64_values": e0._float64_values.tolist(),
@@ -1957,7 +2006,12 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
                     for e1 in e0._defaults_values
                 ],
                 "bool_values_default": list(e0._bool_values_default),
-                "byte_values_default": b"".join(e0._byte_values_default),
+                "byte_values_default": (
+                    b"".join(e0._byte_values_default)
+                    if e0._byte_values_default.__class__ is list
+                    or e0._byte_values_default.__class__ is tuple
+                    else bytes(e0._byte_values_default)
+                ),
                 "char_values_default": e0._char_values_default.tobytes(),
                 "float32_values_default": e0._float32_values_default.tolist(),
                 "float64_values_default": e0._float64_values_default.tolist(),
@@ -1977,7 +2031,11 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
         "bounded_sequence_of_arrays": [
             {
                 "bool_values": list(e0._bool_values),
-                "byte_values": b"".join(e0._byte_values),
+                "byte_values": (
+                    b"".join(e0._byte_values)
+                    if e0._byte_values.__class__ is list or e0._byte_values.__class__ is tuple
+                    else bytes(e0._byte_values)
+                ),
                 "char_values": e0._char_values.tobytes(),
                 "float32_values": e0._float32_values.tolist(),
                 "float64_values": e0._float64_values.tolist(),
@@ -2028,7 +2086,12 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
                     for e1 in e0._defaults_values
                 ],
                 "bool_values_default": list(e0._bool_values_default),
-                "byte_values_default": b"".join(e0._byte_values_default),
+                "byte_values_default": (
+                    b"".join(e0._byte_values_default)
+                    if e0._byte_values_default.__class__ is list
+                    or e0._byte_values_default.__class__ is tuple
+                    else bytes(e0._byte_values_default)
+                ),
                 "char_values_default": e0._char_values_default.tobytes(),
                 "float32_values_default": e0._float32_values_default.tolist(),
                 "float64_values_default": e0._float64_values_default.tolist(),
@@ -2048,7 +2111,11 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
         "bounded_sequence_of_bounded_sequences": [
             {
                 "bool_values": list(e0._bool_values),
-                "byte_values": b"".join(e0._byte_values),
+                "byte_values": (
+                    b"".join(e0._byte_values)
+                    if e0._byte_values.__class__ is list or e0._byte_values.__class__ is tuple
+                    else bytes(e0._byte_values)
+                ),
                 "char_values": e0._char_values.tobytes(),
                 "float32_values": e0._float32_values.tolist(),
                 "float64_values": e0._float64_values.tolist(),
@@ -2099,7 +2166,12 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
                     for e1 in e0._defaults_values
                 ],
                 "bool_values_default": list(e0._bool_values_default),
-                "byte_values_default": b"".join(e0._byte_values_default),
+                "byte_values_default": (
+                    b"".join(e0._byte_values_default)
+                    if e0._byte_values_default.__class__ is list
+                    or e0._byte_values_default.__class__ is tuple
+                    else bytes(e0._byte_values_default)
+                ),
                 "char_values_default": e0._char_values_default.tobytes(),
                 "float32_values_default": e0._float32_values_default.tolist(),
                 "float64_values_default": e0._float64_values_default.tolist(),
@@ -2119,7 +2191,11 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
         "bounded_sequence_of_unbounded_sequences": [
             {
                 "bool_values": list(e0._bool_values),
-                "byte_values": b"".join(e0._byte_values),
+                "byte_values": (
+                    b"".join(e0._byte_values)
+                    if e0._byte_values.__class__ is list or e0._byte_values.__class__ is tuple
+                    else bytes(e0._byte_values)
+                ),
                 "char_values": e0._char_values.tobytes(),
                 "float32_values": e0._float32_values.tolist(),
                 "float64_values": e0._float64_values.tolist(),
@@ -2170,7 +2246,12 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
                     for e1 in e0._defaults_values
                 ],
                 "bool_values_default": list(e0._bool_values_default),
-                "byte_values_default": b"".join(e0._byte_values_default),
+                "byte_values_default": (
+                    b"".join(e0._byte_values_default)
+                    if e0._byte_values_default.__class__ is list
+                    or e0._byte_values_default.__class__ is tuple
+                    else bytes(e0._byte_values_default)
+                ),
                 "char_values_default": e0._char_values_default.tobytes(),
                 "float32_values_default": e0._float32_values_default.tolist(),
                 "float64_values_default": e0._float64_values_default.tolist(),
@@ -2190,7 +2271,11 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
         "unbounded_sequence_of_arrays": [
             {
                 "bool_values": list(e0._bool_values),
-                "byte_values": b"".join(e0._byte_values),
+                "byte_values": (
+                    b"".join(e0._byte_values)
+                    if e0._byte_values.__class__ is list or e0._byte_values.__class__ is tuple
+                    else bytes(e0._byte_values)
+                ),
                 "char_values": e0._char_values.tobytes(),
                 "float32_values": e0._float32_values.tolist(),
                 "float64_values": e0._float64_values.tolist(),
@@ -2241,7 +2326,12 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
                     for e1 in e0._defaults_values
                 ],
                 "bool_values_default": list(e0._bool_values_default),
-                "byte_values_default": b"".join(e0._byte_values_default),
+                "byte_values_default": (
+                    b"".join(e0._byte_values_default)
+                    if e0._byte_values_default.__class__ is list
+                    or e0._byte_values_default.__class__ is tuple
+                    else bytes(e0._byte_values_default)
+                ),
                 "char_values_default": e0._char_values_default.tobytes(),
                 "float32_values_default": e0._float32_values_default.tolist(),
                 "float64_values_default": e0._float64_values_default.tolist(),
@@ -2261,7 +2351,11 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
         "unbounded_sequence_of_bounded_sequences": [
             {
                 "bool_values": list(e0._bool_values),
-                "byte_values": b"".join(e0._byte_values),
+                "byte_values": (
+                    b"".join(e0._byte_values)
+                    if e0._byte_values.__class__ is list or e0._byte_values.__class__ is tuple
+                    else bytes(e0._byte_values)
+                ),
                 "char_values": e0._char_values.tobytes(),
                 "float32_values": e0._float32_values.tolist(),
                 "float64_values": e0._float64_values.tolist(),
@@ -2312,7 +2406,12 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
                     for e1 in e0._defaults_values
                 ],
                 "bool_values_default": list(e0._bool_values_default),
-                "byte_values_default": b"".join(e0._byte_values_default),
+                "byte_values_default": (
+                    b"".join(e0._byte_values_default)
+                    if e0._byte_values_default.__class__ is list
+                    or e0._byte_values_default.__class__ is tuple
+                    else bytes(e0._byte_values_default)
+                ),
                 "char_values_default": e0._char_values_default.tobytes(),
                 "float32_values_default": e0._float32_values_default.tolist(),
                 "float64_values_default": e0._float64_values_default.tolist(),
@@ -2332,7 +2431,11 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
         "unbounded_sequence_of_unbounded_sequences": [
             {
                 "bool_values": list(e0._bool_values),
-                "byte_values": b"".join(e0._byte_values),
+                "byte_values": (
+                    b"".join(e0._byte_values)
+                    if e0._byte_values.__class__ is list or e0._byte_values.__class__ is tuple
+                    else bytes(e0._byte_values)
+                ),
                 "char_values": e0._char_values.tobytes(),
                 "float32_values": e0._float32_values.tolist(),
                 "float64_values": e0._float64_values.tolist(),
@@ -2383,7 +2486,12 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
                     for e1 in e0._defaults_values
                 ],
                 "bool_values_default": list(e0._bool_values_default),
-                "byte_values_default": b"".join(e0._byte_values_default),
+                "byte_values_default": (
+                    b"".join(e0._byte_values_default)
+                    if e0._byte_values_default.__class__ is list
+                    or e0._byte_values_default.__class__ is tuple
+                    else bytes(e0._byte_values_default)
+                ),
                 "char_values_default": e0._char_values_default.tobytes(),
                 "float32_values_default": e0._float32_values_default.tolist(),
                 "float64_values_default": e0._float64_values_default.tolist(),
@@ -2670,7 +2778,11 @@ def unbounded_sequences_to_dict(msg: Any) -> UnboundedSequencesDict:
     """The lossless dict of a test_msgs/msg/UnboundedSequences."""
     return {
         "bool_values": list(msg._bool_values),
-        "byte_values": b"".join(msg._byte_values),
+        "byte_values": (
+            b"".join(msg._byte_values)
+            if msg._byte_values.__class__ is list or msg._byte_values.__class__ is tuple
+            else bytes(msg._byte_values)
+        ),
         "char_values": msg._char_values.tobytes(),
         "float32_values": msg._float32_values.tolist(),
         "float64_values": msg._float64_values.tolist(),
@@ -2721,7 +2833,12 @@ def unbounded_sequences_to_dict(msg: Any) -> UnboundedSequencesDict:
             for e0 in msg._defaults_values
         ],
         "bool_values_default": list(msg._bool_values_default),
-        "byte_values_default": b"".join(msg._byte_values_default),
+        "byte_values_default": (
+            b"".join(msg._byte_values_default)
+            if msg._byte_values_default.__class__ is list
+            or msg._byte_values_default.__class__ is tuple
+            else bytes(msg._byte_values_default)
+        ),
         "char_values_default": msg._char_values_default.tobytes(),
         "float32_values_default": msg._float32_values_default.tolist(),
         "float64_values_default": msg._float64_values_default.tolist(),
@@ -3172,7 +3289,11 @@ def arrays_request_to_dict(msg: Any) -> ArraysRequestDict:
     """The lossless dict of a test_msgs/srv/Arrays_Request."""
     return {
         "bool_values": list(msg._bool_values),
-        "byte_values": b"".join(msg._byte_values),
+        "byte_values": (
+            b"".join(msg._byte_values)
+            if msg._byte_values.__class__ is list or msg._byte_values.__class__ is tuple
+            else bytes(msg._byte_values)
+        ),
         "char_values": msg._char_values.tobytes(),
         "float32_values": msg._float32_values.tolist(),
         "float64_values": msg._float64_values.tolist(),
@@ -3223,7 +3344,12 @@ def arrays_request_to_dict(msg: Any) -> ArraysRequestDict:
             for e0 in msg._defaults_values
         ],
         "bool_values_default": list(msg._bool_values_default),
-        "byte_values_default": b"".join(msg._byte_values_default),
+        "byte_values_default": (
+            b"".join(msg._byte_values_default)
+            if msg._byte_values_default.__class__ is list
+            or msg._byte_values_default.__class__ is tuple
+            else bytes(msg._byte_values_default)
+        ),
         "char_values_default": msg._char_values_default.tobytes(),
         "float32_values_default": msg._float32_values_default.tolist(),
         "float64_values_default": msg._float64_values_default.tolist(),
@@ -3586,7 +3712,11 @@ def arrays_response_to_dict(msg: Any) -> ArraysResponseDict:
     """The lossless dict of a test_msgs/srv/Arrays_Response."""
     return {
         "bool_values": list(msg._bool_values),
-        "byte_values": b"".join(msg._byte_values),
+        "byte_values": (
+            b"".join(msg._byte_values)
+            if msg._byte_values.__class__ is list or msg._byte_values.__class__ is tuple
+            else bytes(msg._byte_values)
+        ),
         "char_values": msg._char_values.tobytes(),
         "float32_values": msg._float32_values.tolist(),
         "float64_values": msg._float64_values.tolist(),
@@ -3637,7 +3767,12 @@ def arrays_response_to_dict(msg: Any) -> ArraysResponseDict:
             for e0 in msg._defaults_values
         ],
         "bool_values_default": list(msg._bool_values_default),
-        "byte_values_default": b"".join(msg._byte_values_default),
+        "byte_values_default": (
+            b"".join(msg._byte_values_default)
+            if msg._byte_values_default.__class__ is list
+            or msg._byte_values_default.__class__ is tuple
+            else bytes(msg._byte_values_default)
+        ),
         "char_values_default": msg._char_values_default.tobytes(),
         "float32_values_default": msg._float32_values_default.tolist(),
         "float64_values_default": msg._float64_values_default.tolist(),
@@ -4011,7 +4146,11 @@ def arrays_event_to_dict(msg: Any) -> ArraysEventDict:
         "request": [
             {
                 "bool_values": list(e0._bool_values),
-                "byte_values": b"".join(e0._byte_values),
+                "byte_values": (
+                    b"".join(e0._byte_values)
+                    if e0._byte_values.__class__ is list or e0._byte_values.__class__ is tuple
+                    else bytes(e0._byte_values)
+                ),
                 "char_values": e0._char_values.tobytes(),
                 "float32_values": e0._float32_values.tolist(),
                 "float64_values": e0._float64_values.tolist(),
@@ -4062,7 +4201,12 @@ def arrays_event_to_dict(msg: Any) -> ArraysEventDict:
                     for e1 in e0._defaults_values
                 ],
                 "bool_values_default": list(e0._bool_values_default),
-                "byte_values_default": b"".join(e0._byte_values_default),
+                "byte_values_default": (
+                    b"".join(e0._byte_values_default)
+                    if e0._byte_values_default.__class__ is list
+                    or e0._byte_values_default.__class__ is tuple
+                    else bytes(e0._byte_values_default)
+                ),
                 "char_values_default": e0._char_values_default.tobytes(),
                 "float32_values_default": e0._float32_values_default.tolist(),
                 "float64_values_default": e0._float64_values_default.tolist(),
@@ -4081,7 +4225,11 @@ def arrays_event_to_dict(msg: Any) -> ArraysEventDict:
         "response": [
             {
                 "bool_values": list(e0._bool_values),
-                "byte_values": b"".join(e0._byte_values),
+                "byte_values": (
+                    b"".join(e0._byte_values)
+                    if e0._byte_values.__class__ is list or e0._byte_values.__class__ is tuple
+                    else bytes(e0._byte_values)
+                ),
                 "char_values": e0._char_values.tobytes(),
                 "float32_values": e0._float32_values.tolist(),
                 "float64_values": e0._float64_values.tolist(),
@@ -4132,7 +4280,12 @@ def arrays_event_to_dict(msg: Any) -> ArraysEventDict:
                     for e1 in e0._defaults_values
                 ],
                 "bool_values_default": list(e0._bool_values_default),
-                "byte_values_default": b"".join(e0._byte_values_default),
+                "byte_values_default": (
+                    b"".join(e0._byte_values_default)
+                    if e0._byte_values_default.__class__ is list
+                    or e0._byte_values_default.__class__ is tuple
+                    else bytes(e0._byte_values_default)
+                ),
                 "char_values_default": e0._char_values_default.tobytes(),
                 "float32_values_default": e0._float32_values_default.tolist(),
                 "float64_values_default": e0._float64_values_default.tolist(),

@@ -86,7 +86,14 @@
 #     RIHS01_72ee5828e8083f3c42a56bc5d99fd9e7d5c86389850fc006f254ecdcaecb7d03
 """TypedDicts of the test_msgs dict shapes.
 
-They let ``to_dict`` results type-check.
+``codecs.to_dict`` returns ``dict[str, Any]``; a type checker takes it as one of these only
+through ``cast``:
+
+    d = cast(ArraysDict, codecs.to_dict(msg))
+
+The ``*_to_dict`` functions of this package's ``dict_codecs`` return them as they are. Every key
+is required, so a dict you build for ``from_dict`` (which takes any ``Mapping[str, Any]``)
+checks against one only when it is complete.
 """
 
 from __future__ import annotations

@@ -48,7 +48,13 @@ def _to_dict_value(ftype: FieldType, access: str, types: TypeSet, depth: int, in
         return f"{access}[0]" if element.name == "byte" else access
     if element.kind == "primitive":
         if element.name == "byte":
-            return f'b"".join({access})'
+            # rclpy keeps a list of one-byte bytes (what it deserialises and from_dict builds), but
+            # its setters and serialiser also take a tuple of them or any bytes-like object (b"..").
+            # One class check keeps the list path a plain join.
+            return (
+                f'b"".join({access}) if {access}.__class__ is list'
+                f" or {access}.__class__ is tuple else bytes({access})"
+            )
         if element.is_bytes_like:
             return f"{access}.tobytes()"
         return f"list({access})" if element.name == "bool" else f"{access}.tolist()"
