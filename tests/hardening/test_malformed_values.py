@@ -21,6 +21,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from rclpy.serialization import serialize_message
 
+from pyconnect import codecs
 from pyconnect.codecs import wire
 from pyconnect.errors import EncodeError
 from pyconnect.typesys.model import FieldType, MessageDef
@@ -191,12 +192,35 @@ _NUMPY = {"byte": "uint8", "char": "uint8", "uint8": "uint8", "int8": "int8",
           "int64": "int64", "uint64": "uint64", "float32": "float32", "float64": "float64"}  # fmt: skip
 
 
-def test_unencodable_strings_are_refused_by_the_wire_codec() -> None:
-    # The generated dict codecs hand such strings to rclpy, whose serialisation then raises
-    # UnicodeEncodeError (reported to the codec owners); the wire codec refuses them itself.
+@pytest.mark.parametrize(
+    ("type_name", "value", "path"),
+    [
+        ("std_msgs/msg/String", {"data": "\ud800"}, "String.data"),
+        ("std_msgs/msg/Header", {"frame_id": "caf\u00e9\udc80"}, "Header.frame_id"),
+        ("test_msgs/msg/UnboundedSequences", {"string_values": ["ok", "\udc80"]},
+         "UnboundedSequences.string_values[1]"),
+        ("test_msgs/msg/BoundedSequences", {"string_values": ["\ud800"]},
+         "BoundedSequences.string_values[0]"),
+    ],
+)  # fmt: skip
+def test_unencodable_strings_are_refused_on_both_paths(
+    type_name: str, value: dict[str, object], path: str
+) -> None:
+    # The class path handed such strings to rclpy, whose serialisation then raised a bare
+    # UnicodeEncodeError at publish; both paths now refuse them with the same words.
+    expected = f"{path}: cannot encode as UTF-8 (surrogates not allowed)"
     with pytest.raises(EncodeError) as caught:
-        wire.from_dict({"data": "\ud800"}, "std_msgs/msg/String")
-    assert str(caught.value) == ("String.data: cannot encode as UTF-8 (surrogates not allowed)")
+        wire.from_dict(value, type_name)
+    assert str(caught.value) == expected
+    with pytest.raises(EncodeError) as caught:
+        codecs.from_dict(value, type_name)
+    assert str(caught.value) == expected
+
+
+def test_a_lone_surrogate_is_refused_by_the_string_codec() -> None:
+    with pytest.raises(EncodeError) as caught:
+        codecs.encode("a\udc80", "std_msgs/msg/String")
+    assert str(caught.value) == "String.data: cannot encode as UTF-8 (surrogates not allowed)"
 
 
 def test_bools_where_numbers_go_are_refused() -> None:

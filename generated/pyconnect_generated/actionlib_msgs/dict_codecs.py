@@ -97,7 +97,7 @@ def goal_id_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".stamp") from None
         value = data.get("id", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".id")
         msg._id = value
     except FieldError as error:
@@ -145,7 +145,7 @@ def goal_status_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 255, "uint8", ".status")
         msg._status = value
         value = data.get("text", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".text")
         msg._text = value
     except FieldError as error:

@@ -189,15 +189,15 @@ def diagnostic_status_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_octet(value, ".level")
         msg._level = BYTE_VALUES[value]
         value = data.get("name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".name")
         msg._name = value
         value = data.get("message", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".message")
         msg._message = value
         value = data.get("hardware_id", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".hardware_id")
         msg._hardware_id = value
         value = data.get("values", MISSING)
@@ -236,11 +236,11 @@ def key_value_from_dict(data: Mapping[str, Any]) -> Any:
         msg = KeyValue.__new__(KeyValue)
         msg._check_fields = CHECK_FIELDS
         value = data.get("key", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".key")
         msg._key = value
         value = data.get("value", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".value")
         msg._value = value
     except FieldError as error:
@@ -272,7 +272,7 @@ def add_diagnostics_request_from_dict(data: Mapping[str, Any]) -> Any:
         msg = AddDiagnostics_Request.__new__(AddDiagnostics_Request)
         msg._check_fields = CHECK_FIELDS
         value = data.get("load_namespace", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".load_namespace")
         msg._load_namespace = value
     except FieldError as error:
@@ -309,7 +309,7 @@ def add_diagnostics_response_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_bool(value, ".success")
         msg._success = value
         value = data.get("message", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".message")
         msg._message = value
     except FieldError as error:
@@ -449,7 +449,7 @@ def self_test_response_from_dict(data: Mapping[str, Any]) -> Any:
         msg = SelfTest_Response.__new__(SelfTest_Response)
         msg._check_fields = CHECK_FIELDS
         value = data.get("id", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".id")
         msg._id = value
         value = data.get("passed", 0)

@@ -1343,7 +1343,7 @@ def transform_stamped_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".header") from None
         value = data.get("child_frame_id", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".child_frame_id")
         msg._child_frame_id = value
         try:
@@ -1702,11 +1702,11 @@ def velocity_stamped_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".header") from None
         value = data.get("body_frame_id", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".body_frame_id")
         msg._body_frame_id = value
         value = data.get("reference_frame_id", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".reference_frame_id")
         msg._reference_frame_id = value
         try:

@@ -151,7 +151,7 @@ def state_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 255, "uint8", ".id")
         msg._id = value
         value = data.get("label", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".label")
         msg._label = value
     except FieldError as error:
@@ -188,7 +188,7 @@ def transition_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 255, "uint8", ".id")
         msg._id = value
         value = data.get("label", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".label")
         msg._label = value
     except FieldError as error:

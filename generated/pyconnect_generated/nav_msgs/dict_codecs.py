@@ -491,7 +491,7 @@ def odometry_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".header") from None
         value = data.get("child_frame_id", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".child_frame_id")
         msg._child_frame_id = value
         try:
@@ -1069,7 +1069,7 @@ def load_map_request_from_dict(data: Mapping[str, Any]) -> Any:
         msg = LoadMap_Request.__new__(LoadMap_Request)
         msg._check_fields = CHECK_FIELDS
         value = data.get("map_url", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".map_url")
         msg._map_url = value
     except FieldError as error:

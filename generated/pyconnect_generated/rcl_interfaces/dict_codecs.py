@@ -391,19 +391,19 @@ def log_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 255, "uint8", ".level")
         msg._level = value
         value = data.get("name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".name")
         msg._name = value
         value = data.get("msg", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".msg")
         msg._msg = value
         value = data.get("file", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".file")
         msg._file = value
         value = data.get("function", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".function")
         msg._function = value
         value = data.get("line", 0)
@@ -440,7 +440,7 @@ def logger_level_from_dict(data: Mapping[str, Any]) -> Any:
         msg = LoggerLevel.__new__(LoggerLevel)
         msg._check_fields = CHECK_FIELDS
         value = data.get("name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".name")
         msg._name = value
         value = data.get("level", 0)
@@ -493,7 +493,7 @@ def parameter_from_dict(data: Mapping[str, Any]) -> Any:
         msg = Parameter.__new__(Parameter)
         msg._check_fields = CHECK_FIELDS
         value = data.get("name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".name")
         msg._name = value
         try:
@@ -561,7 +561,7 @@ def parameter_descriptor_from_dict(data: Mapping[str, Any]) -> Any:
         msg = ParameterDescriptor.__new__(ParameterDescriptor)
         msg._check_fields = CHECK_FIELDS
         value = data.get("name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".name")
         msg._name = value
         value = data.get("type", 0)
@@ -569,11 +569,11 @@ def parameter_descriptor_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 255, "uint8", ".type")
         msg._type = value
         value = data.get("description", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".description")
         msg._description = value
         value = data.get("additional_constraints", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".additional_constraints")
         msg._additional_constraints = value
         value = data.get("read_only", False)
@@ -706,7 +706,7 @@ def parameter_event_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".stamp") from None
         value = data.get("node", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".node")
         msg._node = value
         value = data.get("new_parameters", MISSING)
@@ -958,7 +958,7 @@ def parameter_value_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_float(value, ".double_value")
         msg._double_value = value
         value = data.get("string_value", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".string_value")
         msg._string_value = value
         value = data.get("byte_array_value", MISSING)
@@ -1041,7 +1041,7 @@ def set_logger_levels_result_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_bool(value, ".successful")
         msg._successful = value
         value = data.get("reason", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".reason")
         msg._reason = value
     except FieldError as error:
@@ -1078,7 +1078,7 @@ def set_parameters_result_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_bool(value, ".successful")
         msg._successful = value
         value = data.get("reason", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".reason")
         msg._reason = value
     except FieldError as error:

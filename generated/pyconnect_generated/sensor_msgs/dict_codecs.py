@@ -319,11 +319,11 @@ def battery_state_from_dict(data: Mapping[str, Any]) -> Any:
             else numeric_sequence(value, "f", "float32", None, ".cell_temperature")
         )
         value = data.get("location", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".location")
         msg._location = value
         value = data.get("serial_number", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".serial_number")
         msg._serial_number = value
     except FieldError as error:
@@ -403,7 +403,7 @@ def camera_info_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 4294967295, "uint32", ".width")
         msg._width = value
         value = data.get("distortion_model", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".distortion_model")
         msg._distortion_model = value
         value = data.get("d", MISSING)
@@ -488,7 +488,7 @@ def channel_float32_from_dict(data: Mapping[str, Any]) -> Any:
         msg = ChannelFloat32.__new__(ChannelFloat32)
         msg._check_fields = CHECK_FIELDS
         value = data.get("name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".name")
         msg._name = value
         value = data.get("values", MISSING)
@@ -538,7 +538,7 @@ def compressed_image_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".header") from None
         value = data.get("format", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".format")
         msg._format = value
         value = data.get("data", MISSING)
@@ -692,7 +692,7 @@ def image_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 4294967295, "uint32", ".width")
         msg._width = value
         value = data.get("encoding", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".encoding")
         msg._encoding = value
         value = data.get("is_bigendian", 0)
@@ -1795,7 +1795,7 @@ def point_field_from_dict(data: Mapping[str, Any]) -> Any:
         msg = PointField.__new__(PointField)
         msg._check_fields = CHECK_FIELDS
         value = data.get("name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".name")
         msg._name = value
         value = data.get("offset", 0)
@@ -2076,7 +2076,7 @@ def time_reference_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".time_ref") from None
         value = data.get("source", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".source")
         msg._source = value
     except FieldError as error:
@@ -2169,7 +2169,7 @@ def set_camera_info_response_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_bool(value, ".success")
         msg._success = value
         value = data.get("status_message", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".status_message")
         msg._status_message = value
     except FieldError as error:

@@ -588,7 +588,7 @@ def header_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".stamp") from None
         value = data.get("frame_id", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".frame_id")
         msg._frame_id = value
     except FieldError as error:
@@ -962,7 +962,7 @@ def multi_array_dimension_from_dict(data: Mapping[str, Any]) -> Any:
         msg = MultiArrayDimension.__new__(MultiArrayDimension)
         msg._check_fields = CHECK_FIELDS
         value = data.get("label", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".label")
         msg._label = value
         value = data.get("size", 0)
@@ -1048,7 +1048,7 @@ def string_from_dict(data: Mapping[str, Any]) -> Any:
         msg = String.__new__(String)
         msg._check_fields = CHECK_FIELDS
         value = data.get("data", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".data")
         msg._data = value
     except FieldError as error:

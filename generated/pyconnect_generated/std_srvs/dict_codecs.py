@@ -258,7 +258,7 @@ def set_bool_response_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_bool(value, ".success")
         msg._success = value
         value = data.get("message", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".message")
         msg._message = value
     except FieldError as error:
@@ -386,7 +386,7 @@ def trigger_response_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_bool(value, ".success")
         msg._success = value
         value = data.get("message", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".message")
         msg._message = value
     except FieldError as error:

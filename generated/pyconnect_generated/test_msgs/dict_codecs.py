@@ -2721,51 +2721,51 @@ def strings_from_dict(data: Mapping[str, Any]) -> Any:
         msg = Strings.__new__(Strings)
         msg._check_fields = CHECK_FIELDS
         value = data.get("string_value", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".string_value")
         msg._string_value = value
         value = data.get("string_value_default1", "Hello world!")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".string_value_default1")
         msg._string_value_default1 = value
         value = data.get("string_value_default2", "Hello'world!")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".string_value_default2")
         msg._string_value_default2 = value
         value = data.get("string_value_default3", 'Hello"world!')
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".string_value_default3")
         msg._string_value_default3 = value
         value = data.get("string_value_default4", "Hello'world!")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".string_value_default4")
         msg._string_value_default4 = value
         value = data.get("string_value_default5", 'Hello"world!')
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".string_value_default5")
         msg._string_value_default5 = value
         value = data.get("bounded_string_value", "")
-        if type(value) is not str or len(value) > 22 or "\x00" in value:
+        if type(value) is not str or len(value) > 22 or "\x00" in value or not value.isascii():
             value = check_str(value, 22, ".bounded_string_value")
         msg._bounded_string_value = value
         value = data.get("bounded_string_value_default1", "Hello world!")
-        if type(value) is not str or len(value) > 22 or "\x00" in value:
+        if type(value) is not str or len(value) > 22 or "\x00" in value or not value.isascii():
             value = check_str(value, 22, ".bounded_string_value_default1")
         msg._bounded_string_value_default1 = value
         value = data.get("bounded_string_value_default2", "Hello'world!")
-        if type(value) is not str or len(value) > 22 or "\x00" in value:
+        if type(value) is not str or len(value) > 22 or "\x00" in value or not value.isascii():
             value = check_str(value, 22, ".bounded_string_value_default2")
         msg._bounded_string_value_default2 = value
         value = data.get("bounded_string_value_default3", 'Hello"world!')
-        if type(value) is not str or len(value) > 22 or "\x00" in value:
+        if type(value) is not str or len(value) > 22 or "\x00" in value or not value.isascii():
             value = check_str(value, 22, ".bounded_string_value_default3")
         msg._bounded_string_value_default3 = value
         value = data.get("bounded_string_value_default4", "Hello'world!")
-        if type(value) is not str or len(value) > 22 or "\x00" in value:
+        if type(value) is not str or len(value) > 22 or "\x00" in value or not value.isascii():
             value = check_str(value, 22, ".bounded_string_value_default4")
         msg._bounded_string_value_default4 = value
         value = data.get("bounded_string_value_default5", 'Hello"world!')
-        if type(value) is not str or len(value) > 22 or "\x00" in value:
+        if type(value) is not str or len(value) > 22 or "\x00" in value or not value.isascii():
             value = check_str(value, 22, ".bounded_string_value_default5")
         msg._bounded_string_value_default5 = value
     except FieldError as error:
@@ -3240,19 +3240,19 @@ def w_strings_from_dict(data: Mapping[str, Any]) -> Any:
         msg = WStrings.__new__(WStrings)
         msg._check_fields = CHECK_FIELDS
         value = data.get("wstring_value", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".wstring_value")
         msg._wstring_value = value
         value = data.get("wstring_value_default1", "Hello world!")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".wstring_value_default1")
         msg._wstring_value_default1 = value
         value = data.get("wstring_value_default2", "Hellö wörld!")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".wstring_value_default2")
         msg._wstring_value_default2 = value
         value = data.get("wstring_value_default3", "ハローワールド")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".wstring_value_default3")
         msg._wstring_value_default3 = value
         value = data.get("array_of_wstrings", MISSING)
@@ -4448,7 +4448,7 @@ def basic_types_request_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 18446744073709551615, "uint64", ".uint64_value")
         msg._uint64_value = value
         value = data.get("string_value", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".string_value")
         msg._string_value = value
     except FieldError as error:
@@ -4564,7 +4564,7 @@ def basic_types_response_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 18446744073709551615, "uint64", ".uint64_value")
         msg._uint64_value = value
         value = data.get("string_value", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".string_value")
         msg._string_value = value
     except FieldError as error:

@@ -122,7 +122,7 @@ def field_from_dict(data: Mapping[str, Any]) -> Any:
         msg = Field.__new__(Field)
         msg._check_fields = CHECK_FIELDS
         value = data.get("name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".name")
         msg._name = value
         try:
@@ -130,7 +130,7 @@ def field_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".type") from None
         value = data.get("default_value", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".default_value")
         msg._default_value = value
     except FieldError as error:
@@ -177,7 +177,7 @@ def field_type_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 18446744073709551615, "uint64", ".string_capacity")
         msg._string_capacity = value
         value = data.get("nested_type_name", "")
-        if type(value) is not str or len(value) > 255 or "\x00" in value:
+        if type(value) is not str or len(value) > 255 or "\x00" in value or not value.isascii():
             value = check_str(value, 255, ".nested_type_name")
         msg._nested_type_name = value
     except FieldError as error:
@@ -222,7 +222,7 @@ def individual_type_description_from_dict(data: Mapping[str, Any]) -> Any:
         msg = IndividualTypeDescription.__new__(IndividualTypeDescription)
         msg._check_fields = CHECK_FIELDS
         value = data.get("type_name", "")
-        if type(value) is not str or len(value) > 255 or "\x00" in value:
+        if type(value) is not str or len(value) > 255 or "\x00" in value or not value.isascii():
             value = check_str(value, 255, ".type_name")
         msg._type_name = value
         value = data.get("fields", MISSING)
@@ -259,11 +259,11 @@ def key_value_from_dict(data: Mapping[str, Any]) -> Any:
         msg = KeyValue.__new__(KeyValue)
         msg._check_fields = CHECK_FIELDS
         value = data.get("key", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".key")
         msg._key = value
         value = data.get("value", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".value")
         msg._value = value
     except FieldError as error:
@@ -377,15 +377,15 @@ def type_source_from_dict(data: Mapping[str, Any]) -> Any:
         msg = TypeSource.__new__(TypeSource)
         msg._check_fields = CHECK_FIELDS
         value = data.get("type_name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".type_name")
         msg._type_name = value
         value = data.get("encoding", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".encoding")
         msg._encoding = value
         value = data.get("raw_file_contents", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".raw_file_contents")
         msg._raw_file_contents = value
     except FieldError as error:
@@ -419,11 +419,11 @@ def get_type_description_request_from_dict(data: Mapping[str, Any]) -> Any:
         msg = GetTypeDescription_Request.__new__(GetTypeDescription_Request)
         msg._check_fields = CHECK_FIELDS
         value = data.get("type_name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".type_name")
         msg._type_name = value
         value = data.get("type_hash", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".type_hash")
         msg._type_hash = value
         value = data.get("include_type_sources", True)
@@ -518,7 +518,7 @@ def get_type_description_response_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_bool(value, ".successful")
         msg._successful = value
         value = data.get("failure_reason", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".failure_reason")
         msg._failure_reason = value
         try:

@@ -231,7 +231,7 @@ def image_marker_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".header") from None
         value = data.get("ns", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".ns")
         msg._ns = value
         value = data.get("id", 0)
@@ -458,11 +458,11 @@ def interactive_marker_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".pose") from None
         value = data.get("name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".name")
         msg._name = value
         value = data.get("description", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".description")
         msg._description = value
         value = data.get("scale", 0.0)
@@ -620,7 +620,7 @@ def interactive_marker_control_from_dict(data: Mapping[str, Any]) -> Any:
         msg = InteractiveMarkerControl.__new__(InteractiveMarkerControl)
         msg._check_fields = CHECK_FIELDS
         value = data.get("name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".name")
         msg._name = value
         try:
@@ -650,7 +650,7 @@ def interactive_marker_control_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_bool(value, ".independent_marker_orientation")
         msg._independent_marker_orientation = value
         value = data.get("description", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".description")
         msg._description = value
     except FieldError as error:
@@ -728,15 +728,15 @@ def interactive_marker_feedback_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".header") from None
         value = data.get("client_id", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".client_id")
         msg._client_id = value
         value = data.get("marker_name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".marker_name")
         msg._marker_name = value
         value = data.get("control_name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".control_name")
         msg._control_name = value
         value = data.get("event_type", 0)
@@ -932,7 +932,7 @@ def interactive_marker_init_from_dict(data: Mapping[str, Any]) -> Any:
         msg = InteractiveMarkerInit.__new__(InteractiveMarkerInit)
         msg._check_fields = CHECK_FIELDS
         value = data.get("server_id", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".server_id")
         msg._server_id = value
         value = data.get("seq_num", 0)
@@ -1002,7 +1002,7 @@ def interactive_marker_pose_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".pose") from None
         value = data.get("name", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".name")
         msg._name = value
     except FieldError as error:
@@ -1208,7 +1208,7 @@ def interactive_marker_update_from_dict(data: Mapping[str, Any]) -> Any:
         msg = InteractiveMarkerUpdate.__new__(InteractiveMarkerUpdate)
         msg._check_fields = CHECK_FIELDS
         value = data.get("server_id", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".server_id")
         msg._server_id = value
         value = data.get("seq_num", 0)
@@ -1378,7 +1378,7 @@ def marker_from_dict(data: Mapping[str, Any]) -> Any:
         except FieldError as error:
             raise error.within(".header") from None
         value = data.get("ns", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".ns")
         msg._ns = value
         value = data.get("id", 0)
@@ -1426,7 +1426,7 @@ def marker_from_dict(data: Mapping[str, Any]) -> Any:
             else message_list(value, std_msgs__color_rgba_from_dict, None, False, ".colors")
         )
         value = data.get("texture_resource", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".texture_resource")
         msg._texture_resource = value
         try:
@@ -1440,11 +1440,11 @@ def marker_from_dict(data: Mapping[str, Any]) -> Any:
             else message_list(value, uv_coordinate_from_dict, None, False, ".uv_coordinates")
         )
         value = data.get("text", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".text")
         msg._text = value
         value = data.get("mesh_resource", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".mesh_resource")
         msg._mesh_resource = value
         try:
@@ -1617,11 +1617,11 @@ def menu_entry_from_dict(data: Mapping[str, Any]) -> Any:
             value = check_int(value, 0, 4294967295, "uint32", ".parent_id")
         msg._parent_id = value
         value = data.get("title", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".title")
         msg._title = value
         value = data.get("command", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".command")
         msg._command = value
         value = data.get("command_type", 0)
@@ -1658,7 +1658,7 @@ def mesh_file_from_dict(data: Mapping[str, Any]) -> Any:
         msg = MeshFile.__new__(MeshFile)
         msg._check_fields = CHECK_FIELDS
         value = data.get("filename", "")
-        if type(value) is not str or "\x00" in value:
+        if type(value) is not str or "\x00" in value or not value.isascii():
             value = check_str(value, None, ".filename")
         msg._filename = value
         value = data.get("data", MISSING)

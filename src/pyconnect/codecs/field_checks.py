@@ -119,8 +119,8 @@ def check_octet(value: object, segment: str) -> int:
 
 
 def check_str(value: object, bound: int | None, segment: str) -> str:
-    """``value`` if it is a ``str`` of at most ``bound`` characters (``None``: unbounded) and
-    without NUL characters."""
+    """``value`` if it is a ``str`` of at most ``bound`` characters (``None``: unbounded),
+    without NUL characters, that UTF-8 can encode (no lone surrogate)."""
     if not isinstance(value, str):
         fail(segment, "str", value)
     if bound is not None and len(value) > bound:
@@ -133,14 +133,23 @@ def check_str(value: object, bound: int | None, segment: str) -> str:
             f"expected str without NUL characters, got {reprlib.repr(value)} "
             f"(NUL at index {value.index(chr(0))})",
         )
+    if not value.isascii():
+        try:
+            value.encode()
+        except UnicodeEncodeError as error:  # a lone surrogate: rclpy's C conversion raises
+            raise FieldError(segment, f"cannot encode as UTF-8 ({error.reason})") from None
     return value
 
 
 def plain_str_list(values: list[Any]) -> list[Any]:
-    """A copy of a list of ``str`` without NULs, for generated code's fast path of unbounded
-    string sequences; raises TypeError or ValueError otherwise (``str_list`` then names it)."""
-    if "\0" in "".join(values):  # join checks in C that every element is a str
+    """A copy of a list of ``str`` without NULs or lone surrogates, for generated code's fast
+    path of unbounded string sequences; raises TypeError or ValueError otherwise (``str_list``
+    then names it)."""
+    joined = "".join(values)  # join checks in C that every element is a str
+    if "\0" in joined:
         raise ValueError("a NUL character")
+    if not joined.isascii():
+        joined.encode()  # UnicodeEncodeError (a ValueError) for a lone surrogate
     return values.copy()
 
 
@@ -302,6 +311,7 @@ def str_list(
             type(element) is not str
             or (bound is not None and len(element) > bound)
             or "\0" in element
+            or not element.isascii()
         ):
             try:
                 check_str(element, bound, "")

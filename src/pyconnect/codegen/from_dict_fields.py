@@ -40,7 +40,9 @@ def _scalar_field(fld: Field) -> FromDictField:
     if element.kind in ("string", "wstring"):
         bound = element.string_bound
         fast = "type(value) is not str" + (f" or len(value) > {bound}" if bound else "")
-        fast += ' or "\\x00" in value'  # a NUL: check_str refuses it, naming the field
+        # A NUL, or a lone surrogate (UTF-8 cannot encode it: only non-ASCII text may hold
+        # one): check_str refuses it, naming the field.
+        fast += ' or "\\x00" in value or not value.isascii()'
         slow, zero = f"check_str(value, {bound}, {segment})", ""
     elif name == "bool":
         fast, slow, zero = "type(value) is not bool", f"check_bool(value, {segment})", False
