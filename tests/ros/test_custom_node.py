@@ -318,3 +318,42 @@ def test_shutdown_from_a_plain_callback_returns_at_once_and_spin_returns(make_no
     assert not spun.is_alive()
     assert down_in_callback == [False]  # it did not wait for (nor destroy the node under) tick
     assert not node.context.ok()
+
+
+def test_stop_func_may_still_add_an_agent_and_record(make_node: Any, tmp_path: Any) -> None:
+    """stop_func runs "while the agents still work": adding a last agent or a recording there
+    worked before shutdown refused new entities from its first step; what it starts stops."""
+    made: dict[str, Any] = {}
+
+    def last_words() -> None:
+        made["pub"] = node.add_agent(conn_name="goodbye", conn_type="pub", data_interface=String)
+        made["recording"] = node.record(tmp_path / "last", topics=["/goodbye"])
+        made["sent"] = made["pub"].send("bye")
+
+    node = make_node("last_words", stop_func=last_words)
+    node.spin(run_thread=True)
+    node.shutdown()
+    assert made["sent"] is not False and node.agents["goodbye"] is made["pub"]
+    # Stopped with the node, after stop_func: the file is complete.
+    (mcap,) = (tmp_path / "last").glob("*.mcap")
+    assert mcap.read_bytes().endswith(b"\x89MCAP0\r\n")
+
+
+def test_shutting_another_node_down_from_a_callback_waits_for_it(make_node: Any) -> None:
+    """Only a node's own callback threads defer its shutdown; from another node's callback it
+    returns when that node is down (leaving `with` inside a callback closes that node)."""
+    outer, inner = make_node("outer_ticker"), make_node("inner_helper")
+    inner.spin(run_thread=True)
+    seen: list[bool] = []
+    done = threading.Event()
+
+    def tick() -> None:
+        if not done.is_set():
+            inner.shutdown()
+            seen.append(inner.wait_for_shutdown(0))  # all the way down, not merely begun
+            done.set()
+
+    outer.add_agent(conn_name="tick", conn_type="timer", time_period=0.01, response_func=tick)
+    outer.spin(run_thread=True)
+    assert done.wait(EVENT_TIMEOUT)
+    assert seen == [True]

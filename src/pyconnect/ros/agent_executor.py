@@ -151,6 +151,15 @@ class AgentExecutor(ExecutorMoves):
             return
         self._spin_here()
 
+    def runs_callbacks_here(self) -> bool:
+        """Whether this thread runs the executor's callbacks: its dispatching loop, or the
+        elastic executor's threads once a long callback moved the node there."""
+        current = threading.current_thread()
+        if current.ident == self._dispatcher or current is self._elastic_thread:
+            return True
+        elastic = self._elastic
+        return elastic is not None and elastic.runs_on(current)
+
     def spin_in_background(self) -> None:
         """Start spinning on a thread of its own, unless something spins already.
 

@@ -111,6 +111,10 @@ class CoroutineRunner:
             self._lanes.add(lane)
         return lane
 
+    def on_own_loop_thread(self) -> bool:
+        """Whether this is the thread of pyconnect's own loop (never the user's loop)."""
+        return self._thread is not None and threading.current_thread() is self._thread
+
     @property
     def stopped(self) -> bool:
         """True once ``stop()`` was called."""

@@ -289,13 +289,13 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
     def shutdown(self) -> None:
         """Stop everything once: ``stop_func``, executor, threads, node, rclpy (if ours).
 
-        Called from one of pyconnect's callback threads (a handler, or an ``async def``
+        Called from one of this node's callback threads (a handler, or an ``async def``
         handler on pyconnect's loop), it starts the shutdown on a thread of its own and
         returns at once: the shutdown waits for the callback to end (a service still sends its
         reply), and ``spin()``/``wait_for_shutdown()`` return when everything is closed.
         Called from any other thread, it returns when the node is shut down.
         """
-        if _on_pyconnect_thread():
+        if self._on_own_thread():
             self._shutdown_after_this_callback()
             return
         with self._shutdown_lock:
@@ -307,17 +307,19 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
                 self._stopped.set()
 
     def _shut_down(self) -> None:
-        with self._lock:
-            self._closing = True
-        self._attempt("stop_log_subs", self.stop_log_subs)
-        for recording in list(self._recordings):
-            self._attempt(f"stopping the recording {str(recording.path)!r}", recording.stop)
+        self._stop_logs_and_recordings()
         if self.stop_func is not None:
             try:
                 self.stop_func()
             except Exception as error:
                 self._log_error(f"stop_func raised {type(error).__name__}: {error}")
-        self._stopping.set()  # after stop_func, which may still use the agents
+        # After stop_func, which may still use the agents, add one, record: from here nothing
+        # new is made (add_agent, record, start_log_subs refuse), and what stop_func started
+        # stops too.
+        with self._lock:
+            self._closing = True
+        self._stopping.set()
+        self._stop_logs_and_recordings()
         self._attempt("stopping the executor", self._executor.stop)
         # Cancelled coroutines release callbacks that wait for them.
         self._attempt("stopping the coroutine loop", self.coroutines.stop)
@@ -336,6 +338,18 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
         )
         self._attempt("leaving the rclpy context", lambda: leave_context(self.context))
         self._attempt("restoring the signal handlers", self._hooks.restore)
+
+    def _stop_logs_and_recordings(self) -> None:
+        self._attempt("stop_log_subs", self.stop_log_subs)
+        for recording in list(self._recordings):
+            self._attempt(f"stopping the recording {str(recording.path)!r}", recording.stop)
+
+    def _on_own_thread(self) -> bool:
+        """Whether this thread runs this node's callbacks (its executor's, its coroutine loop):
+        a shutdown here would wait for, or destroy the node under, the callback it runs.
+        Another node's callback thread is not: shutting this node down there waits, as
+        anywhere else."""
+        return self._executor.runs_callbacks_here() or self.coroutines.on_own_loop_thread()
 
     def _shutdown_after_this_callback(self) -> None:
         """Start the shutdown on a thread of its own, once the calling callback can end."""
@@ -378,13 +392,6 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
             self.get_logger().error(text)
         except Exception:
             print(f"[pyconnect] {self.name}: {text}", file=sys.stderr)
-
-
-def _on_pyconnect_thread() -> bool:
-    """Whether this is one of pyconnect's own daemon threads (executors, spin, asyncio loop):
-    a shutdown there would wait for (or destroy the node under) the callback it runs."""
-    current = threading.current_thread()
-    return current.daemon and current.name.startswith("pyconnect-")
 
 
 def _wait_step(deadline: float | None) -> float:

@@ -314,6 +314,10 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
                 helper.start()
             self._turn.notify()
 
+    def runs_on(self, thread: threading.Thread) -> bool:
+        """Whether ``thread`` is one of this executor's helper threads."""
+        return thread in self._helpers
+
     def _helper_loop(self) -> None:
         while not self._stopping and self._take_turn(helper=True):
             pass
