@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
+from pyconnect.errors import TransportError
 from pyconnect.transport.router import main, start_router
 
 
@@ -29,3 +32,20 @@ def test_a_busy_port_is_one_line(locator: str, capsys: pytest.CaptureFixture[str
         first.close()
     error = capsys.readouterr().err
     assert error.startswith(f"router: zenoh router on {locator}: ") and error.count("\n") == 1
+
+
+def test_a_config_file_listens_where_it_says(tmp_path: Path, locator: str) -> None:
+    # The command's default endpoint replaced the file's: a TLS listener became plain TCP on
+    # every interface. Only endpoints given on the command line replace the file's.
+    config = tmp_path / "router.json5"
+    config.write_text(
+        f'{{ mode: "router", listen: {{ endpoints: ["{locator}"] }}, '
+        "scouting: { multicast: { enabled: false } } }",
+        encoding="utf-8",
+    )
+    router = start_router(config=config)
+    try:
+        with pytest.raises(TransportError):  # the file's port is taken: by this router
+            start_router(listen=[locator])
+    finally:
+        router.close()

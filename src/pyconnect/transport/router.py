@@ -23,24 +23,30 @@ import zenoh
 
 from pyconnect.errors import TransportError
 
+DEFAULT_LISTEN = "tcp/0.0.0.0:7447"
+
 
 def start_router(
     *,
-    listen: Sequence[str] = ("tcp/0.0.0.0:7447",),
+    listen: Sequence[str] | None = None,
     config: str | Path | None = None,
     multicast_scouting: bool = False,
 ) -> zenoh.Session:
-    """An open router session; ``close()`` stops it. ``config`` is a JSON5 file (TLS, ACL...)."""
+    """An open router session; ``close()`` stops it. ``config`` is a JSON5 file (TLS, ACL...);
+    ``listen`` replaces its listen endpoints (default: the file's, else ``tcp/0.0.0.0:7447``)."""
+    where = ", ".join(listen) if listen else str(config or DEFAULT_LISTEN)
     try:
         zenoh_config = zenoh.Config.from_file(str(config)) if config else zenoh.Config()
         zenoh_config.insert_json5("mode", '"router"')
-        zenoh_config.insert_json5("listen/endpoints", json.dumps(list(listen)))
+        if listen or not config:
+            endpoints = list(listen) if listen else [DEFAULT_LISTEN]
+            zenoh_config.insert_json5("listen/endpoints", json.dumps(endpoints))
         zenoh_config.insert_json5(
             "scouting/multicast/enabled", "true" if multicast_scouting else "false"
         )
         return zenoh.open(zenoh_config)
     except Exception as error:
-        raise TransportError(f"zenoh router on {', '.join(listen)}: {error}") from error
+        raise TransportError(f"zenoh router on {where}: {error}") from error
 
 
 def main(argv: Sequence[str] | None = None) -> int:
@@ -51,8 +57,8 @@ def main(argv: Sequence[str] | None = None) -> int:
         description="Run a zenoh router until Ctrl-C (peers connect to it: tcp/HOST:7447).",
     )
     parser.add_argument(
-        "endpoints", nargs="*", default=["tcp/0.0.0.0:7447"], metavar="ENDPOINT",
-        help="where to listen (default tcp/0.0.0.0:7447)",
+        "endpoints", nargs="*", metavar="ENDPOINT",
+        help=f"where to listen (default: the --config file's, else {DEFAULT_LISTEN})",
     )  # fmt: skip
     parser.add_argument("--config", type=Path, help="a zenoh JSON5 config file (TLS, ACL...)")
     options = parser.parse_args(argv)
@@ -61,7 +67,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except TransportError as error:
         print(f"router: {' '.join(str(error).split())}", file=sys.stderr)
         return 1
-    print(f"zenoh router {router.zid()} listening on {', '.join(options.endpoints)}", flush=True)
+    if options.endpoints:
+        listening = ", ".join(options.endpoints)
+    else:
+        listening = f"the endpoints of {options.config}" if options.config else DEFAULT_LISTEN
+    print(f"zenoh router {router.zid()} listening on {listening}", flush=True)
     stop = threading.Event()
     for signum in (signal.SIGINT, signal.SIGTERM):
         signal.signal(signum, lambda _signum, _frame: stop.set())
