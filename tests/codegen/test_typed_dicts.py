@@ -22,16 +22,22 @@ missing = d["positon"]
 """
 
 
-def test_to_dict_results_are_typed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    # An editable install hides generated/ behind an import hook that mypy cannot follow.
-    monkeypatch.setenv("MYPYPATH", str(GENERATED))
+def mypy_errors(tmp_path: Path, source: str) -> tuple[list[str], int]:
+    """mypy --strict on ``source`` as a user's script: its error texts and exit status."""
     script = tmp_path / "use.py"
-    script.write_text(USE)
+    script.write_text(source)
     out, _, status = api.run([
         "--strict", "--no-incremental", "--ignore-missing-imports", "--follow-imports=silent",
         "--cache-dir", str(tmp_path / "cache"), "--config-file", "", str(script),
     ])  # fmt: skip
     errors = [line.split(": error: ", 1)[1] for line in out.splitlines() if ": error: " in line]
+    return errors, status
+
+
+def test_to_dict_results_are_typed(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
+    # An editable install hides generated/ behind an import hook that mypy cannot follow.
+    monkeypatch.setenv("MYPYPATH", str(GENERATED))
+    errors, status = mypy_errors(tmp_path, USE)
     assert status == 1
     assert errors == [
         'Incompatible types in assignment (expression has type "list[float]", variable has type "str")  [assignment]',
@@ -48,8 +54,7 @@ def test_docstring_example_type_checks(tmp_path: Path, monkeypatch: pytest.Monke
     ]
     assert examples == ["d = cast(BatteryStateDict, codecs.to_dict(msg))"]
     monkeypatch.setenv("MYPYPATH", f"{GENERATED}:{ROOT / 'src'}")
-    script = tmp_path / "use.py"
-    script.write_text(
+    source = (
         "from typing import cast\n"
         "from pyconnect import codecs\n"
         "from pyconnect_generated.sensor_msgs.typed_dicts import BatteryStateDict\n"
@@ -58,11 +63,7 @@ def test_docstring_example_type_checks(tmp_path: Path, monkeypatch: pytest.Monke
         "voltage: float = d['voltage']\n"
         "bare: BatteryStateDict = codecs.to_dict(msg)\n"
     )
-    out, _, status = api.run([
-        "--strict", "--no-incremental", "--ignore-missing-imports", "--follow-imports=silent",
-        "--cache-dir", str(tmp_path / "cache"), "--config-file", "", str(script),
-    ])  # fmt: skip
-    errors = [line.split(": error: ", 1)[1] for line in out.splitlines() if ": error: " in line]
+    errors, status = mypy_errors(tmp_path, source)
     assert status == 1
     assert errors == [
         'Incompatible types in assignment (expression has type "dict[str, Any]", variable has type "BatteryStateDict")  [assignment]',
