@@ -357,3 +357,18 @@ def test_shutting_another_node_down_from_a_callback_waits_for_it(make_node: Any)
     outer.spin(run_thread=True)
     assert done.wait(EVENT_TIMEOUT)
     assert seen == [True]
+
+
+def test_a_codec_of_another_type_is_refused_when_the_agent_is_made(make_node: Any) -> None:
+    # It was accepted, and send() then failed in rclpy's words ("Expected Twist, got Image").
+    from geometry_msgs.msg import Twist
+
+    from pyconnect.codecs.image import ImageCodec
+
+    node = make_node("codec_check")
+    with pytest.raises(PyconnectError) as caught:
+        node.add_agent(conn_name="cmd", conn_type="pub", data_interface=Twist, codec=ImageCodec())
+    assert "codec: ImageCodec converts 'sensor_msgs/msg/Image', expected a codec of " in str(
+        caught.value
+    )
+    assert "'geometry_msgs/msg/Twist'" in str(caught.value)

@@ -110,6 +110,14 @@ class NodeAgent:
                 f"codec: expected a codec with msg_type, lossless, encode and decode, "
                 f"got {type(codec).__name__}"
             )
+        if codec is not None:
+            # A codec of another type failed only at the first send, in rclpy's words.
+            wanted, own = registry.resolve(msg_class), _resolved(registry, codec.msg_type)
+            if own != wanted:
+                raise self.error(
+                    f"codec: {type(codec).__name__} converts {codec.msg_type!r}, "
+                    f"expected a codec of {wanted!r}"
+                )
         conversion = MessageConversion(
             describe=self.describe,
             msg_class=msg_class,
@@ -342,3 +350,12 @@ def _summary(value: Any) -> str:
         return f"{type(value).__name__} shape={tuple(shape)} dtype={getattr(value, 'dtype', '?')}"
     text = repr(value)
     return text if len(text) <= 200 else text[:197] + "..."
+
+
+def _resolved(registry: Any, msg_type: object) -> str | None:
+    try:
+        name: str = registry.resolve(msg_type)
+    except PyconnectError:
+        return None
+    return name
+
