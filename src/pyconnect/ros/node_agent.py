@@ -358,4 +358,3 @@ def _resolved(registry: Any, msg_type: object) -> str | None:
     except PyconnectError:
         return None
     return name
-
