@@ -165,6 +165,14 @@ def _bridge_node(name: str, locator: str, tmp_path: Path, monkeypatch: pytest.Mo
     return CustomNode(name, handle_signals=False, context=Context())
 
 
+def _send_until_heard(peer_pub: Any, word: str, got: dict[str, threading.Event]) -> None:
+    """Send ``word`` from a peer until the ROS side has heard it (discovery takes a moment)."""
+    deadline = time.monotonic() + TIMEOUT
+    while not got[word].wait(0.1):
+        assert time.monotonic() < deadline, "zenoh -> ROS never delivered"
+        peer_pub.send(word)
+
+
 def _watch_and_talk(
     node: Any, topic: str, words: tuple[str, ...]
 ) -> tuple[list[str], dict[str, threading.Event], Any]:
@@ -228,10 +236,7 @@ def test_a_topic_bridged_both_ways_by_one_node_crosses_once(
                 conn_name="/loop", conn_type="pub", data_interface="std_msgs/msg/String"
             )
             # zenoh -> ROS works (discovery done) before anything is counted.
-            deadline = time.monotonic() + TIMEOUT
-            while not got["warm"].wait(0.1):
-                assert time.monotonic() < deadline, "zenoh -> ROS never delivered"
-                far.send("warm")
+            _send_until_heard(far, "warm", got)
             assert wait_for(lambda: to_zenoh.zenoh_publisher.matched)
             assert wait_for(lambda: talker.publisher.get_subscription_count() >= 2)
             zenoh_side = to_ros.zenoh_subscriber
@@ -346,10 +351,7 @@ def test_a_topic_bridged_both_ways_by_two_processes_crosses_once(
                     conn_name="/loop2", conn_type="pub", data_interface="std_msgs/msg/String"
                 )
                 # What the far bridge publishes on ROS arrives in order: after any copy of 'first'.
-                deadline = time.monotonic() + TIMEOUT
-                while not got["sentinel"].wait(0.1):
-                    assert time.monotonic() < deadline, "zenoh -> ROS never delivered"
-                    far.send("sentinel")
+                _send_until_heard(far, "sentinel", got)
             assert seen.count("first") == 1
     finally:
         err = stop(far_bridge)
