@@ -156,12 +156,15 @@ node.create_timer(0.001, tick)
 print("READY", flush=True)
 try:
     rclpy.spin(node)
-except (KeyboardInterrupt, ExternalShutdownException):  # SIGINT, before or after rclpy's handler
+# SIGINT before or after rclpy's handler; or it shut the context down while the executor was
+# making its next wait set (rcl: "the given context is not valid")
+except (KeyboardInterrupt, ExternalShutdownException, RCLError):
     pass
 """
 
 BARE_SUBSCRIBER = """
 import rclpy
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import qos_profile_sensor_data
@@ -174,7 +177,7 @@ def on_message(data):
 node.create_subscription(String, "fast", on_message, qos_profile_sensor_data, raw=True)
 try:
     rclpy.spin(node)
-except (KeyboardInterrupt, ExternalShutdownException):  # SIGINT, before or after rclpy's handler
+except (KeyboardInterrupt, ExternalShutdownException, RCLError):  # SIGINT, as the publisher's
     print(count[0], flush=True)
 """
 
