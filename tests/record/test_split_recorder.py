@@ -174,7 +174,7 @@ def test_the_first_file_and_the_definitions_are_ready_when_a_topic_is_added(
 ) -> None:
     """The first message and each split cost a write, not an import and a definition lookup
     (done in a subscription callback, the first file's ~0.1 s lost 22-34 messages at 1 kHz)."""
-    from pyconnect.typesys import definition_text
+    from pyconnect.typesys import installed_definition_text
 
     bag = tmp_path / "run"
     recorder = SplitRecorder(bag, max_bytes=1)
@@ -185,7 +185,7 @@ def test_the_first_file_and_the_definitions_are_ready_when_a_topic_is_added(
     def no_lookup(msg_type: str) -> str:
         raise AssertionError(f"{msg_type}: definition looked up again")
 
-    monkeypatch.setattr(definition_text, "installed_definition", no_lookup)
+    monkeypatch.setattr(installed_definition_text, "installed_definition", no_lookup)
     for i in range(3):  # three files: each split reuses the definition read above
         recorder.write("/chatter", _hello(i), log_time_ns=i)
     recorder.close()

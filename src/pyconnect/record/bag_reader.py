@@ -37,10 +37,8 @@ is opened (``raw=True`` reads them).
 
 from __future__ import annotations
 
-import heapq
 import logging
 from collections.abc import Iterable, Iterator, Sequence
-from operator import itemgetter
 from pathlib import Path
 from typing import Any, Literal
 
@@ -53,15 +51,11 @@ from pyconnect.record.bag_info import (
     describe,
     storage_damage,
 )
-from pyconnect.record.bag_message import BagMessage, DecodeProblem, message_maker
+from pyconnect.record.bag_message import BagMessage, DecodeProblem
+from pyconnect.record.bag_read import ConnectionDecoders, MergedRead
 from pyconnect.record.bag_read_report import OnError, ProblemLog, damage_line, promised_count
-from pyconnect.record.bag_storage import Connection, RawMessage, StorageFile
-from pyconnect.record.topic_decoder import (
-    TopicDecoder,
-    TypeMismatch,
-    normalise_type_name,
-    type_mismatch,
-)
+from pyconnect.record.bag_storage import StorageFile
+from pyconnect.record.topic_decoder import TopicDecoder, TypeMismatch, normalise_type_name
 from pyconnect.record.topic_selection import select_topics
 
 __all__ = [
@@ -77,24 +71,6 @@ __all__ = [
 ]
 
 _log = logging.getLogger("pyconnect.record")
-
-
-class _Plan:
-    """How one connection of one storage file is read: its topic, type, decoder and messages."""
-
-    __slots__ = ("decoder", "make", "msg_type", "topic")
-
-    def __init__(self, topic: str, msg_type: str, decoder: TopicDecoder | None) -> None:
-        self.topic = topic
-        self.msg_type = msg_type
-        self.decoder = decoder
-        self.make = message_maker(msg_type)
-
-
-def _keyed(number: int, stream: Iterator[RawMessage]) -> Iterator[tuple[Any, int, Any]]:
-    """A file's messages keyed by (file number, connection id), for merging several files."""
-    for connection_id, log_time, data in stream:
-        yield (number, connection_id), log_time, data
 
 
 class BagReader:
@@ -125,7 +101,6 @@ class BagReader:
         self.registry = registry
         self.start_ns = start_ns
         self.end_ns = end_ns
-        self.mismatches: list[TypeMismatch] = []
         self._bags: list[tuple[BagFiles, list[StorageFile]]] = []
         self._closed_damage: tuple[BagDamage, ...] = ()
         self._borrowed_damage: list[BagDamage] = []  # found by readers of one topic (tables)
@@ -138,8 +113,10 @@ class BagReader:
         except BaseException:
             self.close()
             raise
-        self._decoders: dict[tuple[str, str | None, str, str], TopicDecoder] = {}
-        self._counts: dict[str, int] = {}
+        self._decoders = ConnectionDecoders(
+            self.path, self.topics, natural=natural, registry=registry
+        )
+        self.mismatches: list[TypeMismatch] = self._decoders.mismatches
         self._delivered = 0
         self._first_decoded: set[int] = set()  # decoders topic_codec has settled
         self.switched: dict[str, int] = {}
@@ -181,91 +158,15 @@ class BagReader:
         """Read the bag (again): indices, ``errors`` and reports start afresh every time."""
         self._problems = ProblemLog(self.path, self.on_error)
         self.switched = {}
-        self._counts = {}
         self._delivered = 0
-        # One plan per connection of each file, keyed by the connection id (one file) or by
-        # (file number, id) when several files are merged by log time.
-        plans: dict[Any, _Plan] = {}
-        streams: list[Iterator[RawMessage]] = []
         storages = [storage for _, stored in self._bags for storage in stored]
-        for number, storage in enumerate(storages):
-            ids = set()
-            for connection in storage.connections():
-                if connection.topic in self.topics:
-                    msg_type = normalise_type_name(connection.msg_type)
-                    decoder = None if self.raw else self._decoder(connection)
-                    key = connection.id if len(storages) == 1 else (number, connection.id)
-                    plans[key] = _Plan(connection.topic, msg_type, decoder)
-                    ids.add(connection.id)
-            streams.append(storage.messages(ids, self.start_ns, self.end_ns))
-        if len(streams) == 1:
-            merged: Iterator[tuple[Any, int, Any]] = streams[0]
-        else:
-            merged = heapq.merge(
-                *(_keyed(number, stream) for number, stream in enumerate(streams)),
-                key=itemgetter(1),
-            )
-        delivered = 0
+        decoders = None if self.raw else self._decoders
+        read = MergedRead(storages, self.topics, decoders, self.start_ns, self.end_ns)
         try:
-            if self.raw:
-                for key, log_time, data in merged:
-                    delivered += 1
-                    plan = plans[key]
-                    yield plan.make((plan.topic, log_time, bytes(data)))
-                return
-            counts = self._counts
-            for key, log_time, data in merged:
-                delivered += 1
-                plan = plans[key]
-                topic = plan.topic
-                index = counts.get(topic, 0)
-                counts[topic] = index + 1
-                decoder = plan.decoder
-                assert decoder is not None
-                try:
-                    value = decoder.decode(data)
-                except Exception as error:  # any codec failure is one message's problem
-                    try:
-                        value = decoder.recover(data, error)
-                    except Exception as final:
-                        self._problems.add(topic, index, log_time, final)
-                        continue
-                    self._note_switch(topic, index)
-                yield plan.make((topic, log_time, value))
+            yield from read.messages(self._problems, self.switched)
         finally:
-            self._delivered = delivered
-            for stream in streams:
-                stream.close()  # type: ignore[attr-defined]  # generators: before the files
+            self._delivered = read.delivered
             self._report()
-
-    def _decoder(self, connection: Connection) -> TopicDecoder:
-        key = (
-            connection.msg_type,
-            connection.definition,
-            connection.definition_encoding,
-            connection.type_hash,
-        )
-        decoder = self._decoders.get(key)
-        if decoder is None:
-            mismatch = self._check_hash(connection)
-            decoder = TopicDecoder(
-                connection.msg_type,
-                connection.definition,
-                connection.definition_encoding,
-                natural=self.natural,
-                registry=self.registry,
-                installed_allowed=mismatch is None,
-                # The file's hash, else the one metadata.yaml gives for the topic.
-                type_hash=connection.type_hash or self.topics[connection.topic].type_hash,
-            )
-            self._decoders[key] = decoder
-        return decoder
-
-    def _note_switch(self, topic: str, index: int) -> None:
-        # recover() returned a value: the decoder has just given up the stored definition.
-        before = index - self._problems.count(topic)
-        if before > 0:
-            self.switched.setdefault(topic, before)
 
     def topic_codec(self, topic: str) -> Any:
         """The wire codec the values of ``topic`` follow (None: none could be built).
@@ -279,7 +180,7 @@ class BagReader:
                 for connection in storage.connections():
                     if connection.topic != topic:
                         continue
-                    decoder = self._decoder(connection)
+                    decoder = self._decoders.decoder(connection)
                     # Once per decoder: align asks for every matched message, and a stored
                     # definition that fits never counts as settled.
                     if not decoder.settled and id(decoder) not in self._first_decoded:
@@ -303,13 +204,6 @@ class BagReader:
                 return
         finally:
             stream.close()  # type: ignore[attr-defined]  # a generator
-
-    def _check_hash(self, connection: Connection) -> TypeMismatch | None:
-        mismatch = type_mismatch(connection)
-        if mismatch is not None:
-            self.mismatches.append(mismatch)
-            _log.warning("%s: %s", self.path, mismatch)
-        return mismatch
 
     def _report(self) -> None:
         self._problems.log_summary()

@@ -82,8 +82,8 @@ class McapRecorder:
 
     Call ``add_topic`` once per topic before writing it; ``definition`` is the definition text
     (built from the installed interface files when None): ros2msg, or ros2idl when it is laid
-    out as ``definition_text.installed_definition`` writes IDL. ``chunk_size`` is the uncompressed
-    size at which a chunk is closed and compressed. ``close()`` finishes the file and
+    out as ``installed_definition_text.installed_definition`` writes IDL. ``chunk_size`` is the
+    uncompressed size at which a chunk is closed and compressed. ``close()`` finishes the file and
     writes metadata.yaml; it is idempotent and also runs on leaving a ``with`` block.
     """
 
@@ -173,7 +173,10 @@ class McapRecorder:
                         f"{full_type}"
                     )
                 return
-            from pyconnect.typesys.definition_text import definition_encoding, installed_definition
+            from pyconnect.typesys.installed_definition_text import (
+                definition_encoding,
+                installed_definition,
+            )
 
             if definition is None:
                 definition = installed_definition(full_type)

@@ -1,6 +1,6 @@
 """Checking MCAP records where they lie in a file: does the one at an offset parse and fit?
 
-A file scanned record by record (``mcap_storage``, when its summary cannot index it) must not
+A file scanned record by record (``mcap_scan``, when its summary cannot index it) must not
 trust a damaged length: it would skip intact records, or read past the data section. When the
 footer places the end of the data section (``data_end``), each record must end before it and
 parse as its kind's layout says (``fits``); after one that does not, ``resync`` finds the next

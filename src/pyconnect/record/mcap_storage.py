@@ -2,33 +2,25 @@
 
 A complete file is read through its summary (schemas, channels, statistics, chunk index). A
 file without a usable summary — a recording cut short, a damaged index — is scanned once when
-opened, as ``ros2 bag reindex`` would: chunk headers and the message indexes after them give
-the time range and counts of each chunk without decompressing it; only chunks that declare
-unknown channels, or have no message index (the last chunk of a cut recording), are
-decompressed to read them. Either way, messages are then read chunk by chunk in log-time order
-(``messages``), holding at most two chunks at a time. Damage never raises: it is noted in
-``damage`` and the intact messages are delivered (see ``mcap_chunks``).
+opened, as ``ros2 bag reindex`` would (``mcap_scan``). Either way, messages are then read chunk
+by chunk in log-time order (``messages``), holding at most two chunks at a time. Damage never
+raises: it is noted in ``damage`` and the intact messages are delivered (see ``mcap_chunks``).
 
 A file scanned although its summary is readable (one written without chunks has no chunk index)
-keeps the summary's statistics as the counts it promises. When its footer places the end of the
-data section, each record scanned must fit before it and parse; a damaged one is skipped by
-resynchronising on the next run of records that do (``mcap_records``), rather than losing
-the rest of the file.
+keeps the summary's statistics as the counts it promises, and the schemas and channels it
+declares.
 """
 
 from __future__ import annotations
 
 import bisect
 import heapq
-import io
 import os
-import struct
 from collections.abc import Iterator, Sequence
 from operator import itemgetter
 from pathlib import Path
 from typing import BinaryIO
 
-from mcap.data_stream import ReadDataStream
 from mcap.reader import make_reader
 from mcap.records import Channel, Schema
 from mcap.summary import Summary
@@ -38,32 +30,19 @@ from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_storage import Connection, RawMessage
 from pyconnect.record.mcap_chunks import (
     CHUNK,
-    MESSAGE,
-    MESSAGE_HEADER,
     RECORD_HEADER,
     ChunkBuffers,
     Span,
     chunk_problem,
     load_span,
-    read_chunk_head,
     scan_messages,
 )
-from pyconnect.record.mcap_records import (
-    CHANNEL,
-    DATA_END,
-    FOOTER,
-    MAGIC,
-    MESSAGE_INDEX,
-    SCHEMA,
-    RecordChecker,
-)
+from pyconnect.record.mcap_records import MAGIC
+from pyconnect.record.mcap_scan import MESSAGE_INDEX_HEAD, scan_data_section
 
 __all__ = ["McapFile"]
 
-_HEADS = RECORD_HEADER.size + MESSAGE_HEADER.size
-_INDEX_HEAD = struct.Struct("<HI")
 _DEFINITION_ENCODINGS = ("ros2msg", "ros2idl")
-_LOOSE_RUN = 4 << 20  # messages outside chunks are read in runs of about this many bytes
 
 
 _log_time = itemgetter(1)  # of a RawMessage; in C, as sort and merge call it per message
@@ -103,7 +82,16 @@ class McapFile:
             if self._counts is None:
                 self._count_from_message_indexes(summary)
         else:
-            self._recover()
+            self._spans = scan_data_section(
+                self._stream,
+                self._size,
+                schemas=self._schemas,
+                channels=self._channels,
+                times=self._times,
+                promised=self.promised,
+                damage=self.damage,
+                buffers=self._buffers,
+            )
         self._spans.sort(key=lambda s: (s.start_ns, s.offset))
         self._connections = self._make_connections()
 
@@ -170,171 +158,9 @@ class McapFile:
             span.counts = {}
             for channel, offset in index.message_index_offsets.items():
                 self._stream.seek(offset + RECORD_HEADER.size)
-                head = self._stream.read(_INDEX_HEAD.size)
-                if len(head) == _INDEX_HEAD.size:
-                    span.counts[channel] = _INDEX_HEAD.unpack(head)[1] // 16
-
-    def _recover(self) -> None:
-        """Scan the data section: chunk headers, message indexes, schemas, channels."""
-        stream, size = self._stream, self._size
-        records = RecordChecker(self._stream, self._size, self._channels, self._times)
-        data_end = records.data_end()
-        limit = size if data_end is None else data_end
-        position = 8
-        last_chunk: Span | None = None
-        loose: Span | None = None
-        # (offset, length, channel) of the message record before, while it is in `loose`
-        previous: tuple[int, int, int] | None = None
-        first_ns, last_ns = self._times or (0, 2**64)
-        while True:
-            stream.seek(position)
-            head = stream.read(RECORD_HEADER.size + MESSAGE_HEADER.size)
-            if len(head) < RECORD_HEADER.size:
-                if head or position != size:
-                    self.damage.note(position, "file ends inside a record header", key="end")
-                break
-            opcode, length = RECORD_HEADER.unpack_from(head)
-            body = position + RECORD_HEADER.size
-            end = body + length
-            if opcode in (FOOTER, DATA_END) and (data_end is None or position == data_end):
-                break
-            message = None
-            if opcode == MESSAGE and length >= MESSAGE_HEADER.size and len(head) == _HEADS:
-                message = MESSAGE_HEADER.unpack_from(head, RECORD_HEADER.size)
-            if data_end is None:
-                fits = True
-            elif message is not None:  # checked here, not by _fits: once per message counts
-                fits = end <= limit and message[0] in self._channels
-                fits = fits and first_ns <= message[2] <= last_ns
-            else:
-                fits = opcode != MESSAGE and records.fits(position, opcode, limit)
-            if not fits:
-                # The damage is in this record, or in the length of the message before, which
-                # then led here: resynchronise from inside that one.
-                start = position + 1 if previous is None else previous[0] + RECORD_HEADER.size
-                resumed = records.resync(start, limit)
-                if resumed is not None:
-                    if previous is not None and resumed < position:
-                        assert loose is not None and loose.counts is not None
-                        position, length, channel = previous
-                        loose.length = position - loose.offset
-                        loose.counts[channel] -= 1
-                        if not loose.counts[channel]:
-                            del loose.counts[channel]
-                        what = f"message record claims {length} bytes, where no record follows"
-                    elif opcode == 0:
-                        what = "no record here (zeros)"
-                    elif end > limit:
-                        what = f"record claims {length} bytes, more than the data section holds"
-                    else:
-                        what = f"broken record (type {opcode:#x}, {length} bytes)"
-                    self.damage.note(
-                        position,
-                        f"{what}; {resumed - position} bytes skipped to the next intact record",
-                    )
-                    position, loose, last_chunk, previous = resumed, None, None, None
-                    continue
-            previous = None
-            if opcode == 0:
-                self.damage.note(position, "no record here (zeros); the rest is unreadable")
-                break
-            cut = end > limit
-            if cut and opcode != CHUNK:
-                self.damage.note(
-                    position,
-                    f"record claims {length} bytes, {limit - body} are left in the "
-                    f"{'file' if limit == size else 'data section'}; the rest is lost",
-                    key="end",
-                )
-                break
-            if opcode != MESSAGE:
-                loose = None
-            if opcode not in (MESSAGE_INDEX, CHUNK):
-                last_chunk = None
-            if opcode == CHUNK:
-                chunk = read_chunk_head(stream, position)
-                if isinstance(chunk, str):
-                    self.damage.note(position, chunk, key="end")
-                    break
-                problem = chunk_problem(chunk.compression, chunk.stored, chunk.uncompressed)
-                if problem is not None:
-                    self.damage.note(position, problem[1], key=problem[0])
-                last_chunk = Span(position, chunk.start_ns, chunk.end_ns, chunked=True)
-                self._spans.append(last_chunk)
-                if cut:
-                    break  # load_span notes how much of it is left
-            elif opcode == MESSAGE_INDEX and last_chunk is not None and length >= 6:
-                stream.seek(body)
-                channel, entries = _INDEX_HEAD.unpack(stream.read(_INDEX_HEAD.size))
-                if last_chunk.counts is None:
-                    last_chunk.counts = {}
-                last_chunk.counts[channel] = entries // 16
-            elif opcode in (SCHEMA, CHANNEL):
-                stream.seek(body)
-                self._definition(opcode, stream.read(length), position)
-            elif message is not None:
-                channel, _, log_time, _ = message
-                if loose is None or loose.length > _LOOSE_RUN:
-                    loose = Span(position, log_time, log_time, chunked=False, counts={})
-                    self._spans.append(loose)
-                assert loose.counts is not None
-                previous = (position, length, channel)
-                loose.length = end - loose.offset
-                loose.start_ns = min(loose.start_ns, log_time)
-                loose.end_ns = max(loose.end_ns, log_time)
-                loose.counts[channel] = loose.counts.get(channel, 0) + 1
-            position = end
-        for span in self._spans:
-            if span.counts is None or not span.counts.keys() <= self._channels.keys():
-                self._probe(span)
-            span.channels = frozenset(span.counts or ())
-        found = sum(sum((span.counts or {}).values()) for span in self._spans)
-        if self.promised is not None and found != self.promised and not self.damage.found:
-            # A damaged length that happens to land on a later record loses the records between
-            # without a trace in the data section: only the statistics show it. (Damage already
-            # noted says why messages are missing.)
-            self.damage.note(
-                None,
-                f"the file's statistics count {self.promised} message(s), {found} were found in it",
-            )
-
-    def _definition(self, opcode: int, body: bytes, offset: int) -> None:
-        try:
-            stream = ReadDataStream(io.BytesIO(body))
-            if opcode == SCHEMA:
-                schema = Schema.read(stream)
-                self._schemas.setdefault(schema.id, schema)
-            else:
-                channel = Channel.read(stream)
-                self._channels.setdefault(channel.id, channel)
-        except Exception as error:  # a damaged record: note it, keep scanning
-            kind = "schema" if opcode == SCHEMA else "channel"
-            self.damage.note(offset, f"{kind} record unreadable ({type(error).__name__})")
-
-    def _probe(self, span: Span) -> None:
-        """Decompress a chunk to learn its channels, counts and times."""
-        records, complete = load_span(self._stream, span, self._size, self.damage, self._buffers)
-        position, size = 0, len(records)
-        counts: dict[int, int] = {}
-        first = last = None
-        while position + 9 <= size:
-            opcode, length = RECORD_HEADER.unpack_from(records, position)
-            body, end = position + 9, position + 9 + length
-            if end > size:
-                break
-            if opcode in (SCHEMA, CHANNEL):
-                self._definition(opcode, bytes(records[body:end]), span.offset)
-            elif opcode == MESSAGE and length >= MESSAGE_HEADER.size:
-                channel, _, log_time, _ = MESSAGE_HEADER.unpack_from(records, body)
-                counts[channel] = counts.get(channel, 0) + 1
-                first = log_time if first is None else min(first, log_time)
-                last = log_time if last is None else max(last, log_time)
-            position = end
-        # messages() notes broken records when it reads this chunk; here only learn
-        span.counts = counts
-        if first is not None and last is not None:
-            span.start_ns, span.end_ns = first, last
-        del complete
+                head = self._stream.read(MESSAGE_INDEX_HEAD.size)
+                if len(head) == MESSAGE_INDEX_HEAD.size:
+                    span.counts[channel] = MESSAGE_INDEX_HEAD.unpack(head)[1] // 16
 
     def _make_connections(self) -> list[Connection]:
         connections = []

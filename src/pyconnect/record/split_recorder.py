@@ -128,7 +128,7 @@ class SplitRecorder:
         if topic in self._topics:
             return
         if definition is None:
-            from pyconnect.typesys.definition_text import installed_definition
+            from pyconnect.typesys.installed_definition_text import installed_definition
             from pyconnect.typesys.names import full_type_name
 
             # Outside the lock: reading interface files must not hold up a write meanwhile.

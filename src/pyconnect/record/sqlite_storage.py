@@ -2,15 +2,9 @@
 
 Schema versions differ in columns (``offered_qos_profiles`` appeared in Eloquent,
 ``type_description_hash`` and the ``message_definitions`` table in Iron); column lists are read
-from the file rather than assumed. The file is opened with ``mode=ro&immutable=1`` so reading a
-bag never leaves ``-wal``/``-shm`` files or changes it.
+from the file rather than assumed. The file is opened read-only and immutable, and its tables
+found, however damaged it is (cut short, a damaged schema: ``pyconnect.record.sqlite_open``).
 
-A file cut short (fewer pages than its header declares) cannot be opened by SQLite as it is: it
-is copied to a temporary file padded with zero pages (sparse, so cheap) and read from there; cut
-inside its first page, which holds the schema, it has no table left to read. A damaged schema
-(``sqlite_master``) is read with ``writable_schema`` and the rosbag2 tables are found by their
-columns, since the damaged byte may be a table's name. Only a file whose schema is intact and has
-no ``topics``/``messages`` tables is not a bag (``BagError``); anything else wrong is damage.
 Counts and times come from a scan of the ``messages`` table itself, which reads every row's
 record header but not its blob: the index and a count that reads less still list rows that
 cannot be read. When pages of the ``messages`` table are unreadable, rows are read one batch at
@@ -24,18 +18,13 @@ replacement characters), a NULL, text or blob where an integer belongs; such row
 
 from __future__ import annotations
 
-import os
-import shutil
-import sqlite3
-import tempfile
-import urllib.parse
 from collections.abc import Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 from pyconnect.record.bag_damage import DamageLog
-from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_storage import Connection, RawMessage
+from pyconnect.record.sqlite_open import NOTHING_READABLE, SqliteDatabase, columns_of
 from pyconnect.record.sqlite_salvage import (
     READ_ERRORS,
     DamagedRow,
@@ -48,25 +37,6 @@ from pyconnect.record.sqlite_salvage import (
 __all__ = ["SqliteFile"]
 
 _DEFINITION_ENCODINGS = ("ros2msg", "ros2idl")
-_HEADER = 100
-_NOTHING = "no message can be read"
-_SCHEMA = "SELECT name FROM sqlite_master WHERE type = 'table'"
-# rosbag2's tables, by the columns that tell them when a damaged byte is a name. Queries read
-# ``id`` (INTEGER PRIMARY KEY) as rowid, which a damaged type in the CREATE statement leaves.
-_ROLES = {
-    "topics": {"id", "name", "type", "serialization_format"},
-    "messages": {"id", "topic_id", "timestamp", "data"},
-    "message_definitions": {"topic_type", "encoding", "encoded_message_definition"},
-}
-
-
-def _quoted(name: str) -> str:
-    return '"' + name.replace('"', '""') + '"'
-
-
-def _columns(db: sqlite3.Connection, table: str) -> list[str]:
-    """The columns of ``table`` (quoted)."""
-    return [str(row[1]) for row in db.execute(f"PRAGMA table_info({table})")]
 
 
 def _tally_query(messages: str) -> str:
@@ -90,19 +60,6 @@ def _index_query(messages: str) -> str:
     )
 
 
-def _declared_size(path: Path) -> tuple[int, int, int]:
-    """(bytes the header declares, bytes in the file, page size)."""
-    with path.open("rb") as stream:
-        head = stream.read(_HEADER)
-        size = os.fstat(stream.fileno()).st_size
-    if len(head) < _HEADER:  # the magic and less: a cut inside the first page
-        return _HEADER, size, _HEADER
-    page_size = int.from_bytes(head[16:18], "big")
-    page_size = 65536 if page_size == 1 else page_size
-    pages = int.from_bytes(head[28:32], "big")
-    return page_size * pages, size, max(page_size, 1)
-
-
 class SqliteFile:
     """One ``.db3`` file of a rosbag2 bag."""
 
@@ -110,44 +67,14 @@ class SqliteFile:
         self.path = str(path)
         self.damage = DamageLog(self.path)
         self.promised: int | None = None
-        self._copy: str | None = None
-        self._damaged = False
         self._connections: list[Connection] = []
         self._tables: dict[str, str] = {}  # rosbag2's name -> the file's, quoted ({}: none read)
         self._tallied: tuple[dict[int, int], tuple[int, int] | None] | None = None
         self._ranges_noted = False  # every unreadable range of the messages table is noted
-        source = path
-        declared, size, page_size = _declared_size(path)
-        schema_cut = declared > size and size < page_size  # page 1 holds the schema
-        if declared > size:
-            self._damaged = True
-            if schema_cut:
-                told = "its header declares" if size >= _HEADER else "of a sqlite3 header"
-                self.damage.note(
-                    size,
-                    f"the file is cut short inside its first page (the schema): {size} of the "
-                    f"{declared} bytes {told}; {_NOTHING}",
-                )
-            else:
-                self.damage.note(
-                    size,
-                    f"the file is cut short: {size} of the {declared} bytes its header declares",
-                )
-                source = self._padded_copy(path, size - size % page_size, declared)
-        uri = f"file:{urllib.parse.quote(str(source.resolve()))}?mode=ro&immutable=1"
-        try:
-            self._db = sqlite3.connect(uri, uri=True, check_same_thread=False)
-        except sqlite3.DatabaseError as error:
-            self._remove_copy()
-            raise BagError(f"{path}: not a sqlite3 bag ({error})") from None
-        self._db.text_factory = self._text
-        if schema_cut:
-            return  # no table can be found
-        try:
-            tables = self._find_tables()
-        except BagError:
-            self.close()
-            raise
+        self._database = SqliteDatabase(path, self.damage)
+        self._db = self._database.db
+        self._damaged = self._database.cut
+        tables = self._database.tables
         if not {"topics", "messages"} <= tables.keys():
             return  # the damage says why
         self._tables = tables
@@ -155,62 +82,10 @@ class SqliteFile:
             self._connections = self._read_connections()
         except READ_ERRORS as error:
             self._found_damage(error)
-            self.damage.note(None, f"the topics table is unreadable: {_NOTHING}")
-
-    def _find_tables(self) -> dict[str, str]:
-        """rosbag2's table name -> the file's (quoted); damage noted when the schema is damaged.
-
-        ``BagError`` when the schema is intact and has no ``topics``/``messages`` tables.
-        """
-        try:
-            names = {str(row[0]) for row in self._db.execute(_SCHEMA)}
-        except READ_ERRORS as error:
-            reason = reason_of(error)
-        else:
-            if not {"topics", "messages"} <= names:
-                raise BagError(
-                    f"{self.path}: not a rosbag2 sqlite3 file (no topics/messages tables)"
-                )
-            return {role: _quoted(role) for role in _ROLES if role in names}
-        # One damaged CREATE statement or name makes SQLite refuse every query on the file
-        # ("malformed database schema"); with writable_schema it skips what it cannot parse and
-        # reads the rest (the file stays read-only: it is opened so). A table is named by its
-        # CREATE statement, not by sqlite_master's name column, which may be the damaged byte.
-        found: dict[str, str] = {}
-        try:
-            self._db.execute("PRAGMA writable_schema = ON")
-            listed = [
-                str(row[1])
-                for row in self._db.execute("PRAGMA table_list")
-                if row[0] == "main" and row[2] == "table"
-            ]
-            for name in map(_quoted, [*_ROLES, *listed]):
-                columns = set(_columns(self._db, name))
-                for role, needed in _ROLES.items():
-                    if needed <= columns:
-                        found.setdefault(role, name)
-        except READ_ERRORS as error:
-            self.damage.note(None, f"the schema cannot be read ({reason_of(error)}): {_NOTHING}")
-            return {}
-        lost = (
-            ""
-            if {"topics", "messages"} <= found.keys()
-            else f"; it has no topics/messages table: {_NOTHING}"
-        )
-        self.damage.note(None, f"the schema is damaged ({reason}){lost}", key="schema")
-        return found
-
-    def _text(self, raw: bytes) -> str:
-        # SQLite hands TEXT over as stored; a flipped byte makes it invalid UTF-8, which the
-        # default text factory raises on (UnicodeDecodeError) from any query that reads it.
-        try:
-            return raw.decode("utf-8")
-        except UnicodeDecodeError:
-            self.damage.note(None, "text that is not UTF-8 (read with U+FFFD)", key="utf-8")
-            return raw.decode("utf-8", errors="replace")
+            self.damage.note(None, f"the topics table is unreadable: {NOTHING_READABLE}")
 
     def _read_connections(self) -> list[Connection]:
-        columns = _columns(self._db, self._tables["topics"])
+        columns = columns_of(self._db, self._tables["topics"])
         qos = "offered_qos_profiles" if "offered_qos_profiles" in columns else "''"
         type_hash = "type_description_hash" if "type_description_hash" in columns else "''"
         rows = self._db.execute(
@@ -278,22 +153,6 @@ class SqliteFile:
 
     def connections(self) -> Sequence[Connection]:
         return self._connections
-
-    def _padded_copy(self, path: Path, whole_pages: int, declared: int) -> Path:
-        handle, name = tempfile.mkstemp(prefix="pyconnect-salvage-", suffix=".db3")
-        os.close(handle)
-        self._copy = name
-        shutil.copyfile(path, name)
-        # The page cut in two goes (its cells would read as altered data); the missing pages
-        # become zero pages, which SQLite reports as corrupt when it meets them.
-        os.truncate(name, whole_pages)
-        os.truncate(name, declared)
-        return Path(name)
-
-    def _remove_copy(self) -> None:
-        if self._copy is not None:
-            os.unlink(self._copy)
-            self._copy = None
 
     def message_counts(self) -> dict[int, int]:
         return dict(self._tally()[0])
@@ -421,5 +280,4 @@ class SqliteFile:
         )
 
     def close(self) -> None:
-        self._db.close()
-        self._remove_copy()
+        self._database.close()
