@@ -14,6 +14,7 @@ from std_msgs.msg import String
 from std_srvs.srv import Trigger
 from test_msgs.action import Fibonacci
 
+from pyconnect.errors import PyconnectError
 from pyconnect.ros.agent_factory import AGENT_CLASS_DICT, make_agent, options_of
 from pyconnect.ros.agent_options import AgentOptions, OptionError
 from pyconnect.ros.custom_node import CustomNode
@@ -241,3 +242,30 @@ def test_shared_options_apply_to_the_kinds_that_use_them(make_node: Any) -> None
     with pytest.raises(OptionError) as caught:
         node.add_agents([{"conn_name": "x", "conn_type": "sub", "data_interface": String}], fsp=1)  # type: ignore[call-arg]
     assert str(caught.value) == "agent 'x' (sub): unknown option 'fsp'"
+
+
+BAD_PERIODS = [0, -1.0, float("nan"), float("inf"), "1", True]
+"""Periods no timer may have (a pub without one is fine: it publishes on send())."""
+
+
+@pytest.mark.parametrize(
+    ("kind", "period"),
+    [("timer", None)] + [(kind, p) for kind in ("timer", "pub") for p in BAD_PERIODS],
+    ids=repr,
+)
+def test_a_period_that_is_not_a_finite_positive_number_is_refused(
+    make_node: Any, kind: str, period: object
+) -> None:
+    """NaN passed the old ``<= 0`` check; inf and NaN reached rclpy, whose error names no
+    agent; a string failed with a bare TypeError."""
+    node = make_node()
+    config = {"conn_name": "beat", "conn_type": kind, **VALID[kind], "time_period": period}
+    if kind == "pub":
+        config["response_func"] = lambda: "x"
+    with pytest.raises(PyconnectError) as caught:
+        node.add_agent(config)
+    described = "pub std_msgs/msg/String" if kind == "pub" else kind
+    assert str(caught.value) == (
+        f"agent 'beat' ({described}): time_period must be a finite number of seconds > 0, "
+        f"got {period!r}"
+    )

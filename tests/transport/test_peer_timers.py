@@ -7,6 +7,7 @@ import time
 
 import pytest
 
+from pyconnect.errors import PyconnectError
 from pyconnect.transport import periodic
 from tests.transport.conftest import PeerFactory
 
@@ -104,3 +105,28 @@ def test_next_deadline_moves_by_whole_periods() -> None:
     assert periodic.next_deadline(1.0, 0.5, 1.2) == 1.5
     assert periodic.next_deadline(1.0, 0.5, 2.6) == 3.0
     assert periodic.next_deadline(1.0, 0.5, 1.5) == 1.5
+
+
+@pytest.mark.parametrize("period", [0, -1.0, float("nan"), float("inf"), "1", True], ids=repr)
+@pytest.mark.parametrize("kind", ["timer", "pub"])
+def test_a_period_that_is_not_a_finite_positive_number_is_refused(
+    make_peer: PeerFactory, kind: str, period: object
+) -> None:
+    """A NaN period passed the old ``<= 0`` check and ran the callback flat out; inf ended the
+    agent's thread (``OverflowError``) after add_agent had returned."""
+    peer = make_peer("robot")
+    options = {"data_interface": "std_msgs/msg/String"} if kind == "pub" else {}
+    with pytest.raises(PyconnectError) as caught:
+        peer.add_agent(
+            conn_name="beat",
+            conn_type=kind,
+            time_period=period,
+            response_func=lambda: "x",
+            **options,
+        )
+    described = "pub std_msgs/msg/String" if kind == "pub" else kind
+    assert str(caught.value) == (
+        f"agent 'beat' ({described}): time_period must be a finite number of seconds > 0, "
+        f"got {period!r}"
+    )
+    assert "beat" not in peer.agents

@@ -11,6 +11,8 @@ options a kind takes (shared options are defaults). Both hosts use them —
 from __future__ import annotations
 
 import inspect
+import math
+import numbers
 from collections.abc import Mapping
 from typing import Any
 
@@ -78,3 +80,14 @@ def shared_options(
         for name, value in shared.items()
         if name in accepted or name in NAMING or name not in known
     }
+
+
+def period_problem(time_period: object) -> str | None:
+    """Why ``time_period`` cannot be an agent's period, or None when it can: a finite number of
+    seconds above 0. (A NaN passes ``<= 0`` and made a Peer's timer run flat out; inf ended its
+    thread; rclpy raised its own error, naming no agent.)"""
+    problem = f"time_period must be a finite number of seconds > 0, got {time_period!r}"
+    if isinstance(time_period, bool) or not isinstance(time_period, numbers.Real):
+        return problem  # numpy's numbers are Real too
+    seconds = float(time_period)
+    return None if math.isfinite(seconds) and seconds > 0 else problem

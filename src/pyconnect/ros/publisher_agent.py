@@ -30,6 +30,7 @@ from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.option_checks import period_problem
 from pyconnect.ros.qos import resolve_qos
 from pyconnect.ros.raw_path import RawEncoder, choose_raw
 from pyconnect.ros.serialized_io import publish_serialized
@@ -71,8 +72,9 @@ class PublisherAgent(NodeAgent):
         )
         if response_func is not None and time_period is None:
             raise self.error("response_func on a 'pub' agent needs time_period (it is polled)")
-        if time_period is not None and time_period <= 0:
-            raise self.error(f"time_period must be > 0 seconds, got {time_period!r}")
+        problem = None if time_period is None else period_problem(time_period)
+        if problem is not None:
+            raise self.error(problem)
         self.conversion = self.make_conversion(
             msg_class,
             encode_func=encode_func,

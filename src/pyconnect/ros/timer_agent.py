@@ -15,6 +15,7 @@ from rclpy.callback_groups import CallbackGroup
 
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.option_checks import period_problem
 
 
 class TimerAgent(NodeAgent):
@@ -39,8 +40,9 @@ class TimerAgent(NodeAgent):
             response_func=response_func,
             callback_group=callback_group,
         )
-        if time_period is None or time_period <= 0:
-            raise self.error(f"time_period must be > 0 seconds, got {time_period!r}")
+        problem = period_problem(time_period)
+        if problem is not None:
+            raise self.error(problem)
         self._handler: ResponseFunc = response_func
         self.time_period = time_period
         self.tick_count = 0

@@ -27,6 +27,7 @@ import zenoh
 
 from pyconnect.codecs.wire import WireCodec
 from pyconnect.errors import PyconnectError
+from pyconnect.ros.option_checks import period_problem
 from pyconnect.transport.async_handlers import agent_loop, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
 from pyconnect.transport.graph import Graph
@@ -257,8 +258,9 @@ class TimerAgent(PeerAgent):
         response_func: ResponseFunc,
     ) -> None:
         super().__init__(peer, conn_name=conn_name, agent_name=agent_name)
-        if time_period is None or time_period <= 0:
-            raise self.error(f"time_period must be > 0 seconds, got {time_period!r}")
+        problem = period_problem(time_period)
+        if problem is not None:
+            raise self.error(problem)
         if response_func is None:
             raise self.error("a 'timer' agent needs a response_func")
         self._handler: ResponseFunc = response_func

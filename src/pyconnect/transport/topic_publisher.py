@@ -19,6 +19,7 @@ from typing import Any
 import zenoh
 
 from pyconnect.errors import TransportError
+from pyconnect.ros.option_checks import period_problem
 from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.async_handlers import agent_loop, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
@@ -62,8 +63,9 @@ class PublisherAgent(PeerAgent):
         del decode_func  # accepted for CustomNode's signature; a publisher decodes nothing
         if response_func is not None and time_period is None:
             raise self.error("response_func on a 'pub' agent needs time_period (it is polled)")
-        if time_period is not None and time_period <= 0:
-            raise self.error(f"time_period must be > 0 seconds, got {time_period!r}")
+        problem = None if time_period is None else period_problem(time_period)
+        if problem is not None:
+            raise self.error(problem)
         self.conversion = self.wire_conversion(interface.codec, encode_func=encode_func, raw=raw)
         self.only_if_subscribed = only_if_subscribed
         self.time_period = time_period
