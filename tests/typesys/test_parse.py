@@ -1,4 +1,5 @@
-"""Parsing .msg text never ends the process: what rosidl cannot convert is a DefinitionError."""
+"""Parsing interface text as rosidl's build does: its text survives, and what rosidl cannot
+convert is a one-line DefinitionError naming the file and line (never an exit)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ from typing import Any, NoReturn
 import pytest
 
 from pyconnect.typesys.errors import DefinitionError
-from pyconnect.typesys.parse import ParsedInterfaces, parse_interface_text
+from pyconnect.typesys.parse import ParsedInterfaces, iter_messages, parse_interface_text
 
 
 @pytest.mark.parametrize(
@@ -40,3 +41,122 @@ def test_rosidl_template_exiting_is_a_definition_error(monkeypatch: pytest.Monke
     with pytest.raises(DefinitionError) as caught:
         parse_interface_text("my_pkg", Path("msg/T.msg"), "int32 v\n", ParsedInterfaces())
     assert str(caught.value) == "msg/T.msg: rosidl cannot convert it to IDL (it exited)"
+
+
+def _parse(path: str, text: str) -> ParsedInterfaces:
+    parsed = ParsedInterfaces()
+    parse_interface_text("my_pkg", Path(path), text, parsed)
+    return parsed
+
+
+def _error(path: str, text: str) -> str:
+    with pytest.raises(DefinitionError) as caught:
+        _parse(path, text)
+    return str(caught.value)
+
+
+def test_non_ascii_string_defaults_and_constants_keep_their_text() -> None:
+    # rosidl_adapter garbles UTF-8 on its way to IDL and its build repairs it; so must we.
+    parsed = ParsedInterfaces()
+    msg = 'wstring ws "ωmega"  # ñ\nstring s "café"\nstring C="ü"\nwstring W="€"\n'
+    srv = 'string s "café"\n---\nwstring<=9 ws "ωmega"\nstring C="ü"\n'
+    action = 'string s "café"\n---\nwstring ws "ωmega"\n---\nwstring W="€"\nstring s "ハロー"\n'
+    parse_interface_text("my_pkg", Path("msg/W.msg"), msg, parsed)
+    parse_interface_text("my_pkg", Path("srv/S.srv"), srv, parsed)
+    parse_interface_text("my_pkg", Path("action/A.action"), action, parsed)
+    found = {
+        m.full_name: (
+            [(f.name, f.default) for f in m.fields],
+            [(c.name, c.value) for c in m.constants],
+        )
+        for m in iter_messages(parsed)
+        if m.full_name.split("/")[2]
+        in {"W", "S_Request", "S_Response", "A_Goal", "A_Result", "A_Feedback"}
+    }
+    assert found == {
+        "my_pkg/msg/W": ([("ws", "ωmega"), ("s", "café")], [("C", "ü"), ("W", "€")]),
+        "my_pkg/srv/S_Request": ([("s", "café")], []),
+        "my_pkg/srv/S_Response": ([("ws", "ωmega")], [("C", "ü")]),
+        "my_pkg/action/A_Goal": ([("s", "café")], []),
+        "my_pkg/action/A_Result": ([("ws", "ωmega")], []),
+        "my_pkg/action/A_Feedback": ([("s", "ハロー")], [("W", "€")]),
+    }
+
+
+def test_escapes_decode_as_in_rosidls_build() -> None:
+    # `\xc3\xa9` is the UTF-8 of "é": rosidl's ISO-8859-1 write and UTF-8 read make it "é".
+    parsed = _parse("msg/E.msg", 'string s "\\xc3\\xa9"\nstring t "\\x41"\n')
+    assert [f.default for f in parsed.messages[0].fields] == ["é", "A"]
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        (
+            'int32 a\nstring s "\\u03c9"\n',
+            "msg/E.msg:2: rosidl cannot convert it to IDL "
+            "('ω' is not ISO-8859-1, the encoding rosidl writes IDL in)",
+        ),
+        (
+            'int32 a\nint32 b\nstring s "\\xff"\n',
+            "msg/E.msg:3: rosidl cannot convert it to IDL "
+            "(bytes b'\\xff' are not UTF-8, the encoding rosidl reads IDL in)",
+        ),
+    ],
+)
+def test_text_rosidls_build_cannot_write_is_refused_with_its_line(text: str, expected: str) -> None:
+    assert _error("msg/E.msg", text) == expected
+
+
+@pytest.mark.parametrize(
+    ("path", "text", "expected"),
+    [
+        (
+            "srv/AddTwo.srv",
+            "int32 a\nint32 b\n---\nint32 ok\nint65 sum\n",
+            "srv/AddTwo.srv:5: unknown type 'int65'",
+        ),
+        (
+            "srv/AddTwo.srv",
+            "int32 a\nint65 b\n---\nint32 ok\n",
+            "srv/AddTwo.srv:2: unknown type 'int65'",
+        ),
+        (
+            "action/Do.action",
+            "int32 g\n---\nint32 r\n---\nint32 f\nfloat65 x\n",
+            "action/Do.action:6: unknown type 'float65'",
+        ),
+        (
+            "action/Do.action",
+            "int32 g\n---\n# r\nfloat65 r\n---\nint32 f\n",
+            "action/Do.action:4: unknown type 'float65'",
+        ),
+        (
+            "srv/AddTwo.srv",
+            "int32 a\nint32 b\nint32 sum\n",
+            "srv/AddTwo.srv: Could not find separator '---' between request and response",
+        ),
+    ],
+)
+def test_srv_and_action_errors_name_the_line(path: str, text: str, expected: str) -> None:
+    assert _error(path, text) == expected
+
+
+def test_constants_rosidls_template_rejects_name_the_line_and_rosidls_reason() -> None:
+    # rosidl cuts the value at `#` and its template cannot unescape the trailing backslash.
+    text = 'int32 a\nstring S="he said \\"hi\\" # x"\nint32 b\n'
+    assert _error("msg/C.msg", text) == (
+        "msg/C.msg:2: rosidl cannot convert it to IDL (UnicodeDecodeError processing template "
+        "'struct.idl.em': 'unicodeescape' codec can't decode byte 0x5c in position 11: "
+        "\\ at end of string)"
+    )
+    srv = "int32 a\n---\n" + text
+    assert _error("srv/C.srv", srv).startswith("srv/C.srv:4: rosidl cannot convert it to IDL (")
+
+
+def test_defaults_rosidls_idl_parser_rejects_name_the_line() -> None:
+    # A default ending in a backslash escapes the closing quote of the IDL literal.
+    assert _error("msg/B.msg", 'int32 a\nstring s "\\\\"\n') == (
+        "msg/B.msg:2: rosidl cannot parse the IDL it converts it to "
+        '(No terminal matches \'"\' in the current parser context @default (value="\\") ^)'
+    )

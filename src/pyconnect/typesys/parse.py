@@ -13,7 +13,7 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, Literal
 
 from pyconnect.typesys.errors import DefinitionError
 from pyconnect.typesys.from_rosidl import action_def, message_def, service_def
@@ -31,6 +31,25 @@ from pyconnect.typesys.packages import (
 # -- parsing ----------------------------------------------------------------------------------
 _ADAPTER_TEMPLATES = {".msg": ("msg", "msg.idl.em"), ".srv": ("srv", "srv.idl.em"),
                       ".action": ("action", "action.idl.em")}  # fmt: skip
+# The messages a file holds, in order, as rosidl_adapter.parser names them after the file's stem;
+# a .srv/.action separates them with lines that are exactly `---`.
+_SECTION_SUFFIXES = {".msg": ("",), ".srv": ("_Request", "_Response"),
+                     ".action": ("_Goal", "_Result", "_Feedback")}  # fmt: skip
+_SECTION_SEPARATOR = "---"
+# What converting .msg/.srv/.action text does in turn: parse it, render it as IDL, parse that.
+_Stage = Literal["parse", "render", "idl"]
+
+
+class _ConversionFailed(Exception):
+    """rosidl's build cannot turn a parsed definition into IDL text; ``str()`` says why."""
+
+
+@contextlib.contextmanager
+def _quiet(stderr: io.StringIO | None = None) -> Iterator[None]:
+    # rosidl_adapter prints its own multi-line reports; ours is the one-line DefinitionError.
+    out = io.StringIO()
+    with contextlib.redirect_stderr(stderr or out), contextlib.redirect_stdout(out):
+        yield
 
 
 def _parse_with_adapter(package: str, path: Path, text: str) -> Any:
@@ -41,19 +60,17 @@ def _parse_with_adapter(package: str, path: Path, text: str) -> Any:
         ".srv": adapter.parse_service_string,
         ".action": adapter.parse_action_string,
     }[path.suffix]
-    # rosidl_adapter prints its own multi-line report; ours is the one-line DefinitionError.
-    with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
+    with _quiet():
         return parse(package, path.stem, text)
 
 
-def _idl_from_interface_text(package: str, path: Path, text: str) -> str:
-    """Convert .msg/.srv/.action text to IDL text with rosidl_adapter (as rosidl's build does)."""
-    from rosidl_adapter.resource import evaluate_template
-
+def _parse_interface(package: str, path: Path, text: str) -> Any:
+    """Parse .msg/.srv/.action text as rosidl's build does: rosidl_adapter converts it to IDL,
+    which rosidl_parser parses."""
     try:
         spec = _parse_with_adapter(package, path, text)
     except Exception as error:
-        line = _failing_line(package, path, text)
+        line = _failing_line(package, path, text, upto="parse")
         message = _one_line(error)
         # rosidl reads an unknown lower-case type as a badly named message type.
         unknown = re.match(r"'([a-z]\w*)' is an invalid message name", message)
@@ -64,13 +81,51 @@ def _idl_from_interface_text(package: str, path: Path, text: str) -> str:
     key, template = _ADAPTER_TEMPLATES[path.suffix]
     data = {"pkg_name": package, "relative_input_file": f"{key}/{path.name}", key: spec}
     try:
+        idl_text = _render_idl(template, data)
+    except _ConversionFailed as failure:
+        line = _failing_line(package, path, text, upto="render")
+        message = f"rosidl cannot convert it to IDL ({failure})"
+        raise DefinitionError(message, path=path, line=line) from None
+    try:
+        return _parse_idl_text(idl_text)
+    except Exception as error:
+        # e.g. a default ending in a backslash, which escapes the literal's closing quote
+        line = _failing_line(package, path, text, upto="idl")
+        # lark's report places the fault in IDL text the user never sees, then lists (in no
+        # fixed order) the tokens it expected; the snippet it quotes is the useful part.
+        reason = re.sub(r",? at line \d+ col \d+", "", _one_line(error)).split(" Expected ")[0]
+        message = f"rosidl cannot parse the IDL it converts it to ({reason})"
+        raise DefinitionError(message, path=path, line=line) from None
+
+
+def _render_idl(template: str, data: dict[str, Any]) -> str:
+    """The IDL text rosidl's build would parse for ``data``; raises _ConversionFailed."""
+    from rosidl_adapter.resource import evaluate_template
+
+    complaint = io.StringIO()
+    try:
         # rosidl's template prints its own report and calls sys.exit(1) on what it cannot map.
-        with contextlib.redirect_stderr(io.StringIO()), contextlib.redirect_stdout(io.StringIO()):
+        with _quiet(complaint):
             content: str = evaluate_template(template, data)
-    except (Exception, SystemExit) as error:
-        reason = "it exited" if isinstance(error, SystemExit) else _one_line(error)
-        raise DefinitionError(f"rosidl cannot convert it to IDL ({reason})", path=path) from None
-    return content
+    except SystemExit:
+        raise _ConversionFailed(" ".join(complaint.getvalue().split()) or "it exited") from None
+    except Exception as error:
+        raise _ConversionFailed(_one_line(error)) from None
+    # rosidl_adapter.msg.string_to_idl_string_literal turns the UTF-8 bytes of a string default,
+    # constant or comment into one character each (`.encode().decode('unicode_escape')`), so "é"
+    # comes out as "Ã©". rosidl's build undoes it: convert_msg_to_idl (and its srv/action twins)
+    # writes the .idl with expand_template(..., encoding='iso-8859-1') and rosidl_parser's
+    # parse_idl_file reads it back with read_text(encoding='utf-8'). Making the same round trip
+    # gives the text rosidl's build parses, and fails where that build fails.
+    try:
+        return content.encode("iso-8859-1").decode("utf-8")
+    except UnicodeEncodeError as error:
+        character = error.object[error.start]
+        reason = f"{character!r} is not ISO-8859-1, the encoding rosidl writes IDL in"
+    except UnicodeDecodeError as error:
+        wrong = error.object[error.start : error.end]
+        reason = f"bytes {wrong!r} are not UTF-8, the encoding rosidl reads IDL in"
+    raise _ConversionFailed(reason)
 
 
 # ROS 1 builtins that rosidl_adapter parses but has no IDL type for.
@@ -92,24 +147,51 @@ def _one_line(error: BaseException) -> str:
     return text
 
 
-def _failing_line(package: str, path: Path, text: str) -> int | None:
-    """The first line whose addition makes the definition unparsable (rosidl does not say)."""
-    if path.suffix != ".msg":
-        return None
+def _failing_line(package: str, path: Path, text: str, *, upto: _Stage) -> int | None:
+    """The first line whose addition makes its message fail, in stages up to ``upto``: rosidl
+    does not say. Each message of a .srv/.action is tried on its own. None when the separators
+    are wrong or the failure needs no line at all."""
     lines = text.splitlines()
-    for end in range(1, len(lines) + 1):
-        try:
-            _parse_with_adapter(package, path, "\n".join(lines[:end]))
-        except Exception:
-            return end
+    suffixes = _SECTION_SUFFIXES[path.suffix]
+    separators = [n for n, line in enumerate(lines) if line == _SECTION_SEPARATOR]
+    if path.suffix == ".msg":
+        separators = []  # rosidl's message parser is the one to complain about a `---` there
+    if len(separators) != len(suffixes) - 1:
+        return None
+    starts = [0, *(n + 1 for n in separators)]
+    stops = [*separators, len(lines)]
+    for suffix, start, stop in zip(suffixes, starts, stops, strict=True):
+        for end in range(start, stop + 1):
+            if _message_fails(package, path.stem + suffix, lines[start:end], upto=upto):
+                return end if end > start else None
     return None
 
 
-def _parse_idl(text: str, origin: Path) -> Any:
-    from rosidl_parser.parser import parse_idl_string
+def _message_fails(package: str, name: str, lines: list[str], *, upto: _Stage) -> bool:
+    from rosidl_adapter.parser import parse_message_string
 
     try:
-        return parse_idl_string(text)
+        with _quiet():
+            spec = parse_message_string(package, name, "\n".join(lines))
+        if upto != "parse":
+            data = {"pkg_name": package, "relative_input_file": f"msg/{name}.msg", "msg": spec}
+            idl_text = _render_idl("msg.idl.em", data)
+            if upto == "idl":
+                _parse_idl_text(idl_text)
+    except Exception:
+        return True
+    return False
+
+
+def _parse_idl_text(text: str) -> Any:
+    from rosidl_parser.parser import parse_idl_string
+
+    return parse_idl_string(text)
+
+
+def _parse_idl(text: str, origin: Path) -> Any:
+    try:
+        return _parse_idl_text(text)
     except Exception as error:
         raise DefinitionError(_one_line(error), path=origin) from None
 
@@ -128,12 +210,11 @@ class ParsedInterfaces:
 def parse_interface_text(package: str, path: Path, text: str, into: ParsedInterfaces) -> None:
     """Parse one .msg/.srv/.action/.idl text (``path`` names it in errors) into ``into``."""
     if path.suffix == ".idl":
-        idl_text = text
+        content = _parse_idl(text, path)
     elif path.suffix in INTERFACE_SUFFIXES:
-        idl_text = _idl_from_interface_text(package, path, text)
+        content = _parse_interface(package, path, text)
     else:
         raise DefinitionError("not an interface file (.msg, .srv, .action or .idl)", path=path)
-    content = _parse_idl(idl_text, path)
     try:
         _add_elements(package, path, content.elements, into)
     except DefinitionError as error:
