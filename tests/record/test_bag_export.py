@@ -13,7 +13,7 @@ from sensor_msgs.msg import Image
 from std_msgs.msg import Float64MultiArray
 from test_msgs.msg import BasicTypes
 
-from pyconnect.record.bag_export import export_topic, export_topics
+from pyconnect.record.bag_export import export_topic, export_topics, image_for_png
 from pyconnect.record.mcap_recorder import McapRecorder
 
 
@@ -130,3 +130,35 @@ class _NoBar:
 
     def close(self) -> None:
         pass
+
+
+def test_big_endian_16_bit_images_export_as_png(tmp_path: Path) -> None:
+    """is_bigendian mono16 pixels decode to ``>u2``: exported as .npy instead of PNG."""
+    depth = np.arange(12, dtype=np.uint16).reshape(3, 4) * 1000
+    with McapRecorder(tmp_path / "bag") as recorder:
+        recorder.add_topic("/depth", "sensor_msgs/msg/Image")
+        image = Image(height=3, width=4, encoding="mono16", is_bigendian=True, step=8)
+        image.data.frombytes(depth.astype(">u2").tobytes())
+        recorder.write("/depth", bytes(serialize_message(image)), log_time_ns=5)
+    result = export_topic(tmp_path / "bag", "/depth", tmp_path / "out", progress=CountingBar)
+    assert dict(result.files) == {"png": 1}
+    pixels = cv2.imread(str(tmp_path / "out" / "000000_5.png"), cv2.IMREAD_UNCHANGED)
+    assert pixels.dtype == np.uint16
+    np.testing.assert_array_equal(pixels, depth)
+
+
+def test_image_for_png_gives_native_byte_order() -> None:
+    """cv2.imwrite takes native-order pixels only; a big-endian image decodes to ``>u2``."""
+    depth = np.arange(6, dtype=np.uint16).reshape(2, 3) * 1000
+    fields = {
+        "height": 2,
+        "width": 3,
+        "encoding": "mono16",
+        "is_bigendian": 1,
+        "step": 6,
+        "data": depth.astype(">u2").tobytes(),
+    }
+    pixels = image_for_png(fields)
+    assert pixels.dtype == np.dtype(np.uint16)
+    assert pixels.dtype.isnative
+    np.testing.assert_array_equal(pixels, depth)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import io
 import json
 import logging
 import threading
@@ -199,3 +200,41 @@ def test_png_round_trip(
     assert extension == "png"
     decoded = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
     np.testing.assert_array_equal(decoded, array.reshape(decoded.shape))
+
+
+def test_big_endian_16_bit_image_is_a_png() -> None:
+    """A big-endian mono16 Image decodes to ``>u2`` pixels; they were written as .npy."""
+    from sensor_msgs.msg import Image
+
+    from pyconnect import codecs
+
+    depth = np.arange(12, dtype=np.uint16).reshape(3, 4) * 1000
+    message = Image(height=3, width=4, encoding="mono16", is_bigendian=True, step=8)
+    message.data = depth.astype(">u2").tobytes()
+    pixels = codecs.decode(message)
+    assert pixels.dtype == np.dtype(">u2")
+    extension, data = encode_log_value(pixels)
+    assert extension == "png"
+    decoded = cv2.imdecode(np.frombuffer(data, np.uint8), cv2.IMREAD_UNCHANGED)
+    assert decoded.dtype == np.uint16
+    np.testing.assert_array_equal(decoded, depth)
+
+
+def test_big_endian_rgb_pixels_are_a_png_in_bgr_order(tmp_path: Path) -> None:
+    rgb = np.zeros((2, 3, 3), dtype=">u2")
+    rgb[..., 0] = 60000  # red
+    rgb[0, 0] = (1, 2, 3)
+    with MessageLogger(tmp_path) as logger:
+        assert logger.log(rgb, stamp_ns=1, rgb=True)
+    assert files(tmp_path) == ["00000001_1.png"]
+    bgr = cv2.imread(str(tmp_path / "00000001_1.png"), cv2.IMREAD_UNCHANGED)
+    np.testing.assert_array_equal(bgr[..., ::-1], rgb)
+
+
+def test_big_endian_non_image_array_keeps_its_byte_order() -> None:
+    floats = np.linspace(0, 1, 5).astype(">f8")
+    extension, data = encode_log_value(floats)
+    assert extension == "npy"
+    loaded = np.load(io.BytesIO(data))
+    assert loaded.dtype == np.dtype(">f8")
+    np.testing.assert_array_equal(loaded, floats)

@@ -26,7 +26,12 @@ from pyconnect.record.bag_damage import BagDamage
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_reader import DecodeProblem, open_bag
 from pyconnect.record.log_dirs import distinct_path_components
-from pyconnect.record.log_writer import atomic_write_bytes, encode_log_value, umask_mode
+from pyconnect.record.log_writer import (
+    atomic_write_bytes,
+    encode_log_value,
+    in_native_byte_order,
+    umask_mode,
+)
 
 __all__ = ["ExportResult", "export_topic", "export_topics", "topic_directories"]
 
@@ -184,10 +189,11 @@ def export_topic(
 
 
 def image_for_png(fields: dict[str, Any]) -> Any:
-    """The pixels of an Image dict as an ndarray, with RGB(A) encodings turned to BGR(A)."""
+    """The pixels of an Image dict as an ndarray in native byte order (``cv2.imwrite`` takes no
+    other; a big-endian ``mono16`` image decodes to ``>u2``), RGB(A) encodings turned to BGR(A)."""
     from pyconnect.codecs.image import decode_image
 
-    pixels = decode_image(SimpleNamespace(**fields))
+    pixels = in_native_byte_order(decode_image(SimpleNamespace(**fields)))
     encoding = str(fields.get("encoding", "")).lower()
     if encoding.startswith("rgba") and pixels.ndim == 3 and pixels.shape[2] == 4:
         return pixels[..., [2, 1, 0, 3]]

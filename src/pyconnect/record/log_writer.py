@@ -10,7 +10,8 @@ File formats (the extension says which):
 - dict, list, tuple, str, int, float, bool, None, numpy scalars and ROS messages -> ``.json``
   (tuples become lists, nested arrays become lists, nested bytes become base64 strings,
   NaN/inf are written as Python's ``json`` writes them);
-- ``uint8``/``uint16`` arrays of shape (H, W), (H, W, 1), (H, W, 3) or (H, W, 4) -> ``.png``
+- ``uint8``/``uint16`` arrays (either byte order) of shape (H, W), (H, W, 1), (H, W, 3) or
+  (H, W, 4) -> ``.png``
   (channels in OpenCV's BGR(A) order, as ``cv2.imwrite`` takes them; ``log(..., rgb=True)``,
   which agents pass for ``rgb8``/``rgba8`` images, reorders RGB(A) first);
 - every other ndarray, structured arrays included -> ``.npy``;
@@ -46,7 +47,13 @@ import numpy as np
 from pyconnect.codecs.stamped import Stamped
 from pyconnect.errors import EncodeError, type_name_of
 
-__all__ = ["FileWriter", "MessageLogger", "atomic_write_bytes", "encode_log_value"]
+__all__ = [
+    "FileWriter",
+    "MessageLogger",
+    "atomic_write_bytes",
+    "encode_log_value",
+    "in_native_byte_order",
+]
 
 _log = logging.getLogger("pyconnect.record")
 
@@ -117,8 +124,21 @@ class RgbImage:
     pixels: np.ndarray
 
 
+def in_native_byte_order(array: np.ndarray) -> np.ndarray:
+    """``array`` with its items in this machine's byte order (a copy only when they are not).
+
+    A big-endian 16-bit image (``is_bigendian``) decodes to ``>u2`` pixels, which are not
+    ``uint16`` to a dtype check and which ``cv2`` does not take; a PNG file stores 16-bit
+    samples big-endian whatever order they are given in, so nothing is lost.
+    """
+    if array.dtype.isnative:
+        return array
+    return array.astype(array.dtype.newbyteorder("="))
+
+
 def _is_image(array: np.ndarray) -> bool:
-    if array.dtype not in _IMAGE_DTYPES or array.size == 0:
+    # Either byte order: the PNG is written from the pixels in native order.
+    if array.dtype.newbyteorder("=") not in _IMAGE_DTYPES or array.size == 0:
         return False
     return array.ndim == 2 or (array.ndim == 3 and array.shape[2] in (1, 3, 4))
 
@@ -138,7 +158,8 @@ def encode_log_value(value: object) -> tuple[str, bytes]:
         if _is_image(value):
             import cv2
 
-            ok, encoded = cv2.imencode(".png", np.ascontiguousarray(value))
+            pixels = np.ascontiguousarray(in_native_byte_order(value))
+            ok, encoded = cv2.imencode(".png", pixels)
             if not ok:
                 raise EncodeError(f"log value: cv2 could not encode a {value.shape} PNG")
             return "png", encoded.tobytes()

@@ -1,4 +1,12 @@
-"""``node.record(path)``: raw (CDR) subscriptions written to an MCAP file as they arrive."""
+"""``node.record(path)``: raw (CDR) subscriptions written to an MCAP file as they arrive.
+
+Subscribed as ``pyconnect bag record`` subscribes (pyconnect.commands.bag_record): one
+subscription per topic, with a QoS that matches its publishers (reliable unless one is best
+effort; transient local when all are, so a latched message sent earlier is recorded too) and a
+deep queue, and the publishers' QoS stored as the topic's ``offered_qos_profiles``. So the
+recording holds what the node's agents receive, not what a best-effort keep-last-5 reader
+happens to catch.
+"""
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
 # mypy: disable-error-code="no-untyped-call,attr-defined"
@@ -10,16 +18,27 @@ import threading
 import time
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any, cast
 
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 
+from pyconnect.commands.bag_record import _DEPTH, _qos_yaml
+from pyconnect.commands.graph import choose_qos
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.interfaces import interface_class, interface_name
 from pyconnect.ros.node_agent import NodeAgent
-from pyconnect.ros.qos import SENSOR_DATA
 from pyconnect.ros.subscriber_agent import SubscriberAgent
+
+if TYPE_CHECKING:
+    from pyconnect.commands.graph import GraphSession
+
+
+class _NodeGraph:
+    """The part of a ``GraphSession`` that ``choose_qos`` reads: a node that sees the graph."""
+
+    def __init__(self, node: Node) -> None:
+        self.node = node
 
 
 class Recording:
@@ -43,22 +62,38 @@ class Recording:
         self.recorder = McapRecorder(path)
         self._subscriptions: list[Any] = []
         group = MutuallyExclusiveCallbackGroup()
-        for topic, msg_class in chosen:
-            self.recorder.add_topic(topic, interface_name(msg_class))
-            # Best effort matches every publisher, reliable or not (pyconnect.ros.qos).
+        # choose_qos reads only ``session.node``; a real GraphSession would start a context.
+        session = cast("GraphSession", _NodeGraph(ros_node))
+        for topic, msg_class in chosen.items():
+            publishers = ros_node.get_publishers_info_by_topic(topic)
+            self.recorder.add_topic(
+                topic, interface_name(msg_class), offered_qos_profiles=_qos_yaml(publishers)
+            )
+            qos = choose_qos(session, topic, None)
+            qos.depth = _DEPTH
             self._subscriptions.append(
                 ros_node.create_subscription(
-                    msg_class,
-                    topic,
-                    self._writer_for(topic),
-                    SENSOR_DATA,
-                    callback_group=group,
-                    raw=True,
+                    msg_class, topic, self._writer_for(topic), qos, callback_group=group, raw=True
                 )
             )
-        self.topics = [topic for topic, _ in chosen]
+        self.topics = list(chosen)
 
-    def _choose_topics(self, topics: list[str] | None) -> list[tuple[str, type]]:
+    def _choose_topics(self, topics: list[str] | None) -> dict[str, type]:
+        """{topic: message class}, each topic once: a second subscription to a topic (two sub
+        agents on it, or a name given twice) would write every message twice."""
+        chosen: dict[str, type] = {}
+        for topic, msg_class in self._named_topics(topics):
+            known = chosen.setdefault(topic, msg_class)
+            if interface_name(known) != interface_name(msg_class):
+                raise PyconnectError(
+                    f"record: topic {topic!r}: expected one type, got "
+                    f"{interface_name(known)} and {interface_name(msg_class)}"
+                )
+        return chosen
+
+    def _named_topics(self, topics: list[str] | None) -> list[tuple[str, type]]:
+        """(topic, class) of every sub agent, or of each of ``topics`` (an agent's name or a
+        topic), repeats included."""
         known: dict[str, type] = {}
         for agent in self.agents.values():
             topic = getattr(agent, "topic", None)

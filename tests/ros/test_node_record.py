@@ -1,0 +1,163 @@
+"""node.record(): one subscription per topic, subscribed with the publishers' QoS, as bag record."""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import pytest
+import yaml
+from rclpy.qos import QoSProfile
+from std_msgs.msg import String
+
+from pyconnect.record.bag_reader import open_bag
+from pyconnect.ros.recording import Recording
+
+from .conftest import EVENT_TIMEOUT, repeat_until
+
+
+def _recorded(bag: Path) -> list[Any]:
+    with open_bag(bag) as reader:
+        return [value for _topic, _stamp, value in reader]
+
+
+def _wait_for(done: Callable[[], bool]) -> bool:
+    """Until ``done()`` (a count reached); False after the timeout."""
+    reached = threading.Event()
+    return repeat_until(reached, lambda: reached.set() if done() else None)
+
+
+def _start_by_record(node: Any, bag: Path) -> Recording:
+    recording: Recording = node.record(bag)
+    return recording
+
+
+def _start_by_naming_the_topic_twice(node: Any, bag: Path) -> Recording:
+    recording: Recording = node.record(bag, topics=["chatter", "/chatter", "second"])
+    return recording
+
+
+def _start_by_log_subs(node: Any, bag: Path) -> Recording:
+    node.start_log_subs(fps=1, record=bag)
+    recording: Recording = node._log_subs_recording
+    return recording
+
+
+@pytest.mark.parametrize(
+    "start", [_start_by_record, _start_by_naming_the_topic_twice, _start_by_log_subs]
+)
+def test_two_sub_agents_on_one_topic_record_each_message_once(
+    make_node: Any, tmp_path: Path, start: Callable[[Any, Path], Recording]
+) -> None:
+    """Each sub agent's topic got a subscription of its own, both writing into one channel:
+    5 messages published, 10 recorded."""
+    node = make_node("dup_recorder", log_dir=tmp_path / "logs")
+    first = node.add_agent(conn_name="chatter", conn_type="sub", data_interface=String)
+    second = node.add_agent(
+        conn_name="chatter", agent_name="second", conn_type="sub", data_interface=String
+    )
+    pub = node.add_agent(
+        conn_name="chatter", agent_name="out", conn_type="pub", data_interface=String
+    )
+    bag = tmp_path / "dup"
+    recording = start(node, bag)
+    assert recording.topics == ["/chatter"]
+    node.spin(run_thread=True)
+    ready = threading.Event()
+
+    def warm_up() -> None:
+        pub.send("warm")
+        if recording.messages_written and first.message_count and second.message_count:
+            ready.set()
+
+    assert repeat_until(ready, warm_up)
+    before = recording.messages_written
+    for i in range(5):
+        pub.send(f"m{i}")
+    # Every message reaches both agents and the recording (reliable, one node).
+    assert _wait_for(lambda: recording.messages_written >= before + 5)
+    assert _wait_for(lambda: first.get() == "m4" and second.get() == "m4")
+    if recording is node._log_subs_recording:
+        node.stop_log_subs()
+    else:
+        recording.stop()
+    assert [value for value in _recorded(bag) if value != "warm"] == [f"m{i}" for i in range(5)]
+
+
+def test_a_burst_the_agent_receives_is_recorded_whole(make_node: Any, tmp_path: Path) -> None:
+    """Recorded best effort, keep last 5: of 300 reliable messages the agent got, 5 recorded."""
+    publisher_node, node = make_node("burst_pub"), make_node("burst_sub")
+    deep = QoSProfile(depth=1000)
+    pub = publisher_node.add_agent(
+        conn_name="burst", conn_type="pub", data_interface=String, qos=deep
+    )
+    received: list[str] = []
+    sub = node.add_agent(
+        conn_name="burst",
+        conn_type="sub",
+        data_interface=String,
+        qos=deep,
+        response_func=received.append,
+    )
+    publisher_node.spin(run_thread=True)
+    node.spin(run_thread=True)
+    # The recording follows the publishers it sees, so it starts once they are discovered.
+    discovered = threading.Event()
+
+    def discover() -> None:
+        pub.send("warm")
+        if sub.message_count and node.count_publishers("/burst"):
+            discovered.set()
+
+    assert repeat_until(discovered, discover)
+    recording = node.record(tmp_path / "burst")
+    recording_hears = threading.Event()
+
+    def warm_up() -> None:
+        pub.send("warm")
+        if recording.messages_written:
+            recording_hears.set()
+
+    assert repeat_until(recording_hears, warm_up)
+    before = recording.messages_written
+    for i in range(300):
+        pub.send(f"b{i}")
+    assert _wait_for(lambda: received[-1:] == ["b299"])
+    assert _wait_for(lambda: recording.messages_written >= before + 300)
+    recording.stop()
+    burst = [value for value in _recorded(tmp_path / "burst") if value != "warm"]
+    assert burst == [f"b{i}" for i in range(300)]
+
+
+def test_a_latched_message_sent_before_recording_is_recorded(
+    make_node: Any, tmp_path: Path
+) -> None:
+    """Recorded volatile: the map the latched agent got was never recorded; and the bag stored
+    no offered_qos_profiles for bag play to offer again."""
+    publisher_node = make_node("map_pub")
+    publisher_node.add_agent(
+        conn_name="map", conn_type="pub", data_interface=String, qos="latched"
+    ).send("the map")
+    publisher_node.spin(run_thread=True)
+    node = make_node("map_sub")
+    got_map = threading.Event()
+    node.add_agent(
+        conn_name="map",
+        conn_type="sub",
+        data_interface=String,
+        qos="latched",
+        response_func=lambda _value: got_map.set(),
+    )
+    node.spin(run_thread=True)
+    assert got_map.wait(EVENT_TIMEOUT)
+    bag = tmp_path / "map"
+    recording = node.record(bag)
+    assert _wait_for(lambda: recording.messages_written >= 1)
+    recording.stop()
+    assert _recorded(bag) == ["the map"]
+    metadata = yaml.safe_load((bag / "metadata.yaml").read_text())
+    (topic,) = metadata["rosbag2_bagfile_information"]["topics_with_message_count"]
+    offered = yaml.safe_load(topic["topic_metadata"]["offered_qos_profiles"])
+    assert [(p["reliability"], p["durability"]) for p in offered] == [(1, 1)]  # reliable, latched
