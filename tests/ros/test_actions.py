@@ -11,7 +11,7 @@ import pytest
 from test_msgs.action import Fibonacci, NestedMessage
 
 from pyconnect.errors import PyconnectError
-from pyconnect.ros import custom_node
+from pyconnect.ros import custom_node, retaining_action_server
 
 from .conftest import EVENT_TIMEOUT, server_and_client, wait_for_the_result_request
 
@@ -234,6 +234,23 @@ def test_publish_feedback_after_the_goal_raises(make_node: Any) -> None:
     assert str(caught.value) == "publish_feedback: the goal has already finished"
 
 
+def test_a_generator_handler_may_use_publish_feedback_while_it_runs(make_node: Any) -> None:
+    """The generator's body runs after the handler call returned the generator object: its
+    publish_feedback stays open until the generator has ended (else the goal aborts)."""
+    node = make_node()
+    published: list[int] = []
+
+    def both_ways(goal: dict[str, Any], publish_feedback: Any) -> Iterator[dict[str, Any]]:
+        publish_feedback({"sequence": [0]})  # e.g. from a library's progress callback
+        yield {"sequence": [1]}
+        published.append(publish_feedback.published)
+        return {"sequence": [0, 1]}
+
+    client = _pair(node, both_ways)
+    assert client.send({"order": 1}) == {"sequence": [0, 1], "isdone": True}
+    assert published == [1]
+
+
 def test_client_callbacks_get_acceptance_feedback_and_what_send_returns(make_node: Any) -> None:
     node = make_node()
     accepted: list[bool] = []
@@ -385,6 +402,48 @@ def test_a_goal_finishing_during_shutdown_still_sends_its_result(
     finally:
         release.set()
     assert result.result(EVENT_TIMEOUT * 2) == {"sequence": [1, 2, 3], "isdone": True}
+
+
+def test_a_handler_that_shuts_its_node_down_still_sends_its_result(
+    make_node: Any, monkeypatch: Any
+) -> None:
+    """A "stop" action: the handler calls node.shutdown() and returns at once. Its client asks
+    for the result only once it has the acceptance, which may come after shutdown looked for
+    result requests: shutdown waits for the request of every goal it keeps. Here the client
+    asks only once shutdown has begun to look (a few rounds: the old code lost most)."""
+    # No timing in the test: shutdown waits as long as the request takes to come.
+    monkeypatch.setattr(retaining_action_server, "TAKE_FOR_SECONDS", EVENT_TIMEOUT)
+    for round_ in range(3):
+        assert _stop_action_round(make_node, monkeypatch, f"stop{round_}") == {
+            "sequence": [7],
+            "isdone": True,
+        }
+
+
+def _stop_action_round(make_node: Any, monkeypatch: Any, name: str) -> Any:
+    nodes: list[Any] = []
+
+    def stop(_goal: dict[str, Any]) -> dict[str, Any]:
+        nodes[0].shutdown()  # in the handler: returns at once, the node goes down after it
+        return {"sequence": [7]}
+
+    server_node, client = server_and_client(make_node, name, "action", Fibonacci, stop)
+    nodes.append(server_node)
+    server = server_node.agents["served"].server
+    looking = threading.Event()
+    answer_waiting_requests = server.answer_waiting_requests
+
+    def look_then_answer(unfinished_result: Any) -> int:
+        looking.set()
+        answered: int = answer_waiting_requests(unfinished_result)
+        return answered
+
+    monkeypatch.setattr(server, "answer_waiting_requests", look_then_answer)
+    # Runs before the client asks for the result: it asks once shutdown is looking.
+    client.accepted_func = lambda _accepted: looking.wait(EVENT_TIMEOUT)
+    result = client.send({"order": 1}, timeout=EVENT_TIMEOUT)
+    assert server_node.wait_for_shutdown(EVENT_TIMEOUT)
+    return result
 
 
 def test_a_goal_still_running_when_shutdown_ends_is_aborted_with_a_reason(

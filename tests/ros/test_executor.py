@@ -5,8 +5,10 @@ from __future__ import annotations
 import threading
 from typing import Any
 
+import pytest
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
+from test_msgs.action import Fibonacci
 
 from .conftest import EVENT_TIMEOUT, repeat_until
 
@@ -319,3 +321,76 @@ def _stage_a_late_hold(make_node: Any) -> list[str] | None:
     went_on = a_done.wait(EVENT_TIMEOUT)
     node.shutdown()
     return [] if went_on else a_seen
+
+
+class _Odd(BaseException):
+    """Neither an ``Exception`` nor a request to exit: reported, and the executor goes on."""
+
+
+def _raise_on_the_node(node: Any, where: str, error: BaseException, ticked: Any) -> None:
+    """Raise ``error`` in the first tick of a timer: an agent's (wrapped by the executor) or
+    one made with rclpy's own call while the node spins (not wrapped: the dispatching loop
+    sees what it raises); ``ticked`` runs on every tick."""
+    ticks: list[int] = []
+
+    def tick() -> None:
+        ticks.append(1)
+        ticked()
+        if len(ticks) == 1:
+            raise error
+
+    if where == "agent timer":
+        node.add_agent(conn_name="ticker", conn_type="timer", time_period=0.01, response_func=tick)
+        node.spin(run_thread=True)
+    else:
+        node.spin(run_thread=True)
+        # Once the dispatching loop runs, it has wrapped what there was: not this timer.
+        looping = threading.Event()
+        assert repeat_until(looping, lambda: node._executor._returns and looping.set())
+        timer = node.create_timer(0.01, tick)
+        assert not getattr(timer.callback, "_pyconnect_wrapped", False)
+
+
+@pytest.mark.parametrize("exiting", [SystemExit("the task is done"), KeyboardInterrupt("stop")])
+@pytest.mark.parametrize("where", ["agent timer", "rclpy timer", "agent timer, elastic"])
+def test_sys_exit_in_a_callback_shuts_the_node_down(
+    make_node: Any, monkeypatch: Any, where: str, exiting: BaseException
+) -> None:
+    """What a user means by sys.exit() in a handler: the node shuts down and a blocking spin()
+    returns (before, the dispatching thread died unseen and spin() hung)."""
+    node = make_node()
+    errors: list[str] = []
+    monkeypatch.setattr(node, "_log_error", errors.append)
+    if where.endswith("elastic"):  # an action agent keeps the node on the elastic executor
+        node.add_agent(
+            conn_name="fib",
+            conn_type="action_server",
+            data_interface=Fibonacci,
+            response_func=lambda _goal: {"sequence": [1]},
+        )
+        assert node._executor.mode == "elastic"
+    _raise_on_the_node(node, where.removesuffix(", elastic"), exiting, lambda: None)
+    assert node.wait_for_shutdown(EVENT_TIMEOUT)
+    assert f"callback raised {type(exiting).__name__}: {exiting}" in errors
+    assert not node.ok()
+
+
+@pytest.mark.parametrize("where", ["agent timer", "rclpy timer"])
+def test_another_base_exception_in_a_callback_is_reported_and_the_node_goes_on(
+    make_node: Any, monkeypatch: Any, where: str
+) -> None:
+    node = make_node()
+    errors: list[str] = []
+    monkeypatch.setattr(node, "_log_error", errors.append)
+    count: list[int] = []
+    again = threading.Event()
+
+    def ticked() -> None:
+        count.append(1)
+        if len(count) >= 3:
+            again.set()
+
+    _raise_on_the_node(node, where, _Odd("odd"), ticked)
+    assert again.wait(EVENT_TIMEOUT)
+    assert errors == ["callback raised _Odd: odd"]
+    assert node.ok()

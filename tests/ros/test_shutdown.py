@@ -187,6 +187,35 @@ print("REPLY", replies[0]["success"] if replies else "NONE", flush=True)
 caller.shutdown()
 print("AFTER SERVICE", flush=True)
 """,
+    "sys_exit_in_a_callback": """
+import os
+
+node, heard = make()
+announced = threading.Event()
+
+def finish():
+    if announced.is_set():
+        sys.exit("the task is done")  # in a handler: the node shuts down, spin() returns
+
+node.add_agent(conn_name="finish", conn_type="timer", time_period=0.01, response_func=finish)
+
+def announce():
+    ready(heard)
+    announced.set()
+
+def watchdog():
+    # Before the fix spin() never returned: fail instead of hanging the test.
+    if not returned.wait(60):
+        say("SPIN HUNG")
+        os._exit(1)
+
+returned = threading.Event()
+threading.Thread(target=announce, daemon=True).start()
+threading.Thread(target=watchdog, daemon=True).start()
+node.spin()
+returned.set()
+print("AFTER EXIT", flush=True)
+""",
     "interpreter_exit": """
 node, heard = make()
 node.spin(run_thread=True)
@@ -214,6 +243,7 @@ LAST_LINE = {
     "one_of_two_nodes_shut_down": "CONTEXT DOWN",
     "node_after_node": "AFTER SECOND",
     "stop_service_blocking_spin": "AFTER SERVICE",
+    "sys_exit_in_a_callback": "AFTER EXIT",
 }
 
 

@@ -8,7 +8,8 @@ Feedback, either style:
 - a ``response_func(goal, publish_feedback)`` taking a second positional parameter gets a
   ``FeedbackPublisher``: ``publish_feedback(value)`` may be called from any thread (a worker
   thread, a library's progress callback) while the goal runs; its ``cancel_requested`` tells
-  the task that a cancel was asked.
+  the task that a cancel was asked. A generator may take it too: it stays open until the
+  generator has ended.
 A plain (or ``async def``) function cannot be stopped; if a cancel arrived meanwhile, the goal
 ends canceled when it returns.
 
@@ -137,19 +138,24 @@ class ActionServerAgent(NodeAgent):
             if self.do_log_msg:
                 self.log_msg(goal)
             where = "response_func"
+            publisher = None
             if self._wants_feedback_publisher:
                 publisher = FeedbackPublisher(goal_handle, self.feedback_conversion.encode)
-                try:
+            try:
+                if publisher is None:
+                    outcome = self.call_user_and_wait(self._handler, goal)
+                else:
                     outcome = self.call_user_and_wait(self._handler, goal, publisher)
-                finally:
+                if inspect.isgenerator(outcome) or inspect.isasyncgen(outcome):
+                    # A generator's body runs only now: its publish_feedback stays open till
+                    # its end.
+                    finished, outcome = self._run_generator(outcome, goal_handle)
+                    if not finished:
+                        self._end(goal_handle, goal_handle.canceled)
+                        return self._result_class()
+            finally:
+                if publisher is not None:
                     publisher.close()
-            else:
-                outcome = self.call_user_and_wait(self._handler, goal)
-            if inspect.isgenerator(outcome) or inspect.isasyncgen(outcome):
-                finished, outcome = self._run_generator(outcome, goal_handle)
-                if not finished:
-                    self._end(goal_handle, goal_handle.canceled)
-                    return self._result_class()
             where = "encode"
             result = (
                 self._result_class()

@@ -19,6 +19,11 @@ callback running, no hand-off), the node moves back to a new ``EventsExecutor``.
 The watch over running callbacks (wrappers and a monitor thread) is
 pyconnect.ros.callback_watch: a slow callback is noticed after 20-120 ms; a blocking ``send()``
 at once. The moves themselves are pyconnect.ros.executor_moves.
+
+A callback that raises never kills the executor, not even with what is no ``Exception``: a
+``SystemExit`` or ``KeyboardInterrupt`` (a handler's ``sys.exit()``: "the task is done, end the
+program") is reported and shuts the nodes down, so a blocking ``spin()`` returns and the program
+ends normally; any other ``BaseException`` is reported and the executor goes on.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -180,8 +185,8 @@ class AgentExecutor(ExecutorMoves):
     def _spin_reporting(self) -> None:
         try:
             self._spin_here()
-        except Exception as error:
-            self._report(error)
+        except BaseException as error:  # the thread ends: nothing above it would report
+            self._callback_raised(error)
 
     def _spin_here(self) -> None:
         """The dispatching loop, on this thread (``_spinning`` is already set)."""
@@ -202,8 +207,8 @@ class AgentExecutor(ExecutorMoves):
                     events.spin_once(timeout_sec=IDLE_TICK)
                 except (ShutdownException, ExternalShutdownException):
                     self._stopping = True
-                except Exception as error:
-                    self._report(error)
+                except BaseException as error:  # a SystemExit would end the loop unseen
+                    self._callback_raised(error)
                 self._returns += 1
                 if events is not self._events or self._elastic is not None:
                     self._retire(events)
@@ -211,6 +216,39 @@ class AgentExecutor(ExecutorMoves):
             with self._lock:
                 self._spinning = False
                 self._dispatcher = None
+
+    def _wrap(
+        self, callback: Callable[..., Any], group: Any, entity: Any, *, takes_args: bool = True
+    ) -> Callable[..., Any]:
+        # The executor a callback runs on catches ``Exception`` only (rclpy's Task, the elastic
+        # executor's threads): what else a callback raises is handled here, wherever it runs.
+        def guarded(*args: Any) -> Any:
+            try:
+                return callback(*args)
+            except Exception:
+                raise
+            except BaseException as error:
+                self._callback_raised(error)
+                return None
+
+        return super()._wrap(guarded, group, entity, takes_args=takes_args)
+
+    def _callback_raised(self, error: BaseException) -> None:
+        """Report what a callback raised; a ``SystemExit`` or ``KeyboardInterrupt`` (a handler's
+        ``sys.exit()``) also shuts the nodes down, so ``spin()`` returns."""
+        self._report(error)
+        if not isinstance(error, (SystemExit, KeyboardInterrupt)):
+            return
+        for node in list(self._nodes):
+            shutdown = getattr(node, "shutdown", None)
+            if shutdown is None:  # a plain rclpy node: only the executor stops
+                self.stop()
+            elif self.runs_callbacks_here():
+                shutdown()  # CustomNode: on a thread of its own, once this callback has ended
+            else:
+                threading.Thread(
+                    target=shutdown, name="pyconnect-exit-shutdown", daemon=True
+                ).start()
 
     def spin_once(self, timeout_sec: float | None = None) -> None:
         """Run at most one callback in this thread (rclpy's executor API)."""

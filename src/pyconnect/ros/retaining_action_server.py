@@ -18,7 +18,10 @@ At shutdown rclpy's server would drop what it owes: it sends a result from a don
 the goal's result future, which it schedules on the executor, and the executor has stopped by
 then. So this server keeps the result requests still waiting, and ``answer_waiting_requests``
 sends them directly before the server is destroyed: a finished goal's result, or ``ABORTED``
-for a goal that is still running (which the agent has aborted by then).
+for a goal that is still running (which the agent has aborted by then). A client asks for the
+result only once it has the goal's acceptance, so that request may still be on its way (a
+handler that shut its node down returns at once): shutdown waits, ``TAKE_FOR_SECONDS`` at most,
+until every goal it keeps has been asked for.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -34,11 +37,13 @@ from typing import Any
 
 from action_msgs.msg import GoalStatus
 from rclpy.action import ActionServer
+from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
 from rclpy.task import Future
 
 TAKE_FOR_SECONDS = 0.5
-"""How long shutdown goes on taking result requests that were never taken: a flood cannot
-hold it up, nor requests of clients gone meanwhile (rmw may wait on each such answer)."""
+"""How long shutdown goes on taking result requests that were never taken, or waits for those
+of kept goals not asked for yet: a flood cannot hold it up, nor clients gone meanwhile (rmw may
+wait on each such answer)."""
 
 
 class RetainingActionServer(ActionServer):
@@ -58,9 +63,15 @@ class RetainingActionServer(ActionServer):
         self._expiry_lock = threading.RLock()
         # Result requests not answered yet, per goal uuid (under ``_expiry_lock``).
         self._waiting: dict[bytes, list[Any]] = {}
+        # Kept goals whose result was asked for (under ``_expiry_lock``): shutdown waits for
+        # the requests of the others.
+        self._asked: set[bytes] = set()
         super().__init__(*args, **kwargs)
 
     async def _execute_expire_goals(self, expired_goals: Any) -> None:
+        self._expire_goals(expired_goals)
+
+    def _expire_goals(self, expired_goals: Any) -> None:
         for goal in expired_goals:
             goal_uuid = bytes(goal.goal_id.uuid)
             with self._expiry_lock:
@@ -80,6 +91,7 @@ class RetainingActionServer(ActionServer):
         with self._expiry_lock:
             handle = self._goal_handles.pop(goal_uuid, None)
             future = self._result_futures.pop(goal_uuid, None)
+            self._asked.discard(goal_uuid)
             if future is not None and future.done():
                 self._remember(goal_uuid, future.result(), time.monotonic())
         if handle is not None:
@@ -97,6 +109,7 @@ class RetainingActionServer(ActionServer):
             cached = None if future is not None else self._recall(goal_uuid)
             if future is not None:
                 self._waiting.setdefault(goal_uuid, []).append(request_header)
+                self._asked.add(goal_uuid)
         if future is not None:
             future.add_done_callback(functools.partial(self._answer, goal_uuid, request_header))
         elif cached is not None:
@@ -150,31 +163,90 @@ class RetainingActionServer(ActionServer):
 
     def _take_result_requests(self) -> int:
         """Take the result requests that arrived but were never taken (the executor has
-        stopped): those for goals still kept wait with the others; the rest are answered here
+        stopped), and wait for those of kept goals not asked for yet (every kept goal has
+        ended by now): requests for kept goals wait with the others; the rest are answered here
         as rclpy would (cached result, or ``UNKNOWN``). Returns how many were answered."""
         answered = 0
         deadline = time.monotonic() + TAKE_FOR_SECONDS
-        while time.monotonic() < deadline:
+        with self._expiry_lock:
+            unasked = set(self._goal_handles) - self._asked
+        wait_set = None
+        while (remaining := deadline - time.monotonic()) > 0:
             with self._lock:
                 header, request = self._handle.take_result_request(
                     self._action_type.Impl.GetResultService.Request
                 )
-            if header is None or request is None:
-                break
-            goal_uuid = bytes(request.goal_id.uuid)
-            with self._expiry_lock:
-                kept = goal_uuid in self._goal_handles
-                if kept:
-                    self._waiting.setdefault(goal_uuid, []).append(header)
-                response = None if kept else self._recall(goal_uuid)
-            if kept:
+            if header is not None and request is not None:
+                goal_uuid = bytes(request.goal_id.uuid)
+                unasked.discard(goal_uuid)
+                answered += self._take_one(goal_uuid, header)
                 continue
-            if response is None:
-                response = self._action_type.Impl.GetResultService.Response()
-                response.status = GoalStatus.STATUS_UNKNOWN
-            self._send_result(header, response)
-            answered += 1
+            if not unasked:
+                break
+            if wait_set is None:
+                wait_set = self._new_wait_set()
+            self._wait_and_clear(wait_set, remaining)
         return answered
+
+    def _take_one(self, goal_uuid: bytes, header: Any) -> int:
+        """Keep one taken result request of a kept goal, or answer it; 1 if answered."""
+        with self._expiry_lock:
+            kept = goal_uuid in self._goal_handles
+            if kept:
+                self._waiting.setdefault(goal_uuid, []).append(header)
+                self._asked.add(goal_uuid)
+            response = None if kept else self._recall(goal_uuid)
+        if kept:
+            return 0
+        if response is None:
+            response = self._action_type.Impl.GetResultService.Response()
+            response.status = GoalStatus.STATUS_UNKNOWN
+        self._send_result(header, response)
+        return 1
+
+    def _new_wait_set(self) -> Any:
+        """A wait set for this server's entities alone (its services and expiry timer)."""
+        counts = self.get_num_entities()
+        return _rclpy.WaitSet(
+            counts.num_subscriptions,
+            counts.num_guard_conditions,
+            counts.num_timers,
+            counts.num_clients,
+            counts.num_services,
+            counts.num_events,
+            self._node.context.handle,
+        )
+
+    def _wait_and_clear(self, wait_set: Any, seconds: float) -> None:
+        """Wait up to ``seconds`` until one of the server's entities is ready, then take what
+        is ready but a result request (the caller takes those): else each next wait would
+        return at once. A new goal is refused and a cancel request rejected (the server shuts
+        down); expired goals leave as usual (their results stay in the cache)."""
+        with self._node.context.handle, self._handle:
+            wait_set.clear_entities()
+            self.add_to_wait_set(wait_set)
+            wait_set.wait(int(seconds * 1e9))
+            with self._lock:
+                goal_ready, cancel_ready, _result_ready, expired = self._handle.is_ready(wait_set)
+        impl = self._action_type.Impl
+        if goal_ready:
+            with self._lock:
+                header, _goal = self._handle.take_goal_request(impl.SendGoalService.Request)
+            if header is not None:
+                self._answer_safely(
+                    self._handle.send_goal_response, header, impl.SendGoalService.Response()
+                )
+        if cancel_ready:
+            with self._lock:
+                header, _cancel = self._handle.take_cancel_request(impl.CancelGoalService.Request)
+            if header is not None:
+                refusal = impl.CancelGoalService.Response()
+                refusal.return_code = refusal.ERROR_REJECTED
+                self._answer_safely(self._handle.send_cancel_response, header, refusal)
+        if expired:
+            with self._lock:
+                expired_goals = self._handle.expire_goals(len(self._goal_handles))
+            self._expire_goals(expired_goals)
 
     def _remember(self, goal_uuid: bytes, response: Any, now: float) -> None:
         with self._finished_lock:
@@ -195,12 +267,13 @@ class RetainingActionServer(ActionServer):
         return entry[1]
 
     def _send_result(self, request_header: Any, response: Any) -> None:
-        from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+        self._answer_safely(self._handle.send_result_response, request_header, response)
 
+    def _answer_safely(self, send: Any, request_header: Any, response: Any) -> None:
         try:
-            self._handle.send_result_response(request_header, response)
+            send(request_header, response)
         except _rclpy.RCLError:
-            self._logger.warn("Failed to send result response (the client may have gone away)")
+            self._logger.warn("Failed to send a response (the client may have gone away)")
 
 
 def _take(waiting: dict[bytes, list[Any]], goal_uuid: bytes, request_header: Any) -> bool:
