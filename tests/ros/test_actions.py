@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 import threading
 import time
 from collections.abc import Iterator
@@ -249,6 +250,28 @@ def test_a_generator_handler_may_use_publish_feedback_while_it_runs(make_node: A
     client = _pair(node, both_ways)
     assert client.send({"order": 1}) == {"sequence": [0, 1], "isdone": True}
     assert published == [1]
+
+
+def test_sys_exit_in_a_handler_aborts_the_goal_and_shuts_the_server_down(make_node: Any) -> None:
+    """rclpy's Task, which runs the goal, lets a ``SystemExit`` end the executor's thread: the
+    goal stayed open and the node kept running without it."""
+    server = make_node()
+
+    def finish(_goal: dict[str, Any]) -> dict[str, Any]:
+        sys.exit("mission complete")
+
+    server.add_agent(
+        conn_name="fib", conn_type="action_server", data_interface=Fibonacci, response_func=finish
+    )
+    server.spin(run_thread=True)
+    client = make_node().add_agent(
+        conn_name="fib", conn_type="action_client", data_interface=Fibonacci, timeout=EVENT_TIMEOUT
+    )
+    client.node.spin(run_thread=True)
+    result = client.send({"order": 1})
+    assert result["isdone"] is False
+    assert result["error"].endswith("goal aborted by the server: SystemExit: mission complete")
+    assert server.wait_for_shutdown(EVENT_TIMEOUT)
 
 
 def test_client_callbacks_get_acceptance_feedback_and_what_send_returns(make_node: Any) -> None:

@@ -167,6 +167,15 @@ class ActionServerAgent(NodeAgent):
             else:
                 self._end(goal_handle, goal_handle.succeed)
             return result
+        except (SystemExit, KeyboardInterrupt) as error:
+            # A handler's sys.exit(): the goal is aborted with it, then the node shuts down, as
+            # for any callback's (pyconnect.ros.agent_executor); rclpy's Task would let it end
+            # the executor thread that runs the goal.
+            self.report_exception(where, error)
+            text = f"{type(error).__name__}: {error}"
+            self._end(goal_handle, lambda: self._abort(goal_handle, text))
+            self.node.shutdown()
+            return error_message(self._result_class, text)
         except Exception as error:
             self.report_exception(where, error)
             if isinstance(error, CancelledByShutdown):  # an ``async def`` handler

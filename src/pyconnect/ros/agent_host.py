@@ -70,3 +70,7 @@ class AgentHost(Protocol):
     def agent_log_dir(self, agent_name: str) -> Path:
         """This session's log folder of ``agent_name``: one folder per agent, made once."""
         ...
+
+    def shutdown(self) -> None:
+        """Shut the node down; called in a callback, once that callback has ended."""
+        ...
