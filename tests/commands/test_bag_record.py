@@ -1,19 +1,26 @@
-"""``pyconnect bag record`` subscribes to the topics of service and action parts it is asked for."""
+"""``pyconnect bag record``: the topics of service and action parts, its options, a full disk."""
 
 from __future__ import annotations
 
+import argparse
 import io
+import re
+import signal
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
 
+import pytest
+import yaml
 from rclpy.serialization import serialize_message
 from test_msgs.action import Fibonacci
 
+from pyconnect.cli import main
 from pyconnect.commands import bag_record
-from pyconnect.record import open_bag
+from pyconnect.record import BagError, open_bag
 from pyconnect.record.queued_recorder import QueuedRecorder
 from pyconnect.record.split_recorder import SplitRecorder
+from tests.commands.processes import WAIT, Lines, spawn
 
 
 class _Node:
@@ -29,7 +36,9 @@ class _Node:
     def get_publishers_info_by_topic(self, _topic: str) -> list[Any]:
         return []
 
-    def create_subscription(self, cls: type, topic: str, callback: Any, _qos: Any, **_: Any) -> None:
+    def create_subscription(
+        self, cls: type, topic: str, callback: Any, _qos: Any, **_: Any
+    ) -> None:
         self.subscriptions[topic] = (cls, callback)
 
 
@@ -52,3 +61,87 @@ def test_an_action_feedback_topic_named_explicitly_is_recorded(tmp_path: Path) -
         values = [m.value for m in bag]
     assert bag.errors == []
     assert [v["feedback"] for v in values] == [{"sequence": [1, 1, 2]}]
+
+
+@pytest.mark.parametrize(
+    ("option", "error"),
+    [
+        ("--max-bag-size", "expected a whole number of bytes >= 0 (0: no split), got '-1'"),
+        ("--max-bag-duration", "expected a number of seconds >= 0 (0: no split), got '-1'"),
+    ],
+)
+def test_a_negative_split_limit_is_a_usage_error(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    option: str,
+    error: str,
+) -> None:
+    # It was taken: every message got a file of its own.
+    def record(*_: object) -> int:
+        pytest.fail("recording started")
+
+    monkeypatch.setattr(bag_record, "_record", record)
+    short = {"--max-bag-size": "-b", "--max-bag-duration": "-d"}[option]
+    assert main(["bag", "record", "/chatter", "-o", str(tmp_path / "run"), option, "-1"]) == 2
+    assert capsys.readouterr().err == f"pyconnect: error: argument {short}/{option}: {error}\n"
+    assert not (tmp_path / "run").exists()
+
+
+def test_a_bag_that_cannot_be_finished_still_says_what_it_recorded(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The session never starts and closing the bag fails: both are told, the SIGTERM handler
+    is given back."""
+
+    def no_session(_name: str) -> Any:
+        raise RuntimeError("no ROS graph")
+
+    def failing_close(self: QueuedRecorder) -> None:
+        raise BagError("the bag could not be finished")
+
+    from pyconnect.commands import graph
+
+    monkeypatch.setattr(graph, "graph_session", no_session)
+    monkeypatch.setattr(QueuedRecorder, "close", failing_close)
+    before = signal.getsignal(signal.SIGTERM)
+    out = io.StringIO()
+    args = argparse.Namespace(
+        all=False, topics=["/chatter"], output=str(tmp_path / "run"), max_bag_size=0,
+        max_bag_duration=0.0,
+    )  # fmt: skip
+    with pytest.raises(BagError) as failed:
+        bag_record._record(args, out, io.StringIO())
+    assert str(failed.value) == "the bag could not be finished"
+    assert str(failed.value.__context__) == "no ROS graph"
+    assert out.getvalue() == f"Recorded 0 message(s) to '{tmp_path / 'run'}'\n"
+    assert signal.getsignal(signal.SIGTERM) is before
+
+
+def test_a_full_disk_is_reported_with_the_bag_and_what_it_lost(peer: Lines, tmp_path: Path) -> None:
+    # Chunks of a few messages: the disk fills while /chatter is recorded; the writer's failure
+    # ends the recording (the next message is refused), then finishing the file may fail too.
+    bag = tmp_path / "run"
+    argv = ["bag", "record", "/chatter", "-o", str(bag), "--max-bag-size", "200"]
+    recorder = spawn("-m", "tests.commands.full_disk_record", "3000", *argv)
+    lines = Lines(recorder)
+    try:
+        lines.wait_for("^Recording '/chatter': first message received$")
+        status = recorder.wait(timeout=WAIT)  # the recording ends by itself
+    finally:
+        err = lines.stop()
+    assert status == 2
+    no_space = r"\(\[Errno 28\] No space left on device\)"
+    found = re.fullmatch(
+        rf"pyconnect: error: {re.escape(str(bag))}: writing the bag failed {no_space}; "
+        rf"(\d+) received message\(s\) not written(; finishing it failed too {no_space})?\n",
+        err,
+    )
+    assert found, err
+    with open_bag(bag) as reader:
+        held = sum(1 for _ in reader)
+    assert held > 0 and int(found.group(1)) > 0
+    metadata = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert metadata["message_count"] == held
+    _seen, recorded = lines.wait_for("^Recorded ")
+    assert recorded.string == f"Recorded {held} message(s) to '{bag}'"

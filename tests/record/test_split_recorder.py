@@ -2,8 +2,11 @@
 
 from __future__ import annotations
 
+import errno
+import os
 import random
 import re
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -13,8 +16,8 @@ from mcap.writer import Writer
 from rclpy.serialization import serialize_message
 from std_msgs.msg import String
 
-from pyconnect.record import open_bag
-from pyconnect.record.mcap_recorder import McapRecorder
+from pyconnect.record import open_bag, split_recorder
+from pyconnect.record.mcap_recorder import McapRecorder, _CountedFile
 from pyconnect.record.split_recorder import SplitRecorder
 
 
@@ -231,3 +234,90 @@ def test_files_split_at_the_first_chunk_that_reaches_max_bytes(tmp_path: Path) -
     # chunk (and the indexes and summary written when it is finished).
     assert all(limit <= size < 2 * limit + 20_000 for size in sizes[:-1]), sizes
     assert sum(_metadata(bag)["files"][k]["message_count"] for k in range(len(sizes))) == 30
+
+
+@pytest.mark.parametrize(("option", "value"), [("max_bytes", -1), ("max_ns", -1_000_000_000)])
+def test_negative_limits_are_refused(tmp_path: Path, option: str, value: int) -> None:
+    # A negative limit is always reached: it used to give every message a file of its own.
+    with pytest.raises(ValueError) as refused:
+        SplitRecorder(tmp_path / "run", **{option: value})
+    assert str(refused.value) == f"{option}: expected 0 (no split) or more, got {value}"
+    assert not (tmp_path / "run").exists()
+
+
+# -- a full disk ----------------------------------------------------------------------------------
+def no_space() -> OSError:
+    return OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+
+def full_disk_write(room: int) -> Callable[[_CountedFile, bytes], int]:
+    """A ``_CountedFile.write`` for a disk with ``room`` bytes left for the bag's MCAP files: a
+    write past it writes what still fits, then raises ENOSPC, as a full disk does. Its
+    ``left()`` (an attribute of the function) says how much room is left."""
+    left = room
+
+    def write(self: _CountedFile, data: bytes) -> int:
+        nonlocal left
+        fits = min(len(data), left)
+        if fits:
+            self.stream.write(bytes(data)[:fits])
+            self.written += fits
+            left -= fits
+        if fits < len(data):
+            raise no_space()
+        return fits
+
+    write.left = lambda: left  # type: ignore[attr-defined]
+    return write
+
+
+def fill_disk(monkeypatch: pytest.MonkeyPatch, room: int) -> None:
+    """The bag's MCAP files get ``room`` bytes. Once they have taken it, metadata.yaml has only
+    the room of its old copy: an atomic rewrite, which needs room for the new one beside it,
+    fails while the old one exists."""
+    write = full_disk_write(room)
+    monkeypatch.setattr(_CountedFile, "write", write)
+    write_metadata = split_recorder.write_metadata
+
+    def metadata_if_room(path: Path, metadata: Any) -> None:
+        if path.exists() and not write.left():  # type: ignore[attr-defined]
+            raise no_space()
+        write_metadata(path, metadata)
+
+    monkeypatch.setattr(split_recorder, "write_metadata", metadata_if_room)
+
+
+def _noise(i: int) -> bytes:
+    return bytes(serialize_message(String(data=f"{i:04d}" + "x" * 996)))
+
+
+def test_a_file_the_full_disk_cut_short_is_counted_as_read_back(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    bag = tmp_path / "run"
+    recorder = SplitRecorder(bag, compression="none")  # a cut chunk keeps its first messages
+    recorder.add_topic("/noise", "std_msgs/msg/String")
+    fill_disk(monkeypatch, 10_000)
+    for i in range(40):  # one chunk in memory: it meets the full disk when the file is finished
+        recorder.write("/noise", _noise(i), log_time_ns=1_000 + i)
+    with pytest.raises(OSError) as failed:
+        recorder.close()
+    assert failed.value.errno == errno.ENOSPC
+    recorder.close()  # the file is what it is: not finished again
+    with open_bag(bag) as reader:
+        stamps = [m.log_time_ns for m in reader]
+    assert 0 < len(stamps) < 40
+    assert stamps == list(range(1_000, 1_000 + len(stamps)))
+    # What the bag holds, not what was handed to it: counts and metadata say the same.
+    assert recorder.counts == {"/noise": len(stamps)}
+    metadata = _metadata(bag)
+    assert metadata["message_count"] == len(stamps)
+    assert [t["message_count"] for t in metadata["topics_with_message_count"]] == [len(stamps)]
+    assert metadata["files"] == [
+        {
+            "path": "run_0.mcap",
+            "starting_time": {"nanoseconds_since_epoch": 1_000},
+            "duration": {"nanoseconds": len(stamps) - 1},
+            "message_count": len(stamps),
+        }
+    ]

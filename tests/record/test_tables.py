@@ -251,11 +251,13 @@ def _cdr_strings(*texts: str) -> bytes:
     return bytes(out)
 
 
-def _stored_strings_bag(path: Path, messages: list[bytes]) -> Path:
+def _stored_strings_bag(
+    path: Path, messages: list[bytes], definition: str = TWO_STRINGS, start_ns: int = 1_000
+) -> Path:
     with McapRecorder(path) as recorder:
-        recorder.add_topic("/s", "std_msgs/msg/String", definition=TWO_STRINGS)
+        recorder.add_topic("/s", "std_msgs/msg/String", definition=definition)
         for i, data in enumerate(messages):
-            recorder.write("/s", data, log_time_ns=1_000 + i)
+            recorder.write("/s", data, log_time_ns=start_ns + i)
     return path
 
 
@@ -299,3 +301,48 @@ def test_rosout_of_a_wrong_stored_definition_keeps_every_field(tmp_path: Path) -
     export_parquet(TALKER, tmp_path / "out", topics=["/rosout"])
     exported = pl.read_parquet(next((tmp_path / "out").rglob("*.parquet")))
     assert exported.columns == table.column_names
+
+
+# -- merged bags that store different definitions of a topic's type -------------------------------
+def _two_definition_bags(tmp_path: Path) -> list[Path]:
+    """The installed std_msgs/String (one field), then a later bag storing TWO_STRINGS."""
+    one = _stored_strings_bag(
+        tmp_path / "one", [_cdr_strings("a"), _cdr_strings("b")], definition="string data\n"
+    )
+    two = _stored_strings_bag(tmp_path / "two", [_cdr_strings("c", "x")], start_ns=2_000)
+    return [one, two]
+
+
+@pytest.mark.parametrize("order", [1, -1])
+def test_merged_bags_give_the_union_of_their_definitions_columns(
+    tmp_path: Path, order: int
+) -> None:
+    bags = _two_definition_bags(tmp_path)[::order]
+    with open_bag(bags, natural=False) as reader:
+        values = [m.value for m in reader]
+        table = reader.to_arrow("/s")
+        frame = reader.to_polars("/s")
+        errors = reader.errors
+    assert values == [{"data": "a"}, {"data": "b"}, {"data": "c", "extra": "x"}]
+    assert table.column_names == ["log_time_ns", "data", "extra"]
+    assert table.column("data").to_pylist() == ["a", "b", "c"]
+    assert table.column("extra").to_pylist() == [None, None, "x"]
+    assert frame.columns == table.column_names
+    assert errors == []
+
+
+def test_merged_bags_whose_field_types_differ_are_an_error(tmp_path: Path) -> None:
+    one, _two = _two_definition_bags(tmp_path)
+    number = _stored_strings_bag(
+        tmp_path / "number", [b"\x00\x01\x00\x00" + (7).to_bytes(4, "little")],
+        definition="int32 data\n", start_ns=3_000,
+    )  # fmt: skip
+    with open_bag([one, number], natural=False) as reader:
+        assert [m.value for m in reader] == [{"data": "a"}, {"data": "b"}, {"data": 7}]
+        with pytest.raises(BagError) as raised:
+            reader.to_pandas("/s")
+    assert str(raised.value) == (
+        f"{number}: /s: field data is int32 in the definition of std_msgs/msg/String this bag is "
+        f"read with, string in that of {one}; one table cannot hold both (read them with "
+        "open_bag)"
+    )

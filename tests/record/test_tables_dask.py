@@ -17,6 +17,7 @@ from pyconnect.record.dask import BagPart, plan_parts, read_bags
 from tests.conftest import require_sample_bags
 from tests.record.bag_samples import BAGS, expected_bags
 from tests.record.test_bag_damage import write_chunked
+from tests.record.test_tables import _two_definition_bags
 
 # `make test` reads a slice of the shared bags; `make scale` (PYCONNECT_SCALE=all) reads them all.
 SLICE = (
@@ -108,4 +109,17 @@ def test_a_bag_cut_short_reads_as_open_bag_reads_it(tmp_path: Path) -> None:
     assert 0 < len(expected) < 600
     with dask.config.set(scheduler="synchronous"):
         got = read_bags([bag], topic="/chatter", partition_bytes=1000).compute()
+    pd.testing.assert_frame_equal(got.reset_index(drop=True), expected)
+
+
+def test_bags_of_different_definitions_give_every_partition_the_union(tmp_path: Path) -> None:
+    # The first bag's definition lacks a field of the second's: the meta and every partition
+    # have the columns of open_bag(bags).to_pandas, nulls where a definition lacks the field.
+    bags = _two_definition_bags(tmp_path)
+    with open_bag(bags) as bag:
+        expected = bag.to_pandas("/s")
+    frame = read_bags(bags, topic="/s")
+    with dask.config.set(scheduler="synchronous"):
+        got = frame.compute()
+    assert list(frame.columns) == ["log_time_ns", "data", "extra"]
     pd.testing.assert_frame_equal(got.reset_index(drop=True), expected)

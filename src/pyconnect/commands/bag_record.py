@@ -14,7 +14,9 @@ its subscription exists, and callbacks only queue the messages for a writer thre
 them and splits the files (``pyconnect.record.queued_recorder``). Ctrl-C stops the recording
 and leaves a complete bag (every received message written, every file finished, metadata
 written): it is deferred while a topic is added, never reaches the writer thread, and a second
-Ctrl-C waits for the bag to be finished. SIGTERM does the same as Ctrl-C.
+Ctrl-C waits for the bag to be finished. SIGTERM does the same as Ctrl-C. A disk that fills up
+ends the recording with one error naming the bag and counting the received messages it does not
+hold; its metadata.yaml says what its files hold.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -23,6 +25,7 @@ Ctrl-C waits for the bag to be finished. SIGTERM does the same as Ctrl-C.
 from __future__ import annotations
 
 import argparse
+import math
 import signal
 import threading
 import time
@@ -63,6 +66,33 @@ def _duration(value: Any) -> dict[str, int]:
     return {"sec": sec, "nsec": nsec}
 
 
+def _bag_size(text: str) -> int:
+    """``--max-bag-size``: bytes, 0 or more (0: no split by size)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if value < 0:
+        raise argparse.ArgumentTypeError(
+            f"expected a whole number of bytes >= 0 (0: no split), got {text!r}"
+        )
+    return value
+
+
+def _bag_duration(text: str) -> float:
+    """``--max-bag-duration``: seconds, 0 or more (0: no split by duration)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    # Not finite: no file could ever end, and the limit in ns would not be a number.
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(
+            f"expected a number of seconds >= 0 (0: no split), got {text!r}"
+        )
+    return value
+
+
 def register(actions: Subcommands) -> None:
     """Add ``record`` to the ``bag`` actions."""
     record = actions.add_parser(
@@ -81,13 +111,17 @@ def register(actions: Subcommands) -> None:
     record.add_argument(
         "-b",
         "--max-bag-size",
-        type=int,
+        type=_bag_size,
         default=0,
         help="split files at this many bytes on disk (checked as each compressed chunk of at "
         "most 1 MiB is written, as rosbag2 does)",
     )
     record.add_argument(
-        "-d", "--max-bag-duration", type=float, default=0, help="split files every S seconds"
+        "-d",
+        "--max-bag-duration",
+        type=_bag_duration,
+        default=0,
+        help="split files every S seconds",
     )
     record.set_defaults(run=_record)
 
@@ -212,10 +246,15 @@ def _record(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     except KeyboardInterrupt:  # before the session could defer it, or a second Ctrl-C
         return 0
     finally:
-        writer.close()  # idempotent; finishes the bag when the session never started
-        print(f"Recorded {sum(split.counts.values())} message(s) to '{directory}'", file=out)
-        if previous_sigterm is not None:
-            signal.signal(signal.SIGTERM, previous_sigterm)
+        try:
+            # Idempotent, and raises a failure of the bag once (a full disk: the BagError that
+            # counts what was lost, not the OSError of finishing the file after it); finishes
+            # the bag when the session never started.
+            writer.close()
+        finally:  # the counts are what the bag holds, even when it could not be finished
+            print(f"Recorded {sum(split.counts.values())} message(s) to '{directory}'", file=out)
+            if previous_sigterm is not None:
+                signal.signal(signal.SIGTERM, previous_sigterm)
 
 
 def _interrupt(_signum: int, _frame: Any) -> None:

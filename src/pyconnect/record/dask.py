@@ -5,10 +5,13 @@ columns (and dtypes) of ``open_bag(path).to_pandas(topic)``: one partition per b
 MCAP bag bigger than ``partition_bytes``, one per range of its chunks (split by log time; a
 damaged file without a readable index, such as a recording cut short, stays one partition). Each
 worker opens its bag itself and decodes it with the same wire codecs as a serial read, so
-``read_bags(paths, topic=t).compute()`` has the rows of the serial reads, bag after bag.
+``read_bags(paths, topic=t).compute()`` has the rows of the serial reads, bag after bag, in the
+columns of ``open_bag(paths).to_pandas(topic)``: bags that store different definitions of the
+topic's type give every partition the union of their columns (``pyconnect.record.tables``).
 
 The paths must be readable by every worker under the same name (a shared file system, or the
-same copy on each machine); the client only reads each bag's summary to plan the partitions.
+same copy on each machine); the client only reads each bag's summary and the topic's first
+message, to plan the partitions and their columns.
 Needs the ``scale`` extra (dask, distributed).
 """
 
@@ -25,7 +28,7 @@ import pandas as pd
 
 from pyconnect.record.bag_files import locate_bag_files
 from pyconnect.record.bag_reader import open_bag
-from pyconnect.record.tables import columns_of, schema_of, topic_table, topic_types
+from pyconnect.record.tables import Column, schema_of, topic_columns, topic_table
 
 __all__ = ["BagPart", "plan_parts", "read_bags", "read_part"]
 
@@ -42,12 +45,18 @@ class BagPart:
     end_ns: int | None = None
 
 
-def read_part(part: BagPart) -> pd.DataFrame:
-    """The rows of one partition (runs on a worker)."""
+def read_part(
+    part: BagPart, *, table_columns: tuple[Sequence[Column], str] | None = None
+) -> pd.DataFrame:
+    """The rows of one partition (runs on a worker), in ``table_columns`` (the columns and type
+    name of every bag read together, ``tables.topic_columns``) or else its bag's own.
+
+    Not named ``columns``: Dask gives a function's ``columns`` argument a projection of its own.
+    """
     with open_bag(
         part.path, topics=[part.topic], start_ns=part.start_ns, end_ns=part.end_ns
     ) as bag:
-        frame: pd.DataFrame = topic_table(bag, part.topic).to_pandas()
+        frame: pd.DataFrame = topic_table(bag, part.topic, columns=table_columns).to_pandas()
     return frame
 
 
@@ -89,10 +98,14 @@ def plan_parts(
     ]
 
 
-def _meta(path: str | Path, topic: str) -> pd.DataFrame:
-    with open_bag(path, topics=[topic], natural=False) as bag:
-        definitions, msg_type = topic_types(bag, topic)
-    schema = schema_of(columns_of(msg_type, definitions), topic=topic, msg_type=msg_type)
+def _columns(paths: Sequence[str | Path], topic: str) -> tuple[list[Column], str]:
+    with open_bag(paths, topics=[topic], natural=False) as bag:
+        return topic_columns(bag, topic)
+
+
+def _meta(columns: tuple[Sequence[Column], str], topic: str) -> pd.DataFrame:
+    chosen, msg_type = columns
+    schema = schema_of(chosen, topic=topic, msg_type=msg_type)
     frame: pd.DataFrame = schema.empty_table().to_pandas()
     return frame
 
@@ -110,7 +123,12 @@ def read_bags(
     parts = [
         part for path in chosen for part in plan_parts(path, topic, partition_bytes=partition_bytes)
     ]
-    meta = _meta(chosen[0], topic)
+    # One set of columns for every partition: each bag's own would leave out the fields of the
+    # definitions stored in the others, and the frame would disagree with its meta.
+    columns = _columns(chosen, topic)
+    meta = _meta(columns, topic)
     # Keep to_pandas's dtypes: without this, Dask turns string columns into its own type.
     with dask.config.set({"dataframe.convert-string": False}):
-        return dd.from_map(read_part, parts, meta=meta, enforce_metadata=False)  # type: ignore[no-untyped-call]
+        return dd.from_map(  # type: ignore[no-untyped-call]
+            read_part, parts, meta=meta, enforce_metadata=False, table_columns=columns
+        )

@@ -9,6 +9,10 @@ its cache thread. The queue has no bound: a disk slower than the topics costs me
 message (nothing is lost silently). ``close()`` writes what is still queued, then finishes the
 bag. Ctrl-C never lands on the writer thread (Python delivers signals to the main thread), so a
 write or a split is never cut in the middle.
+
+When writing fails (a full disk), the messages received and not in the bag are counted and
+reported in one ``BagError`` naming the bag, the failure its cause; a failure to finish the bag
+after it (the disk is still full) is told in the same error, never in its place.
 """
 
 from __future__ import annotations
@@ -34,6 +38,9 @@ class QueuedRecorder:
     def __init__(self, recorder: SplitRecorder) -> None:
         self.recorder = recorder
         self._queue: queue.SimpleQueue[_Item | None] = queue.SimpleQueue()
+        # Callbacks of several threads may write at once; ``+=`` alone could lose a count.
+        self._count_lock = threading.Lock()
+        self._received = 0
         self._failure: BaseException | None = None
         self._reported = False
         self._closed = False
@@ -47,22 +54,34 @@ class QueuedRecorder:
         """Messages received and not written yet (approximate while the writer runs)."""
         return self._queue.qsize()
 
+    @property
+    def received(self) -> int:
+        """Messages given to ``write`` (those refused after a failure included)."""
+        return self._received
+
     def write(self, topic: str, data: bytes, *, log_time_ns: int) -> None:
         """Queue one message; raises ``BagError`` once the writer has failed."""
         if self._closed:
             raise BagError(f"{self.recorder.directory}: recording is closed")
+        with self._count_lock:
+            self._received += 1
         if self._failure is not None:
             self._raise_failure()
         self._queue.put((topic, data, log_time_ns))
 
     def close(self) -> None:
-        """Write every queued message, finish the bag; idempotent. Raises the writer's failure
-        (once) when it stopped early."""
+        """Write every queued message, finish the bag; idempotent. Raises ``BagError`` (once)
+        when the writer stopped early or the bag could not be finished."""
         if not self._closed:
             self._closed = True
             self._queue.put(None)
             self._thread.join()
-        self.recorder.close()
+        try:
+            self.recorder.close()
+        except Exception as error:  # Ctrl-C is no failure of the bag: close() finishes it later
+            # Reported even when the writer's failure was: this one is news, the count final.
+            self._failure = self._failure or error
+            self._raise_failure(finishing=None if self._failure is error else error)
         if self._failure is not None and not self._reported:
             self._raise_failure()
 
@@ -74,17 +93,22 @@ class QueuedRecorder:
         except BaseException as error:  # kept for the recording's thread to raise
             self._failure = error
 
-    def _raise_failure(self) -> None:
+    def _raise_failure(self, *, finishing: Exception | None = None) -> None:
+        """Raise the writer's failure as ``BagError``; ``finishing``: closing the bag failed
+        after it (it is told too, and chained as the context)."""
         self._reported = True
-        lost = 0
-        while True:  # what the writer will never write: counted, and its memory freed
+        while True:  # what the writer will never write: its memory freed
             try:
-                lost += self._queue.get_nowait() is not None
+                self._queue.get_nowait()
             except queue.Empty:
                 break
+        # The bag's counts are those of the messages it holds (a file that could not be
+        # finished is recounted): the rest were received and lost, in the queue or on the way.
+        lost = self._received - sum(self.recorder.counts.values())
+        also = "" if finishing is None else f"; finishing it failed too ({finishing})"
         raise BagError(
             f"{self.recorder.directory}: writing the bag failed ({self._failure}); "
-            f"{lost} received message(s) not written"
+            f"{lost} received message(s) not written{also}"
         ) from self._failure
 
     def __enter__(self) -> QueuedRecorder:

@@ -24,13 +24,19 @@ No file of the bag can be lost, whenever the recording stops:
   MCAP header, and removes it when it does not;
 - ``close()`` writes the final metadata (counts, times); it is idempotent.
 
+A file that could not be written whole (a full disk: a chunk or its end cut short) is read back
+when it is finished, and its messages counted as a reader finds them: ``counts`` and
+metadata.yaml then say what the bag holds, not what was handed to it. ``close()`` then raises
+the failure, after writing the metadata if the disk has room for it (else the bag is left with
+no metadata.yaml rather than one that contradicts its files); no later ``close()`` retries.
+
 ``write`` and ``add_topic`` are thread-safe.
 """
 
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -52,6 +58,8 @@ class _File:
     first_ns: int | None = None
     last_ns: int = 0
     count: int = 0
+    topics: dict[str, int] = field(default_factory=dict)  # messages of each topic in the file
+    failed: bool = False  # a write to it failed: what it holds is known once it is read back
 
     def entry(self) -> dict[str, Any]:
         first = self.first_ns or 0
@@ -76,7 +84,7 @@ class SplitRecorder:
 
     ``max_bytes`` (the file's size: bytes written to it, see the module docstring) and
     ``max_ns`` (log time since the file's first message) start a new file when reached; 0 never
-    does. A file holds at least one message.
+    does, a negative one raises ``ValueError``. A file holds at least one message.
     """
 
     def __init__(
@@ -87,6 +95,10 @@ class SplitRecorder:
         max_ns: int = 0,
         compression: str = "zstd",
     ) -> None:
+        # A negative limit is always reached: every message would get a file of its own.
+        for name, limit in (("max_bytes", max_bytes), ("max_ns", max_ns)):
+            if limit < 0:
+                raise ValueError(f"{name}: expected 0 (no split) or more, got {limit}")
         self.directory = Path(directory)
         self.max_bytes = max_bytes
         self.max_ns = max_ns
@@ -156,9 +168,14 @@ class SplitRecorder:
             if current is None or current.recorder is None or self._full(current, log_time_ns):
                 current = self._open_next()
             assert current.recorder is not None
-            current.recorder.write(topic, data, log_time_ns=log_time_ns)
+            try:
+                current.recorder.write(topic, data, log_time_ns=log_time_ns)
+            except OSError:  # the chunk it closed may be cut short, earlier messages with it
+                current.failed = True
+                raise
             known.count += 1
             current.count += 1
+            current.topics[topic] = current.topics.get(topic, 0) + 1
             if current.first_ns is None:
                 current.first_ns = log_time_ns
             current.last_ns = log_time_ns
@@ -170,9 +187,17 @@ class SplitRecorder:
                 return
             if not self._files:
                 self._open_next()  # an empty recording is still a valid bag
-            self._finish_current()
-            self._write_metadata()
+            try:
+                self._finish_current()
+            except Exception:  # Ctrl-C is not: close() finishes the file then
+                # The file is what it is (and recounted): finishing it again cannot help.
+                self._closed = True
+                self._write_metadata_if_room()  # the failure raised says the disk is full
+                raise
+            failure = self._write_metadata_if_room()
             self._closed = True
+            if failure is not None:
+                raise failure
 
     # -- files --------------------------------------------------------------------------------
     def _current(self) -> _File | None:
@@ -210,7 +235,14 @@ class SplitRecorder:
         if current is None:
             return
         if current.recorder is not None:
-            current.recorder.close()
+            try:
+                current.recorder.close()
+            except Exception:
+                current.failed = True
+                raise
+            finally:
+                if current.failed:
+                    self._recount(current)
             return
         # Its creation was cut short: keep it when it is an MCAP file (the reader recovers what
         # it holds), drop it when it never got its header.
@@ -223,6 +255,48 @@ class SplitRecorder:
         if not started:
             path.unlink(missing_ok=True)
             self._files.pop()
+
+    def _recount(self, file: _File) -> None:
+        """Count ``file``'s messages as a reader finds them (it could not be written whole)."""
+        from pyconnect.record.mcap_storage import McapFile
+
+        found: dict[str, int] = {}
+        times: list[int] = []
+        try:
+            storage = McapFile(self.directory / file.name)
+        except (OSError, BagError):  # not even its header: it holds no message
+            storage = None
+        if storage is not None:
+            try:
+                topics = {c.id: c.topic for c in storage.connections()}
+                for connection_id, log_time_ns, _data in storage.messages(set(topics), None, None):
+                    topic = topics[connection_id]
+                    found[topic] = found.get(topic, 0) + 1
+                    times.append(log_time_ns)
+            finally:
+                storage.close()
+        # A message whose write failed may be in the file as well as one counted may not be.
+        for topic in {*file.topics, *found}:
+            self._topics[topic].count += found.get(topic, 0) - file.topics.get(topic, 0)
+        file.topics = found
+        file.count = sum(found.values())
+        file.first_ns = min(times, default=None)
+        file.last_ns = max(times, default=0)
+
+    def _write_metadata_if_room(self) -> OSError | None:
+        """Write the final metadata.yaml on a disk that may be full; the error when it cannot."""
+        try:
+            self._write_metadata()
+        except OSError:
+            # No room for the new copy an atomic write makes beside the old one. The old one
+            # goes (its counts are not the files'): its room may take the new one, and a bag
+            # without metadata.yaml is still read from its files, with nothing to contradict.
+            (self.directory / METADATA_FILE).unlink(missing_ok=True)
+            try:
+                self._write_metadata()
+            except OSError as error:
+                return error
+        return None
 
     def _write_metadata(self) -> None:
         counted = [file for file in self._files if file.count]

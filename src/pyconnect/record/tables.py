@@ -20,9 +20,12 @@ columns named by their field path, typed as the ROS fields are (needs the ``tabl
 
 Columns come from the definition the values are decoded with: the one stored in the bag, else
 (none stored, or it does not fit the bytes) the installed type; a value missing from a message
-(a Foxy message without a later field) is null. A topic whose values follow both (the stored
-definition fits its first messages, not later ones) raises ``BagError``. Messages that cannot
-be decoded are left out and reported in the reader's ``errors``, as ``open_bag`` does.
+(a Foxy message without a later field) is null. Merged bags (``open_bag([foxy_run, jazzy_run])``)
+that store different definitions of the topic's type give the union of their columns, null where
+a message's definition lacks the field; a field whose type differs between two of them raises
+``BagError``, as does a topic whose values follow two definitions in one bag (the stored
+definition fits its first messages, not later ones). Messages that cannot be decoded are left
+out and reported in the reader's ``errors``, as ``open_bag`` does.
 """
 
 from __future__ import annotations
@@ -30,12 +33,21 @@ from __future__ import annotations
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any
 
 import numpy as np
 import pyarrow as pa
 
-from pyconnect.record.image_files import IMAGE_TYPE, PATH_COLUMN, ImageFiles
+from pyconnect.record.bag_errors import BagError
+from pyconnect.record.image_files import ImageFiles
+from pyconnect.record.table_columns import (
+    TIME_COLUMN,
+    Column,
+    Definitions,
+    ImageColumns,
+    columns_of,
+    schema_of,
+)
 
 # The bag reader calls this module (its to_arrow/to_pandas/to_polars); this module takes the
 # reader it is given and never imports the reader's module, so the two stay free of a cycle.
@@ -49,117 +61,10 @@ __all__ = [
     "columns_of",
     "rows_to_table",
     "schema_of",
+    "topic_columns",
     "topic_table",
     "topic_types",
 ]
-
-TIME_COLUMN = "log_time_ns"
-ImageColumns = Literal["binary", "files"]
-
-_PRIMITIVES: dict[str, pa.DataType] = {
-    "bool": pa.bool_(),
-    "byte": pa.uint8(),
-    "octet": pa.uint8(),
-    "char": pa.uint8(),
-    "uint8": pa.uint8(),
-    "int8": pa.int8(),
-    "uint16": pa.uint16(),
-    "int16": pa.int16(),
-    "uint32": pa.uint32(),
-    "int32": pa.int32(),
-    "uint64": pa.uint64(),
-    "int64": pa.int64(),
-    "float32": pa.float32(),
-    "float64": pa.float64(),
-    "float": pa.float32(),
-    "double": pa.float64(),
-    "wchar": pa.uint16(),
-}
-_BYTES = frozenset({"byte", "octet", "char", "uint8"})
-Definitions = Any  # Mapping[type name, (hash, field rows)], as the wire codecs hold them
-
-
-@dataclass(frozen=True)
-class Column:
-    """One column of a topic's table: the field path, its Arrow type and how to build it."""
-
-    path: tuple[str, ...]
-    arrow_type: pa.DataType
-    build: str  # "scalar", "binary", "numbers", "fixed_numbers", "nested", "image_file"
-
-    @property
-    def name(self) -> str:
-        if self.build == "image_file":  # ``path`` is the image's, the column its file's
-            return ".".join((*self.path, PATH_COLUMN))
-        return ".".join(self.path)
-
-
-def _element_type(kind: str, element: str, definitions: Definitions) -> pa.DataType:
-    if kind == "primitive":
-        return _PRIMITIVES[element]
-    if kind in ("string", "wstring"):
-        return pa.string()
-    return _struct_type(element, definitions)
-
-
-def _struct_type(msg_type: str, definitions: Definitions) -> pa.DataType:
-    fields = []
-    for name, kind, element, _bound, container, size, _default in definitions[msg_type][1]:
-        item = _element_type(kind, element, definitions)
-        if container == "single":
-            fields.append(pa.field(name, item))
-        elif kind == "primitive" and element in _BYTES:
-            fields.append(pa.field(name, pa.binary()))
-        elif container == "array":
-            fields.append(pa.field(name, pa.list_(item, size)))
-        else:
-            fields.append(pa.field(name, pa.list_(item)))
-    if not fields:
-        # Parquet cannot store a struct without children; rosidl's C structs add this same
-        # placeholder member to empty messages. It is always null.
-        fields.append(pa.field("structure_needs_at_least_one_member", pa.uint8()))
-    return pa.struct(fields)
-
-
-def columns_of(
-    msg_type: str, definitions: Definitions, *, images: ImageColumns = "binary"
-) -> list[Column]:
-    """The columns of ``msg_type`` (after ``log_time_ns``), in definition order.
-
-    ``images="files"``: the ``data`` of each (not nested in a sequence) ``sensor_msgs/Image``
-    is one ``data_path`` string column instead of a binary one.
-    """
-    columns: list[Column] = []
-
-    def walk(type_name: str, prefix: tuple[str, ...]) -> None:
-        as_file = images == "files" and type_name == IMAGE_TYPE
-        for name, kind, element, _bound, container, size, _default in definitions[type_name][1]:
-            path = (*prefix, name)
-            if as_file and name == "data":
-                columns.append(Column(prefix, pa.string(), "image_file"))
-            elif container == "single":
-                if kind == "message":
-                    walk(element, path)
-                else:
-                    scalar = _element_type(kind, element, definitions)
-                    columns.append(Column(path, scalar, "scalar"))
-            elif kind == "primitive" and element in _BYTES:
-                binary = pa.binary(size) if container == "array" else pa.binary()
-                columns.append(Column(path, binary, "binary"))
-            elif kind == "primitive" and element != "bool":
-                item = _PRIMITIVES[element]
-                if container == "array":
-                    columns.append(Column(path, pa.list_(item, size), "fixed_numbers"))
-                else:
-                    columns.append(Column(path, pa.list_(item), "numbers"))
-            else:
-                item = _element_type(kind, element, definitions)
-                list_type = pa.list_(item, size) if container == "array" else pa.list_(item)
-                columns.append(Column(path, list_type, "nested"))
-
-    walk(msg_type, ())
-    return columns
-
 
 # -- values -> Arrow arrays ----------------------------------------------------------------------
 _MISSING = object()
@@ -222,17 +127,6 @@ def _array(values: list[Any], column: Column) -> pa.Array:
     return pa.array([_plain(v) for v in values], type=column.arrow_type)
 
 
-def schema_of(columns: Sequence[Column], *, topic: str, msg_type: str) -> pa.Schema:
-    """The table schema: ``log_time_ns`` then ``columns``; the topic and type as metadata
-    (and ``images: files`` when image data are files)."""
-    fields = [pa.field(TIME_COLUMN, pa.int64(), nullable=False)]
-    fields += [pa.field(column.name, column.arrow_type) for column in columns]
-    metadata = {"topic": topic, "msg_type": msg_type}
-    if any(column.build == "image_file" for column in columns):
-        metadata["images"] = "files"
-    return pa.schema(fields, metadata=metadata)
-
-
 def rows_to_table(
     rows: Iterable[tuple[int, dict[str, Any]]],
     columns: Sequence[Column],
@@ -285,6 +179,73 @@ def topic_types(reader: BagReader, topic: str) -> tuple[Definitions, str]:
     return codec.definitions, codec.msg_type
 
 
+@dataclass(frozen=True)
+class _BagColumns:
+    """The columns one bag of a merged reader gives a topic, from the codec it decodes with."""
+
+    path: Path
+    msg_type: str
+    columns: list[Column]
+
+
+def _each_bag_columns(reader: BagReader, topic: str, images: ImageColumns) -> list[_BagColumns]:
+    found: list[_BagColumns] = []
+    for path in _bag_paths(reader):
+        # raw: another bag of the list may lack the topic or hold topics that are not CDR, which
+        # a decoding reader refuses when it opens; topic_codec still gives the codec.
+        with type(reader)(
+            path, raw=True, natural=False, start_ns=reader.start_ns, end_ns=reader.end_ns
+        ) as one:
+            codec = one.topic_codec(topic) if topic in one.topics else None
+        if codec is not None:  # no codec: its messages are undecodable, reported when read
+            columns = columns_of(codec.msg_type, codec.definitions, images=images)
+            found.append(_BagColumns(path, codec.msg_type, columns))
+    return found
+
+
+def _union(topic: str, bags: Sequence[_BagColumns]) -> list[Column]:
+    """Every column of ``bags``, each after the one it follows in its own definition."""
+    merged: list[Column] = []
+    first_seen: dict[str, tuple[Column, _BagColumns]] = {}
+    for bag in bags:
+        at = 0  # where this bag's next new column goes: after its previous column
+        for column in bag.columns:
+            seen = first_seen.get(column.name)
+            if seen is None:
+                merged.insert(at, column)
+                first_seen[column.name] = (column, bag)
+                at += 1
+                continue
+            known, known_bag = seen
+            if (known.arrow_type, known.build) != (column.arrow_type, column.build):
+                raise BagError(
+                    f"{bag.path}: {topic}: field {column.name} is {column.arrow_type} in the "
+                    f"definition of {bag.msg_type} this bag is read with, {known.arrow_type} in "
+                    f"that of {known_bag.path}; one table cannot hold both (read them with "
+                    "open_bag)"
+                )
+            at = merged.index(known) + 1
+    return merged
+
+
+def topic_columns(
+    reader: BagReader, topic: str, *, images: ImageColumns = "binary"
+) -> tuple[list[Column], str]:
+    """The columns of ``topic``'s table (after ``log_time_ns``) and the type name it has.
+
+    The columns are those of the definition ``topic_types`` gives, for one bag; for merged bags,
+    the union over the definitions each is decoded with (a field some lack is null in their
+    rows). A field whose type differs between two of them raises ``BagError``.
+    """
+    if len(_bag_paths(reader)) > 1:
+        bags = _each_bag_columns(reader, topic, images)
+        if bags:
+            return _union(topic, bags), bags[0].msg_type
+    # One bag, or none with a codec (then this raises the error that says why).
+    definitions, msg_type = topic_types(reader, topic)
+    return columns_of(msg_type, definitions, images=images), msg_type
+
+
 def topic_table(
     bag: BagReader,
     topic: str,
@@ -293,12 +254,15 @@ def topic_table(
     images: ImageColumns = "binary",
     image_dir: str | Path | None = None,
     image_folder: str | None = None,
+    columns: tuple[Sequence[Column], str] | None = None,
 ) -> pa.Table:
     """One topic of an open reader (``open_bag(...)``, whose time range applies) as a table.
 
     Messages that cannot be decoded are appended to ``errors`` (when given) and left out.
     ``images="files"`` writes each image to a file under ``image_dir`` (see the module
-    docstring), in its folder ``image_folder`` (default: the topic as a name).
+    docstring), in its folder ``image_folder`` (default: the topic as a name). ``columns``:
+    the columns and type name to use (``topic_columns`` of a reader of more bags, with the same
+    ``images``) instead of those of ``bag``'s own definitions.
     """
     if images not in ("binary", "files"):
         raise ValueError(f"images: expected 'binary' or 'files', got {images!r}")
@@ -315,11 +279,10 @@ def topic_table(
         end_ns=bag.end_ns,
         on_error=bag.on_error,
     ) as reader:
-        definitions, msg_type = topic_types(reader, topic)
-        columns = columns_of(msg_type, definitions, images=images)
+        chosen, msg_type = columns or topic_columns(reader, topic, images=images)
         files = None if image_dir is None else ImageFiles(image_dir, topic, folder=image_folder)
         table = rows_to_table(
-            _rows(reader), columns, topic=topic, msg_type=msg_type, image_files=files
+            _rows(reader), chosen, topic=topic, msg_type=msg_type, image_files=files
         )
         if errors is not None:
             errors.extend(reader.errors)
@@ -328,8 +291,6 @@ def topic_table(
         if topic in reader.switched:
             # Earlier rows hold the fields of the stored definition, later ones those of the
             # installed type: one set of columns would drop some of them without a word.
-            from pyconnect.record.bag_errors import BagError
-
             raise BagError(
                 f"{reader.path}: {topic}: the first {reader.switched[topic]} message(s) decode "
                 f"with the definition of {msg_type} stored in the bag, later ones only with the "
