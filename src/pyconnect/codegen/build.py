@@ -6,6 +6,7 @@ import importlib.util
 from collections.abc import Iterable
 from pathlib import Path
 
+from pyconnect.codecs.search_path import CODECS_FOLDER
 from pyconnect.codegen import FORMAT_VERSION
 from pyconnect.codegen.formatting import format_modules
 from pyconnect.codegen.render import render_package
@@ -71,14 +72,28 @@ def write_tree(files: dict[str, str], out_dir: Path) -> list[Path]:
     return written
 
 
+def _optional_files(out_dir: Path) -> set[str]:
+    """Files of a build that ``out_dir`` may lack: the root files, in the codec folder of a
+    ``codecgen build --compile`` install (``site-packages/pyconnect_codecs``). The search path
+    adds that folder to the ``pyconnect_generated`` package, whose own root files serve it, and
+    an install writes only its package's folder (a shared root file would go with the first
+    package uninstalled)."""
+    if out_dir.name != CODECS_FOLDER:
+        return set()
+    return {f"{GENERATED_PACKAGE}/__init__.py", f"{GENERATED_PACKAGE}/py.typed"}
+
+
 def stale_files(files: dict[str, str], out_dir: Path) -> list[str]:
     """Files that differ from, are missing from, or are not part of a fresh build."""
-    stale = [
-        relative
-        for relative, text in sorted(files.items())
-        if not (out_dir / relative).is_file()
-        or (out_dir / relative).read_text(encoding="utf-8") != text
-    ]
+    optional = _optional_files(out_dir)
+    stale = []
+    for relative, text in sorted(files.items()):
+        path = out_dir / relative
+        if path.is_file():
+            if path.read_text(encoding="utf-8") != text:
+                stale.append(relative)
+        elif relative not in optional:
+            stale.append(relative)
     # Only the packages being compared count: a folder may hold other packages too (built
     # with `codecgen build other_msgs --out ...`), which a check of these ones must not flag.
     compared = {relative.split("/")[1] for relative in files if relative.count("/") >= 2}

@@ -53,15 +53,19 @@ def _parser() -> argparse.ArgumentParser:
 _INTERFACE_FOLDERS = ("msg", "srv", "action")
 
 
+def _usage_error(args: argparse.Namespace) -> str | None:
+    """What is wrong with the options of ``codecgen build``, or None."""
+    for option, folders in (("--from", args.folders), ("--compile", args.compile_folders)):
+        for folder in folders:
+            if Path(folder).name in _INTERFACE_FOLDERS:  # one folder too deep
+                return (
+                    f"{option} {folder}: give the package folder, the one holding "
+                    f"msg/, srv/ or action/ (here {Path(folder).parent})"
+                )
+    return compile_cli.unused_options(args)
+
+
 def _build(args: argparse.Namespace) -> int:
-    for folder in args.folders:
-        if Path(folder).name in _INTERFACE_FOLDERS:  # one folder too deep
-            print(
-                f"codecgen: --from {folder}: give the package folder, the one holding "
-                f"msg/, srv/ or action/ (here {Path(folder).parent})",
-                file=sys.stderr,
-            )
-            return 2
     packages = args.packages or ([] if args.folders else list(DEFAULT_PACKAGES))
     files = render_tree(packages, args.folders)
     written = write_tree(files, args.out or default_out_dir())
@@ -106,6 +110,10 @@ def _check(args: argparse.Namespace) -> int:
 
 
 def _run(args: argparse.Namespace) -> int:
+    error = _usage_error(args) if args.command == "build" else None
+    if error is not None:
+        print(f"codecgen: {error}", file=sys.stderr)
+        return 2
     if args.command == "build" and args.compile_folders:
         return compile_cli.run_compile(args)
     if args.command == "build":

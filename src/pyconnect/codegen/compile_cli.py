@@ -21,6 +21,29 @@ def add_compile_options(build: argparse.ArgumentParser) -> None:
     build.add_argument("--force", action="store_true", help="rebuild even when up to date")
 
 
+def unused_options(args: argparse.Namespace) -> str | None:
+    """Why the options of ``codecgen build`` do not go together, or None when they do.
+
+    ``--compile`` installs into a prefix; ``--out``, ``--from`` and package names write codecs
+    into a folder: each set means nothing to the other, so a mix is refused, not half done.
+    """
+    if args.compile_folders:
+        given = [f"--out {args.out}"] if args.out is not None else []
+        given += [f"--from {folder}" for folder in args.folders]
+        given += list(args.packages)
+        if given:
+            return (
+                f"--compile does not take --out, --from or package names (given: "
+                f"{', '.join(map(str, given))}): run those as a codecgen build of their own"
+            )
+        return None
+    given = [f"--prefix {args.prefix}"] if args.prefix is not None else []
+    given += ["--force"] if args.force else []
+    if given:
+        return f"{' and '.join(given)} only go with --compile DIR"
+    return None
+
+
 def add_uninstall_command(commands: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     uninstall = commands.add_parser("uninstall", help="remove a package built with --compile")
     uninstall.add_argument("packages", nargs="+")
