@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import importlib
+import math
 import pkgutil
 from array import array
 from typing import Any
@@ -16,6 +17,7 @@ from rclpy import serialization as rclpy_serialization
 
 from pyconnect import codecs
 from pyconnect.errors import EncodeError
+from pyconnect.typesys.primitives import FLOAT32_MAX, FLOAT32_OVERFLOW
 from tests.strategies import all_types, message_dicts, same_value
 
 
@@ -63,6 +65,39 @@ def check_round_trip(full_name: str, data: st.DataObject) -> None:
     # rclpy's own serialisation of what we built gives the same values back.
     wire = rclpy_serialization.serialize_message(msg)
     assert same_value(to_dict(rclpy_serialization.deserialize_message(wire, msg_class)), original)
+
+
+# float32 values beyond FLOAT32_MAX that still round to it (rclpy's default for a field declared
+# `float32 x 3.4028235e38`, as numpy prints the maximum), and those that round to inf.
+ROUNDS_TO_FLOAT32_MAX = st.one_of(
+    st.floats(min_value=FLOAT32_MAX, max_value=FLOAT32_OVERFLOW, exclude_max=True),
+    st.sampled_from([3.4028235e38, math.nextafter(FLOAT32_OVERFLOW, 0.0)]),
+)
+ROUNDS_TO_INF = st.floats(min_value=FLOAT32_OVERFLOW, allow_infinity=False)
+
+
+@given(magnitude=ROUNDS_TO_FLOAT32_MAX, negative=st.booleans())
+def test_round_trip_at_the_float32_maximum(magnitude: float, negative: bool) -> None:
+    from test_msgs.msg import BasicTypes
+
+    value = -magnitude if negative else magnitude
+    msg = BasicTypes(float32_value=value)
+    assert codecs.from_dict(codecs.to_dict(msg), BasicTypes) == msg
+    assert codecs.from_dict({"float32_value": value}, BasicTypes).float32_value == value
+    received = rclpy_serialization.deserialize_message(
+        rclpy_serialization.serialize_message(msg), BasicTypes
+    )
+    assert received.float32_value == math.copysign(FLOAT32_MAX, value)
+
+
+@given(magnitude=ROUNDS_TO_INF, negative=st.booleans())
+def test_float32_that_would_become_inf_is_refused(magnitude: float, negative: bool) -> None:
+    value = -magnitude if negative else magnitude
+    with pytest.raises(EncodeError) as raised:
+        codecs.from_dict({"float32_value": value}, "test_msgs/msg/BasicTypes")
+    assert str(raised.value) == (
+        f"BasicTypes.float32_value: expected float32 (|x| < 3.4028235677973366e+38), got {value!r}"
+    )
 
 
 def test_from_dict_fills_defaults_and_keeps_input() -> None:
@@ -151,7 +186,7 @@ ERRORS = [
      "BasicTypes.uint64_value: expected uint64 in [0, 18446744073709551615], got -1"),
     ("test_msgs/msg/BasicTypes", {"bool_value": 1}, "BasicTypes.bool_value: expected bool, got int"),
     ("test_msgs/msg/BasicTypes", {"float32_value": 1e39},
-     "BasicTypes.float32_value: expected float32 (|x| <= 3.4028235e+38), got 1e+39"),
+     "BasicTypes.float32_value: expected float32 (|x| < 3.4028235677973366e+38), got 1e+39"),
     ("test_msgs/msg/BasicTypes", {"float64_value": None},
      "BasicTypes.float64_value: expected float, got NoneType"),
     ("test_msgs/msg/BasicTypes", {"byte_value": 256},

@@ -2,12 +2,16 @@
 
 from __future__ import annotations
 
+import math
+import struct
 from array import array
 from fractions import Fraction
 from typing import Any
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 from rclpy.serialization import deserialize_message
 from std_msgs.msg import Float64MultiArray, Int32MultiArray, UInt8MultiArray
 
@@ -15,12 +19,14 @@ from pyconnect import codecs
 from pyconnect.codecs import wire
 from pyconnect.codecs.field_checks import (
     check_float,
+    check_float32,
     check_kind_int,
     check_tuple,
     numeric_array,
     numeric_sequence,
 )
 from pyconnect.errors import EncodeError
+from pyconnect.typesys.primitives import FLOAT32_MAX, FLOAT32_OVERFLOW
 
 
 def wire_error(value: Any, full_name: str) -> str:
@@ -118,3 +124,47 @@ def test_typed_arrays_encode_like_lists_in_both_byte_orders() -> None:
     assert ints.from_dict({"data": array("i", [1, -2])}) == ints.from_dict({"data": [1, -2]})
     swapped = ints.from_dict({"data": array("i", [1, -2])}, big_endian=True)
     assert ints.to_dict(swapped)["data"] == [1, -2]
+
+
+def packs_as_float32(number: float) -> bool:
+    try:
+        struct.pack("<f", number)
+    except OverflowError:
+        return False
+    return True
+
+
+# Around FLOAT32_MAX: the values that round down to it, the first that rounds up to inf, and beyond.
+NEAR_FLOAT32_MAX = st.one_of(
+    st.floats(min_value=FLOAT32_MAX * (1 - 1e-7), max_value=FLOAT32_OVERFLOW * (1 + 1e-7)),
+    st.sampled_from([
+        FLOAT32_MAX, 3.4028235e38, math.nextafter(FLOAT32_OVERFLOW, 0.0), FLOAT32_OVERFLOW,
+        math.nextafter(FLOAT32_OVERFLOW, math.inf), 1e39, 1.7976931348623157e308,
+    ]),
+)  # fmt: skip
+
+
+@given(magnitude=NEAR_FLOAT32_MAX, negative=st.booleans())
+def test_check_float32_accepts_exactly_what_packs_as_a_float32(
+    magnitude: float, negative: bool
+) -> None:
+    number = -magnitude if negative else magnitude
+    if packs_as_float32(number):
+        assert check_float32(number, "Range.range_max") == number
+        assert check_float32(np.float64(number), "Range.range_max") == number
+        return
+    with pytest.raises(EncodeError) as caught:
+        check_float32(number, "Range.range_max")
+    assert str(caught.value) == (
+        f"Range.range_max: expected float32 (|x| < 3.4028235677973366e+38), got {number!r}"
+    )
+
+
+def test_check_float32_passes_the_float32_maximum_as_numpy_prints_it() -> None:
+    # rclpy's own default for `float32 x 3.4028235e38`: it packs to FLOAT32_MAX exactly.
+    assert str(np.finfo(np.float32).max) == "3.4028235e+38"
+    assert check_float32(3.4028235e38, "Defaults.fmax") == 3.4028235e38
+    assert check_float32(-3.4028235e38, "Defaults.fmax") == -3.4028235e38
+    for special in (math.inf, -math.inf):
+        assert check_float32(special, "x") == special
+    assert math.isnan(check_float32(math.nan, "x"))

@@ -22,15 +22,27 @@ missing = d["positon"]
 """
 
 
-def mypy_errors(tmp_path: Path, source: str) -> tuple[list[str], int]:
-    """mypy --strict on ``source`` as a user's script: its error texts and exit status."""
+def mypy_errors(
+    tmp_path: Path, source: str, *, follow_imports: str = "silent"
+) -> tuple[list[str], int]:
+    """mypy --strict on ``source`` as a user's script: its error texts and exit status.
+
+    ``follow_imports="normal"`` reports errors inside the modules it imports too, as
+    "path:line: message" (mypy's default, what a user's plain ``mypy --strict`` does).
+    """
     script = tmp_path / "use.py"
     script.write_text(source)
     out, _, status = api.run([
-        "--strict", "--no-incremental", "--ignore-missing-imports", "--follow-imports=silent",
+        "--strict", "--no-incremental", "--ignore-missing-imports",
+        f"--follow-imports={follow_imports}",
         "--cache-dir", str(tmp_path / "cache"), "--config-file", "", str(script),
     ])  # fmt: skip
-    errors = [line.split(": error: ", 1)[1] for line in out.splitlines() if ": error: " in line]
+    keep_path = follow_imports != "silent"
+    errors = [
+        line.replace(": error: ", ": ", 1) if keep_path else line.split(": error: ", 1)[1]
+        for line in out.splitlines()
+        if ": error: " in line
+    ]
     return errors, status
 
 

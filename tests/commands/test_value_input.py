@@ -107,7 +107,7 @@ def test_an_empty_list_is_an_empty_polygon() -> None:
         ("[1, 2.5]", Int32MultiArray, "Int32MultiArray.data[1]: expected int (int32), got float"),
         ("[true, 2]", Int32MultiArray, "Int32MultiArray.data[0]: expected int (int32), got bool"),
         ("[1, 'a']", Float32MultiArray, "Float32MultiArray.data[1]: expected float, got str"),
-        ("[1, 1e40]", Float32MultiArray, "Float32MultiArray.data[1]: expected float32 (|x| <= 3.4028235e+38), got 1e+40"),
+        ("[1, 1e40]", Float32MultiArray, "Float32MultiArray.data[1]: expected float32 (|x| < 3.4028235677973366e+38), got 1e+40"),
     ],
 )  # fmt: skip
 def test_a_multi_array_element_that_does_not_fit_is_named(

@@ -30,7 +30,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -52,6 +51,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.builtin_interfaces.dict_codecs import (
     time_from_dict as builtin_interfaces__time_from_dict,
 )
@@ -97,7 +97,7 @@ def goal_info_to_dict(msg: Any) -> GoalInfoDict:
     }
 
 
-GOAL_INFO_KEYS = frozenset(("goal_id", "stamp"))
+GOAL_INFO_KEYS: frozenset[str] = frozenset(("goal_id", "stamp"))
 
 
 def goal_info_from_dict(data: Mapping[str, Any]) -> Any:
@@ -142,7 +142,7 @@ def goal_status_to_dict(msg: Any) -> GoalStatusDict:
     }
 
 
-GOAL_STATUS_KEYS = frozenset(("goal_info", "status"))
+GOAL_STATUS_KEYS: frozenset[str] = frozenset(("goal_info", "status"))
 
 
 def goal_status_from_dict(data: Mapping[str, Any]) -> Any:
@@ -192,7 +192,7 @@ def goal_status_array_to_dict(msg: Any) -> GoalStatusArrayDict:
     }
 
 
-GOAL_STATUS_ARRAY_KEYS = frozenset(("status_list",))
+GOAL_STATUS_ARRAY_KEYS: frozenset[str] = frozenset(("status_list",))
 
 
 def goal_status_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -234,7 +234,7 @@ def cancel_goal_request_to_dict(msg: Any) -> CancelGoalRequestDict:
     }
 
 
-CANCEL_GOAL_REQUEST_KEYS = frozenset(("goal_info",))
+CANCEL_GOAL_REQUEST_KEYS: frozenset[str] = frozenset(("goal_info",))
 
 
 def cancel_goal_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -278,7 +278,7 @@ def cancel_goal_response_to_dict(msg: Any) -> CancelGoalResponseDict:
     }
 
 
-CANCEL_GOAL_RESPONSE_KEYS = frozenset(("return_code", "goals_canceling"))
+CANCEL_GOAL_RESPONSE_KEYS: frozenset[str] = frozenset(("return_code", "goals_canceling"))
 
 
 def cancel_goal_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -356,7 +356,7 @@ def cancel_goal_event_to_dict(msg: Any) -> CancelGoalEventDict:
     }
 
 
-CANCEL_GOAL_EVENT_KEYS = frozenset(("info", "request", "response"))
+CANCEL_GOAL_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def cancel_goal_event_from_dict(data: Mapping[str, Any]) -> Any:

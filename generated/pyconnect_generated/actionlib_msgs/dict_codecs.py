@@ -24,7 +24,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -46,6 +45,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.builtin_interfaces.dict_codecs import (
     time_from_dict as builtin_interfaces__time_from_dict,
 )
@@ -77,7 +77,7 @@ def goal_id_to_dict(msg: Any) -> GoalIDDict:
     }
 
 
-GOAL_ID_KEYS = frozenset(("stamp", "id"))
+GOAL_ID_KEYS: frozenset[str] = frozenset(("stamp", "id"))
 
 
 def goal_id_from_dict(data: Mapping[str, Any]) -> Any:
@@ -121,7 +121,7 @@ def goal_status_to_dict(msg: Any) -> GoalStatusDict:
     }
 
 
-GOAL_STATUS_KEYS = frozenset(("goal_id", "status", "text"))
+GOAL_STATUS_KEYS: frozenset[str] = frozenset(("goal_id", "status", "text"))
 
 
 def goal_status_from_dict(data: Mapping[str, Any]) -> Any:
@@ -181,7 +181,7 @@ def goal_status_array_to_dict(msg: Any) -> GoalStatusArrayDict:
     }
 
 
-GOAL_STATUS_ARRAY_KEYS = frozenset(("header", "status_list"))
+GOAL_STATUS_ARRAY_KEYS: frozenset[str] = frozenset(("header", "status_list"))
 
 
 def goal_status_array_from_dict(data: Mapping[str, Any]) -> Any:

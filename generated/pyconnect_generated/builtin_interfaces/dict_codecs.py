@@ -22,7 +22,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -44,6 +43,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.builtin_interfaces.typed_dicts import (
     DurationDict,
     TimeDict,
@@ -66,7 +66,7 @@ def duration_to_dict(msg: Any) -> DurationDict:
     }
 
 
-DURATION_KEYS = frozenset(("sec", "nanosec"))
+DURATION_KEYS: frozenset[str] = frozenset(("sec", "nanosec"))
 
 
 def duration_from_dict(data: Mapping[str, Any]) -> Any:
@@ -103,7 +103,7 @@ def time_to_dict(msg: Any) -> TimeDict:
     }
 
 
-TIME_KEYS = frozenset(("sec", "nanosec"))
+TIME_KEYS: frozenset[str] = frozenset(("sec", "nanosec"))
 
 
 def time_from_dict(data: Mapping[str, Any]) -> Any:

@@ -36,7 +36,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -58,6 +57,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.service_msgs.dict_codecs import (
     service_event_info_from_dict as service_msgs__service_event_info_from_dict,
 )
@@ -121,7 +121,7 @@ def diagnostic_array_to_dict(msg: Any) -> DiagnosticArrayDict:
     }
 
 
-DIAGNOSTIC_ARRAY_KEYS = frozenset(("header", "status"))
+DIAGNOSTIC_ARRAY_KEYS: frozenset[str] = frozenset(("header", "status"))
 
 
 def diagnostic_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -169,7 +169,9 @@ def diagnostic_status_to_dict(msg: Any) -> DiagnosticStatusDict:
     }
 
 
-DIAGNOSTIC_STATUS_KEYS = frozenset(("level", "name", "message", "hardware_id", "values"))
+DIAGNOSTIC_STATUS_KEYS: frozenset[str] = frozenset(
+    ("level", "name", "message", "hardware_id", "values")
+)
 
 
 def diagnostic_status_from_dict(data: Mapping[str, Any]) -> Any:
@@ -220,7 +222,7 @@ def key_value_to_dict(msg: Any) -> KeyValueDict:
     }
 
 
-KEY_VALUE_KEYS = frozenset(("key", "value"))
+KEY_VALUE_KEYS: frozenset[str] = frozenset(("key", "value"))
 
 
 def key_value_from_dict(data: Mapping[str, Any]) -> Any:
@@ -256,7 +258,7 @@ def add_diagnostics_request_to_dict(msg: Any) -> AddDiagnosticsRequestDict:
     }
 
 
-ADD_DIAGNOSTICS_REQUEST_KEYS = frozenset(("load_namespace",))
+ADD_DIAGNOSTICS_REQUEST_KEYS: frozenset[str] = frozenset(("load_namespace",))
 
 
 def add_diagnostics_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -289,7 +291,7 @@ def add_diagnostics_response_to_dict(msg: Any) -> AddDiagnosticsResponseDict:
     }
 
 
-ADD_DIAGNOSTICS_RESPONSE_KEYS = frozenset(("success", "message"))
+ADD_DIAGNOSTICS_RESPONSE_KEYS: frozenset[str] = frozenset(("success", "message"))
 
 
 def add_diagnostics_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -346,7 +348,7 @@ def add_diagnostics_event_to_dict(msg: Any) -> AddDiagnosticsEventDict:
     }
 
 
-ADD_DIAGNOSTICS_EVENT_KEYS = frozenset(("info", "request", "response"))
+ADD_DIAGNOSTICS_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def add_diagnostics_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -388,7 +390,7 @@ def self_test_request_to_dict(msg: Any) -> SelfTestRequestDict:
     return {}
 
 
-SELF_TEST_REQUEST_KEYS = frozenset()
+SELF_TEST_REQUEST_KEYS: frozenset[str] = frozenset()
 
 
 def self_test_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -433,7 +435,7 @@ def self_test_response_to_dict(msg: Any) -> SelfTestResponseDict:
     }
 
 
-SELF_TEST_RESPONSE_KEYS = frozenset(("id", "passed", "status"))
+SELF_TEST_RESPONSE_KEYS: frozenset[str] = frozenset(("id", "passed", "status"))
 
 
 def self_test_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -507,7 +509,7 @@ def self_test_event_to_dict(msg: Any) -> SelfTestEventDict:
     }
 
 
-SELF_TEST_EVENT_KEYS = frozenset(("info", "request", "response"))
+SELF_TEST_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def self_test_event_from_dict(data: Mapping[str, Any]) -> Any:

@@ -82,7 +82,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -104,6 +103,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.std_msgs.dict_codecs import header_from_dict as std_msgs__header_from_dict
 from pyconnect_generated.geometry_msgs.typed_dicts import (
     AccelDict,
@@ -195,7 +195,7 @@ def accel_to_dict(msg: Any) -> AccelDict:
     }
 
 
-ACCEL_KEYS = frozenset(("linear", "angular"))
+ACCEL_KEYS: frozenset[str] = frozenset(("linear", "angular"))
 
 
 def accel_from_dict(data: Mapping[str, Any]) -> Any:
@@ -249,7 +249,7 @@ def accel_stamped_to_dict(msg: Any) -> AccelStampedDict:
     }
 
 
-ACCEL_STAMPED_KEYS = frozenset(("header", "accel"))
+ACCEL_STAMPED_KEYS: frozenset[str] = frozenset(("header", "accel"))
 
 
 def accel_stamped_from_dict(data: Mapping[str, Any]) -> Any:
@@ -297,7 +297,7 @@ def accel_with_covariance_to_dict(msg: Any) -> AccelWithCovarianceDict:
     }
 
 
-ACCEL_WITH_COVARIANCE_KEYS = frozenset(("accel", "covariance"))
+ACCEL_WITH_COVARIANCE_KEYS: frozenset[str] = frozenset(("accel", "covariance"))
 
 
 def accel_with_covariance_from_dict(data: Mapping[str, Any]) -> Any:
@@ -360,7 +360,7 @@ def accel_with_covariance_stamped_to_dict(msg: Any) -> AccelWithCovarianceStampe
     }
 
 
-ACCEL_WITH_COVARIANCE_STAMPED_KEYS = frozenset(("header", "accel"))
+ACCEL_WITH_COVARIANCE_STAMPED_KEYS: frozenset[str] = frozenset(("header", "accel"))
 
 
 def accel_with_covariance_stamped_from_dict(data: Mapping[str, Any]) -> Any:
@@ -407,7 +407,7 @@ def inertia_to_dict(msg: Any) -> InertiaDict:
     }
 
 
-INERTIA_KEYS = frozenset(("m", "com", "ixx", "ixy", "ixz", "iyy", "iyz", "izz"))
+INERTIA_KEYS: frozenset[str] = frozenset(("m", "com", "ixx", "ixy", "ixz", "iyy", "iyz", "izz"))
 
 
 def inertia_from_dict(data: Mapping[str, Any]) -> Any:
@@ -487,7 +487,7 @@ def inertia_stamped_to_dict(msg: Any) -> InertiaStampedDict:
     }
 
 
-INERTIA_STAMPED_KEYS = frozenset(("header", "inertia"))
+INERTIA_STAMPED_KEYS: frozenset[str] = frozenset(("header", "inertia"))
 
 
 def inertia_stamped_from_dict(data: Mapping[str, Any]) -> Any:
@@ -525,7 +525,7 @@ def point_to_dict(msg: Any) -> PointDict:
     }
 
 
-POINT_KEYS = frozenset(("x", "y", "z"))
+POINT_KEYS: frozenset[str] = frozenset(("x", "y", "z"))
 
 
 def point_from_dict(data: Mapping[str, Any]) -> Any:
@@ -567,7 +567,7 @@ def point32_to_dict(msg: Any) -> Point32Dict:
     }
 
 
-POINT32_KEYS = frozenset(("x", "y", "z"))
+POINT32_KEYS: frozenset[str] = frozenset(("x", "y", "z"))
 
 
 def point32_from_dict(data: Mapping[str, Any]) -> Any:
@@ -618,7 +618,7 @@ def point_stamped_to_dict(msg: Any) -> PointStampedDict:
     }
 
 
-POINT_STAMPED_KEYS = frozenset(("header", "point"))
+POINT_STAMPED_KEYS: frozenset[str] = frozenset(("header", "point"))
 
 
 def point_stamped_from_dict(data: Mapping[str, Any]) -> Any:
@@ -661,7 +661,7 @@ def polygon_to_dict(msg: Any) -> PolygonDict:
     }
 
 
-POLYGON_KEYS = frozenset(("points",))
+POLYGON_KEYS: frozenset[str] = frozenset(("points",))
 
 
 def polygon_from_dict(data: Mapping[str, Any]) -> Any:
@@ -705,7 +705,7 @@ def polygon_instance_to_dict(msg: Any) -> PolygonInstanceDict:
     }
 
 
-POLYGON_INSTANCE_KEYS = frozenset(("polygon", "id"))
+POLYGON_INSTANCE_KEYS: frozenset[str] = frozenset(("polygon", "id"))
 
 
 def polygon_instance_from_dict(data: Mapping[str, Any]) -> Any:
@@ -760,7 +760,7 @@ def polygon_instance_stamped_to_dict(msg: Any) -> PolygonInstanceStampedDict:
     }
 
 
-POLYGON_INSTANCE_STAMPED_KEYS = frozenset(("header", "polygon"))
+POLYGON_INSTANCE_STAMPED_KEYS: frozenset[str] = frozenset(("header", "polygon"))
 
 
 def polygon_instance_stamped_from_dict(data: Mapping[str, Any]) -> Any:
@@ -812,7 +812,7 @@ def polygon_stamped_to_dict(msg: Any) -> PolygonStampedDict:
     }
 
 
-POLYGON_STAMPED_KEYS = frozenset(("header", "polygon"))
+POLYGON_STAMPED_KEYS: frozenset[str] = frozenset(("header", "polygon"))
 
 
 def polygon_stamped_from_dict(data: Mapping[str, Any]) -> Any:
@@ -858,7 +858,7 @@ def pose_to_dict(msg: Any) -> PoseDict:
     }
 
 
-POSE_KEYS = frozenset(("position", "orientation"))
+POSE_KEYS: frozenset[str] = frozenset(("position", "orientation"))
 
 
 def pose_from_dict(data: Mapping[str, Any]) -> Any:
@@ -896,7 +896,7 @@ def pose2_d_to_dict(msg: Any) -> Pose2DDict:
     }
 
 
-POSE2_D_KEYS = frozenset(("x", "y", "theta"))
+POSE2_D_KEYS: frozenset[str] = frozenset(("x", "y", "theta"))
 
 
 def pose2_d_from_dict(data: Mapping[str, Any]) -> Any:
@@ -958,7 +958,7 @@ def pose_array_to_dict(msg: Any) -> PoseArrayDict:
     }
 
 
-POSE_ARRAY_KEYS = frozenset(("header", "poses"))
+POSE_ARRAY_KEYS: frozenset[str] = frozenset(("header", "poses"))
 
 
 def pose_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1013,7 +1013,7 @@ def pose_stamped_to_dict(msg: Any) -> PoseStampedDict:
     }
 
 
-POSE_STAMPED_KEYS = frozenset(("header", "pose"))
+POSE_STAMPED_KEYS: frozenset[str] = frozenset(("header", "pose"))
 
 
 def pose_stamped_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1062,7 +1062,7 @@ def pose_with_covariance_to_dict(msg: Any) -> PoseWithCovarianceDict:
     }
 
 
-POSE_WITH_COVARIANCE_KEYS = frozenset(("pose", "covariance"))
+POSE_WITH_COVARIANCE_KEYS: frozenset[str] = frozenset(("pose", "covariance"))
 
 
 def pose_with_covariance_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1126,7 +1126,7 @@ def pose_with_covariance_stamped_to_dict(msg: Any) -> PoseWithCovarianceStampedD
     }
 
 
-POSE_WITH_COVARIANCE_STAMPED_KEYS = frozenset(("header", "pose"))
+POSE_WITH_COVARIANCE_STAMPED_KEYS: frozenset[str] = frozenset(("header", "pose"))
 
 
 def pose_with_covariance_stamped_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1165,7 +1165,7 @@ def quaternion_to_dict(msg: Any) -> QuaternionDict:
     }
 
 
-QUATERNION_KEYS = frozenset(("x", "y", "z", "w"))
+QUATERNION_KEYS: frozenset[str] = frozenset(("x", "y", "z", "w"))
 
 
 def quaternion_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1221,7 +1221,7 @@ def quaternion_stamped_to_dict(msg: Any) -> QuaternionStampedDict:
     }
 
 
-QUATERNION_STAMPED_KEYS = frozenset(("header", "quaternion"))
+QUATERNION_STAMPED_KEYS: frozenset[str] = frozenset(("header", "quaternion"))
 
 
 def quaternion_stamped_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1267,7 +1267,7 @@ def transform_to_dict(msg: Any) -> TransformDict:
     }
 
 
-TRANSFORM_KEYS = frozenset(("translation", "rotation"))
+TRANSFORM_KEYS: frozenset[str] = frozenset(("translation", "rotation"))
 
 
 def transform_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1323,7 +1323,7 @@ def transform_stamped_to_dict(msg: Any) -> TransformStampedDict:
     }
 
 
-TRANSFORM_STAMPED_KEYS = frozenset(("header", "child_frame_id", "transform"))
+TRANSFORM_STAMPED_KEYS: frozenset[str] = frozenset(("header", "child_frame_id", "transform"))
 
 
 def transform_stamped_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1372,7 +1372,7 @@ def twist_to_dict(msg: Any) -> TwistDict:
     }
 
 
-TWIST_KEYS = frozenset(("linear", "angular"))
+TWIST_KEYS: frozenset[str] = frozenset(("linear", "angular"))
 
 
 def twist_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1426,7 +1426,7 @@ def twist_stamped_to_dict(msg: Any) -> TwistStampedDict:
     }
 
 
-TWIST_STAMPED_KEYS = frozenset(("header", "twist"))
+TWIST_STAMPED_KEYS: frozenset[str] = frozenset(("header", "twist"))
 
 
 def twist_stamped_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1474,7 +1474,7 @@ def twist_with_covariance_to_dict(msg: Any) -> TwistWithCovarianceDict:
     }
 
 
-TWIST_WITH_COVARIANCE_KEYS = frozenset(("twist", "covariance"))
+TWIST_WITH_COVARIANCE_KEYS: frozenset[str] = frozenset(("twist", "covariance"))
 
 
 def twist_with_covariance_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1537,7 +1537,7 @@ def twist_with_covariance_stamped_to_dict(msg: Any) -> TwistWithCovarianceStampe
     }
 
 
-TWIST_WITH_COVARIANCE_STAMPED_KEYS = frozenset(("header", "twist"))
+TWIST_WITH_COVARIANCE_STAMPED_KEYS: frozenset[str] = frozenset(("header", "twist"))
 
 
 def twist_with_covariance_stamped_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1575,7 +1575,7 @@ def vector3_to_dict(msg: Any) -> Vector3Dict:
     }
 
 
-VECTOR3_KEYS = frozenset(("x", "y", "z"))
+VECTOR3_KEYS: frozenset[str] = frozenset(("x", "y", "z"))
 
 
 def vector3_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1626,7 +1626,7 @@ def vector3_stamped_to_dict(msg: Any) -> Vector3StampedDict:
     }
 
 
-VECTOR3_STAMPED_KEYS = frozenset(("header", "vector"))
+VECTOR3_STAMPED_KEYS: frozenset[str] = frozenset(("header", "vector"))
 
 
 def vector3_stamped_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1682,7 +1682,9 @@ def velocity_stamped_to_dict(msg: Any) -> VelocityStampedDict:
     }
 
 
-VELOCITY_STAMPED_KEYS = frozenset(("header", "body_frame_id", "reference_frame_id", "velocity"))
+VELOCITY_STAMPED_KEYS: frozenset[str] = frozenset(
+    ("header", "body_frame_id", "reference_frame_id", "velocity")
+)
 
 
 def velocity_stamped_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1735,7 +1737,7 @@ def wrench_to_dict(msg: Any) -> WrenchDict:
     }
 
 
-WRENCH_KEYS = frozenset(("force", "torque"))
+WRENCH_KEYS: frozenset[str] = frozenset(("force", "torque"))
 
 
 def wrench_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1789,7 +1791,7 @@ def wrench_stamped_to_dict(msg: Any) -> WrenchStampedDict:
     }
 
 
-WRENCH_STAMPED_KEYS = frozenset(("header", "wrench"))
+WRENCH_STAMPED_KEYS: frozenset[str] = frozenset(("header", "wrench"))
 
 
 def wrench_stamped_from_dict(data: Mapping[str, Any]) -> Any:

@@ -50,7 +50,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -72,6 +71,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.service_msgs.dict_codecs import (
     service_event_info_from_dict as service_msgs__service_event_info_from_dict,
 )
@@ -131,7 +131,7 @@ def state_to_dict(msg: Any) -> StateDict:
     }
 
 
-STATE_KEYS = frozenset(("id", "label"))
+STATE_KEYS: frozenset[str] = frozenset(("id", "label"))
 
 
 def state_from_dict(data: Mapping[str, Any]) -> Any:
@@ -168,7 +168,7 @@ def transition_to_dict(msg: Any) -> TransitionDict:
     }
 
 
-TRANSITION_KEYS = frozenset(("id", "label"))
+TRANSITION_KEYS: frozenset[str] = frozenset(("id", "label"))
 
 
 def transition_from_dict(data: Mapping[str, Any]) -> Any:
@@ -215,7 +215,7 @@ def transition_description_to_dict(msg: Any) -> TransitionDescriptionDict:
     }
 
 
-TRANSITION_DESCRIPTION_KEYS = frozenset(("transition", "start_state", "goal_state"))
+TRANSITION_DESCRIPTION_KEYS: frozenset[str] = frozenset(("transition", "start_state", "goal_state"))
 
 
 def transition_description_from_dict(data: Mapping[str, Any]) -> Any:
@@ -267,7 +267,9 @@ def transition_event_to_dict(msg: Any) -> TransitionEventDict:
     }
 
 
-TRANSITION_EVENT_KEYS = frozenset(("timestamp", "transition", "start_state", "goal_state"))
+TRANSITION_EVENT_KEYS: frozenset[str] = frozenset(
+    ("timestamp", "transition", "start_state", "goal_state")
+)
 
 
 def transition_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -314,7 +316,7 @@ def change_state_request_to_dict(msg: Any) -> ChangeStateRequestDict:
     }
 
 
-CHANGE_STATE_REQUEST_KEYS = frozenset(("transition",))
+CHANGE_STATE_REQUEST_KEYS: frozenset[str] = frozenset(("transition",))
 
 
 def change_state_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -346,7 +348,7 @@ def change_state_response_to_dict(msg: Any) -> ChangeStateResponseDict:
     }
 
 
-CHANGE_STATE_RESPONSE_KEYS = frozenset(("success",))
+CHANGE_STATE_RESPONSE_KEYS: frozenset[str] = frozenset(("success",))
 
 
 def change_state_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -401,7 +403,7 @@ def change_state_event_to_dict(msg: Any) -> ChangeStateEventDict:
     }
 
 
-CHANGE_STATE_EVENT_KEYS = frozenset(("info", "request", "response"))
+CHANGE_STATE_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def change_state_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -443,7 +445,7 @@ def get_available_states_request_to_dict(msg: Any) -> GetAvailableStatesRequestD
     return {}
 
 
-GET_AVAILABLE_STATES_REQUEST_KEYS = frozenset()
+GET_AVAILABLE_STATES_REQUEST_KEYS: frozenset[str] = frozenset()
 
 
 def get_available_states_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -477,7 +479,7 @@ def get_available_states_response_to_dict(msg: Any) -> GetAvailableStatesRespons
     }
 
 
-GET_AVAILABLE_STATES_RESPONSE_KEYS = frozenset(("available_states",))
+GET_AVAILABLE_STATES_RESPONSE_KEYS: frozenset[str] = frozenset(("available_states",))
 
 
 def get_available_states_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -532,7 +534,7 @@ def get_available_states_event_to_dict(msg: Any) -> GetAvailableStatesEventDict:
     }
 
 
-GET_AVAILABLE_STATES_EVENT_KEYS = frozenset(("info", "request", "response"))
+GET_AVAILABLE_STATES_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def get_available_states_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -574,7 +576,7 @@ def get_available_transitions_request_to_dict(msg: Any) -> GetAvailableTransitio
     return {}
 
 
-GET_AVAILABLE_TRANSITIONS_REQUEST_KEYS = frozenset()
+GET_AVAILABLE_TRANSITIONS_REQUEST_KEYS: frozenset[str] = frozenset()
 
 
 def get_available_transitions_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -618,7 +620,7 @@ def get_available_transitions_response_to_dict(msg: Any) -> GetAvailableTransiti
     }
 
 
-GET_AVAILABLE_TRANSITIONS_RESPONSE_KEYS = frozenset(("available_transitions",))
+GET_AVAILABLE_TRANSITIONS_RESPONSE_KEYS: frozenset[str] = frozenset(("available_transitions",))
 
 
 def get_available_transitions_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -685,7 +687,7 @@ def get_available_transitions_event_to_dict(msg: Any) -> GetAvailableTransitions
     }
 
 
-GET_AVAILABLE_TRANSITIONS_EVENT_KEYS = frozenset(("info", "request", "response"))
+GET_AVAILABLE_TRANSITIONS_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def get_available_transitions_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -731,7 +733,7 @@ def get_state_request_to_dict(msg: Any) -> GetStateRequestDict:
     return {}
 
 
-GET_STATE_REQUEST_KEYS = frozenset()
+GET_STATE_REQUEST_KEYS: frozenset[str] = frozenset()
 
 
 def get_state_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -762,7 +764,7 @@ def get_state_response_to_dict(msg: Any) -> GetStateResponseDict:
     }
 
 
-GET_STATE_RESPONSE_KEYS = frozenset(("current_state",))
+GET_STATE_RESPONSE_KEYS: frozenset[str] = frozenset(("current_state",))
 
 
 def get_state_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -812,7 +814,7 @@ def get_state_event_to_dict(msg: Any) -> GetStateEventDict:
     }
 
 
-GET_STATE_EVENT_KEYS = frozenset(("info", "request", "response"))
+GET_STATE_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def get_state_event_from_dict(data: Mapping[str, Any]) -> Any:

@@ -54,7 +54,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -76,6 +75,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.builtin_interfaces.dict_codecs import (
     time_from_dict as builtin_interfaces__time_from_dict,
 )
@@ -189,7 +189,7 @@ def goals_to_dict(msg: Any) -> GoalsDict:
     }
 
 
-GOALS_KEYS = frozenset(("header", "goals"))
+GOALS_KEYS: frozenset[str] = frozenset(("header", "goals"))
 
 
 def goals_from_dict(data: Mapping[str, Any]) -> Any:
@@ -243,7 +243,7 @@ def grid_cells_to_dict(msg: Any) -> GridCellsDict:
     }
 
 
-GRID_CELLS_KEYS = frozenset(("header", "cell_width", "cell_height", "cells"))
+GRID_CELLS_KEYS: frozenset[str] = frozenset(("header", "cell_width", "cell_height", "cells"))
 
 
 def grid_cells_from_dict(data: Mapping[str, Any]) -> Any:
@@ -308,7 +308,9 @@ def map_meta_data_to_dict(msg: Any) -> MapMetaDataDict:
     }
 
 
-MAP_META_DATA_KEYS = frozenset(("map_load_time", "resolution", "width", "height", "origin"))
+MAP_META_DATA_KEYS: frozenset[str] = frozenset(
+    ("map_load_time", "resolution", "width", "height", "origin")
+)
 
 
 def map_meta_data_from_dict(data: Mapping[str, Any]) -> Any:
@@ -387,7 +389,7 @@ def occupancy_grid_to_dict(msg: Any) -> OccupancyGridDict:
     }
 
 
-OCCUPANCY_GRID_KEYS = frozenset(("header", "info", "data"))
+OCCUPANCY_GRID_KEYS: frozenset[str] = frozenset(("header", "info", "data"))
 
 
 def occupancy_grid_from_dict(data: Mapping[str, Any]) -> Any:
@@ -471,7 +473,7 @@ def odometry_to_dict(msg: Any) -> OdometryDict:
     }
 
 
-ODOMETRY_KEYS = frozenset(("header", "child_frame_id", "pose", "twist"))
+ODOMETRY_KEYS: frozenset[str] = frozenset(("header", "child_frame_id", "pose", "twist"))
 
 
 def odometry_from_dict(data: Mapping[str, Any]) -> Any:
@@ -546,7 +548,7 @@ def path_to_dict(msg: Any) -> PathDict:
     }
 
 
-PATH_KEYS = frozenset(("header", "poses"))
+PATH_KEYS: frozenset[str] = frozenset(("header", "poses"))
 
 
 def path_from_dict(data: Mapping[str, Any]) -> Any:
@@ -582,7 +584,7 @@ def get_map_request_to_dict(msg: Any) -> GetMapRequestDict:
     return {}
 
 
-GET_MAP_REQUEST_KEYS = frozenset()
+GET_MAP_REQUEST_KEYS: frozenset[str] = frozenset()
 
 
 def get_map_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -641,7 +643,7 @@ def get_map_response_to_dict(msg: Any) -> GetMapResponseDict:
     }
 
 
-GET_MAP_RESPONSE_KEYS = frozenset(("map",))
+GET_MAP_RESPONSE_KEYS: frozenset[str] = frozenset(("map",))
 
 
 def get_map_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -719,7 +721,7 @@ def get_map_event_to_dict(msg: Any) -> GetMapEventDict:
     }
 
 
-GET_MAP_EVENT_KEYS = frozenset(("info", "request", "response"))
+GET_MAP_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def get_map_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -807,7 +809,7 @@ def get_plan_request_to_dict(msg: Any) -> GetPlanRequestDict:
     }
 
 
-GET_PLAN_REQUEST_KEYS = frozenset(("start", "goal", "tolerance"))
+GET_PLAN_REQUEST_KEYS: frozenset[str] = frozenset(("start", "goal", "tolerance"))
 
 
 def get_plan_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -880,7 +882,7 @@ def get_plan_response_to_dict(msg: Any) -> GetPlanResponseDict:
     }
 
 
-GET_PLAN_RESPONSE_KEYS = frozenset(("plan",))
+GET_PLAN_RESPONSE_KEYS: frozenset[str] = frozenset(("plan",))
 
 
 def get_plan_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1009,7 +1011,7 @@ def get_plan_event_to_dict(msg: Any) -> GetPlanEventDict:
     }
 
 
-GET_PLAN_EVENT_KEYS = frozenset(("info", "request", "response"))
+GET_PLAN_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def get_plan_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1053,7 +1055,7 @@ def load_map_request_to_dict(msg: Any) -> LoadMapRequestDict:
     }
 
 
-LOAD_MAP_REQUEST_KEYS = frozenset(("map_url",))
+LOAD_MAP_REQUEST_KEYS: frozenset[str] = frozenset(("map_url",))
 
 
 def load_map_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1117,7 +1119,7 @@ def load_map_response_to_dict(msg: Any) -> LoadMapResponseDict:
     }
 
 
-LOAD_MAP_RESPONSE_KEYS = frozenset(("map", "result"))
+LOAD_MAP_RESPONSE_KEYS: frozenset[str] = frozenset(("map", "result"))
 
 
 def load_map_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1205,7 +1207,7 @@ def load_map_event_to_dict(msg: Any) -> LoadMapEventDict:
     }
 
 
-LOAD_MAP_EVENT_KEYS = frozenset(("info", "request", "response"))
+LOAD_MAP_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def load_map_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1305,7 +1307,7 @@ def set_map_request_to_dict(msg: Any) -> SetMapRequestDict:
     }
 
 
-SET_MAP_REQUEST_KEYS = frozenset(("map", "initial_pose"))
+SET_MAP_REQUEST_KEYS: frozenset[str] = frozenset(("map", "initial_pose"))
 
 
 def set_map_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1343,7 +1345,7 @@ def set_map_response_to_dict(msg: Any) -> SetMapResponseDict:
     }
 
 
-SET_MAP_RESPONSE_KEYS = frozenset(("success",))
+SET_MAP_RESPONSE_KEYS: frozenset[str] = frozenset(("success",))
 
 
 def set_map_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1451,7 +1453,7 @@ def set_map_event_to_dict(msg: Any) -> SetMapEventDict:
     }
 
 
-SET_MAP_EVENT_KEYS = frozenset(("info", "request", "response"))
+SET_MAP_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def set_map_event_from_dict(data: Mapping[str, Any]) -> Any:

@@ -92,7 +92,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -114,6 +113,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.builtin_interfaces.dict_codecs import (
     time_from_dict as builtin_interfaces__time_from_dict,
 )
@@ -223,7 +223,7 @@ def floating_point_range_to_dict(msg: Any) -> FloatingPointRangeDict:
     }
 
 
-FLOATING_POINT_RANGE_KEYS = frozenset(("from_value", "to_value", "step"))
+FLOATING_POINT_RANGE_KEYS: frozenset[str] = frozenset(("from_value", "to_value", "step"))
 
 
 def floating_point_range_from_dict(data: Mapping[str, Any]) -> Any:
@@ -265,7 +265,7 @@ def integer_range_to_dict(msg: Any) -> IntegerRangeDict:
     }
 
 
-INTEGER_RANGE_KEYS = frozenset(("from_value", "to_value", "step"))
+INTEGER_RANGE_KEYS: frozenset[str] = frozenset(("from_value", "to_value", "step"))
 
 
 def integer_range_from_dict(data: Mapping[str, Any]) -> Any:
@@ -310,7 +310,7 @@ def list_parameters_result_to_dict(msg: Any) -> ListParametersResultDict:
     }
 
 
-LIST_PARAMETERS_RESULT_KEYS = frozenset(("names", "prefixes"))
+LIST_PARAMETERS_RESULT_KEYS: frozenset[str] = frozenset(("names", "prefixes"))
 
 
 def list_parameters_result_from_dict(data: Mapping[str, Any]) -> Any:
@@ -367,7 +367,7 @@ def log_to_dict(msg: Any) -> LogDict:
     }
 
 
-LOG_KEYS = frozenset(("stamp", "level", "name", "msg", "file", "function", "line"))
+LOG_KEYS: frozenset[str] = frozenset(("stamp", "level", "name", "msg", "file", "function", "line"))
 
 
 def log_from_dict(data: Mapping[str, Any]) -> Any:
@@ -424,7 +424,7 @@ def logger_level_to_dict(msg: Any) -> LoggerLevelDict:
     }
 
 
-LOGGER_LEVEL_KEYS = frozenset(("name", "level"))
+LOGGER_LEVEL_KEYS: frozenset[str] = frozenset(("name", "level"))
 
 
 def logger_level_from_dict(data: Mapping[str, Any]) -> Any:
@@ -477,7 +477,7 @@ def parameter_to_dict(msg: Any) -> ParameterDict:
     }
 
 
-PARAMETER_KEYS = frozenset(("name", "value"))
+PARAMETER_KEYS: frozenset[str] = frozenset(("name", "value"))
 
 
 def parameter_from_dict(data: Mapping[str, Any]) -> Any:
@@ -534,7 +534,7 @@ def parameter_descriptor_to_dict(msg: Any) -> ParameterDescriptorDict:
     }
 
 
-PARAMETER_DESCRIPTOR_KEYS = frozenset(
+PARAMETER_DESCRIPTOR_KEYS: frozenset[str] = frozenset(
     (
         "name",
         "type",
@@ -684,7 +684,7 @@ def parameter_event_to_dict(msg: Any) -> ParameterEventDict:
     }
 
 
-PARAMETER_EVENT_KEYS = frozenset(
+PARAMETER_EVENT_KEYS: frozenset[str] = frozenset(
     ("stamp", "node", "new_parameters", "changed_parameters", "deleted_parameters")
 )
 
@@ -820,7 +820,7 @@ def parameter_event_descriptors_to_dict(msg: Any) -> ParameterEventDescriptorsDi
     }
 
 
-PARAMETER_EVENT_DESCRIPTORS_KEYS = frozenset(
+PARAMETER_EVENT_DESCRIPTORS_KEYS: frozenset[str] = frozenset(
     ("new_parameters", "changed_parameters", "deleted_parameters")
 )
 
@@ -870,7 +870,7 @@ def parameter_type_to_dict(msg: Any) -> ParameterTypeDict:
     return {}
 
 
-PARAMETER_TYPE_KEYS = frozenset()
+PARAMETER_TYPE_KEYS: frozenset[str] = frozenset()
 
 
 def parameter_type_from_dict(data: Mapping[str, Any]) -> Any:
@@ -911,7 +911,7 @@ def parameter_value_to_dict(msg: Any) -> ParameterValueDict:
     }
 
 
-PARAMETER_VALUE_KEYS = frozenset(
+PARAMETER_VALUE_KEYS: frozenset[str] = frozenset(
     (
         "type",
         "bool_value",
@@ -1021,7 +1021,7 @@ def set_logger_levels_result_to_dict(msg: Any) -> SetLoggerLevelsResultDict:
     }
 
 
-SET_LOGGER_LEVELS_RESULT_KEYS = frozenset(("successful", "reason"))
+SET_LOGGER_LEVELS_RESULT_KEYS: frozenset[str] = frozenset(("successful", "reason"))
 
 
 def set_logger_levels_result_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1058,7 +1058,7 @@ def set_parameters_result_to_dict(msg: Any) -> SetParametersResultDict:
     }
 
 
-SET_PARAMETERS_RESULT_KEYS = frozenset(("successful", "reason"))
+SET_PARAMETERS_RESULT_KEYS: frozenset[str] = frozenset(("successful", "reason"))
 
 
 def set_parameters_result_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1094,7 +1094,7 @@ def describe_parameters_request_to_dict(msg: Any) -> DescribeParametersRequestDi
     }
 
 
-DESCRIBE_PARAMETERS_REQUEST_KEYS = frozenset(("names",))
+DESCRIBE_PARAMETERS_REQUEST_KEYS: frozenset[str] = frozenset(("names",))
 
 
 def describe_parameters_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1158,7 +1158,7 @@ def describe_parameters_response_to_dict(msg: Any) -> DescribeParametersResponse
     }
 
 
-DESCRIBE_PARAMETERS_RESPONSE_KEYS = frozenset(("descriptors",))
+DESCRIBE_PARAMETERS_RESPONSE_KEYS: frozenset[str] = frozenset(("descriptors",))
 
 
 def describe_parameters_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1238,7 +1238,7 @@ def describe_parameters_event_to_dict(msg: Any) -> DescribeParametersEventDict:
     }
 
 
-DESCRIBE_PARAMETERS_EVENT_KEYS = frozenset(("info", "request", "response"))
+DESCRIBE_PARAMETERS_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def describe_parameters_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1282,7 +1282,7 @@ def get_logger_levels_request_to_dict(msg: Any) -> GetLoggerLevelsRequestDict:
     }
 
 
-GET_LOGGER_LEVELS_REQUEST_KEYS = frozenset(("names",))
+GET_LOGGER_LEVELS_REQUEST_KEYS: frozenset[str] = frozenset(("names",))
 
 
 def get_logger_levels_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1326,7 +1326,7 @@ def get_logger_levels_response_to_dict(msg: Any) -> GetLoggerLevelsResponseDict:
     }
 
 
-GET_LOGGER_LEVELS_RESPONSE_KEYS = frozenset(("levels",))
+GET_LOGGER_LEVELS_RESPONSE_KEYS: frozenset[str] = frozenset(("levels",))
 
 
 def get_logger_levels_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1386,7 +1386,7 @@ def get_logger_levels_event_to_dict(msg: Any) -> GetLoggerLevelsEventDict:
     }
 
 
-GET_LOGGER_LEVELS_EVENT_KEYS = frozenset(("info", "request", "response"))
+GET_LOGGER_LEVELS_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def get_logger_levels_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1430,7 +1430,7 @@ def get_parameter_types_request_to_dict(msg: Any) -> GetParameterTypesRequestDic
     }
 
 
-GET_PARAMETER_TYPES_REQUEST_KEYS = frozenset(("names",))
+GET_PARAMETER_TYPES_REQUEST_KEYS: frozenset[str] = frozenset(("names",))
 
 
 def get_parameter_types_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1468,7 +1468,7 @@ def get_parameter_types_response_to_dict(msg: Any) -> GetParameterTypesResponseD
     }
 
 
-GET_PARAMETER_TYPES_RESPONSE_KEYS = frozenset(("types",))
+GET_PARAMETER_TYPES_RESPONSE_KEYS: frozenset[str] = frozenset(("types",))
 
 
 def get_parameter_types_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1518,7 +1518,7 @@ def get_parameter_types_event_to_dict(msg: Any) -> GetParameterTypesEventDict:
     }
 
 
-GET_PARAMETER_TYPES_EVENT_KEYS = frozenset(("info", "request", "response"))
+GET_PARAMETER_TYPES_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def get_parameter_types_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1562,7 +1562,7 @@ def get_parameters_request_to_dict(msg: Any) -> GetParametersRequestDict:
     }
 
 
-GET_PARAMETERS_REQUEST_KEYS = frozenset(("names",))
+GET_PARAMETERS_REQUEST_KEYS: frozenset[str] = frozenset(("names",))
 
 
 def get_parameters_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1619,7 +1619,7 @@ def get_parameters_response_to_dict(msg: Any) -> GetParametersResponseDict:
     }
 
 
-GET_PARAMETERS_RESPONSE_KEYS = frozenset(("values",))
+GET_PARAMETERS_RESPONSE_KEYS: frozenset[str] = frozenset(("values",))
 
 
 def get_parameters_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1692,7 +1692,7 @@ def get_parameters_event_to_dict(msg: Any) -> GetParametersEventDict:
     }
 
 
-GET_PARAMETERS_EVENT_KEYS = frozenset(("info", "request", "response"))
+GET_PARAMETERS_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def get_parameters_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1737,7 +1737,7 @@ def list_parameters_request_to_dict(msg: Any) -> ListParametersRequestDict:
     }
 
 
-LIST_PARAMETERS_REQUEST_KEYS = frozenset(("prefixes", "depth"))
+LIST_PARAMETERS_REQUEST_KEYS: frozenset[str] = frozenset(("prefixes", "depth"))
 
 
 def list_parameters_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1782,7 +1782,7 @@ def list_parameters_response_to_dict(msg: Any) -> ListParametersResponseDict:
     }
 
 
-LIST_PARAMETERS_RESPONSE_KEYS = frozenset(("result",))
+LIST_PARAMETERS_RESPONSE_KEYS: frozenset[str] = frozenset(("result",))
 
 
 def list_parameters_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1838,7 +1838,7 @@ def list_parameters_event_to_dict(msg: Any) -> ListParametersEventDict:
     }
 
 
-LIST_PARAMETERS_EVENT_KEYS = frozenset(("info", "request", "response"))
+LIST_PARAMETERS_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def list_parameters_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1888,7 +1888,7 @@ def set_logger_levels_request_to_dict(msg: Any) -> SetLoggerLevelsRequestDict:
     }
 
 
-SET_LOGGER_LEVELS_REQUEST_KEYS = frozenset(("levels",))
+SET_LOGGER_LEVELS_REQUEST_KEYS: frozenset[str] = frozenset(("levels",))
 
 
 def set_logger_levels_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1928,7 +1928,7 @@ def set_logger_levels_response_to_dict(msg: Any) -> SetLoggerLevelsResponseDict:
     }
 
 
-SET_LOGGER_LEVELS_RESPONSE_KEYS = frozenset(("results",))
+SET_LOGGER_LEVELS_RESPONSE_KEYS: frozenset[str] = frozenset(("results",))
 
 
 def set_logger_levels_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1994,7 +1994,7 @@ def set_logger_levels_event_to_dict(msg: Any) -> SetLoggerLevelsEventDict:
     }
 
 
-SET_LOGGER_LEVELS_EVENT_KEYS = frozenset(("info", "request", "response"))
+SET_LOGGER_LEVELS_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def set_logger_levels_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -2060,7 +2060,7 @@ def set_parameters_request_to_dict(msg: Any) -> SetParametersRequestDict:
     }
 
 
-SET_PARAMETERS_REQUEST_KEYS = frozenset(("parameters",))
+SET_PARAMETERS_REQUEST_KEYS: frozenset[str] = frozenset(("parameters",))
 
 
 def set_parameters_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -2100,7 +2100,7 @@ def set_parameters_response_to_dict(msg: Any) -> SetParametersResponseDict:
     }
 
 
-SET_PARAMETERS_RESPONSE_KEYS = frozenset(("results",))
+SET_PARAMETERS_RESPONSE_KEYS: frozenset[str] = frozenset(("results",))
 
 
 def set_parameters_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -2182,7 +2182,7 @@ def set_parameters_event_to_dict(msg: Any) -> SetParametersEventDict:
     }
 
 
-SET_PARAMETERS_EVENT_KEYS = frozenset(("info", "request", "response"))
+SET_PARAMETERS_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def set_parameters_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -2248,7 +2248,7 @@ def set_parameters_atomically_request_to_dict(msg: Any) -> SetParametersAtomical
     }
 
 
-SET_PARAMETERS_ATOMICALLY_REQUEST_KEYS = frozenset(("parameters",))
+SET_PARAMETERS_ATOMICALLY_REQUEST_KEYS: frozenset[str] = frozenset(("parameters",))
 
 
 def set_parameters_atomically_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -2285,7 +2285,7 @@ def set_parameters_atomically_response_to_dict(msg: Any) -> SetParametersAtomica
     }
 
 
-SET_PARAMETERS_ATOMICALLY_RESPONSE_KEYS = frozenset(("result",))
+SET_PARAMETERS_ATOMICALLY_RESPONSE_KEYS: frozenset[str] = frozenset(("result",))
 
 
 def set_parameters_atomically_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -2362,7 +2362,7 @@ def set_parameters_atomically_event_to_dict(msg: Any) -> SetParametersAtomically
     }
 
 
-SET_PARAMETERS_ATOMICALLY_EVENT_KEYS = frozenset(("info", "request", "response"))
+SET_PARAMETERS_ATOMICALLY_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def set_parameters_atomically_event_from_dict(data: Mapping[str, Any]) -> Any:

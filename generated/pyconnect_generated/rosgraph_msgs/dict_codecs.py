@@ -20,7 +20,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -42,6 +41,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.builtin_interfaces.dict_codecs import (
     time_from_dict as builtin_interfaces__time_from_dict,
 )
@@ -67,7 +67,7 @@ def clock_to_dict(msg: Any) -> ClockDict:
     }
 
 
-CLOCK_KEYS = frozenset(("clock",))
+CLOCK_KEYS: frozenset[str] = frozenset(("clock",))
 
 
 def clock_from_dict(data: Mapping[str, Any]) -> Any:

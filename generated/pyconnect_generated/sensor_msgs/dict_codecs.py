@@ -78,7 +78,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -100,6 +99,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.builtin_interfaces.dict_codecs import (
     time_from_dict as builtin_interfaces__time_from_dict,
 )
@@ -224,7 +224,7 @@ def battery_state_to_dict(msg: Any) -> BatteryStateDict:
     }
 
 
-BATTERY_STATE_KEYS = frozenset(
+BATTERY_STATE_KEYS: frozenset[str] = frozenset(
     (
         "header",
         "voltage",
@@ -361,7 +361,7 @@ def camera_info_to_dict(msg: Any) -> CameraInfoDict:
     }
 
 
-CAMERA_INFO_KEYS = frozenset(
+CAMERA_INFO_KEYS: frozenset[str] = frozenset(
     (
         "header",
         "height",
@@ -472,7 +472,7 @@ def channel_float32_to_dict(msg: Any) -> ChannelFloat32Dict:
     }
 
 
-CHANNEL_FLOAT32_KEYS = frozenset(("name", "values"))
+CHANNEL_FLOAT32_KEYS: frozenset[str] = frozenset(("name", "values"))
 
 
 def channel_float32_from_dict(data: Mapping[str, Any]) -> Any:
@@ -518,7 +518,7 @@ def compressed_image_to_dict(msg: Any) -> CompressedImageDict:
     }
 
 
-COMPRESSED_IMAGE_KEYS = frozenset(("header", "format", "data"))
+COMPRESSED_IMAGE_KEYS: frozenset[str] = frozenset(("header", "format", "data"))
 
 
 def compressed_image_from_dict(data: Mapping[str, Any]) -> Any:
@@ -564,7 +564,7 @@ def fluid_pressure_to_dict(msg: Any) -> FluidPressureDict:
     }
 
 
-FLUID_PRESSURE_KEYS = frozenset(("header", "fluid_pressure", "variance"))
+FLUID_PRESSURE_KEYS: frozenset[str] = frozenset(("header", "fluid_pressure", "variance"))
 
 
 def fluid_pressure_from_dict(data: Mapping[str, Any]) -> Any:
@@ -612,7 +612,7 @@ def illuminance_to_dict(msg: Any) -> IlluminanceDict:
     }
 
 
-ILLUMINANCE_KEYS = frozenset(("header", "illuminance", "variance"))
+ILLUMINANCE_KEYS: frozenset[str] = frozenset(("header", "illuminance", "variance"))
 
 
 def illuminance_from_dict(data: Mapping[str, Any]) -> Any:
@@ -664,7 +664,9 @@ def image_to_dict(msg: Any) -> ImageDict:
     }
 
 
-IMAGE_KEYS = frozenset(("header", "height", "width", "encoding", "is_bigendian", "step", "data"))
+IMAGE_KEYS: frozenset[str] = frozenset(
+    ("header", "height", "width", "encoding", "is_bigendian", "step", "data")
+)
 
 
 def image_from_dict(data: Mapping[str, Any]) -> Any:
@@ -743,7 +745,7 @@ def imu_to_dict(msg: Any) -> ImuDict:
     }
 
 
-IMU_KEYS = frozenset(
+IMU_KEYS: frozenset[str] = frozenset(
     (
         "header",
         "orientation",
@@ -853,7 +855,7 @@ def joint_state_to_dict(msg: Any) -> JointStateDict:
     }
 
 
-JOINT_STATE_KEYS = frozenset(("header", "name", "position", "velocity", "effort"))
+JOINT_STATE_KEYS: frozenset[str] = frozenset(("header", "name", "position", "velocity", "effort"))
 
 
 def joint_state_from_dict(data: Mapping[str, Any]) -> Any:
@@ -933,7 +935,7 @@ def joy_to_dict(msg: Any) -> JoyDict:
     }
 
 
-JOY_KEYS = frozenset(("header", "axes", "buttons"))
+JOY_KEYS: frozenset[str] = frozenset(("header", "axes", "buttons"))
 
 
 def joy_from_dict(data: Mapping[str, Any]) -> Any:
@@ -983,7 +985,7 @@ def joy_feedback_to_dict(msg: Any) -> JoyFeedbackDict:
     }
 
 
-JOY_FEEDBACK_KEYS = frozenset(("type", "id", "intensity"))
+JOY_FEEDBACK_KEYS: frozenset[str] = frozenset(("type", "id", "intensity"))
 
 
 def joy_feedback_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1030,7 +1032,7 @@ def joy_feedback_array_to_dict(msg: Any) -> JoyFeedbackArrayDict:
     }
 
 
-JOY_FEEDBACK_ARRAY_KEYS = frozenset(("array",))
+JOY_FEEDBACK_ARRAY_KEYS: frozenset[str] = frozenset(("array",))
 
 
 def joy_feedback_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1064,7 +1066,7 @@ def laser_echo_to_dict(msg: Any) -> LaserEchoDict:
     }
 
 
-LASER_ECHO_KEYS = frozenset(("echoes",))
+LASER_ECHO_KEYS: frozenset[str] = frozenset(("echoes",))
 
 
 def laser_echo_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1113,7 +1115,7 @@ def laser_scan_to_dict(msg: Any) -> LaserScanDict:
     }
 
 
-LASER_SCAN_KEYS = frozenset(
+LASER_SCAN_KEYS: frozenset[str] = frozenset(
     (
         "header",
         "angle_min",
@@ -1210,7 +1212,9 @@ def magnetic_field_to_dict(msg: Any) -> MagneticFieldDict:
     }
 
 
-MAGNETIC_FIELD_KEYS = frozenset(("header", "magnetic_field", "magnetic_field_covariance"))
+MAGNETIC_FIELD_KEYS: frozenset[str] = frozenset(
+    ("header", "magnetic_field", "magnetic_field_covariance")
+)
 
 
 def magnetic_field_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1315,7 +1319,9 @@ def multi_dof_joint_state_to_dict(msg: Any) -> MultiDOFJointStateDict:
     }
 
 
-MULTI_DOF_JOINT_STATE_KEYS = frozenset(("header", "joint_names", "transforms", "twist", "wrench"))
+MULTI_DOF_JOINT_STATE_KEYS: frozenset[str] = frozenset(
+    ("header", "joint_names", "transforms", "twist", "wrench")
+)
 
 
 def multi_dof_joint_state_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1400,7 +1406,7 @@ def multi_echo_laser_scan_to_dict(msg: Any) -> MultiEchoLaserScanDict:
     }
 
 
-MULTI_ECHO_LASER_SCAN_KEYS = frozenset(
+MULTI_ECHO_LASER_SCAN_KEYS: frozenset[str] = frozenset(
     (
         "header",
         "angle_min",
@@ -1500,7 +1506,7 @@ def nav_sat_fix_to_dict(msg: Any) -> NavSatFixDict:
     }
 
 
-NAV_SAT_FIX_KEYS = frozenset(
+NAV_SAT_FIX_KEYS: frozenset[str] = frozenset(
     (
         "header",
         "status",
@@ -1577,7 +1583,7 @@ def nav_sat_status_to_dict(msg: Any) -> NavSatStatusDict:
     }
 
 
-NAV_SAT_STATUS_KEYS = frozenset(("status", "service"))
+NAV_SAT_STATUS_KEYS: frozenset[str] = frozenset(("status", "service"))
 
 
 def nav_sat_status_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1634,7 +1640,7 @@ def point_cloud_to_dict(msg: Any) -> PointCloudDict:
     }
 
 
-POINT_CLOUD_KEYS = frozenset(("header", "points", "channels"))
+POINT_CLOUD_KEYS: frozenset[str] = frozenset(("header", "points", "channels"))
 
 
 def point_cloud_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1700,7 +1706,7 @@ def point_cloud2_to_dict(msg: Any) -> PointCloud2Dict:
     }
 
 
-POINT_CLOUD2_KEYS = frozenset(
+POINT_CLOUD2_KEYS: frozenset[str] = frozenset(
     (
         "header",
         "height",
@@ -1779,7 +1785,7 @@ def point_field_to_dict(msg: Any) -> PointFieldDict:
     }
 
 
-POINT_FIELD_KEYS = frozenset(("name", "offset", "datatype", "count"))
+POINT_FIELD_KEYS: frozenset[str] = frozenset(("name", "offset", "datatype", "count"))
 
 
 def point_field_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1835,7 +1841,7 @@ def range_to_dict(msg: Any) -> RangeDict:
     }
 
 
-RANGE_KEYS = frozenset(
+RANGE_KEYS: frozenset[str] = frozenset(
     ("header", "radiation_type", "field_of_view", "min_range", "max_range", "range", "variance")
 )
 
@@ -1897,7 +1903,9 @@ def region_of_interest_to_dict(msg: Any) -> RegionOfInterestDict:
     }
 
 
-REGION_OF_INTEREST_KEYS = frozenset(("x_offset", "y_offset", "height", "width", "do_rectify"))
+REGION_OF_INTEREST_KEYS: frozenset[str] = frozenset(
+    ("x_offset", "y_offset", "height", "width", "do_rectify")
+)
 
 
 def region_of_interest_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1953,7 +1961,7 @@ def relative_humidity_to_dict(msg: Any) -> RelativeHumidityDict:
     }
 
 
-RELATIVE_HUMIDITY_KEYS = frozenset(("header", "relative_humidity", "variance"))
+RELATIVE_HUMIDITY_KEYS: frozenset[str] = frozenset(("header", "relative_humidity", "variance"))
 
 
 def relative_humidity_from_dict(data: Mapping[str, Any]) -> Any:
@@ -2001,7 +2009,7 @@ def temperature_to_dict(msg: Any) -> TemperatureDict:
     }
 
 
-TEMPERATURE_KEYS = frozenset(("header", "temperature", "variance"))
+TEMPERATURE_KEYS: frozenset[str] = frozenset(("header", "temperature", "variance"))
 
 
 def temperature_from_dict(data: Mapping[str, Any]) -> Any:
@@ -2052,7 +2060,7 @@ def time_reference_to_dict(msg: Any) -> TimeReferenceDict:
     }
 
 
-TIME_REFERENCE_KEYS = frozenset(("header", "time_ref", "source"))
+TIME_REFERENCE_KEYS: frozenset[str] = frozenset(("header", "time_ref", "source"))
 
 
 def time_reference_from_dict(data: Mapping[str, Any]) -> Any:
@@ -2116,7 +2124,7 @@ def set_camera_info_request_to_dict(msg: Any) -> SetCameraInfoRequestDict:
     }
 
 
-SET_CAMERA_INFO_REQUEST_KEYS = frozenset(("camera_info",))
+SET_CAMERA_INFO_REQUEST_KEYS: frozenset[str] = frozenset(("camera_info",))
 
 
 def set_camera_info_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -2149,7 +2157,7 @@ def set_camera_info_response_to_dict(msg: Any) -> SetCameraInfoResponseDict:
     }
 
 
-SET_CAMERA_INFO_RESPONSE_KEYS = frozenset(("success", "status_message"))
+SET_CAMERA_INFO_RESPONSE_KEYS: frozenset[str] = frozenset(("success", "status_message"))
 
 
 def set_camera_info_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -2230,7 +2238,7 @@ def set_camera_info_event_to_dict(msg: Any) -> SetCameraInfoEventDict:
     }
 
 
-SET_CAMERA_INFO_EVENT_KEYS = frozenset(("info", "request", "response"))
+SET_CAMERA_INFO_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def set_camera_info_event_from_dict(data: Mapping[str, Any]) -> Any:

@@ -26,7 +26,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -48,6 +47,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.geometry_msgs.dict_codecs import (
     point_from_dict as geometry_msgs__point_from_dict,
 )
@@ -92,7 +92,7 @@ def mesh_to_dict(msg: Any) -> MeshDict:
     }
 
 
-MESH_KEYS = frozenset(("triangles", "vertices"))
+MESH_KEYS: frozenset[str] = frozenset(("triangles", "vertices"))
 
 
 def mesh_from_dict(data: Mapping[str, Any]) -> Any:
@@ -132,7 +132,7 @@ def mesh_triangle_to_dict(msg: Any) -> MeshTriangleDict:
     }
 
 
-MESH_TRIANGLE_KEYS = frozenset(("vertex_indices",))
+MESH_TRIANGLE_KEYS: frozenset[str] = frozenset(("vertex_indices",))
 
 
 def mesh_triangle_from_dict(data: Mapping[str, Any]) -> Any:
@@ -174,7 +174,7 @@ def plane_to_dict(msg: Any) -> PlaneDict:
     }
 
 
-PLANE_KEYS = frozenset(("coef",))
+PLANE_KEYS: frozenset[str] = frozenset(("coef",))
 
 
 def plane_from_dict(data: Mapping[str, Any]) -> Any:
@@ -223,7 +223,7 @@ def solid_primitive_to_dict(msg: Any) -> SolidPrimitiveDict:
     }
 
 
-SOLID_PRIMITIVE_KEYS = frozenset(("type", "dimensions", "polygon"))
+SOLID_PRIMITIVE_KEYS: frozenset[str] = frozenset(("type", "dimensions", "polygon"))
 
 
 def solid_primitive_from_dict(data: Mapping[str, Any]) -> Any:

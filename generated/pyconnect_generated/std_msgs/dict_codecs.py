@@ -78,7 +78,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -100,6 +99,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.builtin_interfaces.dict_codecs import (
     time_from_dict as builtin_interfaces__time_from_dict,
 )
@@ -180,7 +180,7 @@ def bool_to_dict(msg: Any) -> BoolDict:
     }
 
 
-BOOL_KEYS = frozenset(("data",))
+BOOL_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def bool_from_dict(data: Mapping[str, Any]) -> Any:
@@ -212,7 +212,7 @@ def byte_to_dict(msg: Any) -> ByteDict:
     }
 
 
-BYTE_KEYS = frozenset(("data",))
+BYTE_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def byte_from_dict(data: Mapping[str, Any]) -> Any:
@@ -259,7 +259,7 @@ def byte_multi_array_to_dict(msg: Any) -> ByteMultiArrayDict:
     }
 
 
-BYTE_MULTI_ARRAY_KEYS = frozenset(("layout", "data"))
+BYTE_MULTI_ARRAY_KEYS: frozenset[str] = frozenset(("layout", "data"))
 
 
 def byte_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -293,7 +293,7 @@ def char_to_dict(msg: Any) -> CharDict:
     }
 
 
-CHAR_KEYS = frozenset(("data",))
+CHAR_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def char_from_dict(data: Mapping[str, Any]) -> Any:
@@ -328,7 +328,7 @@ def color_rgba_to_dict(msg: Any) -> ColorRGBADict:
     }
 
 
-COLOR_RGBA_KEYS = frozenset(("r", "g", "b", "a"))
+COLOR_RGBA_KEYS: frozenset[str] = frozenset(("r", "g", "b", "a"))
 
 
 def color_rgba_from_dict(data: Mapping[str, Any]) -> Any:
@@ -370,7 +370,7 @@ def empty_to_dict(msg: Any) -> EmptyDict:
     return {}
 
 
-EMPTY_KEYS = frozenset()
+EMPTY_KEYS: frozenset[str] = frozenset()
 
 
 def empty_from_dict(data: Mapping[str, Any]) -> Any:
@@ -398,7 +398,7 @@ def float32_to_dict(msg: Any) -> Float32Dict:
     }
 
 
-FLOAT32_KEYS = frozenset(("data",))
+FLOAT32_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def float32_from_dict(data: Mapping[str, Any]) -> Any:
@@ -441,7 +441,7 @@ def float32_multi_array_to_dict(msg: Any) -> Float32MultiArrayDict:
     }
 
 
-FLOAT32_MULTI_ARRAY_KEYS = frozenset(("layout", "data"))
+FLOAT32_MULTI_ARRAY_KEYS: frozenset[str] = frozenset(("layout", "data"))
 
 
 def float32_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -479,7 +479,7 @@ def float64_to_dict(msg: Any) -> Float64Dict:
     }
 
 
-FLOAT64_KEYS = frozenset(("data",))
+FLOAT64_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def float64_from_dict(data: Mapping[str, Any]) -> Any:
@@ -522,7 +522,7 @@ def float64_multi_array_to_dict(msg: Any) -> Float64MultiArrayDict:
     }
 
 
-FLOAT64_MULTI_ARRAY_KEYS = frozenset(("layout", "data"))
+FLOAT64_MULTI_ARRAY_KEYS: frozenset[str] = frozenset(("layout", "data"))
 
 
 def float64_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -568,7 +568,7 @@ def header_to_dict(msg: Any) -> HeaderDict:
     }
 
 
-HEADER_KEYS = frozenset(("stamp", "frame_id"))
+HEADER_KEYS: frozenset[str] = frozenset(("stamp", "frame_id"))
 
 
 def header_from_dict(data: Mapping[str, Any]) -> Any:
@@ -604,7 +604,7 @@ def int16_to_dict(msg: Any) -> Int16Dict:
     }
 
 
-INT16_KEYS = frozenset(("data",))
+INT16_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def int16_from_dict(data: Mapping[str, Any]) -> Any:
@@ -647,7 +647,7 @@ def int16_multi_array_to_dict(msg: Any) -> Int16MultiArrayDict:
     }
 
 
-INT16_MULTI_ARRAY_KEYS = frozenset(("layout", "data"))
+INT16_MULTI_ARRAY_KEYS: frozenset[str] = frozenset(("layout", "data"))
 
 
 def int16_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -689,7 +689,7 @@ def int32_to_dict(msg: Any) -> Int32Dict:
     }
 
 
-INT32_KEYS = frozenset(("data",))
+INT32_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def int32_from_dict(data: Mapping[str, Any]) -> Any:
@@ -732,7 +732,7 @@ def int32_multi_array_to_dict(msg: Any) -> Int32MultiArrayDict:
     }
 
 
-INT32_MULTI_ARRAY_KEYS = frozenset(("layout", "data"))
+INT32_MULTI_ARRAY_KEYS: frozenset[str] = frozenset(("layout", "data"))
 
 
 def int32_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -774,7 +774,7 @@ def int64_to_dict(msg: Any) -> Int64Dict:
     }
 
 
-INT64_KEYS = frozenset(("data",))
+INT64_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def int64_from_dict(data: Mapping[str, Any]) -> Any:
@@ -817,7 +817,7 @@ def int64_multi_array_to_dict(msg: Any) -> Int64MultiArrayDict:
     }
 
 
-INT64_MULTI_ARRAY_KEYS = frozenset(("layout", "data"))
+INT64_MULTI_ARRAY_KEYS: frozenset[str] = frozenset(("layout", "data"))
 
 
 def int64_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -859,7 +859,7 @@ def int8_to_dict(msg: Any) -> Int8Dict:
     }
 
 
-INT8_KEYS = frozenset(("data",))
+INT8_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def int8_from_dict(data: Mapping[str, Any]) -> Any:
@@ -902,7 +902,7 @@ def int8_multi_array_to_dict(msg: Any) -> Int8MultiArrayDict:
     }
 
 
-INT8_MULTI_ARRAY_KEYS = frozenset(("layout", "data"))
+INT8_MULTI_ARRAY_KEYS: frozenset[str] = frozenset(("layout", "data"))
 
 
 def int8_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -946,7 +946,7 @@ def multi_array_dimension_to_dict(msg: Any) -> MultiArrayDimensionDict:
     }
 
 
-MULTI_ARRAY_DIMENSION_KEYS = frozenset(("label", "size", "stride"))
+MULTI_ARRAY_DIMENSION_KEYS: frozenset[str] = frozenset(("label", "size", "stride"))
 
 
 def multi_array_dimension_from_dict(data: Mapping[str, Any]) -> Any:
@@ -994,7 +994,7 @@ def multi_array_layout_to_dict(msg: Any) -> MultiArrayLayoutDict:
     }
 
 
-MULTI_ARRAY_LAYOUT_KEYS = frozenset(("dim", "data_offset"))
+MULTI_ARRAY_LAYOUT_KEYS: frozenset[str] = frozenset(("dim", "data_offset"))
 
 
 def multi_array_layout_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1032,7 +1032,7 @@ def string_to_dict(msg: Any) -> StringDict:
     }
 
 
-STRING_KEYS = frozenset(("data",))
+STRING_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def string_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1064,7 +1064,7 @@ def u_int16_to_dict(msg: Any) -> UInt16Dict:
     }
 
 
-U_INT16_KEYS = frozenset(("data",))
+U_INT16_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def u_int16_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1107,7 +1107,7 @@ def u_int16_multi_array_to_dict(msg: Any) -> UInt16MultiArrayDict:
     }
 
 
-U_INT16_MULTI_ARRAY_KEYS = frozenset(("layout", "data"))
+U_INT16_MULTI_ARRAY_KEYS: frozenset[str] = frozenset(("layout", "data"))
 
 
 def u_int16_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1149,7 +1149,7 @@ def u_int32_to_dict(msg: Any) -> UInt32Dict:
     }
 
 
-U_INT32_KEYS = frozenset(("data",))
+U_INT32_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def u_int32_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1192,7 +1192,7 @@ def u_int32_multi_array_to_dict(msg: Any) -> UInt32MultiArrayDict:
     }
 
 
-U_INT32_MULTI_ARRAY_KEYS = frozenset(("layout", "data"))
+U_INT32_MULTI_ARRAY_KEYS: frozenset[str] = frozenset(("layout", "data"))
 
 
 def u_int32_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1234,7 +1234,7 @@ def u_int64_to_dict(msg: Any) -> UInt64Dict:
     }
 
 
-U_INT64_KEYS = frozenset(("data",))
+U_INT64_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def u_int64_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1277,7 +1277,7 @@ def u_int64_multi_array_to_dict(msg: Any) -> UInt64MultiArrayDict:
     }
 
 
-U_INT64_MULTI_ARRAY_KEYS = frozenset(("layout", "data"))
+U_INT64_MULTI_ARRAY_KEYS: frozenset[str] = frozenset(("layout", "data"))
 
 
 def u_int64_multi_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1319,7 +1319,7 @@ def u_int8_to_dict(msg: Any) -> UInt8Dict:
     }
 
 
-U_INT8_KEYS = frozenset(("data",))
+U_INT8_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def u_int8_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1362,7 +1362,7 @@ def u_int8_multi_array_to_dict(msg: Any) -> UInt8MultiArrayDict:
     }
 
 
-U_INT8_MULTI_ARRAY_KEYS = frozenset(("layout", "data"))
+U_INT8_MULTI_ARRAY_KEYS: frozenset[str] = frozenset(("layout", "data"))
 
 
 def u_int8_multi_array_from_dict(data: Mapping[str, Any]) -> Any:

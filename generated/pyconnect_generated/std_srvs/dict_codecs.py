@@ -36,7 +36,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -58,6 +57,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.service_msgs.dict_codecs import (
     service_event_info_from_dict as service_msgs__service_event_info_from_dict,
 )
@@ -97,7 +97,7 @@ def empty_request_to_dict(msg: Any) -> EmptyRequestDict:
     return {}
 
 
-EMPTY_REQUEST_KEYS = frozenset()
+EMPTY_REQUEST_KEYS: frozenset[str] = frozenset()
 
 
 def empty_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -123,7 +123,7 @@ def empty_response_to_dict(msg: Any) -> EmptyResponseDict:
     return {}
 
 
-EMPTY_RESPONSE_KEYS = frozenset()
+EMPTY_RESPONSE_KEYS: frozenset[str] = frozenset()
 
 
 def empty_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -161,7 +161,7 @@ def empty_event_to_dict(msg: Any) -> EmptyEventDict:
     }
 
 
-EMPTY_EVENT_KEYS = frozenset(("info", "request", "response"))
+EMPTY_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def empty_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -205,7 +205,7 @@ def set_bool_request_to_dict(msg: Any) -> SetBoolRequestDict:
     }
 
 
-SET_BOOL_REQUEST_KEYS = frozenset(("data",))
+SET_BOOL_REQUEST_KEYS: frozenset[str] = frozenset(("data",))
 
 
 def set_bool_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -238,7 +238,7 @@ def set_bool_response_to_dict(msg: Any) -> SetBoolResponseDict:
     }
 
 
-SET_BOOL_RESPONSE_KEYS = frozenset(("success", "message"))
+SET_BOOL_RESPONSE_KEYS: frozenset[str] = frozenset(("success", "message"))
 
 
 def set_bool_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -295,7 +295,7 @@ def set_bool_event_to_dict(msg: Any) -> SetBoolEventDict:
     }
 
 
-SET_BOOL_EVENT_KEYS = frozenset(("info", "request", "response"))
+SET_BOOL_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def set_bool_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -337,7 +337,7 @@ def trigger_request_to_dict(msg: Any) -> TriggerRequestDict:
     return {}
 
 
-TRIGGER_REQUEST_KEYS = frozenset()
+TRIGGER_REQUEST_KEYS: frozenset[str] = frozenset()
 
 
 def trigger_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -366,7 +366,7 @@ def trigger_response_to_dict(msg: Any) -> TriggerResponseDict:
     }
 
 
-TRIGGER_RESPONSE_KEYS = frozenset(("success", "message"))
+TRIGGER_RESPONSE_KEYS: frozenset[str] = frozenset(("success", "message"))
 
 
 def trigger_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -418,7 +418,7 @@ def trigger_event_to_dict(msg: Any) -> TriggerEventDict:
     }
 
 
-TRIGGER_EVENT_KEYS = frozenset(("info", "request", "response"))
+TRIGGER_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def trigger_event_from_dict(data: Mapping[str, Any]) -> Any:

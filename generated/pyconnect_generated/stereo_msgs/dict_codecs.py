@@ -20,7 +20,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -42,6 +41,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.sensor_msgs.dict_codecs import (
     image_from_dict as sensor_msgs__image_from_dict,
 )
@@ -101,7 +101,7 @@ def disparity_image_to_dict(msg: Any) -> DisparityImageDict:
     }
 
 
-DISPARITY_IMAGE_KEYS = frozenset(
+DISPARITY_IMAGE_KEYS: frozenset[str] = frozenset(
     ("header", "image", "f", "t", "valid_window", "min_disparity", "max_disparity", "delta_d")
 )
 

@@ -102,7 +102,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -124,6 +123,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.builtin_interfaces.dict_codecs import (
     duration_from_dict as builtin_interfaces__duration_from_dict,
 )
@@ -316,7 +316,7 @@ def arrays_to_dict(msg: Any) -> ArraysDict:
     }
 
 
-ARRAYS_KEYS = frozenset(
+ARRAYS_KEYS: frozenset[str] = frozenset(
     (
         "bool_values",
         "byte_values",
@@ -683,7 +683,7 @@ def basic_types_to_dict(msg: Any) -> BasicTypesDict:
     }
 
 
-BASIC_TYPES_KEYS = frozenset(
+BASIC_TYPES_KEYS: frozenset[str] = frozenset(
     (
         "bool_value",
         "byte_value",
@@ -853,7 +853,7 @@ def bounded_plain_sequences_to_dict(msg: Any) -> BoundedPlainSequencesDict:
     }
 
 
-BOUNDED_PLAIN_SEQUENCES_KEYS = frozenset(
+BOUNDED_PLAIN_SEQUENCES_KEYS: frozenset[str] = frozenset(
     (
         "bool_values",
         "byte_values",
@@ -1250,7 +1250,7 @@ def bounded_sequences_to_dict(msg: Any) -> BoundedSequencesDict:
     }
 
 
-BOUNDED_SEQUENCES_KEYS = frozenset(
+BOUNDED_SEQUENCES_KEYS: frozenset[str] = frozenset(
     (
         "bool_values",
         "byte_values",
@@ -1592,7 +1592,7 @@ def builtins_to_dict(msg: Any) -> BuiltinsDict:
     }
 
 
-BUILTINS_KEYS = frozenset(("duration_value", "time_value"))
+BUILTINS_KEYS: frozenset[str] = frozenset(("duration_value", "time_value"))
 
 
 def builtins_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1628,7 +1628,7 @@ def constants_to_dict(msg: Any) -> ConstantsDict:
     return {}
 
 
-CONSTANTS_KEYS = frozenset()
+CONSTANTS_KEYS: frozenset[str] = frozenset()
 
 
 def constants_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1668,7 +1668,7 @@ def defaults_to_dict(msg: Any) -> DefaultsDict:
     }
 
 
-DEFAULTS_KEYS = frozenset(
+DEFAULTS_KEYS: frozenset[str] = frozenset(
     (
         "bool_value",
         "byte_value",
@@ -1764,7 +1764,7 @@ def empty_to_dict(msg: Any) -> EmptyDict:
     return {}
 
 
-EMPTY_KEYS = frozenset()
+EMPTY_KEYS: frozenset[str] = frozenset()
 
 
 def empty_from_dict(data: Mapping[str, Any]) -> Any:
@@ -2511,7 +2511,7 @@ def multi_nested_to_dict(msg: Any) -> MultiNestedDict:
     }
 
 
-MULTI_NESTED_KEYS = frozenset(
+MULTI_NESTED_KEYS: frozenset[str] = frozenset(
     (
         "array_of_arrays",
         "array_of_bounded_sequences",
@@ -2647,7 +2647,7 @@ def nested_to_dict(msg: Any) -> NestedDict:
     }
 
 
-NESTED_KEYS = frozenset(("basic_types_value",))
+NESTED_KEYS: frozenset[str] = frozenset(("basic_types_value",))
 
 
 def nested_from_dict(data: Mapping[str, Any]) -> Any:
@@ -2690,7 +2690,7 @@ def strings_to_dict(msg: Any) -> StringsDict:
     }
 
 
-STRINGS_KEYS = frozenset(
+STRINGS_KEYS: frozenset[str] = frozenset(
     (
         "string_value",
         "string_value_default1",
@@ -2855,7 +2855,7 @@ def unbounded_sequences_to_dict(msg: Any) -> UnboundedSequencesDict:
     }
 
 
-UNBOUNDED_SEQUENCES_KEYS = frozenset(
+UNBOUNDED_SEQUENCES_KEYS: frozenset[str] = frozenset(
     (
         "bool_values",
         "byte_values",
@@ -3214,7 +3214,7 @@ def w_strings_to_dict(msg: Any) -> WStringsDict:
     }
 
 
-W_STRINGS_KEYS = frozenset(
+W_STRINGS_KEYS: frozenset[str] = frozenset(
     (
         "wstring_value",
         "wstring_value_default1",
@@ -3365,7 +3365,7 @@ def arrays_request_to_dict(msg: Any) -> ArraysRequestDict:
     }
 
 
-ARRAYS_REQUEST_KEYS = frozenset(
+ARRAYS_REQUEST_KEYS: frozenset[str] = frozenset(
     (
         "bool_values",
         "byte_values",
@@ -3788,7 +3788,7 @@ def arrays_response_to_dict(msg: Any) -> ArraysResponseDict:
     }
 
 
-ARRAYS_RESPONSE_KEYS = frozenset(
+ARRAYS_RESPONSE_KEYS: frozenset[str] = frozenset(
     (
         "bool_values",
         "byte_values",
@@ -4304,7 +4304,7 @@ def arrays_event_to_dict(msg: Any) -> ArraysEventDict:
     }
 
 
-ARRAYS_EVENT_KEYS = frozenset(("info", "request", "response"))
+ARRAYS_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def arrays_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -4361,7 +4361,7 @@ def basic_types_request_to_dict(msg: Any) -> BasicTypesRequestDict:
     }
 
 
-BASIC_TYPES_REQUEST_KEYS = frozenset(
+BASIC_TYPES_REQUEST_KEYS: frozenset[str] = frozenset(
     (
         "bool_value",
         "byte_value",
@@ -4477,7 +4477,7 @@ def basic_types_response_to_dict(msg: Any) -> BasicTypesResponseDict:
     }
 
 
-BASIC_TYPES_RESPONSE_KEYS = frozenset(
+BASIC_TYPES_RESPONSE_KEYS: frozenset[str] = frozenset(
     (
         "bool_value",
         "byte_value",
@@ -4626,7 +4626,7 @@ def basic_types_event_to_dict(msg: Any) -> BasicTypesEventDict:
     }
 
 
-BASIC_TYPES_EVENT_KEYS = frozenset(("info", "request", "response"))
+BASIC_TYPES_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def basic_types_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -4668,7 +4668,7 @@ def empty_request_to_dict(msg: Any) -> EmptyRequestDict:
     return {}
 
 
-EMPTY_REQUEST_KEYS = frozenset()
+EMPTY_REQUEST_KEYS: frozenset[str] = frozenset()
 
 
 def empty_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -4694,7 +4694,7 @@ def empty_response_to_dict(msg: Any) -> EmptyResponseDict:
     return {}
 
 
-EMPTY_RESPONSE_KEYS = frozenset()
+EMPTY_RESPONSE_KEYS: frozenset[str] = frozenset()
 
 
 def empty_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -4732,7 +4732,7 @@ def empty_event_to_dict(msg: Any) -> EmptyEventDict:
     }
 
 
-EMPTY_EVENT_KEYS = frozenset(("info", "request", "response"))
+EMPTY_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def empty_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -4776,7 +4776,7 @@ def fibonacci_goal_to_dict(msg: Any) -> FibonacciGoalDict:
     }
 
 
-FIBONACCI_GOAL_KEYS = frozenset(("order",))
+FIBONACCI_GOAL_KEYS: frozenset[str] = frozenset(("order",))
 
 
 def fibonacci_goal_from_dict(data: Mapping[str, Any]) -> Any:
@@ -4808,7 +4808,7 @@ def fibonacci_result_to_dict(msg: Any) -> FibonacciResultDict:
     }
 
 
-FIBONACCI_RESULT_KEYS = frozenset(("sequence",))
+FIBONACCI_RESULT_KEYS: frozenset[str] = frozenset(("sequence",))
 
 
 def fibonacci_result_from_dict(data: Mapping[str, Any]) -> Any:
@@ -4846,7 +4846,7 @@ def fibonacci_feedback_to_dict(msg: Any) -> FibonacciFeedbackDict:
     }
 
 
-FIBONACCI_FEEDBACK_KEYS = frozenset(("sequence",))
+FIBONACCI_FEEDBACK_KEYS: frozenset[str] = frozenset(("sequence",))
 
 
 def fibonacci_feedback_from_dict(data: Mapping[str, Any]) -> Any:
@@ -4889,7 +4889,7 @@ def fibonacci_send_goal_request_to_dict(msg: Any) -> FibonacciSendGoalRequestDic
     }
 
 
-FIBONACCI_SEND_GOAL_REQUEST_KEYS = frozenset(("goal_id", "goal"))
+FIBONACCI_SEND_GOAL_REQUEST_KEYS: frozenset[str] = frozenset(("goal_id", "goal"))
 
 
 def fibonacci_send_goal_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -4929,7 +4929,7 @@ def fibonacci_send_goal_response_to_dict(msg: Any) -> FibonacciSendGoalResponseD
     }
 
 
-FIBONACCI_SEND_GOAL_RESPONSE_KEYS = frozenset(("accepted", "stamp"))
+FIBONACCI_SEND_GOAL_RESPONSE_KEYS: frozenset[str] = frozenset(("accepted", "stamp"))
 
 
 def fibonacci_send_goal_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -4994,7 +4994,7 @@ def fibonacci_send_goal_event_to_dict(msg: Any) -> FibonacciSendGoalEventDict:
     }
 
 
-FIBONACCI_SEND_GOAL_EVENT_KEYS = frozenset(("info", "request", "response"))
+FIBONACCI_SEND_GOAL_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def fibonacci_send_goal_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -5040,7 +5040,7 @@ def fibonacci_get_result_request_to_dict(msg: Any) -> FibonacciGetResultRequestD
     }
 
 
-FIBONACCI_GET_RESULT_REQUEST_KEYS = frozenset(("goal_id",))
+FIBONACCI_GET_RESULT_REQUEST_KEYS: frozenset[str] = frozenset(("goal_id",))
 
 
 def fibonacci_get_result_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -5075,7 +5075,7 @@ def fibonacci_get_result_response_to_dict(msg: Any) -> FibonacciGetResultRespons
     }
 
 
-FIBONACCI_GET_RESULT_RESPONSE_KEYS = frozenset(("status", "result"))
+FIBONACCI_GET_RESULT_RESPONSE_KEYS: frozenset[str] = frozenset(("status", "result"))
 
 
 def fibonacci_get_result_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -5136,7 +5136,7 @@ def fibonacci_get_result_event_to_dict(msg: Any) -> FibonacciGetResultEventDict:
     }
 
 
-FIBONACCI_GET_RESULT_EVENT_KEYS = frozenset(("info", "request", "response"))
+FIBONACCI_GET_RESULT_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def fibonacci_get_result_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -5185,7 +5185,7 @@ def fibonacci_feedback_message_to_dict(msg: Any) -> FibonacciFeedbackMessageDict
     }
 
 
-FIBONACCI_FEEDBACK_MESSAGE_KEYS = frozenset(("goal_id", "feedback"))
+FIBONACCI_FEEDBACK_MESSAGE_KEYS: frozenset[str] = frozenset(("goal_id", "feedback"))
 
 
 def fibonacci_feedback_message_from_dict(data: Mapping[str, Any]) -> Any:
@@ -5249,7 +5249,7 @@ def nested_message_goal_to_dict(msg: Any) -> NestedMessageGoalDict:
     }
 
 
-NESTED_MESSAGE_GOAL_KEYS = frozenset(
+NESTED_MESSAGE_GOAL_KEYS: frozenset[str] = frozenset(
     ("nested_field_no_pkg", "nested_field", "nested_different_pkg")
 )
 
@@ -5321,7 +5321,7 @@ def nested_message_result_to_dict(msg: Any) -> NestedMessageResultDict:
     }
 
 
-NESTED_MESSAGE_RESULT_KEYS = frozenset(
+NESTED_MESSAGE_RESULT_KEYS: frozenset[str] = frozenset(
     ("nested_field_no_pkg", "nested_field", "nested_different_pkg")
 )
 
@@ -5393,7 +5393,7 @@ def nested_message_feedback_to_dict(msg: Any) -> NestedMessageFeedbackDict:
     }
 
 
-NESTED_MESSAGE_FEEDBACK_KEYS = frozenset(
+NESTED_MESSAGE_FEEDBACK_KEYS: frozenset[str] = frozenset(
     ("nested_field_no_pkg", "nested_field", "nested_different_pkg")
 )
 
@@ -5470,7 +5470,7 @@ def nested_message_send_goal_request_to_dict(msg: Any) -> NestedMessageSendGoalR
     }
 
 
-NESTED_MESSAGE_SEND_GOAL_REQUEST_KEYS = frozenset(("goal_id", "goal"))
+NESTED_MESSAGE_SEND_GOAL_REQUEST_KEYS: frozenset[str] = frozenset(("goal_id", "goal"))
 
 
 def nested_message_send_goal_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -5510,7 +5510,7 @@ def nested_message_send_goal_response_to_dict(msg: Any) -> NestedMessageSendGoal
     }
 
 
-NESTED_MESSAGE_SEND_GOAL_RESPONSE_KEYS = frozenset(("accepted", "stamp"))
+NESTED_MESSAGE_SEND_GOAL_RESPONSE_KEYS: frozenset[str] = frozenset(("accepted", "stamp"))
 
 
 def nested_message_send_goal_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -5603,7 +5603,7 @@ def nested_message_send_goal_event_to_dict(msg: Any) -> NestedMessageSendGoalEve
     }
 
 
-NESTED_MESSAGE_SEND_GOAL_EVENT_KEYS = frozenset(("info", "request", "response"))
+NESTED_MESSAGE_SEND_GOAL_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def nested_message_send_goal_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -5653,7 +5653,7 @@ def nested_message_get_result_request_to_dict(msg: Any) -> NestedMessageGetResul
     }
 
 
-NESTED_MESSAGE_GET_RESULT_REQUEST_KEYS = frozenset(("goal_id",))
+NESTED_MESSAGE_GET_RESULT_REQUEST_KEYS: frozenset[str] = frozenset(("goal_id",))
 
 
 def nested_message_get_result_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -5716,7 +5716,7 @@ def nested_message_get_result_response_to_dict(msg: Any) -> NestedMessageGetResu
     }
 
 
-NESTED_MESSAGE_GET_RESULT_RESPONSE_KEYS = frozenset(("status", "result"))
+NESTED_MESSAGE_GET_RESULT_RESPONSE_KEYS: frozenset[str] = frozenset(("status", "result"))
 
 
 def nested_message_get_result_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -5805,7 +5805,7 @@ def nested_message_get_result_event_to_dict(msg: Any) -> NestedMessageGetResultE
     }
 
 
-NESTED_MESSAGE_GET_RESULT_EVENT_KEYS = frozenset(("info", "request", "response"))
+NESTED_MESSAGE_GET_RESULT_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def nested_message_get_result_event_from_dict(data: Mapping[str, Any]) -> Any:
@@ -5886,7 +5886,7 @@ def nested_message_feedback_message_to_dict(msg: Any) -> NestedMessageFeedbackMe
     }
 
 
-NESTED_MESSAGE_FEEDBACK_MESSAGE_KEYS = frozenset(("goal_id", "feedback"))
+NESTED_MESSAGE_FEEDBACK_MESSAGE_KEYS: frozenset[str] = frozenset(("goal_id", "feedback"))
 
 
 def nested_message_feedback_message_from_dict(data: Mapping[str, Any]) -> Any:

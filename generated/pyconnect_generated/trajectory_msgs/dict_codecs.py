@@ -26,7 +26,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -48,6 +47,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.builtin_interfaces.dict_codecs import (
     duration_from_dict as builtin_interfaces__duration_from_dict,
 )
@@ -103,7 +103,7 @@ def joint_trajectory_to_dict(msg: Any) -> JointTrajectoryDict:
     }
 
 
-JOINT_TRAJECTORY_KEYS = frozenset(("header", "joint_names", "points"))
+JOINT_TRAJECTORY_KEYS: frozenset[str] = frozenset(("header", "joint_names", "points"))
 
 
 def joint_trajectory_from_dict(data: Mapping[str, Any]) -> Any:
@@ -158,7 +158,7 @@ def joint_trajectory_point_to_dict(msg: Any) -> JointTrajectoryPointDict:
     }
 
 
-JOINT_TRAJECTORY_POINT_KEYS = frozenset(
+JOINT_TRAJECTORY_POINT_KEYS: frozenset[str] = frozenset(
     ("positions", "velocities", "accelerations", "effort", "time_from_start")
 )
 
@@ -296,7 +296,7 @@ def multi_dof_joint_trajectory_to_dict(msg: Any) -> MultiDOFJointTrajectoryDict:
     }
 
 
-MULTI_DOF_JOINT_TRAJECTORY_KEYS = frozenset(("header", "joint_names", "points"))
+MULTI_DOF_JOINT_TRAJECTORY_KEYS: frozenset[str] = frozenset(("header", "joint_names", "points"))
 
 
 def multi_dof_joint_trajectory_from_dict(data: Mapping[str, Any]) -> Any:
@@ -395,7 +395,7 @@ def multi_dof_joint_trajectory_point_to_dict(msg: Any) -> MultiDOFJointTrajector
     }
 
 
-MULTI_DOF_JOINT_TRAJECTORY_POINT_KEYS = frozenset(
+MULTI_DOF_JOINT_TRAJECTORY_POINT_KEYS: frozenset[str] = frozenset(
     ("transforms", "velocities", "accelerations", "time_from_start")
 )
 

@@ -36,7 +36,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -58,6 +57,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.service_msgs.dict_codecs import (
     service_event_info_from_dict as service_msgs__service_event_info_from_dict,
 )
@@ -106,7 +106,7 @@ def field_to_dict(msg: Any) -> FieldDict:
     }
 
 
-FIELD_KEYS = frozenset(("name", "type", "default_value"))
+FIELD_KEYS: frozenset[str] = frozenset(("name", "type", "default_value"))
 
 
 def field_from_dict(data: Mapping[str, Any]) -> Any:
@@ -149,7 +149,9 @@ def field_type_to_dict(msg: Any) -> FieldTypeDict:
     }
 
 
-FIELD_TYPE_KEYS = frozenset(("type_id", "capacity", "string_capacity", "nested_type_name"))
+FIELD_TYPE_KEYS: frozenset[str] = frozenset(
+    ("type_id", "capacity", "string_capacity", "nested_type_name")
+)
 
 
 def field_type_from_dict(data: Mapping[str, Any]) -> Any:
@@ -206,7 +208,7 @@ def individual_type_description_to_dict(msg: Any) -> IndividualTypeDescriptionDi
     }
 
 
-INDIVIDUAL_TYPE_DESCRIPTION_KEYS = frozenset(("type_name", "fields"))
+INDIVIDUAL_TYPE_DESCRIPTION_KEYS: frozenset[str] = frozenset(("type_name", "fields"))
 
 
 def individual_type_description_from_dict(data: Mapping[str, Any]) -> Any:
@@ -243,7 +245,7 @@ def key_value_to_dict(msg: Any) -> KeyValueDict:
     }
 
 
-KEY_VALUE_KEYS = frozenset(("key", "value"))
+KEY_VALUE_KEYS: frozenset[str] = frozenset(("key", "value"))
 
 
 def key_value_from_dict(data: Mapping[str, Any]) -> Any:
@@ -313,7 +315,9 @@ def type_description_to_dict(msg: Any) -> TypeDescriptionDict:
     }
 
 
-TYPE_DESCRIPTION_KEYS = frozenset(("type_description", "referenced_type_descriptions"))
+TYPE_DESCRIPTION_KEYS: frozenset[str] = frozenset(
+    ("type_description", "referenced_type_descriptions")
+)
 
 
 def type_description_from_dict(data: Mapping[str, Any]) -> Any:
@@ -361,7 +365,7 @@ def type_source_to_dict(msg: Any) -> TypeSourceDict:
     }
 
 
-TYPE_SOURCE_KEYS = frozenset(("type_name", "encoding", "raw_file_contents"))
+TYPE_SOURCE_KEYS: frozenset[str] = frozenset(("type_name", "encoding", "raw_file_contents"))
 
 
 def type_source_from_dict(data: Mapping[str, Any]) -> Any:
@@ -403,7 +407,9 @@ def get_type_description_request_to_dict(msg: Any) -> GetTypeDescriptionRequestD
     }
 
 
-GET_TYPE_DESCRIPTION_REQUEST_KEYS = frozenset(("type_name", "type_hash", "include_type_sources"))
+GET_TYPE_DESCRIPTION_REQUEST_KEYS: frozenset[str] = frozenset(
+    ("type_name", "type_hash", "include_type_sources")
+)
 
 
 def get_type_description_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -496,7 +502,7 @@ def get_type_description_response_to_dict(msg: Any) -> GetTypeDescriptionRespons
     }
 
 
-GET_TYPE_DESCRIPTION_RESPONSE_KEYS = frozenset(
+GET_TYPE_DESCRIPTION_RESPONSE_KEYS: frozenset[str] = frozenset(
     ("successful", "failure_reason", "type_description", "type_sources", "extra_information")
 )
 
@@ -625,7 +631,7 @@ def get_type_description_event_to_dict(msg: Any) -> GetTypeDescriptionEventDict:
     }
 
 
-GET_TYPE_DESCRIPTION_EVENT_KEYS = frozenset(("info", "request", "response"))
+GET_TYPE_DESCRIPTION_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def get_type_description_event_from_dict(data: Mapping[str, Any]) -> Any:

@@ -20,7 +20,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -42,6 +41,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.unique_identifier_msgs.typed_dicts import (
     UUIDDict,
 )
@@ -61,7 +61,7 @@ def uuid_to_dict(msg: Any) -> UUIDDict:
     }
 
 
-UUID_KEYS = frozenset(("uuid",))
+UUID_KEYS: frozenset[str] = frozenset(("uuid",))
 
 
 def uuid_from_dict(data: Mapping[str, Any]) -> Any:

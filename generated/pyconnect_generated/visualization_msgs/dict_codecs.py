@@ -48,7 +48,6 @@ import numpy as np
 
 from pyconnect.codecs.field_checks import (
     BYTE_VALUES,
-    FLOAT32_MAX,
     PLAIN_FLOATS,
     PLAIN_INTS,
     bool_list,
@@ -70,6 +69,7 @@ from pyconnect.codecs.field_checks import (
     unknown_keys,
 )
 from pyconnect.codecs.field_path import FieldError
+from pyconnect.typesys.primitives import FLOAT32_MAX
 from pyconnect_generated.builtin_interfaces.dict_codecs import (
     duration_from_dict as builtin_interfaces__duration_from_dict,
 )
@@ -195,7 +195,7 @@ def image_marker_to_dict(msg: Any) -> ImageMarkerDict:
     }
 
 
-IMAGE_MARKER_KEYS = frozenset(
+IMAGE_MARKER_KEYS: frozenset[str] = frozenset(
     (
         "header",
         "ns",
@@ -432,7 +432,7 @@ def interactive_marker_to_dict(msg: Any) -> InteractiveMarkerDict:
     }
 
 
-INTERACTIVE_MARKER_KEYS = frozenset(
+INTERACTIVE_MARKER_KEYS: frozenset[str] = frozenset(
     ("header", "pose", "name", "description", "scale", "menu_entries", "controls")
 )
 
@@ -593,7 +593,7 @@ def interactive_marker_control_to_dict(msg: Any) -> InteractiveMarkerControlDict
     }
 
 
-INTERACTIVE_MARKER_CONTROL_KEYS = frozenset(
+INTERACTIVE_MARKER_CONTROL_KEYS: frozenset[str] = frozenset(
     (
         "name",
         "orientation",
@@ -696,7 +696,7 @@ def interactive_marker_feedback_to_dict(msg: Any) -> InteractiveMarkerFeedbackDi
     }
 
 
-INTERACTIVE_MARKER_FEEDBACK_KEYS = frozenset(
+INTERACTIVE_MARKER_FEEDBACK_KEYS: frozenset[str] = frozenset(
     (
         "header",
         "client_id",
@@ -916,7 +916,7 @@ def interactive_marker_init_to_dict(msg: Any) -> InteractiveMarkerInitDict:
     }
 
 
-INTERACTIVE_MARKER_INIT_KEYS = frozenset(("server_id", "seq_num", "markers"))
+INTERACTIVE_MARKER_INIT_KEYS: frozenset[str] = frozenset(("server_id", "seq_num", "markers"))
 
 
 def interactive_marker_init_from_dict(data: Mapping[str, Any]) -> Any:
@@ -978,7 +978,7 @@ def interactive_marker_pose_to_dict(msg: Any) -> InteractiveMarkerPoseDict:
     }
 
 
-INTERACTIVE_MARKER_POSE_KEYS = frozenset(("header", "pose", "name"))
+INTERACTIVE_MARKER_POSE_KEYS: frozenset[str] = frozenset(("header", "pose", "name"))
 
 
 def interactive_marker_pose_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1190,7 +1190,7 @@ def interactive_marker_update_to_dict(msg: Any) -> InteractiveMarkerUpdateDict:
     }
 
 
-INTERACTIVE_MARKER_UPDATE_KEYS = frozenset(
+INTERACTIVE_MARKER_UPDATE_KEYS: frozenset[str] = frozenset(
     ("server_id", "seq_num", "type", "markers", "poses", "erases")
 )
 
@@ -1336,7 +1336,7 @@ def marker_to_dict(msg: Any) -> MarkerDict:
     }
 
 
-MARKER_KEYS = frozenset(
+MARKER_KEYS: frozenset[str] = frozenset(
     (
         "header",
         "ns",
@@ -1555,7 +1555,7 @@ def marker_array_to_dict(msg: Any) -> MarkerArrayDict:
     }
 
 
-MARKER_ARRAY_KEYS = frozenset(("markers",))
+MARKER_ARRAY_KEYS: frozenset[str] = frozenset(("markers",))
 
 
 def marker_array_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1593,7 +1593,7 @@ def menu_entry_to_dict(msg: Any) -> MenuEntryDict:
     }
 
 
-MENU_ENTRY_KEYS = frozenset(("id", "parent_id", "title", "command", "command_type"))
+MENU_ENTRY_KEYS: frozenset[str] = frozenset(("id", "parent_id", "title", "command", "command_type"))
 
 
 def menu_entry_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1642,7 +1642,7 @@ def mesh_file_to_dict(msg: Any) -> MeshFileDict:
     }
 
 
-MESH_FILE_KEYS = frozenset(("filename", "data"))
+MESH_FILE_KEYS: frozenset[str] = frozenset(("filename", "data"))
 
 
 def mesh_file_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1677,7 +1677,7 @@ def uv_coordinate_to_dict(msg: Any) -> UVCoordinateDict:
     }
 
 
-UV_COORDINATE_KEYS = frozenset(("u", "v"))
+UV_COORDINATE_KEYS: frozenset[str] = frozenset(("u", "v"))
 
 
 def uv_coordinate_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1711,7 +1711,7 @@ def get_interactive_markers_request_to_dict(msg: Any) -> GetInteractiveMarkersRe
     return {}
 
 
-GET_INTERACTIVE_MARKERS_REQUEST_KEYS = frozenset()
+GET_INTERACTIVE_MARKERS_REQUEST_KEYS: frozenset[str] = frozenset()
 
 
 def get_interactive_markers_request_from_dict(data: Mapping[str, Any]) -> Any:
@@ -1882,7 +1882,7 @@ def get_interactive_markers_response_to_dict(msg: Any) -> GetInteractiveMarkersR
     }
 
 
-GET_INTERACTIVE_MARKERS_RESPONSE_KEYS = frozenset(("sequence_number", "markers"))
+GET_INTERACTIVE_MARKERS_RESPONSE_KEYS: frozenset[str] = frozenset(("sequence_number", "markers"))
 
 
 def get_interactive_markers_response_from_dict(data: Mapping[str, Any]) -> Any:
@@ -2082,7 +2082,7 @@ def get_interactive_markers_event_to_dict(msg: Any) -> GetInteractiveMarkersEven
     }
 
 
-GET_INTERACTIVE_MARKERS_EVENT_KEYS = frozenset(("info", "request", "response"))
+GET_INTERACTIVE_MARKERS_EVENT_KEYS: frozenset[str] = frozenset(("info", "request", "response"))
 
 
 def get_interactive_markers_event_from_dict(data: Mapping[str, Any]) -> Any:

@@ -68,7 +68,20 @@ def slow_pack(packer: struct.Struct, label: RunLabel, values: Sequence[Any]) -> 
     try:
         return packer.pack(*converted)
     except (struct.error, OverflowError, TypeError) as error:
-        raise FieldError(label[0][0], f"cannot encode ({error})") from None
+        raise _pack_failure(packer.format[0], label, converted, error) from None
+
+
+def _pack_failure(
+    order: str, label: RunLabel, values: Sequence[Any], error: Exception
+) -> FieldError:
+    """The error for a run that passed its checks and still did not pack, naming the value that
+    does not pack on its own: the run packs several fields, and the first may be innocent."""
+    for (segment, kind, _), value in zip(label, values, strict=True):
+        try:
+            struct.pack(order + STRUCT_CODES[kind], value)
+        except (struct.error, OverflowError, TypeError) as own_error:
+            return FieldError(segment, f"cannot encode ({own_error})")
+    return FieldError(label[0][0], f"cannot encode ({error})")
 
 
 def encode_failure(error: BaseException, label: str, data: Any) -> FieldError:

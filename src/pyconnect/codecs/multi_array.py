@@ -18,6 +18,7 @@ import numpy.typing as npt
 from pyconnect.codecs.base import FieldsCodec
 from pyconnect.codecs.buffers import ARRAY_TYPECODES, numeric_view
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
+from pyconnect.typesys.primitives import FLOAT32_OVERFLOW
 
 DTYPES: dict[str, str] = {
     "ByteMultiArray": "uint8",
@@ -128,9 +129,10 @@ class MultiArrayCodec(FieldsCodec):
             if overflow.any():
                 index = np.unravel_index(int(np.flatnonzero(overflow)[0]), value.shape)
                 where = "".join(f"[{int(i)}]" for i in index)
+                # float32, the only narrower float of ROS arrays: check_float32's words
                 raise EncodeError(
                     f"{self.name}.data{where}: expected {self.dtype.name} "
-                    f"(|x| <= {float(np.finfo(self.dtype).max):.8g}), got {float(value[index])!r}"
+                    f"(|x| < {FLOAT32_OVERFLOW!r}), got {float(value[index])!r}"
                 )
         return cast
 

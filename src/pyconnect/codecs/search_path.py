@@ -19,10 +19,14 @@ import os
 import sys
 from collections.abc import MutableSequence
 from pathlib import Path
+from typing import TypeVar
 
 ENV_VAR = "PYCONNECT_CODEC_PATH"
 CODECS_FOLDER = "pyconnect_codecs"
 GENERATED_PACKAGE = "pyconnect_generated"
+# `extend` returns the very object it is given, typed as given: a package's
+# `__path__ = extend(__path__)` keeps the `list[str]` mypy knows `__path__` as.
+PathList = TypeVar("PathList", bound=MutableSequence[str])
 
 
 def codec_folders() -> list[str]:
@@ -45,7 +49,7 @@ def codec_folders() -> list[str]:
     return found
 
 
-def extend(package_path: MutableSequence[str]) -> MutableSequence[str]:
+def extend(package_path: PathList) -> PathList:
     """``package_path`` (a ``__path__``) with the search path's folders appended, in place."""
     for folder in codec_folders():
         if folder not in package_path:

@@ -60,5 +60,10 @@ FLOAT_NAMES = ("float32", "float64")
 # uint8, byte and char arrays and sequences are ``bytes`` in dicts.
 BYTE_NAMES = frozenset(("byte", "char", "uint8"))
 FLOAT32_MAX = 3.4028234663852886e38
+# The smallest magnitude a float32 conversion turns into inf: FLOAT32_MAX plus half its unit in
+# the last place (2**104); at that tie, round-half-to-even goes up, FLOAT32_MAX's mantissa being
+# odd. struct.pack("<f") and rclpy's C conversion round anything smaller to a finite float32
+# (3.4028235e38, numpy's print of FLOAT32_MAX, becomes FLOAT32_MAX), and raise or give inf here.
+FLOAT32_OVERFLOW = FLOAT32_MAX + 2.0**103
 # The .msg field types that are not messages: the primitives and the two string types.
 MSG_BUILTIN_NAMES = frozenset((*PRIMITIVE_NAMES, "string", "wstring"))

@@ -67,8 +67,8 @@ def test_laser_scan_errors() -> None:
     for ranges, text in [
         (["a"], "LaserScan.ranges[0]: expected float, got str"),
         ([1.0, True], "LaserScan.ranges[1]: expected float, got bool"),
-        ([1.0, 2.0, 1e39], "LaserScan.ranges[2]: expected float32 (|x| <= 3.4028235e+38), got 1e+39"),
-        (np.array([1e39]), "LaserScan.ranges[0]: expected float32 (|x| <= 3.4028235e+38), got 1e+39"),
+        ([1.0, 2.0, 1e39], "LaserScan.ranges[2]: expected float32 (|x| < 3.4028235677973366e+38), got 1e+39"),
+        (np.array([1e39]), "LaserScan.ranges[0]: expected float32 (|x| < 3.4028235677973366e+38), got 1e+39"),
         (np.zeros((2, 2), np.float32), "LaserScan.ranges: expected a 1-D sequence, got shape (2, 2)"),
         ("12", "LaserScan.ranges: expected list, got str"),
     ]:
@@ -246,9 +246,9 @@ def test_multi_array_layout_cannot_claim_more_than_its_data() -> None:
     [
         # float64 -> float32 made 1e300 an inf with only a numpy warning.
         ("Float32MultiArray", np.array([1.0, 1e300]),
-         "Float32MultiArray.data[1]: expected float32 (|x| <= 3.4028235e+38), got 1e+300"),
+         "Float32MultiArray.data[1]: expected float32 (|x| < 3.4028235677973366e+38), got 1e+300"),
         ("Float32MultiArray", np.array([[1.0, 2.0], [3.0, -1e300]]),
-         "Float32MultiArray.data[1][1]: expected float32 (|x| <= 3.4028235e+38), got -1e+300"),
+         "Float32MultiArray.data[1][1]: expected float32 (|x| < 3.4028235677973366e+38), got -1e+300"),
         ("UInt8MultiArray", np.array([True, False]), "UInt8MultiArray.data: expected uint8 values, got bool"),
         # No dimension to write: it came back of shape (1,).
         ("Float64MultiArray", np.array(2.5),

@@ -117,7 +117,7 @@ def test_ints_and_numpy_values_are_accepted() -> None:
         (
             "geometry_msgs/Point32",
             (1e39, 0.0, 0.0),
-            ("Point32.x: expected float32 (|x| <= 3.4028235e+38), got 1e+39"),
+            ("Point32.x: expected float32 (|x| < 3.4028235677973366e+38), got 1e+39"),
         ),
         (
             "geometry_msgs/PoseArray",
