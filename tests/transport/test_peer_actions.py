@@ -9,7 +9,8 @@ from typing import Any
 
 import pytest
 
-from tests.transport.conftest import PeerFactory
+from pyconnect.transport import action_wire as aw
+from tests.transport.conftest import PeerFactory, wait_for
 
 TIMEOUT = 30.0
 FIBONACCI = "test_msgs/action/Fibonacci"
@@ -34,6 +35,12 @@ def pair(make_peer: PeerFactory, handler: Any, **client_options: Any) -> Any:
     )
     client_peer.wait_until_connected(timeout=TIMEOUT)
     return server, client
+
+
+def new_thread(before: set[threading.Thread], name: str) -> threading.Thread:
+    """The thread called ``name`` started since ``before`` (another test's may still end)."""
+    [thread] = [t for t in threading.enumerate() if t.name == name and t not in before]
+    return thread
 
 
 def test_goal_feedback_and_result(make_peer: PeerFactory) -> None:
@@ -189,11 +196,13 @@ def test_a_goal_that_ends_after_its_server_shut_down_raises_nothing(
     while not all(goal.response is not None for goal in server._goals.values()):
         assert time.monotonic() < deadline
         time.sleep(0.01)
-    # The client learns the server is gone: its waiting result request gets an error reply.
+    # Still running when close's timeout ran out: aborted as CustomNode does, and what the
+    # handler returned afterwards is dropped.
     assert future.result(TIMEOUT) == {
+        "sequence": [],
         "isdone": False,
-        "error": f"agent 'fib' (action_client {FIBONACCI}): the server of "
-        "/fib/_action/get_result failed: request dropped: the server is shutting down",
+        "error": f"agent 'fib' (action_client {FIBONACCI}): goal aborted by the server: "
+        "server is shutting down",
     }
 
 
@@ -301,3 +310,167 @@ def test_a_zenoh_error_on_a_peer_still_running_fails_the_goal_naming_the_call(
         "error": f"agent 'fib' (action_client {FIBONACCI}): the call to "
         "/fib/_action/send_goal failed: session closed",
     }
+
+
+# -- shutdown: CustomNode's contract (a finished goal succeeds, a running one is aborted) -------
+
+
+def test_a_goal_whose_handler_returns_during_shutdown_succeeds(
+    make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    running, release = threading.Event(), threading.Event()
+
+    def plain(goal: dict[str, Any]) -> dict[str, Any]:
+        running.set()
+        release.wait(TIMEOUT)
+        return {"sequence": [1, 2, 3]}
+
+    server, client = pair(make_peer, plain)
+    before = set(threading.enumerate())
+    future = client.send({"order": 1}, timeout=TIMEOUT, block=False)
+    assert running.wait(TIMEOUT)
+    goal = new_thread(before, "pyconnect-goal-fib")
+    join = goal.join
+
+    def release_then_join(timeout: float | None = None) -> None:
+        release.set()  # the handler returns while its server waits for it at shutdown
+        join(timeout)
+
+    monkeypatch.setattr(goal, "join", release_then_join)
+    server.peer.shutdown()
+    assert release.is_set()
+    assert future.result(TIMEOUT) == {"sequence": [1, 2, 3], "isdone": True}
+
+
+def test_a_generator_goal_running_at_shutdown_is_aborted_as_shutting_down(
+    make_peer: PeerFactory,
+) -> None:
+    started, closed = threading.Event(), threading.Event()
+
+    def forever(goal: dict[str, Any]) -> Iterator[dict[str, Any]]:
+        try:
+            while True:
+                started.set()
+                yield {"sequence": [1]}
+        finally:
+            closed.set()
+
+    server, client = pair(make_peer, forever)
+    future = client.send({"order": 1}, timeout=TIMEOUT, block=False)
+    assert started.wait(TIMEOUT)
+    server.peer.shutdown()  # stops the generator at its next yield
+    assert closed.is_set()
+    assert future.result(TIMEOUT) == {
+        "sequence": [],
+        "isdone": False,
+        "error": f"agent 'fib' (action_client {FIBONACCI}): goal aborted by the server: "
+        "server is shutting down",
+    }
+
+
+def test_a_stop_action_that_shuts_its_own_peer_down_sends_its_result(
+    make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The README's "stop" handler on an action: its result arrives, as a stop service's reply
+    does, even when the client asks for it only after the goal ended (the server waits)."""
+    peers: list[Any] = []
+
+    def stop(goal: dict[str, Any]) -> dict[str, Any]:
+        peers[0].shutdown()  # on the goal's thread: the shutdown runs on a thread of its own
+        return {"sequence": [7]}
+
+    server, client = pair(make_peer, stop)
+    peers.append(server.peer)
+    ask = client._get_result.call
+
+    def ask_once_the_goal_ended(payload: bytes, deadline: float | None) -> bytes:
+        assert wait_for(lambda: all(goal.response for goal in server._goals.values()))
+        result: bytes = ask(payload, deadline)
+        return result
+
+    monkeypatch.setattr(client._get_result, "call", ask_once_the_goal_ended)
+    assert client.send({"order": 1}, timeout=TIMEOUT) == {"sequence": [7], "isdone": True}
+    assert server.peer.wait_for_shutdown(TIMEOUT)
+
+
+# -- the future of send(block=False) --------------------------------------------------------
+
+
+def test_cancelling_the_future_cancels_the_goal(
+    make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    started, closed = threading.Event(), threading.Event()
+    crashes: list[Any] = []
+    monkeypatch.setattr(threading, "excepthook", crashes.append)
+
+    def forever(goal: dict[str, Any]) -> Iterator[dict[str, Any]]:
+        try:
+            while True:
+                started.set()
+                yield {"sequence": [1]}
+        finally:
+            closed.set()
+
+    results: list[Any] = []
+    server, client = pair(make_peer, forever, response_func=results.append)
+    before = set(threading.enumerate())
+    future = client.send({"order": 1}, timeout=TIMEOUT, block=False)
+    thread = new_thread(before, "pyconnect-fib-goal")
+    assert started.wait(TIMEOUT)
+    assert future.cancel()
+    assert closed.wait(TIMEOUT)  # the server canceled the goal
+    thread.join(TIMEOUT)
+    assert not thread.is_alive()
+    assert future.cancelled()
+    assert [goal.status for goal in server._goals.values()] == [aw.CANCELED]
+    assert crashes == []
+    assert client.last_error is None
+    assert results == []  # nobody waits for this outcome any more
+
+
+def test_cancelling_the_future_at_once_leaves_no_goal_running(
+    make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Cancelled before the goal was sent or accepted: it is never sent, or canceled once
+    accepted (a goal left running would keep the client's thread waiting for ever)."""
+    crashes: list[Any] = []
+    monkeypatch.setattr(threading, "excepthook", crashes.append)
+
+    def forever(goal: dict[str, Any]) -> Iterator[dict[str, Any]]:
+        while True:
+            yield {"sequence": [1]}
+
+    server, client = pair(make_peer, forever)
+    before = set(threading.enumerate())
+    future = client.send({"order": 1}, block=False)
+    thread = new_thread(before, "pyconnect-fib-goal")
+    assert future.cancel()
+    thread.join(TIMEOUT)
+    assert not thread.is_alive()
+    assert all(goal.status == aw.CANCELED for goal in server._goals.values())
+    assert crashes == []
+    assert client.last_error is None
+
+
+# -- timeouts ------------------------------------------------------------------------------
+
+
+def test_a_goal_request_nobody_answers_times_out_as_such(
+    make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """zenoh ends the send_goal query at the timeout with an error reply of its own: that is
+    no failure of the server."""
+    from pyconnect.transport.action_server import ActionServerAgent
+
+    held: list[Any] = []
+    monkeypatch.setattr(ActionServerAgent, "_on_goal", lambda _self, request: held.append(request))
+    _server, client = pair(make_peer, fibonacci)
+    try:
+        assert client.send({"order": 1}, timeout=0.2) == {
+            "isdone": False,
+            "error": f"agent 'fib' (action_client {FIBONACCI}): no response from the action "
+            "server within 0.2 s",
+        }
+    finally:
+        for request in held:
+            request.reply_error("test over")

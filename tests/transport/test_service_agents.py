@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import concurrent.futures
+import threading
 from collections.abc import Iterator
 from typing import Any
 
@@ -66,7 +67,7 @@ def test_an_unexpected_error_in_the_call_fails_it_and_is_reported(
 ) -> None:
     client, _answers = client_and_server
 
-    def broken(payload: bytes, deadline: float | None) -> bytes:
+    def broken(payload: bytes, deadline: float | None, *, cancel: Any = None) -> bytes:
         raise RuntimeError("zenoh went wrong")
 
     monkeypatch.setattr(client._caller, "call", broken)
@@ -85,7 +86,7 @@ def test_keyboard_interrupt_in_the_call_is_not_swallowed(
 ) -> None:
     client, _answers = client_and_server
 
-    def interrupted(payload: bytes, deadline: float | None) -> bytes:
+    def interrupted(payload: bytes, deadline: float | None, *, cancel: Any = None) -> bytes:
         raise KeyboardInterrupt
 
     monkeypatch.setattr(client._caller, "call", interrupted)
@@ -150,4 +151,61 @@ def test_a_call_in_flight_when_its_peer_shuts_down_fails_as_shut_down(
     client_peer, client = set_bool_pair(make_peer, shut_the_client_down)
     peers.append(client_peer)
     assert client.send({"data": True}) == SHUT_DOWN  # not "the server ... went away ..."
+    assert client.error_count == 0
+
+
+def test_a_call_nobody_answers_in_time_times_out_as_such(
+    client_and_server: tuple[Any, list[Any]],
+) -> None:
+    """zenoh ends the query at the timeout with an error reply of its own ("Timeout"): that
+    is no failure of the server."""
+    client, answers = client_and_server
+    held: list[Any] = []
+    answers.append(held.append)
+    try:
+        assert client.send(timeout=0.2) == {
+            "isdone": False,
+            "error": f"{AGENT}: no response from {SERVICE} within 0.2 s",
+        }
+    finally:
+        for query in held:
+            query.drop()
+
+
+def test_a_server_error_saying_timeout_is_still_the_servers(
+    client_and_server: tuple[Any, list[Any]],
+) -> None:
+    client, answers = client_and_server
+    answers.append(lambda query: query.reply_err("Timeout"))
+    assert client.send(timeout=TIMEOUT) == {
+        "isdone": False,
+        "error": f"{AGENT}: the server of {SERVICE} failed: Timeout",
+    }
+
+
+def test_cancelling_the_future_drops_the_call(
+    make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    crashes: list[Any] = []
+    monkeypatch.setattr(threading, "excepthook", crashes.append)
+    handling, release = threading.Event(), threading.Event()
+
+    def slow(_request: Any) -> dict[str, Any]:
+        handling.set()
+        release.wait(TIMEOUT)
+        return {"success": True}
+
+    _client_peer, client = set_bool_pair(make_peer, slow)
+    try:
+        before = set(threading.enumerate())
+        future = client.send({"data": True}, block=False)
+        [thread] = [t for t in set(threading.enumerate()) - before if t.name.endswith("-call")]
+        assert handling.wait(TIMEOUT)
+        assert future.cancel()
+        thread.join(TIMEOUT)  # the call ends now, not when the server answers
+        assert not thread.is_alive()
+    finally:
+        release.set()
+    assert future.cancelled()
+    assert crashes == []
     assert client.error_count == 0

@@ -6,7 +6,8 @@ it through ``reform_response`` (a dict result gets ``'isdone': True``); a reject
 aborted goal, a missing or vanished server, a timeout or the shutdown of the client's peer
 (``"... peer '<name>' is shut down"``, before or during the call) give ``{'isdone': False,
 'error': ...}`` (plus the result's fields when it is a dict). A timeout cancels the goal.
-``block=False`` returns a ``concurrent.futures.Future``. ``accepted_func(accepted)``,
+``block=False`` returns a ``concurrent.futures.Future``; cancelling it cancels the goal (sent
+or not yet) and ``response_func`` does not see its outcome. ``accepted_func(accepted)``,
 ``feedback_func(value)`` and ``response_func(value)`` are called as there (an ``async def`` one
 is awaited); the latest feedback is ``last_feedback``.
 
@@ -19,6 +20,7 @@ from __future__ import annotations
 
 import collections
 import concurrent.futures
+import contextlib
 import threading
 import time
 import uuid
@@ -134,17 +136,32 @@ class ActionClientAgent(PeerAgent):
         timeout = self.timeout if timeout is None else timeout
         feedback_func = self.feedback_func if feedback_func is None else feedback_func
         goal = aw.nested(self.interface.goal, self.goal_conversion.encode(data))
+        in_flight = _GoalInFlight(uuid.uuid4().bytes, feedback_func)
         if block:
-            return self._respond(self._run_goal(goal, feedback_func, timeout))
+            return self._respond(self._run_goal(in_flight, goal, timeout))
         result: concurrent.futures.Future[Any] = concurrent.futures.Future()
 
+        def cancel_if_cancelled(future: concurrent.futures.Future[Any]) -> None:
+            # The caller gave up, as on a CustomNode: the goal is canceled, its result dropped.
+            if future.cancelled():
+                self._cancel_goals([in_flight], wait=False)
+
         def run() -> None:
+            # The caller may cancel the future at any moment: it then stays cancelled, and
+            # response_func does not see the outcome nobody asked for any more.
             try:
-                result.set_result(self._respond(self._run_goal(goal, feedback_func, timeout)))
+                value = self._run_goal(in_flight, goal, timeout)
+                if not result.cancelled():
+                    value = self._respond(value)
             except Exception as error:
                 self.report_exception("send", error)
-                result.set_exception(error)
+                with contextlib.suppress(concurrent.futures.InvalidStateError):
+                    result.set_exception(error)
+                return
+            with contextlib.suppress(concurrent.futures.InvalidStateError):
+                result.set_result(value)
 
+        result.add_done_callback(cancel_if_cancelled)
         threading.Thread(target=run, name=f"pyconnect-{self.name}-goal", daemon=True).start()
         return result
 
@@ -158,15 +175,20 @@ class ActionClientAgent(PeerAgent):
         return value
 
     def _run_goal(
-        self, goal: dict[str, Any], feedback_func: ResponseFunc | None, timeout: float | None
+        self, in_flight: _GoalInFlight, goal: dict[str, Any], timeout: float | None
     ) -> Any:
         deadline = None if timeout is None else time.monotonic() + timeout
-        if not self.peer.wait_for_graph(self._server_ready, deadline):
+
+        def can_send() -> bool:
+            return in_flight.cancel_asked or self._server_ready()
+
+        if not self.peer.wait_for_graph(can_send, deadline):
             return self._failed(
                 self.why_no_answer(f"no action server for {self.conn_name}", timeout)
             )
-        in_flight = _GoalInFlight(uuid.uuid4().bytes, feedback_func)
         with self._lock:
+            if in_flight.cancel_asked:  # canceled before it was sent: it never will be
+                return self._failed("goal canceled")
             self._in_flight[in_flight.goal_id] = in_flight
         try:
             return self._goal_outcome(in_flight, goal, deadline, timeout)
@@ -212,7 +234,7 @@ class ActionClientAgent(PeerAgent):
         except CallFailed as failure:
             if not self.peer.ok():  # no cancel: this peer can no longer send one
                 return self._failed(self.why_no_answer("no result", timeout))
-            if deadline is not None and time.monotonic() >= deadline:
+            if failure.timed_out or (deadline is not None and time.monotonic() >= deadline):
                 self._request_cancel(in_flight.goal_id)
                 return self._failed(f"no result within {timeout} s (goal canceled)")
             return self._failed(str(failure))
@@ -259,12 +281,34 @@ class ActionClientAgent(PeerAgent):
         """Cancel every goal of this agent in flight (accepted or not yet); how many."""
         with self._lock:
             goals = list(self._in_flight.values())
+        self._cancel_goals(goals, wait=True)
+        return len(goals)
+
+    def _cancel_goals(self, goals: list[_GoalInFlight], *, wait: bool) -> None:
+        """Ask the server to cancel the accepted ones; the others are canceled when accepted
+        (or never sent). ``wait=False``: the requests go from a thread of their own."""
+        with self._lock:
             for goal in goals:
                 goal.cancel_asked = True
-            accepted = [goal.goal_id for goal in goals if goal.accepted]
-        for goal_id in accepted:
-            self._request_cancel(goal_id)
-        return len(goals)
+            # A goal that ended is no longer in flight: nothing to cancel.
+            accepted = [g.goal_id for g in goals if g.accepted and g.goal_id in self._in_flight]
+        if not accepted:
+            return
+        if wait:
+            for goal_id in accepted:
+                self._request_cancel(goal_id)
+            return
+
+        def request_cancels() -> None:
+            for goal_id in accepted:
+                try:
+                    self._request_cancel(goal_id)
+                except Exception as error:  # nobody waits for this thread: say what happened
+                    self.report_exception("cancel", error)
+
+        threading.Thread(
+            target=request_cancels, name=f"pyconnect-{self.name}-cancel", daemon=True
+        ).start()
 
     def _request_cancel(self, goal_id: bytes) -> None:
         request = self.interface.cancel_goal.request.from_dict(

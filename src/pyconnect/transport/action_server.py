@@ -12,11 +12,15 @@ field (``message``, ``error``...) and on the abort-reason topic (action_wire).
 
 Finished goals stay in the status list ``result_timeout`` seconds and answer late
 ``get_result`` requests ``result_cache_seconds`` seconds, as CustomNode's server does.
+
+At shutdown, as on CustomNode, a goal whose handler returns still succeeds with its result, and
+one still running is aborted with ``"server is shutting down"``: a generator at its next yield,
+any other once ``close``'s timeout has passed (its thread is not stopped; what it returns later
+is dropped). ``cancel_requested`` stays a client's request: a shutdown is not a cancel.
 """
 
 from __future__ import annotations
 
-import contextlib
 import inspect
 import threading
 import time
@@ -34,6 +38,10 @@ from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc
 DEFAULT_RESULT_TIMEOUT = 0.05
 DEFAULT_RESULT_CACHE_SECONDS = 60.0
 
+SHUTTING_DOWN = "server is shutting down"
+"""The abort reason of a goal still running at shutdown: CustomNode's text
+(pyconnect.ros.service_agents, which this rclpy-free module cannot import)."""
+
 
 class _Goal:
     """One accepted goal: its state, its result once there, and who waits for it."""
@@ -43,6 +51,8 @@ class _Goal:
         self.stamp = stamp
         self.status = aw.ACCEPTED
         self.cancel_requested = threading.Event()
+        self.ended = False  # claimed by whoever gives the goal its final state (_end)
+        self.result_asked = False  # a get_result request for it has arrived
         self.response: bytes | None = None  # the GetResult response, once finished
         self.finished_at = 0.0
         self.waiting: list[Request] = []
@@ -88,7 +98,11 @@ class ActionServerAgent(PeerAgent):
         self._goals: dict[bytes, _Goal] = {}
         self._running: set[threading.Thread] = set()  # goal threads, joined on close
         self._lock = threading.Lock()
+        self._result_asked = threading.Condition(self._lock)
         self._closed = False
+        # Set when close begins: generator goals stop at their next yield (aborted, not
+        # canceled: no client asked). Apart from cancel_requested, which only clients set.
+        self._shutting_down = threading.Event()
         name = self.topic
         self._feedback = Writer(peer, aw.part_name(name, aw.FEEDBACK), interface.feedback_message)
         self._status = Writer(
@@ -154,6 +168,9 @@ class ActionServerAgent(PeerAgent):
         with self._lock:
             self._forget_expired()
             goal = self._goals.get(goal_id)
+            if goal is not None:
+                goal.result_asked = True
+                self._result_asked.notify_all()
             if goal is not None and goal.response is None:
                 goal.waiting.append(request)  # answered when the goal ends
                 return
@@ -226,23 +243,22 @@ class ActionServerAgent(PeerAgent):
                 else:
                     outcome = settle(self._handler(value))
                 if inspect.isgenerator(outcome) or inspect.isasyncgen(outcome):
-                    finished, outcome = _drive(outcome, goal, publisher)
+                    finished, outcome = _drive(outcome, goal, publisher, self._shutting_down)
                     if not finished:
-                        self._finish(goal, aw.CANCELED, {})
+                        if goal.cancel_requested.is_set():
+                            self._end(goal, aw.CANCELED, {})
+                        else:  # stopped by the shutdown
+                            self._abort(goal, SHUTTING_DOWN)
                         return
             finally:
                 publisher.close()
             where = "encode"
             result = {} if outcome is None else self._result_dict(outcome)
             status = aw.CANCELED if goal.cancel_requested.is_set() else aw.SUCCEEDED
-            self._finish(goal, status, result)
+            self._end(goal, status, result)
         except Exception as error:
             self.report_exception(where, error)
-            text = f"{type(error).__name__}: {error}"
-            # Published before the result is, so a client finds it when the abort arrives.
-            reason = {"key": goal.goal_id.hex(), "value": text}
-            self._abort_reasons.put(self._abort_reasons.codec.from_dict(reason))
-            self._finish(goal, aw.ABORTED, aw.error_result(self.interface.result, text))
+            self._abort(goal, f"{type(error).__name__}: {error}")
 
     def _result_dict(self, outcome: Any) -> dict[str, Any]:
         return aw.nested(self.interface.result, self.result_conversion.encode(outcome))
@@ -251,6 +267,30 @@ class ActionServerAgent(PeerAgent):
         feedback = aw.nested(self.interface.feedback, self.feedback_conversion.encode(value))
         message = {"goal_id": {"uuid": goal.goal_id}, "feedback": feedback}
         self._feedback.put(self.interface.feedback_message.codec.from_dict(message))
+
+    def _abort(self, goal: _Goal, text: str) -> None:
+        """End ``goal`` aborted with ``text`` (the result's text field, the abort-reason topic),
+        unless it has ended already."""
+        if not self._claim(goal):
+            return
+        # Published before the result is, so a client finds it when the abort arrives.
+        reason = {"key": goal.goal_id.hex(), "value": text}
+        try:
+            self._abort_reasons.put(self._abort_reasons.codec.from_dict(reason))
+        except Exception as error:  # the goal has been claimed: it must still get its result
+            self.report_exception("abort reason", error)
+        self._finish(goal, aw.ABORTED, aw.error_result(self.interface.result, text))
+
+    def _end(self, goal: _Goal, status: int, result: dict[str, Any]) -> None:
+        """End ``goal`` with ``status``, unless it has ended already (aborted at shutdown)."""
+        if self._claim(goal):
+            self._finish(goal, status, result)
+
+    def _claim(self, goal: _Goal) -> bool:
+        """Whether the caller is the one to end ``goal`` (a goal ends once)."""
+        with self._lock:
+            claimed, goal.ended = not goal.ended, True
+            return claimed
 
     def _finish(self, goal: _Goal, status: int, result: dict[str, Any]) -> None:
         response = self.interface.get_result.response.from_dict(
@@ -301,21 +341,29 @@ class ActionServerAgent(PeerAgent):
     def close(self, timeout: float = 5.0) -> None:
         with self._lock:
             self._closed = True
-            for goal in self._goals.values():
-                goal.cancel_requested.set()
+            self._shutting_down.set()
             running = [t for t in self._running if t is not threading.current_thread()]
-        # Goals asked to cancel get ``timeout`` seconds to send their result while the session
-        # is open (a goal thread left inside zenoh at interpreter exit aborts the process).
+            active = [goal for goal in self._goals.values() if not goal.ended]
+        # Running goals get ``timeout`` seconds to send their result while the session is open
+        # (a goal thread left inside zenoh at interpreter exit aborts the process).
         deadline = time.monotonic() + timeout
         for thread in running:
             thread.join(max(0.0, deadline - time.monotonic()))
-        with self._lock:  # goals still running: their result requests would go unanswered
-            waiting = [request for goal in self._goals.values() for request in goal.waiting]
-            for goal in self._goals.values():
-                goal.waiting = []
-        for request in waiting:
-            with contextlib.suppress(Exception):
-                request.reply_error("request dropped: the server is shutting down")
+        with self._lock:
+            unfinished = [goal for goal in active if not goal.ended]
+        for goal in unfinished:  # their clients hear now instead of waiting their timeout
+            try:
+                self._abort(goal, SHUTTING_DOWN)
+            except Exception as error:  # the others still end
+                self.report_exception("abort at shutdown", error)
+        # A client asks for the result once its goal is accepted: a goal that ended quickly
+        # (a "stop" action shutting its own peer down) may end before that request arrives,
+        # and closing the server first would lose the result.
+        with self._result_asked:
+            self._result_asked.wait_for(
+                lambda: all(goal.result_asked for goal in active),
+                max(0.0, deadline - time.monotonic()),
+            )
         for server in self._servers:
             server.close()
         for writer in (self._feedback, self._status, self._abort_reasons):
@@ -351,15 +399,22 @@ class FeedbackPublisher:
             self._open = False
 
 
-def _drive(generator: Any, goal: _Goal, publish: FeedbackPublisher) -> tuple[bool, Any]:
-    """Run a generator handler: (True, result) at its end, (False, None) when canceled.
+def _drive(
+    generator: Any, goal: _Goal, publish: FeedbackPublisher, shutting_down: threading.Event
+) -> tuple[bool, Any]:
+    """Run a generator handler: (True, result) at its end, (False, None) when canceled or
+    stopped by the shutdown.
 
     An async generator has no return value: its result is its last yield. It runs on the goal
     thread's loop (``_execute`` scopes it), which closes it if it is left unfinished.
     """
+
+    def stopped() -> bool:
+        return goal.cancel_requested.is_set() or shutting_down.is_set()
+
     if inspect.isasyncgen(generator):
         last: Any = None
-        while not goal.cancel_requested.is_set():
+        while not stopped():
             try:
                 last = run_coroutine(generator.__anext__())
             except StopAsyncIteration:
@@ -368,7 +423,7 @@ def _drive(generator: Any, goal: _Goal, publish: FeedbackPublisher) -> tuple[boo
                 publish(last)
         run_coroutine(generator.aclose())
         return False, None
-    while not goal.cancel_requested.is_set():
+    while not stopped():
         try:
             feedback = next(generator)
         except StopIteration as stop:

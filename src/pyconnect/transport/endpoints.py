@@ -4,7 +4,7 @@ A service agent is one ``Server`` or one ``Caller``; rcl_action builds an action
 services and two topics, so a peer's action agents are made of the same entities, each with its
 token (see rmw_zenoh_keys for the formats): ``Writer`` (publisher), ``Reader`` (subscription),
 ``Server`` (a queryable answering each query once, possibly later and from another thread) and
-``Caller`` (a client sending one query per call).
+``Caller`` (a client sending one query per call, which a ``CallCancel`` ends early).
 """
 
 # zenoh's stubs leave undeclare() and close() unannotated.
@@ -27,6 +27,9 @@ from pyconnect.transport.peer_agent import Inbox, Peer
 
 # A call without a timeout still ends: zenoh needs one; a day is "never" here.
 NO_TIMEOUT = 86400.0
+
+# The error reply zenoh itself delivers when a query's timeout ends it.
+ZENOH_TIMEOUT_REPLY = b"Timeout"
 
 
 class Writer:
@@ -207,6 +210,24 @@ class Server:
         self._inbox.close()
 
 
+class CallCancel:
+    """Ends the calls it is given to at once, from any thread: ``cancel()``."""
+
+    def __init__(self) -> None:
+        # Set before zenoh's token is cancelled: the token may end a query before it reports
+        # is_cancelled, and the call must still know why its query ended.
+        self._cancelled = threading.Event()
+        self.token = zenoh.CancellationToken()
+
+    @property
+    def cancelled(self) -> bool:
+        return self._cancelled.is_set()
+
+    def cancel(self) -> None:
+        self._cancelled.set()
+        self.token.cancel()
+
+
 class CallFailed(Exception):
     """A call got no response: the text says why (vanished, error, this peer's shutdown, or
     ``timed_out``)."""
@@ -239,13 +260,21 @@ class Caller:
     def server_count(self) -> int:
         return self._peer.graph.count(kind=keys.SERVICE, name=self.name)
 
-    def call(self, payload: bytes, deadline: float | None) -> bytes:
-        """The response's CDR bytes; ``CallFailed`` when none comes by ``deadline``."""
+    def call(
+        self,
+        payload: bytes,
+        deadline: float | None,
+        *,
+        cancel: CallCancel | None = None,
+    ) -> bytes:
+        """The response's CDR bytes; ``CallFailed`` when none comes by ``deadline`` or
+        ``cancel`` is cancelled (the query ends at once, its reply is never read)."""
         with self._lock:
             self._sequence += 1
             sequence = self._sequence
         attachment = keys.pack_attachment(sequence, time.time_ns(), self.gid)
         remaining = NO_TIMEOUT if deadline is None else max(0.001, deadline - time.monotonic())
+        expiry = time.monotonic() + remaining  # zenoh's timer starts after this, never before
         try:
             replies: Any = self._peer.session.get(
                 self.key,
@@ -254,25 +283,35 @@ class Caller:
                 timeout=remaining,
                 payload=payload,
                 attachment=attachment,
+                cancellation_token=None if cancel is None else cancel.token,
             )
         except zenoh.ZError as error:  # "session closed": the peer shut down since the check
+            if cancel is not None and cancel.cancelled:
+                raise self._cancelled() from error
             if not self._peer.ok():
                 raise self._shut_down() from error
             raise CallFailed(f"the call to {self.name} failed: {error}") from error
         errors: list[str] = []
+        timed_out = False
         for reply in replies:
             if reply.ok is None:
                 err = reply.err
-                # Any server may send any bytes: to_string() raises on what is not UTF-8.
-                if err is None:
+                if _is_query_timeout(reply, expiry):
+                    timed_out = True
+                elif err is None:
                     errors.append("unknown error")
                 else:
+                    # Any server may send any bytes: to_string() raises on what is not UTF-8.
                     errors.append(err.payload.to_bytes().decode(errors="replace"))
                 continue
             response: bytes = reply.ok.payload.to_bytes()
             return response
+        if cancel is not None and cancel.cancelled:
+            raise self._cancelled()
         if errors:
             raise CallFailed(f"the server of {self.name} failed: {'; '.join(errors)}")
+        if timed_out:
+            raise CallFailed(f"no response from {self.name} in time", timed_out=True)
         if not self._peer.ok():
             # Closing this peer's session ends its queries without a reply: no server's fault.
             raise self._shut_down()
@@ -288,6 +327,20 @@ class Caller:
         # The text an agent gives for any call made after its peer's shutdown (why_no_answer).
         return CallFailed(f"peer {self._peer.name!r} is shut down")
 
+    def _cancelled(self) -> CallFailed:
+        return CallFailed(f"the call to {self.name} was cancelled")
+
     def close(self) -> None:
         with contextlib.suppress(Exception):
             self._token.undeclare()
+
+
+def _is_query_timeout(reply: Any, expiry: float) -> bool:
+    """Whether ``reply`` is zenoh's own end of a query at its timeout: an error reply saying
+    "Timeout", sent by this session (no replier) or by the remote one that routed the query
+    (it expires the query too, a moment after this one). A server's error reply, whatever its
+    text, comes before the expiry: after it the query is over."""
+    err = reply.err
+    if err is None or err.payload.to_bytes() != ZENOH_TIMEOUT_REPLY:
+        return False
+    return reply.replier_id is None or time.monotonic() >= expiry

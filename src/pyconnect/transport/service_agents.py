@@ -20,7 +20,8 @@ does not reply in time or replies with an error, when the client's peer shuts do
 call (``"... peer '<name>' is shut down"``, as for a call made after), or when anything else
 goes wrong in the call (a reply that does not decode, zenoh's own errors), it returns
 ``{'isdone': False, 'error': ...}`` as ``CustomNode``'s clients do. ``block=False`` returns a
-``concurrent.futures.Future`` of the same (only a request that does not encode raises, at once).
+``concurrent.futures.Future`` of the same (only a request that does not encode raises, at once);
+cancelling it drops the call (its query ends; a late response is not read).
 """
 
 # zenoh's stubs leave undeclare() and close() unannotated.
@@ -29,13 +30,14 @@ goes wrong in the call (a reply that does not decode, zenoh's own errors), it re
 from __future__ import annotations
 
 import concurrent.futures
+import contextlib
 import threading
 import time
 from typing import Any
 
 from pyconnect.transport.async_handlers import settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
-from pyconnect.transport.endpoints import Caller, CallFailed, Request, Server
+from pyconnect.transport.endpoints import CallCancel, Caller, CallFailed, Request, Server
 from pyconnect.transport.interface_types import service_interface
 from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc, reform_response
 
@@ -178,33 +180,51 @@ class ServiceClientAgent(PeerAgent):
         payload = self.request_conversion.encode(data)
         if not block:
             result: concurrent.futures.Future[Any] = concurrent.futures.Future()
+            dropped = CallCancel()
+
+            def drop_if_cancelled(future: concurrent.futures.Future[Any]) -> None:
+                # The caller gave up, as on a CustomNode: the query ends, its reply is not read.
+                if future.cancelled():
+                    dropped.cancel()
 
             def call() -> None:
+                # The caller may cancel the future at any moment: it then stays cancelled.
                 try:
-                    result.set_result(self._call(payload, timeout))
+                    value = self._call(payload, timeout, dropped)
                 except BaseException as error:  # KeyboardInterrupt...: raised by result()
-                    result.set_exception(error)
+                    with contextlib.suppress(concurrent.futures.InvalidStateError):
+                        result.set_exception(error)
+                    return
+                with contextlib.suppress(concurrent.futures.InvalidStateError):
+                    result.set_result(value)
 
+            result.add_done_callback(drop_if_cancelled)
             threading.Thread(target=call, name=f"pyconnect-{self.name}-call", daemon=True).start()
             return result
         return self._call(payload, timeout)
 
-    def _call(self, payload: bytes, timeout: float | None) -> Any:
+    def _call(
+        self, payload: bytes, timeout: float | None, dropped: CallCancel | None = None
+    ) -> Any:
         """The decoded response, or the failure dict: whatever goes wrong, never an exception."""
         try:
-            return self._attempt(payload, timeout)
+            return self._attempt(payload, timeout, dropped)
         except Exception as error:  # zenoh's own errors, a closing session, a bug
             if not self.peer.ok():  # the session closed under the call: nothing went wrong
                 return self._failed(self.why_no_answer(f"no response from {self.topic}", timeout))
             self.report_exception("call", error)
             return self._failed(f"the call failed: {type(error).__name__}: {error}")
 
-    def _attempt(self, payload: bytes, timeout: float | None) -> Any:
+    def _attempt(self, payload: bytes, timeout: float | None, dropped: CallCancel | None) -> Any:
         deadline = None if timeout is None else time.monotonic() + timeout
-        if not self.peer.wait_for_graph(lambda: self.server_count > 0, deadline):
+
+        def can_call() -> bool:
+            return self.server_count > 0 or (dropped is not None and dropped.cancelled)
+
+        if not self.peer.wait_for_graph(can_call, deadline):
             return self._failed(self.why_no_answer(f"no server for {self.topic}", timeout))
         try:
-            response = self._caller.call(payload, deadline)
+            response = self._caller.call(payload, deadline, cancel=dropped)
         except CallFailed as failure:
             if failure.timed_out:
                 return self._failed(self.why_no_answer(f"no response from {self.topic}", timeout))

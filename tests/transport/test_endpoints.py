@@ -1,0 +1,92 @@
+"""``Caller``: how a call that gets no response says why (timeout, server error, cancel)."""
+
+from __future__ import annotations
+
+import threading
+import time
+from collections.abc import Callable, Iterator
+from typing import Any
+
+import pytest
+
+from pyconnect.transport.endpoints import CallCancel, Caller, CallFailed
+from pyconnect.transport.interface_types import service_interface
+from tests.transport.conftest import TIMEOUT, PeerFactory
+
+SERVICE = "/trigger"
+
+
+class StandIn:
+    """A bare queryable on a caller's key: ``answer(query)`` replies, or (``None``) the query
+    is held unanswered until the test ends; ``arrived`` is set by each query."""
+
+    def __init__(self) -> None:
+        self.answer: Callable[[Any], None] | None = None
+        self.held: list[Any] = []
+        self.arrived = threading.Event()
+
+    def on_query(self, query: Any) -> None:
+        if self.answer is None:
+            self.held.append(query)
+        else:
+            self.answer(query)
+            query.drop()  # the reply is final: the caller's query ends
+        self.arrived.set()
+
+
+@pytest.fixture
+def caller_and_server(make_peer: PeerFactory) -> Iterator[tuple[Caller, StandIn]]:
+    peer = make_peer("vision")
+    caller = Caller(peer, SERVICE, service_interface("std_srvs/srv/Trigger"))
+    server = StandIn()
+    queryable = peer.session.declare_queryable(caller.key, server.on_query, complete=True)
+    try:
+        yield caller, server
+    finally:
+        queryable.undeclare()
+        for query in server.held:
+            query.drop()
+
+
+def test_a_query_nobody_answers_ends_timed_out(caller_and_server: tuple[Caller, StandIn]) -> None:
+    """zenoh ends it with an error reply of its own, "Timeout": no failure of the server."""
+    caller, _server = caller_and_server
+    with pytest.raises(CallFailed) as failure:
+        caller.call(b"", time.monotonic() + 0.2)
+    assert str(failure.value) == f"no response from {SERVICE} in time"
+    assert failure.value.timed_out
+
+
+def test_a_server_error_saying_timeout_is_no_timeout(
+    caller_and_server: tuple[Caller, StandIn],
+) -> None:
+    caller, server = caller_and_server
+    server.answer = lambda query: query.reply_err("Timeout")
+    with pytest.raises(CallFailed) as failure:
+        caller.call(b"", time.monotonic() + TIMEOUT)
+    assert str(failure.value) == f"the server of {SERVICE} failed: Timeout"
+    assert not failure.value.timed_out
+
+
+def test_a_cancelled_call_ends_at_once(caller_and_server: tuple[Caller, StandIn]) -> None:
+    caller, server = caller_and_server
+    cancel = CallCancel()
+    failures: list[CallFailed] = []
+
+    def call() -> None:
+        try:
+            caller.call(b"", time.monotonic() + TIMEOUT, cancel=cancel)
+        except CallFailed as failure:
+            failures.append(failure)
+
+    thread = threading.Thread(target=call)
+    thread.start()
+    assert server.arrived.wait(TIMEOUT)
+    cancel.cancel()
+    thread.join(TIMEOUT)  # not when the query would time out
+    assert not thread.is_alive()
+    assert [str(failure) for failure in failures] == [f"the call to {SERVICE} was cancelled"]
+    assert not failures[0].timed_out
+    with pytest.raises(CallFailed) as again:  # a call with a cancelled token is not sent
+        caller.call(b"", time.monotonic() + TIMEOUT, cancel=cancel)
+    assert str(again.value) == f"the call to {SERVICE} was cancelled"
