@@ -26,10 +26,10 @@ import threading
 import time
 from typing import Any
 
-from pyconnect.errors import PyconnectError
 from pyconnect.ros.handler_shape import wants_feedback_publisher
 from pyconnect.transport import action_wire as aw
-from pyconnect.transport.async_handlers import agent_loop, run_coroutine, settle
+from pyconnect.transport.action_goal import FeedbackPublisher, ServerGoal, drive_generator
+from pyconnect.transport.async_handlers import agent_loop, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.endpoints import Request, Server, Writer
 from pyconnect.transport.interface_types import action_interface, message_interface
@@ -41,21 +41,6 @@ DEFAULT_RESULT_CACHE_SECONDS = 60.0
 SHUTTING_DOWN = "server is shutting down"
 """The abort reason of a goal still running at shutdown: CustomNode's text
 (pyconnect.ros.service_agents, which this rclpy-free module cannot import)."""
-
-
-class _Goal:
-    """One accepted goal: its state, its result once there, and who waits for it."""
-
-    def __init__(self, goal_id: bytes, stamp: dict[str, int]) -> None:
-        self.goal_id = goal_id
-        self.stamp = stamp
-        self.status = aw.ACCEPTED
-        self.cancel_requested = threading.Event()
-        self.ended = False  # claimed by whoever gives the goal its final state (_end)
-        self.result_asked = False  # a get_result request for it has arrived
-        self.response: bytes | None = None  # the GetResult response, once finished
-        self.finished_at = 0.0
-        self.waiting: list[Request] = []
 
 
 class ActionServerAgent(PeerAgent):
@@ -95,7 +80,7 @@ class ActionServerAgent(PeerAgent):
         self.result_conversion = self.wire_conversion(interface.result, encode_func=encode_func)
         self.feedback_conversion = self.wire_conversion(interface.feedback)
         self.goal_count = 0
-        self._goals: dict[bytes, _Goal] = {}
+        self._goals: dict[bytes, ServerGoal] = {}
         self._running: set[threading.Thread] = set()  # goal threads, joined on close
         self._lock = threading.Lock()
         self._result_asked = threading.Condition(self._lock)
@@ -143,7 +128,7 @@ class ActionServerAgent(PeerAgent):
         with self._lock:
             accepted = not self._closed and goal_id not in self._goals
             if accepted:
-                goal = self._goals[goal_id] = _Goal(goal_id, stamp)
+                goal = self._goals[goal_id] = ServerGoal(goal_id, stamp)
         request.reply(codecs.response.from_dict({"accepted": accepted, "stamp": stamp}))
         if not accepted:
             return
@@ -218,7 +203,7 @@ class ActionServerAgent(PeerAgent):
             self._publish_status()
 
     # -- executing a goal ----------------------------------------------------------------------
-    def _execute(self, goal: _Goal, goal_cdr: bytes) -> None:
+    def _execute(self, goal: ServerGoal, goal_cdr: bytes) -> None:
         try:
             with agent_loop():
                 self._execute_goal(goal, goal_cdr)
@@ -226,7 +211,7 @@ class ActionServerAgent(PeerAgent):
             with self._lock:
                 self._running.discard(threading.current_thread())
 
-    def _execute_goal(self, goal: _Goal, goal_cdr: bytes) -> None:
+    def _execute_goal(self, goal: ServerGoal, goal_cdr: bytes) -> None:
         with self._lock:
             if goal.status == aw.ACCEPTED:
                 goal.status = aw.EXECUTING
@@ -236,14 +221,16 @@ class ActionServerAgent(PeerAgent):
             value = self.goal_conversion.decode(goal_cdr)
             self._latest = value
             where = "response_func"
-            publisher = FeedbackPublisher(self, goal)
+            publisher = FeedbackPublisher(self.publish_feedback, goal)
             try:
                 if self._wants_feedback_publisher:
                     outcome = settle(self._handler(value, publisher))
                 else:
                     outcome = settle(self._handler(value))
                 if inspect.isgenerator(outcome) or inspect.isasyncgen(outcome):
-                    finished, outcome = _drive(outcome, goal, publisher, self._shutting_down)
+                    finished, outcome = drive_generator(
+                        outcome, goal, publisher, self._shutting_down
+                    )
                     if not finished:
                         if goal.cancel_requested.is_set():
                             self._end(goal, aw.CANCELED, {})
@@ -263,12 +250,12 @@ class ActionServerAgent(PeerAgent):
     def _result_dict(self, outcome: Any) -> dict[str, Any]:
         return aw.nested(self.interface.result, self.result_conversion.encode(outcome))
 
-    def publish_feedback(self, goal: _Goal, value: Any) -> None:
+    def publish_feedback(self, goal: ServerGoal, value: Any) -> None:
         feedback = aw.nested(self.interface.feedback, self.feedback_conversion.encode(value))
         message = {"goal_id": {"uuid": goal.goal_id}, "feedback": feedback}
         self._feedback.put(self.interface.feedback_message.codec.from_dict(message))
 
-    def _abort(self, goal: _Goal, text: str) -> None:
+    def _abort(self, goal: ServerGoal, text: str) -> None:
         """End ``goal`` aborted with ``text`` (the result's text field, the abort-reason topic),
         unless it has ended already."""
         if not self._claim(goal):
@@ -281,18 +268,18 @@ class ActionServerAgent(PeerAgent):
             self.report_exception("abort reason", error)
         self._finish(goal, aw.ABORTED, aw.error_result(self.interface.result, text))
 
-    def _end(self, goal: _Goal, status: int, result: dict[str, Any]) -> None:
+    def _end(self, goal: ServerGoal, status: int, result: dict[str, Any]) -> None:
         """End ``goal`` with ``status``, unless it has ended already (aborted at shutdown)."""
         if self._claim(goal):
             self._finish(goal, status, result)
 
-    def _claim(self, goal: _Goal) -> bool:
+    def _claim(self, goal: ServerGoal) -> bool:
         """Whether the caller is the one to end ``goal`` (a goal ends once)."""
         with self._lock:
             claimed, goal.ended = not goal.ended, True
             return claimed
 
-    def _finish(self, goal: _Goal, status: int, result: dict[str, Any]) -> None:
+    def _finish(self, goal: ServerGoal, status: int, result: dict[str, Any]) -> None:
         response = self.interface.get_result.response.from_dict(
             {"status": status, "result": result}
         )
@@ -308,7 +295,7 @@ class ActionServerAgent(PeerAgent):
             except Exception as error:
                 self.report_exception("reply", error)
 
-    def _publish_status(self, *, finished: _Goal | None = None) -> None:
+    def _publish_status(self, *, finished: ServerGoal | None = None) -> None:
         """Publish every goal still listed (``finished``: the goal that just ended, listed
         however long the way here took)."""
         with self._lock:
@@ -368,67 +355,3 @@ class ActionServerAgent(PeerAgent):
             server.close()
         for writer in (self._feedback, self._status, self._abort_reasons):
             writer.close()
-
-
-class FeedbackPublisher:
-    """``publish_feedback(value)``: feedback of one goal, callable from any thread."""
-
-    def __init__(self, agent: ActionServerAgent, goal: _Goal) -> None:
-        self._agent = agent
-        self._goal = goal
-        self._lock = threading.Lock()
-        self._open = True
-        self.published = 0
-        """How many feedback messages were published."""
-
-    def __call__(self, value: Any) -> None:
-        """Encode ``value`` and publish it as this goal's feedback."""
-        with self._lock:
-            if not self._open:
-                raise PyconnectError("publish_feedback: the goal has already finished")
-            self._agent.publish_feedback(self._goal, value)
-            self.published += 1
-
-    @property
-    def cancel_requested(self) -> bool:
-        """True once a client asked to cancel this goal (the task may stop early)."""
-        return self._goal.cancel_requested.is_set()
-
-    def close(self) -> None:
-        with self._lock:
-            self._open = False
-
-
-def _drive(
-    generator: Any, goal: _Goal, publish: FeedbackPublisher, shutting_down: threading.Event
-) -> tuple[bool, Any]:
-    """Run a generator handler: (True, result) at its end, (False, None) when canceled or
-    stopped by the shutdown.
-
-    An async generator has no return value: its result is its last yield. It runs on the goal
-    thread's loop (``_execute`` scopes it), which closes it if it is left unfinished.
-    """
-
-    def stopped() -> bool:
-        return goal.cancel_requested.is_set() or shutting_down.is_set()
-
-    if inspect.isasyncgen(generator):
-        last: Any = None
-        while not stopped():
-            try:
-                last = run_coroutine(generator.__anext__())
-            except StopAsyncIteration:
-                return True, last
-            if last is not None:
-                publish(last)
-        run_coroutine(generator.aclose())
-        return False, None
-    while not stopped():
-        try:
-            feedback = next(generator)
-        except StopIteration as stop:
-            return True, stop.value
-        if feedback is not None:
-            publish(feedback)
-    generator.close()
-    return False, None
