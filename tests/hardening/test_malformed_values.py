@@ -231,3 +231,18 @@ def test_bools_where_numbers_go_are_refused() -> None:
     ):
         for outcome in encode_both(full_name, value):
             assert isinstance(outcome, EncodeError), (full_name, value)
+
+
+@pytest.mark.parametrize(
+    "value",
+    [{"elbow\udc80": 0.1}, {"elbow\udc80": {"position": 0.1, "velocity": 0.0}}],
+    ids=["positions", "joint dicts"],
+)
+def test_a_joint_name_with_a_lone_surrogate_is_refused_by_both_paths(value: object) -> None:
+    # JointState's fast path checked names for NUL only: the message was built, and rclpy's
+    # serialisation raised a bare UnicodeEncodeError at publish.
+    expected = "JointState.name: cannot encode as UTF-8 (surrogates not allowed)"
+    for encode in (codecs.encode, wire.encode):
+        with pytest.raises(EncodeError) as caught:
+            encode(value, "sensor_msgs/msg/JointState")
+        assert str(caught.value) == expected

@@ -82,8 +82,13 @@ def _fast_columns(value: Any) -> tuple[list[str], dict[str, array.array[float]]]
     if type(value) is not dict or not value:
         return None
     names = list(value)
-    if set(map(type, names)) != _STR_ONLY or "\0" in "".join(names):
+    if set(map(type, names)) != _STR_ONLY:
         return None
+    joined = "".join(names)
+    if "\0" in joined:
+        return None
+    if not joined.isascii() and not _utf8(joined):
+        return None  # a lone surrogate: the checked path names the joint
     joints = list(value.values())
     first = joints[0]
     try:
@@ -197,3 +202,12 @@ class JointStateCodec(FieldsCodec):
         msg._velocity = columns.get("velocity") or array.array("d")
         msg._effort = columns.get("effort") or array.array("d")
         return msg
+
+
+def _utf8(text: str) -> bool:
+    """Whether ``text`` can be written as UTF-8 (no lone surrogates)."""
+    try:
+        text.encode()
+    except UnicodeEncodeError:
+        return False
+    return True

@@ -138,7 +138,9 @@ class WireCodec:
 
     def _stamped_fields(self, stamped: Stamped[Any], registry: ValueCodecs) -> dict[str, Any]:
         """The fields of a ``Stamped`` value: its value's, with its stamp and frame in the
-        header (as ``codecs.encode`` writes them into the message)."""
+        header (as ``codecs.encode`` writes them into the message; a Header is its own)."""
+        if self.msg_type == "std_msgs/msg/Header":
+            return stamped_header(stamped)
         header = next(
             (
                 field[0]
