@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import re
 import signal
+import time
 from pathlib import Path
 
 import pytest
@@ -135,8 +136,13 @@ def test_play_republishes_with_the_bags_qos_and_clock(
         assert main(["topic", "echo", "/clock", "--once", "--timeout", str(WAIT), "--json"]) == 0
         clock = json.loads(capsys.readouterr().out)
         assert clock["clock"]["sec"] == 1_700_000_000
-        assert main(["topic", "info", "/played", "-v", "--spin-time", str(WAIT)]) == 0
-        info = capsys.readouterr().out.splitlines()
+        # info spins its whole --spin-time: asked again until discovery has found the player.
+        deadline = time.monotonic() + WAIT
+        while True:
+            assert main(["topic", "info", "/played", "-v"]) == 0
+            info = capsys.readouterr().out.splitlines()
+            if "Publisher count: 1" in info or time.monotonic() > deadline:
+                break
         assert "  Reliability: BEST_EFFORT" in info
         assert "  Durability: TRANSIENT_LOCAL" in info
     finally:

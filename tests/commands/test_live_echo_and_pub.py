@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import json
 import re
+import time
+from collections.abc import Callable, Iterator
 
 import pytest
 
@@ -15,6 +17,18 @@ def _run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]
     status = main(list(argv))
     captured = capsys.readouterr()
     return status, captured.out, captured.err
+
+
+def _until(
+    capsys: pytest.CaptureFixture[str], check: Callable[[int, str], bool], *argv: str
+) -> tuple[int, str, str]:
+    """Run a command until ``check(status, out)`` passes: what a new process sees of the graph
+    depends on how far discovery has got."""
+    deadline = time.monotonic() + WAIT
+    while True:
+        status, out, err = _run(capsys, *argv)
+        if check(status, out) or time.monotonic() > deadline:
+            return status, out, err
 
 
 def test_echo_json_of_a_dataclass_value_and_a_sequence_field(
@@ -63,7 +77,7 @@ def test_relative_names_are_expanded(peer: Lines, capsys: pytest.CaptureFixture[
     status, out, _ = _run(capsys, "topic", "echo", "chatter", "--once", "--timeout", str(WAIT))
     assert status == 0
     assert re.fullmatch(r"'hello \d+'\n---\n", out), out
-    status, out, _ = _run(capsys, "topic", "info", "chatter", "--spin-time", str(WAIT))
+    status, out, _ = _until(capsys, lambda status, _out: status == 0, "topic", "info", "chatter")
     assert (status, out.splitlines()[0]) == (0, "Type: std_msgs/msg/String")
     status, out, _ = _run(
         capsys, "service", "call", "set_flag", "std_srvs/srv/SetBool", "{data: true}",
@@ -153,4 +167,108 @@ def test_pub_shows_a_value_it_cannot_decode_by_its_fields(
     assert err == (
         "pyconnect: warning: cannot decode the CompressedImage (shown as its fields): "
         "CompressedImage.data: cannot decode 3 bytes as jpeg\n"
+    )
+
+
+@pytest.fixture(scope="module")
+def qos_peers() -> Iterator[None]:
+    """tests/commands/qos_peer: latched, best-effort and action-feedback topics, and /multi
+    published as String by one process and as Float64 by another."""
+    peers = [Lines(spawn("-m", "tests.commands.qos_peer", mode)) for mode in ("main", "float")]
+    try:
+        for peer in peers:
+            peer.wait_for("^ready$")
+        yield
+    finally:
+        for peer in peers:
+            peer.stop()
+
+
+@pytest.mark.parametrize(
+    ("topic", "msg_type", "shown"),
+    [
+        ("/latched", "std_msgs/msg/String", "'latched hello'"),
+        ("/best_effort", "std_msgs/msg/Float64", "1.5"),
+    ],
+)
+def test_echo_with_the_type_given_matches_the_publishers_qos(
+    topic: str, msg_type: str, shown: str, qos_peers: None, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # The QoS was chosen before discovery: reliable and volatile, deaf to both publishers.
+    assert _run(capsys, "topic", "echo", topic, msg_type, "--once", "--timeout", str(WAIT)) == (
+        0,
+        f"{shown}\n---\n",
+        "",
+    )
+
+
+def test_echo_and_hz_of_an_action_feedback_topic(
+    qos_peers: None, capsys: pytest.CaptureFixture[str]
+) -> None:
+    topic = "/fib/_action/feedback"
+    status, out, err = _run(
+        capsys, "topic", "echo", topic, "--once", "--json", "--timeout", str(WAIT)
+    )
+    assert (status, err) == (0, "")
+    assert json.loads(out)["feedback"] == {"sequence": [0, 1, 1]}
+    given = ["test_msgs/action/Fibonacci_FeedbackMessage", "--field", "feedback.sequence"]
+    assert _run(
+        capsys, "topic", "echo", topic, *given, "--once", "--json", "--timeout", str(WAIT)
+    ) == (0, "[0, 1, 1]\n", "")
+    process = spawn("-m", "pyconnect.cli", "topic", "hz", topic)
+    lines = Lines(process)
+    try:
+        lines.wait_for(r"^average rate: \d+\.\d{3}$")
+    finally:
+        err = lines.stop()
+    assert (process.returncode, err) == (130, "")
+
+
+def test_a_topic_of_two_types(qos_peers: None, capsys: pytest.CaptureFixture[str]) -> None:
+    both = "Type: ['std_msgs/msg/Float64', 'std_msgs/msg/String']"
+    argv = ["topic", "info", "/multi", "--spin-time", "5"]  # two processes to discover
+    status, out, _ = _until(capsys, lambda _status, out: both in out, *argv)
+    assert (status, out.splitlines()) == (
+        0,
+        [both, "Publisher count: 2", "Subscription count: 0"],
+    )
+    # echo refusing without the type is test_live_tools' (a new process may find one of the
+    # two publishers seconds before the other): given the type, it hears its publisher.
+    argv = ["topic", "echo", "/multi", "std_msgs/msg/Float64", "--once", "--timeout", str(WAIT)]
+    assert _run(capsys, *argv) == (0, "2.5\n---\n", "")
+
+
+def test_rcl_refusing_an_endpoint_is_one_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from rclpy.impl.implementation_singleton import rclpy_implementation
+    from rclpy.node import Node
+
+    def refuse(kind: str, create: Callable[..., object]) -> Callable[..., object]:
+        # Only /nobody: a node makes endpoints of its own (/parameter_events, /rosout).
+        def refused(node: Node, msg_type: type, topic: str, *args: object, **kw: object) -> object:
+            if topic != "/nobody":
+                return create(node, msg_type, topic, *args, **kw)
+            raise rclpy_implementation.RCLError(
+                f"Failed to create {kind}: invalid allocator, at /project/src/rcl/{kind}.c:261"
+            )
+
+        return refused
+
+    monkeypatch.setattr(
+        Node, "create_subscription", refuse("subscription", Node.create_subscription)
+    )
+    monkeypatch.setattr(Node, "create_publisher", refuse("publisher", Node.create_publisher))
+    argv = ["/nobody", "std_msgs/msg/String"]
+    assert _run(capsys, "topic", "echo", *argv, "--timeout", "0") == (
+        1,
+        "",
+        "pyconnect: error: cannot subscribe to /nobody: Failed to create subscription: "
+        "invalid allocator\n",
+    )
+    assert _run(capsys, "topic", "pub", *argv, "hi", "--once", "-w", "0") == (
+        1,
+        "",
+        "pyconnect: error: cannot publish on /nobody: Failed to create publisher: "
+        "invalid allocator\n",
     )

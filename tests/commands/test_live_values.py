@@ -8,13 +8,17 @@ import math
 
 import numpy as np
 import pytest
-from sensor_msgs.msg import CompressedImage, LaserScan
+from sensor_msgs.msg import CompressedImage, Image, LaserScan
 from std_msgs.msg import MultiArrayDimension, String
+from test_msgs.action import Fibonacci
+from test_msgs.msg import Arrays, BasicTypes, Nested
 
 from pyconnect import codecs
 from pyconnect.commands.common import UsageError
-from pyconnect.commands.graph import expand_name
+from pyconnect.commands.graph import expand_name, message_class
 from pyconnect.commands.live_values import echo_json, echo_value, shown_text
+from pyconnect.commands.topic import echo_field
+from pyconnect.commands.value_text import format_value
 
 
 def test_json_of_a_dataclass_natural_value() -> None:
@@ -98,3 +102,38 @@ def test_a_name_rcl_refuses_is_a_usage_error(name: str, error: str) -> None:
     with pytest.raises(UsageError) as caught:
         expand_name(name)
     assert str(caught.value) == error
+
+
+def test_a_long_sequence_field_is_summarised_as_a_list() -> None:
+    # rclpy holds numeric sequences as array.array: a 640x480 image's data was one 2.7 MB line.
+    assert format_value(array.array("B", bytes(921_600))) == (
+        f"[{', '.join(['0'] * 16)}, ... 921584 more]"
+    )
+    assert format_value({"ranges": array.array("f", [1.0, 2.5])}) == "{'ranges': [1.0, 2.5]}"
+
+
+def test_a_field_is_shown_as_the_whole_message_shows_it() -> None:
+    basic = BasicTypes(byte_value=b"\x07", uint8_value=7)
+    whole = json.loads(shown_text(basic, as_json=True)[0] or "")
+    for name in ("byte_value", "uint8_value"):
+        assert shown_text(echo_field(basic, name), as_json=True) == (str(whole[name]), None)
+        assert shown_text(echo_field(basic, name)) == ("7", None)
+    arrays = Arrays(byte_values=[b"\x01", b"\x02", b"\x03"])
+    assert json.loads(shown_text(arrays, as_json=True)[0] or "")["byte_values"] == [1, 2, 3]
+    assert shown_text(echo_field(arrays, "byte_values"), as_json=True) == ("[1, 2, 3]", None)
+    assert shown_text(echo_field(Nested(), "basic_types_value.byte_value")) == ("0", None)
+    image = Image(height=480, width=640, encoding="rgb8", step=1920, data=bytes(921_600))
+    assert shown_text(echo_field(image, "data")) == ("<921600 bytes>", None)
+    assert shown_text(echo_field(image, "header.stamp")) == ("(0, 0)", None)  # a message
+
+
+def test_the_type_of_an_action_topic_is_a_message_class() -> None:
+    feedback = message_class("test_msgs/action/Fibonacci_FeedbackMessage")
+    assert feedback is Fibonacci.Impl.FeedbackMessage
+    assert message_class("std_msgs/String") is String
+    with pytest.raises(Exception) as caught:
+        message_class("std_msgs/msg/Nope")
+    assert str(caught.value) == (
+        "std_msgs/msg/Nope: no such interface is installed (module 'std_msgs.msg' has no "
+        "attribute 'Nope')"
+    )

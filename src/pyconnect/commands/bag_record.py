@@ -46,25 +46,6 @@ EXAMPLES = """examples:
   pyconnect bag record /camera/image_raw /joint_states -o run2 --max-bag-duration 60
 """
 
-_RELIABILITY = {"RELIABLE": 1, "BEST_EFFORT": 2}
-_DURABILITY = {"TRANSIENT_LOCAL": 1, "VOLATILE": 2}
-_HISTORY = {"KEEP_LAST": 1, "KEEP_ALL": 2}
-_LIVELINESS = {"AUTOMATIC": 1, "MANUAL_BY_TOPIC": 3}
-_INFINITE = {"sec": 2147483647, "nsec": 4294967295}
-# Messages a subscription keeps until the executor takes them. rosbag2 keeps 10, with callbacks
-# in C++; here a callback waits for the GIL whenever the writer thread (a file split: several
-# ms), a topic being added or the garbage collector holds it, and at 1 kHz 10 messages last
-# 10 ms. 1000 last a second; DDS allocates them only while they wait.
-_DEPTH = 1000
-
-
-def _duration(value: Any) -> dict[str, int]:
-    ns = int(value.nanoseconds)
-    if ns <= 0 or ns >= _INFINITE["sec"] * 1_000_000_000:
-        return dict(_INFINITE)  # rclpy's Infinite, as rosbag2 writes it
-    sec, nsec = divmod(ns, 1_000_000_000)
-    return {"sec": sec, "nsec": nsec}
-
 
 def _bag_size(text: str) -> int:
     """``--max-bag-size``: bytes, 0 or more (0: no split by size)."""
@@ -126,29 +107,6 @@ def register(actions: Subcommands) -> None:
     record.set_defaults(run=_record)
 
 
-def _qos_yaml(endpoints: list[Any]) -> str:
-    """The publishers' QoS as rosbag2 writes ``offered_qos_profiles`` (a YAML list)."""
-    import yaml
-
-    profiles = []
-    for endpoint in endpoints:
-        qos = endpoint.qos_profile
-        profiles.append(
-            {
-                "history": _HISTORY.get(qos.history.name, 3),  # 3: unknown
-                "depth": int(qos.depth),
-                "reliability": _RELIABILITY.get(qos.reliability.name, 0),
-                "durability": _DURABILITY.get(qos.durability.name, 0),
-                "deadline": _duration(qos.deadline),
-                "lifespan": _duration(qos.lifespan),
-                "liveliness": _LIVELINESS.get(qos.liveliness.name, 0),
-                "liveliness_lease_duration": _duration(qos.liveliness_lease_duration),
-                "avoid_ros_namespace_conventions": False,
-            }
-        )
-    return yaml.safe_dump(profiles, sort_keys=False) if profiles else ""
-
-
 def _queue_into(writer: QueuedRecorder, topic: str, out: TextIO) -> Callable[[bytes], None]:
     """The subscription callback of ``topic``: stamp the message and queue it, nothing more."""
     first = True
@@ -170,7 +128,7 @@ def _subscribe_new(
     skipped: set[str],
     out: TextIO,
 ) -> None:
-    from pyconnect.commands.graph import choose_qos
+    from pyconnect.ros.recording_qos import offered_qos_yaml, recording_qos
     from pyconnect.typesys.classes import import_class
     from pyconnect.typesys.names import full_type_name
 
@@ -190,15 +148,14 @@ def _subscribe_new(
             msg_class = import_class(full_type_name(types[0]))
             # Opens the bag's first file and reads the definition now, before the subscription
             # exists: done in the first callback, it cost ~0.1 s of messages.
-            split.add_topic(topic, types[0], offered_qos_profiles=_qos_yaml(publishers))
+            split.add_topic(topic, types[0], offered_qos_profiles=offered_qos_yaml(publishers))
         except Exception as error:
             print(f"skipping {topic}: {error}", file=out, flush=True)
             skipped.add(topic)
             continue
 
         on_message = _queue_into(writer, topic, out)
-        qos = choose_qos(session, topic, None)
-        qos.depth = _DEPTH
+        qos = recording_qos(publishers)
         session.node.create_subscription(msg_class, topic, on_message, qos, raw=True)
         print(f"Subscribed to topic '{topic}'", file=out, flush=True)
 

@@ -25,7 +25,6 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.expand_topic_name import expand_topic_name
 from rclpy.node import Node
 from rclpy.qos import (
-    DurabilityPolicy,
     QoSPresetProfiles,
     QoSProfile,
 )
@@ -34,21 +33,28 @@ from rclpy.validate_full_topic_name import validate_full_topic_name
 
 from pyconnect.commands.common import UsageError
 from pyconnect.errors import PyconnectError
-from pyconnect.ros.qos import matching_reliability
+from pyconnect.ros.interfaces import interface_class
+from pyconnect.ros.qos import matching_qos
+from pyconnect.typesys.classes import import_class
+from pyconnect.typesys.names import full_type_name
 
 __all__ = [
     "NODE_NAME_UNKNOWN",
     "PROGRAM",
+    "QOS_PROFILES",
     "CommandFailed",
     "GraphSession",
     "add_qos",
     "add_spin_time",
     "choose_qos",
+    "endpoint_failure",
     "endpoints_named",
     "expand_name",
     "graph_session",
+    "message_class",
+    "preset_qos",
     "report_failure",
-    "topic_type",
+    "topic_types",
 ]
 
 PROGRAM = "pyconnect"
@@ -56,6 +62,8 @@ HIDDEN_PREFIX = "_"
 NODE_NAME_UNKNOWN = "_NODE_NAME_UNKNOWN_"  # what rmw names the node of an endpoint until it knows
 # What ``~`` (the node's private namespace) expands to in a name given on the command line.
 CLI_NODE_NAME = f"{HIDDEN_PREFIX}pyconnect_cli"
+# The presets --qos-profile takes: rclpy's short keys but "unknown", a placeholder rmw refuses.
+QOS_PROFILES = tuple(key for key in QoSPresetProfiles.short_keys() if key != "unknown")
 
 
 class CommandFailed(PyconnectError):
@@ -93,8 +101,9 @@ def add_qos(parser: Any) -> None:
     parser.add_argument(
         "--qos-profile",
         metavar="NAME",
-        help="a preset profile: sensor_data, system_default, services_default, parameters, "
-        "action_status_default, best_available (default: one that matches the publishers)",
+        choices=QOS_PROFILES,
+        help=f"a preset profile: {', '.join(QOS_PROFILES)} "
+        "(default: one that matches the publishers)",
     )
 
 
@@ -200,14 +209,15 @@ def graph_session(name: str) -> Iterator[GraphSession]:
         session.close()
 
 
-def topic_type(session: GraphSession, topic: str, *, timeout: float | None) -> str:
-    """The type published on ``topic``, waiting up to ``timeout`` s for it to appear."""
+def topic_types(session: GraphSession, topic: str, *, timeout: float | None) -> list[str]:
+    """The types seen on ``topic`` (more than one when its endpoints disagree), waiting up to
+    ``timeout`` s for it to appear."""
     found: list[str] = []
 
     def known() -> bool:
         for name, types in session.node.get_topic_names_and_types():
             if name == topic and types:
-                found.append(types[0])
+                found.extend(types)
                 return True
         return False
 
@@ -215,7 +225,30 @@ def topic_type(session: GraphSession, topic: str, *, timeout: float | None) -> s
         raise CommandFailed(
             f"topic [{topic}] does not appear to be published yet; could not determine its type"
         )
-    return found[0]
+    return found
+
+
+def message_class(type_name: str) -> Any:
+    """The rclpy class of a message type, the parts of services and actions included.
+
+    A topic's type can be such a part (``test_msgs/action/Fibonacci_FeedbackMessage`` on an
+    action's feedback topic is the class ``Fibonacci.Impl.FeedbackMessage``), which is no
+    attribute of its package's module: typesys knows where rosidl puts each part.
+    """
+    try:
+        return interface_class(type_name, kind="msg")
+    except PyconnectError as error:
+        try:
+            return import_class(full_type_name(type_name))
+        except PyconnectError:
+            raise error from None  # says what users need: the type is not installed
+
+
+def endpoint_failure(error: Exception, what: str) -> CommandFailed:
+    """``CommandFailed`` for rcl refusing to create an endpoint (an RCLError): one line."""
+    # rcl appends where in its C sources each layer failed: no use to the user.
+    reason = str(error).split(", at /")[0]
+    return CommandFailed(f"cannot {what}: {reason}")
 
 
 def endpoints_named(session: GraphSession, topics: list[str] | None = None) -> bool:
@@ -238,23 +271,18 @@ def endpoints_named(session: GraphSession, topics: list[str] | None = None) -> b
     )
 
 
+def preset_qos(profile: str) -> QoSProfile:
+    """The preset ``--qos-profile`` names (one of ``QOS_PROFILES``)."""
+    if profile not in QOS_PROFILES:
+        raise CommandFailed(
+            f"--qos-profile: unknown profile {profile!r}; choose from {', '.join(QOS_PROFILES)}"
+        )
+    named: QoSProfile = QoSPresetProfiles.get_from_short_key(profile)
+    return named
+
+
 def choose_qos(session: GraphSession, topic: str, profile: str | None) -> QoSProfile:
     """A named profile, or one that matches every publisher (as ``ros2 topic echo`` picks)."""
     if profile is not None:
-        try:
-            named: QoSProfile = QoSPresetProfiles.get_from_short_key(profile)
-        except KeyError:
-            choices = ", ".join(p.name.lower() for p in QoSPresetProfiles)
-            raise CommandFailed(
-                f"--qos-profile: unknown profile {profile!r}; choose from {choices}"
-            ) from None
-        return named
-    publishers = session.node.get_publishers_info_by_topic(topic)
-    latched = bool(publishers) and all(
-        p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers
-    )
-    return QoSProfile(
-        depth=10,
-        reliability=matching_reliability(publishers),
-        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
-    )
+        return preset_qos(profile)
+    return matching_qos(session.node.get_publishers_info_by_topic(topic), depth=10)

@@ -81,8 +81,13 @@ def register(commands: Subcommands) -> Subcommands:
 
     hz = verbs.add_parser("hz", help="the rate at which a topic is published", epilog=EXAMPLES)
     hz.add_argument("topic", type=expand_name)
+    hz.add_argument("message_type", nargs="?", help="the type (found on the graph if left out)")
     hz.add_argument(
-        "-w", "--window", type=int, default=10000, help="intervals to average (default 10000)"
+        "-w",
+        "--window",
+        type=positive_int,
+        default=10000,
+        help="intervals to average (default 10000)",
     )
     add_qos(hz)
     hz.add_argument(
@@ -92,7 +97,10 @@ def register(commands: Subcommands) -> Subcommands:
 
     bw = verbs.add_parser("bw", help="the bandwidth a topic uses", epilog=EXAMPLES)
     bw.add_argument("topic", type=expand_name)
-    bw.add_argument("-w", "--window", type=int, default=100, help="messages to average (100)")
+    bw.add_argument("message_type", nargs="?", help="the type (found on the graph if left out)")
+    bw.add_argument(
+        "-w", "--window", type=positive_int, default=100, help="messages to average (100)"
+    )
     add_qos(bw)
     bw.add_argument(
         "--timeout", type=float, metavar="S", help="give up after S seconds without the topic"
@@ -103,6 +111,14 @@ def register(commands: Subcommands) -> Subcommands:
 
     topic_pub.register(verbs, epilog=EXAMPLES)
     return verbs
+
+
+def positive_int(text: str) -> int:
+    """A count of 1 or more (``--window``)."""
+    count = int(text)
+    if count < 1:
+        raise ValueError(text)
+    return count
 
 
 def _hidden(name: str) -> bool:
@@ -128,20 +144,23 @@ def _info(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         endpoints_named,
         graph_session,
         report_failure,
-        topic_type,
     )
 
     with graph_session("topic") as session:
-        try:
-            msg_type = topic_type(session, args.topic, timeout=args.spin_time)
-        except CommandFailed:
-            return report_failure(CommandFailed(f"Unknown topic '{args.topic}'"), err)
+        # Discovery goes on after the topic is first seen (more publishers, other processes):
+        # counts read then were short. --spin-time is the time discovery is given, as for list.
+        session.spin_for(args.spin_time)
         node = session.node
+        if not dict(node.get_topic_names_and_types()).get(args.topic):
+            return report_failure(CommandFailed(f"Unknown topic '{args.topic}'"), err)
+        # The nodes of endpoints seen are on their way: at most another --spin-time for them.
         session.spin_until(lambda: endpoints_named(session, [args.topic]), args.spin_time)
+        types = dict(node.get_topic_names_and_types())[args.topic]
         publishers = node.get_publishers_info_by_topic(args.topic)
         subscriptions = node.get_subscriptions_info_by_topic(args.topic)
     gap = "\n" if args.verbose else ""
-    print(f"Type: {msg_type}{gap}", file=out)
+    # ros2's line: the type, or the list of them when the endpoints disagree.
+    print(f"Type: {types[0] if len(types) == 1 else types}{gap}", file=out)
     print(f"Publisher count: {len(publishers)}{gap}", file=out)
     if args.verbose:
         for endpoint in publishers:
@@ -153,22 +172,55 @@ def _info(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     return 0
 
 
+_DOING = {"echo": "echo", "hz": "measure the rate of", "bw": "measure the bandwidth of"}
+
+
 def _subscribe(
-    args: argparse.Namespace, verb: str, on_message: Any, *, raw: bool
+    args: argparse.Namespace, verb: str, on_message: Any, *, raw: bool, started: float
 ) -> tuple[Any, Any, str]:
-    """A session subscribed to ``args.topic`` and the type it expects; the caller spins it."""
-    from pyconnect.commands.graph import choose_qos, graph_session, topic_type
-    from pyconnect.ros.interfaces import interface_class, interface_name
+    """A session subscribed to ``args.topic`` and the type it expects; the caller spins it.
+
+    ``--timeout`` bounds the waits here from ``started`` (monotonic) on."""
+    from rclpy.impl.implementation_singleton import rclpy_implementation
+
+    from pyconnect.commands.graph import (
+        CommandFailed,
+        choose_qos,
+        endpoint_failure,
+        graph_session,
+        message_class,
+        topic_types,
+    )
+    from pyconnect.ros.interfaces import interface_name
+
+    def left() -> float | None:
+        return None if args.timeout is None else args.timeout - (time.monotonic() - started)
 
     context = graph_session(verb)
     session = context.__enter__()
     try:
-        msg_type = getattr(args, "message_type", None) or topic_type(
-            session, args.topic, timeout=args.timeout
-        )
-        msg_class = interface_class(msg_type, kind="msg")
+        msg_type = args.message_type
+        if not msg_type:
+            types = topic_types(session, args.topic, timeout=left())
+            if len(types) > 1:
+                # A subscription takes one type: the other publishers would go unheard.
+                raise CommandFailed(
+                    f"cannot {_DOING[verb]} {args.topic}: it has more than one type "
+                    f"({', '.join(types)}); give the type"
+                )
+            msg_type = types[0]
+        msg_class = message_class(msg_type)
+        if args.qos_profile is None:
+            # The QoS is matched to the publishers: chosen before they are discovered it is
+            # reliable and volatile, which misses a latched message and hears no best-effort
+            # publisher. With no publisher in time, that default it is.
+            node = session.node
+            session.spin_until(lambda: bool(node.get_publishers_info_by_topic(args.topic)), left())
         qos = choose_qos(session, args.topic, args.qos_profile)
-        session.node.create_subscription(msg_class, args.topic, on_message, qos, raw=raw)
+        try:
+            session.node.create_subscription(msg_class, args.topic, on_message, qos, raw=raw)
+        except rclpy_implementation.RCLError as error:
+            raise endpoint_failure(error, f"subscribe to {args.topic}") from None
     except BaseException:
         context.__exit__(None, None, None)
         raise
@@ -186,6 +238,24 @@ def no_message_reason(topic: str, msg_type: str, published: list[str], timeout: 
     count = published.count(msg_type)
     also = f" (others publish {others})" if others else ""
     return f"{said} from its {count} publisher(s) of {msg_type}{also}"
+
+
+def echo_field(msg: Any, field: str | None) -> Any:
+    """What ``echo --field`` shows of ``msg``: the field as the whole message shows it.
+
+    A message field is decoded as a message; any other field is taken from its message's dict,
+    as a whole message without a natural codec is shown: rclpy holds a ``byte`` as ``b'\\x00'``
+    and a ``uint8[]`` as an ``array.array``, where the dict has ``0`` and ``bytes``.
+    """
+    from pyconnect import codecs
+    from pyconnect.commands.live_values import select_field
+
+    value = select_field(msg, field)  # also says which part of a wrong --field is missing
+    if not field or hasattr(value, "get_fields_and_field_types"):
+        return value
+    parent_path, _, name = field.rpartition(".")
+    fields = codecs.to_dict(select_field(msg, parent_path or None))
+    return fields.get(name, value)
 
 
 def _publisher_types(session: Any, topic: str) -> list[str]:
@@ -232,7 +302,7 @@ def _await_first(
 
 def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.commands.graph import PROGRAM, CommandFailed, report_failure
-    from pyconnect.commands.live_values import select_field, shown_text
+    from pyconnect.commands.live_values import shown_text
     from pyconnect.errors import PyconnectError
 
     received: list[Any] = []
@@ -243,7 +313,9 @@ def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     # --timeout bounds the whole wait for a first message, finding the type included.
     started = time.monotonic()
     try:
-        context, session, msg_type = _subscribe(args, "echo", on_message, raw=False)
+        context, session, msg_type = _subscribe(
+            args, "echo", on_message, raw=False, started=started
+        )
     except PyconnectError as error:
         return report_failure(error, err)
     try:
@@ -259,7 +331,7 @@ def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
             while received:
                 # A wrong --field is the command line's fault: select_field ends the echo.
                 text, problem = shown_text(
-                    select_field(received.pop(0), args.field), as_json=args.json
+                    echo_field(received.pop(0), args.field), as_json=args.json
                 )
                 if problem is not None:
                     said = "printed as its fields" if text is not None else "skipped"
@@ -287,8 +359,6 @@ def _hz(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.commands.topic_stats import RateWindow
     from pyconnect.errors import PyconnectError
 
-    if args.window < 1:
-        return report_failure(ValueError(f"--window: expected at least 1, got {args.window}"), err)
     window = RateWindow(args.window)
     clock: list[Any] = []
 
@@ -301,7 +371,9 @@ def _hz(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     if args.qos_profile is None:
         args.qos_profile = "sensor_data"  # as ros2 topic hz subscribes
     try:
-        context, session, _msg_type = _subscribe(args, "hz", on_message, raw=True)
+        context, session, _msg_type = _subscribe(
+            args, "hz", on_message, raw=True, started=time.monotonic()
+        )
     except PyconnectError as error:
         return report_failure(error, err)
     clock.append(session.node.get_clock())
@@ -317,8 +389,6 @@ def _bw(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.commands.topic_stats import BandwidthWindow
     from pyconnect.errors import PyconnectError
 
-    if args.window < 1:
-        return report_failure(ValueError(f"--window: expected at least 1, got {args.window}"), err)
     window = BandwidthWindow(args.window)
 
     def on_message(data: bytes) -> None:
@@ -327,7 +397,9 @@ def _bw(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     if args.qos_profile is None:
         args.qos_profile = "sensor_data"  # as ros2 topic bw subscribes
     try:
-        context, session, _msg_type = _subscribe(args, "bw", on_message, raw=True)
+        context, session, _msg_type = _subscribe(
+            args, "bw", on_message, raw=True, started=time.monotonic()
+        )
     except PyconnectError as error:
         return report_failure(error, err)
     print(f"Subscribed to [{args.topic}]", file=out, flush=True)

@@ -11,6 +11,7 @@ stamps are taken again at every publish.
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from typing import TYPE_CHECKING, TextIO
 
@@ -38,7 +39,7 @@ def register(verbs: Subcommands, *, epilog: str) -> None:
         help="YAML or JSON (default {}); `now` in a Time field and `auto` for a Header stamp "
         "each message with the current time",
     )
-    pub.add_argument("-r", "--rate", type=float, default=1.0, help="Hz (default 1)")
+    pub.add_argument("-r", "--rate", type=positive_float, default=1.0, help="Hz (default 1)")
     pub.add_argument("-1", "--once", action="store_true", help="publish one message and exit")
     pub.add_argument(
         "-t",
@@ -68,40 +69,46 @@ def nonnegative_int(text: str) -> int:
     return count
 
 
+def positive_float(text: str) -> float:
+    """A finite number above 0 (``--rate``)."""
+    number = float(text)
+    if not (number > 0 and math.isfinite(number)):
+        raise ValueError(text)
+    return number
+
+
 def _pub(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
-    from pyconnect.commands.graph import CommandFailed, graph_session, report_failure
+    from rclpy.impl.implementation_singleton import rclpy_implementation
+
+    from pyconnect.commands.graph import (
+        CommandFailed,
+        endpoint_failure,
+        graph_session,
+        message_class,
+        preset_qos,
+        report_failure,
+    )
     from pyconnect.commands.live_values import shown_line
     from pyconnect.commands.value_input import message_template
     from pyconnect.errors import PyconnectError
-    from pyconnect.ros.interfaces import interface_class
     from pyconnect.ros.qos import DEFAULT
 
-    if args.rate <= 0:
-        return report_failure(ValueError(f"--rate: expected Hz > 0, got {args.rate}"), err)
     # ros2cli's meaning: --times 0 (the default) publishes until Ctrl-C.
     times = 1 if args.once else (args.times or None)
     wait_for = args.wait_matching_subscriptions
     if wait_for is None:
         wait_for = 1 if times is not None else 0
     try:
-        msg_class = interface_class(args.message_type, kind="msg")
+        msg_class = message_class(args.message_type)
         template = message_template(args.value, msg_class)
+        qos = DEFAULT if args.qos_profile is None else preset_qos(args.qos_profile)
     except PyconnectError as error:
         return report_failure(error, err)
     with graph_session("pub") as session:
         try:
-            from rclpy.qos import QoSPresetProfiles
-
-            qos = (
-                QoSPresetProfiles.get_from_short_key(args.qos_profile)
-                if args.qos_profile
-                else DEFAULT
-            )
-        except KeyError:
-            return report_failure(
-                CommandFailed(f"--qos-profile: unknown {args.qos_profile!r}"), err
-            )
-        publisher = session.node.create_publisher(msg_class, args.topic, qos)
+            publisher = session.node.create_publisher(msg_class, args.topic, qos)
+        except rclpy_implementation.RCLError as error:
+            return report_failure(endpoint_failure(error, f"publish on {args.topic}"), err)
         if wait_for > 0:
             print(f"Waiting for at least {wait_for} matching subscription(s)...", file=out)
             if not session.spin_until(

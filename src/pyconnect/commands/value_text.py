@@ -40,7 +40,7 @@ def _summarise(value: Any) -> Any:
         return data if len(data) <= _MAX_ITEMS else _Summary(f"<{len(data)} bytes>")
     if isinstance(value, dict):
         return {key: _summarise(item) for key, item in value.items()}
-    if isinstance(value, list | tuple):
+    if isinstance(value, list | tuple | array.array):  # array: rclpy's numeric sequences
         items = [_summarise(item) for item in value[:_MAX_ITEMS]]
         if len(value) > _MAX_ITEMS:
             items.append(_Summary(f"... {len(value) - _MAX_ITEMS} more"))

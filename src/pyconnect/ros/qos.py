@@ -25,7 +25,7 @@ is never adapted.
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from typing import Any
 
 from rclpy.qos import (
@@ -100,6 +100,19 @@ def matching_reliability(publishers: Iterable[Any]) -> ReliabilityPolicy:
     """
     reliable = all(p.qos_profile.reliability == ReliabilityPolicy.RELIABLE for p in publishers)
     return ReliabilityPolicy.RELIABLE if reliable else ReliabilityPolicy.BEST_EFFORT
+
+
+def matching_qos(publishers: Sequence[Any], *, depth: int) -> QoSProfile:
+    """A reader's QoS that hears every one of ``publishers`` (rclpy ``TopicEndpointInfo``),
+    latched messages included, as ``ros2 topic echo`` and ``ros2 bag record`` pick it."""
+    latched = bool(publishers) and all(
+        p.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL for p in publishers
+    )
+    return QoSProfile(
+        depth=depth,
+        reliability=matching_reliability(publishers),
+        durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE,
+    )
 
 
 def follows_publishers(qos: object, *, msg_type: str) -> bool:

@@ -1,6 +1,6 @@
 """``node.record(path)``: raw (CDR) subscriptions written to an MCAP file as they arrive.
 
-Subscribed as ``pyconnect bag record`` subscribes (pyconnect.commands.bag_record): one
+Subscribed as ``pyconnect bag record`` subscribes (pyconnect.ros.recording_qos): one
 subscription per topic, with a QoS that matches its publishers (reliable unless one is best
 effort; transient local when all are, so a latched message sent earlier is recorded too) and a
 deep queue, and the publishers' QoS stored as the topic's ``offered_qos_profiles``. So the
@@ -18,27 +18,16 @@ import threading
 import time
 from collections.abc import Mapping
 from pathlib import Path
-from typing import TYPE_CHECKING, Any, cast
+from typing import Any
 
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 
-from pyconnect.commands.bag_record import _DEPTH, _qos_yaml
-from pyconnect.commands.graph import choose_qos
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.interfaces import interface_class, interface_name
 from pyconnect.ros.node_agent import NodeAgent
+from pyconnect.ros.recording_qos import offered_qos_yaml, recording_qos
 from pyconnect.ros.subscriber_agent import SubscriberAgent
-
-if TYPE_CHECKING:
-    from pyconnect.commands.graph import GraphSession
-
-
-class _NodeGraph:
-    """The part of a ``GraphSession`` that ``choose_qos`` reads: a node that sees the graph."""
-
-    def __init__(self, node: Node) -> None:
-        self.node = node
 
 
 class Recording:
@@ -62,15 +51,12 @@ class Recording:
         self.recorder = McapRecorder(path)
         self._subscriptions: list[Any] = []
         group = MutuallyExclusiveCallbackGroup()
-        # choose_qos reads only ``session.node``; a real GraphSession would start a context.
-        session = cast("GraphSession", _NodeGraph(ros_node))
         for topic, msg_class in chosen.items():
             publishers = ros_node.get_publishers_info_by_topic(topic)
             self.recorder.add_topic(
-                topic, interface_name(msg_class), offered_qos_profiles=_qos_yaml(publishers)
+                topic, interface_name(msg_class), offered_qos_profiles=offered_qos_yaml(publishers)
             )
-            qos = choose_qos(session, topic, None)
-            qos.depth = _DEPTH
+            qos = recording_qos(publishers)
             self._subscriptions.append(
                 ros_node.create_subscription(
                     msg_class, topic, self._writer_for(topic), qos, callback_group=group, raw=True
