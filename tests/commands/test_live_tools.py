@@ -406,7 +406,7 @@ def test_echo_warns_once_of_publishers_of_another_type(peer: Lines) -> None:
     ],
 )
 def test_echo_timeout_says_why_no_message_came(published: list[str], reason: str) -> None:
-    from pyconnect.commands.topic import no_message_reason
+    from pyconnect.commands.topic_subscribe import no_message_reason
 
     assert no_message_reason("/chatter", "std_msgs/msg/Int32", published, 3.0) == reason
 

@@ -17,7 +17,7 @@ from pyconnect import codecs
 from pyconnect.commands.common import UsageError
 from pyconnect.commands.graph import expand_name, message_class
 from pyconnect.commands.live_values import echo_json, echo_value, shown_text
-from pyconnect.commands.topic import echo_field
+from pyconnect.commands.topic_subscribe import echo_field
 from pyconnect.commands.value_text import format_value
 
 

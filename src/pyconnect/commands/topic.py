@@ -15,10 +15,15 @@ import time
 from typing import TYPE_CHECKING, Any, TextIO
 
 from pyconnect.commands.common import Parser
+from pyconnect.commands.topic_subscribe import (
+    await_first,
+    echo_field,
+    no_message_reason,
+    publisher_types,
+    subscribe,
+)
 
 if TYPE_CHECKING:
-    from collections.abc import Callable
-
     from pyconnect.commands.common import Subcommands
 
 __all__ = ["register"]
@@ -172,134 +177,6 @@ def _info(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     return 0
 
 
-_DOING = {"echo": "echo", "hz": "measure the rate of", "bw": "measure the bandwidth of"}
-
-
-def _subscribe(
-    args: argparse.Namespace, verb: str, on_message: Any, *, raw: bool, started: float
-) -> tuple[Any, Any, str]:
-    """A session subscribed to ``args.topic`` and the type it expects; the caller spins it.
-
-    ``--timeout`` bounds the waits here from ``started`` (monotonic) on."""
-    from rclpy.impl.implementation_singleton import rclpy_implementation
-
-    from pyconnect.commands.graph import (
-        CommandFailed,
-        choose_qos,
-        endpoint_failure,
-        graph_session,
-        message_class,
-        topic_types,
-    )
-    from pyconnect.ros.interfaces import interface_name
-
-    def left() -> float | None:
-        return None if args.timeout is None else args.timeout - (time.monotonic() - started)
-
-    context = graph_session(verb)
-    session = context.__enter__()
-    try:
-        msg_type = args.message_type
-        if not msg_type:
-            types = topic_types(session, args.topic, timeout=left())
-            if len(types) > 1:
-                # A subscription takes one type: the other publishers would go unheard.
-                raise CommandFailed(
-                    f"cannot {_DOING[verb]} {args.topic}: it has more than one type "
-                    f"({', '.join(types)}); give the type"
-                )
-            msg_type = types[0]
-        msg_class = message_class(msg_type)
-        if args.qos_profile is None:
-            # The QoS is matched to the publishers: chosen before they are discovered it is
-            # reliable and volatile, which misses a latched message and hears no best-effort
-            # publisher. With no publisher in time, that default it is.
-            node = session.node
-            session.spin_until(lambda: bool(node.get_publishers_info_by_topic(args.topic)), left())
-        qos = choose_qos(session, args.topic, args.qos_profile)
-        try:
-            session.node.create_subscription(msg_class, args.topic, on_message, qos, raw=raw)
-        except rclpy_implementation.RCLError as error:
-            raise endpoint_failure(error, f"subscribe to {args.topic}") from None
-    except BaseException:
-        context.__exit__(None, None, None)
-        raise
-    return context, session, interface_name(msg_class)
-
-
-def no_message_reason(topic: str, msg_type: str, published: list[str], timeout: float) -> str:
-    """Why ``echo --timeout`` got nothing: ``published`` holds the type of each publisher."""
-    said = f"no message on [{topic}] within {timeout:g} s"
-    if not published:
-        return f"{said}: it has no publishers"
-    others = ", ".join(sorted(set(published) - {msg_type}))
-    if msg_type not in published:
-        return f"{said}: it is published as {others}, not {msg_type}"
-    count = published.count(msg_type)
-    also = f" (others publish {others})" if others else ""
-    return f"{said} from its {count} publisher(s) of {msg_type}{also}"
-
-
-def echo_field(msg: Any, field: str | None) -> Any:
-    """What ``echo --field`` shows of ``msg``: the field as the whole message shows it.
-
-    A message field is decoded as a message; any other field is taken from its message's dict,
-    as a whole message without a natural codec is shown: rclpy holds a ``byte`` as ``b'\\x00'``
-    and a ``uint8[]`` as an ``array.array``, where the dict has ``0`` and ``bytes``.
-    """
-    from pyconnect import codecs
-    from pyconnect.commands.live_values import select_field
-
-    value = select_field(msg, field)  # also says which part of a wrong --field is missing
-    if not field or hasattr(value, "get_fields_and_field_types"):
-        return value
-    parent_path, _, name = field.rpartition(".")
-    fields = codecs.to_dict(select_field(msg, parent_path or None))
-    return fields.get(name, value)
-
-
-def _publisher_types(session: Any, topic: str) -> list[str]:
-    return [str(p.topic_type) for p in session.node.get_publishers_info_by_topic(topic)]
-
-
-def _await_first(
-    session: Any,
-    topic: str,
-    msg_type: str,
-    *,
-    arrived: Callable[[], bool],
-    timeout: float | None,
-    err: TextIO,
-) -> bool:
-    """Spin until ``arrived()``: False when ``timeout`` s pass first (None: wait for ever).
-
-    A topic published as another type will never deliver: without a timeout that is said once,
-    as the wait may be long (``ros2 topic echo`` waits silently)."""
-    from pyconnect.commands.graph import PROGRAM
-
-    warned = False
-
-    def done() -> bool:
-        nonlocal warned
-        if arrived():
-            return True
-        if timeout is None and not warned:
-            published = _publisher_types(session, topic)
-            if published and msg_type not in published:
-                others = ", ".join(sorted(set(published)))
-                print(
-                    f"{PROGRAM}: warning: [{topic}] is published as {others}, not {msg_type}: "
-                    f"waiting for a publisher of {msg_type}",
-                    file=err,
-                    flush=True,
-                )
-                warned = True
-        return False
-
-    result: bool = session.spin_until(done, timeout)
-    return result
-
-
 def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.commands.graph import PROGRAM, CommandFailed, report_failure
     from pyconnect.commands.live_values import shown_text
@@ -313,17 +190,15 @@ def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     # --timeout bounds the whole wait for a first message, finding the type included.
     started = time.monotonic()
     try:
-        context, session, msg_type = _subscribe(
-            args, "echo", on_message, raw=False, started=started
-        )
+        context, session, msg_type = subscribe(args, "echo", on_message, raw=False, started=started)
     except PyconnectError as error:
         return report_failure(error, err)
     try:
         left = None if args.timeout is None else args.timeout - (time.monotonic() - started)
-        if not _await_first(
+        if not await_first(
             session, args.topic, msg_type, arrived=lambda: bool(received), timeout=left, err=err
         ):
-            published = _publisher_types(session, args.topic)
+            published = publisher_types(session, args.topic)
             reason = no_message_reason(args.topic, msg_type, published, args.timeout)
             return report_failure(CommandFailed(reason), err)
         while True:
@@ -371,7 +246,7 @@ def _hz(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     if args.qos_profile is None:
         args.qos_profile = "sensor_data"  # as ros2 topic hz subscribes
     try:
-        context, session, _msg_type = _subscribe(
+        context, session, _msg_type = subscribe(
             args, "hz", on_message, raw=True, started=time.monotonic()
         )
     except PyconnectError as error:
@@ -397,7 +272,7 @@ def _bw(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     if args.qos_profile is None:
         args.qos_profile = "sensor_data"  # as ros2 topic bw subscribes
     try:
-        context, session, _msg_type = _subscribe(
+        context, session, _msg_type = subscribe(
             args, "bw", on_message, raw=True, started=time.monotonic()
         )
     except PyconnectError as error:
