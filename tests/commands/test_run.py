@@ -5,12 +5,25 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
 
 from pyconnect.ros import large_messages
 from tests.commands.processes import ROOT, WAIT
+
+
+@pytest.fixture(autouse=True)
+def private_temp_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """This test's own temp directory, in this process and its children: profiles written here
+    never touch the shared one other processes use."""
+    directory = tmp_path / "temp"
+    directory.mkdir()
+    monkeypatch.setenv("TMPDIR", str(directory))
+    monkeypatch.delenv("XDG_RUNTIME_DIR", raising=False)
+    monkeypatch.setattr(tempfile, "tempdir", None)  # gettempdir() reads TMPDIR again
+    return directory
 
 
 def _pyconnect_run(
@@ -74,3 +87,63 @@ def test_a_profile_of_the_users_own_is_still_left_alone() -> None:
     assert large_messages.disabled_because(environ, default_on=True) == (
         "FASTRTPS_DEFAULT_PROFILES_FILE is set"
     )
+
+
+@pytest.mark.parametrize(
+    ("value", "setting"), [("inf", None), ("abc", None), ("0", None), ("abc", "1")]
+)
+def test_a_segment_size_that_is_no_size_is_a_usage_error(
+    tmp_path: Path, value: str, setting: str | None
+) -> None:
+    """With PYCONNECT_LARGE_MESSAGES=1 the launcher's own import of pyconnect.ros meets the
+    value first: it must not add a second report."""
+    script = tmp_path / "ran.py"
+    script.write_text("print('ran')\n")
+    env = {key: text for key, text in os.environ.items() if "PROFILES_FILE" not in key}
+    env.pop("PYCONNECT_LARGE_MESSAGES", None)
+    if setting is not None:
+        env["PYCONNECT_LARGE_MESSAGES"] = setting
+    env["PYCONNECT_SHM_SEGMENT_MB"] = value
+    done = _pyconnect_run(str(script), env=env)
+    assert (done.returncode, done.stdout, done.stderr) == (
+        2,
+        "",
+        "pyconnect: error: run: PYCONNECT_SHM_SEGMENT_MB: expected a segment size in MiB, "
+        f"a number > 0 (64 by default), got {value!r}\n",
+    )
+
+
+def _run_closing(stream: str, tmp_path: Path, **extra: str) -> subprocess.CompletedProcess[str]:
+    """``pyconnect run`` of a script that leaves a marker, with ``stream`` (1 or 2) closed by
+    the shell: python runs a program so, and so must pyconnect run."""
+    script = tmp_path / "marker.py"
+    script.write_text(
+        "import pathlib, sys\n"
+        "pathlib.Path(sys.argv[1]).write_text('ran')\n"
+        "if sys.stdout is not None:\n"
+        "    print('program output')\n"
+    )
+    command = f'exec "$0" -m pyconnect.cli run "$@" {stream}>&-'
+    return subprocess.run(
+        ["sh", "-c", command, sys.executable, str(script), str(tmp_path / "marker")],
+        cwd=ROOT, capture_output=True, text=True, timeout=WAIT, check=False,
+        env=dict(os.environ, **extra),
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize("setting", ["0", "1"])
+def test_the_program_runs_with_stdout_closed(tmp_path: Path, setting: str) -> None:
+    done = _run_closing("1", tmp_path, PYCONNECT_LARGE_MESSAGES=setting)
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "marker").read_text() == "ran"
+
+
+@pytest.mark.parametrize("setting", ["0", "1"])
+def test_the_program_runs_with_stderr_closed_and_its_stdout_is_its_own(
+    tmp_path: Path, setting: str
+) -> None:
+    """The "settings not applied" note (PYCONNECT_LARGE_MESSAGES=0) goes to stderr or nowhere,
+    never into the program's stdout."""
+    done = _run_closing("2", tmp_path, PYCONNECT_LARGE_MESSAGES=setting)
+    assert (done.returncode, done.stdout) == (0, "program output\n")
+    assert (tmp_path / "marker").read_text() == "ran"

@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import hashlib
 import json
 import os
+import platform
+import stat
 import subprocess
 import sys
+import tempfile
 from pathlib import Path
 
 import pytest
@@ -13,6 +17,20 @@ import pytest
 from pyconnect.commands.common import UsageError
 from pyconnect.commands.run import command_line
 from pyconnect.ros import large_messages
+
+MIB = 1024 * 1024
+
+
+@pytest.fixture(autouse=True)
+def private_temp_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """This test's own temp directory, in this process and its children: profiles written here
+    never touch the shared one other processes use."""
+    directory = tmp_path / "temp"
+    directory.mkdir()
+    monkeypatch.setenv("TMPDIR", str(directory))
+    monkeypatch.delenv("XDG_RUNTIME_DIR", raising=False)
+    monkeypatch.setattr(tempfile, "tempdir", None)  # gettempdir() reads TMPDIR again
+    return directory
 
 
 def test_importing_pyconnect_ros_with_the_setting_on_configures_the_process() -> None:
@@ -225,3 +243,189 @@ def test_the_segment_shrinks_to_a_quarter_of_what_dev_shm_can_hold(
     assert large_messages.configure_environment(environ, default_on=True) is None
     profile = Path(environ["FASTRTPS_DEFAULT_PROFILES_FILE"]).read_text()
     assert f"<segment_size>{free // 4}</segment_size>" in profile
+
+
+def _profile_name(segment: int) -> str:
+    digest = hashlib.sha256(large_messages.profile_xml(segment).encode()).hexdigest()[:12]
+    return f"pyconnect-fastdds-{digest}.xml"
+
+
+def test_the_profile_goes_to_a_directory_only_the_user_can_enter(private_temp_dir: Path) -> None:
+    path = large_messages.write_profile(16 * MIB)
+    assert path.parent == private_temp_dir / f"pyconnect-{os.getuid()}"
+    status = os.lstat(path.parent)
+    assert stat.S_ISDIR(status.st_mode)
+    assert (status.st_uid, stat.S_IMODE(status.st_mode)) == (os.getuid(), 0o700)
+    assert path.read_text() == large_messages.profile_xml(16 * MIB)
+
+
+def test_a_profile_planted_in_the_temp_directory_is_not_used(private_temp_dir: Path) -> None:
+    """The temp directory is world-writable: a file at the profile's name there is another
+    user's, and would choose this user's DDS transports."""
+    planted = private_temp_dir / _profile_name(16 * MIB)
+    planted.write_text("<profiles><!-- someone else's --></profiles>\n")
+    path = large_messages.write_profile(16 * MIB)
+    assert path != planted
+    assert path.read_text() == large_messages.profile_xml(16 * MIB)
+    assert planted.read_text() == "<profiles><!-- someone else's --></profiles>\n"
+
+
+def test_a_link_planted_at_the_partial_files_name_is_not_followed(private_temp_dir: Path) -> None:
+    victim = private_temp_dir / "victim.txt"
+    victim.write_text("precious\n")
+    partial = _profile_name(16 * MIB).replace(".xml", f".{os.getpid()}.tmp")
+    (private_temp_dir / partial).symlink_to(victim)
+    path = large_messages.write_profile(16 * MIB)
+    assert victim.read_text() == "precious\n"
+    assert not path.is_symlink()
+    assert path.read_text() == large_messages.profile_xml(16 * MIB)
+
+
+def test_a_profile_with_other_content_is_written_again() -> None:
+    path = large_messages.write_profile(16 * MIB)
+    path.write_text("<profiles/>\n")
+    assert large_messages.write_profile(16 * MIB) == path
+    assert path.read_text() == large_messages.profile_xml(16 * MIB)
+    assert [entry.name for entry in path.parent.iterdir()] == [path.name]  # no partial left
+
+
+@pytest.mark.parametrize("taken_by", ["open directory", "symlink", "file", "other user"])
+def test_a_private_directory_name_taken_by_something_else_is_refused(
+    private_temp_dir: Path, taken_by: str
+) -> None:
+    name = private_temp_dir / f"pyconnect-{os.getuid()}"
+    if taken_by == "open directory":
+        name.mkdir()
+        name.chmod(0o777)
+        problem = "has mode 777, expected 700"
+    elif taken_by == "symlink":
+        (private_temp_dir / "elsewhere").mkdir(mode=0o700)
+        name.symlink_to(private_temp_dir / "elsewhere")
+        problem = "is not a directory"
+    elif taken_by == "file":
+        name.write_text("")
+        problem = "is not a directory"
+    else:
+        if os.getuid() != 0:
+            pytest.skip("only root can give a directory to another user")
+        name.mkdir(mode=0o700)
+        os.chown(name, 12345, -1)
+        problem = f"belongs to user 12345, expected {os.getuid()}"
+    environ: dict[str, str] = {}
+    assert large_messages.configure_environment(environ, default_on=True) == (
+        f"the Fast DDS profile could not be written: {name} {problem}, "
+        "so it cannot hold pyconnect's profile"
+    )
+    assert environ == {}
+    assert sorted(entry.name for entry in private_temp_dir.iterdir()) == sorted(
+        {name.name, "elsewhere"} if taken_by == "symlink" else {name.name}
+    )
+
+
+def test_the_profile_goes_to_xdg_runtime_dir_only_when_it_is_private(
+    private_temp_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    runtime = tmp_path / "run"
+    runtime.mkdir(mode=0o700)
+    monkeypatch.setenv("XDG_RUNTIME_DIR", str(runtime))
+    assert large_messages.write_profile(16 * MIB).parent == runtime
+    runtime.chmod(0o755)
+    fallback = private_temp_dir / f"pyconnect-{os.getuid()}"
+    assert large_messages.write_profile(16 * MIB).parent == fallback
+
+
+_BAD_SEGMENT = (
+    "PYCONNECT_SHM_SEGMENT_MB: expected a segment size in MiB, a number > 0 (64 by default), "
+    "got {!r}"
+)
+
+
+@pytest.mark.parametrize("value", ["inf", "-inf", "nan", "1e400", "abc", "0", "-16", "16 MiB"])
+def test_a_segment_size_that_is_no_size_is_an_error_naming_the_variable(value: str) -> None:
+    with pytest.raises(large_messages.SegmentSizeError) as caught:
+        large_messages.segment_bytes({"PYCONNECT_SHM_SEGMENT_MB": value})
+    assert str(caught.value) == _BAD_SEGMENT.format(value)
+    environ = {"PYCONNECT_SHM_SEGMENT_MB": value}
+    with pytest.raises(large_messages.SegmentSizeError):
+        large_messages.configure_environment(environ, default_on=True)
+    assert environ == {"PYCONNECT_SHM_SEGMENT_MB": value}
+
+
+def test_an_empty_segment_size_is_the_default_and_a_huge_one_is_shrunk() -> None:
+    assert large_messages.segment_bytes({"PYCONNECT_SHM_SEGMENT_MB": ""}) == (
+        large_messages.segment_bytes({})
+    )
+    # 1e308 MiB is a finite number whose bytes are not (as a float): still shrunk to fit.
+    assert large_messages.segment_bytes({"PYCONNECT_SHM_SEGMENT_MB": "1e308"}) == (
+        large_messages.segment_bytes({"PYCONNECT_SHM_SEGMENT_MB": "1e12"})
+    )
+
+
+def test_a_segment_size_below_the_minimum_is_named_as_the_reason() -> None:
+    environ = {"PYCONNECT_SHM_SEGMENT_MB": "4"}
+    assert large_messages.configure_environment(environ, default_on=True) == (
+        "PYCONNECT_SHM_SEGMENT_MB is below the 8 MiB minimum segment"
+    )
+    assert environ == {"PYCONNECT_SHM_SEGMENT_MB": "4"}
+
+
+def test_importing_with_a_bad_segment_size_warns_and_changes_nothing() -> None:
+    script = (
+        "import os, pyconnect.ros\n"
+        "print(sorted(n for n in os.environ if n.startswith(('FAST', 'MALLOC'))))\n"
+    )
+    env = _unconfigured_env(PYCONNECT_LARGE_MESSAGES="1", PYCONNECT_SHM_SEGMENT_MB="abc")
+    done = subprocess.run(
+        [sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=120,
+        check=False,
+    )  # fmt: skip
+    assert (done.returncode, done.stdout) == (0, "[]\n")
+    warning = f"large-message settings not applied: {_BAD_SEGMENT.format('abc')}\n"
+    assert done.stderr == warning
+
+
+_MMAPPED = """
+import ctypes, ctypes.util, os, sys
+libc = ctypes.CDLL(ctypes.util.find_library("c"))
+libc.malloc.restype = ctypes.c_void_p
+libc.malloc.argtypes = [ctypes.c_size_t]
+libc.free.argtypes = [ctypes.c_void_p]
+
+def mmapped() -> bool:
+    # glibc returns a chunk of its own mapping 16 bytes into a fresh page
+    blocks = [libc.malloc(200_000) for _ in range(20)]
+    answer = all(block % 4096 == 16 for block in blocks)
+    for block in blocks:
+        libc.free(block)
+    return answer
+
+before = mmapped()
+import pyconnect.ros
+print(before, mmapped(), os.environ["MALLOC_MMAP_THRESHOLD_"])
+"""
+
+
+@pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="mallopt is glibc's")
+def test_importing_keeps_the_users_own_malloc_setting() -> None:
+    """The user's MALLOC_MMAP_THRESHOLD_ (64 KiB: a 200 kB block is mapped) stays in force
+    when only MALLOC_TRIM_THRESHOLD_ is left to pyconnect."""
+    env = _unconfigured_env(PYCONNECT_LARGE_MESSAGES="1", MALLOC_MMAP_THRESHOLD_="65536")
+    done = subprocess.run(
+        [sys.executable, "-c", _MMAPPED], capture_output=True, text=True, env=env, timeout=120,
+        check=True,
+    )  # fmt: skip
+    assert done.stdout.split() == ["True", "True", "65536"]
+    # Without the user's setting, pyconnect's own (256 MiB, or 32 MiB) keeps it on the heap.
+    env = _unconfigured_env(PYCONNECT_LARGE_MESSAGES="1")
+    done = subprocess.run(
+        [sys.executable, "-c", _MMAPPED], capture_output=True, text=True, env=env, timeout=120,
+        check=True,
+    )  # fmt: skip
+    assert done.stdout.split() == ["True", "False", "268435456"]
+
+
+def test_an_empty_rmw_implementation_is_the_default_fast_dds() -> None:
+    """rclpy loads rmw_fastrtps_cpp when RMW_IMPLEMENTATION is empty."""
+    environ = {"RMW_IMPLEMENTATION": ""}
+    assert large_messages.configure_environment(environ, default_on=True) is None
+    assert large_messages.is_own_profile(environ["FASTRTPS_DEFAULT_PROFILES_FILE"])

@@ -56,8 +56,9 @@ def command_line(module: str | None, program: list[str]) -> list[str]:
     return [sys.executable, *program]
 
 
-def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
-    from pyconnect.ros.large_messages import configure_environment
+def _run(args: argparse.Namespace, out: TextIO | None, err: TextIO | None) -> int:
+    # out / err are None when the shell closed them (``2>&-``): python still runs the program.
+    from pyconnect.ros.large_messages import SegmentSizeError, configure_environment
 
     module, program = None, list(args.program)
     if args.module is not None:  # -m took the module and every argument after it
@@ -66,10 +67,15 @@ def _run(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         module, program = args.module[0], list(args.module[1:])
     argv = command_line(module, program)
     environ = dict(os.environ)
-    reason = configure_environment(environ, default_on=True)
-    if reason is not None:
+    try:
+        reason = configure_environment(environ, default_on=True)
+    except SegmentSizeError as error:
+        raise UsageError(f"run: {error}") from None
+    # print(file=None) would write to sys.stdout: the program's output, not a place for notes.
+    if reason is not None and err is not None:
         print(f"pyconnect run: large-message settings not applied: {reason}", file=err)
-    out.flush()
-    err.flush()
+    for stream in (out, err):
+        if stream is not None:
+            stream.flush()
     os.execve(sys.executable, argv, environ)
     return 0  # not reached

@@ -7,12 +7,14 @@ buffer, bring it to about 4 ms. ``pyconnect run script.py`` does both for a prog
 importing ``pyconnect.ros`` when ``PYCONNECT_LARGE_MESSAGES=1``:
 
 - writes a Fast DDS XML profile (a shared-memory transport with a ``PYCONNECT_SHM_SEGMENT_MB``
-  segment, 64 MiB by default, beside UDPv4 for other hosts) and points
-  ``FASTRTPS_DEFAULT_PROFILES_FILE`` at it — Fast DDS reads it when the first node of the
-  process is created, so import pyconnect before creating rclpy nodes yourself;
+  segment, 64 MiB by default, beside UDPv4 for other hosts) into a directory only this user can
+  write (``profile_directory``) and points ``FASTRTPS_DEFAULT_PROFILES_FILE`` at it — Fast DDS
+  reads it when the first node of the process is created, so import pyconnect before creating
+  rclpy nodes yourself;
 - calls glibc's ``mallopt`` with the values of ``MALLOC_MMAP_THRESHOLD_=268435456`` and
-  ``MALLOC_TRIM_THRESHOLD_=1073741824`` (``pyconnect run script.py`` sets the variables before
-  the interpreter starts, which also covers what was allocated before the import).
+  ``MALLOC_TRIM_THRESHOLD_=1073741824``, each only when its variable is not set (the user's own
+  value was read by glibc at start; ``pyconnect run script.py`` sets the variables before the
+  interpreter starts, which also covers what was allocated before the import).
 
 Fast DDS's data-sharing is left at its default (automatic): it refuses data-sharing for
 unbounded types such as Image and PointCloud2, which therefore travel through the shared-memory
@@ -23,20 +25,32 @@ a choice for the program's owner (``pyconnect run``, or the variable), not a sid
 Nothing is changed when ``PYCONNECT_LARGE_MESSAGES=0``, when the user set a Fast DDS profile
 (``FASTRTPS_DEFAULT_PROFILES_FILE`` / ``FASTDDS_DEFAULT_PROFILES_FILE`` naming a file other
 than pyconnect's own ``pyconnect-fastdds-<digest>.xml``) or another
-``RMW_IMPLEMENTATION``, or when ``/dev/shm`` cannot hold four segments (small containers).
+``RMW_IMPLEMENTATION``, when ``/dev/shm`` cannot hold four segments (small containers), or when
+the profile cannot be written (its private directory's name is taken by someone else). A
+``PYCONNECT_SHM_SEGMENT_MB`` that is no size is an error for ``pyconnect run`` and a warning on
+the ``pyconnect.ros`` logger at import (nothing is changed then).
 """
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import ctypes.util
 import hashlib
+import logging
+import math
 import os
 import re
 import shutil
+import stat
 import tempfile
-from collections.abc import MutableMapping
+from collections.abc import Collection, MutableMapping
+from fractions import Fraction
 from pathlib import Path
+
+from pyconnect.errors import PyconnectError
+
+_log = logging.getLogger("pyconnect.ros")
 
 MALLOC_SETTINGS = {
     "MALLOC_MMAP_THRESHOLD_": "268435456",
@@ -57,6 +71,12 @@ _M_TRIM_THRESHOLD = -1
 _M_MMAP_THRESHOLD = -3
 _MALLOPT_MMAP_MAX = 32 * 1024 * 1024
 _SHM_HEADROOM = 4  # segments /dev/shm must have room for (two peers, each with margin)
+_MIB = 1024 * 1024
+_MIN_SEGMENT = 8 * _MIB
+
+
+class SegmentSizeError(PyconnectError, ValueError):
+    """``PYCONNECT_SHM_SEGMENT_MB`` holds no usable size; the message names it and its value."""
 
 
 def profile_xml(segment_bytes: int) -> str:
@@ -88,10 +108,34 @@ def profile_xml(segment_bytes: int) -> str:
 """
 
 
-def segment_bytes(environ: MutableMapping[str, str] | None = None) -> int:
-    """The segment size: ``PYCONNECT_SHM_SEGMENT_MB`` or 64 MiB, shrunk to fit ``/dev/shm``."""
+def wanted_segment_bytes(environ: MutableMapping[str, str] | None = None) -> int:
+    """``PYCONNECT_SHM_SEGMENT_MB`` in bytes (64 MiB when unset or empty).
+
+    Raises ``SegmentSizeError`` unless it is a finite number of MiB above 0.
+    """
     env = os.environ if environ is None else environ
-    wanted = int(float(env.get("PYCONNECT_SHM_SEGMENT_MB", DEFAULT_SEGMENT_MB)) * 1024 * 1024)
+    text = env.get("PYCONNECT_SHM_SEGMENT_MB", "")
+    if not text.strip():
+        return DEFAULT_SEGMENT_MB * _MIB
+    try:
+        megabytes = float(text)
+    except ValueError:
+        megabytes = math.nan
+    if not (math.isfinite(megabytes) and megabytes > 0):
+        raise SegmentSizeError(
+            "PYCONNECT_SHM_SEGMENT_MB: expected a segment size in MiB, a number > 0 "
+            f"({DEFAULT_SEGMENT_MB} by default), got {text!r}"
+        )
+    # Exact: in floats, 1e303 MiB would overflow to inf bytes (the size is shrunk to fit anyway).
+    return int(Fraction(megabytes) * _MIB)
+
+
+def segment_bytes(environ: MutableMapping[str, str] | None = None) -> int:
+    """The segment size: ``PYCONNECT_SHM_SEGMENT_MB`` or 64 MiB, shrunk to fit ``/dev/shm``.
+
+    Raises ``SegmentSizeError`` for a ``PYCONNECT_SHM_SEGMENT_MB`` that is no size.
+    """
+    wanted = wanted_segment_bytes(environ)
     try:
         free = shutil.disk_usage("/dev/shm").free
     except OSError:
@@ -116,7 +160,8 @@ def disabled_because(
     for name in ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILES_FILE"):
         if env.get(name) and not is_own_profile(env[name]):
             return f"{name} is set"
-    rmw = env.get("RMW_IMPLEMENTATION", "rmw_fastrtps_cpp")
+    # Empty is unset for rclpy too: it loads its default, Fast DDS.
+    rmw = env.get("RMW_IMPLEMENTATION") or "rmw_fastrtps_cpp"
     if rmw not in {"rmw_fastrtps_cpp", "rmw_fastrtps_dynamic_cpp"}:
         return f"RMW_IMPLEMENTATION is {rmw}"
     return None
@@ -132,30 +177,99 @@ def is_own_profile(path: str) -> bool:
     return _OWN_PROFILE.fullmatch(Path(path).name) is not None
 
 
+def profile_directory() -> Path:
+    """This user's private directory for the profile: ``$XDG_RUNTIME_DIR`` when it is a
+    directory of this user's that no one else may enter, else ``pyconnect-<uid>`` in the temp
+    directory, created with mode 0700.
+
+    Raises ``PermissionError`` when that name is taken by anything but such a directory: the
+    temp directory is world-writable, and a profile another user can replace would let them
+    choose this user's DDS transports (peers to send to, for one).
+    """
+    runtime = os.environ.get("XDG_RUNTIME_DIR")
+    if runtime and _not_private_because(Path(runtime)) is None:
+        return Path(runtime)
+    directory = Path(tempfile.gettempdir()) / f"pyconnect-{os.getuid()}"
+    with contextlib.suppress(FileExistsError):
+        directory.mkdir(mode=0o700)
+    problem = _not_private_because(directory)
+    if problem is not None:
+        raise PermissionError(f"{directory} {problem}, so it cannot hold pyconnect's profile")
+    return directory
+
+
+def _not_private_because(directory: Path) -> str | None:
+    """Why ``directory`` is no directory of this user's closed to others, or None."""
+    try:
+        status = os.lstat(directory)  # lstat: a symlink may point anywhere, someone else's too
+    except OSError as error:
+        return f"cannot be examined ({error.strerror})"
+    if not stat.S_ISDIR(status.st_mode):
+        return "is not a directory"
+    if status.st_uid != os.getuid():
+        return f"belongs to user {status.st_uid}, expected {os.getuid()}"
+    if status.st_mode & 0o077:
+        return f"has mode {stat.S_IMODE(status.st_mode):o}, expected 700"
+    return None
+
+
 def write_profile(segment: int) -> Path:
-    """Write the profile once per segment size (shared by processes) and return its path."""
+    """Write the profile once per segment size (shared by this user's processes) into
+    ``profile_directory()`` and return its path; ``OSError`` when it cannot be written."""
     text = profile_xml(segment)
     digest = hashlib.sha256(text.encode()).hexdigest()[:12]
-    path = Path(tempfile.gettempdir()) / f"pyconnect-fastdds-{digest}.xml"
-    if not path.exists():
-        # Written aside and renamed: another process may read it at the same moment.
-        partial = path.with_suffix(f".{os.getpid()}.tmp")
-        partial.write_text(text)
-        partial.replace(path)
+    directory = profile_directory()
+    path = directory / f"pyconnect-fastdds-{digest}.xml"
+    if _read_regular_file(path) == text:
+        return path
+    # Written aside under an unpredictable name and renamed: another process may read it at
+    # the same moment, and a fixed name could be taken by a file or link of someone else's.
+    descriptor, partial = tempfile.mkstemp(prefix=f"{path.stem}.", suffix=".tmp", dir=directory)
+    try:
+        with os.fdopen(descriptor, "w", encoding="utf-8") as file:
+            file.write(text)
+        os.replace(partial, path)
+    except BaseException:
+        with contextlib.suppress(OSError):
+            os.unlink(partial)
+        raise
     return path
+
+
+def _read_regular_file(path: Path) -> str | None:
+    """The text of ``path`` when it is a file (not a symlink), else None."""
+    try:
+        descriptor = os.open(path, os.O_RDONLY | os.O_NOFOLLOW)
+    except OSError:
+        return None
+    try:
+        with os.fdopen(descriptor, encoding="utf-8") as file:
+            return file.read() if stat.S_ISREG(os.fstat(file.fileno()).st_mode) else None
+    except (OSError, UnicodeDecodeError):
+        return None
 
 
 def configure_environment(
     environ: MutableMapping[str, str], *, default_on: bool = False
 ) -> str | None:
-    """Set the profile and malloc variables in ``environ``; the reason it did not, or None."""
+    """Set the profile and malloc variables in ``environ``; the reason it did not, or None.
+
+    Raises ``SegmentSizeError`` (``environ`` unchanged) for a ``PYCONNECT_SHM_SEGMENT_MB`` that
+    is no size.
+    """
     reason = disabled_because(environ, default_on=default_on)
     if reason is not None:
         return reason
+    if wanted_segment_bytes(environ) < _MIN_SEGMENT:
+        return "PYCONNECT_SHM_SEGMENT_MB is below the 8 MiB minimum segment"
     segment = segment_bytes(environ)
-    if segment < 8 * 1024 * 1024:
+    if segment < _MIN_SEGMENT:
         return "/dev/shm has too little room for a shared-memory segment"
-    environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(write_profile(segment))
+    try:
+        profile = write_profile(segment)
+    except OSError as error:
+        return f"the Fast DDS profile could not be written: {error}"
+    environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(profile)
     environ["PYCONNECT_LARGE_MESSAGES"] = "1"
     for name, value in MALLOC_SETTINGS.items():
         environ.setdefault(name, value)
@@ -171,10 +285,16 @@ def configure() -> str | None:
     Returns None when configured, else why not.
     """
     if "reason" not in _outcome:
-        had_malloc_env = all(name in os.environ for name in MALLOC_SETTINGS)
-        _outcome["reason"] = configure_environment(os.environ)
-        if _outcome["reason"] is None and not had_malloc_env:
-            _apply_mallopt()
+        unset = [name for name in MALLOC_SETTINGS if name not in os.environ]
+        try:
+            _outcome["reason"] = configure_environment(os.environ)
+        except SegmentSizeError as error:
+            # An import must not fail over a tuning variable; the user asked for the settings
+            # (PYCONNECT_LARGE_MESSAGES=1), so they hear why they are off.
+            _outcome["reason"] = str(error)
+            _log.warning("large-message settings not applied: %s", error)
+        if _outcome["reason"] is None:
+            _apply_mallopt(unset)
     return _outcome["reason"]
 
 
@@ -188,12 +308,14 @@ def apply_malloc_settings() -> None:
     setting = os.environ.get("PYCONNECT_LARGE_MESSAGES", "").strip().lower()
     if setting in {"0", "false", "no", "off"}:
         return
-    if not all(name in os.environ for name in MALLOC_SETTINGS):
-        _apply_mallopt()
+    _apply_mallopt([name for name in MALLOC_SETTINGS if name not in os.environ])
 
 
-def _apply_mallopt() -> None:
-    """Apply the malloc settings now (glibc only reads the variables at process start)."""
+def _apply_mallopt(names: Collection[str]) -> None:
+    """Apply the malloc settings ``names`` now (glibc only reads the variables at process
+    start); the others were set by the user, whose values glibc already took."""
+    if not names:
+        return
     name = ctypes.util.find_library("c")
     if name is None:
         return
@@ -204,7 +326,10 @@ def _apply_mallopt() -> None:
         return
     mallopt.argtypes = [ctypes.c_int, ctypes.c_int]
     mallopt.restype = ctypes.c_int
-    mallopt(_M_TRIM_THRESHOLD, int(MALLOC_SETTINGS["MALLOC_TRIM_THRESHOLD_"]))
-    if not mallopt(_M_MMAP_THRESHOLD, int(MALLOC_SETTINGS["MALLOC_MMAP_THRESHOLD_"])):
+    if "MALLOC_TRIM_THRESHOLD_" in names:
+        mallopt(_M_TRIM_THRESHOLD, int(MALLOC_SETTINGS["MALLOC_TRIM_THRESHOLD_"]))
+    if "MALLOC_MMAP_THRESHOLD_" in names and not mallopt(
+        _M_MMAP_THRESHOLD, int(MALLOC_SETTINGS["MALLOC_MMAP_THRESHOLD_"])
+    ):
         # mallopt refuses more than half glibc's heap size (32 MiB on 64-bit); take that.
         mallopt(_M_MMAP_THRESHOLD, _MALLOPT_MMAP_MAX)
