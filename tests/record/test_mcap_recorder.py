@@ -18,7 +18,7 @@ from test_msgs.msg import BasicTypes, Empty
 
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.mcap_recorder import McapRecorder
-from pyconnect.typesys.definition_text import installed_definition
+from pyconnect.typesys.installed_definition_text import installed_definition
 from tests.conftest import require_sample_bags
 from tests.record.bag_samples import BAGS
 

@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-from pyconnect.typesys.definition_text import installed_definition
+from pyconnect.typesys.installed_definition_text import installed_definition
 from pyconnect.typesys.packages import installed_share_dirs
 
 READING_IDL = """module idlpkg {

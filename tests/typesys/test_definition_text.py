@@ -10,13 +10,13 @@ from std_msgs.msg import Header, String
 
 from pyconnect.errors import CodecNotFoundError
 from pyconnect.record.bag_reader import open_bag
-from pyconnect.typesys.definition_text import (
+from pyconnect.typesys.definition_text import resolve_definition
+from pyconnect.typesys.errors import DefinitionError
+from pyconnect.typesys.installed_definition_text import (
     DEFINITION_SEPARATOR,
     definition_encoding,
     installed_definition,
-    resolve_definition,
 )
-from pyconnect.typesys.errors import DefinitionError
 from tests.typesys.idl_prefix import READING_IDL, SAMPLE_IDL, idl_share
 
 __all__ = ["idl_share"]  # a fixture

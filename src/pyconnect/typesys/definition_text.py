@@ -3,7 +3,7 @@
 The layouts are those rosbag2 writes (``ros2msg``: the main type's text, then one block per
 dependency headed by a line of ``=`` and ``MSG: pkg/Name``; ``ros2idl``: every block headed by
 ``IDL: pkg/msg/Name``), as ``pyconnect.typesys.installed_definition_text`` writes them for
-installed types; its public names are importable from here too.
+installed types.
 """
 
 from __future__ import annotations
@@ -14,13 +14,6 @@ from dataclasses import replace
 from pathlib import Path
 
 from pyconnect.typesys.errors import DefinitionError
-from pyconnect.typesys.installed_definition_text import (
-    DEFINITION_SEPARATOR,
-    definition_encoding,
-    dependencies_of,
-    installed_definition,
-    interface_file,
-)
 from pyconnect.typesys.loading import build_type_set, reject_recursive_types
 from pyconnect.typesys.model import MessageDef, TypeSet
 from pyconnect.typesys.names import split_part
@@ -33,11 +26,6 @@ from pyconnect.typesys.parse import (
 )
 
 __all__ = [
-    "DEFINITION_SEPARATOR",
-    "definition_encoding",
-    "dependencies_of",
-    "installed_definition",
-    "interface_file",
     "parse_definition",
     "resolve_definition",
     "split_type",
