@@ -5,25 +5,15 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 import pytest
 
 from pyconnect.ros import large_messages
 from tests.commands.processes import ROOT, WAIT
+from tests.private_temp import private_temp_dir
 
-
-@pytest.fixture(autouse=True)
-def private_temp_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """This test's own temp directory, in this process and its children: profiles written here
-    never touch the shared one other processes use."""
-    directory = tmp_path / "temp"
-    directory.mkdir()
-    monkeypatch.setenv("TMPDIR", str(directory))
-    monkeypatch.delenv("XDG_RUNTIME_DIR", raising=False)
-    monkeypatch.setattr(tempfile, "tempdir", None)  # gettempdir() reads TMPDIR again
-    return directory
+__all__ = ["private_temp_dir"]  # an autouse fixture
 
 
 def _pyconnect_run(

@@ -9,7 +9,6 @@ import platform
 import stat
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 import pytest
@@ -17,20 +16,11 @@ import pytest
 from pyconnect.commands.common import UsageError
 from pyconnect.commands.run import command_line
 from pyconnect.ros import large_messages
+from tests.private_temp import private_temp_dir
+
+__all__ = ["private_temp_dir"]  # an autouse fixture
 
 MIB = 1024 * 1024
-
-
-@pytest.fixture(autouse=True)
-def private_temp_dir(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
-    """This test's own temp directory, in this process and its children: profiles written here
-    never touch the shared one other processes use."""
-    directory = tmp_path / "temp"
-    directory.mkdir()
-    monkeypatch.setenv("TMPDIR", str(directory))
-    monkeypatch.delenv("XDG_RUNTIME_DIR", raising=False)
-    monkeypatch.setattr(tempfile, "tempdir", None)  # gettempdir() reads TMPDIR again
-    return directory
 
 
 def test_importing_pyconnect_ros_with_the_setting_on_configures_the_process() -> None:
