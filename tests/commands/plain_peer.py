@@ -13,7 +13,7 @@ import time
 
 import rclpy
 from rclpy.action import ActionServer
-from rclpy.executors import ExternalShutdownException, MultiThreadedExecutor
+from rclpy.executors import Executor, ExternalShutdownException, MultiThreadedExecutor
 from rclpy.node import Node
 from sensor_msgs.msg import Image, JointState, LaserScan
 from std_msgs.msg import String
@@ -80,6 +80,11 @@ def main() -> None:
     ActionServer(node, Fibonacci, "fibonacci", fibonacci)
     executor = MultiThreadedExecutor()
     executor.add_node(node)
+    serve(executor)
+
+
+def serve(executor: Executor) -> None:
+    """Say "ready", then spin until the test closes stdin (or Ctrl-C)."""
 
     def watch_stdin() -> None:
         sys.stdin.read()

@@ -10,14 +10,15 @@ everything is created and exits on SIGINT or stdin closing.
 from __future__ import annotations
 
 import sys
-import threading
 
 import rclpy
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64, String
 from test_msgs.action import Fibonacci
+
+from tests.commands.plain_peer import serve
 
 
 def _main_topics(node: Node) -> None:
@@ -52,19 +53,7 @@ def main() -> None:
     (_float_topics if mode == "float" else _main_topics)(node)
     executor = SingleThreadedExecutor()
     executor.add_node(node)
-
-    def watch_stdin() -> None:
-        sys.stdin.read()
-        rclpy.try_shutdown()
-
-    threading.Thread(target=watch_stdin, daemon=True).start()
-    print("ready", flush=True)
-    try:
-        executor.spin()
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        rclpy.try_shutdown()
+    serve(executor)
 
 
 if __name__ == "__main__":
