@@ -168,7 +168,7 @@ def test_send_after_shutdown_reports_the_shutdown(make_node: Any) -> None:
     node.shutdown()
     reply = client.send({"data": True}, timeout=1.0)
     assert reply["isdone"] is False
-    assert reply["error"].endswith("node 'closing' is shut down")
+    assert reply["error"].endswith("node '/closing' is shut down")
     result = goals.send({"order": 1}, timeout=1.0)
     assert result["isdone"] is False
-    assert result["error"].endswith("node 'closing' is shut down")
+    assert result["error"].endswith("node '/closing' is shut down")

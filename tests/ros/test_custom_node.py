@@ -51,7 +51,7 @@ def test_duplicate_agent_name(make_node: Any) -> None:
     with pytest.raises(PyconnectError) as caught:
         node.add_agent(conn_name="chatter", conn_type="sub", data_interface=String)
     assert str(caught.value) == (
-        "agent 'chatter': node 'test_node' already has an agent of that name; "
+        "agent 'chatter': node '/test_node' already has an agent of that name; "
         "give one of them agent_name="
     )
 
@@ -134,10 +134,37 @@ def test_wait_until_connected_names_the_agents_still_waiting(make_node: Any) -> 
     with pytest.raises(ConnectionTimeout) as caught:
         node.wait_until_connected(timeout=0.1)
     assert str(caught.value) == (
-        "node 'test_node': still waiting after 0.1 s for agent 'camera' (sub "
+        "node '/test_node': still waiting after 0.1 s for agent 'camera' (sub "
         "sensor_msgs/msg/Image) (no message yet), agent 'get_map' (service_client "
         "std_srvs/srv/Trigger) (no server yet)"
     )
+
+
+def test_errors_name_the_node_as_remapped_and_namespaced(make_node: Any) -> None:
+    node = make_node(
+        "camera", cli_args=["--ros-args", "-r", "__node:=left_cam", "-r", "__ns:=/robot1"]
+    )
+    node.add_agent(conn_name="trigger", conn_type="sub", data_interface=String)
+    with pytest.raises(PyconnectError) as duplicate:
+        node.add_agent(conn_name="trigger", conn_type="sub", data_interface=String)
+    assert str(duplicate.value) == (
+        "agent 'trigger': node '/robot1/left_cam' already has an agent of that name; "
+        "give one of them agent_name="
+    )
+    with pytest.raises(ConnectionTimeout) as waited:
+        node.wait_until_connected(timeout=0.1)
+    assert str(waited.value) == (
+        "node '/robot1/left_cam': still waiting after 0.1 s for agent 'trigger' (sub "
+        "std_msgs/msg/String) (no message yet)"
+    )
+    node.shutdown()
+    assert node.get_fully_qualified_name() == "/robot1/left_cam"  # also once shut down
+    with pytest.raises(PyconnectError) as added:
+        node.add_agent(conn_name="x", conn_type="pub", data_interface=String)
+    assert str(added.value) == "node '/robot1/left_cam' is shut down; cannot add 'x'"
+    with pytest.raises(PyconnectError) as spun:
+        node.spin(run_thread=True)
+    assert str(spun.value) == "node '/robot1/left_cam' is shut down"
 
 
 def test_wait_until_connected_returns_when_everything_is_there(make_node: Any) -> None:
@@ -276,7 +303,7 @@ def test_add_agent_while_shutdown_destroys_the_agents_is_refused(
     node.shutdown()
     assert len(outcome) == 1
     assert isinstance(outcome[0], PyconnectError)
-    assert str(outcome[0]) == "node 'closing_node' is shut down; cannot add 'late'"
+    assert str(outcome[0]) == "node '/closing_node' is shut down; cannot add 'late'"
     assert "late" not in node.agents
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import threading
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -11,6 +12,7 @@ from std_srvs.srv import Trigger
 from test_msgs.action import Fibonacci
 
 from .conftest import EVENT_TIMEOUT, repeat_until
+from .test_shutdown import run_child
 
 
 def test_response_func_may_call_a_blocking_service(make_node: Any) -> None:
@@ -394,3 +396,27 @@ def test_another_base_exception_in_a_callback_is_reported_and_the_node_goes_on(
     assert again.wait(EVENT_TIMEOUT)
     assert errors == ["callback raised _Odd: odd"]
     assert node.ok()
+
+
+CLOSED_STDERR = """
+import traceback
+
+closed = sys.stderr is None
+try:
+    node, heard = make()  # rclpy's EventsExecutor enables faulthandler, which needs a stderr
+    node.spin(run_thread=True)
+    ready(heard)
+    say("stderr is None" if closed else "stderr is open")
+    node.get_logger().info("logged with stderr closed")
+    node.shutdown()
+    print("AFTER CLOSED", flush=True)
+except BaseException:
+    say("READY")  # the parent reads on: the traceback goes where it can be seen
+    traceback.print_exc(file=sys.stdout)
+"""
+
+
+def test_a_node_starts_and_ends_with_stderr_closed(tmp_path: Path) -> None:
+    returncode, out, _err = run_child(CLOSED_STDERR, tmp_path, close_stderr=True)
+    assert returncode == 0, out
+    assert out.splitlines() == ["stderr is None", "STOP", "AFTER CLOSED"], out

@@ -299,13 +299,44 @@ def test_logging_and_recording_after_shutdown_are_refused(make_node: Any, tmp_pa
     with pytest.raises(PyconnectError) as logging_refused:
         node.start_log_subs(fps=10)
     assert str(logging_refused.value) == (
-        "node 'closed_logger' is shut down; cannot start logging its subs"
+        "node '/closed_logger' is shut down; cannot start logging its subs"
     )
     target = tmp_path / "after_shutdown"
     with pytest.raises(PyconnectError) as record_refused:
         node.record(target)
     assert str(record_refused.value) == (
-        f"node 'closed_logger' is shut down; cannot record to {str(target)!r}"
+        f"node '/closed_logger' is shut down; cannot record to {str(target)!r}"
     )
     assert not target.exists()
     assert not (tmp_path / "after_shutdown.mcap").exists()
+
+
+def test_the_default_log_dir_is_read_when_the_node_first_needs_it(
+    make_node: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # Set after pyconnect was imported, before the nodes exist (as a program's main() would).
+    monkeypatch.setenv("PYCONNECT_LOG_DIR", str(tmp_path / "from_env"))
+    by_env = make_node("env_logger", log_dir=None)
+    assert by_env.log_dir == tmp_path / "from_env"
+    monkeypatch.delenv("PYCONNECT_LOG_DIR")
+    monkeypatch.chdir(tmp_path)
+    by_cwd = make_node("cwd_logger", log_dir=None)
+    assert by_cwd.log_dir == tmp_path / "pyconnect_logs"
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    monkeypatch.chdir(elsewhere)  # once a node has its root it keeps it
+    for node, root in ((by_env, tmp_path / "from_env"), (by_cwd, tmp_path / "pyconnect_logs")):
+        agent = node.add_agent(conn_name="status", conn_type="pub", data_interface=String)
+        assert agent.log_msg(node.get_name())
+        assert agent.flush_log(EVENT_TIMEOUT)
+        folder = agent.make_log_dirs()
+        assert folder.parent.parent == root / node.get_name()
+        assert _json_values(folder) == [node.get_name()]
+
+
+def test_logging_subs_twice_names_the_node_as_remapped(make_node: Any) -> None:
+    node = make_node("camera", namespace="robot1", cli_args=["--ros-args", "-r", "__node:=left"])
+    node.start_log_subs(fps=10)
+    with pytest.raises(PyconnectError) as caught:
+        node.start_log_subs(fps=10)
+    assert str(caught.value) == "node '/robot1/left' already logs its subs"

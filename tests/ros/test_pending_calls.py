@@ -78,10 +78,10 @@ def test_calls_on_a_shut_down_node_fail_with_its_name(make_node: Any) -> None:
     action = _action_pair(node)
     node.shutdown()
     for client, name in ((service, SERVICE), (action, ACTION)):
-        failed = {"isdone": False, "error": f"{name}: node 'test_node' is shut down"}
+        failed = {"isdone": False, "error": f"{name}: node '/test_node' is shut down"}
         assert client.send({}, block=False).result(EVENT_TIMEOUT) == failed
         assert asyncio.run(client.send_async({})) == failed
-    with pytest.raises(PyconnectError, match="node 'test_node' is shut down"):
+    with pytest.raises(PyconnectError, match="node '/test_node' is shut down"):
         node.wait_until_connected(timeout=1.0)
 
 
@@ -100,7 +100,7 @@ def test_an_open_non_blocking_goal_fails_when_the_node_shuts_down(make_node: Any
     assert started.wait(EVENT_TIMEOUT)
     node.shutdown()
     assert future.result(EVENT_TIMEOUT) == {
-        "isdone": False, "error": f"{ACTION}: node 'test_node' shut down during the goal",
+        "isdone": False, "error": f"{ACTION}: node '/test_node' shut down during the goal",
     }  # fmt: skip
 
 

@@ -167,7 +167,7 @@ def test_a_call_cut_short_by_shutdown_says_so(make_node: Any) -> None:
     assert outcome == [
         {
             "isdone": False,
-            "error": "agent 'slow' (service_client std_srvs/srv/Trigger): node 'caller' shut "
+            "error": "agent 'slow' (service_client std_srvs/srv/Trigger): node '/caller' shut "
             "down during the call",
         }
     ]

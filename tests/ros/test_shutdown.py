@@ -216,6 +216,73 @@ node.spin()
 returned.set()
 print("AFTER EXIT", flush=True)
 """,
+    "sigterm_user_handler_exits": """
+import signal
+
+def save_state(_signum, _frame):
+    say("USER HANDLER")  # installed before the node: pyconnect calls it after its own
+    raise SystemExit(0)
+
+signal.signal(signal.SIGTERM, save_state)
+node, heard = make()
+node.spin(run_thread=True)
+ready(heard)
+try:
+    while True:
+        time.sleep(0.05)
+finally:
+    say("FINALLY")
+""",
+    "sigterm_user_handler_exits_during_spin": """
+import signal
+
+def save_state(_signum, _frame):
+    say("USER HANDLER")
+    raise SystemExit(0)  # out of spin(): the shutdown already under way still completes
+
+signal.signal(signal.SIGTERM, save_state)
+node, heard = make()
+threading.Thread(target=ready_when_main_waits, args=(node, heard), daemon=True).start()
+node.spin()
+say("SPIN RETURNED")
+""",
+    "sigterm_user_handler_returns": """
+import signal
+
+stopping = threading.Event()
+
+def stop_loop(_signum, _frame):
+    say("USER HANDLER")
+    stopping.set()  # returns: the program's own loop ends, no SystemExit cuts it short
+
+signal.signal(signal.SIGTERM, stop_loop)
+node, heard = make()
+node.spin(run_thread=True)
+ready(heard)
+while not stopping.is_set():
+    time.sleep(0.05)
+node.wait_for_shutdown()
+print("AFTER LOOP", flush=True)
+""",
+    "sigint_user_handler_interrupts": """
+import signal
+
+def on_interrupt(_signum, _frame):
+    say("USER HANDLER")
+    raise KeyboardInterrupt
+
+signal.signal(signal.SIGINT, on_interrupt)
+node, heard = make()
+node.spin(run_thread=True)
+ready(heard)
+try:
+    while True:
+        time.sleep(0.05)
+except KeyboardInterrupt:
+    say("INTERRUPTED")
+node.wait_for_shutdown()
+print("AFTER INTERRUPT", flush=True)
+""",
     "interpreter_exit": """
 node, heard = make()
 node.spin(run_thread=True)
@@ -231,6 +298,18 @@ SIGNALS = {
     "sigint_thread_user_loop": signal.SIGINT,
     "sigterm_thread_user_loop": signal.SIGTERM,
     "sigint_two_nodes": signal.SIGINT,
+    "sigterm_user_handler_exits": signal.SIGTERM,
+    "sigterm_user_handler_exits_during_spin": signal.SIGTERM,
+    "sigterm_user_handler_returns": signal.SIGTERM,
+    "sigint_user_handler_interrupts": signal.SIGINT,
+}
+
+# The program's own handler ran (besides the node's shutdown: STOP once).
+USER_HANDLER = {
+    "sigterm_user_handler_exits": ["USER HANDLER", "FINALLY"],
+    "sigterm_user_handler_exits_during_spin": ["USER HANDLER"],
+    "sigterm_user_handler_returns": ["USER HANDLER"],
+    "sigint_user_handler_interrupts": ["USER HANDLER", "INTERRUPTED"],
 }
 
 LAST_LINE = {
@@ -244,17 +323,26 @@ LAST_LINE = {
     "node_after_node": "AFTER SECOND",
     "stop_service_blocking_spin": "AFTER SERVICE",
     "sys_exit_in_a_callback": "AFTER EXIT",
+    "sigterm_user_handler_returns": "AFTER LOOP",
+    "sigint_user_handler_interrupts": "AFTER INTERRUPT",
 }
 
 
-@pytest.mark.parametrize("ending", sorted(ENDINGS))
-def test_program_ends_cleanly(ending: str, tmp_path: Path) -> None:
+def run_child(
+    source: str, tmp_path: Path, *, send: int | None = None, close_stderr: bool = False
+) -> tuple[int, str, str]:
+    """Run ``PRELUDE`` + ``source`` in a child Python, which prints ``READY`` first; send it
+    ``send`` then; (exit code, stdout after READY, stderr). ``close_stderr`` starts it with
+    file descriptor 2 closed (``2>&-``: ``sys.stderr`` is None), its stderr then reads ""."""
     script = tmp_path / "child.py"
-    script.write_text(textwrap.dedent(PRELUDE) + textwrap.dedent(ENDINGS[ending]))
+    script.write_text(textwrap.dedent(PRELUDE) + textwrap.dedent(source))
+    command = [sys.executable, str(script)]
+    if close_stderr:  # by the shell: preexec_fn is unsafe in this multi-threaded process
+        command = ["/bin/sh", "-c", 'exec "$0" "$@" 2>&-', *command]
     err_path = tmp_path / "stderr.txt"
     with err_path.open("w") as err_file:
         child = subprocess.Popen(
-            [sys.executable, str(script)],
+            command,
             stdout=subprocess.PIPE,
             stderr=err_file,
             text=True,
@@ -264,8 +352,8 @@ def test_program_ends_cleanly(ending: str, tmp_path: Path) -> None:
             assert child.stdout is not None
             first = child.stdout.readline().strip()
             assert first == "READY"
-            if ending in SIGNALS:
-                child.send_signal(SIGNALS[ending])
+            if send is not None:
+                child.send_signal(send)
             # Reads through the same buffered file as readline (communicate() would skip
             # what readline buffered already).
             out = child.stdout.read()
@@ -276,9 +364,14 @@ def test_program_ends_cleanly(ending: str, tmp_path: Path) -> None:
                 child.wait()
             if child.stdout is not None:
                 child.stdout.close()
-    err = err_path.read_text()
+    return child.returncode, out, err_path.read_text()
+
+
+@pytest.mark.parametrize("ending", sorted(ENDINGS))
+def test_program_ends_cleanly(ending: str, tmp_path: Path) -> None:
+    returncode, out, err = run_child(ENDINGS[ending], tmp_path, send=SIGNALS.get(ending))
     lines = out.split()
-    assert child.returncode == 0, err
+    assert returncode == 0, err
     assert lines.count("STOP") == 1, (out, err)
     assert "terminate called" not in err
     assert "Traceback" not in err, err
@@ -287,5 +380,7 @@ def test_program_ends_cleanly(ending: str, tmp_path: Path) -> None:
     assert "BROKEN" not in out
     if ending == "stop_service_blocking_spin":
         assert "REPLY True" in out, (out, err)
+    for line in USER_HANDLER.get(ending, []):
+        assert line in out.splitlines(), (out, err)
     if ending in LAST_LINE:
         assert out.strip().splitlines()[-1] == LAST_LINE[ending]

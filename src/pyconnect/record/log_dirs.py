@@ -32,6 +32,8 @@ def default_log_root() -> Path:
 
 
 DEFAULT_LOG_ROOT: Path = default_log_root()
+"""``default_log_root()`` as it was when pyconnect was imported (public, kept for the programs
+that use it); nodes call ``default_log_root()`` when they first log, so later settings count."""
 
 
 def safe_path_component(name: str) -> str:

@@ -143,7 +143,9 @@ class ActionClientAgent(NodeAgent):
             if not self.node.shutdown_event.is_set():
                 raise
             # The node was destroyed under the call (a user thread racing shutdown).
-            return self._respond(self._failed(f"node {self.node.name!r} shut down during the goal"))
+            return self._respond(
+                self._failed(f"node {self.node.qualified_name!r} shut down during the goal")
+            )
 
     def _send_and_wait(
         self,
@@ -154,7 +156,7 @@ class ActionClientAgent(NodeAgent):
         timeout: float | None,
     ) -> Any:
         if self.node.shutdown_event.is_set():
-            return self._respond(self._failed(f"node {self.node.name!r} is shut down"))
+            return self._respond(self._failed(f"node {self.node.qualified_name!r} is shut down"))
         # Asking the graph is slow; once seen, a lost server shows up as a timeout instead.
         if not self._server_seen:
             if not wait_until(self.client.server_is_ready, timeout, stop=self.node.shutdown_event):

@@ -26,7 +26,12 @@ class AgentHost(Protocol):
 
     @property
     def name(self) -> str:
-        """The node's name (errors and log folders use it)."""
+        """The node's name as given (log folders and thread names use it)."""
+        ...
+
+    @property
+    def qualified_name(self) -> str:
+        """The node's fully qualified name, as remapped (``/robot1/left_cam``): for messages."""
         ...
 
     @property

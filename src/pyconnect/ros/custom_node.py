@@ -112,7 +112,7 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
         self.coroutines = CoroutineRunner(loop, name=f"pyconnect-asyncio-{name}")
         """Runs ``async def`` handlers (pyconnect.ros.coroutines)."""
 
-        context = join_context(context, sys.argv if args is None else args)
+        context = join_context(context, args)
         try:
             super().__init__(
                 name,
@@ -125,6 +125,9 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
         except BaseException:
             leave_context(context)
             raise
+        # Errors name the node as the graph knows it (remapped, namespaced); kept because
+        # rclpy asks the node's handle, which shutdown destroys.
+        self._qualified_name: str = super().get_fully_qualified_name()
         self._executor = AgentExecutor(
             context=context, handoff_after=handoff_after, on_error=self._on_executor_error
         )
@@ -142,6 +145,15 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
     def ros_node(self) -> Node:
         """The rclpy node agents create their entities on: this node itself."""
         return self
+
+    def get_fully_qualified_name(self) -> str:
+        """rclpy's (``/robot1/left_cam`` for ``camera`` remapped), also after shutdown."""
+        return self._qualified_name
+
+    @property
+    def qualified_name(self) -> str:
+        """``get_fully_qualified_name()``: the name messages give the node."""
+        return self._qualified_name
 
     @property
     def shutdown_event(self) -> threading.Event:
@@ -173,8 +185,8 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
             self._refuse_when_closed(f"add {key!r}")
             if key in self.agents:
                 raise PyconnectError(
-                    f"agent {key!r}: node {self.name!r} already has an agent of that name; "
-                    "give one of them agent_name="
+                    f"agent {key!r}: node {self._qualified_name!r} already has an agent of that "
+                    "name; give one of them agent_name="
                 )
             agent = build_agent(self, given)
             self.agents[agent.name] = agent
@@ -185,7 +197,7 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
     def _refuse_when_closed(self, what: str) -> None:
         """Raise ``PyconnectError`` once shutdown has begun (call with ``_lock`` held)."""
         if self._closing:
-            raise PyconnectError(f"node {self.name!r} is shut down; cannot {what}")
+            raise PyconnectError(f"node {self._qualified_name!r} is shut down; cannot {what}")
 
     def add_agents(
         self, configs: Iterable[Mapping[str, Any]], **shared_options: Unpack[AgentOptions]
@@ -204,7 +216,7 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
         """Run the agents: in a daemon thread (``run_thread=True``) or here until shutdown."""
         with self._lock:
             if self._closing:
-                raise PyconnectError(f"node {self.name!r} is shut down")
+                raise PyconnectError(f"node {self._qualified_name!r} is shut down")
             if self._spin_thread is None:
                 # Entities made with rclpy's own calls (an ActionClient on this node) are seen
                 # here, before this call returns: moving an action to the elastic executor while
@@ -261,7 +273,7 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
         while True:
             # Asked first: a shut-down node's entities are destroyed, asking them raises.
             if self._stopping.is_set():
-                raise PyconnectError(f"node {self.name!r} is shut down")
+                raise PyconnectError(f"node {self._qualified_name!r} is shut down")
             waiting = [agent for agent in list(self.agents.values()) if not agent.is_connected()]
             if not waiting:
                 return
@@ -269,7 +281,7 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
             if remaining is not None and remaining <= 0:
                 names = ", ".join(f"{agent.describe} ({_waiting_for(agent)})" for agent in waiting)
                 raise ConnectionTimeout(
-                    f"node {self.name!r}: still waiting after {timeout} s for {names}"
+                    f"node {self._qualified_name!r}: still waiting after {timeout} s for {names}"
                 )
             step = 0.02 if remaining is None else min(0.02, remaining)
             # Subscribers need their messages: nothing spinning, the node spins in the

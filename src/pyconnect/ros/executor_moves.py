@@ -13,9 +13,12 @@ action agents stay elastic. Why the two executors: pyconnect.ros.agent_executor.
 from __future__ import annotations
 
 import contextlib
+import functools
+import os
+import sys
 import threading
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any
+from typing import IO, TYPE_CHECKING, Any
 
 from rclpy.action import ActionClient, ActionServer
 from rclpy.context import Context
@@ -144,7 +147,16 @@ class ExecutorMoves(CallbackWatch):
         )
 
     def _new_events(self) -> Any:
-        return EventsExecutor(context=self.context)
+        if _has_usable_stderr():
+            return EventsExecutor(context=self.context)
+        # rclpy's EventsExecutor calls faulthandler.enable(), which needs sys.stderr's file
+        # descriptor and raises without one (``2>&-``, daemons, pythonw): it gets devnull.
+        saved = sys.stderr
+        sys.stderr = _devnull()
+        try:
+            return EventsExecutor(context=self.context)
+        finally:
+            sys.stderr = saved
 
     def _report(self, error: BaseException) -> None:
         if self._on_error is not None:
@@ -153,3 +165,18 @@ class ExecutorMoves(CallbackWatch):
             import traceback
 
             traceback.print_exception(error)
+
+
+@functools.cache
+def _devnull() -> IO[str]:
+    # Opened once and never closed: faulthandler keeps writing to its file descriptor, which
+    # a closed file would hand to the next file opened.
+    return open(os.devnull, "w")
+
+
+def _has_usable_stderr() -> bool:
+    """Whether ``sys.stderr`` has the file descriptor faulthandler.enable() needs."""
+    try:
+        return sys.stderr is not None and sys.stderr.fileno() >= 0
+    except (AttributeError, OSError, ValueError):  # io.UnsupportedOperation is both
+        return False

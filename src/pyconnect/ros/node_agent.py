@@ -235,7 +235,7 @@ class NodeAgent:
     def why_no_answer(self, missing: str, timeout: float | None, *, during: str = "call") -> str:
         """Why a blocking wait ended without an answer: the node's shutdown, or ``timeout``."""
         if self.node.shutdown_event.is_set():
-            return f"node {self.node.name!r} shut down during the {during}"
+            return f"node {self.node.qualified_name!r} shut down during the {during}"
         return f"{missing} within {timeout} s"
 
     def report_exception(self, where: str, error: BaseException) -> None:

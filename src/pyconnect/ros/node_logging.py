@@ -20,7 +20,11 @@ from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
 from rclpy.node import Node
 
 from pyconnect.errors import PyconnectError
-from pyconnect.record.log_dirs import distinct_path_components, safe_path_component
+from pyconnect.record.log_dirs import (
+    default_log_root,
+    distinct_path_components,
+    safe_path_component,
+)
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.recording import Recording
 from pyconnect.ros.subscriber_agent import SubscriberAgent
@@ -78,11 +82,11 @@ class NodeLogging:
 
     @property
     def log_dir(self) -> Path:
-        """The root under which ``<node>/<session>/<agent>/`` log directories are made."""
+        """The root under which ``<node>/<session>/<agent>/`` log directories are made:
+        ``log_dir=``, else ``$PYCONNECT_LOG_DIR`` or ``./pyconnect_logs`` as they are when first
+        needed (a program may set them after importing pyconnect), kept from then on."""
         if self._log_root is None:
-            from pyconnect.record.log_dirs import DEFAULT_LOG_ROOT
-
-            self._log_root = Path(DEFAULT_LOG_ROOT)
+            self._log_root = default_log_root()
         return self._log_root
 
     def make_log_dirs(self) -> dict[str, Path]:
@@ -104,7 +108,9 @@ class NodeLogging:
         with self._lock:
             self._refuse_when_closed("start logging its subs")
             if self._log_subs_timer is not None:
-                raise PyconnectError(f"node {self.name!r} already logs its subs")
+                raise PyconnectError(
+                    f"node {self.get_fully_qualified_name()!r} already logs its subs"
+                )
             seen: dict[str, int] = {}
 
             def log_latest() -> None:

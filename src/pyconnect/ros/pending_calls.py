@@ -69,7 +69,10 @@ class PendingCalls:
         is the failure when it never is, ``late`` when the answer takes longer than ``timeout``
         once the call is made."""
         if self._host.shutdown_event.is_set():
-            settle(result, lambda: self._failed(f"node {self._host.name!r} is shut down"))
+            settle(
+                result,
+                lambda: self._failed(f"node {self._host.qualified_name!r} is shut down"),
+            )
             return
         with self._lock:
             self._open.add(result)
@@ -98,7 +101,7 @@ class PendingCalls:
             settle(result, lambda: self._failed(text))
 
     def _shut_down_text(self) -> str:
-        return f"node {self._host.name!r} shut down during the {self._during}"
+        return f"node {self._host.qualified_name!r} shut down during the {self._during}"
 
     def _ready(self) -> bool:
         try:

@@ -146,7 +146,7 @@ class PublisherAgent(NodeAgent):
                 raise
             # rclpy's own words ("cannot use Destroyable") name neither the agent nor the cause.
             raise PyconnectError(
-                f"{self.describe}: node {self.node.name!r} is shut down"
+                f"{self.describe}: node {self.node.qualified_name!r} is shut down"
             ) from error
 
     def _publish(self, data: Any) -> bool:

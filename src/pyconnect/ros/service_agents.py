@@ -216,11 +216,11 @@ class ServiceClientAgent(NodeAgent):
             if not self.node.shutdown_event.is_set():
                 raise
             # The node was destroyed under the call (a user thread racing shutdown).
-            return self._failed(f"node {self.node.name!r} shut down during the call")
+            return self._failed(f"node {self.node.qualified_name!r} shut down during the call")
 
     def _call_and_wait(self, request: Any, timeout: float | None) -> Any:
         if self.node.shutdown_event.is_set():
-            return self._failed(f"node {self.node.name!r} is shut down")
+            return self._failed(f"node {self.node.qualified_name!r} is shut down")
         # Asking the graph costs about as much as a round trip; once the server was seen, a lost
         # server shows up as a timeout, which makes the next call ask again.
         if not self._server_seen:

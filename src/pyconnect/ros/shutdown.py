@@ -9,7 +9,12 @@ SIGINT/SIGTERM starts each node's shutdown on a thread of its own (``stop_func``
 stopped, threads joined, node destroyed, ``rclpy.try_shutdown``); if the main thread is waiting
 in ``spin()``/``wait_for_shutdown()`` it returns normally, otherwise ``SystemExit(0)`` unwinds
 the user's code (``finally`` blocks run) and the process exits 0. A second signal raises
-``KeyboardInterrupt`` at once. At interpreter exit an ``atexit`` hook runs the same shutdown
+``KeyboardInterrupt`` at once. A handler the program installed before the first node (a
+Python function, not Python's own ``default_int_handler``) is called after the shutdown has
+started, as rclpy chains to it, and decides what the main thread does next instead of the
+``SystemExit(0)``: it may return (the program goes on, its nodes shut down) or raise. The
+shutdown runs on its own non-daemon thread, so it completes whatever that handler raises.
+At interpreter exit an ``atexit`` hook runs the same shutdown
 (spin threads are daemons, joined there); a peer's runs as soon as the main thread ends, since
 zenoh's callback threads are not daemons and would keep the process waiting for ever. The
 previous handlers come back when the last node that installed them is shut down from the main
@@ -25,7 +30,7 @@ import sys
 import threading
 from collections.abc import Callable
 from types import FrameType, TracebackType
-from typing import Any
+from typing import Any, TypeGuard
 
 _HANDLED_SIGNALS = (signal.SIGINT, signal.SIGTERM)
 _lock = threading.Lock()
@@ -44,8 +49,19 @@ def _on_signal(signum: int, frame: FrameType | None) -> None:
         raise KeyboardInterrupt
     for hook in hooks:
         hook.begin_shutdown()
-    if not any(hook.main_is_waiting() for hook in hooks):
+    previous = _previous.get(signum)
+    if _is_program_handler(previous):
+        previous(signum, frame)
+    elif not any(hook.main_is_waiting() for hook in hooks):
         raise SystemExit(0)
+
+
+def _is_program_handler(
+    handler: object,
+) -> TypeGuard[Callable[[int, FrameType | None], object]]:
+    """Whether ``handler`` was installed by the program (not Python's default, ``SIG_DFL``,
+    ``SIG_IGN`` or ``None`` for a handler set outside Python)."""
+    return callable(handler) and handler is not signal.default_int_handler
 
 
 def _install_handlers() -> None:
