@@ -6,6 +6,7 @@ import math
 import struct
 from typing import Any
 
+import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -74,3 +75,29 @@ def test_slow_pack_names_the_value_that_does_not_pack(monkeypatch: pytest.Monkey
     with pytest.raises(EncodeError) as caught:
         slow_pack(struct.Struct("<fI"), label, (0.5, -1))
     assert str(caught.value) == ".width: cannot encode (argument out of range)"
+
+
+# The byte fields' zero-copy path takes only what it can hand on as it is.
+UNBOUNDED = "test_msgs/msg/UnboundedSequences"
+
+
+def test_a_strided_byte_memoryview_is_encoded_by_its_items() -> None:
+    value = memoryview(b"\x01\x02\x03\x04")[::2]
+    encoded = wire.encode({"uint8_values": value}, UNBOUNDED)
+    assert wire.to_dict(encoded, UNBOUNDED)["uint8_values"] == b"\x01\x03"
+    assert encoded == wire.encode({"uint8_values": b"\x01\x03"}, UNBOUNDED)
+
+
+def test_a_two_dimensional_uint8_ndarray_is_not_flattened() -> None:
+    for value in (np.arange(4, dtype=np.uint8).reshape(2, 2), np.array(7, np.uint8)):
+        assert wire_error({"uint8_values": value}, UNBOUNDED) == (
+            "UnboundedSequences.uint8_values: expected a one-dimensional sequence, "
+            "got numpy.ndarray"
+        )
+
+
+def test_byte_sequences_take_one_byte_bytes_as_rclpy_stores_them() -> None:
+    encoded = wire.encode({"byte_values": [b"\x01", b"\x02"]}, UNBOUNDED)
+    assert encoded == wire.encode({"byte_values": b"\x01\x02"}, UNBOUNDED)
+    fixed = wire.encode({"byte_values": [b"\x01", 2, b"\x03"]}, "test_msgs/msg/Arrays")
+    assert wire.to_dict(fixed, "test_msgs/msg/Arrays")["byte_values"] == b"\x01\x02\x03"

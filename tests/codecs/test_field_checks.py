@@ -168,3 +168,167 @@ def test_check_float32_passes_the_float32_maximum_as_numpy_prints_it() -> None:
     for special in (math.inf, -math.inf):
         assert check_float32(special, "x") == special
     assert math.isnan(check_float32(math.nan, "x"))
+
+
+# -- byte fields (uint8[], char[], byte[]) and memoryviews ---------------------------------------
+UNBOUNDED = "test_msgs/msg/UnboundedSequences"
+BYTE_FIELDS = ["uint8_values", "char_values", "byte_values"]
+
+
+def byte_field(value: Any, field: str, full_name: str = UNBOUNDED) -> tuple[bytes, bytes]:
+    """What from_dict and wire.encode make of ``value`` in a byte field, as bytes each."""
+    stored = getattr(codecs.from_dict({field: value}, full_name), field)
+    from_dict = b"".join(stored) if isinstance(stored, list) else bytes(stored)
+    encoded = wire.encode({field: value}, full_name)
+    return from_dict, wire.to_dict(encoded, full_name)[field]
+
+
+def both_errors(value: Any, field: str, full_name: str = UNBOUNDED) -> tuple[str, str]:
+    """The messages from_dict and wire.encode refuse ``value`` with."""
+    with pytest.raises(EncodeError) as from_dict:
+        codecs.from_dict({field: value}, full_name)
+    with pytest.raises(EncodeError) as encoded:
+        wire.encode({field: value}, full_name)
+    return str(from_dict.value), str(encoded.value)
+
+
+@pytest.mark.parametrize("field", BYTE_FIELDS)
+@pytest.mark.parametrize(
+    "value",
+    [
+        pytest.param(array("h", [1, 2]), id="array-h"),
+        pytest.param(array("H", [1, 2]), id="array-H"),
+        pytest.param(array("b", [1, 2]), id="array-b"),
+        pytest.param(array("q", [1, 2]), id="array-q"),
+        pytest.param(memoryview(np.array([1, 2], np.int16)), id="memoryview-int16"),
+        pytest.param(memoryview(np.array([1, 2], np.int8)), id="memoryview-int8"),
+        pytest.param(memoryview(np.array([1, 2], ">u4")), id="memoryview-big-endian"),
+    ],
+)
+def test_typed_buffers_in_byte_fields_are_read_as_numbers_not_raw_bytes(
+    value: Any, field: str
+) -> None:
+    assert byte_field(value, field) == (b"\x01\x02", b"\x01\x02")
+
+
+@pytest.mark.parametrize(
+    ("value", "message"),
+    [
+        (array("H", [1, 300]), "uint8_values[1]: expected uint8 in [0, 255], got 300"),
+        (array("b", [1, -1]), "uint8_values[1]: expected uint8 in [0, 255], got -1"),
+        (memoryview(np.array([1, -2], np.int8)),
+         "uint8_values[1]: expected uint8 in [0, 255], got -2"),
+        (np.array([1, 300], np.int32), "uint8_values[1]: expected uint8 in [0, 255], got 300"),
+        (array("d", [1.0]), "uint8_values[0]: expected int (uint8), got float"),
+        (memoryview(np.array([1.0])),
+         "uint8_values: expected bytes or uint8 values, got dtype float64"),
+    ],
+)  # fmt: skip
+def test_typed_buffers_in_byte_fields_are_range_checked(value: Any, message: str) -> None:
+    expected = f"UnboundedSequences.{message}"
+    assert both_errors(value, "uint8_values") == (expected, expected)
+
+
+def test_a_typed_buffer_fills_a_fixed_byte_array_by_its_elements() -> None:
+    # Not "expected exactly 3 elements, got 12": array('i') holds three numbers, not 12 bytes.
+    value = array("i", [1, 2, 3])
+    expected = (b"\x01\x02\x03", b"\x01\x02\x03")
+    assert byte_field(value, "uint8_values", "test_msgs/msg/Arrays") == expected
+
+
+@pytest.mark.parametrize("field", BYTE_FIELDS)
+def test_a_strided_memoryview_in_a_byte_field_is_copied(field: str) -> None:
+    # rclpy takes it too; its items are the bytes it shows, not its underlying buffer.
+    value = memoryview(b"\x01\x02\x03\x04")[::2]
+    assert byte_field(value, field) == (b"\x01\x03", b"\x01\x03")
+    image = {"format": "png", "data": value}
+    assert wire.to_dict(wire.from_dict(image, "sensor_msgs/msg/CompressedImage"),
+                        "sensor_msgs/msg/CompressedImage")["data"] == b"\x01\x03"  # fmt: skip
+
+
+def test_a_char_memoryview_is_its_bytes() -> None:
+    assert byte_field(memoryview(b"ab").cast("c"), "uint8_values") == (b"ab", b"ab")
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("float64_values", memoryview(np.zeros((2, 2)))),
+        ("int32_values", memoryview(np.zeros((1, 2), np.int32))),
+        ("uint8_values", memoryview(np.arange(4, dtype=np.uint8).reshape(2, 2))),
+        ("byte_values", memoryview(np.arange(4, dtype=np.uint8).reshape(2, 2))),
+        ("uint8_values", memoryview(np.array(7, np.uint8))),
+    ],
+)
+def test_memoryviews_of_other_than_one_dimension_are_refused_alike(field: str, value: Any) -> None:
+    expected = f"UnboundedSequences.{field}: expected a one-dimensional sequence, got memoryview"
+    assert both_errors(value, field) == (expected, expected)
+
+
+@pytest.mark.parametrize(
+    ("field", "value"),
+    [
+        ("float64_values", memoryview(np.array([1.5, -2.0], np.float16))),
+        ("float64_values", memoryview(np.array([1.5, -2.0], ">f8"))),
+        ("float32_values", memoryview(np.array([1.5, -2.0], ">f4"))),
+        ("int16_values", memoryview(np.array([3, -4], ">i2"))),
+    ],
+)
+def test_memoryviews_in_any_format_numpy_reads_encode_like_that_ndarray(
+    field: str, value: Any
+) -> None:
+    # A memoryview iterates only native formats: these raised NotImplementedError before.
+    same = np.asarray(value)
+    expected = codecs.from_dict({field: same}, UNBOUNDED)
+    assert codecs.from_dict({field: value}, UNBOUNDED) == expected
+    assert wire.encode({field: value}, UNBOUNDED) == wire.encode({field: same}, UNBOUNDED)
+
+
+def test_a_memoryview_of_pointers_is_refused_naming_its_format() -> None:
+    value = memoryview(bytes(16)).cast("P")
+    expected = (
+        "UnboundedSequences.int64_values: "
+        "expected a sequence of numbers, got memoryview of format 'P'"
+    )
+    assert both_errors(value, "int64_values") == (expected, expected)
+
+
+@pytest.mark.parametrize(
+    "full_name", ["test_msgs/msg/UnboundedSequences", "test_msgs/msg/BoundedSequences"]
+)
+def test_byte_sequences_take_rclpys_list_of_one_byte_bytes(full_name: str) -> None:
+    value = [b"\x01", b"\x02"]
+    assert byte_field(value, "byte_values", full_name) == (b"\x01\x02", b"\x01\x02")
+    assert byte_field((b"\x01", 2), "byte_values", full_name) == (b"\x01\x02", b"\x01\x02")
+
+
+def test_fixed_byte_arrays_take_rclpys_list_of_one_byte_bytes() -> None:
+    from test_msgs.msg import Arrays
+
+    value = Arrays().byte_values  # rosidl's own default: [b"\x00"] * 3
+    expected = (b"\x00\x00\x00", b"\x00\x00\x00")
+    assert byte_field(value, "byte_values", "test_msgs/msg/Arrays") == expected
+
+
+def test_byte_elements_must_be_one_byte_and_only_in_byte_fields() -> None:
+    expected = "UnboundedSequences.byte_values[1]: expected int (byte), got bytes"
+    assert both_errors([b"\x01", b"\x02\x03"], "byte_values") == (expected, expected)
+    expected = "UnboundedSequences.uint8_values[0]: expected int (uint8), got bytes"
+    assert both_errors([b"\x01", b"\x02"], "uint8_values") == (expected, expected)
+
+
+@pytest.mark.parametrize("field", [*BYTE_FIELDS, "int16_values"])
+@pytest.mark.parametrize(
+    "value",
+    [
+        pytest.param(np.arange(4, dtype=np.uint8).reshape(2, 2), id="2-D"),
+        pytest.param(np.arange(4, dtype=np.int16).reshape(2, 2), id="2-D-int16"),
+        pytest.param(np.array(7, np.uint8), id="0-d"),
+        pytest.param(np.zeros((2, 0), np.uint8), id="2-D-empty"),
+    ],
+)
+def test_byte_fields_refuse_other_than_one_dimension_like_every_sequence(
+    field: str, value: Any
+) -> None:
+    expected = f"UnboundedSequences.{field}: expected a one-dimensional sequence, got numpy.ndarray"
+    assert both_errors(value, field) == (expected, expected)

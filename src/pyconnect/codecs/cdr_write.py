@@ -30,6 +30,7 @@ from pyconnect.codecs.field_checks import (
     describe,
     numeric_array,
     numeric_sequence,
+    octet_buffer,
     plain_numbers,
     uint8_array,
     uint8_sequence,
@@ -201,9 +202,15 @@ def _byte_buffer(value: Any) -> memoryview | None:
     if isinstance(value, bytes | bytearray):
         return memoryview(value)
     if isinstance(value, memoryview) and value.format == "B" and value.ndim == 1:
-        return value
-    if isinstance(value, np.ndarray) and value.dtype == np.uint8 and value.flags.c_contiguous:
-        return value.reshape(-1).data
+        # A strided view cannot go into the output as it is (join takes contiguous buffers).
+        return value if value.c_contiguous else None
+    if (
+        isinstance(value, np.ndarray)
+        and value.dtype == np.uint8
+        and value.ndim == 1
+        and value.flags.c_contiguous
+    ):
+        return value.data
     return None
 
 
@@ -220,8 +227,10 @@ def encode_array(
         if view is not None:
             check_length(view, size, fixed, "")
             return view, len(view)
-        if fixed:
-            converted: Any = uint8_array(value, size or 0, "")
+        if kind == "byte":  # rosidl's one-byte bytes are a byte[]'s elements too
+            converted: Any = octet_buffer(value, size, fixed, "")
+        elif fixed:
+            converted = uint8_array(value, size or 0, "")
         else:
             converted = uint8_sequence(value, size, "")
         return converted, len(converted)

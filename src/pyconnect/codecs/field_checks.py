@@ -195,11 +195,27 @@ def _check_sequence(value: object, segment: str) -> Sequence[Any] | np.ndarray:
         if value.ndim != 1:
             fail(segment, "a one-dimensional sequence", value)
         return value
+    if isinstance(value, memoryview):
+        return _memoryview_array(value, segment)
     if isinstance(value, str | bytes | bytearray | Mapping) or not isinstance(value, Sequence):
-        if isinstance(value, array | memoryview):
+        if isinstance(value, array):
             return value
         fail(segment, "list", value)
     return value
+
+
+def _memoryview_array(value: memoryview, segment: str) -> np.ndarray:
+    """A one-dimensional memoryview as an ndarray of its numbers (not copied), for the ndarray
+    checks: a memoryview iterates only native single-character formats and raises
+    NotImplementedError for the rest (``e``, ``>d``, several dimensions)."""
+    if value.ndim != 1:
+        fail(segment, "a one-dimensional sequence", value)
+    try:
+        return np.asarray(value)
+    except (TypeError, ValueError, NotImplementedError):  # a format numpy cannot read either
+        raise FieldError(
+            segment, f"expected a sequence of numbers, got memoryview of format {value.format!r}"
+        ) from None
 
 
 def _element_error(values: Any, check: Callable[[object, str], object], segment: str) -> NoReturn:
@@ -329,31 +345,56 @@ def str_list(
     return list(values)
 
 
-def _as_byte_buffer(value: object, segment: str) -> bytes | bytearray | memoryview | np.ndarray:
+# Memoryview formats whose items are bytes already; ``b`` is not one (-1 would arrive as 255):
+# its items are checked like any other numbers.
+_BYTE_FORMATS = frozenset(("B", "c"))
+_UINT8_CHECK = _scalar_check("uint8")
+
+
+def _byte_check(octets: bool) -> Callable[[object, str], object]:
+    return check_octet if octets else _UINT8_CHECK
+
+
+def _as_byte_buffer(
+    value: object, segment: str, octets: bool = False
+) -> bytes | bytearray | memoryview | np.ndarray:
+    """The bytes of a one-dimensional uint8/char/byte value: not copied from bytes, array('B')
+    or a contiguous byte memoryview; other values are checked number by number (``octets``: a
+    ``byte`` field's, which may also be one-byte ``bytes``, rosidl's storage)."""
     if isinstance(value, bytes | bytearray):
         return value
     if isinstance(value, memoryview):
-        return value.cast("B") if value.format != "B" or value.ndim != 1 else value
+        if value.format == "B" and value.ndim == 1 and value.c_contiguous:
+            return value
+        if value.ndim == 1 and value.format in _BYTE_FORMATS:
+            # A strided view has no contiguous bytes to hand on as they are: copy its items.
+            return value.tobytes()
+        value = _memoryview_array(value, segment)
     if isinstance(value, np.ndarray):
+        if value.ndim != 1:
+            fail(segment, "a one-dimensional sequence", value)
         if value.dtype != np.uint8:
             # Only integer arrays have a meaningful min/max (object or str ones raise).
-            integral = value.dtype.kind in "iu"
-            out_of_range = integral and value.size > 0 and (value.min() < 0 or value.max() > 255)
-            if not integral or out_of_range:
+            if value.dtype.kind not in "iu":
                 raise FieldError(
                     segment, f"expected bytes or uint8 values, got dtype {value.dtype}"
                 )
+            if value.size > 0 and (value.min() < 0 or value.max() > 255):
+                _element_error(value.tolist(), _byte_check(octets), segment)
             value = value.astype(np.uint8)
-        return np.ascontiguousarray(value).reshape(-1)
-    if isinstance(value, array) and value.typecode == "B":
-        return memoryview(value)
+        return np.ascontiguousarray(value)
+    if isinstance(value, array):
+        if value.typecode == "B":
+            return memoryview(value)
+        # Wider items are numbers, not bytes: their raw buffer would be the wrong values.
+        value = value.tolist()
     if isinstance(value, Sequence) and not isinstance(value, str):
         if not PLAIN_INTS.issuperset(map(type, value)):
-            value = _checked_elements(value, _scalar_check("uint8"), segment)
+            value = _checked_elements(value, _byte_check(octets), segment)
         try:
             return bytes(value)
         except (TypeError, ValueError):
-            _element_error(value, _scalar_check("uint8"), segment)
+            _element_error(value, _byte_check(octets), segment)
     fail(segment, "bytes", value)
 
 
@@ -374,9 +415,19 @@ def uint8_array(value: object, size: int, segment: str) -> np.ndarray:
 
 def octet_list(value: object, size: int | None, fixed: bool, segment: str) -> list[bytes]:
     """``byte[]``: rosidl keeps a list of one-byte ``bytes``."""
-    buffer = bytes(_as_byte_buffer(value, segment))
+    buffer = bytes(_as_byte_buffer(value, segment, octets=True))
     check_length(buffer, size, fixed, segment)
     return [BYTE_VALUES[b] for b in buffer]
+
+
+def octet_buffer(
+    value: object, size: int | None, fixed: bool, segment: str
+) -> bytes | bytearray | memoryview | np.ndarray:
+    """``byte[]``'s bytes for the CDR writer, which also takes rosidl's one-byte ``bytes``
+    elements (kept apart from ``uint8_sequence``, whose callers are the hot ones)."""
+    buffer = _as_byte_buffer(value, segment, octets=True)
+    check_length(buffer, size, fixed, segment)
+    return buffer
 
 
 def message_list(
