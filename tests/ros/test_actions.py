@@ -12,7 +12,7 @@ import pytest
 from test_msgs.action import Fibonacci, NestedMessage
 
 from pyconnect.errors import PyconnectError
-from pyconnect.ros import custom_node, retaining_action_server
+from pyconnect.ros import node_shutdown, retaining_action_server
 
 from .conftest import EVENT_TIMEOUT, server_and_client, wait_for_the_result_request
 
@@ -487,7 +487,7 @@ def test_a_goal_still_running_when_shutdown_ends_is_aborted_with_a_reason(
     server_node, client = server_and_client(
         make_node, "stuck", "action", Fibonacci, goal, conn_name="fib"
     )
-    monkeypatch.setattr(custom_node, "JOIN_TIMEOUT", 0.1)
+    monkeypatch.setattr(node_shutdown, "JOIN_TIMEOUT", 0.1)
     errors: list[str] = []
     monkeypatch.setattr(server_node, "_log_error", errors.append)
     try:

@@ -8,11 +8,12 @@ spins in a daemon thread; ``spin()`` (or ``listen()``) blocks until shutdown. Sh
 ``shutdown()``, leaving ``with``, Ctrl-C, SIGTERM or interpreter exit — runs ``stop_func`` once
 while the agents still work, stops the executor, joins its threads, destroys the node and, for
 the last node on a context pyconnect initialised, shuts that context down
-(pyconnect.ros.shutdown, pyconnect.ros.shared_context). Every step runs even when one before it
-failed (the failure is logged): a node is never left half shut down. ``shutdown()`` called in a
-callback (or an ``async def`` handler on pyconnect's loop) cannot wait for that callback, nor
-destroy the node under it: it starts the shutdown on a thread of its own and returns, so the
-callback ends (a service sends its reply) before the node goes down.
+(pyconnect.ros.node_shutdown, pyconnect.ros.shutdown, pyconnect.ros.shared_context). Every step
+runs even when one before it failed (the failure is logged): a node is never left half shut
+down. ``shutdown()`` called in a callback (or an ``async def`` handler on pyconnect's loop)
+cannot wait for that callback, nor destroy the node under it: it starts the shutdown on a thread
+of its own and returns, so the callback ends (a service sends its reply) before the node goes
+down.
 
 Names resolve like rclpy names: ``conn_name`` is relative to the node's namespace unless it
 starts with ``/`` or ``~``; ``--ros-args -r chatter:=talk`` and ``-p name:=value`` from
@@ -26,7 +27,6 @@ from __future__ import annotations
 
 import asyncio
 import datetime
-import sys
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping
@@ -45,9 +45,10 @@ from pyconnect.ros.coroutines import CoroutineRunner
 from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.node_logging import NodeLogging
+from pyconnect.ros.node_shutdown import NodeShutdown
 from pyconnect.ros.recording import Recording
 from pyconnect.ros.shared_context import join_context, leave_context
-from pyconnect.ros.shutdown import ShutdownHooks, ShutsDownOnExit
+from pyconnect.ros.shutdown import ShutdownHooks
 from pyconnect.ros.subscriber_agent import SubscriberAgent
 from pyconnect.ros.waiting import EventLike
 
@@ -56,12 +57,8 @@ if TYPE_CHECKING:
 
 StopFunc = Callable[..., Any]
 
-JOIN_TIMEOUT = 10.0
-"""Seconds shutdown waits for the spin thread, then for each executor thread, to end: a
-callback still running after that is left behind (an action goal is aborted, its client told)."""
 
-
-class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
+class CustomNode(NodeLogging, NodeShutdown, Node):  # type: ignore[misc]
     """A ROS 2 node whose connections are agents: ``node.agents[name].send/get``.
 
     It is an ``rclpy.node.Node``: rclpy's own methods work on it, and it is its own
@@ -297,94 +294,8 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
         value = self.get_parameter(name).value
         return default if value is None else value
 
-    # -- shutdown ------------------------------------------------------------------------------
-    def shutdown(self) -> None:
-        """Stop everything once: ``stop_func``, executor, threads, node, rclpy (if ours).
-
-        Called from one of this node's callback threads (a handler, or an ``async def``
-        handler on pyconnect's loop), it starts the shutdown on a thread of its own and
-        returns at once: the shutdown waits for the callback to end (a service still sends its
-        reply), and ``spin()``/``wait_for_shutdown()`` return when everything is closed.
-        Called from any other thread, it returns when the node is shut down.
-        """
-        if self._on_own_thread():
-            self._shutdown_after_this_callback()
-            return
-        with self._shutdown_lock:
-            if self._stopped.is_set():
-                return
-            try:
-                self._shut_down()
-            finally:
-                self._stopped.set()
-
-    def _shut_down(self) -> None:
-        self._stop_logs_and_recordings()
-        if self.stop_func is not None:
-            try:
-                self.stop_func()
-            except Exception as error:
-                self._log_error(f"stop_func raised {type(error).__name__}: {error}")
-        # After stop_func, which may still use the agents, add one, record: from here nothing
-        # new is made (add_agent, record, start_log_subs refuse), and what stop_func started
-        # stops too.
-        with self._lock:
-            self._closing = True
-        self._stopping.set()
-        self._stop_logs_and_recordings()
-        self._attempt("stopping the executor", self._executor.stop)
-        # Cancelled coroutines release callbacks that wait for them.
-        self._attempt("stopping the coroutine loop", self.coroutines.stop)
-        spin_thread = self._spin_thread
-        if spin_thread is not None and spin_thread is not threading.current_thread():
-            self._attempt("joining the spin thread", lambda: spin_thread.join(JOIN_TIMEOUT))
-        self._attempt("joining the executor's threads", lambda: self._executor.join(JOIN_TIMEOUT))
-        for agent in list(self.agents.values()):
-            self._attempt(f"{agent.describe}: close", agent.close)
-        self._attempt(
-            "removing the node from its executor", lambda: self._executor.remove_node(self)
-        )
-        self._attempt("destroying the node", super().destroy_node)
-        self._attempt(
-            "shutting the executor down", lambda: self._executor.shutdown(timeout_sec=1.0)
-        )
-        self._attempt("leaving the rclpy context", lambda: leave_context(self.context))
-        self._attempt("restoring the signal handlers", self._hooks.restore)
-
-    def _stop_logs_and_recordings(self) -> None:
-        self._attempt("stop_log_subs", self.stop_log_subs)
-        for recording in list(self._recordings):
-            self._attempt(f"stopping the recording {str(recording.path)!r}", recording.stop)
-
-    def _on_own_thread(self) -> bool:
-        """Whether this thread runs this node's callbacks (its executor's, its coroutine loop):
-        a shutdown here would wait for, or destroy the node under, the callback it runs.
-        Another node's callback thread is not: shutting this node down there waits, as
-        anywhere else."""
-        return self._executor.runs_callbacks_here() or self.coroutines.on_own_loop_thread()
-
-    def _shutdown_after_this_callback(self) -> None:
-        """Start the shutdown on a thread of its own, once the calling callback can end."""
-        try:
-            loop = asyncio.get_running_loop()
-        except RuntimeError:  # an executor thread: the shutdown waits for its callback
-            self._shutdown_in_background()
-            return
-        # An ``async def`` handler on pyconnect's loop: the shutdown cancels what still runs
-        # there, so it starts two turns of the loop later, when the handler has returned and
-        # its result reached the callback waiting for it (a service's reply is then sent).
-        loop.call_soon(loop.call_soon, self._shutdown_in_background)
-
-    def _attempt(self, what: str, step: Callable[[], object]) -> None:
-        """Run one shutdown step; a failure is logged and the next steps still run."""
-        try:
-            step()
-        except Exception as error:
-            self._log_error(f"shutdown: {what} failed: {type(error).__name__}: {error}")
-
-    def destroy_node(self) -> None:
-        """rclpy's name for ``shutdown()`` (stops the agents first, then destroys the node)."""
-        self.shutdown()
+    def _destroy_ros_node(self) -> None:
+        Node.destroy_node(self)
 
     def __enter__(self) -> CustomNode:
         return self
@@ -398,12 +309,6 @@ class CustomNode(NodeLogging, ShutsDownOnExit, Node):  # type: ignore[misc]
 
     def _on_executor_error(self, error: BaseException) -> None:
         self._log_error(f"callback raised {type(error).__name__}: {error}")
-
-    def _log_error(self, text: str) -> None:
-        try:
-            self.get_logger().error(text)
-        except Exception:
-            print(f"[pyconnect] {self.name}: {text}", file=sys.stderr)
 
 
 def _wait_step(deadline: float | None) -> float:
