@@ -176,18 +176,33 @@ class BagReader:
         first message is decoded here to settle it. Its ``definitions`` give the fields.
         """
         for _, storages in self._bags:
-            for storage in storages:
-                for connection in storage.connections():
-                    if connection.topic != topic:
-                        continue
-                    decoder = self._decoders.decoder(connection)
-                    # Once per decoder: align asks for every matched message, and a stored
-                    # definition that fits never counts as settled.
-                    if not decoder.settled and id(decoder) not in self._first_decoded:
-                        self._first_decoded.add(id(decoder))
-                        self._settle(decoder, storage, connection.id)
-                    if decoder.codec is not None:
-                        return decoder.codec
+            codec = self._first_codec(storages, topic)
+            if codec is not None:
+                return codec
+        return None
+
+    def topic_codecs(self, topic: str) -> list[tuple[Path, Any]]:
+        """``topic_codec`` for each bag this reader merges that has one: (bag path, codec)."""
+        found = []
+        for located, storages in self._bags:
+            codec = self._first_codec(storages, topic)
+            if codec is not None:
+                found.append((located.path, codec))
+        return found
+
+    def _first_codec(self, storages: Sequence[StorageFile], topic: str) -> Any:
+        for storage in storages:
+            for connection in storage.connections():
+                if connection.topic != topic:
+                    continue
+                decoder = self._decoders.decoder(connection)
+                # Once per decoder: align asks for every matched message, and a stored
+                # definition that fits never counts as settled.
+                if not decoder.settled and id(decoder) not in self._first_decoded:
+                    self._first_decoded.add(id(decoder))
+                    self._settle(decoder, storage, connection.id)
+                if decoder.codec is not None:
+                    return decoder.codec
         return None
 
     def _settle(self, decoder: TopicDecoder, storage: StorageFile, connection_id: int) -> None:

@@ -189,18 +189,13 @@ class _BagColumns:
 
 
 def _each_bag_columns(reader: BagReader, topic: str, images: ImageColumns) -> list[_BagColumns]:
-    found: list[_BagColumns] = []
-    for path in _bag_paths(reader):
-        # raw: another bag of the list may lack the topic or hold topics that are not CDR, which
-        # a decoding reader refuses when it opens; topic_codec still gives the codec.
-        with type(reader)(
-            path, raw=True, natural=False, start_ns=reader.start_ns, end_ns=reader.end_ns
-        ) as one:
-            codec = one.topic_codec(topic) if topic in one.topics else None
-        if codec is not None:  # no codec: its messages are undecodable, reported when read
-            columns = columns_of(codec.msg_type, codec.definitions, images=images)
-            found.append(_BagColumns(path, codec.msg_type, columns))
-    return found
+    # A bag with no codec for the topic: its messages are undecodable, reported when read.
+    return [
+        _BagColumns(
+            path, codec.msg_type, columns_of(codec.msg_type, codec.definitions, images=images)
+        )
+        for path, codec in reader.topic_codecs(topic)
+    ]
 
 
 def _union(topic: str, bags: Sequence[_BagColumns]) -> list[Column]:
