@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 import yaml
-from rclpy.qos import QoSProfile
+from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
 from pyconnect.record.bag_reader import open_bag
@@ -161,3 +161,30 @@ def test_a_latched_message_sent_before_recording_is_recorded(
     (topic,) = metadata["rosbag2_bagfile_information"]["topics_with_message_count"]
     offered = yaml.safe_load(topic["topic_metadata"]["offered_qos_profiles"])
     assert [(p["reliability"], p["durability"]) for p in offered] == [(1, 1)]  # reliable, latched
+
+
+def test_a_recording_started_before_its_publisher_hears_a_best_effort_one(
+    make_node: Any, tmp_path: Path
+) -> None:
+    """The recording subscribed at once, reliable as no publisher was known yet: a best-effort
+    driver discovered later was never heard (none of its messages recorded)."""
+    node = make_node("early_recorder")
+    node.add_agent(conn_name="scan", conn_type="sub", data_interface=String)
+    node.spin(run_thread=True)
+    recording = node.record(tmp_path / "early")
+    driver = make_node("driver")
+    best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+    pub = driver.add_agent(
+        conn_name="scan", conn_type="pub", data_interface=String, qos=best_effort
+    )
+    driver.spin(run_thread=True)
+    heard = threading.Event()
+
+    def send() -> None:
+        pub.send("scan")
+        if recording.messages_written:
+            heard.set()
+
+    assert repeat_until(heard, send)
+    recording.stop()
+    assert set(_recorded(tmp_path / "early")) == {"scan"}

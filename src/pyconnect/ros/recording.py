@@ -1,11 +1,12 @@
 """``node.record(path)``: raw (CDR) subscriptions written to an MCAP file as they arrive.
 
 Subscribed as ``pyconnect bag record`` subscribes (pyconnect.ros.recording_qos): one
-subscription per topic, with a QoS that matches its publishers (reliable unless one is best
-effort; transient local when all are, so a latched message sent earlier is recorded too) and a
-deep queue, and the publishers' QoS stored as the topic's ``offered_qos_profiles``. So the
-recording holds what the node's agents receive, not what a best-effort keep-last-5 reader
-happens to catch.
+subscription per topic, made once a publisher of it is discovered, with a QoS that matches its
+publishers (reliable unless one is best effort; transient local when all are, so a latched
+message sent earlier is recorded too) and a deep queue, and the publishers' QoS stored as the
+topic's ``offered_qos_profiles``. So the recording holds what the node's agents receive, not
+what a best-effort keep-last-5 reader happens to catch, nor what a reader chosen before the
+publishers were known could hear.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -29,6 +30,9 @@ from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.recording_qos import offered_qos_yaml, recording_qos
 from pyconnect.ros.subscriber_agent import SubscriberAgent
 
+DISCOVERY_PERIOD = 0.1
+"""Seconds between looks for the publishers of topics not subscribed yet."""
+
 
 class Recording:
     """A running MCAP recording; ``stop()`` ends it and closes the file."""
@@ -50,19 +54,53 @@ class Recording:
         chosen = self._choose_topics(topics)
         self.recorder = McapRecorder(path)
         self._subscriptions: list[Any] = []
-        group = MutuallyExclusiveCallbackGroup()
-        for topic, msg_class in chosen.items():
-            publishers = ros_node.get_publishers_info_by_topic(topic)
-            self.recorder.add_topic(
-                topic, interface_name(msg_class), offered_qos_profiles=offered_qos_yaml(publishers)
+        self._group = MutuallyExclusiveCallbackGroup()
+        self._waiting = dict(chosen)
+        """Topics no publisher of which is known yet: subscribed once one is discovered."""
+        self._discovery_timer: Any = None
+        self._subscribe_discovered()
+        self._discovery_timer = (
+            ros_node.create_timer(
+                DISCOVERY_PERIOD, self._subscribe_discovered, callback_group=self._group
             )
-            qos = recording_qos(publishers)
-            self._subscriptions.append(
-                ros_node.create_subscription(
-                    msg_class, topic, self._writer_for(topic), qos, callback_group=group, raw=True
-                )
-            )
+            if self._waiting
+            else None
+        )
         self.topics = list(chosen)
+
+    def _subscribe_discovered(self) -> None:
+        """Subscribe to each waiting topic whose publishers are known, with their QoS.
+
+        Before any publisher is known a reader's QoS would be a guess: a reliable one never
+        hears a best-effort driver, a volatile one misses a latched message, and best effort
+        loses frames of reliable publishers; so the subscription waits for the publishers.
+        """
+        with self._lock:
+            if self._stopped:
+                return
+            for topic, msg_class in list(self._waiting.items()):
+                publishers = self.ros_node.get_publishers_info_by_topic(topic)
+                if not publishers:
+                    continue
+                del self._waiting[topic]
+                self.recorder.add_topic(
+                    topic,
+                    interface_name(msg_class),
+                    offered_qos_profiles=offered_qos_yaml(publishers),
+                )
+                self._subscriptions.append(
+                    self.ros_node.create_subscription(
+                        msg_class,
+                        topic,
+                        self._writer_for(topic),
+                        recording_qos(publishers),
+                        callback_group=self._group,
+                        raw=True,
+                    )
+                )
+            timer = self._discovery_timer
+            if not self._waiting and timer is not None:
+                timer.cancel()
 
     def _choose_topics(self, topics: list[str] | None) -> dict[str, type]:
         """{topic: message class}, each topic once: a second subscription to a topic (two sub
@@ -133,6 +171,9 @@ class Recording:
             if self._stopped:
                 return
             self._stopped = True
+        if self._discovery_timer is not None:
+            with contextlib.suppress(Exception):
+                self.ros_node.destroy_timer(self._discovery_timer)
         for subscription in self._subscriptions:
             # The node may be destroyed already.
             with contextlib.suppress(Exception):
