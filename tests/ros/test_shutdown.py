@@ -274,8 +274,8 @@ def on_interrupt(_signum, _frame):
 signal.signal(signal.SIGINT, on_interrupt)
 node, heard = make()
 node.spin(run_thread=True)
-ready(heard)
-try:
+try:  # the signal may come while READY is still being printed
+    ready(heard)
     while True:
         time.sleep(0.05)
 except KeyboardInterrupt:
