@@ -8,6 +8,7 @@ from typing import Any
 
 import cv2
 import numpy as np
+import pytest
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import Image
 from std_msgs.msg import Float64MultiArray
@@ -162,3 +163,68 @@ def test_image_for_png_gives_native_byte_order() -> None:
     assert pixels.dtype == np.dtype(np.uint16)
     assert pixels.dtype.isnative
     np.testing.assert_array_equal(pixels, depth)
+
+
+def test_non_finite_floats_export_as_strict_json(tmp_path: Path) -> None:
+    # A GPS with no altitude: NaN. messages.jsonl held a bare NaN, which is no JSON.
+    from sensor_msgs.msg import NavSatFix
+    from std_msgs.msg import Float64
+
+    with McapRecorder(tmp_path / "bag") as recorder:
+        recorder.add_topic("/fix", "sensor_msgs/msg/NavSatFix")
+        recorder.add_topic("/temp", "std_msgs/msg/Float64")
+        fix = NavSatFix(latitude=48.1, altitude=float("nan"))
+        recorder.write("/fix", bytes(serialize_message(fix)), log_time_ns=1)
+        for stamp, number in enumerate([float("inf"), -float("inf"), 1.5], 2):
+            data = bytes(serialize_message(Float64(data=number)))
+            recorder.write("/temp", data, log_time_ns=stamp)
+    export_topics(tmp_path / "bag", ["/fix", "/temp"], tmp_path / "out")
+
+    def refuse(constant: str) -> None:
+        raise ValueError(f"not JSON: {constant}")
+
+    def rows(topic: str) -> list[Any]:
+        lines = (tmp_path / "out" / topic / "messages.jsonl").read_text().splitlines()
+        return [json.loads(line, parse_constant=refuse)["value"] for line in lines]
+
+    assert [(row["latitude"], row["altitude"]) for row in rows("fix")] == [(48.1, "nan")]
+    assert rows("temp") == ["inf", "-inf", 1.5]  # as `bag echo --json` writes them
+
+
+def test_an_export_of_another_number_of_topics_is_refused_or_replaced(tmp_path: Path) -> None:
+    """One topic writes into --to, several into --to/<topic>/: a second export with another
+    number of topics was neither refused nor cleaned, and left both exports mixed."""
+    from pyconnect.record import BagError
+
+    with McapRecorder(tmp_path / "bag") as recorder:
+        for topic in ("/a", "/b"):
+            recorder.add_topic(topic, "std_msgs/msg/String")
+            recorder.write_value(topic, f"{topic} 0", log_time_ns=1)
+    out = tmp_path / "out"
+
+    def files() -> list[str]:
+        return sorted(str(p.relative_to(out)) for p in out.rglob("*"))
+
+    def export(topics: list[str], *, force: bool = False) -> None:
+        export_topics(tmp_path / "bag", topics, out, force=force, progress=lambda *_: _NoBar())
+
+    export(["/a"])
+    with pytest.raises(BagError) as refused:
+        export(["/a", "/b"])
+    assert str(refused.value) == (
+        f"{out}: already holds an export (messages.jsonl); use force=True (--force) to overwrite it"
+    )
+    assert files() == ["messages.jsonl"]
+    (out / "notes.txt").write_text("mine")  # not the export's: kept
+    export(["/a", "/b"], force=True)
+    assert files() == ["a", "a/messages.jsonl", "b", "b/messages.jsonl", "notes.txt"]
+
+    with pytest.raises(BagError) as refused:
+        export(["/b"])
+    assert str(refused.value) == (
+        f"{out / 'a'}: already holds an export (messages.jsonl); "
+        "use force=True (--force) to overwrite it"
+    )
+    export(["/b"], force=True)
+    assert files() == ["messages.jsonl", "notes.txt"]  # the topic folders went with their files
+    assert (out / "messages.jsonl").read_text().count("/b 0") == 1

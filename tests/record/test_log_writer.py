@@ -165,7 +165,7 @@ json_values = st.recursive(
     st.none()
     | st.booleans()
     | st.integers(min_value=-(2**63), max_value=2**64)
-    | st.floats(allow_nan=False)
+    | st.floats(allow_nan=False, allow_infinity=False)  # non-finite: strings, tested apart
     | st.text(),
     lambda children: (
         st.lists(children, max_size=4) | st.dictionaries(st.text(max_size=5), children, max_size=4)
@@ -238,3 +238,31 @@ def test_big_endian_non_image_array_keeps_its_byte_order() -> None:
     loaded = np.load(io.BytesIO(data))
     assert loaded.dtype == np.dtype(">f8")
     np.testing.assert_array_equal(loaded, floats)
+
+
+def _strict_json(data: bytes) -> object:
+    def refuse(constant: str) -> None:
+        raise ValueError(f"not JSON: {constant}")
+
+    return json.loads(data, parse_constant=refuse)
+
+
+def test_non_finite_floats_are_strict_json_strings() -> None:
+    # Bare NaN/Infinity is no JSON: written as `bag echo --json` writes them.
+    value = {
+        "altitude": float("nan"),
+        "ranges": np.array([1.0, np.inf, -np.inf], dtype=np.float32),
+        "pair": (np.float32("nan"), np.float64("-inf")),
+        "stamped": Stamped(value=float("inf"), stamp_ns=5, frame_id="gps"),
+        "finite": 1.5,
+    }
+    extension, data = encode_log_value(value)
+    assert extension == "json"
+    assert _strict_json(data) == {
+        "altitude": "nan",
+        "ranges": [1.0, "inf", "-inf"],
+        "pair": ["nan", "-inf"],
+        "stamped": {"value": "inf", "stamp_ns": 5, "frame_id": "gps"},
+        "finite": 1.5,
+    }
+    assert _strict_json(encode_log_value(float("-inf"))[1]) == "-inf"

@@ -8,6 +8,7 @@ makes damage alone exit 0); 2 on an error (one line on stderr).
 from __future__ import annotations
 
 import argparse
+import decimal
 from collections.abc import Sequence
 from datetime import datetime, timezone
 from typing import TYPE_CHECKING, Any, TextIO
@@ -64,8 +65,8 @@ def register(commands: Subcommands) -> Subcommands:
     echo.add_argument(
         "--field", default=None, help="print only this field (dotted: pose.position.x)"
     )
-    echo.add_argument("--start", type=float, default=None, help="from this time (seconds)")
-    echo.add_argument("--end", type=float, default=None, help="up to this time (seconds)")
+    echo.add_argument("--start", type=_seconds, default=None, help="from this time (seconds)")
+    echo.add_argument("--end", type=_seconds, default=None, help="up to this time (seconds)")
     echo.add_argument("--dict", action="store_true", help="lossless dicts, not natural values")
     echo.add_argument("--ignore-damage", action="store_true", help=IGNORE_DAMAGE_HELP)
     echo.set_defaults(run=_echo)
@@ -119,12 +120,33 @@ def _format_size(size: int) -> str:
     return f"{size} B"  # pragma: no cover - the loop always returns
 
 
-def seconds_to_ns(seconds: float | None, bag_start_ns: int | None) -> int | None:
+def _seconds(text: str) -> decimal.Decimal:
+    """An argparse ``type`` for ``--start``/``--end``: kept decimal, not float, because an
+    absolute stamp has 19 significant digits and a float holds about 16 (``--start
+    1778234358.028684`` would miss the message stamped at exactly that time)."""
+    try:
+        seconds = decimal.Decimal(text.strip())
+    except decimal.InvalidOperation:
+        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
+    if not seconds.is_finite():
+        raise argparse.ArgumentTypeError(f"expected a finite number of seconds, got {text!r}")
+    return seconds
+
+
+def seconds_to_ns(seconds: decimal.Decimal | float | None, bag_start_ns: int | None) -> int | None:
     """``--start``/``--end`` in ns: an absolute time, or an offset from the bag's start when
-    it is smaller than the start (``--start 2.5`` is 2.5 s into the bag)."""
+    it is smaller than the start (``--start 2.5`` is 2.5 s into the bag).
+
+    A float is taken as the decimal it prints as (``repr``), so that a stamp copied into a
+    float keeps its nanoseconds as far as the float's digits reach.
+    """
     if seconds is None:
         return None
-    ns = round(seconds * 1e9)
+    exact = seconds if isinstance(seconds, decimal.Decimal) else decimal.Decimal(repr(seconds))
+    # Enough digits for any stamp with sub-nanosecond decimals: the default 28 could round.
+    with decimal.localcontext() as context:
+        context.prec = 60
+        ns = int(exact.scaleb(9).to_integral_value(rounding=decimal.ROUND_HALF_EVEN))
     if bag_start_ns is not None and ns < bag_start_ns:
         return bag_start_ns + ns
     return ns

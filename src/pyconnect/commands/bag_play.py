@@ -9,6 +9,8 @@ nodes with ``use_sim_time``. At the end it prints how late messages were publish
 schedule (mean and max), the timing error. Ctrl-C stops playing (exit 0). A topic whose type is
 not installed is left out with a warning, as ``ros2 bag play`` does; a damaged bag plays all
 that can be read, then its damage is reported and the exit status is 1 (``--ignore-damage``: 0).
+A ``--topics`` name not in the bag is an error (exit status 1); when there is nothing to play
+(``--start-offset`` past the end), playing ends at once with a warning, ``--loop`` or not.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -129,6 +131,14 @@ def _play_all(
     metadata_file = info.path / "metadata.yaml" if info.path.is_dir() else None
     if metadata_file is not None and metadata_file.is_file():
         declared = {t.name: t.offered_qos_profiles for t in read_metadata(metadata_file).topics}
+    if args.topics is not None:
+        names = [t.name for t in info.topics]
+        unknown = [name for name in dict.fromkeys(args.topics) if name not in names]
+        if unknown:  # as `bag echo --topic`: a typo must not play nothing and exit 0
+            raise CommandFailed(
+                f"{info.path}: no topic {', '.join(unknown)} in this bag "
+                f"(topics: {', '.join(names) or 'none'})"
+            )
     topics = [t for t in info.topics if args.topics is None or t.name in args.topics]
     publishers: dict[str, Any] = {}
     for topic in topics:
@@ -155,8 +165,10 @@ def _play_all(
     while True:
         began = time.monotonic()
         last_clock = 0.0
+        played = 0
         with open_bag(args.path, topics=list(publishers), raw=True, start_ns=start_ns) as bag:
             for message in bag:
+                played += 1
                 due = began + (message.log_time_ns - start_ns) / 1e9 / args.rate
                 while True:
                     now = time.monotonic()
@@ -173,6 +185,14 @@ def _play_all(
                 late.append(time.monotonic() - due)
             damage = bag.damage
             summary = bag.damage_summary(damage) if damage else ""
+        if not played and not damage:
+            # Every pass would play nothing again: with --loop, at once and for ever.
+            where = f" from --start-offset {args.start_offset:g} s on" if args.start_offset else ""
+            print(
+                f"pyconnect: warning: nothing to play: {info.path} has no message{where}",
+                file=err,
+            )
+            return late, damage, summary
         if not args.loop or damage:  # a damaged bag plays once: its damage is reported then
             return late, damage, summary
 

@@ -6,7 +6,6 @@ import array
 import base64
 import dataclasses
 import json
-import math
 from collections.abc import Callable
 from typing import Any
 
@@ -100,6 +99,14 @@ def to_yaml(value: Any) -> str:
     return text.removesuffix("...\n")  # a bare scalar's document end marker
 
 
+def _finite(value: Any) -> Any:
+    # Imported on first use: every `pyconnect` command imports this module at start-up, and the
+    # record package (the helper's home, shared with `bag export`) costs most of them ~0.1 s.
+    from pyconnect.record.log_writer import finite_for_json
+
+    return finite_for_json(value)
+
+
 def _json_default(value: Any) -> Any:
     if isinstance(value, bytes | bytearray | memoryview):
         return base64.b64encode(bytes(value)).decode("ascii")
@@ -110,22 +117,15 @@ def _json_default(value: Any) -> Any:
     return _finite(plain_value(value))
 
 
-def _finite(value: Any) -> Any:
-    """``value`` with NaN and infinities as the strings ``"nan"``, ``"inf"``, ``"-inf"``: JSON
-    has no such numbers (``topic echo --json`` writes them the same way)."""
-    if isinstance(value, float):
-        return value if math.isfinite(value) else str(value)
-    if isinstance(value, dict):
-        return {key: _finite(item) for key, item in value.items()}
-    if isinstance(value, list | tuple):
-        return [_finite(item) for item in value]
-    return value
-
-
 def to_json(record: dict[str, Any]) -> str:
     """One JSON line: numeric arrays as lists, bytes and uint8 arrays as base64 strings,
-    non-finite floats as strings (strict JSON readers refuse ``NaN``)."""
+    non-finite floats as the strings ``"nan"``, ``"inf"``, ``"-inf"`` (strict JSON readers
+    refuse ``NaN``; ``bag export`` and the logger write them the same way)."""
     return json.dumps(_finite(record), default=_json_default, allow_nan=False)
+
+
+# A lossless dict holds uint8[] and byte[] fields (Image.data) as bytes: indexed as the lists.
+_INDEXABLE = (list, tuple, np.ndarray, bytes, bytearray, memoryview)
 
 
 def field_of(value: Any, path: str) -> Any:
@@ -139,7 +139,7 @@ def field_of(value: Any, path: str) -> Any:
                 fields = ", ".join(current) or "none"
                 raise KeyError(f"no field {name!r} in {where} (fields: {fields})")
             current = current[name]
-        elif isinstance(current, list | tuple | np.ndarray) and name.isdigit():
+        elif isinstance(current, _INDEXABLE) and name.isdigit():
             if int(name) >= len(current):
                 raise KeyError(f"{'.'.join(walked)}: no item {name} of {len(current)}")
             current = current[int(name)]

@@ -10,6 +10,7 @@ atomically.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import sys
@@ -75,6 +76,19 @@ def _earlier_export(directory: Path) -> list[Path]:
     return sorted(p for p in directory.iterdir() if p.name == JSONL_NAME or _EXPORTED.match(p.name))
 
 
+def _earlier_exports(directories: Sequence[Path], root: Path) -> list[Path]:
+    """The files of earlier exports under ``root`` in either layout, those in ``directories``
+    first: one topic writes into ``root``, several into its subdirectories, so an export of
+    another number of topics would otherwise leave the earlier one beside it, mixed."""
+    subdirectories = (
+        sorted(p for p in root.iterdir() if p.is_dir() and not p.is_symlink())
+        if root.is_dir()
+        else []
+    )
+    places = dict.fromkeys([*directories, root, *subdirectories])
+    return [path for place in places for path in _earlier_export(place)]
+
+
 def topic_directories(topics: Sequence[str], to: str | Path) -> dict[str, Path]:
     """Where each topic goes: ``to`` itself for one topic, ``to/<topic as a name>`` for more.
 
@@ -100,28 +114,29 @@ def export_topics(
 ) -> dict[str, ExportResult]:
     """Export several topics: one topic writes into ``to``, several into ``to/<topic>/``.
 
-    An earlier export in a target directory raises ``BagError`` unless ``force`` (its files
-    are then removed first, so that no stale frame survives). Files get the permissions the
-    umask gives (0644 with the usual 022).
+    An earlier export under ``to``, in either layout, raises ``BagError`` unless ``force``
+    (its files are then removed first, so that no stale frame survives). Files get the
+    permissions the umask gives (0644 with the usual 022).
     """
     chosen = list(dict.fromkeys(topics))
     if not chosen:
         raise BagError("export: no topic given")
     directories = topic_directories(chosen, to)
-    for directory in directories.values():
-        earlier = _earlier_export(directory)
-        if earlier and not force:
-            raise BagError(
-                f"{directory}: already holds an export ({earlier[0].name}); "
-                "use force=True (--force) to overwrite it"
-            )
+    earlier = _earlier_exports(list(directories.values()), Path(to))
+    if earlier and not force:
+        raise BagError(
+            f"{earlier[0].parent}: already holds an export ({earlier[0].name}); "
+            "use force=True (--force) to overwrite it"
+        )
     with open_bag(path, topics=chosen):
         pass  # unknown topics and formats fail here, before anything is removed or written
+    for old in earlier:
+        old.unlink()
+    for folder in {old.parent for old in earlier} - {Path(to)}:
+        with contextlib.suppress(OSError):  # not empty: it holds files of the user's own
+            folder.rmdir()  # a topic folder of the other layout; a target is made again
     results: dict[str, ExportResult] = {}
     for topic, directory in directories.items():
-        if force:
-            for old in _earlier_export(directory):
-                old.unlink()
         results[topic] = export_topic(path, topic, directory, natural=natural, progress=progress)
     return results
 

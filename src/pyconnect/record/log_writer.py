@@ -9,7 +9,8 @@ File formats (the extension says which):
 
 - dict, list, tuple, str, int, float, bool, None, numpy scalars and ROS messages -> ``.json``
   (tuples become lists, nested arrays become lists, nested bytes become base64 strings,
-  NaN/inf are written as Python's ``json`` writes them);
+  NaN and infinities become the strings ``"nan"``, ``"inf"``, ``"-inf"``: strict JSON has no
+  such numbers, and ``bag echo --json`` writes them the same way);
 - ``uint8``/``uint16`` arrays (either byte order) of shape (H, W), (H, W, 1), (H, W, 3) or
   (H, W, 4) -> ``.png``
   (channels in OpenCV's BGR(A) order, as ``cv2.imwrite`` takes them; ``log(..., rgb=True)``,
@@ -32,6 +33,7 @@ import dataclasses
 import io
 import json
 import logging
+import math
 import os
 import queue
 import tempfile
@@ -52,6 +54,7 @@ __all__ = [
     "MessageLogger",
     "atomic_write_bytes",
     "encode_log_value",
+    "finite_for_json",
     "in_native_byte_order",
 ]
 
@@ -97,7 +100,25 @@ def atomic_write_bytes(path: Path, data: bytes) -> None:
         raise
 
 
+def finite_for_json(value: Any) -> Any:
+    """``value`` with NaN and infinities as the strings ``"nan"``, ``"inf"``, ``"-inf"``, in
+    nested dicts, lists and tuples too (tuples become lists): JSON has no such numbers, and
+    ``json.dumps`` would write the bare ``NaN`` that strict readers refuse."""
+    if isinstance(value, float):  # numpy.float64 too: it is a float
+        return value if math.isfinite(value) else str(value)
+    if isinstance(value, dict):
+        return {key: finite_for_json(item) for key, item in value.items()}
+    if isinstance(value, list | tuple):
+        return [finite_for_json(item) for item in value]
+    return value
+
+
 def _json_default(value: Any) -> Any:
+    # What this returns is serialised in turn: its floats must be made finite here as well.
+    return finite_for_json(_json_plain(value))
+
+
+def _json_plain(value: Any) -> Any:
     if isinstance(value, np.ndarray):
         return value.tolist()
     if isinstance(value, np.generic):
@@ -169,7 +190,9 @@ def encode_log_value(value: object) -> tuple[str, bytes]:
     if isinstance(value, bytes | bytearray | memoryview):
         return "bin", bytes(value)
     try:
-        text = json.dumps(value, default=_json_default, ensure_ascii=False)
+        text = json.dumps(
+            finite_for_json(value), default=_json_default, ensure_ascii=False, allow_nan=False
+        )
     except (TypeError, ValueError) as error:
         raise EncodeError(f"log value: {error}") from None
     return "json", text.encode("utf-8")

@@ -1,0 +1,95 @@
+"""``pyconnect bag echo`` (``pyconnect.commands.bag``): time windows and fields, run in-process."""
+
+from __future__ import annotations
+
+import json
+from decimal import Decimal
+from pathlib import Path
+
+import pytest
+from rclpy.serialization import serialize_message
+from std_msgs.msg import ByteMultiArray, Float32MultiArray, UInt8MultiArray
+
+from pyconnect.cli import main
+from pyconnect.commands.bag import seconds_to_ns
+from pyconnect.record.mcap_recorder import McapRecorder
+
+STAMP_NS = 1_778_234_358_028_684_000  # /amcl_pose of evo/nav2_turtlebot: 19 digits
+
+
+@pytest.fixture
+def stamped_bag(tmp_path: Path) -> Path:
+    bag = tmp_path / "stamped"
+    with McapRecorder(bag) as recorder:
+        recorder.add_topic("/n", "std_msgs/msg/Int64")
+        for offset in (-1_000_000, -1, 0, 1, 1_000_000):
+            recorder.write_value("/n", offset, log_time_ns=STAMP_NS + offset)
+    return bag
+
+
+def _echoed(capsys: pytest.CaptureFixture[str]) -> list[tuple[int, object]]:
+    lines = capsys.readouterr().out.splitlines()
+    return [(record["log_time_ns"], record["value"]) for record in map(json.loads, lines)]
+
+
+def test_echo_window_at_an_exact_absolute_stamp(
+    stamped_bag: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # A float cannot hold this stamp's nanoseconds: --start/--end equal to it found nothing.
+    argv = ["bag", "echo", str(stamped_bag), "--json"]
+    assert main([*argv, "--start", "1778234358.028684", "--end", "1778234358.028684"]) == 0
+    assert _echoed(capsys) == [(STAMP_NS, 0)]
+    assert main([*argv, "--start", "1778234358.028684001", "--end", "1778234358.029684"]) == 0
+    assert _echoed(capsys) == [(STAMP_NS + 1, 1), (STAMP_NS + 1_000_000, 1_000_000)]
+    assert main([*argv, "--end", "1778234358.028683999"]) == 0
+    assert _echoed(capsys) == [(STAMP_NS - 1_000_000, -1_000_000), (STAMP_NS - 1, -1)]
+
+
+def test_echo_window_offsets_from_the_bags_start_still_work(
+    stamped_bag: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    first = STAMP_NS - 1_000_000
+    argv = ["bag", "echo", str(stamped_bag), "--json"]
+    assert main([*argv, "--start", "0.000999999", "--end", "0.001000001"]) == 0
+    assert _echoed(capsys) == [(first + 999_999, -1), (STAMP_NS, 0), (STAMP_NS + 1, 1)]
+
+
+def test_echo_window_refuses_what_is_no_number_of_seconds(
+    stamped_bag: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["bag", "echo", str(stamped_bag), "--start", "soon"]) == 2
+    assert capsys.readouterr().err == (
+        "pyconnect: error: argument --start: expected seconds, got 'soon'\n"
+    )
+    assert main(["bag", "echo", str(stamped_bag), "--end", "nan"]) == 2
+    assert capsys.readouterr().err == (
+        "pyconnect: error: argument --end: expected a finite number of seconds, got 'nan'\n"
+    )
+
+
+def test_seconds_to_ns_is_exact() -> None:
+    assert seconds_to_ns(Decimal("1778234358.028684"), 0) == STAMP_NS
+    assert seconds_to_ns(1778234358.028684, 0) == STAMP_NS  # a float: as it prints
+    assert seconds_to_ns(Decimal("2.5"), STAMP_NS) == STAMP_NS + 2_500_000_000
+    assert seconds_to_ns(None, STAMP_NS) is None
+
+
+@pytest.mark.parametrize(
+    ("message", "data"),
+    [
+        (UInt8MultiArray(data=b"\x07\x08\x09"), [7, 8, 9]),  # uint8[]: bytes in the dict
+        (ByteMultiArray(data=[b"\x07", b"\x08", b"\x09"]), [7, 8, 9]),  # byte[]: the same
+        (Float32MultiArray(data=[7.0, 8.0, 9.0]), [7.0, 8.0, 9.0]),
+    ],
+)
+def test_echo_field_indexes_into_byte_arrays(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], message: object, data: list[object]
+) -> None:
+    bag = tmp_path / "arrays"
+    with McapRecorder(bag) as recorder:
+        recorder.add_topic("/a", f"std_msgs/msg/{type(message).__name__}")
+        recorder.write("/a", serialize_message(message), log_time_ns=1)
+    assert main(["bag", "echo", str(bag), "--json", "--field", "data.1"]) == 0
+    assert _echoed(capsys) == [(1, data[1])]
+    assert main(["bag", "echo", str(bag), "--json", "--field", "data.3"]) == 2
+    assert capsys.readouterr().err == "pyconnect: error: --field data.3: /a: data: no item 3 of 3\n"
