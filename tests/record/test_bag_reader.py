@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+import datetime
 import shutil
 import sqlite3
+import threading
 from pathlib import Path
 
+import numpy
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
@@ -91,6 +94,75 @@ def test_topic_and_time_filters(tmp_path: Path) -> None:
         ]
     with open_bag(tmp_path / "bag", natural=False, topics="/chatter", end_ns=1_001) as bag:
         assert [m.value for m in bag] == [{"data": "hello 0"}]
+
+
+@pytest.mark.parametrize("storage", ["mcap", "db3"])
+@pytest.mark.parametrize(
+    ("option", "value", "type_name"),
+    [
+        ("start_ns", "1020", "str"),
+        ("end_ns", 1050.0, "float"),
+        ("start_ns", True, "bool"),
+        ("end_ns", datetime.datetime(2024, 5, 3, 13, 0), "naive datetime"),
+        ("start_ns", datetime.date(2024, 5, 3), "date"),
+    ],
+)
+def test_time_bounds_of_another_type_are_refused_when_opened(
+    tmp_path: Path, storage: str, option: str, value: object, type_name: str
+) -> None:
+    # Unchecked, a .db3 file compared them with its integers (nothing or everything selected)
+    # and an MCAP file raised mid-read.
+    path = write_bag(tmp_path / "bag") if storage == "mcap" else write_db3(tmp_path / "bag.db3")
+    with pytest.raises(
+        TypeError, match=f"{option}: expected int nanoseconds.*, got (a )?{type_name} "
+    ):
+        open_bag(path, **{option: value}).close()  # type: ignore[arg-type]
+
+
+def test_time_bounds_take_aware_datetimes_and_numpy_integers(tmp_path: Path) -> None:
+    write_bag(tmp_path / "bag")
+    plus_two = datetime.timezone(datetime.timedelta(hours=2))
+    # 1 µs after the epoch, written in another zone: exactly 1_000 ns.
+    start = datetime.datetime(1970, 1, 1, 2, 0, 0, 1, tzinfo=plus_two)
+    with open_bag(
+        tmp_path / "bag", topics=["/chatter"], start_ns=start, end_ns=numpy.int64(1_030)
+    ) as bag:
+        assert (bag.start_ns, bag.end_ns) == (1_000, 1_030)
+        assert type(bag.end_ns) is int
+        assert [m.log_time_ns for m in bag] == [1_000, 1_010, 1_020]
+    moment = datetime.datetime(2024, 5, 3, 13, 0, 0, 123456, tzinfo=datetime.timezone.utc)
+    with open_bag(tmp_path / "bag", start_ns=moment) as bag:
+        assert bag.start_ns == 1_714_741_200_123_456_000
+        assert list(bag) == []
+
+
+@pytest.mark.parametrize("storage", ["mcap", "db3"])
+def test_time_bounds_beyond_int64_are_clamped(tmp_path: Path, storage: str) -> None:
+    path = write_bag(tmp_path / "bag") if storage == "mcap" else write_db3(tmp_path / "bag.db3")
+    with open_bag(path, start_ns=-(2**70), end_ns=2**70) as bag:
+        assert (bag.start_ns, bag.end_ns) == (-(2**63), 2**63 - 1)
+        assert len(list(bag)) == (20 if storage == "mcap" else 4)  # no OverflowError
+    with open_bag(path, start_ns=2**64) as bag:
+        assert list(bag) == []
+
+
+def test_one_db3_reader_read_in_two_threads_gives_each_every_message(tmp_path: Path) -> None:
+    # A .db3 file's one sqlite3 connection serves both reads (SQLite serialises them).
+    path = write_db3(tmp_path / "bag.db3", count=3000)
+    got: dict[int, list[int]] = {}
+    with open_bag(path, raw=True) as bag:
+
+        def read(number: int) -> None:
+            got[number] = [m.log_time_ns for m in bag]
+
+        threads = [threading.Thread(target=read, args=(k,)) for k in range(2)]
+        for thread in threads:
+            thread.start()
+        for thread in threads:
+            thread.join()
+        everything = list(range(100, 3100))
+        assert got == {0: everything, 1: everything}
+        assert bag.damage == []
 
 
 def test_bag_info(tmp_path: Path) -> None:

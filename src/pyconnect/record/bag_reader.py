@@ -11,7 +11,10 @@ tuple ``(topic, log_time_ns, value)`` (``item.topic``, ``item[0]`` and unpacking
             ...
         print(bag.errors, bag.damage)   # undecodable messages, damaged parts of the files
 
-``topics=`` and ``types=`` select what is read (both given: a topic must match both).
+``topics=`` and ``types=`` select what is read (both given: a topic must match both);
+``start_ns=`` (inclusive) and ``end_ns=`` (exclusive) the log times, as integer nanoseconds
+since the epoch or timezone-aware datetimes (a naive one does not say which instant it is and is
+refused); times beyond the int64 range rosbag2 stores are clamped to it.
 ``raw=True`` yields the CDR bytes as ``value`` undecoded (the type of each topic is
 ``item.msg_type`` and ``reader.topics[topic].msg_type``). Values come from the wire codecs
 (``pyconnect.codecs.wire``): natural values by default (from ``registry``, the default registry
@@ -37,7 +40,9 @@ is opened (``raw=True`` reads them).
 
 from __future__ import annotations
 
+import datetime
 import logging
+import operator
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, Literal
@@ -72,6 +77,41 @@ __all__ = [
 
 _log = logging.getLogger("pyconnect.record")
 
+_INT64 = (-(2**63), 2**63 - 1)
+_EPOCH = datetime.datetime(1970, 1, 1, tzinfo=datetime.timezone.utc)
+_MICROSECOND = datetime.timedelta(microseconds=1)
+_EXPECTED = "expected int nanoseconds or a timezone-aware datetime"
+
+TimeBound = int | datetime.datetime  # a start_ns/end_ns: nanoseconds, or an aware datetime
+
+
+def _nanoseconds(option: str, value: TimeBound | None) -> int | None:
+    """``value`` of ``option`` (start_ns, end_ns) as int64 nanoseconds; TypeError if it is neither.
+
+    Checked when the bag is opened: unchecked, a str or datetime selected nothing or everything
+    of a .db3 file and raised mid-read of an MCAP one, and 2**70 overflowed SQLite's integers.
+    """
+    if value is None:
+        return None
+    if isinstance(value, datetime.datetime):
+        if value.utcoffset() is None:
+            raise TypeError(
+                f"{option}: {_EXPECTED}, got a naive datetime ({value.isoformat()}), "
+                "which does not say which instant it is"
+            )
+        # Exact: a datetime counts whole microseconds.
+        nanoseconds = (value - _EPOCH) // _MICROSECOND * 1000
+    elif isinstance(value, bool):
+        raise TypeError(f"{option}: {_EXPECTED}, got bool ({value!r})")
+    else:
+        try:
+            nanoseconds = operator.index(value)  # int and numpy integers, not floats or str
+        except TypeError:
+            raise TypeError(
+                f"{option}: {_EXPECTED}, got {type(value).__name__} ({value!r:.80})"
+            ) from None
+    return min(max(nanoseconds, _INT64[0]), _INT64[1])
+
 
 class BagReader:
     """An open bag: iterate it for ``BagMessage``s; ``info`` describes it; close when done.
@@ -85,8 +125,8 @@ class BagReader:
         *,
         topics: Iterable[str] | None = None,
         types: Iterable[str] | None = None,
-        start_ns: int | None = None,
-        end_ns: int | None = None,
+        start_ns: TimeBound | None = None,
+        end_ns: TimeBound | None = None,
         natural: bool = True,
         raw: bool = False,
         registry: Any = None,
@@ -99,8 +139,8 @@ class BagReader:
         self.natural = natural
         self.raw = raw
         self.registry = registry
-        self.start_ns = start_ns
-        self.end_ns = end_ns
+        self.start_ns = _nanoseconds("start_ns", start_ns)
+        self.end_ns = _nanoseconds("end_ns", end_ns)
         self._bags: list[tuple[BagFiles, list[StorageFile]]] = []
         self._closed_damage: tuple[BagDamage, ...] = ()
         self._borrowed_damage: list[BagDamage] = []  # found by readers of one topic (tables)
@@ -300,8 +340,8 @@ def open_bag(
     *,
     topics: Iterable[str] | None = None,
     types: Iterable[str] | None = None,
-    start_ns: int | None = None,
-    end_ns: int | None = None,
+    start_ns: TimeBound | None = None,
+    end_ns: TimeBound | None = None,
     natural: bool = True,
     raw: bool = False,
     registry: Any = None,

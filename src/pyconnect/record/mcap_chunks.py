@@ -13,18 +13,20 @@ maps of their own, given back to the system as soon as the last message view on 
 from malloc, a freed multi-megabyte buffer raises glibc's mmap threshold, so the next chunks
 come from the heap, whose freed pages stay counted in the process's memory (a read held ~4 MiB
 more than its two chunks that way). A file reuses its last buffer for the next chunk once no
-view holds it (``ChunkBuffers``).
+view holds it (``ChunkBuffers``). A read reads the file at positions of its own (``FileAt``), so
+that reads of one file in several threads do not move each other's place.
 """
 
 from __future__ import annotations
 
 import io
 import mmap
+import os
 import struct
 import sys
 import zlib
 from dataclasses import dataclass
-from typing import BinaryIO, cast
+from typing import BinaryIO, TypeAlias, cast
 
 from pyconnect.record.bag_damage import DamageLog
 from pyconnect.record.bag_storage import RawMessage
@@ -35,6 +37,7 @@ __all__ = [
     "RECORD_HEADER",
     "ChunkBuffers",
     "ChunkHead",
+    "FileAt",
     "Span",
     "chunk_problem",
     "load_span",
@@ -87,6 +90,40 @@ class ChunkBuffers:
         return memoryview(buffer)
 
 
+class FileAt:
+    """An open file read at a position of its own, with ``os.pread``: seek-then-read on a file
+    object shared by reads in two threads reads at whichever position the other left."""
+
+    __slots__ = ("_fd", "_position")
+
+    def __init__(self, fd: int) -> None:
+        self._fd = fd
+        self._position = 0
+
+    def seek(self, position: int) -> int:
+        self._position = position
+        return position
+
+    def tell(self) -> int:
+        return self._position
+
+    def read(self, size: int = -1) -> bytes:
+        if size < 0:
+            size = max(0, os.fstat(self._fd).st_size - self._position)
+        data = os.pread(self._fd, size, self._position)
+        self._position += len(data)
+        return data
+
+    def readinto(self, buffer: memoryview) -> int:
+        got = os.preadv(self._fd, [buffer], self._position)
+        self._position += got
+        return got
+
+
+# What chunks are read from: the file object (when it is opened), or a read's own place in it.
+Source: TypeAlias = BinaryIO | FileAt
+
+
 @dataclass
 class Span:
     """Where messages are: a chunk (``chunked``) or ``length`` bytes of loose records."""
@@ -113,7 +150,7 @@ class ChunkHead:
     records_at: int
 
 
-def read_chunk_head(stream: BinaryIO, offset: int) -> ChunkHead | str:
+def read_chunk_head(stream: Source, offset: int) -> ChunkHead | str:
     """The head of the chunk record at ``offset``, or what is wrong there."""
     stream.seek(offset)
     head = stream.read(RECORD_HEADER.size + _CHUNK_FIELDS.size)
@@ -160,7 +197,7 @@ def chunk_problem(compression: str, stored: int, uncompressed: int) -> tuple[str
 class _Window:
     """``read(n)`` of at most ``remaining`` bytes of a stream: a chunk's compressed records."""
 
-    def __init__(self, stream: BinaryIO, remaining: int) -> None:
+    def __init__(self, stream: Source, remaining: int) -> None:
         self._stream = stream
         self._remaining = remaining
 
@@ -247,10 +284,11 @@ def _decompress_unsized(
     return memoryview(out)[:largest]
 
 
-def _read_into_buffer(stream: BinaryIO, buffer: memoryview) -> memoryview:
+def _read_into_buffer(stream: Source, buffer: memoryview) -> memoryview:
     """Up to ``len(buffer)`` bytes of ``stream`` (fewer at its end), read straight into it."""
     size = len(buffer)
-    reader = cast("io.BufferedIOBase", stream)  # the file is opened "rb": a BufferedReader
+    # A file object is opened "rb": a BufferedReader, which BinaryIO does not say has readinto.
+    reader = stream if isinstance(stream, FileAt) else cast("io.BufferedIOBase", stream)
     filled = 0
     while filled < size:
         got = reader.readinto(buffer[filled:])
@@ -261,7 +299,7 @@ def _read_into_buffer(stream: BinaryIO, buffer: memoryview) -> memoryview:
 
 
 def load_span(
-    stream: BinaryIO, span: Span, file_size: int, damage: DamageLog, buffers: ChunkBuffers
+    stream: Source, span: Span, file_size: int, damage: DamageLog, buffers: ChunkBuffers
 ) -> tuple[memoryview, bool]:
     """The records of ``span`` and whether they are complete (False: cut short or damaged)."""
     if not span.chunked:

@@ -32,6 +32,7 @@ from pyconnect.record.mcap_chunks import (
     CHUNK,
     RECORD_HEADER,
     ChunkBuffers,
+    FileAt,
     Span,
     chunk_problem,
     load_span,
@@ -46,6 +47,39 @@ _DEFINITION_ENCODINGS = ("ros2msg", "ros2idl")
 
 
 _log_time = itemgetter(1)  # of a RawMessage; in C, as sort and merge call it per message
+_span_offset = itemgetter(0)  # of a (span offset, messages) pair
+
+
+def _release(
+    held: list[tuple[int, list[RawMessage]]], found: list[RawMessage], before: int | None
+) -> list[RawMessage]:
+    """The messages of ``held`` (span offset, its messages in log-time order) earlier than
+    ``before`` (None: all) in log-time order, equal times in the spans' file order; ``held``
+    keeps the others, those of ``found`` (the span just read) copied so that its chunk can go.
+
+    A function of its own so that none of its names outlives it holding a view on that chunk,
+    whose buffer then could not be reused for the next (``ChunkBuffers``).
+    """
+    parts: list[list[RawMessage]] = []
+    waiting: list[tuple[int, list[RawMessage]]] = []
+    for offset, messages in held:
+        cut = (
+            len(messages) if before is None else bisect.bisect_left(messages, before, key=_log_time)
+        )
+        if cut == len(messages):
+            parts.append(messages)
+            continue
+        if cut:
+            parts.append(messages[:cut])
+        rest = messages[cut:] if cut else messages
+        if messages is found:  # those of spans read before are copies already
+            rest = [(c, t, bytes(d)) for c, t, d in rest]
+        waiting.append((offset, rest))
+    held[:] = waiting
+    if len(parts) == 1:
+        return parts[0]
+    # heapq.merge gives equal keys in the order of its inputs: the spans' file order.
+    return list(heapq.merge(*parts, key=_log_time))
 
 
 class McapFile:
@@ -225,11 +259,13 @@ class McapFile:
             and s.start_ns < end
             and (s.channels is None or not s.channels.isdisjoint(connection_ids))
         ]
-        pending: list[RawMessage] = []
+        # Per span, its messages held back, the spans in file order: messages of equal log
+        # times then come in the order they were written, as rosbag2 gives them, although the
+        # spans are read in start-time order.
+        held: list[tuple[int, list[RawMessage]]] = []
+        source = FileAt(self._stream.fileno())  # its own place in the file: see FileAt
         for number, span in enumerate(spans):
-            records, complete = load_span(
-                self._stream, span, self._size, self.damage, self._buffers
-            )
+            records, complete = load_span(source, span, self._size, self.damage, self._buffers)
             found = scan_messages(
                 records,
                 connection_ids,
@@ -240,16 +276,13 @@ class McapFile:
                 offset=span.offset,
             )
             del records
-            found.sort(key=_log_time)
-            pending = list(heapq.merge(pending, found, key=_log_time)) if pending else found
+            found.sort(key=_log_time)  # stable: equal log times stay in record order
+            if found:
+                bisect.insort(held, (span.offset, found), key=_span_offset)
+            more = number + 1 < len(spans)
+            ready = _release(held, found, spans[number + 1].start_ns if more else None)
             del found
-            if number + 1 < len(spans):
-                cut = bisect.bisect_left(pending, spans[number + 1].start_ns, key=_log_time)
-            else:
-                cut = len(pending)
-            ready = pending[:cut]
-            pending = [(c, t, bytes(d)) for c, t, d in pending[cut:]]
-            if ready and number + 1 < len(spans):
+            if ready and more:
                 # The caller still holds the last message (and its value, a view on it) when it
                 # asks for the next, which loads the next chunk: a copy of that one message lets
                 # this chunk go first, so a read holds one chunk and a message, not two chunks.
