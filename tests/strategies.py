@@ -15,7 +15,7 @@ from pyconnect.typesys.model import ElementType, FieldType, MessageDef, PackageD
 from pyconnect.typesys.primitives import INTEGER_RANGES
 
 # CDR strings are NUL-terminated, so NUL cannot travel; lone surrogates are not encodable.
-_TEXT = st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00")
+SENDABLE_CHARACTERS = st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00")
 UNBOUNDED_MAX = 3
 
 
@@ -33,7 +33,7 @@ def element_values(element: ElementType, types: TypeSet) -> st.SearchStrategy[An
     if element.kind == "message":
         return message_dicts(types.get(element.name), types)
     if element.kind in ("string", "wstring"):
-        return st.text(_TEXT, max_size=element.string_bound or 12)
+        return st.text(SENDABLE_CHARACTERS, max_size=element.string_bound or 12)
     name = element.name
     if name == "bool":
         return st.booleans()
