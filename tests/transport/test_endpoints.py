@@ -90,3 +90,41 @@ def test_a_cancelled_call_ends_at_once(caller_and_server: tuple[Caller, StandIn]
     with pytest.raises(CallFailed) as again:  # a call with a cancelled token is not sent
         caller.call(b"", time.monotonic() + TIMEOUT, cancel=cancel)
     assert str(again.value) == f"the call to {SERVICE} was cancelled"
+
+
+def test_a_cancelled_call_without_zenohs_cancellation_ends_with_its_query(
+    caller_and_server: tuple[Caller, StandIn], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """zenoh-python before its query cancellation (pyconnect takes eclipse-zenoh>=1.0) has no
+    ``CancellationToken`` and no ``cancellation_token=``: every call raised AttributeError or
+    TypeError. The query then runs to its timeout and is reported cancelled."""
+    from pyconnect.transport import endpoints
+
+    monkeypatch.setattr(endpoints, "_HAS_CANCELLATION", False)
+    session = caller_and_server[0]._peer.session
+    get = session.get
+
+    def old_get(*args: Any, **options: Any) -> Any:
+        assert "cancellation_token" not in options
+        return get(*args, **options)
+
+    monkeypatch.setattr(caller_and_server[0]._peer, "session", _SessionWithGet(session, old_get))
+    caller, server = caller_and_server
+    cancel = CallCancel()
+    assert cancel.token is None
+    server.answer = None  # held: only the timeout ends the query
+    cancel.cancel()
+    with pytest.raises(CallFailed) as failure:
+        caller.call(b"", time.monotonic() + 0.2, cancel=cancel)
+    assert str(failure.value) == f"the call to {SERVICE} was cancelled"
+
+
+class _SessionWithGet:
+    """A zenoh session whose ``get`` is replaced (zenoh's own type takes no new attribute)."""
+
+    def __init__(self, session: Any, get: Callable[..., Any]) -> None:
+        self._session = session
+        self.get = get
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._session, name)

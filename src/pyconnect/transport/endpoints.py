@@ -210,6 +210,11 @@ class Server:
         self._inbox.close()
 
 
+# zenoh-python's (unstable) query cancellation came after 1.0, which pyconnect still takes:
+# without it a cancelled call's query runs to its timeout, its reply dropped.
+_HAS_CANCELLATION = hasattr(zenoh, "CancellationToken")
+
+
 class CallCancel:
     """Ends the calls it is given to at once, from any thread: ``cancel()``."""
 
@@ -217,7 +222,7 @@ class CallCancel:
         # Set before zenoh's token is cancelled: the token may end a query before it reports
         # is_cancelled, and the call must still know why its query ended.
         self._cancelled = threading.Event()
-        self.token = zenoh.CancellationToken()
+        self.token: Any = zenoh.CancellationToken() if _HAS_CANCELLATION else None
 
     @property
     def cancelled(self) -> bool:
@@ -225,7 +230,8 @@ class CallCancel:
 
     def cancel(self) -> None:
         self._cancelled.set()
-        self.token.cancel()
+        if self.token is not None:
+            self.token.cancel()
 
 
 class CallFailed(Exception):
@@ -275,6 +281,8 @@ class Caller:
         attachment = keys.pack_attachment(sequence, time.time_ns(), self.gid)
         remaining = NO_TIMEOUT if deadline is None else max(0.001, deadline - time.monotonic())
         expiry = time.monotonic() + remaining  # zenoh's timer starts after this, never before
+        token = None if cancel is None else cancel.token
+        cancelling = {} if token is None else {"cancellation_token": token}
         try:
             replies: Any = self._peer.session.get(
                 self.key,
@@ -283,7 +291,7 @@ class Caller:
                 timeout=remaining,
                 payload=payload,
                 attachment=attachment,
-                cancellation_token=None if cancel is None else cancel.token,
+                **cancelling,
             )
         except zenoh.ZError as error:  # "session closed": the peer shut down since the check
             if cancel is not None and cancel.cancelled:
