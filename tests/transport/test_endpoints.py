@@ -128,3 +128,15 @@ class _SessionWithGet:
 
     def __getattr__(self, name: str) -> Any:
         return getattr(self._session, name)
+
+
+def test_a_timeout_reply_without_replier_id_is_read_as_zenohs_own() -> None:
+    """``Reply.replier_id`` is unstable in zenoh-python: a reply without it is zenoh's own
+    timeout, not an AttributeError."""
+    from types import SimpleNamespace
+
+    from pyconnect.transport import endpoints
+
+    payload = SimpleNamespace(to_bytes=lambda: endpoints.ZENOH_TIMEOUT_REPLY)
+    reply = SimpleNamespace(ok=None, err=SimpleNamespace(payload=payload))
+    assert endpoints._is_query_timeout(reply, expiry=time.monotonic() + 60)

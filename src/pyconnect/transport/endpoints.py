@@ -351,4 +351,5 @@ def _is_query_timeout(reply: Any, expiry: float) -> bool:
     err = reply.err
     if err is None or err.payload.to_bytes() != ZENOH_TIMEOUT_REPLY:
         return False
-    return reply.replier_id is None or time.monotonic() >= expiry
+    # replier_id is an unstable part of zenoh-python's Reply: read it where it is there.
+    return getattr(reply, "replier_id", None) is None or time.monotonic() >= expiry
