@@ -96,18 +96,28 @@ def test_a_raising_handler_aborts_with_its_text(make_peer: PeerFactory) -> None:
     )
 
 
-def test_cancel_stops_a_generator_between_yields(make_peer: PeerFactory) -> None:
-    started, closed = threading.Event(), threading.Event()
+class EndlessGoal:
+    """A generator handler that yields until it is stopped: ``started`` is set once it runs,
+    ``closed`` once it is closed (canceled, or stopped by the shutdown)."""
 
-    def forever(goal: dict[str, Any]) -> Iterator[dict[str, Any]]:
+    def __init__(self, pause: float = 0.0) -> None:
+        self.started, self.closed = threading.Event(), threading.Event()
+        self.pause = pause
+
+    def __call__(self, goal: dict[str, Any]) -> Iterator[dict[str, Any]]:
         try:
             while True:
-                started.set()
+                self.started.set()
                 yield {"sequence": [1]}
-                time.sleep(0.01)
+                if self.pause:
+                    time.sleep(self.pause)
         finally:
-            closed.set()
+            self.closed.set()
 
+
+def test_cancel_stops_a_generator_between_yields(make_peer: PeerFactory) -> None:
+    forever = EndlessGoal(pause=0.01)
+    started, closed = forever.started, forever.closed
     _server, client = pair(make_peer, forever)
     future = client.send({"order": 1}, timeout=TIMEOUT, block=False)
     assert started.wait(TIMEOUT)
@@ -345,16 +355,8 @@ def test_a_goal_whose_handler_returns_during_shutdown_succeeds(
 def test_a_generator_goal_running_at_shutdown_is_aborted_as_shutting_down(
     make_peer: PeerFactory,
 ) -> None:
-    started, closed = threading.Event(), threading.Event()
-
-    def forever(goal: dict[str, Any]) -> Iterator[dict[str, Any]]:
-        try:
-            while True:
-                started.set()
-                yield {"sequence": [1]}
-        finally:
-            closed.set()
-
+    forever = EndlessGoal()
+    started, closed = forever.started, forever.closed
     server, client = pair(make_peer, forever)
     future = client.send({"order": 1}, timeout=TIMEOUT, block=False)
     assert started.wait(TIMEOUT)
@@ -399,17 +401,10 @@ def test_a_stop_action_that_shuts_its_own_peer_down_sends_its_result(
 def test_cancelling_the_future_cancels_the_goal(
     make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    started, closed = threading.Event(), threading.Event()
+    forever = EndlessGoal()
+    started, closed = forever.started, forever.closed
     crashes: list[Any] = []
     monkeypatch.setattr(threading, "excepthook", crashes.append)
-
-    def forever(goal: dict[str, Any]) -> Iterator[dict[str, Any]]:
-        try:
-            while True:
-                started.set()
-                yield {"sequence": [1]}
-        finally:
-            closed.set()
 
     results: list[Any] = []
     server, client = pair(make_peer, forever, response_func=results.append)
@@ -436,11 +431,7 @@ def test_cancelling_the_future_at_once_leaves_no_goal_running(
     crashes: list[Any] = []
     monkeypatch.setattr(threading, "excepthook", crashes.append)
 
-    def forever(goal: dict[str, Any]) -> Iterator[dict[str, Any]]:
-        while True:
-            yield {"sequence": [1]}
-
-    server, client = pair(make_peer, forever)
+    server, client = pair(make_peer, EndlessGoal())
     before = set(threading.enumerate())
     future = client.send({"order": 1}, block=False)
     thread = new_thread(before, "pyconnect-fib-goal")
