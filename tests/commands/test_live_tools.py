@@ -149,27 +149,30 @@ def test_qos_profile_is_one_of_the_presets(
     )
 
 
+WHOLE = "expected a whole number >= 1, got "
+
+
 @pytest.mark.parametrize(
     ("argv", "error"),
     [
-        (["topic", "hz", "/x", "--window", "0"], "argument -w/--window: invalid positive_int"),
-        (["topic", "bw", "/x", "-w", "0"], "argument -w/--window: invalid positive_int"),
-        (["topic", "hz", "/x", "-w", "-3"], "argument -w/--window: invalid positive_int"),
+        (["topic", "hz", "/x", "--window", "0"], "argument -w/--window: " + WHOLE + "'0'"),
+        (["topic", "bw", "/x", "-w", "0"], "argument -w/--window: " + WHOLE + "'0'"),
+        (["topic", "hz", "/x", "-w", "-3"], "argument -w/--window: " + WHOLE + "'-3'"),
+        (["topic", "hz", "/x", "-w", "many"], "argument -w/--window: " + WHOLE + "'many'"),
         (
             ["topic", "pub", "/x", "std_msgs/msg/String", "hi", "--rate", "0"],
-            "argument -r/--rate: invalid positive_float",
+            "argument -r/--rate: expected a finite number > 0, got '0'",
         ),
         (
             ["topic", "pub", "/x", "std_msgs/msg/String", "hi", "-r", "nan"],
-            "argument -r/--rate: invalid positive_float",
+            "argument -r/--rate: expected a finite number > 0, got 'nan'",
         ),
     ],
 )
 def test_bad_option_values_are_a_bad_command_line(
     argv: list[str], error: str, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    value = argv[-1]
-    assert _run(capsys, *argv) == (2, "", f"pyconnect: error: {error} value: '{value}'\n")
+    assert _run(capsys, *argv) == (2, "", f"pyconnect: error: {error}\n")
 
 
 @pytest.mark.parametrize(

@@ -120,9 +120,12 @@ def register(commands: Subcommands) -> Subcommands:
 
 def positive_int(text: str) -> int:
     """A count of 1 or more (``--window``)."""
-    count = int(text)
+    try:
+        count = int(text)
+    except ValueError:
+        count = 0
     if count < 1:
-        raise ValueError(text)
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
     return count
 
 

@@ -71,9 +71,12 @@ def nonnegative_int(text: str) -> int:
 
 def positive_float(text: str) -> float:
     """A finite number above 0 (``--rate``)."""
-    number = float(text)
+    try:
+        number = float(text)
+    except ValueError:
+        number = math.nan
     if not (number > 0 and math.isfinite(number)):
-        raise ValueError(text)
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
     return number
 
 
