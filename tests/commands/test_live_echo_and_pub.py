@@ -108,7 +108,7 @@ def test_pub_times_must_not_be_negative(capsys: pytest.CaptureFixture[str]) -> N
     assert _run(capsys, "topic", "pub", "/x", "std_msgs/msg/String", "hi", "--times=-1") == (
         2,
         "",
-        "pyconnect: error: argument -t/--times: invalid nonnegative_int value: '-1'\n",
+        "pyconnect: error: argument -t/--times: expected a whole number >= 0, got '-1'\n",
     )
 
 

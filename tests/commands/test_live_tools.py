@@ -150,6 +150,8 @@ def test_qos_profile_is_one_of_the_presets(
 
 
 WHOLE = "expected a whole number >= 1, got "
+POSITIVE = "expected a finite number > 0, got "
+SPAN = "expected a number of seconds from 0 to 9.22e+09, got "
 
 
 @pytest.mark.parametrize(
@@ -167,6 +169,25 @@ WHOLE = "expected a whole number >= 1, got "
             ["topic", "pub", "/x", "std_msgs/msg/String", "hi", "-r", "nan"],
             "argument -r/--rate: expected a finite number > 0, got 'nan'",
         ),
+        (["bag", "play", "b.mcap", "-r", "nan"], "argument -r/--rate: " + POSITIVE + "'nan'"),
+        (["bag", "play", "b.mcap", "-r", "0"], "argument -r/--rate: " + POSITIVE + "'0'"),
+        (
+            ["bag", "play", "b.mcap", "--start-offset", "inf"],
+            "argument --start-offset: " + SPAN + "'inf'",
+        ),
+        (
+            ["bag", "play", "b.mcap", "--start-offset", "1e300"],
+            "argument --start-offset: " + SPAN + "'1e300'",
+        ),
+        (
+            ["bag", "play", "b.mcap", "--start-offset", "nan"],
+            "argument --start-offset: " + SPAN + "'nan'",
+        ),
+        (
+            ["bag", "play", "b.mcap", "--start-offset", "-1"],
+            "argument --start-offset: " + SPAN + "'-1'",
+        ),
+        (["bag", "play", "b.mcap", "--delay", "inf"], "argument -d/--delay: " + SPAN + "'inf'"),
     ],
 )
 def test_bad_option_values_are_a_bad_command_line(

@@ -22,6 +22,7 @@ import argparse
 import time
 from typing import TYPE_CHECKING, Any, TextIO
 
+from pyconnect.commands.argument_types import nonnegative_seconds, positive_float
 from pyconnect.commands.bag_damage import IGNORE_DAMAGE_HELP, damage_status
 from pyconnect.errors import PyconnectError
 
@@ -48,15 +49,26 @@ def register(actions: Subcommands) -> None:
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     play.add_argument("path", help="bag directory, .mcap or .db3 file")
-    play.add_argument("-r", "--rate", type=float, default=1.0, help="speed factor (default 1)")
+    play.add_argument(
+        "-r", "--rate", type=positive_float, default=1.0, help="speed factor (default 1)"
+    )
     play.add_argument("-l", "--loop", action="store_true", help="play again and again")
     play.add_argument("--topics", nargs="+", help="only these topics")
     play.add_argument("--clock", action="store_true", help="publish the bag's time on /clock")
     play.add_argument(
-        "--start-offset", type=float, default=0.0, metavar="S", help="skip the first S seconds"
+        "--start-offset",
+        type=nonnegative_seconds,
+        default=0.0,
+        metavar="S",
+        help="skip the first S seconds",
     )
     play.add_argument(
-        "-d", "--delay", type=float, default=0.0, metavar="S", help="wait S seconds before playing"
+        "-d",
+        "--delay",
+        type=nonnegative_seconds,
+        default=0.0,
+        metavar="S",
+        help="wait S seconds before playing",
     )
     play.add_argument("--ignore-damage", action="store_true", help=IGNORE_DAMAGE_HELP)
     play.set_defaults(run=_play)
@@ -96,8 +108,6 @@ def offered_qos(text: str) -> Any:
 def _play(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.commands.graph import CommandFailed, graph_session, report_failure
 
-    if args.rate <= 0:
-        return report_failure(CommandFailed(f"--rate: expected > 0, got {args.rate}"), err)
     try:
         with graph_session("play") as session:
             late, damage, summary = _play_all(args, session, out, err)

@@ -14,6 +14,7 @@ import argparse
 import time
 from typing import TYPE_CHECKING, Any, TextIO
 
+from pyconnect.commands.argument_types import positive_int
 from pyconnect.commands.common import Parser
 from pyconnect.commands.topic_subscribe import (
     await_first,
@@ -116,17 +117,6 @@ def register(commands: Subcommands) -> Subcommands:
 
     topic_pub.register(verbs, epilog=EXAMPLES)
     return verbs
-
-
-def positive_int(text: str) -> int:
-    """A count of 1 or more (``--window``)."""
-    try:
-        count = int(text)
-    except ValueError:
-        count = 0
-    if count < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
-    return count
 
 
 def _hidden(name: str) -> bool:

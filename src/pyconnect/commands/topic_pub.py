@@ -11,9 +11,10 @@ stamps are taken again at every publish.
 from __future__ import annotations
 
 import argparse
-import math
 import time
 from typing import TYPE_CHECKING, TextIO
+
+from pyconnect.commands.argument_types import nonnegative_int, positive_float
 
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
@@ -59,25 +60,6 @@ def register(verbs: Subcommands, *, epilog: str) -> None:
     )
     add_qos(pub)
     pub.set_defaults(run=_pub)
-
-
-def nonnegative_int(text: str) -> int:
-    """A count of 0 or more (``--times``)."""
-    count = int(text)
-    if count < 0:
-        raise ValueError(text)
-    return count
-
-
-def positive_float(text: str) -> float:
-    """A finite number above 0 (``--rate``)."""
-    try:
-        number = float(text)
-    except ValueError:
-        number = math.nan
-    if not (number > 0 and math.isfinite(number)):
-        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
-    return number
 
 
 def _pub(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
