@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import threading
 from pathlib import Path
 from typing import Any
@@ -340,3 +341,33 @@ def test_logging_subs_twice_names_the_node_as_remapped(make_node: Any) -> None:
     with pytest.raises(PyconnectError) as caught:
         node.start_log_subs(fps=10)
     assert str(caught.value) == "node '/robot1/left' already logs its subs"
+
+
+@pytest.mark.parametrize("fps", [0, -1, math.nan, math.inf, 1e-12, True, "10", None])
+def test_start_log_subs_refuses_rates_no_timer_can_keep(make_node: Any, fps: object) -> None:
+    # NaN passed ``fps <= 0``, inf made a 0 s timer that ran flat out, 1e-12 a period rclpy
+    # refused with a bare TypeError.
+    node = make_node("bad_fps")
+    with pytest.raises(PyconnectError, match=r"^start_log_subs: fps must be a finite number > 0"):
+        node.start_log_subs(fps=fps)  # type: ignore[arg-type]
+    assert not node.is_logging_subs
+
+
+def test_start_log_subs_logs_under_sim_time_without_a_clock(make_node: Any, tmp_path: Path) -> None:
+    """The logging timer ran on the node's clock: with use_sim_time and no /clock it never
+    fired, and nothing was logged."""
+    node = make_node(
+        "sim_logger", args=["--ros-args", "-p", "use_sim_time:=true"], log_dir=tmp_path / "logs"
+    )
+    sub = node.add_agent(conn_name="sim_log", conn_type="sub", data_interface=String)
+    node.spin(run_thread=True)
+    node.start_log_subs(fps=50)
+    pub = make_node("sim_log_driver").create_publisher(String, "sim_log", 10)
+    logged = threading.Event()
+
+    def send() -> None:
+        pub.publish(String(data="v"))
+        if sub.message_count and any(p.is_file() for p in (tmp_path / "logs").rglob("*")):
+            logged.set()
+
+    assert repeat_until(logged, send)

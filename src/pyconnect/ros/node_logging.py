@@ -11,12 +11,15 @@ of every sub at a fixed rate, and records raw messages of the subscribed topics.
 from __future__ import annotations
 
 import datetime
+import math
+import numbers
 import threading
 from collections.abc import Iterable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, cast
 
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
 from pyconnect.errors import PyconnectError
@@ -28,6 +31,19 @@ from pyconnect.record.log_dirs import (
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.recording import Recording
 from pyconnect.ros.subscriber_agent import SubscriberAgent
+
+MAX_TIMER_SECONDS = (2**63 - 1) / 1e9
+"""The longest period an rcl timer holds (int64 nanoseconds): rclpy refuses longer ones with a
+bare TypeError naming nothing."""
+
+
+def _fps_problem(fps: object) -> bool:
+    """Whether ``fps`` cannot be a logging rate (NaN passed ``<= 0``; inf made a 0 s timer
+    that ran flat out)."""
+    if isinstance(fps, bool) or not isinstance(fps, numbers.Real):
+        return True
+    rate = float(fps)
+    return not (math.isfinite(rate) and rate > 0 and 1.0 / rate <= MAX_TIMER_SECONDS)
 
 
 class NodeLogging:
@@ -48,7 +64,12 @@ class NodeLogging:
     if TYPE_CHECKING:  # rclpy's Node methods, on CustomNode (a stub here would shadow them)
 
         def create_timer(
-            self, timer_period_sec: float, callback: Any, *, callback_group: Any = None
+            self,
+            timer_period_sec: float,
+            callback: Any,
+            *,
+            callback_group: Any = None,
+            clock: Clock | None = None,
         ) -> Any: ...
 
         def destroy_timer(self, timer: Any) -> bool: ...
@@ -103,8 +124,11 @@ class NodeLogging:
         Subs with ``do_log_msg=True`` already log every value and are left out (one writer per
         value). ``record=path`` also records the raw messages of the subscribed topics to MCAP.
         """
-        if fps <= 0:
-            raise PyconnectError(f"start_log_subs: fps must be > 0, got {fps!r}")
+        if _fps_problem(fps):
+            raise PyconnectError(
+                f"start_log_subs: fps must be a finite number > 0 whose period fits a ROS timer "
+                f"(at most {MAX_TIMER_SECONDS:.3g} s), got {fps!r}"
+            )
         with self._lock:
             self._refuse_when_closed("start logging its subs")
             if self._log_subs_timer is not None:
@@ -127,8 +151,13 @@ class NodeLogging:
                         agent.report_exception("start_log_subs", error)
 
             self._log_subs_recording = self.record(record) if record is not None else None
+            # Wall time, as the rate is about the disk: under use_sim_time a ROS-time timer
+            # would log nothing while /clock is absent or paused.
             self._log_subs_timer = self.create_timer(
-                1.0 / fps, log_latest, callback_group=MutuallyExclusiveCallbackGroup()
+                1.0 / fps,
+                log_latest,
+                callback_group=MutuallyExclusiveCallbackGroup(),
+                clock=Clock(clock_type=ClockType.STEADY_TIME),
             )
 
     def stop_log_subs(self, timeout: float | None = 10.0) -> None:
