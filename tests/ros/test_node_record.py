@@ -9,7 +9,7 @@ from typing import Any
 
 import pytest
 import yaml
-from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
 from pyconnect.record.bag_reader import open_bag
@@ -188,3 +188,103 @@ def test_a_recording_started_before_its_publisher_hears_a_best_effort_one(
     assert repeat_until(heard, send)
     recording.stop()
     assert set(_recorded(tmp_path / "early")) == {"scan"}
+
+
+RELIABLE_LATCHED = QoSProfile(
+    depth=10, reliability=ReliabilityPolicy.RELIABLE, durability=DurabilityPolicy.TRANSIENT_LOCAL
+)
+BEST_EFFORT = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+RELIABLE_VOLATILE = QoSProfile(depth=10)
+
+
+@pytest.mark.parametrize(
+    ("first", "late"),
+    [(RELIABLE_VOLATILE, BEST_EFFORT), (RELIABLE_LATCHED, RELIABLE_VOLATILE)],
+    ids=["best-effort-after-reliable", "volatile-after-latched"],
+)
+def test_a_publisher_offering_less_that_appears_later_is_recorded(
+    make_node: Any, tmp_path: Path, first: QoSProfile, late: QoSProfile
+) -> None:
+    """The recording chose its QoS from the publishers known when it subscribed: a best-effort
+    (or volatile) publisher appearing later was never heard, though the node's agent was."""
+    node = make_node("late_recorder")
+    node.add_agent(conn_name="scan", conn_type="sub", data_interface=String, qos=BEST_EFFORT)
+    node.spin(run_thread=True)
+    driver = make_node("late_driver")
+    early = driver.create_publisher(String, "scan", first)
+    recording = node.record(tmp_path / "late")
+    heard_first = threading.Event()
+
+    def send_first() -> None:
+        early.publish(String(data="first"))
+        if recording.messages_written:
+            heard_first.set()
+
+    assert repeat_until(heard_first, send_first)
+    heard_late = threading.Event()
+    write = recording.recorder.write
+
+    def spy(topic: str, cdr: bytes, **options: Any) -> None:
+        if b"late" in bytes(cdr):
+            heard_late.set()
+        write(topic, cdr, **options)
+
+    recording.recorder.write = spy  # type: ignore[method-assign]
+    later = driver.create_publisher(String, "scan", late)
+    assert repeat_until(heard_late, lambda: later.publish(String(data="late")))
+    recording.stop()
+    assert "late" in _recorded(tmp_path / "late")
+
+
+def test_a_remapped_agent_topic_is_recorded_from_that_topic(make_node: Any, tmp_path: Path) -> None:
+    """The recording subscribed to the agent's resolved topic, which the node's rules remapped
+    again: under ``left:=right right:=left`` /left's messages were recorded as /right's."""
+    node = make_node(
+        "swapped_recorder", args=["--ros-args", "-r", "left:=right", "-r", "right:=left"]
+    )
+    agent = node.add_agent(conn_name="left", conn_type="sub", data_interface=String)
+    assert agent.topic == "/right"
+    node.spin(run_thread=True)
+    driver = make_node("swap_driver")
+    on_left = driver.create_publisher(String, "/left", 10)
+    on_right = driver.create_publisher(String, "/right", 10)
+    recording = node.record(tmp_path / "swapped")
+    assert recording.topics == ["/right"]
+
+    def send_both() -> None:
+        on_left.publish(String(data="left"))
+        on_right.publish(String(data="right"))
+
+    assert _wait_for_after(send_both, lambda: recording.messages_written >= 3)
+    recording.stop()
+    with open_bag(tmp_path / "swapped") as reader:
+        assert {(topic, value) for topic, _stamp, value in reader} == {("/right", "right")}
+
+
+def _wait_for_after(action: Callable[[], object], done: Callable[[], bool]) -> bool:
+    """Do ``action`` until ``done()``; False after the timeout."""
+    reached = threading.Event()
+
+    def step() -> None:
+        action()
+        if done():
+            reached.set()
+
+    return repeat_until(reached, step)
+
+
+def test_under_sim_time_without_a_clock_the_recording_still_subscribes(
+    make_node: Any, tmp_path: Path
+) -> None:
+    """The recording's discovery timer ran on the node's clock: with use_sim_time and no
+    /clock it never fired, and a publisher that appeared after record() was never recorded."""
+    node = make_node("sim_recorder", args=["--ros-args", "-p", "use_sim_time:=true"])
+    node.add_agent(conn_name="sim_status", conn_type="sub", data_interface=String)
+    node.spin(run_thread=True)
+    recording = node.record(tmp_path / "sim")
+    pub = make_node("sim_driver").create_publisher(String, "sim_status", 10)
+    assert _wait_for_after(
+        lambda: pub.publish(String(data="s")), lambda: recording.messages_written >= 1
+    )
+    recording.stop()
+    assert set(_recorded(tmp_path / "sim")) == {"s"}

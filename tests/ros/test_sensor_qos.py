@@ -190,3 +190,27 @@ def test_the_switch_works_when_the_event_waits_on_the_cold_thread(make_node: Any
     assert sub.sensor_subscription.switched.wait(EVENT_TIMEOUT)
     assert repeat_until(sub._first_message, lambda: driver.publish(frame(8)))
     assert heard[0] == 8
+
+
+SWAP = ["--ros-args", "-r", "left:=right", "-r", "right:=left"]
+
+
+def test_the_switch_stays_on_the_topic_remapping_chose(make_node: Any) -> None:
+    """The switch re-created the reader from its resolved name, which the node's rules remapped
+    a second time: under ``left:=right right:=left`` the sub moved from /right to /left."""
+    heard: list[int] = []
+    node = make_node("swapped", args=SWAP)
+    agent = node.add_agent(
+        conn_name="left",
+        conn_type="sub",
+        data_interface=Image,
+        decode_func=lambda msg: msg.data[0],
+        response_func=heard.append,
+    )
+    assert agent.topic == "/right"
+    node.spin(run_thread=True)
+    driver = make_node("driver").create_publisher(Image, "/right", BEST_EFFORT)
+    assert agent.sensor_subscription.switched.wait(EVENT_TIMEOUT)
+    assert agent.subscription.topic_name == "/right"
+    assert repeat_until(agent._first_message, lambda: driver.publish(frame(7)))
+    assert heard[-1] == 7

@@ -128,7 +128,8 @@ def _subscribe_new(
     skipped: set[str],
     out: TextIO,
 ) -> None:
-    from pyconnect.ros.recording_qos import offered_qos_yaml, recording_qos
+    from pyconnect.ros.recording_qos import offered_qos_yaml
+    from pyconnect.ros.recording_subscription import RecordingSubscription
     from pyconnect.typesys.classes import import_class
     from pyconnect.typesys.names import full_type_name
 
@@ -155,8 +156,7 @@ def _subscribe_new(
             continue
 
         on_message = _queue_into(writer, topic, out)
-        qos = recording_qos(publishers)
-        session.node.create_subscription(msg_class, topic, on_message, qos, raw=True)
+        RecordingSubscription(session.node, msg_class=msg_class, topic=topic, write=on_message)
         print(f"Subscribed to topic '{topic}'", file=out, flush=True)
 
 

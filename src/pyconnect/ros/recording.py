@@ -3,8 +3,9 @@
 Subscribed as ``pyconnect bag record`` subscribes (pyconnect.ros.recording_qos): one
 subscription per topic, made once a publisher of it is discovered, with a QoS that matches its
 publishers (reliable unless one is best effort; transient local when all are, so a latched
-message sent earlier is recorded too) and a deep queue, and the publishers' QoS stored as the
-topic's ``offered_qos_profiles``. So the recording holds what the node's agents receive, not
+message sent earlier is recorded too) and a deep queue, re-made when a later publisher offers
+less (pyconnect.ros.recording_subscription), and the publishers' QoS stored as the topic's
+``offered_qos_profiles``. So the recording holds what the node's agents receive, not
 what a best-effort keep-last-5 reader happens to catch, nor what a reader chosen before the
 publishers were known could hear.
 """
@@ -22,12 +23,14 @@ from pathlib import Path
 from typing import Any
 
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.interfaces import interface_class, interface_name
 from pyconnect.ros.node_agent import NodeAgent
-from pyconnect.ros.recording_qos import offered_qos_yaml, recording_qos
+from pyconnect.ros.recording_qos import offered_qos_yaml
+from pyconnect.ros.recording_subscription import RecordingSubscription
 from pyconnect.ros.subscriber_agent import SubscriberAgent
 
 DISCOVERY_PERIOD = 0.1
@@ -53,15 +56,20 @@ class Recording:
         self._stopped = False
         chosen = self._choose_topics(topics)
         self.recorder = McapRecorder(path)
-        self._subscriptions: list[Any] = []
+        self._subscriptions: list[RecordingSubscription] = []
         self._group = MutuallyExclusiveCallbackGroup()
         self._waiting = dict(chosen)
         """Topics no publisher of which is known yet: subscribed once one is discovered."""
         self._discovery_timer: Any = None
         self._subscribe_discovered()
         self._discovery_timer = (
+            # Wall time, not the node's clock: under use_sim_time with /clock absent or paused
+            # a ROS-time timer never fires, and nothing would ever be recorded.
             ros_node.create_timer(
-                DISCOVERY_PERIOD, self._subscribe_discovered, callback_group=self._group
+                DISCOVERY_PERIOD,
+                self._subscribe_discovered,
+                callback_group=self._group,
+                clock=Clock(clock_type=ClockType.STEADY_TIME),
             )
             if self._waiting
             else None
@@ -78,8 +86,8 @@ class Recording:
         with self._lock:
             if self._stopped:
                 return
-            for topic, msg_class in list(self._waiting.items()):
-                publishers = self.ros_node.get_publishers_info_by_topic(topic)
+            for topic, (msg_class, source) in list(self._waiting.items()):
+                publishers = self.ros_node.get_publishers_info_by_topic(source)
                 if not publishers:
                     continue
                 del self._waiting[topic]
@@ -89,25 +97,31 @@ class Recording:
                     offered_qos_profiles=offered_qos_yaml(publishers),
                 )
                 self._subscriptions.append(
-                    self.ros_node.create_subscription(
-                        msg_class,
-                        topic,
-                        self._writer_for(topic),
-                        recording_qos(publishers),
+                    RecordingSubscription(
+                        self.ros_node,
+                        msg_class=msg_class,
+                        topic=source,
+                        write=self._writer_for(topic),
                         callback_group=self._group,
-                        raw=True,
                     )
                 )
             timer = self._discovery_timer
             if not self._waiting and timer is not None:
                 timer.cancel()
 
-    def _choose_topics(self, topics: list[str] | None) -> dict[str, type]:
-        """{topic: message class}, each topic once: a second subscription to a topic (two sub
-        agents on it, or a name given twice) would write every message twice."""
-        chosen: dict[str, type] = {}
-        for topic, msg_class in self._named_topics(topics):
-            known = chosen.setdefault(topic, msg_class)
+    def _choose_topics(self, topics: list[str] | None) -> dict[str, tuple[type, str]]:
+        """{topic: (message class, the name to hand rclpy)}, each topic once: a second
+        subscription to a topic (two sub agents on it, or a name given twice) would write every
+        message twice.
+
+        rclpy applies the node's remap rules to every name it is given, the graph queries'
+        too, so a topic already resolved (an agent's ``topic``, a name from the graph) would be
+        remapped twice (``-r left:=right -r right:=left`` would record /left as /right): rclpy
+        gets the name the node's rules turn into the topic (``_source_name``).
+        """
+        chosen: dict[str, tuple[type, str]] = {}
+        for topic, msg_class, source in self._named_topics(topics):
+            known, _source = chosen.setdefault(topic, (msg_class, source))
             if interface_name(known) != interface_name(msg_class):
                 raise PyconnectError(
                     f"record: topic {topic!r}: expected one type, got "
@@ -115,41 +129,52 @@ class Recording:
                 )
         return chosen
 
-    def _named_topics(self, topics: list[str] | None) -> list[tuple[str, type]]:
-        """(topic, class) of every sub agent, or of each of ``topics`` (an agent's name or a
-        topic), repeats included."""
-        known: dict[str, type] = {}
+    def _named_topics(self, topics: list[str] | None) -> list[tuple[str, type, str]]:
+        """(topic, class, name for rclpy) of every sub agent, or of each of ``topics`` (an
+        agent's name or topic, or a topic of the graph), repeats included."""
+        known: dict[str, NodeAgent] = {}
         for agent in self.agents.values():
             topic = getattr(agent, "topic", None)
             if topic is not None and agent.data_interface is not None:
-                known[topic] = agent.data_interface  # type: ignore[assignment]
-                known[agent.name] = agent.data_interface  # type: ignore[assignment]
+                known[topic] = agent
+        for agent in self.agents.values():
+            if getattr(agent, "topic", None) is not None and agent.data_interface is not None:
+                known[agent.name] = agent  # a name wins over a topic spelt the same
         if topics is None:
             return [
-                (agent.topic, agent.data_interface)  # type: ignore[misc]
+                (agent.topic, agent.data_interface, agent.conn_name)  # type: ignore[misc]
                 for agent in self.agents.values()
                 if isinstance(agent, SubscriberAgent)
             ]
         graph = dict(self.ros_node.get_topic_names_and_types())
-        chosen: list[tuple[str, type]] = []
+        chosen: list[tuple[str, type, str]] = []
         for topic in topics:
             if topic in known:
-                resolved = next(
-                    (
-                        getattr(agent, "topic", topic)
-                        for agent in self.agents.values()
-                        if agent.name == topic
-                    ),
-                    topic,
-                )
-                chosen.append((resolved, known[topic]))
+                agent = known[topic]
+                chosen.append((agent.topic, agent.data_interface, agent.conn_name))  # type: ignore[attr-defined,arg-type]
             elif graph.get(topic):
-                chosen.append((topic, interface_class(graph[topic][0], kind="msg")))
+                msg_class = interface_class(graph[topic][0], kind="msg")
+                chosen.append((topic, msg_class, self._source_name(topic, graph)))
             else:
                 raise PyconnectError(
                     f"record: topic {topic!r} has no agent and is not in the graph"
                 )
         return chosen
+
+    def _source_name(self, topic: str, graph: Mapping[str, object]) -> str:
+        """A name the node's remap rules turn into ``topic`` (itself when no rule touches it)."""
+        resolve = self.ros_node.resolve_topic_name
+        candidates = [topic, *(agent.conn_name for agent in self.agents.values()), *graph]
+        for name in candidates:
+            try:
+                if resolve(name) == topic:
+                    return name
+            except Exception:  # a name rclpy cannot resolve maps to nothing
+                continue
+        raise PyconnectError(
+            f"record: topic {topic!r} is remapped by this node's --ros-args rules to "
+            f"{resolve(topic)!r}, and no name known here maps to it"
+        )
 
     def _writer_for(self, topic: str) -> Any:
         recorder = self.recorder
@@ -175,7 +200,5 @@ class Recording:
             with contextlib.suppress(Exception):
                 self.ros_node.destroy_timer(self._discovery_timer)
         for subscription in self._subscriptions:
-            # The node may be destroyed already.
-            with contextlib.suppress(Exception):
-                self.ros_node.destroy_subscription(subscription)
+            subscription.close()
         self.recorder.close()

@@ -63,8 +63,11 @@ class SensorSubscription:
         self.switch_note: str | None = None
         """The line logged when the subscription switched to best effort; None before."""
         self.switched = threading.Event()
-        name = ros_node.resolve_topic_name(topic)
-        reliability = matching_reliability(ros_node.get_publishers_info_by_topic(name))
+        # rclpy applies the node's remap rules to every name it is given (the graph query's
+        # too): so the name as given, never the resolved one, which a rule such as
+        # ``-r left:=right -r right:=left`` would remap a second time.
+        self._name = topic
+        reliability = matching_reliability(ros_node.get_publishers_info_by_topic(topic))
         self.subscription: Any = self._create(topic, reliability)
         self.topic: str = self.subscription.topic_name
 
@@ -108,7 +111,7 @@ class SensorSubscription:
             if self._closed or self.switch_note is not None:
                 return
             old = self.subscription
-            self.subscription = self._create(self.topic, ReliabilityPolicy.BEST_EFFORT)
+            self.subscription = self._create(self._name, ReliabilityPolicy.BEST_EFFORT)
             if self._old_matched == 0:
                 self._node.destroy_subscription(old)
             else:
