@@ -2,13 +2,16 @@
 
 from __future__ import annotations
 
+import asyncio
+import math
 import sys
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any
 
 import pytest
+from std_srvs.srv import Empty
 from test_msgs.action import Fibonacci, NestedMessage
 
 from pyconnect.errors import PyconnectError
@@ -504,3 +507,74 @@ def test_a_goal_still_running_when_shutdown_ends_is_aborted_with_a_reason(
     running_on[0].join(EVENT_TIMEOUT)  # an executor thread: it ends after this goal's task
     assert not running_on[0].is_alive()
     assert errors == []
+
+
+TIMEOUT_WORDS = "timeout must be None or a finite number of seconds >= 0, got"
+CLIENT = "agent 'served' (action_client test_msgs/action/Fibonacci)"
+
+
+@pytest.mark.parametrize(("timeout", "shown"), [("5", "'5'"), (-1, "-1"), (math.inf, "inf")])
+def test_a_client_refuses_a_timeout_that_is_not_one(
+    make_node: Any, timeout: object, shown: str
+) -> None:
+    node = make_node()
+    with pytest.raises(PyconnectError) as caught:
+        node.add_agent(
+            conn_name="fib", conn_type="action_client", data_interface=Fibonacci, timeout=timeout
+        )
+    assert str(caught.value) == (
+        f"agent 'fib' (action_client test_msgs/action/Fibonacci): {TIMEOUT_WORDS} {shown}"
+    )
+    assert "fib" not in node.agents
+
+
+def test_a_goal_with_a_wrong_timeout_raises_before_it_is_sent(make_node: Any) -> None:
+    server_node, client = server_and_client(
+        make_node, "wrong_timeout", "action", Fibonacci, lambda goal: {"sequence": [goal["order"]]}
+    )
+    assert client.send({"order": 1}) == {"sequence": [1], "isdone": True}  # the server is seen
+    calls: list[tuple[str, Callable[[], object]]] = [
+        (f"send: {TIMEOUT_WORDS} '2'", lambda: client.send({"order": 2}, timeout="2")),
+        (
+            f"send: {TIMEOUT_WORDS} nan",
+            lambda: client.send({"order": 2}, timeout=math.nan, block=False),
+        ),
+        (
+            f"send_async: {TIMEOUT_WORDS} True",
+            lambda: asyncio.run(client.send_async({"order": 2}, timeout=True)),
+        ),
+    ]
+    for problem, make_the_call in calls:
+        with pytest.raises(PyconnectError) as caught:
+            make_the_call()
+        assert str(caught.value) == f"{CLIENT}: {problem}"
+    assert client.send({"order": 3}) == {"sequence": [3], "isdone": True}
+    assert server_node.agents["served"].goal_count == 2  # no goal of the wrong calls was sent
+
+
+def test_a_handler_returning_none_succeeds_with_the_default_result_and_one_warning(
+    make_node: Any, capfd: pytest.CaptureFixture[str]
+) -> None:
+    _server_node, client = server_and_client(
+        make_node, "forgetful", "action", Fibonacci, lambda _goal: None
+    )
+    assert client.send({"order": 2}) == {"sequence": [], "isdone": True}
+    assert client.send({"order": 2}) == {"sequence": [], "isdone": True}
+    warning = (
+        "agent 'served' (action_server test_msgs/action/Fibonacci): response_func returned "
+        "None: answering the default test_msgs/action/Fibonacci_Result"
+    )
+    assert capfd.readouterr().err.count(warning) == 1
+
+
+def test_a_result_without_fields_is_not_warned_of(
+    make_node: Any, capfd: pytest.CaptureFixture[str]
+) -> None:
+    # No installed action has a field-less result: the server is asked about one directly.
+    server = make_node().add_agent(
+        conn_name="fib", conn_type="action_server", data_interface=Fibonacci,
+        response_func=lambda _goal: None,
+    )  # fmt: skip
+    server._result_class = Empty.Response
+    server._warn_of_none()
+    assert "returned None" not in capfd.readouterr().err

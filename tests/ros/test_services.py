@@ -2,12 +2,15 @@
 
 from __future__ import annotations
 
+import asyncio
 import concurrent.futures
+import math
 import threading
+from collections.abc import Callable
 from typing import Any
 
 import pytest
-from std_srvs.srv import SetBool, Trigger
+from std_srvs.srv import Empty, SetBool, Trigger
 from test_msgs.srv import BasicTypes
 
 from pyconnect.errors import PyconnectError
@@ -255,3 +258,86 @@ def test_requests_still_waiting_at_shutdown_are_refused(make_node: Any, monkeypa
     assert answers[0] == {"success": True, "message": "handled", "isdone": True}
     refused = {"success": False, "message": "server is shutting down", "isdone": True}
     assert answers[1:] == [refused, refused]
+
+
+TIMEOUT_WORDS = "timeout must be None or a finite number of seconds >= 0, got"
+
+
+@pytest.mark.parametrize(
+    ("timeout", "shown"), [("5", "'5'"), (-1, "-1"), (math.nan, "nan"), (True, "True")]
+)
+def test_a_client_refuses_a_timeout_that_is_not_one(
+    make_node: Any, timeout: object, shown: str
+) -> None:
+    node = make_node()
+    with pytest.raises(PyconnectError) as caught:
+        node.add_agent(
+            conn_name="enable", conn_type="service_client", data_interface=SetBool, timeout=timeout
+        )
+    assert str(caught.value) == (
+        f"agent 'enable' (service_client std_srvs/srv/SetBool): {TIMEOUT_WORDS} {shown}"
+    )
+    assert "enable" not in node.agents
+
+
+def test_a_call_with_a_wrong_timeout_raises_before_its_request_is_sent(make_node: Any) -> None:
+    requests: list[Any] = []
+
+    def handler(request: dict[str, Any]) -> dict[str, Any]:
+        requests.append(request)
+        return {"success": True, "message": "ok"}
+
+    _server_node, client = server_and_client(
+        make_node, "wrong_timeout", "service", SetBool, handler
+    )
+    answer = {"success": True, "message": "ok", "isdone": True}
+    assert client.send({"data": True}) == answer  # the server is seen: the next call sends at once
+    agent = "agent 'served' (service_client std_srvs/srv/SetBool)"
+    calls: list[tuple[str, Callable[[], object]]] = [
+        (f"send: {TIMEOUT_WORDS} '2'", lambda: client.send({"data": False}, timeout="2")),
+        (
+            f"send: {TIMEOUT_WORDS} -1.0",
+            lambda: client.send({"data": False}, timeout=-1.0, block=False),
+        ),
+        (
+            f"send_async: {TIMEOUT_WORDS} '2'",
+            lambda: asyncio.run(client.send_async({"data": False}, timeout="2")),
+        ),
+    ]
+    for problem, make_the_call in calls:
+        with pytest.raises(PyconnectError) as caught:
+            make_the_call()
+        assert str(caught.value) == f"{agent}: {problem}"
+    client.timeout = "5"  # changed after the agent was made: each call checks it again
+    with pytest.raises(PyconnectError) as caught:
+        client.send({"data": False})
+    assert str(caught.value) == f"{agent}: send: {TIMEOUT_WORDS} '5'"
+    client.timeout = EVENT_TIMEOUT
+    assert client.send({"data": True}) == answer
+    assert requests == [{"data": True}, {"data": True}]  # the server saw none of the others
+
+
+def test_a_handler_returning_none_answers_the_default_response_with_one_warning(
+    make_node: Any, capfd: pytest.CaptureFixture[str]
+) -> None:
+    _server_node, client = server_and_client(
+        make_node, "forgetful", "service", SetBool, lambda _request: None
+    )
+    default = {"success": False, "message": "", "isdone": True}
+    assert client.send({"data": True}) == default
+    assert client.send({"data": True}) == default
+    warning = (
+        "agent 'served' (service_server std_srvs/srv/SetBool): response_func returned None: "
+        "answering the default std_srvs/srv/SetBool_Response"
+    )
+    assert capfd.readouterr().err.count(warning) == 1
+
+
+def test_a_handler_returning_none_for_a_response_without_fields_is_not_warned_of(
+    make_node: Any, capfd: pytest.CaptureFixture[str]
+) -> None:
+    _server_node, client = server_and_client(
+        make_node, "empty", "service", Empty, lambda _request: None
+    )
+    assert client.send({}) == {"isdone": True}
+    assert "returned None" not in capfd.readouterr().err

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+import math
 import threading
 import time
 from collections.abc import Iterator
@@ -9,6 +11,7 @@ from typing import Any
 
 import pytest
 
+from pyconnect.errors import PyconnectError
 from pyconnect.transport import action_wire as aw
 from tests.transport.conftest import PeerFactory, wait_for
 
@@ -224,7 +227,9 @@ def test_a_malformed_answer_fails_the_goal_like_any_other(
     from pyconnect.transport.action_server import ActionServerAgent
 
     method = "_on_goal" if answer == "goal" else "_on_result_request"
-    monkeypatch.setattr(ActionServerAgent, method, lambda _self, request: request.reply(b"\xff" * 12))
+    monkeypatch.setattr(
+        ActionServerAgent, method, lambda _self, request: request.reply(b"\xff" * 12)
+    )
     _server, client = pair(make_peer, fibonacci)
     what = "the goal response" if answer == "goal" else "the result"
     part = "SendGoal_Response" if answer == "goal" else "GetResult_Response"
@@ -465,3 +470,55 @@ def test_a_goal_request_nobody_answers_times_out_as_such(
     finally:
         for request in held:
             request.reply_error("test over")
+
+
+TIMEOUT_WORDS = "timeout must be None or a finite number of seconds >= 0, got"
+CLIENT = f"agent 'fib' (action_client {FIBONACCI})"
+
+
+@pytest.mark.parametrize(("timeout", "shown"), [("2", "'2'"), (-0.5, "-0.5"), (math.inf, "inf")])
+def test_a_client_refuses_a_timeout_that_is_not_one(
+    make_peer: PeerFactory, timeout: object, shown: str
+) -> None:
+    peer = make_peer("laptop")
+    with pytest.raises(PyconnectError) as caught:
+        peer.add_agent(
+            conn_name="fib", conn_type="action_client", data_interface=FIBONACCI, timeout=timeout
+        )
+    assert str(caught.value) == f"{CLIENT}: {TIMEOUT_WORDS} {shown}"
+    assert peer.agents == {}
+
+
+def test_a_goal_with_a_wrong_timeout_raises_before_it_is_sent(make_peer: PeerFactory) -> None:
+    server, client = pair(make_peer, lambda goal: {"sequence": [goal["order"]]}, timeout=TIMEOUT)
+    for call in (
+        lambda: client.send({"order": 2}, timeout="1"),
+        lambda: client.send({"order": 2}, timeout="1", block=False),
+    ):
+        with pytest.raises(PyconnectError) as caught:
+            call()
+        assert str(caught.value) == f"{CLIENT}: send: {TIMEOUT_WORDS} '1'"
+    assert client.send({"order": 3}) == {"sequence": [3], "isdone": True}
+    assert server.goal_count == 1  # no goal of the wrong calls was sent
+
+
+@pytest.mark.parametrize("style", ["function", "generator"])
+def test_a_handler_returning_none_succeeds_with_the_default_result_and_one_warning(
+    make_peer: PeerFactory, caplog: pytest.LogCaptureFixture, style: str
+) -> None:
+    def forgetful(_goal: dict[str, Any]) -> None:
+        return None
+
+    def forgetful_generator(_goal: dict[str, Any]) -> Iterator[dict[str, Any]]:
+        yield {"sequence": [1]}
+
+    handler = forgetful if style == "function" else forgetful_generator
+    _server, client = pair(make_peer, handler, timeout=TIMEOUT)
+    with caplog.at_level(logging.WARNING, logger="pyconnect.transport"):
+        assert client.send({"order": 2}) == {"sequence": [], "isdone": True}
+        assert client.send({"order": 2}) == {"sequence": [], "isdone": True}
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert warnings == [
+        f"agent 'fib' (action_server {FIBONACCI}): response_func returned None: answering the "
+        f"default {FIBONACCI}_Result"
+    ]

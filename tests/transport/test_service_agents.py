@@ -3,12 +3,15 @@
 from __future__ import annotations
 
 import concurrent.futures
+import logging
+import math
 import threading
 from collections.abc import Iterator
 from typing import Any
 
 import pytest
 
+from pyconnect.errors import PyconnectError
 from pyconnect.transport import rmw_zenoh_keys as keys
 from tests.transport.conftest import TIMEOUT, PeerFactory
 
@@ -209,3 +212,94 @@ def test_cancelling_the_future_drops_the_call(
     assert future.cancelled()
     assert crashes == []
     assert client.error_count == 0
+
+
+TIMEOUT_WORDS = "timeout must be None or a finite number of seconds >= 0, got"
+SET_BOOL = "std_srvs/srv/SetBool"
+
+
+@pytest.mark.parametrize(
+    ("timeout", "shown"), [("2", "'2'"), (-1, "-1"), (math.nan, "nan"), (True, "True")]
+)
+def test_a_client_refuses_a_timeout_that_is_not_one(
+    make_peer: PeerFactory, timeout: object, shown: str
+) -> None:
+    peer = make_peer("vision")
+    with pytest.raises(PyconnectError) as caught:
+        peer.add_agent(
+            conn_name="enable", conn_type="service_client", data_interface=SET_BOOL,
+            timeout=timeout,
+        )  # fmt: skip
+    assert str(caught.value) == (
+        f"agent 'enable' (service_client {SET_BOOL}): {TIMEOUT_WORDS} {shown}"
+    )
+    assert peer.agents == {}
+
+
+def test_a_call_with_a_wrong_timeout_raises_before_its_request_is_sent(
+    make_peer: PeerFactory,
+) -> None:
+    requests: list[Any] = []
+
+    def handler(request: dict[str, Any]) -> dict[str, Any]:
+        requests.append(request)
+        return {"success": True, "message": "ok"}
+
+    peer = make_peer("robot")
+    peer.add_agent(
+        conn_name="enable", conn_type="service_server", data_interface=SET_BOOL,
+        response_func=handler,
+    )  # fmt: skip
+    client = peer.add_agent(
+        conn_name="enable", agent_name="cli", conn_type="service_client",
+        data_interface=SET_BOOL, timeout=TIMEOUT,
+    )  # fmt: skip
+    agent = f"agent 'cli' (service_client {SET_BOOL})"
+    for call in (
+        lambda: client.send({"data": False}, timeout="1"),
+        lambda: client.send({"data": False}, timeout="1", block=False),
+    ):
+        with pytest.raises(PyconnectError) as caught:
+            call()
+        assert str(caught.value) == f"{agent}: send: {TIMEOUT_WORDS} '1'"
+    client.timeout = -2.0  # changed after the agent was made: each call checks it again
+    with pytest.raises(PyconnectError) as caught:
+        client.send({"data": False})
+    assert str(caught.value) == f"{agent}: send: {TIMEOUT_WORDS} -2.0"
+    client.timeout = TIMEOUT
+    assert client.send({"data": True}) == {"success": True, "message": "ok", "isdone": True}
+    assert requests == [{"data": True}]
+
+
+@pytest.mark.parametrize(
+    ("type_name", "answer", "warned"),
+    [
+        (SET_BOOL, {"success": False, "message": "", "isdone": True}, True),
+        ("std_srvs/srv/Empty", {"isdone": True}, False),  # nothing else to answer: no warning
+    ],
+)
+def test_a_handler_returning_none_answers_the_default_response(
+    make_peer: PeerFactory,
+    caplog: pytest.LogCaptureFixture,
+    type_name: str,
+    answer: dict[str, Any],
+    warned: bool,
+) -> None:
+    peer = make_peer("robot")
+    peer.add_agent(
+        conn_name="forgetful", conn_type="service_server", data_interface=type_name,
+        response_func=lambda _request: None,
+    )  # fmt: skip
+    client = peer.add_agent(
+        conn_name="forgetful", agent_name="cli", conn_type="service_client",
+        data_interface=type_name, timeout=TIMEOUT,
+    )  # fmt: skip
+    with caplog.at_level(logging.WARNING, logger="pyconnect.transport"):
+        assert client.send({}) == answer
+        assert client.send({}) == answer
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    once = (
+        f"agent 'forgetful' (service_server {type_name}): response_func returned None: "
+        f"answering the default {type_name}_Response"
+    )
+    assert warnings == ([once] if warned else [])

@@ -12,6 +12,7 @@ import pytest
 import zenoh
 
 from pyconnect.codecs import wire
+from pyconnect.errors import PyconnectError
 from pyconnect.transport import topic_subscriber
 from tests.transport.conftest import PeerFactory, wait_for, zenoh_attachment
 
@@ -125,3 +126,24 @@ def test_a_bogus_sequence_from_a_raw_session(make_peer: PeerFactory, locator: st
         assert sub.dropped_count == 0
     finally:
         session.close()
+
+
+@pytest.mark.parametrize(
+    ("depth", "problem"),
+    [
+        (0, "depth must be >= 1, got 0"),
+        (True, "depth must be an int >= 1, got True"),
+        ("10", "depth must be an int >= 1, got '10'"),
+        (2.5, "depth must be an int >= 1, got 2.5"),
+    ],
+)
+def test_a_depth_that_is_not_an_int_of_at_least_one_is_refused(
+    make_peer: PeerFactory, depth: object, problem: str
+) -> None:
+    peer = make_peer("listener")
+    with pytest.raises(PyconnectError) as caught:
+        peer.add_agent(
+            conn_name="chat", conn_type="sub", data_interface="std_msgs/msg/String", depth=depth
+        )
+    assert str(caught.value) == f"agent 'chat' (sub std_msgs/msg/String): {problem}"
+    assert peer.agents == {}

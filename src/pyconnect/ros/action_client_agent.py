@@ -36,6 +36,7 @@ from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_text_of
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.option_checks import call_timeout, timeout_problem
 from pyconnect.ros.pending_calls import PendingCalls
 from pyconnect.ros.qos import REQUESTS
 from pyconnect.ros.race_free_action_client import RaceFreeActionClient
@@ -73,6 +74,9 @@ class ActionClientAgent(NodeAgent):
             do_log_msg=do_log_msg,
             callback_group=callback_group,
         )
+        problem = timeout_problem(timeout)
+        if problem is not None:
+            raise self.error(problem)
         self.timeout = timeout
         self.accepted_func = accepted_func
         self.feedback_func = feedback_func
@@ -118,7 +122,7 @@ class ActionClientAgent(NodeAgent):
         block: bool = True,
     ) -> Any:
         """Send a goal; the decoded result (or a future of it) through ``reform_response``."""
-        timeout = self.timeout if timeout is None else timeout
+        timeout = call_timeout(timeout, self.timeout, where=f"{self.describe}: send")
         feedback_func = self.feedback_func if feedback_func is None else feedback_func
         goal, _stamped = self.goal_conversion.encode(data)
         if self.do_log_msg:
@@ -184,7 +188,7 @@ class ActionClientAgent(NodeAgent):
         feedback_func: ResponseFunc | None = None,
     ) -> Any:
         """``send(goal)`` awaited on the caller's asyncio loop; a timeout cancels the goal."""
-        timeout = self.timeout if timeout is None else timeout
+        timeout = call_timeout(timeout, self.timeout, where=f"{self.describe}: send_async")
         future = self.send(data, timeout=timeout, feedback_func=feedback_func, block=False)
         try:
             # A timeout, or the awaiting task's cancellation, cancels the future: the goal too.

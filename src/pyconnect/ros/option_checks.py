@@ -5,7 +5,9 @@ An agent class lists the options it takes as its keyword-only ``__init__`` param
 ``OptionError`` naming it; ``shared_options`` keeps of ``add_agents(configs, **shared)`` only the
 options a kind takes (shared options are defaults). Both hosts use them —
 ``pyconnect.ros.agent_factory`` for ``CustomNode`` and ``pyconnect.transport.peer`` for
-``Peer`` — so this module imports nothing that imports rclpy.
+``Peer`` — so this module imports nothing that imports rclpy. ``period_problem``,
+``timeout_problem`` and ``depth_problem`` say what is wrong with one option's value (the agent
+names itself in the error it raises).
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import numbers
 from collections.abc import Mapping
 from typing import Any
 
+from pyconnect.errors import PyconnectError
 from pyconnect.ros.agent_options import AgentOptions, OptionError
 
 KNOWN_OPTIONS = frozenset(AgentOptions.__annotations__)
@@ -91,3 +94,38 @@ def period_problem(time_period: object) -> str | None:
         return problem  # numpy's numbers are Real too
     seconds = float(time_period)
     return None if math.isfinite(seconds) and seconds > 0 else problem
+
+
+def timeout_problem(timeout: object) -> str | None:
+    """Why ``timeout`` cannot be a wait's timeout, or None when it can: None (wait for ever) or
+    a finite number of seconds >= 0. (A string passed the constructor and failed only in the
+    deadline's arithmetic, after the request or goal had been sent.)"""
+    if timeout is None:
+        return None
+    problem = f"timeout must be None or a finite number of seconds >= 0, got {timeout!r}"
+    if isinstance(timeout, bool) or not isinstance(timeout, numbers.Real):
+        return problem  # numpy's numbers are Real too
+    seconds = float(timeout)
+    return None if math.isfinite(seconds) and seconds >= 0 else problem
+
+
+def call_timeout(timeout: float | None, default: float | None, *, where: str) -> float | None:
+    """The timeout one call waits: its own ``timeout``, else the agent's ``default``.
+
+    Checked before anything is sent, raising ``PyconnectError`` that starts with ``where``
+    (``agent 'x' (service_client ...): send``): a wrong one used to fail in the middle of the
+    call, with the request or goal already out.
+    """
+    effective = default if timeout is None else timeout
+    problem = timeout_problem(effective)
+    if problem is not None:
+        raise PyconnectError(f"{where}: {problem}")
+    return effective
+
+
+def depth_problem(depth: object) -> str | None:
+    """Why ``depth`` cannot be a keep-last queue depth, or None when it can: an int >= 1, not a
+    bool. (A peer's pub wrote any value into its liveliness token, which rmw_zenoh parses.)"""
+    if isinstance(depth, bool) or not isinstance(depth, int):
+        return f"depth must be an int >= 1, got {depth!r}"
+    return None if depth >= 1 else f"depth must be >= 1, got {depth!r}"

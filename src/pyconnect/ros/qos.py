@@ -136,6 +136,9 @@ queues every request and response until it is delivered and taken; history is no
 QoS matching, so plain rclpy peers with the default still connect.
 """
 
+MAX_DEPTH = 2**31 - 1
+"""The largest ``qos=<int>`` depth an agent takes."""
+
 NAMED_PROFILES: dict[str, QoSProfile] = {
     "default": DEFAULT,
     "sensor_data": SENSOR_DATA,
@@ -148,15 +151,20 @@ def resolve_qos(
 ) -> QoSProfile:
     """The profile an agent uses: an explicit one, a named one, or the default for its type.
 
-    An int is a queue depth with the default policies, as rclpy accepts. A sensor subscriber
-    that cannot follow its publishers (``follows_publishers``) gets ``SENSOR_DATA``, which hears
-    every publisher.
+    An int is a queue depth (1 to ``MAX_DEPTH``) with the default policies, as rclpy accepts.
+    A sensor subscriber that cannot follow its publishers (``follows_publishers``) gets
+    ``SENSOR_DATA``, which hears every publisher.
     """
     if isinstance(qos, QoSProfile):
         return qos
     if isinstance(qos, bool):
         raise PyconnectError(f"qos: expected a QoSProfile, a name or a depth, got {qos!r}")
     if isinstance(qos, int):
+        # rmw takes a depth of 1 to 2**31-1: rclpy turned 0 into SYSTEM_DEFAULT with a warning,
+        # -1 into an RCLError and more into a pybind TypeError, none naming the agent.
+        if not 1 <= qos <= MAX_DEPTH:
+            bound = ">= 1" if qos < 1 else f"<= {MAX_DEPTH}"
+            raise PyconnectError(f"qos: depth must be {bound}, got {qos!r}")
         return QoSProfile(depth=qos)
     if isinstance(qos, str):
         profile = NAMED_PROFILES.get(qos)

@@ -33,8 +33,9 @@ from rclpy.task import Future as RosFuture
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_message, text_field
-from pyconnect.ros.interfaces import interface_class
+from pyconnect.ros.interfaces import interface_class, interface_name
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.option_checks import call_timeout, timeout_problem
 from pyconnect.ros.pending_calls import PendingCalls
 from pyconnect.ros.qos import REQUESTS
 from pyconnect.ros.waiting import Signal, settle, wait_until
@@ -48,7 +49,11 @@ requests of clients gone meanwhile (rmw may wait on each such answer)."""
 
 
 class ServiceServerAgent(NodeAgent):
-    """Answers requests on ``conn_name`` with ``response_func``."""
+    """Answers requests on ``conn_name`` with ``response_func``.
+
+    A ``response_func`` that returns None answers the default response (every field at its
+    default); where the response type has fields, the first such answer logs a warning.
+    """
 
     conn_type = "service_server"
 
@@ -85,6 +90,7 @@ class ServiceServerAgent(NodeAgent):
             srv_class.Response, encode_func=encode_func, eager=encode_func is None
         )
         self.request_count = 0
+        self._warned_of_none = False
         self.service = node.ros_node.create_service(
             srv_class,
             conn_name,
@@ -106,12 +112,24 @@ class ServiceServerAgent(NodeAgent):
             value = self.call_user_and_wait(self._handler, data)
             where = "encode"
             if value is None:
+                self._warn_of_none(type(response))
                 return response
             msg, _stamped = self.response_conversion.encode(value)
             return msg
         except Exception as error:
             self.report_exception(where, error)
             return error_message(type(response), f"{type(error).__name__}: {error}")
+
+    def _warn_of_none(self, response_class: type) -> None:
+        # A handler that forgot its ``return`` answered success=False and an empty message
+        # without a word; a field-less response (std_srvs/Empty) has nothing else to answer.
+        if self._warned_of_none or not response_class.get_fields_and_field_types():
+            return
+        self._warned_of_none = True
+        self.node.get_logger().warning(
+            f"{self.describe}: response_func returned None: answering the default "
+            f"{interface_name(response_class)}"
+        )
 
     def close(self) -> None:
         self.refuse_waiting_requests()
@@ -164,6 +182,9 @@ class ServiceClientAgent(NodeAgent):
             do_log_msg=do_log_msg,
             callback_group=callback_group,
         )
+        problem = timeout_problem(timeout)
+        if problem is not None:
+            raise self.error(problem)
         self.timeout = timeout
         self.request_conversion = self.make_conversion(
             srv_class.Request, encode_func=encode_func, eager=encode_func is None
@@ -196,7 +217,7 @@ class ServiceClientAgent(NodeAgent):
 
     def send(self, data: Any = None, *, timeout: float | None = None, block: bool = True) -> Any:
         """Call the service with ``data``; the decoded response, or a future of it."""
-        timeout = self.timeout if timeout is None else timeout
+        timeout = call_timeout(timeout, self.timeout, where=f"{self.describe}: send")
         request, _stamped = self.request_conversion.encode(data)
         if self.do_log_msg:
             self.log_msg(data)
@@ -244,7 +265,7 @@ class ServiceClientAgent(NodeAgent):
 
     async def send_async(self, data: Any = None, *, timeout: float | None = None) -> Any:
         """``send(data, timeout=...)`` awaited on the caller's asyncio loop, never blocking it."""
-        timeout = self.timeout if timeout is None else timeout
+        timeout = call_timeout(timeout, self.timeout, where=f"{self.describe}: send_async")
         future = self.send(data, timeout=timeout, block=False)
         try:
             return await asyncio.wait_for(asyncio.wrap_future(future), timeout)

@@ -26,6 +26,7 @@ import time
 import uuid
 from typing import Any
 
+from pyconnect.ros.option_checks import call_timeout, timeout_problem
 from pyconnect.transport import action_wire as aw
 from pyconnect.transport.async_handlers import settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
@@ -76,6 +77,9 @@ class ActionClientAgent(PeerAgent):
             type_name=interface.type_name,
             response_func=response_func,
         )
+        problem = timeout_problem(timeout)
+        if problem is not None:
+            raise self.error(problem)
         self.interface = interface
         self.timeout = timeout
         self.accepted_func = accepted_func
@@ -133,7 +137,7 @@ class ActionClientAgent(PeerAgent):
         block: bool = True,
     ) -> Any:
         """Send a goal; the decoded result (or a future of it) through ``reform_response``."""
-        timeout = self.timeout if timeout is None else timeout
+        timeout = call_timeout(timeout, self.timeout, where=f"{self.describe}: send")
         feedback_func = self.feedback_func if feedback_func is None else feedback_func
         goal = aw.nested(self.interface.goal, self.goal_conversion.encode(data))
         in_flight = _GoalInFlight(uuid.uuid4().bytes, feedback_func)

@@ -33,7 +33,7 @@ from pyconnect.transport.async_handlers import agent_loop, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.endpoints import Request, Server, Writer
 from pyconnect.transport.interface_types import action_interface, message_interface
-from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc
+from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc, logger
 
 DEFAULT_RESULT_TIMEOUT = 0.05
 DEFAULT_RESULT_CACHE_SECONDS = 60.0
@@ -44,7 +44,12 @@ SHUTTING_DOWN = "server is shutting down"
 
 
 class ActionServerAgent(PeerAgent):
-    """Executes goals sent to the action ``conn_name`` with ``response_func``."""
+    """Executes goals sent to the action ``conn_name`` with ``response_func``.
+
+    A ``response_func`` whose result is None (no ``return``) succeeds with the default result
+    (every field at its default); where the result type has fields, the first such goal logs
+    a warning.
+    """
 
     conn_type = "action_server"
 
@@ -80,6 +85,7 @@ class ActionServerAgent(PeerAgent):
         self.result_conversion = self.wire_conversion(interface.result, encode_func=encode_func)
         self.feedback_conversion = self.wire_conversion(interface.feedback)
         self.goal_count = 0
+        self._warned_of_none = False
         self._goals: dict[bytes, ServerGoal] = {}
         self._running: set[threading.Thread] = set()  # goal threads, joined on close
         self._lock = threading.Lock()
@@ -242,10 +248,27 @@ class ActionServerAgent(PeerAgent):
             where = "encode"
             result = {} if outcome is None else self._result_dict(outcome)
             status = aw.CANCELED if goal.cancel_requested.is_set() else aw.SUCCEEDED
+            if outcome is None and status == aw.SUCCEEDED:  # a canceled goal's result says nothing
+                self._warn_of_none()
             self._end(goal, status, result)
         except Exception as error:
             self.report_exception(where, error)
             self._abort(goal, f"{type(error).__name__}: {error}")
+
+    def _warn_of_none(self) -> None:
+        # A handler that forgot its ``return`` succeeded with an empty result without a word;
+        # a field-less result has nothing else to give.
+        if self._warned_of_none:
+            return
+        codec = self.interface.result
+        if not codec.to_dict(codec.from_dict({})):
+            return
+        self._warned_of_none = True
+        logger.warning(
+            "%s: response_func returned None: answering the default %s",
+            self.describe,
+            codec.msg_type,
+        )
 
     def _result_dict(self, outcome: Any) -> dict[str, Any]:
         return aw.nested(self.interface.result, self.result_conversion.encode(outcome))

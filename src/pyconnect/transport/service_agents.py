@@ -35,17 +35,28 @@ import threading
 import time
 from typing import Any
 
+from pyconnect.ros.option_checks import call_timeout, timeout_problem
 from pyconnect.transport.async_handlers import settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.endpoints import CallCancel, Caller, CallFailed, Request, Server
 from pyconnect.transport.interface_types import service_interface
-from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc, reform_response
+from pyconnect.transport.peer_agent import (
+    Peer,
+    PeerAgent,
+    ResponseFunc,
+    logger,
+    reform_response,
+)
 
 _TEXT_FIELDS = ("message", "error", "error_message", "error_msg", "error_string", "reason")
 
 
 class ServiceServerAgent(PeerAgent):
-    """Answers requests on ``conn_name`` with ``response_func``."""
+    """Answers requests on ``conn_name`` with ``response_func``.
+
+    A ``response_func`` that returns None answers the default response (every field at its
+    default); where the response type has fields, the first such answer logs a warning.
+    """
 
     conn_type = "service_server"
 
@@ -75,6 +86,7 @@ class ServiceServerAgent(PeerAgent):
         self.request_conversion = self.wire_conversion(interface.request, decode_func=decode_func)
         self.response_conversion = self.wire_conversion(interface.response, encode_func=encode_func)
         self.request_count = 0
+        self._warned_of_none = False
         self._server = Server(
             peer,
             self.topic,
@@ -110,11 +122,28 @@ class ServiceServerAgent(PeerAgent):
             value = settle(self._handler(data))
             where = "encode"
             if value is None:
-                return self.response_conversion.codec.from_dict({})
+                default = self.response_conversion.codec.from_dict({})
+                self._warn_of_none(default)
+                return default
             return self.response_conversion.encode(value)
         except Exception as error:
             self.report_exception(where, error)
             return self._error_response(f"{type(error).__name__}: {error}")
+
+    def _warn_of_none(self, default: bytes) -> None:
+        # A handler that forgot its ``return`` answered success=False and an empty message
+        # without a word; a field-less response (std_srvs/Empty) has nothing else to answer.
+        if self._warned_of_none:
+            return
+        codec = self.response_conversion.codec
+        if not codec.to_dict(default):
+            return
+        self._warned_of_none = True
+        logger.warning(
+            "%s: response_func returned None: answering the default %s",
+            self.describe,
+            codec.msg_type,
+        )
 
     def _error_response(self, text: str) -> bytes:
         codec = self.response_conversion.codec
@@ -152,6 +181,9 @@ class ServiceClientAgent(PeerAgent):
         super().__init__(
             peer, conn_name=conn_name, agent_name=agent_name, type_name=interface.type_name
         )
+        problem = timeout_problem(timeout)
+        if problem is not None:
+            raise self.error(problem)
         self.timeout = timeout
         self.request_conversion = self.wire_conversion(interface.request, encode_func=encode_func)
         self.response_conversion = self.wire_conversion(interface.response, decode_func=decode_func)
@@ -176,7 +208,7 @@ class ServiceClientAgent(PeerAgent):
 
     def send(self, data: Any = None, *, timeout: float | None = None, block: bool = True) -> Any:
         """Call the service with ``data``; the decoded response, or a future of it."""
-        timeout = self.timeout if timeout is None else timeout
+        timeout = call_timeout(timeout, self.timeout, where=f"{self.describe}: send")
         payload = self.request_conversion.encode(data)
         if not block:
             result: concurrent.futures.Future[Any] = concurrent.futures.Future()

@@ -19,7 +19,7 @@ from typing import Any
 import zenoh
 
 from pyconnect.errors import TransportError
-from pyconnect.ros.option_checks import period_problem
+from pyconnect.ros.option_checks import depth_problem, period_problem
 from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.async_handlers import agent_loop, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
@@ -64,6 +64,10 @@ class PublisherAgent(PeerAgent):
         if response_func is not None and time_period is None:
             raise self.error("response_func on a 'pub' agent needs time_period (it is polled)")
         problem = None if time_period is None else period_problem(time_period)
+        if problem is not None:
+            raise self.error(problem)
+        # The depth goes into the liveliness token, which rmw_zenoh parses: refused here.
+        problem = depth_problem(depth)
         if problem is not None:
             raise self.error(problem)
         self.conversion = self.wire_conversion(interface.codec, encode_func=encode_func, raw=raw)

@@ -51,6 +51,7 @@ import zenoh
 
 from pyconnect.codecs.wire import WireCodec
 from pyconnect.errors import DecodeError
+from pyconnect.ros.option_checks import depth_problem
 from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.async_handlers import agent_loop, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
@@ -117,8 +118,9 @@ class SubscriberAgent(PeerAgent):
         )
         del encode_func  # accepted for CustomNode's signature; a subscriber encodes nothing
         self.conversion = self.wire_conversion(interface.codec, decode_func=decode_func, raw=raw)
-        if depth < 1:
-            raise self.error(f"depth must be >= 1, got {depth!r}")
+        problem = depth_problem(depth)
+        if problem is not None:
+            raise self.error(problem)
         self.type_hash = interface.type_hash
         self.depth = depth
         self.message_count = 0
