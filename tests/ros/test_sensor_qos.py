@@ -7,8 +7,8 @@ from collections.abc import Callable
 from typing import Any
 
 import pytest
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-from sensor_msgs.msg import Image
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import CameraInfo, Image
 
 from pyconnect.ros.qos import SENSOR_DATA, matching_reliability
 from tests.ros.conftest import EVENT_TIMEOUT, repeat_until
@@ -214,3 +214,59 @@ def test_the_switch_stays_on_the_topic_remapping_chose(make_node: Any) -> None:
     assert agent.subscription.topic_name == "/right"
     assert repeat_until(agent._first_message, lambda: driver.publish(frame(7)))
     assert heard[-1] == 7
+
+
+LATCHED_INFO = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+
+
+def test_a_late_sub_to_latched_publishers_gets_the_latched_message(make_node: Any) -> None:
+    """The sensor sub followed its publishers' reliability only, always volatile: a latched
+    CameraInfo sent before it joined never arrived (rmw's best-available rule hears it)."""
+    driver = make_node("info_driver")
+    publisher = driver.create_publisher(CameraInfo, "camera_info", LATCHED_INFO)
+    publisher.publish(CameraInfo(width=640))
+    driver.spin(run_thread=True)
+    node = make_node("late_info")
+    assert until(lambda: bool(node.get_publishers_info_by_topic("/camera_info")))
+    heard = threading.Event()
+    sub = node.add_agent(
+        conn_name="camera_info",
+        conn_type="sub",
+        data_interface=CameraInfo,
+        decode_func=lambda msg: msg.width,
+        response_func=lambda _width: heard.set(),
+    )
+    assert sub.subscription.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+    node.spin(run_thread=True)
+    assert heard.wait(EVENT_TIMEOUT)
+    assert sub.get() == 640
+
+
+def test_a_volatile_publisher_appearing_later_switches_a_latched_sub(make_node: Any) -> None:
+    """A transient-local reader never hears a volatile writer: the sub relaxes its durability
+    when one appears, and says so."""
+    driver = make_node("info_driver")
+    driver.create_publisher(CameraInfo, "camera_info", LATCHED_INFO).publish(CameraInfo(width=1))
+    node = make_node("switching_info")
+    assert until(lambda: bool(node.get_publishers_info_by_topic("/camera_info")))
+    sub = node.add_agent(
+        conn_name="camera_info",
+        conn_type="sub",
+        data_interface=CameraInfo,
+        decode_func=lambda msg: msg.width,
+    )
+    node.spin(run_thread=True)
+    volatile = driver.create_publisher(CameraInfo, "camera_info", 10)
+    sensor = sub.sensor_subscription
+    assert sensor.switched.wait(EVENT_TIMEOUT)
+    assert sensor.switch_note == (
+        "agent 'camera_info' (sub sensor_msgs/msg/CameraInfo): a volatile publisher appeared on "
+        "/camera_info, so the subscription switched from transient local to volatile (a "
+        "transient-local reader never hears a volatile writer). Pass qos= to choose yourself."
+    )
+    assert sub.subscription.qos_profile.durability == DurabilityPolicy.VOLATILE
+    got_two = threading.Event()
+    assert repeat_until(
+        got_two,
+        lambda: (volatile.publish(CameraInfo(width=2)), sub.get() == 2 and got_two.set()),
+    )

@@ -12,12 +12,12 @@ frames. A *publisher* is reliable with a short queue, because a reliable writer 
 kinds of reader (rviz and ``ros2 topic echo`` subscribe reliably by default). A *subscriber*
 follows the publishers it sees, as ROS 2's "best available" does: reliable when every one of
 them is reliable (or there is none yet), best effort when one is best effort
-(``matching_reliability``); and it switches to best effort when a best-effort publisher appears
-later (pyconnect.ros.sensor_subscription), because a reliable reader never matches a
-best-effort writer (the usual "no images arrive" surprise). Why not best effort always: on
-stock Fast DDS a best-effort reader loses about half of the 640x480 frames and nearly every
-1080p frame (UDP fragments), a reliable one none (bench/sensor_qos.py). An explicit ``qos=``
-is never adapted.
+(``matching_reliability``), transient local when all are (``matching_qos``); and it relaxes
+when a publisher it cannot hear appears later (pyconnect.ros.following_subscription), because
+a reliable reader never matches a best-effort writer (the usual "no images arrive" surprise).
+Why not best effort always: on stock Fast DDS a best-effort reader loses about half of the
+640x480 frames and nearly every 1080p frame (UDP fragments), a reliable one none
+(bench/sensor_qos.py). An explicit ``qos=`` is never adapted.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -73,18 +73,6 @@ SENSOR_PUBLISHER = QoSProfile(
     reliability=ReliabilityPolicy.RELIABLE,
     durability=DurabilityPolicy.VOLATILE,
 )
-
-
-def sensor_subscriber_profile(reliability: ReliabilityPolicy) -> QoSProfile:
-    """A sensor subscriber's profile: ``SENSOR_DATA`` with the given reliability."""
-    if reliability == ReliabilityPolicy.BEST_EFFORT:
-        return SENSOR_DATA
-    return QoSProfile(
-        depth=SENSOR_DATA.depth,
-        history=HistoryPolicy.KEEP_LAST,
-        reliability=ReliabilityPolicy.RELIABLE,
-        durability=DurabilityPolicy.VOLATILE,
-    )
 
 
 def matching_reliability(publishers: Iterable[Any]) -> ReliabilityPolicy:
