@@ -119,6 +119,20 @@ def test_time_bounds_of_another_type_are_refused_when_opened(
         open_bag(path, **{option: value}).close()  # type: ignore[arg-type]
 
 
+@pytest.mark.parametrize("registry", ["default", object()])
+def test_a_registry_of_another_type_is_refused_when_opened(
+    tmp_path: Path, registry: object
+) -> None:
+    # Unchecked, every message of the read failed alone with an AttributeError.
+    path = write_bag(tmp_path / "bag")
+    with pytest.raises(TypeError) as raised:
+        open_bag(path, registry=registry).close()  # type: ignore[arg-type]
+    assert str(raised.value) == (
+        "registry: expected a pyconnect.codecs.Registry (or None for the default registry), "
+        f"got {type(registry).__name__} ({registry!r:.80})"
+    )
+
+
 def test_time_bounds_take_aware_datetimes_and_numpy_integers(tmp_path: Path) -> None:
     write_bag(tmp_path / "bag")
     plus_two = datetime.timezone(datetime.timedelta(hours=2))

@@ -10,7 +10,7 @@ import numpy as np
 import polars as pl
 import pyarrow as pa
 import pytest
-from geometry_msgs.msg import PoseWithCovarianceStamped
+from geometry_msgs.msg import PoseWithCovarianceStamped, Twist, TwistStamped
 from sensor_msgs.msg import Image
 from test_msgs.msg import Arrays, BasicTypes, UnboundedSequences
 
@@ -329,6 +329,44 @@ def test_merged_bags_give_the_union_of_their_definitions_columns(
     assert table.column("extra").to_pylist() == [None, None, "x"]
     assert frame.columns == table.column_names
     assert errors == []
+
+
+def _twist_bags(tmp_path: Path) -> list[Path]:
+    """/cmd_vel as geometry_msgs/Twist in one bag, as TwistStamped in a later one (Jazzy's
+    migration): two types, not two definitions of one."""
+    twist = Twist()
+    twist.linear.x = 1.0
+    stamped = TwistStamped()
+    stamped.header.frame_id = "base"
+    stamped.twist.linear.x = 2.0
+    old = write_bag(tmp_path / "old_robot", [("/cmd_vel", 1_000, twist)])
+    new = write_bag(tmp_path / "new_robot", [("/cmd_vel", 2_000, stamped)])
+    return [old, new]
+
+
+def test_merged_bags_of_two_types_of_a_topic_are_an_error(tmp_path: Path) -> None:
+    old, new = _twist_bags(tmp_path)
+    with open_bag([old, new]) as reader:
+        assert len(list(reader)) == 2  # read as messages, each bag with its own type
+        with pytest.raises(BagError) as raised:
+            reader.to_arrow("/cmd_vel")
+    assert str(raised.value) == (
+        f"{new}: /cmd_vel: type geometry_msgs/msg/TwistStamped in this bag, "
+        f"geometry_msgs/msg/Twist in {old}; one table cannot hold both types (read them with "
+        "open_bag, or each bag on its own)"
+    )
+
+
+def test_a_later_bags_new_leading_field_goes_after_the_merged_columns(tmp_path: Path) -> None:
+    one = _stored_strings_bag(tmp_path / "one", [_cdr_strings("a")], definition="string data\n")
+    two = _stored_strings_bag(
+        tmp_path / "two", [_cdr_strings("h", "b")], definition="string head\nstring data\n",
+        start_ns=2_000,
+    )  # fmt: skip
+    with open_bag([one, two], natural=False) as reader:
+        table = reader.to_arrow("/s")
+    assert table.column_names == ["log_time_ns", "data", "head"]
+    assert table.column("head").to_pylist() == [None, "h"]
 
 
 def test_merged_bags_whose_field_types_differ_are_an_error(tmp_path: Path) -> None:

@@ -149,6 +149,34 @@ def test_bad_arguments_are_errors(bag: Path) -> None:
     assert str(raised.value) == "tolerance: expected seconds > 0, got 0"
 
 
+@pytest.mark.parametrize(
+    ("tolerance", "error", "message"),
+    [
+        ("0.1", TypeError, "tolerance: expected seconds (a real number) > 0, got str ('0.1')"),
+        (None, TypeError, "tolerance: expected seconds (a real number) > 0, got NoneType (None)"),
+        (True, TypeError, "tolerance: expected seconds (a real number) > 0, got bool (True)"),
+        (-1, ValueError, "tolerance: expected seconds > 0, got -1"),
+        (float("nan"), ValueError, "tolerance: expected seconds > 0, got nan"),
+        (float("inf"), ValueError, "tolerance: expected finite seconds, got inf"),
+    ],
+)
+def test_a_bad_tolerance_is_refused_at_the_call(
+    bag: Path, tolerance: object, error: type[Exception], message: str
+) -> None:
+    topics = ["/camera/image_raw", "/joint_states"]
+    for function in (align, align_table):
+        with pytest.raises(error) as raised:
+            function(bag, topics, tolerance=tolerance)  # type: ignore[operator]
+        assert str(raised.value) == message
+    with pytest.raises(TypeError) as raised:
+        align(bag, topics, tolerance=0.02, queue_size="3")  # type: ignore[arg-type]
+    assert str(raised.value) == "queue_size: expected an int >= 1, got str"
+    # A real number of another type is seconds too.
+    assert len(list(align(bag, topics, tolerance=np.float32(0.02)))) == len(
+        list(align(bag, topics, tolerance=0.02))
+    )
+
+
 def test_a_message_trimmed_from_its_own_queue_matches_nothing() -> None:
     # /a's queue holds 20 and 30; the late stamp 5 is the oldest, so it leaves at once: the /b
     # message at 5 stays unmatched, as message_filters' ApproximateTimeSynchronizer leaves it.

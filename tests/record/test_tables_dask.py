@@ -12,12 +12,12 @@ import pytest
 from distributed import Client, LocalCluster
 
 from pyconnect.errors import PyconnectError
-from pyconnect.record import bag_info, open_bag
+from pyconnect.record import BagError, bag_info, open_bag
 from pyconnect.record.dask import BagPart, plan_parts, read_bags
 from tests.conftest import require_sample_bags
 from tests.record.bag_samples import BAGS, expected_bags
 from tests.record.test_bag_damage import write_chunked
-from tests.record.test_tables import _two_definition_bags
+from tests.record.test_tables import _twist_bags, _two_definition_bags
 
 # `make test` reads a slice of the shared bags; `make scale` (PYCONNECT_SCALE=all) reads them all.
 SLICE = (
@@ -123,3 +123,15 @@ def test_bags_of_different_definitions_give_every_partition_the_union(tmp_path: 
         got = frame.compute()
     assert list(frame.columns) == ["log_time_ns", "data", "extra"]
     pd.testing.assert_frame_equal(got.reset_index(drop=True), expected)
+
+
+def test_bags_of_two_types_of_the_topic_are_refused_when_planned(tmp_path: Path) -> None:
+    # The meta (the columns every partition gets) is the union of open_bag(bags).to_pandas:
+    # it refuses two types, so the frame is never planned with half of its columns null.
+    old, new = _twist_bags(tmp_path)
+    with pytest.raises(BagError) as raised:
+        read_bags([old, new], topic="/cmd_vel")
+    assert str(raised.value).startswith(
+        f"{new}: /cmd_vel: type geometry_msgs/msg/TwistStamped in this bag, "
+        f"geometry_msgs/msg/Twist in {old}; "
+    )

@@ -30,6 +30,8 @@ already received; a message is used in at most one match; messages never matched
 from __future__ import annotations
 
 import itertools
+import math
+import numbers
 from collections.abc import Callable, Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import Any, TypeVar
@@ -105,12 +107,24 @@ def _arrivals(
         yield index, _stamp_ns(message.value, message.log_time_ns), (row, message)
 
 
-def _check(topics: Sequence[str], tolerance: float) -> list[str]:
+def _check(topics: Sequence[str], tolerance: float, queue_size: int) -> list[str]:
     chosen = [topics] if isinstance(topics, str) else list(topics)
     if len(chosen) < 2 or len(set(chosen)) != len(chosen):
         raise ValueError(f"topics: expected two or more different topics, got {chosen!r}")
-    if not tolerance > 0:
+    # bool is an int, but True seconds is a slip, as it is for the bag's start_ns.
+    if isinstance(tolerance, bool) or not isinstance(tolerance, numbers.Real):
+        raise TypeError(
+            f"tolerance: expected seconds (a real number) > 0, got "
+            f"{type(tolerance).__name__} ({tolerance!r:.80})"
+        )
+    if not tolerance > 0:  # written so that NaN fails too
         raise ValueError(f"tolerance: expected seconds > 0, got {tolerance!r}")
+    if tolerance == math.inf:  # no nanosecond count to compare stamps with
+        raise ValueError(f"tolerance: expected finite seconds, got {tolerance!r}")
+    if isinstance(queue_size, bool) or not isinstance(queue_size, numbers.Integral):
+        raise TypeError(f"queue_size: expected an int >= 1, got {type(queue_size).__name__}")
+    if queue_size < 1:
+        raise ValueError(f"queue_size: expected at least 1, got {queue_size}")
     return chosen
 
 
@@ -122,8 +136,17 @@ def align(
     queue_size: int = 10,
     natural: bool = True,
 ) -> Iterator[tuple[BagMessage, ...]]:
-    """Yield matched messages of ``topics`` (``tolerance`` in seconds): see the module docstring."""
-    chosen = _check(topics, tolerance)
+    """Yield matched messages of ``topics`` (``tolerance`` in seconds): see the module docstring.
+
+    The options are checked at the call, before the first match is asked for.
+    """
+    chosen = _check(topics, tolerance, queue_size)
+    return _align(bag, chosen, tolerance=tolerance, queue_size=queue_size, natural=natural)
+
+
+def _align(
+    bag: str | Path, chosen: list[str], *, tolerance: float, queue_size: int, natural: bool
+) -> Iterator[tuple[BagMessage, ...]]:
     with open_bag(bag, topics=chosen, natural=False) as reader:
         naturals: dict[int, Callable[[Any], Any]] = {}
         if natural:
@@ -175,7 +198,7 @@ def align_table(
 
     from pyconnect.record.tables import topic_table
 
-    chosen = _check(topics, tolerance)
+    chosen = _check(topics, tolerance, queue_size)
     with open_bag(bag, topics=chosen, natural=False) as reader:
         rows = [
             [row for row, _message in match]

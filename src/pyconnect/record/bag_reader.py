@@ -45,7 +45,7 @@ import logging
 import operator
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from pyconnect.record.bag_damage import BagDamage
 from pyconnect.record.bag_files import BagFiles, BagPaths, open_bag_files
@@ -61,7 +61,10 @@ from pyconnect.record.bag_read import ConnectionDecoders, MergedRead
 from pyconnect.record.bag_read_report import OnError, ProblemLog, damage_line, promised_count
 from pyconnect.record.bag_storage import StorageFile
 from pyconnect.record.topic_decoder import TopicDecoder, TypeMismatch, normalise_type_name
-from pyconnect.record.topic_selection import select_topics
+from pyconnect.record.topic_selection import select_topics, types_by_topic
+
+if TYPE_CHECKING:
+    from pyconnect.codecs.registry import Registry
 
 __all__ = [
     "BagInfo",
@@ -83,6 +86,23 @@ _MICROSECOND = datetime.timedelta(microseconds=1)
 _EXPECTED = "expected int nanoseconds or a timezone-aware datetime"
 
 TimeBound = int | datetime.datetime  # a start_ns/end_ns: nanoseconds, or an aware datetime
+
+
+def _registry(value: object) -> Registry | None:
+    """``registry=`` checked when the bag is opened: anything but a ``Registry`` (or None, the
+    default registry) otherwise failed every message of the read, one by one."""
+    if value is None:
+        return None
+    # Imported here: a bag read with the default registry leaves the codecs' registry module
+    # to be imported when the first value is decoded, as before.
+    from pyconnect.codecs.registry import Registry
+
+    if not isinstance(value, Registry):
+        raise TypeError(
+            "registry: expected a pyconnect.codecs.Registry (or None for the default "
+            f"registry), got {type(value).__name__} ({value!r:.80})"
+        )
+    return value
 
 
 def _nanoseconds(option: str, value: TimeBound | None) -> int | None:
@@ -129,7 +149,7 @@ class BagReader:
         end_ns: TimeBound | None = None,
         natural: bool = True,
         raw: bool = False,
-        registry: Any = None,
+        registry: Registry | None = None,
         on_error: OnError = "report",
     ) -> None:
         if on_error not in ("report", "raise"):
@@ -138,7 +158,7 @@ class BagReader:
         self._problems = ProblemLog(Path(), on_error)
         self.natural = natural
         self.raw = raw
-        self.registry = registry
+        self.registry = _registry(registry)
         self.start_ns = _nanoseconds("start_ns", start_ns)
         self.end_ns = _nanoseconds("end_ns", end_ns)
         self._bags: list[tuple[BagFiles, list[StorageFile]]] = []
@@ -149,12 +169,19 @@ class BagReader:
             self.path = self._bags[0][0].path
             self._problems.path = self.path
             self.info = describe(self._bags)
-            self.topics = select_topics(self.info, self.path, topics, types, raw=raw)
+            self.topics = select_topics(
+                self.info,
+                self.path,
+                topics,
+                types,
+                raw=raw,
+                topic_types=None if types is None else types_by_topic(self._bags),
+            )
         except BaseException:
             self.close()
             raise
         self._decoders = ConnectionDecoders(
-            self.path, self.topics, natural=natural, registry=registry
+            self.path, self.topics, natural=natural, registry=self.registry
         )
         self.mismatches: list[TypeMismatch] = self._decoders.mismatches
         self._delivered = 0
@@ -344,7 +371,7 @@ def open_bag(
     end_ns: TimeBound | None = None,
     natural: bool = True,
     raw: bool = False,
-    registry: Any = None,
+    registry: Registry | None = None,
     on_error: OnError = "report",
 ) -> BagReader:
     """Open one bag or several (merged in time order): see the module docstring.

@@ -24,8 +24,10 @@ Columns come from the definition the values are decoded with: the one stored in 
 that store different definitions of the topic's type give the union of their columns, null where
 a message's definition lacks the field; a field whose type differs between two of them raises
 ``BagError``, as does a topic whose values follow two definitions in one bag (the stored
-definition fits its first messages, not later ones). Messages that cannot be decoded are left
-out and reported in the reader's ``errors``, as ``open_bag`` does.
+definition fits its first messages, not later ones), and so do merged bags in which the topic
+has two different types (``geometry_msgs/msg/Twist`` in one, ``TwistStamped`` in another).
+Messages that cannot be decoded are left out and reported in the reader's ``errors``, as
+``open_bag`` does.
 """
 
 from __future__ import annotations
@@ -199,11 +201,23 @@ def _each_bag_columns(reader: BagReader, topic: str, images: ImageColumns) -> li
 
 
 def _union(topic: str, bags: Sequence[_BagColumns]) -> list[Column]:
-    """Every column of ``bags``, each after the one it follows in its own definition."""
+    """Every column of ``bags``, each after the one it follows in its own definition (a bag's
+    leading new columns after those merged before it). Bags that decode the topic as two
+    different types raise ``BagError``: their fields are not versions of one another."""
+    first = bags[0]
+    for bag in bags[1:]:
+        if bag.msg_type != first.msg_type:
+            raise BagError(
+                f"{bag.path}: {topic}: type {bag.msg_type} in this bag, {first.msg_type} in "
+                f"{first.path}; one table cannot hold both types (read them with open_bag, or "
+                "each bag on its own)"
+            )
     merged: list[Column] = []
     first_seen: dict[str, tuple[Column, _BagColumns]] = {}
     for bag in bags:
-        at = 0  # where this bag's next new column goes: after its previous column
+        # Where this bag's next new column goes: after its previous column, or after every
+        # column merged so far (the first bag's order stays the table's start).
+        at = len(merged)
         for column in bag.columns:
             seen = first_seen.get(column.name)
             if seen is None:
@@ -230,7 +244,8 @@ def topic_columns(
 
     The columns are those of the definition ``topic_types`` gives, for one bag; for merged bags,
     the union over the definitions each is decoded with (a field some lack is null in their
-    rows). A field whose type differs between two of them raises ``BagError``.
+    rows). A field whose type differs between two of them raises ``BagError``, as does a topic
+    of two different types.
     """
     if len(_bag_paths(reader)) > 1:
         bags = _each_bag_columns(reader, topic, images)

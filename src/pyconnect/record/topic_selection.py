@@ -2,14 +2,18 @@
 
 from __future__ import annotations
 
-from collections.abc import Iterable
+import difflib
+from collections.abc import Iterable, Mapping, Sequence
+from collections.abc import Set as AbstractSet
 from pathlib import Path
 
 from pyconnect.record.bag_errors import BagError
+from pyconnect.record.bag_files import BagFiles
 from pyconnect.record.bag_info import BagInfo, TopicInfo
+from pyconnect.record.bag_storage import StorageFile
 from pyconnect.record.topic_decoder import normalise_type_name
 
-__all__ = ["select_topics"]
+__all__ = ["select_topics", "types_by_topic"]
 
 
 def select_topics(
@@ -19,11 +23,17 @@ def select_topics(
     types: Iterable[str] | None,
     *,
     raw: bool,
+    topic_types: Mapping[str, AbstractSet[str]] | None = None,
 ) -> dict[str, TopicInfo]:
     """The selected topics by name (both given: a topic must match both).
 
-    A topic the bag lacks raises ``BagError`` listing the bag's topics; unless ``raw``, so does a
-    selected topic that is not serialised as CDR (it could not be decoded).
+    ``topic_types``: every type each topic has in the bags read together (``types_by_topic``);
+    without it, the type ``info`` gives it (the first bag's, for merged bags).
+
+    A topic the bag lacks raises ``BagError`` listing the bag's topics, and a type no topic of
+    the bag has lists its types (a misspelt type would otherwise read nothing, silently); of
+    several bags read together, the topics and types of any of them count. Unless ``raw``, a
+    selected topic that is not serialised as CDR raises too (it could not be decoded).
     """
     known = {topic.name: topic for topic in info.topics}
     chosen = dict(known)
@@ -38,11 +48,9 @@ def select_topics(
         wanted_types = {
             normalise_type_name(t) for t in ([types] if isinstance(types, str) else types)
         }
-        chosen = {
-            name: topic
-            for name, topic in chosen.items()
-            if normalise_type_name(topic.msg_type) in wanted_types
-        }
+        each = _normalised(info, topic_types)
+        _check_types(wanted_types, each, path)
+        chosen = {name: topic for name, topic in chosen.items() if each[name] & wanted_types}
     if not raw:
         for topic in chosen.values():
             if topic.serialization_format != "cdr":
@@ -52,3 +60,49 @@ def select_topics(
                     "(raw=True reads it undecoded)"
                 )
     return chosen
+
+
+def types_by_topic(bags: Iterable[tuple[BagFiles, Sequence[StorageFile]]]) -> dict[str, set[str]]:
+    """Topic -> every type it has in ``bags`` (their storage files and metadata.yaml files):
+    a topic recorded as two types in two bags (``Twist``, then ``TwistStamped``) has both."""
+    found: dict[str, set[str]] = {}
+    for located, storages in bags:
+        for storage in storages:
+            for connection in storage.connections():
+                found.setdefault(connection.topic, set()).add(connection.msg_type)
+        for listed in located.metadata.topics if located.metadata is not None else ():
+            found.setdefault(listed.name, set()).add(listed.msg_type)
+    return found
+
+
+def _normalised(
+    info: BagInfo, topic_types: Mapping[str, AbstractSet[str]] | None
+) -> dict[str, set[str]]:
+    """Topic -> its types, normalised (``pkg/msg/Name``), for every topic of ``info``."""
+    each = {topic.name: {normalise_type_name(topic.msg_type)} for topic in info.topics}
+    for name, found in (topic_types or {}).items():
+        each.setdefault(name, set()).update(normalise_type_name(t) for t in found if t)
+    return each
+
+
+def _check_types(wanted: set[str], each: Mapping[str, set[str]], path: Path) -> None:
+    present = set().union(*each.values()) - {""}
+    missing = sorted(wanted - present)
+    if not missing:
+        return
+    listed = ", ".join(sorted(present)) or "none"
+    hints = [hint for name in missing for hint in _close_types(name, present)]
+    hint = f"; did you mean {', '.join(hints)}?" if hints else ""
+    raise BagError(
+        f"{path}: no topic of type {', '.join(missing)} in this bag (types: {listed}){hint}"
+    )
+
+
+def _close_types(name: str, present: set[str]) -> list[str]:
+    """Types of the bag ``name`` may have meant: close in spelling, or of the same short name
+    (``Odometry``, ``nav_msgs.msg.Odometry`` for ``nav_msgs/msg/Odometry``)."""
+    short = name.replace(".", "/").rsplit("/", 1)[-1]
+    same_short = [t for t in sorted(present) if t.rsplit("/", 1)[-1] == short]
+    # Types share "_msgs/msg/", which lifts every ratio: only a near-identical one is a hint.
+    close = difflib.get_close_matches(name, sorted(present), n=1, cutoff=0.8)
+    return list(dict.fromkeys([*same_short, *close]))

@@ -33,7 +33,7 @@ from typing import TYPE_CHECKING, Any
 import zenoh
 
 from pyconnect.codecs.registry import Registry, default_registry
-from pyconnect.errors import ConnectionTimeout, PyconnectError, TransportError
+from pyconnect.errors import ConnectionTimeout, PyconnectError, TransportError, type_name_of
 from pyconnect.ros.agent_options import OptionError
 from pyconnect.ros.large_messages import apply_malloc_settings
 from pyconnect.ros.option_checks import check_options
@@ -51,6 +51,7 @@ from pyconnect.transport.peer_options import (
     accepted_options,
     depth_from_qos,
 )
+from pyconnect.transport.ros_names import RosNameError, namespace_problem, node_name_problem
 from pyconnect.transport.session_config import session_config
 
 if TYPE_CHECKING:
@@ -71,6 +72,22 @@ def default_domain_id() -> int:
         raise TransportError(f"ROS_DOMAIN_ID: expected an integer, got {text!r}") from None
 
 
+def node_namespace(name: str, namespace: str) -> str:
+    """The peer's namespace, ``/``-rooted as rcl_node_init makes it, once ``name`` and it pass
+    rmw's node name and namespace rules (``RosNameError`` names the peer and the rule)."""
+    for what, value in (("name", name), ("namespace", namespace)):
+        if not isinstance(value, str):
+            raise RosNameError(f"peer {name!r}: {what}: expected a str, got {type_name_of(value)}")
+    problem = node_name_problem(name)
+    if problem is not None:
+        raise RosNameError(f"peer {name!r}: node name {problem}")
+    rooted = namespace if namespace.startswith("/") else f"/{namespace}"
+    problem = namespace_problem(rooted)
+    if problem is not None:
+        raise RosNameError(f"peer {name!r}: namespace {rooted!r} {problem}")
+    return rooted
+
+
 class Peer(ShutsDownOnExit):
     """A zenoh peer whose connections are agents: ``peer.agents[name].send/get``."""
 
@@ -89,10 +106,10 @@ class Peer(ShutsDownOnExit):
         stop_func: StopFunc | None = None,
         handle_signals: bool = True,
     ) -> None:
-        if not name or "/" in name:
-            raise PyconnectError(f"peer name: expected a ROS node name, got {name!r}")
+        # Checked before the session opens: a name zenoh refuses would leave it open, and
+        # one rcl refuses would make a node no ROS tool can address.
         self.name = name
-        self.namespace = namespace if namespace.startswith("/") else f"/{namespace}"
+        self.namespace = node_namespace(name, namespace)
         self.domain_id = default_domain_id() if domain_id is None else domain_id
         self.registry = registry or default_registry
         self.max_payload_bytes = max_payload_bytes

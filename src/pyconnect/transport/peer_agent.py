@@ -32,6 +32,7 @@ from pyconnect.transport.async_handlers import agent_loop, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
 from pyconnect.transport.graph import Graph
 from pyconnect.transport.periodic import run_every
+from pyconnect.transport.ros_names import resolve_name
 
 logger = logging.getLogger("pyconnect.transport")
 DEFAULT_DEPTH = 10
@@ -71,18 +72,27 @@ def reform_response(data: Any, *, error: str | None = None) -> Any:
     return data
 
 
-def absolute_name(conn_name: str, namespace: str) -> str:
-    """``conn_name`` resolved against the peer's namespace (``/``-rooted, as rclpy does)."""
-    if conn_name.startswith("/"):
-        return conn_name
-    base = namespace.rstrip("/")
-    return f"{base}/{conn_name}"
+def absolute_name(conn_name: str, namespace: str, node_name: str, kind: str = "topic") -> str:
+    """``conn_name`` resolved as rclpy resolves it for node ``node_name`` in ``namespace``:
+    ``~`` and relative names expanded, rcl's rules checked (``RosNameError`` names the rule),
+    so a peer's entities meet a ROS node's of the same ``conn_name``."""
+    return resolve_name(conn_name, node_name, namespace, kind)
+
+
+def name_kind(conn_type: str) -> str:
+    """What an agent's ``conn_name`` names, in rcl's error words: topic, service or action."""
+    for kind in ("service", "action"):
+        if conn_type.startswith(kind):
+            return kind
+    return "topic"
 
 
 class PeerAgent:
     """One connection of a ``Peer``."""
 
     conn_type: ClassVar[str] = ""
+    names_an_entity: ClassVar[bool] = True
+    """False for an agent whose ``conn_name`` is no ROS name (a timer): not resolved."""
 
     def __init__(
         self,
@@ -96,7 +106,12 @@ class PeerAgent:
         self.peer = peer
         self.name = agent_name or conn_name
         self.conn_name = conn_name
-        self.topic = absolute_name(conn_name, peer.namespace)
+        # A timer's conn_name only keys peer.agents: no ROS entity takes its name.
+        self.topic = (
+            conn_name
+            if not self.names_an_entity
+            else absolute_name(conn_name, peer.namespace, peer.name, name_kind(self.conn_type))
+        )
         self.type_name = type_name
         self.response_func = response_func
         self.last_error: str | None = None
@@ -247,6 +262,7 @@ class TimerAgent(PeerAgent):
     ``get()`` is its last return (an ``async def`` one's: what its coroutine returned)."""
 
     conn_type = "timer"
+    names_an_entity = False
 
     def __init__(
         self,

@@ -1,0 +1,83 @@
+"""open_bag's ``types=``: a type no topic of the bag has is refused, as a missing topic is."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from rclpy.serialization import serialize_message
+from std_msgs.msg import String
+
+from pyconnect.record.bag_errors import BagError
+from pyconnect.record.bag_reader import open_bag
+from pyconnect.record.mcap_recorder import McapRecorder
+
+
+def write(path: Path, topics: dict[str, str], *, cmd_vel: str | None = None) -> Path:
+    """A bag with one message on /chatter and none on its other ``topics`` (only their types
+    matter here); ``cmd_vel``: the geometry_msgs type of a /cmd_vel topic too."""
+    if cmd_vel is not None:
+        topics = {**topics, "/cmd_vel": f"geometry_msgs/msg/{cmd_vel}"}
+    with McapRecorder(path) as recorder:
+        for topic, msg_type in topics.items():
+            recorder.add_topic(topic, msg_type)
+        recorder.write("/chatter", bytes(serialize_message(String(data="hi"))), log_time_ns=1)
+    return path
+
+
+@pytest.fixture
+def bag(tmp_path: Path) -> Path:
+    return write(
+        tmp_path / "bag.mcap",
+        {"/chatter": "std_msgs/msg/String", "/odom": "nav_msgs/msg/Odometry"},
+    )
+
+
+@pytest.mark.parametrize(
+    ("wanted", "hint"),
+    [
+        ("nav_msgs/msg/Odometri", "; did you mean nav_msgs/msg/Odometry?"),
+        ("nav_msg/msg/Odometry", "; did you mean nav_msgs/msg/Odometry?"),
+        ("Odometry", "; did you mean nav_msgs/msg/Odometry?"),
+        ("nav_msgs.msg.Odometry", "; did you mean nav_msgs/msg/Odometry?"),
+        ("sensor_msgs/msg/Image", ""),
+    ],
+)
+def test_a_type_the_bag_lacks_is_refused_with_its_types(bag: Path, wanted: str, hint: str) -> None:
+    with pytest.raises(BagError) as error:
+        open_bag(bag, types=[wanted])
+    assert str(error.value) == (
+        f"{bag}: no topic of type {wanted} in this bag "
+        f"(types: nav_msgs/msg/Odometry, std_msgs/msg/String){hint}"
+    )
+
+
+def test_the_spellings_accepted_before_still_select(bag: Path) -> None:
+    for spelling in ("std_msgs/msg/String", "std_msgs/String", ["std_msgs/String"]):
+        with open_bag(bag, types=spelling) as reader:
+            assert list(reader.topics) == ["/chatter"]
+            assert [m.value for m in reader] == ["hi"]
+
+
+def test_a_type_of_one_of_several_bags_is_taken(bag: Path, tmp_path: Path) -> None:
+    other = write(tmp_path / "other.mcap", {"/chatter": "std_msgs/msg/String"})
+    # As with topics=: what any of the bags has counts.
+    with open_bag([other, bag], types=["nav_msgs/msg/Odometry"]) as reader:
+        assert list(reader.topics) == ["/odom"]
+    with open_bag([other, bag], topics=["/odom"]) as reader:
+        assert list(reader.topics) == ["/odom"]
+    with pytest.raises(BagError) as error:
+        open_bag([other, bag], types=["nav_msgs/msg/Odom"])
+    assert str(error.value) == (
+        f"{other}: no topic of type nav_msgs/msg/Odom in this bag "
+        "(types: nav_msgs/msg/Odometry, std_msgs/msg/String); did you mean nav_msgs/msg/Odometry?"
+    )
+
+
+def test_a_type_a_topic_has_in_a_later_bag_only_is_taken(tmp_path: Path) -> None:
+    # The merged topic's type is the first bag's (Twist): TwistStamped is still a type of it.
+    old = write(tmp_path / "old.mcap", {"/chatter": "std_msgs/msg/String"}, cmd_vel="Twist")
+    new = write(tmp_path / "new.mcap", {"/chatter": "std_msgs/msg/String"}, cmd_vel="TwistStamped")
+    for wanted in ("geometry_msgs/msg/TwistStamped", "geometry_msgs/Twist"):
+        with open_bag([old, new], types=[wanted]) as reader:
+            assert list(reader.topics) == ["/cmd_vel"]
