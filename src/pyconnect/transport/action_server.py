@@ -254,6 +254,9 @@ class ActionServerAgent(PeerAgent):
         except Exception as error:
             self.report_exception(where, error)
             self._abort(goal, f"{type(error).__name__}: {error}")
+        except BaseException as error:  # sys.exit() in response_func: abort, then shut down
+            self._abort(goal, f"{type(error).__name__}: {error}")
+            self.exit_requested(where, error)
 
     def _warn_of_none(self) -> None:
         # A handler that forgot its ``return`` succeeded with an empty result without a word;

@@ -60,6 +60,8 @@ class Peer(Protocol):
 
     def ok(self) -> bool: ...
 
+    def shutdown(self) -> None: ...
+
 
 def reform_response(data: Any, *, error: str | None = None) -> Any:
     """``CustomNode``'s response contract: dicts get ``'isdone'``; failures carry ``'error'``."""
@@ -171,6 +173,13 @@ class PeerAgent:
         self.error_count += 1
         logger.error("%s\n%s", self.last_error, text.rstrip())
 
+    def exit_requested(self, where: str, error: BaseException) -> None:
+        """A handler called ``sys.exit()`` (or was interrupted): report it and shut the peer
+        down, so ``spin()`` returns, as a ``CustomNode`` does; the agent's thread, which the
+        exception would have ended without a word, goes on until the shutdown closes it."""
+        self.report_exception(where, error)
+        self.peer.shutdown()  # on an agent's thread: started in the background
+
     def close(self) -> None:
         """Undeclare the zenoh entities (the peer calls this on shutdown)."""
 
@@ -228,7 +237,8 @@ class Inbox(Generic[_Item]):
                     item = self._items.popleft()
                 try:
                     self._handle(item)
-                except Exception as error:  # the handlers report their own; this is the backstop
+                except BaseException as error:  # the handlers report their own: the backstop
+                    # (a SystemExit here would end the thread, and nothing would be handled)
                     logger.error(
                         "%s: handler raised %s: %s", self._thread.name, type(error).__name__, error
                     )
@@ -298,6 +308,8 @@ class TimerAgent(PeerAgent):
             self._latest = settle(self._handler())
         except Exception as error:
             self.report_exception("response_func", error)
+        except BaseException as error:  # sys.exit() in the handler
+            self.exit_requested("response_func", error)
 
     def close(self) -> None:
         self._stop.set()

@@ -129,6 +129,9 @@ class ServiceServerAgent(PeerAgent):
         except Exception as error:
             self.report_exception(where, error)
             return self._error_response(f"{type(error).__name__}: {error}")
+        except BaseException as error:  # sys.exit() in response_func: answer, then shut down
+            self.exit_requested(where, error)
+            return self._error_response(f"{type(error).__name__}: {error}")
 
     def _warn_of_none(self, default: bytes) -> None:
         # A handler that forgot its ``return`` answered success=False and an empty message

@@ -229,6 +229,8 @@ class SubscriberAgent(PeerAgent):
                     handle(take())
                 except Exception as error:
                     self.report_exception("receive", error)
+                except BaseException as error:  # sys.exit() in response_func
+                    self.exit_requested("receive", error)
 
     def _keep_last(self, backlog: collections.deque[zenoh.Sample]) -> None:
         """Skip all but the newest ``depth`` waiting samples (the agent fell behind).
