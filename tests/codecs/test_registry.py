@@ -11,7 +11,7 @@ import pytest
 
 from pyconnect import codecs
 from pyconnect.codecs import ActionCodec, DictCodec, Registry, ServiceCodec
-from pyconnect.errors import CodecError, CodecNotFoundError, PyconnectError
+from pyconnect.errors import CodecError, CodecNotFoundError, DecodeError, PyconnectError
 
 
 class UpperStringCodec:
@@ -254,3 +254,74 @@ def test_import_registers_nothing() -> None:
         "()",
     )
     assert result.stdout.strip() == "0", result.stderr
+
+
+def test_registering_a_codec_class_instead_of_an_instance_is_refused() -> None:
+    # The runtime Codec protocol matches the class too: it was accepted, then every encode and
+    # decode raised "UpperStringCodec.encode() missing 1 required positional argument".
+    registry = Registry()
+    with pytest.raises(PyconnectError) as raised:
+        registry.register("std_msgs/msg/String", UpperStringCodec)  # type: ignore[arg-type]
+    assert str(raised.value) == (
+        "register(std_msgs/msg/String): expected a codec instance, got the class "
+        "UpperStringCodec; did you mean UpperStringCodec()?"
+    )
+    assert not isinstance(registry.lookup("std_msgs/msg/String"), UpperStringCodec)
+
+
+def test_registering_a_codec_whose_encode_is_not_callable_is_refused() -> None:
+    codec = UpperStringCodec()
+    codec.encode = "upper"  # type: ignore[assignment,method-assign]
+    with pytest.raises(PyconnectError) as raised:
+        Registry().register("std_msgs/msg/String", codec)
+    assert str(raised.value) == (
+        "register(std_msgs/msg/String): UpperStringCodec.encode: expected a method, got str"
+    )
+
+
+def test_unregistering_a_type_that_does_not_exist_is_refused() -> None:
+    # A misspelt name was a silent no-op that left the user codec in place.
+    registry = Registry()
+    registry.register("std_msgs/msg/String", UpperStringCodec())
+    with pytest.raises(CodecNotFoundError) as typo:
+        registry.unregister("std_msgs/msg/Strng")
+    assert str(typo.value) == (
+        "unregister(std_msgs/msg/Strng): no such type: not installed, not in generated/ and "
+        "not registered by definition (wire.register_definition); "
+        "did you mean std_msgs/msg/String?"
+    )
+    with pytest.raises(CodecNotFoundError, match=r"^unregister\(std_msg/msg/String\): no such"):
+        registry.unregister("std_msg/msg/String")
+    assert isinstance(registry.lookup("std_msgs/msg/String"), UpperStringCodec)
+    registry.unregister("std_msgs/msg/Int32")  # a type without a user codec: nothing to do
+    registry.unregister("std_msgs/String")
+    assert not isinstance(registry.lookup("std_msgs/msg/String"), UpperStringCodec)
+
+
+def test_decoding_a_message_class_instead_of_a_message_says_so() -> None:
+    from sensor_msgs.msg import Image
+
+    expected = "expected a message, got the class Image; did you mean Image()?"
+    for call in (codecs.decode, codecs.to_dict, lambda msg: codecs.decode(msg, stamped=True)):
+        with pytest.raises(DecodeError) as raised:
+            call(Image)
+        assert str(raised.value) == expected
+
+
+def test_the_wire_codec_of_a_service_or_action_names_its_parts() -> None:
+    # It said "no such type in its installed package", though the service is installed.
+    registry = Registry()
+    with pytest.raises(CodecNotFoundError) as service:
+        registry.wire_codec("std_srvs/srv/SetBool")
+    assert str(service.value) == (
+        "std_srvs/srv/SetBool is a service, not a message: only its parts go on the wire "
+        "(std_srvs/srv/SetBool_Request / std_srvs/srv/SetBool_Response)"
+    )
+    with pytest.raises(CodecNotFoundError) as action:
+        codecs.wire.encode({}, "test_msgs/action/Fibonacci", registry=registry)
+    assert str(action.value) == (
+        "test_msgs/action/Fibonacci is an action, not a message: only its parts go on the wire "
+        "(test_msgs/action/Fibonacci_Goal / test_msgs/action/Fibonacci_Result / "
+        "test_msgs/action/Fibonacci_Feedback)"
+    )
+    assert codecs.wire.encode({"data": True}, "std_srvs/SetBool_Request", registry=registry)

@@ -13,6 +13,7 @@ from std_srvs.srv import Trigger
 
 from pyconnect.errors import ConnectionTimeout, PyconnectError
 from pyconnect.ros.agent_factory import AGENT_CLASS_DICT, make_agent
+from pyconnect.ros.agent_options import OptionError
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.qos import follows_publishers, resolve_qos
 
@@ -399,3 +400,22 @@ def test_a_codec_of_another_type_is_refused_when_the_agent_is_made(make_node: An
         caught.value
     )
     assert "'geometry_msgs/msg/Twist'" in str(caught.value)
+
+
+def test_add_agents_refuses_one_dict_or_a_list_of_non_dicts(make_node: Any) -> None:
+    # One dict was iterated as its keys: "'str' object has no attribute 'get'".
+    node = make_node("add_agents_shape")
+    with pytest.raises(OptionError) as one:
+        node.add_agents({"conn_name": "g", "conn_type": "pub", "data_interface": String})  # type: ignore[arg-type]
+    expected = "expected a list of agent dicts, got dict; for one agent call add_agent(config)"
+    assert str(one.value) == f"add_agents: {expected}"
+    with pytest.raises(OptionError) as text:
+        node.add_agents("g")  # type: ignore[arg-type]
+    assert str(text.value) == "add_agents: expected a list of agent dicts, got str"
+    with pytest.raises(OptionError) as number:
+        node.add_agents(5)  # type: ignore[arg-type]
+    assert str(number.value) == "add_agents: expected a list of agent dicts, got int"
+    with pytest.raises(OptionError) as item:
+        node.add_agents([{"conn_name": "g", "conn_type": "pub", "data_interface": String}, "h"])  # type: ignore[list-item]
+    assert str(item.value) == "add_agents: configs[1]: expected an agent dict, got str"
+    assert not node.agents  # checked before any agent was made

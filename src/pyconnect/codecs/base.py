@@ -6,7 +6,8 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
-from pyconnect.errors import CodecError
+from pyconnect.errors import CodecError, CodecNotFoundError, DecodeError, type_name_of
+from pyconnect.typesys.names import full_type_name
 
 
 @runtime_checkable
@@ -103,6 +104,19 @@ class FieldsCodec:
         return build
 
 
+def wrong_message(msg: object, expected: str) -> DecodeError:
+    """The error of a codec of ``expected`` given something else: a message of another type
+    (``lookup(Image).decode(Point())``) or a message class instead of a message."""
+    if isinstance(msg, type):
+        name = msg.__name__
+        return DecodeError(f"expected a message, got the class {name}; did you mean {name}()?")
+    try:
+        actual = full_type_name(msg)
+    except CodecNotFoundError:
+        actual = type_name_of(msg)
+    return DecodeError(f"expected {expected}, got {actual}")
+
+
 @dataclass(frozen=True)
 class DictCodec:
     """The lossless plain-dict codec of one message type, backed by generated functions."""
@@ -114,7 +128,12 @@ class DictCodec:
     lossless: bool = True
 
     def decode(self, msg: Any) -> dict[str, Any]:
-        return self.to_dict(msg)
+        try:
+            return self.to_dict(msg)
+        except AttributeError:  # free until raised: lookup(X).decode(y) with y of another type
+            if type(msg) is self.msg_class:
+                raise
+            raise wrong_message(msg, self.msg_type) from None
 
     def encode(self, value: Any) -> Any:
         return self.from_dict(value)

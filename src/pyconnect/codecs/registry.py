@@ -23,6 +23,7 @@ from pyconnect.codecs.base import (
     FieldsCodec,
     NaturalCodec,
     ServiceCodec,
+    wrong_message,
 )
 from pyconnect.codecs.natural import NATURAL_CODECS
 from pyconnect.codecs.stamped import Stamped, decode_stamped, encode_stamped
@@ -89,11 +90,9 @@ class Registry:
     def register(self, type_ref: object, codec: Codec, *, override: bool = False) -> None:
         """Make ``codec`` the codec of ``type_ref``; a second user codec needs ``override=True``."""
         full_name = self.resolve(type_ref)
-        if not isinstance(codec, Codec):
-            raise PyconnectError(
-                f"register({full_name}): expected a codec with msg_type, lossless, encode and "
-                f"decode, got {type(codec).__name__}"
-            )
+        problem = codec_problem(codec)
+        if problem is not None:
+            raise PyconnectError(f"register({full_name}): {problem}")
         self._check_registrable(full_name, codec)
         with self._lock:
             if full_name in self._user and not override:
@@ -142,6 +141,13 @@ class Registry:
         """Remove the user codec of ``type_ref``; lookups fall back to the built-in ones."""
         full_name = self.resolve(type_ref)
         with self._lock:
+            if full_name not in self._user and not self._type_exists(full_name):
+                # A misspelt name would leave the user codec in place without a word.
+                raise CodecNotFoundError(
+                    f"unregister({full_name}): no such type: not installed, not in generated/ "
+                    "and not registered by definition (wire.register_definition)"
+                    f"{close_names_hint(full_name)}"
+                )
             self._user.pop(full_name, None)
             self._forget_values()
 
@@ -275,6 +281,7 @@ class Registry:
                 codec = record.wire
                 if codec is None:
                     full_name = record.full_name
+                    _check_wire_message(full_name)
                     from pyconnect.codecs.wire_codec import WireCodec
 
                     code = generated_wire_code(full_name) or compiled_wire_code(full_name)
@@ -354,7 +361,12 @@ class Registry:
     # -- conveniences -------------------------------------------------------------------------
     def decode(self, msg: Any, *, stamped: bool = False) -> Any:
         """Decode a ROS message with its codec; ``stamped=True`` wraps it in ``Stamped``."""
-        codec = self.lookup_message(type(msg))
+        try:
+            codec = self.lookup_message(type(msg))
+        except CodecNotFoundError:
+            if isinstance(msg, type):  # decode(Image): the metaclass names no type
+                raise wrong_message(msg, "a message") from None
+            raise
         if stamped:
             return decode_stamped(codec, msg)
         return codec.decode(msg)
@@ -368,11 +380,52 @@ class Registry:
 
     def to_dict(self, msg: Any) -> dict[str, Any]:
         """The lossless plain dict of any message."""
-        return self.lookup_dict(type(msg)).to_dict(msg)
+        try:
+            codec = self.lookup_dict(type(msg))
+        except CodecNotFoundError:
+            if isinstance(msg, type):
+                raise wrong_message(msg, "a message") from None
+            raise
+        return codec.to_dict(msg)
 
     def from_dict(self, data: Mapping[str, Any], type_ref: object) -> Any:
         """A new message of ``type_ref`` built from a plain dict (missing keys take defaults)."""
         return self.lookup_dict(type_ref).from_dict(data)
+
+
+def _check_wire_message(full_name: str) -> None:
+    # Only messages go on the wire; a service or action is sent as its parts.
+    package, namespace, name = full_name.split("/")
+    if namespace in ("srv", "action") and is_interface_name(name):
+        kind = "a service" if namespace == "srv" else "an action"
+        suffixes = ("Request", "Response") if namespace == "srv" else ("Goal", "Result", "Feedback")
+        parts = " / ".join(f"{package}/{namespace}/{name}_{suffix}" for suffix in suffixes)
+        raise CodecNotFoundError(
+            f"{full_name} is {kind}, not a message: only its parts go on the wire ({parts})"
+        )
+
+
+def codec_problem(codec: object) -> str | None:
+    """Why ``codec`` cannot serve as a codec (None when it can); the text names the mistake.
+
+    The runtime ``Codec`` protocol only asks for the attributes, which a codec class has too.
+    """
+    if isinstance(codec, type):
+        name = codec.__name__
+        return f"expected a codec instance, got the class {name}; did you mean {name}()?"
+    if not isinstance(codec, Codec):
+        return (
+            "expected a codec with msg_type, lossless, encode and decode, "
+            f"got {type(codec).__name__}"
+        )
+    for method in ("encode", "decode"):
+        attribute = getattr(codec, method)
+        if not callable(attribute):
+            return (
+                f"{type(codec).__name__}.{method}: expected a method, "
+                f"got {type(attribute).__name__}"
+            )
+    return None
 
 
 def _interface_exists(parsed: TypeName, namespace: str) -> bool:

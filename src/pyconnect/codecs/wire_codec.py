@@ -18,7 +18,7 @@ from pyconnect.codecs.point_cloud import point_cloud_layout
 from pyconnect.codecs.point_cloud_cdr import cloud_cdr, writes_in_one_pass
 from pyconnect.codecs.stamped import Stamped, stamped_header
 from pyconnect.codecs.type_code import WireCode
-from pyconnect.errors import CodecNotFoundError, DecodeError, EncodeError
+from pyconnect.errors import CodecNotFoundError, DecodeError, EncodeError, type_name_of
 
 
 class ValueCodecs(Protocol):
@@ -61,6 +61,8 @@ class WireCodec:
             mv, is_little = body_of(data)
         except DecodeError as error:  # the header's errors name the type like the others
             raise DecodeError(f"{self.msg_type}: {error}") from None
+        except TypeError as error:  # memoryview's words name neither the type nor the input
+            raise DecodeError(f"{self.msg_type}: {_not_cdr(data, error)}") from None
         lim = len(mv)
         try:
             value, end = (little if is_little else big)(mv, 0, lim)
@@ -182,3 +184,11 @@ class WireCodec:
                 f"expected a {self.msg_type} message"
             )
         return dict_codec.to_dict(msg)
+
+
+def _not_cdr(data: Any, error: TypeError) -> str:
+    try:
+        memoryview(data)
+    except TypeError:
+        return f"expected bytes-like CDR data, got {type_name_of(data)}"
+    return f"expected contiguous bytes-like CDR data: {error}"

@@ -6,8 +6,11 @@ subclass whose keyword-only ``__init__`` options are the config keys it uses).
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
+
+from rclpy.callback_groups import CallbackGroup
 
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.action_client_agent import ActionClientAgent
@@ -71,9 +74,13 @@ def build_agent(node: AgentHost, given: Mapping[str, Any]) -> NodeAgent:
     name = agent_name or conn_name
     if conn_type is None:
         raise OptionError(f"agent {name!r}: missing option 'conn_type'")
+    if not isinstance(conn_type, str):  # a list made AGENT_CLASS_DICT raise "unhashable"
+        raise OptionError(f"agent {name!r}: conn_type: expected one of {_KINDS}, got {conn_type!r}")
     transport = given.pop("transport", None)
     if transport is not None:  # a bridge to non-ROS peers (issue 13): its own module decides
         from pyconnect.ros.zenoh_bridge import make_bridge_agent
+
+        _check_values(None, given, f"agent {name!r} ({conn_type})")
 
         return make_bridge_agent(
             node,
@@ -86,10 +93,10 @@ def build_agent(node: AgentHost, given: Mapping[str, Any]) -> NodeAgent:
     agent_class = AGENT_CLASS_DICT.get(conn_type)
     if agent_class is None:
         raise PyconnectError(
-            f"agent {name!r}: unknown conn_type {conn_type!r}; expected one of "
-            f"{', '.join(repr(kind) for kind in AGENT_CLASS_DICT)}"
+            f"agent {name!r}: unknown conn_type {conn_type!r}; expected one of {_KINDS}"
         )
     _check_options(agent_class, given, f"agent {name!r} ({conn_type})")
+    _check_values(agent_class, given, f"agent {name!r} ({conn_type})")
     try:
         return agent_class(node, conn_name=conn_name, agent_name=agent_name, **given)
     except PyconnectError as error:
@@ -109,3 +116,64 @@ def shared_options_for(conn_type: object, shared: Mapping[str, Any]) -> dict[str
 
 def _check_options(agent_class: type[NodeAgent], given: Mapping[str, Any], where: str) -> None:
     check_options(agent_class, given, where, kind=agent_class.conn_type or agent_class.__name__)
+
+
+_KINDS = ", ".join(repr(kind) for kind in AGENT_CLASS_DICT)
+_FUNCTION_OPTIONS = (
+    "encode_func",
+    "decode_func",
+    "response_func",
+    "accepted_func",
+    "feedback_func",
+)
+
+
+def _check_values(
+    agent_class: type[NodeAgent] | None, given: Mapping[str, Any], where: str
+) -> None:
+    """Refuse function and callback-group options of the wrong type now: a string given as
+    ``response_func`` was logged as "not callable" once per message, and a wrong callback group
+    failed inside rclpy in its own words."""
+    for option in _FUNCTION_OPTIONS:
+        function = given.get(option)
+        if function is not None and not callable(function):
+            hint = "; pass the function itself, not its name" if isinstance(function, str) else ""
+            raise OptionError(f"{where}: {option}: expected a callable, got {function!r}{hint}")
+    group = given.get("callback_group")
+    if group is not None and not isinstance(group, CallbackGroup):
+        if isinstance(group, type) and issubclass(group, CallbackGroup):
+            actual = f"the class {group.__name__}; did you mean {group.__name__}()?"
+        else:
+            actual = repr(group)
+        raise OptionError(
+            f"{where}: callback_group: expected an rclpy CallbackGroup (e.g. "
+            f"ReentrantCallbackGroup()), got {actual}"
+        )
+    if agent_class is not None and issubclass(agent_class, TimerAgent):
+        problem = _tick_problem(given.get("response_func"))
+        if problem is not None:
+            raise OptionError(f"{where}: response_func: {problem}")
+
+
+def _tick_problem(function: object) -> str | None:
+    # A timer calls response_func with no arguments; a required parameter fails every tick.
+    if not callable(function):
+        return None
+    try:
+        signature = inspect.signature(function)
+    except (TypeError, ValueError):  # builtins without a readable signature: let them run
+        return None
+    try:
+        signature.bind()
+    except TypeError:
+        required = [
+            parameter.name
+            for parameter in signature.parameters.values()
+            if parameter.default is inspect.Parameter.empty
+            and parameter.kind
+            not in (inspect.Parameter.VAR_POSITIONAL, inspect.Parameter.VAR_KEYWORD)
+        ]
+        return (
+            f"a timer calls it with no arguments, but it requires {', '.join(map(repr, required))}"
+        )
+    return None

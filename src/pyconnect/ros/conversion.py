@@ -92,9 +92,13 @@ class MessageConversion:
                 return value, False
             if value is None and self.is_empty:
                 return self.msg_class(), False
-            if isinstance(value, Stamped):
-                return encode_stamped(self.codec, value), True
-            return self.codec.encode(value), False
+            stamped = isinstance(value, Stamped)
+            msg = encode_stamped(self.codec, value) if stamped else self.codec.encode(value)
+            # A codec that builds another class would fail in rclpy naming neither the agent
+            # nor the codec (a service server would never answer); one identity test here.
+            if type(msg) is not self.msg_class and not isinstance(msg, self.msg_class):
+                raise self._wrong_class(msg)
+            return msg, stamped
         except CodecError as error:
             if str(error).startswith(self.describe):
                 raise
@@ -107,6 +111,12 @@ class MessageConversion:
                 f"{self.describe}: {where} raised {type(error).__name__} for "
                 f"{_short_repr(value)}: {error}"
             ) from error
+
+    def _wrong_class(self, msg: Any) -> EncodeError:
+        return EncodeError(
+            f"codec {type(self.codec).__name__}.encode returned {type(msg).__name__}, "
+            f"expected {self.msg_type}"
+        )
 
 
 def _short_repr(value: Any) -> str:

@@ -40,7 +40,7 @@ from pyconnect.codecs.registry import Registry, default_registry
 from pyconnect.errors import ConnectionTimeout, PyconnectError
 from pyconnect.ros.agent_executor import AgentExecutor
 from pyconnect.ros.agent_factory import build_agent, shared_options_for
-from pyconnect.ros.agent_options import AgentOptions
+from pyconnect.ros.agent_options import AgentOptions, OptionError
 from pyconnect.ros.coroutines import CoroutineRunner
 from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER
 from pyconnect.ros.node_agent import NodeAgent
@@ -201,6 +201,19 @@ class CustomNode(NodeLogging, NodeShutdown, Node):  # type: ignore[misc]
     ) -> list[NodeAgent]:
         """``add_agent`` per config; ``shared_options`` apply unless a config overrides them,
         and only to the kinds that use them (they are defaults)."""
+        # One dict was iterated as its keys: "'str' object has no attribute 'get'".
+        if isinstance(configs, Mapping | str | bytes) or not isinstance(configs, Iterable):
+            hint = "; for one agent call add_agent(config)" if isinstance(configs, Mapping) else ""
+            raise OptionError(
+                f"add_agents: expected a list of agent dicts, got {type(configs).__name__}{hint}"
+            )
+        configs = list(configs)
+        for index, config in enumerate(configs):  # before any agent is made
+            if not isinstance(config, Mapping):
+                raise OptionError(
+                    f"add_agents: configs[{index}]: expected an agent dict, "
+                    f"got {type(config).__name__}"
+                )
         agents = []
         for config in configs:
             kind = config.get("conn_type", shared_options.get("conn_type"))

@@ -22,6 +22,7 @@ from typing import Any, ClassVar
 from rclpy.callback_groups import CallbackGroup, MutuallyExclusiveCallbackGroup
 
 from pyconnect.codecs.base import Codec
+from pyconnect.codecs.registry import codec_problem
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
@@ -105,12 +106,10 @@ class NodeAgent:
         created instead of at its first message (pass it for the directions the agent uses).
         """
         registry = self.node.registry
-        if codec is not None and not isinstance(codec, Codec):
-            raise self.error(
-                f"codec: expected a codec with msg_type, lossless, encode and decode, "
-                f"got {type(codec).__name__}"
-            )
         if codec is not None:
+            problem = codec_problem(codec)
+            if problem is not None:
+                raise self.error(f"codec: {problem}")
             # A codec of another type failed only at the first send, in rclpy's words.
             wanted, own = registry.resolve(msg_class), _resolved(registry, codec.msg_type)
             if own != wanted:
