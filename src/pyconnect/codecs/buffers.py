@@ -57,8 +57,15 @@ def byte_view(data: Any) -> npt.NDArray[np.uint8]:
 
 
 def contiguous_bytes(values: npt.NDArray[Any]) -> memoryview:
-    """A flat byte memoryview of ``values``; copies only when it is not C-contiguous."""
+    """A flat byte memoryview of ``values``; copies only when it is not C-contiguous.
+
+    A structured dtype with gaps (a point cloud's padding) is copied byte for byte:
+    ``ascontiguousarray`` would copy its fields only and leave the gaps uninitialised.
+    """
     if not values.flags.c_contiguous:
+        if values.dtype.names is not None:
+            # A trailing axis of length 1 may take any stride, so its items view as bytes.
+            values = values[..., np.newaxis].view(np.uint8)
         values = np.ascontiguousarray(values)
     if not values.size:
         return memoryview(b"")

@@ -1,4 +1,4 @@
-"""Read a PNG's or JPEG's size from its header, and refuse payloads too small for that size.
+"""Read a PNG's, JPEG's or TIFF's size from its header; refuse payloads too small for that size.
 
 OpenCV allocates the whole image from the header before it reads the pixels, and libjpeg fills
 what is missing: a 161-byte JPEG claiming 30000 x 20000 pixels costs 1.8 GB and a second. Each
@@ -9,7 +9,11 @@ its payload can hold is damage, found before any decoding:
   the inflated data;
 - JPEG with Huffman coding: every 8x8 block of the full-resolution component costs at least
   one bit (its DC code), so at most 512 pixels per payload byte; arithmetic coding (rare) gets
-  64 times more room.
+  64 times more room;
+- TIFF (compressed_image_transport's ``format=tiff``): the first image's size, samples and
+  compression from its first directory; deflate expands at most 1032:1, LZW (12-bit codes)
+  about 1365:1, PackBits 64:1, no compression 1:1, and any other scheme gets 32768:1 (JPEG's
+  bound with arithmetic coding).
 """
 
 from __future__ import annotations
@@ -25,13 +29,18 @@ _PNG_SAMPLES = {0: 1, 2: 3, 3: 1, 4: 2, 6: 4}  # colour type -> samples per pixe
 _JPEG_PIXELS_PER_BYTE = 512
 _ARITHMETIC_SOF = frozenset((0xC9, 0xCA, 0xCB, 0xCD, 0xCE, 0xCF))
 _NO_LENGTH = frozenset((0x01, *range(0xD0, 0xD8)))  # TEM and RSTn stand alone
+_TIFF_ORDERS = {b"II*\0": "<", b"MM\0*": ">"}
+# TIFF compression code -> most bytes of pixels one payload byte can hold.
+_TIFF_RATIOS = {1: 1, 5: 1400, 8: _DEFLATE_MAX_RATIO, 32946: _DEFLATE_MAX_RATIO, 32773: 64}
+_TIFF_OTHER_RATIO = 32768
+_TIFF_VALUE_SIZES = {3: 2, 4: 4}  # SHORT, LONG
 
 
 def check_payload(payload: Any, what: str) -> tuple[int, int]:
-    """(width, height) from a PNG or JPEG header; ``DecodeError`` if it cannot hold them.
+    """(width, height) from a PNG, JPEG or TIFF header; ``DecodeError`` if it cannot hold them.
 
-    Payloads that are neither PNG nor JPEG, or whose header is malformed, get OpenCV's
-    answer for undecodable data: ``cannot decode N bytes as <what>``.
+    Payloads that are none of these, or whose header is malformed, get OpenCV's answer for
+    undecodable data: ``cannot decode N bytes as <what>``.
     """
     head = bytes(payload[:8])
     found: tuple[int, int, int] | None = None
@@ -48,6 +57,13 @@ def check_payload(payload: Any, what: str) -> tuple[int, int]:
             per_byte = _JPEG_PIXELS_PER_BYTE * (64 if arithmetic else 1)
             if width * height > per_byte * len(payload):
                 raise _too_small(payload, what, width, height)
+    elif head[:4] in _TIFF_ORDERS:
+        tiff = _tiff_header(payload, _TIFF_ORDERS[head[:4]])
+        if tiff is not None:
+            width, height, bits, ratio = tiff
+            if width * height * bits > 8 * ratio * len(payload):
+                raise _too_small(payload, what, width, height)
+            found = (width, height, bits)
     if found is None:
         raise DecodeError(f"CompressedImage.data: cannot decode {len(payload)} bytes as {what}")
     return found[0], found[1]
@@ -119,3 +135,35 @@ def _jpeg_header(payload: Any) -> tuple[int, int, int] | None:
             break
         pos += 2 + length
     return None
+
+
+def _tiff_header(payload: Any, order: str) -> tuple[int, int, int, int] | None:
+    """Width, height, bits per pixel and the compression's largest expansion, from the first
+    image file directory (TIFF 6.0's defaults for what it leaves out)."""
+    view = memoryview(payload).cast("B") if not isinstance(payload, bytes) else payload
+    size = len(view)
+    if size < 8:
+        return None
+    (directory,) = struct.unpack_from(order + "I", view, 4)
+    if directory > size - 2:
+        return None
+    (entries,) = struct.unpack_from(order + "H", view, directory)
+    if entries > (size - directory - 2) // 12:
+        return None
+    values = {256: 0, 257: 0, 258: 1, 259: 1, 277: 1}  # width, height, bits, compression, samples
+    for pos in range(directory + 2, directory + 2 + 12 * entries, 12):
+        tag, kind, count = struct.unpack_from(order + "HHI", view, pos)
+        item = _TIFF_VALUE_SIZES.get(kind)
+        if tag not in values or item is None or not count:
+            continue
+        at = pos + 8
+        if count * item > 4:  # the values are elsewhere; the first is enough
+            (at,) = struct.unpack_from(order + "I", view, pos + 8)
+            if at > size - item:
+                return None
+        (values[tag],) = struct.unpack_from(order + ("H" if item == 2 else "I"), view, at)
+    width, height = values[256], values[257]
+    if not width or not height:
+        return None
+    ratio = _TIFF_RATIOS.get(values[259], _TIFF_OTHER_RATIO)
+    return width, height, max(values[258], 1) * max(values[277], 1), ratio

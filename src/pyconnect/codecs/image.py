@@ -8,7 +8,8 @@ big-endian array is written as is with ``is_bigendian = 1``.
 
 Dropped (so ``lossless`` is False): the header (use ``stamped=True``), row padding, and for a
 native-order array the original byte order. The semi-planar ``nv21``/``nv12``/``nv24``
-encodings decode to all their buffer rows (see ``image_encodings``).
+encodings decode to all their buffer rows (see ``image_encodings``); a padded ``nv24`` is the
+one copy on decode, as its chroma rows have twice the luma rows' padding.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pyconnect.codecs.base import FieldsCodec
+from pyconnect.codecs.base import FieldsCodec, wrong_message
 from pyconnect.codecs.buffers import byte_array, contiguous_bytes
 from pyconnect.codecs.image_encodings import (
     UnknownEncodingError,
@@ -65,7 +66,10 @@ def decode_image(msg: Any) -> npt.NDArray[Any]:
     reader = _READERS.get(cls)
     if reader is None:
         reader = _READERS[cls] = field_reader(cls, _FIELDS)
-    encoding, big_endian, height, width, step, data = reader(msg)
+    try:
+        encoding, big_endian, height, width, step, data = reader(msg)
+    except AttributeError:  # free until raised: lookup(Image).decode(y) with y of another type
+        raise wrong_message(msg, "sensor_msgs/msg/Image") from None
     # 0/1 and False/True hash alike, so the raw flag is the key.
     layout = _LAYOUTS.get((encoding, big_endian)) or _layout(encoding, bool(big_endian))
     dtype, channels, pixel_bytes, rows_per_row, itemsize = layout
@@ -88,12 +92,29 @@ def decode_image(msg: Any) -> npt.NDArray[Any]:
             # Without explicit strides numpy builds the view about 2.5* faster.
             view: npt.NDArray[Any] = np.ndarray(shape, dtype, buffer=data)
             return view
+        if encoding == "nv24":
+            return nv24_rows(data, height, width, step)
         strides = (step, itemsize) if channels == 1 else (step, pixel_bytes, itemsize)
         view = np.ndarray(shape, dtype, buffer=data, strides=strides)
         return view
     except TypeError:
         # Not a buffer (a list of ints built by hand): one copy is the best there is.
+        if encoding == "nv24":
+            return nv24_rows(np.asarray(data, np.uint8), height, width, step)
         return decode_image_from_bytes(np.asarray(data, np.uint8), layout, shape, step)
+
+
+def nv24_rows(data: Any, height: int, width: int, step: int) -> npt.NDArray[np.uint8]:
+    """The natural value of a padded ``nv24`` buffer: (3 * height, width), one copy.
+
+    V4L2 pads each chroma row (``2 * width`` bytes) to ``2 * step``, twice a luma row's
+    padding, so no single row stride fits both planes.
+    """
+    luma = np.ndarray((height, width), np.uint8, buffer=data, strides=(step, 1))
+    chroma = np.ndarray(
+        (height, 2 * width), np.uint8, buffer=data, offset=height * step, strides=(2 * step, 1)
+    )
+    return np.concatenate((luma, chroma.reshape(2 * height, width)))
 
 
 def decode_image_from_bytes(
@@ -137,7 +158,7 @@ def _make_plan(value: npt.NDArray[Any], encoding: str | None, key: Any) -> _Plan
         if inferred is None:
             raise EncodeError(
                 f"Image: cannot infer an encoding for {value.dtype.name} with {channels} "
-                "channels (dtypes: uint8, int8, uint16, int16, int32, float32, float64; 1-4 "
+                "channels (dtypes: uint8, int8, uint16, int16, int32, float32, float64; 1-512 "
                 "channels); pass ImageCodec(encoding=...)"
             )
         encoding = inferred

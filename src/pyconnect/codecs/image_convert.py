@@ -57,6 +57,41 @@ _YUV = {
 }
 
 
+_CHANNELS = {"GRAY": 1, "BGR": 3, "RGB": 3, "BGRA": 4, "RGBA": 4}
+# What OpenCV asks of a YUV image's size, for the error when it refuses one.
+_YUV_NEEDS = {
+    "UYVY": "an even width",
+    "YUY2": "an even width",
+    "NV21": "an even width and height",
+    "NV12": "an even width and height",
+}
+
+
+def _cvt(
+    image: npt.NDArray[Any], code: str, wanted: str, pair: tuple[str, str], rows: int
+) -> npt.NDArray[Any]:
+    """``cv2.cvtColor`` by code name, giving an image of ``rows`` rows in the family ``wanted``.
+
+    OpenCV refuses empty images, so they convert to an empty array without it; any other
+    refusal (an odd width for 4:2:2) is a ``ConversionError`` naming the pair and the shape.
+    """
+    import cv2
+
+    channels = _CHANNELS[wanted]
+    if not image.size:
+        width = image.shape[1] if image.ndim > 1 else 0
+        return np.empty((rows, width) if channels == 1 else (rows, width, channels), image.dtype)
+    try:
+        converted: npt.NDArray[Any] = cv2.cvtColor(np.ascontiguousarray(image), _code(code))
+    except cv2.error as error:
+        need = _YUV_NEEDS.get(code.rsplit("_", 1)[-1])
+        raise ConversionError(
+            f"convert: OpenCV cannot convert [{pair[0]}] to [{pair[1]}] for an array of shape "
+            f"{image.shape}" + (f" ({pair[0]} needs {need})" if need else "")
+        ) from error
+    return converted
+
+
 def _code(name: str) -> int:
     import cv2
 
@@ -67,27 +102,34 @@ def _code(name: str) -> int:
 def _in_family(image: npt.NDArray[Any], source: str, wanted: str, target: str) -> npt.NDArray[Any]:
     """``image`` (of encoding ``source``) in the colour family ``wanted`` (GRAY, BGR, RGB, BGRA,
     RGBA), by the one OpenCV conversion cv_bridge uses for the pair."""
-    import cv2
-
+    pair = (source, target)
+    rows = image.shape[0] if image.ndim else 0
     if source in _FAMILY:
         family = _FAMILY[source]
         if family == wanted:
             return image
-        return cv2.cvtColor(np.ascontiguousarray(image), _code(f"COLOR_{family}2{wanted}"))
+        return _cvt(image, f"COLOR_{family}2{wanted}", wanted, pair, rows)
     if source.startswith("bayer_"):
         if wanted not in ("GRAY", "BGR", "RGB"):  # cv_bridge has no Bayer to 4 channels
             raise ConversionError(f"convert: Unsupported conversion from [{source}] to [{target}]")
         pattern = _BAYER[source[6:10]]
-        return cv2.cvtColor(np.ascontiguousarray(image), _code(f"COLOR_{pattern}2{wanted}"))
+        return _cvt(image, f"COLOR_{pattern}2{wanted}", wanted, pair, rows)
     if source in _YUV:
-        code = _code(f"COLOR_YUV2{wanted}_{_YUV[source]}")
-        return cv2.cvtColor(np.ascontiguousarray(image), code)
+        layout = _YUV[source]
+        image_rows = rows * 2 // 3 if layout.startswith("NV") else rows
+        return _cvt(image, f"COLOR_YUV2{wanted}_{layout}", wanted, pair, image_rows)
     if source == "nv24":  # OpenCV has no NV24 code: YUV 4:4:4 planes, then BGR
-        rows = image.shape[0] // 3
+        if image.ndim != 2 or rows % 3:
+            raise ConversionError(
+                f"convert: [nv24] expects a 2-D array of 3 * height rows, got shape {image.shape}"
+            )
+        rows //= 3
         luma = image[:rows]
-        chroma = image[rows:].reshape(rows, image.shape[1], 2)  # interleaved V, U
-        bgr = cv2.cvtColor(np.dstack((luma, chroma[..., 1], chroma[..., 0])), cv2.COLOR_YUV2BGR)
-        return bgr if wanted == "BGR" else cv2.cvtColor(bgr, _code(f"COLOR_BGR2{wanted}"))
+        # V4L2's NV24: Cb (U) first, then Cr (V), as in nv12.
+        chroma = image[rows:].reshape(rows, image.shape[1], 2)
+        yuv = np.dstack((luma, chroma[..., 0], chroma[..., 1]))
+        bgr = _cvt(yuv, "COLOR_YUV2BGR", "BGR", pair, rows)
+        return bgr if wanted == "BGR" else _cvt(bgr, f"COLOR_BGR2{wanted}", wanted, pair, rows)
     raise ConversionError(f"convert: no colour conversion from {source!r}")
 
 

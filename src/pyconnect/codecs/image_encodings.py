@@ -4,8 +4,16 @@ Most encodings store ``height`` rows of ``width`` pixels. The semi-planar YUV en
 more rows than the image has: ``nv21``/``nv12`` (4:2:0) hold ``height * 3/2`` rows of ``width``
 bytes (a Y plane, then interleaved chroma) and ``nv24`` (4:4:4) holds ``height * 3`` rows. Their
 natural value is that buffer as a 2-D uint8 array of all rows: the layout OpenCV's ``cvtColor``
-reads (``COLOR_YUV2BGR_NV21``). rosbags-image instead reads ``height`` rows only, so the two
+reads (``COLOR_YUV2BGR_NV21``). ``nv24`` (V4L2's NV24) is a Y plane of ``height`` rows of
+``step`` bytes, then interleaved chroma, Cb (U) first, of ``height`` rows of ``2 * step`` bytes
+(twice a luma row, padding included); its natural value is the Y rows, then each chroma row cut in
+two rows of ``width`` bytes. Jazzy's ``sensor_msgs`` counts 2 channels for ``nv21``/``nv24`` and
+cv_bridge refuses both; pyconnect keeps the single-channel buffer OpenCV reads (the count later
+``sensor_msgs`` gives ``nv21``). rosbags-image instead reads ``height`` rows only, so the two
 agree on the packed encodings and differ on these.
+
+Generic encodings follow cv_bridge's ``getCvType``: ``{depth}C{channels}`` with 1 to 512
+channels (OpenCV's ``CV_CN_MAX``), or a bare depth (``32F``) for one channel.
 """
 
 from __future__ import annotations
@@ -75,9 +83,11 @@ _DEPTHS: dict[str, np.dtype[np.generic]] = {
     "64F": np.dtype(np.float64),
 }
 _DEPTH_OF_DTYPE = {dtype.str[1:]: depth for depth, dtype in _DEPTHS.items()}
-_GENERIC = re.compile(r"(8U|8S|16U|16S|32S|32F|64F)C([1-4])")
+_GENERIC = re.compile(r"(8U|8S|16U|16S|32S|32F|64F)(?:C([0-9]+))?")
+MAX_CHANNELS = 512  # OpenCV's CV_CN_MAX
 
 NAMED_ENCODINGS: tuple[str, ...] = tuple(_NAMED)
+# The common generic encodings (1-4 channels), to enumerate; pixel_format accepts more.
 GENERIC_ENCODINGS: tuple[str, ...] = tuple(
     f"{depth}C{channels}" for depth in _DEPTHS for channels in range(1, 5)
 )
@@ -97,15 +107,22 @@ def pixel_format(encoding: str) -> PixelFormat:
     if match is None:
         raise UnknownEncodingError(
             f"unknown image encoding {encoding!r} (known: {', '.join(NAMED_ENCODINGS)} "
-            "and {8U,8S,16U,16S,32S,32F,64F}C{1..4})"
+            f"and {{8U,8S,16U,16S,32S,32F,64F}} alone or with C{{1..{MAX_CHANNELS}}})"
         )
-    return PixelFormat(encoding, _DEPTHS[match.group(1)], int(match.group(2)))
+    channels = 1 if match.group(2) is None else int(match.group(2))
+    if not 1 <= channels <= MAX_CHANNELS:
+        raise UnknownEncodingError(
+            f"image encoding {encoding!r}: expected 1 to {MAX_CHANNELS} channels (OpenCV's "
+            f"CV_CN_MAX), got {channels}"
+        )
+    return PixelFormat(encoding, _DEPTHS[match.group(1)], channels)
 
 
 def generic_encoding(dtype: np.dtype[np.generic], channels: int) -> str | None:
-    """The ``{depth}C{channels}`` name for a dtype, or None when OpenCV has no such depth."""
+    """The ``{depth}C{channels}`` name for a dtype, or None when OpenCV has no such depth or
+    channel count."""
     depth = _DEPTH_OF_DTYPE.get(dtype.str[1:])
-    if depth is None or not 1 <= channels <= 4:
+    if depth is None or not 1 <= channels <= MAX_CHANNELS:
         return None
     return f"{depth}C{channels}"
 

@@ -5,7 +5,9 @@ as a subarray field, ``itemsize = point_step`` (so padding such as Ouster's 48-b
 skipped, not copied), unsorted offsets as they are, and big-endian byte order when
 ``is_bigendian`` is set. Unorganised clouds (``height == 1``) decode to shape (width,),
 organised ones to (height, width); ``row_step`` padding is honoured through strides. A packed
-``rgb``/``rgba`` float32 field stays float32: ``unpack_rgb`` and ``pack_rgb`` convert it.
+``rgb``/``rgba`` field stays as it is (float32, or uint32 in PCL's PointXYZRGBA):
+``unpack_rgb`` reads either, ``pack_rgb`` makes the float32 one. A field with an empty name
+decodes as ``unnamed_field_<index>``, as sensor_msgs_py names it (and encodes by that name).
 
 Encode takes a structured array (fields in dtype order; offsets, padding and byte order kept) or
 an (N, 3) float array as x, y, z. ``is_dense`` is computed on encode (True when no x/y/z is
@@ -59,10 +61,11 @@ def cloud_dtype(fields: Any, point_step: int, *, big_endian: bool = False) -> np
             f"PointCloud2.point_step: expected 0 to {_MAX_STEP - 1}, got {point_step}"
         )
     names, formats, offsets = [], [], []
-    for name, offset, datatype, count in table:
+    for index, (given, offset, datatype, count) in enumerate(table):
         kind = DATATYPES.get(datatype)
-        if not isinstance(name, str) or not name:
-            raise DecodeError(f"PointCloud2.fields: expected a non-empty field name, got {name!r}")
+        if not isinstance(given, str):
+            raise DecodeError(f"PointCloud2.fields[{index}].name: expected str, got {given!r}")
+        name = given or f"unnamed_field_{index}"  # numpy needs a name: sensor_msgs_py's
         if not 0 <= offset < _MAX_STEP or not 0 <= count < _MAX_STEP:
             raise DecodeError(
                 f"PointCloud2.fields[{name!r}]: offset {offset} and count {count} must be in "
@@ -321,8 +324,20 @@ class PointCloudCodec(FieldsCodec):
 
 
 def unpack_rgb(packed: npt.NDArray[Any]) -> npt.NDArray[np.uint8]:
-    """(…, 3) uint8 r, g, b of a packed float32 ``rgb`` field (PCL's 0x00RRGGBB layout)."""
-    bits = np.ascontiguousarray(packed, dtype=np.float32).view(np.uint32)
+    """(…, 3) uint8 r, g, b of a packed ``rgb``/``rgba`` field (PCL's 0x00RRGGBB or 0xAARRGGBB
+    layout), a float32 or a 4-byte integer field: its bits are read as they are."""
+    packed = np.asarray(packed)
+    kind = packed.dtype
+    if kind.kind in "iu" and kind.itemsize == 4:
+        bits = packed.astype(np.uint32)  # a negative int32 wraps to the same bits
+    elif kind.kind == "f" and kind.itemsize == 4:
+        # The same bytes read as integers in the field's byte order; astype would convert.
+        bits = packed.view(np.dtype(np.uint32).newbyteorder(kind.byteorder)).astype(np.uint32)
+    else:
+        raise TypeError(
+            f"unpack_rgb: expected a float32 or 4-byte integer rgb field, got {kind.name} "
+            f"({kind.str})"
+        )
     return np.stack(((bits >> 16) & 0xFF, (bits >> 8) & 0xFF, bits & 0xFF), axis=-1).astype(
         np.uint8
     )

@@ -127,3 +127,53 @@ def test_generic_depth_changes_saturate_and_colour_targets_are_refused() -> None
     assert str(error.value) == (
         "convert: [32FC1] is not a color format. but [mono8] is. The conversion does not make sense"
     )
+
+
+def _raw(encoding: str, height: int, width: int, step: int, data: bytes) -> Image:
+    msg = Image(height=height, width=width, encoding=encoding, step=step)
+    msg.data = array.array("B", data)
+    return msg
+
+
+def test_images_opencv_refuses_raise_the_bridges_errors() -> None:
+    cases = [
+        (_raw("yuv422", 2, 3, 6, bytes(12)), "bgr8",
+         "convert: OpenCV cannot convert [yuv422] to [bgr8] for an array of shape (2, 3, 2) "
+         "(yuv422 needs an even width)"),
+        (_raw("nv21", 3, 3, 3, bytes(12)), "bgr8",
+         "convert: OpenCV cannot convert [nv21] to [bgr8] for an array of shape (4, 3) "
+         "(nv21 needs an even width and height)"),
+    ]  # fmt: skip
+    for msg, target, message in cases:
+        with pytest.raises(CvBridgeError) as error:
+            imgmsg_to_cv2(msg, target)
+        assert str(error.value) == message
+        with pytest.raises(DecodeError) as decode_error:
+            ImageCodec(encoding=target).decode(msg)
+        assert str(decode_error.value) == f"Image.encoding: {message}"
+
+
+def test_empty_images_convert_without_opencv() -> None:
+    empty_rgb = _raw("rgb8", 0, 4, 12, b"")
+    assert imgmsg_to_cv2(empty_rgb, "bgr8").shape == (0, 4, 3)
+    assert ImageCodec(encoding="bgr8").decode(empty_rgb).shape == (0, 4, 3)
+    empty_bgr = _raw("bgr8", 0, 0, 0, b"")
+    assert imgmsg_to_cv2(empty_bgr, "mono8").shape == (0, 0)
+    assert ImageCodec(encoding="mono8").decode(empty_bgr).dtype == np.uint8
+
+
+def test_generic_encodings_of_any_channel_count_and_bare_depths() -> None:
+    five = RNG.integers(0, 256, (2, 3, 5), dtype=np.uint8)
+    msg = cv2_to_imgmsg(five)
+    assert (msg.encoding, msg.step) == ("8UC5", 15)
+    assert np.array_equal(imgmsg_to_cv2(msg), five)
+    depth = np.array([[1.5, -2.0]], np.float32)
+    bare = _message(depth, "32F")
+    assert np.array_equal(imgmsg_to_cv2(bare), depth)
+    assert imgmsg_to_cv2(bare, "32FC1").dtype == np.float32
+    assert cv2_to_imgmsg(depth, encoding="32F").encoding == "32F"
+    wide = np.zeros((1, 1, 512), np.uint8)
+    assert cv2_to_imgmsg(wide).encoding == "8UC512"
+    with pytest.raises(CvBridgeError) as error:
+        cv2_to_imgmsg(np.zeros((1, 1, 513), np.uint8))
+    assert str(error.value) == "cv2_to_imgmsg: no OpenCV type for uint8 x 513"

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -182,7 +183,7 @@ def test_unknown_encoding_is_named() -> None:
     assert str(error.value) == (
         "Image.encoding: unknown image encoding 'hsv8' (known: "
         + ", ".join(NAMED_ENCODINGS)
-        + " and {8U,8S,16U,16S,32S,32F,64F}C{1..4})"
+        + " and {8U,8S,16U,16S,32S,32F,64F} alone or with C{1..512})"
     )
     with pytest.raises(EncodeError) as encode_error:
         ImageCodec(encoding="hsv8")
@@ -217,7 +218,7 @@ def test_dtype_without_an_encoding() -> None:
         encode_image(np.zeros((2, 2), np.uint32))
     assert str(error.value) == (
         "Image: cannot infer an encoding for uint32 with 1 channels (dtypes: uint8, int8, "
-        "uint16, int16, int32, float32, float64; 1-4 channels); pass ImageCodec(encoding=...)"
+        "uint16, int16, int32, float32, float64; 1-512 channels); pass ImageCodec(encoding=...)"
     )
 
 
@@ -301,7 +302,8 @@ def test_edge_sizes_round_trip() -> None:
     assert decode_image(encode_image(nan)).tobytes() == nan.tobytes()
 
 
-@pytest.mark.parametrize("encoding", ALL_ENCODINGS)
+# Padded nv24 rows are not step apart (test_padded_nv24_reads_chroma_rows_of_twice_the_step).
+@pytest.mark.parametrize("encoding", [e for e in ALL_ENCODINGS if e != "nv24"])
 @pytest.mark.parametrize("big_endian", [False, True])
 def test_each_encoding_with_padded_rows_and_both_byte_orders(
     encoding: str, big_endian: bool
@@ -324,3 +326,53 @@ def test_each_encoding_with_padded_rows_and_both_byte_orders(
     again = ImageCodec(encoding=encoding).encode(decoded)
     assert again.step == width * fmt.pixel_bytes
     assert same(decode_image(again), decoded)
+
+
+def test_decoding_a_message_of_another_type_names_both_types() -> None:
+    # lookup(Image).decode(Point()) raised "'Point' object has no attribute '_encoding'".
+    from geometry_msgs.msg import Point
+
+    with pytest.raises(DecodeError) as raised:
+        codecs.lookup(Image).decode(Point())
+    assert str(raised.value) == "expected sensor_msgs/msg/Image, got geometry_msgs/msg/Point"
+
+
+def _nv24_planes(height: int, width: int, step: int) -> tuple[np.ndarray, np.ndarray, bytes]:
+    """Random Y and interleaved CbCr planes, and V4L2's NV24 buffer of them for ``step``."""
+    rng = np.random.default_rng(24)
+    luma = rng.integers(0, 256, (height, width), dtype=np.uint8)
+    chroma = rng.integers(0, 256, (height, 2 * width), dtype=np.uint8)
+    luma_rows = np.zeros((height, step), np.uint8)
+    luma_rows[:, :width] = luma
+    chroma_rows = np.full((height, 2 * step), 0xEE, np.uint8)  # padding that must be skipped
+    chroma_rows[:, : 2 * width] = chroma
+    return luma, chroma, luma_rows.tobytes() + chroma_rows.tobytes()
+
+
+def test_padded_nv24_reads_chroma_rows_of_twice_the_step() -> None:
+    luma, chroma, data = _nv24_planes(3, 4, 7)
+    expected = np.concatenate((luma, chroma.reshape(6, 4)))
+    msg = make_image("nv24", 3, 4, step=7, data=data)
+    assert np.array_equal(decode_image(msg), expected)
+    by_hand = SimpleNamespace(
+        encoding="nv24", is_bigendian=0, height=3, width=4, step=7, data=list(data)
+    )
+    assert np.array_equal(decode_image(by_hand), expected)
+    packed = make_image("nv24", 3, 4, data=_nv24_planes(3, 4, 4)[2])
+    assert np.array_equal(decode_image(packed), expected)
+
+
+@pytest.mark.parametrize(
+    ("encoding", "shape", "dtype"),
+    [("32F", (2, 3), np.float32), ("16U", (2, 3), np.uint16), ("8UC5", (2, 3, 5), np.uint8),
+     ("32FC6", (2, 3, 6), np.float32)],
+)  # fmt: skip
+def test_bare_depths_and_more_than_four_channels(
+    encoding: str, shape: tuple[int, ...], dtype: type
+) -> None:
+    pixels = np.arange(np.prod(shape)).astype(dtype).reshape(shape)
+    msg = make_image(encoding, 2, 3, data=pixels.tobytes())
+    assert same(decode_image(msg), pixels)
+    assert same(decode_image(ImageCodec(encoding=encoding).encode(pixels)), pixels)
+    if len(shape) == 3:  # inferred: cv_bridge's name for the type
+        assert encode_image(pixels).encoding == encoding

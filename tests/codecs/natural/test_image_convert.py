@@ -246,3 +246,71 @@ def test_bayer_to_four_channels_is_refused_as_cv_bridge_does(target: str) -> Non
     with pytest.raises(ConversionError) as caught:
         convert(np.zeros((4, 4), np.uint8), target, source_encoding="bayer_rggb8")
     assert str(caught.value) == f"convert: Unsupported conversion from [bayer_rggb8] to [{target}]"
+
+
+def _yuv_planes(height: int, width: int) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Y, U (Cb) and V (Cr) planes of colours far from 0 and 255, so nothing clips."""
+    bgr = RNG.integers(60, 200, (height, width, 3), dtype=np.uint8)
+    yuv = cv2.cvtColor(bgr, cv2.COLOR_BGR2YUV)
+    return yuv[..., 0], yuv[..., 1], yuv[..., 2]
+
+
+def test_nv24_chroma_is_cb_first() -> None:
+    # V4L2's NV24: the Y plane, then Cb Cr pairs (U first), as in nv12.
+    y, u, v = _yuv_planes(4, 6)
+    nv24 = np.concatenate((y, np.dstack((u, v)).reshape(8, 6)))
+    expected = cv2.cvtColor(np.dstack((y, u, v)), cv2.COLOR_YUV2BGR)
+    assert np.array_equal(convert(nv24, "bgr8", source_encoding="nv24"), expected)
+    assert np.array_equal(
+        convert(nv24, "rgb8", source_encoding="nv24"), cv2.cvtColor(expected, cv2.COLOR_BGR2RGB)
+    )
+    # nv12 (U first) and nv21 (V first) of the same colours agree, subsampled 2x2.
+    uv = np.dstack((u[::2, ::2], v[::2, ::2])).reshape(2, 6)
+    nv12 = np.concatenate((y, uv))
+    nv21 = np.concatenate((y, uv.reshape(2, 3, 2)[..., ::-1].reshape(2, 6)))
+    assert np.array_equal(
+        convert(nv12, "bgr8", source_encoding="nv12"),
+        convert(nv21, "bgr8", source_encoding="nv21"),
+    )
+
+
+@pytest.mark.parametrize(
+    ("source", "image", "target", "message"),
+    [
+        ("yuv422", np.zeros((2, 3, 2), np.uint8), "bgr8",
+         "convert: OpenCV cannot convert [yuv422] to [bgr8] for an array of shape (2, 3, 2) "
+         "(yuv422 needs an even width)"),
+        ("nv21", np.zeros((4, 3), np.uint8), "bgr8",
+         "convert: OpenCV cannot convert [nv21] to [bgr8] for an array of shape (4, 3) "
+         "(nv21 needs an even width and height)"),
+        ("nv24", np.zeros((4, 3), np.uint8), "bgr8",
+         "convert: [nv24] expects a 2-D array of 3 * height rows, got shape (4, 3)"),
+    ],
+)  # fmt: skip
+def test_opencv_refusals_are_conversion_errors(
+    source: str, image: np.ndarray, target: str, message: str
+) -> None:
+    with pytest.raises(ConversionError) as error:
+        convert(image, target, source_encoding=source)
+    assert str(error.value) == message
+
+
+@pytest.mark.parametrize(
+    ("source", "shape", "dtype", "target", "expected"),
+    [
+        ("rgb8", (0, 4, 3), np.uint8, "bgr8", (0, 4, 3)),
+        ("bgr8", (0, 0, 3), np.uint8, "mono8", (0, 0)),
+        ("mono8", (3, 0), np.uint8, "rgba8", (3, 0, 4)),
+        ("rgb16", (0, 2, 3), np.uint16, "mono8", (0, 2)),
+        ("bayer_rggb8", (0, 2), np.uint8, "bgr8", (0, 2, 3)),
+        ("yuv422", (0, 2, 2), np.uint8, "rgb8", (0, 2, 3)),
+        ("nv12", (0, 2), np.uint8, "bgra8", (0, 2, 4)),
+        ("nv24", (0, 2), np.uint8, "mono8", (0, 2)),
+    ],
+)
+def test_empty_images_convert_to_empty_arrays(
+    source: str, shape: tuple[int, ...], dtype: type, target: str, expected: tuple[int, ...]
+) -> None:
+    out = convert(np.zeros(shape, dtype), target, source_encoding=source)
+    assert out.shape == expected
+    assert out.dtype == (np.uint16 if target.endswith("16") else np.uint8)

@@ -10,7 +10,9 @@ import pytest
 import sensor_msgs.msg as msgs
 from hypothesis import given
 from hypothesis import strategies as st
+from rclpy.serialization import deserialize_message
 
+from pyconnect import codecs
 from pyconnect.codecs.point_cloud import (
     PointCloudCodec,
     decode_point_cloud,
@@ -282,3 +284,68 @@ def test_chunked_copy_is_exact_across_chunk_boundaries(monkeypatch: pytest.Monke
     points["z"][1_000] = np.nan  # in the last, partial chunk
     data, dense = point_cloud.copy_checking_dense(points)
     assert (bytes(data), dense) == (points.tobytes(), False)
+
+
+PADDED = np.dtype(
+    {"names": ["x", "y", "z", "intensity"], "formats": ["<f4"] * 4, "offsets": [0, 4, 8, 16],
+     "itemsize": 32}
+)  # fmt: skip
+
+
+def _padded_points(count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Points with a recognisable pattern in their padding, and their raw bytes per point."""
+    raw = np.full((count, 32), 0xA5, np.uint8)
+    points = raw.reshape(-1).view(PADDED)
+    points["x"] = np.arange(count)
+    points["intensity"] = 2.0
+    return points, raw
+
+
+def test_strided_padded_points_encode_their_own_bytes() -> None:
+    # ascontiguousarray copies a structured array's fields only: the padding was heap garbage.
+    points, raw = _padded_points(2000)
+    view = points[::2]
+    expected = raw[::2].tobytes()
+    codec = PointCloudCodec()
+    assert bytes(codec.encode(view).data) == expected
+    assert bytes(point_cloud_fields(view)["data"]) == expected
+    cdr = codecs.wire.encode(view, "sensor_msgs/msg/PointCloud2")
+    assert bytes(deserialize_message(cdr, PointCloud2).data) == expected
+    organised = points.reshape(40, 50)[:, ::5]
+    assert bytes(codec.encode(organised).data) == raw.reshape(40, 50, 32)[:, ::5].tobytes()
+
+
+def test_unpack_rgb_reads_integer_and_float_fields_bit_for_bit() -> None:
+    expected = [[0x10, 0x20, 0x30], [0xFF, 0x80, 0x00]]
+    for kind in ("<u4", ">u4", "<i4"):
+        rgba = np.array([0xFF102030, 0xFFFF8000], np.uint32).astype(kind)
+        assert unpack_rgb(rgba).tolist() == expected
+    packed = pack_rgb(np.array(expected, np.uint8))
+    assert unpack_rgb(packed).tolist() == expected
+    assert unpack_rgb(packed.astype(">f4")).tolist() == expected
+    cloud = np.zeros(2, [("x", "<f4"), ("rgba", "<u4")])
+    cloud["rgba"] = [0xFF102030, 0xFFFF8000]
+    assert unpack_rgb(cloud["rgba"]).tolist() == expected  # a strided field view
+    with pytest.raises(TypeError) as error:
+        unpack_rgb(np.zeros(2, np.float64))
+    assert str(error.value) == (
+        "unpack_rgb: expected a float32 or 4-byte integer rgb field, got float64 (<f8)"
+    )
+
+
+def test_unnamed_fields_get_sensor_msgs_pys_names() -> None:
+    msg = PointCloud2(height=1, width=2, point_step=16, row_step=32)
+    msg.fields = [
+        PointField(name="x", offset=0, datatype=7, count=1),
+        PointField(name="", offset=4, datatype=7, count=1),
+        PointField(name="z", offset=8, datatype=7, count=1),
+        PointField(name="", offset=12, datatype=6, count=1),
+    ]
+    msg.data.frombytes(np.arange(8, dtype="<u4").tobytes())
+    cloud = decode_point_cloud(msg)
+    assert cloud.dtype.names == ("x", "unnamed_field_1", "z", "unnamed_field_3")
+    assert cloud["unnamed_field_3"].tolist() == [3, 7]
+    msg.fields[1].name = "unnamed_field_3"
+    with pytest.raises(DecodeError) as error:
+        decode_point_cloud(msg)
+    assert str(error.value) == "PointCloud2.fields: field 'unnamed_field_3' appears more than once"
