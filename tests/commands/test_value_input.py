@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import math
 from typing import Any
 
@@ -22,7 +23,7 @@ from std_msgs.msg import (
 )
 from std_srvs.srv import SetBool
 from test_msgs.action import Fibonacci
-from test_msgs.msg import Builtins
+from test_msgs.msg import Arrays, BasicTypes, Builtins, Strings, WStrings
 
 from pyconnect.cli import main
 from pyconnect.commands import value_input
@@ -62,6 +63,66 @@ def test_what_is_no_float_stays_as_it_was(text: str, expected: object) -> None:
 
 def test_nan_is_a_float() -> None:
     assert math.isnan(yaml.load(".nan", Loader=Yaml12Loader))
+
+
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        ("017", 17),  # YAML 1.1: octal 15
+        ("0o17", 15),  # YAML 1.1: a string
+        ("0x1F", 31),
+        ("0", 0),
+        ("-017", -17),
+        ("+12", 12),
+        ("1_000", 1000),
+        ("1:30", "1:30"),  # YAML 1.1: base 60, 90
+        ("12:30", "12:30"),
+        ("0b11", "0b11"),  # YAML 1.1: binary 3
+        ("-0x1F", "-0x1F"),
+        ("0o8", "0o8"),
+        ("0x", "0x"),
+    ],
+)
+def test_yaml_1_2_ints(text: str, expected: object) -> None:
+    value = yaml.load(text, Loader=Yaml12Loader)
+    assert (type(value), value) == (type(expected), expected)
+
+
+@pytest.mark.parametrize(("text", "expected"), [("yes", True), ("off", False), ("~", None)])
+def test_other_scalars_stay_as_ros2_reads_them(text: str, expected: object) -> None:
+    # Only numbers are YAML 1.2's: ros2 topic pub reads `yes` as true (PyYAML's YAML 1.1).
+    assert yaml.load(text, Loader=Yaml12Loader) is expected
+
+
+def test_yaml_1_2_ints_in_fields() -> None:
+    basic = message_from_text("{int32_value: 017, uint16_value: 0o17}", BasicTypes)
+    assert (basic.int32_value, basic.uint16_value) == (17, 15)
+    assert message_from_text("{string_value: 12:30}", Strings).string_value == "12:30"
+    assert message_from_text("{data: 0b11}", String) == String(data="0b11")
+    with pytest.raises(CommandFailed) as caught:
+        message_from_text("{int32_value: 1:30}", BasicTypes)
+    assert str(caught.value) == "BasicTypes.int32_value: expected int (int32), got str"
+
+
+def test_a_json_surrogate_pair_is_the_character_it_escapes() -> None:
+    # json.dumps (and so `--json`) writes U+1F600 as the escape pair \ud83d\ude00.
+    text = json.dumps({"data": "a\U0001f600b\U0010ffff"})
+    assert "\\ud83d\\ude00" in text
+    assert message_from_text(text, String) == String(data="a\U0001f600b\U0010ffff")
+    nested = json.dumps({"string_values": ["\U0001f600", "x", "\U0001f600\U0001f600"]})
+    arrays = message_from_text(nested, Arrays)
+    assert list(arrays.string_values) == ["\U0001f600", "x", "\U0001f600\U0001f600"]
+    wide = message_from_text(json.dumps({"wstring_value": "\U0001f600"}), WStrings)
+    assert wide.wstring_value == "\U0001f600"
+
+
+@pytest.mark.parametrize(
+    "escaped", ["\\ud83d", "a\\ude00", "\\ude00\\ud83d", "\\ud83d\\ude00\\ud83d"]
+)
+def test_a_lone_surrogate_is_still_refused(escaped: str) -> None:
+    with pytest.raises(CommandFailed) as caught:
+        message_from_text(f'{{"data": "{escaped}"}}', String)
+    assert str(caught.value) == "String.data: cannot encode as UTF-8 (surrogates not allowed)"
 
 
 def test_exponents_in_fields_and_natural_values() -> None:

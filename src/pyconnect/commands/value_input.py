@@ -1,9 +1,11 @@
 """VALUE of ``topic pub``, ``service call`` and ``action send_goal``: YAML text to a message.
 
-The text is YAML (JSON is YAML) read with YAML 1.2's floats, so ``1e-3`` is a number as in JSON
-(PyYAML reads YAML 1.1, where it is a string). It holds the message's fields as a dict, or the
-type's natural value; a list given for a type whose natural value is an ndarray (the
-``*MultiArray`` types, Polygon) becomes one. As ``ros2 topic pub`` does, ``now`` in a
+The text is YAML (JSON is YAML) read with YAML 1.2's numbers, so ``1e-3`` is a number as in JSON
+and ``017`` is 17 (PyYAML reads YAML 1.1, where they are a string and 15); its other scalars stay
+as PyYAML, and so ``ros2 topic pub``, reads them (``yes`` is true). A JSON escape pair for a
+character beyond U+FFFF (``"\\ud83d\\ude00"``) is that one character. It holds the message's
+fields as a dict, or the type's natural value; a list given for a type whose natural value is an
+ndarray (the ``*MultiArray`` types, Polygon) becomes one. As ``ros2 topic pub`` does, ``now`` in a
 builtin_interfaces/Time field and ``auto`` in a std_msgs/Header field (frame_id left empty)
 stand for the current time, taken again at each ``MessageTemplate.stamped()`` (each publish).
 """
@@ -29,18 +31,24 @@ from pyconnect.typesys.primitives import INTEGER_RANGES
 __all__ = ["MessageTemplate", "Yaml12Loader", "message_from_text", "message_template"]
 
 _FLOAT_TAG = "tag:yaml.org,2002:float"
+_INT_TAG = "tag:yaml.org,2002:int"
 _TIME = "builtin_interfaces/msg/Time"
 _HEADER = "std_msgs/msg/Header"
 
 
 class Yaml12Loader(yaml.SafeLoader):
-    """PyYAML's safe loader with YAML 1.2's floats: ``1e-3``, ``1E-2``, ``2.5e3``, ``.inf``,
-    ``-.inf``, ``.nan`` (YAML 1.1 wants a dot and a signed exponent: ``1.0e-3``)."""
+    """PyYAML's safe loader with the numbers of YAML 1.2's core schema.
+
+    Floats: ``1e-3``, ``1E-2``, ``2.5e3``, ``.inf``, ``-.inf``, ``.nan`` (YAML 1.1 wants a dot
+    and a signed exponent: ``1.0e-3``). Ints: ``017`` is 17, ``0o17`` 15, ``0x1F`` 31, while
+    ``0b11``, ``-0x1F`` and ``1:30`` are strings (YAML 1.1 reads octal ``017`` as 15, base 60
+    ``1:30`` as 90 and binary ``0b11`` as 3). As PyYAML and Python do, ``_`` may group digits.
+    """
 
 
-# A float needs a dot or an exponent: a bare 12 must stay the int resolver's.
+# Both resolvers are replaced. A float needs a dot or an exponent: a bare 12 must stay an int.
 Yaml12Loader.yaml_implicit_resolvers = {
-    first: [(tag, regexp) for tag, regexp in resolvers if tag != _FLOAT_TAG]
+    first: [(tag, regexp) for tag, regexp in resolvers if tag not in (_FLOAT_TAG, _INT_TAG)]
     for first, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
 }
 Yaml12Loader.add_implicit_resolver(
@@ -55,6 +63,35 @@ Yaml12Loader.add_implicit_resolver(
     ),
     list("-+.0123456789"),
 )
+_DECIMAL = re.compile(r"[-+]?[0-9][0-9_]*")
+_OCTAL = re.compile(r"0o[0-7][0-7_]*")
+_HEXADECIMAL = re.compile(r"0x[0-9a-fA-F][0-9a-fA-F_]*")
+Yaml12Loader.add_implicit_resolver(
+    _INT_TAG,
+    re.compile("|".join(f"^{form.pattern}$" for form in (_DECIMAL, _OCTAL, _HEXADECIMAL))),
+    list("-+0123456789"),
+)
+
+
+def _construct_int(loader: yaml.SafeLoader, node: yaml.Node) -> int:
+    """An int of YAML 1.2: PyYAML's own would read ``017`` as octal (15)."""
+    text = str(loader.construct_scalar(node))  # type: ignore[arg-type]
+    digits = text.replace("_", "")
+    if _DECIMAL.fullmatch(text):
+        return int(digits, 10)
+    if _OCTAL.fullmatch(text):
+        return int(digits[2:], 8)
+    if _HEXADECIMAL.fullmatch(text):
+        return int(digits[2:], 16)
+    raise yaml.constructor.ConstructorError(
+        None, None, f"expected a YAML 1.2 int, got {text!r}", node.start_mark
+    )
+
+
+Yaml12Loader.add_constructor(_INT_TAG, _construct_int)
+
+# PyYAML reads the escape pair \ud83d\ude00 as two surrogates, not as the character they encode.
+_SURROGATE = re.compile(r"[\ud800-\udfff]")
 
 _Path = tuple[str | int, ...]
 
@@ -90,6 +127,7 @@ def message_template(text: str, msg_class: type) -> MessageTemplate:
         value = yaml.load(text, Loader=Yaml12Loader) if text.strip() else {}
     except yaml.YAMLError as error:
         raise CommandFailed(f"VALUE is not YAML or JSON: {' '.join(str(error).split())}") from None
+    value = _join_surrogate_pairs(value)
     try:
         value, now_paths = _take_now(value, msg_class, ())
         if _is_fields(value, msg_class):
@@ -99,6 +137,25 @@ def message_template(text: str, msg_class: type) -> MessageTemplate:
         raise
     except Exception as error:
         raise CommandFailed(str(error)) from None
+
+
+def _join_surrogate_pairs(value: Any) -> Any:
+    """``value`` with each surrogate pair in its strings made the one character it encodes.
+
+    JSON escapes a character beyond U+FFFF as a pair (``json.dumps``, and so ``--json``, print
+    U+1F600 as ``\\ud83d\\ude00``); PyYAML keeps the two halves. A lone half stays, for the
+    string field to refuse as text UTF-8 cannot hold."""
+    if isinstance(value, str):
+        if _SURROGATE.search(value) is None:
+            return value
+        return value.encode("utf-16", "surrogatepass").decode("utf-16", "surrogatepass")
+    if isinstance(value, list):
+        return [_join_surrogate_pairs(item) for item in value]
+    if isinstance(value, dict):
+        return {
+            _join_surrogate_pairs(key): _join_surrogate_pairs(item) for key, item in value.items()
+        }
+    return value
 
 
 def _is_fields(value: Any, msg_class: type) -> bool:

@@ -6,6 +6,7 @@ import array
 import base64
 import dataclasses
 import json
+import re
 from collections.abc import Callable
 from typing import Any
 
@@ -87,10 +88,30 @@ def plain_value(
     return value
 
 
+# YAML 1.1's line breaks beyond LF and CR. PyYAML writes them raw in a quoted scalar, and its
+# reader folds NEL there into a space; a YAML 1.2 reader, for which none of them is a break,
+# keeps the indentation written after each. Their escapes (\N, \L, \P) mean them in both.
+_RAW_BREAKS = re.compile(r"[\x85\u2028\u2029]")
+
+
+class _EchoDumper(yaml.SafeDumper):
+    """PyYAML's safe dumper, with strings holding a YAML 1.1-only line break double-quoted."""
+
+
+def _represent_str(dumper: yaml.SafeDumper, text: str) -> yaml.ScalarNode:
+    if _RAW_BREAKS.search(text) is not None:
+        return dumper.represent_scalar("tag:yaml.org,2002:str", text, style='"')
+    return dumper.represent_str(text)
+
+
+_EchoDumper.add_representer(str, _represent_str)
+
+
 def to_yaml(value: Any) -> str:
     """YAML of a value as ``ros2 topic echo`` prints a message (long sequences truncated)."""
-    text: str = yaml.safe_dump(
+    text: str = yaml.dump(
         plain_value(value, YAML_SEQUENCE_LIMIT),
+        Dumper=_EchoDumper,
         default_flow_style=False,
         sort_keys=False,
         allow_unicode=True,

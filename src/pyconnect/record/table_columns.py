@@ -67,6 +67,12 @@ def _element_type(kind: str, element: str, definitions: Definitions) -> pa.DataT
     return _struct_type(element, definitions)
 
 
+def _bytes_type(container: str, size: int | None) -> pa.DataType:
+    """A ``uint8``/``byte`` array or sequence: ``uint8[N]`` keeps its size, as a column or nested
+    in a struct alike."""
+    return pa.binary(size) if container == "array" else pa.binary()
+
+
 def _struct_type(msg_type: str, definitions: Definitions) -> pa.DataType:
     fields = []
     for name, kind, element, _bound, container, size, _default in definitions[msg_type][1]:
@@ -74,7 +80,7 @@ def _struct_type(msg_type: str, definitions: Definitions) -> pa.DataType:
         if container == "single":
             fields.append(pa.field(name, item))
         elif kind == "primitive" and element in _BYTES:
-            fields.append(pa.field(name, pa.binary()))
+            fields.append(pa.field(name, _bytes_type(container, size)))
         elif container == "array":
             fields.append(pa.field(name, pa.list_(item, size)))
         else:
@@ -109,8 +115,7 @@ def columns_of(
                     scalar = _element_type(kind, element, definitions)
                     columns.append(Column(path, scalar, "scalar"))
             elif kind == "primitive" and element in _BYTES:
-                binary = pa.binary(size) if container == "array" else pa.binary()
-                columns.append(Column(path, binary, "binary"))
+                columns.append(Column(path, _bytes_type(container, size), "binary"))
             elif kind == "primitive" and element != "bool":
                 item = _PRIMITIVES[element]
                 if container == "array":
