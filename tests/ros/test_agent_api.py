@@ -99,6 +99,8 @@ def test_custom_node_is_an_rclpy_node(make_node: Any) -> None:
     assert isinstance(node, rclpy.node.Node)
     assert node.ros_node is node
     assert node.get_name() == "test_node"
+    # rclpy's own rules: an override is the value of the parameter declared with its name.
+    assert node.declare_parameter("rate", 5).value == 7
     assert node.get_parameter("rate").value == 7
     node.declare_parameter("gain", 0.5)
     assert node.get_parameter("gain").value == 0.5

@@ -3,6 +3,7 @@ when the agent is made, naming the agent and the option."""
 
 from __future__ import annotations
 
+import sys
 from typing import Any
 
 import pytest
@@ -10,6 +11,7 @@ from rclpy.callback_groups import ReentrantCallbackGroup
 from std_msgs.msg import String
 from std_srvs.srv import SetBool
 
+from pyconnect.errors import PyconnectError
 from pyconnect.ros.agent_options import OptionError
 
 
@@ -90,3 +92,38 @@ def test_callables_and_timer_handlers_without_required_parameters_are_accepted(
         decode_func=str, callback_group=ReentrantCallbackGroup(),
     )  # fmt: skip
     assert sorted(node.agents) == ["s", "t1", "t2", "t3", "t4"]
+
+
+@pytest.mark.parametrize(
+    ("conn_type", "data_interface", "kind"),
+    [("sub", String, "topic"), ("pub", String, "topic"), ("service_server", SetBool, "service")],
+)
+def test_a_name_rclpy_refuses_is_an_option_error_naming_the_agent(
+    make_node: Any, conn_type: str, data_interface: type, kind: str
+) -> None:
+    """rclpy's InvalidTopicNameException named no agent, and was no PyconnectError."""
+    node = make_node("names")
+    options: dict[str, Any] = {"response_func": lambda request: {}} if kind == "service" else {}
+    with pytest.raises(OptionError) as refused:
+        node.add_agent(
+            conn_name="front camera",
+            conn_type=conn_type,
+            data_interface=data_interface,
+            **options,
+        )
+    assert str(refused.value).startswith(f"agent 'front camera' ({conn_type}): Invalid {kind}")
+
+
+def test_a_misspelt_transport_is_refused_before_zenoh_is_imported(
+    make_node: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Without the zenoh extra, transport='zneoh' said "No module named 'zenoh'"."""
+    monkeypatch.setitem(sys.modules, "zenoh", None)
+    monkeypatch.delitem(sys.modules, "pyconnect.ros.zenoh_bridge", raising=False)
+    node = make_node("bridge_less")
+    with pytest.raises(PyconnectError, match="unknown transport 'zneoh'; expected 'zenoh'"):
+        node.add_agent(conn_name="a", conn_type="sub", data_interface=String, transport="zneoh")
+    with pytest.raises(
+        OptionError, match=r"needs eclipse-zenoh: pip install 'pyconnect-ros\[zenoh\]'"
+    ):
+        node.add_agent(conn_name="a", conn_type="sub", data_interface=String, transport="zenoh")

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+import math
 import threading
 from typing import Any
 
 import pytest
+import rclpy.exceptions
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image, LaserScan
 from std_msgs.msg import String
@@ -419,3 +421,28 @@ def test_add_agents_refuses_one_dict_or_a_list_of_non_dicts(make_node: Any) -> N
         node.add_agents([{"conn_name": "g", "conn_type": "pub", "data_interface": String}, "h"])  # type: ignore[list-item]
     assert str(item.value) == "add_agents: configs[1]: expected an agent dict, got str"
     assert not node.agents  # checked before any agent was made
+
+
+def test_parameters_follow_rclpys_rules_with_overrides(make_node: Any) -> None:
+    """Overrides were declared automatically: ``declare_parameter`` of an overridden name
+    raised ParameterAlreadyDeclaredException (the standard pattern broke the first time
+    someone passed ``-p``), and a misspelt ``get_parameter`` returned an unset value."""
+    node = make_node("params", cli_args=["--ros-args", "-p", "rate:=10.0", "-p", "mode:=fast"])
+    assert node.get_param("rate") == 10.0  # read before any declaration
+    assert node.declare_parameter("rate", 5.0).value == 10.0
+    assert [p.value for p in node.declare_parameters("", [("mode", "slow"), ("gain", 2)])] == [
+        "fast",
+        2,
+    ]
+    with pytest.raises(rclpy.exceptions.ParameterNotDeclaredException):
+        node.get_parameter("rtae")
+    assert node.get_param("rtae", 1.5) == 1.5
+
+
+@pytest.mark.parametrize("timeout", ["2", -1, math.nan, True])
+def test_wait_until_connected_refuses_a_timeout_that_is_not_one(
+    make_node: Any, timeout: object
+) -> None:
+    node = make_node("waiter")
+    with pytest.raises(PyconnectError, match=r"^node '/waiter': wait_until_connected: timeout"):
+        node.wait_until_connected(timeout)  # type: ignore[arg-type]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import math
 import threading
 import time
 from typing import Any
@@ -568,3 +569,12 @@ def test_a_malformed_reply_fails_the_call_like_any_other(make_peer: PeerFactory)
     finally:
         token.undeclare()
         queryable.undeclare()
+
+
+@pytest.mark.parametrize("timeout", ["2", -1, math.nan, True])
+def test_wait_until_connected_refuses_a_timeout_that_is_not_one(
+    make_peer: PeerFactory, timeout: object
+) -> None:
+    peer = make_peer("waiter")
+    with pytest.raises(PyconnectError, match=r"^peer 'waiter': wait_until_connected: timeout"):
+        peer.wait_until_connected(timeout)  # type: ignore[arg-type]

@@ -11,6 +11,7 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
 from rclpy.callback_groups import CallbackGroup
+from rclpy.exceptions import NameValidationException
 
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.action_client_agent import ActionClientAgent
@@ -78,7 +79,19 @@ def build_agent(node: AgentHost, given: Mapping[str, Any]) -> NodeAgent:
         raise OptionError(f"agent {name!r}: conn_type: expected one of {_KINDS}, got {conn_type!r}")
     transport = given.pop("transport", None)
     if transport is not None:  # a bridge to non-ROS peers (issue 13): its own module decides
-        from pyconnect.ros.zenoh_bridge import make_bridge_agent
+        if transport != "zenoh":  # before the import, which needs the zenoh extra
+            raise PyconnectError(
+                f"agent {name!r}: unknown transport {transport!r}; expected 'zenoh'"
+            )
+        try:
+            from pyconnect.ros.zenoh_bridge import make_bridge_agent
+        except ModuleNotFoundError as error:
+            if error.name != "zenoh":
+                raise
+            raise OptionError(
+                f"agent {name!r} ({conn_type}): transport='zenoh' needs eclipse-zenoh: "
+                "pip install 'pyconnect-ros[zenoh]'"
+            ) from error
 
         _check_values(None, given, f"agent {name!r} ({conn_type})")
 
@@ -103,6 +116,8 @@ def build_agent(node: AgentHost, given: Mapping[str, Any]) -> NodeAgent:
         if str(error).startswith("agent "):
             raise
         raise type(error)(f"agent {name!r} ({conn_type}): {error}") from error
+    except NameValidationException as error:  # rclpy's words name no agent
+        raise OptionError(f"agent {name!r} ({conn_type}): {error}") from error
 
 
 def shared_options_for(conn_type: object, shared: Mapping[str, Any]) -> dict[str, Any]:

@@ -46,6 +46,7 @@ from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.node_logging import NodeLogging
 from pyconnect.ros.node_shutdown import NodeShutdown
+from pyconnect.ros.option_checks import call_timeout
 from pyconnect.ros.recording import Recording
 from pyconnect.ros.shared_context import join_context, leave_context
 from pyconnect.ros.shutdown import ShutdownHooks
@@ -116,8 +117,6 @@ class CustomNode(NodeLogging, NodeShutdown, Node):  # type: ignore[misc]
                 namespace=namespace,
                 context=context,
                 cli_args=cli_args,
-                allow_undeclared_parameters=True,
-                automatically_declare_parameters_from_overrides=True,
             )
         except BaseException:
             leave_context(context)
@@ -279,6 +278,9 @@ class CustomNode(NodeLogging, NodeShutdown, Node):  # type: ignore[misc]
 
         Raises ``ConnectionTimeout`` naming the agents still waiting.
         """
+        timeout = call_timeout(
+            timeout, None, where=f"node {self._qualified_name!r}: wait_until_connected"
+        )
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             # Asked first: a shut-down node's entities are destroyed, asking them raises.
@@ -301,9 +303,14 @@ class CustomNode(NodeLogging, NodeShutdown, Node):  # type: ignore[misc]
 
     # -- parameters (logging and recording: pyconnect.ros.node_logging) --------------------------
     def get_param(self, name: str, default: Any = None) -> Any:
-        """A parameter's value (``--ros-args -p name:=value``), or ``default`` when unset."""
+        """A parameter's value (``--ros-args -p name:=value``, a params file, or declared),
+        or ``default`` when unset. Overrides are read without declaring them, so
+        ``declare_parameter``, ``get_parameter`` and ``ros2 param`` behave as on any rclpy
+        node (a declared override's value; an undeclared name refused)."""
         if not self.has_parameter(name):
-            return default
+            override = self._parameter_overrides.get(name)
+            value = None if override is None else override.value
+            return default if value is None else value
         value = self.get_parameter(name).value
         return default if value is None else value
 

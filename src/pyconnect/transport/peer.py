@@ -36,7 +36,7 @@ from pyconnect.codecs.registry import Registry, default_registry
 from pyconnect.errors import ConnectionTimeout, PyconnectError, TransportError, type_name_of
 from pyconnect.ros.agent_options import OptionError
 from pyconnect.ros.large_messages import apply_malloc_settings
-from pyconnect.ros.option_checks import check_options
+from pyconnect.ros.option_checks import call_timeout, check_options
 from pyconnect.ros.option_checks import shared_options as shared_options_of
 from pyconnect.ros.shutdown import ShutdownHooks, ShutsDownOnExit
 from pyconnect.transport import rmw_zenoh_keys as keys
@@ -287,6 +287,7 @@ class Peer(ShutsDownOnExit):
     def wait_until_connected(self, timeout: float | None = None) -> None:
         """Return when every sub has a message from a publisher alive now and every client
         sees a server now; raises ``ConnectionTimeout`` naming the agents still waiting."""
+        timeout = call_timeout(timeout, None, where=f"peer {self.name!r}: wait_until_connected")
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             waiting = [agent for agent in list(self.agents.values()) if not agent.is_connected()]
