@@ -115,11 +115,10 @@ def _play(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         return 0
     except CommandFailed as failure:
         return report_failure(failure, err)
-    if late:
-        mean = sum(late) / len(late)
+    if late.count:
         print(
-            f"Played {len(late)} message(s); timing error: mean {mean * 1e3:.3f} ms, "
-            f"max {max(late) * 1e3:.3f} ms",
+            f"Played {late.count} message(s); timing error: mean {late.mean * 1e3:.3f} ms, "
+            f"max {late.worst * 1e3:.3f} ms",
             file=out,
         )
     return damage_status(damage, summary, args, err)
@@ -127,20 +126,15 @@ def _play(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
 
 def _play_all(
     args: argparse.Namespace, session: Any, out: TextIO, err: TextIO
-) -> tuple[list[float], list[Any], str]:
+) -> tuple[Lateness, list[Any], str]:
     """Play the bag; the timing errors, and the damage the bag showed with its summary."""
     from rosgraph_msgs.msg import Clock  # type: ignore[import-untyped]
 
     from pyconnect.commands.graph import CommandFailed
-    from pyconnect.record.bag_metadata import read_metadata
     from pyconnect.record.bag_reader import bag_info, open_bag
     from pyconnect.ros.interfaces import interface_class
 
     info = bag_info(args.path)
-    declared: dict[str, str] = {}
-    metadata_file = info.path / "metadata.yaml" if info.path.is_dir() else None
-    if metadata_file is not None and metadata_file.is_file():
-        declared = {t.name: t.offered_qos_profiles for t in read_metadata(metadata_file).topics}
     if args.topics is not None:
         names = [t.name for t in info.topics]
         unknown = [name for name in dict.fromkeys(args.topics) if name not in names]
@@ -163,13 +157,13 @@ def _play_all(
             )
             continue
         publishers[topic.name] = session.node.create_publisher(
-            msg_class, topic.name, offered_qos(declared.get(topic.name, ""))
+            msg_class, topic.name, offered_qos(topic.offered_qos_profiles)
         )
     clock = session.node.create_publisher(Clock, "/clock", 10) if args.clock else None
     start_ns = (info.start_ns or 0) + round(args.start_offset * 1e9)
     if topics and not publishers:
         raise CommandFailed(f"{info.path}: no topic to play: no type of the bag is installed")
-    late: list[float] = []
+    late = Lateness()
     session.spin_for(args.delay)  # time for subscribers to discover the new publishers
     print(f"Playing {info.path} ({len(publishers)} topic(s))", file=out, flush=True)
     while True:
@@ -192,7 +186,7 @@ def _play_all(
                 if clock is not None:
                     clock.publish(_clock(message.log_time_ns))
                 publishers[message.topic].publish(bytes(message.value))
-                late.append(time.monotonic() - due)
+                late.add(time.monotonic() - due)
             damage = bag.damage
             summary = bag.damage_summary(damage) if damage else ""
         if not played and not damage:
@@ -205,6 +199,25 @@ def _play_all(
             return late, damage, summary
         if not args.loop or damage:  # a damaged bag plays once: its damage is reported then
             return late, damage, summary
+
+
+class Lateness:
+    """How late messages were published against their schedule: a count, a sum and the worst,
+    not one number per message (``--loop`` plays for hours)."""
+
+    def __init__(self) -> None:
+        self.count = 0
+        self.total = 0.0
+        self.worst = 0.0
+
+    def add(self, seconds: float) -> None:
+        self.count += 1
+        self.total += seconds
+        self.worst = seconds if self.count == 1 else max(self.worst, seconds)
+
+    @property
+    def mean(self) -> float:
+        return self.total / self.count if self.count else 0.0
 
 
 def _clock(ns: int) -> Any:

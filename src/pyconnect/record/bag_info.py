@@ -29,6 +29,10 @@ class TopicInfo:
     serialization_format: str = "cdr"
     has_definition: bool = False
     type_hash: str = ""
+    offered_qos_profiles: str = ""
+    """The publishers' QoS as rosbag2 stores it (a YAML list; "" when the bag stores none):
+    from metadata.yaml, else from the storage file (an MCAP channel's metadata, a .db3 row),
+    so a bare ``.mcap`` plays a latched topic latched, as its directory does."""
 
     @property
     def is_service_event(self) -> bool:
@@ -92,6 +96,7 @@ class _TopicTally:
     count: int = 0
     has_definition: bool = False
     type_hash: str = ""
+    offered_qos_profiles: str = ""
 
 
 def storage_damage(storages: Iterable[StorageFile]) -> tuple[BagDamage, ...]:
@@ -162,6 +167,9 @@ def describe(bags: Iterable[tuple[BagFiles, list[StorageFile]]]) -> BagInfo:
                 tally.has_definition |= connection.definition is not None
                 tally.msg_type = tally.msg_type or connection.msg_type
                 tally.type_hash = tally.type_hash or connection.type_hash
+                tally.offered_qos_profiles = (
+                    tally.offered_qos_profiles or connection.offered_qos_profiles
+                )
         disagreements += _metadata_damage(located, stored, bool(storage_damage(storages)))
         for name, listed in declared.items():
             # Listed but in no storage file (a recording cut before its channel records): still
@@ -175,6 +183,10 @@ def describe(bags: Iterable[tuple[BagFiles, list[StorageFile]]]) -> BagInfo:
                 continue
             tally.msg_type = tally.msg_type or topic_metadata.msg_type
             tally.type_hash = tally.type_hash or topic_metadata.type_description_hash
+            # metadata.yaml is what rosbag2 plays from; the files' own copy fills in for it
+            tally.offered_qos_profiles = (
+                topic_metadata.offered_qos_profiles or tally.offered_qos_profiles
+            )
             if topic_metadata.serialization_format not in ("", "cdr"):
                 tally.serialization_format = topic_metadata.serialization_format
     ranges = [r for r in (s.time_range() for s in all_storages) if r is not None]
@@ -190,6 +202,7 @@ def describe(bags: Iterable[tuple[BagFiles, list[StorageFile]]]) -> BagInfo:
                 serialization_format=tally.serialization_format,
                 has_definition=tally.has_definition,
                 type_hash=tally.type_hash,
+                offered_qos_profiles=tally.offered_qos_profiles,
             )
             for name, tally in sorted(tallies.items())
         ),
