@@ -288,3 +288,13 @@ def test_under_sim_time_without_a_clock_the_recording_still_subscribes(
     )
     recording.stop()
     assert set(_recorded(tmp_path / "sim")) == {"s"}
+
+
+def test_stopped_recordings_are_let_go(make_node: Any, tmp_path: Path) -> None:
+    """One recording per episode: every stopped one stayed in the node's list for its life."""
+    node = make_node("episodes")
+    node.add_agent(conn_name="episode", conn_type="sub", data_interface=String)
+    for episode in range(5):
+        node.record(tmp_path / f"episode{episode}").stop()
+    last = node.record(tmp_path / "last")
+    assert node._recordings == [last]

@@ -181,6 +181,9 @@ class NodeLogging:
             recording = Recording(
                 cast(Node, self), self.agents, Path(path), None if topics is None else list(topics)
             )
+            # Stopped ones are let go here (shutdown stops the rest): one recording per
+            # episode kept every finished one, with its file state, for the node's life.
+            self._recordings[:] = [known for known in self._recordings if not known.stopped]
             self._recordings.append(recording)
         return recording
 

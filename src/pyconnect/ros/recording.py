@@ -190,6 +190,11 @@ class Recording:
         count: int = self.recorder.messages_written
         return count
 
+    @property
+    def stopped(self) -> bool:
+        """True once ``stop()`` was called."""
+        return self._stopped
+
     def stop(self) -> None:
         """Stop recording and close the file (idempotent)."""
         with self._lock:
