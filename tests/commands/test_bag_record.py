@@ -37,9 +37,10 @@ class _Node:
         return []
 
     def create_subscription(
-        self, cls: type, topic: str, callback: Any, _qos: Any, **_: Any
-    ) -> None:
+        self, cls: type, topic: str, callback: Any, qos: Any, **_: Any
+    ) -> SimpleNamespace:
         self.subscriptions[topic] = (cls, callback)
+        return SimpleNamespace(topic_name=topic, qos_profile=qos)
 
 
 def test_an_action_feedback_topic_named_explicitly_is_recorded(tmp_path: Path) -> None:
