@@ -387,3 +387,63 @@ def test_bag_echo_json_writes_non_finite_floats_as_strict_json(
     lines = capsys.readouterr().out.splitlines()
     values = [json.loads(line, parse_constant=refuse)["value"] for line in lines]
     assert values == ["nan", "inf", "-inf", 1.5]  # as topic echo --json writes them
+
+
+# Runs ``pyconnect`` as an install without the `ros` extra sees it: every import of rclpy fails.
+WITHOUT_RCLPY = """
+import sys
+sys.modules["rclpy"] = None
+from pyconnect.cli import main
+status = main(sys.argv[1:])
+print("rclpy imported:", sys.modules["rclpy"] is not None, file=sys.stderr)
+sys.exit(status)
+"""
+
+
+def _run_without_rclpy(*argv: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-c", WITHOUT_RCLPY, *argv],
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+    )
+
+
+def test_the_offline_commands_run_without_rclpy() -> None:
+    from pyconnect import __version__
+    from tests.conftest import require_sample_bags
+    from tests.record.bag_samples import BAGS
+
+    shared_bag = BAGS / "evo" / "nav2_turtlebot.mcap"
+    require_sample_bags(BAGS, shared_bag.exists())
+    help_run = _run_without_rclpy("--help")
+    assert (help_run.returncode, help_run.stderr) == (0, "rclpy imported: False\n")
+    assert "topic" in help_run.stdout
+    version_run = _run_without_rclpy("--version")
+    assert (version_run.returncode, version_run.stdout) == (0, f"pyconnect {__version__}\n")
+    info_run = _run_without_rclpy("bag", "info", str(shared_bag))
+    assert (info_run.returncode, info_run.stderr) == (0, "rclpy imported: False\n")
+    assert "/odom" in info_run.stdout
+
+
+@pytest.mark.parametrize(
+    ("argv", "reason"),
+    [
+        (["topic", "list"], "import of rclpy halted; None in sys.modules"),
+        # a name is expanded by rcl while the command line is read
+        (
+            ["topic", "echo", "chatter"],
+            "No module named 'rclpy.exceptions'; 'rclpy' is not a package",
+        ),
+        (["bag", "play", "missing_bag"], "import of rclpy halted; None in sys.modules"),
+    ],
+)
+def test_a_live_command_without_rclpy_names_the_ros_extra(argv: list[str], reason: str) -> None:
+    done = _run_without_rclpy(*argv)
+    assert (done.returncode, done.stdout) == (2, "")
+    assert done.stderr.splitlines() == [
+        f"pyconnect: error: this command talks to a live ROS 2 graph and needs rclpy ({reason}): "
+        "pip install 'pyconnect-ros[ros]', or source a ROS 2 Jazzy install",
+        "rclpy imported: False",
+    ]

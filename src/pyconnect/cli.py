@@ -12,6 +12,7 @@ from __future__ import annotations
 import argparse
 import logging
 import sys
+from typing import TextIO
 
 from pyconnect import __version__
 from pyconnect.commands import action as action_commands
@@ -23,6 +24,7 @@ from pyconnect.commands import run as run_commands
 from pyconnect.commands import service as service_commands
 from pyconnect.commands import topic as topic_commands
 from pyconnect.commands.common import Parser, UsageError, until_reader_leaves
+from pyconnect.commands.live_options import ros_missing
 from pyconnect.commands.value_text import format_value
 from pyconnect.errors import PyconnectError
 
@@ -72,9 +74,21 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         return 130
     except (UsageError, PyconnectError, OSError, ValueError) as error:
-        message = " ".join(str(error).split()) or type(error).__name__
-        print(f"{PROGRAM}: error: {message}", file=err)
-        return 2
+        return _report_error(error, err)
+    except ModuleNotFoundError as error:
+        # A live command in an install without the `ros` extra: rclpy is imported only when
+        # one is read or run, so the bag and interface commands work without it.
+        missing = ros_missing(error)
+        if missing is None:
+            raise
+        return _report_error(missing, err)
+
+
+def _report_error(error: Exception, err: TextIO) -> int:
+    """Print ``error`` as one line on ``err``; the exit status of an error."""
+    message = " ".join(str(error).split()) or type(error).__name__
+    print(f"{PROGRAM}: error: {message}", file=err)
+    return 2
 
 
 def main_entry() -> None:

@@ -1,4 +1,5 @@
-"""The ``codecgen`` command's own checks of its options, made before anything is built."""
+"""The ``codecgen`` command: its checks of its options (made before anything is built), and
+what `check` advises."""
 
 from __future__ import annotations
 
@@ -8,6 +9,7 @@ import pytest
 
 from pyconnect.codegen.cli import main
 from tests.codegen.conftest import TUTORIAL
+from tests.missing_modules import without
 
 
 @pytest.mark.parametrize("option", ["--from", "--compile"])
@@ -25,3 +27,60 @@ def test_an_interface_folder_instead_of_its_package_is_refused(
     )
     assert not out.exists()
     assert not prefix.exists()
+
+
+@pytest.mark.parametrize(
+    ("folder", "advice"),
+    [
+        ("out", "run `codecgen build`"),
+        (
+            "lib/python3.11/site-packages",
+            "they belong to an installed package: reinstall it, do not rebuild them here",
+        ),
+    ],
+)
+def test_check_does_not_advise_rebuilding_an_installed_package(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], folder: str, advice: str
+) -> None:
+    """A build there would overwrite files pip installed (and lists in their RECORD)."""
+    out = tmp_path / folder
+    assert main(["build", "unique_identifier_msgs", "--out", str(out)]) == 0
+    (out / "pyconnect_generated" / "unique_identifier_msgs" / "index.py").write_text("")
+    capsys.readouterr()
+    assert main(["check", "--out", str(out)]) == 1
+    assert capsys.readouterr().err == (
+        f"codecgen: 1 stale files in {out} ({advice}):\n"
+        "  pyconnect_generated/unique_identifier_msgs/index.py\n"
+    )
+
+
+@pytest.mark.parametrize(
+    ("missing", "reason"),
+    [
+        (
+            "rosidl_adapter",
+            "reading interface definitions needs rosidl's parsers (No module named "
+            "'rosidl_adapter')",
+        ),
+        (
+            "rosidl_generator_type_description",
+            "this needs ROS 2's rosidl tools (No module named 'rosidl_generator_type_description')",
+        ),
+    ],
+)
+def test_build_without_rosidl_is_one_line_naming_the_install(
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    missing: str,
+    reason: str,
+) -> None:
+    """As in an install where rosidl's wheels do not exist (not x86_64 Linux) and no ROS."""
+    package = tmp_path / "my_msgs"
+    (package / "msg").mkdir(parents=True)
+    (package / "msg" / "Num.msg").write_text("int64 num\n")
+    without(monkeypatch, missing)
+    assert main(["build", "--from", str(package), "--out", str(tmp_path / "out")]) == 2
+    assert capsys.readouterr().err == (
+        f"codecgen: {reason}: pip install 'pyconnect-ros[ros]' or source a ROS 2 Jazzy install\n"
+    )

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import sys
 from pathlib import Path
 
 import duckdb
@@ -53,4 +54,20 @@ def test_files_format_still_needs_a_topic(
     assert (
         capsys.readouterr().err
         == "pyconnect: error: the following arguments are required: --topic\n"
+    )
+
+
+def test_without_the_tables_extra_one_line_names_it(
+    bag: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # An install without pyarrow: its import fails, and the module importing it is imported anew.
+    for name in [name for name in sys.modules if name.split(".")[0] == "pyarrow"]:
+        monkeypatch.setitem(sys.modules, name, None)
+    monkeypatch.setitem(sys.modules, "pyarrow", None)
+    monkeypatch.delitem(sys.modules, "pyconnect.record.parquet_export", raising=False)
+    argv = ["bag", "export", str(bag), "--format", "parquet", "--to", str(tmp_path / "tables")]
+    assert main(argv) == 2
+    assert capsys.readouterr().err == (
+        "pyconnect: error: --format parquet needs pyarrow, which cannot be imported: "
+        "pip install 'pyconnect-ros[tables]'\n"
     )

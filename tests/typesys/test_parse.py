@@ -10,6 +10,7 @@ import pytest
 
 from pyconnect.typesys.errors import DefinitionError
 from pyconnect.typesys.parse import ParsedInterfaces, iter_messages, parse_interface_text
+from tests.missing_modules import without
 
 
 @pytest.mark.parametrize(
@@ -160,3 +161,17 @@ def test_defaults_rosidls_idl_parser_rejects_name_the_line() -> None:
         "msg/B.msg:2: rosidl cannot parse the IDL it converts it to "
         '(No terminal matches \'"\' in the current parser context @default (value="\\") ^)'
     )
+
+
+def test_without_rosidl_one_definition_error_says_what_to_install(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # A definition rosidl would refuse made the search for its line import rosidl_adapter again.
+    without(monkeypatch, "rosidl_adapter")
+    for text in ("int64 num\n", "int64 num\nbad line here\n"):
+        with pytest.raises(DefinitionError) as caught:
+            parse_interface_text("my_msgs", Path("msg/Num.msg"), text, ParsedInterfaces())
+        assert str(caught.value) == (
+            "reading interface definitions needs rosidl's parsers (No module named "
+            "'rosidl_adapter'): pip install 'pyconnect-ros[ros]' or source a ROS 2 Jazzy install"
+        )

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from pyconnect.codecs.search_path import CODECS_FOLDER
 from pyconnect.codegen import FORMAT_VERSION
-from pyconnect.codegen.formatting import format_modules
+from pyconnect.codegen.formatting import format_modules, same_module
 from pyconnect.codegen.render import render_package
 from pyconnect.typesys.loading import load_packages
 from pyconnect.typesys.model import PackageDef, TypeSet
@@ -84,13 +84,14 @@ def _optional_files(out_dir: Path) -> set[str]:
 
 
 def stale_files(files: dict[str, str], out_dir: Path) -> list[str]:
-    """Files that differ from, are missing from, or are not part of a fresh build."""
+    """Files that differ from, are missing from, or are not part of a fresh build (compared
+    as ``same_module`` does: the same answer with or without ruff to format the build)."""
     optional = _optional_files(out_dir)
     stale = []
     for relative, text in sorted(files.items()):
         path = out_dir / relative
         if path.is_file():
-            if path.read_text(encoding="utf-8") != text:
+            if not same_module(relative, text, path.read_text(encoding="utf-8")):
                 stale.append(relative)
         elif relative not in optional:
             stale.append(relative)

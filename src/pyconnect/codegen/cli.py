@@ -19,6 +19,7 @@ from pyconnect.codegen.build import (
 from pyconnect.commands.common import until_reader_leaves
 from pyconnect.typesys.errors import DefinitionError
 from pyconnect.typesys.packages import ament_prefixes, installed_packages
+from pyconnect.typesys.parse import ROSIDL_INSTALL
 
 
 def _parser() -> argparse.ArgumentParser:
@@ -86,6 +87,12 @@ def _list() -> int:
     return 0
 
 
+def _installed_by_pip(folder: Path) -> bool:
+    """Whether ``folder`` lies in an environment's package folder (an installed wheel's files,
+    or those of a ``codecgen build --compile`` install, which also has a RECORD)."""
+    return any(part in ("site-packages", "dist-packages") for part in folder.resolve().parts)
+
+
 def _check(args: argparse.Namespace) -> int:
     out = args.out or default_out_dir()
     # Check what the folder holds: the default packages (in generated/ or an empty folder) and
@@ -99,9 +106,12 @@ def _check(args: argparse.Namespace) -> int:
         print(f"codecgen: {skipped} not checked (not installed; built with --from)")
     stale = stale_files(render_tree(packages), out)
     if stale:
-        print(
-            f"codecgen: {len(stale)} stale files in {out} (run `codecgen build`):", file=sys.stderr
-        )
+        if _installed_by_pip(out):
+            # `codecgen build` would overwrite files pip owns and lists in a RECORD.
+            advice = "they belong to an installed package: reinstall it, do not rebuild them here"
+        else:
+            advice = "run `codecgen build`"
+        print(f"codecgen: {len(stale)} stale files in {out} ({advice}):", file=sys.stderr)
         for relative in stale[:20]:
             print(f"  {relative}", file=sys.stderr)
         return 1
@@ -135,6 +145,16 @@ def main(argv: list[str] | None = None) -> int:
         return 2
     except OSError as error:
         print(f"codecgen: {error}", file=sys.stderr)
+        return 2
+    except ModuleNotFoundError as error:
+        # rosidl's tools (parsers, type hashes, the --compile generators) come with ROS 2, not
+        # with every install of pyconnect: a missing one is an install to complete, not a bug.
+        if not (error.name or "").startswith("rosidl"):
+            raise
+        print(
+            f"codecgen: this needs ROS 2's rosidl tools ({error}): {ROSIDL_INSTALL}",
+            file=sys.stderr,
+        )
         return 2
 
 

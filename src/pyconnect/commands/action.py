@@ -15,6 +15,7 @@ import uuid
 from typing import TYPE_CHECKING, Any, TextIO
 
 from pyconnect.commands.common import Parser
+from pyconnect.commands.live_options import add_spin_time, expand_name
 
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
@@ -39,8 +40,6 @@ _STATUS = {
 
 def register(commands: Subcommands) -> Subcommands:
     """Add ``action`` and its verbs to the ``pyconnect`` subparsers."""
-    from pyconnect.commands.graph import add_spin_time, expand_name
-
     action = commands.add_parser(
         "action",
         help="list actions and send goals on a live ROS graph",

@@ -32,6 +32,8 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
+from pyconnect.commands.live_options import expand_name
+
 if TYPE_CHECKING:
     from collections.abc import Callable
 
@@ -82,8 +84,6 @@ def register(actions: Subcommands) -> None:
         epilog=EXAMPLES,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    from pyconnect.commands.graph import expand_name
-
     # ``chatter`` is ``/chatter``, as rosbag2's recorder expands it.
     record.add_argument("topics", nargs="*", type=expand_name, help="topics to record")
     record.add_argument("-a", "--all", action="store_true", help="record every topic")

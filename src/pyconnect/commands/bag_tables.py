@@ -14,13 +14,23 @@ import argparse
 from typing import TextIO
 
 from pyconnect.commands.bag_damage import damage_status
+from pyconnect.commands.common import UsageError
 
 __all__ = ["export_parquet_command"]
 
 
 def export_parquet_command(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     """Run ``bag export --format parquet``."""
-    from pyconnect.record.parquet_export import export_parquet
+    try:
+        from pyconnect.record.parquet_export import export_parquet
+    except ImportError as error:
+        # pyarrow is in the `tables` extra only: an install without it gets the command to run.
+        if (error.name or "").split(".")[0] != "pyarrow":
+            raise
+        raise UsageError(
+            "--format parquet needs pyarrow, which cannot be imported: "
+            "pip install 'pyconnect-ros[tables]'"
+        ) from error
 
     result = export_parquet(
         args.path, args.to, topics=args.topic, images=args.images, force=args.force

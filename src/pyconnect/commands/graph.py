@@ -20,18 +20,22 @@ from typing import Any, TextIO
 
 import rclpy
 from rclpy.context import Context
-from rclpy.exceptions import InvalidTopicNameException
 from rclpy.executors import SingleThreadedExecutor
-from rclpy.expand_topic_name import expand_topic_name
 from rclpy.node import Node
 from rclpy.qos import (
     QoSPresetProfiles,
     QoSProfile,
 )
 from rclpy.signals import SignalHandlerOptions
-from rclpy.validate_full_topic_name import validate_full_topic_name
 
-from pyconnect.commands.common import UsageError
+# The options live where the parser can reach them without rclpy; kept importable from here.
+from pyconnect.commands.live_options import (
+    HIDDEN_PREFIX,
+    QOS_PROFILES,
+    add_qos,
+    add_spin_time,
+    expand_name,
+)
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.qos import matching_qos
@@ -58,12 +62,7 @@ __all__ = [
 ]
 
 PROGRAM = "pyconnect"
-HIDDEN_PREFIX = "_"
 NODE_NAME_UNKNOWN = "_NODE_NAME_UNKNOWN_"  # what rmw names the node of an endpoint until it knows
-# What ``~`` (the node's private namespace) expands to in a name given on the command line.
-CLI_NODE_NAME = f"{HIDDEN_PREFIX}pyconnect_cli"
-# The presets --qos-profile takes: rclpy's short keys but "unknown", a placeholder rmw refuses.
-QOS_PROFILES = tuple(key for key in QoSPresetProfiles.short_keys() if key != "unknown")
 
 
 class CommandFailed(PyconnectError):
@@ -75,47 +74,6 @@ def report_failure(error: Exception, err: TextIO) -> int:
     message = " ".join(str(error).split()) or type(error).__name__
     print(f"{PROGRAM}: error: {message}", file=err)
     return 1
-
-
-def expand_name(name: str) -> str:
-    """A topic, service or action name as rclpy resolves it: ``chatter`` → ``/chatter``.
-
-    The graph lists full names only, so a relative name must be expanded before it is looked
-    up (``ros2`` does the same; a publisher's node would expand it itself). Also an argparse
-    ``type``: a name rcl refuses is a bad command line (``UsageError``, exit status 2).
-    """
-    try:
-        full: str = expand_topic_name(name, CLI_NODE_NAME, "/")
-        validate_full_topic_name(full)  # expansion lets some through: '/a//b'
-    except ValueError as error:
-        # rcl appends where in its C source it failed: no use to the user.
-        raise UsageError(str(error).split(", at /")[0]) from None
-    except InvalidTopicNameException as error:
-        # Its message points at the fault on two more lines; one line names the name instead.
-        raise UsageError(f"{str(error).splitlines()[0]} {full!r}") from None
-    return full
-
-
-def add_qos(parser: Any) -> None:
-    """``--qos-profile NAME``: a preset instead of the QoS ``choose_qos`` matches to publishers."""
-    parser.add_argument(
-        "--qos-profile",
-        metavar="NAME",
-        choices=QOS_PROFILES,
-        help=f"a preset profile: {', '.join(QOS_PROFILES)} "
-        "(default: one that matches the publishers)",
-    )
-
-
-def add_spin_time(parser: Any, default: float = 2.0) -> None:
-    """``--spin-time S``: how long to discover the graph before answering (ros2cli's name)."""
-    parser.add_argument(
-        "--spin-time",
-        type=float,
-        default=default,
-        metavar="S",
-        help=f"seconds to wait for discovery before answering (default {default})",
-    )
 
 
 class GraphSession:

@@ -12,6 +12,7 @@ import argparse
 from typing import TYPE_CHECKING, Any, TextIO
 
 from pyconnect.commands.common import Parser
+from pyconnect.commands.live_options import add_spin_time
 
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
@@ -26,8 +27,6 @@ EXAMPLES = """examples:
 
 def register(commands: Subcommands) -> Subcommands:
     """Add ``node`` and its verbs to the ``pyconnect`` subparsers."""
-    from pyconnect.commands.graph import add_spin_time
-
     node = commands.add_parser(
         "node",
         help="list and inspect nodes of a live ROS graph",

@@ -12,6 +12,7 @@ import argparse
 from typing import TYPE_CHECKING, Any, TextIO
 
 from pyconnect.commands.common import Parser
+from pyconnect.commands.live_options import add_spin_time, expand_name
 
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
@@ -27,8 +28,6 @@ EXAMPLES = """examples:
 
 def register(commands: Subcommands) -> Subcommands:
     """Add ``service`` and its verbs to the ``pyconnect`` subparsers."""
-    from pyconnect.commands.graph import add_spin_time, expand_name
-
     service = commands.add_parser(
         "service",
         help="list and call services of a live ROS graph",

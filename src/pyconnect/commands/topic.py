@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any, TextIO
 
 from pyconnect.commands.argument_types import positive_int
 from pyconnect.commands.common import Parser
+from pyconnect.commands.live_options import add_qos, add_spin_time, expand_name
 from pyconnect.commands.topic_subscribe import (
     await_first,
     echo_field,
@@ -45,8 +46,6 @@ EXAMPLES = """examples:
 
 def register(commands: Subcommands) -> Subcommands:
     """Add ``topic`` and its verbs to the ``pyconnect`` subparsers."""
-    from pyconnect.commands.graph import add_qos, add_spin_time, expand_name
-
     topic = commands.add_parser(
         "topic",
         help="list, inspect, echo, measure and publish topics of a live ROS graph",

@@ -24,7 +24,7 @@ __all__ = ["register"]
 
 def register(verbs: Subcommands, *, epilog: str) -> None:
     """Add ``pub`` to the ``topic`` verbs."""
-    from pyconnect.commands.graph import add_qos, expand_name
+    from pyconnect.commands.live_options import add_qos, expand_name
 
     pub = verbs.add_parser(
         "pub",

@@ -2,12 +2,15 @@
 
 ``rosidl_adapter`` turns .msg/.srv/.action text into IDL and ``rosidl_parser`` parses IDL;
 ``from_rosidl`` maps the result onto the model. The rosidl objects are kept for hashing.
+Without rosidl's parsers installed, reading any definition is one ``DefinitionError`` saying
+what to install (``require_rosidl``).
 """
 
 from __future__ import annotations
 
 import contextlib
 import functools
+import importlib
 import io
 import re
 from collections.abc import Iterator
@@ -29,6 +32,11 @@ from pyconnect.typesys.packages import (
 )
 
 # -- parsing ----------------------------------------------------------------------------------
+# rosidl's parsers: dependencies of pyconnect-ros where their wheels exist (x86_64 Linux), also
+# brought by the `ros` extra or a sourced ROS install.
+_ROSIDL_MODULES = ("rosidl_adapter.parser", "rosidl_adapter.resource", "rosidl_parser.parser",
+                   "rosidl_parser.definition")  # fmt: skip
+ROSIDL_INSTALL = "pip install 'pyconnect-ros[ros]' or source a ROS 2 Jazzy install"
 _ADAPTER_TEMPLATES = {".msg": ("msg", "msg.idl.em"), ".srv": ("srv", "srv.idl.em"),
                       ".action": ("action", "action.idl.em")}  # fmt: skip
 # The messages a file holds, in order, as rosidl_adapter.parser names them after the file's stem;
@@ -50,6 +58,21 @@ def _quiet(stderr: io.StringIO | None = None) -> Iterator[None]:
     out = io.StringIO()
     with contextlib.redirect_stderr(stderr or out), contextlib.redirect_stdout(out):
         yield
+
+
+def require_rosidl() -> None:
+    """Raise ``DefinitionError`` naming what to install when rosidl's parsers are missing.
+
+    Checked before parsing: a parse failure is otherwise reported as a fault of the definition,
+    and the search for its line would import the missing module again, outside any handler.
+    """
+    for name in _ROSIDL_MODULES:
+        try:
+            importlib.import_module(name)
+        except ModuleNotFoundError as error:
+            raise DefinitionError(
+                f"reading interface definitions needs rosidl's parsers ({error}): {ROSIDL_INSTALL}"
+            ) from None
 
 
 def _parse_with_adapter(package: str, path: Path, text: str) -> Any:
@@ -209,6 +232,7 @@ class ParsedInterfaces:
 
 def parse_interface_text(package: str, path: Path, text: str, into: ParsedInterfaces) -> None:
     """Parse one .msg/.srv/.action/.idl text (``path`` names it in errors) into ``into``."""
+    require_rosidl()
     if path.suffix == ".idl":
         content = _parse_idl(text, path)
     elif path.suffix in INTERFACE_SUFFIXES:
