@@ -1,5 +1,6 @@
-"""Reading MCAP files (``mcap_storage``): one reader iterated in several threads at once, and
-messages of equal log time in chunks that overlap in time."""
+"""Reading MCAP files (``mcap_storage``): one reader iterated in several threads at once,
+messages of equal log time in chunks that overlap in time, and summaries that do not repeat the
+channels and schemas."""
 
 from __future__ import annotations
 
@@ -10,8 +11,14 @@ from typing import Any
 
 import pytest
 from mcap.reader import make_reader
+from mcap.records import Channel, Message
+from mcap.stream_reader import StreamReader
+from mcap.writer import CompressionType, IndexType, Writer
+from rclpy.serialization import serialize_message
+from std_msgs.msg import Int64, String
 
 from pyconnect.record import mcap_chunks
+from pyconnect.record.bag_info import bag_info
 from pyconnect.record.bag_reader import open_bag
 from pyconnect.record.mcap_recorder import McapRecorder
 
@@ -106,3 +113,71 @@ def test_equal_log_times_come_as_the_mcap_reader_gives_them(tmp_path: Path) -> N
     assert len(chunks) > 10
     with open_bag(path, raw=True) as bag:
         assert [(message.log_time_ns, message.value) for message in bag] == expected
+
+
+@pytest.mark.parametrize(
+    "options",
+    [
+        {"repeat_channels": False, "repeat_schemas": False},
+        {"repeat_channels": False, "repeat_schemas": True},
+        {"repeat_channels": True, "repeat_schemas": False},
+        # no message indexes nor statistics: nothing names the channels the summary lacks
+        {
+            "repeat_channels": False,
+            "repeat_schemas": False,
+            "index_types": IndexType.CHUNK,
+            "use_statistics": False,
+        },
+    ],
+    ids=["neither", "schemas only", "channels only", "chunk index only"],
+)
+def test_a_summary_that_does_not_repeat_channels_reads_every_message(
+    tmp_path: Path, options: dict[str, Any]
+) -> None:
+    # The spec lets a writer leave channels and schemas out of the summary: they are then in
+    # the chunks only, which must be read for them rather than the file taken for empty.
+    path = tmp_path / "norepeat.mcap"
+    with path.open("wb") as stream:
+        writer = Writer(stream, chunk_size=400, compression=CompressionType.ZSTD, **options)
+        writer.start(profile="ros2", library="test")
+        text = writer.register_schema("std_msgs/msg/String", "ros2msg", b"string data")
+        number = writer.register_schema("std_msgs/msg/Int64", "ros2msg", b"int64 data")
+        chatter = writer.register_channel("/chatter", "cdr", text)
+        counts = writer.register_channel("/counts", "cdr", number)
+        for i in range(60):
+            stamp = 1_000 + (i * 7) % 45  # out of order: chunks overlap in time
+            if i % 3:
+                data = bytes(serialize_message(Int64(data=i)))
+                writer.add_message(counts, log_time=stamp, data=data, publish_time=stamp)
+            else:
+                data = bytes(serialize_message(String(data=f"m{i}")))
+                writer.add_message(chatter, log_time=stamp, data=data, publish_time=stamp)
+        writer.finish()
+    with path.open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+        assert summary is not None and len(summary.chunk_indexes) > 3
+        assert not (options["repeat_channels"] and options["repeat_schemas"])
+        # mcap's seeking reader takes channels from the summary only: its stream reader, then.
+        stream.seek(0)
+        channels: dict[int, str] = {}
+        written = []
+        for record in StreamReader(stream).records:
+            if isinstance(record, Channel):
+                channels[record.id] = record.topic
+            elif isinstance(record, Message):
+                written.append((channels[record.channel_id], record.log_time, record.data))
+    expected = sorted(written, key=lambda message: message[1])  # stable: equal times as written
+    assert len(expected) == 60
+    info = bag_info(path)
+    assert {(t.name, t.msg_type, t.message_count) for t in info.topics} == {
+        ("/chatter", "std_msgs/msg/String", 20),
+        ("/counts", "std_msgs/msg/Int64", 40),
+    }
+    assert info.damage == ()
+    with open_bag(path, raw=True) as bag:
+        got = [(m.topic, m.log_time_ns, bytes(m.value)) for m in bag]
+    assert got == expected
+    with open_bag(path) as bag:
+        values = [m.value for m in bag if m.topic == "/counts"]
+    assert (bag.errors, bag.damage) == ([], [])
+    assert sorted(values) == [i for i in range(60) if i % 3]

@@ -1,4 +1,9 @@
-"""Find the storage files of a bag path: a rosbag2 directory, a bare file, or a split bag."""
+"""Find the storage files of a bag path: a rosbag2 directory, a bare file, or a split bag.
+
+Opened, their messages are decompressed when rosbag2 compressed them one by one
+(``compression_mode: message``; pyconnect.record.message_compression), so that the readers
+see CDR; whole compressed files are refused.
+"""
 
 from __future__ import annotations
 
@@ -26,6 +31,7 @@ __all__ = [
 _MCAP_MAGIC = b"\x89MCAP0\r\n"
 _SQLITE_MAGIC = b"SQLite format 3\x00"
 STORAGE_SUFFIXES = (".mcap", ".db3")
+_MESSAGE_COMPRESSIONS = ("zstd",)  # what rosbag2 compresses messages one by one with
 
 
 @dataclass(frozen=True)
@@ -35,6 +41,9 @@ class BagFiles:
     path: Path
     files: tuple[Path, ...]
     metadata: BagMetadata | None
+    message_compression: str = ""
+    """The format each message's data is compressed in (metadata.yaml's ``compression_mode:
+    message``), "" when stored as it is."""
 
 
 def _natural_key(path: Path) -> tuple[object, ...]:
@@ -51,6 +60,21 @@ def _listed_file(directory: Path, relative: str) -> Path:
     if by_name.is_file():
         return by_name
     raise BagError(f"{directory}: metadata.yaml lists {relative!r}, which is not in the bag")
+
+
+def _message_compression(path: Path, metadata: BagMetadata) -> str:
+    """The format of a bag whose messages are compressed one by one, "" for any other bag."""
+    if metadata.compression_mode.lower() != "message":
+        return ""
+    found = metadata.compression_format.lower()
+    if found not in _MESSAGE_COMPRESSIONS:
+        expected = " or ".join(repr(name) for name in _MESSAGE_COMPRESSIONS)
+        raise BagError(
+            f"{path}: compression_format: expected {expected} for compression_mode "
+            f"{metadata.compression_mode!r}, got {metadata.compression_format!r}; "
+            "decompress the bag with `ros2 bag convert` first"
+        )
+    return found
 
 
 def locate_bag_files(path: str | Path) -> BagFiles:
@@ -71,7 +95,7 @@ def locate_bag_files(path: str | Path) -> BagFiles:
                 "supported; decompress them with `ros2 bag convert` first"
             )
         files = tuple(_listed_file(target, p) for p in metadata.relative_file_paths)
-        return BagFiles(target, files, metadata)
+        return BagFiles(target, files, metadata, _message_compression(metadata_path, metadata))
     # No metadata.yaml (a bag before `ros2 bag reindex`): every storage file, in split order.
     found = sorted(
         (p for p in target.iterdir() if p.suffix in STORAGE_SUFFIXES and p.is_file()),
@@ -82,8 +106,9 @@ def locate_bag_files(path: str | Path) -> BagFiles:
     return BagFiles(target, tuple(found), None)
 
 
-def open_storage(path: Path) -> StorageFile:
-    """Open one storage file, recognised by its first bytes (the suffix may be anything)."""
+def open_storage(path: Path, *, message_compression: str = "") -> StorageFile:
+    """Open one storage file, recognised by its first bytes (the suffix may be anything);
+    ``message_compression``: the format its messages' data is compressed in ("" none)."""
     try:
         with path.open("rb") as stream:
             head = stream.read(16)
@@ -92,11 +117,11 @@ def open_storage(path: Path) -> StorageFile:
     if head.startswith(_MCAP_MAGIC):
         from pyconnect.record.mcap_storage import McapFile
 
-        return McapFile(path)
+        return McapFile(path, message_compression=message_compression)
     if head.startswith(_SQLITE_MAGIC):
         from pyconnect.record.sqlite_storage import SqliteFile
 
-        return SqliteFile(path)
+        return SqliteFile(path, message_compression=message_compression)
     raise BagError(f"{path}: neither an MCAP nor a sqlite3 bag file")
 
 
@@ -120,5 +145,6 @@ def open_bag_files(
         located = locate_bag_files(path)
         storages: list[StorageFile] = []
         into.append((located, storages))
-        storages.extend(open_storage(p) for p in located.files)
+        compression = located.message_compression
+        storages.extend(open_storage(p, message_compression=compression) for p in located.files)
     return into

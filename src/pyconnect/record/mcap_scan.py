@@ -1,18 +1,19 @@
 """Scan the data section of an MCAP file whose summary cannot index it, as ``ros2 bag reindex``.
 
 Chunk headers and the message indexes after them give the time range and counts of each chunk
-without decompressing it; only chunks that declare unknown channels, or have no message index
-(the last chunk of a cut recording), are decompressed to read them. Schemas and channels are
-read where they lie. When the footer places the end of the data section, each record scanned
-must fit before it and parse; a damaged one is skipped by resynchronising on the next run of
-records that do (``mcap_records``), rather than losing the rest of the file. Damage never
-raises: it is noted in the file's ``DamageLog``.
+without decompressing it; only chunks that declare unknown channels (or channels of unknown
+schemas), or have no message index (the last chunk of a cut recording), are decompressed to
+read them. Schemas and channels are read where they lie. When the footer places the end of the
+data section, each record scanned must fit before it and parse; a damaged one is skipped by
+resynchronising on the next run of records that do (``mcap_records``), rather than losing the
+rest of the file. Damage never raises: it is noted in the file's ``DamageLog``.
 """
 
 from __future__ import annotations
 
 import io
 import struct
+from collections.abc import Iterable
 from typing import BinaryIO
 
 from mcap.data_stream import ReadDataStream
@@ -196,7 +197,7 @@ class _Scan:
                 loose.counts[channel] = loose.counts.get(channel, 0) + 1
             position = end
         for span in self.spans:
-            if span.counts is None or not span.counts.keys() <= self._channels.keys():
+            if span.counts is None or not self._defined(span.counts.keys()):
                 self._probe(span)
             span.channels = frozenset(span.counts or ())
         found = sum(sum((span.counts or {}).values()) for span in self.spans)
@@ -208,6 +209,16 @@ class _Scan:
                 None,
                 f"the file's statistics count {promised} message(s), {found} were found in it",
             )
+
+    def _defined(self, channel_ids: Iterable[int]) -> bool:
+        """Whether those channels, and their schemas, are known (schema id 0: none needed).
+
+        A summary that does not repeat schemas can leave them in the chunks only."""
+        for channel_id in channel_ids:
+            channel = self._channels.get(channel_id)
+            if channel is None or (channel.schema_id and channel.schema_id not in self._schemas):
+                return False
+        return True
 
     def _definition(self, opcode: int, body: bytes, offset: int) -> None:
         try:

@@ -6,9 +6,10 @@ opened, as ``ros2 bag reindex`` would (``mcap_scan``). Either way, messages are 
 by chunk in log-time order (``messages``), holding at most two chunks at a time. Damage never
 raises: it is noted in ``damage`` and the intact messages are delivered (see ``mcap_chunks``).
 
-A file scanned although its summary is readable (one written without chunks has no chunk index)
-keeps the summary's statistics as the counts it promises, and the schemas and channels it
-declares.
+A file scanned although its summary is readable (one written without chunks has no chunk index;
+one whose summary does not repeat its channels and schemas, as the spec allows, has them in its
+chunks only) keeps the summary's statistics as the counts it promises, and the schemas and
+channels it declares.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from __future__ import annotations
 import bisect
 import heapq
 import os
-from collections.abc import Iterator, Sequence
+from collections.abc import Generator, Iterator, Sequence
 from operator import itemgetter
 from pathlib import Path
 from typing import BinaryIO
@@ -40,6 +41,7 @@ from pyconnect.record.mcap_chunks import (
 )
 from pyconnect.record.mcap_records import MAGIC
 from pyconnect.record.mcap_scan import MESSAGE_INDEX_HEAD, scan_data_section
+from pyconnect.record.message_compression import decompressed
 
 __all__ = ["McapFile"]
 
@@ -82,12 +84,28 @@ def _release(
     return list(heapq.merge(*parts, key=_log_time))
 
 
+def _declares_its_channels(summary: Summary) -> bool:
+    """Whether the summary declares every channel (and its schema) its chunk indexes and
+    statistics name: a file whose summary does not repeat them has them in its chunks only."""
+    named = {channel for index in summary.chunk_indexes for channel in index.message_index_offsets}
+    if summary.statistics is not None:
+        named.update(c for c, n in summary.statistics.channel_message_counts.items() if n)
+    if not summary.channels or not named <= summary.channels.keys():
+        return False
+    # Schema id 0: a channel without schema, which needs none.
+    return all(
+        channel.schema_id == 0 or channel.schema_id in summary.schemas
+        for channel in summary.channels.values()
+    )
+
+
 class McapFile:
     """One ``.mcap`` file of a bag (or a bare MCAP file); ``damage`` lists what is broken."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, *, message_compression: str = "") -> None:
         self.path = str(path)
         self.damage = DamageLog(self.path)
+        self._message_compression = message_compression  # BagFiles.message_compression
         self._stream: BinaryIO = path.open("rb")
         self._size = os.fstat(self._stream.fileno()).st_size
         if self._stream.read(8) != MAGIC:
@@ -161,6 +179,10 @@ class McapFile:
         if not summary.chunk_indexes:
             empty = statistics is not None and statistics.message_count == 0
             return summary if empty else None
+        if not _declares_its_channels(summary):
+            # Allowed by the spec (a writer need not repeat its channels and schemas in the
+            # summary): read through it, their messages would be taken for no topic's.
+            return None
         for index in summary.chunk_indexes:
             where = index.chunk_start_offset
             if where + index.chunk_length > self._size or where < 8:
@@ -246,6 +268,14 @@ class McapFile:
     def messages(
         self, connection_ids: set[int], start_ns: int | None, end_ns: int | None
     ) -> Iterator[RawMessage]:
+        stored = self._stored_messages(connection_ids, start_ns, end_ns)
+        if not self._message_compression:
+            return stored
+        return decompressed(stored, self._message_compression, self.damage)
+
+    def _stored_messages(
+        self, connection_ids: set[int], start_ns: int | None, end_ns: int | None
+    ) -> Generator[RawMessage, None, None]:
         """Chunk by chunk in start-time order; a message is held back only while a later
         chunk may still hold an earlier one, and then copied so that its chunk can go."""
         if not connection_ids:

@@ -18,12 +18,13 @@ replacement characters), a NULL, text or blob where an integer belongs; such row
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Sequence
+from collections.abc import Generator, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
 from pyconnect.record.bag_damage import DamageLog
 from pyconnect.record.bag_storage import Connection, RawMessage
+from pyconnect.record.message_compression import decompressed
 from pyconnect.record.sqlite_open import NOTHING_READABLE, SqliteDatabase, columns_of
 from pyconnect.record.sqlite_salvage import (
     READ_ERRORS,
@@ -63,9 +64,10 @@ def _index_query(messages: str) -> str:
 class SqliteFile:
     """One ``.db3`` file of a rosbag2 bag."""
 
-    def __init__(self, path: Path) -> None:
+    def __init__(self, path: Path, *, message_compression: str = "") -> None:
         self.path = str(path)
         self.damage = DamageLog(self.path)
+        self._message_compression = message_compression  # BagFiles.message_compression
         self.promised: int | None = None
         self._connections: list[Connection] = []
         self._tables: dict[str, str] = {}  # rosbag2's name -> the file's, quoted ({}: none read)
@@ -224,6 +226,14 @@ class SqliteFile:
     def messages(
         self, connection_ids: set[int], start_ns: int | None, end_ns: int | None
     ) -> Iterator[RawMessage]:
+        stored = self._stored_messages(connection_ids, start_ns, end_ns)
+        if not self._message_compression:
+            return stored
+        return decompressed(stored, self._message_compression, self.damage)
+
+    def _stored_messages(
+        self, connection_ids: set[int], start_ns: int | None, end_ns: int | None
+    ) -> Generator[RawMessage, None, None]:
         if not connection_ids or "messages" not in self._tables:
             return
         ids = ",".join(str(int(i)) for i in sorted(connection_ids))

@@ -1,0 +1,96 @@
+"""Finding and opening a bag's storage files (``bag_files``): bags whose messages rosbag2
+compressed one by one (``compression_mode: message``)."""
+
+from __future__ import annotations
+
+import sqlite3
+from pathlib import Path
+
+import pytest
+from rosbags.rosbag2 import Reader, Writer
+from rosbags.rosbag2.enums import CompressionFormat, CompressionMode, StoragePlugin
+from rosbags.typesys import Stores, get_typestore
+
+from pyconnect.record.bag_errors import BagError
+from pyconnect.record.bag_reader import open_bag
+
+TYPESTORE = get_typestore(Stores.ROS2_JAZZY)
+PLUGINS = {"sqlite3": StoragePlugin.SQLITE3, "mcap": StoragePlugin.MCAP}
+
+
+def write_compressed(path: Path, storage: str, count: int = 5) -> Path:
+    """A bag as ``rosbag2`` (and rosbags) write it with per-message zstd compression."""
+    writer = Writer(path, version=9, storage_plugin=PLUGINS[storage])
+    writer.set_compression(CompressionMode.MESSAGE, CompressionFormat.ZSTD)
+    string = TYPESTORE.types["std_msgs/msg/String"]
+    with writer:
+        connection = writer.add_connection("/chatter", "std_msgs/msg/String", typestore=TYPESTORE)
+        for i in range(count):
+            data = TYPESTORE.serialize_cdr(string(data=f"hello {i}"), "std_msgs/msg/String")
+            writer.write(connection, 1_000 + i, data)
+    return path
+
+
+def plain_messages(path: Path) -> list[tuple[int, bytes]]:
+    """(log time, CDR bytes) as rosbags reads them: decompressed."""
+    with Reader(path) as reader:
+        return [(t, bytes(raw)) for _, t, raw in reader.messages()]
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+def test_messages_compressed_one_by_one_are_decompressed(tmp_path: Path, storage: str) -> None:
+    path = write_compressed(tmp_path / "bag", storage)
+    assert "compression_mode: message" in (path / "metadata.yaml").read_text()
+    with open_bag(path) as bag:
+        values = [(m.log_time_ns, m.value) for m in bag]
+    assert values == [(1_000 + i, f"hello {i}") for i in range(5)]
+    assert (bag.errors, bag.damage) == ([], [])
+    # raw bytes are the CDR a player publishes, not zstd frames
+    with open_bag(path, raw=True) as bag:
+        raw = [(m.log_time_ns, bytes(m.value)) for m in bag]
+    assert raw == plain_messages(path)
+    assert raw[0][1].startswith(b"\x00\x01\x00\x00")
+
+
+def test_compression_mode_is_read_case_insensitively(tmp_path: Path) -> None:
+    path = write_compressed(tmp_path / "bag", "mcap")
+    metadata = path / "metadata.yaml"
+    text = metadata.read_text()
+    metadata.write_text(
+        text.replace("compression_mode: message", "compression_mode: MESSAGE").replace(
+            "compression_format: zstd", "compression_format: ZSTD"
+        )
+    )
+    with open_bag(path) as bag:
+        assert [m.value for m in bag] == [f"hello {i}" for i in range(5)]
+
+
+def test_unsupported_message_compression_is_a_clear_error(tmp_path: Path) -> None:
+    path = write_compressed(tmp_path / "bag", "sqlite3")
+    metadata = path / "metadata.yaml"
+    metadata.write_text(
+        metadata.read_text().replace("compression_format: zstd", "compression_format: lz4")
+    )
+    with pytest.raises(BagError) as caught:
+        open_bag(path)
+    assert str(caught.value) == (
+        f"{metadata}: compression_format: expected 'zstd' for compression_mode 'message', "
+        "got 'lz4'; decompress the bag with `ros2 bag convert` first"
+    )
+
+
+def test_a_message_that_does_not_decompress_is_damage(tmp_path: Path) -> None:
+    path = write_compressed(tmp_path / "bag", "sqlite3")
+    (db3,) = path.glob("*.db3")
+    with sqlite3.connect(db3) as db:
+        (frame,) = db.execute("SELECT data FROM messages WHERE timestamp = 1002").fetchone()
+        db.execute("UPDATE messages SET data = ? WHERE timestamp = 1002", (frame[:-4],))
+        db.execute("UPDATE messages SET data = x'0001000000' WHERE timestamp = 1003")
+    db.close()
+    with open_bag(path) as bag:
+        values = [m.value for m in bag]
+    assert values == ["hello 0", "hello 1", "hello 4"]
+    assert bag.errors == []
+    (damage,) = bag.damage
+    assert damage.file == str(db3)
+    assert damage.what.startswith("messages whose data does not decompress (zstd: ")
