@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 from rclpy.serialization import serialize_message
-from std_msgs.msg import ByteMultiArray, Float32MultiArray, UInt8MultiArray
+from std_msgs.msg import ByteMultiArray, Float32MultiArray, String, UInt8MultiArray
 
 from pyconnect.cli import main
 from pyconnect.commands.bag import seconds_to_ns
@@ -28,8 +28,14 @@ def stamped_bag(tmp_path: Path) -> Path:
 
 
 def _echoed(capsys: pytest.CaptureFixture[str]) -> list[tuple[int, object]]:
-    lines = capsys.readouterr().out.splitlines()
-    return [(record["log_time_ns"], record["value"]) for record in map(json.loads, lines)]
+    return _records(capsys.readouterr().out)
+
+
+def _records(out: str) -> list[tuple[int, object]]:
+    """(log_time_ns, value) of each line ``echo --json`` printed."""
+    return [
+        (record["log_time_ns"], record["value"]) for record in map(json.loads, out.splitlines())
+    ]
 
 
 def test_echo_window_at_an_exact_absolute_stamp(
@@ -93,3 +99,30 @@ def test_echo_field_indexes_into_byte_arrays(
     assert _echoed(capsys) == [(1, data[1])]
     assert main(["bag", "echo", str(bag), "--json", "--field", "data.3"]) == 2
     assert capsys.readouterr().err == "pyconnect: error: --field data.3: /a: data: no item 3 of 3\n"
+
+
+def test_echo_reads_a_bag_with_a_json_topic_and_says_it_left_that_out(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from mcap.writer import Writer
+
+    bag = tmp_path / "mixed.mcap"
+    with bag.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2", library="test")
+        string = writer.register_schema("std_msgs/msg/String", "ros2msg", b"string data")
+        chatter = writer.register_channel("/chatter", "cdr", string)
+        json_topic = writer.register_channel("/json", "json", 0)
+        hi = bytes(serialize_message(String(data="hi")))
+        writer.add_message(chatter, log_time=1, data=hi, publish_time=1)
+        writer.add_message(json_topic, log_time=2, data=b'{"a": 1}', publish_time=2)
+        writer.finish()
+    # One JSON topic refused the whole bag (exit 2) though the others decode.
+    assert main(["bag", "echo", str(bag), "--json"]) == 0
+    captured = capsys.readouterr()
+    assert _records(captured.out) == [(1, "hi")]
+    assert captured.err == (
+        f"pyconnect: {bag}: 1 topic(s) not read, as only 'cdr' topics of a known type can be "
+        "decoded: /json (serialised as 'json'); select one with raw=True to read it undecoded\n"
+    )
+    assert main(["bag", "echo", str(bag), "--topic", "/json"]) == 2

@@ -388,3 +388,28 @@ def test_ros2idl_schema_of_a_type_not_installed(tmp_path: Path) -> None:
         (0.5, "t1", [0]),
         (1.0, "t2", [0, 1]),
     ]
+
+
+def test_topic_codecs_gives_each_type_of_a_topic_in_one_bag(tmp_path: Path) -> None:
+    """Two MCAP channels of /chatter, String then Int32, then a third String one: one codec per
+    type, the same bag's path for each (the first type alone hid the second from tables)."""
+    from mcap.writer import Writer
+
+    bag = tmp_path / "two_types.mcap"
+    with bag.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2", library="test")
+        string = writer.register_schema("std_msgs/msg/String", "ros2msg", b"string data")
+        int32 = writer.register_schema("std_msgs/msg/Int32", "ros2msg", b"int32 data")
+        for time, schema in enumerate([string, int32, string], 1):
+            channel = writer.register_channel("/chatter", "cdr", schema)
+            data = serialize_message(String(data="a")) if schema == string else b"\0\1\0\0\7\0\0\0"
+            writer.add_message(channel, log_time=time, data=data, publish_time=time)
+        writer.finish()
+    with open_bag(bag) as reader:
+        codecs = reader.topic_codecs("/chatter")
+        assert [(path, codec.msg_type) for path, codec in codecs] == [
+            (bag, "std_msgs/msg/String"),
+            (bag, "std_msgs/msg/Int32"),
+        ]
+        assert reader.topic_codec("/chatter") is codecs[0][1]

@@ -90,11 +90,16 @@ def test_short_image_is_reported_and_the_read_goes_on(
 @pytest.mark.parametrize("key", WRONG_FORMAT)
 def test_wrong_serialization_format_is_rejected(key: str) -> None:
     with pytest.raises(BagError) as caught:
-        open_bag(BAGS / key)
+        open_bag(BAGS / key, topics=["/array_topic"])
     assert str(caught.value) == (
         f"{BAGS / key}: topic /array_topic is serialised as 'wrong_format'; "
         "only 'cdr' can be decoded (raw=True reads it undecoded)"
     )
+    # Selected by no topics=, it is left out and said to be, as other bags read on.
+    with open_bag(BAGS / key) as bag:
+        assert list(bag) == []
+        assert bag.topics == {}
+        assert bag.left_out == {t.name: "serialised as 'wrong_format'" for t in bag.info.topics}
     info = bag_info(BAGS / key)
     assert {t.serialization_format for t in info.topics} == {"wrong_format"}
 

@@ -384,3 +384,72 @@ def test_merged_bags_whose_field_types_differ_are_an_error(tmp_path: Path) -> No
         f"read with, string in that of {one}; one table cannot hold both (read them with "
         "open_bag)"
     )
+
+
+# -- one bag holding a topic on two channels (MCAP files of other tools) --------------------------
+def _two_channel_bag(path: Path, channels: list[tuple[str, str, bytes]]) -> Path:
+    """An MCAP file with ``channels`` (type, stored definition, one message's CDR) all on /s,
+    one message each, in that order."""
+    from mcap.writer import Writer
+
+    with path.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2", library="test")
+        for time, (msg_type, definition, data) in enumerate(channels, 1):
+            schema = writer.register_schema(msg_type, "ros2msg", definition.encode())
+            channel = writer.register_channel("/s", "cdr", schema)
+            writer.add_message(channel, log_time=time, data=data, publish_time=time)
+        writer.finish()
+    return path
+
+
+_INT32_SEVEN = b"\x00\x01\x00\x00" + (7).to_bytes(4, "little")
+
+
+def test_a_topic_of_two_types_in_one_bag_is_an_error(tmp_path: Path) -> None:
+    bag = _two_channel_bag(
+        tmp_path / "two_types.mcap",
+        [("std_msgs/msg/String", "string data\n", _cdr_strings("a")),
+         ("std_msgs/msg/Int32", "int32 data\n", _INT32_SEVEN)],
+    )  # fmt: skip
+    with open_bag(bag, natural=False) as reader:
+        assert [m.value for m in reader] == [{"data": "a"}, {"data": 7}]
+        # The second type was never seen: pyarrow failed on its first int in a string column.
+        with pytest.raises(BagError) as raised:
+            reader.to_pandas("/s")
+    assert str(raised.value) == (
+        f"{bag}: /s: two types in this bag, std_msgs/msg/String and std_msgs/msg/Int32; "
+        "one table cannot hold both types (read them with open_bag)"
+    )
+
+
+def test_two_definitions_of_a_type_in_one_bag_whose_field_types_differ_are_an_error(
+    tmp_path: Path,
+) -> None:
+    bag = _two_channel_bag(
+        tmp_path / "two_definitions.mcap",
+        [("std_msgs/msg/String", "string data\n", _cdr_strings("a")),
+         ("std_msgs/msg/String", "int32 data\n", _INT32_SEVEN)],
+    )  # fmt: skip
+    with open_bag(bag, natural=False) as reader, pytest.raises(BagError) as raised:
+        reader.to_arrow("/s")
+    assert str(raised.value) == (
+        f"{bag}: /s: field data is string in one definition of std_msgs/msg/String this bag "
+        "stores, int32 in another; one table cannot hold both (read them with open_bag)"
+    )
+
+
+def test_two_channels_of_one_topic_in_one_bag_give_the_union_of_their_columns(
+    tmp_path: Path,
+) -> None:
+    bag = _two_channel_bag(
+        tmp_path / "two_channels.mcap",
+        [("std_msgs/msg/String", "string data\n", _cdr_strings("a")),
+         ("std_msgs/msg/String", "string data\n", _cdr_strings("b")),
+         ("std_msgs/msg/String", TWO_STRINGS, _cdr_strings("c", "x"))],
+    )  # fmt: skip
+    with open_bag(bag, natural=False) as reader:
+        table = reader.to_arrow("/s")
+    assert table.column_names == ["log_time_ns", "data", "extra"]
+    assert table.column("data").to_pylist() == ["a", "b", "c"]
+    assert table.column("extra").to_pylist() == [None, None, "x"]

@@ -1,7 +1,8 @@
-"""open_bag's ``types=``: a type no topic of the bag has is refused, as a missing topic is."""
+"""open_bag's ``topics=``/``types=``: what they refuse, what a read selecting none leaves out."""
 
 from __future__ import annotations
 
+import logging
 from pathlib import Path
 
 import pytest
@@ -81,3 +82,66 @@ def test_a_type_a_topic_has_in_a_later_bag_only_is_taken(tmp_path: Path) -> None
     for wanted in ("geometry_msgs/msg/TwistStamped", "geometry_msgs/Twist"):
         with open_bag([old, new], types=[wanted]) as reader:
             assert list(reader.topics) == ["/cmd_vel"]
+
+
+# -- topics no message of which can be decoded: JSON, protobuf, a channel with no schema -----
+def write_mixed(path: Path) -> Path:
+    """An MCAP bag as tools other than rosbag2 write them: /chatter (CDR) beside /json (JSON)
+    and /untyped, a CDR channel with no schema; one message on each."""
+    from mcap.writer import Writer
+
+    with path.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2", library="test")
+        string = writer.register_schema("std_msgs/msg/String", "ros2msg", b"string data")
+        json_schema = writer.register_schema("Foo", "jsonschema", b'{"type": "object"}')
+        channels = {
+            "/chatter": writer.register_channel("/chatter", "cdr", string),
+            "/json": writer.register_channel("/json", "json", json_schema),
+            "/untyped": writer.register_channel("/untyped", "cdr", 0),
+        }
+        data = {"/chatter": bytes(serialize_message(String(data="hi"))), "/json": b'{"a": 1}'}
+        for time, (topic, channel) in enumerate(channels.items(), 1):
+            payload = data.get(topic, data["/chatter"])
+            writer.add_message(channel, log_time=time, data=payload, publish_time=time)
+        writer.finish()
+    return path
+
+
+def test_undecodable_topics_are_left_out_of_a_read_that_selects_none(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    bag = write_mixed(tmp_path / "mixed.mcap")
+    with caplog.at_level(logging.WARNING, logger="pyconnect.record"), open_bag(bag) as reader:
+        values = [(m.topic, m.value) for m in reader]
+    assert values == [("/chatter", "hi")]
+    assert reader.errors == []
+    assert list(reader.topics) == ["/chatter"]
+    assert reader.left_out == {
+        "/json": "serialised as 'json'",
+        "/untyped": "no type: its channel has no schema",
+    }
+    note = (
+        f"{bag}: 2 topic(s) not read, as only 'cdr' topics of a known type can be decoded: "
+        "/json (serialised as 'json'), /untyped (no type: its channel has no schema); "
+        "select one with raw=True to read it undecoded"
+    )
+    assert reader.notes == [note]
+    assert [r.getMessage() for r in caplog.records] == [note]
+
+
+@pytest.mark.parametrize(
+    ("topic", "error"),
+    [
+        ("/json", "is serialised as 'json'; only 'cdr' can be decoded (raw=True reads it undecoded)"),
+        ("/untyped", "has no type (its channel has no schema); raw=True reads it undecoded"),
+    ],
+)  # fmt: skip
+def test_a_selected_undecodable_topic_is_refused(tmp_path: Path, topic: str, error: str) -> None:
+    bag = write_mixed(tmp_path / "mixed.mcap")
+    with pytest.raises(BagError) as caught:
+        open_bag(bag, topics=["/chatter", topic])
+    assert str(caught.value) == f"{bag}: topic {topic} {error}"
+    with open_bag(bag, topics=[topic], raw=True) as reader:
+        assert [m.topic for m in reader] == [topic]
+        assert reader.notes == []

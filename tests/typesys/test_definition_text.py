@@ -131,3 +131,26 @@ def test_a_deep_but_plausible_text_is_read() -> None:
     message, types = resolve_definition("x_msgs/msg/T", _chain(40), "ros2msg")
     assert message.nested_types == ("x_msgs/msg/L1",)
     assert "x_msgs/msg/L40" in types.messages
+
+
+# -- line ends: rosbag2 stores the .msg files verbatim, as their authors saved them ------------
+_CRLF_TEXT = (
+    '# a comment\nstring NAME="a # b"\nint32 X=-5\nmy_pkg/Inner inner  # nested\nint32[] arr [1, 2]\n'
+    f"{DEFINITION_SEPARATOR}\nMSG: my_pkg/Inner\n# inner comment\nint64 v  # value\n"
+)
+
+
+@pytest.mark.parametrize("line_end", ["\r\n", "\r"], ids=["crlf", "cr"])
+def test_a_text_with_windows_or_old_mac_line_ends_reads_as_with_lf(line_end: str) -> None:
+    expected, expected_types = resolve_definition("my_pkg/msg/T", _CRLF_TEXT, "ros2msg")
+    text = _CRLF_TEXT.replace("\n", line_end)
+    message, types = resolve_definition("my_pkg/msg/T", text, "ros2msg")
+    assert message == expected
+    assert types.messages == expected_types.messages
+
+
+def test_an_idl_text_with_crlf_line_ends_reads_as_with_lf(idl_share: Path) -> None:
+    text = f"{DEFINITION_SEPARATOR}\nIDL: idlpkg/msg/Reading\n{READING_IDL}"
+    expected = resolve_definition("idlpkg/msg/Reading", text, "ros2idl")[0]
+    crlf = text.replace("\n", "\r\n")
+    assert resolve_definition("idlpkg/msg/Reading", crlf, "ros2idl")[0] == expected

@@ -248,6 +248,10 @@ def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         errors = list(bag.errors)
         damage = bag.damage
         summary = bag.damage_summary(damage) if damage else ""
+        notes = list(bag.notes)
+    for note in notes:
+        # Topics no --topic named that cannot be decoded: said, though not an error.
+        print(f"{PROGRAM}: {note}", file=err)
     status = _report_problems(errors, err)
     return max(status, damage_status(damage, summary, args, err))
 

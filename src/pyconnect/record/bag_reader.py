@@ -34,8 +34,10 @@ says what, where, and how many messages were read of those the bag's metadata pr
 metadata.yaml that disagrees with the storage files (a file it does not list, which is not read;
 per-topic counts that differ) is reported the same way; a topic it lists that no file holds (a
 recording cut before its channels) is still a topic of the bag, with no messages.
-Only CDR-serialised topics can be decoded: selecting another raises ``BagError`` when the bag
-is opened (``raw=True`` reads them).
+Only CDR-serialised topics of a known type can be decoded: selecting another (``topics=``,
+``types=``) raises ``BagError`` when the bag is opened (``raw=True`` reads them); a read that
+selects no topics leaves them out, listed in ``reader.left_out`` and said in ``reader.notes``
+and one warning.
 """
 
 from __future__ import annotations
@@ -61,7 +63,12 @@ from pyconnect.record.bag_read import ConnectionDecoders, MergedRead
 from pyconnect.record.bag_read_report import OnError, ProblemLog, damage_line, promised_count
 from pyconnect.record.bag_storage import StorageFile
 from pyconnect.record.topic_decoder import TopicDecoder, TypeMismatch, normalise_type_name
-from pyconnect.record.topic_selection import select_topics, types_by_topic
+from pyconnect.record.topic_selection import (
+    left_out_note,
+    left_out_topics,
+    select_topics,
+    types_by_topic,
+)
 
 if TYPE_CHECKING:
     from pyconnect.codecs.registry import Registry
@@ -180,6 +187,13 @@ class BagReader:
         except BaseException:
             self.close()
             raise
+        self.left_out: dict[str, str] = left_out_topics(self.info, topics, types, raw=raw)
+        """Topic -> why it is not read: the topics that cannot be decoded (not serialised as
+        CDR, of no type), which a read that selects no topics leaves out."""
+        self.notes: list[str] = [left_out_note(self.path, self.left_out)] if self.left_out else []
+        """What the reader left out of its own accord, one line each (also logged once)."""
+        for note in self.notes:
+            _log.warning("%s", note)
         self._decoders = ConnectionDecoders(
             self.path, self.topics, natural=natural, registry=self.registry
         )
@@ -240,24 +254,33 @@ class BagReader:
 
         That is the definition stored in the bag, unless it does not fit the topic's first
         message and the installed type does (then the installed type), as reading decides: the
-        first message is decoded here to settle it. Its ``definitions`` give the fields.
+        first message is decoded here to settle it. Its ``definitions`` give the fields. Of a
+        topic with several connections (merged bags, split files, two channels), the first's.
         """
         for _, storages in self._bags:
-            codec = self._first_codec(storages, topic)
+            codec = next(self._codecs(storages, topic), None)
             if codec is not None:
                 return codec
         return None
 
     def topic_codecs(self, topic: str) -> list[tuple[Path, Any]]:
-        """``topic_codec`` for each bag this reader merges that has one: (bag path, codec)."""
-        found = []
+        """Every codec ``topic`` is decoded with, each with the bag it is read from: (bag path,
+        codec), in the order of the bags, their files and connections; each once per bag.
+
+        Per connection, not per bag: one bag may hold the topic as two types or definitions
+        (two MCAP channels of one topic), which one table cannot hold.
+        """
+        found: list[tuple[Path, Any]] = []
         for located, storages in self._bags:
-            codec = self._first_codec(storages, topic)
-            if codec is not None:
-                found.append((located.path, codec))
+            seen: set[int] = set()  # ids of codecs found in this bag (split files share them)
+            for codec in self._codecs(storages, topic):
+                if id(codec) not in seen:
+                    seen.add(id(codec))
+                    found.append((located.path, codec))
         return found
 
-    def _first_codec(self, storages: Sequence[StorageFile], topic: str) -> Any:
+    def _codecs(self, storages: Sequence[StorageFile], topic: str) -> Iterator[Any]:
+        """The codec of each connection of ``topic`` in ``storages`` that has one."""
         for storage in storages:
             for connection in storage.connections():
                 if connection.topic != topic:
@@ -269,8 +292,7 @@ class BagReader:
                     self._first_decoded.add(id(decoder))
                     self._settle(decoder, storage, connection.id)
                 if decoder.codec is not None:
-                    return decoder.codec
-        return None
+                    yield decoder.codec
 
     def _settle(self, decoder: TopicDecoder, storage: StorageFile, connection_id: int) -> None:
         stream = storage.messages({connection_id}, self.start_ns, self.end_ns)

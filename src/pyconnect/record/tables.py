@@ -191,6 +191,8 @@ class _BagColumns:
 
 
 def _each_bag_columns(reader: BagReader, topic: str, images: ImageColumns) -> list[_BagColumns]:
+    """The columns of each codec ``topic`` is decoded with: one a bag, or more when a bag holds
+    the topic as two types or definitions (two channels of one MCAP file)."""
     # A bag with no codec for the topic: its messages are undecodable, reported when read.
     return [
         _BagColumns(
@@ -206,12 +208,18 @@ def _union(topic: str, bags: Sequence[_BagColumns]) -> list[Column]:
     different types raise ``BagError``: their fields are not versions of one another."""
     first = bags[0]
     for bag in bags[1:]:
-        if bag.msg_type != first.msg_type:
+        if bag.msg_type == first.msg_type:
+            continue
+        if bag.path == first.path:
             raise BagError(
-                f"{bag.path}: {topic}: type {bag.msg_type} in this bag, {first.msg_type} in "
-                f"{first.path}; one table cannot hold both types (read them with open_bag, or "
-                "each bag on its own)"
+                f"{bag.path}: {topic}: two types in this bag, {first.msg_type} and "
+                f"{bag.msg_type}; one table cannot hold both types (read them with open_bag)"
             )
+        raise BagError(
+            f"{bag.path}: {topic}: type {bag.msg_type} in this bag, {first.msg_type} in "
+            f"{first.path}; one table cannot hold both types (read them with open_bag, or "
+            "each bag on its own)"
+        )
     merged: list[Column] = []
     first_seen: dict[str, tuple[Column, _BagColumns]] = {}
     for bag in bags:
@@ -227,6 +235,12 @@ def _union(topic: str, bags: Sequence[_BagColumns]) -> list[Column]:
                 continue
             known, known_bag = seen
             if (known.arrow_type, known.build) != (column.arrow_type, column.build):
+                if known_bag.path == bag.path:
+                    raise BagError(
+                        f"{bag.path}: {topic}: field {column.name} is {known.arrow_type} in one "
+                        f"definition of {bag.msg_type} this bag stores, {column.arrow_type} in "
+                        "another; one table cannot hold both (read them with open_bag)"
+                    )
                 raise BagError(
                     f"{bag.path}: {topic}: field {column.name} is {column.arrow_type} in the "
                     f"definition of {bag.msg_type} this bag is read with, {known.arrow_type} in "
@@ -242,16 +256,15 @@ def topic_columns(
 ) -> tuple[list[Column], str]:
     """The columns of ``topic``'s table (after ``log_time_ns``) and the type name it has.
 
-    The columns are those of the definition ``topic_types`` gives, for one bag; for merged bags,
-    the union over the definitions each is decoded with (a field some lack is null in their
-    rows). A field whose type differs between two of them raises ``BagError``, as does a topic
-    of two different types.
+    The columns are the union over the definitions the topic is decoded with: one per bag
+    read together, or more when a bag stores the topic with two (a field some lack is null in
+    their rows). A field whose type differs between two of them raises ``BagError``, as does a
+    topic of two different types, in merged bags or in one.
     """
-    if len(_bag_paths(reader)) > 1:
-        bags = _each_bag_columns(reader, topic, images)
-        if bags:
-            return _union(topic, bags), bags[0].msg_type
-    # One bag, or none with a codec (then this raises the error that says why).
+    bags = _each_bag_columns(reader, topic, images)
+    if bags:
+        return _union(topic, bags), bags[0].msg_type
+    # No bag with a codec: this raises the error that says why.
     definitions, msg_type = topic_types(reader, topic)
     return columns_of(msg_type, definitions, images=images), msg_type
 

@@ -13,7 +13,7 @@ from pyconnect.record.bag_info import BagInfo, TopicInfo
 from pyconnect.record.bag_storage import StorageFile
 from pyconnect.record.topic_decoder import normalise_type_name
 
-__all__ = ["select_topics", "types_by_topic"]
+__all__ = ["left_out_note", "left_out_topics", "select_topics", "types_by_topic"]
 
 
 def select_topics(
@@ -33,7 +33,9 @@ def select_topics(
     A topic the bag lacks raises ``BagError`` listing the bag's topics, and a type no topic of
     the bag has lists its types (a misspelt type would otherwise read nothing, silently); of
     several bags read together, the topics and types of any of them count. Unless ``raw``, a
-    selected topic that is not serialised as CDR raises too (it could not be decoded).
+    topic that cannot be decoded (not serialised as CDR, or of no type) raises when ``topics``
+    or ``types`` selected it, and is left out when neither did (``left_out_topics`` says which):
+    one such topic must not keep the others of the bag from being read.
     """
     known = {topic.name: topic for topic in info.topics}
     chosen = dict(known)
@@ -51,15 +53,53 @@ def select_topics(
         each = _normalised(info, topic_types)
         _check_types(wanted_types, each, path)
         chosen = {name: topic for name, topic in chosen.items() if each[name] & wanted_types}
-    if not raw:
-        for topic in chosen.values():
-            if topic.serialization_format != "cdr":
-                raise BagError(
-                    f"{path}: topic {topic.name} is serialised as "
-                    f"{topic.serialization_format!r}; only 'cdr' can be decoded "
-                    "(raw=True reads it undecoded)"
-                )
+    if raw:
+        return chosen
+    if topics is None and types is None:
+        return {name: topic for name, topic in chosen.items() if _undecodable(topic) is None}
+    for topic in chosen.values():
+        if topic.serialization_format != "cdr":
+            raise BagError(
+                f"{path}: topic {topic.name} is serialised as "
+                f"{topic.serialization_format!r}; only 'cdr' can be decoded "
+                "(raw=True reads it undecoded)"
+            )
+        if not topic.msg_type:
+            raise BagError(
+                f"{path}: topic {topic.name} has no type (its channel has no schema); "
+                "raw=True reads it undecoded"
+            )
     return chosen
+
+
+def left_out_topics(
+    info: BagInfo, topics: Iterable[str] | None, types: Iterable[str] | None, *, raw: bool
+) -> dict[str, str]:
+    """Topic -> why ``select_topics`` leaves it out of a read that selects no topics: the topics
+    that cannot be decoded (none when ``raw``, or when ``topics`` or ``types`` select)."""
+    if raw or topics is not None or types is not None:
+        return {}
+    found = {topic.name: _undecodable(topic) for topic in info.topics}
+    return {name: why for name, why in found.items() if why is not None}
+
+
+def left_out_note(path: Path, left_out: Mapping[str, str]) -> str:
+    """One line saying which topics a read left out (``left_out_topics``) and why."""
+    each = ", ".join(f"{name} ({why})" for name, why in sorted(left_out.items()))
+    return (
+        f"{path}: {len(left_out)} topic(s) not read, as only 'cdr' topics of a known type can "
+        f"be decoded: {each}; select one with raw=True to read it undecoded"
+    )
+
+
+def _undecodable(topic: TopicInfo) -> str | None:
+    """Why no message of ``topic`` can be decoded, in a few words (None: they can be)."""
+    if topic.serialization_format != "cdr":
+        return f"serialised as {topic.serialization_format!r}"
+    if not topic.msg_type:
+        # An MCAP channel with schema 0: there is neither a stored nor an installed type.
+        return "no type: its channel has no schema"
+    return None
 
 
 def types_by_topic(bags: Iterable[tuple[BagFiles, Sequence[StorageFile]]]) -> dict[str, set[str]]:

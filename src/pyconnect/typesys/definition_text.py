@@ -60,6 +60,10 @@ def parse_definition(msg_type: str, text: str, encoding: str) -> ParsedInterface
         raise DefinitionError(f"unsupported definition encoding {encoding!r} (ros2msg or ros2idl)")
     package, namespace, name = split_type(msg_type)
     parsed = ParsedInterfaces()
+    # rosbag2 stores the .msg/.idl files verbatim: one written on Windows (CRLF) or old Mac
+    # (CR) keeps its line ends, which the separator and header patterns (``$``) and rosidl's
+    # parser do not take as ends of lines.
+    text = text.replace("\r\n", "\n").replace("\r", "\n")
     blocks = _SEPARATOR.split(text)
     _refuse_oversized(msg_type, blocks)
     main, rest = blocks[0], blocks[1:]
