@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -14,6 +15,7 @@ __all__ = [
     "METADATA_FILE",
     "BagMetadata",
     "TopicMetadata",
+    "list_item_yaml",
     "metadata_info",
     "metadata_yaml",
     "read_metadata",
@@ -22,6 +24,7 @@ __all__ = [
 
 METADATA_FILE = "metadata.yaml"
 WRITTEN_VERSION = 8
+_ROOT = "rosbag2_bagfile_information"
 
 
 @dataclass(frozen=True)
@@ -77,7 +80,7 @@ def read_metadata(path: Path) -> BagMetadata:
     """Parse a metadata.yaml; ``BagError`` names the file and what is wrong."""
     try:
         document = yaml.safe_load(path.read_text(encoding="utf-8"))
-        info = document["rosbag2_bagfile_information"]
+        info = document[_ROOT]
         files = tuple(info.get("files") or ())
         relative = info.get("relative_file_paths") or [entry["path"] for entry in files]
         starting = info.get("starting_time") or {}
@@ -132,15 +135,61 @@ def metadata_info(metadata: BagMetadata) -> dict[str, Any]:
 
 def metadata_yaml(info: dict[str, Any]) -> str:
     """YAML text of a mapping, written as rosbag2 writes its metadata."""
-    # libyaml's emitter when PyYAML has it: the same text, several times faster; a split bag
-    # rewrites metadata.yaml (one entry per file so far) at every split.
+    # libyaml's emitter when PyYAML has it: the same text, several times faster (the
+    # representer, most of the cost, is Python either way).
     dumper = getattr(yaml, "CSafeDumper", yaml.SafeDumper)
     return str(yaml.dump(info, Dumper=dumper, sort_keys=False))
 
 
-def write_metadata(path: Path, metadata: BagMetadata) -> None:
-    """Write ``metadata`` as a version-8 metadata.yaml (``ros2 bag`` and rosbags read it)."""
-    text = metadata_yaml({"rosbag2_bagfile_information": metadata_info(metadata)})
+def _entries_yaml(entries: dict[str, Any]) -> str:
+    """The lines ``entries`` take inside metadata.yaml's top mapping."""
+    # An entry of a block mapping, and an item of a block list, is written the same whatever
+    # its neighbours (no anchors: every mapping in the document is a new one), so pieces
+    # written apart join into the text of the whole.
+    text = metadata_yaml({_ROOT: entries})
+    return text[text.index("\n") + 1 :]
+
+
+def list_item_yaml(key: str, item: Any) -> str:
+    """The text of ``item`` as an item of the list ``key`` of metadata.yaml (``files``,
+    ``relative_file_paths``), for ``write_metadata``'s ``preceding``."""
+    text = _entries_yaml({key: [item]})
+    return text[text.index("\n") + 1 :]  # without the line of the key
+
+
+def _document_yaml(info: dict[str, Any], preceding: Mapping[str, Sequence[str]]) -> str:
+    """metadata.yaml's text: ``info``, its lists after the items ``preceding`` gives."""
+    parts = [f"{_ROOT}:\n"]
+    plain: dict[str, Any] = {}  # entries with nothing before them, written together
+    for key, value in info.items():
+        before = preceding.get(key)
+        if not before:
+            plain[key] = value
+            continue
+        if plain:
+            parts.append(_entries_yaml(plain))
+            plain = {}
+        own = _entries_yaml({key: list(value) or [None]})  # the key's line, from the dumper
+        head, _, own_items = own.partition("\n")
+        parts += [head, "\n", *before]
+        if value:
+            parts.append(own_items)
+    if plain:
+        parts.append(_entries_yaml(plain))
+    return "".join(parts)
+
+
+def write_metadata(
+    path: Path, metadata: BagMetadata, *, preceding: Mapping[str, Sequence[str]] | None = None
+) -> None:
+    """Write ``metadata`` as a version-8 metadata.yaml (``ros2 bag`` and rosbags read it).
+
+    ``preceding`` maps a list of the document (``files``, ``relative_file_paths``) to the text
+    (``list_item_yaml``) of items written before ``metadata``'s own: a split bag rewrites its
+    metadata at every split, and writing each finished file's items again each time made a
+    split cost more with every file before it.
+    """
+    text = _document_yaml(metadata_info(metadata), preceding or {})
     from pyconnect.record.log_writer import atomic_write_bytes
 
     atomic_write_bytes(path, text.encode("utf-8"))

@@ -24,6 +24,10 @@ No file of the bag can be lost, whenever the recording stops:
   MCAP header, and removes it when it does not;
 - ``close()`` writes the final metadata (counts, times); it is idempotent.
 
+A split costs the same with the thousandth file as with the first: a finished file's recorder
+(its schemas and indexes) is let go, and its items in metadata.yaml are written as YAML once,
+then reused by every later rewrite.
+
 A file that could not be written whole (a full disk: a chunk or its end cut short) is read back
 when it is finished, and its messages counted as a reader finds them: ``counts`` and
 metadata.yaml then say what the bag holds, not what was handed to it. ``close()`` then raises
@@ -41,7 +45,13 @@ from pathlib import Path
 from typing import Any
 
 from pyconnect.record.bag_errors import BagError
-from pyconnect.record.bag_metadata import METADATA_FILE, BagMetadata, TopicMetadata, write_metadata
+from pyconnect.record.bag_metadata import (
+    METADATA_FILE,
+    BagMetadata,
+    TopicMetadata,
+    list_item_yaml,
+    write_metadata,
+)
 from pyconnect.record.mcap_recorder import DEFAULT_CHUNK_SIZE, McapRecorder
 
 __all__ = ["SplitRecorder"]
@@ -51,7 +61,8 @@ _MCAP_MAGIC = b"\x89MCAP0\r\n"
 
 @dataclass
 class _File:
-    """One file of the bag: its name, and its recorder and counts once it is open."""
+    """The bag's last file until it is finished: its name, its recorder once it is created,
+    and its counts."""
 
     name: str
     recorder: McapRecorder | None = None
@@ -69,6 +80,38 @@ class _File:
             "duration": {"nanoseconds": max(0, self.last_ns - first)},
             "message_count": self.count,
         }
+
+
+@dataclass
+class _Finished:
+    """The finished files as metadata.yaml lists them: each one's items as YAML text (written
+    once: rewriting every file's at each split made a split cost more with each file), and the
+    first and last log times of their messages."""
+
+    paths: list[str] = field(default_factory=list)  # items of relative_file_paths
+    entries: list[str] = field(default_factory=list)  # items of files, one per finished file
+    span: tuple[int, int] | None = None
+
+    def add(self, file: _File) -> None:
+        """List ``file`` as finished; safe to repeat when an interrupt cut it short."""
+        path = list_item_yaml("relative_file_paths", file.name)
+        entry = list_item_yaml("files", file.entry())
+        if file.count:  # the span is a min and a max: the same file again leaves it as it is
+            first = file.first_ns or 0
+            old = self.span or (first, file.last_ns)
+            self.span = (min(old[0], first), max(old[1], file.last_ns))
+        self._drop_unfinished()
+        self.paths.append(path)
+        self.entries.append(entry)  # the file counts as finished from here
+
+    def lists(self) -> dict[str, list[str]]:
+        """The items, by the list of metadata.yaml they go in (``write_metadata``'s
+        ``preceding``)."""
+        self._drop_unfinished()
+        return {"relative_file_paths": self.paths, "files": self.entries}
+
+    def _drop_unfinished(self) -> None:
+        del self.paths[len(self.entries) :]  # left by an add cut short: its file is not finished
 
 
 @dataclass
@@ -104,7 +147,9 @@ class SplitRecorder:
         self.max_ns = max_ns
         self.compression = compression
         self.chunk_size = min(max_bytes, DEFAULT_CHUNK_SIZE) if max_bytes else DEFAULT_CHUNK_SIZE
-        self._files: list[_File] = []
+        self._names: list[str] = []  # every file's, in order; the last one may be open
+        self._last: _File | None = None  # the last file, until it is finished
+        self._finished = _Finished()
         self._topics: dict[str, _Topic] = {}
         self._lock = threading.Lock()
         self._closed = False
@@ -122,7 +167,7 @@ class SplitRecorder:
     @property
     def files(self) -> list[str]:
         """The names of the bag's files so far, in order."""
-        return [file.name for file in self._files]
+        return list(self._names)
 
     def add_topic(
         self,
@@ -185,7 +230,7 @@ class SplitRecorder:
         with self._lock:
             if self._closed:
                 return
-            if not self._files:
+            if not self._names:
                 self._open_next()  # an empty recording is still a valid bag
             try:
                 self._finish_current()
@@ -201,7 +246,10 @@ class SplitRecorder:
 
     # -- files --------------------------------------------------------------------------------
     def _current(self) -> _File | None:
-        return self._files[-1] if self._files else None
+        """The last file while it is not finished (its recorder may not exist yet)."""
+        if self._last is None or len(self._finished.entries) == len(self._names):
+            return None
+        return self._last
 
     def _full(self, current: _File, now_ns: int) -> bool:
         if not current.count:
@@ -214,8 +262,9 @@ class SplitRecorder:
 
     def _open_next(self) -> _File:
         self._finish_current()
-        file = _File(f"{self.directory.name}_{len(self._files)}.mcap")
-        self._files.append(file)  # reserved before it exists: close() sees it either way
+        file = _File(f"{self.directory.name}_{len(self._names)}.mcap")
+        self._last = file  # before its name: until then it is not the last file, not open
+        self._names.append(file.name)  # reserved before it exists: close() sees it either way
         file.recorder = McapRecorder(
             self.directory / file.name, compression=self.compression, chunk_size=self.chunk_size
         )
@@ -233,6 +282,7 @@ class SplitRecorder:
     def _finish_current(self) -> None:
         current = self._current()
         if current is None:
+            self._last = None  # finished already (an interrupt came before it was let go)
             return
         if current.recorder is not None:
             try:
@@ -243,18 +293,22 @@ class SplitRecorder:
             finally:
                 if current.failed:
                     self._recount(current)
-            return
-        # Its creation was cut short: keep it when it is an MCAP file (the reader recovers what
-        # it holds), drop it when it never got its header.
-        path = self.directory / current.name
-        try:
-            with path.open("rb") as stream:
-                started = stream.read(len(_MCAP_MAGIC)) == _MCAP_MAGIC
-        except FileNotFoundError:
-            started = False
-        if not started:
-            path.unlink(missing_ok=True)
-            self._files.pop()
+        else:
+            # Its creation was cut short: keep it when it is an MCAP file (the reader recovers
+            # what it holds), drop it when it never got its header.
+            path = self.directory / current.name
+            try:
+                with path.open("rb") as stream:
+                    started = stream.read(len(_MCAP_MAGIC)) == _MCAP_MAGIC
+            except FileNotFoundError:
+                started = False
+            if not started:
+                path.unlink(missing_ok=True)
+                self._names.pop()
+                self._last = None
+                return
+        self._finished.add(current)
+        self._last = None  # its recorder's schemas and indexes go: ~10 kB a file, kept for days
 
     def _recount(self, file: _File) -> None:
         """Count ``file``'s messages as a reader finds them (it could not be written whole)."""
@@ -299,12 +353,16 @@ class SplitRecorder:
         return None
 
     def _write_metadata(self) -> None:
-        counted = [file for file in self._files if file.count]
-        start = min((file.first_ns or 0 for file in counted), default=0)
-        end = max((file.last_ns for file in counted), default=start)
+        current = self._current()
+        unfinished = () if current is None else (current,)
+        spans = [(file.first_ns or 0, file.last_ns) for file in unfinished if file.count]
+        if self._finished.span is not None:
+            spans.append(self._finished.span)
+        start = min((first for first, _last in spans), default=0)
+        end = max((last for _first, last in spans), default=start)
         metadata = BagMetadata(
             storage_identifier="mcap",
-            relative_file_paths=tuple(file.name for file in self._files),
+            relative_file_paths=tuple(file.name for file in unfinished),
             topics=tuple(
                 TopicMetadata(
                     name=name,
@@ -317,9 +375,10 @@ class SplitRecorder:
             starting_time_ns=start,
             duration_ns=end - start,
             message_count=sum(topic.count for topic in self._topics.values()),
-            files=tuple(file.entry() for file in self._files),
+            files=tuple(file.entry() for file in unfinished),
         )
-        write_metadata(self.directory / METADATA_FILE, metadata)
+        preceding = self._finished.lists()
+        write_metadata(self.directory / METADATA_FILE, metadata, preceding=preceding)
 
     def _check_open(self) -> None:
         if self._closed:
