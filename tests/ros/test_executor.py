@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import gc
 import threading
 from pathlib import Path
 from typing import Any
 
 import pytest
+import rclpy.task
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 from test_msgs.action import Fibonacci
@@ -420,3 +422,27 @@ def test_a_node_starts_and_ends_with_stderr_closed(tmp_path: Path) -> None:
     returncode, out, _err = run_child(CLOSED_STDERR, tmp_path, close_stderr=True)
     assert returncode == 0, out
     assert out.splitlines() == ["stderr is None", "STOP", "AFTER CLOSED"], out
+
+
+def _live_tasks() -> int:
+    gc.collect()
+    return sum(isinstance(thing, rclpy.task.Task) for thing in gc.get_objects())
+
+
+@pytest.mark.parametrize("spinning", [False, True])
+def test_nodes_created_and_shut_down_leave_no_rclpy_tasks_behind(
+    make_node: Any, spinning: bool
+) -> None:
+    # stop() wakes a dispatcher with a task; one made for an executor nobody spins never ran
+    # and stayed alive for ever, twice per node.
+    def cycle(index: int) -> None:
+        node = make_node(f"cycled_{index}")
+        if spinning:
+            node.spin(run_thread=True)
+        node.shutdown()
+
+    cycle(0)  # whatever the first node creates once for the process
+    before = _live_tasks()
+    for index in range(1, 51):
+        cycle(index)
+    assert _live_tasks() - before <= 2

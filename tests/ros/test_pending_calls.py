@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import asyncio
+import gc
 import threading
+import time
+import weakref
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -191,3 +194,90 @@ def test_a_non_blocking_call_answered_too_late_fails_after_its_timeout(make_node
         assert cancelled.wait(EVENT_TIMEOUT), "the server never saw the late goal canceled"
     finally:
         release.set()
+
+
+def _threads_named(name: str) -> list[threading.Thread]:
+    return [thread for thread in threading.enumerate() if thread.name == name]
+
+
+def _all_end(threads: list[threading.Thread]) -> bool:
+    """Whether ``threads`` all end within the test timeout (joined, not slept on)."""
+    deadline = time.monotonic() + EVENT_TIMEOUT
+    for thread in threads:
+        thread.join(max(0.0, deadline - time.monotonic()))
+    return not any(thread.is_alive() for thread in threads)
+
+
+@pytest.mark.parametrize("kind", ["service", "action"])
+def test_answered_calls_are_released_long_before_their_timeout(make_node: Any, kind: str) -> None:
+    # The watchdog of late answers held every call with a timeout (and its decoded answer)
+    # until that timeout ran out, answered or not.
+    node = make_node()
+    if kind == "service":
+        client, data, name = _service_pair(node), {"data": True}, "toggle_client"
+    else:
+        client, data, name = _action_pair(node), {"order": 1}, "fib_client"
+    node.spin(run_thread=True)
+    node.wait_until_connected(timeout=EVENT_TIMEOUT)
+    answered: list[weakref.ref[Any]] = []
+    for _ in range(30):
+        future = client.send(data, block=False, timeout=3600.0)
+        assert future.result(EVENT_TIMEOUT)["isdone"] is True
+        answered.append(weakref.ref(future))
+        del future
+    assert _all_end(_threads_named(f"pyconnect-{name}-deadlines")), "the watchdog outlived them"
+    gc.collect()
+    assert sum(ref() is not None for ref in answered) == 0
+
+
+def _absent_server_client(node: Any) -> Any:
+    return node.add_agent(
+        conn_name="not_yet", agent_name="early_client", conn_type="service_client",
+        data_interface=SetBool,
+    )  # fmt: skip
+
+
+def test_cancelled_calls_to_an_absent_server_leave_no_thread_waiting(make_node: Any) -> None:
+    # Each call waited for the server on a thread of its own, polling the graph until the
+    # server came (with no timeout, for ever), whether its caller had given up or not.
+    node = make_node()
+    client = _absent_server_client(node)
+    node.spin(run_thread=True)
+    futures = [client.send({"data": True}, block=False) for _ in range(20)]
+    waiters = _threads_named("pyconnect-early_client-wait")
+    assert 1 <= len(waiters) <= 1, "one thread waits for the server for all the calls"
+    for future in futures:
+        assert future.cancel()
+    assert _all_end(waiters), "a thread still waits for the server of cancelled calls"
+
+
+def test_a_call_cancelled_before_the_server_appears_never_reaches_it(make_node: Any) -> None:
+    node = make_node()
+    client = _absent_server_client(node)
+    node.spin(run_thread=True)
+    dropped = client.send({"data": False}, block=False)
+    kept = [client.send({"data": True}, block=False) for _ in range(3)]
+    assert dropped.cancel()
+    requests: list[bool] = []
+    node.add_agent(
+        conn_name="not_yet", conn_type="service_server", data_interface=SetBool,
+        response_func=lambda request: requests.append(request["data"]) or {"success": True},
+    )  # fmt: skip
+    for future in kept:
+        assert future.result(EVENT_TIMEOUT)["success"] is True
+    assert requests == [True, True, True]
+
+
+def test_calls_waiting_for_the_server_fail_each_after_its_own_timeout(make_node: Any) -> None:
+    node = make_node()
+    client = _absent_server_client(node)
+    node.spin(run_thread=True)
+    soon = client.send({"data": True}, block=False, timeout=0.2)
+    later = client.send({"data": True}, block=False, timeout=3600.0)
+    assert soon.result(EVENT_TIMEOUT) == {
+        "isdone": False,
+        "error": "agent 'early_client' (service_client std_srvs/srv/SetBool): "
+        "no server for /not_yet within 0.2 s",
+    }
+    assert not later.done()
+    assert later.cancel()

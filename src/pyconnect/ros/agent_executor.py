@@ -74,6 +74,11 @@ class AgentExecutor(ExecutorMoves):
         self._stopping = False
         self._stopped = threading.Event()
         self._dispatcher: int | None = None
+        # The EventsExecutor a dispatcher is inside spin_once of, and whether stop() made its
+        # wake-up task; under a lock of their own: ``_lock`` may be held a while (_go_elastic).
+        self._spin_lock = threading.Lock()
+        self._spun: Any = None
+        self._woken = False
         self._spinning = False
         self._background: threading.Thread | None = None
         # What the wrapped callback on the dispatching thread is doing (read by the monitor).
@@ -201,14 +206,21 @@ class AgentExecutor(ExecutorMoves):
                     self._supervise_elastic()
                     continue
                 events = self._events
-                # A spin_once() that dispatched before this loop started resets it when done.
-                self._dispatcher = me
+                with self._spin_lock:  # stop() wakes this spin_once only if it sees it begin
+                    if self._stopping:
+                        break
+                    # A spin_once() that dispatched before this loop started resets it when done.
+                    self._dispatcher = me
+                    self._spun = events
                 try:
                     events.spin_once(timeout_sec=IDLE_TICK)
                 except (ShutdownException, ExternalShutdownException):
                     self._stopping = True
                 except BaseException as error:  # a SystemExit would end the loop unseen
                     self._callback_raised(error)
+                finally:
+                    with self._spin_lock:
+                        self._spun = None
                 self._returns += 1
                 if events is not self._events or self._elastic is not None:
                     self._retire(events)
@@ -266,12 +278,15 @@ class AgentExecutor(ExecutorMoves):
         if dispatching:
             self._stopped.wait(timeout_sec or 0.0)
             return
-        events = self._events
+        with self._spin_lock:
+            events = self._spun = self._events
         try:
             events.spin_once(timeout_sec=timeout_sec)
         except (ShutdownException, ExternalShutdownException):
             pass
         finally:
+            with self._spin_lock:
+                self._spun = None
             with self._lock:
                 if self._dispatcher == threading.get_ident():
                     self._dispatcher = None
@@ -328,15 +343,22 @@ class AgentExecutor(ExecutorMoves):
 
     def stop(self) -> None:
         """Make ``spin()`` return; callbacks in progress finish on their own threads."""
-        self._stopping = True
+        with self._spin_lock:
+            self._stopping = True
+            # A task is a "user callback": it ends the dispatcher's spin_once at once. Made only
+            # for a spin_once under way on another thread, and once: a task its EventsExecutor
+            # never runs stays alive for ever (the C++ executor keeps it, even once shut down).
+            here = self._dispatcher == threading.get_ident()
+            spun = None if self._woken or here else self._spun
+            self._woken = self._woken or spun is not None
         self._stopped.set()
         self._monitor_wake.set()
         elastic = self._elastic
         if elastic is not None:
             elastic.stop()
-        # A task is a "user callback": it ends the dispatcher's spin_once at once.
-        with contextlib.suppress(Exception):
-            self._events.create_task(_nothing)
+        if spun is not None:
+            with contextlib.suppress(Exception):
+                spun.create_task(_nothing)
 
     def join(self, timeout_sec: float | None = None) -> None:
         """Wait for the monitor and the elastic executor's threads to end (after ``stop()``)."""

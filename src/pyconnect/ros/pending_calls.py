@@ -1,20 +1,23 @@
 """A client agent's ``block=False`` calls: started when the server is ready, always answered.
 
 Both client kinds (service, action) hand their non-blocking calls to a ``PendingCalls``: the
-call starts at once when the server is ready, else on a thread that waits for it (a future
-that the caller cancels meanwhile is dropped); the node spins in the background from then on,
-since the answer needs callbacks to run, as a blocking ``send()`` and ``wait_until_connected``
-start it. ``timeout`` holds as for a blocking call: for the server to appear, then for the
-answer (one watchdog thread per agent, alive only while calls wait for answers); a late call
-is answered with the failure value and ``is_late`` tells the agent to drop its request or
-cancel its goal. A future still open when the node shuts down gets the failed value, so nothing
-waits on it for ever; on a node already shut down the future is failed from the start.
+call starts at once when the server is ready, else when one thread per agent, alive only while
+calls wait for the server, sees it ready (a future that the caller cancels meanwhile is dropped,
+and a thread with no call left ends); the node spins in the background from then on, since the
+answer needs callbacks to run, as a blocking ``send()`` and ``wait_until_connected`` start it.
+``timeout`` holds as for a blocking call: for the server to appear, then for the answer (one
+watchdog thread per agent, alive only while calls wait for answers); a late call is answered
+with the failure value and ``is_late`` tells the agent to drop its request or cancel its goal.
+An answered call is let go at once, not at its deadline: what the agent holds is bounded by the
+calls still open. A future still open when the node shuts down gets the failed value, so
+nothing waits on it for ever; on a node already shut down the future is failed from the start.
 """
 
 from __future__ import annotations
 
 import concurrent.futures
 import contextlib
+import functools
 import heapq
 import itertools
 import threading
@@ -24,10 +27,45 @@ from collections.abc import Callable
 from typing import Any
 
 from pyconnect.ros.agent_host import AgentHost
-from pyconnect.ros.waiting import settle, wait_until
+from pyconnect.ros.waiting import settle
 
 Call = Callable[[concurrent.futures.Future[Any]], object]
 """Starts the middleware call that will settle the future it is given."""
+
+POLL = 0.02
+"""Seconds between two looks at the graph while calls wait for their server (as ``wait_until``)."""
+
+
+class _Waiting:
+    """A call not made yet: its server is not ready."""
+
+    __slots__ = ("call", "deadline", "late", "missing", "result", "timeout")
+
+    def __init__(
+        self,
+        result: concurrent.futures.Future[Any],
+        call: Call,
+        timeout: float | None,
+        missing: str,
+        late: str,
+    ) -> None:
+        self.result = result
+        self.call = call
+        self.timeout = timeout
+        self.deadline = None if timeout is None else time.monotonic() + timeout
+        self.missing = missing
+        self.late = late
+
+
+class _Watched:
+    """A call the watchdog times; ``result`` becomes None once it is answered, so the heap
+    entry keeps neither the future nor its value until the deadline."""
+
+    __slots__ = ("late", "result")
+
+    def __init__(self, result: concurrent.futures.Future[Any], late: str) -> None:
+        self.result: concurrent.futures.Future[Any] | None = result
+        self.late = late
 
 
 class PendingCalls:
@@ -49,8 +87,12 @@ class PendingCalls:
         self._failed = failed
         self._lock = threading.Lock()
         self._open: set[concurrent.futures.Future[Any]] = set()
-        # (deadline, tie-breaker, future, failure text): the answers the watchdog waits for.
-        self._deadlines: list[tuple[float, int, concurrent.futures.Future[Any], str]] = []
+        self._waiting: list[_Waiting] = []  # the calls whose server is not ready yet
+        self._waiter: threading.Thread | None = None
+        # (deadline, tie-breaker, call): the answers the watchdog waits for, answered or not;
+        # ``_unanswered`` counts those not answered, to compact the heap when most are.
+        self._deadlines: list[tuple[float, int, _Watched]] = []
+        self._unanswered = 0
         self._order = itertools.count()
         self._wake = threading.Condition(self._lock)
         self._watchdog: threading.Thread | None = None
@@ -81,12 +123,15 @@ class PendingCalls:
         if self._ready():
             self._call(call, result, timeout, late)
             return
-        threading.Thread(
-            target=self._call_when_ready,
-            args=(call, result, timeout, missing, late),
-            name=f"pyconnect-{self._agent_name}-wait",
-            daemon=True,
-        ).start()
+        with self._lock:
+            self._waiting.append(_Waiting(result, call, timeout, missing, late))
+            if self._waiter is None:
+                self._waiter = threading.Thread(
+                    target=self._call_when_ready,
+                    name=f"pyconnect-{self._agent_name}-wait",
+                    daemon=True,
+                )
+                self._waiter.start()
 
     def is_late(self, result: concurrent.futures.Future[Any]) -> bool:
         """Whether ``result`` was answered as late (its request should be dropped)."""
@@ -109,24 +154,39 @@ class PendingCalls:
         except Exception:  # the node was destroyed under the question (shutdown racing)
             return False
 
-    def _call_when_ready(
-        self,
-        call: Call,
-        result: concurrent.futures.Future[Any],
-        timeout: float | None,
-        missing: str,
-        late: str,
-    ) -> None:
-        ready = wait_until(self._ready, timeout, stop=self._host.shutdown_event)
-        if result.done():  # cancelled by its caller, or answered by fail_all
-            return
-        if ready:
-            self._call(call, result, timeout, late)
-        elif self._host.shutdown_event.is_set():
-            text = self._shut_down_text()
-            settle(result, lambda: self._failed(text))
-        else:
-            settle(result, lambda: self._failed(f"{missing} within {timeout} s"))
+    def _call_when_ready(self) -> None:
+        """Make the waiting calls once the server is ready, fail those whose timeout runs out
+        first; ends when no call waits (restarted by ``start``)."""
+        stop = self._host.shutdown_event
+        while True:
+            shut_down = stop.is_set()  # then the node may be destroyed: ask it nothing
+            ready = not shut_down and self._ready()
+            now = time.monotonic()
+            due: list[_Waiting] = []
+            with self._lock:
+                calls, self._waiting = self._waiting, []
+                for waiting in calls:
+                    if waiting.result.done():  # cancelled by its caller, or answered by fail_all
+                        continue
+                    expired = waiting.deadline is not None and waiting.deadline <= now
+                    (due if shut_down or ready or expired else self._waiting).append(waiting)
+                remaining = [w.deadline - now for w in self._waiting if w.deadline is not None]
+                last = not self._waiting
+                if last:
+                    self._waiter = None
+            for waiting in due:
+                if shut_down:
+                    text = self._shut_down_text()
+                elif ready:
+                    self._call(waiting.call, waiting.result, waiting.timeout, waiting.late)
+                    continue
+                else:
+                    text = f"{waiting.missing} within {waiting.timeout} s"
+                settle(waiting.result, functools.partial(self._failed, text))
+            if last:
+                return
+            if not ready:
+                stop.wait(min([POLL, *remaining]))
 
     def _call(
         self,
@@ -153,8 +213,10 @@ class PendingCalls:
 
     # -- the watchdog ----------------------------------------------------------------------------
     def _watch(self, result: concurrent.futures.Future[Any], deadline: float, late: str) -> None:
+        watched = _Watched(result, late)
         with self._wake:
-            heapq.heappush(self._deadlines, (deadline, next(self._order), result, late))
+            heapq.heappush(self._deadlines, (deadline, next(self._order), watched))
+            self._unanswered += 1
             if self._watchdog is None:
                 self._watchdog = threading.Thread(
                     target=self._watch_deadlines,
@@ -162,23 +224,45 @@ class PendingCalls:
                     daemon=True,
                 )
                 self._watchdog.start()
-            elif self._deadlines[0][2] is result:  # sooner than what the watchdog sleeps on
+            elif self._deadlines[0][2] is watched:  # sooner than what the watchdog sleeps on
                 self._wake.notify()
+        # Outside the lock: a future done already calls back at once, on this thread.
+        result.add_done_callback(lambda _result: self._answered(watched))
+
+    def _answered(self, watched: _Watched) -> None:
+        """Let an answered call go; the heap sheds such entries once they are most of it."""
+        with self._wake:
+            if watched.result is None:  # answered as late by the watchdog, which let it go
+                return
+            watched.result = None
+            self._unanswered -= 1
+            if self._unanswered == 0:
+                self._deadlines.clear()
+                self._wake.notify()  # nothing to wait for: the watchdog ends now
+            elif len(self._deadlines) > 2 * self._unanswered:
+                self._deadlines = [
+                    entry for entry in self._deadlines if entry[2].result is not None
+                ]
+                heapq.heapify(self._deadlines)
 
     def _watch_deadlines(self) -> None:
         """Answer calls whose answer is late; ends when no call waits (restarted by _watch)."""
         while True:
             with self._wake:
-                while self._deadlines and self._deadlines[0][2].done():
-                    heapq.heappop(self._deadlines)  # answered in time
                 if not self._deadlines:
                     self._watchdog = None
                     return
-                deadline, _order, result, late = self._deadlines[0]
+                deadline, _order, watched = self._deadlines[0]
+                result = watched.result
+                if result is None:  # answered in time
+                    heapq.heappop(self._deadlines)
+                    continue
                 remaining = deadline - time.monotonic()
                 if remaining > 0:
                     self._wake.wait(remaining)
                     continue
                 heapq.heappop(self._deadlines)
+                watched.result = None
+                self._unanswered -= 1
                 self._late.add(result)
-            settle(result, lambda text=late: self._failed(text))  # type: ignore[misc]
+            settle(result, functools.partial(self._failed, watched.late))
