@@ -74,7 +74,10 @@ def decode(
 
 
 def encode(value: Any, msg_type: str, *, registry: Registry | None = None) -> bytes:
-    """A natural value or lossless dict -> little-endian CDR bytes with the header."""
+    """The natural value of ``msg_type`` -> little-endian CDR bytes with the header.
+
+    For a type without a natural codec the natural value is its lossless dict; for the others
+    (Image, Twist, JointState, ...) a lossless dict goes through ``from_dict``."""
     return (registry or default_registry).wire_codec(msg_type).encode(value)
 
 

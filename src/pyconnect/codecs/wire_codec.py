@@ -119,7 +119,8 @@ class WireCodec:
         return b"".join(out)
 
     def encode(self, value: Any, *, registry: ValueCodecs | None = None) -> bytes:
-        """CDR bytes of a natural value (through the codec's ``to_fields``) or of a dict.
+        """CDR bytes of the natural value (through the codec's ``to_fields``): for a type without
+        a natural codec, its lossless dict (a dict for the others goes through ``from_dict``).
 
         A user codec without ``to_fields`` (only ``encode``/``decode``) builds its message, whose
         lossless dict is then written: that path needs the message classes (rclpy).

@@ -205,7 +205,8 @@ class McapRecorder:
     def write_value(
         self, topic: str, value: Any, *, log_time_ns: int, publish_time_ns: int | None = None
     ) -> None:
-        """Encode a natural value or lossless dict (with ``registry``'s codecs) and write it."""
+        """Encode the topic's natural value (with ``registry``'s codecs) and write it; for a
+        type without a natural codec that is its lossless dict (``wire.encode``)."""
         from pyconnect.codecs import wire
 
         known = self._topics.get(topic)
