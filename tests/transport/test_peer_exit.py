@@ -3,6 +3,7 @@ shuts down so ``spin()`` returns — as on a ``CustomNode`` (tests/ros/test_exec
 
 from __future__ import annotations
 
+import asyncio
 import contextlib
 import sys
 import threading
@@ -113,3 +114,21 @@ def test_exit_in_a_timer_shuts_the_peer_down(
     assert _spin_returns(peer)
     assert timer.last_error is not None
     assert type(exiting).__name__ in timer.last_error
+
+
+def test_a_cancelled_error_in_a_handler_is_reported_without_a_shutdown(
+    make_peer: PeerFactory,
+) -> None:
+    """Only an exit request shuts the peer down: an ``asyncio.CancelledError`` (a
+    ``BaseException`` too) escaping an ``async def`` handler is reported, the peer goes on."""
+    peer = make_peer("ticker")
+
+    async def tick() -> None:
+        raise asyncio.CancelledError("an awaited task was cancelled")
+
+    timer = peer.add_agent(
+        conn_name="tick", conn_type="timer", time_period=0.01, response_func=tick
+    )
+    assert wait_for(lambda: timer.error_count >= 2)
+    assert peer.ok()
+    assert "CancelledError" in (timer.last_error or "")

@@ -174,11 +174,13 @@ class PeerAgent:
         logger.error("%s\n%s", self.last_error, text.rstrip())
 
     def exit_requested(self, where: str, error: BaseException) -> None:
-        """A handler called ``sys.exit()`` (or was interrupted): report it and shut the peer
-        down, so ``spin()`` returns, as a ``CustomNode`` does; the agent's thread, which the
-        exception would have ended without a word, goes on until the shutdown closes it."""
+        """A handler raised what ``except Exception`` misses: reported, and a ``sys.exit()``
+        (or an interrupt) shuts the peer down, so ``spin()`` returns, as a ``CustomNode`` does;
+        the agent's thread, which the exception would have ended without a word, goes on
+        until the shutdown closes it."""
         self.report_exception(where, error)
-        self.peer.shutdown()  # on an agent's thread: started in the background
+        if isinstance(error, (SystemExit, KeyboardInterrupt)):  # not a CancelledError
+            self.peer.shutdown()  # on an agent's thread: started in the background
 
     def close(self) -> None:
         """Undeclare the zenoh entities (the peer calls this on shutdown)."""
