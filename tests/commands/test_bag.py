@@ -126,3 +126,10 @@ def test_echo_reads_a_bag_with_a_json_topic_and_says_it_left_that_out(
         "decoded: /json (serialised as 'json'); select one with raw=True to read it undecoded\n"
     )
     assert main(["bag", "echo", str(bag), "--topic", "/json"]) == 2
+    capsys.readouterr()
+    # bag export --format parquet says the same, and writes the decodable topics
+    target = tmp_path / "tables"
+    assert main(["bag", "export", str(bag), "--format", "parquet", "--to", str(target)]) == 0
+    captured = capsys.readouterr()
+    assert captured.out == f"/chatter: 1 row(s) to {target / 'chatter.parquet'}\n"
+    assert captured.err.startswith(f"pyconnect: {bag}: 1 topic(s) not read")

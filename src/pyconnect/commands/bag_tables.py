@@ -37,6 +37,8 @@ def export_parquet_command(args: argparse.Namespace, out: TextIO, err: TextIO) -
     )
     for topic, (path, rows) in result.files.items():
         print(f"{topic}: {rows} row(s) to {path}", file=out)
+    for note in result.notes:  # topics no --topic named that cannot be decoded: not an error
+        print(f"pyconnect: {note}", file=err)
     status = 0
     if result.errors:
         print(

@@ -27,14 +27,16 @@ __all__ = ["ParquetExport", "export_parquet"]
 
 @dataclass
 class ParquetExport:
-    """What ``export_parquet`` wrote: topic -> (file, rows), the messages it left out, and the
-    damage the bag showed (what a cut or corrupt file kept from being read)."""
+    """What ``export_parquet`` wrote: topic -> (file, rows), the messages it left out, the
+    damage the bag showed (what a cut or corrupt file kept from being read), and ``notes``: the
+    topics left out because they cannot be decoded (json, no schema), when none were named."""
 
     directory: Path
     files: dict[str, tuple[Path, int]] = field(default_factory=dict)
     errors: list[DecodeProblem] = field(default_factory=list)
     damage: list[BagDamage] = field(default_factory=list)
     damage_summary: str = ""
+    notes: list[str] = field(default_factory=list)
 
 
 def export_parquet(
@@ -78,6 +80,7 @@ def export_parquet(
             pq.write_table(table, path, compression=compression)
             result.files[topic] = (path, table.num_rows)
         result.damage = list(reader.damage)
+        result.notes = list(reader.notes)
         if result.damage:
             read = sum(rows for _path, rows in result.files.values()) + len(result.errors)
             result.damage_summary = reader.damage_summary(result.damage, read=read)
