@@ -15,8 +15,9 @@ from std_srvs.srv import SetBool
 from test_msgs.action import Fibonacci
 
 from pyconnect.errors import PyconnectError
+from pyconnect.ros import pending_calls
 
-from .conftest import EVENT_TIMEOUT
+from .conftest import EVENT_TIMEOUT, repeat_until
 
 SERVICE = "agent 'toggle_client' (service_client std_srvs/srv/SetBool)"
 ACTION = "agent 'fib_client' (action_client test_msgs/action/Fibonacci)"
@@ -281,3 +282,26 @@ def test_calls_waiting_for_the_server_fail_each_after_its_own_timeout(make_node:
     }
     assert not later.done()
     assert later.cancel()
+
+
+def test_a_call_made_as_the_server_appears_goes_after_the_waiting_ones(
+    make_node: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A call made once the server was seen went out at once, while the calls made before it
+    still waited for the waiter's next look (up to a poll later): requests out of order."""
+    monkeypatch.setattr(pending_calls, "POLL", 0.5)  # a wide window between two looks
+    node = make_node()
+    client = _absent_server_client(node)
+    node.spin(run_thread=True)
+    waiting = [client.send({"data": True}, block=False) for _ in range(3)]
+    order: list[bool] = []
+    node.add_agent(
+        conn_name="not_yet", conn_type="service_server", data_interface=SetBool,
+        response_func=lambda request: order.append(request["data"]) or {"success": True},
+    )  # fmt: skip
+    seen = threading.Event()
+    assert repeat_until(seen, lambda: client.is_connected() and seen.set())
+    last = client.send({"data": False}, block=False)
+    for future in [*waiting, last]:
+        assert future.result(EVENT_TIMEOUT)["success"] is True
+    assert order == [True, True, True, False]

@@ -120,7 +120,11 @@ class PendingCalls:
             self._open.add(result)
         result.add_done_callback(self._forget)
         self._host.ensure_spinning()
-        if self._ready():
+        with self._lock:
+            # Calls still held by the waiter go first: a call made as the server appears
+            # must not overtake the ones made before it (requests reach it in send() order).
+            queued = bool(self._waiting) or self._waiter is not None
+        if not queued and self._ready():
             self._call(call, result, timeout, late)
             return
         with self._lock:
@@ -172,8 +176,6 @@ class PendingCalls:
                     (due if shut_down or ready or expired else self._waiting).append(waiting)
                 remaining = [w.deadline - now for w in self._waiting if w.deadline is not None]
                 last = not self._waiting
-                if last:
-                    self._waiter = None
             for waiting in due:
                 if shut_down:
                     text = self._shut_down_text()
@@ -184,7 +186,11 @@ class PendingCalls:
                     text = f"{waiting.missing} within {waiting.timeout} s"
                 settle(waiting.result, functools.partial(self._failed, text))
             if last:
-                return
+                with self._lock:
+                    if not self._waiting:  # else calls queued while these were sent: again
+                        self._waiter = None
+                        return
+                continue
             if not ready:
                 stop.wait(min([POLL, *remaining]))
 
