@@ -94,3 +94,28 @@ def test_a_message_that_does_not_decompress_is_damage(tmp_path: Path) -> None:
     (damage,) = bag.damage
     assert damage.file == str(db3)
     assert damage.what.startswith("messages whose data does not decompress (zstd: ")
+
+
+@pytest.mark.parametrize("declares_its_size", [True, False])
+def test_a_message_that_decompresses_to_too_much_is_damage_not_memory(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, declares_its_size: bool
+) -> None:
+    """A few kB of zstd expand to gigabytes (a 128 kB frame to 4 GB): the whole frame was
+    decompressed in memory, and the MemoryError ended the read. Here the bound is made small."""
+    import zstandard
+
+    from pyconnect.record import message_compression
+
+    monkeypatch.setattr(message_compression, "MAX_MESSAGE_BYTES", 1 << 20)
+    path = write_compressed(tmp_path / "bag", "sqlite3")
+    (db3,) = path.glob("*.db3")
+    compressor = zstandard.ZstdCompressor(write_content_size=declares_its_size)
+    bomb = compressor.compress(bytes(8 << 20))  # 8 MiB of zeros: a few hundred bytes
+    with sqlite3.connect(db3) as db:
+        db.execute("UPDATE messages SET data = ? WHERE timestamp = 1002", (bomb,))
+    db.close()
+    with open_bag(path) as bag:
+        values = [m.value for m in bag]
+    assert values == ["hello 0", "hello 1", "hello 3", "hello 4"]
+    (damage,) = bag.damage
+    assert damage.what == (f"messages that decompress (zstd) to more than {1 << 20} bytes skipped")

@@ -13,12 +13,24 @@ if TYPE_CHECKING:
     from zstandard import ZstdDecompressor
 
 
+MAX_MESSAGE_BYTES = 1 << 30
+"""The most one message may decompress to: a few kB of zstd can claim or expand to gigabytes
+(a 128 kB frame to 4 GB), and no ROS message in a bag is near 1 GiB."""
+
+_INPUT_STEP = 1 << 12  # compressed bytes fed at a time: each gives at most ~128 MiB of output
+
+
+class _TooLarge(ValueError):
+    """A message that decompresses to more than ``MAX_MESSAGE_BYTES``."""
+
+
 def decompressed(
     messages: Generator[RawMessage, None, None], compression: str, damage: DamageLog
 ) -> Generator[RawMessage, None, None]:
     """``messages`` of a bag whose messages are compressed one by one (``compression``, as
-    ``BagFiles.message_compression``), decompressed; data that does not decompress is damage,
-    noted in ``damage`` and skipped: handed out as it is, it would be taken for CDR."""
+    ``BagFiles.message_compression``), decompressed; data that does not decompress, or to more
+    than ``MAX_MESSAGE_BYTES``, is damage, noted in ``damage`` and skipped: handed out as it
+    is, it would be taken for CDR."""
     import zstandard
 
     # One per read: a decompressor is not to be shared between threads.
@@ -34,22 +46,43 @@ def decompressed(
                     key="message-decompress",
                 )
                 continue
+            except (_TooLarge, MemoryError):
+                damage.note(
+                    None,
+                    f"messages that decompress ({compression}) to more than "
+                    f"{MAX_MESSAGE_BYTES} bytes skipped",
+                    key="message-too-large",
+                )
+                continue
             yield connection_id, log_time, plain
     finally:
         messages.close()  # now, not when collected: an MCAP read holds a chunk
 
 
 def _zstd_frames(decompressor: ZstdDecompressor, data: bytes | memoryview) -> bytes:
-    """The content of the zstd frames ``data`` holds (rosbag2 writes one; zstd allows more)."""
+    """The content of the zstd frames ``data`` holds (rosbag2 writes one; zstd allows more),
+    refused (``_TooLarge``) as soon as it would pass ``MAX_MESSAGE_BYTES``: a frame's declared
+    size is checked before anything is decompressed, one without it is fed a little at a time."""
     import zstandard
 
     parts = []
-    rest: bytes | memoryview = data
+    total = 0
+    rest = memoryview(data)
     while True:
+        if zstandard.frame_content_size(rest) > MAX_MESSAGE_BYTES:  # -1: not declared
+            raise _TooLarge
         frame = decompressor.decompressobj()
-        parts.append(frame.decompress(rest))
+        offset = 0
+        while not frame.eof and offset < len(rest):
+            piece = frame.decompress(rest[offset : offset + _INPUT_STEP])
+            offset += _INPUT_STEP
+            total += len(piece)
+            if total > MAX_MESSAGE_BYTES:
+                raise _TooLarge
+            parts.append(piece)
         if not frame.eof:
             raise zstandard.ZstdError("the data ends inside a frame")
-        rest = frame.unused_data
+        # What the last piece held beyond the frame, then what was not fed yet: more frames.
+        rest = memoryview(frame.unused_data + bytes(rest[offset:]))
         if not rest:
             return b"".join(parts)
