@@ -186,6 +186,9 @@ def test_offered_qos_from_metadata() -> None:
     profile = offered_qos(mixed)
     assert (profile.reliability.name, profile.durability.name) == ("RELIABLE", "VOLATILE")
     assert offered_qos("").reliability.name == "RELIABLE"
+    # A file's channel metadata is input too: nesting deep enough to overflow the YAML parser
+    # (a RecursionError, not a YAMLError) ended bag play in a traceback.
+    assert offered_qos("[" * 3000).reliability.name == "RELIABLE"
 
 
 def test_play_leaves_out_a_topic_whose_type_is_not_installed(

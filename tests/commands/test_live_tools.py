@@ -150,7 +150,7 @@ def test_qos_profile_is_one_of_the_presets(
 
 
 WHOLE = "expected a whole number >= 1, got "
-POSITIVE = "expected a finite number > 0, got "
+POSITIVE = "expected a number > 0 and <= 1e+09, got "
 SPAN = "expected a number of seconds from 0 to 9.22e+09, got "
 
 
@@ -163,14 +163,15 @@ SPAN = "expected a number of seconds from 0 to 9.22e+09, got "
         (["topic", "hz", "/x", "-w", "many"], "argument -w/--window: " + WHOLE + "'many'"),
         (
             ["topic", "pub", "/x", "std_msgs/msg/String", "hi", "--rate", "0"],
-            "argument -r/--rate: expected a finite number > 0, got '0'",
+            "argument -r/--rate: " + POSITIVE + "'0'",
         ),
         (
             ["topic", "pub", "/x", "std_msgs/msg/String", "hi", "-r", "nan"],
-            "argument -r/--rate: expected a finite number > 0, got 'nan'",
+            "argument -r/--rate: " + POSITIVE + "'nan'",
         ),
         (["bag", "play", "b.mcap", "-r", "nan"], "argument -r/--rate: " + POSITIVE + "'nan'"),
         (["bag", "play", "b.mcap", "-r", "0"], "argument -r/--rate: " + POSITIVE + "'0'"),
+        (["bag", "play", "b.mcap", "-r", "1e308"], "argument -r/--rate: " + POSITIVE + "'1e308'"),
         (
             ["bag", "play", "b.mcap", "--start-offset", "inf"],
             "argument --start-offset: " + SPAN + "'inf'",

@@ -1,5 +1,5 @@
 """argparse ``type=`` functions for the commands' numeric options: each refusal says what it
-expected (``argument -r/--rate: expected a finite number > 0, got 'nan'``, exit status 2),
+expected (``argument -r/--rate: expected a number > 0 and <= 1e+09, got 'nan'``, exit status 2),
 where argparse's own would say ``invalid float value`` or let ``nan`` and ``inf`` through."""
 
 from __future__ import annotations
@@ -35,14 +35,19 @@ def nonnegative_int(text: str) -> int:
     return count
 
 
+MAX_RATE = 1e9
+"""The largest rate or speed factor taken: times scaled by more overflow a ROS stamp's int64
+nanoseconds within seconds (``bag play --rate 1e308 --clock`` failed on an OverflowError)."""
+
+
 def positive_float(text: str) -> float:
-    """A finite number above 0 (``--rate``)."""
+    """A number above 0 up to ``MAX_RATE`` (``--rate``)."""
     try:
         number = float(text)
     except ValueError:
         number = math.nan
-    if not (number > 0 and math.isfinite(number)):
-        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    if not 0 < number <= MAX_RATE:  # NaN fails both comparisons
+        raise argparse.ArgumentTypeError(f"expected a number > 0 and <= {MAX_RATE:g}, got {text!r}")
     return number
 
 

@@ -81,7 +81,7 @@ def offered_qos(text: str) -> Any:
 
     try:
         profiles = yaml.safe_load(text) if text else None
-    except yaml.YAMLError:
+    except (yaml.YAMLError, RecursionError):  # a file's text: 3000 '[' overflow the parser
         profiles = None
     if not isinstance(profiles, list) or not profiles:
         return QoSProfile(depth=10)
