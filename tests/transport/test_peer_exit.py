@@ -132,3 +132,38 @@ def test_a_cancelled_error_in_a_handler_is_reported_without_a_shutdown(
     assert wait_for(lambda: timer.error_count >= 2)
     assert peer.ok()
     assert "CancelledError" in (timer.last_error or "")
+
+
+def test_exit_in_a_polled_pubs_handler_shuts_the_peer_down(make_peer: PeerFactory) -> None:
+    """A pub with time_period: its thread ended without a word and spin() never returned."""
+    peer = make_peer("poller")
+    pub = peer.add_agent(
+        conn_name="status", conn_type="pub", data_interface="std_msgs/msg/String",
+        time_period=0.01, response_func=_exit,
+    )  # fmt: skip
+    assert _spin_returns(peer)
+    assert pub.last_error == (
+        "agent 'status' (pub std_msgs/msg/String): periodic send raised SystemExit: "
+        "the mission is over"
+    )
+
+
+def test_exit_in_an_action_clients_response_func_answers_the_future_and_shuts_down(
+    make_peer: PeerFactory,
+) -> None:
+    """block=False: the goal's thread ended, and the caller waited on its future for ever."""
+    server_peer = make_peer("server")
+    server_peer.add_agent(
+        conn_name="fib", conn_type="action_server", data_interface="test_msgs/action/Fibonacci",
+        response_func=lambda goal: {"sequence": [1]},
+    )  # fmt: skip
+    client_peer = make_peer("client")
+    client = client_peer.add_agent(
+        conn_name="fib", conn_type="action_client", data_interface="test_msgs/action/Fibonacci",
+        timeout=TIMEOUT, response_func=_exit,
+    )  # fmt: skip
+    client_peer.wait_until_connected(TIMEOUT)
+    future = client.send({"order": 1}, block=False)
+    with pytest.raises(PyconnectError, match="a handler raised SystemExit"):
+        future.result(TIMEOUT)
+    assert _spin_returns(client_peer)

@@ -26,6 +26,7 @@ import time
 import uuid
 from typing import Any
 
+from pyconnect.errors import PyconnectError
 from pyconnect.ros.option_checks import call_timeout, timeout_problem
 from pyconnect.transport import action_wire as aw
 from pyconnect.transport.async_handlers import settle
@@ -161,6 +162,13 @@ class ActionClientAgent(PeerAgent):
                 self.report_exception("send", error)
                 with contextlib.suppress(concurrent.futures.InvalidStateError):
                     result.set_exception(error)
+                return
+            except BaseException as error:  # sys.exit() in accepted_func or response_func
+                self.exit_requested("send", error)
+                with contextlib.suppress(concurrent.futures.InvalidStateError):
+                    result.set_exception(
+                        PyconnectError(f"{self.describe}: a handler raised {error!r}")
+                    )
                 return
             with contextlib.suppress(concurrent.futures.InvalidStateError):
                 result.set_result(value)
@@ -343,6 +351,8 @@ class ActionClientAgent(PeerAgent):
                 settle(in_flight.feedback_func(value))
             except Exception as error:
                 self.report_exception("feedback_func", error)
+            except BaseException as error:  # sys.exit() on the reader's thread
+                self.exit_requested("feedback_func", error)
 
     def _on_status(self, payload: bytes) -> None:
         try:

@@ -148,6 +148,8 @@ class PublisherAgent(PeerAgent):
                 self.send(value)
         except Exception as error:
             self.report_exception("periodic send", error)
+        except BaseException as error:  # sys.exit() in response_func: ended the thread unseen
+            self.exit_requested("periodic send", error)
 
     def close(self) -> None:
         self._stop.set()
