@@ -8,8 +8,10 @@ from typing import Any
 
 import pytest
 from rclpy.callback_groups import ReentrantCallbackGroup
+from sensor_msgs.msg import Image
 from std_msgs.msg import String
 from std_srvs.srv import SetBool
+from test_msgs.action import Fibonacci
 
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.agent_options import OptionError
@@ -95,23 +97,39 @@ def test_callables_and_timer_handlers_without_required_parameters_are_accepted(
 
 
 @pytest.mark.parametrize(
-    ("conn_type", "data_interface", "kind"),
-    [("sub", String, "topic"), ("pub", String, "topic"), ("service_server", SetBool, "service")],
+    ("conn_type", "data_interface"),
+    [
+        ("sub", String),
+        ("sub", Image),  # a sensor sub asks the graph first
+        ("pub", String),
+        ("service_server", SetBool),
+        ("service_client", SetBool),
+        ("action_server", Fibonacci),
+        ("action_client", Fibonacci),
+    ],
 )
+@pytest.mark.parametrize("conn_name", ["front camera", "1abc", "cam/"])
 def test_a_name_rclpy_refuses_is_an_option_error_naming_the_agent(
-    make_node: Any, conn_type: str, data_interface: type, kind: str
+    make_node: Any, conn_type: str, data_interface: type, conn_name: str
 ) -> None:
-    """rclpy's InvalidTopicNameException named no agent, and was no PyconnectError."""
+    """rclpy's InvalidTopicNameException, RCLError or ValueError named no agent (and an
+    action client was left half made)."""
     node = make_node("names")
-    options: dict[str, Any] = {"response_func": lambda request: {}} if kind == "service" else {}
+    handlers = {
+        "service_server": {"response_func": lambda request: {}},
+        "action_server": {"response_func": lambda goal: {}},
+    }
     with pytest.raises(OptionError) as refused:
         node.add_agent(
-            conn_name="front camera",
+            conn_name=conn_name,
             conn_type=conn_type,
             data_interface=data_interface,
-            **options,
+            **handlers.get(conn_type, {}),
         )
-    assert str(refused.value).startswith(f"agent 'front camera' ({conn_type}): Invalid {kind}")
+    text = str(refused.value)
+    assert text.startswith(f"agent {conn_name!r} ({conn_type}): ")
+    assert "invalid" in text.lower()
+    assert node.agents == {}
 
 
 def test_a_misspelt_transport_is_refused_before_zenoh_is_imported(

@@ -12,6 +12,8 @@ from typing import TYPE_CHECKING, Any
 
 from rclpy.callback_groups import CallbackGroup
 from rclpy.exceptions import NameValidationException
+from rclpy.expand_topic_name import expand_topic_name
+from rclpy.validate_full_topic_name import validate_full_topic_name
 
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.action_client_agent import ActionClientAgent
@@ -110,6 +112,10 @@ def build_agent(node: AgentHost, given: Mapping[str, Any]) -> NodeAgent:
         )
     _check_options(agent_class, given, f"agent {name!r} ({conn_type})")
     _check_values(agent_class, given, f"agent {name!r} ({conn_type})")
+    if not issubclass(agent_class, TimerAgent):  # a timer's conn_name names no ROS entity
+        problem = _name_problem(node, conn_name, conn_type)
+        if problem is not None:
+            raise OptionError(f"agent {name!r} ({conn_type}): {problem}")
     try:
         return agent_class(node, conn_name=conn_name, agent_name=agent_name, **given)
     except PyconnectError as error:
@@ -168,6 +174,21 @@ def _check_values(
         problem = _tick_problem(given.get("response_func"))
         if problem is not None:
             raise OptionError(f"{where}: response_func: {problem}")
+
+
+def _name_problem(node: AgentHost, conn_name: object, conn_type: str) -> str | None:
+    """What rcl finds wrong with ``conn_name`` as a name of this node, or None. Checked before
+    the agent is made: rclpy's action classes and graph queries raised their own RCLError or
+    ValueError, naming no agent (and half made an action client)."""
+    if not isinstance(conn_name, str):
+        return f"conn_name: expected str, got {type(conn_name).__name__}"
+    ros_node = node.ros_node
+    try:
+        expanded = expand_topic_name(conn_name, ros_node.get_name(), ros_node.get_namespace())
+        validate_full_topic_name(expanded, is_service=conn_type.startswith("service"))
+    except (NameValidationException, ValueError) as error:
+        return str(error)
+    return None
 
 
 def _tick_problem(function: object) -> str | None:
