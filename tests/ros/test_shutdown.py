@@ -226,8 +226,8 @@ def save_state(_signum, _frame):
 signal.signal(signal.SIGTERM, save_state)
 node, heard = make()
 node.spin(run_thread=True)
-ready(heard)
-try:
+try:  # the signal may come while READY is still being printed
+    ready(heard)
     while True:
         time.sleep(0.05)
 finally:
