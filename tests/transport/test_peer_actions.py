@@ -522,3 +522,26 @@ def test_a_handler_returning_none_succeeds_with_the_default_result_and_one_warni
         f"agent 'fib' (action_server {FIBONACCI}): response_func returned None: answering the "
         f"default {FIBONACCI}_Result"
     ]
+
+
+def test_cancel_cancels_goals_still_waiting_for_their_server(make_peer: PeerFactory) -> None:
+    """cancel() looked at goals already sent only: a goal waiting for the server was sent,
+    and ran, once the server appeared."""
+    client_peer = make_peer("early")
+    client = client_peer.add_agent(
+        conn_name="fib", conn_type="action_client", data_interface=FIBONACCI, timeout=TIMEOUT
+    )
+    future = client.send({"order": 3}, block=False)
+    assert wait_for(lambda: client._queued)
+    assert client.cancel() == 1
+    outcome = future.result(TIMEOUT)
+    assert outcome["isdone"] is False
+    assert outcome["error"].endswith("goal canceled")
+    executed: list[int] = []
+    make_peer("late_server").add_agent(
+        conn_name="fib", conn_type="action_server", data_interface=FIBONACCI,
+        response_func=lambda goal: executed.append(goal["order"]) or {"sequence": [1]},
+    )  # fmt: skip
+    client_peer.wait_until_connected(TIMEOUT)
+    assert client.send({"order": 1})["sequence"] == [1]
+    assert executed == [1]

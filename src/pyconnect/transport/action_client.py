@@ -92,6 +92,8 @@ class ActionClientAgent(PeerAgent):
         self.last_status: dict[bytes, int] = {}
         """The latest status the server published for each goal id it lists."""
         self._in_flight: dict[bytes, _GoalInFlight] = {}
+        self._queued: dict[bytes, _GoalInFlight] = {}
+        """Goals waiting for the server to appear: ``cancel()`` cancels them too."""
         # Feedback travels apart from the result and may arrive after it: recently finished
         # goals still get theirs.
         self._finished: collections.OrderedDict[bytes, _GoalInFlight] = collections.OrderedDict()
@@ -194,10 +196,16 @@ class ActionClientAgent(PeerAgent):
         def can_send() -> bool:
             return in_flight.cancel_asked or self._server_ready()
 
-        if not self.peer.wait_for_graph(can_send, deadline):
-            return self._failed(
-                self.why_no_answer(f"no action server for {self.conn_name}", timeout)
-            )
+        with self._lock:
+            self._queued[in_flight.goal_id] = in_flight
+        try:
+            if not self.peer.wait_for_graph(can_send, deadline):
+                return self._failed(
+                    self.why_no_answer(f"no action server for {self.conn_name}", timeout)
+                )
+        finally:
+            with self._lock:
+                self._queued.pop(in_flight.goal_id, None)
         with self._lock:
             if in_flight.cancel_asked:  # canceled before it was sent: it never will be
                 return self._failed("goal canceled")
@@ -292,7 +300,7 @@ class ActionClientAgent(PeerAgent):
     def cancel(self) -> int:
         """Cancel every goal of this agent in flight (accepted or not yet); how many."""
         with self._lock:
-            goals = list(self._in_flight.values())
+            goals = [*self._queued.values(), *self._in_flight.values()]
         self._cancel_goals(goals, wait=True)
         return len(goals)
 
