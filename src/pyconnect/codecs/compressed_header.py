@@ -11,9 +11,10 @@ its payload can hold is damage, found before any decoding:
   one bit (its DC code), so at most 512 pixels per payload byte; arithmetic coding (rare) gets
   64 times more room;
 - TIFF (compressed_image_transport's ``format=tiff``): the first image's size, samples and
-  compression from its first directory; deflate expands at most 1032:1, LZW (12-bit codes)
-  about 1365:1, PackBits 64:1, no compression 1:1, and any other scheme gets 32768:1 (JPEG's
-  bound with arithmetic coding).
+  compression from its first directory, read as libtiff reads them (a directory that lists one
+  of these tags twice, or in a type libtiff cannot read, is refused); deflate expands at most
+  1032:1, LZW (12-bit codes) about 1365:1, PackBits 64:1, no compression 1:1, and any other
+  scheme gets 32768:1 (JPEG's bound with arithmetic coding).
 """
 
 from __future__ import annotations
@@ -33,7 +34,29 @@ _TIFF_ORDERS = {b"II*\0": "<", b"MM\0*": ">"}
 # TIFF compression code -> most bytes of pixels one payload byte can hold.
 _TIFF_RATIOS = {1: 1, 5: 1400, 8: _DEFLATE_MAX_RATIO, 32946: _DEFLATE_MAX_RATIO, 32773: 64}
 _TIFF_OTHER_RATIO = 32768
-_TIFF_VALUE_SIZES = {3: 2, 4: 4}  # SHORT, LONG
+# TIFF field type -> struct code of the integer types libtiff reads these tags from: BYTE,
+# SHORT, LONG, SBYTE, SSHORT, SLONG, IFD, LONG8, SLONG8, IFD8 (the 8-byte ones sit elsewhere
+# even in classic TIFF).
+_TIFF_INTEGER_CODES = {
+    1: "B",
+    3: "H",
+    4: "I",
+    6: "b",
+    8: "h",
+    9: "i",
+    13: "I",
+    16: "Q",
+    17: "q",
+    18: "Q",
+}
+_TIFF_TAG_NAMES = {
+    256: "ImageWidth",
+    257: "ImageLength",
+    258: "BitsPerSample",
+    259: "Compression",
+    277: "SamplesPerPixel",
+}
+_TIFF_PER_SAMPLE = frozenset((258, 259))  # older TIFFs give one value per sample
 
 
 def check_payload(payload: Any, what: str) -> tuple[int, int]:
@@ -58,7 +81,7 @@ def check_payload(payload: Any, what: str) -> tuple[int, int]:
             if width * height > per_byte * len(payload):
                 raise _too_small(payload, what, width, height)
     elif head[:4] in _TIFF_ORDERS:
-        tiff = _tiff_header(payload, _TIFF_ORDERS[head[:4]])
+        tiff = _tiff_header(payload, _TIFF_ORDERS[head[:4]], what)
         if tiff is not None:
             width, height, bits, ratio = tiff
             if width * height * bits > 8 * ratio * len(payload):
@@ -137,9 +160,15 @@ def _jpeg_header(payload: Any) -> tuple[int, int, int] | None:
     return None
 
 
-def _tiff_header(payload: Any, order: str) -> tuple[int, int, int, int] | None:
+def _tiff_header(payload: Any, order: str, what: str) -> tuple[int, int, int, int] | None:
     """Width, height, bits per pixel and the compression's largest expansion, from the first
-    image file directory (TIFF 6.0's defaults for what it leaves out)."""
+    image file directory (TIFF 6.0's defaults for what it leaves out).
+
+    Reads the tags as libtiff's ``TIFFReadDirectory`` does, so the size checked is the size
+    OpenCV allocates: any integer type, one value (BitsPerSample and Compression may have one
+    per sample; libtiff uses the first). A directory libtiff would read differently (a tag
+    listed twice: libtiff keeps the first) or could not read is refused.
+    """
     view = memoryview(payload).cast("B") if not isinstance(payload, bytes) else payload
     size = len(view)
     if size < 8:
@@ -151,19 +180,48 @@ def _tiff_header(payload: Any, order: str) -> tuple[int, int, int, int] | None:
     if entries > (size - directory - 2) // 12:
         return None
     values = {256: 0, 257: 0, 258: 1, 259: 1, 277: 1}  # width, height, bits, compression, samples
+    seen: set[int] = set()
     for pos in range(directory + 2, directory + 2 + 12 * entries, 12):
-        tag, kind, count = struct.unpack_from(order + "HHI", view, pos)
-        item = _TIFF_VALUE_SIZES.get(kind)
-        if tag not in values or item is None or not count:
+        (tag,) = struct.unpack_from(order + "H", view, pos)
+        if tag not in values:
             continue
-        at = pos + 8
-        if count * item > 4:  # the values are elsewhere; the first is enough
-            (at,) = struct.unpack_from(order + "I", view, pos + 8)
-            if at > size - item:
-                return None
-        (values[tag],) = struct.unpack_from(order + ("H" if item == 2 else "I"), view, at)
+        if tag in seen:
+            raise DecodeError(
+                f"CompressedImage.data: the {what} directory lists tag {tag} "
+                f"({_TIFF_TAG_NAMES[tag]}) more than once; expected it once"
+            )
+        seen.add(tag)
+        values[tag] = _tiff_value(view, order, pos, what)
     width, height = values[256], values[257]
     if not width or not height:
         return None
     ratio = _TIFF_RATIOS.get(values[259], _TIFF_OTHER_RATIO)
     return width, height, max(values[258], 1) * max(values[277], 1), ratio
+
+
+def _tiff_value(view: Any, order: str, pos: int, what: str) -> int:
+    """The first value of the directory entry at ``pos``; ``DecodeError`` if libtiff could not
+    read it, since a default in its place could understate the image's size."""
+    tag, kind, count = struct.unpack_from(order + "HHI", view, pos)
+    code = _TIFF_INTEGER_CODES.get(kind)
+    name = f"tag {tag} ({_TIFF_TAG_NAMES[tag]})"
+    if code is None:
+        raise DecodeError(
+            f"CompressedImage.data: {what} {name} has type {kind}; expected an integer type "
+            f"(BYTE, SHORT, LONG, LONG8 or a signed one)"
+        )
+    if count != 1 and (count == 0 or tag not in _TIFF_PER_SAMPLE):
+        raise DecodeError(f"CompressedImage.data: {what} {name} has {count} values; expected 1")
+    item = struct.calcsize(order + code)
+    at = pos + 8
+    if count * item > 4:  # the values are elsewhere; libtiff uses the first
+        (at,) = struct.unpack_from(order + "I", view, pos + 8)
+        if at > len(view) - item:
+            raise DecodeError(
+                f"CompressedImage.data: {what} {name} points at byte {at}, past the "
+                f"{len(view)} bytes"
+            )
+    (value,) = struct.unpack_from(order + code, view, at)
+    if value < 0:
+        raise DecodeError(f"CompressedImage.data: {what} {name} is {value}; expected >= 0")
+    return int(value)

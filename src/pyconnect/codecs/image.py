@@ -38,6 +38,9 @@ _NATIVE_BIG = sys.byteorder == "big"
 # (encoding, is_bigendian) -> (dtype in that byte order, channels, pixel bytes, rows factor)
 _Layout = tuple[np.dtype[Any], int, int, Any, int]
 _LAYOUTS: dict[tuple[str, int], _Layout] = {}
+# Encodings come from the data: past this many, layouts are computed each time rather than
+# kept, so a stream of distinct encodings cannot grow the cache.
+_MAX_LAYOUTS = 256
 
 
 def _layout(encoding: str, big_endian: bool) -> _Layout:
@@ -50,8 +53,9 @@ def _layout(encoding: str, big_endian: bool) -> _Layout:
         dtype = dtype.newbyteorder(">" if big_endian else "<")
     rows_per_row = None if fmt.rows_per_row == 1 else fmt.rows_per_row
     layout = (dtype, fmt.channels, fmt.pixel_bytes, rows_per_row, dtype.itemsize)
-    _LAYOUTS[(encoding, big_endian)] = layout
-    _LAYOUTS[(encoding, int(big_endian))] = layout
+    if len(_LAYOUTS) < _MAX_LAYOUTS:
+        _LAYOUTS[(encoding, big_endian)] = layout
+        _LAYOUTS[(encoding, int(big_endian))] = layout
     return layout
 
 

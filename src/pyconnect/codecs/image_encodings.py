@@ -83,8 +83,11 @@ _DEPTHS: dict[str, np.dtype[np.generic]] = {
     "64F": np.dtype(np.float64),
 }
 _DEPTH_OF_DTYPE = {dtype.str[1:]: depth for depth, dtype in _DEPTHS.items()}
-_GENERIC = re.compile(r"(8U|8S|16U|16S|32S|32F|64F)(?:C([0-9]+))?")
+# At most three digits and no leading zero: one spelling per channel count, and no digit run
+# long enough for int() to refuse (cv_bridge's atoi reads any).
+_GENERIC = re.compile(r"(8U|8S|16U|16S|32S|32F|64F)(?:C([1-9][0-9]{0,2}))?")
 MAX_CHANNELS = 512  # OpenCV's CV_CN_MAX
+_SHOWN_LENGTH = 64  # characters of an unknown encoding an error quotes
 
 NAMED_ENCODINGS: tuple[str, ...] = tuple(_NAMED)
 # The common generic encodings (1-4 channels), to enumerate; pixel_format accepts more.
@@ -106,7 +109,7 @@ def pixel_format(encoding: str) -> PixelFormat:
     match = _GENERIC.fullmatch(encoding)
     if match is None:
         raise UnknownEncodingError(
-            f"unknown image encoding {encoding!r} (known: {', '.join(NAMED_ENCODINGS)} "
+            f"unknown image encoding {_shown(encoding)} (known: {', '.join(NAMED_ENCODINGS)} "
             f"and {{8U,8S,16U,16S,32S,32F,64F}} alone or with C{{1..{MAX_CHANNELS}}})"
         )
     channels = 1 if match.group(2) is None else int(match.group(2))
@@ -116,6 +119,14 @@ def pixel_format(encoding: str) -> PixelFormat:
             f"CV_CN_MAX), got {channels}"
         )
     return PixelFormat(encoding, _DEPTHS[match.group(1)], channels)
+
+
+def _shown(encoding: str) -> str:
+    """``encoding`` quoted for an error, its start only when long: it comes from the data, and a
+    hostile one can be megabytes."""
+    if len(encoding) <= _SHOWN_LENGTH:
+        return repr(encoding)
+    return f"{encoding[:_SHOWN_LENGTH]!r}… ({len(encoding)} characters)"
 
 
 def generic_encoding(dtype: np.dtype[np.generic], channels: int) -> str | None:

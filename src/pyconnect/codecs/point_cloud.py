@@ -325,8 +325,12 @@ class PointCloudCodec(FieldsCodec):
 
 def unpack_rgb(packed: npt.NDArray[Any]) -> npt.NDArray[np.uint8]:
     """(…, 3) uint8 r, g, b of a packed ``rgb``/``rgba`` field (PCL's 0x00RRGGBB or 0xAARRGGBB
-    layout), a float32 or a 4-byte integer field: its bits are read as they are."""
+    layout), a float32 or a 4-byte integer field: its bits are read as they are. Other floats
+    (Python floats, float64 columns of an export) are first made float32 again."""
     packed = np.asarray(packed)
+    if packed.dtype.kind == "f" and packed.dtype.itemsize != 4:
+        # A float32 widened to float64 keeps its value, so narrowing gives back its bits.
+        packed = packed.astype(np.float32)
     kind = packed.dtype
     if kind.kind in "iu" and kind.itemsize == 4:
         bits = packed.astype(np.uint32)  # a negative int32 wraps to the same bits
@@ -335,7 +339,7 @@ def unpack_rgb(packed: npt.NDArray[Any]) -> npt.NDArray[np.uint8]:
         bits = packed.view(np.dtype(np.uint32).newbyteorder(kind.byteorder)).astype(np.uint32)
     else:
         raise TypeError(
-            f"unpack_rgb: expected a float32 or 4-byte integer rgb field, got {kind.name} "
+            f"unpack_rgb: expected a float or 4-byte integer rgb field, got {kind.name} "
             f"({kind.str})"
         )
     return np.stack(((bits >> 16) & 0xFF, (bits >> 8) & 0xFF, bits & 0xFF), axis=-1).astype(

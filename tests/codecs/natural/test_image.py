@@ -11,6 +11,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from pyconnect import codecs
+from pyconnect.codecs import image as image_module
 from pyconnect.codecs.image import ImageCodec, decode_image, encode_image, image_fields
 from pyconnect.codecs.image_encodings import ALL_ENCODINGS, NAMED_ENCODINGS, pixel_format
 from pyconnect.errors import DecodeError, EncodeError
@@ -188,6 +189,21 @@ def test_unknown_encoding_is_named() -> None:
     with pytest.raises(EncodeError) as encode_error:
         ImageCodec(encoding="hsv8")
     assert str(encode_error.value).startswith("ImageCodec: unknown image encoding 'hsv8'")
+
+
+def test_layout_cache_stays_bounded_under_many_encodings() -> None:
+    # Encodings come from the data; every generic one in both byte orders would be 7 x 512 x
+    # 2 layouts kept for ever.
+    for depth in ("8U", "8S", "16U", "16S", "32S", "32F", "64F"):
+        for channels in range(1, 513, 3):
+            for big_endian in (0, 1):
+                encoding = f"{depth}C{channels}"
+                fmt = pixel_format(encoding)
+                msg = Image(height=1, width=1, encoding=encoding, step=fmt.pixel_bytes)
+                msg.is_bigendian = big_endian
+                msg.data.frombytes(bytes(fmt.pixel_bytes))
+                assert decode_image(msg).size == channels
+    assert len(image_module._LAYOUTS) <= 512  # of the 2394 decoded
 
 
 def test_wrong_dtype_for_an_explicit_encoding() -> None:

@@ -25,18 +25,35 @@ def test_bare_depths_and_any_channel_count(encoding: str, dtype: type, channels:
 
 
 def test_channel_counts_outside_opencvs_range_are_refused() -> None:
-    for encoding, channels in (("8UC0", 0), ("32FC513", 513)):
+    for encoding, channels in (("32FC513", 513), ("8UC999", 999)):
         with pytest.raises(UnknownEncodingError) as error:
             pixel_format(encoding)
         assert str(error.value) == (
             f"image encoding {encoding!r}: expected 1 to 512 channels (OpenCV's CV_CN_MAX), "
             f"got {channels}"
         )
-    with pytest.raises(UnknownEncodingError) as unknown:
-        pixel_format("8UC")
-    assert str(unknown.value) == (
-        f"unknown image encoding '8UC' (known: {', '.join(NAMED_ENCODINGS)} and "
-        "{8U,8S,16U,16S,32S,32F,64F} alone or with C{1..512})"
+    for encoding in ("8UC", "8UC0", "8UC1000"):
+        with pytest.raises(UnknownEncodingError) as unknown:
+            pixel_format(encoding)
+        assert str(unknown.value) == (
+            f"unknown image encoding {encoding!r} (known: {', '.join(NAMED_ENCODINGS)} and "
+            "{8U,8S,16U,16S,32S,32F,64F} alone or with C{1..512})"
+        )
+
+
+def test_channel_counts_with_leading_zeros_or_long_digit_runs_are_unknown() -> None:
+    # One spelling per channel count (8UC01 would be another 8UC1 to cache), and no digit run
+    # for int() to refuse with a ValueError past 4300 digits.
+    for encoding in ("8UC01", "16SC001", "8UC" + "0" * 5000 + "1", "32FC" + "9" * 5000):
+        with pytest.raises(UnknownEncodingError) as error:
+            pixel_format(encoding)
+        assert str(error.value).startswith("unknown image encoding ")
+        assert len(str(error.value)) < 600  # a hostile encoding is quoted by its start only
+    long_one = "8UC" + "0" * 5000 + "1"
+    with pytest.raises(UnknownEncodingError) as long_error:
+        pixel_format(long_one)
+    assert str(long_error.value).startswith(
+        f"unknown image encoding {long_one[:64]!r}… (5004 characters) (known: "
     )
 
 

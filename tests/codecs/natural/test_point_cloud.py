@@ -327,10 +327,22 @@ def test_unpack_rgb_reads_integer_and_float_fields_bit_for_bit() -> None:
     cloud["rgba"] = [0xFF102030, 0xFFFF8000]
     assert unpack_rgb(cloud["rgba"]).tolist() == expected  # a strided field view
     with pytest.raises(TypeError) as error:
-        unpack_rgb(np.zeros(2, np.float64))
+        unpack_rgb(np.zeros(2, np.int64))
     assert str(error.value) == (
-        "unpack_rgb: expected a float32 or 4-byte integer rgb field, got float64 (<f8)"
+        "unpack_rgb: expected a float or 4-byte integer rgb field, got int64 (<i8)"
     )
+
+
+def test_unpack_rgb_reads_other_floats_as_float32() -> None:
+    # A packed rgb in a float64 column (a parquet or pandas export), a list or a Python float
+    # holds a float32's value: narrowing it gives back the bits, as it did before the
+    # bit-for-bit reading of float32 and integer fields.
+    expected = [[255, 128, 16], [0x10, 0x20, 0x30]]
+    packed = pack_rgb(np.array(expected, np.uint8))
+    assert unpack_rgb(packed.astype(np.float64)).tolist() == expected
+    assert unpack_rgb(packed.astype(">f8")).tolist() == expected
+    assert unpack_rgb([float(value) for value in packed]).tolist() == expected
+    assert unpack_rgb(float(packed[0])).tolist() == expected[0]
 
 
 def test_unnamed_fields_get_sensor_msgs_pys_names() -> None:
