@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import contextlib
 import math
 import sys
 import threading
@@ -18,6 +19,7 @@ from pyconnect.errors import PyconnectError
 from pyconnect.ros import node_shutdown, retaining_action_server
 
 from .conftest import EVENT_TIMEOUT, server_and_client, wait_for_the_result_request
+from .manual_clock import loop_in_a_thread, manual_clock_loop, run_on
 
 
 def fibonacci(goal: dict[str, Any]) -> Iterator[dict[str, Any]]:
@@ -578,3 +580,100 @@ def test_a_result_without_fields_is_not_warned_of(
     server._result_class = Empty.Response
     server._warn_of_none()
     assert "returned None" not in capfd.readouterr().err
+
+
+def test_a_send_async_that_times_out_reaches_response_func_once(make_node: Any) -> None:
+    # Two timers used to race: the loop's (asyncio.wait_for) and the goal's own (PendingCalls'
+    # watchdog, which answers the goal as late and so calls response_func). Here the loop's
+    # fires first but the watchdog answers before the awaiting task resumes: both answered.
+    node = make_node()
+    release = threading.Event()
+    calls: list[Any] = []
+    answered = threading.Event()
+
+    def slow(_goal: dict[str, Any]) -> Iterator[None]:
+        while not release.wait(0.01):
+            yield None
+
+    def on_result(value: Any) -> None:
+        calls.append(value)
+        answered.set()
+
+    node.add_agent(
+        conn_name="slow", conn_type="action_server", data_interface=Fibonacci, response_func=slow
+    )
+    client = node.add_agent(
+        conn_name="slow", agent_name="slow_client", conn_type="action_client",
+        data_interface=Fibonacci, timeout=EVENT_TIMEOUT, response_func=on_result,
+    )  # fmt: skip
+    node.spin(run_thread=True)
+    node.wait_until_connected(timeout=EVENT_TIMEOUT)
+    timeout = 1.0
+
+    with manual_clock_loop() as loop:
+
+        async def give_up() -> Any:
+            sending = asyncio.ensure_future(client.send_async({"order": 1}, timeout=timeout))
+            await asyncio.sleep(0)  # its first step: the goal is sent, any loop timer set
+            # Runs right after any timer due at `timeout`, and holds the loop until the goal's
+            # own deadline has answered it.
+            loop.call_later(timeout + 0.5, lambda: answered.wait(EVENT_TIMEOUT))
+            loop.now += timeout + 1.0
+            return await sending
+
+        try:
+            result = run_on(loop, give_up())
+        finally:
+            release.set()
+    failed = {
+        "isdone": False,
+        "error": "agent 'slow_client' (action_client test_msgs/action/Fibonacci): "
+        "no result within 1.0 s (goal canceled)",
+    }
+    assert result == failed
+    assert calls == [failed]
+
+
+@pytest.mark.parametrize("loop_kind", ["pyconnect's loop", "the user's loop"])
+def test_a_blocking_send_on_the_nodes_loop_thread_raises(make_node: Any, loop_kind: str) -> None:
+    # The loop's thread would wait for a result that the server's async handler (on the same
+    # loop) must produce: a deadlock, or a timeout, with no word of why.
+    async def fib(goal: dict[str, Any]) -> dict[str, Any]:
+        await asyncio.sleep(0)
+        return {"sequence": [goal["order"]]}
+
+    with contextlib.ExitStack() as stack:
+        user_loop = (
+            stack.enter_context(loop_in_a_thread(asyncio.new_event_loop()))
+            if loop_kind == "the user's loop"
+            else None
+        )
+        node = make_node(loop=user_loop)
+        node.add_agent(
+            conn_name="fib", conn_type="action_server", data_interface=Fibonacci,
+            response_func=fib,
+        )  # fmt: skip
+        client = node.add_agent(
+            conn_name="fib", agent_name="fib_client", conn_type="action_client",
+            data_interface=Fibonacci, timeout=EVENT_TIMEOUT,
+        )  # fmt: skip
+        node.spin(run_thread=True)
+        node.wait_until_connected(timeout=EVENT_TIMEOUT)
+
+        async def on_the_loop() -> tuple[str, Any]:
+            try:
+                client.send({"order": 2})
+            except PyconnectError as error:
+                refused = str(error)
+            else:
+                refused = "(not refused)"
+            return refused, await client.send_async({"order": 3})
+
+        refused, awaited = run_on(user_loop or node.coroutines.loop, on_the_loop())
+        node.shutdown()
+    assert refused == (
+        "agent 'fib_client' (action_client test_msgs/action/Fibonacci): send() blocks, and was "
+        "called on the thread of the node's asyncio loop, which the answer may need: use "
+        "`await agent.send_async(...)` there instead"
+    )
+    assert awaited == {"sequence": [3], "isdone": True}

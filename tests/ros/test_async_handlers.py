@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import sys
 import threading
 from collections.abc import AsyncIterator, Iterator
 from typing import Any
@@ -11,6 +12,9 @@ import pytest
 from std_msgs.msg import String
 from std_srvs.srv import SetBool, Trigger
 from test_msgs.action import Fibonacci
+
+from pyconnect.errors import PyconnectError
+from pyconnect.ros import coroutines
 
 from .conftest import EVENT_TIMEOUT, repeat_until, server_and_client, wait_for_the_result_request
 
@@ -417,3 +421,130 @@ def test_an_async_goal_cancelled_by_shutdown_is_aborted_with_a_reason(make_node:
     outcome = result.result(EVENT_TIMEOUT * 2)
     assert outcome["isdone"] is False
     assert outcome["error"].endswith("goal aborted by the server: server is shutting down")
+
+
+@pytest.mark.parametrize("kind", ["sub", "service_server"])
+def test_sys_exit_in_an_async_handler_shuts_the_node_down(make_node: Any, kind: str) -> None:
+    # As a plain handler's sys.exit() does; raised on the loop it used to end pyconnect's loop
+    # (every later async handler dead) and leave the node running.
+    node = make_node(f"async_exit_{kind}")
+
+    async def leave(_value: Any) -> None:
+        await asyncio.sleep(0)
+        sys.exit(3)
+
+    interface = String if kind == "sub" else Trigger
+    agent = node.add_agent(
+        conn_name="leave", conn_type=kind, data_interface=interface, response_func=leave
+    )
+    if kind == "sub":
+        sender = node.add_agent(
+            conn_name="leave", agent_name="out", conn_type="pub", data_interface=String
+        )
+        send: Any = lambda: sender.send("bye")  # noqa: E731
+    else:
+        sender = node.add_agent(
+            conn_name="leave", agent_name="caller", conn_type="service_client",
+            data_interface=Trigger,
+        )  # fmt: skip
+        send = lambda: sender.send(block=False, timeout=EVENT_TIMEOUT)  # noqa: E731
+    node.spin(run_thread=True)
+    assert repeat_until(node._stopped, send)
+    assert node.wait_for_shutdown(EVENT_TIMEOUT)
+    loop_threads = [t for t in threading.enumerate() if t.name == f"pyconnect-asyncio-{node.name}"]
+    assert not any(thread.is_alive() for thread in loop_threads)
+    if kind == "sub":
+        assert agent.last_error == (
+            "agent 'leave' (sub std_msgs/msg/String): response_func raised SystemExit: 3"
+        )
+
+
+def test_waiting_on_the_loop_from_its_own_thread_raises(make_node: Any) -> None:
+    node = make_node()
+    agent = node.add_agent(
+        conn_name="t", conn_type="timer", time_period=60.0, response_func=lambda: None
+    )
+
+    async def inner() -> int:
+        return 1
+
+    async def on_the_loop() -> str:
+        try:
+            agent.wait_on_loop(inner())
+        except PyconnectError as error:
+            return str(error)
+        return "(not refused)"
+
+    assert _run(node.coroutines.loop, on_the_loop()) == (
+        "agent 't' (timer): waiting for a coroutine on the thread of the asyncio loop that must "
+        "run it would never end: await it instead"
+    )
+
+
+@pytest.mark.parametrize("ended", ["closed", "stopped"])
+def test_async_handlers_on_a_user_loop_that_ended_fail_with_why(
+    make_node: Any, ended: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The app's loop ended before the node: requests used to go unanswered (a stopped loop) or
+    # fail unexplained, messages vanish without a word, coroutines were never awaited. (A
+    # sub's calls wait for a loop not running, as one not started yet, up to the lane's limit.)
+    monkeypatch.setattr(coroutines, "LANE_LIMIT", 2)
+    loop = asyncio.new_event_loop()
+    thread = threading.Thread(target=loop.run_forever, daemon=True)
+    thread.start()
+    node = make_node(f"ended_{ended}", loop=loop)
+
+    async def answer(_request: dict[str, Any]) -> dict[str, Any]:
+        return {"success": True, "message": "real answer"}
+
+    async def fib(goal: dict[str, Any]) -> dict[str, Any]:
+        return {"sequence": [goal["order"]]}
+
+    async def on_text(_text: str) -> None:
+        pass
+
+    node.add_agent(
+        conn_name="ask", conn_type="service_server", data_interface=Trigger, response_func=answer
+    )
+    node.add_agent(
+        conn_name="fib", conn_type="action_server", data_interface=Fibonacci, response_func=fib
+    )
+    sub = node.add_agent(
+        conn_name="txt", conn_type="sub", data_interface=String, response_func=on_text
+    )
+    node.spin(run_thread=True)
+    loop.call_soon_threadsafe(loop.stop)
+    thread.join(EVENT_TIMEOUT)
+    if ended == "closed":
+        loop.close()
+    other = make_node(f"ended_{ended}_client")
+    service = other.add_agent(
+        conn_name="ask", conn_type="service_client", data_interface=Trigger, timeout=EVENT_TIMEOUT
+    )
+    action = other.add_agent(
+        conn_name="fib", conn_type="action_client", data_interface=Fibonacci,
+        timeout=EVENT_TIMEOUT,
+    )  # fmt: skip
+    pub = other.add_agent(conn_name="txt", conn_type="pub", data_interface=String)
+    why = f"the asyncio loop given to CustomNode(loop=) is {'closed' if ended == 'closed' else 'not running'}"
+    try:
+        assert service.send() == {
+            "success": False,
+            "message": f"PyconnectError: {why}",
+            "isdone": True,
+        }
+        assert action.send({"order": 1})["error"] == (
+            "agent 'fib' (action_client test_msgs/action/Fibonacci): goal aborted by the server: "
+            f"PyconnectError: {why}"
+        )
+        three = threading.Event()
+        assert repeat_until(three, lambda: three.set() if sub.message_count >= 3 else pub.send("x"))
+        # Reported once, with the reason, not once per message.
+        assert sub.error_count == 1
+        assert sub.last_error == (
+            f"agent 'txt' (sub std_msgs/msg/String): response_func raised PyconnectError: {why}"
+        )
+    finally:
+        node.shutdown()
+        if not loop.is_closed():
+            loop.close()

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import asyncio
 import concurrent.futures
+import contextlib
 import math
 import threading
 from collections.abc import Callable
@@ -16,6 +17,7 @@ from test_msgs.srv import BasicTypes
 from pyconnect.errors import PyconnectError
 
 from .conftest import EVENT_TIMEOUT, server_and_client
+from .manual_clock import loop_in_a_thread, manual_clock_loop, run_on
 
 
 def _set_bool_pair(node: Any, handler: Any) -> Any:
@@ -341,3 +343,80 @@ def test_a_handler_returning_none_for_a_response_without_fields_is_not_warned_of
     )
     assert client.send({}) == {"isdone": True}
     assert "returned None" not in capfd.readouterr().err
+
+
+def test_send_async_times_out_by_the_calls_own_deadline_only(make_node: Any) -> None:
+    # One timer: the call's own (PendingCalls). A second one on the awaiting loop raced it:
+    # here the loop's clock alone passes the timeout, while the answer comes in time.
+    release = threading.Event()
+
+    def late_but_in_time(_request: dict[str, Any]) -> dict[str, Any]:
+        release.wait(EVENT_TIMEOUT)
+        return {"success": True, "message": "in time"}
+
+    _server_node, client = server_and_client(make_node, "one_timer", "service", Trigger,
+                                             late_but_in_time)  # fmt: skip
+    with manual_clock_loop() as loop:
+
+        async def call() -> Any:
+            calling = asyncio.ensure_future(client.send_async(timeout=EVENT_TIMEOUT))
+            await asyncio.sleep(0)  # its first step: the request is sent, any loop timer set
+            loop.now += 2 * EVENT_TIMEOUT
+            for _ in range(5):  # turns of the loop: a timer due now has fired by then
+                await asyncio.sleep(0)
+            release.set()
+            return await calling
+
+        try:
+            assert run_on(loop, call()) == {"success": True, "message": "in time", "isdone": True}
+        finally:
+            release.set()
+
+
+@pytest.mark.parametrize("loop_kind", ["pyconnect's loop", "the user's loop"])
+def test_a_blocking_send_on_the_nodes_loop_thread_raises(make_node: Any, loop_kind: str) -> None:
+    # The loop's thread would wait for an answer that the server's async handler (on the same
+    # loop) must give: a deadlock, or a timeout, with no word of why.
+    async def add(request: dict[str, Any]) -> dict[str, Any]:
+        await asyncio.sleep(0)
+        return {"int64_value": request["int64_value"] + 1}
+
+    with contextlib.ExitStack() as stack:
+        user_loop = (
+            stack.enter_context(loop_in_a_thread(asyncio.new_event_loop()))
+            if loop_kind == "the user's loop"
+            else None
+        )
+        node = make_node(loop=user_loop)
+        node.add_agent(
+            conn_name="add", conn_type="service_server", data_interface=BasicTypes,
+            response_func=add,
+        )  # fmt: skip
+        client = node.add_agent(
+            conn_name="add", agent_name="adder", conn_type="service_client",
+            data_interface=BasicTypes, timeout=EVENT_TIMEOUT,
+        )  # fmt: skip
+        node.spin(run_thread=True)
+        node.wait_until_connected(timeout=EVENT_TIMEOUT)
+
+        async def on_the_loop() -> tuple[list[str], Any]:
+            refused = []
+            for blocking in (lambda: client.send({"int64_value": 1}), client.get):
+                try:
+                    blocking()
+                except PyconnectError as error:
+                    refused.append(str(error))
+            return refused, await client.send_async({"int64_value": 2})
+
+        refused, awaited = run_on(user_loop or node.coroutines.loop, on_the_loop())
+        node.shutdown()
+    assert (
+        refused
+        == [
+            "agent 'adder' (service_client test_msgs/srv/BasicTypes): send() blocks, and was called "
+            "on the thread of the node's asyncio loop, which the answer may need: use "
+            "`await agent.send_async(...)` there instead"
+        ]
+        * 2
+    )
+    assert awaited["int64_value"] == 3

@@ -13,7 +13,10 @@ Callbacks, as options of the agent (each may be ``async def``; errors are report
 callback's): ``accepted_func(accepted: bool)`` when the server accepts or rejects a goal,
 ``feedback_func(value)`` for every feedback (``send(feedback_func=...)`` overrides it for one
 goal), and ``response_func(result)`` with exactly the value ``send()`` returns (or its future
-resolves to), failures included. ``await send_async(goal)`` is ``send`` for asyncio code.
+resolves to), failures included, once per goal. ``await send_async(goal)`` is ``send`` for
+asyncio code; there (an ``async def`` handler, a coroutine on ``CustomNode(loop=...)``'s loop) a
+blocking ``send`` raises a ``PyconnectError``: the loop's thread would wait for a result that may
+need the loop.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -123,6 +126,8 @@ class ActionClientAgent(NodeAgent):
     ) -> Any:
         """Send a goal; the decoded result (or a future of it) through ``reform_response``."""
         timeout = call_timeout(timeout, self.timeout, where=f"{self.describe}: send")
+        if block:
+            self.refuse_to_block_on_loop("send()")
         feedback_func = self.feedback_func if feedback_func is None else feedback_func
         goal, _stamped = self.goal_conversion.encode(data)
         if self.do_log_msg:
@@ -190,11 +195,10 @@ class ActionClientAgent(NodeAgent):
         """``send(goal)`` awaited on the caller's asyncio loop; a timeout cancels the goal."""
         timeout = call_timeout(timeout, self.timeout, where=f"{self.describe}: send_async")
         future = self.send(data, timeout=timeout, feedback_func=feedback_func, block=False)
-        try:
-            # A timeout, or the awaiting task's cancellation, cancels the future: the goal too.
-            return await asyncio.wait_for(asyncio.wrap_future(future), timeout)
-        except asyncio.TimeoutError:
-            return self._respond(self._failed(f"no result within {timeout} s (goal canceled)"))
+        # One timer, the goal's own (PendingCalls answers a late goal as failed and cancels it,
+        # and response_func gets that answer): a second one here raced it, and response_func
+        # saw a goal that timed out twice. The awaiting task's cancellation cancels the goal.
+        return await asyncio.wrap_future(future)
 
     def _respond(self, value: Any) -> Any:
         """Hand ``send()``'s return value to ``response_func`` too, and return it."""

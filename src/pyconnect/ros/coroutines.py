@@ -13,7 +13,18 @@ small message, so a lane under a steady stream does not go idle after its queue 
 looks again ``LINGER_SECONDS`` later (one timer wake-up then serves several messages; an
 ``async`` handler may start up to that much later). A lane holds at most ``LANE_LIMIT`` waiting
 coroutines; a submit beyond that waits (back-pressure, like a slow plain callback) instead of
-dropping.
+dropping, except on the loop's own thread: only that thread drains the lane, so there a submit
+never waits and the lane holds more for a while.
+
+Nothing a coroutine raises ends the loop: a ``SystemExit`` or ``KeyboardInterrupt`` (a handler's
+``sys.exit()``) goes to the lane's ``on_error`` like any error, then to its ``on_exit`` (the
+agent shuts its node down, as for a plain handler), and ``submit`` hands it to its waiter
+wrapped in ``CoroutineExit``. A loop given to ``CustomNode(loop=)`` that is closed, or not
+running, when a coroutine is submitted cannot run it: ``submit`` fails its future with
+``LOOP_CLOSED``/``LOOP_NOT_RUNNING`` (and closes the coroutine: a service or action caller is
+answered at once). A lane reports a closed loop once to ``on_error`` and drops its calls; calls
+for a loop not running yet wait for it, up to ``LANE_LIMIT``, beyond which they are dropped
+and that is reported (a loop started after the node is made loses nothing).
 """
 
 from __future__ import annotations
@@ -28,6 +39,8 @@ from collections import deque
 from collections.abc import Awaitable, Callable
 from typing import Any
 
+from pyconnect.errors import PyconnectError
+
 LANE_LIMIT = 100
 """Coroutines an agent may have waiting before a submit blocks."""
 
@@ -37,9 +50,25 @@ LINGER_SECONDS = 0.001
 BUSY_GAP_SECONDS = 0.002
 """A lane woken again within this time counts as under a steady stream."""
 
+LOOP_CLOSED = "the asyncio loop given to CustomNode(loop=) is closed"
+"""Why a coroutine cannot run: the user's loop ended before the node."""
+
+LOOP_NOT_RUNNING = "the asyncio loop given to CustomNode(loop=) is not running"
+"""Why a coroutine cannot run: the user's loop was stopped (or not started yet)."""
+
 ErrorHandler = Callable[[BaseException], None]
 DoneHandler = Callable[[Any], None]
 _Call = tuple[Callable[..., Any], tuple[Any, ...], DoneHandler | None, ErrorHandler]
+
+
+class CoroutineExit(Exception):
+    """A coroutine raised ``SystemExit`` or ``KeyboardInterrupt`` (``error``): carried to whoever
+    waits for it, because raised on the loop it would end the loop (asyncio lets both out of
+    ``run_forever``)."""
+
+    def __init__(self, error: BaseException) -> None:
+        super().__init__(f"{type(error).__name__}: {error}")
+        self.error = error
 
 
 def is_async_callable(function: object) -> bool:
@@ -85,16 +114,28 @@ class CoroutineRunner:
 
     def submit(self, awaitable: Awaitable[Any]) -> concurrent.futures.Future[Any]:
         """Run ``awaitable`` on the loop; a future of its result for any thread to wait on
-        (cancelled by ``stop()``; already cancelled once stopped)."""
+        (cancelled by ``stop()``; already cancelled once stopped; failed with a
+        ``PyconnectError`` when the given loop is closed or not running)."""
         future: concurrent.futures.Future[Any]
         with self._lock:
             if self._stopped:
-                if inspect.iscoroutine(awaitable):
-                    awaitable.close()  # never awaited, and no warning saying so
+                _close(awaitable)  # never awaited, and no warning saying so
                 future = concurrent.futures.Future()
                 future.cancel()
                 return future
-        future = asyncio.run_coroutine_threadsafe(_awaited(awaitable), self.loop)
+        problem = self.loop_problem()
+        if problem is None:
+            wrapper = _awaited(awaitable)
+            try:
+                future = asyncio.run_coroutine_threadsafe(wrapper, self.loop)
+            except RuntimeError:  # closed since loop_problem() looked
+                wrapper.close()
+                problem = LOOP_CLOSED
+        if problem is not None:
+            _close(awaitable)
+            future = concurrent.futures.Future()
+            future.set_exception(PyconnectError(problem))
+            return future
         with self._lock:
             self._submitted.add(future)
         future.add_done_callback(self._forget)
@@ -104,9 +145,10 @@ class CoroutineRunner:
         with self._lock:
             self._submitted.discard(future)
 
-    def lane(self) -> CoroutineLane:
-        """An ordered lane for one agent."""
-        lane = CoroutineLane(self)
+    def lane(self, *, on_exit: ErrorHandler | None = None) -> CoroutineLane:
+        """An ordered lane for one agent; ``on_exit(error)`` follows ``on_error`` when a call
+        raised ``SystemExit`` or ``KeyboardInterrupt`` (a handler's ``sys.exit()``)."""
+        lane = CoroutineLane(self, on_exit=on_exit)
         with self._lock:
             self._lanes.add(lane)
         return lane
@@ -114,6 +156,31 @@ class CoroutineRunner:
     def on_own_loop_thread(self) -> bool:
         """Whether this is the thread of pyconnect's own loop (never the user's loop)."""
         return self._thread is not None and threading.current_thread() is self._thread
+
+    def on_loop_thread(self) -> bool:
+        """Whether this thread runs the coroutine loop, pyconnect's own or the given one: a wait
+        here for something a coroutine does would never end (only this thread runs them)."""
+        if self.on_own_loop_thread():
+            return True
+        given = self._given_loop
+        if given is None:
+            return False
+        try:
+            return asyncio.get_running_loop() is given
+        except RuntimeError:  # no loop runs in this thread (an executor's)
+            return False
+
+    def loop_problem(self) -> str | None:
+        """Why the given loop cannot run a coroutine now (``LOOP_CLOSED``, ``LOOP_NOT_RUNNING``);
+        None when it can, for pyconnect's own loop, and once stopped (shutdown drops calls)."""
+        loop = self._given_loop
+        if loop is None or self._stopped:
+            return None
+        if loop.is_closed():
+            return LOOP_CLOSED
+        if not loop.is_running():
+            return LOOP_NOT_RUNNING
+        return None
 
     @property
     def stopped(self) -> bool:
@@ -151,13 +218,15 @@ class CoroutineLane:
     that the next submit resolves (one cross-thread wake-up per burst, no task per message).
     """
 
-    def __init__(self, runner: CoroutineRunner) -> None:
+    def __init__(self, runner: CoroutineRunner, *, on_exit: ErrorHandler | None = None) -> None:
         self._runner = runner
+        self._on_exit = on_exit
         self._pending: deque[_Call] = deque()
         self._cond = threading.Condition()
         self._draining = False
         self._task: asyncio.Future[Any] | None = None
         self._idle: asyncio.Future[None] | None = None
+        self._refused: str | None = None  # the loop problem reported last (reported once)
 
     def submit(
         self,
@@ -168,22 +237,54 @@ class CoroutineLane:
         on_error: ErrorHandler,
     ) -> None:
         """Queue ``function(*args)`` (a coroutine function): then ``on_done(result)``, or
-        ``on_error(exception)`` when it raised. Dropped once the runner is stopped (shutdown)."""
+        ``on_error(exception)`` when it raised (``SystemExit`` included). Dropped once the runner
+        is stopped (shutdown), while the given loop is closed, and beyond ``LANE_LIMIT`` while it
+        is not running (reported once to ``on_error``).
+
+        Beyond ``LANE_LIMIT`` waiting calls, a submit waits for the lane to drain, except on the
+        loop's own thread (a coroutine's call, a callback of the loop): that thread is the one
+        that drains the lane, so it never waits here; the call is queued beyond the limit.
+        """
+        if self._runner.loop_problem() == LOOP_CLOSED:
+            self._refuse(LOOP_CLOSED, on_error)
+            return
+        may_wait = not self._runner.on_loop_thread()
+        stuck = False
         with self._cond:
             if self._runner.stopped:
                 return
-            while len(self._pending) >= LANE_LIMIT and not self._runner.stopped:
+            while may_wait and len(self._pending) >= LANE_LIMIT and not self._runner.stopped:
+                if self._runner.loop_problem() is not None:
+                    # A loop that does not run never drains the lane: waiting would hold the
+                    # executor's thread for ever. (Below the limit, calls wait for it to start.)
+                    stuck = True
+                    break
                 self._cond.wait(0.1)
-            self._pending.append((function, args, on_done, on_error))
-            if self._draining:
-                return
-            self._draining = True
+            if not stuck:
+                self._refused = None
+                self._pending.append((function, args, on_done, on_error))
+                if self._draining:
+                    return
+                self._draining = True
+        if stuck:
+            self._refuse(self._runner.loop_problem() or LOOP_NOT_RUNNING, on_error)
+            return
         try:
             self._runner.loop.call_soon_threadsafe(self._wake)
-        except RuntimeError:  # the loop closed under us: shutdown is under way
+        except RuntimeError:  # the loop closed under us
             with self._cond:
                 self._pending.clear()
                 self._draining = False
+            if not self._runner.stopped:  # the user's loop ended before the node: say so
+                self._refuse(LOOP_CLOSED, on_error)
+
+    def _refuse(self, problem: str, on_error: ErrorHandler) -> None:
+        """Report once that the loop cannot run this lane's calls (until one runs again)."""
+        with self._cond:
+            if self._refused == problem:
+                return
+            self._refused = problem
+        on_error(PyconnectError(problem))
 
     def cancel(self) -> None:
         """Cancel the lane's task on its loop (the runner stops; callable from any thread)."""
@@ -239,13 +340,26 @@ class CoroutineLane:
             except asyncio.CancelledError as error:
                 if self._runner.stopped or _being_cancelled():
                     raise  # the lane's own task: shutdown
-                on_error(error)  # the handler's own (an awaited thing was cancelled): go on
+                _hand_on(on_error, error)  # the handler's own (an awaited thing was cancelled)
                 continue
-            except Exception as error:
-                on_error(error)
+            except BaseException as error:  # SystemExit too: let out, it would end the loop
+                _hand_on(on_error, error)
+                if self._on_exit is not None and isinstance(error, (SystemExit, KeyboardInterrupt)):
+                    _hand_on(self._on_exit, error)
                 continue
             if on_done is not None:
-                on_done(result)
+                _hand_on(on_done, result)
+
+
+def _hand_on(handler: Callable[[Any], None], value: Any) -> None:
+    """Call a lane's ``on_done``/``on_error``; what it raises goes to the loop's exception
+    handler, so the lane goes on (a lane task that died would never drain again)."""
+    try:
+        handler(value)
+    except Exception as error:
+        asyncio.get_running_loop().call_exception_handler(
+            {"message": "a coroutine lane's result handler raised", "exception": error}
+        )
 
 
 def _being_cancelled() -> bool:
@@ -260,7 +374,16 @@ _keep_alive: set[asyncio.Future[Any]] = set()
 
 
 async def _awaited(awaitable: Awaitable[Any]) -> Any:
-    return await awaitable
+    try:
+        return await awaitable
+    except (SystemExit, KeyboardInterrupt) as error:
+        raise CoroutineExit(error) from error  # for the waiter: raised, it would end the loop
+
+
+def _close(awaitable: Awaitable[Any]) -> None:
+    """Close a coroutine that will never be awaited (else Python warns it never was)."""
+    if inspect.iscoroutine(awaitable):
+        awaitable.close()
 
 
 def _run_loop(loop: asyncio.AbstractEventLoop, started: threading.Event) -> None:

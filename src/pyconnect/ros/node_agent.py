@@ -13,6 +13,7 @@ traceback, kept in ``last_error``, and the executor goes on with the next messag
 from __future__ import annotations
 
 import concurrent.futures
+import inspect
 import threading
 import traceback
 from collections.abc import Awaitable, Callable
@@ -26,7 +27,7 @@ from pyconnect.codecs.registry import codec_problem
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
-from pyconnect.ros.coroutines import CoroutineLane, is_async_callable
+from pyconnect.ros.coroutines import CoroutineExit, CoroutineLane, is_async_callable
 from pyconnect.ros.interfaces import interface_name
 from pyconnect.ros.log_snapshot import snapshot
 
@@ -288,6 +289,24 @@ class NodeAgent:
         except Exception as error:
             self.report_exception(where, error)
 
+    def _exit_from_coroutine(self, _error: BaseException) -> None:
+        """An ``async def`` handler called ``sys.exit()`` (already reported): shut the node down,
+        as a plain handler's does (pyconnect.ros.agent_executor)."""
+        # On a thread of its own: this is the loop's thread, which shutdown stops and joins.
+        threading.Thread(
+            target=self.node.shutdown, name="pyconnect-exit-shutdown", daemon=True
+        ).start()
+
+    def refuse_to_block_on_loop(self, call: str) -> None:
+        """Raise when this thread runs the node's coroutine loop: a blocking ``call`` there
+        waits for an answer that may need that very loop (an ``async def`` handler's), so it
+        would time out or wait for ever, and the loop with it."""
+        if self.node.coroutines.on_loop_thread():
+            raise self.error(
+                f"{call} blocks, and was called on the thread of the node's asyncio loop, which "
+                "the answer may need: use `await agent.send_async(...)` there instead"
+            )
+
     def call_user_and_wait(self, function: Callable[..., Any], *args: Any) -> Any:
         """Call ``function`` and return its result; an ``async def`` one is awaited on the
         coroutine loop while this thread waits (handing the executor's turn on). Raises what
@@ -298,7 +317,15 @@ class NodeAgent:
 
     def wait_on_loop(self, awaitable: Awaitable[Any]) -> Any:
         """Run ``awaitable`` on the coroutine loop and wait for its result here (handing the
-        executor's turn on); raises what it raised."""
+        executor's turn on); raises what it raised (its ``sys.exit()`` too). On the loop's own
+        thread, which alone could run it, raises a ``PyconnectError`` instead."""
+        if self.node.coroutines.on_loop_thread():
+            if inspect.iscoroutine(awaitable):
+                awaitable.close()  # never awaited, and no warning saying so
+            raise self.error(
+                "waiting for a coroutine on the thread of the asyncio loop that must run it "
+                "would never end: await it instead"
+            )
         future = self.node.coroutines.submit(awaitable)
         finished = threading.Event()
         future.add_done_callback(lambda _future: finished.set())
@@ -309,12 +336,15 @@ class NodeAgent:
             return future.result()
         except concurrent.futures.CancelledError:
             raise CancelledByShutdown("the coroutine was cancelled (the node shuts down)") from None
+        except CoroutineExit as exit_:
+            # Here, on an executor's thread, it shuts the node down as a plain handler's would.
+            raise exit_.error from None
 
     @property
     def lane(self) -> CoroutineLane:
         """This agent's ordered lane on the coroutine loop (made on first use)."""
         if self._lane is None:
-            self._lane = self.node.coroutines.lane()
+            self._lane = self.node.coroutines.lane(on_exit=self._exit_from_coroutine)
         return self._lane
 
     # -- life cycle ----------------------------------------------------------------------------

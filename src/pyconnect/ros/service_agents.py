@@ -12,9 +12,11 @@ clients time out.
 Client: ``send(data, timeout=None)`` blocks and returns the decoded response through
 ``reform_response`` (dicts get ``'isdone': True``); on timeout, or when no server appears in
 time, it returns ``{'isdone': False, 'error': ...}``. ``block=False`` returns a
-``concurrent.futures.Future`` of the same value. Blocking is safe inside another agent's
+``concurrent.futures.Future`` of the same value. Blocking is safe inside another agent's plain
 callback: the executor passes its turn on while this thread waits (pyconnect.ros.executor).
-``await send_async(data, timeout=None)`` is the same call for code on an asyncio loop.
+``await send_async(data, timeout=None)`` is the same call for code on an asyncio loop; there (an
+``async def`` handler, a coroutine on ``CustomNode(loop=...)``'s loop) a blocking ``send`` raises
+a ``PyconnectError``: the loop's thread would wait for an answer that may need the loop.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -218,6 +220,8 @@ class ServiceClientAgent(NodeAgent):
     def send(self, data: Any = None, *, timeout: float | None = None, block: bool = True) -> Any:
         """Call the service with ``data``; the decoded response, or a future of it."""
         timeout = call_timeout(timeout, self.timeout, where=f"{self.describe}: send")
+        if block:
+            self.refuse_to_block_on_loop("send()")
         request, _stamped = self.request_conversion.encode(data)
         if self.do_log_msg:
             self.log_msg(data)
@@ -267,10 +271,9 @@ class ServiceClientAgent(NodeAgent):
         """``send(data, timeout=...)`` awaited on the caller's asyncio loop, never blocking it."""
         timeout = call_timeout(timeout, self.timeout, where=f"{self.describe}: send_async")
         future = self.send(data, timeout=timeout, block=False)
-        try:
-            return await asyncio.wait_for(asyncio.wrap_future(future), timeout)
-        except asyncio.TimeoutError:
-            return self._failed(f"no response from {self.service_name} within {timeout} s")
+        # One timer, the call's own (PendingCalls: for the server, then for the answer): a
+        # second one here raced it, and the outcome depended on which fired first.
+        return await asyncio.wrap_future(future)
 
     def _failed(self, text: str) -> Any:
         value = self.reform_response(None, error=f"{self.describe}: {text}")
