@@ -305,3 +305,28 @@ def test_a_call_made_as_the_server_appears_goes_after_the_waiting_ones(
     for future in [*waiting, last]:
         assert future.result(EVENT_TIMEOUT)["success"] is True
     assert order == [True, True, True, False]
+
+
+def test_cancel_fails_goals_still_waiting_for_their_server(make_node: Any) -> None:
+    """cancel() looked at goals already sent only: a goal waiting for its server was sent,
+    and ran, once the server appeared."""
+    node = make_node()
+    client = node.add_agent(
+        conn_name="late_fib", conn_type="action_client", data_interface=Fibonacci,
+        timeout=EVENT_TIMEOUT,
+    )  # fmt: skip
+    node.spin(run_thread=True)
+    waiting = client.send({"order": 3}, block=False)
+    assert client.cancel() == 1
+    assert waiting.result(EVENT_TIMEOUT)["error"] == (
+        "agent 'late_fib' (action_client test_msgs/action/Fibonacci): "
+        "goal canceled before it was sent"
+    )
+    executed: list[int] = []
+    node.add_agent(
+        conn_name="late_fib", agent_name="server", conn_type="action_server",
+        data_interface=Fibonacci,
+        response_func=lambda goal: executed.append(goal["order"]) or {"sequence": [1]},
+    )  # fmt: skip
+    assert client.send({"order": 1})["sequence"] == [1]
+    assert executed == [1]

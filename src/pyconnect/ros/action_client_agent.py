@@ -221,7 +221,8 @@ class ActionClientAgent(NodeAgent):
             goals = list(self._in_flight.values())
         for goal in goals:
             goal.cancel()
-        return len(goals)
+        # Goals still waiting for their server are never sent (they ran once it appeared).
+        return len(goals) + self._pending.fail_waiting("goal canceled before it was sent")
 
     # -- goal life cycle ---------------------------------------------------------------------
     def _failed(self, text: str, partial: Any = None) -> Any:

@@ -149,6 +149,15 @@ class PendingCalls:
         for result in still_open:
             settle(result, lambda: self._failed(text))
 
+    def fail_waiting(self, text: str) -> int:
+        """Answer the calls not made yet (their server not seen) as failed with ``text``: they
+        will never be made (the waiter drops answered calls); how many."""
+        with self._lock:
+            waiting = [w.result for w in self._waiting if not w.result.done()]
+        for result in waiting:
+            settle(result, functools.partial(self._failed, text))
+        return len(waiting)
+
     def _shut_down_text(self) -> str:
         return f"node {self._host.qualified_name!r} shut down during the {self._during}"
 
