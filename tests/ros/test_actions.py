@@ -577,8 +577,7 @@ def test_a_result_without_fields_is_not_warned_of(
         conn_name="fib", conn_type="action_server", data_interface=Fibonacci,
         response_func=lambda _goal: None,
     )  # fmt: skip
-    server._result_class = Empty.Response
-    server._warn_of_none()
+    server.warn_of_default_answer(Empty.Response)
     assert "returned None" not in capfd.readouterr().err
 
 

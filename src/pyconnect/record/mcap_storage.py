@@ -41,7 +41,7 @@ from pyconnect.record.mcap_chunks import (
 )
 from pyconnect.record.mcap_records import MAGIC
 from pyconnect.record.mcap_scan import MESSAGE_INDEX_HEAD, scan_data_section
-from pyconnect.record.message_compression import decompressed
+from pyconnect.record.message_compression import readable
 
 __all__ = ["McapFile"]
 
@@ -269,9 +269,7 @@ class McapFile:
         self, connection_ids: set[int], start_ns: int | None, end_ns: int | None
     ) -> Iterator[RawMessage]:
         stored = self._stored_messages(connection_ids, start_ns, end_ns)
-        if not self._message_compression:
-            return stored
-        return decompressed(stored, self._message_compression, self.damage)
+        return readable(stored, self._message_compression, self.damage)
 
     def _stored_messages(
         self, connection_ids: set[int], start_ns: int | None, end_ns: int | None

@@ -3,7 +3,7 @@ decompressed as a storage file hands them out: the decoded read and ``raw=True``
 
 from __future__ import annotations
 
-from collections.abc import Generator
+from collections.abc import Generator, Iterator
 from typing import TYPE_CHECKING
 
 from pyconnect.record.bag_damage import DamageLog
@@ -22,6 +22,14 @@ _INPUT_STEP = 1 << 12  # compressed bytes fed at a time: each gives at most ~128
 
 class _TooLarge(ValueError):
     """A message that decompresses to more than ``MAX_MESSAGE_BYTES``."""
+
+
+def readable(
+    stored: Generator[RawMessage, None, None], compression: str, damage: DamageLog
+) -> Iterator[RawMessage]:
+    """A storage file's ``stored`` messages as CDR: as they are, or ``decompressed`` when the
+    bag compressed them one by one (``compression``: "" when it did not)."""
+    return decompressed(stored, compression, damage) if compression else stored
 
 
 def decompressed(

@@ -24,7 +24,7 @@ from typing import Any
 
 from pyconnect.record.bag_damage import DamageLog
 from pyconnect.record.bag_storage import Connection, RawMessage
-from pyconnect.record.message_compression import decompressed
+from pyconnect.record.message_compression import readable
 from pyconnect.record.sqlite_open import NOTHING_READABLE, SqliteDatabase, columns_of
 from pyconnect.record.sqlite_salvage import (
     READ_ERRORS,
@@ -227,9 +227,7 @@ class SqliteFile:
         self, connection_ids: set[int], start_ns: int | None, end_ns: int | None
     ) -> Iterator[RawMessage]:
         stored = self._stored_messages(connection_ids, start_ns, end_ns)
-        if not self._message_compression:
-            return stored
-        return decompressed(stored, self._message_compression, self.damage)
+        return readable(stored, self._message_compression, self.damage)
 
     def _stored_messages(
         self, connection_ids: set[int], start_ns: int | None, end_ns: int | None

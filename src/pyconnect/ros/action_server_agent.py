@@ -54,7 +54,7 @@ from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_message
 from pyconnect.ros.handler_shape import wants_feedback_publisher
-from pyconnect.ros.interfaces import interface_class, interface_name
+from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import CancelledByShutdown, NodeAgent, ResponseFunc
 from pyconnect.ros.qos import REQUESTS
 from pyconnect.ros.retaining_action_server import RetainingActionServer
@@ -116,7 +116,6 @@ class ActionServerAgent(NodeAgent):
         )
         self.feedback_conversion = self.make_conversion(action_class.Feedback)
         self.goal_count = 0
-        self._warned_of_none = False
         # A goal ends once: its handler's end and the shutdown's abort (close) never interleave.
         self._ending = threading.Lock()
         self._abort_reasons = AbortReasonPublisher(node.ros_node, conn_name)
@@ -172,7 +171,7 @@ class ActionServerAgent(NodeAgent):
                 self._end(goal_handle, goal_handle.canceled)
             else:
                 if outcome is None:  # a canceled goal's result says nothing: no warning there
-                    self._warn_of_none()
+                    self.warn_of_default_answer(self._result_class)
                 self._end(goal_handle, goal_handle.succeed)
             return result
         except (SystemExit, KeyboardInterrupt) as error:
@@ -192,18 +191,6 @@ class ActionServerAgent(NodeAgent):
                 text = f"{type(error).__name__}: {error}"
             self._end(goal_handle, lambda: self._abort(goal_handle, text))
             return error_message(self._result_class, text)
-
-    def _warn_of_none(self) -> None:
-        # A handler that forgot its ``return`` succeeded with an empty result without a word;
-        # a field-less result has nothing else to give.
-        result_class = self._result_class
-        if self._warned_of_none or not result_class.get_fields_and_field_types():
-            return
-        self._warned_of_none = True
-        self.node.get_logger().warning(
-            f"{self.describe}: response_func returned None: answering the default "
-            f"{interface_name(result_class)}"
-        )
 
     def _end(self, goal_handle: Any, end: Callable[[], None]) -> None:
         """Move a goal to its final state, unless it has one already (aborted at shutdown)."""

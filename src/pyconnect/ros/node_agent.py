@@ -43,6 +43,7 @@ class NodeAgent:
 
     conn_type: ClassVar[str] = ""
     """The ``conn_type`` string that makes this kind (``'pub'``, ``'sub'``, ...)."""
+    _warned_of_default = False
 
     def __init__(
         self,
@@ -237,6 +238,19 @@ class NodeAgent:
         if self.node.shutdown_event.is_set():
             return f"node {self.node.qualified_name!r} shut down during the {during}"
         return f"{missing} within {timeout} s"
+
+    def warn_of_default_answer(self, answer_class: type) -> None:
+        """A server's ``response_func`` returned None, so the default ``answer_class`` goes
+        back: said once, where that answer has fields (a handler that forgot its ``return``
+        answered success=False, or an empty result, without a word; std_srvs/Empty has nothing
+        else to answer)."""
+        if self._warned_of_default or not answer_class.get_fields_and_field_types():
+            return
+        self._warned_of_default = True
+        self.node.get_logger().warning(
+            f"{self.describe}: response_func returned None: answering the default "
+            f"{interface_name(answer_class)}"
+        )
 
     def report_exception(self, where: str, error: BaseException) -> None:
         """Log an exception raised by user code or a codec, with the agent name and traceback."""

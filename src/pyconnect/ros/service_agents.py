@@ -35,7 +35,7 @@ from rclpy.task import Future as RosFuture
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_message, text_field
-from pyconnect.ros.interfaces import interface_class, interface_name
+from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.option_checks import call_timeout, timeout_problem
 from pyconnect.ros.pending_calls import PendingCalls
@@ -92,7 +92,6 @@ class ServiceServerAgent(NodeAgent):
             srv_class.Response, encode_func=encode_func, eager=encode_func is None
         )
         self.request_count = 0
-        self._warned_of_none = False
         self.service = node.ros_node.create_service(
             srv_class,
             conn_name,
@@ -114,24 +113,13 @@ class ServiceServerAgent(NodeAgent):
             value = self.call_user_and_wait(self._handler, data)
             where = "encode"
             if value is None:
-                self._warn_of_none(type(response))
+                self.warn_of_default_answer(type(response))
                 return response
             msg, _stamped = self.response_conversion.encode(value)
             return msg
         except Exception as error:
             self.report_exception(where, error)
             return error_message(type(response), f"{type(error).__name__}: {error}")
-
-    def _warn_of_none(self, response_class: type) -> None:
-        # A handler that forgot its ``return`` answered success=False and an empty message
-        # without a word; a field-less response (std_srvs/Empty) has nothing else to answer.
-        if self._warned_of_none or not response_class.get_fields_and_field_types():
-            return
-        self._warned_of_none = True
-        self.node.get_logger().warning(
-            f"{self.describe}: response_func returned None: answering the default "
-            f"{interface_name(response_class)}"
-        )
 
     def close(self) -> None:
         self.refuse_waiting_requests()

@@ -33,7 +33,7 @@ from pyconnect.transport.async_handlers import agent_loop, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.endpoints import Request, Server, Writer
 from pyconnect.transport.interface_types import action_interface, message_interface
-from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc, logger
+from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc
 
 DEFAULT_RESULT_TIMEOUT = 0.05
 DEFAULT_RESULT_CACHE_SECONDS = 60.0
@@ -85,7 +85,6 @@ class ActionServerAgent(PeerAgent):
         self.result_conversion = self.wire_conversion(interface.result, encode_func=encode_func)
         self.feedback_conversion = self.wire_conversion(interface.feedback)
         self.goal_count = 0
-        self._warned_of_none = False
         self._goals: dict[bytes, ServerGoal] = {}
         self._running: set[threading.Thread] = set()  # goal threads, joined on close
         self._lock = threading.Lock()
@@ -249,7 +248,7 @@ class ActionServerAgent(PeerAgent):
             result = {} if outcome is None else self._result_dict(outcome)
             status = aw.CANCELED if goal.cancel_requested.is_set() else aw.SUCCEEDED
             if outcome is None and status == aw.SUCCEEDED:  # a canceled goal's result says nothing
-                self._warn_of_none()
+                self.warn_of_default_answer(self.interface.result)
             self._end(goal, status, result)
         except Exception as error:
             self.report_exception(where, error)
@@ -257,21 +256,6 @@ class ActionServerAgent(PeerAgent):
         except BaseException as error:  # sys.exit() in response_func: abort, then shut down
             self._abort(goal, f"{type(error).__name__}: {error}")
             self.exit_requested(where, error)
-
-    def _warn_of_none(self) -> None:
-        # A handler that forgot its ``return`` succeeded with an empty result without a word;
-        # a field-less result has nothing else to give.
-        if self._warned_of_none:
-            return
-        codec = self.interface.result
-        if not codec.to_dict(codec.from_dict({})):
-            return
-        self._warned_of_none = True
-        logger.warning(
-            "%s: response_func returned None: answering the default %s",
-            self.describe,
-            codec.msg_type,
-        )
 
     def _result_dict(self, outcome: Any) -> dict[str, Any]:
         return aw.nested(self.interface.result, self.result_conversion.encode(outcome))

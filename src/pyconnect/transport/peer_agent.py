@@ -95,6 +95,7 @@ class PeerAgent:
     conn_type: ClassVar[str] = ""
     names_an_entity: ClassVar[bool] = True
     """False for an agent whose ``conn_name`` is no ROS name (a timer): not resolved."""
+    _warned_of_default = False
 
     def __init__(
         self,
@@ -166,6 +167,20 @@ class PeerAgent:
         if not self.peer.ok():
             return f"peer {self.peer.name!r} is shut down"
         return f"{missing} within {timeout} s"
+
+    def warn_of_default_answer(self, codec: WireCodec) -> None:
+        """A server's ``response_func`` returned None, so the default of ``codec``'s type goes
+        back: said once, where that answer has fields (a handler that forgot its ``return``
+        answered success=False, or an empty result, without a word; std_srvs/Empty has nothing
+        else to answer)."""
+        if self._warned_of_default or not codec.to_dict(codec.from_dict({})):
+            return
+        self._warned_of_default = True
+        logger.warning(
+            "%s: response_func returned None: answering the default %s",
+            self.describe,
+            codec.msg_type,
+        )
 
     def report_exception(self, where: str, error: BaseException) -> None:
         text = "".join(traceback.format_exception(type(error), error, error.__traceback__))

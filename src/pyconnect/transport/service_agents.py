@@ -44,7 +44,6 @@ from pyconnect.transport.peer_agent import (
     Peer,
     PeerAgent,
     ResponseFunc,
-    logger,
     reform_response,
 )
 
@@ -86,7 +85,6 @@ class ServiceServerAgent(PeerAgent):
         self.request_conversion = self.wire_conversion(interface.request, decode_func=decode_func)
         self.response_conversion = self.wire_conversion(interface.response, encode_func=encode_func)
         self.request_count = 0
-        self._warned_of_none = False
         self._server = Server(
             peer,
             self.topic,
@@ -123,7 +121,7 @@ class ServiceServerAgent(PeerAgent):
             where = "encode"
             if value is None:
                 default = self.response_conversion.codec.from_dict({})
-                self._warn_of_none(default)
+                self.warn_of_default_answer(self.response_conversion.codec)
                 return default
             return self.response_conversion.encode(value)
         except Exception as error:
@@ -132,21 +130,6 @@ class ServiceServerAgent(PeerAgent):
         except BaseException as error:  # sys.exit() in response_func: answer, then shut down
             self.exit_requested(where, error)
             return self._error_response(f"{type(error).__name__}: {error}")
-
-    def _warn_of_none(self, default: bytes) -> None:
-        # A handler that forgot its ``return`` answered success=False and an empty message
-        # without a word; a field-less response (std_srvs/Empty) has nothing else to answer.
-        if self._warned_of_none:
-            return
-        codec = self.response_conversion.codec
-        if not codec.to_dict(default):
-            return
-        self._warned_of_none = True
-        logger.warning(
-            "%s: response_func returned None: answering the default %s",
-            self.describe,
-            codec.msg_type,
-        )
 
     def _error_response(self, text: str) -> bytes:
         codec = self.response_conversion.codec
