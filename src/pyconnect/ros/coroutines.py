@@ -245,15 +245,21 @@ class CoroutineLane:
         loop's own thread (a coroutine's call, a callback of the loop): that thread is the one
         that drains the lane, so it never waits here; the call is queued beyond the limit.
         """
-        if self._runner.loop_problem() == LOOP_CLOSED:
+        runner = self._runner
+        # Per message: the checks that need more than an attribute read run only when they can
+        # matter (a loop given to the node; a full lane).
+        if runner._given_loop is not None and runner.loop_problem() == LOOP_CLOSED:
             self._refuse(LOOP_CLOSED, on_error)
             return
-        may_wait = not self._runner.on_loop_thread()
         stuck = False
         with self._cond:
-            if self._runner.stopped:
+            if runner.stopped:
                 return
-            while may_wait and len(self._pending) >= LANE_LIMIT and not self._runner.stopped:
+            while (
+                len(self._pending) >= LANE_LIMIT
+                and not runner.stopped
+                and not runner.on_loop_thread()
+            ):
                 if self._runner.loop_problem() is not None:
                     # A loop that does not run never drains the lane: waiting would hold the
                     # executor's thread for ever. (Below the limit, calls wait for it to start.)
@@ -348,7 +354,12 @@ class CoroutineLane:
                     _hand_on(self._on_exit, error)
                 continue
             if on_done is not None:
-                _hand_on(on_done, result)
+                try:  # inline: this runs per message (_hand_on's call, for errors only)
+                    on_done(result)
+                except Exception as error:
+                    loop.call_exception_handler(
+                        {"message": "a coroutine lane's result handler raised", "exception": error}
+                    )
 
 
 def _hand_on(handler: Callable[[Any], None], value: Any) -> None:
