@@ -313,7 +313,12 @@ class Registry:
         with self._lock:
             from pyconnect.codecs.wire_codec import WireCodec
             from pyconnect.typesys.definition_text import resolve_definition
+            from pyconnect.typesys.parse import require_rosidl
 
+            try:
+                require_rosidl()  # missing parsers are no fault of the definition: said apart
+            except DefinitionError as error:
+                raise CodecNotFoundError(f"{msg_type}: {error}") from None
             try:
                 msg, types = resolve_definition(msg_type, text, encoding)
             except DefinitionError as error:

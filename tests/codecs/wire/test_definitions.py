@@ -131,3 +131,19 @@ def test_bad_definitions_are_one_line_errors() -> None:
         "my_robot_msgs/msg/Broken: bad ros1msg definition: unsupported definition encoding "
         "'ros1msg' (ros2msg or ros2idl)"
     )
+
+
+def test_a_definition_without_rosidls_parsers_says_what_to_install(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """It said "bad ros2msg definition: ...": a fault of the definition, which it is not."""
+    from pyconnect.codecs.registry import Registry
+    from tests.missing_modules import without
+
+    without(monkeypatch, "rosidl_adapter")
+    with pytest.raises(CodecNotFoundError) as caught:
+        wire.register_definition("my_other_msgs/Num", "int64 num\n", registry=Registry())
+    assert str(caught.value) == (
+        "my_other_msgs/Num: reading interface definitions needs rosidl's parsers (No module "
+        "named 'rosidl_adapter'): pip install 'pyconnect-ros[ros]' or source a ROS 2 Jazzy install"
+    )
