@@ -25,6 +25,7 @@ from pyconnect.codecs.base import (
     ServiceCodec,
     wrong_message,
 )
+from pyconnect.codecs.codec_checks import check_wire_message, codec_problem, interface_parts
 from pyconnect.codecs.natural import NATURAL_CODECS
 from pyconnect.codecs.stamped import Stamped, decode_stamped, encode_stamped
 from pyconnect.codecs.type_code import (
@@ -105,11 +106,9 @@ class Registry:
 
     def _check_registrable(self, full_name: str, codec: Codec) -> None:
         # A codec registered under a name no lookup reaches would be ignored silently.
-        _package, namespace, name = full_name.split("/")
-        if namespace in ("srv", "action") and is_interface_name(name):
-            kind = "a service" if namespace == "srv" else "an action"
-            suffixes = ("Request", "Response") if namespace == "srv" else ("Goal", "Result")
-            parts = [f"{full_name}_{suffix}" for suffix in suffixes]
+        interface = interface_parts(full_name)
+        if interface is not None:
+            kind, parts = interface
             raise CodecError(
                 f"register({full_name}): {kind} type has no messages of its own; "
                 f"register the codec for one of its parts, e.g. {parts[0]} or {parts[1]}"
@@ -281,7 +280,7 @@ class Registry:
                 codec = record.wire
                 if codec is None:
                     full_name = record.full_name
-                    _check_wire_message(full_name)
+                    check_wire_message(full_name)
                     from pyconnect.codecs.wire_codec import WireCodec
 
                     code = generated_wire_code(full_name) or compiled_wire_code(full_name)
@@ -396,41 +395,6 @@ class Registry:
     def from_dict(self, data: Mapping[str, Any], type_ref: object) -> Any:
         """A new message of ``type_ref`` built from a plain dict (missing keys take defaults)."""
         return self.lookup_dict(type_ref).from_dict(data)
-
-
-def _check_wire_message(full_name: str) -> None:
-    # Only messages go on the wire; a service or action is sent as its parts.
-    package, namespace, name = full_name.split("/")
-    if namespace in ("srv", "action") and is_interface_name(name):
-        kind = "a service" if namespace == "srv" else "an action"
-        suffixes = ("Request", "Response") if namespace == "srv" else ("Goal", "Result", "Feedback")
-        parts = " / ".join(f"{package}/{namespace}/{name}_{suffix}" for suffix in suffixes)
-        raise CodecNotFoundError(
-            f"{full_name} is {kind}, not a message: only its parts go on the wire ({parts})"
-        )
-
-
-def codec_problem(codec: object) -> str | None:
-    """Why ``codec`` cannot serve as a codec (None when it can); the text names the mistake.
-
-    The runtime ``Codec`` protocol only asks for the attributes, which a codec class has too.
-    """
-    if isinstance(codec, type):
-        name = codec.__name__
-        return f"expected a codec instance, got the class {name}; did you mean {name}()?"
-    if not isinstance(codec, Codec):
-        return (
-            "expected a codec with msg_type, lossless, encode and decode, "
-            f"got {type(codec).__name__}"
-        )
-    for method in ("encode", "decode"):
-        attribute = getattr(codec, method)
-        if not callable(attribute):
-            return (
-                f"{type(codec).__name__}.{method}: expected a method, "
-                f"got {type(attribute).__name__}"
-            )
-    return None
 
 
 def _interface_exists(parsed: TypeName, namespace: str) -> bool:

@@ -23,7 +23,7 @@ from typing import Any, ClassVar
 from rclpy.callback_groups import CallbackGroup, MutuallyExclusiveCallbackGroup
 
 from pyconnect.codecs.base import Codec
-from pyconnect.codecs.registry import codec_problem
+from pyconnect.codecs.codec_checks import codec_problem
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc, MessageConversion
