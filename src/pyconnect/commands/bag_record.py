@@ -25,13 +25,13 @@ hold; its metadata.yaml says what its files hold.
 from __future__ import annotations
 
 import argparse
-import math
 import signal
 import threading
 import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, TextIO
 
+from pyconnect.commands.argument_types import split_bytes, split_seconds
 from pyconnect.commands.live_options import expand_name
 
 if TYPE_CHECKING:
@@ -47,33 +47,6 @@ EXAMPLES = """examples:
   pyconnect bag record -a -o run1
   pyconnect bag record /camera/image_raw /joint_states -o run2 --max-bag-duration 60
 """
-
-
-def _bag_size(text: str) -> int:
-    """``--max-bag-size``: bytes, 0 or more (0: no split by size)."""
-    try:
-        value = int(text)
-    except ValueError:
-        value = -1
-    if value < 0:
-        raise argparse.ArgumentTypeError(
-            f"expected a whole number of bytes >= 0 (0: no split), got {text!r}"
-        )
-    return value
-
-
-def _bag_duration(text: str) -> float:
-    """``--max-bag-duration``: seconds, 0 or more (0: no split by duration)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
-    # Not finite: no file could ever end, and the limit in ns would not be a number.
-    if not (math.isfinite(value) and value >= 0):
-        raise argparse.ArgumentTypeError(
-            f"expected a number of seconds >= 0 (0: no split), got {text!r}"
-        )
-    return value
 
 
 def register(actions: Subcommands) -> None:
@@ -92,7 +65,7 @@ def register(actions: Subcommands) -> None:
     record.add_argument(
         "-b",
         "--max-bag-size",
-        type=_bag_size,
+        type=split_bytes,
         default=0,
         help="split files at this many bytes on disk (checked as each compressed chunk of at "
         "most 1 MiB is written, as rosbag2 does)",
@@ -100,7 +73,7 @@ def register(actions: Subcommands) -> None:
     record.add_argument(
         "-d",
         "--max-bag-duration",
-        type=_bag_duration,
+        type=split_seconds,
         default=0,
         help="split files every S seconds",
     )
