@@ -89,6 +89,18 @@ def test_a_negative_split_limit_is_a_usage_error(
     assert not (tmp_path / "run").exists()
 
 
+def test_a_split_duration_no_ns_count_holds_is_a_usage_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # 1e300 s passed the check, then overflowed the limit in nanoseconds: a traceback.
+    argv = ["bag", "record", "/chatter", "-o", str(tmp_path / "run"), "-d", "1e300"]
+    assert main(argv) == 2
+    assert capsys.readouterr().err == (
+        "pyconnect: error: argument -d/--max-bag-duration: expected at most 9.22e+09 seconds "
+        "(0: no split), got '1e300'\n"
+    )
+
+
 def test_a_bag_that_cannot_be_finished_still_says_what_it_recorded(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

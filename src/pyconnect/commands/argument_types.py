@@ -93,4 +93,8 @@ def split_seconds(text: str) -> float:
         raise argparse.ArgumentTypeError(
             f"expected a number of seconds >= 0 (0: no split), got {text!r}"
         )
+    if seconds > MAX_SECONDS:  # 1e300 s overflowed the limit in ns: a traceback
+        raise argparse.ArgumentTypeError(
+            f"expected at most {MAX_SECONDS:.3g} seconds (0: no split), got {text!r}"
+        )
     return seconds
