@@ -68,6 +68,15 @@ def main() -> None:
 
     def fibonacci(goal_handle: object) -> Fibonacci.Result:
         order = goal_handle.request.order  # type: ignore[attr-defined]
+        # The client's feedback reader may not be matched yet when its goal arrives (rclpy's
+        # wait_for_server looks at the services only): wait for it, or the first feedback is
+        # lost and the test counts 2 of 3 (1 run in ~10 on a loaded machine).
+        deadline = time.monotonic() + 20
+        while (
+            not node.count_subscribers("/fibonacci/_action/feedback")
+            and time.monotonic() < deadline
+        ):
+            time.sleep(0.01)
         sequence = [0, 1]
         for _ in range(order - 1):
             sequence.append(sequence[-1] + sequence[-2])
