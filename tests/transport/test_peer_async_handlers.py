@@ -184,3 +184,67 @@ def test_async_action_client_callbacks_are_awaited(make_peer: PeerFactory) -> No
     assert calls == [("accepted", True), ("result", result)]
     assert last_feedback.wait(TIMEOUT)
     assert client.error_count == 0
+
+
+def test_a_shutdown_cancels_the_async_handlers_still_running(make_peer: PeerFactory) -> None:
+    """As a CustomNode cancels its handlers' tasks: each handler's ``finally`` runs, its thread
+    ends, nothing is reported as an error and a waiting action client hears why its goal ended
+    (before, every agent's close waited out its 5 s join and left the coroutine suspended)."""
+    server_peer, client_peer = make_peer("robot"), make_peer("laptop")
+    started = {kind: threading.Event() for kind in ("sub", "timer", "pub", "service", "action")}
+    cancelled: list[str] = []
+
+    def handler(kind: str) -> Any:
+        async def wait_forever(*_: Any) -> None:
+            started[kind].set()
+            try:
+                await asyncio.sleep(3600)
+            finally:
+                cancelled.append(kind)
+
+        return wait_forever
+
+    agents = [
+        server_peer.add_agent(
+            conn_name="text", conn_type="sub", data_interface="std_msgs/msg/String",
+            response_func=handler("sub"),
+        ),
+        server_peer.add_agent(
+            conn_name="tick", conn_type="timer", time_period=0.01, response_func=handler("timer")
+        ),
+        server_peer.add_agent(
+            conn_name="beat", conn_type="pub", data_interface="std_msgs/msg/Int32",
+            time_period=0.01, response_func=handler("pub"),
+        ),
+        server_peer.add_agent(
+            conn_name="enable", conn_type="service_server", data_interface=SET_BOOL,
+            response_func=handler("service"),
+        ),
+        server_peer.add_agent(
+            conn_name="fib", conn_type="action_server", data_interface=FIBONACCI,
+            response_func=handler("action"),
+        ),
+    ]  # fmt: skip
+    pub = client_peer.add_agent(
+        conn_name="text", conn_type="pub", data_interface="std_msgs/msg/String"
+    )
+    service = client_peer.add_agent(
+        conn_name="enable", conn_type="service_client", data_interface=SET_BOOL, timeout=TIMEOUT
+    )
+    action = client_peer.add_agent(
+        conn_name="fib", conn_type="action_client", data_interface=FIBONACCI, timeout=TIMEOUT
+    )
+    client_peer.wait_until_connected(timeout=TIMEOUT)
+    assert wait_for(lambda: pub.subscriber_count == 1)
+    pub.send("hello")
+    service.send({"data": True}, block=False)
+    goal = action.send({"order": 3}, block=False)
+    assert all(event.wait(TIMEOUT) for event in started.values())
+
+    server_peer.shutdown()
+
+    assert sorted(cancelled) == ["action", "pub", "service", "sub", "timer"]
+    assert [agent.error_count for agent in agents] == [0] * 5
+    result = goal.result(TIMEOUT)
+    assert result["isdone"] is False
+    assert "server is shutting down" in result["error"]

@@ -29,7 +29,7 @@ from typing import Any
 from pyconnect.ros.handler_shape import wants_feedback_publisher
 from pyconnect.transport import action_wire as aw
 from pyconnect.transport.action_goal import FeedbackPublisher, ServerGoal, drive_generator
-from pyconnect.transport.async_handlers import agent_loop, settle
+from pyconnect.transport.async_handlers import agent_loop, cancel_coroutine, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.endpoints import Request, Server, Writer
 from pyconnect.transport.interface_types import action_interface, message_interface
@@ -254,7 +254,8 @@ class ActionServerAgent(PeerAgent):
             self.report_exception(where, error)
             self._abort(goal, f"{type(error).__name__}: {error}")
         except BaseException as error:  # sys.exit() in response_func: abort, then shut down
-            self._abort(goal, f"{type(error).__name__}: {error}")
+            cancelled = self.cancelled_by_shutdown(error)
+            self._abort(goal, SHUTTING_DOWN if cancelled else f"{type(error).__name__}: {error}")
             self.exit_requested(where, error)
 
     def _result_dict(self, outcome: Any) -> dict[str, Any]:
@@ -344,6 +345,8 @@ class ActionServerAgent(PeerAgent):
         # Running goals get ``timeout`` seconds to send their result while the session is open
         # (a goal thread left inside zenoh at interpreter exit aborts the process).
         deadline = time.monotonic() + timeout
+        for thread in running:
+            cancel_coroutine(thread)  # an ``async def`` handler stops now, as on a CustomNode
         for thread in running:
             thread.join(max(0.0, deadline - time.monotonic()))
         with self._lock:

@@ -12,6 +12,10 @@ an event loop that serves all its later ones (a new loop per call would cost a s
 socket pair each time) and the loop is closed when the body ends. On a thread without that
 scope (e.g. an action client's ``response_func`` on the caller's thread) a coroutine gets a
 loop of its own, as ``asyncio.run`` gives it.
+
+A peer's shutdown cancels the coroutine an agent thread is running (``cancel_coroutine``), as a
+``CustomNode`` cancels its handlers' tasks: the handler's ``finally`` blocks run, and its agent
+closes at once instead of waiting out its join timeout.
 """
 
 from __future__ import annotations
@@ -24,6 +28,8 @@ from collections.abc import Coroutine, Iterator
 from typing import Any
 
 _local = threading.local()
+_running: dict[threading.Thread, asyncio.Task[Any]] = {}
+_running_lock = threading.Lock()
 
 
 @contextlib.contextmanager
@@ -55,7 +61,28 @@ def run_coroutine(coroutine: Coroutine[Any, Any, Any]) -> Any:
     loop = thread_loop()
     if loop is None:
         return asyncio.run(coroutine)
-    return loop.run_until_complete(coroutine)
+    task = loop.create_task(coroutine)
+    thread = threading.current_thread()
+    with _running_lock:
+        _running[thread] = task
+    try:
+        return loop.run_until_complete(task)
+    finally:
+        with _running_lock:
+            _running.pop(thread, None)
+
+
+def cancel_coroutine(thread: threading.Thread | None) -> None:
+    """Cancel the coroutine ``thread`` runs in ``run_coroutine`` now, if any: it raises
+    ``CancelledError`` there, in the handler's caller."""
+    if thread is None:
+        return
+    with _running_lock:
+        task = _running.get(thread)
+    if task is None:
+        return
+    with contextlib.suppress(RuntimeError):  # it ended and its loop closed meanwhile
+        task.get_loop().call_soon_threadsafe(task.cancel)
 
 
 def thread_loop() -> asyncio.AbstractEventLoop | None:

@@ -16,6 +16,7 @@ Handlers may be ``async def`` (pyconnect.transport.async_handlers); timers keep 
 
 from __future__ import annotations
 
+import asyncio
 import collections
 import logging
 import threading
@@ -28,7 +29,7 @@ import zenoh
 from pyconnect.codecs.wire import WireCodec
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.option_checks import period_problem
-from pyconnect.transport.async_handlers import agent_loop, settle
+from pyconnect.transport.async_handlers import agent_loop, cancel_coroutine, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc, WireConversion
 from pyconnect.transport.graph import Graph
 from pyconnect.transport.periodic import run_every
@@ -193,9 +194,16 @@ class PeerAgent:
         (or an interrupt) shuts the peer down, so ``spin()`` returns, as a ``CustomNode`` does;
         the agent's thread, which the exception would have ended without a word, goes on
         until the shutdown closes it."""
+        if self.cancelled_by_shutdown(error):
+            logger.info("%s: %s cancelled by the shutdown", self.describe, where)
+            return
         self.report_exception(where, error)
         if isinstance(error, (SystemExit, KeyboardInterrupt)):  # not a CancelledError
             self.peer.shutdown()  # on an agent's thread: started in the background
+
+    def cancelled_by_shutdown(self, error: BaseException) -> bool:
+        """Whether ``error`` is an ``async def`` handler's cancellation by the peer's shutdown."""
+        return isinstance(error, asyncio.CancelledError) and not self.peer.ok()
 
     def close(self) -> None:
         """Undeclare the zenoh entities (the peer calls this on shutdown)."""
@@ -276,6 +284,7 @@ class Inbox(Generic[_Item]):
             self._closed = True
             self._ready.notify()
         if self._thread is not threading.current_thread():
+            cancel_coroutine(self._thread)
             self._thread.join(timeout)
         with self._ready:
             left = list(self._items)
@@ -331,4 +340,5 @@ class TimerAgent(PeerAgent):
     def close(self) -> None:
         self._stop.set()
         if self._thread is not threading.current_thread():
+            cancel_coroutine(self._thread)
             self._thread.join(5.0)

@@ -129,6 +129,8 @@ class ServiceServerAgent(PeerAgent):
             return self._error_response(f"{type(error).__name__}: {error}")
         except BaseException as error:  # sys.exit() in response_func: answer, then shut down
             self.exit_requested(where, error)
+            if self.cancelled_by_shutdown(error):
+                return self._error_response(f"peer {self.peer.name!r} is shutting down")
             return self._error_response(f"{type(error).__name__}: {error}")
 
     def _error_response(self, text: str) -> bytes:

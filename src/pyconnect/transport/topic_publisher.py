@@ -21,7 +21,7 @@ import zenoh
 from pyconnect.errors import TransportError
 from pyconnect.ros.option_checks import depth_problem, period_problem
 from pyconnect.transport import rmw_zenoh_keys as keys
-from pyconnect.transport.async_handlers import agent_loop, settle
+from pyconnect.transport.async_handlers import agent_loop, cancel_coroutine, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.interface_types import message_interface
 from pyconnect.transport.peer_agent import DEFAULT_DEPTH, Peer, PeerAgent, ResponseFunc
@@ -154,6 +154,7 @@ class PublisherAgent(PeerAgent):
     def close(self) -> None:
         self._stop.set()
         if self._timer is not None and self._timer is not threading.current_thread():
+            cancel_coroutine(self._timer)
             self._timer.join(5.0)
         for entity in (self._token, self._publisher):
             with contextlib.suppress(Exception):

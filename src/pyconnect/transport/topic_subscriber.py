@@ -53,7 +53,7 @@ from pyconnect.codecs.wire import WireCodec
 from pyconnect.errors import DecodeError
 from pyconnect.ros.option_checks import depth_problem
 from pyconnect.transport import rmw_zenoh_keys as keys
-from pyconnect.transport.async_handlers import agent_loop, settle
+from pyconnect.transport.async_handlers import agent_loop, cancel_coroutine, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.interface_types import message_interface
 from pyconnect.transport.peer_agent import DEFAULT_DEPTH, Peer, PeerAgent, ResponseFunc, logger
@@ -366,4 +366,5 @@ class SubscriberAgent(PeerAgent):
             with contextlib.suppress(Exception):
                 entity.undeclare()  # the subscriber's: its channel closes, recv() ends the thread
         if self._thread is not threading.current_thread():
+            cancel_coroutine(self._thread)
             self._thread.join(5.0)
