@@ -52,6 +52,40 @@ def test_messages_compressed_one_by_one_are_decompressed(tmp_path: Path, storage
     assert raw[0][1].startswith(b"\x00\x01\x00\x00")
 
 
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+@pytest.mark.parametrize("opened", ["folder", "file"])
+def test_without_metadata_yaml_zstd_frames_are_recognised(
+    tmp_path: Path, storage: str, opened: str
+) -> None:
+    """Only metadata.yaml says a bag compresses its messages: a storage file read without it
+    (a bare .mcap, a folder before ``ros2 bag reindex``) decoded the zstd frames as CDR, every
+    message an error, and ``raw=True`` handed them out (a player would publish them)."""
+    path = write_compressed(tmp_path / "bag", storage)
+    expected = plain_messages(path)
+    (path / "metadata.yaml").unlink()
+    (storage_file,) = (p for p in path.iterdir())
+    target = path if opened == "folder" else storage_file
+    with open_bag(target) as bag:
+        values = [(m.log_time_ns, m.value) for m in bag]
+    assert values == [(1_000 + i, f"hello {i}") for i in range(5)]
+    assert (bag.errors, bag.damage) == ([], [])
+    with open_bag(target, raw=True) as bag:
+        assert [(m.log_time_ns, bytes(m.value)) for m in bag] == expected
+
+
+def test_without_metadata_yaml_plain_cdr_is_read_as_it_is(tmp_path: Path) -> None:
+    path = tmp_path / "bag"
+    writer = Writer(path, version=9, storage_plugin=StoragePlugin.MCAP)
+    string = TYPESTORE.types["std_msgs/msg/String"]
+    with writer:
+        connection = writer.add_connection("/chatter", "std_msgs/msg/String", typestore=TYPESTORE)
+        writer.write(connection, 5, TYPESTORE.serialize_cdr(string(data="x"), "std_msgs/msg/String"))
+    (path / "metadata.yaml").unlink()
+    with open_bag(path) as bag:
+        assert [m.value for m in bag] == ["x"]
+    assert (bag.errors, bag.damage) == ([], [])
+
+
 def test_compression_mode_is_read_case_insensitively(tmp_path: Path) -> None:
     path = write_compressed(tmp_path / "bag", "mcap")
     metadata = path / "metadata.yaml"

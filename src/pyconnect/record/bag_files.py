@@ -15,6 +15,7 @@ from pathlib import Path
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_metadata import METADATA_FILE, BagMetadata, read_metadata
 from pyconnect.record.bag_storage import StorageFile
+from pyconnect.record.message_compression import MAYBE_ZSTD
 
 BagPaths = str | Path | Sequence[str | Path]
 
@@ -43,7 +44,7 @@ class BagFiles:
     metadata: BagMetadata | None
     message_compression: str = ""
     """The format each message's data is compressed in (metadata.yaml's ``compression_mode:
-    message``), "" when stored as it is."""
+    message``), "" when stored as it is, ``MAYBE_ZSTD`` without a metadata.yaml to say."""
 
 
 def _natural_key(path: Path) -> tuple[object, ...]:
@@ -83,7 +84,7 @@ def locate_bag_files(path: str | Path) -> BagFiles:
     if target.is_file() and target.name == METADATA_FILE:
         target = target.parent
     if target.is_file():
-        return BagFiles(target, (target,), None)
+        return BagFiles(target, (target,), None, MAYBE_ZSTD)
     if not target.is_dir():
         raise BagError(f"{target}: no such bag file or directory")
     metadata_path = target / METADATA_FILE
@@ -103,7 +104,7 @@ def locate_bag_files(path: str | Path) -> BagFiles:
     )
     if not found:
         raise BagError(f"{target}: no metadata.yaml and no .mcap or .db3 files")
-    return BagFiles(target, tuple(found), None)
+    return BagFiles(target, tuple(found), None, MAYBE_ZSTD)
 
 
 def open_storage(path: Path, *, message_compression: str = "") -> StorageFile:

@@ -1,5 +1,11 @@
 """Messages a rosbag2 bag stores compressed one by one (``compression_mode: message``),
-decompressed as a storage file hands them out: the decoded read and ``raw=True`` alike."""
+decompressed as a storage file hands them out: the decoded read and ``raw=True`` alike.
+
+Only metadata.yaml says a bag compresses its messages. A storage file read without it (a bare
+``.mcap``, a folder before ``ros2 bag reindex``) is read with ``MAYBE_ZSTD``: a message whose
+data begins with a zstd frame's magic number is decompressed, any other is taken as it is. CDR
+begins with its encapsulation kind, whose first byte is 0, so neither is taken for the other.
+"""
 
 from __future__ import annotations
 
@@ -17,6 +23,13 @@ MAX_MESSAGE_BYTES = 1 << 30
 """The most one message may decompress to: a few kB of zstd can claim or expand to gigabytes
 (a 128 kB frame to 4 GB), and no ROS message in a bag is near 1 GiB."""
 
+MAYBE_ZSTD = "zstd?"
+"""The compression of a storage file whose bag says nothing: zstd where a message's data is a
+zstd frame (``readable``)."""
+
+ZSTD_MAGIC = b"\x28\xb5\x2f\xfd"
+"""The first four bytes of a zstd frame."""
+
 _INPUT_STEP = 1 << 12  # compressed bytes fed at a time: each gives at most ~128 MiB of output
 
 
@@ -28,7 +41,8 @@ def readable(
     stored: Generator[RawMessage, None, None], compression: str, damage: DamageLog
 ) -> Iterator[RawMessage]:
     """A storage file's ``stored`` messages as CDR: as they are, or ``decompressed`` when the
-    bag compressed them one by one (``compression``: "" when it did not)."""
+    bag compressed them one by one (``compression``: "" when it did not, ``MAYBE_ZSTD`` when
+    the bag does not say)."""
     return decompressed(stored, compression, damage) if compression else stored
 
 
@@ -38,13 +52,20 @@ def decompressed(
     """``messages`` of a bag whose messages are compressed one by one (``compression``, as
     ``BagFiles.message_compression``), decompressed; data that does not decompress, or to more
     than ``MAX_MESSAGE_BYTES``, is damage, noted in ``damage`` and skipped: handed out as it
-    is, it would be taken for CDR."""
+    is, it would be taken for CDR. Under ``MAYBE_ZSTD`` only data that starts as a zstd frame
+    is decompressed."""
     import zstandard
 
     # One per read: a decompressor is not to be shared between threads.
     decompressor = zstandard.ZstdDecompressor()
+    sniffing = compression == MAYBE_ZSTD
+    if sniffing:
+        compression = "zstd"
     try:
         for connection_id, log_time, data in messages:
+            if sniffing and data[:4] != ZSTD_MAGIC:
+                yield connection_id, log_time, data
+                continue
             try:
                 plain = _zstd_frames(decompressor, data)
             except zstandard.ZstdError as error:
