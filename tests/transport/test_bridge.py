@@ -260,6 +260,54 @@ def test_a_topic_bridged_both_ways_by_one_node_crosses_once(
             assert zenoh_side.bridged_skipped_count > 0
 
 
+def test_a_peers_message_bridged_to_ros_does_not_come_back_to_zenoh(
+    locator: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A topic bridged both ways by one node: a zenoh peer's message reaches ROS once and zenoh
+    subscribers once (the ROS -> zenoh side skips what the zenoh -> ROS side just published)."""
+    from std_msgs.msg import String
+
+    from pyconnect.transport import Peer
+    from tests.transport.conftest import _no_scouting, wait_for
+
+    with _bridge_node("echo_bridge", locator, tmp_path, monkeypatch) as node:
+        node.add_agent(
+            conn_name="echo", agent_name="echo_in", conn_type="pub", data_interface=String,
+            transport="zenoh",
+        )  # fmt: skip
+        to_zenoh = node.add_agent(
+            conn_name="echo", conn_type="sub", data_interface=String, transport="zenoh"
+        )
+        seen, got, talker = _watch_and_talk(node, "echo", ("warm", "once", "sentinel"))
+        node.spin(run_thread=True)
+        with Peer(
+            "far", config=_no_scouting(), listen=[], connect=[locator], handle_signals=False
+        ) as peer:
+            on_zenoh: list[str] = []
+            peer.add_agent(
+                conn_name="/echo", agent_name="listen", conn_type="sub",
+                data_interface="std_msgs/msg/String", response_func=on_zenoh.append,
+            )  # fmt: skip
+            far = peer.add_agent(
+                conn_name="/echo", conn_type="pub", data_interface="std_msgs/msg/String"
+            )
+            _send_until_heard(far, "warm", got)
+            assert wait_for(lambda: to_zenoh.zenoh_publisher.matched)
+            assert wait_for(lambda: talker.publisher.get_subscription_count() >= 2)
+            far.send("once")
+            assert got["once"].wait(TIMEOUT)
+            # The bridge's ROS copy of "once" reached its ROS -> zenoh side before the
+            # sentinel (one reader, in order), and what it forwards goes out in that order.
+            deadline = time.monotonic() + TIMEOUT
+            while "sentinel" not in on_zenoh:
+                assert time.monotonic() < deadline, "ROS -> zenoh never delivered"
+                talker.send("sentinel")
+                time.sleep(0.1)
+            assert seen.count("once") == 1
+            assert on_zenoh.count("once") == 1
+            assert getattr(to_zenoh, "echo_skipped_count", 0) >= 1
+
+
 def test_a_sensor_bridge_follows_its_publishers(
     locator: str, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -356,3 +404,24 @@ def test_a_topic_bridged_both_ways_by_two_processes_crosses_once(
     finally:
         err = stop(far_bridge)
     assert "Traceback" not in err
+
+
+def test_what_a_node_published_on_ros_is_skipped_once_and_only_for_a_while(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from pyconnect.ros import zenoh_bridge
+
+    recent = zenoh_bridge.RecentlyPublished()
+    recent.published("/chat", b"unwatched")  # no ROS -> zenoh agent: nothing to skip
+    recent.watch("/chat")
+    assert not recent.came_back("/chat", b"unwatched")
+    recent.published("/chat", b"hello")
+    recent.published("/chat", b"hello")
+    assert not recent.came_back("/other", b"hello")
+    assert [recent.came_back("/chat", b"hello") for _ in range(3)] == [True, True, False]
+    monkeypatch.setattr(zenoh_bridge, "ECHO_SECONDS", -1.0)  # every record expired at once
+    recent.published("/chat", b"late")
+    assert not recent.came_back("/chat", b"late")
+    recent.unwatch("/chat")
+    recent.published("/chat", b"hello")
+    assert not recent.came_back("/chat", b"hello")

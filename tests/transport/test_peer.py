@@ -554,7 +554,7 @@ def test_a_malformed_reply_fails_the_call_like_any_other(make_peer: PeerFactory)
             kind=keys.SERVICE,
             name="/trigger",
             type_name="std_srvs/srv/Trigger",
-            type_hash=client.key.rsplit("/", 1)[1].removeprefix("RIHS01_"),
+            type_hash=client.key.rsplit("/", 1)[1],  # "RIHS01_<hex>", as in the key
             qos=keys.qos_chunk(),
         )
     )
@@ -578,3 +578,75 @@ def test_wait_until_connected_refuses_a_timeout_that_is_not_one(
     peer = make_peer("waiter")
     with pytest.raises(PyconnectError, match=r"^peer 'waiter': wait_until_connected: timeout"):
         peer.wait_until_connected(timeout)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("limit", "shown"),
+    [
+        ("1000000", "'1000000' (str)"),
+        (-5, "-5"),
+        (0, "0"),
+        (True, "True (bool)"),
+        (1.5, "1.5 (float)"),
+    ],
+)
+def test_a_max_payload_that_is_not_none_or_an_int_of_at_least_one_is_refused(
+    limit: object, shown: str
+) -> None:
+    """A str made every sample raise in the receive path; 0 or less dropped them all."""
+    from pyconnect.transport import Peer
+
+    with pytest.raises(PyconnectError) as raised:
+        Peer("vision", listen=[], connect=[], max_payload_bytes=limit, handle_signals=False)  # type: ignore[arg-type]
+    assert str(raised.value) == (
+        f"peer 'vision': max_payload_bytes: expected None or an int >= 1, got {shown}"
+    )
+
+
+def test_max_payload_none_or_one_is_taken(make_peer: PeerFactory) -> None:
+    assert make_peer("vision", max_payload_bytes=None).max_payload_bytes is None
+    assert make_peer("robot", max_payload_bytes=1).max_payload_bytes == 1
+
+
+DOMAIN_EXPECTED = "expected an int from 0 to 18446744073709551614"
+
+
+@pytest.mark.parametrize(
+    ("domain_id", "shown"),
+    [("abc", "'abc' (str)"), (-1, "-1"), (1.5, "1.5 (float)"), (False, "False (bool)"),
+     (2**64 - 1, "18446744073709551615")],
+)  # fmt: skip
+def test_a_domain_id_rmw_does_not_take_is_refused(domain_id: object, shown: str) -> None:
+    """It went into every key and token: a domain no ROS node joins."""
+    from pyconnect.errors import TransportError
+    from pyconnect.transport import Peer
+
+    with pytest.raises(TransportError) as raised:
+        Peer("vision", domain_id=domain_id, listen=[], connect=[], handle_signals=False)  # type: ignore[arg-type]
+    assert str(raised.value) == f"peer 'vision': domain_id: {DOMAIN_EXPECTED}, got {shown}"
+
+
+@pytest.mark.parametrize("text", ["-3", "abc", "1.5", "1_0", "7x"])
+def test_a_ros_domain_id_rcl_does_not_take_is_refused(
+    monkeypatch: pytest.MonkeyPatch, text: str
+) -> None:
+    from pyconnect.errors import TransportError
+    from pyconnect.transport import Peer
+
+    monkeypatch.setenv("ROS_DOMAIN_ID", text)
+    with pytest.raises(TransportError) as raised:
+        Peer("vision", listen=[], connect=[], handle_signals=False)
+    assert str(raised.value) == f"peer 'vision': ROS_DOMAIN_ID: {DOMAIN_EXPECTED}, got {text!r}"
+
+
+@pytest.mark.parametrize(
+    ("text", "domain"), [("", 0), ("42", 42), (" 7 ", 7), ("010", 8), ("0x10", 16)]
+)
+def test_ros_domain_id_is_read_as_rcl_reads_it(
+    monkeypatch: pytest.MonkeyPatch, text: str, domain: int
+) -> None:
+    """rcl reads it with strtoul(text, &end, 0): "010" is octal to every ROS node."""
+    from pyconnect.transport.peer import default_domain_id
+
+    monkeypatch.setenv("ROS_DOMAIN_ID", text)
+    assert default_domain_id() == domain

@@ -545,3 +545,29 @@ def test_cancel_cancels_goals_still_waiting_for_their_server(make_peer: PeerFact
     client_peer.wait_until_connected(TIMEOUT)
     assert client.send({"order": 1})["sequence"] == [1]
     assert executed == [1]
+
+
+def test_a_server_of_another_action_type_is_no_server_and_the_goal_names_both(
+    make_peer: PeerFactory,
+) -> None:
+    from pyconnect.errors import ConnectionTimeout
+
+    server_peer, client_peer = make_peer("robot"), make_peer("laptop")
+    server_peer.add_agent(
+        conn_name="act", conn_type="action_server", data_interface=FIBONACCI,
+        response_func=fibonacci,
+    )  # fmt: skip
+    client = client_peer.add_agent(
+        conn_name="act",
+        conn_type="action_client",
+        data_interface="test_msgs/action/NestedMessage",
+        timeout=TIMEOUT,
+    )
+    assert wait_for(lambda: client_peer.graph.count(kind="SS", name="/act/_action/send_goal") == 1)
+    assert not client.is_connected()
+    with pytest.raises(ConnectionTimeout, match="has another type"):
+        client_peer.wait_until_connected(timeout=0.2)
+    outcome = client.send({})
+    assert outcome["isdone"] is False
+    assert "expected test_msgs/action/NestedMessage_SendGoal (RIHS01_" in outcome["error"]
+    assert "found test_msgs/action/Fibonacci_SendGoal (RIHS01_" in outcome["error"]

@@ -39,7 +39,7 @@ def client_and_server(make_peer: PeerFactory) -> Iterator[tuple[Any, list[Any]]]
             kind=keys.SERVICE,
             name=SERVICE,
             type_name=TYPE,
-            type_hash=client.key.rsplit("/", 1)[1].removeprefix("RIHS01_"),
+            type_hash=client.key.rsplit("/", 1)[1],  # "RIHS01_<hex>", as in the key
             qos=keys.qos_chunk(),
         )
     )
@@ -303,3 +303,64 @@ def test_a_handler_returning_none_answers_the_default_response(
         f"answering the default {type_name}_Response"
     )
     assert warnings == ([once] if warned else [])
+
+
+def test_a_server_of_another_type_is_no_server_and_the_call_names_both_types(
+    make_peer: PeerFactory,
+) -> None:
+    """A server of another type never sees the client's queries (its key differs): the client
+    is not connected, and its call says why instead of "went away"."""
+    from pyconnect.errors import ConnectionTimeout
+    from tests.transport.conftest import wait_for
+
+    server_peer, client_peer = make_peer("robot"), make_peer("laptop")
+    server = server_peer.add_agent(
+        conn_name="s",
+        conn_type="service_server",
+        data_interface="std_srvs/srv/SetBool",
+        response_func=lambda request: {"success": True},
+    )
+    client = client_peer.add_agent(
+        conn_name="s", conn_type="service_client", data_interface=TYPE, timeout=TIMEOUT
+    )
+    assert wait_for(lambda: client_peer.graph.count(kind=keys.SERVICE, name="/s") == 1)
+    assert not client.is_connected()
+    assert client.server_count == 0
+    with pytest.raises(ConnectionTimeout, match="has another type"):
+        client_peer.wait_until_connected(timeout=0.2)
+    theirs = server.key.rsplit("/", 1)[1]
+    ours = client.key.rsplit("/", 1)[1]
+    assert client.send() == {
+        "isdone": False,
+        "error": "agent 's' (service_client std_srvs/srv/Trigger): the server of /s has another "
+        f"type: expected std_srvs/srv/Trigger ({ours}), found std_srvs/srv/SetBool ({theirs})",
+    }
+
+
+def test_a_server_of_the_same_type_name_with_another_hash_is_no_server(
+    make_peer: PeerFactory,
+) -> None:
+    from tests.transport.conftest import wait_for
+
+    peer = make_peer("vision")
+    client = peer.add_agent(
+        conn_name="trigger", conn_type="service_client", data_interface=TYPE, timeout=TIMEOUT
+    )
+    other_hash = "RIHS01_" + "0" * 64
+    token = peer.session.liveliness().declare_token(
+        peer.entity_token(
+            kind=keys.SERVICE,
+            name=SERVICE,
+            type_name=TYPE,
+            type_hash=other_hash,
+            qos=keys.qos_chunk(),
+        )
+    )
+    try:
+        assert wait_for(lambda: peer.graph.count(kind=keys.SERVICE, name=SERVICE) == 1)
+        assert not client.is_connected()
+        failure = client.send()
+        assert failure["isdone"] is False
+        assert f"found {TYPE} ({other_hash})" in failure["error"]
+    finally:
+        token.undeclare()

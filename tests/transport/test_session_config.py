@@ -179,3 +179,23 @@ def test_a_peer_without_a_config_file_starts_from_rmw_zenohs_default(
         assert json.loads(get("mode")) == "peer"
         assert json.loads(get("connect/endpoints")) == ["tcp/localhost:7447"]
         assert json.loads(get("scouting/multicast/enabled")) is False
+
+
+def test_a_zenoh_config_given_is_copied_and_takes_the_overrides(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """listen= inserted into the caller's Config, and the override was silently not applied."""
+    import zenoh
+
+    from pyconnect.transport.session_config import session_config
+
+    given = zenoh.Config()
+    given.insert_json5("mode", '"peer"')
+    given.insert_json5("listen/endpoints", "[]")
+    before = str(given)
+    monkeypatch.setenv("ZENOH_CONFIG_OVERRIDE", 'mode="client"')
+    used = session_config(config=given, listen=["tcp/127.0.0.1:27605"])
+    assert str(given) == before
+    assert json.loads(used.get_json("mode")) == "client"
+    assert json.loads(used.get_json("listen/endpoints")) == ["tcp/127.0.0.1:27605"]
+    assert json.loads(given.get_json("listen/endpoints")) == []

@@ -39,3 +39,27 @@ def test_a_depth_goes_into_the_token(make_peer: PeerFactory) -> None:
         conn_name="chat", conn_type="pub", data_interface="std_msgs/msg/String", depth=3
     )
     assert pub.token_key.endswith(f"/{keys.qos_chunk(depth=3)}")
+
+
+def test_only_subscriptions_of_its_type_count_for_only_if_subscribed(
+    make_peer: PeerFactory,
+) -> None:
+    """A subscription of another type is on another key: it never gets these samples."""
+    from tests.transport.conftest import wait_for
+
+    listener, talker = make_peer("listener"), make_peer("talker")
+    listener.add_agent(conn_name="chat", conn_type="sub", data_interface="std_msgs/msg/Int32")
+    pub = talker.add_agent(
+        conn_name="chat",
+        conn_type="pub",
+        data_interface="std_msgs/msg/String",
+        only_if_subscribed=True,
+    )
+    assert wait_for(lambda: talker.graph.count(kind=keys.SUBSCRIPTION, name="/chat") == 1)
+    assert pub.subscriber_count == 0
+    assert pub.send("hello") is False
+    listener.add_agent(
+        conn_name="chat", agent_name="text", conn_type="sub", data_interface="std_msgs/msg/String"
+    )
+    assert wait_for(lambda: pub.subscriber_count == 1)
+    assert pub.send("hello") is True

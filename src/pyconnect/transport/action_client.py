@@ -3,7 +3,9 @@
 The same contract as ``CustomNode``'s action client (pyconnect.ros.action_client_agent):
 ``send(goal, timeout=None, feedback_func=None, block=True)`` blocks until the result and returns
 it through ``reform_response`` (a dict result gets ``'isdone': True``); a rejected, canceled or
-aborted goal, a missing or vanished server, a timeout or the shutdown of the client's peer
+aborted goal, a missing or vanished server (only servers of the client's action type and
+RIHS01 hashes count; one of another type fails the goal at once, naming both), a timeout or
+the shutdown of the client's peer
 (``"... peer '<name>' is shut down"``, before or during the call) give ``{'isdone': False,
 'error': ...}`` (plus the result's fields when it is a dict). A timeout cancels the goal.
 ``block=False`` returns a ``concurrent.futures.Future``; cancelling it cancels the goal (sent
@@ -123,8 +125,17 @@ class ActionClientAgent(PeerAgent):
     def is_connected(self) -> bool:
         return self._server_ready()
 
+    def _type_mismatch(self) -> str | None:
+        """Set when the action has servers, but only of other types (or hashes): they would
+        never see this client's goals."""
+        for caller in (self._send_goal, self._get_result):
+            mismatch = caller.type_mismatch()
+            if mismatch is not None:
+                return f"action {self.topic}: {mismatch}"
+        return None
+
     def waiting_for(self) -> str:
-        return "no action server now"
+        return self._type_mismatch() or "no action server now"
 
     # -- sending -------------------------------------------------------------------------------
     def get(self, data: Any = None, show_info: bool = False) -> Any:  # type: ignore[override]
@@ -194,7 +205,9 @@ class ActionClientAgent(PeerAgent):
         deadline = None if timeout is None else time.monotonic() + timeout
 
         def can_send() -> bool:
-            return in_flight.cancel_asked or self._server_ready()
+            return (
+                in_flight.cancel_asked or self._server_ready() or self._type_mismatch() is not None
+            )
 
         with self._lock:
             self._queued[in_flight.goal_id] = in_flight
@@ -209,6 +222,10 @@ class ActionClientAgent(PeerAgent):
         with self._lock:
             if in_flight.cancel_asked:  # canceled before it was sent: it never will be
                 return self._failed("goal canceled")
+        mismatch = None if self._server_ready() else self._type_mismatch()
+        if mismatch is not None:  # the goal would go nowhere: say why rather than wait
+            return self._failed(mismatch)
+        with self._lock:
             self._in_flight[in_flight.goal_id] = in_flight
         try:
             return self._goal_outcome(in_flight, goal, deadline, timeout)

@@ -249,6 +249,8 @@ class Caller:
     def __init__(self, peer: Peer, name: str, interface: ServiceInterface) -> None:
         self._peer = peer
         self.name = name
+        self.type_name = interface.type_name
+        self.type_hash = interface.type_hash
         self.key = keys.data_key(peer.domain_id, name, interface.type_name, interface.type_hash)
         self.token_key = peer.entity_token(
             kind=keys.CLIENT,
@@ -264,7 +266,25 @@ class Caller:
 
     @property
     def server_count(self) -> int:
-        return self._peer.graph.count(kind=keys.SERVICE, name=self.name)
+        """Servers of this type and hash: a server of another one never sees the queries (its
+        key differs)."""
+        return self._peer.graph.count(
+            kind=keys.SERVICE, name=self.name, type_name=self.type_name, type_hash=self.type_hash
+        )
+
+    def type_mismatch(self) -> str | None:
+        """What is wrong when ``name`` has servers, but only of other types or hashes; None
+        when a server of this type is there, or none at all."""
+        others = self._peer.graph.other_types(
+            kind=keys.SERVICE, name=self.name, type_name=self.type_name, type_hash=self.type_hash
+        )
+        if not others or self.server_count > 0:
+            return None
+        found = ", ".join(f"{name} ({type_hash})" for name, type_hash in others)
+        return (
+            f"the server of {self.name} has another type: expected {self.type_name} "
+            f"({self.type_hash}), found {found}"
+        )
 
     def call(
         self,
@@ -323,6 +343,9 @@ class Caller:
         if not self._peer.ok():
             # Closing this peer's session ends its queries without a reply: no server's fault.
             raise self._shut_down()
+        mismatch = self.type_mismatch()
+        if mismatch is not None:
+            raise CallFailed(mismatch)
         if self.server_count == 0:
             raise CallFailed(f"the server of {self.name} vanished before it replied")
         if deadline is not None and time.monotonic() >= deadline - 0.01:

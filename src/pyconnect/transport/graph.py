@@ -60,10 +60,42 @@ class Graph:
         with self._lock:
             return list(self._tokens.values())
 
-    def count(self, *, kind: str, name: str) -> int:
-        """How many live entities of ``kind`` (``'MP'``, ``'SS'``, ...) are on ``name``."""
+    def count(
+        self,
+        *,
+        kind: str,
+        name: str,
+        type_name: str | None = None,
+        type_hash: str | None = None,
+    ) -> int:
+        """How many live entities of ``kind`` (``'MP'``, ``'SS'``, ...) are on ``name``, of
+        ``type_name`` and ``type_hash`` where given (the others use other keys: they never
+        meet an entity of this type)."""
         with self._lock:
-            return sum(1 for t in self._tokens.values() if t.kind == kind and t.name == name)
+            return sum(
+                1
+                for t in self._tokens.values()
+                if t.kind == kind
+                and t.name == name
+                and (type_name is None or t.type_name == type_name)
+                and (type_hash is None or t.type_hash == type_hash)
+            )
+
+    def other_types(
+        self, *, kind: str, name: str, type_name: str, type_hash: str
+    ) -> list[tuple[str, str]]:
+        """The (type name, RIHS01 hash) pairs, sorted, of live entities of ``kind`` on
+        ``name`` that differ from ``type_name`` with ``type_hash``."""
+        with self._lock:
+            return sorted(
+                {
+                    (t.type_name, t.type_hash)
+                    for t in self._tokens.values()
+                    if t.kind == kind
+                    and t.name == name
+                    and (t.type_name, t.type_hash) != (type_name, type_hash)
+                }
+            )
 
     def node_names(self) -> list[str]:
         with self._lock:

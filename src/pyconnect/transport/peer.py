@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import itertools
 import os
+import re
 import sys
 import threading
 import time
@@ -62,14 +63,52 @@ StopFunc = Callable[..., Any]
 DEFAULT_MAX_PAYLOAD_BYTES = 256 * 1024 * 1024
 
 
+# rmw takes a domain id as a size_t and keeps SIZE_MAX for "the default" (rmw_zenoh's
+# rmw_init maps it to 0): every other value is a domain of its own, on DDS or zenoh.
+_LARGEST_DOMAIN_ID = 2**64 - 2
+_EXPECTED_DOMAIN_ID = f"expected an int from 0 to {_LARGEST_DOMAIN_ID}"
+
+
+def checked_domain_id(value: object, *, what: str = "domain_id") -> int:
+    """``value`` as a domain id, or ``TransportError`` naming ``what``: an int (not a bool)
+    that rmw takes (a size_t below SIZE_MAX). (Any other value would go into every key and
+    token, making a domain no ROS node joins.)"""
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise TransportError(
+            f"{what}: {_EXPECTED_DOMAIN_ID}, got {value!r} ({type_name_of(value)})"
+        )
+    if not 0 <= value <= _LARGEST_DOMAIN_ID:
+        raise TransportError(f"{what}: {_EXPECTED_DOMAIN_ID}, got {value!r}")
+    return value
+
+
+# rcl_get_default_domain_id reads ROS_DOMAIN_ID with strtoul(text, &end, 0) and refuses
+# trailing text: decimal, 0x... hex, or 0... octal ("010" is 8 to every ROS node).
+_ROS_DOMAIN_ID_FORMS = ((r"0[xX][0-9a-fA-F]+", 16), (r"0[0-7]*", 8), (r"[1-9][0-9]*", 10))
+
+
 def default_domain_id() -> int:
+    """``ROS_DOMAIN_ID`` read as rcl reads it (unset or empty: 0)."""
     text = os.environ.get("ROS_DOMAIN_ID", "").strip()
     if not text:
         return 0
-    try:
-        return int(text)
-    except ValueError:
-        raise TransportError(f"ROS_DOMAIN_ID: expected an integer, got {text!r}") from None
+    for pattern, base in _ROS_DOMAIN_ID_FORMS:
+        if re.fullmatch(pattern, text):
+            return checked_domain_id(int(text, base), what="ROS_DOMAIN_ID")
+    raise TransportError(f"ROS_DOMAIN_ID: {_EXPECTED_DOMAIN_ID}, got {text!r}")
+
+
+def checked_payload_limit(value: object) -> int | None:
+    """``max_payload_bytes`` as given, when it is None (no limit) or an int (not a bool) >= 1;
+    ``PyconnectError`` otherwise (a str failed every sample, 0 or less dropped them all)."""
+    expected = "max_payload_bytes: expected None or an int >= 1"
+    if value is None:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise PyconnectError(f"{expected}, got {value!r} ({type_name_of(value)})")
+    if value < 1:
+        raise PyconnectError(f"{expected}, got {value!r}")
+    return value
 
 
 def node_namespace(name: str, namespace: str) -> str:
@@ -110,9 +149,14 @@ class Peer(ShutsDownOnExit):
         # one rcl refuses would make a node no ROS tool can address.
         self.name = name
         self.namespace = node_namespace(name, namespace)
-        self.domain_id = default_domain_id() if domain_id is None else domain_id
+        try:
+            self.domain_id = (
+                default_domain_id() if domain_id is None else checked_domain_id(domain_id)
+            )
+            self.max_payload_bytes = checked_payload_limit(max_payload_bytes)
+        except PyconnectError as error:
+            raise type(error)(f"peer {name!r}: {error}") from None
         self.registry = registry or default_registry
-        self.max_payload_bytes = max_payload_bytes
         self.stop_func = stop_func
         self.agents: dict[str, PeerAgent] = {}
         self._lock = threading.RLock()

@@ -14,11 +14,13 @@ is only the QoS depth the token advertises. A handler or codec that raises still
 response with ``success``/``message`` fields gets ``success=False`` and the error text, any
 other the default response; the error is logged with the agent's name.
 
-Client: ``send(data, timeout=None)`` returns the decoded response through ``reform_response``;
-when no server is in the graph within the timeout, when the server vanishes before it replies,
-does not reply in time or replies with an error, when the client's peer shuts down during the
-call (``"... peer '<name>' is shut down"``, as for a call made after), or when anything else
-goes wrong in the call (a reply that does not decode, zenoh's own errors), it returns
+Client: ``send(data, timeout=None)`` returns the decoded response through ``reform_response``.
+Only servers of the client's type and RIHS01 hash count (``is_connected``, ``server_count``):
+when the name has servers of other types only, the call fails at once naming both types and
+hashes. When no server is in the graph within the timeout, when the server vanishes before it
+replies, does not reply in time or replies with an error, when the client's peer shuts down
+during the call (``"... peer '<name>' is shut down"``, as for a call made after), or when
+anything else goes wrong in the call (a reply that does not decode, zenoh's own errors), it returns
 ``{'isdone': False, 'error': ...}`` as ``CustomNode``'s clients do. ``block=False`` returns a
 ``concurrent.futures.Future`` of the same (only a request that does not encode raises, at once);
 cancelling it drops the call (its query ends; a late response is not read).
@@ -188,7 +190,7 @@ class ServiceClientAgent(PeerAgent):
         return self.server_count > 0
 
     def waiting_for(self) -> str:
-        return "no server now"
+        return self._caller.type_mismatch() or "no server now"
 
     def get(self, data: Any = None, show_info: bool = False) -> Any:  # type: ignore[override]
         """``get(data)`` is ``send(data)``, as on a ``CustomNode``."""
@@ -239,10 +241,18 @@ class ServiceClientAgent(PeerAgent):
         deadline = None if timeout is None else time.monotonic() + timeout
 
         def can_call() -> bool:
-            return self.server_count > 0 or (dropped is not None and dropped.cancelled)
+            return (
+                self.server_count > 0
+                or (dropped is not None and dropped.cancelled)
+                or self._caller.type_mismatch() is not None
+            )
 
         if not self.peer.wait_for_graph(can_call, deadline):
             return self._failed(self.why_no_answer(f"no server for {self.topic}", timeout))
+        # A server of another type would never see the query: say so rather than wait.
+        mismatch = self._caller.type_mismatch()
+        if mismatch is not None and not (dropped is not None and dropped.cancelled):
+            return self._failed(mismatch)
         try:
             response = self._caller.call(payload, deadline, cancel=dropped)
         except CallFailed as failure:

@@ -6,7 +6,9 @@ as JSON5. Its default session config (``DEFAULT_RMW_ZENOH_SESSION_CONFIG.json5``
 connects to a router at ``tcp/localhost:7447`` with multicast scouting off; a peer without a
 file starts from the same settings, so it meets ROS nodes running ``rmw_zenoh_cpp`` through
 the same router. Everything else in the file (TLS, access control, ...) passes to zenoh
-unchanged. ``connect=``/``listen=``/``mode=`` arguments are applied last.
+unchanged. A ``zenoh.Config`` given in place of the file is copied (the caller's object is never
+changed) and takes the overrides as a file does. ``connect=``/``listen=``/``mode=`` arguments
+are applied last.
 """
 
 from __future__ import annotations
@@ -32,13 +34,14 @@ def session_config(
     listen: Sequence[str] | None = None,
     mode: str | None = None,
 ) -> zenoh.Config:
-    """The ``zenoh.Config`` a peer opens its session with."""
+    """The ``zenoh.Config`` a peer opens its session with (a new one: a ``zenoh.Config``
+    given stays as it was, for the caller to use again)."""
     if isinstance(config, zenoh.Config):
-        result = config
+        result = _copy(config)
     else:
         path = config if config is not None else os.environ.get(SESSION_CONFIG_ENV) or None
         result = _from_file(Path(path)) if path is not None else _rmw_zenoh_default()
-        _apply_overrides(result, os.environ.get(CONFIG_OVERRIDE_ENV, ""))
+    _apply_overrides(result, os.environ.get(CONFIG_OVERRIDE_ENV, ""))
     if mode is not None:
         _insert(result, "mode", json.dumps(mode))
     if connect is not None:
@@ -54,6 +57,18 @@ def _rmw_zenoh_default() -> zenoh.Config:
     _insert(config, "connect/endpoints", json.dumps([DEFAULT_ROUTER]))
     _insert(config, "scouting/multicast/enabled", "false")
     return config
+
+
+def _copy(config: zenoh.Config) -> zenoh.Config:
+    # zenoh-python's Config cannot be copied (nor pickled); its str() is the whole
+    # configuration as JSON, which from_json5 reads back.
+    try:
+        copied: zenoh.Config = zenoh.Config.from_json5(str(config))
+        return copied
+    except Exception as error:
+        raise TransportError(
+            f"zenoh config: cannot copy the zenoh.Config given: {error}"
+        ) from error
 
 
 def _from_file(path: Path) -> zenoh.Config:

@@ -85,6 +85,7 @@ class PublisherAgent(PeerAgent):
             qos=keys.qos_chunk(depth=depth),
         )
         self.gid = keys.gid_of(self.token_key)
+        self._type_hash = interface.type_hash
         self._sequence = 0
         self._send_lock = threading.Lock()
         # rmw_zenoh (rmw_publisher_data.cpp): reliable keep-last publishers drop on congestion.
@@ -106,8 +107,14 @@ class PublisherAgent(PeerAgent):
 
     @property
     def subscriber_count(self) -> int:
-        """How many subscriptions on this topic the graph shows now."""
-        return self.peer.graph.count(kind=keys.SUBSCRIPTION, name=self.topic)
+        """How many subscriptions of this type and hash on this topic the graph shows now
+        (one of another type is on another key: it never gets these samples)."""
+        return self.peer.graph.count(
+            kind=keys.SUBSCRIPTION,
+            name=self.topic,
+            type_name=self.type_name,
+            type_hash=self._type_hash,
+        )
 
     @property
     def matched(self) -> bool:
