@@ -390,12 +390,10 @@ def test_ros2idl_schema_of_a_type_not_installed(tmp_path: Path) -> None:
     ]
 
 
-def test_topic_codecs_gives_each_type_of_a_topic_in_one_bag(tmp_path: Path) -> None:
-    """Two MCAP channels of /chatter, String then Int32, then a third String one: one codec per
-    type, the same bag's path for each (the first type alone hid the second from tables)."""
+def write_two_types(bag: Path) -> Path:
+    """Three MCAP channels of /chatter, String then Int32 then String, a message on each."""
     from mcap.writer import Writer
 
-    bag = tmp_path / "two_types.mcap"
     with bag.open("wb") as stream:
         writer = Writer(stream)
         writer.start(profile="ros2", library="test")
@@ -406,6 +404,13 @@ def test_topic_codecs_gives_each_type_of_a_topic_in_one_bag(tmp_path: Path) -> N
             data = serialize_message(String(data="a")) if schema == string else b"\0\1\0\0\7\0\0\0"
             writer.add_message(channel, log_time=time, data=data, publish_time=time)
         writer.finish()
+    return bag
+
+
+def test_topic_codecs_gives_each_type_of_a_topic_in_one_bag(tmp_path: Path) -> None:
+    """Two MCAP channels of /chatter, String then Int32, then a third String one: one codec per
+    type, the same bag's path for each (the first type alone hid the second from tables)."""
+    bag = write_two_types(tmp_path / "two_types.mcap")
     with open_bag(bag) as reader:
         codecs = reader.topic_codecs("/chatter")
         assert [(path, codec.msg_type) for path, codec in codecs] == [
@@ -413,3 +418,18 @@ def test_topic_codecs_gives_each_type_of_a_topic_in_one_bag(tmp_path: Path) -> N
             (bag, "std_msgs/msg/Int32"),
         ]
         assert reader.topic_codec("/chatter") is codecs[0][1]
+
+
+def test_with_codecs_gives_each_message_the_codec_of_its_connection(tmp_path: Path) -> None:
+    """A topic's messages decoded with two codecs come each with its own (``topic_codec`` is the
+    first connection's only); reading raw, with none."""
+    bag = write_two_types(tmp_path / "two_types.mcap")
+    with open_bag(bag, natural=False) as reader:
+        read = list(reader.with_codecs())
+        assert [m.value for m in reader] == [m.value for m, _codec in read]
+        codecs = [codec for _path, codec in reader.topic_codecs("/chatter")]
+    assert [m.value for m, _codec in read] == [{"data": "a"}, {"data": 7}, {"data": "a"}]
+    assert [codec for _m, codec in read] == [codecs[0], codecs[1], codecs[0]]
+    assert all(codec.from_dict(m.value) for m, codec in read)
+    with open_bag(bag, raw=True) as reader:
+        assert [codec for _m, codec in reader.with_codecs()] == [None] * 3

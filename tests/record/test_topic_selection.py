@@ -9,6 +9,7 @@ import pytest
 from rclpy.serialization import serialize_message
 from std_msgs.msg import String
 
+from pyconnect.record.bag_damage import BagDamage
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_reader import open_bag
 from pyconnect.record.mcap_recorder import McapRecorder
@@ -54,7 +55,8 @@ def test_a_type_the_bag_lacks_is_refused_with_its_types(bag: Path, wanted: str, 
 
 
 def test_the_spellings_accepted_before_still_select(bag: Path) -> None:
-    for spelling in ("std_msgs/msg/String", "std_msgs/String", ["std_msgs/String"]):
+    generator = (name for name in ["std_msgs/String"])  # read once, though checked and used
+    for spelling in ("std_msgs/msg/String", "std_msgs/String", ["std_msgs/String"], generator):
         with open_bag(bag, types=spelling) as reader:
             assert list(reader.topics) == ["/chatter"]
             assert [m.value for m in reader] == ["hi"]
@@ -145,3 +147,87 @@ def test_a_selected_undecodable_topic_is_refused(tmp_path: Path, topic: str, err
     with open_bag(bag, topics=[topic], raw=True) as reader:
         assert [m.topic for m in reader] == [topic]
         assert reader.notes == []
+
+
+# -- types= reads only the connections of those types ----------------------------------------
+TWIST = "geometry_msgs/msg/Twist"
+STAMPED = "geometry_msgs/msg/TwistStamped"
+
+
+def write_cmd(path: Path, msg_type: str, count: int, first_ns: int) -> Path:
+    """A bag with ``count`` messages of ``msg_type`` (Twist or TwistStamped) on /cmd."""
+    from geometry_msgs.msg import Twist, TwistStamped
+
+    message = Twist() if msg_type == TWIST else TwistStamped()
+    with McapRecorder(path) as recorder:
+        recorder.add_topic("/cmd", msg_type)
+        for i in range(count):
+            recorder.write("/cmd", bytes(serialize_message(message)), log_time_ns=first_ns + i)
+    return path
+
+
+def channels_in_one(bags: list[Path], path: Path) -> Path:
+    """One MCAP file holding every channel of ``bags``: one topic of two types in one file."""
+    from mcap.reader import make_reader
+    from mcap.writer import Writer
+
+    with path.open("wb") as stream:
+        writer = Writer(stream)
+        writer.start(profile="ros2", library="test")
+        for bag in bags:
+            with bag.open("rb") as source:
+                mapped: dict[int, int] = {}
+                for schema, channel, message in make_reader(source).iter_messages():
+                    if channel.id not in mapped:
+                        assert schema is not None
+                        ours = writer.register_schema(schema.name, schema.encoding, schema.data)
+                        mapped[channel.id] = writer.register_channel(
+                            channel.topic, channel.message_encoding, ours, channel.metadata
+                        )
+                    writer.add_message(
+                        mapped[channel.id], message.log_time, message.data, message.publish_time
+                    )
+        writer.finish()
+    return path
+
+
+@pytest.fixture(params=["merged bags", "one file"])
+def two_types(request: pytest.FixtureRequest, tmp_path: Path) -> list[Path]:
+    """/cmd as 3 Twist messages, then as 2 TwistStamped ones: in two bags read merged, or as
+    two channels of one file."""
+    bags = [
+        write_cmd(tmp_path / "a.mcap", TWIST, 3, 100),
+        write_cmd(tmp_path / "b.mcap", STAMPED, 2, 200),
+    ]
+    if request.param == "one file":
+        return [channels_in_one(bags, tmp_path / "ab.mcap")]
+    return bags
+
+
+@pytest.mark.parametrize(
+    ("wanted", "msg_type", "count"),
+    [
+        ([STAMPED], STAMPED, 2),
+        (["geometry_msgs/TwistStamped"], STAMPED, 2),
+        (["geometry_msgs/Twist"], TWIST, 3),
+        ([TWIST, STAMPED], TWIST, 5),
+    ],
+)
+def test_types_read_only_the_messages_of_those_types(
+    two_types: list[Path], wanted: list[str], msg_type: str, count: int
+) -> None:
+    both = len(wanted) == 2
+    for topics in (None, ["/cmd"]):
+        for raw in (False, True):
+            with open_bag(two_types, topics=topics, types=wanted, raw=raw) as reader:
+                read = list(reader)
+                info = reader.topics["/cmd"]
+                codecs = [codec.msg_type for _bag, codec in reader.topic_codecs("/cmd")]
+                # What a damaged read would say it promised: the messages of these types.
+                summary = reader.damage_summary([BagDamage("f", None, "cut")])
+            types = [m.msg_type for m in read]
+            assert types == ([TWIST] * 3 + [STAMPED] * 2 if both else [msg_type] * count)
+            assert (info.msg_type, info.message_count) == (msg_type, count)
+            assert reader.types == {"geometry_msgs/msg/" + t.rsplit("/", 1)[1] for t in wanted}
+            assert codecs == ([TWIST, STAMPED] if both else [msg_type])
+            assert summary.endswith(f"{count} message(s) read, the bag's metadata promised {count}")

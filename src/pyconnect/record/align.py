@@ -44,6 +44,10 @@ __all__ = ["align", "align_table", "match_stamps"]
 
 Item = TypeVar("Item")
 
+# Stamps are int64 nanoseconds (rosbag2's log times; a header's sec * 1e9 + nanosec): a
+# tolerance needs a nanosecond count in that range too (1e300 s as ns overflows to inf).
+_INT64_NS = float(2**63)
+
 
 def match_stamps(
     arrivals: Iterable[tuple[int, int, Item]],
@@ -97,14 +101,15 @@ def _stamp_ns(value: Any, log_time_ns: int) -> int:
 
 def _arrivals(
     reader: BagReader, topics: Sequence[str]
-) -> Iterator[tuple[int, int, tuple[int, BagMessage]]]:
+) -> Iterator[tuple[int, int, tuple[int, BagMessage, Any]]]:
+    """Each message as ``(topic index, stamp, (row of its topic, message, its codec))``."""
     position = {topic: index for index, topic in enumerate(topics)}
     counts = [0] * len(topics)
-    for message in reader:
+    for message, codec in reader.with_codecs():
         index = position[message.topic]
         row = counts[index]
         counts[index] += 1
-        yield index, _stamp_ns(message.value, message.log_time_ns), (row, message)
+        yield index, _stamp_ns(message.value, message.log_time_ns), (row, message, codec)
 
 
 def _check(topics: Sequence[str], tolerance: float, queue_size: int) -> list[str]:
@@ -121,6 +126,16 @@ def _check(topics: Sequence[str], tolerance: float, queue_size: int) -> list[str
         raise ValueError(f"tolerance: expected seconds > 0, got {tolerance!r}")
     if tolerance == math.inf:  # no nanosecond count to compare stamps with
         raise ValueError(f"tolerance: expected finite seconds, got {tolerance!r}")
+    try:
+        # As a float first: a numpy float32's own product would overflow (with a warning).
+        nanoseconds = float(tolerance) * 1e9
+    except OverflowError:  # an int beyond every float
+        nanoseconds = math.inf
+    if not nanoseconds < _INT64_NS:  # finite seconds whose nanoseconds overflow
+        raise ValueError(
+            f"tolerance: expected seconds < {_INT64_NS / 1e9} (int64 nanoseconds), "
+            f"got {tolerance!r:.80}"
+        )
     if isinstance(queue_size, bool) or not isinstance(queue_size, numbers.Integral):
         raise TypeError(f"queue_size: expected an int >= 1, got {type(queue_size).__name__}")
     if queue_size < 1:
@@ -149,11 +164,6 @@ def _align(
 ) -> Iterator[tuple[BagMessage, ...]]:
     with open_bag(bag, topics=chosen, natural=False) as reader:
         naturals: dict[int, Callable[[Any], Any]] = {}
-        if natural:
-            for topic in chosen:
-                # Settles each topic's codec on its first message now, before the read: later
-                # (during it) that would read the same storage file in the middle of the read.
-                reader.topic_codec(topic)
         for match in match_stamps(
             _arrivals(reader, chosen),
             topics=len(chosen),
@@ -161,22 +171,27 @@ def _align(
             queue_size=queue_size,
         ):
             if not natural:
-                yield tuple(message for _row, message in match)
+                yield tuple(message for _row, message, _codec in match)
                 continue
-            yield tuple(_natural(reader, message, naturals) for _row, message in match)
+            yield tuple(
+                _natural(reader, message, codec, naturals) for _row, message, codec in match
+            )
 
 
 def _natural(
-    reader: BagReader, message: BagMessage, naturals: dict[int, Callable[[Any], Any]]
+    reader: BagReader,
+    message: BagMessage,
+    codec: Any,
+    naturals: dict[int, Callable[[Any], Any]],
 ) -> BagMessage:
     """``message`` (a lossless dict) with the natural value ``open_bag`` gives for it.
 
     The stamps need the dicts, and only matched messages need natural values: the dict goes
-    back to CDR through the codec the reader decoded it with (the bag's own definition, or the
-    installed type where that did not fit), which is lossless, and that codec decodes it again.
+    back to CDR through ``codec``, the one the reader decoded it with (its connection's: the
+    bag's own definition, or the installed type where that did not fit; a topic stored with
+    two definitions has two), which is lossless, and that codec decodes it again.
     """
-    codec = reader.topic_codec(message.topic)
-    if codec is None:  # nothing could decode the topic, so no message of it gets here
+    if codec is None:  # nothing could decode the message, so it never gets here
         raise BagError(f"{reader.path}: {message.topic}: no codec for {message.msg_type}")
     decode = naturals.get(id(codec))
     if decode is None:
@@ -201,7 +216,7 @@ def align_table(
     chosen = _check(topics, tolerance, queue_size)
     with open_bag(bag, topics=chosen, natural=False) as reader:
         rows = [
-            [row for row, _message in match]
+            [row for row, _message, _codec in match]
             for match in match_stamps(
                 _arrivals(reader, chosen),
                 topics=len(chosen),

@@ -11,6 +11,7 @@ from __future__ import annotations
 import heapq
 import logging
 from collections.abc import Container, Iterator, Mapping, Sequence
+from collections.abc import Set as AbstractSet
 from operator import itemgetter
 from pathlib import Path
 from typing import Any
@@ -25,6 +26,7 @@ from pyconnect.record.topic_decoder import (
     normalise_type_name,
     type_mismatch,
 )
+from pyconnect.record.topic_selection import reads_connection
 
 __all__ = ["ConnectionDecoders", "MergedRead"]
 
@@ -99,7 +101,12 @@ def _keyed(number: int, stream: Iterator[RawMessage]) -> Iterator[tuple[Any, int
 
 class MergedRead:
     """One pass over the ``topics`` of ``storages`` from ``start_ns`` to ``end_ns`` (exclusive);
-    ``decoders`` None reads the CDR bytes undecoded. ``delivered`` counts what it yielded."""
+    ``decoders`` None reads the CDR bytes undecoded. ``delivered`` counts what it yielded.
+
+    ``types`` (normalised type names; None: any) leaves out the connections of other types
+    (``pyconnect.record.topic_selection.reads_connection``). ``codec`` is the wire codec the
+    message last yielded was decoded with (None before the first, and when reading undecoded):
+    per connection, as a topic's connections may store different definitions."""
 
     def __init__(
         self,
@@ -108,8 +115,11 @@ class MergedRead:
         decoders: ConnectionDecoders | None,
         start_ns: int | None,
         end_ns: int | None,
+        *,
+        types: AbstractSet[str] | None = None,
     ) -> None:
         self.delivered = 0
+        self.codec: Any = None
         # One plan per connection of each file, keyed by the connection id (one file) or by
         # (file number, id) when several files are merged by log time.
         self._plans: dict[Any, _Plan] = {}
@@ -118,7 +128,7 @@ class MergedRead:
         for number, storage in enumerate(storages):
             ids = set()
             for connection in storage.connections():
-                if connection.topic in topics:
+                if reads_connection(connection, topics, types):
                     msg_type = normalise_type_name(connection.msg_type)
                     decoder = None if decoders is None else decoders.decoder(connection)
                     key = connection.id if len(storages) == 1 else (number, connection.id)
@@ -167,6 +177,8 @@ class MergedRead:
                     before = index - problems.count(topic)
                     if before > 0:
                         switched.setdefault(topic, before)
+                # After decoding: recover() has just switched the decoder's codec.
+                self.codec = decoder.codec
                 yield plan.make((topic, log_time, value))
         finally:
             self.delivered = delivered

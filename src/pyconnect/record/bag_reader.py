@@ -11,7 +11,8 @@ tuple ``(topic, log_time_ns, value)`` (``item.topic``, ``item[0]`` and unpacking
             ...
         print(bag.errors, bag.damage)   # undecodable messages, damaged parts of the files
 
-``topics=`` and ``types=`` select what is read (both given: a topic must match both);
+``topics=`` and ``types=`` select what is read (both given: a topic must match both; of a topic
+stored as several types, ``types=`` reads only the messages of the types it names);
 ``start_ns=`` (inclusive) and ``end_ns=`` (exclusive) the log times, as integer nanoseconds
 since the epoch or timezone-aware datetimes (a naive one does not say which instant it is and is
 refused); times beyond the int64 range rosbag2 stores are clamped to it.
@@ -60,14 +61,17 @@ from pyconnect.record.bag_info import (
 )
 from pyconnect.record.bag_message import BagMessage, DecodeProblem
 from pyconnect.record.bag_read import ConnectionDecoders, MergedRead
-from pyconnect.record.bag_read_report import OnError, ProblemLog, damage_line, promised_count
+from pyconnect.record.bag_read_report import OnError, ProblemLog, damage_line
 from pyconnect.record.bag_storage import StorageFile
 from pyconnect.record.topic_decoder import TopicDecoder, TypeMismatch, normalise_type_name
 from pyconnect.record.topic_selection import (
     left_out_note,
     left_out_topics,
+    reads_connection,
     select_topics,
+    selected_count,
     types_by_topic,
+    wanted_types,
 )
 
 if TYPE_CHECKING:
@@ -176,11 +180,14 @@ class BagReader:
             self.path = self._bags[0][0].path
             self._problems.path = self.path
             self.info = describe(self._bags)
+            self.types: frozenset[str] | None = wanted_types(types)
+            """``types=`` normalised (``pkg/msg/Name``; None: any): only connections of these
+            types are read, of a topic stored as several types too."""
             self.topics = select_topics(
                 self.info,
                 self.path,
                 topics,
-                types,
+                self.types,  # a generator given as types= is read once, above
                 raw=raw,
                 topic_types=None if types is None else types_by_topic(self._bags),
             )
@@ -237,17 +244,37 @@ class BagReader:
     # -- reading ------------------------------------------------------------------------------
     def __iter__(self) -> Iterator[BagMessage]:
         """Read the bag (again): indices, ``errors`` and reports start afresh every time."""
+        read = self._start()
+        try:
+            yield from read.messages(self._problems, self.switched)
+        finally:
+            self._finish(read)
+
+    def with_codecs(self) -> Iterator[tuple[BagMessage, Any]]:
+        """Read the bag as iterating it does, each message with the wire codec its value was
+        decoded with (None when ``raw``). That is the codec of the message's own connection:
+        of a topic stored with two definitions (two channels, merged bags) there are two, and
+        ``topic_codec`` gives the first only."""
+        read = self._start()
+        try:
+            for message in read.messages(self._problems, self.switched):
+                yield message, read.codec
+        finally:
+            self._finish(read)
+
+    def _start(self) -> MergedRead:
         self._problems = ProblemLog(self.path, self.on_error)
         self.switched = {}
         self._delivered = 0
         storages = [storage for _, stored in self._bags for storage in stored]
         decoders = None if self.raw else self._decoders
-        read = MergedRead(storages, self.topics, decoders, self.start_ns, self.end_ns)
-        try:
-            yield from read.messages(self._problems, self.switched)
-        finally:
-            self._delivered = read.delivered
-            self._report()
+        return MergedRead(
+            storages, self.topics, decoders, self.start_ns, self.end_ns, types=self.types
+        )
+
+    def _finish(self, read: MergedRead) -> None:
+        self._delivered = read.delivered
+        self._report()
 
     def topic_codec(self, topic: str) -> Any:
         """The wire codec the values of ``topic`` follow (None: none could be built).
@@ -280,10 +307,11 @@ class BagReader:
         return found
 
     def _codecs(self, storages: Sequence[StorageFile], topic: str) -> Iterator[Any]:
-        """The codec of each connection of ``topic`` in ``storages`` that has one."""
+        """The codec of each connection of ``topic`` in ``storages`` that has one (of those
+        ``types=`` lets the reader read)."""
         for storage in storages:
             for connection in storage.connections():
-                if connection.topic != topic:
+                if not reads_connection(connection, (topic,), self.types):
                     continue
                 decoder = self._decoders.decoder(connection)
                 # Once per decoder: align asks for every matched message, and a stored
@@ -322,7 +350,8 @@ class BagReader:
         (``read``: when they were read by other readers of the same bag, as tables are)."""
         found = self.damage if damage is None else list(damage)
         read = self._delivered if read is None else read
-        return damage_line(self.path, found, read, promised_count(self._bags, self.topics))
+        promised = selected_count(self._bags, self.topics, self.types)
+        return damage_line(self.path, found, read, promised)
 
     # -- tables (pyconnect.record.tables; needs the ``tables`` extra) ---------------------------
     def to_arrow(
