@@ -131,6 +131,15 @@ def test_queue_size_drops_the_oldest() -> None:
     assert list(match_stamps(arrivals, topics=2, tolerance_ns=5, queue_size=1)) == []
 
 
+def test_equally_near_candidates_match_in_the_order_they_arrived() -> None:
+    """message_filters sorts a queue's candidates by their distance alone, stably: of two
+    equally near, the one queued first matches (the smaller stamp was taken before)."""
+    arrivals = [(1, 110, "b110"), (1, 90, "b90"), (0, 100, "a")]
+    assert list(match_stamps(arrivals, topics=2, tolerance_ns=20)) == [("a", "b110")]
+    arrivals = [(1, 90, "b90"), (1, 110, "b110"), (0, 100, "a")]
+    assert list(match_stamps(arrivals, topics=2, tolerance_ns=20)) == [("a", "b90")]
+
+
 def test_three_topics_need_all_within_the_tolerance() -> None:
     arrivals = [(0, 100, "a"), (1, 104, "b"), (2, 96, "c1"), (2, 99, "c2")]
     # c1 is within 5 of b's arrival? no: only a and b are queued when c1 arrives: 100, 104, 96

@@ -73,12 +73,15 @@ def match_stamps(
         for other_index, queue in enumerate(queues):
             if other_index == index:
                 continue
+            # Nearest first; equally near ones in the order they arrived (a stable sort over
+            # the queue, as message_filters sorts by the distance alone).
             near = sorted(
-                (abs(other - stamp), other) for other in queue if abs(other - stamp) <= tolerance_ns
+                (other for other in queue if abs(other - stamp) <= tolerance_ns),
+                key=lambda other: abs(other - stamp),
             )
             if not near:
                 break
-            candidates.append([other for _delta, other in near])
+            candidates.append(near)
         else:
             for combination in itertools.product(*candidates):
                 chosen = list(combination)
