@@ -43,9 +43,7 @@ and one warning.
 
 from __future__ import annotations
 
-import datetime
 import logging
-import operator
 from collections.abc import Iterable, Iterator, Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
@@ -61,6 +59,7 @@ from pyconnect.record.bag_info import (
 )
 from pyconnect.record.bag_message import BagMessage, DecodeProblem
 from pyconnect.record.bag_read import ConnectionDecoders, MergedRead
+from pyconnect.record.bag_read_options import TimeBound, checked_registry, nanoseconds
 from pyconnect.record.bag_read_report import OnError, ProblemLog, damage_line
 from pyconnect.record.bag_storage import StorageFile
 from pyconnect.record.topic_decoder import TopicDecoder, TypeMismatch, normalise_type_name
@@ -91,58 +90,6 @@ __all__ = [
 
 _log = logging.getLogger("pyconnect.record")
 
-_INT64 = (-(2**63), 2**63 - 1)
-_EPOCH = datetime.datetime(1970, 1, 1, tzinfo=datetime.timezone.utc)
-_MICROSECOND = datetime.timedelta(microseconds=1)
-_EXPECTED = "expected int nanoseconds or a timezone-aware datetime"
-
-TimeBound = int | datetime.datetime  # a start_ns/end_ns: nanoseconds, or an aware datetime
-
-
-def _registry(value: object) -> Registry | None:
-    """``registry=`` checked when the bag is opened: anything but a ``Registry`` (or None, the
-    default registry) otherwise failed every message of the read, one by one."""
-    if value is None:
-        return None
-    # Imported here: a bag read with the default registry leaves the codecs' registry module
-    # to be imported when the first value is decoded, as before.
-    from pyconnect.codecs.registry import Registry
-
-    if not isinstance(value, Registry):
-        raise TypeError(
-            "registry: expected a pyconnect.codecs.Registry (or None for the default "
-            f"registry), got {type(value).__name__} ({value!r:.80})"
-        )
-    return value
-
-
-def _nanoseconds(option: str, value: TimeBound | None) -> int | None:
-    """``value`` of ``option`` (start_ns, end_ns) as int64 nanoseconds; TypeError if it is neither.
-
-    Checked when the bag is opened: unchecked, a str or datetime selected nothing or everything
-    of a .db3 file and raised mid-read of an MCAP one, and 2**70 overflowed SQLite's integers.
-    """
-    if value is None:
-        return None
-    if isinstance(value, datetime.datetime):
-        if value.utcoffset() is None:
-            raise TypeError(
-                f"{option}: {_EXPECTED}, got a naive datetime ({value.isoformat()}), "
-                "which does not say which instant it is"
-            )
-        # Exact: a datetime counts whole microseconds.
-        nanoseconds = (value - _EPOCH) // _MICROSECOND * 1000
-    elif isinstance(value, bool):
-        raise TypeError(f"{option}: {_EXPECTED}, got bool ({value!r})")
-    else:
-        try:
-            nanoseconds = operator.index(value)  # int and numpy integers, not floats or str
-        except TypeError:
-            raise TypeError(
-                f"{option}: {_EXPECTED}, got {type(value).__name__} ({value!r:.80})"
-            ) from None
-    return min(max(nanoseconds, _INT64[0]), _INT64[1])
-
 
 class BagReader:
     """An open bag: iterate it for ``BagMessage``s; ``info`` describes it; close when done.
@@ -169,9 +116,9 @@ class BagReader:
         self._problems = ProblemLog(Path(), on_error)
         self.natural = natural
         self.raw = raw
-        self.registry = _registry(registry)
-        self.start_ns = _nanoseconds("start_ns", start_ns)
-        self.end_ns = _nanoseconds("end_ns", end_ns)
+        self.registry = checked_registry(registry)
+        self.start_ns = nanoseconds("start_ns", start_ns)
+        self.end_ns = nanoseconds("end_ns", end_ns)
         self._bags: list[tuple[BagFiles, list[StorageFile]]] = []
         self._closed_damage: tuple[BagDamage, ...] = ()
         self._borrowed_damage: list[BagDamage] = []  # found by readers of one topic (tables)
