@@ -4,12 +4,19 @@ from __future__ import annotations
 
 import fractions
 import math
+import threading
 
 import numpy as np
 import pytest
 
+from pyconnect.commands.argument_types import MAX_SECONDS
 from pyconnect.errors import PyconnectError
-from pyconnect.ros.option_checks import call_timeout, depth_problem, timeout_problem
+from pyconnect.ros.option_checks import (
+    MAX_TIMEOUT,
+    call_timeout,
+    depth_problem,
+    timeout_problem,
+)
 
 TIMEOUT_WORDS = "timeout must be None or a finite number of seconds >= 0, got"
 
@@ -36,6 +43,21 @@ def test_a_timeout_is_none_or_a_finite_number_of_seconds(timeout: object) -> Non
 )
 def test_any_other_timeout_is_refused_naming_it(timeout: object, shown: str) -> None:
     assert timeout_problem(timeout) == f"{TIMEOUT_WORDS} {shown}"
+
+
+def test_a_timeout_longer_than_any_wait_can_take_is_refused() -> None:
+    """1e10 s passed, then ended a client's watchdog of late answers: threading's waits raise
+    ``OverflowError`` past ``TIMEOUT_MAX``, so every later call's timeout went unheeded."""
+    assert MAX_TIMEOUT <= threading.TIMEOUT_MAX
+    assert MAX_TIMEOUT <= MAX_SECONDS  # the CLI's bound, int64 nanoseconds
+    assert MAX_TIMEOUT > 9e9  # about 292 years: every real timeout still passes
+    assert timeout_problem(MAX_TIMEOUT) is None
+    too_long = f"timeout must be at most {MAX_TIMEOUT:.3g} seconds (None waits for ever), got"
+    assert timeout_problem(1e10) == f"{too_long} 10000000000.0"
+    assert timeout_problem(10**30) == f"{too_long} {10**30}"
+    with pytest.raises(PyconnectError) as raised:
+        call_timeout(1e10, None, where="agent 'a': send")
+    assert str(raised.value) == f"agent 'a': send: {too_long} 10000000000.0"
 
 
 def test_a_call_waits_its_own_timeout_else_the_agents() -> None:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import asyncio
+import concurrent.futures
 import gc
 import threading
 import time
@@ -330,3 +331,60 @@ def test_cancel_fails_goals_still_waiting_for_their_server(make_node: Any) -> No
     )  # fmt: skip
     assert client.send({"order": 1})["sequence"] == [1]
     assert executed == [1]
+
+
+class _Host:
+    """What ``PendingCalls`` asks of its node: a node that spins and never shuts down."""
+
+    name = qualified_name = "/host"
+
+    def __init__(self) -> None:
+        self.shutdown_event = threading.Event()
+
+    def ensure_spinning(self) -> None:
+        pass
+
+
+def _never_answered_calls() -> pending_calls.PendingCalls:
+    """A ``PendingCalls`` whose server is ready but never answers: only timeouts settle."""
+    return pending_calls.PendingCalls(
+        _Host(),  # type: ignore[arg-type]
+        agent_name="huge",
+        during="call",
+        server_ready=lambda: True,
+        failed=lambda text: {"isdone": False, "error": text},
+    )
+
+
+def _start(calls: pending_calls.PendingCalls, timeout: float) -> Any:
+    result: concurrent.futures.Future[Any] = concurrent.futures.Future()
+    calls.start(
+        result, lambda _result: None, timeout=timeout, missing="no server", late=f"late {timeout}"
+    )
+    return result
+
+
+def test_a_call_with_a_huge_timeout_leaves_the_next_calls_timeouts_working() -> None:
+    """timeout=1e10 made the watchdog sleep past threading.TIMEOUT_MAX: an OverflowError
+    ended it, and the 0.2 s call after it was never answered."""
+    calls = _never_answered_calls()
+    huge = _start(calls, 1e10)
+    time.sleep(0.1)
+    assert _threads_named("pyconnect-huge-deadlines"), "the watchdog sleeps on the huge deadline"
+    short = _start(calls, 0.2)
+    assert short.result(EVENT_TIMEOUT) == {"isdone": False, "error": "late 0.2"}
+    assert not huge.done()
+    assert huge.cancel()
+
+
+@pytest.mark.filterwarnings("ignore::pytest.PytestUnhandledThreadExceptionWarning")
+def test_a_watchdog_that_died_is_started_again(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A watchdog ended by an error stayed registered: no call's timeout was heeded again."""
+    monkeypatch.setattr(pending_calls, "LONGEST_SLEEP", 1e12)  # the sleep raises again
+    calls = _never_answered_calls()
+    _start(calls, 1e10)
+    watchdogs = _threads_named("pyconnect-huge-deadlines")
+    assert _all_end(watchdogs), "the watchdog should have died of its OverflowError"
+    monkeypatch.setattr(pending_calls, "LONGEST_SLEEP", 3600.0)
+    short = _start(calls, 0.2)
+    assert short.result(EVENT_TIMEOUT) == {"isdone": False, "error": "late 0.2"}

@@ -6,7 +6,9 @@ import asyncio
 import concurrent.futures
 import contextlib
 import math
+import sys
 import threading
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -230,6 +232,31 @@ def test_a_handler_that_shuts_its_node_down_still_replies(make_node: Any) -> Non
     assert down_in_handler == [False]
     assert server_node.wait_for_shutdown(EVENT_TIMEOUT)
     assert not server_node.context.ok()  # all the way down: the node left its context
+
+
+@pytest.mark.parametrize("kind", ["plain", "async"])
+def test_a_handler_that_calls_sys_exit_answers_then_shuts_its_node_down(
+    make_node: Any, kind: str
+) -> None:
+    """``SystemExit`` went past the handler's error answer: rclpy sent no response, and the
+    client waited for its whole timeout while the node shut down."""
+
+    def stop(_request: dict[str, Any]) -> dict[str, Any]:
+        sys.exit("mission complete")
+
+    async def stop_async(request: dict[str, Any]) -> dict[str, Any]:
+        return stop(request)
+
+    handler = stop if kind == "plain" else stop_async
+    server_node, client = server_and_client(make_node, f"exit_{kind}", "service", Trigger, handler)
+    started = time.monotonic()
+    assert client.send(timeout=EVENT_TIMEOUT) == {
+        "success": False, "message": "SystemExit: mission complete", "isdone": True,
+    }  # fmt: skip
+    assert time.monotonic() - started < EVENT_TIMEOUT / 2, "answered only near its timeout"
+    assert server_node.wait_for_shutdown(EVENT_TIMEOUT)
+    assert not server_node.context.ok()  # all the way down: the node left its context
+    assert server_node.agents["served"].error_count == 1
 
 
 def test_requests_still_waiting_at_shutdown_are_refused(make_node: Any, monkeypatch: Any) -> None:

@@ -15,6 +15,7 @@ from __future__ import annotations
 import inspect
 import math
 import numbers
+import threading
 from collections.abc import Mapping
 from typing import Any
 
@@ -25,6 +26,9 @@ KNOWN_OPTIONS = frozenset(AgentOptions.__annotations__)
 """Every option a ``CustomNode`` agent kind may take."""
 NAMING = frozenset({"conn_name", "conn_type", "agent_name"})
 """The options that name an agent: every kind takes them."""
+MAX_TIMEOUT = min((2**63 - 1) / 1e9, threading.TIMEOUT_MAX)
+"""The longest timeout a wait takes, about 292 years: what int64 nanoseconds hold (rcl's waits,
+the CLI's ``MAX_SECONDS``) and no more than ``threading``'s waits accept (``TIMEOUT_MAX``)."""
 
 
 def options_of(agent_class: type[Any]) -> tuple[frozenset[str], frozenset[str]]:
@@ -98,15 +102,23 @@ def period_problem(time_period: object) -> str | None:
 
 def timeout_problem(timeout: object) -> str | None:
     """Why ``timeout`` cannot be a wait's timeout, or None when it can: None (wait for ever) or
-    a finite number of seconds >= 0. (A string passed the constructor and failed only in the
-    deadline's arithmetic, after the request or goal had been sent.)"""
+    a finite number of seconds from 0 to ``MAX_TIMEOUT``. (A string passed the constructor and
+    failed only in the deadline's arithmetic, after the request or goal had been sent; 1e10 s
+    ended a client's watchdog of late answers with an ``OverflowError``.)"""
     if timeout is None:
         return None
     problem = f"timeout must be None or a finite number of seconds >= 0, got {timeout!r}"
     if isinstance(timeout, bool) or not isinstance(timeout, numbers.Real):
         return problem  # numpy's numbers are Real too
     seconds = float(timeout)
-    return None if math.isfinite(seconds) and seconds >= 0 else problem
+    if not (math.isfinite(seconds) and seconds >= 0):
+        return problem
+    if seconds > MAX_TIMEOUT:
+        return (
+            f"timeout must be at most {MAX_TIMEOUT:.3g} seconds (None waits for ever), "
+            f"got {timeout!r}"
+        )
+    return None
 
 
 def call_timeout(timeout: float | None, default: float | None, *, where: str) -> float | None:

@@ -35,6 +35,10 @@ Call = Callable[[concurrent.futures.Future[Any]], object]
 POLL = 0.02
 """Seconds between two looks at the graph while calls wait for their server (as ``wait_until``)."""
 
+LONGEST_SLEEP = 3600.0
+"""The longest the watchdog sleeps at once: a deadline further off is looked at again then
+(a sleep past ``threading.TIMEOUT_MAX`` raised ``OverflowError`` and ended the watchdog)."""
+
 
 class _Waiting:
     """A call not made yet: its server is not ready."""
@@ -262,9 +266,21 @@ class PendingCalls:
 
     def _watch_deadlines(self) -> None:
         """Answer calls whose answer is late; ends when no call waits (restarted by _watch)."""
+        try:
+            self._answer_late_calls()
+        finally:
+            # Should it die of an error, the next _watch starts another: a watchdog left set
+            # for a dead thread let every later call's timeout go unheeded.
+            with self._wake:
+                if self._watchdog is threading.current_thread():
+                    self._watchdog = None
+
+    def _answer_late_calls(self) -> None:
         while True:
             with self._wake:
                 if not self._deadlines:
+                    # Let go under the lock that found nothing to watch: a call watched from
+                    # now on starts a new watchdog, none is left to this one, about to end.
                     self._watchdog = None
                     return
                 deadline, _order, watched = self._deadlines[0]
@@ -274,7 +290,7 @@ class PendingCalls:
                     continue
                 remaining = deadline - time.monotonic()
                 if remaining > 0:
-                    self._wake.wait(remaining)
+                    self._wake.wait(min(remaining, LONGEST_SLEEP))
                     continue
                 heapq.heappop(self._deadlines)
                 watched.result = None

@@ -4,9 +4,10 @@ Server: ``response_func(request_value) -> response_value`` (an ``async def`` one
 the node's coroutine loop while the executor goes on with other agents). A handler (or codec)
 that raises still answers: a response type with ``success``/``message`` fields gets
 ``success=False`` and the error text, any other the default response; the error is logged with
-the agent's name. At shutdown (``close``) the requests that arrived but were never handled are
-answered ``success=False``, ``"server is shutting down"`` where the response type has a text
-field; other types stay unanswered (a default response would read as a real answer), and their
+the agent's name. A handler's ``sys.exit()`` is answered so too, then the node shuts down. At
+shutdown (``close``) the requests that arrived but were never handled are answered
+``success=False``, ``"server is shutting down"`` where the response type has a text field;
+other types stay unanswered (a default response would read as a real answer), and their
 clients time out.
 
 Client: ``send(data, timeout=None)`` blocks and returns the decoded response through
@@ -117,6 +118,13 @@ class ServiceServerAgent(NodeAgent):
                 return response
             msg, _stamped = self.response_conversion.encode(value)
             return msg
+        except (SystemExit, KeyboardInterrupt) as error:
+            # A handler's sys.exit(): its client is answered with it, then the node shuts
+            # down, as for an action goal (pyconnect.ros.action_server_agent); let through, it
+            # ended the callback before rclpy sent any response, and the client timed out.
+            self.report_exception(where, error)
+            self.node.shutdown()  # on a thread of its own, once this callback has ended
+            return error_message(type(response), f"{type(error).__name__}: {error}")
         except Exception as error:
             self.report_exception(where, error)
             return error_message(type(response), f"{type(error).__name__}: {error}")
