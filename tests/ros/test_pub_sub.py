@@ -450,3 +450,11 @@ def test_periodic_pub_without_functions_waits_for_send_then_repeats_it(make_node
     assert set(heard) == {"x"}
     assert pub.sent_count >= 4
     assert pub.error_count == 0
+
+
+@pytest.mark.parametrize("timeout", [1e10, -1.0, float("nan"), "soon"])
+def test_wait_for_message_refuses_a_timeout_no_wait_can_take(make_node: Any, timeout: Any) -> None:
+    """1e10 s raised OverflowError from threading, a str a TypeError: said like every timeout."""
+    sub = make_node("waiter").add_agent(conn_name="chat", conn_type="sub", data_interface=String)
+    with pytest.raises(PyconnectError, match=r"^agent 'chat' \(sub .*\): wait_for_message: "):
+        sub.wait_for_message(timeout)

@@ -147,3 +147,10 @@ def test_a_depth_that_is_not_an_int_of_at_least_one_is_refused(
         )
     assert str(caught.value) == f"agent 'chat' (sub std_msgs/msg/String): {problem}"
     assert peer.agents == {}
+
+
+@pytest.mark.parametrize("timeout", [1e10, -1.0, float("nan"), "soon"])
+def test_wait_for_message_refuses_a_timeout_no_wait_can_take(sub: Any, timeout: Any) -> None:
+    """1e10 s raised OverflowError from threading, a str a TypeError: said like every timeout."""
+    with pytest.raises(PyconnectError, match=r"^agent 'chat' \(sub .*\): wait_for_message: "):
+        sub.wait_for_message(timeout)

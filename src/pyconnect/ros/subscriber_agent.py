@@ -27,6 +27,7 @@ from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.coroutines import is_async_callable
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
+from pyconnect.ros.option_checks import call_timeout
 from pyconnect.ros.qos import follows_publishers, resolve_qos
 from pyconnect.ros.raw_path import RawDecoder, choose_raw
 from pyconnect.ros.sensor_subscription import SensorSubscription
@@ -203,7 +204,8 @@ class SubscriberAgent(NodeAgent):
 
     def wait_for_message(self, timeout: float | None = None) -> bool:
         """Wait until the first message arrived; False on timeout."""
-        return self._first_message.wait(timeout)
+        wait = call_timeout(timeout, None, where=f"{self.describe}: wait_for_message")
+        return self._first_message.wait(wait)
 
     def is_connected(self) -> bool:
         return self.message_count > 0

@@ -51,7 +51,7 @@ import zenoh
 
 from pyconnect.codecs.wire import WireCodec
 from pyconnect.errors import DecodeError
-from pyconnect.ros.option_checks import depth_problem
+from pyconnect.ros.option_checks import call_timeout, depth_problem
 from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.async_handlers import agent_loop, cancel_coroutine, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
@@ -344,7 +344,8 @@ class SubscriberAgent(PeerAgent):
         logger.warning("%s on %s: publisher %s: %s", self.describe, self.topic, publisher, text)
 
     def wait_for_message(self, timeout: float | None = None) -> bool:
-        return self._first_message.wait(timeout)
+        wait = call_timeout(timeout, None, where=f"{self.describe}: wait_for_message")
+        return self._first_message.wait(wait)
 
     @property
     def publisher_count(self) -> int:
