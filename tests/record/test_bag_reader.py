@@ -433,3 +433,14 @@ def test_with_codecs_gives_each_message_the_codec_of_its_connection(tmp_path: Pa
     assert all(codec.from_dict(m.value) for m, codec in read)
     with open_bag(bag, raw=True) as reader:
         assert [codec for _m, codec in reader.with_codecs()] == [None] * 3
+
+
+def test_tables_of_a_reader_keep_its_types(tmp_path: Path) -> None:
+    """``open_bag(types=)`` then ``to_arrow``: the table read every type of the topic again
+    (a topic of two types is refused as one table, while the reader had chosen one)."""
+    bag = write_two_types(tmp_path / "two_types.mcap")
+    with open_bag(bag, types=["std_msgs/msg/Int32"]) as reader:
+        table = reader.to_arrow("/chatter")
+    assert table.column("data").to_pylist() == [7]
+    with open_bag(bag, types=["std_msgs/msg/String"]) as reader:
+        assert reader.to_pandas("/chatter")["data"].tolist() == ["a", "a"]

@@ -71,3 +71,14 @@ def test_parquet_export_keeps_a_nested_fixed_byte_array(bag: Path, tmp_path: Pat
     assert [goal["goal_info"]["goal_id"]["uuid"] for goal in goals] == UUIDS
     multi = pq.read_table(result.files["/multi"][0])
     assert _byte_values_type(multi.schema, "array_of_arrays") == pa.binary(3)
+
+
+def test_a_column_named_like_the_log_time_is_refused() -> None:
+    from pyconnect.record.table_columns import Column, schema_of
+
+    with pytest.raises(ValueError) as raised:
+        schema_of([Column(("log_time_ns",), pa.int64(), "scalar")], topic="/ev", msg_type="p/T")
+    assert str(raised.value) == (
+        "columns: /ev: a column named log_time_ns (of p/T) would be a second column of the log "
+        "time's name"
+    )

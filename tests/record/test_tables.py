@@ -453,3 +453,48 @@ def test_two_channels_of_one_topic_in_one_bag_give_the_union_of_their_columns(
     assert table.column_names == ["log_time_ns", "data", "extra"]
     assert table.column("data").to_pylist() == ["a", "b", "c"]
     assert table.column("extra").to_pylist() == [None, None, "x"]
+
+
+def test_columns_some_definitions_lack_are_nullable(tmp_path: Path) -> None:
+    # pandas and Dask must know before reading which integer columns can hold a null.
+    from pyconnect.record.tables import topic_columns
+    from tests.record.test_table_pandas import two_counter_bags
+
+    with open_bag(two_counter_bags(tmp_path), natural=False) as reader:
+        columns, msg_type = topic_columns(reader, "/c")
+    assert msg_type == "my_pkg/msg/Counter"
+    assert [(column.name, column.nullable) for column in columns] == [
+        ("kept", False), ("big", True), ("small", True), ("mid", True), ("flag", True),
+    ]  # fmt: skip
+
+
+# -- a field named like the log time column -------------------------------------------------------
+def log_time_field_bag(path: Path) -> Path:
+    """/ev of a type whose first field is named log_time_ns (a logger's own stamp)."""
+    with McapRecorder(path) as recorder:
+        recorder.add_topic(
+            "/ev", "my_logger/msg/Event", definition="int64 log_time_ns\nfloat64 value\n"
+        )
+        for i in range(3):
+            data = (777 + i).to_bytes(8, "little") + np.float64(0.5 * i).tobytes()
+            recorder.write("/ev", b"\x00\x01\x00\x00" + data, log_time_ns=1_000 + i)
+    return path
+
+
+def test_a_field_named_log_time_ns_is_an_error(tmp_path: Path) -> None:
+    # Two columns of one name: polars refused them, pandas gave a frame for frame["log_time_ns"].
+    bag = log_time_field_bag(tmp_path / "bag")
+    expected = (
+        f"{bag}: /ev: field log_time_ns of my_logger/msg/Event has the name of the table's log "
+        "time column; one table cannot hold both (read the topic with open_bag)"
+    )
+    with open_bag(bag) as reader:
+        assert [m.value["log_time_ns"] for m in reader] == [777, 778, 779]
+        for how in ("to_arrow", "to_pandas", "to_polars"):
+            with pytest.raises(BagError) as raised:
+                getattr(reader, how)("/ev")
+            assert str(raised.value) == expected
+    with pytest.raises(BagError) as raised:
+        export_parquet(bag, tmp_path / "out")
+    assert str(raised.value) == expected
+    assert not list((tmp_path / "out").glob("*.parquet"))

@@ -10,14 +10,18 @@ import dask
 import pandas as pd
 import pytest
 from distributed import Client, LocalCluster
+from std_msgs.msg import Int32
 
 from pyconnect.errors import PyconnectError
 from pyconnect.record import BagError, bag_info, open_bag
 from pyconnect.record.dask import BagPart, plan_parts, read_bags
+from pyconnect.record.table_pandas import table_to_pandas
 from tests.conftest import require_sample_bags
 from tests.record.bag_samples import BAGS, expected_bags
+from tests.record.table_bags import write_bag
 from tests.record.test_bag_damage import write_chunked
-from tests.record.test_tables import _twist_bags, _two_definition_bags
+from tests.record.test_table_pandas import two_counter_bags
+from tests.record.test_tables import _twist_bags, _two_definition_bags, log_time_field_bag
 
 # `make test` reads a slice of the shared bags; `make scale` (PYCONNECT_SCALE=all) reads them all.
 SLICE = (
@@ -135,3 +139,74 @@ def test_bags_of_two_types_of_the_topic_are_refused_when_planned(tmp_path: Path)
         f"{new}: /cmd_vel: type geometry_msgs/msg/TwistStamped in this bag, "
         f"geometry_msgs/msg/Twist in {old}; "
     )
+
+
+def test_integers_of_a_field_some_bags_lack_stay_exact(tmp_path: Path) -> None:
+    # The meta and every partition give such a column a nullable dtype: to_pandas made it
+    # float64 (2**64 - 1 became 2**64) while the meta said uint64.
+    bags = two_counter_bags(tmp_path)
+    with open_bag(bags) as bag:
+        expected = table_to_pandas(bag.to_arrow("/c"))
+    frame = read_bags(bags, topic="/c")
+    with dask.config.set(scheduler="synchronous"):
+        got = frame.compute()
+    assert str(frame.dtypes["big"]) == "UInt64" and str(frame.dtypes["kept"]) == "uint64"
+    assert dict(got.dtypes) == dict(frame.dtypes)
+    pd.testing.assert_frame_equal(got.reset_index(drop=True), expected)
+    assert got["big"].tolist() == [pd.NA, 2**64 - 2]
+    # A partition without a null follows the meta too.
+    with dask.config.set(scheduler="synchronous"):
+        second = frame.get_partition(1).compute()
+    assert str(second["big"].dtype) == "UInt64" and second["big"].tolist() == [2**64 - 2]
+
+
+def test_a_field_named_log_time_ns_is_refused_when_planned(tmp_path: Path) -> None:
+    bag = log_time_field_bag(tmp_path / "bag")
+    with pytest.raises(BagError) as raised:
+        read_bags([bag], topic="/ev")
+    assert str(raised.value).startswith(f"{bag}: /ev: field log_time_ns of my_logger/msg/Event ")
+
+
+def test_bags_without_the_topic_give_no_partition(tmp_path: Path) -> None:
+    # open_bag(bags).to_pandas(topic) reads the bags that have it; read_bags failed at compute.
+    with_a = write_bag(tmp_path / "with_a", [("/a", 1, Int32(data=1)), ("/b", 2, Int32(data=2))])
+    without = write_bag(tmp_path / "without", [("/b", 3, Int32(data=3))])
+    later = write_bag(tmp_path / "later", [("/a", 4, Int32(data=4))])
+    bags = [with_a, without, later]
+    assert plan_parts(without, "/a") == []
+    frame = read_bags(bags, topic="/a")
+    assert frame.npartitions == 2
+    with open_bag(bags) as bag:
+        expected = bag.to_pandas("/a")
+    with dask.config.set(scheduler="synchronous"):
+        got = frame.compute()
+    pd.testing.assert_frame_equal(got.reset_index(drop=True), expected)
+    # No bag with the topic: the error of open_bag, when planned.
+    with pytest.raises(BagError) as opened:
+        open_bag([without, without], topics=["/a"])
+    with pytest.raises(BagError) as raised:
+        read_bags([without, without], topic="/a")
+    assert str(raised.value) == str(opened.value)
+
+
+@pytest.mark.parametrize(
+    ("value", "error", "message"),
+    [
+        (0, ValueError, "got 0"),
+        (-1, ValueError, "got -1"),
+        (True, TypeError, "got True (bool)"),
+        (1.5, TypeError, "got 1.5 (float)"),
+        (float("nan"), TypeError, "got nan (float)"),
+    ],
+)
+def test_partition_bytes_must_be_a_positive_int(
+    tmp_path: Path, value: object, error: type[Exception], message: str
+) -> None:
+    bag = write_bag(tmp_path / "bag", [("/a", 1, Int32(data=1))])
+    for plan in (
+        lambda: read_bags([bag], topic="/a", partition_bytes=value),  # type: ignore[arg-type]
+        lambda: plan_parts(bag, "/a", partition_bytes=value),  # type: ignore[arg-type]
+    ):
+        with pytest.raises(error) as raised:
+            plan()
+        assert str(raised.value) == f"partition_bytes: expected an int > 0, {message}"

@@ -325,8 +325,12 @@ class BagReader:
         images: Literal["binary", "files"] = "binary",
         image_dir: str | Path | None = None,
     ) -> Any:
-        """``topic`` as a ``pandas.DataFrame`` with the columns of ``to_arrow``."""
-        return self.to_arrow(topic, images=images, image_dir=image_dir).to_pandas()
+        """``topic`` as a ``pandas.DataFrame`` with the columns of ``to_arrow``; an integer or bool
+        column with nulls (merged bags of two definitions of the type) has a pandas nullable dtype
+        (``UInt64``, ``boolean``), so its values stay exact (``pyconnect.record.table_pandas``)."""
+        from pyconnect.record.table_pandas import table_to_pandas
+
+        return table_to_pandas(self.to_arrow(topic, images=images, image_dir=image_dir))
 
     def to_polars(
         self,

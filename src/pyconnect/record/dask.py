@@ -7,7 +7,14 @@ damaged file without a readable index, such as a recording cut short, stays one 
 worker opens its bag itself and decodes it with the same wire codecs as a serial read, so
 ``read_bags(paths, topic=t).compute()`` has the rows of the serial reads, bag after bag, in the
 columns of ``open_bag(paths).to_pandas(topic)``: bags that store different definitions of the
-topic's type give every partition the union of their columns (``pyconnect.record.tables``).
+topic's type give every partition the union of their columns (``pyconnect.record.tables``). A
+bag without the topic gives no partition (as it gives ``open_bag(paths)`` no rows); no bag with
+it raises the ``BagError`` of ``open_bag(paths, topics=[topic])`` when the frame is planned.
+
+The dtypes are known before any row is read: an integer or bool column that some definition
+lacks (null in the rows of those bags) has a pandas nullable dtype (``UInt64``, ``boolean``) in
+the meta and every partition, nulls or not (``pyconnect.record.table_pandas``); every other
+column has the numpy dtype of ``to_pandas``.
 
 The paths must be readable by every worker under the same name (a shared file system, or the
 same copy on each machine); the client only reads each bag's summary and the topic's first
@@ -27,7 +34,9 @@ import dask.dataframe as dd
 import pandas as pd
 
 from pyconnect.record.bag_files import locate_bag_files
+from pyconnect.record.bag_info import bag_info
 from pyconnect.record.bag_reader import open_bag
+from pyconnect.record.table_pandas import table_to_pandas
 from pyconnect.record.tables import Column, schema_of, topic_columns, topic_table
 
 __all__ = ["BagPart", "plan_parts", "read_bags", "read_part"]
@@ -56,8 +65,16 @@ def read_part(
     with open_bag(
         part.path, topics=[part.topic], start_ns=part.start_ns, end_ns=part.end_ns
     ) as bag:
-        frame: pd.DataFrame = topic_table(bag, part.topic, columns=table_columns).to_pandas()
-    return frame
+        table = topic_table(bag, part.topic, columns=table_columns)
+    return table_to_pandas(table, nullable=_nullable(table_columns))
+
+
+def _nullable(table_columns: tuple[Sequence[Column], str] | None) -> set[str]:
+    """The columns every partition (and the meta) gives a nullable dtype, null here or not: the
+    meta is made before any row is read, so it can only go by the columns some definition
+    lacks, and the partitions follow it."""
+    chosen = () if table_columns is None else table_columns[0]
+    return {column.name for column in chosen if column.nullable}
 
 
 def _chunk_starts(path: Path) -> list[int]:
@@ -79,7 +96,11 @@ def _chunk_starts(path: Path) -> list[int]:
 def plan_parts(
     path: str | Path, topic: str, *, partition_bytes: int = DEFAULT_PARTITION_BYTES
 ) -> list[BagPart]:
-    """The partitions of one bag: itself, or time ranges of about ``partition_bytes`` each."""
+    """The partitions of one bag: itself, or time ranges of about ``partition_bytes`` each;
+    none when the bag lacks ``topic`` (of bags read together, only some may have it)."""
+    _check_partition_bytes(partition_bytes)
+    if topic not in {info.name for info in bag_info(path).topics}:
+        return []
     located = locate_bag_files(path)
     whole = [BagPart(str(path), topic)]
     size = sum(file.stat().st_size for file in located.files)
@@ -98,6 +119,15 @@ def plan_parts(
     ]
 
 
+def _check_partition_bytes(value: object) -> None:
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise TypeError(
+            f"partition_bytes: expected an int > 0, got {value!r} ({type(value).__name__})"
+        )
+    if value <= 0:
+        raise ValueError(f"partition_bytes: expected an int > 0, got {value}")
+
+
 def _columns(paths: Sequence[str | Path], topic: str) -> tuple[list[Column], str]:
     with open_bag(paths, topics=[topic], natural=False) as bag:
         return topic_columns(bag, topic)
@@ -106,8 +136,7 @@ def _columns(paths: Sequence[str | Path], topic: str) -> tuple[list[Column], str
 def _meta(columns: tuple[Sequence[Column], str], topic: str) -> pd.DataFrame:
     chosen, msg_type = columns
     schema = schema_of(chosen, topic=topic, msg_type=msg_type)
-    frame: pd.DataFrame = schema.empty_table().to_pandas()
-    return frame
+    return table_to_pandas(schema.empty_table(), nullable=_nullable(columns))
 
 
 def read_bags(
@@ -117,16 +146,18 @@ def read_bags(
     partition_bytes: int = DEFAULT_PARTITION_BYTES,
 ) -> Any:
     """``topic`` of every bag in ``paths`` as one Dask DataFrame (see the module docstring)."""
+    _check_partition_bytes(partition_bytes)
     chosen: Sequence[str | Path] = [paths] if isinstance(paths, str | Path) else list(paths)
     if not chosen:
         raise ValueError("paths: expected at least one bag")
+    # One set of columns for every partition: each bag's own would leave out the fields of the
+    # definitions stored in the others, and the frame would disagree with its meta. Read first:
+    # when no bag has the topic, this raises the error open_bag(paths) gives.
+    columns = _columns(chosen, topic)
+    meta = _meta(columns, topic)
     parts = [
         part for path in chosen for part in plan_parts(path, topic, partition_bytes=partition_bytes)
     ]
-    # One set of columns for every partition: each bag's own would leave out the fields of the
-    # definitions stored in the others, and the frame would disagree with its meta.
-    columns = _columns(chosen, topic)
-    meta = _meta(columns, topic)
     # Keep to_pandas's dtypes: without this, Dask turns string columns into its own type.
     with dask.config.set({"dataframe.convert-string": False}):
         return dd.from_map(  # type: ignore[no-untyped-call]

@@ -51,6 +51,10 @@ class Column:
     path: tuple[str, ...]
     arrow_type: pa.DataType
     build: str  # "scalar", "binary", "numbers", "fixed_numbers", "nested", "image_file"
+    # Some definition the topic is read with lacks this field (merged bags of two versions of
+    # the type): the rows decoded with it are null here. pandas needs to know before reading
+    # (``table_pandas``): numpy integers hold no null.
+    nullable: bool = False
 
     @property
     def name(self) -> str:
@@ -133,7 +137,16 @@ def columns_of(
 
 def schema_of(columns: Sequence[Column], *, topic: str, msg_type: str) -> pa.Schema:
     """The table schema: ``log_time_ns`` then ``columns``; the topic and type as metadata
-    (and ``images: files`` when image data are files)."""
+    (and ``images: files`` when image data are files).
+
+    A column named ``log_time_ns`` raises ``ValueError``: the table would hold two columns of
+    one name (``tables.topic_columns`` refuses such a field with a ``BagError`` naming the bag).
+    """
+    if any(column.name == TIME_COLUMN for column in columns):
+        raise ValueError(
+            f"columns: {topic}: a column named {TIME_COLUMN} (of {msg_type}) would be a second "
+            "column of the log time's name"
+        )
     fields = [pa.field(TIME_COLUMN, pa.int64(), nullable=False)]
     fields += [pa.field(column.name, column.arrow_type) for column in columns]
     metadata = {"topic": topic, "msg_type": msg_type}

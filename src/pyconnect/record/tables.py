@@ -26,14 +26,18 @@ a message's definition lacks the field; a field whose type differs between two o
 ``BagError``, as does a topic whose values follow two definitions in one bag (the stored
 definition fits its first messages, not later ones), and so do merged bags in which the topic
 has two different types (``geometry_msgs/msg/Twist`` in one, ``TwistStamped`` in another).
+A top-level field named ``log_time_ns`` raises ``BagError`` too: its column would share the log
+time's name. ``to_pandas`` (``pyconnect.record.table_pandas``) gives an integer or bool column
+with nulls a pandas nullable dtype (``UInt64``, ``boolean``), so its values stay exact.
 Messages that cannot be decoded are left out and reported in the reader's ``errors``, as
 ``open_bag`` does.
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from collections.abc import Iterable, Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -142,6 +146,8 @@ def rows_to_table(
     ``image_files`` writes the images of ``image_file`` columns (as each row is read, so the
     table never holds their pixels) and gives the paths they hold.
     """
+    # Before any row is read (or image written): a bad set of columns fails at once.
+    schema = schema_of(columns, topic=topic, msg_type=msg_type)
     times: list[int] = []
     values: list[list[Any]] = [[] for _ in columns]
     paths = [column.path for column in columns]
@@ -157,7 +163,7 @@ def rows_to_table(
             values[i][-1] = image_files.write(values[i][-1], row, paths[i])
     arrays = [pa.array(np.asarray(times, dtype=np.int64), type=pa.int64())]
     arrays += [_array(store, column) for store, column in zip(values, columns, strict=True)]
-    return pa.Table.from_arrays(arrays, schema=schema_of(columns, topic=topic, msg_type=msg_type))
+    return pa.Table.from_arrays(arrays, schema=schema)
 
 
 # -- bags ----------------------------------------------------------------------------------------
@@ -258,15 +264,32 @@ def topic_columns(
 
     The columns are the union over the definitions the topic is decoded with: one per bag
     read together, or more when a bag stores the topic with two (a field some lack is null in
-    their rows). A field whose type differs between two of them raises ``BagError``, as does a
-    topic of two different types, in merged bags or in one.
+    their rows, and its ``Column.nullable`` says so). A field whose type differs between two of
+    them raises ``BagError``, as do a topic of two different types, in merged bags or in one,
+    and a top-level field named ``log_time_ns`` (the log time's column).
     """
     bags = _each_bag_columns(reader, topic, images)
-    if bags:
-        return _union(topic, bags), bags[0].msg_type
-    # No bag with a codec: this raises the error that says why.
-    definitions, msg_type = topic_types(reader, topic)
-    return columns_of(msg_type, definitions, images=images), msg_type
+    if not bags:
+        # No bag with a codec: this raises the error that says why.
+        definitions, msg_type = topic_types(reader, topic)
+        chosen = columns_of(msg_type, definitions, images=images)
+        bags = [_BagColumns(Path(reader.path), msg_type, chosen)]
+    for bag in bags:
+        if any(column.name == TIME_COLUMN for column in bag.columns):
+            # Renaming either column would break a promise: log_time_ns is the log time, every
+            # other column is named by its field path. Two columns of one name break polars,
+            # pandas lookups and the Parquet files' readers.
+            raise BagError(
+                f"{bag.path}: {topic}: field {TIME_COLUMN} of {bag.msg_type} has the name of the "
+                "table's log time column; one table cannot hold both (read the topic with "
+                "open_bag)"
+            )
+    holding = Counter(column.name for bag in bags for column in bag.columns)
+    merged = [
+        replace(column, nullable=True) if holding[column.name] < len(bags) else column
+        for column in _union(topic, bags)
+    ]
+    return merged, bags[0].msg_type
 
 
 def topic_table(
@@ -297,6 +320,7 @@ def topic_table(
     with type(bag)(
         _bag_paths(bag),
         topics=[topic],
+        types=bag.types,
         natural=False,
         start_ns=bag.start_ns,
         end_ns=bag.end_ns,
