@@ -2,10 +2,14 @@
 
 from __future__ import annotations
 
+import argparse
+
+import pytest
 from rclpy.qos import QoSPresetProfiles
 
+from pyconnect.cli import main
 from pyconnect.commands.common import UsageError
-from pyconnect.commands.live_options import QOS_PROFILES, ros_missing
+from pyconnect.commands.live_options import QOS_PROFILES, add_spin_time, ros_missing
 
 
 def test_the_written_out_presets_are_rclpys_but_unknown() -> None:
@@ -26,3 +30,26 @@ def test_only_rclpy_missing_is_the_ros_extra_missing() -> None:
     assert ros_missing(ModuleNotFoundError("No module named 'yaml'", name="yaml")) is None
     assert ros_missing(ModuleNotFoundError("No module named 'rclpyx'", name="rclpyx")) is None
     assert ros_missing(ImportError("cannot import name 'x' from 'rclpy'", name="rclpy")) is None
+
+
+@pytest.mark.parametrize(
+    "command", [["topic", "list"], ["topic", "info", "/x"], ["service", "list"], ["node", "list"]]
+)
+@pytest.mark.parametrize("seconds", ["nan", "-5", "-0.5", "inf", "1e400", "1e10", "soon"])
+def test_spin_time_is_a_finite_number_of_seconds(
+    command: list[str], seconds: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # argparse's float took nan and -5 (answered at once, nothing discovered) and inf (hung).
+    assert main([*command, "--spin-time", seconds]) == 2
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "pyconnect: error: argument --spin-time: expected a number of seconds from 0 to "
+        f"9.22e+09, got {seconds!r}"
+    )
+
+
+@pytest.mark.parametrize(("text", "seconds"), [("0", 0.0), ("0.5", 0.5), ("3", 3.0)])
+def test_spin_time_takes_seconds_from_zero(text: str, seconds: float) -> None:
+    parser = argparse.ArgumentParser()
+    add_spin_time(parser, default=1.5)
+    assert parser.parse_args([]).spin_time == 1.5
+    assert parser.parse_args(["--spin-time", text]).spin_time == seconds

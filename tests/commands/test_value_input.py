@@ -13,6 +13,7 @@ from builtin_interfaces.msg import Time
 from geometry_msgs.msg import PoseStamped, Twist
 from nav_msgs.msg import Path
 from std_msgs.msg import (
+    Float32,
     Float32MultiArray,
     Float64,
     Float64MultiArray,
@@ -28,7 +29,12 @@ from test_msgs.msg import Arrays, BasicTypes, Builtins, Strings, WStrings
 from pyconnect.cli import main
 from pyconnect.commands import value_input
 from pyconnect.commands.graph import CommandFailed
-from pyconnect.commands.value_input import Yaml12Loader, message_from_text, message_template
+from pyconnect.commands.value_input import (
+    OverflowedFloat,
+    Yaml12Loader,
+    message_from_text,
+    message_template,
+)
 
 
 @pytest.mark.parametrize(
@@ -130,6 +136,159 @@ def test_exponents_in_fields_and_natural_values() -> None:
     assert message_from_text("1e-3", Float64) == Float64(data=0.001)
     twist = message_from_text('{"linear": {"x": 1E-2}, "angular": {"z": 2.5e3}}', Twist)
     assert (twist.linear.x, twist.angular.z) == (0.01, 2500.0)
+
+
+_BEYOND_FLOAT64 = (
+    "expected a number within float64's range (|x| <= 1.7976931348623157e+308; "
+    ".inf and -.inf are infinity), got "
+)
+
+
+@pytest.mark.parametrize(
+    ("text", "msg_class", "error"),
+    [
+        ("data: 1e400", Float32, "Float32.data: " + _BEYOND_FLOAT64 + "1e400"),
+        ("data: 1e400", Float64, "Float64.data: " + _BEYOND_FLOAT64 + "1e400"),
+        ("data: -1e999", Float64, "Float64.data: " + _BEYOND_FLOAT64 + "-1e999"),
+        ("data: 1.8e308", Float64, "Float64.data: " + _BEYOND_FLOAT64 + "1.8e308"),
+        ("data: !!float 1e400", Float64, "Float64.data: " + _BEYOND_FLOAT64 + "1e400"),
+        ('{"data": 1e400}', Float64, "Float64.data: " + _BEYOND_FLOAT64 + "1e400"),
+        ("-1E+400", Float64, "Float64: " + _BEYOND_FLOAT64 + "-1E+400"),
+        ("{linear: {x: 1, y: 2e400}}", Twist, "Twist.linear.y: " + _BEYOND_FLOAT64 + "2e400"),
+        ("[1, 1e400]", Float64MultiArray, "Float64MultiArray[1]: " + _BEYOND_FLOAT64 + "1e400"),
+        ("{data: [0.5, -1_0e400]}", Float32MultiArray,
+         "Float32MultiArray.data[1]: " + _BEYOND_FLOAT64 + "-1_0e400"),
+    ],
+)  # fmt: skip
+def test_a_float_beyond_float64_is_refused_not_infinity(
+    text: str, msg_class: Any, error: str
+) -> None:
+    # Python's float("1e400") is inf, which a float64 field took while float32 refused 1e40.
+    with pytest.raises(CommandFailed) as caught:
+        message_from_text(text, msg_class)
+    assert str(caught.value) == error
+
+
+def test_only_inf_spells_infinity() -> None:
+    assert message_from_text("data: .inf", Float64) == Float64(data=math.inf)
+    assert message_from_text("data: -.Inf", Float32) == Float32(data=-math.inf)
+    assert message_from_text("data: !!float -.INF", Float64) == Float64(data=-math.inf)
+    largest = message_from_text("data: 1.7976931348623157e308", Float64)
+    assert largest == Float64(data=1.7976931348623157e308)
+    overflowed = yaml.load("1e400", Loader=Yaml12Loader)
+    assert (type(overflowed), overflowed, overflowed.text) == (OverflowedFloat, math.inf, "1e400")
+
+
+def test_a_float_beyond_float64_is_one_line_from_topic_pub(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    # Refused before any ROS graph is joined, with the status of every other bad VALUE.
+    argv = ["topic", "pub", "--once", "--timeout", "1", "/x", "std_msgs/msg/Float64"]
+    argv.append('{"data": -1e400}')
+    assert main(argv) == 1
+    error = "pyconnect: error: Float64.data: " + _BEYOND_FLOAT64 + "-1e400\n"
+    assert capsys.readouterr().err == error
+
+
+@pytest.mark.parametrize(
+    ("text", "msg_class", "error"),
+    [
+        ("&a [*a]", String, "alias *a is inside the node &a names in \"<unicode string>\", "
+         "line 1, column 5: &a [*a] ^"),
+        ("&a {data: *a}", String, "alias *a is inside the node &a names in \"<unicode string>\", "
+         "line 1, column 11: &a {data: *a} ^"),
+        ("{data: &a [*a]}", String, "alias *a is inside the node &a names in \"<unicode string>\", "
+         "line 1, column 12: {data: &a [*a]} ^"),
+        ("{linear: &v {x: 1, y: [*v]}}", Twist, "alias *v is inside the node &v names in "
+         "\"<unicode string>\", line 1, column 24: {linear: &v {x: 1, y: [*v]}} ^"),
+        ("{data: &b [1, &a [*b]]}", SetBool.Request, "alias *b is inside the node &b names in "
+         "\"<unicode string>\", line 1, column 19: {data: &b [1, &a [*b]]} ^"),
+    ],
+)  # fmt: skip
+def test_a_value_that_holds_itself_is_refused(text: str, msg_class: Any, error: str) -> None:
+    # PyYAML builds a list that holds itself, and every walk over it ran into RecursionError.
+    with pytest.raises(CommandFailed) as caught:
+        message_from_text(text, msg_class)
+    assert str(caught.value) == "VALUE cannot hold itself: " + error
+
+
+def test_an_alias_beside_its_anchor_still_repeats_the_value() -> None:
+    twist = message_from_text("{linear: &v {x: 1, y: 2}, angular: *v}", Twist)
+    assert (twist.linear.y, twist.angular.x, twist.angular.y) == (2.0, 1.0, 2.0)
+    arrays = message_from_text("{int32_values: &n [1, 2, 3], uint8_values: *n}", Arrays)
+    assert (list(arrays.int32_values), list(arrays.uint8_values)) == ([1, 2, 3], [1, 2, 3])
+
+
+@pytest.mark.parametrize("depth", [400, 900, 5000])
+@pytest.mark.parametrize("opening", ["[", "{a: ["])
+def test_a_value_nested_too_deeply_is_refused(opening: str, depth: int) -> None:
+    # 900 levels overflow PyYAML's parser; 400 pass it, but not the walks after it.
+    closing = "]" if opening == "[" else "]}"
+    with pytest.raises(CommandFailed) as caught:
+        message_from_text(opening * depth + closing * depth, String)
+    assert str(caught.value) == (
+        "VALUE is nested too deeply: more levels of lists and mappings than Python can walk"
+    )
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        [
+            "topic",
+            "pub",
+            "--once",
+            "--timeout",
+            "1",
+            "/x",
+            "std_msgs/msg/String",
+            "{data: &a [*a]}",
+        ],
+        ["service", "call", "--timeout", "1", "/s", "std_srvs/srv/SetBool", "{data: &a [*a]}"],
+        [
+            "action",
+            "send_goal",
+            "--timeout",
+            "1",
+            "/f",
+            "test_msgs/action/Fibonacci",
+            "{order: &a [*a]}",
+        ],
+    ],
+)
+def test_a_value_that_holds_itself_is_one_line_from_the_commands(
+    argv: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(argv) == 1
+    err = capsys.readouterr().err
+    assert err.startswith("pyconnect: error: VALUE cannot hold itself: alias *a is inside ")
+    assert err.count("\n") == 1
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        [
+            "topic",
+            "pub",
+            "--once",
+            "--timeout",
+            "1",
+            "/x",
+            "std_msgs/msg/String",
+            "[" * 900 + "]" * 900,
+        ],
+        ["service", "call", "--timeout", "1", "/s", "std_srvs/srv/SetBool", "[" * 900 + "]" * 900],
+    ],
+)
+def test_a_value_nested_too_deeply_is_one_line_from_the_commands(
+    argv: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(argv) == 1
+    assert capsys.readouterr().err == (
+        "pyconnect: error: VALUE is nested too deeply: more levels of lists and mappings than "
+        "Python can walk\n"
+    )
 
 
 def test_a_multi_array_takes_its_natural_value_as_a_list() -> None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from pyconnect.commands.argument_types import nonnegative_seconds
 from pyconnect.commands.common import UsageError
 
 __all__ = [
@@ -92,10 +93,13 @@ def add_qos(parser: Any) -> None:
 
 
 def add_spin_time(parser: Any, default: float = 2.0) -> None:
-    """``--spin-time S``: how long to discover the graph before answering (ros2cli's name)."""
+    """``--spin-time S``: how long to discover the graph before answering (ros2cli's name).
+
+    Seconds from 0 to a ROS duration's longest, as the other numeric options: ``nan`` or a
+    negative number answered at once without discovering anything, ``inf`` never answered."""
     parser.add_argument(
         "--spin-time",
-        type=float,
+        type=nonnegative_seconds,
         default=default,
         metavar="S",
         help=f"seconds to wait for discovery before answering (default {default})",

@@ -12,7 +12,9 @@ stand for the current time, taken again at each ``MessageTemplate.stamped()`` (e
 
 from __future__ import annotations
 
+import math
 import re
+import sys
 import time
 import typing
 from collections.abc import Mapping
@@ -28,7 +30,13 @@ from pyconnect.codecs.field_path import FieldError
 from pyconnect.commands.graph import CommandFailed
 from pyconnect.typesys.primitives import INTEGER_RANGES
 
-__all__ = ["MessageTemplate", "Yaml12Loader", "message_from_text", "message_template"]
+__all__ = [
+    "MessageTemplate",
+    "OverflowedFloat",
+    "Yaml12Loader",
+    "message_from_text",
+    "message_template",
+]
 
 _FLOAT_TAG = "tag:yaml.org,2002:float"
 _INT_TAG = "tag:yaml.org,2002:int"
@@ -43,7 +51,50 @@ class Yaml12Loader(yaml.SafeLoader):
     and a signed exponent: ``1.0e-3``). Ints: ``017`` is 17, ``0o17`` 15, ``0x1F`` 31, while
     ``0b11``, ``-0x1F`` and ``1:30`` are strings (YAML 1.1 reads octal ``017`` as 15, base 60
     ``1:30`` as 90 and binary ``0b11`` as 3). As PyYAML and Python do, ``_`` may group digits.
+    A number beyond float64 (``1e400``) is an ``OverflowedFloat``: infinite, and saying so.
+
+    An alias inside the node its anchor names (``&a [*a]``) is refused: PyYAML would build a
+    list that holds itself, which every walk over the value follows until Python's recursion
+    limit.
     """
+
+    def __init__(self, stream: str | bytes | typing.IO[str] | typing.IO[bytes]) -> None:
+        super().__init__(stream)
+        self._open_anchors: set[str] = set()
+
+    def compose_node(self, parent: yaml.Node | None, index: int) -> yaml.Node | None:
+        event = self.peek_event()  # type: ignore[no-untyped-call]
+        if isinstance(event, yaml.AliasEvent) and event.anchor in self._open_anchors:
+            raise _SelfReference(
+                None,
+                None,
+                f"alias *{event.anchor} is inside the node &{event.anchor} names",
+                event.start_mark,  # type: ignore[arg-type]
+            )
+        anchor = event.anchor if isinstance(event, yaml.CollectionStartEvent) else None
+        if anchor is None:
+            return super().compose_node(parent, index)
+        self._open_anchors.add(anchor)
+        try:
+            return super().compose_node(parent, index)
+        finally:
+            self._open_anchors.discard(anchor)
+
+
+class _SelfReference(yaml.composer.ComposerError):
+    """An alias inside the node its anchor names: a value that would hold itself."""
+
+
+class OverflowedFloat(float):
+    """A float whose text is beyond float64 (``1e400``): infinite, where only ``.inf`` and
+    ``-.inf`` spell infinity; ``text`` is as written, for the error that refuses it."""
+
+    text: str
+
+    def __new__(cls, value: float, text: str) -> OverflowedFloat:
+        number = super().__new__(cls, value)
+        number.text = text
+        return number
 
 
 # Both resolvers are replaced. A float needs a dot or an exponent: a bare 12 must stay an int.
@@ -90,6 +141,19 @@ def _construct_int(loader: yaml.SafeLoader, node: yaml.Node) -> int:
 
 Yaml12Loader.add_constructor(_INT_TAG, _construct_int)
 
+
+def _construct_float(loader: yaml.SafeLoader, node: yaml.Node) -> float:
+    """A float as PyYAML reads it, but an OverflowedFloat where the text is no infinity: Python's
+    ``float("1e400")`` is inf, and inf would be taken where a float32 field refuses 1e40."""
+    number: float = loader.construct_yaml_float(node)  # type: ignore[arg-type]
+    text = str(loader.construct_scalar(node))  # type: ignore[arg-type]
+    if math.isinf(number) and text.lower().lstrip("+-") != ".inf":
+        return OverflowedFloat(number, text)
+    return number
+
+
+Yaml12Loader.add_constructor(_FLOAT_TAG, _construct_float)
+
 # PyYAML reads the escape pair \ud83d\ude00 as two surrogates, not as the character they encode.
 _SURROGATE = re.compile(r"[\ud800-\udfff]")
 
@@ -125,22 +189,32 @@ def message_template(text: str, msg_class: type) -> MessageTemplate:
     """Parse VALUE for ``msg_class``; ``stamped()`` gives the message (re-stamped each call)."""
     try:
         value = yaml.load(text, Loader=Yaml12Loader) if text.strip() else {}
+    except _SelfReference as error:
+        raise CommandFailed(f"VALUE cannot hold itself: {' '.join(str(error).split())}") from None
     except yaml.YAMLError as error:
         raise CommandFailed(f"VALUE is not YAML or JSON: {' '.join(str(error).split())}") from None
-    value = _join_surrogate_pairs(value)
+    except RecursionError:  # the parser recurses per level: 900 '[' overflow it
+        raise CommandFailed(_TOO_DEEP) from None
     try:
+        value = _settled(value, msg_class.__name__)
         value, now_paths = _take_now(value, msg_class, ())
         if _is_fields(value, msg_class):
             return MessageTemplate(codecs.from_dict(value, msg_class), now_paths)
         return MessageTemplate(codecs.encode(_natural(value, msg_class), msg_class))
     except CommandFailed:
         raise
+    except RecursionError:  # fewer levels than the parser's limit may still exceed the walks'
+        raise CommandFailed(_TOO_DEEP) from None
     except Exception as error:
         raise CommandFailed(str(error)) from None
 
 
-def _join_surrogate_pairs(value: Any) -> Any:
-    """``value`` with each surrogate pair in its strings made the one character it encodes.
+_TOO_DEEP = "VALUE is nested too deeply: more levels of lists and mappings than Python can walk"
+
+
+def _settled(value: Any, path: str) -> Any:
+    """``value`` with each surrogate pair in its strings made the one character it encodes;
+    ``FieldError`` at ``path`` for a float that overflowed (an ``OverflowedFloat``).
 
     JSON escapes a character beyond U+FFFF as a pair (``json.dumps``, and so ``--json``, print
     U+1F600 as ``\\ud83d\\ude00``); PyYAML keeps the two halves. A lone half stays, for the
@@ -149,13 +223,25 @@ def _join_surrogate_pairs(value: Any) -> Any:
         if _SURROGATE.search(value) is None:
             return value
         return value.encode("utf-16", "surrogatepass").decode("utf-16", "surrogatepass")
+    if isinstance(value, OverflowedFloat):
+        raise FieldError(
+            path,
+            f"expected a number within float64's range (|x| <= {sys.float_info.max!r}; "
+            f".inf and -.inf are infinity), got {value.text}",
+        )
     if isinstance(value, list):
-        return [_join_surrogate_pairs(item) for item in value]
+        return [_settled(item, f"{path}[{index}]") for index, item in enumerate(value)]
     if isinstance(value, dict):
         return {
-            _join_surrogate_pairs(key): _join_surrogate_pairs(item) for key, item in value.items()
+            _settled(key, path): _settled(item, f"{path}{_key_step(key)}")
+            for key, item in value.items()
         }
     return value
+
+
+def _key_step(key: Any) -> str:
+    """A mapping key as a step of a path: ``.name`` for a field name, ``[key]`` for others."""
+    return f".{key}" if isinstance(key, str) and key.isidentifier() else f"[{key!r}]"
 
 
 def _is_fields(value: Any, msg_class: type) -> bool:
