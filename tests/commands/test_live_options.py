@@ -53,3 +53,41 @@ def test_spin_time_takes_seconds_from_zero(text: str, seconds: float) -> None:
     add_spin_time(parser, default=1.5)
     assert parser.parse_args([]).spin_time == 1.5
     assert parser.parse_args(["--spin-time", text]).spin_time == seconds
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["topic", "echo", "/x"],
+        ["topic", "hz", "/x"],
+        ["topic", "bw", "/x"],
+        ["topic", "pub", "/x", "std_msgs/msg/String"],
+        ["service", "call", "/s", "std_srvs/srv/Trigger"],
+        ["action", "send_goal", "/a", "test_msgs/action/Fibonacci", "{order: 1}"],
+    ],
+)
+@pytest.mark.parametrize("seconds", ["nan", "-5", "inf", "soon"])
+def test_timeout_is_a_finite_number_of_seconds(
+    command: list[str], seconds: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # argparse's float took them: nan and inf waited for ever, -5 gave up at once. (``=``: topic
+    # pub has a -1 option, so argparse would take a bare -5 for an option.)
+    assert main([*command, f"--timeout={seconds}"]) == 2
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "pyconnect: error: argument --timeout: expected a number of seconds from 0 to "
+        f"9.22e+09, got {seconds!r}"
+    )
+
+
+@pytest.mark.parametrize(
+    ("command", "option"),
+    [
+        (["topic", "pub", "/x", "std_msgs/msg/String", "--once"], "-w"),
+        (["bag", "echo", "nowhere"], "--limit"),
+    ],
+)
+def test_counts_are_whole_numbers_from_zero(
+    command: list[str], option: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main([*command, f"{option}=-1"]) == 2
+    assert "expected" in capsys.readouterr().err.splitlines()[-1]

@@ -14,6 +14,7 @@ import argparse
 import uuid
 from typing import TYPE_CHECKING, Any, TextIO
 
+from pyconnect.commands.argument_types import nonnegative_seconds
 from pyconnect.commands.common import Parser
 from pyconnect.commands.live_options import add_spin_time, expand_name
 
@@ -61,7 +62,11 @@ def register(commands: Subcommands) -> Subcommands:
     send.add_argument("goal", help="the goal's fields or natural value")
     send.add_argument("-f", "--feedback", action="store_true", help="print the feedback")
     send.add_argument(
-        "--timeout", type=float, default=None, metavar="S", help="give up waiting after S s"
+        "--timeout",
+        type=nonnegative_seconds,
+        default=None,
+        metavar="S",
+        help="give up waiting after S s",
     )
     send.set_defaults(run=_send_goal)
     return verbs

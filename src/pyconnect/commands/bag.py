@@ -13,6 +13,7 @@ from collections.abc import Sequence
 from datetime import datetime, timezone
 from typing import TYPE_CHECKING, Any, TextIO
 
+from pyconnect.commands.argument_types import nonnegative_int
 from pyconnect.commands.bag_damage import IGNORE_DAMAGE_HELP, damage_status
 from pyconnect.commands.common import Parser, UsageError
 from pyconnect.commands.value_text import field_of, format_value, to_json, to_yaml
@@ -60,7 +61,7 @@ def register(commands: Subcommands) -> Subcommands:
     )
     echo.add_argument("path", help=_PATH_HELP)
     echo.add_argument("--topic", action="append", help="only this topic (repeatable)")
-    echo.add_argument("--limit", type=int, default=None, help="stop after N messages")
+    echo.add_argument("--limit", type=nonnegative_int, default=None, help="stop after N messages")
     echo.add_argument("--json", action="store_true", help="one JSON object per line")
     echo.add_argument(
         "--field", default=None, help="print only this field (dotted: pose.position.x)"
@@ -206,8 +207,6 @@ def _report_problems(errors: Sequence[Any], err: TextIO) -> int:
 def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.record.bag_reader import bag_info, open_bag
 
-    if args.limit is not None and args.limit < 0:
-        raise UsageError(f"--limit: expected a count >= 0, got {args.limit}")
     start_ns = end_ns = None
     if args.start is not None or args.end is not None:
         first = bag_info(args.path).start_ns

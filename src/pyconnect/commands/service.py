@@ -11,6 +11,7 @@ from __future__ import annotations
 import argparse
 from typing import TYPE_CHECKING, Any, TextIO
 
+from pyconnect.commands.argument_types import nonnegative_seconds
 from pyconnect.commands.common import Parser
 from pyconnect.commands.live_options import add_spin_time, expand_name
 
@@ -51,7 +52,11 @@ def register(commands: Subcommands) -> Subcommands:
     call.add_argument("service_type", help="e.g. std_srvs/srv/SetBool")
     call.add_argument("values", nargs="?", default="{}", help="the request (default {})")
     call.add_argument(
-        "--timeout", type=float, default=None, metavar="S", help="give up after S seconds"
+        "--timeout",
+        type=nonnegative_seconds,
+        default=None,
+        metavar="S",
+        help="give up after S seconds",
     )
     call.set_defaults(run=_call)
     return verbs

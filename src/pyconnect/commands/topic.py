@@ -14,7 +14,7 @@ import argparse
 import time
 from typing import TYPE_CHECKING, Any, TextIO
 
-from pyconnect.commands.argument_types import positive_int
+from pyconnect.commands.argument_types import nonnegative_seconds, positive_int
 from pyconnect.commands.common import Parser
 from pyconnect.commands.live_options import add_qos, add_spin_time, expand_name
 from pyconnect.commands.topic_subscribe import (
@@ -80,7 +80,10 @@ def register(commands: Subcommands) -> Subcommands:
     echo.add_argument("--once", action="store_true", help="print one message and exit")
     add_qos(echo)
     echo.add_argument(
-        "--timeout", type=float, metavar="S", help="give up after S seconds without the topic"
+        "--timeout",
+        type=nonnegative_seconds,
+        metavar="S",
+        help="give up after S seconds without the topic",
     )
     echo.set_defaults(run=_echo)
 
@@ -96,7 +99,10 @@ def register(commands: Subcommands) -> Subcommands:
     )
     add_qos(hz)
     hz.add_argument(
-        "--timeout", type=float, metavar="S", help="give up after S seconds without the topic"
+        "--timeout",
+        type=nonnegative_seconds,
+        metavar="S",
+        help="give up after S seconds without the topic",
     )
     hz.set_defaults(run=_hz)
 
@@ -108,7 +114,10 @@ def register(commands: Subcommands) -> Subcommands:
     )
     add_qos(bw)
     bw.add_argument(
-        "--timeout", type=float, metavar="S", help="give up after S seconds without the topic"
+        "--timeout",
+        type=nonnegative_seconds,
+        metavar="S",
+        help="give up after S seconds without the topic",
     )
     bw.set_defaults(run=_bw)
 

@@ -14,7 +14,11 @@ import argparse
 import time
 from typing import TYPE_CHECKING, TextIO
 
-from pyconnect.commands.argument_types import nonnegative_int, positive_float
+from pyconnect.commands.argument_types import (
+    nonnegative_int,
+    nonnegative_seconds,
+    positive_float,
+)
 
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
@@ -52,11 +56,14 @@ def register(verbs: Subcommands, *, epilog: str) -> None:
     pub.add_argument(
         "-w",
         "--wait-matching-subscriptions",
-        type=int,
+        type=nonnegative_int,
         help="wait for this many subscriptions first (default 1 with --once or --times N, else 0)",
     )
     pub.add_argument(
-        "--timeout", type=float, metavar="S", help="give up waiting for subscriptions after S s"
+        "--timeout",
+        type=nonnegative_seconds,
+        metavar="S",
+        help="give up waiting for subscriptions after S s",
     )
     add_qos(pub)
     pub.set_defaults(run=_pub)
