@@ -270,3 +270,31 @@ def test_a_volatile_publisher_appearing_later_switches_a_latched_sub(make_node: 
         got_two,
         lambda: (volatile.publish(CameraInfo(width=2)), sub.get() == 2 and got_two.set()),
     )
+
+
+def test_a_switched_sub_is_watched_as_the_first_one(make_node: Any) -> None:
+    """The re-created reader's callback was not wrapped by the executor's watch: a slow handler
+    no longer handed the node to the elastic executor at once (a 20 Hz timer beside it stopped),
+    and when the idle check did, the agent's group was not held, so a handler blocking in
+    ``send()`` let the agent's next message run beside it."""
+    node = make_node()
+    running, release = threading.Event(), threading.Event()
+    sub = node.add_agent(
+        conn_name="camera",
+        conn_type="sub",
+        data_interface=Image,
+        response_func=lambda _frame: (running.set(), release.wait(EVENT_TIMEOUT)),
+    )
+    node.spin(run_thread=True)
+    driver = make_node("driver").create_publisher(Image, "camera", BEST_EFFORT)
+    executor = node._executor
+    try:
+        assert sub.sensor_subscription.switched.wait(EVENT_TIMEOUT)
+        assert repeat_until(running, lambda: driver.publish(frame(1)))
+        # The monitor saw the handler run and moved the node, holding the agent's group.
+        assert until(lambda: executor.mode == "elastic")
+        assert executor._held is not None
+        assert executor._held[0] is sub.callback_group
+        assert not sub.callback_group.can_execute(sub.subscription)
+    finally:
+        release.set()

@@ -100,6 +100,7 @@ class AgentExecutor(ExecutorMoves):
             self._nodes.append(node)
             target = self._elastic if self._elastic is not None else self._events
         node.executor = target
+        self._watch(node)
         self.adopt(node)
         return True
 
@@ -109,6 +110,7 @@ class AgentExecutor(ExecutorMoves):
                 return
             self._nodes.remove(node)
             target = self._elastic if self._elastic is not None else self._events
+        self._unwatch(node)
         target.remove_node(node)
         if target is self._events and not self._spinning:
             # Unregisters the entities' listeners now, while they still exist.

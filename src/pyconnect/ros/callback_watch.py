@@ -23,6 +23,7 @@ from __future__ import annotations
 import inspect
 import threading
 import time
+import weakref
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -37,6 +38,18 @@ BUSY_TICK = 0.1
 """Seconds between the monitor's looks while callbacks come but none was running at the last."""
 
 _WRAPPED = "_pyconnect_wrapped"
+
+_WATCHES: weakref.WeakKeyDictionary[Node, CallbackWatch] = weakref.WeakKeyDictionary()
+"""The watch over each node's callbacks: found here by what re-creates an entity later, away
+from ``add_agent`` (pyconnect.ros.following_subscription), which knows the rclpy node only."""
+
+
+def watch_new_entities(node: Node) -> None:
+    """Wrap the callbacks of ``node``'s entities made since its executor last looked, as
+    ``add_agent`` does for a new agent; nothing when no ``AgentExecutor`` runs ``node``."""
+    watch = _WATCHES.get(node)
+    if watch is not None:
+        watch.wrap_callbacks(node)
 
 
 class CallbackWatch:
@@ -61,6 +74,15 @@ class CallbackWatch:
     if TYPE_CHECKING:  # AgentExecutor's
 
         def _go_elastic(self) -> None: ...
+
+    def _watch(self, node: Node) -> None:
+        """Let ``watch_new_entities(node)`` find this watch (the node was added)."""
+        _WATCHES[node] = self
+
+    def _unwatch(self, node: Node) -> None:
+        """The node was removed: ``watch_new_entities(node)`` no longer wraps for this watch."""
+        if _WATCHES.get(node) is self:
+            del _WATCHES[node]
 
     def wrap_callbacks(self, node: Node | None = None) -> None:
         """Wrap the callbacks of entities created since the last call (cheap; call after adding).

@@ -10,12 +10,19 @@ event, and the reader is re-created with the QoS that hears every publisher now 
 so once in the log. A relaxed reader never tightens again: a best-effort driver that restarts
 must still be heard.
 
-The switch runs in the subscription's callback group (event handlers share it), so it never
-overlaps the message callback, on EventsExecutor and ElasticExecutor alike. The new reader is
-created first; the old one is destroyed only once the new one has matched as many publishers,
-so nothing from a publisher heard before is lost while the new reader is being discovered (in
-that short overlap a message may arrive twice: telling the copies apart needs each message's
-``MessageInfo``, which rclpy's C++ ``EventsExecutor`` does not give a raw subscription).
+The switch runs on a thread of its own, not in the event's callback: the graph query, the new
+reader and above all the log line (rclpy's logger looks its caller's source up: 30-70 ms) would
+stall the executor meanwhile, and the old reader's keep-last queue would drop a fast reliable
+publisher's messages (5-27 in a row of a 500 Hz Imu). The new reader is created while the old
+one keeps being taken, then swapped in under the lock; its callback is watched as the first
+reader's is (pyconnect.ros.callback_watch), so a slow or blocking handler still hands the node
+to the elastic executor and keeps its agent's group. The old reader is destroyed once the new
+one has matched as many publishers as the old one is matched with then (its own ``matched``
+events keep that count live: a publisher that leaves meanwhile lowers it), or after
+``MAX_OVERLAP`` seconds at most; so nothing from a publisher heard before is lost while the new
+reader is being discovered (in that short overlap a message may arrive twice: telling the
+copies apart needs each message's ``MessageInfo``, which rclpy's C++ ``EventsExecutor`` does not
+give a raw subscription).
 
 Names: rclpy applies the node's remap rules to every name it is given, the graph queries' too,
 so the reader is made, and re-made, from the name as given, never from the resolved one (which
@@ -29,6 +36,7 @@ from __future__ import annotations
 
 import contextlib
 import threading
+import time
 from collections.abc import Callable
 from typing import Any
 
@@ -42,9 +50,27 @@ from rclpy.qos import (
     qos_policy_name_from_kind,
 )
 
+from pyconnect.ros.callback_watch import watch_new_entities
 from pyconnect.ros.qos import matching_qos
 
 _RELAXABLE = (QoSPolicyKind.RELIABILITY, QoSPolicyKind.DURABILITY)
+
+MAX_OVERLAP = 10.0
+"""Seconds the old reader is kept at most beside the new one, matched or not (no duplicates for
+good when a count never evens out); discovery of a known publisher takes milliseconds."""
+
+_JOIN_TIMEOUT = 5.0
+"""Seconds ``close()`` waits for a switch under way (it only creates or destroys a reader)."""
+
+
+class _Reader:
+    """One rclpy subscription of the topic and how many publishers it is matched with now."""
+
+    __slots__ = ("matched", "subscription")
+
+    def __init__(self) -> None:
+        self.subscription: Any = None
+        self.matched = 0
 
 
 class FollowingSubscription:
@@ -70,22 +96,23 @@ class FollowingSubscription:
         self._callback = callback
         self._raw = raw
         self._group = callback_group
-        self._lock = threading.Lock()
+        self._lock = threading.Condition(threading.Lock())
+        """Guards the readers; the switch thread waits on it for requests and the overlap."""
         self._closed = False
-        self._matched = 0
-        """Publishers the current reader is matched with (its ``matched`` events)."""
-        self._retiring: Any = None
-        """The previous reader, kept until its successor has matched as many publishers."""
-        self._retiring_matched = 0
+        self._retiring: list[_Reader] = []
+        """Previous readers, each kept until the current one has matched as many publishers."""
+        self._overlap_ends = 0.0
+        """When (``time.monotonic()``) the retiring readers go, matched or not."""
+        self._relax: set[QoSPolicyKind] = set()
+        """Policies incompatible-QoS events named that the switch thread has not looked at."""
+        self._switcher: threading.Thread | None = None
         self.notes: list[str] = []
         """What each switch changed, as logged."""
         self.switched = threading.Event()
         """Set once the reader was re-created with a more relaxed QoS."""
         with self._lock:
             chosen = matching_qos(ros_node.get_publishers_info_by_topic(topic), depth=1)
-            self.subscription: Any = self._create(
-                self.profile(chosen.reliability, chosen.durability)
-            )
+            self._reader = self._create(self.profile(chosen.reliability, chosen.durability))
         self.topic: str = self.subscription.topic_name
 
     def profile(self, reliability: ReliabilityPolicy, durability: DurabilityPolicy) -> QoSProfile:
@@ -97,20 +124,30 @@ class FollowingSubscription:
         raise NotImplementedError
 
     @property
+    def subscription(self) -> Any:
+        """The current rclpy reader (replaced when the QoS switches)."""
+        return self._reader.subscription
+
+    @property
+    def matched(self) -> int:
+        """Publishers the current reader is matched with (its ``matched`` events)."""
+        return self._reader.matched
+
+    @property
     def qos(self) -> QoSProfile:
         """The QoS of the current reader."""
         profile: QoSProfile = self.subscription.qos_profile
         return profile
 
-    def _create(self, qos: QoSProfile) -> Any:
-        """A new reader with ``qos`` (called with the lock held)."""
-        subscription: Any = None
+    def _create(self, qos: QoSProfile) -> _Reader:
+        """A new reader with ``qos``, its callback watched (pyconnect.ros.callback_watch)."""
+        reader = _Reader()
 
         def matched(status: Any) -> None:
-            self._on_matched(subscription, int(status.current_count))
+            self._on_matched(reader, int(status.current_count))
 
         events = SubscriptionEventCallbacks(incompatible_qos=self._on_incompatible, matched=matched)
-        subscription = self._node.create_subscription(
+        reader.subscription = self._node.create_subscription(
             self._msg_class,
             self._name,
             self._callback,
@@ -119,18 +156,23 @@ class FollowingSubscription:
             event_callbacks=events,
             raw=self._raw,
         )
-        return subscription
+        # At once, as add_agent does for an agent's first reader: a message the executor took
+        # before this line ran unwatched (which only delays its hand-off to the idle check).
+        watch_new_entities(self._node)
+        return reader
 
-    def _on_matched(self, subscription: Any, count: int) -> None:
+    def _on_matched(self, reader: _Reader, count: int) -> None:
         with self._lock:
-            if subscription is not self.subscription:
-                return
-            self._matched = count
-            old = self._retiring
-            if old is None or count < self._retiring_matched:
-                return
-            self._retiring = None
-            self._node.destroy_subscription(old)
+            reader.matched = count
+            self._retire_caught_up()
+
+    def _retire_caught_up(self) -> None:
+        """Destroy the retiring readers the current one has caught up with (lock held)."""
+        for old in [old for old in self._retiring if old.matched <= self._reader.matched]:
+            self._retiring.remove(old)
+            self._node.destroy_subscription(old.subscription)
+        if not self._retiring:
+            self._lock.notify_all()
 
     def _on_incompatible(self, status: Any) -> None:
         kind = QoSPolicyKind(status.last_policy_kind)
@@ -145,30 +187,69 @@ class FollowingSubscription:
         with self._lock:
             if self._closed:
                 return
-            current = self.qos
-            # The graph knows the new publisher by now; the event names one policy only.
-            wanted = matching_qos(self._node.get_publishers_info_by_topic(self._name), depth=1)
-            best_effort = kind == QoSPolicyKind.RELIABILITY or (
-                ReliabilityPolicy.BEST_EFFORT in (wanted.reliability, current.reliability)
-            )
-            volatile = kind == QoSPolicyKind.DURABILITY or (
-                DurabilityPolicy.VOLATILE in (wanted.durability, current.durability)
-            )
-            reliability = ReliabilityPolicy.BEST_EFFORT if best_effort else current.reliability
-            durability = DurabilityPolicy.VOLATILE if volatile else current.durability
-            if (reliability, durability) == (current.reliability, current.durability):
+            self._relax.add(kind)
+            self._lock.notify_all()
+            if self._switcher is None:
+                self._switcher = threading.Thread(
+                    target=self._switch_loop, name="pyconnect-qos-switch", daemon=True
+                )
+                self._switcher.start()
+
+    def _switch_loop(self) -> None:
+        """The switch thread: re-create the reader per request, then end the overlap."""
+        with self._lock:
+            try:
+                while not self._closed:
+                    if self._relax:
+                        kinds, self._relax = self._relax, set()
+                        self._lock.release()
+                        try:
+                            self._switch(kinds)
+                        except Exception as error:  # this thread ends: nothing above reports
+                            if not self._closed:  # else the node went away meanwhile: no news
+                                self._node.get_logger().error(
+                                    f"{self.topic}: could not re-create the subscription with "
+                                    f"the QoS its publishers need: {error!r}"
+                                )
+                        finally:
+                            self._lock.acquire()
+                    elif not self._retiring:
+                        return
+                    elif (left := self._overlap_ends - time.monotonic()) > 0:
+                        self._lock.wait(left)
+                    else:  # a count that never evens out must not mean duplicates for good
+                        for old in self._retiring:
+                            self._node.destroy_subscription(old.subscription)
+                        self._retiring.clear()
+            finally:
+                self._switcher = None
+
+    def _switch(self, kinds: set[QoSPolicyKind]) -> None:
+        """Re-create the reader with what ``kinds`` and the graph need (lock not held)."""
+        current = self.qos
+        # The graph knows the new publisher by now; the event names one policy only.
+        wanted = matching_qos(self._node.get_publishers_info_by_topic(self._name), depth=1)
+        best_effort = QoSPolicyKind.RELIABILITY in kinds or (
+            ReliabilityPolicy.BEST_EFFORT in (wanted.reliability, current.reliability)
+        )
+        volatile = QoSPolicyKind.DURABILITY in kinds or (
+            DurabilityPolicy.VOLATILE in (wanted.durability, current.durability)
+        )
+        reliability = ReliabilityPolicy.BEST_EFFORT if best_effort else current.reliability
+        durability = DurabilityPolicy.VOLATILE if volatile else current.durability
+        if (reliability, durability) == (current.reliability, current.durability):
+            return
+        # The old reader keeps being taken meanwhile: nothing waits for this thread.
+        reader = self._create(self.profile(reliability, durability))
+        with self._lock:
+            if self._closed:
+                self._node.destroy_subscription(reader.subscription)
                 return
-            old, old_matched = self.subscription, self._matched
-            if self._retiring is not None:  # a switch before this one still overlaps: end it
-                self._node.destroy_subscription(self._retiring)
-            self.subscription = self._create(self.profile(reliability, durability))
-            self._matched = 0
-            if old_matched:
-                self._retiring, self._retiring_matched = old, old_matched
-            else:
-                self._retiring = None
-                self._node.destroy_subscription(old)
-            note = self.switch_text(current, self.subscription.qos_profile)
+            self._retiring.append(self._reader)
+            self._reader = reader
+            self._overlap_ends = time.monotonic() + MAX_OVERLAP
+            self._retire_caught_up()
+            note = self.switch_text(current, reader.subscription.qos_profile)
             self.notes.append(note)
         self._node.get_logger().info(note)
         self.switched.set()
@@ -177,8 +258,12 @@ class FollowingSubscription:
         """Destroy the readers (idempotent; the node may be destroyed already)."""
         with self._lock:
             self._closed = True
-            readers, self._retiring = (self.subscription, self._retiring), None
+            self._lock.notify_all()
+            switcher = self._switcher
+        if switcher is not None and switcher is not threading.current_thread():
+            switcher.join(_JOIN_TIMEOUT)  # a reader it creates now, it destroys itself
+        with self._lock:
+            readers, self._retiring = [self._reader, *self._retiring], []
         for reader in readers:
-            if reader is not None:
-                with contextlib.suppress(Exception):  # the node is gone, its readers with it
-                    self._node.destroy_subscription(reader)
+            with contextlib.suppress(Exception):  # the node is gone, its readers with it
+                self._node.destroy_subscription(reader.subscription)
