@@ -36,6 +36,12 @@ def build(root: Path, files: dict[str, bytes], tmp_path: Path) -> int:
          f"msg/A.msg:3: the default of z is not finite: (1.0, -inf) {_INF}"),
         ({"srv/S.srv": b"int32 a\n---\n# c\nfloat32 NAN_C=nan\n"},
          f"srv/S.srv:4: the value of NAN_C is not finite: nan {_INF}"),
+        ({"msg/A.msg": b"float32 f 1e39\n"},
+         "msg/A.msg:1: the default of f is out of float32's range: 1e+39 (|x| < 3.4028235677973366e+38)"),
+        ({"msg/A.msg": b"int8 a\nfloat32[] fs [1.0, -1e39]\n"},
+         "msg/A.msg:2: the default of fs is out of float32's range: -1e+39 (|x| < 3.4028235677973366e+38)"),
+        ({"srv/S.srv": b"int32 a\n---\nfloat32 BIG=3.5e38\n"},
+         "srv/S.srv:3: the value of BIG is out of float32's range: 3.5e+38 (|x| < 3.4028235677973366e+38)"),
         ({"msg/A.msg": b"int32 x\n\xff\xfe int32 y\n"}, "msg/A.msg:2: not UTF-8 text (bytes ff)"),
         ({"msg/A.msg": b"int32 x\n", "package.xml": b"<name>tb_msgs</name>\xe9\n"},
          "package.xml:1: not UTF-8 text (bytes e9)"),
@@ -52,5 +58,6 @@ def test_bad_definitions_are_one_line_exit_2(
 
 
 def test_finite_defaults_and_constants_still_build(tmp_path: Path) -> None:
-    files = {"msg/A.msg": b"float64 y 1e308\nfloat32 Z=-1.5\nfloat64[] z [1.0, -2.0]\n"}
+    files = {"msg/A.msg": b"float64 y 1e308\nfloat32 Z=-1.5\nfloat64[] z [1.0, -2.0]\n"
+                          b"float32 m 3.4028235e38\nfloat32[] ms [-3.4028235e38]\n"}
     assert build(tmp_path / "tb_msgs", files, tmp_path) == 0

@@ -21,7 +21,8 @@ from std_srvs.srv import SetBool, Trigger
 from pyconnect.codegen.cli import main
 from pyconnect.codegen.compile_generate import adapt_interfaces, describe_types
 from pyconnect.codegen.compile_install import InstallLayout
-from pyconnect.codegen.compile_package import referenced_packages, resolve_dependencies
+from pyconnect.codegen.compile_package import resolve_dependencies
+from pyconnect.codegen.package_order import referenced_packages
 from pyconnect.typesys.loading import load_packages
 from pyconnect.typesys.packages import folder_interface_files, installed_packages
 from tests.codegen.test_compile import TIMEOUT, bare_environment

@@ -118,3 +118,25 @@ def test_compile_builds_idl_files(tmp_path: Path, capsys: pytest.CaptureFixture[
     assert result.stdout == (
         "{'p': {'x': 1.5, 'tag': 7, 'payload': b'ab'}, 'b': {'name': 'hi'}}\nTrue\n"
     ), result.stderr
+
+
+_NO_CHAR = "IDL char, wchar and long double are not supported; use uint8, uint16, float64"
+
+
+@pytest.mark.parametrize(
+    ("member", "line", "expected"),
+    [
+        ("char c;", 4, "unsupported IDL type 'char' of c"),
+        ("sequence<wchar, 3> w;", 4, "unsupported IDL type 'wchar' of w"),
+        ("long double big[2];", 4, "unsupported IDL type 'long double' of big"),
+    ],
+)
+def test_unsupported_idl_types_name_file_and_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], member: str, line: int, expected: str
+) -> None:
+    text = f"module idl_msgs {{\n  module msg {{\n    struct Odd {{\n      {member}\n    }};\n  }};\n}};\n"
+    root = write(tmp_path / "idl_msgs", {"msg/Odd.idl": text})
+    assert main(["build", "--from", str(root), "--out", str(tmp_path / "out")]) == 2
+    assert capsys.readouterr().err == (
+        f"codecgen: {root}/msg/Odd.idl:{line}: {expected} ({_NO_CHAR})\n"
+    )

@@ -64,3 +64,26 @@ def test_build_from_keeps_keyword_fields_and_its_codecs_work(tmp_path: Path) -> 
 def test_ordinary_names_pass() -> None:
     for name in ("data", "type", "match", "id", "string_value", "Class", "FROM", "ELSE"):
         assert compiled_name_problem(name) is None, name
+
+
+def test_a_field_named_msg_type_has_working_codecs_and_views(tmp_path: Path) -> None:
+    # The views name their type in a class attribute: no field may meet it (a slot and a class
+    # attribute of one name cannot be defined together).
+    text = "int32 msg_type\nstring name\nint32 MSG_TYPE=3\n"
+    codec = wire.wire_codec("mtf_msgs/msg/Tagged", definition=text)
+    value = {"msg_type": 7, "name": "x"}
+    data = codec.from_dict(value)
+    assert codec.to_dict(data) == value
+    view = codec.decode_view(data)
+    assert (view.msg_type, view.name) == (7, "x")
+    assert repr(view) == "mtf_msgs/msg/Tagged(msg_type=7, name='x')"
+    assert codec.from_dict(view) == data  # a view encodes like its dict
+    root = tmp_path / "mtf_msgs"
+    (root / "msg").mkdir(parents=True)
+    (root / "msg" / "Tagged.msg").write_text(text)
+    out = tmp_path / "out"
+    assert main(["build", "--from", str(root), "--out", str(out)]) == 0
+    source = (out / "pyconnect_generated" / "mtf_msgs" / "wire_codecs.py").read_text()
+    namespace: dict[str, object] = {}
+    exec(compile(source, "wire_codecs.py", "exec"), namespace)  # the module defines its classes
+    assert sorted(namespace["LITTLE"]) == ["mtf_msgs/msg/Tagged"]  # type: ignore[call-overload]

@@ -45,8 +45,8 @@ def test_every_type_has_its_code_in_its_own_package_module_only() -> None:
     seen: dict[str, str] = {}
     for package in _packages():
         module = _wire_module(package)
-        views = [v for v in vars(module).values() if isinstance(v, type) and hasattr(v, "msg_type")]
-        defined = sorted(v.msg_type for v in views if v.__module__ == module.__name__)
+        views = [v for v in vars(module).values() if isinstance(v, type) and hasattr(v, "__msgtype__")]
+        defined = sorted(v.__msgtype__ for v in views if v.__module__ == module.__name__)
         assert defined == sorted(module.LITTLE) == sorted(module.EXPORTED)
         for name in defined:
             assert name.split("/")[0] == package

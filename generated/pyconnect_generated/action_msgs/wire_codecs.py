@@ -216,7 +216,7 @@ class GoalInfo:
         "goal_id",
         "stamp",
     )
-    msg_type = "action_msgs/msg/GoalInfo"
+    __msgtype__ = "action_msgs/msg/GoalInfo"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -239,7 +239,7 @@ class GoalStatus:
         "goal_info",
         "status",
     )
-    msg_type = "action_msgs/msg/GoalStatus"
+    __msgtype__ = "action_msgs/msg/GoalStatus"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -259,7 +259,7 @@ class GoalStatusArray:
     """
 
     __slots__ = ("status_list",)
-    msg_type = "action_msgs/msg/GoalStatusArray"
+    __msgtype__ = "action_msgs/msg/GoalStatusArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -278,7 +278,7 @@ class CancelGoal_Request:
     """
 
     __slots__ = ("goal_info",)
-    msg_type = "action_msgs/srv/CancelGoal_Request"
+    __msgtype__ = "action_msgs/srv/CancelGoal_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -300,7 +300,7 @@ class CancelGoal_Response:
         "return_code",
         "goals_canceling",
     )
-    msg_type = "action_msgs/srv/CancelGoal_Response"
+    __msgtype__ = "action_msgs/srv/CancelGoal_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -324,7 +324,7 @@ class CancelGoal_Event:
         "request",
         "response",
     )
-    msg_type = "action_msgs/srv/CancelGoal_Event"
+    __msgtype__ = "action_msgs/srv/CancelGoal_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)

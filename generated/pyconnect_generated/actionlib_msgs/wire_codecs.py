@@ -150,7 +150,7 @@ class GoalID:
         "stamp",
         "id",
     )
-    msg_type = "actionlib_msgs/msg/GoalID"
+    __msgtype__ = "actionlib_msgs/msg/GoalID"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -174,7 +174,7 @@ class GoalStatus:
         "status",
         "text",
     )
-    msg_type = "actionlib_msgs/msg/GoalStatus"
+    __msgtype__ = "actionlib_msgs/msg/GoalStatus"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -198,7 +198,7 @@ class GoalStatusArray:
         "header",
         "status_list",
     )
-    msg_type = "actionlib_msgs/msg/GoalStatusArray"
+    __msgtype__ = "actionlib_msgs/msg/GoalStatusArray"
 
     def __repr__(self) -> str:
         return view_repr(self)

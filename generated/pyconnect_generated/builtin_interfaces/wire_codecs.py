@@ -112,7 +112,7 @@ class Duration:
         "sec",
         "nanosec",
     )
-    msg_type = "builtin_interfaces/msg/Duration"
+    __msgtype__ = "builtin_interfaces/msg/Duration"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -135,7 +135,7 @@ class Time:
         "sec",
         "nanosec",
     )
-    msg_type = "builtin_interfaces/msg/Time"
+    __msgtype__ = "builtin_interfaces/msg/Time"
 
     def __repr__(self) -> str:
         return view_repr(self)

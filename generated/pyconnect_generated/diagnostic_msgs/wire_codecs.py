@@ -304,7 +304,7 @@ class KeyValue:
         "key",
         "value",
     )
-    msg_type = "diagnostic_msgs/msg/KeyValue"
+    __msgtype__ = "diagnostic_msgs/msg/KeyValue"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -330,7 +330,7 @@ class DiagnosticStatus:
         "hardware_id",
         "values",
     )
-    msg_type = "diagnostic_msgs/msg/DiagnosticStatus"
+    __msgtype__ = "diagnostic_msgs/msg/DiagnosticStatus"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -356,7 +356,7 @@ class DiagnosticArray:
         "header",
         "status",
     )
-    msg_type = "diagnostic_msgs/msg/DiagnosticArray"
+    __msgtype__ = "diagnostic_msgs/msg/DiagnosticArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -376,7 +376,7 @@ class AddDiagnostics_Request:
     """
 
     __slots__ = ("load_namespace",)
-    msg_type = "diagnostic_msgs/srv/AddDiagnostics_Request"
+    __msgtype__ = "diagnostic_msgs/srv/AddDiagnostics_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -398,7 +398,7 @@ class AddDiagnostics_Response:
         "success",
         "message",
     )
-    msg_type = "diagnostic_msgs/srv/AddDiagnostics_Response"
+    __msgtype__ = "diagnostic_msgs/srv/AddDiagnostics_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -422,7 +422,7 @@ class AddDiagnostics_Event:
         "request",
         "response",
     )
-    msg_type = "diagnostic_msgs/srv/AddDiagnostics_Event"
+    __msgtype__ = "diagnostic_msgs/srv/AddDiagnostics_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -443,7 +443,7 @@ class SelfTest_Request:
     """
 
     __slots__ = ()
-    msg_type = "diagnostic_msgs/srv/SelfTest_Request"
+    __msgtype__ = "diagnostic_msgs/srv/SelfTest_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -465,7 +465,7 @@ class SelfTest_Response:
         "passed",
         "status",
     )
-    msg_type = "diagnostic_msgs/srv/SelfTest_Response"
+    __msgtype__ = "diagnostic_msgs/srv/SelfTest_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -490,7 +490,7 @@ class SelfTest_Event:
         "request",
         "response",
     )
-    msg_type = "diagnostic_msgs/srv/SelfTest_Event"
+    __msgtype__ = "diagnostic_msgs/srv/SelfTest_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)

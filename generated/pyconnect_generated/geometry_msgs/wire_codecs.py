@@ -830,7 +830,7 @@ class Vector3:
         "y",
         "z",
     )
-    msg_type = "geometry_msgs/msg/Vector3"
+    __msgtype__ = "geometry_msgs/msg/Vector3"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -854,7 +854,7 @@ class Accel:
         "linear",
         "angular",
     )
-    msg_type = "geometry_msgs/msg/Accel"
+    __msgtype__ = "geometry_msgs/msg/Accel"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -877,7 +877,7 @@ class AccelStamped:
         "header",
         "accel",
     )
-    msg_type = "geometry_msgs/msg/AccelStamped"
+    __msgtype__ = "geometry_msgs/msg/AccelStamped"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -900,7 +900,7 @@ class AccelWithCovariance:
         "accel",
         "covariance",
     )
-    msg_type = "geometry_msgs/msg/AccelWithCovariance"
+    __msgtype__ = "geometry_msgs/msg/AccelWithCovariance"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -923,7 +923,7 @@ class AccelWithCovarianceStamped:
         "header",
         "accel",
     )
-    msg_type = "geometry_msgs/msg/AccelWithCovarianceStamped"
+    __msgtype__ = "geometry_msgs/msg/AccelWithCovarianceStamped"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -952,7 +952,7 @@ class Inertia:
         "iyz",
         "izz",
     )
-    msg_type = "geometry_msgs/msg/Inertia"
+    __msgtype__ = "geometry_msgs/msg/Inertia"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -981,7 +981,7 @@ class InertiaStamped:
         "header",
         "inertia",
     )
-    msg_type = "geometry_msgs/msg/InertiaStamped"
+    __msgtype__ = "geometry_msgs/msg/InertiaStamped"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1005,7 +1005,7 @@ class Point:
         "y",
         "z",
     )
-    msg_type = "geometry_msgs/msg/Point"
+    __msgtype__ = "geometry_msgs/msg/Point"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1030,7 +1030,7 @@ class Point32:
         "y",
         "z",
     )
-    msg_type = "geometry_msgs/msg/Point32"
+    __msgtype__ = "geometry_msgs/msg/Point32"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1054,7 +1054,7 @@ class PointStamped:
         "header",
         "point",
     )
-    msg_type = "geometry_msgs/msg/PointStamped"
+    __msgtype__ = "geometry_msgs/msg/PointStamped"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1074,7 +1074,7 @@ class Polygon:
     """
 
     __slots__ = ("points",)
-    msg_type = "geometry_msgs/msg/Polygon"
+    __msgtype__ = "geometry_msgs/msg/Polygon"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1096,7 +1096,7 @@ class PolygonInstance:
         "polygon",
         "id",
     )
-    msg_type = "geometry_msgs/msg/PolygonInstance"
+    __msgtype__ = "geometry_msgs/msg/PolygonInstance"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1119,7 +1119,7 @@ class PolygonInstanceStamped:
         "header",
         "polygon",
     )
-    msg_type = "geometry_msgs/msg/PolygonInstanceStamped"
+    __msgtype__ = "geometry_msgs/msg/PolygonInstanceStamped"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1142,7 +1142,7 @@ class PolygonStamped:
         "header",
         "polygon",
     )
-    msg_type = "geometry_msgs/msg/PolygonStamped"
+    __msgtype__ = "geometry_msgs/msg/PolygonStamped"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1167,7 +1167,7 @@ class Quaternion:
         "z",
         "w",
     )
-    msg_type = "geometry_msgs/msg/Quaternion"
+    __msgtype__ = "geometry_msgs/msg/Quaternion"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1192,7 +1192,7 @@ class Pose:
         "position",
         "orientation",
     )
-    msg_type = "geometry_msgs/msg/Pose"
+    __msgtype__ = "geometry_msgs/msg/Pose"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1216,7 +1216,7 @@ class Pose2D:
         "y",
         "theta",
     )
-    msg_type = "geometry_msgs/msg/Pose2D"
+    __msgtype__ = "geometry_msgs/msg/Pose2D"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1240,7 +1240,7 @@ class PoseArray:
         "header",
         "poses",
     )
-    msg_type = "geometry_msgs/msg/PoseArray"
+    __msgtype__ = "geometry_msgs/msg/PoseArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1263,7 +1263,7 @@ class PoseStamped:
         "header",
         "pose",
     )
-    msg_type = "geometry_msgs/msg/PoseStamped"
+    __msgtype__ = "geometry_msgs/msg/PoseStamped"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1286,7 +1286,7 @@ class PoseWithCovariance:
         "pose",
         "covariance",
     )
-    msg_type = "geometry_msgs/msg/PoseWithCovariance"
+    __msgtype__ = "geometry_msgs/msg/PoseWithCovariance"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1309,7 +1309,7 @@ class PoseWithCovarianceStamped:
         "header",
         "pose",
     )
-    msg_type = "geometry_msgs/msg/PoseWithCovarianceStamped"
+    __msgtype__ = "geometry_msgs/msg/PoseWithCovarianceStamped"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1332,7 +1332,7 @@ class QuaternionStamped:
         "header",
         "quaternion",
     )
-    msg_type = "geometry_msgs/msg/QuaternionStamped"
+    __msgtype__ = "geometry_msgs/msg/QuaternionStamped"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1355,7 +1355,7 @@ class Transform:
         "translation",
         "rotation",
     )
-    msg_type = "geometry_msgs/msg/Transform"
+    __msgtype__ = "geometry_msgs/msg/Transform"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1379,7 +1379,7 @@ class TransformStamped:
         "child_frame_id",
         "transform",
     )
-    msg_type = "geometry_msgs/msg/TransformStamped"
+    __msgtype__ = "geometry_msgs/msg/TransformStamped"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1403,7 +1403,7 @@ class Twist:
         "linear",
         "angular",
     )
-    msg_type = "geometry_msgs/msg/Twist"
+    __msgtype__ = "geometry_msgs/msg/Twist"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1426,7 +1426,7 @@ class TwistStamped:
         "header",
         "twist",
     )
-    msg_type = "geometry_msgs/msg/TwistStamped"
+    __msgtype__ = "geometry_msgs/msg/TwistStamped"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1449,7 +1449,7 @@ class TwistWithCovariance:
         "twist",
         "covariance",
     )
-    msg_type = "geometry_msgs/msg/TwistWithCovariance"
+    __msgtype__ = "geometry_msgs/msg/TwistWithCovariance"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1472,7 +1472,7 @@ class TwistWithCovarianceStamped:
         "header",
         "twist",
     )
-    msg_type = "geometry_msgs/msg/TwistWithCovarianceStamped"
+    __msgtype__ = "geometry_msgs/msg/TwistWithCovarianceStamped"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1495,7 +1495,7 @@ class Vector3Stamped:
         "header",
         "vector",
     )
-    msg_type = "geometry_msgs/msg/Vector3Stamped"
+    __msgtype__ = "geometry_msgs/msg/Vector3Stamped"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1520,7 +1520,7 @@ class VelocityStamped:
         "reference_frame_id",
         "velocity",
     )
-    msg_type = "geometry_msgs/msg/VelocityStamped"
+    __msgtype__ = "geometry_msgs/msg/VelocityStamped"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1545,7 +1545,7 @@ class Wrench:
         "force",
         "torque",
     )
-    msg_type = "geometry_msgs/msg/Wrench"
+    __msgtype__ = "geometry_msgs/msg/Wrench"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1568,7 +1568,7 @@ class WrenchStamped:
         "header",
         "wrench",
     )
-    msg_type = "geometry_msgs/msg/WrenchStamped"
+    __msgtype__ = "geometry_msgs/msg/WrenchStamped"
 
     def __repr__(self) -> str:
         return view_repr(self)

@@ -407,7 +407,7 @@ class State:
         "id",
         "label",
     )
-    msg_type = "lifecycle_msgs/msg/State"
+    __msgtype__ = "lifecycle_msgs/msg/State"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -430,7 +430,7 @@ class Transition:
         "id",
         "label",
     )
-    msg_type = "lifecycle_msgs/msg/Transition"
+    __msgtype__ = "lifecycle_msgs/msg/Transition"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -454,7 +454,7 @@ class TransitionDescription:
         "start_state",
         "goal_state",
     )
-    msg_type = "lifecycle_msgs/msg/TransitionDescription"
+    __msgtype__ = "lifecycle_msgs/msg/TransitionDescription"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -480,7 +480,7 @@ class TransitionEvent:
         "start_state",
         "goal_state",
     )
-    msg_type = "lifecycle_msgs/msg/TransitionEvent"
+    __msgtype__ = "lifecycle_msgs/msg/TransitionEvent"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -502,7 +502,7 @@ class ChangeState_Request:
     """
 
     __slots__ = ("transition",)
-    msg_type = "lifecycle_msgs/srv/ChangeState_Request"
+    __msgtype__ = "lifecycle_msgs/srv/ChangeState_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -521,7 +521,7 @@ class ChangeState_Response:
     """
 
     __slots__ = ("success",)
-    msg_type = "lifecycle_msgs/srv/ChangeState_Response"
+    __msgtype__ = "lifecycle_msgs/srv/ChangeState_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -544,7 +544,7 @@ class ChangeState_Event:
         "request",
         "response",
     )
-    msg_type = "lifecycle_msgs/srv/ChangeState_Event"
+    __msgtype__ = "lifecycle_msgs/srv/ChangeState_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -565,7 +565,7 @@ class GetAvailableStates_Request:
     """
 
     __slots__ = ()
-    msg_type = "lifecycle_msgs/srv/GetAvailableStates_Request"
+    __msgtype__ = "lifecycle_msgs/srv/GetAvailableStates_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -583,7 +583,7 @@ class GetAvailableStates_Response:
     """
 
     __slots__ = ("available_states",)
-    msg_type = "lifecycle_msgs/srv/GetAvailableStates_Response"
+    __msgtype__ = "lifecycle_msgs/srv/GetAvailableStates_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -606,7 +606,7 @@ class GetAvailableStates_Event:
         "request",
         "response",
     )
-    msg_type = "lifecycle_msgs/srv/GetAvailableStates_Event"
+    __msgtype__ = "lifecycle_msgs/srv/GetAvailableStates_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -627,7 +627,7 @@ class GetAvailableTransitions_Request:
     """
 
     __slots__ = ()
-    msg_type = "lifecycle_msgs/srv/GetAvailableTransitions_Request"
+    __msgtype__ = "lifecycle_msgs/srv/GetAvailableTransitions_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -645,7 +645,7 @@ class GetAvailableTransitions_Response:
     """
 
     __slots__ = ("available_transitions",)
-    msg_type = "lifecycle_msgs/srv/GetAvailableTransitions_Response"
+    __msgtype__ = "lifecycle_msgs/srv/GetAvailableTransitions_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -668,7 +668,7 @@ class GetAvailableTransitions_Event:
         "request",
         "response",
     )
-    msg_type = "lifecycle_msgs/srv/GetAvailableTransitions_Event"
+    __msgtype__ = "lifecycle_msgs/srv/GetAvailableTransitions_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -691,7 +691,7 @@ class GetState_Request:
     """
 
     __slots__ = ()
-    msg_type = "lifecycle_msgs/srv/GetState_Request"
+    __msgtype__ = "lifecycle_msgs/srv/GetState_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -709,7 +709,7 @@ class GetState_Response:
     """
 
     __slots__ = ("current_state",)
-    msg_type = "lifecycle_msgs/srv/GetState_Response"
+    __msgtype__ = "lifecycle_msgs/srv/GetState_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -732,7 +732,7 @@ class GetState_Event:
         "request",
         "response",
     )
-    msg_type = "lifecycle_msgs/srv/GetState_Event"
+    __msgtype__ = "lifecycle_msgs/srv/GetState_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)

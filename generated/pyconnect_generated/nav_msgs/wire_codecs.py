@@ -537,7 +537,7 @@ class Goals:
         "header",
         "goals",
     )
-    msg_type = "nav_msgs/msg/Goals"
+    __msgtype__ = "nav_msgs/msg/Goals"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -562,7 +562,7 @@ class GridCells:
         "cell_height",
         "cells",
     )
-    msg_type = "nav_msgs/msg/GridCells"
+    __msgtype__ = "nav_msgs/msg/GridCells"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -590,7 +590,7 @@ class MapMetaData:
         "height",
         "origin",
     )
-    msg_type = "nav_msgs/msg/MapMetaData"
+    __msgtype__ = "nav_msgs/msg/MapMetaData"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -617,7 +617,7 @@ class OccupancyGrid:
         "info",
         "data",
     )
-    msg_type = "nav_msgs/msg/OccupancyGrid"
+    __msgtype__ = "nav_msgs/msg/OccupancyGrid"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -643,7 +643,7 @@ class Odometry:
         "pose",
         "twist",
     )
-    msg_type = "nav_msgs/msg/Odometry"
+    __msgtype__ = "nav_msgs/msg/Odometry"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -668,7 +668,7 @@ class Path:
         "header",
         "poses",
     )
-    msg_type = "nav_msgs/msg/Path"
+    __msgtype__ = "nav_msgs/msg/Path"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -688,7 +688,7 @@ class GetMap_Request:
     """
 
     __slots__ = ()
-    msg_type = "nav_msgs/srv/GetMap_Request"
+    __msgtype__ = "nav_msgs/srv/GetMap_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -706,7 +706,7 @@ class GetMap_Response:
     """
 
     __slots__ = ("map",)
-    msg_type = "nav_msgs/srv/GetMap_Response"
+    __msgtype__ = "nav_msgs/srv/GetMap_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -729,7 +729,7 @@ class GetMap_Event:
         "request",
         "response",
     )
-    msg_type = "nav_msgs/srv/GetMap_Event"
+    __msgtype__ = "nav_msgs/srv/GetMap_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -754,7 +754,7 @@ class GetPlan_Request:
         "goal",
         "tolerance",
     )
-    msg_type = "nav_msgs/srv/GetPlan_Request"
+    __msgtype__ = "nav_msgs/srv/GetPlan_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -775,7 +775,7 @@ class GetPlan_Response:
     """
 
     __slots__ = ("plan",)
-    msg_type = "nav_msgs/srv/GetPlan_Response"
+    __msgtype__ = "nav_msgs/srv/GetPlan_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -798,7 +798,7 @@ class GetPlan_Event:
         "request",
         "response",
     )
-    msg_type = "nav_msgs/srv/GetPlan_Event"
+    __msgtype__ = "nav_msgs/srv/GetPlan_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -819,7 +819,7 @@ class LoadMap_Request:
     """
 
     __slots__ = ("map_url",)
-    msg_type = "nav_msgs/srv/LoadMap_Request"
+    __msgtype__ = "nav_msgs/srv/LoadMap_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -841,7 +841,7 @@ class LoadMap_Response:
         "map",
         "result",
     )
-    msg_type = "nav_msgs/srv/LoadMap_Response"
+    __msgtype__ = "nav_msgs/srv/LoadMap_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -865,7 +865,7 @@ class LoadMap_Event:
         "request",
         "response",
     )
-    msg_type = "nav_msgs/srv/LoadMap_Event"
+    __msgtype__ = "nav_msgs/srv/LoadMap_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -889,7 +889,7 @@ class SetMap_Request:
         "map",
         "initial_pose",
     )
-    msg_type = "nav_msgs/srv/SetMap_Request"
+    __msgtype__ = "nav_msgs/srv/SetMap_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -909,7 +909,7 @@ class SetMap_Response:
     """
 
     __slots__ = ("success",)
-    msg_type = "nav_msgs/srv/SetMap_Response"
+    __msgtype__ = "nav_msgs/srv/SetMap_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -932,7 +932,7 @@ class SetMap_Event:
         "request",
         "response",
     )
-    msg_type = "nav_msgs/srv/SetMap_Event"
+    __msgtype__ = "nav_msgs/srv/SetMap_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)

@@ -955,7 +955,7 @@ class FloatingPointRange:
         "to_value",
         "step",
     )
-    msg_type = "rcl_interfaces/msg/FloatingPointRange"
+    __msgtype__ = "rcl_interfaces/msg/FloatingPointRange"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -980,7 +980,7 @@ class IntegerRange:
         "to_value",
         "step",
     )
-    msg_type = "rcl_interfaces/msg/IntegerRange"
+    __msgtype__ = "rcl_interfaces/msg/IntegerRange"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1004,7 +1004,7 @@ class ListParametersResult:
         "names",
         "prefixes",
     )
-    msg_type = "rcl_interfaces/msg/ListParametersResult"
+    __msgtype__ = "rcl_interfaces/msg/ListParametersResult"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1032,7 +1032,7 @@ class Log:
         "function",
         "line",
     )
-    msg_type = "rcl_interfaces/msg/Log"
+    __msgtype__ = "rcl_interfaces/msg/Log"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1060,7 +1060,7 @@ class LoggerLevel:
         "name",
         "level",
     )
-    msg_type = "rcl_interfaces/msg/LoggerLevel"
+    __msgtype__ = "rcl_interfaces/msg/LoggerLevel"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1091,7 +1091,7 @@ class ParameterValue:
         "double_array_value",
         "string_array_value",
     )
-    msg_type = "rcl_interfaces/msg/ParameterValue"
+    __msgtype__ = "rcl_interfaces/msg/ParameterValue"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1124,7 +1124,7 @@ class Parameter:
         "name",
         "value",
     )
-    msg_type = "rcl_interfaces/msg/Parameter"
+    __msgtype__ = "rcl_interfaces/msg/Parameter"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1153,7 +1153,7 @@ class ParameterDescriptor:
         "floating_point_range",
         "integer_range",
     )
-    msg_type = "rcl_interfaces/msg/ParameterDescriptor"
+    __msgtype__ = "rcl_interfaces/msg/ParameterDescriptor"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1187,7 +1187,7 @@ class ParameterEvent:
         "changed_parameters",
         "deleted_parameters",
     )
-    msg_type = "rcl_interfaces/msg/ParameterEvent"
+    __msgtype__ = "rcl_interfaces/msg/ParameterEvent"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1214,7 +1214,7 @@ class ParameterEventDescriptors:
         "changed_parameters",
         "deleted_parameters",
     )
-    msg_type = "rcl_interfaces/msg/ParameterEventDescriptors"
+    __msgtype__ = "rcl_interfaces/msg/ParameterEventDescriptors"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1235,7 +1235,7 @@ class ParameterType:
     """
 
     __slots__ = ()
-    msg_type = "rcl_interfaces/msg/ParameterType"
+    __msgtype__ = "rcl_interfaces/msg/ParameterType"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1256,7 +1256,7 @@ class SetLoggerLevelsResult:
         "successful",
         "reason",
     )
-    msg_type = "rcl_interfaces/msg/SetLoggerLevelsResult"
+    __msgtype__ = "rcl_interfaces/msg/SetLoggerLevelsResult"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1279,7 +1279,7 @@ class SetParametersResult:
         "successful",
         "reason",
     )
-    msg_type = "rcl_interfaces/msg/SetParametersResult"
+    __msgtype__ = "rcl_interfaces/msg/SetParametersResult"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1299,7 +1299,7 @@ class DescribeParameters_Request:
     """
 
     __slots__ = ("names",)
-    msg_type = "rcl_interfaces/srv/DescribeParameters_Request"
+    __msgtype__ = "rcl_interfaces/srv/DescribeParameters_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1318,7 +1318,7 @@ class DescribeParameters_Response:
     """
 
     __slots__ = ("descriptors",)
-    msg_type = "rcl_interfaces/srv/DescribeParameters_Response"
+    __msgtype__ = "rcl_interfaces/srv/DescribeParameters_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1341,7 +1341,7 @@ class DescribeParameters_Event:
         "request",
         "response",
     )
-    msg_type = "rcl_interfaces/srv/DescribeParameters_Event"
+    __msgtype__ = "rcl_interfaces/srv/DescribeParameters_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1362,7 +1362,7 @@ class GetLoggerLevels_Request:
     """
 
     __slots__ = ("names",)
-    msg_type = "rcl_interfaces/srv/GetLoggerLevels_Request"
+    __msgtype__ = "rcl_interfaces/srv/GetLoggerLevels_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1381,7 +1381,7 @@ class GetLoggerLevels_Response:
     """
 
     __slots__ = ("levels",)
-    msg_type = "rcl_interfaces/srv/GetLoggerLevels_Response"
+    __msgtype__ = "rcl_interfaces/srv/GetLoggerLevels_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1404,7 +1404,7 @@ class GetLoggerLevels_Event:
         "request",
         "response",
     )
-    msg_type = "rcl_interfaces/srv/GetLoggerLevels_Event"
+    __msgtype__ = "rcl_interfaces/srv/GetLoggerLevels_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1425,7 +1425,7 @@ class GetParameterTypes_Request:
     """
 
     __slots__ = ("names",)
-    msg_type = "rcl_interfaces/srv/GetParameterTypes_Request"
+    __msgtype__ = "rcl_interfaces/srv/GetParameterTypes_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1444,7 +1444,7 @@ class GetParameterTypes_Response:
     """
 
     __slots__ = ("types",)
-    msg_type = "rcl_interfaces/srv/GetParameterTypes_Response"
+    __msgtype__ = "rcl_interfaces/srv/GetParameterTypes_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1467,7 +1467,7 @@ class GetParameterTypes_Event:
         "request",
         "response",
     )
-    msg_type = "rcl_interfaces/srv/GetParameterTypes_Event"
+    __msgtype__ = "rcl_interfaces/srv/GetParameterTypes_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1488,7 +1488,7 @@ class GetParameters_Request:
     """
 
     __slots__ = ("names",)
-    msg_type = "rcl_interfaces/srv/GetParameters_Request"
+    __msgtype__ = "rcl_interfaces/srv/GetParameters_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1507,7 +1507,7 @@ class GetParameters_Response:
     """
 
     __slots__ = ("values",)
-    msg_type = "rcl_interfaces/srv/GetParameters_Response"
+    __msgtype__ = "rcl_interfaces/srv/GetParameters_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1530,7 +1530,7 @@ class GetParameters_Event:
         "request",
         "response",
     )
-    msg_type = "rcl_interfaces/srv/GetParameters_Event"
+    __msgtype__ = "rcl_interfaces/srv/GetParameters_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1554,7 +1554,7 @@ class ListParameters_Request:
         "prefixes",
         "depth",
     )
-    msg_type = "rcl_interfaces/srv/ListParameters_Request"
+    __msgtype__ = "rcl_interfaces/srv/ListParameters_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1574,7 +1574,7 @@ class ListParameters_Response:
     """
 
     __slots__ = ("result",)
-    msg_type = "rcl_interfaces/srv/ListParameters_Response"
+    __msgtype__ = "rcl_interfaces/srv/ListParameters_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1597,7 +1597,7 @@ class ListParameters_Event:
         "request",
         "response",
     )
-    msg_type = "rcl_interfaces/srv/ListParameters_Event"
+    __msgtype__ = "rcl_interfaces/srv/ListParameters_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1618,7 +1618,7 @@ class SetLoggerLevels_Request:
     """
 
     __slots__ = ("levels",)
-    msg_type = "rcl_interfaces/srv/SetLoggerLevels_Request"
+    __msgtype__ = "rcl_interfaces/srv/SetLoggerLevels_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1637,7 +1637,7 @@ class SetLoggerLevels_Response:
     """
 
     __slots__ = ("results",)
-    msg_type = "rcl_interfaces/srv/SetLoggerLevels_Response"
+    __msgtype__ = "rcl_interfaces/srv/SetLoggerLevels_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1660,7 +1660,7 @@ class SetLoggerLevels_Event:
         "request",
         "response",
     )
-    msg_type = "rcl_interfaces/srv/SetLoggerLevels_Event"
+    __msgtype__ = "rcl_interfaces/srv/SetLoggerLevels_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1681,7 +1681,7 @@ class SetParameters_Request:
     """
 
     __slots__ = ("parameters",)
-    msg_type = "rcl_interfaces/srv/SetParameters_Request"
+    __msgtype__ = "rcl_interfaces/srv/SetParameters_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1700,7 +1700,7 @@ class SetParameters_Response:
     """
 
     __slots__ = ("results",)
-    msg_type = "rcl_interfaces/srv/SetParameters_Response"
+    __msgtype__ = "rcl_interfaces/srv/SetParameters_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1723,7 +1723,7 @@ class SetParameters_Event:
         "request",
         "response",
     )
-    msg_type = "rcl_interfaces/srv/SetParameters_Event"
+    __msgtype__ = "rcl_interfaces/srv/SetParameters_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1744,7 +1744,7 @@ class SetParametersAtomically_Request:
     """
 
     __slots__ = ("parameters",)
-    msg_type = "rcl_interfaces/srv/SetParametersAtomically_Request"
+    __msgtype__ = "rcl_interfaces/srv/SetParametersAtomically_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1763,7 +1763,7 @@ class SetParametersAtomically_Response:
     """
 
     __slots__ = ("result",)
-    msg_type = "rcl_interfaces/srv/SetParametersAtomically_Response"
+    __msgtype__ = "rcl_interfaces/srv/SetParametersAtomically_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1786,7 +1786,7 @@ class SetParametersAtomically_Event:
         "request",
         "response",
     )
-    msg_type = "rcl_interfaces/srv/SetParametersAtomically_Event"
+    __msgtype__ = "rcl_interfaces/srv/SetParametersAtomically_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)

@@ -86,7 +86,7 @@ class Clock:
     """
 
     __slots__ = ("clock",)
-    msg_type = "rosgraph_msgs/msg/Clock"
+    __msgtype__ = "rosgraph_msgs/msg/Clock"
 
     def __repr__(self) -> str:
         return view_repr(self)

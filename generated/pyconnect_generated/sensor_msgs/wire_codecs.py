@@ -922,7 +922,7 @@ class BatteryState:
         "location",
         "serial_number",
     )
-    msg_type = "sensor_msgs/msg/BatteryState"
+    __msgtype__ = "sensor_msgs/msg/BatteryState"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -979,7 +979,7 @@ class RegionOfInterest:
         "width",
         "do_rectify",
     )
-    msg_type = "sensor_msgs/msg/RegionOfInterest"
+    __msgtype__ = "sensor_msgs/msg/RegionOfInterest"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1014,7 +1014,7 @@ class CameraInfo:
         "binning_y",
         "roi",
     )
-    msg_type = "sensor_msgs/msg/CameraInfo"
+    __msgtype__ = "sensor_msgs/msg/CameraInfo"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1058,7 +1058,7 @@ class ChannelFloat32:
         "name",
         "values",
     )
-    msg_type = "sensor_msgs/msg/ChannelFloat32"
+    __msgtype__ = "sensor_msgs/msg/ChannelFloat32"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1082,7 +1082,7 @@ class CompressedImage:
         "format",
         "data",
     )
-    msg_type = "sensor_msgs/msg/CompressedImage"
+    __msgtype__ = "sensor_msgs/msg/CompressedImage"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1107,7 +1107,7 @@ class FluidPressure:
         "fluid_pressure",
         "variance",
     )
-    msg_type = "sensor_msgs/msg/FluidPressure"
+    __msgtype__ = "sensor_msgs/msg/FluidPressure"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1132,7 +1132,7 @@ class Illuminance:
         "illuminance",
         "variance",
     )
-    msg_type = "sensor_msgs/msg/Illuminance"
+    __msgtype__ = "sensor_msgs/msg/Illuminance"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1161,7 +1161,7 @@ class Image:
         "step",
         "data",
     )
-    msg_type = "sensor_msgs/msg/Image"
+    __msgtype__ = "sensor_msgs/msg/Image"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1194,7 +1194,7 @@ class Imu:
         "linear_acceleration",
         "linear_acceleration_covariance",
     )
-    msg_type = "sensor_msgs/msg/Imu"
+    __msgtype__ = "sensor_msgs/msg/Imu"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1225,7 +1225,7 @@ class JointState:
         "velocity",
         "effort",
     )
-    msg_type = "sensor_msgs/msg/JointState"
+    __msgtype__ = "sensor_msgs/msg/JointState"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1252,7 +1252,7 @@ class Joy:
         "axes",
         "buttons",
     )
-    msg_type = "sensor_msgs/msg/Joy"
+    __msgtype__ = "sensor_msgs/msg/Joy"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1277,7 +1277,7 @@ class JoyFeedback:
         "id",
         "intensity",
     )
-    msg_type = "sensor_msgs/msg/JoyFeedback"
+    __msgtype__ = "sensor_msgs/msg/JoyFeedback"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1298,7 +1298,7 @@ class JoyFeedbackArray:
     """
 
     __slots__ = ("array",)
-    msg_type = "sensor_msgs/msg/JoyFeedbackArray"
+    __msgtype__ = "sensor_msgs/msg/JoyFeedbackArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1317,7 +1317,7 @@ class LaserEcho:
     """
 
     __slots__ = ("echoes",)
-    msg_type = "sensor_msgs/msg/LaserEcho"
+    __msgtype__ = "sensor_msgs/msg/LaserEcho"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1347,7 +1347,7 @@ class LaserScan:
         "ranges",
         "intensities",
     )
-    msg_type = "sensor_msgs/msg/LaserScan"
+    __msgtype__ = "sensor_msgs/msg/LaserScan"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1381,7 +1381,7 @@ class MagneticField:
         "magnetic_field",
         "magnetic_field_covariance",
     )
-    msg_type = "sensor_msgs/msg/MagneticField"
+    __msgtype__ = "sensor_msgs/msg/MagneticField"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1408,7 +1408,7 @@ class MultiDOFJointState:
         "twist",
         "wrench",
     )
-    msg_type = "sensor_msgs/msg/MultiDOFJointState"
+    __msgtype__ = "sensor_msgs/msg/MultiDOFJointState"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1442,7 +1442,7 @@ class MultiEchoLaserScan:
         "ranges",
         "intensities",
     )
-    msg_type = "sensor_msgs/msg/MultiEchoLaserScan"
+    __msgtype__ = "sensor_msgs/msg/MultiEchoLaserScan"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1475,7 +1475,7 @@ class NavSatStatus:
         "status",
         "service",
     )
-    msg_type = "sensor_msgs/msg/NavSatStatus"
+    __msgtype__ = "sensor_msgs/msg/NavSatStatus"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1503,7 +1503,7 @@ class NavSatFix:
         "position_covariance",
         "position_covariance_type",
     )
-    msg_type = "sensor_msgs/msg/NavSatFix"
+    __msgtype__ = "sensor_msgs/msg/NavSatFix"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1532,7 +1532,7 @@ class PointCloud:
         "points",
         "channels",
     )
-    msg_type = "sensor_msgs/msg/PointCloud"
+    __msgtype__ = "sensor_msgs/msg/PointCloud"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1558,7 +1558,7 @@ class PointField:
         "datatype",
         "count",
     )
-    msg_type = "sensor_msgs/msg/PointField"
+    __msgtype__ = "sensor_msgs/msg/PointField"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1590,7 +1590,7 @@ class PointCloud2:
         "data",
         "is_dense",
     )
-    msg_type = "sensor_msgs/msg/PointCloud2"
+    __msgtype__ = "sensor_msgs/msg/PointCloud2"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1627,7 +1627,7 @@ class Range:
         "range",
         "variance",
     )
-    msg_type = "sensor_msgs/msg/Range"
+    __msgtype__ = "sensor_msgs/msg/Range"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1656,7 +1656,7 @@ class RelativeHumidity:
         "relative_humidity",
         "variance",
     )
-    msg_type = "sensor_msgs/msg/RelativeHumidity"
+    __msgtype__ = "sensor_msgs/msg/RelativeHumidity"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1681,7 +1681,7 @@ class Temperature:
         "temperature",
         "variance",
     )
-    msg_type = "sensor_msgs/msg/Temperature"
+    __msgtype__ = "sensor_msgs/msg/Temperature"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1706,7 +1706,7 @@ class TimeReference:
         "time_ref",
         "source",
     )
-    msg_type = "sensor_msgs/msg/TimeReference"
+    __msgtype__ = "sensor_msgs/msg/TimeReference"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1727,7 +1727,7 @@ class SetCameraInfo_Request:
     """
 
     __slots__ = ("camera_info",)
-    msg_type = "sensor_msgs/srv/SetCameraInfo_Request"
+    __msgtype__ = "sensor_msgs/srv/SetCameraInfo_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1749,7 +1749,7 @@ class SetCameraInfo_Response:
         "success",
         "status_message",
     )
-    msg_type = "sensor_msgs/srv/SetCameraInfo_Response"
+    __msgtype__ = "sensor_msgs/srv/SetCameraInfo_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1773,7 +1773,7 @@ class SetCameraInfo_Event:
         "request",
         "response",
     )
-    msg_type = "sensor_msgs/srv/SetCameraInfo_Event"
+    __msgtype__ = "sensor_msgs/srv/SetCameraInfo_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)

@@ -105,7 +105,7 @@ class ServiceEventInfo:
         "client_gid",
         "sequence_number",
     )
-    msg_type = "service_msgs/msg/ServiceEventInfo"
+    __msgtype__ = "service_msgs/msg/ServiceEventInfo"
 
     def __repr__(self) -> str:
         return view_repr(self)

@@ -132,7 +132,7 @@ class MeshTriangle:
     """
 
     __slots__ = ("vertex_indices",)
-    msg_type = "shape_msgs/msg/MeshTriangle"
+    __msgtype__ = "shape_msgs/msg/MeshTriangle"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -154,7 +154,7 @@ class Mesh:
         "triangles",
         "vertices",
     )
-    msg_type = "shape_msgs/msg/Mesh"
+    __msgtype__ = "shape_msgs/msg/Mesh"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -174,7 +174,7 @@ class Plane:
     """
 
     __slots__ = ("coef",)
-    msg_type = "shape_msgs/msg/Plane"
+    __msgtype__ = "shape_msgs/msg/Plane"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -197,7 +197,7 @@ class SolidPrimitive:
         "dimensions",
         "polygon",
     )
-    msg_type = "shape_msgs/msg/SolidPrimitive"
+    __msgtype__ = "shape_msgs/msg/SolidPrimitive"
 
     def __repr__(self) -> str:
         return view_repr(self)

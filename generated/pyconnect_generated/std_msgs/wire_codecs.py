@@ -487,7 +487,7 @@ class Bool:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_msgs/msg/Bool"
+    __msgtype__ = "std_msgs/msg/Bool"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -506,7 +506,7 @@ class Byte:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_msgs/msg/Byte"
+    __msgtype__ = "std_msgs/msg/Byte"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -529,7 +529,7 @@ class MultiArrayDimension:
         "size",
         "stride",
     )
-    msg_type = "std_msgs/msg/MultiArrayDimension"
+    __msgtype__ = "std_msgs/msg/MultiArrayDimension"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -553,7 +553,7 @@ class MultiArrayLayout:
         "dim",
         "data_offset",
     )
-    msg_type = "std_msgs/msg/MultiArrayLayout"
+    __msgtype__ = "std_msgs/msg/MultiArrayLayout"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -576,7 +576,7 @@ class ByteMultiArray:
         "layout",
         "data",
     )
-    msg_type = "std_msgs/msg/ByteMultiArray"
+    __msgtype__ = "std_msgs/msg/ByteMultiArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -596,7 +596,7 @@ class Char:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_msgs/msg/Char"
+    __msgtype__ = "std_msgs/msg/Char"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -620,7 +620,7 @@ class ColorRGBA:
         "b",
         "a",
     )
-    msg_type = "std_msgs/msg/ColorRGBA"
+    __msgtype__ = "std_msgs/msg/ColorRGBA"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -642,7 +642,7 @@ class Empty:
     """
 
     __slots__ = ()
-    msg_type = "std_msgs/msg/Empty"
+    __msgtype__ = "std_msgs/msg/Empty"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -660,7 +660,7 @@ class Float32:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_msgs/msg/Float32"
+    __msgtype__ = "std_msgs/msg/Float32"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -682,7 +682,7 @@ class Float32MultiArray:
         "layout",
         "data",
     )
-    msg_type = "std_msgs/msg/Float32MultiArray"
+    __msgtype__ = "std_msgs/msg/Float32MultiArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -702,7 +702,7 @@ class Float64:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_msgs/msg/Float64"
+    __msgtype__ = "std_msgs/msg/Float64"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -724,7 +724,7 @@ class Float64MultiArray:
         "layout",
         "data",
     )
-    msg_type = "std_msgs/msg/Float64MultiArray"
+    __msgtype__ = "std_msgs/msg/Float64MultiArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -747,7 +747,7 @@ class Header:
         "stamp",
         "frame_id",
     )
-    msg_type = "std_msgs/msg/Header"
+    __msgtype__ = "std_msgs/msg/Header"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -767,7 +767,7 @@ class Int16:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_msgs/msg/Int16"
+    __msgtype__ = "std_msgs/msg/Int16"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -789,7 +789,7 @@ class Int16MultiArray:
         "layout",
         "data",
     )
-    msg_type = "std_msgs/msg/Int16MultiArray"
+    __msgtype__ = "std_msgs/msg/Int16MultiArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -809,7 +809,7 @@ class Int32:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_msgs/msg/Int32"
+    __msgtype__ = "std_msgs/msg/Int32"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -831,7 +831,7 @@ class Int32MultiArray:
         "layout",
         "data",
     )
-    msg_type = "std_msgs/msg/Int32MultiArray"
+    __msgtype__ = "std_msgs/msg/Int32MultiArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -851,7 +851,7 @@ class Int64:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_msgs/msg/Int64"
+    __msgtype__ = "std_msgs/msg/Int64"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -873,7 +873,7 @@ class Int64MultiArray:
         "layout",
         "data",
     )
-    msg_type = "std_msgs/msg/Int64MultiArray"
+    __msgtype__ = "std_msgs/msg/Int64MultiArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -893,7 +893,7 @@ class Int8:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_msgs/msg/Int8"
+    __msgtype__ = "std_msgs/msg/Int8"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -915,7 +915,7 @@ class Int8MultiArray:
         "layout",
         "data",
     )
-    msg_type = "std_msgs/msg/Int8MultiArray"
+    __msgtype__ = "std_msgs/msg/Int8MultiArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -935,7 +935,7 @@ class String:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_msgs/msg/String"
+    __msgtype__ = "std_msgs/msg/String"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -954,7 +954,7 @@ class UInt16:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_msgs/msg/UInt16"
+    __msgtype__ = "std_msgs/msg/UInt16"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -976,7 +976,7 @@ class UInt16MultiArray:
         "layout",
         "data",
     )
-    msg_type = "std_msgs/msg/UInt16MultiArray"
+    __msgtype__ = "std_msgs/msg/UInt16MultiArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -996,7 +996,7 @@ class UInt32:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_msgs/msg/UInt32"
+    __msgtype__ = "std_msgs/msg/UInt32"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1018,7 +1018,7 @@ class UInt32MultiArray:
         "layout",
         "data",
     )
-    msg_type = "std_msgs/msg/UInt32MultiArray"
+    __msgtype__ = "std_msgs/msg/UInt32MultiArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1038,7 +1038,7 @@ class UInt64:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_msgs/msg/UInt64"
+    __msgtype__ = "std_msgs/msg/UInt64"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1060,7 +1060,7 @@ class UInt64MultiArray:
         "layout",
         "data",
     )
-    msg_type = "std_msgs/msg/UInt64MultiArray"
+    __msgtype__ = "std_msgs/msg/UInt64MultiArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1080,7 +1080,7 @@ class UInt8:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_msgs/msg/UInt8"
+    __msgtype__ = "std_msgs/msg/UInt8"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1102,7 +1102,7 @@ class UInt8MultiArray:
         "layout",
         "data",
     )
-    msg_type = "std_msgs/msg/UInt8MultiArray"
+    __msgtype__ = "std_msgs/msg/UInt8MultiArray"
 
     def __repr__(self) -> str:
         return view_repr(self)

@@ -262,7 +262,7 @@ class Empty_Request:
     """
 
     __slots__ = ()
-    msg_type = "std_srvs/srv/Empty_Request"
+    __msgtype__ = "std_srvs/srv/Empty_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -280,7 +280,7 @@ class Empty_Response:
     """
 
     __slots__ = ()
-    msg_type = "std_srvs/srv/Empty_Response"
+    __msgtype__ = "std_srvs/srv/Empty_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -302,7 +302,7 @@ class Empty_Event:
         "request",
         "response",
     )
-    msg_type = "std_srvs/srv/Empty_Event"
+    __msgtype__ = "std_srvs/srv/Empty_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -323,7 +323,7 @@ class SetBool_Request:
     """
 
     __slots__ = ("data",)
-    msg_type = "std_srvs/srv/SetBool_Request"
+    __msgtype__ = "std_srvs/srv/SetBool_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -345,7 +345,7 @@ class SetBool_Response:
         "success",
         "message",
     )
-    msg_type = "std_srvs/srv/SetBool_Response"
+    __msgtype__ = "std_srvs/srv/SetBool_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -369,7 +369,7 @@ class SetBool_Event:
         "request",
         "response",
     )
-    msg_type = "std_srvs/srv/SetBool_Event"
+    __msgtype__ = "std_srvs/srv/SetBool_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -390,7 +390,7 @@ class Trigger_Request:
     """
 
     __slots__ = ()
-    msg_type = "std_srvs/srv/Trigger_Request"
+    __msgtype__ = "std_srvs/srv/Trigger_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -411,7 +411,7 @@ class Trigger_Response:
         "success",
         "message",
     )
-    msg_type = "std_srvs/srv/Trigger_Response"
+    __msgtype__ = "std_srvs/srv/Trigger_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -435,7 +435,7 @@ class Trigger_Event:
         "request",
         "response",
     )
-    msg_type = "std_srvs/srv/Trigger_Event"
+    __msgtype__ = "std_srvs/srv/Trigger_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)

@@ -140,7 +140,7 @@ class DisparityImage:
         "max_disparity",
         "delta_d",
     )
-    msg_type = "stereo_msgs/msg/DisparityImage"
+    __msgtype__ = "stereo_msgs/msg/DisparityImage"
 
     def __repr__(self) -> str:
         return view_repr(self)

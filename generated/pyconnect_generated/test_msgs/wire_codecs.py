@@ -2360,7 +2360,7 @@ class BasicTypes:
         "int64_value",
         "uint64_value",
     )
-    msg_type = "test_msgs/msg/BasicTypes"
+    __msgtype__ = "test_msgs/msg/BasicTypes"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -2405,7 +2405,7 @@ class Constants:
     """
 
     __slots__ = ()
-    msg_type = "test_msgs/msg/Constants"
+    __msgtype__ = "test_msgs/msg/Constants"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -2437,7 +2437,7 @@ class Defaults:
         "int64_value",
         "uint64_value",
     )
-    msg_type = "test_msgs/msg/Defaults"
+    __msgtype__ = "test_msgs/msg/Defaults"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -2515,7 +2515,7 @@ class Arrays:
         "string_values_default",
         "alignment_check",
     )
-    msg_type = "test_msgs/msg/Arrays"
+    __msgtype__ = "test_msgs/msg/Arrays"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -2629,7 +2629,7 @@ class BoundedPlainSequences:
         "uint64_values_default",
         "alignment_check",
     )
-    msg_type = "test_msgs/msg/BoundedPlainSequences"
+    __msgtype__ = "test_msgs/msg/BoundedPlainSequences"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -2741,7 +2741,7 @@ class BoundedSequences:
         "string_values_default",
         "alignment_check",
     )
-    msg_type = "test_msgs/msg/BoundedSequences"
+    __msgtype__ = "test_msgs/msg/BoundedSequences"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -2827,7 +2827,7 @@ class Builtins:
         "duration_value",
         "time_value",
     )
-    msg_type = "test_msgs/msg/Builtins"
+    __msgtype__ = "test_msgs/msg/Builtins"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -2847,7 +2847,7 @@ class Empty:
     """
 
     __slots__ = ()
-    msg_type = "test_msgs/msg/Empty"
+    __msgtype__ = "test_msgs/msg/Empty"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -2898,7 +2898,7 @@ class UnboundedSequences:
         "string_values_default",
         "alignment_check",
     )
-    msg_type = "test_msgs/msg/UnboundedSequences"
+    __msgtype__ = "test_msgs/msg/UnboundedSequences"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -2991,7 +2991,7 @@ class MultiNested:
         "unbounded_sequence_of_bounded_sequences",
         "unbounded_sequence_of_unbounded_sequences",
     )
-    msg_type = "test_msgs/msg/MultiNested"
+    __msgtype__ = "test_msgs/msg/MultiNested"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3020,7 +3020,7 @@ class Nested:
     """
 
     __slots__ = ("basic_types_value",)
-    msg_type = "test_msgs/msg/Nested"
+    __msgtype__ = "test_msgs/msg/Nested"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3052,7 +3052,7 @@ class Strings:
         "bounded_string_value_default4",
         "bounded_string_value_default5",
     )
-    msg_type = "test_msgs/msg/Strings"
+    __msgtype__ = "test_msgs/msg/Strings"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3103,7 +3103,7 @@ class WStrings:
         "bounded_sequence_of_wstrings",
         "unbounded_sequence_of_wstrings",
     )
-    msg_type = "test_msgs/msg/WStrings"
+    __msgtype__ = "test_msgs/msg/WStrings"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3160,7 +3160,7 @@ class Arrays_Request:
         "uint64_values_default",
         "string_values_default",
     )
-    msg_type = "test_msgs/srv/Arrays_Request"
+    __msgtype__ = "test_msgs/srv/Arrays_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3273,7 +3273,7 @@ class Arrays_Response:
         "uint64_values_default",
         "string_values_default",
     )
-    msg_type = "test_msgs/srv/Arrays_Response"
+    __msgtype__ = "test_msgs/srv/Arrays_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3358,7 +3358,7 @@ class Arrays_Event:
         "request",
         "response",
     )
-    msg_type = "test_msgs/srv/Arrays_Event"
+    __msgtype__ = "test_msgs/srv/Arrays_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3394,7 +3394,7 @@ class BasicTypes_Request:
         "uint64_value",
         "string_value",
     )
-    msg_type = "test_msgs/srv/BasicTypes_Request"
+    __msgtype__ = "test_msgs/srv/BasicTypes_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3456,7 +3456,7 @@ class BasicTypes_Response:
         "uint64_value",
         "string_value",
     )
-    msg_type = "test_msgs/srv/BasicTypes_Response"
+    __msgtype__ = "test_msgs/srv/BasicTypes_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3507,7 +3507,7 @@ class BasicTypes_Event:
         "request",
         "response",
     )
-    msg_type = "test_msgs/srv/BasicTypes_Event"
+    __msgtype__ = "test_msgs/srv/BasicTypes_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3528,7 +3528,7 @@ class Empty_Request:
     """
 
     __slots__ = ()
-    msg_type = "test_msgs/srv/Empty_Request"
+    __msgtype__ = "test_msgs/srv/Empty_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3546,7 +3546,7 @@ class Empty_Response:
     """
 
     __slots__ = ()
-    msg_type = "test_msgs/srv/Empty_Response"
+    __msgtype__ = "test_msgs/srv/Empty_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3568,7 +3568,7 @@ class Empty_Event:
         "request",
         "response",
     )
-    msg_type = "test_msgs/srv/Empty_Event"
+    __msgtype__ = "test_msgs/srv/Empty_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3589,7 +3589,7 @@ class Fibonacci_Goal:
     """
 
     __slots__ = ("order",)
-    msg_type = "test_msgs/action/Fibonacci_Goal"
+    __msgtype__ = "test_msgs/action/Fibonacci_Goal"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3608,7 +3608,7 @@ class Fibonacci_Result:
     """
 
     __slots__ = ("sequence",)
-    msg_type = "test_msgs/action/Fibonacci_Result"
+    __msgtype__ = "test_msgs/action/Fibonacci_Result"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3627,7 +3627,7 @@ class Fibonacci_Feedback:
     """
 
     __slots__ = ("sequence",)
-    msg_type = "test_msgs/action/Fibonacci_Feedback"
+    __msgtype__ = "test_msgs/action/Fibonacci_Feedback"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3649,7 +3649,7 @@ class Fibonacci_SendGoal_Request:
         "goal_id",
         "goal",
     )
-    msg_type = "test_msgs/action/Fibonacci_SendGoal_Request"
+    __msgtype__ = "test_msgs/action/Fibonacci_SendGoal_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3672,7 +3672,7 @@ class Fibonacci_SendGoal_Response:
         "accepted",
         "stamp",
     )
-    msg_type = "test_msgs/action/Fibonacci_SendGoal_Response"
+    __msgtype__ = "test_msgs/action/Fibonacci_SendGoal_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3696,7 +3696,7 @@ class Fibonacci_SendGoal_Event:
         "request",
         "response",
     )
-    msg_type = "test_msgs/action/Fibonacci_SendGoal_Event"
+    __msgtype__ = "test_msgs/action/Fibonacci_SendGoal_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3717,7 +3717,7 @@ class Fibonacci_GetResult_Request:
     """
 
     __slots__ = ("goal_id",)
-    msg_type = "test_msgs/action/Fibonacci_GetResult_Request"
+    __msgtype__ = "test_msgs/action/Fibonacci_GetResult_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3739,7 +3739,7 @@ class Fibonacci_GetResult_Response:
         "status",
         "result",
     )
-    msg_type = "test_msgs/action/Fibonacci_GetResult_Response"
+    __msgtype__ = "test_msgs/action/Fibonacci_GetResult_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3763,7 +3763,7 @@ class Fibonacci_GetResult_Event:
         "request",
         "response",
     )
-    msg_type = "test_msgs/action/Fibonacci_GetResult_Event"
+    __msgtype__ = "test_msgs/action/Fibonacci_GetResult_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3787,7 +3787,7 @@ class Fibonacci_FeedbackMessage:
         "goal_id",
         "feedback",
     )
-    msg_type = "test_msgs/action/Fibonacci_FeedbackMessage"
+    __msgtype__ = "test_msgs/action/Fibonacci_FeedbackMessage"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3811,7 +3811,7 @@ class NestedMessage_Goal:
         "nested_field",
         "nested_different_pkg",
     )
-    msg_type = "test_msgs/action/NestedMessage_Goal"
+    __msgtype__ = "test_msgs/action/NestedMessage_Goal"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3836,7 +3836,7 @@ class NestedMessage_Result:
         "nested_field",
         "nested_different_pkg",
     )
-    msg_type = "test_msgs/action/NestedMessage_Result"
+    __msgtype__ = "test_msgs/action/NestedMessage_Result"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3861,7 +3861,7 @@ class NestedMessage_Feedback:
         "nested_field",
         "nested_different_pkg",
     )
-    msg_type = "test_msgs/action/NestedMessage_Feedback"
+    __msgtype__ = "test_msgs/action/NestedMessage_Feedback"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3885,7 +3885,7 @@ class NestedMessage_SendGoal_Request:
         "goal_id",
         "goal",
     )
-    msg_type = "test_msgs/action/NestedMessage_SendGoal_Request"
+    __msgtype__ = "test_msgs/action/NestedMessage_SendGoal_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3908,7 +3908,7 @@ class NestedMessage_SendGoal_Response:
         "accepted",
         "stamp",
     )
-    msg_type = "test_msgs/action/NestedMessage_SendGoal_Response"
+    __msgtype__ = "test_msgs/action/NestedMessage_SendGoal_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3932,7 +3932,7 @@ class NestedMessage_SendGoal_Event:
         "request",
         "response",
     )
-    msg_type = "test_msgs/action/NestedMessage_SendGoal_Event"
+    __msgtype__ = "test_msgs/action/NestedMessage_SendGoal_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3953,7 +3953,7 @@ class NestedMessage_GetResult_Request:
     """
 
     __slots__ = ("goal_id",)
-    msg_type = "test_msgs/action/NestedMessage_GetResult_Request"
+    __msgtype__ = "test_msgs/action/NestedMessage_GetResult_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3975,7 +3975,7 @@ class NestedMessage_GetResult_Response:
         "status",
         "result",
     )
-    msg_type = "test_msgs/action/NestedMessage_GetResult_Response"
+    __msgtype__ = "test_msgs/action/NestedMessage_GetResult_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -3999,7 +3999,7 @@ class NestedMessage_GetResult_Event:
         "request",
         "response",
     )
-    msg_type = "test_msgs/action/NestedMessage_GetResult_Event"
+    __msgtype__ = "test_msgs/action/NestedMessage_GetResult_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -4025,7 +4025,7 @@ class NestedMessage_FeedbackMessage:
         "goal_id",
         "feedback",
     )
-    msg_type = "test_msgs/action/NestedMessage_FeedbackMessage"
+    __msgtype__ = "test_msgs/action/NestedMessage_FeedbackMessage"
 
     def __repr__(self) -> str:
         return view_repr(self)

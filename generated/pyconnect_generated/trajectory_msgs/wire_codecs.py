@@ -219,7 +219,7 @@ class JointTrajectoryPoint:
         "effort",
         "time_from_start",
     )
-    msg_type = "trajectory_msgs/msg/JointTrajectoryPoint"
+    __msgtype__ = "trajectory_msgs/msg/JointTrajectoryPoint"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -248,7 +248,7 @@ class JointTrajectory:
         "joint_names",
         "points",
     )
-    msg_type = "trajectory_msgs/msg/JointTrajectory"
+    __msgtype__ = "trajectory_msgs/msg/JointTrajectory"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -274,7 +274,7 @@ class MultiDOFJointTrajectoryPoint:
         "accelerations",
         "time_from_start",
     )
-    msg_type = "trajectory_msgs/msg/MultiDOFJointTrajectoryPoint"
+    __msgtype__ = "trajectory_msgs/msg/MultiDOFJointTrajectoryPoint"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -302,7 +302,7 @@ class MultiDOFJointTrajectory:
         "joint_names",
         "points",
     )
-    msg_type = "trajectory_msgs/msg/MultiDOFJointTrajectory"
+    __msgtype__ = "trajectory_msgs/msg/MultiDOFJointTrajectory"
 
     def __repr__(self) -> str:
         return view_repr(self)

@@ -351,7 +351,7 @@ class FieldType:
         "string_capacity",
         "nested_type_name",
     )
-    msg_type = "type_description_interfaces/msg/FieldType"
+    __msgtype__ = "type_description_interfaces/msg/FieldType"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -377,7 +377,7 @@ class Field:
         "type",
         "default_value",
     )
-    msg_type = "type_description_interfaces/msg/Field"
+    __msgtype__ = "type_description_interfaces/msg/Field"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -401,7 +401,7 @@ class IndividualTypeDescription:
         "type_name",
         "fields",
     )
-    msg_type = "type_description_interfaces/msg/IndividualTypeDescription"
+    __msgtype__ = "type_description_interfaces/msg/IndividualTypeDescription"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -424,7 +424,7 @@ class KeyValue:
         "key",
         "value",
     )
-    msg_type = "type_description_interfaces/msg/KeyValue"
+    __msgtype__ = "type_description_interfaces/msg/KeyValue"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -447,7 +447,7 @@ class TypeDescription:
         "type_description",
         "referenced_type_descriptions",
     )
-    msg_type = "type_description_interfaces/msg/TypeDescription"
+    __msgtype__ = "type_description_interfaces/msg/TypeDescription"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -471,7 +471,7 @@ class TypeSource:
         "encoding",
         "raw_file_contents",
     )
-    msg_type = "type_description_interfaces/msg/TypeSource"
+    __msgtype__ = "type_description_interfaces/msg/TypeSource"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -496,7 +496,7 @@ class GetTypeDescription_Request:
         "type_hash",
         "include_type_sources",
     )
-    msg_type = "type_description_interfaces/srv/GetTypeDescription_Request"
+    __msgtype__ = "type_description_interfaces/srv/GetTypeDescription_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -523,7 +523,7 @@ class GetTypeDescription_Response:
         "type_sources",
         "extra_information",
     )
-    msg_type = "type_description_interfaces/srv/GetTypeDescription_Response"
+    __msgtype__ = "type_description_interfaces/srv/GetTypeDescription_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -552,7 +552,7 @@ class GetTypeDescription_Event:
         "request",
         "response",
     )
-    msg_type = "type_description_interfaces/srv/GetTypeDescription_Event"
+    __msgtype__ = "type_description_interfaces/srv/GetTypeDescription_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)

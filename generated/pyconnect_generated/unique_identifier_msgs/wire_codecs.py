@@ -79,7 +79,7 @@ class UUID:
     """
 
     __slots__ = ("uuid",)
-    msg_type = "unique_identifier_msgs/msg/UUID"
+    __msgtype__ = "unique_identifier_msgs/msg/UUID"
 
     def __repr__(self) -> str:
         return view_repr(self)

@@ -650,7 +650,7 @@ class ImageMarker:
         "points",
         "outline_colors",
     )
-    msg_type = "visualization_msgs/msg/ImageMarker"
+    __msgtype__ = "visualization_msgs/msg/ImageMarker"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -701,7 +701,7 @@ class MenuEntry:
         "command",
         "command_type",
     )
-    msg_type = "visualization_msgs/msg/MenuEntry"
+    __msgtype__ = "visualization_msgs/msg/MenuEntry"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -727,7 +727,7 @@ class UVCoordinate:
         "u",
         "v",
     )
-    msg_type = "visualization_msgs/msg/UVCoordinate"
+    __msgtype__ = "visualization_msgs/msg/UVCoordinate"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -750,7 +750,7 @@ class MeshFile:
         "filename",
         "data",
     )
-    msg_type = "visualization_msgs/msg/MeshFile"
+    __msgtype__ = "visualization_msgs/msg/MeshFile"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -790,7 +790,7 @@ class Marker:
         "mesh_file",
         "mesh_use_embedded_materials",
     )
-    msg_type = "visualization_msgs/msg/Marker"
+    __msgtype__ = "visualization_msgs/msg/Marker"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -856,7 +856,7 @@ class InteractiveMarkerControl:
         "independent_marker_orientation",
         "description",
     )
-    msg_type = "visualization_msgs/msg/InteractiveMarkerControl"
+    __msgtype__ = "visualization_msgs/msg/InteractiveMarkerControl"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -892,7 +892,7 @@ class InteractiveMarker:
         "menu_entries",
         "controls",
     )
-    msg_type = "visualization_msgs/msg/InteractiveMarker"
+    __msgtype__ = "visualization_msgs/msg/InteractiveMarker"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -929,7 +929,7 @@ class InteractiveMarkerFeedback:
         "mouse_point",
         "mouse_point_valid",
     )
-    msg_type = "visualization_msgs/msg/InteractiveMarkerFeedback"
+    __msgtype__ = "visualization_msgs/msg/InteractiveMarkerFeedback"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -962,7 +962,7 @@ class InteractiveMarkerInit:
         "seq_num",
         "markers",
     )
-    msg_type = "visualization_msgs/msg/InteractiveMarkerInit"
+    __msgtype__ = "visualization_msgs/msg/InteractiveMarkerInit"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -987,7 +987,7 @@ class InteractiveMarkerPose:
         "pose",
         "name",
     )
-    msg_type = "visualization_msgs/msg/InteractiveMarkerPose"
+    __msgtype__ = "visualization_msgs/msg/InteractiveMarkerPose"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1015,7 +1015,7 @@ class InteractiveMarkerUpdate:
         "poses",
         "erases",
     )
-    msg_type = "visualization_msgs/msg/InteractiveMarkerUpdate"
+    __msgtype__ = "visualization_msgs/msg/InteractiveMarkerUpdate"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1041,7 +1041,7 @@ class MarkerArray:
     """
 
     __slots__ = ("markers",)
-    msg_type = "visualization_msgs/msg/MarkerArray"
+    __msgtype__ = "visualization_msgs/msg/MarkerArray"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1060,7 +1060,7 @@ class GetInteractiveMarkers_Request:
     """
 
     __slots__ = ()
-    msg_type = "visualization_msgs/srv/GetInteractiveMarkers_Request"
+    __msgtype__ = "visualization_msgs/srv/GetInteractiveMarkers_Request"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1081,7 +1081,7 @@ class GetInteractiveMarkers_Response:
         "sequence_number",
         "markers",
     )
-    msg_type = "visualization_msgs/srv/GetInteractiveMarkers_Response"
+    __msgtype__ = "visualization_msgs/srv/GetInteractiveMarkers_Response"
 
     def __repr__(self) -> str:
         return view_repr(self)
@@ -1105,7 +1105,7 @@ class GetInteractiveMarkers_Event:
         "request",
         "response",
     )
-    msg_type = "visualization_msgs/srv/GetInteractiveMarkers_Event"
+    __msgtype__ = "visualization_msgs/srv/GetInteractiveMarkers_Event"
 
     def __repr__(self) -> str:
         return view_repr(self)

@@ -196,14 +196,24 @@ def body_of(data: Any) -> tuple[memoryview, bool]:
 
 
 # -- views ---------------------------------------------------------------------------------------
+def _view_type(cls: type) -> str | None:
+    # Views name their type in ``__msgtype__``, which no field can be called; those of modules
+    # generated before used ``msg_type`` (a slot when a field has that name, then no str).
+    for attribute in ("__msgtype__", "msg_type"):
+        name = getattr(cls, attribute, None)
+        if isinstance(name, str):
+            return name
+    return None
+
+
 def view_fields(value: Any) -> Any:
     """A decoded view's fields as a dict (so views encode like dicts); anything else as is."""
     cls = type(value)
-    if isinstance(getattr(cls, "msg_type", None), str) and hasattr(cls, "__slots__"):
+    if hasattr(cls, "__slots__") and _view_type(cls) is not None:
         return {name: getattr(value, name) for name in cls.__slots__}
     return value
 
 
 def view_repr(view: Any) -> str:
     fields = ", ".join(f"{name}={getattr(view, name)!r}" for name in type(view).__slots__)
-    return f"{view.msg_type}({fields})"
+    return f"{_view_type(type(view))}({fields})"

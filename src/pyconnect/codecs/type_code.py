@@ -76,6 +76,11 @@ def generated_dict_functions(full_name: str) -> DictFunctions | None:
     # was made from; the generated code reads slots, so it must describe the same fields.
     if msg_class.get_fields_and_field_types() != field_types:
         return None
+    # Its nested types too (a stale folder on the codec search path would drop a field added
+    # to one): the RIHS01 hash covers them all, one lookup as for the wire code.
+    installed = installed_type_hash(full_name)
+    if installed is not None and generated_hash(full_name) != installed:
+        return None
     return DictFunctions(msg_class, to_dict, from_dict)
 
 

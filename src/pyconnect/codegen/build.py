@@ -9,6 +9,7 @@ from pathlib import Path
 from pyconnect.codecs.search_path import CODECS_FOLDER
 from pyconnect.codegen import FORMAT_VERSION
 from pyconnect.codegen.formatting import format_modules, same_module
+from pyconnect.codegen.package_order import build_order, type_packages, type_reference
 from pyconnect.codegen.render import render_package
 from pyconnect.typesys.loading import load_packages
 from pyconnect.typesys.model import PackageDef, TypeSet
@@ -52,6 +53,13 @@ def render_tree(packages: Iterable[str] = (), folders: Iterable[Path] = ()) -> d
 
 def render_loaded(requested: Iterable[PackageDef], types: TypeSet) -> dict[str, str]:
     """``render_tree`` for packages already loaded (formatted as ``codecgen build`` writes)."""
+    requested = list(requested)
+    by_name = {package.name: package for package in requested}
+    # Modules of packages whose types refer to each other would import each other: refused.
+    build_order(
+        {name: type_packages(package, types) for name, package in by_name.items()},
+        why=lambda name, other: str(type_reference(by_name[name], other, types)),
+    )
     files = {f"{GENERATED_PACKAGE}/__init__.py": _ROOT_INIT, f"{GENERATED_PACKAGE}/py.typed": ""}
     for package in requested:
         for relative, text in render_package(package, types).items():

@@ -51,11 +51,18 @@ def add_uninstall_command(commands: argparse._SubParsersAction[argparse.Argument
 
 
 def run_compile(args: argparse.Namespace) -> int:
+    from pyconnect.codegen.compile_dependents import stale_dependents
     from pyconnect.codegen.compile_package import compile_folders
 
-    for result in compile_folders(args.compile_folders, prefix=args.prefix, force=args.force):
+    results = compile_folders(args.compile_folders, prefix=args.prefix, force=args.force)
+    for result in results:
         where = result.layout.python / result.package
         print(f"codecgen: {result.package}: {result.status} ({where})")
+    changed = [r.package for r in results if r.changed_types]
+    if changed:
+        layout = results[0].layout
+        for dependent in stale_dependents(layout, changed, {r.package for r in results}):
+            print(f"codecgen: warning: {dependent.advice(layout)}", file=sys.stderr)
     return 0
 
 

@@ -84,15 +84,25 @@ class StagedPackage:
     digest: str
 
 
-def read_stamp(layout: InstallLayout, package: str) -> str | None:
-    """The input digest an install was built from, or None."""
+def _stamp_entry(layout: InstallLayout, package: str, key: str) -> str | None:
     path = layout.share / package / STAMP_FILE
     try:
         stamp = json.loads(path.read_text(encoding="utf-8"))
     except (OSError, ValueError):
         return None
-    digest = stamp.get("digest") if isinstance(stamp, dict) else None
-    return digest if isinstance(digest, str) else None
+    value = stamp.get(key) if isinstance(stamp, dict) else None
+    return value if isinstance(value, str) else None
+
+
+def read_stamp(layout: InstallLayout, package: str) -> str | None:
+    """The input digest an install was built from, or None."""
+    return _stamp_entry(layout, package, "digest")
+
+
+def stamp_folder(layout: InstallLayout, package: str) -> Path | None:
+    """The folder an install was built from (None for installs older than this entry)."""
+    folder = _stamp_entry(layout, package, "folder")
+    return Path(folder) if folder is not None else None
 
 
 def _copy(source: Path, target: Path) -> None:
@@ -127,7 +137,9 @@ def _lay_out(staged: StagedPackage, stage: InstallLayout) -> None:
     manifest = staged.folder / "package.xml"
     if manifest.is_file():
         _copy(manifest, share / "package.xml")
-    _write(share / STAMP_FILE, json.dumps({"digest": staged.digest}, indent=2) + "\n")
+    # The folder too: the command that rebuilds a dependent after its dependency changed names it.
+    stamp = {"digest": staged.digest, "folder": str(staged.folder.resolve())}
+    _write(share / STAMP_FILE, json.dumps(stamp, indent=2) + "\n")
     index = stage.resource_index
     _write(index / "rosidl_interfaces" / name, "\n".join(sorted(interface_lines)))
     _write(index / "packages" / name, "")

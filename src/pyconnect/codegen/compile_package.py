@@ -18,11 +18,12 @@ import shutil
 import sys
 import tempfile
 from collections.abc import Iterator, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 from pyconnect.codegen import FORMAT_VERSION
 from pyconnect.codegen.build import render_loaded
+from pyconnect.codegen.compile_dependents import installed_type_hashes
 from pyconnect.codegen.compile_generate import Dependency, adapt_interfaces, run_generators
 from pyconnect.codegen.compile_install import (
     InstallLayout,
@@ -32,6 +33,7 @@ from pyconnect.codegen.compile_install import (
 )
 from pyconnect.codegen.compile_link import build_libraries, relative_rpath
 from pyconnect.codegen.compile_toolchain import find_toolchain
+from pyconnect.codegen.package_order import build_order, referenced_packages, type_reference
 from pyconnect.typesys.errors import DefinitionError
 from pyconnect.typesys.loading import load_packages
 from pyconnect.typesys.model import PackageDef, TypeSet
@@ -47,17 +49,17 @@ _DEPEND_TAGS = re.compile(
     r"<(?:depend|build_depend|exec_depend|build_export_depend)>\s*([A-Za-z0-9_]+)\s*</"
 )
 _VERSION_TAG = re.compile(r"<version>\s*([^<\s]+)\s*</version>")
-# What every service and action refers to implicitly (rosidl adds them itself).
-_IMPLICIT = {"srv": ("service_msgs",), "action": ("action_msgs", "service_msgs")}
 
 
 @dataclass(frozen=True)
 class BuildResult:
-    """What happened to one package: ``built`` or ``up to date``, and where it went."""
+    """What happened to one package: ``built`` or ``up to date``, and where it went;
+    ``changed_types`` when it replaced an install whose type hashes were other ones."""
 
     package: str
     status: str
     layout: InstallLayout
+    changed_types: bool = False
 
 
 @contextlib.contextmanager
@@ -91,20 +93,6 @@ def _manifest_version(folder: Path) -> str:
     return "0.0.0"
 
 
-def referenced_packages(package: PackageDef, types: TypeSet) -> set[str]:
-    """Every package whose types ``package``'s types contain, directly or through others."""
-    found: set[str] = set()
-    for msg in package.all_messages:
-        for nested in types.closure(msg.full_name):
-            found.add(nested.package)
-    if package.services or package.actions:
-        found.update(_IMPLICIT["srv"])
-    if package.actions:
-        found.update(_IMPLICIT["action"])
-    found.discard(package.name)
-    return found
-
-
 def resolve_dependencies(names: set[str]) -> list[Dependency]:
     """The installed interface packages among ``names`` (others, e.g. build tools, are skipped)."""
     installed = installed_packages()
@@ -113,29 +101,6 @@ def resolve_dependencies(names: set[str]) -> list[Dependency]:
         for name in sorted(names)
         if name in installed and installed[name].idl_files
     ]
-
-
-def _build_order(folders: dict[str, Path], needs: dict[str, set[str]]) -> list[str]:
-    order: list[str] = []
-    visiting: set[str] = set()
-
-    def visit(name: str) -> None:
-        if name in order:
-            return
-        if name in visiting:
-            raise DefinitionError(
-                f"package.xml: {name} depends on itself through {sorted(visiting)}",
-                path=folders[name] / "package.xml",
-            )
-        visiting.add(name)
-        for dep in sorted(needs[name] & set(folders)):
-            visit(dep)
-        visiting.discard(name)
-        order.append(name)
-
-    for name in sorted(folders):
-        visit(name)
-    return order
 
 
 def _digest(folder: Path, package: PackageDef, files: Sequence[Path]) -> str:
@@ -168,11 +133,21 @@ def compile_folders(
             | set(_manifest_dependencies(by_name[name]))
             for name in by_name
         }
-        results = []
-        for name in _build_order(by_name, needs):
-            results.append(
-                _compile_one(by_name[name], requested[name], types, needs[name], layout, force)
+
+        def why(name: str, other: str) -> str:
+            return type_reference(requested[name], other, types) or (
+                f"{name}'s package.xml depends on {other}"
             )
+
+        order = build_order(needs, why=why, where=lambda name: by_name[name])
+        results = []
+        for name in order:
+            before = installed_type_hashes(layout, name)
+            result = _compile_one(by_name[name], requested[name], types, needs[name], layout, force)
+            if before and result.status == "built":
+                changed = installed_type_hashes(layout, name) != before
+                result = replace(result, changed_types=changed)
+            results.append(result)
         return results
 
 

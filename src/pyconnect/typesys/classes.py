@@ -59,7 +59,7 @@ def message_def_from_class(full_name: str, cls: type) -> MessageDef:
     instance = cls()
     origin = Path(f"{package}/{namespace}/{name}")
     fields = tuple(
-        Field(n, field_type_of(t, origin), _default_of(getattr(instance, "_" + n)))
+        Field(n, field_type_of(t, origin, n), _default_of(getattr(instance, "_" + n)))
         for n, t in zip(names, slot_types, strict=True)
     )
     module, path = class_path(full_name)

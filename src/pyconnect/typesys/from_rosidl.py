@@ -21,18 +21,29 @@ from pyconnect.typesys.model import (
     MessageDef,
     ServiceDef,
 )
-from pyconnect.typesys.primitives import FROM_IDL
+from pyconnect.typesys.primitives import FLOAT32_OVERFLOW, FROM_IDL
 
 DUMMY_MEMBER = "structure_needs_at_least_one_member"
+# IDL basic types with no .msg spelling, which pyconnect's codecs do not read or write.
+UNSUPPORTED_IDL = "IDL char, wchar and long double are not supported; use uint8, uint16, float64"
 
 
-def element_type_of(rosidl_type: Any, origin: Path) -> ElementType:
+def _of(member: str | None) -> str:
+    return f" of {member}" if member is not None else ""
+
+
+def element_type_of(rosidl_type: Any, origin: Path, member: str | None = None) -> ElementType:
+    """The model's element type; ``member`` (the field or constant) locates an error's line."""
     from rosidl_parser import definition as d
 
     if isinstance(rosidl_type, d.BasicType):
         name = FROM_IDL.get(rosidl_type.typename)
         if name is None:
-            raise DefinitionError(f"unsupported IDL type {rosidl_type.typename!r}", path=origin)
+            raise DefinitionError(
+                f"unsupported IDL type {rosidl_type.typename!r}{_of(member)} ({UNSUPPORTED_IDL})",
+                path=origin,
+                member=member,
+            )
         return ElementType("primitive", name)
     if isinstance(rosidl_type, d.AbstractWString):
         bound = rosidl_type.maximum_size if isinstance(rosidl_type, d.BoundedWString) else None
@@ -42,20 +53,23 @@ def element_type_of(rosidl_type: Any, origin: Path) -> ElementType:
         return ElementType("string", "string", int(bound) if bound is not None else None)
     if isinstance(rosidl_type, d.NamespacedType):
         return ElementType("message", "/".join(rosidl_type.namespaced_name()))
-    raise DefinitionError(f"unsupported IDL type {rosidl_type!r}", path=origin)
+    raise DefinitionError(
+        f"unsupported IDL type {rosidl_type!r}{_of(member)}", path=origin, member=member
+    )
 
 
-def field_type_of(rosidl_type: Any, origin: Path) -> FieldType:
+def field_type_of(rosidl_type: Any, origin: Path, member: str | None = None) -> FieldType:
     from rosidl_parser import definition as d
 
     if isinstance(rosidl_type, d.Array):
-        return FieldType(element_type_of(rosidl_type.value_type, origin), "array", rosidl_type.size)
+        element = element_type_of(rosidl_type.value_type, origin, member)
+        return FieldType(element, "array", rosidl_type.size)
     if isinstance(rosidl_type, d.BoundedSequence):
-        element = element_type_of(rosidl_type.value_type, origin)
+        element = element_type_of(rosidl_type.value_type, origin, member)
         return FieldType(element, "bounded_sequence", rosidl_type.maximum_size)
     if isinstance(rosidl_type, d.UnboundedSequence):
-        return FieldType(element_type_of(rosidl_type.value_type, origin), "sequence")
-    return FieldType(element_type_of(rosidl_type, origin))
+        return FieldType(element_type_of(rosidl_type.value_type, origin, member), "sequence")
+    return FieldType(element_type_of(rosidl_type, origin, member))
 
 
 # rosidl writes defaults and constants into the C and Python code as literals (`inff`, `inf`),
@@ -88,6 +102,12 @@ def _scalar(value: object, element: ElementType, subject: _Subject) -> bool | in
         number = float(value)  # type: ignore[arg-type]
         if not math.isfinite(number):
             raise subject.error(f"{_NOT_FINITE}: {number} {_WHY}")
+        # rosidl would store it as inf, and every message leaving the field out would carry a
+        # value no float32 check lets a user give: refused here, where the text is at fault.
+        if element.name == "float32" and abs(number) >= FLOAT32_OVERFLOW:
+            raise subject.error(
+                f"is out of float32's range: {number!r} (|x| < {FLOAT32_OVERFLOW!r})"
+            )
         return number
     return int(value)  # type: ignore[call-overload,no-any-return]
 
@@ -114,7 +134,7 @@ def _default(member: Any, ftype: FieldType, origin: Path) -> DefaultValue:
 
 
 def _constant(constant: Any, origin: Path) -> Constant:
-    element = element_type_of(constant.type, origin)
+    element = element_type_of(constant.type, origin, constant.name)
     subject = _Subject("value", constant.name, origin)
     return Constant(constant.name, element, _scalar(constant.value, element, subject))
 
@@ -128,7 +148,7 @@ def message_def(
     for member in structure.members:
         if member.name == DUMMY_MEMBER:
             continue
-        ftype = field_type_of(member.type, origin)
+        ftype = field_type_of(member.type, origin, member.name)
         fields.append(Field(member.name, ftype, _default(member, ftype, origin)))
     consts = tuple(_constant(c, origin) for c in constants)
     return MessageDef(

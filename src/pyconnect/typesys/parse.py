@@ -251,8 +251,10 @@ def parse_interface_text(package: str, path: Path, text: str, into: ParsedInterf
 def line_declaring(text: str, member: str, *, idl: bool) -> int | None:
     """The first line that declares the field or constant ``member`` (None if none is found)."""
     name = re.escape(member)
-    # .msg: `type name [default]` or `type NAME=value`; IDL: `type name;`, `const type NAME = v;`
-    pattern = re.compile(rf"\b{name}\s*[=;]" if idl else rf"^\s*\S+\s+{name}(\s|=|$)")
+    # .msg: `type name [default]` or `type NAME=value`; IDL: `type name;`, `type name[2];`,
+    # `const type NAME = v;`
+    idl_pattern = rf"\b{name}\s*(\[[^\]]*\]\s*)*[=;]"
+    pattern = re.compile(idl_pattern if idl else rf"^\s*\S+\s+{name}(\s|=|$)")
     for number, line in enumerate(text.splitlines(), start=1):
         if pattern.search(line.split("//" if idl else "#", 1)[0]):
             return number

@@ -85,7 +85,7 @@ def test_views_hold_the_dict_values(full_name: str, data: st.DataObject) -> None
 def view_to_dict(view: Any) -> Any:
     if isinstance(view, list):
         return [view_to_dict(v) for v in view]
-    if hasattr(type(view), "msg_type") and hasattr(type(view), "__slots__"):
+    if hasattr(type(view), "__msgtype__") and hasattr(type(view), "__slots__"):
         return {name: view_to_dict(getattr(view, name)) for name in type(view).__slots__}
     return view
 
