@@ -30,3 +30,18 @@ def test_wrong_message_names_a_class_and_a_non_message() -> None:
     assert str(wrong_message({"x": 1}, "geometry_msgs/msg/Point")) == (
         "expected geometry_msgs/msg/Point, got dict"
     )
+
+
+def test_wrong_message_names_the_type_expected_for_the_class_of_another_type() -> None:
+    # "did you mean Point()?" is only right when a Point is what the codec wants.
+    from geometry_msgs.msg import Point
+
+    assert str(wrong_message(Point, "geometry_msgs/msg/Point")) == (
+        "expected a message, got the class Point; did you mean Point()?"
+    )
+    assert str(wrong_message(Point, "std_msgs/msg/String")) == (
+        "expected std_msgs/msg/String, got the class Point"
+    )
+    assert str(wrong_message("geometry_msgs/msg/Point", "std_msgs/msg/String")) == (
+        "expected std_msgs/msg/String, got str"
+    )

@@ -6,6 +6,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol, runtime_checkable
 
+from pyconnect.codecs.message_slots import field_reader
 from pyconnect.errors import CodecError, CodecNotFoundError, DecodeError, type_name_of
 from pyconnect.typesys.names import full_type_name
 
@@ -104,17 +105,70 @@ class FieldsCodec:
         return build
 
 
+def message_type_name(msg: object) -> str | None:
+    """The full type name a message or message class says it has, else None.
+
+    rclpy's classes are named by their module, rosbags' and the wire codecs' views by
+    ``__msgtype__`` (views of older generated code by ``msg_type``); a duck-typed stand-in
+    names none.
+    """
+    if isinstance(msg, str):  # full_type_name would read it as a type name, not a message
+        return None
+    try:
+        return full_type_name(msg)
+    except CodecNotFoundError:
+        pass
+    cls = msg if isinstance(msg, type) else type(msg)
+    for attribute in ("__msgtype__", "msg_type"):
+        name = getattr(cls, attribute, None)
+        if isinstance(name, str):
+            return name
+    return None
+
+
 def wrong_message(msg: object, expected: str) -> DecodeError:
     """The error of a codec of ``expected`` given something else: a message of another type
-    (``lookup(Image).decode(Point())``) or a message class instead of a message."""
+    (``lookup(Image).decode(Point())``) or a message class instead of a message, which gets
+    "did you mean Image()?" when it is the class of the type expected."""
+    actual = message_type_name(msg)
     if isinstance(msg, type):
         name = msg.__name__
-        return DecodeError(f"expected a message, got the class {name}; did you mean {name}()?")
-    try:
-        actual = full_type_name(msg)
-    except CodecNotFoundError:
-        actual = type_name_of(msg)
-    return DecodeError(f"expected {expected}, got {actual}")
+        if actual == expected or "/" not in expected:  # or any message would do
+            return DecodeError(f"expected a message, got the class {name}; did you mean {name}()?")
+        return DecodeError(f"expected {expected}, got the class {name}")
+    return DecodeError(f"expected {expected}, got {actual or type_name_of(msg)}")
+
+
+def check_message_type(msg: object, expected: str) -> None:
+    """Raise ``wrong_message`` when ``msg`` is a class or names a type other than ``expected``.
+
+    Codecs call it when a per-class cache misses, so the hot path never pays for it. An object
+    that names no type passes: reading its fields decides.
+    """
+    if isinstance(msg, type):
+        raise wrong_message(msg, expected)
+    actual = message_type_name(msg)
+    if actual is not None and actual != expected:
+        raise wrong_message(msg, expected)
+
+
+def checked_reader(msg: object, expected: str, names: tuple[str, ...]) -> Callable[[Any], Any]:
+    """``message_slots.field_reader`` for the class of ``msg`` once ``check_message_type``
+    passes: what a codec puts in its per-class cache."""
+    check_message_type(msg, expected)
+    return field_reader(type(msg), names)
+
+
+def decode_failure(error: Exception, msg: object, expected: str) -> Exception:
+    """What to raise when decoding ``msg`` as ``expected`` failed with ``error``.
+
+    A message of the expected type keeps its own error (a bad field, or a bug worth seeing);
+    anything else (a class, another message, a value that is no message) was the wrong input.
+    Codecs call it from ``except`` only, as a ``try`` costs nothing until it raises.
+    """
+    if not isinstance(msg, type) and message_type_name(msg) == expected:
+        return error
+    return wrong_message(msg, expected)
 
 
 @dataclass(frozen=True)

@@ -11,15 +11,18 @@ Encode also accepts a plain ``(sec, nanosec)`` pair, or an int of nanoseconds (s
 from __future__ import annotations
 
 import numbers
+from collections.abc import Callable
 from typing import Any, ClassVar, NamedTuple, TypeVar
 
-from pyconnect.codecs.base import FieldsCodec
+from pyconnect.codecs.base import FieldsCodec, checked_reader, decode_failure
 from pyconnect.codecs.field_checks import check_kind_int, check_tuple
 
 __all__ = ["DurationCodec", "RosDuration", "RosTime", "TimeCodec"]
 
 
 _T = TypeVar("_T", bound="_SecNanosec")
+_FIELDS = ("sec", "nanosec")
+_new_tuple = tuple.__new__
 
 
 class _SecNanosec(NamedTuple):
@@ -69,8 +72,19 @@ class _SecNanosecCodec(FieldsCodec):
     value_type: ClassVar[type[_SecNanosec]]
     lossless = True
 
+    def __init__(self) -> None:
+        self._readers: dict[type, Callable[[Any], Any]] = {}
+
     def decode(self, msg: Any) -> _SecNanosec:
-        return self.value_type(msg.sec, msg.nanosec)
+        reader = self._readers.get(type(msg))
+        if reader is None:  # once per class: a class, a Duration for a Time is refused here
+            reader = self._readers[type(msg)] = checked_reader(msg, self.msg_type, _FIELDS)
+        # The reader's (sec, nanosec) pair is the tuple itself: no NamedTuple __new__ frame.
+        try:
+            value: _SecNanosec = _new_tuple(self.value_type, reader(msg))
+        except AttributeError as error:  # free until raised: a stand-in lacking a field
+            raise decode_failure(error, msg, self.msg_type) from None
+        return value
 
     def to_fields(self, value: Any) -> dict[str, int]:
         return time_fields(value, self.name)

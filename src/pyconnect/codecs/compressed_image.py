@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pyconnect.codecs.base import FieldsCodec
+from pyconnect.codecs.base import FieldsCodec, check_message_type, decode_failure
 from pyconnect.codecs.buffers import byte_view
 from pyconnect.codecs.compressed_depth import (
     DEFAULT_DEPTH_MAX,
@@ -58,12 +58,24 @@ def _imdecode(payload: npt.NDArray[np.uint8], what: str) -> npt.NDArray[Any]:
 
 def decode_compressed_image(msg: Any) -> npt.NDArray[Any]:
     """The pixels of a CompressedImage (jpeg, png or compressedDepth png)."""
-    data = byte_view(msg.data)
-    form = str(msg.format)
+    try:
+        data = byte_view(msg.data)
+        form = msg.format
+    except (AttributeError, TypeError) as error:  # free until raised: a class, a Point()
+        raise decode_failure(error, msg, "sensor_msgs/msg/CompressedImage") from None
+    if type(form) is not str:  # str() made a class's property, an Int32's 5 a format
+        form = _format_of(msg, form)
     if "compressedDepth" in form:
         return _decode_depth(data, form)
     what = "png" if "png" in form.lower() else "jpeg" if "jp" in form.lower() else repr(form)
     return _imdecode(data, what)
+
+
+def _format_of(msg: Any, form: object) -> str:
+    check_message_type(msg, "sensor_msgs/msg/CompressedImage")
+    if isinstance(form, str):
+        return str(form)  # numpy.str_
+    raise DecodeError(f"CompressedImage.format: expected str, got {type_name_of(form)}")
 
 
 def _decode_depth(data: npt.NDArray[np.uint8], form: str) -> npt.NDArray[Any]:

@@ -20,7 +20,7 @@ import numbers
 from collections.abc import Callable
 from typing import Any
 
-from pyconnect.codecs.base import FieldsCodec
+from pyconnect.codecs.base import FieldsCodec, check_message_type, decode_failure
 from pyconnect.codecs.field_checks import check_float, check_float32, check_tuple
 from pyconnect.codecs.message_slots import CHECK_FIELDS, has_slot_layout, path_reader
 
@@ -150,6 +150,9 @@ class GeometryCodec(FieldsCodec):
         self._readers: dict[type, Callable[[Any], Any]] = {}
 
     def _reader(self, msg: Any, paths: tuple[str, ...]) -> Callable[[Any], Any]:
+        # Once per class, so the checks cost decode nothing: a message class or a message of
+        # another type (a Point for a Twist) is refused here, never cached.
+        check_message_type(msg, self.msg_type)
         reader = self._readers[type(msg)] = path_reader(msg, paths)
         return reader
 
@@ -170,7 +173,10 @@ class Vector3Codec(GeometryCodec):
 
     def decode(self, msg: Any) -> Triple:
         reader = self._readers.get(type(msg)) or self._reader(msg, ("x", "y", "z"))
-        result: Triple = reader(msg)
+        try:
+            result: Triple = reader(msg)
+        except AttributeError as error:  # free until raised: a stand-in lacking a field
+            raise decode_failure(error, msg, self.msg_type) from None
         return result
 
     def to_fields(self, value: Any) -> dict[str, Any]:
@@ -213,7 +219,10 @@ class QuaternionCodec(GeometryCodec):
 
     def decode(self, msg: Any) -> Quad:
         reader = self._readers.get(type(msg)) or self._reader(msg, ("x", "y", "z", "w"))
-        result: Quad = reader(msg)
+        try:
+            result: Quad = reader(msg)
+        except AttributeError as error:  # free until raised: a stand-in lacking a field
+            raise decode_failure(error, msg, self.msg_type) from None
         return result
 
     def to_fields(self, value: Any) -> dict[str, Any]:
@@ -233,7 +242,12 @@ class Pose2DCodec(GeometryCodec):
     _name = "Pose2D"
 
     def decode(self, msg: Any) -> Triple:
-        return (msg.x, msg.y, msg.theta)
+        reader = self._readers.get(type(msg)) or self._reader(msg, ("x", "y", "theta"))
+        try:
+            result: Triple = reader(msg)
+        except AttributeError as error:  # free until raised: a stand-in lacking a field
+            raise decode_failure(error, msg, self.msg_type) from None
+        return result
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         x, y, theta = check_tuple(value, 3, "(x, y, theta)", "Pose2D")
@@ -262,7 +276,10 @@ class PoseCodec(GeometryCodec):
             tuple(f"{self._first}.{a}" for a in "xyz")
             + tuple(f"{self._second}.{a}" for a in "xyzw"),
         )
-        x, y, z, qx, qy, qz, qw = reader(msg)
+        try:
+            x, y, z, qx, qy, qz, qw = reader(msg)
+        except AttributeError as error:  # free until raised: a stand-in lacking a field
+            raise decode_failure(error, msg, self.msg_type) from None
         return ((x, y, z), (qx, qy, qz, qw))
 
     def to_fields(self, value: Any) -> dict[str, Any]:
@@ -338,7 +355,10 @@ class TwistCodec(GeometryCodec):
             tuple(f"{self._first}.{a}" for a in "xyz")
             + tuple(f"{self._second}.{a}" for a in "xyz"),
         )
-        ax, ay, az, bx, by, bz = reader(msg)
+        try:
+            ax, ay, az, bx, by, bz = reader(msg)
+        except AttributeError as error:  # free until raised: a stand-in lacking a field
+            raise decode_failure(error, msg, self.msg_type) from None
         return ((ax, ay, az), (bx, by, bz))
 
     def to_fields(self, value: Any) -> dict[str, Any]:

@@ -11,6 +11,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from pyconnect.codecs.base import check_message_type, decode_failure
 from pyconnect.codecs.geometry import (
     GeometryCodec,
     PoseCodec,
@@ -19,7 +20,7 @@ from pyconnect.codecs.geometry import (
     xyz_fields,
     xyzw_fields,
 )
-from pyconnect.errors import EncodeError, type_name_of
+from pyconnect.errors import DecodeError, EncodeError, type_name_of
 
 
 class PolygonCodec(GeometryCodec):
@@ -28,11 +29,21 @@ class PolygonCodec(GeometryCodec):
     msg_type = "geometry_msgs/msg/Polygon"
     _name = "Polygon"
 
+    def __init__(self) -> None:
+        super().__init__()
+        self._classes: set[type] = set()
+
     def decode(self, msg: Any) -> npt.NDArray[np.float32]:
-        points = msg.points
-        result = np.empty((len(points), 3), np.float32)
-        for index, point in enumerate(points):
-            result[index] = (point.x, point.y, point.z)
+        if type(msg) not in self._classes:  # once per class; noise next to the loop below
+            check_message_type(msg, self.msg_type)  # a sensor_msgs/PointCloud has points too
+            self._classes.add(type(msg))
+        try:
+            points = msg.points
+            result = np.empty((len(points), 3), np.float32)
+            for index, point in enumerate(points):
+                result[index] = (point.x, point.y, point.z)
+        except (AttributeError, TypeError) as error:  # free until raised: a class, a Point()
+            raise decode_failure(error, msg, self.msg_type) from None
         return result
 
     def _checked(self, value: Any) -> npt.NDArray[np.float32]:
@@ -70,7 +81,10 @@ class PoseArrayCodec(GeometryCodec):
 
     def decode(self, msg: Any) -> list[PoseValue]:
         decode = self._pose.decode
-        return [decode(pose) for pose in msg.poses]
+        try:
+            return [decode(pose) for pose in msg.poses]
+        except (AttributeError, TypeError, DecodeError) as error:  # free until raised
+            raise decode_failure(error, msg, self.msg_type) from None
 
     def _list(self, value: Any) -> list[Any]:
         if not isinstance(value, list | tuple):
@@ -103,7 +117,10 @@ class PathCodec(PoseArrayCodec):
 
     def decode(self, msg: Any) -> list[PoseValue]:
         decode = self._pose.decode
-        return [decode(stamped.pose) for stamped in msg.poses]
+        try:
+            return [decode(stamped.pose) for stamped in msg.poses]
+        except (AttributeError, TypeError, DecodeError) as error:  # free until raised
+            raise decode_failure(error, msg, self.msg_type) from None
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         return {

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from pyconnect.codecs.base import FieldsCodec
+from pyconnect.codecs.base import FieldsCodec, decode_failure
 from pyconnect.codecs.field_path import rerooted
 from pyconnect.codecs.geometry import (
     AccelCodec,
@@ -21,7 +21,7 @@ from pyconnect.codecs.geometry import (
     WrenchCodec,
 )
 from pyconnect.codecs.geometry_arrays import PolygonCodec
-from pyconnect.errors import EncodeError
+from pyconnect.errors import DecodeError, EncodeError
 
 
 class StampedCodec(FieldsCodec):
@@ -36,7 +36,10 @@ class StampedCodec(FieldsCodec):
         self.inner = inner
 
     def decode(self, msg: Any) -> Any:
-        return self.inner.decode(getattr(msg, self.field))
+        try:
+            return self.inner.decode(getattr(msg, self.field))
+        except (AttributeError, DecodeError) as error:  # free until raised: a class, a Point()
+            raise decode_failure(error, msg, self.msg_type) from None
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         try:

@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pyconnect.codecs.base import FieldsCodec, wrong_message
+from pyconnect.codecs.base import FieldsCodec, check_message_type, wrong_message
 from pyconnect.codecs.buffers import byte_array, contiguous_bytes
 from pyconnect.codecs.image_encodings import (
     UnknownEncodingError,
@@ -69,6 +69,7 @@ def decode_image(msg: Any) -> npt.NDArray[Any]:
     cls = type(msg)
     reader = _READERS.get(cls)
     if reader is None:
+        check_message_type(msg, "sensor_msgs/msg/Image")  # once per class: a class, a Point()
         reader = _READERS[cls] = field_reader(cls, _FIELDS)
     try:
         encoding, big_endian, height, width, step, data = reader(msg)

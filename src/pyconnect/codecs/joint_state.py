@@ -14,7 +14,7 @@ from collections.abc import Callable, Mapping
 from itertools import chain
 from typing import Any
 
-from pyconnect.codecs.base import FieldsCodec
+from pyconnect.codecs.base import FieldsCodec, check_message_type, decode_failure
 from pyconnect.codecs.field_checks import PLAIN_FLOATS, check_float, check_str
 from pyconnect.codecs.message_slots import blank, field_reader, has_slot_layout, zero_header
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
@@ -38,8 +38,12 @@ def decode_joint_state(msg: Any) -> dict[str, dict[str, float]]:
     cls = type(msg)
     reader = _READERS.get(cls)
     if reader is None:
+        check_message_type(msg, "sensor_msgs/msg/JointState")  # once per class
         reader = _READERS[cls] = field_reader(cls, _FIELDS)
-    names, position, velocity, effort = reader(msg)
+    try:
+        names, position, velocity, effort = reader(msg)
+    except AttributeError as error:  # free until raised: a stand-in without these fields
+        raise decode_failure(error, msg, "sensor_msgs/msg/JointState") from None
     count = len(names)
     if count and len(position) == count and len(velocity) == count and len(effort) == count:
         # rclpy's array('d') yields Python floats as it is iterated (a list from tolist() first

@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pyconnect.codecs.base import FieldsCodec
+from pyconnect.codecs.base import FieldsCodec, decode_failure
 from pyconnect.codecs.buffers import filled_array, numeric_view
 from pyconnect.codecs.field_checks import check_float32
 from pyconnect.errors import EncodeError, type_name_of
@@ -76,17 +76,20 @@ def scan_points(scan: LaserScanValue, *, keep_invalid: bool = False) -> npt.NDAr
 
 
 def decode_laser_scan(msg: Any) -> LaserScanValue:
-    return LaserScanValue(
-        numeric_view(msg.ranges, np.float32),
-        numeric_view(msg.intensities, np.float32),
-        msg.angle_min,
-        msg.angle_max,
-        msg.angle_increment,
-        msg.time_increment,
-        msg.scan_time,
-        msg.range_min,
-        msg.range_max,
-    )
+    try:
+        return LaserScanValue(
+            numeric_view(msg.ranges, np.float32),
+            numeric_view(msg.intensities, np.float32),
+            msg.angle_min,
+            msg.angle_max,
+            msg.angle_increment,
+            msg.time_increment,
+            msg.scan_time,
+            msg.range_min,
+            msg.range_max,
+        )
+    except (AttributeError, TypeError) as error:  # free until raised: a class, a Point()
+        raise decode_failure(error, msg, "sensor_msgs/msg/LaserScan") from None
 
 
 def _checked(value: Any) -> LaserScanValue:

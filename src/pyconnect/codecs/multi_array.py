@@ -15,7 +15,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pyconnect.codecs.base import FieldsCodec
+from pyconnect.codecs.base import FieldsCodec, check_message_type, decode_failure
 from pyconnect.codecs.buffers import ARRAY_TYPECODES, numeric_view
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
 from pyconnect.typesys.primitives import FLOAT32_OVERFLOW
@@ -49,16 +49,25 @@ class MultiArrayCodec(FieldsCodec):
         self.dtype = np.dtype(DTYPES[name])
         # Looked up once: dtype.name costs microseconds per call (the encode hot path).
         self._typecode = ARRAY_TYPECODES.get(self.dtype.name, "")
+        # Classes checked to be this type (or to name none): numeric_view would cast a
+        # Float64MultiArray's data for an Int8MultiArray codec rather than fail.
+        self._classes: set[type] = set()
 
     def decode(self, msg: Any) -> npt.NDArray[Any]:
-        data = numeric_view(msg.data, self.dtype)
-        layout = msg.layout
-        dims = list(layout.dim)
-        offset = layout.data_offset
-        if not dims:
-            return data[offset:]
-        shape = tuple(int(d.size) for d in dims)
-        element_strides = [int(d.stride) for d in dims[1:]] + [1]
+        if type(msg) not in self._classes:  # once per class; noise next to the view's cost
+            check_message_type(msg, self.msg_type)
+            self._classes.add(type(msg))
+        try:
+            data = numeric_view(msg.data, self.dtype)
+            layout = msg.layout
+            dims = list(layout.dim)
+            offset = layout.data_offset
+            if not dims:
+                return data[offset:]
+            shape = tuple(int(d.size) for d in dims)
+            element_strides = [int(d.stride) for d in dims[1:]] + [1]
+        except (AttributeError, TypeError) as error:  # free until raised: a class, a Point()
+            raise decode_failure(error, msg, self.msg_type) from None
         if len(shape) > _MAX_DIMS:
             raise DecodeError(
                 f"{self.name}.layout.dim: expected at most {_MAX_DIMS} dimensions, got {len(shape)}"

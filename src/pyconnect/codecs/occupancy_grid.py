@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pyconnect.codecs.base import FieldsCodec
+from pyconnect.codecs.base import FieldsCodec, decode_failure
 from pyconnect.codecs.buffers import numeric_view
 from pyconnect.codecs.builtin_time import RosTime, time_fields
 from pyconnect.codecs.field_checks import check_float32
@@ -54,19 +54,23 @@ class OccupancyGridValue:
 
 
 def decode_occupancy_grid(msg: Any) -> OccupancyGridValue:
-    info = msg.info
-    height, width = info.height, info.width
-    data = numeric_view(msg.data, np.int8)
+    try:
+        info = msg.info
+        height, width = info.height, info.width
+        data = numeric_view(msg.data, np.int8)
+        load = info.map_load_time
+        origin = _POSE.decode(info.origin)
+    except (AttributeError, TypeError, DecodeError) as error:  # free until raised: a class
+        raise decode_failure(error, msg, "nav_msgs/msg/OccupancyGrid") from None
     if len(data) != height * width:
         raise DecodeError(
             f"OccupancyGrid.data: expected {height * width} cells (height {height} * width "
             f"{width}), got {len(data)}"
         )
-    load = info.map_load_time
     return OccupancyGridValue(
         data.reshape(height, width),
         info.resolution,
-        _POSE.decode(info.origin),
+        origin,
         RosTime(load.sec, load.nanosec),
     )
 

@@ -23,7 +23,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from pyconnect.codecs.base import FieldsCodec
+from pyconnect.codecs.base import FieldsCodec, decode_failure
 from pyconnect.codecs.buffers import byte_view, contiguous_bytes
 from pyconnect.codecs.message_slots import has_slot_layout
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
@@ -101,10 +101,13 @@ def cloud_dtype(fields: Any, point_step: int, *, big_endian: bool = False) -> np
 
 def decode_point_cloud(msg: Any) -> npt.NDArray[Any]:
     """A zero-copy structured view of a PointCloud2's points (reads attributes only)."""
-    height, width = msg.height, msg.width
-    point_step, row_step = msg.point_step, msg.row_step
-    dtype = cloud_dtype(msg.fields, point_step, big_endian=bool(msg.is_bigendian))
-    data = byte_view(msg.data)
+    try:
+        height, width = msg.height, msg.width
+        point_step, row_step = msg.point_step, msg.row_step
+        dtype = cloud_dtype(msg.fields, point_step, big_endian=bool(msg.is_bigendian))
+        data = byte_view(msg.data)
+    except (AttributeError, TypeError) as error:  # free until raised: a class, an Image()
+        raise decode_failure(error, msg, "sensor_msgs/msg/PointCloud2") from None
     if height and width and row_step < width * point_step:
         raise DecodeError(
             f"PointCloud2.row_step: expected at least {width * point_step} (width {width} * "
@@ -325,11 +328,17 @@ class PointCloudCodec(FieldsCodec):
 
 def unpack_rgb(packed: npt.NDArray[Any]) -> npt.NDArray[np.uint8]:
     """(…, 3) uint8 r, g, b of a packed ``rgb``/``rgba`` field (PCL's 0x00RRGGBB or 0xAARRGGBB
-    layout), a float32 or a 4-byte integer field: its bits are read as they are. Other floats
-    (Python floats, float64 columns of an export) are first made float32 again."""
+    layout), a float32 or a 4-byte integer field: its bits are read as they are, always right.
+
+    Other floats (Python floats, float64 columns of an export) are first made float32 again,
+    which gives back the bits of every packed value but one kind: with alpha 0xFF or 0x7F and
+    red in 0x80-0xBF the float32 is a signalling NaN, and widening it set its quiet bit (red
+    0x99 comes back as 0xD9). That bit cannot be told from a red of 0xC0-0xFF, so keep such
+    columns float32 or uint32 (``PointCloud2`` decode does) when alpha may be set.
+    """
     packed = np.asarray(packed)
     if packed.dtype.kind == "f" and packed.dtype.itemsize != 4:
-        # A float32 widened to float64 keeps its value, so narrowing gives back its bits.
+        # Narrowing gives back a widened float32's bits, a signalling NaN's quiet bit aside.
         packed = packed.astype(np.float32)
     kind = packed.dtype
     if kind.kind in "iu" and kind.itemsize == 4:

@@ -8,10 +8,17 @@ numbers (and numbers for bools). ``std_msgs/Byte`` is an int in [0, 255] (rclpy 
 
 from __future__ import annotations
 
+import numbers
+from collections.abc import Callable
 from functools import partial
 from typing import Any
 
-from pyconnect.codecs.base import FieldsCodec
+from pyconnect.codecs.base import (
+    FieldsCodec,
+    check_message_type,
+    checked_reader,
+    decode_failure,
+)
 from pyconnect.codecs.field_checks import (
     check_bool,
     check_float,
@@ -21,6 +28,7 @@ from pyconnect.codecs.field_checks import (
     check_tuple,
     fail,
 )
+from pyconnect.errors import DecodeError, type_name_of
 
 __all__ = [
     "BoolCodec",
@@ -44,6 +52,9 @@ _INT_TYPES = {
     "Char": "char",
 }
 
+_RGBA = ("r", "g", "b", "a")
+_NUMPY_BOOL = ("bool",)  # numpy's dtype("bool") == "bool"; no numpy import for the check
+
 
 class IntCodec(FieldsCodec):
     """std_msgs Int*/UInt*/Char ↔ ``int`` with a range check."""
@@ -56,7 +67,16 @@ class IntCodec(FieldsCodec):
         self.msg_type = f"std_msgs/msg/{name}"
 
     def decode(self, msg: Any) -> int:
-        return int(msg.data)
+        try:
+            data = msg.data
+        except AttributeError as error:  # free until raised: a Point(), a class
+            raise decode_failure(error, msg, self.msg_type) from None
+        if data.__class__ is int:  # rclpy's and the views' value; a class or a Float64 is not
+            return data
+        check_message_type(msg, self.msg_type)
+        if isinstance(data, numbers.Integral) and not isinstance(data, bool):
+            return int(data)  # a numpy integer of a stand-in
+        raise DecodeError(f"{self.name}.data: expected int, got {type_name_of(data)}")
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         return {"data": check_kind_int(value, self.kind, f"{self.name}.data")}
@@ -73,7 +93,16 @@ class FloatCodec(FieldsCodec):
         self._check = check_float32 if name == "Float32" else check_float
 
     def decode(self, msg: Any) -> float:
-        return float(msg.data)
+        try:
+            data = msg.data
+        except AttributeError as error:  # free until raised: a Point(), a class
+            raise decode_failure(error, msg, self.msg_type) from None
+        if data.__class__ is float:  # rclpy's and the views' value; a class or an Int32 is not
+            return data
+        check_message_type(msg, self.msg_type)
+        if isinstance(data, numbers.Real) and not isinstance(data, bool):
+            return float(data)  # a numpy float or an int of a stand-in
+        raise DecodeError(f"{self.name}.data: expected float, got {type_name_of(data)}")
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         return {"data": self._check(value, f"{self.name}.data")}
@@ -86,7 +115,16 @@ class BoolCodec(FieldsCodec):
     lossless = True
 
     def decode(self, msg: Any) -> bool:
-        return bool(msg.data)
+        try:
+            data = msg.data
+        except AttributeError as error:  # free until raised: a Point(), a class
+            raise decode_failure(error, msg, self.msg_type) from None
+        if data.__class__ is bool:  # rclpy's and the views' value; a class or an Int32 is not
+            return data
+        check_message_type(msg, self.msg_type)
+        if isinstance(data, numbers.Integral) or getattr(data, "dtype", None) in _NUMPY_BOOL:
+            return bool(data)  # a numpy bool or a 0/1 of a stand-in
+        raise DecodeError(f"Bool.data: expected bool, got {type_name_of(data)}")
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         return {"data": check_bool(value, "Bool.data")}
@@ -99,10 +137,20 @@ class ByteCodec(FieldsCodec):
     lossless = True
 
     def decode(self, msg: Any) -> int:
-        data = msg.data
-        if isinstance(data, bytes | bytearray):
+        try:
+            data = msg.data
+        except AttributeError as error:  # free until raised: a Point(), a class
+            raise decode_failure(error, msg, self.msg_type) from None
+        if data.__class__ is bytes:  # rclpy's 1-byte bytes
             return data[0]
-        return int(data)
+        if data.__class__ is int:  # the views'
+            return data
+        check_message_type(msg, self.msg_type)
+        if isinstance(data, bytes | bytearray) and len(data) == 1:
+            return data[0]
+        if isinstance(data, numbers.Integral) and not isinstance(data, bool):
+            return int(data)
+        raise DecodeError(f"Byte.data: expected int or 1 byte, got {type_name_of(data)}")
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         return {"data": check_kind_int(value, "byte", "Byte.data")}
@@ -115,7 +163,17 @@ class StringCodec(FieldsCodec):
     lossless = True
 
     def decode(self, msg: Any) -> str:
-        return str(msg.data)
+        try:
+            data = msg.data
+        except AttributeError as error:  # free until raised: a Point(), a class
+            raise decode_failure(error, msg, self.msg_type) from None
+        # str(data) turned an Int32's 5 into "5"; .__class__ costs what str() did, type() more.
+        if data.__class__ is str:
+            return data
+        check_message_type(msg, self.msg_type)
+        if isinstance(data, str):
+            return str(data)  # numpy.str_
+        raise DecodeError(f"String.data: expected str, got {type_name_of(data)}")
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         return {"data": check_str(value, None, "String.data")}
@@ -127,8 +185,14 @@ class EmptyCodec(FieldsCodec):
     msg_type = "std_msgs/msg/Empty"
     lossless = True
 
+    def __init__(self) -> None:
+        self._classes: set[type] = set()  # classes checked to be Empty (or to name no type)
+
     def decode(self, msg: Any) -> None:
-        return None
+        # Nothing to read, so nothing fails: the one codec that checks each call (~25 ns).
+        if msg.__class__ not in self._classes:
+            check_message_type(msg, self.msg_type)
+            self._classes.add(type(msg))
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         if value is not None:
@@ -142,8 +206,18 @@ class ColorRGBACodec(FieldsCodec):
     msg_type = "std_msgs/msg/ColorRGBA"
     lossless = True
 
+    def __init__(self) -> None:
+        self._readers: dict[type, Callable[[Any], Any]] = {}
+
     def decode(self, msg: Any) -> tuple[float, float, float, float]:
-        return (msg.r, msg.g, msg.b, msg.a)
+        reader = self._readers.get(type(msg))
+        if reader is None:  # once per class: a class or another message is refused here
+            reader = self._readers[type(msg)] = checked_reader(msg, self.msg_type, _RGBA)
+        try:
+            result: tuple[float, float, float, float] = reader(msg)
+        except AttributeError as error:  # free until raised: a stand-in lacking a field
+            raise decode_failure(error, msg, self.msg_type) from None
+        return result
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         r, g, b, a = check_tuple(value, 4, "(r, g, b, a)", "ColorRGBA")
