@@ -11,16 +11,14 @@ from typing import Any
 from pyconnect.codecs.base import FieldsCodec, decode_failure
 from pyconnect.codecs.field_path import rerooted
 from pyconnect.codecs.geometry import (
-    AccelCodec,
     PointCodec,
     PoseCodec,
     QuaternionCodec,
     TransformCodec,
-    TwistCodec,
     Vector3Codec,
-    WrenchCodec,
 )
 from pyconnect.codecs.geometry_arrays import PolygonCodec
+from pyconnect.codecs.geometry_twist import AccelCodec, TwistCodec, WrenchCodec
 from pyconnect.errors import DecodeError, EncodeError
 
 

@@ -8,7 +8,8 @@ import pytest
 
 from pyconnect import codecs
 from pyconnect.codecs.base import FieldsCodec, NaturalCodec
-from pyconnect.codecs.geometry import PoseCodec, QuaternionCodec, TwistCodec, Vector3Codec
+from pyconnect.codecs.geometry import PoseCodec, QuaternionCodec, Vector3Codec
+from pyconnect.codecs.geometry_twist import TwistCodec
 from pyconnect.codecs.image import ImageCodec
 from pyconnect.codecs.joint_state import JointStateCodec
 from pyconnect.codecs.natural import NATURAL_CODECS
