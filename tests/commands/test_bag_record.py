@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import io
 import re
+import shutil
 import signal
 from pathlib import Path
 from types import SimpleNamespace
@@ -101,6 +102,43 @@ def test_a_split_duration_no_ns_count_holds_is_a_usage_error(
     )
 
 
+@pytest.mark.parametrize("seconds", ["1e-10", "4.9e-10", "5e-10"])
+def test_a_split_duration_below_one_ns_is_a_usage_error(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    seconds: str,
+) -> None:
+    # 1e-10 s is a positive duration, yet it rounded to a 0 ns limit: silently never split.
+    def record(*_: object) -> int:
+        pytest.fail("recording started")
+
+    monkeypatch.setattr(bag_record, "_record", record)
+    argv = ["bag", "record", "/chatter", "-o", str(tmp_path / "run"), "-d", seconds]
+    assert main(argv) == 2
+    assert capsys.readouterr().err == (
+        "pyconnect: error: argument -d/--max-bag-duration: expected at least 1e-09 seconds "
+        f"(0: no split), got {seconds!r}\n"
+    )
+    assert not (tmp_path / "run").exists()
+
+
+@pytest.mark.parametrize("seconds", ["1e-9", "0", "1.5"])
+def test_a_split_duration_of_one_ns_or_more_or_0_is_taken(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, seconds: str
+) -> None:
+    taken: list[float] = []
+
+    def record(args: argparse.Namespace, *_: object) -> int:
+        taken.append(args.max_bag_duration)
+        return 0
+
+    monkeypatch.setattr(bag_record, "_record", record)
+    argv = ["bag", "record", "/chatter", "-o", str(tmp_path / "run"), "-d", seconds]
+    assert main(argv) == 0
+    assert taken == [float(seconds)]
+
+
 def test_a_bag_that_cannot_be_finished_still_says_what_it_recorded(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -158,3 +196,32 @@ def test_a_full_disk_is_reported_with_the_bag_and_what_it_lost(peer: Lines, tmp_
     assert metadata["message_count"] == held
     _seen, recorded = lines.wait_for("^Recorded ")
     assert recorded.string == f"Recorded {held} message(s) to '{bag}'"
+
+
+def test_a_bag_directory_removed_while_recorded_ends_it_with_what_it_lost(
+    peer: Lines, tmp_path: Path
+) -> None:
+    # It was made again, empty, at the next split: exit 0, every message claimed recorded,
+    # and a metadata.yaml listing the files removed with the first one (bag info failed).
+    bag = tmp_path / "run"
+    argv = ["bag", "record", "/chatter", "-o", str(bag), "--max-bag-duration", "0.2"]
+    recorder = spawn("-m", "pyconnect.cli", *argv)
+    lines = Lines(recorder)
+    try:
+        lines.wait_for("^Recording '/chatter': first message received$")
+        shutil.rmtree(bag)
+        status = recorder.wait(timeout=WAIT)  # the next split finds it gone: the end
+    finally:
+        err = lines.stop()
+    assert status == 2
+    found = re.fullmatch(
+        rf"pyconnect: error: {re.escape(str(bag))}: writing the bag failed "
+        rf"\({re.escape(str(bag))}: the directory was removed while it was recorded, its files "
+        r"with it\); (\d+) received message\(s\) not written\n",
+        err,
+    )
+    assert found, err
+    assert int(found.group(1)) > 0
+    assert not bag.exists()
+    _seen, recorded = lines.wait_for("^Recorded ")
+    assert recorded.string == f"Recorded 0 message(s) to '{bag}'"

@@ -279,3 +279,61 @@ def test_action_parts_are_recorded_with_a_definition_rosbags_reads(tmp_path: Pat
         ours = {m.topic: m.value for m in bag}
     assert bag.errors == []
     assert ours["/Fibonacci/FeedbackMessage"]["feedback"] == {"sequence": [1, 1, 2]}
+
+
+# -- a full disk, a missing folder ----------------------------------------------------------------
+def _noise(i: int) -> bytes:
+    return bytes(serialize_message(String(data=f"{i:04d}" + "x" * 996)))
+
+
+def _metadata_of(bag: Path) -> dict[str, object]:
+    info: dict[str, object] = yaml.safe_load((bag / "metadata.yaml").read_text())[
+        "rosbag2_bagfile_information"
+    ]
+    return info
+
+
+@pytest.mark.parametrize("chunk_size", [1024 * 1024, 3_000], ids=["at-close", "at-a-write"])
+def test_a_file_the_full_disk_cut_short_keeps_its_metadata_and_counts_what_it_holds(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, chunk_size: int
+) -> None:
+    """close() raised before writing metadata.yaml (node.record left a bag without one), and
+    the counts were what the file was handed, not what it holds."""
+    from pyconnect.record.bag_reader import open_bag
+    from pyconnect.record.mcap_recorder import _CountedFile
+    from tests.record.test_split_recorder import full_disk_write
+
+    bag = tmp_path / "run"
+    recorder = McapRecorder(bag, compression="none", chunk_size=chunk_size)
+    recorder.add_topic("/noise", "std_msgs/msg/String")
+    monkeypatch.setattr(_CountedFile, "write", full_disk_write(10_000))
+    handed = 0
+    for i in range(40):
+        try:
+            recorder.write("/noise", _noise(i), log_time_ns=1_000 + i)
+        except OSError:
+            break  # a chunk met the full disk: the recording stops there
+        handed += 1
+    assert recorder.failed == (handed < 40)
+    with pytest.raises(OSError, match="No space left on device"):
+        recorder.close()
+    recorder.close()  # not retried
+    assert recorder.failed
+    with open_bag(bag) as reader:
+        stamps = [m.log_time_ns for m in reader]
+    assert 0 < len(stamps) < 40
+    assert recorder.messages_written == len(stamps)
+    assert recorder.counts == {"/noise": len(stamps)}
+    assert recorder.span == (stamps[0], stamps[-1])
+    metadata = _metadata_of(bag)
+    assert metadata["message_count"] == len(stamps)
+    assert metadata["duration"] == {"nanoseconds": stamps[-1] - stamps[0]}
+
+
+def test_a_missing_folder_is_made_unless_make_parents_is_false(tmp_path: Path) -> None:
+    with McapRecorder(tmp_path / "made" / "run.mcap"):
+        pass
+    assert (tmp_path / "made" / "run.mcap").is_file()
+    with pytest.raises(FileNotFoundError):
+        McapRecorder(tmp_path / "gone" / "run.mcap", make_parents=False)
+    assert not (tmp_path / "gone").exists()

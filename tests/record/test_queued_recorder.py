@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import threading
+import time
 from pathlib import Path
 from typing import Any
 
@@ -132,3 +134,37 @@ def test_a_failed_writer_then_a_failed_finish_are_one_error(
     assert isinstance(written, OSError) and isinstance(finishing, OSError)
     assert written is not finishing
     assert (split.counts, _metadata(bag)["message_count"]) == ({"/noise": held}, held)
+
+
+def test_a_bag_directory_removed_while_recorded_is_a_bag_error_that_counts_all_lost(
+    tmp_path: Path,
+) -> None:
+    bag = tmp_path / "run"
+    split = SplitRecorder(bag, max_bytes=1)  # a new file after every message
+    split.add_topic("/chatter", "std_msgs/msg/String")
+    recorder = QueuedRecorder(split)
+    for i in range(3):
+        recorder.write("/chatter", _hello(i), log_time_ns=1_000 + i)
+    _wait_until(lambda: recorder.pending == 0 and len(split.files) >= 3)
+    for path in bag.iterdir():
+        path.unlink()
+    bag.rmdir()
+    for i in range(3, 6):  # the first of them needs the next file: the writer fails there
+        with contextlib.suppress(BagError):
+            recorder.write("/chatter", _hello(i), log_time_ns=1_000 + i)
+    with pytest.raises(BagError) as failed:
+        recorder.close()
+    assert str(failed.value) == (
+        f"{bag}: writing the bag failed ({bag}: the directory was removed while it was "
+        "recorded, its files with it); 6 received message(s) not written"
+    )
+    assert not bag.exists()  # not made again for the rest of the recording
+    assert split.counts == {"/chatter": 0}
+
+
+def _wait_until(done: Any) -> None:
+    for _ in range(int(WAIT / 0.01)):
+        if done():
+            return
+        time.sleep(0.01)
+    pytest.fail("timed out")

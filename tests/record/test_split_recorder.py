@@ -19,6 +19,7 @@ from std_msgs.msg import String
 from yaml.representer import SafeRepresenter
 
 from pyconnect.record import open_bag, split_recorder
+from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_metadata import metadata_info, metadata_yaml, read_metadata
 from pyconnect.record.mcap_recorder import McapRecorder, _CountedFile
 from pyconnect.record.split_recorder import SplitRecorder
@@ -381,3 +382,46 @@ def test_a_file_the_full_disk_cut_short_is_counted_as_read_back(
             "message_count": len(stamps),
         }
     ]
+
+
+# -- a directory removed while it is recorded ------------------------------------------------------
+def test_a_directory_removed_at_a_split_is_a_bag_error_not_made_again(tmp_path: Path) -> None:
+    # It was made again, empty, at the next split: the recording went on into it, and its
+    # metadata.yaml listed the files removed with the first one.
+    bag = tmp_path / "run"
+    recorder = SplitRecorder(bag, max_ns=10)
+    recorder.add_topic("/chatter", "std_msgs/msg/String")
+    for i in range(3):
+        recorder.write("/chatter", _hello(i), log_time_ns=1_000 + 10 * i)  # a file each
+    for path in bag.iterdir():
+        path.unlink()
+    bag.rmdir()
+    expected = f"{bag}: the directory was removed while it was recorded, its files with it"
+    with pytest.raises(BagError) as failed:
+        recorder.write("/chatter", _hello(3), log_time_ns=1_030)  # the next file's split
+    assert str(failed.value) == expected
+    assert isinstance(failed.value.__cause__, FileNotFoundError)
+    assert not bag.exists()
+    assert recorder.counts == {"/chatter": 0}  # its files went with it
+    with pytest.raises(BagError) as closing:
+        recorder.close()
+    assert closing.value is failed.value  # one failure, told the same way
+    assert not bag.exists()
+    recorder.close()  # idempotent: reported once
+
+
+def test_a_directory_removed_with_its_only_file_open_is_a_bag_error_at_close(
+    tmp_path: Path,
+) -> None:
+    bag = tmp_path / "run"
+    recorder = SplitRecorder(bag)
+    recorder.add_topic("/chatter", "std_msgs/msg/String")
+    recorder.write("/chatter", _hello(0), log_time_ns=1_000)
+    for path in bag.iterdir():
+        path.unlink()
+    bag.rmdir()
+    recorder.write("/chatter", _hello(1), log_time_ns=1_001)  # into the open (unlinked) file
+    with pytest.raises(BagError, match="the directory was removed while it was recorded"):
+        recorder.close()
+    assert not bag.exists()
+    assert recorder.counts == {"/chatter": 0}

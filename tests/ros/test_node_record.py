@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import re
 import threading
 from collections.abc import Callable
 from pathlib import Path
@@ -12,6 +13,7 @@ import yaml
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
+from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_reader import open_bag
 from pyconnect.ros.recording import Recording
 
@@ -298,3 +300,69 @@ def test_stopped_recordings_are_let_go(make_node: Any, tmp_path: Path) -> None:
         node.record(tmp_path / f"episode{episode}").stop()
     last = node.record(tmp_path / "last")
     assert node._recordings == [last]
+
+
+class _ErrorsLogged:
+    """The node's logger, keeping what is logged as an error."""
+
+    def __init__(self, logger: Any) -> None:
+        self.logger = logger
+        self.errors: list[str] = []
+
+    def error(self, message: str, **options: Any) -> bool:
+        self.errors.append(message)
+        result: bool = self.logger.error(message, **options)
+        return result
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.logger, name)
+
+
+def test_a_full_disk_ends_the_writing_once_and_stop_counts_what_was_lost(
+    make_node: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The write raised in the callback: a FATAL and a traceback per message for as long as the
+    disk was full, then stop() raised a bare OSError, left no metadata.yaml, counted nothing."""
+    from pyconnect.record.mcap_recorder import _CountedFile
+    from tests.record.test_split_recorder import full_disk_write
+
+    node = make_node("full_recorder")
+    node.add_agent(conn_name="chatter", conn_type="sub", data_interface=String)
+    pub = node.add_agent(
+        conn_name="chatter", agent_name="out", conn_type="pub", data_interface=String,
+        qos=QoSProfile(depth=100),
+    )  # fmt: skip
+    logged = _ErrorsLogged(node.get_logger())
+    monkeypatch.setattr(node, "get_logger", lambda: logged)
+    raised: list[str] = []
+    monkeypatch.setattr(node, "_log_error", raised.append)
+    bag = tmp_path / "full"
+    recording = node.record(bag)
+    node.spin(run_thread=True)
+    assert _wait_for_after(lambda: pub.send("warm"), lambda: recording.messages_written >= 1)
+    monkeypatch.setattr(_CountedFile, "write", full_disk_write(0))  # the disk is full now
+    before = recording.messages_received
+    for i in range(8):  # 2 MiB: a chunk (1 MiB) is closed, and meets the full disk
+        pub.send(f"{i}" + "x" * 300_000)
+    assert _wait_for(lambda: recording.messages_received >= before + 8)
+    assert isinstance(recording.error, OSError)
+    assert raised == []  # nothing reached the executor
+    assert logged.errors == [
+        f"record: {bag}: writing the bag failed ([Errno 28] No space left on device); the "
+        "messages received from now on are not written (stop() counts them)"
+    ]
+    with pytest.raises(BagError) as failed:
+        recording.stop()
+    recording.stop()  # reported once
+    received = recording.messages_received
+    held = len(_recorded(bag))
+    assert recording.messages_written == held < received
+    no_space = r"\(\[Errno 28\] No space left on device\)"
+    assert re.fullmatch(
+        rf"{re.escape(str(bag))}: writing the bag failed {no_space}; {received - held} received "
+        rf"message\(s\) not written(; finishing it failed too {no_space})?",
+        str(failed.value),
+    ), str(failed.value)
+    assert failed.value.__cause__ is recording.error
+    metadata = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    assert metadata["message_count"] == held

@@ -85,8 +85,12 @@ def split_bytes(text: str) -> int:
     return size
 
 
+MIN_SPLIT_SECONDS = 1e-9
+"""The shortest split duration: one nanosecond, the unit of log times and of the limit."""
+
+
 def split_seconds(text: str) -> float:
-    """``bag record --max-bag-duration``: seconds, 0 or more (0: no split by duration)."""
+    """``bag record --max-bag-duration``: seconds, 0 (no split by duration) or 1 ns or more."""
     seconds = _real(text)
     # Not finite: no file could ever end, and the limit in ns would not be a number.
     if not (math.isfinite(seconds) and seconds >= 0):
@@ -96,5 +100,10 @@ def split_seconds(text: str) -> float:
     if seconds > MAX_SECONDS:  # 1e300 s overflowed the limit in ns: a traceback
         raise argparse.ArgumentTypeError(
             f"expected at most {MAX_SECONDS:.3g} seconds (0: no split), got {text!r}"
+        )
+    # The limit is whole nanoseconds: 1e-10 s rounded to 0, which means never split.
+    if 0 < seconds < MIN_SPLIT_SECONDS:
+        raise argparse.ArgumentTypeError(
+            f"expected at least {MIN_SPLIT_SECONDS:g} seconds (0: no split), got {text!r}"
         )
     return seconds

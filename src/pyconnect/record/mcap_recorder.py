@@ -7,6 +7,10 @@ Foxglove read bare MCAP files). The container is the ``mcap`` package's writer w
 profile, "ros2msg" schemas ("ros2idl" for types defined in .idl), "cdr" messages and zstd (or
 lz4, or no) chunk compression. As rosbag2's MCAP storage does on closing a file, a "rosbag2"
 metadata record holds the bag's metadata as YAML (``serialized_metadata``).
+
+A file that could not be written whole (a write or its finishing failed: a full disk) is read
+back when it is closed, and its messages counted as a reader finds them: ``counts``,
+``messages_written`` and metadata.yaml then say what it holds, not what it was handed.
 """
 
 from __future__ import annotations
@@ -85,6 +89,8 @@ class McapRecorder:
     out as ``installed_definition_text.installed_definition`` writes IDL. ``chunk_size`` is the
     uncompressed size at which a chunk is closed and compressed. ``close()`` finishes the file and
     writes metadata.yaml; it is idempotent and also runs on leaving a ``with`` block.
+    ``make_parents=False`` leaves the folder of a ``.mcap`` path as it is: a missing one is an
+    error (a split bag's directory removed while it was recorded), not made anew and empty.
     """
 
     def __init__(
@@ -94,6 +100,7 @@ class McapRecorder:
         compression: str = "zstd",
         chunk_size: int = DEFAULT_CHUNK_SIZE,
         registry: Any = None,
+        make_parents: bool = True,
     ) -> None:
         self.registry = registry
         if compression not in _COMPRESSION:
@@ -103,7 +110,8 @@ class McapRecorder:
         if target.suffix == ".mcap":
             self.bag_dir: Path | None = None
             self.file_path = target
-            target.parent.mkdir(parents=True, exist_ok=True)
+            if make_parents:
+                target.parent.mkdir(parents=True, exist_ok=True)
         else:
             if target.exists() and (not target.is_dir() or any(target.iterdir())):
                 raise BagError(f"{target}: already exists; a new recording needs a new directory")
@@ -134,6 +142,9 @@ class McapRecorder:
         self._last_ns: int | None = None
         self._closed = False
         self.messages_written = 0
+        self.failed = False
+        """A write or finishing the file failed: it may miss messages it was given (a chunk cut
+        short); ``close()`` reads it back."""
 
     @property
     def bytes_written(self) -> int:
@@ -146,6 +157,18 @@ class McapRecorder:
     def topics(self) -> dict[str, str]:
         """Topic name -> type of every added topic."""
         return {name: topic.msg_type for name, topic in self._topics.items()}
+
+    @property
+    def counts(self) -> dict[str, int]:
+        """Topic name -> messages written (after a failed ``close()``: found in the file)."""
+        return {name: topic.count for name, topic in self._topics.items()}
+
+    @property
+    def span(self) -> tuple[int, int] | None:
+        """The first and last log time of the messages counted (None: there are none)."""
+        if self._first_ns is None or self._last_ns is None:
+            return None
+        return self._first_ns, self._last_ns
 
     def add_topic(
         self,
@@ -224,13 +247,17 @@ class McapRecorder:
             known = self._topics.get(topic)
             if known is None:
                 raise BagError(f"{topic}: not added to this recording; call add_topic first")
-            self._writer.add_message(
-                channel_id=known.channel_id,
-                log_time=log_time_ns,
-                data=bytes(cdr),
-                publish_time=log_time_ns if publish_time_ns is None else publish_time_ns,
-                sequence=known.count,
-            )
+            try:
+                self._writer.add_message(
+                    channel_id=known.channel_id,
+                    log_time=log_time_ns,
+                    data=bytes(cdr),
+                    publish_time=log_time_ns if publish_time_ns is None else publish_time_ns,
+                    sequence=known.count,
+                )
+            except OSError:  # the chunk it closed may be cut short, earlier messages with it
+                self.failed = True
+                raise
             known.count += 1
             self.messages_written += 1
             if self._first_ns is None or log_time_ns < self._first_ns:
@@ -239,20 +266,72 @@ class McapRecorder:
                 self._last_ns = log_time_ns
 
     def close(self) -> None:
-        """Finish the MCAP file and write metadata.yaml (for a bag directory); idempotent."""
+        """Finish the MCAP file and write metadata.yaml (for a bag directory); idempotent.
+
+        When the file could not be written whole, it is read back and counted first; a failure
+        is raised after metadata.yaml is written if the disk has room for it (else the bag has
+        none, rather than one that contradicts its file). No later ``close()`` retries.
+        """
         with self._lock:
             if self._closed:
                 return
             self._closed = True
-            metadata = self._metadata()
+            failure: Exception | None = None
             try:
-                serialized = metadata_yaml(metadata_info(metadata))
-                self._writer.add_metadata("rosbag2", {"serialized_metadata": serialized})
-                self._writer.finish()  # type: ignore[no-untyped-call]
+                self._finish()
+            except Exception as error:  # Ctrl-C is not: it ends close() after the count
+                failure = error
+                self.failed = True
             finally:
-                self._stream.close()
+                if self.failed:
+                    self._recount()
             if self.bag_dir is not None:
-                write_metadata(self.bag_dir / METADATA_FILE, metadata)
+                try:
+                    write_metadata(self.bag_dir / METADATA_FILE, self._metadata())
+                except OSError as error:
+                    if failure is None:
+                        failure = error
+                        if not self.failed:  # the file may be gone too, with its directory
+                            self.failed = True
+                            self._recount()
+            if failure is not None:
+                raise failure
+
+    def _finish(self) -> None:
+        """Write the rosbag2 metadata record and the file's summary, and close it."""
+        try:
+            serialized = metadata_yaml(metadata_info(self._metadata()))
+            self._writer.add_metadata("rosbag2", {"serialized_metadata": serialized})
+            self._writer.finish()  # type: ignore[no-untyped-call]
+        finally:
+            self._stream.close()
+
+    def _recount(self) -> None:
+        """Count the messages as a reader finds them in the file (it could not be written
+        whole): a message whose write failed may be in it as well as one counted may not be."""
+        from pyconnect.record.mcap_storage import McapFile
+
+        found: dict[str, int] = {}
+        first: int | None = None
+        last: int | None = None
+        try:
+            storage = McapFile(self.file_path)
+        except (OSError, BagError):  # gone, or not even its header: it holds no message
+            storage = None
+        if storage is not None:
+            try:
+                topics = {c.id: c.topic for c in storage.connections()}
+                for connection_id, log_time_ns, _data in storage.messages(set(topics), None, None):
+                    topic = topics[connection_id]
+                    found[topic] = found.get(topic, 0) + 1
+                    first = log_time_ns if first is None else min(first, log_time_ns)
+                    last = log_time_ns if last is None else max(last, log_time_ns)
+            finally:
+                storage.close()
+        for name, known in self._topics.items():
+            known.count = found.get(name, 0)
+        self.messages_written = sum(found.values())
+        self._first_ns, self._last_ns = first, last
 
     def _metadata(self) -> BagMetadata:
         start = self._first_ns or 0

@@ -34,6 +34,11 @@ metadata.yaml then say what the bag holds, not what was handed to it. ``close()`
 the failure, after writing the metadata if the disk has room for it (else the bag is left with
 no metadata.yaml rather than one that contradicts its files); no later ``close()`` retries.
 
+A directory removed while it is recorded is not made again (empty, at the next split, to hold
+the rest of a bag whose metadata would list files that are gone): the next file, or the
+metadata, cannot be written, and that is a ``BagError`` saying so; the counts are then 0, as
+the bag's files went with it.
+
 ``write`` and ``add_topic`` are thread-safe.
 """
 
@@ -153,6 +158,7 @@ class SplitRecorder:
         self._topics: dict[str, _Topic] = {}
         self._lock = threading.Lock()
         self._closed = False
+        self._removed: BagError | None = None  # raised once the directory is found gone
         if self.directory.exists() and (
             not self.directory.is_dir() or any(self.directory.iterdir())
         ):
@@ -197,10 +203,14 @@ class SplitRecorder:
             known = _Topic(msg_type, offered_qos_profiles, definition)
             self._topics[topic] = known
             current = self._current()
-            if current is None or current.recorder is None:
-                self._open_next()  # adds every topic, this one included
-            else:
-                self._add_to(current.recorder, topic, known)
+            try:
+                if current is None or current.recorder is None:
+                    self._open_next()  # adds every topic, this one included
+                else:
+                    self._add_to(current.recorder, topic, known)
+            except OSError as error:
+                self._raise_if_removed(error)
+                raise
 
     def write(self, topic: str, data: bytes, *, log_time_ns: int) -> None:
         """Append one message, starting the next file first when the open one is full."""
@@ -211,7 +221,11 @@ class SplitRecorder:
                 raise BagError(f"{topic}: not added to this recording; call add_topic first")
             current = self._current()
             if current is None or current.recorder is None or self._full(current, log_time_ns):
-                current = self._open_next()
+                try:
+                    current = self._open_next()
+                except OSError as error:
+                    self._raise_if_removed(error)
+                    raise
             assert current.recorder is not None
             try:
                 current.recorder.write(topic, data, log_time_ns=log_time_ns)
@@ -230,19 +244,41 @@ class SplitRecorder:
         with self._lock:
             if self._closed:
                 return
-            if not self._names:
-                self._open_next()  # an empty recording is still a valid bag
+            try:
+                if not self._names:
+                    self._open_next()  # an empty recording is still a valid bag
+            except OSError as error:
+                self._raise_if_removed(error)
+                raise
             try:
                 self._finish_current()
-            except Exception:  # Ctrl-C is not: close() finishes the file then
+            except Exception as error:  # Ctrl-C is not: close() finishes the file then
                 # The file is what it is (and recounted): finishing it again cannot help.
                 self._closed = True
                 self._write_metadata_if_room()  # the failure raised says the disk is full
+                if isinstance(error, OSError):
+                    self._raise_if_removed(error)
                 raise
             failure = self._write_metadata_if_room()
             self._closed = True
             if failure is not None:
+                self._raise_if_removed(failure)
                 raise failure
+
+    def _raise_if_removed(self, error: OSError) -> None:
+        """Raise a ``BagError`` (the same one each time) when ``error`` is the directory's being
+        gone: it was removed while it was recorded."""
+        if self.directory.is_dir():
+            return
+        # Its files went with it: the bag holds none of the messages written to them.
+        for known in self._topics.values():
+            known.count = 0
+        if self._removed is None:
+            self._removed = BagError(
+                f"{self.directory}: the directory was removed while it was recorded, "
+                "its files with it"
+            )
+        raise self._removed from error
 
     # -- files --------------------------------------------------------------------------------
     def _current(self) -> _File | None:
@@ -266,7 +302,10 @@ class SplitRecorder:
         self._last = file  # before its name: until then it is not the last file, not open
         self._names.append(file.name)  # reserved before it exists: close() sees it either way
         file.recorder = McapRecorder(
-            self.directory / file.name, compression=self.compression, chunk_size=self.chunk_size
+            self.directory / file.name,
+            compression=self.compression,
+            chunk_size=self.chunk_size,
+            make_parents=False,  # a directory removed meanwhile is an error, not made anew
         )
         for topic, known in self._topics.items():
             self._add_to(file.recorder, topic, known)
@@ -311,31 +350,17 @@ class SplitRecorder:
         self._last = None  # its recorder's schemas and indexes go: ~10 kB a file, kept for days
 
     def _recount(self, file: _File) -> None:
-        """Count ``file``'s messages as a reader finds them (it could not be written whole)."""
-        from pyconnect.record.mcap_storage import McapFile
-
-        found: dict[str, int] = {}
-        times: list[int] = []
-        try:
-            storage = McapFile(self.directory / file.name)
-        except (OSError, BagError):  # not even its header: it holds no message
-            storage = None
-        if storage is not None:
-            try:
-                topics = {c.id: c.topic for c in storage.connections()}
-                for connection_id, log_time_ns, _data in storage.messages(set(topics), None, None):
-                    topic = topics[connection_id]
-                    found[topic] = found.get(topic, 0) + 1
-                    times.append(log_time_ns)
-            finally:
-                storage.close()
+        """Count ``file``'s messages as its recorder found them when it read the file back (it
+        could not be written whole)."""
+        assert file.recorder is not None
+        found = {topic: count for topic, count in file.recorder.counts.items() if count}
         # A message whose write failed may be in the file as well as one counted may not be.
         for topic in {*file.topics, *found}:
             self._topics[topic].count += found.get(topic, 0) - file.topics.get(topic, 0)
         file.topics = found
         file.count = sum(found.values())
-        file.first_ns = min(times, default=None)
-        file.last_ns = max(times, default=0)
+        span = file.recorder.span
+        file.first_ns, file.last_ns = (None, 0) if span is None else span
 
     def _write_metadata_if_room(self) -> OSError | None:
         """Write the final metadata.yaml on a disk that may be full; the error when it cannot."""

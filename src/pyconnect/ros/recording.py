@@ -8,6 +8,12 @@ less (pyconnect.ros.recording_subscription), and the publishers' QoS stored as t
 ``offered_qos_profiles``. So the recording holds what the node's agents receive, not
 what a best-effort keep-last-5 reader happens to catch, nor what a reader chosen before the
 publishers were known could hear.
+
+A write that fails (a full disk) ends the writing, as it ends ``pyconnect bag record``: it is
+logged once as the recording's ``error``, naming the bag; the messages received after it are
+counted, not written; ``stop()`` raises one ``BagError`` naming the bag and counting the
+received messages it does not hold, after closing the file and writing metadata.yaml if the disk
+has room for it (pyconnect.record.mcap_recorder).
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -18,7 +24,7 @@ from __future__ import annotations
 import contextlib
 import threading
 import time
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -27,6 +33,7 @@ from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 
 from pyconnect.errors import PyconnectError
+from pyconnect.record.bag_errors import BagError
 from pyconnect.ros.interfaces import interface_class, interface_name
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.recording_qos import offered_qos_yaml
@@ -38,7 +45,10 @@ DISCOVERY_PERIOD = 0.1
 
 
 class Recording:
-    """A running MCAP recording; ``stop()`` ends it and closes the file."""
+    """A running MCAP recording; ``stop()`` ends it and closes the file.
+
+    ``error`` is the failure that ended the writing (None while it goes on).
+    """
 
     def __init__(
         self,
@@ -54,6 +64,10 @@ class Recording:
         self.path = path
         self._lock = threading.Lock()
         self._stopped = False
+        # Callbacks write under it, so that stop() closes the file between two writes.
+        self._write_lock = threading.Lock()
+        self._received = 0
+        self.error: OSError | None = None
         chosen = self._choose_topics(topics)
         self.recorder = McapRecorder(path)
         self._subscriptions: list[RecordingSubscription] = []
@@ -176,19 +190,38 @@ class Recording:
             f"{resolve(topic)!r}, and no name known here maps to it"
         )
 
-    def _writer_for(self, topic: str) -> Any:
+    def _writer_for(self, topic: str) -> Callable[[bytes], None]:
         recorder = self.recorder
 
         def write(cdr: bytes) -> None:
-            if not self._stopped:
-                recorder.write(topic, cdr, log_time_ns=time.time_ns())
+            with self._write_lock:
+                if self._stopped:
+                    return
+                self._received += 1
+                if self.error is not None:
+                    return  # counted as lost: stop() tells how many
+                try:
+                    recorder.write(topic, cdr, log_time_ns=time.time_ns())
+                except OSError as error:
+                    # Raised, it was a traceback per message for as long as the disk was full.
+                    self.error = error
+                    self.ros_node.get_logger().error(
+                        f"record: {self.path}: writing the bag failed ({error}); the messages "
+                        "received from now on are not written (stop() counts them)"
+                    )
 
         return write
 
     @property
     def messages_written(self) -> int:
+        """Messages in the bag (once ``stop()`` read back a file that failed: found in it)."""
         count: int = self.recorder.messages_written
         return count
+
+    @property
+    def messages_received(self) -> int:
+        """Messages the subscriptions received, those not written after a failure included."""
+        return self._received
 
     @property
     def stopped(self) -> bool:
@@ -196,7 +229,11 @@ class Recording:
         return self._stopped
 
     def stop(self) -> None:
-        """Stop recording and close the file (idempotent)."""
+        """Stop recording and close the file (idempotent).
+
+        Raises ``BagError`` (once) when writing failed or the file could not be finished: it
+        names the bag and counts the received messages it does not hold.
+        """
         with self._lock:
             if self._stopped:
                 return
@@ -206,4 +243,21 @@ class Recording:
                 self.ros_node.destroy_timer(self._discovery_timer)
         for subscription in self._subscriptions:
             subscription.close()
-        self.recorder.close()
+        finishing: Exception | None = None
+        with self._write_lock:  # a callback still writing ends first; later ones write nothing
+            try:
+                self.recorder.close()
+            except Exception as error:  # Ctrl-C is no failure of the bag
+                finishing = error
+        failure = self.error or finishing
+        if failure is None:
+            return
+        # The file that failed was read back when closed: its count is what the bag holds.
+        lost = self._received - self.messages_written
+        also = ""
+        if finishing is not None and finishing is not failure:  # still full: told, not instead
+            also = f"; finishing it failed too ({finishing})"
+        raise BagError(
+            f"{self.path}: writing the bag failed ({failure}); "
+            f"{lost} received message(s) not written{also}"
+        ) from failure
