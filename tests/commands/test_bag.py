@@ -133,3 +133,34 @@ def test_echo_reads_a_bag_with_a_json_topic_and_says_it_left_that_out(
     captured = capsys.readouterr()
     assert captured.out == f"/chatter: 1 row(s) to {target / 'chatter.parquet'}\n"
     assert captured.err.startswith(f"pyconnect: {bag}: 1 topic(s) not read")
+
+
+def test_a_split_bag_missing_a_listed_file_is_read_and_reported_as_damage(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # The missing file made info and echo exit 2 without reading the files that were there.
+    from pyconnect.record.split_recorder import SplitRecorder
+
+    bag = tmp_path / "split"
+    with SplitRecorder(bag, max_ns=1) as recorder:
+        recorder.add_topic("/x", "std_msgs/msg/Int64")
+        for i in range(3):
+            recorder.write("/x", b"\x00\x01\x00\x00" + i.to_bytes(8, "little"), log_time_ns=i)
+    (bag / "split_1.mcap").unlink()
+    damage = (
+        f"{bag / 'metadata.yaml'}: lists split_1.mcap, which is not in the bag; "
+        "its messages are not read"
+    )
+    assert main(["bag", "echo", str(bag), "--json"]) == 1
+    captured = capsys.readouterr()
+    assert _records(captured.out) == [(0, 0), (2, 2)]
+    assert captured.err == (
+        f"pyconnect: {bag}: damaged bag: {damage}; "
+        "2 message(s) read, the bag's metadata promised 3\n"
+    )
+    assert main(["bag", "info", str(bag)]) == 1
+    captured = capsys.readouterr()
+    assert "messages:  2\n" in captured.out
+    assert captured.err == f"pyconnect: {bag}: damaged bag: {damage}\n"
+    assert main(["bag", "info", str(bag), "--ignore-damage"]) == 0
+    assert main(["bag", "echo", str(bag), "--json", "--ignore-damage"]) == 0

@@ -153,3 +153,42 @@ def test_a_message_that_decompresses_to_too_much_is_damage_not_memory(
     assert values == ["hello 0", "hello 1", "hello 3", "hello 4"]
     (damage,) = bag.damage
     assert damage.what == (f"messages that decompress (zstd) to more than {1 << 20} bytes skipped")
+
+
+def write_split(path: Path, files: int = 3) -> Path:
+    """A split bag of ``files`` files, one /x Int64 message (its index) in each."""
+    from pyconnect.record.split_recorder import SplitRecorder
+
+    with SplitRecorder(path, max_ns=1) as recorder:
+        recorder.add_topic("/x", "std_msgs/msg/Int64")
+        for i in range(files):
+            cdr = b"\x00\x01\x00\x00" + i.to_bytes(8, "little")
+            recorder.write("/x", cdr, log_time_ns=1_000 + i * 10)
+    assert sorted(p.name for p in path.glob("*.mcap")) == [
+        f"{path.name}_{i}.mcap" for i in range(files)
+    ]
+    return path
+
+
+def test_a_listed_file_that_is_missing_is_damage_and_the_others_are_read(tmp_path: Path) -> None:
+    # One missing split file made open_bag raise, and not one intact message was read.
+    path = write_split(tmp_path / "bag")
+    (path / "bag_1.mcap").unlink()
+    with open_bag(path) as bag:
+        assert [m.value for m in bag] == [0, 2]
+        assert [str(item) for item in bag.damage] == [
+            f"{path / 'metadata.yaml'}: lists bag_1.mcap, which is not in the bag; "
+            "its messages are not read"
+        ]
+    assert bag.info.files == (path / "bag_0.mcap", path / "bag_2.mcap")
+
+
+def test_a_bag_with_none_of_its_listed_files_is_an_error(tmp_path: Path) -> None:
+    path = write_split(tmp_path / "bag", files=2)
+    for file in path.glob("*.mcap"):
+        file.unlink()
+    with pytest.raises(BagError) as caught:
+        open_bag(path)
+    assert str(caught.value) == (
+        f"{path}: metadata.yaml lists 'bag_0.mcap', 'bag_1.mcap', none of which is in the bag"
+    )

@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import errno
 import io
 import json
 import logging
+import shutil
 import threading
 from pathlib import Path
 
@@ -16,7 +18,13 @@ from hypothesis import strategies as st
 
 from pyconnect.codecs.stamped import Stamped
 from pyconnect.errors import EncodeError
-from pyconnect.record.log_writer import MessageLogger, atomic_write_bytes, encode_log_value
+from pyconnect.record import log_writer
+from pyconnect.record.log_writer import (
+    LogWriteError,
+    MessageLogger,
+    atomic_write_bytes,
+    encode_log_value,
+)
 
 
 class GatedWriter:
@@ -266,3 +274,115 @@ def test_non_finite_floats_are_strict_json_strings() -> None:
         "finite": 1.5,
     }
     assert _strict_json(encode_log_value(float("-inf"))[1]) == "-inf"
+
+
+def test_a_removed_log_folder_is_made_again_and_logging_goes_on(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # Someone cleaning old logs removed the folder: every later value failed, for ever.
+    folder = tmp_path / "root" / "node" / "agent"
+    errors: list[LogWriteError] = []
+    at_warning = caplog.at_level(logging.WARNING, logger="pyconnect.record")
+    with at_warning, MessageLogger(folder, on_error=errors.append) as logger:
+        assert logger.log([1], stamp_ns=1)
+        assert logger.flush(timeout=30)
+        shutil.rmtree(tmp_path / "root")
+        for i in range(2, 5):
+            assert logger.log([i], stamp_ns=i)
+        assert logger.flush(timeout=30)
+    assert (logger.written, logger.failed, logger.dropped) == (4, 0, 0)
+    assert files(folder) == ["00000002_2.json", "00000003_3.json", "00000004_4.json"]
+    assert errors == []
+    assert [r.getMessage() for r in caplog.records] == [
+        f"{folder}: the log folder was removed; made it again"
+    ]
+
+
+def test_a_log_folder_that_cannot_be_made_again_is_reported_once_and_counted(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    folder = tmp_path / "root" / "agent"
+    errors: list[LogWriteError] = []
+    with caplog.at_level(logging.DEBUG, logger="pyconnect.record"):
+        logger = MessageLogger(folder, on_error=errors.append)
+        shutil.rmtree(tmp_path / "root")
+        (tmp_path / "root").write_text("a file where the folder was")
+        for i in range(1, 6):
+            assert logger.log([i], stamp_ns=i)
+        assert logger.flush(timeout=30)
+        logger.close()
+    assert (logger.written, logger.failed, logger.dropped) == (0, 5, 0)
+    assert [str(error) for error in errors] == [
+        f"{folder}: value 1 not written: the log folder was removed and cannot be made "
+        f"again ([Errno 20] Not a directory: '{folder}')"
+    ]
+    assert isinstance(errors[0].__cause__, OSError)
+    warnings = [r.getMessage() for r in caplog.records if r.levelno >= logging.WARNING]
+    assert warnings == [f"{folder}: 0 written, 0 dropped (queue full or closed), 5 failed"]
+
+
+def test_failures_of_one_kind_are_logged_once_and_counted(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # A value per line, 200 lines a second under a 200 Hz topic, for as long as it lasted.
+    def full_disk(path: Path, data: bytes) -> None:
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    at_warning = caplog.at_level(logging.WARNING, logger="pyconnect.record")
+    with at_warning, MessageLogger(tmp_path, write_file=full_disk) as logger:
+        for i in range(1, 11):
+            assert logger.log([i], stamp_ns=i)
+        assert logger.log(object(), stamp_ns=11)  # another kind: reported too
+        assert logger.flush(timeout=30)
+    assert (logger.written, logger.failed) == (0, 11)
+    assert [r.getMessage() for r in caplog.records] == [
+        f"{tmp_path}: value 1 not written: [Errno 28] No space left on device: "
+        f"'{tmp_path / '00000001_1.json'}' (further failures like it are only counted)",
+        f"{tmp_path}: value 11 not written: log value: expected a JSON-compatible value, "
+        "got object (further failures like it are only counted)",
+        f"{tmp_path}: 0 written, 0 dropped (queue full or closed), 11 failed",
+    ]
+
+
+def test_values_left_when_close_gives_up_are_said_and_counted_as_dropped(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    gate = GatedWriter()
+    logger = MessageLogger(tmp_path, write_file=gate)
+    with caplog.at_level(logging.WARNING, logger="pyconnect.record"):
+        for i in range(4):
+            assert logger.log([i], stamp_ns=i)
+        assert gate.entered.wait(timeout=30)
+        logger.close(timeout=0.01)
+        gate.release.set()  # the value being written still is; the three queued are not
+        assert logger.flush(timeout=30)
+    assert (logger.written, logger.dropped, logger.pending) == (1, 3, 0)
+    assert files(tmp_path) == ["00000001_0.json"]
+    assert [r.getMessage() for r in caplog.records] == [
+        f"{tmp_path}: 3 logged value(s) not written: still queued when close() gave up "
+        "(timeout 0.01 s)",
+        f"{tmp_path}: 0 written, 3 dropped (queue full or closed), 0 failed",
+    ]
+
+
+def test_the_flush_at_exit_says_what_it_left_unwritten(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    # Values still queued at exit were lost without a word, and the process exited 0.
+    gate = GatedWriter()
+    logger = MessageLogger(tmp_path, write_file=gate)
+    for i in range(5):
+        assert logger.log([i], stamp_ns=i)
+    assert gate.entered.wait(timeout=30)
+    releaser = threading.Timer(0.2, gate.release.set)  # the value being written finishes
+    releaser.start()
+    with caplog.at_level(logging.WARNING, logger="pyconnect.record"):
+        log_writer._flush_open_loggers_at_exit(timeout=0.05)
+    releaser.join()
+    assert (logger.written, logger.dropped, logger.pending) == (1, 4, 0)
+    assert files(tmp_path) == ["00000001_0.json"]
+    assert [r.getMessage() for r in caplog.records] == [
+        f"{tmp_path}: 4 logged value(s) not written: still queued when the program exited "
+        "(the logs get 0.05 s to finish)",
+        f"{tmp_path}: 1 written, 4 dropped (queue full or closed), 0 failed",
+    ]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import shutil
 import threading
 from pathlib import Path
 from typing import Any
@@ -371,3 +372,32 @@ def test_start_log_subs_logs_under_sim_time_without_a_clock(make_node: Any, tmp_
             logged.set()
 
     assert repeat_until(logged, send)
+
+
+def test_a_log_folder_removed_while_logging_is_made_again_or_reported_once(
+    make_node: Any, tmp_path: Path
+) -> None:
+    # Removed under a do_log_msg agent, the folder gave an ERROR line per message, for ever,
+    # and the agent's error said nothing.
+    root = tmp_path / "logs"
+    node = make_node("cleaned", log_dir=root)
+    pub = node.add_agent(
+        conn_name="status", conn_type="pub", data_interface=String, do_log_msg=True
+    )
+    assert pub.send("first") is True
+    assert pub.flush_log(EVENT_TIMEOUT)
+    folder = pub.make_log_dirs()
+    shutil.rmtree(root)  # someone cleaning old logs: the folder is made again
+    assert pub.send("second") is True
+    assert pub.flush_log(EVENT_TIMEOUT)
+    assert _json_values(folder) == ["second"]
+    assert (pub.error_count, pub.last_error) == (0, None)
+    shutil.rmtree(root)
+    root.write_text("a file where the log root was")  # now it cannot be made again
+    for i in range(5):
+        assert pub.send(f"lost {i}") is True
+    assert pub.flush_log(EVENT_TIMEOUT)
+    assert pub.error_count == 1  # reported once, not per message
+    assert pub.last_error.startswith(f"{pub.describe}: log_msg raised LogWriteError: {folder}: ")
+    assert "the log folder was removed and cannot be made again" in pub.last_error
+    assert pub._message_logger.failed == 5

@@ -45,6 +45,9 @@ class BagFiles:
     message_compression: str = ""
     """The format each message's data is compressed in (metadata.yaml's ``compression_mode:
     message``), "" when stored as it is, ``MAYBE_ZSTD`` without a metadata.yaml to say."""
+    missing: tuple[str, ...] = ()
+    """The files metadata.yaml lists that are not in the bag, as it lists them: damage (the
+    other files are read), not an error that would keep every intact message from the user."""
 
 
 def _natural_key(path: Path) -> tuple[object, ...]:
@@ -52,7 +55,8 @@ def _natural_key(path: Path) -> tuple[object, ...]:
     return tuple(int(part) if part.isdigit() else part for part in re.split(r"(\d+)", path.name))
 
 
-def _listed_file(directory: Path, relative: str) -> Path:
+def _listed_file(directory: Path, relative: str) -> Path | None:
+    """The file metadata.yaml lists as ``relative``, None when the bag does not hold it."""
     candidate = directory / relative
     if candidate.is_file():
         return candidate
@@ -60,7 +64,22 @@ def _listed_file(directory: Path, relative: str) -> Path:
     by_name = directory / Path(relative).name
     if by_name.is_file():
         return by_name
-    raise BagError(f"{directory}: metadata.yaml lists {relative!r}, which is not in the bag")
+    return None
+
+
+def _listed_files(
+    directory: Path, listed: Sequence[str]
+) -> tuple[tuple[Path, ...], tuple[str, ...]]:
+    """(the listed files the bag holds, the listed names it does not); ``BagError`` when it
+    holds none of them, as there is then nothing to read."""
+    found = [(relative, _listed_file(directory, relative)) for relative in listed]
+    files = tuple(path for _relative, path in found if path is not None)
+    missing = tuple(relative for relative, path in found if path is None)
+    if listed and not files:
+        names = ", ".join(repr(relative) for relative in missing)
+        which = "which is not" if len(missing) == 1 else "none of which is"
+        raise BagError(f"{directory}: metadata.yaml lists {names}, {which} in the bag")
+    return files, missing
 
 
 def _message_compression(path: Path, metadata: BagMetadata) -> str:
@@ -95,8 +114,9 @@ def locate_bag_files(path: str | Path) -> BagFiles:
                 f"{target}: files compressed whole ({metadata.compression_format}) are not "
                 "supported; decompress them with `ros2 bag convert` first"
             )
-        files = tuple(_listed_file(target, p) for p in metadata.relative_file_paths)
-        return BagFiles(target, files, metadata, _message_compression(metadata_path, metadata))
+        files, missing = _listed_files(target, metadata.relative_file_paths)
+        compression = _message_compression(metadata_path, metadata)
+        return BagFiles(target, files, metadata, compression, missing)
     # No metadata.yaml (a bag before `ros2 bag reindex`): every storage file, in split order.
     found = sorted(
         (p for p in target.iterdir() if p.suffix in STORAGE_SUFFIXES and p.is_file()),

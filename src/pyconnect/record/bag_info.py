@@ -59,8 +59,9 @@ class BagInfo:
     end_ns: int | None
     damage: tuple[BagDamage, ...] = field(default=())
     metadata_damage: tuple[BagDamage, ...] = field(default=())
-    """Where metadata.yaml disagrees with the storage files (a file it does not list, counts
-    that differ from theirs); these are the last entries of ``damage`` too."""
+    """Where metadata.yaml disagrees with the storage files (a file it lists that is missing, a
+    file it does not list, counts that differ from theirs); these are the last entries of
+    ``damage`` too."""
 
     @property
     def message_count(self) -> int:
@@ -113,20 +114,27 @@ def _metadata_damage(located: BagFiles, stored: dict[str, int], damaged: bool) -
     """Where a bag's metadata.yaml disagrees with its storage files (``stored``: their counts).
 
     A storage file in the bag's directory that metadata.yaml does not list is not read (rosbag2
-    reads the listed ones only): said, not skipped in silence. Per-topic counts that differ from
-    the files' are said unless the files are ``damaged`` (the damage says why fewer were read).
+    reads the listed ones only): said, not skipped in silence; a file it lists that is not in the
+    bag is said too (the others are read). Per-topic counts that differ from the files' are said
+    unless the files are ``damaged`` or one is missing (that says why fewer were read).
     """
     metadata = located.metadata
     if metadata is None:
         return []
     where = str(located.path / METADATA_FILE)
-    listed = {path.resolve() for path in located.files}
     found = [
+        BagDamage(
+            where, None, f"lists {relative}, which is not in the bag; its messages are not read"
+        )
+        for relative in located.missing
+    ]
+    listed = {path.resolve() for path in located.files}
+    found.extend(
         BagDamage(where, None, f"does not list {path.name}, a storage file of the bag; not read")
         for path in sorted(located.path.iterdir())
         if path.suffix in STORAGE_SUFFIXES and path.is_file() and path.resolve() not in listed
-    ]
-    if not damaged:
+    )
+    if not damaged and not located.missing:
         found.extend(
             BagDamage(
                 where,

@@ -22,6 +22,13 @@ Names are ``<sequence:08d>_<stamp_ns>.<ext>``: the sequence keeps the logging or
 the ``stamp_ns`` argument, else a ``Stamped`` value's stamp, else the time of ``log()``. A
 ``Stamped`` value's ``frame_id`` is not written. Values are encoded on the writer thread, so do
 not mutate a value after logging it.
+
+A value that cannot be written is counted in ``failed``; the first failure of each kind is
+reported (logged, or given to ``on_error``: an agent keeps it as its error), the rest are only
+counted, so a folder that vanished under a 200 Hz topic is one report, not 200 lines a second.
+A log folder that was removed (someone cleaning old logs) is made again, once each time it is
+found gone; when that fails, values fail until the folder is back. Values still queued when
+``close(timeout)`` (or the flush at exit) gives up are not written: said, and counted as dropped.
 """
 
 from __future__ import annotations
@@ -47,10 +54,11 @@ from typing import Any
 import numpy as np
 
 from pyconnect.codecs.stamped import Stamped
-from pyconnect.errors import EncodeError, type_name_of
+from pyconnect.errors import EncodeError, PyconnectError, type_name_of
 
 __all__ = [
     "FileWriter",
+    "LogWriteError",
     "MessageLogger",
     "atomic_write_bytes",
     "encode_log_value",
@@ -61,7 +69,10 @@ __all__ = [
 _log = logging.getLogger("pyconnect.record")
 
 FileWriter = Callable[[Path, bytes], None]
+ErrorHandler = Callable[["LogWriteError"], None]
 _IMAGE_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16))
+_EXIT_GRACE_S = 2.0
+"""At exit, after the flush gave up: how long the value being written may take to finish."""
 
 
 def umask_mode(mode: int = 0o666) -> int:
@@ -198,6 +209,23 @@ def encode_log_value(value: object) -> tuple[str, bytes]:
     return "json", text.encode("utf-8")
 
 
+class LogWriteError(PyconnectError):
+    """A logged value was not written (its ``__cause__`` says why): what ``on_error`` gets."""
+
+
+class _FolderGone(OSError):
+    """The log folder was removed and could not be made again."""
+
+
+def _failure_kind(error: BaseException) -> tuple[str, object]:
+    if isinstance(error, _FolderGone):
+        return "_FolderGone", None  # whether making it again failed now or before
+    # An OSError's text names the file of each value: its errno says what went wrong.
+    if isinstance(error, OSError) and error.errno is not None:
+        return type(error).__name__, error.errno
+    return type(error).__name__, str(error)
+
+
 class _WriterThread:
     """The process-wide thread that encodes and writes queued values, in logging order."""
 
@@ -242,7 +270,8 @@ class MessageLogger:
     ``log()`` never blocks: it queues the value and returns True, or returns False and counts a
     drop when ``queue_size`` values are already waiting (or the logger is closed). ``flush()``
     waits until everything queued is on disk; ``close()`` flushes, reports drops and stops.
-    ``write_file`` replaces the atomic file writer (tests inject a slow one).
+    ``write_file`` replaces the atomic file writer (tests inject a slow one). ``on_error`` gets
+    the first failure of each kind, on the writer thread, instead of the error log.
     """
 
     def __init__(
@@ -251,6 +280,7 @@ class MessageLogger:
         *,
         queue_size: int = 256,
         write_file: FileWriter = atomic_write_bytes,
+        on_error: ErrorHandler | None = None,
     ) -> None:
         if queue_size < 1:
             raise ValueError(f"queue_size: expected an int >= 1, got {queue_size!r}")
@@ -258,6 +288,7 @@ class MessageLogger:
         self.directory.mkdir(parents=True, exist_ok=True)
         self.queue_size = queue_size
         self._write_file = write_file
+        self._on_error = on_error
         self._condition = threading.Condition()
         self._pending = 0
         self._sequence = 0
@@ -266,11 +297,18 @@ class MessageLogger:
         self._failed = 0
         self._closed = False
         self._drop_reported = False
+        self._reported_kinds: set[tuple[str, object]] = set()  # writer thread only
+        self._folder_lost = False  # made again once, in vain: values fail until it is back
+        # Set when close() gave up: the writer skips what is left (counted as dropped then).
+        self._abandoned = False
+        self._writing = False  # the writer holds one of this logger's values
+        self._in_flight_dropped = False  # that value is counted as dropped (the program exits)
         _open_loggers.add(self)
 
     @property
     def dropped(self) -> int:
-        """Values refused because the queue was full or the logger closed."""
+        """Values refused because the queue was full or the logger closed, or left unwritten
+        when ``close()`` gave up waiting."""
         return self._dropped
 
     @property
@@ -280,7 +318,7 @@ class MessageLogger:
 
     @property
     def failed(self) -> int:
-        """Values that could not be encoded or written (each one is logged as an error)."""
+        """Values that could not be encoded or written (the first of each kind is reported)."""
         return self._failed
 
     @property
@@ -329,13 +367,24 @@ class MessageLogger:
         return True
 
     def close(self, timeout: float | None = None) -> None:
-        """Stop taking values, write what is queued, and report drops; idempotent."""
+        """Stop taking values, write what is queued, and report drops; idempotent.
+
+        When ``timeout`` passes first, the values still queued are not written: a warning says
+        how many, and they count as dropped.
+        """
+        self._close(timeout)
+
+    def _close(self, timeout: float | None, *, exit_limit: float | None = None) -> None:
+        """``close(timeout)``; ``exit_limit``: at exit, how long the flush at exit waits for all
+        loggers together."""
         with self._condition:
             already = self._closed
             self._closed = True
         if already:
             return
-        self.flush(timeout)
+        if not self.flush(timeout):
+            assert timeout is not None  # flush() waits for ever without one
+            self._abandon(timeout, exit_limit)
         _open_loggers.discard(self)
         if self._dropped or self._failed:
             _log.warning(
@@ -358,28 +407,102 @@ class MessageLogger:
             f"dropped={self._dropped}, pending={self._pending})"
         )
 
+    def _abandon(self, timeout: float, exit_limit: float | None) -> None:
+        with self._condition:
+            self._abandoned = True
+            # The value being written still ends as written or failed; the rest are skipped.
+            unwritten = self._pending - (1 if self._writing else 0)
+            self._dropped += unwritten
+        # At exit, the writer must be out of native code (cv2) before the interpreter goes:
+        # a daemon thread stopped inside it can abort the process.
+        if exit_limit is not None and not self.flush(_EXIT_GRACE_S):
+            with self._condition:
+                if self._writing:  # the writer ends with the process, this value with it
+                    self._in_flight_dropped = True
+                    self._dropped += 1
+                    unwritten += 1
+        if unwritten:
+            if exit_limit is None:
+                waited = f"close() gave up (timeout {timeout:g} s)"
+            else:
+                waited = f"the program exited (the logs get {exit_limit:g} s to finish)"
+            _log.warning(
+                "%s: %d logged value(s) not written: still queued when %s",
+                self.directory,
+                unwritten,
+                waited,
+            )
+
     # -- the writer thread's half -------------------------------------------------------------
     def _write(self, sequence: int, stamp_ns: int, value: object) -> None:
+        with self._condition:
+            skip = self._abandoned  # counted as dropped by close()
+            self._writing = not skip
         try:
-            extension, data = encode_log_value(value)
-            self._write_file(self.directory / f"{sequence:08d}_{stamp_ns}.{extension}", data)
+            if not skip:
+                self._encode_and_write(sequence, stamp_ns, value)
         except Exception as error:  # a bad value or a full disk must not kill the writer
             with self._condition:
-                self._failed += 1
-            _log.error("%s: value %d not written: %s", self.directory, sequence, error)
+                if not self._in_flight_dropped:  # else counted as dropped at exit
+                    self._failed += 1
+            self._report_failure(sequence, error)
         else:
             with self._condition:
-                self._written += 1
+                if not skip and not self._in_flight_dropped:
+                    self._written += 1
         finally:
             with self._condition:
+                self._writing = False
                 self._pending -= 1
                 self._condition.notify_all()
 
+    def _encode_and_write(self, sequence: int, stamp_ns: int, value: object) -> None:
+        extension, data = encode_log_value(value)
+        path = self.directory / f"{sequence:08d}_{stamp_ns}.{extension}"
+        try:
+            self._write_file(path, data)
+        except (FileNotFoundError, NotADirectoryError):  # NotADirectory: a file took its place
+            if self.directory.is_dir():
+                raise
+            self._make_folder_again()
+            self._write_file(path, data)
+
+    def _make_folder_again(self) -> None:
+        """Make the log folder again after it was removed; ``_FolderGone`` when that fails."""
+        if self._folder_lost:
+            raise _FolderGone("the log folder was removed and could not be made again") from None
+        try:
+            self.directory.mkdir(parents=True, exist_ok=True)
+        except OSError as error:
+            # Tried once: every later value would try (and fail) again.
+            self._folder_lost = True
+            raise _FolderGone(
+                f"the log folder was removed and cannot be made again ({error})"
+            ) from None
+        _log.warning("%s: the log folder was removed; made it again", self.directory)
+
+    def _report_failure(self, sequence: int, error: Exception) -> None:
+        kind = _failure_kind(error)
+        if kind in self._reported_kinds:
+            _log.debug("%s: value %d not written: %s", self.directory, sequence, error)
+            return
+        self._reported_kinds.add(kind)
+        failure = LogWriteError(f"{self.directory}: value {sequence} not written: {error}")
+        failure.__cause__ = error
+        if self._on_error is None:
+            _log.error("%s (further failures like it are only counted)", failure)
+            return
+        try:
+            self._on_error(failure)
+        except Exception as callback_error:  # the writer thread serves every logger: go on
+            _log.error("%s; on_error raised %r", failure, callback_error)
+
 
 def _flush_open_loggers_at_exit(timeout: float = 5.0) -> None:
+    # Bounded: a slow disk must not hold the exit for ever; what is left is said by close().
     deadline = time.monotonic() + timeout
     for logger in list(_open_loggers):
-        logger.close(max(0.0, deadline - time.monotonic()))
+        logger._close(max(0.0, deadline - time.monotonic()), exit_limit=timeout)
 
 
 atexit.register(_flush_open_loggers_at_exit)

@@ -211,13 +211,21 @@ class NodeAgent:
 
                 try:
                     directory = self._log_dir or self.node.agent_log_dir(self.name)
-                    self._message_logger = MessageLogger(directory)
+                    # Writing fails later too (the folder removed, a full disk): the first
+                    # failure of each kind becomes the agent's error, the rest are counted.
+                    self._message_logger = MessageLogger(
+                        directory, on_error=self._report_log_failure
+                    )
                 except Exception as error:  # e.g. a read-only disk: the agent still works
                     self._log_failure = error
                     self.report_exception("log_msg", error)
                     return None
                 self._log_dir = directory
             return self._message_logger
+
+    def _report_log_failure(self, error: Exception) -> None:
+        """A logged value was not written (called on the log writer's thread)."""
+        self.report_exception("log_msg", error)
 
     def _note_channel_order(self, msg: Any) -> None:
         """Remember whether ``msg`` is an image whose decoded pixels are RGB(A)."""
