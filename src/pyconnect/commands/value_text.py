@@ -123,7 +123,7 @@ def to_yaml(value: Any) -> str:
 def _finite(value: Any) -> Any:
     # Imported on first use: every `pyconnect` command imports this module at start-up, and the
     # record package (the helper's home, shared with `bag export`) costs most of them ~0.1 s.
-    from pyconnect.record.log_writer import finite_for_json
+    from pyconnect.record.log_values import finite_for_json
 
     return finite_for_json(value)
 

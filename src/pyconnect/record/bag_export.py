@@ -27,7 +27,7 @@ from pyconnect.record.bag_damage import BagDamage
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_reader import DecodeProblem, open_bag
 from pyconnect.record.log_dirs import distinct_path_components
-from pyconnect.record.log_writer import (
+from pyconnect.record.log_values import (
     atomic_write_bytes,
     encode_log_value,
     in_native_byte_order,

@@ -190,6 +190,6 @@ def write_metadata(
     split cost more with every file before it.
     """
     text = _document_yaml(metadata_info(metadata), preceding or {})
-    from pyconnect.record.log_writer import atomic_write_bytes
+    from pyconnect.record.log_values import atomic_write_bytes
 
     atomic_write_bytes(path, text.encode("utf-8"))
