@@ -9,6 +9,7 @@ from typing import Any
 
 import pytest
 from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.event_handler import QoSSubscriptionEventType, UnsupportedEventTypeError
 from rclpy.qos import QoSPolicyKind, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import Image
 
@@ -27,6 +28,36 @@ RELIABILITY_INCOMPATIBLE = SimpleNamespace(last_policy_kind=QoSPolicyKind.RELIAB
 
 def matched(count: int) -> Any:
     return SimpleNamespace(current_count=count)
+
+
+def lost(total: int, change: int) -> Any:
+    """A ``message_lost`` event's status: the reader's total and what it adds."""
+    return SimpleNamespace(total_count=total, total_count_change=change)
+
+
+def message_lost_callback(subscription: Any) -> Any:
+    """The callback of an rclpy subscription's one ``message_lost`` event handler (DDS cannot
+    be made to lose a message on cue: tests call it with ``lost(...)``)."""
+    kind = QoSSubscriptionEventType.RCL_SUBSCRIPTION_MESSAGE_LOST
+    handlers = [h for h in subscription.event_handlers if h.event_type == kind]
+    assert len(handlers) == 1, subscription.event_handlers
+    return handlers[0].callback
+
+
+class WarningsLogged:
+    """A node's logger, keeping what is logged as a warning."""
+
+    def __init__(self, logger: Any) -> None:
+        self.logger = logger
+        self.warnings: list[str] = []
+
+    def warning(self, message: str, **options: Any) -> bool:
+        self.warnings.append(message)
+        result: bool = self.logger.warning(message, **options)
+        return result
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.logger, name)
 
 
 class Reader:
@@ -50,6 +81,9 @@ class StandInNode:
         self.destroyed_one = threading.Event()
         self.gate: threading.Event | None = None
         self.creating = threading.Event()
+        self.warnings: list[str] = []
+        self.without_message_lost = False
+        """Set: ``create_subscription`` raises as rclpy does on an rmw without the event."""
 
     def get_publishers_info_by_topic(self, _topic: str) -> list[Any]:
         return list(self.publishers)
@@ -60,6 +94,8 @@ class StandInNode:
         if self.readers and self.gate is not None:
             self.creating.set()
             assert self.gate.wait(QUICK * 4)
+        if self.without_message_lost and options["event_callbacks"].message_lost is not None:
+            raise UnsupportedEventTypeError("message lost event is not supported")
         reader = Reader(qos, options["event_callbacks"])
         self.readers.append(reader)
         return reader
@@ -69,7 +105,7 @@ class StandInNode:
         self.destroyed_one.set()
 
     def get_logger(self) -> Any:
-        return SimpleNamespace(info=lambda _text: None, warning=lambda _text: None)
+        return SimpleNamespace(info=lambda _text: None, warning=self.warnings.append)
 
 
 def following(node: StandInNode) -> SensorSubscription:
@@ -182,3 +218,36 @@ def test_close_during_a_switch_leaves_no_reader() -> None:
     assert not closing.is_alive()
     assert sorted(map(id, node.destroyed)) == sorted(map(id, node.readers))
     assert len(node.readers) == 2
+
+
+def test_losses_are_counted_over_the_switch_and_warned_once() -> None:
+    """Only incompatible-QoS and matched events were registered: DDS's message_lost events were
+    never heard, and a reader losing frames said nothing."""
+    node = StandInNode(RELIABLE)
+    sub = following(node)
+    old = node.readers[0]
+    old.events.matched(matched(1))
+    old.events.message_lost(lost(0, 0))  # nothing lost yet: no warning
+    assert (sub.lost_count, node.warnings) == (0, [])
+    old.events.message_lost(lost(2, 2))
+    new = switch(node, sub)
+    new.events.message_lost(lost(3, 3))  # the new reader counts from 0 again
+    old.events.message_lost(lost(4, 2))  # the retiring one goes on losing meanwhile
+    assert sub.lost_count == 7
+    assert node.warnings == [
+        "agent 'camera': DDS lost 2 message(s) on /camera so far before they reached the "
+        "subscription (the agent's lost_count counts on)"
+    ]
+    sub.close()
+
+
+def test_an_rmw_without_message_lost_still_subscribes() -> None:
+    """rclpy raises for a message_lost event the rmw lacks (it skips the other events): the
+    subscription is made without it, counting nothing."""
+    node = StandInNode(RELIABLE)
+    node.without_message_lost = True
+    sub = following(node)
+    assert sub.subscription is node.readers[0]
+    assert node.readers[0].events.message_lost is None
+    assert sub.lost_count == 0
+    sub.close()

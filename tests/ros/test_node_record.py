@@ -18,6 +18,7 @@ from pyconnect.record.bag_reader import open_bag
 from pyconnect.ros.recording import Recording
 
 from .conftest import EVENT_TIMEOUT, repeat_until
+from .test_following_subscription import WarningsLogged, lost, message_lost_callback
 
 
 def _recorded(bag: Path) -> list[Any]:
@@ -366,3 +367,37 @@ def test_a_full_disk_ends_the_writing_once_and_stop_counts_what_was_lost(
     assert failed.value.__cause__ is recording.error
     metadata = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
     assert metadata["message_count"] == held
+
+
+def test_messages_dds_lost_before_the_recording_are_warned_counted_and_told_at_stop(
+    make_node: Any, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A 30 Hz 1080p camera recorded 136 of 178 frames and nothing said so: the recording's
+    readers had no message_lost event."""
+    node = make_node("lossy_recorder")
+    logged = WarningsLogged(node.get_logger())
+    monkeypatch.setattr(node, "get_logger", lambda: logged)
+    node.add_agent(conn_name="chatter", conn_type="sub", data_interface=String)
+    node.add_agent(conn_name="other", conn_type="sub", data_interface=String)
+    node.create_publisher(String, "chatter", 10)
+    node.create_publisher(String, "other", 10)
+    bag = tmp_path / "lossy"
+    recording = node.record(bag)
+    node.spin(run_thread=True)
+    assert _wait_for(lambda: set(recording._subscriptions) == {"/chatter", "/other"})
+    on_lost = message_lost_callback(recording._subscriptions["/chatter"].subscription)
+    assert recording.lost == {}
+    on_lost(lost(3, 3))
+    on_lost(lost(5, 2))
+    message_lost_callback(recording._subscriptions["/other"].subscription)(lost(1, 1))
+    assert recording.lost == {"/chatter": 5, "/other": 1}
+    recording.stop()  # a loss is no failure of the bag: nothing raised
+    assert logged.warnings == [
+        "recording /chatter: DDS lost 3 message(s) so far before they reached the recorder; "
+        "they are not in the bag (the recording's end counts them all)",
+        "recording /other: DDS lost 1 message(s) so far before they reached the recorder; "
+        "they are not in the bag (the recording's end counts them all)",
+        f"record: {bag}: DDS lost 6 message(s) (/chatter: 5, /other: 1) before they reached "
+        "the recording; they are not in the bag",
+    ]
+    assert recording.lost == {"/chatter": 5, "/other": 1}

@@ -15,6 +15,7 @@ from pyconnect.errors import EncodeError, PyconnectError
 from pyconnect.utils import dict2str, str2dict
 
 from .conftest import EVENT_TIMEOUT, repeat_until
+from .test_following_subscription import WarningsLogged, lost, message_lost_callback
 
 
 def test_string_round_trip_with_registry_codec(make_node: Any) -> None:
@@ -458,3 +459,26 @@ def test_wait_for_message_refuses_a_timeout_no_wait_can_take(make_node: Any, tim
     sub = make_node("waiter").add_agent(conn_name="chat", conn_type="sub", data_interface=String)
     with pytest.raises(PyconnectError, match=r"^agent 'chat' \(sub .*\): wait_for_message: "):
         sub.wait_for_message(timeout)
+
+
+def test_a_sub_counts_the_messages_dds_lost_and_warns_once(
+    make_node: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Messages DDS lost before they reached a sub agent were lost silently: its subscription
+    had no message_lost event."""
+    node = make_node()
+    logged = WarningsLogged(node.get_logger())
+    monkeypatch.setattr(node, "get_logger", lambda: logged)
+    sub = node.add_agent(conn_name="chatter", conn_type="sub", data_interface=String)
+    on_lost = message_lost_callback(sub.subscription)  # registered on the real subscription
+    assert sub.lost_count == 0
+    on_lost(lost(0, 0))
+    assert logged.warnings == []
+    on_lost(lost(4, 4))
+    on_lost(lost(6, 2))
+    assert sub.lost_count == 6
+    assert logged.warnings == [
+        "agent 'chatter' (sub std_msgs/msg/String): DDS lost 4 message(s) on /chatter so far "
+        "before they reached the subscription (the agent's lost_count counts on)"
+    ]
+    assert "6 lost on the way" in sub.info_text()

@@ -12,6 +12,7 @@ from sensor_msgs.msg import CameraInfo, Image
 
 from pyconnect.ros.qos import SENSOR_DATA, matching_reliability
 from tests.ros.conftest import EVENT_TIMEOUT, repeat_until
+from tests.ros.test_following_subscription import WarningsLogged, lost, message_lost_callback
 
 BEST_EFFORT = QoSProfile(depth=5, reliability=ReliabilityPolicy.BEST_EFFORT)
 
@@ -298,3 +299,24 @@ def test_a_switched_sub_is_watched_as_the_first_one(make_node: Any) -> None:
         assert not sub.callback_group.can_execute(sub.subscription)
     finally:
         release.set()
+
+
+def test_a_sensor_sub_counts_the_frames_dds_lost_and_warns_once(
+    make_node: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A best-effort camera sub losing frames was silent: message_lost was never registered."""
+    node = make_node()
+    logged = WarningsLogged(node.get_logger())
+    monkeypatch.setattr(node, "get_logger", lambda: logged)
+    node.create_publisher(Image, "camera", BEST_EFFORT)
+    sub, _heard = add_camera_sub(node)
+    on_lost = message_lost_callback(sub.subscription)  # registered on the real reader
+    assert sub.lost_count == 0
+    on_lost(lost(3, 3))
+    on_lost(lost(5, 2))
+    assert sub.lost_count == 5
+    assert logged.warnings == [
+        "agent 'camera' (sub sensor_msgs/msg/Image): DDS lost 3 message(s) on /camera so far "
+        "before they reached the subscription (the agent's lost_count counts on)"
+    ]
+    assert "5 lost on the way" in sub.info_text()

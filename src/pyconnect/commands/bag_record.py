@@ -16,7 +16,10 @@ and leaves a complete bag (every received message written, every file finished, 
 written): it is deferred while a topic is added, never reaches the writer thread, and a second
 Ctrl-C waits for the bag to be finished. SIGTERM does the same as Ctrl-C. A disk that fills up
 ends the recording with one error naming the bag and counting the received messages it does not
-hold; its metadata.yaml says what its files hold.
+hold; its metadata.yaml says what its files hold. Messages DDS loses before they reach the
+recorder (a 30 Hz 1080p camera outrunning the reader) are no failure of the bag but are never
+silent: the first loss of a topic is logged with the count so far, and the last line counts
+them per topic.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -40,6 +43,7 @@ if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
     from pyconnect.commands.graph import GraphSession
     from pyconnect.record.queued_recorder import QueuedRecorder
+    from pyconnect.ros.recording_subscription import RecordingSubscription
 
 __all__ = ["register"]
 
@@ -100,7 +104,10 @@ def _subscribe_new(
     wanted: set[str] | None,
     skipped: set[str],
     out: TextIO,
+    *,
+    readers: dict[str, RecordingSubscription],
 ) -> None:
+    """Subscribe to the topics not recorded yet; ``readers`` gets each new subscription."""
     from pyconnect.ros.recording_qos import offered_qos_yaml
     from pyconnect.ros.recording_subscription import RecordingSubscription
     from pyconnect.typesys.classes import import_class
@@ -129,7 +136,10 @@ def _subscribe_new(
             continue
 
         on_message = _queue_into(writer, topic, out)
-        RecordingSubscription(session.node, msg_class=msg_class, topic=topic, write=on_message)
+        # Kept for its count of the messages DDS lost on the way, which the last line tells.
+        readers[topic] = RecordingSubscription(
+            session.node, msg_class=msg_class, topic=topic, write=on_message
+        )
         print(f"Subscribed to topic '{topic}'", file=out, flush=True)
 
 
@@ -149,6 +159,7 @@ def _record(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     writer = QueuedRecorder(split)
     wanted = None if args.all else set(args.topics)
     skipped: set[str] = set()
+    readers: dict[str, RecordingSubscription] = {}
     # SIGTERM (systemd, docker stop, timeout) ends a recording as Ctrl-C does, as it does
     # `ros2 bag record`: a complete bag and exit 0, not a process killed with its data unwritten.
     main_thread = threading.current_thread() is threading.main_thread()
@@ -163,7 +174,7 @@ def _record(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
                     # Ctrl-C lands between callbacks and between these steps, never inside one
                     # (a split, a topic being added): the session defers it until they end.
                     with session.interrupts_deferred():
-                        _subscribe_new(session, writer, wanted, skipped, out)
+                        _subscribe_new(session, writer, wanted, skipped, out, readers=readers)
                     session.spin_for(1.0)
             except KeyboardInterrupt:  # Ctrl-C is how a recording ends: a success
                 pass
@@ -182,9 +193,20 @@ def _record(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
             # the bag when the session never started.
             writer.close()
         finally:  # the counts are what the bag holds, even when it could not be finished
-            print(f"Recorded {sum(split.counts.values())} message(s) to '{directory}'", file=out)
+            print(_summary(sum(split.counts.values()), directory, readers), file=out)
             if previous_sigterm is not None:
                 signal.signal(signal.SIGTERM, previous_sigterm)
+
+
+def _summary(recorded: int, directory: Path, readers: dict[str, RecordingSubscription]) -> str:
+    """The last line: what the bag holds and, when DDS lost any, what it lost per topic."""
+    line = f"Recorded {recorded} message(s) to '{directory}'"
+    lost = {topic: reader.lost_count for topic, reader in readers.items() if reader.lost_count}
+    if not lost:
+        return line
+    from pyconnect.ros.recording_subscription import lost_text
+
+    return f"{line}; DDS lost {lost_text(lost)} before they reached the recorder"
 
 
 def _interrupt(_signum: int, _frame: Any) -> None:

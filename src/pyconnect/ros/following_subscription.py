@@ -24,6 +24,12 @@ reader is being discovered (in that short overlap a message may arrive twice: te
 copies apart needs each message's ``MessageInfo``, which rclpy's C++ ``EventsExecutor`` does not
 give a raw subscription).
 
+Losses: every reader also registers the ``message_lost`` event (DDS saw a gap: a best-effort
+sample that went missing on the way, or one the writer's keep-last history dropped before the
+reader had it), so a reader that loses messages says so: ``lost_count`` sums the events'
+``total_count_change`` over all the readers, switches included, and the first loss is logged
+once (``loss_text``). Nothing runs per message for it.
+
 Names: rclpy applies the node's remap rules to every name it is given, the graph queries' too,
 so the reader is made, and re-made, from the name as given, never from the resolved one (which
 ``-r left:=right -r right:=left`` would remap a second time).
@@ -41,7 +47,7 @@ from collections.abc import Callable
 from typing import Any
 
 from rclpy.callback_groups import CallbackGroup
-from rclpy.event_handler import SubscriptionEventCallbacks
+from rclpy.event_handler import SubscriptionEventCallbacks, UnsupportedEventTypeError
 from rclpy.qos import (
     DurabilityPolicy,
     QoSPolicyKind,
@@ -110,6 +116,9 @@ class FollowingSubscription:
         """What each switch changed, as logged."""
         self.switched = threading.Event()
         """Set once the reader was re-created with a more relaxed QoS."""
+        self.lost_count = 0
+        """Messages DDS reported lost before they reached a reader of the topic (its
+        ``message_lost`` events), every reader it had counted."""
         with self._lock:
             chosen = matching_qos(ros_node.get_publishers_info_by_topic(topic), depth=1)
             self._reader = self._create(self.profile(chosen.reliability, chosen.durability))
@@ -121,6 +130,10 @@ class FollowingSubscription:
 
     def switch_text(self, old: QoSProfile, new: QoSProfile) -> str:
         """The log line saying the reader switched from ``old`` to ``new``."""
+        raise NotImplementedError
+
+    def loss_text(self, lost: int) -> str:
+        """The warning logged at the first loss, ``lost`` messages lost so far."""
         raise NotImplementedError
 
     @property
@@ -146,8 +159,13 @@ class FollowingSubscription:
         def matched(status: Any) -> None:
             self._on_matched(reader, int(status.current_count))
 
-        events = SubscriptionEventCallbacks(incompatible_qos=self._on_incompatible, matched=matched)
-        reader.subscription = self._node.create_subscription(
+        events = SubscriptionEventCallbacks(
+            incompatible_qos=self._on_incompatible,
+            matched=matched,
+            message_lost=self._on_message_lost,
+        )
+        reader.subscription = create_counting_losses(
+            self._node,
             self._msg_class,
             self._name,
             self._callback,
@@ -173,6 +191,15 @@ class FollowingSubscription:
             self._node.destroy_subscription(old.subscription)
         if not self._retiring:
             self._lock.notify_all()
+
+    def _on_message_lost(self, status: Any) -> None:
+        change = int(status.total_count_change)
+        with self._lock:  # the old and the new reader's events may run on two threads
+            first = self.lost_count == 0 and change > 0
+            self.lost_count += change
+            lost = self.lost_count
+        if first:  # once: a reader that loses messages loses many, one line says it
+            self._node.get_logger().warning(self.loss_text(lost))
 
     def _on_incompatible(self, status: Any) -> None:
         kind = QoSPolicyKind(status.last_policy_kind)
@@ -267,3 +294,45 @@ class FollowingSubscription:
         for reader in readers:
             with contextlib.suppress(Exception):  # the node is gone, its readers with it
                 self._node.destroy_subscription(reader.subscription)
+
+
+def create_counting_losses(
+    ros_node: Any,
+    msg_class: type,
+    topic: str,
+    callback: Callable[[Any], None],
+    qos: QoSProfile,
+    *,
+    callback_group: CallbackGroup | None,
+    event_callbacks: SubscriptionEventCallbacks,
+    raw: bool,
+) -> Any:
+    """``ros_node.create_subscription``, its ``message_lost`` event dropped on an rmw without it.
+
+    rclpy leaves out the events an rmw does not support, except ``message_lost``: it raises
+    ``UnsupportedEventTypeError`` (after destroying the new subscription). Jazzy's DDS rmws
+    support it; elsewhere a subscription that cannot count its losses still beats none.
+    """
+    try:
+        return ros_node.create_subscription(
+            msg_class,
+            topic,
+            callback,
+            qos,
+            callback_group=callback_group,
+            event_callbacks=event_callbacks,
+            raw=raw,
+        )
+    except UnsupportedEventTypeError:
+        if event_callbacks.message_lost is None:
+            raise
+        event_callbacks.message_lost = None
+        return ros_node.create_subscription(
+            msg_class,
+            topic,
+            callback,
+            qos,
+            callback_group=callback_group,
+            event_callbacks=event_callbacks,
+            raw=raw,
+        )

@@ -9,6 +9,11 @@ less (pyconnect.ros.recording_subscription), and the publishers' QoS stored as t
 what a best-effort keep-last-5 reader happens to catch, nor what a reader chosen before the
 publishers were known could hear.
 
+Messages DDS loses before they reach the recording's subscriptions (a fast 1080p camera) are
+counted per topic from their ``message_lost`` events: the first loss of a topic is logged, with
+the topic and the count so far, ``lost`` holds the counts, and ``stop()`` logs them once more.
+A loss is no failure of the bag: nothing is raised for it.
+
 A write that fails (a full disk) ends the writing, as it ends ``pyconnect bag record``: it is
 logged once as the recording's ``error``, naming the bag; the messages received after it are
 counted, not written; ``stop()`` raises one ``BagError`` naming the bag and counting the
@@ -37,7 +42,7 @@ from pyconnect.record.bag_errors import BagError
 from pyconnect.ros.interfaces import interface_class, interface_name
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.recording_qos import offered_qos_yaml
-from pyconnect.ros.recording_subscription import RecordingSubscription
+from pyconnect.ros.recording_subscription import RecordingSubscription, lost_text
 from pyconnect.ros.subscriber_agent import SubscriberAgent
 
 DISCOVERY_PERIOD = 0.1
@@ -70,7 +75,7 @@ class Recording:
         self.error: OSError | None = None
         chosen = self._choose_topics(topics)
         self.recorder = McapRecorder(path)
-        self._subscriptions: list[RecordingSubscription] = []
+        self._subscriptions: dict[str, RecordingSubscription] = {}
         self._group = MutuallyExclusiveCallbackGroup()
         self._waiting = dict(chosen)
         """Topics no publisher of which is known yet: subscribed once one is discovered."""
@@ -110,14 +115,12 @@ class Recording:
                     interface_name(msg_class),
                     offered_qos_profiles=offered_qos_yaml(publishers),
                 )
-                self._subscriptions.append(
-                    RecordingSubscription(
-                        self.ros_node,
-                        msg_class=msg_class,
-                        topic=source,
-                        write=self._writer_for(topic),
-                        callback_group=self._group,
-                    )
+                self._subscriptions[topic] = RecordingSubscription(
+                    self.ros_node,
+                    msg_class=msg_class,
+                    topic=source,
+                    write=self._writer_for(topic),
+                    callback_group=self._group,
                 )
             timer = self._discovery_timer
             if not self._waiting and timer is not None:
@@ -224,6 +227,14 @@ class Recording:
         return self._received
 
     @property
+    def lost(self) -> dict[str, int]:
+        """{topic: messages DDS lost before they reached the recording}, the topics that lost
+        any (their subscriptions' ``message_lost`` events)."""
+        with self._lock:
+            subscriptions = list(self._subscriptions.items())
+        return {topic: sub.lost_count for topic, sub in subscriptions if sub.lost_count}
+
+    @property
     def stopped(self) -> bool:
         """True once ``stop()`` was called."""
         return self._stopped
@@ -241,8 +252,13 @@ class Recording:
         if self._discovery_timer is not None:
             with contextlib.suppress(Exception):
                 self.ros_node.destroy_timer(self._discovery_timer)
-        for subscription in self._subscriptions:
+        for subscription in self._subscriptions.values():
             subscription.close()
+        if dropped := self.lost:  # the first loss was logged with the count then: here the last
+            self.ros_node.get_logger().warning(
+                f"record: {self.path}: DDS lost {lost_text(dropped)} before they reached the "
+                "recording; they are not in the bag"
+            )
         finishing: Exception | None = None
         with self._write_lock:  # a callback still writing ends first; later ones write nothing
             try:

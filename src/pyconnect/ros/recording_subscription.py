@@ -6,7 +6,9 @@ publisher that appears later may offer less: best effort, which a reliable reade
 or volatile, which a transient-local reader never hears. rosbag2 warns then that "messages from
 this new publisher will not be recorded"; here the reader is re-created with the QoS that hears
 every publisher now known (pyconnect.ros.following_subscription: in the moment both readers
-overlap, a message may be written twice), and the log says so.
+overlap, a message may be written twice), and the log says so. Messages DDS loses before they
+reach the recorder (its ``message_lost`` events) are counted in ``lost_count`` and the first
+loss is logged, naming the topic: what is not in the bag is never lost silently.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -14,7 +16,7 @@ overlap, a message may be written twice), and the log says so.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 from rclpy.callback_groups import CallbackGroup
@@ -54,3 +56,15 @@ class RecordingSubscription(FollowingSubscription):
             f"{new.reliability.name.lower()}, {new.durability.name.lower()} (was "
             f"{old.reliability.name.lower()}, {old.durability.name.lower()})"
         )
+
+    def loss_text(self, lost: int) -> str:
+        return (
+            f"recording {self.topic}: DDS lost {lost} message(s) so far before they reached the "
+            "recorder; they are not in the bag (the recording's end counts them all)"
+        )
+
+
+def lost_text(lost: Mapping[str, int]) -> str:
+    """``{'/b': 1, '/a': 3}`` as ``4 message(s) (/a: 3, /b: 1)``: the total, then per topic."""
+    topics = ", ".join(f"{topic}: {count}" for topic, count in sorted(lost.items()))
+    return f"{sum(lost.values())} message(s) ({topics})"

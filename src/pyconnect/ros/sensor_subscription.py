@@ -8,7 +8,8 @@ every publisher it sees is reliable (or none is there yet) and best effort when 
 effort, and transient local when every one of them is (a latched ``CameraInfo``): the rule of
 ROS 2's "best available" QoS, which rmw applies once, at creation. When a publisher it cannot
 hear shows up later, the reader is re-created, once per relaxed policy, and the log says what
-changed (pyconnect.ros.following_subscription).
+changed (pyconnect.ros.following_subscription), as it says when frames start going missing
+(``lost_count``, the ``message_lost`` events of its readers).
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -85,3 +86,9 @@ class SensorSubscription(FollowingSubscription):
                 "volatile writer)."
             )
         return f"{self._describe}: {' '.join(changes)} Pass qos= to choose yourself."
+
+    def loss_text(self, lost: int) -> str:
+        return (
+            f"{self._describe}: DDS lost {lost} message(s) on {self.topic} so far before they "
+            "reached the subscription (the agent's lost_count counts on)"
+        )

@@ -5,6 +5,10 @@ stores, counts and calls the user function, nothing else. A message the codec re
 ``response_func`` that raises, is reported (agent name and traceback) and the next one is
 handled; ``get()`` keeps the last good value. An ``async def`` ``response_func`` runs on the
 node's coroutine loop, one message after another (pyconnect.ros.coroutines).
+
+Messages DDS loses before they reach the subscription (a best-effort camera's frames, a queue
+a fast publisher overran) are counted in ``lost_count`` from the subscription's
+``message_lost`` events, off the hot path, and the first loss is logged once per agent.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -18,6 +22,7 @@ from collections.abc import Callable
 from typing import Any
 
 from rclpy.callback_groups import CallbackGroup
+from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.qos import QoSProfile
 
 from pyconnect.codecs.base import Codec
@@ -25,6 +30,7 @@ from pyconnect.errors import DecodeError
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.coroutines import is_async_callable
+from pyconnect.ros.following_subscription import create_counting_losses
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent, ResponseFunc
 from pyconnect.ros.option_checks import call_timeout
@@ -127,12 +133,16 @@ class SubscriberAgent(NodeAgent):
             )
             self.topic: str = self.sensor_subscription.topic
         else:
-            self._subscription = node.ros_node.create_subscription(
+            self._lost_lock = threading.Lock()
+            self._lost = 0
+            self._subscription = create_counting_losses(
+                node.ros_node,
                 msg_class,
                 conn_name,
                 callback,
                 resolve_qos(qos, msg_type=self.type_name, publisher=False),
                 callback_group=self.callback_group,
+                event_callbacks=SubscriptionEventCallbacks(message_lost=self._on_message_lost),
                 raw=self._raw is not None,
             )
             self.topic = self._subscription.topic_name
@@ -143,6 +153,25 @@ class SubscriberAgent(NodeAgent):
         if self.sensor_subscription is not None:
             return self.sensor_subscription.subscription
         return self._subscription
+
+    @property
+    def lost_count(self) -> int:
+        """Messages DDS reported lost before they reached the subscription."""
+        if self.sensor_subscription is not None:
+            return self.sensor_subscription.lost_count
+        return self._lost
+
+    def _on_message_lost(self, status: Any) -> None:
+        change = int(status.total_count_change)
+        with self._lost_lock:  # a reentrant group may run two events at once
+            first = self._lost == 0 and change > 0
+            self._lost += change
+            lost = self._lost
+        if first:  # once: what loses one message loses many, the count goes on in lost_count
+            self.node.get_logger().warning(
+                f"{self.describe}: DDS lost {lost} message(s) on {self.topic} so far before "
+                "they reached the subscription (the agent's lost_count counts on)"
+            )
 
     def _raw_callback(self, raw: RawDecoder) -> Callable[[bytes], None]:
         """The subscription callback of the raw path: CDR bytes in, the same delivery."""
@@ -216,7 +245,8 @@ class SubscriberAgent(NodeAgent):
             if self.last_received_ns
             else ""
         )
-        return f"{super().info_text()} ({self.message_count} messages on {self.topic}{age})"
+        lost = f", {self.lost_count} lost on the way" if self.lost_count else ""
+        return f"{super().info_text()} ({self.message_count} messages on {self.topic}{lost}{age})"
 
     def close(self) -> None:
         if self.sensor_subscription is not None:
