@@ -234,7 +234,10 @@ def test_damaged_bag_exits_1_unless_told_to_go_on(
             "argument action: invalid choice: 'ech' (choose from 'info', 'echo', 'export', 'record', 'play')",
         ),
         (["bag", "export", "x"], "the following arguments are required: --to"),
-        (["bag", "echo", "x", "--limit", "many"], "argument --limit: invalid int value: 'many'"),
+        (
+            ["bag", "echo", "x", "--limit", "many"],
+            "argument --limit: expected a whole number >= 0, got 'many'",
+        ),
         ([], "the following arguments are required: command"),
     ],
 )
@@ -252,7 +255,9 @@ def test_unknown_topic_and_negative_limit(bag: Path, capsys: pytest.CaptureFixtu
         f"pyconnect: error: {bag}: no topic /nope in this bag (topics: /camera, /chatter)\n"
     )
     assert main(["bag", "echo", str(bag), "--limit", "-1"]) == 2
-    assert capsys.readouterr().err == "pyconnect: error: --limit: expected a count >= 0, got -1\n"
+    assert capsys.readouterr().err == (
+        "pyconnect: error: argument --limit: expected a whole number >= 0, got '-1'\n"
+    )
 
 
 def test_help_exits_zero(capsys: pytest.CaptureFixture[str]) -> None:

@@ -55,14 +55,25 @@ class Yaml12Loader(yaml.SafeLoader):
 
     An alias inside the node its anchor names (``&a [*a]``) is refused: PyYAML would build a
     list that holds itself, which every walk over the value follows until Python's recursion
-    limit.
+    limit. So is a value nested deeper than ``MAX_VALUE_DEPTH``: how deep Python's recursion
+    goes depends on the process (hypothesis, for one, raises its limit).
     """
 
     def __init__(self, stream: str | bytes | typing.IO[str] | typing.IO[bytes]) -> None:
         super().__init__(stream)
         self._open_anchors: set[str] = set()
+        self._depth = 0
 
     def compose_node(self, parent: yaml.Node | None, index: int) -> yaml.Node | None:
+        self._depth += 1
+        try:
+            if self._depth > MAX_VALUE_DEPTH:
+                raise _TooDeep(None, None, _TOO_DEEP, None)
+            return self._compose_checked(parent, index)
+        finally:
+            self._depth -= 1
+
+    def _compose_checked(self, parent: yaml.Node | None, index: int) -> yaml.Node | None:
         event = self.peek_event()  # type: ignore[no-untyped-call]
         if isinstance(event, yaml.AliasEvent) and event.anchor in self._open_anchors:
             raise _SelfReference(
@@ -83,6 +94,10 @@ class Yaml12Loader(yaml.SafeLoader):
 
 class _SelfReference(yaml.composer.ComposerError):
     """An alias inside the node its anchor names: a value that would hold itself."""
+
+
+class _TooDeep(yaml.composer.ComposerError):
+    """More than ``MAX_VALUE_DEPTH`` levels of lists and mappings."""
 
 
 class OverflowedFloat(float):
@@ -189,6 +204,8 @@ def message_template(text: str, msg_class: type) -> MessageTemplate:
     """Parse VALUE for ``msg_class``; ``stamped()`` gives the message (re-stamped each call)."""
     try:
         value = yaml.load(text, Loader=Yaml12Loader) if text.strip() else {}
+    except _TooDeep:
+        raise CommandFailed(_TOO_DEEP) from None
     except _SelfReference as error:
         raise CommandFailed(f"VALUE cannot hold itself: {' '.join(str(error).split())}") from None
     except yaml.YAMLError as error:
@@ -209,7 +226,10 @@ def message_template(text: str, msg_class: type) -> MessageTemplate:
         raise CommandFailed(str(error)) from None
 
 
-_TOO_DEEP = "VALUE is nested too deeply: more levels of lists and mappings than Python can walk"
+MAX_VALUE_DEPTH = 100
+"""Levels of lists and mappings a VALUE may nest (a MarkerArray's deepest field is 6 down)."""
+
+_TOO_DEEP = f"VALUE is nested too deeply: more than {MAX_VALUE_DEPTH} levels of lists and mappings"
 
 
 def _settled(value: Any, path: str) -> Any:
