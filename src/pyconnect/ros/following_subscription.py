@@ -313,7 +313,8 @@ def create_counting_losses(
     ``UnsupportedEventTypeError`` (after destroying the new subscription). Jazzy's DDS rmws
     support it; elsewhere a subscription that cannot count its losses still beats none.
     """
-    try:
+
+    def create() -> Any:
         return ros_node.create_subscription(
             msg_class,
             topic,
@@ -323,16 +324,11 @@ def create_counting_losses(
             event_callbacks=event_callbacks,
             raw=raw,
         )
+
+    try:
+        return create()
     except UnsupportedEventTypeError:
         if event_callbacks.message_lost is None:
             raise
         event_callbacks.message_lost = None
-        return ros_node.create_subscription(
-            msg_class,
-            topic,
-            callback,
-            qos,
-            callback_group=callback_group,
-            event_callbacks=event_callbacks,
-            raw=raw,
-        )
+        return create()
