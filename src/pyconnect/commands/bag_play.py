@@ -3,14 +3,18 @@
 Each message is published (as its stored CDR bytes) when ``(log time - first log time -
 start offset) / rate`` seconds have passed since playing began. Each topic is offered with the
 QoS its publishers had when recorded (``offered_qos_profiles`` in the bag: reliable unless they
-were all best effort; transient local when they all were), else the default profile.
-``--clock`` also publishes the bag's time on ``/clock`` (before each message and every 25 ms) for
-nodes with ``use_sim_time``. At the end it prints how late messages were published against their
-schedule (mean and max), the timing error. Ctrl-C stops playing (exit 0). A topic whose type is
-not installed is left out with a warning, as ``ros2 bag play`` does; a damaged bag plays all
-that can be read, then its damage is reported and the exit status is 1 (``--ignore-damage``: 0).
-A ``--topics`` name not in the bag is an error (exit status 1); when there is nothing to play
-(``--start-offset`` past the end), playing ends at once with a warning, ``--loop`` or not.
+were all best effort; transient local when they all were), else the default profile. A topic
+recorded as several types gets a publisher of each, and each message goes out on the one of its
+own type. ``--clock`` also publishes the bag's time on ``/clock`` (before each message and every
+25 ms) for nodes with ``use_sim_time``. When it ends, also by Ctrl-C or SIGTERM (exit 0), it
+prints how late messages were published against their schedule (mean and max), the timing
+error. A topic (or one type of it) is left out with a warning, and the others play, when its
+type is not installed (as ``ros2 bag play`` does), its messages are not serialised as CDR, or
+ROS 2 refuses its name. A damaged bag plays all that can be read, then its damage is reported
+and the exit status is 1 (``--ignore-damage``: 0; with ``--loop`` it then plays again and again,
+the damage reported once). A ``--topics`` name not in the bag is an error (exit status 1); when
+there is nothing to play (``--start-offset`` past the end), playing ends at once with a warning,
+``--loop`` or not.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -19,6 +23,9 @@ A ``--topics`` name not in the bag is an error (exit status 1); when there is no
 from __future__ import annotations
 
 import argparse
+import os
+import signal
+import threading
 import time
 from typing import TYPE_CHECKING, Any, TextIO
 
@@ -28,6 +35,7 @@ from pyconnect.errors import PyconnectError
 
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
+    from pyconnect.record.bag_info import BagInfo, TopicInfo
 
 __all__ = ["offered_qos", "register"]
 
@@ -108,13 +116,25 @@ def offered_qos(text: str) -> Any:
 def _play(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.commands.graph import CommandFailed, graph_session, report_failure
 
+    late = Lateness()
+    damage: list[Any] = []
+    summary = ""
+    # SIGTERM (systemd, docker stop, timeout) stops playing as Ctrl-C does, as it ends
+    # `bag record`: the summary and exit 0, not a process killed without its last line.
+    main_thread = threading.current_thread() is threading.main_thread()
+    previous_sigterm = signal.signal(signal.SIGTERM, _interrupt) if main_thread else None
     try:
         with graph_session("play") as session:
-            late, damage, summary = _play_all(args, session, out, err)
-    except KeyboardInterrupt:  # Ctrl-C ends playing: a success
-        return 0
+            if main_thread:  # the session's Ctrl-C handler, which waits for a spin to end
+                signal.signal(signal.SIGTERM, signal.getsignal(signal.SIGINT))
+            damage, summary = _play_all(args, session, late, out, err)
+    except KeyboardInterrupt:  # Ctrl-C ends playing: a success, summed up as an end is
+        pass
     except CommandFailed as failure:
         return report_failure(failure, err)
+    finally:
+        if previous_sigterm is not None:
+            signal.signal(signal.SIGTERM, previous_sigterm)
     if late.count:
         print(
             f"Played {late.count} message(s); timing error: mean {late.mean * 1e3:.3f} ms, "
@@ -124,17 +144,21 @@ def _play(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     return damage_status(damage, summary, args, err)
 
 
+def _interrupt(_signum: int, _frame: Any) -> None:
+    raise KeyboardInterrupt
+
+
 def _play_all(
-    args: argparse.Namespace, session: Any, out: TextIO, err: TextIO
-) -> tuple[Lateness, list[Any], str]:
-    """Play the bag; the timing errors, and the damage the bag showed with its summary."""
+    args: argparse.Namespace, session: Any, late: Lateness, out: TextIO, err: TextIO
+) -> tuple[list[Any], str]:
+    """Play the bag, adding each message's timing error to ``late``; the damage the bag showed
+    that is still to be reported, with its summary."""
     from rosgraph_msgs.msg import Clock  # type: ignore[import-untyped]
 
     from pyconnect.commands.graph import CommandFailed
-    from pyconnect.record.bag_reader import bag_info, open_bag
-    from pyconnect.ros.interfaces import interface_class
+    from pyconnect.record.bag_reader import open_bag
 
-    info = bag_info(args.path)
+    info, stored = _stored_types(args.path)
     if args.topics is not None:
         names = [t.name for t in info.topics]
         unknown = [name for name in dict.fromkeys(args.topics) if name not in names]
@@ -144,61 +168,195 @@ def _play_all(
                 f"(topics: {', '.join(names) or 'none'})"
             )
     topics = [t for t in info.topics if args.topics is None or t.name in args.topics]
-    publishers: dict[str, Any] = {}
-    for topic in topics:
-        try:
-            msg_class = interface_class(topic.msg_type, kind="msg")
-        except PyconnectError as error:
-            # As ros2 bag play: the other topics still play (tf2_msgs is not in the wheels).
-            print(
-                f"pyconnect: warning: not playing {topic.name}: {error} "
-                "(codecgen build --compile builds a type from its definition)",
-                file=err,
+    publishers = _Publishers(session)
+    try:
+        for topic in topics:
+            publishers.add(topic, stored[topic.name], err)
+        clock = session.node.create_publisher(Clock, "/clock", 10) if args.clock else None
+        start_ns = (info.start_ns or 0) + round(args.start_offset * 1e9)
+        if topics and not publishers.topics:
+            raise CommandFailed(
+                f"{info.path}: no topic to play: every one is left out (see the warnings)"
             )
+        session.spin_for(args.delay)  # time for subscribers to discover the new publishers
+        print(f"Playing {info.path} ({len(publishers.topics)} topic(s))", file=out, flush=True)
+        reported = False  # the damage, said after a first pass when --loop goes on
+        while True:
+            selected = list(publishers.topics)
+            with open_bag(args.path, topics=selected, raw=True, start_ns=start_ns) as bag:
+                played = _play_pass(
+                    bag, publishers, clock=clock, start_ns=start_ns, rate=args.rate, late=late
+                )
+                damage = [] if reported else bag.damage
+                summary = bag.damage_summary(damage) if damage else ""
+            if not played:
+                if not damage and not reported:
+                    # Every pass would play nothing again: with --loop, at once and for ever.
+                    where = (
+                        f" from --start-offset {args.start_offset:g} s on"
+                        if args.start_offset
+                        else ""
+                    )
+                    print(
+                        f"pyconnect: warning: nothing to play: {info.path} has no message{where}",
+                        file=err,
+                    )
+                return damage, summary
+            # Without --ignore-damage the damage is an error, which ends the play after a pass.
+            if not args.loop or (damage and not args.ignore_damage):
+                return damage, summary
+            if damage:  # every pass finds it again: said once, now, not after hours of loops
+                damage_status(damage, summary, args, err)
+                reported = True
+    finally:
+        publishers.close()
+
+
+def _play_pass(
+    bag: Any, publishers: _Publishers, *, clock: Any, start_ns: int, rate: float, late: Lateness
+) -> int:
+    """Publish the messages of ``bag`` each at its time; how many were published."""
+    began = time.monotonic()
+    last_clock = 0.0
+    played = 0
+    for message in bag:
+        publisher = publishers.by_type.get((message.topic, message.msg_type))
+        if publisher is None:  # a type of the topic left out, said when it was
             continue
-        publishers[topic.name] = session.node.create_publisher(
-            msg_class, topic.name, offered_qos(topic.offered_qos_profiles)
-        )
-    clock = session.node.create_publisher(Clock, "/clock", 10) if args.clock else None
-    start_ns = (info.start_ns or 0) + round(args.start_offset * 1e9)
-    if topics and not publishers:
-        raise CommandFailed(f"{info.path}: no topic to play: no type of the bag is installed")
-    late = Lateness()
-    session.spin_for(args.delay)  # time for subscribers to discover the new publishers
-    print(f"Playing {info.path} ({len(publishers)} topic(s))", file=out, flush=True)
-    while True:
-        began = time.monotonic()
-        last_clock = 0.0
-        played = 0
-        with open_bag(args.path, topics=list(publishers), raw=True, start_ns=start_ns) as bag:
-            for message in bag:
-                played += 1
-                due = began + (message.log_time_ns - start_ns) / 1e9 / args.rate
-                while True:
-                    now = time.monotonic()
-                    if clock is not None and now - last_clock >= CLOCK_PERIOD:
-                        elapsed_ns = round((now - began) * args.rate * 1e9)
-                        clock.publish(_clock(min(start_ns + elapsed_ns, message.log_time_ns)))
-                        last_clock = now
-                    if now >= due:
-                        break
-                    time.sleep(min(due - now, CLOCK_PERIOD))
-                if clock is not None:
-                    clock.publish(_clock(message.log_time_ns))
-                publishers[message.topic].publish(bytes(message.value))
-                late.add(time.monotonic() - due)
-            damage = bag.damage
-            summary = bag.damage_summary(damage) if damage else ""
-        if not played and not damage:
-            # Every pass would play nothing again: with --loop, at once and for ever.
-            where = f" from --start-offset {args.start_offset:g} s on" if args.start_offset else ""
-            print(
-                f"pyconnect: warning: nothing to play: {info.path} has no message{where}",
-                file=err,
-            )
-            return late, damage, summary
-        if not args.loop or damage:  # a damaged bag plays once: its damage is reported then
-            return late, damage, summary
+        played += 1
+        due = began + (message.log_time_ns - start_ns) / 1e9 / rate
+        while True:
+            now = time.monotonic()
+            if clock is not None and now - last_clock >= CLOCK_PERIOD:
+                elapsed_ns = round((now - began) * rate * 1e9)
+                clock.publish(_clock(min(start_ns + elapsed_ns, message.log_time_ns)))
+                last_clock = now
+            if now >= due:
+                break
+            time.sleep(min(due - now, CLOCK_PERIOD))
+        if clock is not None:
+            clock.publish(_clock(message.log_time_ns))
+        publisher.publish(bytes(message.value))
+        late.add(time.monotonic() - due)
+    return played
+
+
+def _stored_types(path: str) -> tuple[BagInfo, dict[str, dict[str, set[str]]]]:
+    """The bag's ``BagInfo``, and topic -> each of its types (``pkg/msg/Name``, in the order the
+    bag declares them) -> how its messages are serialised: ``BagInfo`` has one type a topic."""
+    from pyconnect.record.bag_files import BagFiles, open_bag_files
+    from pyconnect.record.bag_info import describe
+    from pyconnect.record.bag_storage import StorageFile
+    from pyconnect.record.topic_decoder import normalise_type_name
+
+    bags: list[tuple[BagFiles, list[StorageFile]]] = []
+    try:
+        info = describe(open_bag_files(path, into=bags, caller="bag_info"))
+        found: dict[str, dict[str, set[str]]] = {}
+        for located, storages in bags:
+            declared = [
+                (c.topic, c.msg_type, c.serialization_format)
+                for storage in storages
+                for c in storage.connections()
+            ]
+            if located.metadata is not None:  # a topic it lists may be in no file
+                declared += [
+                    (t.name, t.msg_type, t.serialization_format) for t in located.metadata.topics
+                ]
+            for topic, msg_type, serialization_format in declared:
+                formats = found.setdefault(topic, {}).setdefault(
+                    normalise_type_name(msg_type), set()
+                )
+                formats.add((serialization_format or "cdr").lower())  # rosbag2 writes "" as cdr
+        return info, found
+    finally:
+        for _, storages in bags:
+            for storage in storages:
+                storage.close()
+
+
+def _leave_out(what: str, why: str, err: TextIO) -> None:
+    print(f"pyconnect: warning: not playing {what}: {why}", file=err)
+
+
+class _Publishers:
+    """A play's publishers, one per topic and type, and the nodes that hold them.
+
+    A participant takes one type per topic name (Fast DDS refuses a second), so a topic's
+    second type is published from a node in a context of its own, its third from another, and
+    so on: the subscribers of each type get the messages of their type, and only those.
+    """
+
+    def __init__(self, session: Any) -> None:
+        self.by_type: dict[tuple[str, str], Any] = {}
+        """(topic, ``pkg/msg/Name``) -> its publisher."""
+        self.topics: dict[str, int] = {}
+        """Topic -> how many of its types are published."""
+        self._nodes: list[Any] = [session.node]
+        self._contexts: list[Any] = []
+
+    def add(self, topic: TopicInfo, types: dict[str, set[str]], err: TextIO) -> None:
+        """Publishers for the ``types`` of ``topic`` (each with the serialisations it is stored
+        in); each type left out is said on ``err``."""
+        from rclpy.exceptions import InvalidTopicNameException
+
+        from pyconnect.commands.graph import message_class
+
+        qos = offered_qos(topic.offered_qos_profiles)
+        for msg_type, formats in types.items():
+            what = f"{topic.name} ({msg_type})" if len(types) > 1 else topic.name
+            other = sorted(formats - {"cdr"})
+            if other:  # its bytes would reach the subscribers as CDR that is not
+                serialised = ", ".join(other)
+                _leave_out(what, f"serialised as {serialised}, not cdr (only CDR plays)", err)
+                continue
+            try:
+                # An action's or service's part (/fib/_action/feedback) is a type of its own.
+                msg_class = message_class(msg_type)
+            except PyconnectError as error:
+                # As ros2 bag play: the other topics still play (tf2_msgs is not in the wheels).
+                why = f"{error} (codecgen build --compile builds a type from its definition)"
+                _leave_out(what, why, err)
+                continue
+            node = self._node(self.topics.get(topic.name, 0))
+            try:
+                publisher = node.create_publisher(msg_class, topic.name, qos)
+            except (InvalidTopicNameException, ValueError) as error:  # ValueError: "{x}"
+                # rclpy's text spans lines with a caret under the fault: its first line says it.
+                reason = str(error).splitlines()[0].split(", at /")[0].rstrip(":")
+                reason = reason.removeprefix("Invalid topic name: ")
+                _leave_out(topic.name, f"invalid topic name: {reason}", err)
+                return
+            self.by_type[(topic.name, msg_type)] = publisher
+            self.topics[topic.name] = self.topics.get(topic.name, 0) + 1
+
+    def _node(self, index: int) -> Any:
+        """The ``index``-th node (0: the session's), made with its context on first use."""
+        import rclpy
+        from rclpy.context import Context
+        from rclpy.node import Node
+        from rclpy.signals import SignalHandlerOptions
+
+        from pyconnect.commands.live_options import HIDDEN_PREFIX
+
+        while len(self._nodes) <= index:
+            context = Context()
+            rclpy.init(context=context, signal_handler_options=SignalHandlerOptions.NO)
+            self._contexts.append(context)
+            name = f"{HIDDEN_PREFIX}pyconnect_play_{os.getpid()}_{len(self._nodes)}"
+            self._nodes.append(Node(name, context=context, start_parameter_services=False))
+        return self._nodes[index]
+
+    def close(self) -> None:
+        """Destroy the nodes made here (the session closes its own) and shut their contexts."""
+        try:
+            for node in self._nodes[1:]:
+                node.destroy_node()
+        finally:
+            for context in self._contexts:
+                context.try_shutdown()
+            self._nodes[1:] = []
+            self._contexts = []
 
 
 class Lateness:
