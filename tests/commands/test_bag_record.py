@@ -15,7 +15,11 @@ from typing import Any
 
 import pytest
 import yaml
+from mcap.reader import make_reader
+from rclpy.qos import QoSProfile
 from rclpy.serialization import serialize_message
+from rclpy.topic_endpoint_info import TopicEndpointInfo, TopicEndpointTypeEnum
+from rclpy.type_hash import TypeHash
 from std_msgs.msg import String
 from test_msgs.action import Fibonacci
 
@@ -24,6 +28,7 @@ from pyconnect.commands import bag_record
 from pyconnect.record import BagError, open_bag
 from pyconnect.record.queued_recorder import QueuedRecorder
 from pyconnect.record.split_recorder import SplitRecorder
+from pyconnect.typesys.packages import installed_type_hash
 from tests.commands.processes import WAIT, Lines, spawn
 
 
@@ -73,6 +78,80 @@ def test_an_action_feedback_topic_named_explicitly_is_recorded(tmp_path: Path) -
         values = [m.value for m in bag]
     assert bag.errors == []
     assert [v["feedback"] for v in values] == [{"sequence": [1, 1, 2]}]
+
+
+def _publisher(type_hash: TypeHash, msg_type: str = "std_msgs/msg/String") -> TopicEndpointInfo:
+    return TopicEndpointInfo(
+        node_name="talker", topic_type=msg_type, topic_type_hash=type_hash,
+        endpoint_type=TopicEndpointTypeEnum.PUBLISHER, qos_profile=QoSProfile(depth=10),
+    )  # fmt: skip
+
+
+class _Published(_Node):
+    """A graph whose topics have ``publishers``."""
+
+    def __init__(self, topics: list[tuple[str, list[str]]], publishers: list[Any]) -> None:
+        super().__init__(topics)
+        self.publishers = publishers
+
+    def get_publishers_info_by_topic(self, _topic: str) -> list[Any]:
+        return self.publishers
+
+
+OTHER = TypeHash(version=1, value=bytes(range(32)))  # a std_msgs/String that is not installed
+OTHER_TEXT = "RIHS01_" + bytes(range(32)).hex()
+
+
+@pytest.mark.parametrize(
+    ("publishers", "stored"),
+    [
+        ([_publisher(OTHER), _publisher(OTHER)], OTHER_TEXT),
+        ([_publisher(OTHER), _publisher(TypeHash(version=1, value=bytes(32)))], ""),  # disagree
+    ],
+)
+def test_the_publishers_type_hash_is_what_the_bag_stores(
+    tmp_path: Path, publishers: list[Any], stored: str
+) -> None:
+    """The bag stored no hash: open_bag's check of a type that changed could never fire."""
+    node = _Published([("/chatter", ["std_msgs/msg/String"])], publishers)
+    writer = QueuedRecorder(SplitRecorder(tmp_path / "run"))
+    session: Any = SimpleNamespace(node=node)
+    bag_record._subscribe_new(session, writer, {"/chatter"}, set(), io.StringIO(), readers={})
+    _cls, callback = node.subscriptions["/chatter"]
+    callback(serialize_message(String(data="hi")))
+    writer.close()
+    metadata = yaml.safe_load((tmp_path / "run" / "metadata.yaml").read_text())
+    (topic,) = metadata["rosbag2_bagfile_information"]["topics_with_message_count"]
+    assert topic["topic_metadata"]["type_description_hash"] == stored
+    with open_bag(tmp_path / "run") as bag:
+        assert bag.topics["/chatter"].type_hash == stored
+        assert [m.value for m in bag] == ["hi"]
+    assert [m.bag_hash for m in bag.mismatches] == ([stored] if stored else [])
+
+
+def test_a_live_publishers_type_hash_is_recorded(peer: Lines, tmp_path: Path) -> None:
+    """`topic info -v` showed the publisher's RIHS01 hash; the bag stored '' for it."""
+    bag = tmp_path / "run"
+    recorder = spawn("-m", "pyconnect.cli", "bag", "record", "/chatter", "-o", str(bag))
+    lines = Lines(recorder)
+    try:
+        lines.wait_for("^Recording '/chatter': first message received$")
+    finally:
+        err = lines.stop()
+    assert (recorder.returncode, err) == (0, "")
+    published = installed_type_hash("std_msgs/msg/String")  # the peer's rclpy String
+    assert published is not None and published.startswith("RIHS01_")
+    metadata = yaml.safe_load((bag / "metadata.yaml").read_text())["rosbag2_bagfile_information"]
+    (topic,) = metadata["topics_with_message_count"]
+    assert topic["topic_metadata"]["type_description_hash"] == published
+    with (bag / "run_0.mcap").open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    assert [c.metadata["topic_type_hash"] for c in summary.channels.values()] == [published]
+    with open_bag(bag) as reader:
+        assert reader.topics["/chatter"].type_hash == published
+        assert all(m.value.startswith("hello ") for m in reader)
+    assert reader.mismatches == []
 
 
 @pytest.mark.parametrize(

@@ -201,6 +201,54 @@ def test_the_first_file_and_the_definitions_are_ready_when_a_topic_is_added(
         assert [m.value for m in reader] == ["hello 0", "hello 1", "hello 2"]
 
 
+OTHER_HASH = "RIHS01_" + "ab" * 32  # a String that is not the installed one
+
+
+def test_the_type_hash_is_stored_in_every_file_and_metadata_yaml_as_rosbag2_does(
+    tmp_path: Path,
+) -> None:
+    """add_topic took no hash: metadata.yaml's type_description_hash was always '', the MCAP
+    channels' topic_type_hash too, so open_bag could never tell a type that changed."""
+    from mcap.reader import make_reader
+
+    from pyconnect.typesys.packages import installed_type_hash
+
+    installed = installed_type_hash("std_msgs/msg/String")
+    assert installed is not None and installed.startswith("RIHS01_")
+    bag = tmp_path / "run"
+    with SplitRecorder(bag, max_bytes=1) as recorder:
+        recorder.add_topic("/chatter", "std_msgs/msg/String", type_hash=installed)
+        recorder.add_topic("/changed", "std_msgs/msg/String", type_hash=OTHER_HASH)
+        recorder.add_topic("/unknown", "std_msgs/msg/String")
+        for i in range(3):  # three files: each split declares the topics again
+            recorder.write("/chatter", _hello(i), log_time_ns=3 * i)
+            recorder.write("/changed", _hello(i), log_time_ns=3 * i + 1)
+            recorder.write("/unknown", _hello(i), log_time_ns=3 * i + 2)
+    stored = {"/chatter": installed, "/changed": OTHER_HASH, "/unknown": ""}
+    listed = _metadata(bag)["topics_with_message_count"]
+    assert {t["topic_metadata"]["name"]: t["topic_metadata"]["type_description_hash"]
+            for t in listed} == stored  # fmt: skip
+    assert len(_on_disk(bag)) == 9
+    for name in _on_disk(bag):
+        with (bag / name).open("rb") as stream:
+            reader = make_reader(stream)
+            summary = reader.get_summary()
+            assert summary is not None
+            channels = {c.topic: c.metadata["topic_type_hash"] for c in summary.channels.values()}
+            assert channels == stored, name
+            (record,) = [m for m in reader.iter_metadata() if m.name == "rosbag2"]
+        inside = yaml.safe_load(record.metadata["serialized_metadata"])
+        assert {t["topic_metadata"]["name"]: t["topic_metadata"]["type_description_hash"]
+                for t in inside["topics_with_message_count"]} == stored  # fmt: skip
+    with open_bag(bag) as reader:
+        assert {name: topic.type_hash for name, topic in reader.topics.items()} == stored
+        assert len(list(reader)) == 9
+    # The documented check now fires: the stored hash that is not the installed type's.
+    assert [(m.topic, m.bag_hash, m.installed_hash) for m in reader.mismatches] == [
+        ("/changed", OTHER_HASH, installed)
+    ]
+
+
 def _image(fill: bytes) -> bytes:
     """A mono8 Image of 100 kB (CDR, header left empty), pixels from ``fill``."""
     from sensor_msgs.msg import Image

@@ -10,6 +10,7 @@ from typing import Any
 
 import pytest
 import yaml
+from mcap.reader import make_reader
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import String
 
@@ -164,6 +165,38 @@ def test_a_latched_message_sent_before_recording_is_recorded(
     (topic,) = metadata["rosbag2_bagfile_information"]["topics_with_message_count"]
     offered = yaml.safe_load(topic["topic_metadata"]["offered_qos_profiles"])
     assert [(p["reliability"], p["durability"]) for p in offered] == [(1, 1)]  # reliable, latched
+
+
+def test_the_publishers_type_hash_is_stored_and_read_back(make_node: Any, tmp_path: Path) -> None:
+    """metadata.yaml's type_description_hash (and the MCAP channel's topic_type_hash) was ''
+    though the publisher gave its RIHS01 hash: open_bag could never tell a changed type."""
+    publisher_node = make_node("hash_pub")
+    publisher_node.add_agent(
+        conn_name="hashed", conn_type="pub", data_interface=String, time_period=0.05,
+        response_func=lambda: "hi",
+    )  # fmt: skip
+    publisher_node.spin(run_thread=True)
+    node = make_node("hash_rec")
+    node.spin(run_thread=True)
+    assert _wait_for(lambda: bool(node.get_publishers_info_by_topic("/hashed")))
+    (publisher,) = node.get_publishers_info_by_topic("/hashed")
+    published = str(publisher.topic_type_hash)
+    assert published.startswith("RIHS01_")
+    bag = tmp_path / "hashed"
+    recording = node.record(bag, topics=["/hashed"])
+    assert _wait_for(lambda: recording.messages_written >= 1)
+    recording.stop()
+    metadata = yaml.safe_load((bag / "metadata.yaml").read_text())
+    (topic,) = metadata["rosbag2_bagfile_information"]["topics_with_message_count"]
+    assert topic["topic_metadata"]["type_description_hash"] == published
+    with (bag / "hashed_0.mcap").open("rb") as stream:
+        summary = make_reader(stream).get_summary()
+    assert summary is not None
+    assert [c.metadata["topic_type_hash"] for c in summary.channels.values()] == [published]
+    with open_bag(bag) as reader:
+        assert reader.topics["/hashed"].type_hash == published
+        assert set(value for _topic, _stamp, value in reader) == {"hi"}
+    assert reader.mismatches == []
 
 
 def test_a_recording_started_before_its_publisher_hears_a_best_effort_one(

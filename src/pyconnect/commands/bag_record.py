@@ -3,11 +3,13 @@
 ``pyconnect bag record -a -o run1`` records every topic (new ones as they appear, checked each
 second); ``pyconnect bag record /chatter /odom -o run1`` records those. Messages are stored as
 received (raw CDR, no decoding) with their receipt time as log time, the definitions of the
-installed types, and each topic's publishers' QoS as ``offered_qos_profiles`` (what ``bag play``
-offers again). ``--max-bag-size`` (bytes of the file, as ``ros2 bag record -b``; a file grows a
-compressed chunk at a time) and ``--max-bag-duration`` (seconds) split the recording into
-``run1_0.mcap``, ``run1_1.mcap``, ...; ``metadata.yaml`` lists them all, each from the moment it
-is created (``pyconnect.record.split_recorder``).
+installed types, each topic's publishers' QoS as ``offered_qos_profiles`` (what ``bag play``
+offers again) and their RIHS01 type hash as ``type_description_hash`` (what ``open_bag`` compares
+with the installed type; "" when they give none or disagree, as rosbag2 stores it).
+``--max-bag-size`` (bytes of the file, as ``ros2 bag record -b``; a file grows a compressed chunk
+at a time) and ``--max-bag-duration`` (seconds) split the recording into ``run1_0.mcap``,
+``run1_1.mcap``, ...; ``metadata.yaml`` lists them all, each from the moment it is created
+(``pyconnect.record.split_recorder``).
 
 No message is lost to the recorder being busy: a topic's file and definition are ready before
 its subscription exists, and callbacks only queue the messages for a writer thread, which writes
@@ -108,7 +110,7 @@ def _subscribe_new(
     readers: dict[str, RecordingSubscription],
 ) -> None:
     """Subscribe to the topics not recorded yet; ``readers`` gets each new subscription."""
-    from pyconnect.ros.recording_qos import offered_qos_yaml
+    from pyconnect.ros.recording_qos import offered_qos_yaml, offered_type_hash
     from pyconnect.ros.recording_subscription import RecordingSubscription
     from pyconnect.typesys.classes import import_class
     from pyconnect.typesys.names import full_type_name
@@ -129,7 +131,12 @@ def _subscribe_new(
             msg_class = import_class(full_type_name(types[0]))
             # Opens the bag's first file and reads the definition now, before the subscription
             # exists: done in the first callback, it cost ~0.1 s of messages.
-            split.add_topic(topic, types[0], offered_qos_profiles=offered_qos_yaml(publishers))
+            split.add_topic(
+                topic,
+                types[0],
+                offered_qos_profiles=offered_qos_yaml(publishers),
+                type_hash=offered_type_hash(publishers, types[0]),
+            )
         except Exception as error:
             print(f"skipping {topic}: {error}", file=out, flush=True)
             skipped.add(topic)

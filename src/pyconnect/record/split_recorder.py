@@ -26,7 +26,7 @@ No file of the bag can be lost, whenever the recording stops:
 
 A split costs the same with the thousandth file as with the first: a finished file's recorder
 (its schemas and indexes) is let go, and its items in metadata.yaml are written as YAML once,
-then reused by every later rewrite.
+then reused by every later rewrite (``pyconnect.record.split_files``).
 
 A file that could not be written whole (a full disk: a chunk or its end cut short) is read back
 when it is finished, and its messages counted as a reader finds them: ``counts`` and
@@ -45,19 +45,13 @@ the bag's files went with it.
 from __future__ import annotations
 
 import threading
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
 
 from pyconnect.record.bag_errors import BagError
-from pyconnect.record.bag_metadata import (
-    METADATA_FILE,
-    BagMetadata,
-    TopicMetadata,
-    list_item_yaml,
-    write_metadata,
-)
+from pyconnect.record.bag_metadata import METADATA_FILE, BagMetadata, TopicMetadata, write_metadata
 from pyconnect.record.mcap_recorder import DEFAULT_CHUNK_SIZE, McapRecorder
+from pyconnect.record.split_files import FinishedFiles, SplitFile
 
 __all__ = ["SplitRecorder"]
 
@@ -65,65 +59,11 @@ _MCAP_MAGIC = b"\x89MCAP0\r\n"
 
 
 @dataclass
-class _File:
-    """The bag's last file until it is finished: its name, its recorder once it is created,
-    and its counts."""
-
-    name: str
-    recorder: McapRecorder | None = None
-    first_ns: int | None = None
-    last_ns: int = 0
-    count: int = 0
-    topics: dict[str, int] = field(default_factory=dict)  # messages of each topic in the file
-    failed: bool = False  # a write to it failed: what it holds is known once it is read back
-
-    def entry(self) -> dict[str, Any]:
-        first = self.first_ns or 0
-        return {
-            "path": self.name,
-            "starting_time": {"nanoseconds_since_epoch": first},
-            "duration": {"nanoseconds": max(0, self.last_ns - first)},
-            "message_count": self.count,
-        }
-
-
-@dataclass
-class _Finished:
-    """The finished files as metadata.yaml lists them: each one's items as YAML text (written
-    once: rewriting every file's at each split made a split cost more with each file), and the
-    first and last log times of their messages."""
-
-    paths: list[str] = field(default_factory=list)  # items of relative_file_paths
-    entries: list[str] = field(default_factory=list)  # items of files, one per finished file
-    span: tuple[int, int] | None = None
-
-    def add(self, file: _File) -> None:
-        """List ``file`` as finished; safe to repeat when an interrupt cut it short."""
-        path = list_item_yaml("relative_file_paths", file.name)
-        entry = list_item_yaml("files", file.entry())
-        if file.count:  # the span is a min and a max: the same file again leaves it as it is
-            first = file.first_ns or 0
-            old = self.span or (first, file.last_ns)
-            self.span = (min(old[0], first), max(old[1], file.last_ns))
-        self._drop_unfinished()
-        self.paths.append(path)
-        self.entries.append(entry)  # the file counts as finished from here
-
-    def lists(self) -> dict[str, list[str]]:
-        """The items, by the list of metadata.yaml they go in (``write_metadata``'s
-        ``preceding``)."""
-        self._drop_unfinished()
-        return {"relative_file_paths": self.paths, "files": self.entries}
-
-    def _drop_unfinished(self) -> None:
-        del self.paths[len(self.entries) :]  # left by an add cut short: its file is not finished
-
-
-@dataclass
 class _Topic:
     msg_type: str
     qos: str
     definition: str
+    type_hash: str  # RIHS01, "" when unknown: every file's channel and metadata.yaml store it
     count: int = 0
 
 
@@ -153,8 +93,8 @@ class SplitRecorder:
         self.compression = compression
         self.chunk_size = min(max_bytes, DEFAULT_CHUNK_SIZE) if max_bytes else DEFAULT_CHUNK_SIZE
         self._names: list[str] = []  # every file's, in order; the last one may be open
-        self._last: _File | None = None  # the last file, until it is finished
-        self._finished = _Finished()
+        self._last: SplitFile | None = None  # the last file, until it is finished
+        self._finished = FinishedFiles()
         self._topics: dict[str, _Topic] = {}
         self._lock = threading.Lock()
         self._closed = False
@@ -182,11 +122,13 @@ class SplitRecorder:
         *,
         offered_qos_profiles: str = "",
         definition: str | None = None,
+        type_hash: str = "",
     ) -> None:
         """Declare a topic (to the open file and every later one), opening the first file.
 
         ``definition`` is the ros2msg text (None: built from the installed interface files,
-        here, so that no later write or split has to).
+        here, so that no later write or split has to). ``type_hash`` is the type's RIHS01 hash
+        as rosbag2 stores it ("": none), the publishers' (``recording_qos.offered_type_hash``).
         """
         if topic in self._topics:
             return
@@ -200,7 +142,7 @@ class SplitRecorder:
             self._check_open()
             if topic in self._topics:
                 return
-            known = _Topic(msg_type, offered_qos_profiles, definition)
+            known = _Topic(msg_type, offered_qos_profiles, definition, type_hash)
             self._topics[topic] = known
             current = self._current()
             try:
@@ -281,13 +223,13 @@ class SplitRecorder:
         raise self._removed from error
 
     # -- files --------------------------------------------------------------------------------
-    def _current(self) -> _File | None:
+    def _current(self) -> SplitFile | None:
         """The last file while it is not finished (its recorder may not exist yet)."""
         if self._last is None or len(self._finished.entries) == len(self._names):
             return None
         return self._last
 
-    def _full(self, current: _File, now_ns: int) -> bool:
+    def _full(self, current: SplitFile, now_ns: int) -> bool:
         if not current.count:
             return False  # a new file's header alone may pass a tiny max_bytes
         assert current.recorder is not None
@@ -296,9 +238,9 @@ class SplitRecorder:
         first = current.first_ns
         return bool(self.max_ns and first is not None and now_ns - first >= self.max_ns)
 
-    def _open_next(self) -> _File:
+    def _open_next(self) -> SplitFile:
         self._finish_current()
-        file = _File(f"{self.directory.name}_{len(self._names)}.mcap")
+        file = SplitFile(f"{self.directory.name}_{len(self._names)}.mcap")
         self._last = file  # before its name: until then it is not the last file, not open
         self._names.append(file.name)  # reserved before it exists: close() sees it either way
         file.recorder = McapRecorder(
@@ -315,7 +257,11 @@ class SplitRecorder:
     @staticmethod
     def _add_to(recorder: McapRecorder, topic: str, known: _Topic) -> None:
         recorder.add_topic(
-            topic, known.msg_type, definition=known.definition, offered_qos_profiles=known.qos
+            topic,
+            known.msg_type,
+            definition=known.definition,
+            offered_qos_profiles=known.qos,
+            type_hash=known.type_hash,
         )
 
     def _finish_current(self) -> None:
@@ -349,7 +295,7 @@ class SplitRecorder:
         self._finished.add(current)
         self._last = None  # its recorder's schemas and indexes go: ~10 kB a file, kept for days
 
-    def _recount(self, file: _File) -> None:
+    def _recount(self, file: SplitFile) -> None:
         """Count ``file``'s messages as its recorder found them when it read the file back (it
         could not be written whole)."""
         assert file.recorder is not None
@@ -393,6 +339,7 @@ class SplitRecorder:
                     name=name,
                     msg_type=topic.msg_type,
                     offered_qos_profiles=topic.qos,
+                    type_description_hash=topic.type_hash,
                     message_count=topic.count,
                 )
                 for name, topic in self._topics.items()

@@ -4,10 +4,10 @@ Subscribed as ``pyconnect bag record`` subscribes (pyconnect.ros.recording_qos):
 subscription per topic, made once a publisher of it is discovered, with a QoS that matches its
 publishers (reliable unless one is best effort; transient local when all are, so a latched
 message sent earlier is recorded too) and a deep queue, re-made when a later publisher offers
-less (pyconnect.ros.recording_subscription), and the publishers' QoS stored as the topic's
-``offered_qos_profiles``. So the recording holds what the node's agents receive, not
-what a best-effort keep-last-5 reader happens to catch, nor what a reader chosen before the
-publishers were known could hear.
+less (pyconnect.ros.recording_subscription), and the publishers' QoS and RIHS01 type hash
+stored as the topic's ``offered_qos_profiles`` and ``type_description_hash``. So the recording
+holds what the node's agents receive, not what a best-effort keep-last-5 reader happens to
+catch, nor what a reader chosen before the publishers were known could hear.
 
 Messages DDS loses before they reach the recording's subscriptions (a fast 1080p camera) are
 counted per topic from their ``message_lost`` events: the first loss of a topic is logged, with
@@ -41,7 +41,7 @@ from pyconnect.errors import PyconnectError
 from pyconnect.record.bag_errors import BagError
 from pyconnect.ros.interfaces import interface_class, interface_name
 from pyconnect.ros.node_agent import NodeAgent
-from pyconnect.ros.recording_qos import offered_qos_yaml
+from pyconnect.ros.recording_qos import offered_qos_yaml, offered_type_hash
 from pyconnect.ros.recording_subscription import RecordingSubscription, lost_text
 from pyconnect.ros.subscriber_agent import SubscriberAgent
 
@@ -110,10 +110,12 @@ class Recording:
                 if not publishers:
                     continue
                 del self._waiting[topic]
+                msg_type = interface_name(msg_class)
                 self.recorder.add_topic(
                     topic,
-                    interface_name(msg_class),
+                    msg_type,
                     offered_qos_profiles=offered_qos_yaml(publishers),
+                    type_hash=offered_type_hash(publishers, msg_type),
                 )
                 self._subscriptions[topic] = RecordingSubscription(
                     self.ros_node,

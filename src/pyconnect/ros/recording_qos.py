@@ -1,10 +1,12 @@
-"""The QoS a recorder subscribes with, and the publishers' QoS it stores, as rosbag2 does.
+"""The QoS a recorder subscribes with, and what it stores of the publishers, as rosbag2 does.
 
 ``node.record()`` (pyconnect.ros.recording) and ``pyconnect bag record`` subscribe to a topic
 with ``recording_qos``: reliable unless a publisher is best effort, transient local when every
 publisher is (so a latched message sent before the recording starts is recorded too), and a
 deep queue. ``offered_qos_yaml`` writes the publishers' profiles as rosbag2 stores a topic's
-``offered_qos_profiles`` (what ``bag play`` offers again).
+``offered_qos_profiles`` (what ``bag play`` offers again); ``offered_type_hash`` is their
+type's RIHS01 hash as rosbag2 stores its ``type_description_hash`` (what a reader compares
+with its installed type).
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -18,6 +20,7 @@ from typing import Any
 from rclpy.qos import QoSProfile
 
 from pyconnect.ros.qos import matching_qos
+from pyconnect.typesys.names import full_type_name
 
 RECORD_DEPTH = 1000
 """Messages a recorder's subscription keeps until the executor takes them. rosbag2 keeps 10,
@@ -58,6 +61,25 @@ def offered_qos_yaml(endpoints: Sequence[Any]) -> str:
             }
         )
     return yaml.safe_dump(profiles, sort_keys=False) if profiles else ""
+
+
+def offered_type_hash(endpoints: Sequence[Any], msg_type: str) -> str:
+    """The RIHS01 hash the publishers of ``msg_type`` give for it, "" when none gives one or
+    they disagree (rosbag2's ``type_description_hash_for_topic``).
+
+    The publishers' hash, not the installed type's: it says what the messages were written
+    with, so a reader whose installed type differs can tell; the installed one always matches.
+    """
+    msg_type = full_type_name(msg_type)
+    found = set()
+    for endpoint in endpoints:
+        if endpoint.topic_type != msg_type:
+            continue  # a publisher of another type: the recorder's subscription never hears it
+        text = str(endpoint.topic_type_hash)
+        if text.startswith("RIHS"):  # rclpy says "INVALID" for an RMW that sends no hash
+            found.add(text)
+    # Two hashes: one of them is not what the messages were written with, and which is unknown.
+    return found.pop() if len(found) == 1 else ""
 
 
 def _duration(value: Any) -> dict[str, int]:
