@@ -86,3 +86,18 @@ def test_images_of_an_export_stopped_before_its_table_are_an_earlier_export(
     assert _files(out) == [
         "cam__image", "cam__image.parquet", "cam__image/00000000.png", "cam__image/00000001.png",
     ]  # fmt: skip
+
+
+@pytest.mark.parametrize("images", ["binary", "files"])
+def test_a_folder_this_export_writes_no_images_to_is_the_users(
+    tmp_path: Path, images: str
+) -> None:
+    """Frames of the user's own (``%08d.png``, as ffmpeg names them) in a folder named like a
+    topic without images: --force deleted them, and the folder."""
+    out = tmp_path / "out"
+    (out / "n").mkdir(parents=True)
+    (out / "n" / "00000000.png").write_bytes(b"mine")
+    bag = write_bag(tmp_path / "ints", [("/n", 1, Int32(data=1))])
+    export_parquet(bag, out, images=images)  # type: ignore[arg-type]
+    export_parquet(bag, out, images=images, force=True)  # type: ignore[arg-type]
+    assert _files(out) == ["n", "n.parquet", "n/00000000.png"]

@@ -28,10 +28,10 @@ import pyarrow.parquet as pq
 
 from pyconnect.record.bag_damage import BagDamage
 from pyconnect.record.bag_errors import BagError
-from pyconnect.record.bag_reader import DecodeProblem, open_bag
+from pyconnect.record.bag_reader import BagReader, DecodeProblem, open_bag
 from pyconnect.record.image_files import PATH_COLUMN
 from pyconnect.record.log_dirs import distinct_path_components
-from pyconnect.record.tables import ImageColumns, topic_table
+from pyconnect.record.tables import ImageColumns, topic_columns, topic_table
 
 __all__ = ["ParquetExport", "export_parquet"]
 
@@ -72,7 +72,12 @@ def export_parquet(
     with open_bag(bag, topics=topics) as reader:
         # Topics that clean to one name (/a/b, /a__b) must not share a file or an image folder.
         names = distinct_path_components(sorted(reader.topics))
-        earlier = _earlier_export(target, [names[topic] for topic in reader.topics])
+        image_folders = [
+            names[topic]
+            for topic in reader.topics
+            if images == "files" and _writes_image_files(reader, topic)
+        ]
+        earlier = _earlier_export(target, [names[topic] for topic in reader.topics], image_folders)
         if earlier and not force:
             raise BagError(
                 f"{target}: already holds an export ({earlier[0].relative_to(target)}); "
@@ -145,14 +150,23 @@ def _listed_images(table: Path, schema: pa.Schema, target: Path) -> list[Path]:
     return found
 
 
-def _earlier_export(target: Path, folders: list[str]) -> list[Path]:
+def _writes_image_files(reader: BagReader, topic: str) -> bool:
+    """Whether ``topic``'s table under ``images="files"`` has an image file column."""
+    columns, _msg_type = topic_columns(reader, topic, images="files")
+    return any(column.build == "image_file" for column in columns)
+
+
+def _earlier_export(target: Path, table_names: list[str], image_folders: list[str]) -> list[Path]:
     """The files of an earlier export in ``target``: its tables first, then its images.
 
-    ``folders``: the names this export writes (``<name>.parquet``, ``<name>/`` for images).
+    ``table_names``: the names of the tables this export writes (``<name>.parquet``);
+    ``image_folders``: the folders it writes image files to (``<name>/``), the only ones whose
+    images it may take for an earlier export's without a table listing them: any other folder
+    may hold the user's own files.
     """
     if not target.is_dir():
         return []
-    ours = {f"{name}.parquet" for name in folders}
+    ours = {f"{name}.parquet" for name in table_names}
     tables: list[Path] = []
     images: set[Path] = set()
     for path in sorted(target.glob("*.parquet")):
@@ -164,7 +178,7 @@ def _earlier_export(target: Path, folders: list[str]) -> list[Path]:
             images.update(_listed_images(path, schema, target))
         elif path.name in ours:  # not pyconnect's, or cut short: this export would overwrite it
             tables.append(path)
-    for name in folders:
+    for name in image_folders:
         folder = target / name
         if folder.is_dir() and not folder.is_symlink():
             # Images of an export stopped before its table was written: they would lie
