@@ -65,7 +65,7 @@ def _same_shape_cases() -> list[tuple[str, Any, str]]:
     from geometry_msgs.msg import Point, PoseStamped
     from nav_msgs.msg import Odometry, Path
     from sensor_msgs.msg import PointCloud
-    from std_msgs.msg import Bool, Float64, Float64MultiArray, Int32
+    from std_msgs.msg import Bool, Float64, Float64MultiArray, Int32, Int64
 
     return [
         ("std_msgs/msg/String", Int32(data=5), "std_msgs/msg/Int32"),  # returned '5'
@@ -75,6 +75,9 @@ def _same_shape_cases() -> list[tuple[str, Any, str]]:
         ("std_msgs/msg/Bool", Int32(data=5), "std_msgs/msg/Int32"),  # returned True
         ("std_msgs/msg/Byte", Float64(data=1.5), "std_msgs/msg/Float64"),
         ("std_msgs/msg/Empty", Int32(data=5), "std_msgs/msg/Int32"),  # returned None
+        ("std_msgs/msg/Int32", Int64(data=2**40), "std_msgs/msg/Int64"),  # returned 2**40
+        ("std_msgs/msg/UInt8", Int64(data=-5), "std_msgs/msg/Int64"),  # returned -5
+        ("std_msgs/msg/Float32", Float64(data=1e300), "std_msgs/msg/Float64"),  # returned 1e300
         (
             "std_msgs/msg/Int8MultiArray",
             Float64MultiArray(data=[1.5]),

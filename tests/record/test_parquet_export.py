@@ -89,9 +89,7 @@ def test_images_of_an_export_stopped_before_its_table_are_an_earlier_export(
 
 
 @pytest.mark.parametrize("images", ["binary", "files"])
-def test_a_folder_this_export_writes_no_images_to_is_the_users(
-    tmp_path: Path, images: str
-) -> None:
+def test_a_folder_this_export_writes_no_images_to_is_the_users(tmp_path: Path, images: str) -> None:
     """Frames of the user's own (``%08d.png``, as ffmpeg names them) in a folder named like a
     topic without images: --force deleted them, and the folder."""
     out = tmp_path / "out"

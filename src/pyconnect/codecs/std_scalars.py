@@ -56,24 +56,43 @@ _RGBA = ("r", "g", "b", "a")
 _NUMPY_BOOL = ("bool",)  # numpy's dtype("bool") == "bool"; no numpy import for the check
 
 
-class IntCodec(FieldsCodec):
+class _ScalarCodec(FieldsCodec):
+    """A std_msgs type of one ``data`` field: each message class is checked once to be it.
+
+    The value's own class cannot tell: an Int64's ``data`` is an int as an Int32's is, and
+    2**40 would pass for an Int32 (a set lookup, ~25 ns, where a type check per call cost more).
+    """
+
+    _checked: set[type]
+
+    def __init__(self) -> None:
+        self._checked = set()
+
+    def _check_class(self, msg: Any) -> None:
+        check_message_type(msg, self.msg_type)
+        self._checked.add(msg.__class__)
+
+
+class IntCodec(_ScalarCodec):
     """std_msgs Int*/UInt*/Char ↔ ``int`` with a range check."""
 
     lossless = True
 
     def __init__(self, name: str) -> None:
+        super().__init__()
         self.name = name
         self.kind = _INT_TYPES[name]
         self.msg_type = f"std_msgs/msg/{name}"
 
     def decode(self, msg: Any) -> int:
+        if msg.__class__ not in self._checked:
+            self._check_class(msg)
         try:
             data = msg.data
         except AttributeError as error:  # free until raised: a Point(), a class
             raise decode_failure(error, msg, self.msg_type) from None
         if data.__class__ is int:  # rclpy's and the views' value; a class or a Float64 is not
             return data
-        check_message_type(msg, self.msg_type)
         if isinstance(data, numbers.Integral) and not isinstance(data, bool):
             return int(data)  # a numpy integer of a stand-in
         raise DecodeError(f"{self.name}.data: expected int, got {type_name_of(data)}")
@@ -82,24 +101,26 @@ class IntCodec(FieldsCodec):
         return {"data": check_kind_int(value, self.kind, f"{self.name}.data")}
 
 
-class FloatCodec(FieldsCodec):
+class FloatCodec(_ScalarCodec):
     """std_msgs Float32/Float64 ↔ ``float`` (Float32 checks the float32 range)."""
 
     lossless = True
 
     def __init__(self, name: str) -> None:
+        super().__init__()
         self.name = name
         self.msg_type = f"std_msgs/msg/{name}"
         self._check = check_float32 if name == "Float32" else check_float
 
     def decode(self, msg: Any) -> float:
+        if msg.__class__ not in self._checked:
+            self._check_class(msg)
         try:
             data = msg.data
         except AttributeError as error:  # free until raised: a Point(), a class
             raise decode_failure(error, msg, self.msg_type) from None
         if data.__class__ is float:  # rclpy's and the views' value; a class or an Int32 is not
             return data
-        check_message_type(msg, self.msg_type)
         if isinstance(data, numbers.Real) and not isinstance(data, bool):
             return float(data)  # a numpy float or an int of a stand-in
         raise DecodeError(f"{self.name}.data: expected float, got {type_name_of(data)}")
@@ -108,20 +129,21 @@ class FloatCodec(FieldsCodec):
         return {"data": self._check(value, f"{self.name}.data")}
 
 
-class BoolCodec(FieldsCodec):
+class BoolCodec(_ScalarCodec):
     """std_msgs/Bool ↔ ``bool``."""
 
     msg_type = "std_msgs/msg/Bool"
     lossless = True
 
     def decode(self, msg: Any) -> bool:
+        if msg.__class__ not in self._checked:
+            self._check_class(msg)
         try:
             data = msg.data
         except AttributeError as error:  # free until raised: a Point(), a class
             raise decode_failure(error, msg, self.msg_type) from None
         if data.__class__ is bool:  # rclpy's and the views' value; a class or an Int32 is not
             return data
-        check_message_type(msg, self.msg_type)
         if isinstance(data, numbers.Integral) or getattr(data, "dtype", None) in _NUMPY_BOOL:
             return bool(data)  # a numpy bool or a 0/1 of a stand-in
         raise DecodeError(f"Bool.data: expected bool, got {type_name_of(data)}")
@@ -130,13 +152,15 @@ class BoolCodec(FieldsCodec):
         return {"data": check_bool(value, "Bool.data")}
 
 
-class ByteCodec(FieldsCodec):
+class ByteCodec(_ScalarCodec):
     """std_msgs/Byte ↔ ``int`` in [0, 255] (rclpy's 1-byte ``bytes`` is converted)."""
 
     msg_type = "std_msgs/msg/Byte"
     lossless = True
 
     def decode(self, msg: Any) -> int:
+        if msg.__class__ not in self._checked:
+            self._check_class(msg)
         try:
             data = msg.data
         except AttributeError as error:  # free until raised: a Point(), a class
@@ -145,7 +169,6 @@ class ByteCodec(FieldsCodec):
             return data[0]
         if data.__class__ is int:  # the views'
             return data
-        check_message_type(msg, self.msg_type)
         if isinstance(data, bytes | bytearray) and len(data) == 1:
             return data[0]
         if isinstance(data, numbers.Integral) and not isinstance(data, bool):
@@ -156,13 +179,15 @@ class ByteCodec(FieldsCodec):
         return {"data": check_kind_int(value, "byte", "Byte.data")}
 
 
-class StringCodec(FieldsCodec):
+class StringCodec(_ScalarCodec):
     """std_msgs/String ↔ ``str``."""
 
     msg_type = "std_msgs/msg/String"
     lossless = True
 
     def decode(self, msg: Any) -> str:
+        if msg.__class__ not in self._checked:
+            self._check_class(msg)
         try:
             data = msg.data
         except AttributeError as error:  # free until raised: a Point(), a class
@@ -170,7 +195,6 @@ class StringCodec(FieldsCodec):
         # str(data) turned an Int32's 5 into "5"; .__class__ costs what str() did, type() more.
         if data.__class__ is str:
             return data
-        check_message_type(msg, self.msg_type)
         if isinstance(data, str):
             return str(data)  # numpy.str_
         raise DecodeError(f"String.data: expected str, got {type_name_of(data)}")
