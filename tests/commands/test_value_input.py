@@ -241,10 +241,15 @@ def test_a_value_nested_too_deeply_is_refused(
     )
 
 
-def test_a_value_nested_as_deep_as_allowed_is_read() -> None:
+@pytest.mark.parametrize(
+    ("text", "got"),
+    [("[" * 100 + "1" + "]" * 100, "tuple"), ("{data: " + "{a: " * 99 + "1" + "}" * 100, "dict")],
+)
+def test_a_value_nested_as_deep_as_allowed_is_read(text: str, got: str) -> None:
+    # 100 levels holding a scalar: the scalar counted as a 101st level.
     with pytest.raises(CommandFailed) as caught:
-        message_from_text("[" * 100 + "]" * 100, String)
-    assert str(caught.value) == "String.data: expected str, got tuple"
+        message_from_text(text, String)
+    assert str(caught.value) == f"String.data: expected str, got {got}"
 
 
 @pytest.mark.parametrize(

@@ -48,6 +48,9 @@ class Yaml12Loader(yaml.SafeLoader):
         self._depth = 0
 
     def compose_node(self, parent: yaml.Node | None, index: int) -> yaml.Node | None:
+        # Levels are lists and mappings: a scalar inside the 100th is no 101st level.
+        if not isinstance(self.peek_event(), yaml.CollectionStartEvent):  # type: ignore[no-untyped-call]
+            return self._compose_checked(parent, index)
         self._depth += 1
         try:
             if self._depth > MAX_VALUE_DEPTH:
