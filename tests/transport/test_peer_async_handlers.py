@@ -248,3 +248,27 @@ def test_a_shutdown_cancels_the_async_handlers_still_running(make_peer: PeerFact
     result = goal.result(TIMEOUT)
     assert result["isdone"] is False
     assert "server is shutting down" in result["error"]
+
+
+def test_an_async_stop_service_still_answers_after_asking_for_the_shutdown(
+    make_peer: PeerFactory,
+) -> None:
+    """The shutdown cancels the handlers still running, but not the one that asked for it:
+    a "stop" service's caller got "peer 'robot' is shutting down" instead of its answer."""
+    server_peer, client_peer = make_peer("robot"), make_peer("laptop")
+
+    async def stop(_request: dict[str, Any]) -> dict[str, Any]:
+        server_peer.shutdown()
+        await asyncio.sleep(0.05)  # a real suspension while the shutdown closes the agents
+        return {"success": True, "message": "stopping"}
+
+    server_peer.add_agent(
+        conn_name="stop", conn_type="service_server", data_interface="std_srvs/srv/Trigger",
+        response_func=stop,
+    )  # fmt: skip
+    client = client_peer.add_agent(
+        conn_name="stop", conn_type="service_client", data_interface="std_srvs/srv/Trigger",
+        timeout=TIMEOUT,
+    )  # fmt: skip
+    client_peer.wait_until_connected(timeout=TIMEOUT)
+    assert client.send({}) == {"success": True, "message": "stopping", "isdone": True}

@@ -15,7 +15,8 @@ loop of its own, as ``asyncio.run`` gives it.
 
 A peer's shutdown cancels the coroutine an agent thread is running (``cancel_coroutine``), as a
 ``CustomNode`` cancels its handlers' tasks: the handler's ``finally`` blocks run, and its agent
-closes at once instead of waiting out its join timeout.
+closes at once instead of waiting out its join timeout. Not the one that asked for the shutdown
+(``spare_coroutine``): a "stop" service still sends its reply.
 """
 
 from __future__ import annotations
@@ -24,12 +25,14 @@ import asyncio
 import contextlib
 import inspect
 import threading
+import weakref
 from collections.abc import Coroutine, Iterator
 from typing import Any
 
 _local = threading.local()
 _running: dict[threading.Thread, asyncio.Task[Any]] = {}
 _running_lock = threading.Lock()
+_spared: weakref.WeakSet[threading.Thread] = weakref.WeakSet()
 
 
 @contextlib.contextmanager
@@ -72,13 +75,19 @@ def run_coroutine(coroutine: Coroutine[Any, Any, Any]) -> Any:
             _running.pop(thread, None)
 
 
+def spare_coroutine(thread: threading.Thread) -> None:
+    """Leave the coroutine ``thread`` runs to finish: its handler asked for the shutdown."""
+    with _running_lock:
+        _spared.add(thread)
+
+
 def cancel_coroutine(thread: threading.Thread | None) -> None:
     """Cancel the coroutine ``thread`` runs in ``run_coroutine`` now, if any: it raises
     ``CancelledError`` there, in the handler's caller."""
     if thread is None:
         return
     with _running_lock:
-        task = _running.get(thread)
+        task = None if thread in _spared else _running.get(thread)
     if task is None:
         return
     with contextlib.suppress(RuntimeError):  # it ended and its loop closed meanwhile

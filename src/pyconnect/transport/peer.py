@@ -41,6 +41,7 @@ from pyconnect.ros.option_checks import call_timeout, check_options
 from pyconnect.ros.option_checks import shared_options as shared_options_of
 from pyconnect.ros.shutdown import ShutdownHooks, ShutsDownOnExit
 from pyconnect.transport import rmw_zenoh_keys as keys
+from pyconnect.transport.async_handlers import spare_coroutine
 from pyconnect.transport.graph import Graph
 from pyconnect.transport.peer_agent import PeerAgent, logger
 from pyconnect.transport.peer_options import (
@@ -360,6 +361,7 @@ class Peer(ShutsDownOnExit):
         """
         current = threading.current_thread()
         if current.daemon and current.name.startswith("pyconnect-"):  # an agent's thread
+            spare_coroutine(current)  # the handler that asked goes on to its answer
             self._shutdown_in_background()
             return
         with self._shutdown_lock:
