@@ -409,19 +409,46 @@ def test_a_topic_bridged_both_ways_by_two_processes_crosses_once(
 def test_what_a_node_published_on_ros_is_skipped_once_and_only_for_a_while(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    from pyconnect.ros import zenoh_bridge
+    from rclpy.qos import QoSProfile
 
-    recent = zenoh_bridge.RecentlyPublished()
-    recent.published("/chat", b"unwatched")  # no ROS -> zenoh agent: nothing to skip
-    recent.watch("/chat")
+    from pyconnect.ros import bridge_echo
+
+    def hears(_qos: QoSProfile) -> bool:
+        return True
+
+    qos = QoSProfile(depth=10)
+    recent = bridge_echo.RecentlyPublished()
+    recent.published("/chat", b"unwatched", qos)  # no ROS -> zenoh agent: nothing to skip
+    recent.watch("/chat", hears)
     assert not recent.came_back("/chat", b"unwatched")
-    recent.published("/chat", b"hello")
-    recent.published("/chat", b"hello")
+    recent.published("/chat", b"hello", qos)
+    recent.published("/chat", b"hello", qos)
     assert not recent.came_back("/other", b"hello")
     assert [recent.came_back("/chat", b"hello") for _ in range(3)] == [True, True, False]
-    monkeypatch.setattr(zenoh_bridge, "ECHO_SECONDS", -1.0)  # every record expired at once
-    recent.published("/chat", b"late")
+    monkeypatch.setattr(bridge_echo, "ECHO_SECONDS", -1.0)  # every record expired at once
+    recent.published("/chat", b"late", qos)
     assert not recent.came_back("/chat", b"late")
-    recent.unwatch("/chat")
-    recent.published("/chat", b"hello")
+    recent.unwatch("/chat", hears)
+    recent.published("/chat", b"hello", qos)
     assert not recent.came_back("/chat", b"hello")
+
+
+def test_what_the_nodes_reader_cannot_hear_is_not_waited_for() -> None:
+    """A best-effort bridge publisher and a reliable reader on one node: the copy never comes
+    back, and its record made the reader skip another publisher's message of the same bytes."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    from pyconnect.ros.bridge_echo import RecentlyPublished, qos_compatible
+
+    reliable = QoSProfile(depth=10, reliability=ReliabilityPolicy.RELIABLE)
+    best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+    latched = QoSProfile(depth=1, durability=DurabilityPolicy.TRANSIENT_LOCAL)
+    recent = RecentlyPublished()
+    recent.watch("/chat", lambda qos: qos_compatible(qos, reliable))
+    recent.published("/chat", b"hello", best_effort)
+    assert not recent.came_back("/chat", b"hello")  # another node's "hello" goes on to zenoh
+    recent.published("/chat", b"hello", reliable)
+    assert recent.came_back("/chat", b"hello")
+    assert qos_compatible(reliable, best_effort)
+    assert not qos_compatible(reliable, latched)  # volatile publisher, transient-local reader
+    assert qos_compatible(latched, latched)

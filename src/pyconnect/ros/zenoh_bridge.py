@@ -20,13 +20,11 @@ attachment): each ``'sub'`` bridge declares a liveliness token ``@pyconnect_brid
 hex>`` (its own process knows it at once), and every bridge peer keeps the set of live ones.
 The ROS -> zenoh side cannot tell a bridge's ROS publisher from any other (rclpy Jazzy's message
 info names no publisher GID), so a node that bridges a topic both ways keeps a short record of
-what its zenoh -> ROS side just published there (``RecentlyPublished``: a digest per message,
-kept ``ECHO_SECONDS`` at most) and its ROS -> zenoh side skips each of those once when it comes
-back from ROS: a zenoh peer's message reaches zenoh subscribers once. (Another ROS publisher's
-message of the very same bytes within that time is forwarded as long as it is not the only
-copy to arrive.) Bridges of one topic in two processes, one each way, cannot share that record:
-a peer's message then reaches zenoh twice (once from the peer, once from the other bridge),
-never more. This assumes the bridges of one domain share one ROS graph.
+what its zenoh -> ROS side just published there (pyconnect.ros.bridge_echo) and its ROS ->
+zenoh side skips each of those once when it comes back from ROS: a zenoh peer's message reaches
+zenoh subscribers once. Bridges of one topic in two processes, one each way, cannot share that
+record: a peer's message then reaches zenoh twice (once from the peer, once from the other
+bridge), never more. This assumes the bridges of one domain share one ROS graph.
 
 QoS: ``qos=`` (or the default for the type) sets the ROS side, and its depth the zenoh side
 (the keep-last depth of the zenoh subscription, the depth the tokens advertise). A sensor
@@ -39,7 +37,6 @@ type without ``qos=`` is subscribed on ROS as a ``'sub'`` agent does
 
 from __future__ import annotations
 
-import collections
 import contextlib
 import struct
 import threading
@@ -47,13 +44,13 @@ import time
 import weakref
 from typing import Any
 
-import xxhash
 import zenoh
 from rclpy.qos import HistoryPolicy, QoSProfile
 
 from pyconnect.codecs import wire
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.agent_host import AgentHost
+from pyconnect.ros.bridge_echo import RecentlyPublished, qos_compatible
 from pyconnect.ros.interfaces import interface_class
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.qos import follows_publishers, resolve_qos
@@ -68,69 +65,6 @@ from pyconnect.transport.topic_subscriber import SubscriberAgent
 BRIDGE_SPACE = "@pyconnect_bridge"
 """Liveliness tokens ``@pyconnect_bridge/<domain>/<GID hex>`` name the zenoh publishers of
 bridges (outside rmw_zenoh's ``@ros2_lv``, so ROS graphs never see them)."""
-
-
-ECHO_SECONDS = 5.0
-"""How long a message a zenoh -> ROS agent published waits to come back to the same node's
-ROS -> zenoh agent of the topic (local delivery takes milliseconds; a lost copy expires)."""
-ECHO_LIMIT = KEEP_ALL_DEPTH
-"""At most this many messages per topic wait to come back (the oldest are forgotten)."""
-
-
-class RecentlyPublished:
-    """What one node's zenoh -> ROS agents published on ROS lately, per topic, so its ROS ->
-    zenoh agent of the same topic skips each once: rclpy's message info names no publisher."""
-
-    def __init__(self) -> None:
-        self._lock = threading.Lock()
-        self._returning: collections.Counter[str] = collections.Counter()
-        """Topics with a ROS -> zenoh agent on this node: only theirs are recorded."""
-        self._sent: dict[str, collections.deque[tuple[float, bytes]]] = {}
-
-    def watch(self, topic: str) -> None:
-        with self._lock:
-            self._returning[topic] += 1
-
-    def unwatch(self, topic: str) -> None:
-        with self._lock:
-            self._returning[topic] -= 1
-            if self._returning[topic] <= 0:
-                del self._returning[topic]
-                self._sent.pop(topic, None)
-
-    def published(self, topic: str, payload: bytes) -> None:
-        """Record ``payload`` before it goes on ROS (the copy may come back at once)."""
-        if topic not in self._returning:  # read without the lock: a dict lookup is atomic
-            return
-        digest = _digest(payload)
-        with self._lock:
-            if topic not in self._returning:
-                return
-            sent = self._sent.setdefault(topic, collections.deque(maxlen=ECHO_LIMIT))
-            sent.append((time.monotonic() + ECHO_SECONDS, digest))
-
-    def came_back(self, topic: str, payload: bytes) -> bool:
-        """Whether ``payload`` is one this node published on ``topic`` lately (forgotten now)."""
-        if not self._sent.get(topic):
-            return False
-        digest = _digest(payload)
-        now = time.monotonic()
-        with self._lock:
-            sent = self._sent.get(topic)
-            if not sent:
-                return False
-            while sent and sent[0][0] < now:
-                sent.popleft()
-            for index, (_expiry, recorded) in enumerate(sent):
-                if recorded == digest:
-                    del sent[index]
-                    return True
-            return False
-
-
-def _digest(payload: bytes) -> bytes:
-    # 128 bits and the length: two different messages never collide in practice.
-    return xxhash.xxh3_128_digest(payload) + len(payload).to_bytes(8, "little")
 
 
 def zenoh_depth(profile: QoSProfile) -> int:
@@ -312,7 +246,7 @@ class RosToZenohAgent(_BridgeAgent):
         (they came from zenoh)."""
         self._session = _acquire_peer(node)
         self._recent = self._session.recently_published
-        self._recent.watch(self.topic)
+        self._recent.watch(self.topic, self._hears)
         self.peer = self._session.peer
         self.zenoh_publisher = PublisherAgent(
             self.peer,
@@ -329,6 +263,10 @@ class RosToZenohAgent(_BridgeAgent):
         if self.sensor_subscription is not None:
             return self.sensor_subscription.subscription
         return self._subscription
+
+    def _hears(self, publisher_qos: QoSProfile) -> bool:
+        """Whether this agent's reader (as it is now) hears a publisher of ``publisher_qos``."""
+        return qos_compatible(publisher_qos, self.subscription.qos_profile)
 
     def _on_message(self, payload: bytes) -> None:
         if self._recent.came_back(self.topic, payload):
@@ -348,7 +286,7 @@ class RosToZenohAgent(_BridgeAgent):
             self.node.ros_node.destroy_subscription(self._subscription)
         self.zenoh_publisher.close()
         self._session.undeclare_bridge_publisher(self.zenoh_publisher.gid)
-        self._recent.unwatch(self.topic)
+        self._recent.unwatch(self.topic, self._hears)
         _release_peer(self.node)
         super().close()
 
@@ -397,7 +335,7 @@ class ZenohToRosAgent(_BridgeAgent):
         except Exception as error:
             self.report_exception("decode", error)
             return
-        self._recent.published(self.topic, payload)
+        self._recent.published(self.topic, payload, self.publisher.qos_profile)
         self.publisher.publish(payload)
         self._forwarded(payload)
 
