@@ -3,13 +3,17 @@ PyPI ROS wheels, who have no ``ros2`` command.
 
 Each command group lives in its own module under ``pyconnect.commands`` and is registered here
 with one line. ``main(argv)`` returns the exit status: 0 on success, 1 when the command did its
-work but has problems to report (each summarised on stderr), 2 on an error (one line on stderr,
-no traceback), 130 on Ctrl-C.
+work but has problems to report (each summarised on stderr) or met a value it could not handle,
+2 on a bad command line or an error (one line on stderr, no traceback), 130 on Ctrl-C.
+
+Text that the terminal's encoding cannot show (``PYTHONIOENCODING=ascii``, a latin-1 locale) is
+written with backslash escapes (``snow \\u2603``): a value is never a reason to stop.
 """
 
 from __future__ import annotations
 
 import argparse
+import io
 import logging
 import sys
 from typing import TextIO
@@ -58,6 +62,10 @@ def build_parser() -> argparse.ArgumentParser:
 
 def main(argv: list[str] | None = None) -> int:
     """Run ``pyconnect`` with ``argv`` (``sys.argv[1:]`` when None); return the exit status."""
+    for stream in (sys.stdout, sys.stderr):
+        # Python opens them strict: the first string the encoding lacks ended an echo.
+        if isinstance(stream, io.TextIOWrapper):
+            stream.reconfigure(errors="backslashreplace")
     out, err = sys.stdout, sys.stderr
     package_logger = logging.getLogger("pyconnect")
     if not package_logger.handlers:
@@ -73,8 +81,12 @@ def main(argv: list[str] | None = None) -> int:
         return code if isinstance(code, int) else 0
     except KeyboardInterrupt:
         return 130
-    except (UsageError, PyconnectError, OSError, ValueError) as error:
+    except (UsageError, PyconnectError, OSError) as error:
         return _report_error(error, err)
+    except ValueError as error:
+        # Met at run time (a UnicodeError among them): not a bad command line, which argparse
+        # and the argument types report as UsageError.
+        return _report_error(error, err, status=1)
     except ModuleNotFoundError as error:
         # A live command in an install without the `ros` extra: rclpy is imported only when
         # one is read or run, so the bag and interface commands work without it.
@@ -84,11 +96,11 @@ def main(argv: list[str] | None = None) -> int:
         return _report_error(missing, err)
 
 
-def _report_error(error: Exception, err: TextIO) -> int:
-    """Print ``error`` as one line on ``err``; the exit status of an error."""
+def _report_error(error: Exception, err: TextIO, *, status: int = 2) -> int:
+    """Print ``error`` as one line on ``err``; return ``status`` (2: the status of an error)."""
     message = " ".join(str(error).split()) or type(error).__name__
     print(f"{PROGRAM}: error: {message}", file=err)
-    return 2
+    return status
 
 
 def main_entry() -> None:

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import json
+import os
 import re
+import subprocess
+import sys
 import time
 from collections.abc import Callable, Iterator
 
@@ -271,4 +274,93 @@ def test_rcl_refusing_an_endpoint_is_one_line(
         "",
         "pyconnect: error: cannot publish on /nobody: Failed to create publisher: "
         "invalid allocator\n",
+    )
+
+
+def test_echo_hears_a_best_effort_publisher_that_comes_after_it_subscribed() -> None:
+    # echo subscribed reliably, as its only publisher then offered; a best-effort publisher
+    # found later went unheard (its QoS was chosen once, from the first publisher).
+    reliable = Lines(spawn("-m", "tests.commands.mix_peer", "reliable"))
+    late: Lines | None = None
+    echo = Lines(spawn("-m", "pyconnect.cli", "topic", "echo", "/mix", "std_msgs/msg/String"))
+    try:
+        reliable.wait_for("^ready$")
+        echo.wait_for("^'reliable'$")
+        late = Lines(spawn("-m", "tests.commands.mix_peer", "best_effort"))
+        late.wait_for("^ready$")
+        echo.wait_for("^'best_effort'$")
+    finally:
+        err = echo.stop()
+        for peer in (reliable, late):
+            if peer is not None:
+                peer.stop()
+    assert echo.process.returncode == 130
+    assert err == (
+        "pyconnect: note: [/mix]: a publisher it could not hear appeared: subscribed again "
+        "best_effort, volatile (was reliable, volatile)\n"
+    )
+
+
+def test_pub_latched_with_qos_durability(capsys: pytest.CaptureFixture[str]) -> None:
+    # One message, then nothing for 1000 s: only a transient-local publisher hands it to a
+    # subscriber that comes later.
+    argv = ["topic", "pub", "/latched_by_cli", "std_msgs/msg/String", "kept", "-r", "0.001"]
+    process = spawn("-m", "pyconnect.cli", *argv, "--qos-durability", "transient_local")
+    lines = Lines(process)
+    try:
+        lines.wait_for(r"^publishing #1: 'kept'$")
+        assert _run(
+            capsys, "topic", "echo", "/latched_by_cli", "--once", "--timeout", str(WAIT)
+        ) == (0, "'kept'\n---\n", "")
+    finally:
+        err = lines.stop()
+    assert (process.returncode, err) == (130, "")
+
+
+def test_echo_no_arr_shows_arrays_by_type_and_length(
+    peer: Lines, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = ["topic", "echo", "/joint_states", "--once", "--no-arr", "--timeout", str(WAIT)]
+    assert _run(capsys, *argv) == (
+        0,
+        "{'header': {'stamp': {'sec': 0, 'nanosec': 0}, 'frame_id': ''}, "
+        "'name': <sequence type: string, length: 2>, "
+        "'position': <sequence type: double, length: 2>, "
+        "'velocity': <sequence type: double, length: 0>, "
+        "'effort': <sequence type: double, length: 0>}\n---\n",
+        "",
+    )
+    status, out, _ = _run(capsys, *argv, "--json")
+    assert (status, json.loads(out)["position"]) == (0, "<sequence type: double, length: 2>")
+
+
+def test_text_the_terminal_cannot_show_is_escaped() -> None:
+    # PYTHONIOENCODING=ascii (or a latin-1 locale): the first such value ended the command
+    # with exit status 2 and "'ascii' codec can't encode character".
+    argv = ["topic", "pub", "/snow", "std_msgs/msg/String", "snow \u2603", "--once", "-w", "0"]
+    done = subprocess.run(
+        [sys.executable, "-m", "pyconnect.cli", *argv],
+        check=False,
+        capture_output=True,
+        timeout=WAIT,
+        env=dict(os.environ, PYTHONIOENCODING="ascii"),
+    )
+    assert (done.returncode, done.stderr) == (0, b"")
+    assert done.stdout.splitlines()[-1] == b"publishing #1: 'snow \\u2603'"
+
+
+def test_a_value_error_at_run_time_is_no_bad_command_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from pyconnect.commands import topic
+
+    def fails(*_args: object) -> int:
+        raise UnicodeEncodeError("latin-1", "\u2603", 0, 1, "ordinal not in range(256)")
+
+    monkeypatch.setattr(topic, "_list", fails)
+    assert _run(capsys, "topic", "list") == (
+        1,
+        "",
+        "pyconnect: error: 'latin-1' codec can't encode character '\\u2603' in position 0: "
+        "ordinal not in range(256)\n",
     )

@@ -9,7 +9,7 @@ from rclpy.qos import QoSPresetProfiles
 
 from pyconnect.cli import main
 from pyconnect.commands.common import UsageError
-from pyconnect.commands.live_options import QOS_PROFILES, add_spin_time, ros_missing
+from pyconnect.commands.live_options import QOS_PROFILES, add_qos, add_spin_time, ros_missing
 
 
 def test_the_written_out_presets_are_rclpys_but_unknown() -> None:
@@ -91,3 +91,76 @@ def test_counts_are_whole_numbers_from_zero(
 ) -> None:
     assert main([*command, f"{option}=-1"]) == 2
     assert "expected" in capsys.readouterr().err.splitlines()[-1]
+
+
+def test_the_written_out_policies_are_rclpys_but_unknown() -> None:
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, ReliabilityPolicy
+
+    from pyconnect.commands.live_options import QOS_DURABILITIES, QOS_HISTORIES, QOS_RELIABILITIES
+
+    for written, policy in (
+        (QOS_RELIABILITIES, ReliabilityPolicy),
+        (QOS_DURABILITIES, DurabilityPolicy),
+        (QOS_HISTORIES, HistoryPolicy),
+    ):
+        assert written == tuple(key for key in policy.short_keys() if key != "unknown")
+
+
+def _qos_args(*argv: str) -> argparse.Namespace:
+    parser = argparse.ArgumentParser()
+    add_qos(parser)
+    return parser.parse_args(list(argv))
+
+
+def test_qos_options_override_the_profile_as_ros2cli() -> None:
+    from rclpy.qos import DurabilityPolicy, HistoryPolicy, QoSPresetProfiles, ReliabilityPolicy
+
+    from pyconnect.commands.live_qos import follows_publishers, requested_qos
+    from pyconnect.ros.qos import DEFAULT
+
+    latched = requested_qos(_qos_args("--qos-durability", "transient_local"), DEFAULT)
+    assert (latched.reliability, latched.durability, latched.depth) == (
+        ReliabilityPolicy.RELIABLE,
+        DurabilityPolicy.TRANSIENT_LOCAL,
+        10,
+    )
+    given = _qos_args(
+        "--qos-profile", "sensor_data", "--qos-reliability", "reliable", "--qos-depth", "3",
+        "--qos-history", "keep_all",
+    )  # fmt: skip
+    qos = requested_qos(given, DEFAULT)
+    assert (qos.reliability, qos.durability, qos.depth, qos.history) == (
+        ReliabilityPolicy.RELIABLE,
+        DurabilityPolicy.VOLATILE,
+        3,
+        HistoryPolicy.KEEP_ALL,
+    )
+    # rclpy's presets are shared: overriding one must leave it as it was.
+    assert QoSPresetProfiles.get_from_short_key("sensor_data").depth == 5
+    assert requested_qos(_qos_args(), DEFAULT) == DEFAULT
+    assert follows_publishers(_qos_args("--qos-depth", "100"))
+    assert not follows_publishers(_qos_args("--qos-reliability", "best_effort"))
+    assert not follows_publishers(_qos_args("--qos-profile", "default"))
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["topic", "echo", "/x"],
+        ["topic", "hz", "/x"],
+        ["topic", "bw", "/x"],
+        ["topic", "pub", "/x", "std_msgs/msg/String"],
+    ],
+)
+def test_qos_options_are_ros2s_choices(
+    command: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main([*command, "--qos-durability", "latched"]) == 2
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "pyconnect: error: argument --qos-durability: invalid choice: 'latched' (choose from "
+        "'system_default', 'transient_local', 'volatile', 'best_available')"
+    )
+    assert main([*command, "--qos-depth", "0"]) == 2
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "pyconnect: error: argument --qos-depth: expected a whole number >= 1, got '0'"
+    )

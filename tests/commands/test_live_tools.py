@@ -573,3 +573,227 @@ def test_a_topic_of_two_types_needs_the_type_given(
         f"pyconnect: error: cannot {doing} /chatter: it has more than one type ({FLOAT}, "
         f"{STRING}); give the type\n",
     )
+
+
+@pytest.mark.parametrize(
+    ("verb", "doing"),
+    [("echo", "echo"), ("hz", "measure the rate of"), ("bw", "measure the bandwidth of")],
+)
+def test_a_second_type_discovered_a_moment_later_still_needs_the_type_given(
+    verb: str, doing: str, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # Another process's publisher is found a few spins after the first: the types read at the
+    # first sight of the topic were one process's, and the verb subscribed to that one.
+    first = [("pub_0", STRING)]
+    _staged_graph(monkeypatch, [[], first, first, first, [*first, ("pub_1", FLOAT)]])
+    assert _run(capsys, "topic", verb, "/chatter") == (
+        1,
+        "",
+        f"pyconnect: error: cannot {doing} /chatter: it has more than one type ({FLOAT}, "
+        f"{STRING}); give the type\n",
+    )
+
+
+class _Subscribed(Exception):
+    """Raised by a fake node's create_subscription: the command went as far as subscribing."""
+
+
+class _GraphOfQoS(_GraphFoundInStages):
+    """Publishers of /chatter found a stage per spin; each stage holds (node, reliability)."""
+
+    def __init__(self, stages: list[list[tuple[str, str]]]) -> None:
+        super().__init__([[(node, STRING) for node, _ in stage] for stage in stages])
+        self.reliabilities = stages
+        self.qos: list[object] = []
+
+    def get_publishers_info_by_topic(self, topic: str) -> list[SimpleNamespace]:
+        from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+
+        stage = self.reliabilities[min(self.spins, len(self.reliabilities) - 1)]
+        return [
+            SimpleNamespace(
+                node_name=node,
+                topic_type=STRING,
+                qos_profile=SimpleNamespace(
+                    reliability=ReliabilityPolicy.get_from_short_key(reliability),
+                    durability=DurabilityPolicy.VOLATILE,
+                ),
+            )
+            for node, reliability in (stage if topic == "/chatter" else [])
+        ]
+
+    def get_logger(self) -> SimpleNamespace:
+        return SimpleNamespace(set_level=lambda _level: None)
+
+    def create_subscription(self, *args: object, **kwargs: object) -> None:
+        self.qos.append(args[3])
+        raise _Subscribed
+
+
+def test_echo_matches_the_qos_of_publishers_discovered_a_moment_later(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from rclpy.qos import ReliabilityPolicy
+
+    first = [("pub_0", "reliable")]
+    found = _GraphOfQoS([[], first, first, first, [*first, ("pub_1", "best_effort")]])
+
+    @contextmanager
+    def session(_name: str) -> Iterator[_StagedSession]:
+        yield _StagedSession(found)
+
+    monkeypatch.setattr(graph, "graph_session", session)
+    with pytest.raises(_Subscribed):
+        main(["topic", "echo", "/chatter", STRING])
+    # Reliable, chosen at the first sight of pub_0, never hears the best-effort pub_1.
+    assert [qos.reliability for qos in found.qos] == [ReliabilityPolicy.BEST_EFFORT]  # type: ignore[attr-defined]
+
+
+class _GraphOfOneType(_GraphFoundInStages):
+    """/chatter published as String; a subscription of another type never hears it."""
+
+    def __init__(self) -> None:
+        super().__init__([[("pub_0", STRING)]])
+
+    def create_subscription(self, *_args: object, **_kwargs: object) -> None:
+        return None
+
+    def get_clock(self) -> None:
+        return None
+
+
+class _SpinCountingSession(_StagedSession):
+    def spin_once(self, timeout: float = 0.05) -> None:
+        super().spin_once(timeout)
+        if self.node.spins > 10_000:
+            raise AssertionError("still spinning long after --timeout")
+
+
+@pytest.mark.parametrize(("verb", "out"), [("hz", ""), ("bw", "Subscribed to [/chatter]\n")])
+def test_hz_and_bw_give_up_on_a_topic_of_another_type_at_the_timeout(
+    verb: str, out: str, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    @contextmanager
+    def session(_name: str) -> Iterator[_StagedSession]:
+        yield _SpinCountingSession(_GraphOfOneType())
+
+    monkeypatch.setattr(graph, "graph_session", session)
+    argv = ["topic", verb, "/chatter", "std_msgs/msg/Int32", "--timeout", "0"]
+    assert _run(capsys, *argv) == (
+        1,
+        out,
+        "pyconnect: error: no message on [/chatter] within 0 s: it is published as "
+        "std_msgs/msg/String, not std_msgs/msg/Int32\n",
+    )
+
+
+@pytest.mark.parametrize("verb", ["hz", "bw"])
+def test_hz_and_bw_warn_once_of_publishers_of_another_type(peer: Lines, verb: str) -> None:
+    process = spawn(
+        "-m", "pyconnect.cli", "topic", verb, "/chatter", "std_msgs/msg/Int32", merge_stderr=True
+    )
+    lines = Lines(process)
+    try:
+        _seen, found = lines.wait_for("warning")
+    finally:
+        lines.stop()
+    assert found.string == (
+        "pyconnect: warning: [/chatter] is published as std_msgs/msg/String, not "
+        "std_msgs/msg/Int32: waiting for a publisher of std_msgs/msg/Int32"
+    )
+    assert process.returncode == 130
+
+
+def test_send_goal_cancels_the_goal_it_gives_up_on() -> None:
+    server = Lines(spawn("-m", "tests.commands.cancel_peer"))
+    try:
+        server.wait_for("^ready$")
+        argv = ["action", "send_goal", "/endless", "test_msgs/action/Fibonacci", "{order: 1}"]
+        deadline = time.monotonic() + WAIT
+        while True:
+            # --timeout bounds finding the server too: tried again while discovery is slow.
+            done = subprocess.run(
+                [sys.executable, "-m", "pyconnect.cli", *argv, "--timeout", "2"],
+                check=False,
+                capture_output=True,
+                text=True,
+                timeout=WAIT,
+            )
+            if "Goal accepted" in done.stdout or time.monotonic() > deadline:
+                break
+        assert (done.returncode, done.stderr) == (
+            1,
+            "pyconnect: error: no result within 2 s: the goal was cancelled\n",
+        )
+        server.wait_for("^executing$")
+        server.wait_for("^canceled$")  # before the fix the goal ran on
+    finally:
+        server.stop()
+
+
+def test_topic_and_service_type(peer: Lines, capsys: pytest.CaptureFixture[str]) -> None:
+    status, out = _until(capsys, bool, "topic", "type", "/chatter")
+    assert (status, out) == (0, "std_msgs/msg/String\n")
+    status, out = _until(capsys, bool, "service", "type", "/set_flag")
+    assert (status, out) == (0, "std_srvs/srv/SetBool\n")
+    assert _run(capsys, "topic", "type", "/nope", "--spin-time", "0.5") == (
+        1,
+        "",
+        "pyconnect: error: Unknown topic '/nope'\n",
+    )
+    assert _run(capsys, "service", "type", "/nope", "--spin-time", "0.5", "--no-daemon") == (
+        1,
+        "",
+        "pyconnect: error: Unknown service '/nope'\n",
+    )
+
+
+def test_action_info(peer: Lines, capsys: pytest.CaptureFixture[str]) -> None:
+    status, out = _until(
+        capsys, lambda out: "Action servers: 1" in out, "action", "info", "/fibonacci", "-t"
+    )
+    assert (status, out.splitlines()) == (
+        0,
+        [
+            "Action: /fibonacci",
+            "Action clients: 0",
+            "Action servers: 1",
+            "    /plain_peer [test_msgs/action/Fibonacci]",
+        ],
+    )
+    status, out = _until(
+        capsys, lambda out: "Action servers: 1" in out, "action", "info", "/fibonacci", "-c"
+    )
+    assert (status, out) == (0, "Action: /fibonacci\nAction clients: 0\nAction servers: 1\n")
+
+
+def test_service_call_at_a_rate_until_ctrl_c(peer: Lines) -> None:
+    argv = ["service", "call", "/set_flag", "std_srvs/srv/SetBool", "{data: true}", "-r", "20"]
+    process = spawn("-m", "pyconnect.cli", *argv)
+    lines = Lines(process)
+    try:
+        for _ in range(3):
+            lines.wait_for(r"^\{'success': True, 'message': 'flag is True'\}$")
+    finally:
+        err = lines.stop()
+    assert (process.returncode, err) == (130, "")
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["topic", "list"],
+        ["topic", "info", "/nope"],
+        ["node", "list"],
+        ["node", "info", "/nobody"],
+        ["service", "list"],
+        ["action", "list"],
+    ],
+)
+def test_no_daemon_is_taken_and_ignored(
+    argv: list[str], capsys: pytest.CaptureFixture[str]
+) -> None:
+    # ros2 scripts pass it; pyconnect never has a daemon. (Refused before: exit status 2.)
+    status, _out, err = _run(capsys, *argv, "--no-daemon", "--spin-time", "0")
+    assert status in (0, 1)
+    assert "unrecognized arguments" not in err

@@ -1,8 +1,9 @@
-"""``pyconnect action list|send_goal``: ros2cli's action verbs with natural values.
+"""``pyconnect action list|info|send_goal``: ros2cli's action verbs with natural values.
 
 Exit status: 0 the goal finished (whatever its status, as ``ros2 action send_goal``), 1 the
-command could not do its work (no server, goal rejected), 2 a bad command line, 130 on Ctrl-C
-(the goal is cancelled first).
+command could not do its work (no server, goal rejected, no result within ``--timeout``), 2 a
+bad command line, 130 on Ctrl-C. A goal given up on, by Ctrl-C or the timeout, is cancelled
+first: the server would otherwise go on executing a goal nobody waits for.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -16,7 +17,7 @@ from typing import TYPE_CHECKING, Any, TextIO
 
 from pyconnect.commands.argument_types import nonnegative_seconds
 from pyconnect.commands.common import Parser
-from pyconnect.commands.live_options import add_spin_time, expand_name
+from pyconnect.commands.live_options import add_no_daemon, add_spin_time, expand_name
 
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
@@ -25,8 +26,13 @@ __all__ = ["register"]
 
 EXAMPLES = """examples:
   pyconnect action list -t
+  pyconnect action info /fibonacci -t
   pyconnect action send_goal /fibonacci test_msgs/action/Fibonacci "{order: 5}" --feedback
 """
+
+CANCEL_WAIT = 5.0
+"""Seconds a cancelled goal's server is given to answer the cancel request before the command
+ends anyway (a server that is gone never answers)."""
 
 _STATUS = {
     0: "UNKNOWN",
@@ -50,7 +56,18 @@ def register(commands: Subcommands) -> Subcommands:
     listing = verbs.add_parser("list", help="the actions of the graph", epilog=EXAMPLES)
     listing.add_argument("-t", "--show-types", action="store_true", help="show each type")
     add_spin_time(listing)
+    add_no_daemon(listing)
     listing.set_defaults(run=_list)
+
+    info = verbs.add_parser("info", help="the clients and servers of an action", epilog=EXAMPLES)
+    info.add_argument("action_name", type=expand_name)
+    info.add_argument("-t", "--show-types", action="store_true", help="show each one's type")
+    info.add_argument(
+        "-c", "--count", action="store_true", help="only the numbers of clients and servers"
+    )
+    add_spin_time(info)
+    add_no_daemon(info)
+    info.set_defaults(run=_info)
 
     send = verbs.add_parser(
         "send_goal",
@@ -82,6 +99,45 @@ def _list(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         actions = get_action_names_and_types(session.node)
     for name, types in sorted(actions):
         print(f"{name} [{', '.join(types)}]" if args.show_types else name, file=out)
+    return 0
+
+
+def _info(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from rclpy.action.graph import (
+        get_action_client_names_and_types_by_node,
+        get_action_server_names_and_types_by_node,
+    )
+
+    from pyconnect.commands.graph import endpoints_named, graph_session
+
+    clients: list[tuple[str, list[str]]] = []
+    servers: list[tuple[str, list[str]]] = []
+    with graph_session("action") as session:
+        session.spin_for(args.spin_time)
+        # An action's clients and servers are found by their nodes, named after their endpoints.
+        session.spin_until(lambda: endpoints_named(session), args.spin_time)
+        node = session.node
+        for name, namespace in node.get_node_names_and_namespaces():
+            full = f"{namespace.rstrip('/')}/{name}"
+            for found, by_node in (
+                (clients, get_action_client_names_and_types_by_node),
+                (servers, get_action_server_names_and_types_by_node),
+            ):
+                found.extend(
+                    (full, types)
+                    for action, types in by_node(node, name, namespace)
+                    if action == args.action_name
+                )
+    # ros2's lines: ros2 action info prints these whether or not the action exists.
+    print(f"Action: {args.action_name}", file=out)
+    for title, found in (("Action clients", clients), ("Action servers", servers)):
+        print(f"{title}: {len(found)}", file=out)
+        if args.count:
+            continue
+        for full, types in sorted(found):
+            print(
+                f"    {full} [{', '.join(types)}]" if args.show_types else f"    {full}", file=out
+            )
     return 0
 
 
@@ -126,13 +182,35 @@ def _send_goal(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         result: Any = handle.get_result_async()
         try:
             if not session.spin_until(result.done, args.timeout):
-                return report_failure(CommandFailed("no result before the timeout"), err)
+                outcome = _cancel(session, handle)
+                return report_failure(
+                    CommandFailed(f"no result within {args.timeout:g} s: {outcome}"), err
+                )
         except KeyboardInterrupt:
-            cancel = handle.cancel_goal_async()
-            session.spin_until(cancel.done, 5.0)
+            _cancel(session, handle)
             raise
         answer = result.result()
         print(f"Result:\n    {shown_line(answer.result, err)}\n", file=out)
         status = _STATUS.get(answer.status, str(answer.status))
         print(f"Goal finished with status: {status}", file=out, flush=True)
     return 0
+
+
+def _cancel(session: Any, handle: Any) -> str:
+    """Cancel the goal of ``handle`` and wait (at most ``CANCEL_WAIT`` s) for the server to
+    answer; what became of it, in words."""
+    from action_msgs.srv import CancelGoal
+
+    cancel: Any = handle.cancel_goal_async()
+    if not session.spin_until(cancel.done, CANCEL_WAIT):
+        return f"asked to cancel the goal, the server did not answer within {CANCEL_WAIT:g} s"
+    answer = cancel.result()
+    if answer is not None and answer.return_code == CancelGoal.Response.ERROR_NONE:
+        return "the goal was cancelled"
+    code = None if answer is None else answer.return_code
+    why = {
+        CancelGoal.Response.ERROR_REJECTED: "the server refused",
+        CancelGoal.Response.ERROR_UNKNOWN_GOAL_ID: "the server does not know the goal",
+        CancelGoal.Response.ERROR_GOAL_TERMINATED: "the goal had just ended",
+    }.get(code, f"the server answered {code}")
+    return f"cancelling the goal failed: {why}"

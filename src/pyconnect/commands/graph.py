@@ -38,7 +38,6 @@ from pyconnect.commands.live_options import (
 )
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.interfaces import interface_class
-from pyconnect.ros.qos import matching_qos
 from pyconnect.typesys.classes import import_class
 from pyconnect.typesys.names import full_type_name
 
@@ -50,7 +49,6 @@ __all__ = [
     "GraphSession",
     "add_qos",
     "add_spin_time",
-    "choose_qos",
     "endpoint_failure",
     "endpoints_named",
     "expand_name",
@@ -58,6 +56,8 @@ __all__ = [
     "message_class",
     "preset_qos",
     "report_failure",
+    "settle",
+    "topic_endpoints",
     "topic_types",
 ]
 
@@ -167,23 +167,58 @@ def graph_session(name: str) -> Iterator[GraphSession]:
         session.close()
 
 
+SETTLE_ROUNDS = 10
+"""Spins in a row (0.05 s each on the CLI's idle node: about 0.5 s) in which what discovery knows
+of a topic must not change before it counts as known. Processes are discovered one by one: a
+second publisher appeared up to 0.4 s after the first on an idle machine, so a type or QoS read
+at the first sight of a topic could be one publisher's only. This narrows the race, it cannot
+close it: Fast DDS sometimes finds a process only at its next announcement (every 3 s), which
+no short wait covers (echo's QoS follows late publishers anyway: pyconnect.commands.live_qos)."""
+
+
+def settle(session: GraphSession, snapshot: Callable[[], object], *, timeout: float | None) -> None:
+    """Spin until ``snapshot()`` (what discovery knows) gave the same value ``SETTLE_ROUNDS``
+    spins in a row, or ``timeout`` s pass (None: no limit)."""
+    deadline = None if timeout is None else time.monotonic() + timeout
+    last = snapshot()
+    steady = 0
+    while steady < SETTLE_ROUNDS:
+        if deadline is not None and time.monotonic() >= deadline:
+            return
+        session.spin_once()
+        now = snapshot()
+        steady = steady + 1 if now == last else 0
+        last = now
+
+
+def topic_endpoints(session: GraphSession, topic: str) -> list[str]:
+    """Every endpoint of ``topic`` discovery knows, with its node, type, GID and QoS: a
+    snapshot for ``settle`` (a publisher found, or its node named, changes it)."""
+    node = session.node
+    found = [
+        *node.get_publishers_info_by_topic(topic),
+        *node.get_subscriptions_info_by_topic(topic),
+    ]
+    return sorted(str(endpoint) for endpoint in found)
+
+
 def topic_types(session: GraphSession, topic: str, *, timeout: float | None) -> list[str]:
     """The types seen on ``topic`` (more than one when its endpoints disagree), waiting up to
-    ``timeout`` s for it to appear."""
-    found: list[str] = []
+    ``timeout`` s for it to appear and then for its endpoints to settle (``settle``)."""
+    deadline = None if timeout is None else time.monotonic() + timeout
 
     def known() -> bool:
-        for name, types in session.node.get_topic_names_and_types():
-            if name == topic and types:
-                found.extend(types)
-                return True
-        return False
+        return bool(dict(session.node.get_topic_names_and_types()).get(topic))
 
     if not session.spin_until(known, timeout):
         raise CommandFailed(
             f"topic [{topic}] does not appear to be published yet; could not determine its type"
         )
-    return found
+    # The types read at the first sight may be one process's: the rest of --timeout settles.
+    left = None if deadline is None else max(0.0, deadline - time.monotonic())
+    settle(session, lambda: topic_endpoints(session, topic), timeout=left)
+    types: list[str] = dict(session.node.get_topic_names_and_types()).get(topic, [])
+    return types
 
 
 def message_class(type_name: str) -> Any:
@@ -237,10 +272,3 @@ def preset_qos(profile: str) -> QoSProfile:
         )
     named: QoSProfile = QoSPresetProfiles.get_from_short_key(profile)
     return named
-
-
-def choose_qos(session: GraphSession, topic: str, profile: str | None) -> QoSProfile:
-    """A named profile, or one that matches every publisher (as ``ros2 topic echo`` picks)."""
-    if profile is not None:
-        return preset_qos(profile)
-    return matching_qos(session.node.get_publishers_info_by_topic(topic), depth=10)

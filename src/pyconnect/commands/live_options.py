@@ -11,14 +11,18 @@ from __future__ import annotations
 
 from typing import Any
 
-from pyconnect.commands.argument_types import nonnegative_seconds
+from pyconnect.commands.argument_types import nonnegative_seconds, positive_int
 from pyconnect.commands.common import UsageError
 
 __all__ = [
     "CLI_NODE_NAME",
     "HIDDEN_PREFIX",
+    "QOS_DURABILITIES",
+    "QOS_HISTORIES",
     "QOS_PROFILES",
+    "QOS_RELIABILITIES",
     "ROS_EXTRA_INSTALL",
+    "add_no_daemon",
     "add_qos",
     "add_spin_time",
     "expand_name",
@@ -41,6 +45,11 @@ QOS_PROFILES = (
     "action_status_default",
     "best_available",
 )
+# The policies --qos-reliability, --qos-durability and --qos-history take: rclpy's short keys
+# but "unknown", as for the presets (a test keeps them equal to rclpy's).
+QOS_RELIABILITIES = ("system_default", "reliable", "best_effort", "best_available")
+QOS_DURABILITIES = ("system_default", "transient_local", "volatile", "best_available")
+QOS_HISTORIES = ("system_default", "keep_last", "keep_all")
 ROS_EXTRA_INSTALL = "pip install 'pyconnect-ros[ros]'"
 
 
@@ -81,14 +90,46 @@ def expand_name(name: str) -> str:
     return full
 
 
-def add_qos(parser: Any) -> None:
-    """``--qos-profile NAME``: a preset instead of the QoS ``choose_qos`` matches to publishers."""
+def add_qos(parser: Any, *, default: str = "one that matches the publishers") -> None:
+    """ros2cli's QoS options: ``--qos-profile NAME`` (a preset), and ``--qos-depth``,
+    ``--qos-history``, ``--qos-reliability``, ``--qos-durability`` overriding one policy of it
+    (pyconnect.commands.live_qos reads them); ``default`` says what is used without them."""
     parser.add_argument(
         "--qos-profile",
         metavar="NAME",
         choices=QOS_PROFILES,
-        help=f"a preset profile: {', '.join(QOS_PROFILES)} "
-        "(default: one that matches the publishers)",
+        help=f"a preset profile: {', '.join(QOS_PROFILES)} (default: {default})",
+    )
+    parser.add_argument(
+        "--qos-depth",
+        metavar="N",
+        type=positive_int,
+        help="the queue size (overrides the profile's)",
+    )
+    parser.add_argument(
+        "--qos-history",
+        choices=QOS_HISTORIES,
+        help="the history policy (overrides the profile's)",
+    )
+    parser.add_argument(
+        "--qos-reliability",
+        choices=QOS_RELIABILITIES,
+        help="the reliability policy (overrides the profile's)",
+    )
+    parser.add_argument(
+        "--qos-durability",
+        choices=QOS_DURABILITIES,
+        help="the durability policy (overrides the profile's; transient_local: latched)",
+    )
+
+
+def add_no_daemon(parser: Any) -> None:
+    """``--no-daemon``: taken and ignored, so ros2 command lines carry over. pyconnect has no
+    daemon: every command discovers the graph itself, as ros2's do with this flag."""
+    parser.add_argument(
+        "--no-daemon",
+        action="store_true",
+        help="accepted for ros2 scripts; pyconnect never uses a daemon",
     )
 
 

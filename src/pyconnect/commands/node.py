@@ -12,7 +12,7 @@ import argparse
 from typing import TYPE_CHECKING, Any, TextIO
 
 from pyconnect.commands.common import Parser
-from pyconnect.commands.live_options import add_spin_time
+from pyconnect.commands.live_options import add_no_daemon, add_spin_time
 
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
@@ -36,6 +36,7 @@ def register(commands: Subcommands) -> Subcommands:
     listing = verbs.add_parser("list", help="the nodes of the graph", epilog=EXAMPLES)
     listing.add_argument("-a", "--all", action="store_true", help="also hidden nodes (_name)")
     add_spin_time(listing)
+    add_no_daemon(listing)
     listing.set_defaults(run=_list)
 
     info = verbs.add_parser("info", help="a node's topics, services and actions", epilog=EXAMPLES)
@@ -44,6 +45,7 @@ def register(commands: Subcommands) -> Subcommands:
         "--include-hidden", action="store_true", help="also hidden topics and services"
     )
     add_spin_time(info)
+    add_no_daemon(info)
     info.set_defaults(run=_info)
     return verbs
 

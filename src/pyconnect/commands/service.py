@@ -1,4 +1,4 @@
-"""``pyconnect service list|call``: ros2cli's service verbs with natural values.
+"""``pyconnect service list|type|call``: ros2cli's service verbs with natural values.
 
 Exit status: 0 done, 1 the command could not do its work, 2 a bad command line, 130 on Ctrl-C.
 """
@@ -9,11 +9,12 @@ Exit status: 0 done, 1 the command could not do its work, 2 a bad command line, 
 from __future__ import annotations
 
 import argparse
+import time
 from typing import TYPE_CHECKING, Any, TextIO
 
-from pyconnect.commands.argument_types import nonnegative_seconds
+from pyconnect.commands.argument_types import nonnegative_seconds, positive_float
 from pyconnect.commands.common import Parser
-from pyconnect.commands.live_options import add_spin_time, expand_name
+from pyconnect.commands.live_options import add_no_daemon, add_spin_time, expand_name
 
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
@@ -22,8 +23,10 @@ __all__ = ["register"]
 
 EXAMPLES = """examples:
   pyconnect service list -t
+  pyconnect service type /set_light
   pyconnect service call /set_light std_srvs/srv/SetBool "{data: true}"
   pyconnect service call /reset std_srvs/srv/Empty
+  pyconnect service call /reset std_srvs/srv/Empty --rate 2
 """
 
 
@@ -41,7 +44,14 @@ def register(commands: Subcommands) -> Subcommands:
         "--include-hidden-services", action="store_true", help="also services with a _ part"
     )
     add_spin_time(listing)
+    add_no_daemon(listing)
     listing.set_defaults(run=_list)
+
+    kind = verbs.add_parser("type", help="the type of a service", epilog=EXAMPLES)
+    kind.add_argument("service_name", type=expand_name)
+    add_spin_time(kind)
+    add_no_daemon(kind)
+    kind.set_defaults(run=_type)
 
     call = verbs.add_parser(
         "call",
@@ -56,7 +66,14 @@ def register(commands: Subcommands) -> Subcommands:
         type=nonnegative_seconds,
         default=None,
         metavar="S",
-        help="give up after S seconds",
+        help="give up after S seconds (waiting for the service, then for each response)",
+    )
+    call.add_argument(
+        "-r",
+        "--rate",
+        type=positive_float,
+        metavar="N",
+        help="call again N times a second until Ctrl-C (default: once)",
     )
     call.set_defaults(run=_call)
     return verbs
@@ -73,6 +90,26 @@ def _list(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         if hidden and not args.include_hidden_services:
             continue
         print(f"{name} [{', '.join(types)}]" if args.show_types else name, file=out)
+    return 0
+
+
+def _type(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from pyconnect.commands.graph import CommandFailed, graph_session, report_failure, settle
+
+    with graph_session("service") as session:
+        node = session.node
+
+        def types() -> list[str]:
+            found: list[str] = dict(node.get_service_names_and_types()).get(args.service_name, [])
+            return found
+
+        if not session.spin_until(lambda: bool(types()), args.spin_time):
+            return report_failure(CommandFailed(f"Unknown service '{args.service_name}'"), err)
+        # Another server of it, of another type, may be discovered a moment later.
+        settle(session, types, timeout=args.spin_time)
+        found = types()
+    for service_type in found:
+        print(service_type, file=out)
     return 0
 
 
@@ -94,11 +131,16 @@ def _call(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
             print("waiting for service to become available...", file=out, flush=True)
         if not session.spin_until(client.service_is_ready, args.timeout):
             return report_failure(CommandFailed(f"service {args.service_name} not available"), err)
-        request = template.stamped()  # `now` / `auto`: the time of the call, not of the wait
-        print(f"requester: making request: {shown_line(request, err)}\n", file=out)
-        future: Any = client.call_async(request)
-        if not session.spin_until(future.done, args.timeout):
-            return report_failure(CommandFailed(f"no response from {args.service_name}"), err)
-        response = future.result()
-        print(f"response:\n{shown_line(response, err)}\n", file=out, flush=True)
-    return 0
+        while True:
+            began = time.monotonic()
+            request = template.stamped()  # `now` / `auto`: the time of the call, not of the wait
+            print(f"requester: making request: {shown_line(request, err)}\n", file=out)
+            future: Any = client.call_async(request)
+            if not session.spin_until(future.done, args.timeout):
+                return report_failure(CommandFailed(f"no response from {args.service_name}"), err)
+            response = future.result()
+            print(f"response:\n{shown_line(response, err)}\n", file=out, flush=True)
+            if args.rate is None:
+                return 0
+            # As ros2: the next call one period after this one began (at once when overdue).
+            session.spin_for(max(0.0, began + 1.0 / args.rate - time.monotonic()))

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Any, TextIO
 
 from pyconnect.commands.argument_types import nonnegative_seconds, positive_int
 from pyconnect.commands.common import Parser
-from pyconnect.commands.live_options import add_qos, add_spin_time, expand_name
+from pyconnect.commands.live_options import add_no_daemon, add_qos, add_spin_time, expand_name
 from pyconnect.commands.topic_subscribe import (
     await_first,
     echo_field,
@@ -27,14 +27,17 @@ from pyconnect.commands.topic_subscribe import (
 
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
+    from pyconnect.commands.topic_subscribe import Subscribed
 
 __all__ = ["register"]
 
 EXAMPLES = """examples:
   pyconnect topic list -t
   pyconnect topic info /chatter -v
+  pyconnect topic type /chatter
   pyconnect topic echo /camera/image_raw --qos-profile sensor_data
   pyconnect topic echo /odom --field pose.pose.position --once --json
+  pyconnect topic echo /joint_states --no-arr --qos-reliability best_effort
   pyconnect topic hz /imu/data
   pyconnect topic bw /camera/image_raw
   pyconnect topic pub /chatter std_msgs/msg/String "hello" --rate 10
@@ -62,6 +65,7 @@ def register(commands: Subcommands) -> Subcommands:
         help="also topics with a part that starts with _",
     )
     add_spin_time(listing)
+    add_no_daemon(listing)
     listing.set_defaults(run=_list)
 
     info = verbs.add_parser(
@@ -70,7 +74,14 @@ def register(commands: Subcommands) -> Subcommands:
     info.add_argument("topic", type=expand_name)
     info.add_argument("-v", "--verbose", action="store_true", help="each endpoint and its QoS")
     add_spin_time(info)
+    add_no_daemon(info)
     info.set_defaults(run=_info)
+
+    kind = verbs.add_parser("type", help="the type of a topic", epilog=EXAMPLES)
+    kind.add_argument("topic", type=expand_name)
+    add_spin_time(kind)
+    add_no_daemon(kind)
+    kind.set_defaults(run=_type)
 
     echo = verbs.add_parser("echo", help="print the natural values of a topic", epilog=EXAMPLES)
     echo.add_argument("topic", type=expand_name)
@@ -78,12 +89,18 @@ def register(commands: Subcommands) -> Subcommands:
     echo.add_argument("--json", action="store_true", help="one JSON value per line")
     echo.add_argument("--field", help="print only this field of each message (a.b.c)")
     echo.add_argument("--once", action="store_true", help="print one message and exit")
+    echo.add_argument(
+        "--no-arr",
+        action="store_true",
+        help="show messages by their fields, each array as its type and length (as ros2)",
+    )
     add_qos(echo)
+    add_no_daemon(echo)
     echo.add_argument(
         "--timeout",
         type=nonnegative_seconds,
         metavar="S",
-        help="give up after S seconds without the topic",
+        help="give up after S seconds without a message",
     )
     echo.set_defaults(run=_echo)
 
@@ -97,12 +114,12 @@ def register(commands: Subcommands) -> Subcommands:
         default=10000,
         help="intervals to average (default 10000)",
     )
-    add_qos(hz)
+    add_qos(hz, default="sensor_data")
     hz.add_argument(
         "--timeout",
         type=nonnegative_seconds,
         metavar="S",
-        help="give up after S seconds without the topic",
+        help="give up after S seconds without a message",
     )
     hz.set_defaults(run=_hz)
 
@@ -112,12 +129,12 @@ def register(commands: Subcommands) -> Subcommands:
     bw.add_argument(
         "-w", "--window", type=positive_int, default=100, help="messages to average (100)"
     )
-    add_qos(bw)
+    add_qos(bw, default="sensor_data")
     bw.add_argument(
         "--timeout",
         type=nonnegative_seconds,
         metavar="S",
-        help="give up after S seconds without the topic",
+        help="give up after S seconds without a message",
     )
     bw.set_defaults(run=_bw)
 
@@ -178,9 +195,37 @@ def _info(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     return 0
 
 
+def _type(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+    from pyconnect.commands.graph import CommandFailed, graph_session, report_failure, topic_types
+
+    with graph_session("topic") as session:
+        try:
+            # Found within --spin-time, then given time to settle: another process may add a type.
+            types = topic_types(session, args.topic, timeout=args.spin_time)
+        except CommandFailed:
+            return report_failure(CommandFailed(f"Unknown topic '{args.topic}'"), err)
+    for msg_type in types:
+        print(msg_type, file=out)
+    return 0
+
+
+def _no_message(args: argparse.Namespace, subscribed: Subscribed, err: TextIO) -> int:
+    """Exit status 1 with why nothing came on the topic within ``--timeout``."""
+    from pyconnect.commands.graph import CommandFailed, report_failure
+
+    published = publisher_types(subscribed.session, args.topic)
+    reason = no_message_reason(args.topic, subscribed.msg_type, published, args.timeout)
+    return report_failure(CommandFailed(reason), err)
+
+
+def _left(args: argparse.Namespace, started: float) -> float | None:
+    return None if args.timeout is None else args.timeout - (time.monotonic() - started)
+
+
 def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
-    from pyconnect.commands.graph import PROGRAM, CommandFailed, report_failure
+    from pyconnect.commands.graph import PROGRAM, report_failure
     from pyconnect.commands.live_values import shown_text
+    from pyconnect.commands.value_text import abbreviated_fields
     from pyconnect.errors import PyconnectError
 
     received: list[Any] = []
@@ -191,29 +236,43 @@ def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     # --timeout bounds the whole wait for a first message, finding the type included.
     started = time.monotonic()
     try:
-        context, session, msg_type = subscribe(args, "echo", on_message, raw=False, started=started)
+        subscribed = subscribe(args, "echo", on_message, raw=False, started=started)
     except PyconnectError as error:
         return report_failure(error, err)
+    session, notes = subscribed.session, subscribed.notes
+    said = 0
+
+    def say_notes() -> None:
+        nonlocal said
+        for note in notes[said:]:
+            print(f"{PROGRAM}: note: {note}", file=err, flush=True)
+        said = len(notes)
+
     try:
-        left = None if args.timeout is None else args.timeout - (time.monotonic() - started)
         if not await_first(
-            session, args.topic, msg_type, arrived=lambda: bool(received), timeout=left, err=err
+            session,
+            args.topic,
+            subscribed.msg_type,
+            arrived=lambda: bool(received),
+            timeout=_left(args, started),
+            err=err,
         ):
-            published = publisher_types(session, args.topic)
-            reason = no_message_reason(args.topic, msg_type, published, args.timeout)
-            return report_failure(CommandFailed(reason), err)
+            say_notes()
+            return _no_message(args, subscribed, err)
         while True:
-            session.spin_until(lambda: bool(received), None)
+            session.spin_until(lambda: bool(received) or len(notes) > said, None)
+            say_notes()
             while received:
                 # A wrong --field is the command line's fault: select_field ends the echo.
-                text, problem = shown_text(
-                    echo_field(received.pop(0), args.field), as_json=args.json
-                )
+                shown = echo_field(received.pop(0), args.field)
+                if args.no_arr and hasattr(shown, "get_fields_and_field_types"):
+                    shown = abbreviated_fields(shown)
+                text, problem = shown_text(shown, as_json=args.json)
                 if problem is not None:
-                    said = "printed as its fields" if text is not None else "skipped"
+                    said_as = "printed as its fields" if text is not None else "skipped"
                     print(
                         f"{PROGRAM}: warning: [{args.topic}]: cannot decode a message "
-                        f"({said}): {problem}",
+                        f"({said_as}): {problem}",
                         file=err,
                         flush=True,
                     )
@@ -227,7 +286,7 @@ def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     except PyconnectError as error:
         return report_failure(error, err)
     finally:
-        context.__exit__(None, None, None)
+        subscribed.close()
 
 
 def _hz(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
@@ -237,27 +296,38 @@ def _hz(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
 
     window = RateWindow(args.window)
     clock: list[Any] = []
+    count = [0]
 
     def on_message(_data: bytes) -> None:
+        count[0] += 1
         window.add(clock[0].now().nanoseconds)
         report = window.report()
         if report is not None:
             print(report, file=out, flush=True)
 
-    if args.qos_profile is None:
-        args.qos_profile = "sensor_data"  # as ros2 topic hz subscribes
+    started = time.monotonic()
     try:
-        context, session, _msg_type = subscribe(
-            args, "hz", on_message, raw=True, started=time.monotonic()
-        )
+        subscribed = subscribe(args, "hz", on_message, raw=True, started=started)
     except PyconnectError as error:
         return report_failure(error, err)
+    session = subscribed.session
     clock.append(session.node.get_clock())
     try:
+        # As echo: a topic that sends nothing (no publisher, another type) is said, and
+        # --timeout gives up on it.
+        if not await_first(
+            session,
+            args.topic,
+            subscribed.msg_type,
+            arrived=lambda: count[0] > 0,
+            timeout=_left(args, started),
+            err=err,
+        ):
+            return _no_message(args, subscribed, err)
         while True:
             session.spin_once(0.1)
     finally:
-        context.__exit__(None, None, None)
+        subscribed.close()
 
 
 def _bw(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
@@ -266,20 +336,29 @@ def _bw(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     from pyconnect.errors import PyconnectError
 
     window = BandwidthWindow(args.window)
+    count = [0]
 
     def on_message(data: bytes) -> None:
+        count[0] += 1
         window.add(time.monotonic(), len(data))
 
-    if args.qos_profile is None:
-        args.qos_profile = "sensor_data"  # as ros2 topic bw subscribes
+    started = time.monotonic()
     try:
-        context, session, _msg_type = subscribe(
-            args, "bw", on_message, raw=True, started=time.monotonic()
-        )
+        subscribed = subscribe(args, "bw", on_message, raw=True, started=started)
     except PyconnectError as error:
         return report_failure(error, err)
+    session = subscribed.session
     print(f"Subscribed to [{args.topic}]", file=out, flush=True)
     try:
+        if not await_first(
+            session,
+            args.topic,
+            subscribed.msg_type,
+            arrived=lambda: count[0] > 0,
+            timeout=_left(args, started),
+            err=err,
+        ):
+            return _no_message(args, subscribed, err)
         next_report = time.monotonic() + 1.0
         while True:
             session.spin_once(max(0.0, min(0.1, next_report - time.monotonic())))
@@ -289,4 +368,4 @@ def _bw(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
                 if report is not None:
                     print(report, file=out, flush=True)
     finally:
-        context.__exit__(None, None, None)
+        subscribed.close()

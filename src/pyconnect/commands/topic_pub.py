@@ -65,7 +65,7 @@ def register(verbs: Subcommands, *, epilog: str) -> None:
         metavar="S",
         help="give up waiting for subscriptions after S s",
     )
-    add_qos(pub)
+    add_qos(pub, default="default")
     pub.set_defaults(run=_pub)
 
 
@@ -77,9 +77,9 @@ def _pub(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         endpoint_failure,
         graph_session,
         message_class,
-        preset_qos,
         report_failure,
     )
+    from pyconnect.commands.live_qos import requested_qos
     from pyconnect.commands.live_values import shown_line
     from pyconnect.commands.value_input import message_template
     from pyconnect.errors import PyconnectError
@@ -93,7 +93,7 @@ def _pub(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
     try:
         msg_class = message_class(args.message_type)
         template = message_template(args.value, msg_class)
-        qos = DEFAULT if args.qos_profile is None else preset_qos(args.qos_profile)
+        qos = requested_qos(args, DEFAULT)  # `--qos-durability transient_local`: latched
     except PyconnectError as error:
         return report_failure(error, err)
     with graph_session("pub") as session:

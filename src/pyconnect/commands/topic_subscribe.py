@@ -2,8 +2,11 @@
 message awaited (pyconnect.commands.topic runs the verbs).
 
 The type is the one given or the topic's only type (a topic of several types wants it given);
-the QoS matches the publishers, waited for within ``--timeout``, so a latched or best-effort
-publisher is heard; a topic published as another type is said once while waiting.
+both are read once discovery has settled (pyconnect.commands.graph.settle), since processes are
+discovered one by one, and the types are read again just before subscribing. echo's QoS follows
+the publishers, late ones too (pyconnect.commands.live_qos), waited for within ``--timeout``, so
+a latched or best-effort publisher is heard; a topic published as another type is said once
+while waiting.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -14,61 +17,112 @@ from __future__ import annotations
 import argparse
 import time
 from collections.abc import Callable
+from contextlib import ExitStack
 from typing import Any, TextIO
 
 _DOING = {"echo": "echo", "hz": "measure the rate of", "bw": "measure the bandwidth of"}
 
 
+class Subscribed:
+    """A graph session subscribed to a topic; ``close()`` ends the subscription and session."""
+
+    def __init__(self, stack: ExitStack, session: Any, msg_type: str, notes: list[str]) -> None:
+        self._stack = stack
+        self.session = session
+        self.msg_type = msg_type
+        self.notes = notes
+        """What a subscription following its publishers said each time it changed its QoS."""
+
+    def close(self) -> None:
+        self._stack.close()
+
+
+def _one_type(verb: str, topic: str, types: list[str]) -> str:
+    if len(types) > 1:
+        # A subscription takes one type: the other publishers would go unheard.
+        from pyconnect.commands.graph import CommandFailed
+
+        raise CommandFailed(
+            f"cannot {_DOING[verb]} {topic}: it has more than one type "
+            f"({', '.join(types)}); give the type"
+        )
+    return types[0]
+
+
+def _await_publishers(session: Any, topic: str, left: Callable[[], float | None]) -> None:
+    """Spin until ``topic`` has a publisher and discovery has settled, within ``left()`` s.
+
+    echo's QoS is matched to the publishers: chosen before they are discovered it is reliable
+    and volatile, which misses a latched message and hears no best-effort publisher. With no
+    publisher in time, that default it is."""
+    from pyconnect.commands.graph import settle, topic_endpoints
+
+    node = session.node
+    if not session.spin_until(lambda: bool(node.get_publishers_info_by_topic(topic)), left()):
+        return
+    remaining = left()
+    timeout = None if remaining is None else max(0.0, remaining)
+    settle(session, lambda: topic_endpoints(session, topic), timeout=timeout)
+
+
 def subscribe(
     args: argparse.Namespace, verb: str, on_message: Any, *, raw: bool, started: float
-) -> tuple[Any, Any, str]:
-    """A session subscribed to ``args.topic`` and the type it expects; the caller spins it.
+) -> Subscribed:
+    """A session subscribed to ``args.topic``, and the type it expects; the caller spins it.
 
     ``--timeout`` bounds the waits here from ``started`` (monotonic) on."""
     from rclpy.impl.implementation_singleton import rclpy_implementation
+    from rclpy.logging import LoggingSeverity
 
     from pyconnect.commands.graph import (
-        CommandFailed,
-        choose_qos,
         endpoint_failure,
         graph_session,
         message_class,
         topic_types,
     )
+    from pyconnect.commands.live_qos import EchoSubscription, follows_publishers, requested_qos
     from pyconnect.ros.interfaces import interface_name
+    from pyconnect.ros.qos import SENSOR_DATA, matching_qos
 
     def left() -> float | None:
         return None if args.timeout is None else args.timeout - (time.monotonic() - started)
 
-    context = graph_session(verb)
-    session = context.__enter__()
+    stack = ExitStack()
+    session = stack.enter_context(graph_session(verb))
     try:
+        node = session.node
+        topic = args.topic
         msg_type = args.message_type
         if not msg_type:
-            types = topic_types(session, args.topic, timeout=left())
-            if len(types) > 1:
-                # A subscription takes one type: the other publishers would go unheard.
-                raise CommandFailed(
-                    f"cannot {_DOING[verb]} {args.topic}: it has more than one type "
-                    f"({', '.join(types)}); give the type"
-                )
-            msg_type = types[0]
+            msg_type = _one_type(verb, topic, topic_types(session, topic, timeout=left()))
+        elif verb == "echo" and args.qos_profile is None:
+            _await_publishers(session, topic, left)
         msg_class = message_class(msg_type)
-        if args.qos_profile is None:
-            # The QoS is matched to the publishers: chosen before they are discovered it is
-            # reliable and volatile, which misses a latched message and hears no best-effort
-            # publisher. With no publisher in time, that default it is.
-            node = session.node
-            session.spin_until(lambda: bool(node.get_publishers_info_by_topic(args.topic)), left())
-        qos = choose_qos(session, args.topic, args.qos_profile)
+        if not args.message_type:
+            # Discovery went on while the type's module was imported.
+            _one_type(verb, topic, dict(node.get_topic_names_and_types()).get(topic, [msg_type]))
+        notes: list[str] = []
         try:
-            session.node.create_subscription(msg_class, args.topic, on_message, qos, raw=raw)
+            if verb == "echo" and follows_publishers(args):
+                # A switch of its QoS is said on stderr by the echo (Subscribed.notes), in
+                # pyconnect's words; rcl's log line would say it a second time.
+                node.get_logger().set_level(LoggingSeverity.WARN)
+                follower = EchoSubscription(
+                    node, msg_class=msg_class, topic=topic, callback=on_message, raw=raw, args=args
+                )
+                stack.callback(follower.close)  # before the session: the reader needs its node
+                notes = follower.notes
+            else:
+                publishers = node.get_publishers_info_by_topic(topic)
+                default = matching_qos(publishers, depth=10) if verb == "echo" else SENSOR_DATA
+                qos = requested_qos(args, default)
+                node.create_subscription(msg_class, topic, on_message, qos, raw=raw)
         except rclpy_implementation.RCLError as error:
-            raise endpoint_failure(error, f"subscribe to {args.topic}") from None
+            raise endpoint_failure(error, f"subscribe to {topic}") from None
     except BaseException:
-        context.__exit__(None, None, None)
+        stack.close()
         raise
-    return context, session, interface_name(msg_class)
+    return Subscribed(stack, session, interface_name(msg_class), notes)
 
 
 def no_message_reason(topic: str, msg_type: str, published: list[str], timeout: float) -> str:

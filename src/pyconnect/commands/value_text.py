@@ -13,7 +13,7 @@ from typing import Any
 import numpy as np
 import yaml
 
-__all__ = ["field_of", "format_value", "plain_value", "to_json", "to_yaml"]
+__all__ = ["abbreviated_fields", "field_of", "format_value", "plain_value", "to_json", "to_yaml"]
 
 
 class _Summary:
@@ -48,6 +48,52 @@ def _summarise(value: Any) -> Any:
     if isinstance(value, np.generic):
         return value.item()
     return value
+
+
+def _member_type_name(member: Any) -> str:
+    """A rosidl member type's name as ``ros2 topic echo --no-arr`` writes it."""
+    from rosidl_parser import definition
+
+    if isinstance(member, definition.BasicType):
+        return str(member.typename)
+    if isinstance(member, definition.AbstractWString):
+        return "wstring"
+    if isinstance(member, definition.AbstractString):
+        return "string"
+    if isinstance(member, definition.NamespacedType):
+        return "/".join(member.namespaced_name())
+    return "unknown"
+
+
+def _array_text(value: Any, member: Any) -> _Summary:
+    from rosidl_parser import definition
+
+    item = _member_type_name(member.value_type)
+    if isinstance(member, definition.Array):
+        return _Summary(f"<array type: {item}[{member.size}]>")
+    if isinstance(member, definition.BoundedSequence):
+        return _Summary(f"<sequence type: {item}[{member.maximum_size}], length: {len(value)}>")
+    return _Summary(f"<sequence type: {item}, length: {len(value)}>")
+
+
+def abbreviated_fields(msg: Any) -> dict[str, Any]:
+    """An rclpy message as a dict of its fields, each array or sequence field replaced by its
+    type and length, as ``ros2 topic echo --no-arr`` shows it (``<sequence type: double,
+    length: 2>``, ``<array type: double[9]>``); nested messages likewise."""
+    from rosidl_parser import definition
+
+    fields: dict[str, Any] = {}
+    for name, member in zip(msg.get_fields_and_field_types(), msg.SLOT_TYPES, strict=True):
+        value = getattr(msg, name)
+        if isinstance(member, definition.AbstractNestedType):
+            fields[name] = _array_text(value, member)
+        elif hasattr(value, "get_fields_and_field_types"):
+            fields[name] = abbreviated_fields(value)
+        elif isinstance(value, bytes) and len(value) == 1:  # rclpy's `byte`: shown as a number
+            fields[name] = value[0]
+        else:
+            fields[name] = value
+    return fields
 
 
 def format_value(value: Any) -> str:
