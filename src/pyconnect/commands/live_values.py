@@ -32,7 +32,7 @@ __all__ = [
     "shown_text",
 ]
 
-_IMAGE_TYPES = {"Image", "CompressedImage"}
+IMAGE_TYPES = {"Image", "CompressedImage"}
 
 
 class ImageSummary:
@@ -80,7 +80,7 @@ def echo_value(value: Any) -> Any:
     if not _is_message(value):
         return value
     decoded = codecs.decode(value)
-    if type(value).__name__ in _IMAGE_TYPES and isinstance(decoded, np.ndarray):
+    if type(value).__name__ in IMAGE_TYPES and isinstance(decoded, np.ndarray):
         encoding = str(getattr(value, "encoding", None) or getattr(value, "format", ""))
         return ImageSummary(decoded, encoding)
     return decoded

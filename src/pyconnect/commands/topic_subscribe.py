@@ -139,18 +139,23 @@ def no_message_reason(topic: str, msg_type: str, published: list[str], timeout: 
 
 
 def echo_field(msg: Any, field: str | None) -> Any:
-    """What ``echo --field`` shows of ``msg``: the field as the whole message shows it.
+    """What ``echo --field`` shows of ``msg``: the field as ``bag echo --field`` and ``ros2
+    topic echo --field`` show it, from the message's dict.
 
-    A message field is decoded as a message; any other field is taken from its message's dict,
-    as a whole message without a natural codec is shown: rclpy holds a ``byte`` as ``b'\\x00'``
-    and a ``uint8[]`` as an ``array.array``, where the dict has ``0`` and ``bytes``.
+    A message field is its dict (``pose.pose.position`` is ``{x, y, z}``, as in the whole
+    message's dict: Point's natural tuple dropped the names), but an image, which stays an
+    image (its summary); any other field is taken from its message's dict: rclpy holds a
+    ``byte`` as ``b'\\x00'`` and a ``uint8[]`` as an ``array.array``, where the dict has ``0``
+    and ``bytes``.
     """
     from pyconnect import codecs
-    from pyconnect.commands.live_values import select_field
+    from pyconnect.commands.live_values import IMAGE_TYPES, select_field
 
     value = select_field(msg, field)  # also says which part of a wrong --field is missing
-    if not field or hasattr(value, "get_fields_and_field_types"):
+    if not field:
         return value
+    if hasattr(value, "get_fields_and_field_types"):
+        return value if type(value).__name__ in IMAGE_TYPES else codecs.to_dict(value)
     parent_path, _, name = field.rpartition(".")
     fields = codecs.to_dict(select_field(msg, parent_path or None))
     return fields.get(name, value)
