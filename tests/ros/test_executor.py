@@ -4,14 +4,22 @@ from __future__ import annotations
 
 import gc
 import threading
+import time
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
+import rclpy
 import rclpy.task
+from rclpy.callback_groups import MutuallyExclusiveCallbackGroup
+from rclpy.node import Node
 from std_msgs.msg import String
 from std_srvs.srv import Trigger
 from test_msgs.action import Fibonacci
+
+from pyconnect.ros import callback_watch
+from pyconnect.ros.executor import ElasticExecutor
 
 from .conftest import EVENT_TIMEOUT, repeat_until
 from .test_shutdown import run_child
@@ -173,6 +181,135 @@ def test_quick_callbacks_run_on_events_executor_and_a_blocking_one_moves_and_ret
     count = len(seen)
     later = threading.Event()
     assert repeat_until(later, lambda: (pub.send("after"), len(seen) > count and later.set()))
+
+
+def _wait_for_handoffs(node: Any, count: int, seconds: float) -> bool:
+    reached = threading.Event()
+    for _ in range(int(seconds / 0.05)):
+        if node._executor.handoffs >= count:
+            reached.set()
+            break
+        reached.wait(0.05)
+    return reached.is_set()
+
+
+def test_a_slow_callback_right_after_the_move_back_moves_the_node_again(
+    make_node: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    # The watch sleeps while the node is elastic (1 s at a time; 20 s here). Unless the move
+    # back wakes it, a slow callback on the new EventsExecutor stops every agent until then.
+    monkeypatch.setattr(callback_watch, "IDLE_TICK", 5.0)
+    node = make_node()
+    first_started, second_started = threading.Event(), threading.Event()
+    release = threading.Event()
+
+    def on_work(value: str) -> None:
+        if value == "first":
+            first_started.set()
+        elif value == "second":
+            second_started.set()
+        release.wait(EVENT_TIMEOUT)
+
+    node.add_agent(conn_name="work", conn_type="sub", data_interface=String, response_func=on_work)
+    pub = node.add_agent(
+        conn_name="work", agent_name="work_out", conn_type="pub", data_interface=String
+    )
+    node.spin(run_thread=True)
+    try:
+        assert repeat_until(first_started, lambda: pub.send("first"))
+        assert _wait_for_handoffs(node, 1, EVENT_TIMEOUT)
+        release.set()
+        assert _wait_for_mode(node, "events")
+        release.clear()
+        pub.send("second")
+        assert second_started.wait(EVENT_TIMEOUT)
+        # Noticed after 20-120 ms when the watch is awake; it would sleep on for ~18 s.
+        assert _wait_for_handoffs(node, 2, 5.0), "the slow callback went unnoticed"
+    finally:
+        release.set()
+
+
+@pytest.fixture
+def elastic_node() -> Iterator[tuple[Node, ElasticExecutor, list[float]]]:
+    """A raw rclpy node on an ElasticExecutor (handoff_after 20 ms) not spinning yet, and the
+    times its monitor thread looks at the turn (it takes the turn's lock to look)."""
+    context = rclpy.Context()
+    rclpy.init(context=context, args=[])
+    node = Node("elastic_monitor_test", context=context)
+    executor = ElasticExecutor(context=context, handoff_after=0.02)
+    looks: list[float] = []
+
+    class SeenTurn(threading.Condition):
+        def __enter__(self) -> bool:
+            if threading.current_thread().name == "pyconnect-executor-monitor":
+                looks.append(time.monotonic())
+            return super().__enter__()
+
+    executor._turn = SeenTurn()
+    executor.add_node(node)
+    yield node, executor, looks
+    executor.shutdown(timeout_sec=EVENT_TIMEOUT)
+    node.destroy_node()
+    rclpy.try_shutdown(context=context)
+
+
+def _spin_until_quiet(node: Node, executor: ElasticExecutor) -> None:
+    """Spin ``executor`` in a thread, run one quick callback, then leave the node idle."""
+    ran = threading.Event()
+    quick = node.create_guard_condition(ran.set, MutuallyExclusiveCallbackGroup())
+    threading.Thread(target=executor.spin, daemon=True).start()
+    quick.trigger()
+    assert ran.wait(EVENT_TIMEOUT)
+    # Nothing can end this wait: the monitor settles into its idle way of looking.
+    threading.Event().wait(0.5)
+
+
+def test_the_elastic_monitor_does_not_wake_while_the_node_is_idle(
+    elastic_node: tuple[Node, ElasticExecutor, list[float]],
+) -> None:
+    node, executor, looks = elastic_node
+    _spin_until_quiet(node, executor)
+    count = len(looks)
+    threading.Event().wait(1.0)
+    assert len(looks) == count, "the monitor woke while no callback ran"
+
+
+def test_the_elastic_monitor_hands_off_a_callback_that_starts_while_it_idles(
+    elastic_node: tuple[Node, ElasticExecutor, list[float]],
+) -> None:
+    # Right after a look of an idle monitor, a long callback starts: the other callbacks must
+    # get a turn within ~handoff_after, not at the next of the idle looks 0.25 s apart.
+    node, executor, looks = elastic_node
+    release, slow_started, quick_ran = threading.Event(), threading.Event(), threading.Event()
+    ran_at: list[float] = []
+
+    def slow() -> None:
+        slow_started.set()
+        release.wait(EVENT_TIMEOUT)
+
+    def quick() -> None:
+        ran_at.append(time.monotonic())
+        quick_ran.set()
+
+    slow_guard = node.create_guard_condition(slow, MutuallyExclusiveCallbackGroup())
+    quick_guard = node.create_guard_condition(quick, MutuallyExclusiveCallbackGroup())
+    _spin_until_quiet(node, executor)
+    try:
+        count = len(looks)
+        aligned = threading.Event()
+        for _ in range(50):  # a monitor that looks while idle does so within 0.5 s
+            if len(looks) > count:
+                aligned.set()
+                break
+            aligned.wait(0.01)
+        start = looks[-1] if aligned.is_set() else time.monotonic()
+        slow_guard.trigger()
+        assert slow_started.wait(EVENT_TIMEOUT)
+        quick_guard.trigger()
+        assert quick_ran.wait(EVENT_TIMEOUT)
+        assert ran_at[0] - start < 0.2, f"handed off after {ran_at[0] - start:.3f} s"
+    finally:
+        release.set()
 
 
 def test_a_node_with_an_action_agent_uses_the_elastic_executor(make_node: Any) -> None:

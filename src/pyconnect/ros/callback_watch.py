@@ -8,7 +8,9 @@ what is not wrapped (an action goal), the dispatcher stopped returning from its 
 The watch costs nothing while the node is idle: the monitor parks until a callback starts,
 looks every ``BUSY_TICK`` while callbacks keep coming, every ``handoff_after`` while one is
 running, and otherwise checks every ``IDLE_TICK`` seconds whether the dispatching thread still
-returns. A slow callback is thus noticed after 20-120 ms. The wrapper runs per message on a
+returns. A slow callback is thus noticed after 20-120 ms. While the node is on the elastic
+executor (which watches its own callbacks) the monitor sleeps; the move back wakes it, so the
+first slow callback afterwards is noticed as quickly. The wrapper runs per message on a
 cold cache (bench/agents.py: the whole tick of a 100 Hz timer is ~200 us of CPU there), so it
 is a few attribute stores and takes no lock unless a move held its callback's group. Only the
 held callback's own return ends the hold: callbacks of other agents, which go on running on the
@@ -165,11 +167,13 @@ class CallbackWatch:
         running: tuple[Any, Any] | None = None
         while not self._stopping:
             if self._elastic is not None:
-                # The elastic executor's own monitor watches its callbacks: look now and then
-                # whether the node is back on EventsExecutor (wrappers do not wake us: not parked).
+                # The elastic executor's own monitor watches its callbacks meanwhile. The move
+                # back wakes us (wrappers do not: not parked); the timeout only notices a
+                # shutdown that the elastic executor saw on its own thread.
                 self._monitor_wake.wait(IDLE_TICK * 4)
                 self._monitor_wake.clear()
-                last_seq, last_returns, quiet, ticking = self._seq, self._returns, 0, True
+                # Start afresh, parked: nothing of the looks before the move is still true.
+                last_seq, last_returns, quiet, ticking = self._seq, self._returns, 0, False
                 running = None
                 continue
             started = time.monotonic()
@@ -182,9 +186,11 @@ class CallbackWatch:
                     else max(BUSY_TICK, self._handoff_after)
                 )
             else:
-                # Parked: a wrapped callback wakes us; the idle tick catches unwrapped ones.
+                # Parked: a wrapped callback wakes us; the idle tick catches unwrapped ones. A
+                # callback that started since the last look did not see the flag: look now.
                 self._monitor_parked = True
-                self._monitor_wake.wait(IDLE_TICK * 2)
+                if self._seq == last_seq and self._running is None:
+                    self._monitor_wake.wait(IDLE_TICK * 2)
                 self._monitor_parked = False
             self._monitor_wake.clear()
             if self._stopping:

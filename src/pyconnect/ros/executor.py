@@ -10,13 +10,15 @@ in C++, so a callback cannot hand the loop to another thread.
 This executor keeps the single-threaded fast path and adds one idea, the *turn*: exactly one
 thread at a time (the owner) waits for work and runs the callback it got, inline. When the
 owner's callback blocks (``wait_for`` called from it, i.e. a blocking ``send()``) or runs longer
-than ``handoff_after`` seconds (seen by a monitor thread that ticks at that period), the turn
-passes to a standby thread, started on demand, which keeps spinning while the old owner finishes
-its callback and then becomes a standby itself. Callback groups keep their rclpy meaning: the
+than ``handoff_after`` seconds (seen by a monitor thread: it looks ``handoff_after`` after a
+callback starts, every ``BUSY_LOOK`` while callbacks keep coming, and parks while none comes,
+woken by the next callback to start; so after 20-120 ms), the turn passes to a standby thread,
+started on demand, which keeps spinning while the old owner finishes its callback and then
+becomes a standby itself. Callback groups keep their rclpy meaning: the
 agents put each of their entities in their own mutually exclusive group, so one agent's
 callbacks never overlap (messages stay in order) while different agents run side by side when
 one of them is slow. On the fast path the cost over ``SingleThreadedExecutor`` is two
-uncontended lock round trips per callback.
+uncontended lock round trips and a few attribute stores per callback.
 """
 
 # rclpy 7.1 ships py.typed but leaves most functions unannotated.
@@ -47,6 +49,9 @@ from pyconnect.ros.waiting import EventLike, running_thread
 
 DEFAULT_HANDOFF_AFTER = 0.02
 """Seconds a callback may hold the turn before another thread takes over spinning."""
+
+BUSY_LOOK = 0.1
+"""Seconds between the monitor's looks while callbacks come but none ran at the last look."""
 
 _STANDBY_LIMIT = 1
 """Idle helper threads kept beyond the spinning ones; extra helpers end when they go idle."""
@@ -79,6 +84,10 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
         self._helpers: list[threading.Thread] = []
         self._monitor: threading.Thread | None = None
         self._monitor_stop = threading.Event()
+        # Callbacks started so far, and whether the monitor is parked until the next one starts.
+        self._started = 0
+        self._monitor_parked = False
+        self._monitor_wake = threading.Event()
         self._waker = _DeadlineWaker(self.wake)
         self._running = 0
         self._last_handoff = time.monotonic()
@@ -205,6 +214,7 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
             self._stopping = True
             self._turn.notify_all()
         self._monitor_stop.set()
+        self._monitor_wake.set()
         self._waker.stop()
         # The guard condition may already be destroyed.
         with contextlib.suppress(Exception):
@@ -279,6 +289,9 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
                 return False
             # Read by the monitor without the lock: a stale value only costs a spare hand-off.
             self._busy_since = time.monotonic()
+            self._started += 1
+            if self._monitor_parked:  # only the first callback after a quiet spell
+                self._monitor_wake.set()
             with self._turn:
                 self._running += 1
             try:
@@ -330,19 +343,38 @@ class ElasticExecutor(Executor):  # type: ignore[misc]
 
     def _monitor_loop(self) -> None:
         """Hand the turn off when the owner's callback has run for longer than ``handoff_after``."""
-        quiet = 0
-        # After a few looks without a running callback it looks 4 times a second only (an idle
-        # node then costs next to nothing; a slow callback is noticed within 0.25 s).
-        while not self._monitor_stop.wait(self._handoff_after if quiet < 5 else 0.25):
+        seen, came = self._started, False
+        since: float | None = None
+        while not self._monitor_stop.is_set():
+            if since is not None:
+                # A callback ran at the last look: look again once it has run handoff_after.
+                self._monitor_wake.wait(max(since + self._handoff_after - time.monotonic(), 1e-3))
+            elif came:
+                # Callbacks come, none ran at the last look: one that starts now and runs long
+                # is seen at the next look (a wake-up per BUSY_LOOK under a steady stream,
+                # rather than one per callback).
+                self._monitor_wake.wait(max(BUSY_LOOK, self._handoff_after))
+            else:
+                # Quiet: no wake-ups until a callback starts and wakes us. One that started
+                # since the last look did not see the flag: look now.
+                self._monitor_parked = True
+                if self._started == seen and self._busy_since is None:
+                    self._monitor_wake.wait()
+                self._monitor_parked = False
+            self._monitor_wake.clear()
+            if self._monitor_stop.is_set():
+                return
             with self._turn:
                 owner, since = self._owner, self._busy_since
-            quiet = quiet + 1 if since is None else 0
+            started = self._started
+            came, seen = started != seen, started
             if (
                 owner is not None
                 and since is not None
                 and time.monotonic() - since >= self._handoff_after
             ):
                 self._hand_off(owner)
+                since = None
 
     def _report(self, error: BaseException) -> None:
         if self._on_error is not None:

@@ -133,6 +133,9 @@ class ExecutorMoves(CallbackWatch):
             self._elastic = None
             self._elastic_thread = None
             nodes = list(self._nodes)
+        # The watch sleeps while elastic: left asleep, it would miss the next slow callback on
+        # EventsExecutor for up to a second, and every other agent would wait that long.
+        self._monitor_wake.set()
         for node in nodes:
             node.executor = events
         self.adopt()
