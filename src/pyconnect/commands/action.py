@@ -142,8 +142,7 @@ def _info(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
 
 
 def _send_goal(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
-    from pyconnect.commands.graph import CommandFailed, graph_session, report_failure
-    from pyconnect.commands.live_values import shown_line
+    from pyconnect.commands.graph import graph_session, report_failure
     from pyconnect.commands.value_input import message_template
     from pyconnect.errors import PyconnectError
     from pyconnect.ros.interfaces import interface_class
@@ -156,43 +155,54 @@ def _send_goal(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         return report_failure(error, err)
     with graph_session("action") as session:
         client = RaceFreeActionClient(session.node, action_class, args.action_name)
-        if not client.server_is_ready():
-            print("Waiting for an action server to become available...", file=out, flush=True)
-        if not session.spin_until(client.server_is_ready, args.timeout):
-            return report_failure(
-                CommandFailed(f"action server {args.action_name} not available"), err
-            )
-        goal = template.stamped()  # `now` / `auto`: the time it is sent, not of the wait
-        print(f"Sending goal:\n     {shown_line(goal, err)}\n", file=out, flush=True)
-
-        def on_feedback(message: Any) -> None:
-            print(f"Feedback:\n    {shown_line(message.feedback, err)}\n", file=out, flush=True)
-
-        sent: Any = client.send_goal_async(
-            goal, feedback_callback=on_feedback if args.feedback else None
-        )
-        if not session.spin_until(sent.done, args.timeout):
-            return report_failure(CommandFailed("the goal was neither accepted nor rejected"), err)
-        handle = sent.result()
-        if not handle.accepted:
-            return report_failure(CommandFailed("Goal was rejected."), err)
-        print(
-            f"Goal accepted with ID: {uuid.UUID(bytes=bytes(handle.goal_id.uuid)).hex}\n", file=out
-        )
-        result: Any = handle.get_result_async()
         try:
-            if not session.spin_until(result.done, args.timeout):
-                outcome = _cancel(session, handle)
-                return report_failure(
-                    CommandFailed(f"no result within {args.timeout:g} s: {outcome}"), err
-                )
-        except KeyboardInterrupt:
-            _cancel(session, handle)
-            raise
-        answer = result.result()
-        print(f"Result:\n    {shown_line(answer.result, err)}\n", file=out)
-        status = _STATUS.get(answer.status, str(answer.status))
-        print(f"Goal finished with status: {status}", file=out, flush=True)
+            return _run_goal(args, session, client, template, out=out, err=err)
+        finally:
+            # Destroying the node leaves an action client's endpoints in the graph (it is no
+            # entity of the node's): a later command in this process would list it.
+            client.destroy()
+
+
+def _run_goal(
+    args: argparse.Namespace, session: Any, client: Any, template: Any, *, out: TextIO, err: TextIO
+) -> int:
+    """``send_goal`` once its client exists: wait for the server, send, print what comes."""
+    from pyconnect.commands.graph import CommandFailed, report_failure
+    from pyconnect.commands.live_values import shown_line
+
+    if not client.server_is_ready():
+        print("Waiting for an action server to become available...", file=out, flush=True)
+    if not session.spin_until(client.server_is_ready, args.timeout):
+        return report_failure(CommandFailed(f"action server {args.action_name} not available"), err)
+    goal = template.stamped()  # `now` / `auto`: the time it is sent, not of the wait
+    print(f"Sending goal:\n     {shown_line(goal, err)}\n", file=out, flush=True)
+
+    def on_feedback(message: Any) -> None:
+        print(f"Feedback:\n    {shown_line(message.feedback, err)}\n", file=out, flush=True)
+
+    sent: Any = client.send_goal_async(
+        goal, feedback_callback=on_feedback if args.feedback else None
+    )
+    if not session.spin_until(sent.done, args.timeout):
+        return report_failure(CommandFailed("the goal was neither accepted nor rejected"), err)
+    handle = sent.result()
+    if not handle.accepted:
+        return report_failure(CommandFailed("Goal was rejected."), err)
+    print(f"Goal accepted with ID: {uuid.UUID(bytes=bytes(handle.goal_id.uuid)).hex}\n", file=out)
+    result: Any = handle.get_result_async()
+    try:
+        if not session.spin_until(result.done, args.timeout):
+            outcome = _cancel(session, handle)
+            return report_failure(
+                CommandFailed(f"no result within {args.timeout:g} s: {outcome}"), err
+            )
+    except KeyboardInterrupt:
+        _cancel(session, handle)
+        raise
+    answer = result.result()
+    print(f"Result:\n    {shown_line(answer.result, err)}\n", file=out)
+    status = _STATUS.get(answer.status, str(answer.status))
+    print(f"Goal finished with status: {status}", file=out, flush=True)
     return 0
 
 
