@@ -64,28 +64,13 @@ class _ScalarCodec(FieldsCodec):
     """
 
     _checked: set[type]
-    _value_class: type
-    """The class of ``data`` in rclpy's messages and the wire views: returned as it is."""
 
     def __init__(self) -> None:
         self._checked = set()
 
-    def decode(self, msg: Any) -> Any:
-        if msg.__class__ not in self._checked:
-            check_message_type(msg, self.msg_type)
-            self._checked.add(msg.__class__)
-        try:
-            data = msg.data
-        except AttributeError as error:  # free until raised: a Point(), a class
-            raise decode_failure(error, msg, self.msg_type) from None
-        # .__class__ costs what str() did (which turned an Int32's 5 into "5"), type() more.
-        if data.__class__ is self._value_class:
-            return data
-        return self._converted(data)
-
-    def _converted(self, data: Any) -> Any:
-        """``data`` of another class (a stand-in's numpy scalar), or ``DecodeError``."""
-        raise NotImplementedError
+    def _check_class(self, msg: Any) -> None:
+        check_message_type(msg, self.msg_type)
+        self._checked.add(msg.__class__)
 
 
 class IntCodec(_ScalarCodec):
@@ -99,9 +84,15 @@ class IntCodec(_ScalarCodec):
         self.kind = _INT_TYPES[name]
         self.msg_type = f"std_msgs/msg/{name}"
 
-    _value_class = int
-
-    def _converted(self, data: Any) -> int:
+    def decode(self, msg: Any) -> int:
+        if msg.__class__ not in self._checked:
+            self._check_class(msg)
+        try:
+            data = msg.data
+        except AttributeError as error:  # free until raised: a Point(), a class
+            raise decode_failure(error, msg, self.msg_type) from None
+        if data.__class__ is int:  # rclpy's and the views' value; a class or a Float64 is not
+            return data
         if isinstance(data, numbers.Integral) and not isinstance(data, bool):
             return int(data)  # a numpy integer of a stand-in
         raise DecodeError(f"{self.name}.data: expected int, got {type_name_of(data)}")
@@ -121,9 +112,15 @@ class FloatCodec(_ScalarCodec):
         self.msg_type = f"std_msgs/msg/{name}"
         self._check = check_float32 if name == "Float32" else check_float
 
-    _value_class = float
-
-    def _converted(self, data: Any) -> float:
+    def decode(self, msg: Any) -> float:
+        if msg.__class__ not in self._checked:
+            self._check_class(msg)
+        try:
+            data = msg.data
+        except AttributeError as error:  # free until raised: a Point(), a class
+            raise decode_failure(error, msg, self.msg_type) from None
+        if data.__class__ is float:  # rclpy's and the views' value; a class or an Int32 is not
+            return data
         if isinstance(data, numbers.Real) and not isinstance(data, bool):
             return float(data)  # a numpy float or an int of a stand-in
         raise DecodeError(f"{self.name}.data: expected float, got {type_name_of(data)}")
@@ -138,9 +135,15 @@ class BoolCodec(_ScalarCodec):
     msg_type = "std_msgs/msg/Bool"
     lossless = True
 
-    _value_class = bool
-
-    def _converted(self, data: Any) -> bool:
+    def decode(self, msg: Any) -> bool:
+        if msg.__class__ not in self._checked:
+            self._check_class(msg)
+        try:
+            data = msg.data
+        except AttributeError as error:  # free until raised: a Point(), a class
+            raise decode_failure(error, msg, self.msg_type) from None
+        if data.__class__ is bool:  # rclpy's and the views' value; a class or an Int32 is not
+            return data
         if isinstance(data, numbers.Integral) or getattr(data, "dtype", None) in _NUMPY_BOOL:
             return bool(data)  # a numpy bool or a 0/1 of a stand-in
         raise DecodeError(f"Bool.data: expected bool, got {type_name_of(data)}")
@@ -155,11 +158,17 @@ class ByteCodec(_ScalarCodec):
     msg_type = "std_msgs/msg/Byte"
     lossless = True
 
-    _value_class = int  # the views'
-
-    def _converted(self, data: Any) -> int:
+    def decode(self, msg: Any) -> int:
+        if msg.__class__ not in self._checked:
+            self._check_class(msg)
+        try:
+            data = msg.data
+        except AttributeError as error:  # free until raised: a Point(), a class
+            raise decode_failure(error, msg, self.msg_type) from None
         if data.__class__ is bytes:  # rclpy's 1-byte bytes
             return data[0]
+        if data.__class__ is int:  # the views'
+            return data
         if isinstance(data, bytes | bytearray) and len(data) == 1:
             return data[0]
         if isinstance(data, numbers.Integral) and not isinstance(data, bool):
@@ -176,9 +185,16 @@ class StringCodec(_ScalarCodec):
     msg_type = "std_msgs/msg/String"
     lossless = True
 
-    _value_class = str
-
-    def _converted(self, data: Any) -> str:
+    def decode(self, msg: Any) -> str:
+        if msg.__class__ not in self._checked:
+            self._check_class(msg)
+        try:
+            data = msg.data
+        except AttributeError as error:  # free until raised: a Point(), a class
+            raise decode_failure(error, msg, self.msg_type) from None
+        # str(data) turned an Int32's 5 into "5"; .__class__ costs what str() did, type() more.
+        if data.__class__ is str:
+            return data
         if isinstance(data, str):
             return str(data)  # numpy.str_
         raise DecodeError(f"String.data: expected str, got {type_name_of(data)}")
