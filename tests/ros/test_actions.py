@@ -16,7 +16,12 @@ from std_srvs.srv import Empty
 from test_msgs.action import Fibonacci, NestedMessage
 
 from pyconnect.errors import PyconnectError
-from pyconnect.ros import node_shutdown, retaining_action_server
+from pyconnect.ros import (
+    action_client_agent,
+    action_server_agent,
+    node_shutdown,
+    retaining_action_server,
+)
 
 from .conftest import EVENT_TIMEOUT, server_and_client, wait_for_the_result_request
 from .manual_clock import loop_in_a_thread, manual_clock_loop, run_on
@@ -676,3 +681,69 @@ def test_a_blocking_send_on_the_nodes_loop_thread_raises(make_node: Any, loop_ki
         "`await agent.send_async(...)` there instead"
     )
     assert awaited == {"sequence": [3], "isdone": True}
+
+
+def test_an_action_server_that_fails_half_way_leaves_no_reason_publisher(
+    make_node: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    node = make_node()
+
+    def refuse(*_args: Any, **_kwargs: Any) -> Any:
+        raise ValueError("Failed to create action server")
+
+    # rcl refuses e.g. a negative result_timeout only here, after the reason publisher exists.
+    monkeypatch.setattr(action_server_agent, "RetainingActionServer", refuse)
+    with pytest.raises(ValueError, match="Failed to create action server"):
+        node.add_agent(
+            conn_name="fib", conn_type="action_server", data_interface=Fibonacci,
+            response_func=fibonacci,
+        )  # fmt: skip
+    assert "fib" not in node.agents
+    assert node.ros_node.count_publishers("/fib/_action/abort_reason") == 0
+
+
+def test_an_action_client_that_fails_half_way_leaves_no_action_client(
+    make_node: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    node = make_node()
+
+    def refuse(*_args: Any, **_kwargs: Any) -> Any:
+        raise RuntimeError("no subscription today")
+
+    monkeypatch.setattr(action_client_agent, "AbortReasons", refuse)
+    with pytest.raises(RuntimeError, match="no subscription today"):
+        node.add_agent(conn_name="fib", conn_type="action_client", data_interface=Fibonacci)
+    assert "fib" not in node.agents
+    assert node.ros_node.count_subscribers("/fib/_action/status") == 0
+    assert node.ros_node.count_subscribers("/fib/_action/feedback") == 0
+
+
+def test_a_goal_with_a_wrong_feedback_func_or_block_raises_before_it_is_sent(
+    make_node: Any,
+) -> None:
+    server_node, client = server_and_client(
+        make_node, "wrong_call", "action", Fibonacci, lambda goal: {"sequence": [goal["order"]]}
+    )
+    hint = "; pass the function itself, not its name"
+    calls: list[tuple[str, Callable[[], object]]] = [
+        (
+            f"send: feedback_func: expected a callable or None, got str 'print'{hint}",
+            lambda: client.send({"order": 2}, feedback_func="print"),
+        ),
+        (
+            "send: feedback_func: expected a callable or None, got int 3",
+            lambda: client.send({"order": 2}, feedback_func=3, block=False),
+        ),
+        ("send: block: expected bool, got str 'no'", lambda: client.send({"order": 2}, block="no")),
+        ("send: block: expected bool, got NoneType None", lambda: client.send(block=None)),
+        (
+            f"send_async: feedback_func: expected a callable or None, got str 'print'{hint}",
+            lambda: asyncio.run(client.send_async({"order": 2}, feedback_func="print")),
+        ),
+    ]
+    for problem, make_the_call in calls:
+        with pytest.raises(PyconnectError) as caught:
+            make_the_call()
+        assert str(caught.value) == f"{CLIENT}: {problem}"
+    assert client.send({"order": 3}) == {"sequence": [3], "isdone": True}
+    assert server_node.agents["served"].goal_count == 1  # no goal of the wrong calls was sent

@@ -482,3 +482,20 @@ def test_a_sub_counts_the_messages_dds_lost_and_warns_once(
         "before they reached the subscription (the agent's lost_count counts on)"
     ]
     assert "6 lost on the way" in sub.info_text()
+
+
+def test_a_pub_whose_timer_fails_leaves_no_publisher_behind(
+    make_node: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    node = make_node()
+
+    def refuse(*_args: Any, **_kwargs: Any) -> Any:
+        raise RuntimeError("no timer today")
+
+    # The step after the publisher's creation fails (as rclpy's refusal of a period does).
+    monkeypatch.setattr(node.ros_node, "create_timer", refuse)
+    with pytest.raises(RuntimeError, match="no timer today"):
+        node.add_agent(conn_name="ghost", conn_type="pub", data_interface=String, time_period=0.1)
+    monkeypatch.undo()
+    assert "ghost" not in node.agents
+    assert node.ros_node.count_publishers("/ghost") == 0

@@ -35,8 +35,16 @@ _KEPT = 256
 
 
 def abort_reason_topic(ros_node: Any, action_name: str) -> str:
-    """The reason topic beside the action's own hidden topics (remapping applied)."""
-    return f"{ros_node.resolve_topic_name(action_name)}/_action/abort_reason"
+    """The reason topic beside the action's own hidden topics: ``action_name`` expanded (node
+    namespace, ``~``, substitutions) but not remapped.
+
+    Why not remapped: rcl_action (Jazzy) expands an action's name and then remaps each hidden
+    topic and service by its full name, so ``-r fib:=fibonacci`` leaves the action on ``/fib``.
+    Remapping the action name here moved only the reason away from the action, and clients
+    lost its text. The full name given to ``create_publisher``/``create_subscription`` is still
+    remapped by rules naming it, as each hidden name of the action is.
+    """
+    return f"{ros_node.resolve_topic_name(action_name, only_expand=True)}/_action/abort_reason"
 
 
 def goal_key(goal_id: Any) -> str:

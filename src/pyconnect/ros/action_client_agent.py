@@ -33,6 +33,7 @@ from action_msgs.msg import GoalStatus
 from rclpy.callback_groups import CallbackGroup
 from rclpy.task import Future as RosFuture
 
+from pyconnect.errors import PyconnectError
 from pyconnect.ros.abort_reasons import AbortReasons
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
@@ -103,7 +104,13 @@ class ActionClientAgent(NodeAgent):
             result_service_qos_profile=REQUESTS,
             cancel_service_qos_profile=REQUESTS,
         )
-        self._abort_reasons = AbortReasons(node.ros_node, conn_name)
+        try:
+            self._abort_reasons = AbortReasons(node.ros_node, conn_name)
+        except BaseException:
+            # The agent is not added: its action client would stay on the graph, owned by
+            # nothing, until the node ends.
+            self.client.destroy()
+            raise
         self._pending = PendingCalls(
             node,
             agent_name=self.name,
@@ -126,6 +133,7 @@ class ActionClientAgent(NodeAgent):
     ) -> Any:
         """Send a goal; the decoded result (or a future of it) through ``reform_response``."""
         timeout = call_timeout(timeout, self.timeout, where=f"{self.describe}: send")
+        self._check_call_options("send", feedback_func=feedback_func, block=block)
         if block:
             self.refuse_to_block_on_loop("send()")
         feedback_func = self.feedback_func if feedback_func is None else feedback_func
@@ -194,11 +202,30 @@ class ActionClientAgent(NodeAgent):
     ) -> Any:
         """``send(goal)`` awaited on the caller's asyncio loop; a timeout cancels the goal."""
         timeout = call_timeout(timeout, self.timeout, where=f"{self.describe}: send_async")
+        self._check_call_options("send_async", feedback_func=feedback_func, block=False)
         future = self.send(data, timeout=timeout, feedback_func=feedback_func, block=False)
         # One timer, the goal's own (PendingCalls answers a late goal as failed and cancels it,
         # and response_func gets that answer): a second one here raced it, and response_func
         # saw a goal that timed out twice. The awaiting task's cancellation cancels the goal.
         return await asyncio.wrap_future(future)
+
+    def _check_call_options(self, where: str, *, feedback_func: object, block: object) -> None:
+        """Refuse a call's wrong ``feedback_func`` or ``block`` before its goal goes out (the
+        agent's options are checked when it is added): a string ``feedback_func`` sent the goal
+        and then failed at every feedback, and ``block="no"`` blocked."""
+        if feedback_func is not None and not callable(feedback_func):
+            hint = (
+                "; pass the function itself, not its name" if isinstance(feedback_func, str) else ""
+            )
+            raise PyconnectError(
+                f"{self.describe}: {where}: feedback_func: expected a callable or None, "
+                f"got {type(feedback_func).__name__} {feedback_func!r}{hint}"
+            )
+        if not isinstance(block, bool):
+            raise PyconnectError(
+                f"{self.describe}: {where}: block: expected bool, "
+                f"got {type(block).__name__} {block!r}"
+            )
 
     def _respond(self, value: Any) -> Any:
         """Hand ``send()``'s return value to ``response_func`` too, and return it."""

@@ -119,20 +119,26 @@ class ActionServerAgent(NodeAgent):
         # A goal ends once: its handler's end and the shutdown's abort (close) never interleave.
         self._ending = threading.Lock()
         self._abort_reasons = AbortReasonPublisher(node.ros_node, conn_name)
-        self.server = RetainingActionServer(
-            node.ros_node,
-            action_class,
-            conn_name,
-            execute_callback=self._execute,
-            goal_callback=lambda _goal: GoalResponse.ACCEPT,
-            cancel_callback=lambda _request: CancelResponse.ACCEPT,
-            callback_group=self.callback_group,
-            goal_service_qos_profile=REQUESTS,
-            result_service_qos_profile=REQUESTS,
-            cancel_service_qos_profile=REQUESTS,
-            result_timeout=result_timeout,
-            result_cache_seconds=result_cache_seconds,
-        )
+        try:
+            self.server = RetainingActionServer(
+                node.ros_node,
+                action_class,
+                conn_name,
+                execute_callback=self._execute,
+                goal_callback=lambda _goal: GoalResponse.ACCEPT,
+                cancel_callback=lambda _request: CancelResponse.ACCEPT,
+                callback_group=self.callback_group,
+                goal_service_qos_profile=REQUESTS,
+                result_service_qos_profile=REQUESTS,
+                cancel_service_qos_profile=REQUESTS,
+                result_timeout=result_timeout,
+                result_cache_seconds=result_cache_seconds,
+            )
+        except BaseException:
+            # The agent is not added (rcl refused e.g. a negative result_timeout): its reason
+            # publisher would stay on the graph, owned by nothing, until the node ends.
+            self._abort_reasons.destroy(node.ros_node)
+            raise
 
     def _execute(self, goal_handle: Any) -> Any:
         self.goal_count += 1

@@ -122,12 +122,20 @@ class PublisherAgent(NodeAgent):
             resolve_qos(qos, msg_type=self.type_name, publisher=True),
             callback_group=self.callback_group,
         )
-        self.topic = self.publisher.topic_name
-        self.timer = (
-            ros_node.create_timer(time_period, self._on_period, callback_group=self.callback_group)
-            if time_period is not None
-            else None
-        )
+        try:
+            self.topic = self.publisher.topic_name
+            self.timer = (
+                ros_node.create_timer(
+                    time_period, self._on_period, callback_group=self.callback_group
+                )
+                if time_period is not None
+                else None
+            )
+        except BaseException:
+            # The agent is not added: a publisher left behind would stay on the graph, owned
+            # by nothing, until the node ends.
+            ros_node.destroy_publisher(self.publisher)
+            raise
 
     @property
     def subscriber_count(self) -> int:
