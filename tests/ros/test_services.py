@@ -332,6 +332,10 @@ def test_a_call_with_a_wrong_timeout_raises_before_its_request_is_sent(make_node
             f"send_async: {TIMEOUT_WORDS} '2'",
             lambda: asyncio.run(client.send_async({"data": False}, timeout="2")),
         ),
+        (
+            "send: block: expected bool, got str 'no'",
+            lambda: client.send({"data": False}, block="no"),
+        ),
     ]
     for problem, make_the_call in calls:
         with pytest.raises(PyconnectError) as caught:

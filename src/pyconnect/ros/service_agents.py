@@ -33,6 +33,7 @@ from typing import Any
 from rclpy.callback_groups import CallbackGroup
 from rclpy.task import Future as RosFuture
 
+from pyconnect.errors import PyconnectError
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.error_fields import error_message, text_field
@@ -216,6 +217,10 @@ class ServiceClientAgent(NodeAgent):
     def send(self, data: Any = None, *, timeout: float | None = None, block: bool = True) -> Any:
         """Call the service with ``data``; the decoded response, or a future of it."""
         timeout = call_timeout(timeout, self.timeout, where=f"{self.describe}: send")
+        if not isinstance(block, bool):  # block="no" blocked
+            raise PyconnectError(
+                f"{self.describe}: send: block: expected bool, got {type(block).__name__} {block!r}"
+            )
         if block:
             self.refuse_to_block_on_loop("send()")
         request, _stamped = self.request_conversion.encode(data)
