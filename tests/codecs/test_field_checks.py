@@ -332,3 +332,45 @@ def test_byte_fields_refuse_other_than_one_dimension_like_every_sequence(
 ) -> None:
     expected = f"UnboundedSequences.{field}: expected a one-dimensional sequence, got numpy.ndarray"
     assert both_errors(value, field) == (expected, expected)
+
+
+@pytest.mark.parametrize(
+    ("full_name", "value", "message"),
+    [
+        (
+            "geometry_msgs/msg/Twist",
+            (np.array(0.2), np.array(0.5)),
+            "Twist.linear: expected (x, y, z), got numpy.ndarray",
+        ),
+        ("geometry_msgs/msg/Point", np.array(1.0), "Point: expected (x, y, z), got numpy.ndarray"),
+        (
+            "geometry_msgs/msg/Pose",
+            (np.array(1.0), (0.0, 0.0, 0.0, 1.0)),
+            "Pose.position: expected (x, y, z), got numpy.ndarray",
+        ),
+        (
+            "builtin_interfaces/msg/Time",
+            np.array(1_700_000_000_000_000_000),
+            "Time: expected (sec, nanosec) or int nanoseconds, got numpy.ndarray",
+        ),
+        (
+            "std_msgs/msg/ColorRGBA",
+            np.array(1.0),
+            "ColorRGBA: expected (r, g, b, a), got numpy.ndarray",
+        ),
+    ],
+)
+def test_a_0d_array_where_a_tuple_goes_is_an_encode_error_on_both_paths(
+    full_name: str, value: Any, message: str
+) -> None:
+    # A 0-d ndarray has __len__ but iterating it raises TypeError: like a scalar, it is no tuple
+    # (and, as for check_float, no number either: Twist's (v, w) shorthand takes scalars only).
+    with pytest.raises(EncodeError) as caught:
+        codecs.default_registry.encode(value, full_name)
+    assert str(caught.value) == message
+    with pytest.raises(EncodeError) as caught:
+        wire.encode(value, full_name)
+    assert str(caught.value) == message
+    with pytest.raises(EncodeError) as caught:
+        check_tuple(np.array(1.0), 3, "(x, y, z)", "Point")
+    assert str(caught.value) == "Point: expected (x, y, z), got numpy.ndarray"

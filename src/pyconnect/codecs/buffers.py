@@ -62,6 +62,10 @@ def contiguous_bytes(values: npt.NDArray[Any]) -> memoryview:
     A structured dtype with gaps (a point cloud's padding) is copied byte for byte:
     ``ascontiguousarray`` would copy its fields only and leave the gaps uninitialised.
     """
+    if values.__class__ is not np.ndarray:
+        # A subclass keeps its own rules: np.matrix stays 2-D through reshape(-1), and a
+        # masked array's .data is an ndarray. Its plain array has the same bytes.
+        values = np.asarray(values)
     if not values.flags.c_contiguous:
         if values.dtype.names is not None:
             # A trailing axis of length 1 may take any stride, so its items view as bytes.

@@ -88,7 +88,10 @@ def check_tuple(value: Any, length: int, expected: str, segment: str) -> tuple[A
         return value
     if isinstance(value, Mapping | str | bytes | bytearray) or not hasattr(value, "__len__"):
         fail(segment, expected, value)
-    items = tuple(value)
+    try:
+        items = tuple(value)
+    except TypeError:  # has __len__ but no items: a 0-d ndarray raises "iteration over a 0-d array"
+        fail(segment, expected, value)
     if len(items) != length:
         raise FieldError(
             segment, f"expected {expected}, got {describe(value)} of length {len(items)}"

@@ -6,12 +6,15 @@ pose (its ``lossless`` is False).
 
 from __future__ import annotations
 
-from typing import Any
+from collections.abc import Sequence
+from itertools import chain
+from typing import Any, NoReturn
 
 import numpy as np
 import numpy.typing as npt
 
 from pyconnect.codecs.base import check_message_type, decode_failure
+from pyconnect.codecs.field_checks import check_float
 from pyconnect.codecs.geometry import (
     GeometryCodec,
     PoseCodec,
@@ -21,6 +24,19 @@ from pyconnect.codecs.geometry import (
     xyzw_fields,
 )
 from pyconnect.errors import DecodeError, EncodeError, type_name_of
+from pyconnect.typesys.primitives import FLOAT32_OVERFLOW
+
+# Element types a list of points may hold as they are: np.asarray also takes a bool for 1.0.
+_NUMBER_TYPES = (int, float, np.integer, np.floating)
+
+
+def _only_numbers(rows: Sequence[Any]) -> bool:
+    """Whether the rows of an (N, 3) list hold only numbers: a C-level pass collects the
+    element types, of which there are one or two to test."""
+    return all(
+        issubclass(kind, _NUMBER_TYPES) and not issubclass(kind, bool)
+        for kind in set(map(type, chain.from_iterable(rows)))
+    )
 
 
 class PolygonCodec(GeometryCodec):
@@ -60,11 +76,31 @@ class PolygonCodec(GeometryCodec):
                 f"{self._name}.points: expected an (N, 3) array of floats, got "
                 f"{type_name_of(value)} of shape {array.shape} and dtype {array.dtype}"
             )
-        if array.dtype.kind == "f" and array.dtype.itemsize > 4:
-            finite = array[np.isfinite(array)]
-            if finite.size and np.abs(finite).max() > np.finfo(np.float32).max:
-                raise EncodeError(f"{self._name}.points: values exceed the float32 range")
-        return array.astype(np.float32, copy=False)
+        if not isinstance(value, np.ndarray) and not _only_numbers(value):
+            # np.asarray took a bool among floats as 1.0: name it, as Point32 would.
+            self._element_error(value)
+        with np.errstate(over="ignore"):  # what does not fit is named below
+            cast = array.astype(np.float32, copy=False)
+        if array.dtype.kind == "f" and array.dtype.itemsize > 4 and np.isinf(cast).any():
+            self._overflow_error(array, cast)
+        return cast
+
+    def _element_error(self, rows: Sequence[Any]) -> NoReturn:
+        # Only reached when the type test failed: find the element that made it fail.
+        for index, row in enumerate(rows):
+            for axis, element in zip("xyz", row, strict=True):
+                check_float(element, f"{self._name}.points[{index}].{axis}")
+        raise EncodeError(f"{self._name}.points: expected an (N, 3) array of floats")
+
+    def _overflow_error(self, array: npt.NDArray[Any], cast: npt.NDArray[np.float32]) -> None:
+        # A finite float64 past float32's range became inf; check_float32's bound and words.
+        overflow = np.flatnonzero(np.isinf(cast) & np.isfinite(array))
+        if overflow.size:
+            index, axis = divmod(int(overflow[0]), 3)
+            raise EncodeError(
+                f"{self._name}.points[{index}].{'xyz'[axis]}: expected float32 "
+                f"(|x| < {FLOAT32_OVERFLOW!r}), got {float(array[index, axis])!r}"
+            )
 
     def to_fields(self, value: Any) -> dict[str, Any]:
         array = self._checked(value)

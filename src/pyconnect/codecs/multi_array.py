@@ -116,6 +116,12 @@ class MultiArrayCodec(FieldsCodec):
                 f"{self.name}: expected an array of at least one dimension, got a 0-d array "
                 "(value.reshape(1) sends one element)"
             )
+        if value.ndim > _MAX_DIMS:
+            # Decode refuses more (numpy 2 makes up to 64): every value sent must come back.
+            raise EncodeError(
+                f"{self.name}: expected an array of at most {_MAX_DIMS} dimensions, got "
+                f"{value.ndim}"
+            )
         if value.dtype == self.dtype:
             return value
         if (

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import array
 import sys
+from collections.abc import Mapping
 from typing import Any
 
 import numpy as np
@@ -162,8 +163,10 @@ def _as_structured(value: Any) -> npt.NDArray[Any]:
 def _field_table(dtype: np.dtype[Any]) -> tuple[list[dict[str, Any]], bool]:
     fields = []
     orders = set()
-    for name, spec in (dtype.fields or {}).items():
-        field_dtype, offset = spec[0], spec[1]
+    specs: Mapping[str, tuple[Any, ...]] = dtype.fields or {}
+    # dtype.names, not the keys of dtype.fields: those also name each field by its title, if any.
+    for name in dtype.names or ():
+        field_dtype, offset = specs[name][:2]
         base = field_dtype.base if field_dtype.subdtype else field_dtype
         count = int(np.prod(field_dtype.shape)) if field_dtype.subdtype else 1
         code = _CODES.get(base.str[1:])

@@ -273,3 +273,22 @@ def test_infinities_and_nan_still_narrow_to_float32() -> None:
     value = np.array([np.inf, -np.inf, np.nan, 1.5])
     back = codecs.decode(codecs.encode(value, "std_msgs/msg/Float32MultiArray"))
     assert np.array_equal(back, value.astype(np.float32), equal_nan=True)
+
+
+@pytest.mark.parametrize("ndim", [32, 33, 64])
+def test_multi_array_encodes_only_the_dimensions_its_decode_takes(ndim: int) -> None:
+    # numpy 2 makes arrays of up to 64 dimensions; decode reads at most 32 from a layout.
+    value = np.arange(2, dtype=np.float32).reshape((1,) * (ndim - 1) + (2,))
+    full_name = "std_msgs/msg/Float32MultiArray"
+    codec = codecs.lookup(full_name)
+    if ndim <= 32:
+        assert same(codec.decode(codec.encode(value)), value)
+        assert same(codecs.wire.decode(codecs.wire.encode(value, full_name), full_name), value)
+        return
+    message = f"Float32MultiArray: expected an array of at most 32 dimensions, got {ndim}"
+    with pytest.raises(EncodeError) as error:
+        codec.encode(value)
+    assert str(error.value) == message
+    with pytest.raises(EncodeError) as error:
+        codecs.wire.encode(value, full_name)
+    assert str(error.value) == message

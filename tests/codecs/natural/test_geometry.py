@@ -156,3 +156,65 @@ def test_lossless_is_honest() -> None:
     for type_name in ("PoseStamped", "TransformStamped", "PoseArray"):
         assert codecs.lookup(f"geometry_msgs/{type_name}").lossless is False
     assert codecs.lookup("nav_msgs/Path").lossless is False
+
+
+@pytest.mark.parametrize(
+    ("type_name", "value", "message"),
+    [
+        (
+            "geometry_msgs/msg/Polygon",
+            [(1.0, True, 0.0)],
+            "Polygon.points[0].y: expected float, got bool",
+        ),
+        (
+            "geometry_msgs/msg/PolygonStamped",
+            [(1.0, 2.0, 3.0), (np.False_, 0.0, 0.0)],
+            "PolygonStamped.polygon.points[1].x: expected float, got numpy.bool",
+        ),
+        (
+            "geometry_msgs/msg/Polygon",
+            [np.array([1.0, 2.0, 3.0]), np.array([True, False, True])],
+            "Polygon.points[1].x: expected float, got numpy.bool",
+        ),
+        (
+            "geometry_msgs/msg/PoseArray",
+            [((1.0, True, 0.0), (0.0, 0.0, 0.0, 1.0))],
+            "PoseArray.poses[0].position.y: expected float, got bool",
+        ),
+        (
+            "nav_msgs/msg/Path",
+            [((0.0, 0.0, 0.0), (0.0, 0.0, True, 1.0))],
+            "Path.poses[0].orientation.z: expected float, got bool",
+        ),
+        (
+            "geometry_msgs/msg/Polygon",
+            np.array([[0.0, 0.0, 0.0], [1.0, 2.0, -1e39]]),
+            "Polygon.points[1].z: expected float32 (|x| < 3.4028235677973366e+38), got -1e+39",
+        ),
+        (
+            "geometry_msgs/msg/PolygonStamped",
+            [(1e39, 0.0, 0.0)],
+            "PolygonStamped.polygon.points[0].x: expected float32 "
+            "(|x| < 3.4028235677973366e+38), got 1e+39",
+        ),
+    ],
+)
+def test_geometry_arrays_refuse_bools_and_name_overflows_on_both_paths(
+    type_name: str, value: Any, message: str
+) -> None:
+    with pytest.raises(EncodeError) as error:
+        codecs.default_registry.encode(value, type_name)
+    assert str(error.value) == message
+    with pytest.raises(EncodeError) as error:
+        codecs.wire.encode(value, type_name)
+    assert str(error.value) == message
+
+
+def test_polygon_takes_numbers_of_every_kind_and_float32s_edge() -> None:
+    codec = codecs.lookup("geometry_msgs/msg/Polygon")
+    mixed = [(1, 2.5, np.float32(3.0)), (np.int8(-4), np.float64(5.0), 6)]
+    assert codec.decode(codec.encode(mixed)).tolist() == [[1.0, 2.5, 3.0], [-4.0, 5.0, 6.0]]
+    # Just above FLOAT32_MAX rounds to it, as struct.pack("<f") and check_float32 have it.
+    edge = np.array([[3.4028235e38 * (1 + 1e-9), np.inf, np.nan]])
+    decoded = codec.decode(codec.encode(edge))
+    assert decoded[0, 0] == np.finfo(np.float32).max and np.isinf(decoded[0, 1])

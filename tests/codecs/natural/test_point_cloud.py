@@ -361,3 +361,29 @@ def test_unnamed_fields_get_sensor_msgs_pys_names() -> None:
     with pytest.raises(DecodeError) as error:
         decode_point_cloud(msg)
     assert str(error.value) == "PointCloud2.fields: field 'unnamed_field_3' appears more than once"
+
+
+def test_field_titles_add_no_fields_on_either_path() -> None:
+    # numpy lists a titled field twice in dtype.fields (by name and by title); sensor_msgs_py's
+    # dtype_to_fields, like ours, takes one PointField per name.
+    dtype = np.dtype(
+        {
+            "names": ["x", "y", "z"],
+            "formats": ["<f4"] * 3,
+            "offsets": [0, 4, 8],
+            "titles": ["X (m)", None, None],
+            "itemsize": 12,
+        }
+    )
+    points = np.zeros(2, dtype)
+    points["x"] = [1.0, 2.0]
+    expected = [("x", 0, 7, 1), ("y", 4, 7, 1), ("z", 8, 7, 1)]
+    msg = PointCloudCodec().encode(points)
+    assert [(f.name, f.offset, f.datatype, f.count) for f in msg.fields] == expected
+    assert decode_point_cloud(msg).dtype.names == ("x", "y", "z")
+    cloud = "sensor_msgs/msg/PointCloud2"
+    table = codecs.wire.to_dict(codecs.wire.encode(points, cloud), cloud)
+    assert [
+        (f["name"], f["offset"], f["datatype"], f["count"]) for f in table["fields"]
+    ] == expected
+    assert decode_point_cloud(msg)["x"].tolist() == [1.0, 2.0]
