@@ -62,6 +62,11 @@ class MultiArrayCodec(FieldsCodec):
             layout = msg.layout
             dims = list(layout.dim)
             offset = layout.data_offset
+            if offset > len(data):  # a slice would quietly give no elements
+                raise DecodeError(
+                    f"{self.name}.layout.data_offset: {offset} is past the {len(data)} "
+                    "elements of data"
+                )
             if not dims:
                 return data[offset:]
             shape = tuple(int(d.size) for d in dims)

@@ -47,6 +47,9 @@ _NATIVE_BIG = sys.byteorder == "big"
 _MAX_STEP = 2**31 - 1
 _Field = tuple[str, int, int, int]  # name, offset, datatype, count
 _DTYPES: dict[tuple[tuple[_Field, ...], int, bool], np.dtype[Any]] = {}
+# Field tables come from the data: past this many, dtypes are built each time rather than kept,
+# so a stream of distinct tables (a hostile or buggy peer) cannot grow the cache (as image.py).
+_MAX_DTYPES = 256
 
 
 def cloud_dtype(fields: Any, point_step: int, *, big_endian: bool = False) -> np.dtype[Any]:
@@ -96,7 +99,8 @@ def cloud_dtype(fields: Any, point_step: int, *, big_endian: bool = False) -> np
         raise DecodeError(
             f"PointCloud2.fields: no point layout fits point_step {point_step} ({error})"
         ) from None
-    _DTYPES[key] = dtype
+    if len(_DTYPES) < _MAX_DTYPES:
+        _DTYPES[key] = dtype
     return dtype
 
 

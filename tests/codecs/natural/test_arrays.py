@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 import pytest
 import std_msgs.msg as std_msgs
@@ -189,12 +191,20 @@ def test_one_dimension_is_the_slice_after_the_offset(
         ),
         data=data,
     )
+    if offset > len(data):
+        with pytest.raises(DecodeError) as error:
+            codecs.decode(msg)
+        assert str(error.value) == (
+            f"Int32MultiArray.layout.data_offset: {offset} is past the {len(data)} elements of "
+            "data"
+        )
+        return
     if offset + size > len(data):
         with pytest.raises(DecodeError) as error:
             codecs.decode(msg)
         assert str(error.value) == (
             f"Int32MultiArray.data: layout ({size},) needs {size} elements after offset "
-            f"{offset}, got {max(len(data) - offset, 0)}"
+            f"{offset}, got {len(data) - offset}"
         )
         return
     codec = codecs.lookup("std_msgs/Int32MultiArray")
@@ -204,6 +214,24 @@ def test_one_dimension_is_the_slice_after_the_offset(
     decoded = codec.decode(msg)
     assert decoded.flags.writeable
     assert np.shares_memory(decoded, np.frombuffer(msg.data, np.int32)) or not size
+
+
+@pytest.mark.parametrize("dims", [[], [std_msgs.MultiArrayDimension(label="x", size=0)]])
+def test_an_offset_past_the_data_is_refused_on_both_paths(dims: list[Any]) -> None:
+    """Without dims it gave an empty array; with a size-0 dim an error that contradicted itself
+    ("needs 0 elements after offset 100, got 0")."""
+    msg = std_msgs.Float32MultiArray(
+        layout=std_msgs.MultiArrayLayout(dim=dims, data_offset=100), data=[1.0, 2.0, 3.0]
+    )
+    codec = codecs.lookup("std_msgs/Float32MultiArray")
+    for source in (msg, wire_view(msg)):
+        with pytest.raises(DecodeError) as error:
+            codec.decode(source)
+        assert str(error.value) == (
+            "Float32MultiArray.layout.data_offset: 100 is past the 3 elements of data"
+        )
+    msg.layout.data_offset = 3  # just past the last element: nothing, rightly
+    assert codec.decode(msg).tolist() == []
 
 
 def test_multi_array_dtype_errors() -> None:

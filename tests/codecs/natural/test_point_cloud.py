@@ -387,3 +387,17 @@ def test_field_titles_add_no_fields_on_either_path() -> None:
         (f["name"], f["offset"], f["datatype"], f["count"]) for f in table["fields"]
     ] == expected
     assert decode_point_cloud(msg)["x"].tolist() == [1.0, 2.0]
+
+
+def test_a_stream_of_distinct_field_tables_does_not_grow_the_dtype_cache() -> None:
+    """Field tables come off the wire: each distinct one was kept for good (a peer sending a new
+    field name per message grew memory without bound)."""
+    from types import SimpleNamespace
+
+    from pyconnect.codecs import point_cloud
+
+    for index in range(300):
+        field = SimpleNamespace(name=f"f{index}", offset=0, datatype=7, count=1)
+        dtype = point_cloud.cloud_dtype([field], 4)
+        assert dtype.names == (f"f{index}",)
+    assert len(point_cloud._DTYPES) <= 256  # image.py's bound for its layouts too
