@@ -47,6 +47,39 @@ def test_a_script_gets_its_options_too(tmp_path: Path) -> None:
     assert (done.returncode, done.stdout) == (0, "['--help', '-m', 'x']\n")
 
 
+_SHOW_ARGV = "import sys\nprint(sys.argv[1:])\n"
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["-m", "show_argv", "x", "--", "--out", "f"],
+        ["-mshow_argv", "x"],
+        ["-mshow_argv", "x", "--", "y"],
+        ["-m", "show_argv"],
+        ["-m", "show_argv", "--"],
+        ["show_argv.py", "x", "--", "--out", "f"],
+    ],
+)
+def test_the_program_gets_the_arguments_python_would_give_it(
+    tmp_path: Path, argv: list[str]
+) -> None:
+    """What follows the module (or the script) is the program's exactly as python passes it:
+    "--" and all, and after an attached "-mmodule" too."""
+    (tmp_path / "show_argv.py").write_text(_SHOW_ARGV)
+    env = dict(os.environ, PYCONNECT_LARGE_MESSAGES="0")
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(tmp_path), env.get("PYTHONPATH")]))
+    expected = subprocess.run(
+        [sys.executable, *argv], cwd=tmp_path, capture_output=True, text=True, timeout=WAIT,
+        env=env, check=True,
+    ).stdout  # fmt: skip
+    done = subprocess.run(
+        [sys.executable, "-m", "pyconnect.cli", "run", *argv], cwd=tmp_path, capture_output=True,
+        text=True, timeout=WAIT, env=env, check=False,
+    )  # fmt: skip
+    assert (done.returncode, done.stdout) == (0, expected), done.stderr
+
+
 def test_a_module_must_be_named() -> None:
     done = _pyconnect_run("-m")
     assert (done.returncode, done.stderr) == (
@@ -80,7 +113,17 @@ def test_a_profile_of_the_users_own_is_still_left_alone() -> None:
 
 
 @pytest.mark.parametrize(
-    ("value", "setting"), [("inf", None), ("abc", None), ("0", None), ("abc", "1")]
+    ("value", "setting"),
+    [
+        ("inf", None),
+        ("abc", None),
+        ("0", None),
+        ("abc", "1"),
+        ("1.5", None),  # under the 8 MiB minimum
+        ("1.5", "1"),
+        ("4096", None),  # above what Fast DDS's 32-bit segment_size holds
+        ("5000", "1"),
+    ],
 )
 def test_a_segment_size_that_is_no_size_is_a_usage_error(
     tmp_path: Path, value: str, setting: str | None
@@ -99,7 +142,63 @@ def test_a_segment_size_that_is_no_size_is_a_usage_error(
         2,
         "",
         "pyconnect: error: run: PYCONNECT_SHM_SEGMENT_MB: expected a segment size in MiB, "
-        f"a number > 0 (64 by default), got {value!r}\n",
+        f"a number from 8 to 3584 (64 by default), got {value!r}\n",
+    )
+
+
+def test_a_profile_in_the_working_directory_is_the_users_own(tmp_path: Path) -> None:
+    """Fast DDS loads DEFAULT_FASTRTPS_PROFILES.xml from the working directory too, and its
+    default participant profile wins: pyconnect writes none and says why."""
+    (tmp_path / "DEFAULT_FASTRTPS_PROFILES.xml").write_text("<profiles/>\n")
+    script = tmp_path / "profile.py"
+    script.write_text("import os\nprint(os.environ.get('FASTRTPS_DEFAULT_PROFILES_FILE'))\n")
+    env = {key: value for key, value in os.environ.items() if "PROFILES_FILE" not in key}
+    env.pop("PYCONNECT_LARGE_MESSAGES", None)
+    env.pop("SKIP_DEFAULT_XML_FILE", None)
+    done = subprocess.run(
+        [sys.executable, "-m", "pyconnect.cli", "run", str(script)], cwd=tmp_path,
+        capture_output=True, text=True, timeout=WAIT, env=env, check=False,
+    )  # fmt: skip
+    assert (done.returncode, done.stdout, done.stderr) == (
+        0,
+        "None\n",
+        "pyconnect run: large-message settings not applied: "
+        "DEFAULT_FASTRTPS_PROFILES.xml is in the working directory\n",
+    )
+
+
+def test_off_also_removes_the_settings_a_pyconnect_run_parent_passed_on(tmp_path: Path) -> None:
+    """A program under ``pyconnect run`` starts another with PYCONNECT_LARGE_MESSAGES=0: the
+    child gets neither pyconnect's profile nor its malloc values, inherited."""
+    if large_messages.segment_bytes() < 8 * 1024 * 1024:
+        pytest.skip("/dev/shm has too little room for the large-message settings")
+    names = [*large_messages.MALLOC_SETTINGS, "FASTRTPS_DEFAULT_PROFILES_FILE"]
+    child = tmp_path / "child.py"
+    child.write_text(f"import os\nprint([os.environ.get(n) for n in {names!r}])\n")
+    parent = tmp_path / "parent.py"
+    parent.write_text(
+        "import os, subprocess, sys\n"
+        "env = dict(os.environ, PYCONNECT_LARGE_MESSAGES='0')\n"
+        "print(os.environ['FASTRTPS_DEFAULT_PROFILES_FILE'], flush=True)\n"
+        "command = [sys.executable, '-m', 'pyconnect.cli', 'run', sys.argv[1]]\n"
+        "sys.exit(subprocess.call(command, env=env))\n"
+    )
+    env = {
+        key: value
+        for key, value in os.environ.items()
+        if "PROFILES_FILE" not in key and not key.startswith(("MALLOC_", "PYCONNECT_"))
+    }
+    env["PYTHONPATH"] = os.pathsep.join(filter(None, [str(ROOT), env.get("PYTHONPATH")]))
+    done = subprocess.run(
+        [sys.executable, "-m", "pyconnect.cli", "run", str(parent), str(child)], cwd=tmp_path,
+        capture_output=True, text=True, timeout=WAIT, env=env, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    parent_profile, child_sees = done.stdout.splitlines()
+    assert large_messages.is_own_profile(parent_profile)  # the parent had the settings
+    assert child_sees == "[None, None, None]"
+    assert done.stderr == (
+        "pyconnect run: large-message settings not applied: PYCONNECT_LARGE_MESSAGES is off\n"
     )
 
 

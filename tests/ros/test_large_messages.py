@@ -52,7 +52,61 @@ def test_configure_environment_sets_profile_and_malloc_variables() -> None:
     assert environ["PYCONNECT_LARGE_MESSAGES"] == "1"
     assert environ["MALLOC_MMAP_THRESHOLD_"] == "268435456"
     assert environ["MALLOC_TRIM_THRESHOLD_"] == "1073741824"
+    assert environ["PYCONNECT_MALLOC_SET"] == "MALLOC_MMAP_THRESHOLD_ MALLOC_TRIM_THRESHOLD_"
     assert Path(environ["FASTRTPS_DEFAULT_PROFILES_FILE"]).is_file()
+    assert Path(environ["FASTRTPS_DEFAULT_PROFILES_FILE"]).is_absolute()
+
+
+def test_the_marker_lists_only_the_malloc_variables_pyconnect_set() -> None:
+    environ = {"MALLOC_MMAP_THRESHOLD_": "65536"}
+    assert large_messages.configure_environment(environ, default_on=True) is None
+    assert environ["MALLOC_MMAP_THRESHOLD_"] == "65536"
+    assert environ["PYCONNECT_MALLOC_SET"] == "MALLOC_TRIM_THRESHOLD_"
+    # Configured again (a child of a pyconnect run program): still pyconnect's, still listed.
+    assert large_messages.configure_environment(environ, default_on=True) is None
+    assert environ["PYCONNECT_MALLOC_SET"] == "MALLOC_TRIM_THRESHOLD_"
+
+
+def test_off_removes_what_an_inherited_pyconnect_set_and_nothing_of_the_users() -> None:
+    """PYCONNECT_LARGE_MESSAGES=0 in a process whose environment came from a pyconnect run
+    program: pyconnect's profile and malloc values go; a user's profile or values stay."""
+    inherited: dict[str, str] = {}
+    assert large_messages.configure_environment(inherited, default_on=True) is None
+    environ = dict(inherited, PYCONNECT_LARGE_MESSAGES="0", OTHER="kept")
+    assert large_messages.configure_environment(environ, default_on=True) == (
+        "PYCONNECT_LARGE_MESSAGES is off"
+    )
+    assert environ == {"PYCONNECT_LARGE_MESSAGES": "0", "OTHER": "kept"}
+    # A value the user gave since, and a profile of the user's, are the user's.
+    environ = dict(inherited, PYCONNECT_LARGE_MESSAGES="off", MALLOC_TRIM_THRESHOLD_="4096")
+    environ["FASTDDS_DEFAULT_PROFILES_FILE"] = "/home/me/fastdds.xml"
+    assert large_messages.configure_environment(environ) == "PYCONNECT_LARGE_MESSAGES is off"
+    assert environ == {
+        "PYCONNECT_LARGE_MESSAGES": "off",
+        "MALLOC_TRIM_THRESHOLD_": "4096",
+        "FASTDDS_DEFAULT_PROFILES_FILE": "/home/me/fastdds.xml",
+    }
+    # Without the marker the malloc values may be the user's own: they stay.
+    environ = dict(large_messages.MALLOC_SETTINGS, PYCONNECT_LARGE_MESSAGES="0")
+    assert large_messages.configure_environment(environ) == "PYCONNECT_LARGE_MESSAGES is off"
+    assert environ == dict(large_messages.MALLOC_SETTINGS, PYCONNECT_LARGE_MESSAGES="0")
+
+
+def test_a_profile_in_the_working_directory_is_left_alone(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Fast DDS 2.14 loads DEFAULT_FASTRTPS_PROFILES.xml from the working directory (unless
+    SKIP_DEFAULT_XML_FILE=1) and its default participant profile wins over pyconnect's."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "DEFAULT_FASTRTPS_PROFILES.xml").write_text("<profiles/>\n")
+    environ: dict[str, str] = {}
+    assert large_messages.configure_environment(environ, default_on=True) == (
+        "DEFAULT_FASTRTPS_PROFILES.xml is in the working directory"
+    )
+    assert environ == {}
+    environ = {"SKIP_DEFAULT_XML_FILE": "1"}
+    assert large_messages.configure_environment(environ, default_on=True) is None
+    assert large_messages.is_own_profile(environ["FASTRTPS_DEFAULT_PROFILES_FILE"])
 
 
 @pytest.mark.parametrize(
@@ -227,6 +281,10 @@ def test_the_segment_shrinks_to_a_quarter_of_what_dev_shm_can_hold(
     monkeypatch.setattr(shutil, "disk_usage", disk_usage)
     assert large_messages.segment_bytes({}) == free // 4
     assert asked == ["/dev/shm"]
+    # The largest segment is the limit wherever /dev/shm is vast.
+    free = 100 * 1024 * MIB
+    assert large_messages.segment_bytes({"PYCONNECT_SHM_SEGMENT_MB": "3584"}) == 3584 * MIB
+    free = 100 * MIB
     # A smaller wish is kept as it is.
     assert large_messages.segment_bytes({"PYCONNECT_SHM_SEGMENT_MB": "16"}) == 16 * 1024 * 1024
     environ: dict[str, str] = {}
@@ -312,6 +370,22 @@ def test_a_private_directory_name_taken_by_something_else_is_refused(
     )
 
 
+def test_a_relative_xdg_runtime_dir_is_ignored_and_the_path_is_absolute(
+    private_temp_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The XDG spec says to ignore a relative XDG_RUNTIME_DIR; a relative profile path would
+    name another file once the program changes directory."""
+    (tmp_path / "run").mkdir(mode=0o700)
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("XDG_RUNTIME_DIR", "run")
+    path = large_messages.write_profile(16 * MIB)
+    assert path.parent == private_temp_dir / f"pyconnect-{os.getuid()}"
+    # A relative temp directory too (gettempdir() keeps TMPDIR=. as ".").
+    monkeypatch.chdir(private_temp_dir)
+    monkeypatch.setattr(large_messages.tempfile, "gettempdir", lambda: ".")
+    assert large_messages.write_profile(16 * MIB) == path
+
+
 def test_the_profile_goes_to_xdg_runtime_dir_only_when_it_is_private(
     private_temp_dir: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -325,12 +399,21 @@ def test_the_profile_goes_to_xdg_runtime_dir_only_when_it_is_private(
 
 
 _BAD_SEGMENT = (
-    "PYCONNECT_SHM_SEGMENT_MB: expected a segment size in MiB, a number > 0 (64 by default), "
-    "got {!r}"
+    "PYCONNECT_SHM_SEGMENT_MB: expected a segment size in MiB, a number from 8 to 3584 "
+    "(64 by default), got {!r}"
 )
 
 
-@pytest.mark.parametrize("value", ["inf", "-inf", "nan", "1e400", "abc", "0", "-16", "16 MiB"])
+@pytest.mark.parametrize(
+    "value",
+    [
+        *["inf", "-inf", "nan", "1e400", "abc", "0", "-16", "16 MiB"],
+        *["1.5", "7.99"],  # under the 8 MiB minimum
+        # Fast DDS reads segment_size as 32 bits (4096 wraps to 0, 5000 to 904 MiB) and adds
+        # its bookkeeping (4000 fails to allocate).
+        *["3584.5", "4000", "4096", "5000", "1e308"],
+    ],
+)
 def test_a_segment_size_that_is_no_size_is_an_error_naming_the_variable(value: str) -> None:
     with pytest.raises(large_messages.SegmentSizeError) as caught:
         large_messages.segment_bytes({"PYCONNECT_SHM_SEGMENT_MB": value})
@@ -341,36 +424,29 @@ def test_a_segment_size_that_is_no_size_is_an_error_naming_the_variable(value: s
     assert environ == {"PYCONNECT_SHM_SEGMENT_MB": value}
 
 
-def test_an_empty_segment_size_is_the_default_and_a_huge_one_is_shrunk() -> None:
+def test_an_empty_segment_size_is_the_default_and_the_limits_are_sizes() -> None:
     assert large_messages.segment_bytes({"PYCONNECT_SHM_SEGMENT_MB": ""}) == (
         large_messages.segment_bytes({})
     )
-    # 1e308 MiB is a finite number whose bytes are not (as a float): still shrunk to fit.
-    assert large_messages.segment_bytes({"PYCONNECT_SHM_SEGMENT_MB": "1e308"}) == (
-        large_messages.segment_bytes({"PYCONNECT_SHM_SEGMENT_MB": "1e12"})
-    )
+    assert large_messages.wanted_segment_bytes({"PYCONNECT_SHM_SEGMENT_MB": "8"}) == 8 * MIB
+    assert large_messages.wanted_segment_bytes({"PYCONNECT_SHM_SEGMENT_MB": "3584"}) == (3584 * MIB)
+    # Written in 32 bits with Fast DDS's bookkeeping (under 5 %), it stays below 2**32.
+    assert 3584 * MIB * 1.05 < 2**32
 
 
-def test_a_segment_size_below_the_minimum_is_named_as_the_reason() -> None:
-    environ = {"PYCONNECT_SHM_SEGMENT_MB": "4"}
-    assert large_messages.configure_environment(environ, default_on=True) == (
-        "PYCONNECT_SHM_SEGMENT_MB is below the 8 MiB minimum segment"
-    )
-    assert environ == {"PYCONNECT_SHM_SEGMENT_MB": "4"}
-
-
-def test_importing_with_a_bad_segment_size_warns_and_changes_nothing() -> None:
+@pytest.mark.parametrize("value", ["abc", "1.5", "5000"])
+def test_importing_with_a_bad_segment_size_warns_and_changes_nothing(value: str) -> None:
     script = (
         "import os, pyconnect.ros\n"
         "print(sorted(n for n in os.environ if n.startswith(('FAST', 'MALLOC'))))\n"
     )
-    env = _unconfigured_env(PYCONNECT_LARGE_MESSAGES="1", PYCONNECT_SHM_SEGMENT_MB="abc")
+    env = _unconfigured_env(PYCONNECT_LARGE_MESSAGES="1", PYCONNECT_SHM_SEGMENT_MB=value)
     done = subprocess.run(
         [sys.executable, "-c", script], capture_output=True, text=True, env=env, timeout=120,
         check=False,
     )  # fmt: skip
     assert (done.returncode, done.stdout) == (0, "[]\n")
-    warning = f"large-message settings not applied: {_BAD_SEGMENT.format('abc')}\n"
+    warning = f"large-message settings not applied: {_BAD_SEGMENT.format(value)}\n"
     assert done.stderr == warning
 
 

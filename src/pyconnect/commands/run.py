@@ -61,10 +61,13 @@ def _run(args: argparse.Namespace, out: TextIO | None, err: TextIO | None) -> in
     from pyconnect.ros.large_messages import SegmentSizeError, configure_environment
 
     module, program = None, list(args.program)
-    if args.module is not None:  # -m took the module and every argument after it
+    if args.module is not None:
         if not args.module:
             raise UsageError("run: argument -m: expected a module name")
-        module, program = args.module[0], list(args.module[1:])
+        # REMAINDER on an option stops at "--" and takes only the module of "-mmod": argparse
+        # hands what follows to ``program``, still in order and with "--" kept, as python -m
+        # passes it.
+        module, program = args.module[0], [*args.module[1:], *program]
     argv = command_line(module, program)
     environ = dict(os.environ)
     try:

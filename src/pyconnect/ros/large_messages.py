@@ -22,13 +22,17 @@ transport in 64 KB fragments (the delivery stage of ``bench.large_messages``).
 
 Not on at plain import: it gives the process a shared-memory segment and changes its malloc,
 a choice for the program's owner (``pyconnect run``, or the variable), not a side effect.
-Nothing is changed when ``PYCONNECT_LARGE_MESSAGES=0``, when the user set a Fast DDS profile
-(``FASTRTPS_DEFAULT_PROFILES_FILE`` / ``FASTDDS_DEFAULT_PROFILES_FILE`` naming a file other
-than pyconnect's own ``pyconnect-fastdds-<digest>.xml``) or another
-``RMW_IMPLEMENTATION``, when ``/dev/shm`` cannot hold four segments (small containers), or when
-the profile cannot be written (its private directory's name is taken by someone else). A
-``PYCONNECT_SHM_SEGMENT_MB`` that is no size is an error for ``pyconnect run`` and a warning on
-the ``pyconnect.ros`` logger at import (nothing is changed then).
+Nothing is changed when the user set a Fast DDS profile (``FASTRTPS_DEFAULT_PROFILES_FILE`` /
+``FASTDDS_DEFAULT_PROFILES_FILE`` naming a file other than pyconnect's own
+``pyconnect-fastdds-<digest>.xml``, or a ``DEFAULT_FASTRTPS_PROFILES.xml`` in the working
+directory) or another ``RMW_IMPLEMENTATION``, when ``/dev/shm`` cannot hold four segments (small
+containers), or when the profile cannot be written (its private directory's name is taken by
+someone else). ``PYCONNECT_LARGE_MESSAGES=0`` changes nothing either, except that it removes
+what a pyconnect before it (a ``pyconnect run`` parent) put in the environment: the variable
+naming pyconnect's own profile and the malloc variables ``PYCONNECT_MALLOC_SET`` lists. A
+``PYCONNECT_SHM_SEGMENT_MB`` that is no size from 8 to 3584 MiB is an error for
+``pyconnect run`` and a warning on the ``pyconnect.ros`` logger at import (nothing is changed
+then).
 """
 
 from __future__ import annotations
@@ -72,7 +76,29 @@ _M_MMAP_THRESHOLD = -3
 _MALLOPT_MMAP_MAX = 32 * 1024 * 1024
 _SHM_HEADROOM = 4  # segments /dev/shm must have room for (two peers, each with margin)
 _MIB = 1024 * 1024
-_MIN_SEGMENT = 8 * _MIB
+MIN_SEGMENT_MB = 8
+"""The smallest ``PYCONNECT_SHM_SEGMENT_MB``: one 1080p rgb8 frame (5.9 MiB) and room beside it,
+the least a segment for large messages is worth its ``/dev/shm`` for."""
+MAX_SEGMENT_MB = 3584
+"""The largest ``PYCONNECT_SHM_SEGMENT_MB`` (3.5 GiB).
+
+Fast DDS 2.14 reads ``segment_size`` as a 32-bit unsigned number and adds its bookkeeping to it
+in 32 bits too: a buffer node and an allocator header for each KiB of segment (it plans one
+allocation per 1 KiB), about 5 % more. 4096 MiB wraps to no segment, 5000 to 904 MiB, and 4000
+(2.3 % below 2**32) already fails to allocate. 3584 MiB leaves 512 MiB, room for 146 bytes of
+bookkeeping per KiB.
+"""
+_MIN_SEGMENT = MIN_SEGMENT_MB * _MIB
+_MAX_SEGMENT = MAX_SEGMENT_MB * _MIB
+MALLOC_MARKER = "PYCONNECT_MALLOC_SET"
+"""Names the ``MALLOC_SETTINGS`` variables pyconnect set (space-separated), so that
+``PYCONNECT_LARGE_MESSAGES=0`` in a child process can tell them from values of the user's."""
+_OFF = frozenset({"0", "false", "no", "off"})
+_PROFILE_VARIABLES = ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILES_FILE")
+_CWD_PROFILE = "DEFAULT_FASTRTPS_PROFILES.xml"
+"""The profile Fast DDS 2.14 also loads from the working directory (Fast DDS 3 renamed it
+``DEFAULT_FASTDDS_PROFILES.xml``; Jazzy's 2.14 reads only this name); its default participant
+profile wins over the one the variable names."""
 
 
 class SegmentSizeError(PyconnectError, ValueError):
@@ -111,7 +137,8 @@ def profile_xml(segment_bytes: int) -> str:
 def wanted_segment_bytes(environ: MutableMapping[str, str] | None = None) -> int:
     """``PYCONNECT_SHM_SEGMENT_MB`` in bytes (64 MiB when unset or empty).
 
-    Raises ``SegmentSizeError`` unless it is a finite number of MiB above 0.
+    Raises ``SegmentSizeError`` unless it is a number of MiB from ``MIN_SEGMENT_MB`` to
+    ``MAX_SEGMENT_MB``.
     """
     env = os.environ if environ is None else environ
     text = env.get("PYCONNECT_SHM_SEGMENT_MB", "")
@@ -121,26 +148,27 @@ def wanted_segment_bytes(environ: MutableMapping[str, str] | None = None) -> int
         megabytes = float(text)
     except ValueError:
         megabytes = math.nan
-    if not (math.isfinite(megabytes) and megabytes > 0):
+    # NaN fails both comparisons.
+    if not MIN_SEGMENT_MB <= megabytes <= MAX_SEGMENT_MB:
         raise SegmentSizeError(
-            "PYCONNECT_SHM_SEGMENT_MB: expected a segment size in MiB, a number > 0 "
-            f"({DEFAULT_SEGMENT_MB} by default), got {text!r}"
+            "PYCONNECT_SHM_SEGMENT_MB: expected a segment size in MiB, a number from "
+            f"{MIN_SEGMENT_MB} to {MAX_SEGMENT_MB} ({DEFAULT_SEGMENT_MB} by default), got {text!r}"
         )
-    # Exact: in floats, 1e303 MiB would overflow to inf bytes (the size is shrunk to fit anyway).
     return int(Fraction(megabytes) * _MIB)
 
 
 def segment_bytes(environ: MutableMapping[str, str] | None = None) -> int:
-    """The segment size: ``PYCONNECT_SHM_SEGMENT_MB`` or 64 MiB, shrunk to fit ``/dev/shm``.
+    """The segment size: ``PYCONNECT_SHM_SEGMENT_MB`` or 64 MiB, shrunk to fit ``/dev/shm``
+    (a quarter of its free space) and never above ``MAX_SEGMENT_MB``.
 
-    Raises ``SegmentSizeError`` for a ``PYCONNECT_SHM_SEGMENT_MB`` that is no size.
+    Raises ``SegmentSizeError`` for a ``PYCONNECT_SHM_SEGMENT_MB`` that is no usable size.
     """
     wanted = wanted_segment_bytes(environ)
     try:
         free = shutil.disk_usage("/dev/shm").free
     except OSError:
         return 0
-    return min(wanted, free // _SHM_HEADROOM)
+    return min(wanted, free // _SHM_HEADROOM, _MAX_SEGMENT)
 
 
 def disabled_because(
@@ -152,19 +180,27 @@ def disabled_because(
     otherwise (at import) only when it says on.
     """
     env = os.environ if environ is None else environ
-    setting = env.get("PYCONNECT_LARGE_MESSAGES", "").strip().lower()
-    if setting in {"0", "false", "no", "off"}:
+    if _is_off(env):
         return "PYCONNECT_LARGE_MESSAGES is off"
+    setting = env.get("PYCONNECT_LARGE_MESSAGES", "").strip().lower()
     if not default_on and setting not in {"1", "true", "yes", "on"}:
         return "PYCONNECT_LARGE_MESSAGES is not set (pyconnect run sets it)"
-    for name in ("FASTRTPS_DEFAULT_PROFILES_FILE", "FASTDDS_DEFAULT_PROFILES_FILE"):
+    for name in _PROFILE_VARIABLES:
         if env.get(name) and not is_own_profile(env[name]):
             return f"{name} is set"
+    # Fast DDS reads it from the directory it runs in unless SKIP_DEFAULT_XML_FILE=1.
+    if env.get("SKIP_DEFAULT_XML_FILE") != "1" and os.path.isfile(_CWD_PROFILE):
+        return f"{_CWD_PROFILE} is in the working directory"
     # Empty is unset for rclpy too: it loads its default, Fast DDS.
     rmw = env.get("RMW_IMPLEMENTATION") or "rmw_fastrtps_cpp"
     if rmw not in {"rmw_fastrtps_cpp", "rmw_fastrtps_dynamic_cpp"}:
         return f"RMW_IMPLEMENTATION is {rmw}"
     return None
+
+
+def _is_off(environ: MutableMapping[str, str]) -> bool:
+    """True when ``PYCONNECT_LARGE_MESSAGES`` turns the settings off."""
+    return environ.get("PYCONNECT_LARGE_MESSAGES", "").strip().lower() in _OFF
 
 
 _OWN_PROFILE = re.compile(r"pyconnect-fastdds-[0-9a-f]{12}\.xml")
@@ -187,9 +223,12 @@ def profile_directory() -> Path:
     choose this user's DDS transports (peers to send to, for one).
     """
     runtime = os.environ.get("XDG_RUNTIME_DIR")
-    if runtime and _not_private_because(Path(runtime)) is None:
+    # The XDG spec says a relative one is to be ignored; it would also name another file once
+    # the program changes directory before its first node.
+    if runtime and os.path.isabs(runtime) and _not_private_because(Path(runtime)) is None:
         return Path(runtime)
-    directory = Path(tempfile.gettempdir()) / f"pyconnect-{os.getuid()}"
+    # absolute(): gettempdir() keeps a TMPDIR of "." as it is.
+    directory = Path(tempfile.gettempdir()).absolute() / f"pyconnect-{os.getuid()}"
     with contextlib.suppress(FileExistsError):
         directory.mkdir(mode=0o700)
     problem = _not_private_because(directory)
@@ -254,14 +293,18 @@ def configure_environment(
 ) -> str | None:
     """Set the profile and malloc variables in ``environ``; the reason it did not, or None.
 
+    With ``PYCONNECT_LARGE_MESSAGES`` off, what a pyconnect before it set (this environment
+    was inherited from a ``pyconnect run`` program) is removed instead: off means off for
+    the programs that program starts too.
+
     Raises ``SegmentSizeError`` (``environ`` unchanged) for a ``PYCONNECT_SHM_SEGMENT_MB`` that
-    is no size.
+    is no usable size.
     """
     reason = disabled_because(environ, default_on=default_on)
     if reason is not None:
+        if _is_off(environ):
+            _remove_inherited_settings(environ)
         return reason
-    if wanted_segment_bytes(environ) < _MIN_SEGMENT:
-        return "PYCONNECT_SHM_SEGMENT_MB is below the 8 MiB minimum segment"
     segment = segment_bytes(environ)
     if segment < _MIN_SEGMENT:
         return "/dev/shm has too little room for a shared-memory segment"
@@ -271,9 +314,36 @@ def configure_environment(
         return f"the Fast DDS profile could not be written: {error}"
     environ["FASTRTPS_DEFAULT_PROFILES_FILE"] = str(profile)
     environ["PYCONNECT_LARGE_MESSAGES"] = "1"
+    ours = _malloc_set_by_pyconnect(environ)
     for name, value in MALLOC_SETTINGS.items():
-        environ.setdefault(name, value)
+        if name not in environ:
+            environ[name] = value
+            ours.append(name)
+    if ours:
+        environ[MALLOC_MARKER] = " ".join(name for name in MALLOC_SETTINGS if name in ours)
     return None
+
+
+def _malloc_set_by_pyconnect(environ: MutableMapping[str, str]) -> list[str]:
+    """The malloc variables ``MALLOC_MARKER`` lists that still hold pyconnect's value (one
+    given another value since is the user's)."""
+    listed = environ.get(MALLOC_MARKER, "").split()
+    return [
+        name
+        for name in MALLOC_SETTINGS
+        if name in listed and environ.get(name) == MALLOC_SETTINGS[name]
+    ]
+
+
+def _remove_inherited_settings(environ: MutableMapping[str, str]) -> None:
+    """Remove what a pyconnect set in an environment this one inherited: the variable naming
+    pyconnect's own profile, and the malloc variables pyconnect set (``MALLOC_MARKER``)."""
+    for name in _PROFILE_VARIABLES:
+        if environ.get(name) and is_own_profile(environ[name]):
+            del environ[name]
+    for name in _malloc_set_by_pyconnect(environ):
+        del environ[name]
+    environ.pop(MALLOC_MARKER, None)
 
 
 _outcome: dict[str, str | None] = {}
@@ -305,8 +375,7 @@ def apply_malloc_settings() -> None:
     if "malloc" in _outcome:
         return
     _outcome["malloc"] = None
-    setting = os.environ.get("PYCONNECT_LARGE_MESSAGES", "").strip().lower()
-    if setting in {"0", "false", "no", "off"}:
+    if _is_off(os.environ):
         return
     _apply_mallopt([name for name in MALLOC_SETTINGS if name not in os.environ])
 
