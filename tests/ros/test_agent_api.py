@@ -252,7 +252,7 @@ BAD_PERIODS = [0, -1.0, float("nan"), float("inf"), "1", True]
 
 @pytest.mark.parametrize(
     ("kind", "period"),
-    [("timer", None)] + [(kind, p) for kind in ("timer", "pub") for p in BAD_PERIODS],
+    [(kind, p) for kind in ("timer", "pub") for p in BAD_PERIODS],
     ids=repr,
 )
 def test_a_period_that_is_not_a_finite_positive_number_is_refused(
@@ -271,3 +271,28 @@ def test_a_period_that_is_not_a_finite_positive_number_is_refused(
         f"agent 'beat' ({described}): time_period must be a finite number of seconds > 0, "
         f"got {period!r}"
     )
+
+
+def test_a_timer_period_given_as_none_is_missing(make_node: Any) -> None:
+    """A required option given as None is missing, as response_func=None is."""
+    node = make_node()
+    with pytest.raises(OptionError) as caught:
+        node.add_agent(conn_name="beat", conn_type="timer", time_period=None, response_func=print)
+    assert str(caught.value) == "agent 'beat' (timer): missing option 'time_period'"
+
+
+@pytest.mark.parametrize("kind", ["timer", "pub"])
+def test_a_period_longer_than_a_ros_timer_holds_is_refused(make_node: Any, kind: str) -> None:
+    """rclpy's int64 nanoseconds cannot hold 1e10 s: a pybind TypeError naming nothing."""
+    node = make_node()
+    config = {"conn_name": "beat", "conn_type": kind, **VALID[kind], "time_period": 1e10}
+    if kind == "pub":
+        config["response_func"] = lambda: "x"
+    with pytest.raises(PyconnectError) as caught:
+        node.add_agent(config)
+    described = "pub std_msgs/msg/String" if kind == "pub" else kind
+    assert str(caught.value) == (
+        f"agent 'beat' ({described}): time_period must be at most 9.22e+09 seconds, "
+        "got 10000000000.0"
+    )
+    assert node.agents == {}

@@ -3,6 +3,7 @@ when the agent is made, naming the agent and the option."""
 
 from __future__ import annotations
 
+import functools
 import sys
 from typing import Any
 
@@ -56,6 +57,94 @@ from pyconnect.ros.agent_options import OptionError
             "requires 'tick'",
         ),
         (
+            {"conn_type": "pub", "data_interface": String, "time_period": 1.0,
+             "response_func": lambda who: f"hi {who}"},
+            "agent 'bad' (pub): response_func: a periodic pub calls it with no arguments, but "
+            "it requires 'who'",
+        ),
+        (
+            {"conn_type": "sub", "data_interface": String, "response_func": lambda: None},
+            "agent 'bad' (sub): response_func: a sub calls it with one argument (the value), "
+            "but it takes no positional arguments",
+        ),
+        (
+            {"conn_type": "service_server", "data_interface": SetBool,
+             "response_func": lambda: {"success": True}},
+            "agent 'bad' (service_server): response_func: a service_server calls it with one "
+            "argument (the request), but it takes no positional arguments",
+        ),
+        (
+            {"conn_type": "action_server", "data_interface": Fibonacci,
+             "response_func": lambda: {}},
+            "agent 'bad' (action_server): response_func: an action_server calls it with one "
+            "argument (the goal), but it takes no positional arguments",
+        ),
+        (
+            {"conn_type": "action_server", "data_interface": Fibonacci,
+             "response_func": lambda goal, publish_feedback, scale: {}},
+            "agent 'bad' (action_server): response_func: an action_server calls it with two "
+            "arguments (the goal and publish_feedback, as it takes a second positional "
+            "parameter), but it requires 'goal', 'publish_feedback', 'scale'",
+        ),
+        (
+            {"conn_type": "action_client", "data_interface": Fibonacci,
+             "accepted_func": lambda: None},
+            "agent 'bad' (action_client): accepted_func: an action_client calls it with one "
+            "argument (accepted: bool), but it takes no positional arguments",
+        ),
+        (
+            {"conn_type": "timer", "time_period": 1.0, "response_func": None},
+            "agent 'bad' (timer): missing option 'response_func'",
+        ),
+        (
+            {"conn_type": "action_server", "data_interface": Fibonacci,
+             "response_func": lambda goal: {}, "result_timeout": -1},
+            "agent 'bad' (action_server): result_timeout must be a finite number of seconds "
+            ">= 0, got -1",
+        ),
+        (
+            {"conn_type": "action_server", "data_interface": Fibonacci,
+             "response_func": lambda goal: {}, "result_timeout": "0.5"},
+            "agent 'bad' (action_server): result_timeout must be a finite number of seconds "
+            ">= 0, got '0.5'",
+        ),
+        (
+            {"conn_type": "action_server", "data_interface": Fibonacci,
+             "response_func": lambda goal: {}, "result_cache_seconds": float("nan")},
+            "agent 'bad' (action_server): result_cache_seconds must be a finite number of "
+            "seconds >= 0, got nan",
+        ),
+        (
+            {"conn_type": "action_server", "data_interface": Fibonacci,
+             "response_func": lambda goal: {}, "result_cache_seconds": -5},
+            "agent 'bad' (action_server): result_cache_seconds must be a finite number of "
+            "seconds >= 0, got -5",
+        ),
+        (
+            {"conn_type": "pub", "data_interface": String, "do_log_msg": "no"},
+            "agent 'bad' (pub): do_log_msg: expected bool, got 'no'",
+        ),
+        (
+            {"conn_type": "pub", "data_interface": String, "only_if_subscribed": "no"},
+            "agent 'bad' (pub): only_if_subscribed: expected bool, got 'no'",
+        ),
+        (
+            {"conn_type": "pub", "data_interface": String, "raw": 0},
+            "agent 'bad' (pub): raw: expected bool or None, got 0",
+        ),
+        (
+            {"conn_type": "sub", "data_interface": String, "stamped": "yes"},
+            "agent 'bad' (sub): stamped: expected bool, got 'yes'",
+        ),
+        (
+            {"conn_type": "pub", "data_interface": Image, "frame_id": 5},
+            "agent 'bad' (pub): frame_id: expected str, got 5",
+        ),
+        (
+            {"conn_type": "pub", "data_interface": String, "agent_name": 5},
+            "agent 'bad': agent_name: expected str or None, got 5",
+        ),
+        (
             {"conn_type": ["pub"], "data_interface": String},
             "agent 'bad': conn_type: expected one of 'sub', 'pub', 'service_client', "
             "'service_server', 'action_client', 'action_server', 'timer', got ['pub']",
@@ -66,12 +155,14 @@ def test_option_values_of_the_wrong_type_are_refused(
     make_node: Any, options: dict[str, Any], expected: str
 ) -> None:
     # Each was accepted and failed per message ("'str' object is not callable"), inside rclpy
-    # ("'str' object has no attribute 'add_entity'") or as "unhashable type: 'list'".
+    # ("'str' object has no attribute 'add_entity'", a pybind TypeError), as "unhashable type:
+    # 'list'", at every call or tick (a handler that cannot take its arguments), or changed
+    # what the agent does (do_log_msg="no" logged, raw=0 took the raw path).
     node = make_node("option_values")
     with pytest.raises(OptionError) as raised:
         node.add_agent(conn_name="bad", **options)
     assert str(raised.value) == expected
-    assert "bad" not in node.agents
+    assert node.agents == {}
 
 
 def test_callables_and_timer_handlers_without_required_parameters_are_accepted(
@@ -94,6 +185,74 @@ def test_callables_and_timer_handlers_without_required_parameters_are_accepted(
         decode_func=str, callback_group=ReentrantCallbackGroup(),
     )  # fmt: skip
     assert sorted(node.agents) == ["s", "t1", "t2", "t3", "t4"]
+
+
+def _logged(function: Any) -> Any:
+    @functools.wraps(function)
+    def wrapper(*args: Any, **named: Any) -> Any:
+        return function(*args, **named)
+
+    return wrapper
+
+
+class Anything:
+    def __call__(self, *args: Any) -> None:
+        return None
+
+
+class Receiver:
+    def on_value(self, value: Any) -> None:
+        return None
+
+    def run(self, goal: Any, publish_feedback: Any) -> Any:
+        return {}
+
+
+async def on_request(request: Any) -> Any:
+    return {"success": True}
+
+
+def fibonacci(goal: Any) -> Any:
+    yield {"sequence": [0]}
+    return {"sequence": [0, 1]}
+
+
+def with_default(value: Any, scale: float = 1.0) -> None:
+    return None
+
+
+@pytest.mark.parametrize(
+    ("conn_type", "options"),
+    [
+        ("pub", {"data_interface": String, "time_period": 1.0, "response_func": lambda: "x"}),
+        ("pub", {"data_interface": String, "time_period": 1.0, "response_func": Anything()}),
+        ("sub", {"data_interface": String, "response_func": Receiver().on_value}),
+        ("sub", {"data_interface": String, "response_func": functools.partial(with_default)}),
+        ("sub", {"data_interface": String, "response_func": _logged(with_default)}),
+        ("sub", {"data_interface": String, "response_func": print}),
+        ("sub", {"data_interface": String, "response_func": lambda *values: None}),
+        ("service_server", {"data_interface": SetBool, "response_func": on_request}),
+        ("service_server", {"data_interface": SetBool, "response_func": Anything()}),
+        ("action_server", {"data_interface": Fibonacci, "response_func": fibonacci}),
+        ("action_server", {"data_interface": Fibonacci, "response_func": Receiver().run}),
+        ("action_server", {"data_interface": Fibonacci,
+                           "response_func": lambda goal, publish_feedback=None: {}}),
+        ("action_client", {"data_interface": Fibonacci, "accepted_func": print,
+                           "feedback_func": Receiver().on_value,
+                           "response_func": on_request}),
+        ("pub", {"data_interface": Image, "frame_id": "camera", "do_log_msg": True,
+                 "only_if_subscribed": False, "raw": None, "agent_name": "out"}),
+        ("sub", {"data_interface": String, "raw": False, "stamped": False}),
+        ("action_server", {"data_interface": Fibonacci, "response_func": fibonacci,
+                           "result_timeout": 0, "result_cache_seconds": 0.5}),
+    ],
+)  # fmt: skip
+def test_handlers_that_take_their_call_and_plain_values_are_accepted(
+    make_node: Any, conn_type: str, options: dict[str, Any]
+) -> None:
+    node = make_node("handlers_ok")
+    agent = node.add_agent(conn_name="ok", conn_type=conn_type, **options)
+    assert node.agents == {agent.name: agent}
 
 
 @pytest.mark.parametrize(

@@ -446,3 +446,58 @@ def test_wait_until_connected_refuses_a_timeout_that_is_not_one(
     node = make_node("waiter")
     with pytest.raises(PyconnectError, match=r"^node '/waiter': wait_until_connected: timeout"):
         node.wait_until_connected(timeout)  # type: ignore[arg-type]
+
+
+@pytest.mark.parametrize(
+    ("options", "problem"),
+    [
+        ({"registry": "r"}, "registry: expected a pyconnect Registry or None, got 'r'"),
+        (
+            {"stop_func": "stop"},
+            "stop_func: expected a callable or None, got 'stop'; pass the function itself, "
+            "not its name",
+        ),
+        (
+            {"stop_func": lambda reason: None},
+            "stop_func: shutdown calls it with no arguments, but it requires 'reason'",
+        ),
+        ({"handoff_after": -1}, "handoff_after must be a finite number of seconds >= 0, got -1"),
+        (
+            {"handoff_after": math.nan},
+            "handoff_after must be a finite number of seconds >= 0, got nan",
+        ),
+        (
+            {"handoff_after": "0.1"},
+            "handoff_after must be a finite number of seconds >= 0, got '0.1'",
+        ),
+        ({"handle_signals": "no"}, "handle_signals: expected bool, got 'no'"),
+        ({"log_dir": 5}, "log_dir: expected a str, a Path or None, got 5"),
+    ],
+)
+def test_a_keyword_the_node_cannot_use_is_refused_naming_it(
+    make_node: Any, options: dict[str, Any], problem: str
+) -> None:
+    """A str registry failed at the first agent (AttributeError), a str stop_func only in
+    shutdown's log, and a negative handoff_after was taken."""
+    threads = threading.active_count()
+    with pytest.raises(OptionError) as refused:
+        make_node("keywords", **options)
+    assert str(refused.value) == f"node 'keywords': {problem}"
+    assert threading.active_count() == threads  # refused before anything started
+
+
+def test_the_keywords_take_what_they_document(make_node: Any, tmp_path: Any) -> None:
+    import functools
+
+    from pyconnect.codecs.registry import Registry
+
+    stopped: list[str] = []
+    node = make_node(
+        "keywords_ok",
+        registry=Registry(),
+        stop_func=functools.partial(stopped.append, "done"),
+        handoff_after=0,
+        log_dir=str(tmp_path),
+    )
+    node.shutdown()
+    assert stopped == ["done"]

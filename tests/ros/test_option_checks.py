@@ -3,18 +3,26 @@
 from __future__ import annotations
 
 import fractions
+import functools
 import math
 import threading
+from typing import Any
 
 import numpy as np
 import pytest
 
 from pyconnect.commands.argument_types import MAX_SECONDS
 from pyconnect.errors import PyconnectError
+from pyconnect.ros.agent_options import OptionError
 from pyconnect.ros.option_checks import (
     MAX_TIMEOUT,
+    arity_problem,
     call_timeout,
+    check_options,
     depth_problem,
+    period_problem,
+    plain_option_problem,
+    seconds_problem,
     timeout_problem,
 )
 
@@ -96,3 +104,175 @@ def test_a_depth_is_an_int_of_at_least_one(depth: int) -> None:
 )
 def test_any_other_depth_is_refused_naming_it(depth: object, problem: str) -> None:
     assert depth_problem(depth) == problem
+
+
+def test_a_period_longer_than_a_timer_holds_is_refused() -> None:
+    """1e10 s reached rclpy, whose int64 nanoseconds cannot hold it: a bare pybind TypeError."""
+    assert period_problem(MAX_TIMEOUT) is None
+    assert period_problem(0.01) is None
+    too_long = f"time_period must be at most {MAX_TIMEOUT:.3g} seconds, got"
+    assert period_problem(1e10) == f"{too_long} 10000000000.0"
+    assert period_problem(10**30) == f"{too_long} {10**30}"
+
+
+@pytest.mark.parametrize("seconds", [0, 0.05, 900, np.float64(1.5), fractions.Fraction(1, 2)])
+def test_a_duration_is_a_finite_number_of_seconds(seconds: object) -> None:
+    assert seconds_problem("result_timeout", seconds) is None
+
+
+@pytest.mark.parametrize(
+    ("seconds", "problem"),
+    [
+        (-1, "result_timeout must be a finite number of seconds >= 0, got -1"),
+        ("0.5", "result_timeout must be a finite number of seconds >= 0, got '0.5'"),
+        (math.nan, "result_timeout must be a finite number of seconds >= 0, got nan"),
+        (math.inf, "result_timeout must be a finite number of seconds >= 0, got inf"),
+        (None, "result_timeout must be a finite number of seconds >= 0, got None"),
+        (True, "result_timeout must be a finite number of seconds >= 0, got True"),
+        (1e10, f"result_timeout must be at most {MAX_TIMEOUT:.3g} seconds, got 10000000000.0"),
+    ],
+)
+def test_any_other_duration_is_refused_naming_the_option(seconds: object, problem: str) -> None:
+    assert seconds_problem("result_timeout", seconds) == problem
+
+
+@pytest.mark.parametrize(
+    ("option", "value"),
+    [
+        ("do_log_msg", True),
+        ("only_if_subscribed", False),
+        ("stamped", True),
+        ("raw", None),
+        ("raw", False),
+        ("frame_id", ""),
+        ("frame_id", "map"),
+        ("agent_name", None),
+        ("agent_name", "left"),
+        ("qos", "sensor"),  # not a plain option: checked elsewhere
+        ("time_period", "x"),
+    ],
+)
+def test_plain_options_take_their_bool_or_str(option: str, value: object) -> None:
+    assert plain_option_problem(option, value) is None
+
+
+@pytest.mark.parametrize(
+    ("option", "value", "problem"),
+    [
+        ("do_log_msg", "no", "do_log_msg: expected bool, got 'no'"),
+        ("do_log_msg", 1, "do_log_msg: expected bool, got 1"),
+        ("do_log_msg", None, "do_log_msg: expected bool, got None"),
+        ("only_if_subscribed", "no", "only_if_subscribed: expected bool, got 'no'"),
+        ("stamped", "yes", "stamped: expected bool, got 'yes'"),
+        ("raw", 0, "raw: expected bool or None, got 0"),
+        ("frame_id", 5, "frame_id: expected str, got 5"),
+        ("frame_id", None, "frame_id: expected str, got None"),
+        ("agent_name", 5, "agent_name: expected str or None, got 5"),
+    ],
+)
+def test_plain_options_of_another_type_are_refused(
+    option: str, value: object, problem: str
+) -> None:
+    """Truthy strings flipped the behaviour, raw=0 turned the raw path on (``raw is False``
+    missed it) and frame_id=5 failed at every send."""
+    assert plain_option_problem(option, value) == problem
+
+
+def _one(value: Any) -> Any:
+    return value
+
+
+def _two(value: Any, other: Any) -> Any:
+    return value
+
+
+def _logged(function: Any) -> Any:
+    @functools.wraps(function)
+    def wrapper(*args: Any, **named: Any) -> Any:
+        return function(*args, **named)
+
+    return wrapper
+
+
+def _injecting(function: Any) -> Any:
+    # Wraps a two-parameter function and fills its second itself: its own signature says one.
+    @functools.wraps(function)
+    def wrapper(value: Any) -> Any:
+        return function(value, None)
+
+    return wrapper
+
+
+class _Handler:
+    def __call__(self, value: Any) -> Any:
+        return value
+
+    def on_value(self, value: Any) -> Any:
+        return value
+
+
+async def _async_one(value: Any) -> Any:
+    return value
+
+
+@pytest.mark.parametrize(
+    "function",
+    [
+        _one,
+        lambda value: value,
+        lambda *args: args,
+        lambda value, extra=1: value,
+        functools.partial(_two, other=2),
+        functools.partial(_two, 1),
+        _Handler(),
+        _Handler().on_value,
+        _async_one,
+        _logged(_one),
+        _injecting(_two),
+        _logged(_two),  # its (*args, **named) may fill 'other' itself, as _injecting does
+        print,  # no readable signature: let it run
+        "not callable",  # refused elsewhere, as not callable
+    ],
+)
+def test_a_handler_that_takes_one_argument_is_accepted(function: object) -> None:
+    assert arity_problem(function, 1, "a sub calls it with one argument") is None
+
+
+@pytest.mark.parametrize(
+    ("function", "count", "problem"),
+    [
+        (lambda: 1, 1, "it calls it with one argument, but it takes no positional arguments"),
+        (
+            lambda **named: 1,
+            1,
+            "it calls it with one argument, but it takes no positional arguments",
+        ),
+        (_one, 2, "it calls it with one argument, but it takes only 1 positional argument"),
+        (_two, 1, "it calls it with one argument, but it requires 'value', 'other'"),
+        (_one, 0, "it calls it with one argument, but it requires 'value'"),
+        (
+            lambda value, *, unit: value,
+            1,
+            "it calls it with one argument, but it requires 'value', 'unit'",
+        ),
+    ],
+)
+def test_a_handler_that_cannot_take_the_call_is_refused_naming_what_it_needs(
+    function: object, count: int, problem: str
+) -> None:
+    assert arity_problem(function, count, "it calls it with one argument") == problem
+
+
+class _Timer:
+    def __init__(self, *, time_period: float, response_func: Any) -> None:
+        pass
+
+
+def test_a_required_option_given_as_none_is_missing() -> None:
+    """A config built with ``.get()`` gave a timer response_func=None: accepted, then every
+    tick failed."""
+    for given in ({"time_period": 1.0}, {"time_period": 1.0, "response_func": None}):
+        with pytest.raises(OptionError) as raised:
+            check_options(_Timer, given, "agent 't' (timer)", kind="timer")
+        assert str(raised.value) == "agent 't' (timer): missing option 'response_func'"
+    check_options(_Timer, {"time_period": 1.0, "response_func": print}, "x", kind="timer")

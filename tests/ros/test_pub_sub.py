@@ -298,6 +298,23 @@ def test_stamped_sub_keeps_the_header(make_node: Any) -> None:
     assert value.value.tolist() == [[7, 7], [7, 7]]
 
 
+def test_stamped_sub_of_a_type_without_a_header_is_refused_when_added(make_node: Any) -> None:
+    """It was accepted, then every message was dropped with a DecodeError."""
+    from pyconnect.ros.agent_options import OptionError
+
+    node = make_node()
+    with pytest.raises(OptionError) as refused:
+        node.add_agent(conn_name="chat", conn_type="sub", data_interface=String, stamped=True)
+    assert str(refused.value) == (
+        "agent 'chat' (sub std_msgs/msg/String): stamped=True needs a type with a "
+        "std_msgs/Header, and std_msgs/msg/String has none"
+    )
+    assert node.agents == {}
+    assert node.get_subscriber_names_and_types_by_node(node.get_name(), "/") == []
+    # A Header itself is its own header, as decode_stamped finds it.
+    node.add_agent(conn_name="header", conn_type="sub", data_interface=Header, stamped=True)
+
+
 def test_codec_option_replaces_the_registry_codec_for_that_agent(make_node: Any) -> None:
     import numpy as np
 

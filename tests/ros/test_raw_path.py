@@ -185,7 +185,10 @@ def test_raw_is_the_default_unless_a_message_is_needed(make_node: Any) -> None:
     assert node.add_agent(twist, agent_name="p", conn_type="pub")._raw is not None
     decoded = node.add_agent(twist, agent_name="d", conn_type="sub", decode_func=lambda m: m)
     assert decoded._raw is None
-    stamped = node.add_agent(twist, agent_name="s", conn_type="sub", stamped=True)
+    stamped = node.add_agent(
+        conn_name="cmd_stamped", conn_type="sub", stamped=True,
+        data_interface="geometry_msgs/msg/TwistStamped",  # stamped=True needs a header
+    )  # fmt: skip
     assert stamped._raw is None
     encoded = node.add_agent(
         twist, agent_name="e", conn_type="pub", encode_func=lambda data, msg: msg

@@ -6,7 +6,6 @@ subclass whose keyword-only ``__init__`` options are the config keys it uses).
 
 from __future__ import annotations
 
-import inspect
 from collections.abc import Mapping
 from typing import TYPE_CHECKING, Any
 
@@ -20,8 +19,16 @@ from pyconnect.ros.action_client_agent import ActionClientAgent
 from pyconnect.ros.action_server_agent import ActionServerAgent
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.agent_options import AgentOptions, OptionError
+from pyconnect.ros.handler_shape import wants_feedback_publisher
 from pyconnect.ros.node_agent import NodeAgent
-from pyconnect.ros.option_checks import check_options, options_of, shared_options
+from pyconnect.ros.option_checks import (
+    arity_problem,
+    check_options,
+    options_of,
+    plain_option_problem,
+    seconds_problem,
+    shared_options,
+)
 from pyconnect.ros.publisher_agent import PublisherAgent
 from pyconnect.ros.service_agents import ServiceClientAgent, ServiceServerAgent
 from pyconnect.ros.subscriber_agent import SubscriberAgent
@@ -74,6 +81,9 @@ def build_agent(node: AgentHost, given: Mapping[str, Any]) -> NodeAgent:
     agent_name = given.pop("agent_name", None)
     if not isinstance(conn_name, str) or not conn_name:
         raise OptionError(f"agent config: conn_name must be a non-empty str, got {conn_name!r}")
+    problem = plain_option_problem("agent_name", agent_name)
+    if problem is not None:  # before it names the agent: 5 became the key in node.agents
+        raise OptionError(f"agent {conn_name!r}: {problem}")
     name = agent_name or conn_name
     if conn_type is None:
         raise OptionError(f"agent {name!r}: missing option 'conn_type'")
@@ -152,14 +162,25 @@ _FUNCTION_OPTIONS = (
 def _check_values(
     agent_class: type[NodeAgent] | None, given: Mapping[str, Any], where: str
 ) -> None:
-    """Refuse function and callback-group options of the wrong type now: a string given as
-    ``response_func`` was logged as "not callable" once per message, and a wrong callback group
-    failed inside rclpy in its own words."""
+    """Refuse option values of the wrong type now: a string given as ``response_func`` was
+    logged as "not callable" once per message, a wrong callback group failed inside rclpy in
+    its own words, ``do_log_msg="no"`` logged, and a handler that cannot take the arguments
+    it is called with failed at every call."""
     for option in _FUNCTION_OPTIONS:
         function = given.get(option)
         if function is not None and not callable(function):
             hint = "; pass the function itself, not its name" if isinstance(function, str) else ""
             raise OptionError(f"{where}: {option}: expected a callable, got {function!r}{hint}")
+    for option, value in given.items():
+        problem = plain_option_problem(option, value)
+        if problem is not None:
+            raise OptionError(f"{where}: {problem}")
+    for option in ("result_timeout", "result_cache_seconds"):
+        # The action server hands them to rclpy and its cache: check them before either.
+        if option in given:
+            problem = seconds_problem(option, given[option])
+            if problem is not None:
+                raise OptionError(f"{where}: {problem}")
     group = given.get("callback_group")
     if group is not None and not isinstance(group, CallbackGroup):
         if isinstance(group, type) and issubclass(group, CallbackGroup):
@@ -170,10 +191,11 @@ def _check_values(
             f"{where}: callback_group: expected an rclpy CallbackGroup (e.g. "
             f"ReentrantCallbackGroup()), got {actual}"
         )
-    if agent_class is not None and issubclass(agent_class, TimerAgent):
-        problem = _tick_problem(given.get("response_func"))
-        if problem is not None:
-            raise OptionError(f"{where}: response_func: {problem}")
+    if agent_class is not None:
+        for option, (count, calls) in _handler_calls(agent_class, given).items():
+            problem = arity_problem(given.get(option), count, calls)
+            if problem is not None:
+                raise OptionError(f"{where}: {option}: {problem}")
 
 
 def _name_problem(node: AgentHost, conn_name: object, conn_type: str) -> str | None:
@@ -191,25 +213,33 @@ def _name_problem(node: AgentHost, conn_name: object, conn_type: str) -> str | N
     return None
 
 
-def _tick_problem(function: object) -> str | None:
-    # A timer calls response_func with no arguments; a required parameter fails every tick.
-    if not callable(function):
-        return None
-    try:
-        signature = inspect.signature(function)
-    except (TypeError, ValueError):  # builtins without a readable signature: let them run
-        return None
-    try:
-        signature.bind()
-    except TypeError:
-        required = [
-            parameter.name
-            for parameter in signature.parameters.values()
-            if parameter.default is inspect.Parameter.empty
-            and parameter.kind
-            not in (inspect.Parameter.VAR_POSITIONAL, inspect.Parameter.VAR_KEYWORD)
-        ]
-        return (
-            f"a timer calls it with no arguments, but it requires {', '.join(map(repr, required))}"
-        )
-    return None
+def _handler_calls(
+    agent_class: type[NodeAgent], given: Mapping[str, Any]
+) -> dict[str, tuple[int, str]]:
+    """How the agent calls each handler option: {option: (positional arguments, in words)}."""
+    if issubclass(agent_class, TimerAgent):
+        return {"response_func": (0, "a timer calls it with no arguments")}
+    if issubclass(agent_class, PublisherAgent):
+        if given.get("time_period") is None:  # the pub refuses a response_func without one
+            return {}
+        return {"response_func": (0, "a periodic pub calls it with no arguments")}
+    if issubclass(agent_class, SubscriberAgent):
+        return {"response_func": (1, "a sub calls it with one argument (the value)")}
+    if issubclass(agent_class, ServiceServerAgent):
+        return {"response_func": (1, "a service_server calls it with one argument (the request)")}
+    if issubclass(agent_class, ActionServerAgent):
+        handler = given.get("response_func")
+        if callable(handler) and wants_feedback_publisher(handler):
+            calls = (
+                "an action_server calls it with two arguments (the goal and publish_feedback, "
+                "as it takes a second positional parameter)"
+            )
+            return {"response_func": (2, calls)}
+        return {"response_func": (1, "an action_server calls it with one argument (the goal)")}
+    if issubclass(agent_class, ActionClientAgent):
+        return {
+            "response_func": (1, "an action_client calls it with one argument (the result)"),
+            "accepted_func": (1, "an action_client calls it with one argument (accepted: bool)"),
+            "feedback_func": (1, "an action_client calls it with one argument (the feedback)"),
+        }
+    return {}

@@ -24,7 +24,8 @@ if TYPE_CHECKING:
 
 
 class OptionError(PyconnectError, TypeError):
-    """An agent option that is unknown, unused by the agent's kind, or missing."""
+    """An agent option (or a ``CustomNode`` keyword) that is unknown, unused by the agent's
+    kind, missing, or of a type or value the agent cannot use."""
 
 
 class AgentOptions(TypedDict, total=False):

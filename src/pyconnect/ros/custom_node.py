@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import asyncio
 import datetime
+import os
 import threading
 import time
 from collections.abc import Callable, Iterable, Mapping
@@ -46,7 +47,7 @@ from pyconnect.ros.executor import DEFAULT_HANDOFF_AFTER
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.node_logging import NodeLogging
 from pyconnect.ros.node_shutdown import NodeShutdown
-from pyconnect.ros.option_checks import call_timeout
+from pyconnect.ros.option_checks import arity_problem, call_timeout, seconds_problem
 from pyconnect.ros.recording import Recording
 from pyconnect.ros.shared_context import join_context, leave_context
 from pyconnect.ros.shutdown import ShutdownHooks
@@ -57,6 +58,39 @@ if TYPE_CHECKING:
     from typing_extensions import Unpack
 
 StopFunc = Callable[..., Any]
+
+
+def _check_keywords(
+    name: str,
+    *,
+    log_dir: object,
+    stop_func: object,
+    registry: object,
+    handle_signals: object,
+    handoff_after: object,
+) -> None:
+    """Raise ``OptionError`` naming the first keyword of ``CustomNode`` whose value it cannot
+    use, before anything is made: a str ``registry`` failed at the first agent with an
+    ``AttributeError``, a str ``stop_func`` only in shutdown's log, and a negative
+    ``handoff_after`` was taken."""
+    problems: list[str | None] = []
+    if log_dir is not None and not isinstance(log_dir, (str, os.PathLike)):
+        problems.append(f"log_dir: expected a str, a Path or None, got {log_dir!r}")
+    if stop_func is not None:
+        if not callable(stop_func):
+            hint = "; pass the function itself, not its name" if isinstance(stop_func, str) else ""
+            problems.append(f"stop_func: expected a callable or None, got {stop_func!r}{hint}")
+        else:
+            problem = arity_problem(stop_func, 0, "shutdown calls it with no arguments")
+            problems.append(None if problem is None else f"stop_func: {problem}")
+    if registry is not None and not isinstance(registry, Registry):
+        problems.append(f"registry: expected a pyconnect Registry or None, got {registry!r}")
+    if not isinstance(handle_signals, bool):
+        problems.append(f"handle_signals: expected bool, got {handle_signals!r}")
+    problems.append(seconds_problem("handoff_after", handoff_after))
+    for problem in problems:
+        if problem is not None:
+            raise OptionError(f"node {name!r}: {problem}")
 
 
 class CustomNode(NodeLogging, NodeShutdown, Node):  # type: ignore[misc]
@@ -82,6 +116,14 @@ class CustomNode(NodeLogging, NodeShutdown, Node):  # type: ignore[misc]
         handoff_after: float = DEFAULT_HANDOFF_AFTER,
         loop: asyncio.AbstractEventLoop | None = None,
     ) -> None:
+        _check_keywords(
+            name,
+            log_dir=log_dir,
+            stop_func=stop_func,
+            registry=registry,
+            handle_signals=handle_signals,
+            handoff_after=handoff_after,
+        )
         self.name = name
         self.registry = registry or default_registry
         self.stop_func = stop_func

@@ -6,8 +6,9 @@ An agent class lists the options it takes as its keyword-only ``__init__`` param
 options a kind takes (shared options are defaults). Both hosts use them —
 ``pyconnect.ros.agent_factory`` for ``CustomNode`` and ``pyconnect.transport.peer`` for
 ``Peer`` — so this module imports nothing that imports rclpy. ``period_problem``,
-``timeout_problem`` and ``depth_problem`` say what is wrong with one option's value (the agent
-names itself in the error it raises).
+``timeout_problem``, ``seconds_problem``, ``depth_problem``, ``plain_option_problem`` and
+``arity_problem`` say what is wrong with one option's value (the agent names itself in the
+error it raises).
 """
 
 from __future__ import annotations
@@ -27,8 +28,9 @@ KNOWN_OPTIONS = frozenset(AgentOptions.__annotations__)
 NAMING = frozenset({"conn_name", "conn_type", "agent_name"})
 """The options that name an agent: every kind takes them."""
 MAX_TIMEOUT = min((2**63 - 1) / 1e9, threading.TIMEOUT_MAX)
-"""The longest timeout a wait takes, about 292 years: what int64 nanoseconds hold (rcl's waits,
-the CLI's ``MAX_SECONDS``) and no more than ``threading``'s waits accept (``TIMEOUT_MAX``)."""
+"""The longest timeout a wait takes, about 292 years: what int64 nanoseconds hold (rcl's waits
+and timers, the CLI's ``MAX_SECONDS``) and no more than ``threading``'s waits accept
+(``TIMEOUT_MAX``). Also the longest period and duration option (a Peer's timer waits it)."""
 
 
 def options_of(agent_class: type[Any]) -> tuple[frozenset[str], frozenset[str]]:
@@ -52,6 +54,8 @@ def check_options(
 ) -> None:
     """Raise ``OptionError`` for the first option in ``given`` that ``agent_class`` does not take,
     then for the first one it requires that is missing (``conn_name`` is checked by the caller).
+    A required option given as None is missing too: a config built with ``.get()`` passed
+    ``response_func=None`` to a timer, which then failed on every tick.
 
     ``known`` options are "not used by a '<kind>' agent"; ``unavailable`` maps an option the host
     offers to no kind at all to why ("option 'x' is not available on a peer: <why>"); any other
@@ -66,7 +70,8 @@ def check_options(
         if option in known:
             raise OptionError(f"{where}: option {option!r} is not used by a {kind!r} agent")
         raise OptionError(f"{where}: unknown option {option!r}")
-    for option in sorted(required - {"conn_name"} - set(given)):
+    present = {option for option, value in given.items() if value is not None}
+    for option in sorted(required - {"conn_name"} - present):
         raise OptionError(f"{where}: missing option {option!r}")
 
 
@@ -91,13 +96,34 @@ def shared_options(
 
 def period_problem(time_period: object) -> str | None:
     """Why ``time_period`` cannot be an agent's period, or None when it can: a finite number of
-    seconds above 0. (A NaN passes ``<= 0`` and made a Peer's timer run flat out; inf ended its
-    thread; rclpy raised its own error, naming no agent.)"""
+    seconds above 0, at most ``MAX_TIMEOUT``. (A NaN passes ``<= 0`` and made a Peer's timer run
+    flat out; inf ended its thread; rclpy raised its own error, naming no agent, and a bare
+    ``TypeError`` for a period its int64 nanoseconds cannot hold.)"""
     problem = f"time_period must be a finite number of seconds > 0, got {time_period!r}"
     if isinstance(time_period, bool) or not isinstance(time_period, numbers.Real):
         return problem  # numpy's numbers are Real too
     seconds = float(time_period)
-    return None if math.isfinite(seconds) and seconds > 0 else problem
+    if not (math.isfinite(seconds) and seconds > 0):
+        return problem
+    if seconds > MAX_TIMEOUT:
+        return f"time_period must be at most {MAX_TIMEOUT:.3g} seconds, got {time_period!r}"
+    return None
+
+
+def seconds_problem(option: str, seconds: object) -> str | None:
+    """Why ``seconds`` cannot be the duration ``option`` names, or None when it can: a finite
+    number of seconds from 0 to ``MAX_TIMEOUT``. (An action server's ``result_timeout`` of -1
+    or "0.5" failed inside rclpy naming neither agent nor option; a NaN or negative
+    ``result_cache_seconds`` was taken and answered no late result request.)"""
+    problem = f"{option} must be a finite number of seconds >= 0, got {seconds!r}"
+    if isinstance(seconds, bool) or not isinstance(seconds, numbers.Real):
+        return problem  # numpy's numbers are Real too
+    value = float(seconds)
+    if not (math.isfinite(value) and value >= 0):
+        return problem
+    if value > MAX_TIMEOUT:
+        return f"{option} must be at most {MAX_TIMEOUT:.3g} seconds, got {seconds!r}"
+    return None
 
 
 def timeout_problem(timeout: object) -> str | None:
@@ -141,3 +167,72 @@ def depth_problem(depth: object) -> str | None:
     if isinstance(depth, bool) or not isinstance(depth, int):
         return f"depth must be an int >= 1, got {depth!r}"
     return None if depth >= 1 else f"depth must be >= 1, got {depth!r}"
+
+
+PLAIN_OPTIONS: Mapping[str, tuple[type, ...]] = {
+    "agent_name": (str, type(None)),
+    "do_log_msg": (bool,),
+    "only_if_subscribed": (bool,),
+    "stamped": (bool,),
+    "raw": (bool, type(None)),
+    "frame_id": (str,),
+}
+"""The options whose value is a plain bool or str (or None), with the types each takes."""
+
+
+def plain_option_problem(option: str, value: object) -> str | None:
+    """Why ``value`` cannot be the ``PLAIN_OPTIONS`` ``option``, or None when it can (or the
+    option is not one of them). Checked because Python's truth hid the mistake: "no" logged
+    every message, ``raw=0`` meant the raw path, and ``frame_id=5`` failed at every send."""
+    accepted = PLAIN_OPTIONS.get(option)
+    if accepted is None or isinstance(value, accepted):
+        return None
+    expected = " or ".join("None" if kind is type(None) else kind.__name__ for kind in accepted)
+    return f"{option}: expected {expected}, got {value!r}"
+
+
+def arity_problem(function: object, count: int, calls: str) -> str | None:
+    """Why ``function`` cannot be called with ``count`` positional arguments, or None when it
+    can; ``calls`` says who calls it how ("a timer calls it with no arguments").
+
+    What cannot be told is accepted: a callable without a readable signature (a builtin), and
+    a decorated function whose own signature or the one it wraps takes the call.
+    """
+    if not callable(function):
+        return None
+    try:
+        signatures = [
+            inspect.signature(function),
+            inspect.signature(function, follow_wrapped=False),
+        ]
+    except (TypeError, ValueError):  # builtins without a readable signature: let them run
+        return None
+    arguments = (None,) * count
+    for signature in signatures:
+        try:
+            signature.bind(*arguments)
+        except TypeError:
+            continue
+        return None
+    parameters = signatures[0].parameters.values()
+    if not any(p.kind is inspect.Parameter.VAR_POSITIONAL for p in parameters):
+        positional = [
+            p
+            for p in parameters
+            if p.kind
+            in (inspect.Parameter.POSITIONAL_ONLY, inspect.Parameter.POSITIONAL_OR_KEYWORD)
+        ]
+        if len(positional) < count:
+            takes = (
+                f"only {len(positional)} positional argument{'s' if len(positional) > 1 else ''}"
+                if positional
+                else "no positional arguments"
+            )
+            return f"{calls}, but it takes {takes}"
+    required = [
+        p.name
+        for p in parameters
+        if p.default is inspect.Parameter.empty
+        and p.kind not in (inspect.Parameter.VAR_POSITIONAL, inspect.Parameter.VAR_KEYWORD)
+    ]
+    return f"{calls}, but it requires {', '.join(map(repr, required))}"

@@ -26,8 +26,10 @@ from rclpy.event_handler import SubscriptionEventCallbacks
 from rclpy.qos import QoSProfile
 
 from pyconnect.codecs.base import Codec
+from pyconnect.codecs.stamped import header_of
 from pyconnect.errors import DecodeError
 from pyconnect.ros.agent_host import AgentHost
+from pyconnect.ros.agent_options import OptionError
 from pyconnect.ros.conversion import DecodeFunc, EncodeFunc
 from pyconnect.ros.coroutines import is_async_callable
 from pyconnect.ros.following_subscription import create_counting_losses
@@ -75,6 +77,13 @@ class SubscriberAgent(NodeAgent):
             do_log_msg=do_log_msg,
             callback_group=callback_group,
         )
+        # decode_stamped's own rule on an empty message: a type it finds no header in dropped
+        # every message with a DecodeError.
+        if stamped and header_of(msg_class()) is None:
+            raise OptionError(
+                f"{self.describe}: stamped=True needs a type with a std_msgs/Header, "
+                f"and {self.type_name} has none"
+            )
         own_codec = codec is not None
         self.conversion = self.make_conversion(
             msg_class, encode_func=encode_func, decode_func=decode_func, codec=codec
