@@ -274,10 +274,13 @@ def test_columns_follow_the_installed_type_when_the_stored_definition_does_not_f
 
 
 def test_values_of_two_definitions_in_one_topic_are_an_error(tmp_path: Path) -> None:
-    # The stored text fits the first message, only the installed type fits the second.
-    bag = _stored_strings_bag(tmp_path / "bag", [_cdr_strings("a", "x"), _cdr_strings("b")])
+    # The stored text fits the first message, only the installed type fits the next three: the
+    # third in a row gives the topic to it (the two before stay errors, as a damaged one would).
+    later = [_cdr_strings(text) for text in "bcd"]
+    bag = _stored_strings_bag(tmp_path / "bag", [_cdr_strings("a", "x"), *later])
     with open_bag(bag, natural=False) as reader:
-        assert [m.value for m in reader] == [{"data": "a", "extra": "x"}, {"data": "b"}]
+        assert [m.value for m in reader] == [{"data": "a", "extra": "x"}, {"data": "d"}]
+        assert [problem.index for problem in reader.errors] == [1, 2]
         with pytest.raises(BagError) as raised:
             reader.to_arrow("/s")
     assert str(raised.value) == (

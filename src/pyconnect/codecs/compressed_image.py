@@ -1,8 +1,9 @@
 """sensor_msgs/CompressedImage ↔ ``numpy.ndarray`` decoded with OpenCV (BGR channel order).
 
 Decode reads jpeg, png (16-bit png stays uint16, alpha is kept) and image_transport's
-``compressedDepth`` (a 12-byte header, then a png; ``32FC1`` depth is de-quantised to float32
-metres, 0 → NaN). A corrupt or empty payload gets a ``DecodeError``, never a crash.
+``compressedDepth`` (a 12-byte header, then a 16-bit 1-channel png; ``32FC1`` depth is
+de-quantised to float32 metres, 0 → NaN). A corrupt or empty payload, or a compressedDepth png
+of another type, gets a ``DecodeError``, never a crash.
 Encode: ``CompressedImageCodec(format="jpeg", quality=95)`` or ``format="png"`` (lossless pixels,
 ``png_level`` 0-9), writing image_transport's format string (``"bgr8; jpeg compressed bgr8"``),
 or ``format="compressedDepth"`` for uint16/float32 depth (pyconnect.codecs.compressed_depth).
@@ -87,6 +88,14 @@ def _decode_depth(data: npt.NDArray[np.uint8], form: str) -> npt.NDArray[Any]:
         )
     quant_a, quant_b = struct.unpack_from("<ff", data[:12].tobytes(), 4)
     inverse = _imdecode(data[12:], "compressedDepth png")
+    # image_transport writes one 16-bit channel: 16UC1 depth as is, 32FC1 as quantised inverse
+    # depth. Any other png would pass for depth with the wrong shape or type.
+    if inverse.dtype != np.uint16 or inverse.ndim != 2:
+        channels = 1 if inverse.ndim == 2 else inverse.shape[2]
+        raise DecodeError(
+            "CompressedImage.data: compressedDepth expects a 16-bit 1-channel png, got "
+            f"{inverse.dtype.name} with {channels} channel{'s' if channels != 1 else ''}"
+        )
     if not form.startswith("32FC1"):
         return inverse
     with np.errstate(divide="ignore"):

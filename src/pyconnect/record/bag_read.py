@@ -156,6 +156,7 @@ class MergedRead:
                     yield plan.make((plan.topic, log_time, bytes(data)))
                 return
             counts: dict[str, int] = {}
+            failed: dict[str, int] = {}  # per topic, counted here: errors are many at times
             for key, log_time, data in merged:
                 delivered += 1
                 plan = plans[key]
@@ -167,14 +168,17 @@ class MergedRead:
                 try:
                     value = decoder.decode(data)
                 except Exception as error:  # any codec failure is one message's problem
+                    before = index - failed.get(topic, 0)
                     try:
-                        value = decoder.recover(data, error)
+                        value = decoder.recover(
+                            data, error, topic=topic, index=index, delivered=before
+                        )
                     except Exception as final:
+                        failed[topic] = failed.get(topic, 0) + 1
                         problems.add(topic, index, log_time, final)
                         continue
                     # recover() returned a value: the decoder has just given up the stored
                     # definition.
-                    before = index - problems.count(topic)
                     if before > 0:
                         switched.setdefault(topic, before)
                 # After decoding: recover() has just switched the decoder's codec.

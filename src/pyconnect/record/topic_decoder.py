@@ -3,9 +3,13 @@
 A bag's stored definition wins, because it describes the bytes as recorded (a Foxy
 ``sensor_msgs/Range`` has no ``variance``). Some bags store definitions that are wrong
 (hand-written rosbag2 test fixtures hold ``uint8 level`` for ``rcl_interfaces/msg/Log``) or that
-do not compile: when the stored definition fails on a message and the installed type decodes
-it, the installed type is used from then on for that topic. Decoding goes through the wire
-codecs (``pyconnect.codecs.wire``); no rclpy is needed.
+do not compile: those give way to the installed type, with a warning. A stored definition is
+judged wrong only on evidence against the definition itself: it does not fit the bytes of the
+topic's first message(s), or of several messages in a row, and the installed type decodes them.
+One message that does not fit in a topic the stored definition decoded is a damaged message,
+and a natural codec refusing a value the stored definition read is that value's error: both
+stay errors of their message. Decoding goes through the wire codecs
+(``pyconnect.codecs.wire``); no rclpy is needed.
 """
 
 from __future__ import annotations
@@ -21,6 +25,7 @@ from pyconnect.record.bag_storage import Connection
 from pyconnect.typesys.names import full_type_name
 
 __all__ = [
+    "IN_A_ROW",
     "TopicDecoder",
     "TypeMismatch",
     "installed_type_hash",
@@ -136,6 +141,12 @@ def _value_codec(msg_type: str, registry: Any) -> Any:
     return registry.value_codec(msg_type)
 
 
+# A topic the stored definition has decoded gives way to the installed type only after this many
+# messages in a row that do not fit the definition and that the installed type decodes: a single
+# one is a damaged message, and switching on it would misread every intact message after it.
+IN_A_ROW = 3
+
+
 class TopicDecoder:
     """``decode(data)`` -> value or raises; ``recover(data, error)`` tries the installed type."""
 
@@ -143,6 +154,9 @@ class TopicDecoder:
         "_fallback",
         "_fallback_codec",
         "_fallback_tried",
+        "_fitted",
+        "_row",
+        "_stored_codec",
         "codec",
         "decode",
         "msg_type",
@@ -174,6 +188,15 @@ class TopicDecoder:
         self.registry = registry
         self._fallback: Decode | None = None
         self._fallback_codec: Any = None
+        # The codec of the stored definition while it decodes the topic: whether it reads a
+        # message's bytes tells a damaged message or a refused value from a wrong definition.
+        self._stored_codec: Any = None
+        # Whether the stored definition has decoded a message: from then on one message that
+        # does not fit it is that message's fault, not the definition's.
+        self._fitted = False
+        # The last message the stored definition did not fit and the installed type decoded:
+        # (topic, index, messages delivered before it, how many such in a row).
+        self._row: tuple[str, int, int, int] | None = None
         # The wire codec ``decode`` uses now (None: no codec could be built); its definitions
         # are the fields of the values (tables build their columns from them).
         self.codec: Any = None
@@ -189,11 +212,13 @@ class TopicDecoder:
                 self.msg_type, definition, encoding, natural, registry
             )
         except Exception as error:  # a definition that does not compile: try the installed type
-            _log.info(
+            _log.warning(
                 "%s: stored definition unusable (%s); using the installed type", msg_type, error
             )
             self.decode = self._installed_or_raise(error)
             self._fallback_tried = True
+            return
+        self._stored_codec = self.codec
 
     def _installed_or_raise(self, stored_error: Exception | None = None) -> Decode:
         try:
@@ -213,10 +238,58 @@ class TopicDecoder:
     @property
     def settled(self) -> bool:
         """Whether ``decode`` is final: no stored definition left that may give way."""
-        return self._fallback_tried
+        return self._stored_codec is None or (self._fallback_tried and self._fallback is None)
 
-    def recover(self, data: Any, error: Exception) -> Any:
-        """Decode with the installed type after the stored definition failed, or re-raise."""
+    def recover(
+        self, data: Any, error: Exception, *, topic: str = "", index: int = 0, delivered: int = 0
+    ) -> Any:
+        """The value of message ``index`` of ``topic`` that the stored definition failed on
+        (``error``), decoded with the installed type when the definition is at fault; else
+        raise ``error``. ``delivered``: how many of the topic's messages this read delivered.
+
+        The topic gives way to the installed type (``decode`` and ``codec`` change) when the
+        installed type decodes the message and it is the first the stored definition would
+        have decoded, or the ``IN_A_ROW``-th in a row it did not fit after some it did.
+        """
+        fallback = self._installed_fallback()
+        if fallback is None or fallback is self.decode:
+            raise error
+        if self._reads_bytes(data):
+            self._fitted = True  # the stored definition fits these bytes: not its fault
+            self._row = None
+            raise error
+        try:
+            value = fallback(data)
+        except Exception:
+            self._row = None  # decoded by neither: no evidence against the definition
+            raise error from None
+        if delivered:
+            self._fitted = True
+        row = 1
+        if self._row is not None and self._row[:3] == (topic, index - 1, delivered):
+            row = self._row[3] + 1
+        self._row = (topic, index, delivered, row)
+        if self._fitted and row < IN_A_ROW:
+            raise error
+        if self._fitted:
+            fits = f"{row} messages in a row"
+        else:
+            fits = "its first message" if index == 0 else "its first message either decodes"
+        _log.warning(
+            "%sthe definition of %s stored in the bag does not fit %s (%s) and the installed "
+            "type does: it decodes the rest of the topic",
+            f"{topic}: " if topic else "",
+            self.msg_type,
+            fits,
+            one_line(error),
+        )
+        self.decode = fallback  # the stored definition does not describe these bytes
+        self.codec = self._fallback_codec
+        self._stored_codec = None
+        return value
+
+    def _installed_fallback(self) -> Decode | None:
+        """The installed type's decode function, built at the first need (None: none)."""
         if not self._fallback_tried:
             self._fallback_tried = True
             try:
@@ -225,17 +298,15 @@ class TopicDecoder:
                 )
             except Exception:
                 self._fallback = None
-        if self._fallback is None or self._fallback is self.decode:
-            raise error
+        return self._fallback
+
+    def _reads_bytes(self, data: Any) -> bool:
+        """Whether the stored definition reads ``data`` whole: then the message's error is its
+        natural value's (a refused value), and no other layout may reinterpret the bytes."""
+        if not self.natural or self._stored_codec is None:
+            return False  # ``decode`` is the lossless read itself, which just failed
         try:
-            value = self._fallback(data)
+            self._stored_codec.to_dict(data)
         except Exception:
-            raise error from None
-        _log.info(
-            "%s: stored definition does not fit (%s); using the installed type",
-            self.msg_type,
-            error,
-        )
-        self.decode = self._fallback  # the stored definition does not describe these bytes
-        self.codec = self._fallback_codec
-        return value
+            return False
+        return True

@@ -97,6 +97,30 @@ def test_compressed_depth_16_and_32_bit() -> None:
     )
 
 
+@pytest.mark.parametrize("encoding", ["16UC1", "32FC1"])
+@pytest.mark.parametrize(
+    ("pixels", "got"),
+    [
+        (np.full((4, 5, 3), 200, np.uint8), "uint8 with 3 channels"),
+        (np.full((4, 5), 200, np.uint8), "uint8 with 1 channel"),
+        (np.full((4, 5, 3), 200, np.uint16), "uint16 with 3 channels"),
+    ],
+)
+def test_compressed_depth_of_another_png_is_a_decode_error(
+    encoding: str, pixels: np.ndarray, got: str
+) -> None:
+    # It decoded to a (4, 5, 3) uint8 or float32 "depth" image.
+    msg = CompressedImage(format=f"{encoding}; compressedDepth png")
+    msg.data.frombytes(
+        struct.pack("<iff", 0, 1000.0, 0.0) + cv2.imencode(".png", pixels)[1].tobytes()
+    )
+    with pytest.raises(DecodeError) as error:
+        decode_compressed_image(msg)
+    assert str(error.value) == (
+        f"CompressedImage.data: compressedDepth expects a 16-bit 1-channel png, got {got}"
+    )
+
+
 def test_encode_errors() -> None:
     with pytest.raises(EncodeError) as error:
         CompressedImageCodec(format="jpeg").encode(np.zeros((2, 2), np.uint16))
