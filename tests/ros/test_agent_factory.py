@@ -304,3 +304,20 @@ def test_a_misspelt_transport_is_refused_before_zenoh_is_imported(
         OptionError, match=r"needs eclipse-zenoh: pip install 'pyconnect-ros\[zenoh\]'"
     ):
         node.add_agent(conn_name="a", conn_type="sub", data_interface=String, transport="zenoh")
+
+
+def test_a_bridge_without_xxhash_names_the_extra(
+    make_node: Any, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """xxhash is the zenoh extra's too (rmw_zenoh's GIDs): its absence was a bare
+    ModuleNotFoundError."""
+    for name in [name for name in sys.modules if name.startswith(("xxhash", "pyconnect.ros.zenoh",
+                                                                  "pyconnect.transport"))]:  # fmt: skip
+        monkeypatch.delitem(sys.modules, name)
+    monkeypatch.setitem(sys.modules, "xxhash", None)
+    node = make_node("bridge_without_xxhash")
+    with pytest.raises(OptionError) as refused:
+        node.add_agent(conn_name="a", conn_type="sub", data_interface=String, transport="zenoh")
+    assert str(refused.value) == (
+        "agent 'a' (sub): transport='zenoh' needs xxhash: pip install 'pyconnect-ros[zenoh]'"
+    )

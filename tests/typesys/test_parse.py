@@ -163,15 +163,19 @@ def test_defaults_rosidls_idl_parser_rejects_name_the_line() -> None:
     )
 
 
+@pytest.mark.parametrize(
+    "module", ["rosidl_adapter", "rosidl_parser", "rosidl_generator_type_description"]
+)
 def test_without_rosidl_one_definition_error_says_what_to_install(
-    monkeypatch: pytest.MonkeyPatch,
+    monkeypatch: pytest.MonkeyPatch, module: str
 ) -> None:
-    # A definition rosidl would refuse made the search for its line import rosidl_adapter again.
-    without(monkeypatch, "rosidl_adapter")
+    # A definition rosidl would refuse made the search for its line import rosidl_adapter again;
+    # without the type-hash generator, hashing raised a bare ModuleNotFoundError.
+    without(monkeypatch, module)
     for text in ("int64 num\n", "int64 num\nbad line here\n"):
         with pytest.raises(DefinitionError) as caught:
             parse_interface_text("my_msgs", Path("msg/Num.msg"), text, ParsedInterfaces())
         assert str(caught.value) == (
             "reading interface definitions needs rosidl's parsers (No module named "
-            "'rosidl_adapter'): pip install 'pyconnect-ros[ros]' or source a ROS 2 Jazzy install"
+            f"'{module}'): pip install 'pyconnect-ros[ros]' or source a ROS 2 Jazzy install"
         )

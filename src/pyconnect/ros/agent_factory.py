@@ -98,10 +98,11 @@ def build_agent(node: AgentHost, given: Mapping[str, Any]) -> NodeAgent:
         try:
             from pyconnect.ros.zenoh_bridge import make_bridge_agent
         except ModuleNotFoundError as error:
-            if error.name != "zenoh":
+            missing = (error.name or "").split(".")[0]
+            if missing not in _ZENOH_EXTRA:  # the extra's packages; anything else is a bug
                 raise
             raise OptionError(
-                f"agent {name!r} ({conn_type}): transport='zenoh' needs eclipse-zenoh: "
+                f"agent {name!r} ({conn_type}): transport='zenoh' needs {_ZENOH_EXTRA[missing]}: "
                 "pip install 'pyconnect-ros[zenoh]'"
             ) from error
 
@@ -157,6 +158,10 @@ _FUNCTION_OPTIONS = (
     "accepted_func",
     "feedback_func",
 )
+
+
+_ZENOH_EXTRA = {"zenoh": "eclipse-zenoh", "xxhash": "xxhash"}
+"""The zenoh extra's modules and the packages that bring them."""
 
 
 def _check_values(

@@ -32,10 +32,11 @@ from pyconnect.typesys.packages import (
 )
 
 # -- parsing ----------------------------------------------------------------------------------
-# rosidl's parsers: dependencies of pyconnect-ros where their wheels exist (x86_64 Linux), also
-# brought by the `ros` extra or a sourced ROS install.
+# rosidl's parsers and its type-hash generator (pyconnect.typesys.hashing): dependencies of
+# pyconnect-ros where their wheels exist (x86_64 Linux), also brought by the `ros` extra or a
+# sourced ROS install.
 _ROSIDL_MODULES = ("rosidl_adapter.parser", "rosidl_adapter.resource", "rosidl_parser.parser",
-                   "rosidl_parser.definition")  # fmt: skip
+                   "rosidl_parser.definition", "rosidl_generator_type_description")  # fmt: skip
 ROSIDL_INSTALL = "pip install 'pyconnect-ros[ros]' or source a ROS 2 Jazzy install"
 _ADAPTER_TEMPLATES = {".msg": ("msg", "msg.idl.em"), ".srv": ("srv", "srv.idl.em"),
                       ".action": ("action", "action.idl.em")}  # fmt: skip
