@@ -164,3 +164,21 @@ def test_a_split_bag_missing_a_listed_file_is_read_and_reported_as_damage(
     assert captured.err == f"pyconnect: {bag}: damaged bag: {damage}\n"
     assert main(["bag", "info", str(bag), "--ignore-damage"]) == 0
     assert main(["bag", "echo", str(bag), "--json", "--ignore-damage"]) == 0
+
+
+def test_info_lists_a_topic_of_two_types_once_per_type(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # As ros2 bag info lists each topic and type: not one type with both counts summed.
+    from tests.record.test_bag_info import write_mixed
+
+    bag = write_mixed(tmp_path / "mixed.mcap")
+    assert main(["bag", "info", str(bag)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "messages:  8" in lines
+    assert lines[lines.index("topics:    3") + 1 :] == [
+        "  /mixed  std_msgs/msg/String   4 msgs  cdr",
+        "  /mixed  std_msgs/msg/Float64  3 msgs  cdr",
+        "  /other  std_msgs/msg/Float64  1 msgs  cdr",
+        "services:  0",
+    ]

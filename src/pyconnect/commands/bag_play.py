@@ -159,15 +159,17 @@ def _play_all(
     from pyconnect.record.bag_reader import open_bag
 
     info, stored = _stored_types(args.path)
+    # One entry per topic: ``info`` lists a topic of two types twice, and ``stored`` has both.
+    each = {t.name: t for t in reversed(info.topics)}  # reversed: a topic's first entry stays
     if args.topics is not None:
-        names = [t.name for t in info.topics]
+        names = sorted(each)
         unknown = [name for name in dict.fromkeys(args.topics) if name not in names]
         if unknown:  # as `bag echo --topic`: a typo must not play nothing and exit 0
             raise CommandFailed(
                 f"{info.path}: no topic {', '.join(unknown)} in this bag "
                 f"(topics: {', '.join(names) or 'none'})"
             )
-    topics = [t for t in info.topics if args.topics is None or t.name in args.topics]
+    topics = [each[name] for name in sorted(each) if args.topics is None or name in args.topics]
     publishers = _Publishers(session)
     try:
         for topic in topics:
@@ -243,7 +245,8 @@ def _play_pass(
 
 def _stored_types(path: str) -> tuple[BagInfo, dict[str, dict[str, set[str]]]]:
     """The bag's ``BagInfo``, and topic -> each of its types (``pkg/msg/Name``, in the order the
-    bag declares them) -> how its messages are serialised: ``BagInfo`` has one type a topic."""
+    bag declares them) -> how its messages are serialised (``BagInfo`` lists each topic and
+    type, with counts but not the serialisation of every type of a topic)."""
     from pyconnect.record.bag_files import BagFiles, open_bag_files
     from pyconnect.record.bag_info import describe
     from pyconnect.record.bag_storage import StorageFile

@@ -2,7 +2,8 @@
 
 Opened, their messages are decompressed when rosbag2 compressed them one by one
 (``compression_mode: message``; pyconnect.record.message_compression), so that the readers
-see CDR; whole compressed files are refused.
+see CDR; a file compressed whole (``compression_mode: file``, ``bag_0.mcap.zstd``) is read from
+a decompressed temporary copy (pyconnect.record.file_compression).
 """
 
 from __future__ import annotations
@@ -15,6 +16,12 @@ from pathlib import Path
 from pyconnect.record.bag_errors import BagError
 from pyconnect.record.bag_metadata import METADATA_FILE, BagMetadata, read_metadata
 from pyconnect.record.bag_storage import StorageFile
+from pyconnect.record.file_compression import (
+    FILE_COMPRESSIONS,
+    ZSTD_MAGIC,
+    compressed_storage_name,
+    open_decompressed,
+)
 from pyconnect.record.message_compression import MAYBE_ZSTD
 
 BagPaths = str | Path | Sequence[str | Path]
@@ -24,6 +31,7 @@ __all__ = [
     "BagFiles",
     "BagPaths",
     "as_paths",
+    "is_storage_file_name",
     "locate_bag_files",
     "open_bag_files",
     "open_storage",
@@ -48,6 +56,12 @@ class BagFiles:
     missing: tuple[str, ...] = ()
     """The files metadata.yaml lists that are not in the bag, as it lists them: damage (the
     other files are read), not an error that would keep every intact message from the user."""
+
+
+def is_storage_file_name(path: Path) -> bool:
+    """Whether ``path`` is named as a storage file: ``.mcap``, ``.db3``, or either compressed
+    whole (``.mcap.zstd``)."""
+    return path.suffix in STORAGE_SUFFIXES or compressed_storage_name(path)
 
 
 def _natural_key(path: Path) -> tuple[object, ...]:
@@ -97,6 +111,18 @@ def _message_compression(path: Path, metadata: BagMetadata) -> str:
     return found
 
 
+def _check_file_compression(path: Path, metadata: BagMetadata) -> None:
+    """``BagError`` for files compressed whole in a format that cannot be read."""
+    if metadata.compression_mode.lower() != "file":
+        return
+    if metadata.compression_format.lower() not in FILE_COMPRESSIONS:
+        expected = " or ".join(repr(name) for name in FILE_COMPRESSIONS)
+        raise BagError(
+            f"{path}: compression_format: expected {expected} for compression_mode "
+            f"{metadata.compression_mode!r}, got {metadata.compression_format!r}"
+        )
+
+
 def locate_bag_files(path: str | Path) -> BagFiles:
     """Resolve ``path`` to storage files; ``BagError`` when it is not a bag."""
     target = Path(path)
@@ -109,17 +135,13 @@ def locate_bag_files(path: str | Path) -> BagFiles:
     metadata_path = target / METADATA_FILE
     if metadata_path.is_file():
         metadata = read_metadata(metadata_path)
-        if metadata.compression_mode.lower() == "file":
-            raise BagError(
-                f"{target}: files compressed whole ({metadata.compression_format}) are not "
-                "supported; decompress them with `ros2 bag convert` first"
-            )
+        _check_file_compression(metadata_path, metadata)
         files, missing = _listed_files(target, metadata.relative_file_paths)
         compression = _message_compression(metadata_path, metadata)
         return BagFiles(target, files, metadata, compression, missing)
     # No metadata.yaml (a bag before `ros2 bag reindex`): every storage file, in split order.
     found = sorted(
-        (p for p in target.iterdir() if p.suffix in STORAGE_SUFFIXES and p.is_file()),
+        (p for p in target.iterdir() if is_storage_file_name(p) and p.is_file()),
         key=_natural_key,
     )
     if not found:
@@ -129,12 +151,25 @@ def locate_bag_files(path: str | Path) -> BagFiles:
 
 def open_storage(path: Path, *, message_compression: str = "") -> StorageFile:
     """Open one storage file, recognised by its first bytes (the suffix may be anything);
-    ``message_compression``: the format its messages' data is compressed in ("" none)."""
+    ``message_compression``: the format its messages' data is compressed in ("" none). A file
+    compressed whole with zstd is read from a decompressed temporary copy."""
+    head = _head(path)
+    if head.startswith(ZSTD_MAGIC):
+        return open_decompressed(
+            path, lambda copy: _open_plain(copy, _head(copy), message_compression)
+        )
+    return _open_plain(path, head, message_compression)
+
+
+def _head(path: Path) -> bytes:
     try:
         with path.open("rb") as stream:
-            head = stream.read(16)
+            return stream.read(16)
     except OSError as error:
         raise BagError(f"{path}: cannot read ({error.strerror})") from None
+
+
+def _open_plain(path: Path, head: bytes, message_compression: str) -> StorageFile:
     if head.startswith(_MCAP_MAGIC):
         from pyconnect.record.mcap_storage import McapFile
 

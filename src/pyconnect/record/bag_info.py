@@ -7,8 +7,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from pyconnect.record.bag_damage import BagDamage
-from pyconnect.record.bag_files import STORAGE_SUFFIXES, BagFiles, BagPaths, open_bag_files
-from pyconnect.record.bag_metadata import METADATA_FILE
+from pyconnect.record.bag_files import BagFiles, BagPaths, is_storage_file_name, open_bag_files
+from pyconnect.record.bag_metadata import METADATA_FILE, TopicMetadata
 from pyconnect.record.bag_storage import StorageFile
 
 __all__ = ["BagInfo", "TopicInfo", "bag_info", "describe", "storage_damage"]
@@ -18,7 +18,9 @@ SERVICE_EVENT_SUFFIX = "/_service_event"
 
 @dataclass(frozen=True)
 class TopicInfo:
-    """A topic of a bag: its type, how it is serialised and how many messages it has.
+    """A topic of a bag with one of its types: how it is serialised and how many messages of
+    that type it has (a topic carried by two types is two of these, as ``ros2 bag info`` lists
+    each topic and type).
 
     ``type_hash`` is the RIHS01 hash the bag stores for the type ("" when it stores none).
     """
@@ -55,6 +57,8 @@ class BagInfo:
     storage: str
     files: tuple[Path, ...]
     topics: tuple[TopicInfo, ...]
+    """One per topic and type, by topic name (a topic's types in the order the bag declares
+    them): a topic carried by two types has two, each with its own count."""
     start_ns: int | None
     end_ns: int | None
     damage: tuple[BagDamage, ...] = field(default=())
@@ -85,7 +89,8 @@ class BagInfo:
 
 
 def _storage_name(files: Iterable[StorageFile]) -> str:
-    kinds = {type(f).__name__ for f in files}
+    # A file compressed whole is read through a wrapper around the storage of its copy.
+    kinds = {type(getattr(f, "inner", f)).__name__ for f in files}
     names = {"McapFile": "mcap", "SqliteFile": "sqlite3"}
     return "+".join(sorted(names.get(kind, kind) for kind in kinds)) or "none"
 
@@ -132,25 +137,54 @@ def _metadata_damage(located: BagFiles, stored: dict[str, int], damaged: bool) -
     found.extend(
         BagDamage(where, None, f"does not list {path.name}, a storage file of the bag; not read")
         for path in sorted(located.path.iterdir())
-        if path.suffix in STORAGE_SUFFIXES and path.is_file() and path.resolve() not in listed
+        if is_storage_file_name(path) and path.is_file() and path.resolve() not in listed
     )
     if not damaged and not located.missing:
+        declared: dict[str, int] = {}  # a topic of two types is listed twice: one count each
+        for topic in metadata.topics:
+            declared[topic.name] = declared.get(topic.name, 0) + topic.message_count
         found.extend(
             BagDamage(
                 where,
                 None,
-                f"{topic.name}: declares {topic.message_count} message(s), "
-                f"the storage files hold {stored.get(topic.name, 0)}",
+                f"{name}: declares {count} message(s), "
+                f"the storage files hold {stored.get(name, 0)}",
             )
-            for topic in metadata.topics
-            if stored.get(topic.name, 0) != topic.message_count
+            for name, count in declared.items()
+            if stored.get(name, 0) != count
         )
     return found
 
 
+def _add_listed(
+    tallies: dict[tuple[str, str], _TopicTally], listed: TopicMetadata
+) -> dict[tuple[str, str], _TopicTally]:
+    """``tallies`` with what metadata.yaml says of a topic and type (``listed``) added: it fills
+    in what the files lack, and a topic and type it lists that no file holds (a recording cut
+    before its channel records) is still one of the bag, with the messages the files hold, none.
+    """
+    key = (listed.name, listed.msg_type)
+    untyped = (listed.name, "")
+    if key not in tallies and listed.msg_type and untyped in tallies:
+        # A channel with no schema: metadata.yaml names its type (the order stays the bag's).
+        tallies = {(key if k == untyped else k): tally for k, tally in tallies.items()}
+        tallies[key].msg_type = listed.msg_type
+    tally = tallies.setdefault(
+        key, _TopicTally(listed.msg_type, listed.serialization_format or "cdr")
+    )
+    tally.type_hash = tally.type_hash or listed.type_description_hash
+    # metadata.yaml is what rosbag2 plays from; the files' own copy fills in for it
+    tally.offered_qos_profiles = listed.offered_qos_profiles or tally.offered_qos_profiles
+    if listed.serialization_format not in ("", "cdr"):
+        tally.serialization_format = listed.serialization_format
+    return tallies
+
+
 def describe(bags: Iterable[tuple[BagFiles, list[StorageFile]]]) -> BagInfo:
     """Counts and times from the storage files; metadata.yaml only adds what they lack."""
-    tallies: dict[str, _TopicTally] = {}
+    # Per topic and type: a topic carried by two types (two MCAP channels, merged bags) is
+    # two topics for whoever reads the info, each with the count of its own messages.
+    tallies: dict[tuple[str, str], _TopicTally] = {}
     all_storages: list[StorageFile] = []
     all_files: list[Path] = []
     first_path: Path | None = None
@@ -159,8 +193,6 @@ def describe(bags: Iterable[tuple[BagFiles, list[StorageFile]]]) -> BagInfo:
         first_path = first_path or located.path
         all_storages.extend(storages)
         all_files.extend(located.files)
-        metadata = located.metadata
-        declared = {t.name: t for t in metadata.topics} if metadata is not None else {}
         stored: dict[str, int] = {}  # this bag's counts, to compare with its metadata.yaml
         for storage in storages:
             counts = storage.message_counts()
@@ -168,35 +200,18 @@ def describe(bags: Iterable[tuple[BagFiles, list[StorageFile]]]) -> BagInfo:
                 count = counts.get(connection.id, 0)
                 stored[connection.topic] = stored.get(connection.topic, 0) + count
                 tally = tallies.setdefault(
-                    connection.topic,
+                    (connection.topic, connection.msg_type),
                     _TopicTally(connection.msg_type, connection.serialization_format),
                 )
                 tally.count += count
                 tally.has_definition |= connection.definition is not None
-                tally.msg_type = tally.msg_type or connection.msg_type
                 tally.type_hash = tally.type_hash or connection.type_hash
                 tally.offered_qos_profiles = (
                     tally.offered_qos_profiles or connection.offered_qos_profiles
                 )
         disagreements += _metadata_damage(located, stored, bool(storage_damage(storages)))
-        for name, listed in declared.items():
-            # Listed but in no storage file (a recording cut before its channel records): still
-            # a topic of the bag, with the messages the files hold, none.
-            tallies.setdefault(
-                name, _TopicTally(listed.msg_type, listed.serialization_format or "cdr")
-            )
-        for name, tally in tallies.items():
-            topic_metadata = declared.get(name)
-            if topic_metadata is None:
-                continue
-            tally.msg_type = tally.msg_type or topic_metadata.msg_type
-            tally.type_hash = tally.type_hash or topic_metadata.type_description_hash
-            # metadata.yaml is what rosbag2 plays from; the files' own copy fills in for it
-            tally.offered_qos_profiles = (
-                topic_metadata.offered_qos_profiles or tally.offered_qos_profiles
-            )
-            if topic_metadata.serialization_format not in ("", "cdr"):
-                tally.serialization_format = topic_metadata.serialization_format
+        for listed in located.metadata.topics if located.metadata is not None else ():
+            tallies = _add_listed(tallies, listed)
     ranges = [r for r in (s.time_range() for s in all_storages) if r is not None]
     return BagInfo(
         path=first_path or Path(),
@@ -212,7 +227,8 @@ def describe(bags: Iterable[tuple[BagFiles, list[StorageFile]]]) -> BagInfo:
                 type_hash=tally.type_hash,
                 offered_qos_profiles=tally.offered_qos_profiles,
             )
-            for name, tally in sorted(tallies.items())
+            # by name; a topic's types in the order the bag declares them (sorted is stable)
+            for (name, _msg_type), tally in sorted(tallies.items(), key=lambda item: item[0][0])
         ),
         start_ns=min(r[0] for r in ranges) if ranges else None,
         end_ns=max(r[1] for r in ranges) if ranges else None,

@@ -23,6 +23,7 @@ from pyconnect.record.topic_decoder import normalise_type_name
 
 __all__ = [
     "TypedPart",
+    "by_name",
     "left_out_note",
     "left_out_topics",
     "reads_connection",
@@ -86,7 +87,7 @@ def select_topics(
     or ``types`` selected it, and is left out when neither did (``left_out_topics`` says which):
     one such topic must not keep the others of the bag from being read.
     """
-    known = {topic.name: topic for topic in info.topics}
+    known = by_name(info)
     chosen = dict(known)
     if topics is not None:
         wanted = [topics] if isinstance(topics, str) else list(topics)
@@ -123,6 +124,27 @@ def select_topics(
     return chosen
 
 
+def by_name(info: BagInfo) -> dict[str, TopicInfo]:
+    """Each topic of ``info`` once, as a read takes it (all its types): ``info`` lists a topic
+    carried by two types twice, one entry per type. Its type is the first the bag declares
+    (of those it names; ``types=`` narrows it, ``_narrowed``), its count that of every type."""
+    found: dict[str, TopicInfo] = {}
+    for topic in info.topics:
+        first = found.get(topic.name)
+        if first is None:
+            found[topic.name] = topic
+            continue
+        found[topic.name] = dataclasses.replace(
+            first,
+            msg_type=first.msg_type or topic.msg_type,
+            message_count=first.message_count + topic.message_count,
+            has_definition=first.has_definition or topic.has_definition,
+            type_hash=first.type_hash if first.msg_type else topic.type_hash,
+            offered_qos_profiles=first.offered_qos_profiles or topic.offered_qos_profiles,
+        )
+    return found
+
+
 def left_out_topics(
     info: BagInfo, topics: Iterable[str] | None, types: Iterable[str] | None, *, raw: bool
 ) -> dict[str, str]:
@@ -130,7 +152,7 @@ def left_out_topics(
     that cannot be decoded (none when ``raw``, or when ``topics`` or ``types`` select)."""
     if raw or topics is not None or types is not None:
         return {}
-    found = {topic.name: _undecodable(topic) for topic in info.topics}
+    found = {name: _undecodable(topic) for name, topic in by_name(info).items()}
     return {name: why for name, why in found.items() if why is not None}
 
 
@@ -229,7 +251,9 @@ def _normalised(
     info: BagInfo, topic_types: Mapping[str, Sequence[TypedPart]] | None
 ) -> dict[str, set[str]]:
     """Topic -> its types, normalised (``pkg/msg/Name``), for every topic of ``info``."""
-    each = {topic.name: {normalise_type_name(topic.msg_type)} for topic in info.topics}
+    each: dict[str, set[str]] = {}
+    for topic in info.topics:  # a topic of two types is two entries: each adds its type
+        each.setdefault(topic.name, set()).add(normalise_type_name(topic.msg_type))
     for name, parts in (topic_types or {}).items():
         each.setdefault(name, set()).update(
             normalise_type_name(part.msg_type) for part in parts if part.msg_type
