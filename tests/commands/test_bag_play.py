@@ -329,3 +329,26 @@ def test_play_stopped_by_a_signal_exits_0_with_its_summary(
         r"Played \d+ message\(s\); timing error: mean -?\d+\.\d{3} ms, max -?\d+\.\d{3} ms",
         out[-1],
     ), out
+
+
+def test_a_stop_right_after_a_publish_counts_that_message(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A signal's handler raises at the next instruction: right after the first publish, the
+    message went out uncounted and the stop printed no summary (a flaky signal test)."""
+    from rclpy.publisher import Publisher
+
+    bag = _write_mcap(
+        tmp_path / "three.mcap", [("/ok", "std_msgs/msg/String", "cdr", _said(k)) for k in range(3)]
+    )
+    publish = Publisher.publish
+
+    def publish_then_interrupted(self: Publisher, message: Any) -> None:
+        publish(self, message)
+        if self.topic_name == "/ok":  # not the session's own publishers
+            raise KeyboardInterrupt  # as the SIGTERM/Ctrl-C handler would, just after
+
+    monkeypatch.setattr(Publisher, "publish", publish_then_interrupted)
+    assert main(["bag", "play", str(bag), "--rate", "1000"]) == 0
+    captured = capsys.readouterr()
+    assert captured.out.splitlines()[-1].startswith("Played 1 message(s);"), captured

@@ -238,8 +238,13 @@ def _play_pass(
             time.sleep(min(due - now, CLOCK_PERIOD))
         if clock is not None:
             clock.publish(_clock(message.log_time_ns))
-        publisher.publish(bytes(message.value))
-        late.add(time.monotonic() - due)
+        try:
+            publisher.publish(bytes(message.value))
+        finally:
+            # Counted even when Ctrl-C or SIGTERM lands right after the publish (the handler
+            # raises at the next instruction): a message that went out was missing from the
+            # summary, and a stop after the first one printed no summary at all.
+            late.add(time.monotonic() - due)
     return played
 
 
