@@ -16,7 +16,13 @@ from typing import TYPE_CHECKING, Any, TextIO
 from pyconnect.commands.argument_types import nonnegative_int
 from pyconnect.commands.bag_damage import IGNORE_DAMAGE_HELP, damage_status
 from pyconnect.commands.common import Parser, UsageError
-from pyconnect.commands.value_text import field_of, format_value, to_json, to_yaml
+from pyconnect.commands.value_text import (
+    ImageSummary,
+    field_of,
+    format_value,
+    to_json,
+    to_yaml,
+)
 
 if TYPE_CHECKING:
     from pyconnect.commands.common import Subcommands
@@ -230,18 +236,20 @@ def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
                     raise UsageError(
                         f"--field {args.field}: {message.topic}: {error.args[0]}"
                     ) from None
+                value = _image_summary(message.msg_type, args.field, value, err)
             if args.json:
                 record = {
                     "topic": message.topic,
                     "log_time_ns": message.log_time_ns,
                     "msg_type": message.msg_type,
-                    "value": value,
+                    "value": value.as_dict() if isinstance(value, ImageSummary) else value,
                 }
                 print(to_json(record), file=out)
             else:
                 seconds, nanoseconds = divmod(message.log_time_ns, 1_000_000_000)
                 print(f"# {message.topic} {seconds}.{nanoseconds:09d} {message.msg_type}", file=out)
-                print(to_yaml(value), end="", file=out)
+                shown = repr(value) if isinstance(value, ImageSummary) else value
+                print(to_yaml(shown), end="", file=out)
                 print("---", file=out)
             printed += 1
         errors = list(bag.errors)
@@ -253,6 +261,48 @@ def _echo(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         print(f"{PROGRAM}: {note}", file=err)
     status = _report_problems(errors, err)
     return max(status, damage_status(damage, summary, args, err))
+
+
+_IMAGES = ("sensor_msgs/msg/Image", "sensor_msgs/msg/CompressedImage")
+
+
+def _image_summary(msg_type: str, path: str, value: Any, err: TextIO) -> Any:
+    """An image field's one-line summary, as ``topic echo --field`` shows it; ``value`` (the
+    field's dict) for any other field, or an image that does not decode (said on ``err``)."""
+    from pyconnect.codecs import wire
+
+    field_type = _field_type(msg_type, path)
+    if field_type not in _IMAGES or not isinstance(value, dict):
+        return value
+    try:
+        pixels = wire.decode(wire.from_dict(value, field_type), field_type)
+    except Exception as error:  # a short frame, a CompressedImage that is no jpeg or png
+        problem = " ".join(str(error).split()) or type(error).__name__
+        print(f"{PROGRAM}: warning: cannot decode the image (shown as its fields): {problem}",
+              file=err)  # fmt: skip
+        return value
+    return ImageSummary(pixels, str(value.get("encoding") or value.get("format") or ""))
+
+
+def _field_type(msg_type: str, path: str) -> str | None:
+    """The message type of field ``path`` of ``msg_type`` (None: a primitive, or a type
+    without an installed definition): the fields' dicts do not say what they are."""
+    from pyconnect.codecs import wire
+
+    try:
+        definitions = wire.wire_codec(msg_type).definitions
+    except Exception:  # known to the bag only: its field shows as its dict
+        return None
+    current = msg_type
+    for name in path.split("."):
+        if name.isdigit():  # an item of the sequence just named: of the same type
+            continue
+        rows = definitions.get(current, ("", ()))[1]
+        row = next((row for row in rows if row[0] == name), None)
+        if row is None or row[1] != "message":
+            return None
+        current = row[2]
+    return current
 
 
 def _export(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:

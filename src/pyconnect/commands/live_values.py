@@ -19,7 +19,7 @@ import numpy as np
 from pyconnect import codecs
 from pyconnect.commands.graph import PROGRAM, CommandFailed
 from pyconnect.commands.value_input import message_from_text
-from pyconnect.commands.value_text import format_value, plain_value
+from pyconnect.commands.value_text import ImageSummary, format_value, plain_value
 
 __all__ = [
     "ImageSummary",
@@ -33,30 +33,6 @@ __all__ = [
 ]
 
 IMAGE_TYPES = {"Image", "CompressedImage"}
-
-
-class ImageSummary:
-    """An image in one line: shape, dtype, encoding and mean pixel value."""
-
-    def __init__(self, array: np.ndarray[Any, Any], encoding: str) -> None:
-        self.shape = tuple(int(n) for n in array.shape)
-        self.dtype = str(array.dtype)
-        self.encoding = encoding
-        self.mean = float(array.mean()) if array.size else math.nan
-
-    def as_dict(self) -> dict[str, Any]:
-        return {
-            "shape": list(self.shape),
-            "dtype": self.dtype,
-            "encoding": self.encoding,
-            "mean": round(self.mean, 3),
-        }
-
-    def __repr__(self) -> str:
-        return (
-            f"Image(shape={self.shape}, dtype={self.dtype}, encoding={self.encoding}, "
-            f"mean={self.mean:.3f})"
-        )
 
 
 def select_field(msg: Any, field: str | None) -> Any:

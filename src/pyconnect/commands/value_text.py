@@ -6,6 +6,7 @@ import array
 import base64
 import dataclasses
 import json
+import math
 import re
 from collections.abc import Callable
 from typing import Any
@@ -13,7 +14,39 @@ from typing import Any
 import numpy as np
 import yaml
 
-__all__ = ["abbreviated_fields", "field_of", "format_value", "plain_value", "to_json", "to_yaml"]
+__all__ = [
+    "ImageSummary",
+    "abbreviated_fields",
+    "field_of",
+    "format_value",
+    "plain_value",
+    "to_json",
+    "to_yaml",
+]
+
+
+class ImageSummary:
+    """An image in one line: shape, dtype, encoding and mean pixel value."""
+
+    def __init__(self, array: np.ndarray[Any, Any], encoding: str) -> None:
+        self.shape = tuple(int(n) for n in array.shape)
+        self.dtype = str(array.dtype)
+        self.encoding = encoding
+        self.mean = float(array.mean()) if array.size else math.nan
+
+    def as_dict(self) -> dict[str, Any]:
+        return {
+            "shape": list(self.shape),
+            "dtype": self.dtype,
+            "encoding": self.encoding,
+            "mean": round(self.mean, 3),
+        }
+
+    def __repr__(self) -> str:
+        return (
+            f"Image(shape={self.shape}, dtype={self.dtype}, encoding={self.encoding}, "
+            f"mean={self.mean:.3f})"
+        )
 
 
 class _Summary:
