@@ -16,7 +16,11 @@ from pyconnect.typesys.installed_definition_text import (
     DEFINITION_SEPARATOR,
     definition_encoding,
     installed_definition,
+    interface_file,
 )
+from pyconnect.typesys.loading import load_packages
+from pyconnect.typesys.model import TypeSet
+from pyconnect.typesys.packages import installed_packages, installed_type_hash
 from tests.typesys.idl_prefix import READING_IDL, SAMPLE_IDL, idl_share
 
 __all__ = ["idl_share"]  # a fixture
@@ -154,3 +158,125 @@ def test_an_idl_text_with_crlf_line_ends_reads_as_with_lf(idl_share: Path) -> No
     expected = resolve_definition("idlpkg/msg/Reading", text, "ros2idl")[0]
     crlf = text.replace("\n", "\r\n")
     assert resolve_definition("idlpkg/msg/Reading", crlf, "ros2idl")[0] == expected
+
+
+# -- service and action parts: in .msg form, and in rosbag2 Jazzy's `SRV:` layout --------------
+ACTION_PARTS = [
+    "Goal", "Result", "Feedback", "FeedbackMessage", "SendGoal_Request", "SendGoal_Response",
+    "SendGoal_Event", "GetResult_Request", "GetResult_Response", "GetResult_Event",
+]  # fmt: skip
+
+
+@pytest.fixture(scope="module")
+def installed_types() -> TypeSet:
+    return load_packages(["test_msgs", "std_srvs", "rcl_interfaces"])[1]
+
+
+@pytest.mark.parametrize(
+    "msg_type",
+    [
+        *(f"test_msgs/action/Fibonacci_{part}" for part in ACTION_PARTS),
+        "std_srvs/srv/SetBool_Event",
+        "rcl_interfaces/srv/GetParameters_Event",
+    ],
+)
+def test_the_stored_text_of_an_action_part_or_service_event_reads_back_as_installed(
+    msg_type: str, installed_types: TypeSet
+) -> None:
+    """Action parts were unreadable (rosidl takes no `pkg/action/Name` field type), and their
+    RIHS01 hashes were empty (hashed as `pkg/msg/Name`)."""
+    text = installed_definition(msg_type)
+    message, _types = resolve_definition(msg_type, text, definition_encoding(text))
+    assert message == installed_types.get(msg_type)
+    assert message.type_hash == installed_type_hash(msg_type)  # share/<pkg>/<ns>/<Name>.json's
+
+
+@pytest.mark.parametrize("service", ["std_srvs/srv/SetBool", "rcl_interfaces/srv/GetParameters"])
+def test_a_service_part_in_msg_form_reads_back_as_installed(
+    service: str, installed_types: TypeSet
+) -> None:
+    package, _, name = service.split("/")
+    srv_text = interface_file(package, "srv", name).read_text(encoding="utf-8")
+    for part, text in zip(("Request", "Response"), srv_text.split("---\n"), strict=True):
+        msg_type = f"{service}_{part}"
+        message, _types = resolve_definition(msg_type, text, "ros2msg")
+        assert message == installed_types.get(msg_type)
+        assert message.type_hash == installed_type_hash(msg_type)
+
+
+def test_an_error_in_a_part_names_the_part() -> None:
+    with pytest.raises(DefinitionError) as caught:
+        resolve_definition("test_msgs/action/Fibonacci_Goal", "int32 order\ntime t\n", "ros2msg")
+    assert str(caught.value) == "action/Fibonacci_Goal.msg:2: unknown type 'time'"
+    text = f"x_msgs/action/A_Goal goal\n{SEPARATOR}\nMSG: x_msgs/action/A_Goal\nint32 x y\n"
+    with pytest.raises(DefinitionError) as caught:
+        resolve_definition("x_msgs/msg/T", text, "ros2msg")
+    assert str(caught.value).startswith("action/A_Goal.msg:1: ")
+    assert "PyconnectPart" not in str(caught.value)
+
+
+# What rosbag2 Jazzy's tests expect it to store for a service's events
+# (test_local_message_definition_source.cpp: can_find_srv_deps_in_msg, can_find_srv_deps_in_idl).
+_SRV_MSG_DEPS = (
+    f"{SEPARATOR}\nSRV: my_srvs/srv/ComplexSrvMsg\n"
+    "my_srvs/BasicMsg req\n---\nmy_srvs/BasicMsg resp\n"
+    f"\n{SEPARATOR}\nMSG: my_srvs/BasicMsg\nfloat32 c\n"
+)
+_SRV_IDL_DEPS = (
+    f"{SEPARATOR}\nSRV: my_srvs/srv/ComplexSrvIdl\n"
+    "my_srvs/BasicIdl req\n---\nmy_srvs/BasicIdl resp\n"
+    f"\n{SEPARATOR}\nMSG: my_srvs/BasicIdl\n"
+    f"\n{SEPARATOR}\nIDL: my_srvs/BasicIdl\n"
+    "module my_srvs {\n  module msg {\n    struct BasicIdl {\n        float x;\n    };\n  };\n};\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("service", "text", "encoding", "field"),
+    [
+        ("my_srvs/srv/ComplexSrvMsg", _SRV_MSG_DEPS, "ros2msg", ("c", "float32")),
+        ("my_srvs/srv/ComplexSrvIdl", _SRV_IDL_DEPS, "ros2idl", ("x", "float32")),
+    ],
+    ids=["msg-deps", "idl-deps"],
+)
+def test_rosbag2_jazzys_srv_layout_reads_back(
+    service: str, text: str, encoding: str, field: tuple[str, str]
+) -> None:
+    """It was read as a .msg named ComplexSrvMsg_Event, which rosidl refuses."""
+    message, types = resolve_definition(f"{service}_Event", text, encoding)
+    assert [f.name for f in message.fields] == ["info", "request", "response"]
+    request = types.get(f"{service}_Request")
+    assert [f.name for f in request.fields] == ["req"]
+    nested = types.get(request.fields[0].type.element.name)
+    assert [(f.name, f.type.element.name) for f in nested.fields] == [field]
+
+
+def test_a_service_event_in_rosbag2s_layout_needs_no_installed_service(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Only service_msgs (which the event's info field needs) is installed."""
+    from pyconnect.typesys import definition_text
+
+    text = installed_definition("rcl_interfaces/srv/GetParameters_Event")
+    installed = installed_packages()
+    only = {"service_msgs": installed["service_msgs"], "builtin_interfaces": installed["builtin_interfaces"]}  # fmt: skip
+    monkeypatch.setattr(definition_text, "installed_packages", lambda: only)
+    message, types = resolve_definition("rcl_interfaces/srv/GetParameters_Event", text, "ros2msg")
+    response = types.get(message.fields[2].type.element.name)
+    assert response.nested_types == ("rcl_interfaces/msg/ParameterValue",)
+    assert message.type_hash == installed_type_hash("rcl_interfaces/srv/GetParameters_Event")
+
+
+def test_a_type_named_like_a_stand_in_keeps_its_name() -> None:
+    text = (
+        "x_msgs/PyconnectPart0 a\nx_msgs/action/A_Result b\nx_msgs/PyconnectPart1 c\n"
+        f"{SEPARATOR}\nMSG: x_msgs/PyconnectPart0\nint8 p0\n"
+        f"{SEPARATOR}\nMSG: x_msgs/action/A_Result\nint8 r\n"
+        f"{SEPARATOR}\nMSG: x_msgs/PyconnectPart1\nint8 p1\n"
+    )
+    message, types = resolve_definition("x_msgs/action/A_Goal", text, "ros2msg")
+    assert message.nested_types == (
+        "x_msgs/msg/PyconnectPart0", "x_msgs/action/A_Result", "x_msgs/msg/PyconnectPart1",
+    )  # fmt: skip
+    fields = {name: [f.name for f in types.get(name).fields] for name in message.nested_types}
+    assert list(fields.values()) == [["p0"], ["r"], ["p1"]]

@@ -2,16 +2,18 @@
 
 The layouts are those rosbag2 writes (``ros2msg``: the main type's text, then one block per
 dependency headed by a line of ``=`` and ``MSG: pkg/Name``; ``ros2idl``: every block headed by
-``IDL: pkg/msg/Name``), as ``pyconnect.typesys.installed_definition_text`` writes them for
-installed types.
+``IDL: pkg/msg/Name``; a service event: a first block headed ``SRV: pkg/srv/Name``, or the raw
+``.srv`` text), as ``pyconnect.typesys.installed_definition_text`` writes them for installed
+types. A service or action part may be written in ``.msg`` form, and its blocks and field types
+named ``pkg/srv/Name`` or ``pkg/action/Name`` (``pyconnect.typesys.part_standins``).
 """
 
 from __future__ import annotations
 
 import re
 from collections.abc import Iterable
-from dataclasses import replace
 from pathlib import Path
+from typing import NamedTuple
 
 from pyconnect.typesys.errors import DefinitionError
 from pyconnect.typesys.loading import build_type_set, reject_recursive_types
@@ -24,6 +26,7 @@ from pyconnect.typesys.parse import (
     parse_installed_package,
     parse_interface_text,
 )
+from pyconnect.typesys.part_standins import PartStandIns
 
 __all__ = [
     "parse_definition",
@@ -33,7 +36,7 @@ __all__ = [
 
 _SEPARATOR = re.compile(r"^={10,}[ \t]*$", re.MULTILINE)
 _BLOCK_HEADER = re.compile(
-    r"^\s*(MSG|IDL):\s*([A-Za-z][A-Za-z0-9_]*)/(?:(msg|srv|action)/)?([A-Za-z][A-Za-z0-9_]*)\s*$"
+    r"^\s*(MSG|SRV|IDL):\s*([A-Za-z][A-Za-z0-9_]*)/(?:(msg|srv|action)/)?([A-Za-z][A-Za-z0-9_]*)\s*$"
 )
 
 
@@ -66,32 +69,78 @@ def parse_definition(msg_type: str, text: str, encoding: str) -> ParsedInterface
     text = text.replace("\r\n", "\n").replace("\r", "\n")
     blocks = _SEPARATOR.split(text)
     _refuse_oversized(msg_type, blocks)
-    main, rest = blocks[0], blocks[1:]
-    if encoding == "ros2idl":
-        # The main type is a block like the others, headed `IDL: pkg/msg/Name`.
-        for block in blocks:
-            lines = block.strip("\n").split("\n", 1)
-            match = _BLOCK_HEADER.match(lines[0]) if lines else None
-            if match is None:
-                if block.strip():
-                    raise DefinitionError(f"{msg_type}: an IDL block lacks its 'IDL: pkg/msg/Name'")
-                continue
-            pkg, ns, nm = match.group(2), match.group(3) or "msg", match.group(4)
-            body = lines[1] if len(lines) > 1 else ""
-            parse_interface_text(pkg, Path(f"{ns}/{nm}.idl"), body, parsed)
-        return parsed
-    _parse_main(package, namespace, name, main, parsed)
-    for block in rest:
-        lines = block.strip("\n").split("\n", 1)
-        if not lines or not lines[0].strip():
-            continue
-        match = _BLOCK_HEADER.match(lines[0])
-        if match is None:
-            raise DefinitionError(f"{msg_type}: a definition block lacks its 'MSG: pkg/Name' line")
-        pkg, nm = match.group(2), match.group(4)
-        body = lines[1] if len(lines) > 1 else ""
-        parse_interface_text(pkg, Path(f"msg/{nm}.msg"), body, parsed)
+    stand_ins = PartStandIns(text)
+    # ros2idl, and rosbag2 Jazzy's layout of a service event (`SRV: pkg/srv/Name`), head the
+    # main type's block like the others: the text starts with a separator (or, from some
+    # writers, with the header itself).
+    main = blocks[0]
+    main_headed = _Block.header(main) is not None
+    headed = [_Block.read(msg_type, block, encoding) for block in blocks[0 if main_headed else 1 :]]
+    try:
+        if not main_headed and encoding == "ros2idl" and main.strip():
+            raise DefinitionError(f"{msg_type}: an IDL block lacks its 'IDL: pkg/msg/Name'")
+        if not main_headed and encoding == "ros2msg" and (main.strip() or len(blocks) == 1):
+            _parse_main(package, namespace, name, main, parsed, stand_ins=stand_ins)
+        _parse_blocks([b for b in headed if b is not None], parsed, stand_ins)
+    except DefinitionError as error:
+        raise stand_ins.real_error(error) from None
+    stand_ins.rename(parsed)
     return parsed
+
+
+class _Block(NamedTuple):
+    """A block after a separator: its header ``KIND: package/[namespace/]name`` and its text."""
+
+    kind: str  # MSG, SRV or IDL
+    package: str
+    namespace: str  # "" when the header leaves it out
+    name: str
+    body: str
+
+    @staticmethod
+    def header(block: str) -> re.Match[str] | None:
+        return _BLOCK_HEADER.match(block.strip("\n").split("\n", 1)[0])
+
+    @classmethod
+    def read(cls, msg_type: str, block: str, encoding: str) -> _Block | None:
+        """The block, None if it is blank."""
+        lines = block.strip("\n").split("\n", 1)
+        if not lines[0].strip():
+            return None
+        match = cls.header(block)
+        if match is None:
+            if encoding == "ros2idl":
+                raise DefinitionError(f"{msg_type}: an IDL block lacks its 'IDL: pkg/msg/Name'")
+            raise DefinitionError(f"{msg_type}: a definition block lacks its 'MSG: pkg/Name' line")
+        kind, package, namespace, name = match.groups()
+        return cls(kind, package, namespace or "", name, lines[1] if len(lines) > 1 else "")
+
+
+def _parse_blocks(blocks: list[_Block], into: ParsedInterfaces, stand_ins: PartStandIns) -> None:
+    """Parse the blocks headed ``MSG:``, ``SRV:`` or ``IDL:``, each as the file kind it names."""
+    idl_types = {(b.package, b.name) for b in blocks if b.kind == "IDL"}
+    idl_done: set[tuple[str, str]] = set()
+    for kind, package, namespace, name, body in blocks:
+        if kind == "IDL":
+            # rosbag2 names a type `pkg/Name` or `pkg/msg/Name` by where it found it: it can
+            # write the same file twice.
+            if (package, name) not in idl_done:
+                idl_done.add((package, name))
+                path = Path(f"{namespace or 'msg'}/{name}.idl")
+                parse_interface_text(package, path, body, into)
+        elif kind == "SRV":
+            if namespace not in ("", "srv"):
+                raise DefinitionError(f"SRV: {package}/{namespace}/{name} is not a service")
+            parse_interface_text(package, Path(f"srv/{name}.srv"), body, into)
+        elif not body.strip() and (package, name) in idl_types:
+            # rosbag2 Jazzy, finding no .msg for a service's dependency, leaves its `MSG:` line
+            # without a text and writes the dependency again as IDL.
+            continue
+        elif namespace in ("srv", "action"):
+            part = stand_ins.name(package, namespace, name)
+            parse_interface_text(package, Path(f"msg/{part}.msg"), stand_ins.respell(body), into)
+        else:
+            parse_interface_text(package, Path(f"msg/{name}.msg"), stand_ins.respell(body), into)
 
 
 def _refuse_oversized(msg_type: str, blocks: list[str]) -> None:
@@ -130,17 +179,25 @@ def _refuse_deep_nesting(full_name: str, types: Iterable[MessageDef]) -> None:
         depth(name, 1)
 
 
-def _parse_main(package: str, namespace: str, name: str, text: str, into: ParsedInterfaces) -> None:
+def _parse_main(
+    package: str,
+    namespace: str,
+    name: str,
+    text: str,
+    into: ParsedInterfaces,
+    *,
+    stand_ins: PartStandIns,
+) -> None:
     has_parts = re.search(r"^---\s*$", text, re.MULTILINE) is not None
     if namespace in ("srv", "action") and has_parts:
         part = split_part(namespace, name)
         base = part[0] if part is not None else name
         parse_interface_text(package, Path(f"{namespace}/{base}.{namespace}"), text, into)
         return
-    parse_interface_text(package, Path(f"msg/{name}.msg"), text, into)
-    if namespace != "msg":
-        # A service or action part stored as plain .msg text: move it to its namespace.
-        into.messages[-1] = replace(into.messages[-1], namespace=namespace)  # type: ignore[arg-type]
+    if namespace in ("srv", "action"):
+        # A service or action part stored as plain .msg text.
+        name = stand_ins.name(package, namespace, name)
+    parse_interface_text(package, Path(f"msg/{name}.msg"), stand_ins.respell(text), into)
 
 
 def resolve_definition(msg_type: str, text: str, encoding: str) -> tuple[MessageDef, TypeSet]:

@@ -6,8 +6,10 @@ newline, a line of 80 ``=``, a line ``MSG: pkg/Name`` and that type's ``.msg`` t
 that has, or nests one that has, no ``.msg`` file is written as ``ros2idl``: one block per
 type, the main type's first, each headed by the separator and ``IDL: pkg/msg/Name``, the
 dependencies being the files an ``.idl`` includes. A service event type (``pkg/srv/Name_Event``)
-is written as the raw ``.srv`` text, as rosbag2 Jazzy does; an action part
+is written as rosbag2 Jazzy writes it, a block headed ``SRV: pkg/srv/Name`` holding the ``.srv``
+text and then its dependencies (see ``_service_text``); an action part
 (``pkg/action/Name_FeedbackMessage``...) in its ``.msg`` form (see ``_action_part_text``).
+Files are stored byte for byte, their line ends (CRLF) kept, as rosbag2's ``std::ifstream`` reads.
 ``pyconnect.typesys.definition_text`` reads such texts back.
 """
 
@@ -81,19 +83,25 @@ _IDL_INCLUDE = re.compile(r'^#include\s+["<]([A-Za-z0-9_/]+)\.idl[">]', re.MULTI
 
 def definition_encoding(text: str) -> str:
     """``ros2idl`` for a text laid out as ``installed_definition`` writes IDL, else ``ros2msg``."""
-    return "ros2idl" if text.startswith(f"{DEFINITION_SEPARATOR}\nIDL: ") else "ros2msg"
+    if text.startswith(f"{DEFINITION_SEPARATOR}\nIDL: "):
+        return "ros2idl"
+    # rosbag2 Jazzy labels a service's text by the format of the last dependency it wrote, and
+    # "unknown" when the service has none (no reader then uses the text, rosbags refuses the
+    # bag); here such a text is ros2msg, and ros2idl once it holds an .idl text.
+    if text.startswith(f"{DEFINITION_SEPARATOR}\nSRV: "):
+        return "ros2idl" if f"\n{DEFINITION_SEPARATOR}\nIDL: " in text else "ros2msg"
+    return "ros2msg"
 
 
 @functools.lru_cache(maxsize=512)
 def installed_definition(msg_type: str) -> str:
     """The definition text rosbag2 stores for an installed message type (``ros2msg``, or
     ``ros2idl`` when a type involved has only an ``.idl`` file: ``definition_encoding`` tells),
-    a service event (the raw ``.srv`` text) or an action part (see ``_action_part_text``)."""
+    a service event (see ``_service_text``) or an action part (see ``_action_part_text``)."""
     parsed = parse_type_name(msg_type)
     namespace = parsed.namespace or "msg"
     if namespace == "srv" and parsed.name.endswith("_Event"):
-        service = parsed.name[: -len("_Event")]
-        return interface_file(parsed.package, "srv", service).read_text(encoding="utf-8")
+        return _service_text(parsed.package, parsed.name[: -len("_Event")])
     if namespace == "action":
         return _action_part_text(parsed.package, parsed.name)
     if namespace != "msg":
@@ -110,8 +118,13 @@ def installed_definition(msg_type: str) -> str:
             raise no_msg from None
 
 
+def _file_text(path: Path) -> str:
+    """A file's text as rosbag2 stores it: read as bytes (std::ifstream), its line ends kept."""
+    return path.read_bytes().decode("utf-8")
+
+
 def _msg_text(package: str, name: str) -> str:
-    return interface_file(package, "msg", name).read_text(encoding="utf-8")
+    return _file_text(interface_file(package, "msg", name))
 
 
 def _msg_text_with_dependencies(package: str, main: str, seen: set[str] | None = None) -> str:
@@ -134,19 +147,55 @@ def _msg_text_with_dependencies(package: str, main: str, seen: set[str] | None =
 def _idl_text_with_dependencies(full_name: str) -> str:
     """rosbag2's ``ros2idl`` layout: every block, the main type's first, is headed by the
     separator and ``IDL: pkg/msg/Name``; the dependencies are the files it ``#include``s."""
-    seen: set[str] = set()
+    return f"{DEFINITION_SEPARATOR}\nIDL: {full_name}\n" + _idl_with_includes(full_name, set())
 
-    def with_includes(type_name: str) -> str:
-        package, *_, name = type_name.split("/")
-        text = interface_file(package, "msg", name, "idl").read_text(encoding="utf-8")
-        for dependency in sorted(set(_IDL_INCLUDE.findall(text))):
-            if dependency in seen:
+
+def _idl_with_includes(type_name: str, seen: set[str]) -> str:
+    """An .idl text, then each file it includes that ``seen`` lacks (added), depth first."""
+    package, *_, name = type_name.split("/")
+    text = _file_text(interface_file(package, "msg", name, "idl"))
+    for dependency in sorted(set(_IDL_INCLUDE.findall(text))):
+        if dependency in seen:
+            continue
+        seen.add(dependency)
+        text += f"\n{DEFINITION_SEPARATOR}\nIDL: {dependency}\n"
+        text += _idl_with_includes(dependency, seen)
+    return text
+
+
+def _service_text(package: str, service: str) -> str:
+    """The text rosbag2 Jazzy stores for a service's events (``pkg/srv/Name_Event``).
+
+    Every rosbag2 0.26 release (LocalMessageDefinitionSource::get_full_text, its ``/srv/``
+    branch) writes the separator, ``SRV: pkg/srv/Name``, the raw .srv text, then each message
+    type it depends on as ``get_full_text`` writes a message's: self-sufficient but for
+    service_msgs/ServiceEventInfo, which no .srv names. The raw .srv text alone, which some of
+    rosbag2's own test bags hold, came from a development build of that feature (those bags
+    also file it under the service's name): readers take both. A dependency with no .msg file
+    is written as rosbag2 does, its ``MSG:`` line left without a text and then its .idl text
+    headed ``IDL: pkg/Name``.
+    """
+    root = f"{package}/srv/{service}"
+    text = _file_text(interface_file(package, "srv", service))
+    definition = f"{DEFINITION_SEPARATOR}\nSRV: {root}\n{text}"
+    seen: set[str] = set()  # rosbag2 shares one set of (type, format): these are .msg types
+    seen_idl: set[str] = set()
+    for dependency in sorted(dependencies_of(text, package)):
+        if dependency in seen:
+            continue
+        seen.add(dependency)
+        definition += f"\n{DEFINITION_SEPARATOR}\nMSG: {dependency}\n"
+        try:
+            dep_package, dep_name = dependency.split("/")
+            dep_text = _msg_text(dep_package, dep_name)
+            definition += _msg_text_with_dependencies(dep_package, dep_text, seen)
+        except CodecNotFoundError:
+            if dependency in seen_idl:
                 continue
-            seen.add(dependency)
-            text += f"\n{DEFINITION_SEPARATOR}\nIDL: {dependency}\n" + with_includes(dependency)
-        return text
-
-    return f"{DEFINITION_SEPARATOR}\nIDL: {full_name}\n" + with_includes(full_name)
+            seen_idl.add(dependency)
+            definition += f"\n{DEFINITION_SEPARATOR}\nIDL: {dependency}\n"
+            definition += _idl_with_includes(dependency, seen_idl)
+    return definition
 
 
 # The implicit message types of an action, in .msg form (``{I}`` is the action's name).
@@ -177,7 +226,7 @@ def _action_part_text(package: str, name: str) -> str:
     if part is None:
         raise CodecNotFoundError(f"{package}/action/{name}: not a part of an action")
     interface = part[0]
-    action_text = interface_file(package, "action", interface).read_text(encoding="utf-8")
+    action_text = _file_text(interface_file(package, "action", interface))
     sections = re.split(r"^---[ \t]*\r?$\n?", action_text, flags=re.MULTILINE)
     texts = {suffix: text for suffix, text in zip(_ACTION_SECTIONS, sections, strict=False)}
     texts.update({s: t.format(I=interface) for s, t in _ACTION_PART_TEXTS.items()})
