@@ -3,6 +3,7 @@ convert is a one-line DefinitionError naming the file and line (never an exit)."
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -179,3 +180,140 @@ def test_without_rosidl_one_definition_error_says_what_to_install(
             "reading interface definitions needs rosidl's parsers (No module named "
             f"'{module}'): pip install 'pyconnect-ros[ros]' or source a ROS 2 Jazzy install"
         )
+
+
+class _CountingMessageFails:
+    """Wraps parse._message_fails, which renders and parses one message: how often, how much."""
+
+    def __init__(self, monkeypatch: pytest.MonkeyPatch) -> None:
+        from pyconnect.typesys import parse
+
+        self.calls = 0
+        self.lines = 0
+        self._real = parse._message_fails
+        monkeypatch.setattr(parse, "_message_fails", self)
+
+    def __call__(self, package: str, name: str, lines: list[str], *, upto: Any) -> bool:
+        self.calls += 1
+        self.lines += len(lines)
+        result: bool = self._real(package, name, lines, upto=upto)
+        return result
+
+
+def test_a_default_rosidls_idl_parser_rejects_is_found_with_one_small_parse(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # Trying each prefix of the message parsed it quadratically: 45 s for 200 fields.
+    counted = _CountingMessageFails(monkeypatch)
+    text = "".join(f"int32 f{i}\n" for i in range(64)) + 'string s "a\\\\"\n'
+    assert _error("msg/Big.msg", text).startswith(
+        "msg/Big.msg:65: rosidl cannot parse the IDL it converts it to ("
+    )
+    assert (counted.calls, counted.lines) == (1, 1)
+
+
+@pytest.mark.parametrize(
+    ("last", "expected"),
+    [
+        # rosidl's template cannot unescape the trailing backslash of a constant
+        ('string S="he said \\"hi\\" # x"', "rosidl cannot convert it to IDL ("),
+        ("int65 x", "unknown type 'int65'"),
+    ],
+)
+def test_the_line_search_parses_a_linear_amount_of_text(
+    monkeypatch: pytest.MonkeyPatch, last: str, expected: str
+) -> None:
+    counted = _CountingMessageFails(monkeypatch)
+    count = 200
+    text = "".join(f"int32 f{i}\n" for i in range(count)) + last + "\n"
+    assert _error("msg/Big.msg", text).startswith(f"msg/Big.msg:{count + 1}: {expected}")
+    # the whole message, the empty one, then both halves of each half that fails
+    assert counted.calls <= 2 * math.ceil(math.log2(count + 1)) + 2
+    assert counted.lines <= 4 * (count + 1)
+
+
+def test_a_fault_of_two_lines_is_found_in_a_logarithmic_number_of_parses(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    counted = _CountingMessageFails(monkeypatch)
+    count = 200
+    text = "".join(f"int32 f{i}\n" for i in range(count)) + "int32 f7\n"
+    assert _error("msg/Big.msg", text) == (
+        f"msg/Big.msg:{count + 1}: the fields iterable contains duplicate names: f7"
+    )
+    # no half fails alone; a bisection of the prefixes follows
+    assert counted.calls <= 3 * math.ceil(math.log2(count + 1)) + 2
+
+
+def test_the_line_search_keeps_to_the_failing_part_of_a_service(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    counted = _CountingMessageFails(monkeypatch)
+    text = "".join(f"int32 f{i}\n" for i in range(50)) + "---\nint32 ok\nint65 x\nint32 y\n"
+    assert _error("srv/S.srv", text) == "srv/S.srv:53: unknown type 'int65'"
+    assert counted.calls <= 8
+
+
+_SAME_IDL = """module my_pkg {
+  module msg {
+    module Val_Constants {
+      const int8 VALUE = 1;  // value=300 in a comment is no declaration
+    };
+    struct Val {
+      @default (value=1)
+      int32 a;
+      @verbatim (language="comment", text=
+        "float value;")
+      @default (value=1e39)
+      float value;
+    };
+  };
+};
+"""
+_SAME_SRV_IDL = """module my_pkg {
+  module srv {
+    struct Same_Request {
+      @default (value=1.0)
+      float x;
+    };
+    struct Same_Response {
+      @default (value=1e39)
+      float x;
+    };
+  };
+};
+"""
+
+
+@pytest.mark.parametrize(
+    ("path", "text", "expected"),
+    [
+        (
+            "srv/Same.srv",
+            "float32 x\n---\nfloat32 x 1e39\n",
+            "srv/Same.srv:3: the default of x is out of float32's range",
+        ),
+        (
+            "srv/Same.srv",
+            "float32 X=1.0\n---\nfloat32 X=1e39\n",
+            "srv/Same.srv:3: the value of X is out of float32's range",
+        ),
+        (
+            "action/Same.action",
+            "float32 speed\n---\nbool ok\n---\nfloat32 speed nan\n",
+            "action/Same.action:5: the default of speed is not finite",
+        ),
+        (
+            "action/Same.action",
+            "float32 speed\n---\nfloat32 speed\n---\n# c\nfloat32 speed nan\n",
+            "action/Same.action:6: the default of speed is not finite",
+        ),
+        ("msg/Val.idl", _SAME_IDL, "msg/Val.idl:12: the default of value is out of float32's"),
+        ("srv/Same.idl", _SAME_SRV_IDL, "srv/Same.idl:9: the default of x is out of float32's"),
+    ],
+)
+def test_a_members_error_names_the_line_of_its_own_message(
+    path: str, text: str, expected: str
+) -> None:
+    # The first line of the file declaring that name was given: the request's, an annotation's.
+    assert _error(path, text).startswith(expected)

@@ -6,7 +6,6 @@ import ast
 import math
 import re
 from collections.abc import Iterable
-from dataclasses import replace
 from pathlib import Path
 from typing import Any, NamedTuple
 
@@ -21,7 +20,7 @@ from pyconnect.typesys.model import (
     MessageDef,
     ServiceDef,
 )
-from pyconnect.typesys.primitives import FLOAT32_OVERFLOW, FROM_IDL
+from pyconnect.typesys.primitives import FLOAT32_OVERFLOW, FLOAT_NAMES, FROM_IDL, INTEGER_RANGES
 
 DUMMY_MEMBER = "structure_needs_at_least_one_member"
 # IDL basic types with no .msg spelling, which pyconnect's codecs do not read or write.
@@ -93,13 +92,26 @@ class _Subject(NamedTuple):
 
 def _scalar(value: object, element: ElementType, subject: _Subject) -> bool | int | float | str:
     if element.kind in ("string", "wstring"):
-        return str(value)
+        text = str(value)
+        bound = element.string_bound
+        if bound is not None and len(text) > bound:
+            spelling = f"{element.name}<={bound}"
+            raise subject.error(
+                f"is too long for {spelling}: {text!r} ({len(text)} characters, at most {bound})"
+            )
+        return text
     if isinstance(value, str):
         value = _literal(value, element, subject)
     if element.name == "bool":
-        return bool(value)
+        # IDL's TRUE/FALSE, or 1/0 as .msg allows; rosidl's generators would turn any other
+        # value (2, "false") into a bool by its truth, which is not what the text says.
+        if isinstance(value, bool) or (isinstance(value, int) and value in (0, 1)):
+            return bool(value)
+        raise subject.error(_not_a(element, value))
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise subject.error(_not_a(element, value))
     if element.is_float:
-        number = float(value)  # type: ignore[arg-type]
+        number = float(value)
         if not math.isfinite(number):
             raise subject.error(f"{_NOT_FINITE}: {number} {_WHY}")
         # rosidl would store it as inf, and every message leaving the field out would carry a
@@ -109,17 +121,42 @@ def _scalar(value: object, element: ElementType, subject: _Subject) -> bool | in
                 f"is out of float32's range: {number!r} (|x| < {FLOAT32_OVERFLOW!r})"
             )
         return number
-    return int(value)  # type: ignore[call-overload,no-any-return]
+    # An IDL float literal (1.7, 1e3) is not an integer: rosidl's generated Python code would
+    # refuse it, its C code would truncate it.
+    if not isinstance(value, int):
+        raise subject.error(_not_a(element, value))
+    low, high = INTEGER_RANGES[element.name]
+    if not low <= value <= high:
+        raise subject.error(f"is out of {element.name}'s range: {value!r} ({low} <= x <= {high})")
+    return value
 
 
-def _literal(text: str, element: ElementType, subject: _Subject) -> Any:
+def _not_a(element: ElementType, value: object) -> str:
+    article = "an" if element.name[0] in "aeiou" else "a"
+    problem = f"is not {article} {element.name} value: {value!r}"
+    expected = _EXPECTED.get(element.name)
+    return problem if expected is None else f"{problem} ({expected})"
+
+
+_EXPECTED = {
+    "bool": "expected TRUE, FALSE, 1 or 0",
+    **dict.fromkeys(FLOAT_NAMES, "expected a number"),
+    **dict.fromkeys(INTEGER_RANGES, "expected an integer"),
+}
+
+
+def _literal(text: str, element: ElementType, subject: _Subject, *, listed: str = "") -> Any:
+    """``text`` read as a Python literal, as rosidl writes them; ``listed`` is the spelling of
+    the array or sequence type it is the default of, if any."""
     # rosidl keeps as text what it could not read as a number: inf, nan, a list holding them.
     try:
         return ast.literal_eval(text)
     except (ValueError, SyntaxError):
         if element.is_float and re.search(r"(?i)\b(inf|infinity|nan)\b", text):
             raise subject.error(f"{_NOT_FINITE}: {text} {_WHY}") from None
-        raise subject.error(f"is not a {element.name} value: {text!r}") from None
+        if listed:
+            raise subject.error(f"is not a list of values for {listed}: {text!r}") from None
+        raise subject.error(_not_a(element, text)) from None
 
 
 def _default(member: Any, ftype: FieldType, origin: Path) -> DefaultValue:
@@ -129,8 +166,34 @@ def _default(member: Any, ftype: FieldType, origin: Path) -> DefaultValue:
     subject = _Subject("default", member.name, origin)
     if ftype.is_single:
         return _scalar(raw, ftype.element, subject)
-    values = _literal(raw, ftype.element, subject) if isinstance(raw, str) else raw
+    spelling = _spelling(ftype)
+    values = _literal(raw, ftype.element, subject, listed=spelling) if isinstance(raw, str) else raw
+    if not isinstance(values, tuple | list):
+        raise subject.error(f"is not a list of values for {spelling}: {raw!r}")
+    _check_length(tuple(values), ftype, subject)
     return tuple(_scalar(v, ftype.element, subject) for v in values)
+
+
+def _check_length(values: tuple[object, ...], ftype: FieldType, subject: _Subject) -> None:
+    count, size = len(values), ftype.size
+    if ftype.is_array and count != size:
+        raise subject.error(
+            f"does not fit {_spelling(ftype)}: {values!r} ({count} elements, exactly {size})"
+        )
+    if ftype.container == "bounded_sequence" and size is not None and count > size:
+        raise subject.error(
+            f"is too long for {_spelling(ftype)}: {values!r} ({count} elements, at most {size})"
+        )
+
+
+def _spelling(ftype: FieldType) -> str:
+    """The .msg spelling of a field's type (``int32[<=2]``), the model's vocabulary in errors."""
+    element = ftype.element
+    bound = f"<={element.string_bound}" if element.string_bound is not None else ""
+    size = "" if ftype.size is None else str(ftype.size)
+    brackets = {"single": "", "array": f"[{size}]", "bounded_sequence": f"[<={size}]",
+                "sequence": "[]"}  # fmt: skip
+    return f"{element.name}{bound}{brackets[ftype.container]}"
 
 
 def _constant(constant: Any, origin: Path) -> Constant:
@@ -139,18 +202,34 @@ def _constant(constant: Any, origin: Path) -> Constant:
     return Constant(constant.name, element, _scalar(constant.value, element, subject))
 
 
+class MemberError(DefinitionError):
+    """A fault of one field or constant (``member``) of the message rosidl names ``message``
+    (``Same_Request``): the reader holding the text looks for its line in that message's part."""
+
+    def __init__(self, error: DefinitionError, message: str) -> None:
+        super().__init__(error.detail, path=error.path, member=error.member)
+        self.message = message
+
+
 def message_def(
     structure: Any, constants: Iterable[Any], origin: Path, python: tuple[str, str]
 ) -> MessageDef:
     namespaced = structure.namespaced_type
     package, namespace = namespaced.namespaces
-    fields = []
-    for member in structure.members:
-        if member.name == DUMMY_MEMBER:
-            continue
-        ftype = field_type_of(member.type, origin, member.name)
-        fields.append(Field(member.name, ftype, _default(member, ftype, origin)))
-    consts = tuple(_constant(c, origin) for c in constants)
+    try:
+        # Constants first: an .idl file declares them (module X_Constants) before the struct, so
+        # the first fault reported is the first in the file.
+        consts = tuple(_constant(c, origin) for c in constants)
+        fields = []
+        for member in structure.members:
+            if member.name == DUMMY_MEMBER:
+                continue
+            ftype = field_type_of(member.type, origin, member.name)
+            fields.append(Field(member.name, ftype, _default(member, ftype, origin)))
+    except DefinitionError as error:
+        if error.member is None or error.line is not None:
+            raise
+        raise MemberError(error, namespaced.name) from None
     return MessageDef(
         package=package,
         namespace=namespace,
@@ -164,18 +243,14 @@ def message_def(
 
 def service_def(srv: Any, origin: Path, module: str, access: str) -> ServiceDef:
     package = srv.namespaced_type.namespaces[0]
-    request = message_def(srv.request_message.structure, (), origin, (module, f"{access}.Request"))
-    request = _with_constants(request, srv.request_message.constants, origin)
-    response = message_def(
-        srv.response_message.structure, (), origin, (module, f"{access}.Response")
-    )
-    response = _with_constants(response, srv.response_message.constants, origin)
-    event = message_def(srv.event_message.structure, (), origin, (module, f"{access}.Event"))
+
+    def part(message: Any, name: str) -> MessageDef:
+        return message_def(message.structure, message.constants, origin, (module, name))
+
+    request = part(srv.request_message, f"{access}.Request")
+    response = part(srv.response_message, f"{access}.Response")
+    event = part(srv.event_message, f"{access}.Event")
     return ServiceDef(package, srv.namespaced_type.name, request, response, event)
-
-
-def _with_constants(msg: MessageDef, constants: Iterable[Any], origin: Path) -> MessageDef:
-    return replace(msg, constants=tuple(_constant(c, origin) for c in constants))
 
 
 def action_def(action: Any, origin: Path, module: str) -> ActionDef:

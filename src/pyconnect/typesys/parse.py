@@ -19,7 +19,9 @@ from pathlib import Path
 from typing import Any, Literal
 
 from pyconnect.typesys.errors import DefinitionError
-from pyconnect.typesys.from_rosidl import action_def, message_def, service_def
+from pyconnect.typesys.fault_search import line_at_fault
+from pyconnect.typesys.from_rosidl import MemberError, action_def, message_def, service_def
+from pyconnect.typesys.member_lines import line_declaring, rendered_member_at, sections
 from pyconnect.typesys.model import ActionDef, MessageDef, ServiceDef
 from pyconnect.typesys.packages import (
     INTERFACE_NAMESPACES,
@@ -31,6 +33,17 @@ from pyconnect.typesys.packages import (
     read_text_file,
 )
 
+__all__ = [
+    "ROSIDL_INSTALL",
+    "ParsedInterfaces",
+    "iter_messages",
+    "line_declaring",
+    "parse_folder",
+    "parse_installed_package",
+    "parse_interface_text",
+    "require_rosidl",
+]
+
 # -- parsing ----------------------------------------------------------------------------------
 # rosidl's parsers and its type-hash generator (pyconnect.typesys.hashing): dependencies of
 # pyconnect-ros where their wheels exist (x86_64 Linux), also brought by the `ros` extra or a
@@ -40,11 +53,6 @@ _ROSIDL_MODULES = ("rosidl_adapter.parser", "rosidl_adapter.resource", "rosidl_p
 ROSIDL_INSTALL = "pip install 'pyconnect-ros[ros]' or source a ROS 2 Jazzy install"
 _ADAPTER_TEMPLATES = {".msg": ("msg", "msg.idl.em"), ".srv": ("srv", "srv.idl.em"),
                       ".action": ("action", "action.idl.em")}  # fmt: skip
-# The messages a file holds, in order, as rosidl_adapter.parser names them after the file's stem;
-# a .srv/.action separates them with lines that are exactly `---`.
-_SECTION_SUFFIXES = {".msg": ("",), ".srv": ("_Request", "_Response"),
-                     ".action": ("_Goal", "_Result", "_Feedback")}  # fmt: skip
-_SECTION_SEPARATOR = "---"
 # What converting .msg/.srv/.action text does in turn: parse it, render it as IDL, parse that.
 _Stage = Literal["parse", "render", "idl"]
 
@@ -114,7 +122,9 @@ def _parse_interface(package: str, path: Path, text: str) -> Any:
         return _parse_idl_text(idl_text)
     except Exception as error:
         # e.g. a default ending in a backslash, which escapes the literal's closing quote
-        line = _failing_line(package, path, text, upto="idl")
+        line = _line_lark_stopped_at(package, path, text, idl_text, error)
+        if line is None:
+            line = _failing_line(package, path, text, upto="idl")
         # lark's report places the fault in IDL text the user never sees, then lists (in no
         # fixed order) the tokens it expected; the snippet it quotes is the useful part.
         reason = re.sub(r",? at line \d+ col \d+", "", _one_line(error)).split(" Expected ")[0]
@@ -172,23 +182,39 @@ def _one_line(error: BaseException) -> str:
 
 
 def _failing_line(package: str, path: Path, text: str, *, upto: _Stage) -> int | None:
-    """The first line whose addition makes its message fail, in stages up to ``upto``: rosidl
-    does not say. Each message of a .srv/.action is tried on its own. None when the separators
-    are wrong or the failure needs no line at all."""
+    """A line at fault in its message, in stages up to ``upto``: rosidl does not say which.
+    Each message of a .srv/.action is tried on its own. None when the separators are wrong or
+    the failure needs no line at all."""
     lines = text.splitlines()
-    suffixes = _SECTION_SUFFIXES[path.suffix]
-    separators = [n for n, line in enumerate(lines) if line == _SECTION_SEPARATOR]
-    if path.suffix == ".msg":
-        separators = []  # rosidl's message parser is the one to complain about a `---` there
-    if len(separators) != len(suffixes) - 1:
-        return None
-    starts = [0, *(n + 1 for n in separators)]
-    stops = [*separators, len(lines)]
-    for suffix, start, stop in zip(suffixes, starts, stops, strict=True):
-        for end in range(start, stop + 1):
-            if _message_fails(package, path.stem + suffix, lines[start:end], upto=upto):
-                return end if end > start else None
+    for suffix, start, stop in sections(lines, path.suffix) or ():
+        name = path.stem + suffix
+
+        def fails(first: int, end: int, name: str = name) -> bool:
+            return _message_fails(package, name, lines[first:end], upto=upto)
+
+        if fails(start, stop):
+            return line_at_fault(fails, start, stop)
     return None
+
+
+def _line_lark_stopped_at(
+    package: str, path: Path, text: str, idl_text: str, error: Exception
+) -> int | None:
+    """The line declaring the member at which rosidl's IDL parser stopped in ``idl_text``, if
+    that line fails on its own; None otherwise. Parsing IDL is slow (milliseconds a member), so
+    this one small parse replaces the many of ``_failing_line`` where the fault is one line's."""
+    stopped = getattr(error, "line", None)  # lark's UnexpectedInput says where
+    if not isinstance(stopped, int):
+        return None
+    found = rendered_member_at(idl_text, stopped)
+    if found is None:
+        return None
+    message, member = found
+    number = line_declaring(text, member, idl=False, message=message)
+    if number is None:
+        return None
+    alone = [text.splitlines()[number - 1]]
+    return number if _message_fails(package, message, alone, upto="idl") else None
 
 
 def _message_fails(package: str, name: str, lines: list[str], *, upto: _Stage) -> bool:
@@ -245,21 +271,9 @@ def parse_interface_text(package: str, path: Path, text: str, into: ParsedInterf
     except DefinitionError as error:
         if error.line is not None or error.member is None:
             raise
-        line = line_declaring(text, error.member, idl=path.suffix == ".idl")
+        message = error.message if isinstance(error, MemberError) else None
+        line = line_declaring(text, error.member, idl=path.suffix == ".idl", message=message)
         raise DefinitionError(error.detail, path=path, line=line) from None
-
-
-def line_declaring(text: str, member: str, *, idl: bool) -> int | None:
-    """The first line that declares the field or constant ``member`` (None if none is found)."""
-    name = re.escape(member)
-    # .msg: `type name [default]` or `type NAME=value`; IDL: `type name;`, `type name[2];`,
-    # `const type NAME = v;`
-    idl_pattern = rf"\b{name}\s*(\[[^\]]*\]\s*)*[=;]"
-    pattern = re.compile(idl_pattern if idl else rf"^\s*\S+\s+{name}(\s|=|$)")
-    for number, line in enumerate(text.splitlines(), start=1):
-        if pattern.search(line.split("//" if idl else "#", 1)[0]):
-            return number
-    return None
 
 
 def _add_elements(package: str, path: Path, elements: list[Any], into: ParsedInterfaces) -> None:
