@@ -151,7 +151,8 @@ def test_key_helpers_follow_rmw_zenoh() -> None:
     assert keys.ros_type_name("std_srvs::srv::dds_::SetBool_") == "std_srvs/srv/SetBool"
     parsed = keys.parse_token(
         "@ros2_lv/3/abc/0/4/MS/%/%ns/node/%ns%scan/"
-        "sensor_msgs::msg::dds_::LaserScan_/RIHS01_y/::,10:,:,:,,"
+        "sensor_msgs::msg::dds_::LaserScan_/"
+        "RIHS01_64c191398013af96509d518dac71d5164f9382553fce5c1f8cca5be7924bd828/::,10:,:,:,,"
     )
     assert parsed is not None
     assert (parsed.kind, parsed.namespace, parsed.name, parsed.type_name) == (

@@ -154,3 +154,138 @@ def test_wait_for_message_refuses_a_timeout_no_wait_can_take(sub: Any, timeout: 
     """1e10 s raised OverflowError from threading, a str a TypeError: said like every timeout."""
     with pytest.raises(PyconnectError, match=r"^agent 'chat' \(sub .*\): wait_for_message: "):
         sub.wait_for_message(timeout)
+
+
+# -- publishers of other types ---------------------------------------------------------------------
+STRING_HASH = "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18"
+
+
+def other_token(sub: Any, entity_id: int, type_hash: str) -> str:
+    """The token of a String publisher on ``sub``'s topic, of ``type_hash`` (not String's)."""
+    return (
+        f"@ros2_lv/{sub.peer.domain_id}/abc/1/{entity_id}/MP/%/%/other/%chat/"
+        f"std_msgs::msg::dds_::String_/{type_hash}/::,:,:,:,,"
+    )
+
+
+def fake_hash(number: int) -> str:
+    return f"RIHS01_{number:064x}"
+
+
+def listened(sub: Any) -> set[str]:
+    """The keys of other types ``sub`` listens on, once no declaration is under way."""
+    others = dict(sub._other_types)
+    if None in others.values() or getattr(sub, "_others_worker", None) is not None:
+        return {"(busy)"}
+    return set(others)
+
+
+def test_a_key_of_another_type_is_listened_to_while_a_publisher_token_names_it(
+    make_peer: PeerFactory,
+) -> None:
+    """The reviewer's leak: a subscriber on another type's key stayed once its publishers went."""
+    peer = make_peer("victim")
+    sub = peer.add_agent(conn_name="chat", conn_type="sub", data_interface="std_msgs/msg/Int32")
+    liveliness = peer.session.liveliness()
+    old_a = liveliness.declare_token(other_token(sub, 10, fake_hash(1)))
+    old_b = liveliness.declare_token(other_token(sub, 11, fake_hash(1)))
+    string = liveliness.declare_token(other_token(sub, 12, STRING_HASH))
+    old_key = topic_subscriber.keys.data_key(
+        peer.domain_id, "/chat", "std_msgs/msg/String", fake_hash(1)
+    )
+    string_key = topic_subscriber.keys.data_key(
+        peer.domain_id, "/chat", "std_msgs/msg/String", STRING_HASH
+    )
+    assert wait_for(lambda: listened(sub) == {old_key, string_key})
+    peer.session.put(string_key, HELLO, attachment=zenoh_attachment(1, 0, GID_A))
+    assert wait_for(lambda: sub.type_mismatch_count == 1)  # still counted while listened to
+    old_a.undeclare()  # old_b still publishes on old_key
+    string.undeclare()
+    assert wait_for(lambda: listened(sub) == {old_key})
+    old_b.undeclare()
+    assert wait_for(lambda: listened(sub) == set())
+    assert sub._other_publishers == {}
+
+
+def test_at_most_max_other_types_keys_are_listened_to(
+    make_peer: PeerFactory, caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(topic_subscriber, "MAX_OTHER_TYPES", 3)
+    peer = make_peer("victim")
+    sub = peer.add_agent(conn_name="chat", conn_type="sub", data_interface="std_msgs/msg/String")
+    liveliness = peer.session.liveliness()
+
+    def key(number: int) -> str:
+        return topic_subscriber.keys.data_key(
+            peer.domain_id, "/chat", "std_msgs/msg/String", fake_hash(number)
+        )
+
+    with caplog.at_level(logging.WARNING, logger="pyconnect.transport"):
+        tokens = [liveliness.declare_token(other_token(sub, n, fake_hash(n))) for n in range(5)]
+        assert wait_for(lambda: len(sub._other_publishers) == 5)
+        assert wait_for(lambda: listened(sub) == {key(0), key(1), key(2)})
+    warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
+    assert warnings == [
+        "agent 'chat' (sub std_msgs/msg/String) on /chat: publishers of more than 3 other "
+        "types; samples of the types beyond those are not listened to (not counted in "
+        "type_mismatch_count)"
+    ]
+    tokens[0].undeclare()
+    tokens[2].undeclare()
+    assert wait_for(lambda: listened(sub) == {key(1), key(3), key(4)})
+    for token in tokens[3:] + tokens[1:2]:
+        token.undeclare()
+    assert wait_for(lambda: listened(sub) == set())
+
+
+def test_a_wildcard_type_hash_token_does_not_make_good_samples_mismatches(
+    make_peer: PeerFactory, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The reviewer's case: a token with type hash '*' had the sub listen on .../String_/*,
+    its own key included: every good sample was also counted and warned about."""
+    got: list[object] = []
+    peer = make_peer("victim")
+    sub = peer.add_agent(
+        conn_name="chat",
+        conn_type="sub",
+        data_interface="std_msgs/msg/String",
+        response_func=got.append,
+    )
+    pub = peer.add_agent(
+        conn_name="chat", agent_name="out", conn_type="pub", data_interface="std_msgs/msg/String"
+    )
+    with caplog.at_level(logging.WARNING, logger="pyconnect.transport"):
+        evil = peer.session.liveliness().declare_token(other_token(sub, 10, "*"))
+        good = peer.session.liveliness().declare_token(other_token(sub, 11, fake_hash(1)))
+        assert wait_for(lambda: len(listened(sub) - {"(busy)"}) == 1)  # the good one only
+        for number in range(5):
+            pub.send(f"m{number}")
+        assert wait_for(lambda: len(got) == 5)
+        evil.undeclare()
+        good.undeclare()
+    assert sub.type_mismatch_count == 0
+    assert [r for r in caplog.records if r.levelno >= logging.WARNING] == []
+
+
+def test_a_key_that_meets_the_subscriptions_own_is_never_listened_to(sub: Any) -> None:
+    """However a token came to name one (a wildcard in its type name or hash)."""
+
+    def token(type_name: str, type_hash: str) -> Any:
+        return topic_subscriber.keys.Token(
+            key="@ros2_lv/0/abc/1/2/MP/%/%/evil/%chat/x/y/::,:,:,:,,",
+            zid="abc",
+            node_id="1",
+            entity_id="2",
+            kind=topic_subscriber.keys.PUBLISHER,
+            enclave="/",
+            namespace="/",
+            node_name="evil",
+            name="/chat",
+            type_name=type_name,
+            type_hash=type_hash,
+        )
+
+    assert sub._other_key(token("std_msgs/msg/String", "*")) is None
+    assert sub._other_key(token("std_msgs/msg/String", "$*")) is None
+    assert sub._other_key(token("std_msgs/msg/String", "**")) is None
+    assert sub._other_key(token("std_msgs/msg/Int32", STRING_HASH)) is not None

@@ -26,7 +26,8 @@ class Graph:
         # Reentrant: conditions given to wait_for_graph ask count() while holding it.
         self._lock = threading.RLock()
         self.changed = threading.Condition(self._lock)
-        self._watchers: list[Callable[[Token], None]] = []
+        # (new-token watcher, gone-token watcher or None), in the order they were added
+        self._watchers: list[tuple[Callable[[Token], None], Callable[[Token], None] | None]] = []
         self._subscriber: Any = session.liveliness().declare_subscriber(
             f"{ADMIN_SPACE}/{domain_id}/**", self._on_sample, history=True
         )
@@ -35,26 +36,34 @@ class Graph:
         key = str(sample.key_expr)
         with self._lock:
             if sample.kind == zenoh.SampleKind.DELETE:
-                self._tokens.pop(key, None)
+                gone = self._tokens.pop(key, None)
+                if gone is not None:
+                    for _watcher, on_gone in self._watchers:
+                        if on_gone is not None:
+                            on_gone(gone)
             else:
                 token = parse_token(key)
                 if token is not None and key not in self._tokens:
                     self._tokens[key] = token
-                    for watcher in self._watchers:
+                    for watcher, _on_gone in self._watchers:
                         watcher(token)
             self.changed.notify_all()
 
-    def watch(self, watcher: Callable[[Token], None]) -> None:
-        """Call ``watcher(token)`` for every token now live and every new one (on zenoh's
-        thread, under the graph's lock: it must return at once)."""
+    def watch(
+        self, watcher: Callable[[Token], None], *, gone: Callable[[Token], None] | None = None
+    ) -> None:
+        """Call ``watcher(token)`` for every token now live and every new one, and
+        ``gone(token)`` for every one of them that disappears (on zenoh's thread, under the
+        graph's lock: they must return at once)."""
         with self._lock:
-            self._watchers.append(watcher)
+            self._watchers.append((watcher, gone))
             for token in self._tokens.values():
                 watcher(token)
 
     def unwatch(self, watcher: Callable[[Token], None]) -> None:
-        with self._lock, contextlib.suppress(ValueError):
-            self._watchers.remove(watcher)
+        """Stop calling ``watcher`` and the ``gone`` given with it."""
+        with self._lock:
+            self._watchers = [pair for pair in self._watchers if pair[0] != watcher]
 
     def tokens(self) -> list[Token]:
         with self._lock:

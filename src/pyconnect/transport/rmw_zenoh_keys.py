@@ -25,10 +25,17 @@ Everything here follows ros2/rmw_zenoh, jazzy branch (release 0.2.x), read from 
   as a sequence (``ext/serialization.hxx``): its length as a LEB128 varint (one byte, 16) and
   the 16 bytes; 33 bytes in all, and a reader refuses another length ("Incorrect sequence
   size"). Integers are little-endian. Sequence numbers start at 1 per publisher and client.
+
+A token's chunks go into key expressions (its own; a data key built from its topic, type and
+hash), so ``parse_token`` takes only what rmw_zenoh writes: a decimal domain and ids, a hex
+zid, a hash of ``rosidl_stringify_type_hash`` (``RIHS01_`` and 64 lowercase hex digits), and no
+chunk that is empty or holds a character zenoh reserves (``*`` and ``$`` make wildcards,
+``?`` and ``#`` are forbidden), which no ROS name, type name or QoS chunk contains.
 """
 
 from __future__ import annotations
 
+import re
 import struct
 from dataclasses import dataclass
 
@@ -43,6 +50,11 @@ GID_SIZE = 16
 ATTACHMENT = struct.Struct("<qqB16s")
 """(sequence number, source timestamp ns, GID length, GID): the length is always ``GID_SIZE``."""
 ATTACHMENT_SIZE = ATTACHMENT.size
+TYPE_HASH = re.compile(r"RIHS01_[0-9a-f]{64}")
+"""A type hash as rmw_zenoh writes it in keys and tokens."""
+_DECIMAL = re.compile(r"[0-9]+")
+_HEX = re.compile(r"[0-9a-f]+")
+_KEY_SPECIALS = re.compile(r"[*$?#]")
 
 # rmw_zenoh's defaults (qos.cpp): a value equal to one of these is left empty in the token.
 _DEFAULT_DEPTH = 42
@@ -164,9 +176,19 @@ class Token:
 
 
 def parse_token(key: str) -> Token | None:
-    """A token's fields, or None for keys that are not rmw_zenoh entity tokens."""
+    """A token's fields, or None for keys that are not rmw_zenoh entity tokens (among them
+    any with a wildcard or an empty chunk: a peer must never listen on such a key)."""
     parts = key.split("/")
     if len(parts) < 9 or parts[0] != ADMIN_SPACE or parts[5] not in ENTITY_KINDS:
+        return None
+    if not all(part and _KEY_SPECIALS.search(part) is None for part in parts):
+        return None
+    if not (
+        _DECIMAL.fullmatch(parts[1])
+        and _HEX.fullmatch(parts[2])
+        and _DECIMAL.fullmatch(parts[3])
+        and _DECIMAL.fullmatch(parts[4])
+    ):
         return None
     fields = {
         "key": key,
@@ -179,7 +201,7 @@ def parse_token(key: str) -> Token | None:
         "node_name": demangle(parts[8]),
     }
     if parts[5] != NODE:
-        if len(parts) < 13:
+        if len(parts) < 13 or not TYPE_HASH.fullmatch(parts[11]):
             return None
         fields.update(
             name=demangle(parts[9]),
