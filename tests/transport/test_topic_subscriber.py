@@ -13,7 +13,7 @@ import zenoh
 
 from pyconnect.codecs import wire
 from pyconnect.errors import PyconnectError
-from pyconnect.transport import topic_subscriber
+from pyconnect.transport import other_type_keys, topic_subscriber
 from tests.transport.conftest import PeerFactory, wait_for, zenoh_attachment
 
 GID_A, GID_B = b"A" * 16, b"B" * 16
@@ -174,8 +174,8 @@ def fake_hash(number: int) -> str:
 
 def listened(sub: Any) -> set[str]:
     """The keys of other types ``sub`` listens on, once no declaration is under way."""
-    others = dict(sub._other_types)
-    if None in others.values() or getattr(sub, "_others_worker", None) is not None:
+    others = dict(sub._other_types.listened)
+    if None in others.values() or sub._other_types.worker is not None:
         return {"(busy)"}
     return set(others)
 
@@ -204,13 +204,13 @@ def test_a_key_of_another_type_is_listened_to_while_a_publisher_token_names_it(
     assert wait_for(lambda: listened(sub) == {old_key})
     old_b.undeclare()
     assert wait_for(lambda: listened(sub) == set())
-    assert sub._other_publishers == {}
+    assert sub._other_types.publishers == {}
 
 
 def test_at_most_max_other_types_keys_are_listened_to(
     make_peer: PeerFactory, caplog: pytest.LogCaptureFixture, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(topic_subscriber, "MAX_OTHER_TYPES", 3)
+    monkeypatch.setattr(other_type_keys, "MAX_OTHER_TYPES", 3)
     peer = make_peer("victim")
     sub = peer.add_agent(conn_name="chat", conn_type="sub", data_interface="std_msgs/msg/String")
     liveliness = peer.session.liveliness()
@@ -222,7 +222,7 @@ def test_at_most_max_other_types_keys_are_listened_to(
 
     with caplog.at_level(logging.WARNING, logger="pyconnect.transport"):
         tokens = [liveliness.declare_token(other_token(sub, n, fake_hash(n))) for n in range(5)]
-        assert wait_for(lambda: len(sub._other_publishers) == 5)
+        assert wait_for(lambda: len(sub._other_types.publishers) == 5)
         assert wait_for(lambda: listened(sub) == {key(0), key(1), key(2)})
     warnings = [r.getMessage() for r in caplog.records if r.levelno == logging.WARNING]
     assert warnings == [
@@ -285,7 +285,7 @@ def test_a_key_that_meets_the_subscriptions_own_is_never_listened_to(sub: Any) -
             type_hash=type_hash,
         )
 
-    assert sub._other_key(token("std_msgs/msg/String", "*")) is None
-    assert sub._other_key(token("std_msgs/msg/String", "$*")) is None
-    assert sub._other_key(token("std_msgs/msg/String", "**")) is None
-    assert sub._other_key(token("std_msgs/msg/Int32", STRING_HASH)) is not None
+    assert sub._other_types.key_of(token("std_msgs/msg/String", "*")) is None
+    assert sub._other_types.key_of(token("std_msgs/msg/String", "$*")) is None
+    assert sub._other_types.key_of(token("std_msgs/msg/String", "**")) is None
+    assert sub._other_types.key_of(token("std_msgs/msg/Int32", STRING_HASH)) is not None

@@ -4,12 +4,11 @@ A subscriber listens on its own type's key. Publishers of another type (or of an
 of the type: a different RIHS01 hash) show up in the graph with their tokens; for each such
 key the agent also listens there, so their samples are seen instead of silently missed: they
 are not decoded, they are counted in ``type_mismatch_count`` and reported once per publisher
-with both type names. It listens there while a publisher token names the key, and on at most
-``MAX_OTHER_TYPES`` such keys (each costs a zenoh subscriber and the thread zenoh-python runs
-its callback on; more are reported once, not listened to). (A publisher that declares no
-token, e.g. a bare zenoh session, is not seen on another type's key.) Payloads over the peer's
-``max_payload_bytes`` are dropped and counted (``oversize_count``), also reported once per
-publisher. Payloads are CDR, decoded by the wire codecs; nothing is ever unpickled.
+with both type names (pyconnect.transport.other_type_keys: while a publisher token names the
+key, on a bounded number of keys). (A publisher that declares no token, e.g. a bare zenoh
+session, is not seen on another type's key.) Payloads over the peer's ``max_payload_bytes`` are
+dropped and counted (``oversize_count``), also reported once per publisher. Payloads are CDR,
+decoded by the wire codecs; nothing is ever unpickled.
 
 The per-sample path is short (bench/transport.py and bench/transport_stages.py measure it).
 zenoh's own thread pushes each sample into a ``zenoh.handlers.RingChannel``, in Rust: no GIL,
@@ -47,7 +46,6 @@ import contextlib
 import struct
 import threading
 import time
-from collections.abc import Callable
 from typing import Any
 
 import zenoh
@@ -59,6 +57,7 @@ from pyconnect.transport import rmw_zenoh_keys as keys
 from pyconnect.transport.async_handlers import agent_loop, cancel_coroutine, settle
 from pyconnect.transport.conversion import DecodeFunc, EncodeFunc
 from pyconnect.transport.interface_types import message_interface
+from pyconnect.transport.other_type_keys import OtherTypeKeys
 from pyconnect.transport.peer_agent import DEFAULT_DEPTH, Peer, PeerAgent, ResponseFunc, logger
 
 # What an agent that keeps up on average may hold beyond ``depth`` while it works through a burst.
@@ -67,9 +66,6 @@ BURST_SECONDS = 0.02
 # The most samples one gap in a publisher's sequence numbers may stand for: a longer jump (or
 # one backwards) is a restarted publisher or a bogus number, not ~2**62 lost samples.
 MAX_SEQUENCE_GAP = 2**20
-# Keys of other types listened to at once: a few in practice; the bound keeps a flood of bogus
-# tokens from costing a thread each.
-MAX_OTHER_TYPES = 64
 # (sequence, stamp ns, GID length, GID); struct.error if malformed
 _unpack_attachment = keys.ATTACHMENT.unpack
 GID_SIZE = keys.GID_SIZE
@@ -162,131 +158,29 @@ class SubscriberAgent(PeerAgent):
             self.key, zenoh.handlers.RingChannel(depth + self.burst_samples)
         )
         self._token = peer.session.liveliness().declare_token(self.token_key)
-        self._other_types: dict[str, Any] = {}
-        """Keys of other types listened to: their subscriber (None while being declared)."""
-        self._other_publishers: dict[str, tuple[str, set[str]]] = {}
-        """Per key of another type with a live publisher token: the report for its samples
-        and the keys of those tokens."""
-        self._others_lock = threading.Lock()
-        self._others_worker: threading.Thread | None = None
-        self._warned_other_types = False
+        self._other_types = OtherTypeKeys(
+            peer.session,
+            domain_id=peer.domain_id,
+            topic=self.topic,
+            own_key=self.key,
+            type_name=self.type_name,
+            type_hash=self.type_hash,
+            describe=self.describe,
+            thread_name=f"pyconnect-sub-{self.name}-types",
+            on_sample=self._on_other_type,
+        )
         self._closed = False
         self._thread = threading.Thread(
             target=self._run, name=f"pyconnect-sub-{self.name}", daemon=True
         )
         self._thread.start()
-        peer.graph.watch(self._on_token, gone=self._on_token_gone)
+        peer.graph.watch(self._other_types.on_token, gone=self._other_types.on_token_gone)
 
     # -- publishers of other types ---------------------------------------------------------------
-    def _other_key(self, token: keys.Token) -> str | None:
-        """The data key of ``token``'s publisher when it is one of another type on this topic."""
-        if token.kind != keys.PUBLISHER or token.name != self.topic:
-            return None
-        if token.type_hash == self.type_hash and token.type_name == self.type_name:
-            return None
-        try:
-            key = keys.data_key(self.peer.domain_id, self.topic, token.type_name, token.type_hash)
-            # Never a key that meets our own: its samples would be counted twice, good as bad.
-            if zenoh.KeyExpr(key).intersects(zenoh.KeyExpr(self.key)):
-                return None
-        except Exception:
-            return None  # a type name that maps to no key: nothing of it can reach us
-        return key
-
-    def _on_token(self, token: keys.Token) -> None:
-        """A new token (zenoh's thread): listen on the key of a publisher of another type."""
-        key = self._other_key(token)
-        if key is None or self._closed:
-            return
-        with self._others_lock:
-            entry = self._other_publishers.get(key)
-            if entry is None:
-                text = (
-                    f"ignored samples of {token.type_name} ({token.type_hash}); this "
-                    f"subscription expects {self.type_name} ({self.type_hash})"
-                )
-                entry = self._other_publishers[key] = (text, set())
-            entry[1].add(token.key)
-            over = len(self._other_publishers) > MAX_OTHER_TYPES and not self._warned_other_types
-            self._warned_other_types |= over
-        if over:
-            logger.warning(
-                "%s on %s: publishers of more than %d other types; samples of the types beyond "
-                "those are not listened to (not counted in type_mismatch_count)",
-                self.describe,
-                self.topic,
-                MAX_OTHER_TYPES,
-            )
-        self._update_other_types()
-
-    def _on_token_gone(self, token: keys.Token) -> None:
-        """A token gone (zenoh's thread): stop listening on a key no publisher uses any more."""
-        key = self._other_key(token)
-        if key is None:
-            return
-        with self._others_lock:
-            entry = self._other_publishers.get(key)
-            if entry is None:
-                return
-            entry[1].discard(token.key)
-            if entry[1]:
-                return
-            del self._other_publishers[key]
-        self._update_other_types()
-
-    def _update_other_types(self) -> None:
-        """Have the keys listened to follow the live publishers, off zenoh's thread (which is
-        delivering a token): one worker at a time, ending once nothing is left to do."""
-        with self._others_lock:
-            if self._others_worker is not None:
-                return  # it looks again before it ends
-            self._others_worker = threading.Thread(
-                target=self._follow_other_types, name=f"pyconnect-sub-{self.name}-types"
-            )
-            self._others_worker.daemon = True
-            self._others_worker.start()
-
-    def _wanted_other_types(self) -> list[str]:
-        """Keys to listen on (under ``_others_lock``): those listened to that still have a
-        publisher, then the others in the order they came, up to ``MAX_OTHER_TYPES``."""
-        if self._closed:
-            return []
-        live = self._other_publishers
-        kept = [key for key in self._other_types if key in live]
-        room = MAX_OTHER_TYPES - len(kept)
-        return kept + [key for key in live if key not in self._other_types][: max(room, 0)]
-
-    def _follow_other_types(self) -> None:
-        while True:
-            with self._others_lock:
-                wanted = self._wanted_other_types()
-                stale = [key for key in self._other_types if key not in wanted]
-                new = [key for key in wanted if key not in self._other_types]
-                if not stale and not new:
-                    self._others_worker = None
-                    return
-                entities = [self._other_types.pop(key) for key in stale]
-                for key in new:
-                    self._other_types[key] = None
-                texts = {key: self._other_publishers[key][0] for key in new}
-            for entity in entities:
-                with contextlib.suppress(Exception):
-                    entity.undeclare()
-            for key in new:
-                subscriber = None
-                with contextlib.suppress(Exception):
-                    subscriber = self.peer.session.declare_subscriber(
-                        key, self._count_other_type(texts[key])
-                    )
-                with self._others_lock:
-                    self._other_types[key] = subscriber
-
-    def _count_other_type(self, text: str) -> Callable[[zenoh.Sample], None]:
-        def on_sample(sample: zenoh.Sample) -> None:
-            self.type_mismatch_count += 1
-            self._report_once("type", sample.attachment, text)
-
-        return on_sample
+    def _on_other_type(self, sample: zenoh.Sample, text: str) -> None:
+        """A sample on the key of a publisher of another type (zenoh's thread): not decoded."""
+        self.type_mismatch_count += 1
+        self._report_once("type", sample.attachment, text)
 
     # -- the agent's thread ----------------------------------------------------------------------
     def _run(self) -> None:
@@ -455,17 +349,11 @@ class SubscriberAgent(PeerAgent):
 
     def close(self) -> None:
         self._closed = True
-        self.peer.graph.unwatch(self._on_token)
+        self.peer.graph.unwatch(self._other_types.on_token)
         for entity in (self._token, self._subscriber):
             with contextlib.suppress(Exception):
                 entity.undeclare()  # the subscriber's: its channel closes, recv() ends the thread
-        # Closed, no key is wanted: the worker (one started here, or one under way) undeclares
-        # every subscriber on another type's key.
-        self._update_other_types()
-        with self._others_lock:
-            worker = self._others_worker
-        if worker is not None and worker is not threading.current_thread():
-            worker.join(5.0)
+        self._other_types.close(5.0)
         if self._thread is not threading.current_thread():
             cancel_coroutine(self._thread)
             self._thread.join(5.0)
