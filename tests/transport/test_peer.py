@@ -357,6 +357,145 @@ def test_a_wrong_option_raises_option_error_as_custom_node_does(
     assert peer.agents == {}
 
 
+def _two(goal: Any, publish_feedback: Any) -> Any:
+    return goal
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [
+        (
+            {"conn_type": "sub", "data_interface": "std_msgs/msg/String", "raw": 0},
+            "agent 'b' (sub): raw: expected bool or None, got 0",
+        ),
+        (
+            {"conn_type": "pub", "data_interface": "std_msgs/msg/String", "only_if_subscribed": 1},
+            "agent 'b' (pub): only_if_subscribed: expected bool, got 1",
+        ),
+        (
+            {"conn_type": "sub", "data_interface": "std_msgs/msg/String", "response_func": "cb"},
+            "agent 'b' (sub): response_func: expected a callable, got 'cb'; pass the function "
+            "itself, not its name",
+        ),
+        (
+            {"conn_type": "pub", "data_interface": "std_msgs/msg/String", "encode_func": 3},
+            "agent 'b' (pub): encode_func: expected a callable, got 3",
+        ),
+        (
+            {"conn_type": "sub", "data_interface": "std_msgs/msg/String", "response_func": dir},
+            None,  # a builtin without a readable signature: accepted
+        ),
+        (
+            {
+                "conn_type": "sub",
+                "data_interface": "std_msgs/msg/String",
+                "response_func": lambda: None,
+            },
+            "agent 'b' (sub): response_func: a sub calls it with one argument (the value), but "
+            "it takes no positional arguments",
+        ),
+        (
+            {"conn_type": "timer", "time_period": 1.0, "response_func": lambda tick: None},
+            "agent 'b' (timer): response_func: a timer calls it with no arguments, but it "
+            "requires 'tick'",
+        ),
+        (
+            {
+                "conn_type": "pub",
+                "data_interface": "std_msgs/msg/String",
+                "time_period": 1.0,
+                "response_func": lambda value: value,
+            },
+            "agent 'b' (pub): response_func: a periodic pub calls it with no arguments, but it "
+            "requires 'value'",
+        ),
+        (
+            {
+                "conn_type": "service_server",
+                "data_interface": "std_srvs/srv/Trigger",
+                "response_func": lambda: {},
+            },
+            "agent 'b' (service_server): response_func: a service_server calls it with one "
+            "argument (the request), but it takes no positional arguments",
+        ),
+        (
+            {
+                "conn_type": "action_server",
+                "data_interface": "test_msgs/action/Fibonacci",
+                "response_func": lambda: {},
+            },
+            "agent 'b' (action_server): response_func: an action_server calls it with one "
+            "argument (the goal), but it takes no positional arguments",
+        ),
+        (
+            {
+                "conn_type": "action_server",
+                "data_interface": "test_msgs/action/Fibonacci",
+                "response_func": lambda goal, publish_feedback, extra: {},
+            },
+            "agent 'b' (action_server): response_func: an action_server calls it with two "
+            "arguments (the goal and publish_feedback, as it takes a second positional "
+            "parameter), but it requires 'goal', 'publish_feedback', 'extra'",
+        ),
+        (
+            {
+                "conn_type": "action_server",
+                "data_interface": "test_msgs/action/Fibonacci",
+                "response_func": _two,
+            },
+            None,  # called with the goal and publish_feedback
+        ),
+        (
+            {
+                "conn_type": "action_server",
+                "data_interface": "test_msgs/action/Fibonacci",
+                "response_func": _two,
+                "result_timeout": -1,
+            },
+            "agent 'b' (action_server): result_timeout must be a finite number of seconds >= 0, "
+            "got -1",
+        ),
+        (
+            {
+                "conn_type": "action_server",
+                "data_interface": "test_msgs/action/Fibonacci",
+                "response_func": _two,
+                "result_cache_seconds": "60",
+            },
+            "agent 'b' (action_server): result_cache_seconds must be a finite number of "
+            "seconds >= 0, got '60'",
+        ),
+        (
+            {
+                "conn_type": "action_client",
+                "data_interface": "test_msgs/action/Fibonacci",
+                "accepted_func": lambda: None,
+            },
+            "agent 'b' (action_client): accepted_func: an action_client calls it with one "
+            "argument (accepted: bool), but it takes no positional arguments",
+        ),
+        (
+            {"conn_type": "timer", "time_period": 1.0, "response_func": print, "agent_name": 5},
+            "agent 'b': agent_name: expected str or None, got 5",
+        ),
+    ],
+)
+def test_a_wrong_option_value_raises_option_error_as_custom_node_does(
+    make_peer: PeerFactory, options: dict[str, Any], message: str | None
+) -> None:
+    """CustomNode checks these values when the agent is added; a peer took them and failed
+    at every message, or (result_timeout=-1) inside its action server."""
+    peer = make_peer("vision")
+    if message is None:
+        peer.add_agent(conn_name="b", **options)
+        assert list(peer.agents) == ["b"]
+        return
+    with pytest.raises(OptionError) as raised:
+        peer.add_agent(conn_name="b", **options)
+    assert str(raised.value) == message
+    assert peer.agents == {}
+
+
 @pytest.mark.parametrize(
     ("qos", "message"),
     [
@@ -446,6 +585,171 @@ def test_a_peer_is_not_ok_once_its_shutdown_begins(make_peer: PeerFactory) -> No
     peer.stop_func = lambda: seen.append(peer.ok())
     peer.shutdown()
     assert seen == [False]
+
+
+def test_a_shutdown_closes_its_agents_at_once(
+    make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Each close waits up to 5 s for its handler: one after another, a few blocked handlers
+    kept a shutdown past a supervisor's SIGKILL."""
+    peer = make_peer("vision")
+    timers = [
+        peer.add_agent(conn_name=f"t{n}", conn_type="timer", time_period=60.0, response_func=print)
+        for n in range(4)
+    ]
+    # Every close waits here until all four are closing: only closes that overlap get through.
+    all_closing = threading.Barrier(len(timers), timeout=5.0)
+    broken: list[str] = []
+    for timer in timers:
+        close = timer.close
+
+        def close_together(close: Any = close, name: str = timer.name) -> None:
+            try:
+                all_closing.wait()
+            except threading.BrokenBarrierError:
+                broken.append(name)
+            close()
+
+        monkeypatch.setattr(timer, "close", close_together)
+    peer.shutdown()
+    assert broken == []
+
+
+def test_blocked_handlers_keep_a_shutdown_about_one_close_in_all(make_peer: PeerFactory) -> None:
+    release = threading.Event()
+    blocked: list[str] = []
+
+    def block(value: str) -> None:
+        blocked.append(value)
+        release.wait(TIMEOUT)
+
+    sender, receiver = make_peer("vision"), make_peer("robot")
+    subs = [
+        receiver.add_agent(
+            conn_name=f"topic{n}",
+            conn_type="sub",
+            data_interface="std_msgs/msg/String",
+            response_func=block,
+        )
+        for n in range(4)
+    ]
+    pubs = [
+        sender.add_agent(
+            conn_name=sub.conn_name, conn_type="pub", data_interface="std_msgs/msg/String"
+        )
+        for sub in subs
+    ]
+    assert wait_for(lambda: all(pub.subscriber_count == 1 for pub in pubs))
+    for pub in pubs:
+        pub.send(pub.conn_name)
+    try:
+        assert wait_for(lambda: len(blocked) == 4)
+        started = time.monotonic()
+        receiver.shutdown()
+        took = time.monotonic() - started
+    finally:
+        release.set()
+    # Each sub's close gives its handler 5 s: one after another they took 20 s.
+    assert took < 2 * 5.0
+
+
+def test_a_close_that_never_ends_holds_the_shutdown_only_until_its_deadline(
+    make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    from pyconnect.transport import peer as peer_module
+
+    monkeypatch.setattr(peer_module, "AGENTS_CLOSE_SECONDS", 0.2)
+    peer = make_peer("vision")
+    timer = peer.add_agent(conn_name="t", conn_type="timer", time_period=60.0, response_func=print)
+    close, release = timer.close, threading.Event()
+
+    def stuck() -> None:
+        release.wait(10.0)  # longer than the deadline, and long enough that it is noticed
+        close()
+
+    monkeypatch.setattr(timer, "close", stuck)
+    try:
+        with caplog.at_level(logging.WARNING, logger="pyconnect.transport"):
+            started = time.monotonic()
+            peer.shutdown()
+            took = time.monotonic() - started
+    finally:
+        release.set()
+    assert took < 5.0
+    assert "peer 'vision': closing the session after 0.2 s with agents still closing: " in (
+        caplog.text
+    )
+    assert "agent 't' (timer)" in caplog.text
+
+
+def test_add_agent_is_refused_once_the_shutdown_begins(
+    make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Shutdown lists the agents it closes when it begins: one added later (while a running
+    goal kept the shutdown waiting) was never closed, a timer ticking on after shutdown()."""
+    peer = make_peer("vision")
+    timer = peer.add_agent(conn_name="t", conn_type="timer", time_period=60.0, response_func=print)
+    close, closing, release = timer.close, threading.Event(), threading.Event()
+
+    def slow_close() -> None:
+        closing.set()
+        release.wait(TIMEOUT)
+        close()
+
+    monkeypatch.setattr(timer, "close", slow_close)
+    shutting_down = threading.Thread(target=peer.shutdown)
+    shutting_down.start()
+    try:
+        assert closing.wait(TIMEOUT)
+        with pytest.raises(PyconnectError) as raised:
+            peer.add_agent(
+                conn_name="late", conn_type="timer", time_period=0.01, response_func=print
+            )
+        assert str(raised.value) == "peer 'vision' is shut down; cannot add 'late'"
+        assert "late" not in peer.agents
+    finally:
+        release.set()
+        shutting_down.join(TIMEOUT)
+        late = peer.agents.pop("late", None)
+        if late is not None:  # the bug: close what the shutdown left running
+            late.close()
+
+
+def test_an_agent_added_while_the_shutdown_begins_is_closed_by_it(
+    make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The shutdown waits for an add_agent in progress, and closes what it added."""
+    from pyconnect.transport import peer as peer_module
+
+    peer = make_peer("vision")
+    checking, release = threading.Event(), threading.Event()
+    check_values = peer_module.check_values
+
+    def slow_check(conn_type: str, given: Any, where: str) -> None:
+        checking.set()  # inside add_agent, holding the peer's lock
+        release.wait(TIMEOUT)
+        check_values(conn_type, given, where)
+
+    monkeypatch.setattr(peer_module, "check_values", slow_check)
+    added: list[Any] = []
+    adding = threading.Thread(
+        target=lambda: added.append(
+            peer.add_agent(conn_name="t", conn_type="timer", time_period=60.0, response_func=print)
+        )
+    )
+    adding.start()
+    assert checking.wait(TIMEOUT)
+    shutting_down = threading.Thread(target=peer.shutdown)
+    shutting_down.start()
+    time.sleep(0.2)  # the shutdown begins while the agent is being added (if not: a pass)
+    release.set()
+    adding.join(TIMEOUT)
+    shutting_down.join(TIMEOUT)
+    [timer] = added
+    try:
+        assert timer._stop.is_set()  # closed by the shutdown
+    finally:
+        timer.close()
 
 
 def test_a_burst_is_not_cut_to_depth_while_the_subscription_keeps_up(
@@ -566,9 +870,35 @@ def test_a_malformed_reply_fails_the_call_like_any_other(make_peer: PeerFactory)
             "(expected 0001 little-endian or 0000 big-endian XCDR1)",
         }
         assert client.error_count == 1
+        assert client.last_error == (
+            "agent 'trigger' (service_client std_srvs/srv/Trigger): decode raised DecodeError: "
+            "std_srvs/srv/Trigger_Response: unsupported CDR encapsulation ffff "
+            "(expected 0001 little-endian or 0000 big-endian XCDR1)"
+        )
     finally:
         token.undeclare()
         queryable.undeclare()
+
+
+def test_a_sample_that_does_not_decode_is_reported_naming_the_agent_once(
+    make_peer: PeerFactory, caplog: pytest.LogCaptureFixture
+) -> None:
+    receiver, sender = make_peer("robot"), make_peer("vision")
+    sub = receiver.add_agent(
+        conn_name="chatter", conn_type="sub", data_interface="std_msgs/msg/String"
+    )
+    not_cdr = b"\x07\x07\x00\x00\x06\x00\x00\x00hello\x00"
+    with caplog.at_level(logging.ERROR, logger="pyconnect.transport"):
+        # Put until one arrives: the two sessions' link may take a moment.
+        assert wait_for(lambda: sender.session.put(sub.key, not_cdr) or sub.error_count > 0)
+    problem = (
+        "agent 'chatter' (sub std_msgs/msg/String): decode raised DecodeError: "
+        "std_msgs/msg/String: unsupported CDR encapsulation 0707 "
+        "(expected 0001 little-endian or 0000 big-endian XCDR1)"
+    )
+    assert sub.last_error == problem
+    assert caplog.records[0].getMessage().splitlines()[0] == problem
+    assert sub.message_count == 0
 
 
 @pytest.mark.parametrize("timeout", ["2", -1, math.nan, True])

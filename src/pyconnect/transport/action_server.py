@@ -342,6 +342,16 @@ class ActionServerAgent(PeerAgent):
             self._shutting_down.set()
             running = [t for t in self._running if t is not threading.current_thread()]
             active = [goal for goal in self._goals.values() if not goal.ended]
+            # A goal that ended just before (a "stop" goal whose handler asked for this
+            # shutdown) may not have had its result asked for yet: wait for that request too.
+            # One that ended longer ago unasked has no client left to ask.
+            now = time.monotonic()
+            unasked = [
+                goal
+                for goal in self._goals.values()
+                if not goal.result_asked
+                and (not goal.ended or not goal.finished_at or now - goal.finished_at < timeout)
+            ]
         # Running goals get ``timeout`` seconds to send their result while the session is open
         # (a goal thread left inside zenoh at interpreter exit aborts the process).
         deadline = time.monotonic() + timeout
@@ -361,7 +371,7 @@ class ActionServerAgent(PeerAgent):
         # and closing the server first would lose the result.
         with self._result_asked:
             self._result_asked.wait_for(
-                lambda: all(goal.result_asked for goal in active),
+                lambda: all(goal.result_asked for goal in unasked),
                 max(0.0, deadline - time.monotonic()),
             )
         for server in self._servers:

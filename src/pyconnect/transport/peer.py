@@ -13,7 +13,9 @@ of faulting in fresh pages on every message.
 Shutdown — ``shutdown()``, leaving ``with``, Ctrl-C, SIGTERM or interpreter exit — runs
 ``stop_func`` once, closes the agents and the session, and (on a signal) the process exits 0
 without a traceback: the same process-wide handlers as ``CustomNode`` (pyconnect.ros.shutdown,
-which imports no rclpy).
+which imports no rclpy). The agents close all at once, so handlers still blocked keep a shutdown
+waiting ``AGENTS_CLOSE_SECONDS`` in all, however many there are; ``add_agent`` is refused from
+the moment the shutdown begins.
 """
 
 # zenoh's stubs leave undeclare() and close() unannotated.
@@ -37,7 +39,7 @@ from pyconnect.codecs.registry import Registry, default_registry
 from pyconnect.errors import ConnectionTimeout, PyconnectError, TransportError, type_name_of
 from pyconnect.ros.agent_options import OptionError
 from pyconnect.ros.large_messages import apply_malloc_settings
-from pyconnect.ros.option_checks import call_timeout, check_options
+from pyconnect.ros.option_checks import call_timeout, check_options, plain_option_problem
 from pyconnect.ros.option_checks import shared_options as shared_options_of
 from pyconnect.ros.shutdown import ShutdownHooks, ShutsDownOnExit
 from pyconnect.transport import rmw_zenoh_keys as keys
@@ -51,6 +53,7 @@ from pyconnect.transport.peer_options import (
     TAKES_QOS,
     PeerAgentOptions,
     accepted_options,
+    check_values,
     depth_from_qos,
 )
 from pyconnect.transport.ros_names import RosNameError, namespace_problem, node_name_problem
@@ -62,6 +65,9 @@ if TYPE_CHECKING:
 StopFunc = Callable[..., Any]
 
 DEFAULT_MAX_PAYLOAD_BYTES = 256 * 1024 * 1024
+AGENTS_CLOSE_SECONDS = 6.0
+"""How long a shutdown waits for its agents' closes in all (they run at once): an agent's own
+close gives its handler 5 s, and then undeclares its entities."""
 
 
 # rmw takes a domain id as a size_t and keeps SIZE_MAX for "the default" (rmw_zenoh's
@@ -228,9 +234,14 @@ class Peer(ShutsDownOnExit):
         agent_name = given.pop("agent_name", None)
         if not isinstance(conn_name, str) or not conn_name:
             raise OptionError(f"agent config: conn_name must be a non-empty str, got {conn_name!r}")
+        problem = plain_option_problem("agent_name", agent_name)
+        if problem is not None:  # before it names the agent: 5 became the key in agents
+            raise OptionError(f"agent {conn_name!r}: {problem}")
         key = agent_name or conn_name
         with self._lock:
-            if self._stopped.is_set():
+            # Refused from the start of shutdown, which lists the agents to close under this
+            # lock: one added later would never be closed (a timer ticking on after shutdown).
+            if self._stopping.is_set():
                 raise PyconnectError(f"peer {self.name!r} is shut down; cannot add {key!r}")
             if key in self.agents:
                 raise PyconnectError(
@@ -260,6 +271,7 @@ class Peer(ShutsDownOnExit):
                 known=PEER_OPTIONS,
                 unavailable=NOT_ON_A_PEER,
             )
+            check_values(conn_type, given, where)
             try:
                 agent = agent_class(self, conn_name=conn_name, agent_name=agent_name, **given)
             except PyconnectError as error:
@@ -367,13 +379,15 @@ class Peer(ShutsDownOnExit):
         with self._shutdown_lock:
             if self._stopped.is_set():
                 return
-            self._stopping.set()
+            with self._lock:  # an add_agent in progress ends first, and later ones are refused
+                self._stopping.set()
+                agents = list(self.agents.values())
             try:
-                self._shut_down()
+                self._shut_down(agents)
             finally:
                 self._stopped.set()
 
-    def _shut_down(self) -> None:
+    def _shut_down(self, agents: list[PeerAgent]) -> None:
         if self.stop_func is not None:
             try:
                 self.stop_func()
@@ -381,11 +395,7 @@ class Peer(ShutsDownOnExit):
                 logger.error(
                     "peer %r: stop_func raised %s: %s", self.name, type(error).__name__, error
                 )
-        for agent in list(self.agents.values()):
-            try:
-                agent.close()
-            except Exception as error:
-                logger.error("%s: close failed: %r", agent.describe, error)
+        self._close_agents(agents)
         self.graph.close()
         try:
             self._node_token.undeclare()
@@ -394,8 +404,46 @@ class Peer(ShutsDownOnExit):
             print(f"[pyconnect] peer {self.name}: closing zenoh failed: {error}", file=sys.stderr)
         self._hooks.restore()
 
+    def _close_agents(self, agents: list[PeerAgent]) -> None:
+        """Close ``agents`` all at once, waiting ``AGENTS_CLOSE_SECONDS`` for them in total.
+
+        Each close waits up to 5 s for its agent's handler; one after another, a few blocked
+        handlers took longer than a supervisor waits between SIGTERM and SIGKILL.
+        """
+        deadline = time.monotonic() + AGENTS_CLOSE_SECONDS
+        closing: list[tuple[PeerAgent, threading.Thread]] = []
+        for agent in agents:
+            thread = threading.Thread(
+                target=_close_agent, args=(agent,), name=f"pyconnect-close-{agent.name}"
+            )
+            # A daemon: one stuck past the deadline must not hold the interpreter's exit.
+            thread.daemon = True
+            try:
+                thread.start()
+            except RuntimeError:  # no new threads at interpreter exit: close it here
+                _close_agent(agent)
+                continue
+            closing.append((agent, thread))
+        for _agent, thread in closing:
+            thread.join(max(0.0, deadline - time.monotonic()))
+        stuck = [agent.describe for agent, thread in closing if thread.is_alive()]
+        if stuck:
+            logger.warning(
+                "peer %r: closing the session after %s s with agents still closing: %s",
+                self.name,
+                AGENTS_CLOSE_SECONDS,
+                ", ".join(stuck),
+            )
+
     def __enter__(self) -> Peer:
         return self
+
+
+def _close_agent(agent: PeerAgent) -> None:
+    try:
+        agent.close()
+    except Exception as error:
+        logger.error("%s: close failed: %r", agent.describe, error)
 
 
 def _step(deadline: float | None, longest: float) -> float:

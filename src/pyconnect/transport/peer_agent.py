@@ -185,7 +185,9 @@ class PeerAgent:
 
     def report_exception(self, where: str, error: BaseException) -> None:
         text = "".join(traceback.format_exception(type(error), error, error.__traceback__))
-        self.last_error = f"{self.describe}: {where} raised {type(error).__name__}: {error}"
+        # The agent's own errors (its conversion's DecodeError...) start with its name already.
+        reason = str(error).removeprefix(f"{self.describe}: ")
+        self.last_error = f"{self.describe}: {where} raised {type(error).__name__}: {reason}"
         self.error_count += 1
         logger.error("%s\n%s", self.last_error, text.rstrip())
 
