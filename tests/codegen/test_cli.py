@@ -87,3 +87,40 @@ def test_build_without_rosidl_is_one_line_naming_the_install(
     assert capsys.readouterr().err == (
         f"codecgen: {reason}: pip install 'pyconnect-ros[ros]' or source a ROS 2 Jazzy install\n"
     )
+
+
+def test_a_type_defined_twice_is_one_line_naming_both_files(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """msg/A.msg beside A.msg, or one package in two folders: one definition silently replaced
+    the other (and --compile failed in the C compiler)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "e2_msgs" / "msg").mkdir(parents=True)
+    (tmp_path / "e2_msgs" / "msg" / "A.msg").write_text("int32 a\n")
+    (tmp_path / "e2_msgs" / "A.msg").write_text("int32 b\n")
+    assert main(["build", "--from", "e2_msgs", "--out", "out"]) == 2
+    assert capsys.readouterr().err == (
+        "codecgen: e2_msgs/A.msg: e2_msgs/msg/A is also defined in e2_msgs/msg/A.msg\n"
+    )
+    for folder, text in (("one", "int32 a\n"), ("two", "string s\n")):
+        (tmp_path / folder / "dup_msgs" / "msg").mkdir(parents=True)
+        (tmp_path / folder / "dup_msgs" / "msg" / "A.msg").write_text(text)
+    assert main(["build", "--from", "one/dup_msgs", "--from", "two/dup_msgs", "--out", "o"]) == 2
+    assert capsys.readouterr().err == (
+        "codecgen: two/dup_msgs/msg/A.msg: dup_msgs/msg/A is also defined in "
+        "one/dup_msgs/msg/A.msg\n"
+    )
+    assert not (tmp_path / "out").exists() and not (tmp_path / "o").exists()
+
+
+def test_a_badly_named_file_is_named_so_not_an_unknown_type(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "lc_msgs" / "msg").mkdir(parents=True)
+    (tmp_path / "lc_msgs" / "msg" / "lower_case.msg").write_text("int32 a\n")
+    assert main(["build", "--from", "lc_msgs", "--out", "out"]) == 2
+    assert capsys.readouterr().err == (
+        "codecgen: lc_msgs/msg/lower_case.msg: 'lower_case' is an invalid message name. It "
+        "should have the pattern '^[A-Z][A-Za-z0-9]*$'\n"
+    )

@@ -13,7 +13,7 @@ import functools
 import importlib
 import io
 import re
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any, Literal
@@ -105,8 +105,9 @@ def _parse_interface(package: str, path: Path, text: str) -> Any:
         line = _failing_line(package, path, text, upto="parse")
         message = _one_line(error)
         # rosidl reads an unknown lower-case type as a badly named message type.
+        # (Not the file's own name: msg/lower_case.msg is a badly named type, as rosidl says.)
         unknown = re.match(r"'([a-z]\w*)' is an invalid message name", message)
-        if unknown:
+        if unknown and unknown.group(1) != path.stem:
             message = f"unknown type {unknown.group(1)!r}"
         raise DefinitionError(message, path=path, line=line) from None
     _reject_ros1_builtins(path, text)
@@ -276,6 +277,18 @@ def parse_interface_text(package: str, path: Path, text: str, into: ParsedInterf
         raise DefinitionError(error.detail, path=path, line=line) from None
 
 
+def _add_origins(into: ParsedInterfaces, messages: Iterable[MessageDef], path: Path) -> None:
+    """Note where each of ``messages`` is defined; a type defined twice (msg/A.msg beside A.msg,
+    or one package in two folders) is refused: one definition silently replaced the other, and
+    ``--compile`` failed in the C compiler."""
+    for msg in messages:
+        other = into.origins.get(msg.full_name)
+        if other is not None and other != path:
+            raise DefinitionError(f"{msg.full_name} is also defined in {other}", path=path)
+    for msg in messages:
+        into.origins[msg.full_name] = path
+
+
 def _add_elements(package: str, path: Path, elements: list[Any], into: ParsedInterfaces) -> None:
     from rosidl_parser import definition as d
 
@@ -287,18 +300,16 @@ def _add_elements(package: str, path: Path, elements: list[Any], into: ParsedInt
             name = element.structure.namespaced_type.name
             python = (f"{package}.{namespace}", name)
             msg = message_def(element.structure, element.constants, path, python)
+            _add_origins(into, [msg], path)
             into.messages.append(msg)
-            into.origins[msg.full_name] = path
         elif isinstance(element, d.Service):
             srv = service_def(element, path, f"{package}.srv", element.namespaced_type.name)
+            _add_origins(into, srv.messages, path)
             into.services.append(srv)
-            for msg in srv.messages:
-                into.origins[msg.full_name] = path
         elif isinstance(element, d.Action):
             act = action_def(element, path, f"{package}.action")
+            _add_origins(into, act.messages, path)
             into.actions.append(act)
-            for msg in act.messages:
-                into.origins[msg.full_name] = path
         else:
             continue
         into.rosidl_elements.append(element)
