@@ -49,6 +49,47 @@ def test_compile_refuses_names_rosidl_cannot_use(
     assert not prefix.exists(), "refused before anything is built"
 
 
+@pytest.mark.parametrize(
+    ("text", "expected"),
+    [
+        # rosidl builds these with exit 0: the class does not import (`@builtins.property` then
+        # names the field), or repr() and pyconnect's codecs fail on the replaced method.
+        ("int32 builtins\nint32 z\n",
+         "msg/M.msg:1: kw_msgs/msg/M: the field name 'builtins' is the module the Python class "
+         "rosidl generates takes its property decorator from (a field after it makes the class "
+         "not import); rename it"),
+        ("int32 a\nint32 get_fields_and_field_types\n",
+         "msg/M.msg:2: kw_msgs/msg/M: the field name 'get_fields_and_field_types' is a method of "
+         "the Python class rosidl generates (the field would replace it: printing the message "
+         "and pyconnect's codecs fail); rename it"),
+        ("int32 a\nint32 SLOT_TYPES=1\n",
+         "msg/M.msg:2: kw_msgs/msg/M: the constant name 'SLOT_TYPES' is an attribute of the "
+         "Python class rosidl generates (the constant would hide it: pyconnect cannot read the "
+         "type from the class); rename it"),
+        # Or C that fails to compile, with an error naming a generated file in a deleted folder.
+        ("int32 a\nint32 linux\n",
+         "msg/M.msg:2: kw_msgs/msg/M: the field name 'linux' is a C macro on Linux (the C code "
+         "rosidl generates would not compile); rename it"),
+        ("# x\nint32 errno\n",
+         "msg/M.msg:2: kw_msgs/msg/M: the field name 'errno' is a C macro on Linux (the C code "
+         "rosidl generates would not compile); rename it"),
+        ("int32 int32_t\nint32 z\n",
+         "msg/M.msg:1: kw_msgs/msg/M: the field name 'int32_t' is a C type of rosidl's structs "
+         "(the C++ type support would not compile); rename it"),
+    ],
+)  # fmt: skip
+def test_compile_refuses_names_rosidl_builds_into_a_broken_package(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], text: str, expected: str
+) -> None:
+    root = tmp_path / "kw_msgs"
+    (root / "msg").mkdir(parents=True)
+    (root / "msg" / "M.msg").write_text(text)
+    prefix = tmp_path / "prefix"
+    assert main(["build", "--compile", str(root), "--prefix", str(prefix)]) == 2
+    assert capsys.readouterr().err == f"codecgen: {root}/{expected}\n"
+    assert not prefix.exists(), "refused before anything is built"
+
+
 def test_build_from_keeps_keyword_fields_and_its_codecs_work(tmp_path: Path) -> None:
     root = tmp_path / "kw_msgs"
     (root / "msg").mkdir(parents=True)

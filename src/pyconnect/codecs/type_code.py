@@ -54,20 +54,35 @@ class WireCode:
 
 
 # -- generated modules ----------------------------------------------------------------------------
-def generated_module(package: str, kind: str) -> ModuleType | None:
-    """``pyconnect_generated.<package>.<kind>``, or None when generated/ lacks the package."""
+def generated_module(full_name: str, kind: str) -> ModuleType | None:
+    """``pyconnect_generated.<package>.<kind>`` of a type's package, or None when there is none.
+
+    None too when the type's own ROS package is not installed (the on-the-fly path then says
+    so). Any other import failure (a dependency's classes missing, a namespace package of
+    sources shadowing the installed one) is a ``CodecNotFoundError`` naming the type, the module
+    and the original error: the generated code exists but cannot run here.
+    """
+    package = full_name.split("/", 1)[0]
+    module = f"pyconnect_generated.{package}.{kind}"
     try:
-        return importlib.import_module(f"pyconnect_generated.{package}.{kind}")
+        return importlib.import_module(module)
     except ModuleNotFoundError as error:
-        # No generated module, or the ROS package it was generated from is not installed here.
+        # No generated module (another package's generated code missing too: on the fly
+        # compiles it), or the ROS package it was generated from is not installed here.
         if error.name is not None and error.name.split(".")[0] in ("pyconnect_generated", package):
             return None
-        raise
+        raise CodecNotFoundError(
+            f"{full_name}: its generated codec {module} cannot be imported: {error}"
+        ) from error
+    except ImportError as error:
+        raise CodecNotFoundError(
+            f"{full_name}: its generated codec {module} cannot be imported: {error}"
+        ) from error
 
 
 def generated_dict_functions(full_name: str) -> DictFunctions | None:
     """The checked-in dict codec, if there is one and it matches the installed class."""
-    module = generated_module(full_name.split("/", 1)[0], "dict_codecs")
+    module = generated_module(full_name, "dict_codecs")
     entry = module.DICT_CODECS.get(full_name) if module is not None else None
     if entry is None:
         return None
@@ -97,7 +112,7 @@ def _wire_code(full_name: str, namespace: Mapping[str, Any]) -> WireCode:
 
 def generated_wire_code(full_name: str) -> WireCode | None:
     """The generated wire code, if there is one and it was made from the installed type."""
-    module = generated_module(full_name.split("/", 1)[0], "wire_codecs")
+    module = generated_module(full_name, "wire_codecs")
     if module is None or full_name not in module.EXPORTED:
         return None
     # Code generated from another version of the type than the installed one (a stale folder
@@ -112,7 +127,7 @@ def generated_wire_code(full_name: str) -> WireCode | None:
 
 def generated_has(full_name: str) -> bool:
     """True when generated/ has the type (its index lists it; nothing of ROS is imported)."""
-    module = generated_module(full_name.split("/", 1)[0], "index")
+    module = generated_module(full_name, "index")
     return module is not None and full_name in module.TYPE_NAMES
 
 
@@ -126,6 +141,11 @@ def compiled_dict_functions(full_name: str) -> DictFunctions:
         types = type_set_from_classes(full_name)
     except DefinitionError as error:
         raise CodecNotFoundError(f"{full_name}: {error}") from None
+    except ImportError as error:
+        # The class imports a package it uses when it is made (one uninstalled since).
+        raise CodecNotFoundError(
+            f"{full_name}: no generated codec and its class cannot be used: {error}"
+        ) from error
     source = render_self_contained_dict_codecs(types.closure(full_name), types)
     namespace = run_generated_source(source, label=f"dict codecs {full_name}")
     msg_class, to_dict, from_dict, _fields = namespace["DICT_CODECS"][full_name]
@@ -134,7 +154,7 @@ def compiled_dict_functions(full_name: str) -> DictFunctions:
 
 def generated_hash(full_name: str) -> str | None:
     """The RIHS01 hash of the type as generated/ has it (None when it lacks the type)."""
-    module = generated_module(full_name.split("/", 1)[0], "index")
+    module = generated_module(full_name, "index")
     return module.TYPE_HASHES.get(full_name) if module is not None else None
 
 

@@ -8,6 +8,8 @@ the Python package ``<pkg>/``, its pyconnect codecs in
 ``pyconnect_codecs/pyconnect_generated/<pkg>/`` (see ``pyconnect.codecs.search_path``) and a
 ``<pkg>-<version>.dist-info`` whose RECORD lists every file, so ``pip uninstall <pkg>`` removes
 it all. The Python package is moved into place last: while it is absent nothing imports.
+Only what codecgen installed (its dist-info's INSTALLER says ``codecgen``) is ever replaced or
+uninstalled: a package of the same name from pip or a ROS wheel is left alone.
 """
 
 from __future__ import annotations
@@ -23,10 +25,12 @@ from pathlib import Path
 
 from pyconnect.codegen.build import GENERATED_PACKAGE
 from pyconnect.codegen.compile_generate import GeneratedSources
+from pyconnect.typesys.errors import DefinitionError
 
 # The folder pyconnect.codecs.search_path looks for in every sys.path entry.
 CODECS_FOLDER = "pyconnect_codecs"
 STAMP_FILE = "codecgen.stamp"  # JSON inside, but no .json suffix: tools glob those
+INSTALLER = "codecgen"  # the dist-info INSTALLER text that marks an install as ours
 _HEADER_GENERATORS = (
     "rosidl_generator_c", "rosidl_typesupport_fastrtps_c", "rosidl_typesupport_introspection_c",
 )  # fmt: skip
@@ -161,7 +165,7 @@ def _write_dist_info(staged: StagedPackage, stage: InstallLayout, final: Install
         f"Metadata-Version: 2.1\nName: {staged.name}\nVersion: {staged.version}\n"
         f"Summary: ROS 2 interface package built by codecgen build --compile\n",
     )
-    _write(dist_info / "INSTALLER", "codecgen\n")
+    _write(dist_info / "INSTALLER", INSTALLER + "\n")
     files = sorted(p for p in stage.prefix.rglob("*") if p.is_file())
     record = [
         os.path.relpath(final.prefix / p.relative_to(stage.prefix), final.python) + ",,"
@@ -180,7 +184,11 @@ def _replace(staged: Path, final: Path, trash: Path) -> None:
 
 
 def install_staged(staged: StagedPackage, stage: InstallLayout, final: InstallLayout) -> None:
-    """Lay the package out under ``stage`` and move it into ``final``, Python package last."""
+    """Lay the package out under ``stage`` and move it into ``final``, Python package last.
+
+    ``InstallConflictError`` when ``final`` holds a package of that name codecgen did not build.
+    """
+    check_replaceable(final, staged.name)
     _lay_out(staged, stage)
     _write_dist_info(staged, stage, final)
     trash = stage.prefix.parent / "trash"
@@ -202,21 +210,118 @@ def install_staged(staged: StagedPackage, stage: InstallLayout, final: InstallLa
     moves.append((stage.python / staged.name, final.python / staged.name))
     for source, target in moves:
         _replace(source, target, trash)
-    for old in final.python.glob(f"{staged.name}-*.dist-info"):
+    for old in _own_dist_infos(final, staged.name):
         if old.name != _dist_info_name(staged):  # an earlier version's
             shutil.rmtree(old, ignore_errors=True)
 
 
+class InstallConflictError(DefinitionError):
+    """The prefix holds a package of that name codecgen did not build: it is not replaced."""
+
+
+def _installer(dist_info: Path) -> str | None:
+    """The INSTALLER text of a dist-info ("pip", "codecgen"...), None when it has none."""
+    try:
+        return (dist_info / "INSTALLER").read_text(encoding="utf-8").strip()
+    except (OSError, UnicodeDecodeError):
+        return None
+
+
+def _own_dist_infos(layout: InstallLayout, package: str) -> list[Path]:
+    """The ``<package>-*.dist-info`` folders codecgen wrote (INSTALLER says so)."""
+    return [
+        dist_info
+        for dist_info in sorted(layout.python.glob(f"{package}-*.dist-info"))
+        if _installer(dist_info) == INSTALLER
+    ]
+
+
+def _record_paths(layout: InstallLayout, dist_info: Path) -> list[Path] | None:
+    """The files a RECORD lists, None when one lies outside the prefix or it cannot be read."""
+    try:
+        lines = (dist_info / "RECORD").read_text(encoding="utf-8").splitlines()
+    except (OSError, UnicodeDecodeError):
+        return None
+    paths = []
+    for line in lines:
+        entry = line.split(",")[0]
+        if not entry:
+            continue
+        # RECORD paths are relative to site-packages (``../../../lib/...`` for the libraries);
+        # an absolute one, or one climbing out of the prefix, is no file codecgen wrote.
+        path = Path(os.path.normpath(layout.python / entry))
+        if Path(entry).is_absolute() or layout.prefix not in path.parents:
+            return None
+        paths.append(path)
+    return paths
+
+
 def installed_record(layout: InstallLayout, package: str) -> list[Path]:
-    """The files a compiled install of ``package`` wrote (from its RECORD), or []."""
-    for dist_info in layout.python.glob(f"{package}-*.dist-info"):
-        record = dist_info / "RECORD"
-        if (dist_info / "INSTALLER").is_file() and record.is_file():
-            lines = record.read_text(encoding="utf-8").splitlines()
-            return [
-                Path(os.path.normpath(layout.python / line.split(",")[0])) for line in lines if line
-            ]
+    """The files a compiled install of ``package`` wrote (from its RECORD), or [].
+
+    Only a dist-info codecgen wrote counts, and only when every path it lists is inside the
+    prefix: a distribution pip installed under the same name is never removed through here.
+    """
+    for dist_info in _own_dist_infos(layout, package):
+        paths = _record_paths(layout, dist_info)
+        if paths:
+            return paths
     return []
+
+
+def _clobbered_paths(layout: InstallLayout, package: str) -> list[Path]:
+    """What an install of ``package`` would replace, where it exists already."""
+    candidates = [
+        layout.python / package,
+        layout.share / package,
+        layout.include / package,
+        *(layout.resource_index / kind / package for kind in ("rosidl_interfaces", "packages")),
+        *layout.lib.glob(f"lib{package}__rosidl_*.so"),
+    ]
+    return [path for path in candidates if path.exists() or path.is_symlink()]
+
+
+def _owner(layout: InstallLayout, paths: list[Path]) -> Path | None:
+    """The dist-info whose RECORD lists a file at or under one of ``paths``, if any."""
+    # Compared as RECORD spells paths (relative to site-packages): a venv has ~20k lines.
+    wanted = tuple(os.path.relpath(path, layout.python) for path in paths)
+    under = tuple(f"{relative}/" for relative in wanted)
+    for dist_info in sorted(layout.python.glob("*.dist-info")):
+        try:
+            lines = (dist_info / "RECORD").read_text(encoding="utf-8").splitlines()
+        except (OSError, UnicodeDecodeError):
+            continue
+        for line in lines:
+            listed = os.path.normpath(line.split(",")[0])
+            if listed in wanted or listed.startswith(under):
+                return dist_info
+    return None
+
+
+def check_replaceable(layout: InstallLayout, package: str) -> None:
+    """Refuse to install ``package`` over one of that name that codecgen did not build.
+
+    Replacing is what a rebuild does, and only codecgen's own installs may be replaced: pip's
+    ``mylib`` or a ROS wheel's ``std_msgs`` would be deleted without a word otherwise.
+    """
+    named = sorted(layout.python.glob(f"{package}-*.dist-info"))
+    foreign = [d for d in named if _installer(d) != INSTALLER]
+    if not foreign and named:
+        return  # codecgen's own install: rebuilt in place
+    existing = _clobbered_paths(layout, package)
+    if not foreign and not existing:
+        return
+    owner = foreign[0] if foreign else _owner(layout, existing)
+    if owner is None:
+        what = f"{existing[0]}, which no installed distribution lists"
+    else:
+        installer = _installer(owner)
+        by = f"INSTALLER {installer!r}" if installer is not None else "no INSTALLER"
+        what = f"the distribution {owner.name} ({by})"
+    raise InstallConflictError(
+        f"{package}: {layout.prefix} already has {what}, not a package built by codecgen: "
+        "not replacing it (uninstall it first, or build into another --prefix)"
+    )
 
 
 def uninstall(layout: InstallLayout, package: str) -> list[Path]:

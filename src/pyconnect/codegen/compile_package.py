@@ -28,6 +28,7 @@ from pyconnect.codegen.compile_generate import Dependency, adapt_interfaces, run
 from pyconnect.codegen.compile_install import (
     InstallLayout,
     StagedPackage,
+    check_replaceable,
     install_staged,
     read_stamp,
 )
@@ -164,6 +165,7 @@ def _compile_one(  # noqa: PLR0917  (one private call site)
     python_dir = layout.python / package.name
     if not force and python_dir.is_dir() and read_stamp(layout, package.name) == digest:
         return BuildResult(package.name, "up to date", layout)
+    check_replaceable(layout, package.name)  # before minutes of compiling, not after
     toolchain = find_toolchain([layout.prefix])
     dependencies = resolve_dependencies(needs - {package.name})
     layout.prefix.mkdir(parents=True, exist_ok=True)

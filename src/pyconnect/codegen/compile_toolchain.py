@@ -2,12 +2,14 @@
 
 Only what the ROS wheels (or a sourced ROS install) put on disk is used: their ``include/`` and
 ``lib/`` folders under each install prefix, this interpreter's ``Python.h`` and numpy's headers.
-Every problem is a ``ToolchainError`` whose text is one line saying what to install.
+Every problem is a ``ToolchainError`` whose text is one line saying what to install, or which
+interface's generated code did not compile.
 """
 
 from __future__ import annotations
 
 import os
+import re
 import shlex
 import shutil
 import subprocess
@@ -161,6 +163,76 @@ def link_shared_library(toolchain: Toolchain, library: SharedLibrary) -> None:
     library.output.parent.mkdir(parents=True, exist_ok=True)
     result = subprocess.run(command, capture_output=True, text=True, check=False)
     if result.returncode != 0:
-        errors = [line for line in result.stderr.splitlines() if "error" in line.lower()]
-        first = " ".join((errors or result.stderr.splitlines() or ["(no output)"])[0].split())
-        raise ToolchainError(f"compiling {library.output.name} failed: {first}")
+        raise ToolchainError(compiler_failure(library.output.name, result.stderr))
+
+
+# ``path:line[:column]: [fatal ]error: text``, and any generated file a diagnostic names.
+_ERROR_LINE = re.compile(
+    r"^(?P<path>[^\s:][^:]*):(?P<line>\d+):(?:\d+:)? (?:fatal )?error: (?P<text>.*)$"
+)
+_LOCATION = re.compile(r"(?P<path>/[^\s:'\"]+):(?P<line>\d+)")
+
+
+@dataclass(frozen=True)
+class _GeneratedFile:
+    """A file rosidl generated in the build folder, and the interface it was generated for."""
+
+    interface: str  # pkg/ns/Name, or pkg/ns/<file stem> when the .idl is gone
+    name: str  # the file name alone: its folder is deleted when the build ends
+
+
+def _generated_file(path: str) -> _GeneratedFile | None:
+    """What a path in the build folder was generated from, None for any other file.
+
+    rosidl writes ``<build>/<generator>/<pkg>/<msg|srv|action>/[detail/...]<stem>...`` and
+    rosidl_adapter the .idl files at ``<build>/rosidl_adapter/<pkg>/<ns>/<Name>.idl``.
+    """
+    parts = Path(path).parts
+    for index in range(len(parts) - 4, -1, -1):
+        generator, package, namespace = parts[index : index + 3]
+        if generator.startswith("rosidl_") and namespace in ("msg", "srv", "action"):
+            break
+    else:
+        return None
+    stem = parts[-1].lstrip("_").split(".")[0].split("__")[0].removesuffix("_s")
+    name = stem
+    adapter = Path(*parts[:index], "rosidl_adapter", package, namespace)
+    for idl in sorted(adapter.glob("*.idl")):
+        if _snake_case(idl.stem) == stem:
+            name = idl.stem
+    return _GeneratedFile(f"{package}/{namespace}/{name}", parts[-1])
+
+
+def _snake_case(name: str) -> str:
+    """rosidl's file stem of a type name (``HTTPStatus`` -> ``http_status``), by rosidl_pycommon's
+    ``convert_camel_case_to_lower_case_underscore`` rules."""
+    name = re.sub(r"(.)([A-Z][a-z]+)", r"\1_\2", name)
+    return re.sub(r"([a-z0-9])([A-Z])", r"\1_\2", name).lower()
+
+
+def compiler_failure(library: str, stderr: str) -> str:
+    """One line from a failed compiler run: the interface whose generated code failed, where
+    and why; never the path of a generated file, whose build folder is gone when this is read.
+    """
+    lines = stderr.splitlines()
+    match = next(filter(None, map(_ERROR_LINE.match, lines)), None)
+    if match is None:
+        errors = [line for line in lines if "error" in line.lower()]
+        first = " ".join((errors or lines or ["(no output)"])[0].split())
+        return f"compiling {library} failed: {first}"
+    text = " ".join(match["text"].split())
+    generated = _generated_file(match["path"])
+    where = f"{generated.name}:{match['line']}" if generated else f"{match['path']}:{match['line']}"
+    if generated is None:
+        # An error in an installed header: the generated file that included it says which type.
+        for location in _LOCATION.finditer(stderr):
+            generated = _generated_file(location["path"])
+            if generated is not None:
+                break
+    if generated is None:
+        return f"compiling {library} failed: {where}: error: {text}"
+    return (
+        f"the C/C++ code rosidl generated for {generated.interface} does not compile "
+        f"({where}: {text}; building {library}): most likely a field, constant or default "
+        "value of it C or C++ cannot take"
+    )

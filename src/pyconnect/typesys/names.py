@@ -130,6 +130,29 @@ _CPP_KEYWORDS = frozenset((
 ))  # fmt: skip
 
 
+# Names rosidl_generator_py's message template (resource/_msg.py.em) itself uses in the class,
+# each checked by compiling a package that has it: the import or every use then fails.
+_PYTHON_CLASS_NAMES = {
+    "builtins": "the module the Python class rosidl generates takes its property decorator "
+    "from (a field after it makes the class not import)",
+    "get_fields_and_field_types": "a method of the Python class rosidl generates (the field "
+    "would replace it: printing the message and pyconnect's codecs fail)",
+    "SLOT_TYPES": "an attribute of the Python class rosidl generates (the constant would hide "
+    "it: pyconnect cannot read the type from the class)",
+}
+# Object-like macros of gcc on Linux and of the headers rosidl's generated C includes (Python.h,
+# numpy's, glibc's): the preprocessor rewrites a struct member named so into something that is
+# no name. Function-like ones (``assert``) and ones defined as themselves (``stdin``) are
+# harmless; each of these was checked by compiling a package that has it.
+_C_MACROS = frozenset((
+    "linux", "unix", "errno", "complex", "constchar", "longdouble_t", "math_errhandling",
+    "st_atime", "st_ctime", "st_mtime",
+))  # fmt: skip
+# The C types of rosidl's structs: a member named after one changes its meaning in the struct,
+# which the C++ type supports (they include the struct) refuse.
+_C_TYPES = frozenset(f"{sign}int{bits}_t" for sign in ("", "u") for bits in (8, 16, 32, 64))
+
+
 def compiled_name_problem(name: str) -> str | None:
     """Why a field or constant called ``name`` breaks a compiled package, or None if it does not.
 
@@ -137,8 +160,14 @@ def compiled_name_problem(name: str) -> str | None:
     """
     if keyword.iskeyword(name):
         return "a Python keyword (the Python class rosidl generates would not import)"
+    if name in _PYTHON_CLASS_NAMES:
+        return _PYTHON_CLASS_NAMES[name]
     if name in _C_KEYWORDS:
         return "a C keyword (the C code rosidl generates would not compile)"
     if name in _CPP_KEYWORDS:
         return "a C++ keyword (the C++ type support rosidl generates would not compile)"
+    if name in _C_MACROS:
+        return "a C macro on Linux (the C code rosidl generates would not compile)"
+    if name in _C_TYPES:
+        return "a C type of rosidl's structs (the C++ type support would not compile)"
     return None
