@@ -19,16 +19,14 @@ from pyconnect.ros.action_client_agent import ActionClientAgent
 from pyconnect.ros.action_server_agent import ActionServerAgent
 from pyconnect.ros.agent_host import AgentHost
 from pyconnect.ros.agent_options import AgentOptions, OptionError
-from pyconnect.ros.handler_shape import wants_feedback_publisher
 from pyconnect.ros.node_agent import NodeAgent
 from pyconnect.ros.option_checks import (
-    arity_problem,
     check_options,
     options_of,
     plain_option_problem,
-    seconds_problem,
     shared_options,
 )
+from pyconnect.ros.option_values import check_option_values
 from pyconnect.ros.publisher_agent import PublisherAgent
 from pyconnect.ros.service_agents import ServiceClientAgent, ServiceServerAgent
 from pyconnect.ros.subscriber_agent import SubscriberAgent
@@ -151,15 +149,6 @@ def _check_options(agent_class: type[NodeAgent], given: Mapping[str, Any], where
 
 
 _KINDS = ", ".join(repr(kind) for kind in AGENT_CLASS_DICT)
-_FUNCTION_OPTIONS = (
-    "encode_func",
-    "decode_func",
-    "response_func",
-    "accepted_func",
-    "feedback_func",
-)
-
-
 _ZENOH_EXTRA = {"zenoh": "eclipse-zenoh", "xxhash": "xxhash"}
 """The zenoh extra's modules and the packages that bring them."""
 
@@ -167,25 +156,12 @@ _ZENOH_EXTRA = {"zenoh": "eclipse-zenoh", "xxhash": "xxhash"}
 def _check_values(
     agent_class: type[NodeAgent] | None, given: Mapping[str, Any], where: str
 ) -> None:
-    """Refuse option values of the wrong type now: a string given as ``response_func`` was
-    logged as "not callable" once per message, a wrong callback group failed inside rclpy in
-    its own words, ``do_log_msg="no"`` logged, and a handler that cannot take the arguments
-    it is called with failed at every call."""
-    for option in _FUNCTION_OPTIONS:
-        function = given.get(option)
-        if function is not None and not callable(function):
-            hint = "; pass the function itself, not its name" if isinstance(function, str) else ""
-            raise OptionError(f"{where}: {option}: expected a callable, got {function!r}{hint}")
-    for option, value in given.items():
-        problem = plain_option_problem(option, value)
-        if problem is not None:
-            raise OptionError(f"{where}: {problem}")
-    for option in ("result_timeout", "result_cache_seconds"):
-        # The action server hands them to rclpy and its cache: check them before either.
-        if option in given:
-            problem = seconds_problem(option, given[option])
-            if problem is not None:
-                raise OptionError(f"{where}: {problem}")
+    """Refuse option values of the wrong type now (pyconnect.ros.option_values), and a wrong
+    callback group, which failed inside rclpy in its own words."""
+    kind = None
+    if agent_class is not None:
+        kind = next((k for base, k in _KINDS_OF_CLASSES if issubclass(agent_class, base)), None)
+    check_option_values(kind, given, where)
     group = given.get("callback_group")
     if group is not None and not isinstance(group, CallbackGroup):
         if isinstance(group, type) and issubclass(group, CallbackGroup):
@@ -196,11 +172,17 @@ def _check_values(
             f"{where}: callback_group: expected an rclpy CallbackGroup (e.g. "
             f"ReentrantCallbackGroup()), got {actual}"
         )
-    if agent_class is not None:
-        for option, (count, calls) in _handler_calls(agent_class, given).items():
-            problem = arity_problem(given.get(option), count, calls)
-            if problem is not None:
-                raise OptionError(f"{where}: {option}: {problem}")
+
+
+_KINDS_OF_CLASSES: tuple[tuple[type[NodeAgent], str], ...] = (
+    (TimerAgent, "timer"),
+    (PublisherAgent, "pub"),
+    (SubscriberAgent, "sub"),
+    (ServiceServerAgent, "service_server"),
+    (ActionServerAgent, "action_server"),
+    (ActionClientAgent, "action_client"),
+)
+"""The built-in kinds by class (a subclass of the user's calls its handlers as its base)."""
 
 
 def _name_problem(node: AgentHost, conn_name: object, conn_type: str) -> str | None:
@@ -216,35 +198,3 @@ def _name_problem(node: AgentHost, conn_name: object, conn_type: str) -> str | N
     except (NameValidationException, ValueError) as error:
         return str(error)
     return None
-
-
-def _handler_calls(
-    agent_class: type[NodeAgent], given: Mapping[str, Any]
-) -> dict[str, tuple[int, str]]:
-    """How the agent calls each handler option: {option: (positional arguments, in words)}."""
-    if issubclass(agent_class, TimerAgent):
-        return {"response_func": (0, "a timer calls it with no arguments")}
-    if issubclass(agent_class, PublisherAgent):
-        if given.get("time_period") is None:  # the pub refuses a response_func without one
-            return {}
-        return {"response_func": (0, "a periodic pub calls it with no arguments")}
-    if issubclass(agent_class, SubscriberAgent):
-        return {"response_func": (1, "a sub calls it with one argument (the value)")}
-    if issubclass(agent_class, ServiceServerAgent):
-        return {"response_func": (1, "a service_server calls it with one argument (the request)")}
-    if issubclass(agent_class, ActionServerAgent):
-        handler = given.get("response_func")
-        if callable(handler) and wants_feedback_publisher(handler):
-            calls = (
-                "an action_server calls it with two arguments (the goal and publish_feedback, "
-                "as it takes a second positional parameter)"
-            )
-            return {"response_func": (2, calls)}
-        return {"response_func": (1, "an action_server calls it with one argument (the goal)")}
-    if issubclass(agent_class, ActionClientAgent):
-        return {
-            "response_func": (1, "an action_client calls it with one argument (the result)"),
-            "accepted_func": (1, "an action_client calls it with one argument (accepted: bool)"),
-            "feedback_func": (1, "an action_client calls it with one argument (the feedback)"),
-        }
-    return {}

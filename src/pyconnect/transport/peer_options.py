@@ -9,14 +9,8 @@ from typing import Any
 
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.agent_options import AgentOptions, OptionError
-from pyconnect.ros.handler_shape import wants_feedback_publisher
-from pyconnect.ros.option_checks import (
-    KNOWN_OPTIONS,
-    arity_problem,
-    options_of,
-    plain_option_problem,
-    seconds_problem,
-)
+from pyconnect.ros.option_checks import KNOWN_OPTIONS, options_of
+from pyconnect.ros.option_values import check_option_values
 from pyconnect.transport.action_client import ActionClientAgent
 from pyconnect.transport.action_server import ActionServerAgent
 from pyconnect.transport.peer_agent import DEFAULT_DEPTH, PeerAgent, TimerAgent
@@ -76,71 +70,11 @@ NOT_ON_A_PEER: dict[str, str] = {
 }
 """``CustomNode`` options no kind takes on a peer, and what ``OptionError`` says of them."""
 
-_FUNCTION_OPTIONS = (
-    "encode_func",
-    "decode_func",
-    "response_func",
-    "accepted_func",
-    "feedback_func",
-)
-_SECONDS_OPTIONS = ("result_timeout", "result_cache_seconds")
-
 
 def check_values(conn_type: str, given: Mapping[str, Any], where: str) -> None:
-    """Refuse, as ``CustomNode`` does (pyconnect.ros.agent_factory), option values of the wrong
-    type and handlers that cannot take the arguments the agent calls them with: a peer took
-    them and failed at every message (a string ``response_func``, ``raw=0``), answered no late
-    result request (``result_cache_seconds=-1``) or never at all. ``OptionError`` starts with
-    ``where`` and names the option."""
-    for option in _FUNCTION_OPTIONS:
-        function = given.get(option)
-        if function is not None and not callable(function):
-            hint = "; pass the function itself, not its name" if isinstance(function, str) else ""
-            raise OptionError(f"{where}: {option}: expected a callable, got {function!r}{hint}")
-    for option, value in given.items():
-        problem = plain_option_problem(option, value)
-        if problem is not None:
-            raise OptionError(f"{where}: {problem}")
-    for option in _SECONDS_OPTIONS:
-        if option in given:
-            problem = seconds_problem(option, given[option])
-            if problem is not None:
-                raise OptionError(f"{where}: {problem}")
-    for option, (count, calls) in _handler_calls(conn_type, given).items():
-        problem = arity_problem(given.get(option), count, calls)
-        if problem is not None:
-            raise OptionError(f"{where}: {option}: {problem}")
-
-
-def _handler_calls(conn_type: str, given: Mapping[str, Any]) -> dict[str, tuple[int, str]]:
-    """How a peer's agent of ``conn_type`` calls each handler option: {option: (positional
-    arguments, in words)}, as the agent modules call them."""
-    if conn_type == "timer":
-        return {"response_func": (0, "a timer calls it with no arguments")}
-    if conn_type == "pub":
-        if given.get("time_period") is None:  # the pub refuses a response_func without one
-            return {}
-        return {"response_func": (0, "a periodic pub calls it with no arguments")}
-    if conn_type == "sub":
-        return {"response_func": (1, "a sub calls it with one argument (the value)")}
-    if conn_type == "service_server":
-        return {"response_func": (1, "a service_server calls it with one argument (the request)")}
-    if conn_type == "action_server":
-        handler = given.get("response_func")
-        if callable(handler) and wants_feedback_publisher(handler):
-            calls = (
-                "an action_server calls it with two arguments (the goal and publish_feedback, "
-                "as it takes a second positional parameter)"
-            )
-            return {"response_func": (2, calls)}
-        return {"response_func": (1, "an action_server calls it with one argument (the goal)")}
-    if conn_type == "action_client":
-        return {
-            "response_func": (1, "an action_client calls it with one argument (the result)"),
-            "accepted_func": (1, "an action_client calls it with one argument (accepted: bool)"),
-            "feedback_func": (1, "an action_client calls it with one argument (the feedback)"),
-        }
-    return {}
+    """Refuse option values of the wrong type as ``CustomNode`` does
+    (pyconnect.ros.option_values): ``OptionError`` starts with ``where`` and names the option."""
+    check_option_values(conn_type, given, where)
 
 
 KEEP_ALL_DEPTH = 1000
