@@ -122,11 +122,11 @@ from pyconnect.ros.agent_options import OptionError
         ),
         (
             {"conn_type": "pub", "data_interface": String, "do_log_msg": "no"},
-            "agent 'bad' (pub): do_log_msg: expected bool, got 'no'",
+            "agent 'bad' (pub): do_log_msg: expected bool or None, got 'no'",
         ),
         (
             {"conn_type": "pub", "data_interface": String, "only_if_subscribed": "no"},
-            "agent 'bad' (pub): only_if_subscribed: expected bool, got 'no'",
+            "agent 'bad' (pub): only_if_subscribed: expected bool or None, got 'no'",
         ),
         (
             {"conn_type": "pub", "data_interface": String, "raw": 0},
@@ -134,11 +134,11 @@ from pyconnect.ros.agent_options import OptionError
         ),
         (
             {"conn_type": "sub", "data_interface": String, "stamped": "yes"},
-            "agent 'bad' (sub): stamped: expected bool, got 'yes'",
+            "agent 'bad' (sub): stamped: expected bool or None, got 'yes'",
         ),
         (
             {"conn_type": "pub", "data_interface": Image, "frame_id": 5},
-            "agent 'bad' (pub): frame_id: expected str, got 5",
+            "agent 'bad' (pub): frame_id: expected str or None, got 5",
         ),
         (
             {"conn_type": "pub", "data_interface": String, "agent_name": 5},
@@ -321,3 +321,33 @@ def test_a_bridge_without_xxhash_names_the_extra(
     assert str(refused.value) == (
         "agent 'a' (sub): transport='zenoh' needs xxhash: pip install 'pyconnect-ros[zenoh]'"
     )
+
+
+def test_a_registered_subclass_of_a_kind_calls_its_handler_its_own_way(make_node: Any) -> None:
+    """The registration extension point: a sub whose handler takes a count too was refused by
+    the base kind's handler shape."""
+    from pyconnect.ros.agent_factory import AGENT_CLASS_DICT
+    from pyconnect.ros.subscriber_agent import SubscriberAgent
+
+    class CountingSub(SubscriberAgent):
+        def __init__(
+            self, node: Any, *, conn_name: str, data_interface: Any, response_func: Any,
+            agent_name: str | None = None,
+        ) -> None:  # fmt: skip
+            super().__init__(
+                node, conn_name=conn_name, data_interface=data_interface, agent_name=agent_name,
+                response_func=lambda value: response_func(value, self.message_count),
+            )  # fmt: skip
+
+    AGENT_CLASS_DICT["counting_sub"] = CountingSub
+    try:
+        node = make_node("counting")
+        agent = node.add_agent(
+            conn_name="chat",
+            conn_type="counting_sub",
+            data_interface=String,
+            response_func=lambda value, count: None,
+        )
+        assert isinstance(agent, CountingSub)
+    finally:
+        del AGENT_CLASS_DICT["counting_sub"]

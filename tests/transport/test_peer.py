@@ -370,7 +370,7 @@ def _two(goal: Any, publish_feedback: Any) -> Any:
         ),
         (
             {"conn_type": "pub", "data_interface": "std_msgs/msg/String", "only_if_subscribed": 1},
-            "agent 'b' (pub): only_if_subscribed: expected bool, got 1",
+            "agent 'b' (pub): only_if_subscribed: expected bool or None, got 1",
         ),
         (
             {"conn_type": "sub", "data_interface": "std_msgs/msg/String", "response_func": "cb"},
@@ -980,3 +980,25 @@ def test_ros_domain_id_is_read_as_rcl_reads_it(
 
     monkeypatch.setenv("ROS_DOMAIN_ID", text)
     assert default_domain_id() == domain
+
+
+def test_stop_func_may_add_an_agent_to_say_goodbye_and_it_is_closed(
+    make_peer: PeerFactory,
+) -> None:
+    """As on a CustomNode: refusing add_agent from the start of the shutdown refused this."""
+    peer = make_peer("leaving")
+    added: list[Any] = []
+
+    def goodbye() -> None:
+        added.append(
+            peer.add_agent(
+                conn_name="status", conn_type="pub", data_interface="std_msgs/msg/String"
+            )
+        )
+
+    peer.stop_func = goodbye
+    peer.shutdown()
+    assert [agent.name for agent in added] == ["status"]
+    assert not peer.ok()
+    with pytest.raises(PyconnectError, match="is shut down; cannot add"):
+        peer.add_agent(conn_name="late", conn_type="pub", data_interface="std_msgs/msg/String")

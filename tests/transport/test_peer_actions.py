@@ -12,6 +12,7 @@ from typing import Any
 import pytest
 
 from pyconnect.errors import PyconnectError
+from pyconnect.transport import action_server
 from pyconnect.transport import action_wire as aw
 from tests.transport.conftest import PeerFactory, wait_for
 
@@ -571,3 +572,23 @@ def test_a_server_of_another_action_type_is_no_server_and_the_goal_names_both(
     assert outcome["isdone"] is False
     assert "expected test_msgs/action/NestedMessage_SendGoal (RIHS01_" in outcome["error"]
     assert "found test_msgs/action/Fibonacci_SendGoal (RIHS01_" in outcome["error"]
+
+
+def test_a_goal_whose_result_nobody_asks_for_does_not_hold_the_shutdown(
+    make_peer: PeerFactory, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A client may send a goal and never ask for its result: the server's close waited its
+    whole 5 s for that request after any goal that had ended in the last 5 s."""
+    monkeypatch.setattr(action_server, "RESULT_GRACE", 0.05)
+    server, client = pair(make_peer, lambda goal: {"sequence": [1]})
+
+    def never_asked(payload: bytes, deadline: float | None) -> bytes:
+        raise RuntimeError("this client does not ask")
+
+    monkeypatch.setattr(client._get_result, "call", never_asked)
+    with pytest.raises(RuntimeError, match="does not ask"):
+        client.send({"order": 1}, timeout=TIMEOUT)
+    assert wait_for(lambda: all(goal.ended for goal in server._goals.values()))
+    began = time.monotonic()
+    server.peer.shutdown()
+    assert time.monotonic() - began < 3.0  # generous: the bug took 5 s

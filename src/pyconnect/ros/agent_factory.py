@@ -158,10 +158,7 @@ def _check_values(
 ) -> None:
     """Refuse option values of the wrong type now (pyconnect.ros.option_values), and a wrong
     callback group, which failed inside rclpy in its own words."""
-    kind = None
-    if agent_class is not None:
-        kind = next((k for base, k in _KINDS_OF_CLASSES if issubclass(agent_class, base)), None)
-    check_option_values(kind, given, where)
+    check_option_values(_KIND_OF_CLASS.get(agent_class), given, where)
     group = given.get("callback_group")
     if group is not None and not isinstance(group, CallbackGroup):
         if isinstance(group, type) and issubclass(group, CallbackGroup):
@@ -174,15 +171,16 @@ def _check_values(
         )
 
 
-_KINDS_OF_CLASSES: tuple[tuple[type[NodeAgent], str], ...] = (
-    (TimerAgent, "timer"),
-    (PublisherAgent, "pub"),
-    (SubscriberAgent, "sub"),
-    (ServiceServerAgent, "service_server"),
-    (ActionServerAgent, "action_server"),
-    (ActionClientAgent, "action_client"),
-)
-"""The built-in kinds by class (a subclass of the user's calls its handlers as its base)."""
+_KIND_OF_CLASS: dict[type[NodeAgent] | None, str] = {
+    TimerAgent: "timer",
+    PublisherAgent: "pub",
+    SubscriberAgent: "sub",
+    ServiceServerAgent: "service_server",
+    ActionServerAgent: "action_server",
+    ActionClientAgent: "action_client",
+}
+"""The built-in kinds by class, whose handler shapes are checked. Exactly these: a subclass
+registered in AGENT_CLASS_DICT may call its handlers otherwise (a sub passing a count too)."""
 
 
 def _name_problem(node: AgentHost, conn_name: object, conn_type: str) -> str | None:

@@ -34,6 +34,7 @@ from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
 from rclpy.context import Context
 from rclpy.node import Node
 
@@ -85,7 +86,7 @@ def _check_keywords(
             problems.append(None if problem is None else f"stop_func: {problem}")
     if registry is not None and not isinstance(registry, Registry):
         problems.append(f"registry: expected a pyconnect Registry or None, got {registry!r}")
-    if not isinstance(handle_signals, bool):
+    if not isinstance(handle_signals, bool | np.bool_):
         problems.append(f"handle_signals: expected bool, got {handle_signals!r}")
     problems.append(seconds_problem("handoff_after", handoff_after))
     for problem in problems:

@@ -20,6 +20,8 @@ import threading
 from collections.abc import Mapping
 from typing import Any
 
+import numpy as np
+
 from pyconnect.errors import PyconnectError
 from pyconnect.ros.agent_options import AgentOptions, OptionError
 
@@ -169,15 +171,17 @@ def depth_problem(depth: object) -> str | None:
     return None if depth >= 1 else f"depth must be >= 1, got {depth!r}"
 
 
+_BOOL = (bool, np.bool_, type(None))
 PLAIN_OPTIONS: Mapping[str, tuple[type, ...]] = {
     "agent_name": (str, type(None)),
-    "do_log_msg": (bool,),
-    "only_if_subscribed": (bool,),
-    "stamped": (bool,),
-    "raw": (bool, type(None)),
-    "frame_id": (str,),
+    "do_log_msg": _BOOL,
+    "only_if_subscribed": _BOOL,
+    "stamped": _BOOL,
+    "raw": _BOOL,
+    "frame_id": (str, type(None)),
 }
-"""The options whose value is a plain bool or str (or None), with the types each takes."""
+"""The options whose value is a plain bool or str, with the types each takes: None is the
+default (a config built with ``.get()`` passes it), a numpy bool is a bool."""
 
 
 def plain_option_problem(option: str, value: object) -> str | None:
@@ -187,7 +191,8 @@ def plain_option_problem(option: str, value: object) -> str | None:
     accepted = PLAIN_OPTIONS.get(option)
     if accepted is None or isinstance(value, accepted):
         return None
-    expected = " or ".join("None" if kind is type(None) else kind.__name__ for kind in accepted)
+    names = {type(None): "None", np.bool_: ""}
+    expected = " or ".join(filter(None, (names.get(kind, kind.__name__) for kind in accepted)))
     return f"{option}: expected {expected}, got {value!r}"
 
 

@@ -37,6 +37,9 @@ from pyconnect.transport.peer_agent import Peer, PeerAgent, ResponseFunc
 
 DEFAULT_RESULT_TIMEOUT = 0.05
 DEFAULT_RESULT_CACHE_SECONDS = 60.0
+RESULT_GRACE = 1.0
+"""How long after a goal's end a closing server waits for its result request (a client asks as
+soon as its goal is accepted; one that has not asked a second later will not)."""
 
 SHUTTING_DOWN = "server is shutting down"
 """The abort reason of a goal still running at shutdown: CustomNode's text
@@ -343,14 +346,14 @@ class ActionServerAgent(PeerAgent):
             running = [t for t in self._running if t is not threading.current_thread()]
             active = [goal for goal in self._goals.values() if not goal.ended]
             # A goal that ended just before (a "stop" goal whose handler asked for this
-            # shutdown) may not have had its result asked for yet: wait for that request too.
-            # One that ended longer ago unasked has no client left to ask.
+            # shutdown) may not have had its result asked for yet: its request is on its way,
+            # waited for ``RESULT_GRACE`` s from the goal's end. One that ended longer ago
+            # unasked has a client that does not ask (send_goal_async without the result).
             now = time.monotonic()
-            unasked = [
+            recent = [
                 goal
                 for goal in self._goals.values()
-                if not goal.result_asked
-                and (not goal.ended or not goal.finished_at or now - goal.finished_at < timeout)
+                if goal.ended and not goal.result_asked and now - goal.finished_at < RESULT_GRACE
             ]
         # Running goals get ``timeout`` seconds to send their result while the session is open
         # (a goal thread left inside zenoh at interpreter exit aborts the process).
@@ -371,8 +374,13 @@ class ActionServerAgent(PeerAgent):
         # and closing the server first would lose the result.
         with self._result_asked:
             self._result_asked.wait_for(
-                lambda: all(goal.result_asked for goal in unasked),
+                lambda: all(goal.result_asked for goal in active),
                 max(0.0, deadline - time.monotonic()),
+            )
+            grace = max((goal.finished_at + RESULT_GRACE for goal in recent), default=0.0)
+            self._result_asked.wait_for(
+                lambda: all(goal.result_asked for goal in recent),
+                max(0.0, min(deadline, grace) - time.monotonic()),
             )
         for server in self._servers:
             server.close()

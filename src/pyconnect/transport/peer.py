@@ -170,6 +170,8 @@ class Peer(ShutsDownOnExit):
         self._stopped = threading.Event()
         # Set when shutdown begins: calls racing the closing session end as shut down.
         self._stopping = threading.Event()
+        # Set once stop_func has run and the agents to close are listed: no agent after that.
+        self._closing = False
         self._shutdown_lock = threading.Lock()
         self._shutdown_thread: threading.Thread | None = None
         self._main_waiting = False
@@ -239,9 +241,10 @@ class Peer(ShutsDownOnExit):
             raise OptionError(f"agent {conn_name!r}: {problem}")
         key = agent_name or conn_name
         with self._lock:
-            # Refused from the start of shutdown, which lists the agents to close under this
-            # lock: one added later would never be closed (a timer ticking on after shutdown).
-            if self._stopping.is_set():
+            # Refused once shutdown has listed the agents to close (under this lock, after
+            # stop_func, which may add one to say goodbye): one added later would never be
+            # closed (a timer ticking on after shutdown).
+            if self._closing:
                 raise PyconnectError(f"peer {self.name!r} is shut down; cannot add {key!r}")
             if key in self.agents:
                 raise PyconnectError(
@@ -379,15 +382,13 @@ class Peer(ShutsDownOnExit):
         with self._shutdown_lock:
             if self._stopped.is_set():
                 return
-            with self._lock:  # an add_agent in progress ends first, and later ones are refused
-                self._stopping.set()
-                agents = list(self.agents.values())
+            self._stopping.set()
             try:
-                self._shut_down(agents)
+                self._shut_down()
             finally:
                 self._stopped.set()
 
-    def _shut_down(self, agents: list[PeerAgent]) -> None:
+    def _shut_down(self) -> None:
         if self.stop_func is not None:
             try:
                 self.stop_func()
@@ -395,6 +396,9 @@ class Peer(ShutsDownOnExit):
                 logger.error(
                     "peer %r: stop_func raised %s: %s", self.name, type(error).__name__, error
                 )
+        with self._lock:  # an add_agent in progress ends first, and later ones are refused
+            self._closing = True
+            agents = list(self.agents.values())
         self._close_agents(agents)
         self.graph.close()
         try:
