@@ -61,3 +61,19 @@ def test_misfits_in_a_row_switch_the_topic_and_say_after_how_many(tmp_path: Path
         assert reader.switched == {"/t": 2}
     assert values[:2] == [{"data": "a", "extra": "x"}, {"data": "b", "extra": "y"}]
     assert values[2:] == [{"data": str(IN_A_ROW - 1)}, {"data": str(IN_A_ROW)}]
+
+
+def test_a_wrong_definition_gives_way_though_the_topic_has_other_connections(
+    tmp_path: Path,
+) -> None:
+    """Another connection's messages (another type of the topic, or the same type in a bag
+    read with it) fit their own definitions: counted as this definition's, they kept the wrong
+    one in place and every message of its connection was lost."""
+    good = _mcap(tmp_path / "good.mcap", "std_msgs/msg/String", "string data",
+                 [strings_cdr(f"g{i}") for i in range(3)])  # fmt: skip
+    wrong = _mcap(tmp_path / "wrong.mcap", "std_msgs/msg/String", TWO_STRINGS,
+                  [strings_cdr(f"w{i}") for i in range(3)])  # fmt: skip
+    with open_bag([good, wrong], natural=False) as reader:
+        values = [message.value["data"] for message in reader]
+        assert reader.errors == []
+    assert sorted(values) == ["g0", "g1", "g2", "w0", "w1", "w2"]

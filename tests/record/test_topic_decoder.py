@@ -50,11 +50,12 @@ def strings_cdr(*texts: str) -> bytes:
 
 
 def _decode(decoder: TopicDecoder, data: bytes, index: int, delivered: int) -> object:
-    """What a bag read does with one message of topic /t."""
+    """What a bag read does with one message of topic /t (``index`` and ``delivered`` say
+    where it stands in the topic; the decoder judges by its own messages alone)."""
     try:
         return decoder.decode(data)
     except Exception as error:
-        return decoder.recover(data, error, topic="/t", index=index, delivered=delivered)
+        return decoder.recover(data, error, topic="/t")
 
 
 def test_one_damaged_message_amid_fitting_ones_stays_an_error() -> None:
@@ -134,3 +135,14 @@ def test_a_message_neither_decodes_breaks_the_row() -> None:
         with pytest.raises(DecodeError):
             _decode(decoder, data, index, 1)
     assert not decoder.settled
+
+
+def test_a_decoder_judges_by_its_own_messages_not_the_topics() -> None:
+    """A topic's other connections (another type, or the same type in another bag merged in)
+    fit their own definitions: counting their messages as this definition's made a wrong
+    stored definition keep its place, and every message of its connection was lost."""
+    decoder = TopicDecoder("std_msgs/msg/String", TWO_STRINGS, "ros2msg", natural=False)
+    # Messages 0, 2, 4... of the topic came from another connection; this one gets 1, 3, 5...
+    assert _decode(decoder, strings_cdr("w0"), 1, 1) == {"data": "w0"}
+    assert decoder.settled
+    assert _decode(decoder, strings_cdr("w1"), 3, 2) == {"data": "w1"}

@@ -170,9 +170,7 @@ class MergedRead:
                 except Exception as error:  # any codec failure is one message's problem
                     before = index - failed.get(topic, 0)
                     try:
-                        value = decoder.recover(
-                            data, error, topic=topic, index=index, delivered=before
-                        )
+                        value = decoder.recover(data, error, topic=topic)
                     except Exception as final:
                         failed[topic] = failed.get(topic, 0) + 1
                         problems.add(topic, index, log_time, final)

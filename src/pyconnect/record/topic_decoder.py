@@ -157,6 +157,7 @@ class TopicDecoder:
         "_fitted",
         "_row",
         "_stored_codec",
+        "_stored_decode",
         "codec",
         "decode",
         "msg_type",
@@ -191,12 +192,14 @@ class TopicDecoder:
         # The codec of the stored definition while it decodes the topic: whether it reads a
         # message's bytes tells a damaged message or a refused value from a wrong definition.
         self._stored_codec: Any = None
-        # Whether the stored definition has decoded a message: from then on one message that
-        # does not fit it is that message's fault, not the definition's.
+        # Whether the stored definition has decoded a message of this decoder (its connection
+        # and definition; not of the topic, which other connections and bags share): from then
+        # on one message that does not fit it is that message's fault, not the definition's.
         self._fitted = False
-        # The last message the stored definition did not fit and the installed type decoded:
-        # (topic, index, messages delivered before it, how many such in a row).
-        self._row: tuple[str, int, int, int] | None = None
+        # Messages in a row that did not fit the stored definition and that the installed type
+        # decoded, since the last one the definition decoded.
+        self._row = 0
+        self._stored_decode: Decode | None = None
         # The wire codec ``decode`` uses now (None: no codec could be built); its definitions
         # are the fields of the values (tables build their columns from them).
         self.codec: Any = None
@@ -219,6 +222,18 @@ class TopicDecoder:
             self._fallback_tried = True
             return
         self._stored_codec = self.codec
+        self._stored_decode = self.decode
+        self.decode = self._watch  # until the definition decodes a message
+
+    def _watch(self, data: Any) -> Any:
+        """``decode`` while there is news to note: the stored definition decoded ``data``, so it
+        fits (first use), or a row of misfits ended. Then the bare decode takes over again:
+        nothing is added per message once a topic reads well."""
+        assert self._stored_decode is not None
+        value = self._stored_decode(data)
+        self._fitted, self._row = True, 0
+        self.decode = self._stored_decode
+        return value
 
     def _installed_or_raise(self, stored_error: Exception | None = None) -> Decode:
         try:
@@ -240,41 +255,31 @@ class TopicDecoder:
         """Whether ``decode`` is final: no stored definition left that may give way."""
         return self._stored_codec is None or (self._fallback_tried and self._fallback is None)
 
-    def recover(
-        self, data: Any, error: Exception, *, topic: str = "", index: int = 0, delivered: int = 0
-    ) -> Any:
-        """The value of message ``index`` of ``topic`` that the stored definition failed on
-        (``error``), decoded with the installed type when the definition is at fault; else
-        raise ``error``. ``delivered``: how many of the topic's messages this read delivered.
+    def recover(self, data: Any, error: Exception, *, topic: str = "") -> Any:
+        """The value of a message the stored definition failed on (``error``), decoded with the
+        installed type when the definition is at fault; else raise ``error``.
 
-        The topic gives way to the installed type (``decode`` and ``codec`` change) when the
-        installed type decodes the message and it is the first the stored definition would
-        have decoded, or the ``IN_A_ROW``-th in a row it did not fit after some it did.
+        The decoder gives way to the installed type (``decode`` and ``codec`` change) when the
+        installed type decodes the message and the stored definition has decoded none of this
+        decoder's messages yet, or the message is the ``IN_A_ROW``-th in a row it did not fit
+        after some it did. ``topic`` names the topic in the warning that says so.
         """
         fallback = self._installed_fallback()
         if fallback is None or fallback is self.decode:
             raise error
         if self._reads_bytes(data):
-            self._fitted = True  # the stored definition fits these bytes: not its fault
-            self._row = None
+            self._fitted, self._row = True, 0  # the definition fits these bytes: not its fault
             raise error
         try:
             value = fallback(data)
         except Exception:
-            self._row = None  # decoded by neither: no evidence against the definition
+            self._row = 0  # decoded by neither: no evidence against the definition
             raise error from None
-        if delivered:
-            self._fitted = True
-        row = 1
-        if self._row is not None and self._row[:3] == (topic, index - 1, delivered):
-            row = self._row[3] + 1
-        self._row = (topic, index, delivered, row)
-        if self._fitted and row < IN_A_ROW:
+        self._row += 1
+        if self._fitted and self._row < IN_A_ROW:
+            self.decode = self._watch  # the next message the definition decodes ends the row
             raise error
-        if self._fitted:
-            fits = f"{row} messages in a row"
-        else:
-            fits = "its first message" if index == 0 else "its first message either decodes"
+        fits = f"{self._row} messages in a row" if self._fitted else "its first message"
         _log.warning(
             "%sthe definition of %s stored in the bag does not fit %s (%s) and the installed "
             "type does: it decodes the rest of the topic",
