@@ -82,3 +82,16 @@ def test_readers_take_every_type_of_a_topic_listed_twice(tmp_path: Path) -> None
             3,
         )
         assert [m.topic for m in reader].count("/mixed") == 3
+
+
+def test_a_type_spelled_otherwise_in_metadata_yaml_is_no_second_type(tmp_path: Path) -> None:
+    """metadata.yaml's ``std_msgs/Int64`` for the file's ``std_msgs/msg/Int64`` added a row
+    of 0 messages, as if the topic had a second type."""
+    bag = tmp_path / "bag"
+    with McapRecorder(bag) as recorder:
+        recorder.add_topic("/n", "std_msgs/msg/Int64")
+        recorder.write_value("/n", 7, log_time_ns=1)
+    metadata = bag / "metadata.yaml"
+    metadata.write_text(metadata.read_text().replace("std_msgs/msg/Int64", "std_msgs/Int64"))
+    rows = [(t.name, t.msg_type, t.message_count) for t in bag_info(bag).topics]
+    assert rows == [("/n", "std_msgs/msg/Int64", 1)]

@@ -159,7 +159,7 @@ def test_compressed_data_that_do_not_decompress_are_said(tmp_path: Path, private
         open_bag(path)
     assert str(caught.value).startswith(
         f"{compressed} (decompressed): neither an MCAP nor a sqlite3 bag file; "
-        "the zstd data do not decompress after 0 bytes (zstd decompress error: "
+        "the zstd data do not decompress after 0 bytes (zstd decompress"  # zstandard's words
     )
     assert list(private_tmp.iterdir()) == []
 
@@ -184,4 +184,57 @@ def test_a_reader_never_closed_leaves_no_copy(tmp_path: Path, private_tmp: Path)
     )
     assert (done.returncode, done.stderr) == (0, "")
     assert done.stdout == f"{[text for _, text in VALUES]}\n"
+    assert list(private_tmp.iterdir()) == []
+
+
+def test_a_bag_command_stopped_by_sigterm_removes_the_copy(tmp_path: Path) -> None:
+    """SIGTERM (timeout, docker stop) killed `bag echo` outright, and the decompressed copy of
+    the bag stayed in TMPDIR."""
+    import subprocess
+    import sys
+
+    bag = write_file_compressed(tmp_path / "bag", "mcap")
+    copies = tmp_path / "tmpdir"
+    copies.mkdir()
+    # The command signals itself while it prints its first message, so the signal always lands
+    # with the copy open.
+    script = (
+        "import os, signal, sys\n"
+        "from pyconnect.commands import bag\n"
+        "from pyconnect.cli import main\n"
+        "def to_yaml(value):\n"
+        "    os.kill(os.getpid(), signal.SIGTERM)\n"
+        "    return ''\n"
+        "bag.to_yaml = to_yaml\n"
+        f"sys.exit(main(['bag', 'echo', {str(bag)!r}]))\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", script],
+        env={**os.environ, "TMPDIR": str(copies)},
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert done.returncode == 130, done.stderr  # as Ctrl-C
+    assert list(copies.iterdir()) == []
+
+
+@pytest.mark.parametrize("storage", ["sqlite3", "mcap"])
+def test_a_compressed_file_cut_short_is_said_to_end_early(
+    tmp_path: Path, storage: str, private_tmp: Path
+) -> None:
+    """zstandard's stream reader ends quietly where a cut file ends: the copy passed for the
+    whole bag, or the storage reader called it no bag at all."""
+    path = write_file_compressed(tmp_path / "bag", storage)
+    compressed = path / f"bag{SUFFIXES[storage]}.zstd"
+    data = compressed.read_bytes()
+    compressed.write_bytes(data[: len(data) * 2 // 3])
+    try:
+        with open_bag(path) as reader:
+            list(reader)
+            said = " ".join(str(found) for found in reader.damage)
+    except BagError as error:
+        said = str(error)
+    assert "the zstd data end early, in a frame, after" in said
     assert list(private_tmp.iterdir()) == []

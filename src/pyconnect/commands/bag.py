@@ -9,7 +9,9 @@ from __future__ import annotations
 
 import argparse
 import decimal
-from collections.abc import Sequence
+import signal
+import threading
+from collections.abc import Callable, Sequence
 from datetime import datetime, timezone
 from typing import TYPE_CHECKING, Any, TextIO
 
@@ -60,7 +62,7 @@ def register(commands: Subcommands) -> Subcommands:
     )
     info.add_argument("path", help=_PATH_HELP)
     info.add_argument("--ignore-damage", action="store_true", help=IGNORE_DAMAGE_HELP)
-    info.set_defaults(run=_info)
+    info.set_defaults(run=_stops_on_sigterm(_info))
 
     echo = actions.add_parser(
         "echo", help="print messages (YAML like `ros2 topic echo`)", epilog=EXAMPLES
@@ -76,7 +78,7 @@ def register(commands: Subcommands) -> Subcommands:
     echo.add_argument("--end", type=_seconds, default=None, help="up to this time (seconds)")
     echo.add_argument("--dict", action="store_true", help="lossless dicts, not natural values")
     echo.add_argument("--ignore-damage", action="store_true", help=IGNORE_DAMAGE_HELP)
-    echo.set_defaults(run=_echo)
+    echo.set_defaults(run=_stops_on_sigterm(_echo))
 
     export = actions.add_parser("export", help="write topics' messages to files", epilog=EXAMPLES)
     export.add_argument("path", help=_PATH_HELP)
@@ -100,7 +102,7 @@ def register(commands: Subcommands) -> Subcommands:
     export.add_argument("--force", action="store_true", help="overwrite an earlier export")
     export.add_argument("--dict", action="store_true", help="lossless dicts, not natural values")
     export.add_argument("--ignore-damage", action="store_true", help=IGNORE_DAMAGE_HELP)
-    export.set_defaults(run=_export)
+    export.set_defaults(run=_stops_on_sigterm(_export))
     return actions
 
 
@@ -201,6 +203,31 @@ def _info(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
         return 0
     summary = f"{info.path}: damaged bag: {info.damage[0]}"
     return damage_status(info.damage, summary, args, err)
+
+
+Run = Callable[[argparse.Namespace, TextIO, TextIO], int]
+
+
+def _stops_on_sigterm(run: Run) -> Run:
+    """``run`` with SIGTERM (``timeout``, ``docker stop``, systemd) ending it as Ctrl-C does:
+    killed outright, it left the decompressed copy of a bag compressed per file behind (Python
+    runs no cleanup for a signal it does not handle). ``bag play`` and ``bag record`` handle
+    it themselves, with their summaries."""
+
+    def stoppable(args: argparse.Namespace, out: TextIO, err: TextIO) -> int:
+        if threading.current_thread() is not threading.main_thread():
+            return run(args, out, err)  # only the main thread may set a handler
+        previous = signal.signal(signal.SIGTERM, _interrupt)
+        try:
+            return run(args, out, err)
+        finally:
+            signal.signal(signal.SIGTERM, previous)
+
+    return stoppable
+
+
+def _interrupt(_signum: int, _frame: object) -> None:
+    raise KeyboardInterrupt
 
 
 def _report_problems(errors: Sequence[Any], err: TextIO) -> int:

@@ -10,6 +10,7 @@ from pyconnect.record.bag_damage import BagDamage
 from pyconnect.record.bag_files import BagFiles, BagPaths, is_storage_file_name, open_bag_files
 from pyconnect.record.bag_metadata import METADATA_FILE, TopicMetadata
 from pyconnect.record.bag_storage import StorageFile
+from pyconnect.record.topic_decoder import normalise_type_name
 
 __all__ = ["BagInfo", "TopicInfo", "bag_info", "describe", "storage_damage"]
 
@@ -163,7 +164,13 @@ def _add_listed(
     in what the files lack, and a topic and type it lists that no file holds (a recording cut
     before its channel records) is still one of the bag, with the messages the files hold, none.
     """
-    key = (listed.name, listed.msg_type)
+    # The files' own spelling of the type wins: metadata.yaml may say std_msgs/String for the
+    # channel's std_msgs/msg/String, which is no second type of the topic.
+    same = normalise_type_name(listed.msg_type)
+    key = next(
+        (k for k in tallies if k[0] == listed.name and k[1] and normalise_type_name(k[1]) == same),
+        (listed.name, listed.msg_type),
+    )
     untyped = (listed.name, "")
     if key not in tallies and listed.msg_type and untyped in tallies:
         # A channel with no schema: metadata.yaml names its type (the order stays the bag's).

@@ -90,38 +90,53 @@ def _write(target: io.FileIO, data: bytes) -> None:
 
 def _decompress(path: Path, source: BinaryIO, target: io.FileIO, directory: str) -> str | None:
     """Copy ``source`` (zstd, one frame or several) decompressed into ``target``; why the
-    copy ends early (data that do not decompress), None when it is whole."""
+    copy ends early (data that do not decompress, or a frame cut short), None when it is whole.
+
+    Frame by frame with ``decompressobj``: zstandard's stream reader ends quietly where a file
+    cut short ends, and the copy would pass for the whole bag."""
     import zstandard
 
-    reader = zstandard.ZstdDecompressor().stream_reader(
-        source, read_size=_STEP, read_across_frames=True, closefd=False
-    )
+    decompressor = zstandard.ZstdDecompressor()
+    frame = decompressor.decompressobj()
+    in_frame = False  # input given to ``frame`` that has not ended it yet
     written = 0
-    cut: str | None = None
     while True:
         try:
-            piece = reader.read(_STEP)
-        except zstandard.ZstdError as error:
-            # Damaged data: what came before is intact, and the storage reader reads it.
-            cut = f"the zstd data do not decompress after {written} bytes ({error}); not read"
-            piece = b""
+            chunk = source.read(_STEP)
         except OSError as error:
             raise BagError(f"{path}: cannot read ({error.strerror})") from None
-        try:
-            _write(target, piece)
-        except OSError as error:
-            if error.errno in (errno.ENOSPC, errno.EDQUOT):
-                raise BagError(
-                    f"{path}: cannot decompress into {directory}: no space left on the device "
-                    f"after {written} bytes; set TMPDIR to a directory with room for the "
-                    "decompressed file"
-                ) from None
+        if not chunk:
+            if in_frame:
+                return f"the zstd data end early, in a frame, after {written} bytes; not read"
+            return None
+        while chunk:
+            try:
+                piece = frame.decompress(chunk)
+            except zstandard.ZstdError as error:
+                # Damaged data: what came before is intact, and the storage reader reads it.
+                return f"the zstd data do not decompress after {written} bytes ({error}); not read"
+            _write_or_say(path, target, piece, written, directory)
+            written += len(piece)
+            if frame.eof:  # the next frame starts in what this one left over
+                chunk, frame, in_frame = frame.unused_data, decompressor.decompressobj(), False
+            else:
+                chunk, in_frame = b"", True
+
+
+def _write_or_say(
+    path: Path, target: io.FileIO, piece: bytes, written: int, directory: str
+) -> None:
+    """``_write``, its failure a ``BagError`` that says where room is missing."""
+    try:
+        _write(target, piece)
+    except OSError as error:
+        if error.errno in (errno.ENOSPC, errno.EDQUOT):
             raise BagError(
-                f"{path}: cannot decompress into {directory} ({error.strerror})"
+                f"{path}: cannot decompress into {directory}: no space left on the device "
+                f"after {written} bytes; set TMPDIR to a directory with room for the "
+                "decompressed file"
             ) from None
-        if not piece:
-            return cut
-        written += len(piece)
+        raise BagError(f"{path}: cannot decompress into {directory} ({error.strerror})") from None
 
 
 def _decompressed_copy(path: Path) -> tuple[Path, str | None]:
