@@ -66,15 +66,12 @@ def generated_module(full_name: str, kind: str) -> ModuleType | None:
     module = f"pyconnect_generated.{package}.{kind}"
     try:
         return importlib.import_module(module)
-    except ModuleNotFoundError as error:
+    except ImportError as error:
         # No generated module (another package's generated code missing too: on the fly
         # compiles it), or the ROS package it was generated from is not installed here.
-        if error.name is not None and error.name.split(".")[0] in ("pyconnect_generated", package):
+        missing = error.name if isinstance(error, ModuleNotFoundError) else None
+        if missing is not None and missing.split(".")[0] in ("pyconnect_generated", package):
             return None
-        raise CodecNotFoundError(
-            f"{full_name}: its generated codec {module} cannot be imported: {error}"
-        ) from error
-    except ImportError as error:
         raise CodecNotFoundError(
             f"{full_name}: its generated codec {module} cannot be imported: {error}"
         ) from error
