@@ -501,3 +501,22 @@ def test_the_keywords_take_what_they_document(make_node: Any, tmp_path: Any) -> 
     )
     node.shutdown()
     assert stopped == ["done"]
+
+
+def test_a_stop_func_that_calls_shutdown_does_not_deadlock(make_node: Any) -> None:
+    """A stop_func shared with other clean-up code called node.shutdown() and hung for ever."""
+    import threading
+
+    calls: list[bool] = []
+    node = make_node("twice")
+
+    def stop() -> None:
+        calls.append(True)
+        node.shutdown()
+
+    node.stop_func = stop
+    done = threading.Thread(target=node.shutdown, daemon=True)
+    done.start()
+    done.join(30)
+    assert not done.is_alive()
+    assert calls == [True]

@@ -1002,3 +1002,20 @@ def test_stop_func_may_add_an_agent_to_say_goodbye_and_it_is_closed(
     assert not peer.ok()
     with pytest.raises(PyconnectError, match="is shut down; cannot add"):
         peer.add_agent(conn_name="late", conn_type="pub", data_interface="std_msgs/msg/String")
+
+
+def test_a_stop_func_that_calls_shutdown_does_not_deadlock(make_peer: PeerFactory) -> None:
+    """A stop_func shared with other clean-up code called peer.shutdown() and hung for ever."""
+    peer = make_peer("twice")
+    calls: list[bool] = []
+
+    def stop() -> None:
+        calls.append(True)
+        peer.shutdown()
+
+    peer.stop_func = stop
+    done = threading.Thread(target=peer.shutdown, daemon=True)
+    done.start()
+    done.join(30)
+    assert not done.is_alive()
+    assert calls == [True] and not peer.ok()

@@ -143,6 +143,7 @@ class CustomNode(NodeLogging, NodeShutdown, Node):  # type: ignore[misc]
         # error.
         self._stopping = threading.Event()
         self._shutdown_lock = threading.Lock()
+        self._shutting_down_in: int | None = None  # the thread running the shutdown
         self._shutdown_thread: threading.Thread | None = None
         self._spin_thread: threading.Thread | None = None
         self._main_waiting = False

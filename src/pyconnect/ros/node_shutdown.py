@@ -49,6 +49,7 @@ class NodeShutdown(ShutsDownOnExit):
     _stopped: threading.Event
     _stopping: threading.Event
     _shutdown_lock: threading.Lock
+    _shutting_down_in: int | None
     _spin_thread: threading.Thread | None
     _executor: AgentExecutor
     _hooks: ShutdownHooks
@@ -79,12 +80,16 @@ class NodeShutdown(ShutsDownOnExit):
         if self._on_own_thread():
             self._shutdown_after_this_callback()
             return
+        if self._shutting_down_in == threading.get_ident():
+            return  # stop_func asked again, on the thread already shutting down: it deadlocked
         with self._shutdown_lock:
             if self._stopped.is_set():
                 return
+            self._shutting_down_in = threading.get_ident()
             try:
                 self._shut_down()
             finally:
+                self._shutting_down_in = None
                 self._stopped.set()
 
     def _shut_down(self) -> None:

@@ -172,6 +172,7 @@ class Peer(ShutsDownOnExit):
         self._stopping = threading.Event()
         # Set once stop_func has run and the agents to close are listed: no agent after that.
         self._closing = False
+        self._shutting_down_in: int | None = None  # the thread running the shutdown
         self._shutdown_lock = threading.Lock()
         self._shutdown_thread: threading.Thread | None = None
         self._main_waiting = False
@@ -379,13 +380,17 @@ class Peer(ShutsDownOnExit):
             spare_coroutine(current)  # the handler that asked goes on to its answer
             self._shutdown_in_background()
             return
+        if self._shutting_down_in == threading.get_ident():
+            return  # stop_func asked again, on the thread already shutting down: it deadlocked
         with self._shutdown_lock:
             if self._stopped.is_set():
                 return
             self._stopping.set()
+            self._shutting_down_in = threading.get_ident()
             try:
                 self._shut_down()
             finally:
+                self._shutting_down_in = None
                 self._stopped.set()
 
     def _shut_down(self) -> None:
