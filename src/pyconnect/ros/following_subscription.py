@@ -296,6 +296,13 @@ class FollowingSubscription:
                 self._node.destroy_subscription(reader.subscription)
 
 
+def _losses_deadlock() -> bool:
+    """Whether taking ``message_lost`` events can deadlock this process's rmw (Fast DDS)."""
+    from rclpy.utilities import get_rmw_implementation_identifier
+
+    return get_rmw_implementation_identifier().startswith("rmw_fastrtps")
+
+
 def create_counting_losses(
     ros_node: Any,
     msg_class: type,
@@ -307,12 +314,19 @@ def create_counting_losses(
     event_callbacks: SubscriptionEventCallbacks,
     raw: bool,
 ) -> Any:
-    """``ros_node.create_subscription``, its ``message_lost`` event dropped on an rmw without it.
+    """``ros_node.create_subscription``, its ``message_lost`` event dropped on an rmw without it
+    and on Fast DDS.
 
     rclpy leaves out the events an rmw does not support, except ``message_lost``: it raises
-    ``UnsupportedEventTypeError`` (after destroying the new subscription). Jazzy's DDS rmws
-    support it; elsewhere a subscription that cannot count its losses still beats none.
+    ``UnsupportedEventTypeError`` (after destroying the new subscription). Elsewhere a
+    subscription that cannot count its losses still beats none. Fast DDS (Jazzy's default)
+    has the event but deadlocks on it: its listener thread holds the reader's lock and waits
+    for the event's (``RMWSubscriptionEvent::update_sample_lost``) while taking the event holds
+    the event's and waits for the reader's (``get_sample_lost_status``); a 1 kHz stream that
+    lost samples froze a node's executor for good (seen in ``make bench``, 2026-11-27).
     """
+    if event_callbacks.message_lost is not None and _losses_deadlock():
+        event_callbacks.message_lost = None
 
     def create() -> Any:
         return ros_node.create_subscription(
